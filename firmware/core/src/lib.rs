@@ -1,0 +1,3 @@
+//! Hardware-free core of the LM firmware.
+#![no_std]
+#![warn(missing_docs)]

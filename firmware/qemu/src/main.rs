@@ -1,0 +1,3 @@
+//! LM firmware for QEMU's mps2-an386 board.
+#![no_std]
+#![no_main]

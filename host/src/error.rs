@@ -1,0 +1,27 @@
+//! Error kinds that decide the exit code.
+//!
+//! `main` is the only place that maps errors to exit codes: an error chain
+//! that contains an [`InputError`] exits 2 (bad input), any other error
+//! exits 1 (the operation failed).
+
+/// The user's input (a flag, a scene file, a tracker stream) is invalid.
+///
+/// The message is one line that says what was wrong and what is accepted.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct InputError(pub String);
+
+impl InputError {
+    /// An input error with the given one-line message.
+    pub fn new(msg: impl Into<String>) -> Self {
+        Self(msg.into())
+    }
+}
+
+/// Return early with an [`InputError`] built from a format string.
+#[macro_export]
+macro_rules! bad_input {
+    ($($arg:tt)*) => {
+        return Err($crate::error::InputError::new(format!($($arg)*)).into())
+    };
+}

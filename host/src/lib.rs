@@ -1,0 +1,14 @@
+//! `lmhost`: plan, upload and stream lateral-modulation (LM) ultrasound
+//! haptics for AUTD3-class phased arrays.
+//!
+//! The library does the work; the `lmhost` binary is a thin clap front end
+//! over [`cmd`]. Units and the sign of the phase are fixed once, in
+//! [`units`]; everything else links there.
+#![warn(missing_docs)]
+
+pub mod array;
+pub mod cmd;
+pub mod error;
+pub mod units;
+
+pub use error::InputError;
