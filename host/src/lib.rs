@@ -8,6 +8,7 @@
 
 pub mod array;
 pub mod cmd;
+pub mod directivity;
 pub mod error;
 pub mod units;
 
