@@ -1,2 +1,457 @@
 //! `cargo xtask <task>`: project tasks.
-fn main() {}
+//!
+//! - `ci`: THE test command. Installs what is missing (the thumb target,
+//!   `qemu-system-arm` when root), then runs every step in [`STEPS`] in order,
+//!   streaming output, stopping at the first failure, and printing a timing
+//!   summary.
+//! - `build-fw`: release build of the QEMU firmware and the Nucleo board.
+//! - `qemu [--tcp PORT]`: run the firmware under QEMU, UART0 on a pty
+//!   (default) or on a TCP port on 127.0.0.1.
+//! - `size`: memory map of the built firmware ELF.
+//!
+//! std only: the ELF reader for `size` is in [`elf`].
+
+mod elf;
+
+use std::borrow::BorrowMut;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode, Stdio};
+use std::time::{Duration, Instant};
+
+/// The thumb target every firmware crate builds for.
+const THUMB: &str = "thumbv7em-none-eabihf";
+/// Package name of the QEMU board crate.
+const QEMU_PKG: &str = "lm-fw-qemu";
+/// Binary that runs the on-target tests under QEMU.
+const SELFTEST_BIN: &str = "lm-fw-qemu-selftest";
+/// QEMU machine: Cortex-M4F, CMSDK UART0 at 0x4000_4000, 25 MHz APB timers.
+const QEMU_MACHINE: &str = "mps2-an386";
+/// Wall-clock limit for one QEMU on-target run (it normally takes seconds).
+const QEMU_TIMEOUT: Duration = Duration::from_secs(600);
+
+/// One CI step: a name for the summary and the function that runs it.
+struct Step {
+    name: &'static str,
+    run: fn(&Ctx) -> Result<(), String>,
+}
+
+/// The CI, in order. Add a step by adding a line (and a function below).
+const STEPS: &[Step] = &[
+    Step {
+        name: "setup: thumb target + qemu-system-arm",
+        run: step_setup,
+    },
+    Step {
+        name: "thumb build: lm-proto + lm-fw-core (no_std)",
+        run: step_thumb_libs,
+    },
+    Step {
+        name: "thumb build: QEMU firmware + on-target tests",
+        run: step_build_qemu_fw,
+    },
+    Step {
+        name: "cargo build (host crates + firmware core)",
+        run: step_host_build,
+    },
+    Step {
+        name: "cargo test (host crates + firmware core + e2e)",
+        run: step_host_test,
+    },
+    Step {
+        name: "on-target tests under QEMU (-icount shift=0)",
+        run: step_qemu_selftest,
+    },
+    Step {
+        name: "thumb build: Nucleo-H743 board",
+        run: step_build_nucleo,
+    },
+    Step {
+        name: "long run: lm-proto fuzz (release, ignored)",
+        run: step_proto_fuzz,
+    },
+    Step {
+        name: "long run: lm-fw-core robustness (release, ignored)",
+        run: step_core_robustness,
+    },
+];
+
+/// Paths shared by the steps.
+struct Ctx {
+    root: PathBuf,
+    target_dir: PathBuf,
+}
+
+impl Ctx {
+    fn new() -> Ctx {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .parent()
+            .expect("xtask lives one level below the workspace root")
+            .to_path_buf();
+        let target_dir = match std::env::var_os("CARGO_TARGET_DIR") {
+            Some(d) if Path::new(&d).is_absolute() => PathBuf::from(d),
+            Some(d) => root.join(d),
+            None => root.join("target"),
+        };
+        Ctx { root, target_dir }
+    }
+
+    /// `cargo` as invoked by the user (the alias sets `CARGO`).
+    fn cargo(&self, args: &[&str]) -> Command {
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(&self.root).args(args);
+        cmd
+    }
+
+    fn thumb_release_dir(&self) -> PathBuf {
+        self.target_dir.join(THUMB).join("release")
+    }
+
+    fn firmware_elf(&self) -> PathBuf {
+        self.thumb_release_dir().join(QEMU_PKG)
+    }
+
+    fn selftest_elf(&self) -> PathBuf {
+        self.thumb_release_dir().join(SELFTEST_BIN)
+    }
+
+    /// The Nucleo crate is its own workspace: give it a subdirectory of ours
+    /// so a clean clone keeps one `target/`.
+    fn nucleo_target_dir(&self) -> PathBuf {
+        self.target_dir.join("nucleo-h743")
+    }
+}
+
+/// Runs `cmd` with inherited stdio (output streams live); fails on non-zero exit.
+fn run(mut cmd: impl BorrowMut<Command>) -> Result<(), String> {
+    let cmd = cmd.borrow_mut();
+    println!("$ {}", show(cmd));
+    let status = cmd
+        .status()
+        .map_err(|e| format!("cannot start `{}`: {e}", show(cmd)))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`{}` failed ({status})", show(cmd)))
+    }
+}
+
+fn show(cmd: &Command) -> String {
+    let mut s = cmd.get_program().to_string_lossy().into_owned();
+    for a in cmd.get_args() {
+        s.push(' ');
+        s.push_str(&a.to_string_lossy());
+    }
+    s
+}
+
+fn have_program(name: &str) -> bool {
+    Command::new(name)
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+fn thumb_target_installed() -> bool {
+    let out = Command::new("rustc")
+        .args(["--print", "target-libdir", "--target", THUMB])
+        .output();
+    match out {
+        Ok(o) if o.status.success() => {
+            let dir = String::from_utf8_lossy(&o.stdout).trim().to_string();
+            std::fs::read_dir(&dir).is_ok_and(|mut d| d.next().is_some())
+        }
+        _ => false,
+    }
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+}
+
+fn ensure_thumb_target() -> Result<(), String> {
+    if thumb_target_installed() {
+        println!("thumb target {THUMB}: installed");
+        return Ok(());
+    }
+    run(Command::new("rustup").args(["target", "add", THUMB])).map_err(|e| {
+        format!("{e}\nthe {THUMB} target is missing; install it with `rustup target add {THUMB}`")
+    })
+}
+
+fn ensure_qemu() -> Result<(), String> {
+    if have_program("qemu-system-arm") {
+        println!("qemu-system-arm: installed");
+        return Ok(());
+    }
+    if !is_root() || !have_program("apt-get") {
+        return Err(
+            "qemu-system-arm is not installed and this is not a root shell with apt-get; \
+             install it (Debian/Ubuntu: `sudo apt-get install -y qemu-system-arm`) and rerun"
+                .into(),
+        );
+    }
+    run(Command::new("apt-get").arg("update"))?;
+    run(Command::new("apt-get")
+        .args([
+            "install",
+            "-y",
+            "--no-install-recommends",
+            "qemu-system-arm",
+        ])
+        .env("DEBIAN_FRONTEND", "noninteractive"))?;
+    if have_program("qemu-system-arm") {
+        Ok(())
+    } else {
+        Err("apt-get installed qemu-system-arm but it is still not on PATH".into())
+    }
+}
+
+fn step_setup(_: &Ctx) -> Result<(), String> {
+    ensure_thumb_target()?;
+    ensure_qemu()
+}
+
+fn step_thumb_libs(c: &Ctx) -> Result<(), String> {
+    run(c.cargo(&[
+        "build",
+        "--release",
+        "--target",
+        THUMB,
+        "-p",
+        "lm-proto",
+        "-p",
+        "lm-fw-core",
+    ]))
+}
+
+fn build_qemu_fw(c: &Ctx) -> Result<(), String> {
+    run(c.cargo(&[
+        "build",
+        "--release",
+        "--target",
+        THUMB,
+        "-p",
+        QEMU_PKG,
+        "--bins",
+    ]))
+}
+
+fn step_build_qemu_fw(c: &Ctx) -> Result<(), String> {
+    build_qemu_fw(c)
+}
+
+fn step_host_build(c: &Ctx) -> Result<(), String> {
+    run(c.cargo(&["build"]))
+}
+
+fn step_host_test(c: &Ctx) -> Result<(), String> {
+    // The e2e QEMU test uses the firmware built above instead of building its own.
+    run(c.cargo(&["test"]).env("LM_FW_QEMU_ELF", c.firmware_elf()))
+}
+
+/// QEMU command line for `elf`: no display, semihosting for output and exit
+/// status, and optionally a fixed 1 ns of virtual time per instruction.
+fn qemu_cmd(elf: &Path, icount: bool) -> Command {
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.args(["-M", QEMU_MACHINE, "-display", "none", "-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"]);
+    if icount {
+        cmd.args(["-icount", "shift=0"]);
+    }
+    cmd.arg("-kernel").arg(elf);
+    cmd
+}
+
+/// Runs `cmd` with a wall-clock limit; the child's exit status is the verdict.
+fn run_with_timeout(mut cmd: impl BorrowMut<Command>, limit: Duration) -> Result<(), String> {
+    let cmd = cmd.borrow_mut();
+    println!("$ {}", show(cmd));
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| format!("cannot start `{}`: {e}", show(cmd)))?;
+    let start = Instant::now();
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) if status.success() => return Ok(()),
+            Ok(Some(status)) => return Err(format!("`{}` failed ({status})", show(cmd))),
+            Ok(None) if start.elapsed() > limit => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!("`{}` did not finish within {limit:?}", show(cmd)));
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(50)),
+            Err(e) => return Err(format!("waiting for QEMU: {e}")),
+        }
+    }
+}
+
+fn step_qemu_selftest(c: &Ctx) -> Result<(), String> {
+    let elf = c.selftest_elf();
+    if !elf.exists() {
+        return Err(format!(
+            "{} is missing; run `cargo xtask build-fw`",
+            elf.display()
+        ));
+    }
+    // -serial null: the self-test talks only over semihosting.
+    run_with_timeout(qemu_cmd(&elf, true).args(["-serial", "null"]), QEMU_TIMEOUT)
+}
+
+fn nucleo_build(c: &Ctx) -> Result<(), String> {
+    let manifest = c.root.join("firmware/nucleo-h743/Cargo.toml");
+    let target_dir = c.nucleo_target_dir();
+    let mut cmd = c.cargo(&["build", "--release", "--target", THUMB]);
+    cmd.arg("--manifest-path")
+        .arg(manifest)
+        .arg("--target-dir")
+        .arg(target_dir);
+    run(cmd)
+}
+
+fn step_build_nucleo(c: &Ctx) -> Result<(), String> {
+    nucleo_build(c)
+}
+
+/// Runs an ignored long test target in release mode, if that target exists yet.
+fn long_run(c: &Ctx, pkg: &str, file: &str, test: &str) -> Result<(), String> {
+    if !c.root.join(file).exists() {
+        println!("{file} does not exist (yet): skipped");
+        return Ok(());
+    }
+    run(c.cargo(&[
+        "test",
+        "--release",
+        "-p",
+        pkg,
+        "--test",
+        test,
+        "--",
+        "--ignored",
+    ]))
+}
+
+fn step_proto_fuzz(c: &Ctx) -> Result<(), String> {
+    long_run(c, "lm-proto", "proto/tests/fuzz.rs", "fuzz")
+}
+
+fn step_core_robustness(c: &Ctx) -> Result<(), String> {
+    long_run(
+        c,
+        "lm-fw-core",
+        "firmware/core/tests/robustness.rs",
+        "robustness",
+    )
+}
+
+fn ci(c: &Ctx) -> Result<(), String> {
+    let mut times: Vec<(&str, Duration, bool)> = Vec::new();
+    let start = Instant::now();
+    let mut failure = None;
+    for (i, step) in STEPS.iter().enumerate() {
+        println!("\n==> [{}/{}] {}", i + 1, STEPS.len(), step.name);
+        let t = Instant::now();
+        let r = (step.run)(c);
+        times.push((step.name, t.elapsed(), r.is_ok()));
+        if let Err(e) = r {
+            failure = Some(format!("step `{}` failed: {e}", step.name));
+            break;
+        }
+    }
+    println!("\n==> timing");
+    for (name, d, ok) in &times {
+        let mark = if *ok { "ok  " } else { "FAIL" };
+        println!("  {mark} {:>7.1} s  {name}", d.as_secs_f64());
+    }
+    println!("       {:>7.1} s  total", start.elapsed().as_secs_f64());
+    match failure {
+        Some(e) => Err(e),
+        None => {
+            println!("ci: all {} steps passed", STEPS.len());
+            Ok(())
+        }
+    }
+}
+
+fn build_fw(c: &Ctx) -> Result<(), String> {
+    ensure_thumb_target()?;
+    build_qemu_fw(c)?;
+    nucleo_build(c)?;
+    println!("QEMU firmware: {}", c.firmware_elf().display());
+    println!("QEMU on-target tests: {}", c.selftest_elf().display());
+    println!(
+        "Nucleo-H743 firmware: {}",
+        c.nucleo_target_dir()
+            .join(THUMB)
+            .join("release/lm-fw-nucleo-h743")
+            .display()
+    );
+    Ok(())
+}
+
+fn qemu(c: &Ctx, args: &[String]) -> Result<(), String> {
+    let serial = match args {
+        [] => "pty".to_string(),
+        [flag, port] if flag == "--tcp" => {
+            let port: u16 = port
+                .parse()
+                .map_err(|_| format!("--tcp needs a port number 1-65535, got `{port}`"))?;
+            format!("tcp:127.0.0.1:{port},server=on,wait=off")
+        }
+        _ => return Err("usage: cargo xtask qemu [--tcp PORT]".into()),
+    };
+    ensure_thumb_target()?;
+    ensure_qemu()?;
+    build_qemu_fw(c)?;
+    let elf = c.firmware_elf();
+    if serial == "pty" {
+        println!(
+            "UART0 on a pty: QEMU prints `char device redirected to /dev/pts/N` below; open that path"
+        );
+    } else {
+        println!(
+            "UART0 on TCP {}; connect with e.g. `lmhost --port tcp://{}`",
+            &serial[4..],
+            &serial[4..serial.find(',').unwrap_or(serial.len())]
+        );
+    }
+    println!("stop with Ctrl-C");
+    run(qemu_cmd(&elf, false).args(["-serial", &serial]))
+}
+
+fn size(c: &Ctx) -> Result<(), String> {
+    let elf_path = c.firmware_elf();
+    if !elf_path.exists() {
+        build_qemu_fw(c)?;
+    }
+    let bytes =
+        std::fs::read(&elf_path).map_err(|e| format!("cannot read {}: {e}", elf_path.display()))?;
+    let report = elf::memory_map(&bytes).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    println!("{}", elf_path.display());
+    print!("{report}");
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let c = Ctx::new();
+    let result = match args.first().map(String::as_str) {
+        Some("ci") if args.len() == 1 => ci(&c),
+        Some("build-fw") if args.len() == 1 => build_fw(&c),
+        Some("qemu") => qemu(&c, &args[1..]),
+        Some("size") if args.len() == 1 => size(&c),
+        _ => Err("usage: cargo xtask <ci | build-fw | qemu [--tcp PORT] | size>".into()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
