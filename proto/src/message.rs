@@ -1,0 +1,794 @@
+//! Message types and their payload layouts (all integers little-endian).
+//! Byte layouts are listed in `proto/SPEC.md`.
+
+use core::fmt;
+
+use crate::codec::Encoding;
+use crate::frame::EncodeError;
+use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT};
+
+/// Message type byte (second header byte). Requests are `0x01..=0x7F`,
+/// responses `0x80..=0xFF`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
+#[repr(u8)]
+pub enum MessageType {
+    /// Request device info; answered by `Info`.
+    GetInfo = 0x01,
+    /// Start uploading a sequence into a slot.
+    BeginUpload = 0x02,
+    /// Transducer positions for centroid correction.
+    Geometry = 0x03,
+    /// A piece of the encoded sequence stream.
+    Chunk = 0x04,
+    /// Finish an upload, check the raw sequence CRC.
+    Commit = 0x05,
+    /// Start playing a slot.
+    Play = 0x06,
+    /// Stop playing.
+    Stop = 0x07,
+    /// Centroid (LM centre) update.
+    Centroid = 0x08,
+    /// Request status; answered by `Status`.
+    GetStatus = 0x09,
+    /// Request done.
+    Ack = 0x80,
+    /// Request refused, with a code.
+    Nack = 0x81,
+    /// Device info.
+    Info = 0x82,
+    /// Device status.
+    Status = 0x83,
+}
+
+impl MessageType {
+    /// Every type this version knows, in wire order.
+    pub const ALL: [MessageType; 13] = [
+        Self::GetInfo,
+        Self::BeginUpload,
+        Self::Geometry,
+        Self::Chunk,
+        Self::Commit,
+        Self::Play,
+        Self::Stop,
+        Self::Centroid,
+        Self::GetStatus,
+        Self::Ack,
+        Self::Nack,
+        Self::Info,
+        Self::Status,
+    ];
+
+    /// The type for a wire byte, if this version knows it.
+    pub fn from_u8(b: u8) -> Option<Self> {
+        Self::ALL.iter().copied().find(|t| *t as u8 == b)
+    }
+
+    /// True for device-to-host messages (`0x80..`).
+    pub fn is_response(self) -> bool {
+        self as u8 >= 0x80
+    }
+}
+
+/// Why a request was refused (`Nack` payload byte).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
+pub enum NackCode {
+    /// 1: message type unknown to the device.
+    UnknownType,
+    /// 2: payload has the wrong length or an invalid field value.
+    Malformed,
+    /// 3: frame carries another protocol version.
+    BadVersion,
+    /// 4: slot number does not exist.
+    BadSlot,
+    /// 5: the slot is playing (stop or use another slot first).
+    SlotPlaying,
+    /// 6: sequence does not fit the slot or exceeds `max_transducers`.
+    TooLarge,
+    /// 7: a field is outside its allowed range (zero steps, offset past
+    /// `encoded_len`, geometry index past `transducers`, ...).
+    OutOfRange,
+    /// 8: chunk offset is not the next expected one (gap, or an overlap
+    /// with different data).
+    OutOfOrder,
+    /// 9: commit CRC differs from the CRC of the decoded raw sequence.
+    CrcMismatch,
+    /// 10: play of a slot that holds no committed sequence.
+    NotCommitted,
+    /// 11: `period_us / steps` is below the device's `min_dwell_us`.
+    DwellTooShort,
+    /// 12: chunk, geometry or commit without a matching `BeginUpload`.
+    NoUpload,
+    /// 13: device cannot take the request now; retry later.
+    Busy,
+    /// 14: commit before all `encoded_len` bytes (or all geometry) arrived.
+    Incomplete,
+    /// 15: the encoded sequence stream is invalid for its encoding.
+    BadStream,
+    /// A code this version does not know (from a newer peer). Never
+    /// constructed with a known code's value.
+    Other(u8),
+}
+
+impl NackCode {
+    /// The wire byte.
+    pub fn to_u8(self) -> u8 {
+        match self {
+            Self::UnknownType => 1,
+            Self::Malformed => 2,
+            Self::BadVersion => 3,
+            Self::BadSlot => 4,
+            Self::SlotPlaying => 5,
+            Self::TooLarge => 6,
+            Self::OutOfRange => 7,
+            Self::OutOfOrder => 8,
+            Self::CrcMismatch => 9,
+            Self::NotCommitted => 10,
+            Self::DwellTooShort => 11,
+            Self::NoUpload => 12,
+            Self::Busy => 13,
+            Self::Incomplete => 14,
+            Self::BadStream => 15,
+            Self::Other(b) => b,
+        }
+    }
+
+    /// The code for a wire byte (unknown values become [`NackCode::Other`]).
+    pub fn from_u8(b: u8) -> Self {
+        match b {
+            1 => Self::UnknownType,
+            2 => Self::Malformed,
+            3 => Self::BadVersion,
+            4 => Self::BadSlot,
+            5 => Self::SlotPlaying,
+            6 => Self::TooLarge,
+            7 => Self::OutOfRange,
+            8 => Self::OutOfOrder,
+            9 => Self::CrcMismatch,
+            10 => Self::NotCommitted,
+            11 => Self::DwellTooShort,
+            12 => Self::NoUpload,
+            13 => Self::Busy,
+            14 => Self::Incomplete,
+            15 => Self::BadStream,
+            other => Self::Other(other),
+        }
+    }
+}
+
+impl fmt::Display for NackCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = match self {
+            Self::UnknownType => "unknown message type",
+            Self::Malformed => "malformed request",
+            Self::BadVersion => "unsupported protocol version",
+            Self::BadSlot => "no such slot",
+            Self::SlotPlaying => "slot is playing",
+            Self::TooLarge => "sequence too large for the device",
+            Self::OutOfRange => "field out of range",
+            Self::OutOfOrder => "chunk out of order",
+            Self::CrcMismatch => "sequence CRC mismatch",
+            Self::NotCommitted => "slot holds no committed sequence",
+            Self::DwellTooShort => "dwell time below the device minimum",
+            Self::NoUpload => "no upload in progress for this slot",
+            Self::Busy => "device busy",
+            Self::Incomplete => "upload incomplete",
+            Self::BadStream => "invalid encoded sequence stream",
+            Self::Other(b) => return write!(f, "unknown nack code {b}"),
+        };
+        f.write_str(s)
+    }
+}
+
+/// Device info (response to `GetInfo`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Info {
+    /// Protocol version the device speaks.
+    pub proto_version: u8,
+    /// Firmware version, major.minor.patch.
+    pub fw_version: [u8; 3],
+    /// Most transducers a sequence may drive.
+    pub max_transducers: u16,
+    /// Raw sequence bytes (steps × transducers) one slot holds.
+    pub slot_bytes: u32,
+    /// Number of slots (slot numbers `0..slots`).
+    pub slots: u8,
+    /// Player timer frequency in Hz.
+    pub timer_hz: u32,
+    /// Shortest step dwell the device plays, µs.
+    pub min_dwell_us: u32,
+    /// Largest chunk the device accepts (≤ [`MAX_CHUNK`]).
+    pub max_chunk: u16,
+}
+
+/// Start of an upload into a slot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct BeginUpload {
+    /// Target slot.
+    pub slot: u8,
+    /// Steps per cycle.
+    pub steps: u16,
+    /// Transducers per step.
+    pub transducers: u16,
+    /// Cycle period, µs (dwell per step = period_us / steps).
+    pub period_us: u32,
+    /// Encoding of the chunk stream.
+    pub encoding: Encoding,
+    /// Total bytes of the encoded stream (sum of chunk lengths).
+    pub encoded_len: u32,
+    /// Centre the sequence was planned for, µm, drive coordinates.
+    pub center_um: [i32; 3],
+    /// Foci per step (1 for LM-S, up to 4 for LM-M); informational.
+    pub foci_per_step: u8,
+}
+
+/// Transducer positions of a `Geometry` frame: `[x, y, z]` µm, each i32 LE.
+/// Built from points on the sending side ([`Positions::from_points`]) or
+/// borrowed from a parsed frame; both compare and iterate the same.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Positions<'a>(PosRepr<'a>);
+
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum PosRepr<'a> {
+    /// Length is a multiple of 12 (checked by the constructor).
+    Bytes(&'a [u8]),
+    Points(&'a [[i32; 3]]),
+}
+
+impl<'a> Positions<'a> {
+    /// Positions to send. At most [`MAX_GEOMETRY_POSITIONS`] fit a frame
+    /// ([`crate::encode_frame`] returns `TooLarge` otherwise).
+    pub const fn from_points(points: &'a [[i32; 3]]) -> Self {
+        Self(PosRepr::Points(points))
+    }
+
+    /// Positions packed as 12-byte little-endian records; `None` if the
+    /// length is not a multiple of 12.
+    pub fn from_le_bytes(bytes: &'a [u8]) -> Option<Self> {
+        (bytes.len() % 12 == 0).then_some(Self(PosRepr::Bytes(bytes)))
+    }
+
+    /// Number of positions.
+    pub fn len(&self) -> usize {
+        match self.0 {
+            PosRepr::Bytes(b) => b.len() / 12,
+            PosRepr::Points(p) => p.len(),
+        }
+    }
+
+    /// No positions.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Position `i`, if present.
+    pub fn get(&self, i: usize) -> Option<[i32; 3]> {
+        match self.0 {
+            PosRepr::Bytes(b) => {
+                let r = b.get(i.checked_mul(12)?..)?.get(..12)?;
+                Some(core::array::from_fn(|k| {
+                    i32::from_le_bytes([r[4 * k], r[4 * k + 1], r[4 * k + 2], r[4 * k + 3]])
+                }))
+            }
+            PosRepr::Points(p) => p.get(i).copied(),
+        }
+    }
+
+    /// All positions in order.
+    pub fn iter(&self) -> impl Iterator<Item = [i32; 3]> + '_ {
+        (0..self.len()).filter_map(|i| self.get(i))
+    }
+}
+
+impl PartialEq for Positions<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.len() == other.len() && self.iter().eq(other.iter())
+    }
+}
+
+impl Eq for Positions<'_> {}
+
+#[cfg(feature = "serde")]
+impl serde::Serialize for Positions<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.iter())
+    }
+}
+
+/// Transducer positions for centroid correction, `first..first+len`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct Geometry<'a> {
+    /// Slot of the upload in progress.
+    pub slot: u8,
+    /// Index of the first transducer in this frame.
+    pub first: u16,
+    /// Positions, µm, drive coordinates.
+    pub positions: Positions<'a>,
+}
+
+/// A piece of the encoded sequence stream.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct Chunk<'a> {
+    /// Slot of the upload in progress.
+    pub slot: u8,
+    /// Offset of `data` in the encoded stream.
+    pub offset: u32,
+    /// Stream bytes (at most [`MAX_CHUNK`]).
+    pub data: &'a [u8],
+}
+
+/// End of an upload.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Commit {
+    /// Slot of the upload in progress.
+    pub slot: u8,
+    /// CRC-32 ([`crate::crc32`]) of the whole raw sequence
+    /// (steps × transducers phase bytes, step-major).
+    pub crc32: u32,
+}
+
+/// When `Play` takes effect.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
+pub enum PlayAt {
+    /// 0: at the end of the current cycle (seamless switch); at once when idle.
+    NextCycle,
+    /// 1: at once, from step 0.
+    Immediate,
+}
+
+/// Start playing a committed slot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Play {
+    /// Slot to play.
+    pub slot: u8,
+    /// When to switch.
+    pub at: PlayAt,
+}
+
+/// Centroid update: where the LM centre is now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Centroid {
+    /// Host's update counter (the device ignores updates not newer than the last).
+    pub seq: u32,
+    /// Centre, µm, drive coordinates.
+    pub pos_um: [i32; 3],
+    /// A finger is present (false mutes the output).
+    pub present: bool,
+    /// Host clock when the position was measured, µs.
+    pub host_time_us: u64,
+}
+
+/// Player state in `Status`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
+pub enum DeviceState {
+    /// 0: nothing played since reset.
+    Idle,
+    /// 1: playing a slot.
+    Playing,
+    /// 2: playing but the output is gated (no presence, stale centroid, ...).
+    Muted,
+    /// 3: stopped by `Stop`.
+    Stopped,
+}
+
+/// Device status (response to `GetStatus`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Status {
+    /// Player state.
+    pub state: DeviceState,
+    /// Slot playing or last played (`None` on the wire as [`NO_SLOT`]).
+    pub slot: Option<u8>,
+    /// Current step within the cycle.
+    pub step: u16,
+    /// Cycles completed since `Play`.
+    pub cycles: u32,
+    /// Step deadlines missed since reset.
+    pub missed_deadlines: u32,
+    /// `seq` of the last accepted `Centroid` (0 if none).
+    pub last_centroid_seq: u32,
+    /// Frames dropped for framing/length/COBS errors since reset.
+    pub bad_frames: u32,
+    /// Frames dropped for CRC errors since reset.
+    pub crc_errors: u32,
+    /// Nacks sent since reset.
+    pub nacks: u32,
+    /// Correction offset currently applied (centroid − planned centre), µm.
+    pub correction_um: [i32; 3],
+}
+
+/// One protocol message, borrowing bulk bytes (chunk data, positions) from
+/// the frame it was parsed from or from the caller.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[non_exhaustive]
+pub enum Message<'a> {
+    /// Request device info.
+    GetInfo,
+    /// Start an upload.
+    BeginUpload(BeginUpload),
+    /// Transducer positions.
+    Geometry(Geometry<'a>),
+    /// Encoded sequence bytes.
+    Chunk(Chunk<'a>),
+    /// Finish an upload.
+    Commit(Commit),
+    /// Play a slot.
+    Play(Play),
+    /// Stop playing.
+    Stop,
+    /// Centroid update.
+    Centroid(Centroid),
+    /// Request status.
+    GetStatus,
+    /// Request done.
+    Ack,
+    /// Request refused.
+    Nack(NackCode),
+    /// Device info.
+    Info(Info),
+    /// Device status.
+    Status(Status),
+}
+
+/// Output of payload emission: a plain buffer or the frame encoder.
+pub(crate) trait Sink {
+    fn put(&mut self, bytes: &[u8]) -> Result<(), EncodeError>;
+}
+
+/// Payload bytes into a slice.
+pub(crate) struct SliceSink<'b> {
+    pub(crate) buf: &'b mut [u8],
+    pub(crate) len: usize,
+}
+
+impl Sink for SliceSink<'_> {
+    fn put(&mut self, bytes: &[u8]) -> Result<(), EncodeError> {
+        let end = self.len + bytes.len();
+        self.buf
+            .get_mut(self.len..end)
+            .ok_or(EncodeError::BufferTooSmall)?
+            .copy_from_slice(bytes);
+        self.len = end;
+        Ok(())
+    }
+}
+
+fn put_xyz(s: &mut impl Sink, v: &[i32; 3]) -> Result<(), EncodeError> {
+    v.iter().try_for_each(|c| s.put(&c.to_le_bytes()))
+}
+
+/// Bounds-checked little-endian reader over an untrusted payload.
+struct Reader<'a> {
+    buf: &'a [u8],
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], &'static str> {
+        if self.buf.len() < n {
+            return Err("payload too short");
+        }
+        let (head, rest) = self.buf.split_at(n);
+        self.buf = rest;
+        Ok(head)
+    }
+    fn array<const N: usize>(&mut self) -> Result<[u8; N], &'static str> {
+        let b = self.take(N)?;
+        let mut a = [0u8; N];
+        a.copy_from_slice(b);
+        Ok(a)
+    }
+    fn u8(&mut self) -> Result<u8, &'static str> {
+        Ok(self.array::<1>()?[0])
+    }
+    fn u16(&mut self) -> Result<u16, &'static str> {
+        Ok(u16::from_le_bytes(self.array()?))
+    }
+    fn u32(&mut self) -> Result<u32, &'static str> {
+        Ok(u32::from_le_bytes(self.array()?))
+    }
+    fn u64(&mut self) -> Result<u64, &'static str> {
+        Ok(u64::from_le_bytes(self.array()?))
+    }
+    fn i32(&mut self) -> Result<i32, &'static str> {
+        Ok(i32::from_le_bytes(self.array()?))
+    }
+    fn xyz(&mut self) -> Result<[i32; 3], &'static str> {
+        Ok([self.i32()?, self.i32()?, self.i32()?])
+    }
+    fn bool(&mut self) -> Result<bool, &'static str> {
+        match self.u8()? {
+            0 => Ok(false),
+            1 => Ok(true),
+            _ => Err("bool field not 0 or 1"),
+        }
+    }
+    fn rest(&mut self) -> &'a [u8] {
+        core::mem::take(&mut self.buf)
+    }
+    fn end(&self) -> Result<(), &'static str> {
+        if self.buf.is_empty() {
+            Ok(())
+        } else {
+            Err("payload too long")
+        }
+    }
+}
+
+/// Why a payload did not parse (mapped to [`crate::FrameError`]).
+pub(crate) enum PayloadError {
+    UnknownType,
+    Malformed(&'static str),
+}
+
+impl<'a> Message<'a> {
+    /// The message's type byte.
+    pub fn msg_type(&self) -> MessageType {
+        match self {
+            Self::GetInfo => MessageType::GetInfo,
+            Self::BeginUpload(_) => MessageType::BeginUpload,
+            Self::Geometry(_) => MessageType::Geometry,
+            Self::Chunk(_) => MessageType::Chunk,
+            Self::Commit(_) => MessageType::Commit,
+            Self::Play(_) => MessageType::Play,
+            Self::Stop => MessageType::Stop,
+            Self::Centroid(_) => MessageType::Centroid,
+            Self::GetStatus => MessageType::GetStatus,
+            Self::Ack => MessageType::Ack,
+            Self::Nack(_) => MessageType::Nack,
+            Self::Info(_) => MessageType::Info,
+            Self::Status(_) => MessageType::Status,
+        }
+    }
+
+    /// Payload length on the wire (before framing).
+    pub fn payload_len(&self) -> usize {
+        match self {
+            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => 0,
+            Self::BeginUpload(_) => 27,
+            Self::Geometry(g) => 3 + 12 * g.positions.len(),
+            Self::Chunk(c) => 5 + c.data.len(),
+            Self::Commit(_) => 5,
+            Self::Play(_) => 2,
+            Self::Centroid(_) => 25,
+            Self::Nack(_) => 1,
+            Self::Info(_) => 21,
+            Self::Status(_) => 40,
+        }
+    }
+
+    /// Writes the payload (no header, no CRC) into `buf`; returns its length.
+    pub fn emit_payload(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
+        let mut s = SliceSink { buf, len: 0 };
+        self.emit(&mut s)?;
+        Ok(s.len)
+    }
+
+    /// Checks limits the type system does not enforce.
+    pub(crate) fn check(&self) -> Result<(), EncodeError> {
+        match self {
+            Self::Geometry(g) if g.positions.len() > MAX_GEOMETRY_POSITIONS => {
+                Err(EncodeError::TooLarge)
+            }
+            Self::Chunk(c) if c.data.len() > MAX_CHUNK => Err(EncodeError::TooLarge),
+            Self::Status(s) if s.slot == Some(NO_SLOT) => Err(EncodeError::InvalidField),
+            // `Other` must hold a value this version does not know, or it
+            // would not survive a round trip.
+            Self::Nack(NackCode::Other(b))
+                if !matches!(NackCode::from_u8(*b), NackCode::Other(_)) =>
+            {
+                Err(EncodeError::InvalidField)
+            }
+            _ => Ok(()),
+        }
+    }
+
+    pub(crate) fn emit(&self, s: &mut impl Sink) -> Result<(), EncodeError> {
+        self.check()?;
+        match self {
+            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => Ok(()),
+            Self::BeginUpload(b) => {
+                s.put(&[b.slot])?;
+                s.put(&b.steps.to_le_bytes())?;
+                s.put(&b.transducers.to_le_bytes())?;
+                s.put(&b.period_us.to_le_bytes())?;
+                s.put(&[b.encoding.to_u8()])?;
+                s.put(&b.encoded_len.to_le_bytes())?;
+                put_xyz(s, &b.center_um)?;
+                s.put(&[b.foci_per_step])
+            }
+            Self::Geometry(g) => {
+                s.put(&[g.slot])?;
+                s.put(&g.first.to_le_bytes())?;
+                g.positions.iter().try_for_each(|p| put_xyz(s, &p))
+            }
+            Self::Chunk(c) => {
+                s.put(&[c.slot])?;
+                s.put(&c.offset.to_le_bytes())?;
+                s.put(c.data)
+            }
+            Self::Commit(c) => {
+                s.put(&[c.slot])?;
+                s.put(&c.crc32.to_le_bytes())
+            }
+            Self::Play(p) => s.put(&[
+                p.slot,
+                match p.at {
+                    PlayAt::NextCycle => 0,
+                    PlayAt::Immediate => 1,
+                },
+            ]),
+            Self::Centroid(c) => {
+                s.put(&c.seq.to_le_bytes())?;
+                put_xyz(s, &c.pos_um)?;
+                s.put(&[c.present as u8])?;
+                s.put(&c.host_time_us.to_le_bytes())
+            }
+            Self::Nack(code) => s.put(&[code.to_u8()]),
+            Self::Info(i) => {
+                s.put(&[i.proto_version])?;
+                s.put(&i.fw_version)?;
+                s.put(&i.max_transducers.to_le_bytes())?;
+                s.put(&i.slot_bytes.to_le_bytes())?;
+                s.put(&[i.slots])?;
+                s.put(&i.timer_hz.to_le_bytes())?;
+                s.put(&i.min_dwell_us.to_le_bytes())?;
+                s.put(&i.max_chunk.to_le_bytes())
+            }
+            Self::Status(st) => {
+                s.put(&[
+                    match st.state {
+                        DeviceState::Idle => 0,
+                        DeviceState::Playing => 1,
+                        DeviceState::Muted => 2,
+                        DeviceState::Stopped => 3,
+                    },
+                    st.slot.unwrap_or(NO_SLOT),
+                ])?;
+                s.put(&st.step.to_le_bytes())?;
+                for v in [
+                    st.cycles,
+                    st.missed_deadlines,
+                    st.last_centroid_seq,
+                    st.bad_frames,
+                    st.crc_errors,
+                    st.nacks,
+                ] {
+                    s.put(&v.to_le_bytes())?;
+                }
+                put_xyz(s, &st.correction_um)
+            }
+        }
+    }
+
+    /// Parses an untrusted payload of type `msg_type`.
+    pub(crate) fn parse(msg_type: u8, payload: &'a [u8]) -> Result<Self, PayloadError> {
+        let t = MessageType::from_u8(msg_type).ok_or(PayloadError::UnknownType)?;
+        let mut r = Reader { buf: payload };
+        let m = Self::parse_known(t, &mut r).map_err(PayloadError::Malformed)?;
+        r.end().map_err(PayloadError::Malformed)?;
+        Ok(m)
+    }
+
+    fn parse_known(t: MessageType, r: &mut Reader<'a>) -> Result<Self, &'static str> {
+        Ok(match t {
+            MessageType::GetInfo => Self::GetInfo,
+            MessageType::Stop => Self::Stop,
+            MessageType::GetStatus => Self::GetStatus,
+            MessageType::Ack => Self::Ack,
+            MessageType::BeginUpload => Self::BeginUpload(BeginUpload {
+                slot: r.u8()?,
+                steps: r.u16()?,
+                transducers: r.u16()?,
+                period_us: r.u32()?,
+                encoding: Encoding::from_u8(r.u8()?).ok_or("unknown encoding")?,
+                encoded_len: r.u32()?,
+                center_um: r.xyz()?,
+                foci_per_step: r.u8()?,
+            }),
+            MessageType::Geometry => {
+                let slot = r.u8()?;
+                let first = r.u16()?;
+                let bytes = r.rest();
+                let positions = Positions::from_le_bytes(bytes)
+                    .ok_or("positions not a multiple of 12 bytes")?;
+                if positions.len() > MAX_GEOMETRY_POSITIONS {
+                    return Err("too many positions");
+                }
+                Self::Geometry(Geometry {
+                    slot,
+                    first,
+                    positions,
+                })
+            }
+            MessageType::Chunk => {
+                let slot = r.u8()?;
+                let offset = r.u32()?;
+                let data = r.rest();
+                if data.len() > MAX_CHUNK {
+                    return Err("chunk longer than MAX_CHUNK");
+                }
+                Self::Chunk(Chunk { slot, offset, data })
+            }
+            MessageType::Commit => Self::Commit(Commit {
+                slot: r.u8()?,
+                crc32: r.u32()?,
+            }),
+            MessageType::Play => Self::Play(Play {
+                slot: r.u8()?,
+                at: match r.u8()? {
+                    0 => PlayAt::NextCycle,
+                    1 => PlayAt::Immediate,
+                    _ => return Err("unknown play timing"),
+                },
+            }),
+            MessageType::Centroid => Self::Centroid(Centroid {
+                seq: r.u32()?,
+                pos_um: r.xyz()?,
+                present: r.bool()?,
+                host_time_us: r.u64()?,
+            }),
+            MessageType::Nack => Self::Nack(NackCode::from_u8(r.u8()?)),
+            MessageType::Info => Self::Info(Info {
+                proto_version: r.u8()?,
+                fw_version: r.array()?,
+                max_transducers: r.u16()?,
+                slot_bytes: r.u32()?,
+                slots: r.u8()?,
+                timer_hz: r.u32()?,
+                min_dwell_us: r.u32()?,
+                max_chunk: r.u16()?,
+            }),
+            MessageType::Status => Self::Status(Status {
+                state: match r.u8()? {
+                    0 => DeviceState::Idle,
+                    1 => DeviceState::Playing,
+                    2 => DeviceState::Muted,
+                    3 => DeviceState::Stopped,
+                    _ => return Err("unknown device state"),
+                },
+                slot: match r.u8()? {
+                    NO_SLOT => None,
+                    s => Some(s),
+                },
+                step: r.u16()?,
+                cycles: r.u32()?,
+                missed_deadlines: r.u32()?,
+                last_centroid_seq: r.u32()?,
+                bad_frames: r.u32()?,
+                crc_errors: r.u32()?,
+                nacks: r.u32()?,
+                correction_um: r.xyz()?,
+            }),
+        })
+    }
+}
