@@ -10,6 +10,7 @@ pub mod array;
 pub mod cmd;
 pub mod directivity;
 pub mod error;
+pub mod field;
 pub mod units;
 
 pub use error::InputError;
