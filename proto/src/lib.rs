@@ -23,6 +23,7 @@ mod crc;
 mod decoder;
 mod frame;
 mod message;
+pub mod vectors;
 
 pub use codec::Encoding;
 pub use crc::{Crc32, crc32};
@@ -62,5 +63,5 @@ pub const DELIMITER: u8 = 0x00;
 pub const NO_SLOT: u8 = 0xFF;
 
 /// Exact-byte test vectors (`proto/vectors/frames.txt`), format described
-/// at the top of the file. Host and firmware tests parse this.
+/// at the top of the file; read them with [`vectors::parse`].
 pub const TEST_VECTORS: &str = include_str!("../vectors/frames.txt");

@@ -1,0 +1,299 @@
+//! The exact-byte vectors in `vectors/frames.txt` (generated from the spec
+//! by an independent Python encoder) against the Rust encoder and decoder.
+
+use lm_proto::vectors::{self, Vector, error_kind, hex_decode};
+use lm_proto::*;
+
+/// The message each good vector encodes, by name.
+fn expected(name: &str) -> Option<Frame<'static>> {
+    static LONG: [u8; 300] = {
+        let mut a = [0u8; 300];
+        let mut i = 0;
+        while i < 300 {
+            a[i] = (i % 255) as u8 + 1;
+            i += 1;
+        }
+        a
+    };
+    static POS: [[i32; 3]; 2] = [[-96520, -66040, 0], [-86360, -66040, 0]];
+    let (seq, message) = match name {
+        "get_info" => (0, Message::GetInfo),
+        "info" => (
+            0,
+            Message::Info(Info {
+                proto_version: 1,
+                fw_version: [0, 1, 0],
+                max_transducers: 996,
+                slot_bytes: 262_144,
+                slots: 2,
+                timer_hz: 1_000_000,
+                min_dwell_us: 100,
+                max_chunk: 1024,
+            }),
+        ),
+        "begin_upload" => (
+            1,
+            Message::BeginUpload(BeginUpload {
+                slot: 0,
+                steps: 82,
+                transducers: 996,
+                period_us: 200_000,
+                encoding: Encoding::Delta,
+                encoded_len: 22_000,
+                center_um: [0, 30_000, 30_000],
+                foci_per_step: 4,
+            }),
+        ),
+        "begin_upload_raw" => (
+            2,
+            Message::BeginUpload(BeginUpload {
+                slot: 1,
+                steps: 1,
+                transducers: 1,
+                period_us: 1000,
+                encoding: Encoding::Raw,
+                encoded_len: 1,
+                center_um: [-1, -2, -3],
+                foci_per_step: 1,
+            }),
+        ),
+        "geometry" => (
+            3,
+            Message::Geometry(Geometry {
+                slot: 0,
+                first: 996,
+                positions: Positions::from_points(&POS),
+            }),
+        ),
+        "geometry_empty" => (
+            4,
+            Message::Geometry(Geometry {
+                slot: 2,
+                first: 0,
+                positions: Positions::from_points(&[]),
+            }),
+        ),
+        "chunk" => (
+            5,
+            Message::Chunk(Chunk {
+                slot: 0,
+                offset: 1024,
+                data: &[0, 1, 2, 0xFF, 0],
+            }),
+        ),
+        "chunk_long" => (
+            6,
+            Message::Chunk(Chunk {
+                slot: 1,
+                offset: 0,
+                data: &LONG,
+            }),
+        ),
+        "chunk_empty" => (
+            7,
+            Message::Chunk(Chunk {
+                slot: 0,
+                offset: u32::MAX,
+                data: &[],
+            }),
+        ),
+        "commit" => (
+            8,
+            Message::Commit(Commit {
+                slot: 0,
+                crc32: 0xCBF4_3926,
+            }),
+        ),
+        "play_next_cycle" => (
+            9,
+            Message::Play(Play {
+                slot: 1,
+                at: PlayAt::NextCycle,
+            }),
+        ),
+        "play_immediate" => (
+            10,
+            Message::Play(Play {
+                slot: 0,
+                at: PlayAt::Immediate,
+            }),
+        ),
+        "stop" => (11, Message::Stop),
+        "centroid" => (
+            12,
+            Message::Centroid(Centroid {
+                seq: 42,
+                pos_um: [-1500, 30_250, 29_800],
+                present: true,
+                host_time_us: 1_234_567_890_123,
+            }),
+        ),
+        "centroid_absent" => (
+            13,
+            Message::Centroid(Centroid {
+                seq: u32::MAX,
+                pos_um: [0, 0, 0],
+                present: false,
+                host_time_us: u64::MAX,
+            }),
+        ),
+        "get_status" => (14, Message::GetStatus),
+        "status" => (
+            14,
+            Message::Status(Status {
+                state: DeviceState::Playing,
+                slot: Some(1),
+                step: 17,
+                cycles: 300,
+                missed_deadlines: 0,
+                last_centroid_seq: 42,
+                bad_frames: 2,
+                crc_errors: 1,
+                nacks: 3,
+                correction_um: [-1500, 250, -200],
+            }),
+        ),
+        "status_idle" => (
+            15,
+            Message::Status(Status {
+                state: DeviceState::Idle,
+                slot: None,
+                step: 0,
+                cycles: 0,
+                missed_deadlines: 0,
+                last_centroid_seq: 0,
+                bad_frames: 0,
+                crc_errors: 0,
+                nacks: 0,
+                correction_um: [0, 0, 0],
+            }),
+        ),
+        "ack" => (0xBEEF, Message::Ack),
+        "nack" => (16, Message::Nack(NackCode::OutOfOrder)),
+        "nack_unknown_code" => (17, Message::Nack(NackCode::Other(200))),
+        _ => return None,
+    };
+    Some(Frame { seq, message })
+}
+
+fn bytes(hex: &str) -> Vec<u8> {
+    let mut buf = vec![0u8; hex.len()];
+    let n = hex_decode(hex, &mut buf).expect("valid hex");
+    buf.truncate(n);
+    buf
+}
+
+fn all() -> Vec<Vector<'static>> {
+    vectors::parse(TEST_VECTORS).collect()
+}
+
+#[test]
+fn file_has_every_message_type_and_error_kind() {
+    let v = all();
+    assert!(v.len() >= 25, "only {} vectors", v.len());
+    for t in MessageType::ALL {
+        assert!(
+            v.iter()
+                .any(|r| r.error.is_none() && r.msg_type == Some(t as u8)),
+            "no vector for {t:?}"
+        );
+    }
+    for kind in [
+        "crc",
+        "unknown_type",
+        "bad_version",
+        "malformed",
+        "cobs",
+        "too_short",
+    ] {
+        assert!(
+            v.iter().any(|r| r.error == Some(kind)),
+            "no vector for error {kind}"
+        );
+    }
+    let mut names: Vec<_> = v.iter().map(|r| r.name).collect();
+    names.sort();
+    names.dedup();
+    assert_eq!(names.len(), v.len(), "duplicate names");
+}
+
+#[test]
+fn encoder_produces_the_vector_bytes() {
+    for v in all().iter().filter(|v| v.error.is_none()) {
+        let f = expected(v.name).unwrap_or_else(|| panic!("no expected message for {}", v.name));
+        assert_eq!(v.seq, Some(f.seq), "{}", v.name);
+        assert_eq!(v.msg_type, Some(f.message.msg_type() as u8), "{}", v.name);
+        let mut wire = [0u8; MAX_ENCODED_FRAME];
+        let n = encode_frame(f.seq, &f.message, &mut wire).unwrap();
+        assert_eq!(&wire[..n], &bytes(v.wire)[..], "wire bytes of {}", v.name);
+        assert_eq!(encoded_frame_len(f.seq, &f.message), Ok(n), "{}", v.name);
+        let mut dec = [0u8; MAX_FRAME];
+        let m = encode_frame_unframed(f.seq, &f.message, &mut dec).unwrap();
+        assert_eq!(
+            &dec[..m],
+            &bytes(v.decoded.unwrap())[..],
+            "decoded bytes of {}",
+            v.name
+        );
+        assert_eq!(f.message.payload_len(), m - HEADER_LEN - CRC_LEN);
+    }
+}
+
+#[test]
+fn decoder_reads_the_vector_bytes() {
+    for v in all() {
+        let wire = bytes(v.wire);
+        let mut dec = FrameDecoder::new();
+        let mut results = Vec::new();
+        let mut input = &wire[..];
+        loop {
+            input = match dec.feed(input) {
+                FeedResult::Consumed => break,
+                FeedResult::Frame { frame, remaining } => {
+                    results.push(Ok(frame.seq));
+                    assert_eq!(Some(frame), expected(v.name), "{}", v.name);
+                    remaining
+                }
+                FeedResult::Error { error, remaining } => {
+                    results.push(Err(error));
+                    remaining
+                }
+            };
+        }
+        assert_eq!(results.len(), 1, "{}: {results:?}", v.name);
+        match (v.error, results[0]) {
+            (None, Ok(seq)) => assert_eq!(Some(seq), v.seq),
+            (Some(kind), Err(e)) => {
+                assert_eq!(error_kind(&e), kind, "{}: {e}", v.name);
+                // Errors from valid-CRC frames carry the seq for the Nack.
+                assert_eq!(e.seq(), v.seq.filter(|_| kind != "crc"), "{}", v.name);
+            }
+            (want, got) => panic!("{}: wanted {want:?}, got {got:?}", v.name),
+        }
+        if let Some(d) = v.decoded {
+            let d = bytes(d);
+            match decode_frame(&d) {
+                Ok(f) => assert_eq!(Some(f), expected(v.name)),
+                Err(e) => assert_eq!(Some(error_kind(&e)), v.error, "{}", v.name),
+            }
+        }
+    }
+}
+
+#[test]
+fn unknown_type_vector_maps_to_an_unknown_type_nack() {
+    let v = all()
+        .into_iter()
+        .find(|v| v.name == "err_unknown_type")
+        .unwrap();
+    let d = bytes(v.decoded.unwrap());
+    let e = decode_frame(&d).unwrap_err();
+    assert_eq!(
+        e,
+        FrameError::UnknownType {
+            seq: 19,
+            msg_type: 0x42
+        }
+    );
+    assert_eq!(e.nack(), Some((19, NackCode::UnknownType)));
+}

@@ -1,0 +1,128 @@
+#!/usr/bin/env python3
+"""Writes frames.txt: exact-byte vectors for proto/SPEC.md, built from the
+spec with Python's own CRC (zlib) and a separate COBS, independent of the
+Rust code that the vectors check. Run: python3 gen_frames.py > frames.txt"""
+import struct, zlib
+
+VERSION = 1
+
+def cobs(data):
+    out, block = bytearray(), bytearray()
+    for b in data:
+        if b == 0:
+            out += bytes([len(block) + 1]) + block
+            block = bytearray()
+        else:
+            block.append(b)
+            if len(block) == 254:
+                out += b"\xff" + block
+                block = bytearray()
+    out += bytes([len(block) + 1]) + block
+    return bytes(out)
+
+def frame(msg_type, seq, payload, version=VERSION, crc_xor=0):
+    body = struct.pack("<BBH", version, msg_type, seq) + payload
+    decoded = body + struct.pack("<I", zlib.crc32(body) ^ crc_xor)
+    return decoded, b"\x00" + cobs(decoded) + b"\x00"
+
+def hexs(b):
+    return " ".join(f"{x:02x}" for x in b)
+
+records = []
+
+def rec(name, msg_type, seq, fields, payload, **kw):
+    error = kw.pop("error", None)
+    decoded, wire = frame(msg_type, seq, payload, **kw)
+    records.append((name, msg_type, seq, fields, decoded, wire, error))
+
+def raw(name, fields, wire, error):
+    records.append((name, None, None, fields, None, wire, error))
+
+xyz = lambda v: struct.pack("<3i", *v)
+
+rec("get_info", 0x01, 0, "GetInfo", b"")
+rec("info", 0x82, 0,
+    "Info proto_version=1 fw_version=0.1.0 max_transducers=996 slot_bytes=262144 "
+    "slots=2 timer_hz=1000000 min_dwell_us=100 max_chunk=1024",
+    struct.pack("<B3BHIBIIH", 1, 0, 1, 0, 996, 262144, 2, 1000000, 100, 1024))
+rec("begin_upload", 0x02, 1,
+    "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
+    "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4",
+    struct.pack("<BHHIBI", 0, 82, 996, 200000, 1, 22000) + xyz((0, 30000, 30000)) + b"\x04")
+rec("begin_upload_raw", 0x02, 2,
+    "BeginUpload slot=1 steps=1 transducers=1 period_us=1000 encoding=Raw(0) "
+    "encoded_len=1 center_um=[-1,-2,-3] foci_per_step=1",
+    struct.pack("<BHHIBI", 1, 1, 1, 1000, 0, 1) + xyz((-1, -2, -3)) + b"\x01")
+rec("geometry", 0x03, 3,
+    "Geometry slot=0 first=996 positions=[[-96520,-66040,0],[-86360,-66040,0]]",
+    struct.pack("<BH", 0, 996) + xyz((-96520, -66040, 0)) + xyz((-86360, -66040, 0)))
+rec("geometry_empty", 0x03, 4, "Geometry slot=2 first=0 positions=[]", struct.pack("<BH", 2, 0))
+rec("chunk", 0x04, 5, "Chunk slot=0 offset=1024 data=[00 01 02 ff 00]",
+    struct.pack("<BI", 0, 1024) + bytes([0, 1, 2, 0xFF, 0]))
+rec("chunk_long", 0x04, 6,
+    "Chunk slot=1 offset=0 data=300 bytes, byte i = (i mod 255) + 1 (crosses a 254-byte COBS block)",
+    struct.pack("<BI", 1, 0) + bytes((i % 255) + 1 for i in range(300)))
+rec("chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[]", struct.pack("<BI", 0, 0xFFFFFFFF))
+rec("commit", 0x05, 8, "Commit slot=0 crc32=0xcbf43926", struct.pack("<BI", 0, 0xCBF43926))
+rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0)", bytes([1, 0]))
+rec("play_immediate", 0x06, 10, "Play slot=0 at=Immediate(1)", bytes([0, 1]))
+rec("stop", 0x07, 11, "Stop", b"")
+rec("centroid", 0x08, 12,
+    "Centroid seq=42 pos_um=[-1500,30250,29800] present=true host_time_us=1234567890123",
+    struct.pack("<I", 42) + xyz((-1500, 30250, 29800)) + b"\x01" + struct.pack("<Q", 1234567890123))
+rec("centroid_absent", 0x08, 13,
+    "Centroid seq=4294967295 pos_um=[0,0,0] present=false host_time_us=18446744073709551615",
+    struct.pack("<I", 0xFFFFFFFF) + xyz((0, 0, 0)) + b"\x00" + struct.pack("<Q", 2**64 - 1))
+rec("get_status", 0x09, 14, "GetStatus", b"")
+rec("status", 0x83, 14,
+    "Status state=Playing(1) slot=1 step=17 cycles=300 missed_deadlines=0 last_centroid_seq=42 "
+    "bad_frames=2 crc_errors=1 nacks=3 correction_um=[-1500,250,-200]",
+    bytes([1, 1]) + struct.pack("<H6I", 17, 300, 0, 42, 2, 1, 3) + xyz((-1500, 250, -200)))
+rec("status_idle", 0x83, 15,
+    "Status state=Idle(0) slot=none(0xff) step=0 cycles=0 missed_deadlines=0 last_centroid_seq=0 "
+    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0]",
+    bytes([0, 0xFF]) + struct.pack("<H6I", 0, 0, 0, 0, 0, 0, 0) + xyz((0, 0, 0)))
+rec("ack", 0x80, 0xBEEF, "Ack", b"")
+rec("nack", 0x81, 16, "Nack code=OutOfOrder(8)", bytes([8]))
+rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version does not know)", bytes([200]))
+
+# Bad frames: what a decoder must report.
+rec("err_crc", 0x80, 18, "Ack with the CRC's lowest bit flipped", b"", crc_xor=1, error="crc")
+rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC", b"",
+    error="unknown_type")
+rec("err_bad_version", 0x01, 20, "GetInfo with version 2, valid CRC", b"", version=2,
+    error="bad_version")
+rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", bytes([0, 2]),
+    error="malformed")
+rec("err_malformed_len", 0x05, 22, "Commit with a 4-byte payload (needs 5)", bytes([0, 1, 2, 3]),
+    error="malformed")
+rec("err_malformed_bool", 0x08, 23, "Centroid with present=2",
+    struct.pack("<I", 1) + xyz((0, 0, 0)) + b"\x02" + struct.pack("<Q", 0), error="malformed")
+raw("err_cobs", "block code 5 but the delimiter comes after 2 data bytes", bytes([0, 5, 1, 2, 0]),
+    "cobs")
+raw("err_too_short", "3 decoded bytes", b"\x00" + cobs(bytes([1, 1, 0])) + b"\x00", "too_short")
+
+print("""# lm-proto exact-byte test vectors (generated by gen_frames.py from SPEC.md,
+# independently of the Rust encoder). Records are separated by blank lines;
+# each line is "<key> <value>"; '#' starts a comment line.
+#   name     unique name
+#   type     message type byte (hex), absent for framing errors
+#   seq      sequence number (decimal), absent for framing errors
+#   fields   the message's fields, for humans
+#   decoded  hex of the frame after COBS decoding (header, payload, CRC)
+#   wire     hex of the on-wire bytes: 00, COBS(decoded), 00
+#   error    absent for good frames; else what the decoder must report:
+#            crc | unknown_type | bad_version | malformed | cobs | too_short
+""")
+for name, t, seq, fields, decoded, wire, error in records:
+    print(f"name {name}")
+    if t is not None:
+        print(f"type {t:02x}")
+        print(f"seq {seq}")
+    print(f"fields {fields}")
+    if decoded is not None:
+        print(f"decoded {hexs(decoded)}")
+    print(f"wire {hexs(wire)}")
+    if error:
+        print(f"error {error}")
+    print()
