@@ -370,6 +370,15 @@ mod tests {
     }
 
     #[test]
+    fn spec_example() {
+        let phases = [10, 250, 12, 255, 14, 4];
+        let mut out = [0u8; 8];
+        let n = encode(Encoding::Delta, &phases, 2, &mut out).unwrap();
+        assert_eq!(&out[..n], &[0x0a, 0xfa, 0xc5, 0x94]);
+        roundtrip(Encoding::Delta, &phases, 2, 1);
+    }
+
+    #[test]
     fn rejects_bad_streams() {
         // 2 steps × 2: step 0 raw, then residual codes `0`,`0` + 6 padding bits.
         let mut out = [0u8; 4];

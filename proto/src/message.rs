@@ -415,7 +415,8 @@ pub struct Status {
     pub missed_deadlines: u32,
     /// `seq` of the last accepted `Centroid` (0 if none).
     pub last_centroid_seq: u32,
-    /// Frames dropped for framing/length/COBS errors since reset.
+    /// Bad frames other than CRC errors (framing, length, COBS, version,
+    /// type, payload) since reset.
     pub bad_frames: u32,
     /// Frames dropped for CRC errors since reset.
     pub crc_errors: u32,
