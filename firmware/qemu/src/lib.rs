@@ -106,12 +106,16 @@ impl Timer {
 }
 
 /// Prints over semihosting (QEMU's stdout with `-semihosting-config target=native`).
-pub use cortex_m_semihosting::hprintln;
+pub use cortex_m_semihosting::{hprint, hprintln};
 
 /// Ends the QEMU run with a pass/fail status via semihosting.
 pub fn exit(success: bool) -> ! {
     use cortex_m_semihosting::debug;
-    debug::exit(if success { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
+    debug::exit(if success {
+        debug::EXIT_SUCCESS
+    } else {
+        debug::EXIT_FAILURE
+    });
     // Only reached without semihosting (e.g. on a debugger that ignores it).
     loop {
         cortex_m::asm::wfi();
