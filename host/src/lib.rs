@@ -10,6 +10,8 @@ pub mod array;
 pub mod cmd;
 pub mod directivity;
 pub mod error;
+pub mod stream;
+pub mod link;
 pub mod field;
 pub mod units;
 

@@ -1,0 +1,449 @@
+//! Request/response client: one request in flight, matched by seq, with
+//! timeouts and retries; chunked upload with acks and a whole-sequence CRC.
+//!
+//! Retries resend the same frame with the same seq. Where a lost ack makes
+//! the device's state ambiguous (a chunk that may or may not have landed),
+//! the client restarts the whole upload from `BeginUpload` rather than
+//! guess: the device only ever plays a slot whose CRC it checked itself.
+
+use std::time::{Duration, Instant};
+
+use lm_proto::{
+    BeginUpload, Centroid, Chunk, Commit, Encoding, FeedResult, FrameDecoder, Geometry, Info,
+    MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt,
+    Positions, Status, encode_frame,
+};
+
+use super::transport::Transport;
+
+/// Link failures (the operation failed; exit 1).
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    /// No valid response after all retries.
+    #[error(
+        "no response from the device to {what} after {tries} tries ({timeout_ms} ms each); \
+         check the port, cable and that the firmware runs"
+    )]
+    Timeout {
+        /// The request.
+        what: &'static str,
+        /// Attempts made.
+        tries: u32,
+        /// Per-attempt timeout.
+        timeout_ms: u64,
+    },
+    /// The device refused a request.
+    #[error("the device refused {what}: {code}")]
+    Nack {
+        /// The request.
+        what: &'static str,
+        /// Its reason.
+        code: NackCode,
+    },
+    /// A response of the wrong kind.
+    #[error("unexpected response to {what}: {got}")]
+    Unexpected {
+        /// The request.
+        what: &'static str,
+        /// What came back.
+        got: &'static str,
+    },
+    /// The transport failed.
+    #[error("link I/O failed during {what}: {source}")]
+    Io {
+        /// The request.
+        what: &'static str,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The upload could not be completed within its restart budget.
+    #[error("upload failed after {attempts} attempts; last error: {last}")]
+    UploadGaveUp {
+        /// Whole-upload attempts made.
+        attempts: u32,
+        /// Why the last one failed.
+        last: Box<LinkError>,
+    },
+}
+
+/// A response, owned.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Reply {
+    /// Done.
+    Ack,
+    /// Refused.
+    Nack(NackCode),
+    /// Device info.
+    Info(Info),
+    /// Device status.
+    Status(Status),
+}
+
+impl Reply {
+    fn name(&self) -> &'static str {
+        match self {
+            Reply::Ack => "ack",
+            Reply::Nack(_) => "nack",
+            Reply::Info(_) => "info",
+            Reply::Status(_) => "status",
+        }
+    }
+}
+
+/// Byte and event counts of one client.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct LinkStats {
+    /// Bytes written to the transport.
+    pub bytes_sent: u64,
+    /// Bytes read from the transport.
+    pub bytes_received: u64,
+    /// Requests sent (first attempts).
+    pub requests: u64,
+    /// Resends after a timeout.
+    pub retries: u64,
+    /// Received frames that failed to decode (CRC, framing).
+    pub bad_frames: u64,
+    /// Whole-upload restarts.
+    pub upload_restarts: u64,
+}
+
+/// A sequence ready to upload, in wire units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UploadSpec {
+    /// Steps per cycle.
+    pub steps: u16,
+    /// Transducers per step.
+    pub transducers: u16,
+    /// Cycle period (µs).
+    pub period_us: u32,
+    /// Planned centre in drive coordinates (µm).
+    pub center_um: [i32; 3],
+    /// Foci per step (1 for LM-S, more for LM-M).
+    pub foci_per_step: u8,
+    /// Transducer positions in drive coordinates (µm), one per transducer.
+    pub positions_um: Vec<[i32; 3]>,
+    /// Raw phases, step-major: `steps × transducers` bytes.
+    pub phases: Vec<u8>,
+}
+
+/// What an upload did.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct UploadReport {
+    /// Slot written.
+    pub slot: u8,
+    /// Raw sequence bytes.
+    pub raw_bytes: u64,
+    /// Encoded sequence bytes (the chunk payload).
+    pub payload_bytes: u64,
+    /// All bytes written to the wire during the upload (frames, resends).
+    pub wire_bytes_sent: u64,
+    /// All bytes read from the wire during the upload.
+    pub wire_bytes_received: u64,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// CRC-32 of the raw sequence, as the device confirmed.
+    pub crc32: u32,
+    /// Resends during the upload.
+    pub retries: u64,
+    /// Whole-upload restarts.
+    pub restarts: u64,
+}
+
+impl UploadReport {
+    /// Payload bytes over all wire bytes in both directions.
+    pub fn wire_efficiency(&self) -> f64 {
+        self.payload_bytes as f64 / (self.wire_bytes_sent + self.wire_bytes_received).max(1) as f64
+    }
+}
+
+/// Why a sequence does not fit a device (checked before sending anything).
+pub fn check_fits(spec: &UploadSpec, info: &Info, slot: u8) -> Result<(), String> {
+    let raw = spec.steps as u64 * spec.transducers as u64;
+    if spec.phases.len() as u64 != raw || spec.positions_um.len() != spec.transducers as usize {
+        return Err(format!(
+            "sequence is inconsistent: {} phase bytes and {} positions for {} steps × {} transducers",
+            spec.phases.len(),
+            spec.positions_um.len(),
+            spec.steps,
+            spec.transducers
+        ));
+    }
+    if slot >= info.slots {
+        return Err(format!("slot {slot} does not exist (the device has {} slots)", info.slots));
+    }
+    if spec.transducers > info.max_transducers {
+        return Err(format!(
+            "{} transducers, the device drives at most {}",
+            spec.transducers, info.max_transducers
+        ));
+    }
+    if raw > info.slot_bytes as u64 {
+        return Err(format!(
+            "{raw} bytes ({} steps × {} transducers) exceed the device's {}-byte slot; use fewer steps",
+            spec.steps, spec.transducers, info.slot_bytes
+        ));
+    }
+    let dwell_us = spec.period_us as f64 / spec.steps.max(1) as f64;
+    if dwell_us < info.min_dwell_us as f64 {
+        return Err(format!(
+            "dwell {dwell_us:.0} µs per step is below the device's minimum {} µs; use fewer steps or a lower frequency",
+            info.min_dwell_us
+        ));
+    }
+    Ok(())
+}
+
+/// Encode the raw sequence for the wire.
+pub fn encode_sequence(encoding: Encoding, spec: &UploadSpec) -> Result<Vec<u8>, String> {
+    let t = spec.transducers as usize;
+    let len = lm_proto::codec::encoded_len(encoding, &spec.phases, t).map_err(|e| e.to_string())?;
+    let mut out = vec![0u8; len];
+    let n = lm_proto::codec::encode(encoding, &spec.phases, t, &mut out).map_err(|e| e.to_string())?;
+    out.truncate(n);
+    Ok(out)
+}
+
+/// The client.
+pub struct Client<T> {
+    transport: T,
+    decoder: FrameDecoder,
+    seq: u16,
+    rx: Vec<u8>,
+    tx: Vec<u8>,
+    /// Per-attempt response timeout.
+    pub timeout: Duration,
+    /// Attempts per request (first try included).
+    pub tries: u32,
+    /// Whole-upload attempts.
+    pub upload_attempts: u32,
+    /// Counters.
+    pub stats: LinkStats,
+}
+
+impl<T: Transport> Client<T> {
+    /// A client on `transport` with defaults for a local link.
+    pub fn new(transport: T) -> Self {
+        Self {
+            transport,
+            decoder: FrameDecoder::new(),
+            seq: 0,
+            rx: vec![0; 4096],
+            tx: vec![0; MAX_ENCODED_FRAME],
+            timeout: Duration::from_millis(300),
+            tries: 5,
+            upload_attempts: 4,
+            stats: LinkStats::default(),
+        }
+    }
+
+    /// The transport.
+    pub fn transport_mut(&mut self) -> &mut T {
+        &mut self.transport
+    }
+
+    /// Send `msg` and wait for the response with the same seq, resending
+    /// on timeout.
+    pub fn request(&mut self, what: &'static str, msg: &Message<'_>) -> Result<Reply, LinkError> {
+        self.seq = self.seq.wrapping_add(1);
+        let seq = self.seq;
+        let n = encode_frame(seq, msg, &mut self.tx).map_err(|e| LinkError::Io {
+            what,
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string()),
+        })?;
+        self.stats.requests += 1;
+        for attempt in 0..self.tries {
+            if attempt > 0 {
+                self.stats.retries += 1;
+            }
+            self.transport.send(&self.tx[..n]).map_err(|source| LinkError::Io { what, source })?;
+            self.stats.bytes_sent += n as u64;
+            if let Some(r) = self.wait_for(seq, what)? {
+                return Ok(r);
+            }
+        }
+        Err(LinkError::Timeout { what, tries: self.tries, timeout_ms: self.timeout.as_millis() as u64 })
+    }
+
+    /// Read until a response with `seq` arrives or the timeout passes.
+    fn wait_for(&mut self, seq: u16, what: &'static str) -> Result<Option<Reply>, LinkError> {
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            let got = self.transport.recv(&mut self.rx, left).map_err(|source| LinkError::Io { what, source })?;
+            if got == 0 {
+                continue;
+            }
+            self.stats.bytes_received += got as u64;
+            let mut input: &[u8] = &self.rx[..got];
+            let mut found = None;
+            loop {
+                input = match self.decoder.feed(input) {
+                    FeedResult::Consumed => break,
+                    FeedResult::Frame { frame, remaining } => {
+                        if frame.seq == seq && found.is_none() {
+                            found = match frame.message {
+                                Message::Ack => Some(Reply::Ack),
+                                Message::Nack(c) => Some(Reply::Nack(c)),
+                                Message::Info(i) => Some(Reply::Info(i)),
+                                Message::Status(s) => Some(Reply::Status(s)),
+                                // Not a response: an echo or noise that decoded; ignore.
+                                _ => None,
+                            };
+                        }
+                        remaining
+                    }
+                    FeedResult::Error { remaining, .. } => {
+                        self.stats.bad_frames += 1;
+                        remaining
+                    }
+                };
+            }
+            if found.is_some() {
+                return Ok(found);
+            }
+        }
+    }
+
+    fn expect_ack(&mut self, what: &'static str, msg: &Message<'_>) -> Result<(), LinkError> {
+        match self.request(what, msg)? {
+            Reply::Ack => Ok(()),
+            Reply::Nack(code) => Err(LinkError::Nack { what, code }),
+            other => Err(LinkError::Unexpected { what, got: other.name() }),
+        }
+    }
+
+    /// Device info.
+    pub fn info(&mut self) -> Result<Info, LinkError> {
+        match self.request("info", &Message::GetInfo)? {
+            Reply::Info(i) => Ok(i),
+            Reply::Nack(code) => Err(LinkError::Nack { what: "info", code }),
+            other => Err(LinkError::Unexpected { what: "info", got: other.name() }),
+        }
+    }
+
+    /// Device status.
+    pub fn status(&mut self) -> Result<Status, LinkError> {
+        match self.request("status", &Message::GetStatus)? {
+            Reply::Status(s) => Ok(s),
+            Reply::Nack(code) => Err(LinkError::Nack { what: "status", code }),
+            other => Err(LinkError::Unexpected { what: "status", got: other.name() }),
+        }
+    }
+
+    /// Play a committed slot.
+    pub fn play(&mut self, slot: u8, at: PlayAt) -> Result<(), LinkError> {
+        self.expect_ack("play", &Message::Play(Play { slot, at }))
+    }
+
+    /// Stop (mutes at once).
+    pub fn stop(&mut self) -> Result<(), LinkError> {
+        self.expect_ack("stop", &Message::Stop)
+    }
+
+    /// Send one centroid update and wait for its ack.
+    pub fn centroid(&mut self, c: Centroid) -> Result<(), LinkError> {
+        self.expect_ack("centroid", &Message::Centroid(c))
+    }
+
+    /// Upload `spec` into `slot` (call [`check_fits`] first), encoded as
+    /// `encoding`, and commit it. `progress(done, total)` is called after
+    /// each acked chunk.
+    pub fn upload(
+        &mut self,
+        spec: &UploadSpec,
+        slot: u8,
+        encoding: Encoding,
+        chunk: usize,
+        mut progress: impl FnMut(u64, u64),
+    ) -> Result<UploadReport, LinkError> {
+        let start = Instant::now();
+        let before = self.stats;
+        let encoded = encode_sequence(encoding, spec).map_err(|e| LinkError::Io {
+            what: "encode",
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e),
+        })?;
+        let crc32 = lm_proto::crc32(&spec.phases);
+        let chunk = chunk.clamp(1, MAX_CHUNK);
+        let mut last = None;
+        for attempt in 0..self.upload_attempts {
+            if attempt > 0 {
+                self.stats.upload_restarts += 1;
+            }
+            match self.upload_once(spec, slot, encoding, &encoded, crc32, chunk, &mut progress) {
+                Ok(()) => {
+                    let s = self.stats;
+                    return Ok(UploadReport {
+                        slot,
+                        raw_bytes: spec.phases.len() as u64,
+                        payload_bytes: encoded.len() as u64,
+                        wire_bytes_sent: s.bytes_sent - before.bytes_sent,
+                        wire_bytes_received: s.bytes_received - before.bytes_received,
+                        seconds: start.elapsed().as_secs_f64(),
+                        crc32,
+                        retries: s.retries - before.retries,
+                        restarts: s.upload_restarts - before.upload_restarts,
+                    });
+                }
+                // Refusals that a restart cannot mend end the upload at once.
+                Err(e @ LinkError::Nack {
+                    code:
+                        NackCode::BadSlot
+                        | NackCode::SlotPlaying
+                        | NackCode::TooLarge
+                        | NackCode::DwellTooShort
+                        | NackCode::BadVersion
+                        | NackCode::UnknownType,
+                    ..
+                }) => return Err(e),
+                Err(e @ LinkError::Io { .. }) => return Err(e),
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(LinkError::UploadGaveUp {
+            attempts: self.upload_attempts,
+            last: Box::new(last.expect("at least one attempt")),
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn upload_once(
+        &mut self,
+        spec: &UploadSpec,
+        slot: u8,
+        encoding: Encoding,
+        encoded: &[u8],
+        crc32: u32,
+        chunk: usize,
+        progress: &mut impl FnMut(u64, u64),
+    ) -> Result<(), LinkError> {
+        let begin = BeginUpload {
+            slot,
+            steps: spec.steps,
+            transducers: spec.transducers,
+            period_us: spec.period_us,
+            encoding,
+            encoded_len: encoded.len() as u32,
+            center_um: spec.center_um,
+            foci_per_step: spec.foci_per_step,
+        };
+        self.expect_ack("begin upload", &Message::BeginUpload(begin))?;
+        for (i, pts) in spec.positions_um.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
+            let g = Geometry {
+                slot,
+                first: (i * MAX_GEOMETRY_POSITIONS) as u16,
+                positions: Positions::from_points(pts),
+            };
+            self.expect_ack("geometry", &Message::Geometry(g))?;
+        }
+        let total = encoded.len() as u64;
+        for (i, data) in encoded.chunks(chunk).enumerate() {
+            let offset = (i * chunk) as u32;
+            self.expect_ack("chunk", &Message::Chunk(Chunk { slot, offset, data }))?;
+            progress(offset as u64 + data.len() as u64, total);
+        }
+        self.expect_ack("commit", &Message::Commit(Commit { slot, crc32 }))
+    }
+}

@@ -1,0 +1,120 @@
+//! Byte transports to a device: serial ports (real boards, the simulated
+//! device's pty, QEMU's UART on a pty) and TCP (QEMU's `-serial tcp:`).
+
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::time::Duration;
+
+use anyhow::Context as _;
+
+/// A bidirectional byte pipe with timed reads.
+pub trait Transport: Send {
+    /// Write all of `bytes`.
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()>;
+    /// Read what arrives within `timeout` into `buf`; `Ok(0)` on timeout.
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize>;
+    /// A short human-readable name (port path, address).
+    fn describe(&self) -> String;
+}
+
+impl<T: Transport + ?Sized> Transport for Box<T> {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        (**self).send(bytes)
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        (**self).recv(buf, timeout)
+    }
+    fn describe(&self) -> String {
+        (**self).describe()
+    }
+}
+
+fn is_timeout(e: &std::io::Error) -> bool {
+    matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock)
+}
+
+/// A serial port or pty, through `serialport` (no libudev).
+pub struct Serial {
+    port: Box<dyn serialport::SerialPort>,
+    path: String,
+}
+
+impl Serial {
+    /// Open `path` at `baud` (8N1, no flow control, raw).
+    pub fn open(path: &str, baud: u32) -> anyhow::Result<Self> {
+        let port = serialport::new(path, baud)
+            .timeout(Duration::from_millis(100))
+            .open()
+            .map_err(|e| anyhow::anyhow!("{}", e.description))
+            .with_context(|| format!("opening serial port {path}"))?;
+        Ok(Self { port, path: path.to_owned() })
+    }
+}
+
+impl Transport for Serial {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.port.write_all(bytes)?;
+        self.port.flush()
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        // serialport rejects a zero timeout on some platforms.
+        self.port.set_timeout(timeout.max(Duration::from_micros(100)))?;
+        match self.port.read(buf) {
+            Ok(n) => Ok(n),
+            Err(e) if is_timeout(&e) => Ok(0),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn describe(&self) -> String {
+        self.path.clone()
+    }
+}
+
+/// A TCP connection (QEMU `-serial tcp::PORT,server`).
+pub struct Tcp {
+    stream: TcpStream,
+    addr: String,
+}
+
+impl Tcp {
+    /// Connect to `addr` (`host:port`).
+    pub fn connect(addr: &str) -> anyhow::Result<Self> {
+        let stream = TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
+        stream.set_nodelay(true).context("setting TCP_NODELAY")?;
+        Ok(Self { stream, addr: addr.to_owned() })
+    }
+}
+
+impl Transport for Tcp {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.stream.write_all(bytes)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        self.stream.set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
+        match self.stream.read(buf) {
+            Ok(0) => Err(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                "the device closed the connection",
+            )),
+            Ok(n) => Ok(n),
+            Err(e) if is_timeout(&e) => Ok(0),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn describe(&self) -> String {
+        format!("tcp:{}", self.addr)
+    }
+}
+
+/// Open a port spec: `tcp:HOST:PORT` for TCP, anything else is a serial
+/// device path.
+pub fn open(spec: &str, baud: u32) -> anyhow::Result<Box<dyn Transport>> {
+    match spec.strip_prefix("tcp:") {
+        Some(addr) => Ok(Box::new(Tcp::connect(addr)?)),
+        None => Ok(Box::new(Serial::open(spec, baud)?)),
+    }
+}
