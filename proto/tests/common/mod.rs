@@ -1,0 +1,231 @@
+//! Shared test helpers: owned messages for proptest, a seeded PRNG, and
+//! helpers that run a decoder over a byte stream.
+#![allow(dead_code)]
+
+use lm_proto::*;
+use proptest::prelude::*;
+
+/// A message that owns its bulk bytes, so strategies can produce it.
+#[derive(Clone, Debug)]
+pub enum Owned {
+    Plain(Message<'static>),
+    Geometry {
+        slot: u8,
+        first: u16,
+        points: Vec<[i32; 3]>,
+    },
+    Chunk {
+        slot: u8,
+        offset: u32,
+        data: Vec<u8>,
+    },
+}
+
+impl Owned {
+    pub fn msg(&self) -> Message<'_> {
+        match self {
+            Owned::Plain(m) => *m,
+            Owned::Geometry {
+                slot,
+                first,
+                points,
+            } => Message::Geometry(Geometry {
+                slot: *slot,
+                first: *first,
+                positions: Positions::from_points(points),
+            }),
+            Owned::Chunk { slot, offset, data } => Message::Chunk(Chunk {
+                slot: *slot,
+                offset: *offset,
+                data,
+            }),
+        }
+    }
+}
+
+fn xyz() -> impl Strategy<Value = [i32; 3]> {
+    any::<[i32; 3]>()
+}
+
+fn nack_code() -> impl Strategy<Value = NackCode> {
+    any::<u8>().prop_map(NackCode::from_u8)
+}
+
+/// Every message type, with arbitrary field values.
+pub fn any_message() -> impl Strategy<Value = Owned> {
+    let plain = prop_oneof![
+        Just(Message::GetInfo),
+        Just(Message::Stop),
+        Just(Message::GetStatus),
+        Just(Message::Ack),
+        nack_code().prop_map(Message::Nack),
+        (any::<u8>(), any::<u32>())
+            .prop_map(|(slot, crc32)| Message::Commit(Commit { slot, crc32 })),
+        (any::<u8>(), any::<bool>()).prop_map(|(slot, now)| Message::Play(Play {
+            slot,
+            at: if now {
+                PlayAt::Immediate
+            } else {
+                PlayAt::NextCycle
+            },
+        })),
+        (any::<u32>(), xyz(), any::<bool>(), any::<u64>()).prop_map(|(seq, pos_um, present, t)| {
+            Message::Centroid(Centroid {
+                seq,
+                pos_um,
+                present,
+                host_time_us: t,
+            })
+        }),
+        (
+            any::<u8>(),
+            any::<[u8; 3]>(),
+            any::<u16>(),
+            any::<u32>(),
+            any::<u8>(),
+            any::<u32>(),
+            any::<u32>(),
+            any::<u16>()
+        )
+            .prop_map(|(p, fw, mt, sb, sl, hz, dw, mc)| Message::Info(Info {
+                proto_version: p,
+                fw_version: fw,
+                max_transducers: mt,
+                slot_bytes: sb,
+                slots: sl,
+                timer_hz: hz,
+                min_dwell_us: dw,
+                max_chunk: mc,
+            })),
+        (
+            (
+                any::<u8>(),
+                any::<u16>(),
+                any::<u16>(),
+                any::<u32>(),
+                any::<bool>()
+            ),
+            (any::<u32>(), xyz(), any::<u8>())
+        )
+            .prop_map(|((slot, steps, t, period, delta), (len, c, f))| {
+                Message::BeginUpload(BeginUpload {
+                    slot,
+                    steps,
+                    transducers: t,
+                    period_us: period,
+                    encoding: if delta {
+                        Encoding::Delta
+                    } else {
+                        Encoding::Raw
+                    },
+                    encoded_len: len,
+                    center_um: c,
+                    foci_per_step: f,
+                })
+            }),
+        (
+            (
+                0u8..4,
+                proptest::option::of(0u8..=254),
+                any::<u16>(),
+                any::<[u32; 6]>()
+            ),
+            xyz()
+        )
+            .prop_map(|((st, slot, step, c), corr)| Message::Status(Status {
+                state: [
+                    DeviceState::Idle,
+                    DeviceState::Playing,
+                    DeviceState::Muted,
+                    DeviceState::Stopped
+                ][st as usize],
+                slot,
+                step,
+                cycles: c[0],
+                missed_deadlines: c[1],
+                last_centroid_seq: c[2],
+                bad_frames: c[3],
+                crc_errors: c[4],
+                nacks: c[5],
+                correction_um: corr,
+            })),
+    ];
+    prop_oneof![
+        6 => plain.prop_map(Owned::Plain),
+        1 => (any::<u8>(), any::<u16>(), proptest::collection::vec(xyz(), 0..=MAX_GEOMETRY_POSITIONS))
+            .prop_map(|(slot, first, points)| Owned::Geometry { slot, first, points }),
+        1 => (any::<u8>(), any::<u32>(), proptest::collection::vec(any::<u8>(), 0..=MAX_CHUNK))
+            .prop_map(|(slot, offset, data)| Owned::Chunk { slot, offset, data }),
+    ]
+}
+
+/// What a decoder reported, owned.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Out {
+    Frame(u16, Vec<u8>),
+    Error(FrameError),
+}
+
+/// Canonical bytes of a frame (for comparing frames after the decoder's
+/// buffer is reused).
+pub fn unframed(f: &Frame<'_>) -> Vec<u8> {
+    let mut buf = vec![0u8; MAX_FRAME];
+    let n = encode_frame_unframed(f.seq, &f.message, &mut buf).expect("parsed frames re-encode");
+    buf.truncate(n);
+    buf
+}
+
+/// Feeds `pieces` in order to `dec`, collecting everything it reports.
+pub fn run<'a>(dec: &mut FrameDecoder, pieces: impl IntoIterator<Item = &'a [u8]>) -> Vec<Out> {
+    let mut outs = Vec::new();
+    for piece in pieces {
+        let mut input = piece;
+        loop {
+            input = match dec.feed(input) {
+                FeedResult::Consumed => break,
+                FeedResult::Frame { frame, remaining } => {
+                    outs.push(Out::Frame(frame.seq, unframed(&frame)));
+                    remaining
+                }
+                FeedResult::Error { error, remaining } => {
+                    outs.push(Out::Error(error));
+                    remaining
+                }
+            };
+        }
+    }
+    outs
+}
+
+pub fn wire(seq: u16, m: &Message<'_>) -> Vec<u8> {
+    let mut buf = vec![0u8; MAX_ENCODED_FRAME];
+    let n = encode_frame(seq, m, &mut buf).unwrap();
+    buf.truncate(n);
+    buf
+}
+
+/// SplitMix64: small, seeded, good enough to drive tests.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in `0..n` (n > 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+    pub fn byte(&mut self) -> u8 {
+        self.next_u64() as u8
+    }
+    pub fn fill(&mut self, buf: &mut [u8]) {
+        for c in buf.chunks_mut(8) {
+            let r = self.next_u64().to_le_bytes();
+            c.copy_from_slice(&r[..c.len()]);
+        }
+    }
+}
