@@ -8,7 +8,7 @@
 //!   extrapolation `2·p[k−1] − p[k−2]` (a delta of deltas), because an LM
 //!   focus moves at constant speed, so each transducer's phase changes by
 //!   nearly the same amount every step. The paper's LM-S and LM-M at
-//!   0.23 mm steps encode to about 27 % of raw (first differences alone
+//!   0.23 mm steps encode to 19-29 % of raw (first differences alone
 //!   cannot go below 50 %: they need ~3.3 bits each). Layout in `SPEC.md`.
 //!
 //! The host encodes with [`encode`] (size it with [`encoded_len`]); the

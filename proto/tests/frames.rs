@@ -64,7 +64,7 @@ fn samples() -> Vec<(u16, Owned)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(512))]
+    #![proptest_config(ProptestConfig { failure_persistence: None, ..ProptestConfig::with_cases(512) })]
 
     #[test]
     fn every_message_round_trips(seq in any::<u16>(), m in any_message()) {

@@ -1,0 +1,290 @@
+//! Sequence codec: round trips in arbitrary pieces, named hard cases,
+//! malformed streams, and the compression the Delta encoding exists for.
+
+mod common;
+
+use common::Rng;
+use lm_proto::codec::{self, CodecError, Decoder};
+use lm_proto::{Encoding, crc32};
+use proptest::prelude::*;
+
+/// Encodes, then decodes in pieces of the given sizes (cycled); checks
+/// length bookkeeping and returns the encoded length.
+fn roundtrip(enc: Encoding, phases: &[u8], t: usize, pieces: &[usize]) -> usize {
+    let n = codec::encoded_len(enc, phases, t).unwrap();
+    let mut buf = vec![0u8; n];
+    assert_eq!(codec::encode(enc, phases, t, &mut buf), Ok(n));
+    let steps = (phases.len() / t) as u16;
+    let mut d = Decoder::new(enc, steps, t as u16);
+    assert_eq!(d.raw_len(), phases.len());
+    let mut out = vec![0u8; phases.len()];
+    let mut i = 0;
+    for &p in pieces.iter().cycle() {
+        if i >= n {
+            break;
+        }
+        let j = (i + p.max(1)).min(n);
+        d.feed(&buf[i..j], &mut out).unwrap();
+        i = j;
+        assert_eq!(d.consumed(), i);
+    }
+    if n == 0 {
+        d.feed(&[], &mut out).unwrap();
+    }
+    assert_eq!(d.finish(), Ok(()));
+    assert!(d.is_complete());
+    assert_eq!(out, phases);
+    assert_eq!(crc32(&out), crc32(phases));
+    // One byte more is overlong; one byte less is truncated.
+    let mut d = Decoder::new(enc, steps, t as u16);
+    let mut longer = buf.clone();
+    longer.push(0);
+    assert_eq!(d.feed(&longer, &mut out), Err(CodecError::Overlong));
+    if n > 0 {
+        let mut d = Decoder::new(enc, steps, t as u16);
+        d.feed(&buf[..n - 1], &mut out).unwrap();
+        assert_eq!(d.finish(), Err(CodecError::Truncated));
+    }
+    n
+}
+
+/// Random walk per transducer: the shape of real sequences.
+fn smooth(steps: usize, t: usize, max_step: i32, seed: u64) -> Vec<u8> {
+    let mut rng = Rng(seed);
+    let mut p: Vec<i32> = (0..t).map(|_| rng.below(256) as i32).collect();
+    let mut v: Vec<i32> = (0..t)
+        .map(|_| rng.below(2 * max_step as usize + 1) as i32 - max_step)
+        .collect();
+    let mut out = Vec::with_capacity(steps * t);
+    for _ in 0..steps {
+        for k in 0..t {
+            out.push(p[k].rem_euclid(256) as u8);
+            p[k] += v[k] + rng.below(3) as i32 - 1;
+            v[k] = (v[k] + rng.below(3) as i32 - 1).clamp(-max_step, max_step);
+        }
+    }
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { failure_persistence: None, ..ProptestConfig::with_cases(256) })]
+
+    #[test]
+    fn arbitrary_sequences_round_trip(
+        steps in 0usize..12,
+        t in 1usize..40,
+        seed in any::<u64>(),
+        pieces in proptest::collection::vec(1usize..50, 1..5),
+        delta in any::<bool>(),
+    ) {
+        let mut rng = Rng(seed);
+        let mut phases = vec![0u8; steps * t];
+        rng.fill(&mut phases);
+        let enc = if delta { Encoding::Delta } else { Encoding::Raw };
+        roundtrip(enc, &phases, t, &pieces);
+    }
+
+    #[test]
+    fn smooth_sequences_round_trip_and_shrink(
+        steps in 3usize..60,
+        t in 1usize..64,
+        seed in any::<u64>(),
+        pieces in proptest::collection::vec(1usize..300, 1..4),
+    ) {
+        let phases = smooth(steps, t, 7, seed);
+        let n = roundtrip(Encoding::Delta, &phases, t, &pieces);
+        prop_assert_eq!(roundtrip(Encoding::Raw, &phases, t, &pieces), phases.len());
+        // Residuals are within ±2 per step, so at most 7 bits each.
+        prop_assert!(n <= t + (phases.len() - t) * 7 / 8 + 1);
+    }
+}
+
+#[test]
+fn named_hard_cases() {
+    let t = 17;
+    let cases: Vec<(&str, Vec<u8>, usize)> = vec![
+        ("all zero", vec![0; 40 * t], t),
+        ("all 255", vec![255; 40 * t], t),
+        (
+            "alternating 0/255 (wraps every step)",
+            (0..40 * t)
+                .map(|i| if (i / t) % 2 == 0 { 0 } else { 255 })
+                .collect(),
+            t,
+        ),
+        (
+            "alternating 0/128 (residual -128 and +128)",
+            (0..40 * t)
+                .map(|i| if (i / t) % 2 == 0 { 0 } else { 128 })
+                .collect(),
+            t,
+        ),
+        (
+            "ramp +127 per step",
+            (0..40 * t).map(|i| ((i / t) * 127) as u8).collect(),
+            t,
+        ),
+        (
+            "ramp -128 per step",
+            (0..40 * t).map(|i| ((i / t) * 128) as u8).collect(),
+            t,
+        ),
+        (
+            "quadratic (max residuals)",
+            (0..40 * t)
+                .map(|i| ((i / t) * (i / t) * 64 + i % t) as u8)
+                .collect(),
+            t,
+        ),
+        ("single step", (0..t as u8).collect(), t),
+        (
+            "single transducer",
+            (0..200).map(|i| (i * i) as u8).collect(),
+            1,
+        ),
+        ("one phase", vec![200], 1),
+        ("empty", vec![], t),
+        ("996 transducers", smooth(30, 996, 7, 1), 996),
+    ];
+    for (name, phases, t) in cases {
+        for enc in [Encoding::Raw, Encoding::Delta] {
+            for pieces in [&[1usize][..], &[3, 1, 1000], &[100_000]] {
+                let n = roundtrip(enc, &phases, t, pieces);
+                assert!(n > 0 || phases.is_empty(), "{name}");
+            }
+        }
+        // Delta never costs more than 11/8 of raw.
+        let d = codec::encoded_len(Encoding::Delta, &phases, t).unwrap();
+        assert!(
+            d <= t.min(phases.len()) + (phases.len().saturating_sub(t) * 11).div_ceil(8),
+            "{name}"
+        );
+    }
+    // Constant sequences cost one bit per phase after step 0.
+    assert_eq!(
+        codec::encoded_len(Encoding::Delta, &[7; 17 * 9], 17),
+        Ok(17 + (17 * 8usize).div_ceil(8))
+    );
+}
+
+#[test]
+fn random_streams_never_panic_and_never_overrun() {
+    let mut rng = Rng(42);
+    for _ in 0..2000 {
+        let steps = rng.below(20) as u16;
+        let t = rng.below(30) as u16 + 1;
+        let enc = if rng.below(2) == 0 {
+            Encoding::Raw
+        } else {
+            Encoding::Delta
+        };
+        let mut stream = vec![0u8; rng.below(400)];
+        rng.fill(&mut stream);
+        let mut out = vec![0u8; steps as usize * t as usize + 8];
+        let guard = out.len() - 8;
+        out[guard..].fill(0xA5);
+        let mut d = Decoder::new(enc, steps, t);
+        let mut i = 0;
+        while i < stream.len() {
+            let j = (i + 1 + rng.below(64)).min(stream.len());
+            if d.feed(&stream[i..j], &mut out).is_err() {
+                break;
+            }
+            i = j;
+        }
+        assert!(
+            out[guard..].iter().all(|&b| b == 0xA5),
+            "decoder wrote past the sequence"
+        );
+        assert!(d.decoded() <= d.raw_len());
+        let _ = d.finish();
+    }
+    // A too-small output is an error, not a panic.
+    let mut d = Decoder::new(Encoding::Delta, 4, 4);
+    assert_eq!(
+        d.feed(&[1, 2, 3], &mut [0u8; 15]),
+        Err(CodecError::BufferTooSmall)
+    );
+}
+
+/// AUTD3: 18 × 14 grid minus three screw holes, 10.16 mm pitch; four
+/// boards 2 × 2 (192 × 151.4 mm apart), centred on the origin, z = 0.
+fn autd3_2x2_mm() -> Vec<[f64; 3]> {
+    let mut pos = Vec::new();
+    for by in 0..2 {
+        for bx in 0..2 {
+            for iy in 0..14 {
+                for ix in 0..18 {
+                    if iy == 1 && [1, 2, 16].contains(&ix) {
+                        continue;
+                    }
+                    pos.push([
+                        bx as f64 * 192.0 + ix as f64 * 10.16,
+                        by as f64 * 151.4 + iy as f64 * 10.16,
+                        0.0,
+                    ]);
+                }
+            }
+        }
+    }
+    let n = pos.len() as f64;
+    let (mx, my) = (
+        pos.iter().map(|p| p[0]).sum::<f64>() / n,
+        pos.iter().map(|p| p[1]).sum::<f64>() / n,
+    );
+    pos.iter().map(|p| [p[0] - mx, p[1] - my, 0.0]).collect()
+}
+
+/// The paper's LM-S (`foci` = 1) or LM-M (`foci` = 4, 3 mm apart on the
+/// circle) at 0.23 mm steps, radius `r_mm`, focus plane at `z_mm`;
+/// phases by φ = arg Σ exp(−j k d), quantised to u8 (host/src/units.rs).
+fn lm_sequence(pos: &[[f64; 3]], r_mm: f64, z_mm: f64, foci: usize) -> (Vec<u8>, usize) {
+    let k = 2.0 * std::f64::consts::PI / (340e3 / 40e3);
+    let steps = (2.0 * std::f64::consts::PI * r_mm / 0.23).round() as usize;
+    let mut out = Vec::with_capacity(steps * pos.len());
+    for s in 0..steps {
+        let foci_pos: Vec<[f64; 3]> = (0..foci)
+            .map(|f| {
+                let a =
+                    2.0 * std::f64::consts::PI * s as f64 / steps as f64 + f as f64 * 3.0 / r_mm;
+                [r_mm * a.cos(), r_mm * a.sin(), z_mm]
+            })
+            .collect();
+        for t in pos {
+            let (mut re, mut im) = (0.0, 0.0);
+            for p in &foci_pos {
+                let d =
+                    ((t[0] - p[0]).powi(2) + (t[1] - p[1]).powi(2) + (t[2] - p[2]).powi(2)).sqrt();
+                re += (k * d).cos();
+                im -= (k * d).sin();
+            }
+            let phi = im.atan2(re);
+            out.push(
+                (phi / (2.0 * std::f64::consts::PI) * 256.0)
+                    .round()
+                    .rem_euclid(256.0) as u8,
+            );
+        }
+    }
+    (out, steps)
+}
+
+#[test]
+fn delta_compresses_paper_stimuli() {
+    let pos = autd3_2x2_mm();
+    assert_eq!(pos.len(), 996);
+    for foci in [1, 4] {
+        for r in [2.0, 3.0, 4.0, 5.0, 6.0] {
+            let (phases, steps) = lm_sequence(&pos, r, 220.0, foci);
+            let n = codec::encoded_len(Encoding::Delta, &phases, pos.len()).unwrap();
+            let ratio = n as f64 / phases.len() as f64;
+            eprintln!(
+                "LM-{} r={r} mm: {steps} steps, delta {n} / raw {} bytes = {ratio:.3}",
+                if foci == 1 { "S" } else { "M" },
+                phases.len()
+            );
+            assert!(ratio <= 0.5, "LM foci={foci} r={r}: ratio {ratio}");
+            roundtrip(Encoding::Delta, &phases, pos.len(), &[1024]);
+        }
+    }
+}
