@@ -15,6 +15,10 @@ pub const AUTD3_ROWS: usize = 14;
 pub const AUTD3_PITCH_MM: f64 = 10.16;
 /// Transducers per AUTD3 device.
 pub const AUTD3_TRANSDUCERS: usize = 249;
+/// Board width of an AUTD3 (mm): the pitch of devices placed side by side along x.
+pub const AUTD3_DEVICE_WIDTH_MM: f64 = 192.0;
+/// Board height of an AUTD3 (mm): the pitch of devices placed side by side along y.
+pub const AUTD3_DEVICE_HEIGHT_MM: f64 = 151.4;
 
 /// One transducer: its centre and the unit normal it emits along.
 #[derive(Debug, Clone, Copy, PartialEq)]

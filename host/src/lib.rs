@@ -7,9 +7,14 @@
 #![warn(missing_docs)]
 
 pub mod array;
+pub mod bench;
 pub mod cmd;
 pub mod directivity;
 pub mod error;
+pub mod scene;
+pub mod sequence;
+pub mod synth;
+pub mod trajectory;
 pub mod stream;
 pub mod link;
 pub mod field;

@@ -1,0 +1,393 @@
+//! `lmhost plan`: plan an LM stimulus and print or write its phase sequence.
+//!
+//! The planning flags live in [`PlanArgs`] so `upload` and `simulate` can
+//! `#[command(flatten)]` them and call [`PlanArgs::plan`].
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::ValueEnum;
+use lm_proto::codec::Encoding;
+use serde_json::json;
+
+use crate::error::InputError;
+use crate::scene::{Scene, Vec3};
+use crate::sequence::{Plan, Sequence, Synthesis};
+use crate::trajectory::{LmParams, Steps, Trajectory};
+
+/// Default step width d_LM (mm): the paper's 5 Hz condition.
+pub const DEFAULT_STEP_MM: f64 = 0.23;
+
+/// Multi-focus synthesis method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum Method {
+    /// The paper's linear synthesis, equal weights (fast path).
+    #[default]
+    Linear,
+    /// GS-PAT phase-only solver: equal pressure at every focus (slower).
+    Gspat,
+}
+
+/// The stimulus flags shared by `plan`, `upload` and `simulate`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// LM circle radius A in mm (0 = a static focus).
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 3.0,
+        allow_negative_numbers = true
+    )]
+    pub radius: f64,
+    /// Foci per step: 1 = LM-S, more = LM-M (foci rotate together).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub foci: usize,
+    /// Spacing d between neighbouring foci along the circle in mm (LM-M).
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 3.0,
+        allow_negative_numbers = true
+    )]
+    pub spacing: f64,
+    /// LM frequency f in Hz (cycles per second).
+    #[arg(
+        long,
+        value_name = "HZ",
+        default_value_t = 5.0,
+        allow_negative_numbers = true
+    )]
+    pub freq: f64,
+    /// Step width d_LM in mm; N = round(2πA / d_LM) [default: 0.23].
+    #[arg(
+        long,
+        value_name = "MM",
+        conflicts_with = "steps",
+        allow_negative_numbers = true
+    )]
+    pub step: Option<f64>,
+    /// Steps per cycle N (instead of --step).
+    #[arg(long, value_name = "N")]
+    pub steps: Option<usize>,
+    /// LM centre X,Y,Z in mm, finger space [default: the scene's centre,
+    /// (0,0,200) for the built-in array].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub center: Option<String>,
+    /// Per-step depth along the LM plane's c axis in mm: one value, or one
+    /// per step, comma-separated [default: 0].
+    #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
+    pub z: Option<String>,
+    /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// Multi-focus synthesis.
+    #[arg(long, value_enum, default_value_t = Method::Linear)]
+    pub method: Method,
+    /// GS-PAT iterations (with --method gspat).
+    #[arg(long, value_name = "N", default_value_t = 20)]
+    pub iterations: usize,
+    /// Real weight per focus, comma-separated (linear synthesis only).
+    #[arg(long, value_name = "W,W,...")]
+    pub weights: Option<String>,
+}
+
+fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
+    s.split(',')
+        .map(|x| {
+            x.trim().parse::<f64>().map_err(|_| {
+                InputError::new(format!(
+                    "--{flag}: `{}` is not a number (got `{s}`)",
+                    x.trim()
+                ))
+            })
+        })
+        .collect()
+}
+
+/// Parses `X,Y,Z` (mm); finite values only.
+pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
+    let v = parse_list(flag, s)?;
+    let v: Vec3 = v.try_into().map_err(|_| {
+        InputError::new(format!(
+            "--{flag} takes three comma-separated numbers X,Y,Z, got `{s}`"
+        ))
+    })?;
+    if !v.iter().all(|x| x.is_finite()) {
+        return Err(InputError::new(format!(
+            "--{flag} must be finite, got `{s}`"
+        )));
+    }
+    Ok(v)
+}
+
+impl PlanArgs {
+    /// The scene named by `--scene`, or the built-in one.
+    pub fn load_scene(&self) -> Result<Scene, InputError> {
+        Scene::load_or_default(self.scene.as_deref())
+    }
+
+    /// Stimulus parameters for `scene` (its centre and plane by default).
+    pub fn params(&self, scene: &Scene) -> Result<LmParams, InputError> {
+        let center_mm = match &self.center {
+            Some(c) => parse_vec3("center", c)?,
+            None => scene.center_mm,
+        };
+        let steps = match (self.step, self.steps) {
+            (_, Some(n)) => Steps::Count(n),
+            (Some(w), None) => Steps::Width(w),
+            (None, None) => Steps::Width(DEFAULT_STEP_MM),
+        };
+        let z_profile_mm = match &self.z {
+            Some(z) => parse_list("z", z)?,
+            None => Vec::new(),
+        };
+        Ok(LmParams {
+            radius_mm: self.radius,
+            freq_hz: self.freq,
+            steps,
+            foci: self.foci,
+            spacing_mm: self.spacing,
+            center_mm,
+            z_profile_mm,
+            plane: scene.lm_plane,
+        })
+    }
+
+    /// The synthesis method the flags ask for.
+    pub fn synthesis(&self) -> Result<Synthesis, InputError> {
+        Ok(match (self.method, &self.weights) {
+            (Method::Gspat, Some(_)) => {
+                return Err(InputError::new("--weights applies to --method linear only"));
+            }
+            (Method::Gspat, None) => {
+                if self.iterations == 0 {
+                    return Err(InputError::new("--iterations must be ≥ 1"));
+                }
+                Synthesis::GsPat {
+                    iterations: self.iterations,
+                }
+            }
+            (Method::Linear, Some(w)) => Synthesis::Weighted(parse_list("weights", w)?),
+            (Method::Linear, None) => Synthesis::Linear,
+        })
+    }
+
+    /// Loads the scene, plans the trajectory and synthesises the sequence.
+    /// Bad flags or scene files are [`InputError`]s (exit code 2).
+    pub fn plan(&self) -> anyhow::Result<Plan> {
+        let scene = self.load_scene()?;
+        let params = self.params(&scene)?;
+        let trajectory = Trajectory::plan(&params, &scene)?;
+        let sequence = Sequence::synthesize(&scene, &trajectory, &self.synthesis()?)?;
+        Ok(Plan {
+            scene,
+            trajectory,
+            sequence,
+        })
+    }
+}
+
+/// Plan an LM stimulus: trajectory, phases, encodings.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    lmhost plan                                   # LM-S, A = 3 mm, 5 Hz, 0.23 mm steps\n  \
+    lmhost plan --radius 6 --foci 4 --spacing 3   # LM-M\n  \
+    lmhost plan --scene scenes/paper.toml --foci 4 --out lmm.npy\n  \
+    lmhost plan --json --phases > plan.json")]
+pub struct Args {
+    /// The stimulus.
+    #[command(flatten)]
+    pub plan: PlanArgs,
+    /// Print a machine-readable JSON summary instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Include the phases (steps × transducers) in the JSON summary.
+    #[arg(long, requires = "json")]
+    pub phases: bool,
+    /// Write the sequence to FILE: .json (summary with phases), .npy
+    /// (u8, shape steps × transducers) or anything else as raw bytes
+    /// (step-major).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// The JSON summary of a plan (`phases` adds the sequence).
+pub fn summary_json(plan: &Plan, phases: bool) -> serde_json::Value {
+    let t = &plan.trajectory;
+    let s = &plan.sequence;
+    let raw = s.encoded_len(Encoding::Raw);
+    let delta = s.encoded_len(Encoding::Delta);
+    let steps: Vec<_> = (0..t.steps).map(|j| t.foci_step(j).to_vec()).collect();
+    let mut v = json!({
+        "scene": plan.scene.name,
+        "transducers": s.header.transducers,
+        "steps": t.steps,
+        "foci_per_step": t.foci,
+        "index_offset": t.index_offset,
+        "step_mm": t.step_mm,
+        "dwell_s": t.dwell_s,
+        "period_s": t.period_s,
+        "header": s.header,
+        "center_mm": t.center_mm,
+        "mirrored": plan.scene.reflector.is_some(),
+        "foci_mm": steps,
+        "encoding": {"raw_bytes": raw, "delta_bytes": delta, "delta_ratio": delta as f64 / raw as f64},
+        "crc32": s.crc32(),
+    });
+    if plan.scene.reflector.is_some() {
+        let drive: Vec<_> = (0..t.steps).map(|j| t.drive_step(j).to_vec()).collect();
+        v["drive_foci_mm"] = json!(drive);
+    }
+    if phases {
+        let rows: Vec<&[u8]> = (0..t.steps).map(|j| s.step(j)).collect();
+        v["phases"] = json!(rows);
+    }
+    v
+}
+
+/// A short human summary.
+pub fn summary_text(plan: &Plan) -> String {
+    let t = &plan.trajectory;
+    let s = &plan.sequence;
+    let raw = s.encoded_len(Encoding::Raw);
+    let delta = s.encoded_len(Encoding::Delta);
+    let kind = if t.foci == 1 {
+        "LM-S".to_string()
+    } else {
+        format!("LM-M ({} foci, l = {})", t.foci, t.index_offset)
+    };
+    let c = t.center_mm;
+    let mut out = format!(
+        "{kind} on {}: {} transducers\n\
+         steps N = {}, step {:.4} mm, dwell {:.3} ms, period {:.1} ms ({:.3} Hz)\n\
+         centre ({:.3}, {:.3}, {:.3}) mm{}\n\
+         sequence {raw} bytes raw, {delta} bytes delta ({:.1} %), crc32 {:08x}",
+        plan.scene.name,
+        s.header.transducers,
+        t.steps,
+        t.step_mm,
+        t.dwell_s * 1e3,
+        t.period_s * 1e3,
+        1.0 / t.period_s,
+        c[0],
+        c[1],
+        c[2],
+        if plan.scene.reflector.is_some() {
+            ", foci mirrored through the reflector"
+        } else {
+            ""
+        },
+        100.0 * delta as f64 / raw as f64,
+        s.crc32(),
+    );
+    out.push('\n');
+    out
+}
+
+fn write_out(path: &Path, plan: &Plan) -> anyhow::Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let bytes = match ext.as_deref() {
+        Some("json") => {
+            let mut b = serde_json::to_vec(&summary_json(plan, true))?;
+            b.push(b'\n');
+            b
+        }
+        Some("npy") => plan.sequence.to_npy(),
+        _ => plan.sequence.phases.clone(),
+    };
+    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
+}
+
+impl Args {
+    /// Plans, prints and writes.
+    pub fn run(self) -> anyhow::Result<()> {
+        let plan = self.plan.plan()?;
+        if let Some(out) = &self.out {
+            write_out(out, &plan)?;
+        }
+        if self.json {
+            println!(
+                "{}",
+                serde_json::to_string(&summary_json(&plan, self.phases))?
+            );
+        } else {
+            print!("{}", summary_text(&plan));
+            if let Some(out) = &self.out {
+                println!("wrote {}", out.display());
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        plan: PlanArgs,
+    }
+
+    fn args(a: &[&str]) -> PlanArgs {
+        Cli::try_parse_from(std::iter::once("x").chain(a.iter().copied()))
+            .unwrap()
+            .plan
+    }
+
+    #[test]
+    fn defaults_are_the_paper_lm_s() {
+        let p = args(&[]).plan().unwrap();
+        assert_eq!(p.trajectory.steps, 82);
+        assert_eq!(p.trajectory.center_mm, [0.0, 0.0, 200.0]);
+        assert_eq!(p.sequence.phases.len(), 82 * 996);
+    }
+
+    #[test]
+    fn lm_m_flags() {
+        let p = args(&["--foci", "4", "--step", "0.22", "--center", "0,0,220"])
+            .plan()
+            .unwrap();
+        assert_eq!(p.trajectory.index_offset, 13);
+        assert_eq!(p.trajectory.center_mm, [0.0, 0.0, 220.0]);
+        let j = summary_json(&p, false);
+        assert_eq!(j["steps"], 86);
+        assert!(j.get("phases").is_none());
+        assert_eq!(j["foci_mm"][0].as_array().unwrap().len(), 4);
+    }
+
+    #[test]
+    fn bad_flags_are_input_errors() {
+        for a in [
+            &["--radius", "-1"][..],
+            &["--radius", "NaN"],
+            &["--freq", "inf"],
+            &["--center", "1,2"],
+            &["--center", "1,x,3"],
+            &["--center", "0,0,inf"],
+            &["--z", "1,2,3"],
+            &["--foci", "2", "--weights", "1"],
+            &["--scene", "/nonexistent.toml"],
+        ] {
+            let e = args(a).plan().unwrap_err();
+            assert!(e.chain().any(|c| c.is::<InputError>()), "{a:?}: {e}");
+            assert!(!e.to_string().contains('\n'));
+        }
+    }
+
+    #[test]
+    fn paper_scene_defaults_to_the_marker() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml");
+        let p = args(&["--scene", path, "--foci", "4"]).plan().unwrap();
+        assert_eq!(p.trajectory.center_mm, [0.0, 30.0, 30.0]);
+        assert_eq!(p.sequence.header.center_um, [0, 30_000, -30_000]);
+        let j = summary_json(&p, true);
+        assert_eq!(j["phases"].as_array().unwrap().len(), 82);
+        assert!(j["drive_foci_mm"].is_array());
+    }
+}

@@ -1,0 +1,334 @@
+//! Sequences: `N` frames × `T` phase bytes (step-major) plus the header the
+//! device needs, and their upload encodings ([`lm_proto::codec`]).
+//!
+//! A [`Plan`] bundles what produced a sequence (scene, trajectory) with the
+//! sequence itself; `lmhost plan`, `upload` and `simulate` all start from one.
+
+use lm_proto::codec::{self, Encoding};
+use serde::Serialize;
+
+use crate::error::InputError;
+use crate::scene::{Scene, Vec3};
+use crate::synth::fast::SynthPlan;
+use crate::synth::{Weight, quantise_turns, solver};
+use crate::trajectory::Trajectory;
+
+/// How the phases of a multi-focus step are synthesised.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Synthesis {
+    /// The paper's linear synthesis: `arg Σ exp(−j k r_i)`, equal weights
+    /// (fast path).
+    #[default]
+    Linear,
+    /// `arg Σ w_i exp(−j k r_i)` with one real weight per focus (fast path).
+    Weighted(Vec<f64>),
+    /// GS-PAT phase-only solver (f64), equal pressure at every focus.
+    GsPat {
+        /// Iterations of the m × m power step.
+        iterations: usize,
+    },
+}
+
+/// What the device needs besides the phases.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SequenceHeader {
+    /// Steps per cycle `N`.
+    pub steps: u16,
+    /// Transducers per step `T`.
+    pub transducers: u16,
+    /// Cycle period `1 / f` (µs, rounded).
+    pub period_us: u32,
+    /// Dwell per step `period / N` (µs, exact).
+    pub dwell_us: f64,
+    /// Planned LM centre in drive coordinates (µm, rounded): the mirrored
+    /// centre when the scene has a reflector, so the device's centroid
+    /// correction works in the same frame as its transducer positions.
+    pub center_um: [i32; 3],
+    /// Foci per step.
+    pub foci_per_step: u8,
+}
+
+/// A phase sequence: `steps × transducers` bytes, step-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sequence {
+    /// The header.
+    pub header: SequenceHeader,
+    /// Phases, `phases[j * T + n]` for step `j`, transducer `n`.
+    pub phases: Vec<u8>,
+}
+
+/// Millimetres to rounded micrometres, or an error when out of i32 range.
+pub fn mm_to_um(v: Vec3) -> Result<[i32; 3], InputError> {
+    let mut o = [0i32; 3];
+    for (o, x) in o.iter_mut().zip(v) {
+        let um = (x * 1000.0).round();
+        if !(um.is_finite() && um.abs() <= f64::from(i32::MAX)) {
+            return Err(InputError::new(format!(
+                "coordinate {x} mm does not fit the wire's i32 micrometres (±2147 m)"
+            )));
+        }
+        *o = um as i32;
+    }
+    Ok(o)
+}
+
+impl Sequence {
+    /// Synthesises every step of `traj` over `scene`'s transducers.
+    pub fn synthesize(
+        scene: &Scene,
+        traj: &Trajectory,
+        synthesis: &Synthesis,
+    ) -> Result<Self, InputError> {
+        let transducers = scene.transducers();
+        let plan = SynthPlan::new(&transducers, scene.wavenumber_rad_per_mm());
+        Self::synthesize_with(scene, &plan, traj, synthesis)
+    }
+
+    /// As [`synthesize`](Self::synthesize) with a prepared plan (reuse it
+    /// when planning many sequences over one scene).
+    pub fn synthesize_with(
+        scene: &Scene,
+        plan: &SynthPlan,
+        traj: &Trajectory,
+        synthesis: &Synthesis,
+    ) -> Result<Self, InputError> {
+        let t = plan.len();
+        let header = Self::header_for(scene, traj, t)?;
+        let mut phases = vec![0u8; traj.steps * t];
+        let weights: Option<Vec<Weight>> = match synthesis {
+            Synthesis::Weighted(w) => {
+                if w.len() != traj.foci {
+                    return Err(InputError::new(format!(
+                        "{} weights given for {} foci",
+                        w.len(),
+                        traj.foci
+                    )));
+                }
+                if let Some(x) = w.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                    return Err(InputError::new(format!(
+                        "weights must be finite and ≥ 0, got {x}"
+                    )));
+                }
+                Some(w.iter().map(|&x| Weight::real(x)).collect())
+            }
+            _ => None,
+        };
+        match synthesis {
+            Synthesis::GsPat { iterations } => {
+                let tr = scene.transducers();
+                let k = scene.wavenumber_rad_per_mm();
+                for (j, out) in phases.chunks_exact_mut(t).enumerate() {
+                    let turns = solver::gspat_turns(
+                        &tr,
+                        traj.drive_step(j),
+                        k,
+                        scene.directivity,
+                        *iterations,
+                    );
+                    for (o, x) in out.iter_mut().zip(turns) {
+                        *o = quantise_turns(x);
+                    }
+                }
+            }
+            _ => {
+                let mut scratch = plan.scratch();
+                for (j, out) in phases.chunks_exact_mut(t).enumerate() {
+                    plan.foci(traj.drive_step(j), weights.as_deref(), &mut scratch, out);
+                }
+            }
+        }
+        Ok(Self { header, phases })
+    }
+
+    /// The header for `traj` over `transducers` transducers in `scene`.
+    pub fn header_for(
+        scene: &Scene,
+        traj: &Trajectory,
+        transducers: usize,
+    ) -> Result<SequenceHeader, InputError> {
+        let period_us = (traj.period_s * 1e6).round();
+        if period_us > f64::from(u32::MAX) {
+            return Err(InputError::new(format!(
+                "period {} s exceeds the wire's u32 microseconds",
+                traj.period_s
+            )));
+        }
+        Ok(SequenceHeader {
+            steps: u16::try_from(traj.steps)
+                .map_err(|_| InputError::new(format!("{} steps exceed u16", traj.steps)))?,
+            transducers: u16::try_from(transducers)
+                .map_err(|_| InputError::new(format!("{transducers} transducers exceed u16")))?,
+            period_us: period_us as u32,
+            dwell_us: traj.dwell_s * 1e6,
+            center_um: mm_to_um(scene.drive_point(traj.center_mm))?,
+            foci_per_step: traj.foci as u8,
+        })
+    }
+
+    /// Phases of step `j`.
+    pub fn step(&self, j: usize) -> &[u8] {
+        let t = usize::from(self.header.transducers);
+        &self.phases[j * t..(j + 1) * t]
+    }
+
+    /// The sequence encoded for upload.
+    pub fn encode(&self, encoding: Encoding) -> Vec<u8> {
+        let t = usize::from(self.header.transducers);
+        let len = codec::encoded_len(encoding, &self.phases, t)
+            .expect("phases are steps × transducers by construction");
+        let mut out = vec![0u8; len];
+        self.encode_into(encoding, &mut out);
+        out
+    }
+
+    /// Encodes into `out` (sized with [`encoded_len`](Self::encoded_len));
+    /// returns the length.
+    pub fn encode_into(&self, encoding: Encoding, out: &mut [u8]) -> usize {
+        codec::encode(
+            encoding,
+            &self.phases,
+            usize::from(self.header.transducers),
+            out,
+        )
+        .expect("out sized with encoded_len")
+    }
+
+    /// Encoded size in bytes.
+    pub fn encoded_len(&self, encoding: Encoding) -> usize {
+        codec::encoded_len(encoding, &self.phases, usize::from(self.header.transducers))
+            .expect("phases are steps × transducers by construction")
+    }
+
+    /// CRC-32 of the raw sequence (the `Commit` check value).
+    pub fn crc32(&self) -> u32 {
+        lm_proto::crc32(&self.phases)
+    }
+
+    /// The phases as a NumPy `.npy` file (u8, shape `(steps, transducers)`).
+    pub fn to_npy(&self) -> Vec<u8> {
+        let header = format!(
+            "{{'descr': '|u1', 'fortran_order': False, 'shape': ({}, {}), }}",
+            self.header.steps, self.header.transducers
+        );
+        // Magic (6) + version (2) + header length (2) + header + '\n', padded to 64.
+        let unpadded = 10 + header.len() + 1;
+        let pad = unpadded.div_ceil(64) * 64 - unpadded;
+        let mut out = Vec::with_capacity(unpadded + pad + self.phases.len());
+        out.extend_from_slice(b"\x93NUMPY\x01\x00");
+        out.extend_from_slice(&((header.len() + pad + 1) as u16).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        out.extend(std::iter::repeat_n(b' ', pad));
+        out.push(b'\n');
+        out.extend_from_slice(&self.phases);
+        out
+    }
+}
+
+/// A planned stimulus: the scene, the trajectory and the phase sequence.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// Scene the plan was made for.
+    pub scene: Scene,
+    /// Where the foci go.
+    pub trajectory: Trajectory,
+    /// The phases.
+    pub sequence: Sequence,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trajectory::{LmParams, Steps};
+
+    fn paper(foci: usize) -> Sequence {
+        let scene = Scene::default();
+        let mut p = LmParams::paper(scene.center_mm);
+        p.foci = foci;
+        let t = Trajectory::plan(&p, &scene).unwrap();
+        Sequence::synthesize(&scene, &t, &Synthesis::Linear).unwrap()
+    }
+
+    #[test]
+    fn paper_sequences_compress_to_under_half() {
+        for foci in [1, 4] {
+            let s = paper(foci);
+            assert_eq!((s.header.steps, s.header.transducers), (82, 996));
+            assert_eq!(s.phases.len(), 82 * 996);
+            let raw = s.encoded_len(Encoding::Raw);
+            let delta = s.encoded_len(Encoding::Delta);
+            assert_eq!(raw, s.phases.len());
+            assert!(delta * 2 <= raw, "{foci} foci: {delta} of {raw}");
+            assert_eq!(s.encode(Encoding::Delta).len(), delta);
+        }
+    }
+
+    #[test]
+    fn delta_round_trips_through_the_device_decoder() {
+        let s = paper(4);
+        let enc = s.encode(Encoding::Delta);
+        let mut dec = codec::Decoder::new(Encoding::Delta, s.header.steps, s.header.transducers);
+        let mut out = vec![0u8; s.phases.len()];
+        for piece in enc.chunks(lm_proto::MAX_CHUNK) {
+            dec.feed(piece, &mut out).unwrap();
+        }
+        dec.finish().unwrap();
+        assert_eq!(out, s.phases);
+    }
+
+    #[test]
+    fn header_holds_period_dwell_and_centre() {
+        let s = paper(1);
+        assert_eq!(s.header.period_us, 200_000);
+        assert!((s.header.dwell_us - 2439.02).abs() < 0.01);
+        assert_eq!(s.header.center_um, [0, 0, 200_000]);
+        assert_eq!(s.header.foci_per_step, 1);
+    }
+
+    #[test]
+    fn every_step_matches_the_reference_within_0_51_lsb() {
+        let scene = Scene::default();
+        let mut p = LmParams::paper(scene.center_mm);
+        p.foci = 4;
+        p.steps = Steps::Width(0.23);
+        let t = Trajectory::plan(&p, &scene).unwrap();
+        let s = Sequence::synthesize(&scene, &t, &Synthesis::Linear).unwrap();
+        let tr = scene.transducers();
+        let kappa = scene.wavenumber_rad_per_mm() / (2.0 * std::f64::consts::PI);
+        for j in 0..t.steps {
+            for (q, tr) in s.step(j).iter().zip(&tr) {
+                let exact =
+                    crate::synth::reference::phase_turns(tr.pos_mm, t.drive_step(j), None, kappa);
+                assert!(crate::synth::error_lsb(*q, exact) <= 0.51);
+            }
+        }
+    }
+
+    #[test]
+    fn npy_header_is_aligned_and_describes_the_shape() {
+        let s = paper(1);
+        let npy = s.to_npy();
+        assert_eq!(&npy[..8], b"\x93NUMPY\x01\x00");
+        let hl = u16::from_le_bytes([npy[8], npy[9]]) as usize;
+        assert_eq!((10 + hl) % 64, 0);
+        let h = std::str::from_utf8(&npy[10..10 + hl]).unwrap();
+        assert!(h.contains("'shape': (82, 996)") && h.ends_with('\n'));
+        assert_eq!(&npy[10 + hl..], &s.phases[..]);
+    }
+
+    #[test]
+    fn weights_must_match_the_foci() {
+        let scene = Scene::default();
+        let mut p = LmParams::paper(scene.center_mm);
+        p.foci = 2;
+        let t = Trajectory::plan(&p, &scene).unwrap();
+        let e = Sequence::synthesize(&scene, &t, &Synthesis::Weighted(vec![1.0])).unwrap_err();
+        assert!(e.0.contains("1 weights given for 2 foci"));
+        let s = Sequence::synthesize(&scene, &t, &Synthesis::Weighted(vec![1.0, 0.0])).unwrap();
+        // Weight 0 on the second focus = single-focus phases.
+        let mut one = vec![0u8; 996];
+        SynthPlan::new(&scene.transducers(), scene.wavenumber_rad_per_mm())
+            .focus(t.drive_step(0)[0], &mut one);
+        let diff = one.iter().zip(s.step(0)).filter(|(a, b)| a != b).count();
+        assert!(diff < 5, "{diff}");
+    }
+}
