@@ -1,3 +1,79 @@
-//! Hardware-free core of the LM firmware.
+//! Hardware-free core of the LM firmware: sequence store, drift-free
+//! player, centroid correction, safety gating and the protocol handler.
+//!
+//! It never touches hardware, never allocates and never panics on input:
+//! a board (or the host simulator) owns the UART, the timer and the SPI
+//! and hands the core bytes, timer counts and an [`OutputDriver`].
+//! The wire format is [`lm_proto`]'s; nothing here re-declares it.
+//!
+//! # Driving a [`Device`]
+//!
+//! ```
+//! use lm_fw_core::{Config, Device, RecordingDriver, memory_bytes};
+//!
+//! // Sequence memory: two slots of 200 steps × 996 transducers each.
+//! static mut MEM: [u8; memory_bytes(200 * 996, 996)] = [0; memory_bytes(200 * 996, 996)];
+//! # fn main() {
+//! #[allow(static_mut_refs)]
+//! let mem: &'static mut [u8] = unsafe { &mut MEM }; // a board: cortex_m::singleton! or similar
+//! let mut dev = Device::new(Config::new(1_000_000), mem).unwrap();
+//! let mut out = RecordingDriver::<16>::new();
+//! let now = 0u64; // free-running timer count at Config::timer_hz
+//! let received: &[u8] = &[]; // bytes from the UART, any piece size
+//! dev.feed(received, now, &mut |reply: &[u8]| { /* write reply to the UART */ });
+//! let next = dev.poll(now, &mut out); // Some(t): call poll again at t
+//! assert_eq!(next, None); // nothing plays yet
+//! # }
+//! ```
+//!
+//! A board loop: on UART bytes call [`Device::feed`] then
+//! [`Device::poll`]; on the timer compare match (set to the deadline
+//! `poll` returned) call `poll` again. `now` is a `u64`; widen a 32-bit
+//! counter with [`TimeExtender`].
+//!
+//! # Behaviour
+//!
+//! - Store ([`store`]): [`SLOTS`] slots; chunks in stream order (Raw or
+//!   Delta through [`lm_proto::codec::Decoder`]); duplicates of the last
+//!   chunk are acked; commit checks completeness, every position and the
+//!   raw CRC-32. Writes to the playing or queued slot get `SlotPlaying`.
+//! - Player ([`player`], [`time`]): step k of a cycle at
+//!   floor(k·P/N) counts after the cycle start, integer only; `Play` with
+//!   `NextCycle` swaps at the cycle boundary; late polls count missed
+//!   deadlines and skip. Steps shorter than [`Config::min_dwell_us`]
+//!   are refused (`DwellTooShort`) at `BeginUpload` and `Play`.
+//! - Correction ([`correction`]): a fresh centroid (with presence) sets
+//!   per-transducer offsets k·(|x−c0| − |x−c|) in u8 LSB, added to every
+//!   frame from the next step on.
+//! - Gating ([`gate`]): presence false or a stale centroid (older than
+//!   [`Config::centroid_timeout_us`]) mutes (amplitude 0) within one step;
+//!   with [`Config::require_tracking`] (default) output stays muted from
+//!   `Play` until the first centroid. `Stop` mutes on the next `poll`.
+//!   A new play session (Play while not playing) forgets old centroids.
+//! - Handler: every request gets `Ack`, `Nack(code)`, `Info` or `Status`;
+//!   bad frames are counted ([`Counters`]); responses sent to the device
+//!   get `Nack(UnknownType)`; stale centroids get `Nack(OutOfOrder)`.
+//!
+//! # Memory
+//!
+//! `size_of::<Device>()` is the core's whole state outside the sequence
+//! memory (receive decoder, send buffer, offset and frame tables): about
+//! 5 KB for [`MAX_TRANSDUCERS`] = 1024 (figures in `BENCHMARKS.md`).
 #![no_std]
 #![warn(missing_docs)]
+
+pub mod correction;
+mod device;
+pub mod gate;
+pub mod output;
+pub mod player;
+pub mod store;
+pub mod time;
+
+pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
+pub use output::{Frame, OutputDriver, Record, RecordingDriver, SpiOutput};
+pub use store::{SLOTS, StoreError, memory_bytes};
+pub use time::TimeExtender;
+
+/// Largest transducer count the core's tables hold (offsets, frame buffer).
+pub const MAX_TRANSDUCERS: usize = 1024;

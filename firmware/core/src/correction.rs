@@ -1,0 +1,150 @@
+//! Centroid correction: per-transducer phase offsets that move a planned
+//! sequence from its planned centre `c0` to a tracked centroid `c`.
+//!
+//! Convention (same as the host's `units` module): AUTD3 phase φ = −k·r,
+//! u8 phase = round(φ / 2π · 256) mod 256. Moving every focus by `c − c0`
+//! changes transducer k's phase by approximately
+//! Δφ_k = k·(|x_k − c0| − |x_k − c|), exact for a single focus at `c0`.
+//! The offsets are added (wrapping) to every outgoing frame.
+
+/// Carrier frequency of the transducers (Hz).
+pub const CARRIER_HZ: f32 = 40_000.0;
+
+/// Default speed of sound (m/s), as AUTD3 and the host planner use.
+pub const DEFAULT_SOUND_SPEED_M_S: f32 = 340.0;
+
+/// Bytes per transducer position on the wire: `[i32; 3]` µm, little-endian.
+pub const POSITION_BYTES: usize = 12;
+
+/// Phase LSB per µm of path length: 256 / λ with λ in µm.
+pub fn lsb_per_um(sound_speed_m_s: f32) -> f32 {
+    CARRIER_HZ * 256.0 / (sound_speed_m_s * 1.0e6)
+}
+
+fn read_i32(b: &[u8]) -> i32 {
+    let mut a = [0u8; 4];
+    a.copy_from_slice(&b[..4]);
+    i32::from_le_bytes(a)
+}
+
+/// Reads position `i` (µm) from packed wire-format positions.
+pub fn position_um(positions: &[u8], i: usize) -> [i32; 3] {
+    let p = &positions[i * POSITION_BYTES..(i + 1) * POSITION_BYTES];
+    [read_i32(&p[0..4]), read_i32(&p[4..8]), read_i32(&p[8..12])]
+}
+
+#[inline(always)]
+fn sqrt(x: f32) -> f32 {
+    libm::sqrtf(x)
+}
+
+/// Fills `offsets[i]` (u8 phase LSB) for every transducer in `positions`
+/// (packed `[i32; 3]` µm LE, `offsets.len()` entries), for planned centre
+/// `c0_um` and centroid `c_um`.
+///
+/// Coordinates are taken relative to `c0` in exact integers first, so the
+/// f32 distances keep µm resolution whatever the array's origin.
+pub fn compute_offsets(
+    positions: &[u8],
+    c0_um: [i32; 3],
+    c_um: [i32; 3],
+    sound_speed_m_s: f32,
+    offsets: &mut [u8],
+) {
+    let scale = lsb_per_um(sound_speed_m_s);
+    let s = [
+        (i64::from(c_um[0]) - i64::from(c0_um[0])) as f32,
+        (i64::from(c_um[1]) - i64::from(c0_um[1])) as f32,
+        (i64::from(c_um[2]) - i64::from(c0_um[2])) as f32,
+    ];
+    for (i, o) in offsets.iter_mut().enumerate() {
+        let x = position_um(positions, i);
+        let d = [
+            (i64::from(x[0]) - i64::from(c0_um[0])) as f32,
+            (i64::from(x[1]) - i64::from(c0_um[1])) as f32,
+            (i64::from(x[2]) - i64::from(c0_um[2])) as f32,
+        ];
+        let r0 = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        let e = [d[0] - s[0], d[1] - s[1], d[2] - s[2]];
+        let r1 = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+        let lsb = (r0 - r1) * scale;
+        // Round half away from zero, then wrap to u8 (two's complement).
+        let q = if lsb >= 0.0 { lsb + 0.5 } else { lsb - 0.5 } as i32;
+        *o = q as u8;
+    }
+}
+
+/// Adds `offsets` to `phases` byte by byte (wrapping) into `out`.
+/// This is the per-step hot loop; it compiles to a plain byte-add loop.
+#[inline]
+pub fn apply_offsets(phases: &[u8], offsets: &[u8], out: &mut [u8]) {
+    for ((o, p), d) in out.iter_mut().zip(phases).zip(offsets) {
+        *o = p.wrapping_add(*d);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::vec::Vec;
+
+    fn pack(ps: &[[i32; 3]]) -> Vec<u8> {
+        let mut v = Vec::new();
+        for p in ps {
+            for c in p {
+                v.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        v
+    }
+
+    fn reference(x: [i32; 3], c0: [i32; 3], c: [i32; 3], sound: f64) -> u8 {
+        let d = |a: [i32; 3], b: [i32; 3]| {
+            let v: Vec<f64> = (0..3).map(|i| f64::from(a[i]) - f64::from(b[i])).collect();
+            (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+        };
+        let lsb = (d(x, c0) - d(x, c)) * 40_000.0 * 256.0 / (sound * 1e6);
+        (lsb.round() as i64).rem_euclid(256) as u8
+    }
+
+    #[test]
+    fn matches_f64_reference_within_one_lsb() {
+        let mut xs = Vec::new();
+        for i in 0..18 {
+            for j in 0..14 {
+                xs.push([i * 10_160 - 86_360, j * 10_160 - 66_040, 0]);
+            }
+        }
+        let pos = pack(&xs);
+        let c0 = [1_000, -2_000, 200_000];
+        for c in [
+            [1_000, -2_000, 200_000],
+            [4_000, 0, 198_000],
+            [-9_000, 3_000, 210_000],
+        ] {
+            let mut off = [0u8; 252];
+            compute_offsets(&pos, c0, c, 340.0, &mut off);
+            for (i, x) in xs.iter().enumerate() {
+                let r = reference(*x, c0, c, 340.0);
+                let diff = off[i].wrapping_sub(r) as i8;
+                assert!(diff.abs() <= 1, "transducer {i}: {} vs {r}", off[i]);
+            }
+        }
+    }
+
+    #[test]
+    fn zero_shift_gives_zero_offsets() {
+        let pos = pack(&[[0, 0, 0], [100_000, 50_000, 0], [-70_000, 0, 0]]);
+        let mut off = [9u8; 3];
+        compute_offsets(&pos, [0, 0, 150_000], [0, 0, 150_000], 340.0, &mut off);
+        assert_eq!(off, [0, 0, 0]);
+    }
+
+    #[test]
+    fn apply_wraps() {
+        let mut out = [0u8; 3];
+        apply_offsets(&[250, 1, 128], &[10, 255, 128], &mut out);
+        assert_eq!(out, [4, 0, 0]);
+    }
+}

@@ -1,0 +1,521 @@
+//! [`Device`]: the protocol handler, store, player, gate and correction
+//! wired together. Boards and the host simulator drive only this.
+
+use lm_proto::{
+    BeginUpload, Centroid, DeviceState, FeedResult, FrameDecoder, Info, MAX_CHUNK,
+    MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status, encode_frame,
+};
+
+use crate::MAX_TRANSDUCERS;
+use crate::correction::{DEFAULT_SOUND_SPEED_M_S, apply_offsets, compute_offsets};
+use crate::gate::Gate;
+use crate::output::{Frame, OutputDriver};
+use crate::player::{PlayState, Player, Timing};
+use crate::store::{SLOTS, Store, StoreError};
+
+/// Device configuration, chosen by the board.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Config {
+    /// Frequency of the free-running timer whose counts `now` is in (≥ 1 MHz recommended).
+    pub timer_hz: u32,
+    /// Firmware version reported in `Info`.
+    pub fw_version: [u8; 3],
+    /// Most transducers a sequence may drive (≤ [`MAX_TRANSDUCERS`]).
+    pub max_transducers: u16,
+    /// Shortest step dwell accepted, µs (default 1000: the 1 kHz limit).
+    pub min_dwell_us: u32,
+    /// Mute when no centroid update came for this long, µs (default 100 ms).
+    pub centroid_timeout_us: u32,
+    /// Mute from `Play` until the first centroid update (default on).
+    pub require_tracking: bool,
+    /// Speed of sound for the correction, m/s (default 340).
+    pub sound_speed_m_s: f32,
+    /// Amplitude of unmuted frames (default 255).
+    pub amplitude: u8,
+}
+
+impl Config {
+    /// Defaults for a timer at `timer_hz`: 996 transducers, 1 ms minimum
+    /// dwell, 100 ms centroid timeout, tracking required, 340 m/s, full
+    /// amplitude, the crate's version.
+    pub const fn new(timer_hz: u32) -> Self {
+        Self {
+            timer_hz,
+            fw_version: FW_VERSION,
+            max_transducers: 996,
+            min_dwell_us: 1000,
+            centroid_timeout_us: 100_000,
+            require_tracking: true,
+            sound_speed_m_s: DEFAULT_SOUND_SPEED_M_S,
+            amplitude: 255,
+        }
+    }
+}
+
+/// This crate's version as `[major, minor, patch]`.
+pub const FW_VERSION: [u8; 3] = [
+    parse_u8(env!("CARGO_PKG_VERSION_MAJOR")),
+    parse_u8(env!("CARGO_PKG_VERSION_MINOR")),
+    parse_u8(env!("CARGO_PKG_VERSION_PATCH")),
+];
+
+const fn parse_u8(s: &str) -> u8 {
+    let b = s.as_bytes();
+    let mut v: u32 = 0;
+    let mut i = 0;
+    while i < b.len() {
+        v = v * 10 + (b[i] - b'0') as u32;
+        i += 1;
+    }
+    if v > 255 { 255 } else { v as u8 }
+}
+
+/// Why a [`Device`] could not be built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum DeviceError {
+    /// The sequence memory or transducer count does not work.
+    Store(StoreError),
+    /// `timer_hz` is zero.
+    BadTimer,
+}
+
+impl core::fmt::Display for DeviceError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Store(e) => write!(f, "sequence store: {e}"),
+            Self::BadTimer => f.write_str("timer_hz must be above zero"),
+        }
+    }
+}
+
+/// Counters reported in `Status` (all since reset, wrapping).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Counters {
+    /// Frames dropped: framing, COBS, length, plus valid-CRC frames with a
+    /// bad version, unknown type or malformed payload (those are also nacked).
+    pub bad_frames: u32,
+    /// Frames dropped for a CRC mismatch.
+    pub crc_errors: u32,
+    /// Nacks sent.
+    pub nacks: u32,
+    /// Requests answered (acks, nacks, info, status).
+    pub responses: u32,
+    /// Frames the output driver refused.
+    pub output_errors: u32,
+    /// Frames written to the output driver.
+    pub frames_out: u32,
+}
+
+/// Everything but the receive decoder (split so a parsed frame can borrow
+/// the decoder while the handler mutates the rest).
+#[derive(Debug)]
+struct Core<'m> {
+    cfg: Config,
+    store: Store<'m>,
+    player: Player,
+    gate: Gate,
+    counters: Counters,
+    /// Last centroid with presence (µm).
+    centroid_um: Option<[i32; 3]>,
+    /// Slot the offsets were computed for (None: offsets are zero).
+    offsets_for: Option<u8>,
+    offsets: [u8; MAX_TRANSDUCERS],
+    frame: [u8; MAX_TRANSDUCERS],
+    /// Re-send the current step at once (Stop, presence lost).
+    refresh: bool,
+}
+
+/// The whole device core.
+///
+/// Drive it with [`feed`](Self::feed) (received bytes, any piece size)
+/// and [`poll`](Self::poll) (call after every feed and whenever the
+/// returned deadline is reached). `now` is the free-running timer count in
+/// [`Config::timer_hz`] counts, never decreasing (see
+/// [`TimeExtender`](crate::TimeExtender) for 32-bit timers).
+#[derive(Debug)]
+pub struct Device<'m> {
+    rx: FrameDecoder,
+    tx: [u8; MAX_ENCODED_FRAME],
+    core: Core<'m>,
+}
+
+impl<'m> Device<'m> {
+    /// A device over `mem`, the sequence memory (see
+    /// [`memory_bytes`](crate::memory_bytes) for the size a slot capacity
+    /// needs).
+    pub fn new(cfg: Config, mem: &'m mut [u8]) -> Result<Self, DeviceError> {
+        if cfg.timer_hz == 0 {
+            return Err(DeviceError::BadTimer);
+        }
+        let store = Store::new(mem, cfg.max_transducers).map_err(DeviceError::Store)?;
+        let timeout = u64::from(cfg.centroid_timeout_us) * u64::from(cfg.timer_hz) / 1_000_000;
+        Ok(Self {
+            rx: FrameDecoder::new(),
+            tx: [0; MAX_ENCODED_FRAME],
+            core: Core {
+                cfg,
+                store,
+                player: Player::new(cfg.timer_hz),
+                gate: Gate::new(timeout, cfg.require_tracking),
+                counters: Counters::default(),
+                centroid_um: None,
+                offsets_for: None,
+                offsets: [0; MAX_TRANSDUCERS],
+                frame: [0; MAX_TRANSDUCERS],
+                refresh: false,
+            },
+        })
+    }
+
+    /// Feeds received bytes. Each complete request is handled at `now` and
+    /// its encoded response frame (delimiters included) is passed to
+    /// `send`. Never panics, whatever the bytes.
+    pub fn feed(&mut self, bytes: &[u8], now: u64, send: &mut impl FnMut(&[u8])) {
+        let mut input = bytes;
+        while !input.is_empty() {
+            let (reply, rest) = match self.rx.feed(input) {
+                FeedResult::Consumed => break,
+                FeedResult::Frame { frame, remaining } => (
+                    Some((frame.seq, self.core.handle(&frame.message, now))),
+                    remaining,
+                ),
+                FeedResult::Error { error, remaining } => {
+                    if error.is_crc() {
+                        self.core.counters.crc_errors =
+                            self.core.counters.crc_errors.wrapping_add(1);
+                    } else {
+                        self.core.counters.bad_frames =
+                            self.core.counters.bad_frames.wrapping_add(1);
+                    }
+                    #[cfg(feature = "defmt")]
+                    defmt::debug!("bad frame: {}", error);
+                    (
+                        error.nack().map(|(seq, code)| (seq, Message::Nack(code))),
+                        remaining,
+                    )
+                }
+            };
+            if let Some((seq, msg)) = reply {
+                self.send(seq, &msg, send);
+            }
+            input = rest;
+        }
+    }
+
+    fn send(&mut self, seq: u16, msg: &Message<'_>, send: &mut impl FnMut(&[u8])) {
+        let c = &mut self.core.counters;
+        c.responses = c.responses.wrapping_add(1);
+        if matches!(msg, Message::Nack(_)) {
+            c.nacks = c.nacks.wrapping_add(1);
+        }
+        // Responses are small and well-formed; encoding cannot fail with a
+        // MAX_ENCODED_FRAME buffer.
+        if let Ok(n) = encode_frame(seq, msg, &mut self.tx) {
+            send(&self.tx[..n]);
+        }
+    }
+
+    /// Handles one parsed request at `now` and returns the response
+    /// (without encoding it or touching the counters). For tests and
+    /// transports that parse frames themselves.
+    pub fn handle(&mut self, msg: &Message<'_>, now: u64) -> Message<'static> {
+        self.core.handle(msg, now)
+    }
+
+    /// Runs the player at `now`: writes the frame of a newly due step (or a
+    /// muted frame after Stop / loss of presence) to `out`, and returns the
+    /// time of the next step boundary (`None` while nothing plays). Call it
+    /// at (or soon after) that time; a late call counts missed deadlines.
+    pub fn poll<D: OutputDriver>(&mut self, now: u64, out: &mut D) -> Option<u64> {
+        self.core.poll(now, out)
+    }
+
+    /// The next time [`poll`](Self::poll) has work, without doing it.
+    pub fn next_deadline(&self) -> Option<u64> {
+        if self.core.refresh {
+            return Some(0);
+        }
+        self.core.player.deadline()
+    }
+
+    /// The `Info` response.
+    pub fn info(&self) -> Info {
+        self.core.info()
+    }
+
+    /// The `Status` response at `now`.
+    pub fn status(&self, now: u64) -> Status {
+        self.core.status(now)
+    }
+
+    /// Counters.
+    pub fn counters(&self) -> Counters {
+        self.core.counters
+    }
+
+    /// Configuration.
+    pub fn config(&self) -> &Config {
+        &self.core.cfg
+    }
+
+    /// Changes the centroid timeout (µs).
+    pub fn set_centroid_timeout_us(&mut self, us: u32) {
+        self.core.cfg.centroid_timeout_us = us;
+        self.core.gate.timeout_counts =
+            u64::from(us) * u64::from(self.core.cfg.timer_hz) / 1_000_000;
+    }
+
+    /// Turns muting before the first centroid update on or off.
+    pub fn set_require_tracking(&mut self, on: bool) {
+        self.core.cfg.require_tracking = on;
+        self.core.gate.require_tracking = on;
+    }
+
+    /// Current per-transducer correction offsets (u8 phase LSB) of the
+    /// playing slot; all zero before the first centroid.
+    pub fn offsets(&self) -> &[u8] {
+        let t = self
+            .core
+            .player
+            .slot()
+            .and_then(|s| self.core.store.header(s))
+            .map_or(0, |h| usize::from(h.transducers));
+        &self.core.offsets[..t]
+    }
+
+    /// Whether the output sounds at `now` (playing and the gate is open).
+    pub fn is_sounding(&self, now: u64) -> bool {
+        self.core.player.state() == PlayState::Playing && self.core.gate.open(now)
+    }
+}
+
+impl Core<'_> {
+    fn info(&self) -> Info {
+        Info {
+            proto_version: PROTOCOL_VERSION,
+            fw_version: self.cfg.fw_version,
+            max_transducers: self.store.max_transducers(),
+            slot_bytes: self.store.slot_bytes(),
+            slots: SLOTS as u8,
+            timer_hz: self.cfg.timer_hz,
+            min_dwell_us: self.cfg.min_dwell_us,
+            max_chunk: MAX_CHUNK as u16,
+        }
+    }
+
+    fn status(&self, now: u64) -> Status {
+        let state = match self.player.state() {
+            PlayState::Idle => DeviceState::Idle,
+            PlayState::Stopped => DeviceState::Stopped,
+            PlayState::Playing if self.gate.open(now) => DeviceState::Playing,
+            PlayState::Playing => DeviceState::Muted,
+        };
+        let slot = self.player.slot();
+        let correction_um = match (self.centroid_um, slot.and_then(|s| self.store.header(s))) {
+            (Some(c), Some(h)) => core::array::from_fn(|i| c[i].wrapping_sub(h.center_um[i])),
+            _ => [0; 3],
+        };
+        Status {
+            state,
+            slot,
+            step: self.player.step(),
+            cycles: self.player.cycles(),
+            missed_deadlines: self.player.missed(),
+            last_centroid_seq: self.gate.last_seq(),
+            bad_frames: self.counters.bad_frames,
+            crc_errors: self.counters.crc_errors,
+            nacks: self.counters.nacks,
+            correction_um,
+        }
+    }
+
+    fn result(r: Result<(), NackCode>) -> Message<'static> {
+        match r {
+            Ok(()) => Message::Ack,
+            Err(code) => {
+                #[cfg(feature = "defmt")]
+                defmt::debug!("nack: {}", code);
+                Message::Nack(code)
+            }
+        }
+    }
+
+    fn handle(&mut self, msg: &Message<'_>, now: u64) -> Message<'static> {
+        match msg {
+            Message::GetInfo => Message::Info(self.info()),
+            Message::GetStatus => Message::Status(self.status(now)),
+            Message::BeginUpload(b) => Self::result(self.begin_upload(b)),
+            Message::Geometry(g) => Self::result(
+                self.writable(g.slot)
+                    .and_then(|()| self.store.geometry(g.slot, g.first, &g.positions)),
+            ),
+            Message::Chunk(c) => Self::result(
+                self.writable(c.slot)
+                    .and_then(|()| self.store.chunk(c.slot, c.offset, c.data)),
+            ),
+            Message::Commit(c) => Self::result(
+                self.writable(c.slot)
+                    .and_then(|()| self.store.commit(c.slot, c.crc32)),
+            ),
+            Message::Play(p) => Self::result(self.play(p, now)),
+            Message::Stop => {
+                self.player.stop();
+                self.refresh = true;
+                Message::Ack
+            }
+            Message::Centroid(c) => Self::result(self.centroid(c, now)),
+            // Responses (or anything newer) sent to the device.
+            _ => Message::Nack(NackCode::UnknownType),
+        }
+    }
+
+    fn writable(&self, slot: u8) -> Result<(), NackCode> {
+        if usize::from(slot) >= SLOTS {
+            Err(NackCode::BadSlot)
+        } else if self.player.busy(slot) {
+            Err(NackCode::SlotPlaying)
+        } else {
+            Ok(())
+        }
+    }
+
+    fn dwell_ok(&self, t: Timing) -> bool {
+        u64::from(t.period_us) >= u64::from(self.cfg.min_dwell_us) * u64::from(t.steps)
+            && self.player.schedulable(t)
+    }
+
+    fn begin_upload(&mut self, b: &BeginUpload) -> Result<(), NackCode> {
+        self.writable(b.slot)?;
+        if b.steps == 0 {
+            return Err(NackCode::OutOfRange);
+        }
+        let t = Timing {
+            steps: b.steps,
+            period_us: b.period_us,
+        };
+        if !self.dwell_ok(t) {
+            return Err(NackCode::DwellTooShort);
+        }
+        if self.offsets_for == Some(b.slot) {
+            self.offsets_for = None;
+        }
+        self.store.begin(b)
+    }
+
+    fn play(&mut self, p: &Play, now: u64) -> Result<(), NackCode> {
+        if usize::from(p.slot) >= SLOTS {
+            return Err(NackCode::BadSlot);
+        }
+        let h = *self.store.header(p.slot).ok_or(NackCode::NotCommitted)?;
+        let t = Timing {
+            steps: h.steps,
+            period_us: h.period_us,
+        };
+        if !self.dwell_ok(t) {
+            return Err(NackCode::DwellTooShort);
+        }
+        let was_playing = self.player.state() == PlayState::Playing;
+        let ok = match p.at {
+            PlayAt::Immediate => self.player.start(p.slot, t, now),
+            _ => self.player.queue(p.slot, t, now),
+        };
+        if !ok {
+            return Err(NackCode::DwellTooShort);
+        }
+        if !was_playing {
+            // A new play session: the host's centroid stream starts afresh.
+            self.gate.reset();
+            self.centroid_um = None;
+            self.offsets_for = None;
+        }
+        Ok(())
+    }
+
+    fn centroid(&mut self, c: &Centroid, now: u64) -> Result<(), NackCode> {
+        if !self.gate.update(c.seq, c.present, now) {
+            return Err(NackCode::OutOfOrder);
+        }
+        if c.present {
+            self.centroid_um = Some(c.pos_um);
+            if let Some(slot) = self.player.slot() {
+                self.recompute(slot);
+            }
+        } else {
+            self.refresh = true;
+        }
+        Ok(())
+    }
+
+    /// Recomputes the offsets for `slot` from the last centroid.
+    fn recompute(&mut self, slot: u8) {
+        let (Some(c), Some(h), Some(pos)) = (
+            self.centroid_um,
+            self.store.header(slot).copied(),
+            self.store.positions(slot),
+        ) else {
+            self.offsets_for = None;
+            return;
+        };
+        let t = usize::from(h.transducers);
+        compute_offsets(
+            pos,
+            h.center_um,
+            c,
+            self.cfg.sound_speed_m_s,
+            &mut self.offsets[..t],
+        );
+        self.offsets_for = Some(slot);
+    }
+
+    fn poll<D: OutputDriver>(&mut self, now: u64, out: &mut D) -> Option<u64> {
+        let due = self.player.tick(now);
+        let playing = self.player.state() == PlayState::Playing;
+        let (slot, step, at) = match due {
+            Some(d) => (d.slot, d.step, d.at),
+            None if self.refresh => {
+                let Some(slot) = self.player.slot() else {
+                    self.refresh = false;
+                    return self.player.deadline();
+                };
+                (slot, self.player.step(), now)
+            }
+            None => return self.player.deadline(),
+        };
+        self.refresh = false;
+        if self.centroid_um.is_some() && self.offsets_for != Some(slot) {
+            self.recompute(slot);
+        }
+        let amplitude = if playing && self.gate.open(now) {
+            self.cfg.amplitude
+        } else {
+            0
+        };
+        let phases: &[u8] = match self.store.step(slot, step) {
+            Some(p) => {
+                let t = p.len();
+                if self.offsets_for == Some(slot) {
+                    apply_offsets(p, &self.offsets[..t], &mut self.frame[..t]);
+                } else {
+                    self.frame[..t].copy_from_slice(p);
+                }
+                &self.frame[..t]
+            }
+            None => &[],
+        };
+        let frame = Frame {
+            due: at,
+            slot,
+            step,
+            amplitude,
+            phases,
+        };
+        match out.write_frame(&frame) {
+            Ok(()) => self.counters.frames_out = self.counters.frames_out.wrapping_add(1),
+            Err(_) => self.counters.output_errors = self.counters.output_errors.wrapping_add(1),
+        }
+        self.player.deadline()
+    }
+}

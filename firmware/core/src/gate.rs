@@ -1,0 +1,117 @@
+//! Safety gating: output is allowed only while a hand is tracked.
+//!
+//! Rules, evaluated at every step boundary (so a change mutes within one
+//! step):
+//! - the last centroid update said `present = false` → muted;
+//! - no centroid update for longer than the timeout (100 ms by default) → muted;
+//! - before the first update of a play session: muted if
+//!   [`Config::require_tracking`](crate::Config::require_tracking) is on
+//!   (the default), playing otherwise;
+//! - the next fresh update (higher sequence number, wrapping) with
+//!   `present = true` resumes output.
+//!
+//! Stop mutes at once regardless of tracking (handled by the player).
+
+/// Tracking state for the gate.
+#[derive(Debug, Clone, Copy)]
+pub struct Gate {
+    /// Mute after this many counts without an update.
+    pub timeout_counts: u64,
+    /// Mute until the first update arrives.
+    pub require_tracking: bool,
+    last: Option<Update>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Update {
+    seq: u32,
+    at: u64,
+    present: bool,
+}
+
+impl Gate {
+    /// A gate with no update yet.
+    pub const fn new(timeout_counts: u64, require_tracking: bool) -> Self {
+        Self {
+            timeout_counts,
+            require_tracking,
+            last: None,
+        }
+    }
+
+    /// Forgets past updates (a new play session starts; the host's
+    /// sequence numbers may restart).
+    pub fn reset(&mut self) {
+        self.last = None;
+    }
+
+    /// Whether `seq` is newer than the last accepted update.
+    pub fn is_fresh(&self, seq: u32) -> bool {
+        match self.last {
+            None => true,
+            Some(u) => (seq.wrapping_sub(u.seq) as i32) > 0,
+        }
+    }
+
+    /// Records an update received at `now`. Returns false (and changes
+    /// nothing) if it is not fresh.
+    pub fn update(&mut self, seq: u32, present: bool, now: u64) -> bool {
+        if !self.is_fresh(seq) {
+            return false;
+        }
+        self.last = Some(Update {
+            seq,
+            at: now,
+            present,
+        });
+        true
+    }
+
+    /// Sequence number of the last accepted update (0 if none).
+    pub fn last_seq(&self) -> u32 {
+        self.last.map_or(0, |u| u.seq)
+    }
+
+    /// Whether output may sound at `now`.
+    pub fn open(&self, now: u64) -> bool {
+        match self.last {
+            None => !self.require_tracking,
+            Some(u) => u.present && now.saturating_sub(u.at) <= self.timeout_counts,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn require_tracking_mutes_until_first_update() {
+        let mut g = Gate::new(100, true);
+        assert!(!g.open(0));
+        assert!(g.update(1, true, 10));
+        assert!(g.open(10));
+        assert!(g.open(110));
+        assert!(!g.open(111));
+        assert!(g.update(2, true, 200));
+        assert!(g.open(200));
+    }
+
+    #[test]
+    fn presence_false_mutes_and_stale_seq_is_ignored() {
+        let mut g = Gate::new(100, false);
+        assert!(g.open(0));
+        assert!(g.update(5, false, 1));
+        assert!(!g.open(2));
+        assert!(!g.update(5, true, 3));
+        assert!(!g.update(4, true, 3));
+        assert!(!g.open(3));
+        assert!(g.update(6, true, 4));
+        assert!(g.open(4));
+        // wrapping sequence numbers
+        assert!(g.update(u32::MAX, true, 5) == false);
+        let mut h = Gate::new(100, true);
+        assert!(h.update(u32::MAX, true, 0));
+        assert!(h.update(0, true, 1));
+    }
+}

@@ -1,0 +1,167 @@
+//! Output towards the transducer driver: one frame per step.
+
+use embedded_hal::spi::{Operation, SpiDevice};
+
+/// One output frame: the phases of every transducer for one step (centroid
+/// correction already applied) and the amplitude. Amplitude 0 = muted.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame<'a> {
+    /// Timer count at which the step was due.
+    pub due: u64,
+    /// Slot the step comes from.
+    pub slot: u8,
+    /// Step index within the cycle.
+    pub step: u16,
+    /// Drive amplitude, 0 (muted) to 255 (full).
+    pub amplitude: u8,
+    /// Phase per transducer (u8 = round(φ/2π·256) mod 256).
+    pub phases: &'a [u8],
+}
+
+/// Where frames go. Boards implement this (or use [`SpiOutput`]).
+pub trait OutputDriver {
+    /// Driver error; the core counts failures and carries on.
+    type Error;
+    /// Sends one frame to the hardware, as soon as possible.
+    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error>;
+}
+
+impl<T: OutputDriver + ?Sized> OutputDriver for &mut T {
+    type Error = T::Error;
+    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+        (**self).write_frame(frame)
+    }
+}
+
+/// First byte of every SPI frame.
+pub const SPI_FRAME_MAGIC: u8 = 0xA5;
+
+/// Bytes of the SPI frame header written before the phases.
+pub const SPI_HEADER_LEN: usize = 6;
+
+/// The SPI header for a frame: `[0xA5, amplitude, step u16 LE, transducers u16 LE]`.
+pub fn spi_header(frame: &Frame<'_>) -> [u8; SPI_HEADER_LEN] {
+    let s = frame.step.to_le_bytes();
+    let n = (frame.phases.len() as u16).to_le_bytes();
+    [SPI_FRAME_MAGIC, frame.amplitude, s[0], s[1], n[0], n[1]]
+}
+
+/// Sends each frame as one SPI transaction (chip select held):
+/// the [`spi_header`] followed by the phase bytes.
+#[derive(Debug)]
+pub struct SpiOutput<S> {
+    spi: S,
+}
+
+impl<S: SpiDevice> SpiOutput<S> {
+    /// Wraps an embedded-hal 1.0 SPI device.
+    pub fn new(spi: S) -> Self {
+        Self { spi }
+    }
+
+    /// Gives the SPI device back.
+    pub fn release(self) -> S {
+        self.spi
+    }
+}
+
+impl<S: SpiDevice> OutputDriver for SpiOutput<S> {
+    type Error = S::Error;
+    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+        let header = spi_header(frame);
+        self.spi
+            .transaction(&mut [Operation::Write(&header), Operation::Write(frame.phases)])
+    }
+}
+
+/// What [`RecordingDriver`] keeps of one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Record {
+    /// [`Frame::due`].
+    pub due: u64,
+    /// [`Frame::slot`].
+    pub slot: u8,
+    /// [`Frame::step`].
+    pub step: u16,
+    /// [`Frame::amplitude`].
+    pub amplitude: u8,
+    /// CRC-32 of the phases.
+    pub phase_crc: u32,
+    /// The first phase bytes (zero-padded).
+    pub head: [u8; 8],
+}
+
+/// Test driver: keeps the last `N` frames in a ring and counts all of them.
+#[derive(Debug)]
+pub struct RecordingDriver<const N: usize> {
+    ring: [Record; N],
+    total: u64,
+}
+
+impl<const N: usize> Default for RecordingDriver<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> RecordingDriver<N> {
+    /// Empty recorder.
+    pub const fn new() -> Self {
+        Self {
+            ring: [Record {
+                due: 0,
+                slot: 0,
+                step: 0,
+                amplitude: 0,
+                phase_crc: 0,
+                head: [0; 8],
+            }; N],
+            total: 0,
+        }
+    }
+
+    /// Frames written so far.
+    pub fn total(&self) -> u64 {
+        self.total
+    }
+
+    /// The `i`-th most recent frame (0 = last), if still kept.
+    pub fn back(&self, i: usize) -> Option<&Record> {
+        if N == 0 || (i as u64) >= self.total || i >= N {
+            return None;
+        }
+        let idx = ((self.total - 1 - i as u64) % N as u64) as usize;
+        Some(&self.ring[idx])
+    }
+
+    /// The last frame written.
+    pub fn last(&self) -> Option<&Record> {
+        self.back(0)
+    }
+
+    /// Forgets everything.
+    pub fn clear(&mut self) {
+        self.total = 0;
+    }
+}
+
+impl<const N: usize> OutputDriver for RecordingDriver<N> {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+        let mut head = [0u8; 8];
+        let n = frame.phases.len().min(8);
+        head[..n].copy_from_slice(&frame.phases[..n]);
+        if N > 0 {
+            self.ring[(self.total % N as u64) as usize] = Record {
+                due: frame.due,
+                slot: frame.slot,
+                step: frame.step,
+                amplitude: frame.amplitude,
+                phase_crc: lm_proto::crc32(frame.phases),
+                head,
+            };
+        }
+        self.total += 1;
+        Ok(())
+    }
+}

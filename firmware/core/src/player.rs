@@ -1,0 +1,409 @@
+//! The player: which step of which slot is due when.
+//!
+//! Knows nothing of the protocol or the output; [`Player::tick`] tells the
+//! caller whether a new step is due and which one. Step boundaries come
+//! from [`Schedule`] (drift-free, integer only). A queued slot takes over
+//! exactly at the next cycle boundary of the playing one (that boundary's
+//! time becomes the new sequence's cycle start, so nothing drifts across
+//! the swap either). A step boundary that has passed before the step could
+//! be entered is counted as a missed deadline and skipped.
+
+use crate::time::Schedule;
+
+/// Player state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PlayState {
+    /// Nothing played since reset.
+    Idle,
+    /// Playing a slot.
+    Playing,
+    /// Stopped by `Stop`.
+    Stopped,
+}
+
+/// What the player needs to know about a slot to schedule it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Timing {
+    /// Steps per cycle.
+    pub steps: u16,
+    /// Cycle period, µs.
+    pub period_us: u32,
+}
+
+/// A step that became due.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Due {
+    /// Slot.
+    pub slot: u8,
+    /// Step within the cycle.
+    pub step: u16,
+    /// Timer count at which the step was due.
+    pub at: u64,
+}
+
+/// The player.
+#[derive(Debug, Clone)]
+pub struct Player {
+    timer_hz: u32,
+    state: PlayState,
+    slot: Option<u8>,
+    steps: u16,
+    sched: Option<Schedule>,
+    /// Step within the cycle.
+    k: u16,
+    /// Current step not yet handed out.
+    fresh: bool,
+    pending: Option<(u8, Timing)>,
+    cycles: u32,
+    missed: u32,
+}
+
+impl Player {
+    /// An idle player for a timer at `timer_hz`.
+    pub const fn new(timer_hz: u32) -> Self {
+        Self {
+            timer_hz,
+            state: PlayState::Idle,
+            slot: None,
+            steps: 1,
+            sched: None,
+            k: 0,
+            fresh: false,
+            pending: None,
+            cycles: 0,
+            missed: 0,
+        }
+    }
+
+    /// Whether `timing` can be scheduled on this timer (≥ 1 count per step).
+    pub fn schedulable(&self, timing: Timing) -> bool {
+        Schedule::new(0, timing.period_us, timing.steps, self.timer_hz).is_some()
+    }
+
+    /// Starts `slot` now, from step 0. Returns false if the timing cannot
+    /// be scheduled.
+    pub fn start(&mut self, slot: u8, timing: Timing, now: u64) -> bool {
+        let Some(s) = Schedule::new(now, timing.period_us, timing.steps, self.timer_hz) else {
+            return false;
+        };
+        self.begin(slot, timing.steps, s);
+        self.cycles = 0;
+        self.pending = None;
+        true
+    }
+
+    fn begin(&mut self, slot: u8, steps: u16, s: Schedule) {
+        self.state = PlayState::Playing;
+        self.slot = Some(slot);
+        self.steps = steps;
+        self.sched = Some(s);
+        self.k = 0;
+        self.fresh = true;
+    }
+
+    /// Queues `slot` to take over at the next cycle boundary (at once if
+    /// nothing is playing). Returns false if the timing cannot be scheduled.
+    pub fn queue(&mut self, slot: u8, timing: Timing, now: u64) -> bool {
+        if self.state != PlayState::Playing {
+            return self.start(slot, timing, now);
+        }
+        if !self.schedulable(timing) {
+            return false;
+        }
+        self.pending = Some((slot, timing));
+        true
+    }
+
+    /// Stops playing (the caller mutes the output).
+    pub fn stop(&mut self) {
+        if self.state == PlayState::Playing {
+            self.state = PlayState::Stopped;
+        }
+        self.sched = None;
+        self.pending = None;
+        self.fresh = false;
+    }
+
+    /// State.
+    pub fn state(&self) -> PlayState {
+        self.state
+    }
+
+    /// Slot playing (or last played).
+    pub fn slot(&self) -> Option<u8> {
+        self.slot
+    }
+
+    /// Slot queued for the next cycle boundary.
+    pub fn pending(&self) -> Option<u8> {
+        self.pending.map(|p| p.0)
+    }
+
+    /// Whether writes to `slot` must be refused: it plays or is queued.
+    pub fn busy(&self, slot: u8) -> bool {
+        (self.state == PlayState::Playing && self.slot == Some(slot))
+            || self.pending() == Some(slot)
+    }
+
+    /// Step within the cycle.
+    pub fn step(&self) -> u16 {
+        self.k
+    }
+
+    /// Cycles completed since the last `start`.
+    pub fn cycles(&self) -> u32 {
+        self.cycles
+    }
+
+    /// Step boundaries skipped because they passed before the step was
+    /// entered.
+    pub fn missed(&self) -> u32 {
+        self.missed
+    }
+
+    /// The next time [`tick`](Self::tick) has work: the next step boundary
+    /// (or now, if the current step has not been handed out yet).
+    pub fn deadline(&self) -> Option<u64> {
+        let s = self.sched.as_ref()?;
+        Some(if self.fresh { s.current() } else { s.next() })
+    }
+
+    /// Start of the current step.
+    pub fn current_start(&self) -> Option<u64> {
+        self.sched.as_ref().map(|s| s.current())
+    }
+
+    /// Advances to the step due at `now`; returns it if it has not been
+    /// handed out before.
+    pub fn tick(&mut self, now: u64) -> Option<Due> {
+        self.slot?;
+        let s = self.sched?;
+        if now >= s.next() {
+            if let Some((p, timing)) = self.pending {
+                let to_end = u64::from(self.steps - self.k);
+                let end = if to_end == 1 {
+                    s.next()
+                } else {
+                    s.start_time() + s.offset_of(s.index() + to_end)
+                };
+                if now >= end {
+                    self.missed = self.missed.saturating_add((to_end - 1) as u32);
+                    self.cycles = self.cycles.wrapping_add(1);
+                    self.pending = None;
+                    // Checked schedulable when queued.
+                    if let Some(ns) =
+                        Schedule::new(end, timing.period_us, timing.steps, self.timer_hz)
+                    {
+                        self.begin(p, timing.steps, ns);
+                        self.catch_up(now);
+                        return self.hand_out();
+                    }
+                }
+            }
+            self.catch_up(now);
+        }
+        self.hand_out()
+    }
+
+    /// Moves the schedule to the step due at `now` (boundary already passed).
+    fn catch_up(&mut self, now: u64) {
+        let Some(s) = self.sched.as_mut() else { return };
+        if now < s.next() {
+            return;
+        }
+        if self.fresh {
+            // The current step was never handed out.
+            self.missed = self.missed.saturating_add(1);
+        }
+        let old = s.index();
+        s.advance();
+        if now >= s.next() {
+            let extra = s.catch_up(now);
+            self.missed = self
+                .missed
+                .saturating_add(extra.saturating_add(1).min(u32::MAX as u64) as u32);
+        }
+        let delta = s.index() - old;
+        let steps = u64::from(self.steps);
+        let pos = u64::from(self.k) + delta;
+        if pos < steps {
+            self.k = pos as u16;
+        } else {
+            self.k = (pos % steps) as u16;
+            self.cycles = self.cycles.wrapping_add((pos / steps) as u32);
+        }
+        self.fresh = true;
+    }
+
+    fn hand_out(&mut self) -> Option<Due> {
+        if !self.fresh {
+            return None;
+        }
+        self.fresh = false;
+        Some(Due {
+            slot: self.slot?,
+            step: self.k,
+            at: self.sched?.current(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const T: Timing = Timing {
+        steps: 4,
+        period_us: 1000,
+    };
+
+    #[test]
+    fn plays_steps_on_schedule() {
+        let mut p = Player::new(1_000_000);
+        assert!(p.start(0, T, 100));
+        assert_eq!(
+            p.tick(100),
+            Some(Due {
+                slot: 0,
+                step: 0,
+                at: 100
+            })
+        );
+        assert_eq!(p.tick(300), None);
+        assert_eq!(p.deadline(), Some(350));
+        assert_eq!(
+            p.tick(350),
+            Some(Due {
+                slot: 0,
+                step: 1,
+                at: 350
+            })
+        );
+        assert_eq!(
+            p.tick(600),
+            Some(Due {
+                slot: 0,
+                step: 2,
+                at: 600
+            })
+        );
+        assert_eq!(
+            p.tick(850),
+            Some(Due {
+                slot: 0,
+                step: 3,
+                at: 850
+            })
+        );
+        assert_eq!(
+            p.tick(1100),
+            Some(Due {
+                slot: 0,
+                step: 0,
+                at: 1100
+            })
+        );
+        assert_eq!(p.cycles(), 1);
+        assert_eq!(p.missed(), 0);
+    }
+
+    #[test]
+    fn late_ticks_count_missed_steps() {
+        let mut p = Player::new(1_000_000);
+        p.start(0, T, 0);
+        p.tick(0);
+        // Boundaries 250, 500, 750 passed; 750 is entered, 250 and 500 missed.
+        assert_eq!(
+            p.tick(760),
+            Some(Due {
+                slot: 0,
+                step: 3,
+                at: 750
+            })
+        );
+        assert_eq!(p.missed(), 2);
+        // Far behind: 10 cycles later.
+        assert_eq!(
+            p.tick(10_999),
+            Some(Due {
+                slot: 0,
+                step: 3,
+                at: 10_750
+            })
+        );
+        assert_eq!(p.missed(), 2 + 39);
+        assert_eq!(p.cycles(), 10);
+    }
+
+    #[test]
+    fn queued_slot_starts_at_cycle_boundary() {
+        let mut p = Player::new(1_000_000);
+        p.start(0, T, 0);
+        p.tick(0);
+        p.tick(250);
+        let t2 = Timing {
+            steps: 2,
+            period_us: 300,
+        };
+        assert!(p.queue(1, t2, 260));
+        assert!(p.busy(1) && p.busy(0));
+        assert_eq!(p.tick(500).map(|d| d.slot), Some(0));
+        assert_eq!(p.tick(750).map(|d| d.step), Some(3));
+        assert_eq!(
+            p.tick(1000),
+            Some(Due {
+                slot: 1,
+                step: 0,
+                at: 1000
+            })
+        );
+        assert_eq!(
+            p.tick(1150),
+            Some(Due {
+                slot: 1,
+                step: 1,
+                at: 1150
+            })
+        );
+        assert_eq!(
+            p.tick(1300),
+            Some(Due {
+                slot: 1,
+                step: 0,
+                at: 1300
+            })
+        );
+        assert!(!p.busy(0));
+        assert_eq!(p.missed(), 0);
+    }
+
+    #[test]
+    fn queued_swap_when_late_counts_the_rest_of_the_cycle() {
+        let mut p = Player::new(1_000_000);
+        p.start(0, T, 0);
+        p.tick(0);
+        p.queue(1, T, 10);
+        // Jump past the end of cycle 0 and into step 1 of the new slot.
+        assert_eq!(
+            p.tick(1300),
+            Some(Due {
+                slot: 1,
+                step: 1,
+                at: 1250
+            })
+        );
+        assert_eq!(p.missed(), 3 + 1);
+    }
+
+    #[test]
+    fn stop_clears_schedule() {
+        let mut p = Player::new(1_000_000);
+        p.start(0, T, 0);
+        p.stop();
+        assert_eq!(p.state(), PlayState::Stopped);
+        assert_eq!(p.deadline(), None);
+        assert_eq!(p.tick(1000), None);
+        assert!(!p.busy(0));
+    }
+}

@@ -1,0 +1,476 @@
+//! Sequence store: [`SLOTS`] slots over caller-provided memory.
+//!
+//! Each slot's memory is `[positions: max_transducers × 12 B][raw phases]`.
+//! An upload is `BeginUpload`, `Geometry` frames (any order of whole
+//! frames, each at its index), `Chunk`s in stream order, then `Commit`.
+//! The store never decides whether a slot is playing: the caller refuses
+//! writes to the playing slot before calling in here. Every write path
+//! starts by marking the slot uncommitted, so a slot that is not
+//! [`committed`](Store::is_committed) is never played, and a failed upload
+//! cannot reach any other slot.
+
+use lm_proto::codec::{Decoder, Encoding};
+use lm_proto::{BeginUpload, Crc32, NackCode, Positions};
+
+use crate::correction::POSITION_BYTES;
+
+/// Number of slots.
+pub const SLOTS: usize = 2;
+
+/// What a committed slot plays (from its `BeginUpload`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SlotHeader {
+    /// Steps per cycle.
+    pub steps: u16,
+    /// Transducers per step.
+    pub transducers: u16,
+    /// Cycle period, µs.
+    pub period_us: u32,
+    /// Planned centre, µm.
+    pub center_um: [i32; 3],
+    /// Foci per step (informational).
+    pub foci_per_step: u8,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    Empty,
+    Uploading,
+    Committed,
+}
+
+/// The last accepted chunk, to recognise a re-sent duplicate.
+#[derive(Debug, Clone, Copy)]
+struct LastChunk {
+    offset: u32,
+    len: u32,
+    crc: u32,
+}
+
+/// Upload bookkeeping of one slot.
+#[derive(Debug, Clone)]
+struct Upload {
+    encoded_len: u32,
+    decoder: Decoder,
+    /// CRC over the raw phases decoded so far (updated per chunk).
+    crc: Crc32,
+    last: Option<LastChunk>,
+    /// Number of positions received; positions arrive in whole frames.
+    geometry_mask_words: [u32; GEOMETRY_WORDS],
+    failed: bool,
+}
+
+/// Bitmap words for received positions (one bit per transducer).
+const GEOMETRY_WORDS: usize = crate::MAX_TRANSDUCERS.div_ceil(32);
+
+/// One slot: memory plus state.
+#[derive(Debug)]
+struct Slot<'m> {
+    positions: &'m mut [u8],
+    phases: &'m mut [u8],
+    state: State,
+    header: Option<SlotHeader>,
+    upload: Option<Upload>,
+}
+
+/// Why the store could not be built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum StoreError {
+    /// `max_transducers` is zero or above [`crate::MAX_TRANSDUCERS`].
+    BadTransducerCount,
+    /// The memory does not leave one raw step per slot after the positions.
+    TooSmall,
+}
+
+impl core::fmt::Display for StoreError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::BadTransducerCount => "max_transducers must be 1..=MAX_TRANSDUCERS",
+            Self::TooSmall => "sequence memory too small for the positions and one step per slot",
+        })
+    }
+}
+
+/// Bytes of memory a board must give for `slot_bytes` raw phase bytes per
+/// slot and `max_transducers` positions per slot.
+pub const fn memory_bytes(slot_bytes: usize, max_transducers: usize) -> usize {
+    SLOTS * (slot_bytes + max_transducers * POSITION_BYTES)
+}
+
+/// The sequence store.
+#[derive(Debug)]
+pub struct Store<'m> {
+    slots: [Slot<'m>; SLOTS],
+    max_transducers: u16,
+    slot_bytes: u32,
+}
+
+impl<'m> Store<'m> {
+    /// Splits `mem` into [`SLOTS`] equal slots, each with room for
+    /// `max_transducers` positions; the rest of each slot holds phases.
+    pub fn new(mem: &'m mut [u8], max_transducers: u16) -> Result<Self, StoreError> {
+        let t = usize::from(max_transducers);
+        if t == 0 || t > crate::MAX_TRANSDUCERS {
+            return Err(StoreError::BadTransducerCount);
+        }
+        let per_slot = (mem.len() / SLOTS).min(u32::MAX as usize);
+        let pos_len = t * POSITION_BYTES;
+        if per_slot < pos_len + 1 {
+            return Err(StoreError::TooSmall);
+        }
+        let (a, rest) = mem.split_at_mut(per_slot);
+        let (b, _) = rest.split_at_mut(per_slot);
+        let make = |m: &'m mut [u8]| {
+            let (positions, phases) = m.split_at_mut(pos_len);
+            Slot {
+                positions,
+                phases,
+                state: State::Empty,
+                header: None,
+                upload: None,
+            }
+        };
+        Ok(Self {
+            slots: [make(a), make(b)],
+            max_transducers,
+            slot_bytes: (per_slot - pos_len) as u32,
+        })
+    }
+
+    /// Raw phase bytes one slot holds (`Info::slot_bytes`).
+    pub fn slot_bytes(&self) -> u32 {
+        self.slot_bytes
+    }
+
+    /// Most transducers a sequence may have.
+    pub fn max_transducers(&self) -> u16 {
+        self.max_transducers
+    }
+
+    fn slot(&mut self, slot: u8) -> Result<&mut Slot<'m>, NackCode> {
+        self.slots
+            .get_mut(usize::from(slot))
+            .ok_or(NackCode::BadSlot)
+    }
+
+    /// Whether `slot` holds a committed sequence.
+    pub fn is_committed(&self, slot: u8) -> bool {
+        self.slots
+            .get(usize::from(slot))
+            .is_some_and(|s| s.state == State::Committed)
+    }
+
+    /// Header of a committed slot.
+    pub fn header(&self, slot: u8) -> Option<&SlotHeader> {
+        let s = self.slots.get(usize::from(slot))?;
+        if s.state == State::Committed {
+            s.header.as_ref()
+        } else {
+            None
+        }
+    }
+
+    /// Phases of step `step` of a committed slot.
+    pub fn step(&self, slot: u8, step: u16) -> Option<&[u8]> {
+        let s = self.slots.get(usize::from(slot))?;
+        let h = s.header.as_ref().filter(|_| s.state == State::Committed)?;
+        if step >= h.steps {
+            return None;
+        }
+        let t = usize::from(h.transducers);
+        let start = usize::from(step) * t;
+        s.phases.get(start..start + t)
+    }
+
+    /// Positions (packed `[i32; 3]` µm LE) of a committed slot.
+    pub fn positions(&self, slot: u8) -> Option<&[u8]> {
+        let s = self.slots.get(usize::from(slot))?;
+        let h = s.header.as_ref().filter(|_| s.state == State::Committed)?;
+        s.positions
+            .get(..usize::from(h.transducers) * POSITION_BYTES)
+    }
+
+    /// Starts an upload (the caller has checked the slot is not playing
+    /// and the dwell). Any previous content of the slot is invalidated.
+    pub fn begin(&mut self, b: &BeginUpload) -> Result<(), NackCode> {
+        let slot_bytes = self.slot_bytes;
+        let max_t = self.max_transducers;
+        let s = self.slot(b.slot)?;
+        if b.steps == 0 || b.transducers == 0 {
+            return Err(NackCode::OutOfRange);
+        }
+        let raw = u32::from(b.steps) * u32::from(b.transducers);
+        if b.transducers > max_t || raw > slot_bytes {
+            return Err(NackCode::TooLarge);
+        }
+        if b.encoding == Encoding::Raw && b.encoded_len != raw {
+            return Err(NackCode::Malformed);
+        }
+        s.state = State::Uploading;
+        s.header = Some(SlotHeader {
+            steps: b.steps,
+            transducers: b.transducers,
+            period_us: b.period_us,
+            center_um: b.center_um,
+            foci_per_step: b.foci_per_step,
+        });
+        s.upload = Some(Upload {
+            encoded_len: b.encoded_len,
+            decoder: Decoder::new(b.encoding, b.steps, b.transducers),
+            crc: Crc32::new(),
+            last: None,
+            geometry_mask_words: [0; GEOMETRY_WORDS],
+            failed: false,
+        });
+        Ok(())
+    }
+
+    fn uploading(&mut self, slot: u8) -> Result<(&mut Slot<'m>, SlotHeader), NackCode> {
+        let s = self.slot(slot)?;
+        match (s.state, s.header) {
+            (State::Uploading, Some(h)) if s.upload.is_some() => Ok((s, h)),
+            _ => Err(NackCode::NoUpload),
+        }
+    }
+
+    /// Stores positions `first..first + positions.len()`.
+    pub fn geometry(
+        &mut self,
+        slot: u8,
+        first: u16,
+        positions: &Positions<'_>,
+    ) -> Result<(), NackCode> {
+        let (s, h) = self.uploading(slot)?;
+        let first = usize::from(first);
+        let n = positions.len();
+        if first + n > usize::from(h.transducers) {
+            return Err(NackCode::OutOfRange);
+        }
+        let Some(up) = s.upload.as_mut() else {
+            return Err(NackCode::NoUpload);
+        };
+        for i in 0..n {
+            let Some(p) = positions.get(i) else {
+                return Err(NackCode::Malformed);
+            };
+            let k = first + i;
+            let dst = &mut s.positions[k * POSITION_BYTES..(k + 1) * POSITION_BYTES];
+            for (c, v) in p.iter().enumerate() {
+                dst[c * 4..c * 4 + 4].copy_from_slice(&v.to_le_bytes());
+            }
+            up.geometry_mask_words[k / 32] |= 1 << (k % 32);
+        }
+        Ok(())
+    }
+
+    /// Stores a chunk of the encoded stream at `offset`.
+    ///
+    /// Chunks must arrive in order; a re-sent copy of the last accepted
+    /// chunk is acknowledged without effect.
+    pub fn chunk(&mut self, slot: u8, offset: u32, data: &[u8]) -> Result<(), NackCode> {
+        let (s, _) = self.uploading(slot)?;
+        let Some(up) = s.upload.as_mut() else {
+            return Err(NackCode::NoUpload);
+        };
+        if up.failed {
+            return Err(NackCode::BadStream);
+        }
+        let len = data.len() as u32;
+        let end = u64::from(offset) + u64::from(len);
+        if end > u64::from(up.encoded_len) {
+            return Err(NackCode::OutOfRange);
+        }
+        if let Some(last) = up.last {
+            if last.offset == offset && last.len == len {
+                return if last.crc == lm_proto::crc32(data) {
+                    Ok(())
+                } else {
+                    Err(NackCode::OutOfOrder)
+                };
+            }
+        }
+        if offset as usize != up.decoder.consumed() {
+            return Err(NackCode::OutOfOrder);
+        }
+        let before = up.decoder.decoded();
+        if up.decoder.feed(data, s.phases).is_err() {
+            up.failed = true;
+            return Err(NackCode::BadStream);
+        }
+        let after = up.decoder.decoded();
+        up.crc.update(&s.phases[before..after]);
+        up.last = Some(LastChunk {
+            offset,
+            len,
+            crc: lm_proto::crc32(data),
+        });
+        Ok(())
+    }
+
+    /// Finishes an upload: the whole stream and every position must have
+    /// arrived and the raw sequence CRC must match `crc32`. On success the
+    /// slot becomes playable; on a CRC mismatch the upload is dropped.
+    pub fn commit(&mut self, slot: u8, crc32: u32) -> Result<(), NackCode> {
+        let (s, h) = self.uploading(slot)?;
+        let Some(up) = s.upload.as_ref() else {
+            return Err(NackCode::NoUpload);
+        };
+        if up.failed {
+            return Err(NackCode::BadStream);
+        }
+        if up.decoder.consumed() as u64 != u64::from(up.encoded_len) {
+            return Err(NackCode::Incomplete);
+        }
+        if up.decoder.finish().is_err() {
+            return Err(NackCode::BadStream);
+        }
+        let t = usize::from(h.transducers);
+        let all_positions = (0..t).all(|k| up.geometry_mask_words[k / 32] & (1 << (k % 32)) != 0);
+        if !all_positions {
+            return Err(NackCode::Incomplete);
+        }
+        if up.crc.finish() != crc32 {
+            s.state = State::Empty;
+            s.upload = None;
+            return Err(NackCode::CrcMismatch);
+        }
+        s.state = State::Committed;
+        s.upload = None;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn begin(slot: u8, steps: u16, t: u16) -> BeginUpload {
+        BeginUpload {
+            slot,
+            steps,
+            transducers: t,
+            period_us: 200_000,
+            encoding: Encoding::Raw,
+            encoded_len: u32::from(steps) * u32::from(t),
+            center_um: [0, 0, 150_000],
+            foci_per_step: 1,
+        }
+    }
+
+    fn geometry(store: &mut Store<'_>, slot: u8, t: u16) {
+        let pts: [[i32; 3]; 4] = [
+            [0, 0, 0],
+            [10_000, 0, 0],
+            [0, 10_000, 0],
+            [10_000, 10_000, 0],
+        ];
+        for first in 0..t {
+            let i = usize::from(first) % 4;
+            store
+                .geometry(slot, first, &Positions::from_points(&pts[i..i + 1]))
+                .unwrap();
+        }
+    }
+
+    #[test]
+    fn raw_upload_commit_and_read_back() {
+        let mut mem = [0u8; memory_bytes(64, 4)];
+        let mut st = Store::new(&mut mem, 4).unwrap();
+        assert_eq!(st.slot_bytes(), 64);
+        let data: [u8; 12] = core::array::from_fn(|i| i as u8 * 7);
+        st.begin(&begin(1, 3, 4)).unwrap();
+        geometry(&mut st, 1, 4);
+        assert_eq!(st.chunk(1, 0, &data[..5]), Ok(()));
+        assert_eq!(
+            st.chunk(1, 0, &data[..5]),
+            Ok(()),
+            "duplicate of last chunk"
+        );
+        assert_eq!(st.chunk(1, 0, &data[1..6]), Err(NackCode::OutOfOrder));
+        assert_eq!(st.chunk(1, 6, &data[6..]), Err(NackCode::OutOfOrder), "gap");
+        assert_eq!(st.chunk(1, 5, &data[5..]), Ok(()));
+        assert_eq!(st.chunk(1, 12, &[1]), Err(NackCode::OutOfRange));
+        assert_eq!(st.commit(1, 1), Err(NackCode::CrcMismatch));
+        assert!(!st.is_committed(1));
+        assert_eq!(
+            st.commit(1, lm_proto::crc32(&data)),
+            Err(NackCode::NoUpload)
+        );
+        st.begin(&begin(1, 3, 4)).unwrap();
+        geometry(&mut st, 1, 4);
+        assert_eq!(
+            st.commit(1, lm_proto::crc32(&data)),
+            Err(NackCode::Incomplete)
+        );
+        st.chunk(1, 0, &data).unwrap();
+        st.commit(1, lm_proto::crc32(&data)).unwrap();
+        assert!(st.is_committed(1));
+        assert_eq!(st.step(1, 2), Some(&data[8..12]));
+        assert_eq!(st.step(1, 3), None);
+        assert_eq!(&st.positions(1).unwrap()[12..16], &10_000i32.to_le_bytes());
+    }
+
+    #[test]
+    fn refuses_bad_headers() {
+        let mut mem = [0u8; memory_bytes(64, 4)];
+        let mut st = Store::new(&mut mem, 4).unwrap();
+        assert_eq!(st.begin(&begin(2, 1, 1)), Err(NackCode::BadSlot));
+        assert_eq!(st.begin(&begin(0, 17, 4)), Err(NackCode::TooLarge));
+        assert_eq!(st.begin(&begin(0, 1, 5)), Err(NackCode::TooLarge));
+        assert_eq!(st.begin(&begin(0, 0, 4)), Err(NackCode::OutOfRange));
+        let mut b = begin(0, 2, 4);
+        b.encoded_len = 7;
+        assert_eq!(st.begin(&b), Err(NackCode::Malformed));
+        assert_eq!(st.chunk(0, 0, &[0]), Err(NackCode::NoUpload));
+        assert!(Store::new(&mut [0u8; 10], 4).is_err());
+    }
+
+    #[test]
+    fn commit_needs_every_position() {
+        let mut mem = [0u8; memory_bytes(64, 4)];
+        let mut st = Store::new(&mut mem, 4).unwrap();
+        st.begin(&begin(0, 1, 4)).unwrap();
+        st.chunk(0, 0, &[1, 2, 3, 4]).unwrap();
+        let p = [[1, 2, 3]; 3];
+        st.geometry(0, 0, &Positions::from_points(&p)).unwrap();
+        assert_eq!(
+            st.geometry(0, 2, &Positions::from_points(&p)),
+            Err(NackCode::OutOfRange)
+        );
+        assert_eq!(
+            st.commit(0, lm_proto::crc32(&[1, 2, 3, 4])),
+            Err(NackCode::Incomplete)
+        );
+        st.geometry(0, 3, &Positions::from_points(&p[..1])).unwrap();
+        st.commit(0, lm_proto::crc32(&[1, 2, 3, 4])).unwrap();
+    }
+
+    #[test]
+    fn delta_stream_decodes_into_slot() {
+        let t = 5u16;
+        let steps = 9u16;
+        let raw: [u8; 45] = core::array::from_fn(|i| ((i / 5) * (i % 5 + 1) * 3) as u8);
+        let mut enc = [0u8; 256];
+        let n = lm_proto::codec::encode(Encoding::Delta, &raw, usize::from(t), &mut enc).unwrap();
+        let mut mem = [0u8; memory_bytes(64, 5)];
+        let mut st = Store::new(&mut mem, 5).unwrap();
+        let mut b = begin(0, steps, t);
+        b.encoding = Encoding::Delta;
+        b.encoded_len = n as u32;
+        st.begin(&b).unwrap();
+        let p = [[0, 0, 0]; 5];
+        st.geometry(0, 0, &Positions::from_points(&p)).unwrap();
+        let mut off = 0;
+        for piece in enc[..n].chunks(3) {
+            st.chunk(0, off as u32, piece).unwrap();
+            off += piece.len();
+        }
+        st.commit(0, lm_proto::crc32(&raw)).unwrap();
+        for k in 0..steps {
+            let s = usize::from(k) * 5;
+            assert_eq!(st.step(0, k).unwrap(), &raw[s..s + 5]);
+        }
+    }
+}
