@@ -1,11 +1,34 @@
 //! Board support for QEMU's `mps2-an386` (Cortex-M4F, 25 MHz): the CMSDK
 //! UART0 that carries the protocol, CMSDK TIMER0 as the player's free-running
-//! clock, and a panic handler that reports over semihosting and exits QEMU
-//! with a failure status. No logic of its own: everything else is the core's.
+//! clock, a counting output sink, and a panic handler that reports over
+//! semihosting and exits QEMU with a failure status. No logic of its own:
+//! [`serve`] hands received bytes and timer counts to [`lm_fw_core::Device`].
+//!
+//! Output: QEMU's AN386 model has no device behind an SPI bus that could
+//! stand for the transducer driver, so frames go to [`FrameCounter`], which
+//! keeps what a test needs to see (count, last step, muted frames). The real
+//! board (`firmware/nucleo-h743`) sends them over SPI1 with the core's
+//! `SpiOutput`.
 #![no_std]
 #![warn(missing_docs)]
 
 use core::ptr::{read_volatile, write_volatile};
+
+use lm_fw_core::{Config, Device, Frame, OutputDriver, TimeExtender};
+
+/// Raw phase bytes per slot: 256 KiB (200 steps × 996 transducers need 199,200).
+pub const SLOT_BYTES: usize = 256 * 1024;
+/// Transducers per sequence: four AUTD3 boards.
+pub const MAX_TRANSDUCERS: u16 = 996;
+/// Bytes of sequence memory for the core (both slots, with positions).
+pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(SLOT_BYTES, MAX_TRANSDUCERS as usize);
+
+/// The core's configuration on this board: TIMER0's 25 MHz counts.
+pub fn config() -> Config {
+    let mut c = Config::new(PCLK_HZ);
+    c.max_transducers = MAX_TRANSDUCERS;
+    c
+}
 
 /// Peripheral clock of the AN386 image: the APB timers and UART count this.
 pub const PCLK_HZ: u32 = 25_000_000;
@@ -102,6 +125,58 @@ impl Timer {
     pub fn now(&self) -> u32 {
         // SAFETY: `new`'s contract.
         !unsafe { read_volatile((self.base + TIMER_VALUE) as *const u32) }
+    }
+}
+
+/// Output sink standing in for the transducer driver (see the crate docs).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct FrameCounter {
+    /// Frames written.
+    pub frames: u32,
+    /// Of those, frames with amplitude 0.
+    pub muted: u32,
+    /// Step of the last frame.
+    pub last_step: u16,
+    /// Phase of transducer 0 in the last frame (keeps the frame observable).
+    pub last_phase0: u8,
+}
+
+impl OutputDriver for FrameCounter {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+        self.frames = self.frames.wrapping_add(1);
+        if frame.amplitude == 0 {
+            self.muted = self.muted.wrapping_add(1);
+        }
+        self.last_step = frame.step;
+        self.last_phase0 = frame.phases.first().copied().unwrap_or(0);
+        Ok(())
+    }
+}
+
+/// The firmware's main loop: UART bytes into [`Device::feed`] (replies
+/// back out), and [`Device::poll`] against TIMER0 on every pass. Polled:
+/// QEMU delivers UART input one byte at a time as the guest reads it, so
+/// nothing is lost while a step is computed.
+pub fn serve(mut uart: Uart, timer: Timer, dev: &mut Device<'_>, out: &mut impl OutputDriver) -> ! {
+    let mut clock = TimeExtender::new();
+    let mut rx = [0u8; 64];
+    loop {
+        let mut n = 0;
+        while n < rx.len() {
+            match uart.try_read() {
+                Some(b) => {
+                    rx[n] = b;
+                    n += 1;
+                }
+                None => break,
+            }
+        }
+        let now = clock.extend(timer.now());
+        if n > 0 {
+            dev.feed(&rx[..n], now, &mut |reply: &[u8]| uart.write_all(reply));
+        }
+        dev.poll(now, out);
     }
 }
 

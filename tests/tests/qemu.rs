@@ -1,0 +1,448 @@
+//! The firmware under QEMU, driven over its UART with the real protocol:
+//! info, upload (BeginUpload, Geometry, Chunks), commit, play, centroid,
+//! status, stop.
+//!
+//! QEMU runs `mps2-an386` with UART0 on a TCP socket on 127.0.0.1. The
+//! firmware ELF comes from `LM_FW_QEMU_ELF` (set by `cargo xtask ci`, which
+//! builds it first); without it the test builds it with
+//! `cargo build --release -p lm-fw-qemu --target thumbv7em-none-eabihf` into
+//! its own target dir. Skipped, with a message, when `qemu-system-arm` is
+//! not installed (`cargo xtask ci` installs it).
+
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use lm_proto::{
+    BeginUpload, Centroid, Chunk, Commit, DeviceState, Encoding, FeedResult, FrameDecoder,
+    Geometry, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode,
+    PROTOCOL_VERSION, Play, PlayAt, Positions, Status, codec, crc32, encode_frame,
+};
+
+const THUMB: &str = "thumbv7em-none-eabihf";
+
+fn qemu_installed() -> bool {
+    Command::new("qemu-system-arm")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// The firmware ELF: from xtask, or built here into our own target dir.
+fn firmware_elf() -> PathBuf {
+    if let Some(p) = std::env::var_os("LM_FW_QEMU_ELF") {
+        let p = PathBuf::from(p);
+        assert!(p.exists(), "LM_FW_QEMU_ELF={} does not exist", p.display());
+        return p;
+    }
+    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("lm-fw-qemu");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let status = Command::new(cargo)
+        .current_dir(root)
+        .args([
+            "build",
+            "--release",
+            "-p",
+            "lm-fw-qemu",
+            "--bin",
+            "lm-fw-qemu",
+            "--target",
+            THUMB,
+        ])
+        .arg("--target-dir")
+        .arg(&target_dir)
+        .status()
+        .expect("run cargo to build the QEMU firmware");
+    assert!(
+        status.success(),
+        "building the QEMU firmware failed (is the {THUMB} target installed? `rustup target add {THUMB}`)"
+    );
+    target_dir.join(THUMB).join("release/lm-fw-qemu")
+}
+
+/// A running QEMU; killed on drop. Its console output goes to a log file
+/// that is printed if the test fails.
+struct Qemu {
+    child: Child,
+    log: PathBuf,
+}
+
+impl Qemu {
+    fn start(elf: &Path) -> (Qemu, TcpStream) {
+        // A free port: bind, read it, release it for QEMU.
+        let port = TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
+        let out = std::fs::File::create(&log).unwrap();
+        let child = Command::new("qemu-system-arm")
+            .args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .arg("-serial")
+            .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on"))
+            .arg("-kernel")
+            .arg(elf)
+            .stdout(out.try_clone().unwrap())
+            .stderr(out)
+            .spawn()
+            .expect("start qemu-system-arm");
+        let mut q = Qemu { child, log };
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            match TcpStream::connect(("127.0.0.1", port)) {
+                Ok(s) => {
+                    s.set_nodelay(true).unwrap();
+                    return (q, s);
+                }
+                Err(e) if Instant::now() > deadline => {
+                    panic!(
+                        "cannot connect to QEMU's UART on port {port}: {e}\n{}",
+                        q.output()
+                    )
+                }
+                Err(_) => {
+                    if let Ok(Some(st)) = q.child.try_wait() {
+                        panic!("QEMU exited early ({st})\n{}", q.output());
+                    }
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+            }
+        }
+    }
+
+    fn output(&self) -> String {
+        format!(
+            "--- QEMU output ---\n{}",
+            std::fs::read_to_string(&self.log).unwrap_or_default()
+        )
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if std::thread::panicking() {
+            eprintln!("{}", self.output());
+        }
+    }
+}
+
+/// Request/response over the socket, matched by sequence number.
+struct Link {
+    sock: TcpStream,
+    dec: FrameDecoder,
+    pending: Vec<u8>,
+    seq: u16,
+}
+
+/// A response, owned (chunk-free messages only come back).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Reply {
+    Ack,
+    Nack(NackCode),
+    Info(lm_proto::Info),
+    Status(Status),
+}
+
+impl Link {
+    fn new(sock: TcpStream) -> Link {
+        sock.set_read_timeout(Some(Duration::from_millis(100)))
+            .unwrap();
+        Link {
+            sock,
+            dec: FrameDecoder::new(),
+            pending: Vec::new(),
+            seq: 0,
+        }
+    }
+
+    fn request(&mut self, msg: &Message<'_>) -> Reply {
+        self.seq = self.seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_ENCODED_FRAME];
+        let n = encode_frame(self.seq, msg, &mut buf).unwrap();
+        self.sock.write_all(&buf[..n]).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Some(r) = self.next_reply() {
+                return r;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "no reply to {:?} (seq {}) within 10 s",
+                msg.msg_type(),
+                self.seq
+            );
+            let mut chunk = [0u8; 4096];
+            match self.sock.read(&mut chunk) {
+                Ok(0) => panic!("QEMU closed the UART socket"),
+                Ok(n) => self.pending.extend_from_slice(&chunk[..n]),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) => {}
+                Err(e) => panic!("reading the UART socket: {e}"),
+            }
+        }
+    }
+
+    /// The reply to the current request from the bytes read so far, if any;
+    /// anything else (replies to other seqs, bad frames) is a test failure.
+    fn next_reply(&mut self) -> Option<Reply> {
+        let mut input: &[u8] = &self.pending;
+        let mut found = None;
+        while found.is_none() {
+            input = match self.dec.feed(input) {
+                FeedResult::Consumed => {
+                    input = &[];
+                    break;
+                }
+                FeedResult::Frame { frame, remaining } => {
+                    assert_eq!(frame.seq, self.seq, "reply to another request: {frame:?}");
+                    found = Some(match frame.message {
+                        Message::Ack => Reply::Ack,
+                        Message::Nack(c) => Reply::Nack(c),
+                        Message::Info(i) => Reply::Info(i),
+                        Message::Status(s) => Reply::Status(s),
+                        other => panic!("unexpected message from the device: {other:?}"),
+                    });
+                    remaining
+                }
+                FeedResult::Error { error, .. } => panic!("bad frame from the device: {error:?}"),
+            };
+        }
+        self.pending = input.to_vec();
+        found
+    }
+
+    fn ack(&mut self, msg: &Message<'_>) {
+        let r = self.request(msg);
+        assert_eq!(r, Reply::Ack, "{:?} was not acked", msg.msg_type());
+    }
+
+    fn status(&mut self) -> Status {
+        match self.request(&Message::GetStatus) {
+            Reply::Status(s) => s,
+            r => panic!("GetStatus answered {r:?}"),
+        }
+    }
+}
+
+/// A 36 × 28 grid (10.16 mm pitch, AUTD3's) cut to `t` transducers, in µm.
+fn positions_um(t: usize) -> Vec<[i32; 3]> {
+    (0..t)
+        .map(|i| {
+            let (x, y) = ((i % 36) as f64, (i / 36) as f64);
+            [
+                ((x - 17.5) * 10_160.0) as i32,
+                ((y - 13.5) * 10_160.0) as i32,
+                0,
+            ]
+        })
+        .collect()
+}
+
+/// One focus 150 mm above the array moving on a 4 mm circle: φ = −k r.
+fn lm_phases(pos: &[[i32; 3]], steps: usize) -> Vec<u8> {
+    let k = 2.0 * std::f64::consts::PI * 40_000.0 / 340.0e6; // rad per µm
+    let mut out = Vec::with_capacity(steps * pos.len());
+    for s in 0..steps {
+        let a = 2.0 * std::f64::consts::PI * s as f64 / steps as f64;
+        let f = [2000.0 * a.cos(), 2000.0 * a.sin(), 150_000.0];
+        for p in pos {
+            let r = ((p[0] as f64 - f[0]).powi(2)
+                + (p[1] as f64 - f[1]).powi(2)
+                + (p[2] as f64 - f[2]).powi(2))
+            .sqrt();
+            let phi = (-k * r).rem_euclid(2.0 * std::f64::consts::PI);
+            out.push(((phi / (2.0 * std::f64::consts::PI) * 256.0).round() as u32 % 256) as u8);
+        }
+    }
+    out
+}
+
+fn centroid(seq: u32, pos_um: [i32; 3], present: bool, t0: Instant) -> Message<'static> {
+    Message::Centroid(Centroid {
+        seq,
+        pos_um,
+        present,
+        host_time_us: t0.elapsed().as_micros() as u64,
+    })
+}
+
+#[test]
+fn firmware_under_qemu_speaks_the_protocol() {
+    if !qemu_installed() {
+        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+        return;
+    }
+    let elf = firmware_elf();
+    let (_qemu, sock) = Qemu::start(&elf);
+    let mut link = Link::new(sock);
+    let t0 = Instant::now();
+
+    // Info.
+    let Reply::Info(info) = link.request(&Message::GetInfo) else {
+        panic!("GetInfo not answered with Info")
+    };
+    assert_eq!(info.proto_version, PROTOCOL_VERSION);
+    assert!(info.slots >= 2, "{info:?}");
+    assert!(info.max_transducers >= 996, "{info:?}");
+    assert!(info.slot_bytes >= 200 * 996, "{info:?}");
+    assert_eq!(info.max_chunk as usize, MAX_CHUNK);
+    assert!(info.timer_hz >= 1_000_000, "{info:?}");
+
+    // Upload: 996 transducers × 40 steps, Delta-encoded, 5 Hz cycle.
+    let t = 996usize;
+    let steps = 40usize;
+    let period_us = 200_000u32;
+    let center_um = [0, 0, 150_000];
+    let pos = positions_um(t);
+    let raw = lm_phases(&pos, steps);
+    let mut enc = vec![0u8; codec::encoded_len(Encoding::Delta, &raw, t).unwrap()];
+    let n = codec::encode(Encoding::Delta, &raw, t, &mut enc).unwrap();
+    assert_eq!(n, enc.len());
+    assert!(n < raw.len(), "Delta should compress a smooth LM sequence");
+
+    // Play before any upload is refused.
+    assert!(matches!(
+        link.request(&Message::Play(Play {
+            slot: 0,
+            at: PlayAt::Immediate
+        })),
+        Reply::Nack(_)
+    ));
+
+    link.ack(&Message::BeginUpload(BeginUpload {
+        slot: 0,
+        steps: steps as u16,
+        transducers: t as u16,
+        period_us,
+        encoding: Encoding::Delta,
+        encoded_len: n as u32,
+        center_um,
+        foci_per_step: 1,
+    }));
+    for (i, group) in pos.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
+        link.ack(&Message::Geometry(Geometry {
+            slot: 0,
+            first: (i * MAX_GEOMETRY_POSITIONS) as u16,
+            positions: Positions::from_points(group),
+        }));
+    }
+    for (i, data) in enc.chunks(MAX_CHUNK).enumerate() {
+        link.ack(&Message::Chunk(Chunk {
+            slot: 0,
+            offset: (i * MAX_CHUNK) as u32,
+            data,
+        }));
+    }
+    link.ack(&Message::Commit(Commit {
+        slot: 0,
+        crc32: crc32(&raw),
+    }));
+
+    // A corrupt upload (wrong CRC) into the other slot is refused and never playable.
+    let small = [10u8, 20, 30, 40, 11, 21, 31, 41];
+    link.ack(&Message::BeginUpload(BeginUpload {
+        slot: 1,
+        steps: 2,
+        transducers: 4,
+        period_us,
+        encoding: Encoding::Raw,
+        encoded_len: small.len() as u32,
+        center_um,
+        foci_per_step: 1,
+    }));
+    link.ack(&Message::Geometry(Geometry {
+        slot: 1,
+        first: 0,
+        positions: Positions::from_points(&pos[..4]),
+    }));
+    link.ack(&Message::Chunk(Chunk {
+        slot: 1,
+        offset: 0,
+        data: &small,
+    }));
+    assert_eq!(
+        link.request(&Message::Commit(Commit {
+            slot: 1,
+            crc32: crc32(&small) ^ 1
+        })),
+        Reply::Nack(NackCode::CrcMismatch)
+    );
+    assert_eq!(
+        link.request(&Message::Play(Play {
+            slot: 1,
+            at: PlayAt::Immediate
+        })),
+        Reply::Nack(NackCode::NotCommitted)
+    );
+
+    // Play with a fresh centroid; status shows steps advancing and cycles counted.
+    // (A new play session forgets old centroids: tracking starts after Play;
+    // until the first update the output stays muted.)
+    link.ack(&Message::Play(Play {
+        slot: 0,
+        at: PlayAt::Immediate,
+    }));
+    assert_eq!(link.status().state, DeviceState::Muted);
+    let mut cseq = 1;
+    link.ack(&centroid(cseq, center_um, true, t0));
+    let first = link.status();
+    assert_eq!(first.state, DeviceState::Playing, "{first:?}");
+    assert_eq!(first.slot, Some(0));
+    let mut steps_seen = std::collections::BTreeSet::new();
+    let until = Instant::now() + Duration::from_millis(1300);
+    let moved = [1500, -1000, 150_000];
+    while Instant::now() < until {
+        cseq += 1;
+        link.ack(&centroid(cseq, moved, true, t0));
+        let s = link.status();
+        assert_eq!(
+            s.state,
+            DeviceState::Playing,
+            "fresh centroids every 20 ms keep it playing: {s:?}"
+        );
+        steps_seen.insert(s.step);
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let last = link.status();
+    assert!(
+        steps_seen.len() >= 5,
+        "steps should advance, saw {steps_seen:?}"
+    );
+    assert!(
+        last.cycles >= first.cycles + 3,
+        "≥ 3 cycles of 200 ms in 1.3 s: {first:?} -> {last:?}"
+    );
+    assert_eq!(last.last_centroid_seq, cseq);
+    assert_eq!(last.correction_um, [1500, -1000, 0], "{last:?}");
+    assert_eq!(last.crc_errors, 0);
+    assert_eq!(last.bad_frames, 0);
+    println!(
+        "QEMU: {} cycles, {} distinct steps seen, {} missed deadlines, {} nacks",
+        last.cycles,
+        steps_seen.len(),
+        last.missed_deadlines,
+        last.nacks
+    );
+
+    // Presence lost mutes; a fresh update resumes; Stop stops.
+    cseq += 1;
+    link.ack(&centroid(cseq, moved, false, t0));
+    assert_eq!(link.status().state, DeviceState::Muted);
+    cseq += 1;
+    link.ack(&centroid(cseq, moved, true, t0));
+    assert_eq!(link.status().state, DeviceState::Playing);
+    link.ack(&Message::Stop);
+    assert_eq!(link.status().state, DeviceState::Stopped);
+}
