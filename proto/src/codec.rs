@@ -98,7 +98,7 @@ fn residual_code(e: i8) -> (u32, u32) {
 }
 
 fn check_shape(phases: &[u8], transducers: usize) -> Result<(), CodecError> {
-    if transducers == 0 || phases.len() % transducers != 0 {
+    if phases.len().checked_rem(transducers) != Some(0) {
         return Err(CodecError::BadShape);
     }
     Ok(())

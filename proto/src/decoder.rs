@@ -124,15 +124,16 @@ impl FrameDecoder {
             self.reset();
             return ev;
         }
-        if !self.overflow {
-            if let Some(out) = self.cobs.step(b) {
-                match self.buf.get_mut(self.len) {
-                    Some(slot) => {
-                        *slot = out;
-                        self.len += 1;
-                    }
-                    None => self.overflow = true,
+        if self.overflow {
+            return None;
+        }
+        if let Some(out) = self.cobs.step(b) {
+            match self.buf.get_mut(self.len) {
+                Some(slot) => {
+                    *slot = out;
+                    self.len += 1;
                 }
+                None => self.overflow = true,
             }
         }
         None

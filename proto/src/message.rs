@@ -256,7 +256,11 @@ impl<'a> Positions<'a> {
     /// Positions packed as 12-byte little-endian records; `None` if the
     /// length is not a multiple of 12.
     pub fn from_le_bytes(bytes: &'a [u8]) -> Option<Self> {
-        (bytes.len() % 12 == 0).then_some(Self(PosRepr::Bytes(bytes)))
+        bytes
+            .chunks_exact(12)
+            .remainder()
+            .is_empty()
+            .then_some(Self(PosRepr::Bytes(bytes)))
     }
 
     /// Number of positions.
