@@ -3,8 +3,8 @@
 //! started run of 254 bytes (at least one).
 //!
 //! The functions here work on one message without its delimiter; framing
-//! (delimiters, streaming) lives in [`crate::frame`] and
-//! [`crate::decoder`].
+//! (delimiters, streaming) lives in [`crate::encode_frame`] and
+//! [`crate::FrameDecoder`].
 
 use core::fmt;
 
