@@ -278,8 +278,21 @@ fn delta_compresses_paper_stimuli() {
             let (phases, steps) = lm_sequence(&pos, r, 220.0, foci);
             let n = codec::encoded_len(Encoding::Delta, &phases, pos.len()).unwrap();
             let ratio = n as f64 / phases.len() as f64;
+            // The alternative Delta was measured against: first differences
+            // as 4-bit nibbles (−7..=7), escape nibble + byte otherwise.
+            let t = pos.len();
+            let nibble_bits: usize = (t..phases.len())
+                .map(|i| {
+                    if (phases[i].wrapping_sub(phases[i - t]) as i8).abs() <= 7 {
+                        4
+                    } else {
+                        12
+                    }
+                })
+                .sum();
+            let nibble = (t + nibble_bits.div_ceil(8)) as f64 / phases.len() as f64;
             eprintln!(
-                "LM-{} r={r} mm: {steps} steps, delta {n} / raw {} bytes = {ratio:.3}",
+                "LM-{} r={r} mm: {steps} steps, delta {n} / raw {} bytes = {ratio:.3} (first-difference nibbles: {nibble:.3})",
                 if foci == 1 { "S" } else { "M" },
                 phases.len()
             );
