@@ -11,6 +11,7 @@ pub mod bench;
 pub mod cmd;
 pub mod directivity;
 pub mod error;
+pub mod simdev;
 pub mod scene;
 pub mod sequence;
 pub mod synth;

@@ -5,6 +5,12 @@ use clap::Subcommand;
 pub mod bench;
 pub mod plan;
 pub mod scene;
+pub mod sim;
+pub mod info;
+pub mod status;
+pub mod upload;
+pub mod play;
+pub mod stop;
 
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]
@@ -15,6 +21,18 @@ pub enum Command {
     Scene(scene::Args),
     /// Time and check the numeric paths; print the bench report.
     Bench(bench::Args),
+    /// Run the simulated device on a pty (prints its path).
+    Sim(sim::Args),
+    /// Show what the device is and what it can hold.
+    Info(info::Args),
+    /// Show what the device is doing and its error counters.
+    Status(status::Args),
+    /// Plan a stimulus, upload it, commit it and play it.
+    Upload(upload::Args),
+    /// Play a committed slot.
+    Play(play::Args),
+    /// Stop playing (mutes at once).
+    Stop(stop::Args),
 }
 
 impl Command {
@@ -24,6 +42,12 @@ impl Command {
             Command::Plan(a) => a.run(),
             Command::Scene(a) => a.run(),
             Command::Bench(a) => a.run(),
+            Command::Sim(a) => a.run(),
+            Command::Info(a) => a.run(),
+            Command::Status(a) => a.run(),
+            Command::Upload(a) => a.run(),
+            Command::Play(a) => a.run(),
+            Command::Stop(a) => a.run(),
         }
     }
 }

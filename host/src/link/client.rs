@@ -133,7 +133,10 @@ pub struct UploadReport {
     pub slot: u8,
     /// Raw sequence bytes.
     pub raw_bytes: u64,
-    /// Encoded sequence bytes (the chunk payload).
+    /// Encoded sequence bytes (the chunks' data).
+    pub sequence_bytes: u64,
+    /// Useful bytes sent: the encoded sequence plus the transducer
+    /// positions (12 bytes each).
     pub payload_bytes: u64,
     /// All bytes written to the wire during the upload (frames, resends).
     pub wire_bytes_sent: u64,
@@ -169,7 +172,10 @@ pub fn check_fits(spec: &UploadSpec, info: &Info, slot: u8) -> Result<(), String
         ));
     }
     if slot >= info.slots {
-        return Err(format!("slot {slot} does not exist (the device has {} slots)", info.slots));
+        return Err(format!(
+            "slot {slot} does not exist (the device has {} slots)",
+            info.slots
+        ));
     }
     if spec.transducers > info.max_transducers {
         return Err(format!(
@@ -198,7 +204,8 @@ pub fn encode_sequence(encoding: Encoding, spec: &UploadSpec) -> Result<Vec<u8>,
     let t = spec.transducers as usize;
     let len = lm_proto::codec::encoded_len(encoding, &spec.phases, t).map_err(|e| e.to_string())?;
     let mut out = vec![0u8; len];
-    let n = lm_proto::codec::encode(encoding, &spec.phases, t, &mut out).map_err(|e| e.to_string())?;
+    let n =
+        lm_proto::codec::encode(encoding, &spec.phases, t, &mut out).map_err(|e| e.to_string())?;
     out.truncate(n);
     Ok(out)
 }
@@ -255,13 +262,19 @@ impl<T: Transport> Client<T> {
             if attempt > 0 {
                 self.stats.retries += 1;
             }
-            self.transport.send(&self.tx[..n]).map_err(|source| LinkError::Io { what, source })?;
+            self.transport
+                .send(&self.tx[..n])
+                .map_err(|source| LinkError::Io { what, source })?;
             self.stats.bytes_sent += n as u64;
             if let Some(r) = self.wait_for(seq, what)? {
                 return Ok(r);
             }
         }
-        Err(LinkError::Timeout { what, tries: self.tries, timeout_ms: self.timeout.as_millis() as u64 })
+        Err(LinkError::Timeout {
+            what,
+            tries: self.tries,
+            timeout_ms: self.timeout.as_millis() as u64,
+        })
     }
 
     /// Read until a response with `seq` arrives or the timeout passes.
@@ -272,7 +285,10 @@ impl<T: Transport> Client<T> {
             if left.is_zero() {
                 return Ok(None);
             }
-            let got = self.transport.recv(&mut self.rx, left).map_err(|source| LinkError::Io { what, source })?;
+            let got = self
+                .transport
+                .recv(&mut self.rx, left)
+                .map_err(|source| LinkError::Io { what, source })?;
             if got == 0 {
                 continue;
             }
@@ -311,7 +327,10 @@ impl<T: Transport> Client<T> {
         match self.request(what, msg)? {
             Reply::Ack => Ok(()),
             Reply::Nack(code) => Err(LinkError::Nack { what, code }),
-            other => Err(LinkError::Unexpected { what, got: other.name() }),
+            other => Err(LinkError::Unexpected {
+                what,
+                got: other.name(),
+            }),
         }
     }
 
@@ -320,7 +339,10 @@ impl<T: Transport> Client<T> {
         match self.request("info", &Message::GetInfo)? {
             Reply::Info(i) => Ok(i),
             Reply::Nack(code) => Err(LinkError::Nack { what: "info", code }),
-            other => Err(LinkError::Unexpected { what: "info", got: other.name() }),
+            other => Err(LinkError::Unexpected {
+                what: "info",
+                got: other.name(),
+            }),
         }
     }
 
@@ -328,8 +350,14 @@ impl<T: Transport> Client<T> {
     pub fn status(&mut self) -> Result<Status, LinkError> {
         match self.request("status", &Message::GetStatus)? {
             Reply::Status(s) => Ok(s),
-            Reply::Nack(code) => Err(LinkError::Nack { what: "status", code }),
-            other => Err(LinkError::Unexpected { what: "status", got: other.name() }),
+            Reply::Nack(code) => Err(LinkError::Nack {
+                what: "status",
+                code,
+            }),
+            other => Err(LinkError::Unexpected {
+                what: "status",
+                got: other.name(),
+            }),
         }
     }
 
@@ -378,7 +406,8 @@ impl<T: Transport> Client<T> {
                     return Ok(UploadReport {
                         slot,
                         raw_bytes: spec.phases.len() as u64,
-                        payload_bytes: encoded.len() as u64,
+                        sequence_bytes: encoded.len() as u64,
+                        payload_bytes: encoded.len() as u64 + 12 * spec.positions_um.len() as u64,
                         wire_bytes_sent: s.bytes_sent - before.bytes_sent,
                         wire_bytes_received: s.bytes_received - before.bytes_received,
                         seconds: start.elapsed().as_secs_f64(),
@@ -388,16 +417,18 @@ impl<T: Transport> Client<T> {
                     });
                 }
                 // Refusals that a restart cannot mend end the upload at once.
-                Err(e @ LinkError::Nack {
-                    code:
-                        NackCode::BadSlot
-                        | NackCode::SlotPlaying
-                        | NackCode::TooLarge
-                        | NackCode::DwellTooShort
-                        | NackCode::BadVersion
-                        | NackCode::UnknownType,
-                    ..
-                }) => return Err(e),
+                Err(
+                    e @ LinkError::Nack {
+                        code:
+                            NackCode::BadSlot
+                            | NackCode::SlotPlaying
+                            | NackCode::TooLarge
+                            | NackCode::DwellTooShort
+                            | NackCode::BadVersion
+                            | NackCode::UnknownType,
+                        ..
+                    },
+                ) => return Err(e),
                 Err(e @ LinkError::Io { .. }) => return Err(e),
                 Err(e) => last = Some(e),
             }

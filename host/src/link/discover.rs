@@ -31,7 +31,10 @@ impl PortInfo {
     /// The known board this port belongs to, if any.
     pub fn board(&self) -> Option<&'static str> {
         let (v, p) = self.usb?;
-        KNOWN_BOARDS.iter().find(|b| b.0 == v && b.1 == p).map(|b| b.2)
+        KNOWN_BOARDS
+            .iter()
+            .find(|b| b.0 == v && b.1 == p)
+            .map(|b| b.2)
     }
 }
 
@@ -44,8 +47,10 @@ fn read_hex(path: &Path) -> Option<u16> {
 fn usb_ids(tty_dir: &Path) -> Option<(u16, u16)> {
     let mut dir: PathBuf = std::fs::canonicalize(tty_dir.join("device")).ok()?;
     for _ in 0..4 {
-        if let (Some(v), Some(p)) = (read_hex(&dir.join("idVendor")), read_hex(&dir.join("idProduct")))
-        {
+        if let (Some(v), Some(p)) = (
+            read_hex(&dir.join("idVendor")),
+            read_hex(&dir.join("idProduct")),
+        ) {
             return Some((v, p));
         }
         dir = dir.parent()?.to_path_buf();
@@ -56,7 +61,9 @@ fn usb_ids(tty_dir: &Path) -> Option<(u16, u16)> {
 /// Serial ports under a sysfs class root (normally `/sys/class/tty`):
 /// only ttys backed by a device (so not the hundreds of virtual consoles).
 pub fn scan(sys_class_tty: &Path) -> Vec<PortInfo> {
-    let Ok(entries) = std::fs::read_dir(sys_class_tty) else { return Vec::new() };
+    let Ok(entries) = std::fs::read_dir(sys_class_tty) else {
+        return Vec::new();
+    };
     let mut ports: Vec<PortInfo> = entries
         .flatten()
         .filter(|e| e.path().join("device").exists())
@@ -65,8 +72,12 @@ pub fn scan(sys_class_tty: &Path) -> Vec<PortInfo> {
             // Legacy 8250 ports without hardware still have a device link;
             // keep them only if they are USB or ACM/USB-serial by name.
             let usb = usb_ids(&e.path());
-            let plausible = usb.is_some() || name.starts_with("ttyACM") || name.starts_with("ttyUSB");
-            plausible.then(|| PortInfo { path: format!("/dev/{name}"), usb })
+            let plausible =
+                usb.is_some() || name.starts_with("ttyACM") || name.starts_with("ttyUSB");
+            plausible.then(|| PortInfo {
+                path: format!("/dev/{name}"),
+                usb,
+            })
         })
         .collect();
     ports.sort_by(|a, b| a.path.cmp(&b.path));
@@ -109,7 +120,10 @@ pub fn choose(
         }
         many => Err(InputError::new(format!(
             "several LM boards found ({}); choose one with --port PATH or {PORT_ENV}",
-            many.iter().map(|p| p.path.as_str()).collect::<Vec<_>>().join(", ")
+            many.iter()
+                .map(|p| p.path.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         ))),
     }
 }
@@ -146,7 +160,10 @@ mod tests {
         let found = scan(&root.join("class/tty"));
         assert_eq!(
             found,
-            vec![PortInfo { path: "/dev/ttyACM0".into(), usb: Some((0x0483, 0x374e)) }]
+            vec![PortInfo {
+                path: "/dev/ttyACM0".into(),
+                usb: Some((0x0483, 0x374e))
+            }]
         );
         assert_eq!(choose(None, None, &found).unwrap(), "/dev/ttyACM0");
         let _ = std::fs::remove_dir_all(root);
@@ -154,16 +171,28 @@ mod tests {
 
     #[test]
     fn flag_beats_env_beats_autodetect() {
-        let found = vec![PortInfo { path: "/dev/ttyACM0".into(), usb: Some((0x0483, 0x374e)) }];
-        assert_eq!(choose(Some("/dev/a"), Some("/dev/b"), &found).unwrap(), "/dev/a");
+        let found = vec![PortInfo {
+            path: "/dev/ttyACM0".into(),
+            usb: Some((0x0483, 0x374e)),
+        }];
+        assert_eq!(
+            choose(Some("/dev/a"), Some("/dev/b"), &found).unwrap(),
+            "/dev/a"
+        );
         assert_eq!(choose(None, Some("/dev/b"), &found).unwrap(), "/dev/b");
     }
 
     #[test]
     fn no_board_lists_ports_and_never_picks_the_simulator() {
-        let found = vec![PortInfo { path: "/dev/ttyUSB0".into(), usb: Some((0x1a86, 0x7523)) }];
+        let found = vec![PortInfo {
+            path: "/dev/ttyUSB0".into(),
+            usb: Some((0x1a86, 0x7523)),
+        }];
         let e = choose(None, None, &found).unwrap_err().to_string();
-        assert!(e.contains("/dev/ttyUSB0 (1a86:7523)") && e.contains("--port"), "{e}");
+        assert!(
+            e.contains("/dev/ttyUSB0 (1a86:7523)") && e.contains("--port"),
+            "{e}"
+        );
         let e = choose(None, None, &[]).unwrap_err().to_string();
         assert!(e.contains("serial ports: none"), "{e}");
     }

@@ -16,5 +16,46 @@ pub use transport::Transport;
 
 /// Millimetres to whole micrometres (rounded, saturating).
 pub fn mm_to_um(mm: f64) -> i32 {
-    (mm * 1000.0).round().clamp(i32::MIN as f64, i32::MAX as f64) as i32
+    (mm * 1000.0)
+        .round()
+        .clamp(i32::MIN as f64, i32::MAX as f64) as i32
+}
+
+/// Port flags shared by every command that talks to a device.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PortArgs {
+    /// Serial port or pty path, or `tcp:HOST:PORT` [default: $LMHOST_PORT,
+    /// else the one LM board found by USB id].
+    #[arg(long, value_name = "PATH")]
+    pub port: Option<String>,
+    /// Baud rate for real serial ports (ptys ignore it).
+    #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
+    pub baud: u32,
+    /// Response timeout per attempt, ms [default: 100 + twice the time a
+    /// full chunk takes at --baud].
+    #[arg(long, value_name = "MS")]
+    pub timeout_ms: Option<u64>,
+    /// Attempts per request before giving up.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub tries: u32,
+}
+
+impl PortArgs {
+    /// Resolve the port and open a client on it.
+    pub fn connect(&self) -> anyhow::Result<Client<Box<dyn Transport>>> {
+        if self.baud == 0 {
+            return Err(crate::InputError::new("--baud must be above 0").into());
+        }
+        if self.tries == 0 {
+            return Err(crate::InputError::new("--tries must be at least 1").into());
+        }
+        let path = discover::resolve(self.port.as_deref())?;
+        let transport = transport::open(&path, self.baud)?;
+        let mut client = Client::new(transport);
+        let chunk_ms = (lm_proto::MAX_ENCODED_FRAME as u64 * 10 * 1000).div_ceil(self.baud as u64);
+        client.timeout =
+            std::time::Duration::from_millis(self.timeout_ms.unwrap_or(100 + 2 * chunk_ms));
+        client.tries = self.tries;
+        Ok(client)
+    }
 }

@@ -39,10 +39,15 @@ impl FromStr for Faults {
                 .split_once('=')
                 .ok_or_else(|| format!("fault `{part}` must look like name=value"))?;
             if k == "cut" {
-                f.cut_after = Some(v.parse().map_err(|_| format!("cut `{v}` is not a byte count"))?);
+                f.cut_after = Some(
+                    v.parse()
+                        .map_err(|_| format!("cut `{v}` is not a byte count"))?,
+                );
                 continue;
             }
-            let rate: f64 = v.parse().map_err(|_| format!("{k} `{v}` is not a number"))?;
+            let rate: f64 = v
+                .parse()
+                .map_err(|_| format!("{k} `{v}` is not a number"))?;
             if !(0.0..=1.0).contains(&rate) {
                 return Err(format!("{k} = {rate} is not a probability in [0, 1]"));
             }
@@ -86,7 +91,10 @@ struct Gap {
 
 impl Gap {
     fn new(p: f64, rng: &mut SplitMix64) -> Self {
-        let mut g = Self { log_q: (1.0 - p).ln(), left: u64::MAX };
+        let mut g = Self {
+            log_q: (1.0 - p).ln(),
+            left: u64::MAX,
+        };
         g.draw(rng);
         g
     }
@@ -154,8 +162,10 @@ impl Damage {
         }
         let mut dropped = vec![false; bytes.len()];
         let mut dup = vec![false; bytes.len()];
-        self.drop.events(bytes.len() as u64, rng, |i| dropped[i as usize] = true);
-        self.dup.events(bytes.len() as u64, rng, |i| dup[i as usize] = true);
+        self.drop
+            .events(bytes.len() as u64, rng, |i| dropped[i as usize] = true);
+        self.dup
+            .events(bytes.len() as u64, rng, |i| dup[i as usize] = true);
         let mut out = Vec::with_capacity(bytes.len() + 4);
         for (i, b) in bytes.into_iter().enumerate() {
             if dropped[i] {
@@ -250,23 +260,47 @@ mod tests {
         assert_eq!(f.ber, 1e-4);
         assert_eq!(f.drop, 0.01);
         assert_eq!(f.cut_after, Some(500));
-        assert!("ber=2".parse::<Faults>().unwrap_err().contains("probability"));
-        assert!("noise=0.1".parse::<Faults>().unwrap_err().contains("unknown fault"));
+        assert!(
+            "ber=2"
+                .parse::<Faults>()
+                .unwrap_err()
+                .contains("probability")
+        );
+        assert!(
+            "noise=0.1"
+                .parse::<Faults>()
+                .unwrap_err()
+                .contains("unknown fault")
+        );
         assert!("ber".parse::<Faults>().is_err());
     }
 
     #[test]
     fn damage_rates_match_settings() {
-        let f = Faults { ber: 1e-3, drop: 1e-3, dup: 1e-3, ..Default::default() };
+        let f = Faults {
+            ber: 1e-3,
+            drop: 1e-3,
+            dup: 1e-3,
+            ..Default::default()
+        };
         let mut d = Damage::new(&f, 42);
         let mut stats = FaultStats::default();
         let input = vec![0x55u8; 1_000_000];
         let out = d.apply(&input, &mut stats);
         // Expect ~8000 flips and ~1000 drops/dups; allow 4 σ.
-        assert!((stats.flipped_bits as f64 - 8000.0).abs() < 4.0 * 8000f64.sqrt(), "{stats:?}");
+        assert!(
+            (stats.flipped_bits as f64 - 8000.0).abs() < 4.0 * 8000f64.sqrt(),
+            "{stats:?}"
+        );
         assert!((stats.dropped as f64 - 1000.0).abs() < 130.0, "{stats:?}");
-        assert!((stats.duplicated as f64 - 1000.0).abs() < 130.0, "{stats:?}");
-        assert_eq!(out.len() as u64, 1_000_000 - stats.dropped + stats.duplicated);
+        assert!(
+            (stats.duplicated as f64 - 1000.0).abs() < 130.0,
+            "{stats:?}"
+        );
+        assert_eq!(
+            out.len() as u64,
+            1_000_000 - stats.dropped + stats.duplicated
+        );
     }
 
     #[test]

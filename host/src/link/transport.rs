@@ -30,7 +30,10 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
 }
 
 fn is_timeout(e: &std::io::Error) -> bool {
-    matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock)
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+    )
 }
 
 /// A serial port or pty, through `serialport` (no libudev).
@@ -47,7 +50,10 @@ impl Serial {
             .open()
             .map_err(|e| anyhow::anyhow!("{}", e.description))
             .with_context(|| format!("opening serial port {path}"))?;
-        Ok(Self { port, path: path.to_owned() })
+        Ok(Self {
+            port,
+            path: path.to_owned(),
+        })
     }
 }
 
@@ -59,7 +65,8 @@ impl Transport for Serial {
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
         // serialport rejects a zero timeout on some platforms.
-        self.port.set_timeout(timeout.max(Duration::from_micros(100)))?;
+        self.port
+            .set_timeout(timeout.max(Duration::from_micros(100)))?;
         match self.port.read(buf) {
             Ok(n) => Ok(n),
             Err(e) if is_timeout(&e) => Ok(0),
@@ -83,7 +90,10 @@ impl Tcp {
     pub fn connect(addr: &str) -> anyhow::Result<Self> {
         let stream = TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
         stream.set_nodelay(true).context("setting TCP_NODELAY")?;
-        Ok(Self { stream, addr: addr.to_owned() })
+        Ok(Self {
+            stream,
+            addr: addr.to_owned(),
+        })
     }
 }
 
@@ -93,7 +103,8 @@ impl Transport for Tcp {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
-        self.stream.set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
+        self.stream
+            .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
         match self.stream.read(buf) {
             Ok(0) => Err(std::io::Error::new(
                 std::io::ErrorKind::UnexpectedEof,

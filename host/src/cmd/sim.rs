@@ -1,0 +1,77 @@
+//! `lmhost sim`: the firmware core on a pseudo-terminal with a real clock.
+//! Prints the pty path on stdout, then serves until stopped.
+
+use std::io::Write as _;
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+
+use crate::link::proxy::Faults;
+use crate::simdev::{FwCore, Pty, ServeOptions, SimConfig, serve};
+
+/// Run the simulated device (any serial tool can talk to it).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Mute when no centroid update came for this long (ms).
+    #[arg(long, value_name = "MS", default_value_t = 100)]
+    centroid_timeout_ms: u32,
+    /// Play even before the first centroid update (the firmware's default
+    /// is to stay muted until a finger is tracked).
+    #[arg(long)]
+    no_tracking: bool,
+    /// Steps per slot at 996 transducers.
+    #[arg(long, value_name = "N", default_value_t = 400)]
+    slot_steps: u32,
+    /// Damage the link on the device's side, e.g. `ber=1e-4,drop=1e-5`
+    /// (rates: ber, drop, dup, truncate; `cut=BYTES` kills the link).
+    #[arg(long, value_name = "SPEC")]
+    faults: Option<String>,
+    /// Seed of the fault generator.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Stop after this many seconds [default: serve until killed].
+    #[arg(long, value_name = "S")]
+    seconds: Option<f64>,
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        let faults = match &self.faults {
+            Some(spec) => Some((
+                spec.parse::<Faults>()
+                    .map_err(|e| crate::InputError::new(format!("--faults: {e}")))?,
+                self.seed,
+            )),
+            None => None,
+        };
+        if self.slot_steps == 0 {
+            crate::bad_input!("--slot-steps must be at least 1");
+        }
+        if let Some(s) = self.seconds.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            crate::bad_input!("--seconds {s} must be a positive number");
+        }
+        let cfg = SimConfig {
+            slot_steps: self.slot_steps,
+            centroid_timeout_us: self.centroid_timeout_ms.saturating_mul(1000),
+            require_tracking: !self.no_tracking,
+            ..SimConfig::default()
+        };
+        let core = Arc::new(Mutex::new(FwCore::new(cfg)?));
+        let pty = Pty::open()?;
+        println!("{}", pty.path);
+        std::io::stdout().flush()?;
+        eprintln!(
+            "lmhost sim: simulated device on {} (Ctrl-C to stop)",
+            pty.path
+        );
+        let stop = Arc::new(AtomicBool::new(false));
+        if let Some(s) = self.seconds {
+            let stop = stop.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_secs_f64(s));
+                stop.store(true, std::sync::atomic::Ordering::Relaxed);
+            });
+        }
+        serve(core, pty, ServeOptions { faults }, stop)
+    }
+}

@@ -1,0 +1,42 @@
+//! `lmhost status`: what the device is doing, and its error counters.
+
+use anyhow::Context as _;
+
+use crate::link::PortArgs;
+
+/// Print the device's status.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    port: PortArgs,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        let mut client = self.port.connect()?;
+        let where_ = client.transport_mut().describe();
+        let s = client
+            .status()
+            .with_context(|| format!("asking {where_} for its status"))?;
+        if self.json {
+            println!("{}", serde_json::to_string(&s)?);
+            return Ok(());
+        }
+        let slot = s.slot.map_or("none".to_owned(), |s| s.to_string());
+        println!("state:            {:?}", s.state);
+        println!("slot:             {slot}");
+        println!("step:             {}", s.step);
+        println!("cycles:           {}", s.cycles);
+        println!("missed deadlines: {}", s.missed_deadlines);
+        println!("last centroid:    #{}", s.last_centroid_seq);
+        println!("correction:       {:?} µm", s.correction_um);
+        println!("bad frames:       {}", s.bad_frames);
+        println!("CRC errors:       {}", s.crc_errors);
+        println!("nacks sent:       {}", s.nacks);
+        Ok(())
+    }
+}

@@ -1,0 +1,143 @@
+//! `lmhost upload`: plan, check it fits the device, upload, commit, play.
+
+use std::io::IsTerminal as _;
+
+use anyhow::Context as _;
+use lm_proto::{Encoding, PlayAt};
+
+use crate::cmd::plan::PlanArgs;
+use crate::link::client::check_fits;
+use crate::link::{PortArgs, UploadSpec, mm_to_um};
+
+/// Sequence encoding on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum EncodingArg {
+    /// Raw phase bytes.
+    Raw,
+    /// Per-transducer second-order deltas (smaller for smooth sequences).
+    Delta,
+}
+
+impl From<EncodingArg> for Encoding {
+    fn from(e: EncodingArg) -> Self {
+        match e {
+            EncodingArg::Raw => Encoding::Raw,
+            EncodingArg::Delta => Encoding::Delta,
+        }
+    }
+}
+
+/// Plan a stimulus and upload it to the device.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    plan: PlanArgs,
+    #[command(flatten)]
+    port: PortArgs,
+    /// Slot to write [default: one that is not playing].
+    #[arg(long)]
+    slot: Option<u8>,
+    /// Upload and commit, but do not play.
+    #[arg(long)]
+    no_play: bool,
+    /// Wire encoding.
+    #[arg(long, value_enum, default_value_t = EncodingArg::Delta)]
+    encoding: EncodingArg,
+    /// Print a JSON report instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The planned sequence as the link wants it.
+pub fn upload_spec(plan: &crate::sequence::Plan) -> UploadSpec {
+    let h = &plan.sequence.header;
+    UploadSpec {
+        steps: h.steps,
+        transducers: h.transducers,
+        period_us: h.period_us,
+        center_um: h.center_um,
+        foci_per_step: h.foci_per_step,
+        positions_um: plan
+            .scene
+            .transducers()
+            .iter()
+            .map(|t| t.pos_mm.map(mm_to_um))
+            .collect(),
+        phases: plan.sequence.phases.clone(),
+    }
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        let plan = self.plan.plan()?;
+        let spec = upload_spec(&plan);
+        let mut client = self.port.connect()?;
+        let where_ = client.transport_mut().describe();
+        let info = client
+            .info()
+            .with_context(|| format!("asking {where_} for its info"))?;
+        let slot = match self.slot {
+            Some(s) => s,
+            None => {
+                let st = client.status().context("reading the device status")?;
+                match st.slot {
+                    Some(s) if info.slots > 1 => (s + 1) % info.slots,
+                    _ => 0,
+                }
+            }
+        };
+        check_fits(&spec, &info, slot).map_err(|e| {
+            crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
+        })?;
+        let tty = std::io::stderr().is_terminal() && !self.json;
+        let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
+        let report = client
+            .upload(&spec, slot, self.encoding.into(), chunk, |done, total| {
+                if tty {
+                    let pct = done as f64 / total.max(1) as f64;
+                    let bar = "#".repeat((pct * 30.0) as usize);
+                    eprint!("\ruploading [{bar:<30}] {:>3.0} %", pct * 100.0);
+                    if done == total {
+                        eprintln!();
+                    }
+                }
+            })
+            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
+        if !self.no_play {
+            client
+                .play(slot, PlayAt::NextCycle)
+                .with_context(|| format!("playing slot {slot}"))?;
+        }
+        if self.json {
+            let mut v = serde_json::to_value(report)?;
+            v["wire_efficiency"] = report.wire_efficiency().into();
+            v["playing"] = (!self.no_play).into();
+            v["steps"] = spec.steps.into();
+            v["transducers"] = spec.transducers.into();
+            println!("{v}");
+        } else {
+            println!(
+                "uploaded {} steps × {} transducers to slot {slot}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
+                spec.steps,
+                spec.transducers,
+                report.raw_bytes,
+                report.sequence_bytes,
+                report.payload_bytes,
+                report.wire_bytes_sent + report.wire_bytes_received
+            );
+            println!(
+                "{:.3} s, {:.1} kB/s payload, wire efficiency {:.1} %, CRC {:08x}, {} retries",
+                report.seconds,
+                report.payload_bytes as f64 / report.seconds.max(1e-9) / 1e3,
+                report.wire_efficiency() * 100.0,
+                report.crc32,
+                report.retries
+            );
+            if !self.no_play {
+                println!("playing slot {slot} from the next cycle boundary");
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,448 @@
+//! The simulated device: the firmware core ([`lm_fw_core`]) on the host,
+//! behind a pseudo-terminal with a real clock (`lmhost sim`), or in process
+//! behind a [`Transport`] with a real or virtual clock (the demo, tests).
+//!
+//! Time is microseconds of `CLOCK_MONOTONIC`, which every process on the
+//! machine shares, so a host's `Centroid::host_time_us` stamps can be
+//! compared with the moment the device applied the update.
+
+use std::collections::VecDeque;
+use std::os::fd::{AsFd, OwnedFd};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use anyhow::Context as _;
+
+use crate::link::Transport;
+use crate::link::proxy::{Faults, Faulty};
+
+/// Microseconds of `CLOCK_MONOTONIC`: the clock the simulated device and
+/// the host share.
+pub fn monotonic_us() -> u64 {
+    let ts = nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
+        .expect("CLOCK_MONOTONIC is always available on Linux");
+    ts.tv_sec() as u64 * 1_000_000 + ts.tv_nsec() as u64 / 1_000
+}
+
+/// A device core the simulator can run: bytes in, bytes out, a clock.
+pub trait Core: Send {
+    /// Handle received bytes at `now_us`; append response bytes to `out`.
+    fn receive(&mut self, now_us: u64, bytes: &[u8], out: &mut Vec<u8>);
+    /// Play every step due by `now_us`; returns the next deadline, if any.
+    fn poll(&mut self, now_us: u64) -> Option<u64>;
+    /// What the simulator measured so far.
+    fn stats(&self) -> SimStats;
+}
+
+/// Measurements only a simulated device can make.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct SimStats {
+    /// Output frames written (steps played, muted or not).
+    pub frames: u64,
+    /// Output frames written muted.
+    pub muted_frames: u64,
+    /// Centroid updates applied to an output frame.
+    pub centroids_applied: u64,
+    /// Per applied centroid: µs from `host_time_us` to the start of the
+    /// first step that used it. Bounded ring of the most recent.
+    pub latencies_us: VecDeque<u64>,
+    /// Per output frame: µs between its due time and when it was written
+    /// (the simulator's own scheduling error). Bounded ring.
+    pub step_late_us: VecDeque<u64>,
+    /// Whether the last frame was muted.
+    pub muted_now: bool,
+}
+
+/// How many recent latencies [`SimStats`] keeps (memory stays bounded).
+pub const STATS_RING: usize = 65_536;
+
+/// Push into a bounded ring.
+pub fn push_ring(ring: &mut VecDeque<u64>, v: u64) {
+    if ring.len() == STATS_RING {
+        ring.pop_front();
+    }
+    ring.push_back(v);
+}
+
+/// The `p`-th percentile (0–100) of `values`, nearest rank.
+pub fn percentile(values: impl IntoIterator<Item = u64>, p: f64) -> Option<u64> {
+    let mut v: Vec<u64> = values.into_iter().collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_unstable();
+    let rank = ((p / 100.0) * v.len() as f64).ceil().max(1.0) as usize;
+    Some(v[rank.min(v.len()) - 1])
+}
+
+/// A clock: the real monotonic one, or a virtual one tests advance.
+#[derive(Debug, Clone)]
+pub enum Clock {
+    /// `CLOCK_MONOTONIC`.
+    Real,
+    /// Shared virtual microseconds.
+    Virtual(Arc<Mutex<u64>>),
+}
+
+impl Clock {
+    /// Now, µs.
+    pub fn now_us(&self) -> u64 {
+        match self {
+            Clock::Real => monotonic_us(),
+            Clock::Virtual(t) => *t.lock().unwrap_or_else(|e| e.into_inner()),
+        }
+    }
+}
+
+/// The device in process, as a [`Transport`]: every send is handled at
+/// once; a receive with nothing pending waits for the timeout (real clock)
+/// or advances the virtual clock by it, playing the steps due meanwhile.
+pub struct InProcess<C: Core> {
+    core: Arc<Mutex<C>>,
+    clock: Clock,
+    pending: VecDeque<u8>,
+}
+
+impl<C: Core> InProcess<C> {
+    /// Wrap `core`, sharing it so the caller can read its stats.
+    pub fn new(core: Arc<Mutex<C>>, clock: Clock) -> Self {
+        Self {
+            core,
+            clock,
+            pending: VecDeque::new(),
+        }
+    }
+
+    /// Play the steps due up to `until_us` (virtual clock: also sets it).
+    pub fn advance_to(&mut self, until_us: u64) {
+        let mut core = self.core.lock().unwrap_or_else(|e| e.into_inner());
+        if let Clock::Virtual(t) = &self.clock {
+            let mut now = *t.lock().unwrap_or_else(|e| e.into_inner());
+            // Step through every deadline so the player never sees a jump.
+            while let Some(next) = core.poll(now) {
+                if next > until_us {
+                    break;
+                }
+                now = next.max(now + 1);
+            }
+            *t.lock().unwrap_or_else(|e| e.into_inner()) = until_us.max(now);
+            core.poll(until_us);
+        } else {
+            core.poll(self.clock.now_us());
+        }
+    }
+}
+
+impl<C: Core> Transport for InProcess<C> {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        let now = self.clock.now_us();
+        self.advance_to(now);
+        let mut out = Vec::new();
+        self.core
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .receive(now, bytes, &mut out);
+        self.pending.extend(out);
+        Ok(())
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        if self.pending.is_empty() {
+            match &self.clock {
+                Clock::Real => std::thread::sleep(timeout),
+                Clock::Virtual(_) => {}
+            }
+            let until = self.clock.now_us() + timeout.as_micros() as u64;
+            self.advance_to(until);
+            return Ok(0);
+        }
+        let n = self.pending.len().min(buf.len());
+        for (b, p) in buf.iter_mut().zip(self.pending.drain(..n)) {
+            *b = p;
+        }
+        Ok(n)
+    }
+
+    fn describe(&self) -> String {
+        "in-process simulated device".into()
+    }
+}
+
+/// A pseudo-terminal pair: the device holds the master, clients open the
+/// slave by path.
+pub struct Pty {
+    master: OwnedFd,
+    /// Held open so the master never sees a hang-up between clients.
+    _slave: OwnedFd,
+    /// The slave's path, for `--port`.
+    pub path: String,
+}
+
+impl Pty {
+    /// Open a raw-mode pty.
+    pub fn open() -> anyhow::Result<Self> {
+        use nix::sys::termios;
+        let pair = nix::pty::openpty(None, None).context("opening a pseudo-terminal")?;
+        let mut t = termios::tcgetattr(&pair.slave).context("reading pty settings")?;
+        termios::cfmakeraw(&mut t);
+        termios::tcsetattr(&pair.slave, termios::SetArg::TCSANOW, &t)
+            .context("setting the pty to raw mode")?;
+        let path = nix::unistd::ttyname(&pair.slave)
+            .context("naming the pty")?
+            .to_string_lossy()
+            .into_owned();
+        let flags = nix::fcntl::fcntl(&pair.master, nix::fcntl::FcntlArg::F_GETFL)
+            .context("reading pty flags")?;
+        let flags = nix::fcntl::OFlag::from_bits_truncate(flags) | nix::fcntl::OFlag::O_NONBLOCK;
+        nix::fcntl::fcntl(&pair.master, nix::fcntl::FcntlArg::F_SETFL(flags))
+            .context("making the pty non-blocking")?;
+        Ok(Self {
+            master: pair.master,
+            _slave: pair.slave,
+            path,
+        })
+    }
+}
+
+/// Options of a served simulated device.
+#[derive(Debug, Clone, Default)]
+pub struct ServeOptions {
+    /// Damage the device's side of the link (both directions).
+    pub faults: Option<(Faults, u64)>,
+}
+
+/// Serve `core` on `pty` with the real clock until `stop` is set.
+pub fn serve<C: Core>(
+    core: Arc<Mutex<C>>,
+    pty: Pty,
+    opts: ServeOptions,
+    stop: Arc<AtomicBool>,
+) -> anyhow::Result<()> {
+    struct Master(OwnedFd);
+    impl Transport for Master {
+        fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+            let mut rest = bytes;
+            while !rest.is_empty() {
+                match nix::unistd::write(&self.0, rest) {
+                    Ok(n) => rest = &rest[n..],
+                    Err(nix::errno::Errno::EAGAIN) => std::thread::sleep(Duration::from_micros(50)),
+                    Err(e) => return Err(e.into()),
+                }
+            }
+            Ok(())
+        }
+        fn recv(&mut self, buf: &mut [u8], _timeout: Duration) -> std::io::Result<usize> {
+            match nix::unistd::read(self.0.as_fd(), buf) {
+                Ok(n) => Ok(n),
+                Err(nix::errno::Errno::EAGAIN) | Err(nix::errno::Errno::EIO) => Ok(0),
+                Err(e) => Err(e.into()),
+            }
+        }
+        fn describe(&self) -> String {
+            "pty master".into()
+        }
+    }
+    let poll_fd = pty.master.try_clone().context("duplicating the pty fd")?;
+    let mut link: Box<dyn Transport> = match opts.faults {
+        Some((f, seed)) => Box::new(Faulty::new(Master(pty.master), f, seed)),
+        None => Box::new(Master(pty.master)),
+    };
+    let mut buf = vec![0u8; 4096];
+    let mut out = Vec::new();
+    while !stop.load(Ordering::Relaxed) {
+        let now = monotonic_us();
+        let next = core.lock().unwrap_or_else(|e| e.into_inner()).poll(now);
+        // Sleep in the kernel until input or the next step, at most 20 ms so
+        // `stop` is seen.
+        let wait_us = next.map_or(20_000, |n| n.saturating_sub(now)).min(20_000);
+        let ts = nix::sys::time::TimeSpec::from_duration(Duration::from_micros(wait_us));
+        let mut fds = [nix::poll::PollFd::new(
+            poll_fd.as_fd(),
+            nix::poll::PollFlags::POLLIN,
+        )];
+        let _ = nix::poll::ppoll(&mut fds, Some(ts), None);
+        let n = link
+            .recv(&mut buf, Duration::ZERO)
+            .context("reading the pty")?;
+        if n > 0 {
+            let now = monotonic_us();
+            let mut c = core.lock().unwrap_or_else(|e| e.into_inner());
+            c.poll(now);
+            c.receive(now, &buf[..n], &mut out);
+            drop(c);
+            if !out.is_empty() {
+                link.send(&out).context("writing the pty")?;
+                out.clear();
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Settings of a simulated device.
+#[derive(Debug, Clone, Copy)]
+pub struct SimConfig {
+    /// Steps per slot the memory holds at the full transducer count.
+    pub slot_steps: u32,
+    /// Most transducers.
+    pub max_transducers: u16,
+    /// Centroid timeout (µs) before the output mutes.
+    pub centroid_timeout_us: u32,
+    /// Mute from `Play` until the first centroid.
+    pub require_tracking: bool,
+}
+
+impl Default for SimConfig {
+    /// Four AUTD3 (996 transducers), 400 steps per slot, the firmware's
+    /// default 100 ms centroid timeout, tracking required.
+    fn default() -> Self {
+        Self {
+            slot_steps: 400,
+            max_transducers: 996,
+            centroid_timeout_us: 100_000,
+            require_tracking: true,
+        }
+    }
+}
+
+/// Output driver of the simulator: counts frames, notes muting and when
+/// each accepted centroid first reached an output frame.
+struct Probe<'a> {
+    stats: &'a mut SimStats,
+    now_us: u64,
+    /// Accepted centroids waiting for their first frame: host stamp (µs).
+    waiting: &'a mut Vec<u64>,
+}
+
+impl lm_fw_core::OutputDriver for Probe<'_> {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, frame: &lm_fw_core::Frame<'_>) -> Result<(), Self::Error> {
+        self.stats.frames += 1;
+        let muted = frame.amplitude == 0;
+        self.stats.muted_now = muted;
+        if muted {
+            self.stats.muted_frames += 1;
+        }
+        push_ring(
+            &mut self.stats.step_late_us,
+            self.now_us.saturating_sub(frame.due),
+        );
+        for host_us in self.waiting.drain(..) {
+            self.stats.centroids_applied += 1;
+            push_ring(
+                &mut self.stats.latencies_us,
+                frame.due.saturating_sub(host_us),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// [`lm_fw_core::Device`] with a 1 MHz timer (counts = µs) as a [`Core`].
+pub struct FwCore {
+    device: lm_fw_core::Device<'static>,
+    watch: lm_proto::FrameDecoder,
+    stats: SimStats,
+    waiting: Vec<u64>,
+}
+
+impl FwCore {
+    /// A device with `cfg`. Its sequence memory lives as long as the
+    /// process (the simulator is built once per run).
+    pub fn new(cfg: SimConfig) -> anyhow::Result<Self> {
+        let t = cfg.max_transducers as usize;
+        let bytes = lm_fw_core::memory_bytes(cfg.slot_steps as usize * t, t);
+        let mem: &'static mut [u8] = Box::leak(vec![0u8; bytes].into_boxed_slice());
+        let mut c = lm_fw_core::Config::new(1_000_000);
+        c.max_transducers = cfg.max_transducers;
+        c.centroid_timeout_us = cfg.centroid_timeout_us;
+        c.require_tracking = cfg.require_tracking;
+        let device = lm_fw_core::Device::new(c, mem)
+            .map_err(|e| anyhow::anyhow!("building the simulated device: {e}"))?;
+        Ok(Self {
+            device,
+            watch: lm_proto::FrameDecoder::new(),
+            stats: SimStats::default(),
+            waiting: Vec::new(),
+        })
+    }
+
+    /// The device's status at `now_us`.
+    pub fn status(&self, now_us: u64) -> lm_proto::Status {
+        self.device.status(now_us)
+    }
+}
+
+impl Core for FwCore {
+    fn receive(&mut self, now_us: u64, bytes: &[u8], out: &mut Vec<u8>) {
+        // Watch for centroids so their latency can be measured; the device
+        // decodes the same bytes itself.
+        let mut centroids = Vec::new();
+        let mut input = bytes;
+        loop {
+            input = match self.watch.feed(input) {
+                lm_proto::FeedResult::Consumed => break,
+                lm_proto::FeedResult::Frame { frame, remaining } => {
+                    if let lm_proto::Message::Centroid(c) = frame.message {
+                        centroids.push(c);
+                    }
+                    remaining
+                }
+                lm_proto::FeedResult::Error { remaining, .. } => remaining,
+            };
+        }
+        let before = self.device.status(now_us).last_centroid_seq;
+        self.device.feed(bytes, now_us, &mut |reply: &[u8]| {
+            out.extend_from_slice(reply)
+        });
+        let after = self.device.status(now_us).last_centroid_seq;
+        if after != before {
+            if let Some(c) = centroids.iter().find(|c| c.seq == after && c.present) {
+                self.waiting.push(c.host_time_us);
+            }
+        }
+        self.poll(now_us);
+    }
+
+    fn poll(&mut self, now_us: u64) -> Option<u64> {
+        let mut probe = Probe {
+            stats: &mut self.stats,
+            now_us,
+            waiting: &mut self.waiting,
+        };
+        // Nothing plays: centroids are not waiting for a frame.
+        let next = self.device.poll(now_us, &mut probe);
+        if next.is_none() {
+            self.waiting.clear();
+        }
+        next
+    }
+
+    fn stats(&self) -> SimStats {
+        self.stats.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percentile_by_nearest_rank() {
+        assert_eq!(percentile([5, 1, 4, 2, 3], 50.0), Some(3));
+        assert_eq!(percentile([5, 1, 4, 2, 3], 100.0), Some(5));
+        assert_eq!(percentile((1..=100).rev(), 99.0), Some(99));
+        assert_eq!(percentile([], 99.0), None);
+    }
+
+    #[test]
+    fn ring_stays_bounded() {
+        let mut r = VecDeque::new();
+        for i in 0..(STATS_RING as u64 + 10) {
+            push_ring(&mut r, i);
+        }
+        assert_eq!(r.len(), STATS_RING);
+        assert_eq!(r.front(), Some(&10));
+    }
+}

@@ -1,0 +1,105 @@
+//! Shared by the link end-to-end tests: find (and build) the real `lmhost`
+//! binary, run it, and run `lmhost sim` for the length of a test.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::OnceLock;
+
+/// Path of the `lmhost` binary in this test's target dir and profile,
+/// built once per test process (`CARGO_BIN_EXE_*` only exists within a
+/// package, and lmhost lives in another).
+pub fn lmhost() -> PathBuf {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        // target/<profile>/deps/<test>-<hash>
+        let exe = std::env::current_exe().expect("test executable path");
+        let profile_dir = exe
+            .parent()
+            .and_then(|d| d.parent())
+            .expect("target/<profile>");
+        let target_dir = profile_dir.parent().expect("target dir");
+        let release = profile_dir.file_name().is_some_and(|n| n == "release");
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.args([
+            "build",
+            "--quiet",
+            "-p",
+            "lmhost",
+            "--bin",
+            "lmhost",
+            "--target-dir",
+        ])
+        .arg(target_dir);
+        if release {
+            cmd.arg("--release");
+        }
+        let status = cmd.status().expect("running cargo build -p lmhost");
+        assert!(status.success(), "cargo build -p lmhost failed");
+        profile_dir.join("lmhost")
+    })
+    .clone()
+}
+
+/// Run `lmhost args…` to completion (no `LMHOST_PORT` from outside).
+pub fn run(args: &[&str]) -> Output {
+    Command::new(lmhost())
+        .args(args)
+        .env_remove("LMHOST_PORT")
+        .output()
+        .expect("running lmhost")
+}
+
+/// stdout as text, asserting exit 0 (with stderr in the message).
+pub fn ok(args: &[&str]) -> String {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "lmhost {args:?} failed ({:?}): {}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).expect("utf-8 stdout")
+}
+
+/// Parse stdout of a `--json` command.
+pub fn json(args: &[&str]) -> serde_json::Value {
+    let text = ok(args);
+    serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("{args:?}: bad JSON {e}: {text}"))
+}
+
+/// A running `lmhost sim`, killed on drop.
+pub struct Sim {
+    child: Child,
+    /// The pty path it printed.
+    pub port: String,
+}
+
+impl Sim {
+    /// Start `lmhost sim extra…` and wait for its pty path.
+    pub fn start(extra: &[&str]) -> Sim {
+        let mut child = Command::new(lmhost())
+            .arg("sim")
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("starting lmhost sim");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().expect("sim stdout"))
+            .read_line(&mut line)
+            .expect("reading the sim's pty path");
+        let port = line.trim().to_owned();
+        assert!(port.starts_with("/dev/"), "sim printed {line:?}");
+        Sim { child, port }
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}

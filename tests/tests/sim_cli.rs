@@ -1,0 +1,146 @@
+//! The real `lmhost` binary against `lmhost sim`: info, status, upload,
+//! play, stop, and the errors a user meets.
+
+mod link_support;
+use link_support::{Sim, json, ok, run};
+
+#[test]
+fn info_reports_device_limits() {
+    let sim = Sim::start(&[]);
+    let i = json(&["info", "--port", &sim.port, "--json"]);
+    assert_eq!(i["max_transducers"], 996);
+    assert!(i["slots"].as_u64().unwrap() >= 2, "{i}");
+    assert_eq!(i["min_dwell_us"], 1000);
+    let text = ok(&["info", "--port", &sim.port]);
+    assert!(text.contains("up to 996"), "{text}");
+}
+
+#[test]
+fn upload_commits_plays_and_switches_slots() {
+    let sim = Sim::start(&[]);
+    let p = sim.port.as_str();
+    assert_eq!(json(&["status", "--port", p, "--json"])["state"], "Idle");
+    let up = json(&[
+        "upload", "--port", p, "--foci", "4", "--radius", "3", "--json",
+    ]);
+    assert_eq!(up["steps"], 82, "{up}");
+    assert_eq!(up["slot"], 0);
+    assert_eq!(up["playing"], true);
+    let st = json(&["status", "--port", p, "--json"]);
+    // The firmware mutes until the first centroid arrives.
+    assert_eq!(st["state"], "Muted", "{st}");
+    assert_eq!(st["slot"], 0);
+    // A second upload goes to the other slot and leaves slot 0 playing.
+    let up2 = json(&[
+        "upload",
+        "--port",
+        p,
+        "--radius",
+        "2",
+        "--no-play",
+        "--json",
+    ]);
+    assert_eq!(up2["slot"], 1);
+    assert_eq!(json(&["status", "--port", p, "--json"])["slot"], 0);
+    ok(&["play", "--port", p, "--slot", "1", "--immediate"]);
+    assert_eq!(json(&["status", "--port", p, "--json"])["slot"], 1);
+    ok(&["stop", "--port", p]);
+    let st = json(&["status", "--port", p, "--json"]);
+    assert_eq!(st["state"], "Stopped");
+    assert_eq!(st["crc_errors"], 0);
+    assert_eq!(st["bad_frames"], 0);
+}
+
+#[test]
+fn upload_wire_efficiency_is_at_least_95_percent() {
+    let sim = Sim::start(&[]);
+    for enc in ["raw", "delta"] {
+        let up = json(&[
+            "upload",
+            "--port",
+            &sim.port,
+            "--foci",
+            "4",
+            "--encoding",
+            enc,
+            "--json",
+        ]);
+        let eff = up["wire_efficiency"].as_f64().unwrap();
+        assert!(eff >= 0.95, "{enc}: {up}");
+        assert_eq!(up["retries"], 0);
+    }
+}
+
+#[test]
+fn sequence_too_big_is_refused_before_sending() {
+    // Slots of 10 steps × 996 transducers cannot hold 82 steps.
+    let sim = Sim::start(&["--slot-steps", "10"]);
+    let out = run(&["upload", "--port", &sim.port, "--foci", "4"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("does not fit") && err.contains("slot"),
+        "{err}"
+    );
+    let st = json(&["status", "--port", &sim.port, "--json"]);
+    assert_eq!(st["state"], "Idle");
+    assert_eq!(
+        st["nacks"], 0,
+        "nothing was sent, so nothing was refused: {st}"
+    );
+}
+
+#[test]
+fn playing_an_empty_slot_fails_clearly() {
+    let sim = Sim::start(&[]);
+    let out = run(&["play", "--port", &sim.port, "--slot", "1"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("refused play"), "{err}");
+    assert!(!err.contains("panicked") && !err.contains("{ "), "{err}");
+}
+
+#[test]
+fn no_port_lists_what_was_found() {
+    let out = run(&["info"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no LM board found") && err.contains("--port"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+}
+
+#[test]
+fn missing_port_path_is_an_operation_error() {
+    let out = run(&["status", "--port", "/dev/lmhost-no-such-port"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("/dev/lmhost-no-such-port") && !err.contains("os error"),
+        "{err}"
+    );
+}
+
+#[test]
+fn silent_port_times_out_with_advice() {
+    // A pty nobody answers on: the sim's pty with the sim stopped is gone,
+    // so use a fresh sim and a 1-try, short-timeout request to a cut link.
+    let sim = Sim::start(&["--faults", "cut=0"]);
+    let out = run(&[
+        "info",
+        "--port",
+        &sim.port,
+        "--timeout-ms",
+        "50",
+        "--tries",
+        "2",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no response") && err.contains("2 tries"),
+        "{err}"
+    );
+}
