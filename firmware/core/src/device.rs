@@ -268,6 +268,11 @@ impl<'m> Device<'m> {
             u64::from(us) * u64::from(self.core.cfg.timer_hz) / 1_000_000;
     }
 
+    /// Changes the minimum step dwell (µs), checked at `BeginUpload` and `Play`.
+    pub fn set_min_dwell_us(&mut self, us: u32) {
+        self.core.cfg.min_dwell_us = us;
+    }
+
     /// Turns muting before the first centroid update on or off.
     pub fn set_require_tracking(&mut self, on: bool) {
         self.core.cfg.require_tracking = on;

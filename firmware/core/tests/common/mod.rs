@@ -1,0 +1,232 @@
+//! Shared host-side helpers: a tiny "host" that encodes requests and
+//! decodes the device's responses, and sequence builders.
+#![allow(dead_code)]
+
+use lm_fw_core::{Config, Device, Frame, OutputDriver, memory_bytes};
+use lm_proto::codec::Encoding;
+use lm_proto::{
+    BeginUpload, Chunk, Commit, FeedResult, FrameDecoder, Geometry, MAX_CHUNK, MAX_ENCODED_FRAME,
+    MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt, Positions, encode_frame,
+};
+
+/// Deterministic xorshift64* generator (no dependency, reproducible).
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        let mut x = self.0;
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        self.0 = x;
+        x.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next() % n.max(1)
+    }
+    pub fn byte(&mut self) -> u8 {
+        self.next() as u8
+    }
+}
+
+/// Leaks sequence memory for a device (tests only).
+pub fn memory(slot_bytes: usize, max_t: usize) -> &'static mut [u8] {
+    Box::leak(vec![0u8; memory_bytes(slot_bytes, max_t)].into_boxed_slice())
+}
+
+pub fn device(cfg: Config, slot_bytes: usize) -> Device<'static> {
+    let max_t = usize::from(cfg.max_transducers);
+    Device::new(cfg, memory(slot_bytes, max_t)).unwrap()
+}
+
+/// Owned copy of a response (messages borrow their frame).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Reply {
+    Ack,
+    Nack(NackCode),
+    Info(lm_proto::Info),
+    Status(lm_proto::Status),
+    Other,
+}
+
+/// Sends one request and returns the single response.
+pub fn request(dev: &mut Device<'_>, seq: u16, msg: &Message<'_>, now: u64) -> Reply {
+    let mut wire = [0u8; MAX_ENCODED_FRAME];
+    let n = encode_frame(seq, msg, &mut wire).unwrap();
+    let replies = feed(dev, &wire[..n], now);
+    assert_eq!(
+        replies.len(),
+        1,
+        "one response per request, got {replies:?}"
+    );
+    assert_eq!(replies[0].0, seq, "response echoes seq");
+    replies.into_iter().next().unwrap().1
+}
+
+/// Feeds raw bytes; returns every (seq, reply) the device sent.
+pub fn feed(dev: &mut Device<'_>, bytes: &[u8], now: u64) -> Vec<(u16, Reply)> {
+    let mut out = Vec::new();
+    dev.feed(bytes, now, &mut |b: &[u8]| out.extend_from_slice(b));
+    let mut dec = FrameDecoder::new();
+    let mut replies = Vec::new();
+    let mut input: &[u8] = &out;
+    loop {
+        input = match dec.feed(input) {
+            FeedResult::Consumed => break,
+            FeedResult::Frame { frame, remaining } => {
+                let r = match frame.message {
+                    Message::Ack => Reply::Ack,
+                    Message::Nack(c) => Reply::Nack(c),
+                    Message::Info(i) => Reply::Info(i),
+                    Message::Status(s) => Reply::Status(s),
+                    _ => Reply::Other,
+                };
+                replies.push((frame.seq, r));
+                remaining
+            }
+            FeedResult::Error { error, .. } => panic!("device sent a bad frame: {error}"),
+        };
+    }
+    replies
+}
+
+/// A planned sequence: raw phases and transducer positions.
+#[derive(Clone)]
+pub struct Seq {
+    pub steps: u16,
+    pub transducers: u16,
+    pub period_us: u32,
+    pub center_um: [i32; 3],
+    pub phases: Vec<u8>,
+    pub positions: Vec<[i32; 3]>,
+}
+
+impl Seq {
+    /// A smooth pattern (so Delta compresses) distinct per `tag`.
+    pub fn pattern(steps: u16, transducers: u16, period_us: u32, tag: u8) -> Self {
+        let t = usize::from(transducers);
+        let phases = (0..usize::from(steps) * t)
+            .map(|i| {
+                let (k, j) = (i / t, i % t);
+                (k * 3 + j * 7 + usize::from(tag) * 31) as u8
+            })
+            .collect();
+        let positions = (0..t)
+            .map(|j| {
+                let (x, y) = ((j % 18) as i32, (j / 18) as i32);
+                [x * 10_160 - 86_360, y * 10_160 - 66_040, 0]
+            })
+            .collect();
+        Self {
+            steps,
+            transducers,
+            period_us,
+            center_um: [0, 0, 200_000],
+            phases,
+            positions,
+        }
+    }
+
+    pub fn step(&self, k: u16) -> &[u8] {
+        let t = usize::from(self.transducers);
+        &self.phases[usize::from(k) * t..(usize::from(k) + 1) * t]
+    }
+
+    pub fn encode(&self, enc: Encoding) -> Vec<u8> {
+        let mut buf = vec![0u8; self.phases.len() * 2 + 64];
+        let n = lm_proto::codec::encode(enc, &self.phases, usize::from(self.transducers), &mut buf)
+            .unwrap();
+        buf.truncate(n);
+        buf
+    }
+
+    pub fn begin(&self, slot: u8, enc: Encoding) -> Message<'static> {
+        Message::BeginUpload(BeginUpload {
+            slot,
+            steps: self.steps,
+            transducers: self.transducers,
+            period_us: self.period_us,
+            encoding: enc,
+            encoded_len: self.encode(enc).len() as u32,
+            center_um: self.center_um,
+            foci_per_step: 1,
+        })
+    }
+
+    /// Every request of an upload except the commit, in order.
+    pub fn upload_requests<'a>(
+        &'a self,
+        slot: u8,
+        enc: Encoding,
+        stream: &'a [u8],
+        chunk: usize,
+    ) -> Vec<Message<'a>> {
+        let mut v = vec![self.begin(slot, enc)];
+        for (i, ps) in self.positions.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
+            v.push(Message::Geometry(Geometry {
+                slot,
+                first: (i * MAX_GEOMETRY_POSITIONS) as u16,
+                positions: Positions::from_points(ps),
+            }));
+        }
+        for (i, c) in stream.chunks(chunk.min(MAX_CHUNK)).enumerate() {
+            v.push(Message::Chunk(Chunk {
+                slot,
+                offset: (i * chunk.min(MAX_CHUNK)) as u32,
+                data: c,
+            }));
+        }
+        v
+    }
+
+    pub fn commit(&self, slot: u8) -> Message<'static> {
+        Message::Commit(Commit {
+            slot,
+            crc32: lm_proto::crc32(&self.phases),
+        })
+    }
+
+    /// Uploads and commits; panics on any nack.
+    pub fn upload(&self, dev: &mut Device<'_>, slot: u8, enc: Encoding, now: u64) {
+        let stream = self.encode(enc);
+        for (i, m) in self
+            .upload_requests(slot, enc, &stream, 700)
+            .iter()
+            .enumerate()
+        {
+            assert_eq!(
+                request(dev, i as u16, m, now),
+                Reply::Ack,
+                "request {i}: {m:?}"
+            );
+        }
+        assert_eq!(request(dev, 999, &self.commit(slot), now), Reply::Ack);
+    }
+}
+
+pub fn play(slot: u8, at: PlayAt) -> Message<'static> {
+    Message::Play(Play { slot, at })
+}
+
+/// Output driver keeping every frame (with its phases) in memory.
+#[derive(Default)]
+pub struct Capture {
+    pub frames: Vec<(u64, u8, u16, u8, Vec<u8>)>,
+}
+
+impl OutputDriver for Capture {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, f: &Frame<'_>) -> Result<(), Self::Error> {
+        self.frames
+            .push((f.due, f.slot, f.step, f.amplitude, f.phases.to_vec()));
+        Ok(())
+    }
+}
+
+/// Test configuration: 1 MHz timer, small array, tracking not required.
+pub fn config(max_t: u16) -> Config {
+    let mut c = Config::new(1_000_000);
+    c.max_transducers = max_t;
+    c.require_tracking = false;
+    c
+}

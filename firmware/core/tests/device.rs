@@ -1,0 +1,458 @@
+//! Behaviour of the whole device through the wire protocol.
+
+mod common;
+
+use common::*;
+use lm_fw_core::{Config, MAX_TRANSDUCERS};
+use lm_proto::codec::Encoding;
+use lm_proto::{
+    BeginUpload, Centroid, Chunk, Commit, DeviceState, Message, NackCode, PROTOCOL_VERSION, PlayAt,
+};
+
+fn centroid(seq: u32, pos_um: [i32; 3], present: bool) -> Message<'static> {
+    Message::Centroid(Centroid {
+        seq,
+        pos_um,
+        present,
+        host_time_us: 0,
+    })
+}
+
+fn status(dev: &mut lm_fw_core::Device<'_>, now: u64) -> lm_proto::Status {
+    match request(dev, 77, &Message::GetStatus, now) {
+        Reply::Status(s) => s,
+        r => panic!("expected status, got {r:?}"),
+    }
+}
+
+#[test]
+fn info_reports_configuration() {
+    let mut dev = device(config(996), 200 * 996);
+    let Reply::Info(i) = request(&mut dev, 3, &Message::GetInfo, 0) else {
+        panic!("no info")
+    };
+    assert_eq!(i.proto_version, PROTOCOL_VERSION);
+    assert_eq!(i.max_transducers, 996);
+    assert_eq!(i.slot_bytes, 200 * 996);
+    assert_eq!(i.slots, 2);
+    assert_eq!(i.timer_hz, 1_000_000);
+    assert_eq!(i.min_dwell_us, 1000);
+    assert_eq!(i.max_chunk, 1024);
+    let s = status(&mut dev, 0);
+    assert_eq!(s.state, DeviceState::Idle);
+    assert_eq!(s.slot, None);
+}
+
+#[test]
+fn raw_and_delta_uploads_play_their_phases() {
+    for enc in [Encoding::Raw, Encoding::Delta] {
+        let mut dev = device(config(40), 20 * 40);
+        let seq = Seq::pattern(20, 40, 20_000, 1);
+        seq.upload(&mut dev, 1, enc, 0);
+        assert_eq!(
+            request(&mut dev, 1, &play(1, PlayAt::NextCycle), 500),
+            Reply::Ack
+        );
+        let mut cap = Capture::default();
+        let mut now = 500;
+        for _ in 0..45 {
+            let next = dev.poll(now, &mut cap).unwrap();
+            assert!(next > now);
+            now = next;
+        }
+        assert_eq!(cap.frames.len(), 45);
+        for (i, (due, slot, step, amp, ph)) in cap.frames.iter().enumerate() {
+            assert_eq!(*slot, 1);
+            assert_eq!(usize::from(*step), i % 20);
+            assert_eq!(*due, 500 + i as u64 * 1000);
+            assert_eq!(*amp, 255);
+            assert_eq!(ph.as_slice(), seq.step(*step), "{enc:?} step {step}");
+        }
+        let s = status(&mut dev, now);
+        assert_eq!(s.state, DeviceState::Playing);
+        assert_eq!(s.cycles, 2);
+        assert_eq!(s.missed_deadlines, 0);
+    }
+}
+
+#[test]
+fn min_dwell_is_enforced_at_begin_and_play() {
+    let mut dev = device(config(8), 1000 * 8);
+    let mut seq = Seq::pattern(100, 8, 99_999, 0); // 999.99 µs per step
+    assert_eq!(
+        request(&mut dev, 1, &seq.begin(0, Encoding::Raw), 0),
+        Reply::Nack(NackCode::DwellTooShort)
+    );
+    // Exactly 1 ms per step is allowed.
+    seq.period_us = 100_000;
+    assert_eq!(
+        request(&mut dev, 2, &seq.begin(0, Encoding::Raw), 0),
+        Reply::Ack
+    );
+    seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    dev.set_min_dwell_us(1001);
+    assert_eq!(
+        request(&mut dev, 3, &play(0, PlayAt::Immediate), 0),
+        Reply::Nack(NackCode::DwellTooShort)
+    );
+    dev.set_min_dwell_us(1000);
+    assert_eq!(
+        request(&mut dev, 4, &play(0, PlayAt::Immediate), 0),
+        Reply::Ack
+    );
+    // A stricter device refuses the same header.
+    let mut cfg = config(8);
+    cfg.min_dwell_us = 2000;
+    let mut strict = device(cfg, 1000 * 8);
+    assert_eq!(
+        request(&mut strict, 1, &seq.begin(0, Encoding::Raw), 0),
+        Reply::Nack(NackCode::DwellTooShort)
+    );
+}
+
+#[test]
+fn uploads_into_the_playing_slot_are_refused() {
+    let mut dev = device(config(16), 10 * 16);
+    let seq = Seq::pattern(10, 16, 10_000, 2);
+    seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    assert_eq!(
+        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
+        Reply::Ack
+    );
+    assert_eq!(
+        request(&mut dev, 2, &seq.begin(0, Encoding::Raw), 0),
+        Reply::Nack(NackCode::SlotPlaying)
+    );
+    let chunk = Message::Chunk(Chunk {
+        slot: 0,
+        offset: 0,
+        data: &[1, 2, 3],
+    });
+    assert_eq!(
+        request(&mut dev, 3, &chunk, 0),
+        Reply::Nack(NackCode::SlotPlaying)
+    );
+    assert_eq!(
+        request(&mut dev, 4, &seq.commit(0), 0),
+        Reply::Nack(NackCode::SlotPlaying)
+    );
+    assert_eq!(
+        request(&mut dev, 5, &seq.begin(2, Encoding::Raw), 0),
+        Reply::Nack(NackCode::BadSlot)
+    );
+    assert_eq!(
+        request(&mut dev, 6, &play(1, PlayAt::Immediate), 0),
+        Reply::Nack(NackCode::NotCommitted)
+    );
+    // Queued slot is protected too.
+    seq.upload(&mut dev, 1, Encoding::Raw, 0);
+    assert_eq!(
+        request(&mut dev, 7, &play(1, PlayAt::NextCycle), 0),
+        Reply::Ack
+    );
+    assert_eq!(
+        request(&mut dev, 8, &seq.begin(1, Encoding::Raw), 0),
+        Reply::Nack(NackCode::SlotPlaying)
+    );
+    // After Stop both slots are writable again.
+    assert_eq!(request(&mut dev, 9, &Message::Stop, 0), Reply::Ack);
+    assert_eq!(
+        request(&mut dev, 10, &seq.begin(0, Encoding::Raw), 0),
+        Reply::Ack
+    );
+}
+
+/// Interrupts an upload into slot 1 after every request (and corrupts or
+/// abandons it) while slot 0 plays: the output never changes slot or
+/// phases, and slot 1 never becomes playable.
+#[test]
+fn interrupted_upload_never_touches_the_playing_slot() {
+    for enc in [Encoding::Raw, Encoding::Delta] {
+        let mut dev = device(config(30), 12 * 30);
+        let a = Seq::pattern(12, 30, 12_000, 3);
+        let b = Seq::pattern(12, 30, 12_000, 4);
+        a.upload(&mut dev, 0, enc, 0);
+        assert_eq!(
+            request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
+            Reply::Ack
+        );
+        let stream = b.encode(enc);
+        let reqs = b.upload_requests(1, enc, &stream, 37);
+        let mut cap = Capture::default();
+        let mut now = 0u64;
+        for cut in 1..=reqs.len() {
+            for (i, m) in reqs[..cut].iter().enumerate() {
+                assert_eq!(request(&mut dev, i as u16, m, now), Reply::Ack);
+                now = dev.poll(now, &mut cap).unwrap();
+            }
+            // Interrupted: a commit now is refused, and so is playing slot 1.
+            let commit = request(&mut dev, 500, &b.commit(1), now);
+            if cut < reqs.len() {
+                assert_eq!(commit, Reply::Nack(NackCode::Incomplete), "cut {cut}");
+            } else {
+                // All data there but a corrupt CRC.
+                let bad = Message::Commit(Commit {
+                    slot: 1,
+                    crc32: lm_proto::crc32(&b.phases) ^ 1,
+                });
+                assert_eq!(commit, Reply::Ack);
+                // Recommit a fresh but corrupted copy: one flipped byte.
+                let mut corrupt = b.clone();
+                corrupt.phases[17] ^= 0x40;
+                let cs = corrupt.encode(enc);
+                for (i, m) in corrupt.upload_requests(1, enc, &cs, 37).iter().enumerate() {
+                    assert_eq!(request(&mut dev, i as u16, m, now), Reply::Ack);
+                }
+                assert_eq!(
+                    request(&mut dev, 501, &bad, now),
+                    Reply::Nack(NackCode::CrcMismatch)
+                );
+            }
+            assert_eq!(
+                request(&mut dev, 502, &play(1, PlayAt::Immediate), now),
+                Reply::Nack(NackCode::NotCommitted)
+            );
+            for _ in 0..3 {
+                now = dev.poll(now, &mut cap).unwrap();
+            }
+        }
+        assert!(cap.frames.len() > 3 * reqs.len());
+        for (_, slot, step, amp, ph) in &cap.frames {
+            assert_eq!(*slot, 0);
+            assert_eq!(*amp, 255);
+            assert_eq!(ph.as_slice(), a.step(*step));
+        }
+        assert_eq!(status(&mut dev, now).missed_deadlines, 0);
+    }
+}
+
+#[test]
+fn next_cycle_swap_happens_at_the_cycle_boundary() {
+    let mut dev = device(config(8), 10 * 8);
+    let a = Seq::pattern(10, 8, 10_000, 5);
+    let b = Seq::pattern(5, 8, 10_000, 6);
+    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    b.upload(&mut dev, 1, Encoding::Delta, 0);
+    let mut cap = Capture::default();
+    assert_eq!(
+        request(&mut dev, 1, &play(0, PlayAt::Immediate), 100),
+        Reply::Ack
+    );
+    let mut now = 100;
+    for i in 0..23 {
+        if i == 3 {
+            assert_eq!(
+                request(&mut dev, 2, &play(1, PlayAt::NextCycle), now),
+                Reply::Ack
+            );
+        }
+        now = dev.poll(now, &mut cap).unwrap();
+    }
+    let slots: Vec<(u8, u16, u64)> = cap.frames.iter().map(|f| (f.1, f.2, f.0)).collect();
+    assert_eq!(slots[9], (0, 9, 100 + 9000));
+    assert_eq!(slots[10], (1, 0, 100 + 10_000));
+    assert_eq!(slots[11], (1, 1, 100 + 12_000));
+    assert_eq!(slots[15], (1, 0, 100 + 20_000));
+    for f in &cap.frames[10..] {
+        assert_eq!(f.4.as_slice(), b.step(f.2));
+    }
+    // Immediate swap back.
+    assert_eq!(
+        request(&mut dev, 3, &play(0, PlayAt::Immediate), now + 5),
+        Reply::Ack
+    );
+    dev.poll(now + 5, &mut cap);
+    assert_eq!(
+        cap.frames.last().map(|f| (f.0, f.1, f.2)),
+        Some((now + 5, 0, 0))
+    );
+}
+
+#[test]
+fn gating_mutes_and_resumes() {
+    let mut cfg = config(8);
+    cfg.require_tracking = true;
+    let mut dev = device(cfg, 100 * 8);
+    let a = Seq::pattern(100, 8, 100_000, 7); // 1 ms steps
+    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    let mut cap = Capture::default();
+    assert_eq!(
+        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
+        Reply::Ack
+    );
+    let mut now = 0;
+    // Before the first centroid: muted (require_tracking).
+    for _ in 0..3 {
+        now = dev.poll(now, &mut cap).unwrap();
+    }
+    assert!(cap.frames.iter().all(|f| f.3 == 0));
+    assert_eq!(status(&mut dev, now).state, DeviceState::Muted);
+    assert_eq!(
+        request(&mut dev, 2, &centroid(1, a.center_um, true), now),
+        Reply::Ack
+    );
+    now = dev.poll(now, &mut cap).unwrap();
+    assert_eq!(cap.frames.last().unwrap().3, 255);
+    // Presence false mutes at once (the next poll re-sends the step muted).
+    assert_eq!(
+        request(&mut dev, 3, &centroid(2, a.center_um, false), now + 10),
+        Reply::Ack
+    );
+    let n = cap.frames.len();
+    dev.poll(now + 10, &mut cap);
+    assert_eq!(cap.frames.len(), n + 1);
+    assert_eq!(cap.frames.last().unwrap().3, 0);
+    // Stale seq is refused and does not resume.
+    assert_eq!(
+        request(&mut dev, 4, &centroid(2, a.center_um, true), now + 20),
+        Reply::Nack(NackCode::OutOfOrder)
+    );
+    now = dev.poll(now + 20, &mut cap).unwrap();
+    now = dev.poll(now, &mut cap).unwrap();
+    assert_eq!(cap.frames.last().unwrap().3, 0);
+    // Fresh update resumes at the next step.
+    assert_eq!(
+        request(&mut dev, 5, &centroid(3, a.center_um, true), now),
+        Reply::Ack
+    );
+    let t_update = now;
+    now = dev.poll(now, &mut cap).unwrap();
+    now = dev.poll(now, &mut cap).unwrap();
+    assert_eq!(cap.frames.last().unwrap().3, 255);
+    // Timeout: no update for > 100 ms mutes within one step (1 ms).
+    while now <= t_update + 100_000 {
+        now = dev.poll(now, &mut cap).unwrap();
+        assert_eq!(cap.frames.last().unwrap().3, 255, "at {now}");
+    }
+    now = dev.poll(now, &mut cap).unwrap();
+    let last = cap.frames.last().unwrap();
+    assert_eq!(last.3, 0);
+    assert!(last.0 <= t_update + 100_000 + 1000);
+    // Settable timeout.
+    dev.set_centroid_timeout_us(1_000_000);
+    now = dev.poll(now, &mut cap).unwrap();
+    assert_eq!(cap.frames.last().unwrap().3, 255);
+    // Stop mutes at once.
+    assert_eq!(request(&mut dev, 6, &Message::Stop, now + 3), Reply::Ack);
+    assert_eq!(dev.poll(now + 3, &mut cap), None);
+    assert_eq!(cap.frames.last().unwrap().3, 0);
+    assert_eq!(status(&mut dev, now).state, DeviceState::Stopped);
+}
+
+#[test]
+fn centroid_correction_is_added_from_the_next_step() {
+    let mut dev = device(config(252), 10 * 252);
+    let a = Seq::pattern(10, 252, 10_000, 8);
+    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    let mut cap = Capture::default();
+    request(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
+    let now = dev.poll(0, &mut cap).unwrap();
+    let c = [3_000, -2_000, 204_000];
+    assert_eq!(
+        request(&mut dev, 2, &centroid(9, c, true), now - 1),
+        Reply::Ack
+    );
+    assert_eq!(status(&mut dev, now).correction_um, [3_000, -2_000, 4_000]);
+    dev.poll(now, &mut cap).unwrap();
+    let (_, _, step, _, ph) = cap.frames.last().unwrap().clone();
+    let k = 2.0 * std::f64::consts::PI * 40_000.0 / 340.0e6; // rad/µm
+    let mut nonzero = 0;
+    for (j, x) in a.positions.iter().enumerate() {
+        let d = |p: [i32; 3]| {
+            (0..3)
+                .map(|i| (f64::from(x[i]) - f64::from(p[i])).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let dphi = k * (d(a.center_um) - d(c));
+        let lsb =
+            ((dphi / (2.0 * std::f64::consts::PI) * 256.0).round() as i64).rem_euclid(256) as u8;
+        if lsb != 0 {
+            nonzero += 1;
+        }
+        let want = a.step(step)[j].wrapping_add(lsb);
+        let diff = ph[j].wrapping_sub(want) as i8;
+        assert!(diff.abs() <= 1, "transducer {j}: {} vs {want}", ph[j]);
+    }
+    assert!(nonzero > 200, "a 5 mm shift moves most phases");
+    assert_eq!(dev.offsets().len(), 252);
+}
+
+#[test]
+fn bad_frames_are_counted_and_nacked() {
+    let mut dev = device(config(8), 64);
+    // Garbage with a delimiter: one bad frame, no reply.
+    assert!(feed(&mut dev, &[1, 2, 3, 0], 0).is_empty());
+    // A response sent to the device: Nack(UnknownType).
+    assert_eq!(
+        request(&mut dev, 4, &Message::Ack, 0),
+        Reply::Nack(NackCode::UnknownType)
+    );
+    let s = status(&mut dev, 0);
+    assert_eq!(s.bad_frames, 1);
+    assert_eq!(s.nacks, 1);
+    assert!(MAX_TRANSDUCERS >= 996);
+}
+
+#[test]
+fn chunks_past_end_and_out_of_order_are_nacked() {
+    let mut dev = device(config(4), 64);
+    let b = Message::BeginUpload(BeginUpload {
+        slot: 0,
+        steps: 2,
+        transducers: 4,
+        period_us: 10_000,
+        encoding: Encoding::Raw,
+        encoded_len: 8,
+        center_um: [0; 3],
+        foci_per_step: 1,
+    });
+    assert_eq!(request(&mut dev, 1, &b, 0), Reply::Ack);
+    let ch = |offset, data: &'static [u8]| {
+        Message::Chunk(Chunk {
+            slot: 0,
+            offset,
+            data,
+        })
+    };
+    assert_eq!(request(&mut dev, 2, &ch(0, &[1, 2, 3]), 0), Reply::Ack);
+    assert_eq!(request(&mut dev, 3, &ch(0, &[1, 2, 3]), 0), Reply::Ack);
+    assert_eq!(
+        request(&mut dev, 4, &ch(4, &[1]), 0),
+        Reply::Nack(NackCode::OutOfOrder)
+    );
+    assert_eq!(
+        request(&mut dev, 5, &ch(3, &[0; 6]), 0),
+        Reply::Nack(NackCode::OutOfRange)
+    );
+    assert_eq!(
+        request(&mut dev, 6, &ch(u32::MAX, &[0; 6]), 0),
+        Reply::Nack(NackCode::OutOfRange)
+    );
+    assert_eq!(
+        request(&mut dev, 7, &ch(3, &[4, 5, 6, 7, 8]), 0),
+        Reply::Ack
+    );
+    assert_eq!(
+        request(
+            &mut dev,
+            8,
+            &Message::Chunk(Chunk {
+                slot: 1,
+                offset: 0,
+                data: &[1]
+            }),
+            0
+        ),
+        Reply::Nack(NackCode::NoUpload)
+    );
+}
+
+#[test]
+fn config_defaults_are_documented_values() {
+    let c = Config::new(1_000_000);
+    assert_eq!(c.min_dwell_us, 1000);
+    assert_eq!(c.centroid_timeout_us, 100_000);
+    assert!(c.require_tracking);
+    assert_eq!(c.sound_speed_m_s, 340.0);
+}

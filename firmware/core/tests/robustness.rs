@@ -1,0 +1,277 @@
+//! Random and mutated frames fed to the device: it never panics, answers
+//! at most once per frame with a well-formed response, and never sounds a
+//! slot whose commit was not acknowledged.
+//!
+//! Quick run in `cargo test`; the 10^6-frame run is ignored:
+//! `cargo test --release -p lm-fw-core --test robustness -- --ignored --nocapture`
+
+mod common;
+
+use common::*;
+use lm_fw_core::{Device, Frame, OutputDriver};
+use lm_proto::codec::Encoding;
+use lm_proto::{
+    BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_ENCODED_FRAME, MAX_FRAME, Message,
+    PROTOCOL_VERSION, Play, PlayAt, Positions, cobs, encode_frame,
+};
+
+/// Fails the test if a sounding frame comes from a slot that is not
+/// known-committed.
+struct Guard {
+    committed: [bool; 2],
+    sounding: u64,
+    frames: u64,
+}
+
+impl OutputDriver for Guard {
+    type Error = ();
+    fn write_frame(&mut self, f: &Frame<'_>) -> Result<(), ()> {
+        self.frames += 1;
+        if f.amplitude > 0 {
+            self.sounding += 1;
+            assert!(
+                self.committed
+                    .get(usize::from(f.slot))
+                    .copied()
+                    .unwrap_or(false),
+                "sounding uncommitted slot {}",
+                f.slot
+            );
+        }
+        Ok(())
+    }
+}
+
+const POINTS: [[i32; 3]; 16] = [[1_000, -2_000, 0]; 16];
+
+/// A random request, biased towards values the small device accepts.
+fn random_message<'a>(r: &mut Rng, data: &'a [u8], seqs: &mut u32) -> Message<'a> {
+    let slot = r.below(3) as u8;
+    match r.below(10) {
+        0 => Message::GetInfo,
+        1 => Message::GetStatus,
+        2 => Message::BeginUpload(BeginUpload {
+            slot,
+            steps: 1 + r.below(40) as u16,
+            transducers: 1 + r.below(18) as u16,
+            period_us: (r.below(200) as u32 + 1) * 1000,
+            encoding: if r.below(2) == 0 {
+                Encoding::Raw
+            } else {
+                Encoding::Delta
+            },
+            encoded_len: r.below(700) as u32,
+            center_um: [r.next() as i32 % 50_000, 0, 200_000],
+            foci_per_step: r.byte(),
+        }),
+        3 => {
+            let n = r.below(17) as usize;
+            Message::Geometry(Geometry {
+                slot,
+                first: r.below(20) as u16,
+                positions: Positions::from_points(&POINTS[..n]),
+            })
+        }
+        4 | 5 => {
+            let n = r.below(data.len() as u64 + 1) as usize;
+            Message::Chunk(Chunk {
+                slot,
+                offset: if r.below(8) == 0 {
+                    r.next() as u32
+                } else {
+                    r.below(700) as u32
+                },
+                data: &data[..n],
+            })
+        }
+        6 => Message::Commit(Commit {
+            slot,
+            crc32: if r.below(2) == 0 {
+                lm_proto::crc32(&data[..r.below(64) as usize])
+            } else {
+                r.next() as u32
+            },
+        }),
+        7 => Message::Play(Play {
+            slot,
+            at: if r.below(2) == 0 {
+                PlayAt::NextCycle
+            } else {
+                PlayAt::Immediate
+            },
+        }),
+        8 => {
+            *seqs = seqs.wrapping_add(r.below(3) as u32).wrapping_sub(1);
+            Message::Centroid(Centroid {
+                seq: *seqs,
+                pos_um: [r.next() as i32 % 20_000, r.next() as i32 % 20_000, 200_000],
+                present: r.below(4) != 0,
+                host_time_us: r.next(),
+            })
+        }
+        _ => Message::Stop,
+    }
+}
+
+/// Encodes `decoded` (header + payload, CRC appended here) for the wire.
+fn wire_with_valid_crc(body: &[u8], out: &mut Vec<u8>) {
+    let mut frame = body.to_vec();
+    frame.extend_from_slice(&lm_proto::crc32(body).to_le_bytes());
+    let mut enc = vec![0u8; cobs::max_encoded_len(frame.len())];
+    let n = cobs::encode(&frame, &mut enc).unwrap();
+    out.push(0);
+    out.extend_from_slice(&enc[..n]);
+    out.push(0);
+}
+
+fn mutate(r: &mut Rng, bytes: &mut Vec<u8>) {
+    for _ in 0..1 + r.below(4) {
+        if bytes.is_empty() {
+            bytes.push(r.byte());
+        }
+        let i = r.below(bytes.len() as u64) as usize;
+        match r.below(5) {
+            0 => bytes[i] ^= 1 << r.below(8),
+            1 => bytes[i] = r.byte(),
+            2 => bytes.insert(i, r.byte()),
+            3 => {
+                bytes.remove(i);
+            }
+            _ => bytes.truncate(i),
+        }
+    }
+}
+
+/// Runs `frames` random frames; returns (frames fed, replies, sounding frames out).
+fn run(seed: u64, frames: u64) -> (u64, u64, u64) {
+    let mut r = Rng(seed);
+    let mut dev: Device<'static> = device(config(16), 512);
+    let mut guard = Guard {
+        committed: [false; 2],
+        sounding: 0,
+        frames: 0,
+    };
+    let data: Vec<u8> = (0..1024).map(|i| (i * 13 % 251) as u8).collect();
+    let mut now = 0u64;
+    let mut seqs = 0u32;
+    let mut replies = 0u64;
+    let mut wire = [0u8; MAX_ENCODED_FRAME];
+    let mut bytes = Vec::with_capacity(2 * MAX_ENCODED_FRAME);
+    let mut fed = 0u64;
+    while fed < frames {
+        bytes.clear();
+        let mut known = None;
+        let kind = r.below(10);
+        match kind {
+            // Valid frames (40 %): the handler logic with random fields.
+            0..=3 => {
+                let msg = random_message(&mut r, &data, &mut seqs);
+                let seq = r.next() as u16;
+                let n = encode_frame(seq, &msg, &mut wire).unwrap();
+                bytes.extend_from_slice(&wire[..n]);
+                known = Some((seq, msg));
+            }
+            // Mutated valid frames.
+            4..=6 => {
+                let msg = random_message(&mut r, &data, &mut seqs);
+                let n = encode_frame(r.next() as u16, &msg, &mut wire).unwrap();
+                bytes.extend_from_slice(&wire[..n]);
+                mutate(&mut r, &mut bytes);
+            }
+            // Valid CRC, random type and payload (reaches payload parsing).
+            7 | 8 => {
+                let cap = if r.below(20) == 0 {
+                    MAX_FRAME as u64 + 8
+                } else {
+                    48
+                };
+                let len = r.below(cap) as usize;
+                let mut body = vec![
+                    if r.below(16) == 0 {
+                        r.byte()
+                    } else {
+                        PROTOCOL_VERSION
+                    },
+                    if r.below(4) == 0 {
+                        r.byte()
+                    } else {
+                        1 + r.below(10) as u8
+                    },
+                    r.byte(),
+                    r.byte(),
+                ];
+                body.extend((0..len).map(|_| {
+                    if r.below(3) == 0 {
+                        r.below(3) as u8
+                    } else {
+                        r.byte()
+                    }
+                }));
+                wire_with_valid_crc(&body, &mut bytes);
+            }
+            // Line noise.
+            _ => {
+                let len = r.below(300) as usize;
+                bytes.extend((0..len).map(|_| if r.below(40) == 0 { 0 } else { r.byte() }));
+            }
+        }
+        // Feed in random pieces.
+        let mut rest: &[u8] = &bytes;
+        let mut got = Vec::new();
+        while !rest.is_empty() {
+            let n = 1 + r.below(rest.len() as u64) as usize;
+            let (piece, tail) = rest.split_at(n);
+            got.extend(feed(&mut dev, piece, now));
+            rest = tail;
+        }
+        replies += got.len() as u64;
+        // Track which slots are known-committed from acknowledged requests.
+        if let Some((seq, msg)) = known {
+            // A partial frame left by earlier noise may be completed (and
+            // answered) by this frame's leading delimiter; ours comes last.
+            let (rseq, reply) = got.last().expect("a valid request gets a response");
+            assert_eq!(*rseq, seq);
+            if *reply == Reply::Ack {
+                match msg {
+                    Message::BeginUpload(b) => guard.committed[usize::from(b.slot)] = false,
+                    Message::Commit(c) => guard.committed[usize::from(c.slot)] = true,
+                    _ => {}
+                }
+            }
+        }
+        assert!(got.len() <= 2, "at most one reply per frame");
+        let step = if r.below(50) == 0 { 10_000_000 } else { 3000 };
+        now += r.below(step);
+        dev.poll(now, &mut guard);
+        fed += 1;
+    }
+    let s = dev.status(now);
+    assert_eq!(s.nacks, dev.counters().nacks);
+    (fed, replies, guard.sounding)
+}
+
+#[test]
+fn random_frames_quick() {
+    let (fed, replies, _) = run(0x5EED, 20_000);
+    assert_eq!(fed, 20_000);
+    assert!(replies > 8_000, "{replies} replies");
+}
+
+#[test]
+#[ignore = "long: run in release with --ignored"]
+fn random_frames_million() {
+    let mut total = 0;
+    let mut replies = 0;
+    let mut sounding = 0;
+    for seed in 1..=4u64 {
+        let (f, rep, s) = run(seed * 0x9E37_79B9_7F4A_7C15, 250_000);
+        total += f;
+        replies += rep;
+        sounding += s;
+    }
+    println!(
+        "robustness: {total} random/mutated frames fed, {replies} responses, {sounding} sounding frames, 0 panics"
+    );
+    assert!(total >= 1_000_000);
+    assert!(sounding > 0, "the run should reach playing states");
+}
