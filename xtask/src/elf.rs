@@ -3,8 +3,9 @@
 
 use std::fmt::Write;
 
-/// RAM of the QEMU board (`memory.x`): 0x2000_0000 + 4 MiB.
-const RAM: std::ops::Range<u32> = 0x2000_0000..0x2040_0000;
+/// Cortex-M SRAM region (QEMU's SSRAM2&3 at 0x2000_0000, the H743's DTCM
+/// and AXI SRAM at 0x2000_0000 / 0x2400_0000); code sits below it.
+const RAM: std::ops::Range<u32> = 0x2000_0000..0x4000_0000;
 /// Symbols whose (demangled) name contains one of these hold the sequence
 /// store: the slots the board gives the core.
 const STORE_MARKERS: &[&str] = &["SEQUENCE_STORE", "SLOT_MEM", "STORE"];
@@ -167,10 +168,10 @@ pub fn memory_map(b: &[u8]) -> Result<String, String> {
         )
         .unwrap();
     }
-    writeln!(r, "code memory used: {flash} bytes of 4 MiB").unwrap();
+    writeln!(r, "code memory used: {flash} bytes").unwrap();
     writeln!(
         r,
-        "static RAM (.data + .bss + .uninit): {ram} bytes of 4 MiB (the rest is stack)"
+        "static RAM (.data + .bss + .uninit): {ram} bytes (the rest is stack)"
     )
     .unwrap();
 

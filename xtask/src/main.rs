@@ -115,6 +115,12 @@ impl Ctx {
         self.thumb_release_dir().join(SELFTEST_BIN)
     }
 
+    fn nucleo_elf(&self) -> PathBuf {
+        self.nucleo_target_dir()
+            .join(THUMB)
+            .join("release/lm-fw-nucleo-h743")
+    }
+
     /// The Nucleo crate is its own workspace: give it a subdirectory of ours
     /// so a clean clone keeps one `target/`.
     fn nucleo_target_dir(&self) -> PathBuf {
@@ -425,15 +431,25 @@ fn qemu(c: &Ctx, args: &[String]) -> Result<(), String> {
 }
 
 fn size(c: &Ctx) -> Result<(), String> {
-    let elf_path = c.firmware_elf();
-    if !elf_path.exists() {
+    let qemu_elf = c.firmware_elf();
+    if !qemu_elf.exists() {
         build_qemu_fw(c)?;
     }
-    let bytes =
-        std::fs::read(&elf_path).map_err(|e| format!("cannot read {}: {e}", elf_path.display()))?;
-    let report = elf::memory_map(&bytes).map_err(|e| format!("{}: {e}", elf_path.display()))?;
-    println!("{}", elf_path.display());
-    print!("{report}");
+    let nucleo_elf = c.nucleo_elf();
+    for (board, elf_path) in [("QEMU mps2-an386", qemu_elf), ("Nucleo-H743", nucleo_elf)] {
+        if !elf_path.exists() {
+            println!(
+                "{board}: {} not built (run `cargo xtask build-fw`)",
+                elf_path.display()
+            );
+            continue;
+        }
+        let bytes = std::fs::read(&elf_path)
+            .map_err(|e| format!("cannot read {}: {e}", elf_path.display()))?;
+        let report = elf::memory_map(&bytes).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+        println!("== {board}: {}", elf_path.display());
+        print!("{report}");
+    }
     Ok(())
 }
 

@@ -4,6 +4,9 @@
 //! USART3's kernel clock (pclk1), TIM2's clock and SPI1's kernel clock
 //! (per_ck = HSI) are all 64 MHz. The player needs no more than that.
 
+use core::cell::UnsafeCell;
+use core::sync::atomic::{AtomicUsize, Ordering};
+
 use embedded_hal::spi::{self, ErrorKind, Operation, SpiDevice};
 use stm32h7::stm32h743v as pac;
 
@@ -13,8 +16,6 @@ pub const KERNEL_HZ: u32 = 64_000_000;
 pub const TIMER_HZ: u32 = 1_000_000;
 /// Baud rate of the ST-LINK virtual COM port link.
 pub const BAUD: u32 = 921_600;
-/// SPI1 clock towards the transducer driver: 64 MHz / 4.
-pub const SPI_HZ: u32 = KERNEL_HZ / 4;
 
 /// The board's peripherals, set up.
 pub struct Board {
@@ -128,16 +129,84 @@ impl Board {
     }
 }
 
-/// USART3, polled.
+/// USART3's transmit side (reception runs in [`usart3_rx_isr`]).
 pub struct Uart(pac::USART3);
 
 impl Uart {
-    /// One received byte, if any. Overrun and framing errors are cleared so
-    /// reception continues; the core's frame decoder catches the damage.
-    pub fn try_read(&mut self) -> Option<u8> {
-        let isr = self.0.isr().read();
+    /// Sends `bytes`, waiting for room in the transmit FIFO.
+    pub fn write_all(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            while self.0.isr().read().txe().bit_is_clear() {}
+            self.0.tdr().write(|w| unsafe { w.bits(u32::from(b)) });
+        }
+    }
+}
+
+/// Bytes the receive ring holds: more than one full frame, so a long SPI
+/// frame or step never makes the UART overrun.
+const RX_RING: usize = 4096;
+
+/// Single-producer (the USART3 interrupt) single-consumer (the main loop)
+/// byte ring.
+pub struct RxRing {
+    buf: UnsafeCell<[u8; RX_RING]>,
+    head: AtomicUsize,
+    tail: AtomicUsize,
+    dropped: AtomicUsize,
+}
+
+// SAFETY: `push` runs only in the USART3 interrupt and `pop_into` only in
+// the main loop; each index is written by one side only, and a byte is
+// published (Release) before the other side may read it (Acquire).
+unsafe impl Sync for RxRing {}
+
+/// Received bytes, filled by [`usart3_rx_isr`].
+pub static RX: RxRing = RxRing {
+    buf: UnsafeCell::new([0; RX_RING]),
+    head: AtomicUsize::new(0),
+    tail: AtomicUsize::new(0),
+    dropped: AtomicUsize::new(0),
+};
+
+impl RxRing {
+    fn push(&self, b: u8) {
+        let head = self.head.load(Ordering::Relaxed);
+        if head.wrapping_sub(self.tail.load(Ordering::Acquire)) >= RX_RING {
+            // Full: the frame decoder will see the damage and count it.
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+            return;
+        }
+        // SAFETY: slot `head` is not readable by the consumer until published.
+        unsafe { (*self.buf.get())[head % RX_RING] = b };
+        self.head.store(head.wrapping_add(1), Ordering::Release);
+    }
+
+    /// Moves received bytes into `out`; returns how many.
+    pub fn pop_into(&self, out: &mut [u8]) -> usize {
+        let head = self.head.load(Ordering::Acquire);
+        let mut tail = self.tail.load(Ordering::Relaxed);
+        let mut n = 0;
+        while tail != head && n < out.len() {
+            // SAFETY: slots between tail and head are published and not written.
+            out[n] = unsafe { (*self.buf.get())[tail % RX_RING] };
+            tail = tail.wrapping_add(1);
+            n += 1;
+        }
+        self.tail.store(tail, Ordering::Release);
+        n
+    }
+}
+
+/// USART3 receive interrupt body: drains the receive FIFO into [`RX`] and
+/// clears overrun/framing/noise errors so reception continues.
+pub fn usart3_rx_isr() {
+    // SAFETY: the interrupt only reads ISR/RDR and writes ICR; the main loop
+    // only reads ISR.TXE and writes TDR. These accesses do not interfere.
+    let usart = unsafe { pac::USART3::steal() };
+    loop {
+        let isr = usart.isr().read();
         if isr.ore().bit_is_set() || isr.fe().bit_is_set() || isr.nf().bit_is_set() {
-            self.0.icr().write(|w| {
+            usart.icr().write(|w| {
                 w.orecf()
                     .clear_bit_by_one()
                     .fecf()
@@ -146,19 +215,10 @@ impl Uart {
                     .clear_bit_by_one()
             });
         }
-        if isr.rxne().bit_is_set() {
-            Some(self.0.rdr().read().bits() as u8)
-        } else {
-            None
+        if isr.rxne().bit_is_clear() {
+            break;
         }
-    }
-
-    /// Sends `bytes`, waiting for room in the transmit FIFO.
-    pub fn write_all(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            while self.0.isr().read().txe().bit_is_clear() {}
-            self.0.tdr().write(|w| unsafe { w.bits(u32::from(b)) });
-        }
+        RX.push(usart.rdr().read().bits() as u8);
     }
 }
 

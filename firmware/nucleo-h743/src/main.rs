@@ -1,28 +1,77 @@
-//! LM firmware for the STM32H743ZI Nucleo-144 (bring-up: UART echo).
+//! LM firmware for the STM32H743ZI Nucleo-144: USART3 (ST-LINK virtual COM
+//! port) carries the protocol, TIM2 at 1 MHz drives the player, SPI1 sends
+//! every step's frame to the transducer driver. Peripheral setup is in
+//! [`board`]; everything else is `lm_fw_core::Device`.
 #![no_std]
 #![no_main]
 
 mod board;
 
+use core::ptr::addr_of_mut;
+
+use cortex_m::peripheral::NVIC;
 use cortex_m_rt::entry;
-use stm32h7::stm32h743v as pac;
+use lm_fw_core::{Config, Device, SpiOutput, TimeExtender, memory_bytes};
+use stm32h7::stm32h743v::{self as pac, interrupt};
+
+/// Raw phase bytes per slot: 232 KiB (200 steps × 996 transducers need
+/// 199,200); both slots with positions fill 487 KiB of the 512 KiB AXI SRAM.
+const SLOT_BYTES: usize = 232 * 1024;
+/// Transducers per sequence: four AUTD3 boards.
+const MAX_TRANSDUCERS: u16 = 996;
+const STORE_BYTES: usize = memory_bytes(SLOT_BYTES, MAX_TRANSDUCERS as usize);
+
+/// Both sequence slots with their transducer positions.
+static mut SEQUENCE_STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
+/// The core's state outside the store.
+static mut DEVICE: Option<Device<'static>> = None;
 
 #[entry]
 fn main() -> ! {
-    let dp = pac::Peripherals::take().expect("peripherals are taken once, here");
-    let mut b = board::Board::init(dp);
-    loop {
-        if let Some(c) = b.uart.try_read() {
-            b.uart.write_all(&[c]);
+    let Some(dp) = pac::Peripherals::take() else {
+        panic!("peripherals taken twice")
+    };
+    let board::Board {
+        mut uart,
+        timer,
+        spi,
+    } = board::Board::init(dp);
+    let mut cfg = Config::new(board::TIMER_HZ);
+    cfg.max_transducers = MAX_TRANSDUCERS;
+    // SAFETY: `main` runs once and is the only user of these statics.
+    let dev = unsafe {
+        let store = &mut *addr_of_mut!(SEQUENCE_STORE);
+        match Device::new(cfg, store) {
+            Ok(d) => (*addr_of_mut!(DEVICE)).insert(d),
+            Err(e) => panic!("device setup: {e}"),
         }
-        let _ = b.timer.now();
+    };
+    let mut out = SpiOutput::new(spi);
+    // SAFETY: the handler only touches the receive side (see board::usart3_rx_isr).
+    unsafe { NVIC::unmask(pac::Interrupt::USART3) };
+
+    let mut clock = TimeExtender::new();
+    let mut rx = [0u8; 256];
+    loop {
+        let n = board::RX.pop_into(&mut rx);
+        let now = clock.extend(timer.now());
+        if n > 0 {
+            dev.feed(&rx[..n], now, &mut |reply: &[u8]| uart.write_all(reply));
+        }
+        dev.poll(now, &mut out);
     }
+}
+
+#[interrupt]
+fn USART3() {
+    board::usart3_rx_isr();
 }
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
-    // Stop driving the array: disable SPI1 and hold its chip select high.
-    // SAFETY: nothing else runs after a panic.
+    // Stop driving the array: disable SPI1 and release its chip select.
+    // SAFETY: nothing else runs after a panic (interrupts off first).
+    cortex_m::interrupt::disable();
     let dp = unsafe { pac::Peripherals::steal() };
     dp.SPI1.cr1().write(|w| w.spe().clear_bit());
     dp.GPIOD.bsrr().write(|w| unsafe { w.bits(1 << 14) });
