@@ -52,6 +52,9 @@ pub struct SimStats {
     pub step_late_us: VecDeque<u64>,
     /// Whether the last frame was muted.
     pub muted_now: bool,
+    /// Mute transitions: (due time µs, muted), the most recent
+    /// [`STATS_RING`].
+    pub mute_changes: VecDeque<(u64, bool)>,
 }
 
 /// How many recent latencies [`SimStats`] keeps (memory stays bounded).
@@ -320,6 +323,12 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
     fn write_frame(&mut self, frame: &lm_fw_core::Frame<'_>) -> Result<(), Self::Error> {
         self.stats.frames += 1;
         let muted = frame.amplitude == 0;
+        if muted != self.stats.muted_now || self.stats.frames == 1 {
+            if self.stats.mute_changes.len() == STATS_RING {
+                self.stats.mute_changes.pop_front();
+            }
+            self.stats.mute_changes.push_back((frame.due, muted));
+        }
         self.stats.muted_now = muted;
         if muted {
             self.stats.muted_frames += 1;
@@ -421,6 +430,63 @@ impl Core for FwCore {
 
     fn stats(&self) -> SimStats {
         self.stats.clone()
+    }
+}
+
+/// A simulated device served on a pty from a thread of this process
+/// (the demo's device). Stops when dropped.
+pub struct SimThread {
+    /// The device, to read its measurements.
+    pub core: Arc<Mutex<FwCore>>,
+    /// The pty path to connect to.
+    pub path: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<anyhow::Result<()>>>,
+}
+
+impl SimThread {
+    /// Start serving a device built from `cfg`.
+    pub fn start(cfg: SimConfig) -> anyhow::Result<Self> {
+        let core = Arc::new(Mutex::new(FwCore::new(cfg)?));
+        let pty = Pty::open()?;
+        let path = pty.path.clone();
+        let stop = Arc::new(AtomicBool::new(false));
+        let (c, s) = (core.clone(), stop.clone());
+        let thread = std::thread::Builder::new()
+            .name("lmhost-sim".into())
+            .spawn(move || serve(c, pty, ServeOptions::default(), s))
+            .context("starting the simulator thread")?;
+        Ok(Self {
+            core,
+            path,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// What the device measured so far.
+    pub fn stats(&self) -> SimStats {
+        self.core.lock().unwrap_or_else(|e| e.into_inner()).stats()
+    }
+
+    /// Stop serving; reports a failure of the serving loop.
+    pub fn stop(mut self) -> anyhow::Result<()> {
+        self.halt()
+    }
+
+    fn halt(&mut self) -> anyhow::Result<()> {
+        self.stop.store(true, Ordering::Relaxed);
+        match self.thread.take().map(|t| t.join()) {
+            Some(Ok(r)) => r,
+            Some(Err(_)) => Err(anyhow::anyhow!("the simulator thread failed")),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for SimThread {
+    fn drop(&mut self) {
+        let _ = self.halt();
     }
 }
 

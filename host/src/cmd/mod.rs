@@ -11,6 +11,7 @@ pub mod status;
 pub mod upload;
 pub mod play;
 pub mod stop;
+pub mod demo;
 
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]
@@ -33,6 +34,8 @@ pub enum Command {
     Play(play::Args),
     /// Stop playing (mutes at once).
     Stop(stop::Args),
+    /// Simulated device, LM-M upload, streamed finger, short report.
+    Demo(demo::Args),
 }
 
 impl Command {
@@ -48,6 +51,7 @@ impl Command {
             Command::Upload(a) => a.run(),
             Command::Play(a) => a.run(),
             Command::Stop(a) => a.run(),
+            Command::Demo(a) => a.run(),
         }
     }
 }

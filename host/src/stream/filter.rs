@@ -93,7 +93,10 @@ impl Gaussian {
         let weights = (0..frames)
             .map(|age| (-(age as f64 - mid).powi(2) / (2.0 * sigma_frames * sigma_frames)).exp())
             .collect();
-        Self { weights, window: VecDeque::with_capacity(frames) }
+        Self {
+            weights,
+            window: VecDeque::with_capacity(frames),
+        }
     }
 
     /// The paper's filter: 10 frames. The paper gives no σ; 2 frames keeps
@@ -150,7 +153,12 @@ struct KalmanState {
 
 impl Default for Kalman {
     fn default() -> Self {
-        Self { accel_psd: 100.0, meas_var_mm2: [0.09, 0.09, 0.64], lead_s: 0.0, state: None }
+        Self {
+            accel_psd: 100.0,
+            meas_var_mm2: [0.09, 0.09, 0.64],
+            lead_s: 0.0,
+            state: None,
+        }
     }
 }
 
@@ -162,7 +170,11 @@ impl Filter for Kalman {
         }
         let Some(st) = self.state.as_mut() else {
             let p = self.meas_var_mm2.map(|r| [r, 0.0, 1.0e4]);
-            self.state = Some(KalmanState { t_s: s.t_s, x: s.pos_mm.map(|z| [z, 0.0]), p });
+            self.state = Some(KalmanState {
+                t_s: s.t_s,
+                x: s.pos_mm.map(|z| [z, 0.0]),
+                p,
+            });
             return Some(s.pos_mm);
         };
         // A repeated or out-of-order time stamp still gets a tiny step so the
@@ -186,7 +198,9 @@ impl Filter for Kalman {
             st.x[axis] = [x + kx * innov, v + kv * innov];
             st.p[axis] = [(1.0 - kx) * pp, (1.0 - kx) * pv, vv - kv * pv];
         }
-        Some(std::array::from_fn(|a| st.x[a][0] + st.x[a][1] * self.lead_s))
+        Some(std::array::from_fn(|a| {
+            st.x[a][0] + st.x[a][1] * self.lead_s
+        }))
     }
 }
 
@@ -205,7 +219,12 @@ pub struct OneEuro {
 
 impl Default for OneEuro {
     fn default() -> Self {
-        Self { min_cutoff_hz: 1.0, beta: 0.05, d_cutoff_hz: 1.0, state: None }
+        Self {
+            min_cutoff_hz: 1.0,
+            beta: 0.05,
+            d_cutoff_hz: 1.0,
+            state: None,
+        }
     }
 }
 
@@ -245,7 +264,11 @@ mod tests {
         (0..n)
             .map(|i| {
                 let t_s = i as f64 / 90.0;
-                Sample { t_s, pos_mm: [v_mm_s * t_s, 0.0, 200.0], present: true }
+                Sample {
+                    t_s,
+                    pos_mm: [v_mm_s * t_s, 0.0, 200.0],
+                    present: true,
+                }
             })
             .collect()
     }
@@ -281,9 +304,17 @@ mod tests {
             for s in ramp(20, 90.0) {
                 f.update(&s);
             }
-            let gone = Sample { t_s: 1.0, pos_mm: [0.0; 3], present: false };
+            let gone = Sample {
+                t_s: 1.0,
+                pos_mm: [0.0; 3],
+                present: false,
+            };
             assert_eq!(f.update(&gone), None, "{kind:?}");
-            let back = Sample { t_s: 2.0, pos_mm: [7.0, 8.0, 9.0], present: true };
+            let back = Sample {
+                t_s: 2.0,
+                pos_mm: [7.0, 8.0, 9.0],
+                present: true,
+            };
             assert_eq!(f.update(&back), Some([7.0, 8.0, 9.0]), "{kind:?}");
         }
     }

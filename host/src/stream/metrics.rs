@@ -32,7 +32,10 @@ pub struct FilterScore {
 
 /// Run `kind` over `seconds` of `track` and score it.
 pub fn score(kind: FilterKind, track: &FingerTrack, seconds: f64) -> FilterScore {
-    let clean_track = FingerTrack { noise_mm: [0.0; 3], ..*track };
+    let clean_track = FingerTrack {
+        noise_mm: [0.0; 3],
+        ..*track
+    };
     let (mut noisy_f, mut clean_f) = (kind.build(), kind.build());
     // (t, noisy output, clean output)
     let mut out = Vec::new();
@@ -51,7 +54,12 @@ pub fn score(kind: FilterKind, track: &FingerTrack, seconds: f64) -> FilterScore
     }
     let n = out.len().max(1) as f64;
     let dist2 = |a: &[f64; 3], b: &[f64; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
-    let mse = |tau_s: f64| out.iter().map(|(t, _, q)| dist2(q, &track.truth(t - tau_s))).sum::<f64>() / n;
+    let mse = |tau_s: f64| {
+        out.iter()
+            .map(|(t, _, q)| dist2(q, &track.truth(t - tau_s)))
+            .sum::<f64>()
+            / n
+    };
     // Coarse 1 ms grid over −50…+200 ms, then refine to 0.05 ms.
     let coarse = (-50..=200)
         .map(|ms| ms as f64 * 1e-3)
@@ -62,8 +70,18 @@ pub fn score(kind: FilterKind, track: &FingerTrack, seconds: f64) -> FilterScore
         .min_by(|a, b| mse(*a).total_cmp(&mse(*b)))
         .unwrap_or(coarse);
     let jitter = (out.iter().map(|(_, p, q)| dist2(p, q)).sum::<f64>() / n).sqrt();
-    let error = (out.iter().map(|(t, p, _)| dist2(p, &track.truth(*t))).sum::<f64>() / n).sqrt();
-    FilterScore { filter: kind, lag_ms: lag_s * 1e3, jitter_mm: jitter, error_mm: error }
+    let error = (out
+        .iter()
+        .map(|(t, p, _)| dist2(p, &track.truth(*t)))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    FilterScore {
+        filter: kind,
+        lag_ms: lag_s * 1e3,
+        jitter_mm: jitter,
+        error_mm: error,
+    }
 }
 
 #[cfg(test)]
@@ -88,7 +106,10 @@ mod tests {
     /// Gaussian at equal or lower jitter.
     #[test]
     fn kalman_beats_gaussian() {
-        let track = FingerTrack { away_s: Some((10.0, 11.0)), ..Default::default() };
+        let track = FingerTrack {
+            away_s: Some((10.0, 11.0)),
+            ..Default::default()
+        };
         let g = score(FilterKind::Gaussian, &track, 30.0);
         let k = score(FilterKind::Kalman, &track, 30.0);
         assert!(k.error_mm < g.error_mm, "{k:?} vs {g:?}");

@@ -8,6 +8,7 @@
 
 pub mod filter;
 pub mod metrics;
+pub mod run;
 pub mod source;
 pub mod synthetic;
 

@@ -40,7 +40,11 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         let j: JsonSample = serde_json::from_str(line).map_err(|e| {
             InputError::new(format!("line {line_no}: not a centroid JSON object ({e})"))
         })?;
-        Sample { t_s: j.t, pos_mm: [j.x, j.y, j.z], present: j.present }
+        Sample {
+            t_s: j.t,
+            pos_mm: [j.x, j.y, j.z],
+            present: j.present,
+        }
     } else {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         if fields[0].eq_ignore_ascii_case("t") {
@@ -54,7 +58,10 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         }
         let num = |i: usize, name: &str| {
             fields[i].parse::<f64>().map_err(|_| {
-                InputError::new(format!("line {line_no}: {name} `{}` is not a number", fields[i]))
+                InputError::new(format!(
+                    "line {line_no}: {name} `{}` is not a number",
+                    fields[i]
+                ))
             })
         };
         let present = match fields[4].to_ascii_lowercase().as_str() {
@@ -66,20 +73,31 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
                 )));
             }
         };
-        Sample { t_s: num(0, "t")?, pos_mm: [num(1, "x")?, num(2, "y")?, num(3, "z")?], present }
+        Sample {
+            t_s: num(0, "t")?,
+            pos_mm: [num(1, "x")?, num(2, "y")?, num(3, "z")?],
+            present,
+        }
     };
     if !sample.t_s.is_finite() || sample.pos_mm.iter().any(|v| !v.is_finite()) {
-        return Err(InputError::new(format!("line {line_no}: values must be finite")));
+        return Err(InputError::new(format!(
+            "line {line_no}: values must be finite"
+        )));
     }
     Ok(Some(sample))
 }
 
 /// Samples from any line-oriented reader (stdin, a recorded file).
 pub fn read_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<Sample>> {
-    reader.lines().enumerate().filter_map(|(i, line)| match line {
-        Err(e) => Some(Err(anyhow::Error::new(e).context("reading centroid stream"))),
-        Ok(l) => parse_line(&l, i + 1).map_err(anyhow::Error::new).transpose(),
-    })
+    reader
+        .lines()
+        .enumerate()
+        .filter_map(|(i, line)| match line {
+            Err(e) => Some(Err(anyhow::Error::new(e).context("reading centroid stream"))),
+            Ok(l) => parse_line(&l, i + 1)
+                .map_err(anyhow::Error::new)
+                .transpose(),
+        })
 }
 
 /// Samples from UDP datagrams on 127.0.0.1:`port`, one line (or several,
@@ -91,7 +109,8 @@ pub fn udp(
     use anyhow::Context as _;
     let sock = std::net::UdpSocket::bind(("127.0.0.1", port))
         .with_context(|| format!("binding UDP port 127.0.0.1:{port}"))?;
-    sock.set_read_timeout(Some(idle)).context("setting UDP timeout")?;
+    sock.set_read_timeout(Some(idle))
+        .context("setting UDP timeout")?;
     let mut pending: std::collections::VecDeque<anyhow::Result<Sample>> = Default::default();
     let mut datagrams = 0usize;
     let mut buf = vec![0u8; 65_536];
@@ -131,10 +150,26 @@ mod tests {
 
     #[test]
     fn parses_json_and_csv() {
-        let j = parse_line(r#"{"t":0.5,"x":1,"y":2,"z":3}"#, 1).unwrap().unwrap();
-        assert_eq!(j, Sample { t_s: 0.5, pos_mm: [1.0, 2.0, 3.0], present: true });
+        let j = parse_line(r#"{"t":0.5,"x":1,"y":2,"z":3}"#, 1)
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            j,
+            Sample {
+                t_s: 0.5,
+                pos_mm: [1.0, 2.0, 3.0],
+                present: true
+            }
+        );
         let c = parse_line("0.5, 1, 2, 3, 0", 1).unwrap().unwrap();
-        assert_eq!(c, Sample { t_s: 0.5, pos_mm: [1.0, 2.0, 3.0], present: false });
+        assert_eq!(
+            c,
+            Sample {
+                t_s: 0.5,
+                pos_mm: [1.0, 2.0, 3.0],
+                present: false
+            }
+        );
         assert_eq!(parse_line("t,x,y,z,present", 1).unwrap(), None);
         assert_eq!(parse_line("  # note", 1).unwrap(), None);
     }

@@ -116,7 +116,11 @@ impl FingerTrack {
             let t_s = i as f64 / track.rate_hz;
             let truth = track.truth_with(&ph, t_s);
             let pos_mm = std::array::from_fn(|a| truth[a] + track.noise_mm[a] * rng.normal());
-            Sample { t_s, pos_mm, present: track.present(t_s) }
+            Sample {
+                t_s,
+                pos_mm,
+                present: track.present(t_s),
+            }
         })
     }
 }
@@ -131,7 +135,10 @@ mod tests {
         let a: Vec<_> = t.samples().take(100).collect();
         let b: Vec<_> = t.samples().take(100).collect();
         assert_eq!(a, b);
-        let rms: f64 = (a.iter().map(|s| (s.pos_mm[0] - t.truth(s.t_s)[0]).powi(2)).sum::<f64>()
+        let rms: f64 = (a
+            .iter()
+            .map(|s| (s.pos_mm[0] - t.truth(s.t_s)[0]).powi(2))
+            .sum::<f64>()
             / 100.0)
             .sqrt();
         assert!(rms > 0.2 && rms < 0.4, "{rms}");
@@ -139,7 +146,10 @@ mod tests {
 
     #[test]
     fn finger_leaves_and_returns() {
-        let t = FingerTrack { away_s: Some((1.0, 1.5)), ..Default::default() };
+        let t = FingerTrack {
+            away_s: Some((1.0, 1.5)),
+            ..Default::default()
+        };
         let s: Vec<_> = t.samples().take(180).collect();
         assert!(s[89].present && !s[90].present && !s[134].present && s[135].present);
     }

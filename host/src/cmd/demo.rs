@@ -1,0 +1,225 @@
+//! `lmhost demo`: the whole loop on the simulated device in a few seconds.
+//!
+//! Starts the simulated device on a pty, uploads the paper's LM-M stimulus
+//! (A = 3 mm, 4 foci 3 mm apart, 5 Hz, 0.23 mm steps), plays it, streams a
+//! synthetic finger that leaves and comes back, and reports upload size and
+//! time, step timing, centroid latency and muting.
+
+use anyhow::Context as _;
+use clap::Parser as _;
+use lm_proto::{DeviceState, Encoding, PlayAt};
+
+use crate::cmd::plan::PlanArgs;
+use crate::cmd::upload::upload_spec;
+use crate::link::Client;
+use crate::link::client::check_fits;
+use crate::link::transport::Serial;
+use crate::simdev::{SimConfig, SimThread, monotonic_us, percentile};
+use crate::stream::filter::FilterKind;
+use crate::stream::run::{Pace, stream};
+use crate::stream::synthetic::FingerTrack;
+
+/// The paper's LM-M stimulus as planner flags.
+pub const LM_M_FLAGS: &[&str] = &[
+    "--radius",
+    "3",
+    "--foci",
+    "4",
+    "--spacing",
+    "3",
+    "--freq",
+    "5",
+    "--step",
+    "0.23",
+];
+
+#[derive(clap::Parser)]
+struct PlanOnly {
+    #[command(flatten)]
+    plan: PlanArgs,
+}
+
+/// Run the end-to-end demo on the simulated device.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Seconds of streamed finger (it leaves for the middle fifth).
+    #[arg(long, value_name = "S", default_value_t = 4.0)]
+    seconds: f64,
+    /// Centroid filter.
+    #[arg(long, value_enum, default_value_t = FilterKind::Kalman)]
+    filter: FilterKind,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        if !(self.seconds.is_finite() && (1.0..=600.0).contains(&self.seconds)) {
+            crate::bad_input!("--seconds {} must be between 1 and 600", self.seconds);
+        }
+        let plan =
+            PlanOnly::try_parse_from(std::iter::once("demo").chain(LM_M_FLAGS.iter().copied()))
+                .context("building the LM-M plan flags")?
+                .plan
+                .plan()
+                .context("planning LM-M")?;
+        let spec = upload_spec(&plan);
+        let dwell_us = plan.sequence.header.dwell_us;
+        let steps = spec.steps as u64;
+
+        let sim = SimThread::start(SimConfig::default())?;
+        let mut client = Client::new(Serial::open(&sim.path, 115_200)?);
+        let info = client
+            .info()
+            .context("asking the simulated device for its info")?;
+        check_fits(&spec, &info, 0)
+            .map_err(|e| anyhow::anyhow!("LM-M does not fit the simulated device: {e}"))?;
+        let up = client
+            .upload(
+                &spec,
+                0,
+                Encoding::Delta,
+                info.max_chunk as usize,
+                |_, _| {},
+            )
+            .context("uploading LM-M")?;
+        client.play(0, PlayAt::NextCycle).context("playing LM-M")?;
+
+        let track = FingerTrack {
+            center_mm: plan.scene.center_mm,
+            away_s: Some((0.5 * self.seconds, 0.7 * self.seconds)),
+            ..FingerTrack::default()
+        };
+        let s0 = client.status().context("reading status")?;
+        let t0 = monotonic_us();
+        let mut filter = self.filter.build();
+        let scene = plan.scene.clone();
+        let (mut left_us, mut back_us) = (None, None);
+        let mut states = Vec::new();
+        let mut n = 0u64;
+        let samples = track.samples().take_while(|s| s.t_s < self.seconds).map(Ok);
+        let report = stream(
+            &mut client,
+            samples,
+            filter.as_mut(),
+            |p| scene.drive_point(p),
+            Pace::Timestamps,
+            |c, s| {
+                let now = monotonic_us();
+                if !s.present && left_us.is_none() {
+                    left_us = Some(now);
+                }
+                if s.present && left_us.is_some() && back_us.is_none() {
+                    back_us = Some(now);
+                }
+                n += 1;
+                if n % 9 == 0 {
+                    states.push((s.present, c.status()?.state));
+                }
+                Ok(())
+            },
+        )
+        .context("streaming the synthetic finger")?;
+        let s1 = client.status().context("reading status")?;
+        let elapsed_us = monotonic_us() - t0;
+        let stats = sim.stats();
+        client.stop().context("stopping")?;
+        drop(client);
+        sim.stop()?;
+
+        let played = (s1.cycles as u64 * steps + s1.step as u64)
+            .saturating_sub(s0.cycles as u64 * steps + s0.step as u64);
+        let mean_dwell_us = elapsed_us as f64 / played.max(1) as f64;
+        let lat = |p| percentile(stats.latencies_us.iter().copied(), p).unwrap_or(0);
+        let late_p99 = percentile(stats.step_late_us.iter().copied(), 99.0).unwrap_or(0);
+        let first_change = |after: Option<u64>, muted: bool| {
+            after.and_then(|a| {
+                stats
+                    .mute_changes
+                    .iter()
+                    .find(|(t, m)| *t + 2_000 >= a && *m == muted)
+                    .map(|(t, _)| t.saturating_sub(a))
+            })
+        };
+        let mute_ms = first_change(left_us, true).map(|us| us as f64 / 1e3);
+        let resume_ms = first_change(back_us, false).map(|us| us as f64 / 1e3);
+        let muted_while_away = states
+            .iter()
+            .filter(|(p, _)| !p)
+            .all(|(_, st)| *st == DeviceState::Muted);
+        let sounding_while_present = states
+            .iter()
+            .filter(|(p, _)| *p)
+            .filter(|(_, st)| *st == DeviceState::Playing)
+            .count();
+
+        let v = serde_json::json!({
+            "stimulus": "LM-M A=3 mm, 4 foci, 3 mm spacing, 5 Hz, 0.23 mm steps",
+            "steps": spec.steps, "transducers": spec.transducers, "dwell_us": dwell_us,
+            "upload": { "raw_bytes": up.raw_bytes, "encoded_bytes": up.sequence_bytes,
+                "wire_bytes": up.wire_bytes_sent + up.wire_bytes_received,
+                "wire_efficiency": up.wire_efficiency(), "seconds": up.seconds, "crc32": up.crc32 },
+            "steps_played": played, "mean_dwell_us": mean_dwell_us,
+            "missed_deadlines": s1.missed_deadlines - s0.missed_deadlines,
+            "step_late_p99_us": late_p99,
+            "centroids": { "sent": report.acked, "applied": stats.centroids_applied, "filter": self.filter.name(),
+                "latency_p50_us": lat(50.0), "latency_p99_us": lat(99.0), "latency_max_us": lat(100.0),
+                "target_us": dwell_us + 1000.0,
+                "ack_p99_us": report.ack_percentile_us(99.0) },
+            "muting": { "mute_after_leave_ms": mute_ms, "resume_after_return_ms": resume_ms,
+                "muted_in_every_status_while_away": muted_while_away,
+                "playing_statuses_while_present": sounding_while_present },
+        });
+        if self.json {
+            println!("{v}");
+            return Ok(());
+        }
+        println!("lmhost demo: simulated device on {}", sim_path_note());
+        println!(
+            "stimulus   LM-M A = 3 mm, 4 foci 3 mm apart, 5 Hz, 0.23 mm steps: {} steps × {} transducers, dwell {:.0} µs",
+            spec.steps, spec.transducers, dwell_us
+        );
+        println!(
+            "upload     {} B raw → {} B delta, {} B on the wire ({:.1} % efficient) in {:.0} ms, CRC {:08x}",
+            up.raw_bytes,
+            up.sequence_bytes,
+            up.wire_bytes_sent + up.wire_bytes_received,
+            up.wire_efficiency() * 100.0,
+            up.seconds * 1e3,
+            up.crc32
+        );
+        println!(
+            "steps      {played} played in {:.2} s: mean dwell {mean_dwell_us:.1} µs (planned {dwell_us:.1}), {} missed deadlines, p99 lateness {late_p99} µs",
+            elapsed_us as f64 / 1e6,
+            s1.missed_deadlines - s0.missed_deadlines
+        );
+        println!(
+            "centroids  {} sent at 90 fps ({} filter), {} applied; latency to the applying step p50 {} µs, p99 {} µs, max {} µs (target ≤ dwell + 1 ms = {:.0} µs)",
+            report.acked,
+            self.filter.name(),
+            stats.centroids_applied,
+            lat(50.0),
+            lat(99.0),
+            lat(100.0),
+            dwell_us + 1000.0
+        );
+        let fmt = |x: Option<f64>| x.map_or("n/a".to_owned(), |v| format!("{v:.1} ms"));
+        println!(
+            "muting     finger left → muted after {}; back → sounding after {}; every status while away: {}",
+            fmt(mute_ms),
+            fmt(resume_ms),
+            if muted_while_away {
+                "Muted"
+            } else {
+                "NOT muted"
+            }
+        );
+        Ok(())
+    }
+}
+
+fn sim_path_note() -> &'static str {
+    "a pty in this process (lm-fw-core, real clock)"
+}

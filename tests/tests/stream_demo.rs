@@ -1,0 +1,29 @@
+//! `lmhost demo`: the README's main job, run as a user would.
+
+mod link_support;
+use link_support::json;
+
+#[test]
+fn demo_uploads_plays_streams_and_mutes() {
+    let v = json(&["demo", "--seconds", "2", "--json"]);
+    assert_eq!(v["steps"], 82, "{v}");
+    assert_eq!(v["transducers"], 996);
+    let up = &v["upload"];
+    assert!(up["wire_efficiency"].as_f64().unwrap() >= 0.95, "{v}");
+    assert!(up["encoded_bytes"].as_u64().unwrap() < up["raw_bytes"].as_u64().unwrap());
+    assert!(v["steps_played"].as_u64().unwrap() > 0, "{v}");
+    let c = &v["centroids"];
+    // 2 s at 90 fps, the finger away for 20 % of it: every update with the
+    // finger present reaches an output frame.
+    assert_eq!(c["sent"], 180, "{v}");
+    let applied = c["applied"].as_u64().unwrap();
+    assert!((140..=146).contains(&applied), "{v}");
+    let m = &v["muting"];
+    assert_eq!(m["muted_in_every_status_while_away"], true, "{v}");
+    assert!(m["mute_after_leave_ms"].is_number(), "{v}");
+    assert!(m["resume_after_return_ms"].is_number(), "{v}");
+    assert!(
+        m["playing_statuses_while_present"].as_u64().unwrap() > 0,
+        "{v}"
+    );
+}
