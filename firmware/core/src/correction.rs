@@ -33,6 +33,32 @@ pub fn position_um(positions: &[u8], i: usize) -> [i32; 3] {
     [read_i32(&p[0..4]), read_i32(&p[4..8]), read_i32(&p[8..12])]
 }
 
+/// Square root: `vsqrt.f32` on hard-float Arm (Cortex-M4F/M7), where
+/// neither `core` nor `libm` emit it (libm's portable `sqrtf` is a
+/// ~300-instruction bit loop); `libm` elsewhere (the host lowers it to the
+/// native instruction). The operand goes through a core register because
+/// stable Rust does not accept the `sreg` class on this target; that costs
+/// two `vmov`s.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[inline(always)]
+fn sqrt(x: f32) -> f32 {
+    let bits: u32;
+    // SAFETY: reads and writes only the named registers (s0 declared clobbered).
+    unsafe {
+        core::arch::asm!(
+            "vmov s0, {x}",
+            "vsqrt.f32 s0, s0",
+            "vmov {r}, s0",
+            x = in(reg) x.to_bits(),
+            r = lateout(reg) bits,
+            out("s0") _,
+            options(pure, nomem, nostack, preserves_flags)
+        );
+    }
+    f32::from_bits(bits)
+}
+
+#[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
 #[inline(always)]
 fn sqrt(x: f32) -> f32 {
     libm::sqrtf(x)
@@ -52,17 +78,22 @@ pub fn compute_offsets(
     offsets: &mut [u8],
 ) {
     let scale = lsb_per_um(sound_speed_m_s);
+    // Saturating i32 differences: one instruction each on Cortex-M4
+    // (QSUB); only saturate for positions kilometres apart.
     let s = [
-        (i64::from(c_um[0]) - i64::from(c0_um[0])) as f32,
-        (i64::from(c_um[1]) - i64::from(c0_um[1])) as f32,
-        (i64::from(c_um[2]) - i64::from(c0_um[2])) as f32,
+        c_um[0].saturating_sub(c0_um[0]) as f32,
+        c_um[1].saturating_sub(c0_um[1]) as f32,
+        c_um[2].saturating_sub(c0_um[2]) as f32,
     ];
-    for (i, o) in offsets.iter_mut().enumerate() {
-        let x = position_um(positions, i);
+    for (o, x) in offsets
+        .iter_mut()
+        .zip(positions.chunks_exact(POSITION_BYTES))
+    {
+        let x = [read_i32(&x[0..4]), read_i32(&x[4..8]), read_i32(&x[8..12])];
         let d = [
-            (i64::from(x[0]) - i64::from(c0_um[0])) as f32,
-            (i64::from(x[1]) - i64::from(c0_um[1])) as f32,
-            (i64::from(x[2]) - i64::from(c0_um[2])) as f32,
+            x[0].saturating_sub(c0_um[0]) as f32,
+            x[1].saturating_sub(c0_um[1]) as f32,
+            x[2].saturating_sub(c0_um[2]) as f32,
         ];
         let r0 = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         let e = [d[0] - s[0], d[1] - s[1], d[2] - s[2]];

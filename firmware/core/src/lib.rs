@@ -57,8 +57,12 @@
 //! # Memory
 //!
 //! `size_of::<Device>()` is the core's whole state outside the sequence
-//! memory (receive decoder, send buffer, offset and frame tables): about
-//! 5 KB for [`MAX_TRANSDUCERS`] = 1024 (figures in `BENCHMARKS.md`).
+//! memory: receive decoder (`MAX_FRAME`), send buffer (`MAX_ENCODED_FRAME`),
+//! offset and frame tables ([`MAX_TRANSDUCERS`] bytes each), two upload
+//! states (codec decoder, running CRC, position bitmap). 4,848 bytes on
+//! thumbv7em (a compile-time assertion keeps it ≤ 16 KB). The sequence
+//! memory is [`memory_bytes`]`(slot_bytes, max_transducers)`: per slot the
+//! raw phases plus 12 bytes of position per transducer.
 #![no_std]
 #![warn(missing_docs)]
 
@@ -77,3 +81,7 @@ pub use time::TimeExtender;
 
 /// Largest transducer count the core's tables hold (offsets, frame buffer).
 pub const MAX_TRANSDUCERS: usize = 1024;
+
+// The core's own state (everything outside the sequence memory) stays
+// within the 16 KB static RAM budget on every target.
+const _: () = assert!(core::mem::size_of::<Device<'static>>() <= 16 * 1024);

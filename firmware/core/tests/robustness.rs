@@ -45,7 +45,7 @@ impl OutputDriver for Guard {
 const POINTS: [[i32; 3]; 16] = [[1_000, -2_000, 0]; 16];
 
 /// A random request, biased towards values the small device accepts.
-fn random_message<'a>(r: &mut Rng, data: &'a [u8], seqs: &mut u32) -> Message<'a> {
+fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'static> {
     let slot = r.below(3) as u8;
     match r.below(10) {
         0 => Message::GetInfo,
@@ -151,21 +151,54 @@ fn run(seed: u64, frames: u64) -> (u64, u64, u64) {
         sounding: 0,
         frames: 0,
     };
-    let data: Vec<u8> = (0..1024).map(|i| (i * 13 % 251) as u8).collect();
+    let data: &'static [u8] = Box::leak((0..1024).map(|i| (i * 13 % 251) as u8).collect());
     let mut now = 0u64;
     let mut seqs = 0u32;
     let mut replies = 0u64;
     let mut wire = [0u8; MAX_ENCODED_FRAME];
     let mut bytes = Vec::with_capacity(2 * MAX_ENCODED_FRAME);
     let mut fed = 0u64;
+    let mut script: Vec<Message<'static>> = Vec::new();
     while fed < frames {
         bytes.clear();
         let mut known = None;
-        let kind = r.below(10);
+        if script.is_empty() && r.below(200) == 0 {
+            // Now and then a complete, valid upload (and a play), so the
+            // random frames also hit playing and queued slots.
+            let seq = Seq::pattern(
+                1 + r.below(30) as u16,
+                1 + r.below(16) as u16,
+                40_000,
+                r.byte(),
+            );
+            let seq: &'static Seq = Box::leak(Box::new(seq));
+            let enc = if r.below(2) == 0 {
+                Encoding::Raw
+            } else {
+                Encoding::Delta
+            };
+            let stream: &'static [u8] = Box::leak(seq.encode(enc).into_boxed_slice());
+            let slot = r.below(2) as u8;
+            script.extend(seq.upload_requests(slot, enc, stream, 1 + r.below(200) as usize));
+            script.push(seq.commit(slot));
+            script.push(play(
+                slot,
+                if r.below(2) == 0 {
+                    PlayAt::NextCycle
+                } else {
+                    PlayAt::Immediate
+                },
+            ));
+            script.reverse();
+        }
+        let kind = if script.is_empty() { r.below(10) } else { 0 };
         match kind {
             // Valid frames (40 %): the handler logic with random fields.
             0..=3 => {
-                let msg = random_message(&mut r, &data, &mut seqs);
+                let msg = match script.pop() {
+                    Some(m) => m,
+                    None => random_message(&mut r, data, &mut seqs),
+                };
                 let seq = r.next() as u16;
                 let n = encode_frame(seq, &msg, &mut wire).unwrap();
                 bytes.extend_from_slice(&wire[..n]);
@@ -173,7 +206,7 @@ fn run(seed: u64, frames: u64) -> (u64, u64, u64) {
             }
             // Mutated valid frames.
             4..=6 => {
-                let msg = random_message(&mut r, &data, &mut seqs);
+                let msg = random_message(&mut r, data, &mut seqs);
                 let n = encode_frame(r.next() as u16, &msg, &mut wire).unwrap();
                 bytes.extend_from_slice(&wire[..n]);
                 mutate(&mut r, &mut bytes);
@@ -252,9 +285,10 @@ fn run(seed: u64, frames: u64) -> (u64, u64, u64) {
 
 #[test]
 fn random_frames_quick() {
-    let (fed, replies, _) = run(0x5EED, 20_000);
+    let (fed, replies, sounding) = run(0x5EED, 20_000);
     assert_eq!(fed, 20_000);
     assert!(replies > 8_000, "{replies} replies");
+    assert!(sounding > 0, "the run should reach playing states");
 }
 
 #[test]
