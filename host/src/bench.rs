@@ -52,7 +52,10 @@ impl Section {
 pub type SectionFn = fn(&Options) -> anyhow::Result<Section>;
 
 /// Every section, in report order: `(name, producer)`.
-pub const SECTIONS: &[(&str, SectionFn)] = &[("planner", planner_section)];
+pub const SECTIONS: &[(&str, SectionFn)] = &[
+    ("planner", planner_section),
+    ("field", crate::field::report::bench_section),
+];
 
 /// Runs the sections named in `only` (all when empty), in report order.
 pub fn run(opts: &Options, only: &[String]) -> anyhow::Result<Vec<Section>> {

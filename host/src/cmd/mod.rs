@@ -5,6 +5,7 @@ use clap::Subcommand;
 pub mod bench;
 pub mod plan;
 pub mod scene;
+pub mod simulate;
 pub mod sim;
 pub mod info;
 pub mod status;
@@ -20,6 +21,8 @@ pub enum Command {
     Plan(plan::Args),
     /// Show a scene or export its transducers.
     Scene(scene::Args),
+    /// Simulate a stimulus's acoustic field and plot it.
+    Simulate(simulate::Args),
     /// Time and check the numeric paths; print the bench report.
     Bench(bench::Args),
     /// Run the simulated device on a pty (prints its path).
@@ -44,6 +47,7 @@ impl Command {
         match self {
             Command::Plan(a) => a.run(),
             Command::Scene(a) => a.run(),
+            Command::Simulate(a) => a.run(),
             Command::Bench(a) => a.run(),
             Command::Sim(a) => a.run(),
             Command::Info(a) => a.run(),

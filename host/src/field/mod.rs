@@ -37,7 +37,8 @@
 
 mod kernel;
 pub mod npy;
-// pub mod plot;
+pub mod plot;
+pub mod report;
 
 use std::f64::consts::PI;
 
@@ -659,6 +660,25 @@ pub fn simulate(
         model.radiation_factor(rad.alpha),
     );
     Ok(finish(&plane, steps, &stats))
+}
+
+/// The field model of a planner [`Scene`](crate::scene::Scene): its
+/// transducers, directivity, medium and (only if it has one) reflector.
+pub fn model_for_scene(
+    scene: &crate::scene::Scene,
+    density_kg_m3: f64,
+) -> Result<FieldModel, crate::InputError> {
+    let medium = Medium {
+        sound_speed_m_s: scene.sound_speed_m_s,
+        attenuation_np_per_m: scene.attenuation_np_per_m,
+        density_kg_m3,
+    };
+    let reflector = scene.reflector.map(|r| Reflector {
+        point_mm: r.point_mm,
+        normal: r.normal,
+    });
+    FieldModel::new(&scene.transducers(), scene.directivity, medium, reflector)
+        .map_err(|e| crate::InputError::new(e.to_string()))
 }
 
 /// Index and value of a map's maximum (first one on ties; NaN ignored).

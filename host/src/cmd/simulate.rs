@@ -1,0 +1,525 @@
+//! `lmhost simulate`: plan a stimulus, simulate its acoustic field on the
+//! LM plane and write heatmaps (PNG), maps (`.npy`) and a JSON summary.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use serde_json::json;
+
+use crate::cmd::plan::{PlanArgs, parse_vec3};
+use crate::error::InputError;
+use crate::field::plot::{self, Overlay, Panel};
+use crate::field::{self, FieldMaps, ObservationPlane, Radiation, npy};
+use crate::sequence::Plan;
+
+/// Simulate the acoustic field of an LM stimulus and plot it.
+#[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Writes into --out: mean_pressure.png (time-averaged radiation \
+    pressure), lm_power.png (power at the LM frequency), pressure.png and amplitude.png \
+    (step 0), one .npy per map and summary.json.\n\nExamples:\n  \
+    lmhost simulate --radius 3 --foci 4 --out lmm3\n  \
+    lmhost simulate --scene scenes/paper.toml --radius 3 --out paper\n  \
+    lmhost simulate --compare --out compare       # LM-S vs LM-M, A = 2..6 mm"
+)]
+pub struct Args {
+    #[command(flatten)]
+    plan: PlanArgs,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "simulate-out")]
+    out: PathBuf,
+    /// Observation plane size in mm: `S` (square) or `W,H` [default: 20].
+    #[arg(long, value_name = "MM[,MM]")]
+    plane_size: Option<String>,
+    /// Observation grid step in mm.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.2,
+        allow_negative_numbers = true
+    )]
+    plane_step: f64,
+    /// Observation plane centre X,Y,Z in mm [default: the LM centre].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    plane_center: Option<String>,
+    /// Observation plane axes `UX,UY,UZ,VX,VY,VZ` [default: the scene's LM
+    /// plane axes a, b].
+    #[arg(long, value_name = "U;V", allow_hyphen_values = true)]
+    plane_axes: Option<String>,
+    /// Radiation-pressure coefficient α in α|p|²/(2ρc²) (2 = perfect reflector).
+    #[arg(long, value_name = "A", default_value_t = field::DEFAULT_RADIATION_ALPHA, allow_negative_numbers = true)]
+    alpha: f64,
+    /// Air density ρ in kg/m³.
+    #[arg(long, value_name = "KG_M3", default_value_t = field::DEFAULT_DENSITY_KG_M3, allow_negative_numbers = true)]
+    density: f64,
+    /// Diameter in mm of the disk the force is integrated over (the paper's
+    /// gauge disk is 15 mm).
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 15.0,
+        allow_negative_numbers = true
+    )]
+    disk: f64,
+    /// Factor applied to the simulated force (e.g. measured / simulated).
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    calibration: f64,
+    /// Use the plain f64 loop instead of the fast path (slow; for checking).
+    #[arg(long)]
+    reference: bool,
+    /// Render LM-S and LM-M (--foci, or 4 if --foci is 1) at radii 2-6 mm
+    /// as one grid figure instead of a single stimulus.
+    #[arg(long)]
+    compare: bool,
+}
+
+fn positive(flag: &str, v: f64) -> Result<f64, InputError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(InputError::new(format!(
+            "--{flag} must be a finite number > 0, got {v}"
+        )))
+    }
+}
+
+/// Observation settings resolved from the flags.
+struct View {
+    size_mm: (f64, f64),
+    step_mm: f64,
+    center_mm: Option<[f64; 3]>,
+    axes: Option<([f64; 3], [f64; 3])>,
+    rad: Radiation,
+    density: f64,
+    disk_mm: f64,
+    calibration: f64,
+    reference: bool,
+}
+
+impl Args {
+    fn view(&self) -> Result<View, InputError> {
+        let size_mm = match &self.plane_size {
+            None => (20.0, 20.0),
+            Some(s) => {
+                let v: Result<Vec<f64>, _> = s.split(',').map(|x| x.trim().parse()).collect();
+                match v.as_deref() {
+                    Ok([a]) => (positive("plane-size", *a)?, *a),
+                    Ok([a, b]) => (positive("plane-size", *a)?, positive("plane-size", *b)?),
+                    _ => {
+                        return Err(InputError::new(format!(
+                            "--plane-size takes S or W,H in mm, got `{s}`"
+                        )));
+                    }
+                }
+            }
+        };
+        let axes = match &self.plane_axes {
+            None => None,
+            Some(s) => {
+                let v: Vec<f64> = s
+                    .split([',', ';'])
+                    .map(|x| x.trim().parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| {
+                        InputError::new(format!(
+                            "--plane-axes takes six numbers UX,UY,UZ,VX,VY,VZ, got `{s}`"
+                        ))
+                    })?;
+                if v.len() != 6 {
+                    return Err(InputError::new(format!(
+                        "--plane-axes takes six numbers UX,UY,UZ,VX,VY,VZ, got `{s}`"
+                    )));
+                }
+                Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]]))
+            }
+        };
+        let calibration = self.calibration;
+        if !(calibration.is_finite() && calibration >= 0.0) {
+            return Err(InputError::new(format!(
+                "--calibration must be finite and ≥ 0, got {calibration}"
+            )));
+        }
+        Ok(View {
+            size_mm,
+            step_mm: positive("plane-step", self.plane_step)?,
+            center_mm: self
+                .plane_center
+                .as_deref()
+                .map(|c| parse_vec3("plane-center", c))
+                .transpose()?,
+            axes,
+            rad: Radiation {
+                alpha: positive("alpha", self.alpha)?,
+            },
+            density: positive("density", self.density)?,
+            disk_mm: positive("disk", self.disk)?,
+            calibration,
+            reference: self.reference,
+        })
+    }
+
+    /// Run the subcommand.
+    pub fn run(self) -> anyhow::Result<()> {
+        let view = self.view()?;
+        std::fs::create_dir_all(&self.out)
+            .with_context(|| format!("cannot create output directory {}", self.out.display()))?;
+        if self.compare {
+            return compare(&self.plan, &view, &self.out);
+        }
+        let plan = self.plan.plan()?;
+        let sim = simulate_plan(&plan, &view)?;
+        let r = self.plan.radius;
+        write_outputs(&plan, &sim, &view, r, &self.out)?;
+        println!("{}", sim.text_summary(&plan, r));
+        println!("wrote {}", self.out.display());
+        Ok(())
+    }
+}
+
+/// A simulated stimulus.
+struct Sim {
+    plane: ObservationPlane,
+    maps: FieldMaps,
+    seconds: f64,
+    force_step0_n: f64,
+    force_mean_n: f64,
+    clipped: bool,
+    disk_mm: f64,
+    path: &'static str,
+}
+
+fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
+    let model = field::model_for_scene(&plan.scene, view.density)?;
+    let (u, v) = view
+        .axes
+        .unwrap_or((plan.scene.lm_plane.a, plan.scene.lm_plane.b));
+    let plane = ObservationPlane {
+        center_mm: view.center_mm.unwrap_or(plan.trajectory.center_mm),
+        u,
+        v,
+        width_mm: view.size_mm.0,
+        height_mm: view.size_mm.1,
+        step_mm: view.step_mm,
+    }
+    .validated()
+    .map_err(|e| InputError::new(e.to_string()))?;
+    let seq = &plan.sequence;
+    let steps = plan.trajectory.steps;
+    let t0 = Instant::now();
+    let maps = if view.reference {
+        field::simulate_reference(&model, &plane, &seq.phases, steps, view.rad)
+    } else {
+        field::simulate(&model, &plane, &seq.phases, steps, view.rad)
+    }
+    .map_err(|e| InputError::new(e.to_string()))?;
+    let seconds = t0.elapsed().as_secs_f64();
+    // The disk sits on the LM centre, projected into the plane.
+    let c = plane.project(plan.trajectory.center_mm);
+    let (f0, clipped) = field::disk_force_n(&plane, &maps.pressure_pa, c, view.disk_mm);
+    let (fm, _) = field::disk_force_n(&plane, &maps.mean_pressure_pa, c, view.disk_mm);
+    Ok(Sim {
+        plane,
+        maps,
+        seconds,
+        force_step0_n: f0 * view.calibration,
+        force_mean_n: fm * view.calibration,
+        clipped,
+        disk_mm: view.disk_mm,
+        path: if view.reference {
+            "f64 reference"
+        } else {
+            field::fast_path_isa()
+        },
+    })
+}
+
+/// The maps written, with file stem, title and unit.
+fn map_list(m: &FieldMaps) -> [(&'static str, &'static str, &'static str, &[f64]); 5] {
+    [
+        (
+            "mean_pressure",
+            "Time-averaged radiation pressure",
+            "Pa",
+            &m.mean_pressure_pa,
+        ),
+        (
+            "lm_power",
+            "Radiation-pressure power at the LM frequency",
+            "Pa²",
+            &m.lm_power_pa2,
+        ),
+        (
+            "pressure",
+            "Radiation pressure, step 0",
+            "Pa",
+            &m.pressure_pa,
+        ),
+        (
+            "amplitude",
+            "Sound pressure amplitude, step 0",
+            "Pa",
+            &m.amplitude_pa,
+        ),
+        (
+            "max_pressure",
+            "Maximum radiation pressure over the cycle",
+            "Pa",
+            &m.max_pressure_pa,
+        ),
+    ]
+}
+
+/// Orbit (focus 0 over every step) and step-0 foci in plane coordinates.
+fn overlay(plan: &Plan, plane: &ObservationPlane, disk_mm: f64) -> Overlay {
+    let t = &plan.trajectory;
+    let orbit = if t.steps > 1 {
+        (0..t.steps)
+            .map(|j| plane.project(t.foci_step(j)[0]))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Overlay {
+        orbit,
+        foci: t.foci_step(0).iter().map(|&f| plane.project(f)).collect(),
+        disk: Some((plane.project(t.center_mm), disk_mm)),
+    }
+}
+
+impl Sim {
+    fn peak_json(&self, map: &[f64]) -> serde_json::Value {
+        match field::peak(map) {
+            None => serde_json::Value::Null,
+            Some((i, v)) => {
+                let (iu, iv) = (i % self.maps.nu, i / self.maps.nu);
+                json!({
+                    "value": v,
+                    "uv_mm": [self.plane.u_mm(iu), self.plane.v_mm(iv)],
+                    "xyz_mm": self.plane.point(iu, iv),
+                })
+            }
+        }
+    }
+
+    fn summary_json(&self, plan: &Plan, view: &View, radius_mm: f64) -> serde_json::Value {
+        let t = &plan.trajectory;
+        let p = &self.plane;
+        let maps: serde_json::Map<String, serde_json::Value> = map_list(&self.maps)
+            .iter()
+            .map(|(stem, title, unit, m)| {
+                (
+                    stem.to_string(),
+                    json!({
+                        "title": title,
+                        "unit": unit,
+                        "npy": format!("{stem}.npy"),
+                        "png": format!("{stem}.png"),
+                        "peak": self.peak_json(m),
+                    }),
+                )
+            })
+            .collect();
+        json!({
+            "scene": plan.scene.name,
+            "transducers": plan.scene.transducer_count(),
+            "stimulus": {
+                "radius_mm": radius_mm,
+                "foci": t.foci,
+                "steps": t.steps,
+                "step_mm": t.step_mm,
+                "dwell_s": t.dwell_s,
+                "period_s": t.period_s,
+                "center_mm": t.center_mm,
+            },
+            "model": {
+                "p0_pa_mm": field::T4010A1_P0_PA_MM,
+                "directivity": plan.scene.directivity,
+                "sound_speed_m_s": plan.scene.sound_speed_m_s,
+                "attenuation_np_per_m": plan.scene.attenuation_np_per_m,
+                "density_kg_m3": view.density,
+                "alpha": view.rad.alpha,
+                "reflector": plan.scene.reflector.is_some(),
+            },
+            "plane": {
+                "center_mm": p.center_mm,
+                "u": p.u,
+                "v": p.v,
+                "width_mm": p.width_mm,
+                "height_mm": p.height_mm,
+                "step_mm": p.step_mm,
+                "nu": self.maps.nu,
+                "nv": self.maps.nv,
+                "u_extent_mm": [p.u_mm(0), p.u_mm(self.maps.nu - 1)],
+                "v_extent_mm": [p.v_mm(0), p.v_mm(self.maps.nv - 1)],
+                "layout": "row-major, rows along v, columns along u",
+            },
+            "maps": maps,
+            "force": {
+                "disk_diameter_mm": self.disk_mm,
+                "calibration": view.calibration,
+                "step0_n": self.force_step0_n,
+                "mean_n": self.force_mean_n,
+                "disk_clipped": self.clipped,
+            },
+            "compute": { "seconds": self.seconds, "path": self.path },
+        })
+    }
+
+    fn text_summary(&self, plan: &Plan, radius_mm: f64) -> String {
+        let t = &plan.trajectory;
+        let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
+        format!(
+            "{} foci, A = {radius_mm} mm, N = {} steps, {} transducers; \
+             grid {} × {} at {} mm in {:.3} s ({})\n\
+             peak amplitude {:.0} Pa, radiation pressure {:.1} Pa (step 0), {:.1} Pa (cycle mean)\n\
+             force on a {} mm disk: {:.4} N (step 0), {:.4} N (cycle mean){}",
+            t.foci,
+            t.steps,
+            plan.scene.transducer_count(),
+            self.maps.nu,
+            self.maps.nv,
+            self.plane.step_mm,
+            self.seconds,
+            self.path,
+            pk(&self.maps.amplitude_pa),
+            pk(&self.maps.pressure_pa),
+            pk(&self.maps.mean_pressure_pa),
+            self.disk_mm,
+            self.force_step0_n,
+            self.force_mean_n,
+            if self.clipped {
+                " (disk clipped by the grid)"
+            } else {
+                ""
+            },
+        )
+    }
+}
+
+fn write_outputs(
+    plan: &Plan,
+    sim: &Sim,
+    view: &View,
+    radius_mm: f64,
+    out: &Path,
+) -> anyhow::Result<()> {
+    let ov = overlay(plan, &sim.plane, sim.disk_mm);
+    let kind = if plan.trajectory.foci > 1 {
+        "LM-M"
+    } else {
+        "LM-S"
+    };
+    for (stem, title, unit, map) in map_list(&sim.maps) {
+        let npy_path = out.join(format!("{stem}.npy"));
+        npy::write_f64(&npy_path, sim.maps.nv, sim.maps.nu, map)
+            .with_context(|| format!("cannot write {}", npy_path.display()))?;
+        let panel = Panel {
+            title: format!(
+                "{title}: {kind}, A = {radius_mm} mm, N = {}",
+                plan.trajectory.steps
+            ),
+            map,
+            overlay: ov.clone(),
+        };
+        plot::heatmap(&out.join(format!("{stem}.png")), &sim.plane, &panel, unit)?;
+    }
+    let summary = sim.summary_json(plan, view, radius_mm);
+    let path = out.join("summary.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// Radii of the `--compare` grid (the paper's conditions).
+const COMPARE_RADII_MM: [f64; 5] = [2.0, 3.0, 4.0, 5.0, 6.0];
+
+fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
+    let multi = if args.foci > 1 { args.foci } else { 4 };
+    let mut sims = Vec::new();
+    for (kind, foci) in [("LM-S", 1), ("LM-M", multi)] {
+        for r in COMPARE_RADII_MM {
+            let mut a = args.clone();
+            a.radius = r;
+            a.foci = foci;
+            let plan = a
+                .plan()
+                .with_context(|| format!("planning {kind} at A = {r} mm"))?;
+            let sim = simulate_plan(&plan, view)?;
+            sims.push((kind, r, plan, sim));
+        }
+    }
+    let plane = sims[0].3.plane;
+    let mut summary = Vec::new();
+    for (stem, title, unit, pick) in [
+        (
+            "compare_mean_pressure",
+            "Time-averaged radiation pressure",
+            "Pa",
+            (|m: &FieldMaps| &m.mean_pressure_pa) as fn(&FieldMaps) -> &Vec<f64>,
+        ),
+        (
+            "compare_lm_power",
+            "Radiation-pressure power at the LM frequency",
+            "Pa²",
+            |m: &FieldMaps| &m.lm_power_pa2,
+        ),
+    ] {
+        let panels: Vec<Panel> = sims
+            .iter()
+            .map(|(kind, r, plan, sim)| Panel {
+                title: format!("{kind}, A = {r} mm"),
+                map: pick(&sim.maps),
+                overlay: Overlay {
+                    disk: None,
+                    ..overlay(plan, &sim.plane, view.disk_mm)
+                },
+            })
+            .collect();
+        let title = format!("{title} (shared scale; LM-M: {multi} foci)");
+        plot::grid(
+            &out.join(format!("{stem}.png")),
+            &plane,
+            &panels,
+            2,
+            5,
+            &title,
+            unit,
+        )?;
+    }
+    for (kind, r, plan, sim) in &sims {
+        let stem = format!("{}_{r}mm", kind.to_lowercase().replace('-', ""));
+        npy::write_f64(
+            &out.join(format!("{stem}_mean_pressure.npy")),
+            sim.maps.nv,
+            sim.maps.nu,
+            &sim.maps.mean_pressure_pa,
+        )?;
+        npy::write_f64(
+            &out.join(format!("{stem}_lm_power.npy")),
+            sim.maps.nv,
+            sim.maps.nu,
+            &sim.maps.lm_power_pa2,
+        )?;
+        let mut s = sim.summary_json(plan, view, *r);
+        s["stem"] = json!(stem);
+        summary.push(s);
+        println!(
+            "{kind} A = {r} mm: {}",
+            sim.text_summary(plan, *r).replace('\n', "; ")
+        );
+    }
+    let path = out.join("summary.json");
+    std::fs::write(
+        &path,
+        serde_json::to_string_pretty(&json!({ "compare": summary }))? + "\n",
+    )
+    .with_context(|| format!("cannot write {}", path.display()))?;
+    println!("wrote {}", out.display());
+    Ok(())
+}

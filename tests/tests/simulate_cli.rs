@@ -1,0 +1,219 @@
+//! `lmhost simulate` end to end: the real binary writes heatmaps, maps and
+//! a summary a user can load, and refuses bad flags with exit code 2.
+//!
+//! The binary is `$LMHOST_BIN` when set (CI passes the one it built), or
+//! built here with cargo into this test's own target dir. Grids are small
+//! so the debug binary stays quick.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+fn lmhost() -> &'static Path {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        if let Some(p) = std::env::var_os("LMHOST_BIN") {
+            return PathBuf::from(p);
+        }
+        let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("lmhost-bin");
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let st = Command::new(cargo)
+            .current_dir(root)
+            .args([
+                "build",
+                "--quiet",
+                "-p",
+                "lmhost",
+                "--bin",
+                "lmhost",
+                "--target-dir",
+            ])
+            .arg(&target_dir)
+            .status()
+            .expect("cargo runs");
+        assert!(st.success(), "building lmhost failed");
+        target_dir.join("debug/lmhost")
+    })
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(lmhost())
+        .args(args)
+        .output()
+        .expect("lmhost runs")
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("simulate-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Shape `(rows, cols)` from an NPY header, and the f64 data.
+fn read_npy(path: &Path) -> ((usize, usize), Vec<f64>) {
+    let b = std::fs::read(path).unwrap();
+    assert_eq!(&b[..6], b"\x93NUMPY");
+    let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
+    let h = std::str::from_utf8(&b[10..10 + hl]).unwrap();
+    assert!(h.contains("'descr': '<f8'"), "{h}");
+    let shape = h
+        .split("'shape': (")
+        .nth(1)
+        .unwrap()
+        .split(')')
+        .next()
+        .unwrap();
+    let dims: Vec<usize> = shape
+        .split(',')
+        .map(|s| s.trim().parse().unwrap())
+        .collect();
+    let data = b[10 + hl..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    ((dims[0], dims[1]), data)
+}
+
+#[test]
+fn simulate_writes_maps_heatmaps_and_a_summary() {
+    let out = out_dir("single");
+    let o = run(&[
+        "simulate",
+        "--radius",
+        "3",
+        "--foci",
+        "4",
+        "--plane-size",
+        "8,6",
+        "--plane-step",
+        "0.5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8(o.stdout).unwrap();
+    assert!(stdout.contains("force on a 15 mm disk"), "{stdout}");
+
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["plane"]["nu"], 17);
+    assert_eq!(s["plane"]["nv"], 13);
+    assert_eq!(s["stimulus"]["steps"], 82);
+    assert_eq!(s["stimulus"]["foci"], 4);
+    assert_eq!(s["transducers"], 996);
+    let peak = s["maps"]["mean_pressure"]["peak"]["value"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        peak > 100.0,
+        "a 996-transducer focus gives hundreds of Pa, got {peak}"
+    );
+    // The time-averaged LM-M at A = 3 mm peaks near the centre.
+    let uv = &s["maps"]["mean_pressure"]["peak"]["uv_mm"];
+    let (u, v) = (uv[0].as_f64().unwrap(), uv[1].as_f64().unwrap());
+    assert!(u.hypot(v) < 2.0, "peak at ({u}, {v})");
+    assert!(s["force"]["mean_n"].as_f64().unwrap() > 0.0);
+    // The disk (15 mm) does not fit an 8 × 6 mm grid: said so.
+    assert_eq!(s["force"]["disk_clipped"], true);
+
+    let ((rows, cols), data) = read_npy(&out.join("mean_pressure.npy"));
+    assert_eq!((rows, cols), (13, 17));
+    let max = data.iter().cloned().fold(0.0, f64::max);
+    assert!((max - peak).abs() <= 1e-9 * peak);
+    for stem in [
+        "mean_pressure",
+        "lm_power",
+        "pressure",
+        "amplitude",
+        "max_pressure",
+    ] {
+        let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
+        assert_eq!(&png[1..4], b"PNG", "{stem}.png");
+        assert!(out.join(format!("{stem}.npy")).exists());
+    }
+}
+
+#[test]
+fn simulate_force_scales_with_the_calibration_factor() {
+    let base = [
+        "simulate",
+        "--radius",
+        "0",
+        "--plane-size",
+        "16",
+        "--plane-step",
+        "1",
+    ];
+    let mut forces = Vec::new();
+    for (name, k) in [("k1", "1"), ("k3", "3")] {
+        let out = out_dir(name);
+        let mut args = base.to_vec();
+        args.extend(["--calibration", k, "--out", out.to_str().unwrap()]);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(s["force"]["disk_clipped"], false);
+        forces.push(s["force"]["step0_n"].as_f64().unwrap());
+    }
+    assert!(forces[0] > 0.0);
+    assert!((forces[1] - 3.0 * forces[0]).abs() <= 1e-12 * forces[1]);
+}
+
+#[test]
+fn simulate_compare_renders_one_grid_figure() {
+    let out = out_dir("compare");
+    let o = run(&[
+        "simulate",
+        "--compare",
+        "--plane-size",
+        "14",
+        "--plane-step",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let png = std::fs::read(out.join("compare_mean_pressure.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let runs = s["compare"].as_array().unwrap();
+    assert_eq!(runs.len(), 10);
+    let radii: Vec<f64> = runs
+        .iter()
+        .map(|r| r["stimulus"]["radius_mm"].as_f64().unwrap())
+        .collect();
+    assert_eq!(radii, [2.0, 3.0, 4.0, 5.0, 6.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    assert!(runs[..5].iter().all(|r| r["stimulus"]["foci"] == 1));
+    assert!(runs[5..].iter().all(|r| r["stimulus"]["foci"] == 4));
+    // A wider LM-S orbit spreads the same energy: its time-averaged peak drops.
+    let peak = |i: usize| {
+        runs[i]["maps"]["mean_pressure"]["peak"]["value"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(peak(4) < peak(0));
+}
+
+#[test]
+fn simulate_refuses_bad_planes_with_exit_code_2() {
+    for bad in [
+        &["--plane-step", "0"][..],
+        &["--plane-step", "0.00001"][..],
+        &["--plane-size", "abc"][..],
+        &["--plane-axes", "1,0,0,1,0,0"][..],
+        &["--alpha", "-1"][..],
+    ] {
+        let out = out_dir("bad");
+        let mut args = vec!["simulate", "--out", out.to_str().unwrap()];
+        args.extend(bad);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.starts_with("error: "), "{bad:?}: {err}");
+        assert!(!err.contains("panicked"), "{bad:?}: {err}");
+    }
+}
