@@ -361,12 +361,20 @@ impl Core<'_> {
                 self.writable(c.slot)
                     .and_then(|()| self.store.chunk(c.slot, c.offset, c.data)),
             ),
-            Message::Commit(c) => Self::result(
-                self.writable(c.slot)
-                    .and_then(|()| self.store.commit(c.slot, c.crc32)),
-            ),
+            Message::Commit(c) => {
+                let r = self
+                    .writable(c.slot)
+                    .and_then(|()| self.store.commit(c.slot, c.crc32));
+                #[cfg(feature = "defmt")]
+                if r.is_ok() {
+                    defmt::info!("slot {} committed", c.slot);
+                }
+                Self::result(r)
+            }
             Message::Play(p) => Self::result(self.play(p, now)),
             Message::Stop => {
+                #[cfg(feature = "defmt")]
+                defmt::info!("stop");
                 self.player.stop();
                 self.refresh = true;
                 Message::Ack
@@ -407,6 +415,13 @@ impl Core<'_> {
         if self.offsets_for == Some(b.slot) {
             self.offsets_for = None;
         }
+        #[cfg(feature = "defmt")]
+        defmt::info!(
+            "upload slot {}: {} steps x {} transducers",
+            b.slot,
+            b.steps,
+            b.transducers
+        );
         self.store.begin(b)
     }
 
@@ -430,12 +445,23 @@ impl Core<'_> {
         if !ok {
             return Err(NackCode::DwellTooShort);
         }
-        if !was_playing {
-            // A new play session: the host's centroid stream starts afresh.
+        if was_playing {
+            // Same session (e.g. a re-planned sequence): keep the gate open,
+            // but a host that restarted may count centroids from 0 again.
+            self.gate.restart_sequence();
+        } else {
+            // A new play session needs fresh tracking.
             self.gate.reset();
             self.centroid_um = None;
             self.offsets_for = None;
         }
+        #[cfg(feature = "defmt")]
+        defmt::info!(
+            "play slot {} ({} steps, {} us)",
+            p.slot,
+            h.steps,
+            h.period_us
+        );
         Ok(())
     }
 
@@ -476,7 +502,16 @@ impl Core<'_> {
     }
 
     fn poll<D: OutputDriver>(&mut self, now: u64, out: &mut D) -> Option<u64> {
+        #[cfg(feature = "defmt")]
+        let missed_before = self.player.missed();
         let due = self.player.tick(now);
+        #[cfg(feature = "defmt")]
+        if self.player.missed() != missed_before {
+            defmt::warn!(
+                "missed {} step deadlines",
+                self.player.missed() - missed_before
+            );
+        }
         let playing = self.player.state() == PlayState::Playing;
         let (slot, step, at) = match due {
             Some(d) => (d.slot, d.step, d.at),

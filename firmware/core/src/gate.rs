@@ -20,6 +20,8 @@ pub struct Gate {
     /// Mute until the first update arrives.
     pub require_tracking: bool,
     last: Option<Update>,
+    /// Accept the next update whatever its sequence number.
+    accept_any: bool,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -36,6 +38,7 @@ impl Gate {
             timeout_counts,
             require_tracking,
             last: None,
+            accept_any: false,
         }
     }
 
@@ -43,10 +46,20 @@ impl Gate {
     /// sequence numbers may restart).
     pub fn reset(&mut self) {
         self.last = None;
+        self.accept_any = false;
+    }
+
+    /// Keeps the gate as it is but accepts the next update whatever its
+    /// sequence number (a host that restarted mid-play counts from 0 again).
+    pub fn restart_sequence(&mut self) {
+        self.accept_any = true;
     }
 
     /// Whether `seq` is newer than the last accepted update.
     pub fn is_fresh(&self, seq: u32) -> bool {
+        if self.accept_any {
+            return true;
+        }
         match self.last {
             None => true,
             Some(u) => (seq.wrapping_sub(u.seq) as i32) > 0,
@@ -64,6 +77,7 @@ impl Gate {
             at: now,
             present,
         });
+        self.accept_any = false;
         true
     }
 
@@ -109,9 +123,20 @@ mod tests {
         assert!(g.update(6, true, 4));
         assert!(g.open(4));
         // wrapping sequence numbers
-        assert!(g.update(u32::MAX, true, 5) == false);
+        assert!(!g.update(u32::MAX, true, 5));
         let mut h = Gate::new(100, true);
         assert!(h.update(u32::MAX, true, 0));
         assert!(h.update(0, true, 1));
+    }
+
+    #[test]
+    fn restart_sequence_keeps_state_but_accepts_any_seq() {
+        let mut g = Gate::new(100, true);
+        assert!(g.update(1000, true, 0));
+        g.restart_sequence();
+        assert!(g.open(50), "no glitch");
+        assert!(g.update(0, true, 60));
+        assert!(!g.update(0, true, 70), "ordering applies again");
+        assert_eq!(g.last_seq(), 0);
     }
 }

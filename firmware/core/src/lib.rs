@@ -49,7 +49,9 @@
 //!   [`Config::centroid_timeout_us`]) mutes (amplitude 0) within one step;
 //!   with [`Config::require_tracking`] (default) output stays muted from
 //!   `Play` until the first centroid. `Stop` mutes on the next `poll`.
-//!   A new play session (Play while not playing) forgets old centroids.
+//!   A new play session (Play while not playing) forgets old centroids;
+//!   Play while playing keeps the gate but accepts the next centroid
+//!   whatever its sequence number (a restarted host counts from 0).
 //! - Handler: every request gets `Ack`, `Nack(code)`, `Info` or `Status`;
 //!   bad frames are counted ([`Counters`]); responses sent to the device
 //!   get `Nack(UnknownType)`; stale centroids get `Nack(OutOfOrder)`.

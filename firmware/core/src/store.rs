@@ -282,14 +282,13 @@ impl<'m> Store<'m> {
         if end > u64::from(up.encoded_len) {
             return Err(NackCode::OutOfRange);
         }
-        if let Some(last) = up.last {
-            if last.offset == offset && last.len == len {
-                return if last.crc == lm_proto::crc32(data) {
-                    Ok(())
-                } else {
-                    Err(NackCode::OutOfOrder)
-                };
-            }
+        let duplicate = up.last.filter(|l| l.offset == offset && l.len == len);
+        if let Some(last) = duplicate {
+            return if last.crc == lm_proto::crc32(data) {
+                Ok(())
+            } else {
+                Err(NackCode::OutOfOrder)
+            };
         }
         if offset as usize != up.decoder.consumed() {
             return Err(NackCode::OutOfOrder);
