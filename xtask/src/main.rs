@@ -1,6 +1,6 @@
 //! `cargo xtask <task>`: project tasks.
 //!
-//! - `ci`: THE test command. Installs what is missing (the thumb target,
+//! - `ci [--from STEP]`: THE test command. Installs what is missing (the thumb target,
 //!   `qemu-system-arm` when root), then runs every step in [`STEPS`] in order,
 //!   streaming output, stopping at the first failure, and printing a timing
 //!   summary.
@@ -143,7 +143,12 @@ fn run(mut cmd: impl BorrowMut<Command>) -> Result<(), String> {
 }
 
 fn show(cmd: &Command) -> String {
-    let mut s = cmd.get_program().to_string_lossy().into_owned();
+    let program = Path::new(cmd.get_program());
+    let mut s = program
+        .file_name()
+        .unwrap_or(program.as_os_str())
+        .to_string_lossy()
+        .into_owned();
     for a in cmd.get_args() {
         s.push(' ');
         s.push_str(&a.to_string_lossy());
@@ -257,8 +262,11 @@ fn step_host_build(c: &Ctx) -> Result<(), String> {
 }
 
 fn step_host_test(c: &Ctx) -> Result<(), String> {
-    // The e2e QEMU test uses the firmware built above instead of building its own.
-    run(c.cargo(&["test"]).env("LM_FW_QEMU_ELF", c.firmware_elf()))
+    // The e2e QEMU test uses the firmware built above instead of building its
+    // own. --no-fail-fast: one failing test target must not hide the others.
+    run(c
+        .cargo(&["test", "--no-fail-fast"])
+        .env("LM_FW_QEMU_ELF", c.firmware_elf()))
 }
 
 /// QEMU command line for `elf`: no display, semihosting for output and exit
@@ -355,11 +363,25 @@ fn step_core_robustness(c: &Ctx) -> Result<(), String> {
     )
 }
 
-fn ci(c: &Ctx) -> Result<(), String> {
+/// `ci` runs every step; `ci --from N` resumes at step N (1-based) after a fix.
+fn ci(c: &Ctx, args: &[String]) -> Result<(), String> {
+    let first = match args {
+        [] => 1,
+        [flag, n] if flag == "--from" => match n.parse::<usize>() {
+            Ok(n) if (1..=STEPS.len()).contains(&n) => n,
+            _ => {
+                return Err(format!(
+                    "--from needs a step number 1-{}, got `{n}`",
+                    STEPS.len()
+                ));
+            }
+        },
+        _ => return Err("usage: cargo xtask ci [--from STEP]".into()),
+    };
     let mut times: Vec<(&str, Duration, bool)> = Vec::new();
     let start = Instant::now();
     let mut failure = None;
-    for (i, step) in STEPS.iter().enumerate() {
+    for (i, step) in STEPS.iter().enumerate().skip(first - 1) {
         println!("\n==> [{}/{}] {}", i + 1, STEPS.len(), step.name);
         let t = Instant::now();
         let r = (step.run)(c);
@@ -378,7 +400,11 @@ fn ci(c: &Ctx) -> Result<(), String> {
     match failure {
         Some(e) => Err(e),
         None => {
-            println!("ci: all {} steps passed", STEPS.len());
+            println!(
+                "ci: {} of {} steps run, all passed",
+                times.len(),
+                STEPS.len()
+            );
             Ok(())
         }
     }
@@ -457,11 +483,13 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let c = Ctx::new();
     let result = match args.first().map(String::as_str) {
-        Some("ci") if args.len() == 1 => ci(&c),
+        Some("ci") => ci(&c, &args[1..]),
         Some("build-fw") if args.len() == 1 => build_fw(&c),
         Some("qemu") => qemu(&c, &args[1..]),
         Some("size") if args.len() == 1 => size(&c),
-        _ => Err("usage: cargo xtask <ci | build-fw | qemu [--tcp PORT] | size>".into()),
+        _ => Err(
+            "usage: cargo xtask <ci [--from STEP] | build-fw | qemu [--tcp PORT] | size>".into(),
+        ),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
