@@ -279,16 +279,21 @@ impl<'m> Device<'m> {
         self.core.gate.require_tracking = on;
     }
 
-    /// Current per-transducer correction offsets (u8 phase LSB) of the
-    /// playing slot; all zero before the first centroid.
+    /// Per-transducer correction offsets (u8 phase LSB) being added to the
+    /// playing slot's frames; empty while no correction applies (no
+    /// centroid yet, or nothing playing).
     pub fn offsets(&self) -> &[u8] {
-        let t = self
-            .core
-            .player
-            .slot()
-            .and_then(|s| self.core.store.header(s))
-            .map_or(0, |h| usize::from(h.transducers));
-        &self.core.offsets[..t]
+        let c = &self.core;
+        match c.player.slot().filter(|s| c.offsets_for == Some(*s)) {
+            Some(slot) => {
+                let t = c
+                    .store
+                    .header(slot)
+                    .map_or(0, |h| usize::from(h.transducers));
+                &c.offsets[..t]
+            }
+            None => &[],
+        }
     }
 
     /// Whether the output sounds at `now` (playing and the gate is open).

@@ -348,6 +348,10 @@ fn centroid_correction_is_added_from_the_next_step() {
     request(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
     let now = dev.poll(0, &mut cap).unwrap();
     let c = [3_000, -2_000, 204_000];
+    assert!(
+        dev.offsets().is_empty(),
+        "no correction before the first centroid"
+    );
     assert_eq!(
         request(&mut dev, 2, &centroid(9, c, true), now - 1),
         Reply::Ack
