@@ -121,10 +121,15 @@ impl Ctx {
             .join("release/lm-fw-nucleo-h743")
     }
 
-    /// The Nucleo crate is its own workspace: give it a subdirectory of ours
-    /// so a clean clone keeps one `target/`.
+    /// The Nucleo crate is its own workspace with its own `target/`, which is
+    /// where `lmhost flash --board nucleo-h743` looks; with CARGO_TARGET_DIR
+    /// set, a subdirectory of that instead.
     fn nucleo_target_dir(&self) -> PathBuf {
-        self.target_dir.join("nucleo-h743")
+        if std::env::var_os("CARGO_TARGET_DIR").is_some() {
+            self.target_dir.join("nucleo-h743")
+        } else {
+            self.root.join("firmware/nucleo-h743/target")
+        }
     }
 }
 

@@ -14,8 +14,8 @@ use stm32h7::stm32h743v as pac;
 pub const KERNEL_HZ: u32 = 64_000_000;
 /// TIM2 count rate: the player's clock.
 pub const TIMER_HZ: u32 = 1_000_000;
-/// Baud rate of the ST-LINK virtual COM port link.
-pub const BAUD: u32 = 921_600;
+/// Baud rate of the ST-LINK virtual COM port link: lmhost's default.
+pub const BAUD: u32 = 115_200;
 
 /// The board's peripherals, set up.
 pub struct Board {
