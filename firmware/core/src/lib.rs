@@ -31,6 +31,25 @@
 //! `poll` returned) call `poll` again. `now` is a `u64`; widen a 32-bit
 //! counter with [`TimeExtender`].
 //!
+//! # API at a glance
+//!
+//! - [`Device::new`]`(`[`Config`]`, &mut mem)`: `mem` is the sequence memory,
+//!   [`memory_bytes`]`(slot_bytes, max_transducers)` long.
+//! - [`Device::feed`]`(bytes, now, &mut |reply| ..)`: received bytes in, one
+//!   encoded response frame out per request.
+//! - [`Device::poll`]`(now, &mut driver) -> Option<u64>`: writes due frames,
+//!   returns the next deadline ([`Device::next_deadline`] peeks it).
+//! - [`Device::info`], [`Device::status`], [`Device::counters`],
+//!   [`Device::handle`] (a parsed request, for tests and other transports),
+//!   [`Device::offsets`], [`Device::is_sounding`]; settable at run time:
+//!   [`Device::set_centroid_timeout_us`], [`Device::set_min_dwell_us`],
+//!   [`Device::set_require_tracking`].
+//! - Output: [`OutputDriver`] receives a [`Frame`] (phases with correction
+//!   applied, amplitude 0 when muted); [`SpiOutput`] sends it over an
+//!   embedded-hal 1.0 `SpiDevice` as one transaction
+//!   `[0xA5, amplitude, step u16 LE, transducers u16 LE, phases..]`;
+//!   [`RecordingDriver`] keeps the last frames for tests.
+//!
 //! # Behaviour
 //!
 //! - Store ([`store`]): [`SLOTS`] slots; chunks in stream order (Raw or

@@ -165,3 +165,72 @@ impl<const N: usize> OutputDriver for RecordingDriver<N> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use std::vec::Vec;
+
+    /// An SPI device that records each transaction's written bytes.
+    #[derive(Default)]
+    struct FakeSpi {
+        transactions: Vec<Vec<u8>>,
+    }
+
+    impl embedded_hal::spi::ErrorType for FakeSpi {
+        type Error = core::convert::Infallible;
+    }
+
+    impl SpiDevice for FakeSpi {
+        fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), Self::Error> {
+            let mut bytes = Vec::new();
+            for op in ops.iter() {
+                if let Operation::Write(w) = op {
+                    bytes.extend_from_slice(w);
+                }
+            }
+            self.transactions.push(bytes);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn spi_frame_is_one_transaction_with_header_and_phases() {
+        let mut out = SpiOutput::new(FakeSpi::default());
+        let phases = [10u8, 20, 30];
+        let f = Frame {
+            due: 5,
+            slot: 1,
+            step: 0x0102,
+            amplitude: 0,
+            phases: &phases,
+        };
+        out.write_frame(&f).unwrap();
+        let spi = out.release();
+        assert_eq!(spi.transactions.len(), 1);
+        assert_eq!(spi.transactions[0], [0xA5, 0, 0x02, 0x01, 3, 0, 10, 20, 30]);
+    }
+
+    #[test]
+    fn recorder_keeps_the_last_frames() {
+        let mut r = RecordingDriver::<2>::new();
+        for step in 0..3u16 {
+            let phases = [step as u8; 4];
+            r.write_frame(&Frame {
+                due: u64::from(step),
+                slot: 0,
+                step,
+                amplitude: 255,
+                phases: &phases,
+            })
+            .unwrap();
+        }
+        assert_eq!(r.total(), 3);
+        assert_eq!(r.last().map(|x| x.step), Some(2));
+        assert_eq!(r.back(1).map(|x| x.step), Some(1));
+        assert_eq!(r.back(2), None);
+        assert_eq!(r.last().unwrap().phase_crc, lm_proto::crc32(&[2; 4]));
+        assert_eq!(r.last().unwrap().head, [2, 2, 2, 2, 0, 0, 0, 0]);
+    }
+}
