@@ -169,9 +169,9 @@ fn simulate_compare_renders_one_grid_figure() {
         "simulate",
         "--compare",
         "--plane-size",
-        "14",
+        "12",
         "--plane-step",
-        "1",
+        "2",
         "--out",
         out.to_str().unwrap(),
     ]);
