@@ -58,7 +58,7 @@ pub struct SimStats {
 }
 
 /// How many recent latencies [`SimStats`] keeps (memory stays bounded).
-pub const STATS_RING: usize = 65_536;
+pub const STATS_RING: usize = 16_384;
 
 /// Push into a bounded ring.
 pub fn push_ring(ring: &mut VecDeque<u64>, v: u64) {
@@ -316,6 +316,21 @@ struct Probe<'a> {
     now_us: u64,
     /// Accepted centroids waiting for their first frame: host stamp (µs).
     waiting: &'a mut Vec<u64>,
+    capture: Option<&'a mut Vec<CapturedFrame>>,
+}
+
+/// An output frame kept by [`FwCore::set_capture`] (tests compare them
+/// with the sequence that was uploaded).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CapturedFrame {
+    /// Slot it came from.
+    pub slot: u8,
+    /// Step within the cycle.
+    pub step: u16,
+    /// Amplitude (0 = muted).
+    pub amplitude: u8,
+    /// Phases as sent to the transducers.
+    pub phases: Vec<u8>,
 }
 
 impl lm_fw_core::OutputDriver for Probe<'_> {
@@ -337,6 +352,14 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
             &mut self.stats.step_late_us,
             self.now_us.saturating_sub(frame.due),
         );
+        if let Some(c) = self.capture.as_mut() {
+            c.push(CapturedFrame {
+                slot: frame.slot,
+                step: frame.step,
+                amplitude: frame.amplitude,
+                phases: frame.phases.to_vec(),
+            });
+        }
         for host_us in self.waiting.drain(..) {
             self.stats.centroids_applied += 1;
             push_ring(
@@ -354,6 +377,7 @@ pub struct FwCore {
     watch: lm_proto::FrameDecoder,
     stats: SimStats,
     waiting: Vec<u64>,
+    capture: Option<Vec<CapturedFrame>>,
 }
 
 impl FwCore {
@@ -374,7 +398,21 @@ impl FwCore {
             watch: lm_proto::FrameDecoder::new(),
             stats: SimStats::default(),
             waiting: Vec::new(),
+            capture: None,
         })
+    }
+
+    /// Keep every output frame from now on (or stop keeping them).
+    pub fn set_capture(&mut self, on: bool) {
+        self.capture = on.then(Vec::new);
+    }
+
+    /// The frames kept since the last call.
+    pub fn take_captured(&mut self) -> Vec<CapturedFrame> {
+        self.capture
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
     }
 
     /// The device's status at `now_us`.
@@ -419,6 +457,7 @@ impl Core for FwCore {
             stats: &mut self.stats,
             now_us,
             waiting: &mut self.waiting,
+            capture: self.capture.as_mut(),
         };
         // Nothing plays: centroids are not waiting for a frame.
         let next = self.device.poll(now_us, &mut probe);

@@ -39,6 +39,15 @@ struct PlanOnly {
     plan: PlanArgs,
 }
 
+/// Plan the paper's LM-M stimulus ([`LM_M_FLAGS`]) on the built-in array.
+pub fn lm_m_plan() -> anyhow::Result<crate::sequence::Plan> {
+    PlanOnly::try_parse_from(std::iter::once("demo").chain(LM_M_FLAGS.iter().copied()))
+        .context("building the LM-M plan flags")?
+        .plan
+        .plan()
+        .context("planning LM-M")
+}
+
 /// Run the end-to-end demo on the simulated device.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -59,12 +68,7 @@ impl Args {
         if !(self.seconds.is_finite() && (1.0..=600.0).contains(&self.seconds)) {
             crate::bad_input!("--seconds {} must be between 1 and 600", self.seconds);
         }
-        let plan =
-            PlanOnly::try_parse_from(std::iter::once("demo").chain(LM_M_FLAGS.iter().copied()))
-                .context("building the LM-M plan flags")?
-                .plan
-                .plan()
-                .context("planning LM-M")?;
+        let plan = lm_m_plan()?;
         let spec = upload_spec(&plan);
         let dwell_us = plan.sequence.header.dwell_us;
         let steps = spec.steps as u64;

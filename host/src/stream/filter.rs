@@ -162,6 +162,16 @@ impl Default for Kalman {
     }
 }
 
+impl Kalman {
+    /// The default tuning, predicting `lead_s` ahead of the last sample.
+    pub fn with_lead(lead_s: f64) -> Self {
+        Self {
+            lead_s,
+            ..Self::default()
+        }
+    }
+}
+
 impl Filter for Kalman {
     fn update(&mut self, s: &Sample) -> Option<[f64; 3]> {
         if !s.present {

@@ -1,0 +1,218 @@
+//! `lmhost stream`: finger centroids to the device, filtered and mirrored
+//! into drive coordinates, one acked update per sample.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::Context as _;
+
+use crate::link::PortArgs;
+use crate::scene::Scene;
+use crate::stream::Sample;
+use crate::stream::filter::{FilterKind, Kalman};
+use crate::stream::metrics::score;
+use crate::stream::run::{Pace, stream};
+use crate::stream::source;
+use crate::stream::synthetic::FingerTrack;
+
+/// Stream finger centroids (mm, scene frame) to the device.
+///
+/// Input lines are JSON (`{"t":0.011,"x":1.2,"y":-0.4,"z":201,"present":true}`)
+/// or CSV (`t,x,y,z,present`), from stdin, a file, or UDP datagrams.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    port: PortArgs,
+    /// Read samples from FILE (`-` = stdin, the default) and replay them at
+    /// their time stamps.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["udp", "synthetic"])]
+    input: Option<PathBuf>,
+    /// Receive samples as UDP datagrams on 127.0.0.1:PORT.
+    #[arg(long, value_name = "PORT", conflicts_with = "synthetic")]
+    udp: Option<u16>,
+    /// Stream a synthetic finger (90 fps, depth-camera-like noise) and
+    /// report every filter's lag and jitter on it.
+    #[arg(long)]
+    synthetic: bool,
+    /// Synthetic finger: seconds to stream; UDP: stop after this long idle.
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    seconds: f64,
+    /// Synthetic finger: away from START to END seconds, e.g. `4,5`.
+    #[arg(long, value_name = "START,END")]
+    away: Option<String>,
+    /// Centroid filter.
+    #[arg(long, value_enum, default_value_t = FilterKind::Kalman)]
+    filter: FilterKind,
+    /// Kalman filter: predict this far ahead (ms), e.g. the link latency.
+    #[arg(long, value_name = "MS", default_value_t = 0.0)]
+    lead_ms: f64,
+    /// Scene file whose reflector mirrors centroids into drive
+    /// coordinates [default: the built-in array, no reflector].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// Replay files and the synthetic finger as fast as the link allows.
+    #[arg(long)]
+    fast: bool,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_away(s: &str) -> Result<(f64, f64), crate::InputError> {
+    let bad = || {
+        crate::InputError::new(format!(
+            "--away `{s}` must be START,END in seconds with START < END"
+        ))
+    };
+    let (a, b) = s.split_once(',').ok_or_else(bad)?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
+    if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        if !(self.seconds.is_finite() && self.seconds > 0.0) {
+            crate::bad_input!("--seconds {} must be a positive number", self.seconds);
+        }
+        if !self.lead_ms.is_finite() || self.lead_ms.abs() > 1000.0 {
+            crate::bad_input!("--lead-ms {} must be within ±1000", self.lead_ms);
+        }
+        let away = self.away.as_deref().map(parse_away).transpose()?;
+        if away.is_some() && !self.synthetic {
+            crate::bad_input!("--away only applies to --synthetic");
+        }
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        let track = FingerTrack {
+            center_mm: scene.center_mm,
+            away_s: away,
+            ..FingerTrack::default()
+        };
+        let mut filter: Box<dyn crate::stream::filter::Filter + Send> = match self.filter {
+            FilterKind::Kalman => Box::new(Kalman::with_lead(self.lead_ms / 1e3)),
+            other => other.build(),
+        };
+        let pace = if self.fast {
+            Pace::Arrival
+        } else {
+            Pace::Timestamps
+        };
+        let (samples, pace): (Box<dyn Iterator<Item = anyhow::Result<Sample>>>, Pace) = if self
+            .synthetic
+        {
+            let secs = self.seconds;
+            (
+                Box::new(track.samples().take_while(move |s| s.t_s < secs).map(Ok)),
+                pace,
+            )
+        } else if let Some(port) = self.udp {
+            let idle = Duration::from_secs_f64(self.seconds);
+            (Box::new(source::udp(port, idle)?), Pace::Arrival)
+        } else {
+            match self.input.as_deref() {
+                None => (
+                    Box::new(source::read_lines(std::io::stdin().lock())),
+                    Pace::Arrival,
+                ),
+                Some(p) if p.as_os_str() == "-" => (
+                    Box::new(source::read_lines(std::io::stdin().lock())),
+                    Pace::Arrival,
+                ),
+                Some(p) => {
+                    let f = std::fs::File::open(p).map_err(|e| {
+                        crate::InputError::new(format!(
+                            "cannot read {}: {}",
+                            p.display(),
+                            io_reason(&e)
+                        ))
+                    })?;
+                    let reader: Box<dyn std::io::BufRead> = Box::new(std::io::BufReader::new(f));
+                    (Box::new(source::read_lines(reader)), pace)
+                }
+            }
+        };
+        let mut client = self.port.connect()?;
+        let where_ = client.transport_mut().describe();
+        let report = stream(
+            &mut client,
+            samples,
+            filter.as_mut(),
+            |p| scene.drive_point(p),
+            pace,
+            |_, _| Ok(()),
+        )
+        .map_err(|e| {
+            // A bad line is the user's input: say so in one line.
+            if e.downcast_ref::<crate::InputError>().is_some() {
+                e
+            } else {
+                e.context(format!("streaming centroids to {where_}"))
+            }
+        })?;
+        let status = client
+            .status()
+            .context("reading the device status after streaming")?;
+        let scores: Vec<_> = if self.synthetic {
+            FilterKind::ALL
+                .iter()
+                .map(|k| score(*k, &track, self.seconds.max(20.0)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let p = |q| report.ack_percentile_us(q).unwrap_or(0);
+        if self.json {
+            let v = serde_json::json!({
+                "samples": report.samples, "acked": report.acked, "present": report.present,
+                "last_seq": report.last_seq, "device_last_seq": status.last_centroid_seq,
+                "seconds": report.seconds, "filter": self.filter.name(),
+                "ack_p50_us": p(50.0), "ack_p99_us": p(99.0), "ack_max_us": p(100.0),
+                "device_state": status.state, "filters": scores,
+            });
+            println!("{v}");
+            return Ok(());
+        }
+        println!(
+            "streamed {} samples ({} with a finger) to {where_} in {:.2} s with the {} filter; device at #{} ({:?})",
+            report.samples,
+            report.present,
+            report.seconds,
+            self.filter.name(),
+            status.last_centroid_seq,
+            status.state
+        );
+        println!(
+            "latency host receipt → device ack: p50 {} µs, p99 {} µs, max {} µs; applied at the next step boundary (≤ one dwell later)",
+            p(50.0),
+            p(99.0),
+            p(100.0)
+        );
+        if !scores.is_empty() {
+            println!("filter      lag (ms)  jitter (mm)  error vs now (mm)");
+            for s in &scores {
+                println!(
+                    "{:<10} {:>8.1} {:>12.3} {:>18.3}",
+                    s.filter.name(),
+                    s.lag_ms,
+                    s.jitter_mm,
+                    s.error_mm
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+fn io_reason(e: &std::io::Error) -> &'static str {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file",
+        std::io::ErrorKind::PermissionDenied => "permission denied",
+        _ => "read error",
+    }
+}

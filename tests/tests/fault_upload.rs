@@ -1,0 +1,298 @@
+//! Uploads through a damaged link: the fault-injecting proxy between the
+//! client and the simulated device (in process, virtual clock, so
+//! timeouts cost no wall time).
+//!
+//! What must hold: a commit is never corrupt (every committed slot plays
+//! exactly the uploaded phases), uploads at a bit error rate up to 1e-4
+//! complete by retrying, worse links fail with a clear error, and the
+//! slot that was playing keeps playing, unchanged, throughout.
+//!
+//! The long randomised run is `#[ignore]`d; run it with
+//! `cargo test --release -p lm-e2e --test fault_upload -- --ignored`.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use lm_proto::{Encoding, PlayAt};
+use lmhost::link::proxy::{Faults, Faulty};
+use lmhost::link::{Client, LinkError, UploadSpec};
+use lmhost::simdev::{CapturedFrame, Clock, FwCore, InProcess, SimConfig};
+use lmhost::stream::synthetic::SplitMix64;
+
+type Link = Faulty<InProcess<FwCore>>;
+
+struct Rig {
+    core: Arc<Mutex<FwCore>>,
+    time: Arc<Mutex<u64>>,
+    client: Client<Link>,
+    playing: (u8, UploadSpec),
+    corrupt_commits: u32,
+    verified_commits: u32,
+}
+
+fn spec(rng: &mut SplitMix64) -> UploadSpec {
+    let steps = 2 + rng.below(40) as u16;
+    let transducers = 1 + rng.below(249) as u16;
+    // Half smooth (what the planner makes, Delta-friendly), half noise.
+    let smooth = rng.below(2) == 0;
+    let base: Vec<u8> = (0..transducers).map(|_| rng.next_u64() as u8).collect();
+    let mut phases = Vec::with_capacity(steps as usize * transducers as usize);
+    for s in 0..steps as usize {
+        for (t, b) in base.iter().enumerate() {
+            phases.push(if smooth {
+                b.wrapping_add((s * (t % 7)) as u8)
+            } else {
+                rng.next_u64() as u8
+            });
+        }
+    }
+    UploadSpec {
+        steps,
+        transducers,
+        period_us: steps as u32 * (1000 + rng.below(2000) as u32),
+        center_um: [0, 0, 200_000],
+        foci_per_step: 1,
+        positions_um: (0..transducers as i32)
+            .map(|i| [i * 10_160 - 80_000, 0, 0])
+            .collect(),
+        phases,
+    }
+}
+
+impl Rig {
+    fn new(seed: u64) -> Rig {
+        let cfg = SimConfig {
+            require_tracking: false,
+            ..SimConfig::default()
+        };
+        let core = Arc::new(Mutex::new(FwCore::new(cfg).unwrap()));
+        core.lock().unwrap().set_capture(true);
+        let time = Arc::new(Mutex::new(1_000_000u64));
+        let link = InProcess::new(core.clone(), Clock::Virtual(time.clone()));
+        let mut client = Client::new(Faulty::new(link, Faults::default(), seed));
+        client.timeout = Duration::from_millis(20);
+        client.tries = 10;
+        client.upload_attempts = 8;
+        let mut rng = SplitMix64::new(seed);
+        let first = spec(&mut rng);
+        client
+            .upload(&first, 0, Encoding::Delta, 1024, |_, _| {})
+            .unwrap();
+        client.play(0, PlayAt::Immediate).unwrap();
+        let mut rig = Rig {
+            core,
+            time,
+            client,
+            playing: (0, first),
+            corrupt_commits: 0,
+            verified_commits: 0,
+        };
+        rig.run_for(10_000);
+        rig.check_playing(&rig.take_frames());
+        rig
+    }
+
+    fn now(&self) -> u64 {
+        *self.time.lock().unwrap()
+    }
+
+    /// Let the device play for `us` of virtual time.
+    fn run_for(&mut self, us: u64) {
+        let until = self.now() + us;
+        self.client.transport_mut().inner_mut().advance_to(until);
+    }
+
+    fn take_frames(&self) -> Vec<CapturedFrame> {
+        self.core.lock().unwrap().take_captured()
+    }
+
+    /// Every frame came from the playing slot, sounding, with its phases.
+    fn check_playing(&self, frames: &[CapturedFrame]) {
+        let (slot, spec) = &self.playing;
+        let t = spec.transducers as usize;
+        assert!(!frames.is_empty(), "nothing played");
+        for f in frames {
+            assert_eq!(f.slot, *slot, "the playing slot changed");
+            assert!(f.amplitude > 0, "the playing slot went silent");
+            let s = f.step as usize;
+            assert_eq!(
+                f.phases,
+                spec.phases[s * t..(s + 1) * t],
+                "slot {slot} step {s} differs"
+            );
+        }
+    }
+
+    /// Upload `spec` into the idle slot through `faults`. On success switch
+    /// to it and check it plays exactly what was uploaded.
+    fn faulty_upload(
+        &mut self,
+        spec: UploadSpec,
+        faults: Faults,
+        seed: u64,
+    ) -> Result<(), LinkError> {
+        let target = 1 - self.playing.0;
+        let clean = std::mem::replace(
+            self.client.transport_mut(),
+            Faulty::new(
+                InProcess::new(self.core.clone(), Clock::Virtual(self.time.clone())),
+                faults,
+                seed,
+            ),
+        );
+        drop(clean);
+        let encoding = if seed % 2 == 0 {
+            Encoding::Delta
+        } else {
+            Encoding::Raw
+        };
+        let chunk = [1024, 512, 100][(seed % 3) as usize];
+        let result = self
+            .client
+            .upload(&spec, target, encoding, chunk, |_, _| {})
+            .map(|_| ());
+        // Back to a clean link to inspect the device.
+        *self.client.transport_mut() = Faulty::new(
+            InProcess::new(self.core.clone(), Clock::Virtual(self.time.clone())),
+            Faults::default(),
+            seed,
+        );
+        self.run_for(5_000);
+        self.check_playing(&self.take_frames());
+        if result.is_ok() {
+            self.client
+                .play(target, PlayAt::Immediate)
+                .expect("play the new slot");
+            let cycle = spec.period_us as u64;
+            self.playing = (target, spec);
+            self.run_for(cycle + 5_000);
+            let frames = self.take_frames();
+            let all_match = {
+                let t = self.playing.1.transducers as usize;
+                frames.iter().filter(|f| f.slot == target).all(|f| {
+                    let s = f.step as usize;
+                    f.phases == self.playing.1.phases[s * t..(s + 1) * t]
+                })
+            };
+            if all_match {
+                self.verified_commits += 1;
+            } else {
+                self.corrupt_commits += 1;
+            }
+            self.check_playing(&frames[frames.iter().position(|f| f.slot == target).unwrap()..]);
+        }
+        result
+    }
+}
+
+fn random_faults(rng: &mut SplitMix64) -> (Faults, bool) {
+    let bers = [0.0, 1e-6, 1e-5, 1e-4, 1e-4, 1e-3, 1e-2];
+    let ber = bers[rng.below(bers.len() as u64) as usize];
+    let small = |rng: &mut SplitMix64| [0.0, 0.0, 1e-6, 1e-5, 1e-4][rng.below(5) as usize];
+    let f = Faults {
+        ber,
+        drop: small(rng),
+        dup: small(rng),
+        truncate: small(rng),
+        cut_after: (rng.below(10) == 0).then(|| rng.below(20_000)),
+    };
+    let mendable = f.ber <= 1e-4
+        && f.drop <= 1e-4
+        && f.dup <= 1e-4
+        && f.truncate <= 1e-4
+        && f.cut_after.is_none();
+    (f, mendable)
+}
+
+fn campaign(uploads: u64, seed: u64) {
+    let mut rig = Rig::new(seed);
+    let mut rng = SplitMix64::new(seed ^ 0xFA17);
+    let (mut ok, mut failed) = (0, 0);
+    for i in 0..uploads {
+        let s = spec(&mut rng);
+        let (faults, mendable) = random_faults(&mut rng);
+        match rig.faulty_upload(s, faults, seed.wrapping_add(i)) {
+            Ok(()) => ok += 1,
+            Err(e) => {
+                assert!(!mendable, "upload {i} failed at {faults:?}: {e}");
+                let msg = e.to_string();
+                assert!(!msg.contains('\n') && !msg.is_empty(), "{msg}");
+                failed += 1;
+            }
+        }
+    }
+    assert_eq!(rig.corrupt_commits, 0);
+    assert_eq!(rig.verified_commits, ok);
+    eprintln!("{uploads} uploads: {ok} committed and verified, {failed} failed cleanly, 0 corrupt");
+}
+
+#[test]
+fn uploads_at_ber_1e4_complete_bit_exact() {
+    let mut rig = Rig::new(7);
+    let mut rng = SplitMix64::new(8);
+    for i in 0..20 {
+        let faults = Faults {
+            ber: 1e-4,
+            ..Faults::default()
+        };
+        rig.faulty_upload(spec(&mut rng), faults, 100 + i).unwrap();
+    }
+    assert_eq!(rig.verified_commits, 20);
+    assert_eq!(rig.corrupt_commits, 0);
+}
+
+#[test]
+fn cut_link_fails_clearly_and_the_playing_slot_plays_on() {
+    let mut rig = Rig::new(3);
+    let mut rng = SplitMix64::new(4);
+    let before = rig.playing.0;
+    let err = rig
+        .faulty_upload(
+            spec(&mut rng),
+            Faults {
+                cut_after: Some(600),
+                ..Faults::default()
+            },
+            5,
+        )
+        .unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains("upload failed after") || msg.contains("no response"),
+        "{msg}"
+    );
+    assert_eq!(rig.playing.0, before);
+}
+
+#[test]
+fn hopeless_link_gives_up_with_a_clear_error() {
+    let mut rig = Rig::new(11);
+    let mut rng = SplitMix64::new(12);
+    let err = rig
+        .faulty_upload(
+            spec(&mut rng),
+            Faults {
+                ber: 0.05,
+                ..Faults::default()
+            },
+            13,
+        )
+        .unwrap_err();
+    assert!(
+        err.to_string().contains("no response") || err.to_string().contains("upload failed"),
+        "{err}"
+    );
+    assert_eq!(rig.corrupt_commits, 0);
+}
+
+#[test]
+fn thirty_random_faulty_uploads() {
+    campaign(30, 1);
+}
+
+/// The issue's ≥ 1,000 randomised faulty uploads.
+#[test]
+#[ignore = "long: run in release with --ignored"]
+fn a_thousand_random_faulty_uploads() {
+    campaign(1000, 2);
+}
