@@ -7,6 +7,7 @@
 
 mod board;
 
+use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use cortex_m::peripheral::NVIC;
@@ -24,7 +25,7 @@ const STORE_BYTES: usize = memory_bytes(SLOT_BYTES, MAX_TRANSDUCERS as usize);
 /// Both sequence slots with their transducer positions.
 static mut SEQUENCE_STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
 /// The core's state outside the store.
-static mut DEVICE: Option<Device<'static>> = None;
+static mut DEVICE: MaybeUninit<Device<'static>> = MaybeUninit::uninit();
 
 #[entry]
 fn main() -> ! {
@@ -42,7 +43,7 @@ fn main() -> ! {
     let dev = unsafe {
         let store = &mut *addr_of_mut!(SEQUENCE_STORE);
         match Device::new(cfg, store) {
-            Ok(d) => (*addr_of_mut!(DEVICE)).insert(d),
+            Ok(d) => (*addr_of_mut!(DEVICE)).write(d),
             Err(e) => panic!("device setup: {e}"),
         }
     };

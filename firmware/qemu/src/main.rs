@@ -4,6 +4,7 @@
 #![no_std]
 #![no_main]
 
+use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use cortex_m_rt::entry;
@@ -13,7 +14,7 @@ use lm_fw_qemu::{FrameCounter, STORE_BYTES, TIMER0_BASE, Timer, UART0_BASE, Uart
 /// Both sequence slots with their transducer positions.
 static mut SEQUENCE_STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
 /// The core's state outside the store (a static, so the ELF's memory map shows it).
-static mut DEVICE: Option<Device<'static>> = None;
+static mut DEVICE: MaybeUninit<Device<'static>> = MaybeUninit::uninit();
 
 #[entry]
 fn main() -> ! {
@@ -25,7 +26,7 @@ fn main() -> ! {
             Ok(d) => d,
             Err(e) => panic!("device setup: {e}"),
         };
-        let dev = (*addr_of_mut!(DEVICE)).insert(dev);
+        let dev = (*addr_of_mut!(DEVICE)).write(dev);
         (Uart::new(UART0_BASE, 115_200), Timer::new(TIMER0_BASE), dev)
     };
     serve(uart, timer, dev, &mut FrameCounter::default())
