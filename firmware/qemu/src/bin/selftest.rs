@@ -35,18 +35,20 @@ type TestResult = Result<(), Failed>;
 
 /// `check!(cond, "why {}", x)`: prints where and why, then fails the test.
 macro_rules! check {
-    ($cond:expr) => {
-        if !$cond {
+    ($cond:expr) => {{
+        let ok: bool = $cond;
+        if !ok {
             hprintln!("    check failed at {}:{}: {}", file!(), line!(), stringify!($cond));
             return Err(Failed);
         }
-    };
-    ($cond:expr, $($arg:tt)+) => {
-        if !$cond {
+    }};
+    ($cond:expr, $($arg:tt)+) => {{
+        let ok: bool = $cond;
+        if !ok {
             hprintln!("    check failed at {}:{}: {}", file!(), line!(), format_args!($($arg)+));
             return Err(Failed);
         }
-    };
+    }};
 }
 
 struct Ctx {
@@ -63,7 +65,9 @@ impl Ctx {
 
 /// The tests, in order. The `measure_*` ones print figures for
 /// BENCHMARKS.md and check only that the measured work really happened.
-const TESTS: &[(&str, fn(&mut Ctx) -> TestResult)] = &[
+type Test = fn(&mut Ctx) -> TestResult;
+
+const TESTS: &[(&str, Test)] = &[
     ("timer_counts_instructions", timer_counts_instructions),
     ("proto_vectors_on_target", proto_vectors_on_target),
     ("store_commit_checks_crc", store_commit_checks_crc),
