@@ -45,7 +45,7 @@ pub struct Args {
     plane_center: Option<String>,
     /// Observation plane axes `UX,UY,UZ,VX,VY,VZ` [default: the scene's LM
     /// plane axes a, b].
-    #[arg(long, value_name = "U;V", allow_hyphen_values = true)]
+    #[arg(long, value_name = "UX,UY,UZ,VX,VY,VZ", allow_hyphen_values = true)]
     plane_axes: Option<String>,
     /// Radiation-pressure coefficient α in α|p|²/(2ρc²) (2 = perfect reflector).
     #[arg(long, value_name = "A", default_value_t = field::DEFAULT_RADIATION_ALPHA, allow_negative_numbers = true)]
@@ -375,11 +375,12 @@ impl Sim {
         let t = &plan.trajectory;
         let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
         format!(
-            "{} foci, A = {radius_mm} mm, N = {} steps, {} transducers; \
+            "{} {}, A = {radius_mm} mm, N = {} steps, {} transducers; \
              grid {} × {} at {} mm in {:.3} s ({})\n\
              peak amplitude {:.0} Pa, radiation pressure {:.1} Pa (step 0), {:.1} Pa (cycle mean)\n\
              force on a {} mm disk: {:.4} N (step 0), {:.4} N (cycle mean){}",
             t.foci,
+            if t.foci == 1 { "focus" } else { "foci" },
             t.steps,
             plan.scene.transducer_count(),
             self.maps.nu,
