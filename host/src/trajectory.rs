@@ -451,7 +451,7 @@ mod tests {
             assert!((norm(sub(*f, scene.center_mm)) - 3.0).abs() < 1e-9);
         }
         // θ = 90° goes along b' = (0, cos 50°, −sin 50°).
-        let q = t.foci_mm[82 / 4 * 1 + 0];
+        let q = t.foci_mm[82 / 4];
         assert!(q[1] > 30.0 && q[2] < 30.0, "{q:?}");
     }
 }

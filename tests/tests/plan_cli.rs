@@ -1,0 +1,126 @@
+//! `lmhost plan` and `lmhost scene` end to end: the real binary, its exit
+//! codes, its outputs.
+//!
+//! The binary is `$LMHOST_BIN` when set (CI passes the one it built), or
+//! built here with cargo into this test's own target dir.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+fn lmhost() -> &'static Path {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        if let Some(p) = std::env::var_os("LMHOST_BIN") {
+            return PathBuf::from(p);
+        }
+        let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("lmhost-bin");
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let st = Command::new(cargo)
+            .current_dir(root)
+            .args(["build", "--quiet", "-p", "lmhost", "--bin", "lmhost", "--target-dir"])
+            .arg(&target_dir)
+            .status()
+            .expect("cargo runs");
+        assert!(st.success(), "building lmhost failed");
+        target_dir.join("debug/lmhost")
+    })
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(lmhost()).args(args).output().expect("lmhost runs")
+}
+
+fn scene_path() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes/paper.toml")
+        .display()
+        .to_string()
+}
+
+#[test]
+fn plan_prints_a_summary_and_exits_0() {
+    let o = run(&["plan", "--radius", "3", "--foci", "4"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = String::from_utf8(o.stdout).unwrap();
+    assert!(s.contains("LM-M (4 foci, l = 13)"), "{s}");
+    assert!(s.contains("steps N = 82"), "{s}");
+    assert!(s.contains("dwell 2.439 ms"), "{s}");
+}
+
+#[test]
+fn plan_json_has_phases_only_when_asked() {
+    let o = run(&["plan", "--json"]);
+    assert!(o.status.success());
+    let v = String::from_utf8(o.stdout).unwrap();
+    assert!(v.contains("\"steps\":82") && !v.contains("\"phases\""), "{v}");
+    let o = run(&["plan", "--json", "--phases", "--steps", "4", "--freq", "1"]);
+    let v = String::from_utf8(o.stdout).unwrap();
+    assert!(v.contains("\"phases\":[["), "{v}");
+}
+
+#[test]
+fn plan_writes_npy_json_and_raw_by_extension() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("plan_cli_out");
+    std::fs::create_dir_all(&dir).unwrap();
+    let npy = dir.join("s.npy");
+    let raw = dir.join("s.bin");
+    let json = dir.join("s.json");
+    for p in [&npy, &raw, &json] {
+        let o = run(&["plan", "--foci", "4", "--out", p.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let raw = std::fs::read(raw).unwrap();
+    assert_eq!(raw.len(), 82 * 996);
+    let npy = std::fs::read(npy).unwrap();
+    assert!(npy.starts_with(b"\x93NUMPY"));
+    assert_eq!(&npy[npy.len() - raw.len()..], &raw[..]);
+    let json = std::fs::read_to_string(json).unwrap();
+    assert!(json.contains("\"phases\""));
+}
+
+#[test]
+fn scene_json_exports_every_transducer() {
+    let o = run(&["scene", "--scene", &scene_path(), "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(v.matches("\"pos_mm\"").count(), 996);
+    assert_eq!(v.matches("\"normal\"").count(), 996 + 1);
+}
+
+#[test]
+fn bad_inputs_exit_2_with_one_line() {
+    let bad: &[&[&str]] = &[
+        &["plan", "--radius", "NaN"],
+        &["plan", "--radius", "-3"],
+        &["plan", "--freq", "inf"],
+        &["plan", "--step", "-0.2"],
+        &["plan", "--center", "0,0"],
+        &["plan", "--foci", "4", "--spacing", "0.1"],
+        &["plan", "--radius", "1", "--foci", "4"],
+        &["plan", "--freq", "50"],
+        &["plan", "--scene", "/nonexistent/scene.toml"],
+        &["scene", "--scene", "/nonexistent/scene.toml"],
+    ];
+    for args in bad {
+        let o = run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.starts_with("error: "), "{err}");
+        assert!(!err.contains("panicked"));
+    }
+}
+
+#[test]
+fn bad_scene_file_names_file_and_field() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("plan_cli_scene");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("bad.toml");
+    std::fs::write(&p, "[[device]]\ncenter_mm = [0.0, 0.0]\n").unwrap();
+    let o = run(&["plan", "--scene", p.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(err.contains("bad.toml") && err.contains("center_mm"), "{err}");
+}
