@@ -25,6 +25,17 @@ pub fn monotonic_us() -> u64 {
     ts.tv_sec() as u64 * 1_000_000 + ts.tv_nsec() as u64 / 1_000
 }
 
+/// Ask for real-time (FIFO) scheduling of the calling thread, so step
+/// deadlines and centroid updates are not delayed behind other processes.
+/// The loops that call it sleep between events, so they cannot starve the
+/// machine. Returns whether the system granted it (it needs
+/// `CAP_SYS_NICE`); without it everything works, with more jitter.
+pub fn try_realtime() -> bool {
+    let param = libc::sched_param { sched_priority: 10 };
+    // SAFETY: plain FFI call on the current thread with a valid parameter.
+    unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) == 0 }
+}
+
 /// A device core the simulator can run: bytes in, bytes out, a clock.
 pub trait Core: Send {
     /// Handle received bytes at `now_us`; append response bytes to `out`.
@@ -253,6 +264,7 @@ pub fn serve<C: Core>(
     };
     let mut buf = vec![0u8; 4096];
     let mut out = Vec::new();
+    try_realtime();
     while !stop.load(Ordering::Relaxed) {
         let now = monotonic_us();
         let next = core.lock().unwrap_or_else(|e| e.into_inner()).poll(now);
@@ -264,10 +276,16 @@ pub fn serve<C: Core>(
             poll_fd.as_fd(),
             nix::poll::PollFlags::POLLIN,
         )];
-        let _ = nix::poll::ppoll(&mut fds, Some(ts), None);
+        let ready = nix::poll::ppoll(&mut fds, Some(ts), None).unwrap_or(0);
         let n = link
             .recv(&mut buf, Duration::ZERO)
             .context("reading the pty")?;
+        if ready > 0 && n == 0 {
+            // Readable but nothing read (a hang-up, or bytes the fault
+            // injector dropped): never spin, least of all at real-time
+            // priority.
+            std::thread::sleep(Duration::from_micros(200));
+        }
         if n > 0 {
             let now = monotonic_us();
             let mut c = core.lock().unwrap_or_else(|e| e.into_inner());

@@ -96,6 +96,7 @@ impl Args {
             away_s: Some((0.5 * self.seconds, 0.7 * self.seconds)),
             ..FingerTrack::default()
         };
+        let realtime = crate::simdev::try_realtime();
         let s0 = client.status().context("reading status")?;
         let t0 = monotonic_us();
         let mut filter = self.filter.build();
@@ -110,8 +111,7 @@ impl Args {
             filter.as_mut(),
             |p| scene.drive_point(p),
             Pace::Timestamps,
-            |c, s| {
-                let now = monotonic_us();
+            |c, s, now| {
                 if !s.present && left_us.is_none() {
                     left_us = Some(now);
                 }
@@ -143,7 +143,7 @@ impl Args {
                 stats
                     .mute_changes
                     .iter()
-                    .find(|(t, m)| *t + 2_000 >= a && *m == muted)
+                    .find(|(t, m)| *t >= a && *m == muted)
                     .map(|(t, _)| t.saturating_sub(a))
             })
         };
@@ -165,6 +165,7 @@ impl Args {
             "upload": { "raw_bytes": up.raw_bytes, "encoded_bytes": up.sequence_bytes,
                 "wire_bytes": up.wire_bytes_sent + up.wire_bytes_received,
                 "wire_efficiency": up.wire_efficiency(), "seconds": up.seconds, "crc32": up.crc32 },
+            "realtime_priority": realtime,
             "steps_played": played, "mean_dwell_us": mean_dwell_us,
             "missed_deadlines": s1.missed_deadlines - s0.missed_deadlines,
             "step_late_p99_us": late_p99,
@@ -180,7 +181,15 @@ impl Args {
             println!("{v}");
             return Ok(());
         }
-        println!("lmhost demo: simulated device on {}", sim_path_note());
+        println!(
+            "lmhost demo: simulated device on {} ({})",
+            sim_path_note(),
+            if realtime {
+                "real-time priority"
+            } else {
+                "normal priority: expect more jitter"
+            }
+        );
         println!(
             "stimulus   LM-M A = 3 mm, 4 foci 3 mm apart, 5 Hz, 0.23 mm steps: {} steps × {} transducers, dwell {:.0} µs",
             spec.steps, spec.transducers, dwell_us

@@ -13,6 +13,8 @@ pub mod upload;
 pub mod play;
 pub mod stop;
 pub mod demo;
+pub mod stream;
+pub mod flash;
 
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]
@@ -39,6 +41,10 @@ pub enum Command {
     Stop(stop::Args),
     /// Simulated device, LM-M upload, streamed finger, short report.
     Demo(demo::Args),
+    /// Stream finger centroids to the device.
+    Stream(stream::Args),
+    /// Flash the firmware onto a board with a debug probe.
+    Flash(flash::Args),
 }
 
 impl Command {
@@ -56,6 +62,8 @@ impl Command {
             Command::Play(a) => a.run(),
             Command::Stop(a) => a.run(),
             Command::Demo(a) => a.run(),
+            Command::Stream(a) => a.run(),
+            Command::Flash(a) => a.run(),
         }
     }
 }

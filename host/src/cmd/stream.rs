@@ -145,7 +145,7 @@ impl Args {
             filter.as_mut(),
             |p| scene.drive_point(p),
             pace,
-            |_, _| Ok(()),
+            |_, _, _| Ok(()),
         )
         .map_err(|e| {
             // A bad line is the user's input: say so in one line.

@@ -290,7 +290,9 @@ impl<T: Transport> Client<T> {
                 .recv(&mut self.rx, left)
                 .map_err(|source| LinkError::Io { what, source })?;
             if got == 0 {
-                continue;
+                // Transports return 0 only once the timeout has passed (on
+                // their own clock, which may be virtual).
+                return Ok(None);
             }
             self.stats.bytes_received += got as u64;
             let mut input: &[u8] = &self.rx[..got];

@@ -226,15 +226,17 @@ impl<T: Transport> Transport for Faulty<T> {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
-        if self.rx_buf.is_empty() {
-            let mut tmp = vec![0u8; buf.len().max(1)];
+        // Ok(0) must mean "the timeout passed": when every byte read was
+        // lost, read again rather than return early.
+        let mut tmp = vec![0u8; buf.len().max(1)];
+        while self.rx_buf.is_empty() {
             let n = self.inner.recv(&mut tmp, timeout)?;
             if n == 0 {
                 return Ok(0);
             }
             if self.cut() {
                 // A dead link: the bytes were never delivered.
-                return Ok(0);
+                continue;
             }
             self.rx_buf = self.rx.apply(&tmp[..n], &mut self.stats);
         }

@@ -11,7 +11,8 @@ use anyhow::Context as _;
 pub trait Transport: Send {
     /// Write all of `bytes`.
     fn send(&mut self, bytes: &[u8]) -> std::io::Result<()>;
-    /// Read what arrives within `timeout` into `buf`; `Ok(0)` on timeout.
+    /// Read what arrives within `timeout` into `buf`; `Ok(0)` only once
+    /// the timeout has passed with nothing read.
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize>;
     /// A short human-readable name (port path, address).
     fn describe(&self) -> String;

@@ -48,7 +48,8 @@ impl StreamReport {
 
 /// Stream `samples` through `filter` to the device behind `client`;
 /// `to_drive` maps a finger-space centroid (mm) into drive coordinates
-/// (the scene's mirror). `between` runs after every acked update (the demo
+/// (the scene's mirror). `between` runs after every acked update with the
+/// sample and its host receipt time (µs, [`monotonic_us`]) (the demo
 /// samples the device's status there).
 pub fn stream<T: Transport, I>(
     client: &mut Client<T>,
@@ -56,7 +57,7 @@ pub fn stream<T: Transport, I>(
     filter: &mut dyn Filter,
     to_drive: impl Fn([f64; 3]) -> [f64; 3],
     pace: Pace,
-    mut between: impl FnMut(&mut Client<T>, &Sample) -> anyhow::Result<()>,
+    mut between: impl FnMut(&mut Client<T>, &Sample, u64) -> anyhow::Result<()>,
 ) -> anyhow::Result<StreamReport>
 where
     I: IntoIterator<Item = anyhow::Result<Sample>>,
@@ -98,7 +99,7 @@ where
         );
         report.acked += 1;
         report.last_seq = seq;
-        between(client, &s)?;
+        between(client, &s, received_us)?;
     }
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)
