@@ -446,19 +446,39 @@ fn qemu(c: &Ctx, args: &[String]) -> Result<(), String> {
     ensure_qemu()?;
     build_qemu_fw(c)?;
     let elf = c.firmware_elf();
-    if serial == "pty" {
+    let mut cmd = qemu_cmd(&elf, false);
+    cmd.args(["-serial", &serial]);
+    println!("$ {}", show(&cmd));
+    if let Some(port) = serial
+        .strip_prefix("tcp:127.0.0.1:")
+        .and_then(|s| s.split(',').next())
+    {
         println!(
-            "UART0 on a pty: QEMU prints `char device redirected to /dev/pts/N` below; open that path"
-        );
-    } else {
-        println!(
-            "UART0 on TCP {}; connect with e.g. `lmhost --port tcp://{}`",
-            &serial[4..],
-            &serial[4..serial.find(',').unwrap_or(serial.len())]
+            "UART0 (the protocol) on TCP 127.0.0.1:{port}: `lmhost info --port tcp:127.0.0.1:{port}`"
         );
     }
     println!("stop with Ctrl-C");
-    run(qemu_cmd(&elf, false).args(["-serial", &serial]))
+    // QEMU names the pty on stdout; pass its output through and point at it.
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    if let Some(out) = child.stdout.take() {
+        use std::io::BufRead;
+        for line in std::io::BufReader::new(out).lines().map_while(Result::ok) {
+            println!("{line}");
+            if let Some(rest) = line.strip_prefix("char device redirected to ") {
+                let path = rest.split_whitespace().next().unwrap_or(rest);
+                println!("UART0 (the protocol) on {path}: `lmhost info --port {path}`");
+            }
+        }
+    }
+    let status = child.wait().map_err(|e| format!("waiting for QEMU: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("QEMU exited ({status})"))
+    }
 }
 
 fn size(c: &Ctx) -> Result<(), String> {
