@@ -44,7 +44,13 @@ fn frames(c: &mut Criterion) {
         g.bench_function("reference_f64", |b| {
             b.iter(|| {
                 j = (j + 1) % t.steps;
-                reference::frame_u8(plan.positions(), black_box(t.drive_step(j)), None, kappa, &mut out);
+                reference::frame_u8(
+                    plan.positions(),
+                    black_box(t.drive_step(j)),
+                    None,
+                    kappa,
+                    &mut out,
+                );
             })
         });
         #[cfg(feature = "autd3-compare")]
@@ -65,20 +71,32 @@ fn sequence(c: &mut Criterion) {
     g.bench_function("plan_synth_quantise_delta", |b| {
         b.iter(|| {
             let t = Trajectory::plan(black_box(&p), &scene).expect("plans");
-            let s = Sequence::synthesize_with(&scene, &plan, &t, &Synthesis::Linear).expect("synth");
+            let s =
+                Sequence::synthesize_with(&scene, &plan, &t, &Synthesis::Linear).expect("synth");
             black_box(s.encode_into(Encoding::Delta, &mut enc))
         })
+    });
+    let t = Trajectory::plan(&p, &scene).expect("plans");
+    g.bench_function("synth_quantise_only", |b| {
+        b.iter(|| {
+            Sequence::synthesize_with(&scene, &plan, black_box(&t), &Synthesis::Linear)
+                .expect("synth")
+        })
+    });
+    let s = Sequence::synthesize_with(&scene, &plan, &t, &Synthesis::Linear).expect("synth");
+    g.bench_function("delta_encode_only", |b| {
+        b.iter(|| black_box(s.encode_into(Encoding::Delta, &mut enc)))
     });
     g.finish();
 }
 
 #[cfg(feature = "autd3-compare")]
 mod autd3_cmp {
-    use autd3::core::gain::{Gain, GainCalculator, GainCalculatorGenerator, TransducerMask};
     use autd3::core::environment::Environment;
+    use autd3::core::gain::{Gain, GainCalculator, GainCalculatorGenerator, TransducerMask};
     use autd3::prelude::*;
-    use criterion::measurement::WallTime;
     use criterion::BenchmarkGroup;
+    use criterion::measurement::WallTime;
     use lmhost::array::autd3_local_center_mm;
     use lmhost::trajectory::Trajectory;
     use std::hint::black_box;

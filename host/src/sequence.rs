@@ -13,6 +13,10 @@ use crate::synth::fast::SynthPlan;
 use crate::synth::{Weight, quantise_turns, solver};
 use crate::trajectory::Trajectory;
 
+/// Largest phasor table (points × transducers) the sequence synthesis
+/// builds (32 MB); longer trajectories are synthesised step by step.
+const TABLE_LIMIT: usize = 4 << 20;
+
 /// How the phases of a multi-focus step are synthesised.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub enum Synthesis {
@@ -128,6 +132,21 @@ impl Sequence {
                     for (o, x) in out.iter_mut().zip(turns) {
                         *o = quantise_turns(x);
                     }
+                }
+            }
+            _ if traj.foci > 1 && traj.steps * t <= TABLE_LIMIT => {
+                // Every focus sits on one of the N trajectory points
+                // (focus i of step j is point (j + i l) mod N, and focus 0 of
+                // step k is point k): evaluate each point's phasors once.
+                let points: Vec<Vec3> = (0..traj.steps).map(|k| traj.drive_step(k)[0]).collect();
+                let table = plan.phasor_table(&points);
+                let mut scratch = plan.scratch();
+                let mut idx = vec![0usize; traj.foci];
+                for (j, out) in phases.chunks_exact_mut(t).enumerate() {
+                    for (i, k) in idx.iter_mut().enumerate() {
+                        *k = (j + i * traj.index_offset) % traj.steps;
+                    }
+                    plan.foci_from_table(&table, &idx, weights.as_deref(), &mut scratch, out);
                 }
             }
             _ => {

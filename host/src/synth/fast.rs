@@ -326,6 +326,127 @@ impl SynthPlan {
     }
 }
 
+/// Phasor rows `exp(−j 2π κ r_kn)` of a set of points (a whole LM
+/// trajectory), so a sequence whose foci are drawn from those points pays
+/// the trigonometry once per point instead of once per focus and step.
+#[derive(Debug, Clone)]
+pub struct PhasorTable {
+    stride: usize,
+    re: Vec<f32>,
+    im: Vec<f32>,
+    points: Vec<Vec3>,
+}
+
+impl PhasorTable {
+    /// Number of points (rows).
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether the table has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+impl SynthPlan {
+    /// Computes the phasor row of every point (allocates the table once).
+    pub fn phasor_table(&self, points: &[Vec3]) -> PhasorTable {
+        let stride = self.px.len();
+        let mut re = vec![0.0f32; stride * points.len()];
+        let mut im = vec![0.0f32; stride * points.len()];
+        let rows = self.rows(stride);
+        for ((&f, re), im) in points
+            .iter()
+            .zip(re.chunks_exact_mut(stride))
+            .zip(im.chunks_exact_mut(stride))
+        {
+            let p = self.prep(f);
+            match (self.isa, p.far) {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: `Isa::Avx2Fma` is only set after run-time detection.
+                (Isa::Avx2Fma, true) => unsafe {
+                    avx2::accumulate::<true>(rows, &p, 1.0, 0.0, re, im)
+                },
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: as above.
+                (Isa::Avx2Fma, false) => unsafe {
+                    avx2::accumulate::<false>(rows, &p, 1.0, 0.0, re, im)
+                },
+                (_, true) => accumulate_rows::<true, false>(rows, &p, 1.0, 0.0, re, im),
+                (_, false) => accumulate_rows::<false, false>(rows, &p, 1.0, 0.0, re, im),
+            }
+        }
+        PhasorTable {
+            stride,
+            re,
+            im,
+            points: points.to_vec(),
+        }
+    }
+
+    /// Multi-focus frame whose foci are table rows `idx`: the same result
+    /// and accuracy as [`foci`](Self::foci) on those points, without
+    /// trigonometry per focus. No allocation.
+    pub fn foci_from_table(
+        &self,
+        table: &PhasorTable,
+        idx: &[usize],
+        weights: Option<&[Weight]>,
+        scratch: &mut Scratch,
+        out: &mut [u8],
+    ) {
+        assert_eq!(
+            out.len(),
+            self.n,
+            "output length must equal the transducer count"
+        );
+        assert_eq!(table.stride, self.px.len(), "table from another plan");
+        if let Some(w) = weights {
+            assert_eq!(w.len(), idx.len(), "one weight per focus");
+        }
+        let n = self.n;
+        let (re, im) = (&mut scratch.re[..n], &mut scratch.im[..n]);
+        re.fill(0.0);
+        im.fill(0.0);
+        let mut wsum = 0.0;
+        for (i, &k) in idx.iter().enumerate() {
+            let w = weights.map_or(Weight::ONE, |w| w[i]);
+            wsum += w.re.hypot(w.im);
+            let (wr, wi) = (w.re as f32, w.im as f32);
+            let base = k * table.stride;
+            let (tr, ti) = (&table.re[base..base + n], &table.im[base..base + n]);
+            for j in 0..n {
+                // (wr + j wi)(a + j b)
+                re[j] += wr * tr[j] - wi * ti[j];
+                im[j] += wi * tr[j] + wr * ti[j];
+            }
+        }
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2Fma` is only set after run-time detection.
+            Isa::Avx2Fma => unsafe { avx2::angles(re, im, out) },
+            _ => angles_rows::<false>(re, im, out),
+        }
+        let thr = 0.1 * wsum;
+        let thr2 = (thr * thr) as f32;
+        for (j, o) in out.iter_mut().enumerate() {
+            let m2 = re[j] * re[j] + im[j] * im[j];
+            if m2 < thr2 || m2 == 0.0 || m2.is_nan() {
+                let foci = idx
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &k)| (table.points[k], weights.map_or(Weight::ONE, |w| w[i])));
+                *o = super::quantise_turns(reference::phasor_sum_turns(
+                    self.positions[j],
+                    foci,
+                    self.kappa,
+                ));
+            }
+        }
+    }
+}
+
 /// AVX2 + FMA builds of the kernels: the same generic code, compiled with
 /// those target features so it uses 8 lanes and fused multiply-adds.
 #[cfg(target_arch = "x86_64")]
@@ -679,6 +800,40 @@ mod tests {
             assert!(e <= 0.51, "{f:?}: {e}");
             let e = max_err(plan, &[f, [f[0] + 3.0, f[1], f[2]]], None);
             assert!(e <= 0.51, "{f:?} pair: {e}");
+        }
+    }
+
+    #[test]
+    fn table_path_matches_the_reference() {
+        for plan in plans() {
+            let mut rng = Rng(7);
+            let pts: Vec<Vec3> = (0..12)
+                .map(|_| {
+                    [
+                        rng.range(-20.0, 20.0),
+                        rng.range(-20.0, 20.0),
+                        rng.range(150.0, 250.0),
+                    ]
+                })
+                .collect();
+            let table = plan.phasor_table(&pts);
+            assert_eq!(table.len(), 12);
+            let mut out = vec![0u8; plan.len()];
+            let mut s = plan.scratch();
+            for idx in [&[0usize, 3, 6, 9][..], &[1, 1], &[11, 0, 5]] {
+                let foci: Vec<Vec3> = idx.iter().map(|&k| pts[k]).collect();
+                plan.foci_from_table(&table, idx, None, &mut s, &mut out);
+                for (&q, &p) in out.iter().zip(plan.positions()) {
+                    let e = error_lsb(q, reference::phase_turns(p, &foci, None, plan.kappa));
+                    assert!(e <= 0.51, "{:?} {idx:?}: {e}", plan.isa());
+                }
+                let w = vec![Weight { re: 0.3, im: -0.8 }; idx.len()];
+                plan.foci_from_table(&table, idx, Some(&w), &mut s, &mut out);
+                for (&q, &p) in out.iter().zip(plan.positions()) {
+                    let e = error_lsb(q, reference::phase_turns(p, &foci, Some(&w), plan.kappa));
+                    assert!(e <= 0.51, "{:?} weighted {idx:?}: {e}", plan.isa());
+                }
+            }
         }
     }
 

@@ -20,10 +20,21 @@ pub fn phase_turns(pos: Vec3, foci: &[Vec3], weights: Option<&[Weight]>, kappa: 
     if foci.len() == 1 && weights.is_none() {
         return -propagation_turns(kappa, norm(sub(foci[0], pos)));
     }
+    phasor_sum_turns(
+        pos,
+        foci.iter()
+            .enumerate()
+            .map(|(i, &f)| (f, weights.map_or(Weight::ONE, |w| w[i]))),
+        kappa,
+    )
+}
+
+/// `arg Σ w exp(−j 2π κ r) / 2π` over `(focus, weight)` pairs (always the
+/// phasor sum, even for one focus).
+pub fn phasor_sum_turns(pos: Vec3, foci: impl Iterator<Item = (Vec3, Weight)>, kappa: f64) -> f64 {
     let (mut re, mut im) = (0.0, 0.0);
-    for (i, f) in foci.iter().enumerate() {
-        let w = weights.map_or(Weight::ONE, |w| w[i]);
-        let a = 2.0 * std::f64::consts::PI * propagation_turns(kappa, norm(sub(*f, pos)));
+    for (f, w) in foci {
+        let a = 2.0 * std::f64::consts::PI * propagation_turns(kappa, norm(sub(f, pos)));
         let (s, c) = a.sin_cos();
         // (w_re + j w_im)(cos a − j sin a)
         re += w.re * c + w.im * s;
