@@ -119,7 +119,12 @@ impl Board {
             .write(|w| w.ssi().set_bit().spe().set_bit().cstart().set_bit());
 
         Board {
-            uart: Uart(usart),
+            uart: Uart {
+                usart,
+                tx: [0; TX_RING],
+                head: 0,
+                tail: 0,
+            },
             timer: Timer(tim),
             spi: Spi1 {
                 spi,
@@ -130,14 +135,38 @@ impl Board {
 }
 
 /// USART3's transmit side (reception runs in [`usart3_rx_isr`]).
-pub struct Uart(pac::USART3);
+///
+/// Replies are queued and [`pump`](Uart::pump)ed from the main loop, so a
+/// reply (4 ms for a status frame at 115 200 Bd) never holds up a step.
+pub struct Uart {
+    usart: pac::USART3,
+    tx: [u8; TX_RING],
+    head: usize,
+    tail: usize,
+}
+
+/// Bytes of queued replies: many small responses.
+const TX_RING: usize = 1024;
 
 impl Uart {
-    /// Sends `bytes`, waiting for room in the transmit FIFO.
-    pub fn write_all(&mut self, bytes: &[u8]) {
+    /// Queues `bytes` for sending; only waits if the queue is full.
+    pub fn queue(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            while self.0.isr().read().txe().bit_is_clear() {}
-            self.0.tdr().write(|w| unsafe { w.bits(u32::from(b)) });
+            while self.head.wrapping_sub(self.tail) >= TX_RING {
+                self.pump();
+            }
+            self.tx[self.head % TX_RING] = b;
+            self.head = self.head.wrapping_add(1);
+        }
+        self.pump();
+    }
+
+    /// Moves queued bytes into the transmit FIFO while it has room.
+    pub fn pump(&mut self) {
+        while self.tail != self.head && self.usart.isr().read().txe().bit_is_set() {
+            let b = self.tx[self.tail % TX_RING];
+            self.usart.tdr().write(|w| unsafe { w.bits(u32::from(b)) });
+            self.tail = self.tail.wrapping_add(1);
         }
     }
 }

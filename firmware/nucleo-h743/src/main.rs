@@ -57,9 +57,10 @@ fn main() -> ! {
         let n = board::RX.pop_into(&mut rx);
         let now = clock.extend(timer.now());
         if n > 0 {
-            dev.feed(&rx[..n], now, &mut |reply: &[u8]| uart.write_all(reply));
+            dev.feed(&rx[..n], now, &mut |reply: &[u8]| uart.queue(reply));
         }
         dev.poll(now, &mut out);
+        uart.pump();
     }
 }
 
