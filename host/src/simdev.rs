@@ -233,6 +233,20 @@ pub fn serve<C: Core>(
     opts: ServeOptions,
     stop: Arc<AtomicBool>,
 ) -> anyhow::Result<()> {
+    let Pty { master, _slave, .. } = pty;
+    let r = serve_fd(core, master, opts, stop);
+    drop(_slave);
+    r
+}
+
+/// Serve `core` on any non-blocking byte-stream fd (a pty master, one end
+/// of a socket pair) with the real clock until `stop` is set.
+pub fn serve_fd<C: Core>(
+    core: Arc<Mutex<C>>,
+    fd: OwnedFd,
+    opts: ServeOptions,
+    stop: Arc<AtomicBool>,
+) -> anyhow::Result<()> {
     struct Master(OwnedFd);
     impl Transport for Master {
         fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
@@ -257,10 +271,10 @@ pub fn serve<C: Core>(
             "pty master".into()
         }
     }
-    let poll_fd = pty.master.try_clone().context("duplicating the pty fd")?;
+    let poll_fd = fd.try_clone().context("duplicating the device fd")?;
     let mut link: Box<dyn Transport> = match opts.faults {
-        Some((f, seed)) => Box::new(Faulty::new(Master(pty.master), f, seed)),
-        None => Box::new(Master(pty.master)),
+        Some((f, seed)) => Box::new(Faulty::new(Master(fd), f, seed)),
+        None => Box::new(Master(fd)),
     };
     let mut buf = vec![0u8; 4096];
     let mut out = Vec::new();
@@ -502,6 +516,33 @@ pub struct SimThread {
 }
 
 impl SimThread {
+    /// Start serving a device built from `cfg` on one end of a Unix socket
+    /// pair; returns the other end for the host. No pty: the kernel wakes
+    /// the device directly, without the tty layer's deferred work.
+    pub fn start_socket(cfg: SimConfig) -> anyhow::Result<(Self, std::os::unix::net::UnixStream)> {
+        let core = Arc::new(Mutex::new(FwCore::new(cfg)?));
+        let (host, dev) =
+            std::os::unix::net::UnixStream::pair().context("creating a socket pair")?;
+        dev.set_nonblocking(true)
+            .context("making the device socket non-blocking")?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let (c, s) = (core.clone(), stop.clone());
+        let thread = std::thread::Builder::new()
+            .name("lmhost-sim".into())
+            .spawn(move || serve_fd(c, OwnedFd::from(dev), ServeOptions::default(), s))
+            .context("starting the simulator thread")?;
+        let path = "socket pair".to_owned();
+        Ok((
+            Self {
+                core,
+                path,
+                stop,
+                thread: Some(thread),
+            },
+            host,
+        ))
+    }
+
     /// Start serving a device built from `cfg`.
     pub fn start(cfg: SimConfig) -> anyhow::Result<Self> {
         let core = Arc::new(Mutex::new(FwCore::new(cfg)?));

@@ -57,9 +57,23 @@ pub struct Args {
     /// Centroid filter.
     #[arg(long, value_enum, default_value_t = FilterKind::Kalman)]
     filter: FilterKind,
+    /// How the host reaches the simulated device: `pty` (the serial path
+    /// any tool uses) or `socket` (a socket pair: no tty layer, lowest
+    /// latency).
+    #[arg(long, value_enum, default_value_t = SimLink::Pty)]
+    link: SimLink,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// Link to the demo's simulated device.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SimLink {
+    /// A pseudo-terminal, opened as a serial port.
+    Pty,
+    /// A Unix socket pair.
+    Socket,
 }
 
 impl Args {
@@ -73,8 +87,18 @@ impl Args {
         let dwell_us = plan.sequence.header.dwell_us;
         let steps = spec.steps as u64;
 
-        let sim = SimThread::start(SimConfig::default())?;
-        let mut client = Client::new(Serial::open(&sim.path, 115_200)?);
+        let (sim, transport): (SimThread, Box<dyn crate::link::Transport>) = match self.link {
+            SimLink::Pty => {
+                let sim = SimThread::start(SimConfig::default())?;
+                let t = Box::new(Serial::open(&sim.path, 115_200)?);
+                (sim, t)
+            }
+            SimLink::Socket => {
+                let (sim, sock) = SimThread::start_socket(SimConfig::default())?;
+                (sim, Box::new(crate::link::transport::Unix::new(sock)))
+            }
+        };
+        let mut client = Client::new(transport);
         let info = client
             .info()
             .context("asking the simulated device for its info")?;
@@ -166,6 +190,7 @@ impl Args {
                 "wire_bytes": up.wire_bytes_sent + up.wire_bytes_received,
                 "wire_efficiency": up.wire_efficiency(), "seconds": up.seconds, "crc32": up.crc32 },
             "realtime_priority": realtime,
+            "link": format!("{:?}", self.link).to_lowercase(),
             "steps_played": played, "mean_dwell_us": mean_dwell_us,
             "missed_deadlines": s1.missed_deadlines - s0.missed_deadlines,
             "step_late_p99_us": late_p99,
@@ -182,8 +207,13 @@ impl Args {
             return Ok(());
         }
         println!(
-            "lmhost demo: simulated device on {} ({})",
+            "lmhost demo: simulated device on {} over a {} ({})",
             sim_path_note(),
+            if self.link == SimLink::Pty {
+                "pty"
+            } else {
+                "socket pair"
+            },
             if realtime {
                 "real-time priority"
             } else {
@@ -234,5 +264,5 @@ impl Args {
 }
 
 fn sim_path_note() -> &'static str {
-    "a pty in this process (lm-fw-core, real clock)"
+    "a thread of this process (lm-fw-core, real clock)"
 }

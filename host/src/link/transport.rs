@@ -122,6 +122,42 @@ impl Transport for Tcp {
     }
 }
 
+/// A Unix stream socket (the in-process simulated device's socket pair).
+pub struct Unix {
+    stream: std::os::unix::net::UnixStream,
+}
+
+impl Unix {
+    /// Wrap a connected, blocking socket.
+    pub fn new(stream: std::os::unix::net::UnixStream) -> Self {
+        Self { stream }
+    }
+}
+
+impl Transport for Unix {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.stream.write_all(bytes)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        self.stream
+            .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
+        match self.stream.read(buf) {
+            Ok(0) => Err(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                "the simulated device closed the socket",
+            )),
+            Ok(n) => Ok(n),
+            Err(e) if is_timeout(&e) => Ok(0),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn describe(&self) -> String {
+        "in-process simulated device (socket pair)".into()
+    }
+}
+
 /// Open a port spec: `tcp:HOST:PORT` for TCP, anything else is a serial
 /// device path.
 pub fn open(spec: &str, baud: u32) -> anyhow::Result<Box<dyn Transport>> {
