@@ -12,7 +12,7 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::codec::Encoding;
 use lmhost::scene::Scene;
-use lmhost::sequence::{Sequence, Synthesis};
+use lmhost::sequence::{Sequence, SynthWorkspace, Synthesis};
 use lmhost::synth::fast::SynthPlan;
 use lmhost::synth::reference;
 use lmhost::trajectory::{LmParams, Trajectory};
@@ -68,18 +68,19 @@ fn sequence(c: &mut Criterion) {
     p.foci = 4;
     let mut g = c.benchmark_group("sequence_lm_m_a3_n82_4foci");
     let mut enc = vec![0u8; 82 * 996];
+    let mut ws = SynthWorkspace::new(&plan);
     g.bench_function("plan_synth_quantise_delta", |b| {
         b.iter(|| {
             let t = Trajectory::plan(black_box(&p), &scene).expect("plans");
-            let s =
-                Sequence::synthesize_with(&scene, &plan, &t, &Synthesis::Linear).expect("synth");
+            let s = Sequence::synthesize_reusing(&scene, &plan, &mut ws, &t, &Synthesis::Linear)
+                .expect("synth");
             black_box(s.encode_into(Encoding::Delta, &mut enc))
         })
     });
     let t = Trajectory::plan(&p, &scene).expect("plans");
     g.bench_function("synth_quantise_only", |b| {
         b.iter(|| {
-            Sequence::synthesize_with(&scene, &plan, black_box(&t), &Synthesis::Linear)
+            Sequence::synthesize_reusing(&scene, &plan, &mut ws, black_box(&t), &Synthesis::Linear)
                 .expect("synth")
         })
     });

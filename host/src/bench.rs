@@ -13,7 +13,7 @@ use lm_proto::codec::Encoding;
 use serde::Serialize;
 
 use crate::scene::{Scene, Vec3};
-use crate::sequence::{Sequence, Synthesis};
+use crate::sequence::{Sequence, SynthWorkspace, Synthesis};
 use crate::synth::fast::SynthPlan;
 use crate::synth::{Weight, error_lsb, reference, solver};
 use crate::trajectory::{LmParams, Trajectory};
@@ -99,8 +99,12 @@ pub struct FrameFigures {
     pub foci: usize,
     /// Transducers.
     pub transducers: usize,
+    /// Kernel build the fast path ran (`Avx2Fma` or `Portable`).
+    pub isa: crate::synth::fast::Isa,
     /// Fast path, µs per frame (median).
     pub fast_us: f64,
+    /// Fast path forced to the portable build, µs per frame (median).
+    pub portable_us: f64,
     /// f64 reference, µs per frame (median).
     pub reference_us: f64,
     /// Max |error| of the fast u8 against the exact phase (LSB).
@@ -120,6 +124,10 @@ pub struct SequenceFigures {
     pub steps: usize,
     /// Plan + synthesise + quantise + Delta-encode, µs (median).
     pub total_us: f64,
+    /// Synthesise + quantise only, µs (median).
+    pub synth_us: f64,
+    /// Delta-encode only (`lm_proto::codec::encode`), µs (median).
+    pub encode_us: f64,
     /// Raw bytes.
     pub raw_bytes: usize,
     /// Delta bytes.
@@ -183,6 +191,16 @@ fn frame_case(scene: &Scene, plan: &SynthPlan, traj: &Trajectory, opts: &Options
         );
         j += 1;
     });
+    let portable_plan = plan.clone().portable();
+    let portable = time_per_call(b, r, || {
+        portable_plan.foci(
+            traj.drive_step(j % traj.steps),
+            None,
+            &mut scratch,
+            &mut out,
+        );
+        j += 1;
+    });
     let mut q = vec![0u8; t];
     let reference = time_per_call(b, r / 10, || {
         reference::frame_u8(
@@ -198,7 +216,9 @@ fn frame_case(scene: &Scene, plan: &SynthPlan, traj: &Trajectory, opts: &Options
     FrameFigures {
         foci: traj.foci,
         transducers: t,
+        isa: plan.isa(),
         fast_us: fast * 1e6,
+        portable_us: portable * 1e6,
         reference_us: reference * 1e6,
         max_err_lsb: max,
         mean_err_lsb: sum / cnt.max(1) as f64,
@@ -258,14 +278,22 @@ pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
         frames.push(frame_case(&scene, &plan, &traj, opts));
         let (b, r) = if opts.quick { (3, 2) } else { (11, 20) };
         let mut last = None;
+        let mut ws = SynthWorkspace::new(&plan);
         let total = time_per_call(b, r, || {
             let traj = Trajectory::plan(&p, &scene).expect("planned above");
-            let s = Sequence::synthesize_with(&scene, &plan, &traj, &Synthesis::Linear)
+            let s = Sequence::synthesize_reusing(&scene, &plan, &mut ws, &traj, &Synthesis::Linear)
                 .expect("planned above");
             let enc = s.encode(Encoding::Delta);
             last = Some((s, enc.len()));
         });
         let (s, delta) = last.expect("ran at least once");
+        let synth = time_per_call(b, r, || {
+            let _ = Sequence::synthesize_reusing(&scene, &plan, &mut ws, &traj, &Synthesis::Linear);
+        });
+        let mut enc = vec![0u8; delta];
+        let encode = time_per_call(b, r, || {
+            s.encode_into(Encoding::Delta, &mut enc);
+        });
         sequences.push(SequenceFigures {
             case: format!(
                 "{} A = 3 mm, d_LM = 0.23 mm, {foci} foci",
@@ -273,6 +301,8 @@ pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
             ),
             steps: traj.steps,
             total_us: total * 1e6,
+            synth_us: synth * 1e6,
+            encode_us: encode * 1e6,
             raw_bytes: s.phases.len(),
             delta_bytes: delta,
             delta_ratio: delta as f64 / s.phases.len() as f64,
@@ -300,9 +330,11 @@ pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
     let mut text = String::from("planner (built-in 2x2 AUTD3, 996 transducers, one thread)\n");
     for f in &frames {
         text += &format!(
-            "  frame, {} foci: fast {:.2} µs, f64 reference {:.2} µs ({:.1}x); error max {:.3} LSB, mean {:.3} LSB over {} frames\n",
+            "  frame, {} foci: fast {:.2} µs ({:?}; portable {:.2} µs), f64 reference {:.2} µs ({:.1}x); error max {:.3} LSB, mean {:.3} LSB over {} frames\n",
             f.foci,
             f.fast_us,
+            f.isa,
+            f.portable_us,
             f.reference_us,
             f.reference_us / f.fast_us,
             f.max_err_lsb,
@@ -312,10 +344,12 @@ pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
     }
     for s in &sequences {
         text += &format!(
-            "  sequence {} (N = {}): plan+synth+quantise+delta {:.1} µs; raw {} B, delta {} B ({:.1} %)\n",
+            "  sequence {} (N = {}): plan+synth+quantise+delta {:.1} µs (synth {:.1} µs, delta encode {:.1} µs); raw {} B, delta {} B ({:.1} %)\n",
             s.case,
             s.steps,
             s.total_us,
+            s.synth_us,
+            s.encode_us,
             s.raw_bytes,
             s.delta_bytes,
             100.0 * s.delta_ratio

@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use crate::error::InputError;
 use crate::scene::{Scene, Vec3};
-use crate::synth::fast::SynthPlan;
+use crate::synth::fast::{PhasorTable, Scratch, SynthPlan};
 use crate::synth::{Weight, quantise_turns, solver};
 use crate::trajectory::Trajectory;
 
@@ -31,6 +31,28 @@ pub enum Synthesis {
         /// Iterations of the m × m power step.
         iterations: usize,
     },
+}
+
+/// Reusable buffers for synthesising many sequences over one
+/// [`SynthPlan`] (plan once, run many: no large allocation per sequence).
+#[derive(Debug, Clone)]
+pub struct SynthWorkspace {
+    table: PhasorTable,
+    scratch: Scratch,
+    idx: Vec<usize>,
+    points: Vec<Vec3>,
+}
+
+impl SynthWorkspace {
+    /// Buffers sized for `plan`.
+    pub fn new(plan: &SynthPlan) -> Self {
+        Self {
+            table: PhasorTable::default(),
+            scratch: plan.scratch(),
+            idx: Vec::new(),
+            points: Vec::new(),
+        }
+    }
 }
 
 /// What the device needs besides the phases.
@@ -88,11 +110,22 @@ impl Sequence {
         Self::synthesize_with(scene, &plan, traj, synthesis)
     }
 
-    /// As [`synthesize`](Self::synthesize) with a prepared plan (reuse it
-    /// when planning many sequences over one scene).
+    /// As [`synthesize`](Self::synthesize) with a prepared plan.
     pub fn synthesize_with(
         scene: &Scene,
         plan: &SynthPlan,
+        traj: &Trajectory,
+        synthesis: &Synthesis,
+    ) -> Result<Self, InputError> {
+        Self::synthesize_reusing(scene, plan, &mut SynthWorkspace::new(plan), traj, synthesis)
+    }
+
+    /// As [`synthesize_with`](Self::synthesize_with), reusing `ws` (keep one
+    /// per plan when synthesising many sequences).
+    pub fn synthesize_reusing(
+        scene: &Scene,
+        plan: &SynthPlan,
+        ws: &mut SynthWorkspace,
         traj: &Trajectory,
         synthesis: &Synthesis,
     ) -> Result<Self, InputError> {
@@ -138,21 +171,28 @@ impl Sequence {
                 // Every focus sits on one of the N trajectory points
                 // (focus i of step j is point (j + i l) mod N, and focus 0 of
                 // step k is point k): evaluate each point's phasors once.
-                let points: Vec<Vec3> = (0..traj.steps).map(|k| traj.drive_step(k)[0]).collect();
-                let table = plan.phasor_table(&points);
-                let mut scratch = plan.scratch();
-                let mut idx = vec![0usize; traj.foci];
+                ws.points.clear();
+                ws.points
+                    .extend((0..traj.steps).map(|k| traj.drive_step(k)[0]));
+                plan.fill_phasor_table(&ws.points, &mut ws.table);
+                ws.idx.clear();
+                ws.idx.resize(traj.foci, 0);
                 for (j, out) in phases.chunks_exact_mut(t).enumerate() {
-                    for (i, k) in idx.iter_mut().enumerate() {
+                    for (i, k) in ws.idx.iter_mut().enumerate() {
                         *k = (j + i * traj.index_offset) % traj.steps;
                     }
-                    plan.foci_from_table(&table, &idx, weights.as_deref(), &mut scratch, out);
+                    plan.foci_from_table(
+                        &ws.table,
+                        &ws.idx,
+                        weights.as_deref(),
+                        &mut ws.scratch,
+                        out,
+                    );
                 }
             }
             _ => {
-                let mut scratch = plan.scratch();
                 for (j, out) in phases.chunks_exact_mut(t).enumerate() {
-                    plan.foci(traj.drive_step(j), weights.as_deref(), &mut scratch, out);
+                    plan.foci(traj.drive_step(j), weights.as_deref(), &mut ws.scratch, out);
                 }
             }
         }

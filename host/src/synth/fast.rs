@@ -329,7 +329,7 @@ impl SynthPlan {
 /// Phasor rows `exp(−j 2π κ r_kn)` of a set of points (a whole LM
 /// trajectory), so a sequence whose foci are drawn from those points pays
 /// the trigonometry once per point instead of once per focus and step.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct PhasorTable {
     stride: usize,
     re: Vec<f32>,
@@ -350,16 +350,30 @@ impl PhasorTable {
 }
 
 impl SynthPlan {
-    /// Computes the phasor row of every point (allocates the table once).
+    /// Computes the phasor row of every point (allocates the table).
     pub fn phasor_table(&self, points: &[Vec3]) -> PhasorTable {
+        let mut t = PhasorTable::default();
+        self.fill_phasor_table(points, &mut t);
+        t
+    }
+
+    /// Refills `table` with the rows of `points`, reusing its memory (no
+    /// allocation once it has held as many rows).
+    pub fn fill_phasor_table(&self, points: &[Vec3], table: &mut PhasorTable) {
         let stride = self.px.len();
-        let mut re = vec![0.0f32; stride * points.len()];
-        let mut im = vec![0.0f32; stride * points.len()];
+        let len = stride * points.len();
+        table.stride = stride;
+        table.re.clear();
+        table.re.resize(len, 0.0);
+        table.im.clear();
+        table.im.resize(len, 0.0);
+        table.points.clear();
+        table.points.extend_from_slice(points);
         let rows = self.rows(stride);
         for ((&f, re), im) in points
             .iter()
-            .zip(re.chunks_exact_mut(stride))
-            .zip(im.chunks_exact_mut(stride))
+            .zip(table.re.chunks_exact_mut(stride))
+            .zip(table.im.chunks_exact_mut(stride))
         {
             let p = self.prep(f);
             match (self.isa, p.far) {
@@ -376,12 +390,6 @@ impl SynthPlan {
                 (_, true) => accumulate_rows::<true, false>(rows, &p, 1.0, 0.0, re, im),
                 (_, false) => accumulate_rows::<false, false>(rows, &p, 1.0, 0.0, re, im),
             }
-        }
-        PhasorTable {
-            stride,
-            re,
-            im,
-            points: points.to_vec(),
         }
     }
 
@@ -416,10 +424,11 @@ impl SynthPlan {
             let (wr, wi) = (w.re as f32, w.im as f32);
             let base = k * table.stride;
             let (tr, ti) = (&table.re[base..base + n], &table.im[base..base + n]);
-            for j in 0..n {
-                // (wr + j wi)(a + j b)
-                re[j] += wr * tr[j] - wi * ti[j];
-                im[j] += wi * tr[j] + wr * ti[j];
+            match self.isa {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: `Isa::Avx2Fma` is only set after run-time detection.
+                Isa::Avx2Fma => unsafe { avx2::combine(tr, ti, wr, wi, re, im) },
+                _ => combine_rows::<false>(tr, ti, wr, wi, re, im),
             }
         }
         match self.isa {
@@ -451,7 +460,21 @@ impl SynthPlan {
 /// those target features so it uses 8 lanes and fused multiply-adds.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Prep, Rows, accumulate_rows, angles_rows, focus_rows};
+    use super::{Prep, Rows, accumulate_rows, angles_rows, combine_rows, focus_rows};
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn combine(
+        tr: &[f32],
+        ti: &[f32],
+        wr: f32,
+        wi: f32,
+        re: &mut [f32],
+        im: &mut [f32],
+    ) {
+        combine_rows::<true>(tr, ti, wr, wi, re, im)
+    }
 
     /// # Safety
     /// The CPU must support AVX2 and FMA.
@@ -523,6 +546,25 @@ fn accumulate_rows<const FAR: bool, const F: bool>(
         // (wr + j wi)(cos − j sin)
         re[i] = fma::<F>(wr, c, fma::<F>(wi, s, re[i]));
         im[i] = fma::<F>(wi, c, fma::<F>(-wr, s, im[i]));
+    }
+}
+
+/// Adds `(wr + j wi)` times a table row to the phasor sums.
+#[inline(always)]
+fn combine_rows<const F: bool>(
+    tr: &[f32],
+    ti: &[f32],
+    wr: f32,
+    wi: f32,
+    re: &mut [f32],
+    im: &mut [f32],
+) {
+    let n = re.len();
+    let (tr, ti, im) = (&tr[..n], &ti[..n], &mut im[..n]);
+    for j in 0..n {
+        // (wr + j wi)(a + j b)
+        re[j] = fma::<F>(wr, tr[j], fma::<F>(-wi, ti[j], re[j]));
+        im[j] = fma::<F>(wi, tr[j], fma::<F>(wr, ti[j], im[j]));
     }
 }
 

@@ -9,8 +9,9 @@
 //!
 //! **GS-PAT** (Plasencia et al. 2020), phase-only: with the backward
 //! propagator `B_ni = conj(F_in) / Σ_n |F_in|²` and `R = F B` (m × m),
-//! start from focus phasors `a_i = 1` and iterate `a ← unit(R a)` so every
-//! focus gets the same amplitude; then drive `φ_n = arg Σ_i B_ni a_i`.
+//! start from focus phasors `a_i = 1` and iterate `a ← unit(R (w ⊙ a))`,
+//! re-weighting `w_i ← w_i · mean|Γ| / |Γ_i|` so weak foci ask for more
+//! (weighted GS); then drive `φ_n = arg Σ_i B_ni w_i a_i` at full amplitude.
 //! The iteration runs on the m × m matrix only, so its cost is that of one
 //! weighted frame plus `m² T` for `R`.
 
@@ -146,23 +147,41 @@ pub fn gspat_turns(
             };
         }
     }
+    // a: focus phasors (unit); w: amplitude weights, re-balanced every
+    // iteration so weak foci ask for more (weighted GS).
     let mut a = vec![C { re: 1.0, im: 0.0 }; m];
+    let mut w = vec![1.0f64; m];
     for _ in 0..iterations {
         let g: Vec<C> = (0..m)
-            .map(|i| (0..m).fold(C::default(), |s, j| s.add(r[i][j].mul(a[j]))))
+            .map(|i| {
+                (0..m).fold(C::default(), |s, j| {
+                    s.add(r[i][j].mul(C {
+                        re: a[j].re * w[j],
+                        im: a[j].im * w[j],
+                    }))
+                })
+            })
             .collect();
-        for (ai, gi) in a.iter_mut().zip(g) {
+        let mean = g.iter().map(|x| x.abs()).sum::<f64>() / m as f64;
+        for ((ai, wi), gi) in a.iter_mut().zip(w.iter_mut()).zip(g) {
             let n = gi.abs();
-            *ai = if n > 0.0 {
-                C {
+            if n > 0.0 {
+                *ai = C {
                     re: gi.re / n,
                     im: gi.im / n,
-                }
-            } else {
-                C { re: 1.0, im: 0.0 }
-            };
+                };
+                *wi *= mean / n;
+            }
         }
     }
+    let a: Vec<C> = a
+        .iter()
+        .zip(&w)
+        .map(|(x, &k)| C {
+            re: x.re * k,
+            im: x.im * k,
+        })
+        .collect();
     (0..transducers.len())
         .map(|n| {
             let x = (0..m).fold(C::default(), |s, i| {
