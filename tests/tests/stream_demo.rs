@@ -27,3 +27,12 @@ fn demo_uploads_plays_streams_and_mutes() {
         "{v}"
     );
 }
+
+#[test]
+fn demo_runs_over_a_socket_pair_too() {
+    let v = json(&["demo", "--seconds", "1", "--link", "socket", "--json"]);
+    assert_eq!(v["link"], "socket", "{v}");
+    assert_eq!(v["centroids"]["sent"], 90, "{v}");
+    assert!(v["centroids"]["applied"].as_u64().unwrap() >= 60, "{v}");
+    assert_eq!(v["muting"]["muted_in_every_status_while_away"], true, "{v}");
+}

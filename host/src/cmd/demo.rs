@@ -62,9 +62,19 @@ pub struct Args {
     /// latency).
     #[arg(long, value_enum, default_value_t = SimLink::Pty)]
     link: SimLink,
+    /// Also simulate the stimulus's acoustic field and write the maps
+    /// (PNG, .npy, JSON) to DIR, as `lmhost simulate` does.
+    #[arg(long, value_name = "DIR", conflicts_with = "json")]
+    plots: Option<std::path::PathBuf>,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(clap::Parser)]
+struct SimulateOnly {
+    #[command(flatten)]
+    simulate: crate::cmd::simulate::Args,
 }
 
 /// Link to the demo's simulated device.
@@ -259,6 +269,22 @@ impl Args {
                 "NOT muted"
             }
         );
+        if let Some(dir) = &self.plots {
+            let dir = dir.to_string_lossy();
+            let args = std::iter::once("demo")
+                .chain(LM_M_FLAGS.iter().copied())
+                .chain(["--out", dir.as_ref()]);
+            println!("field      simulating LM-M into {dir}:");
+            SimulateOnly::try_parse_from(args)
+                .context("building the simulate flags")?
+                .simulate
+                .run()
+                .context("simulating the field")?;
+        } else {
+            println!(
+                "field      maps: `lmhost demo --plots DIR` (or `lmhost simulate --foci 4 --out DIR`)"
+            );
+        }
         Ok(())
     }
 }

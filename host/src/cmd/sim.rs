@@ -6,7 +6,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
 use crate::link::proxy::Faults;
-use crate::simdev::{FwCore, Pty, ServeOptions, SimConfig, serve};
+use crate::simdev::{Core as _, FwCore, Pty, ServeOptions, SimConfig, serve};
 
 /// Run the simulated device (any serial tool can talk to it).
 #[derive(Debug, clap::Args)]
@@ -72,6 +72,19 @@ impl Args {
                 stop.store(true, std::sync::atomic::Ordering::Relaxed);
             });
         }
-        serve(core, pty, ServeOptions { faults }, stop)
+        serve(core.clone(), pty, ServeOptions { faults }, stop)?;
+        // Only reached with --seconds: what the device measured.
+        let st = core.lock().unwrap_or_else(|e| e.into_inner()).stats();
+        let p = |q| crate::simdev::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
+        eprintln!(
+            "lmhost sim: {} frames ({} muted), {} centroid updates applied; host receipt → applying step p50 {} µs, p99 {} µs, max {} µs",
+            st.frames,
+            st.muted_frames,
+            st.centroids_applied,
+            p(50.0),
+            p(99.0),
+            p(100.0)
+        );
+        Ok(())
     }
 }
