@@ -745,6 +745,39 @@ mod tests {
         }
     }
 
+    /// 10^5 seeded random focus sets (1-4 foci, ±1 m, both builds): run by
+    /// `cargo test --release -p lmhost --lib -- --ignored long_random`.
+    #[test]
+    #[ignore = "long: run in release by cargo xtask ci"]
+    fn long_random_foci_are_within_0_51_lsb() {
+        for plan in plans() {
+            let mut rng = Rng(0x10_0000);
+            let mut out = vec![0u8; plan.len()];
+            let mut s = plan.scratch();
+            for case in 0..50_000 {
+                let m = 1 + case % 4;
+                let foci: Vec<Vec3> = (0..m)
+                    .map(|_| {
+                        [
+                            rng.range(-1000.0, 1000.0),
+                            rng.range(-1000.0, 1000.0),
+                            rng.range(-1000.0, 1000.0),
+                        ]
+                    })
+                    .collect();
+                plan.foci(&foci, None, &mut s, &mut out);
+                for (&q, &p) in out.iter().zip(plan.positions()) {
+                    let e = error_lsb(q, reference::phase_turns(p, &foci, None, plan.kappa));
+                    assert!(
+                        e <= 0.51,
+                        "{:?} case {case}: {e} LSB for {foci:?}",
+                        plan.isa()
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn weighted_random_foci_are_within_0_51_lsb() {
         for plan in plans() {
