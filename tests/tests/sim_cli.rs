@@ -144,3 +144,36 @@ fn silent_port_times_out_with_advice() {
         "{err}"
     );
 }
+
+#[test]
+fn upload_through_a_noisy_link_retries_and_commits() {
+    // Bit errors at 1e-4 and dropped bytes on the device's side of the pty.
+    let sim = Sim::start(&["--faults", "ber=1e-4,drop=1e-5", "--seed", "3"]);
+    let p = sim.port.as_str();
+    let up = json(&[
+        "upload",
+        "--port",
+        p,
+        "--foci",
+        "4",
+        "--timeout-ms",
+        "100",
+        "--json",
+    ]);
+    assert!(up["retries"].as_u64().unwrap() > 0, "{up}");
+    let st = json(&[
+        "status",
+        "--port",
+        p,
+        "--json",
+        "--timeout-ms",
+        "100",
+        "--tries",
+        "10",
+    ]);
+    assert!(
+        st["crc_errors"].as_u64().unwrap() + st["bad_frames"].as_u64().unwrap() > 0,
+        "{st}"
+    );
+    assert_eq!(st["slot"], 0, "{st}");
+}

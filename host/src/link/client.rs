@@ -210,6 +210,9 @@ pub fn encode_sequence(encoding: Encoding, spec: &UploadSpec) -> Result<Vec<u8>,
     Ok(out)
 }
 
+/// Smallest chunk the adaptive upload shrinks to on a noisy link (bytes).
+pub const MIN_ADAPTIVE_CHUNK: usize = 64;
+
 /// The client.
 pub struct Client<T> {
     transport: T,
@@ -237,7 +240,7 @@ impl<T: Transport> Client<T> {
             rx: vec![0; 4096],
             tx: vec![0; MAX_ENCODED_FRAME],
             timeout: Duration::from_millis(300),
-            tries: 5,
+            tries: 8,
             upload_attempts: 4,
             stats: LinkStats::default(),
         }
@@ -472,10 +475,34 @@ impl<T: Transport> Client<T> {
             self.expect_ack("geometry", &Message::Geometry(g))?;
         }
         let total = encoded.len() as u64;
-        for (i, data) in encoded.chunks(chunk).enumerate() {
-            let offset = (i * chunk) as u32;
-            self.expect_ack("chunk", &Message::Chunk(Chunk { slot, offset, data }))?;
-            progress(offset as u64 + data.len() as u64, total);
+        // Adaptive chunk size: a chunk that needed a resend halves the size
+        // of the next ones (a noisy link loses fewer short frames); a run of
+        // clean chunks doubles it back. A frame is never changed while it
+        // may have landed, so resends stay idempotent.
+        let mut size = chunk;
+        let mut clean_run = 0;
+        let mut offset = 0usize;
+        while offset < encoded.len() {
+            let data = &encoded[offset..(offset + size).min(encoded.len())];
+            let retries_before = self.stats.retries;
+            let msg = Message::Chunk(Chunk {
+                slot,
+                offset: offset as u32,
+                data,
+            });
+            self.expect_ack("chunk", &msg)?;
+            offset += data.len();
+            if self.stats.retries > retries_before {
+                size = (size / 2).max(MIN_ADAPTIVE_CHUNK.min(chunk));
+                clean_run = 0;
+            } else {
+                clean_run += 1;
+                if clean_run >= 16 {
+                    size = (size * 2).min(chunk);
+                    clean_run = 0;
+                }
+            }
+            progress(offset as u64, total);
         }
         self.expect_ack("commit", &Message::Commit(Commit { slot, crc32 }))
     }

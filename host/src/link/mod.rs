@@ -36,7 +36,7 @@ pub struct PortArgs {
     #[arg(long, value_name = "MS")]
     pub timeout_ms: Option<u64>,
     /// Attempts per request before giving up.
-    #[arg(long, value_name = "N", default_value_t = 5)]
+    #[arg(long, value_name = "N", default_value_t = 8)]
     pub tries: u32,
 }
 
