@@ -412,26 +412,34 @@ fn firmware_under_qemu_speaks_the_protocol() {
     let until = Instant::now() + Duration::from_secs(60);
     let moved = [1500, -1000, 150_000];
     let mut last = first;
-    while last.cycles < first.cycles + 3 {
+    // Sample until 3 cycles passed and the samples caught 5 different steps
+    // (how many samples a cycle gets depends on the host's load).
+    while last.cycles < first.cycles + 3 || steps_seen.len() < 5 {
         assert!(
             Instant::now() < until,
-            "3 cycles did not pass in 60 s: {first:?} -> {last:?}"
+            "3 cycles and 5 steps not seen in 60 s: {first:?} -> {last:?}, steps {steps_seen:?}"
         );
         cseq += 1;
         link.ack(&centroid(cseq, moved, true, t0));
         let s = link.status();
-        assert_eq!(
-            s.state,
-            DeviceState::Playing,
-            "fresh centroids every 20 ms (wall clock; less in virtual time) keep it playing: {s:?}"
+        // Playing, or Muted if this host was too slow to keep the 100 ms
+        // centroid timeout (checked strictly below, back to back).
+        assert!(
+            matches!(s.state, DeviceState::Playing | DeviceState::Muted),
+            "{s:?}"
         );
+        assert_eq!(s.slot, Some(0));
         steps_seen.insert(s.step);
         last = s;
-        std::thread::sleep(Duration::from_millis(20));
+        std::thread::sleep(Duration::from_millis(5));
     }
-    assert!(
-        steps_seen.len() >= 5,
-        "steps should advance, saw {steps_seen:?}"
+    cseq += 1;
+    link.ack(&centroid(cseq, moved, true, t0));
+    let last = link.status();
+    assert_eq!(
+        last.state,
+        DeviceState::Playing,
+        "a fresh centroid resumes: {last:?}"
     );
     assert_eq!(last.missed_deadlines, 0, "{last:?}");
     assert_eq!(last.last_centroid_seq, cseq);

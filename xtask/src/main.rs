@@ -42,7 +42,7 @@ const STEPS: &[Step] = &[
         run: step_setup,
     },
     Step {
-        name: "thumb build: lm-proto + lm-fw-core (no_std)",
+        name: "thumb build: lm-proto + lm-fw-core (no_std; plain and with defmt)",
         run: step_thumb_libs,
     },
     Step {
@@ -243,6 +243,17 @@ fn step_thumb_libs(c: &Ctx) -> Result<(), String> {
         "lm-proto",
         "-p",
         "lm-fw-core",
+    ]))?;
+    // The defmt logging feature must build too (it is off everywhere else).
+    run(c.cargo(&[
+        "build",
+        "--release",
+        "--target",
+        THUMB,
+        "-p",
+        "lm-fw-core",
+        "--features",
+        "defmt",
     ]))
 }
 
