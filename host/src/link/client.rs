@@ -405,7 +405,10 @@ impl<T: Transport> Client<T> {
             if attempt > 0 {
                 self.stats.upload_restarts += 1;
             }
-            match self.upload_once(spec, slot, encoding, &encoded, crc32, chunk, &mut progress) {
+            // A restart after a chunk that never got through starts with
+            // frames a quarter the size (down to the adaptive minimum).
+            let size = (chunk >> (2 * attempt.min(8))).max(MIN_ADAPTIVE_CHUNK.min(chunk));
+            match self.upload_once(spec, slot, encoding, &encoded, crc32, size, &mut progress) {
                 Ok(()) => {
                     let s = self.stats;
                     return Ok(UploadReport {
@@ -466,13 +469,25 @@ impl<T: Transport> Client<T> {
             foci_per_step: spec.foci_per_step,
         };
         self.expect_ack("begin upload", &Message::BeginUpload(begin))?;
-        for (i, pts) in spec.positions_um.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
+        // Positions adapt like chunks (below): writes at fixed indices are
+        // idempotent, so only the group size changes.
+        let mut group = (chunk / 12).clamp(MIN_ADAPTIVE_CHUNK / 12, MAX_GEOMETRY_POSITIONS);
+        let mut first = 0usize;
+        while first < spec.positions_um.len() {
+            let pts = &spec.positions_um[first..(first + group).min(spec.positions_um.len())];
             let g = Geometry {
                 slot,
-                first: (i * MAX_GEOMETRY_POSITIONS) as u16,
+                first: first as u16,
                 positions: Positions::from_points(pts),
             };
+            let retries_before = self.stats.retries;
             self.expect_ack("geometry", &Message::Geometry(g))?;
+            first += pts.len();
+            group = if self.stats.retries > retries_before {
+                (group / 2).max(MIN_ADAPTIVE_CHUNK / 12)
+            } else {
+                (group * 2).min(MAX_GEOMETRY_POSITIONS)
+            };
         }
         let total = encoded.len() as u64;
         // Adaptive chunk size: a chunk that needed a resend halves the size
