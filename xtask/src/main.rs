@@ -73,6 +73,10 @@ const STEPS: &[Step] = &[
         name: "long run: lm-fw-core robustness (release, ignored)",
         run: step_core_robustness,
     },
+    Step {
+        name: "long run: planner accuracy, 10^5 seeded frames (release, ignored)",
+        run: step_planner_accuracy,
+    },
 ];
 
 /// Paths shared by the steps.
@@ -348,35 +352,24 @@ fn step_build_nucleo(c: &Ctx) -> Result<(), String> {
     nucleo_build(c)
 }
 
-/// Runs an ignored long test target in release mode, if that target exists yet.
-fn long_run(c: &Ctx, pkg: &str, file: &str, test: &str) -> Result<(), String> {
-    if !c.root.join(file).exists() {
-        println!("{file} does not exist (yet): skipped");
-        return Ok(());
-    }
-    run(c.cargo(&[
-        "test",
-        "--release",
-        "-p",
-        pkg,
-        "--test",
-        test,
-        "--",
-        "--ignored",
-    ]))
+/// Runs the ignored long tests of one test target in release mode.
+fn long_run(c: &Ctx, pkg: &str, target: &[&str], filter: &str) -> Result<(), String> {
+    let mut args = vec!["test", "--release", "-p", pkg];
+    args.extend_from_slice(target);
+    args.extend_from_slice(&["--", "--ignored", filter]);
+    run(c.cargo(&args))
 }
 
 fn step_proto_fuzz(c: &Ctx) -> Result<(), String> {
-    long_run(c, "lm-proto", "proto/tests/fuzz.rs", "fuzz")
+    long_run(c, "lm-proto", &["--test", "fuzz"], "")
+}
+
+fn step_planner_accuracy(c: &Ctx) -> Result<(), String> {
+    long_run(c, "lmhost", &["--lib"], "long_random")
 }
 
 fn step_core_robustness(c: &Ctx) -> Result<(), String> {
-    long_run(
-        c,
-        "lm-fw-core",
-        "firmware/core/tests/robustness.rs",
-        "robustness",
-    )
+    long_run(c, "lm-fw-core", &["--test", "robustness"], "")
 }
 
 /// `ci` runs every step; `ci --from N` resumes at step N (1-based) after a fix.
