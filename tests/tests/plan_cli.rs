@@ -1,35 +1,20 @@
 //! `lmhost plan` and `lmhost scene` end to end: the real binary, its exit
 //! codes, its outputs.
 //!
-//! The binary is `$LMHOST_BIN` when set (CI passes the one it built), or
-//! built here with cargo into this test's own target dir.
+//! The binary is built once into this test's own target dir and profile
+//! (`link_support::lmhost`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
-use std::sync::OnceLock;
 
-fn lmhost() -> &'static Path {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| {
-        if let Some(p) = std::env::var_os("LMHOST_BIN") {
-            return PathBuf::from(p);
-        }
-        let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("lmhost-bin");
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-        let st = Command::new(cargo)
-            .current_dir(root)
-            .args(["build", "--quiet", "-p", "lmhost", "--bin", "lmhost", "--target-dir"])
-            .arg(&target_dir)
-            .status()
-            .expect("cargo runs");
-        assert!(st.success(), "building lmhost failed");
-        target_dir.join("debug/lmhost")
-    })
-}
+mod link_support;
+use link_support::lmhost;
 
 fn run(args: &[&str]) -> Output {
-    Command::new(lmhost()).args(args).output().expect("lmhost runs")
+    Command::new(lmhost())
+        .args(args)
+        .output()
+        .expect("lmhost runs")
 }
 
 fn scene_path() -> String {
@@ -54,7 +39,10 @@ fn plan_json_has_phases_only_when_asked() {
     let o = run(&["plan", "--json"]);
     assert!(o.status.success());
     let v = String::from_utf8(o.stdout).unwrap();
-    assert!(v.contains("\"steps\":82") && !v.contains("\"phases\""), "{v}");
+    assert!(
+        v.contains("\"steps\":82") && !v.contains("\"phases\""),
+        "{v}"
+    );
     let o = run(&["plan", "--json", "--phases", "--steps", "4", "--freq", "1"]);
     let v = String::from_utf8(o.stdout).unwrap();
     assert!(v.contains("\"phases\":[["), "{v}");
@@ -122,5 +110,8 @@ fn bad_scene_file_names_file_and_field() {
     let o = run(&["plan", "--scene", p.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8(o.stderr).unwrap();
-    assert!(err.contains("bad.toml") && err.contains("center_mm"), "{err}");
+    assert!(
+        err.contains("bad.toml") && err.contains("center_mm"),
+        "{err}"
+    );
 }

@@ -1,41 +1,15 @@
 //! `lmhost simulate` end to end: the real binary writes heatmaps, maps and
 //! a summary a user can load, and refuses bad flags with exit code 2.
 //!
-//! The binary is `$LMHOST_BIN` when set (CI passes the one it built), or
-//! built here with cargo into this test's own target dir. Grids are small
+//! The binary is built once into this test's own target dir and profile
+//! (`link_support::lmhost`). Grids are small
 //! so the debug binary stays quick.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
 
-fn lmhost() -> &'static Path {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| {
-        if let Some(p) = std::env::var_os("LMHOST_BIN") {
-            return PathBuf::from(p);
-        }
-        let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("lmhost-bin");
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-        let st = Command::new(cargo)
-            .current_dir(root)
-            .args([
-                "build",
-                "--quiet",
-                "-p",
-                "lmhost",
-                "--bin",
-                "lmhost",
-                "--target-dir",
-            ])
-            .arg(&target_dir)
-            .status()
-            .expect("cargo runs");
-        assert!(st.success(), "building lmhost failed");
-        target_dir.join("debug/lmhost")
-    })
-}
+mod link_support;
+use link_support::lmhost;
 
 fn run(args: &[&str]) -> Output {
     Command::new(lmhost())
