@@ -3,11 +3,11 @@
 use std::io::IsTerminal as _;
 
 use anyhow::Context as _;
-use lm_proto::{Encoding, PlayAt};
+use lm_proto::{Encoding, NackCode, PlayAt};
 
 use crate::cmd::plan::PlanArgs;
 use crate::link::client::check_fits;
-use crate::link::{PortArgs, UploadSpec, mm_to_um};
+use crate::link::{LinkError, PortArgs, UploadSpec, mm_to_um};
 
 /// Sequence encoding on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -77,23 +77,27 @@ impl Args {
         let info = client
             .info()
             .with_context(|| format!("asking {where_} for its info"))?;
-        let slot = match self.slot {
-            Some(s) => s,
-            None => {
-                let st = client.status().context("reading the device status")?;
-                match st.slot {
-                    Some(s) if info.slots > 1 => (s + 1) % info.slots,
-                    _ => 0,
-                }
-            }
-        };
-        check_fits(&spec, &info, slot).map_err(|e| {
-            crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
-        })?;
         let tty = std::io::stderr().is_terminal() && !self.json;
         let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
-        let report = client
-            .upload(&spec, slot, self.encoding.into(), chunk, |done, total| {
+        // Without --slot: the slot that is not playing. Right after a Play
+        // at the next cycle, the other slot is queued and refuses uploads
+        // until the cycle ends, so ask again (a cycle is at most ~1 s).
+        let mut waits = 0;
+        let (slot, report) = loop {
+            let slot = match self.slot {
+                Some(s) => s,
+                None => {
+                    let st = client.status().context("reading the device status")?;
+                    match st.slot {
+                        Some(s) if info.slots > 1 => (s + 1) % info.slots,
+                        _ => 0,
+                    }
+                }
+            };
+            check_fits(&spec, &info, slot).map_err(|e| {
+                crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
+            })?;
+            let result = client.upload(&spec, slot, self.encoding.into(), chunk, |done, total| {
                 if tty {
                     let pct = done as f64 / total.max(1) as f64;
                     let bar = "#".repeat((pct * 30.0) as usize);
@@ -102,8 +106,23 @@ impl Args {
                         eprintln!();
                     }
                 }
-            })
-            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
+            });
+            match result {
+                Err(LinkError::Nack {
+                    code: NackCode::SlotPlaying,
+                    ..
+                }) if self.slot.is_none() && waits < 20 => {
+                    waits += 1;
+                    std::thread::sleep(std::time::Duration::from_millis(100));
+                }
+                other => {
+                    break (
+                        slot,
+                        other.with_context(|| format!("uploading to slot {slot} of {where_}"))?,
+                    );
+                }
+            }
+        };
         if !self.no_play {
             client
                 .play(slot, PlayAt::NextCycle)
