@@ -77,6 +77,14 @@ const STEPS: &[Step] = &[
         name: "long run: planner accuracy, 10^5 seeded frames (release, ignored)",
         run: step_planner_accuracy,
     },
+    Step {
+        name: "long run: 10,000 faulty uploads through the fault proxy (release, ignored)",
+        run: step_fault_uploads,
+    },
+    Step {
+        name: "long run: 10 minutes of 90 Hz centroid streaming (release, ignored)",
+        run: step_stream_soak,
+    },
 ];
 
 /// Paths shared by the steps.
@@ -362,6 +370,14 @@ fn long_run(c: &Ctx, pkg: &str, target: &[&str], filter: &str) -> Result<(), Str
 
 fn step_proto_fuzz(c: &Ctx) -> Result<(), String> {
     long_run(c, "lm-proto", &["--test", "fuzz"], "")
+}
+
+fn step_fault_uploads(c: &Ctx) -> Result<(), String> {
+    long_run(c, "lm-e2e", &["--test", "fault_upload"], "")
+}
+
+fn step_stream_soak(c: &Ctx) -> Result<(), String> {
+    long_run(c, "lm-e2e", &["--test", "stream_soak"], "")
 }
 
 fn step_planner_accuracy(c: &Ctx) -> Result<(), String> {
