@@ -16,9 +16,9 @@ pub mod scene;
 pub mod sequence;
 pub mod synth;
 pub mod trajectory;
-pub mod stream;
 pub mod link;
 pub mod field;
+pub mod stream;
 pub mod units;
 
 pub use error::InputError;
