@@ -72,6 +72,9 @@ pub struct SequenceHeader {
     pub center_um: [i32; 3],
     /// Foci per step.
     pub foci_per_step: u8,
+    /// Speed of sound the phases were planned with (mm/s, rounded): the
+    /// device's centroid correction must use the same wavenumber.
+    pub sound_speed_mm_s: u32,
 }
 
 /// A phase sequence: `steps × transducers` bytes, step-major.
@@ -81,6 +84,21 @@ pub struct Sequence {
     pub header: SequenceHeader,
     /// Phases, `phases[j * T + n]` for step `j`, transducer `n`.
     pub phases: Vec<u8>,
+}
+
+/// Speed of sound in m/s to the wire's rounded mm/s, or an error outside
+/// the range a device accepts ([`lm_proto::SOUND_SPEED_MM_S`]).
+pub fn sound_speed_mm_s(sound_speed_m_s: f64) -> Result<u32, InputError> {
+    let mm_s = (sound_speed_m_s * 1000.0).round();
+    let range = lm_proto::SOUND_SPEED_MM_S;
+    if !(mm_s >= f64::from(*range.start()) && mm_s <= f64::from(*range.end())) {
+        return Err(InputError::new(format!(
+            "speed of sound {sound_speed_m_s} m/s is outside the {}-{} m/s a device accepts",
+            range.start() / 1000,
+            range.end() / 1000
+        )));
+    }
+    Ok(mm_s as u32)
 }
 
 /// Millimetres to rounded micrometres, or an error when out of i32 range.
@@ -221,6 +239,7 @@ impl Sequence {
             dwell_us: traj.dwell_s * 1e6,
             center_um: mm_to_um(scene.drive_point(traj.center_mm))?,
             foci_per_step: traj.foci as u8,
+            sound_speed_mm_s: sound_speed_mm_s(scene.sound_speed_m_s)?,
         })
     }
 
@@ -305,6 +324,29 @@ mod tests {
         p.foci = foci;
         let t = Trajectory::plan(&p, &scene).unwrap();
         Sequence::synthesize(&scene, &t, &Synthesis::Linear).unwrap()
+    }
+
+    #[test]
+    fn header_carries_the_scenes_sound_speed() {
+        let mut scene = Scene::default();
+        let t = Trajectory::plan(&LmParams::paper(scene.center_mm), &scene).unwrap();
+        assert_eq!(
+            Sequence::header_for(&scene, &t, 996)
+                .unwrap()
+                .sound_speed_mm_s,
+            340_000
+        );
+        scene.sound_speed_m_s = crate::units::sound_speed_from_celsius(20.0);
+        let h = Sequence::header_for(&scene, &t, 996).unwrap();
+        assert_eq!(
+            h.sound_speed_mm_s,
+            (scene.sound_speed_m_s * 1000.0).round() as u32
+        );
+        assert_ne!(h.sound_speed_mm_s, 340_000);
+        // A speed no device accepts is refused while planning, not by a nack.
+        scene.sound_speed_m_s = 5_000.0;
+        let e = Sequence::header_for(&scene, &t, 996).unwrap_err();
+        assert!(e.to_string().contains("speed of sound"), "{e}");
     }
 
     #[test]

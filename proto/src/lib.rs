@@ -61,6 +61,9 @@ pub const MAX_ENCODED_FRAME: usize = 1 + cobs::max_encoded_len(MAX_FRAME) + 1;
 pub const DELIMITER: u8 = 0x00;
 /// `Status::slot` on the wire when no slot is selected.
 pub const NO_SLOT: u8 = 0xFF;
+/// `BeginUpload::sound_speed_mm_s` a device accepts (100 m/s ..= 2000 m/s,
+/// air to water with margin); others are refused with `OutOfRange`.
+pub const SOUND_SPEED_MM_S: core::ops::RangeInclusive<u32> = 100_000..=2_000_000;
 
 /// Exact-byte test vectors (`proto/vectors/frames.txt`), format described
 /// at the top of the file; read them with [`vectors::parse`].

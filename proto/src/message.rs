@@ -229,6 +229,11 @@ pub struct BeginUpload {
     pub center_um: [i32; 3],
     /// Foci per step (1 for LM-S, up to 4 for LM-M); informational.
     pub foci_per_step: u8,
+    /// Speed of sound the sequence was planned with, mm/s (340 m/s =
+    /// `340_000`). The device derives the slot's wavenumber for centroid
+    /// correction from it and refuses values outside
+    /// [`SOUND_SPEED_MM_S`](crate::SOUND_SPEED_MM_S) with `OutOfRange`.
+    pub sound_speed_mm_s: u32,
 }
 
 /// Transducer positions of a `Geometry` frame: `[x, y, z]` µm, each i32 LE.
@@ -579,7 +584,7 @@ impl<'a> Message<'a> {
     pub fn payload_len(&self) -> usize {
         match self {
             Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => 0,
-            Self::BeginUpload(_) => 27,
+            Self::BeginUpload(_) => 31,
             Self::Geometry(g) => 3 + 12 * g.positions.len(),
             Self::Chunk(c) => 5 + c.data.len(),
             Self::Commit(_) => 5,
@@ -629,7 +634,8 @@ impl<'a> Message<'a> {
                 s.put(&[b.encoding.to_u8()])?;
                 s.put(&b.encoded_len.to_le_bytes())?;
                 put_xyz(s, &b.center_um)?;
-                s.put(&[b.foci_per_step])
+                s.put(&[b.foci_per_step])?;
+                s.put(&b.sound_speed_mm_s.to_le_bytes())
             }
             Self::Geometry(g) => {
                 s.put(&[g.slot])?;
@@ -719,6 +725,7 @@ impl<'a> Message<'a> {
                 encoded_len: r.u32()?,
                 center_um: r.xyz()?,
                 foci_per_step: r.u8()?,
+                sound_speed_mm_s: r.u32()?,
             }),
             MessageType::Geometry => {
                 let slot = r.u8()?;

@@ -81,6 +81,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             encoded_len: rng.next_u64() as u32,
             center_um: x(rng),
             foci_per_step: rng.byte(),
+            sound_speed_mm_s: rng.next_u64() as u32,
         }),
         10 => Message::Status(Status {
             state: [

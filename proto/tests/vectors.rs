@@ -42,6 +42,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 encoded_len: 22_000,
                 center_um: [0, 30_000, 30_000],
                 foci_per_step: 4,
+                sound_speed_mm_s: 343_200,
             }),
         ),
         "begin_upload_raw" => (
@@ -55,6 +56,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 encoded_len: 1,
                 center_um: [-1, -2, -3],
                 foci_per_step: 1,
+                sound_speed_mm_s: 100_000,
             }),
         ),
         "geometry" => (

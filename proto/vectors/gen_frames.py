@@ -47,12 +47,14 @@ rec("info", 0x82, 0,
     struct.pack("<B3BHIBIIH", 1, 0, 1, 0, 996, 262144, 2, 1000000, 100, 1024))
 rec("begin_upload", 0x02, 1,
     "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
-    "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4",
-    struct.pack("<BHHIBI", 0, 82, 996, 200000, 1, 22000) + xyz((0, 30000, 30000)) + b"\x04")
+    "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200",
+    struct.pack("<BHHIBI", 0, 82, 996, 200000, 1, 22000) + xyz((0, 30000, 30000)) + b"\x04"
+    + struct.pack("<I", 343200))
 rec("begin_upload_raw", 0x02, 2,
     "BeginUpload slot=1 steps=1 transducers=1 period_us=1000 encoding=Raw(0) "
-    "encoded_len=1 center_um=[-1,-2,-3] foci_per_step=1",
-    struct.pack("<BHHIBI", 1, 1, 1, 1000, 0, 1) + xyz((-1, -2, -3)) + b"\x01")
+    "encoded_len=1 center_um=[-1,-2,-3] foci_per_step=1 sound_speed_mm_s=100000 (lowest accepted)",
+    struct.pack("<BHHIBI", 1, 1, 1, 1000, 0, 1) + xyz((-1, -2, -3)) + b"\x01"
+    + struct.pack("<I", 100000))
 rec("geometry", 0x03, 3,
     "Geometry slot=0 first=996 positions=[[-96520,-66040,0],[-86360,-66040,0]]",
     struct.pack("<BH", 0, 996) + xyz((-96520, -66040, 0)) + xyz((-86360, -66040, 0)))
@@ -98,6 +100,9 @@ rec("err_malformed_len", 0x05, 22, "Commit with a 4-byte payload (needs 5)", byt
     error="malformed")
 rec("err_malformed_bool", 0x08, 23, "Centroid with present=2",
     struct.pack("<I", 1) + xyz((0, 0, 0)) + b"\x02" + struct.pack("<Q", 0), error="malformed")
+rec("err_malformed_begin_short", 0x02, 24,
+    "BeginUpload with the 27-byte payload that lacks sound_speed_mm_s (needs 31)",
+    struct.pack("<BHHIBI", 0, 1, 1, 1000, 0, 1) + xyz((0, 0, 0)) + b"\x01", error="malformed")
 raw("err_cobs", "block code 5 but the delimiter comes after 2 data bytes", bytes([0, 5, 1, 2, 0]),
     "cobs")
 raw("err_too_short", "3 decoded bytes", b"\x00" + cobs(bytes([1, 1, 0])) + b"\x00", "too_short")

@@ -52,6 +52,7 @@ fn spec(rng: &mut SplitMix64) -> UploadSpec {
         period_us: steps as u32 * (1000 + rng.below(2000) as u32),
         center_um: [0, 0, 200_000],
         foci_per_step: 1,
+        sound_speed_mm_s: 340_000,
         positions_um: (0..transducers as i32)
             .map(|i| [i * 10_160 - 80_000, 0, 0])
             .collect(),

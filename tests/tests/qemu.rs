@@ -24,6 +24,8 @@ use lm_proto::{
 };
 
 const THUMB: &str = "thumbv7em-none-eabihf";
+/// Speed of sound the test sequences are planned and uploaded with, mm/s.
+const SOUND_SPEED_MM_S: u32 = 340_000;
 
 fn qemu_installed() -> bool {
     Command::new("qemu-system-arm")
@@ -258,7 +260,7 @@ fn positions_um(t: usize) -> Vec<[i32; 3]> {
 
 /// One focus 150 mm above the array moving on a 4 mm circle: φ = −k r.
 fn lm_phases(pos: &[[i32; 3]], steps: usize) -> Vec<u8> {
-    let k = 2.0 * std::f64::consts::PI * 40_000.0 / 340.0e6; // rad per µm
+    let k = 2.0 * std::f64::consts::PI * 40_000.0 / (f64::from(SOUND_SPEED_MM_S) * 1e3); // rad per µm
     let mut out = Vec::with_capacity(steps * pos.len());
     for s in 0..steps {
         let a = 2.0 * std::f64::consts::PI * s as f64 / steps as f64;
@@ -338,6 +340,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         encoded_len: n as u32,
         center_um,
         foci_per_step: 1,
+        sound_speed_mm_s: SOUND_SPEED_MM_S,
     }));
     for (i, group) in pos.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
         link.ack(&Message::Geometry(Geometry {
@@ -369,6 +372,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         encoded_len: small.len() as u32,
         center_um,
         foci_per_step: 1,
+        sound_speed_mm_s: SOUND_SPEED_MM_S,
     }));
     link.ack(&Message::Geometry(Geometry {
         slot: 1,

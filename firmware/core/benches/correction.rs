@@ -68,6 +68,7 @@ fn bench(c: &mut Criterion) {
         encoded_len: raw.len() as u32,
         center_um: c0,
         foci_per_step: 1,
+        sound_speed_mm_s: 340_000,
     });
     assert_eq!(dev.handle(&begin, 0), Message::Ack);
     for (i, ps) in pts.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {

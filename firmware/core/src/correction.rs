@@ -10,11 +10,14 @@
 /// Carrier frequency of the transducers (Hz).
 pub const CARRIER_HZ: f32 = 40_000.0;
 
-/// Default speed of sound (m/s), as AUTD3 and the host planner use.
-pub const DEFAULT_SOUND_SPEED_M_S: f32 = 340.0;
-
 /// Bytes per transducer position on the wire: `[i32; 3]` µm, little-endian.
 pub const POSITION_BYTES: usize = 12;
+
+/// Speed of sound in m/s from the `BeginUpload::sound_speed_mm_s` a slot
+/// was planned with.
+pub fn sound_speed_m_s(sound_speed_mm_s: u32) -> f32 {
+    sound_speed_mm_s as f32 / 1000.0
+}
 
 /// Phase LSB per µm of path length: 256 / λ with λ in µm.
 pub fn lsb_per_um(sound_speed_m_s: f32) -> f32 {

@@ -7,7 +7,7 @@ use lm_proto::{
 };
 
 use crate::MAX_TRANSDUCERS;
-use crate::correction::{DEFAULT_SOUND_SPEED_M_S, apply_offsets, compute_offsets};
+use crate::correction::{apply_offsets, compute_offsets, sound_speed_m_s};
 use crate::gate::Gate;
 use crate::output::{Frame, OutputDriver};
 use crate::player::{PlayState, Player, Timing};
@@ -28,16 +28,15 @@ pub struct Config {
     pub centroid_timeout_us: u32,
     /// Mute from `Play` until the first centroid update (default on).
     pub require_tracking: bool,
-    /// Speed of sound for the correction, m/s (default 340).
-    pub sound_speed_m_s: f32,
     /// Amplitude of unmuted frames (default 255).
     pub amplitude: u8,
 }
 
 impl Config {
     /// Defaults for a timer at `timer_hz`: 996 transducers, 1 ms minimum
-    /// dwell, 100 ms centroid timeout, tracking required, 340 m/s, full
-    /// amplitude, the crate's version.
+    /// dwell, 100 ms centroid timeout, tracking required, full amplitude,
+    /// the crate's version. (The speed of sound is not configured here: each
+    /// slot's `BeginUpload` carries the one its sequence was planned with.)
     pub const fn new(timer_hz: u32) -> Self {
         Self {
             timer_hz,
@@ -46,7 +45,6 @@ impl Config {
             min_dwell_us: 1000,
             centroid_timeout_us: 100_000,
             require_tracking: true,
-            sound_speed_m_s: DEFAULT_SOUND_SPEED_M_S,
             amplitude: 255,
         }
     }
@@ -500,7 +498,7 @@ impl Core<'_> {
             pos,
             h.center_um,
             c,
-            self.cfg.sound_speed_m_s,
+            sound_speed_m_s(h.sound_speed_mm_s),
             &mut self.offsets[..t],
         );
         self.offsets_for = Some(slot);

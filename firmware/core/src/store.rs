@@ -10,7 +10,7 @@
 //! cannot reach any other slot.
 
 use lm_proto::codec::{Decoder, Encoding};
-use lm_proto::{BeginUpload, Crc32, NackCode, Positions};
+use lm_proto::{BeginUpload, Crc32, NackCode, Positions, SOUND_SPEED_MM_S};
 
 use crate::correction::POSITION_BYTES;
 
@@ -30,6 +30,9 @@ pub struct SlotHeader {
     pub center_um: [i32; 3],
     /// Foci per step (informational).
     pub foci_per_step: u8,
+    /// Speed of sound the sequence was planned with, mm/s (within
+    /// [`SOUND_SPEED_MM_S`]); the slot's correction wavenumber follows it.
+    pub sound_speed_mm_s: u32,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -198,7 +201,7 @@ impl<'m> Store<'m> {
         let slot_bytes = self.slot_bytes;
         let max_t = self.max_transducers;
         let s = self.slot(b.slot)?;
-        if b.steps == 0 || b.transducers == 0 {
+        if b.steps == 0 || b.transducers == 0 || !SOUND_SPEED_MM_S.contains(&b.sound_speed_mm_s) {
             return Err(NackCode::OutOfRange);
         }
         let raw = u32::from(b.steps) * u32::from(b.transducers);
@@ -215,6 +218,7 @@ impl<'m> Store<'m> {
             period_us: b.period_us,
             center_um: b.center_um,
             foci_per_step: b.foci_per_step,
+            sound_speed_mm_s: b.sound_speed_mm_s,
         });
         s.upload = Some(Upload {
             encoded_len: b.encoded_len,
@@ -355,6 +359,7 @@ mod tests {
             encoded_len: u32::from(steps) * u32::from(t),
             center_um: [0, 0, 150_000],
             foci_per_step: 1,
+            sound_speed_mm_s: 340_000,
         }
     }
 
@@ -419,6 +424,11 @@ mod tests {
         assert_eq!(st.begin(&begin(0, 17, 4)), Err(NackCode::TooLarge));
         assert_eq!(st.begin(&begin(0, 1, 5)), Err(NackCode::TooLarge));
         assert_eq!(st.begin(&begin(0, 0, 4)), Err(NackCode::OutOfRange));
+        for speed in [0, 99_999, 2_000_001, u32::MAX] {
+            let mut b = begin(0, 1, 4);
+            b.sound_speed_mm_s = speed;
+            assert_eq!(st.begin(&b), Err(NackCode::OutOfRange), "{speed} mm/s");
+        }
         let mut b = begin(0, 2, 4);
         b.encoded_len = 7;
         assert_eq!(st.begin(&b), Err(NackCode::Malformed));

@@ -382,6 +382,80 @@ fn centroid_correction_is_added_from_the_next_step() {
     assert_eq!(dev.offsets().len(), 252);
 }
 
+/// Offsets (u8 LSB) a sequence planned for `seq.center_um` at `speed_mm_s`
+/// needs for centroid `c`, in f64.
+fn expected_offsets(seq: &Seq, c: [i32; 3], speed_mm_s: u32) -> Vec<u8> {
+    let k = 2.0 * std::f64::consts::PI * 40_000.0 / (f64::from(speed_mm_s) * 1e3); // rad/µm
+    seq.positions
+        .iter()
+        .map(|x| {
+            let d = |p: [i32; 3]| {
+                (0..3)
+                    .map(|i| (f64::from(x[i]) - f64::from(p[i])).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            };
+            let dphi = k * (d(seq.center_um) - d(c));
+            ((dphi / (2.0 * std::f64::consts::PI) * 256.0).round() as i64).rem_euclid(256) as u8
+        })
+        .collect()
+}
+
+/// Transducers whose offset differs from `want` by more than 1 LSB.
+fn off_by_more_than_one(got: &[u8], want: &[u8]) -> usize {
+    assert_eq!(got.len(), want.len());
+    got.iter()
+        .zip(want)
+        .filter(|(g, w)| (g.wrapping_sub(**w) as i8).abs() > 1)
+        .count()
+}
+
+#[test]
+fn correction_follows_each_slots_uploaded_sound_speed() {
+    let mut dev = device(config(252), 10 * 252);
+    let a = Seq::pattern(10, 252, 10_000, 8); // planned at 340 m/s
+    let mut b = a.clone();
+    b.sound_speed_mm_s = 350_000;
+    // Zero or implausible speeds are refused before anything changes.
+    for (i, speed) in [0, 99_999, 2_000_001].into_iter().enumerate() {
+        let mut z = a.clone();
+        z.sound_speed_mm_s = speed;
+        assert_eq!(
+            request(&mut dev, i as u16, &z.begin(0, Encoding::Raw), 0),
+            Reply::Nack(NackCode::OutOfRange),
+            "{speed} mm/s"
+        );
+    }
+    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    b.upload(&mut dev, 1, Encoding::Raw, 0);
+    let c = [9_000, -6_000, 212_000];
+    let (want_a, want_b) = (
+        expected_offsets(&a, c, 340_000),
+        expected_offsets(&b, c, 350_000),
+    );
+    // The two wavenumbers differ by 3 %: enough to move most offsets.
+    assert!(off_by_more_than_one(&want_a, &want_b) > 150);
+
+    let mut cap = Capture::default();
+    request(&mut dev, 10, &play(0, PlayAt::Immediate), 0);
+    let now = dev.poll(0, &mut cap).unwrap();
+    assert_eq!(
+        request(&mut dev, 11, &centroid(1, c, true), now),
+        Reply::Ack
+    );
+    assert_eq!(off_by_more_than_one(dev.offsets(), &want_a), 0);
+
+    // Same geometry, same centres, same centroid: only k differs.
+    request(&mut dev, 12, &play(1, PlayAt::Immediate), now);
+    dev.poll(now, &mut cap).unwrap();
+    assert_eq!(off_by_more_than_one(dev.offsets(), &want_b), 0);
+
+    // And back: the slot's own speed comes back with it.
+    request(&mut dev, 13, &play(0, PlayAt::Immediate), now + 1);
+    dev.poll(now + 1, &mut cap).unwrap();
+    assert_eq!(off_by_more_than_one(dev.offsets(), &want_a), 0);
+}
+
 #[test]
 fn bad_frames_are_counted_and_nacked() {
     let mut dev = device(config(8), 64);
@@ -409,6 +483,7 @@ fn chunks_past_end_and_out_of_order_are_nacked() {
         encoded_len: 8,
         center_um: [0; 3],
         foci_per_step: 1,
+        sound_speed_mm_s: 340_000,
     });
     assert_eq!(request(&mut dev, 1, &b, 0), Reply::Ack);
     let ch = |offset, data: &'static [u8]| {
@@ -457,7 +532,6 @@ fn config_defaults_are_documented_values() {
     assert_eq!(c.min_dwell_us, 1000);
     assert_eq!(c.centroid_timeout_us, 100_000);
     assert!(c.require_tracking);
-    assert_eq!(c.sound_speed_m_s, 340.0);
 }
 
 #[test]

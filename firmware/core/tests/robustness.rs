@@ -63,6 +63,12 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             encoded_len: r.below(700) as u32,
             center_um: [r.next() as i32 % 50_000, 0, 200_000],
             foci_per_step: r.byte(),
+            // Mostly valid, sometimes 0 or far out of range.
+            sound_speed_mm_s: match r.below(8) {
+                0 => 0,
+                1 => r.next() as u32,
+                _ => 300_000 + r.below(100_000) as u32,
+            },
         }),
         3 => {
             let n = r.below(17) as usize;

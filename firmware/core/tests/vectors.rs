@@ -100,6 +100,6 @@ fn every_vector_gets_the_right_response() {
     let c = dev.counters();
     assert_eq!(c.crc_errors, 1);
     // cobs, too_short, plus the valid-CRC unknown/version/malformed frames.
-    assert_eq!(c.bad_frames, 2 + 1 + 1 + 3);
+    assert_eq!(c.bad_frames, 2 + 1 + 1 + 4);
     assert_eq!(c.nacks, nacks);
 }

@@ -57,6 +57,7 @@ pub fn upload_spec(plan: &crate::sequence::Plan) -> UploadSpec {
         period_us: h.period_us,
         center_um: h.center_um,
         foci_per_step: h.foci_per_step,
+        sound_speed_mm_s: h.sound_speed_mm_s,
         positions_um: plan
             .scene
             .transducers()

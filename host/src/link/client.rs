@@ -120,6 +120,9 @@ pub struct UploadSpec {
     pub center_um: [i32; 3],
     /// Foci per step (1 for LM-S, more for LM-M).
     pub foci_per_step: u8,
+    /// Speed of sound the phases were planned with (mm/s); the device's
+    /// centroid correction for this slot uses it.
+    pub sound_speed_mm_s: u32,
     /// Transducer positions in drive coordinates (µm), one per transducer.
     pub positions_um: Vec<[i32; 3]>,
     /// Raw phases, step-major: `steps × transducers` bytes.
@@ -169,6 +172,14 @@ pub fn check_fits(spec: &UploadSpec, info: &Info, slot: u8) -> Result<(), String
             spec.positions_um.len(),
             spec.steps,
             spec.transducers
+        ));
+    }
+    if !lm_proto::SOUND_SPEED_MM_S.contains(&spec.sound_speed_mm_s) {
+        return Err(format!(
+            "speed of sound {} mm/s is outside the {}-{} mm/s a device accepts",
+            spec.sound_speed_mm_s,
+            lm_proto::SOUND_SPEED_MM_S.start(),
+            lm_proto::SOUND_SPEED_MM_S.end()
         ));
     }
     if slot >= info.slots {
@@ -467,6 +478,7 @@ impl<T: Transport> Client<T> {
             encoded_len: encoded.len() as u32,
             center_um: spec.center_um,
             foci_per_step: spec.foci_per_step,
+            sound_speed_mm_s: spec.sound_speed_mm_s,
         };
         self.expect_ack("begin upload", &Message::BeginUpload(begin))?;
         // Positions adapt like chunks (below): writes at fixed indices are

@@ -105,9 +105,9 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                 any::<u32>(),
                 any::<bool>()
             ),
-            (any::<u32>(), xyz(), any::<u8>())
+            (any::<u32>(), xyz(), any::<u8>(), any::<u32>())
         )
-            .prop_map(|((slot, steps, t, period, delta), (len, c, f))| {
+            .prop_map(|((slot, steps, t, period, delta), (len, c, f, speed))| {
                 Message::BeginUpload(BeginUpload {
                     slot,
                     steps,
@@ -121,6 +121,7 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                     encoded_len: len,
                     center_um: c,
                     foci_per_step: f,
+                    sound_speed_mm_s: speed,
                 })
             }),
         (

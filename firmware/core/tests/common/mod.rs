@@ -97,6 +97,8 @@ pub struct Seq {
     pub transducers: u16,
     pub period_us: u32,
     pub center_um: [i32; 3],
+    /// Speed of sound the sequence was planned with, mm/s.
+    pub sound_speed_mm_s: u32,
     pub phases: Vec<u8>,
     pub positions: Vec<[i32; 3]>,
 }
@@ -122,6 +124,7 @@ impl Seq {
             transducers,
             period_us,
             center_um: [0, 0, 200_000],
+            sound_speed_mm_s: 340_000,
             phases,
             positions,
         }
@@ -150,6 +153,7 @@ impl Seq {
             encoded_len: self.encode(enc).len() as u32,
             center_um: self.center_um,
             foci_per_step: 1,
+            sound_speed_mm_s: self.sound_speed_mm_s,
         })
     }
 

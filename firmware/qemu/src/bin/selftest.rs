@@ -110,6 +110,11 @@ fn phase(s: usize, i: usize) -> u8 {
 /// Planned centre of the test sequences: 150 mm above the array.
 const CENTER_UM: [i32; 3] = [0, 0, 150_000];
 
+/// Speed of sound the test sequences are uploaded with (20 °C air rather
+/// than the usual 340 m/s), so the correction check shows the core uses the
+/// uploaded value.
+const SOUND_SPEED_MM_S: u32 = 343_200;
+
 /// Uploads the test sequence (Raw, `steps` × `t`) into `slot`; returns the
 /// commit's reply. `corrupt` flips the commit CRC.
 fn upload(
@@ -129,6 +134,7 @@ fn upload(
         encoded_len: (steps * t) as u32,
         center_um: CENTER_UM,
         foci_per_step: 1,
+        sound_speed_mm_s: SOUND_SPEED_MM_S,
     };
     let r = dev.handle(&Message::BeginUpload(begin), 0);
     if r != Message::Ack {
@@ -428,7 +434,7 @@ fn reference_offset(i: usize, c: [i32; 3]) -> f64 {
         let d = [0, 1, 2].map(|k| f64::from(x[k]) - f64::from(a[k]));
         libm::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     };
-    (dist(CENTER_UM) - dist(c)) * 40_000.0 * 256.0 / 340.0e6
+    (dist(CENTER_UM) - dist(c)) * 40_000.0 * 256.0 / (f64::from(SOUND_SPEED_MM_S) * 1e3)
 }
 
 fn correction_applied_to_frames(c: &mut Ctx) -> TestResult {
