@@ -12,9 +12,9 @@
 //! not installed (`cargo xtask ci` installs it).
 
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Child;
 use std::time::{Duration, Instant};
 
 use lm_proto::{
@@ -23,51 +23,11 @@ use lm_proto::{
     PROTOCOL_VERSION, Play, PlayAt, Positions, Status, codec, crc32, encode_frame,
 };
 
-const THUMB: &str = "thumbv7em-none-eabihf";
+mod qemu_support;
+use qemu_support::{firmware_elf, free_port, qemu_command, qemu_installed};
+
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
 const SOUND_SPEED_MM_S: u32 = 340_000;
-
-fn qemu_installed() -> bool {
-    Command::new("qemu-system-arm")
-        .arg("--version")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
-/// The firmware ELF: from xtask, or built here into our own target dir.
-fn firmware_elf() -> PathBuf {
-    if let Some(p) = std::env::var_os("LM_FW_QEMU_ELF") {
-        let p = PathBuf::from(p);
-        assert!(p.exists(), "LM_FW_QEMU_ELF={} does not exist", p.display());
-        return p;
-    }
-    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("lm-fw-qemu");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(root)
-        .args([
-            "build",
-            "--release",
-            "-p",
-            "lm-fw-qemu",
-            "--bin",
-            "lm-fw-qemu",
-            "--target",
-            THUMB,
-        ])
-        .arg("--target-dir")
-        .arg(&target_dir)
-        .status()
-        .expect("run cargo to build the QEMU firmware");
-    assert!(
-        status.success(),
-        "building the QEMU firmware failed (is the {THUMB} target installed? `rustup target add {THUMB}`)"
-    );
-    target_dir.join(THUMB).join("release/lm-fw-qemu")
-}
 
 /// A running QEMU; killed on drop. Its console output goes to a log file
 /// that is printed if the test fails.
@@ -78,25 +38,10 @@ struct Qemu {
 
 impl Qemu {
     fn start(elf: &Path) -> (Qemu, TcpStream) {
-        // A free port: bind, read it, release it for QEMU.
-        let port = TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port();
+        let port = free_port();
         let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
         let out = std::fs::File::create(&log).unwrap();
-        let child = Command::new("qemu-system-arm")
-            .args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
-            .args(["-semihosting-config", "enable=on,target=native"])
-            // Virtual time = 1 ns per guest instruction: the firmware's timer
-            // follows its own work, not the host's load, so a deadline is
-            // missed only if the firmware itself is too slow.
-            .args(["-icount", "shift=0"])
-            .arg("-serial")
-            .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on"))
-            .arg("-kernel")
-            .arg(elf)
+        let child = qemu_command(elf, port, true)
             .stdout(out.try_clone().unwrap())
             .stderr(out)
             .spawn()

@@ -1,29 +1,10 @@
 //! `lmhost stream` against `lmhost sim`: every input kind, filters, the
 //! reflector mirror, and bad input.
 
-use std::io::Write as _;
 use std::process::{Command, Stdio};
 
 mod link_support;
-use link_support::{Sim, json, lmhost, ok, run};
-
-fn stream_stdin(port: &str, extra: &[&str], input: &str) -> std::process::Output {
-    let mut child = Command::new(lmhost())
-        .args(["stream", "--port", port])
-        .args(extra)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(input.as_bytes())
-        .unwrap();
-    child.wait_with_output().unwrap()
-}
+use link_support::{Sim, json, lmhost, ok, run, stream_stdin};
 
 #[test]
 fn stdin_csv_and_json_lines_all_reach_the_device() {

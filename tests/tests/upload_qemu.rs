@@ -5,55 +5,15 @@
 //! without it the test builds it for `thumbv7em-none-eabihf` into its own
 //! target dir. Skipped, with a message, when `qemu-system-arm` is missing.
 
-use std::io::Write as _;
-use std::net::{TcpListener, TcpStream};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
 mod link_support;
-use link_support::{json, lmhost};
-
-const THUMB: &str = "thumbv7em-none-eabihf";
-
-fn qemu_installed() -> bool {
-    Command::new("qemu-system-arm")
-        .arg("--version")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
-fn firmware_elf() -> PathBuf {
-    if let Some(p) = std::env::var_os("LM_FW_QEMU_ELF") {
-        return PathBuf::from(p);
-    }
-    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("lm-fw-qemu");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(root)
-        .args([
-            "build",
-            "--release",
-            "-p",
-            "lm-fw-qemu",
-            "--bin",
-            "lm-fw-qemu",
-            "--target",
-            THUMB,
-        ])
-        .arg("--target-dir")
-        .arg(&target_dir)
-        .status()
-        .expect("run cargo to build the QEMU firmware");
-    assert!(
-        status.success(),
-        "building the QEMU firmware failed (`rustup target add {THUMB}`?)"
-    );
-    target_dir.join(THUMB).join("release/lm-fw-qemu")
-}
+mod qemu_support;
+use link_support::{json, stream_stdin};
+use qemu_support::{firmware_elf, free_port, qemu_command, qemu_installed};
 
 /// QEMU with UART0 on a TCP server that accepts one lmhost after another.
 struct Qemu {
@@ -63,23 +23,8 @@ struct Qemu {
 
 impl Qemu {
     fn start(elf: &Path) -> Qemu {
-        let port = TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port();
-        let child = Command::new("qemu-system-arm")
-            .args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
-            .args([
-                "-semihosting-config",
-                "enable=on,target=native",
-                "-icount",
-                "shift=0",
-            ])
-            .arg("-serial")
-            .arg(format!("tcp:127.0.0.1:{port},server=on,wait=off"))
-            .arg("-kernel")
-            .arg(elf)
+        let port = free_port();
+        let child = qemu_command(elf, port, false)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -120,20 +65,7 @@ fn lmhost_drives_the_firmware_under_qemu() {
     assert_eq!(up["steps"], 82, "{up}");
     assert_eq!(up["playing"], true);
     assert_eq!(json(&["status", "--port", p, "--json"])["state"], "Muted");
-    let mut child = Command::new(lmhost())
-        .args(["stream", "--port", p])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(b"0,0.5,0,200,1\n")
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
+    let out = stream_stdin(p, &[], "0,0.5,0,200,1\n");
     assert!(
         out.status.success(),
         "{}",

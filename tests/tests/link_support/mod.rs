@@ -2,7 +2,7 @@
 //! binary, run it, and run `lmhost sim` for the length of a test.
 #![allow(dead_code)]
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write as _};
 use std::path::PathBuf;
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::OnceLock;
@@ -68,6 +68,26 @@ pub fn ok(args: &[&str]) -> String {
 pub fn json(args: &[&str]) -> serde_json::Value {
     let text = ok(args);
     serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("{args:?}: bad JSON {e}: {text}"))
+}
+
+/// Run `lmhost stream --port <port> <extra…>` with `input` on stdin, to
+/// completion (stdout and stderr captured).
+pub fn stream_stdin(port: &str, extra: &[&str], input: &str) -> Output {
+    let mut child = Command::new(lmhost())
+        .args(["stream", "--port", port])
+        .args(extra)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(input.as_bytes())
+        .unwrap();
+    child.wait_with_output().unwrap()
 }
 
 /// A running `lmhost sim`, killed on drop.
