@@ -11,14 +11,14 @@ pub mod bench;
 pub mod cmd;
 pub mod directivity;
 pub mod error;
-pub mod simdev;
+pub mod field;
+pub mod link;
 pub mod scene;
 pub mod sequence;
+pub mod simdev;
+pub mod stream;
 pub mod synth;
 pub mod trajectory;
-pub mod link;
-pub mod field;
-pub mod stream;
 pub mod units;
 
 pub use error::InputError;

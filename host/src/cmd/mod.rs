@@ -3,18 +3,18 @@
 use clap::Subcommand;
 
 pub mod bench;
-pub mod plan;
-pub mod scene;
-pub mod simulate;
-pub mod sim;
-pub mod info;
-pub mod status;
-pub mod upload;
-pub mod play;
-pub mod stop;
 pub mod demo;
-pub mod stream;
 pub mod flash;
+pub mod info;
+pub mod plan;
+pub mod play;
+pub mod scene;
+pub mod sim;
+pub mod simulate;
+pub mod status;
+pub mod stop;
+pub mod stream;
+pub mod upload;
 
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]
