@@ -66,6 +66,10 @@ const STEPS: &[Step] = &[
         run: step_build_nucleo,
     },
     Step {
+        name: "cargo build: lmhost with the `flash` feature (probe-rs, no system libs)",
+        run: step_flash_build,
+    },
+    Step {
         name: "long run: lm-proto fuzz (release, ignored)",
         run: step_proto_fuzz,
     },
@@ -287,6 +291,12 @@ fn step_build_qemu_fw(c: &Ctx) -> Result<(), String> {
 
 fn step_host_build(c: &Ctx) -> Result<(), String> {
     run(c.cargo(&["build"]))
+}
+
+fn step_flash_build(c: &Ctx) -> Result<(), String> {
+    // Off by default because probe-rs takes minutes to build; built here so
+    // `lmhost flash` cannot rot unnoticed.
+    run(c.cargo(&["build", "-p", "lmhost", "--features", "flash"]))
 }
 
 fn step_host_test(c: &Ctx) -> Result<(), String> {
