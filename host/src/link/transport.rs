@@ -106,19 +106,25 @@ impl Transport for Tcp {
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
         self.stream
             .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
-        match self.stream.read(buf) {
-            Ok(0) => Err(std::io::Error::new(
-                std::io::ErrorKind::UnexpectedEof,
-                "the device closed the connection",
-            )),
-            Ok(n) => Ok(n),
-            Err(e) if is_timeout(&e) => Ok(0),
-            Err(e) => Err(e),
-        }
+        stream_read(self.stream.read(buf), "the device closed the connection")
     }
 
     fn describe(&self) -> String {
         format!("tcp:{}", self.addr)
+    }
+}
+
+/// A stream socket's read result as [`Transport::recv`] reports it: a
+/// timeout is 0 bytes, end of stream is an error saying `closed`.
+fn stream_read(read: std::io::Result<usize>, closed: &str) -> std::io::Result<usize> {
+    match read {
+        Ok(0) => Err(std::io::Error::new(
+            std::io::ErrorKind::UnexpectedEof,
+            closed.to_owned(),
+        )),
+        Ok(n) => Ok(n),
+        Err(e) if is_timeout(&e) => Ok(0),
+        Err(e) => Err(e),
     }
 }
 
@@ -142,15 +148,10 @@ impl Transport for Unix {
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
         self.stream
             .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
-        match self.stream.read(buf) {
-            Ok(0) => Err(std::io::Error::new(
-                std::io::ErrorKind::UnexpectedEof,
-                "the simulated device closed the socket",
-            )),
-            Ok(n) => Ok(n),
-            Err(e) if is_timeout(&e) => Ok(0),
-            Err(e) => Err(e),
-        }
+        stream_read(
+            self.stream.read(buf),
+            "the simulated device closed the socket",
+        )
     }
 
     fn describe(&self) -> String {
