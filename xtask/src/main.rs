@@ -244,45 +244,26 @@ fn ensure_qemu() -> Result<(), String> {
     }
 }
 
+/// `cargo build --release --target thumbv7em-none-eabihf` plus `args`.
+fn thumb_build(c: &Ctx, args: &[&str]) -> Result<(), String> {
+    let mut all = vec!["build", "--release", "--target", THUMB];
+    all.extend_from_slice(args);
+    run(c.cargo(&all))
+}
+
 fn step_setup(_: &Ctx) -> Result<(), String> {
     ensure_thumb_target()?;
     ensure_qemu()
 }
 
 fn step_thumb_libs(c: &Ctx) -> Result<(), String> {
-    run(c.cargo(&[
-        "build",
-        "--release",
-        "--target",
-        THUMB,
-        "-p",
-        "lm-proto",
-        "-p",
-        "lm-fw-core",
-    ]))?;
+    thumb_build(c, &["-p", "lm-proto", "-p", "lm-fw-core"])?;
     // The defmt logging feature must build too (it is off everywhere else).
-    run(c.cargo(&[
-        "build",
-        "--release",
-        "--target",
-        THUMB,
-        "-p",
-        "lm-fw-core",
-        "--features",
-        "defmt",
-    ]))
+    thumb_build(c, &["-p", "lm-fw-core", "--features", "defmt"])
 }
 
 fn build_qemu_fw(c: &Ctx) -> Result<(), String> {
-    run(c.cargo(&[
-        "build",
-        "--release",
-        "--target",
-        THUMB,
-        "-p",
-        QEMU_PKG,
-        "--bins",
-    ]))
+    thumb_build(c, &["-p", QEMU_PKG, "--bins"])
 }
 
 fn step_build_qemu_fw(c: &Ctx) -> Result<(), String> {
