@@ -180,6 +180,13 @@ fn upload(
     dev.handle(&Message::Commit(Commit { slot, crc32 }), 0)
 }
 
+fn play_now(slot: u8) -> Message<'static> {
+    Message::Play(Play {
+        slot,
+        at: PlayAt::Immediate,
+    })
+}
+
 fn centroid(seq: u32, pos_um: [i32; 3], present: bool) -> Message<'static> {
     Message::Centroid(Centroid {
         seq,
@@ -324,13 +331,7 @@ fn store_commit_checks_crc(_: &mut Ctx) -> TestResult {
         "corrupt commit answered {:?}",
         r
     );
-    let r = dev.handle(
-        &Message::Play(Play {
-            slot: 0,
-            at: PlayAt::Immediate,
-        }),
-        0,
-    );
+    let r = dev.handle(&play_now(0), 0);
     check!(
         r == Message::Nack(NackCode::NotCommitted),
         "play of a refused slot answered {:?}",
@@ -345,13 +346,7 @@ fn store_commit_checks_crc(_: &mut Ctx) -> TestResult {
         "oversized upload answered {:?}",
         r
     );
-    let r = dev.handle(
-        &Message::Play(Play {
-            slot: 0,
-            at: PlayAt::Immediate,
-        }),
-        0,
-    );
+    let r = dev.handle(&play_now(0), 0);
     check!(r == Message::Ack, "play answered {:?}", r);
     Ok(())
 }
@@ -366,13 +361,7 @@ fn player_follows_timer_schedule(c: &mut Ctx) -> TestResult {
     let timer = Timer::clone_of(&c.timer);
     let mut rec = Recorder::new(&timer);
     let start = c.now();
-    let r = dev.handle(
-        &Message::Play(Play {
-            slot: 0,
-            at: PlayAt::Immediate,
-        }),
-        start,
-    );
+    let r = dev.handle(&play_now(0), start);
     check!(r == Message::Ack, "play answered {:?}", r);
     let frames = 3 * steps + 1;
     while rec.n < frames {
@@ -443,15 +432,7 @@ fn correction_applied_to_frames(c: &mut Ctx) -> TestResult {
     let timer = Timer::clone_of(&c.timer);
     let mut rec = Recorder::new(&timer);
     let now = c.now();
-    check!(
-        dev.handle(
-            &Message::Play(Play {
-                slot: 0,
-                at: PlayAt::Immediate
-            }),
-            now
-        ) == Message::Ack
-    );
+    check!(dev.handle(&play_now(0), now) == Message::Ack);
     for (seq, moved) in [
         (1, [5_000, -3_000, 152_000]),
         (2, [-10_000, 1_000, 145_000]),
@@ -492,15 +473,7 @@ fn gate_mutes_within_one_step(c: &mut Ctx) -> TestResult {
     let timer = Timer::clone_of(&c.timer);
     let mut rec = Recorder::new(&timer);
     let now = c.now();
-    check!(
-        dev.handle(
-            &Message::Play(Play {
-                slot: 0,
-                at: PlayAt::Immediate
-            }),
-            now
-        ) == Message::Ack
-    );
+    check!(dev.handle(&play_now(0), now) == Message::Ack);
     // Returns the amplitude of the next frame written.
     let next_amplitude = |dev: &mut Device<'_>, c: &mut Ctx, rec: &mut Recorder<'_>| {
         let before = rec.n;
@@ -598,15 +571,7 @@ fn measure_step_cost(c: &mut Ctx) -> TestResult {
     let r = upload(&mut dev, 0, 200, 996, 200_000, false);
     check!(r == Message::Ack, "upload answered {:?}", r);
     let t0 = c.now();
-    check!(
-        dev.handle(
-            &Message::Play(Play {
-                slot: 0,
-                at: PlayAt::Immediate
-            }),
-            t0
-        ) == Message::Ack
-    );
+    check!(dev.handle(&play_now(0), t0) == Message::Ack);
     check!(dev.handle(&centroid(1, [4_000, -2_500, 151_000], true), t0) == Message::Ack);
     check!(
         dev.offsets().iter().any(|&o| o != 0),
@@ -680,15 +645,7 @@ fn measure_centroid_cost(c: &mut Ctx) -> TestResult {
     let mut dev = device();
     check!(upload(&mut dev, 0, 200, 996, 200_000, false) == Message::Ack);
     let now = c.now();
-    check!(
-        dev.handle(
-            &Message::Play(Play {
-                slot: 0,
-                at: PlayAt::Immediate
-            }),
-            now
-        ) == Message::Ack
-    );
+    check!(dev.handle(&play_now(0), now) == Message::Ack);
     let (mut total, mut worst, n) = (0u32, 0u32, 50u32);
     for seq in 1..=n {
         let k = seq as i32;
