@@ -131,6 +131,28 @@ pub fn encoded_len(
     })
 }
 
+/// Encoded stream lengths a sequence of `steps × transducers` can have in
+/// `encoding` (`BeginUpload::encoded_len` outside it is `OutOfRange`):
+/// Raw exactly `steps × transducers`; Delta from step 0 plus one bit per
+/// residual up to step 0 plus eleven bits per residual (the longest code).
+/// Empty for zero steps or transducers.
+pub fn encoded_len_range(
+    encoding: Encoding,
+    steps: u16,
+    transducers: u16,
+) -> core::ops::RangeInclusive<u64> {
+    let (n, t) = (u64::from(steps), u64::from(transducers));
+    if n == 0 || t == 0 {
+        #[allow(clippy::reversed_empty_ranges)]
+        return 1..=0;
+    }
+    let residuals = (n - 1) * t;
+    match encoding {
+        Encoding::Raw => n * t..=n * t,
+        Encoding::Delta => t + residuals.div_ceil(8)..=t + (residuals * 11).div_ceil(8),
+    }
+}
+
 /// Encodes `phases` (steps × `transducers`, step-major) into `out`;
 /// returns the encoded length (= [`encoded_len`]).
 pub fn encode(

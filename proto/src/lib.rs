@@ -22,6 +22,7 @@ pub mod codec;
 mod crc;
 mod decoder;
 mod frame;
+mod header;
 mod message;
 pub mod vectors;
 
@@ -32,19 +33,27 @@ pub use frame::{
     EncodeError, Frame, FrameError, decode_frame, encode_frame, encode_frame_unframed,
     encoded_frame_len,
 };
+pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
     BeginUpload, Centroid, Chunk, Commit, DeviceState, Geometry, Info, Message, MessageType,
-    NackCode, Play, PlayAt, Positions, Status,
+    MuteReason, NackCode, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
 };
 
 /// Protocol version carried in every frame header.
-pub const PROTOCOL_VERSION: u8 = 1;
+pub const PROTOCOL_VERSION: u8 = 2;
+/// Carrier frequency of the transducers, Hz (the wavenumber of a slot is
+/// 2π · `CARRIER_HZ` / its speed of sound).
+pub const CARRIER_HZ: u32 = 40_000;
+/// Phase levels of one phase byte: u8 = round(φ / 2π · 256) mod 256.
+pub const PHASE_LEVELS: u32 = 256;
+/// Bytes of one transducer position record: `[i32; 3]` µm, little-endian.
+pub const POSITION_LEN: usize = 12;
 /// Largest `Chunk` data (bytes of the encoded sequence stream) per frame.
 pub const MAX_CHUNK: usize = 1024;
 /// Largest number of transducer positions in one `Geometry` frame.
-pub const MAX_GEOMETRY_POSITIONS: usize = MAX_CHUNK / 12;
+pub const MAX_GEOMETRY_POSITIONS: usize = MAX_CHUNK / POSITION_LEN;
 /// Largest message payload (the largest message, `Chunk`, needs
-/// `MAX_CHUNK + 5`; the rest is headroom for future fields).
+/// `MAX_CHUNK + len::CHUNK_HEAD`; the rest is headroom for future fields).
 pub const MAX_PAYLOAD: usize = MAX_CHUNK + 16;
 /// Frame header length: version, type, seq (u16 LE).
 pub const HEADER_LEN: usize = 4;
@@ -64,6 +73,33 @@ pub const NO_SLOT: u8 = 0xFF;
 /// `BeginUpload::sound_speed_mm_s` a device accepts (100 m/s ..= 2000 m/s,
 /// air to water with margin); others are refused with `OutOfRange`.
 pub const SOUND_SPEED_MM_S: core::ops::RangeInclusive<u32> = 100_000..=2_000_000;
+
+/// `UploadHeader::max_offset_um` a device accepts: a work volume of
+/// 1 µm ..= 100 mm around the planned centre; others are `OutOfRange`.
+pub const MAX_OFFSET_UM: core::ops::RangeInclusive<u32> = 1..=100_000;
+
+/// Payload length of each fixed-size message, and the fixed heads of the
+/// variable ones (SPEC section 3).
+pub mod len {
+    /// `BeginUpload`.
+    pub const BEGIN_UPLOAD: usize = 35;
+    /// `Geometry` before its positions (slot, first).
+    pub const GEOMETRY_HEAD: usize = 3;
+    /// `Chunk` before its data (slot, offset).
+    pub const CHUNK_HEAD: usize = 5;
+    /// `Commit`.
+    pub const COMMIT: usize = 5;
+    /// `Play`.
+    pub const PLAY: usize = 3;
+    /// `Centroid`.
+    pub const CENTROID: usize = 25;
+    /// `Nack`.
+    pub const NACK: usize = 1;
+    /// `Info`.
+    pub const INFO: usize = 21;
+    /// `Status`.
+    pub const STATUS: usize = 42;
+}
 
 /// Exact-byte test vectors (`proto/vectors/frames.txt`), format described
 /// at the top of the file; read them with [`vectors::parse`].

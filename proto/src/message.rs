@@ -5,7 +5,8 @@ use core::fmt;
 
 use crate::codec::Encoding;
 use crate::frame::EncodeError;
-use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT};
+use crate::header::{DeviceLimits, HeaderError, UploadHeader};
+use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN, len};
 
 /// Message type byte (second header byte). Requests are `0x01..=0x7F`,
 /// responses `0x80..=0xFF`.
@@ -115,73 +116,65 @@ pub enum NackCode {
     Other(u8),
 }
 
+/// Every known code: value, wire byte, description. The one table
+/// [`NackCode::to_u8`], [`NackCode::from_u8`] and `Display` read.
+const NACK_TABLE: [(NackCode, u8, &str); 15] = [
+    (NackCode::UnknownType, 1, "unknown message type"),
+    (NackCode::Malformed, 2, "malformed request"),
+    (NackCode::BadVersion, 3, "unsupported protocol version"),
+    (NackCode::BadSlot, 4, "no such slot"),
+    (NackCode::SlotPlaying, 5, "slot is playing or queued"),
+    (NackCode::TooLarge, 6, "sequence too large for the device"),
+    (NackCode::OutOfRange, 7, "field out of range"),
+    (NackCode::OutOfOrder, 8, "chunk out of order"),
+    (NackCode::CrcMismatch, 9, "sequence CRC mismatch"),
+    (
+        NackCode::NotCommitted,
+        10,
+        "slot holds no committed sequence",
+    ),
+    (
+        NackCode::DwellTooShort,
+        11,
+        "dwell time below the device minimum",
+    ),
+    (
+        NackCode::NoUpload,
+        12,
+        "no upload in progress for this slot",
+    ),
+    (NackCode::Busy, 13, "device busy"),
+    (NackCode::Incomplete, 14, "upload incomplete"),
+    (NackCode::BadStream, 15, "invalid encoded sequence stream"),
+];
+
 impl NackCode {
     /// The wire byte.
     pub fn to_u8(self) -> u8 {
         match self {
-            Self::UnknownType => 1,
-            Self::Malformed => 2,
-            Self::BadVersion => 3,
-            Self::BadSlot => 4,
-            Self::SlotPlaying => 5,
-            Self::TooLarge => 6,
-            Self::OutOfRange => 7,
-            Self::OutOfOrder => 8,
-            Self::CrcMismatch => 9,
-            Self::NotCommitted => 10,
-            Self::DwellTooShort => 11,
-            Self::NoUpload => 12,
-            Self::Busy => 13,
-            Self::Incomplete => 14,
-            Self::BadStream => 15,
             Self::Other(b) => b,
+            known => NACK_TABLE
+                .iter()
+                .find(|(c, _, _)| *c == known)
+                .map_or(0, |(_, b, _)| *b),
         }
     }
 
     /// The code for a wire byte (unknown values become [`NackCode::Other`]).
     pub fn from_u8(b: u8) -> Self {
-        match b {
-            1 => Self::UnknownType,
-            2 => Self::Malformed,
-            3 => Self::BadVersion,
-            4 => Self::BadSlot,
-            5 => Self::SlotPlaying,
-            6 => Self::TooLarge,
-            7 => Self::OutOfRange,
-            8 => Self::OutOfOrder,
-            9 => Self::CrcMismatch,
-            10 => Self::NotCommitted,
-            11 => Self::DwellTooShort,
-            12 => Self::NoUpload,
-            13 => Self::Busy,
-            14 => Self::Incomplete,
-            15 => Self::BadStream,
-            other => Self::Other(other),
-        }
+        NACK_TABLE
+            .iter()
+            .find(|(_, v, _)| *v == b)
+            .map_or(Self::Other(b), |(c, _, _)| *c)
     }
 }
 
 impl fmt::Display for NackCode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let s = match self {
-            Self::UnknownType => "unknown message type",
-            Self::Malformed => "malformed request",
-            Self::BadVersion => "unsupported protocol version",
-            Self::BadSlot => "no such slot",
-            Self::SlotPlaying => "slot is playing",
-            Self::TooLarge => "sequence too large for the device",
-            Self::OutOfRange => "field out of range",
-            Self::OutOfOrder => "chunk out of order",
-            Self::CrcMismatch => "sequence CRC mismatch",
-            Self::NotCommitted => "slot holds no committed sequence",
-            Self::DwellTooShort => "dwell time below the device minimum",
-            Self::NoUpload => "no upload in progress for this slot",
-            Self::Busy => "device busy",
-            Self::Incomplete => "upload incomplete",
-            Self::BadStream => "invalid encoded sequence stream",
-            Self::Other(b) => return write!(f, "unknown nack code {b}"),
-        };
-        f.write_str(s)
+        match NACK_TABLE.iter().find(|(c, _, _)| c == self) {
+            Some((_, _, s)) => f.write_str(s),
+            None => write!(f, "unknown nack code {}", self.to_u8()),
+        }
     }
 }
 
@@ -208,32 +201,36 @@ pub struct Info {
     pub max_chunk: u16,
 }
 
-/// Start of an upload into a slot.
+/// Start of an upload into a slot: the slot, the [`UploadHeader`] and how
+/// the chunk stream is encoded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct BeginUpload {
     /// Target slot.
     pub slot: u8,
-    /// Steps per cycle.
-    pub steps: u16,
-    /// Transducers per step.
-    pub transducers: u16,
-    /// Cycle period, µs (dwell per step = period_us / steps).
-    pub period_us: u32,
+    /// What the slot will play.
+    pub header: UploadHeader,
     /// Encoding of the chunk stream.
     pub encoding: Encoding,
-    /// Total bytes of the encoded stream (sum of chunk lengths).
+    /// Total bytes of the encoded stream (sum of chunk lengths), within
+    /// [`encoded_len_range`](crate::codec::encoded_len_range).
     pub encoded_len: u32,
-    /// Centre the sequence was planned for, µm, drive coordinates.
-    pub center_um: [i32; 3],
-    /// Foci per step (1 for LM-S, up to 4 for LM-M); informational.
-    pub foci_per_step: u8,
-    /// Speed of sound the sequence was planned with, mm/s (340 m/s =
-    /// `340_000`). The device derives the slot's wavenumber for centroid
-    /// correction from it and refuses values outside
-    /// [`SOUND_SPEED_MM_S`](crate::SOUND_SPEED_MM_S) with `OutOfRange`.
-    pub sound_speed_mm_s: u32,
+}
+
+impl BeginUpload {
+    /// The one check of an upload against a device (host before sending,
+    /// device on receipt): slot number, [`UploadHeader::validate`], then
+    /// `encoded_len` for the encoding.
+    pub fn validate(&self, limits: &DeviceLimits) -> Result<(), HeaderError> {
+        crate::header::validate_begin(
+            self.slot,
+            &self.header,
+            self.encoding,
+            self.encoded_len,
+            limits,
+        )
+    }
 }
 
 /// Transducer positions of a `Geometry` frame: `[x, y, z]` µm, each i32 LE.
@@ -262,7 +259,7 @@ impl<'a> Positions<'a> {
     /// length is not a multiple of 12.
     pub fn from_le_bytes(bytes: &'a [u8]) -> Option<Self> {
         bytes
-            .chunks_exact(12)
+            .chunks_exact(POSITION_LEN)
             .remainder()
             .is_empty()
             .then_some(Self(PosRepr::Bytes(bytes)))
@@ -271,7 +268,7 @@ impl<'a> Positions<'a> {
     /// Number of positions.
     pub fn len(&self) -> usize {
         match self.0 {
-            PosRepr::Bytes(b) => b.len() / 12,
+            PosRepr::Bytes(b) => b.len() / POSITION_LEN,
             PosRepr::Points(p) => p.len(),
         }
     }
@@ -285,7 +282,7 @@ impl<'a> Positions<'a> {
     pub fn get(&self, i: usize) -> Option<[i32; 3]> {
         match self.0 {
             PosRepr::Bytes(b) => {
-                let r = b.get(i.checked_mul(12)?..)?.get(..12)?;
+                let r = b.get(i.checked_mul(POSITION_LEN)?..)?.get(..POSITION_LEN)?;
                 Some(core::array::from_fn(|k| {
                     i32::from_le_bytes([r[4 * k], r[4 * k + 1], r[4 * k + 2], r[4 * k + 3]])
                 }))
@@ -374,7 +371,14 @@ pub struct Play {
     pub slot: u8,
     /// When to switch.
     pub at: PlayAt,
+    /// Play without tracking (flags bit 0, [`PLAY_FLAG_UNTRACKED`]): the
+    /// output is not gated by centroids and no correction is applied; it
+    /// sounds until `Stop`. Off by default.
+    pub untracked: bool,
 }
+
+/// `Play` flags bit: play without tracking.
+pub const PLAY_FLAG_UNTRACKED: u8 = 0x01;
 
 /// Centroid update: where the LM centre is now.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -407,6 +411,60 @@ pub enum DeviceState {
     Stopped,
 }
 
+/// Why the output is silent (`Status::mute_reason`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+#[non_exhaustive]
+pub enum MuteReason {
+    /// 0: not muted (playing, or idle: nothing was ever played).
+    None,
+    /// 1: playing, no centroid since `Play` (tracked play needs one).
+    WaitingForTracking,
+    /// 2: the last centroid said no finger is present.
+    FingerAbsent,
+    /// 3: no centroid within the device's timeout.
+    TrackingStale,
+    /// 4: the last centroid lay outside the slot's work volume.
+    CentroidOutOfRange,
+    /// 5: stopped by `Stop`.
+    Stopped,
+}
+
+impl MuteReason {
+    const ALL: [MuteReason; 6] = [
+        Self::None,
+        Self::WaitingForTracking,
+        Self::FingerAbsent,
+        Self::TrackingStale,
+        Self::CentroidOutOfRange,
+        Self::Stopped,
+    ];
+
+    /// The wire byte.
+    pub fn to_u8(self) -> u8 {
+        Self::ALL.iter().position(|r| *r == self).unwrap_or(0) as u8
+    }
+
+    /// The reason for a wire byte, if known.
+    pub fn from_u8(b: u8) -> Option<Self> {
+        Self::ALL.get(usize::from(b)).copied()
+    }
+
+    /// Words for humans ("waiting for tracking").
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::WaitingForTracking => "waiting for tracking",
+            Self::FingerAbsent => "finger absent",
+            Self::TrackingStale => "tracking stale",
+            Self::CentroidOutOfRange => "centroid out of range",
+            Self::Stopped => "stopped",
+        }
+    }
+}
+
 /// Device status (response to `GetStatus`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -433,6 +491,11 @@ pub struct Status {
     pub nacks: u32,
     /// Correction offset currently applied (centroid − planned centre), µm.
     pub correction_um: [i32; 3],
+    /// Slot queued to take over at the next cycle boundary (`None` on the
+    /// wire as [`NO_SLOT`]).
+    pub queued_slot: Option<u8>,
+    /// Why the output is silent ([`MuteReason::None`] while it sounds).
+    pub mute_reason: MuteReason,
 }
 
 /// One protocol message, borrowing bulk bytes (chunk data, positions) from
@@ -584,15 +647,15 @@ impl<'a> Message<'a> {
     pub fn payload_len(&self) -> usize {
         match self {
             Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => 0,
-            Self::BeginUpload(_) => 31,
-            Self::Geometry(g) => 3 + 12 * g.positions.len(),
-            Self::Chunk(c) => 5 + c.data.len(),
-            Self::Commit(_) => 5,
-            Self::Play(_) => 2,
-            Self::Centroid(_) => 25,
-            Self::Nack(_) => 1,
-            Self::Info(_) => 21,
-            Self::Status(_) => 40,
+            Self::BeginUpload(_) => len::BEGIN_UPLOAD,
+            Self::Geometry(g) => len::GEOMETRY_HEAD + POSITION_LEN * g.positions.len(),
+            Self::Chunk(c) => len::CHUNK_HEAD + c.data.len(),
+            Self::Commit(_) => len::COMMIT,
+            Self::Play(_) => len::PLAY,
+            Self::Centroid(_) => len::CENTROID,
+            Self::Nack(_) => len::NACK,
+            Self::Info(_) => len::INFO,
+            Self::Status(_) => len::STATUS,
         }
     }
 
@@ -610,7 +673,9 @@ impl<'a> Message<'a> {
                 Err(EncodeError::TooLarge)
             }
             Self::Chunk(c) if c.data.len() > MAX_CHUNK => Err(EncodeError::TooLarge),
-            Self::Status(s) if s.slot == Some(NO_SLOT) => Err(EncodeError::InvalidField),
+            Self::Status(s) if s.slot == Some(NO_SLOT) || s.queued_slot == Some(NO_SLOT) => {
+                Err(EncodeError::InvalidField)
+            }
             // `Other` must hold a value this version does not know, or it
             // would not survive a round trip.
             Self::Nack(NackCode::Other(b))
@@ -627,15 +692,17 @@ impl<'a> Message<'a> {
         match self {
             Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => Ok(()),
             Self::BeginUpload(b) => {
+                let h = &b.header;
                 s.put(&[b.slot])?;
-                s.put(&b.steps.to_le_bytes())?;
-                s.put(&b.transducers.to_le_bytes())?;
-                s.put(&b.period_us.to_le_bytes())?;
+                s.put(&h.steps.to_le_bytes())?;
+                s.put(&h.transducers.to_le_bytes())?;
+                s.put(&h.period_us.to_le_bytes())?;
                 s.put(&[b.encoding.to_u8()])?;
                 s.put(&b.encoded_len.to_le_bytes())?;
-                put_xyz(s, &b.center_um)?;
-                s.put(&[b.foci_per_step])?;
-                s.put(&b.sound_speed_mm_s.to_le_bytes())
+                put_xyz(s, &h.center_um)?;
+                s.put(&[h.foci_per_step])?;
+                s.put(&h.sound_speed_mm_s.to_le_bytes())?;
+                s.put(&h.max_offset_um.to_le_bytes())
             }
             Self::Geometry(g) => {
                 s.put(&[g.slot])?;
@@ -657,6 +724,7 @@ impl<'a> Message<'a> {
                     PlayAt::NextCycle => 0,
                     PlayAt::Immediate => 1,
                 },
+                if p.untracked { PLAY_FLAG_UNTRACKED } else { 0 },
             ]),
             Self::Centroid(c) => {
                 s.put(&c.seq.to_le_bytes())?;
@@ -696,7 +764,8 @@ impl<'a> Message<'a> {
                 ] {
                     s.put(&v.to_le_bytes())?;
                 }
-                put_xyz(s, &st.correction_um)
+                put_xyz(s, &st.correction_um)?;
+                s.put(&[st.queued_slot.unwrap_or(NO_SLOT), st.mute_reason.to_u8()])
             }
         }
     }
@@ -716,23 +785,34 @@ impl<'a> Message<'a> {
             MessageType::Stop => Self::Stop,
             MessageType::GetStatus => Self::GetStatus,
             MessageType::Ack => Self::Ack,
-            MessageType::BeginUpload => Self::BeginUpload(BeginUpload {
-                slot: r.u8()?,
-                steps: r.u16()?,
-                transducers: r.u16()?,
-                period_us: r.u32()?,
-                encoding: Encoding::from_u8(r.u8()?).ok_or("unknown encoding")?,
-                encoded_len: r.u32()?,
-                center_um: r.xyz()?,
-                foci_per_step: r.u8()?,
-                sound_speed_mm_s: r.u32()?,
-            }),
+            MessageType::BeginUpload => {
+                let slot = r.u8()?;
+                let steps = r.u16()?;
+                let transducers = r.u16()?;
+                let period_us = r.u32()?;
+                let encoding = Encoding::from_u8(r.u8()?).ok_or("unknown encoding")?;
+                let encoded_len = r.u32()?;
+                Self::BeginUpload(BeginUpload {
+                    slot,
+                    encoding,
+                    encoded_len,
+                    header: UploadHeader {
+                        steps,
+                        transducers,
+                        period_us,
+                        center_um: r.xyz()?,
+                        foci_per_step: r.u8()?,
+                        sound_speed_mm_s: r.u32()?,
+                        max_offset_um: r.u32()?,
+                    },
+                })
+            }
             MessageType::Geometry => {
                 let slot = r.u8()?;
                 let first = r.u16()?;
                 let bytes = r.rest();
                 let positions = Positions::from_le_bytes(bytes)
-                    .ok_or("positions not a multiple of 12 bytes")?;
+                    .ok_or("positions not a multiple of POSITION_LEN bytes")?;
                 if positions.len() > MAX_GEOMETRY_POSITIONS {
                     return Err("too many positions");
                 }
@@ -761,6 +841,11 @@ impl<'a> Message<'a> {
                     0 => PlayAt::NextCycle,
                     1 => PlayAt::Immediate,
                     _ => return Err("unknown play timing"),
+                },
+                untracked: match r.u8()? {
+                    0 => false,
+                    PLAY_FLAG_UNTRACKED => true,
+                    _ => return Err("unknown play flag bits"),
                 },
             }),
             MessageType::Centroid => Self::Centroid(Centroid {
@@ -800,6 +885,11 @@ impl<'a> Message<'a> {
                 crc_errors: r.u32()?,
                 nacks: r.u32()?,
                 correction_um: r.xyz()?,
+                queued_slot: match r.u8()? {
+                    NO_SLOT => None,
+                    s => Some(s),
+                },
+                mute_reason: MuteReason::from_u8(r.u8()?).ok_or("unknown mute reason")?,
             }),
         })
     }

@@ -21,6 +21,10 @@ pub struct Vector<'a> {
     /// report: `crc`, `unknown_type`, `bad_version`, `malformed`, `cobs`,
     /// `too_short`.
     pub error: Option<&'a str>,
+    /// Device behaviour records (names `dev_*`) only: the response a fresh
+    /// device fed every record in file order gives: `ack`,
+    /// `nack <NackCode>` or `status <DeviceState> <MuteReason>` (Debug names).
+    pub expect: Option<&'a str>,
 }
 
 /// Records of a vector file (use [`crate::TEST_VECTORS`]); lines with
@@ -42,6 +46,7 @@ pub fn parse(text: &str) -> impl Iterator<Item = Vector<'_>> {
                 "decoded" => v.decoded = Some(value),
                 "wire" => v.wire = value,
                 "error" => v.error = Some(value),
+                "expect" => v.expect = Some(value),
                 _ => {}
             }
         }

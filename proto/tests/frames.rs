@@ -34,6 +34,8 @@ fn samples() -> Vec<(u16, Owned)> {
                 crc_errors: 0,
                 nacks: 2,
                 correction_um: [5, -5, 0],
+                queued_slot: Some(0),
+                mute_reason: MuteReason::TrackingStale,
             })),
         ),
         (
@@ -328,6 +330,8 @@ fn invalid_field_values_are_rejected_on_both_sides() {
         crc_errors: 0,
         nacks: 0,
         correction_um: [0; 3],
+        queued_slot: None,
+        mute_reason: MuteReason::None,
     });
     let mut buf = [0u8; MAX_ENCODED_FRAME];
     assert_eq!(

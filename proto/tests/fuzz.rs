@@ -51,6 +51,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             } else {
                 PlayAt::Immediate
             },
+            untracked: rng.below(2) == 1,
         }),
         7 => Message::Centroid(Centroid {
             seq: rng.next_u64() as u32,
@@ -70,18 +71,21 @@ fn random_message(rng: &mut Rng) -> Owned {
         }),
         9 => Message::BeginUpload(BeginUpload {
             slot: rng.byte(),
-            steps: rng.next_u64() as u16,
-            transducers: rng.next_u64() as u16,
-            period_us: rng.next_u64() as u32,
+            header: UploadHeader {
+                steps: rng.next_u64() as u16,
+                transducers: rng.next_u64() as u16,
+                period_us: rng.next_u64() as u32,
+                center_um: x(rng),
+                foci_per_step: rng.byte(),
+                sound_speed_mm_s: rng.next_u64() as u32,
+                max_offset_um: rng.next_u64() as u32,
+            },
             encoding: if rng.below(2) == 0 {
                 Encoding::Raw
             } else {
                 Encoding::Delta
             },
             encoded_len: rng.next_u64() as u32,
-            center_um: x(rng),
-            foci_per_step: rng.byte(),
-            sound_speed_mm_s: rng.next_u64() as u32,
         }),
         10 => Message::Status(Status {
             state: [
@@ -103,6 +107,12 @@ fn random_message(rng: &mut Rng) -> Owned {
             crc_errors: rng.next_u64() as u32,
             nacks: rng.next_u64() as u32,
             correction_um: x(rng),
+            queued_slot: if rng.below(2) == 0 {
+                None
+            } else {
+                Some(rng.below(255) as u8)
+            },
+            mute_reason: MuteReason::from_u8(rng.below(6) as u8).unwrap(),
         }),
         11 => {
             let n = rng.below(MAX_GEOMETRY_POSITIONS + 1);

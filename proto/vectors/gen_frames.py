@@ -4,7 +4,7 @@ spec with Python's own CRC (zlib) and a separate COBS, independent of the
 Rust code that the vectors check. Run: python3 gen_frames.py > frames.txt"""
 import struct, zlib
 
-VERSION = 1
+VERSION = 2
 
 def cobs(data):
     out, block = bytearray(), bytearray()
@@ -32,13 +32,22 @@ records = []
 
 def rec(name, msg_type, seq, fields, payload, **kw):
     error = kw.pop("error", None)
+    expect = kw.pop("expect", None)
     decoded, wire = frame(msg_type, seq, payload, **kw)
-    records.append((name, msg_type, seq, fields, decoded, wire, error))
+    records.append((name, msg_type, seq, fields, decoded, wire, error, expect))
 
 def raw(name, fields, wire, error):
-    records.append((name, None, None, fields, None, wire, error))
+    records.append((name, None, None, fields, None, wire, error, None))
 
 xyz = lambda v: struct.pack("<3i", *v)
+
+def begin(slot, steps, t, period, enc, enc_len, center, foci, speed, max_off):
+    return (struct.pack("<BHHIBI", slot, steps, t, period, enc, enc_len) + xyz(center)
+            + bytes([foci]) + struct.pack("<II", speed, max_off))
+
+def status(state, slot, step, counters, corr, queued, reason):
+    return (bytes([state, slot]) + struct.pack("<H6I", step, *counters) + xyz(corr)
+            + bytes([queued, reason]))
 
 rec("get_info", 0x01, 0, "GetInfo", b"")
 rec("info", 0x82, 0,
@@ -47,14 +56,14 @@ rec("info", 0x82, 0,
     struct.pack("<B3BHIBIIH", 1, 0, 1, 0, 996, 262144, 2, 1000000, 100, 1024))
 rec("begin_upload", 0x02, 1,
     "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
-    "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200",
-    struct.pack("<BHHIBI", 0, 82, 996, 200000, 1, 22000) + xyz((0, 30000, 30000)) + b"\x04"
-    + struct.pack("<I", 343200))
+    "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200 "
+    "max_offset_um=20000",
+    begin(0, 82, 996, 200000, 1, 22000, (0, 30000, 30000), 4, 343200, 20000))
 rec("begin_upload_raw", 0x02, 2,
     "BeginUpload slot=1 steps=1 transducers=1 period_us=1000 encoding=Raw(0) "
-    "encoded_len=1 center_um=[-1,-2,-3] foci_per_step=1 sound_speed_mm_s=100000 (lowest accepted)",
-    struct.pack("<BHHIBI", 1, 1, 1, 1000, 0, 1) + xyz((-1, -2, -3)) + b"\x01"
-    + struct.pack("<I", 100000))
+    "encoded_len=1 center_um=[-1,-2,-3] foci_per_step=1 sound_speed_mm_s=100000 (lowest accepted) "
+    "max_offset_um=100000 (largest accepted)",
+    begin(1, 1, 1, 1000, 0, 1, (-1, -2, -3), 1, 100000, 100000))
 rec("geometry", 0x03, 3,
     "Geometry slot=0 first=996 positions=[[-96520,-66040,0],[-86360,-66040,0]]",
     struct.pack("<BH", 0, 996) + xyz((-96520, -66040, 0)) + xyz((-86360, -66040, 0)))
@@ -66,8 +75,8 @@ rec("chunk_long", 0x04, 6,
     struct.pack("<BI", 1, 0) + bytes((i % 255) + 1 for i in range(300)))
 rec("chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[]", struct.pack("<BI", 0, 0xFFFFFFFF))
 rec("commit", 0x05, 8, "Commit slot=0 crc32=0xcbf43926", struct.pack("<BI", 0, 0xCBF43926))
-rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0)", bytes([1, 0]))
-rec("play_immediate", 0x06, 10, "Play slot=0 at=Immediate(1)", bytes([0, 1]))
+rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0) flags=0", bytes([1, 0, 0]))
+rec("play_immediate", 0x06, 10, "Play slot=0 at=Immediate(1) flags=0", bytes([0, 1, 0]))
 rec("stop", 0x07, 11, "Stop", b"")
 rec("centroid", 0x08, 12,
     "Centroid seq=42 pos_um=[-1500,30250,29800] present=true host_time_us=1234567890123",
@@ -78,12 +87,19 @@ rec("centroid_absent", 0x08, 13,
 rec("get_status", 0x09, 14, "GetStatus", b"")
 rec("status", 0x83, 14,
     "Status state=Playing(1) slot=1 step=17 cycles=300 missed_deadlines=0 last_centroid_seq=42 "
-    "bad_frames=2 crc_errors=1 nacks=3 correction_um=[-1500,250,-200]",
-    bytes([1, 1]) + struct.pack("<H6I", 17, 300, 0, 42, 2, 1, 3) + xyz((-1500, 250, -200)))
+    "bad_frames=2 crc_errors=1 nacks=3 correction_um=[-1500,250,-200] queued_slot=0 "
+    "mute_reason=None(0)",
+    status(1, 1, 17, (300, 0, 42, 2, 1, 3), (-1500, 250, -200), 0, 0))
 rec("status_idle", 0x83, 15,
     "Status state=Idle(0) slot=none(0xff) step=0 cycles=0 missed_deadlines=0 last_centroid_seq=0 "
-    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0]",
-    bytes([0, 0xFF]) + struct.pack("<H6I", 0, 0, 0, 0, 0, 0, 0) + xyz((0, 0, 0)))
+    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0] queued_slot=none(0xff) "
+    "mute_reason=None(0)",
+    status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0))
+rec("status_muted", 0x83, 15,
+    "Status state=Muted(2) slot=0 step=3 cycles=1 missed_deadlines=0 last_centroid_seq=7 "
+    "bad_frames=0 crc_errors=0 nacks=1 correction_um=[0,0,0] queued_slot=none(0xff) "
+    "mute_reason=CentroidOutOfRange(4)",
+    status(2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4))
 rec("ack", 0x80, 0xBEEF, "Ack", b"")
 rec("nack", 0x81, 16, "Nack code=OutOfOrder(8)", bytes([8]))
 rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version does not know)", bytes([200]))
@@ -92,20 +108,101 @@ rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version do
 rec("err_crc", 0x80, 18, "Ack with the CRC's lowest bit flipped", b"", crc_xor=1, error="crc")
 rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC", b"",
     error="unknown_type")
-rec("err_bad_version", 0x01, 20, "GetInfo with version 2, valid CRC", b"", version=2,
+rec("err_bad_version", 0x01, 20, "GetInfo with version 1 (the previous one), valid CRC", b"",
+    version=1,
     error="bad_version")
-rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", bytes([0, 2]),
+rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", bytes([0, 2, 0]),
     error="malformed")
+rec("err_malformed_play_flags", 0x06, 21, "Play slot=0 at=0 flags=0x02 (unknown flag bit)",
+    bytes([0, 0, 2]), error="malformed")
+rec("err_malformed_play_short", 0x06, 21, "Play with the 2-byte payload of version 1 (needs 3)",
+    bytes([0, 0]), error="malformed")
 rec("err_malformed_len", 0x05, 22, "Commit with a 4-byte payload (needs 5)", bytes([0, 1, 2, 3]),
     error="malformed")
 rec("err_malformed_bool", 0x08, 23, "Centroid with present=2",
     struct.pack("<I", 1) + xyz((0, 0, 0)) + b"\x02" + struct.pack("<Q", 0), error="malformed")
 rec("err_malformed_begin_short", 0x02, 24,
-    "BeginUpload with the 27-byte payload that lacks sound_speed_mm_s (needs 31)",
-    struct.pack("<BHHIBI", 0, 1, 1, 1000, 0, 1) + xyz((0, 0, 0)) + b"\x01", error="malformed")
+    "BeginUpload with the 31-byte payload of version 1 that lacks max_offset_um (needs 35)",
+    begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1)[:31], error="malformed")
+rec("err_malformed_status_reason", 0x83, 25, "Status with mute_reason=6 (no such reason)",
+    status(2, 0, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6), error="malformed")
 raw("err_cobs", "block code 5 but the delimiter comes after 2 data bytes", bytes([0, 5, 1, 2, 0]),
     "cobs")
 raw("err_too_short", "3 decoded bytes", b"\x00" + cobs(bytes([1, 1, 0])) + b"\x00", "too_short")
+
+# Device behaviour (SPEC sections 2, 3): fed in file order, after the records
+# above, to a fresh device (2 slots, 996 transducers, min_dwell_us <= 1000,
+# tracking required: the default),
+# each request gets the response in its `expect` line.
+SMALL = [1, 2, 3, 4]
+rec("dev_begin", 0x02, 100,
+    "BeginUpload slot=1 steps=2 transducers=2 period_us=200000 encoding=Raw(0) encoded_len=4 "
+    "center_um=[0,0,200000] foci_per_step=1 sound_speed_mm_s=340000 max_offset_um=20000",
+    begin(1, 2, 2, 200000, 0, 4, (0, 0, 200000), 1, 340000, 20000), expect="ack")
+rec("dev_geometry", 0x03, 101, "Geometry slot=1 first=0 positions=[[-5000,0,0],[5000,0,0]]",
+    struct.pack("<BH", 1, 0) + xyz((-5000, 0, 0)) + xyz((5000, 0, 0)), expect="ack")
+rec("dev_chunk_a", 0x04, 102, "Chunk slot=1 offset=0 data=[01 02]",
+    struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
+rec("dev_chunk_b", 0x04, 103, "Chunk slot=1 offset=2 data=[03 04]",
+    struct.pack("<BI", 1, 2) + bytes(SMALL[2:]), expect="ack")
+rec("dev_chunk_a_again", 0x04, 104,
+    "Chunk slot=1 offset=0 data=[01 02] (an earlier chunk repeated: identical, acked)",
+    struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
+rec("dev_chunk_inner_again", 0x04, 105,
+    "Chunk slot=1 offset=1 data=[02 03] (identical to received Raw bytes across two chunks)",
+    struct.pack("<BI", 1, 1) + bytes(SMALL[1:3]), expect="ack")
+rec("dev_chunk_conflict", 0x04, 106, "Chunk slot=1 offset=0 data=[09 09] (differs from received)",
+    struct.pack("<BI", 1, 0) + bytes([9, 9]), expect="nack OutOfOrder")
+rec("dev_commit", 0x05, 107, f"Commit slot=1 crc32=0x{zlib.crc32(bytes(SMALL)):08x}",
+    struct.pack("<BI", 1, zlib.crc32(bytes(SMALL))), expect="ack")
+rec("dev_commit_again", 0x05, 108, "the same Commit repeated (idempotent: acked again)",
+    struct.pack("<BI", 1, zlib.crc32(bytes(SMALL))), expect="ack")
+rec("dev_commit_other_crc", 0x05, 109, "Commit slot=1 crc32=0x00000000 (no upload in progress)",
+    struct.pack("<BI", 1, 0), expect="nack NoUpload")
+rec("dev_begin_delta_empty", 0x02, 110,
+    "BeginUpload slot=0 steps=2 transducers=2 Delta encoded_len=0 (impossible: out of range)",
+    begin(0, 2, 2, 200000, 1, 0, (0, 0, 200000), 1, 340000, 20000), expect="nack OutOfRange")
+rec("dev_begin_raw_len", 0x02, 111,
+    "BeginUpload slot=0 steps=2 transducers=2 Raw encoded_len=3 (needs 4: out of range)",
+    begin(0, 2, 2, 200000, 0, 3, (0, 0, 200000), 1, 340000, 20000), expect="nack OutOfRange")
+rec("dev_begin_no_work_volume", 0x02, 112,
+    "BeginUpload slot=0 steps=2 transducers=2 Raw encoded_len=4 max_offset_um=0 (out of range)",
+    begin(0, 2, 2, 200000, 0, 4, (0, 0, 200000), 1, 340000, 0), expect="nack OutOfRange")
+rec("dev_begin_wide_work_volume", 0x02, 113,
+    "BeginUpload slot=0 ... max_offset_um=100001 (above 100 mm: out of range)",
+    begin(0, 2, 2, 200000, 0, 4, (0, 0, 200000), 1, 340000, 100001), expect="nack OutOfRange")
+rec("dev_play_tracked", 0x06, 114, "Play slot=1 at=Immediate(1) flags=0", bytes([1, 1, 0]),
+    expect="ack")
+rec("dev_status_waiting", 0x09, 115, "GetStatus (muted: waiting for tracking)", b"",
+    expect="status Muted WaitingForTracking")
+rec("dev_centroid_in_range", 0x08, 116,
+    "Centroid seq=1000 pos_um=[3000,-4000,200000] present=true (5 mm from the centre)",
+    struct.pack("<I", 1000) + xyz((3000, -4000, 200000)) + b"\x01" + struct.pack("<Q", 0),
+    expect="ack")
+rec("dev_status_playing", 0x09, 117, "GetStatus (playing)", b"", expect="status Playing None")
+rec("dev_centroid_out_of_range", 0x08, 118,
+    "Centroid seq=1001 pos_um=[12000,16001,200000] present=true (20.0008 mm away: refused, mutes)",
+    struct.pack("<I", 1001) + xyz((12000, 16001, 200000)) + b"\x01" + struct.pack("<Q", 0),
+    expect="nack OutOfRange")
+rec("dev_status_out_of_range", 0x09, 119, "GetStatus (muted: centroid out of range)", b"",
+    expect="status Muted CentroidOutOfRange")
+rec("dev_centroid_overflow", 0x08, 120,
+    "Centroid seq=1002 pos_um=[-2147483648,2147483647,-2147483648] present=true",
+    struct.pack("<I", 1002) + xyz((-2**31, 2**31 - 1, -2**31)) + b"\x01" + struct.pack("<Q", 0),
+    expect="nack OutOfRange")
+rec("dev_centroid_edge", 0x08, 121,
+    "Centroid seq=1003 pos_um=[12000,16000,200000] present=true (exactly 20 mm: in range)",
+    struct.pack("<I", 1003) + xyz((12000, 16000, 200000)) + b"\x01" + struct.pack("<Q", 0),
+    expect="ack")
+rec("dev_status_back", 0x09, 122, "GetStatus (playing again)", b"", expect="status Playing None")
+rec("dev_play_untracked", 0x06, 123, "Play slot=1 at=Immediate(1) flags=untracked(1)",
+    bytes([1, 1, 1]), expect="ack")
+rec("dev_centroid_absent", 0x08, 124, "Centroid seq=1004 pos_um=[0,0,0] present=false",
+    struct.pack("<I", 1004) + xyz((0, 0, 0)) + b"\x00" + struct.pack("<Q", 0), expect="ack")
+rec("dev_status_untracked", 0x09, 125, "GetStatus (untracked: plays without a finger)", b"",
+    expect="status Playing None")
+rec("dev_stop", 0x07, 126, "Stop", b"", expect="ack")
+rec("dev_status_stopped", 0x09, 127, "GetStatus (stopped)", b"", expect="status Stopped Stopped")
 
 print("""# lm-proto exact-byte test vectors (generated by gen_frames.py from SPEC.md,
 # independently of the Rust encoder). Records are separated by blank lines;
@@ -118,8 +215,11 @@ print("""# lm-proto exact-byte test vectors (generated by gen_frames.py from SPE
 #   wire     hex of the on-wire bytes: 00, COBS(decoded), 00
 #   error    absent for good frames; else what the decoder must report:
 #            crc | unknown_type | bad_version | malformed | cobs | too_short
+#   expect   device behaviour records only (names dev_*): the response of a
+#            fresh device fed every record in file order: ack |
+#            nack <NackCode> | status <DeviceState> <MuteReason>
 """)
-for name, t, seq, fields, decoded, wire, error in records:
+for name, t, seq, fields, decoded, wire, error, expect in records:
     print(f"name {name}")
     if t is not None:
         print(f"type {t:02x}")
@@ -130,4 +230,6 @@ for name, t, seq, fields, decoded, wire, error in records:
     print(f"wire {hexs(wire)}")
     if error:
         print(f"error {error}")
+    if expect:
+        print(f"expect {expect}")
     print()

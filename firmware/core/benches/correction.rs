@@ -61,14 +61,17 @@ fn bench(c: &mut Criterion) {
     let raw: Vec<u8> = (0..usize::from(steps) * T).map(|i| (i * 3) as u8).collect();
     let begin = Message::BeginUpload(BeginUpload {
         slot: 0,
-        steps,
-        transducers: T as u16,
-        period_us: 200_000,
+        header: UploadHeader {
+            steps,
+            transducers: T as u16,
+            period_us: 200_000,
+            center_um: c0,
+            foci_per_step: 1,
+            sound_speed_mm_s: 340_000,
+            max_offset_um: 20_000,
+        },
         encoding: Encoding::Raw,
         encoded_len: raw.len() as u32,
-        center_um: c0,
-        foci_per_step: 1,
-        sound_speed_mm_s: 340_000,
     });
     assert_eq!(dev.handle(&begin, 0), Message::Ack);
     for (i, ps) in pts.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {

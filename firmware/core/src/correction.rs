@@ -7,11 +7,14 @@
 //! Δφ_k = k·(|x_k − c0| − |x_k − c|), exact for a single focus at `c0`.
 //! The offsets are added (wrapping) to every outgoing frame.
 
-/// Carrier frequency of the transducers (Hz).
-pub const CARRIER_HZ: f32 = 40_000.0;
+/// Carrier frequency of the transducers (Hz), [`lm_proto::CARRIER_HZ`].
+pub const CARRIER_HZ: f32 = lm_proto::CARRIER_HZ as f32;
 
-/// Bytes per transducer position on the wire: `[i32; 3]` µm, little-endian.
-pub const POSITION_BYTES: usize = 12;
+/// Bytes per transducer position on the wire, [`lm_proto::POSITION_LEN`].
+pub const POSITION_BYTES: usize = lm_proto::POSITION_LEN;
+
+/// Phase levels of a u8 phase, [`lm_proto::PHASE_LEVELS`].
+const PHASE_LEVELS: f32 = lm_proto::PHASE_LEVELS as f32;
 
 /// Speed of sound in m/s from the `BeginUpload::sound_speed_mm_s` a slot
 /// was planned with.
@@ -21,7 +24,7 @@ pub fn sound_speed_m_s(sound_speed_mm_s: u32) -> f32 {
 
 /// Phase LSB per µm of path length: 256 / λ with λ in µm.
 pub fn lsb_per_um(sound_speed_m_s: f32) -> f32 {
-    CARRIER_HZ * 256.0 / (sound_speed_m_s * 1.0e6)
+    CARRIER_HZ * PHASE_LEVELS / (sound_speed_m_s * 1.0e6)
 }
 
 fn read_i32(b: &[u8]) -> i32 {

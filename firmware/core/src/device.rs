@@ -2,8 +2,9 @@
 //! wired together. Boards and the host simulator drive only this.
 
 use lm_proto::{
-    BeginUpload, Centroid, DeviceState, FeedResult, FrameDecoder, Info, MAX_CHUNK,
-    MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status, encode_frame,
+    BeginUpload, Centroid, DeviceLimits, DeviceState, FeedResult, FrameDecoder, Info, MAX_CHUNK,
+    MAX_ENCODED_FRAME, Message, MuteReason, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status,
+    encode_frame,
 };
 
 use crate::MAX_TRANSDUCERS;
@@ -124,6 +125,11 @@ struct Core<'m> {
     frame: [u8; MAX_TRANSDUCERS],
     /// Re-send the current step at once (Stop, presence lost).
     refresh: bool,
+    /// The session plays untracked (`Play` flag): not gated, not corrected.
+    untracked: bool,
+    /// The last present centroid lay outside the playing slot's work
+    /// volume: muted until an in-range one arrives.
+    out_of_range: bool,
 }
 
 /// The whole device core.
@@ -164,6 +170,8 @@ impl<'m> Device<'m> {
                 offsets: [0; MAX_TRANSDUCERS],
                 frame: [0; MAX_TRANSDUCERS],
                 refresh: false,
+                untracked: false,
+                out_of_range: false,
             },
         })
     }
@@ -282,6 +290,9 @@ impl<'m> Device<'m> {
     /// centroid yet, or nothing playing).
     pub fn offsets(&self) -> &[u8] {
         let c = &self.core;
+        if c.untracked {
+            return &[];
+        }
         match c.player.slot().filter(|s| c.offsets_for == Some(*s)) {
             Some(slot) => {
                 let t = c
@@ -296,7 +307,7 @@ impl<'m> Device<'m> {
 
     /// Whether the output sounds at `now` (playing and the gate is open).
     pub fn is_sounding(&self, now: u64) -> bool {
-        self.core.player.state() == PlayState::Playing && self.core.gate.open(now)
+        self.core.sounding(now)
     }
 }
 
@@ -314,16 +325,41 @@ impl Core<'_> {
         }
     }
 
+    /// The limits `BeginUpload` is checked against (`Info`'s).
+    fn limits(&self) -> DeviceLimits {
+        DeviceLimits::from_info(&self.info())
+    }
+
+    /// Why a playing device is silent at `now` (None while it sounds).
+    fn mute_reason(&self, now: u64) -> MuteReason {
+        match self.player.state() {
+            PlayState::Idle => MuteReason::None,
+            PlayState::Stopped => MuteReason::Stopped,
+            PlayState::Playing if self.untracked => MuteReason::None,
+            PlayState::Playing if self.out_of_range => MuteReason::CentroidOutOfRange,
+            PlayState::Playing => self.gate.mute_reason(now),
+        }
+    }
+
+    /// Playing and not muted at `now`.
+    fn sounding(&self, now: u64) -> bool {
+        self.player.state() == PlayState::Playing && self.mute_reason(now) == MuteReason::None
+    }
+
     fn status(&self, now: u64) -> Status {
+        let mute_reason = self.mute_reason(now);
         let state = match self.player.state() {
             PlayState::Idle => DeviceState::Idle,
             PlayState::Stopped => DeviceState::Stopped,
-            PlayState::Playing if self.gate.open(now) => DeviceState::Playing,
+            PlayState::Playing if mute_reason == MuteReason::None => DeviceState::Playing,
             PlayState::Playing => DeviceState::Muted,
         };
         let slot = self.player.slot();
+        let applied = !self.untracked && !self.out_of_range;
         let correction_um = match (self.centroid_um, slot.and_then(|s| self.store.header(s))) {
-            (Some(c), Some(h)) => core::array::from_fn(|i| c[i].wrapping_sub(h.center_um[i])),
+            (Some(c), Some(h)) if applied => {
+                core::array::from_fn(|i| c[i].wrapping_sub(h.center_um[i]))
+            }
             _ => [0; 3],
         };
         Status {
@@ -337,6 +373,8 @@ impl Core<'_> {
             crc_errors: self.counters.crc_errors,
             nacks: self.counters.nacks,
             correction_um,
+            queued_slot: self.player.pending(),
+            mute_reason,
         }
     }
 
@@ -364,6 +402,9 @@ impl Core<'_> {
                 self.writable(c.slot)
                     .and_then(|()| self.store.chunk(c.slot, c.offset, c.data)),
             ),
+            // A repeated commit (same CRC) changes nothing, so it is acked
+            // even while the slot plays.
+            Message::Commit(c) if self.store.committed_crc(c.slot) == Some(c.crc32) => Message::Ack,
             Message::Commit(c) => {
                 let r = self
                     .writable(c.slot)
@@ -405,12 +446,10 @@ impl Core<'_> {
 
     fn begin_upload(&mut self, b: &BeginUpload) -> Result<(), NackCode> {
         self.writable(b.slot)?;
-        if b.steps == 0 {
-            return Err(NackCode::OutOfRange);
-        }
+        b.validate(&self.limits())?;
         let t = Timing {
-            steps: b.steps,
-            period_us: b.period_us,
+            steps: b.header.steps,
+            period_us: b.header.period_us,
         };
         if !self.dwell_ok(t) {
             return Err(NackCode::DwellTooShort);
@@ -422,8 +461,8 @@ impl Core<'_> {
         defmt::info!(
             "upload slot {}: {} steps x {} transducers",
             b.slot,
-            b.steps,
-            b.transducers
+            b.header.steps,
+            b.header.transducers
         );
         self.store.begin(b)
     }
@@ -457,7 +496,12 @@ impl Core<'_> {
             self.gate.reset();
             self.centroid_um = None;
             self.offsets_for = None;
+            self.out_of_range = false;
         }
+        // Takes effect at once, for the session (a tracked Play ends an
+        // untracked session and the gate decides again).
+        self.untracked = p.untracked;
+        self.refresh = true;
         #[cfg(feature = "defmt")]
         defmt::info!(
             "play slot {} ({} steps, {} us)",
@@ -469,9 +513,20 @@ impl Core<'_> {
     }
 
     fn centroid(&mut self, c: &Centroid, now: u64) -> Result<(), NackCode> {
-        if !self.gate.update(c.seq, c.present, now) {
+        if !self.gate.is_fresh(c.seq) {
             return Err(NackCode::OutOfOrder);
         }
+        let playing = self.player.slot().and_then(|s| self.store.header(s));
+        if c.present && playing.is_some_and(|h| !h.in_work_volume(c.pos_um)) {
+            // Never steer outside the work volume: refuse and mute until a
+            // present centroid inside it arrives.
+            self.out_of_range = true;
+            self.offsets_for = None;
+            self.refresh = true;
+            return Err(NackCode::OutOfRange);
+        }
+        self.gate.update(c.seq, c.present, now);
+        self.out_of_range = false;
         if c.present {
             self.centroid_um = Some(c.pos_um);
             if let Some(slot) = self.player.slot() {
@@ -493,6 +548,12 @@ impl Core<'_> {
             self.offsets_for = None;
             return;
         };
+        if !h.in_work_volume(c) {
+            // A slot taking over with another centre or volume.
+            self.out_of_range = true;
+            self.offsets_for = None;
+            return;
+        }
         let t = usize::from(h.transducers);
         compute_offsets(
             pos,
@@ -528,10 +589,10 @@ impl Core<'_> {
             None => return self.player.deadline(),
         };
         self.refresh = false;
-        if self.centroid_um.is_some() && self.offsets_for != Some(slot) {
+        if self.centroid_um.is_some() && self.offsets_for != Some(slot) && !self.out_of_range {
             self.recompute(slot);
         }
-        let amplitude = if playing && self.gate.open(now) {
+        let amplitude = if playing && self.sounding(now) {
             self.cfg.amplitude
         } else {
             0
@@ -539,7 +600,7 @@ impl Core<'_> {
         let phases: &[u8] = match self.store.step(slot, step) {
             Some(p) => {
                 let t = p.len();
-                if self.offsets_for == Some(slot) {
+                if self.offsets_for == Some(slot) && !self.untracked {
                     apply_offsets(p, &self.offsets[..t], &mut self.frame[..t]);
                 } else {
                     self.frame[..t].copy_from_slice(p);

@@ -12,6 +12,8 @@
 //!
 //! Stop mutes at once regardless of tracking (handled by the player).
 
+use lm_proto::MuteReason;
+
 /// Tracking state for the gate.
 #[derive(Debug, Clone, Copy)]
 pub struct Gate {
@@ -88,9 +90,17 @@ impl Gate {
 
     /// Whether output may sound at `now`.
     pub fn open(&self, now: u64) -> bool {
+        self.mute_reason(now) == MuteReason::None
+    }
+
+    /// Why the gate is closed at `now` ([`MuteReason::None`] while open).
+    pub fn mute_reason(&self, now: u64) -> MuteReason {
         match self.last {
-            None => !self.require_tracking,
-            Some(u) => u.present && now.saturating_sub(u.at) <= self.timeout_counts,
+            None if self.require_tracking => MuteReason::WaitingForTracking,
+            None => MuteReason::None,
+            Some(u) if !u.present => MuteReason::FingerAbsent,
+            Some(u) if now.saturating_sub(u.at) > self.timeout_counts => MuteReason::TrackingStale,
+            Some(_) => MuteReason::None,
         }
     }
 }
@@ -103,10 +113,12 @@ mod tests {
     fn require_tracking_mutes_until_first_update() {
         let mut g = Gate::new(100, true);
         assert!(!g.open(0));
+        assert_eq!(g.mute_reason(0), MuteReason::WaitingForTracking);
         assert!(g.update(1, true, 10));
         assert!(g.open(10));
         assert!(g.open(110));
         assert!(!g.open(111));
+        assert_eq!(g.mute_reason(111), MuteReason::TrackingStale);
         assert!(g.update(2, true, 200));
         assert!(g.open(200));
     }
@@ -117,6 +129,7 @@ mod tests {
         assert!(g.open(0));
         assert!(g.update(5, false, 1));
         assert!(!g.open(2));
+        assert_eq!(g.mute_reason(2), MuteReason::FingerAbsent);
         assert!(!g.update(5, true, 3));
         assert!(!g.update(4, true, 3));
         assert!(!g.open(3));

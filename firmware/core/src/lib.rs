@@ -97,10 +97,12 @@ pub mod time;
 
 pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
 pub use output::{Frame, OutputDriver, Record, RecordingDriver, SpiOutput};
-pub use store::{SLOTS, StoreError, memory_bytes};
+pub use store::{CHUNK_LOG, SLOTS, StoreError, memory_bytes};
 pub use time::TimeExtender;
 
-/// Largest transducer count the core's tables hold (offsets, frame buffer).
+/// Largest transducer count the core's tables hold (offsets, frame
+/// buffer); a board's `Config::max_transducers` (its array, e.g. 996 for
+/// four AUTD3) must not exceed it.
 pub const MAX_TRANSDUCERS: usize = 1024;
 
 // The core's own state (everything outside the sequence memory) stays

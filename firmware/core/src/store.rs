@@ -8,32 +8,25 @@
 //! starts by marking the slot uncommitted, so a slot that is not
 //! [`committed`](Store::is_committed) is never played, and a failed upload
 //! cannot reach any other slot.
+//!
+//! Repeats are idempotent (SPEC section 2): a chunk lying wholly in the
+//! received part of the stream with identical bytes is acked without
+//! effect (Raw: compared with the stored bytes at any offset; Delta, whose
+//! stream bytes are not kept: any of the last [`CHUNK_LOG`] accepted chunks,
+//! by offset, length and CRC-32); a `Commit` of a committed slot with its
+//! CRC is acked again.
 
 use lm_proto::codec::{Decoder, Encoding};
-use lm_proto::{BeginUpload, Crc32, NackCode, Positions, SOUND_SPEED_MM_S};
-
-use crate::correction::POSITION_BYTES;
+use lm_proto::{
+    BeginUpload, Crc32, DeviceLimits, NackCode, POSITION_LEN as POSITION_BYTES, Positions,
+    UploadHeader,
+};
 
 /// Number of slots.
 pub const SLOTS: usize = 2;
 
-/// What a committed slot plays (from its `BeginUpload`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SlotHeader {
-    /// Steps per cycle.
-    pub steps: u16,
-    /// Transducers per step.
-    pub transducers: u16,
-    /// Cycle period, µs.
-    pub period_us: u32,
-    /// Planned centre, µm.
-    pub center_um: [i32; 3],
-    /// Foci per step (informational).
-    pub foci_per_step: u8,
-    /// Speed of sound the sequence was planned with, mm/s (within
-    /// [`SOUND_SPEED_MM_S`]); the slot's correction wavenumber follows it.
-    pub sound_speed_mm_s: u32,
-}
+/// Accepted Delta chunks remembered per upload to recognise repeats.
+pub const CHUNK_LOG: usize = 16;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum State {
@@ -42,9 +35,9 @@ enum State {
     Committed,
 }
 
-/// The last accepted chunk, to recognise a re-sent duplicate.
-#[derive(Debug, Clone, Copy)]
-struct LastChunk {
+/// An accepted chunk, to recognise a re-sent duplicate.
+#[derive(Debug, Clone, Copy, Default)]
+struct LoggedChunk {
     offset: u32,
     len: u32,
     crc: u32,
@@ -57,7 +50,10 @@ struct Upload {
     decoder: Decoder,
     /// CRC over the raw phases decoded so far (updated per chunk).
     crc: Crc32,
-    last: Option<LastChunk>,
+    encoding: Encoding,
+    /// Ring of the last accepted chunks (Delta repeats).
+    log: [LoggedChunk; CHUNK_LOG],
+    logged: usize,
     /// Number of positions received; positions arrive in whole frames.
     geometry_mask_words: [u32; GEOMETRY_WORDS],
     failed: bool,
@@ -72,8 +68,10 @@ struct Slot<'m> {
     positions: &'m mut [u8],
     phases: &'m mut [u8],
     state: State,
-    header: Option<SlotHeader>,
+    header: Option<UploadHeader>,
     upload: Option<Upload>,
+    /// Raw CRC-32 of the committed sequence (repeated commits).
+    committed_crc: u32,
 }
 
 /// Why the store could not be built.
@@ -133,6 +131,7 @@ impl<'m> Store<'m> {
                 state: State::Empty,
                 header: None,
                 upload: None,
+                committed_crc: 0,
             }
         };
         Ok(Self {
@@ -166,7 +165,7 @@ impl<'m> Store<'m> {
     }
 
     /// Header of a committed slot.
-    pub fn header(&self, slot: u8) -> Option<&SlotHeader> {
+    pub fn header(&self, slot: u8) -> Option<&UploadHeader> {
         let s = self.slots.get(usize::from(slot))?;
         if s.state == State::Committed {
             s.header.as_ref()
@@ -195,43 +194,47 @@ impl<'m> Store<'m> {
             .get(..usize::from(h.transducers) * POSITION_BYTES)
     }
 
+    /// CRC-32 of a committed slot's raw sequence.
+    pub fn committed_crc(&self, slot: u8) -> Option<u32> {
+        let s = self.slots.get(usize::from(slot))?;
+        (s.state == State::Committed).then_some(s.committed_crc)
+    }
+
+    /// What the store itself can hold (no dwell limit: that is the
+    /// player's business).
+    pub fn limits(&self) -> DeviceLimits {
+        DeviceLimits {
+            slots: SLOTS as u8,
+            max_transducers: self.max_transducers,
+            slot_bytes: self.slot_bytes,
+            min_dwell_us: 0,
+        }
+    }
+
     /// Starts an upload (the caller has checked the slot is not playing
     /// and the dwell). Any previous content of the slot is invalidated.
+    /// The header is checked with [`BeginUpload::validate`] against the
+    /// store's [`limits`](Self::limits).
     pub fn begin(&mut self, b: &BeginUpload) -> Result<(), NackCode> {
-        let slot_bytes = self.slot_bytes;
-        let max_t = self.max_transducers;
+        b.validate(&self.limits())?;
         let s = self.slot(b.slot)?;
-        if b.steps == 0 || b.transducers == 0 || !SOUND_SPEED_MM_S.contains(&b.sound_speed_mm_s) {
-            return Err(NackCode::OutOfRange);
-        }
-        let raw = u32::from(b.steps) * u32::from(b.transducers);
-        if b.transducers > max_t || raw > slot_bytes {
-            return Err(NackCode::TooLarge);
-        }
-        if b.encoding == Encoding::Raw && b.encoded_len != raw {
-            return Err(NackCode::Malformed);
-        }
+        let h = b.header;
         s.state = State::Uploading;
-        s.header = Some(SlotHeader {
-            steps: b.steps,
-            transducers: b.transducers,
-            period_us: b.period_us,
-            center_um: b.center_um,
-            foci_per_step: b.foci_per_step,
-            sound_speed_mm_s: b.sound_speed_mm_s,
-        });
+        s.header = Some(h);
         s.upload = Some(Upload {
             encoded_len: b.encoded_len,
-            decoder: Decoder::new(b.encoding, b.steps, b.transducers),
+            decoder: Decoder::new(b.encoding, h.steps, h.transducers),
             crc: Crc32::new(),
-            last: None,
+            encoding: b.encoding,
+            log: [LoggedChunk::default(); CHUNK_LOG],
+            logged: 0,
             geometry_mask_words: [0; GEOMETRY_WORDS],
             failed: false,
         });
         Ok(())
     }
 
-    fn uploading(&mut self, slot: u8) -> Result<(&mut Slot<'m>, SlotHeader), NackCode> {
+    fn uploading(&mut self, slot: u8) -> Result<(&mut Slot<'m>, UploadHeader), NackCode> {
         let s = self.slot(slot)?;
         match (s.state, s.header) {
             (State::Uploading, Some(h)) if s.upload.is_some() => Ok((s, h)),
@@ -271,8 +274,8 @@ impl<'m> Store<'m> {
 
     /// Stores a chunk of the encoded stream at `offset`.
     ///
-    /// Chunks must arrive in order; a re-sent copy of the last accepted
-    /// chunk is acknowledged without effect.
+    /// Chunks must arrive in order; a repeat of received data with the
+    /// same bytes is acknowledged without effect (see the module docs).
     pub fn chunk(&mut self, slot: u8, offset: u32, data: &[u8]) -> Result<(), NackCode> {
         let (s, _) = self.uploading(slot)?;
         let Some(up) = s.upload.as_mut() else {
@@ -286,9 +289,19 @@ impl<'m> Store<'m> {
         if end > u64::from(up.encoded_len) {
             return Err(NackCode::OutOfRange);
         }
-        let duplicate = up.last.filter(|l| l.offset == offset && l.len == len);
-        if let Some(last) = duplicate {
-            return if last.crc == lm_proto::crc32(data) {
+        let consumed = up.decoder.consumed() as u64;
+        if u64::from(offset) < consumed && end <= consumed {
+            let same = match up.encoding {
+                // Raw: the stream is the phases; compare what is stored.
+                Encoding::Raw => s.phases.get(offset as usize..end as usize) == Some(data),
+                _ => {
+                    let crc = lm_proto::crc32(data);
+                    up.log[..up.logged.min(CHUNK_LOG)]
+                        .iter()
+                        .any(|l| l.offset == offset && l.len == len && l.crc == crc)
+                }
+            };
+            return if same {
                 Ok(())
             } else {
                 Err(NackCode::OutOfOrder)
@@ -304,18 +317,23 @@ impl<'m> Store<'m> {
         }
         let after = up.decoder.decoded();
         up.crc.update(&s.phases[before..after]);
-        up.last = Some(LastChunk {
+        up.log[up.logged % CHUNK_LOG] = LoggedChunk {
             offset,
             len,
             crc: lm_proto::crc32(data),
-        });
+        };
+        up.logged = up.logged.wrapping_add(1);
         Ok(())
     }
 
     /// Finishes an upload: the whole stream and every position must have
     /// arrived and the raw sequence CRC must match `crc32`. On success the
-    /// slot becomes playable; on a CRC mismatch the upload is dropped.
+    /// slot becomes playable; on a CRC mismatch the upload is dropped. A
+    /// repeat of the commit that succeeded (same CRC) is acked again.
     pub fn commit(&mut self, slot: u8, crc32: u32) -> Result<(), NackCode> {
+        if self.committed_crc(slot) == Some(crc32) {
+            return Ok(());
+        }
         let (s, h) = self.uploading(slot)?;
         let Some(up) = s.upload.as_ref() else {
             return Err(NackCode::NoUpload);
@@ -340,6 +358,7 @@ impl<'m> Store<'m> {
             return Err(NackCode::CrcMismatch);
         }
         s.state = State::Committed;
+        s.committed_crc = crc32;
         s.upload = None;
         Ok(())
     }
@@ -352,14 +371,17 @@ mod tests {
     fn begin(slot: u8, steps: u16, t: u16) -> BeginUpload {
         BeginUpload {
             slot,
-            steps,
-            transducers: t,
-            period_us: 200_000,
+            header: UploadHeader {
+                steps,
+                transducers: t,
+                period_us: 200_000,
+                center_um: [0, 0, 150_000],
+                foci_per_step: 1,
+                sound_speed_mm_s: 340_000,
+                max_offset_um: 20_000,
+            },
             encoding: Encoding::Raw,
             encoded_len: u32::from(steps) * u32::from(t),
-            center_um: [0, 0, 150_000],
-            foci_per_step: 1,
-            sound_speed_mm_s: 340_000,
         }
     }
 
@@ -393,6 +415,12 @@ mod tests {
             "duplicate of last chunk"
         );
         assert_eq!(st.chunk(1, 0, &data[1..6]), Err(NackCode::OutOfOrder));
+        assert_eq!(st.chunk(1, 1, &data[1..4]), Ok(()), "identical inner range");
+        assert_eq!(
+            st.chunk(1, 3, &data[3..7]),
+            Err(NackCode::OutOfOrder),
+            "overlap"
+        );
         assert_eq!(st.chunk(1, 6, &data[6..]), Err(NackCode::OutOfOrder), "gap");
         assert_eq!(st.chunk(1, 5, &data[5..]), Ok(()));
         assert_eq!(st.chunk(1, 12, &[1]), Err(NackCode::OutOfRange));
@@ -411,6 +439,9 @@ mod tests {
         st.chunk(1, 0, &data).unwrap();
         st.commit(1, lm_proto::crc32(&data)).unwrap();
         assert!(st.is_committed(1));
+        assert_eq!(st.commit(1, lm_proto::crc32(&data)), Ok(()), "repeat");
+        assert_eq!(st.commit(1, 0), Err(NackCode::NoUpload), "other CRC");
+        assert!(st.is_committed(1));
         assert_eq!(st.step(1, 2), Some(&data[8..12]));
         assert_eq!(st.step(1, 3), None);
         assert_eq!(&st.positions(1).unwrap()[12..16], &10_000i32.to_le_bytes());
@@ -426,12 +457,18 @@ mod tests {
         assert_eq!(st.begin(&begin(0, 0, 4)), Err(NackCode::OutOfRange));
         for speed in [0, 99_999, 2_000_001, u32::MAX] {
             let mut b = begin(0, 1, 4);
-            b.sound_speed_mm_s = speed;
+            b.header.sound_speed_mm_s = speed;
             assert_eq!(st.begin(&b), Err(NackCode::OutOfRange), "{speed} mm/s");
         }
         let mut b = begin(0, 2, 4);
         b.encoded_len = 7;
-        assert_eq!(st.begin(&b), Err(NackCode::Malformed));
+        assert_eq!(st.begin(&b), Err(NackCode::OutOfRange));
+        b.encoding = Encoding::Delta;
+        b.encoded_len = 0;
+        assert_eq!(st.begin(&b), Err(NackCode::OutOfRange));
+        let mut b = begin(0, 2, 4);
+        b.header.max_offset_um = 0;
+        assert_eq!(st.begin(&b), Err(NackCode::OutOfRange));
         assert_eq!(st.chunk(0, 0, &[0]), Err(NackCode::NoUpload));
         assert!(Store::new(&mut [0u8; 10], 4).is_err());
     }
@@ -469,6 +506,7 @@ mod tests {
         b.encoding = Encoding::Delta;
         b.encoded_len = n as u32;
         st.begin(&b).unwrap();
+        assert!(n <= 3 * CHUNK_LOG, "every chunk stays logged");
         let p = [[0, 0, 0]; 5];
         st.geometry(0, 0, &Positions::from_points(&p)).unwrap();
         let mut off = 0;
@@ -476,6 +514,15 @@ mod tests {
             st.chunk(0, off as u32, piece).unwrap();
             off += piece.len();
         }
+        // Repeats of any logged chunk are acked; other bytes are not.
+        assert_eq!(st.chunk(0, 0, &enc[..3]), Ok(()));
+        assert_eq!(st.chunk(0, 3, &enc[3..6]), Ok(()));
+        assert_eq!(st.chunk(0, 3, &[0xAA; 3]), Err(NackCode::OutOfOrder));
+        assert_eq!(
+            st.chunk(0, 1, &enc[1..4]),
+            Err(NackCode::OutOfOrder),
+            "unlogged"
+        );
         st.commit(0, lm_proto::crc32(&raw)).unwrap();
         for k in 0..steps {
             let s = usize::from(k) * 5;

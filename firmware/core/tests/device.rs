@@ -6,7 +6,8 @@ use common::*;
 use lm_fw_core::Config;
 use lm_proto::codec::Encoding;
 use lm_proto::{
-    BeginUpload, Centroid, Chunk, Commit, DeviceState, Message, NackCode, PROTOCOL_VERSION, PlayAt,
+    BeginUpload, Centroid, Chunk, Commit, DeviceState, Message, MuteReason, NackCode,
+    PROTOCOL_VERSION, PlayAt, UploadHeader,
 };
 
 fn centroid(seq: u32, pos_um: [i32; 3], present: bool) -> Message<'static> {
@@ -132,8 +133,12 @@ fn uploads_into_the_playing_slot_are_refused() {
         request(&mut dev, 3, &chunk, 0),
         Reply::Nack(NackCode::SlotPlaying)
     );
+    // A repeat of the commit that made the slot playable changes nothing:
+    // acked again (SPEC section 2); any other commit is refused.
+    assert_eq!(request(&mut dev, 4, &seq.commit(0), 0), Reply::Ack);
+    let other = Message::Commit(Commit { slot: 0, crc32: 1 });
     assert_eq!(
-        request(&mut dev, 4, &seq.commit(0), 0),
+        request(&mut dev, 4, &other, 0),
         Reply::Nack(NackCode::SlotPlaying)
     );
     assert_eq!(
@@ -476,14 +481,17 @@ fn chunks_past_end_and_out_of_order_are_nacked() {
     let mut dev = device(config(4), 64);
     let b = Message::BeginUpload(BeginUpload {
         slot: 0,
-        steps: 2,
-        transducers: 4,
-        period_us: 10_000,
+        header: UploadHeader {
+            steps: 2,
+            transducers: 4,
+            period_us: 10_000,
+            center_um: [0; 3],
+            foci_per_step: 1,
+            sound_speed_mm_s: 340_000,
+            max_offset_um: 20_000,
+        },
         encoding: Encoding::Raw,
         encoded_len: 8,
-        center_um: [0; 3],
-        foci_per_step: 1,
-        sound_speed_mm_s: 340_000,
     });
     assert_eq!(request(&mut dev, 1, &b, 0), Reply::Ack);
     let ch = |offset, data: &'static [u8]| {
@@ -575,4 +583,189 @@ fn play_while_playing_accepts_a_restarted_centroid_sequence() {
     );
     dev.poll(now, &mut cap);
     assert_eq!(cap.frames.last().unwrap().3, 0);
+}
+
+fn play_untracked(slot: u8) -> Message<'static> {
+    Message::Play(lm_proto::Play {
+        slot,
+        at: PlayAt::Immediate,
+        untracked: true,
+    })
+}
+
+#[test]
+fn centroids_outside_the_work_volume_are_refused_and_mute() {
+    let mut cfg = config(16);
+    cfg.require_tracking = true;
+    let mut dev = device(cfg, 10 * 16);
+    let seq = Seq::pattern(10, 16, 10_000, 2);
+    seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    assert_eq!(
+        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
+        Reply::Ack
+    );
+    let s = status(&mut dev, 0);
+    assert_eq!(s.state, DeviceState::Muted);
+    assert_eq!(s.mute_reason, MuteReason::WaitingForTracking);
+    let c0 = seq.center_um;
+    let at = |dx: i32, dy: i32| [c0[0] + dx, c0[1] + dy, c0[2]];
+    // 5 mm off the centre: inside the 20 mm work volume, steers.
+    assert_eq!(
+        request(&mut dev, 2, &centroid(1, at(3000, 4000), true), 10),
+        Reply::Ack
+    );
+    let mut out = Capture::default();
+    dev.poll(10, &mut out);
+    assert!(dev.is_sounding(10));
+    assert!(dev.offsets().iter().any(|o| *o != 0));
+    assert_eq!(status(&mut dev, 10).correction_um, [3000, 4000, 0]);
+    // 20.0008 mm away: refused, muted at once, correction dropped.
+    for (k, pos) in [
+        at(12_000, 16_001),
+        [i32::MIN, i32::MAX, i32::MIN],
+        [c0[0], c0[1], i32::MAX],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let k = k as u32;
+        assert_eq!(
+            request(&mut dev, 3, &centroid(2 + k, pos, true), 20),
+            Reply::Nack(NackCode::OutOfRange),
+            "{pos:?}"
+        );
+        assert!(!dev.is_sounding(20));
+        let s = status(&mut dev, 20);
+        assert_eq!(s.state, DeviceState::Muted);
+        assert_eq!(s.mute_reason, MuteReason::CentroidOutOfRange);
+        assert_eq!(s.correction_um, [0; 3]);
+        out.frames.clear();
+        dev.poll(20, &mut out);
+        assert_eq!(out.frames.last().map(|f| f.3), Some(0), "muted frame");
+    }
+    // Still muted as time passes (a refused centroid never opens the gate).
+    let later = 5_000;
+    assert!(!dev.is_sounding(later));
+    // An absent finger keeps it muted, for that reason.
+    assert_eq!(
+        request(&mut dev, 4, &centroid(10, [0; 3], false), 30),
+        Reply::Ack
+    );
+    assert_eq!(status(&mut dev, 30).mute_reason, MuteReason::FingerAbsent);
+    // Exactly 20 mm away is inside: sounds again.
+    assert_eq!(
+        request(&mut dev, 5, &centroid(11, at(12_000, 16_000), true), 40),
+        Reply::Ack
+    );
+    assert!(dev.is_sounding(40));
+    let s = status(&mut dev, 40);
+    assert_eq!(
+        (s.state, s.mute_reason),
+        (DeviceState::Playing, MuteReason::None)
+    );
+    assert_eq!(s.correction_um, [12_000, 16_000, 0]);
+}
+
+#[test]
+fn a_queued_slot_with_another_centre_mutes_an_out_of_range_centroid() {
+    let mut cfg = config(16);
+    cfg.require_tracking = true;
+    let mut dev = device(cfg, 10 * 16);
+    let a = Seq::pattern(10, 16, 10_000, 2);
+    let mut b = Seq::pattern(10, 16, 10_000, 3);
+    b.center_um = [50_000, 0, 200_000];
+    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    b.upload(&mut dev, 1, Encoding::Raw, 0);
+    assert_eq!(
+        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
+        Reply::Ack
+    );
+    assert_eq!(
+        request(&mut dev, 2, &centroid(1, a.center_um, true), 0),
+        Reply::Ack
+    );
+    assert_eq!(
+        request(&mut dev, 3, &play(1, PlayAt::NextCycle), 100),
+        Reply::Ack
+    );
+    assert_eq!(status(&mut dev, 100).queued_slot, Some(1));
+    let mut out = Capture::default();
+    let mut now = 100;
+    let mut k = 2;
+    while dev.status(now).slot != Some(1) {
+        // Fresh tracking at slot 0's centre while slot 0 plays.
+        assert_eq!(
+            request(&mut dev, 4, &centroid(k, a.center_um, true), now),
+            Reply::Ack
+        );
+        k += 1;
+        now = dev.poll(now, &mut out).unwrap();
+        assert!(now < 100_000, "swap never happened");
+    }
+    let s = status(&mut dev, now);
+    assert_eq!(s.queued_slot, None);
+    assert_eq!(
+        s.mute_reason,
+        MuteReason::CentroidOutOfRange,
+        "50 mm from slot 1's centre"
+    );
+    assert_eq!(out.frames.last().map(|f| (f.1, f.3)), Some((1, 0)));
+}
+
+#[test]
+fn untracked_play_sounds_without_a_finger_until_stop() {
+    let mut cfg = config(16);
+    cfg.require_tracking = true;
+    let mut dev = device(cfg, 10 * 16);
+    let seq = Seq::pattern(10, 16, 10_000, 2);
+    seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    assert_eq!(request(&mut dev, 1, &play_untracked(0), 0), Reply::Ack);
+    let mut out = Capture::default();
+    let mut now = 0;
+    for _ in 0..30 {
+        now = dev.poll(now, &mut out).unwrap();
+    }
+    assert!(
+        out.frames.iter().all(|f| f.3 == 255),
+        "full amplitude throughout"
+    );
+    // Planned phases, uncorrected, even with a centroid far from the centre.
+    let off = [seq.center_um[0] + 5000, seq.center_um[1], seq.center_um[2]];
+    assert_eq!(
+        request(&mut dev, 2, &centroid(1, off, true), now),
+        Reply::Ack
+    );
+    assert_eq!(
+        request(&mut dev, 3, &centroid(2, [0; 3], false), now),
+        Reply::Ack
+    );
+    out.frames.clear();
+    now = dev.poll(now + 10_000, &mut out).unwrap();
+    let f = out.frames.last().unwrap();
+    assert_eq!((f.3, &f.4[..]), (255, seq.step(f.2)));
+    assert!(dev.offsets().is_empty());
+    let s = status(&mut dev, now);
+    assert_eq!(
+        (s.state, s.mute_reason),
+        (DeviceState::Playing, MuteReason::None)
+    );
+    // Stop still stops.
+    assert_eq!(request(&mut dev, 4, &Message::Stop, now), Reply::Ack);
+    out.frames.clear();
+    dev.poll(now, &mut out);
+    assert_eq!(out.frames.last().map(|f| f.3), Some(0));
+    let s = status(&mut dev, now);
+    assert_eq!(
+        (s.state, s.mute_reason),
+        (DeviceState::Stopped, MuteReason::Stopped)
+    );
+    // A tracked Play ends the untracked session.
+    assert_eq!(
+        request(&mut dev, 5, &play(0, PlayAt::Immediate), now),
+        Reply::Ack
+    );
+    assert_eq!(
+        status(&mut dev, now).mute_reason,
+        MuteReason::WaitingForTracking
+    );
 }

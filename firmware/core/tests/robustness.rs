@@ -12,7 +12,7 @@ use lm_fw_core::{Device, Frame, OutputDriver};
 use lm_proto::codec::Encoding;
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_ENCODED_FRAME, MAX_FRAME, Message,
-    PROTOCOL_VERSION, Play, PlayAt, Positions, cobs, encode_frame,
+    PROTOCOL_VERSION, Play, PlayAt, Positions, UploadHeader, cobs, encode_frame,
 };
 
 /// Fails the test if a sounding frame comes from a slot that is not
@@ -52,23 +52,30 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
         1 => Message::GetStatus,
         2 => Message::BeginUpload(BeginUpload {
             slot,
-            steps: 1 + r.below(40) as u16,
-            transducers: 1 + r.below(18) as u16,
-            period_us: (r.below(200) as u32 + 1) * 1000,
+            header: UploadHeader {
+                steps: 1 + r.below(40) as u16,
+                transducers: 1 + r.below(18) as u16,
+                period_us: (r.below(200) as u32 + 1) * 1000,
+                center_um: [r.next() as i32 % 50_000, 0, 200_000],
+                foci_per_step: r.byte(),
+                // Mostly valid, sometimes 0 or far out of range.
+                sound_speed_mm_s: match r.below(8) {
+                    0 => 0,
+                    1 => r.next() as u32,
+                    _ => 300_000 + r.below(100_000) as u32,
+                },
+                max_offset_um: match r.below(8) {
+                    0 => 0,
+                    1 => r.next() as u32,
+                    _ => 1 + r.below(30_000) as u32,
+                },
+            },
             encoding: if r.below(2) == 0 {
                 Encoding::Raw
             } else {
                 Encoding::Delta
             },
             encoded_len: r.below(700) as u32,
-            center_um: [r.next() as i32 % 50_000, 0, 200_000],
-            foci_per_step: r.byte(),
-            // Mostly valid, sometimes 0 or far out of range.
-            sound_speed_mm_s: match r.below(8) {
-                0 => 0,
-                1 => r.next() as u32,
-                _ => 300_000 + r.below(100_000) as u32,
-            },
         }),
         3 => {
             let n = r.below(17) as usize;
@@ -105,6 +112,7 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             } else {
                 PlayAt::Immediate
             },
+            untracked: r.below(4) == 0,
         }),
         8 => {
             *seqs = seqs.wrapping_add(r.below(3) as u32).wrapping_sub(1);

@@ -9,29 +9,33 @@ use lm_proto::{DeviceState, NackCode, TEST_VECTORS};
 struct Vector {
     name: String,
     wire: Vec<u8>,
+    expect: Option<String>,
+    malformed: bool,
 }
 
 fn vectors() -> Vec<Vector> {
-    let mut out = Vec::new();
-    for rec in TEST_VECTORS.split("\n\n") {
-        let mut name = None;
-        let mut wire = None;
-        for line in rec.lines().filter(|l| !l.starts_with('#')) {
-            if let Some(v) = line.strip_prefix("name ") {
-                name = Some(v.trim().to_string());
-            } else if let Some(v) = line.strip_prefix("wire ") {
-                wire = Some(
-                    v.split_whitespace()
-                        .map(|h| u8::from_str_radix(h, 16).unwrap())
-                        .collect(),
-                );
-            }
-        }
-        if let (Some(name), Some(wire)) = (name, wire) {
-            out.push(Vector { name, wire });
-        }
+    lm_proto::vectors::parse(TEST_VECTORS)
+        .map(|v| Vector {
+            name: v.name.to_string(),
+            wire: v
+                .wire
+                .split_whitespace()
+                .map(|h| u8::from_str_radix(h, 16).unwrap())
+                .collect(),
+            expect: v.expect.map(str::to_string),
+            malformed: v.error == Some("malformed"),
+        })
+        .collect()
+}
+
+/// A reply in the vector file's `expect` words.
+fn words(r: &Reply) -> String {
+    match r {
+        Reply::Ack => "ack".into(),
+        Reply::Nack(c) => format!("nack {c:?}"),
+        Reply::Status(s) => format!("status {:?} {:?}", s.state, s.mute_reason),
+        other => format!("{other:?}"),
     }
-    out
 }
 
 /// What this device answers each vector with, given the vectors before it.
@@ -50,7 +54,8 @@ fn expected(name: &str) -> Option<Option<Reply>> {
         "play_next_cycle" | "play_immediate" => return nack(NotCommitted),
         "centroid_absent" => return nack(OutOfOrder), // seq u32::MAX is older than 42 (wrapping)
         "get_status" => return Some(Some(Reply::Other)), // checked below
-        "info" | "status" | "status_idle" | "ack" | "nack" | "nack_unknown_code" => {
+        "info" | "status" | "status_idle" | "status_muted" | "ack" | "nack"
+        | "nack_unknown_code" => {
             return nack(UnknownType);
         }
         "err_unknown_type" => return nack(UnknownType),
@@ -63,13 +68,24 @@ fn expected(name: &str) -> Option<Option<Reply>> {
 
 #[test]
 fn every_vector_gets_the_right_response() {
-    let mut dev = device(config(996), 200 * 996);
+    // The file's device: defaults (tracking required), 996 transducers.
+    let mut cfg = config(996);
+    cfg.require_tracking = true;
+    let mut dev = device(cfg, 200 * 996);
     let vs = vectors();
-    assert!(vs.len() >= 29, "parsed {} vectors", vs.len());
+    assert!(vs.len() >= 60, "parsed {} vectors", vs.len());
     let mut checked = 0;
+    let mut behaviours = 0;
     let mut nacks = 0;
     for v in &vs {
         let replies = feed(&mut dev, &v.wire, 0);
+        if let Some(want) = &v.expect {
+            assert_eq!(replies.len(), 1, "{}", v.name);
+            assert_eq!(&words(&replies[0].1), want, "{}", v.name);
+            nacks += u32::from(matches!(replies[0].1, Reply::Nack(_)));
+            behaviours += 1;
+            continue;
+        }
         let Some(want) = expected(&v.name) else {
             // A vector newer than this test: it must still not get more than one reply.
             assert!(replies.len() <= 1, "{}: {replies:?}", v.name);
@@ -97,9 +113,12 @@ fn every_vector_gets_the_right_response() {
         }
     }
     assert!(checked >= 29);
+    assert!(behaviours >= 25, "{behaviours} behaviour records");
     let c = dev.counters();
     assert_eq!(c.crc_errors, 1);
     // cobs, too_short, plus the valid-CRC unknown/version/malformed frames.
-    assert_eq!(c.bad_frames, 2 + 1 + 1 + 4);
+    let malformed = vs.iter().filter(|v| v.malformed).count() as u32;
+    assert!(malformed >= 7);
+    assert_eq!(c.bad_frames, 2 + 1 + 1 + malformed);
     assert_eq!(c.nacks, nacks);
 }

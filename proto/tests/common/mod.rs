@@ -61,14 +61,17 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
         nack_code().prop_map(Message::Nack),
         (any::<u8>(), any::<u32>())
             .prop_map(|(slot, crc32)| Message::Commit(Commit { slot, crc32 })),
-        (any::<u8>(), any::<bool>()).prop_map(|(slot, now)| Message::Play(Play {
-            slot,
-            at: if now {
-                PlayAt::Immediate
-            } else {
-                PlayAt::NextCycle
-            },
-        })),
+        (any::<u8>(), any::<bool>(), any::<bool>()).prop_map(|(slot, now, untracked)| {
+            Message::Play(Play {
+                slot,
+                at: if now {
+                    PlayAt::Immediate
+                } else {
+                    PlayAt::NextCycle
+                },
+                untracked,
+            })
+        }),
         (any::<u32>(), xyz(), any::<bool>(), any::<u64>()).prop_map(|(seq, pos_um, present, t)| {
             Message::Centroid(Centroid {
                 seq,
@@ -105,25 +108,30 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                 any::<u32>(),
                 any::<bool>()
             ),
-            (any::<u32>(), xyz(), any::<u8>(), any::<u32>())
+            (any::<u32>(), xyz(), any::<u8>(), any::<u32>(), any::<u32>())
         )
-            .prop_map(|((slot, steps, t, period, delta), (len, c, f, speed))| {
-                Message::BeginUpload(BeginUpload {
-                    slot,
-                    steps,
-                    transducers: t,
-                    period_us: period,
-                    encoding: if delta {
-                        Encoding::Delta
-                    } else {
-                        Encoding::Raw
-                    },
-                    encoded_len: len,
-                    center_um: c,
-                    foci_per_step: f,
-                    sound_speed_mm_s: speed,
-                })
-            }),
+            .prop_map(
+                |((slot, steps, t, period, delta), (len, c, f, speed, off))| {
+                    Message::BeginUpload(BeginUpload {
+                        slot,
+                        header: UploadHeader {
+                            steps,
+                            transducers: t,
+                            period_us: period,
+                            center_um: c,
+                            foci_per_step: f,
+                            sound_speed_mm_s: speed,
+                            max_offset_um: off,
+                        },
+                        encoding: if delta {
+                            Encoding::Delta
+                        } else {
+                            Encoding::Raw
+                        },
+                        encoded_len: len,
+                    })
+                }
+            ),
         (
             (
                 0u8..4,
@@ -131,25 +139,31 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                 any::<u16>(),
                 any::<[u32; 6]>()
             ),
-            xyz()
+            xyz(),
+            proptest::option::of(0u8..=254),
+            0u8..6
         )
-            .prop_map(|((st, slot, step, c), corr)| Message::Status(Status {
-                state: [
-                    DeviceState::Idle,
-                    DeviceState::Playing,
-                    DeviceState::Muted,
-                    DeviceState::Stopped
-                ][st as usize],
-                slot,
-                step,
-                cycles: c[0],
-                missed_deadlines: c[1],
-                last_centroid_seq: c[2],
-                bad_frames: c[3],
-                crc_errors: c[4],
-                nacks: c[5],
-                correction_um: corr,
-            })),
+            .prop_map(
+                |((st, slot, step, c), corr, queued, reason)| Message::Status(Status {
+                    state: [
+                        DeviceState::Idle,
+                        DeviceState::Playing,
+                        DeviceState::Muted,
+                        DeviceState::Stopped
+                    ][st as usize],
+                    slot,
+                    step,
+                    cycles: c[0],
+                    missed_deadlines: c[1],
+                    last_centroid_seq: c[2],
+                    bad_frames: c[3],
+                    crc_errors: c[4],
+                    nacks: c[5],
+                    correction_um: corr,
+                    queued_slot: queued,
+                    mute_reason: MuteReason::from_u8(reason).unwrap(),
+                })
+            ),
     ];
     prop_oneof![
         6 => plain.prop_map(Owned::Plain),

@@ -6,7 +6,7 @@ use lm_fw_core::{Config, Device, Frame, OutputDriver, memory_bytes};
 use lm_proto::codec::Encoding;
 use lm_proto::{
     BeginUpload, Chunk, Commit, FeedResult, FrameDecoder, Geometry, MAX_CHUNK, MAX_ENCODED_FRAME,
-    MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt, Positions, encode_frame,
+    MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt, Positions, UploadHeader, encode_frame,
 };
 
 /// Deterministic xorshift64* generator (no dependency, reproducible).
@@ -146,14 +146,17 @@ impl Seq {
     pub fn begin(&self, slot: u8, enc: Encoding) -> Message<'static> {
         Message::BeginUpload(BeginUpload {
             slot,
-            steps: self.steps,
-            transducers: self.transducers,
-            period_us: self.period_us,
+            header: UploadHeader {
+                steps: self.steps,
+                transducers: self.transducers,
+                period_us: self.period_us,
+                center_um: self.center_um,
+                foci_per_step: 1,
+                sound_speed_mm_s: self.sound_speed_mm_s,
+                max_offset_um: 20_000,
+            },
             encoding: enc,
             encoded_len: self.encode(enc).len() as u32,
-            center_um: self.center_um,
-            foci_per_step: 1,
-            sound_speed_mm_s: self.sound_speed_mm_s,
         })
     }
 
@@ -209,7 +212,11 @@ impl Seq {
 }
 
 pub fn play(slot: u8, at: PlayAt) -> Message<'static> {
-    Message::Play(Play { slot, at })
+    Message::Play(Play {
+        slot,
+        at,
+        untracked: false,
+    })
 }
 
 /// Output driver keeping every frame (with its phases) in memory.
