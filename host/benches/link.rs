@@ -5,10 +5,9 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::{Centroid, Encoding, PlayAt};
-use lmhost::cmd::demo::lm_m_plan;
-use lmhost::cmd::upload::upload_spec;
-use lmhost::link::Client;
 use lmhost::link::transport::Serial;
+use lmhost::link::{Client, UploadSpec};
+use lmhost::sequence::Plan;
 use lmhost::simdev::{SimConfig, SimThread, monotonic_us};
 use lmhost::stream::filter::FilterKind;
 use lmhost::stream::synthetic::FingerTrack;
@@ -16,17 +15,14 @@ use lmhost::stream::synthetic::FingerTrack;
 fn pty(c: &mut Criterion) {
     let sim = SimThread::start(SimConfig::default()).expect("simulated device");
     let mut client = Client::new(Serial::open(&sim.path, 115_200).expect("pty"));
-    let spec = upload_spec(&lm_m_plan().expect("LM-M plan"));
+    let plan = Plan::paper_lm_m().expect("LM-M plan");
+    let spec = UploadSpec::from_plan(&plan, Encoding::Delta).expect("encoded");
     let mut g = c.benchmark_group("pty");
     g.sample_size(20);
     g.bench_function("upload LM-M (Delta, 82 x 996)", |b| {
-        b.iter(|| {
-            client
-                .upload(&spec, 0, Encoding::Delta, 1024, |_, _| {})
-                .expect("upload")
-        })
+        b.iter(|| client.upload(&spec, 0, 1024, |_, _| {}).expect("upload"))
     });
-    client.play(0, PlayAt::Immediate).expect("play");
+    client.play(0, PlayAt::Immediate, false).expect("play");
     let mut seq = client.status().expect("status").last_centroid_seq;
     g.sample_size(100);
     g.bench_function("centroid update round trip", |b| {

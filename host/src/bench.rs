@@ -283,7 +283,9 @@ pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
             let traj = Trajectory::plan(&p, &scene).expect("planned above");
             let s = Sequence::synthesize_reusing(&scene, &plan, &mut ws, &traj, &Synthesis::Linear)
                 .expect("planned above");
-            let enc = s.encode(Encoding::Delta);
+            let enc = s
+                .encode(Encoding::Delta)
+                .expect("synthesised: steps × transducers");
             last = Some((s, enc.len()));
         });
         let (s, delta) = last.expect("ran at least once");
@@ -292,7 +294,7 @@ pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
         });
         let mut enc = vec![0u8; delta];
         let encode = time_per_call(b, r, || {
-            s.encode_into(Encoding::Delta, &mut enc);
+            let _ = s.encode_into(Encoding::Delta, &mut enc);
         });
         sequences.push(SequenceFigures {
             case: format!(

@@ -4,14 +4,18 @@
 //! A [`Plan`] bundles what produced a sequence (scene, trajectory) with the
 //! sequence itself; `lmhost plan`, `upload` and `simulate` all start from one.
 
-use lm_proto::codec::{self, Encoding};
-use serde::Serialize;
+use lm_proto::UploadHeader;
+use lm_proto::codec::{self, CodecError, Encoding};
 
 use crate::error::InputError;
 use crate::scene::{Scene, Vec3};
 use crate::synth::fast::{PhasorTable, Scratch, SynthPlan};
 use crate::synth::{Weight, quantise_turns, solver};
-use crate::trajectory::Trajectory;
+use crate::trajectory::{LmParams, Trajectory};
+
+/// Default work volume (mm): the largest distance from the planned centre
+/// a device steers a tracked centroid to (`--max-offset`).
+pub const DEFAULT_MAX_OFFSET_MM: f64 = 20.0;
 
 /// Largest phasor table (points × transducers) the sequence synthesis
 /// builds (32 MB); longer trajectories are synthesised step by step.
@@ -55,33 +59,12 @@ impl SynthWorkspace {
     }
 }
 
-/// What the device needs besides the phases.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct SequenceHeader {
-    /// Steps per cycle `N`.
-    pub steps: u16,
-    /// Transducers per step `T`.
-    pub transducers: u16,
-    /// Cycle period `1 / f` (µs, rounded).
-    pub period_us: u32,
-    /// Dwell per step `period / N` (µs, exact).
-    pub dwell_us: f64,
-    /// Planned LM centre in drive coordinates (µm, rounded): the mirrored
-    /// centre when the scene has a reflector, so the device's centroid
-    /// correction works in the same frame as its transducer positions.
-    pub center_um: [i32; 3],
-    /// Foci per step.
-    pub foci_per_step: u8,
-    /// Speed of sound the phases were planned with (mm/s, rounded): the
-    /// device's centroid correction must use the same wavenumber.
-    pub sound_speed_mm_s: u32,
-}
-
 /// A phase sequence: `steps × transducers` bytes, step-major.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sequence {
-    /// The header.
-    pub header: SequenceHeader,
+    /// What the device needs besides the phases (the wire's upload header,
+    /// checked by [`UploadHeader::validate`] on both ends).
+    pub header: UploadHeader,
     /// Phases, `phases[j * T + n]` for step `j`, transducer `n`.
     pub phases: Vec<u8>,
 }
@@ -99,6 +82,20 @@ pub fn sound_speed_mm_s(sound_speed_m_s: f64) -> Result<u32, InputError> {
         )));
     }
     Ok(mm_s as u32)
+}
+
+/// A work volume in mm to the wire's µm, or an error outside the
+/// (0, 100] mm a device accepts ([`lm_proto::MAX_OFFSET_UM`]).
+pub fn max_offset_um(max_offset_mm: f64) -> Result<u32, InputError> {
+    let um = (max_offset_mm * 1000.0).round();
+    let range = lm_proto::MAX_OFFSET_UM;
+    if !(max_offset_mm > 0.0 && um <= f64::from(*range.end()) && um >= f64::from(*range.start())) {
+        return Err(InputError::new(format!(
+            "work volume (--max-offset) {max_offset_mm} mm is outside (0, {}] mm",
+            range.end() / 1000
+        )));
+    }
+    Ok(um as u32)
 }
 
 /// Millimetres to rounded micrometres, or an error when out of i32 range.
@@ -217,12 +214,13 @@ impl Sequence {
         Ok(Self { header, phases })
     }
 
-    /// The header for `traj` over `transducers` transducers in `scene`.
+    /// The header for `traj` over `transducers` transducers in `scene`,
+    /// with the default work volume ([`DEFAULT_MAX_OFFSET_MM`]).
     pub fn header_for(
         scene: &Scene,
         traj: &Trajectory,
         transducers: usize,
-    ) -> Result<SequenceHeader, InputError> {
+    ) -> Result<UploadHeader, InputError> {
         let period_us = (traj.period_s * 1e6).round();
         if period_us > f64::from(u32::MAX) {
             return Err(InputError::new(format!(
@@ -230,17 +228,30 @@ impl Sequence {
                 traj.period_s
             )));
         }
-        Ok(SequenceHeader {
+        Ok(UploadHeader {
             steps: u16::try_from(traj.steps)
                 .map_err(|_| InputError::new(format!("{} steps exceed u16", traj.steps)))?,
             transducers: u16::try_from(transducers)
                 .map_err(|_| InputError::new(format!("{transducers} transducers exceed u16")))?,
             period_us: period_us as u32,
-            dwell_us: traj.dwell_s * 1e6,
+            // Planned in drive coordinates: the mirrored centre when the
+            // scene has a reflector, the frame of the transducer positions.
             center_um: mm_to_um(scene.drive_point(traj.center_mm))?,
             foci_per_step: traj.foci as u8,
             sound_speed_mm_s: sound_speed_mm_s(scene.sound_speed_m_s)?,
+            max_offset_um: max_offset_um(DEFAULT_MAX_OFFSET_MM)?,
         })
+    }
+
+    /// Sets the work volume (mm, checked: (0, 100]).
+    pub fn set_max_offset_mm(&mut self, max_offset_mm: f64) -> Result<(), InputError> {
+        self.header.max_offset_um = max_offset_um(max_offset_mm)?;
+        Ok(())
+    }
+
+    /// Dwell per step, µs (`period / steps`, exact).
+    pub fn dwell_us(&self) -> f64 {
+        f64::from(self.header.period_us) / f64::from(self.header.steps.max(1))
     }
 
     /// Phases of step `j`.
@@ -249,32 +260,32 @@ impl Sequence {
         &self.phases[j * t..(j + 1) * t]
     }
 
-    /// The sequence encoded for upload.
-    pub fn encode(&self, encoding: Encoding) -> Vec<u8> {
+    /// The sequence encoded for upload: the bytes the link sends as they
+    /// are. `BadShape` when `phases` is not steps × transducers.
+    pub fn encode(&self, encoding: Encoding) -> Result<Vec<u8>, CodecError> {
         let t = usize::from(self.header.transducers);
-        let len = codec::encoded_len(encoding, &self.phases, t)
-            .expect("phases are steps × transducers by construction");
-        let mut out = vec![0u8; len];
-        self.encode_into(encoding, &mut out);
-        out
+        if self.phases.len() as u64 != self.header.raw_len() {
+            return Err(CodecError::BadShape);
+        }
+        let mut out = vec![0u8; codec::encoded_len(encoding, &self.phases, t)?];
+        let n = self.encode_into(encoding, &mut out)?;
+        out.truncate(n);
+        Ok(out)
     }
 
     /// Encodes into `out` (sized with [`encoded_len`](Self::encoded_len));
     /// returns the length.
-    pub fn encode_into(&self, encoding: Encoding, out: &mut [u8]) -> usize {
-        codec::encode(
-            encoding,
-            &self.phases,
-            usize::from(self.header.transducers),
-            out,
-        )
-        .expect("out sized with encoded_len")
+    pub fn encode_into(&self, encoding: Encoding, out: &mut [u8]) -> Result<usize, CodecError> {
+        let t = usize::from(self.header.transducers);
+        codec::encode(encoding, &self.phases, t, out)
     }
 
-    /// Encoded size in bytes.
+    /// Encoded size in bytes (0 when `phases` is not a whole number of
+    /// steps, which a synthesised sequence never is; [`encode`](Self::encode)
+    /// reports that as `BadShape`).
     pub fn encoded_len(&self, encoding: Encoding) -> usize {
         codec::encoded_len(encoding, &self.phases, usize::from(self.header.transducers))
-            .expect("phases are steps × transducers by construction")
+            .unwrap_or(0)
     }
 
     /// CRC-32 of the raw sequence (the `Commit` check value).
@@ -311,6 +322,38 @@ pub struct Plan {
     pub trajectory: Trajectory,
     /// The phases.
     pub sequence: Sequence,
+}
+
+impl Plan {
+    /// Plans the trajectory of `params` over `scene` and synthesises its
+    /// sequence. Bad parameters are [`InputError`]s.
+    pub fn new(scene: Scene, params: &LmParams, synthesis: &Synthesis) -> Result<Self, InputError> {
+        let trajectory = Trajectory::plan(params, &scene)?;
+        let sequence = Sequence::synthesize(&scene, &trajectory, synthesis)?;
+        Ok(Self {
+            scene,
+            trajectory,
+            sequence,
+        })
+    }
+
+    /// The paper's LM-M stimulus on the built-in array: A = 3 mm, 4 foci
+    /// 3 mm apart, 5 Hz, 0.23 mm steps, linear synthesis.
+    pub fn paper_lm_m() -> Result<Self, InputError> {
+        let scene = Scene::default();
+        let mut params = LmParams::paper(scene.center_mm);
+        params.foci = 4;
+        Self::new(scene, &params, &Synthesis::Linear)
+    }
+
+    /// The scene's transducer positions in wire µm, in phase order.
+    pub fn positions_um(&self) -> Result<Vec<[i32; 3]>, InputError> {
+        self.scene
+            .transducers()
+            .iter()
+            .map(|t| mm_to_um(t.pos_mm))
+            .collect()
+    }
 }
 
 #[cfg(test)]
@@ -359,14 +402,14 @@ mod tests {
             let delta = s.encoded_len(Encoding::Delta);
             assert_eq!(raw, s.phases.len());
             assert!(delta * 2 <= raw, "{foci} foci: {delta} of {raw}");
-            assert_eq!(s.encode(Encoding::Delta).len(), delta);
+            assert_eq!(s.encode(Encoding::Delta).unwrap().len(), delta);
         }
     }
 
     #[test]
     fn delta_round_trips_through_the_device_decoder() {
         let s = paper(4);
-        let enc = s.encode(Encoding::Delta);
+        let enc = s.encode(Encoding::Delta).unwrap();
         let mut dec = codec::Decoder::new(Encoding::Delta, s.header.steps, s.header.transducers);
         let mut out = vec![0u8; s.phases.len()];
         for piece in enc.chunks(lm_proto::MAX_CHUNK) {
@@ -380,9 +423,31 @@ mod tests {
     fn header_holds_period_dwell_and_centre() {
         let s = paper(1);
         assert_eq!(s.header.period_us, 200_000);
-        assert!((s.header.dwell_us - 2439.02).abs() < 0.01);
+        assert!((s.dwell_us() - 2439.02).abs() < 0.01);
         assert_eq!(s.header.center_um, [0, 0, 200_000]);
         assert_eq!(s.header.foci_per_step, 1);
+        assert_eq!(s.header.max_offset_um, 20_000);
+    }
+
+    #[test]
+    fn work_volume_is_checked_and_the_header_validates() {
+        let mut s = paper(1);
+        for bad in [0.0, -1.0, 100.001, f64::NAN, f64::INFINITY, 1e300] {
+            let e = s.set_max_offset_mm(bad).unwrap_err();
+            assert!(e.to_string().contains("--max-offset"), "{e}");
+        }
+        assert_eq!(s.header.max_offset_um, 20_000, "unchanged by a refusal");
+        s.set_max_offset_mm(100.0).unwrap();
+        assert_eq!(s.header.max_offset_um, 100_000);
+        let limits = lm_proto::DeviceLimits {
+            slots: 2,
+            max_transducers: 996,
+            slot_bytes: 200 * 996,
+            min_dwell_us: 1000,
+        };
+        assert_eq!(s.header.validate(&limits), Ok(()));
+        s.phases.pop();
+        assert_eq!(s.encode(Encoding::Raw), Err(CodecError::BadShape));
     }
 
     #[test]

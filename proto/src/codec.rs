@@ -76,6 +76,8 @@ impl fmt::Display for CodecError {
     }
 }
 
+impl core::error::Error for CodecError {}
+
 /// Prediction of step `k`'s phase from earlier steps (k ≥ 1).
 #[inline]
 fn predict(prev: u8, prev2: Option<u8>) -> u8 {

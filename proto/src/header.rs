@@ -188,6 +188,8 @@ impl fmt::Display for HeaderError {
     }
 }
 
+impl core::error::Error for HeaderError {}
+
 impl UploadHeader {
     /// Raw sequence bytes: steps × transducers.
     pub fn raw_len(&self) -> u64 {

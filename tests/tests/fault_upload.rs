@@ -13,9 +13,10 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use lm_proto::{Encoding, PlayAt};
+use lm_proto::{Encoding, PlayAt, UploadHeader};
 use lmhost::link::proxy::{Faults, Faulty};
 use lmhost::link::{Client, LinkError, UploadSpec};
+use lmhost::sequence::Sequence;
 use lmhost::simdev::{CapturedFrame, Clock, FwCore, InProcess, SimConfig};
 use lmhost::stream::synthetic::SplitMix64;
 
@@ -25,12 +26,12 @@ struct Rig {
     core: Arc<Mutex<FwCore>>,
     time: Arc<Mutex<u64>>,
     client: Client<Link>,
-    playing: (u8, UploadSpec),
+    playing: (u8, Sequence),
     corrupt_commits: u32,
     verified_commits: u32,
 }
 
-fn spec(rng: &mut SplitMix64) -> UploadSpec {
+fn spec(rng: &mut SplitMix64) -> Sequence {
     let steps = 2 + rng.below(40) as u16;
     let transducers = 1 + rng.below(249) as u16;
     // Half smooth (what the planner makes, Delta-friendly), half noise.
@@ -46,18 +47,26 @@ fn spec(rng: &mut SplitMix64) -> UploadSpec {
             });
         }
     }
-    UploadSpec {
-        steps,
-        transducers,
-        period_us: steps as u32 * (1000 + rng.below(2000) as u32),
-        center_um: [0, 0, 200_000],
-        foci_per_step: 1,
-        sound_speed_mm_s: 340_000,
-        positions_um: (0..transducers as i32)
-            .map(|i| [i * 10_160 - 80_000, 0, 0])
-            .collect(),
+    Sequence {
+        header: UploadHeader {
+            steps,
+            transducers,
+            period_us: steps as u32 * (1000 + rng.below(2000) as u32),
+            center_um: [0, 0, 200_000],
+            foci_per_step: 1,
+            sound_speed_mm_s: 340_000,
+            max_offset_um: 20_000,
+        },
         phases,
     }
+}
+
+/// The upload of `seq` (positions along x, 10.16 mm apart).
+fn upload_spec(seq: &Sequence, encoding: Encoding) -> UploadSpec {
+    let positions = (0..i32::from(seq.header.transducers))
+        .map(|i| [i * 10_160 - 80_000, 0, 0])
+        .collect();
+    UploadSpec::new(seq, positions, encoding).unwrap()
 }
 
 impl Rig {
@@ -77,9 +86,9 @@ impl Rig {
         let mut rng = SplitMix64::new(seed);
         let first = spec(&mut rng);
         client
-            .upload(&first, 0, Encoding::Delta, 1024, |_, _| {})
+            .upload(&upload_spec(&first, Encoding::Delta), 0, 1024, |_, _| {})
             .unwrap();
-        client.play(0, PlayAt::Immediate).unwrap();
+        client.play(0, PlayAt::Immediate, false).unwrap();
         let mut rig = Rig {
             core,
             time,
@@ -110,7 +119,7 @@ impl Rig {
     /// Every frame came from the playing slot, sounding, with its phases.
     fn check_playing(&self, frames: &[CapturedFrame]) {
         let (slot, spec) = &self.playing;
-        let t = spec.transducers as usize;
+        let t = spec.header.transducers as usize;
         assert!(!frames.is_empty(), "nothing played");
         for f in frames {
             assert_eq!(f.slot, *slot, "the playing slot changed");
@@ -128,7 +137,7 @@ impl Rig {
     /// to it and check it plays exactly what was uploaded.
     fn faulty_upload(
         &mut self,
-        spec: UploadSpec,
+        spec: Sequence,
         faults: Faults,
         seed: u64,
     ) -> Result<(), LinkError> {
@@ -150,7 +159,7 @@ impl Rig {
         let chunk = [1024, 512, 100][(seed % 3) as usize];
         let result = self
             .client
-            .upload(&spec, target, encoding, chunk, |_, _| {})
+            .upload(&upload_spec(&spec, encoding), target, chunk, |_, _| {})
             .map(|_| ());
         // Back to a clean link to inspect the device.
         *self.client.transport_mut() = Faulty::new(
@@ -162,14 +171,14 @@ impl Rig {
         self.check_playing(&self.take_frames());
         if result.is_ok() {
             self.client
-                .play(target, PlayAt::Immediate)
+                .play(target, PlayAt::Immediate, false)
                 .expect("play the new slot");
-            let cycle = spec.period_us as u64;
+            let cycle = spec.header.period_us as u64;
             self.playing = (target, spec);
             self.run_for(cycle + 5_000);
             let frames = self.take_frames();
             let all_match = {
-                let t = self.playing.1.transducers as usize;
+                let t = self.playing.1.header.transducers as usize;
                 frames.iter().filter(|f| f.slot == target).all(|f| {
                     let s = f.step as usize;
                     f.phases == self.playing.1.phases[s * t..(s + 1) * t]

@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, DeviceState, Encoding, FeedResult, FrameDecoder,
     Geometry, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode,
-    PROTOCOL_VERSION, Play, PlayAt, Positions, Status, codec, crc32, encode_frame,
+    PROTOCOL_VERSION, Play, PlayAt, Positions, Status, UploadHeader, codec, crc32, encode_frame,
 };
 
 mod qemu_support;
@@ -271,21 +271,25 @@ fn firmware_under_qemu_speaks_the_protocol() {
     assert!(matches!(
         link.request(&Message::Play(Play {
             slot: 0,
-            at: PlayAt::Immediate
+            at: PlayAt::Immediate,
+            untracked: false,
         })),
         Reply::Nack(_)
     ));
 
     link.ack(&Message::BeginUpload(BeginUpload {
         slot: 0,
-        steps: steps as u16,
-        transducers: t as u16,
-        period_us,
+        header: UploadHeader {
+            steps: steps as u16,
+            transducers: t as u16,
+            period_us,
+            center_um,
+            foci_per_step: 1,
+            sound_speed_mm_s: SOUND_SPEED_MM_S,
+            max_offset_um: 20_000,
+        },
         encoding: Encoding::Delta,
         encoded_len: n as u32,
-        center_um,
-        foci_per_step: 1,
-        sound_speed_mm_s: SOUND_SPEED_MM_S,
     }));
     for (i, group) in pos.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
         link.ack(&Message::Geometry(Geometry {
@@ -310,14 +314,17 @@ fn firmware_under_qemu_speaks_the_protocol() {
     let small = [10u8, 20, 30, 40, 11, 21, 31, 41];
     link.ack(&Message::BeginUpload(BeginUpload {
         slot: 1,
-        steps: 2,
-        transducers: 4,
-        period_us,
+        header: UploadHeader {
+            steps: 2,
+            transducers: 4,
+            period_us,
+            center_um,
+            foci_per_step: 1,
+            sound_speed_mm_s: SOUND_SPEED_MM_S,
+            max_offset_um: 20_000,
+        },
         encoding: Encoding::Raw,
         encoded_len: small.len() as u32,
-        center_um,
-        foci_per_step: 1,
-        sound_speed_mm_s: SOUND_SPEED_MM_S,
     }));
     link.ack(&Message::Geometry(Geometry {
         slot: 1,
@@ -339,7 +346,8 @@ fn firmware_under_qemu_speaks_the_protocol() {
     assert_eq!(
         link.request(&Message::Play(Play {
             slot: 1,
-            at: PlayAt::Immediate
+            at: PlayAt::Immediate,
+            untracked: false,
         })),
         Reply::Nack(NackCode::NotCommitted)
     );
@@ -350,6 +358,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
     link.ack(&Message::Play(Play {
         slot: 0,
         at: PlayAt::Immediate,
+        untracked: false,
     }));
     assert_eq!(link.status().state, DeviceState::Muted);
     let mut cseq = 1;

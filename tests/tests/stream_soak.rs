@@ -9,8 +9,8 @@
 use std::sync::{Arc, Mutex};
 
 use lm_proto::{Centroid, Encoding, PlayAt};
-use lmhost::cmd::upload::upload_spec;
-use lmhost::link::Client;
+use lmhost::link::{Client, UploadSpec};
+use lmhost::sequence::Plan;
 use lmhost::simdev::{Clock, Core, FwCore, InProcess, STATS_RING, SimConfig};
 
 fn rss_kib() -> u64 {
@@ -19,8 +19,8 @@ fn rss_kib() -> u64 {
     pages * 4
 }
 
-fn lm_m() -> lmhost::link::UploadSpec {
-    upload_spec(&lmhost::cmd::demo::lm_m_plan().unwrap())
+fn lm_m() -> UploadSpec {
+    UploadSpec::from_plan(&Plan::paper_lm_m().unwrap(), Encoding::Delta).unwrap()
 }
 
 fn soak(minutes: u64) {
@@ -28,11 +28,9 @@ fn soak(minutes: u64) {
     let time = Arc::new(Mutex::new(1_000_000u64));
     let mut client = Client::new(InProcess::new(core.clone(), Clock::Virtual(time.clone())));
     let spec = lm_m();
-    let dwell_us = spec.period_us as u64 / spec.steps as u64;
-    client
-        .upload(&spec, 0, Encoding::Delta, 1024, |_, _| {})
-        .unwrap();
-    client.play(0, PlayAt::Immediate).unwrap();
+    let dwell_us = spec.header.period_us as u64 / spec.header.steps as u64;
+    client.upload(&spec, 0, 1024, |_, _| {}).unwrap();
+    client.play(0, PlayAt::Immediate, false).unwrap();
     let start = *time.lock().unwrap();
     let updates = minutes * 60 * 90;
     let mut rss_after_first_minute = 0;

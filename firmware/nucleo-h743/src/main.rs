@@ -18,9 +18,11 @@ use stm32h7::stm32h743v::{self as pac, interrupt};
 /// Raw phase bytes per slot: 232 KiB (200 steps × 996 transducers need
 /// 199,200); both slots with positions fill 487 KiB of the 512 KiB AXI SRAM.
 const SLOT_BYTES: usize = 232 * 1024;
-/// Transducers per sequence: four AUTD3 boards.
-const MAX_TRANSDUCERS: u16 = 996;
-const STORE_BYTES: usize = memory_bytes(SLOT_BYTES, MAX_TRANSDUCERS as usize);
+/// Transducers of the array this board drives (four AUTD3 boards), reported
+/// as `Info::max_transducers`; at most `lm_fw_core::MAX_TRANSDUCERS` (1024,
+/// the core's table size).
+const ARRAY_TRANSDUCERS: u16 = 996;
+const STORE_BYTES: usize = memory_bytes(SLOT_BYTES, ARRAY_TRANSDUCERS as usize);
 
 /// Both sequence slots with their transducer positions.
 static mut SEQUENCE_STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
@@ -38,7 +40,7 @@ fn main() -> ! {
         spi,
     } = board::Board::init(dp);
     let mut cfg = Config::new(board::TIMER_HZ);
-    cfg.max_transducers = MAX_TRANSDUCERS;
+    cfg.max_transducers = ARRAY_TRANSDUCERS;
     // SAFETY: `main` runs once and is the only user of these statics.
     let dev = unsafe {
         let store = &mut *addr_of_mut!(SEQUENCE_STORE);

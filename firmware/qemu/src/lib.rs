@@ -18,15 +18,17 @@ use lm_fw_core::{Config, Device, Frame, OutputDriver, TimeExtender};
 
 /// Raw phase bytes per slot: 256 KiB (200 steps × 996 transducers need 199,200).
 pub const SLOT_BYTES: usize = 256 * 1024;
-/// Transducers per sequence: four AUTD3 boards.
-pub const MAX_TRANSDUCERS: u16 = 996;
+/// Transducers of the array this board drives (four AUTD3 boards), reported
+/// as `Info::max_transducers`; at most `lm_fw_core::MAX_TRANSDUCERS` (1024,
+/// the core's table size).
+pub const ARRAY_TRANSDUCERS: u16 = 996;
 /// Bytes of sequence memory for the core (both slots, with positions).
-pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(SLOT_BYTES, MAX_TRANSDUCERS as usize);
+pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(SLOT_BYTES, ARRAY_TRANSDUCERS as usize);
 
 /// The core's configuration on this board: TIMER0's 25 MHz counts.
 pub fn config() -> Config {
     let mut c = Config::new(PCLK_HZ);
-    c.max_transducers = MAX_TRANSDUCERS;
+    c.max_transducers = ARRAY_TRANSDUCERS;
     c
 }
 

@@ -9,11 +9,8 @@ use anyhow::Context as _;
 use clap::Parser as _;
 use lm_proto::{DeviceState, Encoding, PlayAt};
 
-use crate::cmd::plan::PlanArgs;
-use crate::cmd::upload::upload_spec;
-use crate::link::Client;
-use crate::link::client::check_fits;
 use crate::link::transport::Serial;
+use crate::link::{Client, UploadSpec};
 use crate::simdev::{SimConfig, SimThread, monotonic_us, percentile};
 use crate::stream::filter::FilterKind;
 use crate::stream::run::{Pace, stream};
@@ -32,21 +29,6 @@ pub const LM_M_FLAGS: &[&str] = &[
     "--step",
     "0.23",
 ];
-
-#[derive(clap::Parser)]
-struct PlanOnly {
-    #[command(flatten)]
-    plan: PlanArgs,
-}
-
-/// Plan the paper's LM-M stimulus ([`LM_M_FLAGS`]) on the built-in array.
-pub fn lm_m_plan() -> anyhow::Result<crate::sequence::Plan> {
-    PlanOnly::try_parse_from(std::iter::once("demo").chain(LM_M_FLAGS.iter().copied()))
-        .context("building the LM-M plan flags")?
-        .plan
-        .plan()
-        .context("planning LM-M")
-}
 
 /// Run the end-to-end demo on the simulated device.
 #[derive(Debug, clap::Args)]
@@ -92,10 +74,10 @@ impl Args {
         if !(self.seconds.is_finite() && (1.0..=600.0).contains(&self.seconds)) {
             crate::bad_input!("--seconds {} must be between 1 and 600", self.seconds);
         }
-        let plan = lm_m_plan()?;
-        let spec = upload_spec(&plan);
-        let dwell_us = plan.sequence.header.dwell_us;
-        let steps = spec.steps as u64;
+        let plan = crate::sequence::Plan::paper_lm_m().context("planning LM-M")?;
+        let spec = UploadSpec::from_plan(&plan, Encoding::Delta)?;
+        let dwell_us = plan.sequence.dwell_us();
+        let steps = spec.header.steps as u64;
 
         let (sim, transport): (SimThread, Box<dyn crate::link::Transport>) = match self.link {
             SimLink::Pty => {
@@ -112,18 +94,14 @@ impl Args {
         let info = client
             .info()
             .context("asking the simulated device for its info")?;
-        check_fits(&spec, &info, 0)
+        spec.check_fits(&info, 0)
             .map_err(|e| anyhow::anyhow!("LM-M does not fit the simulated device: {e}"))?;
         let up = client
-            .upload(
-                &spec,
-                0,
-                Encoding::Delta,
-                info.max_chunk as usize,
-                |_, _| {},
-            )
+            .upload(&spec, 0, info.max_chunk as usize, |_, _| {})
             .context("uploading LM-M")?;
-        client.play(0, PlayAt::NextCycle).context("playing LM-M")?;
+        client
+            .play(0, PlayAt::NextCycle, false)
+            .context("playing LM-M")?;
 
         let track = FingerTrack {
             center_mm: plan.scene.center_mm,
@@ -195,7 +173,7 @@ impl Args {
 
         let v = serde_json::json!({
             "stimulus": "LM-M A=3 mm, 4 foci, 3 mm spacing, 5 Hz, 0.23 mm steps",
-            "steps": spec.steps, "transducers": spec.transducers, "dwell_us": dwell_us,
+            "steps": spec.header.steps, "transducers": spec.header.transducers, "dwell_us": dwell_us,
             "upload": { "raw_bytes": up.raw_bytes, "encoded_bytes": up.sequence_bytes,
                 "wire_bytes": up.wire_bytes_sent + up.wire_bytes_received,
                 "wire_efficiency": up.wire_efficiency(), "seconds": up.seconds, "crc32": up.crc32 },
@@ -232,7 +210,7 @@ impl Args {
         );
         println!(
             "stimulus   LM-M A = 3 mm, 4 foci 3 mm apart, 5 Hz, 0.23 mm steps: {} steps × {} transducers, dwell {:.0} µs",
-            spec.steps, spec.transducers, dwell_us
+            spec.header.steps, spec.header.transducers, dwell_us
         );
         println!(
             "upload     {} B raw → {} B delta, {} B on the wire ({:.1} % efficient) in {:.0} ms, CRC {:08x}",

@@ -12,8 +12,8 @@ use serde_json::json;
 
 use crate::error::InputError;
 use crate::scene::{Scene, Vec3};
-use crate::sequence::{Plan, Sequence, Synthesis};
-use crate::trajectory::{LmParams, Steps, Trajectory};
+use crate::sequence::{Plan, Synthesis};
+use crate::trajectory::{LmParams, Steps};
 
 /// Default step width d_LM (mm): the paper's 5 Hz condition.
 pub const DEFAULT_STEP_MM: f64 = 0.23;
@@ -177,13 +177,8 @@ impl PlanArgs {
     pub fn plan(&self) -> anyhow::Result<Plan> {
         let scene = self.load_scene()?;
         let params = self.params(&scene)?;
-        let trajectory = Trajectory::plan(&params, &scene)?;
-        let sequence = Sequence::synthesize(&scene, &trajectory, &self.synthesis()?)?;
-        Ok(Plan {
-            scene,
-            trajectory,
-            sequence,
-        })
+        let synthesis = self.synthesis()?;
+        Ok(Plan::new(scene, &params, &synthesis)?)
     }
 }
 

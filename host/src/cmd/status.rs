@@ -27,8 +27,13 @@ impl Args {
             return Ok(());
         }
         let slot = s.slot.map_or("none".to_owned(), |s| s.to_string());
+        let queued = s.queued_slot.map_or("none".to_owned(), |s| {
+            format!("{s} (takes over at the next cycle boundary)")
+        });
         println!("state:            {:?}", s.state);
+        println!("mute reason:      {}", s.mute_reason.describe());
         println!("slot:             {slot}");
+        println!("queued slot:      {queued}");
         println!("step:             {}", s.step);
         println!("cycles:           {}", s.cycles);
         println!("missed deadlines: {}", s.missed_deadlines);

@@ -3,11 +3,12 @@
 use std::io::IsTerminal as _;
 
 use anyhow::Context as _;
-use lm_proto::{Encoding, NackCode, PlayAt};
+use lm_proto::{DeviceState, Encoding, Info, PlayAt, Status};
 
+use crate::InputError;
 use crate::cmd::plan::PlanArgs;
-use crate::link::client::check_fits;
-use crate::link::{LinkError, PortArgs, UploadSpec, mm_to_um};
+use crate::link::{PortArgs, UploadSpec};
+use crate::sequence::DEFAULT_MAX_OFFSET_MM;
 
 /// Sequence encoding on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -34,12 +35,25 @@ pub struct Args {
     plan: PlanArgs,
     #[command(flatten)]
     port: PortArgs,
-    /// Slot to write [default: one that is not playing].
+    /// Slot to write [default: one that is neither playing nor queued].
     #[arg(long)]
     slot: Option<u8>,
     /// Upload and commit, but do not play.
     #[arg(long)]
     no_play: bool,
+    /// Play without tracking: the device sounds without a finger (no
+    /// gating, no correction) until `lmhost stop`.
+    #[arg(long, conflicts_with = "no_play")]
+    untracked: bool,
+    /// Work volume in mm, (0, 100]: the device refuses (and mutes on) a
+    /// tracked centroid farther than this from the planned centre.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = DEFAULT_MAX_OFFSET_MM,
+        allow_negative_numbers = true
+    )]
+    max_offset: f64,
     /// Wire encoding.
     #[arg(long, value_enum, default_value_t = EncodingArg::Delta)]
     encoding: EncodingArg,
@@ -48,31 +62,51 @@ pub struct Args {
     json: bool,
 }
 
-/// The planned sequence as the link wants it.
-pub fn upload_spec(plan: &crate::sequence::Plan) -> UploadSpec {
-    let h = &plan.sequence.header;
-    UploadSpec {
-        steps: h.steps,
-        transducers: h.transducers,
-        period_us: h.period_us,
-        center_um: h.center_um,
-        foci_per_step: h.foci_per_step,
-        sound_speed_mm_s: h.sound_speed_mm_s,
-        positions_um: plan
-            .scene
-            .transducers()
-            .iter()
-            .map(|t| t.pos_mm.map(mm_to_um))
-            .collect(),
-        phases: plan.sequence.phases.clone(),
+/// The slot an upload without `--slot` writes: one that neither plays nor
+/// is queued, preferring one other than the last played.
+pub fn free_slot(info: &Info, status: &Status) -> Option<u8> {
+    let playing = match status.state {
+        DeviceState::Playing | DeviceState::Muted => status.slot,
+        _ => None,
+    };
+    let busy = |s: u8| playing == Some(s) || status.queued_slot == Some(s);
+    let free = || (0..info.slots).filter(|s| !busy(*s));
+    free()
+        .find(|s| Some(*s) != status.slot)
+        .or_else(|| free().next())
+}
+
+/// Checks `slot` exists on the device (bad input otherwise, exit 2).
+pub fn check_slot(slot: u8, info: &Info) -> Result<(), InputError> {
+    if slot >= info.slots {
+        return Err(InputError::new(format!(
+            "--slot {slot} does not exist: the device has {} slots (0-{})",
+            info.slots,
+            info.slots.saturating_sub(1)
+        )));
+    }
+    Ok(())
+}
+
+/// The one-line warning printed when playing untracked.
+pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
+     with no gating or correction, until `lmhost stop`";
+
+/// What a `Play` did, from the status right after it.
+pub fn play_outcome(slot: u8, status: &Status) -> String {
+    if status.queued_slot == Some(slot) {
+        format!("slot {slot} queued for the next cycle boundary")
+    } else {
+        format!("playing slot {slot}")
     }
 }
 
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let plan = self.plan.plan()?;
-        let spec = upload_spec(&plan);
+        let mut plan = self.plan.plan()?;
+        plan.sequence.set_max_offset_mm(self.max_offset)?;
+        let spec = UploadSpec::from_plan(&plan, self.encoding.into())?;
         let mut client = self.port.connect()?;
         let where_ = client.transport_mut().describe();
         let info = client
@@ -80,25 +114,26 @@ impl Args {
             .with_context(|| format!("asking {where_} for its info"))?;
         let tty = std::io::stderr().is_terminal() && !self.json;
         let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
-        // Without --slot: the slot that is not playing. Right after a Play
-        // at the next cycle, the other slot is queued and refuses uploads
-        // until the cycle ends, so ask again (a cycle is at most ~1 s).
-        let mut waits = 0;
-        let (slot, report) = loop {
-            let slot = match self.slot {
-                Some(s) => s,
-                None => {
-                    let st = client.status().context("reading the device status")?;
-                    match st.slot {
-                        Some(s) if info.slots > 1 => (s + 1) % info.slots,
-                        _ => 0,
-                    }
-                }
-            };
-            check_fits(&spec, &info, slot).map_err(|e| {
-                crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
-            })?;
-            let result = client.upload(&spec, slot, self.encoding.into(), chunk, |done, total| {
+        let slot = match self.slot {
+            Some(s) => {
+                check_slot(s, &info)?;
+                s
+            }
+            None => {
+                let st = client.status().context("reading the device status")?;
+                free_slot(&info, &st).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "no free slot on {where_}: every slot is playing or queued; \
+                         use --slot N or `lmhost stop` first"
+                    )
+                })?
+            }
+        };
+        spec.check_fits(&info, slot).map_err(|e| {
+            crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
+        })?;
+        let report = client
+            .upload(&spec, slot, chunk, |done, total| {
                 if tty {
                     let pct = done as f64 / total.max(1) as f64;
                     let bar = "#".repeat((pct * 30.0) as usize);
@@ -107,40 +142,38 @@ impl Args {
                         eprintln!();
                     }
                 }
-            });
-            match result {
-                Err(LinkError::Nack {
-                    code: NackCode::SlotPlaying,
-                    ..
-                }) if self.slot.is_none() && waits < 20 => {
-                    waits += 1;
-                    std::thread::sleep(std::time::Duration::from_millis(100));
-                }
-                other => {
-                    break (
-                        slot,
-                        other.with_context(|| format!("uploading to slot {slot} of {where_}"))?,
-                    );
-                }
-            }
-        };
+            })
+            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
+        let mut outcome = None;
         if !self.no_play {
             client
-                .play(slot, PlayAt::NextCycle)
+                .play(slot, PlayAt::NextCycle, self.untracked)
                 .with_context(|| format!("playing slot {slot}"))?;
+            let st = client.status().context("reading the device status")?;
+            outcome = Some((play_outcome(slot, &st), st));
+            if self.untracked {
+                eprintln!("{UNTRACKED_WARNING}");
+            }
         }
+        let h = &spec.header;
         if self.json {
             let mut v = serde_json::to_value(report)?;
             v["wire_efficiency"] = report.wire_efficiency().into();
             v["playing"] = (!self.no_play).into();
-            v["steps"] = spec.steps.into();
-            v["transducers"] = spec.transducers.into();
+            v["queued"] = outcome
+                .as_ref()
+                .is_some_and(|(_, st)| st.queued_slot == Some(slot))
+                .into();
+            v["untracked"] = self.untracked.into();
+            v["steps"] = h.steps.into();
+            v["transducers"] = h.transducers.into();
+            v["max_offset_um"] = h.max_offset_um.into();
             println!("{v}");
         } else {
             println!(
                 "uploaded {} steps × {} transducers to slot {slot}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
-                spec.steps,
-                spec.transducers,
+                h.steps,
+                h.transducers,
                 report.raw_bytes,
                 report.sequence_bytes,
                 report.payload_bytes,
@@ -154,8 +187,24 @@ impl Args {
                 report.crc32,
                 report.retries
             );
-            if !self.no_play {
-                println!("playing slot {slot} from the next cycle boundary");
+            match &outcome {
+                Some((text, _)) if self.untracked => println!("{text}, untracked"),
+                Some((text, st)) => {
+                    println!("{text}");
+                    if st.state == DeviceState::Muted {
+                        println!(
+                            "muted ({}) until the device tracks a finger within {} mm of the \
+                             centre: stream centroids with `lmhost stream`, or upload with \
+                             --untracked to play without tracking",
+                            st.mute_reason.describe(),
+                            f64::from(h.max_offset_um) / 1000.0
+                        );
+                    }
+                }
+                None => println!(
+                    "not playing (--no-play): `lmhost play --slot {slot}` plays it \
+                     (add --untracked to play without tracking)"
+                ),
             }
         }
         Ok(())

@@ -8,11 +8,14 @@
 
 use std::time::{Duration, Instant};
 
+use lm_proto::codec::CodecError;
 use lm_proto::{
-    BeginUpload, Centroid, Chunk, Commit, Encoding, FeedResult, FrameDecoder, Geometry, Info,
-    MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt,
-    Positions, Status, encode_frame,
+    BeginUpload, Centroid, Chunk, Commit, DeviceLimits, Encoding, FeedResult, FrameDecoder,
+    Geometry, HeaderError, Info, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message,
+    NackCode, POSITION_LEN, Play, PlayAt, Positions, Status, UploadHeader, encode_frame,
 };
+
+use crate::sequence::{Plan, Sequence};
 
 use super::transport::Transport;
 
@@ -56,6 +59,10 @@ pub enum LinkError {
         /// The cause.
         source: std::io::Error,
     },
+    /// The sequence could not be encoded (its phases are not steps ×
+    /// transducers, or the positions do not match the transducers).
+    #[error("the sequence cannot be encoded: {0}")]
+    Codec(#[from] CodecError),
     /// The upload could not be completed within its restart budget.
     #[error("upload failed after {attempts} attempts; last error: {last}")]
     UploadGaveUp {
@@ -107,26 +114,61 @@ pub struct LinkStats {
     pub upload_restarts: u64,
 }
 
-/// A sequence ready to upload, in wire units.
+/// A sequence ready to upload, in wire units: the header, the bytes
+/// [`Sequence::encode`] produced (sent as they are) and the positions.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UploadSpec {
-    /// Steps per cycle.
-    pub steps: u16,
-    /// Transducers per step.
-    pub transducers: u16,
-    /// Cycle period (µs).
-    pub period_us: u32,
-    /// Planned centre in drive coordinates (µm).
-    pub center_um: [i32; 3],
-    /// Foci per step (1 for LM-S, more for LM-M).
-    pub foci_per_step: u8,
-    /// Speed of sound the phases were planned with (mm/s); the device's
-    /// centroid correction for this slot uses it.
-    pub sound_speed_mm_s: u32,
+    /// What the slot will play (checked by [`UploadSpec::check_fits`]).
+    pub header: UploadHeader,
+    /// Encoding of `encoded`.
+    pub encoding: Encoding,
+    /// The encoded sequence stream.
+    pub encoded: Vec<u8>,
+    /// CRC-32 of the raw sequence (the `Commit` value).
+    pub crc32: u32,
     /// Transducer positions in drive coordinates (µm), one per transducer.
     pub positions_um: Vec<[i32; 3]>,
-    /// Raw phases, step-major: `steps × transducers` bytes.
-    pub phases: Vec<u8>,
+}
+
+impl UploadSpec {
+    /// `sequence` encoded as `encoding`, with its transducers' positions.
+    pub fn new(
+        sequence: &Sequence,
+        positions_um: Vec<[i32; 3]>,
+        encoding: Encoding,
+    ) -> Result<Self, LinkError> {
+        if positions_um.len() != usize::from(sequence.header.transducers) {
+            return Err(LinkError::Codec(CodecError::BadShape));
+        }
+        Ok(Self {
+            header: sequence.header,
+            encoding,
+            encoded: sequence.encode(encoding)?,
+            crc32: sequence.crc32(),
+            positions_um,
+        })
+    }
+
+    /// A plan's sequence and scene positions, encoded as `encoding`.
+    pub fn from_plan(plan: &Plan, encoding: Encoding) -> anyhow::Result<Self> {
+        Ok(Self::new(&plan.sequence, plan.positions_um()?, encoding)?)
+    }
+
+    /// The `BeginUpload` of this sequence into `slot`.
+    pub fn begin(&self, slot: u8) -> BeginUpload {
+        BeginUpload {
+            slot,
+            header: self.header,
+            encoding: self.encoding,
+            encoded_len: self.encoded.len().min(u32::MAX as usize) as u32,
+        }
+    }
+
+    /// Whether it fits `info`'s device in `slot`: the device's own check
+    /// ([`BeginUpload::validate`]), run before sending anything.
+    pub fn check_fits(&self, info: &Info, slot: u8) -> Result<(), HeaderError> {
+        self.begin(slot).validate(&DeviceLimits::from_info(info))
+    }
 }
 
 /// What an upload did.
@@ -160,65 +202,6 @@ impl UploadReport {
     pub fn wire_efficiency(&self) -> f64 {
         self.payload_bytes as f64 / (self.wire_bytes_sent + self.wire_bytes_received).max(1) as f64
     }
-}
-
-/// Why a sequence does not fit a device (checked before sending anything).
-pub fn check_fits(spec: &UploadSpec, info: &Info, slot: u8) -> Result<(), String> {
-    let raw = spec.steps as u64 * spec.transducers as u64;
-    if spec.phases.len() as u64 != raw || spec.positions_um.len() != spec.transducers as usize {
-        return Err(format!(
-            "sequence is inconsistent: {} phase bytes and {} positions for {} steps × {} transducers",
-            spec.phases.len(),
-            spec.positions_um.len(),
-            spec.steps,
-            spec.transducers
-        ));
-    }
-    if !lm_proto::SOUND_SPEED_MM_S.contains(&spec.sound_speed_mm_s) {
-        return Err(format!(
-            "speed of sound {} mm/s is outside the {}-{} mm/s a device accepts",
-            spec.sound_speed_mm_s,
-            lm_proto::SOUND_SPEED_MM_S.start(),
-            lm_proto::SOUND_SPEED_MM_S.end()
-        ));
-    }
-    if slot >= info.slots {
-        return Err(format!(
-            "slot {slot} does not exist (the device has {} slots)",
-            info.slots
-        ));
-    }
-    if spec.transducers > info.max_transducers {
-        return Err(format!(
-            "{} transducers, the device drives at most {}",
-            spec.transducers, info.max_transducers
-        ));
-    }
-    if raw > info.slot_bytes as u64 {
-        return Err(format!(
-            "{raw} bytes ({} steps × {} transducers) exceed the device's {}-byte slot; use fewer steps",
-            spec.steps, spec.transducers, info.slot_bytes
-        ));
-    }
-    let dwell_us = spec.period_us as f64 / spec.steps.max(1) as f64;
-    if dwell_us < info.min_dwell_us as f64 {
-        return Err(format!(
-            "dwell {dwell_us:.0} µs per step is below the device's minimum {} µs; use fewer steps or a lower frequency",
-            info.min_dwell_us
-        ));
-    }
-    Ok(())
-}
-
-/// Encode the raw sequence for the wire.
-pub fn encode_sequence(encoding: Encoding, spec: &UploadSpec) -> Result<Vec<u8>, String> {
-    let t = spec.transducers as usize;
-    let len = lm_proto::codec::encoded_len(encoding, &spec.phases, t).map_err(|e| e.to_string())?;
-    let mut out = vec![0u8; len];
-    let n =
-        lm_proto::codec::encode(encoding, &spec.phases, t, &mut out).map_err(|e| e.to_string())?;
-    out.truncate(n);
-    Ok(out)
 }
 
 /// Smallest chunk the adaptive upload shrinks to on a noisy link (bytes).
@@ -377,9 +360,17 @@ impl<T: Transport> Client<T> {
         }
     }
 
-    /// Play a committed slot.
-    pub fn play(&mut self, slot: u8, at: PlayAt) -> Result<(), LinkError> {
-        self.expect_ack("play", &Message::Play(Play { slot, at }))
+    /// Play a committed slot; `untracked` plays without tracking (the
+    /// device does not gate or correct the output until `Stop`).
+    pub fn play(&mut self, slot: u8, at: PlayAt, untracked: bool) -> Result<(), LinkError> {
+        self.expect_ack(
+            "play",
+            &Message::Play(Play {
+                slot,
+                at,
+                untracked,
+            }),
+        )
     }
 
     /// Stop (mutes at once).
@@ -392,24 +383,19 @@ impl<T: Transport> Client<T> {
         self.expect_ack("centroid", &Message::Centroid(c))
     }
 
-    /// Upload `spec` into `slot` (call [`check_fits`] first), encoded as
-    /// `encoding`, and commit it. `progress(done, total)` is called after
-    /// each acked chunk.
+    /// Upload `spec` into `slot` (call [`UploadSpec::check_fits`] first)
+    /// and commit it. `progress(done, total)` is called after each acked
+    /// chunk.
     pub fn upload(
         &mut self,
         spec: &UploadSpec,
         slot: u8,
-        encoding: Encoding,
         chunk: usize,
         mut progress: impl FnMut(u64, u64),
     ) -> Result<UploadReport, LinkError> {
         let start = Instant::now();
         let before = self.stats;
-        let encoded = encode_sequence(encoding, spec).map_err(|e| LinkError::Io {
-            what: "encode",
-            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e),
-        })?;
-        let crc32 = lm_proto::crc32(&spec.phases);
+        let crc32 = spec.crc32;
         let chunk = chunk.clamp(1, MAX_CHUNK);
         let mut last = None;
         for attempt in 0..self.upload_attempts {
@@ -419,14 +405,15 @@ impl<T: Transport> Client<T> {
             // A restart after a chunk that never got through starts with
             // frames a quarter the size (down to the adaptive minimum).
             let size = (chunk >> (2 * attempt.min(8))).max(MIN_ADAPTIVE_CHUNK.min(chunk));
-            match self.upload_once(spec, slot, encoding, &encoded, crc32, size, &mut progress) {
+            match self.upload_once(spec, slot, size, &mut progress) {
                 Ok(()) => {
                     let s = self.stats;
                     return Ok(UploadReport {
                         slot,
-                        raw_bytes: spec.phases.len() as u64,
-                        sequence_bytes: encoded.len() as u64,
-                        payload_bytes: encoded.len() as u64 + 12 * spec.positions_um.len() as u64,
+                        raw_bytes: spec.header.raw_len(),
+                        sequence_bytes: spec.encoded.len() as u64,
+                        payload_bytes: spec.encoded.len() as u64
+                            + (POSITION_LEN * spec.positions_um.len()) as u64,
                         wire_bytes_sent: s.bytes_sent - before.bytes_sent,
                         wire_bytes_received: s.bytes_received - before.bytes_received,
                         seconds: start.elapsed().as_secs_f64(),
@@ -458,32 +445,19 @@ impl<T: Transport> Client<T> {
         })
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn upload_once(
         &mut self,
         spec: &UploadSpec,
         slot: u8,
-        encoding: Encoding,
-        encoded: &[u8],
-        crc32: u32,
         chunk: usize,
         progress: &mut impl FnMut(u64, u64),
     ) -> Result<(), LinkError> {
-        let begin = BeginUpload {
-            slot,
-            steps: spec.steps,
-            transducers: spec.transducers,
-            period_us: spec.period_us,
-            encoding,
-            encoded_len: encoded.len() as u32,
-            center_um: spec.center_um,
-            foci_per_step: spec.foci_per_step,
-            sound_speed_mm_s: spec.sound_speed_mm_s,
-        };
-        self.expect_ack("begin upload", &Message::BeginUpload(begin))?;
+        let (encoded, crc32) = (&spec.encoded[..], spec.crc32);
+        self.expect_ack("begin upload", &Message::BeginUpload(spec.begin(slot)))?;
         // Positions adapt like chunks (below): writes at fixed indices are
         // idempotent, so only the group size changes.
-        let mut group = (chunk / 12).clamp(MIN_ADAPTIVE_CHUNK / 12, MAX_GEOMETRY_POSITIONS);
+        let min_group = MIN_ADAPTIVE_CHUNK / POSITION_LEN;
+        let mut group = (chunk / POSITION_LEN).clamp(min_group, MAX_GEOMETRY_POSITIONS);
         let mut first = 0usize;
         while first < spec.positions_um.len() {
             let pts = &spec.positions_um[first..(first + group).min(spec.positions_um.len())];
@@ -496,7 +470,7 @@ impl<T: Transport> Client<T> {
             self.expect_ack("geometry", &Message::Geometry(g))?;
             first += pts.len();
             group = if self.stats.retries > retries_before {
-                (group / 2).max(MIN_ADAPTIVE_CHUNK / 12)
+                (group / 2).max(min_group)
             } else {
                 (group * 2).min(MAX_GEOMETRY_POSITIONS)
             };

@@ -14,7 +14,8 @@ pub mod transport;
 pub use client::{Client, LinkError, LinkStats, Reply, UploadReport, UploadSpec};
 pub use transport::Transport;
 
-/// Millimetres to whole micrometres (rounded, saturating).
+/// Millimetres to whole micrometres (rounded, saturating; for streamed
+/// centroids, which the device checks against its work volume).
 pub fn mm_to_um(mm: f64) -> i32 {
     (mm * 1000.0)
         .round()

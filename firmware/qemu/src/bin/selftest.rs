@@ -16,13 +16,13 @@ use core::ptr::addr_of_mut;
 use cortex_m_rt::entry;
 use lm_fw_core::{Device, Frame, OutputDriver, TimeExtender};
 use lm_fw_qemu::{
-    FrameCounter, MAX_TRANSDUCERS, PCLK_HZ, STORE_BYTES, TIMER0_BASE, Timer, config, exit, hprint,
+    FrameCounter, ARRAY_TRANSDUCERS, PCLK_HZ, STORE_BYTES, TIMER0_BASE, Timer, config, exit, hprint,
     hprintln,
 };
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, FeedResult, FrameDecoder, Geometry,
     MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt,
-    Positions, encode_frame, vectors,
+    Positions, UploadHeader, encode_frame, vectors,
 };
 
 /// Instructions per TIMER0 count under `-icount shift=0` (1 ns each, 25 MHz).
@@ -127,14 +127,17 @@ fn upload(
 ) -> Message<'static> {
     let begin = BeginUpload {
         slot,
-        steps: steps as u16,
-        transducers: t as u16,
-        period_us,
+        header: UploadHeader {
+            steps: steps as u16,
+            transducers: t as u16,
+            period_us,
+            center_um: CENTER_UM,
+            foci_per_step: 1,
+            sound_speed_mm_s: SOUND_SPEED_MM_S,
+            max_offset_um: 20_000,
+        },
         encoding: Encoding::Raw,
         encoded_len: (steps * t) as u32,
-        center_um: CENTER_UM,
-        foci_per_step: 1,
-        sound_speed_mm_s: SOUND_SPEED_MM_S,
     };
     let r = dev.handle(&Message::BeginUpload(begin), 0);
     if r != Message::Ack {
@@ -184,6 +187,7 @@ fn play_now(slot: u8) -> Message<'static> {
     Message::Play(Play {
         slot,
         at: PlayAt::Immediate,
+        untracked: false,
     })
 }
 
@@ -205,7 +209,7 @@ struct Recorder<'t> {
     written: [u32; 64],
     step: [u16; 64],
     amplitude: [u8; 64],
-    phases: [u8; MAX_TRANSDUCERS as usize],
+    phases: [u8; ARRAY_TRANSDUCERS as usize],
 }
 
 impl<'t> Recorder<'t> {
@@ -217,7 +221,7 @@ impl<'t> Recorder<'t> {
             written: [0; 64],
             step: [0; 64],
             amplitude: [0; 64],
-            phases: [0; MAX_TRANSDUCERS as usize],
+            phases: [0; ARRAY_TRANSDUCERS as usize],
         }
     }
 }
@@ -546,7 +550,7 @@ fn frames_through_feed(c: &mut Ctx) -> TestResult {
                 hprintln!("    reply {:?}", frame.message);
                 return Err(Failed);
             };
-            check!(info.max_transducers == MAX_TRANSDUCERS, "{:?}", info);
+            check!(info.max_transducers == ARRAY_TRANSDUCERS, "{:?}", info);
             check!(info.timer_hz == PCLK_HZ, "{:?}", info);
             check!(
                 info.slots >= 2 && info.slot_bytes >= 200 * 996,
