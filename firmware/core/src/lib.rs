@@ -52,10 +52,14 @@
 //!
 //! # Behaviour
 //!
-//! - Store ([`store`]): [`SLOTS`] slots; chunks in stream order (Raw or
-//!   Delta through [`lm_proto::codec::Decoder`]); duplicates of the last
-//!   chunk are acked; commit checks completeness, every position and the
-//!   raw CRC-32. Writes to the playing or queued slot get `SlotPlaying`.
+//! - Store ([`store`]): [`SLOTS`] slots; `BeginUpload` checked by
+//!   [`lm_proto::BeginUpload::validate`] (the host runs the same check);
+//!   chunks in stream order (Raw or Delta through
+//!   [`lm_proto::codec::Decoder`]); identical repeats of received data are
+//!   acked (Delta: any of the last [`CHUNK_LOG`] chunks); commit checks
+//!   completeness, every position and the raw CRC-32, and a repeated commit
+//!   with the same CRC is acked again. Writes to the playing or queued slot
+//!   get `SlotPlaying`.
 //! - Player ([`player`], [`time`]): step k of a cycle at
 //!   floor(k·P/N) counts after the cycle start, integer only; `Play` with
 //!   `NextCycle` swaps at the cycle boundary; late polls count missed
@@ -64,6 +68,12 @@
 //! - Correction ([`correction`]): a fresh centroid (with presence) sets
 //!   per-transducer offsets k·(|x−c0| − |x−c|) in u8 LSB, added to every
 //!   frame from the next step on.
+//! - Work volume: a present centroid farther than the playing slot's
+//!   `max_offset_um` from its planned centre (or one that overflows) is
+//!   refused (`OutOfRange`) and mutes until an in-range one arrives; a
+//!   queued slot taking over re-checks the last centroid against its own.
+//! - Untracked play (`Play` flag): no gating, no correction, until `Stop`.
+//! - `Status` reports the queued slot and why the output is muted.
 //! - Gating ([`gate`]): presence false or a stale centroid (older than
 //!   [`Config::centroid_timeout_us`]) mutes (amplitude 0) within one step;
 //!   with [`Config::require_tracking`] (default) output stays muted from
@@ -80,7 +90,7 @@
 //! `size_of::<Device>()` is the core's whole state outside the sequence
 //! memory: receive decoder (`MAX_FRAME`), send buffer (`MAX_ENCODED_FRAME`),
 //! offset and frame tables ([`MAX_TRANSDUCERS`] bytes each), two upload
-//! states (codec decoder, running CRC, position bitmap). 4,848 bytes on
+//! states (codec decoder, running CRC, position bitmap, chunk log). 5,232 bytes on
 //! thumbv7em (a compile-time assertion keeps it ≤ 16 KB). The sequence
 //! memory is [`memory_bytes`]`(slot_bytes, max_transducers)`: per slot the
 //! raw phases plus 12 bytes of position per transducer.

@@ -16,8 +16,8 @@ use core::ptr::addr_of_mut;
 use cortex_m_rt::entry;
 use lm_fw_core::{Device, Frame, OutputDriver, TimeExtender};
 use lm_fw_qemu::{
-    FrameCounter, ARRAY_TRANSDUCERS, PCLK_HZ, STORE_BYTES, TIMER0_BASE, Timer, config, exit, hprint,
-    hprintln,
+    ARRAY_TRANSDUCERS, FrameCounter, PCLK_HZ, STORE_BYTES, TIMER0_BASE, Timer, config, exit,
+    hprint, hprintln,
 };
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, FeedResult, FrameDecoder, Geometry,
