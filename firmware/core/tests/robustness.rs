@@ -118,7 +118,13 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             *seqs = seqs.wrapping_add(r.below(3) as u32).wrapping_sub(1);
             Message::Centroid(Centroid {
                 seq: *seqs,
-                pos_um: [r.next() as i32 % 20_000, r.next() as i32 % 20_000, 200_000],
+                // Mostly near the centre, sometimes anywhere (the work
+                // volume must refuse those).
+                pos_um: if r.below(8) == 0 {
+                    [r.next() as i32, r.next() as i32, r.next() as i32]
+                } else {
+                    [r.next() as i32 % 20_000, r.next() as i32 % 20_000, 200_000]
+                },
                 present: r.below(4) != 0,
                 host_time_us: r.next(),
             })
@@ -287,6 +293,14 @@ fn run(seed: u64, frames: u64) -> (u64, u64, u64) {
             }
         }
         assert!(got.len() <= 2, "at most one reply per frame");
+        // Never steered outside a work volume: an applied correction is at
+        // most the largest work volume a slot can have.
+        let c = dev
+            .status(now)
+            .correction_um
+            .map(|v| i128::from(v) * i128::from(v));
+        let max = i128::from(*lm_proto::MAX_OFFSET_UM.end());
+        assert!(c.iter().sum::<i128>() <= max * max, "{c:?}");
         let step = if r.below(50) == 0 { 10_000_000 } else { 3000 };
         now += r.below(step);
         dev.poll(now, &mut guard);

@@ -210,3 +210,77 @@ impl Args {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lm_proto::MuteReason;
+
+    fn info(slots: u8) -> Info {
+        Info {
+            proto_version: lm_proto::PROTOCOL_VERSION,
+            fw_version: [0, 1, 0],
+            max_transducers: 996,
+            slot_bytes: 200 * 996,
+            slots,
+            timer_hz: 1_000_000,
+            min_dwell_us: 1000,
+            max_chunk: 1024,
+        }
+    }
+
+    fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
+        Status {
+            state,
+            slot,
+            step: 0,
+            cycles: 0,
+            missed_deadlines: 0,
+            last_centroid_seq: 0,
+            bad_frames: 0,
+            crc_errors: 0,
+            nacks: 0,
+            correction_um: [0; 3],
+            queued_slot: queued,
+            mute_reason: MuteReason::None,
+        }
+    }
+
+    #[test]
+    fn free_slot_is_neither_playing_nor_queued() {
+        use DeviceState::*;
+        let i = info(2);
+        assert_eq!(free_slot(&i, &status(Idle, None, None)), Some(0));
+        assert_eq!(free_slot(&i, &status(Playing, Some(0), None)), Some(1));
+        assert_eq!(free_slot(&i, &status(Muted, Some(1), None)), Some(0));
+        assert_eq!(free_slot(&i, &status(Playing, Some(0), Some(1))), None);
+        // Stopped: every slot is free; prefer the one not played last.
+        assert_eq!(free_slot(&i, &status(Stopped, Some(0), None)), Some(1));
+        assert_eq!(
+            free_slot(&info(1), &status(Stopped, Some(0), None)),
+            Some(0)
+        );
+        assert_eq!(free_slot(&info(1), &status(Playing, Some(0), None)), None);
+        assert_eq!(
+            free_slot(&info(3), &status(Playing, Some(0), Some(1))),
+            Some(2)
+        );
+    }
+
+    #[test]
+    fn slots_are_checked_against_the_device() {
+        assert!(check_slot(1, &info(2)).is_ok());
+        let e = check_slot(7, &info(2)).unwrap_err();
+        assert!(e.to_string().contains("2 slots (0-1)"), "{e}");
+    }
+
+    #[test]
+    fn play_outcome_says_queued_when_it_is() {
+        let st = status(DeviceState::Playing, Some(1), Some(0));
+        assert_eq!(
+            play_outcome(0, &st),
+            "slot 0 queued for the next cycle boundary"
+        );
+        assert_eq!(play_outcome(1, &st), "playing slot 1");
+    }
+}
