@@ -13,14 +13,15 @@
 //! - **Quantisation**: `u8 = round(φ / 2π · 256) mod 256`, so one LSB is
 //!   2π/256 rad and 255.5 LSB wraps to 0.
 
-/// Carrier frequency of the T4010A1 transducers (Hz).
-pub const CARRIER_HZ: f64 = 40_000.0;
+/// Carrier frequency of the T4010A1 transducers (Hz): the wire's
+/// [`lm_proto::CARRIER_HZ`], which the device's correction uses too.
+pub const CARRIER_HZ: f64 = lm_proto::CARRIER_HZ as f64;
 
 /// Default speed of sound (m/s), as AUTD3 uses.
 pub const DEFAULT_SOUND_SPEED_M_S: f64 = 340.0;
 
-/// Phase quantisation levels per turn.
-pub const PHASE_LEVELS: u32 = 256;
+/// Phase quantisation levels per turn ([`lm_proto::PHASE_LEVELS`]).
+pub const PHASE_LEVELS: u32 = lm_proto::PHASE_LEVELS;
 
 /// Wavenumber in rad/mm for a sound speed in m/s.
 pub fn wavenumber_rad_per_mm(sound_speed_m_s: f64) -> f64 {

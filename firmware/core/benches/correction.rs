@@ -12,7 +12,7 @@ use lm_fw_core::{Config, Device, Frame, OutputDriver, memory_bytes};
 use lm_proto::codec::Encoding;
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_CHUNK, MAX_GEOMETRY_POSITIONS, Message,
-    Play, PlayAt, Positions,
+    Play, PlayAt, Positions, UploadHeader,
 };
 
 const T: usize = 996;
@@ -99,7 +99,8 @@ fn bench(c: &mut Criterion) {
         dev.handle(
             &Message::Play(Play {
                 slot: 0,
-                at: PlayAt::Immediate
+                at: PlayAt::Immediate,
+                untracked: false,
             }),
             0
         ),
