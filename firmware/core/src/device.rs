@@ -355,7 +355,13 @@ impl Core<'_> {
             PlayState::Playing => DeviceState::Muted,
         };
         let slot = self.player.slot();
-        let applied = !self.untracked && !self.out_of_range;
+        // Only what the player applies: offsets computed for the playing
+        // slot (from a centroid checked against its work volume).
+        let applied = self.player.state() == PlayState::Playing
+            && !self.untracked
+            && !self.out_of_range
+            && slot.is_some()
+            && self.offsets_for == slot;
         let correction_um = match (self.centroid_um, slot.and_then(|s| self.store.header(s))) {
             (Some(c), Some(h)) if applied => {
                 core::array::from_fn(|i| c[i].wrapping_sub(h.center_um[i]))
