@@ -5,11 +5,12 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::{Centroid, Encoding, PlayAt};
+use lmhost::clock::monotonic_us;
 use lmhost::cmd::demo::lm_m_plan;
 use lmhost::cmd::upload::upload_spec;
 use lmhost::link::Client;
 use lmhost::link::transport::Serial;
-use lmhost::simdev::{SimConfig, SimThread, monotonic_us};
+use lmhost::simdev::{SimConfig, SimThread};
 use lmhost::stream::filter::FilterKind;
 use lmhost::stream::synthetic::FingerTrack;
 

@@ -9,12 +9,13 @@ use anyhow::Context as _;
 use clap::Parser as _;
 use lm_proto::{DeviceState, Encoding, PlayAt};
 
+use crate::clock::{monotonic_us, percentile};
 use crate::cmd::plan::PlanArgs;
 use crate::cmd::upload::upload_spec;
 use crate::link::Client;
 use crate::link::client::check_fits;
 use crate::link::transport::Serial;
-use crate::simdev::{SimConfig, SimThread, monotonic_us, percentile};
+use crate::simdev::{SimConfig, SimThread};
 use crate::stream::filter::FilterKind;
 use crate::stream::run::{Pace, stream};
 use crate::stream::synthetic::FingerTrack;

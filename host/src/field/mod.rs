@@ -38,7 +38,6 @@
 mod kernel;
 pub mod npy;
 pub mod plot;
-pub mod report;
 
 use std::f64::consts::PI;
 

@@ -678,22 +678,8 @@ fn atan2_turns<const F: bool>(y: f32, x: f32) -> f32 {
 mod tests {
     use super::super::{error_lsb, reference};
     use super::*;
+    use crate::rng::SplitMix64;
     use crate::scene::Scene;
-
-    /// SplitMix64: a tiny seeded generator for reproducible random cases.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next()
-        }
-    }
 
     fn plan() -> SynthPlan {
         let s = Scene::default();
@@ -724,15 +710,15 @@ mod tests {
     }
 
     fn seeded_random(plan: &SynthPlan) {
-        let mut rng = Rng(0x5eed);
+        let mut rng = SplitMix64::new(0x5eed);
         for case in 0..300 {
             let m = 1 + case % 4;
             let foci: Vec<Vec3> = (0..m)
                 .map(|_| {
                     [
-                        rng.range(-300.0, 300.0),
-                        rng.range(-300.0, 300.0),
-                        rng.range(-50.0, 600.0),
+                        rng.uniform(-300.0, 300.0),
+                        rng.uniform(-300.0, 300.0),
+                        rng.uniform(-50.0, 600.0),
                     ]
                 })
                 .collect();
@@ -751,7 +737,7 @@ mod tests {
     #[ignore = "long: run in release by cargo xtask ci"]
     fn long_random_foci_are_within_0_51_lsb() {
         for plan in plans() {
-            let mut rng = Rng(0x10_0000);
+            let mut rng = SplitMix64::new(0x10_0000);
             let mut out = vec![0u8; plan.len()];
             let mut s = plan.scratch();
             for case in 0..50_000 {
@@ -759,9 +745,9 @@ mod tests {
                 let foci: Vec<Vec3> = (0..m)
                     .map(|_| {
                         [
-                            rng.range(-1000.0, 1000.0),
-                            rng.range(-1000.0, 1000.0),
-                            rng.range(-1000.0, 1000.0),
+                            rng.uniform(-1000.0, 1000.0),
+                            rng.uniform(-1000.0, 1000.0),
+                            rng.uniform(-1000.0, 1000.0),
                         ]
                     })
                     .collect();
@@ -786,21 +772,21 @@ mod tests {
     }
 
     fn weighted_random(plan: &SynthPlan) {
-        let mut rng = Rng(42);
+        let mut rng = SplitMix64::new(42);
         for case in 0..50 {
             let foci: Vec<Vec3> = (0..3)
                 .map(|_| {
                     [
-                        rng.range(-50.0, 50.0),
-                        rng.range(-50.0, 50.0),
-                        rng.range(100.0, 300.0),
+                        rng.uniform(-50.0, 50.0),
+                        rng.uniform(-50.0, 50.0),
+                        rng.uniform(100.0, 300.0),
                     ]
                 })
                 .collect();
             let w: Vec<Weight> = (0..3)
                 .map(|_| Weight {
-                    re: rng.range(-1.0, 1.0),
-                    im: rng.range(-1.0, 1.0),
+                    re: rng.uniform(-1.0, 1.0),
+                    im: rng.uniform(-1.0, 1.0),
                 })
                 .collect();
             let e = max_err(plan, &foci, Some(&w));
@@ -881,13 +867,13 @@ mod tests {
     #[test]
     fn table_path_matches_the_reference() {
         for plan in plans() {
-            let mut rng = Rng(7);
+            let mut rng = SplitMix64::new(7);
             let pts: Vec<Vec3> = (0..12)
                 .map(|_| {
                     [
-                        rng.range(-20.0, 20.0),
-                        rng.range(-20.0, 20.0),
-                        rng.range(150.0, 250.0),
+                        rng.uniform(-20.0, 20.0),
+                        rng.uniform(-20.0, 20.0),
+                        rng.uniform(150.0, 250.0),
                     ]
                 })
                 .collect();
