@@ -13,6 +13,7 @@ pub mod cmd;
 pub mod directivity;
 pub mod error;
 pub mod field;
+pub mod geom;
 pub mod link;
 pub mod rng;
 pub mod scene;

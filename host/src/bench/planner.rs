@@ -5,7 +5,8 @@ use lm_proto::codec::Encoding;
 use serde::Serialize;
 
 use super::{Options, Section, time_per_call};
-use crate::scene::{Scene, Vec3};
+use crate::geom::{self, Vec3};
+use crate::scene::Scene;
 use crate::sequence::{Sequence, SynthWorkspace, Synthesis};
 use crate::synth::fast::SynthPlan;
 use crate::synth::{Weight, error_lsb, reference, solver};
@@ -167,14 +168,13 @@ fn solver_cases(scene: &Scene, case: &str, foci: &[Vec3]) -> Vec<SolverFigures> 
         solver::weighted_turns(&t, foci, &vec![Weight::ONE; m], k),
     );
     // Weighted: each focus weighted by its distance (compensates 1/r).
-    let c = crate::scene::scale(
-        t.iter()
-            .fold([0.0; 3], |a, tr| crate::scene::add(a, tr.pos_mm)),
+    let c = geom::scale(
+        t.iter().fold([0.0; 3], |a, tr| geom::add(a, tr.pos_mm)),
         1.0 / t.len() as f64,
     );
     let w: Vec<Weight> = foci
         .iter()
-        .map(|f| Weight::real(crate::scene::norm(crate::scene::sub(*f, c))))
+        .map(|f| Weight::real(geom::norm(geom::sub(*f, c))))
         .collect();
     add("weighted (w = r)", solver::weighted_turns(&t, foci, &w, k));
     add(

@@ -1,8 +1,11 @@
 //! Physics tests of the field model and checks of the fast path against
 //! the f64 reference.
 
+use std::f64::consts::PI;
+
 use super::*;
-use crate::array::{autd3_local_center_mm, autd3_local_positions_mm};
+use crate::array::{Transducer, autd3_local_center_mm, autd3_local_positions_mm};
+use crate::geom::{axpy, dot, normalized, sub};
 use crate::rng::SplitMix64;
 
 const Z: [f64; 3] = [0.0, 0.0, 1.0];
@@ -133,7 +136,7 @@ fn image_sources_equal_the_mirrored_scene() {
     let model = FieldModel::new(&tr, Directivity::T4010A1, Medium::default(), Some(refl)).unwrap();
     // The same scene built by hand: transducers plus their mirror images,
     // each image driven like its transducer.
-    let n = unit(refl.normal).unwrap();
+    let n = normalized(refl.normal).unwrap();
     let mut both = tr.clone();
     for t in &tr {
         let h = dot(sub(t.pos_mm, refl.point_mm), n);

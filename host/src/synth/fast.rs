@@ -31,7 +31,7 @@
 
 use super::{Weight, reference};
 use crate::array::Transducer;
-use crate::scene::{Vec3, norm, sub};
+use crate::geom::{Vec3, norm, sub};
 
 /// Padding of the struct-of-arrays rows (lanes of the widest vector).
 const L: usize = 8;
