@@ -92,6 +92,16 @@ pub struct Scratch {
     im: Vec<f32>,
 }
 
+impl Scratch {
+    /// The first `n` phasor sums, zeroed.
+    fn zeroed(&mut self, n: usize) -> (&mut [f32], &mut [f32]) {
+        let (re, im) = (&mut self.re[..n], &mut self.im[..n]);
+        re.fill(0.0);
+        im.fill(0.0);
+        (re, im)
+    }
+}
+
 impl SynthPlan {
     /// Prepares `transducers` for wavenumber `k_rad_per_mm`.
     pub fn new(transducers: &[Transducer], k_rad_per_mm: f64) -> Self {
@@ -181,6 +191,19 @@ impl SynthPlan {
         }
     }
 
+    /// The frame contract: `out` holds one phase per transducer and there
+    /// is one weight per focus.
+    fn check_frame(&self, out: &[u8], foci: usize, weights: Option<&[Weight]>) {
+        assert_eq!(
+            out.len(),
+            self.n,
+            "output length must equal the transducer count"
+        );
+        if let Some(w) = weights {
+            assert_eq!(w.len(), foci, "one weight per focus");
+        }
+    }
+
     fn rows(&self, n: usize) -> Rows<'_> {
         Rows {
             x: &self.px[..n],
@@ -220,11 +243,7 @@ impl SynthPlan {
     /// Single-focus frame: `out[n] = q(−κ r_n)`. `out.len()` must equal
     /// [`len`](Self::len).
     pub fn focus(&self, focus: Vec3, out: &mut [u8]) {
-        assert_eq!(
-            out.len(),
-            self.n,
-            "output length must equal the transducer count"
-        );
+        self.check_frame(out, 1, None);
         let p = self.prep(focus);
         let rows = self.rows(self.n);
         self.kernels.focus(rows, &p, self.q_offset, out);
@@ -240,14 +259,7 @@ impl SynthPlan {
         scratch: &mut Scratch,
         out: &mut [u8],
     ) {
-        assert_eq!(
-            out.len(),
-            self.n,
-            "output length must equal the transducer count"
-        );
-        if let Some(w) = weights {
-            assert_eq!(w.len(), foci.len(), "one weight per focus");
-        }
+        self.check_frame(out, foci.len(), weights);
         if foci.is_empty() {
             out.fill(0);
             return;
@@ -255,11 +267,8 @@ impl SynthPlan {
         if foci.len() == 1 && weights.is_none() {
             return self.focus(foci[0], out);
         }
-        let n = self.n;
-        scratch.re.fill(0.0);
-        scratch.im.fill(0.0);
-        let (re, im) = (&mut scratch.re[..n], &mut scratch.im[..n]);
-        let rows = self.rows(n);
+        let (re, im) = scratch.zeroed(self.n);
+        let rows = self.rows(self.n);
         let mut wsum = 0.0;
         for (i, &f) in foci.iter().enumerate() {
             let w = weight(weights, i);
@@ -374,19 +383,10 @@ impl SynthPlan {
         scratch: &mut Scratch,
         out: &mut [u8],
     ) {
-        assert_eq!(
-            out.len(),
-            self.n,
-            "output length must equal the transducer count"
-        );
+        self.check_frame(out, idx.len(), weights);
         assert_eq!(table.stride, self.px.len(), "table from another plan");
-        if let Some(w) = weights {
-            assert_eq!(w.len(), idx.len(), "one weight per focus");
-        }
         let n = self.n;
-        let (re, im) = (&mut scratch.re[..n], &mut scratch.im[..n]);
-        re.fill(0.0);
-        im.fill(0.0);
+        let (re, im) = scratch.zeroed(n);
         let mut wsum = 0.0;
         for (i, &k) in idx.iter().enumerate() {
             let w = weight(weights, i);
