@@ -17,6 +17,19 @@ fn plans() -> [SynthPlan; 2] {
     [plan(), plan().portable()]
 }
 
+/// `m` seeded points, `x, y` uniform in `[−xy, xy)`, `z` in `[z.0, z.1)`.
+fn random_points(rng: &mut SplitMix64, m: usize, xy: f64, z: (f64, f64)) -> Vec<Vec3> {
+    (0..m)
+        .map(|_| {
+            [
+                rng.uniform(-xy, xy),
+                rng.uniform(-xy, xy),
+                rng.uniform(z.0, z.1),
+            ]
+        })
+        .collect()
+}
+
 /// Max error in LSB of the fast path against the exact f64 phase.
 fn max_err(plan: &SynthPlan, foci: &[Vec3], w: Option<&[Weight]>) -> f64 {
     let mut out = vec![0u8; plan.len()];
@@ -39,15 +52,7 @@ fn seeded_random(plan: &SynthPlan) {
     let mut rng = SplitMix64::new(0x5eed);
     for case in 0..300 {
         let m = 1 + case % 4;
-        let foci: Vec<Vec3> = (0..m)
-            .map(|_| {
-                [
-                    rng.uniform(-300.0, 300.0),
-                    rng.uniform(-300.0, 300.0),
-                    rng.uniform(-50.0, 600.0),
-                ]
-            })
-            .collect();
+        let foci: Vec<Vec3> = random_points(&mut rng, m, 300.0, (-50.0, 600.0));
         let e = max_err(plan, &foci, None);
         assert!(
             e <= 0.51,
@@ -68,15 +73,7 @@ fn long_random_foci_are_within_0_51_lsb() {
         let mut s = plan.scratch();
         for case in 0..50_000 {
             let m = 1 + case % 4;
-            let foci: Vec<Vec3> = (0..m)
-                .map(|_| {
-                    [
-                        rng.uniform(-1000.0, 1000.0),
-                        rng.uniform(-1000.0, 1000.0),
-                        rng.uniform(-1000.0, 1000.0),
-                    ]
-                })
-                .collect();
+            let foci: Vec<Vec3> = random_points(&mut rng, m, 1000.0, (-1000.0, 1000.0));
             plan.foci(&foci, None, &mut s, &mut out);
             for (&q, &p) in out.iter().zip(plan.positions()) {
                 let e = error_lsb(q, reference::phase_turns(p, &foci, None, plan.kappa));
@@ -100,15 +97,7 @@ fn weighted_random_foci_are_within_0_51_lsb() {
 fn weighted_random(plan: &SynthPlan) {
     let mut rng = SplitMix64::new(42);
     for case in 0..50 {
-        let foci: Vec<Vec3> = (0..3)
-            .map(|_| {
-                [
-                    rng.uniform(-50.0, 50.0),
-                    rng.uniform(-50.0, 50.0),
-                    rng.uniform(100.0, 300.0),
-                ]
-            })
-            .collect();
+        let foci: Vec<Vec3> = random_points(&mut rng, 3, 50.0, (100.0, 300.0));
         let w: Vec<Weight> = (0..3)
             .map(|_| Weight {
                 re: rng.uniform(-1.0, 1.0),
@@ -190,15 +179,7 @@ fn large_coordinates(plan: &SynthPlan) {
 fn table_path_matches_the_reference() {
     for plan in plans() {
         let mut rng = SplitMix64::new(7);
-        let pts: Vec<Vec3> = (0..12)
-            .map(|_| {
-                [
-                    rng.uniform(-20.0, 20.0),
-                    rng.uniform(-20.0, 20.0),
-                    rng.uniform(150.0, 250.0),
-                ]
-            })
-            .collect();
+        let pts: Vec<Vec3> = random_points(&mut rng, 12, 20.0, (150.0, 250.0));
         let table = plan.phasor_table(&pts);
         assert_eq!(table.len(), 12);
         let mut out = vec![0u8; plan.len()];
