@@ -325,6 +325,9 @@ fn step_qemu_selftest(c: &Ctx) -> Result<(), String> {
     run_with_timeout(qemu_cmd(&elf, true).args(["-serial", "null"]), QEMU_TIMEOUT)
 }
 
+/// Its own cargo invocation: built together with the QEMU board, the
+/// Nucleo PAC's `rt` feature would switch on cortex-m-rt's `device` feature
+/// for the QEMU board too (see ARCHITECTURE.md, Memory maps).
 fn nucleo_build(c: &Ctx) -> Result<(), String> {
     thumb_build(c, &["-p", NUCLEO_PKG])
 }
