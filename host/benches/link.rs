@@ -5,10 +5,11 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::{Centroid, Encoding, PlayAt};
+use lmhost::clock::monotonic_us;
 use lmhost::link::transport::Serial;
 use lmhost::link::{Client, UploadSpec};
 use lmhost::sequence::Plan;
-use lmhost::simdev::{SimConfig, SimThread, monotonic_us};
+use lmhost::simdev::{SimConfig, SimThread};
 use lmhost::stream::filter::FilterKind;
 use lmhost::stream::synthetic::FingerTrack;
 

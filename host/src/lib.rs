@@ -8,11 +8,14 @@
 
 pub mod array;
 pub mod bench;
+pub mod clock;
 pub mod cmd;
 pub mod directivity;
 pub mod error;
 pub mod field;
+pub mod geom;
 pub mod link;
+pub mod rng;
 pub mod scene;
 pub mod sequence;
 pub mod simdev;

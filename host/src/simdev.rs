@@ -2,9 +2,8 @@
 //! behind a pseudo-terminal with a real clock (`lmhost sim`), or in process
 //! behind a [`Transport`] with a real or virtual clock (the demo, tests).
 //!
-//! Time is microseconds of `CLOCK_MONOTONIC`, which every process on the
-//! machine shares, so a host's `Centroid::host_time_us` stamps can be
-//! compared with the moment the device applied the update.
+//! Time is [`crate::clock`]'s: microseconds of `CLOCK_MONOTONIC`, shared
+//! with the host.
 
 use std::collections::VecDeque;
 use std::os::fd::{AsFd, OwnedFd};
@@ -14,16 +13,9 @@ use std::time::Duration;
 
 use anyhow::Context as _;
 
+use crate::clock::{STATS_RING, monotonic_us, push_ring};
 use crate::link::Transport;
 use crate::link::proxy::{Faults, Faulty};
-
-/// Microseconds of `CLOCK_MONOTONIC`: the clock the simulated device and
-/// the host share.
-pub fn monotonic_us() -> u64 {
-    let ts = nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
-        .expect("CLOCK_MONOTONIC is always available on Linux");
-    ts.tv_sec() as u64 * 1_000_000 + ts.tv_nsec() as u64 / 1_000
-}
 
 /// Ask for real-time (FIFO) scheduling of the calling thread, so step
 /// deadlines and centroid updates are not delayed behind other processes.
@@ -66,28 +58,6 @@ pub struct SimStats {
     /// Mute transitions: (due time µs, muted), the most recent
     /// [`STATS_RING`].
     pub mute_changes: VecDeque<(u64, bool)>,
-}
-
-/// How many recent latencies [`SimStats`] keeps (memory stays bounded).
-pub const STATS_RING: usize = 16_384;
-
-/// Push into a bounded ring.
-pub fn push_ring(ring: &mut VecDeque<u64>, v: u64) {
-    if ring.len() == STATS_RING {
-        ring.pop_front();
-    }
-    ring.push_back(v);
-}
-
-/// The `p`-th percentile (0–100) of `values`, nearest rank.
-pub fn percentile(values: impl IntoIterator<Item = u64>, p: f64) -> Option<u64> {
-    let mut v: Vec<u64> = values.into_iter().collect();
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_unstable();
-    let rank = ((p / 100.0) * v.len() as f64).ceil().max(1.0) as usize;
-    Some(v[rank.min(v.len()) - 1])
 }
 
 /// A clock: the real monotonic one, or a virtual one tests advance.
@@ -585,28 +555,5 @@ impl SimThread {
 impl Drop for SimThread {
     fn drop(&mut self) {
         let _ = self.halt();
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn percentile_by_nearest_rank() {
-        assert_eq!(percentile([5, 1, 4, 2, 3], 50.0), Some(3));
-        assert_eq!(percentile([5, 1, 4, 2, 3], 100.0), Some(5));
-        assert_eq!(percentile((1..=100).rev(), 99.0), Some(99));
-        assert_eq!(percentile([], 99.0), None);
-    }
-
-    #[test]
-    fn ring_stays_bounded() {
-        let mut r = VecDeque::new();
-        for i in 0..(STATS_RING as u64 + 10) {
-            push_ring(&mut r, i);
-        }
-        assert_eq!(r.len(), STATS_RING);
-        assert_eq!(r.front(), Some(&10));
     }
 }

@@ -16,7 +16,8 @@
 //!   an error.
 
 use crate::error::InputError;
-use crate::scene::{LmPlane, Scene, Vec3, add, scale};
+use crate::geom::{Vec3, add, scale};
+use crate::scene::{LmPlane, Scene};
 
 /// Most foci per step the planner accepts.
 pub const MAX_FOCI: usize = 32;

@@ -16,9 +16,9 @@ use std::time::Duration;
 use lm_proto::{Encoding, PlayAt, UploadHeader};
 use lmhost::link::proxy::{Faults, Faulty};
 use lmhost::link::{Client, LinkError, UploadSpec};
+use lmhost::rng::SplitMix64;
 use lmhost::sequence::Sequence;
 use lmhost::simdev::{CapturedFrame, Clock, FwCore, InProcess, SimConfig};
-use lmhost::stream::synthetic::SplitMix64;
 
 type Link = Faulty<InProcess<FwCore>>;
 

@@ -9,9 +9,10 @@
 use std::sync::{Arc, Mutex};
 
 use lm_proto::{Centroid, Encoding, PlayAt};
+use lmhost::clock::STATS_RING;
 use lmhost::link::{Client, UploadSpec};
 use lmhost::sequence::Plan;
-use lmhost::simdev::{Clock, Core, FwCore, InProcess, STATS_RING, SimConfig};
+use lmhost::simdev::{Clock, Core, FwCore, InProcess, SimConfig};
 
 fn rss_kib() -> u64 {
     let statm = std::fs::read_to_string("/proc/self/statm").unwrap();

@@ -22,6 +22,8 @@ use std::time::{Duration, Instant};
 const THUMB: &str = "thumbv7em-none-eabihf";
 /// Package name of the QEMU board crate.
 const QEMU_PKG: &str = "lm-fw-qemu";
+/// Package (and binary) name of the Nucleo-H743 board crate.
+const NUCLEO_PKG: &str = "lm-fw-nucleo-h743";
 /// Binary that runs the on-target tests under QEMU.
 const SELFTEST_BIN: &str = "lm-fw-qemu-selftest";
 /// QEMU machine: Cortex-M4F, CMSDK UART0 at 0x4000_4000, 25 MHz APB timers.
@@ -132,20 +134,7 @@ impl Ctx {
     }
 
     fn nucleo_elf(&self) -> PathBuf {
-        self.nucleo_target_dir()
-            .join(THUMB)
-            .join("release/lm-fw-nucleo-h743")
-    }
-
-    /// The Nucleo crate is its own workspace with its own `target/`, which is
-    /// where `lmhost flash --board nucleo-h743` looks; with CARGO_TARGET_DIR
-    /// set, a subdirectory of that instead.
-    fn nucleo_target_dir(&self) -> PathBuf {
-        if std::env::var_os("CARGO_TARGET_DIR").is_some() {
-            self.target_dir.join("nucleo-h743")
-        } else {
-            self.root.join("firmware/nucleo-h743/target")
-        }
+        self.thumb_release_dir().join(NUCLEO_PKG)
     }
 }
 
@@ -336,15 +325,11 @@ fn step_qemu_selftest(c: &Ctx) -> Result<(), String> {
     run_with_timeout(qemu_cmd(&elf, true).args(["-serial", "null"]), QEMU_TIMEOUT)
 }
 
+/// Its own cargo invocation: built together with the QEMU board, the
+/// Nucleo PAC's `rt` feature would switch on cortex-m-rt's `device` feature
+/// for the QEMU board too (see ARCHITECTURE.md, Memory maps).
 fn nucleo_build(c: &Ctx) -> Result<(), String> {
-    let manifest = c.root.join("firmware/nucleo-h743/Cargo.toml");
-    let target_dir = c.nucleo_target_dir();
-    let mut cmd = c.cargo(&["build", "--release", "--target", THUMB]);
-    cmd.arg("--manifest-path")
-        .arg(manifest)
-        .arg("--target-dir")
-        .arg(target_dir);
-    run(cmd)
+    thumb_build(c, &["-p", NUCLEO_PKG])
 }
 
 fn step_build_nucleo(c: &Ctx) -> Result<(), String> {
@@ -432,13 +417,7 @@ fn build_fw(c: &Ctx) -> Result<(), String> {
     nucleo_build(c)?;
     println!("QEMU firmware: {}", c.firmware_elf().display());
     println!("QEMU on-target tests: {}", c.selftest_elf().display());
-    println!(
-        "Nucleo-H743 firmware: {}",
-        c.nucleo_target_dir()
-            .join(THUMB)
-            .join("release/lm-fw-nucleo-h743")
-            .display()
-    );
+    println!("Nucleo-H743 firmware: {}", c.nucleo_elf().display());
     Ok(())
 }
 

@@ -102,11 +102,13 @@ mod device;
 pub mod gate;
 pub mod output;
 pub mod player;
+pub mod serve;
 pub mod store;
 pub mod time;
 
 pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
 pub use output::{Frame, OutputDriver, Record, RecordingDriver, SpiOutput};
+pub use serve::{HostLink, Server, serve};
 pub use store::{CHUNK_LOG, SLOTS, StoreError, memory_bytes};
 pub use time::TimeExtender;
 

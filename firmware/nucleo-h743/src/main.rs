@@ -1,7 +1,7 @@
 //! LM firmware for the STM32H743ZI Nucleo-144: USART3 (ST-LINK virtual COM
 //! port) carries the protocol, TIM2 at 1 MHz drives the player, SPI1 sends
 //! every step's frame to the transducer driver. Peripheral setup is in
-//! [`board`]; everything else is `lm_fw_core::Device`.
+//! [`board`]; the main loop is `lm_fw_core::serve`, as on every board.
 #![no_std]
 #![no_main]
 
@@ -12,7 +12,7 @@ use core::ptr::addr_of_mut;
 
 use cortex_m::peripheral::NVIC;
 use cortex_m_rt::entry;
-use lm_fw_core::{Config, Device, SpiOutput, TimeExtender, memory_bytes};
+use lm_fw_core::{Config, Device, SpiOutput, memory_bytes, serve};
 use stm32h7::stm32h743v::{self as pac, interrupt};
 
 /// Raw phase bytes per slot: 232 KiB (200 steps × 996 transducers need
@@ -34,11 +34,7 @@ fn main() -> ! {
     let Some(dp) = pac::Peripherals::take() else {
         panic!("peripherals taken twice")
     };
-    let board::Board {
-        mut uart,
-        timer,
-        spi,
-    } = board::Board::init(dp);
+    let board::Board { link, timer, spi } = board::Board::init(dp);
     let mut cfg = Config::new(board::TIMER_HZ);
     cfg.max_transducers = ARRAY_TRANSDUCERS;
     // SAFETY: `main` runs once and is the only user of these statics.
@@ -49,21 +45,9 @@ fn main() -> ! {
             Err(e) => panic!("device setup: {e}"),
         }
     };
-    let mut out = SpiOutput::new(spi);
     // SAFETY: the handler only touches the receive side (see board::usart3_rx_isr).
     unsafe { NVIC::unmask(pac::Interrupt::USART3) };
-
-    let mut clock = TimeExtender::new();
-    let mut rx = [0u8; 256];
-    loop {
-        let n = board::RX.pop_into(&mut rx);
-        let now = clock.extend(timer.now());
-        if n > 0 {
-            dev.feed(&rx[..n], now, &mut |reply: &[u8]| uart.queue(reply));
-        }
-        dev.poll(now, &mut out);
-        uart.pump();
-    }
+    serve(link, || timer.now(), dev, &mut SpiOutput::new(spi))
 }
 
 #[interrupt]
@@ -74,11 +58,11 @@ fn USART3() {
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
     // Stop driving the array: disable SPI1 and release its chip select.
-    // SAFETY: nothing else runs after a panic (interrupts off first).
     cortex_m::interrupt::disable();
+    // SAFETY: nothing else runs after a panic (interrupts are off).
     let dp = unsafe { pac::Peripherals::steal() };
     dp.SPI1.cr1().write(|w| w.spe().clear_bit());
-    dp.GPIOD.bsrr().write(|w| unsafe { w.bits(1 << 14) });
+    dp.GPIOD.bsrr().write(|w| w.bs14().set_());
     loop {
         cortex_m::asm::wfi();
     }

@@ -2,7 +2,8 @@
 //! UART0 that carries the protocol, CMSDK TIMER0 as the player's free-running
 //! clock, a counting output sink, and a panic handler that reports over
 //! semihosting and exits QEMU with a failure status. No logic of its own:
-//! [`serve`] hands received bytes and timer counts to [`lm_fw_core::Device`].
+//! [`lm_fw_core::serve`] hands received bytes and timer counts to
+//! [`lm_fw_core::Device`].
 //!
 //! Output: QEMU's AN386 model has no device behind an SPI bus that could
 //! stand for the transducer driver, so frames go to [`FrameCounter`], which
@@ -14,7 +15,7 @@
 
 use core::ptr::{read_volatile, write_volatile};
 
-use lm_fw_core::{Config, Device, Frame, OutputDriver, TimeExtender};
+use lm_fw_core::{Config, Frame, HostLink, OutputDriver};
 
 /// Raw phase bytes per slot: 256 KiB (200 steps × 996 transducers need 199,200).
 pub const SLOT_BYTES: usize = 256 * 1024;
@@ -161,29 +162,26 @@ impl OutputDriver for FrameCounter {
     }
 }
 
-/// The firmware's main loop: UART bytes into [`Device::feed`] (replies
-/// back out), and [`Device::poll`] against TIMER0 on every pass. Polled:
-/// QEMU delivers UART input one byte at a time as the guest reads it, so
-/// nothing is lost while a step is computed.
-pub fn serve(mut uart: Uart, timer: Timer, dev: &mut Device<'_>, out: &mut impl OutputDriver) -> ! {
-    let mut clock = TimeExtender::new();
-    let mut rx = [0u8; 64];
-    loop {
+/// UART0 as the serve loop's host link. Polled: QEMU delivers UART input
+/// one byte at a time as the guest reads it, so nothing is lost while a
+/// step is computed.
+impl HostLink for Uart {
+    fn receive(&mut self, buf: &mut [u8]) -> usize {
         let mut n = 0;
-        while n < rx.len() {
-            match uart.try_read() {
+        while n < buf.len() {
+            match self.try_read() {
                 Some(b) => {
-                    rx[n] = b;
+                    buf[n] = b;
                     n += 1;
                 }
                 None => break,
             }
         }
-        let now = clock.extend(timer.now());
-        if n > 0 {
-            dev.feed(&rx[..n], now, &mut |reply: &[u8]| uart.write_all(reply));
-        }
-        dev.poll(now, out);
+        n
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        self.write_all(bytes);
     }
 }
 

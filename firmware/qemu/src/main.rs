@@ -8,8 +8,8 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use cortex_m_rt::entry;
-use lm_fw_core::Device;
-use lm_fw_qemu::{FrameCounter, STORE_BYTES, TIMER0_BASE, Timer, UART0_BASE, Uart, config, serve};
+use lm_fw_core::{Device, serve};
+use lm_fw_qemu::{FrameCounter, STORE_BYTES, TIMER0_BASE, Timer, UART0_BASE, Uart, config};
 
 /// Both sequence slots with their transducer positions.
 static mut SEQUENCE_STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
@@ -29,5 +29,5 @@ fn main() -> ! {
         let dev = (*addr_of_mut!(DEVICE)).write(dev);
         (Uart::new(UART0_BASE, 115_200), Timer::new(TIMER0_BASE), dev)
     };
-    serve(uart, timer, dev, &mut FrameCounter::default())
+    serve(uart, || timer.now(), dev, &mut FrameCounter::default())
 }

@@ -9,9 +9,10 @@ use anyhow::Context as _;
 use clap::Parser as _;
 use lm_proto::{DeviceState, Encoding, PlayAt};
 
+use crate::clock::{monotonic_us, percentile};
 use crate::link::transport::Serial;
 use crate::link::{Client, UploadSpec};
-use crate::simdev::{SimConfig, SimThread, monotonic_us, percentile};
+use crate::simdev::{SimConfig, SimThread};
 use crate::stream::filter::FilterKind;
 use crate::stream::run::{Pace, stream};
 use crate::stream::synthetic::FingerTrack;

@@ -27,8 +27,8 @@ pub struct Board {
 pub const BOARDS: &[Board] = &[Board {
     name: "nucleo-h743",
     chip: "STM32H743ZITx",
-    elf: "firmware/nucleo-h743/target/thumbv7em-none-eabihf/release/lm-fw-nucleo-h743",
-    build: "cd firmware/nucleo-h743 && cargo build --release",
+    elf: "target/thumbv7em-none-eabihf/release/lm-fw-nucleo-h743",
+    build: "cargo build -p lm-fw-nucleo-h743 --target thumbv7em-none-eabihf --release",
 }];
 
 /// Flash the firmware onto a board with a debug probe.

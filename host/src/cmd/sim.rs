@@ -75,7 +75,7 @@ impl Args {
         serve(core.clone(), pty, ServeOptions { faults }, stop)?;
         // Only reached with --seconds: what the device measured.
         let st = core.lock().unwrap_or_else(|e| e.into_inner()).stats();
-        let p = |q| crate::simdev::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
+        let p = |q| crate::clock::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
         eprintln!(
             "lmhost sim: {} frames ({} muted), {} centroid updates applied; host receipt → applying step p50 {} µs, p99 {} µs, max {} µs",
             st.frames,

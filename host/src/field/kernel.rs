@@ -14,7 +14,9 @@
 //! The same portable code is compiled three times: baseline, AVX2+FMA and
 //! AVX-512, chosen at run time.
 
-use super::{FieldModel, ObservationPlane, Stats, twiddles};
+use super::maps::{Stats, twiddles};
+use super::model::Source;
+use super::{FieldModel, ObservationPlane};
 use crate::directivity::Directivity;
 
 /// Points per block (a multiple of [`TILE_ROWS`]).
@@ -48,7 +50,7 @@ struct Shared<'a> {
     tw: Vec<(f64, f64)>,
 }
 
-fn soa(sources: &[super::Source]) -> [Vec<f64>; 6] {
+fn soa(sources: &[Source]) -> [Vec<f64>; 6] {
     let mut out: [Vec<f64>; 6] = Default::default();
     for s in sources {
         for a in 0..3 {

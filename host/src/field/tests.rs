@@ -1,8 +1,12 @@
 //! Physics tests of the field model and checks of the fast path against
 //! the f64 reference.
 
+use std::f64::consts::PI;
+
 use super::*;
-use crate::array::{autd3_local_center_mm, autd3_local_positions_mm};
+use crate::array::{Transducer, autd3_local_center_mm, autd3_local_positions_mm};
+use crate::geom::{axpy, dot, normalized, sub};
+use crate::rng::SplitMix64;
 
 const Z: [f64; 3] = [0.0, 0.0, 1.0];
 const X: [f64; 3] = [1.0, 0.0, 0.0];
@@ -52,21 +56,6 @@ fn plane_around(c: [f64; 3], half: f64, step: f64) -> ObservationPlane {
         width_mm: 2.0 * half,
         height_mm: 2.0 * half,
         step_mm: step,
-    }
-}
-
-/// Deterministic pseudo-random numbers (SplitMix64), no dependency.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
     }
 }
 
@@ -147,7 +136,7 @@ fn image_sources_equal_the_mirrored_scene() {
     let model = FieldModel::new(&tr, Directivity::T4010A1, Medium::default(), Some(refl)).unwrap();
     // The same scene built by hand: transducers plus their mirror images,
     // each image driven like its transducer.
-    let n = unit(refl.normal).unwrap();
+    let n = normalized(refl.normal).unwrap();
     let mut both = tr.clone();
     for t in &tr {
         let h = dot(sub(t.pos_mm, refl.point_mm), n);
@@ -211,7 +200,7 @@ fn eight_bit_and_exact_phases_differ_by_less_than_a_tenth_of_a_percent() {
 
 #[test]
 fn fast_path_matches_the_f64_reference_on_seeded_inputs() {
-    let mut rng = Rng(0x5EED_F1E1D);
+    let mut rng = SplitMix64::new(0x5EED_F1E1D);
     let tr = autd3();
     for case in 0..4 {
         let medium = Medium {

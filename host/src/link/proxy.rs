@@ -10,7 +10,7 @@ use std::str::FromStr;
 use std::time::Duration;
 
 use super::transport::Transport;
-use crate::stream::synthetic::SplitMix64;
+use crate::rng::SplitMix64;
 
 /// Fault rates. All zero is a clean link.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -8,8 +8,8 @@ use lm_proto::Centroid;
 
 use super::Sample;
 use super::filter::Filter;
+use crate::clock::monotonic_us;
 use crate::link::{Client, LinkError, Transport, mm_to_um};
-use crate::simdev::monotonic_us;
 
 /// How to pace samples.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,7 +30,7 @@ pub struct StreamReport {
     /// Updates sent with the finger present.
     pub present: u64,
     /// Per update: µs from host receipt of the sample to the device's ack.
-    /// Bounded: the most recent [`crate::simdev::STATS_RING`].
+    /// Bounded: the most recent [`crate::clock::STATS_RING`].
     #[serde(skip)]
     pub ack_us: std::collections::VecDeque<u64>,
     /// Seconds of streaming.
@@ -42,7 +42,7 @@ pub struct StreamReport {
 impl StreamReport {
     /// Percentile (0–100) of the ack latency, µs.
     pub fn ack_percentile_us(&self, p: f64) -> Option<u64> {
-        crate::simdev::percentile(self.ack_us.iter().copied(), p)
+        crate::clock::percentile(self.ack_us.iter().copied(), p)
     }
 }
 
@@ -93,7 +93,7 @@ where
         client.centroid(c).map_err(|e: LinkError| {
             anyhow::Error::new(e).context(format!("sending centroid #{seq}"))
         })?;
-        crate::simdev::push_ring(
+        crate::clock::push_ring(
             &mut report.ack_us,
             monotonic_us().saturating_sub(received_us),
         );

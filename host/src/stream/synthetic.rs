@@ -3,44 +3,7 @@
 //! known ground truth to judge filters against.
 
 use super::Sample;
-
-/// A small seeded generator (SplitMix64): reproducible tracks and faults
-/// without a dependency.
-#[derive(Debug, Clone)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// A generator from a seed.
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    pub fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Uniform in `0..n` (`n > 0`).
-    pub fn below(&mut self, n: u64) -> u64 {
-        ((self.next_u64() as u128 * n as u128) >> 64) as u64
-    }
-
-    /// Standard normal (Box–Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = self.next_f64().max(f64::MIN_POSITIVE);
-        let u2 = self.next_f64();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
+use crate::rng::SplitMix64;
 
 /// Parameters of the synthetic finger.
 #[derive(Debug, Clone, Copy)]
@@ -152,12 +115,5 @@ mod tests {
         };
         let s: Vec<_> = t.samples().take(180).collect();
         assert!(s[89].present && !s[90].present && !s[134].present && s[135].present);
-    }
-
-    #[test]
-    fn normal_has_unit_variance() {
-        let mut r = SplitMix64::new(7);
-        let v: f64 = (0..20_000).map(|_| r.normal().powi(2)).sum::<f64>() / 20_000.0;
-        assert!((v - 1.0).abs() < 0.05, "{v}");
     }
 }

@@ -1,7 +1,7 @@
 //! Plain f64 synthesis: the definition the fast path is checked against.
 
 use super::Weight;
-use crate::scene::{Vec3, norm, sub};
+use crate::geom::{Vec3, norm, sub};
 
 /// `frac(κ r)` with `κ = k / 2π` (turns per mm): the propagation phase of
 /// distance `r` in turns, reduced to `[−0.5, 0.5]` in f64.

@@ -18,7 +18,7 @@
 use super::Weight;
 use crate::array::Transducer;
 use crate::directivity::Directivity;
-use crate::scene::{Vec3, norm, sub};
+use crate::geom::{Vec3, norm, sub};
 
 /// A complex number (f64) for the solver.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

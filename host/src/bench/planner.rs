@@ -1,96 +1,16 @@
-//! The bench report behind `lmhost bench`: a list of sections, each a
-//! function that measures something and returns a serialisable struct plus
-//! human text. Other subsystems add a section by writing a
-//! `fn(&Options) -> anyhow::Result<Section>` and one line in [`SECTIONS`].
-//!
-//! Timings here are wall-clock medians on the current machine, one thread;
-//! the criterion benches in `host/benches/` are the careful measurement.
-//! Nothing here asserts a timing.
-
-use std::time::Instant;
+//! The `planner` section of `lmhost bench`: synthesis per frame (fast path,
+//! portable build, f64 reference), whole sequences, and the solvers.
 
 use lm_proto::codec::Encoding;
 use serde::Serialize;
 
-use crate::scene::{Scene, Vec3};
+use super::{Options, Section, time_per_call};
+use crate::geom::{self, Vec3};
+use crate::scene::Scene;
 use crate::sequence::{Sequence, SynthWorkspace, Synthesis};
 use crate::synth::fast::SynthPlan;
 use crate::synth::{Weight, error_lsb, reference, solver};
 use crate::trajectory::{LmParams, Trajectory};
-
-/// Report options.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Options {
-    /// Fewer repetitions (for tests and quick looks).
-    pub quick: bool,
-}
-
-/// One section of the report.
-#[derive(Debug, Clone, Serialize)]
-pub struct Section {
-    /// Short name (`planner`, `field`, ...).
-    pub name: String,
-    /// The section's figures.
-    pub data: serde_json::Value,
-    /// Human-readable lines.
-    #[serde(skip)]
-    pub text: String,
-}
-
-impl Section {
-    /// A section from any serialisable figures struct.
-    pub fn new(name: &str, data: &impl Serialize, text: String) -> anyhow::Result<Self> {
-        Ok(Self {
-            name: name.to_string(),
-            data: serde_json::to_value(data)?,
-            text,
-        })
-    }
-}
-
-/// A section producer.
-pub type SectionFn = fn(&Options) -> anyhow::Result<Section>;
-
-/// Every section, in report order: `(name, producer)`.
-pub const SECTIONS: &[(&str, SectionFn)] = &[
-    ("planner", planner_section),
-    ("field", crate::field::report::bench_section),
-];
-
-/// Runs the sections named in `only` (all when empty), in report order.
-pub fn run(opts: &Options, only: &[String]) -> anyhow::Result<Vec<Section>> {
-    for name in only {
-        if !SECTIONS.iter().any(|(n, _)| n == name) {
-            let known: Vec<_> = SECTIONS.iter().map(|(n, _)| *n).collect();
-            return Err(crate::InputError::new(format!(
-                "unknown bench section `{name}`; known: {}",
-                known.join(", ")
-            ))
-            .into());
-        }
-    }
-    SECTIONS
-        .iter()
-        .filter(|(n, _)| only.is_empty() || only.iter().any(|o| o == n))
-        .map(|(_, f)| f(opts))
-        .collect()
-}
-
-/// Median time per call (s) of `f`, over `batches` batches of `reps` calls.
-pub fn time_per_call(batches: usize, reps: usize, mut f: impl FnMut()) -> f64 {
-    f();
-    let mut t: Vec<f64> = (0..batches.max(1))
-        .map(|_| {
-            let s = Instant::now();
-            for _ in 0..reps.max(1) {
-                f();
-            }
-            s.elapsed().as_secs_f64() / reps.max(1) as f64
-        })
-        .collect();
-    t.sort_by(f64::total_cmp);
-    t[t.len() / 2]
-}
 
 /// Frame timing and accuracy of one synthesis case.
 #[derive(Debug, Clone, Serialize)]
@@ -248,14 +168,13 @@ fn solver_cases(scene: &Scene, case: &str, foci: &[Vec3]) -> Vec<SolverFigures> 
         solver::weighted_turns(&t, foci, &vec![Weight::ONE; m], k),
     );
     // Weighted: each focus weighted by its distance (compensates 1/r).
-    let c = crate::scene::scale(
-        t.iter()
-            .fold([0.0; 3], |a, tr| crate::scene::add(a, tr.pos_mm)),
+    let c = geom::scale(
+        t.iter().fold([0.0; 3], |a, tr| geom::add(a, tr.pos_mm)),
         1.0 / t.len() as f64,
     );
     let w: Vec<Weight> = foci
         .iter()
-        .map(|f| Weight::real(crate::scene::norm(crate::scene::sub(*f, c))))
+        .map(|f| Weight::real(geom::norm(geom::sub(*f, c))))
         .collect();
     add("weighted (w = r)", solver::weighted_turns(&t, foci, &w, k));
     add(
@@ -266,7 +185,7 @@ fn solver_cases(scene: &Scene, case: &str, foci: &[Vec3]) -> Vec<SolverFigures> 
 }
 
 /// Measures the planner: frames, sequences, solvers.
-pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
+pub fn section(opts: &Options) -> anyhow::Result<Section> {
     let scene = Scene::default();
     let plan = SynthPlan::new(&scene.transducers(), scene.wavenumber_rad_per_mm());
     let mut frames = Vec::new();
@@ -377,30 +296,4 @@ pub fn planner_section(opts: &Options) -> anyhow::Result<Section> {
         },
         text,
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn quick_planner_section_reports_accuracy_and_ratio() {
-        let s = run(&Options { quick: true }, &["planner".into()]).unwrap();
-        assert_eq!(s.len(), 1);
-        let d = &s[0].data;
-        for f in d["frames"].as_array().unwrap() {
-            assert!(f["max_err_lsb"].as_f64().unwrap() <= 0.51);
-            assert!(f["fast_us"].as_f64().unwrap() > 0.0);
-        }
-        for q in d["sequences"].as_array().unwrap() {
-            assert!(q["delta_ratio"].as_f64().unwrap() <= 0.5);
-        }
-        assert!(s[0].text.contains("frame, 4 foci"));
-    }
-
-    #[test]
-    fn unknown_section_is_an_input_error() {
-        let e = run(&Options { quick: true }, &["nope".into()]).unwrap_err();
-        assert!(e.chain().any(|c| c.is::<crate::InputError>()));
-    }
 }

@@ -3,8 +3,11 @@
 
 use serde::Serialize;
 
-use super::{FieldMaps, ObservationPlane, Radiation, peak, simulate, simulate_reference};
-use crate::bench::{Options, Section, time_per_call};
+use super::{Options, Section, time_per_call};
+use crate::field::{
+    DEFAULT_DENSITY_KG_M3, FieldMaps, ObservationPlane, Radiation, fast_path_isa, model_for_scene,
+    peak, simulate, simulate_reference,
+};
 use crate::scene::Scene;
 use crate::sequence::{Sequence, Synthesis};
 use crate::trajectory::{LmParams, Trajectory};
@@ -69,13 +72,13 @@ fn max_over_peak(fast: &FieldMaps, reference: &FieldMaps) -> f64 {
 
 /// The `field` bench section: LM-M, A = 3 mm, 4 foci, N = 82 on the
 /// built-in 996-transducer array, maps on the default 101 × 101 LM plane.
-pub fn bench_section(opts: &Options) -> anyhow::Result<Section> {
+pub fn section(opts: &Options) -> anyhow::Result<Section> {
     let scene = Scene::default();
     let mut p = LmParams::paper(scene.center_mm);
     p.foci = 4;
     let traj = Trajectory::plan(&p, &scene)?;
     let seq = Sequence::synthesize(&scene, &traj, &Synthesis::Linear)?;
-    let model = super::model_for_scene(&scene, super::DEFAULT_DENSITY_KG_M3)?;
+    let model = model_for_scene(&scene, DEFAULT_DENSITY_KG_M3)?;
     let plane = ObservationPlane::lm_default(traj.center_mm, scene.lm_plane.a, scene.lm_plane.b);
     let rad = Radiation::default();
     let steps = traj.steps;
@@ -111,7 +114,7 @@ pub fn bench_section(opts: &Options) -> anyhow::Result<Section> {
         points,
         transducers: model.transducers(),
         steps,
-        isa: super::fast_path_isa().to_string(),
+        isa: fast_path_isa().to_string(),
         fast_s,
         reference_s_per_point,
         reference_full_s,

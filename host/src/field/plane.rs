@@ -1,0 +1,109 @@
+//! The observation plane: a rectangular grid of points in space, the
+//! coordinates of every map.
+
+use super::FieldError;
+use crate::geom::{axpy, dot, is_finite, normalized, sub};
+
+/// Largest observation grid accepted (points), to keep memory bounded.
+pub const MAX_GRID_POINTS: usize = 4_000_000;
+
+/// A rectangular grid on a plane in space.
+///
+/// Point `(iu, iv)` is at `center + (iu·step − width/2)·u + (iv·step −
+/// height/2)·v`, `iu < nu`, `iv < nv`. Maps are stored row-major by `iv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObservationPlane {
+    /// Centre of the grid (mm).
+    pub center_mm: [f64; 3],
+    /// First in-plane axis (unit vector; map columns).
+    pub u: [f64; 3],
+    /// Second in-plane axis (unit vector; map rows).
+    pub v: [f64; 3],
+    /// Extent along `u` (mm).
+    pub width_mm: f64,
+    /// Extent along `v` (mm).
+    pub height_mm: f64,
+    /// Grid spacing (mm).
+    pub step_mm: f64,
+}
+
+impl ObservationPlane {
+    /// The default LM plane: 20 × 20 mm at 0.2 mm around `center_mm`
+    /// spanned by `u` and `v` (101 × 101 points).
+    pub fn lm_default(center_mm: [f64; 3], u: [f64; 3], v: [f64; 3]) -> Self {
+        Self {
+            center_mm,
+            u,
+            v,
+            width_mm: 20.0,
+            height_mm: 20.0,
+            step_mm: 0.2,
+        }
+    }
+
+    /// Check the plane and return it with `u`, `v` normalised.
+    pub fn validated(mut self) -> Result<Self, FieldError> {
+        let bad = |m: &str| Err(FieldError::BadPlane(m.to_string()));
+        if !is_finite(self.center_mm) {
+            return bad("the centre must be finite");
+        }
+        let (Some(u), Some(v)) = (normalized(self.u), normalized(self.v)) else {
+            return bad("the axes must be finite and non-zero");
+        };
+        if dot(u, v).abs() > 1e-6 {
+            return bad("the axes must be perpendicular");
+        }
+        if !(self.step_mm.is_finite() && self.step_mm > 0.0) {
+            return bad("the step must be finite and positive");
+        }
+        for (name, w) in [("width", self.width_mm), ("height", self.height_mm)] {
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(FieldError::BadPlane(format!(
+                    "the {name} must be finite and ≥ 0"
+                )));
+            }
+        }
+        self.u = u;
+        self.v = v;
+        let n = self.nu().saturating_mul(self.nv());
+        if n > MAX_GRID_POINTS {
+            return Err(FieldError::BadPlane(format!(
+                "{} × {} = {n} points is more than {MAX_GRID_POINTS}; use a coarser step",
+                self.nu(),
+                self.nv()
+            )));
+        }
+        Ok(self)
+    }
+
+    fn count(extent: f64, step: f64) -> usize {
+        // Tolerate rounding of e.g. 20 / 0.2.
+        ((extent / step + 1e-9).floor() as usize).saturating_add(1)
+    }
+    /// Columns (points along `u`).
+    pub fn nu(&self) -> usize {
+        Self::count(self.width_mm, self.step_mm)
+    }
+    /// Rows (points along `v`).
+    pub fn nv(&self) -> usize {
+        Self::count(self.height_mm, self.step_mm)
+    }
+    /// In-plane coordinates (mm, relative to the centre) of column `iu`.
+    pub fn u_mm(&self, iu: usize) -> f64 {
+        iu as f64 * self.step_mm - (self.nu() - 1) as f64 * self.step_mm / 2.0
+    }
+    /// In-plane coordinates (mm, relative to the centre) of row `iv`.
+    pub fn v_mm(&self, iv: usize) -> f64 {
+        iv as f64 * self.step_mm - (self.nv() - 1) as f64 * self.step_mm / 2.0
+    }
+    /// Point `(iu, iv)` in space (mm).
+    pub fn point(&self, iu: usize, iv: usize) -> [f64; 3] {
+        let (a, b) = (self.u_mm(iu), self.v_mm(iv));
+        axpy(b, self.v, axpy(a, self.u, self.center_mm))
+    }
+    /// In-plane coordinates (mm) of a point in space (its projection).
+    pub fn project(&self, p_mm: [f64; 3]) -> [f64; 2] {
+        let d = sub(p_mm, self.center_mm);
+        [dot(d, self.u), dot(d, self.v)]
+    }
+}
