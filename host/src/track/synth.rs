@@ -15,7 +15,7 @@
 //! tremor (≈ 0.1 mm at 8–11 Hz) to 2.5 s, slide ±2.5 mm along a to 4 s,
 //! rest to 4.8 s, leave by 5.6 s, away to 6 s.
 
-use super::contact::{Contact, Tracker};
+use super::contact::{Contact, Roi, Tracker};
 use super::intrinsics::Intrinsics;
 use super::rig::Rig;
 use crate::scene::{Vec3, add, dot, scale, sub};
@@ -47,6 +47,11 @@ pub struct FingerSim {
     pub background: Option<(Vec3, Vec3)>,
     /// Noise seed.
     pub seed: u64,
+    /// Length of one motion cycle (s); the timeline above is stretched to it.
+    pub period_s: f64,
+    /// Render only these pixels (the rest stay 0, no data), e.g. the
+    /// tracker's rectangle: identical results for the tracker, far less work.
+    pub window: Option<Roi>,
 }
 
 /// Ground truth of one frame.
@@ -74,12 +79,14 @@ impl FingerSim {
             second_object: None,
             background,
             seed: 1,
+            period_s: PERIOD_S,
+            window: None,
         }
     }
 
     /// The pad tip in box coordinates at `t_s`, `None` while away.
     pub fn tip_box(&self, t_s: f64) -> Option<Vec3> {
-        let t = t_s.rem_euclid(PERIOD_S);
+        let t = (t_s / self.period_s * PERIOD_S).rem_euclid(PERIOD_S);
         let face = self.rig.track_box.size_mm[2] / 2.0;
         let rest = face - self.rest_depth_mm;
         let out = face + 15.0;
@@ -89,9 +96,9 @@ impl FingerSim {
         };
         let two_pi = 2.0 * std::f64::consts::PI;
         let tremor = [
-            0.10 * (two_pi * 9.0 * t).sin(),
-            0.08 * (two_pi * 11.0 * t + 1.0).sin(),
-            0.05 * (two_pi * 8.0 * t + 2.0).sin(),
+            0.10 * (two_pi * 9.0 * t_s).sin(),
+            0.08 * (two_pi * 11.0 * t_s + 1.0).sin(),
+            0.05 * (two_pi * 8.0 * t_s + 2.0).sin(),
         ];
         let (c, a) = match t {
             t if t < 0.8 => (out + (rest - out) * smooth(t / 0.8), 0.0),
@@ -178,15 +185,22 @@ impl FingerSim {
             let m = |v: Vec3| scale(v, 1.0 / rad);
             spheres.push([m(sub(o, centre)), m(d0), m(dc), m(dr)]);
         }
-        for r in 0..intr.height {
+        let win = self.window.unwrap_or(Roi {
+            c0: 0,
+            c1: intr.width,
+            r0: 0,
+            r1: intr.height,
+        });
+        let (c0, c1) = (win.c0.min(intr.width), win.c1.min(intr.width));
+        for r in win.r0..win.r1.min(intr.height) {
             let rf = r as f64;
             let row_d = add(d0, scale(dr, rf));
             let row_s: Vec<(Vec3, Vec3, Vec3)> = spheres
                 .iter()
                 .map(|[so, sd0, sdc, sdr]| (*so, add(*sd0, scale(*sdr, rf)), *sdc))
                 .collect();
-            let line = &mut out[(r * intr.width) as usize..((r + 1) * intr.width) as usize];
-            for (c, px) in line.iter_mut().enumerate() {
+            let line = &mut out[(r * intr.width + c0) as usize..(r * intr.width + c1) as usize];
+            for (c, px) in (c0..).zip(line.iter_mut()) {
                 let cf = c as f64;
                 let mut z = f64::INFINITY;
                 for (so, sd, sdc) in &row_s {
