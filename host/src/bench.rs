@@ -55,6 +55,7 @@ pub type SectionFn = fn(&Options) -> anyhow::Result<Section>;
 pub const SECTIONS: &[(&str, SectionFn)] = &[
     ("planner", planner_section),
     ("field", crate::field::report::bench_section),
+    ("track", crate::track::report::bench_section),
 ];
 
 /// Runs the sections named in `only` (all when empty), in report order.

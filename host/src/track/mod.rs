@@ -16,6 +16,7 @@ pub mod intrinsics;
 pub mod npy;
 pub mod plot;
 pub mod presence;
+pub mod report;
 pub mod rig;
 pub mod source;
 pub mod surface;

@@ -52,6 +52,8 @@ pub struct FingerSim {
     /// Render only these pixels (the rest stay 0, no data), e.g. the
     /// tracker's rectangle: identical results for the tracker, far less work.
     pub window: Option<Roi>,
+    /// Where in the motion cycle frame 0 is (s of the 6 s timeline).
+    pub phase_s: f64,
 }
 
 /// Ground truth of one frame.
@@ -81,12 +83,13 @@ impl FingerSim {
             seed: 1,
             period_s: PERIOD_S,
             window: None,
+            phase_s: 0.0,
         }
     }
 
     /// The pad tip in box coordinates at `t_s`, `None` while away.
     pub fn tip_box(&self, t_s: f64) -> Option<Vec3> {
-        let t = (t_s / self.period_s * PERIOD_S).rem_euclid(PERIOD_S);
+        let t = (t_s / self.period_s * PERIOD_S + self.phase_s).rem_euclid(PERIOD_S);
         let face = self.rig.track_box.size_mm[2] / 2.0;
         let rest = face - self.rest_depth_mm;
         let out = face + 15.0;
