@@ -10,6 +10,16 @@
 //!
 //! The stream ends at a frame boundary; a partial frame is an error.
 //!
+//! The live camera (`lmhost track --camera`) is this stream produced by a
+//! small Python bridge on the `pyrealsense2` wheel ([`BRIDGE_PY`], embedded
+//! and run as `python3 -c`; `LMHOST_PYTHON` picks another interpreter). A
+//! direct V4L2 path was not taken: the crates.io V4L2 bindings (`v4l` /
+//! `v4l2-sys-mit`) run bindgen at build time, which needs libclang and
+//! kernel headers, and librealsense's own wheel also sets the depth units
+//! and reports calibrated intrinsics. The bridge needs no Cargo feature:
+//! nothing is linked. Any other tool can write the stream to
+//! `lmhost track --stream -`.
+//!
 //! A recording `REC.npy` is replayed with its intrinsics from
 //! `REC.intrinsics.toml` and time stamps from `REC.timestamps.npy` when
 //! those files sit beside it and no other is given.
