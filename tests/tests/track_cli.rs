@@ -59,10 +59,13 @@ fn synthetic_frames_give_one_json_object_per_frame() {
         &paper(),
         "--intrinsics",
         &cam,
+        "--z-profile",
+        "3,8",
     ]);
     let v = lines(&out);
     assert_eq!(v.len(), 135);
     let mut present = 0;
+    let mut rising = 0;
     for (i, o) in v.iter().enumerate() {
         let points = o["points"].as_u64().unwrap();
         assert_eq!(o["present"].as_bool().unwrap(), points >= 20, "{o}");
@@ -71,6 +74,11 @@ fn synthetic_frames_give_one_json_object_per_frame() {
         assert!(o.get("filtered_mm").is_none(), "no filter, no device: {o}");
         if o["present"] == true {
             present += 1;
+            // The pad curves away from its centre: z_j mostly above it.
+            let z = o["z_profile_mm"].as_array().unwrap();
+            assert_eq!(z.len(), 8, "{o}");
+            let mean: f64 = z.iter().map(|v| v.as_f64().unwrap()).sum::<f64>() / 8.0;
+            rising += (mean > 0.0) as u32;
             let (c, t) = (&o["centroid_mm"], &o["truth_mm"]);
             for k in 0..3 {
                 let e = c[k].as_f64().unwrap() - t[k].as_f64().unwrap();
@@ -80,6 +88,7 @@ fn synthetic_frames_give_one_json_object_per_frame() {
     }
     // The finger arrives at ≈ 0.5 s and rests from 0.8 s.
     assert!(present > 60, "{present}");
+    assert!(rising * 10 > present * 9, "{rising} of {present}");
     assert_eq!(v[0]["present"], false);
 }
 

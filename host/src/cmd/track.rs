@@ -86,6 +86,15 @@ pub struct Args {
     /// Centroid filter [default: gaussian (the paper's) with --port, else none].
     #[arg(long, value_enum)]
     filter: Option<FilterKind>,
+    /// Also measure the finger surface's depth z_j along a circle of
+    /// RADIUS_MM in STEPS steps about the centroid (relative to the centre,
+    /// along the box's third axis): JSON key `z_profile_mm`, and `replan`
+    /// when it moved more than --replan-mm from the last planned profile.
+    #[arg(long, value_name = "RADIUS_MM,STEPS")]
+    z_profile: Option<String>,
+    /// Re-plan threshold for --z-profile (mm).
+    #[arg(long, value_name = "MM", default_value_t = 0.3, requires = "z_profile")]
+    replan_mm: f64,
     /// Consecutive frames with a contact area that open the device gate.
     #[arg(long, value_name = "N", default_value_t = 2)]
     enter_frames: u32,
@@ -107,6 +116,8 @@ struct Tally {
 }
 
 struct Run {
+    z_profile: Option<(f64, usize, crate::track::surface::Replanner)>,
+    replans: u64,
     src: Box<dyn FrameSource>,
     pipe: Pipeline,
     rec: Option<Recorder>,
@@ -139,7 +150,8 @@ impl Run {
             }
         }
         let res = self.pipe.step(frame.t_s, &frame.depth);
-        self.report(&frame, &res);
+        let profile = self.z_profile(&frame, &res);
+        self.report(&frame, &res, profile);
         let index = self.tally.frames - 1;
         if self.want_plot {
             let keep = match self.plot_at {
@@ -155,7 +167,26 @@ impl Run {
         Ok(Some(res))
     }
 
-    fn report(&mut self, frame: &Frame, r: &FrameResult) {
+    /// The relative depth profile about the raw centroid, and whether a
+    /// re-plan is due.
+    fn z_profile(&mut self, frame: &Frame, r: &FrameResult) -> Option<(Vec<f64>, bool)> {
+        let (radius, steps, replan) = self.z_profile.as_mut()?;
+        let c = r.centroid_mm()?;
+        let tb = &self.pipe.tracker.rig().track_box;
+        let rel = crate::scene::sub(c, tb.center_mm);
+        let ab = [
+            crate::scene::dot(tb.axes[0], rel),
+            crate::scene::dot(tb.axes[1], rel),
+        ];
+        let prof =
+            crate::track::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
+        let rel = crate::track::surface::relative(&prof)?;
+        let due = replan.update(&rel);
+        self.replans += due as u64;
+        Some((rel, due))
+    }
+
+    fn report(&mut self, frame: &Frame, r: &FrameResult, profile: Option<(Vec<f64>, bool)>) {
         for t in [&mut self.tally, &mut self.second] {
             t.frames += 1;
             t.present += r.present as u64;
@@ -192,6 +223,10 @@ impl Run {
             if self.show_filtered {
                 v["gated_present"] = r.gated.into();
                 v["filtered_mm"] = serde_json::json!(r.filtered_mm);
+            }
+            if self.z_profile.is_some() {
+                v["z_profile_mm"] = serde_json::json!(profile.as_ref().map(|p| &p.0));
+                v["replan"] = profile.as_ref().is_some_and(|p| p.1).into();
             }
             if let Some(truth) = &frame.truth {
                 v["truth_present"] = truth.present.into();
@@ -335,8 +370,30 @@ impl Args {
             std::fs::create_dir_all(d)
                 .with_context(|| format!("creating the plot directory {}", d.display()))?;
         }
+        let z_profile = match &self.z_profile {
+            None => None,
+            Some(spec) => {
+                let bad = || {
+                    crate::InputError::new(format!(
+                        "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
+                    ))
+                };
+                let (r, n) = spec.split_once(',').ok_or_else(bad)?;
+                let r: f64 = r.trim().parse().map_err(|_| bad())?;
+                let n: usize = n.trim().parse().map_err(|_| bad())?;
+                if !(r > 0.0 && r <= 20.0 && (1..=1000).contains(&n)) {
+                    return Err(bad().into());
+                }
+                if !(self.replan_mm.is_finite() && self.replan_mm >= 0.0) {
+                    crate::bad_input!("--replan-mm {} must be ≥ 0", self.replan_mm);
+                }
+                Some((r, n, crate::track::surface::Replanner::new(self.replan_mm)))
+            }
+        };
         let live = src.live();
         let mut run = Run {
+            z_profile,
+            replans: 0,
             src,
             pipe,
             rec,
@@ -432,6 +489,12 @@ impl Args {
                 (t.err2 / t.err_n.max(1) as f64).sqrt(),
                 t.err_n,
                 t.presence_wrong
+            ));
+        }
+        if run.z_profile.is_some() {
+            out(format!(
+                "surface depth profile: {} re-plans above {} mm in {} frames",
+                run.replans, self.replan_mm, t.frames
             ));
         }
         if let Some((r, where_)) = device_report {
