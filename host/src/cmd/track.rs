@@ -500,12 +500,14 @@ impl Args {
         if let Some((r, where_)) = device_report {
             let p = |q| r.ack_percentile_us(q).unwrap_or(0);
             out(format!(
-                "streamed {} centroids ({} present) to {where_}; frame → device ack p50 {} µs, p99 {} µs, plus the {} filter's lag",
+                "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {:.0} µs + device ack p50 {} µs, p99 {} µs, plus the {} filter's lag {:.1} ms (90 fps)",
                 r.acked,
                 r.present,
+                percentile(&t.track_us, 50.0),
                 p(50.0),
                 p(99.0),
-                kind.name()
+                kind.name(),
+                crate::track::report::filter_lag_ms(kind, 90.0)
             ));
         }
         Ok(())

@@ -330,7 +330,7 @@ impl DepthNpyWriter {
         }
         self.file.write_all(&bytes)?;
         self.frames += 1;
-        if self.frames % 90 == 0 {
+        if self.frames.is_multiple_of(90) {
             self.file.flush()?;
             self.write_header()?;
         }

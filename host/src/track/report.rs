@@ -229,20 +229,26 @@ impl DepthFeed {
         v[((p / 100.0) * (v.len() - 1) as f64).round() as usize] * 1e6
     }
 
-    /// The filter's lag (ms) on a finger moving at constant speed: the
-    /// Gaussian's (N − 1)/2 frames, else measured on the synthetic track.
+    /// The filter's lag (ms): [`filter_lag_ms`] at the feed's frame rate.
     pub fn filter_lag_ms(&self) -> f64 {
-        match self.filter {
-            FilterKind::None => 0.0,
-            FilterKind::Gaussian => 4.5 / self.sim.rate_hz * 1e3,
-            k => {
-                crate::stream::metrics::score(
-                    k,
-                    &crate::stream::synthetic::FingerTrack::default(),
-                    20.0,
-                )
-                .lag_ms
-            }
+        filter_lag_ms(self.filter, self.sim.rate_hz)
+    }
+}
+
+/// A filter's lag (ms) on a finger moving at constant speed: none for
+/// `none`, the Gaussian's (N − 1)/2 = 4.5 frames at `rate_hz`, else
+/// measured on the synthetic centroid track (`stream::metrics::score`).
+pub fn filter_lag_ms(kind: FilterKind, rate_hz: f64) -> f64 {
+    match kind {
+        FilterKind::None => 0.0,
+        FilterKind::Gaussian => 4.5 / rate_hz * 1e3,
+        k => {
+            crate::stream::metrics::score(
+                k,
+                &crate::stream::synthetic::FingerTrack::default(),
+                20.0,
+            )
+            .lag_ms
         }
     }
 }
