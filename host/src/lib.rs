@@ -21,6 +21,7 @@ pub mod sequence;
 pub mod simdev;
 pub mod stream;
 pub mod synth;
+pub mod track;
 pub mod trajectory;
 pub mod units;
 

@@ -195,6 +195,10 @@ pub struct Scene {
     pub center_mm: Vec3,
     /// Shortest dwell per step the device accepts (s).
     pub min_dwell_s: f64,
+    /// Depth camera pose (`[camera]`), for `lmhost track`.
+    pub camera: Option<crate::track::rig::CameraPose>,
+    /// Detection box (`[tracking]`), for `lmhost track`.
+    pub tracking: Option<crate::track::rig::TrackBox>,
 }
 
 impl Default for Scene {
@@ -219,6 +223,8 @@ impl Default for Scene {
             lm_plane: LmPlane::default(),
             center_mm: DEFAULT_FLAT_CENTER_MM,
             min_dwell_s: DEFAULT_MIN_DWELL_S,
+            camera: None,
+            tracking: None,
         }
     }
 }
@@ -322,6 +328,8 @@ struct SceneFile {
     rig: Option<PoseFile>,
     #[serde(default)]
     device: Vec<DeviceFile>,
+    camera: Option<crate::track::rig::CameraFile>,
+    tracking: Option<crate::track::rig::TrackingFile>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -456,7 +464,10 @@ impl SceneFile {
             Some(ms) => return Err(format!("field `min_dwell_ms` must be > 0, got {ms}")),
             None => DEFAULT_MIN_DWELL_S,
         };
+        let (camera, tracking) = crate::track::rig::resolve(self.camera, self.tracking)?;
         Ok(Scene {
+            camera,
+            tracking,
             name: self.name.unwrap_or_else(|| origin.to_string()),
             devices,
             reflector,

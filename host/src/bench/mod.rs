@@ -52,8 +52,11 @@ impl Section {
 pub type SectionFn = fn(&Options) -> anyhow::Result<Section>;
 
 /// Every section, in report order: `(name, producer)`.
-pub const SECTIONS: &[(&str, SectionFn)] =
-    &[("planner", planner::section), ("field", field::section)];
+pub const SECTIONS: &[(&str, SectionFn)] = &[
+    ("planner", planner::section),
+    ("field", field::section),
+    ("track", crate::track::report::bench_section),
+];
 
 /// Runs the sections named in `only` (all when empty), in report order.
 pub fn run(opts: &Options, only: &[String]) -> anyhow::Result<Vec<Section>> {

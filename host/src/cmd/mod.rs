@@ -14,6 +14,7 @@ pub mod simulate;
 pub mod status;
 pub mod stop;
 pub mod stream;
+pub mod track;
 pub mod upload;
 
 /// Every `lmhost` subcommand.
@@ -45,6 +46,9 @@ pub enum Command {
     Stream(stream::Args),
     /// Flash the firmware onto a board with a debug probe.
     Flash(flash::Args),
+    /// Track the finger in depth frames (contact-area centroid), optionally
+    /// streaming it to the device.
+    Track(track::Args),
 }
 
 impl Command {
@@ -64,6 +68,7 @@ impl Command {
             Command::Demo(a) => a.run(),
             Command::Stream(a) => a.run(),
             Command::Flash(a) => a.run(),
+            Command::Track(a) => a.run(),
         }
     }
 }

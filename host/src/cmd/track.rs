@@ -1,0 +1,515 @@
+//! `lmhost track`: depth frames in, the paper's contact-area centroid out,
+//! optionally filtered, gated and streamed to the device.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+
+use crate::link::PortArgs;
+use crate::scene::Scene;
+use crate::stream::Sample;
+use crate::stream::filter::{FilterKind, Passthrough};
+use crate::stream::run::{Pace, stream};
+use crate::track::contact::Tracker;
+use crate::track::intrinsics::Intrinsics;
+use crate::track::presence::Hysteresis;
+use crate::track::rig::Rig;
+use crate::track::source::{self, Frame, FrameSource, Recorder};
+use crate::track::synth::{FingerSim, background_of};
+use crate::track::{FrameResult, Pipeline};
+
+/// Track the finger in depth frames: the contact area inside the scene's
+/// detection box and its centroid, one result per frame.
+///
+/// Sources: a recording (`--depth F.npy`, uint16 frames × height × width,
+/// with `--intrinsics` and optional `--timestamps`), the synthetic finger
+/// (`--synthetic`), a RealSense camera (`--camera`, through the bundled
+/// pyrealsense2 bridge) or an LMDEPTH1 stream (`--stream FILE|-`).
+/// With `--port` the filtered, gated centre is streamed to the device.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Stream the filtered centre to the device on this port (only when
+    /// `--port` is given; $LMHOST_PORT alone does not enable streaming).
+    #[command(flatten)]
+    port: PortArgs,
+    /// Recorded depth frames: `.npy`, uint16, (frames, height, width).
+    #[arg(long, value_name = "FILE.npy")]
+    depth: Option<PathBuf>,
+    /// Frame time stamps: `.npy`, float64 seconds, one per frame
+    /// [default: FILE.timestamps.npy beside --depth, else 90 fps].
+    #[arg(long, value_name = "T.npy", requires = "depth")]
+    timestamps: Option<PathBuf>,
+    /// Camera intrinsics TOML [default: FILE.intrinsics.toml beside
+    /// --depth; the synthetic finger: a D435 at 848 × 480].
+    #[arg(long, value_name = "CAM.toml")]
+    intrinsics: Option<PathBuf>,
+    /// Scene with `[camera]` and `[tracking]` (the synthetic finger falls
+    /// back to a derived rig about the scene's centre).
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// Render the synthetic finger (approach, rest with tremor, slide,
+    /// leave) and report its ground truth too.
+    #[arg(long)]
+    synthetic: bool,
+    /// Synthetic finger: seconds to render.
+    #[arg(long, value_name = "S", default_value_t = 6.0)]
+    seconds: f64,
+    /// Synthetic finger: depth noise (mm, 1 σ).
+    #[arg(long, value_name = "MM", default_value_t = 0.5)]
+    noise_mm: f64,
+    /// Synthetic finger: fraction of pixels with no data.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.02)]
+    holes: f64,
+    /// Live RealSense camera (needs python3 with pyrealsense2).
+    #[arg(long)]
+    camera: bool,
+    /// Read an LMDEPTH1 stream from FILE (`-` = stdin).
+    #[arg(long, value_name = "FILE")]
+    stream: Option<PathBuf>,
+    /// Save the frames as FILE.npy, with FILE.intrinsics.toml and
+    /// FILE.timestamps.npy beside it.
+    #[arg(long, value_name = "FILE.npy")]
+    record: Option<PathBuf>,
+    /// Replay as fast as possible instead of at the recorded speed.
+    #[arg(long)]
+    fast: bool,
+    /// One JSON object per frame per line.
+    #[arg(long)]
+    json: bool,
+    /// Write a PNG of one frame (box, contact area, centroid) into DIR.
+    #[arg(long, value_name = "DIR")]
+    plot: Option<PathBuf>,
+    /// The frame to plot [default: the first with a contact area].
+    #[arg(long, value_name = "N", requires = "plot")]
+    plot_frame: Option<u64>,
+    /// Centroid filter [default: gaussian (the paper's) with --port, else none].
+    #[arg(long, value_enum)]
+    filter: Option<FilterKind>,
+    /// Also measure the finger surface's depth z_j along a circle of
+    /// RADIUS_MM in STEPS steps about the centroid (relative to the centre,
+    /// along the box's third axis): JSON key `z_profile_mm`, and `replan`
+    /// when it moved more than --replan-mm from the last planned profile.
+    #[arg(long, value_name = "RADIUS_MM,STEPS")]
+    z_profile: Option<String>,
+    /// Re-plan threshold for --z-profile (mm).
+    #[arg(long, value_name = "MM", default_value_t = 0.3, requires = "z_profile")]
+    replan_mm: f64,
+    /// Consecutive frames with a contact area that open the device gate.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    enter_frames: u32,
+    /// Consecutive frames without one that close it.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    leave_frames: u32,
+}
+
+/// Per-run counters.
+#[derive(Debug, Default)]
+struct Tally {
+    frames: u64,
+    present: u64,
+    gated: u64,
+    track_us: Vec<f64>,
+    err2: f64,
+    err_n: u64,
+    presence_wrong: u64,
+}
+
+struct Run {
+    z_profile: Option<(f64, usize, crate::track::surface::Replanner)>,
+    replans: u64,
+    src: Box<dyn FrameSource>,
+    pipe: Pipeline,
+    rec: Option<Recorder>,
+    json: bool,
+    show_filtered: bool,
+    paced: bool,
+    start: Option<(Instant, f64)>,
+    plot_at: Option<u64>,
+    plot_frame: Option<(u64, Vec<u16>)>,
+    want_plot: bool,
+    tally: Tally,
+    second: Tally,
+    next_summary: f64,
+    prev_truth: [Option<(bool, bool)>; 2],
+}
+
+impl Run {
+    fn next(&mut self) -> anyhow::Result<Option<FrameResult>> {
+        let Some(frame) = self.src.next_frame()? else {
+            return Ok(None);
+        };
+        if let Some(r) = &mut self.rec {
+            r.push(&frame)?;
+        }
+        if self.paced {
+            let (t0, ft0) = *self.start.get_or_insert((Instant::now(), frame.t_s));
+            let due = Duration::from_secs_f64((frame.t_s - ft0).max(0.0));
+            if let Some(wait) = due.checked_sub(t0.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+        let res = self.pipe.step(frame.t_s, &frame.depth);
+        let profile = self.z_profile(&frame, &res);
+        self.report(&frame, &res, profile);
+        let index = self.tally.frames - 1;
+        if self.want_plot {
+            let keep = match self.plot_at {
+                Some(n) => index == n,
+                // The first frame with a contact area, else the first frame.
+                None => res.present || self.plot_frame.is_none(),
+            };
+            if keep {
+                self.plot_frame = Some((index, frame.depth.clone()));
+                self.want_plot = self.plot_at.is_none() && !res.present;
+            }
+        }
+        Ok(Some(res))
+    }
+
+    /// The relative depth profile about the raw centroid, and whether a
+    /// re-plan is due.
+    fn z_profile(&mut self, frame: &Frame, r: &FrameResult) -> Option<(Vec<f64>, bool)> {
+        let (radius, steps, replan) = self.z_profile.as_mut()?;
+        let c = r.centroid_mm()?;
+        let tb = &self.pipe.tracker.rig().track_box;
+        let rel = crate::scene::sub(c, tb.center_mm);
+        let ab = [
+            crate::scene::dot(tb.axes[0], rel),
+            crate::scene::dot(tb.axes[1], rel),
+        ];
+        let prof =
+            crate::track::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
+        let rel = crate::track::surface::relative(&prof)?;
+        let due = replan.update(&rel);
+        self.replans += due as u64;
+        Some((rel, due))
+    }
+
+    fn report(&mut self, frame: &Frame, r: &FrameResult, profile: Option<(Vec<f64>, bool)>) {
+        for t in [&mut self.tally, &mut self.second] {
+            t.frames += 1;
+            t.present += r.present as u64;
+            t.gated += r.gated as u64;
+            t.track_us.push(r.track_s * 1e6);
+        }
+        if let Some(truth) = &frame.truth {
+            // Presence is judged away from transitions: frame k-1 counts when
+            // the truth of k-2, k-1 and k agree (so at most one frame late or
+            // early is forgiven); evaluated one frame behind.
+            if let [Some((t2, _)), Some((t1, raw1))] = self.prev_truth
+                && t2 == t1
+                && t1 == truth.present
+                && raw1 != t1
+            {
+                self.tally.presence_wrong += 1;
+            }
+            self.prev_truth = [self.prev_truth[1], Some((truth.present, r.present))];
+            if let (true, Some(c), Some(tc)) =
+                (truth.present, r.centroid_mm(), truth.contact.centroid_mm)
+            {
+                let e2: f64 = (0..3).map(|k| (c[k] - tc[k]).powi(2)).sum();
+                self.tally.err2 += e2;
+                self.tally.err_n += 1;
+            }
+        }
+        if self.json {
+            let mut v = serde_json::json!({
+                "t_s": r.t_s,
+                "points": r.contact.points,
+                "present": r.present,
+                "centroid_mm": r.centroid_mm(),
+            });
+            if self.show_filtered {
+                v["gated_present"] = r.gated.into();
+                v["filtered_mm"] = serde_json::json!(r.filtered_mm);
+            }
+            if self.z_profile.is_some() {
+                v["z_profile_mm"] = serde_json::json!(profile.as_ref().map(|p| &p.0));
+                v["replan"] = profile.as_ref().is_some_and(|p| p.1).into();
+            }
+            if let Some(truth) = &frame.truth {
+                v["truth_present"] = truth.present.into();
+                v["truth_mm"] = serde_json::json!(truth.contact.centroid_mm);
+            }
+            println!("{v}");
+        } else if r.t_s >= self.next_summary {
+            let s = std::mem::take(&mut self.second);
+            let c = r.centroid_mm().map_or("none".to_owned(), |c| {
+                format!("({:.2}, {:.2}, {:.2}) mm", c[0], c[1], c[2])
+            });
+            println!(
+                "t {:>7.2} s  frames {:>3}  present {:>3}  gated {:>3}  points {:>4}  centroid {c}  track p50 {:.0} µs",
+                r.t_s,
+                s.frames,
+                s.present,
+                s.gated,
+                r.contact.points,
+                percentile(&s.track_us, 50.0)
+            );
+            self.next_summary = (r.t_s + 1.0).floor();
+        }
+    }
+}
+
+fn percentile(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((p / 100.0) * (s.len() - 1) as f64).round() as usize]
+}
+
+impl Args {
+    fn source(&self, scene: &Scene) -> anyhow::Result<(Box<dyn FrameSource>, Rig)> {
+        let picked = [
+            self.depth.is_some(),
+            self.synthetic,
+            self.camera,
+            self.stream.is_some(),
+        ]
+        .iter()
+        .filter(|b| **b)
+        .count();
+        if picked != 1 {
+            crate::bad_input!(
+                "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
+            );
+        }
+        if self.synthetic {
+            if !(self.seconds.is_finite() && self.seconds > 0.0 && self.seconds <= 3600.0) {
+                crate::bad_input!("--seconds {} must be in (0, 3600]", self.seconds);
+            }
+            if !(self.noise_mm.is_finite() && (0.0..=50.0).contains(&self.noise_mm)) {
+                crate::bad_input!("--noise-mm {} must be in [0, 50]", self.noise_mm);
+            }
+            if !(self.holes.is_finite() && (0.0..=1.0).contains(&self.holes)) {
+                crate::bad_input!("--holes {} must be in [0, 1]", self.holes);
+            }
+            let intr = match &self.intrinsics {
+                Some(p) => Intrinsics::load(p)?,
+                None => Intrinsics::D435_848X480,
+            };
+            let rig = Rig::of_scene_or_default(scene);
+            let mut sim = FingerSim::new(rig, intr, background_of(scene));
+            sim.noise_mm = self.noise_mm;
+            sim.holes = self.holes;
+            return Ok((Box::new(source::Synthetic::new(sim, self.seconds)), rig));
+        }
+        let rig = Rig::of_scene(scene)?;
+        if let Some(d) = &self.depth {
+            let r = source::Replay::open_with_defaults(
+                d,
+                self.intrinsics.as_deref(),
+                self.timestamps.as_deref(),
+            )?;
+            return Ok((Box::new(r), rig));
+        }
+        let src: Box<dyn FrameSource> = if self.camera {
+            Box::new(source::camera()?)
+        } else {
+            match self.stream.as_deref() {
+                Some(p) if p.as_os_str() == "-" => {
+                    Box::new(source::Stream::new(std::io::stdin(), "stdin")?)
+                }
+                Some(p) => {
+                    let f = std::fs::File::open(p).map_err(|_| {
+                        crate::InputError::new(format!("cannot read stream {}", p.display()))
+                    })?;
+                    Box::new(source::Stream::new(
+                        std::io::BufReader::new(f),
+                        &p.display().to_string(),
+                    )?)
+                }
+                None => unreachable!("one source was checked above"),
+            }
+        };
+        if let Some(ip) = &self.intrinsics {
+            let given = Intrinsics::load(ip)?;
+            let got = src.intrinsics();
+            given.check_frames(got.width, got.height, "the stream")?;
+        }
+        Ok((src, rig))
+    }
+
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        for (name, v) in [
+            ("--enter-frames", self.enter_frames),
+            ("--leave-frames", self.leave_frames),
+        ] {
+            if !(1..=90).contains(&v) {
+                crate::bad_input!("{name} {v} must be between 1 and 90");
+            }
+        }
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        if self.scene.is_none() && !self.synthetic {
+            crate::bad_input!("--scene is needed: its [camera] and [tracking] place the box");
+        }
+        let (src, rig) = self.source(&scene)?;
+        let intr = src.intrinsics();
+        let device = self.port.port.is_some();
+        let kind = self.filter.unwrap_or(if device {
+            FilterKind::Gaussian
+        } else {
+            FilterKind::None
+        });
+        let show_filtered = device || self.filter.is_some();
+        let tracker = Tracker::new(intr, rig);
+        let pipe = Pipeline::new(
+            tracker,
+            Hysteresis::new(self.enter_frames, self.leave_frames),
+            kind.build(),
+        );
+        let rec = match &self.record {
+            Some(p) => Some(Recorder::create(p, intr)?),
+            None => None,
+        };
+        if let Some(d) = &self.plot {
+            std::fs::create_dir_all(d)
+                .with_context(|| format!("creating the plot directory {}", d.display()))?;
+        }
+        let z_profile = match &self.z_profile {
+            None => None,
+            Some(spec) => {
+                let bad = || {
+                    crate::InputError::new(format!(
+                        "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
+                    ))
+                };
+                let (r, n) = spec.split_once(',').ok_or_else(bad)?;
+                let r: f64 = r.trim().parse().map_err(|_| bad())?;
+                let n: usize = n.trim().parse().map_err(|_| bad())?;
+                if !(r > 0.0 && r <= 20.0 && (1..=1000).contains(&n)) {
+                    return Err(bad().into());
+                }
+                if !(self.replan_mm.is_finite() && self.replan_mm >= 0.0) {
+                    crate::bad_input!("--replan-mm {} must be ≥ 0", self.replan_mm);
+                }
+                Some((r, n, crate::track::surface::Replanner::new(self.replan_mm)))
+            }
+        };
+        let live = src.live();
+        let mut run = Run {
+            z_profile,
+            replans: 0,
+            src,
+            pipe,
+            rec,
+            json: self.json,
+            show_filtered,
+            paced: !self.fast && !live && !device,
+            start: None,
+            plot_at: self.plot_frame,
+            plot_frame: None,
+            want_plot: self.plot.is_some(),
+            tally: Tally::default(),
+            second: Tally::default(),
+            next_summary: f64::NEG_INFINITY,
+            prev_truth: [None; 2],
+        };
+        let started = Instant::now();
+        let mut device_report = None;
+        if device {
+            let mut client = self.port.connect()?;
+            let where_ = client.transport_mut().describe();
+            let pace = if self.fast || live {
+                Pace::Arrival
+            } else {
+                Pace::Timestamps
+            };
+            let samples = std::iter::from_fn(|| match run.next() {
+                Ok(Some(r)) => Some(Ok::<Sample, anyhow::Error>(r.sample())),
+                Ok(None) => None,
+                Err(e) => Some(Err(e)),
+            });
+            let report = stream(
+                &mut client,
+                samples,
+                &mut Passthrough,
+                |p| scene.drive_point(p),
+                pace,
+                |_, _, _| Ok(()),
+            )
+            .map_err(|e| {
+                if e.downcast_ref::<crate::InputError>().is_some() {
+                    e
+                } else {
+                    e.context(format!("streaming centroids to {where_}"))
+                }
+            })?;
+            device_report = Some((report, where_));
+        } else {
+            while run.next()?.is_some() {}
+        }
+        let seconds = started.elapsed().as_secs_f64();
+        if let Some(r) = run.rec.take() {
+            let n = r.finish()?;
+            if !self.json {
+                println!(
+                    "recorded {n} frames to {}",
+                    self.record.as_ref().expect("recording").display()
+                );
+            }
+        }
+        if let (Some(dir), Some((i, depth))) = (&self.plot, &run.plot_frame) {
+            let path = dir.join(format!("track_frame_{i}.png"));
+            crate::track::plot::frame_png(&run.pipe.tracker, depth, &path)?;
+            if !self.json {
+                println!("plot {}", path.display());
+            }
+        } else if let (Some(_), Some(n)) = (&self.plot, self.plot_frame) {
+            crate::bad_input!("--plot-frame {n} is beyond the {} frames", run.tally.frames);
+        }
+        let t = &run.tally;
+        let out = |line: String| {
+            if self.json {
+                eprintln!("{line}");
+            } else {
+                println!("{line}");
+            }
+        };
+        out(format!(
+            "{} frames of {}×{} in {:.2} s: {} with a contact area, {} gated present; box rectangle {} px; track p50 {:.1} µs, p99 {:.1} µs per frame (budget 11.1 ms at 90 fps); filter {}",
+            t.frames,
+            intr.width,
+            intr.height,
+            seconds,
+            t.present,
+            t.gated,
+            run.pipe.tracker.roi().pixels(),
+            percentile(&t.track_us, 50.0),
+            percentile(&t.track_us, 99.0),
+            kind.name()
+        ));
+        if self.synthetic {
+            out(format!(
+                "vs ground truth: centroid error {:.3} mm RMS over {} frames, presence wrong on {} frames away from transitions",
+                (t.err2 / t.err_n.max(1) as f64).sqrt(),
+                t.err_n,
+                t.presence_wrong
+            ));
+        }
+        if run.z_profile.is_some() {
+            out(format!(
+                "surface depth profile: {} re-plans above {} mm in {} frames",
+                run.replans, self.replan_mm, t.frames
+            ));
+        }
+        if let Some((r, where_)) = device_report {
+            let p = |q| r.ack_percentile_us(q).unwrap_or(0);
+            out(format!(
+                "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {:.0} µs + device ack p50 {} µs, p99 {} µs, plus the {} filter's lag {:.1} ms (90 fps)",
+                r.acked,
+                r.present,
+                percentile(&t.track_us, 50.0),
+                p(50.0),
+                p(99.0),
+                kind.name(),
+                crate::track::report::filter_lag_ms(kind, 90.0)
+            ));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,439 @@
+//! Depth recordings as `.npy`: `uint16` (frames, height, width) frames and
+//! optional `float64` (frames,) time stamps.
+//!
+//! The reader is strict: NPY versions 1–3, `'<u2'` / `'<f8'` only, C order,
+//! header ≤ 64 KiB, and the data must be exactly as long as the shape says.
+//! Frames are read one at a time, so memory is one frame however long the
+//! recording; nothing is allocated before the file's size has confirmed it.
+
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use crate::InputError;
+
+/// Largest accepted header (bytes).
+pub const MAX_HEADER: usize = 64 * 1024;
+/// Largest accepted frame side (pixels).
+pub const MAX_SIDE: u64 = 8192;
+
+/// A parsed NPY header.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Header {
+    /// `descr`, e.g. `<u2`.
+    pub descr: String,
+    /// Shape.
+    pub shape: Vec<u64>,
+    /// Offset of the data (bytes).
+    pub data_offset: u64,
+}
+
+fn bad(path: &Path, msg: impl std::fmt::Display) -> InputError {
+    InputError::new(format!("{}: {msg}", path.display()))
+}
+
+/// Parse the header of an NPY file of `file_len` bytes from `r`.
+pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Header, InputError> {
+    let mut pre = [0u8; 8];
+    r.read_exact(&mut pre)
+        .map_err(|_| bad(path, "not an .npy file (shorter than its magic)"))?;
+    if &pre[..6] != b"\x93NUMPY" {
+        return Err(bad(path, "not an .npy file (bad magic)"));
+    }
+    let (len, prefix) = match pre[6] {
+        1 => {
+            let mut l = [0u8; 2];
+            r.read_exact(&mut l)
+                .map_err(|_| bad(path, "truncated .npy header"))?;
+            (u16::from_le_bytes(l) as usize, 10)
+        }
+        2 | 3 => {
+            let mut l = [0u8; 4];
+            r.read_exact(&mut l)
+                .map_err(|_| bad(path, "truncated .npy header"))?;
+            (u32::from_le_bytes(l) as usize, 12)
+        }
+        v => {
+            return Err(bad(
+                path,
+                format!(".npy version {v} is not supported (1–3)"),
+            ));
+        }
+    };
+    if len > MAX_HEADER || (prefix + len) as u64 > file_len {
+        return Err(bad(
+            path,
+            format!(".npy header of {len} bytes is longer than the file or {MAX_HEADER} bytes"),
+        ));
+    }
+    let mut h = vec![0u8; len];
+    r.read_exact(&mut h)
+        .map_err(|_| bad(path, "truncated .npy header"))?;
+    let text = std::str::from_utf8(&h).map_err(|_| bad(path, ".npy header is not text"))?;
+    let descr = dict_value(text, "descr")
+        .and_then(|v| v.strip_prefix('\'').and_then(|v| v.split('\'').next()))
+        .ok_or_else(|| bad(path, ".npy header has no 'descr'"))?
+        .to_string();
+    match dict_value(text, "fortran_order") {
+        Some(v) if v.starts_with("False") => {}
+        Some(v) if v.starts_with("True") => {
+            return Err(bad(
+                path,
+                "Fortran-order arrays are not supported; save in C order",
+            ));
+        }
+        _ => return Err(bad(path, ".npy header has no 'fortran_order'")),
+    }
+    let shape_txt = dict_value(text, "shape")
+        .and_then(|v| v.strip_prefix('('))
+        .and_then(|v| v.split(')').next())
+        .ok_or_else(|| bad(path, ".npy header has no 'shape'"))?;
+    let shape = shape_txt
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.trim_end_matches('L').parse::<u64>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| {
+            bad(
+                path,
+                format!(".npy shape `({shape_txt})` is not a tuple of sizes"),
+            )
+        })?;
+    Ok(Header {
+        descr,
+        shape,
+        data_offset: (prefix + len) as u64,
+    })
+}
+
+/// The text after `'key':` in a Python dict literal.
+fn dict_value<'a>(text: &'a str, key: &str) -> Option<&'a str> {
+    let pat = format!("'{key}'");
+    let at = text.find(&pat)? + pat.len();
+    Some(text[at..].trim_start().strip_prefix(':')?.trim_start())
+}
+
+fn check_descr(path: &Path, h: &Header, want: &str, what: &str) -> Result<(), InputError> {
+    if h.descr == want {
+        return Ok(());
+    }
+    let hint = if h.descr.starts_with('>') {
+        " (big-endian)"
+    } else {
+        ""
+    };
+    Err(bad(
+        path,
+        format!("dtype `{}`{hint}, expected {what} `{want}`", h.descr),
+    ))
+}
+
+fn check_len(path: &Path, h: &Header, file_len: u64, item: u64) -> Result<(), InputError> {
+    let want = h
+        .shape
+        .iter()
+        .try_fold(item, |acc, &d| acc.checked_mul(d))
+        .ok_or_else(|| bad(path, format!("shape {:?} is too large", h.shape)))?;
+    let have = file_len - h.data_offset;
+    if have < want {
+        return Err(bad(
+            path,
+            format!(
+                "truncated: shape {:?} needs {want} bytes of data, the file has {have}",
+                h.shape
+            ),
+        ));
+    }
+    if have > want {
+        return Err(bad(
+            path,
+            format!(
+                "{} bytes after the data of shape {:?}",
+                have - want,
+                h.shape
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn open(path: &Path) -> Result<(File, u64), InputError> {
+    let f = File::open(path).map_err(|e| {
+        InputError::new(format!(
+            "cannot read {}: {}",
+            path.display(),
+            match e.kind() {
+                std::io::ErrorKind::NotFound => "no such file",
+                std::io::ErrorKind::PermissionDenied => "permission denied",
+                _ => "read error",
+            }
+        ))
+    })?;
+    let len = f
+        .metadata()
+        .map_err(|_| bad(path, "cannot read its size"))?
+        .len();
+    Ok((f, len))
+}
+
+/// Frames of a `uint16` (frames, height, width) `.npy`, read one at a time.
+pub struct DepthNpy {
+    path: PathBuf,
+    reader: BufReader<File>,
+    /// Number of frames.
+    pub frames: u64,
+    /// Frame height (rows).
+    pub height: u32,
+    /// Frame width (columns).
+    pub width: u32,
+    next: u64,
+}
+
+impl DepthNpy {
+    /// Open and check a recording.
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        let (f, len) = open(path)?;
+        let mut reader = BufReader::new(f);
+        let h = read_header(&mut reader, len, path)?;
+        check_descr(path, &h, "<u2", "uint16")?;
+        let [frames, height, width] = h.shape[..] else {
+            return Err(bad(
+                path,
+                format!("shape {:?} must be (frames, height, width)", h.shape),
+            ));
+        };
+        if !(1..=MAX_SIDE).contains(&height) || !(1..=MAX_SIDE).contains(&width) {
+            return Err(bad(
+                path,
+                format!("frame size {width}×{height} must be 1..={MAX_SIDE} on each side"),
+            ));
+        }
+        check_len(path, &h, len, 2)?;
+        Ok(Self {
+            path: path.to_owned(),
+            reader,
+            frames,
+            height: height as u32,
+            width: width as u32,
+            next: 0,
+        })
+    }
+
+    /// Read the next frame into `buf` (resized to width × height); `false`
+    /// after the last frame.
+    pub fn read_into(&mut self, buf: &mut Vec<u16>) -> Result<bool, InputError> {
+        if self.next >= self.frames {
+            return Ok(false);
+        }
+        let n = self.width as usize * self.height as usize;
+        let mut bytes = vec![0u8; n * 2];
+        self.reader
+            .read_exact(&mut bytes)
+            .map_err(|_| bad(&self.path, format!("frame {} is truncated", self.next)))?;
+        buf.clear();
+        buf.extend(
+            bytes
+                .chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]])),
+        );
+        self.next += 1;
+        Ok(true)
+    }
+}
+
+/// Read a `float64` (n,) `.npy` of time stamps (s): finite, non-decreasing.
+pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
+    let (f, len) = open(path)?;
+    let mut reader = BufReader::new(f);
+    let h = read_header(&mut reader, len, path)?;
+    check_descr(path, &h, "<f8", "float64")?;
+    if h.shape.len() != 1 {
+        return Err(bad(path, format!("shape {:?} must be (frames,)", h.shape)));
+    }
+    check_len(path, &h, len, 8)?;
+    let mut bytes = Vec::new();
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|_| bad(path, "read error"))?;
+    let t: Vec<f64> = bytes
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
+        .collect();
+    if let Some(i) = t.iter().position(|v| !v.is_finite()) {
+        return Err(bad(path, format!("time stamp {i} is not finite")));
+    }
+    if let Some(i) = t.windows(2).position(|w| w[1] < w[0]) {
+        return Err(bad(path, format!("time stamp {} goes backwards", i + 1)));
+    }
+    Ok(t)
+}
+
+fn header_bytes(descr: &str, shape: &str, total: usize) -> Vec<u8> {
+    let mut h = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+    let pad = total - 10 - h.len() - 1;
+    h.push_str(&" ".repeat(pad));
+    h.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&(h.len() as u16).to_le_bytes());
+    out.extend_from_slice(h.as_bytes());
+    out
+}
+
+/// Fixed header size of written recordings: room for any shape, 64-aligned.
+const WRITE_HEADER: usize = 128;
+
+/// Writes a `uint16` (frames, height, width) `.npy` frame by frame; the
+/// header's frame count is rewritten every 90 frames and on `finish`.
+pub struct DepthNpyWriter {
+    file: std::io::BufWriter<File>,
+    height: u32,
+    width: u32,
+    frames: u64,
+}
+
+impl DepthNpyWriter {
+    /// Create `path` for frames of `width` × `height`.
+    pub fn create(path: &Path, width: u32, height: u32) -> std::io::Result<Self> {
+        let mut w = Self {
+            file: std::io::BufWriter::new(File::create(path)?),
+            height,
+            width,
+            frames: 0,
+        };
+        w.write_header()?;
+        Ok(w)
+    }
+
+    fn write_header(&mut self) -> std::io::Result<()> {
+        let shape = format!("({}, {}, {})", self.frames, self.height, self.width);
+        let h = header_bytes("<u2", &shape, WRITE_HEADER);
+        let f = self.file.get_mut();
+        let pos = f.stream_position()?;
+        f.seek(SeekFrom::Start(0))?;
+        f.write_all(&h)?;
+        f.seek(SeekFrom::Start(pos.max(WRITE_HEADER as u64)))?;
+        Ok(())
+    }
+
+    /// Append one frame (`width × height` values, row-major).
+    pub fn push(&mut self, data: &[u16]) -> std::io::Result<()> {
+        if data.len() != self.width as usize * self.height as usize {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "frame size changed while recording",
+            ));
+        }
+        let mut bytes = Vec::with_capacity(data.len() * 2);
+        for v in data {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        self.file.write_all(&bytes)?;
+        self.frames += 1;
+        if self.frames.is_multiple_of(90) {
+            self.file.flush()?;
+            self.write_header()?;
+        }
+        Ok(())
+    }
+
+    /// Write the final header and flush; returns the frame count.
+    pub fn finish(mut self) -> std::io::Result<u64> {
+        self.file.flush()?;
+        self.write_header()?;
+        self.file.flush()?;
+        Ok(self.frames)
+    }
+}
+
+/// Write a `float64` (n,) `.npy`.
+pub fn write_f64_1d(path: &Path, data: &[f64]) -> std::io::Result<()> {
+    let mut out = header_bytes("<f8", &format!("({},)", data.len()), WRITE_HEADER);
+    for v in data {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(path, out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("lmhost-npy-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d.join(name)
+    }
+
+    #[test]
+    fn written_recordings_read_back() {
+        let p = tmp("rt.npy");
+        let mut w = DepthNpyWriter::create(&p, 3, 2).unwrap();
+        w.push(&[1, 2, 3, 4, 5, 65535]).unwrap();
+        w.push(&[0; 6]).unwrap();
+        assert_eq!(w.finish().unwrap(), 2);
+        let mut r = DepthNpy::open(&p).unwrap();
+        assert_eq!((r.frames, r.height, r.width), (2, 2, 3));
+        let mut b = Vec::new();
+        assert!(r.read_into(&mut b).unwrap());
+        assert_eq!(b, [1, 2, 3, 4, 5, 65535]);
+        assert!(r.read_into(&mut b).unwrap());
+        assert!(!r.read_into(&mut b).unwrap());
+        let t = tmp("t.npy");
+        write_f64_1d(&t, &[0.0, 0.011]).unwrap();
+        assert_eq!(read_timestamps(&t).unwrap(), [0.0, 0.011]);
+    }
+
+    #[test]
+    fn truncated_npy_is_an_input_error() {
+        let p = tmp("trunc.npy");
+        let mut w = DepthNpyWriter::create(&p, 4, 4).unwrap();
+        w.push(&[7; 16]).unwrap();
+        w.finish().unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &bytes[..bytes.len() - 3]).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("truncated"), "{e}");
+        std::fs::write(&p, &bytes[..20]).unwrap();
+        assert!(DepthNpy::open(&p).is_err());
+        std::fs::write(&p, b"").unwrap();
+        assert!(DepthNpy::open(&p).is_err());
+    }
+
+    #[test]
+    fn wrong_dtype_shape_and_order_are_input_errors() {
+        let p = tmp("dtype.npy");
+        crate::field::npy::write_f64(&p, 2, 2, &[0.0; 4]).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("dtype `<f8`") && e.contains("uint16"), "{e}");
+        let mut h = header_bytes("<u2", "(4, 4)", 128);
+        h.extend_from_slice(&[0; 32]);
+        std::fs::write(&p, &h).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("(frames, height, width)"), "{e}");
+        let mut h = header_bytes("<u2", "(1, 2, 2)", 128);
+        let at = h.windows(5).position(|w| w == b"False").unwrap();
+        h[at..at + 5].copy_from_slice(b"True ");
+        h.extend_from_slice(&[0; 8]);
+        std::fs::write(&p, &h).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("Fortran"), "{e}");
+        let mut h = header_bytes(">u2", "(1, 2, 2)", 128);
+        h.extend_from_slice(&[0; 8]);
+        std::fs::write(&p, &h).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("big-endian"), "{e}");
+        // A huge shape in a tiny file: refused before any allocation.
+        let mut h = header_bytes("<u2", "(100000000, 8000, 8000)", 128);
+        h.extend_from_slice(&[0; 8]);
+        std::fs::write(&p, &h).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("truncated"), "{e}");
+        // A header length beyond the file.
+        let mut h = b"\x93NUMPY\x02\x00".to_vec();
+        h.extend_from_slice(&u32::MAX.to_le_bytes());
+        std::fs::write(&p, &h).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("header"), "{e}");
+    }
+}

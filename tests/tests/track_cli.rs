@@ -1,0 +1,432 @@
+//! `lmhost track`: the synthetic finger, recording and replay, the LMDEPTH1
+//! stream, streaming to `lmhost sim`, the plot, and bad input.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+mod link_support;
+use link_support::{Sim, json, lmhost, ok, run};
+
+fn paper() -> String {
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml").to_string()
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lm-track-e2e-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Half-size D435 intrinsics (424 × 240): the finger still covers ≈ 40
+/// pixels of the box, and the debug build renders it quickly.
+fn half_intrinsics(d: &Path) -> String {
+    let p = d.join("half.toml");
+    std::fs::write(
+        &p,
+        "width = 424\nheight = 240\nfx = 213.0\nfy = 213.0\nppx = 211.5\nppy = 119.5\ndepth_scale = 0.0001\n",
+    )
+    .unwrap();
+    p.display().to_string()
+}
+
+fn lines(out: &str) -> Vec<serde_json::Value> {
+    out.lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+fn one_line_error(out: &std::process::Output, code: i32) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(code), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    err
+}
+
+#[test]
+fn synthetic_frames_give_one_json_object_per_frame() {
+    let d = dir("json");
+    let cam = half_intrinsics(&d);
+    let out = ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "1.5",
+        "--fast",
+        "--json",
+        "--scene",
+        &paper(),
+        "--intrinsics",
+        &cam,
+        "--z-profile",
+        "3,8",
+    ]);
+    let v = lines(&out);
+    assert_eq!(v.len(), 135);
+    let mut present = 0;
+    let mut rising = 0;
+    for (i, o) in v.iter().enumerate() {
+        let points = o["points"].as_u64().unwrap();
+        assert_eq!(o["present"].as_bool().unwrap(), points >= 20, "{o}");
+        assert_eq!(o["centroid_mm"].is_null(), points < 20, "{o}");
+        assert!((o["t_s"].as_f64().unwrap() - i as f64 / 90.0).abs() < 1e-9);
+        assert!(o.get("filtered_mm").is_none(), "no filter, no device: {o}");
+        if o["present"] == true {
+            present += 1;
+            // The pad curves away from its centre: z_j mostly above it.
+            let z = o["z_profile_mm"].as_array().unwrap();
+            assert_eq!(z.len(), 8, "{o}");
+            let mean: f64 = z.iter().map(|v| v.as_f64().unwrap()).sum::<f64>() / 8.0;
+            rising += (mean > 0.0) as u32;
+            let (c, t) = (&o["centroid_mm"], &o["truth_mm"]);
+            for k in 0..3 {
+                let e = c[k].as_f64().unwrap() - t[k].as_f64().unwrap();
+                assert!(e.abs() < 1.0, "{o}");
+            }
+        }
+    }
+    // The finger arrives at ≈ 0.5 s and rests from 0.8 s.
+    assert!(present > 60, "{present}");
+    assert!(rising * 10 > present * 9, "{rising} of {present}");
+    assert_eq!(v[0]["present"], false);
+}
+
+#[test]
+fn a_synthetic_recording_replays_to_the_same_results() {
+    let d = dir("replay");
+    let cam = half_intrinsics(&d);
+    let rec = d.join("rec.npy");
+    let rec_s = rec.display().to_string();
+    let live = ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "1.2",
+        "--fast",
+        "--json",
+        "--scene",
+        &paper(),
+        "--intrinsics",
+        &cam,
+        "--record",
+        &rec_s,
+    ]);
+    assert!(d.join("rec.intrinsics.toml").exists());
+    assert!(d.join("rec.timestamps.npy").exists());
+    // Intrinsics and time stamps found beside the recording.
+    let replay = ok(&[
+        "track",
+        "--depth",
+        &rec_s,
+        "--scene",
+        &paper(),
+        "--fast",
+        "--json",
+    ]);
+    // And given explicitly.
+    let explicit = ok(&[
+        "track",
+        "--depth",
+        &rec_s,
+        "--scene",
+        &paper(),
+        "--fast",
+        "--json",
+        "--intrinsics",
+        &d.join("rec.intrinsics.toml").display().to_string(),
+        "--timestamps",
+        &d.join("rec.timestamps.npy").display().to_string(),
+    ]);
+    let (a, b, c) = (lines(&live), lines(&replay), lines(&explicit));
+    assert_eq!(a.len(), 108);
+    assert_eq!(b.len(), a.len());
+    assert_eq!(b, c);
+    for (x, y) in a.iter().zip(&b) {
+        for k in ["t_s", "points", "present", "centroid_mm"] {
+            assert_eq!(x[k], y[k], "{k}: {x} vs {y}");
+        }
+    }
+    assert!(b.iter().any(|o| o["present"] == true));
+    // At recorded speed the replay takes the recording's length.
+    let t0 = std::time::Instant::now();
+    ok(&["track", "--depth", &rec_s, "--scene", &paper()]);
+    assert!(t0.elapsed().as_secs_f64() >= 1.0, "{:?}", t0.elapsed());
+}
+
+#[test]
+fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
+    use lmhost::track::intrinsics::Intrinsics;
+    use lmhost::track::source::{stream_frame, stream_header};
+    let d = dir("stream");
+    let intr = Intrinsics {
+        width: 424,
+        height: 240,
+        fx: 213.0,
+        fy: 213.0,
+        ppx: 211.5,
+        ppy: 119.5,
+        depth_scale: 0.0001,
+    };
+    // Frames from a recording made by --synthetic, re-sent as a stream.
+    let cam = half_intrinsics(&d);
+    let rec = d.join("src.npy").display().to_string();
+    let want = lines(&ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "1",
+        "--fast",
+        "--json",
+        "--scene",
+        &paper(),
+        "--intrinsics",
+        &cam,
+        "--record",
+        &rec,
+    ]));
+    let mut bytes = stream_header(&intr);
+    let mut r =
+        lmhost::track::source::Replay::open_with_defaults(Path::new(&rec), None, None).unwrap();
+    use lmhost::track::source::FrameSource as _;
+    while let Some(f) = r.next_frame().unwrap() {
+        bytes.extend(stream_frame(f.t_s, &f.depth));
+    }
+    let out2 = d.join("again.npy").display().to_string();
+    let mut child = Command::new(lmhost())
+        .args([
+            "track",
+            "--stream",
+            "-",
+            "--scene",
+            &paper(),
+            "--json",
+            "--record",
+            &out2,
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(&bytes).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let got = lines(&String::from_utf8_lossy(&out.stdout));
+    assert_eq!(got.len(), want.len());
+    for (x, y) in want.iter().zip(&got) {
+        assert_eq!(x["centroid_mm"], y["centroid_mm"]);
+    }
+    // What the stream delivered was recorded and replays the same.
+    let again = lines(&ok(&[
+        "track",
+        "--depth",
+        &out2,
+        "--scene",
+        &paper(),
+        "--fast",
+        "--json",
+    ]));
+    assert_eq!(again, got);
+
+    // A stream cut inside a frame is a one-line input error.
+    let mut child = Command::new(lmhost())
+        .args(["track", "--stream", "-", "--scene", &paper()])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(&bytes[..bytes.len() - 100])
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let err = one_line_error(&out, 2);
+    assert!(err.contains("ended inside frame"), "{err}");
+}
+
+#[test]
+fn tracking_streams_the_gated_centre_to_the_device() {
+    let d = dir("port");
+    let cam = half_intrinsics(&d);
+    let sim = Sim::start(&[]);
+    ok(&["upload", "--port", &sim.port]);
+    let out = ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "1.5",
+        "--fast",
+        "--json",
+        "--scene",
+        &paper(),
+        "--intrinsics",
+        &cam,
+        "--port",
+        &sim.port,
+    ]);
+    let v = lines(&out);
+    assert_eq!(v.len(), 135);
+    for o in &v {
+        assert!(
+            o.get("gated_present").is_some() && o.get("filtered_mm").is_some(),
+            "{o}"
+        );
+        assert_eq!(
+            o["gated_present"] == true,
+            !o["filtered_mm"].is_null(),
+            "{o}"
+        );
+    }
+    let last = v.last().unwrap();
+    assert_eq!(last["gated_present"], true, "{last}");
+    let status = json(&["status", "--port", &sim.port, "--json"]);
+    assert!(
+        status["last_centroid_seq"].as_u64().unwrap() >= 135,
+        "{status}"
+    );
+    assert_eq!(status["state"], "Playing", "{status}");
+}
+
+#[test]
+fn plot_writes_a_png_of_a_frame_with_the_contact_area() {
+    let d = dir("plot");
+    let cam = half_intrinsics(&d);
+    let pd = d.join("plots");
+    let out = ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "1",
+        "--fast",
+        "--scene",
+        &paper(),
+        "--intrinsics",
+        &cam,
+        "--plot",
+        &pd.display().to_string(),
+    ]);
+    let png: Vec<_> = std::fs::read_dir(&pd).unwrap().flatten().collect();
+    assert_eq!(png.len(), 1, "{out}");
+    let bytes = std::fs::read(png[0].path()).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    assert!(out.contains("frames of 424×240"), "{out}");
+}
+
+#[test]
+fn bad_recordings_and_flags_are_one_line_errors() {
+    let d = dir("bad");
+    let cam = half_intrinsics(&d);
+    let rec = d.join("r.npy");
+    let rec_s = rec.display().to_string();
+    ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "0.1",
+        "--fast",
+        "--scene",
+        &paper(),
+        "--intrinsics",
+        &cam,
+        "--record",
+        &rec_s,
+    ]);
+    // Truncated.
+    let b = std::fs::read(&rec).unwrap();
+    std::fs::write(&rec, &b[..b.len() - 7]).unwrap();
+    let err = one_line_error(&run(&["track", "--depth", &rec_s, "--scene", &paper()]), 2);
+    assert!(err.contains("truncated"), "{err}");
+    // Wrong dtype.
+    let mut f8 = b"\x93NUMPY\x01\x00".to_vec();
+    let h = "{'descr': '<f8', 'fortran_order': False, 'shape': (1, 2, 2), }";
+    let h = format!("{h}{}\n", " ".repeat(128 - 10 - h.len() - 1));
+    f8.extend_from_slice(&(h.len() as u16).to_le_bytes());
+    f8.extend_from_slice(h.as_bytes());
+    f8.extend_from_slice(&[0; 32]);
+    std::fs::write(&rec, &f8).unwrap();
+    let err = one_line_error(
+        &run(&[
+            "track",
+            "--depth",
+            &rec_s,
+            "--scene",
+            &paper(),
+            "--intrinsics",
+            &cam,
+        ]),
+        2,
+    );
+    assert!(err.contains("uint16"), "{err}");
+    // Intrinsics that do not match the frames.
+    std::fs::write(&rec, &b).unwrap();
+    let full = d.join("full.toml");
+    std::fs::write(
+        &full,
+        "width = 848\nheight = 480\nfx = 426.0\nfy = 426.0\nppx = 423.5\nppy = 239.5\ndepth_scale = 0.0001\n",
+    )
+    .unwrap();
+    let err = one_line_error(
+        &run(&[
+            "track",
+            "--depth",
+            &rec_s,
+            "--scene",
+            &paper(),
+            "--intrinsics",
+            &full.display().to_string(),
+        ]),
+        2,
+    );
+    assert!(err.contains("intrinsics say 848×480"), "{err}");
+    // No source, two sources, a scene without [tracking].
+    one_line_error(&run(&["track", "--scene", &paper()]), 2);
+    one_line_error(
+        &run(&["track", "--synthetic", "--camera", "--scene", &paper()]),
+        2,
+    );
+    let flat = d.join("flat.toml");
+    std::fs::write(&flat, "[[device]]\ncenter_mm = [0, 0, 0]\n").unwrap();
+    let err = one_line_error(
+        &run(&[
+            "track",
+            "--depth",
+            &rec_s,
+            "--scene",
+            &flat.display().to_string(),
+        ]),
+        2,
+    );
+    assert!(err.contains("[camera]"), "{err}");
+}
+
+#[test]
+fn camera_without_a_camera_is_a_one_line_failure() {
+    // No RealSense here: the bridge reports what is missing, exit 1.
+    let out = run(&["track", "--camera", "--scene", &paper()]);
+    let err = one_line_error(&out, 1);
+    assert!(err.contains("no camera"), "{err}");
+    let out = Command::new(lmhost())
+        .args(["track", "--camera", "--scene", &paper()])
+        .env("LMHOST_PYTHON", "/nonexistent/python3")
+        .output()
+        .unwrap();
+    let err = one_line_error(&out, 1);
+    assert!(err.contains("cannot run"), "{err}");
+}
+
+#[test]
+fn demo_tracks_synthetic_depth_frames() {
+    let v = json(&["demo", "--tracking", "depth", "--seconds", "2", "--json"]);
+    let t = &v["tracking"];
+    assert!(t["centroid_error_rms_mm"].as_f64().unwrap() < 0.5, "{v}");
+    assert_eq!(v["muting"]["muted_in_every_status_while_away"], true, "{v}");
+    assert!(v["centroids"]["sent"].as_u64().unwrap() >= 170, "{v}");
+}
