@@ -25,3 +25,19 @@ macro_rules! bad_input {
         return Err($crate::error::InputError::new(format!($($arg)*)).into())
     };
 }
+
+/// Standard output was closed by the reader (`lmhost … | head`): `main`
+/// ends quietly with exit 0. Only output to stdout maps to it; a closed
+/// socket to the device stays a failed operation.
+#[derive(Debug, thiserror::Error)]
+#[error("standard output closed")]
+pub struct StdoutClosed;
+
+/// Maps the result of a write to stdout: a broken pipe becomes
+/// [`StdoutClosed`], other errors stay what they are.
+pub fn stdout_write(r: std::io::Result<()>) -> anyhow::Result<()> {
+    match r {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
+        r => Ok(r?),
+    }
+}

@@ -12,6 +12,7 @@ pub mod cmd;
 pub mod directivity;
 pub mod error;
 pub mod field;
+pub mod limits;
 pub mod link;
 pub mod scene;
 pub mod sequence;
