@@ -57,6 +57,17 @@ pub const JUMPS_TO_ACCEPT: u32 = 3;
 /// flood); fewer are skipped and counted.
 pub const MAX_BAD_DATAGRAMS_IN_A_ROW: u64 = 1_000;
 
+/// A number for a message: plain when short, scientific when huge or tiny
+/// (`1e300`, not three hundred digits).
+pub fn show(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// Seconds to a [`Duration`], checked: finite, `0 < s ≤ max_s`. `what`
 /// names the flag or field in the error.
 pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {
@@ -81,7 +92,10 @@ pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64,
             format!(" {unit}")
         };
         Err(InputError::new(format!(
-            "{what} {v}{unit} is out of range: allowed {lo}..={hi}{unit}"
+            "{what} {}{unit} is out of range: allowed {}..={}{unit}",
+            show(v),
+            show(lo),
+            show(hi)
         )))
     }
 }
@@ -92,7 +106,8 @@ pub fn position_mm(what: &str, v: [f64; 3]) -> Result<[f64; 3], InputError> {
         Ok(v)
     } else {
         Err(InputError::new(format!(
-            "{what} {v:?} mm is out of range: every coordinate must be within ±{MAX_COORD_MM} mm"
+            "{what} [{}] mm is out of range: every coordinate must be within ±{MAX_COORD_MM} mm",
+            v.map(show).join(", ")
         )))
     }
 }

@@ -272,6 +272,17 @@ impl Scene {
         units::wavenumber_rad_per_mm(self.sound_speed_m_s)
     }
 
+    /// Whether at least one device faces `p` (drive coordinates): `p` is
+    /// strictly in front of that device's transducer plane. A point behind
+    /// every device or in their plane cannot be focused on (the directivity
+    /// is zero behind the face).
+    pub fn faces(&self, p: Vec3) -> bool {
+        self.devices.iter().any(|d| {
+            let n = mat_vec(&d.rotation, [0.0, 0.0, 1.0]);
+            dot(n, sub(p, d.center_mm)) > 1e-9
+        })
+    }
+
     /// The point the array must focus on so the focus forms at `p`
     /// (finger space): `p` itself, or its mirror image with a reflector.
     pub fn drive_point(&self, p: Vec3) -> Vec3 {
@@ -396,11 +407,18 @@ impl SceneFile {
             let c = finite3(dev.center_mm, &format!("device[{i}].center_mm"))?;
             let r = finite3(dev.rotation_deg, &format!("device[{i}].rotation_deg"))?;
             let local = Device::new(c, r);
+            let center_mm = add(mat_vec(&rig_r, local.center_mm), rig_pos);
+            crate::limits::position_mm(
+                &format!("field `device[{i}].center_mm` (after [rig])"),
+                center_mm,
+            )
+            .map_err(|e| e.0)?;
             devices.push(Device {
-                center_mm: add(mat_vec(&rig_r, local.center_mm), rig_pos),
+                center_mm,
                 rotation: mat_mul(&rig_r, &local.rotation),
             });
         }
+        check_overlap(&devices)?;
         let (mut c_m_s, mut att) = (d.sound_speed_m_s, 0.0);
         if let Some(m) = self.medium {
             match (m.sound_speed_m_s, m.temperature_c) {
@@ -438,7 +456,11 @@ impl SceneFile {
         }
         let reflector = match self.reflector {
             Some(r) => Some(Reflector {
-                point_mm: finite3(r.point_mm, "reflector.point_mm")?,
+                point_mm: crate::limits::position_mm(
+                    "field `reflector.point_mm`",
+                    finite3(r.point_mm, "reflector.point_mm")?,
+                )
+                .map_err(|e| e.0)?,
                 normal: unit(r.normal, "reflector.normal").map_err(|e| e.0)?,
             }),
             None => None,
@@ -448,7 +470,8 @@ impl SceneFile {
             None => LmPlane::default(),
         };
         let center_mm = match self.center_mm {
-            Some(c) => finite3(c, "center_mm")?,
+            Some(c) => crate::limits::position_mm("field `center_mm`", finite3(c, "center_mm")?)
+                .map_err(|e| e.0)?,
             None => d.center_mm,
         };
         let min_dwell_s = match self.min_dwell_ms {
@@ -468,6 +491,41 @@ impl SceneFile {
             min_dwell_s,
         })
     }
+}
+
+/// Two devices overlap when transducers of different devices are closer
+/// than [`crate::limits::MIN_TRANSDUCER_GAP_MM`] (two devices at the same
+/// pose, or boards pushed into each other). Grid-hashed: linear time.
+fn check_overlap(devices: &[Device]) -> Result<(), String> {
+    use std::collections::HashMap;
+    let gap = crate::limits::MIN_TRANSDUCER_GAP_MM;
+    let cell = |p: Vec3| p.map(|x| (x / gap).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<(usize, Vec3)>> = HashMap::new();
+    for (d, dev) in devices.iter().enumerate() {
+        for t in dev.transducers() {
+            let c = cell(t.pos_mm);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let Some(v) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+                            continue;
+                        };
+                        if let Some((other, _)) = v
+                            .iter()
+                            .find(|(o, q)| *o != d && norm(sub(*q, t.pos_mm)) < gap)
+                        {
+                            return Err(format!(
+                                "device[{other}] and device[{d}] overlap (transducers closer than \
+                                 {gap} mm); give each device its own place"
+                            ));
+                        }
+                    }
+                }
+            }
+            grid.entry(c).or_default().push((d, t.pos_mm));
+        }
+    }
+    Ok(())
 }
 
 /// `v / |v|`, or an error naming `field` when `v` is zero or not finite.
@@ -689,5 +747,27 @@ mod tests {
         // The LM plane is orthonormal.
         let p = s.lm_plane;
         assert!(dot(p.a, p.b).abs() < 1e-9 && (norm(p.c) - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn overlapping_or_far_away_devices_are_refused() {
+        let two = |a: &str, b: &str| {
+            format!("[[device]]\ncenter_mm = {a}\n[[device]]\ncenter_mm = {b}\n")
+        };
+        let e = Scene::from_toml(&two("[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]"), "t").unwrap_err();
+        assert!(e.0.contains("overlap"), "{e}");
+        let e = Scene::from_toml(&two("[0.0, 0.0, 0.0]", "[100.0, 0.0, 0.0]"), "t").unwrap_err();
+        assert!(e.0.contains("overlap"), "{e}");
+        assert!(Scene::from_toml(&two("[0.0, 0.0, 0.0]", "[192.0, 0.0, 0.0]"), "t").is_ok());
+        let e = Scene::from_toml("[[device]]\ncenter_mm = [1e300, 0.0, 0.0]\n", "t").unwrap_err();
+        assert!(e.0.contains("±2000 mm") && e.0.contains("1e300"), "{e}");
+    }
+
+    #[test]
+    fn faces_means_strictly_in_front_of_some_device() {
+        let s = Scene::default();
+        assert!(s.faces([0.0, 0.0, 200.0]));
+        assert!(!s.faces([0.0, 0.0, 0.0]));
+        assert!(!s.faces([0.0, 0.0, -100.0]));
     }
 }
