@@ -68,6 +68,13 @@ pub fn show(v: f64) -> String {
     }
 }
 
+/// Most field work `lmhost simulate` accepts: grid points × transducers
+/// (× 2 with a reflector's image sources) × steps. About 10 s on the fast
+/// path (the bench's 101 × 101 × 996 × 82 case, 8.3·10⁸, takes 0.17 s).
+pub const MAX_SIM_WORK: f64 = 5.0e10;
+/// The same for `simulate --reference` (the f64 loop is ~10× slower).
+pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
+
 /// Seconds to a [`Duration`], checked: finite, `0 < s ≤ max_s`. `what`
 /// names the flag or field in the error.
 pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {

@@ -11,6 +11,7 @@ use crate::cmd::plan::{PlanArgs, parse_vec3};
 use crate::error::InputError;
 use crate::field::plot::{self, Overlay, Panel};
 use crate::field::{self, FieldMaps, ObservationPlane, Radiation, npy};
+use crate::limits;
 use crate::sequence::Plan;
 
 /// Simulate the acoustic field of an LM stimulus and plot it.
@@ -32,7 +33,8 @@ pub struct Args {
     /// Observation plane size in mm: `S` (square) or `W,H` [default: 20].
     #[arg(long, value_name = "MM[,MM]")]
     plane_size: Option<String>,
-    /// Observation grid step in mm.
+    /// Observation grid step in mm. The whole run is limited to 5e10
+    /// points × transducers × steps (5e9 with --reference), ~10 s.
     #[arg(
         long,
         value_name = "MM",
@@ -87,6 +89,32 @@ fn positive(flag: &str, v: f64) -> Result<f64, InputError> {
             "--{flag} must be a finite number > 0, got {v}"
         )))
     }
+}
+
+/// Refuses a simulation beyond [`limits::MAX_SIM_WORK`] (or the
+/// reference loop's budget) before it starts, naming what to reduce.
+fn check_work(
+    points: usize,
+    sources: usize,
+    steps: usize,
+    reference: bool,
+) -> Result<(), InputError> {
+    let work = points as f64 * sources as f64 * steps as f64;
+    let max = if reference {
+        limits::MAX_SIM_WORK_REFERENCE
+    } else {
+        limits::MAX_SIM_WORK
+    };
+    if work > max {
+        return Err(InputError::new(format!(
+            "{points} grid points × {sources} sources × {steps} steps = {} exceeds the limit {}{}; \
+             use a coarser --plane-step, a smaller --plane-size or fewer steps",
+            limits::show(work),
+            limits::show(max),
+            if reference { " for --reference" } else { "" }
+        )));
+    }
+    Ok(())
 }
 
 /// Observation settings resolved from the flags.
@@ -211,6 +239,12 @@ fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
     .map_err(|e| InputError::new(e.to_string()))?;
     let seq = &plan.sequence;
     let steps = plan.trajectory.steps;
+    check_work(
+        plane.nu() * plane.nv(),
+        plan.scene.transducer_count() * if plan.scene.reflector.is_some() { 2 } else { 1 },
+        steps,
+        view.reference,
+    )?;
     let t0 = Instant::now();
     let maps = if view.reference {
         field::simulate_reference(&model, &plane, &seq.phases, steps, view.rad)
@@ -523,4 +557,18 @@ fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
     .with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {}", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn simulation_work_is_bounded() {
+        assert!(check_work(10_201, 996, 82, false).is_ok());
+        let e = check_work(3_308_761, 996, 82, false).unwrap_err();
+        assert!(e.0.contains("exceeds the limit 5e10"), "{e}");
+        assert!(check_work(100_000, 996, 82, false).is_ok());
+        assert!(check_work(100_000, 996, 82, true).is_err());
+    }
 }
