@@ -80,7 +80,8 @@ pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {
     if !(s.is_finite() && s > 0.0 && s <= max_s) {
         return Err(InputError::new(format!(
-            "{what} {s} s is out of range: give a number above 0 and at most {max_s} s"
+            "{what} {} s is out of range: give a number above 0 and at most {max_s} s",
+            show(s)
         )));
     }
     Duration::try_from_secs_f64(s)
