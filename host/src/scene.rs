@@ -47,7 +47,7 @@
 //!
 //! **Finger space.** The LM centre, the LM plane and the trajectory live where
 //! the finger is. With a reflector the array focuses on the mirror image of
-//! each point (paper eq. 5), so after reflection the focus lands on it.
+//! each point (paper eq. 6), so after reflection the focus lands on it.
 
 use std::path::Path;
 
@@ -110,7 +110,7 @@ pub struct Reflector {
 }
 
 impl Reflector {
-    /// Mirror image of `p` through the plane (paper eq. 5):
+    /// Mirror image of `p` through the plane (paper eq. 6):
     /// `p + 2((point − p)·n) n`. Mirroring twice gives `p` back.
     pub fn mirror(&self, p: Vec3) -> Vec3 {
         let s = 2.0 * dot(sub(self.point_mm, p), self.normal);
@@ -281,6 +281,29 @@ impl Scene {
             let n = mat_vec(&d.rotation, [0.0, 0.0, 1.0]);
             dot(n, sub(p, d.center_mm)) > 1e-9
         })
+    }
+
+    /// Angle (degrees, 0..=90) between the LM plane and the beam axis at
+    /// `center_mm`: the direction the wave travels when it reaches the
+    /// centre, from the array's centroid (or its mirror image, with a
+    /// reflector). 90° means the circle faces the wave (the finger pad); near
+    /// 0° the plane contains the beam and the LM circle runs along it, where
+    /// the field shows standing-wave bands instead of the paper's ring.
+    pub fn lm_plane_beam_angle_deg(&self, center_mm: Vec3) -> Option<f64> {
+        let n = self.devices.len() as f64;
+        let centroid = self
+            .devices
+            .iter()
+            .fold([0.0; 3], |acc, d| add(acc, scale(d.center_mm, 1.0 / n)));
+        // In finger space the wave comes from the array's mirror image.
+        let source = self.drive_point(centroid);
+        let axis = sub(center_mm, source);
+        let len = norm(axis);
+        if !(len.is_finite() && len > 1e-9) {
+            return None;
+        }
+        let s = (dot(axis, self.lm_plane.c) / len).abs().min(1.0);
+        Some(s.asin().to_degrees())
     }
 
     /// The point the array must focus on so the focus forms at `p`
@@ -769,5 +792,25 @@ mod tests {
         assert!(s.faces([0.0, 0.0, 200.0]));
         assert!(!s.faces([0.0, 0.0, 0.0]));
         assert!(!s.faces([0.0, 0.0, -100.0]));
+    }
+
+    #[test]
+    fn lm_plane_beam_angle_flags_a_plane_that_contains_the_beam() {
+        let s = Scene::default();
+        let a = s.lm_plane_beam_angle_deg([0.0, 0.0, 200.0]).unwrap();
+        assert!((a - 90.0).abs() < 1e-9, "{a}");
+        let mut edge = s.clone();
+        edge.lm_plane = LmPlane::new([1.0, 0.0, 0.0], [0.0, 0.0, 1.0], None, "t").unwrap();
+        assert!(edge.lm_plane_beam_angle_deg([0.0, 0.0, 200.0]).unwrap() < 1e-9);
+        let paper = Scene::load(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/paper.toml"
+        )))
+        .unwrap();
+        let a = paper.lm_plane_beam_angle_deg(paper.center_mm).unwrap();
+        assert!(
+            a > 80.0,
+            "the paper scene's circle must face the reflected wave: {a}°"
+        );
     }
 }

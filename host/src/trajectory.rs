@@ -1,5 +1,6 @@
-//! LM trajectories: the paper's LM-S (eq. 1-2) and LM-M (eq. 3-4), mirrored
-//! through the scene's reflector (eq. 5-6).
+//! LM trajectories: the paper's LM-S (eq. 2-3) and LM-M (eq. 4-5), mirrored
+//! through the scene's reflector (eq. 6-7). Equation numbers are the
+//! paper's own (eq. 1 is the linear synthesis φ = Σ φ_i).
 //!
 //! - **Steps.** `N` is given, or derived from the step width as
 //!   `N = max(1, round(2πA / d_LM))` (round to nearest: A = 3 mm,
@@ -484,9 +485,9 @@ mod tests {
             assert!((f[2] + d[2]).abs() < 1e-12);
             assert!((norm(sub(*f, scene.center_mm)) - 3.0).abs() < 1e-9);
         }
-        // θ = 90° goes along b' = (0, cos 50°, −sin 50°).
+        // θ = 90° goes along b = (0, sin 50°, cos 50°), across the wave.
         let q = t.foci_mm[82 / 4];
-        assert!(q[1] > 30.0 && q[2] < 30.0, "{q:?}");
+        assert!(q[1] > 30.0 && q[2] > 30.0, "{q:?}");
     }
 
     #[test]

@@ -146,6 +146,23 @@ pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
     Ok(v)
 }
 
+/// Below this angle between the LM plane and the beam axis the circle runs
+/// along the beam instead of across the finger pad.
+pub const MIN_LM_PLANE_BEAM_ANGLE_DEG: f64 = 30.0;
+
+/// A one-line warning when the scene's LM plane is within
+/// [`MIN_LM_PLANE_BEAM_ANGLE_DEG`] of containing the beam axis.
+pub fn lm_plane_warning(scene: &Scene, center_mm: Vec3) -> Option<String> {
+    let a = scene.lm_plane_beam_angle_deg(center_mm)?;
+    (a < MIN_LM_PLANE_BEAM_ANGLE_DEG).then(|| {
+        format!(
+            "the LM plane of {} is {a:.0}° from the beam axis (under {MIN_LM_PLANE_BEAM_ANGLE_DEG:.0}°): \
+             the circle runs along the wave, not across the finger pad; set lm_plane.c along the wave",
+            scene.name
+        )
+    })
+}
+
 impl PlanArgs {
     /// The scene named by `--scene`, or the built-in one.
     pub fn load_scene(&self) -> Result<Scene, InputError> {
@@ -208,6 +225,9 @@ impl PlanArgs {
         let scene = self.load_scene()?;
         let params = self.params(&scene)?;
         let trajectory = Trajectory::plan(&params, &scene)?;
+        if let Some(w) = lm_plane_warning(&scene, params.center_mm) {
+            eprintln!("warning: {w}");
+        }
         let sequence = Sequence::synthesize(&scene, &trajectory, &self.synthesis()?)?;
         Ok(Plan {
             scene,
