@@ -309,6 +309,71 @@ fn map_list(m: &FieldMaps) -> [(&'static str, &'static str, &'static str, &[f64]
     ]
 }
 
+/// Radial profile of `map` (row-major `nv × nu` on `plane`) around the
+/// in-plane point `c_uv` (mm): the mean over rings `k·step ± step/2`, for
+/// the rings that fit whole inside the grid.
+fn radial_profile(
+    plane: &ObservationPlane,
+    nu: usize,
+    nv: usize,
+    map: &[f64],
+    c_uv: [f64; 2],
+) -> Vec<f64> {
+    let step = plane.step_mm;
+    let half_u = plane.u_mm(nu - 1) - c_uv[0].abs();
+    let half_v = plane.v_mm(nv - 1) - c_uv[1].abs();
+    let r_max = half_u.min(half_v).max(0.0);
+    let bins = (r_max / step).floor() as usize + 1;
+    let mut sum = vec![0.0; bins];
+    let mut count = vec![0usize; bins];
+    for iv in 0..nv {
+        for iu in 0..nu {
+            let du = plane.u_mm(iu) - c_uv[0];
+            let dv = plane.v_mm(iv) - c_uv[1];
+            let k = ((du * du + dv * dv).sqrt() / step).round() as usize;
+            if k < bins {
+                sum[k] += map[iv * nu + iu];
+                count[k] += 1;
+            }
+        }
+    }
+    sum.iter()
+        .zip(&count)
+        .map(|(s, &n)| if n > 0 { s / n as f64 } else { 0.0 })
+        .collect()
+}
+
+/// The radial profile of the cycle-mean radiation pressure around the LM
+/// centre, with the two numbers that tell a ring from a spot: where the
+/// profile peaks (also as a fraction of A) and the centre-to-orbit ratio
+/// (profile at r = 0 over profile at r = A; below 1 for a ring).
+fn radial_json(
+    plane: &ObservationPlane,
+    maps: &FieldMaps,
+    center_mm: [f64; 3],
+    radius_mm: f64,
+) -> serde_json::Value {
+    let c = plane.project(center_mm);
+    let prof = radial_profile(plane, maps.nu, maps.nv, &maps.mean_pressure_pa, c);
+    let step = plane.step_mm;
+    let peak_k = field::peak(&prof).map(|(k, _)| k);
+    let peak_r = peak_k.map(|k| k as f64 * step);
+    let orbit_k = (radius_mm / step).round() as usize;
+    let ratio = match prof.get(orbit_k) {
+        Some(&o) if o > 0.0 && radius_mm > 0.0 => Some(prof[0] / o),
+        _ => None,
+    };
+    json!({
+        "map": "mean_pressure",
+        "about": "mean over rings around the LM centre in the plane",
+        "bin_mm": step,
+        "profile_pa": prof,
+        "peak_radius_mm": peak_r,
+        "peak_radius_over_a": peak_r.filter(|_| radius_mm > 0.0).map(|r| r / radius_mm),
+        "centre_to_orbit_ratio": ratio,
+    })
+}
+
 /// Orbit (focus 0 over every step) and step-0 foci in plane coordinates.
 fn overlay(plan: &Plan, plane: &ObservationPlane, disk_mm: f64) -> Overlay {
     let t = &plan.trajectory;
@@ -402,6 +467,7 @@ impl Sim {
                 "disk_clipped": self.clipped,
             },
             "compute": { "seconds": self.seconds, "path": self.path },
+            "radial": radial_json(p, &self.maps, t.center_mm, radius_mm),
         })
     }
 
@@ -516,15 +582,44 @@ fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
                 },
             })
             .collect();
-        let title = format!("{title} (shared scale; LM-M: {multi} foci)");
+        let shared_title = format!("{title} (shared scale; LM-M: {multi} foci)");
         plot::grid(
             &out.join(format!("{stem}.png")),
             &plane,
             &panels,
             2,
             5,
-            &title,
+            &shared_title,
             unit,
+        )?;
+        // The paper normalises each map to its own peak.
+        let norm_maps: Vec<Vec<f64>> = sims
+            .iter()
+            .map(|(_, _, _, sim)| {
+                let m = pick(&sim.maps);
+                let peak = field::peak(m).map_or(0.0, |p| p.1);
+                m.iter()
+                    .map(|v| if peak > 0.0 { v / peak } else { 0.0 })
+                    .collect()
+            })
+            .collect();
+        let norm_panels: Vec<Panel> = panels
+            .iter()
+            .zip(&norm_maps)
+            .map(|(p, m)| Panel {
+                title: p.title.clone(),
+                map: m,
+                overlay: p.overlay.clone(),
+            })
+            .collect();
+        plot::grid(
+            &out.join(format!("{stem}_normalised.png")),
+            &plane,
+            &norm_panels,
+            2,
+            5,
+            &format!("{title} (each panel / its own peak; LM-M: {multi} foci)"),
+            "",
         )?;
     }
     for (kind, r, plan, sim) in &sims {
@@ -543,6 +638,26 @@ fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
         )?;
         let mut s = sim.summary_json(plan, view, *r);
         s["stem"] = json!(stem);
+        // Name only the files this run wrote.
+        let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
+        s["maps"] = json!({
+            "mean_pressure": {
+                "title": "Time-averaged radiation pressure", "unit": "Pa",
+                "npy": format!("{stem}_mean_pressure.npy"),
+                "png": "compare_mean_pressure.png",
+                "png_normalised": "compare_mean_pressure_normalised.png",
+                "peak": sim.peak_json(&sim.maps.mean_pressure_pa),
+                "normalisation_pa": pk(&sim.maps.mean_pressure_pa),
+            },
+            "lm_power": {
+                "title": "Radiation-pressure power at the LM frequency", "unit": "Pa²",
+                "npy": format!("{stem}_lm_power.npy"),
+                "png": "compare_lm_power.png",
+                "png_normalised": "compare_lm_power_normalised.png",
+                "peak": sim.peak_json(&sim.maps.lm_power_pa2),
+                "normalisation_pa2": pk(&sim.maps.lm_power_pa2),
+            },
+        });
         summary.push(s);
         println!(
             "{kind} A = {r} mm: {}",
@@ -552,7 +667,11 @@ fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
     let path = out.join("summary.json");
     std::fs::write(
         &path,
-        serde_json::to_string_pretty(&json!({ "compare": summary }))? + "\n",
+        serde_json::to_string_pretty(&json!({
+            "compare": summary,
+            "normalisation": "png_normalised panels (and normalisation_* values) divide each \
+                panel's map by its own peak, as the paper's figures do; png panels share one scale",
+        }))? + "\n",
     )
     .with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {}", out.display());
