@@ -32,7 +32,7 @@ pub struct Args {
     seed: u64,
     /// Stop after this many seconds (at most 86400) [default: serve until
     /// killed].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     seconds: Option<f64>,
 }
 

@@ -690,4 +690,36 @@ mod tests {
         assert!(check_work(100_000, 996, 82, false).is_ok());
         assert!(check_work(100_000, 996, 82, true).is_err());
     }
+
+    #[test]
+    fn radial_profile_finds_a_ring_against_a_plain_loop() {
+        let plane = ObservationPlane::lm_default([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+            .validated()
+            .unwrap();
+        let (nu, nv) = (plane.nu(), plane.nv());
+        // A ring of radius 3 mm: exp(-(r - 3)²).
+        let map: Vec<f64> = (0..nv)
+            .flat_map(|iv| (0..nu).map(move |iu| (iu, iv)))
+            .map(|(iu, iv)| {
+                let r = plane.u_mm(iu).hypot(plane.v_mm(iv));
+                (-(r - 3.0) * (r - 3.0)).exp()
+            })
+            .collect();
+        let prof = radial_profile(&plane, nu, nv, &map, [0.0, 0.0]);
+        assert_eq!(prof.len(), 51);
+        let (k, _) = field::peak(&prof).unwrap();
+        assert!((k as f64 * 0.2 - 3.0).abs() < 0.21, "peak bin {k}");
+        assert!((prof[0] - (-9.0f64).exp()).abs() < 1e-12);
+        // Bin 15 (3 mm) is the plain mean of the points that round to it.
+        let (mut s, mut n) = (0.0, 0);
+        for iv in 0..nv {
+            for iu in 0..nu {
+                if (plane.u_mm(iu).hypot(plane.v_mm(iv)) / 0.2).round() as usize == 15 {
+                    s += map[iv * nu + iu];
+                    n += 1;
+                }
+            }
+        }
+        assert!((prof[15] - s / n as f64).abs() < 1e-12);
+    }
 }

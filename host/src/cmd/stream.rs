@@ -46,7 +46,12 @@ pub struct Args {
     synthetic: bool,
     /// Synthetic finger: seconds to stream; UDP: stop after this long idle.
     /// At most 86400 (3600 with --synthetic --fast).
-    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 10.0,
+        allow_negative_numbers = true
+    )]
     seconds: f64,
     /// Synthetic finger: away from START to END seconds, e.g. `4,5`.
     #[arg(long, value_name = "START,END")]
