@@ -805,6 +805,10 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         all.len(),
         classes.len()
     );
+    for class in &classes {
+        let n = all.iter().filter(|c| c.class == *class).count();
+        println!("  {class}: {n} cases");
+    }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(all.len() >= 100, "only {} cases", all.len());
     assert_eq!(classes.len(), 9, "{classes:?}");
