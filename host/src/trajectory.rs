@@ -493,7 +493,8 @@ mod tests {
     #[test]
     fn plan_numbers_outside_their_ranges_are_refused() {
         let ok = LmParams::paper([0.0, 0.0, 200.0]);
-        let cases: Vec<(&str, Box<dyn Fn(&mut LmParams)>)> = vec![
+        type Tweak = Box<dyn Fn(&mut LmParams)>;
+        let cases: Vec<(&str, Tweak)> = vec![
             ("radius", Box::new(|p| p.radius_mm = 1e30)),
             ("frequency", Box::new(|p| p.freq_hz = 1e9)),
             ("center", Box::new(|p| p.center_mm = [0.0, 0.0, 1e12])),

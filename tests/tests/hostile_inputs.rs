@@ -579,10 +579,10 @@ fn named_files_exist(dir: &Path) -> Result<serde_json::Value, String> {
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
     fn walk(v: &serde_json::Value, dir: &Path, missing: &mut Vec<String>) {
         match v {
-            serde_json::Value::String(s) if s.ends_with(".npy") || s.ends_with(".png") => {
-                if !dir.join(s).exists() {
-                    missing.push(s.clone());
-                }
+            serde_json::Value::String(s)
+                if (s.ends_with(".npy") || s.ends_with(".png")) && !dir.join(s).exists() =>
+            {
+                missing.push(s.clone());
             }
             serde_json::Value::Array(a) => a.iter().for_each(|x| walk(x, dir, missing)),
             serde_json::Value::Object(o) => o.values().for_each(|x| walk(x, dir, missing)),
