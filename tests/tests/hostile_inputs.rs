@@ -451,6 +451,12 @@ fn cases() -> Vec<Case> {
         case(PLANS, "upload --port {port} --weights 0").err("all zero"),
         case(PLANS, "plan --scene {dir}/abutting.toml --center 96,0,200").ok(),
         case(PLANS, "plan --radius 100 --steps 4 --freq 1").ok(),
+        case(PLANS, "simulate --alpha 1e300 --out {dir}/p2").err("0..=2"),
+        case(PLANS, "simulate --calibration 1e300 --out {dir}/p3").err("--calibration"),
+        case(PLANS, "simulate --disk 1e300 --out {dir}/p4").err("--disk"),
+        case(PLANS, "simulate --plane-center 0,0,1e30 --out {dir}/p5").err("±2000 mm"),
+        case(PLANS, "simulate --plane-size 1e9 --out {dir}/p6").err("--plane-size"),
+        case(EXIT, "stream --port {port} --udp 0").err("--udp"),
         // 7. Exit codes: bad input is 2, a failed operation 1.
         case(EXIT, "status --port tcp:127.0.0.1").err("no port"),
         case(EXIT, "status --port tcp:127.0.0.1:99999").err("1..=65535"),

@@ -30,7 +30,8 @@ pub struct Args {
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "simulate-out")]
     out: PathBuf,
-    /// Observation plane size in mm: `S` (square) or `W,H` [default: 20].
+    /// Observation plane size in mm, each at most 1000: `S` (square) or
+    /// `W,H` [default: 20].
     #[arg(long, value_name = "MM[,MM]")]
     plane_size: Option<String>,
     /// Observation grid step in mm. The whole run is limited to 5e10
@@ -49,14 +50,15 @@ pub struct Args {
     /// plane axes a, b].
     #[arg(long, value_name = "UX,UY,UZ,VX,VY,VZ", allow_hyphen_values = true)]
     plane_axes: Option<String>,
-    /// Radiation-pressure coefficient α in α|p|²/(2ρc²) (2 = perfect reflector).
+    /// Radiation-pressure coefficient α in α|p|²/(2ρc²), above 0 and at
+    /// most 2 (2 = perfect reflector).
     #[arg(long, value_name = "A", default_value_t = field::DEFAULT_RADIATION_ALPHA, allow_negative_numbers = true)]
     alpha: f64,
-    /// Air density ρ in kg/m³.
+    /// Air density ρ in kg/m³, above 0 and at most 100.
     #[arg(long, value_name = "KG_M3", default_value_t = field::DEFAULT_DENSITY_KG_M3, allow_negative_numbers = true)]
     density: f64,
-    /// Diameter in mm of the disk the force is integrated over (the paper's
-    /// gauge disk is 15 mm).
+    /// Diameter in mm of the disk the force is integrated over, above 0 and
+    /// at most 1000 (the paper's gauge disk is 15 mm).
     #[arg(
         long,
         value_name = "MM",
@@ -64,7 +66,8 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     disk: f64,
-    /// Factor applied to the simulated force (e.g. measured / simulated).
+    /// Factor applied to the simulated force (e.g. measured / simulated),
+    /// 0..=1e6.
     #[arg(
         long,
         value_name = "K",
@@ -167,19 +170,26 @@ impl Args {
                 Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]]))
             }
         };
-        let calibration = self.calibration;
-        if !(calibration.is_finite() && calibration >= 0.0) {
-            return Err(InputError::new(format!(
-                "--calibration must be finite and ≥ 0, got {calibration}"
-            )));
-        }
+        let calibration = limits::in_range("--calibration", self.calibration, 0.0, 1e6, "")?;
+        positive("alpha", self.alpha)?;
+        positive("density", self.density)?;
+        positive("disk", self.disk)?;
+        limits::in_range("--alpha", self.alpha, 0.0, 2.0, "")?;
+        limits::in_range("--density", self.density, 0.0, 100.0, "kg/m³")?;
+        limits::in_range("--disk", self.disk, 0.0, 1000.0, "mm")?;
+        limits::in_range("--plane-step", self.plane_step, 0.0, 1000.0, "mm")?;
+        limits::in_range("--plane-size", size_mm.0, 0.0, 1000.0, "mm")?;
+        limits::in_range("--plane-size", size_mm.1, 0.0, 1000.0, "mm")?;
         Ok(View {
             size_mm,
             step_mm: positive("plane-step", self.plane_step)?,
             center_mm: self
                 .plane_center
                 .as_deref()
-                .map(|c| parse_vec3("plane-center", c))
+                .map(|c| {
+                    parse_vec3("plane-center", c)
+                        .and_then(|v| limits::position_mm("--plane-center", v))
+                })
                 .transpose()?,
             axes,
             rad: Radiation {

@@ -37,8 +37,8 @@ pub struct Args {
     /// their time stamps.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["udp", "synthetic"])]
     input: Option<PathBuf>,
-    /// Receive samples as UDP datagrams on 127.0.0.1:PORT.
-    #[arg(long, value_name = "PORT", conflicts_with = "synthetic")]
+    /// Receive samples as UDP datagrams on 127.0.0.1:PORT (1..=65535).
+    #[arg(long, value_name = "PORT", conflicts_with = "synthetic", value_parser = clap::value_parser!(u16).range(1..))]
     udp: Option<u16>,
     /// Stream a synthetic finger (90 fps, depth-camera-like noise) and
     /// report every filter's lag and jitter on it.
