@@ -226,7 +226,12 @@ impl PlanArgs {
         let params = self.params(&scene)?;
         let trajectory = Trajectory::plan(&params, &scene)?;
         if let Some(w) = lm_plane_warning(&scene, params.center_mm) {
-            eprintln!("warning: {w}");
+            // Once per run, even when a command plans many stimuli.
+            static WARNED: std::sync::atomic::AtomicBool =
+                std::sync::atomic::AtomicBool::new(false);
+            if !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                eprintln!("warning: {w}");
+            }
         }
         let sequence = Sequence::synthesize(&scene, &trajectory, &self.synthesis()?)?;
         Ok(Plan {
