@@ -41,3 +41,17 @@ pub fn stdout_write(r: std::io::Result<()>) -> anyhow::Result<()> {
         r => Ok(r?),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_broken_pipe_on_stdout_is_quiet() {
+        let e = stdout_write(Err(std::io::ErrorKind::BrokenPipe.into())).unwrap_err();
+        assert!(e.is::<StdoutClosed>());
+        let e = stdout_write(Err(std::io::ErrorKind::PermissionDenied.into())).unwrap_err();
+        assert!(!e.is::<StdoutClosed>());
+        assert!(stdout_write(Ok(())).is_ok());
+    }
+}
