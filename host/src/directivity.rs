@@ -6,8 +6,12 @@
 //! 0..90° in 10° segments whose knot values (the `A` column) are the spec
 //! sheet's directivity, 0 dB down to −14 dB at 80°. The coefficients are the
 //! ones AUTD3's `T4010A1` directivity uses (autd3 `acoustics/directivity`),
-//! so a field simulated here matches AUTD3's own simulator. Angles beyond
-//! 90° fold back (the model is symmetric about the face plane), as AUTD3 does.
+//! so a field simulated here matches AUTD3's own simulator in front of the
+//! array. Behind the transducer face (θ > 90°) the gain is **zero**: a
+//! transducer mounted on its board radiates nothing backwards, so a point
+//! behind the array is never reached (AUTD3's table folds there instead,
+//! which would make a focus behind the array look real). The gain steps
+//! from −15 dB to 0 at exactly 90°.
 
 use serde::{Deserialize, Serialize};
 
@@ -79,8 +83,9 @@ pub enum Directivity {
 impl Directivity {
     /// Amplitude gain (1 on axis) at angle `theta_rad` from the normal.
     ///
-    /// Any finite angle is accepted; it is folded into 0..=90°. A NaN angle
-    /// yields NaN.
+    /// Any finite angle is accepted (the model is symmetric about the
+    /// normal, so θ and −θ, or 360° − θ, are the same direction); beyond
+    /// 90°, behind the face, the gain is 0. A NaN angle yields NaN.
     pub fn gain(&self, theta_rad: f64) -> f64 {
         match self {
             Directivity::Omni => 1.0,
@@ -107,10 +112,13 @@ impl Directivity {
 }
 
 fn t4010a1_gain_deg(theta_deg: f64) -> f64 {
-    let t = theta_deg.abs() % 180.0;
-    let t = if t > 90.0 { 180.0 - t } else { t };
+    let t = theta_deg.abs() % 360.0;
+    let t = if t > 180.0 { 360.0 - t } else { t };
     if t.is_nan() {
         return f64::NAN;
+    }
+    if t > 90.0 {
+        return 0.0;
     }
     let i = (t / 10.0).ceil() as usize;
     if i == 0 {
@@ -139,7 +147,7 @@ mod tests {
     }
 
     #[test]
-    fn t4010a1_is_continuous_and_monotone_and_folds() {
+    fn t4010a1_is_continuous_and_monotone_and_zero_behind_the_face() {
         let d = Directivity::T4010A1;
         let mut prev = d.gain(0.0);
         for i in 1..=9000 {
@@ -151,8 +159,15 @@ mod tests {
         for deg in [5.0, 33.0, 71.5] {
             let a = d.gain(f64::to_radians(deg));
             assert_eq!(a, d.gain(f64::to_radians(-deg)));
-            assert!((a - d.gain(f64::to_radians(180.0 - deg))).abs() < 1e-12);
+            assert_eq!(d.gain(f64::to_radians(180.0 - deg)), 0.0);
+            assert_eq!(a, d.gain(f64::to_radians(360.0 - deg)));
         }
+        assert!(d.gain(f64::to_radians(90.0)) > 0.17);
+        assert_eq!(d.gain(f64::to_radians(90.001)), 0.0);
+        assert_eq!(d.gain(std::f64::consts::PI), 0.0);
+        // Seen from behind the face: nothing.
+        assert_eq!(d.gain_towards([0.0, 0.0, 1.0], [0.0, 0.0, -5.0]), 0.0);
+        assert_eq!(d.gain_towards([0.0, 0.0, 1.0], [3.0, 0.0, -1.0]), 0.0);
     }
 
     #[test]

@@ -14,6 +14,7 @@ pub mod directivity;
 pub mod error;
 pub mod field;
 pub mod geom;
+pub mod limits;
 pub mod link;
 pub mod rng;
 pub mod scene;

@@ -1,9 +1,16 @@
 //! The `lmhost` command line. The only place that maps errors to exit codes.
+//!
+//! - exit 0: success, or stdout was closed early (`lmhost plan --json |
+//!   head -c 10`): output to a closed pipe ends quietly, as ripgrep does;
+//! - exit 2: bad input (the error chain contains [`InputError`]);
+//! - exit 1: the operation failed.
+//!
+//! Errors are printed as one line: `error: outer: cause: root cause`.
 
 use std::process::ExitCode;
 
 use clap::Parser;
-use lmhost::{InputError, cmd::Command};
+use lmhost::{InputError, cmd::Command, error::StdoutClosed};
 
 /// Plan, upload and stream lateral-modulation ultrasound haptics.
 #[derive(Debug, Parser)]
@@ -13,15 +20,58 @@ struct Cli {
     command: Command,
 }
 
+/// Whether the error is stdout closed by its reader.
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|c| c.is::<StdoutClosed>())
+}
+
+/// `println!` panics when stdout is a closed pipe (Rust ignores SIGPIPE).
+/// Every command prints with it, so catch that one panic here, once, and
+/// end quietly with exit 0; any other panic keeps the default report.
+fn quiet_on_closed_stdout() {
+    let default = std::panic::take_hook();
+    let epipe = std::io::Error::from(std::io::ErrorKind::BrokenPipe).to_string();
+    let epipe_os = std::io::Error::from_raw_os_error(libc::EPIPE).to_string();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.starts_with("failed printing to stdout")
+            && (msg.contains(&epipe) || msg.contains(&epipe_os))
+        {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    quiet_on_closed_stdout();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => e.exit(),
+        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            e.exit()
+        }
+        Err(e) => {
+            // Bad flags are bad input: one line, exit 2.
+            let text = e.render().to_string();
+            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+            let first = first.strip_prefix("error: ").unwrap_or(first);
+            eprintln!("error: {first} (see --help)");
+            return ExitCode::from(2);
+        }
+    };
     match cli.command.run() {
         Ok(()) => ExitCode::SUCCESS,
+        Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err}");
-            for cause in err.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
-            }
+            // One line: the context chain joined with ": ".
+            let line = format!("{err:#}").replace('\n', " ");
+            eprintln!("error: {line}");
             if err.chain().any(|c| c.is::<InputError>()) {
                 ExitCode::from(2)
             } else {

@@ -47,7 +47,7 @@
 //!
 //! **Finger space.** The LM centre, the LM plane and the trajectory live where
 //! the finger is. With a reflector the array focuses on the mirror image of
-//! each point (paper eq. 5), so after reflection the focus lands on it.
+//! each point (paper eq. 6), so after reflection the focus lands on it.
 
 use std::path::Path;
 
@@ -110,7 +110,7 @@ pub struct Reflector {
 }
 
 impl Reflector {
-    /// Mirror image of `p` through the plane (paper eq. 5):
+    /// Mirror image of `p` through the plane (paper eq. 6):
     /// `p + 2((point − p)·n) n`. Mirroring twice gives `p` back.
     pub fn mirror(&self, p: Vec3) -> Vec3 {
         let s = 2.0 * dot(sub(self.point_mm, p), self.normal);
@@ -278,6 +278,40 @@ impl Scene {
         units::wavenumber_rad_per_mm(self.sound_speed_m_s)
     }
 
+    /// Whether at least one device faces `p` (drive coordinates): `p` is
+    /// strictly in front of that device's transducer plane. A point behind
+    /// every device or in their plane cannot be focused on (the directivity
+    /// is zero behind the face).
+    pub fn faces(&self, p: Vec3) -> bool {
+        self.devices.iter().any(|d| {
+            let n = mat_vec(&d.rotation, [0.0, 0.0, 1.0]);
+            dot(n, sub(p, d.center_mm)) > 1e-9
+        })
+    }
+
+    /// Angle (degrees, 0..=90) between the LM plane and the beam axis at
+    /// `center_mm`: the direction the wave travels when it reaches the
+    /// centre, from the array's centroid (or its mirror image, with a
+    /// reflector). 90° means the circle faces the wave (the finger pad); near
+    /// 0° the plane contains the beam and the LM circle runs along it, where
+    /// the field shows standing-wave bands instead of the paper's ring.
+    pub fn lm_plane_beam_angle_deg(&self, center_mm: Vec3) -> Option<f64> {
+        let n = self.devices.len() as f64;
+        let centroid = self
+            .devices
+            .iter()
+            .fold([0.0; 3], |acc, d| add(acc, scale(d.center_mm, 1.0 / n)));
+        // In finger space the wave comes from the array's mirror image.
+        let source = self.drive_point(centroid);
+        let axis = sub(center_mm, source);
+        let len = norm(axis);
+        if !(len.is_finite() && len > 1e-9) {
+            return None;
+        }
+        let s = (dot(axis, self.lm_plane.c) / len).abs().min(1.0);
+        Some(s.asin().to_degrees())
+    }
+
     /// The point the array must focus on so the focus forms at `p`
     /// (finger space): `p` itself, or its mirror image with a reflector.
     pub fn drive_point(&self, p: Vec3) -> Vec3 {
@@ -404,11 +438,18 @@ impl SceneFile {
             let c = finite3(dev.center_mm, &format!("device[{i}].center_mm"))?;
             let r = finite3(dev.rotation_deg, &format!("device[{i}].rotation_deg"))?;
             let local = Device::new(c, r);
+            let center_mm = add(mat_vec(&rig_r, local.center_mm), rig_pos);
+            crate::limits::position_mm(
+                &format!("field `device[{i}].center_mm` (after [rig])"),
+                center_mm,
+            )
+            .map_err(|e| e.0)?;
             devices.push(Device {
-                center_mm: add(mat_vec(&rig_r, local.center_mm), rig_pos),
+                center_mm,
                 rotation: mat_mul(&rig_r, &local.rotation),
             });
         }
+        check_overlap(&devices)?;
         let (mut c_m_s, mut att) = (d.sound_speed_m_s, 0.0);
         if let Some(m) = self.medium {
             match (m.sound_speed_m_s, m.temperature_c) {
@@ -446,7 +487,11 @@ impl SceneFile {
         }
         let reflector = match self.reflector {
             Some(r) => Some(Reflector {
-                point_mm: finite3(r.point_mm, "reflector.point_mm")?,
+                point_mm: crate::limits::position_mm(
+                    "field `reflector.point_mm`",
+                    finite3(r.point_mm, "reflector.point_mm")?,
+                )
+                .map_err(|e| e.0)?,
                 normal: unit(r.normal, "reflector.normal").map_err(|e| e.0)?,
             }),
             None => None,
@@ -456,7 +501,8 @@ impl SceneFile {
             None => LmPlane::default(),
         };
         let center_mm = match self.center_mm {
-            Some(c) => finite3(c, "center_mm")?,
+            Some(c) => crate::limits::position_mm("field `center_mm`", finite3(c, "center_mm")?)
+                .map_err(|e| e.0)?,
             None => d.center_mm,
         };
         let min_dwell_s = match self.min_dwell_ms {
@@ -479,6 +525,41 @@ impl SceneFile {
             min_dwell_s,
         })
     }
+}
+
+/// Two devices overlap when transducers of different devices are closer
+/// than [`crate::limits::MIN_TRANSDUCER_GAP_MM`] (two devices at the same
+/// pose, or boards pushed into each other). Grid-hashed: linear time.
+fn check_overlap(devices: &[Device]) -> Result<(), String> {
+    use std::collections::HashMap;
+    let gap = crate::limits::MIN_TRANSDUCER_GAP_MM;
+    let cell = |p: Vec3| p.map(|x| (x / gap).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<(usize, Vec3)>> = HashMap::new();
+    for (d, dev) in devices.iter().enumerate() {
+        for t in dev.transducers() {
+            let c = cell(t.pos_mm);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let Some(v) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+                            continue;
+                        };
+                        if let Some((other, _)) = v
+                            .iter()
+                            .find(|(o, q)| *o != d && norm(sub(*q, t.pos_mm)) < gap)
+                        {
+                            return Err(format!(
+                                "device[{other}] and device[{d}] overlap (transducers closer than \
+                                 {gap} mm); give each device its own place"
+                            ));
+                        }
+                    }
+                }
+            }
+            grid.entry(c).or_default().push((d, t.pos_mm));
+        }
+    }
+    Ok(())
 }
 
 /// `v / |v|`, or an error naming `field` when `v` is zero or not finite.
@@ -700,5 +781,47 @@ mod tests {
         // The LM plane is orthonormal.
         let p = s.lm_plane;
         assert!(dot(p.a, p.b).abs() < 1e-9 && (norm(p.c) - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn overlapping_or_far_away_devices_are_refused() {
+        let two = |a: &str, b: &str| {
+            format!("[[device]]\ncenter_mm = {a}\n[[device]]\ncenter_mm = {b}\n")
+        };
+        let e = Scene::from_toml(&two("[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]"), "t").unwrap_err();
+        assert!(e.0.contains("overlap"), "{e}");
+        let e = Scene::from_toml(&two("[0.0, 0.0, 0.0]", "[100.0, 0.0, 0.0]"), "t").unwrap_err();
+        assert!(e.0.contains("overlap"), "{e}");
+        assert!(Scene::from_toml(&two("[0.0, 0.0, 0.0]", "[192.0, 0.0, 0.0]"), "t").is_ok());
+        let e = Scene::from_toml("[[device]]\ncenter_mm = [1e300, 0.0, 0.0]\n", "t").unwrap_err();
+        assert!(e.0.contains("±2000 mm") && e.0.contains("1e300"), "{e}");
+    }
+
+    #[test]
+    fn faces_means_strictly_in_front_of_some_device() {
+        let s = Scene::default();
+        assert!(s.faces([0.0, 0.0, 200.0]));
+        assert!(!s.faces([0.0, 0.0, 0.0]));
+        assert!(!s.faces([0.0, 0.0, -100.0]));
+    }
+
+    #[test]
+    fn lm_plane_beam_angle_flags_a_plane_that_contains_the_beam() {
+        let s = Scene::default();
+        let a = s.lm_plane_beam_angle_deg([0.0, 0.0, 200.0]).unwrap();
+        assert!((a - 90.0).abs() < 1e-9, "{a}");
+        let mut edge = s.clone();
+        edge.lm_plane = LmPlane::new([1.0, 0.0, 0.0], [0.0, 0.0, 1.0], None, "t").unwrap();
+        assert!(edge.lm_plane_beam_angle_deg([0.0, 0.0, 200.0]).unwrap() < 1e-9);
+        let paper = Scene::load(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/paper.toml"
+        )))
+        .unwrap();
+        let a = paper.lm_plane_beam_angle_deg(paper.center_mm).unwrap();
+        assert!(
+            a > 80.0,
+            "the paper scene's circle must face the reflected wave: {a}°"
+        );
     }
 }

@@ -1,5 +1,6 @@
-//! LM trajectories: the paper's LM-S (eq. 1-2) and LM-M (eq. 3-4), mirrored
-//! through the scene's reflector (eq. 5-6).
+//! LM trajectories: the paper's LM-S (eq. 2-3) and LM-M (eq. 4-5), mirrored
+//! through the scene's reflector (eq. 6-7). Equation numbers are the
+//! paper's own (eq. 1 is the linear synthesis φ = Σ φ_i).
 //!
 //! - **Steps.** `N` is given, or derived from the step width as
 //!   `N = max(1, round(2πA / d_LM))` (round to nearest: A = 3 mm,
@@ -17,6 +18,7 @@
 
 use crate::error::InputError;
 use crate::geom::{Vec3, add, scale};
+use crate::limits;
 use crate::scene::{LmPlane, Scene};
 
 /// Most foci per step the planner accepts.
@@ -107,18 +109,35 @@ fn finite_pos(v: f64, name: &str, unit: &str, allow_zero: bool) -> Result<(), In
     )))
 }
 
+/// The wire carries positions as i32 µm: ±2147 mm.
+const WIRE_MAX_MM: f64 = i32::MAX as f64 / 1000.0;
+
+fn check_wire_range(v: Vec3, what: &str) -> Result<(), InputError> {
+    if v.iter().all(|x| x.abs() <= WIRE_MAX_MM) {
+        Ok(())
+    } else {
+        Err(InputError::new(format!(
+            "{what} [{}] mm is beyond the wire's range of ±{WIRE_MAX_MM:.0} mm per coordinate",
+            v.map(limits::show).join(", ")
+        )))
+    }
+}
+
 impl Trajectory {
     /// Plans the trajectory for `p` in `scene` (its reflector and minimum
     /// dwell). Every rejection is an [`InputError`] naming the parameter.
     pub fn plan(p: &LmParams, scene: &Scene) -> Result<Self, InputError> {
         finite_pos(p.radius_mm, "radius", "mm", true)?;
         finite_pos(p.freq_hz, "frequency", "Hz", false)?;
+        limits::in_range("radius", p.radius_mm, 0.0, limits::MAX_RADIUS_MM, "mm")?;
+        limits::in_range("frequency", p.freq_hz, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
         if !p.center_mm.iter().all(|x| x.is_finite()) {
             return Err(InputError::new(format!(
                 "center must be finite, got {:?}",
                 p.center_mm
             )));
         }
+        limits::position_mm("center", p.center_mm)?;
         if p.foci == 0 || p.foci > MAX_FOCI {
             return Err(InputError::new(format!(
                 "foci must be 1..={MAX_FOCI}, got {}",
@@ -127,6 +146,7 @@ impl Trajectory {
         }
         if p.foci > 1 {
             finite_pos(p.spacing_mm, "spacing", "mm", false)?;
+            limits::in_range("spacing", p.spacing_mm, 0.0, limits::MAX_SPACING_MM, "mm")?;
         }
         let circumference = 2.0 * std::f64::consts::PI * p.radius_mm;
         let n = match p.steps {
@@ -140,6 +160,7 @@ impl Trajectory {
             }
             Steps::Width(w) => {
                 finite_pos(w, "step", "mm", false)?;
+                limits::in_range("step", w, 0.0, limits::MAX_SPACING_MM, "mm")?;
                 if p.radius_mm == 0.0 {
                     1
                 } else {
@@ -205,6 +226,9 @@ impl Trajectory {
                 "z profile values must be finite, got {z}"
             )));
         }
+        for &z in &p.z_profile_mm {
+            limits::in_range("z", z, -limits::MAX_Z_MM, limits::MAX_Z_MM, "mm")?;
+        }
         let period_s = 1.0 / p.freq_hz;
         let dwell_s = period_s / n as f64;
         if dwell_s < scene.min_dwell_s * (1.0 - 1e-12) {
@@ -231,7 +255,18 @@ impl Trajectory {
                 foci_mm.push(points[(j + i * index_offset) % n]);
             }
         }
-        let drive_mm = foci_mm.iter().map(|&f| scene.drive_point(f)).collect();
+        let drive_mm: Vec<Vec3> = foci_mm.iter().map(|&f| scene.drive_point(f)).collect();
+        for (f, d) in foci_mm.iter().zip(&drive_mm) {
+            check_wire_range(*f, "focus")?;
+            check_wire_range(*d, "drive point (mirrored focus)")?;
+        }
+        if let Some(d) = drive_mm.iter().find(|d| !scene.faces(**d)) {
+            return Err(InputError::new(format!(
+                "focus [{:.1}, {:.1}, {:.1}] mm is behind or in the plane of every device \
+                 (no transducer faces it); move the centre in front of the array",
+                d[0], d[1], d[2]
+            )));
+        }
         Ok(Self {
             steps: n,
             foci: p.foci,
@@ -283,7 +318,7 @@ mod tests {
 
     #[test]
     fn paper_lm_m_index_offset_is_13_at_0_22_mm() {
-        let mut p = LmParams::paper([0.0; 3]);
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.steps = Steps::Width(0.22);
         p.foci = 4;
         let t = plan(&p).unwrap();
@@ -306,7 +341,7 @@ mod tests {
     #[test]
     fn exact_spacing_ratio_is_not_floored_down() {
         // 2π·A/N = 0.3 exactly when A = 0.3·N/2π; d = 3 → l = 10, not 9.
-        let mut p = LmParams::paper([0.0; 3]);
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.radius_mm = 0.3 * 100.0 / (2.0 * std::f64::consts::PI);
         p.steps = Steps::Count(100);
         p.freq_hz = 1.0;
@@ -337,7 +372,7 @@ mod tests {
 
     #[test]
     fn step_wider_than_circumference_is_an_error() {
-        let mut p = LmParams::paper([0.0; 3]);
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.steps = Steps::Width(19.0);
         let e = plan(&p).unwrap_err().0;
         assert!(e.contains("wider than the circumference"), "{e}");
@@ -349,7 +384,7 @@ mod tests {
 
     #[test]
     fn spacing_below_one_step_is_l_zero_error() {
-        let mut p = LmParams::paper([0.0; 3]);
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.foci = 4;
         p.spacing_mm = 0.1;
         let e = plan(&p).unwrap_err().0;
@@ -358,7 +393,7 @@ mod tests {
 
     #[test]
     fn foci_times_spacing_longer_than_circumference_is_an_error() {
-        let mut p = LmParams::paper([0.0; 3]);
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.radius_mm = 2.0;
         p.foci = 5;
         p.spacing_mm = 3.0;
@@ -371,7 +406,7 @@ mod tests {
 
     #[test]
     fn nan_inf_and_negative_inputs_are_rejected() {
-        let base = LmParams::paper([0.0; 3]);
+        let base = LmParams::paper([0.0, 0.0, 200.0]);
         let bad = [
             LmParams {
                 radius_mm: f64::NAN,
@@ -415,7 +450,7 @@ mod tests {
 
     #[test]
     fn dwell_below_device_minimum_is_rejected() {
-        let mut p = LmParams::paper([0.0; 3]);
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.freq_hz = 25.0; // 82 steps at 25 Hz: 0.49 ms
         let e = plan(&p).unwrap_err().0;
         assert!(e.contains("below the device minimum"), "{e}");
@@ -428,13 +463,13 @@ mod tests {
 
     #[test]
     fn z_profile_constant_or_per_step() {
-        let mut p = LmParams::paper([0.0; 3]);
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.steps = Steps::Count(4);
         p.freq_hz = 1.0;
         p.z_profile_mm = vec![1.0, 2.0, 3.0, 4.0];
         let t = plan(&p).unwrap();
         let z: Vec<f64> = t.foci_mm.iter().map(|f| f[2]).collect();
-        assert_eq!(z, vec![1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(z, vec![201.0, 202.0, 203.0, 204.0]);
         p.z_profile_mm = vec![1.0, 2.0];
         assert!(plan(&p).unwrap_err().0.contains("z profile"));
     }
@@ -451,8 +486,36 @@ mod tests {
             assert!((f[2] + d[2]).abs() < 1e-12);
             assert!((norm(sub(*f, scene.center_mm)) - 3.0).abs() < 1e-9);
         }
-        // θ = 90° goes along b' = (0, cos 50°, −sin 50°).
+        // θ = 90° goes along b = (0, sin 50°, cos 50°), across the wave.
         let q = t.foci_mm[82 / 4];
-        assert!(q[1] > 30.0 && q[2] < 30.0, "{q:?}");
+        assert!(q[1] > 30.0 && q[2] > 30.0, "{q:?}");
+    }
+
+    #[test]
+    fn plan_numbers_outside_their_ranges_are_refused() {
+        let ok = LmParams::paper([0.0, 0.0, 200.0]);
+        type Tweak = Box<dyn Fn(&mut LmParams)>;
+        let cases: Vec<(&str, Tweak)> = vec![
+            ("radius", Box::new(|p| p.radius_mm = 1e30)),
+            ("frequency", Box::new(|p| p.freq_hz = 1e9)),
+            ("center", Box::new(|p| p.center_mm = [0.0, 0.0, 1e12])),
+            ("z", Box::new(|p| p.z_profile_mm = vec![1e12])),
+            ("step", Box::new(|p| p.steps = Steps::Width(1e30))),
+        ];
+        for (what, f) in cases {
+            let mut p = ok.clone();
+            f(&mut p);
+            let e = plan(&p).unwrap_err();
+            assert!(e.0.contains(what) && e.0.contains("range"), "{what}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_focus_behind_or_in_the_plane_of_the_array_is_refused() {
+        for z in [-100.0, 0.0] {
+            let e = plan(&LmParams::paper([0.0, 0.0, z])).unwrap_err();
+            assert!(e.0.contains("behind or in the plane"), "{e}");
+        }
+        assert!(plan(&LmParams::paper([0.0, 0.0, 1.0])).is_ok());
     }
 }

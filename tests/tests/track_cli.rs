@@ -257,7 +257,9 @@ fn tracking_streams_the_gated_centre_to_the_device() {
     let d = dir("port");
     let cam = half_intrinsics(&d);
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port]);
+    // Planned on the same scene, so the tracked finger is inside the
+    // device's work volume around the planned centre.
+    ok(&["upload", "--port", &sim.port, "--scene", &paper()]);
     let out = ok(&[
         "track",
         "--synthetic",

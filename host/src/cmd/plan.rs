@@ -11,6 +11,7 @@ use lm_proto::codec::Encoding;
 use serde_json::json;
 
 use crate::error::InputError;
+use crate::limits;
 use crate::scene::{Scene, Vec3};
 use crate::sequence::{Plan, Synthesis};
 use crate::trajectory::{LmParams, Steps};
@@ -31,7 +32,7 @@ pub enum Method {
 /// The stimulus flags shared by `plan`, `upload` and `simulate`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct PlanArgs {
-    /// LM circle radius A in mm (0 = a static focus).
+    /// LM circle radius A in mm, 0..=100 (0 = a static focus).
     #[arg(
         long,
         value_name = "MM",
@@ -39,10 +40,11 @@ pub struct PlanArgs {
         allow_negative_numbers = true
     )]
     pub radius: f64,
-    /// Foci per step: 1 = LM-S, more = LM-M (foci rotate together).
+    /// Foci per step, 1..=32: 1 = LM-S, more = LM-M (foci rotate together).
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub foci: usize,
-    /// Spacing d between neighbouring foci along the circle in mm (LM-M).
+    /// Spacing d between neighbouring foci along the circle in mm (LM-M),
+    /// above 0 and at most 1000.
     #[arg(
         long,
         value_name = "MM",
@@ -50,7 +52,7 @@ pub struct PlanArgs {
         allow_negative_numbers = true
     )]
     pub spacing: f64,
-    /// LM frequency f in Hz (cycles per second).
+    /// LM frequency f in Hz (cycles per second), above 0 and at most 1000.
     #[arg(
         long,
         value_name = "HZ",
@@ -58,7 +60,8 @@ pub struct PlanArgs {
         allow_negative_numbers = true
     )]
     pub freq: f64,
-    /// Step width d_LM in mm; N = round(2πA / d_LM) [default: 0.23].
+    /// Step width d_LM in mm, above 0 and at most 1000;
+    /// N = round(2πA / d_LM) [default: 0.23].
     #[arg(
         long,
         value_name = "MM",
@@ -66,15 +69,16 @@ pub struct PlanArgs {
         allow_negative_numbers = true
     )]
     pub step: Option<f64>,
-    /// Steps per cycle N (instead of --step).
+    /// Steps per cycle N, 1..=65535 (instead of --step).
     #[arg(long, value_name = "N")]
     pub steps: Option<usize>,
-    /// LM centre X,Y,Z in mm, finger space [default: the scene's centre,
-    /// (0,0,200) for the built-in array].
+    /// LM centre X,Y,Z in mm, finger space, each within ±2000 and in front
+    /// of the array [default: the scene's centre, (0,0,200) for the
+    /// built-in array].
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub center: Option<String>,
-    /// Per-step depth along the LM plane's c axis in mm: one value, or one
-    /// per step, comma-separated [default: 0].
+    /// Per-step depth along the LM plane's c axis in mm, each within ±100:
+    /// one value, or one per step, comma-separated [default: 0].
     #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
     pub z: Option<String>,
     /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
@@ -83,10 +87,11 @@ pub struct PlanArgs {
     /// Multi-focus synthesis.
     #[arg(long, value_enum, default_value_t = Method::Linear)]
     pub method: Method,
-    /// GS-PAT iterations (with --method gspat).
+    /// GS-PAT iterations (with --method gspat), 1..=1000.
     #[arg(long, value_name = "N", default_value_t = 20)]
     pub iterations: usize,
-    /// Real weight per focus, comma-separated (linear synthesis only).
+    /// Real weight per focus, comma-separated, each within ±1e6 and not
+    /// all zero (linear synthesis only).
     #[arg(long, value_name = "W,W,...")]
     pub weights: Option<String>,
 }
@@ -104,6 +109,27 @@ fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
         .collect()
 }
 
+/// Parses `--weights`: finite, each within ±[`limits::MAX_WEIGHT`], not
+/// all zero (all-zero weights would play silence as if it were a plan).
+fn parse_weights(s: &str) -> Result<Vec<f64>, InputError> {
+    let w = parse_list("weights", s)?;
+    for &x in &w {
+        limits::in_range(
+            "--weights value",
+            x,
+            -limits::MAX_WEIGHT,
+            limits::MAX_WEIGHT,
+            "",
+        )?;
+    }
+    if w.iter().all(|&x| x == 0.0) {
+        return Err(InputError::new(format!(
+            "--weights `{s}` are all zero: at least one focus needs a non-zero weight"
+        )));
+    }
+    Ok(w)
+}
+
 /// Parses `X,Y,Z` (mm); finite values only.
 pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
     let v = parse_list(flag, s)?;
@@ -118,6 +144,23 @@ pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
         )));
     }
     Ok(v)
+}
+
+/// Below this angle between the LM plane and the beam axis the circle runs
+/// along the beam instead of across the finger pad.
+pub const MIN_LM_PLANE_BEAM_ANGLE_DEG: f64 = 30.0;
+
+/// A one-line warning when the scene's LM plane is within
+/// [`MIN_LM_PLANE_BEAM_ANGLE_DEG`] of containing the beam axis.
+pub fn lm_plane_warning(scene: &Scene, center_mm: Vec3) -> Option<String> {
+    let a = scene.lm_plane_beam_angle_deg(center_mm)?;
+    (a < MIN_LM_PLANE_BEAM_ANGLE_DEG).then(|| {
+        format!(
+            "the LM plane of {} is {a:.0}° from the beam axis (under {MIN_LM_PLANE_BEAM_ANGLE_DEG:.0}°): \
+             the circle runs along the wave, not across the finger pad; set lm_plane.c along the wave",
+            scene.name
+        )
+    })
 }
 
 impl PlanArgs {
@@ -160,14 +203,18 @@ impl PlanArgs {
                 return Err(InputError::new("--weights applies to --method linear only"));
             }
             (Method::Gspat, None) => {
-                if self.iterations == 0 {
-                    return Err(InputError::new("--iterations must be ≥ 1"));
+                if !(1..=limits::MAX_ITERATIONS).contains(&self.iterations) {
+                    return Err(InputError::new(format!(
+                        "--iterations {} is out of range: allowed 1..={}",
+                        self.iterations,
+                        limits::MAX_ITERATIONS
+                    )));
                 }
                 Synthesis::GsPat {
                     iterations: self.iterations,
                 }
             }
-            (Method::Linear, Some(w)) => Synthesis::Weighted(parse_list("weights", w)?),
+            (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
             (Method::Linear, None) => Synthesis::Linear,
         })
     }
@@ -177,6 +224,14 @@ impl PlanArgs {
     pub fn plan(&self) -> anyhow::Result<Plan> {
         let scene = self.load_scene()?;
         let params = self.params(&scene)?;
+        if let Some(w) = lm_plane_warning(&scene, params.center_mm) {
+            // Once per run, even when a command plans many stimuli.
+            static WARNED: std::sync::atomic::AtomicBool =
+                std::sync::atomic::AtomicBool::new(false);
+            if !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                eprintln!("warning: {w}");
+            }
+        }
         let synthesis = self.synthesis()?;
         Ok(Plan::new(scene, &params, &synthesis)?)
     }
@@ -384,5 +439,26 @@ mod tests {
         let j = summary_json(&p, true);
         assert_eq!(j["phases"].as_array().unwrap().len(), 82);
         assert!(j["drive_foci_mm"].is_array());
+    }
+
+    #[test]
+    fn out_of_range_plan_numbers_are_input_errors_naming_the_range() {
+        for (a, want) in [
+            (&["--weights", "0"][..], "all zero"),
+            (&["--foci", "2", "--weights", "0,0"], "all zero"),
+            (&["--weights", "1e300"], "1e300 is out of range"),
+            (
+                &["--method", "gspat", "--iterations", "100000000"],
+                "1..=1000",
+            ),
+            (&["--z", "1e12"], "-100..=100"),
+            (&["--radius", "1e30", "--steps", "4"], "0..=100"),
+            (&["--center", "0,0,1e30"], "±2000"),
+            (&["--center", "0,0,-100"], "behind or in the plane"),
+        ] {
+            let e = args(a).plan().unwrap_err();
+            assert!(e.chain().any(|c| c.is::<InputError>()), "{a:?}: {e}");
+            assert!(e.to_string().contains(want), "{a:?}: {e}");
+        }
     }
 }

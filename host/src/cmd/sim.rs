@@ -11,14 +11,16 @@ use crate::simdev::{Core as _, FwCore, Pty, ServeOptions, SimConfig, serve};
 /// Run the simulated device (any serial tool can talk to it).
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Mute when no centroid update came for this long (ms).
+    /// Mute when no centroid update came for this long (ms, at most
+    /// 3600000: it travels as µs in a u32).
     #[arg(long, value_name = "MS", default_value_t = 100)]
     centroid_timeout_ms: u32,
     /// Play even before the first centroid update (the firmware's default
     /// is to stay muted until a finger is tracked).
     #[arg(long)]
     no_tracking: bool,
-    /// Steps per slot at 996 transducers.
+    /// Steps per slot at 996 transducers (1..=65535, the wire's u16 step
+    /// count).
     #[arg(long, value_name = "N", default_value_t = 400)]
     slot_steps: u32,
     /// Damage the link on the device's side, e.g. `ber=1e-4,drop=1e-5`
@@ -28,8 +30,9 @@ pub struct Args {
     /// Seed of the fault generator.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Stop after this many seconds [default: serve until killed].
-    #[arg(long, value_name = "S")]
+    /// Stop after this many seconds (at most 86400) [default: serve until
+    /// killed].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     seconds: Option<f64>,
 }
 
@@ -44,12 +47,23 @@ impl Args {
             )),
             None => None,
         };
-        if self.slot_steps == 0 {
-            crate::bad_input!("--slot-steps must be at least 1");
+        if !(1..=crate::limits::MAX_SLOT_STEPS).contains(&self.slot_steps) {
+            crate::bad_input!(
+                "--slot-steps {} is out of range: allowed 1..={}",
+                self.slot_steps,
+                crate::limits::MAX_SLOT_STEPS
+            );
         }
-        if let Some(s) = self.seconds.filter(|s| !(s.is_finite() && *s > 0.0)) {
-            crate::bad_input!("--seconds {s} must be a positive number");
+        if self.centroid_timeout_ms > 3_600_000 {
+            crate::bad_input!(
+                "--centroid-timeout-ms {} is out of range: allowed 0..=3600000",
+                self.centroid_timeout_ms
+            );
         }
+        let stop_after = self
+            .seconds
+            .map(|s| crate::limits::duration_s("--seconds", s, crate::limits::MAX_SECONDS))
+            .transpose()?;
         let cfg = SimConfig {
             slot_steps: self.slot_steps,
             centroid_timeout_us: self.centroid_timeout_ms.saturating_mul(1000),
@@ -59,16 +73,16 @@ impl Args {
         let core = Arc::new(Mutex::new(FwCore::new(cfg)?));
         let pty = Pty::open()?;
         println!("{}", pty.path);
-        std::io::stdout().flush()?;
+        crate::error::stdout_write(std::io::stdout().flush())?;
         eprintln!(
             "lmhost sim: simulated device on {} (Ctrl-C to stop)",
             pty.path
         );
         let stop = Arc::new(AtomicBool::new(false));
-        if let Some(s) = self.seconds {
+        if let Some(d) = stop_after {
             let stop = stop.clone();
             std::thread::spawn(move || {
-                std::thread::sleep(std::time::Duration::from_secs_f64(s));
+                std::thread::sleep(d);
                 stop.store(true, std::sync::atomic::Ordering::Relaxed);
             });
         }

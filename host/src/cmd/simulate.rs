@@ -11,6 +11,7 @@ use crate::cmd::plan::{PlanArgs, parse_vec3};
 use crate::error::InputError;
 use crate::field::plot::{self, Overlay, Panel};
 use crate::field::{self, FieldMaps, ObservationPlane, Radiation, npy};
+use crate::limits;
 use crate::sequence::Plan;
 
 /// Simulate the acoustic field of an LM stimulus and plot it.
@@ -29,10 +30,12 @@ pub struct Args {
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "simulate-out")]
     out: PathBuf,
-    /// Observation plane size in mm: `S` (square) or `W,H` [default: 20].
+    /// Observation plane size in mm, each at most 1000: `S` (square) or
+    /// `W,H` [default: 20].
     #[arg(long, value_name = "MM[,MM]")]
     plane_size: Option<String>,
-    /// Observation grid step in mm.
+    /// Observation grid step in mm. The whole run is limited to 5e10
+    /// points × transducers × steps (5e9 with --reference), ~10 s.
     #[arg(
         long,
         value_name = "MM",
@@ -47,14 +50,15 @@ pub struct Args {
     /// plane axes a, b].
     #[arg(long, value_name = "UX,UY,UZ,VX,VY,VZ", allow_hyphen_values = true)]
     plane_axes: Option<String>,
-    /// Radiation-pressure coefficient α in α|p|²/(2ρc²) (2 = perfect reflector).
+    /// Radiation-pressure coefficient α in α|p|²/(2ρc²), above 0 and at
+    /// most 2 (2 = perfect reflector).
     #[arg(long, value_name = "A", default_value_t = field::DEFAULT_RADIATION_ALPHA, allow_negative_numbers = true)]
     alpha: f64,
-    /// Air density ρ in kg/m³.
+    /// Air density ρ in kg/m³, above 0 and at most 100.
     #[arg(long, value_name = "KG_M3", default_value_t = field::DEFAULT_DENSITY_KG_M3, allow_negative_numbers = true)]
     density: f64,
-    /// Diameter in mm of the disk the force is integrated over (the paper's
-    /// gauge disk is 15 mm).
+    /// Diameter in mm of the disk the force is integrated over, above 0 and
+    /// at most 1000 (the paper's gauge disk is 15 mm).
     #[arg(
         long,
         value_name = "MM",
@@ -62,7 +66,8 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     disk: f64,
-    /// Factor applied to the simulated force (e.g. measured / simulated).
+    /// Factor applied to the simulated force (e.g. measured / simulated),
+    /// 0..=1e6.
     #[arg(
         long,
         value_name = "K",
@@ -87,6 +92,32 @@ fn positive(flag: &str, v: f64) -> Result<f64, InputError> {
             "--{flag} must be a finite number > 0, got {v}"
         )))
     }
+}
+
+/// Refuses a simulation beyond [`limits::MAX_SIM_WORK`] (or the
+/// reference loop's budget) before it starts, naming what to reduce.
+fn check_work(
+    points: usize,
+    sources: usize,
+    steps: usize,
+    reference: bool,
+) -> Result<(), InputError> {
+    let work = points as f64 * sources as f64 * steps as f64;
+    let max = if reference {
+        limits::MAX_SIM_WORK_REFERENCE
+    } else {
+        limits::MAX_SIM_WORK
+    };
+    if work > max {
+        return Err(InputError::new(format!(
+            "{points} grid points × {sources} sources × {steps} steps = {} exceeds the limit {}{}; \
+             use a coarser --plane-step, a smaller --plane-size or fewer steps",
+            limits::show(work),
+            limits::show(max),
+            if reference { " for --reference" } else { "" }
+        )));
+    }
+    Ok(())
 }
 
 /// Observation settings resolved from the flags.
@@ -139,19 +170,26 @@ impl Args {
                 Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]]))
             }
         };
-        let calibration = self.calibration;
-        if !(calibration.is_finite() && calibration >= 0.0) {
-            return Err(InputError::new(format!(
-                "--calibration must be finite and ≥ 0, got {calibration}"
-            )));
-        }
+        let calibration = limits::in_range("--calibration", self.calibration, 0.0, 1e6, "")?;
+        positive("alpha", self.alpha)?;
+        positive("density", self.density)?;
+        positive("disk", self.disk)?;
+        limits::in_range("--alpha", self.alpha, 0.0, 2.0, "")?;
+        limits::in_range("--density", self.density, 0.0, 100.0, "kg/m³")?;
+        limits::in_range("--disk", self.disk, 0.0, 1000.0, "mm")?;
+        limits::in_range("--plane-step", self.plane_step, 0.0, 1000.0, "mm")?;
+        limits::in_range("--plane-size", size_mm.0, 0.0, 1000.0, "mm")?;
+        limits::in_range("--plane-size", size_mm.1, 0.0, 1000.0, "mm")?;
         Ok(View {
             size_mm,
             step_mm: positive("plane-step", self.plane_step)?,
             center_mm: self
                 .plane_center
                 .as_deref()
-                .map(|c| parse_vec3("plane-center", c))
+                .map(|c| {
+                    parse_vec3("plane-center", c)
+                        .and_then(|v| limits::position_mm("--plane-center", v))
+                })
                 .transpose()?,
             axes,
             rad: Radiation {
@@ -211,6 +249,12 @@ fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
     .map_err(|e| InputError::new(e.to_string()))?;
     let seq = &plan.sequence;
     let steps = plan.trajectory.steps;
+    check_work(
+        plane.nu() * plane.nv(),
+        plan.scene.transducer_count() * if plan.scene.reflector.is_some() { 2 } else { 1 },
+        steps,
+        view.reference,
+    )?;
     let t0 = Instant::now();
     let maps = if view.reference {
         field::simulate_reference(&model, &plane, &seq.phases, steps, view.rad)
@@ -273,6 +317,71 @@ fn map_list(m: &FieldMaps) -> [(&'static str, &'static str, &'static str, &[f64]
             &m.max_pressure_pa,
         ),
     ]
+}
+
+/// Radial profile of `map` (row-major `nv × nu` on `plane`) around the
+/// in-plane point `c_uv` (mm): the mean over rings `k·step ± step/2`, for
+/// the rings that fit whole inside the grid.
+fn radial_profile(
+    plane: &ObservationPlane,
+    nu: usize,
+    nv: usize,
+    map: &[f64],
+    c_uv: [f64; 2],
+) -> Vec<f64> {
+    let step = plane.step_mm;
+    let half_u = plane.u_mm(nu - 1) - c_uv[0].abs();
+    let half_v = plane.v_mm(nv - 1) - c_uv[1].abs();
+    let r_max = half_u.min(half_v).max(0.0);
+    let bins = (r_max / step).floor() as usize + 1;
+    let mut sum = vec![0.0; bins];
+    let mut count = vec![0usize; bins];
+    for iv in 0..nv {
+        for iu in 0..nu {
+            let du = plane.u_mm(iu) - c_uv[0];
+            let dv = plane.v_mm(iv) - c_uv[1];
+            let k = ((du * du + dv * dv).sqrt() / step).round() as usize;
+            if k < bins {
+                sum[k] += map[iv * nu + iu];
+                count[k] += 1;
+            }
+        }
+    }
+    sum.iter()
+        .zip(&count)
+        .map(|(s, &n)| if n > 0 { s / n as f64 } else { 0.0 })
+        .collect()
+}
+
+/// The radial profile of the cycle-mean radiation pressure around the LM
+/// centre, with the two numbers that tell a ring from a spot: where the
+/// profile peaks (also as a fraction of A) and the centre-to-orbit ratio
+/// (profile at r = 0 over profile at r = A; below 1 for a ring).
+fn radial_json(
+    plane: &ObservationPlane,
+    maps: &FieldMaps,
+    center_mm: [f64; 3],
+    radius_mm: f64,
+) -> serde_json::Value {
+    let c = plane.project(center_mm);
+    let prof = radial_profile(plane, maps.nu, maps.nv, &maps.mean_pressure_pa, c);
+    let step = plane.step_mm;
+    let peak_k = field::peak(&prof).map(|(k, _)| k);
+    let peak_r = peak_k.map(|k| k as f64 * step);
+    let orbit_k = (radius_mm / step).round() as usize;
+    let ratio = match prof.get(orbit_k) {
+        Some(&o) if o > 0.0 && radius_mm > 0.0 => Some(prof[0] / o),
+        _ => None,
+    };
+    json!({
+        "map": "mean_pressure",
+        "about": "mean over rings around the LM centre in the plane",
+        "bin_mm": step,
+        "profile_pa": prof,
+        "peak_radius_mm": peak_r,
+        "peak_radius_over_a": peak_r.filter(|_| radius_mm > 0.0).map(|r| r / radius_mm),
+        "centre_to_orbit_ratio": ratio,
+    })
 }
 
 /// Orbit (focus 0 over every step) and step-0 foci in plane coordinates.
@@ -368,6 +477,7 @@ impl Sim {
                 "disk_clipped": self.clipped,
             },
             "compute": { "seconds": self.seconds, "path": self.path },
+            "radial": radial_json(p, &self.maps, t.center_mm, radius_mm),
         })
     }
 
@@ -482,15 +592,44 @@ fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
                 },
             })
             .collect();
-        let title = format!("{title} (shared scale; LM-M: {multi} foci)");
+        let shared_title = format!("{title} (shared scale; LM-M: {multi} foci)");
         plot::grid(
             &out.join(format!("{stem}.png")),
             &plane,
             &panels,
             2,
             5,
-            &title,
+            &shared_title,
             unit,
+        )?;
+        // The paper normalises each map to its own peak.
+        let norm_maps: Vec<Vec<f64>> = sims
+            .iter()
+            .map(|(_, _, _, sim)| {
+                let m = pick(&sim.maps);
+                let peak = field::peak(m).map_or(0.0, |p| p.1);
+                m.iter()
+                    .map(|v| if peak > 0.0 { v / peak } else { 0.0 })
+                    .collect()
+            })
+            .collect();
+        let norm_panels: Vec<Panel> = panels
+            .iter()
+            .zip(&norm_maps)
+            .map(|(p, m)| Panel {
+                title: p.title.clone(),
+                map: m,
+                overlay: p.overlay.clone(),
+            })
+            .collect();
+        plot::grid(
+            &out.join(format!("{stem}_normalised.png")),
+            &plane,
+            &norm_panels,
+            2,
+            5,
+            &format!("{title} (each panel / its own peak; LM-M: {multi} foci)"),
+            "",
         )?;
     }
     for (kind, r, plan, sim) in &sims {
@@ -509,6 +648,26 @@ fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
         )?;
         let mut s = sim.summary_json(plan, view, *r);
         s["stem"] = json!(stem);
+        // Name only the files this run wrote.
+        let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
+        s["maps"] = json!({
+            "mean_pressure": {
+                "title": "Time-averaged radiation pressure", "unit": "Pa",
+                "npy": format!("{stem}_mean_pressure.npy"),
+                "png": "compare_mean_pressure.png",
+                "png_normalised": "compare_mean_pressure_normalised.png",
+                "peak": sim.peak_json(&sim.maps.mean_pressure_pa),
+                "normalisation_pa": pk(&sim.maps.mean_pressure_pa),
+            },
+            "lm_power": {
+                "title": "Radiation-pressure power at the LM frequency", "unit": "Pa²",
+                "npy": format!("{stem}_lm_power.npy"),
+                "png": "compare_lm_power.png",
+                "png_normalised": "compare_lm_power_normalised.png",
+                "peak": sim.peak_json(&sim.maps.lm_power_pa2),
+                "normalisation_pa2": pk(&sim.maps.lm_power_pa2),
+            },
+        });
         summary.push(s);
         println!(
             "{kind} A = {r} mm: {}",
@@ -518,9 +677,59 @@ fn compare(args: &PlanArgs, view: &View, out: &Path) -> anyhow::Result<()> {
     let path = out.join("summary.json");
     std::fs::write(
         &path,
-        serde_json::to_string_pretty(&json!({ "compare": summary }))? + "\n",
+        serde_json::to_string_pretty(&json!({
+            "compare": summary,
+            "normalisation": "png_normalised panels (and normalisation_* values) divide each \
+                panel's map by its own peak, as the paper's figures do; png panels share one scale",
+        }))? + "\n",
     )
     .with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {}", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn simulation_work_is_bounded() {
+        assert!(check_work(10_201, 996, 82, false).is_ok());
+        let e = check_work(3_308_761, 996, 82, false).unwrap_err();
+        assert!(e.0.contains("exceeds the limit 5e10"), "{e}");
+        assert!(check_work(100_000, 996, 82, false).is_ok());
+        assert!(check_work(100_000, 996, 82, true).is_err());
+    }
+
+    #[test]
+    fn radial_profile_finds_a_ring_against_a_plain_loop() {
+        let plane = ObservationPlane::lm_default([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+            .validated()
+            .unwrap();
+        let (nu, nv) = (plane.nu(), plane.nv());
+        // A ring of radius 3 mm: exp(-(r - 3)²).
+        let map: Vec<f64> = (0..nv)
+            .flat_map(|iv| (0..nu).map(move |iu| (iu, iv)))
+            .map(|(iu, iv)| {
+                let r = plane.u_mm(iu).hypot(plane.v_mm(iv));
+                (-(r - 3.0) * (r - 3.0)).exp()
+            })
+            .collect();
+        let prof = radial_profile(&plane, nu, nv, &map, [0.0, 0.0]);
+        assert_eq!(prof.len(), 51);
+        let (k, _) = field::peak(&prof).unwrap();
+        assert!((k as f64 * 0.2 - 3.0).abs() < 0.21, "peak bin {k}");
+        assert!((prof[0] - (-9.0f64).exp()).abs() < 1e-12);
+        // Bin 15 (3 mm) is the plain mean of the points that round to it.
+        let (mut s, mut n) = (0.0, 0);
+        for iv in 0..nv {
+            for iu in 0..nu {
+                if (plane.u_mm(iu).hypot(plane.v_mm(iv)) / 0.2).round() as usize == 15 {
+                    s += map[iv * nu + iu];
+                    n += 1;
+                }
+            }
+        }
+        assert!((prof[15] - s / n as f64).abs() < 1e-12);
+    }
 }

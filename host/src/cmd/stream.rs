@@ -20,6 +20,16 @@ use crate::stream::synthetic::FingerTrack;
 /// Input lines are JSON (`{"t":0.011,"x":1.2,"y":-0.4,"z":201,"present":true}`)
 /// or CSV (`t,x,y,z,present`), from stdin, a file, or UDP datagrams.
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Limits: a line may be at most 4096 bytes; a replayed file may \
+    pause at most 60 s between time stamps. Samples that cannot be a finger (time stamp \
+    going backwards, a coordinate beyond ±2000 mm, a jump of more than 50 mm that 3 \
+    samples in a row do not confirm) are dropped and counted in the report. With --udp, \
+    a bad datagram is skipped and counted; 1000 bad datagrams in a row end the session.\n\n\
+    Stopping: Ctrl-C (SIGINT) or SIGTERM ends the session, mutes the device (an update \
+    with present = false), prints the report and frees the port for `lmhost stop` / \
+    `lmhost status`. While `stream` runs it holds the port: stop it first."
+)]
 pub struct Args {
     #[command(flatten)]
     port: PortArgs,
@@ -27,15 +37,21 @@ pub struct Args {
     /// their time stamps.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["udp", "synthetic"])]
     input: Option<PathBuf>,
-    /// Receive samples as UDP datagrams on 127.0.0.1:PORT.
-    #[arg(long, value_name = "PORT", conflicts_with = "synthetic")]
+    /// Receive samples as UDP datagrams on 127.0.0.1:PORT (1..=65535).
+    #[arg(long, value_name = "PORT", conflicts_with = "synthetic", value_parser = clap::value_parser!(u16).range(1..))]
     udp: Option<u16>,
     /// Stream a synthetic finger (90 fps, depth-camera-like noise) and
     /// report every filter's lag and jitter on it.
     #[arg(long)]
     synthetic: bool,
     /// Synthetic finger: seconds to stream; UDP: stop after this long idle.
-    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    /// At most 86400 (3600 with --synthetic --fast).
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 10.0,
+        allow_negative_numbers = true
+    )]
     seconds: f64,
     /// Synthetic finger: away from START to END seconds, e.g. `4,5`.
     #[arg(long, value_name = "START,END")]
@@ -78,9 +94,12 @@ fn parse_away(s: &str) -> Result<(f64, f64), crate::InputError> {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        if !(self.seconds.is_finite() && self.seconds > 0.0) {
-            crate::bad_input!("--seconds {} must be a positive number", self.seconds);
-        }
+        let max_s = if self.synthetic && self.fast {
+            crate::limits::MAX_FAST_SYNTHETIC_S
+        } else {
+            crate::limits::MAX_SECONDS
+        };
+        let seconds = crate::limits::duration_s("--seconds", self.seconds, max_s)?;
         if !self.lead_ms.is_finite() || self.lead_ms.abs() > 1000.0 {
             crate::bad_input!("--lead-ms {} must be within ±1000", self.lead_ms);
         }
@@ -103,6 +122,7 @@ impl Args {
         } else {
             Pace::Timestamps
         };
+        let udp_counts = std::sync::Arc::new(source::UdpCounts::default());
         let (samples, pace): (Box<dyn Iterator<Item = anyhow::Result<Sample>>>, Pace) = if self
             .synthetic
         {
@@ -112,19 +132,18 @@ impl Args {
                 pace,
             )
         } else if let Some(port) = self.udp {
-            let idle = Duration::from_secs_f64(self.seconds);
-            (Box::new(source::udp(port, idle)?), Pace::Arrival)
+            (
+                Box::new(source::udp(port, seconds, udp_counts.clone())?),
+                Pace::Arrival,
+            )
         } else {
             match self.input.as_deref() {
-                None => (
-                    Box::new(source::read_lines(std::io::stdin().lock())),
-                    Pace::Arrival,
-                ),
-                Some(p) if p.as_os_str() == "-" => (
-                    Box::new(source::read_lines(std::io::stdin().lock())),
-                    Pace::Arrival,
-                ),
+                None => (Box::new(stdin_samples()), Pace::Arrival),
+                Some(p) if p.as_os_str() == "-" => (Box::new(stdin_samples()), Pace::Arrival),
                 Some(p) => {
+                    if p.is_dir() {
+                        crate::bad_input!("--input {} is a directory, not a file", p.display());
+                    }
                     let f = std::fs::File::open(p).map_err(|e| {
                         crate::InputError::new(format!(
                             "cannot read {}: {}",
@@ -133,11 +152,12 @@ impl Args {
                         ))
                     })?;
                     let reader: Box<dyn std::io::BufRead> = Box::new(std::io::BufReader::new(f));
-                    (Box::new(source::read_lines(reader)), pace)
+                    (Box::new(source::replay_lines(reader)), pace)
                 }
             }
         };
         let mut client = self.port.connect()?;
+        crate::stream::run::install_stop_signals()?;
         let where_ = client.transport_mut().describe();
         let report = stream(
             &mut client,
@@ -158,6 +178,9 @@ impl Args {
         let status = client
             .status()
             .context("reading the device status after streaming")?;
+        let bad_datagrams = udp_counts
+            .bad_datagrams
+            .load(std::sync::atomic::Ordering::Relaxed);
         let scores: Vec<_> = if self.synthetic {
             FilterKind::ALL
                 .iter()
@@ -174,6 +197,9 @@ impl Args {
                 "seconds": report.seconds, "filter": self.filter.name(),
                 "ack_p50_us": p(50.0), "ack_p99_us": p(99.0), "ack_max_us": p(100.0),
                 "device_state": status.state, "filters": scores,
+                "rejected": report.rejected, "bad_datagrams": bad_datagrams,
+                "outside_work_volume": report.outside_work_volume,
+                "stopped": report.stopped, "muted_at_end": report.muted_at_end,
             });
             println!("{v}");
             return Ok(());
@@ -193,6 +219,29 @@ impl Args {
             p(99.0),
             p(100.0)
         );
+        let dropped = report.rejected.total();
+        if dropped > 0 || bad_datagrams > 0 {
+            println!(
+                "dropped {dropped} implausible samples ({} out of order, {} out of range, {} jumps); skipped {bad_datagrams} bad datagrams",
+                report.rejected.out_of_order, report.rejected.out_of_range, report.rejected.jumps
+            );
+        }
+        if report.outside_work_volume > 0 {
+            println!(
+                "{} updates outside the device's work volume (muted until the finger came back; see upload --max-offset)",
+                report.outside_work_volume
+            );
+        }
+        if report.stopped {
+            println!(
+                "stopped by signal; device {}",
+                if report.muted_at_end {
+                    "muted"
+                } else {
+                    "NOT muted (the mute update failed)"
+                }
+            );
+        }
         if !scores.is_empty() {
             println!("filter      lag (ms)  jitter (mm)  error vs now (mm)");
             for s in &scores {
@@ -207,6 +256,31 @@ impl Args {
         }
         Ok(())
     }
+}
+
+/// Stdin samples read on their own thread, so Ctrl-C ends the session
+/// even while no line arrives (a blocking read cannot be interrupted).
+fn stdin_samples() -> impl Iterator<Item = anyhow::Result<Sample>> {
+    let (tx, rx) = std::sync::mpsc::sync_channel(256);
+    std::thread::spawn(move || {
+        for s in source::read_lines(std::io::stdin().lock()) {
+            if tx.send(s).is_err() {
+                break;
+            }
+        }
+    });
+    std::iter::from_fn(move || {
+        loop {
+            if crate::stream::run::stop_requested() {
+                return None;
+            }
+            match rx.recv_timeout(Duration::from_millis(50)) {
+                Ok(s) => return Some(s),
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => continue,
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return None,
+            }
+        }
+    })
 }
 
 fn io_reason(e: &std::io::Error) -> &'static str {

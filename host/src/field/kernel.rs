@@ -23,7 +23,7 @@ use crate::directivity::Directivity;
 const BLOCK: usize = 16;
 /// Transducer columns are padded to a multiple of this (≥ every lane count).
 const PAD: usize = 16;
-/// Directivity table segments over |cos θ| ∈ [0, 1].
+/// Directivity table segments over cos θ ∈ [0, 1] (0 behind the face).
 const DIR_SEGMENTS: usize = 8192;
 
 /// Read-only inputs shared by the worker threads.
@@ -41,7 +41,8 @@ struct Shared<'a> {
     /// Drive matrix, steps × tp.
     wr: Vec<f32>,
     wi: Vec<f32>,
-    /// Directivity over |cos θ| (DIR_SEGMENTS + 2 entries), None for omni.
+    /// Directivity over cos θ ∈ [0, 1] (DIR_SEGMENTS + 2 entries), None
+    /// for omni; behind the face (cos θ < 0) it is 0.
     dir: Option<Vec<f32>>,
     p0: f64,
     k_turns_per_mm: f64,
@@ -267,7 +268,7 @@ fn add_sources(
 ) {
     let t = sh.t;
     let k = sh.k_turns_per_mm;
-    // Geometry in f64 (vectorisable): distance, |cos θ|, phase in turns.
+    // Geometry in f64 (vectorisable): distance, cos θ, phase in turns.
     for j in 0..t {
         let dx = p[0] - s[0][j];
         let dy = p[1] - s[1][j];
@@ -280,17 +281,20 @@ fn add_sources(
         let tr = r * k;
         rbuf[j] = r;
         inv_r[j] = inv as f32;
-        cosb[j] = c.abs().min(1.0) as f32;
+        cosb[j] = c.min(1.0) as f32;
         turn[j] = (tr - tr.round()) as f32;
     }
     // Amplitude: P0 / r · D(θ) · exp(−α r).
     let p0 = sh.p0 as f32;
     if let Some(table) = &sh.dir {
         for j in 0..t {
-            let x = cosb[j] * DIR_SEGMENTS as f32;
+            // Behind the face (cos θ < 0): no sound, as Directivity::gain.
+            let behind = cosb[j] < 0.0;
+            let x = cosb[j].max(0.0) * DIR_SEGMENTS as f32;
             let i = (x as usize).min(DIR_SEGMENTS);
             let f = x - i as f32;
             let d = table[i] + f * (table[i + 1] - table[i]);
+            let d = if behind { 0.0 } else { d };
             inv_r[j] *= p0 * d;
         }
     } else {

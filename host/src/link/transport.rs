@@ -89,6 +89,7 @@ pub struct Tcp {
 impl Tcp {
     /// Connect to `addr` (`host:port`).
     pub fn connect(addr: &str) -> anyhow::Result<Self> {
+        check_tcp_addr(addr)?;
         let stream = TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
         stream.set_nodelay(true).context("setting TCP_NODELAY")?;
         Ok(Self {
@@ -112,6 +113,38 @@ impl Transport for Tcp {
     fn describe(&self) -> String {
         format!("tcp:{}", self.addr)
     }
+}
+
+/// Checks the `HOST:PORT` of a `tcp:` port spec before connecting: a
+/// missing or out-of-range port (1..=65535), an empty host or a malformed
+/// IPv4 address is bad input, not a failed connection.
+pub fn check_tcp_addr(addr: &str) -> Result<(), crate::InputError> {
+    let bad = |why: &str| {
+        crate::InputError::new(format!(
+            "--port tcp:{addr}: {why}; expected tcp:HOST:PORT with PORT in 1..=65535"
+        ))
+    };
+    let Some((host, port)) = addr.rsplit_once(':') else {
+        return Err(bad("no port"));
+    };
+    if host.is_empty() {
+        return Err(bad("no host"));
+    }
+    match port.parse::<u16>() {
+        Ok(p) if p > 0 => {}
+        _ => return Err(bad(&format!("port `{port}` is not a number in 1..=65535"))),
+    }
+    if host.chars().all(|c| c.is_ascii_digit() || c == '.')
+        && host.parse::<std::net::Ipv4Addr>().is_err()
+    {
+        return Err(bad(&format!("`{host}` is not an IPv4 address")));
+    }
+    if let Some(v6) = host.strip_prefix('[').and_then(|h| h.strip_suffix(']'))
+        && v6.parse::<std::net::Ipv6Addr>().is_err()
+    {
+        return Err(bad(&format!("`{host}` is not an IPv6 address")));
+    }
+    Ok(())
 }
 
 /// A stream socket's read result as [`Transport::recv`] reports it: a
@@ -165,5 +198,29 @@ pub fn open(spec: &str, baud: u32) -> anyhow::Result<Box<dyn Transport>> {
     match spec.strip_prefix("tcp:") {
         Some(addr) => Ok(Box::new(Tcp::connect(addr)?)),
         None => Ok(Box::new(Serial::open(spec, baud)?)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_tcp_addresses_are_input_errors() {
+        for ok in ["127.0.0.1:4000", "localhost:1", "[::1]:65535"] {
+            assert!(check_tcp_addr(ok).is_ok(), "{ok}");
+        }
+        for bad in [
+            "127.0.0.1",
+            "127.0.0.1:99999",
+            "127.0.0.1:0",
+            "127.0.0.1:x",
+            "256.1.1.1:1",
+            ":4000",
+            "[zz]:1",
+        ] {
+            let e = check_tcp_addr(bad).unwrap_err().to_string();
+            assert!(e.contains("1..=65535") && !e.contains('\n'), "{bad}: {e}");
+        }
     }
 }

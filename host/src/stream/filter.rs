@@ -10,6 +10,11 @@ use std::str::FromStr;
 
 use super::Sample;
 
+/// Longest gap between samples (s) the velocity-based filters (Kalman,
+/// one-euro) predict across; a longer gap, or a time stamp going
+/// backwards, restarts them from the new measurement.
+pub const MAX_COAST_S: f64 = 1.0;
+
 /// Which filter to run, as chosen on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -187,9 +192,16 @@ impl Filter for Kalman {
             });
             return Some(s.pos_mm);
         };
-        // A repeated or out-of-order time stamp still gets a tiny step so the
-        // update stays well defined.
-        let dt = (s.t_s - st.t_s).max(1e-6);
+        // A time stamp that goes backwards, or a gap longer than
+        // MAX_COAST_S, says nothing about velocity: start fresh from the
+        // measurement instead of predicting across it (a −1e300 s stamp must
+        // never become a huge correction). A repeated stamp gets a tiny step.
+        let dt = s.t_s - st.t_s;
+        if !(dt.is_finite() && (0.0..=MAX_COAST_S).contains(&dt)) {
+            self.state = None;
+            return self.update(s);
+        }
+        let dt = dt.max(1e-6);
         st.t_s = s.t_s;
         let q = self.accel_psd;
         for axis in 0..3 {
@@ -253,7 +265,12 @@ impl Filter for OneEuro {
             self.state = Some((s.t_s, s.pos_mm, [0.0; 3]));
             return Some(s.pos_mm);
         };
-        let dt = (s.t_s - *t).max(1e-6);
+        let dt = s.t_s - *t;
+        if !(dt.is_finite() && (0.0..=MAX_COAST_S).contains(&dt)) {
+            self.state = None;
+            return self.update(s);
+        }
+        let dt = dt.max(1e-6);
         *t = s.t_s;
         let ad = smoothing(dt, self.d_cutoff_hz);
         for a in 0..3 {
@@ -335,5 +352,24 @@ mod tests {
             assert_eq!(kind.name().parse::<FilterKind>().unwrap(), kind);
         }
         assert!("median".parse::<FilterKind>().is_err());
+    }
+
+    #[test]
+    fn bad_time_stamps_restart_instead_of_correcting() {
+        for kind in [FilterKind::Kalman, FilterKind::OneEuro] {
+            let mut f = kind.build();
+            for s in ramp(30, 90.0) {
+                f.update(&s);
+            }
+            for t_s in [-1e300, 1e300, 0.1] {
+                let s = Sample {
+                    t_s,
+                    pos_mm: [1.0, 2.0, 200.0],
+                    present: true,
+                };
+                let out = f.update(&s).unwrap();
+                assert_eq!(out, [1.0, 2.0, 200.0], "{kind:?} at t = {t_s}");
+            }
+        }
     }
 }

@@ -7,6 +7,7 @@
 //! link boundary, like every other unit conversion.
 
 pub mod filter;
+pub mod gate;
 pub mod metrics;
 pub mod run;
 pub mod source;

@@ -2,14 +2,66 @@
 //! the device, one acked `Centroid` frame per sample, with per-update
 //! timing.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use lm_proto::Centroid;
+use lm_proto::{Centroid, NackCode};
 
 use super::Sample;
 use super::filter::Filter;
+use super::gate::{Gate, GateCounts};
 use crate::clock::monotonic_us;
 use crate::link::{Client, LinkError, Transport, mm_to_um};
+
+/// Set by SIGINT/SIGTERM in `lmhost stream` (see [`install_stop_signals`]).
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Whether a stop (Ctrl-C, SIGTERM) was requested: sources and the loop
+/// end, and the device is muted before `stream` returns.
+pub fn stop_requested() -> bool {
+    STOP.load(Ordering::Relaxed)
+}
+
+/// Ask a running [`stream`] to end (what the signal handler does).
+pub fn request_stop() {
+    STOP.store(true, Ordering::Relaxed);
+}
+
+extern "C" fn on_stop_signal(_: nix::libc::c_int) {
+    // Only an atomic store: async-signal-safe.
+    STOP.store(true, Ordering::Relaxed);
+}
+
+/// Make SIGINT (Ctrl-C) and SIGTERM end a stream session cleanly: the
+/// loop stops, the device is muted (a `present = false` update), the
+/// report is printed and the port is released.
+pub fn install_stop_signals() -> anyhow::Result<()> {
+    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
+    let act = SigAction::new(
+        SigHandler::Handler(on_stop_signal),
+        SaFlags::empty(),
+        SigSet::empty(),
+    );
+    for sig in [Signal::SIGINT, Signal::SIGTERM] {
+        // SAFETY: the handler only stores to an atomic, which is
+        // async-signal-safe; no other handler is replaced in this process.
+        unsafe { sigaction(sig, &act) }
+            .map_err(|e| anyhow::anyhow!("installing the {sig} handler: {e}"))?;
+    }
+    Ok(())
+}
+
+/// Sleep `d`, waking early when a stop is requested.
+fn sleep_unless_stopped(d: Duration) {
+    let end = Instant::now() + d;
+    while !stop_requested() {
+        let now = Instant::now();
+        if now >= end {
+            return;
+        }
+        std::thread::sleep((end - now).min(Duration::from_millis(50)));
+    }
+}
 
 /// How to pace samples.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,6 +89,15 @@ pub struct StreamReport {
     pub seconds: f64,
     /// `seq` of the last update sent.
     pub last_seq: u32,
+    /// Samples the plausibility gate dropped (not sent), by reason.
+    pub rejected: GateCounts,
+    /// Updates the device refused as outside the slot's work volume (it
+    /// mutes until the finger is back in range; the session goes on).
+    pub outside_work_volume: u64,
+    /// Whether Ctrl-C / SIGTERM ended the session.
+    pub stopped: bool,
+    /// Whether the device was muted at the end (after a stop or an error).
+    pub muted_at_end: bool,
 }
 
 impl StreamReport {
@@ -63,36 +124,117 @@ where
     I: IntoIterator<Item = anyhow::Result<Sample>>,
 {
     let start = Instant::now();
-    let mut first_t: Option<f64> = None;
     let mut report = StreamReport::default();
     let mut last_pos = [0i32; 3];
     let mut seq = client_seq_start(client)?;
+    let result = pump(
+        client,
+        samples,
+        filter,
+        &to_drive,
+        pace,
+        &mut between,
+        &mut report,
+        &mut last_pos,
+        &mut seq,
+        start,
+    );
+    report.stopped = stop_requested();
+    if result.is_err() || report.stopped {
+        // The session ends early: leave the device muted, not steering to
+        // the last centroid. Best effort when the link itself failed.
+        seq = seq.wrapping_add(1).max(1);
+        let mute = Centroid {
+            seq,
+            pos_um: last_pos,
+            present: false,
+            host_time_us: monotonic_us(),
+        };
+        if client.centroid(mute).is_ok() {
+            report.muted_at_end = true;
+            report.last_seq = seq;
+        }
+    }
+    result?;
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn pump<T: Transport, I>(
+    client: &mut Client<T>,
+    samples: I,
+    filter: &mut dyn Filter,
+    to_drive: &impl Fn([f64; 3]) -> [f64; 3],
+    pace: Pace,
+    between: &mut impl FnMut(&mut Client<T>, &Sample, u64) -> anyhow::Result<()>,
+    report: &mut StreamReport,
+    last_pos: &mut [i32; 3],
+    seq: &mut u32,
+    start: Instant,
+) -> anyhow::Result<()>
+where
+    I: IntoIterator<Item = anyhow::Result<Sample>>,
+{
+    let mut first_t: Option<f64> = None;
+    let mut gate = Gate::default();
     for sample in samples {
+        if stop_requested() {
+            break;
+        }
         let s = sample?;
         report.samples += 1;
+        let verdict = gate.check(&s);
+        report.rejected = gate.counts;
+        if verdict.is_err() {
+            continue;
+        }
         if pace == Pace::Timestamps {
             let t0 = *first_t.get_or_insert(s.t_s);
-            let due = Duration::from_secs_f64((s.t_s - t0).max(0.0));
+            let due = Duration::try_from_secs_f64((s.t_s - t0).max(0.0)).map_err(|_| {
+                crate::InputError::new(format!(
+                    "sample {}: time stamp {} s is too far from the first one to replay",
+                    report.samples,
+                    crate::limits::show(s.t_s)
+                ))
+            })?;
             if let Some(wait) = due.checked_sub(start.elapsed()) {
-                std::thread::sleep(wait);
+                sleep_unless_stopped(wait);
+                if stop_requested() {
+                    break;
+                }
             }
         }
         let received_us = monotonic_us();
         let filtered = filter.update(&s);
         if let Some(p) = filtered {
-            last_pos = to_drive(p).map(mm_to_um);
+            *last_pos = to_drive(p).map(mm_to_um);
             report.present += 1;
         }
-        seq = seq.wrapping_add(1).max(1);
+        *seq = seq.wrapping_add(1).max(1);
+        let seq = *seq;
         let c = Centroid {
             seq,
-            pos_um: last_pos,
+            pos_um: *last_pos,
             present: filtered.is_some(),
             host_time_us: received_us,
         };
-        client.centroid(c).map_err(|e: LinkError| {
-            anyhow::Error::new(e).context(format!("sending centroid #{seq}"))
-        })?;
+        match client.centroid(c) {
+            Ok(()) => {}
+            // The device refused to steer there and muted; keep following
+            // the finger, it unmutes when the finger is back in range.
+            Err(LinkError::Nack {
+                code: NackCode::OutOfRange,
+                ..
+            }) => {
+                report.outside_work_volume += 1;
+                report.last_seq = seq;
+                continue;
+            }
+            Err(e) => {
+                return Err(anyhow::Error::new(e).context(format!("sending centroid #{seq}")));
+            }
+        }
         crate::clock::push_ring(
             &mut report.ack_us,
             monotonic_us().saturating_sub(received_us),
@@ -101,8 +243,7 @@ where
         report.last_seq = seq;
         between(client, &s, received_us)?;
     }
-    report.seconds = start.elapsed().as_secs_f64();
-    Ok(report)
+    Ok(())
 }
 
 /// Start numbering after the device's last accepted centroid, so a second

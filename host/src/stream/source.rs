@@ -13,6 +13,7 @@ use std::io::BufRead;
 
 use super::Sample;
 use crate::InputError;
+use crate::limits::{MAX_BAD_DATAGRAMS_IN_A_ROW, MAX_LINE_BYTES, MAX_REPLAY_GAP_S};
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -87,58 +88,224 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
     Ok(Some(sample))
 }
 
-/// Samples from any line-oriented reader (stdin, a recorded file).
+/// Lines of at most [`MAX_LINE_BYTES`] from a reader, parsed into samples;
+/// with `max_gap_s`, a forward jump of the time stamps larger than that is
+/// an error naming the line (replayed files: never a silent long sleep).
+struct LineSource<R> {
+    reader: R,
+    line_no: usize,
+    buf: Vec<u8>,
+    max_gap_s: Option<f64>,
+    last_t_s: Option<f64>,
+    done: bool,
+}
+
+/// One line, or `None` at the end; a line longer than [`MAX_LINE_BYTES`]
+/// is an error without reading the rest of it into memory.
+fn next_line<R: BufRead>(
+    reader: &mut R,
+    buf: &mut Vec<u8>,
+    line_no: usize,
+) -> anyhow::Result<Option<()>> {
+    buf.clear();
+    loop {
+        let avail = match reader.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(anyhow::Error::new(e).context("reading centroid stream")),
+        };
+        if avail.is_empty() {
+            return Ok((!buf.is_empty()).then_some(()));
+        }
+        let (take, end) = match avail.iter().position(|&b| b == b'\n') {
+            Some(i) => (i, true),
+            None => (avail.len(), false),
+        };
+        if buf.len() + take > MAX_LINE_BYTES {
+            return Err(InputError::new(format!(
+                "line {line_no} is longer than {MAX_LINE_BYTES} bytes (the limit per sample line)"
+            ))
+            .into());
+        }
+        buf.extend_from_slice(&avail[..take]);
+        reader.consume(take + usize::from(end));
+        if end {
+            return Ok(Some(()));
+        }
+    }
+}
+
+impl<R: BufRead> Iterator for LineSource<R> {
+    type Item = anyhow::Result<Sample>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        while !self.done {
+            self.line_no += 1;
+            let line_no = self.line_no;
+            match next_line(&mut self.reader, &mut self.buf, line_no) {
+                Ok(None) => self.done = true,
+                Err(e) => {
+                    self.done = true;
+                    return Some(Err(e));
+                }
+                Ok(Some(())) => {
+                    let Ok(text) = std::str::from_utf8(&self.buf) else {
+                        self.done = true;
+                        return Some(Err(InputError::new(format!(
+                            "line {line_no} is not UTF-8 text"
+                        ))
+                        .into()));
+                    };
+                    match parse_line(text, line_no) {
+                        Ok(None) => {}
+                        Err(e) => {
+                            self.done = true;
+                            return Some(Err(e.into()));
+                        }
+                        Ok(Some(s)) => {
+                            if let (Some(max), Some(prev)) = (self.max_gap_s, self.last_t_s)
+                                && s.t_s - prev > max
+                            {
+                                self.done = true;
+                                return Some(Err(InputError::new(format!(
+                                    "line {line_no}: time stamp {} s is {} s after the previous \
+                                     sample; a replayed stream may pause at most {max} s",
+                                    crate::limits::show(s.t_s),
+                                    crate::limits::show(s.t_s - prev)
+                                ))
+                                .into()));
+                            }
+                            self.last_t_s = Some(self.last_t_s.map_or(s.t_s, |p| p.max(s.t_s)));
+                            return Some(Ok(s));
+                        }
+                    }
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Samples from a live line-oriented reader (stdin): lines of at most
+/// [`MAX_LINE_BYTES`]; the first bad line ends the stream with an error
+/// naming it.
 pub fn read_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<Sample>> {
-    reader
-        .lines()
-        .enumerate()
-        .filter_map(|(i, line)| match line {
-            Err(e) => Some(Err(anyhow::Error::new(e).context("reading centroid stream"))),
-            Ok(l) => parse_line(&l, i + 1)
-                .map_err(anyhow::Error::new)
-                .transpose(),
-        })
+    LineSource {
+        reader,
+        line_no: 0,
+        buf: Vec::new(),
+        max_gap_s: None,
+        last_t_s: None,
+        done: false,
+    }
+}
+
+/// Samples from a recorded file replayed at its time stamps: as
+/// [`read_lines`], and a gap above [`MAX_REPLAY_GAP_S`] between consecutive
+/// time stamps is an error naming the line.
+pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<Sample>> {
+    LineSource {
+        reader,
+        line_no: 0,
+        buf: Vec::new(),
+        max_gap_s: Some(MAX_REPLAY_GAP_S),
+        last_t_s: None,
+        done: false,
+    }
+}
+
+/// Counters a UDP source keeps while it runs.
+#[derive(Debug, Default)]
+pub struct UdpCounts {
+    /// Datagrams received.
+    pub datagrams: std::sync::atomic::AtomicU64,
+    /// Datagrams with at least one unusable line (skipped lines).
+    pub bad_datagrams: std::sync::atomic::AtomicU64,
 }
 
 /// Samples from UDP datagrams on 127.0.0.1:`port`, one line (or several,
-/// newline-separated) per datagram. Ends after `idle` without a datagram.
+/// newline-separated) per datagram. Ends after `idle` without a datagram,
+/// or when a stop was requested ([`super::run::stop_requested`]).
+///
+/// A bad line (garbage, not UTF-8, non-finite, longer than
+/// [`MAX_LINE_BYTES`]) is skipped and its datagram counted in `counts`;
+/// only a flood of [`MAX_BAD_DATAGRAMS_IN_A_ROW`] bad datagrams in a row
+/// ends the session (with an input error).
 pub fn udp(
     port: u16,
     idle: std::time::Duration,
+    counts: std::sync::Arc<UdpCounts>,
 ) -> anyhow::Result<impl Iterator<Item = anyhow::Result<Sample>>> {
     use anyhow::Context as _;
+    use std::sync::atomic::Ordering::Relaxed;
     let sock = std::net::UdpSocket::bind(("127.0.0.1", port))
         .with_context(|| format!("binding UDP port 127.0.0.1:{port}"))?;
-    sock.set_read_timeout(Some(idle))
+    // Wake often enough to notice Ctrl-C; idle is measured separately.
+    let tick = idle.min(std::time::Duration::from_millis(100));
+    sock.set_read_timeout(Some(tick))
         .context("setting UDP timeout")?;
-    let mut pending: std::collections::VecDeque<anyhow::Result<Sample>> = Default::default();
-    let mut datagrams = 0usize;
+    let mut pending: std::collections::VecDeque<Sample> = Default::default();
+    let mut bad_in_a_row = 0u64;
+    let mut last_datagram = std::time::Instant::now();
     let mut buf = vec![0u8; 65_536];
+    let mut ended = false;
     Ok(std::iter::from_fn(move || {
         loop {
+            if ended || super::run::stop_requested() {
+                return None;
+            }
             if let Some(s) = pending.pop_front() {
-                return Some(s);
+                return Some(Ok(s));
             }
             let n = match sock.recv(&mut buf) {
                 Ok(n) => n,
                 Err(e)
                     if matches!(
                         e.kind(),
-                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                        std::io::ErrorKind::WouldBlock
+                            | std::io::ErrorKind::TimedOut
+                            | std::io::ErrorKind::Interrupted
                     ) =>
                 {
-                    return None;
+                    if last_datagram.elapsed() >= idle {
+                        return None;
+                    }
+                    continue;
                 }
                 Err(e) => return Some(Err(anyhow::Error::new(e).context("receiving UDP"))),
             };
-            datagrams += 1;
-            let text = String::from_utf8_lossy(&buf[..n]);
-            for line in text.lines() {
-                match parse_line(line, datagrams) {
-                    Ok(Some(s)) => pending.push_back(Ok(s)),
-                    Ok(None) => {}
-                    Err(e) => pending.push_back(Err(e.into())),
+            last_datagram = std::time::Instant::now();
+            let number = counts.datagrams.fetch_add(1, Relaxed) as usize + 1;
+            let mut bad = false;
+            match std::str::from_utf8(&buf[..n]) {
+                Err(_) => bad = true,
+                Ok(text) => {
+                    for line in text.lines() {
+                        if line.len() > MAX_LINE_BYTES {
+                            bad = true;
+                            continue;
+                        }
+                        match parse_line(line, number) {
+                            Ok(Some(s)) => pending.push_back(s),
+                            Ok(None) => {}
+                            Err(_) => bad = true,
+                        }
+                    }
                 }
+            }
+            if bad {
+                counts.bad_datagrams.fetch_add(1, Relaxed);
+                bad_in_a_row += 1;
+                if bad_in_a_row >= MAX_BAD_DATAGRAMS_IN_A_ROW {
+                    ended = true;
+                    return Some(Err(InputError::new(format!(
+                        "UDP port {port}: {bad_in_a_row} bad datagrams in a row (a flood); \
+                         stopping the session"
+                    ))
+                    .into()));
+                }
+            } else {
+                bad_in_a_row = 0;
             }
         }
     }))
@@ -192,5 +359,32 @@ mod tests {
         let v: Vec<_> = read_lines(text.as_bytes()).collect();
         assert_eq!(v.len(), 2);
         assert!(v[0].is_ok() && v[1].is_err());
+    }
+
+    #[test]
+    fn long_lines_are_refused_without_reading_them_whole() {
+        let mut text = "0,0,0,200,1\n".to_string();
+        text.push_str(&"9".repeat(MAX_LINE_BYTES + 1));
+        let v: Vec<_> = read_lines(text.as_bytes()).collect();
+        assert!(v[0].is_ok());
+        let e = v[1].as_ref().unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("4096 bytes"), "{e}");
+        // An endless stream of zero bytes ends with the same error.
+        let zeros = std::io::BufReader::new(std::io::repeat(0));
+        let e = read_lines(zeros).next().unwrap().unwrap_err();
+        assert!(e.downcast_ref::<InputError>().is_some(), "{e}");
+    }
+
+    #[test]
+    fn replay_gaps_and_bad_bytes_are_errors_naming_the_line() {
+        let text = "0,0,0,200,1\n1e300,0,0,200,1\n";
+        let v: Vec<_> = replay_lines(text.as_bytes()).collect();
+        let e = v[1].as_ref().unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("at most 60 s"), "{e}");
+        // Live streams do not pace, so a gap is fine there.
+        assert!(read_lines(text.as_bytes()).all(|r| r.is_ok()));
+        let bytes: &[u8] = b"0,0,0,200,1\n\xff\xfe\n";
+        let v: Vec<_> = read_lines(bytes).collect();
+        assert!(v[1].as_ref().unwrap_err().to_string().contains("not UTF-8"));
     }
 }

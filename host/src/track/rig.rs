@@ -3,14 +3,14 @@
 //!
 //! ```toml
 //! [camera]                       # the camera's axes in scene coordinates
-//! position_mm = [0, -204.9, 115.5]
-//! x_axis = [1, 0, 0]             # image right
-//! y_axis = [0, -0.342, -0.940]   # image down
-//! z_axis = [0, 0.940, -0.342]    # forward (optical axis)
+//! position_mm = [0, 276.2, 73.4]
+//! x_axis = [-1, 0, 0]            # image right
+//! y_axis = [0, 0.174, -0.985]    # image down
+//! z_axis = [0, -0.985, -0.174]   # forward (optical axis)
 //!
 //! [tracking]
-//! box_center_mm = [0, 22.34, 23.57]
-//! box_axes = [[1, 0, 0], [0, 0.643, -0.766], [0, 0.766, 0.643]]
+//! box_center_mm = [0, 36.43, 22.34]
+//! box_axes = [[1, 0, 0], [0, 0.766, 0.643], [0, -0.643, 0.766]]
 //! box_size_mm = [10, 10, 20]     # full extent along each axis
 //! min_points = 20                # contact area present at ≥ this many points
 //! ```
@@ -159,11 +159,13 @@ impl Rig {
             size_mm: [10.0, 10.0, 20.0],
             min_points: DEFAULT_MIN_POINTS,
         };
-        // Optical axis: c turned 60° towards b (for the paper's plane that
-        // keeps the camera above the display, 20° under the horizontal).
+        // Optical axis: c turned 60° away from b, so the camera sits on the
+        // wave's side of the pad and sees it 60° off its normal (for the
+        // paper's plane: above the display, 10° under the horizontal).
+        // Image right is −a so that image down points down in the scene.
         let (s, co) = (60f64.to_radians().sin(), 60f64.to_radians().cos());
-        let forward = add(scale(c, co), scale(b, s));
-        let x_axis = a;
+        let forward = sub(scale(c, co), scale(b, s));
+        let x_axis = scale(a, -1.0);
         let y_axis = cross(forward, x_axis);
         let camera = CameraPose {
             position_mm: sub(scene.center_mm, scale(forward, 250.0)),
@@ -285,7 +287,7 @@ mod tests {
         let base =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml"))
                 .unwrap();
-        let bad = base.replace("x_axis = [1.0, 0.0, 0.0]", "x_axis = [1.0, 0.1, 0.0]");
+        let bad = base.replace("x_axis = [-1.0, 0.0, 0.0]", "x_axis = [-1.0, 0.1, 0.0]");
         assert_ne!(bad, base);
         let e = Scene::from_toml(&bad, "p").unwrap_err().to_string();
         assert!(e.contains("camera.x_axis"), "{e}");

@@ -1,0 +1,150 @@
+//! Every documented maximum on user input, in one place, and the checked
+//! conversions that enforce them.
+//!
+//! A value beyond its range is an [`InputError`] (exit 2) whose one-line
+//! message names the flag and the allowed range; nothing is clamped
+//! silently. The `--help` texts quote these numbers.
+
+use std::time::Duration;
+
+use crate::error::InputError;
+
+/// Longest accepted line of a centroid stream (stdin, file, one UDP line),
+/// bytes. A longer line is an error, so `/dev/zero` cannot grow a buffer.
+pub const MAX_LINE_BYTES: usize = 4096;
+/// Largest time-stamp gap between two consecutive samples of a replayed
+/// file (s). A larger gap is an error naming the line, not a long sleep.
+pub const MAX_REPLAY_GAP_S: f64 = 60.0;
+/// Longest `--seconds` (s) for `stream` and `sim`: one day.
+pub const MAX_SECONDS: f64 = 86_400.0;
+/// Longest `--seconds` for `stream --synthetic --fast` (s): one hour of
+/// 90 fps samples (324 000 updates).
+pub const MAX_FAST_SYNTHETIC_S: f64 = 3_600.0;
+/// Most GS-PAT iterations (`--iterations`).
+pub const MAX_ITERATIONS: usize = 1_000;
+/// Longest response timeout per attempt (`--timeout-ms`), ms.
+pub const MAX_TIMEOUT_MS: u64 = 60_000;
+/// Most attempts per request (`--tries`).
+pub const MAX_TRIES: u32 = 100;
+/// Most steps per slot of the simulated device (`sim --slot-steps`): the
+/// wire's u16 step count.
+pub const MAX_SLOT_STEPS: u32 = u16::MAX as u32;
+/// Largest |coordinate| of any position the planner accepts (scene
+/// devices, reflector, LM centre, foci), mm: inside the wire's i32 µm
+/// (±2147 mm) with room for the LM circle.
+pub const MAX_COORD_MM: f64 = 2_000.0;
+/// Largest LM circle radius A (`--radius`), mm.
+pub const MAX_RADIUS_MM: f64 = 100.0;
+/// Largest |per-step depth| (`--z`), mm.
+pub const MAX_Z_MM: f64 = 100.0;
+/// Largest focus spacing d (`--spacing`) and step width (`--step`), mm.
+pub const MAX_SPACING_MM: f64 = 1_000.0;
+/// Highest LM frequency (`--freq`), Hz.
+pub const MAX_FREQ_HZ: f64 = 1_000.0;
+/// Largest |weight| (`--weights`).
+pub const MAX_WEIGHT: f64 = 1.0e6;
+/// Closest two transducers of different devices may be (mm): the T4010A1's
+/// diameter. Closer means the devices overlap.
+pub const MIN_TRANSDUCER_GAP_MM: f64 = 10.0;
+/// Largest accepted tracker coordinate (mm) of a streamed centroid.
+pub const MAX_CENTROID_MM: f64 = MAX_COORD_MM;
+/// A present centroid further than this from the last accepted one (mm) is
+/// a jump and is dropped ...
+pub const MAX_JUMP_MM: f64 = 50.0;
+/// ... unless this many jumps in a row agree that the finger moved.
+pub const JUMPS_TO_ACCEPT: u32 = 3;
+/// Consecutive bad UDP datagrams that end a `stream --udp` session (a
+/// flood); fewer are skipped and counted.
+pub const MAX_BAD_DATAGRAMS_IN_A_ROW: u64 = 1_000;
+
+/// A number for a message: plain when short, scientific when huge or tiny
+/// (`1e300`, not three hundred digits).
+pub fn show(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Most field work `lmhost simulate` accepts: grid points × transducers
+/// (× 2 with a reflector's image sources) × steps. About 10 s on the fast
+/// path (the bench's 101 × 101 × 996 × 82 case, 8.3·10⁸, takes 0.17 s).
+pub const MAX_SIM_WORK: f64 = 5.0e10;
+/// The same for `simulate --reference` (the f64 loop is ~10× slower).
+pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
+
+/// Seconds to a [`Duration`], checked: finite, `0 < s ≤ max_s`. `what`
+/// names the flag or field in the error.
+pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {
+    if !(s.is_finite() && s > 0.0 && s <= max_s) {
+        return Err(InputError::new(format!(
+            "{what} {} s is out of range: give a number above 0 and at most {max_s} s",
+            show(s)
+        )));
+    }
+    Duration::try_from_secs_f64(s)
+        .map_err(|e| InputError::new(format!("{what} {s} s is not a duration ({e})")))
+}
+
+/// Checks `lo ≤ v ≤ hi` for a finite `v`; the error names `what`, the
+/// unit and the range.
+pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        let unit = if unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {unit}")
+        };
+        Err(InputError::new(format!(
+            "{what} {}{unit} is out of range: allowed {}..={}{unit}",
+            show(v),
+            show(lo),
+            show(hi)
+        )))
+    }
+}
+
+/// Checks every coordinate of a position against [`MAX_COORD_MM`].
+pub fn position_mm(what: &str, v: [f64; 3]) -> Result<[f64; 3], InputError> {
+    if v.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORD_MM) {
+        Ok(v)
+    } else {
+        Err(InputError::new(format!(
+            "{what} [{}] mm is out of range: every coordinate must be within ±{MAX_COORD_MM} mm",
+            v.map(show).join(", ")
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_are_checked_not_panicking() {
+        assert_eq!(
+            duration_s("--seconds", 1.5, MAX_SECONDS).unwrap(),
+            Duration::from_millis(1500)
+        );
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e30, MAX_SECONDS * 2.0] {
+            let e = duration_s("--seconds", bad, MAX_SECONDS).unwrap_err();
+            assert!(e.0.contains("--seconds") && e.0.contains("at most"), "{e}");
+        }
+        assert!(duration_s("x", MAX_SECONDS, MAX_SECONDS).is_ok());
+    }
+
+    #[test]
+    fn ranges_name_the_limits() {
+        assert_eq!(in_range("--radius", 3.0, 0.0, 100.0, "mm").unwrap(), 3.0);
+        let e = in_range("--radius", 1e30, 0.0, 100.0, "mm").unwrap_err();
+        assert!(e.0.contains("0..=100 mm"), "{e}");
+        assert!(in_range("x", f64::NAN, 0.0, 1.0, "").is_err());
+        assert!(position_mm("c", [0.0, 0.0, 2000.0]).is_ok());
+        let e = position_mm("c", [0.0, 0.0, 1e300]).unwrap_err();
+        assert!(e.0.contains("±2000 mm"), "{e}");
+    }
+}

@@ -1,0 +1,828 @@
+//! Hostile inputs: the real `lmhost` binary against `lmhost sim`, one table
+//! of cases, each the kind of thing a tracker, a script or a typo feeds it.
+//!
+//! Every case asserts the exit code, that an error is exactly one line of
+//! stderr, that nothing `panicked`, and that the run ends within
+//! [`TIME_LIMIT`] (killed and failed otherwise). To add a case, append a
+//! `case(CLASS, "args …")` with its expectations to [`cases`]; `{port}` is
+//! the shared simulated device, `{dir}` a scratch directory with the
+//! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`.
+//!
+//! Run with `--nocapture` to see the summary line
+//! `hostile inputs: N cases, K classes, 0 panics, 0 hangs`.
+
+mod link_support;
+
+use std::collections::BTreeSet;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use link_support::{Sim, lmhost};
+
+/// Longest any case may run before it counts as a hang.
+const TIME_LIMIT: Duration = Duration::from_secs(20);
+
+/// Classes (issue 9's numbered defects and the paper audit).
+const DURATION: &str = "1 float to duration";
+const PIPE: &str = "2 broken pipe";
+const MEMORY: &str = "3 unbounded memory";
+const WORK: &str = "4 unbounded work";
+const CENTROIDS: &str = "5 wild centroids";
+const PLANS: &str = "6 silently wrong plans";
+const EXIT: &str = "7 exit codes";
+const SESSIONS: &str = "8 streaming sessions";
+const PAPER: &str = "paper fidelity";
+
+/// What a run produced, for custom checks.
+struct Run {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+/// Where the fixtures and the device are.
+struct Ctx {
+    port: String,
+    dir: PathBuf,
+    scenes: PathBuf,
+}
+
+type Check = fn(&Ctx, &Run) -> Result<(), String>;
+
+/// One hostile input and what must happen.
+#[derive(Clone)]
+struct Case {
+    class: &'static str,
+    args: Vec<String>,
+    stdin: Vec<u8>,
+    /// Keep stdin open (a live tracker) until the case ends.
+    hold_stdin: bool,
+    code: i32,
+    stderr_has: Vec<String>,
+    stdout_has: Vec<String>,
+    /// Close our end of stdout at once (a reader that went away).
+    close_stdout: bool,
+    /// Datagrams sent to 127.0.0.1:port after the command started.
+    udp: Option<(u16, Vec<Vec<u8>>)>,
+    /// Send this signal after this many ms.
+    signal: Option<(&'static str, u64)>,
+    /// A command run after this one, whose stdout must contain the text.
+    then: Option<(Vec<String>, String)>,
+    check: Option<Check>,
+}
+
+fn words(args: &str) -> Vec<String> {
+    args.split_whitespace().map(str::to_owned).collect()
+}
+
+/// A case in `class` running `lmhost args` (split on whitespace); by
+/// default it must exit 2.
+fn case(class: &'static str, args: &str) -> Case {
+    Case {
+        class,
+        args: words(args),
+        stdin: Vec::new(),
+        hold_stdin: false,
+        code: 2,
+        stderr_has: Vec::new(),
+        stdout_has: Vec::new(),
+        close_stdout: false,
+        udp: None,
+        signal: None,
+        then: None,
+        check: None,
+    }
+}
+
+impl Case {
+    fn code(mut self, c: i32) -> Self {
+        self.code = c;
+        self
+    }
+    fn ok(self) -> Self {
+        self.code(0)
+    }
+    fn err(mut self, s: &str) -> Self {
+        self.stderr_has.push(s.to_owned());
+        self
+    }
+    fn out(mut self, s: &str) -> Self {
+        self.stdout_has.push(s.to_owned());
+        self
+    }
+    fn stdin(mut self, b: impl AsRef<[u8]>) -> Self {
+        self.stdin = b.as_ref().to_vec();
+        self
+    }
+    fn hold_stdin(mut self) -> Self {
+        self.hold_stdin = true;
+        self
+    }
+    fn arg(mut self, a: &str) -> Self {
+        self.args.push(a.to_owned());
+        self
+    }
+    fn closed_stdout(mut self) -> Self {
+        self.close_stdout = true;
+        self.code = 0;
+        self
+    }
+    fn udp(mut self, port: u16, datagrams: Vec<Vec<u8>>) -> Self {
+        self.udp = Some((port, datagrams));
+        self
+    }
+    fn signal(mut self, sig: &'static str, after_ms: u64) -> Self {
+        self.signal = Some((sig, after_ms));
+        self
+    }
+    fn then(mut self, args: &str, want: &str) -> Self {
+        self.then = Some((words(args), want.to_owned()));
+        self
+    }
+    fn check(mut self, f: Check) -> Self {
+        self.check = Some(f);
+        self
+    }
+}
+
+fn csv(lines: &[&str]) -> String {
+    lines.iter().map(|l| format!("{l}\n")).collect()
+}
+
+fn garbage(n: usize) -> Vec<Vec<u8>> {
+    (0..n)
+        .map(|i| format!("garbage {i}").into_bytes())
+        .collect()
+}
+
+fn good_udp(n: usize) -> Vec<Vec<u8>> {
+    (0..n)
+        .map(|i| format!("{},0,0,200,1", i as f64 / 90.0).into_bytes())
+        .collect()
+}
+
+/// Scene files and streams the cases refer to as `{dir}/NAME`.
+fn fixtures(dir: &Path) {
+    let w = |name: &str, body: &[u8]| std::fs::write(dir.join(name), body).unwrap();
+    w(
+        "gap.csv",
+        csv(&["0,0,0,200,1", "1e300,0,0,200,1"]).as_bytes(),
+    );
+    w(
+        "gap100k.csv",
+        csv(&["0,0,0,200,1", "100000,0,0,200,1"]).as_bytes(),
+    );
+    w(
+        "backwards.csv",
+        csv(&["-1e300,0,0,200,1", "0,0,0,200,1"]).as_bytes(),
+    );
+    w(
+        "pause50.csv",
+        csv(&["0,0,0,200,1", "50,0,0,200,1"]).as_bytes(),
+    );
+    w(
+        "ok.csv",
+        csv(&["0,0,0,200,1", "0.011,0,0,200,1"]).as_bytes(),
+    );
+    w("bin.csv", b"\xff\xfe\xfd\n0,0,0,200,1\n");
+    let mut long = b"0,0,0,200,1\n".to_vec();
+    long.extend(std::iter::repeat_n(b'7', 10_000));
+    w("long.csv", &long);
+    w("bin.toml", b"name = \"\xff\"\n");
+    let dev = |c: &str| format!("[[device]]\ncenter_mm = {c}\n");
+    w(
+        "same_pose.toml",
+        (dev("[0.0, 0.0, 0.0]") + &dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
+    w(
+        "overlap.toml",
+        (dev("[0.0, 0.0, 0.0]") + &dev("[100.0, 0.0, 0.0]")).as_bytes(),
+    );
+    w(
+        "abutting.toml",
+        (dev("[0.0, 0.0, 0.0]") + &dev("[192.0, 0.0, 0.0]")).as_bytes(),
+    );
+    w("far.toml", dev("[1e300, 0.0, 0.0]").as_bytes());
+    w(
+        "far_rig.toml",
+        (dev("[0.0, 0.0, 0.0]") + "[rig]\nposition_mm = [0.0, 0.0, 5000.0]\n").as_bytes(),
+    );
+    w(
+        "far_reflector.toml",
+        (dev("[0.0, 0.0, 0.0]")
+            + "[reflector]\npoint_mm = [0.0, 0.0, 1e300]\nnormal = [0.0, 0.0, 1.0]\n")
+            .as_bytes(),
+    );
+    w(
+        "far_center.toml",
+        ("center_mm = [0.0, 0.0, 1e300]\n".to_owned() + &dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
+    w(
+        "facing_away.toml",
+        "[[device]]\ncenter_mm = [0.0, 0.0, 0.0]\nrotation_deg = [180.0, 0.0, 0.0]\n".as_bytes(),
+    );
+    w(
+        "edge_on.toml",
+        (dev("[0.0, 0.0, 0.0]") + "[lm_plane]\na = [1.0, 0.0, 0.0]\nb = [0.0, 0.0, 1.0]\n")
+            .as_bytes(),
+    );
+    w(
+        "tilted_45.toml",
+        (dev("[0.0, 0.0, 0.0]")
+            + "[lm_plane]\na = [1.0, 0.0, 0.0]\nb = [0.0, 0.7071067811865476, 0.7071067811865476]\n")
+            .as_bytes(),
+    );
+    std::fs::create_dir_all(dir.join("a_directory")).unwrap();
+}
+
+fn cases() -> Vec<Case> {
+    let wild = csv(&[
+        "0,0,0,200,1",
+        "-1e300,0,0,200,1",
+        "0.02,1e30,0,200,1",
+        "0.03,0,0,200,1",
+    ]);
+    let mut v = vec![
+        // 1. Floats that become durations.
+        case(DURATION, "stream --port {port} --input {dir}/gap.csv")
+            .err("line 2")
+            .err("at most 60 s"),
+        case(DURATION, "stream --port {port} --input {dir}/gap100k.csv").err("line 2"),
+        case(DURATION, "stream --port {port} --input {dir}/backwards.csv").err("line 2"),
+        case(
+            DURATION,
+            "stream --port {port} --input {dir}/gap.csv --fast",
+        )
+        .err("line 2"),
+        case(DURATION, "stream --port {port} --udp 47001 --seconds 1e30").err("--seconds"),
+        case(DURATION, "stream --port {port} --synthetic --seconds 1e30").err("at most 86400"),
+        case(
+            DURATION,
+            "stream --port {port} --synthetic --fast --seconds 1e30",
+        )
+        .err("at most 3600"),
+        case(DURATION, "stream --port {port} --synthetic --seconds inf").err("--seconds"),
+        case(DURATION, "stream --port {port} --synthetic --seconds nan").err("--seconds"),
+        case(DURATION, "stream --port {port} --synthetic --seconds -1").err("--seconds"),
+        case(DURATION, "stream --port {port} --synthetic --seconds 0").err("--seconds"),
+        case(DURATION, "stream --port {port} --lead-ms 1e30").err("--lead-ms"),
+        case(DURATION, "sim --seconds 1e30").err("at most 86400"),
+        case(DURATION, "sim --seconds nan").err("--seconds"),
+        case(DURATION, "sim --seconds 0").err("--seconds"),
+        case(DURATION, "sim --seconds -5").err("--seconds"),
+        case(DURATION, "demo --seconds 1e30").err("--seconds"),
+        case(
+            DURATION,
+            "stream --port {port} --synthetic --fast --seconds 0.3",
+        )
+        .ok(),
+        case(DURATION, "stream --port {port} --input {dir}/ok.csv")
+            .ok()
+            .out("streamed 2 samples"),
+        case(DURATION, "sim --seconds 0.3").ok(),
+        // 2. Output into a closed pipe ends quietly with exit 0.
+        case(PIPE, "plan --json --phases").closed_stdout(),
+        case(PIPE, "plan").closed_stdout(),
+        case(PIPE, "plan --foci 4 --json").closed_stdout(),
+        case(
+            PIPE,
+            "plan --method gspat --foci 2 --iterations 5 --json --phases",
+        )
+        .closed_stdout(),
+        case(PIPE, "scene --json").closed_stdout(),
+        case(PIPE, "scene").closed_stdout(),
+        case(PIPE, "scene --scene {scenes}/paper.toml --json").closed_stdout(),
+        case(PIPE, "status --port {port}").closed_stdout(),
+        case(PIPE, "status --port {port} --json").closed_stdout(),
+        case(PIPE, "info --port {port}").closed_stdout(),
+        case(PIPE, "bench --quick --section planner").closed_stdout(),
+        case(
+            PIPE,
+            "stream --port {port} --synthetic --fast --seconds 0.2",
+        )
+        .closed_stdout(),
+        case(PIPE, "plan --help").closed_stdout(),
+        case(
+            PIPE,
+            "simulate --plane-size 2 --plane-step 1 --out {dir}/pipe_sim",
+        )
+        .closed_stdout(),
+        // 3. Unbounded memory.
+        case(MEMORY, "stream --port {port}")
+            .stdin(vec![0u8; 200_000])
+            .err("4096 bytes"),
+        case(MEMORY, "stream --port {port}")
+            .stdin("9".repeat(5000))
+            .err("line 1"),
+        case(MEMORY, "stream --port {port} --input {dir}/long.csv")
+            .err("line 2")
+            .err("4096"),
+        case(MEMORY, "stream --port {port} --json")
+            .stdin(format!("0,0,0,200,1\n{}\n", "1".repeat(4097)))
+            .err("4096"),
+        case(MEMORY, "sim --slot-steps 4000000000").err("1..=65535"),
+        case(MEMORY, "sim --slot-steps 65536").err("1..=65535"),
+        case(MEMORY, "sim --slot-steps 0").err("1..=65535"),
+        case(MEMORY, "sim --slot-steps -1"),
+        case(MEMORY, "sim --centroid-timeout-ms 4000000000").err("0..=3600000"),
+        case(MEMORY, "plan --steps 70000").err("65535"),
+        case(MEMORY, "plan --steps 18446744073709551616"),
+        case(MEMORY, "plan --foci 100000").err("1..=32"),
+        case(MEMORY, "plan --step 0.00001").err("more than 65535"),
+        case(
+            MEMORY,
+            "stream --port {port} --udp 47002 --seconds 1 --json",
+        )
+        .udp(47002, vec![vec![b'5'; 5000], b"0,0,0,200,1".to_vec()])
+        .ok()
+        .out("\"bad_datagrams\":1"),
+        // 4. Unbounded work.
+        case(WORK, "plan --method gspat --iterations 100000000").err("1..=1000"),
+        case(WORK, "plan --method gspat --iterations 0").err("1..=1000"),
+        case(WORK, "simulate --plane-step 0.011 --out {dir}/w1").err("exceeds the limit"),
+        case(WORK, "simulate --plane-step 0.001 --out {dir}/w2").err("points"),
+        case(
+            WORK,
+            "simulate --reference --plane-size 60 --plane-step 0.1 --out {dir}/w3",
+        )
+        .err("--reference"),
+        case(
+            WORK,
+            "simulate --steps 60000 --freq 0.01 --plane-step 0.1 --out {dir}/w4",
+        )
+        .err("exceeds"),
+        case(WORK, "status --port {port} --timeout-ms 100000000000").err("1..=60000"),
+        case(WORK, "status --port {port} --timeout-ms 0").err("1..=60000"),
+        case(WORK, "status --port {port} --tries 4000000000").err("1..=100"),
+        case(WORK, "status --port {port} --tries 0").err("1..=100"),
+        case(
+            WORK,
+            "stream --port {port} --synthetic --fast --seconds 4000",
+        )
+        .err("3600"),
+        case(WORK, "plan --freq 1e9").err("0..=1000 Hz"),
+        case(
+            WORK,
+            "plan --method gspat --foci 2 --iterations 1000 --steps 8 --freq 1 --radius 3",
+        )
+        .ok(),
+        // 5. Wild centroids: dropped and counted before the filters.
+        case(CENTROIDS, "stream --port {port} --json")
+            .stdin(&wild)
+            .ok()
+            .out("\"out_of_order\":1")
+            .out("\"out_of_range\":1")
+            .then("status --port {port} --json", "\"correction_um\":[0,0,0]"),
+        case(CENTROIDS, "stream --port {port} --json")
+            .stdin(csv(&["0,0,0,200,1", "0.01,500,0,200,1", "0.02,0,0,200,1"]))
+            .ok()
+            .out("\"jumps\":1"),
+        case(CENTROIDS, "stream --port {port} --json")
+            .stdin(csv(&["0,2001,0,200,1", "0.01,0,0,200,1"]))
+            .ok()
+            .out("\"out_of_range\":1"),
+        case(CENTROIDS, "stream --port {port} --json")
+            .stdin(csv(&["0,1e300,1e300,1e300,0", "0.01,0,0,200,1"]))
+            .ok()
+            .out("\"out_of_range\":0"),
+        case(CENTROIDS, "stream --port {port} --filter one-euro --json")
+            .stdin(&wild)
+            .ok()
+            .out("\"out_of_order\":1"),
+        case(CENTROIDS, "stream --port {port} --filter gaussian --json")
+            .stdin(&wild)
+            .ok(),
+        case(CENTROIDS, "stream --port {port} --filter none --json")
+            .stdin(&wild)
+            .ok(),
+        case(CENTROIDS, "stream --port {port}")
+            .stdin(csv(&["0,0,0,nan,1"]))
+            .err("finite"),
+        case(CENTROIDS, "stream --port {port}")
+            .stdin(csv(&["inf,0,0,200,1"]))
+            .err("finite"),
+        case(CENTROIDS, "stream --port {port}")
+            .stdin(csv(&["0,-inf,0,200,1"]))
+            .err("line 1"),
+        case(CENTROIDS, "stream --port {port}")
+            .stdin("{\"t\":0,\"x\":1e400,\"y\":0,\"z\":200}\n")
+            .err("line 1"),
+        case(CENTROIDS, "stream --port {port}")
+            .stdin("{\"t\":0,\"x\":0}\n")
+            .err("line 1"),
+        case(
+            CENTROIDS,
+            "stream --port {port} --udp 47003 --seconds 1 --json",
+        )
+        .udp(
+            47003,
+            vec![b"0,0,0,200,1".to_vec(), b"0.01,1e30,0,200,1".to_vec()],
+        )
+        .ok()
+        .out("\"out_of_range\":1"),
+        // 6. Silently wrong plans.
+        case(PLANS, "plan --weights 0").err("all zero"),
+        case(PLANS, "plan --foci 2 --weights 0,0").err("all zero"),
+        case(PLANS, "plan --foci 2 --weights 1,nan").err("out of range"),
+        case(PLANS, "plan --weights 1e300").err("1e300"),
+        case(PLANS, "plan --z 1e12").err("-100..=100 mm"),
+        case(PLANS, "plan --radius 1e30 --steps 4").err("0..=100 mm"),
+        case(PLANS, "plan --radius 101").err("0..=100 mm"),
+        case(PLANS, "plan --center 0,0,1e30").err("±2000 mm"),
+        case(PLANS, "plan --center 0,0,1e12").err("±2000 mm"),
+        case(PLANS, "plan --center 5000,0,200").err("±2000 mm"),
+        case(PLANS, "plan --center 0,0,-100").err("behind or in the plane"),
+        case(PLANS, "plan --center 0,0,0").err("behind or in the plane"),
+        case(PLANS, "plan --foci 2 --spacing 1e9").err("spacing"),
+        case(PLANS, "plan --step 1e30").err("step"),
+        case(PLANS, "plan --freq 0").err("frequency"),
+        case(PLANS, "plan --scene {dir}/same_pose.toml").err("overlap"),
+        case(PLANS, "plan --scene {dir}/overlap.toml").err("overlap"),
+        case(PLANS, "scene --scene {dir}/same_pose.toml --json").err("overlap"),
+        case(PLANS, "plan --scene {dir}/far.toml").err("±2000 mm"),
+        case(PLANS, "plan --scene {dir}/far_rig.toml").err("±2000 mm"),
+        case(PLANS, "plan --scene {dir}/far_reflector.toml").err("reflector"),
+        case(PLANS, "plan --scene {dir}/far_center.toml").err("center_mm"),
+        case(PLANS, "plan --scene {dir}/facing_away.toml").err("behind or in the plane"),
+        case(PLANS, "simulate --center 0,0,-100 --out {dir}/p1").err("behind"),
+        case(PLANS, "upload --port {port} --center 0,0,-100").err("behind"),
+        case(PLANS, "upload --port {port} --weights 0").err("all zero"),
+        case(PLANS, "plan --scene {dir}/abutting.toml --center 96,0,200").ok(),
+        case(PLANS, "plan --radius 100 --steps 4 --freq 1").ok(),
+        case(PLANS, "simulate --alpha 1e300 --out {dir}/p2").err("0..=2"),
+        case(PLANS, "simulate --calibration 1e300 --out {dir}/p3").err("--calibration"),
+        case(PLANS, "simulate --disk 1e300 --out {dir}/p4").err("--disk"),
+        case(PLANS, "simulate --plane-center 0,0,1e30 --out {dir}/p5").err("±2000 mm"),
+        case(PLANS, "simulate --plane-size 1e9 --out {dir}/p6").err("--plane-size"),
+        case(EXIT, "stream --port {port} --udp 0").err("--udp"),
+        // 7. Exit codes: bad input is 2, a failed operation 1.
+        case(EXIT, "status --port tcp:127.0.0.1").err("no port"),
+        case(EXIT, "status --port tcp:127.0.0.1:99999").err("1..=65535"),
+        case(EXIT, "status --port tcp:256.1.1.1:1").err("IPv4"),
+        case(EXIT, "status --port tcp::4000").err("no host"),
+        case(EXIT, "status --port tcp:127.0.0.1:0").err("1..=65535"),
+        case(EXIT, "stop --port tcp:127.0.0.1:x").err("1..=65535"),
+        case(EXIT, "stream --port {port} --input {dir}/a_directory").err("directory"),
+        case(EXIT, "stream --port {port} --input {dir}/bin.csv").err("not UTF-8"),
+        case(EXIT, "stream --port {port}")
+            .stdin(b"\xff\xfe\n")
+            .err("not UTF-8"),
+        case(EXIT, "stream --port {port} --input {dir}/no_such.csv").err("no such file"),
+        case(EXIT, "plan --scene {dir}/a_directory").err("cannot read"),
+        case(EXIT, "plan --scene {dir}/bin.toml"),
+        case(EXIT, "plan --foci x").err("--foci"),
+        case(EXIT, "plan --no-such-flag").err("--no-such-flag"),
+        case(EXIT, "status --port tcp:127.0.0.1:1")
+            .code(1)
+            .err("127.0.0.1:1"),
+        case(EXIT, "status --port /dev/lmhost-no-such-port")
+            .code(1)
+            .err("lmhost-no-such-port"),
+        // 8. Streaming sessions.
+        case(
+            SESSIONS,
+            "stream --port {port} --udp 47004 --seconds 1 --json",
+        )
+        .udp(47004, [garbage(1), good_udp(5)].concat())
+        .ok()
+        .out("\"bad_datagrams\":1")
+        .out("\"samples\":5"),
+        case(
+            SESSIONS,
+            "stream --port {port} --udp 47005 --seconds 1 --json",
+        )
+        .udp(
+            47005,
+            [
+                good_udp(2),
+                garbage(50),
+                vec![b"\xff\xfe".to_vec()],
+                good_udp(2),
+            ]
+            .concat(),
+        )
+        .ok()
+        .out("\"bad_datagrams\":51"),
+        case(SESSIONS, "stream --port {port} --udp 47006 --seconds 5")
+            .udp(47006, garbage(1000))
+            .err("flood"),
+        case(SESSIONS, "stream --port {port}")
+            .stdin(csv(&["0,0,0,200,1"]))
+            .hold_stdin()
+            .signal("INT", 700)
+            .ok()
+            .out("stopped by signal; device muted")
+            .then("status --port {port} --json", "\"state\":\"Muted\""),
+        case(SESSIONS, "stream --port {port} --json")
+            .stdin(csv(&["0,0,0,200,1"]))
+            .hold_stdin()
+            .signal("TERM", 700)
+            .ok()
+            .out("\"stopped\":true")
+            .out("\"muted_at_end\":true"),
+        case(SESSIONS, "stream --port {port} --udp 47007 --seconds 60")
+            .signal("INT", 700)
+            .ok()
+            .out("stopped by signal"),
+        case(SESSIONS, "stream --port {port} --input {dir}/pause50.csv")
+            .signal("INT", 700)
+            .ok()
+            .out("device muted"),
+        case(SESSIONS, "stream --port {port} --synthetic --seconds 60")
+            .signal("INT", 700)
+            .ok()
+            .out("stopped by signal"),
+        case(SESSIONS, "stream --port {port} --away 1,2").err("--synthetic"),
+        case(SESSIONS, "stream --port {port} --input {dir}/ok.csv")
+            .ok()
+            .then("status --port {port} --json", "\"last_centroid_seq\""),
+        // Paper fidelity.
+        case(PAPER, "plan --scene {scenes}/paper.toml")
+            .ok()
+            .check(no_warning),
+        case(PAPER, "plan --scene {scenes}/paper.toml --foci 4 --json")
+            .ok()
+            .check(no_warning),
+        case(PAPER, "plan --scene {dir}/edge_on.toml")
+            .ok()
+            .err("warning: the LM plane"),
+        case(PAPER, "plan --scene {dir}/tilted_45.toml")
+            .ok()
+            .check(no_warning),
+        case(PAPER, "plan").ok().check(no_warning),
+        case(
+            PAPER,
+            "simulate --compare --plane-size 2 --plane-step 1 --out {dir}/compare",
+        )
+        .ok()
+        .check(compare_summary_is_true),
+        case(
+            PAPER,
+            "simulate --plane-size 2 --plane-step 1 --out {dir}/single",
+        )
+        .ok()
+        .check(single_summary_is_true),
+    ];
+    // Every plan flag with NaN: refused, never planned.
+    for flag in ["--radius", "--spacing", "--freq", "--step"] {
+        v.push(case(PLANS, "plan --foci 2").arg(flag).arg("NaN"));
+    }
+    v
+}
+
+fn no_warning(_: &Ctx, r: &Run) -> Result<(), String> {
+    if r.stderr.contains("warning") {
+        return Err(format!("unexpected warning: {}", r.stderr));
+    }
+    Ok(())
+}
+
+/// Every `.npy`/`.png` named in summary.json exists.
+fn named_files_exist(dir: &Path) -> Result<serde_json::Value, String> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).map_err(|e| e.to_string())?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+    fn walk(v: &serde_json::Value, dir: &Path, missing: &mut Vec<String>) {
+        match v {
+            serde_json::Value::String(s)
+                if (s.ends_with(".npy") || s.ends_with(".png")) && !dir.join(s).exists() =>
+            {
+                missing.push(s.clone());
+            }
+            serde_json::Value::Array(a) => a.iter().for_each(|x| walk(x, dir, missing)),
+            serde_json::Value::Object(o) => o.values().for_each(|x| walk(x, dir, missing)),
+            _ => {}
+        }
+    }
+    let mut missing = Vec::new();
+    walk(&v, dir, &mut missing);
+    if missing.is_empty() {
+        Ok(v)
+    } else {
+        Err(format!("summary.json names missing files: {missing:?}"))
+    }
+}
+
+fn compare_summary_is_true(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let v = named_files_exist(&ctx.dir.join("compare"))?;
+    let panels = v["compare"].as_array().ok_or("no compare array")?;
+    if panels.len() != 10 {
+        return Err(format!("{} panels", panels.len()));
+    }
+    for p in panels {
+        let m = &p["maps"]["mean_pressure"];
+        if !(m["normalisation_pa"].as_f64().is_some_and(|x| x > 0.0)
+            && m["png_normalised"].is_string()
+            && p["radial"]["profile_pa"].is_array()
+            && p["radial"]["peak_radius_mm"].is_number())
+        {
+            return Err(format!("panel lacks normalisation or radial profile: {p}"));
+        }
+    }
+    Ok(())
+}
+
+fn single_summary_is_true(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let v = named_files_exist(&ctx.dir.join("single"))?;
+    if !v["radial"]["profile_pa"].is_array() {
+        return Err("no radial profile".into());
+    }
+    Ok(())
+}
+
+fn expand(s: &str, ctx: &Ctx) -> String {
+    s.replace("{port}", &ctx.port)
+        .replace("{dir}", &ctx.dir.display().to_string())
+        .replace("{scenes}", &ctx.scenes.display().to_string())
+}
+
+/// Runs `lmhost args`, feeding stdin and datagrams and sending a signal as
+/// the case asks; kills it after [`TIME_LIMIT`] (`None` = a hang).
+fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
+    let args: Vec<String> = c.args.iter().map(|a| expand(a, ctx)).collect();
+    let mut child = Command::new(lmhost())
+        .args(&args)
+        .env_remove("LMHOST_PORT")
+        .env("RUST_BACKTRACE", "0")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawning lmhost");
+    let mut stdin = child.stdin.take();
+    let input = c.stdin.clone();
+    let hold = c.hold_stdin;
+    let feeder = std::thread::spawn(move || {
+        if let Some(mut s) = stdin.take() {
+            let _ = s.write_all(&input);
+            if hold {
+                std::thread::sleep(TIME_LIMIT);
+            }
+        }
+    });
+    let mut out_pipe = child.stdout.take().unwrap();
+    let close = c.close_stdout;
+    let reader = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        if !close {
+            let _ = out_pipe.read_to_end(&mut s);
+        }
+        String::from_utf8_lossy(&s).into_owned()
+    });
+    let mut err_pipe = child.stderr.take().unwrap();
+    let err_reader = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        let _ = err_pipe.read_to_end(&mut s);
+        String::from_utf8_lossy(&s).into_owned()
+    });
+    if let Some((port, datagrams)) = &c.udp {
+        std::thread::sleep(Duration::from_millis(400));
+        let sock = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        for d in datagrams {
+            let _ = sock.send_to(d, ("127.0.0.1", *port));
+            std::thread::sleep(Duration::from_micros(300));
+        }
+    }
+    if let Some((sig, after_ms)) = c.signal {
+        std::thread::sleep(Duration::from_millis(after_ms));
+        let _ = Command::new("kill")
+            .arg(format!("-{sig}"))
+            .arg(child.id().to_string())
+            .status();
+    }
+    let start = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break Some(st);
+        }
+        if start.elapsed() > TIME_LIMIT {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    drop(feeder);
+    let stdout = reader.join().unwrap();
+    let stderr = err_reader.join().unwrap();
+    status.map(|st| Run {
+        code: st.code(),
+        stdout,
+        stderr,
+    })
+}
+
+/// What is wrong with a run of `c`, if anything.
+fn judge(c: &Case, ctx: &Ctx, r: &Run) -> Vec<String> {
+    let mut bad = Vec::new();
+    if r.stderr.contains("panicked") || r.code == Some(101) {
+        bad.push("panicked".to_owned());
+    }
+    if r.code != Some(c.code) {
+        bad.push(format!("exit {:?}, want {}", r.code, c.code));
+    }
+    if c.code != 0 && r.stderr.lines().count() != 1 {
+        bad.push(format!(
+            "stderr is {} lines, want 1",
+            r.stderr.lines().count()
+        ));
+    }
+    if c.close_stdout && !r.stderr.is_empty() {
+        bad.push("closed stdout must end quietly".to_owned());
+    }
+    for s in &c.stderr_has {
+        if !r.stderr.contains(&expand(s, ctx)) {
+            bad.push(format!("stderr lacks `{s}`"));
+        }
+    }
+    for s in &c.stdout_has {
+        if !r.stdout.contains(s.as_str()) {
+            bad.push(format!("stdout lacks `{s}`"));
+        }
+    }
+    if let Some(f) = c.check
+        && let Err(e) = f(ctx, r)
+    {
+        bad.push(e);
+    }
+    if let Some((args, want)) = &c.then {
+        let args: Vec<String> = args.iter().map(|a| expand(a, ctx)).collect();
+        let out = Command::new(lmhost()).args(&args).output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        if !text.contains(want.as_str()) {
+            bad.push(format!("then {args:?}: stdout lacks `{want}`: {text}"));
+        }
+    }
+    bad
+}
+
+#[test]
+fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
+    let sim = Sim::start(&[]);
+    let dir =
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    fixtures(&dir);
+    let ctx = Ctx {
+        port: sim.port.clone(),
+        dir: dir.clone(),
+        scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
+    };
+    let up = Command::new(lmhost())
+        .args(["upload", "--port", &ctx.port])
+        .output()
+        .unwrap();
+    assert!(
+        up.status.success(),
+        "{}",
+        String::from_utf8_lossy(&up.stderr)
+    );
+
+    let all = cases();
+    let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
+    let (mut panics, mut hangs) = (0, 0);
+    let mut failures = Vec::new();
+    for c in &all {
+        let label = format!("[{}] lmhost {}", c.class, c.args.join(" "));
+        match execute(c, &ctx) {
+            None => {
+                hangs += 1;
+                failures.push(format!("{label}: no exit within {TIME_LIMIT:?}"));
+            }
+            Some(r) => {
+                if r.stderr.contains("panicked") || r.code == Some(101) {
+                    panics += 1;
+                }
+                let bad = judge(c, &ctx, &r);
+                if !bad.is_empty() {
+                    failures.push(format!(
+                        "{label}: {}\n    stderr: {}",
+                        bad.join("; "),
+                        r.stderr.trim()
+                    ));
+                }
+            }
+        }
+    }
+    println!(
+        "hostile inputs: {} cases, {} classes, {panics} panics, {hangs} hangs",
+        all.len(),
+        classes.len()
+    );
+    for class in &classes {
+        let n = all.iter().filter(|c| c.class == *class).count();
+        println!("  {class}: {n} cases");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(all.len() >= 100, "only {} cases", all.len());
+    assert_eq!(classes.len(), 9, "{classes:?}");
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        all.len(),
+        failures.join("\n")
+    );
+}
