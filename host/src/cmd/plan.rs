@@ -224,16 +224,19 @@ impl PlanArgs {
     pub fn plan(&self) -> anyhow::Result<Plan> {
         let scene = self.load_scene()?;
         let params = self.params(&scene)?;
-        if let Some(w) = lm_plane_warning(&scene, params.center_mm) {
-            // Once per run, even when a command plans many stimuli.
+        let warning = lm_plane_warning(&scene, params.center_mm);
+        let synthesis = self.synthesis()?;
+        let plan = Plan::new(scene, &params, &synthesis)?;
+        // Only for a plan that stands (a refused one says only why), and
+        // once per run, even when a command plans many stimuli.
+        if let Some(w) = warning {
             static WARNED: std::sync::atomic::AtomicBool =
                 std::sync::atomic::AtomicBool::new(false);
             if !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed) {
                 eprintln!("warning: {w}");
             }
         }
-        let synthesis = self.synthesis()?;
-        Ok(Plan::new(scene, &params, &synthesis)?)
+        Ok(plan)
     }
 }
 

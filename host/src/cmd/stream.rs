@@ -15,6 +15,11 @@ use crate::stream::run::{Pace, stream};
 use crate::stream::source;
 use crate::stream::synthetic::FingerTrack;
 
+/// Seconds of the synthetic track the filter table is scored over
+/// (offline, whatever the session's length, so a long or stopped session
+/// does not wait on it).
+const FILTER_SCORE_S: f64 = 20.0;
+
 /// Stream finger centroids (mm, scene frame) to the device.
 ///
 /// Input lines are JSON (`{"t":0.011,"x":1.2,"y":-0.4,"z":201,"present":true}`)
@@ -184,7 +189,7 @@ impl Args {
         let scores: Vec<_> = if self.synthetic {
             FilterKind::ALL
                 .iter()
-                .map(|k| score(*k, &track, self.seconds.max(20.0)))
+                .map(|k| score(*k, &track, FILTER_SCORE_S))
                 .collect()
         } else {
             Vec::new()
