@@ -162,6 +162,11 @@ impl Autd3Backend {
         Ok(me)
     }
 
+    /// autd3's geometry of the rig (same device order as the scene).
+    pub fn geometry(&self) -> &autd3::core::geometry::Geometry {
+        self.ctl.geometry()
+    }
+
     /// The emulated devices, when the link is the emulator.
     pub fn emulator(&self) -> Option<&EmulatorHandle> {
         self.emulator.as_ref()

@@ -171,6 +171,26 @@ pub fn grid_timing(
     })
 }
 
+/// Plans `p` for an AUTD3 rig: grid timing first (scene's minimum dwell),
+/// then the trajectory and the phases with the realised `N` and frequency.
+pub fn plan(
+    p: &LmParams,
+    scene: &crate::scene::Scene,
+    synthesis: &crate::sequence::Synthesis,
+) -> Result<(crate::sequence::Plan, GridTiming), InputError> {
+    let g = grid_timing(p.radius_mm, p.freq_hz, p.steps, scene.min_dwell_s)?;
+    let trajectory = crate::trajectory::Trajectory::plan(&g.apply(p), scene)?;
+    let sequence = crate::sequence::Sequence::synthesize(scene, &trajectory, synthesis)?;
+    Ok((
+        crate::sequence::Plan {
+            scene: scene.clone(),
+            trajectory,
+            sequence,
+        },
+        g,
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
