@@ -28,9 +28,10 @@ fn emulator(c: &mut Criterion) {
             "LM-M A = {a} mm: N = {}, dwell {} us, {:.3} Hz, {} frames, read-back mismatches {:?}",
             t.steps, t.dwell_us, t.freq_hz, r.frames, r.readback_mismatches
         );
-        g.bench_function(format!("upload LM-M A = {a} mm ({} x 996)", t.steps), |bch| {
-            bch.iter(|| b.upload(&plan, Some(0)).expect("upload"))
-        });
+        g.bench_function(
+            format!("upload LM-M A = {a} mm ({} x 996)", t.steps),
+            |bch| bch.iter(|| b.upload(&plan, Some(0)).expect("upload")),
+        );
     }
     let mut p = LmParams::paper(scene.center_mm);
     p.foci = 4;
@@ -40,18 +41,21 @@ fn emulator(c: &mut Criterion) {
     let c0 = plan.sequence.header.center_um;
     let mut seq = 0u32;
     g.sample_size(100);
-    g.bench_function("centroid update (offsets + PhaseCorrection, acked)", |bch| {
-        bch.iter(|| {
-            seq += 1;
-            let d = (seq % 2000) as i32;
-            b.centroid(&CentroidUpdate {
-                seq,
-                present: true,
-                pos_um: [c0[0] + d, c0[1] - d, c0[2]],
+    g.bench_function(
+        "centroid update (offsets + PhaseCorrection, acked)",
+        |bch| {
+            bch.iter(|| {
+                seq += 1;
+                let d = (seq % 2000) as i32;
+                b.centroid(&CentroidUpdate {
+                    seq,
+                    present: true,
+                    pos_um: [c0[0] + d, c0[1] - d, c0[2]],
+                })
+                .expect("centroid")
             })
-            .expect("centroid")
-        })
-    });
+        },
+    );
     g.finish();
 }
 

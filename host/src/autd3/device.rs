@@ -85,6 +85,21 @@ impl Autd3Backend {
     pub fn open(port: &Autd3Port, scene: &Scene) -> anyhow::Result<Self> {
         match port {
             Autd3Port::Emulator => Ok(Self::open_emulator(scene, Clock::real(), None)?.0),
+            Autd3Port::Remote { host, port: tcp } => {
+                use std::net::ToSocketAddrs;
+                let addr = (host.as_str(), *tcp)
+                    .to_socket_addrs()
+                    .with_context(|| format!("resolving {port}"))?
+                    .next()
+                    .with_context(|| format!("{port}: the host has no address"))?;
+                let link = autd3_link_remote::Remote::new(
+                    addr,
+                    autd3_link_remote::RemoteOption {
+                        timeout: Some(Duration::from_secs(2)),
+                    },
+                );
+                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+            }
             other => bail!(
                 "{other}: this lmhost was built without the `{}` feature (EtherCAT and remote links are opt-in)",
                 other.feature().unwrap_or("?")
@@ -118,7 +133,8 @@ impl Autd3Backend {
         Ok((me, handle))
     }
 
-    fn open_link(
+    /// Opens `link` (already built for `port`) for `scene`.
+    pub fn open_link(
         link: Box<dyn Link>,
         port: Autd3Port,
         scene: &Scene,

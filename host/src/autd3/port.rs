@@ -3,7 +3,7 @@
 //! - `autd3:emulator` — autd3's CPU + FPGA firmware emulator, in-process;
 //! - `autd3:soem[:IFNAME]`, `autd3:ethercrab[:IFNAME]` — EtherCAT on a
 //!   network interface (all interfaces are scanned when it is left out);
-//! - `autd3:remote:HOST:PORT` — an `autd3-link-remote` server.
+//! - `autd3:remote:HOST:PORT` — an `autd3-link-remote` server (always built: pure Rust TCP).
 
 use crate::error::InputError;
 
@@ -98,13 +98,14 @@ impl Autd3Port {
         }
     }
 
-    /// Cargo feature that enables this link, `None` for the emulator.
+    /// Cargo feature that enables this link, `None` when always built
+    /// (the emulator and the remote link are pure Rust).
     pub fn feature(&self) -> Option<&'static str> {
         match self {
             Self::Emulator => None,
             Self::Soem { .. } => Some("autd3-soem"),
             Self::EtherCrab { .. } => Some("autd3-ethercrab"),
-            Self::Remote { .. } => Some("autd3-remote"),
+            Self::Remote { .. } => None,
         }
     }
 }

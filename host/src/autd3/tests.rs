@@ -342,3 +342,12 @@ fn planned_phases_equal_autd3s_focus_gain() {
         assert_eq!(worst, 0, "{}: worst difference {worst} LSB", scene.name);
     }
 }
+
+#[test]
+fn remote_link_without_a_server_fails_with_one_line() {
+    // Port 1 on localhost: nothing listens, the connection is refused.
+    let port = Autd3Port::parse("autd3:remote:127.0.0.1:1").unwrap();
+    let e = Autd3Backend::open(&port, &Scene::default()).err().unwrap();
+    assert!(!is_input_error(&e), "{e:#}");
+    assert!(e.to_string().contains("autd3:remote:127.0.0.1:1"), "{e}");
+}
