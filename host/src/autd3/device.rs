@@ -69,13 +69,18 @@ fn segment(slot: u8) -> Segment {
     if slot == 0 { Segment::S0 } else { Segment::S1 }
 }
 
-fn sender_option() -> SenderOption {
-    SenderOption {
-        // The emulator answers at once; real links pace themselves.
-        send_interval: None,
-        receive_interval: None,
-        timeout: Some(Duration::from_millis(200)),
-        parallel: ParallelMode::Off,
+/// The emulator answers at once, so frames go back to back; real links keep
+/// autd3's pacing (one frame per 1 ms, ack polled every 1 ms).
+fn sender_option(emulated: bool) -> SenderOption {
+    if emulated {
+        SenderOption {
+            send_interval: None,
+            receive_interval: None,
+            timeout: Some(Duration::from_millis(200)),
+            parallel: ParallelMode::Off,
+        }
+    } else {
+        SenderOption::default()
     }
 }
 
@@ -100,6 +105,33 @@ impl Autd3Backend {
                 );
                 Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
             }
+            #[cfg(feature = "autd3-soem")]
+            Autd3Port::Soem { ifname } => {
+                let link = autd3_link_soem::SOEM::new(
+                    |slave: u16, status: autd3_link_soem::Status| {
+                        eprintln!("lmhost: AUTD3 device {slave}: EtherCAT {status:?}");
+                    },
+                    autd3_link_soem::SOEMOption {
+                        ifname: ifname.clone(),
+                        ..Default::default()
+                    },
+                );
+                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+            }
+            #[cfg(feature = "autd3-ethercrab")]
+            Autd3Port::EtherCrab { ifname } => {
+                let link = autd3_link_ethercrab::EtherCrab::new(
+                    |dev: usize, status: autd3_link_ethercrab::Status| {
+                        eprintln!("lmhost: AUTD3 device {dev}: EtherCAT {status:?}");
+                    },
+                    autd3_link_ethercrab::EtherCrabOption {
+                        ifname: ifname.clone(),
+                        ..Default::default()
+                    },
+                );
+                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+            }
+            #[allow(unreachable_patterns)]
             other => bail!(
                 "{other}: this lmhost was built without the `{}` feature (EtherCAT and remote links are opt-in)",
                 other.feature().unwrap_or("?")
@@ -146,7 +178,7 @@ impl Autd3Backend {
         let mut ctl = Controller::open_with(
             geometry::devices(scene),
             link,
-            sender_option(),
+            sender_option(emulator.is_some()),
             autd3::core::sleep::StdSleeper,
         )
         .with_context(|| format!("opening {port}"))?;
