@@ -133,7 +133,7 @@ impl Autd3Backend {
             }
             #[allow(unreachable_patterns)]
             other => bail!(
-                "{other}: this lmhost was built without the `{}` feature (EtherCAT and remote links are opt-in)",
+                "{other}: this lmhost was built without the `{}` feature (EtherCAT links are opt-in: they need system libraries and raw-socket privileges)",
                 other.feature().unwrap_or("?")
             ),
         }

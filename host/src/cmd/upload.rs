@@ -5,6 +5,8 @@ use std::io::IsTerminal as _;
 use anyhow::Context as _;
 use lm_proto::{Encoding, NackCode, PlayAt};
 
+use crate::autd3::{Autd3Backend, Autd3Port};
+use crate::backend::Backend as _;
 use crate::cmd::plan::PlanArgs;
 use crate::link::client::check_fits;
 use crate::link::{LinkError, PortArgs, UploadSpec, mm_to_um};
@@ -71,6 +73,10 @@ pub fn upload_spec(plan: &crate::sequence::Plan) -> UploadSpec {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
+        if let Some(p) = self.port.port.as_deref().filter(|p| Autd3Port::is_autd3(p)) {
+            let port = Autd3Port::parse(p)?;
+            return self.run_autd3(&port);
+        }
         let plan = self.plan.plan()?;
         let spec = upload_spec(&plan);
         let mut client = self.port.connect()?;
@@ -157,6 +163,51 @@ impl Args {
             if !self.no_play {
                 println!("playing slot {slot} from the next cycle boundary");
             }
+        }
+        Ok(())
+    }
+}
+
+impl Args {
+    /// Upload to an AUTD3 rig: plan on its 25 µs grid, write the idle STM
+    /// segment, read it back (emulator). AUTD3 output lasts only while
+    /// lmhost holds the link, so this does not play; `stream` and `demo` do.
+    fn run_autd3(self, port: &Autd3Port) -> anyhow::Result<()> {
+        let scene = self.plan.load_scene()?;
+        let params = self.plan.params(&scene)?;
+        let (plan, g) = crate::autd3::timing::plan(&params, &scene, &self.plan.synthesis()?)?;
+        let mut dev = Autd3Backend::open(port, &scene)?;
+        let r = dev
+            .upload(&plan, self.slot)
+            .with_context(|| format!("uploading to {port}"))?;
+        if self.json {
+            let mut v = serde_json::to_value(&r)?;
+            v["port"] = port.to_string().into();
+            v["playing"] = false.into();
+            v["timing"] = serde_json::to_value(g)?;
+            v["step_mm"] = g.step_mm.into();
+            println!("{v}");
+        } else {
+            println!(
+                "uploaded {} steps × {} transducers to {port} slot {}: dwell {} µs on the 25 µs grid, {:.3} Hz ({:+.3} Hz from {} Hz asked), step {:.4} mm ({:+.4} mm), {} frames",
+                r.steps,
+                r.transducers,
+                r.slot,
+                g.dwell_us,
+                g.freq_hz,
+                g.freq_error_hz,
+                g.requested_freq_hz,
+                g.step_mm,
+                g.step_error_mm,
+                r.frames
+            );
+            match r.readback_mismatches {
+                Some(n) => println!("read back from the FPGA: {n} phases differ from the plan"),
+                None => println!("this link cannot read the FPGA back"),
+            }
+        }
+        if let Some(n) = r.readback_mismatches.filter(|&n| n > 0) {
+            anyhow::bail!("{port} holds {n} phases that differ from the plan");
         }
         Ok(())
     }
