@@ -156,7 +156,13 @@ fn play_switches_segments_only_at_the_loop_end() {
     let scene = Scene::default();
     let (mut b, h, clock) = open(&scene);
     let (x, g) = lm(&scene, 3.0, 1);
-    let (y, _) = lm(&scene, 5.0, 1);
+    // Same N and dwell at another radius: both loops end together on the
+    // devices' shared clock, which is where SyncIdx switches.
+    let mut p = LmParams::paper(scene.center_mm);
+    p.radius_mm = 5.0;
+    p.steps = Steps::Count(g.steps);
+    let (y, gy) = timing::plan(&p, &scene, &Synthesis::Linear).unwrap();
+    assert_eq!((gy.steps, gy.divide), (g.steps, g.divide));
     let period = Duration::from_micros(g.steps as u64 * u64::from(g.dwell_us));
     assert_eq!(b.upload(&x, None).unwrap().slot, 1);
     b.play(1, true).unwrap();
@@ -169,11 +175,14 @@ fn play_switches_segments_only_at_the_loop_end() {
     );
     clock.advance(next_end - period / 2 - now);
     b.request_play(0, true).unwrap();
-    for _ in 0..8 {
+    for _ in 0..9 {
         clock.advance(period / 20);
         assert_eq!(stm_segment(&h), Segment::S1, "switched mid-loop");
     }
-    clock.advance(next_end + Duration::from_micros(10) - clock.now());
+    clock.advance(next_end - Duration::from_micros(10) - clock.now());
+    assert_eq!(stm_segment(&h), Segment::S1, "switched before the loop end");
+    assert_eq!(h.with_cpus(|c| c[0].fpga().current_stm_idx()), g.steps - 1);
+    clock.advance(Duration::from_micros(20));
     assert_eq!(stm_segment(&h), Segment::S0);
     assert_eq!(h.with_cpus(|c| c[0].fpga().current_stm_idx()), 0);
     // The pending switch completes: slot 0 now loops forever.
