@@ -7,8 +7,9 @@
 //! `cargo bench -p lmhost --bench autd3`
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use lm_proto::Centroid;
 use lmhost::autd3::{Autd3Backend, Clock, timing};
-use lmhost::backend::{Backend, CentroidUpdate};
+use lmhost::backend::Backend;
 use lmhost::scene::Scene;
 use lmhost::sequence::Synthesis;
 use lmhost::trajectory::LmParams;
@@ -47,7 +48,8 @@ fn emulator(c: &mut Criterion) {
             bch.iter(|| {
                 seq += 1;
                 let d = (seq % 2000) as i32;
-                b.centroid(&CentroidUpdate {
+                b.centroid(&Centroid {
+                    host_time_us: 0,
                     seq,
                     present: true,
                     pos_um: [c0[0] + d, c0[1] - d, c0[2]],

@@ -1,16 +1,30 @@
 //! One device interface for every kind of rig.
 //!
 //! [`Backend`] is what the subcommands need from a device: `info`,
-//! `status`, `upload`, `play`, `stop` and centroid streaming. Backends:
-//! - [`crate::autd3::Autd3Backend`]: AUTD3 arrays through the autd3 crates
-//!   (`--port autd3:...`), its own firmware emulator included;
-//! - the LM firmware over serial / pty / TCP ([`crate::link::Client`]).
+//! `status`, `upload`, `play`, `stop` and centroid streaming. [`open`]
+//! picks one from `--port`:
+//! - `autd3:...` → [`crate::autd3::Autd3Backend`]: AUTD3 arrays through the
+//!   autd3 crates, their firmware emulator included;
+//! - anything else → [`LmBackend`]: the LM firmware over serial / pty / TCP
+//!   ([`crate::link::Client`]).
 //!
-//! Positions and centroids are in drive coordinates (the mirrored frame
-//! when the scene has a reflector), as on the wire.
+//! Status is the firmware's own [`lm_proto::Status`] for both (an AUTD3
+//! fills the fields it has, `mute_reason` included, and zeroes the wire
+//! counters it has no use for). Positions and centroids are in drive
+//! coordinates (the mirrored frame when the scene has a reflector), as on
+//! the wire.
 
+use std::io::IsTerminal as _;
+
+use anyhow::Context as _;
+use lm_proto::{Centroid, Encoding, Info, NackCode, PlayAt, Status};
 use serde::Serialize;
 
+use crate::autd3::{Autd3Backend, Autd3Port, GridTiming};
+use crate::cmd::plan::PlanArgs;
+use crate::cmd::upload::{check_slot, free_slot};
+use crate::link::{Client, LinkError, PortArgs, Transport, UploadSpec};
+use crate::scene::Scene;
 use crate::sequence::Plan;
 
 /// What a device says about itself.
@@ -30,21 +44,9 @@ pub struct BackendInfo {
     pub firmware: Vec<String>,
     /// Dwell grid (µs), when the device samples on one.
     pub dwell_grid_us: Option<u32>,
-}
-
-/// A device's playing state.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct BackendStatus {
-    /// Slot playing, if any.
-    pub playing: Option<u8>,
-    /// Steps held per slot (`None`: empty).
-    pub slots: Vec<Option<usize>>,
-    /// Output is muted (not tracked, stale, stopped).
-    pub muted: bool,
-    /// Play was started without requiring tracking.
-    pub untracked: bool,
-    /// Centroid updates applied since the device was opened.
-    pub centroids: u64,
+    /// The LM firmware's own `Info` (LM firmware only).
+    #[serde(skip)]
+    pub lm: Option<Info>,
 }
 
 /// The result of an upload.
@@ -60,43 +62,236 @@ pub struct UploadReport {
     pub dwell_us: f64,
     /// LM frequency (Hz).
     pub freq_hz: f64,
-    /// Link frames the upload took.
+    /// Link frames the upload took (AUTD3 emulator; 0 where not counted).
     pub frames: u64,
     /// Phases read back from the device that differ from the plan
     /// (`None` when the device cannot be read back).
     pub readback_mismatches: Option<u64>,
+    /// The serial link's transfer report (LM firmware only).
+    #[serde(skip)]
+    pub wire: Option<crate::link::UploadReport>,
 }
 
-/// One centroid update.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub struct CentroidUpdate {
-    /// Sequence number (wrapping; older ones are refused).
-    pub seq: u32,
-    /// Whether a finger is tracked.
-    pub present: bool,
-    /// Centroid in drive coordinates (µm).
-    pub pos_um: [i32; 3],
+/// What a centroid update did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CentroidOutcome {
+    /// Accepted: the gate and the correction follow it.
+    Applied,
+    /// Refused: outside the playing slot's work volume; the output mutes
+    /// until a present centroid inside it arrives.
+    OutOfRange,
 }
 
 /// A device lmhost can drive.
 pub trait Backend {
+    /// Where the device is, for messages (`/dev/ttyACM0`, `autd3:emulator`).
+    fn describe(&self) -> String;
     /// Identity and capabilities.
     fn info(&mut self) -> anyhow::Result<BackendInfo>;
-    /// Playing state.
-    fn status(&mut self) -> anyhow::Result<BackendStatus>;
-    /// Uploads `plan` into `slot` (`None`: the idle slot) without touching
-    /// the playing one; a failed upload leaves the playing slot playing.
+    /// Playing state, in the firmware's terms.
+    fn status(&mut self) -> anyhow::Result<Status>;
+    /// Uploads `plan` into `slot` (`None`: a slot neither playing nor
+    /// queued) without touching the playing one; a failed upload leaves
+    /// the playing slot playing.
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport>;
-    /// Plays `slot`, switching at the end of the playing loop; muted until
-    /// tracked unless `untracked`.
-    fn play(&mut self, slot: u8, untracked: bool) -> anyhow::Result<()>;
+    /// Plays `slot` at `at`; muted until tracked unless `untracked`.
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()>;
+    /// Plays `slot`, switching at the end of the playing cycle.
+    fn play(&mut self, slot: u8, untracked: bool) -> anyhow::Result<()> {
+        self.play_at(slot, PlayAt::NextCycle, untracked)
+    }
     /// Silences the array.
     fn stop(&mut self) -> anyhow::Result<()>;
     /// Applies a centroid update (correction and safety gate).
-    fn centroid(&mut self, c: &CentroidUpdate) -> anyhow::Result<()>;
+    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome>;
     /// Housekeeping the host must run between updates (≥ every 10 ms
     /// while playing): staleness muting where the device cannot time it.
     fn tick(&mut self) -> anyhow::Result<()> {
         Ok(())
+    }
+    /// Whether output lasts only while lmhost holds the link (AUTD3).
+    fn needs_host(&self) -> bool {
+        false
+    }
+}
+
+/// The device `--port` names, before it is opened.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Target {
+    /// The LM firmware on a serial port, pty or TCP socket.
+    Lm,
+    /// An AUTD3 rig.
+    Autd3(Autd3Port),
+}
+
+impl Target {
+    /// The plan for this device: the 25 µs dwell grid on AUTD3 (with its
+    /// realised timing), else the plan the flags ask for.
+    pub fn plan(&self, args: &PlanArgs) -> anyhow::Result<(Plan, Option<GridTiming>)> {
+        match self {
+            Self::Lm => Ok((args.plan()?, None)),
+            Self::Autd3(_) => {
+                let scene = args.load_scene()?;
+                let params = args.params(&scene)?;
+                let (plan, g) = crate::autd3::timing::plan(&params, &scene, &args.synthesis()?)?;
+                Ok((plan, Some(g)))
+            }
+        }
+    }
+}
+
+/// Opens the device `port` names for `scene` (an AUTD3 rig is built from
+/// the scene's devices; the LM firmware ignores it).
+pub fn open(port: &PortArgs, scene: &Scene) -> anyhow::Result<Box<dyn Backend>> {
+    open_with(port, scene, Encoding::Delta)
+}
+
+/// [`open`], uploading to the LM firmware with `encoding`.
+pub fn open_with(
+    port: &PortArgs,
+    scene: &Scene,
+    encoding: Encoding,
+) -> anyhow::Result<Box<dyn Backend>> {
+    Ok(match port.target()? {
+        Target::Lm => Box::new(LmBackend::new(port.connect()?, encoding)),
+        Target::Autd3(p) => Box::new(Autd3Backend::open(&p, scene)?),
+    })
+}
+
+/// The LM firmware behind a [`Client`].
+pub struct LmBackend<T: Transport> {
+    /// The link.
+    pub client: Client<T>,
+    /// Wire encoding for uploads.
+    pub encoding: Encoding,
+    /// Draw a progress bar on stderr while uploading.
+    pub progress: bool,
+    info: Option<Info>,
+}
+
+impl<T: Transport> LmBackend<T> {
+    /// Wraps `client`; a progress bar is drawn when stderr is a terminal.
+    pub fn new(client: Client<T>, encoding: Encoding) -> Self {
+        Self {
+            client,
+            encoding,
+            progress: std::io::stderr().is_terminal(),
+            info: None,
+        }
+    }
+
+    fn lm_info(&mut self) -> anyhow::Result<Info> {
+        if let Some(i) = self.info {
+            return Ok(i);
+        }
+        let where_ = self.describe();
+        let i = self
+            .client
+            .info()
+            .with_context(|| format!("asking {where_} for its info"))?;
+        self.info = Some(i);
+        Ok(i)
+    }
+}
+
+impl<T: Transport> Backend for LmBackend<T> {
+    fn describe(&self) -> String {
+        self.client.transport().describe()
+    }
+
+    fn info(&mut self) -> anyhow::Result<BackendInfo> {
+        let i = self.lm_info()?;
+        let [a, b, c] = i.fw_version;
+        Ok(BackendInfo {
+            backend: "lm-firmware".into(),
+            port: self.describe(),
+            devices: 1,
+            transducers: usize::from(i.max_transducers),
+            slots: i.slots,
+            firmware: vec![format!("{a}.{b}.{c}")],
+            dwell_grid_us: None,
+            lm: Some(i),
+        })
+    }
+
+    fn status(&mut self) -> anyhow::Result<Status> {
+        let where_ = self.describe();
+        Ok(self
+            .client
+            .status()
+            .with_context(|| format!("asking {where_} for its status"))?)
+    }
+
+    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport> {
+        let spec = UploadSpec::from_plan(plan, self.encoding)?;
+        let info = self.lm_info()?;
+        let where_ = self.describe();
+        let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
+        let slot = match slot {
+            Some(s) => {
+                check_slot(s, &info)?;
+                s
+            }
+            None => {
+                let st = self.client.status().context("reading the device status")?;
+                free_slot(&info, &st).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "no free slot on {where_}: every slot is playing or queued; \
+                         use --slot N or `lmhost stop` first"
+                    )
+                })?
+            }
+        };
+        spec.check_fits(&info, slot).map_err(|e| {
+            crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
+        })?;
+        let tty = self.progress;
+        let report = self
+            .client
+            .upload(&spec, slot, chunk, |done, total| {
+                if tty {
+                    let pct = done as f64 / total.max(1) as f64;
+                    let bar = "#".repeat((pct * 30.0) as usize);
+                    eprint!("\ruploading [{bar:<30}] {:>3.0} %", pct * 100.0);
+                    if done == total {
+                        eprintln!();
+                    }
+                }
+            })
+            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
+        let h = &spec.header;
+        Ok(UploadReport {
+            slot,
+            steps: usize::from(h.steps),
+            transducers: usize::from(h.transducers),
+            dwell_us: plan.sequence.dwell_us(),
+            freq_hz: 1e6 / f64::from(h.period_us.max(1)),
+            frames: 0,
+            readback_mismatches: None,
+            wire: Some(report),
+        })
+    }
+
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
+        let info = self.lm_info()?;
+        check_slot(slot, &info)?;
+        self.client
+            .play(slot, at, untracked)
+            .with_context(|| format!("playing slot {slot}"))
+    }
+
+    fn stop(&mut self) -> anyhow::Result<()> {
+        self.client.stop().context("stopping the device")
+    }
+
+    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome> {
+        match self.client.centroid(*c) {
+            Ok(()) => Ok(CentroidOutcome::Applied),
+            Err(LinkError::Nack {
+                code: NackCode::OutOfRange,
+                ..
+            }) => Ok(CentroidOutcome::OutOfRange),
+            Err(e) => Err(e.into()),
+        }
     }
 }

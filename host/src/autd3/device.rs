@@ -30,18 +30,18 @@ use super::emulator::{EmulatorHandle, EmulatorLink};
 use super::port::Autd3Port;
 use super::{correction, geometry, safety, timing};
 use crate::array::AUTD3_TRANSDUCERS;
-use crate::backend::{Backend, BackendInfo, BackendStatus, CentroidUpdate, UploadReport};
+use crate::backend::{Backend, BackendInfo, CentroidOutcome, UploadReport};
 use crate::error::InputError;
 use crate::scene::Scene;
 use crate::sequence::Plan;
+use lm_proto::{Centroid, DeviceState, MuteReason, PlayAt, Status, UploadHeader};
 
 /// What a segment holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Slot {
     steps: usize,
     divide: u16,
-    center_um: [i32; 3],
-    sound_speed_mm_s: u32,
+    header: UploadHeader,
 }
 
 /// An AUTD3 rig driven through the autd3 crates.
@@ -62,6 +62,10 @@ pub struct Autd3Backend {
     offsets: Vec<u8>,
     centroid_um: Option<[i32; 3]>,
     centroids: u64,
+    /// Stopped by `stop` (until the next play).
+    stopped: bool,
+    /// The last present centroid lay outside the playing slot's work volume.
+    out_of_range: bool,
     closed: bool,
 }
 
@@ -201,6 +205,8 @@ impl Autd3Backend {
             offsets: vec![0; n],
             centroid_um: None,
             centroids: 0,
+            stopped: false,
+            out_of_range: false,
             closed: false,
         };
         me.ctl.send(Silencer::default())?;
@@ -247,11 +253,11 @@ impl Autd3Backend {
     fn update_correction(&mut self) -> anyhow::Result<()> {
         let slot = self.playing.and_then(|s| self.slots[usize::from(s)]);
         match (slot, self.centroid_um) {
-            (Some(s), Some(c)) => correction::offsets_into(
+            (Some(s), Some(c)) if s.header.in_work_volume(c) => correction::offsets_into(
                 &self.positions,
-                s.center_um,
+                s.header.center_um,
                 c,
-                s.sound_speed_mm_s,
+                s.header.sound_speed_mm_s,
                 &mut self.offsets,
             ),
             _ => self.offsets.fill(0),
@@ -259,10 +265,32 @@ impl Autd3Backend {
         self.send_offsets()
     }
 
+    /// Steps held by `slot` (`None`: empty or half-written).
+    pub fn slot_steps(&self, slot: u8) -> Option<usize> {
+        self.slots
+            .get(usize::from(slot))
+            .copied()
+            .flatten()
+            .map(|s| s.steps)
+    }
+
+    /// Why the output is silent now, by the firmware's rules.
+    pub fn mute_reason(&self) -> MuteReason {
+        if self.stopped {
+            MuteReason::Stopped
+        } else if self.playing.is_none() || self.untracked {
+            MuteReason::None
+        } else if self.out_of_range {
+            MuteReason::CentroidOutOfRange
+        } else {
+            self.gate.mute_reason(self.now_us())
+        }
+    }
+
     /// Mutes or unmutes as the gate says; finishes a pending switch.
     fn apply_gate(&mut self) -> anyhow::Result<()> {
         self.finish_switch(false)?;
-        let want = if self.playing.is_some() && self.gate.open(self.now_us()) {
+        let want = if self.playing.is_some() && self.mute_reason() == MuteReason::None {
             safety::FULL
         } else {
             safety::MUTED
@@ -319,14 +347,29 @@ impl Autd3Backend {
     /// Starts the switch to `slot` at the end of the playing loop without
     /// waiting for it (tests step the clock in between).
     pub fn request_play(&mut self, slot: u8, untracked: bool) -> anyhow::Result<()> {
+        self.request_play_at(slot, PlayAt::NextCycle, untracked)
+    }
+
+    /// [`Self::request_play`] at `at`: `Immediate` swaps at once.
+    pub fn request_play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
         if slot > 1 {
             return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {slot}")).into());
         }
         if self.slots[usize::from(slot)].is_none() {
-            bail!("slot {slot} is empty; upload first");
+            bail!(
+                "slot {slot} of {} is empty: an AUTD3 holds a sequence only while lmhost holds the link; \
+                 `lmhost upload --port {}` uploads and plays",
+                self.port,
+                self.port
+            );
         }
         self.finish_switch(true)?;
-        if self.playing != Some(slot) {
+        if at == PlayAt::Immediate {
+            self.ctl
+                .send(SwapSegmentGainSTM(segment(slot), Immediate))
+                .with_context(|| format!("switching to slot {slot}"))?;
+            self.rearm = None;
+        } else if self.playing != Some(slot) {
             self.ctl
                 .send(SwapSegmentGainSTM(segment(slot), SyncIdx))
                 .with_context(|| format!("switching to slot {slot}"))?;
@@ -334,6 +377,8 @@ impl Autd3Backend {
         }
         self.playing = Some(slot);
         self.untracked = untracked;
+        self.stopped = false;
+        self.out_of_range = false;
         self.gate = safety::gate(untracked);
         self.update_correction()?;
         self.apply_gate()
@@ -381,11 +426,20 @@ impl Autd3Backend {
         self.slots[usize::from(seg)] = None;
         self.playing = None;
         self.rearm = None;
+        self.stopped = true;
         Ok(())
     }
 }
 
 impl Backend for Autd3Backend {
+    fn describe(&self) -> String {
+        self.port.to_string()
+    }
+
+    fn needs_host(&self) -> bool {
+        true
+    }
+
     fn info(&mut self) -> anyhow::Result<BackendInfo> {
         let firmware = self
             .ctl
@@ -402,17 +456,47 @@ impl Backend for Autd3Backend {
             slots: 2,
             firmware,
             dwell_grid_us: Some(timing::SAMPLING_PERIOD_US),
+            lm: None,
         })
     }
 
-    fn status(&mut self) -> anyhow::Result<BackendStatus> {
+    fn status(&mut self) -> anyhow::Result<Status> {
         self.apply_gate()?;
-        Ok(BackendStatus {
-            playing: self.playing,
-            slots: self.slots.iter().map(|s| s.map(|s| s.steps)).collect(),
-            muted: self.output == safety::MUTED,
-            untracked: self.untracked,
-            centroids: self.centroids,
+        let mute_reason = self.mute_reason();
+        let state = match (self.playing, self.stopped) {
+            (_, true) => DeviceState::Stopped,
+            (None, false) => DeviceState::Idle,
+            (Some(_), false) if mute_reason == MuteReason::None => DeviceState::Playing,
+            (Some(_), false) => DeviceState::Muted,
+        };
+        // Until the devices take over a `SyncIdx` switch, the old segment
+        // plays and the new one is queued, as on the firmware.
+        let (slot, queued_slot) = match self.rearm {
+            Some(q) => (self.current_segment()?.filter(|&s| s != q), Some(q)),
+            None => (self.playing, None),
+        };
+        let correction_um = match (
+            self.playing.and_then(|s| self.slots[usize::from(s)]),
+            self.centroid_um,
+        ) {
+            (Some(s), Some(c)) if mute_reason == MuteReason::None && !self.untracked => {
+                [0, 1, 2].map(|i| c[i].saturating_sub(s.header.center_um[i]))
+            }
+            _ => [0; 3],
+        };
+        Ok(Status {
+            state,
+            slot,
+            step: 0,
+            cycles: 0,
+            missed_deadlines: 0,
+            last_centroid_seq: self.gate.last_seq(),
+            bad_frames: 0,
+            crc_errors: 0,
+            nacks: 0,
+            correction_um,
+            queued_slot,
+            mute_reason,
         })
     }
 
@@ -491,8 +575,7 @@ impl Backend for Autd3Backend {
         self.slots[usize::from(slot)] = Some(Slot {
             steps,
             divide,
-            center_um: h.center_um,
-            sound_speed_mm_s: h.sound_speed_mm_s,
+            header: *h,
         });
         let dwell_us = f64::from(timing::dwell_us(u32::from(divide)));
         Ok(UploadReport {
@@ -503,11 +586,12 @@ impl Backend for Autd3Backend {
             freq_hz: 1e6 / (steps as f64 * dwell_us),
             frames,
             readback_mismatches: self.readback_mismatches(slot, phases),
+            wire: None,
         })
     }
 
-    fn play(&mut self, slot: u8, untracked: bool) -> anyhow::Result<()> {
-        self.request_play(slot, untracked)?;
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
+        self.request_play_at(slot, at, untracked)?;
         self.finish_switch(true)?;
         self.apply_gate()
     }
@@ -516,20 +600,34 @@ impl Backend for Autd3Backend {
         self.silence()
     }
 
-    fn centroid(&mut self, c: &CentroidUpdate) -> anyhow::Result<()> {
-        if !self.gate.update(c.seq, c.present, self.now_us()) {
+    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome> {
+        if !self.gate.is_fresh(c.seq) {
             bail!(
                 "centroid {} is not newer than {}; ignored",
                 c.seq,
                 self.gate.last_seq()
             );
         }
+        let header = self
+            .playing
+            .and_then(|s| self.slots[usize::from(s)])
+            .map(|s| s.header);
+        if c.present && header.is_some_and(|h| !h.in_work_volume(c.pos_um)) {
+            // Never steer outside the work volume: refuse and mute until a
+            // present centroid inside it arrives (the firmware's rule).
+            self.out_of_range = true;
+            self.apply_gate()?;
+            return Ok(CentroidOutcome::OutOfRange);
+        }
+        self.gate.update(c.seq, c.present, self.now_us());
+        self.out_of_range = false;
         if c.present {
             self.centroid_um = Some(c.pos_um);
             self.update_correction()?;
         }
         self.centroids += 1;
-        self.apply_gate()
+        self.apply_gate()?;
+        Ok(CentroidOutcome::Applied)
     }
 
     fn tick(&mut self) -> anyhow::Result<()> {

@@ -8,11 +8,12 @@ use autd3::prelude::{Focus, FocusOption, Point3, Segment};
 use lm_fw_core::correction::compute_offsets;
 
 use super::*;
-use crate::backend::{Backend, CentroidUpdate};
+use crate::backend::{Backend, CentroidOutcome};
 use crate::error::InputError;
 use crate::scene::{Device, Scene};
 use crate::sequence::{Plan, Synthesis};
 use crate::trajectory::{LmParams, Steps};
+use lm_proto::{Centroid, DeviceState, MuteReason};
 
 fn paper_scene() -> Scene {
     Scene::load(std::path::Path::new(concat!(
@@ -191,7 +192,7 @@ fn play_switches_segments_only_at_the_loop_end() {
     assert_eq!(stm_segment(&h), Segment::S0);
     let idx = h.with_cpus(|c| c[0].fpga().current_stm_idx());
     assert!(idx > 0 && idx < g.steps, "{idx}");
-    assert_eq!(b.status().unwrap().playing, Some(0));
+    assert_eq!(b.status().unwrap().slot, Some(0));
     // Uploading into the playing slot is refused.
     assert!(b.upload(&x, Some(0)).is_err());
 }
@@ -215,7 +216,8 @@ fn corrections_read_back_equal_the_cores_offsets() {
         .enumerate()
         {
             let c = [c0[0] + d[0], c0[1] + d[1], c0[2] + d[2]];
-            b.centroid(&CentroidUpdate {
+            b.centroid(&Centroid {
+                host_time_us: 0,
                 seq: seq as u32 + 1,
                 present: true,
                 pos_um: c,
@@ -246,7 +248,8 @@ fn mutes_until_tracked_on_absence_and_when_stale() {
     b.play(slot, false).unwrap();
     assert_eq!(modulation(&h), safety::MUTED, "muted until tracked");
     let c = plan.sequence.header.center_um;
-    let upd = |seq, present| CentroidUpdate {
+    let upd = |seq, present| Centroid {
+        host_time_us: 0,
         seq,
         present,
         pos_um: c,
@@ -264,7 +267,9 @@ fn mutes_until_tracked_on_absence_and_when_stale() {
     clock.advance(Duration::from_millis(1));
     b.tick().unwrap();
     assert_eq!(modulation(&h), safety::MUTED, "stale");
-    assert!(b.status().unwrap().muted);
+    let st = b.status().unwrap();
+    assert_eq!(st.state, DeviceState::Muted);
+    assert_eq!(st.mute_reason, MuteReason::TrackingStale);
     // Untracked play sounds at once.
     b.play(slot, true).unwrap();
     assert_eq!(modulation(&h), safety::FULL);
@@ -312,8 +317,8 @@ fn link_broken_mid_upload_keeps_the_playing_segment() {
     assert_eq!(stm_segment(&h), Segment::S1);
     assert_eq!(b.readback_mismatches(1, &x.sequence.phases), Some(0));
     let st = b.status().unwrap();
-    assert_eq!(st.playing, Some(1));
-    assert_eq!(st.slots[0], None, "the half-written slot is empty");
+    assert_eq!(st.slot, Some(1));
+    assert_eq!(b.slot_steps(0), None, "the half-written slot is empty");
     assert!(b.play(0, true).is_err());
     assert_eq!(stm_segment(&h), Segment::S1);
     // Repaired, the same upload goes through.
@@ -359,4 +364,73 @@ fn remote_link_without_a_server_fails_with_one_line() {
     let e = Autd3Backend::open(&port, &Scene::default()).err().unwrap();
     assert!(!is_input_error(&e), "{e:#}");
     assert!(e.to_string().contains("autd3:remote:127.0.0.1:1"), "{e}");
+}
+
+#[test]
+fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
+    let scene = Scene::default();
+    let (mut b, h, _c) = open(&scene);
+    assert_eq!(b.status().unwrap().state, DeviceState::Idle);
+    let (plan, _) = lm(&scene, 3.0, 1);
+    let slot = b.upload(&plan, None).unwrap().slot;
+    b.play(slot, false).unwrap();
+    let st = b.status().unwrap();
+    assert_eq!(st.state, DeviceState::Muted);
+    assert_eq!(st.mute_reason, MuteReason::WaitingForTracking);
+    let c = plan.sequence.header.center_um;
+    let max = plan.sequence.header.max_offset_um as i32;
+    let at = |seq, dx: i32, present| Centroid {
+        host_time_us: 0,
+        seq,
+        present,
+        pos_um: [c[0] + dx, c[1], c[2]],
+    };
+    assert_eq!(
+        b.centroid(&at(1, 1000, true)).unwrap(),
+        CentroidOutcome::Applied
+    );
+    let st = b.status().unwrap();
+    assert_eq!(
+        (st.state, st.mute_reason),
+        (DeviceState::Playing, MuteReason::None)
+    );
+    assert_eq!(st.correction_um, [1000, 0, 0]);
+    assert_eq!(st.last_centroid_seq, 1);
+    assert_eq!(modulation(&h), safety::FULL);
+    // Outside the work volume: refused, muted, offsets unchanged.
+    let before: Vec<u8> = h.with_cpus(|cpus| {
+        cpus[0]
+            .fpga()
+            .phase_correction()
+            .iter()
+            .map(|p| p.0)
+            .collect()
+    });
+    assert_eq!(
+        b.centroid(&at(2, max + 1000, true)).unwrap(),
+        CentroidOutcome::OutOfRange
+    );
+    let st = b.status().unwrap();
+    assert_eq!(st.mute_reason, MuteReason::CentroidOutOfRange);
+    assert_eq!(modulation(&h), safety::MUTED);
+    let after: Vec<u8> = h.with_cpus(|cpus| {
+        cpus[0]
+            .fpga()
+            .phase_correction()
+            .iter()
+            .map(|p| p.0)
+            .collect()
+    });
+    assert_eq!(before, after);
+    // Back in range: sounds again.
+    b.centroid(&at(3, 0, true)).unwrap();
+    assert_eq!(b.status().unwrap().mute_reason, MuteReason::None);
+    b.centroid(&at(4, 0, false)).unwrap();
+    assert_eq!(b.status().unwrap().mute_reason, MuteReason::FingerAbsent);
+    b.stop().unwrap();
+    let st = b.status().unwrap();
+    assert_eq!(
+        (st.state, st.mute_reason),
+        (DeviceState::Stopped, MuteReason::Stopped)
+    );
 }
