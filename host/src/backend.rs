@@ -143,17 +143,23 @@ impl Target {
 /// Opens the device `port` names for `scene` (an AUTD3 rig is built from
 /// the scene's devices; the LM firmware ignores it).
 pub fn open(port: &PortArgs, scene: &Scene) -> anyhow::Result<Box<dyn Backend>> {
-    open_with(port, scene, Encoding::Delta)
+    open_with(port, scene, Encoding::Delta, false)
 }
 
-/// [`open`], uploading to the LM firmware with `encoding`.
+/// [`open`], uploading to the LM firmware with `encoding`, with a progress
+/// bar on stderr when `progress` and stderr is a terminal.
 pub fn open_with(
     port: &PortArgs,
     scene: &Scene,
     encoding: Encoding,
+    progress: bool,
 ) -> anyhow::Result<Box<dyn Backend>> {
     Ok(match port.target()? {
-        Target::Lm => Box::new(LmBackend::new(port.connect()?, encoding)),
+        Target::Lm => {
+            let mut b = LmBackend::new(port.connect()?, encoding);
+            b.progress &= progress;
+            Box::new(b)
+        }
         Target::Autd3(p) => Box::new(Autd3Backend::open(&p, scene)?),
     })
 }
@@ -215,11 +221,7 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 
     fn status(&mut self) -> anyhow::Result<Status> {
-        let where_ = self.describe();
-        Ok(self
-            .client
-            .status()
-            .with_context(|| format!("asking {where_} for its status"))?)
+        Ok(self.client.status()?)
     }
 
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport> {
@@ -294,4 +296,87 @@ impl<T: Transport> Backend for LmBackend<T> {
             Err(e) => Err(e.into()),
         }
     }
+}
+
+/// Holds the link, ticking the safety gate every 10 ms, until Ctrl-C /
+/// SIGTERM ([`crate::stream::run::stop_requested`]) or `max` elapses.
+/// Returns whether a stop was requested.
+pub fn hold(dev: &mut dyn Backend, max: Option<std::time::Duration>) -> anyhow::Result<bool> {
+    let end = max.map(|d| std::time::Instant::now() + d);
+    loop {
+        if crate::stream::run::stop_requested() {
+            return Ok(true);
+        }
+        if end.is_some_and(|e| std::time::Instant::now() >= e) {
+            return Ok(false);
+        }
+        dev.tick()?;
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
+/// What [`open_playing`] uploaded before a session (AUTD3 only).
+#[derive(Debug, Clone, Serialize)]
+pub struct SessionUpload {
+    /// The upload.
+    pub upload: UploadReport,
+    /// Realised timing on the 25 µs grid.
+    pub timing: GridTiming,
+}
+
+/// Opens the device for a streaming session (`stream`, `track`, `demo`).
+/// The LM firmware already holds its sequence (uploaded and played with
+/// `lmhost upload`); an AUTD3 holds one only while lmhost holds the link,
+/// so there the plan the flags ask for (or the defaults) is planned on the
+/// 25 µs grid, uploaded, read back and played, tracked, first. Returns the
+/// device and, on AUTD3, what was uploaded.
+pub fn open_playing(
+    port: &PortArgs,
+    plan: &PlanArgs,
+) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
+    let target = port.target()?;
+    let Target::Autd3(_) = &target else {
+        let scene = plan.load_scene()?;
+        return Ok((open(port, &scene)?, None));
+    };
+    let (plan, grid) = target.plan(plan)?;
+    let timing = grid.context("an AUTD3 plan is on its grid")?;
+    let mut dev = open(port, &plan.scene)?;
+    let upload = dev.upload(&plan, None)?;
+    let where_ = dev.describe();
+    if let Some(n) = upload.readback_mismatches.filter(|&n| n > 0) {
+        anyhow::bail!("{where_} holds {n} phases that differ from the plan");
+    }
+    dev.play(upload.slot, false)?;
+    eprintln!(
+        "{where_}: uploaded {} steps, dwell {} µs, {:.3} Hz (asked {} Hz), step {:.4} mm, read-back {}; \
+         playing slot {}, muted until tracked; left silent on exit",
+        upload.steps,
+        upload.dwell_us,
+        upload.freq_hz,
+        timing.requested_freq_hz,
+        timing.step_mm,
+        upload
+            .readback_mismatches
+            .map_or("not available".into(), |n| format!("{n} mismatches")),
+        upload.slot
+    );
+    Ok((dev, Some(SessionUpload { upload, timing })))
+}
+
+/// The stimulus flags' defaults for `scene` (what `lmhost upload --scene
+/// FILE` plans with no other flag): the plan `track --port autd3:...` plays.
+pub fn default_plan_args(scene: Option<&std::path::Path>) -> anyhow::Result<PlanArgs> {
+    #[derive(clap::Parser)]
+    struct Defaults {
+        #[command(flatten)]
+        plan: PlanArgs,
+    }
+    let mut args = vec![std::ffi::OsString::from("lmhost")];
+    if let Some(s) = scene {
+        args.push("--scene".into());
+        args.push(s.into());
+    }
+    use clap::Parser as _;
+    Ok(Defaults::try_parse_from(args)?.plan)
 }
