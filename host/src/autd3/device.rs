@@ -94,6 +94,9 @@ impl Autd3Backend {
     pub fn open(port: &Autd3Port, scene: &Scene) -> anyhow::Result<Self> {
         match port {
             Autd3Port::Emulator => Ok(Self::open_emulator(scene, Clock::real(), None)?.0),
+            Autd3Port::EmulatorRig { devices } => {
+                Ok(Self::open_emulator(scene, Clock::real(), Some(*devices))?.0)
+            }
             Autd3Port::Remote { host, port: tcp } => {
                 use std::net::ToSocketAddrs;
                 let addr = (host.as_str(), *tcp)

@@ -15,6 +15,12 @@ pub const PREFIX: &str = "autd3:";
 pub enum Autd3Port {
     /// In-process firmware emulator (tests, CI, the demo).
     Emulator,
+    /// The emulator as a rig of a fixed number of boards, for checking a
+    /// scene against a rig it does not match (`autd3:emulator:N`).
+    EmulatorRig {
+        /// Boards in the rig, 1..=64.
+        devices: usize,
+    },
     /// EtherCAT through SOEM, on `ifname` or the first interface with devices.
     Soem {
         /// Network interface, e.g. `enp3s0`.
@@ -64,6 +70,15 @@ impl Autd3Port {
         };
         match kind {
             "emulator" if arg.is_none() => Ok(Self::Emulator),
+            "emulator" => {
+                let a = arg.unwrap_or_default();
+                match a.parse::<usize>() {
+                    Ok(devices) if (1..=64).contains(&devices) => Ok(Self::EmulatorRig { devices }),
+                    _ => Err(InputError::new(format!(
+                        "port `{port}`: the emulated rig's board count must be 1..=64, got `{a}`"
+                    ))),
+                }
+            }
             "soem" => Ok(Self::Soem {
                 ifname: ifname(arg)?,
             }),
@@ -102,7 +117,7 @@ impl Autd3Port {
     /// (the emulator and the remote link are pure Rust).
     pub fn feature(&self) -> Option<&'static str> {
         match self {
-            Self::Emulator => None,
+            Self::Emulator | Self::EmulatorRig { .. } => None,
             Self::Soem { .. } => Some("autd3-soem"),
             Self::EtherCrab { .. } => Some("autd3-ethercrab"),
             Self::Remote { .. } => None,
@@ -114,6 +129,7 @@ impl std::fmt::Display for Autd3Port {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::Emulator => write!(f, "autd3:emulator"),
+            Self::EmulatorRig { devices } => write!(f, "autd3:emulator:{devices}"),
             Self::Soem { ifname: None } => write!(f, "autd3:soem"),
             Self::Soem { ifname: Some(i) } => write!(f, "autd3:soem:{i}"),
             Self::EtherCrab { ifname: None } => write!(f, "autd3:ethercrab"),
@@ -173,6 +189,7 @@ mod tests {
         );
         for s in [
             "autd3:emulator",
+            "autd3:emulator:3",
             "autd3:soem:eth0",
             "autd3:ethercrab",
             "autd3:remote:h:1",
@@ -187,6 +204,7 @@ mod tests {
         for s in [
             "autd3:",
             "autd3:emulator:x",
+            "autd3:emulator:0",
             "autd3:twincat",
             "autd3:soem:",
             "autd3:soem:a/b",

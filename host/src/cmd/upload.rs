@@ -225,7 +225,7 @@ impl Args {
     ) -> anyhow::Result<()> {
         let port = dev.describe();
         let g = grid.context("an AUTD3 upload is planned on its grid")?;
-        let emulator = port == "autd3:emulator";
+        let emulator = port.starts_with("autd3:emulator");
         let hold = match (self.no_play, hold, emulator) {
             (true, _, _) => None,
             (false, Some(d), _) => Some(Some(d)),
