@@ -333,3 +333,21 @@ fn autd3_ports_via_the_environment_and_bad_ones_everywhere() {
     assert_eq!(o.status.code(), Some(1));
     assert!(one_line_error(&o).contains("autd3-soem"));
 }
+
+#[test]
+fn track_streams_to_the_emulator_after_uploading() {
+    let o = run(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "2",
+        "--fast",
+        "--port",
+        "autd3:emulator",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("to autd3:emulator"), "{out}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("read-back 0 mismatches"), "{err}");
+}
