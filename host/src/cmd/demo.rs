@@ -371,7 +371,7 @@ impl Args {
             Pace::Timestamps,
             |c: &mut dyn Backend, s, _now| {
                 n += 1;
-                if n % 9 == 0 {
+                if n.is_multiple_of(9) {
                     let st = c.status()?;
                     states.push((s.present, st.state, st.mute_reason));
                 }
