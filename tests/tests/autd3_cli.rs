@@ -351,3 +351,43 @@ fn track_streams_to_the_emulator_after_uploading() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("read-back 0 mismatches"), "{err}");
 }
+
+#[test]
+fn sigterm_ends_a_hold_and_leaves_the_array_silent() {
+    let mut child = Command::new(lmhost())
+        .args([
+            "upload",
+            "--port",
+            "autd3:emulator",
+            "--untracked",
+            "--hold",
+            "60",
+        ])
+        .env_remove("LMHOST_PORT")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Signal once it says it holds the link (signals are caught by then).
+    use std::io::BufRead as _;
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut said = String::new();
+    while !said.contains("holding") {
+        let mut line = String::new();
+        assert!(err.read_line(&mut line).unwrap() > 0, "{said}");
+        said += &line;
+    }
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let start = std::time::Instant::now();
+    let o = child.wait_with_output().unwrap();
+    assert!(
+        start.elapsed() < std::time::Duration::from_secs(20),
+        "the hold ended"
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("left silent"), "{said}");
+}
