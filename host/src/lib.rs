@@ -7,6 +7,8 @@
 #![warn(missing_docs)]
 
 pub mod array;
+pub mod autd3;
+pub mod backend;
 pub mod bench;
 pub mod clock;
 pub mod cmd;

@@ -9,6 +9,7 @@ use anyhow::Context as _;
 use clap::Parser as _;
 use lm_proto::{DeviceState, Encoding, PlayAt};
 
+use crate::backend::{Backend, LmBackend};
 use crate::clock::{monotonic_us, percentile};
 use crate::link::transport::Serial;
 use crate::link::{Client, UploadSpec};
@@ -57,6 +58,12 @@ pub struct Args {
     /// paper's contact-area centroid, as `lmhost track` does).
     #[arg(long, value_enum, default_value_t = Tracking::Centroids)]
     tracking: Tracking,
+    /// Run on an AUTD3 rig instead of the simulated LM device:
+    /// `autd3:emulator` (autd3's firmware emulator, in this process) or a
+    /// real rig (`autd3:soem[:IF]`, `autd3:ethercrab[:IF]`,
+    /// `autd3:remote:HOST:PORT`).
+    #[arg(long, value_name = "PORT", conflicts_with_all = ["link", "plots", "tracking"])]
+    port: Option<String>,
 }
 
 /// The demo's finger source.
@@ -88,6 +95,16 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         if !(self.seconds.is_finite() && (1.0..=600.0).contains(&self.seconds)) {
             crate::bad_input!("--seconds {} must be between 1 and 600", self.seconds);
+        }
+        if let Some(p) = &self.port {
+            if !crate::autd3::Autd3Port::is_autd3(p) {
+                crate::bad_input!(
+                    "demo --port takes an AUTD3 port (autd3:emulator, ...); without it the demo \
+                     starts its own simulated LM device"
+                );
+            }
+            let port = crate::autd3::Autd3Port::parse(p)?;
+            return self.run_autd3(&port);
         }
         let plan = crate::sequence::Plan::paper_lm_m().context("planning LM-M")?;
         let spec = UploadSpec::from_plan(&plan, Encoding::Delta)?;
@@ -125,6 +142,7 @@ impl Args {
         };
         let realtime = crate::simdev::try_realtime();
         let s0 = client.status().context("reading status")?;
+        let mut client = LmBackend::new(client, Encoding::Delta);
         let t0 = monotonic_us();
         let mut filter = self.filter.build();
         let scene = plan.scene.clone();
@@ -150,7 +168,7 @@ impl Args {
             filter,
             |p| scene.drive_point(p),
             Pace::Timestamps,
-            |c, s, now| {
+            |c: &mut dyn Backend, s, now| {
                 if !s.present && left_us.is_none() {
                     left_us = Some(now);
                 }
@@ -168,7 +186,7 @@ impl Args {
         let s1 = client.status().context("reading status")?;
         let elapsed_us = monotonic_us() - t0;
         let stats = sim.stats();
-        client.stop().context("stopping")?;
+        client.client.stop().context("stopping")?;
         drop(client);
         sim.stop()?;
 
@@ -306,6 +324,136 @@ impl Args {
                 "field      maps: `lmhost demo --plots DIR` (or `lmhost simulate --foci 4 --out DIR`)"
             );
         }
+        Ok(())
+    }
+}
+
+impl Args {
+    /// The demo on an AUTD3 rig: LM-M planned on the 25 µs grid, uploaded
+    /// and read back, played tracked; the synthetic finger streams its
+    /// centroids as phase corrections and leaves for the middle fifth.
+    fn run_autd3(&self, port: &crate::autd3::Autd3Port) -> anyhow::Result<()> {
+        let plan_args = crate::backend::default_plan_args(None)?;
+        #[derive(clap::Parser)]
+        struct LmM {
+            #[command(flatten)]
+            plan: crate::cmd::plan::PlanArgs,
+        }
+        let plan_args =
+            LmM::try_parse_from(std::iter::once("demo").chain(LM_M_FLAGS.iter().copied()))
+                .map(|a| a.plan)
+                .unwrap_or(plan_args);
+        let port_args = crate::link::PortArgs {
+            port: Some(port.to_string()),
+            baud: 115_200,
+            timeout_ms: None,
+            tries: 1,
+        };
+        crate::stream::run::install_stop_signals()?;
+        let t_up = std::time::Instant::now();
+        let (mut dev, session) = crate::backend::open_playing(&port_args, &plan_args)?;
+        let up_s = t_up.elapsed().as_secs_f64();
+        let session = session.context("an AUTD3 session uploads first")?;
+        let scene = plan_args.load_scene()?;
+        let track = FingerTrack {
+            center_mm: scene.center_mm,
+            away_s: Some((0.5 * self.seconds, 0.7 * self.seconds)),
+            ..FingerTrack::default()
+        };
+        let mut filter = self.filter.build();
+        let mut states = Vec::new();
+        let mut n = 0u64;
+        let report = stream(
+            dev.as_mut(),
+            track.samples().take_while(|s| s.t_s < self.seconds).map(Ok),
+            filter.as_mut(),
+            |p| scene.drive_point(p),
+            Pace::Timestamps,
+            |c: &mut dyn Backend, s, _now| {
+                n += 1;
+                if n.is_multiple_of(9) {
+                    let st = c.status()?;
+                    states.push((s.present, st.state, st.mute_reason));
+                }
+                Ok(())
+            },
+        )
+        .context("streaming the synthetic finger")?;
+        let end = dev.status().context("reading status")?;
+        dev.stop().context("silencing the array")?;
+        drop(dev);
+        let muted_while_away = states
+            .iter()
+            .filter(|(p, ..)| !p)
+            .all(|(_, st, _)| *st == DeviceState::Muted);
+        let playing_while_present = states
+            .iter()
+            .filter(|(p, st, _)| *p && *st == DeviceState::Playing)
+            .count();
+        let away_reason = states.iter().find(|(p, ..)| !p).map(|(.., r)| *r);
+        let lat = |p| report.ack_percentile_us(p).unwrap_or(0);
+        let (u, g) = (&session.upload, &session.timing);
+        let v = serde_json::json!({
+            "port": port.to_string(),
+            "stimulus": "LM-M A=3 mm, 4 foci, 3 mm spacing, 5 Hz, 0.23 mm steps",
+            "steps": u.steps, "transducers": u.transducers,
+            "dwell_us": u.dwell_us, "freq_hz": u.freq_hz, "step_mm": g.step_mm,
+            "freq_error_hz": g.freq_error_hz, "step_error_mm": g.step_error_mm,
+            "readback_mismatches": u.readback_mismatches,
+            "upload": { "frames": u.frames, "seconds": up_s, "slot": u.slot },
+            "centroids": { "sent": report.acked + report.outside_work_volume, "applied": report.acked,
+                "filter": self.filter.name(),
+                "correction_latency_p50_us": lat(50.0), "correction_latency_p99_us": lat(99.0),
+                "correction_latency_max_us": lat(100.0) },
+            "muting": { "muted_in_every_status_while_away": muted_while_away,
+                "mute_reason_while_away": away_reason,
+                "playing_statuses_while_present": playing_while_present,
+                "state_at_end": end.state },
+            "left_silent": true,
+        });
+        if self.json {
+            println!("{v}");
+            return Ok(());
+        }
+        println!("lmhost demo: {port} (autd3's firmware emulator when `autd3:emulator`)");
+        println!(
+            "stimulus   LM-M A = 3 mm, 4 foci 3 mm apart, asked 5 Hz, 0.23 mm steps: {} steps × {} transducers, \
+             dwell {} µs on the 25 µs grid → {:.3} Hz ({:+.3} Hz), step {:.4} mm ({:+.4} mm)",
+            u.steps,
+            u.transducers,
+            u.dwell_us,
+            u.freq_hz,
+            g.freq_error_hz,
+            g.step_mm,
+            g.step_error_mm
+        );
+        println!(
+            "upload     GainSTM in {} frames, {:.0} ms with open and play; FPGA read-back: {}",
+            u.frames,
+            up_s * 1e3,
+            u.readback_mismatches
+                .map_or("not available on this link".into(), |n| format!(
+                    "{n} mismatches"
+                ))
+        );
+        println!(
+            "centroids  {} applied as PhaseCorrection ({} filter); centroid → correction acked by the FPGA p50 {} µs, p99 {} µs, max {} µs",
+            report.acked,
+            self.filter.name(),
+            lat(50.0),
+            lat(99.0),
+            lat(100.0)
+        );
+        println!(
+            "muting     every status while away: {} ({}); {} statuses playing while present; left silent",
+            if muted_while_away {
+                "Muted"
+            } else {
+                "NOT muted"
+            },
+            away_reason.map_or("n/a", |r| r.describe()),
+            playing_while_present
+        );
         Ok(())
     }
 }

@@ -1,14 +1,19 @@
 //! `lmhost info`: what the device is and what it can hold.
 
-use anyhow::Context as _;
+use std::path::PathBuf;
 
 use crate::link::PortArgs;
+use crate::scene::Scene;
 
 /// Print the device's info.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     port: PortArgs,
+    /// AUTD3 ports: scene file whose devices the rig has [default: the
+    /// built-in array].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -17,11 +22,25 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let mut client = self.port.connect()?;
-        let where_ = client.transport_mut().describe();
-        let i = client
-            .info()
-            .with_context(|| format!("asking {where_} for its info"))?;
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        let mut dev = crate::backend::open(&self.port, &scene)?;
+        let where_ = dev.describe();
+        let bi = dev.info()?;
+        let Some(i) = bi.lm else {
+            if self.json {
+                println!("{}", serde_json::to_string(&bi)?);
+                return Ok(());
+            }
+            println!("device:          {where_} ({})", bi.backend);
+            println!("boards:          {}", bi.devices);
+            println!("transducers:     {}", bi.transducers);
+            println!("slots:           {} (STM segments)", bi.slots);
+            println!("firmware:        {}", bi.firmware.join(", "));
+            if let Some(g) = bi.dwell_grid_us {
+                println!("dwell grid:      {g} µs (≥ 1000 µs with the silencer)");
+            }
+            return Ok(());
+        };
         if self.json {
             println!("{}", serde_json::to_string(&i)?);
             return Ok(());

@@ -224,12 +224,11 @@ impl PlanArgs {
     pub fn plan(&self) -> anyhow::Result<Plan> {
         let scene = self.load_scene()?;
         let params = self.params(&scene)?;
-        let warning = lm_plane_warning(&scene, params.center_mm);
         let synthesis = self.synthesis()?;
+        // Plan first: a plan that cannot be made is one error line, no warning.
         let plan = Plan::new(scene, &params, &synthesis)?;
-        // Only for a plan that stands (a refused one says only why), and
-        // once per run, even when a command plans many stimuli.
-        if let Some(w) = warning {
+        if let Some(w) = lm_plane_warning(&plan.scene, params.center_mm) {
+            // Once per run, even when a command plans many stimuli.
             static WARNED: std::sync::atomic::AtomicBool =
                 std::sync::atomic::AtomicBool::new(false);
             if !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed) {

@@ -1,16 +1,23 @@
 //! `lmhost play`: play a committed slot.
 
+use std::path::PathBuf;
+
 use anyhow::Context as _;
 use lm_proto::PlayAt;
 
-use crate::cmd::upload::{UNTRACKED_WARNING, check_slot, play_outcome};
+use crate::cmd::upload::{UNTRACKED_WARNING, play_outcome};
 use crate::link::PortArgs;
+use crate::scene::Scene;
 
 /// Play a slot that holds a committed sequence.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     port: PortArgs,
+    /// AUTD3 ports: scene file whose devices the rig has [default: the
+    /// built-in array].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
     /// Slot to play (checked against the device's slot count).
     #[arg(long, default_value_t = 0)]
     slot: u8,
@@ -26,21 +33,15 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let mut client = self.port.connect()?;
-        let where_ = client.transport_mut().describe();
-        let info = client
-            .info()
-            .with_context(|| format!("asking {where_} for its info"))?;
-        check_slot(self.slot, &info)?;
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        let mut dev = crate::backend::open(&self.port, &scene)?;
         let at = if self.immediate {
             PlayAt::Immediate
         } else {
             PlayAt::NextCycle
         };
-        client
-            .play(self.slot, at, self.untracked)
-            .with_context(|| format!("playing slot {}", self.slot))?;
-        let st = client.status().context("reading the device status")?;
+        dev.play_at(self.slot, at, self.untracked)?;
+        let st = dev.status().context("reading the device status")?;
         if self.untracked {
             eprintln!("{UNTRACKED_WARNING}");
         }

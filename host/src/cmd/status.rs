@@ -1,14 +1,21 @@
 //! `lmhost status`: what the device is doing, and its error counters.
 
+use std::path::PathBuf;
+
 use anyhow::Context as _;
 
 use crate::link::PortArgs;
+use crate::scene::Scene;
 
 /// Print the device's status.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
     port: PortArgs,
+    /// AUTD3 ports: scene file whose devices the rig has [default: the
+    /// built-in array].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -17,31 +24,37 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let mut client = self.port.connect()?;
-        let where_ = client.transport_mut().describe();
-        let s = client
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        let mut dev = crate::backend::open(&self.port, &scene)?;
+        let where_ = dev.describe();
+        let s = dev
             .status()
             .with_context(|| format!("asking {where_} for its status"))?;
         if self.json {
             println!("{}", serde_json::to_string(&s)?);
             return Ok(());
         }
-        let slot = s.slot.map_or("none".to_owned(), |s| s.to_string());
-        let queued = s.queued_slot.map_or("none".to_owned(), |s| {
-            format!("{s} (takes over at the next cycle boundary)")
-        });
-        println!("state:            {:?}", s.state);
-        println!("mute reason:      {}", s.mute_reason.describe());
-        println!("slot:             {slot}");
-        println!("queued slot:      {queued}");
-        println!("step:             {}", s.step);
-        println!("cycles:           {}", s.cycles);
-        println!("missed deadlines: {}", s.missed_deadlines);
-        println!("last centroid:    #{}", s.last_centroid_seq);
-        println!("correction:       {:?} µm", s.correction_um);
-        println!("bad frames:       {}", s.bad_frames);
-        println!("CRC errors:       {}", s.crc_errors);
-        println!("nacks sent:       {}", s.nacks);
+        print_status(&s);
         Ok(())
     }
+}
+
+/// The text form of a status.
+pub fn print_status(s: &lm_proto::Status) {
+    let slot = s.slot.map_or("none".to_owned(), |s| s.to_string());
+    let queued = s.queued_slot.map_or("none".to_owned(), |s| {
+        format!("{s} (takes over at the next cycle boundary)")
+    });
+    println!("state:            {:?}", s.state);
+    println!("mute reason:      {}", s.mute_reason.describe());
+    println!("slot:             {slot}");
+    println!("queued slot:      {queued}");
+    println!("step:             {}", s.step);
+    println!("cycles:           {}", s.cycles);
+    println!("missed deadlines: {}", s.missed_deadlines);
+    println!("last centroid:    #{}", s.last_centroid_seq);
+    println!("correction:       {:?} µm", s.correction_um);
+    println!("bad frames:       {}", s.bad_frames);
+    println!("CRC errors:       {}", s.crc_errors);
+    println!("nacks sent:       {}", s.nacks);
 }

@@ -6,8 +6,8 @@ use std::time::Duration;
 
 use anyhow::Context as _;
 
+use crate::cmd::plan::PlanArgs;
 use crate::link::PortArgs;
-use crate::scene::Scene;
 use crate::stream::Sample;
 use crate::stream::filter::{FilterKind, Kalman};
 use crate::stream::metrics::score;
@@ -67,10 +67,11 @@ pub struct Args {
     /// Kalman filter: predict this far ahead (ms), e.g. the link latency.
     #[arg(long, value_name = "MS", default_value_t = 0.0)]
     lead_ms: f64,
-    /// Scene file whose reflector mirrors centroids into drive
-    /// coordinates [default: the built-in array, no reflector].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<PathBuf>,
+    /// The scene (its reflector mirrors centroids into drive coordinates)
+    /// and, on AUTD3 ports only, the stimulus uploaded and played before
+    /// streaming (the LM firmware plays what `lmhost upload` put there).
+    #[command(flatten)]
+    plan: PlanArgs,
     /// Replay files and the synthetic finger as fast as the link allows.
     #[arg(long)]
     fast: bool,
@@ -112,7 +113,7 @@ impl Args {
         if away.is_some() && !self.synthetic {
             crate::bad_input!("--away only applies to --synthetic");
         }
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        let scene = self.plan.load_scene()?;
         let track = FingerTrack {
             center_mm: scene.center_mm,
             away_s: away,
@@ -161,16 +162,26 @@ impl Args {
                 }
             }
         };
-        let mut client = self.port.connect()?;
         crate::stream::run::install_stop_signals()?;
-        let where_ = client.transport_mut().describe();
+        let (mut dev, session) = crate::backend::open_playing(&self.port, &self.plan)?;
+        let where_ = dev.describe();
+        let (mut absent, mut muted_absent) = (0u64, 0u64);
         let report = stream(
-            &mut client,
+            dev.as_mut(),
             samples,
             filter.as_mut(),
             |p| scene.drive_point(p),
             pace,
-            |_, _, _| Ok(()),
+            |dev, s, _| {
+                // AUTD3: the host runs the gate, so check it as it goes.
+                if session.is_some() && !s.present {
+                    absent += 1;
+                    if dev.status()?.state == lm_proto::DeviceState::Muted {
+                        muted_absent += 1;
+                    }
+                }
+                Ok(())
+            },
         )
         .map_err(|e| {
             // A bad line is the user's input: say so in one line.
@@ -180,9 +191,14 @@ impl Args {
                 e.context(format!("streaming centroids to {where_}"))
             }
         })?;
-        let status = client
+        let status = dev
             .status()
             .context("reading the device status after streaming")?;
+        if session.is_some() {
+            // AUTD3: the array plays only while lmhost holds it; leave it
+            // silent (STM stopped, null gain) before letting go.
+            dev.stop().context("silencing the array")?;
+        }
         let bad_datagrams = udp_counts
             .bad_datagrams
             .load(std::sync::atomic::Ordering::Relaxed);
@@ -206,6 +222,14 @@ impl Args {
                 "outside_work_volume": report.outside_work_volume,
                 "stopped": report.stopped, "muted_at_end": report.muted_at_end,
             });
+            let mut v = v;
+            if let Some(s) = &session {
+                v["mute_reason"] = serde_json::to_value(status.mute_reason)?;
+                v["applied"] = report.acked.into();
+                v["absent_updates"] = absent.into();
+                v["muted_absent_updates"] = muted_absent.into();
+                v["upload"] = serde_json::to_value(s)?;
+            }
             println!("{v}");
             return Ok(());
         }
@@ -224,6 +248,18 @@ impl Args {
             p(99.0),
             p(100.0)
         );
+        if let Some(s) = &session {
+            println!(
+                "{} corrections applied on {where_} (dwell {} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
+                report.acked,
+                s.upload.dwell_us,
+                s.upload.freq_hz,
+                s.upload
+                    .readback_mismatches
+                    .map_or("n/a".into(), |n| n.to_string()),
+                status.mute_reason.describe()
+            );
+        }
         let dropped = report.rejected.total();
         if dropped > 0 || bad_datagrams > 0 {
             println!(

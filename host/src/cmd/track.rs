@@ -412,8 +412,14 @@ impl Args {
         let started = Instant::now();
         let mut device_report = None;
         if device {
-            let mut client = self.port.connect()?;
-            let where_ = client.transport_mut().describe();
+            // AUTD3: the default stimulus for the scene is uploaded and
+            // played first, and the array is left silent at the end.
+            let plan = crate::backend::default_plan_args(self.scene.as_deref())?;
+            if self.port.target()? != crate::backend::Target::Lm {
+                crate::stream::run::install_stop_signals()?;
+            }
+            let (mut dev, session) = crate::backend::open_playing(&self.port, &plan)?;
+            let where_ = dev.describe();
             let pace = if self.fast || live {
                 Pace::Arrival
             } else {
@@ -425,7 +431,7 @@ impl Args {
                 Err(e) => Some(Err(e)),
             });
             let report = stream(
-                &mut client,
+                dev.as_mut(),
                 samples,
                 &mut Passthrough,
                 |p| scene.drive_point(p),
@@ -439,6 +445,9 @@ impl Args {
                     e.context(format!("streaming centroids to {where_}"))
                 }
             })?;
+            if session.is_some() {
+                dev.stop().context("silencing the array")?;
+            }
             device_report = Some((report, where_));
         } else {
             while run.next()?.is_some() {}

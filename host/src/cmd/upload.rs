@@ -1,13 +1,13 @@
 //! `lmhost upload`: plan, check it fits the device, upload, commit, play.
 
-use std::io::IsTerminal as _;
-
 use anyhow::Context as _;
-use lm_proto::{DeviceState, Encoding, Info, PlayAt, Status};
+use lm_proto::{DeviceState, Encoding, Info, Status};
 
 use crate::InputError;
+use crate::autd3::GridTiming;
+use crate::backend::{Backend, Target, UploadReport};
 use crate::cmd::plan::PlanArgs;
-use crate::link::{PortArgs, UploadSpec};
+use crate::link::PortArgs;
 use crate::sequence::DEFAULT_MAX_OFFSET_MM;
 
 /// Sequence encoding on the wire.
@@ -57,6 +57,16 @@ pub struct Args {
     /// Wire encoding.
     #[arg(long, value_enum, default_value_t = EncodingArg::Delta)]
     encoding: EncodingArg,
+    /// AUTD3 ports: keep the link and play this many seconds (the array
+    /// plays only while lmhost holds the link) [default: until Ctrl-C /
+    /// SIGTERM on a real rig; exit after the read-back on the emulator].
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        conflicts_with = "no_play",
+        allow_negative_numbers = true
+    )]
+    hold: Option<f64>,
     /// Print a JSON report instead of text.
     #[arg(long)]
     json: bool,
@@ -104,61 +114,42 @@ pub fn play_outcome(slot: u8, status: &Status) -> String {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let mut plan = self.plan.plan()?;
+        let target = self.port.target()?;
+        let hold = self
+            .hold
+            .map(|h| crate::limits::duration_s("--hold", h, crate::limits::MAX_SECONDS))
+            .transpose()?;
+        if hold.is_some() && target == Target::Lm {
+            crate::bad_input!(
+                "--hold applies to AUTD3 ports only (the LM firmware plays on its own)"
+            );
+        }
+        let (mut plan, grid) = target.plan(&self.plan)?;
         plan.sequence.set_max_offset_mm(self.max_offset)?;
-        let spec = UploadSpec::from_plan(&plan, self.encoding.into())?;
-        let mut client = self.port.connect()?;
-        let where_ = client.transport_mut().describe();
-        let info = client
-            .info()
-            .with_context(|| format!("asking {where_} for its info"))?;
-        let tty = std::io::stderr().is_terminal() && !self.json;
-        let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
-        let slot = match self.slot {
-            Some(s) => {
-                check_slot(s, &info)?;
-                s
-            }
-            None => {
-                let st = client.status().context("reading the device status")?;
-                free_slot(&info, &st).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "no free slot on {where_}: every slot is playing or queued; \
-                         use --slot N or `lmhost stop` first"
-                    )
-                })?
-            }
-        };
-        spec.check_fits(&info, slot).map_err(|e| {
-            crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
-        })?;
-        let report = client
-            .upload(&spec, slot, chunk, |done, total| {
-                if tty {
-                    let pct = done as f64 / total.max(1) as f64;
-                    let bar = "#".repeat((pct * 30.0) as usize);
-                    eprint!("\ruploading [{bar:<30}] {:>3.0} %", pct * 100.0);
-                    if done == total {
-                        eprintln!();
-                    }
-                }
-            })
-            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
+        let mut dev =
+            crate::backend::open_with(&self.port, &plan.scene, self.encoding.into(), !self.json)?;
+        if dev.needs_host() && !self.no_play {
+            // Ctrl-C / SIGTERM end the hold below; the array is left silent.
+            crate::stream::run::install_stop_signals()?;
+        }
+        let report = dev.upload(&plan, self.slot)?;
+        let slot = report.slot;
         let mut outcome = None;
         if !self.no_play {
-            client
-                .play(slot, PlayAt::NextCycle, self.untracked)
-                .with_context(|| format!("playing slot {slot}"))?;
-            let st = client.status().context("reading the device status")?;
+            dev.play(slot, self.untracked)?;
+            let st = dev.status().context("reading the device status")?;
             outcome = Some((play_outcome(slot, &st), st));
             if self.untracked {
                 eprintln!("{UNTRACKED_WARNING}");
             }
         }
-        let h = &spec.header;
+        let h = &plan.sequence.header;
+        let Some(wire) = report.wire else {
+            return self.finish_autd3(dev.as_mut(), &report, grid, outcome, hold, h);
+        };
         if self.json {
-            let mut v = serde_json::to_value(report)?;
-            v["wire_efficiency"] = report.wire_efficiency().into();
+            let mut v = serde_json::to_value(wire)?;
+            v["wire_efficiency"] = wire.wire_efficiency().into();
             v["playing"] = (!self.no_play).into();
             v["queued"] = outcome
                 .as_ref()
@@ -174,40 +165,154 @@ impl Args {
                 "uploaded {} steps × {} transducers to slot {slot}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
                 h.steps,
                 h.transducers,
-                report.raw_bytes,
-                report.sequence_bytes,
-                report.payload_bytes,
-                report.wire_bytes_sent + report.wire_bytes_received
+                wire.raw_bytes,
+                wire.sequence_bytes,
+                wire.payload_bytes,
+                wire.wire_bytes_sent + wire.wire_bytes_received
             );
             println!(
                 "{:.3} s, {:.1} kB/s payload, wire efficiency {:.1} %, CRC {:08x}, {} retries",
-                report.seconds,
-                report.payload_bytes as f64 / report.seconds.max(1e-9) / 1e3,
-                report.wire_efficiency() * 100.0,
-                report.crc32,
-                report.retries
+                wire.seconds,
+                wire.payload_bytes as f64 / wire.seconds.max(1e-9) / 1e3,
+                wire.wire_efficiency() * 100.0,
+                wire.crc32,
+                wire.retries
             );
-            match &outcome {
-                Some((text, _)) if self.untracked => println!("{text}, untracked"),
-                Some((text, st)) => {
-                    println!("{text}");
-                    if st.state == DeviceState::Muted {
-                        println!(
-                            "muted ({}) until the device tracks a finger within {} mm of the \
-                             centre: stream centroids with `lmhost stream`, or upload with \
-                             --untracked to play without tracking",
-                            st.mute_reason.describe(),
-                            f64::from(h.max_offset_um) / 1000.0
-                        );
-                    }
-                }
-                None => println!(
-                    "not playing (--no-play): `lmhost play --slot {slot}` plays it \
-                     (add --untracked to play without tracking)"
-                ),
-            }
+            self.print_outcome(&outcome, slot, h, "stream centroids with `lmhost stream`");
         }
         Ok(())
+    }
+
+    fn print_outcome(
+        &self,
+        outcome: &Option<(String, Status)>,
+        slot: u8,
+        h: &lm_proto::UploadHeader,
+        how_to_stream: &str,
+    ) {
+        match outcome {
+            Some((text, _)) if self.untracked => println!("{text}, untracked"),
+            Some((text, st)) => {
+                println!("{text}");
+                if st.state == DeviceState::Muted {
+                    println!(
+                        "muted ({}) until the device tracks a finger within {} mm of the \
+                         centre: {how_to_stream}, or upload with \
+                         --untracked to play without tracking",
+                        st.mute_reason.describe(),
+                        f64::from(h.max_offset_um) / 1000.0
+                    );
+                }
+            }
+            None => println!(
+                "not playing (--no-play): `lmhost play --slot {slot}` plays it \
+                 (add --untracked to play without tracking)"
+            ),
+        }
+    }
+
+    /// AUTD3: report the realised grid timing and the FPGA read-back, then
+    /// hold the link (the array plays only while lmhost holds it) until
+    /// Ctrl-C / SIGTERM or `--hold`; the emulator exits at once by default.
+    fn finish_autd3(
+        &self,
+        dev: &mut dyn Backend,
+        r: &UploadReport,
+        grid: Option<GridTiming>,
+        outcome: Option<(String, Status)>,
+        hold: Option<std::time::Duration>,
+        h: &lm_proto::UploadHeader,
+    ) -> anyhow::Result<()> {
+        let port = dev.describe();
+        let g = grid.context("an AUTD3 upload is planned on its grid")?;
+        let emulator = port.starts_with("autd3:emulator");
+        let hold = match (self.no_play, hold, emulator) {
+            (true, _, _) => None,
+            (false, Some(d), _) => Some(Some(d)),
+            (false, None, true) => None,
+            (false, None, false) => Some(None),
+        };
+        let requested_dwell_us = 1e6 / (g.requested_freq_hz * g.steps as f64);
+        if self.json {
+            let mut v = serde_json::to_value(r)?;
+            v["port"] = port.clone().into();
+            v["playing"] = (!self.no_play).into();
+            v["queued"] = outcome
+                .as_ref()
+                .is_some_and(|(_, st)| st.queued_slot == Some(r.slot))
+                .into();
+            v["untracked"] = self.untracked.into();
+            v["mute_reason"] =
+                serde_json::to_value(outcome.as_ref().map(|(_, st)| st.mute_reason))?;
+            v["divide"] = g.divide.into();
+            v["requested_dwell_us"] = requested_dwell_us.into();
+            v["dwell_error_us"] = (r.dwell_us - requested_dwell_us).into();
+            v["requested_freq_hz"] = g.requested_freq_hz.into();
+            v["freq_error_hz"] = g.freq_error_hz.into();
+            v["step_mm"] = g.step_mm.into();
+            v["requested_step_mm"] = g.requested_step_mm.into();
+            v["step_error_mm"] = g.step_error_mm.into();
+            v["max_offset_um"] = h.max_offset_um.into();
+            v["hold_s"] = match hold {
+                None => serde_json::Value::Null,
+                Some(d) => d.map(|d| d.as_secs_f64()).into(),
+            };
+            println!("{v}");
+        } else {
+            println!(
+                "uploaded {} steps × {} transducers to {port} slot {}: dwell {} µs on the 25 µs grid \
+                 ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
+                 ({:+.4} mm), {} frames",
+                r.steps,
+                r.transducers,
+                r.slot,
+                r.dwell_us,
+                r.dwell_us - requested_dwell_us,
+                requested_dwell_us,
+                g.freq_hz,
+                g.freq_error_hz,
+                g.requested_freq_hz,
+                g.step_mm,
+                g.step_error_mm,
+                r.frames
+            );
+            match r.readback_mismatches {
+                Some(n) => println!("read back from the FPGA: {n} phases differ from the plan"),
+                None => println!("this link cannot read the FPGA back"),
+            }
+            self.print_outcome(
+                &outcome,
+                r.slot,
+                h,
+                &format!("`lmhost stream --port {port}` uploads, plays and streams in one go"),
+            );
+        }
+        if let Some(n) = r.readback_mismatches.filter(|&n| n > 0) {
+            anyhow::bail!("{port} holds {n} phases that differ from the plan");
+        }
+        use std::io::Write as _;
+        std::io::stdout().flush()?;
+        match hold {
+            None if !self.no_play => eprintln!(
+                "{port} lives in this process: exiting after the read-back leaves it silent \
+                 (--hold SECONDS keeps it playing)"
+            ),
+            None => eprintln!(
+                "{port} holds the sequence only while lmhost holds the link: it is gone on exit \
+                 (`lmhost stream --port {port}` uploads, plays and streams)"
+            ),
+            Some(d) => {
+                eprintln!(
+                    "holding {port} {}; the array is left silent on exit",
+                    match d {
+                        Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
+                        None => "until Ctrl-C or SIGTERM".into(),
+                    }
+                );
+                crate::backend::hold(dev, d)?;
+            }
+        }
+        dev.stop()
     }
 }
 

@@ -241,6 +241,11 @@ impl<T: Transport> Client<T> {
     }
 
     /// The transport.
+    pub fn transport(&self) -> &T {
+        &self.transport
+    }
+
+    /// The transport, mutably.
     pub fn transport_mut(&mut self) -> &mut T {
         &mut self.transport
     }

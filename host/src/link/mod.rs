@@ -25,8 +25,10 @@ pub fn mm_to_um(mm: f64) -> i32 {
 /// Port flags shared by every command that talks to a device.
 #[derive(Debug, Clone, clap::Args)]
 pub struct PortArgs {
-    /// Serial port or pty path, or `tcp:HOST:PORT` [default: $LMHOST_PORT,
-    /// else the one LM board found by USB id].
+    /// Serial port or pty path, `tcp:HOST:PORT`, or an AUTD3 rig
+    /// (`autd3:emulator`, `autd3:soem[:IFNAME]`, `autd3:ethercrab[:IFNAME]`,
+    /// `autd3:remote:HOST:PORT`) [default: $LMHOST_PORT, else the one LM
+    /// board found by USB id].
     #[arg(long, value_name = "PATH")]
     pub port: Option<String>,
     /// Baud rate for real serial ports (ptys ignore it).
@@ -42,8 +44,28 @@ pub struct PortArgs {
 }
 
 impl PortArgs {
-    /// Resolve the port and open a client on it.
+    /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
+    /// `autd3:` port is an [`InputError`](crate::InputError) (exit 2).
+    pub fn target(&self) -> Result<crate::backend::Target, crate::InputError> {
+        use crate::autd3::Autd3Port;
+        let env = std::env::var(discover::PORT_ENV).ok();
+        match self.port.as_deref().or(env.as_deref()) {
+            Some(p) if Autd3Port::is_autd3(p) => {
+                Ok(crate::backend::Target::Autd3(Autd3Port::parse(p)?))
+            }
+            _ => Ok(crate::backend::Target::Lm),
+        }
+    }
+
+    /// Resolve the port and open a client on it (the LM firmware; AUTD3
+    /// rigs open through [`crate::backend::open`]).
     pub fn connect(&self) -> anyhow::Result<Client<Box<dyn Transport>>> {
+        if let crate::backend::Target::Autd3(p) = self.target()? {
+            return Err(crate::InputError::new(format!(
+                "{p} is an AUTD3 port; this command drives the LM firmware only"
+            ))
+            .into());
+        }
         if self.baud == 0 {
             return Err(crate::InputError::new("--baud must be above 0").into());
         }

@@ -5,13 +5,14 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use lm_proto::{Centroid, NackCode};
+use lm_proto::Centroid;
 
 use super::Sample;
 use super::filter::Filter;
 use super::gate::{Gate, GateCounts};
+use crate::backend::{Backend, CentroidOutcome};
 use crate::clock::monotonic_us;
-use crate::link::{Client, LinkError, Transport, mm_to_um};
+use crate::link::mm_to_um;
 
 /// Set by SIGINT/SIGTERM in `lmhost stream` (see [`install_stop_signals`]).
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -51,16 +52,20 @@ pub fn install_stop_signals() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Sleep `d`, waking early when a stop is requested.
-fn sleep_unless_stopped(d: Duration) {
+/// Sleep `d`, waking early when a stop is requested; the device's
+/// housekeeping ([`Backend::tick`]: the host-side staleness mute of an
+/// AUTD3) runs every 10 ms meanwhile.
+fn sleep_unless_stopped(dev: &mut dyn Backend, d: Duration) -> anyhow::Result<()> {
     let end = Instant::now() + d;
     while !stop_requested() {
         let now = Instant::now();
         if now >= end {
-            return;
+            return Ok(());
         }
-        std::thread::sleep((end - now).min(Duration::from_millis(50)));
+        std::thread::sleep((end - now).min(Duration::from_millis(10)));
+        dev.tick()?;
     }
+    Ok(())
 }
 
 /// How to pace samples.
@@ -107,18 +112,18 @@ impl StreamReport {
     }
 }
 
-/// Stream `samples` through `filter` to the device behind `client`;
+/// Stream `samples` through `filter` to the device `dev`;
 /// `to_drive` maps a finger-space centroid (mm) into drive coordinates
 /// (the scene's mirror). `between` runs after every acked update with the
 /// sample and its host receipt time (µs, [`monotonic_us`]) (the demo
 /// samples the device's status there).
-pub fn stream<T: Transport, I>(
-    client: &mut Client<T>,
+pub fn stream<I>(
+    client: &mut dyn Backend,
     samples: I,
     filter: &mut dyn Filter,
     to_drive: impl Fn([f64; 3]) -> [f64; 3],
     pace: Pace,
-    mut between: impl FnMut(&mut Client<T>, &Sample, u64) -> anyhow::Result<()>,
+    mut between: impl FnMut(&mut dyn Backend, &Sample, u64) -> anyhow::Result<()>,
 ) -> anyhow::Result<StreamReport>
 where
     I: IntoIterator<Item = anyhow::Result<Sample>>,
@@ -150,7 +155,7 @@ where
             present: false,
             host_time_us: monotonic_us(),
         };
-        if client.centroid(mute).is_ok() {
+        if client.centroid(&mute).is_ok() {
             report.muted_at_end = true;
             report.last_seq = seq;
         }
@@ -161,13 +166,13 @@ where
 }
 
 #[allow(clippy::too_many_arguments)]
-fn pump<T: Transport, I>(
-    client: &mut Client<T>,
+fn pump<I>(
+    client: &mut dyn Backend,
     samples: I,
     filter: &mut dyn Filter,
     to_drive: &impl Fn([f64; 3]) -> [f64; 3],
     pace: Pace,
-    between: &mut impl FnMut(&mut Client<T>, &Sample, u64) -> anyhow::Result<()>,
+    between: &mut impl FnMut(&mut dyn Backend, &Sample, u64) -> anyhow::Result<()>,
     report: &mut StreamReport,
     last_pos: &mut [i32; 3],
     seq: &mut u32,
@@ -199,7 +204,7 @@ where
                 ))
             })?;
             if let Some(wait) = due.checked_sub(start.elapsed()) {
-                sleep_unless_stopped(wait);
+                sleep_unless_stopped(client, wait)?;
                 if stop_requested() {
                     break;
                 }
@@ -219,20 +224,17 @@ where
             present: filtered.is_some(),
             host_time_us: received_us,
         };
-        match client.centroid(c) {
-            Ok(()) => {}
+        match client.centroid(&c) {
+            Ok(CentroidOutcome::Applied) => {}
             // The device refused to steer there and muted; keep following
             // the finger, it unmutes when the finger is back in range.
-            Err(LinkError::Nack {
-                code: NackCode::OutOfRange,
-                ..
-            }) => {
+            Ok(CentroidOutcome::OutOfRange) => {
                 report.outside_work_volume += 1;
                 report.last_seq = seq;
                 continue;
             }
             Err(e) => {
-                return Err(anyhow::Error::new(e).context(format!("sending centroid #{seq}")));
+                return Err(e.context(format!("sending centroid #{seq}")));
             }
         }
         crate::clock::push_ring(
@@ -248,7 +250,7 @@ where
 
 /// Start numbering after the device's last accepted centroid, so a second
 /// stream in the same play session is not refused as stale.
-fn client_seq_start<T: Transport>(client: &mut Client<T>) -> anyhow::Result<u32> {
+fn client_seq_start(client: &mut dyn Backend) -> anyhow::Result<u32> {
     use anyhow::Context as _;
     Ok(client
         .status()

@@ -1,0 +1,650 @@
+//! [`Autd3Backend`]: an AUTD3 rig as a [`Backend`].
+//!
+//! Slots are the two STM segments. `upload` writes a GainSTM of the planned
+//! phases (phase-only packing, full intensity) into a segment without
+//! switching to it; `play` switches with `SyncIdx`, i.e. when the new
+//! segment's index wraps to 0 on the devices' shared clock, which is the end
+//! of the playing loop when both have the same period (autd3 firmware only
+//! allows `SyncIdx` for a finite loop count, so a segment is written with the
+//! largest count and set to loop forever, `Immediate` on the same segment,
+//! once the switch is seen). A failed upload leaves the playing segment alone.
+
+use std::num::NonZeroU16;
+use std::time::Duration;
+
+use anyhow::{Context, bail};
+use autd3::Controller;
+use autd3::core::firmware::transition_mode::{Immediate, Later, SyncIdx};
+use autd3::core::geometry::{Device, Transducer};
+use autd3::core::link::Link;
+use autd3::gain::Custom;
+use autd3::prelude::{
+    Drive, GainSTM, GainSTMMode, GainSTMOption, Intensity, Null, ParallelMode, Phase,
+    PhaseCorrection, ReadsFPGAState, SamplingConfig, Segment, SenderOption, Silencer, Static,
+    SwapSegmentGainSTM, WithFiniteLoop, WithSegment,
+};
+use lm_fw_core::gate::Gate;
+
+use super::clock::Clock;
+use super::emulator::{EmulatorHandle, EmulatorLink};
+use super::port::Autd3Port;
+use super::{correction, geometry, safety, timing};
+use crate::array::AUTD3_TRANSDUCERS;
+use crate::backend::{Backend, BackendInfo, CentroidOutcome, UploadReport};
+use crate::error::InputError;
+use crate::scene::Scene;
+use crate::sequence::Plan;
+use lm_proto::{Centroid, DeviceState, MuteReason, PlayAt, Status, UploadHeader};
+
+/// What a segment holds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Slot {
+    steps: usize,
+    divide: u16,
+    header: UploadHeader,
+}
+
+/// An AUTD3 rig driven through the autd3 crates.
+pub struct Autd3Backend {
+    ctl: Controller<Box<dyn Link>>,
+    port: Autd3Port,
+    emulator: Option<EmulatorHandle>,
+    clock: Clock,
+    positions: Vec<u8>,
+    slots: [Option<Slot>; 2],
+    playing: Option<u8>,
+    /// Segment switched to with `SyncIdx`, still to be set to loop forever.
+    rearm: Option<u8>,
+    gate: Gate,
+    untracked: bool,
+    /// Modulation intensity last sent.
+    output: u8,
+    offsets: Vec<u8>,
+    centroid_um: Option<[i32; 3]>,
+    centroids: u64,
+    /// Stopped by `stop` (until the next play).
+    stopped: bool,
+    /// The last present centroid lay outside the playing slot's work volume.
+    out_of_range: bool,
+    closed: bool,
+}
+
+fn segment(slot: u8) -> Segment {
+    if slot == 0 { Segment::S0 } else { Segment::S1 }
+}
+
+/// The emulator answers at once, so frames go back to back; real links keep
+/// autd3's pacing (one frame per 1 ms, ack polled every 1 ms).
+fn sender_option(emulated: bool) -> SenderOption {
+    if emulated {
+        SenderOption {
+            send_interval: None,
+            receive_interval: None,
+            timeout: Some(Duration::from_millis(200)),
+            parallel: ParallelMode::Off,
+        }
+    } else {
+        SenderOption::default()
+    }
+}
+
+impl Autd3Backend {
+    /// Opens `port` for `scene`. The emulator gets as many devices as the
+    /// scene; a real link must report the same number.
+    pub fn open(port: &Autd3Port, scene: &Scene) -> anyhow::Result<Self> {
+        match port {
+            Autd3Port::Emulator => Ok(Self::open_emulator(scene, Clock::real(), None)?.0),
+            Autd3Port::EmulatorRig { devices } => {
+                Ok(Self::open_emulator(scene, Clock::real(), Some(*devices))?.0)
+            }
+            Autd3Port::Remote { host, port: tcp } => {
+                use std::net::ToSocketAddrs;
+                let addr = (host.as_str(), *tcp)
+                    .to_socket_addrs()
+                    .with_context(|| format!("resolving {port}"))?
+                    .next()
+                    .with_context(|| format!("{port}: the host has no address"))?;
+                let link = autd3_link_remote::Remote::new(
+                    addr,
+                    autd3_link_remote::RemoteOption {
+                        timeout: Some(Duration::from_secs(2)),
+                    },
+                );
+                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+            }
+            #[cfg(feature = "autd3-soem")]
+            Autd3Port::Soem { ifname } => {
+                let link = autd3_link_soem::SOEM::new(
+                    |slave: u16, status: autd3_link_soem::Status| {
+                        eprintln!("lmhost: AUTD3 device {slave}: EtherCAT {status:?}");
+                    },
+                    autd3_link_soem::SOEMOption {
+                        ifname: ifname.clone(),
+                        ..Default::default()
+                    },
+                );
+                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+            }
+            #[cfg(feature = "autd3-ethercrab")]
+            Autd3Port::EtherCrab { ifname } => {
+                let link = autd3_link_ethercrab::EtherCrab::new(
+                    |dev: usize, status: autd3_link_ethercrab::Status| {
+                        eprintln!("lmhost: AUTD3 device {dev}: EtherCAT {status:?}");
+                    },
+                    autd3_link_ethercrab::EtherCrabOption {
+                        ifname: ifname.clone(),
+                        ..Default::default()
+                    },
+                );
+                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+            }
+            #[allow(unreachable_patterns)]
+            other => bail!(
+                "{other}: this lmhost was built without the `{}` feature (EtherCAT links are opt-in: they need system libraries and raw-socket privileges)",
+                other.feature().unwrap_or("?")
+            ),
+        }
+    }
+
+    /// Opens an emulated rig of `rig_devices` boards (`None`: the scene's
+    /// count) on `clock`, returning the handle to its emulated devices.
+    pub fn open_emulator(
+        scene: &Scene,
+        clock: Clock,
+        rig_devices: Option<usize>,
+    ) -> anyhow::Result<(Self, EmulatorHandle)> {
+        if let Some(n) = rig_devices.filter(|&n| n != scene.devices.len()) {
+            return Err(InputError::new(format!(
+                "scene `{}` has {} devices but the AUTD3 rig has {n}",
+                scene.name,
+                scene.devices.len()
+            ))
+            .into());
+        }
+        let (link, handle) = EmulatorLink::new(clock.clone());
+        let me = Self::open_link(
+            Box::new(link),
+            Autd3Port::Emulator,
+            scene,
+            clock,
+            Some(handle.clone()),
+        )?;
+        Ok((me, handle))
+    }
+
+    /// Opens `link` (already built for `port`) for `scene`.
+    pub fn open_link(
+        link: Box<dyn Link>,
+        port: Autd3Port,
+        scene: &Scene,
+        clock: Clock,
+        emulator: Option<EmulatorHandle>,
+    ) -> anyhow::Result<Self> {
+        geometry::check_no_overlap(scene)?;
+        let positions = correction::packed_positions_um(scene)?;
+        let mut ctl = Controller::open_with(
+            geometry::devices(scene),
+            link,
+            sender_option(emulator.is_some()),
+            autd3::core::sleep::StdSleeper,
+        )
+        .with_context(|| format!("opening {port}"))?;
+        // autd3 lengths are mm, so its sound speed is mm/s.
+        ctl.environment.sound_speed = scene.sound_speed_m_s as f32 * 1000.0;
+        geometry::check_positions(scene, ctl.geometry())?;
+        let n = ctl.num_transducers();
+        let mut me = Self {
+            ctl,
+            port,
+            emulator,
+            clock,
+            positions,
+            slots: [None; 2],
+            playing: None,
+            rearm: None,
+            gate: safety::gate(false),
+            untracked: false,
+            output: safety::FULL,
+            offsets: vec![0; n],
+            centroid_um: None,
+            centroids: 0,
+            stopped: false,
+            out_of_range: false,
+            closed: false,
+        };
+        me.ctl.send(Silencer::default())?;
+        me.ctl.send(ReadsFPGAState::new(|_| true))?;
+        me.set_output(safety::MUTED)?;
+        me.send_offsets()?;
+        Ok(me)
+    }
+
+    /// autd3's geometry of the rig (same device order as the scene).
+    pub fn geometry(&self) -> &autd3::core::geometry::Geometry {
+        self.ctl.geometry()
+    }
+
+    /// The emulated devices, when the link is the emulator.
+    pub fn emulator(&self) -> Option<&EmulatorHandle> {
+        self.emulator.as_ref()
+    }
+
+    fn now_us(&self) -> u64 {
+        self.clock.now().as_micros() as u64
+    }
+
+    fn set_output(&mut self, intensity: u8) -> anyhow::Result<()> {
+        self.ctl
+            .send(Static::new(intensity))
+            .context("setting the output level")?;
+        self.output = intensity;
+        Ok(())
+    }
+
+    fn send_offsets(&mut self) -> anyhow::Result<()> {
+        let off = &self.offsets;
+        self.ctl
+            .send(PhaseCorrection::new(|dev: &Device| {
+                let base = dev.idx() * AUTD3_TRANSDUCERS;
+                move |tr: &Transducer| Phase(off[base + tr.idx()])
+            }))
+            .context("sending the phase correction")?;
+        Ok(())
+    }
+
+    /// Recomputes the offsets for the slot that plays (or will) and sends them.
+    fn update_correction(&mut self) -> anyhow::Result<()> {
+        let slot = self.playing.and_then(|s| self.slots[usize::from(s)]);
+        match (slot, self.centroid_um) {
+            (Some(s), Some(c)) if s.header.in_work_volume(c) => correction::offsets_into(
+                &self.positions,
+                s.header.center_um,
+                c,
+                s.header.sound_speed_mm_s,
+                &mut self.offsets,
+            ),
+            _ => self.offsets.fill(0),
+        }
+        self.send_offsets()
+    }
+
+    /// Steps held by `slot` (`None`: empty or half-written).
+    pub fn slot_steps(&self, slot: u8) -> Option<usize> {
+        self.slots
+            .get(usize::from(slot))
+            .copied()
+            .flatten()
+            .map(|s| s.steps)
+    }
+
+    /// Why the output is silent now, by the firmware's rules.
+    pub fn mute_reason(&self) -> MuteReason {
+        if self.stopped {
+            MuteReason::Stopped
+        } else if self.playing.is_none() || self.untracked {
+            MuteReason::None
+        } else if self.out_of_range {
+            MuteReason::CentroidOutOfRange
+        } else {
+            self.gate.mute_reason(self.now_us())
+        }
+    }
+
+    /// Mutes or unmutes as the gate says; finishes a pending switch.
+    fn apply_gate(&mut self) -> anyhow::Result<()> {
+        self.finish_switch(false)?;
+        let want = if self.playing.is_some() && self.mute_reason() == MuteReason::None {
+            safety::FULL
+        } else {
+            safety::MUTED
+        };
+        if want != self.output {
+            self.set_output(want)?;
+        }
+        Ok(())
+    }
+
+    /// The STM segment the devices play, from their FPGA state.
+    fn current_segment(&mut self) -> anyhow::Result<Option<u8>> {
+        let states = self.ctl.fpga_state().context("reading the FPGA state")?;
+        let mut seg = None;
+        for s in states {
+            let s = s.and_then(|s| s.current_stm_segment()).map(|s| s as u8);
+            if seg.is_some() && seg != Some(s) {
+                bail!("the devices play different STM segments");
+            }
+            seg = Some(s);
+        }
+        Ok(seg.flatten())
+    }
+
+    /// After a `SyncIdx` switch: once the devices play the new segment, make
+    /// it loop forever. With `wait`, waits up to one loop period + 100 ms.
+    fn finish_switch(&mut self, wait: bool) -> anyhow::Result<()> {
+        let Some(slot) = self.rearm else {
+            return Ok(());
+        };
+        let s = self.slots[usize::from(slot)].context("switching to an empty slot")?;
+        let period = Duration::from_micros(
+            s.steps as u64 * u64::from(timing::dwell_us(u32::from(s.divide))),
+        );
+        let deadline = self.clock.now() + period + Duration::from_millis(100);
+        loop {
+            if self.current_segment()? == Some(slot) {
+                self.ctl
+                    .send(SwapSegmentGainSTM(segment(slot), Immediate))
+                    .context("setting the new segment to loop")?;
+                self.rearm = None;
+                return Ok(());
+            }
+            if !wait {
+                return Ok(());
+            }
+            if self.clock.now() > deadline {
+                bail!("the devices did not switch to slot {slot} within one loop");
+            }
+            self.clock.sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// Starts the switch to `slot` at the end of the playing loop without
+    /// waiting for it (tests step the clock in between).
+    pub fn request_play(&mut self, slot: u8, untracked: bool) -> anyhow::Result<()> {
+        self.request_play_at(slot, PlayAt::NextCycle, untracked)
+    }
+
+    /// [`Self::request_play`] at `at`: `Immediate` swaps at once.
+    pub fn request_play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
+        if slot > 1 {
+            return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {slot}")).into());
+        }
+        if self.slots[usize::from(slot)].is_none() {
+            bail!(
+                "slot {slot} of {} is empty: an AUTD3 holds a sequence only while lmhost holds the link; \
+                 `lmhost upload --port {}` uploads and plays",
+                self.port,
+                self.port
+            );
+        }
+        self.finish_switch(true)?;
+        if at == PlayAt::Immediate {
+            self.ctl
+                .send(SwapSegmentGainSTM(segment(slot), Immediate))
+                .with_context(|| format!("switching to slot {slot}"))?;
+            self.rearm = None;
+        } else if self.playing != Some(slot) {
+            self.ctl
+                .send(SwapSegmentGainSTM(segment(slot), SyncIdx))
+                .with_context(|| format!("switching to slot {slot}"))?;
+            self.rearm = Some(slot);
+        }
+        self.playing = Some(slot);
+        self.untracked = untracked;
+        self.stopped = false;
+        self.out_of_range = false;
+        self.gate = safety::gate(untracked);
+        self.update_correction()?;
+        self.apply_gate()
+    }
+
+    /// Phases read back from the emulated FPGA that differ from `phases`
+    /// (step-major) in `slot`, plus intensities that are not full; `None`
+    /// on a real link.
+    pub fn readback_mismatches(&self, slot: u8, phases: &[u8]) -> Option<u64> {
+        let emu = self.emulator.as_ref()?;
+        let seg = segment(slot);
+        let t = self.ctl.num_transducers();
+        let steps = phases.len() / t.max(1);
+        Some(emu.with_cpus(|cpus| {
+            let mut bad = 0u64;
+            for cpu in cpus {
+                let fpga = cpu.fpga();
+                if !fpga.is_stm_gain_mode(seg) || fpga.stm_cycle(seg) != steps {
+                    return (steps * t) as u64;
+                }
+                let corr = fpga.phase_correction();
+                let base = cpu.idx() * AUTD3_TRANSDUCERS;
+                for j in 0..steps {
+                    for (i, d) in fpga.drives_at(seg, j).iter().enumerate() {
+                        let raw = d.phase.0.wrapping_sub(corr[i].0);
+                        if raw != phases[j * t + base + i] || d.intensity != Intensity::MAX {
+                            bad += 1;
+                        }
+                    }
+                }
+            }
+            bad
+        }))
+    }
+
+    fn silence(&mut self) -> anyhow::Result<()> {
+        self.set_output(safety::MUTED)?;
+        let seg = match self.playing {
+            Some(s) => s,
+            None => self.current_segment()?.unwrap_or(0),
+        };
+        self.ctl
+            .send(WithSegment::new(Null::new(), segment(seg), Immediate))
+            .context("sending the null gain")?;
+        self.slots[usize::from(seg)] = None;
+        self.playing = None;
+        self.rearm = None;
+        self.stopped = true;
+        Ok(())
+    }
+}
+
+impl Backend for Autd3Backend {
+    fn describe(&self) -> String {
+        self.port.to_string()
+    }
+
+    fn needs_host(&self) -> bool {
+        true
+    }
+
+    fn info(&mut self) -> anyhow::Result<BackendInfo> {
+        let firmware = self
+            .ctl
+            .firmware_version()
+            .context("reading the firmware versions")?
+            .iter()
+            .map(|v| v.to_string())
+            .collect();
+        Ok(BackendInfo {
+            backend: "autd3".into(),
+            port: self.port.to_string(),
+            devices: self.ctl.num_devices(),
+            transducers: self.ctl.num_transducers(),
+            slots: 2,
+            firmware,
+            dwell_grid_us: Some(timing::SAMPLING_PERIOD_US),
+            lm: None,
+        })
+    }
+
+    fn status(&mut self) -> anyhow::Result<Status> {
+        self.apply_gate()?;
+        let mute_reason = self.mute_reason();
+        let state = match (self.playing, self.stopped) {
+            (_, true) => DeviceState::Stopped,
+            (None, false) => DeviceState::Idle,
+            (Some(_), false) if mute_reason == MuteReason::None => DeviceState::Playing,
+            (Some(_), false) => DeviceState::Muted,
+        };
+        // Until the devices take over a `SyncIdx` switch, the old segment
+        // plays and the new one is queued, as on the firmware.
+        let (slot, queued_slot) = match self.rearm {
+            Some(q) => (self.current_segment()?.filter(|&s| s != q), Some(q)),
+            None => (self.playing, None),
+        };
+        let correction_um = match (
+            self.playing.and_then(|s| self.slots[usize::from(s)]),
+            self.centroid_um,
+        ) {
+            (Some(s), Some(c)) if mute_reason == MuteReason::None && !self.untracked => {
+                [0, 1, 2].map(|i| c[i].saturating_sub(s.header.center_um[i]))
+            }
+            _ => [0; 3],
+        };
+        Ok(Status {
+            state,
+            slot,
+            step: 0,
+            cycles: 0,
+            missed_deadlines: 0,
+            last_centroid_seq: self.gate.last_seq(),
+            bad_frames: 0,
+            crc_errors: 0,
+            nacks: 0,
+            correction_um,
+            queued_slot,
+            mute_reason,
+        })
+    }
+
+    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport> {
+        let h = &plan.sequence.header;
+        let t = self.ctl.num_transducers();
+        let steps = usize::from(h.steps);
+        if usize::from(h.transducers) != t || plan.sequence.phases.len() != steps * t {
+            return Err(InputError::new(format!(
+                "the plan has {} transducers per step; this AUTD3 rig has {t}",
+                h.transducers
+            ))
+            .into());
+        }
+        if !(timing::MIN_PATTERNS..=timing::MAX_PATTERNS).contains(&steps) {
+            return Err(InputError::new(format!(
+                "AUTD3 GainSTM holds {}..={} patterns, the plan has {steps}",
+                timing::MIN_PATTERNS,
+                timing::MAX_PATTERNS
+            ))
+            .into());
+        }
+        let divide = timing::divide_for_dwell(plan.trajectory.dwell_s)
+            .filter(|&d| u32::from(d) >= timing::SILENCER_MIN_DIVIDE)
+            .ok_or_else(|| {
+                InputError::new(format!(
+                    "dwell {:.3} µs is not a multiple of 25 µs ≥ 1000 µs; plan for the AUTD3 port so the planner picks the grid",
+                    plan.sequence.dwell_us()
+                ))
+            })?;
+        self.finish_switch(true)?;
+        let slot = match slot {
+            Some(s) if s > 1 => {
+                return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {s}")).into());
+            }
+            Some(s) if Some(s) == self.playing => {
+                bail!("slot {s} is playing; upload into the idle slot");
+            }
+            Some(s) => s,
+            None => match self.playing {
+                Some(p) => 1 - p,
+                None => 1 - self.current_segment()?.unwrap_or(0),
+            },
+        };
+        // The segment is being overwritten: until it arrives whole it is empty.
+        self.slots[usize::from(slot)] = None;
+        let phases = &plan.sequence.phases;
+        let gains: Vec<_> = (0..steps)
+            .map(|j| {
+                Custom::new(move |dev: &Device| {
+                    let base = j * t + dev.idx() * AUTD3_TRANSDUCERS;
+                    move |tr: &Transducer| Drive {
+                        phase: Phase(phases[base + tr.idx()]),
+                        intensity: Intensity::MAX,
+                    }
+                })
+            })
+            .collect();
+        let stm = GainSTM::new(
+            gains,
+            SamplingConfig::new(NonZeroU16::new(divide).context("zero divide")?),
+            GainSTMOption {
+                mode: GainSTMMode::PhaseFull,
+            },
+        );
+        let frames0 = self.emulator.as_ref().map_or(0, |e| e.frames());
+        self.ctl
+            .send(WithFiniteLoop::new(
+                stm,
+                NonZeroU16::MAX,
+                segment(slot),
+                Later,
+            ))
+            .with_context(|| format!("uploading to slot {slot} on {}", self.port))?;
+        let frames = self.emulator.as_ref().map_or(0, |e| e.frames()) - frames0;
+        self.slots[usize::from(slot)] = Some(Slot {
+            steps,
+            divide,
+            header: *h,
+        });
+        let dwell_us = f64::from(timing::dwell_us(u32::from(divide)));
+        Ok(UploadReport {
+            slot,
+            steps,
+            transducers: t,
+            dwell_us,
+            freq_hz: 1e6 / (steps as f64 * dwell_us),
+            frames,
+            readback_mismatches: self.readback_mismatches(slot, phases),
+            wire: None,
+        })
+    }
+
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
+        self.request_play_at(slot, at, untracked)?;
+        self.finish_switch(true)?;
+        self.apply_gate()
+    }
+
+    fn stop(&mut self) -> anyhow::Result<()> {
+        self.silence()
+    }
+
+    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome> {
+        if !self.gate.is_fresh(c.seq) {
+            bail!(
+                "centroid {} is not newer than {}; ignored",
+                c.seq,
+                self.gate.last_seq()
+            );
+        }
+        let header = self
+            .playing
+            .and_then(|s| self.slots[usize::from(s)])
+            .map(|s| s.header);
+        if c.present && header.is_some_and(|h| !h.in_work_volume(c.pos_um)) {
+            // Never steer outside the work volume: refuse and mute until a
+            // present centroid inside it arrives (the firmware's rule).
+            self.out_of_range = true;
+            self.apply_gate()?;
+            return Ok(CentroidOutcome::OutOfRange);
+        }
+        self.gate.update(c.seq, c.present, self.now_us());
+        self.out_of_range = false;
+        if c.present {
+            self.centroid_um = Some(c.pos_um);
+            self.update_correction()?;
+        }
+        self.centroids += 1;
+        self.apply_gate()?;
+        Ok(CentroidOutcome::Applied)
+    }
+
+    fn tick(&mut self) -> anyhow::Result<()> {
+        self.apply_gate()
+    }
+}
+
+impl Drop for Autd3Backend {
+    /// Leaves the array silent: mute, null gain, close the link.
+    fn drop(&mut self) {
+        if self.closed {
+            return;
+        }
+        self.closed = true;
+        let _ = self.silence();
+    }
+}

@@ -1,0 +1,30 @@
+//! AUTD3 arrays through the autd3 crates (`--port autd3:...`).
+//!
+//! One file per concern:
+//! - [`port`]: `autd3:emulator`, `autd3:soem[:IF]`, `autd3:ethercrab[:IF]`,
+//!   `autd3:remote:HOST:PORT`;
+//! - [`geometry`]: scene devices → autd3 devices, positions checked to 1 µm;
+//! - [`timing`]: N and dwell on the FPGA's 25 µs grid;
+//! - [`emulator`]: autd3's CPU + FPGA emulator as a clocked link with read-back;
+//! - [`correction`]: centroid offsets from `lm-fw-core` as `PhaseCorrection`;
+//! - [`safety`]: the firmware's gate, mute, silencer settings;
+//! - [`device`]: [`Autd3Backend`], the [`Backend`](crate::backend::Backend).
+//! - [`clock`]: real or manual time for the emulator and the gate.
+
+pub mod clock;
+pub mod correction;
+pub mod device;
+pub mod emulator;
+pub mod geometry;
+pub mod port;
+pub mod safety;
+pub mod timing;
+
+#[cfg(test)]
+mod tests;
+
+pub use clock::Clock;
+pub use device::Autd3Backend;
+pub use emulator::{EmulatorHandle, EmulatorLink};
+pub use port::Autd3Port;
+pub use timing::{GridTiming, grid_timing};

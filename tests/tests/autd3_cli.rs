@@ -1,0 +1,393 @@
+//! `lmhost ... --port autd3:...` end to end: the real binary against
+//! autd3's firmware emulator (upload with read-back, the demo, streaming
+//! with mute on absence, untracked play), its JSON reports and exit codes.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+mod link_support;
+use link_support::lmhost;
+
+fn run(args: &[&str]) -> Output {
+    Command::new(lmhost())
+        .args(args)
+        .env_remove("LMHOST_PORT")
+        .output()
+        .expect("lmhost runs")
+}
+
+fn one_line_error(o: &Output) -> String {
+    let e = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    e
+}
+
+#[test]
+fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
+    let o = run(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--foci",
+        "4",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["steps"], 82);
+    assert_eq!(v["dwell_us"], 2450.0);
+    assert!(
+        (v["freq_hz"].as_f64().unwrap() - 4.9776).abs() < 1e-3,
+        "{v}"
+    );
+    assert_eq!(v["readback_mismatches"], 0);
+    assert_eq!(v["transducers"], 996);
+}
+
+#[test]
+fn bad_autd3_ports_and_limits_exit_2_missing_links_exit_1() {
+    let o = run(&["upload", "--port", "autd3:nope"]);
+    assert_eq!(o.status.code(), Some(2));
+    one_line_error(&o);
+    let o = run(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--freq",
+        "100",
+        "--steps",
+        "82",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(one_line_error(&o).contains("25 µs"));
+    let o = run(&["upload", "--port", "autd3:ethercrab:eth0"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(one_line_error(&o).contains("autd3-ethercrab"));
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).expect("one JSON object")
+}
+
+fn scene(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(name)
+        .to_str()
+        .unwrap()
+        .to_owned()
+}
+
+#[test]
+fn upload_reads_back_byte_exact_for_lm_s_and_lm_m_with_errors_vs_the_request() {
+    for (foci, radius) in [("1", "2"), ("1", "6"), ("4", "3"), ("4", "6")] {
+        let v = json(&run(&[
+            "upload",
+            "--port",
+            "autd3:emulator",
+            "--foci",
+            foci,
+            "--radius",
+            radius,
+            "--json",
+        ]));
+        assert_eq!(v["readback_mismatches"], 0, "{v}");
+        let dwell = v["dwell_us"].as_f64().unwrap();
+        assert_eq!(dwell % 25.0, 0.0, "{v}");
+        assert!(dwell >= 1000.0, "{v}");
+        let steps = v["steps"].as_f64().unwrap();
+        let f = v["freq_hz"].as_f64().unwrap();
+        assert!((f - 1e6 / (steps * dwell)).abs() < 1e-9, "{v}");
+        assert!(
+            (v["freq_error_hz"].as_f64().unwrap() - (f - 5.0)).abs() < 1e-9,
+            "{v}"
+        );
+        let step = v["step_mm"].as_f64().unwrap();
+        let r: f64 = radius.parse().unwrap();
+        assert!(
+            (step - 2.0 * std::f64::consts::PI * r / steps).abs() < 1e-9,
+            "{v}"
+        );
+        assert!(
+            (v["step_error_mm"].as_f64().unwrap() - (step - 0.23)).abs() < 1e-9,
+            "{v}"
+        );
+        assert!(v["dwell_error_us"].is_number(), "{v}");
+        assert_eq!(v["playing"], true);
+        assert_eq!(v["mute_reason"], "waiting_for_tracking", "{v}");
+    }
+}
+
+#[test]
+fn untracked_upload_plays_at_once_and_no_play_does_not() {
+    let v = json(&run(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--untracked",
+        "--hold",
+        "0.2",
+        "--json",
+    ]));
+    assert_eq!(v["untracked"], true);
+    assert_eq!(v["mute_reason"], "none", "{v}");
+    assert_eq!(v["hold_s"], 0.2);
+    let v = json(&run(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--no-play",
+        "--json",
+    ]));
+    assert_eq!(v["playing"], false);
+    assert!(v["mute_reason"].is_null(), "{v}");
+    // --hold is for AUTD3 only: the LM firmware plays on its own.
+    let o = run(&["upload", "--port", "/dev/null", "--hold", "1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(one_line_error(&o).contains("--hold"));
+}
+
+#[test]
+fn demo_runs_on_the_emulator() {
+    let v = json(&run(&[
+        "demo",
+        "--port",
+        "autd3:emulator",
+        "--seconds",
+        "2",
+        "--json",
+    ]));
+    assert_eq!(v["readback_mismatches"], 0, "{v}");
+    assert_eq!(v["dwell_us"], 2450.0);
+    assert!(
+        (v["freq_hz"].as_f64().unwrap() - 4.9776).abs() < 1e-3,
+        "{v}"
+    );
+    let applied = v["centroids"]["applied"].as_u64().unwrap();
+    assert!(applied > 100, "90 fps for 2 s: {v}");
+    assert!(
+        v["centroids"]["correction_latency_p50_us"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
+    assert_eq!(v["muting"]["muted_in_every_status_while_away"], true, "{v}");
+    assert_eq!(
+        v["muting"]["mute_reason_while_away"], "finger_absent",
+        "{v}"
+    );
+    assert!(
+        v["muting"]["playing_statuses_while_present"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
+    let o = run(&["demo", "--port", "/dev/ttyACM0"]);
+    assert_eq!(o.status.code(), Some(2));
+    one_line_error(&o);
+}
+
+#[test]
+fn synthetic_stream_applies_corrections_and_mutes_on_absence() {
+    let v = json(&run(&[
+        "stream",
+        "--port",
+        "autd3:emulator",
+        "--synthetic",
+        "--seconds",
+        "2",
+        "--away",
+        "0.8,1.4",
+        "--json",
+    ]));
+    let acked = v["acked"].as_u64().unwrap();
+    assert_eq!(v["applied"], acked);
+    assert!(acked > 100, "{v}");
+    assert_eq!(v["device_last_seq"], v["last_seq"]);
+    let absent = v["absent_updates"].as_u64().unwrap();
+    assert!(absent > 20, "{v}");
+    assert_eq!(
+        v["muted_absent_updates"], absent,
+        "muted whenever away: {v}"
+    );
+    assert_eq!(v["upload"]["upload"]["readback_mismatches"], 0);
+    // Plan flags shape what is played before streaming.
+    let v = json(&run(&[
+        "stream",
+        "--port",
+        "autd3:emulator",
+        "--synthetic",
+        "--seconds",
+        "1",
+        "--foci",
+        "4",
+        "--radius",
+        "6",
+        "--json",
+    ]));
+    assert_eq!(v["upload"]["upload"]["readback_mismatches"], 0);
+    assert!(
+        v["upload"]["timing"]["step_mm"].as_f64().unwrap() > 0.2,
+        "{v}"
+    );
+}
+
+#[test]
+fn info_status_and_stop_on_the_emulator() {
+    let o = run(&[
+        "info",
+        "--port",
+        "autd3:emulator",
+        "--scene",
+        &scene("paper.toml"),
+        "--json",
+    ]);
+    let v = json(&o);
+    assert_eq!(v["backend"], "autd3");
+    assert_eq!(v["transducers"], 996);
+    assert_eq!(v["slots"], 2);
+    assert_eq!(v["dwell_grid_us"], 25);
+    let v = json(&run(&["status", "--port", "autd3:emulator", "--json"]));
+    assert_eq!(v["state"], "Idle", "{v}");
+    assert_eq!(v["mute_reason"], "none", "{v}");
+    let o = run(&["stop", "--port", "autd3:emulator"]);
+    assert!(o.status.success());
+    // A fresh link holds nothing to play: exit 1, one line, says why.
+    let o = run(&["play", "--port", "autd3:emulator"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(one_line_error(&o).contains("holds the link"));
+}
+
+#[test]
+fn a_scene_the_rig_cannot_match_is_exit_2() {
+    // paper.toml has four devices; a rig of three cannot play it.
+    let o = run(&[
+        "upload",
+        "--port",
+        "autd3:emulator:3",
+        "--scene",
+        &scene("paper.toml"),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(one_line_error(&o).contains("has 4 devices but the AUTD3 rig has 3"));
+    let v = json(&run(&[
+        "upload",
+        "--port",
+        "autd3:emulator:4",
+        "--scene",
+        &scene("paper.toml"),
+        "--json",
+    ]));
+    assert_eq!(v["readback_mismatches"], 0);
+    // Two devices at the same place: the rig cannot be built.
+    let dir = std::env::temp_dir().join(format!("lmhost-autd3-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let paper = std::fs::read_to_string(scene("paper.toml")).unwrap();
+    let first = paper.find("[[device]]").expect("paper.toml lists devices");
+    let end = paper[first + 1..]
+        .find("[[")
+        .map_or(paper.len(), |i| first + 1 + i);
+    let dup = format!("{}\n{}", paper, &paper[first..end]);
+    let path = dir.join("overlap.toml");
+    std::fs::write(&path, dup).unwrap();
+    let o = run(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--scene",
+        path.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    one_line_error(&o);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn autd3_ports_via_the_environment_and_bad_ones_everywhere() {
+    let o = Command::new(lmhost())
+        .args(["status", "--json"])
+        .env("LMHOST_PORT", "autd3:emulator")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for cmd in ["info", "status", "play", "stop", "stream"] {
+        let o = run(&[cmd, "--port", "autd3:soem:bad/if"]);
+        assert_eq!(o.status.code(), Some(2), "{cmd}");
+        one_line_error(&o);
+    }
+    let o = run(&["info", "--port", "autd3:soem:eth0"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(one_line_error(&o).contains("autd3-soem"));
+}
+
+#[test]
+fn track_streams_to_the_emulator_after_uploading() {
+    let o = run(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "2",
+        "--fast",
+        "--port",
+        "autd3:emulator",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("to autd3:emulator"), "{out}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("read-back 0 mismatches"), "{err}");
+}
+
+#[test]
+fn sigterm_ends_a_hold_and_leaves_the_array_silent() {
+    let mut child = Command::new(lmhost())
+        .args([
+            "upload",
+            "--port",
+            "autd3:emulator",
+            "--untracked",
+            "--hold",
+            "60",
+        ])
+        .env_remove("LMHOST_PORT")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Signal once it says it holds the link (signals are caught by then).
+    use std::io::BufRead as _;
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut said = String::new();
+    while !said.contains("holding") {
+        let mut line = String::new();
+        assert!(err.read_line(&mut line).unwrap() > 0, "{said}");
+        said += &line;
+    }
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let start = std::time::Instant::now();
+    let o = child.wait_with_output().unwrap();
+    assert!(
+        start.elapsed() < std::time::Duration::from_secs(20),
+        "the hold ended"
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("left silent"), "{said}");
+}
