@@ -33,7 +33,17 @@ const CENTROIDS: &str = "5 wild centroids";
 const PLANS: &str = "6 silently wrong plans";
 const EXIT: &str = "7 exit codes";
 const SESSIONS: &str = "8 streaming sessions";
+const PLAY: &str = "9 play semantics";
+const SPEC: &str = "10 spec and implementation agree";
+const VALIDATION: &str = "11 one header, one validation";
+const UNTRACKED: &str = "untracked play and mute reason";
 const PAPER: &str = "paper fidelity";
+
+/// Every class the suite must cover.
+const CLASSES: [&str; 13] = [
+    DURATION, PIPE, MEMORY, WORK, CENTROIDS, PLANS, EXIT, SESSIONS, PLAY, SPEC, VALIDATION,
+    UNTRACKED, PAPER,
+];
 
 /// What a run produced, for custom checks.
 struct Run {
@@ -42,9 +52,16 @@ struct Run {
     stderr: String,
 }
 
-/// Where the fixtures and the device are.
+/// Where the fixtures and the devices are.
 struct Ctx {
     port: String,
+    /// A device of its own for the play-state cases (`{dev}`), run in order.
+    dev: String,
+    /// A device with a 10-minute centroid timeout for the work-volume
+    /// cases (`{wv}`), so a status right after a stream is not stale.
+    wv: String,
+    /// A device whose slots hold 10 steps (`{small}`).
+    small: String,
     dir: PathBuf,
     scenes: PathBuf,
 }
@@ -234,7 +251,139 @@ fn fixtures(dir: &Path) {
             + "[lm_plane]\na = [1.0, 0.0, 0.0]\nb = [0.0, 0.7071067811865476, 0.7071067811865476]\n")
             .as_bytes(),
     );
+    w(
+        "short_dwell.toml",
+        ("min_dwell_ms = 0.1\n".to_owned() + &dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
     std::fs::create_dir_all(dir.join("a_directory")).unwrap();
+}
+
+/// Cases on devices of their own whose state carries from case to case
+/// (play semantics, untracked play, one validation, the work volume).
+fn device_state_cases() -> Vec<Case> {
+    let at = |x: f64| {
+        csv(&[
+            &format!("0,{x},0,200,1"),
+            &format!("0.01,{x},0,200,1"),
+            &format!("0.02,{x},0,200,1"),
+        ])
+    };
+    vec![
+        // Untracked play: the device sounds without a finger, and says so.
+        case(UNTRACKED, "upload --port {dev} --freq 0.05 --untracked")
+            .ok()
+            .err("warning: playing untracked")
+            .out("playing slot 0, untracked")
+            .then("status --port {dev} --json", "\"state\":\"Playing\""),
+        // 9. Play semantics: a free slot, a queued play, no free slot.
+        case(PLAY, "upload --port {dev} --radius 2 --no-play")
+            .ok()
+            .out("to slot 1")
+            .then("status --port {dev} --json", "\"slot\":0"),
+        case(PLAY, "play --port {dev} --slot 1")
+            .ok()
+            .out("slot 1 queued for the next cycle boundary")
+            .then("status --port {dev} --json", "\"queued_slot\":1"),
+        case(PLAY, "status --port {dev}")
+            .ok()
+            .out("queued slot:      1"),
+        case(PLAY, "upload --port {dev}")
+            .code(1)
+            .err("no free slot")
+            .err("--slot N or `lmhost stop`")
+            .then("status --port {dev} --json", "\"queued_slot\":1"),
+        // The queued play is tracked: it ends the untracked session at once
+        // (the device mutes and says why), while slot 0 plays to the boundary.
+        case(PLAY, "upload --port {dev} --json")
+            .code(1)
+            .err("no free slot")
+            .then(
+                "status --port {dev} --json",
+                "\"mute_reason\":\"waiting_for_tracking\"",
+            ),
+        // 10. The device's own answers, as the spec has them.
+        case(SPEC, "play --port {dev} --slot 7").err("2 slots"),
+        case(SPEC, "play --port {dev} --slot 2 --untracked").err("2 slots"),
+        case(SPEC, "upload --port {dev} --slot 2").err("2 slots"),
+        case(UNTRACKED, "stop --port {dev}")
+            .ok()
+            .then("status --port {dev} --json", "\"mute_reason\":\"stopped\""),
+        case(UNTRACKED, "status --port {dev}")
+            .ok()
+            .out("mute reason:      stopped"),
+        case(UNTRACKED, "upload --port {dev}")
+            .ok()
+            .out("waiting for tracking")
+            .out("--untracked")
+            .then(
+                "status --port {dev} --json",
+                "\"mute_reason\":\"waiting_for_tracking\"",
+            ),
+        case(UNTRACKED, "stop --port {dev}")
+            .ok()
+            .then("status --port {dev} --json", "\"state\":\"Stopped\""),
+        case(UNTRACKED, "play --port {dev} --slot 1 --untracked")
+            .ok()
+            .err("warning: playing untracked")
+            .then("status --port {dev} --json", "\"state\":\"Playing\""),
+        case(UNTRACKED, "stop --port {dev}")
+            .ok()
+            .then("status --port {dev} --json", "\"queued_slot\":null"),
+        // 11. One header, one validation, before any byte is sent.
+        case(VALIDATION, "upload --port {dev} --max-offset 0").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset 1e9").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset nan").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset -5").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset inf").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset -0").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --freq 20 --steps 100").err("dwell"),
+        case(
+            VALIDATION,
+            "upload --port {dev} --scene {dir}/short_dwell.toml --freq 20 --steps 100",
+        )
+        .err("does not fit")
+        .err("device's minimum 1000 µs"),
+        case(VALIDATION, "upload --port {small}")
+            .err("does not fit")
+            .then("status --port {small} --json", "\"nacks\":0"),
+        case(VALIDATION, "upload --port {small} --foci 4 --slot 1")
+            .err("does not fit")
+            .then("status --port {small} --json", "\"bad_frames\":0"),
+        case(VALIDATION, "upload --port {small} --steps 10 --freq 1")
+            .ok()
+            .then("status --port {small} --json", "\"nacks\":0"),
+        case(SPEC, "play --port {small} --slot 1")
+            .code(1)
+            .err("refused play"),
+        // 5. The device's work volume: a centroid 30 mm off the planned
+        // centre is refused (muted, counted), one inside unmutes.
+        case(CENTROIDS, "upload --port {wv}")
+            .ok()
+            .out("within 20 mm of the centre"),
+        case(CENTROIDS, "stream --port {wv} --json")
+            .stdin(at(30.0))
+            .ok()
+            .out("\"outside_work_volume\":3")
+            .then(
+                "status --port {wv} --json",
+                "\"mute_reason\":\"centroid_out_of_range\"",
+            ),
+        case(CENTROIDS, "stream --port {wv}")
+            .stdin(at(-25.0))
+            .ok()
+            .out("outside")
+            .then("status --port {wv} --json", "\"state\":\"Muted\""),
+        case(CENTROIDS, "stream --port {wv} --json")
+            .stdin(at(0.0))
+            .ok()
+            .out("\"outside_work_volume\":0")
+            .then("status --port {wv} --json", "\"state\":\"Playing\""),
+        case(CENTROIDS, "stream --port {wv} --json")
+            .stdin(at(19.0))
+            .ok()
+            .out("\"outside_work_volume\":0")
+            .then("status --port {wv} --json", "\"mute_reason\":\"none\""),
+    ]
 }
 
 fn cases() -> Vec<Case> {
@@ -433,6 +582,9 @@ fn cases() -> Vec<Case> {
         case(PLANS, "plan --center 0,0,1e30").err("±2000 mm"),
         case(PLANS, "plan --center 0,0,1e12").err("±2000 mm"),
         case(PLANS, "plan --center 5000,0,200").err("±2000 mm"),
+        // A bad plan on a scene that would also warn: the error alone.
+        case(PLANS, "plan --scene {dir}/edge_on.toml --radius 1e30").err("0..=100 mm"),
+        case(PLANS, "plan --scene {dir}/edge_on.toml --center 0,0,-5").err("behind"),
         case(PLANS, "plan --center 0,0,-100").err("behind or in the plane"),
         case(PLANS, "plan --center 0,0,0").err("behind or in the plane"),
         case(PLANS, "plan --foci 2 --spacing 1e9").err("spacing"),
@@ -565,6 +717,7 @@ fn cases() -> Vec<Case> {
         .ok()
         .check(single_summary_is_true),
     ];
+    v.extend(device_state_cases());
     // Every plan flag with NaN: refused, never planned.
     for flag in ["--radius", "--spacing", "--freq", "--step"] {
         v.push(case(PLANS, "plan --foci 2").arg(flag).arg("NaN"));
@@ -633,6 +786,9 @@ fn single_summary_is_true(ctx: &Ctx, _: &Run) -> Result<(), String> {
 
 fn expand(s: &str, ctx: &Ctx) -> String {
     s.replace("{port}", &ctx.port)
+        .replace("{dev}", &ctx.dev)
+        .replace("{wv}", &ctx.wv)
+        .replace("{small}", &ctx.small)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
 }
@@ -760,6 +916,9 @@ fn judge(c: &Case, ctx: &Ctx, r: &Run) -> Vec<String> {
 #[test]
 fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let sim = Sim::start(&[]);
+    let dev = Sim::start(&[]);
+    let wv = Sim::start(&["--centroid-timeout-ms", "600000"]);
+    let small = Sim::start(&["--slot-steps", "10"]);
     let dir =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -767,6 +926,9 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     fixtures(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
+        dev: dev.port.clone(),
+        wv: wv.port.clone(),
+        small: small.port.clone(),
         dir: dir.clone(),
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
     };
@@ -817,7 +979,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(all.len() >= 100, "only {} cases", all.len());
-    assert_eq!(classes.len(), 9, "{classes:?}");
+    let want: BTreeSet<&str> = CLASSES.into_iter().collect();
+    assert_eq!(classes, want, "classes covered");
     assert!(
         failures.is_empty(),
         "{} of {} cases failed:\n{}",

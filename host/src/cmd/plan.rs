@@ -224,7 +224,12 @@ impl PlanArgs {
     pub fn plan(&self) -> anyhow::Result<Plan> {
         let scene = self.load_scene()?;
         let params = self.params(&scene)?;
-        if let Some(w) = lm_plane_warning(&scene, params.center_mm) {
+        let synthesis = self.synthesis()?;
+        // Warn only about a plan that exists: bad input gets its one-line
+        // error and nothing else.
+        let warning = lm_plane_warning(&scene, params.center_mm);
+        let plan = Plan::new(scene, &params, &synthesis)?;
+        if let Some(w) = warning {
             // Once per run, even when a command plans many stimuli.
             static WARNED: std::sync::atomic::AtomicBool =
                 std::sync::atomic::AtomicBool::new(false);
@@ -232,8 +237,7 @@ impl PlanArgs {
                 eprintln!("warning: {w}");
             }
         }
-        let synthesis = self.synthesis()?;
-        Ok(Plan::new(scene, &params, &synthesis)?)
+        Ok(plan)
     }
 }
 

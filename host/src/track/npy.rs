@@ -110,6 +110,11 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
 /// The text after `'key':` in a Python dict literal.
 fn dict_value<'a>(text: &'a str, key: &str) -> Option<&'a str> {
     let pat = format!("'{key}'");
+    // A key given twice is ambiguous (Python keeps the last, a careless
+    // reader the first): treated as missing, so the header is refused.
+    if text.matches(&pat).count() != 1 {
+        return None;
+    }
     let at = text.find(&pat)? + pat.len();
     Some(text[at..].trim_start().strip_prefix(':')?.trim_start())
 }
