@@ -255,7 +255,109 @@ fn fixtures(dir: &Path) {
         "short_dwell.toml",
         ("min_dwell_ms = 0.1\n".to_owned() + &dev("[0.0, 0.0, 0.0]")).as_bytes(),
     );
+    w(
+        "spinning.toml",
+        (dev("[0.0, 0.0, 0.0]") + "rotation_deg = [1e300, 0.0, 0.0]\n").as_bytes(),
+    );
+    w(
+        "slow_dwell.toml",
+        ("min_dwell_ms = 1e300\n".to_owned() + &dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
+    // 30 000 devices (1.3 MB) and a 2 MB comment: refused by size before
+    // parsing, like the 10^6-device file that would take 46 MB.
+    let many: String = (0..30_000)
+        .map(|i| dev(&format!("[{}.0, 0.0, 0.0]", i * 200)))
+        .collect();
+    w("many_devices.toml", many.as_bytes());
+    w(
+        "huge_comment.toml",
+        format!("# {}\n{}", "x".repeat(2 << 20), dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
+    w("bom.csv", b"\xef\xbb\xbf0,0,0,200,1\n0.011,0,0,200,1\n");
+    w("crlf.csv", b"0,0,0,200,1\r\n0.011,0,0,200,1\r\n");
+    // Depth recordings and intrinsics for `track`.
+    let npy = |name: &str, header: &str, data: usize, len_field: Option<u16>| {
+        let mut h = header.as_bytes().to_vec();
+        while (10 + h.len() + 1) % 64 != 0 {
+            h.push(b' ');
+        }
+        h.push(b'\n');
+        let mut b = b"\x93NUMPY\x01\x00".to_vec();
+        b.extend(len_field.unwrap_or(h.len() as u16).to_le_bytes());
+        b.extend(&h);
+        b.extend(std::iter::repeat_n(0u8, data));
+        w(name, &b);
+    };
+    let hdr = |descr: &str, fortran: &str, shape: &str| {
+        format!("{{'descr': '{descr}', 'fortran_order': {fortran}, 'shape': {shape}, }}")
+    };
+    npy("ok.npy", &hdr("<u2", "False", "(2, 4, 4)"), 64, None);
+    npy(
+        "tb.npy",
+        &hdr("<u2", "False", "(1000000000, 8192, 8192)"),
+        64,
+        None,
+    );
+    npy(
+        "overflow.npy",
+        &hdr("<u2", "False", "(18446744073709551615, 8192, 8192)"),
+        0,
+        None,
+    );
+    npy("negative.npy", &hdr("<u2", "False", "(1, -4, 4)"), 32, None);
+    npy("float.npy", &hdr("<f8", "False", "(2, 4, 4)"), 256, None);
+    npy("fortran.npy", &hdr("<u2", "True", "(2, 4, 4)"), 64, None);
+    npy("truncated.npy", &hdr("<u2", "False", "(2, 4, 4)"), 40, None);
+    npy(
+        "long_tail.npy",
+        &hdr("<u2", "False", "(2, 4, 4)"),
+        100,
+        None,
+    );
+    npy(
+        "header_lie.npy",
+        &hdr("<u2", "False", "(2, 4, 4)"),
+        64,
+        Some(60_000),
+    );
+    npy(
+        "twice.npy",
+        "{'descr': '<u2', 'descr': '<f8', 'fortran_order': False, 'shape': (2, 4, 4), }",
+        64,
+        None,
+    );
+    let cam = |extra: &str| {
+        format!(
+            "width = 4\nheight = 4\nfx = 2.0\nfy = 2.0\nppx = 1.5\nppy = 1.5\ndepth_scale = 0.001\n{extra}"
+        )
+    };
+    w("cam.toml", cam("").as_bytes());
+    for (name, from, to) in [
+        ("cam_fx0.toml", "fx = 2.0", "fx = 0.0"),
+        ("cam_fxneg.toml", "fx = 2.0", "fx = -2.0"),
+        ("cam_fxhuge.toml", "fx = 2.0", "fx = 1e300"),
+        ("cam_ppx.toml", "ppx = 1.5", "ppx = 1e300"),
+        ("cam_ppy.toml", "ppy = 1.5", "ppy = -3.0"),
+        ("cam_nan.toml", "depth_scale = 0.001", "depth_scale = nan"),
+        ("cam_wide.toml", "width = 4", "width = 8"),
+        ("cam_str.toml", "fy = 2.0", "fy = \"2\""),
+    ] {
+        w(name, cam("").replace(from, to).as_bytes());
+    }
+    w("cam_dup.toml", cam("fx = 3.0\n").as_bytes());
+    w("cam_unknown.toml", cam("k1 = 0.1\n").as_bytes());
     std::fs::create_dir_all(dir.join("a_directory")).unwrap();
+    w("a_file", b"");
+}
+
+/// `track` over the depth fixture `npy` with intrinsics `cam`.
+fn track(class: &'static str, npy: &str, cam: &str) -> Case {
+    case(
+        class,
+        &format!(
+            "track --depth {{dir}}/{npy} --intrinsics {{dir}}/{cam} --scene {{scenes}}/paper.toml --fast"
+        ),
+    )
 }
 
 /// Cases on devices of their own whose state carries from case to case
@@ -718,9 +820,92 @@ fn cases() -> Vec<Case> {
         .check(single_summary_is_true),
     ];
     v.extend(device_state_cases());
+    v.extend([
+        // Scene files: capped in size, every number in a sane range.
+        case(MEMORY, "plan --scene {dir}/many_devices.toml").err("larger than 1048576 bytes"),
+        case(MEMORY, "plan --scene {dir}/huge_comment.toml").err("larger than 1048576 bytes"),
+        case(PLANS, "plan --scene {dir}/spinning.toml").err("±360°"),
+        case(PLANS, "plan --scene {dir}/slow_dwell.toml").err("(0, 1000] ms"),
+        // Tracker files with a byte-order mark or CRLF line ends.
+        case(EXIT, "stream --port {port} --input {dir}/bom.csv")
+            .ok()
+            .out("streamed 2 samples"),
+        case(EXIT, "stream --port {port} --input {dir}/crlf.csv")
+            .ok()
+            .out("streamed 2 samples"),
+        // Depth recordings: nothing allocated before the file's size
+        // confirms the shape; every header lie refused.
+        track(DURATION, "ok.npy", "cam.toml")
+            .ok()
+            .out("2 frames of 4×4"),
+        track(MEMORY, "tb.npy", "cam.toml").err("truncated"),
+        track(MEMORY, "overflow.npy", "cam.toml").err("too large"),
+        track(MEMORY, "header_lie.npy", "cam.toml").err("header of 60000 bytes"),
+        track(EXIT, "negative.npy", "cam.toml").err("not a tuple of sizes"),
+        track(EXIT, "float.npy", "cam.toml").err("expected uint16"),
+        track(EXIT, "fortran.npy", "cam.toml").err("Fortran"),
+        track(EXIT, "truncated.npy", "cam.toml").err("truncated"),
+        track(EXIT, "long_tail.npy", "cam.toml").err("bytes after the data"),
+        track(EXIT, "twice.npy", "cam.toml").err("'descr' twice"),
+        track(EXIT, "a_directory", "cam.toml").err("a_directory"),
+        track(EXIT, "ok.npy", "cam_fx0.toml").err("`fx`"),
+        track(EXIT, "ok.npy", "cam_fxneg.toml").err("`fx`"),
+        track(PLANS, "ok.npy", "cam_fxhuge.toml").err("`fx`"),
+        track(PLANS, "ok.npy", "cam_ppx.toml").err("`ppx` must lie in the image"),
+        track(PLANS, "ok.npy", "cam_ppy.toml").err("`ppy` must lie in the image"),
+        track(EXIT, "ok.npy", "cam_nan.toml").err("depth_scale"),
+        track(EXIT, "ok.npy", "cam_wide.toml").err("the intrinsics say 8×4"),
+        track(EXIT, "ok.npy", "cam_str.toml").err("invalid type"),
+        track(EXIT, "ok.npy", "cam_dup.toml").err("duplicate key"),
+        track(EXIT, "ok.npy", "cam_unknown.toml").err("unknown field"),
+        track(EXIT, "ok.npy", "a_directory").err("a directory"),
+        // Output paths that cannot be written: a failed operation.
+        track(EXIT, "ok.npy", "cam.toml")
+            .arg("--record")
+            .arg("{dir}/no_such_dir/rec.npy")
+            .code(1)
+            .err("no_such_dir"),
+        track(EXIT, "ok.npy", "cam.toml")
+            .arg("--record")
+            .arg("{dir}/a_directory")
+            .code(1)
+            .err("a_directory"),
+        track(EXIT, "ok.npy", "cam.toml")
+            .arg("--plot")
+            .arg("{dir}/a_file")
+            .code(1)
+            .err("a_file"),
+        case(EXIT, "plan --out {dir}/a_directory")
+            .code(1)
+            .err("a_directory"),
+        case(
+            EXIT,
+            "simulate --plane-size 2 --plane-step 1 --out {dir}/a_file",
+        )
+        .code(1)
+        .err("a_file"),
+        track(PIPE, "ok.npy", "cam.toml")
+            .arg("--json")
+            .closed_stdout(),
+        case(PIPE, "track --synthetic --seconds 0.3 --fast").closed_stdout(),
+        case(PIPE, "upload --port {port} --no-play --slot 1").closed_stdout(),
+        // Every track number flag: NaN, inf, negative, huge.
+        case(WORK, "track --synthetic --seconds 1e30").err("--seconds"),
+        case(PLANS, "track --synthetic --noise-mm nan").err("--noise-mm"),
+        case(PLANS, "track --synthetic --holes 1.5").err("--holes"),
+        case(PLANS, "track --synthetic --z-profile 3,8 --replan-mm nan").err("--replan-mm"),
+        case(PLANS, "track --synthetic --z-profile inf,8").err("--z-profile"),
+        case(MEMORY, "track --synthetic --z-profile 3,100000000").err("--z-profile"),
+        case(EXIT, "track --synthetic --z-profile 3,8 --replan").err("--port"),
+        case(WORK, "track --synthetic --enter-frames 4000000000").err("--enter-frames"),
+    ]);
     // Every plan flag with NaN: refused, never planned.
     for flag in ["--radius", "--spacing", "--freq", "--step"] {
         v.push(case(PLANS, "plan --foci 2").arg(flag).arg("NaN"));
+    }
+    // ... and with one focus, where --spacing is unused but still checked.
+    for bad in ["NaN", "inf", "-1", "1e308", "0"] {
+        v.push(case(PLANS, "plan --spacing").arg(bad).err("spacing"));
     }
     v
 }
