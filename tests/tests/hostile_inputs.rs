@@ -897,6 +897,7 @@ fn cases() -> Vec<Case> {
         case(PLANS, "track --synthetic --z-profile inf,8").err("--z-profile"),
         case(MEMORY, "track --synthetic --z-profile 3,100000000").err("--z-profile"),
         case(EXIT, "track --synthetic --z-profile 3,8 --replan").err("--port"),
+        case(EXIT, "sim --faults ber=1e-4,ber=1e-3").err("given twice"),
         case(WORK, "track --synthetic --enter-frames 4000000000").err("--enter-frames"),
     ]);
     // Every plan flag with NaN: refused, never planned.
