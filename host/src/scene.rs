@@ -498,7 +498,8 @@ impl SceneFile {
             Some(ms) if ms.is_finite() && ms > 0.0 && ms <= 1000.0 => ms * 1e-3,
             Some(ms) => {
                 return Err(format!(
-                    "field `min_dwell_ms` must be in (0, 1000] ms, got {ms}"
+                    "field `min_dwell_ms` must be in (0, 1000] ms, got {}",
+                    crate::limits::show(ms)
                 ));
             }
             None => DEFAULT_MIN_DWELL_S,

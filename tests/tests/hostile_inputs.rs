@@ -326,6 +326,15 @@ fn fixtures(dir: &Path) {
         64,
         None,
     );
+    // Time stamps with a wild gap between frame 0 and frame 1.
+    for (name, t1) in [("gap_ts.npy", 1e300f64), ("gap100k_ts.npy", 1e5)] {
+        let h = hdr("<f8", "False", "(2,)");
+        npy(name, &h, 0, None);
+        let mut b = std::fs::read(dir.join(name)).unwrap();
+        b.extend(0f64.to_le_bytes());
+        b.extend(t1.to_le_bytes());
+        w(name, &b);
+    }
     let cam = |extra: &str| {
         format!(
             "width = 4\nheight = 4\nfx = 2.0\nfy = 2.0\nppx = 1.5\nppy = 1.5\ndepth_scale = 0.001\n{extra}"
@@ -838,6 +847,26 @@ fn cases() -> Vec<Case> {
         track(DURATION, "ok.npy", "cam.toml")
             .ok()
             .out("2 frames of 4×4"),
+        track(DURATION, "ok.npy", "cam.toml")
+            .arg("--timestamps")
+            .arg("{dir}/gap_ts.npy")
+            .err("frame 1")
+            .err("at most 60 s"),
+        track(DURATION, "ok.npy", "cam.toml")
+            .arg("--timestamps")
+            .arg("{dir}/gap100k_ts.npy")
+            .err("frame 1"),
+        track(DURATION, "ok.npy", "cam.toml")
+            .arg("--timestamps")
+            .arg("{dir}/gap_ts.npy")
+            .arg("--port")
+            .arg("{port}")
+            .err("frame 1"),
+        case(
+            DURATION,
+            "track --depth {dir}/ok.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --timestamps {dir}/gap100k_ts.npy",
+        )
+        .err("frame 1"),
         track(MEMORY, "tb.npy", "cam.toml").err("truncated"),
         track(MEMORY, "overflow.npy", "cam.toml").err("too large"),
         track(MEMORY, "header_lie.npy", "cam.toml").err("header of 60000 bytes"),

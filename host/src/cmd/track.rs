@@ -144,6 +144,7 @@ struct Run {
     second: Tally,
     next_summary: f64,
     prev_truth: [Option<(bool, bool)>; 2],
+    prev_t_s: Option<f64>,
 }
 
 impl Run {
@@ -151,12 +152,34 @@ impl Run {
         let Some(frame) = self.src.next_frame()? else {
             return Ok(None);
         };
+        // Every source: a gap between frames is at most what a replay may
+        // sleep, so a wild time stamp is an error naming the frame, not a
+        // panic or a day-long wait (paced or not, as `stream` does).
+        let index = self.tally.frames;
+        if let Some(prev) = self.prev_t_s
+            && !(frame.t_s - prev <= crate::limits::MAX_REPLAY_GAP_S)
+        {
+            crate::bad_input!(
+                "frame {index}: time stamp {} s is {} s after the previous frame's; at most {} s between frames",
+                crate::limits::show(frame.t_s),
+                crate::limits::show(frame.t_s - prev),
+                crate::limits::MAX_REPLAY_GAP_S
+            );
+        }
+        self.prev_t_s = Some(frame.t_s);
         if let Some(r) = &mut self.rec {
             r.push(&frame)?;
         }
         if self.paced {
             let (t0, ft0) = *self.start.get_or_insert((Instant::now(), frame.t_s));
-            let due = Duration::from_secs_f64((frame.t_s - ft0).max(0.0));
+            // Finite by now: consecutive gaps are bounded above, and every
+            // source refuses non-finite or decreasing stamps.
+            let due = Duration::try_from_secs_f64((frame.t_s - ft0).max(0.0)).map_err(|_| {
+                crate::InputError::new(format!(
+                    "frame {index}: time stamp {} s cannot be replayed",
+                    crate::limits::show(frame.t_s)
+                ))
+            })?;
             if let Some(wait) = due.checked_sub(t0.elapsed()) {
                 std::thread::sleep(wait);
             }
@@ -518,6 +541,7 @@ impl Args {
             second: Tally::default(),
             next_summary: f64::NEG_INFINITY,
             prev_truth: [None; 2],
+            prev_t_s: None,
         };
         let started = Instant::now();
         let mut device_report = None;

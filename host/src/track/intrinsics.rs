@@ -92,7 +92,8 @@ impl Intrinsics {
         for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
             if !(v.is_finite() && v > 0.0 && v <= MAX_FOCAL_PX) {
                 return Err(InputError::new(format!(
-                    "intrinsics {origin}: `{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {v}"
+                    "intrinsics {origin}: `{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {}",
+                    crate::limits::show(v)
                 )));
             }
         }
@@ -104,7 +105,8 @@ impl Intrinsics {
         ] {
             if !(v.is_finite() && (0.0..=f64::from(side)).contains(&v)) {
                 return Err(InputError::new(format!(
-                    "intrinsics {origin}: `{name}` must lie in the image, 0..={side} pixels, got {v}"
+                    "intrinsics {origin}: `{name}` must lie in the image, 0..={side} pixels, got {}",
+                    crate::limits::show(v)
                 )));
             }
         }
