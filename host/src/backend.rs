@@ -236,7 +236,7 @@ impl<T: Transport> Backend for LmBackend<T> {
             }
             None => {
                 let st = self.client.status().context("reading the device status")?;
-                free_slot(&info, &st).ok_or_else(|| {
+                free_slot(info.slots, &st).ok_or_else(|| {
                     anyhow::anyhow!(
                         "no free slot on {where_}: every slot is playing or queued; \
                          use --slot N or `lmhost stop` first"

@@ -58,10 +58,18 @@ fn main() -> ExitCode {
         }
         Err(e) => {
             // Bad flags are bad input: one line, exit 2.
+            // The first paragraph, its indented lines (e.g. the missing
+            // arguments' names) joined onto the first.
             let text = e.render().to_string();
-            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
-            let first = first.strip_prefix("error: ").unwrap_or(first);
-            eprintln!("error: {first} (see --help)");
+            let para: Vec<&str> = text
+                .lines()
+                .skip_while(|l| l.trim().is_empty())
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let line = para.join(" ");
+            let line = line.strip_prefix("error: ").unwrap_or(&line);
+            eprintln!("error: {line} (see --help)");
             return ExitCode::from(2);
         }
     };

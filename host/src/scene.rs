@@ -241,13 +241,7 @@ impl Scene {
     /// Reads and checks a scene file. Errors are one line naming the file
     /// and the field.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            InputError::new(format!(
-                "cannot read scene file {}: {}",
-                path.display(),
-                io_reason(&e)
-            ))
-        })?;
+        let text = crate::limits::read_text_file("scene file", path)?;
         Self::from_toml(&text, &path.display().to_string())
     }
 
@@ -319,14 +313,6 @@ impl Scene {
             Some(r) => r.mirror(p),
             None => p,
         }
-    }
-}
-
-fn io_reason(e: &std::io::Error) -> String {
-    match e.kind() {
-        std::io::ErrorKind::NotFound => "no such file".into(),
-        std::io::ErrorKind::PermissionDenied => "permission denied".into(),
-        _ => e.to_string(),
     }
 }
 
@@ -407,6 +393,9 @@ struct DeviceFile {
 }
 
 fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
+    if field.ends_with("rotation_deg") && !v.iter().all(|x| x.abs() <= 360.0) {
+        return Err(format!("field `{field}` must be within ±360°, got {v:?}"));
+    }
     if v.iter().all(|x| x.is_finite()) {
         Ok(v)
     } else {
@@ -497,7 +486,7 @@ impl SceneFile {
             None => None,
         };
         let lm_plane = match self.lm_plane {
-            Some(p) => LmPlane::new(p.a, p.b, p.c, "field `lm_plane`").map_err(|e| e.0)?,
+            Some(p) => LmPlane::new(p.a, p.b, p.c, "lm_plane").map_err(|e| e.0)?,
             None => LmPlane::default(),
         };
         let center_mm = match self.center_mm {
@@ -506,8 +495,13 @@ impl SceneFile {
             None => d.center_mm,
         };
         let min_dwell_s = match self.min_dwell_ms {
-            Some(ms) if ms.is_finite() && ms > 0.0 => ms * 1e-3,
-            Some(ms) => return Err(format!("field `min_dwell_ms` must be > 0, got {ms}")),
+            Some(ms) if ms.is_finite() && ms > 0.0 && ms <= 1000.0 => ms * 1e-3,
+            Some(ms) => {
+                return Err(format!(
+                    "field `min_dwell_ms` must be in (0, 1000] ms, got {}",
+                    crate::limits::show(ms)
+                ));
+            }
             None => DEFAULT_MIN_DWELL_S,
         };
         let (camera, tracking) = crate::track::rig::resolve(self.camera, self.tracking)?;

@@ -144,10 +144,10 @@ impl Trajectory {
                 p.foci
             )));
         }
-        if p.foci > 1 {
-            finite_pos(p.spacing_mm, "spacing", "mm", false)?;
-            limits::in_range("spacing", p.spacing_mm, 0.0, limits::MAX_SPACING_MM, "mm")?;
-        }
+        // Checked even for one focus, where it is unused: a NaN or negative
+        // spacing is a typo, never silently ignored.
+        finite_pos(p.spacing_mm, "spacing", "mm", false)?;
+        limits::in_range("spacing", p.spacing_mm, 0.0, limits::MAX_SPACING_MM, "mm")?;
         let circumference = 2.0 * std::f64::consts::PI * p.radius_mm;
         let n = match p.steps {
             Steps::Count(n) => {

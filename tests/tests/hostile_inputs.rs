@@ -33,7 +33,17 @@ const CENTROIDS: &str = "5 wild centroids";
 const PLANS: &str = "6 silently wrong plans";
 const EXIT: &str = "7 exit codes";
 const SESSIONS: &str = "8 streaming sessions";
+const PLAY: &str = "9 play semantics";
+const SPEC: &str = "10 spec and implementation agree";
+const VALIDATION: &str = "11 one header, one validation";
+const UNTRACKED: &str = "untracked play and mute reason";
 const PAPER: &str = "paper fidelity";
+
+/// Every class the suite must cover.
+const CLASSES: [&str; 13] = [
+    DURATION, PIPE, MEMORY, WORK, CENTROIDS, PLANS, EXIT, SESSIONS, PLAY, SPEC, VALIDATION,
+    UNTRACKED, PAPER,
+];
 
 /// What a run produced, for custom checks.
 struct Run {
@@ -42,9 +52,16 @@ struct Run {
     stderr: String,
 }
 
-/// Where the fixtures and the device are.
+/// Where the fixtures and the devices are.
 struct Ctx {
     port: String,
+    /// A device of its own for the play-state cases (`{dev}`), run in order.
+    dev: String,
+    /// A device with a 10-minute centroid timeout for the work-volume
+    /// cases (`{wv}`), so a status right after a stream is not stale.
+    wv: String,
+    /// A device whose slots hold 10 steps (`{small}`).
+    small: String,
     dir: PathBuf,
     scenes: PathBuf,
 }
@@ -234,7 +251,250 @@ fn fixtures(dir: &Path) {
             + "[lm_plane]\na = [1.0, 0.0, 0.0]\nb = [0.0, 0.7071067811865476, 0.7071067811865476]\n")
             .as_bytes(),
     );
+    w(
+        "short_dwell.toml",
+        ("min_dwell_ms = 0.1\n".to_owned() + &dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
+    w(
+        "spinning.toml",
+        (dev("[0.0, 0.0, 0.0]") + "rotation_deg = [1e300, 0.0, 0.0]\n").as_bytes(),
+    );
+    w(
+        "slow_dwell.toml",
+        ("min_dwell_ms = 1e300\n".to_owned() + &dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
+    // 30 000 devices (1.3 MB) and a 2 MB comment: refused by size before
+    // parsing, like the 10^6-device file that would take 46 MB.
+    let many: String = (0..30_000)
+        .map(|i| dev(&format!("[{}.0, 0.0, 0.0]", i * 200)))
+        .collect();
+    w("many_devices.toml", many.as_bytes());
+    w(
+        "huge_comment.toml",
+        format!("# {}\n{}", "x".repeat(2 << 20), dev("[0.0, 0.0, 0.0]")).as_bytes(),
+    );
+    w("bom.csv", b"\xef\xbb\xbf0,0,0,200,1\n0.011,0,0,200,1\n");
+    w("crlf.csv", b"0,0,0,200,1\r\n0.011,0,0,200,1\r\n");
+    // Depth recordings and intrinsics for `track`.
+    let npy = |name: &str, header: &str, data: usize, len_field: Option<u16>| {
+        let mut h = header.as_bytes().to_vec();
+        while (10 + h.len() + 1) % 64 != 0 {
+            h.push(b' ');
+        }
+        h.push(b'\n');
+        let mut b = b"\x93NUMPY\x01\x00".to_vec();
+        b.extend(len_field.unwrap_or(h.len() as u16).to_le_bytes());
+        b.extend(&h);
+        b.extend(std::iter::repeat_n(0u8, data));
+        w(name, &b);
+    };
+    let hdr = |descr: &str, fortran: &str, shape: &str| {
+        format!("{{'descr': '{descr}', 'fortran_order': {fortran}, 'shape': {shape}, }}")
+    };
+    npy("ok.npy", &hdr("<u2", "False", "(2, 4, 4)"), 64, None);
+    npy(
+        "tb.npy",
+        &hdr("<u2", "False", "(1000000000, 8192, 8192)"),
+        64,
+        None,
+    );
+    npy(
+        "overflow.npy",
+        &hdr("<u2", "False", "(18446744073709551615, 8192, 8192)"),
+        0,
+        None,
+    );
+    npy("negative.npy", &hdr("<u2", "False", "(1, -4, 4)"), 32, None);
+    npy("float.npy", &hdr("<f8", "False", "(2, 4, 4)"), 256, None);
+    npy("fortran.npy", &hdr("<u2", "True", "(2, 4, 4)"), 64, None);
+    npy("truncated.npy", &hdr("<u2", "False", "(2, 4, 4)"), 40, None);
+    npy(
+        "long_tail.npy",
+        &hdr("<u2", "False", "(2, 4, 4)"),
+        100,
+        None,
+    );
+    npy(
+        "header_lie.npy",
+        &hdr("<u2", "False", "(2, 4, 4)"),
+        64,
+        Some(60_000),
+    );
+    npy(
+        "twice.npy",
+        "{'descr': '<u2', 'descr': '<f8', 'fortran_order': False, 'shape': (2, 4, 4), }",
+        64,
+        None,
+    );
+    // Time stamps with a wild gap between frame 0 and frame 1.
+    for (name, t1) in [("gap_ts.npy", 1e300f64), ("gap100k_ts.npy", 1e5)] {
+        let h = hdr("<f8", "False", "(2,)");
+        npy(name, &h, 0, None);
+        let mut b = std::fs::read(dir.join(name)).unwrap();
+        b.extend(0f64.to_le_bytes());
+        b.extend(t1.to_le_bytes());
+        w(name, &b);
+    }
+    let cam = |extra: &str| {
+        format!(
+            "width = 4\nheight = 4\nfx = 2.0\nfy = 2.0\nppx = 1.5\nppy = 1.5\ndepth_scale = 0.001\n{extra}"
+        )
+    };
+    w("cam.toml", cam("").as_bytes());
+    for (name, from, to) in [
+        ("cam_fx0.toml", "fx = 2.0", "fx = 0.0"),
+        ("cam_fxneg.toml", "fx = 2.0", "fx = -2.0"),
+        ("cam_fxhuge.toml", "fx = 2.0", "fx = 1e300"),
+        ("cam_ppx.toml", "ppx = 1.5", "ppx = 1e300"),
+        ("cam_ppy.toml", "ppy = 1.5", "ppy = -3.0"),
+        ("cam_nan.toml", "depth_scale = 0.001", "depth_scale = nan"),
+        ("cam_wide.toml", "width = 4", "width = 8"),
+        ("cam_str.toml", "fy = 2.0", "fy = \"2\""),
+    ] {
+        w(name, cam("").replace(from, to).as_bytes());
+    }
+    w("cam_dup.toml", cam("fx = 3.0\n").as_bytes());
+    w("cam_unknown.toml", cam("k1 = 0.1\n").as_bytes());
     std::fs::create_dir_all(dir.join("a_directory")).unwrap();
+    w("a_file", b"");
+}
+
+/// `track` over the depth fixture `npy` with intrinsics `cam`.
+fn track(class: &'static str, npy: &str, cam: &str) -> Case {
+    case(
+        class,
+        &format!(
+            "track --depth {{dir}}/{npy} --intrinsics {{dir}}/{cam} --scene {{scenes}}/paper.toml --fast"
+        ),
+    )
+}
+
+/// Cases on devices of their own whose state carries from case to case
+/// (play semantics, untracked play, one validation, the work volume).
+fn device_state_cases() -> Vec<Case> {
+    let at = |x: f64| {
+        csv(&[
+            &format!("0,{x},0,200,1"),
+            &format!("0.01,{x},0,200,1"),
+            &format!("0.02,{x},0,200,1"),
+        ])
+    };
+    vec![
+        // Untracked play: the device sounds without a finger, and says so.
+        case(UNTRACKED, "upload --port {dev} --freq 0.05 --untracked")
+            .ok()
+            .err("warning: playing untracked")
+            .out("playing slot 0, untracked")
+            .then("status --port {dev} --json", "\"state\":\"Playing\""),
+        // 9. Play semantics: a free slot, a queued play, no free slot.
+        case(PLAY, "upload --port {dev} --radius 2 --no-play")
+            .ok()
+            .out("to slot 1")
+            .then("status --port {dev} --json", "\"slot\":0"),
+        case(PLAY, "play --port {dev} --slot 1")
+            .ok()
+            .out("slot 1 queued for the next cycle boundary")
+            .then("status --port {dev} --json", "\"queued_slot\":1"),
+        case(PLAY, "status --port {dev}")
+            .ok()
+            .out("queued slot:      1"),
+        case(PLAY, "upload --port {dev}")
+            .code(1)
+            .err("no free slot")
+            .err("--slot N or `lmhost stop`")
+            .then("status --port {dev} --json", "\"queued_slot\":1"),
+        // The queued play is tracked: it ends the untracked session at once
+        // (the device mutes and says why), while slot 0 plays to the boundary.
+        case(PLAY, "upload --port {dev} --json")
+            .code(1)
+            .err("no free slot")
+            .then(
+                "status --port {dev} --json",
+                "\"mute_reason\":\"waiting_for_tracking\"",
+            ),
+        // 10. The device's own answers, as the spec has them.
+        case(SPEC, "play --port {dev} --slot 7").err("2 slots"),
+        case(SPEC, "play --port {dev} --slot 2 --untracked").err("2 slots"),
+        case(SPEC, "upload --port {dev} --slot 2").err("2 slots"),
+        case(UNTRACKED, "stop --port {dev}")
+            .ok()
+            .then("status --port {dev} --json", "\"mute_reason\":\"stopped\""),
+        case(UNTRACKED, "status --port {dev}")
+            .ok()
+            .out("mute reason:      stopped"),
+        case(UNTRACKED, "upload --port {dev}")
+            .ok()
+            .out("waiting for tracking")
+            .out("--untracked")
+            .then(
+                "status --port {dev} --json",
+                "\"mute_reason\":\"waiting_for_tracking\"",
+            ),
+        case(UNTRACKED, "stop --port {dev}")
+            .ok()
+            .then("status --port {dev} --json", "\"state\":\"Stopped\""),
+        case(UNTRACKED, "play --port {dev} --slot 1 --untracked")
+            .ok()
+            .err("warning: playing untracked")
+            .then("status --port {dev} --json", "\"state\":\"Playing\""),
+        case(UNTRACKED, "stop --port {dev}")
+            .ok()
+            .then("status --port {dev} --json", "\"queued_slot\":null"),
+        // 11. One header, one validation, before any byte is sent.
+        case(VALIDATION, "upload --port {dev} --max-offset 0").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset 1e9").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset nan").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset -5").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset inf").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --max-offset -0").err("(0, 100] mm"),
+        case(VALIDATION, "upload --port {dev} --freq 20 --steps 100").err("dwell"),
+        case(
+            VALIDATION,
+            "upload --port {dev} --scene {dir}/short_dwell.toml --freq 20 --steps 100",
+        )
+        .err("does not fit")
+        .err("device's minimum 1000 µs"),
+        case(VALIDATION, "upload --port {small}")
+            .err("does not fit")
+            .then("status --port {small} --json", "\"nacks\":0"),
+        case(VALIDATION, "upload --port {small} --foci 4 --slot 1")
+            .err("does not fit")
+            .then("status --port {small} --json", "\"bad_frames\":0"),
+        case(VALIDATION, "upload --port {small} --steps 10 --freq 1")
+            .ok()
+            .then("status --port {small} --json", "\"nacks\":0"),
+        case(SPEC, "play --port {small} --slot 1")
+            .code(1)
+            .err("refused play"),
+        // 5. The device's work volume: a centroid 30 mm off the planned
+        // centre is refused (muted, counted), one inside unmutes.
+        case(CENTROIDS, "upload --port {wv}")
+            .ok()
+            .out("within 20 mm of the centre"),
+        case(CENTROIDS, "stream --port {wv} --json")
+            .stdin(at(30.0))
+            .ok()
+            .out("\"outside_work_volume\":3")
+            .then(
+                "status --port {wv} --json",
+                "\"mute_reason\":\"centroid_out_of_range\"",
+            ),
+        case(CENTROIDS, "stream --port {wv}")
+            .stdin(at(-25.0))
+            .ok()
+            .out("outside")
+            .then("status --port {wv} --json", "\"state\":\"Muted\""),
+        case(CENTROIDS, "stream --port {wv} --json")
+            .stdin(at(0.0))
+            .ok()
+            .out("\"outside_work_volume\":0")
+            .then("status --port {wv} --json", "\"state\":\"Playing\""),
+        case(CENTROIDS, "stream --port {wv} --json")
+            .stdin(at(19.0))
+            .ok()
+            .out("\"outside_work_volume\":0")
+            .then("status --port {wv} --json", "\"mute_reason\":\"none\""),
+    ]
 }
 
 fn cases() -> Vec<Case> {
@@ -433,6 +693,9 @@ fn cases() -> Vec<Case> {
         case(PLANS, "plan --center 0,0,1e30").err("±2000 mm"),
         case(PLANS, "plan --center 0,0,1e12").err("±2000 mm"),
         case(PLANS, "plan --center 5000,0,200").err("±2000 mm"),
+        // A bad plan on a scene that would also warn: the error alone.
+        case(PLANS, "plan --scene {dir}/edge_on.toml --radius 1e30").err("0..=100 mm"),
+        case(PLANS, "plan --scene {dir}/edge_on.toml --center 0,0,-5").err("behind"),
         case(PLANS, "plan --center 0,0,-100").err("behind or in the plane"),
         case(PLANS, "plan --center 0,0,0").err("behind or in the plane"),
         case(PLANS, "plan --foci 2 --spacing 1e9").err("spacing"),
@@ -565,9 +828,114 @@ fn cases() -> Vec<Case> {
         .ok()
         .check(single_summary_is_true),
     ];
+    v.extend(device_state_cases());
+    v.extend([
+        // Scene files: capped in size, every number in a sane range.
+        case(MEMORY, "plan --scene {dir}/many_devices.toml").err("larger than 1048576 bytes"),
+        case(MEMORY, "plan --scene {dir}/huge_comment.toml").err("larger than 1048576 bytes"),
+        case(PLANS, "plan --scene {dir}/spinning.toml").err("±360°"),
+        case(PLANS, "plan --scene {dir}/slow_dwell.toml").err("(0, 1000] ms"),
+        // Tracker files with a byte-order mark or CRLF line ends.
+        case(EXIT, "stream --port {port} --input {dir}/bom.csv")
+            .ok()
+            .out("streamed 2 samples"),
+        case(EXIT, "stream --port {port} --input {dir}/crlf.csv")
+            .ok()
+            .out("streamed 2 samples"),
+        // Depth recordings: nothing allocated before the file's size
+        // confirms the shape; every header lie refused.
+        track(DURATION, "ok.npy", "cam.toml")
+            .ok()
+            .out("2 frames of 4×4"),
+        track(DURATION, "ok.npy", "cam.toml")
+            .arg("--timestamps")
+            .arg("{dir}/gap_ts.npy")
+            .err("frame 1")
+            .err("at most 60 s"),
+        track(DURATION, "ok.npy", "cam.toml")
+            .arg("--timestamps")
+            .arg("{dir}/gap100k_ts.npy")
+            .err("frame 1"),
+        track(DURATION, "ok.npy", "cam.toml")
+            .arg("--timestamps")
+            .arg("{dir}/gap_ts.npy")
+            .arg("--port")
+            .arg("{port}")
+            .err("frame 1"),
+        case(
+            DURATION,
+            "track --depth {dir}/ok.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --timestamps {dir}/gap100k_ts.npy",
+        )
+        .err("frame 1"),
+        track(MEMORY, "tb.npy", "cam.toml").err("truncated"),
+        track(MEMORY, "overflow.npy", "cam.toml").err("too large"),
+        track(MEMORY, "header_lie.npy", "cam.toml").err("header of 60000 bytes"),
+        track(EXIT, "negative.npy", "cam.toml").err("not a tuple of sizes"),
+        track(EXIT, "float.npy", "cam.toml").err("expected uint16"),
+        track(EXIT, "fortran.npy", "cam.toml").err("Fortran"),
+        track(EXIT, "truncated.npy", "cam.toml").err("truncated"),
+        track(EXIT, "long_tail.npy", "cam.toml").err("bytes after the data"),
+        track(EXIT, "twice.npy", "cam.toml").err("'descr' twice"),
+        track(EXIT, "a_directory", "cam.toml").err("a_directory"),
+        track(EXIT, "ok.npy", "cam_fx0.toml").err("`fx`"),
+        track(EXIT, "ok.npy", "cam_fxneg.toml").err("`fx`"),
+        track(PLANS, "ok.npy", "cam_fxhuge.toml").err("`fx`"),
+        track(PLANS, "ok.npy", "cam_ppx.toml").err("`ppx` must lie in the image"),
+        track(PLANS, "ok.npy", "cam_ppy.toml").err("`ppy` must lie in the image"),
+        track(EXIT, "ok.npy", "cam_nan.toml").err("depth_scale"),
+        track(EXIT, "ok.npy", "cam_wide.toml").err("the intrinsics say 8×4"),
+        track(EXIT, "ok.npy", "cam_str.toml").err("invalid type"),
+        track(EXIT, "ok.npy", "cam_dup.toml").err("duplicate key"),
+        track(EXIT, "ok.npy", "cam_unknown.toml").err("unknown field"),
+        track(EXIT, "ok.npy", "a_directory").err("a directory"),
+        // Output paths that cannot be written: a failed operation.
+        track(EXIT, "ok.npy", "cam.toml")
+            .arg("--record")
+            .arg("{dir}/no_such_dir/rec.npy")
+            .code(1)
+            .err("no_such_dir"),
+        track(EXIT, "ok.npy", "cam.toml")
+            .arg("--record")
+            .arg("{dir}/a_directory")
+            .code(1)
+            .err("a_directory"),
+        track(EXIT, "ok.npy", "cam.toml")
+            .arg("--plot")
+            .arg("{dir}/a_file")
+            .code(1)
+            .err("a_file"),
+        case(EXIT, "plan --out {dir}/a_directory")
+            .code(1)
+            .err("a_directory"),
+        case(
+            EXIT,
+            "simulate --plane-size 2 --plane-step 1 --out {dir}/a_file",
+        )
+        .code(1)
+        .err("a_file"),
+        track(PIPE, "ok.npy", "cam.toml")
+            .arg("--json")
+            .closed_stdout(),
+        case(PIPE, "track --synthetic --seconds 0.3 --fast").closed_stdout(),
+        case(PIPE, "upload --port {port} --no-play --slot 1").closed_stdout(),
+        // Every track number flag: NaN, inf, negative, huge.
+        case(WORK, "track --synthetic --seconds 1e30").err("--seconds"),
+        case(PLANS, "track --synthetic --noise-mm nan").err("--noise-mm"),
+        case(PLANS, "track --synthetic --holes 1.5").err("--holes"),
+        case(PLANS, "track --synthetic --z-profile 3,8 --replan-mm nan").err("--replan-mm"),
+        case(PLANS, "track --synthetic --z-profile inf,8").err("--z-profile"),
+        case(MEMORY, "track --synthetic --z-profile 3,100000000").err("--z-profile"),
+        case(EXIT, "track --synthetic --z-profile 3,8 --replan").err("--port"),
+        case(EXIT, "sim --faults ber=1e-4,ber=1e-3").err("given twice"),
+        case(WORK, "track --synthetic --enter-frames 4000000000").err("--enter-frames"),
+    ]);
     // Every plan flag with NaN: refused, never planned.
     for flag in ["--radius", "--spacing", "--freq", "--step"] {
         v.push(case(PLANS, "plan --foci 2").arg(flag).arg("NaN"));
+    }
+    // ... and with one focus, where --spacing is unused but still checked.
+    for bad in ["NaN", "inf", "-1", "1e308", "0"] {
+        v.push(case(PLANS, "plan --spacing").arg(bad).err("spacing"));
     }
     v
 }
@@ -633,6 +1001,9 @@ fn single_summary_is_true(ctx: &Ctx, _: &Run) -> Result<(), String> {
 
 fn expand(s: &str, ctx: &Ctx) -> String {
     s.replace("{port}", &ctx.port)
+        .replace("{dev}", &ctx.dev)
+        .replace("{wv}", &ctx.wv)
+        .replace("{small}", &ctx.small)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
 }
@@ -760,6 +1131,9 @@ fn judge(c: &Case, ctx: &Ctx, r: &Run) -> Vec<String> {
 #[test]
 fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let sim = Sim::start(&[]);
+    let dev = Sim::start(&[]);
+    let wv = Sim::start(&["--centroid-timeout-ms", "600000"]);
+    let small = Sim::start(&["--slot-steps", "10"]);
     let dir =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -767,6 +1141,9 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     fixtures(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
+        dev: dev.port.clone(),
+        wv: wv.port.clone(),
+        small: small.port.clone(),
         dir: dir.clone(),
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
     };
@@ -817,7 +1194,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(all.len() >= 100, "only {} cases", all.len());
-    assert_eq!(classes.len(), 9, "{classes:?}");
+    let want: BTreeSet<&str> = CLASSES.into_iter().collect();
+    assert_eq!(classes, want, "classes covered");
     assert!(
         failures.is_empty(),
         "{} of {} cases failed:\n{}",

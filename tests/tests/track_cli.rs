@@ -432,3 +432,62 @@ fn demo_tracks_synthetic_depth_frames() {
     assert_eq!(v["muting"]["muted_in_every_status_while_away"], true, "{v}");
     assert!(v["centroids"]["sent"].as_u64().unwrap() >= 170, "{v}");
 }
+
+#[test]
+fn replan_uploads_the_surface_profile_into_the_idle_slot() {
+    let d = dir("replan");
+    let cam = half_intrinsics(&d);
+    let sim = Sim::start(&[]);
+    ok(&["upload", "--port", &sim.port, "--scene", &paper()]);
+    assert_eq!(json(&["status", "--port", &sim.port, "--json"])["slot"], 0);
+    let out = ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "1.5",
+        "--fast",
+        "--scene",
+        &paper(),
+        "--intrinsics",
+        &cam,
+        "--port",
+        &sim.port,
+        "--z-profile",
+        "3,8",
+        "--replan",
+        "--replan-mm",
+        "0.2",
+    ]);
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("device re-plans: "))
+        .unwrap_or_else(|| panic!("no re-plan line: {out}"));
+    let uploaded: u64 = line["device re-plans: ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(uploaded >= 1, "{line}");
+    // The re-planned sequence went to slot 1 and plays (or is queued for
+    // the next cycle boundary); slot 0 was never written while it played.
+    let st = json(&["status", "--port", &sim.port, "--json"]);
+    assert!(
+        st["slot"] == 1 || st["queued_slot"] == 1,
+        "re-plan not in slot 1: {st}"
+    );
+    assert_eq!(st["nacks"], 0, "{st}");
+
+    // Without a port there is nothing to upload to: bad input.
+    let out = run(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "0.1",
+        "--fast",
+        "--z-profile",
+        "3,8",
+        "--replan",
+    ]);
+    one_line_error(&out, 2);
+}

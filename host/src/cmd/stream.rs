@@ -202,7 +202,10 @@ impl Args {
         let bad_datagrams = udp_counts
             .bad_datagrams
             .load(std::sync::atomic::Ordering::Relaxed);
-        let scores: Vec<_> = if self.synthetic {
+        // The filters are scored offline on the first 20 s of the same
+        // synthetic track (a property of the track, so a long session does
+        // not make the report slow); not after Ctrl-C, which asks to end now.
+        let scores: Vec<_> = if self.synthetic && !report.stopped {
             FilterKind::ALL
                 .iter()
                 .map(|k| score(*k, &track, FILTER_SCORE_S))

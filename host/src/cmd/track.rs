@@ -95,6 +95,16 @@ pub struct Args {
     /// Re-plan threshold for --z-profile (mm).
     #[arg(long, value_name = "MM", default_value_t = 0.3, requires = "z_profile")]
     replan_mm: f64,
+    /// With --port and --z-profile: when the surface profile moves more
+    /// than --replan-mm, plan the paper's LM-S circle (5 Hz, radius and
+    /// steps of --z-profile, about the scene centre) with that depth
+    /// profile, upload it into a slot that is neither playing nor queued
+    /// and play it at the next cycle boundary. Off by default: each
+    /// re-plan uploads steps × transducers bytes and holds the centroid
+    /// stream meanwhile (about 0.45 s for 100 steps × 996 transducers,
+    /// 38 kB, at 921600 baud; a pty takes milliseconds), so use it on fast links.
+    #[arg(long, requires_all = ["z_profile", "port"])]
+    replan: bool,
     /// Consecutive frames with a contact area that open the device gate.
     #[arg(long, value_name = "N", default_value_t = 2)]
     enter_frames: u32,
@@ -118,6 +128,8 @@ struct Tally {
 struct Run {
     z_profile: Option<(f64, usize, crate::track::surface::Replanner)>,
     replans: u64,
+    /// The latest re-planned profile not yet uploaded (with --replan).
+    pending: Option<std::rc::Rc<std::cell::RefCell<Option<Vec<f64>>>>>,
     src: Box<dyn FrameSource>,
     pipe: Pipeline,
     rec: Option<Recorder>,
@@ -132,6 +144,7 @@ struct Run {
     second: Tally,
     next_summary: f64,
     prev_truth: [Option<(bool, bool)>; 2],
+    prev_t_s: Option<f64>,
 }
 
 impl Run {
@@ -139,12 +152,34 @@ impl Run {
         let Some(frame) = self.src.next_frame()? else {
             return Ok(None);
         };
+        // Every source: a gap between frames is at most what a replay may
+        // sleep, so a wild time stamp is an error naming the frame, not a
+        // panic or a day-long wait (paced or not, as `stream` does).
+        let index = self.tally.frames;
+        if let Some(prev) = self.prev_t_s
+            && !(frame.t_s - prev <= crate::limits::MAX_REPLAY_GAP_S)
+        {
+            crate::bad_input!(
+                "frame {index}: time stamp {} s is {} s after the previous frame's; at most {} s between frames",
+                crate::limits::show(frame.t_s),
+                crate::limits::show(frame.t_s - prev),
+                crate::limits::MAX_REPLAY_GAP_S
+            );
+        }
+        self.prev_t_s = Some(frame.t_s);
         if let Some(r) = &mut self.rec {
             r.push(&frame)?;
         }
         if self.paced {
             let (t0, ft0) = *self.start.get_or_insert((Instant::now(), frame.t_s));
-            let due = Duration::from_secs_f64((frame.t_s - ft0).max(0.0));
+            // Finite by now: consecutive gaps are bounded above, and every
+            // source refuses non-finite or decreasing stamps.
+            let due = Duration::try_from_secs_f64((frame.t_s - ft0).max(0.0)).map_err(|_| {
+                crate::InputError::new(format!(
+                    "frame {index}: time stamp {} s cannot be replayed",
+                    crate::limits::show(frame.t_s)
+                ))
+            })?;
             if let Some(wait) = due.checked_sub(t0.elapsed()) {
                 std::thread::sleep(wait);
             }
@@ -183,6 +218,9 @@ impl Run {
         let rel = crate::track::surface::relative(&prof)?;
         let due = replan.update(&rel);
         self.replans += due as u64;
+        if let (true, Some(p)) = (due, &self.pending) {
+            *p.borrow_mut() = Some(rel.clone());
+        }
         Some((rel, due))
     }
 
@@ -249,6 +287,89 @@ impl Run {
             );
             self.next_summary = (r.t_s + 1.0).floor();
         }
+    }
+}
+
+/// Uploads re-planned depth profiles to the device (`--replan`).
+struct DeviceReplan {
+    scene: Scene,
+    params: crate::trajectory::LmParams,
+    /// Box c (mm) → LM plane c (mm): ±1, the axes being checked parallel.
+    sign: f64,
+    uploaded: u64,
+    skipped: u64,
+}
+
+impl DeviceReplan {
+    /// The paper's LM-S about the scene centre with `radius_mm` and
+    /// `steps` (checked by planning it flat once). The surface profile is
+    /// sampled on the tracking box's a–b circle, so the box must lie in the
+    /// LM plane (axes parallel within 1°).
+    fn new(scene: &Scene, rig: &Rig, radius_mm: f64, steps: usize) -> anyhow::Result<Self> {
+        let b = &rig.track_box;
+        let pl = &scene.lm_plane;
+        let cos1 = 1f64.to_radians().cos();
+        let aligned = |u: crate::scene::Vec3, v: crate::scene::Vec3| {
+            crate::scene::dot(u, v) >= cos1 * crate::scene::norm(u) * crate::scene::norm(v)
+        };
+        if !(aligned(b.axes[0], pl.a) && aligned(b.axes[1], pl.b)) {
+            crate::bad_input!(
+                "--replan needs the tracking box's first two axes along the scene's lm_plane a and b (within 1°): the surface profile is sampled in the box and planned in the LM plane"
+            );
+        }
+        let sign = crate::scene::dot(b.axes[2], pl.c).signum();
+        let mut params = crate::trajectory::LmParams::paper(scene.center_mm);
+        params.radius_mm = radius_mm;
+        params.steps = crate::trajectory::Steps::Count(steps);
+        crate::sequence::Plan::new(scene.clone(), &params, &crate::sequence::Synthesis::Linear)
+            .map_err(|e| {
+                crate::InputError::new(format!(
+                    "--replan: the circle of --z-profile cannot be planned: {e}"
+                ))
+            })?;
+        Ok(Self {
+            scene: scene.clone(),
+            params,
+            sign,
+            uploaded: 0,
+            skipped: 0,
+        })
+    }
+
+    /// Upload and queue the pending profile, if any and a slot is free
+    /// (else it stays pending for the next sample).
+    fn maybe_upload(
+        &mut self,
+        client: &mut dyn crate::backend::Backend,
+        pending: &std::cell::RefCell<Option<Vec<f64>>>,
+    ) -> anyhow::Result<()> {
+        let Some(profile) = pending.borrow().clone() else {
+            return Ok(());
+        };
+        let info = client.info().context("re-plan: reading the device info")?;
+        let st = client
+            .status()
+            .context("re-plan: reading the device status")?;
+        let Some(slot) = crate::cmd::upload::free_slot(info.slots, &st) else {
+            self.skipped += 1;
+            return Ok(());
+        };
+        let mut params = self.params.clone();
+        params.z_profile_mm = profile.iter().map(|z| z * self.sign).collect();
+        let plan = crate::sequence::Plan::new(
+            self.scene.clone(),
+            &params,
+            &crate::sequence::Synthesis::Linear,
+        )?;
+        client
+            .upload(&plan, Some(slot))
+            .with_context(|| format!("re-plan: uploading to slot {slot}"))?;
+        client
+            .play(slot, false)
+            .with_context(|| format!("re-plan: playing slot {slot}"))?;
+        *pending.borrow_mut() = None;
+        self.uploaded += 1;
+        Ok(())
     }
 }
 
@@ -391,9 +512,17 @@ impl Args {
             }
         };
         let live = src.live();
+        let replanner = match (&z_profile, self.replan) {
+            (Some((r, n, _)), true) => Some(DeviceReplan::new(&scene, &rig, *r, *n)?),
+            _ => None,
+        };
+        let pending = replanner
+            .as_ref()
+            .map(|_| std::rc::Rc::new(std::cell::RefCell::new(None)));
         let mut run = Run {
             z_profile,
             replans: 0,
+            pending: pending.clone(),
             src,
             pipe,
             rec,
@@ -408,9 +537,11 @@ impl Args {
             second: Tally::default(),
             next_summary: f64::NEG_INFINITY,
             prev_truth: [None; 2],
+            prev_t_s: None,
         };
         let started = Instant::now();
         let mut device_report = None;
+        let mut replanner = replanner;
         if device {
             // AUTD3: the default stimulus for the scene is uploaded and
             // played first, and the array is left silent at the end.
@@ -436,7 +567,10 @@ impl Args {
                 &mut Passthrough,
                 |p| scene.drive_point(p),
                 pace,
-                |_, _, _| Ok(()),
+                |client, _, _| match (&mut replanner, &pending) {
+                    (Some(r), Some(p)) => r.maybe_upload(client, p),
+                    _ => Ok(()),
+                },
             )
             .map_err(|e| {
                 if e.downcast_ref::<crate::InputError>().is_some() {
@@ -504,6 +638,12 @@ impl Args {
             out(format!(
                 "surface depth profile: {} re-plans above {} mm in {} frames",
                 run.replans, self.replan_mm, t.frames
+            ));
+        }
+        if let Some(r) = &replanner {
+            out(format!(
+                "device re-plans: {} uploaded and played, {} skipped while no slot was free",
+                r.uploaded, r.skipped
             ));
         }
         if let Some((r, where_)) = device_report {

@@ -74,13 +74,13 @@ pub struct Args {
 
 /// The slot an upload without `--slot` writes: one that neither plays nor
 /// is queued, preferring one other than the last played.
-pub fn free_slot(info: &Info, status: &Status) -> Option<u8> {
+pub fn free_slot(slots: u8, status: &Status) -> Option<u8> {
     let playing = match status.state {
         DeviceState::Playing | DeviceState::Muted => status.slot,
         _ => None,
     };
     let busy = |s: u8| playing == Some(s) || status.queued_slot == Some(s);
-    let free = || (0..info.slots).filter(|s| !busy(*s));
+    let free = || (0..slots).filter(|s| !busy(*s));
     free()
         .find(|s| Some(*s) != status.slot)
         .or_else(|| free().next())
@@ -355,19 +355,22 @@ mod tests {
     fn free_slot_is_neither_playing_nor_queued() {
         use DeviceState::*;
         let i = info(2);
-        assert_eq!(free_slot(&i, &status(Idle, None, None)), Some(0));
-        assert_eq!(free_slot(&i, &status(Playing, Some(0), None)), Some(1));
-        assert_eq!(free_slot(&i, &status(Muted, Some(1), None)), Some(0));
-        assert_eq!(free_slot(&i, &status(Playing, Some(0), Some(1))), None);
+        assert_eq!(free_slot(i.slots, &status(Idle, None, None)), Some(0));
+        assert_eq!(free_slot(i.slots, &status(Playing, Some(0), None)), Some(1));
+        assert_eq!(free_slot(i.slots, &status(Muted, Some(1), None)), Some(0));
+        assert_eq!(free_slot(i.slots, &status(Playing, Some(0), Some(1))), None);
         // Stopped: every slot is free; prefer the one not played last.
-        assert_eq!(free_slot(&i, &status(Stopped, Some(0), None)), Some(1));
+        assert_eq!(free_slot(i.slots, &status(Stopped, Some(0), None)), Some(1));
         assert_eq!(
-            free_slot(&info(1), &status(Stopped, Some(0), None)),
+            free_slot(info(1).slots, &status(Stopped, Some(0), None)),
             Some(0)
         );
-        assert_eq!(free_slot(&info(1), &status(Playing, Some(0), None)), None);
         assert_eq!(
-            free_slot(&info(3), &status(Playing, Some(0), Some(1))),
+            free_slot(info(1).slots, &status(Playing, Some(0), None)),
+            None
+        );
+        assert_eq!(
+            free_slot(info(3).slots, &status(Playing, Some(0), Some(1))),
             Some(2)
         );
     }

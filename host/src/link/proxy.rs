@@ -34,10 +34,15 @@ impl FromStr for Faults {
     /// `ber=1e-4,drop=1e-5,dup=1e-5,truncate=1e-6,cut=50000` (any subset).
     fn from_str(s: &str) -> Result<Self, String> {
         let mut f = Faults::default();
+        let mut seen: Vec<&str> = Vec::new();
         for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             let (k, v) = part
                 .split_once('=')
                 .ok_or_else(|| format!("fault `{part}` must look like name=value"))?;
+            if seen.contains(&k) {
+                return Err(format!("fault `{k}` is given twice"));
+            }
+            seen.push(k);
             if k == "cut" {
                 f.cut_after = Some(
                     v.parse()

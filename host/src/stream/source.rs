@@ -33,6 +33,12 @@ fn yes() -> bool {
 /// Parse one line; `Ok(None)` for blank lines, comments and a CSV header.
 /// `line_no` (1-based) goes into the error message.
 pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputError> {
+    // A UTF-8 byte-order mark (spreadsheet exports) opens the first line
+    // only; anywhere else it is an invisible stray character and refused.
+    let line = match line_no {
+        1 => line.strip_prefix('\u{feff}').unwrap_or(line),
+        _ => line,
+    };
     let line = line.trim();
     if line.is_empty() || line.starts_with('#') {
         return Ok(None);
@@ -338,6 +344,11 @@ mod tests {
             }
         );
         assert_eq!(parse_line("t,x,y,z,present", 1).unwrap(), None);
+        assert_eq!(
+            parse_line("\u{feff}0.5,1,2,3,0", 1).unwrap(),
+            parse_line("0.5,1,2,3,0", 1).unwrap()
+        );
+        assert!(parse_line("\u{feff}0.5,1,2,3,0", 2).is_err());
         assert_eq!(parse_line("  # note", 1).unwrap(), None);
     }
 

@@ -38,6 +38,10 @@ pub struct Intrinsics {
     pub depth_scale: f64,
 }
 
+/// Largest accepted focal length (pixels): a 8192-pixel-wide sensor
+/// behind a lens with a 0.5° field of view.
+pub const MAX_FOCAL_PX: f64 = 1e6;
+
 impl Intrinsics {
     /// A D435 depth stream at 848 × 480 (≈ 87° horizontal field of view) with
     /// 100 µm depth units (the D4xx's depth units are settable; the
@@ -86,16 +90,23 @@ impl Intrinsics {
             )));
         }
         for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
-            if !(v.is_finite() && v > 0.0) {
+            if !(v.is_finite() && v > 0.0 && v <= MAX_FOCAL_PX) {
                 return Err(InputError::new(format!(
-                    "intrinsics {origin}: `{name}` must be a positive number, got {v}"
+                    "intrinsics {origin}: `{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {}",
+                    crate::limits::show(v)
                 )));
             }
         }
-        for (name, v) in [("ppx", self.ppx), ("ppy", self.ppy)] {
-            if !v.is_finite() {
+        // The principal point lies in the image (a camera's optical axis
+        // meets its sensor); elsewhere is a typo, never a real camera.
+        for (name, v, side) in [
+            ("ppx", self.ppx, self.width),
+            ("ppy", self.ppy, self.height),
+        ] {
+            if !(v.is_finite() && (0.0..=f64::from(side)).contains(&v)) {
                 return Err(InputError::new(format!(
-                    "intrinsics {origin}: `{name}` must be finite, got {v}"
+                    "intrinsics {origin}: `{name}` must lie in the image, 0..={side} pixels, got {}",
+                    crate::limits::show(v)
                 )));
             }
         }
@@ -122,17 +133,7 @@ impl Intrinsics {
 
     /// Read and check a file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            InputError::new(format!(
-                "cannot read intrinsics {}: {}",
-                path.display(),
-                if e.kind() == std::io::ErrorKind::NotFound {
-                    "no such file"
-                } else {
-                    "read error"
-                }
-            ))
-        })?;
+        let text = crate::limits::read_text_file("intrinsics", path)?;
         Self::from_toml(&text, &path.display().to_string())
     }
 

@@ -70,6 +70,11 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
     r.read_exact(&mut h)
         .map_err(|_| bad(path, "truncated .npy header"))?;
     let text = std::str::from_utf8(&h).map_err(|_| bad(path, ".npy header is not text"))?;
+    for key in ["descr", "fortran_order", "shape"] {
+        if text.matches(&format!("'{key}'")).count() > 1 {
+            return Err(bad(path, format!(".npy header gives '{key}' twice")));
+        }
+    }
     let descr = dict_value(text, "descr")
         .and_then(|v| v.strip_prefix('\'').and_then(|v| v.split('\'').next()))
         .ok_or_else(|| bad(path, ".npy header has no 'descr'"))?
@@ -110,6 +115,11 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
 /// The text after `'key':` in a Python dict literal.
 fn dict_value<'a>(text: &'a str, key: &str) -> Option<&'a str> {
     let pat = format!("'{key}'");
+    // A key given twice is ambiguous (Python keeps the last, a careless
+    // reader the first): treated as missing, so the header is refused.
+    if text.matches(&pat).count() != 1 {
+        return None;
+    }
     let at = text.find(&pat)? + pat.len();
     Some(text[at..].trim_start().strip_prefix(':')?.trim_start())
 }
