@@ -8,7 +8,8 @@ use lm_proto::UploadHeader;
 use lm_proto::codec::{self, CodecError, Encoding};
 
 use crate::error::InputError;
-use crate::scene::{Scene, Vec3};
+use crate::geom::Vec3;
+use crate::scene::Scene;
 use crate::synth::fast::{PhasorTable, Scratch, SynthPlan};
 use crate::synth::{Weight, quantise_turns, solver};
 use crate::trajectory::{LmParams, Trajectory};

@@ -173,10 +173,10 @@ impl Run {
         let (radius, steps, replan) = self.z_profile.as_mut()?;
         let c = r.centroid_mm()?;
         let tb = &self.pipe.tracker.rig().track_box;
-        let rel = crate::scene::sub(c, tb.center_mm);
+        let rel = crate::geom::sub(c, tb.center_mm);
         let ab = [
-            crate::scene::dot(tb.axes[0], rel),
-            crate::scene::dot(tb.axes[1], rel),
+            crate::geom::dot(tb.axes[0], rel),
+            crate::geom::dot(tb.axes[1], rel),
         ];
         let prof =
             crate::track::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);

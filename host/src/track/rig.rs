@@ -20,7 +20,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::scene::{Scene, Vec3, add, cross, dot, norm, scale, sub};
+use crate::geom::{Vec3, add, cross, dot, norm, scale, sub};
+use crate::scene::Scene;
 
 /// Tolerance on unit length and orthogonality of given axes.
 pub const AXIS_TOL: f64 = 1e-6;

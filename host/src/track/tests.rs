@@ -7,8 +7,9 @@ use super::rig::Rig;
 use super::source::{FrameSource, Replay};
 use super::synth::{FingerSim, background_of};
 use super::{FrameResult, Pipeline};
+use crate::geom::{add, scale};
 use crate::rng::SplitMix64;
-use crate::scene::{Scene, add, scale};
+use crate::scene::Scene;
 use crate::stream::filter::FilterKind;
 
 fn paper() -> Scene {
@@ -116,7 +117,7 @@ fn finger_at_the_box_edge() {
     );
     let c = half.centroid_mm.unwrap();
     assert!(tb.contains(c), "centroid inside the box");
-    let along = crate::scene::dot(tb.axes[0], crate::scene::sub(c, tb.center_mm));
+    let along = crate::geom::dot(tb.axes[0], crate::geom::sub(c, tb.center_mm));
     assert!(along > 1.0, "centroid moves towards the edge: {along}");
     let r = reference(&intr, &rig, &f);
     assert_eq!(r.points, half.points);
@@ -172,8 +173,8 @@ fn a_second_object_in_the_box() {
         both.centroid_mm.unwrap(),
         1e-9
     ));
-    let shift = crate::scene::sub(both.centroid_mm.unwrap(), finger.centroid_mm.unwrap());
-    assert!(crate::scene::dot(shift, tb.axes[0]) < 0.0);
+    let shift = crate::geom::sub(both.centroid_mm.unwrap(), finger.centroid_mm.unwrap());
+    assert!(crate::geom::dot(shift, tb.axes[0]) < 0.0);
 }
 
 #[test]
