@@ -4,7 +4,7 @@
 use core::fmt;
 
 use crate::codec::Encoding;
-use crate::frame::EncodeError;
+use crate::error::EncodeError;
 use crate::header::{DeviceLimits, HeaderError, UploadHeader};
 use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN, len};
 
