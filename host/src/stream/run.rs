@@ -11,7 +11,8 @@ use super::Sample;
 use super::filter::Filter;
 use super::gate::{Gate, GateCounts};
 use crate::clock::monotonic_us;
-use crate::link::{Client, LinkError, Transport, mm_to_um};
+use crate::link::{Client, LinkError, Transport};
+use crate::units::mm_to_um;
 
 /// Set by SIGINT/SIGTERM in `lmhost stream` (see [`install_stop_signals`]).
 static STOP: AtomicBool = AtomicBool::new(false);

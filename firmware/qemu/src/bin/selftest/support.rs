@@ -3,7 +3,7 @@
 
 use core::ptr::addr_of_mut;
 
-use lm_fw_core::{Device, Frame, OutputDriver};
+use lm_fw_core::{Device, OutputDriver, OutputFrame};
 use lm_fw_qemu::{ARRAY_TRANSDUCERS, STORE_BYTES, Timer, config};
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, Geometry, MAX_CHUNK,
@@ -156,7 +156,7 @@ impl<'t> Recorder<'t> {
 
 impl OutputDriver for Recorder<'_> {
     type Error = core::convert::Infallible;
-    fn write_frame(&mut self, f: &Frame<'_>) -> Result<(), Self::Error> {
+    fn write_frame(&mut self, f: &OutputFrame<'_>) -> Result<(), Self::Error> {
         let written = self.timer.now();
         if self.n < self.due.len() {
             self.due[self.n] = f.due;
