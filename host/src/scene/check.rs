@@ -8,7 +8,7 @@ use crate::units;
 use super::file::{PoseFile, SceneFile};
 use super::{DEFAULT_MIN_DWELL_S, Device, LmPlane, Reflector, Scene, unit};
 
-fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
+pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(v)
     } else {
@@ -112,7 +112,7 @@ impl SceneFile {
             Some(ms) => return Err(format!("field `min_dwell_ms` must be > 0, got {ms}")),
             None => DEFAULT_MIN_DWELL_S,
         };
-        let (camera, tracking) = crate::track::rig::resolve(self.camera, self.tracking)?;
+        let (camera, tracking) = super::rig::resolve(self.camera, self.tracking)?;
         Ok(Scene {
             camera,
             tracking,

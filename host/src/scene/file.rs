@@ -45,8 +45,8 @@ pub(super) struct SceneFile {
     pub(super) rig: Option<PoseFile>,
     #[serde(default)]
     pub(super) device: Vec<DeviceFile>,
-    pub(super) camera: Option<crate::track::rig::CameraFile>,
-    pub(super) tracking: Option<crate::track::rig::TrackingFile>,
+    pub(super) camera: Option<super::rig::CameraFile>,
+    pub(super) tracking: Option<super::rig::TrackingFile>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -50,12 +50,14 @@
 //! each point (paper eq. 6), so after reflection the focus lands on it.
 //!
 //! One concern per file: the placed parts (`parts`: devices, reflector, LM
-//! plane), the TOML schema (`file`) and its checks (`check`); the vector maths
+//! plane), the depth camera and detection box (`rig`), the TOML schema
+//! (`file`) and its checks (`check`); the vector maths
 //! is [`crate::geom`]'s.
 
 mod check;
 mod file;
 mod parts;
+pub mod rig;
 #[cfg(test)]
 mod tests;
 
@@ -100,9 +102,9 @@ pub struct Scene {
     /// Shortest dwell per step the device accepts (s).
     pub min_dwell_s: f64,
     /// Depth camera pose (`[camera]`), for `lmhost track`.
-    pub camera: Option<crate::track::rig::CameraPose>,
+    pub camera: Option<rig::CameraPose>,
     /// Detection box (`[tracking]`), for `lmhost track`.
-    pub tracking: Option<crate::track::rig::TrackBox>,
+    pub tracking: Option<rig::TrackBox>,
 }
 
 impl Default for Scene {
