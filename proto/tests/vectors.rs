@@ -165,23 +165,8 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 mute_reason: MuteReason::None,
             }),
         ),
-        "status_idle" => (
-            15,
-            Message::Status(Status {
-                state: DeviceState::Idle,
-                slot: None,
-                step: 0,
-                cycles: 0,
-                missed_deadlines: 0,
-                last_centroid_seq: 0,
-                bad_frames: 0,
-                crc_errors: 0,
-                nacks: 0,
-                correction_um: [0, 0, 0],
-                queued_slot: None,
-                mute_reason: MuteReason::None,
-            }),
-        ),
+        // A device fresh from reset.
+        "status_idle" => (15, Message::Status(Status::default())),
         "status_muted" => (
             15,
             Message::Status(Status {

@@ -14,6 +14,28 @@ use crate::sequence::Plan;
 /// Radii of the `--compare` grid (the paper's conditions).
 pub const COMPARE_RADII_MM: [f64; 5] = [2.0, 3.0, 4.0, 5.0, 6.0];
 
+/// A map of [`FieldMaps`].
+type Pick = fn(&FieldMaps) -> &Vec<f64>;
+
+/// The maps the comparison shows: file and summary key, title, unit, the
+/// summary key of its per-panel normalisation, the map.
+const COMPARE_MAPS: [(&str, &str, &str, &str, Pick); 2] = [
+    (
+        "mean_pressure",
+        "Time-averaged radiation pressure",
+        "Pa",
+        "normalisation_pa",
+        |m| &m.mean_pressure_pa,
+    ),
+    (
+        "lm_power",
+        "Radiation-pressure power at the LM frequency",
+        "Pa²",
+        "normalisation_pa2",
+        |m| &m.lm_power_pa2,
+    ),
+];
+
 /// Plans (with `plan_for(foci, radius_mm)`) and simulates LM-S and LM-M
 /// with `multi` foci at every radius of [`COMPARE_RADII_MM`], and writes the
 /// grid figures (shared scale and each panel on its own peak), two maps per
@@ -35,20 +57,8 @@ pub fn compare(
     }
     let plane = sims[0].3.plane;
     let mut summary = Vec::new();
-    for (stem, title, unit, pick) in [
-        (
-            "compare_mean_pressure",
-            "Time-averaged radiation pressure",
-            "Pa",
-            (|m: &FieldMaps| &m.mean_pressure_pa) as fn(&FieldMaps) -> &Vec<f64>,
-        ),
-        (
-            "compare_lm_power",
-            "Radiation-pressure power at the LM frequency",
-            "Pa²",
-            |m: &FieldMaps| &m.lm_power_pa2,
-        ),
-    ] {
+    for (key, title, unit, _, pick) in COMPARE_MAPS {
+        let stem = format!("compare_{key}");
         let panels: Vec<Panel> = sims
             .iter()
             .map(|(kind, r, plan, sim)| Panel {
@@ -102,40 +112,25 @@ pub fn compare(
     }
     for (kind, r, plan, sim) in &sims {
         let stem = format!("{}_{r}mm", kind.to_lowercase().replace('-', ""));
-        npy::write_f64(
-            &out.join(format!("{stem}_mean_pressure.npy")),
-            sim.maps.nv,
-            sim.maps.nu,
-            &sim.maps.mean_pressure_pa,
-        )?;
-        npy::write_f64(
-            &out.join(format!("{stem}_lm_power.npy")),
-            sim.maps.nv,
-            sim.maps.nu,
-            &sim.maps.lm_power_pa2,
-        )?;
         let mut s = sim.summary_json(plan, view, *r);
         s["stem"] = json!(stem);
         // Name only the files this run wrote.
-        let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
-        s["maps"] = json!({
-            "mean_pressure": {
-                "title": "Time-averaged radiation pressure", "unit": "Pa",
-                "npy": format!("{stem}_mean_pressure.npy"),
-                "png": "compare_mean_pressure.png",
-                "png_normalised": "compare_mean_pressure_normalised.png",
-                "peak": sim.peak_json(&sim.maps.mean_pressure_pa),
-                "normalisation_pa": pk(&sim.maps.mean_pressure_pa),
-            },
-            "lm_power": {
-                "title": "Radiation-pressure power at the LM frequency", "unit": "Pa²",
-                "npy": format!("{stem}_lm_power.npy"),
-                "png": "compare_lm_power.png",
-                "png_normalised": "compare_lm_power_normalised.png",
-                "peak": sim.peak_json(&sim.maps.lm_power_pa2),
-                "normalisation_pa2": pk(&sim.maps.lm_power_pa2),
-            },
-        });
+        let mut maps = serde_json::Map::new();
+        for (key, title, unit, norm_key, pick) in COMPARE_MAPS {
+            let map = pick(&sim.maps);
+            let npy_name = format!("{stem}_{key}.npy");
+            npy::write_f64(&out.join(&npy_name), sim.maps.nv, sim.maps.nu, map)?;
+            let mut m = json!({
+                "title": title, "unit": unit,
+                "npy": npy_name,
+                "png": format!("compare_{key}.png"),
+                "png_normalised": format!("compare_{key}_normalised.png"),
+                "peak": sim.peak_json(map),
+            });
+            m[norm_key] = json!(field::peak(map).map_or(0.0, |p| p.1));
+            maps.insert(key.to_string(), m);
+        }
+        s["maps"] = serde_json::Value::Object(maps);
         summary.push(s);
         println!(
             "{kind} A = {r} mm: {}",
