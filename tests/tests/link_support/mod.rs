@@ -70,6 +70,14 @@ pub fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("{args:?}: bad JSON {e}: {text}"))
 }
 
+/// `lmhost upload --port <port> <extra…> --json`, parsed.
+pub fn upload_json(port: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["upload", "--port", port];
+    args.extend_from_slice(extra);
+    args.push("--json");
+    json(&args)
+}
+
 /// Run `lmhost stream --port <port> <extra…>` with `input` on stdin, to
 /// completion (stdout and stderr captured).
 pub fn stream_stdin(port: &str, extra: &[&str], input: &str) -> Output {
