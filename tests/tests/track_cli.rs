@@ -49,6 +49,25 @@ fn synthetic(cam: &str, seconds: &str, extra: &[&str]) -> String {
     ok(&args)
 }
 
+fn depth_args<'a>(rec: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["track", "--depth", rec];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// `lmhost track --depth <rec> <extra…>`: its one-line input error.
+fn depth_error(rec: &str, extra: &[&str]) -> String {
+    one_line_error(&run(&depth_args(rec, extra)), 2)
+}
+
+/// `lmhost track --depth <rec> --scene <paper> --fast --json <extra…>`: its stdout.
+fn depth_json(rec: &str, extra: &[&str]) -> String {
+    let scene = paper();
+    let mut args = depth_args(rec, &["--scene", &scene, "--fast", "--json"]);
+    args.extend_from_slice(extra);
+    ok(&args)
+}
+
 fn lines(out: &str) -> Vec<serde_json::Value> {
     out.lines()
         .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
@@ -107,29 +126,17 @@ fn a_synthetic_recording_replays_to_the_same_results() {
     assert!(d.join("rec.intrinsics.toml").exists());
     assert!(d.join("rec.timestamps.npy").exists());
     // Intrinsics and time stamps found beside the recording.
-    let replay = ok(&[
-        "track",
-        "--depth",
-        &rec_s,
-        "--scene",
-        &paper(),
-        "--fast",
-        "--json",
-    ]);
+    let replay = depth_json(&rec_s, &[]);
     // And given explicitly.
-    let explicit = ok(&[
-        "track",
-        "--depth",
+    let explicit = depth_json(
         &rec_s,
-        "--scene",
-        &paper(),
-        "--fast",
-        "--json",
-        "--intrinsics",
-        &d.join("rec.intrinsics.toml").display().to_string(),
-        "--timestamps",
-        &d.join("rec.timestamps.npy").display().to_string(),
-    ]);
+        &[
+            "--intrinsics",
+            &d.join("rec.intrinsics.toml").display().to_string(),
+            "--timestamps",
+            &d.join("rec.timestamps.npy").display().to_string(),
+        ],
+    );
     let (a, b, c) = (lines(&live), lines(&replay), lines(&explicit));
     assert_eq!(a.len(), 108);
     assert_eq!(b.len(), a.len());
@@ -271,7 +278,7 @@ fn bad_recordings_and_flags_are_one_line_errors() {
     // Truncated.
     let b = std::fs::read(&rec).unwrap();
     std::fs::write(&rec, &b[..b.len() - 7]).unwrap();
-    let err = one_line_error(&run(&["track", "--depth", &rec_s, "--scene", &paper()]), 2);
+    let err = depth_error(&rec_s, &["--scene", &paper()]);
     assert!(err.contains("truncated"), "{err}");
     // Wrong dtype.
     let mut f8 = b"\x93NUMPY\x01\x00".to_vec();
@@ -281,18 +288,7 @@ fn bad_recordings_and_flags_are_one_line_errors() {
     f8.extend_from_slice(h.as_bytes());
     f8.extend_from_slice(&[0; 32]);
     std::fs::write(&rec, &f8).unwrap();
-    let err = one_line_error(
-        &run(&[
-            "track",
-            "--depth",
-            &rec_s,
-            "--scene",
-            &paper(),
-            "--intrinsics",
-            &cam,
-        ]),
-        2,
-    );
+    let err = depth_error(&rec_s, &["--scene", &paper(), "--intrinsics", &cam]);
     assert!(err.contains("uint16"), "{err}");
     // Intrinsics that do not match the frames.
     std::fs::write(&rec, &b).unwrap();
@@ -302,17 +298,14 @@ fn bad_recordings_and_flags_are_one_line_errors() {
         "width = 848\nheight = 480\nfx = 426.0\nfy = 426.0\nppx = 423.5\nppy = 239.5\ndepth_scale = 0.0001\n",
     )
     .unwrap();
-    let err = one_line_error(
-        &run(&[
-            "track",
-            "--depth",
-            &rec_s,
+    let err = depth_error(
+        &rec_s,
+        &[
             "--scene",
             &paper(),
             "--intrinsics",
             &full.display().to_string(),
-        ]),
-        2,
+        ],
     );
     assert!(err.contains("intrinsics say 848×480"), "{err}");
     // No source, two sources, a scene without [tracking].
@@ -323,16 +316,7 @@ fn bad_recordings_and_flags_are_one_line_errors() {
     );
     let flat = d.join("flat.toml");
     std::fs::write(&flat, "[[device]]\ncenter_mm = [0, 0, 0]\n").unwrap();
-    let err = one_line_error(
-        &run(&[
-            "track",
-            "--depth",
-            &rec_s,
-            "--scene",
-            &flat.display().to_string(),
-        ]),
-        2,
-    );
+    let err = depth_error(&rec_s, &["--scene", &flat.display().to_string()]);
     assert!(err.contains("[camera]"), "{err}");
 }
 

@@ -102,25 +102,20 @@ fn frame_case(scene: &Scene, plan: &SynthPlan, traj: &Trajectory, opts: &Options
     }
     let (b, r) = if opts.quick { (3, 20) } else { (15, 400) };
     let mut j = 0;
-    let fast = time_per_call(b, r, || {
-        plan.foci(
-            traj.drive_step(j % traj.steps),
-            None,
-            &mut scratch,
-            &mut out,
-        );
-        j += 1;
-    });
-    let portable_plan = plan.clone().portable();
-    let portable = time_per_call(b, r, || {
-        portable_plan.foci(
-            traj.drive_step(j % traj.steps),
-            None,
-            &mut scratch,
-            &mut out,
-        );
-        j += 1;
-    });
+    // The chosen kernels, then the portable ones, on the same steps.
+    let mut time_plan = |p: &SynthPlan| {
+        time_per_call(b, r, || {
+            p.foci(
+                traj.drive_step(j % traj.steps),
+                None,
+                &mut scratch,
+                &mut out,
+            );
+            j += 1;
+        })
+    };
+    let fast = time_plan(&plan);
+    let portable = time_plan(&plan.clone().portable());
     let mut q = vec![0u8; t];
     let reference = time_per_call(b, r / 10, || {
         reference::frame_u8(
