@@ -70,6 +70,16 @@ pub fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("{args:?}: bad JSON {e}: {text}"))
 }
 
+/// The JSON stdout of a run that must have succeeded.
+pub fn success_json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON on stdout")
+}
+
 /// `lmhost upload --port <port> <extra…> --json`, parsed.
 pub fn upload_json(port: &str, extra: &[&str]) -> serde_json::Value {
     let mut args = vec!["upload", "--port", port];
