@@ -55,6 +55,24 @@ fn depth_args<'a>(rec: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     args
 }
 
+/// A fresh directory `name` with half-size intrinsics, and `seconds` of the
+/// synthetic finger recorded into `file` there: (directory, intrinsics,
+/// recording, stdout).
+fn recorded(
+    name: &str,
+    file: &str,
+    seconds: &str,
+    extra: &[&str],
+) -> (PathBuf, String, String, String) {
+    let d = dir(name);
+    let cam = half_intrinsics(&d);
+    let rec = d.join(file).display().to_string();
+    let mut args = vec!["--record", rec.as_str()];
+    args.extend_from_slice(extra);
+    let out = synthetic(&cam, seconds, &args);
+    (d, cam, rec, out)
+}
+
 /// `lmhost track --depth <rec> <extra…>`: its one-line input error.
 fn depth_error(rec: &str, extra: &[&str]) -> String {
     one_line_error(&run(&depth_args(rec, extra)), 2)
@@ -118,11 +136,7 @@ fn synthetic_frames_give_one_json_object_per_frame() {
 
 #[test]
 fn a_synthetic_recording_replays_to_the_same_results() {
-    let d = dir("replay");
-    let cam = half_intrinsics(&d);
-    let rec = d.join("rec.npy");
-    let rec_s = rec.display().to_string();
-    let live = synthetic(&cam, "1.2", &["--json", "--record", &rec_s]);
+    let (d, _, rec_s, live) = recorded("replay", "rec.npy", "1.2", &["--json"]);
     assert!(d.join("rec.intrinsics.toml").exists());
     assert!(d.join("rec.timestamps.npy").exists());
     // Intrinsics and time stamps found beside the recording.
@@ -270,11 +284,8 @@ fn plot_writes_a_png_of_a_frame_with_the_contact_area() {
 
 #[test]
 fn bad_recordings_and_flags_are_one_line_errors() {
-    let d = dir("bad");
-    let cam = half_intrinsics(&d);
-    let rec = d.join("r.npy");
-    let rec_s = rec.display().to_string();
-    synthetic(&cam, "0.1", &["--record", &rec_s]);
+    let (d, cam, rec_s, _) = recorded("bad", "r.npy", "0.1", &[]);
+    let rec = Path::new(&rec_s);
     // Truncated.
     let b = std::fs::read(&rec).unwrap();
     std::fs::write(&rec, &b[..b.len() - 7]).unwrap();

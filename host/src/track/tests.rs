@@ -80,22 +80,25 @@ fn empty_box() {
     assert_eq!((c.points, c.centroid_mm), (0, None));
 }
 
+/// Every pixel at `depth`: tracked by the fast path and the reference,
+/// both must find nothing in the box.
+fn uniform_frame_is_empty(depth: u16) {
+    let (_, rig, intr, tr) = setup();
+    let f = vec![depth; (intr.width * intr.height) as usize];
+    let c = tr.track(&f);
+    assert_eq!((c.points, c.centroid_mm), (0, None), "depth {depth}");
+    assert_eq!(reference(&intr, &rig, &f).points, 0, "depth {depth}");
+}
+
 #[test]
 fn all_zero_frame() {
-    let (_, _, intr, tr) = setup();
-    let f = vec![0u16; (intr.width * intr.height) as usize];
-    let c = tr.track(&f);
-    assert_eq!((c.points, c.centroid_mm), (0, None));
+    uniform_frame_is_empty(0);
 }
 
 #[test]
 fn saturated_depth_65535() {
-    let (_, rig, intr, tr) = setup();
-    let f = vec![65535u16; (intr.width * intr.height) as usize];
-    let c = tr.track(&f);
     // 6.5 m away: nothing inside the box, a defined empty result.
-    assert_eq!((c.points, c.centroid_mm), (0, None));
-    assert_eq!(reference(&intr, &rig, &f).points, 0);
+    uniform_frame_is_empty(65535);
 }
 
 #[test]
