@@ -14,7 +14,7 @@ use lm_proto::codec::Encoding;
 use lmhost::scene::Scene;
 use lmhost::sequence::{Sequence, SynthWorkspace, Synthesis};
 use lmhost::synth::fast::SynthPlan;
-use lmhost::synth::reference;
+use lmhost::synth::{quantise_turns, reference};
 use lmhost::trajectory::{LmParams, Trajectory};
 
 fn lm(foci: usize) -> (Scene, Trajectory) {
@@ -44,12 +44,13 @@ fn frames(c: &mut Criterion) {
         g.bench_function("reference_f64", |b| {
             b.iter(|| {
                 j = (j + 1) % t.steps;
-                reference::frame_u8(
+                reference::frame_with(
                     plan.positions(),
                     black_box(t.drive_step(j)),
                     None,
                     kappa,
                     &mut out,
+                    quantise_turns,
                 );
             })
         });

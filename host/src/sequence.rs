@@ -8,10 +8,12 @@ use lm_proto::UploadHeader;
 use lm_proto::codec::{self, CodecError, Encoding};
 
 use crate::error::InputError;
-use crate::scene::{Scene, Vec3};
+use crate::geom::Vec3;
+use crate::scene::Scene;
 use crate::synth::fast::{PhasorTable, Scratch, SynthPlan};
 use crate::synth::{Weight, quantise_turns, solver};
 use crate::trajectory::{LmParams, Trajectory};
+use crate::units;
 
 /// Default work volume (mm): the largest distance from the planned centre
 /// a device steers a tracked centroid to (`--max-offset`).
@@ -67,50 +69,6 @@ pub struct Sequence {
     pub header: UploadHeader,
     /// Phases, `phases[j * T + n]` for step `j`, transducer `n`.
     pub phases: Vec<u8>,
-}
-
-/// Speed of sound in m/s to the wire's rounded mm/s, or an error outside
-/// the range a device accepts ([`lm_proto::SOUND_SPEED_MM_S`]).
-pub fn sound_speed_mm_s(sound_speed_m_s: f64) -> Result<u32, InputError> {
-    let mm_s = (sound_speed_m_s * 1000.0).round();
-    let range = lm_proto::SOUND_SPEED_MM_S;
-    if !(mm_s >= f64::from(*range.start()) && mm_s <= f64::from(*range.end())) {
-        return Err(InputError::new(format!(
-            "speed of sound {sound_speed_m_s} m/s is outside the {}-{} m/s a device accepts",
-            range.start() / 1000,
-            range.end() / 1000
-        )));
-    }
-    Ok(mm_s as u32)
-}
-
-/// A work volume in mm to the wire's µm, or an error outside the
-/// (0, 100] mm a device accepts ([`lm_proto::MAX_OFFSET_UM`]).
-pub fn max_offset_um(max_offset_mm: f64) -> Result<u32, InputError> {
-    let um = (max_offset_mm * 1000.0).round();
-    let range = lm_proto::MAX_OFFSET_UM;
-    if !(max_offset_mm > 0.0 && um <= f64::from(*range.end()) && um >= f64::from(*range.start())) {
-        return Err(InputError::new(format!(
-            "work volume (--max-offset) {max_offset_mm} mm is outside (0, {}] mm",
-            range.end() / 1000
-        )));
-    }
-    Ok(um as u32)
-}
-
-/// Millimetres to rounded micrometres, or an error when out of i32 range.
-pub fn mm_to_um(v: Vec3) -> Result<[i32; 3], InputError> {
-    let mut o = [0i32; 3];
-    for (o, x) in o.iter_mut().zip(v) {
-        let um = (x * 1000.0).round();
-        if !(um.is_finite() && um.abs() <= f64::from(i32::MAX)) {
-            return Err(InputError::new(format!(
-                "coordinate {x} mm does not fit the wire's i32 micrometres (±2147 m)"
-            )));
-        }
-        *o = um as i32;
-    }
-    Ok(o)
 }
 
 impl Sequence {
@@ -221,31 +179,24 @@ impl Sequence {
         traj: &Trajectory,
         transducers: usize,
     ) -> Result<UploadHeader, InputError> {
-        let period_us = (traj.period_s * 1e6).round();
-        if period_us > f64::from(u32::MAX) {
-            return Err(InputError::new(format!(
-                "period {} s exceeds the wire's u32 microseconds",
-                traj.period_s
-            )));
-        }
         Ok(UploadHeader {
             steps: u16::try_from(traj.steps)
                 .map_err(|_| InputError::new(format!("{} steps exceed u16", traj.steps)))?,
             transducers: u16::try_from(transducers)
                 .map_err(|_| InputError::new(format!("{transducers} transducers exceed u16")))?,
-            period_us: period_us as u32,
+            period_us: units::period_us(traj.period_s)?,
             // Planned in drive coordinates: the mirrored centre when the
             // scene has a reflector, the frame of the transducer positions.
-            center_um: mm_to_um(scene.drive_point(traj.center_mm))?,
+            center_um: units::vec_mm_to_um(scene.drive_point(traj.center_mm))?,
             foci_per_step: traj.foci as u8,
-            sound_speed_mm_s: sound_speed_mm_s(scene.sound_speed_m_s)?,
-            max_offset_um: max_offset_um(DEFAULT_MAX_OFFSET_MM)?,
+            sound_speed_mm_s: units::sound_speed_mm_s(scene.sound_speed_m_s)?,
+            max_offset_um: units::max_offset_um(DEFAULT_MAX_OFFSET_MM)?,
         })
     }
 
     /// Sets the work volume (mm, checked: (0, 100]).
     pub fn set_max_offset_mm(&mut self, max_offset_mm: f64) -> Result<(), InputError> {
-        self.header.max_offset_um = max_offset_um(max_offset_mm)?;
+        self.header.max_offset_um = units::max_offset_um(max_offset_mm)?;
         Ok(())
     }
 
@@ -351,7 +302,7 @@ impl Plan {
         self.scene
             .transducers()
             .iter()
-            .map(|t| mm_to_um(t.pos_mm))
+            .map(|t| units::vec_mm_to_um(t.pos_mm))
             .collect()
     }
 }

@@ -337,7 +337,7 @@ pub struct CapturedFrame {
 
 impl lm_fw_core::OutputDriver for Probe<'_> {
     type Error = core::convert::Infallible;
-    fn write_frame(&mut self, frame: &lm_fw_core::Frame<'_>) -> Result<(), Self::Error> {
+    fn write_frame(&mut self, frame: &lm_fw_core::OutputFrame<'_>) -> Result<(), Self::Error> {
         self.stats.frames += 1;
         let muted = frame.amplitude == 0;
         if muted != self.stats.muted_now || self.stats.frames == 1 {

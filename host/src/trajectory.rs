@@ -294,7 +294,7 @@ impl Trajectory {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{norm, sub};
+    use crate::geom::{norm, sub};
 
     fn plan(p: &LmParams) -> Result<Trajectory, InputError> {
         Trajectory::plan(p, &Scene::default())

@@ -1,4 +1,5 @@
-//! Units, axes and the phase convention used across `lmhost`.
+//! Units, axes and the phase convention used across `lmhost`, and the
+//! one place host values (mm, s, m/s) become wire values (µm, µs, mm/s).
 //!
 //! - **Lengths** are millimetres (`f64`, suffix `_mm`) in the host library;
 //!   on the wire they are integer micrometres (`i32`, suffix `_um`).
@@ -12,6 +13,9 @@
 //!   `φ = arg Σ_i exp(−j k r_i)`.
 //! - **Quantisation**: `u8 = round(φ / 2π · 256) mod 256`, so one LSB is
 //!   2π/256 rad and 255.5 LSB wraps to 0.
+
+use crate::error::InputError;
+use crate::geom::Vec3;
 
 /// Carrier frequency of the T4010A1 transducers (Hz): the wire's
 /// [`lm_proto::CARRIER_HZ`], which the device's correction uses too.
@@ -31,6 +35,73 @@ pub fn wavenumber_rad_per_mm(sound_speed_m_s: f64) -> f64 {
 /// Speed of sound in dry air (m/s) at a temperature in °C.
 pub fn sound_speed_from_celsius(temp_c: f64) -> f64 {
     331.3 * (1.0 + temp_c / 273.15).sqrt()
+}
+
+// Host units to wire units: every conversion a wire value goes through,
+// in one place. `sequence` calls them when it builds the upload header and
+// the geometry, `stream` for each centroid it sends.
+
+/// Speed of sound in m/s to the wire's rounded mm/s, or an error outside
+/// the range a device accepts ([`lm_proto::SOUND_SPEED_MM_S`]).
+pub fn sound_speed_mm_s(sound_speed_m_s: f64) -> Result<u32, InputError> {
+    let mm_s = (sound_speed_m_s * 1000.0).round();
+    let range = lm_proto::SOUND_SPEED_MM_S;
+    if !(mm_s >= f64::from(*range.start()) && mm_s <= f64::from(*range.end())) {
+        return Err(InputError::new(format!(
+            "speed of sound {sound_speed_m_s} m/s is outside the {}-{} m/s a device accepts",
+            range.start() / 1000,
+            range.end() / 1000
+        )));
+    }
+    Ok(mm_s as u32)
+}
+
+/// A work volume in mm to the wire's µm, or an error outside the
+/// (0, 100] mm a device accepts ([`lm_proto::MAX_OFFSET_UM`]).
+pub fn max_offset_um(max_offset_mm: f64) -> Result<u32, InputError> {
+    let um = (max_offset_mm * 1000.0).round();
+    let range = lm_proto::MAX_OFFSET_UM;
+    if !(max_offset_mm > 0.0 && um <= f64::from(*range.end()) && um >= f64::from(*range.start())) {
+        return Err(InputError::new(format!(
+            "work volume (--max-offset) {max_offset_mm} mm is outside (0, {}] mm",
+            range.end() / 1000
+        )));
+    }
+    Ok(um as u32)
+}
+
+/// Millimetres to rounded micrometres, or an error when out of i32 range.
+pub fn vec_mm_to_um(v: Vec3) -> Result<[i32; 3], InputError> {
+    let mut o = [0i32; 3];
+    for (o, x) in o.iter_mut().zip(v) {
+        let um = (x * 1000.0).round();
+        if !(um.is_finite() && um.abs() <= f64::from(i32::MAX)) {
+            return Err(InputError::new(format!(
+                "coordinate {x} mm does not fit the wire's i32 micrometres (±2147 m)"
+            )));
+        }
+        *o = um as i32;
+    }
+    Ok(o)
+}
+
+/// A period in seconds to the wire's rounded µs, or an error beyond u32.
+pub fn period_us(period_s: f64) -> Result<u32, InputError> {
+    let period_us = (period_s * 1e6).round();
+    if period_us > f64::from(u32::MAX) {
+        return Err(InputError::new(format!(
+            "period {period_s} s exceeds the wire's u32 microseconds"
+        )));
+    }
+    Ok(period_us as u32)
+}
+
+/// Millimetres to whole micrometres (rounded, saturating; for streamed
+/// centroids, which the device checks against its work volume).
+pub fn mm_to_um(mm: f64) -> i32 {
+    (mm * 1000.0)
+        .round()
+        .clamp(i32::MIN as f64, i32::MAX as f64) as i32
 }
 
 #[cfg(test)]

@@ -5,39 +5,9 @@ use core::fmt;
 
 use crate::cobs;
 use crate::crc::Crc32;
+use crate::error::EncodeError;
 use crate::message::{Message, PayloadError, Sink};
 use crate::{CRC_LEN, HEADER_LEN, MAX_FRAME, MAX_PAYLOAD, MIN_FRAME, PROTOCOL_VERSION};
-
-/// Why a frame could not be encoded.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
-pub enum EncodeError {
-    /// The output buffer is too small (use [`crate::MAX_ENCODED_FRAME`]).
-    BufferTooSmall,
-    /// Chunk data over [`crate::MAX_CHUNK`] or positions over
-    /// [`crate::MAX_GEOMETRY_POSITIONS`].
-    TooLarge,
-    /// A field holds a value the wire cannot carry (`Status::slot ==
-    /// Some(NO_SLOT)`, `NackCode::Other` with a known code).
-    InvalidField,
-}
-
-impl fmt::Display for EncodeError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::BufferTooSmall => "frame buffer too small",
-            Self::TooLarge => "message exceeds the frame size limits",
-            Self::InvalidField => "message field not representable on the wire",
-        })
-    }
-}
-
-impl From<cobs::CobsError> for EncodeError {
-    fn from(_: cobs::CobsError) -> Self {
-        Self::BufferTooSmall
-    }
-}
 
 /// A bad frame. Errors that carry `seq` come from frames whose CRC was
 /// valid, so the seq can be trusted and the request NACKed

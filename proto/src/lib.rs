@@ -21,6 +21,7 @@ pub mod cobs;
 pub mod codec;
 mod crc;
 mod decoder;
+mod error;
 mod frame;
 mod header;
 mod message;
@@ -29,9 +30,9 @@ pub mod vectors;
 pub use codec::Encoding;
 pub use crc::{Crc32, crc32};
 pub use decoder::{FeedResult, FrameDecoder};
+pub use error::EncodeError;
 pub use frame::{
-    EncodeError, Frame, FrameError, decode_frame, encode_frame, encode_frame_unframed,
-    encoded_frame_len,
+    Frame, FrameError, decode_frame, encode_frame, encode_frame_unframed, encoded_frame_len,
 };
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{

@@ -4,7 +4,7 @@
 use core::fmt;
 
 use crate::codec::Encoding;
-use crate::frame::EncodeError;
+use crate::error::EncodeError;
 use crate::header::{DeviceLimits, HeaderError, UploadHeader};
 use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN, len};
 
@@ -396,12 +396,13 @@ pub struct Centroid {
 }
 
 /// Player state in `Status`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum DeviceState {
     /// 0: nothing played since reset.
+    #[default]
     Idle,
     /// 1: playing a slot.
     Playing,
@@ -412,13 +413,14 @@ pub enum DeviceState {
 }
 
 /// Why the output is silent (`Status::mute_reason`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 #[non_exhaustive]
 pub enum MuteReason {
     /// 0: not muted (playing, or idle: nothing was ever played).
+    #[default]
     None,
     /// 1: playing, no centroid since `Play` (tracked play needs one).
     WaitingForTracking,
@@ -465,8 +467,9 @@ impl MuteReason {
     }
 }
 
-/// Device status (response to `GetStatus`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// Device status (response to `GetStatus`). The default is a device fresh
+/// from reset: idle, no slot, every counter zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Status {

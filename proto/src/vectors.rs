@@ -78,3 +78,110 @@ pub fn error_kind(e: &crate::FrameError) -> &'static str {
         E::Malformed { .. } => "malformed",
     }
 }
+
+/// Why a vector's wire bytes did not replay as its record says.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Mismatch {
+    /// The wire hex is not hex, or does not fit the buffer.
+    Hex,
+    /// The decoder reported this many outcomes (frames and errors), not one.
+    Outcomes(usize),
+    /// A good frame decoded with another seq than the record's.
+    Seq {
+        /// What the decoder read.
+        got: u16,
+    },
+    /// Encoding the decoded frame again did not give the wire bytes.
+    Reencode,
+    /// The decoder reported an error the record does not have, or another
+    /// kind than the record's.
+    Error {
+        /// The kind the decoder reported.
+        got: &'static str,
+    },
+    /// An error from a valid-CRC frame did not carry the record's seq (the
+    /// seq a device needs for its Nack).
+    ErrorSeq {
+        /// What the error carried.
+        got: Option<u16>,
+    },
+    /// The record wants an error but the decoder read a good frame.
+    Decoded,
+}
+
+impl core::fmt::Display for Mismatch {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Hex => write!(f, "wire hex is bad or does not fit"),
+            Self::Outcomes(n) => write!(f, "{n} decoder outcomes, expected 1"),
+            Self::Seq { got } => write!(f, "decoded seq {got} differs from the record"),
+            Self::Reencode => write!(f, "re-encoding differs from the wire bytes"),
+            Self::Error { got } => write!(f, "decoder reported {got}, not the record's error"),
+            Self::ErrorSeq { got } => write!(f, "error carries seq {got:?}, not the record's"),
+            Self::Decoded => write!(f, "decoded a frame where the record wants an error"),
+        }
+    }
+}
+
+/// Replays one record's wire bytes through a fresh [`crate::FrameDecoder`]
+/// and checks them against the record: exactly one outcome; for a good
+/// frame its seq, and encoding it again gives the wire bytes (`on_frame`
+/// sees the frame first); for a bad one the error kind, and the seq a Nack
+/// needs when the CRC was valid. `wire` holds the decoded hex,
+/// `again` the re-encoding (each at least [`crate::MAX_ENCODED_FRAME`]).
+/// No allocation: host tests and the on-target self-test share it.
+pub fn replay(
+    v: &Vector<'_>,
+    wire: &mut [u8],
+    again: &mut [u8],
+    mut on_frame: impl FnMut(&crate::Frame<'_>),
+) -> Result<(), Mismatch> {
+    use crate::FeedResult;
+    let n = hex_decode(v.wire, wire).ok_or(Mismatch::Hex)?;
+    let wire = &wire[..n];
+    let mut dec = crate::FrameDecoder::new();
+    let mut input = wire;
+    let mut outcomes = 0;
+    let mut first: Result<(), Mismatch> = Err(Mismatch::Outcomes(0));
+    loop {
+        input = match dec.feed(input) {
+            FeedResult::Consumed => break,
+            FeedResult::Frame { frame, remaining } => {
+                outcomes += 1;
+                if outcomes == 1 {
+                    on_frame(&frame);
+                    let same = crate::encode_frame(frame.seq, &frame.message, again)
+                        .is_ok_and(|m| again[..m] == *wire);
+                    first = match v.error {
+                        Some(_) => Err(Mismatch::Decoded),
+                        None if v.seq != Some(frame.seq) => Err(Mismatch::Seq { got: frame.seq }),
+                        None if !same => Err(Mismatch::Reencode),
+                        None => Ok(()),
+                    };
+                }
+                remaining
+            }
+            FeedResult::Error { error, remaining } => {
+                outcomes += 1;
+                if outcomes == 1 {
+                    let kind = error_kind(&error);
+                    let want_seq = v.seq.filter(|_| kind != "crc");
+                    first = match v.error {
+                        Some(want) if want != kind => Err(Mismatch::Error { got: kind }),
+                        Some(_) if error.seq() != want_seq => {
+                            Err(Mismatch::ErrorSeq { got: error.seq() })
+                        }
+                        Some(_) => Ok(()),
+                        None => Err(Mismatch::Error { got: kind }),
+                    };
+                }
+                remaining
+            }
+        };
+    }
+    if outcomes != 1 {
+        return Err(Mismatch::Outcomes(outcomes));
+    }
+    first
+}

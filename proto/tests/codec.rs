@@ -173,11 +173,7 @@ fn random_streams_never_panic_and_never_overrun() {
     for _ in 0..2000 {
         let steps = rng.below(20) as u16;
         let t = rng.below(30) as u16 + 1;
-        let enc = if rng.below(2) == 0 {
-            Encoding::Raw
-        } else {
-            Encoding::Delta
-        };
+        let enc = rng.encoding();
         let mut stream = vec![0u8; rng.below(400)];
         rng.fill(&mut stream);
         let mut out = vec![0u8; steps as usize * t as usize + 8];

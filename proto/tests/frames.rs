@@ -320,18 +320,8 @@ fn wrong_payload_lengths_are_malformed_with_seq() {
 #[test]
 fn invalid_field_values_are_rejected_on_both_sides() {
     let m = Message::Status(Status {
-        state: DeviceState::Idle,
         slot: Some(NO_SLOT),
-        step: 0,
-        cycles: 0,
-        missed_deadlines: 0,
-        last_centroid_seq: 0,
-        bad_frames: 0,
-        crc_errors: 0,
-        nacks: 0,
-        correction_um: [0; 3],
-        queued_slot: None,
-        mute_reason: MuteReason::None,
+        ..Status::default()
     });
     let mut buf = [0u8; MAX_ENCODED_FRAME];
     assert_eq!(

@@ -80,11 +80,7 @@ fn random_message(rng: &mut Rng) -> Owned {
                 sound_speed_mm_s: rng.next_u64() as u32,
                 max_offset_um: rng.next_u64() as u32,
             },
-            encoding: if rng.below(2) == 0 {
-                Encoding::Raw
-            } else {
-                Encoding::Delta
-            },
+            encoding: rng.encoding(),
             encoded_len: rng.next_u64() as u32,
         }),
         10 => Message::Status(Status {
@@ -294,11 +290,7 @@ fn parse_case(rng: &mut Rng, c: &mut Counts) {
 fn codec_case(rng: &mut Rng, c: &mut Counts) {
     let steps = rng.below(40) as u16;
     let t = rng.below(64) as u16 + 1;
-    let enc = if rng.below(2) == 0 {
-        Encoding::Raw
-    } else {
-        Encoding::Delta
-    };
+    let enc = rng.encoding();
     let raw_len = steps as usize * t as usize;
     let stream = if rng.below(2) == 0 {
         let mut s = vec![0u8; rng.below(2 * raw_len + 4)];

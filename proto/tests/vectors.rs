@@ -165,23 +165,8 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 mute_reason: MuteReason::None,
             }),
         ),
-        "status_idle" => (
-            15,
-            Message::Status(Status {
-                state: DeviceState::Idle,
-                slot: None,
-                step: 0,
-                cycles: 0,
-                missed_deadlines: 0,
-                last_centroid_seq: 0,
-                bad_frames: 0,
-                crc_errors: 0,
-                nacks: 0,
-                correction_um: [0, 0, 0],
-                queued_slot: None,
-                mute_reason: MuteReason::None,
-            }),
-        ),
+        // A device fresh from reset.
+        "status_idle" => (15, Message::Status(Status::default())),
         "status_muted" => (
             15,
             Message::Status(Status {
@@ -282,37 +267,15 @@ fn encoder_produces_the_vector_bytes() {
 
 #[test]
 fn decoder_reads_the_vector_bytes() {
+    let mut wire = [0u8; 2 * MAX_ENCODED_FRAME];
+    let mut again = [0u8; MAX_ENCODED_FRAME];
     for v in all() {
-        let wire = bytes(v.wire);
-        let mut dec = FrameDecoder::new();
-        let mut results = Vec::new();
-        let mut input = &wire[..];
-        loop {
-            input = match dec.feed(input) {
-                FeedResult::Consumed => break,
-                FeedResult::Frame { frame, remaining } => {
-                    results.push(Ok(frame.seq));
-                    if v.expect.is_none() {
-                        assert_eq!(Some(frame), expected(v.name), "{}", v.name);
-                    }
-                    remaining
-                }
-                FeedResult::Error { error, remaining } => {
-                    results.push(Err(error));
-                    remaining
-                }
-            };
-        }
-        assert_eq!(results.len(), 1, "{}: {results:?}", v.name);
-        match (v.error, results[0]) {
-            (None, Ok(seq)) => assert_eq!(Some(seq), v.seq),
-            (Some(kind), Err(e)) => {
-                assert_eq!(error_kind(&e), kind, "{}: {e}", v.name);
-                // Errors from valid-CRC frames carry the seq for the Nack.
-                assert_eq!(e.seq(), v.seq.filter(|_| kind != "crc"), "{}", v.name);
+        let replayed = vectors::replay(&v, &mut wire, &mut again, |frame| {
+            if v.expect.is_none() {
+                assert_eq!(Some(*frame), expected(v.name), "{}", v.name);
             }
-            (want, got) => panic!("{}: wanted {want:?}, got {got:?}", v.name),
-        }
+        });
+        assert_eq!(replayed, Ok(()), "{}", v.name);
         if let Some(d) = v.decoded {
             let d = bytes(d);
             match decode_frame(&d) {
@@ -322,6 +285,55 @@ fn decoder_reads_the_vector_bytes() {
             }
         }
     }
+}
+
+/// The replay catches what it is there to catch: a record whose seq, error
+/// kind or bytes disagree with the decoder.
+#[test]
+fn replay_reports_a_record_the_bytes_disagree_with() {
+    let mut wire = [0u8; 2 * MAX_ENCODED_FRAME];
+    let mut again = [0u8; MAX_ENCODED_FRAME];
+    let good = all().into_iter().find(|v| v.name == "get_status").unwrap();
+    let bad_crc = all().into_iter().find(|v| v.name == "err_crc").unwrap();
+    let replay = |v: Vector<'_>, w: &mut [u8], a: &mut [u8]| vectors::replay(&v, w, a, |_| {});
+    let wrong_seq = Vector {
+        seq: good.seq.map(|s| s.wrapping_add(1)),
+        ..good
+    };
+    assert!(matches!(
+        replay(wrong_seq, &mut wire, &mut again),
+        Err(vectors::Mismatch::Seq { .. })
+    ));
+    let wants_error = Vector {
+        error: Some("crc"),
+        ..good
+    };
+    assert_eq!(
+        replay(wants_error, &mut wire, &mut again),
+        Err(vectors::Mismatch::Decoded)
+    );
+    let other_kind = Vector {
+        error: Some("cobs"),
+        ..bad_crc
+    };
+    assert_eq!(
+        replay(other_kind, &mut wire, &mut again),
+        Err(vectors::Mismatch::Error { got: "crc" })
+    );
+    let two_frames = format!("{} {}", good.wire, good.wire);
+    let twice = Vector {
+        wire: &two_frames,
+        ..good
+    };
+    assert_eq!(
+        replay(twice, &mut wire, &mut again),
+        Err(vectors::Mismatch::Outcomes(2))
+    );
+    let bad_hex = Vector { wire: "zz", ..good };
+    assert_eq!(
+        replay(bad_hex, &mut wire, &mut again),
+        Err(vectors::Mismatch::Hex)
+    );
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! the proto byte vectors, replayed by the firmware core's tests.)
 
 mod link_support;
-use link_support::{Sim, json, ok, run};
+use link_support::{Sim, json, ok, run, upload_json};
 
 fn status(port: &str) -> serde_json::Value {
     json(&["status", "--port", port, "--json"])
@@ -62,27 +62,11 @@ fn play_while_playing_is_queued_and_upload_picks_a_free_slot() {
     let sim = Sim::start(&[]);
     let p = sim.port.as_str();
     // A 20 s cycle, so the queued switch stays queued while we look.
-    let up = json(&[
-        "upload",
-        "--port",
-        p,
-        "--freq",
-        "0.05",
-        "--untracked",
-        "--json",
-    ]);
+    let up = upload_json(p, &["--freq", "0.05", "--untracked"]);
     assert_eq!(up["slot"], 0, "{up}");
     assert_eq!(up["queued"], false, "{up}");
     // Slot 0 plays: an upload without --slot takes slot 1.
-    let up = json(&[
-        "upload",
-        "--port",
-        p,
-        "--radius",
-        "2",
-        "--no-play",
-        "--json",
-    ]);
+    let up = upload_json(p, &["--radius", "2", "--no-play"]);
     assert_eq!(up["slot"], 1, "{up}");
     let text = ok(&["play", "--port", p, "--slot", "1"]);
     assert_eq!(text.trim(), "slot 1 queued for the next cycle boundary");
@@ -112,7 +96,7 @@ fn play_while_playing_is_queued_and_upload_picks_a_free_slot() {
     ok(&["stop", "--port", p]);
     let st = status(p);
     assert_eq!(st["queued_slot"], serde_json::Value::Null, "{st}");
-    let up = json(&["upload", "--port", p, "--no-play", "--json"]);
+    let up = upload_json(p, &["--no-play"]);
     assert_eq!(up["slot"], 1, "{up}");
 }
 
@@ -150,8 +134,8 @@ fn the_work_volume_flag_is_checked() {
             "{err}"
         );
     }
-    let up = json(&["upload", "--port", p, "--max-offset", "100", "--json"]);
+    let up = upload_json(p, &["--max-offset", "100"]);
     assert_eq!(up["max_offset_um"], 100_000, "{up}");
-    let up = json(&["upload", "--port", p, "--json"]);
+    let up = upload_json(p, &[]);
     assert_eq!(up["max_offset_um"], 20_000, "{up}");
 }

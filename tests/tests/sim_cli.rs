@@ -2,7 +2,7 @@
 //! play, stop, and the errors a user meets.
 
 mod link_support;
-use link_support::{Sim, json, ok, run};
+use link_support::{Sim, json, ok, run, upload_json};
 
 #[test]
 fn info_reports_device_limits() {
@@ -20,9 +20,7 @@ fn upload_commits_plays_and_switches_slots() {
     let sim = Sim::start(&[]);
     let p = sim.port.as_str();
     assert_eq!(json(&["status", "--port", p, "--json"])["state"], "Idle");
-    let up = json(&[
-        "upload", "--port", p, "--foci", "4", "--radius", "3", "--json",
-    ]);
+    let up = upload_json(p, &["--foci", "4", "--radius", "3"]);
     assert_eq!(up["steps"], 82, "{up}");
     assert_eq!(up["slot"], 0);
     assert_eq!(up["playing"], true);
@@ -31,15 +29,7 @@ fn upload_commits_plays_and_switches_slots() {
     assert_eq!(st["state"], "Muted", "{st}");
     assert_eq!(st["slot"], 0);
     // A second upload goes to the other slot and leaves slot 0 playing.
-    let up2 = json(&[
-        "upload",
-        "--port",
-        p,
-        "--radius",
-        "2",
-        "--no-play",
-        "--json",
-    ]);
+    let up2 = upload_json(p, &["--radius", "2", "--no-play"]);
     assert_eq!(up2["slot"], 1);
     assert_eq!(json(&["status", "--port", p, "--json"])["slot"], 0);
     ok(&["play", "--port", p, "--slot", "1", "--immediate"]);
@@ -55,16 +45,7 @@ fn upload_commits_plays_and_switches_slots() {
 fn upload_wire_efficiency_is_at_least_95_percent() {
     let sim = Sim::start(&[]);
     for enc in ["raw", "delta"] {
-        let up = json(&[
-            "upload",
-            "--port",
-            &sim.port,
-            "--foci",
-            "4",
-            "--encoding",
-            enc,
-            "--json",
-        ]);
+        let up = upload_json(&sim.port, &["--foci", "4", "--encoding", enc]);
         let eff = up["wire_efficiency"].as_f64().unwrap();
         assert!(eff >= 0.95, "{enc}: {up}");
         assert_eq!(up["retries"], 0);
@@ -150,16 +131,7 @@ fn upload_through_a_noisy_link_retries_and_commits() {
     // Bit errors at 1e-4 and dropped bytes on the device's side of the pty.
     let sim = Sim::start(&["--faults", "ber=1e-4,drop=1e-5", "--seed", "3"]);
     let p = sim.port.as_str();
-    let up = json(&[
-        "upload",
-        "--port",
-        p,
-        "--foci",
-        "4",
-        "--timeout-ms",
-        "100",
-        "--json",
-    ]);
+    let up = upload_json(p, &["--foci", "4", "--timeout-ms", "100"]);
     assert!(up["retries"].as_u64().unwrap() > 0, "{up}");
     let st = json(&[
         "status",

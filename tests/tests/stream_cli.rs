@@ -4,7 +4,7 @@
 use std::process::{Command, Stdio};
 
 mod link_support;
-use link_support::{Sim, json, lmhost, ok, run, stream_stdin};
+use link_support::{Sim, json, lmhost, ok, run, stream_stdin, success_json};
 
 #[test]
 fn stdin_csv_and_json_lines_all_reach_the_device() {
@@ -17,12 +17,7 @@ fn stdin_csv_and_json_lines_all_reach_the_device() {
     input.push_str(r#"{"t": 0.6, "x": 0.5, "y": 0, "z": 200}"#);
     input.push('\n');
     let out = stream_stdin(&sim.port, &["--json", "--filter", "gaussian"], &input);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = success_json(&out);
     assert_eq!(v["samples"], 51, "{v}");
     assert_eq!(v["acked"], 51);
     assert_eq!(v["device_last_seq"], v["last_seq"], "{v}");
@@ -113,12 +108,7 @@ fn udp_datagrams_are_streamed() {
         std::thread::sleep(std::time::Duration::from_millis(11));
     }
     let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = success_json(&out);
     assert_eq!(v["acked"], 20, "{v}");
 }
 

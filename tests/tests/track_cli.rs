@@ -1,12 +1,11 @@
 //! `lmhost track`: the synthetic finger, recording and replay, the LMDEPTH1
 //! stream, streaming to `lmhost sim`, the plot, and bad input.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 mod link_support;
-use link_support::{Sim, json, lmhost, ok, run};
+use link_support::{Sim, json, lmhost, ok, run, run_stdin};
 
 fn paper() -> String {
     concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml").to_string()
@@ -31,6 +30,62 @@ fn half_intrinsics(d: &Path) -> String {
     p.display().to_string()
 }
 
+/// `lmhost track` on the synthetic finger for `seconds`, fast, on the paper
+/// scene seen through `cam`, with `extra` flags; its stdout.
+fn synthetic(cam: &str, seconds: &str, extra: &[&str]) -> String {
+    let scene = paper();
+    let mut args = vec![
+        "track",
+        "--synthetic",
+        "--seconds",
+        seconds,
+        "--fast",
+        "--scene",
+        &scene,
+        "--intrinsics",
+        cam,
+    ];
+    args.extend_from_slice(extra);
+    ok(&args)
+}
+
+fn depth_args<'a>(rec: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["track", "--depth", rec];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// A fresh directory `name` with half-size intrinsics, and `seconds` of the
+/// synthetic finger recorded into `file` there: (directory, intrinsics,
+/// recording, stdout).
+fn recorded(
+    name: &str,
+    file: &str,
+    seconds: &str,
+    extra: &[&str],
+) -> (PathBuf, String, String, String) {
+    let d = dir(name);
+    let cam = half_intrinsics(&d);
+    let rec = d.join(file).display().to_string();
+    let mut args = vec!["--record", rec.as_str()];
+    args.extend_from_slice(extra);
+    let out = synthetic(&cam, seconds, &args);
+    (d, cam, rec, out)
+}
+
+/// `lmhost track --depth <rec> <extra…>`: its one-line input error.
+fn depth_error(rec: &str, extra: &[&str]) -> String {
+    one_line_error(&run(&depth_args(rec, extra)), 2)
+}
+
+/// `lmhost track --depth <rec> --scene <paper> --fast --json <extra…>`: its stdout.
+fn depth_json(rec: &str, extra: &[&str]) -> String {
+    let scene = paper();
+    let mut args = depth_args(rec, &["--scene", &scene, "--fast", "--json"]);
+    args.extend_from_slice(extra);
+    ok(&args)
+}
+
 fn lines(out: &str) -> Vec<serde_json::Value> {
     out.lines()
         .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
@@ -48,20 +103,7 @@ fn one_line_error(out: &std::process::Output, code: i32) -> String {
 fn synthetic_frames_give_one_json_object_per_frame() {
     let d = dir("json");
     let cam = half_intrinsics(&d);
-    let out = ok(&[
-        "track",
-        "--synthetic",
-        "--seconds",
-        "1.5",
-        "--fast",
-        "--json",
-        "--scene",
-        &paper(),
-        "--intrinsics",
-        &cam,
-        "--z-profile",
-        "3,8",
-    ]);
+    let out = synthetic(&cam, "1.5", &["--json", "--z-profile", "3,8"]);
     let v = lines(&out);
     assert_eq!(v.len(), 135);
     let mut present = 0;
@@ -94,50 +136,21 @@ fn synthetic_frames_give_one_json_object_per_frame() {
 
 #[test]
 fn a_synthetic_recording_replays_to_the_same_results() {
-    let d = dir("replay");
-    let cam = half_intrinsics(&d);
-    let rec = d.join("rec.npy");
-    let rec_s = rec.display().to_string();
-    let live = ok(&[
-        "track",
-        "--synthetic",
-        "--seconds",
-        "1.2",
-        "--fast",
-        "--json",
-        "--scene",
-        &paper(),
-        "--intrinsics",
-        &cam,
-        "--record",
-        &rec_s,
-    ]);
+    let (d, _, rec_s, live) = recorded("replay", "rec.npy", "1.2", &["--json"]);
     assert!(d.join("rec.intrinsics.toml").exists());
     assert!(d.join("rec.timestamps.npy").exists());
     // Intrinsics and time stamps found beside the recording.
-    let replay = ok(&[
-        "track",
-        "--depth",
-        &rec_s,
-        "--scene",
-        &paper(),
-        "--fast",
-        "--json",
-    ]);
+    let replay = depth_json(&rec_s, &[]);
     // And given explicitly.
-    let explicit = ok(&[
-        "track",
-        "--depth",
+    let explicit = depth_json(
         &rec_s,
-        "--scene",
-        &paper(),
-        "--fast",
-        "--json",
-        "--intrinsics",
-        &d.join("rec.intrinsics.toml").display().to_string(),
-        "--timestamps",
-        &d.join("rec.timestamps.npy").display().to_string(),
-    ]);
+        &[
+            "--intrinsics",
+            &d.join("rec.intrinsics.toml").display().to_string(),
+            "--timestamps",
+            &d.join("rec.timestamps.npy").display().to_string(),
+        ],
+    );
     let (a, b, c) = (lines(&live), lines(&replay), lines(&explicit));
     assert_eq!(a.len(), 108);
     assert_eq!(b.len(), a.len());
@@ -171,20 +184,7 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
     // Frames from a recording made by --synthetic, re-sent as a stream.
     let cam = half_intrinsics(&d);
     let rec = d.join("src.npy").display().to_string();
-    let want = lines(&ok(&[
-        "track",
-        "--synthetic",
-        "--seconds",
-        "1",
-        "--fast",
-        "--json",
-        "--scene",
-        &paper(),
-        "--intrinsics",
-        &cam,
-        "--record",
-        &rec,
-    ]));
+    let want = lines(&synthetic(&cam, "1", &["--json", "--record", &rec]));
     let mut bytes = stream_header(&intr);
     let mut r =
         lmhost::track::source::Replay::open_with_defaults(Path::new(&rec), None, None).unwrap();
@@ -193,8 +193,8 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
         bytes.extend(stream_frame(f.t_s, &f.depth));
     }
     let out2 = d.join("again.npy").display().to_string();
-    let mut child = Command::new(lmhost())
-        .args([
+    let out = run_stdin(
+        &[
             "track",
             "--stream",
             "-",
@@ -203,14 +203,9 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
             "--json",
             "--record",
             &out2,
-        ])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child.stdin.take().unwrap().write_all(&bytes).unwrap();
-    let out = child.wait_with_output().unwrap();
+        ],
+        &bytes,
+    );
     assert!(
         out.status.success(),
         "{}",
@@ -234,20 +229,10 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
     assert_eq!(again, got);
 
     // A stream cut inside a frame is a one-line input error.
-    let mut child = Command::new(lmhost())
-        .args(["track", "--stream", "-", "--scene", &paper()])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(&bytes[..bytes.len() - 100])
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
+    let out = run_stdin(
+        &["track", "--stream", "-", "--scene", &paper()],
+        &bytes[..bytes.len() - 100],
+    );
     let err = one_line_error(&out, 2);
     assert!(err.contains("ended inside frame"), "{err}");
 }
@@ -260,20 +245,7 @@ fn tracking_streams_the_gated_centre_to_the_device() {
     // Planned on the same scene, so the tracked finger is inside the
     // device's work volume around the planned centre.
     ok(&["upload", "--port", &sim.port, "--scene", &paper()]);
-    let out = ok(&[
-        "track",
-        "--synthetic",
-        "--seconds",
-        "1.5",
-        "--fast",
-        "--json",
-        "--scene",
-        &paper(),
-        "--intrinsics",
-        &cam,
-        "--port",
-        &sim.port,
-    ]);
+    let out = synthetic(&cam, "1.5", &["--json", "--port", &sim.port]);
     let v = lines(&out);
     assert_eq!(v.len(), 135);
     for o in &v {
@@ -302,19 +274,7 @@ fn plot_writes_a_png_of_a_frame_with_the_contact_area() {
     let d = dir("plot");
     let cam = half_intrinsics(&d);
     let pd = d.join("plots");
-    let out = ok(&[
-        "track",
-        "--synthetic",
-        "--seconds",
-        "1",
-        "--fast",
-        "--scene",
-        &paper(),
-        "--intrinsics",
-        &cam,
-        "--plot",
-        &pd.display().to_string(),
-    ]);
+    let out = synthetic(&cam, "1", &["--plot", &pd.display().to_string()]);
     let png: Vec<_> = std::fs::read_dir(&pd).unwrap().flatten().collect();
     assert_eq!(png.len(), 1, "{out}");
     let bytes = std::fs::read(png[0].path()).unwrap();
@@ -324,27 +284,12 @@ fn plot_writes_a_png_of_a_frame_with_the_contact_area() {
 
 #[test]
 fn bad_recordings_and_flags_are_one_line_errors() {
-    let d = dir("bad");
-    let cam = half_intrinsics(&d);
-    let rec = d.join("r.npy");
-    let rec_s = rec.display().to_string();
-    ok(&[
-        "track",
-        "--synthetic",
-        "--seconds",
-        "0.1",
-        "--fast",
-        "--scene",
-        &paper(),
-        "--intrinsics",
-        &cam,
-        "--record",
-        &rec_s,
-    ]);
+    let (d, cam, rec_s, _) = recorded("bad", "r.npy", "0.1", &[]);
+    let rec = Path::new(&rec_s);
     // Truncated.
     let b = std::fs::read(&rec).unwrap();
     std::fs::write(&rec, &b[..b.len() - 7]).unwrap();
-    let err = one_line_error(&run(&["track", "--depth", &rec_s, "--scene", &paper()]), 2);
+    let err = depth_error(&rec_s, &["--scene", &paper()]);
     assert!(err.contains("truncated"), "{err}");
     // Wrong dtype.
     let mut f8 = b"\x93NUMPY\x01\x00".to_vec();
@@ -354,18 +299,7 @@ fn bad_recordings_and_flags_are_one_line_errors() {
     f8.extend_from_slice(h.as_bytes());
     f8.extend_from_slice(&[0; 32]);
     std::fs::write(&rec, &f8).unwrap();
-    let err = one_line_error(
-        &run(&[
-            "track",
-            "--depth",
-            &rec_s,
-            "--scene",
-            &paper(),
-            "--intrinsics",
-            &cam,
-        ]),
-        2,
-    );
+    let err = depth_error(&rec_s, &["--scene", &paper(), "--intrinsics", &cam]);
     assert!(err.contains("uint16"), "{err}");
     // Intrinsics that do not match the frames.
     std::fs::write(&rec, &b).unwrap();
@@ -375,17 +309,14 @@ fn bad_recordings_and_flags_are_one_line_errors() {
         "width = 848\nheight = 480\nfx = 426.0\nfy = 426.0\nppx = 423.5\nppy = 239.5\ndepth_scale = 0.0001\n",
     )
     .unwrap();
-    let err = one_line_error(
-        &run(&[
-            "track",
-            "--depth",
-            &rec_s,
+    let err = depth_error(
+        &rec_s,
+        &[
             "--scene",
             &paper(),
             "--intrinsics",
             &full.display().to_string(),
-        ]),
-        2,
+        ],
     );
     assert!(err.contains("intrinsics say 848×480"), "{err}");
     // No source, two sources, a scene without [tracking].
@@ -396,16 +327,7 @@ fn bad_recordings_and_flags_are_one_line_errors() {
     );
     let flat = d.join("flat.toml");
     std::fs::write(&flat, "[[device]]\ncenter_mm = [0, 0, 0]\n").unwrap();
-    let err = one_line_error(
-        &run(&[
-            "track",
-            "--depth",
-            &rec_s,
-            "--scene",
-            &flat.display().to_string(),
-        ]),
-        2,
-    );
+    let err = depth_error(&rec_s, &["--scene", &flat.display().to_string()]);
     assert!(err.contains("[camera]"), "{err}");
 }
 

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 mod link_support;
 mod qemu_support;
-use link_support::{json, stream_stdin};
+use link_support::{json, stream_stdin, upload_json};
 use qemu_support::{firmware_elf, free_port, qemu_command, qemu_installed};
 
 /// QEMU with UART0 on a TCP server that accepts one lmhost after another.
@@ -61,7 +61,7 @@ fn lmhost_drives_the_firmware_under_qemu() {
     let p = q.port.as_str();
     let info = json(&["info", "--port", p, "--json"]);
     assert_eq!(info["max_transducers"], 996, "{info}");
-    let up = json(&["upload", "--port", p, "--foci", "4", "--json"]);
+    let up = upload_json(p, &["--foci", "4"]);
     assert_eq!(up["steps"], 82, "{up}");
     assert_eq!(up["playing"], true);
     assert_eq!(json(&["status", "--port", p, "--json"])["state"], "Muted");

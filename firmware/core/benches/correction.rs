@@ -8,7 +8,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_fw_core::correction::{apply_offsets, compute_offsets};
-use lm_fw_core::{Config, Device, Frame, OutputDriver, memory_bytes};
+use lm_fw_core::{Config, Device, OutputDriver, OutputFrame, memory_bytes};
 use lm_proto::codec::Encoding;
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_CHUNK, MAX_GEOMETRY_POSITIONS, Message,
@@ -26,7 +26,7 @@ fn positions() -> Vec<[i32; 3]> {
 struct Sink;
 impl OutputDriver for Sink {
     type Error = ();
-    fn write_frame(&mut self, f: &Frame<'_>) -> Result<(), ()> {
+    fn write_frame(&mut self, f: &OutputFrame<'_>) -> Result<(), ()> {
         black_box(f.phases);
         Ok(())
     }

@@ -10,7 +10,7 @@ use lm_proto::{
 use crate::MAX_TRANSDUCERS;
 use crate::correction::{apply_offsets, compute_offsets, sound_speed_m_s};
 use crate::gate::Gate;
-use crate::output::{Frame, OutputDriver};
+use crate::output::{OutputDriver, OutputFrame};
 use crate::player::{PlayState, Player, Timing};
 use crate::store::{SLOTS, Store, StoreError};
 
@@ -111,7 +111,7 @@ pub struct Counters {
 /// Everything but the receive decoder (split so a parsed frame can borrow
 /// the decoder while the handler mutates the rest).
 #[derive(Debug)]
-struct Core<'m> {
+struct Handler<'m> {
     cfg: Config,
     store: Store<'m>,
     player: Player,
@@ -143,7 +143,7 @@ struct Core<'m> {
 pub struct Device<'m> {
     rx: FrameDecoder,
     tx: [u8; MAX_ENCODED_FRAME],
-    core: Core<'m>,
+    handler: Handler<'m>,
 }
 
 impl<'m> Device<'m> {
@@ -159,7 +159,7 @@ impl<'m> Device<'m> {
         Ok(Self {
             rx: FrameDecoder::new(),
             tx: [0; MAX_ENCODED_FRAME],
-            core: Core {
+            handler: Handler {
                 cfg,
                 store,
                 player: Player::new(cfg.timer_hz),
@@ -185,16 +185,16 @@ impl<'m> Device<'m> {
             let (reply, rest) = match self.rx.feed(input) {
                 FeedResult::Consumed => break,
                 FeedResult::Frame { frame, remaining } => (
-                    Some((frame.seq, self.core.handle(&frame.message, now))),
+                    Some((frame.seq, self.handler.handle(&frame.message, now))),
                     remaining,
                 ),
                 FeedResult::Error { error, remaining } => {
                     if error.is_crc() {
-                        self.core.counters.crc_errors =
-                            self.core.counters.crc_errors.wrapping_add(1);
+                        self.handler.counters.crc_errors =
+                            self.handler.counters.crc_errors.wrapping_add(1);
                     } else {
-                        self.core.counters.bad_frames =
-                            self.core.counters.bad_frames.wrapping_add(1);
+                        self.handler.counters.bad_frames =
+                            self.handler.counters.bad_frames.wrapping_add(1);
                     }
                     #[cfg(feature = "defmt")]
                     defmt::debug!("bad frame: {}", error);
@@ -212,7 +212,7 @@ impl<'m> Device<'m> {
     }
 
     fn send(&mut self, seq: u16, msg: &Message<'_>, send: &mut impl FnMut(&[u8])) {
-        let c = &mut self.core.counters;
+        let c = &mut self.handler.counters;
         c.responses = c.responses.wrapping_add(1);
         if matches!(msg, Message::Nack(_)) {
             c.nacks = c.nacks.wrapping_add(1);
@@ -228,7 +228,7 @@ impl<'m> Device<'m> {
     /// (without encoding it or touching the counters). For tests and
     /// transports that parse frames themselves.
     pub fn handle(&mut self, msg: &Message<'_>, now: u64) -> Message<'static> {
-        self.core.handle(msg, now)
+        self.handler.handle(msg, now)
     }
 
     /// Runs the player at `now`: writes the frame of a newly due step (or a
@@ -236,60 +236,60 @@ impl<'m> Device<'m> {
     /// time of the next step boundary (`None` while nothing plays). Call it
     /// at (or soon after) that time; a late call counts missed deadlines.
     pub fn poll<D: OutputDriver>(&mut self, now: u64, out: &mut D) -> Option<u64> {
-        self.core.poll(now, out)
+        self.handler.poll(now, out)
     }
 
     /// The next time [`poll`](Self::poll) has work, without doing it.
     pub fn next_deadline(&self) -> Option<u64> {
-        if self.core.refresh {
+        if self.handler.refresh {
             return Some(0);
         }
-        self.core.player.deadline()
+        self.handler.player.deadline()
     }
 
     /// The `Info` response.
     pub fn info(&self) -> Info {
-        self.core.info()
+        self.handler.info()
     }
 
     /// The `Status` response at `now`.
     pub fn status(&self, now: u64) -> Status {
-        self.core.status(now)
+        self.handler.status(now)
     }
 
     /// Counters.
     pub fn counters(&self) -> Counters {
-        self.core.counters
+        self.handler.counters
     }
 
     /// Configuration.
     pub fn config(&self) -> &Config {
-        &self.core.cfg
+        &self.handler.cfg
     }
 
     /// Changes the centroid timeout (µs).
     pub fn set_centroid_timeout_us(&mut self, us: u32) {
-        self.core.cfg.centroid_timeout_us = us;
-        self.core.gate.timeout_counts =
-            u64::from(us) * u64::from(self.core.cfg.timer_hz) / 1_000_000;
+        self.handler.cfg.centroid_timeout_us = us;
+        self.handler.gate.timeout_counts =
+            u64::from(us) * u64::from(self.handler.cfg.timer_hz) / 1_000_000;
     }
 
     /// Changes the minimum step dwell (µs), checked at `BeginUpload` and `Play`.
     pub fn set_min_dwell_us(&mut self, us: u32) {
-        self.core.cfg.min_dwell_us = us;
+        self.handler.cfg.min_dwell_us = us;
     }
 
     /// Turns muting before the first centroid update on or off.
     pub fn set_require_tracking(&mut self, on: bool) {
-        self.core.cfg.require_tracking = on;
-        self.core.gate.require_tracking = on;
+        self.handler.cfg.require_tracking = on;
+        self.handler.gate.require_tracking = on;
     }
 
     /// Per-transducer correction offsets (u8 phase LSB) being added to the
     /// playing slot's frames; empty while no correction applies (no
     /// centroid yet, or nothing playing).
     pub fn offsets(&self) -> &[u8] {
-        let c = &self.core;
+        let c = &self.handler;
         if c.untracked {
             return &[];
         }
@@ -307,11 +307,11 @@ impl<'m> Device<'m> {
 
     /// Whether the output sounds at `now` (playing and the gate is open).
     pub fn is_sounding(&self, now: u64) -> bool {
-        self.core.sounding(now)
+        self.handler.sounding(now)
     }
 }
 
-impl Core<'_> {
+impl Handler<'_> {
     fn info(&self) -> Info {
         Info {
             proto_version: PROTOCOL_VERSION,
@@ -615,7 +615,7 @@ impl Core<'_> {
             }
             None => &[],
         };
-        let frame = Frame {
+        let frame = OutputFrame {
             due: at,
             slot,
             step,

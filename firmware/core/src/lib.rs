@@ -44,7 +44,7 @@
 //!   [`Device::offsets`], [`Device::is_sounding`]; settable at run time:
 //!   [`Device::set_centroid_timeout_us`], [`Device::set_min_dwell_us`],
 //!   [`Device::set_require_tracking`].
-//! - Output: [`OutputDriver`] receives a [`Frame`] (phases with correction
+//! - Output: [`OutputDriver`] receives a [`OutputFrame`] (phases with correction
 //!   applied, amplitude 0 when muted); [`SpiOutput`] sends it over an
 //!   embedded-hal 1.0 `SpiDevice` as one transaction
 //!   `[0xA5, amplitude, step u16 LE, transducers u16 LE, phases..]`;
@@ -107,7 +107,7 @@ pub mod store;
 pub mod time;
 
 pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
-pub use output::{Frame, OutputDriver, Record, RecordingDriver, SpiOutput};
+pub use output::{OutputDriver, OutputFrame, Record, RecordingDriver, SpiOutput};
 pub use serve::{HostLink, Server, serve};
 pub use store::{CHUNK_LOG, SLOTS, StoreError, memory_bytes};
 pub use time::TimeExtender;

@@ -5,7 +5,7 @@ use embedded_hal::spi::{Operation, SpiDevice};
 /// One output frame: the phases of every transducer for one step (centroid
 /// correction already applied) and the amplitude. Amplitude 0 = muted.
 #[derive(Debug, Clone, Copy)]
-pub struct Frame<'a> {
+pub struct OutputFrame<'a> {
     /// Timer count at which the step was due.
     pub due: u64,
     /// Slot the step comes from.
@@ -23,12 +23,12 @@ pub trait OutputDriver {
     /// Driver error; the core counts failures and carries on.
     type Error;
     /// Sends one frame to the hardware, as soon as possible.
-    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error>;
+    fn write_frame(&mut self, frame: &OutputFrame<'_>) -> Result<(), Self::Error>;
 }
 
 impl<T: OutputDriver + ?Sized> OutputDriver for &mut T {
     type Error = T::Error;
-    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+    fn write_frame(&mut self, frame: &OutputFrame<'_>) -> Result<(), Self::Error> {
         (**self).write_frame(frame)
     }
 }
@@ -40,7 +40,7 @@ pub const SPI_FRAME_MAGIC: u8 = 0xA5;
 pub const SPI_HEADER_LEN: usize = 6;
 
 /// The SPI header for a frame: `[0xA5, amplitude, step u16 LE, transducers u16 LE]`.
-pub fn spi_header(frame: &Frame<'_>) -> [u8; SPI_HEADER_LEN] {
+pub fn spi_header(frame: &OutputFrame<'_>) -> [u8; SPI_HEADER_LEN] {
     let s = frame.step.to_le_bytes();
     let n = (frame.phases.len() as u16).to_le_bytes();
     [SPI_FRAME_MAGIC, frame.amplitude, s[0], s[1], n[0], n[1]]
@@ -67,7 +67,7 @@ impl<S: SpiDevice> SpiOutput<S> {
 
 impl<S: SpiDevice> OutputDriver for SpiOutput<S> {
     type Error = S::Error;
-    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+    fn write_frame(&mut self, frame: &OutputFrame<'_>) -> Result<(), Self::Error> {
         let header = spi_header(frame);
         self.spi
             .transaction(&mut [Operation::Write(&header), Operation::Write(frame.phases)])
@@ -77,13 +77,13 @@ impl<S: SpiDevice> OutputDriver for SpiOutput<S> {
 /// What [`RecordingDriver`] keeps of one frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Record {
-    /// [`Frame::due`].
+    /// [`OutputFrame::due`].
     pub due: u64,
-    /// [`Frame::slot`].
+    /// [`OutputFrame::slot`].
     pub slot: u8,
-    /// [`Frame::step`].
+    /// [`OutputFrame::step`].
     pub step: u16,
-    /// [`Frame::amplitude`].
+    /// [`OutputFrame::amplitude`].
     pub amplitude: u8,
     /// CRC-32 of the phases.
     pub phase_crc: u32,
@@ -147,7 +147,7 @@ impl<const N: usize> RecordingDriver<N> {
 
 impl<const N: usize> OutputDriver for RecordingDriver<N> {
     type Error = core::convert::Infallible;
-    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+    fn write_frame(&mut self, frame: &OutputFrame<'_>) -> Result<(), Self::Error> {
         let mut head = [0u8; 8];
         let n = frame.phases.len().min(8);
         head[..n].copy_from_slice(&frame.phases[..n]);
@@ -199,7 +199,7 @@ mod tests {
     fn spi_frame_is_one_transaction_with_header_and_phases() {
         let mut out = SpiOutput::new(FakeSpi::default());
         let phases = [10u8, 20, 30];
-        let f = Frame {
+        let f = OutputFrame {
             due: 5,
             slot: 1,
             step: 0x0102,
@@ -217,7 +217,7 @@ mod tests {
         let mut r = RecordingDriver::<2>::new();
         for step in 0..3u16 {
             let phases = [step as u8; 4];
-            r.write_frame(&Frame {
+            r.write_frame(&OutputFrame {
                 due: u64::from(step),
                 slot: 0,
                 step,

@@ -253,6 +253,11 @@ impl Player {
 mod tests {
     use super::*;
 
+    /// `Some(Due { slot, step, at })`.
+    fn due(slot: u8, step: u16, at: u64) -> Option<Due> {
+        Some(Due { slot, step, at })
+    }
+
     const T: Timing = Timing {
         steps: 4,
         period_us: 1000,
@@ -262,48 +267,13 @@ mod tests {
     fn plays_steps_on_schedule() {
         let mut p = Player::new(1_000_000);
         assert!(p.start(0, T, 100));
-        assert_eq!(
-            p.tick(100),
-            Some(Due {
-                slot: 0,
-                step: 0,
-                at: 100
-            })
-        );
+        assert_eq!(p.tick(100), due(0, 0, 100));
         assert_eq!(p.tick(300), None);
         assert_eq!(p.deadline(), Some(350));
-        assert_eq!(
-            p.tick(350),
-            Some(Due {
-                slot: 0,
-                step: 1,
-                at: 350
-            })
-        );
-        assert_eq!(
-            p.tick(600),
-            Some(Due {
-                slot: 0,
-                step: 2,
-                at: 600
-            })
-        );
-        assert_eq!(
-            p.tick(850),
-            Some(Due {
-                slot: 0,
-                step: 3,
-                at: 850
-            })
-        );
-        assert_eq!(
-            p.tick(1100),
-            Some(Due {
-                slot: 0,
-                step: 0,
-                at: 1100
-            })
-        );
+        assert_eq!(p.tick(350), due(0, 1, 350));
+        assert_eq!(p.tick(600), due(0, 2, 600));
+        assert_eq!(p.tick(850), due(0, 3, 850));
+        assert_eq!(p.tick(1100), due(0, 0, 1100));
         assert_eq!(p.cycles(), 1);
         assert_eq!(p.missed(), 0);
     }
@@ -314,24 +284,10 @@ mod tests {
         p.start(0, T, 0);
         p.tick(0);
         // Boundaries 250, 500, 750 passed; 750 is entered, 250 and 500 missed.
-        assert_eq!(
-            p.tick(760),
-            Some(Due {
-                slot: 0,
-                step: 3,
-                at: 750
-            })
-        );
+        assert_eq!(p.tick(760), due(0, 3, 750));
         assert_eq!(p.missed(), 2);
         // Far behind: 10 cycles later.
-        assert_eq!(
-            p.tick(10_999),
-            Some(Due {
-                slot: 0,
-                step: 3,
-                at: 10_750
-            })
-        );
+        assert_eq!(p.tick(10_999), due(0, 3, 10_750));
         assert_eq!(p.missed(), 2 + 39);
         assert_eq!(p.cycles(), 10);
     }
@@ -350,30 +306,9 @@ mod tests {
         assert!(p.busy(1) && p.busy(0));
         assert_eq!(p.tick(500).map(|d| d.slot), Some(0));
         assert_eq!(p.tick(750).map(|d| d.step), Some(3));
-        assert_eq!(
-            p.tick(1000),
-            Some(Due {
-                slot: 1,
-                step: 0,
-                at: 1000
-            })
-        );
-        assert_eq!(
-            p.tick(1150),
-            Some(Due {
-                slot: 1,
-                step: 1,
-                at: 1150
-            })
-        );
-        assert_eq!(
-            p.tick(1300),
-            Some(Due {
-                slot: 1,
-                step: 0,
-                at: 1300
-            })
-        );
+        assert_eq!(p.tick(1000), due(1, 0, 1000));
+        assert_eq!(p.tick(1150), due(1, 1, 1150));
+        assert_eq!(p.tick(1300), due(1, 0, 1300));
         assert!(!p.busy(0));
         assert_eq!(p.missed(), 0);
     }
@@ -385,14 +320,7 @@ mod tests {
         p.tick(0);
         p.queue(1, T, 10);
         // Jump past the end of cycle 0 and into step 1 of the new slot.
-        assert_eq!(
-            p.tick(1300),
-            Some(Due {
-                slot: 1,
-                step: 1,
-                at: 1250
-            })
-        );
+        assert_eq!(p.tick(1300), due(1, 1, 1250));
         assert_eq!(p.missed(), 3 + 1);
     }
 

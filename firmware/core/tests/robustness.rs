@@ -8,7 +8,7 @@
 mod common;
 
 use common::*;
-use lm_fw_core::{Device, Frame, OutputDriver};
+use lm_fw_core::{Device, OutputDriver, OutputFrame};
 use lm_proto::codec::Encoding;
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_ENCODED_FRAME, MAX_FRAME, Message,
@@ -25,7 +25,7 @@ struct Guard {
 
 impl OutputDriver for Guard {
     type Error = ();
-    fn write_frame(&mut self, f: &Frame<'_>) -> Result<(), ()> {
+    fn write_frame(&mut self, f: &OutputFrame<'_>) -> Result<(), ()> {
         self.frames += 1;
         if f.amplitude > 0 {
             self.sounding += 1;

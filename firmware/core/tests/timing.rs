@@ -6,7 +6,7 @@
 mod common;
 
 use common::*;
-use lm_fw_core::{Frame, OutputDriver, TimeExtender};
+use lm_fw_core::{OutputDriver, OutputFrame, TimeExtender};
 use lm_proto::PlayAt;
 use lm_proto::codec::Encoding;
 
@@ -26,7 +26,7 @@ struct Check {
 
 impl OutputDriver for Check {
     type Error = ();
-    fn write_frame(&mut self, f: &Frame<'_>) -> Result<(), ()> {
+    fn write_frame(&mut self, f: &OutputFrame<'_>) -> Result<(), ()> {
         // Ideal: step k of cycle c at t0 + c·P + floor(k·P/N), computed independently.
         let (c, k) = (self.g / self.n, self.g % self.n);
         let ideal =

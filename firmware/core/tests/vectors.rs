@@ -17,11 +17,12 @@ fn vectors() -> Vec<Vector> {
     lm_proto::vectors::parse(TEST_VECTORS)
         .map(|v| Vector {
             name: v.name.to_string(),
-            wire: v
-                .wire
-                .split_whitespace()
-                .map(|h| u8::from_str_radix(h, 16).unwrap())
-                .collect(),
+            wire: {
+                let mut wire = vec![0u8; v.wire.len()];
+                let n = lm_proto::vectors::hex_decode(v.wire, &mut wire).expect("valid hex");
+                wire.truncate(n);
+                wire
+            },
             expect: v.expect.map(str::to_string),
             malformed: v.error == Some("malformed"),
         })

@@ -15,7 +15,7 @@
 
 use core::ptr::{read_volatile, write_volatile};
 
-use lm_fw_core::{Config, Frame, HostLink, OutputDriver};
+use lm_fw_core::{Config, HostLink, OutputDriver, OutputFrame};
 
 /// Raw phase bytes per slot: 256 KiB (200 steps × 996 transducers need 199,200).
 pub const SLOT_BYTES: usize = 256 * 1024;
@@ -151,7 +151,7 @@ pub struct FrameCounter {
 
 impl OutputDriver for FrameCounter {
     type Error = core::convert::Infallible;
-    fn write_frame(&mut self, frame: &Frame<'_>) -> Result<(), Self::Error> {
+    fn write_frame(&mut self, frame: &OutputFrame<'_>) -> Result<(), Self::Error> {
         self.frames = self.frames.wrapping_add(1);
         if frame.amplitude == 0 {
             self.muted = self.muted.wrapping_add(1);

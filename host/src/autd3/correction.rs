@@ -8,14 +8,14 @@ use lm_fw_core::correction::{POSITION_BYTES, compute_offsets, sound_speed_m_s};
 
 use crate::error::InputError;
 use crate::scene::Scene;
-use crate::sequence::mm_to_um;
+use crate::units::vec_mm_to_um;
 
 /// Transducer positions as the firmware takes them: `[i32; 3]` µm LE, packed.
 pub fn packed_positions_um(scene: &Scene) -> Result<Vec<u8>, InputError> {
     let tr = scene.transducers();
     let mut out = Vec::with_capacity(tr.len() * POSITION_BYTES);
     for t in &tr {
-        for v in mm_to_um(t.pos_mm)? {
+        for v in vec_mm_to_um(t.pos_mm)? {
             out.extend_from_slice(&v.to_le_bytes());
         }
     }

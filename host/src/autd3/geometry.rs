@@ -10,7 +10,8 @@ use autd3::prelude::AUTD3;
 
 use crate::array;
 use crate::error::InputError;
-use crate::scene::{Device, Scene, Vec3, add, norm, sub};
+use crate::geom::{Vec3, add, norm, sub};
+use crate::scene::{Device, Scene};
 
 /// Largest transducer position difference accepted between lmhost and autd3 (mm).
 pub const POSITION_TOLERANCE_MM: f64 = 1e-3;

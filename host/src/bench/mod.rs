@@ -14,6 +14,7 @@ use serde::Serialize;
 
 mod field;
 mod planner;
+mod track;
 
 pub use field::FieldFigures;
 pub use planner::{FrameFigures, PlannerFigures, SequenceFigures, SolverFigures};
@@ -55,7 +56,7 @@ pub type SectionFn = fn(&Options) -> anyhow::Result<Section>;
 pub const SECTIONS: &[(&str, SectionFn)] = &[
     ("planner", planner::section),
     ("field", field::section),
-    ("track", crate::track::report::bench_section),
+    ("track", track::section),
 ];
 
 /// Runs the sections named in `only` (all when empty), in report order.

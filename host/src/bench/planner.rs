@@ -9,7 +9,7 @@ use crate::geom::{self, Vec3};
 use crate::scene::Scene;
 use crate::sequence::{Sequence, SynthWorkspace, Synthesis};
 use crate::synth::fast::SynthPlan;
-use crate::synth::{Weight, error_lsb, reference, solver};
+use crate::synth::{Weight, error_lsb, quantise_turns, reference, solver};
 use crate::trajectory::{LmParams, Trajectory};
 
 /// Frame timing and accuracy of one synthesis case.
@@ -92,7 +92,7 @@ fn frame_case(scene: &Scene, plan: &SynthPlan, traj: &Trajectory, opts: &Options
     for j in 0..traj.steps {
         let foci = traj.drive_step(j);
         plan.foci(foci, None, &mut scratch, &mut out);
-        reference::frame_turns(plan.positions(), foci, None, kappa, &mut exact);
+        reference::frame_with(plan.positions(), foci, None, kappa, &mut exact, |t| t);
         for (&q, &e) in out.iter().zip(&exact) {
             let d = error_lsb(q, e);
             max = max.max(d);
@@ -102,33 +102,29 @@ fn frame_case(scene: &Scene, plan: &SynthPlan, traj: &Trajectory, opts: &Options
     }
     let (b, r) = if opts.quick { (3, 20) } else { (15, 400) };
     let mut j = 0;
-    let fast = time_per_call(b, r, || {
-        plan.foci(
-            traj.drive_step(j % traj.steps),
-            None,
-            &mut scratch,
-            &mut out,
-        );
-        j += 1;
-    });
-    let portable_plan = plan.clone().portable();
-    let portable = time_per_call(b, r, || {
-        portable_plan.foci(
-            traj.drive_step(j % traj.steps),
-            None,
-            &mut scratch,
-            &mut out,
-        );
-        j += 1;
-    });
+    // The chosen kernels, then the portable ones, on the same steps.
+    let mut time_plan = |p: &SynthPlan| {
+        time_per_call(b, r, || {
+            p.foci(
+                traj.drive_step(j % traj.steps),
+                None,
+                &mut scratch,
+                &mut out,
+            );
+            j += 1;
+        })
+    };
+    let fast = time_plan(&plan);
+    let portable = time_plan(&plan.clone().portable());
     let mut q = vec![0u8; t];
     let reference = time_per_call(b, r / 10, || {
-        reference::frame_u8(
+        reference::frame_with(
             plan.positions(),
             traj.drive_step(j % traj.steps),
             None,
             kappa,
             &mut q,
+            quantise_turns,
         );
         j += 1;
     });

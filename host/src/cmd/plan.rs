@@ -11,8 +11,9 @@ use lm_proto::codec::Encoding;
 use serde_json::json;
 
 use crate::error::InputError;
+use crate::geom::Vec3;
 use crate::limits;
-use crate::scene::{Scene, Vec3};
+use crate::scene::Scene;
 use crate::sequence::{Plan, Synthesis};
 use crate::trajectory::{LmParams, Steps};
 

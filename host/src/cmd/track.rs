@@ -208,10 +208,10 @@ impl Run {
         let (radius, steps, replan) = self.z_profile.as_mut()?;
         let c = r.centroid_mm()?;
         let tb = &self.pipe.tracker.rig().track_box;
-        let rel = crate::scene::sub(c, tb.center_mm);
+        let rel = crate::geom::sub(c, tb.center_mm);
         let ab = [
-            crate::scene::dot(tb.axes[0], rel),
-            crate::scene::dot(tb.axes[1], rel),
+            crate::geom::dot(tb.axes[0], rel),
+            crate::geom::dot(tb.axes[1], rel),
         ];
         let prof =
             crate::track::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
@@ -309,15 +309,15 @@ impl DeviceReplan {
         let b = &rig.track_box;
         let pl = &scene.lm_plane;
         let cos1 = 1f64.to_radians().cos();
-        let aligned = |u: crate::scene::Vec3, v: crate::scene::Vec3| {
-            crate::scene::dot(u, v) >= cos1 * crate::scene::norm(u) * crate::scene::norm(v)
+        let aligned = |u: crate::geom::Vec3, v: crate::geom::Vec3| {
+            crate::geom::dot(u, v) >= cos1 * crate::geom::norm(u) * crate::geom::norm(v)
         };
         if !(aligned(b.axes[0], pl.a) && aligned(b.axes[1], pl.b)) {
             crate::bad_input!(
                 "--replan needs the tracking box's first two axes along the scene's lm_plane a and b (within 1°): the surface profile is sampled in the box and planned in the LM plane"
             );
         }
-        let sign = crate::scene::dot(b.axes[2], pl.c).signum();
+        let sign = crate::geom::dot(b.axes[2], pl.c).signum();
         let mut params = crate::trajectory::LmParams::paper(scene.center_mm);
         params.radius_mm = radius_mm;
         params.steps = crate::trajectory::Steps::Count(steps);

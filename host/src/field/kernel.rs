@@ -223,21 +223,12 @@ fn work_generic<const L: usize, const FMA: bool>(sh: &Shared, first: usize, out:
                     continue;
                 }
             }
-            add_sources(
-                sh,
-                &sh.src,
-                p,
-                &mut sc.r,
-                &mut sc.inv_r,
-                &mut sc.cosb,
-                &mut sc.turn,
-                gr,
-                gi,
-            );
-            if !sh.img[0].is_empty() {
+            // The array, then its mirror image when there is a reflector.
+            let images = (!sh.img[0].is_empty()).then_some(&sh.img);
+            for src in std::iter::once(&sh.src).chain(images) {
                 add_sources(
                     sh,
-                    &sh.img,
+                    src,
                     p,
                     &mut sc.r,
                     &mut sc.inv_r,

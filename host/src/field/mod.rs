@@ -35,6 +35,7 @@
 //! the drive matrix, 2 threads); [`simulate_reference`] is the plain f64
 //! loop it is checked against.
 
+pub mod compare;
 mod kernel;
 mod maps;
 mod model;
@@ -43,6 +44,7 @@ mod plane;
 pub mod plot;
 mod post;
 mod reference;
+pub mod study;
 
 pub use crate::directivity::Directivity;
 pub use kernel::isa as fast_path_isa;

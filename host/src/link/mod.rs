@@ -14,14 +14,6 @@ pub mod transport;
 pub use client::{Client, LinkError, LinkStats, Reply, UploadReport, UploadSpec};
 pub use transport::Transport;
 
-/// Millimetres to whole micrometres (rounded, saturating; for streamed
-/// centroids, which the device checks against its work volume).
-pub fn mm_to_um(mm: f64) -> i32 {
-    (mm * 1000.0)
-        .round()
-        .clamp(i32::MIN as f64, i32::MAX as f64) as i32
-}
-
 /// Port flags shared by every command that talks to a device.
 #[derive(Debug, Clone, clap::Args)]
 pub struct PortArgs {

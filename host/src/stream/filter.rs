@@ -300,28 +300,24 @@ mod tests {
             .collect()
     }
 
+    /// The filter's output after the whole track.
+    fn last_output(f: &mut impl Filter, track: &[Sample]) -> Option<[f64; 3]> {
+        track.iter().fold(None, |_, s| f.update(s))
+    }
+
     #[test]
     fn gaussian_lags_ramp_by_four_and_a_half_frames() {
-        let mut f = Gaussian::paper();
         let track = ramp(50, 90.0);
-        let mut last = None;
-        for s in &track {
-            last = f.update(s);
-        }
         // 90 mm/s at 90 fps = 1 mm per frame, so the lag is 4.5 mm.
-        let x = last.unwrap()[0];
+        let x = last_output(&mut Gaussian::paper(), &track).unwrap()[0];
         assert!((track[49].pos_mm[0] - x - 4.5).abs() < 1e-9, "{x}");
     }
 
     #[test]
     fn kalman_follows_ramp_without_lag() {
-        let mut f = Kalman::default();
         let track = ramp(200, 90.0);
-        let mut last = None;
-        for s in &track {
-            last = f.update(s);
-        }
-        assert!((track[199].pos_mm[0] - last.unwrap()[0]).abs() < 0.01);
+        let last = last_output(&mut Kalman::default(), &track).unwrap();
+        assert!((track[199].pos_mm[0] - last[0]).abs() < 0.01);
     }
 
     #[test]

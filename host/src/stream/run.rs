@@ -12,7 +12,7 @@ use super::filter::Filter;
 use super::gate::{Gate, GateCounts};
 use crate::backend::{Backend, CentroidOutcome};
 use crate::clock::monotonic_us;
-use crate::link::mm_to_um;
+use crate::units::mm_to_um;
 
 /// Set by SIGINT/SIGTERM in `lmhost stream` (see [`install_stop_signals`]).
 static STOP: AtomicBool = AtomicBool::new(false);

@@ -43,29 +43,19 @@ pub fn phasor_sum_turns(pos: Vec3, foci: impl Iterator<Item = (Vec3, Weight)>, k
     im.atan2(re) / (2.0 * std::f64::consts::PI)
 }
 
-/// Exact phases (turns) of every transducer position into `out`.
-pub fn frame_turns(
+/// The exact phase (turns) of every transducer position, passed through
+/// `map` into `out`: `|t| t` for the turns themselves,
+/// [`quantise_turns`](super::quantise_turns) for the u8 phases.
+pub fn frame_with<T>(
     positions: &[Vec3],
     foci: &[Vec3],
     weights: Option<&[Weight]>,
     kappa: f64,
-    out: &mut [f64],
+    out: &mut [T],
+    map: impl Fn(f64) -> T,
 ) {
     for (o, p) in out.iter_mut().zip(positions) {
-        *o = phase_turns(*p, foci, weights, kappa);
-    }
-}
-
-/// Quantised phases of every transducer position into `out`.
-pub fn frame_u8(
-    positions: &[Vec3],
-    foci: &[Vec3],
-    weights: Option<&[Weight]>,
-    kappa: f64,
-    out: &mut [u8],
-) {
-    for (o, p) in out.iter_mut().zip(positions) {
-        *o = super::quantise_turns(phase_turns(*p, foci, weights, kappa));
+        *o = map(phase_turns(*p, foci, weights, kappa));
     }
 }
 

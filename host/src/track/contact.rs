@@ -11,7 +11,7 @@
 
 use super::intrinsics::Intrinsics;
 use super::rig::Rig;
-use crate::scene::{Vec3, add, dot, scale};
+use crate::geom::{Vec3, add, dot, scale};
 
 /// What one frame's contact area is.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -73,7 +73,7 @@ impl Tracker {
             b.axes.map(|ax| dot(ax, scene))
         };
         let origin = {
-            let d = crate::scene::sub(cam.position_mm, b.center_mm);
+            let d = crate::geom::sub(cam.position_mm, b.center_mm);
             b.axes.map(|ax| dot(ax, d))
         };
         let ray0 = to_box([-intr.ppx / intr.fx, -intr.ppy / intr.fy, 1.0]);

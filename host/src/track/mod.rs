@@ -22,7 +22,7 @@ pub mod source;
 pub mod surface;
 pub mod synth;
 
-use crate::scene::Vec3;
+use crate::geom::Vec3;
 use crate::stream::Sample;
 use crate::stream::filter::Filter;
 use contact::{Contact, Tracker};

@@ -410,40 +410,42 @@ mod tests {
         assert!(DepthNpy::open(&p).is_err());
     }
 
+    /// `bytes` written to `p`, then opened: the error's text.
+    fn open_error(p: &std::path::Path, bytes: &[u8]) -> String {
+        std::fs::write(p, bytes).unwrap();
+        DepthNpy::open(p).err().unwrap().to_string()
+    }
+
+    /// A header for `descr` and `shape`, then `data` zero bytes.
+    fn npy(descr: &str, shape: &str, data: usize) -> Vec<u8> {
+        let mut h = header_bytes(descr, shape, 128);
+        h.extend_from_slice(&vec![0; data]);
+        h
+    }
+
     #[test]
     fn wrong_dtype_shape_and_order_are_input_errors() {
         let p = tmp("dtype.npy");
         crate::field::npy::write_f64(&p, 2, 2, &[0.0; 4]).unwrap();
         let e = DepthNpy::open(&p).err().unwrap().to_string();
         assert!(e.contains("dtype `<f8`") && e.contains("uint16"), "{e}");
-        let mut h = header_bytes("<u2", "(4, 4)", 128);
-        h.extend_from_slice(&[0; 32]);
-        std::fs::write(&p, &h).unwrap();
-        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        let e = open_error(&p, &npy("<u2", "(4, 4)", 32));
         assert!(e.contains("(frames, height, width)"), "{e}");
         let mut h = header_bytes("<u2", "(1, 2, 2)", 128);
         let at = h.windows(5).position(|w| w == b"False").unwrap();
         h[at..at + 5].copy_from_slice(b"True ");
         h.extend_from_slice(&[0; 8]);
-        std::fs::write(&p, &h).unwrap();
-        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        let e = open_error(&p, &h);
         assert!(e.contains("Fortran"), "{e}");
-        let mut h = header_bytes(">u2", "(1, 2, 2)", 128);
-        h.extend_from_slice(&[0; 8]);
-        std::fs::write(&p, &h).unwrap();
-        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        let e = open_error(&p, &npy(">u2", "(1, 2, 2)", 8));
         assert!(e.contains("big-endian"), "{e}");
         // A huge shape in a tiny file: refused before any allocation.
-        let mut h = header_bytes("<u2", "(100000000, 8000, 8000)", 128);
-        h.extend_from_slice(&[0; 8]);
-        std::fs::write(&p, &h).unwrap();
-        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        let e = open_error(&p, &npy("<u2", "(100000000, 8000, 8000)", 8));
         assert!(e.contains("truncated"), "{e}");
         // A header length beyond the file.
         let mut h = b"\x93NUMPY\x02\x00".to_vec();
         h.extend_from_slice(&u32::MAX.to_le_bytes());
-        std::fs::write(&p, &h).unwrap();
-        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        let e = open_error(&p, &h);
         assert!(e.contains("header"), "{e}");
     }
 }

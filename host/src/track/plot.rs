@@ -7,7 +7,7 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::contact::Tracker;
-use crate::scene::Vec3;
+use crate::geom::Vec3;
 
 /// Pixels of the output's longer side.
 const OUT_PX: u32 = 720;

@@ -11,7 +11,7 @@
 
 use super::contact::Tracker;
 use super::synth::FingerSim;
-use crate::scene::Vec3;
+use crate::geom::Vec3;
 
 /// The measured surface depth (box c coordinate, mm) at each of `steps`
 /// points of the circle of `radius_mm` about `center_ab` (box a, b), and at
@@ -171,10 +171,10 @@ pub fn compare(
         let c = tracker.track(&frame);
         let Some(cen) = c.centroid_mm else { continue };
         let b = &sim.rig.track_box;
-        let rel = crate::scene::sub(cen, b.center_mm);
+        let rel = crate::geom::sub(cen, b.center_mm);
         let ab = [
-            crate::scene::dot(b.axes[0], rel),
-            crate::scene::dot(b.axes[1], rel),
+            crate::geom::dot(b.axes[0], rel),
+            crate::geom::dot(b.axes[1], rel),
         ];
         let prof = profile(&tracker, &frame, ab, radius_mm, steps);
         let Some(measured) = relative(&prof) else {

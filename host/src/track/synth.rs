@@ -18,8 +18,8 @@
 use super::contact::{Contact, Roi, Tracker};
 use super::intrinsics::Intrinsics;
 use super::rig::Rig;
+use crate::geom::{Vec3, add, dot, scale, sub};
 use crate::rng::SplitMix64;
-use crate::scene::{Vec3, add, dot, scale, sub};
 
 /// Length of one approach–rest–slide–leave cycle (s).
 pub const PERIOD_S: f64 = 6.0;

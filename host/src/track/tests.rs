@@ -7,8 +7,9 @@ use super::rig::Rig;
 use super::source::{FrameSource, Replay};
 use super::synth::{FingerSim, background_of};
 use super::{FrameResult, Pipeline};
+use crate::geom::{add, scale};
 use crate::rng::SplitMix64;
-use crate::scene::{Scene, add, scale};
+use crate::scene::Scene;
 use crate::stream::filter::FilterKind;
 
 fn paper() -> Scene {
@@ -79,22 +80,25 @@ fn empty_box() {
     assert_eq!((c.points, c.centroid_mm), (0, None));
 }
 
+/// Every pixel at `depth`: tracked by the fast path and the reference,
+/// both must find nothing in the box.
+fn uniform_frame_is_empty(depth: u16) {
+    let (_, rig, intr, tr) = setup();
+    let f = vec![depth; (intr.width * intr.height) as usize];
+    let c = tr.track(&f);
+    assert_eq!((c.points, c.centroid_mm), (0, None), "depth {depth}");
+    assert_eq!(reference(&intr, &rig, &f).points, 0, "depth {depth}");
+}
+
 #[test]
 fn all_zero_frame() {
-    let (_, _, intr, tr) = setup();
-    let f = vec![0u16; (intr.width * intr.height) as usize];
-    let c = tr.track(&f);
-    assert_eq!((c.points, c.centroid_mm), (0, None));
+    uniform_frame_is_empty(0);
 }
 
 #[test]
 fn saturated_depth_65535() {
-    let (_, rig, intr, tr) = setup();
-    let f = vec![65535u16; (intr.width * intr.height) as usize];
-    let c = tr.track(&f);
     // 6.5 m away: nothing inside the box, a defined empty result.
-    assert_eq!((c.points, c.centroid_mm), (0, None));
-    assert_eq!(reference(&intr, &rig, &f).points, 0);
+    uniform_frame_is_empty(65535);
 }
 
 #[test]
@@ -116,7 +120,7 @@ fn finger_at_the_box_edge() {
     );
     let c = half.centroid_mm.unwrap();
     assert!(tb.contains(c), "centroid inside the box");
-    let along = crate::scene::dot(tb.axes[0], crate::scene::sub(c, tb.center_mm));
+    let along = crate::geom::dot(tb.axes[0], crate::geom::sub(c, tb.center_mm));
     assert!(along > 1.0, "centroid moves towards the edge: {along}");
     let r = reference(&intr, &rig, &f);
     assert_eq!(r.points, half.points);
@@ -172,8 +176,8 @@ fn a_second_object_in_the_box() {
         both.centroid_mm.unwrap(),
         1e-9
     ));
-    let shift = crate::scene::sub(both.centroid_mm.unwrap(), finger.centroid_mm.unwrap());
-    assert!(crate::scene::dot(shift, tb.axes[0]) < 0.0);
+    let shift = crate::geom::sub(both.centroid_mm.unwrap(), finger.centroid_mm.unwrap());
+    assert!(crate::geom::dot(shift, tb.axes[0]) < 0.0);
 }
 
 #[test]

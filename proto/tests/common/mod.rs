@@ -234,6 +234,14 @@ impl Rng {
     pub fn below(&mut self, n: usize) -> usize {
         (self.next_u64() % n as u64) as usize
     }
+    /// Raw or Delta, evenly (one `below(2)` draw).
+    pub fn encoding(&mut self) -> lm_proto::Encoding {
+        if self.below(2) == 0 {
+            lm_proto::Encoding::Raw
+        } else {
+            lm_proto::Encoding::Delta
+        }
+    }
     pub fn byte(&mut self) -> u8 {
         self.next_u64() as u8
     }

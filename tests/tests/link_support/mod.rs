@@ -70,23 +70,42 @@ pub fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("{args:?}: bad JSON {e}: {text}"))
 }
 
+/// The JSON stdout of a run that must have succeeded.
+pub fn success_json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON on stdout")
+}
+
+/// `lmhost upload --port <port> <extra…> --json`, parsed.
+pub fn upload_json(port: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["upload", "--port", port];
+    args.extend_from_slice(extra);
+    args.push("--json");
+    json(&args)
+}
+
 /// Run `lmhost stream --port <port> <extra…>` with `input` on stdin, to
 /// completion (stdout and stderr captured).
 pub fn stream_stdin(port: &str, extra: &[&str], input: &str) -> Output {
+    let mut args = vec!["stream", "--port", port];
+    args.extend_from_slice(extra);
+    run_stdin(&args, input.as_bytes())
+}
+
+/// `lmhost args` with `input` on its stdin (then closed); its output.
+pub fn run_stdin(args: &[&str], input: &[u8]) -> Output {
     let mut child = Command::new(lmhost())
-        .args(["stream", "--port", port])
-        .args(extra)
+        .args(args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(input.as_bytes())
-        .unwrap();
+    child.stdin.take().unwrap().write_all(input).unwrap();
     child.wait_with_output().unwrap()
 }
 

@@ -2,7 +2,7 @@
 //! decodes the device's responses, and sequence builders.
 #![allow(dead_code)]
 
-use lm_fw_core::{Config, Device, Frame, OutputDriver, memory_bytes};
+use lm_fw_core::{Config, Device, OutputDriver, OutputFrame, memory_bytes};
 use lm_proto::codec::Encoding;
 use lm_proto::{
     BeginUpload, Chunk, Commit, FeedResult, FrameDecoder, Geometry, MAX_CHUNK, MAX_ENCODED_FRAME,
@@ -227,7 +227,7 @@ pub struct Capture {
 
 impl OutputDriver for Capture {
     type Error = core::convert::Infallible;
-    fn write_frame(&mut self, f: &Frame<'_>) -> Result<(), Self::Error> {
+    fn write_frame(&mut self, f: &OutputFrame<'_>) -> Result<(), Self::Error> {
         self.frames
             .push((f.due, f.slot, f.step, f.amplitude, f.phases.to_vec()));
         Ok(())

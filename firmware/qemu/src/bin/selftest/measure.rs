@@ -1,0 +1,186 @@
+//! The timer against the instruction count, and the cost figures
+//! BENCHMARKS.md quotes (each checks only that the work really happened).
+
+use lm_fw_core::Device;
+use lm_fw_qemu::{FrameCounter, hprintln};
+use lm_proto::{MAX_ENCODED_FRAME, Message, encode_frame};
+
+use crate::support::*;
+use crate::{Ctx, Failed, INSTR_PER_COUNT, TestResult};
+
+/// Runs `n` iterations of a 2-instruction loop (`subs`, `bne`).
+#[inline(never)]
+pub fn spin(n: u32) {
+    // SAFETY: a register-only countdown loop.
+    unsafe {
+        core::arch::asm!("1:", "subs {0}, #1", "bne 1b", inout(reg) n => _, options(nomem, nostack));
+    }
+}
+
+pub fn timer_counts_instructions(c: &mut Ctx) -> TestResult {
+    let n = 500_000u32;
+    let t0 = c.timer.now();
+    spin(n);
+    let t1 = c.timer.now();
+    let counts = t1.wrapping_sub(t0);
+    let expected = 2 * n / INSTR_PER_COUNT;
+    // Allow the handful of instructions around the loop (a few counts).
+    check!(
+        counts.abs_diff(expected) <= 4,
+        "{} instructions took {} counts, expected {} (is QEMU running with -icount shift=0?)",
+        2 * n,
+        counts,
+        expected
+    );
+    Ok(())
+}
+
+pub fn measure_step_cost(c: &mut Ctx) -> TestResult {
+    // 200 steps × 996 transducers, 200 ms cycle (1 ms dwell), correction on.
+    let mut dev = device();
+    dev.set_centroid_timeout_us(u32::MAX);
+    let r = upload(&mut dev, 0, 200, 996, 200_000, false);
+    check!(r == Message::Ack, "upload answered {:?}", r);
+    let t0 = c.now();
+    check!(dev.handle(&play_now(0), t0) == Message::Ack);
+    check!(dev.handle(&centroid(1, [4_000, -2_500, 151_000], true), t0) == Message::Ack);
+    check!(
+        dev.offsets().iter().any(|&o| o != 0),
+        "correction offsets are all zero"
+    );
+    let mut out = FrameCounter::default();
+    // Each poll is given exactly its step's deadline: one frame per call.
+    let mut deadline = dev.poll(t0, &mut out);
+    let (mut total, mut worst, frames) = (0u32, 0u32, 200u32);
+    for _ in 0..frames {
+        let Some(d) = deadline else { break };
+        let a = c.timer.now();
+        deadline = dev.poll(d, &mut out);
+        let b = c.timer.now();
+        total += b.wrapping_sub(a);
+        worst = worst.max(b.wrapping_sub(a));
+    }
+    check!(
+        out.frames == frames + 1,
+        "{} frames for {} polls",
+        out.frames,
+        frames + 1
+    );
+    check!(out.muted == 0, "{} muted frames", out.muted);
+    let mean = total * INSTR_PER_COUNT / frames;
+    hprintln!("");
+    hprintln!(
+        "    measure: step, 996 transducers, correction applied: mean {} instructions, max {} (target <= 20000; +-{} per sample)",
+        mean,
+        worst * INSTR_PER_COUNT,
+        INSTR_PER_COUNT
+    );
+    let a = c.timer.now();
+    let r = upload(&mut dev, 1, 200, 996, 200_000, false);
+    let up = c.timer.now().wrapping_sub(a) * INSTR_PER_COUNT;
+    check!(r == Message::Ack, "second upload answered {:?}", r);
+    hprintln!(
+        "    measure: upload + commit (CRC-32) of 200 x 996 raw, via Device::handle: {} instructions",
+        up
+    );
+    hprintln!(
+        "    measure: core state outside the sequence store, size_of::<Device>() = {} bytes (target <= 16384)",
+        core::mem::size_of::<Device<'static>>()
+    );
+    Ok(())
+}
+
+// The FPU's square root (what `f32::sqrt` compiles to with std on this
+// target), as a function: hard-float ABI, argument and result in s0.
+core::arch::global_asm!(
+    ".section .text.lm_vsqrt,\"ax\",%progbits",
+    ".global lm_vsqrt",
+    ".fpu fpv4-sp-d16",
+    ".thumb_func",
+    "lm_vsqrt:",
+    "vsqrt.f32 s0, s0",
+    "bx lr",
+);
+
+unsafe extern "C" {
+    fn lm_vsqrt(x: f32) -> f32;
+}
+
+pub fn vsqrt(x: f32) -> f32 {
+    // SAFETY: a leaf function that only touches s0 (thumbv7em-none-eabihf
+    // always has the FPU).
+    unsafe { lm_vsqrt(x) }
+}
+
+pub fn measure_centroid_cost(c: &mut Ctx) -> TestResult {
+    let mut dev = device();
+    check!(upload(&mut dev, 0, 200, 996, 200_000, false) == Message::Ack);
+    let now = c.now();
+    check!(dev.handle(&play_now(0), now) == Message::Ack);
+    let (mut total, mut worst, n) = (0u32, 0u32, 50u32);
+    for seq in 1..=n {
+        let k = seq as i32;
+        let msg = centroid(
+            seq,
+            [k * 211 - 5_000, 3_000 - k * 97, 150_000 + k * 13],
+            true,
+        );
+        let now = c.now();
+        let a = c.timer.now();
+        let r = dev.handle(&msg, now);
+        let b = c.timer.now();
+        check!(r == Message::Ack, "centroid {} answered {:?}", seq, r);
+        total += b.wrapping_sub(a);
+        worst = worst.max(b.wrapping_sub(a));
+    }
+    check!(
+        dev.offsets().iter().any(|&o| o != 0),
+        "correction offsets are all zero"
+    );
+    // The whole byte path: decode + CRC check + handle + encode the Ack.
+    let mut wire = [0u8; MAX_ENCODED_FRAME];
+    let (mut fed, mut acks) = (0u32, 0u32);
+    for seq in n + 1..=2 * n {
+        let k = seq as i32;
+        let msg = centroid(
+            seq,
+            [k * 211 - 5_000, 3_000 - k * 97, 150_000 + k * 13],
+            true,
+        );
+        let len = encode_frame(seq as u16, &msg, &mut wire).map_err(|_| Failed)?;
+        let now = c.now();
+        let a = c.timer.now();
+        dev.feed(&wire[..len], now, &mut |_| acks += 1);
+        fed += c.timer.now().wrapping_sub(a);
+    }
+    check!(acks == n, "{} replies to {} centroid frames", acks, n);
+    hprintln!("");
+    hprintln!(
+        "    measure: centroid update, 996 offsets (Device::handle): mean {} instructions, max {} (target <= 100000)",
+        total * INSTR_PER_COUNT / n,
+        worst * INSTR_PER_COUNT
+    );
+    hprintln!(
+        "    measure: centroid frame through Device::feed (COBS, CRC, handle, reply): mean {} instructions",
+        fed * INSTR_PER_COUNT / n
+    );
+    // Where the centroid cost goes: the two square roots per transducer.
+    let mut acc = 0.0f32;
+    let a = c.timer.now();
+    for i in 0..1992u32 {
+        acc += libm::sqrtf(core::hint::black_box(i as f32 * 1234.5 + 1.0e8));
+    }
+    let soft = c.timer.now().wrapping_sub(a) * INSTR_PER_COUNT;
+    let a = c.timer.now();
+    for i in 0..1992u32 {
+        acc += vsqrt(core::hint::black_box(i as f32 * 1234.5 + 1.0e8));
+    }
+    let hard = c.timer.now().wrapping_sub(a) * INSTR_PER_COUNT;
+    check!(acc > 0.0);
+    hprintln!(
+        "    measure: 1992 square roots (2 per transducer): libm::sqrtf {} instructions, FPU vsqrt.f32 {}",
+        soft,
+        hard
+    );
+    Ok(())
+}

@@ -1,0 +1,171 @@
+//! What the test groups share: a fresh device over one static store, the
+//! test layout and sequence, upload and message helpers, a frame recorder.
+
+use core::ptr::addr_of_mut;
+
+use lm_fw_core::{Device, OutputDriver, OutputFrame};
+use lm_fw_qemu::{ARRAY_TRANSDUCERS, STORE_BYTES, Timer, config};
+use lm_proto::{
+    BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, Geometry, MAX_CHUNK,
+    MAX_GEOMETRY_POSITIONS, Message, Play, PlayAt, Positions, UploadHeader,
+};
+
+/// Sequence memory for the devices the tests build (one at a time).
+pub static mut STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
+
+/// A fresh device over [`STORE`].
+pub fn device() -> Device<'static> {
+    // SAFETY: tests run one after another and each drops its device before
+    // the next calls this, so the store is never borrowed twice at once.
+    let mem = unsafe { &mut *addr_of_mut!(STORE) };
+    match Device::new(config(), mem) {
+        Ok(d) => d,
+        Err(e) => panic!("device setup: {e}"),
+    }
+}
+
+/// Test transducer layout: a 36 × 28 grid at AUTD3's 10.16 mm pitch, µm.
+pub fn position_um(i: usize) -> [i32; 3] {
+    let (x, y) = ((i % 36) as i32, (i / 36) as i32);
+    [(2 * x - 35) * 5_080, (2 * y - 27) * 5_080, 0]
+}
+
+/// Test sequence: phase of transducer `i` at step `s`.
+pub fn phase(s: usize, i: usize) -> u8 {
+    (s * 37 + i * 13 + (i * i) / 7) as u8
+}
+
+/// Planned centre of the test sequences: 150 mm above the array.
+pub const CENTER_UM: [i32; 3] = [0, 0, 150_000];
+
+/// Speed of sound the test sequences are uploaded with (20 °C air rather
+/// than the usual 340 m/s), so the correction check shows the core uses the
+/// uploaded value.
+pub const SOUND_SPEED_MM_S: u32 = 343_200;
+
+/// Uploads the test sequence (Raw, `steps` × `t`) into `slot`; returns the
+/// commit's reply. `corrupt` flips the commit CRC.
+pub fn upload(
+    dev: &mut Device<'_>,
+    slot: u8,
+    steps: usize,
+    t: usize,
+    period_us: u32,
+    corrupt: bool,
+) -> Message<'static> {
+    let begin = BeginUpload {
+        slot,
+        header: UploadHeader {
+            steps: steps as u16,
+            transducers: t as u16,
+            period_us,
+            center_um: CENTER_UM,
+            foci_per_step: 1,
+            sound_speed_mm_s: SOUND_SPEED_MM_S,
+            max_offset_um: 20_000,
+        },
+        encoding: Encoding::Raw,
+        encoded_len: (steps * t) as u32,
+    };
+    let r = dev.handle(&Message::BeginUpload(begin), 0);
+    if r != Message::Ack {
+        return r;
+    }
+    let mut pts = [[0i32; 3]; MAX_GEOMETRY_POSITIONS];
+    for first in (0..t).step_by(MAX_GEOMETRY_POSITIONS) {
+        let n = (t - first).min(MAX_GEOMETRY_POSITIONS);
+        for (j, p) in pts[..n].iter_mut().enumerate() {
+            *p = position_um(first + j);
+        }
+        let g = Geometry {
+            slot,
+            first: first as u16,
+            positions: Positions::from_points(&pts[..n]),
+        };
+        let r = dev.handle(&Message::Geometry(g), 0);
+        if r != Message::Ack {
+            return r;
+        }
+    }
+    let mut crc = Crc32::new();
+    let mut buf = [0u8; MAX_CHUNK];
+    let total = steps * t;
+    for offset in (0..total).step_by(MAX_CHUNK) {
+        let n = (total - offset).min(MAX_CHUNK);
+        for (j, b) in buf[..n].iter_mut().enumerate() {
+            let k = offset + j;
+            *b = phase(k / t, k % t);
+        }
+        crc.update(&buf[..n]);
+        let c = Chunk {
+            slot,
+            offset: offset as u32,
+            data: &buf[..n],
+        };
+        let r = dev.handle(&Message::Chunk(c), 0);
+        if r != Message::Ack {
+            return r;
+        }
+    }
+    let crc32 = crc.finish() ^ u32::from(corrupt);
+    dev.handle(&Message::Commit(Commit { slot, crc32 }), 0)
+}
+
+pub fn play_now(slot: u8) -> Message<'static> {
+    Message::Play(Play {
+        slot,
+        at: PlayAt::Immediate,
+        untracked: false,
+    })
+}
+
+pub fn centroid(seq: u32, pos_um: [i32; 3], present: bool) -> Message<'static> {
+    Message::Centroid(Centroid {
+        seq,
+        pos_um,
+        present,
+        host_time_us: 0,
+    })
+}
+
+/// Keeps the frames a test looks at: due time, time written (TIMER0),
+/// step, amplitude, and the phases of the last frame.
+pub struct Recorder<'t> {
+    timer: &'t Timer,
+    pub n: usize,
+    pub due: [u64; 64],
+    pub written: [u32; 64],
+    pub step: [u16; 64],
+    pub amplitude: [u8; 64],
+    pub phases: [u8; ARRAY_TRANSDUCERS as usize],
+}
+
+impl<'t> Recorder<'t> {
+    pub fn new(timer: &'t Timer) -> Self {
+        Recorder {
+            timer,
+            n: 0,
+            due: [0; 64],
+            written: [0; 64],
+            step: [0; 64],
+            amplitude: [0; 64],
+            phases: [0; ARRAY_TRANSDUCERS as usize],
+        }
+    }
+}
+
+impl OutputDriver for Recorder<'_> {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, f: &OutputFrame<'_>) -> Result<(), Self::Error> {
+        let written = self.timer.now();
+        if self.n < self.due.len() {
+            self.due[self.n] = f.due;
+            self.written[self.n] = written;
+            self.step[self.n] = f.step;
+            self.amplitude[self.n] = f.amplitude;
+        }
+        self.n += 1;
+        self.phases[..f.phases.len()].copy_from_slice(f.phases);
+        Ok(())
+    }
+}

@@ -1,0 +1,453 @@
+//! Simulating a planned stimulus on an observation plane: the work limit,
+//! the maps, the force on a disk, the radial profile that tells a ring from
+//! a spot, the JSON and text summaries and the files `lmhost simulate`
+//! writes. The LM-S/LM-M comparison grid is [`super::compare`].
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context;
+use serde_json::json;
+
+use crate::error::InputError;
+use crate::field::plot::{self, Overlay, Panel};
+use crate::field::{self, FieldMaps, ObservationPlane, Radiation, npy};
+use crate::limits;
+use crate::sequence::Plan;
+
+/// Observation settings: the plane, the radiation model and the force disk.
+pub struct View {
+    /// Plane width and height (mm).
+    pub size_mm: (f64, f64),
+    /// Grid step (mm).
+    pub step_mm: f64,
+    /// Plane centre (mm); `None`: the LM centre.
+    pub center_mm: Option<[f64; 3]>,
+    /// Plane axes u, v; `None`: the scene's LM plane a, b.
+    pub axes: Option<([f64; 3], [f64; 3])>,
+    /// Radiation-pressure model.
+    pub rad: Radiation,
+    /// Air density (kg/m³).
+    pub density: f64,
+    /// Diameter of the force disk (mm).
+    pub disk_mm: f64,
+    /// Factor applied to the simulated force.
+    pub calibration: f64,
+    /// Use the plain f64 loop instead of the fast path.
+    pub reference: bool,
+}
+
+/// Refuses a simulation beyond [`limits::MAX_SIM_WORK`] (or the
+/// reference loop's budget) before it starts, naming what to reduce.
+pub fn check_work(
+    points: usize,
+    sources: usize,
+    steps: usize,
+    reference: bool,
+) -> Result<(), InputError> {
+    let work = points as f64 * sources as f64 * steps as f64;
+    let max = if reference {
+        limits::MAX_SIM_WORK_REFERENCE
+    } else {
+        limits::MAX_SIM_WORK
+    };
+    if work > max {
+        return Err(InputError::new(format!(
+            "{points} grid points × {sources} sources × {steps} steps = {} exceeds the limit {}{}; \
+             use a coarser --plane-step, a smaller --plane-size or fewer steps",
+            limits::show(work),
+            limits::show(max),
+            if reference { " for --reference" } else { "" }
+        )));
+    }
+    Ok(())
+}
+
+/// A simulated stimulus.
+pub struct Sim {
+    /// The observation plane, validated.
+    pub plane: ObservationPlane,
+    /// The cycle maps.
+    pub maps: FieldMaps,
+    /// Compute time (s).
+    pub seconds: f64,
+    /// Force on the disk at step 0 (N), calibrated.
+    pub force_step0_n: f64,
+    /// Cycle-mean force on the disk (N), calibrated.
+    pub force_mean_n: f64,
+    /// Whether the grid clips the disk.
+    pub clipped: bool,
+    /// Disk diameter (mm).
+    pub disk_mm: f64,
+    /// Which kernel computed the maps.
+    pub path: &'static str,
+}
+
+/// Simulates `plan` on the plane `view` describes, after the work check.
+pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
+    let model = field::model_for_scene(&plan.scene, view.density)?;
+    let (u, v) = view
+        .axes
+        .unwrap_or((plan.scene.lm_plane.a, plan.scene.lm_plane.b));
+    let plane = ObservationPlane {
+        center_mm: view.center_mm.unwrap_or(plan.trajectory.center_mm),
+        u,
+        v,
+        width_mm: view.size_mm.0,
+        height_mm: view.size_mm.1,
+        step_mm: view.step_mm,
+    }
+    .validated()
+    .map_err(|e| InputError::new(e.to_string()))?;
+    let seq = &plan.sequence;
+    let steps = plan.trajectory.steps;
+    check_work(
+        plane.nu() * plane.nv(),
+        plan.scene.transducer_count() * if plan.scene.reflector.is_some() { 2 } else { 1 },
+        steps,
+        view.reference,
+    )?;
+    let t0 = Instant::now();
+    let maps = if view.reference {
+        field::simulate_reference(&model, &plane, &seq.phases, steps, view.rad)
+    } else {
+        field::simulate(&model, &plane, &seq.phases, steps, view.rad)
+    }
+    .map_err(|e| InputError::new(e.to_string()))?;
+    let seconds = t0.elapsed().as_secs_f64();
+    // The disk sits on the LM centre, projected into the plane.
+    let c = plane.project(plan.trajectory.center_mm);
+    let (f0, clipped) = field::disk_force_n(&plane, &maps.pressure_pa, c, view.disk_mm);
+    let (fm, _) = field::disk_force_n(&plane, &maps.mean_pressure_pa, c, view.disk_mm);
+    Ok(Sim {
+        plane,
+        maps,
+        seconds,
+        force_step0_n: f0 * view.calibration,
+        force_mean_n: fm * view.calibration,
+        clipped,
+        disk_mm: view.disk_mm,
+        path: if view.reference {
+            "f64 reference"
+        } else {
+            field::fast_path_isa()
+        },
+    })
+}
+
+/// The maps written, with file stem, title and unit.
+pub fn map_list(m: &FieldMaps) -> [(&'static str, &'static str, &'static str, &[f64]); 5] {
+    [
+        (
+            "mean_pressure",
+            "Time-averaged radiation pressure",
+            "Pa",
+            &m.mean_pressure_pa,
+        ),
+        (
+            "lm_power",
+            "Radiation-pressure power at the LM frequency",
+            "Pa²",
+            &m.lm_power_pa2,
+        ),
+        (
+            "pressure",
+            "Radiation pressure, step 0",
+            "Pa",
+            &m.pressure_pa,
+        ),
+        (
+            "amplitude",
+            "Sound pressure amplitude, step 0",
+            "Pa",
+            &m.amplitude_pa,
+        ),
+        (
+            "max_pressure",
+            "Maximum radiation pressure over the cycle",
+            "Pa",
+            &m.max_pressure_pa,
+        ),
+    ]
+}
+
+/// Radial profile of `map` (row-major `nv × nu` on `plane`) around the
+/// in-plane point `c_uv` (mm): the mean over rings `k·step ± step/2`, for
+/// the rings that fit whole inside the grid.
+pub fn radial_profile(
+    plane: &ObservationPlane,
+    nu: usize,
+    nv: usize,
+    map: &[f64],
+    c_uv: [f64; 2],
+) -> Vec<f64> {
+    let step = plane.step_mm;
+    let half_u = plane.u_mm(nu - 1) - c_uv[0].abs();
+    let half_v = plane.v_mm(nv - 1) - c_uv[1].abs();
+    let r_max = half_u.min(half_v).max(0.0);
+    let bins = (r_max / step).floor() as usize + 1;
+    let mut sum = vec![0.0; bins];
+    let mut count = vec![0usize; bins];
+    for iv in 0..nv {
+        for iu in 0..nu {
+            let du = plane.u_mm(iu) - c_uv[0];
+            let dv = plane.v_mm(iv) - c_uv[1];
+            let k = ((du * du + dv * dv).sqrt() / step).round() as usize;
+            if k < bins {
+                sum[k] += map[iv * nu + iu];
+                count[k] += 1;
+            }
+        }
+    }
+    sum.iter()
+        .zip(&count)
+        .map(|(s, &n)| if n > 0 { s / n as f64 } else { 0.0 })
+        .collect()
+}
+
+/// The radial profile of the cycle-mean radiation pressure around the LM
+/// centre, with the two numbers that tell a ring from a spot: where the
+/// profile peaks (also as a fraction of A) and the centre-to-orbit ratio
+/// (profile at r = 0 over profile at r = A; below 1 for a ring).
+pub fn radial_json(
+    plane: &ObservationPlane,
+    maps: &FieldMaps,
+    center_mm: [f64; 3],
+    radius_mm: f64,
+) -> serde_json::Value {
+    let c = plane.project(center_mm);
+    let prof = radial_profile(plane, maps.nu, maps.nv, &maps.mean_pressure_pa, c);
+    let step = plane.step_mm;
+    let peak_k = field::peak(&prof).map(|(k, _)| k);
+    let peak_r = peak_k.map(|k| k as f64 * step);
+    let orbit_k = (radius_mm / step).round() as usize;
+    let ratio = match prof.get(orbit_k) {
+        Some(&o) if o > 0.0 && radius_mm > 0.0 => Some(prof[0] / o),
+        _ => None,
+    };
+    json!({
+        "map": "mean_pressure",
+        "about": "mean over rings around the LM centre in the plane",
+        "bin_mm": step,
+        "profile_pa": prof,
+        "peak_radius_mm": peak_r,
+        "peak_radius_over_a": peak_r.filter(|_| radius_mm > 0.0).map(|r| r / radius_mm),
+        "centre_to_orbit_ratio": ratio,
+    })
+}
+
+/// Orbit (focus 0 over every step) and step-0 foci in plane coordinates.
+pub fn overlay(plan: &Plan, plane: &ObservationPlane, disk_mm: f64) -> Overlay {
+    let t = &plan.trajectory;
+    let orbit = if t.steps > 1 {
+        (0..t.steps)
+            .map(|j| plane.project(t.foci_step(j)[0]))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Overlay {
+        orbit,
+        foci: t.foci_step(0).iter().map(|&f| plane.project(f)).collect(),
+        disk: Some((plane.project(t.center_mm), disk_mm)),
+    }
+}
+
+impl Sim {
+    /// The peak of `map` with its plane and scene coordinates, or null.
+    pub fn peak_json(&self, map: &[f64]) -> serde_json::Value {
+        match field::peak(map) {
+            None => serde_json::Value::Null,
+            Some((i, v)) => {
+                let (iu, iv) = (i % self.maps.nu, i / self.maps.nu);
+                json!({
+                    "value": v,
+                    "uv_mm": [self.plane.u_mm(iu), self.plane.v_mm(iv)],
+                    "xyz_mm": self.plane.point(iu, iv),
+                })
+            }
+        }
+    }
+
+    /// The JSON summary: stimulus, model, plane, maps, force, compute, radial profile.
+    pub fn summary_json(&self, plan: &Plan, view: &View, radius_mm: f64) -> serde_json::Value {
+        let t = &plan.trajectory;
+        let p = &self.plane;
+        let maps: serde_json::Map<String, serde_json::Value> = map_list(&self.maps)
+            .iter()
+            .map(|(stem, title, unit, m)| {
+                (
+                    stem.to_string(),
+                    json!({
+                        "title": title,
+                        "unit": unit,
+                        "npy": format!("{stem}.npy"),
+                        "png": format!("{stem}.png"),
+                        "peak": self.peak_json(m),
+                    }),
+                )
+            })
+            .collect();
+        json!({
+            "scene": plan.scene.name,
+            "transducers": plan.scene.transducer_count(),
+            "stimulus": {
+                "radius_mm": radius_mm,
+                "foci": t.foci,
+                "steps": t.steps,
+                "step_mm": t.step_mm,
+                "dwell_s": t.dwell_s,
+                "period_s": t.period_s,
+                "center_mm": t.center_mm,
+            },
+            "model": {
+                "p0_pa_mm": field::T4010A1_P0_PA_MM,
+                "directivity": plan.scene.directivity,
+                "sound_speed_m_s": plan.scene.sound_speed_m_s,
+                "attenuation_np_per_m": plan.scene.attenuation_np_per_m,
+                "density_kg_m3": view.density,
+                "alpha": view.rad.alpha,
+                "reflector": plan.scene.reflector.is_some(),
+            },
+            "plane": {
+                "center_mm": p.center_mm,
+                "u": p.u,
+                "v": p.v,
+                "width_mm": p.width_mm,
+                "height_mm": p.height_mm,
+                "step_mm": p.step_mm,
+                "nu": self.maps.nu,
+                "nv": self.maps.nv,
+                "u_extent_mm": [p.u_mm(0), p.u_mm(self.maps.nu - 1)],
+                "v_extent_mm": [p.v_mm(0), p.v_mm(self.maps.nv - 1)],
+                "layout": "row-major, rows along v, columns along u",
+            },
+            "maps": maps,
+            "force": {
+                "disk_diameter_mm": self.disk_mm,
+                "calibration": view.calibration,
+                "step0_n": self.force_step0_n,
+                "mean_n": self.force_mean_n,
+                "disk_clipped": self.clipped,
+            },
+            "compute": { "seconds": self.seconds, "path": self.path },
+            "radial": radial_json(p, &self.maps, t.center_mm, radius_mm),
+        })
+    }
+
+    /// The three-line summary `lmhost simulate` prints.
+    pub fn text_summary(&self, plan: &Plan, radius_mm: f64) -> String {
+        let t = &plan.trajectory;
+        let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
+        format!(
+            "{} {}, A = {radius_mm} mm, N = {} steps, {} transducers; \
+             grid {} × {} at {} mm in {:.3} s ({})\n\
+             peak amplitude {:.0} Pa, radiation pressure {:.1} Pa (step 0), {:.1} Pa (cycle mean)\n\
+             force on a {} mm disk: {:.4} N (step 0), {:.4} N (cycle mean){}",
+            t.foci,
+            if t.foci == 1 { "focus" } else { "foci" },
+            t.steps,
+            plan.scene.transducer_count(),
+            self.maps.nu,
+            self.maps.nv,
+            self.plane.step_mm,
+            self.seconds,
+            self.path,
+            pk(&self.maps.amplitude_pa),
+            pk(&self.maps.pressure_pa),
+            pk(&self.maps.mean_pressure_pa),
+            self.disk_mm,
+            self.force_step0_n,
+            self.force_mean_n,
+            if self.clipped {
+                " (disk clipped by the grid)"
+            } else {
+                ""
+            },
+        )
+    }
+}
+
+/// Writes one `.npy` and one PNG per map and `summary.json` into `out`.
+pub fn write_outputs(
+    plan: &Plan,
+    sim: &Sim,
+    view: &View,
+    radius_mm: f64,
+    out: &Path,
+) -> anyhow::Result<()> {
+    let ov = overlay(plan, &sim.plane, sim.disk_mm);
+    let kind = if plan.trajectory.foci > 1 {
+        "LM-M"
+    } else {
+        "LM-S"
+    };
+    for (stem, title, unit, map) in map_list(&sim.maps) {
+        let npy_path = out.join(format!("{stem}.npy"));
+        npy::write_f64(&npy_path, sim.maps.nv, sim.maps.nu, map)
+            .with_context(|| format!("cannot write {}", npy_path.display()))?;
+        let panel = Panel {
+            title: format!(
+                "{title}: {kind}, A = {radius_mm} mm, N = {}",
+                plan.trajectory.steps
+            ),
+            map,
+            overlay: ov.clone(),
+        };
+        plot::heatmap(&out.join(format!("{stem}.png")), &sim.plane, &panel, unit)?;
+    }
+    let summary = sim.summary_json(plan, view, radius_mm);
+    let path = out.join("summary.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// Radii of the `--compare` grid (the paper's conditions).
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field;
+
+    #[test]
+    fn simulation_work_is_bounded() {
+        assert!(check_work(10_201, 996, 82, false).is_ok());
+        let e = check_work(3_308_761, 996, 82, false).unwrap_err();
+        assert!(e.0.contains("exceeds the limit 5e10"), "{e}");
+        assert!(check_work(100_000, 996, 82, false).is_ok());
+        assert!(check_work(100_000, 996, 82, true).is_err());
+    }
+
+    #[test]
+    fn radial_profile_finds_a_ring_against_a_plain_loop() {
+        let plane = ObservationPlane::lm_default([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+            .validated()
+            .unwrap();
+        let (nu, nv) = (plane.nu(), plane.nv());
+        // A ring of radius 3 mm: exp(-(r - 3)²).
+        let map: Vec<f64> = (0..nv)
+            .flat_map(|iv| (0..nu).map(move |iu| (iu, iv)))
+            .map(|(iu, iv)| {
+                let r = plane.u_mm(iu).hypot(plane.v_mm(iv));
+                (-(r - 3.0) * (r - 3.0)).exp()
+            })
+            .collect();
+        let prof = radial_profile(&plane, nu, nv, &map, [0.0, 0.0]);
+        assert_eq!(prof.len(), 51);
+        let (k, _) = field::peak(&prof).unwrap();
+        assert!((k as f64 * 0.2 - 3.0).abs() < 0.21, "peak bin {k}");
+        assert!((prof[0] - (-9.0f64).exp()).abs() < 1e-12);
+        // Bin 15 (3 mm) is the plain mean of the points that round to it.
+        let (mut s, mut n) = (0.0, 0);
+        for iv in 0..nv {
+            for iu in 0..nu {
+                if (plane.u_mm(iu).hypot(plane.v_mm(iv)) / 0.2).round() as usize == 15 {
+                    s += map[iv * nu + iu];
+                    n += 1;
+                }
+            }
+        }
+        assert!((prof[15] - s / n as f64).abs() < 1e-12);
+    }
+}
