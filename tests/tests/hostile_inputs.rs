@@ -716,6 +716,7 @@ fn cases() -> Vec<Case> {
         case(PLANS, "plan --radius 100 --steps 4 --freq 1").ok(),
         case(PLANS, "simulate --alpha 1e300 --out {dir}/p2").err("0..=2"),
         case(PLANS, "simulate --calibration 1e300 --out {dir}/p3").err("--calibration"),
+        case(PLANS, "simulate --calibration 0 --out {dir}/p3c").err("--calibration"),
         case(PLANS, "simulate --disk 1e300 --out {dir}/p4").err("--disk"),
         case(PLANS, "simulate --plane-center 0,0,1e30 --out {dir}/p5").err("±2000 mm"),
         case(PLANS, "simulate --plane-size 1e9 --out {dir}/p6").err("--plane-size"),

@@ -64,7 +64,7 @@ pub struct Args {
     )]
     disk: f64,
     /// Factor applied to the simulated force (e.g. measured / simulated),
-    /// 0..=1e6.
+    /// above 0 and at most 1e6 (0 would zero every force).
     #[arg(
         long,
         value_name = "K",
@@ -128,7 +128,8 @@ impl Args {
                 Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]]))
             }
         };
-        let calibration = limits::in_range("--calibration", self.calibration, 0.0, 1e6, "")?;
+        let calibration = positive("calibration", self.calibration)
+            .and_then(|k| limits::in_range("--calibration", k, 0.0, 1e6, ""))?;
         positive("alpha", self.alpha)?;
         positive("density", self.density)?;
         positive("disk", self.disk)?;
