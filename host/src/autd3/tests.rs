@@ -434,3 +434,78 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
         (DeviceState::Stopped, MuteReason::Stopped)
     );
 }
+
+/// Issue 10: a live source that goes silent without ending (a tracker
+/// that stopped sending) must not leave the array sounding: the streaming
+/// loop keeps ticking the host-side gate while it waits for a sample.
+#[test]
+fn streaming_mutes_when_a_live_source_goes_silent() {
+    use crate::stream::Sample;
+    use crate::stream::filter::Passthrough;
+    use crate::stream::run::{Pace, on_thread, stream};
+
+    let scene = Scene::default();
+    let (mut b, h, clock) = open(&scene);
+    let (plan, _) = lm(&scene, 3.0, 1);
+    let slot = b.upload(&plan, None).unwrap().slot;
+    b.play(slot, false).unwrap();
+    assert_eq!(modulation(&h), safety::MUTED, "muted until tracked");
+
+    let (tx, rx) = std::sync::mpsc::channel::<anyhow::Result<Sample>>();
+    let center = scene.center_mm;
+    let acked = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let acked_w = acked.clone();
+    // The tracker's side: 5 present samples, then silence while the loop
+    // is watched through the emulated devices; only then does it end.
+    let watcher = std::thread::spawn(move || {
+        let wait_for = |done: &dyn Fn() -> bool| {
+            // A guard against hanging, not a timing goal.
+            let give_up = std::time::Instant::now() + Duration::from_secs(5);
+            while std::time::Instant::now() < give_up {
+                if done() {
+                    return true;
+                }
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            false
+        };
+        for i in 0..5 {
+            let s = Sample {
+                t_s: i as f64 / 90.0,
+                pos_mm: center,
+                present: true,
+            };
+            tx.send(Ok(s)).unwrap();
+        }
+        let all_applied = wait_for(&|| acked_w.load(std::sync::atomic::Ordering::SeqCst) == 5);
+        let sounding = modulation(&h) == safety::FULL;
+        // The tracker goes silent for 150 ms of the backend's time.
+        clock.advance(Duration::from_millis(150));
+        let muted_while_silent = wait_for(&|| modulation(&h) == safety::MUTED);
+        drop(tx);
+        (all_applied && sounding, muted_while_silent)
+    });
+    let report = stream(
+        &mut b,
+        on_thread(move || rx),
+        &mut Passthrough,
+        |p| p,
+        Pace::Arrival,
+        |_, _, _| {
+            acked.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            Ok(())
+        },
+    )
+    .unwrap();
+    let (sounding, muted_while_silent) = watcher.join().unwrap();
+    assert!(sounding, "the 5 samples were applied and the array sounded");
+    assert_eq!(report.samples, 5);
+    assert_eq!(report.acked, 5);
+    assert!(
+        muted_while_silent,
+        "the array muted while the source was silent, before it ended"
+    );
+    let st = b.status().unwrap();
+    assert_eq!(st.state, DeviceState::Muted);
+    assert_eq!(st.mute_reason, MuteReason::TrackingStale);
+}

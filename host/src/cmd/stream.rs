@@ -1,17 +1,14 @@
 //! `lmhost stream`: finger centroids to the device, filtered and mirrored
 //! into drive coordinates, one acked update per sample.
 
-use std::path::PathBuf;
-use std::time::Duration;
-
 use anyhow::Context as _;
+use std::path::PathBuf;
 
 use crate::cmd::plan::PlanArgs;
 use crate::link::PortArgs;
-use crate::stream::Sample;
 use crate::stream::filter::{FilterKind, Kalman};
 use crate::stream::metrics::score;
-use crate::stream::run::{Pace, stream};
+use crate::stream::run::{Pace, Threaded, on_thread, stream};
 use crate::stream::source;
 use crate::stream::synthetic::FingerTrack;
 
@@ -129,23 +126,22 @@ impl Args {
             Pace::Timestamps
         };
         let udp_counts = std::sync::Arc::new(source::UdpCounts::default());
-        let (samples, pace): (Box<dyn Iterator<Item = anyhow::Result<Sample>>>, Pace) = if self
-            .synthetic
-        {
+        // Every source is read on its own thread, so the loop keeps the
+        // device's housekeeping (the AUTD3 staleness mute) running while a
+        // live source is silent.
+        let (samples, pace) = if self.synthetic {
             let secs = self.seconds;
             (
-                Box::new(track.samples().take_while(move |s| s.t_s < secs).map(Ok)),
+                on_thread(move || track.samples().take_while(move |s| s.t_s < secs).map(Ok)),
                 pace,
             )
         } else if let Some(port) = self.udp {
-            (
-                Box::new(source::udp(port, seconds, udp_counts.clone())?),
-                Pace::Arrival,
-            )
+            let udp = source::udp(port, seconds, udp_counts.clone())?;
+            (on_thread(move || udp), Pace::Arrival)
         } else {
             match self.input.as_deref() {
-                None => (Box::new(stdin_samples()), Pace::Arrival),
-                Some(p) if p.as_os_str() == "-" => (Box::new(stdin_samples()), Pace::Arrival),
+                None => (stdin_samples(), Pace::Arrival),
+                Some(p) if p.as_os_str() == "-" => (stdin_samples(), Pace::Arrival),
                 Some(p) => {
                     if p.is_dir() {
                         crate::bad_input!("--input {} is a directory, not a file", p.display());
@@ -157,8 +153,8 @@ impl Args {
                             io_reason(&e)
                         ))
                     })?;
-                    let reader: Box<dyn std::io::BufRead> = Box::new(std::io::BufReader::new(f));
-                    (Box::new(source::replay_lines(reader)), pace)
+                    let reader = std::io::BufReader::new(f);
+                    (on_thread(move || source::replay_lines(reader)), pace)
                 }
             }
         };
@@ -302,29 +298,11 @@ impl Args {
     }
 }
 
-/// Stdin samples read on their own thread, so Ctrl-C ends the session
-/// even while no line arrives (a blocking read cannot be interrupted).
-fn stdin_samples() -> impl Iterator<Item = anyhow::Result<Sample>> {
-    let (tx, rx) = std::sync::mpsc::sync_channel(256);
-    std::thread::spawn(move || {
-        for s in source::read_lines(std::io::stdin().lock()) {
-            if tx.send(s).is_err() {
-                break;
-            }
-        }
-    });
-    std::iter::from_fn(move || {
-        loop {
-            if crate::stream::run::stop_requested() {
-                return None;
-            }
-            match rx.recv_timeout(Duration::from_millis(50)) {
-                Ok(s) => return Some(s),
-                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => continue,
-                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return None,
-            }
-        }
-    })
+/// Stdin samples, read on their own thread: Ctrl-C and the device's
+/// housekeeping go on while no line arrives (a blocking read cannot be
+/// interrupted; the thread is left to end with the process).
+fn stdin_samples() -> Threaded {
+    on_thread(|| source::read_lines(std::io::stdin().lock()))
 }
 
 fn io_reason(e: &std::io::Error) -> &'static str {

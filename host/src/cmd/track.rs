@@ -10,7 +10,7 @@ use crate::link::PortArgs;
 use crate::scene::Scene;
 use crate::stream::Sample;
 use crate::stream::filter::{FilterKind, Passthrough};
-use crate::stream::run::{Pace, stream};
+use crate::stream::run::{Feed, Next, Pace, stream};
 use crate::track::contact::Tracker;
 use crate::track::intrinsics::Intrinsics;
 use crate::track::presence::Hysteresis;
@@ -147,10 +147,38 @@ struct Run {
     prev_t_s: Option<f64>,
 }
 
+/// The tracked centres of a [`Run`] as the streaming loop's feed: a live
+/// source idles (the loop ticks the device) while no frame arrives.
+struct RunFeed<'a>(&'a mut Run);
+
+impl Feed for RunFeed<'_> {
+    fn next_within(&mut self, wait: Duration) -> Next<anyhow::Result<Sample>> {
+        match self.0.next_within(wait) {
+            Ok(Next::Ready(r)) => Next::Ready(Ok(r.sample())),
+            Ok(Next::Idle) => Next::Idle,
+            Ok(Next::End) => Next::End,
+            Err(e) => Next::Ready(Err(e)),
+        }
+    }
+}
+
 impl Run {
     fn next(&mut self) -> anyhow::Result<Option<FrameResult>> {
-        let Some(frame) = self.src.next_frame()? else {
-            return Ok(None);
+        loop {
+            match self.next_within(Duration::from_secs(3600))? {
+                Next::Ready(r) => return Ok(Some(r)),
+                Next::Idle => {}
+                Next::End => return Ok(None),
+            }
+        }
+    }
+
+    /// The next frame's result if a frame comes within `wait`.
+    fn next_within(&mut self, wait: Duration) -> anyhow::Result<Next<FrameResult>> {
+        let frame = match self.src.next_frame_within(wait)? {
+            Next::Ready(f) => f,
+            Next::Idle => return Ok(Next::Idle),
+            Next::End => return Ok(Next::End),
         };
         // Every source: a gap between frames is at most what a replay may
         // sleep, so a wild time stamp is an error naming the frame, not a
@@ -199,7 +227,7 @@ impl Run {
                 self.want_plot = self.plot_at.is_none() && !res.present;
             }
         }
-        Ok(Some(res))
+        Ok(Next::Ready(res))
     }
 
     /// The relative depth profile about the raw centroid, and whether a
@@ -427,7 +455,10 @@ impl Args {
             )?;
             return Ok((Box::new(r), rig));
         }
-        let src: Box<dyn FrameSource> = if self.camera {
+        // Live streams are read on their own thread: the device's
+        // housekeeping (the AUTD3 staleness mute) goes on while no frame
+        // arrives.
+        let src: Box<dyn FrameSource + Send> = if self.camera {
             Box::new(source::camera()?)
         } else {
             match self.stream.as_deref() {
@@ -446,6 +477,7 @@ impl Args {
                 None => unreachable!("one source was checked above"),
             }
         };
+        let src: Box<dyn FrameSource> = Box::new(source::on_thread(src));
         if let Some(ip) = &self.intrinsics {
             let given = Intrinsics::load(ip)?;
             let got = src.intrinsics();
@@ -556,11 +588,7 @@ impl Args {
             } else {
                 Pace::Timestamps
             };
-            let samples = std::iter::from_fn(|| match run.next() {
-                Ok(Some(r)) => Some(Ok::<Sample, anyhow::Error>(r.sample())),
-                Ok(None) => None,
-                Err(e) => Some(Err(e)),
-            });
+            let samples = RunFeed(&mut run);
             let report = stream(
                 dev.as_mut(),
                 samples,

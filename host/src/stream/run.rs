@@ -112,29 +112,105 @@ impl StreamReport {
     }
 }
 
-/// Stream `samples` through `filter` to the device `dev`;
+/// How often the device's housekeeping ([`Backend::tick`]) runs while
+/// the loop waits for a sample: the AUTD3 host-side staleness mute needs
+/// it at least every 10 ms.
+pub const TICK: Duration = Duration::from_millis(10);
+
+/// Samples buffered between a reader thread and the loop ([`on_thread`]).
+const READ_AHEAD: usize = 64;
+
+/// What a [`Feed`] had within the time it was given.
+#[derive(Debug)]
+pub enum Next<T> {
+    /// The next item.
+    Ready(T),
+    /// Nothing yet; the source goes on.
+    Idle,
+    /// The source ended.
+    End,
+}
+
+/// Where the streaming loop gets samples: waits at most `wait` so the loop
+/// can run [`Backend::tick`] and notice a stop while a live source is
+/// silent.
+pub trait Feed {
+    /// The next sample if one comes within `wait`.
+    fn next_within(&mut self, wait: Duration) -> Next<anyhow::Result<Sample>>;
+}
+
+/// A plain iterator is a feed that never idles: fine for sources that do
+/// not block (files, the synthetic finger); live sources go through
+/// [`on_thread`].
+impl<I: Iterator<Item = anyhow::Result<Sample>>> Feed for I {
+    fn next_within(&mut self, _wait: Duration) -> Next<anyhow::Result<Sample>> {
+        self.next().map_or(Next::End, Next::Ready)
+    }
+}
+
+/// Samples read on their own thread into a small bounded channel, so a
+/// source blocked on input (stdin, a socket, a camera) does not hold up
+/// the loop's housekeeping. Made by [`on_thread`].
+pub struct Threaded {
+    rx: std::sync::mpsc::Receiver<anyhow::Result<Sample>>,
+}
+
+impl Feed for Threaded {
+    fn next_within(&mut self, wait: Duration) -> Next<anyhow::Result<Sample>> {
+        use std::sync::mpsc::RecvTimeoutError;
+        match self.rx.recv_timeout(wait) {
+            Ok(s) => Next::Ready(s),
+            Err(RecvTimeoutError::Timeout) => Next::Idle,
+            Err(RecvTimeoutError::Disconnected) => Next::End,
+        }
+    }
+}
+
+/// Run the source `make` builds on a reader thread of its own (built
+/// there, so it need not be `Send`). The thread is never joined: when the
+/// loop ends first, the thread ends at its next sample (the channel is
+/// closed) or with the process, even if it is blocked reading stdin.
+pub fn on_thread<F, I>(make: F) -> Threaded
+where
+    F: FnOnce() -> I + Send + 'static,
+    I: IntoIterator<Item = anyhow::Result<Sample>>,
+{
+    let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD);
+    std::thread::Builder::new()
+        .name("lmhost-samples".into())
+        .spawn(move || {
+            for s in make() {
+                if tx.send(s).is_err() || stop_requested() {
+                    break;
+                }
+            }
+        })
+        .expect("spawning the sample reader thread");
+    Threaded { rx }
+}
+
+/// Stream the samples of `feed` through `filter` to the device `dev`;
 /// `to_drive` maps a finger-space centroid (mm) into drive coordinates
 /// (the scene's mirror). `between` runs after every acked update with the
 /// sample and its host receipt time (µs, [`monotonic_us`]) (the demo
-/// samples the device's status there).
-pub fn stream<I>(
+/// samples the device's status there). The device's housekeeping
+/// ([`Backend::tick`]) runs every [`TICK`] throughout, also while a live
+/// feed ([`on_thread`]) is silent.
+pub fn stream(
     client: &mut dyn Backend,
-    samples: I,
+    mut feed: impl Feed,
     filter: &mut dyn Filter,
     to_drive: impl Fn([f64; 3]) -> [f64; 3],
     pace: Pace,
     mut between: impl FnMut(&mut dyn Backend, &Sample, u64) -> anyhow::Result<()>,
-) -> anyhow::Result<StreamReport>
-where
-    I: IntoIterator<Item = anyhow::Result<Sample>>,
-{
+) -> anyhow::Result<StreamReport> {
     let start = Instant::now();
     let mut report = StreamReport::default();
     let mut last_pos = [0i32; 3];
     let mut seq = client_seq_start(client)?;
     let result = pump(
         client,
-        samples,
+        &mut feed,
         filter,
         &to_drive,
         pace,
@@ -166,9 +242,9 @@ where
 }
 
 #[allow(clippy::too_many_arguments)]
-fn pump<I>(
+fn pump(
     client: &mut dyn Backend,
-    samples: I,
+    feed: &mut dyn Feed,
     filter: &mut dyn Filter,
     to_drive: &impl Fn([f64; 3]) -> [f64; 3],
     pace: Pace,
@@ -177,17 +253,26 @@ fn pump<I>(
     last_pos: &mut [i32; 3],
     seq: &mut u32,
     start: Instant,
-) -> anyhow::Result<()>
-where
-    I: IntoIterator<Item = anyhow::Result<Sample>>,
-{
+) -> anyhow::Result<()> {
     let mut first_t: Option<f64> = None;
     let mut gate = Gate::default();
-    for sample in samples {
+    let mut next_tick = Instant::now() + TICK;
+    loop {
         if stop_requested() {
             break;
         }
-        let s = sample?;
+        // Housekeeping on time whatever the samples do: a silent source,
+        // or a run of samples the gate drops, sends no update.
+        let now = Instant::now();
+        if now >= next_tick {
+            client.tick()?;
+            next_tick = now + TICK;
+        }
+        let s = match feed.next_within(next_tick.saturating_duration_since(now)) {
+            Next::Ready(s) => s?,
+            Next::Idle => continue,
+            Next::End => break,
+        };
         report.samples += 1;
         let verdict = gate.check(&s);
         report.rejected = gate.counts;

@@ -32,6 +32,7 @@ use super::intrinsics::Intrinsics;
 use super::npy::{DepthNpy, DepthNpyWriter, read_timestamps, write_f64_1d};
 use super::synth::{FingerSim, Truth};
 use crate::InputError;
+use crate::stream::run::Next;
 
 /// Stream magic.
 pub const MAGIC: &[u8; 8] = b"LMDEPTH1";
@@ -59,6 +60,67 @@ pub trait FrameSource {
     /// Whether the source is live (already paced by the sensor).
     fn live(&self) -> bool {
         false
+    }
+    /// The next frame if one comes within `wait` (a source read on its own
+    /// thread, [`on_thread`], can idle; others block until it comes).
+    fn next_frame_within(&mut self, _wait: std::time::Duration) -> anyhow::Result<Next<Frame>> {
+        Ok(self.next_frame()?.map_or(Next::End, Next::Ready))
+    }
+}
+
+/// Frames buffered between a reader thread and the tracker (a few: a
+/// frame is up to a few MB).
+const FRAMES_AHEAD: usize = 4;
+
+/// A live source read on its own thread ([`on_thread`]), so the streaming
+/// loop keeps the device's housekeeping running while no frame arrives.
+pub struct Threaded {
+    rx: std::sync::mpsc::Receiver<anyhow::Result<Frame>>,
+    intr: Intrinsics,
+}
+
+/// Read `src` on a thread of its own. The thread is never joined: when
+/// the reader is dropped first, the thread ends at its next frame (the
+/// channel is closed) or with the process, even if blocked reading stdin.
+pub fn on_thread(mut src: Box<dyn FrameSource + Send>) -> Threaded {
+    let intr = src.intrinsics();
+    let (tx, rx) = std::sync::mpsc::sync_channel(FRAMES_AHEAD);
+    std::thread::Builder::new()
+        .name("lmhost-frames".into())
+        .spawn(move || {
+            loop {
+                let f = match src.next_frame() {
+                    Ok(Some(f)) => Ok(f),
+                    Ok(None) => break,
+                    Err(e) => Err(e),
+                };
+                let end = f.is_err();
+                if tx.send(f).is_err() || end || crate::stream::run::stop_requested() {
+                    break;
+                }
+            }
+        })
+        .expect("spawning the frame reader thread");
+    Threaded { rx, intr }
+}
+
+impl FrameSource for Threaded {
+    fn intrinsics(&self) -> Intrinsics {
+        self.intr
+    }
+    fn live(&self) -> bool {
+        true
+    }
+    fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
+        self.rx.recv().ok().transpose()
+    }
+    fn next_frame_within(&mut self, wait: std::time::Duration) -> anyhow::Result<Next<Frame>> {
+        use std::sync::mpsc::RecvTimeoutError;
+        match self.rx.recv_timeout(wait) {
+            Ok(f) => Ok(Next::Ready(f?)),
+            Err(RecvTimeoutError::Timeout) => Ok(Next::Idle),
+            Err(RecvTimeoutError::Disconnected) => Ok(Next::End),
+        }
     }
 }
 
