@@ -1,19 +1,12 @@
 //! `lmhost info`: what the device is and what it can hold.
 
-use std::path::PathBuf;
-
-use crate::link::PortArgs;
-use crate::scene::Scene;
+use crate::backend::DeviceArgs;
 
 /// Print the device's info.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    port: PortArgs,
-    /// AUTD3 ports: scene file whose devices the rig has [default: the
-    /// built-in array].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<PathBuf>,
+    device: DeviceArgs,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -22,8 +15,7 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
-        let mut dev = crate::backend::open(&self.port, &scene)?;
+        let mut dev = self.device.open()?;
         let where_ = dev.describe();
         let bi = dev.info()?;
         let Some(i) = bi.lm else {

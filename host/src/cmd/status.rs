@@ -1,21 +1,14 @@
 //! `lmhost status`: what the device is doing, and its error counters.
 
-use std::path::PathBuf;
-
 use anyhow::Context as _;
 
-use crate::link::PortArgs;
-use crate::scene::Scene;
+use crate::backend::DeviceArgs;
 
 /// Print the device's status.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    port: PortArgs,
-    /// AUTD3 ports: scene file whose devices the rig has [default: the
-    /// built-in array].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<PathBuf>,
+    device: DeviceArgs,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -24,8 +17,7 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
-        let mut dev = crate::backend::open(&self.port, &scene)?;
+        let mut dev = self.device.open()?;
         let where_ = dev.describe();
         let s = dev
             .status()
