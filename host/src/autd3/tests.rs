@@ -52,6 +52,26 @@ fn stm_segment(h: &EmulatorHandle) -> Segment {
     })
 }
 
+/// Whether every transducer on every board is silent (intensity 0).
+fn silent(h: &EmulatorHandle) -> bool {
+    h.with_cpus(|c| {
+        c.iter()
+            .all(|cpu| cpu.fpga().drives().iter().all(|d| d.intensity.0 == 0))
+    })
+}
+
+/// The first board's phase-correction bytes.
+fn first_board_correction(h: &EmulatorHandle) -> Vec<u8> {
+    h.with_cpus(|cpus| {
+        cpus[0]
+            .fpga()
+            .phase_correction()
+            .iter()
+            .map(|p| p.0)
+            .collect()
+    })
+}
+
 fn modulation(h: &EmulatorHandle) -> u8 {
     h.with_cpus(|c| c[0].fpga().modulation())
 }
@@ -276,11 +296,7 @@ fn mutes_until_tracked_on_absence_and_when_stale() {
     // Stop: muted and the STM replaced by a null gain.
     b.stop().unwrap();
     assert_eq!(modulation(&h), safety::MUTED);
-    h.with_cpus(|c| {
-        for cpu in c {
-            assert!(cpu.fpga().drives().iter().all(|d| d.intensity.0 == 0));
-        }
-    });
+    assert!(silent(&h));
 }
 
 #[test]
@@ -295,11 +311,7 @@ fn drop_leaves_the_array_silent() {
     drop(b);
     // Our drop mutes and writes a null gain; autd3's own close then clears
     // the devices (modulation back to 255, gain still null): silent.
-    h.with_cpus(|c| {
-        for cpu in c {
-            assert!(cpu.fpga().drives().iter().all(|d| d.intensity.0 == 0));
-        }
-    });
+    assert!(silent(&h));
 }
 
 #[test]
@@ -398,14 +410,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
     assert_eq!(st.last_centroid_seq, 1);
     assert_eq!(modulation(&h), safety::FULL);
     // Outside the work volume: refused, muted, offsets unchanged.
-    let before: Vec<u8> = h.with_cpus(|cpus| {
-        cpus[0]
-            .fpga()
-            .phase_correction()
-            .iter()
-            .map(|p| p.0)
-            .collect()
-    });
+    let before = first_board_correction(&h);
     assert_eq!(
         b.centroid(&at(2, max + 1000, true)).unwrap(),
         CentroidOutcome::OutOfRange
@@ -413,14 +418,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
     let st = b.status().unwrap();
     assert_eq!(st.mute_reason, MuteReason::CentroidOutOfRange);
     assert_eq!(modulation(&h), safety::MUTED);
-    let after: Vec<u8> = h.with_cpus(|cpus| {
-        cpus[0]
-            .fpga()
-            .phase_correction()
-            .iter()
-            .map(|p| p.0)
-            .collect()
-    });
+    let after = first_board_correction(&h);
     assert_eq!(before, after);
     // Back in range: sounds again.
     b.centroid(&at(3, 0, true)).unwrap();
