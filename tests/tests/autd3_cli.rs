@@ -38,7 +38,7 @@ fn fails(args: &[&str], code: i32) -> String {
 #[test]
 fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
-    fails(&[
+    let o = run(&[
         "upload",
         "--port",
         "autd3:emulator",
@@ -62,7 +62,7 @@ fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
 
 #[test]
 fn bad_autd3_ports_and_limits_exit_2_missing_links_exit_1() {
-    let o = run(&["upload", "--port", "autd3:nope"], 2);
+    fails(&["upload", "--port", "autd3:nope"], 2);
     assert!(
         fails(
             &[
@@ -184,7 +184,7 @@ fn demo_runs_on_the_emulator() {
 fn synthetic_stream_applies_corrections_and_mutes_on_absence() {
     let v = emulator_json(
         "stream",
-        &["--synthetic", "--seconds", "2", "--away", "0.8, 1.4"],
+        &["--synthetic", "--seconds", "2", "--away", "0.8,1.4"],
     );
     let acked = v["acked"].as_u64().unwrap();
     assert_eq!(v["applied"], acked);
@@ -219,7 +219,7 @@ fn synthetic_stream_applies_corrections_and_mutes_on_absence() {
 
 #[test]
 fn info_status_and_stop_on_the_emulator() {
-    assert!(fails(&[
+    let o = run(&[
         "info",
         "--port",
         "autd3:emulator",
@@ -238,7 +238,7 @@ fn info_status_and_stop_on_the_emulator() {
     let o = run(&["stop", "--port", "autd3:emulator"]);
     assert!(o.status.success());
     // A fresh link holds nothing to play: exit 1, one line, says why.
-    let o = run(&["play", "--port", "autd3:emulator"], 1).contains("holds the link"));
+    assert!(fails(&["play", "--port", "autd3:emulator"], 1).contains("holds the link"));
 }
 
 #[test]
