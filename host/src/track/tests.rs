@@ -180,60 +180,54 @@ fn a_second_object_in_the_box() {
     assert!(crate::geom::dot(shift, tb.axes[0]) < 0.0);
 }
 
+/// A depth recording `name` of `frames`, each `width × height`.
+fn depth_npy(name: &str, width: u32, height: u32, frames: &[&[u16]]) -> std::path::PathBuf {
+    let p = tmp(name);
+    let mut w = super::npy::DepthNpyWriter::create(&p, width, height).unwrap();
+    for f in frames {
+        w.push(f).unwrap();
+    }
+    w.finish().unwrap();
+    p
+}
+
+/// The error `Replay::open` gives for these arguments.
+fn open_err(path: &std::path::Path, intr: Intrinsics, stamps: Option<Vec<f64>>) -> String {
+    Replay::open(path, intr, stamps).err().unwrap().to_string()
+}
+
 #[test]
 fn wrong_frame_size_or_dtype() {
-    let p = tmp("small.npy");
-    let mut w = super::npy::DepthNpyWriter::create(&p, 64, 48).unwrap();
-    w.push(&vec![0; 64 * 48]).unwrap();
-    w.finish().unwrap();
-    let e = Replay::open(&p, Intrinsics::D435_848X480, None)
-        .err()
-        .unwrap()
-        .to_string();
+    let p = depth_npy("small.npy", 64, 48, &[&vec![0; 64 * 48]]);
+    let e = open_err(&p, Intrinsics::D435_848X480, None);
     assert!(e.contains("64×48") && e.contains("848×480"), "{e}");
     let q = tmp("f8.npy");
     crate::field::npy::write_f64(&q, 2, 2, &[0.0; 4]).unwrap();
-    let e = Replay::open(&q, Intrinsics::D435_848X480, None)
-        .err()
-        .unwrap()
-        .to_string();
+    let e = open_err(&q, Intrinsics::D435_848X480, None);
     assert!(e.contains("uint16"), "{e}");
 }
 
 #[test]
 fn truncated_npy() {
-    let p = tmp("trunc.npy");
-    let mut w = super::npy::DepthNpyWriter::create(&p, 8, 8).unwrap();
-    w.push(&[1; 64]).unwrap();
-    w.push(&[2; 64]).unwrap();
-    w.finish().unwrap();
+    let p = depth_npy("trunc.npy", 8, 8, &[&[1; 64], &[2; 64]]);
     let b = std::fs::read(&p).unwrap();
     std::fs::write(&p, &b[..b.len() - 64]).unwrap();
     let mut i = Intrinsics::D435_848X480;
     i.width = 8;
     i.height = 8;
-    let e = Replay::open(&p, i, None).err().unwrap().to_string();
+    let e = open_err(&p, i, None);
     assert!(e.contains("truncated") && !e.contains('\n'), "{e}");
 }
 
 #[test]
 fn intrinsics_not_matching_the_frames() {
-    let p = tmp("mismatch.npy");
-    let mut w = super::npy::DepthNpyWriter::create(&p, 640, 480).unwrap();
-    w.push(&vec![0; 640 * 480]).unwrap();
-    w.finish().unwrap();
-    let e = Replay::open(&p, Intrinsics::D435_848X480, None)
-        .err()
-        .unwrap()
-        .to_string();
+    let p = depth_npy("mismatch.npy", 640, 480, &[&vec![0; 640 * 480]]);
+    let e = open_err(&p, Intrinsics::D435_848X480, None);
     assert!(e.contains("intrinsics say 848×480"), "{e}");
     // Time stamps that do not match the frame count.
     let mut i = Intrinsics::D435_848X480;
     i.width = 640;
-    let e = Replay::open(&p, i, Some(vec![0.0, 0.1]))
-        .err()
-        .unwrap()
-        .to_string();
+    let e = open_err(&p, i, Some(vec![0.0, 0.1]));
     assert!(e.contains("2 time stamps for 1 frames"), "{e}");
 }
 
