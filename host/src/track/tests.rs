@@ -27,6 +27,17 @@ fn setup() -> (Scene, Rig, Intrinsics, Tracker) {
     (scene, rig, intr, Tracker::new(intr, rig))
 }
 
+/// [`setup`] with the synthetic finger over the scene's background.
+fn setup_sim() -> (Rig, Intrinsics, Tracker, FingerSim) {
+    let (scene, rig, intr, tr) = setup();
+    (
+        rig,
+        intr,
+        tr,
+        FingerSim::new(rig, intr, background_of(&scene)),
+    )
+}
+
 /// A finger at tip time `t_s` of the cycle, noise-free.
 fn frame_at(sim: &FingerSim, t_s: f64) -> Vec<u16> {
     let mut f = Vec::new();
@@ -46,8 +57,7 @@ fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
 
 #[test]
 fn fast_path_matches_the_full_frame_reference() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, sim) = setup_sim();
     let mut rng = SplitMix64::new(7);
     for t in [0.5, 1.0, 3.0, 3.3] {
         let mut f = frame_at(&sim, t);
@@ -72,8 +82,7 @@ fn fast_path_matches_the_full_frame_reference() {
 
 #[test]
 fn empty_box() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (_, _, tr, sim) = setup_sim();
     let f = frame_at(&sim, 5.8); // away
     assert!(f.iter().any(|v| *v > 0), "the display is in view");
     let c = tr.track(&f);
@@ -103,8 +112,7 @@ fn saturated_depth_65535() {
 
 #[test]
 fn finger_at_the_box_edge() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, sim) = setup_sim();
     let tb = rig.track_box;
     // Tip 5 mm off along a: half the pad is outside the box's side.
     let centre = sim.tip_mm(2.0).unwrap();
@@ -128,8 +136,7 @@ fn finger_at_the_box_edge() {
 
 #[test]
 fn holes_95_percent() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, _, tr, mut sim) = setup_sim();
     sim.holes = 0.95;
     sim.noise_mm = 0.5;
     let mut f = Vec::new();
@@ -154,8 +161,7 @@ fn holes_95_percent() {
 
 #[test]
 fn a_second_object_in_the_box() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, mut sim) = setup_sim();
     let finger = tr.track(&frame_at(&sim, 2.0));
     // A 3 mm ball near the box's far corner, inside the box.
     let tb = rig.track_box;
@@ -233,8 +239,7 @@ fn intrinsics_not_matching_the_frames() {
 
 #[test]
 fn recording_replays_frame_for_frame() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (_, intr, tr, mut sim) = setup_sim();
     sim.window = Some(tr.roi());
     let p = tmp("rec.npy");
     let mut src = super::source::Synthetic::new(sim, 0.2);
@@ -257,8 +262,7 @@ fn recording_replays_frame_for_frame() {
 /// every frame away from transitions, at most one frame off at them.
 #[test]
 fn accuracy_on_the_synthetic_finger_at_half_a_millimetre_of_noise() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (_, _, tr, mut sim) = setup_sim();
     sim.noise_mm = 0.5;
     sim.holes = 0.02;
     // The tracker reads only its rectangle, so render only that.
@@ -304,8 +308,7 @@ fn accuracy_on_the_synthetic_finger_at_half_a_millimetre_of_noise() {
 
 #[test]
 fn one_noisy_frame_neither_mutes_nor_unmutes() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, sim) = setup_sim();
     let on = frame_at(&sim, 2.0);
     let off = vec![0u16; on.len()];
     let mut pipe = Pipeline::new(tr, Hysteresis::default(), FilterKind::Gaussian.build());
