@@ -2,33 +2,15 @@
 
 use anyhow::Context as _;
 
-use crate::backend::DeviceArgs;
+use super::QueryArgs;
 
-/// Print the device's status.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(flatten)]
-    device: DeviceArgs,
-    /// Print JSON instead of text.
-    #[arg(long)]
-    json: bool,
-}
-
-impl Args {
-    /// Run it.
-    pub fn run(self) -> anyhow::Result<()> {
-        let mut dev = self.device.open()?;
-        let where_ = dev.describe();
-        let s = dev
-            .status()
-            .with_context(|| format!("asking {where_} for its status"))?;
-        if self.json {
-            println!("{}", serde_json::to_string(&s)?);
-            return Ok(());
-        }
-        print_status(&s);
-        Ok(())
-    }
+/// Prints the device's status.
+pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
+    let (mut dev, where_) = q.open()?;
+    let s = dev
+        .status()
+        .with_context(|| format!("asking {where_} for its status"))?;
+    q.print(&s, print_status)
 }
 
 /// The text form of a status.
