@@ -140,7 +140,7 @@ fn simulate_force_scales_with_the_calibration_factor() {
 
 #[test]
 fn simulate_compare_renders_one_grid_figure() {
-    let (out, o) = simulate_ok(
+    let (out, _) = simulate_ok(
         "compare",
         &["--compare", "--plane-size", "12", "--plane-step", "2"],
     );
