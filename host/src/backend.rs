@@ -140,6 +140,26 @@ impl Target {
     }
 }
 
+/// The device a command talks to: its port and, for AUTD3 ports, the
+/// scene whose devices the rig has (`info`, `status`, `play`, `stop`).
+#[derive(Debug, clap::Args)]
+pub struct DeviceArgs {
+    #[command(flatten)]
+    port: PortArgs,
+    /// AUTD3 ports: scene file whose devices the rig has [default: the
+    /// built-in array].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<std::path::PathBuf>,
+}
+
+impl DeviceArgs {
+    /// Loads the scene and opens the device (see [`open`]).
+    pub fn open(&self) -> anyhow::Result<Box<dyn Backend>> {
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        open(&self.port, &scene)
+    }
+}
+
 /// Opens the device `port` names for `scene` (an AUTD3 rig is built from
 /// the scene's devices; the LM firmware ignores it).
 pub fn open(port: &PortArgs, scene: &Scene) -> anyhow::Result<Box<dyn Backend>> {

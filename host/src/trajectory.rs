@@ -294,6 +294,13 @@ impl Trajectory {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Asserts `p` is refused with an error that says `says`.
+    #[track_caller]
+    fn refused(p: &LmParams, says: &str) {
+        let e = plan(p).unwrap_err().0;
+        assert!(e.contains(says), "{e}");
+    }
     use crate::geom::{norm, sub};
 
     fn plan(p: &LmParams) -> Result<Trajectory, InputError> {
@@ -374,8 +381,7 @@ mod tests {
     fn step_wider_than_circumference_is_an_error() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.steps = Steps::Width(19.0);
-        let e = plan(&p).unwrap_err().0;
-        assert!(e.contains("wider than the circumference"), "{e}");
+        refused(&p, "wider than the circumference");
         // Just inside the circumference it rounds to one step.
         p.steps = Steps::Width(18.8);
         p.freq_hz = 1.0;
@@ -387,8 +393,7 @@ mod tests {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.foci = 4;
         p.spacing_mm = 0.1;
-        let e = plan(&p).unwrap_err().0;
-        assert!(e.contains("l = floor(d/d_LM) = 0"), "{e}");
+        refused(&p, "l = floor(d/d_LM) = 0");
     }
 
     #[test]
@@ -397,8 +402,7 @@ mod tests {
         p.radius_mm = 2.0;
         p.foci = 5;
         p.spacing_mm = 3.0;
-        let e = plan(&p).unwrap_err().0;
-        assert!(e.contains("circumference"), "{e}");
+        refused(&p, "circumference");
         // Four foci at 3 mm fit on a 2 mm circle (12.57 mm).
         p.foci = 4;
         assert_eq!(plan(&p).unwrap().foci, 4);
@@ -452,8 +456,7 @@ mod tests {
     fn dwell_below_device_minimum_is_rejected() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
         p.freq_hz = 25.0; // 82 steps at 25 Hz: 0.49 ms
-        let e = plan(&p).unwrap_err().0;
-        assert!(e.contains("below the device minimum"), "{e}");
+        refused(&p, "below the device minimum");
         // The paper's 25 Hz condition uses 4 mm steps: N = 5, 8 ms.
         p.steps = Steps::Width(4.0);
         let t = plan(&p).unwrap();

@@ -45,6 +45,11 @@ def begin(slot, steps, t, period, enc, enc_len, center, foci, speed, max_off):
     return (struct.pack("<BHHIBI", slot, steps, t, period, enc, enc_len) + xyz(center)
             + bytes([foci]) + struct.pack("<II", speed, max_off))
 
+def small_begin(slot, enc, enc_len, max_off=20000):
+    """The device records' upload: 2 steps x 2 transducers, 200 ms a step,
+    one focus at (0, 0, 200) mm, 340 m/s."""
+    return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), 1, 340000, max_off)
+
 def status(state, slot, step, counters, corr, queued, reason):
     return (bytes([state, slot]) + struct.pack("<H6I", step, *counters) + xyz(corr)
             + bytes([queued, reason]))
@@ -138,7 +143,7 @@ SMALL = [1, 2, 3, 4]
 rec("dev_begin", 0x02, 100,
     "BeginUpload slot=1 steps=2 transducers=2 period_us=200000 encoding=Raw(0) encoded_len=4 "
     "center_um=[0,0,200000] foci_per_step=1 sound_speed_mm_s=340000 max_offset_um=20000",
-    begin(1, 2, 2, 200000, 0, 4, (0, 0, 200000), 1, 340000, 20000), expect="ack")
+    small_begin(1, 0, 4), expect="ack")
 rec("dev_geometry", 0x03, 101, "Geometry slot=1 first=0 positions=[[-5000,0,0],[5000,0,0]]",
     struct.pack("<BH", 1, 0) + xyz((-5000, 0, 0)) + xyz((5000, 0, 0)), expect="ack")
 rec("dev_chunk_a", 0x04, 102, "Chunk slot=1 offset=0 data=[01 02]",
@@ -159,18 +164,21 @@ rec("dev_commit_again", 0x05, 108, "the same Commit repeated (idempotent: acked 
     struct.pack("<BI", 1, zlib.crc32(bytes(SMALL))), expect="ack")
 rec("dev_commit_other_crc", 0x05, 109, "Commit slot=1 crc32=0x00000000 (no upload in progress)",
     struct.pack("<BI", 1, 0), expect="nack NoUpload")
-rec("dev_begin_delta_empty", 0x02, 110,
-    "BeginUpload slot=0 steps=2 transducers=2 Delta encoded_len=0 (impossible: out of range)",
-    begin(0, 2, 2, 200000, 1, 0, (0, 0, 200000), 1, 340000, 20000), expect="nack OutOfRange")
-rec("dev_begin_raw_len", 0x02, 111,
-    "BeginUpload slot=0 steps=2 transducers=2 Raw encoded_len=3 (needs 4: out of range)",
-    begin(0, 2, 2, 200000, 0, 3, (0, 0, 200000), 1, 340000, 20000), expect="nack OutOfRange")
-rec("dev_begin_no_work_volume", 0x02, 112,
-    "BeginUpload slot=0 steps=2 transducers=2 Raw encoded_len=4 max_offset_um=0 (out of range)",
-    begin(0, 2, 2, 200000, 0, 4, (0, 0, 200000), 1, 340000, 0), expect="nack OutOfRange")
-rec("dev_begin_wide_work_volume", 0x02, 113,
-    "BeginUpload slot=0 ... max_offset_um=100001 (above 100 mm: out of range)",
-    begin(0, 2, 2, 200000, 0, 4, (0, 0, 200000), 1, 340000, 100001), expect="nack OutOfRange")
+for name, seq, fields, enc, enc_len, max_off in [
+    ("dev_begin_delta_empty", 110,
+     "BeginUpload slot=0 steps=2 transducers=2 Delta encoded_len=0 (impossible: out of range)",
+     1, 0, 20000),
+    ("dev_begin_raw_len", 111,
+     "BeginUpload slot=0 steps=2 transducers=2 Raw encoded_len=3 (needs 4: out of range)",
+     0, 3, 20000),
+    ("dev_begin_no_work_volume", 112,
+     "BeginUpload slot=0 steps=2 transducers=2 Raw encoded_len=4 max_offset_um=0 (out of range)",
+     0, 4, 0),
+    ("dev_begin_wide_work_volume", 113,
+     "BeginUpload slot=0 ... max_offset_um=100001 (above 100 mm: out of range)",
+     0, 4, 100001),
+]:
+    rec(name, 0x02, seq, fields, small_begin(0, enc, enc_len, max_off), expect="nack OutOfRange")
 rec("dev_play_tracked", 0x06, 114, "Play slot=1 at=Immediate(1) flags=0", bytes([1, 1, 0]),
     expect="ack")
 rec("dev_status_waiting", 0x09, 115, "GetStatus (muted: waiting for tracking)", b"",

@@ -22,6 +22,19 @@ fn one_line_error(o: &Output) -> String {
     e
 }
 
+/// Runs lmhost with `args`, asserts it exits with `code` and one line on
+/// stderr, and returns that line.
+fn fails(args: &[&str], code: i32) -> String {
+    let o = &run(args);
+    assert_eq!(
+        o.status.code(),
+        Some(code),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    one_line_error(o)
+}
+
 #[test]
 fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
@@ -49,28 +62,38 @@ fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
 
 #[test]
 fn bad_autd3_ports_and_limits_exit_2_missing_links_exit_1() {
-    let o = run(&["upload", "--port", "autd3:nope"]);
-    assert_eq!(o.status.code(), Some(2));
-    one_line_error(&o);
-    let o = run(&[
-        "upload",
-        "--port",
-        "autd3:emulator",
-        "--freq",
-        "100",
-        "--steps",
-        "82",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(one_line_error(&o).contains("25 µs"));
-    let o = run(&["upload", "--port", "autd3:ethercrab:eth0"]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(one_line_error(&o).contains("autd3-ethercrab"));
+    fails(&["upload", "--port", "autd3:nope"], 2);
+    assert!(
+        fails(
+            &[
+                "upload",
+                "--port",
+                "autd3:emulator",
+                "--freq",
+                "100",
+                "--steps",
+                "82",
+            ],
+            2
+        )
+        .contains("25 µs")
+    );
+    assert!(fails(&["upload", "--port", "autd3:ethercrab:eth0"], 1).contains("autd3-ethercrab"));
 }
 
 fn json(o: &Output) -> serde_json::Value {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     serde_json::from_slice(&o.stdout).expect("one JSON object")
+}
+
+/// Runs `lmhost CMD --port autd3:emulator ARGS --json` and parses its report.
+fn emulator_json(cmd: &str, args: &[&str]) -> serde_json::Value {
+    let all: Vec<&str> = [cmd, "--port", "autd3:emulator"]
+        .into_iter()
+        .chain(args.iter().copied())
+        .chain(["--json"])
+        .collect();
+    json(&run(&all))
 }
 
 fn scene(name: &str) -> String {
@@ -85,16 +108,7 @@ fn scene(name: &str) -> String {
 #[test]
 fn upload_reads_back_byte_exact_for_lm_s_and_lm_m_with_errors_vs_the_request() {
     for (foci, radius) in [("1", "2"), ("1", "6"), ("4", "3"), ("4", "6")] {
-        let v = json(&run(&[
-            "upload",
-            "--port",
-            "autd3:emulator",
-            "--foci",
-            foci,
-            "--radius",
-            radius,
-            "--json",
-        ]));
+        let v = emulator_json("upload", &["--foci", foci, "--radius", radius]);
         assert_eq!(v["readback_mismatches"], 0, "{v}");
         let dwell = v["dwell_us"].as_f64().unwrap();
         assert_eq!(dwell % 25.0, 0.0, "{v}");
@@ -124,43 +138,20 @@ fn upload_reads_back_byte_exact_for_lm_s_and_lm_m_with_errors_vs_the_request() {
 
 #[test]
 fn untracked_upload_plays_at_once_and_no_play_does_not() {
-    let v = json(&run(&[
-        "upload",
-        "--port",
-        "autd3:emulator",
-        "--untracked",
-        "--hold",
-        "0.2",
-        "--json",
-    ]));
+    let v = emulator_json("upload", &["--untracked", "--hold", "0.2"]);
     assert_eq!(v["untracked"], true);
     assert_eq!(v["mute_reason"], "none", "{v}");
     assert_eq!(v["hold_s"], 0.2);
-    let v = json(&run(&[
-        "upload",
-        "--port",
-        "autd3:emulator",
-        "--no-play",
-        "--json",
-    ]));
+    let v = emulator_json("upload", &["--no-play"]);
     assert_eq!(v["playing"], false);
     assert!(v["mute_reason"].is_null(), "{v}");
     // --hold is for AUTD3 only: the LM firmware plays on its own.
-    let o = run(&["upload", "--port", "/dev/null", "--hold", "1"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(one_line_error(&o).contains("--hold"));
+    assert!(fails(&["upload", "--port", "/dev/null", "--hold", "1"], 2).contains("--hold"));
 }
 
 #[test]
 fn demo_runs_on_the_emulator() {
-    let v = json(&run(&[
-        "demo",
-        "--port",
-        "autd3:emulator",
-        "--seconds",
-        "2",
-        "--json",
-    ]));
+    let v = emulator_json("demo", &["--seconds", "2"]);
     assert_eq!(v["readback_mismatches"], 0, "{v}");
     assert_eq!(v["dwell_us"], 2450.0);
     assert!(
@@ -186,24 +177,15 @@ fn demo_runs_on_the_emulator() {
             .unwrap()
             > 0
     );
-    let o = run(&["demo", "--port", "/dev/ttyACM0"]);
-    assert_eq!(o.status.code(), Some(2));
-    one_line_error(&o);
+    fails(&["demo", "--port", "/dev/ttyACM0"], 2);
 }
 
 #[test]
 fn synthetic_stream_applies_corrections_and_mutes_on_absence() {
-    let v = json(&run(&[
+    let v = emulator_json(
         "stream",
-        "--port",
-        "autd3:emulator",
-        "--synthetic",
-        "--seconds",
-        "2",
-        "--away",
-        "0.8,1.4",
-        "--json",
-    ]));
+        &["--synthetic", "--seconds", "2", "--away", "0.8,1.4"],
+    );
     let acked = v["acked"].as_u64().unwrap();
     assert_eq!(v["applied"], acked);
     assert!(acked > 100, "{v}");
@@ -216,19 +198,18 @@ fn synthetic_stream_applies_corrections_and_mutes_on_absence() {
     );
     assert_eq!(v["upload"]["upload"]["readback_mismatches"], 0);
     // Plan flags shape what is played before streaming.
-    let v = json(&run(&[
+    let v = emulator_json(
         "stream",
-        "--port",
-        "autd3:emulator",
-        "--synthetic",
-        "--seconds",
-        "1",
-        "--foci",
-        "4",
-        "--radius",
-        "6",
-        "--json",
-    ]));
+        &[
+            "--synthetic",
+            "--seconds",
+            "1",
+            "--foci",
+            "4",
+            "--radius",
+            "6",
+        ],
+    );
     assert_eq!(v["upload"]["upload"]["readback_mismatches"], 0);
     assert!(
         v["upload"]["timing"]["step_mm"].as_f64().unwrap() > 0.2,
@@ -251,34 +232,31 @@ fn info_status_and_stop_on_the_emulator() {
     assert_eq!(v["transducers"], 996);
     assert_eq!(v["slots"], 2);
     assert_eq!(v["dwell_grid_us"], 25);
-    let v = json(&run(&["status", "--port", "autd3:emulator", "--json"]));
+    let v = emulator_json("status", &[]);
     assert_eq!(v["state"], "Idle", "{v}");
     assert_eq!(v["mute_reason"], "none", "{v}");
     let o = run(&["stop", "--port", "autd3:emulator"]);
     assert!(o.status.success());
     // A fresh link holds nothing to play: exit 1, one line, says why.
-    let o = run(&["play", "--port", "autd3:emulator"]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(one_line_error(&o).contains("holds the link"));
+    assert!(fails(&["play", "--port", "autd3:emulator"], 1).contains("holds the link"));
 }
 
 #[test]
 fn a_scene_the_rig_cannot_match_is_exit_2() {
     // paper.toml has four devices; a rig of three cannot play it.
-    let o = run(&[
-        "upload",
-        "--port",
-        "autd3:emulator:3",
-        "--scene",
-        &scene("paper.toml"),
-    ]);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
+    assert!(
+        fails(
+            &[
+                "upload",
+                "--port",
+                "autd3:emulator:3",
+                "--scene",
+                &scene("paper.toml"),
+            ],
+            2
+        )
+        .contains("has 4 devices but the AUTD3 rig has 3")
     );
-    assert!(one_line_error(&o).contains("has 4 devices but the AUTD3 rig has 3"));
     let v = json(&run(&[
         "upload",
         "--port",
@@ -299,20 +277,16 @@ fn a_scene_the_rig_cannot_match_is_exit_2() {
     let dup = format!("{}\n{}", paper, &paper[first..end]);
     let path = dir.join("overlap.toml");
     std::fs::write(&path, dup).unwrap();
-    let o = run(&[
-        "upload",
-        "--port",
-        "autd3:emulator",
-        "--scene",
-        path.to_str().unwrap(),
-    ]);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
+    fails(
+        &[
+            "upload",
+            "--port",
+            "autd3:emulator",
+            "--scene",
+            path.to_str().unwrap(),
+        ],
+        2,
     );
-    one_line_error(&o);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -329,9 +303,7 @@ fn autd3_ports_via_the_environment_and_bad_ones_everywhere() {
         assert_eq!(o.status.code(), Some(2), "{cmd}");
         one_line_error(&o);
     }
-    let o = run(&["info", "--port", "autd3:soem:eth0"]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(one_line_error(&o).contains("autd3-soem"));
+    assert!(fails(&["info", "--port", "autd3:soem:eth0"], 1).contains("autd3-soem"));
 }
 
 #[test]

@@ -24,6 +24,23 @@ fn out_dir(name: &str) -> PathBuf {
     d
 }
 
+/// Runs `lmhost simulate ARGS --out DIR` into a fresh `DIR` named for
+/// `name`, asserts it succeeded, and returns `DIR` and the output.
+fn simulate_ok(name: &str, args: &[&str]) -> (PathBuf, Output) {
+    let out = out_dir(name);
+    let mut all = vec!["simulate"];
+    all.extend(args);
+    all.extend(["--out", out.to_str().unwrap()]);
+    let o = run(&all);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (out, o)
+}
+
+/// The run's `summary.json` in `out`.
+fn summary(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
 /// Shape `(rows, cols)` from an NPY header, and the f64 data.
 fn read_npy(path: &Path) -> ((usize, usize), Vec<f64>) {
     let b = std::fs::read(path).unwrap();
@@ -51,26 +68,23 @@ fn read_npy(path: &Path) -> ((usize, usize), Vec<f64>) {
 
 #[test]
 fn simulate_writes_maps_heatmaps_and_a_summary() {
-    let out = out_dir("single");
-    let o = run(&[
-        "simulate",
-        "--radius",
-        "3",
-        "--foci",
-        "4",
-        "--plane-size",
-        "8,6",
-        "--plane-step",
-        "0.5",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (out, o) = simulate_ok(
+        "single",
+        &[
+            "--radius",
+            "3",
+            "--foci",
+            "4",
+            "--plane-size",
+            "8,6",
+            "--plane-step",
+            "0.5",
+        ],
+    );
     let stdout = String::from_utf8(o.stdout).unwrap();
     assert!(stdout.contains("force on a 15 mm disk"), "{stdout}");
 
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s = summary(&out);
     assert_eq!(s["plane"]["nu"], 17);
     assert_eq!(s["plane"]["nv"], 13);
     assert_eq!(s["stimulus"]["steps"], 82);
@@ -110,25 +124,13 @@ fn simulate_writes_maps_heatmaps_and_a_summary() {
 
 #[test]
 fn simulate_force_scales_with_the_calibration_factor() {
-    let base = [
-        "simulate",
-        "--radius",
-        "0",
-        "--plane-size",
-        "16",
-        "--plane-step",
-        "1",
-    ];
+    let base = ["--radius", "0", "--plane-size", "16", "--plane-step", "1"];
     let mut forces = Vec::new();
     for (name, k) in [("k1", "1"), ("k3", "3")] {
-        let out = out_dir(name);
         let mut args = base.to_vec();
-        args.extend(["--calibration", k, "--out", out.to_str().unwrap()]);
-        let o = run(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
+        args.extend(["--calibration", k]);
+        let (out, _) = simulate_ok(name, &args);
+        let s = summary(&out);
         assert_eq!(s["force"]["disk_clipped"], false);
         forces.push(s["force"]["step0_n"].as_f64().unwrap());
     }
@@ -138,22 +140,13 @@ fn simulate_force_scales_with_the_calibration_factor() {
 
 #[test]
 fn simulate_compare_renders_one_grid_figure() {
-    let out = out_dir("compare");
-    let o = run(&[
-        "simulate",
-        "--compare",
-        "--plane-size",
-        "12",
-        "--plane-step",
-        "2",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (out, _) = simulate_ok(
+        "compare",
+        &["--compare", "--plane-size", "12", "--plane-step", "2"],
+    );
     let png = std::fs::read(out.join("compare_mean_pressure.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s = summary(&out);
     let runs = s["compare"].as_array().unwrap();
     assert_eq!(runs.len(), 10);
     let radii: Vec<f64> = runs

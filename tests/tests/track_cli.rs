@@ -237,14 +237,21 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
     assert!(err.contains("ended inside frame"), "{err}");
 }
 
+/// The half-size camera's intrinsics file (in a fresh folder named for
+/// `name`) and a simulated device playing the default upload planned on
+/// the same scene.
+fn camera_and_device(name: &str) -> (String, Sim) {
+    let cam = half_intrinsics(&dir(name));
+    let sim = Sim::start(&[]);
+    ok(&["upload", "--port", &sim.port, "--scene", &paper()]);
+    (cam, sim)
+}
+
 #[test]
 fn tracking_streams_the_gated_centre_to_the_device() {
-    let d = dir("port");
-    let cam = half_intrinsics(&d);
-    let sim = Sim::start(&[]);
     // Planned on the same scene, so the tracked finger is inside the
     // device's work volume around the planned centre.
-    ok(&["upload", "--port", &sim.port, "--scene", &paper()]);
+    let (cam, sim) = camera_and_device("port");
     let out = synthetic(&cam, "1.5", &["--json", "--port", &sim.port]);
     let v = lines(&out);
     assert_eq!(v.len(), 135);
@@ -357,10 +364,7 @@ fn demo_tracks_synthetic_depth_frames() {
 
 #[test]
 fn replan_uploads_the_surface_profile_into_the_idle_slot() {
-    let d = dir("replan");
-    let cam = half_intrinsics(&d);
-    let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--scene", &paper()]);
+    let (cam, sim) = camera_and_device("replan");
     assert_eq!(json(&["status", "--port", &sim.port, "--json"])["slot"], 0);
     let out = ok(&[
         "track",

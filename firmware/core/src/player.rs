@@ -263,6 +263,15 @@ mod tests {
         period_us: 1000,
     };
 
+    /// A 1 MHz player that started slot 0 (timing [`T`]) at 0 and ticked
+    /// its first step.
+    fn playing_slot_0() -> Player {
+        let mut p = Player::new(1_000_000);
+        p.start(0, T, 0);
+        p.tick(0);
+        p
+    }
+
     #[test]
     fn plays_steps_on_schedule() {
         let mut p = Player::new(1_000_000);
@@ -280,9 +289,7 @@ mod tests {
 
     #[test]
     fn late_ticks_count_missed_steps() {
-        let mut p = Player::new(1_000_000);
-        p.start(0, T, 0);
-        p.tick(0);
+        let mut p = playing_slot_0();
         // Boundaries 250, 500, 750 passed; 750 is entered, 250 and 500 missed.
         assert_eq!(p.tick(760), due(0, 3, 750));
         assert_eq!(p.missed(), 2);
@@ -294,9 +301,7 @@ mod tests {
 
     #[test]
     fn queued_slot_starts_at_cycle_boundary() {
-        let mut p = Player::new(1_000_000);
-        p.start(0, T, 0);
-        p.tick(0);
+        let mut p = playing_slot_0();
         p.tick(250);
         let t2 = Timing {
             steps: 2,
@@ -315,9 +320,7 @@ mod tests {
 
     #[test]
     fn queued_swap_when_late_counts_the_rest_of_the_cycle() {
-        let mut p = Player::new(1_000_000);
-        p.start(0, T, 0);
-        p.tick(0);
+        let mut p = playing_slot_0();
         p.queue(1, T, 10);
         // Jump past the end of cycle 0 and into step 1 of the new slot.
         assert_eq!(p.tick(1300), due(1, 1, 1250));

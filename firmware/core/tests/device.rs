@@ -19,6 +19,18 @@ fn centroid(seq: u32, pos_um: [i32; 3], present: bool) -> Message<'static> {
     })
 }
 
+/// Asserts the device acks `msg` (sent as `seq` at `now` µs).
+#[track_caller]
+fn acks(dev: &mut lm_fw_core::Device<'_>, seq: u16, msg: &Message<'_>, now: u64) {
+    assert_eq!(request(dev, seq, msg, now), Reply::Ack);
+}
+
+/// Asserts the device refuses `msg` (sent as `seq` at `now` µs) with `code`.
+#[track_caller]
+fn nacks(dev: &mut lm_fw_core::Device<'_>, seq: u16, msg: &Message<'_>, now: u64, code: NackCode) {
+    assert_eq!(request(dev, seq, msg, now), Reply::Nack(code));
+}
+
 fn status(dev: &mut lm_fw_core::Device<'_>, now: u64) -> lm_proto::Status {
     match request(dev, 77, &Message::GetStatus, now) {
         Reply::Status(s) => s,
@@ -50,10 +62,7 @@ fn raw_and_delta_uploads_play_their_phases() {
         let mut dev = device(config(40), 20 * 40);
         let seq = Seq::pattern(20, 40, 20_000, 1);
         seq.upload(&mut dev, 1, enc, 0);
-        assert_eq!(
-            request(&mut dev, 1, &play(1, PlayAt::NextCycle), 500),
-            Reply::Ack
-        );
+        acks(&mut dev, 1, &play(1, PlayAt::NextCycle), 500);
         let mut cap = Capture::default();
         let mut now = 500;
         for _ in 0..45 {
@@ -80,34 +89,37 @@ fn raw_and_delta_uploads_play_their_phases() {
 fn min_dwell_is_enforced_at_begin_and_play() {
     let mut dev = device(config(8), 1000 * 8);
     let mut seq = Seq::pattern(100, 8, 99_999, 0); // 999.99 µs per step
-    assert_eq!(
-        request(&mut dev, 1, &seq.begin(0, Encoding::Raw), 0),
-        Reply::Nack(NackCode::DwellTooShort)
+    nacks(
+        &mut dev,
+        1,
+        &seq.begin(0, Encoding::Raw),
+        0,
+        NackCode::DwellTooShort,
     );
     // Exactly 1 ms per step is allowed.
     seq.period_us = 100_000;
-    assert_eq!(
-        request(&mut dev, 2, &seq.begin(0, Encoding::Raw), 0),
-        Reply::Ack
-    );
+    acks(&mut dev, 2, &seq.begin(0, Encoding::Raw), 0);
     seq.upload(&mut dev, 0, Encoding::Raw, 0);
     dev.set_min_dwell_us(1001);
-    assert_eq!(
-        request(&mut dev, 3, &play(0, PlayAt::Immediate), 0),
-        Reply::Nack(NackCode::DwellTooShort)
+    nacks(
+        &mut dev,
+        3,
+        &play(0, PlayAt::Immediate),
+        0,
+        NackCode::DwellTooShort,
     );
     dev.set_min_dwell_us(1000);
-    assert_eq!(
-        request(&mut dev, 4, &play(0, PlayAt::Immediate), 0),
-        Reply::Ack
-    );
+    acks(&mut dev, 4, &play(0, PlayAt::Immediate), 0);
     // A stricter device refuses the same header.
     let mut cfg = config(8);
     cfg.min_dwell_us = 2000;
     let mut strict = device(cfg, 1000 * 8);
-    assert_eq!(
-        request(&mut strict, 1, &seq.begin(0, Encoding::Raw), 0),
-        Reply::Nack(NackCode::DwellTooShort)
+    nacks(
+        &mut strict,
+        1,
+        &seq.begin(0, Encoding::Raw),
+        0,
+        NackCode::DwellTooShort,
     );
 }
 
@@ -116,55 +128,52 @@ fn uploads_into_the_playing_slot_are_refused() {
     let mut dev = device(config(16), 10 * 16);
     let seq = Seq::pattern(10, 16, 10_000, 2);
     seq.upload(&mut dev, 0, Encoding::Raw, 0);
-    assert_eq!(
-        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 2, &seq.begin(0, Encoding::Raw), 0),
-        Reply::Nack(NackCode::SlotPlaying)
+    acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
+    nacks(
+        &mut dev,
+        2,
+        &seq.begin(0, Encoding::Raw),
+        0,
+        NackCode::SlotPlaying,
     );
     let chunk = Message::Chunk(Chunk {
         slot: 0,
         offset: 0,
         data: &[1, 2, 3],
     });
-    assert_eq!(
-        request(&mut dev, 3, &chunk, 0),
-        Reply::Nack(NackCode::SlotPlaying)
-    );
+    nacks(&mut dev, 3, &chunk, 0, NackCode::SlotPlaying);
     // A repeat of the commit that made the slot playable changes nothing:
     // acked again (SPEC section 2); any other commit is refused.
-    assert_eq!(request(&mut dev, 4, &seq.commit(0), 0), Reply::Ack);
+    acks(&mut dev, 4, &seq.commit(0), 0);
     let other = Message::Commit(Commit { slot: 0, crc32: 1 });
-    assert_eq!(
-        request(&mut dev, 4, &other, 0),
-        Reply::Nack(NackCode::SlotPlaying)
+    nacks(&mut dev, 4, &other, 0, NackCode::SlotPlaying);
+    nacks(
+        &mut dev,
+        5,
+        &seq.begin(2, Encoding::Raw),
+        0,
+        NackCode::BadSlot,
     );
-    assert_eq!(
-        request(&mut dev, 5, &seq.begin(2, Encoding::Raw), 0),
-        Reply::Nack(NackCode::BadSlot)
-    );
-    assert_eq!(
-        request(&mut dev, 6, &play(1, PlayAt::Immediate), 0),
-        Reply::Nack(NackCode::NotCommitted)
+    nacks(
+        &mut dev,
+        6,
+        &play(1, PlayAt::Immediate),
+        0,
+        NackCode::NotCommitted,
     );
     // Queued slot is protected too.
     seq.upload(&mut dev, 1, Encoding::Raw, 0);
-    assert_eq!(
-        request(&mut dev, 7, &play(1, PlayAt::NextCycle), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 8, &seq.begin(1, Encoding::Raw), 0),
-        Reply::Nack(NackCode::SlotPlaying)
+    acks(&mut dev, 7, &play(1, PlayAt::NextCycle), 0);
+    nacks(
+        &mut dev,
+        8,
+        &seq.begin(1, Encoding::Raw),
+        0,
+        NackCode::SlotPlaying,
     );
     // After Stop both slots are writable again.
-    assert_eq!(request(&mut dev, 9, &Message::Stop, 0), Reply::Ack);
-    assert_eq!(
-        request(&mut dev, 10, &seq.begin(0, Encoding::Raw), 0),
-        Reply::Ack
-    );
+    acks(&mut dev, 9, &Message::Stop, 0);
+    acks(&mut dev, 10, &seq.begin(0, Encoding::Raw), 0);
 }
 
 /// Interrupts an upload into slot 1 after every request (and corrupts or
@@ -177,17 +186,14 @@ fn interrupted_upload_never_touches_the_playing_slot() {
         let a = Seq::pattern(12, 30, 12_000, 3);
         let b = Seq::pattern(12, 30, 12_000, 4);
         a.upload(&mut dev, 0, enc, 0);
-        assert_eq!(
-            request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
-            Reply::Ack
-        );
+        acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
         let stream = b.encode(enc);
         let reqs = b.upload_requests(1, enc, &stream, 37);
         let mut cap = Capture::default();
         let mut now = 0u64;
         for cut in 1..=reqs.len() {
             for (i, m) in reqs[..cut].iter().enumerate() {
-                assert_eq!(request(&mut dev, i as u16, m, now), Reply::Ack);
+                acks(&mut dev, i as u16, m, now);
                 now = dev.poll(now, &mut cap).unwrap();
             }
             // Interrupted: a commit now is refused, and so is playing slot 1.
@@ -206,16 +212,16 @@ fn interrupted_upload_never_touches_the_playing_slot() {
                 corrupt.phases[17] ^= 0x40;
                 let cs = corrupt.encode(enc);
                 for (i, m) in corrupt.upload_requests(1, enc, &cs, 37).iter().enumerate() {
-                    assert_eq!(request(&mut dev, i as u16, m, now), Reply::Ack);
+                    acks(&mut dev, i as u16, m, now);
                 }
-                assert_eq!(
-                    request(&mut dev, 501, &bad, now),
-                    Reply::Nack(NackCode::CrcMismatch)
-                );
+                nacks(&mut dev, 501, &bad, now, NackCode::CrcMismatch);
             }
-            assert_eq!(
-                request(&mut dev, 502, &play(1, PlayAt::Immediate), now),
-                Reply::Nack(NackCode::NotCommitted)
+            nacks(
+                &mut dev,
+                502,
+                &play(1, PlayAt::Immediate),
+                now,
+                NackCode::NotCommitted,
             );
             for _ in 0..3 {
                 now = dev.poll(now, &mut cap).unwrap();
@@ -239,17 +245,11 @@ fn next_cycle_swap_happens_at_the_cycle_boundary() {
     a.upload(&mut dev, 0, Encoding::Raw, 0);
     b.upload(&mut dev, 1, Encoding::Delta, 0);
     let mut cap = Capture::default();
-    assert_eq!(
-        request(&mut dev, 1, &play(0, PlayAt::Immediate), 100),
-        Reply::Ack
-    );
+    acks(&mut dev, 1, &play(0, PlayAt::Immediate), 100);
     let mut now = 100;
     for i in 0..23 {
         if i == 3 {
-            assert_eq!(
-                request(&mut dev, 2, &play(1, PlayAt::NextCycle), now),
-                Reply::Ack
-            );
+            acks(&mut dev, 2, &play(1, PlayAt::NextCycle), now);
         }
         now = dev.poll(now, &mut cap).unwrap();
     }
@@ -281,10 +281,7 @@ fn gating_mutes_and_resumes() {
     let a = Seq::pattern(100, 8, 100_000, 7); // 1 ms steps
     a.upload(&mut dev, 0, Encoding::Raw, 0);
     let mut cap = Capture::default();
-    assert_eq!(
-        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
-        Reply::Ack
-    );
+    acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
     let mut now = 0;
     // Before the first centroid: muted (require_tracking).
     for _ in 0..3 {
@@ -292,10 +289,7 @@ fn gating_mutes_and_resumes() {
     }
     assert!(cap.frames.iter().all(|f| f.3 == 0));
     assert_eq!(status(&mut dev, now).state, DeviceState::Muted);
-    assert_eq!(
-        request(&mut dev, 2, &centroid(1, a.center_um, true), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 2, &centroid(1, a.center_um, true), now);
     now = dev.poll(now, &mut cap).unwrap();
     assert_eq!(cap.frames.last().unwrap().3, 255);
     // Presence false mutes at once (the next poll re-sends the step muted).
@@ -316,10 +310,7 @@ fn gating_mutes_and_resumes() {
     now = dev.poll(now, &mut cap).unwrap();
     assert_eq!(cap.frames.last().unwrap().3, 0);
     // Fresh update resumes at the next step.
-    assert_eq!(
-        request(&mut dev, 5, &centroid(3, a.center_um, true), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 5, &centroid(3, a.center_um, true), now);
     let t_update = now;
     now = dev.poll(now, &mut cap).unwrap();
     now = dev.poll(now, &mut cap).unwrap();
@@ -444,10 +435,7 @@ fn correction_follows_each_slots_uploaded_sound_speed() {
     let mut cap = Capture::default();
     request(&mut dev, 10, &play(0, PlayAt::Immediate), 0);
     let now = dev.poll(0, &mut cap).unwrap();
-    assert_eq!(
-        request(&mut dev, 11, &centroid(1, c, true), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 11, &centroid(1, c, true), now);
     assert_eq!(off_by_more_than_one(dev.offsets(), &want_a), 0);
 
     // Same geometry, same centres, same centroid: only k differs.
@@ -467,10 +455,7 @@ fn bad_frames_are_counted_and_nacked() {
     // Garbage with a delimiter: one bad frame, no reply.
     assert!(feed(&mut dev, &[1, 2, 3, 0], 0).is_empty());
     // A response sent to the device: Nack(UnknownType).
-    assert_eq!(
-        request(&mut dev, 4, &Message::Ack, 0),
-        Reply::Nack(NackCode::UnknownType)
-    );
+    nacks(&mut dev, 4, &Message::Ack, 0, NackCode::UnknownType);
     let s = status(&mut dev, 0);
     assert_eq!(s.bad_frames, 1);
     assert_eq!(s.nacks, 1);
@@ -493,7 +478,7 @@ fn chunks_past_end_and_out_of_order_are_nacked() {
         encoding: Encoding::Raw,
         encoded_len: 8,
     });
-    assert_eq!(request(&mut dev, 1, &b, 0), Reply::Ack);
+    acks(&mut dev, 1, &b, 0);
     let ch = |offset, data: &'static [u8]| {
         Message::Chunk(Chunk {
             slot: 0,
@@ -501,12 +486,9 @@ fn chunks_past_end_and_out_of_order_are_nacked() {
             data,
         })
     };
-    assert_eq!(request(&mut dev, 2, &ch(0, &[1, 2, 3]), 0), Reply::Ack);
-    assert_eq!(request(&mut dev, 3, &ch(0, &[1, 2, 3]), 0), Reply::Ack);
-    assert_eq!(
-        request(&mut dev, 4, &ch(4, &[1]), 0),
-        Reply::Nack(NackCode::OutOfOrder)
-    );
+    acks(&mut dev, 2, &ch(0, &[1, 2, 3]), 0);
+    acks(&mut dev, 3, &ch(0, &[1, 2, 3]), 0);
+    nacks(&mut dev, 4, &ch(4, &[1]), 0, NackCode::OutOfOrder);
     assert_eq!(
         request(&mut dev, 5, &ch(3, &[0; 6]), 0),
         Reply::Nack(NackCode::OutOfRange)
@@ -515,10 +497,7 @@ fn chunks_past_end_and_out_of_order_are_nacked() {
         request(&mut dev, 6, &ch(u32::MAX, &[0; 6]), 0),
         Reply::Nack(NackCode::OutOfRange)
     );
-    assert_eq!(
-        request(&mut dev, 7, &ch(3, &[4, 5, 6, 7, 8]), 0),
-        Reply::Ack
-    );
+    acks(&mut dev, 7, &ch(3, &[4, 5, 6, 7, 8]), 0);
     assert_eq!(
         request(
             &mut dev,
@@ -550,37 +529,25 @@ fn play_while_playing_accepts_a_restarted_centroid_sequence() {
     let a = Seq::pattern(10, 8, 10_000, 9);
     a.upload(&mut dev, 0, Encoding::Raw, 0);
     let mut cap = Capture::default();
-    assert_eq!(
-        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 2, &centroid(500, a.center_um, true), 0),
-        Reply::Ack
-    );
+    acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
+    acks(&mut dev, 2, &centroid(500, a.center_um, true), 0);
     let mut now = dev.poll(0, &mut cap).unwrap();
-    assert_eq!(
-        request(&mut dev, 3, &centroid(1, a.center_um, true), now),
-        Reply::Nack(NackCode::OutOfOrder)
+    nacks(
+        &mut dev,
+        3,
+        &centroid(1, a.center_um, true),
+        now,
+        NackCode::OutOfOrder,
     );
     // The host restarts and re-plays: its sequence starts at 1 again.
-    assert_eq!(
-        request(&mut dev, 4, &play(0, PlayAt::NextCycle), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 4, &play(0, PlayAt::NextCycle), now);
     now = dev.poll(now, &mut cap).unwrap();
     assert_eq!(cap.frames.last().unwrap().3, 255, "no glitch on re-play");
-    assert_eq!(
-        request(&mut dev, 5, &centroid(1, a.center_um, true), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 5, &centroid(1, a.center_um, true), now);
     assert_eq!(status(&mut dev, now).last_centroid_seq, 1);
     // After Stop, a new session needs fresh tracking again.
-    assert_eq!(request(&mut dev, 6, &Message::Stop, now), Reply::Ack);
-    assert_eq!(
-        request(&mut dev, 7, &play(0, PlayAt::Immediate), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 6, &Message::Stop, now);
+    acks(&mut dev, 7, &play(0, PlayAt::Immediate), now);
     dev.poll(now, &mut cap);
     assert_eq!(cap.frames.last().unwrap().3, 0);
 }
@@ -600,20 +567,14 @@ fn centroids_outside_the_work_volume_are_refused_and_mute() {
     let mut dev = device(cfg, 10 * 16);
     let seq = Seq::pattern(10, 16, 10_000, 2);
     seq.upload(&mut dev, 0, Encoding::Raw, 0);
-    assert_eq!(
-        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
-        Reply::Ack
-    );
+    acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
     let s = status(&mut dev, 0);
     assert_eq!(s.state, DeviceState::Muted);
     assert_eq!(s.mute_reason, MuteReason::WaitingForTracking);
     let c0 = seq.center_um;
     let at = |dx: i32, dy: i32| [c0[0] + dx, c0[1] + dy, c0[2]];
     // 5 mm off the centre: inside the 20 mm work volume, steers.
-    assert_eq!(
-        request(&mut dev, 2, &centroid(1, at(3000, 4000), true), 10),
-        Reply::Ack
-    );
+    acks(&mut dev, 2, &centroid(1, at(3000, 4000), true), 10);
     let mut out = Capture::default();
     dev.poll(10, &mut out);
     assert!(dev.is_sounding(10));
@@ -653,10 +614,7 @@ fn centroids_outside_the_work_volume_are_refused_and_mute() {
     );
     assert_eq!(status(&mut dev, 30).mute_reason, MuteReason::FingerAbsent);
     // Exactly 20 mm away is inside: sounds again.
-    assert_eq!(
-        request(&mut dev, 5, &centroid(11, at(12_000, 16_000), true), 40),
-        Reply::Ack
-    );
+    acks(&mut dev, 5, &centroid(11, at(12_000, 16_000), true), 40);
     assert!(dev.is_sounding(40));
     let s = status(&mut dev, 40);
     assert_eq!(
@@ -676,28 +634,16 @@ fn a_queued_slot_with_another_centre_mutes_an_out_of_range_centroid() {
     b.center_um = [50_000, 0, 200_000];
     a.upload(&mut dev, 0, Encoding::Raw, 0);
     b.upload(&mut dev, 1, Encoding::Raw, 0);
-    assert_eq!(
-        request(&mut dev, 1, &play(0, PlayAt::Immediate), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 2, &centroid(1, a.center_um, true), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 3, &play(1, PlayAt::NextCycle), 100),
-        Reply::Ack
-    );
+    acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
+    acks(&mut dev, 2, &centroid(1, a.center_um, true), 0);
+    acks(&mut dev, 3, &play(1, PlayAt::NextCycle), 100);
     assert_eq!(status(&mut dev, 100).queued_slot, Some(1));
     let mut out = Capture::default();
     let mut now = 100;
     let mut k = 2;
     while dev.status(now).slot != Some(1) {
         // Fresh tracking at slot 0's centre while slot 0 plays.
-        assert_eq!(
-            request(&mut dev, 4, &centroid(k, a.center_um, true), now),
-            Reply::Ack
-        );
+        acks(&mut dev, 4, &centroid(k, a.center_um, true), now);
         k += 1;
         now = dev.poll(now, &mut out).unwrap();
         assert!(now < 100_000, "swap never happened");
@@ -719,7 +665,7 @@ fn untracked_play_sounds_without_a_finger_until_stop() {
     let mut dev = device(cfg, 10 * 16);
     let seq = Seq::pattern(10, 16, 10_000, 2);
     seq.upload(&mut dev, 0, Encoding::Raw, 0);
-    assert_eq!(request(&mut dev, 1, &play_untracked(0), 0), Reply::Ack);
+    acks(&mut dev, 1, &play_untracked(0), 0);
     let mut out = Capture::default();
     let mut now = 0;
     for _ in 0..30 {
@@ -731,10 +677,7 @@ fn untracked_play_sounds_without_a_finger_until_stop() {
     );
     // Planned phases, uncorrected, even with a centroid far from the centre.
     let off = [seq.center_um[0] + 5000, seq.center_um[1], seq.center_um[2]];
-    assert_eq!(
-        request(&mut dev, 2, &centroid(1, off, true), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 2, &centroid(1, off, true), now);
     assert_eq!(
         request(&mut dev, 3, &centroid(2, [0; 3], false), now),
         Reply::Ack
@@ -750,7 +693,7 @@ fn untracked_play_sounds_without_a_finger_until_stop() {
         (DeviceState::Playing, MuteReason::None)
     );
     // Stop still stops.
-    assert_eq!(request(&mut dev, 4, &Message::Stop, now), Reply::Ack);
+    acks(&mut dev, 4, &Message::Stop, now);
     out.frames.clear();
     dev.poll(now, &mut out);
     assert_eq!(out.frames.last().map(|f| f.3), Some(0));
@@ -760,10 +703,7 @@ fn untracked_play_sounds_without_a_finger_until_stop() {
         (DeviceState::Stopped, MuteReason::Stopped)
     );
     // A tracked Play ends the untracked session.
-    assert_eq!(
-        request(&mut dev, 5, &play(0, PlayAt::Immediate), now),
-        Reply::Ack
-    );
+    acks(&mut dev, 5, &play(0, PlayAt::Immediate), now);
     assert_eq!(
         status(&mut dev, now).mute_reason,
         MuteReason::WaitingForTracking

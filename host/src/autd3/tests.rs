@@ -40,6 +40,21 @@ fn open(scene: &Scene) -> (Autd3Backend, EmulatorHandle, Clock) {
     (b, h, clock)
 }
 
+/// The built-in scene and a backend on it.
+fn open_default() -> (Scene, Autd3Backend, EmulatorHandle, Clock) {
+    let scene = Scene::default();
+    let (b, h, clock) = open(&scene);
+    (scene, b, h, clock)
+}
+
+/// Uploads a 3 mm, one-focus LM on `scene` into a free slot; returns the
+/// plan and the slot.
+fn upload_lm_s(b: &mut Autd3Backend, scene: &Scene) -> (Plan, u8) {
+    let (plan, _) = lm(scene, 3.0, 1);
+    let slot = b.upload(&plan, None).unwrap().slot;
+    (plan, slot)
+}
+
 fn is_input_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.is::<InputError>())
 }
@@ -49,6 +64,26 @@ fn stm_segment(h: &EmulatorHandle) -> Segment {
         let s = c[0].fpga().current_stm_segment();
         assert!(c.iter().all(|c| c.fpga().current_stm_segment() == s));
         s
+    })
+}
+
+/// Whether every transducer on every board is silent (intensity 0).
+fn silent(h: &EmulatorHandle) -> bool {
+    h.with_cpus(|c| {
+        c.iter()
+            .all(|cpu| cpu.fpga().drives().iter().all(|d| d.intensity.0 == 0))
+    })
+}
+
+/// The first board's phase-correction bytes.
+fn first_board_correction(h: &EmulatorHandle) -> Vec<u8> {
+    h.with_cpus(|cpus| {
+        cpus[0]
+            .fpga()
+            .phase_correction()
+            .iter()
+            .map(|p| p.0)
+            .collect()
     })
 }
 
@@ -154,8 +189,7 @@ fn paper_timing_lands_on_the_fpga_divide() {
 
 #[test]
 fn play_switches_segments_only_at_the_loop_end() {
-    let scene = Scene::default();
-    let (mut b, h, clock) = open(&scene);
+    let (scene, mut b, h, clock) = open_default();
     let (x, g) = lm(&scene, 3.0, 1);
     // Same N and dwell at another radius: both loops end together on the
     // devices' shared clock, which is where SyncIdx switches.
@@ -240,11 +274,9 @@ fn corrections_read_back_equal_the_cores_offsets() {
 
 #[test]
 fn mutes_until_tracked_on_absence_and_when_stale() {
-    let scene = Scene::default();
-    let (mut b, h, clock) = open(&scene);
+    let (scene, mut b, h, clock) = open_default();
     assert_eq!(modulation(&h), safety::MUTED, "muted from the start");
-    let (plan, _) = lm(&scene, 3.0, 1);
-    let slot = b.upload(&plan, None).unwrap().slot;
+    let (plan, slot) = upload_lm_s(&mut b, &scene);
     b.play(slot, false).unwrap();
     assert_eq!(modulation(&h), safety::MUTED, "muted until tracked");
     let c = plan.sequence.header.center_um;
@@ -276,36 +308,25 @@ fn mutes_until_tracked_on_absence_and_when_stale() {
     // Stop: muted and the STM replaced by a null gain.
     b.stop().unwrap();
     assert_eq!(modulation(&h), safety::MUTED);
-    h.with_cpus(|c| {
-        for cpu in c {
-            assert!(cpu.fpga().drives().iter().all(|d| d.intensity.0 == 0));
-        }
-    });
+    assert!(silent(&h));
 }
 
 #[test]
 fn drop_leaves_the_array_silent() {
-    let scene = Scene::default();
-    let (mut b, h, _c) = open(&scene);
-    let (plan, _) = lm(&scene, 3.0, 1);
-    let slot = b.upload(&plan, None).unwrap().slot;
+    let (scene, mut b, h, _c) = open_default();
+    let (_, slot) = upload_lm_s(&mut b, &scene);
     b.play(slot, true).unwrap();
     assert_eq!(modulation(&h), safety::FULL);
     assert!(h.with_cpus(|c| c[0].fpga().drives().iter().all(|d| d.intensity.0 == 0xFF)));
     drop(b);
     // Our drop mutes and writes a null gain; autd3's own close then clears
     // the devices (modulation back to 255, gain still null): silent.
-    h.with_cpus(|c| {
-        for cpu in c {
-            assert!(cpu.fpga().drives().iter().all(|d| d.intensity.0 == 0));
-        }
-    });
+    assert!(silent(&h));
 }
 
 #[test]
 fn link_broken_mid_upload_keeps_the_playing_segment() {
-    let scene = Scene::default();
-    let (mut b, h, _c) = open(&scene);
+    let (scene, mut b, h, _c) = open_default();
     let (x, _) = lm(&scene, 3.0, 1);
     let (y, _) = lm(&scene, 6.0, 4);
     b.upload(&x, Some(1)).unwrap();
@@ -368,11 +389,9 @@ fn remote_link_without_a_server_fails_with_one_line() {
 
 #[test]
 fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
-    let scene = Scene::default();
-    let (mut b, h, _c) = open(&scene);
+    let (scene, mut b, h, _c) = open_default();
     assert_eq!(b.status().unwrap().state, DeviceState::Idle);
-    let (plan, _) = lm(&scene, 3.0, 1);
-    let slot = b.upload(&plan, None).unwrap().slot;
+    let (plan, slot) = upload_lm_s(&mut b, &scene);
     b.play(slot, false).unwrap();
     let st = b.status().unwrap();
     assert_eq!(st.state, DeviceState::Muted);
@@ -398,14 +417,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
     assert_eq!(st.last_centroid_seq, 1);
     assert_eq!(modulation(&h), safety::FULL);
     // Outside the work volume: refused, muted, offsets unchanged.
-    let before: Vec<u8> = h.with_cpus(|cpus| {
-        cpus[0]
-            .fpga()
-            .phase_correction()
-            .iter()
-            .map(|p| p.0)
-            .collect()
-    });
+    let before = first_board_correction(&h);
     assert_eq!(
         b.centroid(&at(2, max + 1000, true)).unwrap(),
         CentroidOutcome::OutOfRange
@@ -413,14 +425,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
     let st = b.status().unwrap();
     assert_eq!(st.mute_reason, MuteReason::CentroidOutOfRange);
     assert_eq!(modulation(&h), safety::MUTED);
-    let after: Vec<u8> = h.with_cpus(|cpus| {
-        cpus[0]
-            .fpga()
-            .phase_correction()
-            .iter()
-            .map(|p| p.0)
-            .collect()
-    });
+    let after = first_board_correction(&h);
     assert_eq!(before, after);
     // Back in range: sounds again.
     b.centroid(&at(3, 0, true)).unwrap();

@@ -238,25 +238,20 @@ mod tests {
 
     #[test]
     fn limits_give_one_line_errors() {
-        // 100 Hz with 82 steps: 122 µs dwell, below the 1 ms silencer limit.
-        let e = grid_timing(3.0, 100.0, Steps::Count(82), 1e-3)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("1000..=1638375 µs"), "{e}");
-        // Too many patterns.
-        let e = grid_timing(3.0, 0.1, Steps::Count(2000), 1e-3)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("1024"), "{e}");
-        let e = grid_timing(50.0, 0.1, Steps::Width(0.01), 1e-3)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("1024"), "{e}");
-        // Too slow: a dwell beyond the u16 divide.
-        let e = grid_timing(3.0, 0.001, Steps::Count(4), 1e-3)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("dwell"), "{e}");
+        for (radius_mm, freq_hz, steps, says) in [
+            // 100 Hz with 82 steps: 122 µs dwell, below the 1 ms silencer limit.
+            (3.0, 100.0, Steps::Count(82), "1000..=1638375 µs"),
+            // Too many patterns.
+            (3.0, 0.1, Steps::Count(2000), "1024"),
+            (50.0, 0.1, Steps::Width(0.01), "1024"),
+            // Too slow: a dwell beyond the u16 divide.
+            (3.0, 0.001, Steps::Count(4), "dwell"),
+        ] {
+            let e = grid_timing(radius_mm, freq_hz, steps, 1e-3)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(says), "{e}");
+        }
         // A longer minimum dwell from the scene is respected.
         assert!(grid_timing(3.0, 5.0, Steps::Count(82), 3e-3).is_err());
         for e in [

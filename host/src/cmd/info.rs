@@ -1,36 +1,13 @@
 //! `lmhost info`: what the device is and what it can hold.
 
-use std::path::PathBuf;
+use super::QueryArgs;
 
-use crate::link::PortArgs;
-use crate::scene::Scene;
-
-/// Print the device's info.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(flatten)]
-    port: PortArgs,
-    /// AUTD3 ports: scene file whose devices the rig has [default: the
-    /// built-in array].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<PathBuf>,
-    /// Print JSON instead of text.
-    #[arg(long)]
-    json: bool,
-}
-
-impl Args {
-    /// Run it.
-    pub fn run(self) -> anyhow::Result<()> {
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
-        let mut dev = crate::backend::open(&self.port, &scene)?;
-        let where_ = dev.describe();
-        let bi = dev.info()?;
-        let Some(i) = bi.lm else {
-            if self.json {
-                println!("{}", serde_json::to_string(&bi)?);
-                return Ok(());
-            }
+/// Prints the device's info.
+pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
+    let (mut dev, where_) = q.open()?;
+    let bi = dev.info()?;
+    match &bi.lm {
+        None => q.print(&bi, |bi| {
             println!("device:          {where_} ({})", bi.backend);
             println!("boards:          {}", bi.devices);
             println!("transducers:     {}", bi.transducers);
@@ -39,21 +16,17 @@ impl Args {
             if let Some(g) = bi.dwell_grid_us {
                 println!("dwell grid:      {g} µs (≥ 1000 µs with the silencer)");
             }
-            return Ok(());
-        };
-        if self.json {
-            println!("{}", serde_json::to_string(&i)?);
-            return Ok(());
-        }
-        let [a, b, c] = i.fw_version;
-        println!("device:          {where_}");
-        println!("protocol:        {}", i.proto_version);
-        println!("firmware:        {a}.{b}.{c}");
-        println!("transducers:     up to {}", i.max_transducers);
-        println!("slots:           {} × {} bytes", i.slots, i.slot_bytes);
-        println!("timer:           {} Hz", i.timer_hz);
-        println!("minimum dwell:   {} µs", i.min_dwell_us);
-        println!("largest chunk:   {} bytes", i.max_chunk);
-        Ok(())
+        }),
+        Some(i) => q.print(i, |i| {
+            let [a, b, c] = i.fw_version;
+            println!("device:          {where_}");
+            println!("protocol:        {}", i.proto_version);
+            println!("firmware:        {a}.{b}.{c}");
+            println!("transducers:     up to {}", i.max_transducers);
+            println!("slots:           {} × {} bytes", i.slots, i.slot_bytes);
+            println!("timer:           {} Hz", i.timer_hz);
+            println!("minimum dwell:   {} µs", i.min_dwell_us);
+            println!("largest chunk:   {} bytes", i.max_chunk);
+        }),
     }
 }

@@ -1,6 +1,9 @@
 //! One module per `lmhost` subcommand, each an `Args` struct with `run`.
 
 use clap::Subcommand;
+use serde::Serialize;
+
+use crate::backend::{Backend, DeviceArgs};
 
 pub mod bench;
 pub mod demo;
@@ -31,9 +34,9 @@ pub enum Command {
     /// Run the simulated device on a pty (prints its path).
     Sim(sim::Args),
     /// Show what the device is and what it can hold.
-    Info(info::Args),
+    Info(QueryArgs),
     /// Show what the device is doing and its error counters.
-    Status(status::Args),
+    Status(QueryArgs),
     /// Plan a stimulus, upload it, commit it and play it.
     Upload(upload::Args),
     /// Play a committed slot.
@@ -60,8 +63,8 @@ impl Command {
             Command::Simulate(a) => a.run(),
             Command::Bench(a) => a.run(),
             Command::Sim(a) => a.run(),
-            Command::Info(a) => a.run(),
-            Command::Status(a) => a.run(),
+            Command::Info(a) => info::run(&a),
+            Command::Status(a) => status::run(&a),
             Command::Upload(a) => a.run(),
             Command::Play(a) => a.run(),
             Command::Stop(a) => a.run(),
@@ -70,5 +73,35 @@ impl Command {
             Command::Flash(a) => a.run(),
             Command::Track(a) => a.run(),
         }
+    }
+}
+
+/// Arguments of a command that asks the device one thing and prints the
+/// answer (`info`, `status`).
+#[derive(Debug, clap::Args)]
+pub struct QueryArgs {
+    #[command(flatten)]
+    device: DeviceArgs,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+impl QueryArgs {
+    /// Opens the device; returns it and what it is (for messages).
+    fn open(&self) -> anyhow::Result<(Box<dyn Backend>, String)> {
+        let dev = self.device.open()?;
+        let where_ = dev.describe();
+        Ok((dev, where_))
+    }
+
+    /// Prints `v` as one line of JSON with `--json`, else with `text`.
+    fn print<T: Serialize>(&self, v: &T, text: impl FnOnce(&T)) -> anyhow::Result<()> {
+        if self.json {
+            println!("{}", serde_json::to_string(v)?);
+        } else {
+            text(v);
+        }
+        Ok(())
     }
 }

@@ -1,23 +1,16 @@
 //! `lmhost play`: play a committed slot.
 
-use std::path::PathBuf;
-
 use anyhow::Context as _;
 use lm_proto::PlayAt;
 
+use crate::backend::DeviceArgs;
 use crate::cmd::upload::{UNTRACKED_WARNING, play_outcome};
-use crate::link::PortArgs;
-use crate::scene::Scene;
 
 /// Play a slot that holds a committed sequence.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     #[command(flatten)]
-    port: PortArgs,
-    /// AUTD3 ports: scene file whose devices the rig has [default: the
-    /// built-in array].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<PathBuf>,
+    device: DeviceArgs,
     /// Slot to play (checked against the device's slot count).
     #[arg(long, default_value_t = 0)]
     slot: u8,
@@ -33,8 +26,7 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
-        let mut dev = crate::backend::open(&self.port, &scene)?;
+        let mut dev = self.device.open()?;
         let at = if self.immediate {
             PlayAt::Immediate
         } else {

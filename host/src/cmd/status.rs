@@ -1,42 +1,16 @@
 //! `lmhost status`: what the device is doing, and its error counters.
 
-use std::path::PathBuf;
-
 use anyhow::Context as _;
 
-use crate::link::PortArgs;
-use crate::scene::Scene;
+use super::QueryArgs;
 
-/// Print the device's status.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(flatten)]
-    port: PortArgs,
-    /// AUTD3 ports: scene file whose devices the rig has [default: the
-    /// built-in array].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<PathBuf>,
-    /// Print JSON instead of text.
-    #[arg(long)]
-    json: bool,
-}
-
-impl Args {
-    /// Run it.
-    pub fn run(self) -> anyhow::Result<()> {
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
-        let mut dev = crate::backend::open(&self.port, &scene)?;
-        let where_ = dev.describe();
-        let s = dev
-            .status()
-            .with_context(|| format!("asking {where_} for its status"))?;
-        if self.json {
-            println!("{}", serde_json::to_string(&s)?);
-            return Ok(());
-        }
-        print_status(&s);
-        Ok(())
-    }
+/// Prints the device's status.
+pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
+    let (mut dev, where_) = q.open()?;
+    let s = dev
+        .status()
+        .with_context(|| format!("asking {where_} for its status"))?;
+    q.print(&s, print_status)
 }
 
 /// The text form of a status.

@@ -150,12 +150,7 @@ impl Args {
         if self.json {
             let mut v = serde_json::to_value(wire)?;
             v["wire_efficiency"] = wire.wire_efficiency().into();
-            v["playing"] = (!self.no_play).into();
-            v["queued"] = outcome
-                .as_ref()
-                .is_some_and(|(_, st)| st.queued_slot == Some(slot))
-                .into();
-            v["untracked"] = self.untracked.into();
+            self.play_json(&mut v, &outcome, slot);
             v["steps"] = h.steps.into();
             v["transducers"] = h.transducers.into();
             v["max_offset_um"] = h.max_offset_um.into();
@@ -181,6 +176,17 @@ impl Args {
             self.print_outcome(&outcome, slot, h, "stream centroids with `lmhost stream`");
         }
         Ok(())
+    }
+
+    /// The play fields of the JSON report: playing, queued (into `slot`)
+    /// and untracked.
+    fn play_json(&self, v: &mut serde_json::Value, outcome: &Option<(String, Status)>, slot: u8) {
+        v["playing"] = (!self.no_play).into();
+        v["queued"] = outcome
+            .as_ref()
+            .is_some_and(|(_, st)| st.queued_slot == Some(slot))
+            .into();
+        v["untracked"] = self.untracked.into();
     }
 
     fn print_outcome(
@@ -236,12 +242,7 @@ impl Args {
         if self.json {
             let mut v = serde_json::to_value(r)?;
             v["port"] = port.clone().into();
-            v["playing"] = (!self.no_play).into();
-            v["queued"] = outcome
-                .as_ref()
-                .is_some_and(|(_, st)| st.queued_slot == Some(r.slot))
-                .into();
-            v["untracked"] = self.untracked.into();
+            self.play_json(&mut v, &outcome, r.slot);
             v["mute_reason"] =
                 serde_json::to_value(outcome.as_ref().map(|(_, st)| st.mute_reason))?;
             v["divide"] = g.divide.into();

@@ -80,11 +80,51 @@ impl Transport for Serial {
     }
 }
 
-/// A TCP connection (QEMU `-serial tcp::PORT,server`).
-pub struct Tcp {
-    stream: TcpStream,
-    addr: String,
+/// A connected stream socket with timed reads: [`Tcp`] or [`Unix`].
+pub struct Socket<S> {
+    stream: S,
+    /// What [`Transport::describe`] says.
+    name: String,
+    /// The error text when the peer closes the stream.
+    closed: &'static str,
 }
+
+/// The stream sockets a [`Socket`] can hold.
+pub trait StreamSocket: Read + Write + Send {
+    /// Set (or clear) the read timeout.
+    fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()>;
+}
+
+impl StreamSocket for TcpStream {
+    fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()> {
+        TcpStream::set_read_timeout(self, timeout)
+    }
+}
+
+impl StreamSocket for std::os::unix::net::UnixStream {
+    fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()> {
+        std::os::unix::net::UnixStream::set_read_timeout(self, timeout)
+    }
+}
+
+impl<S: StreamSocket> Transport for Socket<S> {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.stream.write_all(bytes)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        self.stream
+            .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
+        stream_read(self.stream.read(buf), self.closed)
+    }
+
+    fn describe(&self) -> String {
+        self.name.clone()
+    }
+}
+
+/// A TCP connection (QEMU `-serial tcp::PORT,server`).
+pub type Tcp = Socket<TcpStream>;
 
 impl Tcp {
     /// Connect to `addr` (`host:port`).
@@ -94,24 +134,9 @@ impl Tcp {
         stream.set_nodelay(true).context("setting TCP_NODELAY")?;
         Ok(Self {
             stream,
-            addr: addr.to_owned(),
+            name: format!("tcp:{addr}"),
+            closed: "the device closed the connection",
         })
-    }
-}
-
-impl Transport for Tcp {
-    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        self.stream.write_all(bytes)
-    }
-
-    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
-        self.stream
-            .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
-        stream_read(self.stream.read(buf), "the device closed the connection")
-    }
-
-    fn describe(&self) -> String {
-        format!("tcp:{}", self.addr)
     }
 }
 
@@ -162,33 +187,16 @@ fn stream_read(read: std::io::Result<usize>, closed: &str) -> std::io::Result<us
 }
 
 /// A Unix stream socket (the in-process simulated device's socket pair).
-pub struct Unix {
-    stream: std::os::unix::net::UnixStream,
-}
+pub type Unix = Socket<std::os::unix::net::UnixStream>;
 
 impl Unix {
     /// Wrap a connected, blocking socket.
     pub fn new(stream: std::os::unix::net::UnixStream) -> Self {
-        Self { stream }
-    }
-}
-
-impl Transport for Unix {
-    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        self.stream.write_all(bytes)
-    }
-
-    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
-        self.stream
-            .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
-        stream_read(
-            self.stream.read(buf),
-            "the simulated device closed the socket",
-        )
-    }
-
-    fn describe(&self) -> String {
-        "in-process simulated device (socket pair)".into()
+        Self {
+            stream,
+            name: "in-process simulated device (socket pair)".into(),
+            closed: "the simulated device closed the socket",
+        }
     }
 }
 

@@ -27,6 +27,17 @@ fn setup() -> (Scene, Rig, Intrinsics, Tracker) {
     (scene, rig, intr, Tracker::new(intr, rig))
 }
 
+/// [`setup`] with the synthetic finger over the scene's background.
+fn setup_sim() -> (Rig, Intrinsics, Tracker, FingerSim) {
+    let (scene, rig, intr, tr) = setup();
+    (
+        rig,
+        intr,
+        tr,
+        FingerSim::new(rig, intr, background_of(&scene)),
+    )
+}
+
 /// A finger at tip time `t_s` of the cycle, noise-free.
 fn frame_at(sim: &FingerSim, t_s: f64) -> Vec<u16> {
     let mut f = Vec::new();
@@ -46,8 +57,7 @@ fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
 
 #[test]
 fn fast_path_matches_the_full_frame_reference() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, sim) = setup_sim();
     let mut rng = SplitMix64::new(7);
     for t in [0.5, 1.0, 3.0, 3.3] {
         let mut f = frame_at(&sim, t);
@@ -72,8 +82,7 @@ fn fast_path_matches_the_full_frame_reference() {
 
 #[test]
 fn empty_box() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (_, _, tr, sim) = setup_sim();
     let f = frame_at(&sim, 5.8); // away
     assert!(f.iter().any(|v| *v > 0), "the display is in view");
     let c = tr.track(&f);
@@ -103,8 +112,7 @@ fn saturated_depth_65535() {
 
 #[test]
 fn finger_at_the_box_edge() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, sim) = setup_sim();
     let tb = rig.track_box;
     // Tip 5 mm off along a: half the pad is outside the box's side.
     let centre = sim.tip_mm(2.0).unwrap();
@@ -128,8 +136,7 @@ fn finger_at_the_box_edge() {
 
 #[test]
 fn holes_95_percent() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, _, tr, mut sim) = setup_sim();
     sim.holes = 0.95;
     sim.noise_mm = 0.5;
     let mut f = Vec::new();
@@ -154,8 +161,7 @@ fn holes_95_percent() {
 
 #[test]
 fn a_second_object_in_the_box() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, mut sim) = setup_sim();
     let finger = tr.track(&frame_at(&sim, 2.0));
     // A 3 mm ball near the box's far corner, inside the box.
     let tb = rig.track_box;
@@ -180,67 +186,60 @@ fn a_second_object_in_the_box() {
     assert!(crate::geom::dot(shift, tb.axes[0]) < 0.0);
 }
 
+/// A depth recording `name` of `frames`, each `width × height`.
+fn depth_npy(name: &str, width: u32, height: u32, frames: &[&[u16]]) -> std::path::PathBuf {
+    let p = tmp(name);
+    let mut w = super::npy::DepthNpyWriter::create(&p, width, height).unwrap();
+    for f in frames {
+        w.push(f).unwrap();
+    }
+    w.finish().unwrap();
+    p
+}
+
+/// The error `Replay::open` gives for these arguments.
+fn open_err(path: &std::path::Path, intr: Intrinsics, stamps: Option<Vec<f64>>) -> String {
+    Replay::open(path, intr, stamps).err().unwrap().to_string()
+}
+
 #[test]
 fn wrong_frame_size_or_dtype() {
-    let p = tmp("small.npy");
-    let mut w = super::npy::DepthNpyWriter::create(&p, 64, 48).unwrap();
-    w.push(&vec![0; 64 * 48]).unwrap();
-    w.finish().unwrap();
-    let e = Replay::open(&p, Intrinsics::D435_848X480, None)
-        .err()
-        .unwrap()
-        .to_string();
+    let p = depth_npy("small.npy", 64, 48, &[&vec![0; 64 * 48]]);
+    let e = open_err(&p, Intrinsics::D435_848X480, None);
     assert!(e.contains("64×48") && e.contains("848×480"), "{e}");
     let q = tmp("f8.npy");
     crate::field::npy::write_f64(&q, 2, 2, &[0.0; 4]).unwrap();
-    let e = Replay::open(&q, Intrinsics::D435_848X480, None)
-        .err()
-        .unwrap()
-        .to_string();
+    let e = open_err(&q, Intrinsics::D435_848X480, None);
     assert!(e.contains("uint16"), "{e}");
 }
 
 #[test]
 fn truncated_npy() {
-    let p = tmp("trunc.npy");
-    let mut w = super::npy::DepthNpyWriter::create(&p, 8, 8).unwrap();
-    w.push(&[1; 64]).unwrap();
-    w.push(&[2; 64]).unwrap();
-    w.finish().unwrap();
+    let p = depth_npy("trunc.npy", 8, 8, &[&[1; 64], &[2; 64]]);
     let b = std::fs::read(&p).unwrap();
     std::fs::write(&p, &b[..b.len() - 64]).unwrap();
     let mut i = Intrinsics::D435_848X480;
     i.width = 8;
     i.height = 8;
-    let e = Replay::open(&p, i, None).err().unwrap().to_string();
+    let e = open_err(&p, i, None);
     assert!(e.contains("truncated") && !e.contains('\n'), "{e}");
 }
 
 #[test]
 fn intrinsics_not_matching_the_frames() {
-    let p = tmp("mismatch.npy");
-    let mut w = super::npy::DepthNpyWriter::create(&p, 640, 480).unwrap();
-    w.push(&vec![0; 640 * 480]).unwrap();
-    w.finish().unwrap();
-    let e = Replay::open(&p, Intrinsics::D435_848X480, None)
-        .err()
-        .unwrap()
-        .to_string();
+    let p = depth_npy("mismatch.npy", 640, 480, &[&vec![0; 640 * 480]]);
+    let e = open_err(&p, Intrinsics::D435_848X480, None);
     assert!(e.contains("intrinsics say 848×480"), "{e}");
     // Time stamps that do not match the frame count.
     let mut i = Intrinsics::D435_848X480;
     i.width = 640;
-    let e = Replay::open(&p, i, Some(vec![0.0, 0.1]))
-        .err()
-        .unwrap()
-        .to_string();
+    let e = open_err(&p, i, Some(vec![0.0, 0.1]));
     assert!(e.contains("2 time stamps for 1 frames"), "{e}");
 }
 
 #[test]
 fn recording_replays_frame_for_frame() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (_, intr, tr, mut sim) = setup_sim();
     sim.window = Some(tr.roi());
     let p = tmp("rec.npy");
     let mut src = super::source::Synthetic::new(sim, 0.2);
@@ -263,8 +262,7 @@ fn recording_replays_frame_for_frame() {
 /// every frame away from transitions, at most one frame off at them.
 #[test]
 fn accuracy_on_the_synthetic_finger_at_half_a_millimetre_of_noise() {
-    let (scene, rig, intr, tr) = setup();
-    let mut sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (_, _, tr, mut sim) = setup_sim();
     sim.noise_mm = 0.5;
     sim.holes = 0.02;
     // The tracker reads only its rectangle, so render only that.
@@ -310,8 +308,7 @@ fn accuracy_on_the_synthetic_finger_at_half_a_millimetre_of_noise() {
 
 #[test]
 fn one_noisy_frame_neither_mutes_nor_unmutes() {
-    let (scene, rig, intr, tr) = setup();
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let (rig, intr, tr, sim) = setup_sim();
     let on = frame_at(&sim, 2.0);
     let off = vec![0u16; on.len()];
     let mut pipe = Pipeline::new(tr, Hysteresis::default(), FilterKind::Gaussian.build());
