@@ -196,27 +196,38 @@ pub struct ServeOptions {
     pub faults: Option<(Faults, u64)>,
 }
 
-/// Serve `core` on `pty` with the real clock until `stop` is set.
-pub fn serve<C: Core>(
-    core: Arc<Mutex<C>>,
-    pty: Pty,
-    opts: ServeOptions,
-    stop: Arc<AtomicBool>,
-) -> anyhow::Result<()> {
-    let Pty { master, _slave, .. } = pty;
-    let r = serve_fd(core, master, opts, stop);
-    drop(_slave);
-    r
+/// Where [`serve`] listens: a pty (its slave is held open so the master
+/// never sees a hang-up between clients) or one end of a socket pair.
+pub enum Endpoint {
+    /// A raw-mode pty.
+    Pty(Pty),
+    /// Any non-blocking byte-stream fd.
+    Fd(OwnedFd),
 }
 
-/// Serve `core` on any non-blocking byte-stream fd (a pty master, one end
-/// of a socket pair) with the real clock until `stop` is set.
-pub fn serve_fd<C: Core>(
+impl From<Pty> for Endpoint {
+    fn from(p: Pty) -> Self {
+        Self::Pty(p)
+    }
+}
+
+impl From<OwnedFd> for Endpoint {
+    fn from(fd: OwnedFd) -> Self {
+        Self::Fd(fd)
+    }
+}
+
+/// Serve `core` at `at` with the real clock until `stop` is set.
+pub fn serve<C: Core>(
     core: Arc<Mutex<C>>,
-    fd: OwnedFd,
+    at: impl Into<Endpoint>,
     opts: ServeOptions,
     stop: Arc<AtomicBool>,
 ) -> anyhow::Result<()> {
+    let (fd, _slave) = match at.into() {
+        Endpoint::Pty(Pty { master, _slave, .. }) => (master, Some(_slave)),
+        Endpoint::Fd(fd) => (fd, None),
+    };
     struct Master(OwnedFd);
     impl Transport for Master {
         fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
@@ -499,7 +510,7 @@ impl SimThread {
         let (c, s) = (core.clone(), stop.clone());
         let thread = std::thread::Builder::new()
             .name("lmhost-sim".into())
-            .spawn(move || serve_fd(c, OwnedFd::from(dev), ServeOptions::default(), s))
+            .spawn(move || serve(c, OwnedFd::from(dev), ServeOptions::default(), s))
             .context("starting the simulator thread")?;
         let path = "socket pair".to_owned();
         Ok((
