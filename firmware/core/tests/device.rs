@@ -31,6 +31,24 @@ fn nacks(dev: &mut lm_fw_core::Device<'_>, seq: u16, msg: &Message<'_>, now: u64
     assert_eq!(request(dev, seq, msg, now), Reply::Nack(code));
 }
 
+/// Asserts the device refuses each `(seq, msg, code)` in turn, all at 0 µs.
+#[track_caller]
+fn refuses(dev: &mut lm_fw_core::Device<'_>, table: &[(u16, Message<'_>, NackCode)]) {
+    for (seq, msg, code) in table {
+        nacks(dev, *seq, msg, 0, *code);
+    }
+}
+
+/// A device that needs tracking, its slots sized for `seq`, with `seq`
+/// uploaded (raw) into slot 0.
+fn tracked_device(seq: &Seq) -> lm_fw_core::Device<'static> {
+    let mut cfg = config(seq.transducers);
+    cfg.require_tracking = true;
+    let mut dev = device(cfg, usize::from(seq.steps) * usize::from(seq.transducers));
+    seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    dev
+}
+
 fn status(dev: &mut lm_fw_core::Device<'_>, now: u64) -> lm_proto::Status {
     match request(dev, 77, &Message::GetStatus, now) {
         Reply::Status(s) => s,
@@ -89,38 +107,23 @@ fn raw_and_delta_uploads_play_their_phases() {
 fn min_dwell_is_enforced_at_begin_and_play() {
     let mut dev = device(config(8), 1000 * 8);
     let mut seq = Seq::pattern(100, 8, 99_999, 0); // 999.99 µs per step
-    nacks(
-        &mut dev,
-        1,
-        &seq.begin(0, Encoding::Raw),
-        0,
-        NackCode::DwellTooShort,
-    );
+    let too_short = seq.begin(0, Encoding::Raw);
+    nacks(&mut dev, 1, &too_short, 0, NackCode::DwellTooShort);
     // Exactly 1 ms per step is allowed.
     seq.period_us = 100_000;
-    acks(&mut dev, 2, &seq.begin(0, Encoding::Raw), 0);
+    let begin = seq.begin(0, Encoding::Raw);
+    acks(&mut dev, 2, &begin, 0);
     seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    let start = play(0, PlayAt::Immediate);
     dev.set_min_dwell_us(1001);
-    nacks(
-        &mut dev,
-        3,
-        &play(0, PlayAt::Immediate),
-        0,
-        NackCode::DwellTooShort,
-    );
+    nacks(&mut dev, 3, &start, 0, NackCode::DwellTooShort);
     dev.set_min_dwell_us(1000);
-    acks(&mut dev, 4, &play(0, PlayAt::Immediate), 0);
+    acks(&mut dev, 4, &start, 0);
     // A stricter device refuses the same header.
     let mut cfg = config(8);
     cfg.min_dwell_us = 2000;
     let mut strict = device(cfg, 1000 * 8);
-    nacks(
-        &mut strict,
-        1,
-        &seq.begin(0, Encoding::Raw),
-        0,
-        NackCode::DwellTooShort,
-    );
+    nacks(&mut strict, 1, &begin, 0, NackCode::DwellTooShort);
 }
 
 #[test]
@@ -129,48 +132,35 @@ fn uploads_into_the_playing_slot_are_refused() {
     let seq = Seq::pattern(10, 16, 10_000, 2);
     seq.upload(&mut dev, 0, Encoding::Raw, 0);
     acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
-    nacks(
-        &mut dev,
-        2,
-        &seq.begin(0, Encoding::Raw),
-        0,
-        NackCode::SlotPlaying,
-    );
     let chunk = Message::Chunk(Chunk {
         slot: 0,
         offset: 0,
         data: &[1, 2, 3],
     });
-    nacks(&mut dev, 3, &chunk, 0, NackCode::SlotPlaying);
+    refuses(
+        &mut dev,
+        &[
+            (2, seq.begin(0, Encoding::Raw), NackCode::SlotPlaying),
+            (3, chunk, NackCode::SlotPlaying),
+        ],
+    );
     // A repeat of the commit that made the slot playable changes nothing:
     // acked again (SPEC section 2); any other commit is refused.
     acks(&mut dev, 4, &seq.commit(0), 0);
     let other = Message::Commit(Commit { slot: 0, crc32: 1 });
-    nacks(&mut dev, 4, &other, 0, NackCode::SlotPlaying);
-    nacks(
+    refuses(
         &mut dev,
-        5,
-        &seq.begin(2, Encoding::Raw),
-        0,
-        NackCode::BadSlot,
-    );
-    nacks(
-        &mut dev,
-        6,
-        &play(1, PlayAt::Immediate),
-        0,
-        NackCode::NotCommitted,
+        &[
+            (4, other, NackCode::SlotPlaying),
+            (5, seq.begin(2, Encoding::Raw), NackCode::BadSlot),
+            (6, play(1, PlayAt::Immediate), NackCode::NotCommitted),
+        ],
     );
     // Queued slot is protected too.
     seq.upload(&mut dev, 1, Encoding::Raw, 0);
     acks(&mut dev, 7, &play(1, PlayAt::NextCycle), 0);
-    nacks(
-        &mut dev,
-        8,
-        &seq.begin(1, Encoding::Raw),
-        0,
-        NackCode::SlotPlaying,
-    );
+    let queued = seq.begin(1, Encoding::Raw);
+    nacks(&mut dev, 8, &queued, 0, NackCode::SlotPlaying);
     // After Stop both slots are writable again.
     acks(&mut dev, 9, &Message::Stop, 0);
     acks(&mut dev, 10, &seq.begin(0, Encoding::Raw), 0);
@@ -275,11 +265,8 @@ fn next_cycle_swap_happens_at_the_cycle_boundary() {
 
 #[test]
 fn gating_mutes_and_resumes() {
-    let mut cfg = config(8);
-    cfg.require_tracking = true;
-    let mut dev = device(cfg, 100 * 8);
     let a = Seq::pattern(100, 8, 100_000, 7); // 1 ms steps
-    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    let mut dev = tracked_device(&a);
     let mut cap = Capture::default();
     acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
     let mut now = 0;
@@ -355,25 +342,13 @@ fn centroid_correction_is_added_from_the_next_step() {
     assert_eq!(status(&mut dev, now).correction_um, [3_000, -2_000, 4_000]);
     dev.poll(now, &mut cap).unwrap();
     let (_, _, step, _, ph) = cap.frames.last().unwrap().clone();
-    let k = 2.0 * std::f64::consts::PI * 40_000.0 / 340.0e6; // rad/µm
-    let mut nonzero = 0;
-    for (j, x) in a.positions.iter().enumerate() {
-        let d = |p: [i32; 3]| {
-            (0..3)
-                .map(|i| (f64::from(x[i]) - f64::from(p[i])).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        };
-        let dphi = k * (d(a.center_um) - d(c));
-        let lsb =
-            ((dphi / (2.0 * std::f64::consts::PI) * 256.0).round() as i64).rem_euclid(256) as u8;
-        if lsb != 0 {
-            nonzero += 1;
-        }
-        let want = a.step(step)[j].wrapping_add(lsb);
+    let lsbs = expected_offsets(&a, c, 340_000);
+    for (j, lsb) in lsbs.iter().enumerate() {
+        let want = a.step(step)[j].wrapping_add(*lsb);
         let diff = ph[j].wrapping_sub(want) as i8;
         assert!(diff.abs() <= 1, "transducer {j}: {} vs {want}", ph[j]);
     }
+    let nonzero = lsbs.iter().filter(|&&lsb| lsb != 0).count();
     assert!(nonzero > 200, "a 5 mm shift moves most phases");
     assert_eq!(dev.offsets().len(), 252);
 }
@@ -523,11 +498,8 @@ fn config_defaults_are_documented_values() {
 
 #[test]
 fn play_while_playing_accepts_a_restarted_centroid_sequence() {
-    let mut cfg = config(8);
-    cfg.require_tracking = true;
-    let mut dev = device(cfg, 10 * 8);
     let a = Seq::pattern(10, 8, 10_000, 9);
-    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    let mut dev = tracked_device(&a);
     let mut cap = Capture::default();
     acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
     acks(&mut dev, 2, &centroid(500, a.center_um, true), 0);
@@ -562,11 +534,8 @@ fn play_untracked(slot: u8) -> Message<'static> {
 
 #[test]
 fn centroids_outside_the_work_volume_are_refused_and_mute() {
-    let mut cfg = config(16);
-    cfg.require_tracking = true;
-    let mut dev = device(cfg, 10 * 16);
     let seq = Seq::pattern(10, 16, 10_000, 2);
-    seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    let mut dev = tracked_device(&seq);
     acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
     let s = status(&mut dev, 0);
     assert_eq!(s.state, DeviceState::Muted);
@@ -626,13 +595,10 @@ fn centroids_outside_the_work_volume_are_refused_and_mute() {
 
 #[test]
 fn a_queued_slot_with_another_centre_mutes_an_out_of_range_centroid() {
-    let mut cfg = config(16);
-    cfg.require_tracking = true;
-    let mut dev = device(cfg, 10 * 16);
     let a = Seq::pattern(10, 16, 10_000, 2);
+    let mut dev = tracked_device(&a);
     let mut b = Seq::pattern(10, 16, 10_000, 3);
     b.center_um = [50_000, 0, 200_000];
-    a.upload(&mut dev, 0, Encoding::Raw, 0);
     b.upload(&mut dev, 1, Encoding::Raw, 0);
     acks(&mut dev, 1, &play(0, PlayAt::Immediate), 0);
     acks(&mut dev, 2, &centroid(1, a.center_um, true), 0);
@@ -660,11 +626,8 @@ fn a_queued_slot_with_another_centre_mutes_an_out_of_range_centroid() {
 
 #[test]
 fn untracked_play_sounds_without_a_finger_until_stop() {
-    let mut cfg = config(16);
-    cfg.require_tracking = true;
-    let mut dev = device(cfg, 10 * 16);
     let seq = Seq::pattern(10, 16, 10_000, 2);
-    seq.upload(&mut dev, 0, Encoding::Raw, 0);
+    let mut dev = tracked_device(&seq);
     acks(&mut dev, 1, &play_untracked(0), 0);
     let mut out = Capture::default();
     let mut now = 0;
