@@ -7,6 +7,7 @@ use common::Rng;
 use lm_proto::codec::{self, CodecError, Decoder};
 use lm_proto::{Encoding, crc32};
 use proptest::prelude::*;
+use std::ops::Range;
 
 /// Encodes, then decodes in pieces of the given sizes (cycled); checks
 /// length bookkeeping and returns the encoded length.
@@ -66,15 +67,28 @@ fn smooth(steps: usize, t: usize, max_step: i32, seed: u64) -> Vec<u8> {
     out
 }
 
+/// An upload to round-trip: `(steps, transducers, seed for its phases,
+/// sizes of the pieces it arrives in)`, each drawn from the range given.
+fn uploads(
+    steps: Range<usize>,
+    t: Range<usize>,
+    piece: Range<usize>,
+    n_pieces: Range<usize>,
+) -> impl Strategy<Value = (usize, usize, u64, Vec<usize>)> {
+    (
+        steps,
+        t,
+        any::<u64>(),
+        proptest::collection::vec(piece, n_pieces),
+    )
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { failure_persistence: None, ..ProptestConfig::with_cases(256) })]
 
     #[test]
     fn arbitrary_sequences_round_trip(
-        steps in 0usize..12,
-        t in 1usize..40,
-        seed in any::<u64>(),
-        pieces in proptest::collection::vec(1usize..50, 1..5),
+        (steps, t, seed, pieces) in uploads(0..12, 1..40, 1..50, 1..5),
         delta in any::<bool>(),
     ) {
         let mut rng = Rng(seed);
@@ -86,10 +100,7 @@ proptest! {
 
     #[test]
     fn smooth_sequences_round_trip_and_shrink(
-        steps in 3usize..60,
-        t in 1usize..64,
-        seed in any::<u64>(),
-        pieces in proptest::collection::vec(1usize..300, 1..4),
+        (steps, t, seed, pieces) in uploads(3..60, 1..64, 1..300, 1..4),
     ) {
         let phases = smooth(steps, t, 7, seed);
         let n = roundtrip(Encoding::Delta, &phases, t, &pieces);
