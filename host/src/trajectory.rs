@@ -295,6 +295,13 @@ impl Trajectory {
 mod tests {
     use super::*;
 
+    /// The paper's parameters at 200 mm, changed by `f`.
+    fn tweaked(f: impl FnOnce(&mut LmParams)) -> LmParams {
+        let mut p = LmParams::paper([0.0, 0.0, 200.0]);
+        f(&mut p);
+        p
+    }
+
     /// Asserts `p` is refused with an error that says `says`.
     #[track_caller]
     fn refused(p: &LmParams, says: &str) {
@@ -410,41 +417,18 @@ mod tests {
 
     #[test]
     fn nan_inf_and_negative_inputs_are_rejected() {
-        let base = LmParams::paper([0.0, 0.0, 200.0]);
         let bad = [
-            LmParams {
-                radius_mm: f64::NAN,
-                ..base.clone()
-            },
-            LmParams {
-                radius_mm: -1.0,
-                ..base.clone()
-            },
-            LmParams {
-                freq_hz: f64::INFINITY,
-                ..base.clone()
-            },
-            LmParams {
-                freq_hz: 0.0,
-                ..base.clone()
-            },
-            LmParams {
-                steps: Steps::Width(-0.2),
-                ..base.clone()
-            },
-            LmParams {
-                center_mm: [0.0, f64::NAN, 0.0],
-                ..base.clone()
-            },
-            LmParams {
-                foci: 2,
-                spacing_mm: f64::NEG_INFINITY,
-                ..base.clone()
-            },
-            LmParams {
-                z_profile_mm: vec![f64::NAN],
-                ..base.clone()
-            },
+            tweaked(|p| p.radius_mm = f64::NAN),
+            tweaked(|p| p.radius_mm = -1.0),
+            tweaked(|p| p.freq_hz = f64::INFINITY),
+            tweaked(|p| p.freq_hz = 0.0),
+            tweaked(|p| p.steps = Steps::Width(-0.2)),
+            tweaked(|p| p.center_mm = [0.0, f64::NAN, 0.0]),
+            tweaked(|p| {
+                p.foci = 2;
+                p.spacing_mm = f64::NEG_INFINITY;
+            }),
+            tweaked(|p| p.z_profile_mm = vec![f64::NAN]),
         ];
         for p in bad {
             let e = plan(&p).unwrap_err().0;
@@ -496,18 +480,14 @@ mod tests {
 
     #[test]
     fn plan_numbers_outside_their_ranges_are_refused() {
-        let ok = LmParams::paper([0.0, 0.0, 200.0]);
-        type Tweak = Box<dyn Fn(&mut LmParams)>;
-        let cases: Vec<(&str, Tweak)> = vec![
-            ("radius", Box::new(|p| p.radius_mm = 1e30)),
-            ("frequency", Box::new(|p| p.freq_hz = 1e9)),
-            ("center", Box::new(|p| p.center_mm = [0.0, 0.0, 1e12])),
-            ("z", Box::new(|p| p.z_profile_mm = vec![1e12])),
-            ("step", Box::new(|p| p.steps = Steps::Width(1e30))),
+        let cases = [
+            ("radius", tweaked(|p| p.radius_mm = 1e30)),
+            ("frequency", tweaked(|p| p.freq_hz = 1e9)),
+            ("center", tweaked(|p| p.center_mm = [0.0, 0.0, 1e12])),
+            ("z", tweaked(|p| p.z_profile_mm = vec![1e12])),
+            ("step", tweaked(|p| p.steps = Steps::Width(1e30))),
         ];
-        for (what, f) in cases {
-            let mut p = ok.clone();
-            f(&mut p);
+        for (what, p) in cases {
             let e = plan(&p).unwrap_err();
             assert!(e.0.contains(what) && e.0.contains("range"), "{what}: {e}");
         }
