@@ -1,12 +1,13 @@
 //! One device interface for every kind of rig.
 //!
 //! [`Backend`] is what the subcommands need from a device: `info`,
-//! `status`, `upload`, `play`, `stop` and centroid streaming. [`open`]
-//! picks one from `--port`:
-//! - `autd3:...` → [`crate::autd3::Autd3Backend`]: AUTD3 arrays through the
-//!   autd3 crates, their firmware emulator included;
-//! - anything else → [`LmBackend`]: the LM firmware over serial / pty / TCP
-//!   ([`crate::link::Client`]).
+//! `status`, `upload`, `play`, `stop` and centroid streaming. It is
+//! implemented by [`crate::connect::LmBackend`] (the LM firmware over
+//! serial / pty / TCP) and [`crate::autd3::Autd3Backend`] (AUTD3 arrays
+//! through the autd3 crates); [`crate::connect::open`] picks one from
+//! `--port`. This module holds only the interface and the slot rules both
+//! follow, so the backends and the streaming loop depend on it and it on
+//! none of them.
 //!
 //! Status is the firmware's own [`lm_proto::Status`] for both (an AUTD3
 //! fills the fields it has, `mute_reason` included, and zeroes the wire
@@ -14,17 +15,10 @@
 //! coordinates (the mirrored frame when the scene has a reflector), as on
 //! the wire.
 
-use std::io::IsTerminal as _;
-
-use anyhow::Context as _;
-use lm_proto::{Centroid, Encoding, Info, NackCode, PlayAt, Status};
+use lm_proto::{Centroid, DeviceState, Info, PlayAt, Status};
 use serde::Serialize;
 
-use crate::autd3::{Autd3Backend, Autd3Port, GridTiming};
-use crate::cmd::plan::PlanArgs;
-use crate::cmd::upload::{check_slot, free_slot};
-use crate::link::{Client, LinkError, PortArgs, Transport, UploadSpec};
-use crate::scene::Scene;
+use crate::InputError;
 use crate::sequence::Plan;
 
 /// What a device says about itself.
@@ -115,288 +109,86 @@ pub trait Backend {
     }
 }
 
-/// The device `--port` names, before it is opened.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Target {
-    /// The LM firmware on a serial port, pty or TCP socket.
-    Lm,
-    /// An AUTD3 rig.
-    Autd3(Autd3Port),
-}
-
-impl Target {
-    /// The plan for this device: the 25 µs dwell grid on AUTD3 (with its
-    /// realised timing), else the plan the flags ask for.
-    pub fn plan(&self, args: &PlanArgs) -> anyhow::Result<(Plan, Option<GridTiming>)> {
-        match self {
-            Self::Lm => Ok((args.plan()?, None)),
-            Self::Autd3(_) => {
-                let scene = args.load_scene()?;
-                let params = args.params(&scene)?;
-                let (plan, g) = crate::autd3::timing::plan(&params, &scene, &args.synthesis()?)?;
-                Ok((plan, Some(g)))
-            }
-        }
-    }
-}
-
-/// The device a command talks to: its port and, for AUTD3 ports, the
-/// scene whose devices the rig has (`info`, `status`, `play`, `stop`).
-#[derive(Debug, clap::Args)]
-pub struct DeviceArgs {
-    #[command(flatten)]
-    port: PortArgs,
-    /// AUTD3 ports: scene file whose devices the rig has [default: the
-    /// built-in array].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<std::path::PathBuf>,
-}
-
-impl DeviceArgs {
-    /// Loads the scene and opens the device (see [`open`]).
-    pub fn open(&self) -> anyhow::Result<Box<dyn Backend>> {
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
-        open(&self.port, &scene)
-    }
-}
-
-/// Opens the device `port` names for `scene` (an AUTD3 rig is built from
-/// the scene's devices; the LM firmware ignores it).
-pub fn open(port: &PortArgs, scene: &Scene) -> anyhow::Result<Box<dyn Backend>> {
-    open_with(port, scene, Encoding::Delta, false)
-}
-
-/// [`open`], uploading to the LM firmware with `encoding`, with a progress
-/// bar on stderr when `progress` and stderr is a terminal.
-pub fn open_with(
-    port: &PortArgs,
-    scene: &Scene,
-    encoding: Encoding,
-    progress: bool,
-) -> anyhow::Result<Box<dyn Backend>> {
-    Ok(match port.target()? {
-        Target::Lm => {
-            let mut b = LmBackend::new(port.connect()?, encoding);
-            b.progress &= progress;
-            Box::new(b)
-        }
-        Target::Autd3(p) => Box::new(Autd3Backend::open(&p, scene)?),
-    })
-}
-
-/// The LM firmware behind a [`Client`].
-pub struct LmBackend<T: Transport> {
-    /// The link.
-    pub client: Client<T>,
-    /// Wire encoding for uploads.
-    pub encoding: Encoding,
-    /// Draw a progress bar on stderr while uploading.
-    pub progress: bool,
-    info: Option<Info>,
-}
-
-impl<T: Transport> LmBackend<T> {
-    /// Wraps `client`; a progress bar is drawn when stderr is a terminal.
-    pub fn new(client: Client<T>, encoding: Encoding) -> Self {
-        Self {
-            client,
-            encoding,
-            progress: std::io::stderr().is_terminal(),
-            info: None,
-        }
-    }
-
-    fn lm_info(&mut self) -> anyhow::Result<Info> {
-        if let Some(i) = self.info {
-            return Ok(i);
-        }
-        let where_ = self.describe();
-        let i = self
-            .client
-            .info()
-            .with_context(|| format!("asking {where_} for its info"))?;
-        self.info = Some(i);
-        Ok(i)
-    }
-}
-
-impl<T: Transport> Backend for LmBackend<T> {
-    fn describe(&self) -> String {
-        self.client.transport().describe()
-    }
-
-    fn info(&mut self) -> anyhow::Result<BackendInfo> {
-        let i = self.lm_info()?;
-        let [a, b, c] = i.fw_version;
-        Ok(BackendInfo {
-            backend: "lm-firmware".into(),
-            port: self.describe(),
-            devices: 1,
-            transducers: usize::from(i.max_transducers),
-            slots: i.slots,
-            firmware: vec![format!("{a}.{b}.{c}")],
-            dwell_grid_us: None,
-            lm: Some(i),
-        })
-    }
-
-    fn status(&mut self) -> anyhow::Result<Status> {
-        Ok(self.client.status()?)
-    }
-
-    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport> {
-        let spec = UploadSpec::from_plan(plan, self.encoding)?;
-        let info = self.lm_info()?;
-        let where_ = self.describe();
-        let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
-        let slot = match slot {
-            Some(s) => {
-                check_slot(s, &info)?;
-                s
-            }
-            None => {
-                let st = self.client.status().context("reading the device status")?;
-                free_slot(info.slots, &st).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "no free slot on {where_}: every slot is playing or queued; \
-                         use --slot N or `lmhost stop` first"
-                    )
-                })?
-            }
-        };
-        spec.check_fits(&info, slot).map_err(|e| {
-            crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
-        })?;
-        let tty = self.progress;
-        let report = self
-            .client
-            .upload(&spec, slot, chunk, |done, total| {
-                if tty {
-                    let pct = done as f64 / total.max(1) as f64;
-                    let bar = "#".repeat((pct * 30.0) as usize);
-                    eprint!("\ruploading [{bar:<30}] {:>3.0} %", pct * 100.0);
-                    if done == total {
-                        eprintln!();
-                    }
-                }
-            })
-            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
-        let h = &spec.header;
-        Ok(UploadReport {
-            slot,
-            steps: usize::from(h.steps),
-            transducers: usize::from(h.transducers),
-            dwell_us: plan.sequence.dwell_us(),
-            freq_hz: 1e6 / f64::from(h.period_us.max(1)),
-            frames: 0,
-            readback_mismatches: None,
-            wire: Some(report),
-        })
-    }
-
-    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
-        let info = self.lm_info()?;
-        check_slot(slot, &info)?;
-        self.client
-            .play(slot, at, untracked)
-            .with_context(|| format!("playing slot {slot}"))
-    }
-
-    fn stop(&mut self) -> anyhow::Result<()> {
-        self.client.stop().context("stopping the device")
-    }
-
-    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome> {
-        match self.client.centroid(*c) {
-            Ok(()) => Ok(CentroidOutcome::Applied),
-            Err(LinkError::Nack {
-                code: NackCode::OutOfRange,
-                ..
-            }) => Ok(CentroidOutcome::OutOfRange),
-            Err(e) => Err(e.into()),
-        }
-    }
-}
-
-/// Holds the link, ticking the safety gate every 10 ms, until Ctrl-C /
-/// SIGTERM ([`crate::stream::run::stop_requested`]) or `max` elapses.
-/// Returns whether a stop was requested.
-pub fn hold(dev: &mut dyn Backend, max: Option<std::time::Duration>) -> anyhow::Result<bool> {
-    let end = max.map(|d| std::time::Instant::now() + d);
-    loop {
-        if crate::stream::run::stop_requested() {
-            return Ok(true);
-        }
-        if end.is_some_and(|e| std::time::Instant::now() >= e) {
-            return Ok(false);
-        }
-        dev.tick()?;
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-}
-
-/// What [`open_playing`] uploaded before a session (AUTD3 only).
-#[derive(Debug, Clone, Serialize)]
-pub struct SessionUpload {
-    /// The upload.
-    pub upload: UploadReport,
-    /// Realised timing on the 25 µs grid.
-    pub timing: GridTiming,
-}
-
-/// Opens the device for a streaming session (`stream`, `track`, `demo`).
-/// The LM firmware already holds its sequence (uploaded and played with
-/// `lmhost upload`); an AUTD3 holds one only while lmhost holds the link,
-/// so there the plan the flags ask for (or the defaults) is planned on the
-/// 25 µs grid, uploaded, read back and played, tracked, first. Returns the
-/// device and, on AUTD3, what was uploaded.
-pub fn open_playing(
-    port: &PortArgs,
-    plan: &PlanArgs,
-) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
-    let target = port.target()?;
-    let Target::Autd3(_) = &target else {
-        let scene = plan.load_scene()?;
-        return Ok((open(port, &scene)?, None));
+/// The slot an upload without `--slot` writes: one that neither plays nor
+/// is queued, preferring one other than the last played.
+pub fn free_slot(slots: u8, status: &Status) -> Option<u8> {
+    let playing = match status.state {
+        DeviceState::Playing | DeviceState::Muted => status.slot,
+        _ => None,
     };
-    let (plan, grid) = target.plan(plan)?;
-    let timing = grid.context("an AUTD3 plan is on its grid")?;
-    let mut dev = open(port, &plan.scene)?;
-    let upload = dev.upload(&plan, None)?;
-    let where_ = dev.describe();
-    if let Some(n) = upload.readback_mismatches.filter(|&n| n > 0) {
-        anyhow::bail!("{where_} holds {n} phases that differ from the plan");
-    }
-    dev.play(upload.slot, false)?;
-    eprintln!(
-        "{where_}: uploaded {} steps, dwell {} µs, {:.3} Hz (asked {} Hz), step {:.4} mm, read-back {}; \
-         playing slot {}, muted until tracked; left silent on exit",
-        upload.steps,
-        upload.dwell_us,
-        upload.freq_hz,
-        timing.requested_freq_hz,
-        timing.step_mm,
-        upload
-            .readback_mismatches
-            .map_or("not available".into(), |n| format!("{n} mismatches")),
-        upload.slot
-    );
-    Ok((dev, Some(SessionUpload { upload, timing })))
+    let busy = |s: u8| playing == Some(s) || status.queued_slot == Some(s);
+    let free = || (0..slots).filter(|s| !busy(*s));
+    free()
+        .find(|s| Some(*s) != status.slot)
+        .or_else(|| free().next())
 }
 
-/// The stimulus flags' defaults for `scene` (what `lmhost upload --scene
-/// FILE` plans with no other flag): the plan `track --port autd3:...` plays.
-pub fn default_plan_args(scene: Option<&std::path::Path>) -> anyhow::Result<PlanArgs> {
-    #[derive(clap::Parser)]
-    struct Defaults {
-        #[command(flatten)]
-        plan: PlanArgs,
+/// Checks `slot` exists on the device (bad input otherwise, exit 2).
+pub fn check_slot(slot: u8, info: &Info) -> Result<(), InputError> {
+    if slot >= info.slots {
+        return Err(InputError::new(format!(
+            "--slot {slot} does not exist: the device has {} slots (0-{})",
+            info.slots,
+            info.slots.saturating_sub(1)
+        )));
     }
-    let mut args = vec![std::ffi::OsString::from("lmhost")];
-    if let Some(s) = scene {
-        args.push("--scene".into());
-        args.push(s.into());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info(slots: u8) -> Info {
+        Info {
+            proto_version: lm_proto::PROTOCOL_VERSION,
+            fw_version: [0, 1, 0],
+            max_transducers: 996,
+            slot_bytes: 200 * 996,
+            slots,
+            timer_hz: 1_000_000,
+            min_dwell_us: 1000,
+            max_chunk: 1024,
+        }
     }
-    use clap::Parser as _;
-    Ok(Defaults::try_parse_from(args)?.plan)
+
+    fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
+        Status {
+            state,
+            slot,
+            queued_slot: queued,
+            ..Status::default()
+        }
+    }
+
+    #[test]
+    fn free_slot_is_neither_playing_nor_queued() {
+        use DeviceState::*;
+        let i = info(2);
+        assert_eq!(free_slot(i.slots, &status(Idle, None, None)), Some(0));
+        assert_eq!(free_slot(i.slots, &status(Playing, Some(0), None)), Some(1));
+        assert_eq!(free_slot(i.slots, &status(Muted, Some(1), None)), Some(0));
+        assert_eq!(free_slot(i.slots, &status(Playing, Some(0), Some(1))), None);
+        // Stopped: every slot is free; prefer the one not played last.
+        assert_eq!(free_slot(i.slots, &status(Stopped, Some(0), None)), Some(1));
+        assert_eq!(
+            free_slot(info(1).slots, &status(Stopped, Some(0), None)),
+            Some(0)
+        );
+        assert_eq!(
+            free_slot(info(1).slots, &status(Playing, Some(0), None)),
+            None
+        );
+        assert_eq!(
+            free_slot(info(3).slots, &status(Playing, Some(0), Some(1))),
+            Some(2)
+        );
+    }
+
+    #[test]
+    fn slots_are_checked_against_the_device() {
+        assert!(check_slot(1, &info(2)).is_ok());
+        let e = check_slot(7, &info(2)).unwrap_err();
+        assert!(e.to_string().contains("2 slots (0-1)"), "{e}");
+    }
 }

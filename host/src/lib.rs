@@ -12,6 +12,7 @@ pub mod backend;
 pub mod bench;
 pub mod clock;
 pub mod cmd;
+pub mod connect;
 pub mod directivity;
 pub mod error;
 pub mod field;

@@ -9,8 +9,9 @@ use anyhow::Context as _;
 use clap::Parser as _;
 use lm_proto::{DeviceState, Encoding, PlayAt};
 
-use crate::backend::{Backend, LmBackend};
+use crate::backend::Backend;
 use crate::clock::{monotonic_us, percentile};
+use crate::connect::LmBackend;
 use crate::link::transport::Serial;
 use crate::link::{Client, UploadSpec};
 use crate::simdev::{SimConfig, SimThread};
@@ -333,7 +334,7 @@ impl Args {
     /// and read back, played tracked; the synthetic finger streams its
     /// centroids as phase corrections and leaves for the middle fifth.
     fn run_autd3(&self, port: &crate::autd3::Autd3Port) -> anyhow::Result<()> {
-        let plan_args = crate::backend::default_plan_args(None)?;
+        let plan_args = crate::cmd::session::default_plan_args(None)?;
         #[derive(clap::Parser)]
         struct LmM {
             #[command(flatten)]
@@ -351,7 +352,7 @@ impl Args {
         };
         crate::stream::run::install_stop_signals()?;
         let t_up = std::time::Instant::now();
-        let (mut dev, session) = crate::backend::open_playing(&port_args, &plan_args)?;
+        let (mut dev, session) = crate::cmd::session::open_playing(&port_args, &plan_args)?;
         let up_s = t_up.elapsed().as_secs_f64();
         let session = session.context("an AUTD3 session uploads first")?;
         let scene = plan_args.load_scene()?;

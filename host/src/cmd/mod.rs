@@ -3,7 +3,8 @@
 use clap::Subcommand;
 use serde::Serialize;
 
-use crate::backend::{Backend, DeviceArgs};
+use crate::backend::Backend;
+use crate::connect::DeviceArgs;
 
 pub mod bench;
 pub mod demo;
@@ -12,6 +13,7 @@ pub mod info;
 pub mod plan;
 pub mod play;
 pub mod scene;
+pub mod session;
 pub mod sim;
 pub mod simulate;
 pub mod status;

@@ -3,8 +3,8 @@
 use anyhow::Context as _;
 use lm_proto::PlayAt;
 
-use crate::backend::DeviceArgs;
 use crate::cmd::upload::{UNTRACKED_WARNING, play_outcome};
+use crate::connect::DeviceArgs;
 
 /// Play a slot that holds a committed sequence.
 #[derive(Debug, clap::Args)]

@@ -1,6 +1,6 @@
 //! `lmhost stop`: stop playing and mute the output.
 
-use crate::backend::DeviceArgs;
+use crate::connect::DeviceArgs;
 
 /// Stop playing (the output mutes at once).
 #[derive(Debug, clap::Args)]

@@ -159,7 +159,7 @@ impl Args {
             }
         };
         crate::stream::run::install_stop_signals()?;
-        let (mut dev, session) = crate::backend::open_playing(&self.port, &self.plan)?;
+        let (mut dev, session) = crate::cmd::session::open_playing(&self.port, &self.plan)?;
         let where_ = dev.describe();
         let (mut absent, mut muted_absent) = (0u64, 0u64);
         let report = stream(

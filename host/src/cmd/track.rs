@@ -378,7 +378,7 @@ impl DeviceReplan {
         let st = client
             .status()
             .context("re-plan: reading the device status")?;
-        let Some(slot) = crate::cmd::upload::free_slot(info.slots, &st) else {
+        let Some(slot) = crate::backend::free_slot(info.slots, &st) else {
             self.skipped += 1;
             return Ok(());
         };
@@ -577,11 +577,11 @@ impl Args {
         if device {
             // AUTD3: the default stimulus for the scene is uploaded and
             // played first, and the array is left silent at the end.
-            let plan = crate::backend::default_plan_args(self.scene.as_deref())?;
-            if self.port.target()? != crate::backend::Target::Lm {
+            let plan = crate::cmd::session::default_plan_args(self.scene.as_deref())?;
+            if self.port.target()? != crate::connect::Target::Lm {
                 crate::stream::run::install_stop_signals()?;
             }
-            let (mut dev, session) = crate::backend::open_playing(&self.port, &plan)?;
+            let (mut dev, session) = crate::cmd::session::open_playing(&self.port, &plan)?;
             let where_ = dev.describe();
             let pace = if self.fast || live {
                 Pace::Arrival

@@ -1,12 +1,12 @@
 //! `lmhost upload`: plan, check it fits the device, upload, commit, play.
 
 use anyhow::Context as _;
-use lm_proto::{DeviceState, Encoding, Info, Status};
+use lm_proto::{DeviceState, Encoding, Status};
 
-use crate::InputError;
 use crate::autd3::GridTiming;
-use crate::backend::{Backend, Target, UploadReport};
+use crate::backend::{Backend, UploadReport};
 use crate::cmd::plan::PlanArgs;
+use crate::connect::Target;
 use crate::link::PortArgs;
 use crate::sequence::DEFAULT_MAX_OFFSET_MM;
 
@@ -72,32 +72,6 @@ pub struct Args {
     json: bool,
 }
 
-/// The slot an upload without `--slot` writes: one that neither plays nor
-/// is queued, preferring one other than the last played.
-pub fn free_slot(slots: u8, status: &Status) -> Option<u8> {
-    let playing = match status.state {
-        DeviceState::Playing | DeviceState::Muted => status.slot,
-        _ => None,
-    };
-    let busy = |s: u8| playing == Some(s) || status.queued_slot == Some(s);
-    let free = || (0..slots).filter(|s| !busy(*s));
-    free()
-        .find(|s| Some(*s) != status.slot)
-        .or_else(|| free().next())
-}
-
-/// Checks `slot` exists on the device (bad input otherwise, exit 2).
-pub fn check_slot(slot: u8, info: &Info) -> Result<(), InputError> {
-    if slot >= info.slots {
-        return Err(InputError::new(format!(
-            "--slot {slot} does not exist: the device has {} slots (0-{})",
-            info.slots,
-            info.slots.saturating_sub(1)
-        )));
-    }
-    Ok(())
-}
-
 /// The one-line warning printed when playing untracked.
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
      with no gating or correction, until `lmhost stop`";
@@ -124,10 +98,10 @@ impl Args {
                 "--hold applies to AUTD3 ports only (the LM firmware plays on its own)"
             );
         }
-        let (mut plan, grid) = target.plan(&self.plan)?;
+        let (mut plan, grid) = crate::cmd::session::plan_for(&target, &self.plan)?;
         plan.sequence.set_max_offset_mm(self.max_offset)?;
         let mut dev =
-            crate::backend::open_with(&self.port, &plan.scene, self.encoding.into(), !self.json)?;
+            crate::connect::open_with(&self.port, &plan.scene, self.encoding.into(), !self.json)?;
         if dev.needs_host() && !self.no_play {
             // Ctrl-C / SIGTERM end the hold below; the array is left silent.
             crate::stream::run::install_stop_signals()?;
@@ -310,7 +284,7 @@ impl Args {
                         None => "until Ctrl-C or SIGTERM".into(),
                     }
                 );
-                crate::backend::hold(dev, d)?;
+                crate::connect::hold(dev, d)?;
             }
         }
         dev.stop()
@@ -321,19 +295,6 @@ impl Args {
 mod tests {
     use super::*;
     use lm_proto::MuteReason;
-
-    fn info(slots: u8) -> Info {
-        Info {
-            proto_version: lm_proto::PROTOCOL_VERSION,
-            fw_version: [0, 1, 0],
-            max_transducers: 996,
-            slot_bytes: 200 * 996,
-            slots,
-            timer_hz: 1_000_000,
-            min_dwell_us: 1000,
-            max_chunk: 1024,
-        }
-    }
 
     fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
         Status {
@@ -350,37 +311,6 @@ mod tests {
             queued_slot: queued,
             mute_reason: MuteReason::None,
         }
-    }
-
-    #[test]
-    fn free_slot_is_neither_playing_nor_queued() {
-        use DeviceState::*;
-        let i = info(2);
-        assert_eq!(free_slot(i.slots, &status(Idle, None, None)), Some(0));
-        assert_eq!(free_slot(i.slots, &status(Playing, Some(0), None)), Some(1));
-        assert_eq!(free_slot(i.slots, &status(Muted, Some(1), None)), Some(0));
-        assert_eq!(free_slot(i.slots, &status(Playing, Some(0), Some(1))), None);
-        // Stopped: every slot is free; prefer the one not played last.
-        assert_eq!(free_slot(i.slots, &status(Stopped, Some(0), None)), Some(1));
-        assert_eq!(
-            free_slot(info(1).slots, &status(Stopped, Some(0), None)),
-            Some(0)
-        );
-        assert_eq!(
-            free_slot(info(1).slots, &status(Playing, Some(0), None)),
-            None
-        );
-        assert_eq!(
-            free_slot(info(3).slots, &status(Playing, Some(0), Some(1))),
-            Some(2)
-        );
-    }
-
-    #[test]
-    fn slots_are_checked_against_the_device() {
-        assert!(check_slot(1, &info(2)).is_ok());
-        let e = check_slot(7, &info(2)).unwrap_err();
-        assert!(e.to_string().contains("2 slots (0-1)"), "{e}");
     }
 
     #[test]

@@ -36,28 +36,10 @@ pub struct PortArgs {
 }
 
 impl PortArgs {
-    /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
-    /// `autd3:` port is an [`InputError`](crate::InputError) (exit 2).
-    pub fn target(&self) -> Result<crate::backend::Target, crate::InputError> {
-        use crate::autd3::Autd3Port;
-        let env = std::env::var(discover::PORT_ENV).ok();
-        match self.port.as_deref().or(env.as_deref()) {
-            Some(p) if Autd3Port::is_autd3(p) => {
-                Ok(crate::backend::Target::Autd3(Autd3Port::parse(p)?))
-            }
-            _ => Ok(crate::backend::Target::Lm),
-        }
-    }
-
-    /// Resolve the port and open a client on it (the LM firmware; AUTD3
-    /// rigs open through [`crate::backend::open`]).
+    /// Resolve the port and open a client on it (the LM firmware; every
+    /// command opens its device through [`crate::connect::open`], which
+    /// sends AUTD3 ports elsewhere).
     pub fn connect(&self) -> anyhow::Result<Client<Box<dyn Transport>>> {
-        if let crate::backend::Target::Autd3(p) = self.target()? {
-            return Err(crate::InputError::new(format!(
-                "{p} is an AUTD3 port; this command drives the LM firmware only"
-            ))
-            .into());
-        }
         if self.baud == 0 {
             return Err(crate::InputError::new("--baud must be above 0").into());
         }

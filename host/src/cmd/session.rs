@@ -1,0 +1,93 @@
+//! A streaming session's device (`stream`, `track`, `demo`): on an AUTD3,
+//! which holds a sequence only while lmhost holds the link, plan, upload,
+//! read back and play first.
+
+use anyhow::Context as _;
+use serde::Serialize;
+
+use crate::autd3::GridTiming;
+use crate::backend::{Backend, UploadReport};
+use crate::cmd::plan::PlanArgs;
+use crate::connect::{Target, open};
+use crate::link::PortArgs;
+use crate::sequence::Plan;
+
+/// The plan for the device `target` names: the 25 µs dwell grid on AUTD3
+/// (with its realised timing), else the plan the flags ask for.
+pub fn plan_for(target: &Target, args: &PlanArgs) -> anyhow::Result<(Plan, Option<GridTiming>)> {
+    match target {
+        // The CLI's own planning path (warnings included).
+        Target::Lm => Ok((args.plan()?, None)),
+        Target::Autd3(_) => {
+            let scene = args.load_scene()?;
+            let params = args.params(&scene)?;
+            target.plan_on_grid(&params, &scene, &args.synthesis()?)
+        }
+    }
+}
+
+/// What [`open_playing`] uploaded before a session (AUTD3 only).
+#[derive(Debug, Clone, Serialize)]
+pub struct SessionUpload {
+    /// The upload.
+    pub upload: UploadReport,
+    /// Realised timing on the 25 µs grid.
+    pub timing: GridTiming,
+}
+
+/// Opens the device for a streaming session (`stream`, `track`, `demo`).
+/// The LM firmware already holds its sequence (uploaded and played with
+/// `lmhost upload`); an AUTD3 holds one only while lmhost holds the link,
+/// so there the plan the flags ask for (or the defaults) is planned on the
+/// 25 µs grid, uploaded, read back and played, tracked, first. Returns the
+/// device and, on AUTD3, what was uploaded.
+pub fn open_playing(
+    port: &PortArgs,
+    plan: &PlanArgs,
+) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
+    let target = port.target()?;
+    let Target::Autd3(_) = &target else {
+        let scene = plan.load_scene()?;
+        return Ok((open(port, &scene)?, None));
+    };
+    let (plan, grid) = plan_for(&target, plan)?;
+    let timing = grid.context("an AUTD3 plan is on its grid")?;
+    let mut dev = open(port, &plan.scene)?;
+    let upload = dev.upload(&plan, None)?;
+    let where_ = dev.describe();
+    if let Some(n) = upload.readback_mismatches.filter(|&n| n > 0) {
+        anyhow::bail!("{where_} holds {n} phases that differ from the plan");
+    }
+    dev.play(upload.slot, false)?;
+    eprintln!(
+        "{where_}: uploaded {} steps, dwell {} µs, {:.3} Hz (asked {} Hz), step {:.4} mm, read-back {}; \
+         playing slot {}, muted until tracked; left silent on exit",
+        upload.steps,
+        upload.dwell_us,
+        upload.freq_hz,
+        timing.requested_freq_hz,
+        timing.step_mm,
+        upload
+            .readback_mismatches
+            .map_or("not available".into(), |n| format!("{n} mismatches")),
+        upload.slot
+    );
+    Ok((dev, Some(SessionUpload { upload, timing })))
+}
+
+/// The stimulus flags' defaults for `scene` (what `lmhost upload --scene
+/// FILE` plans with no other flag): the plan `track --port autd3:...` plays.
+pub fn default_plan_args(scene: Option<&std::path::Path>) -> anyhow::Result<PlanArgs> {
+    #[derive(clap::Parser)]
+    struct Defaults {
+        #[command(flatten)]
+        plan: PlanArgs,
+    }
+    let mut args = vec![std::ffi::OsString::from("lmhost")];
+    if let Some(s) = scene {
+        args.push("--scene".into());
+        args.push(s.into());
+    }
+    use clap::Parser as _;
+    Ok(Defaults::try_parse_from(args)?.plan)
+}
