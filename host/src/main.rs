@@ -25,9 +25,14 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
     err.chain().any(|c| c.is::<StdoutClosed>())
 }
 
+/// Set by the panic hook when a panic was `println!` hitting a closed pipe.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// `println!` panics when stdout is a closed pipe (Rust ignores SIGPIPE).
-/// Every command prints with it, so catch that one panic here, once, and
-/// end quietly with exit 0; any other panic keeps the default report.
+/// Every command prints with it, so that one panic is silenced here, once,
+/// and `main` turns it into a quiet exit 0 after unwinding, so `Drop`
+/// still runs (an AUTD3 link is left silent). Any other panic keeps the
+/// default report.
 fn quiet_on_closed_stdout() {
     let default = std::panic::take_hook();
     let epipe = std::io::Error::from(std::io::ErrorKind::BrokenPipe).to_string();
@@ -42,7 +47,8 @@ fn quiet_on_closed_stdout() {
         if msg.starts_with("failed printing to stdout")
             && (msg.contains(&epipe) || msg.contains(&epipe_os))
         {
-            std::process::exit(0);
+            STDOUT_CLOSED.store(true, std::sync::atomic::Ordering::SeqCst);
+            return;
         }
         default(info);
     }));
@@ -73,7 +79,15 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match cli.command.run() {
+    let result = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| cli.command.run()))
+    {
+        Ok(r) => r,
+        Err(_) if STDOUT_CLOSED.load(std::sync::atomic::Ordering::SeqCst) => {
+            return ExitCode::SUCCESS;
+        }
+        Err(panic) => std::panic::resume_unwind(panic),
+    };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
