@@ -188,9 +188,12 @@ impl<T: Transport> Backend for LmBackend<T> {
                 if tty {
                     let pct = done as f64 / total.max(1) as f64;
                     let bar = "#".repeat((pct * 30.0) as usize);
-                    eprint!("\ruploading [{bar:<30}] {:>3.0} %", pct * 100.0);
+                    crate::out::stderr_fmt(format_args!(
+                        "\ruploading [{bar:<30}] {:>3.0} %",
+                        pct * 100.0
+                    ));
                     if done == total {
-                        eprintln!();
+                        crate::errln!();
                     }
                 }
             })
@@ -233,12 +236,12 @@ impl<T: Transport> Backend for LmBackend<T> {
 }
 
 /// Holds the link, ticking the safety gate every 10 ms, until Ctrl-C /
-/// SIGTERM ([`crate::stream::run::stop_requested`]) or `max` elapses.
+/// SIGTERM ([`crate::stop::requested`]) or `max` elapses.
 /// Returns whether a stop was requested.
 pub fn hold(dev: &mut dyn Backend, max: Option<std::time::Duration>) -> anyhow::Result<bool> {
     let end = max.map(|d| std::time::Instant::now() + d);
     loop {
-        if crate::stream::run::stop_requested() {
+        if crate::stop::requested() {
             return Ok(true);
         }
         if end.is_some_and(|e| std::time::Instant::now() >= e) {

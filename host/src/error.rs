@@ -32,26 +32,3 @@ macro_rules! bad_input {
 #[derive(Debug, thiserror::Error)]
 #[error("standard output closed")]
 pub struct StdoutClosed;
-
-/// Maps the result of a write to stdout: a broken pipe becomes
-/// [`StdoutClosed`], other errors stay what they are.
-pub fn stdout_write(r: std::io::Result<()>) -> anyhow::Result<()> {
-    match r {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
-        r => Ok(r?),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn only_a_broken_pipe_on_stdout_is_quiet() {
-        let e = stdout_write(Err(std::io::ErrorKind::BrokenPipe.into())).unwrap_err();
-        assert!(e.is::<StdoutClosed>());
-        let e = stdout_write(Err(std::io::ErrorKind::PermissionDenied.into())).unwrap_err();
-        assert!(!e.is::<StdoutClosed>());
-        assert!(stdout_write(Ok(())).is_ok());
-    }
-}

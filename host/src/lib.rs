@@ -5,6 +5,8 @@
 //! over [`cmd`]. Units and the sign of the phase are fixed once, in
 //! [`units`]; everything else links there.
 #![warn(missing_docs)]
+#![deny(clippy::print_stdout, clippy::print_stderr)]
+#![cfg_attr(test, allow(clippy::print_stdout, clippy::print_stderr))]
 
 pub mod array;
 pub mod autd3;
@@ -16,13 +18,16 @@ pub mod connect;
 pub mod directivity;
 pub mod error;
 pub mod field;
+pub mod files;
 pub mod geom;
 pub mod limits;
 pub mod link;
+pub mod out;
 pub mod rng;
 pub mod scene;
 pub mod sequence;
 pub mod simdev;
+pub mod stop;
 pub mod stream;
 pub mod synth;
 pub mod track;

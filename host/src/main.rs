@@ -3,14 +3,18 @@
 //! - exit 0: success, or stdout was closed early (`lmhost plan --json |
 //!   head -c 10`): output to a closed pipe ends quietly, as ripgrep does;
 //! - exit 2: bad input (the error chain contains [`InputError`]);
-//! - exit 1: the operation failed.
+//! - exit 1: the operation failed (a failed write to stdout included:
+//!   `lmhost plan > /dev/full`).
 //!
-//! Errors are printed as one line: `error: outer: cause: root cause`.
+//! Errors are printed as one line: `error: outer: cause: root cause`. All
+//! output goes through [`lmhost::out`]; a lost stderr changes nothing but
+//! what can be said.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
 use std::process::ExitCode;
 
 use clap::Parser;
-use lmhost::{InputError, cmd::Command, error::StdoutClosed};
+use lmhost::{InputError, cmd::Command, errln, out::StdoutClosed};
 
 /// Plan, upload and stream lateral-modulation ultrasound haptics.
 #[derive(Debug, Parser)]
@@ -20,19 +24,14 @@ struct Cli {
     command: Command,
 }
 
-/// Whether the error is stdout closed by its reader.
-fn is_broken_pipe(err: &anyhow::Error) -> bool {
-    err.chain().any(|c| c.is::<StdoutClosed>())
-}
-
-/// Set by the panic hook when a panic was `println!` hitting a closed pipe.
+/// Set by the panic hook when a panic was a `print!` in a dependency
+/// hitting a closed pipe (lmhost's own output never panics).
 static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// `println!` panics when stdout is a closed pipe (Rust ignores SIGPIPE).
-/// Every command prints with it, so that one panic is silenced here, once,
-/// and `main` turns it into a quiet exit 0 after unwinding, so `Drop`
-/// still runs (an AUTD3 link is left silent). Any other panic keeps the
-/// default report.
+/// A dependency's `println!` panics when stdout is a closed pipe (Rust
+/// ignores SIGPIPE). That one panic is silenced here and `main` turns it
+/// into a quiet exit 0 after unwinding, so `Drop` still runs (an AUTD3
+/// link is left silent). Any other panic keeps the default report.
 fn quiet_on_closed_stdout() {
     let default = std::panic::take_hook();
     let epipe = std::io::Error::from(std::io::ErrorKind::BrokenPipe).to_string();
@@ -54,13 +53,37 @@ fn quiet_on_closed_stdout() {
     }));
 }
 
+/// Exit code for `result`, after printing its error as one line.
+fn finish(result: anyhow::Result<()>) -> ExitCode {
+    let result = result.and_then(|()| lmhost::out::flush_stdout());
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) if err.chain().any(|c| c.is::<StdoutClosed>()) => ExitCode::SUCCESS,
+        Err(err) => {
+            // One line: the context chain joined with ": ".
+            let line = format!("{err:#}").replace('\n', " ");
+            errln!("error: {line}");
+            if err.chain().any(|c| c.is::<InputError>()) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
+        }
+    }
+}
+
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        Err(e) if !e.use_stderr() => e.exit(),
+        // --help, --version: printed to stdout through the one path.
+        Err(e) if !e.use_stderr() => {
+            let text = e.render().to_string();
+            return finish(lmhost::out!("{text}"));
+        }
         Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            e.exit()
+            errln!("{}", e.render().to_string().trim_end());
+            return ExitCode::from(2);
         }
         Err(e) => {
             // Bad flags are bad input: one line, exit 2.
@@ -75,10 +98,13 @@ fn main() -> ExitCode {
                 .collect();
             let line = para.join(" ");
             let line = line.strip_prefix("error: ").unwrap_or(&line);
-            eprintln!("error: {line} (see --help)");
+            errln!("error: {line} (see --help)");
             return ExitCode::from(2);
         }
     };
+    if let Err(e) = lmhost::stop::install() {
+        return finish(Err(e));
+    }
     let result = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| cli.command.run()))
     {
         Ok(r) => r,
@@ -87,18 +113,5 @@ fn main() -> ExitCode {
         }
         Err(panic) => std::panic::resume_unwind(panic),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
-        Err(err) => {
-            // One line: the context chain joined with ": ".
-            let line = format!("{err:#}").replace('\n', " ");
-            eprintln!("error: {line}");
-            if err.chain().any(|c| c.is::<InputError>()) {
-                ExitCode::from(2)
-            } else {
-                ExitCode::from(1)
-            }
-        }
-    }
+    finish(result)
 }

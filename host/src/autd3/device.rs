@@ -116,7 +116,7 @@ impl Autd3Backend {
             Autd3Port::Soem { ifname } => {
                 let link = autd3_link_soem::SOEM::new(
                     |slave: u16, status: autd3_link_soem::Status| {
-                        eprintln!("lmhost: AUTD3 device {slave}: EtherCAT {status:?}");
+                        crate::errln!("lmhost: AUTD3 device {slave}: EtherCAT {status:?}");
                     },
                     autd3_link_soem::SOEMOption {
                         ifname: ifname.clone(),
@@ -129,7 +129,7 @@ impl Autd3Backend {
             Autd3Port::EtherCrab { ifname } => {
                 let link = autd3_link_ethercrab::EtherCrab::new(
                     |dev: usize, status: autd3_link_ethercrab::Status| {
-                        eprintln!("lmhost: AUTD3 device {dev}: EtherCAT {status:?}");
+                        crate::errln!("lmhost: AUTD3 device {dev}: EtherCAT {status:?}");
                     },
                     autd3_link_ethercrab::EtherCrabOption {
                         ifname: ifname.clone(),

@@ -21,13 +21,13 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let sections = bench::run(&Options { quick: self.quick }, &self.section)?;
         if self.json {
-            println!(
+            crate::outln!(
                 "{}",
                 serde_json::to_string(&serde_json::json!({ "sections": sections }))?
-            );
+            )?;
         } else {
             for s in &sections {
-                print!("{}", s.text);
+                crate::out!("{}", s.text)?;
             }
         }
         Ok(())

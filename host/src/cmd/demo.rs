@@ -241,10 +241,10 @@ impl Args {
                 "track_p99_us": d.track_percentile_us(99.0), "filter_lag_ms": d.filter_lag_ms() })),
         });
         if self.json {
-            println!("{v}");
+            crate::outln!("{v}")?;
             return Ok(());
         }
-        println!(
+        crate::outln!(
             "lmhost demo: simulated device on {} over a {} ({})",
             sim_path_note(),
             if self.link == SimLink::Pty {
@@ -257,12 +257,14 @@ impl Args {
             } else {
                 "normal priority: expect more jitter"
             }
-        );
-        println!(
+        )?;
+        crate::outln!(
             "stimulus   LM-M A = 3 mm, 4 foci 3 mm apart, 5 Hz, 0.23 mm steps: {} steps × {} transducers, dwell {:.0} µs",
-            spec.header.steps, spec.header.transducers, dwell_us
-        );
-        println!(
+            spec.header.steps,
+            spec.header.transducers,
+            dwell_us
+        )?;
+        crate::outln!(
             "upload     {} B raw → {} B delta, {} B on the wire ({:.1} % efficient) in {:.0} ms, CRC {:08x}",
             up.raw_bytes,
             up.sequence_bytes,
@@ -270,13 +272,13 @@ impl Args {
             up.wire_efficiency() * 100.0,
             up.seconds * 1e3,
             up.crc32
-        );
-        println!(
+        )?;
+        crate::outln!(
             "steps      {played} played in {:.2} s: mean dwell {mean_dwell_us:.1} µs (planned {dwell_us:.1}), {} missed deadlines, p99 lateness {late_p99} µs",
             elapsed_us as f64 / 1e6,
             s1.missed_deadlines - s0.missed_deadlines
-        );
-        println!(
+        )?;
+        crate::outln!(
             "centroids  {} sent at 90 fps ({} filter), {} applied; latency to the applying step p50 {} µs, p99 {} µs, max {} µs (target ≤ dwell + 1 ms = {:.0} µs)",
             report.acked,
             self.filter.name(),
@@ -285,9 +287,9 @@ impl Args {
             lat(99.0),
             lat(100.0),
             dwell_us + 1000.0
-        );
+        )?;
         let fmt = |x: Option<f64>| x.map_or("n/a".to_owned(), |v| format!("{v:.1} ms"));
-        println!(
+        crate::outln!(
             "muting     finger left → muted after {}; back → sounding after {}; every status while away: {}",
             fmt(mute_ms),
             fmt(resume_ms),
@@ -296,9 +298,9 @@ impl Args {
             } else {
                 "NOT muted"
             }
-        );
+        )?;
         if let Some(d) = &depth {
-            println!(
+            crate::outln!(
                 "tracking   depth frames 848×480 → contact-area centroid: error {:.3} mm RMS vs truth, presence wrong on {} steady frames; track p50 {:.0} µs, p99 {:.0} µs per frame; frame → device ack p50 {} µs + the {} filter's lag {:.1} ms",
                 d.rms_error_mm(),
                 d.presence_wrong,
@@ -307,23 +309,23 @@ impl Args {
                 report.ack_percentile_us(50.0).unwrap_or(0),
                 self.filter.name(),
                 d.filter_lag_ms()
-            );
+            )?;
         }
         if let Some(dir) = &self.plots {
             let dir = dir.to_string_lossy();
             let args = std::iter::once("demo")
                 .chain(LM_M_FLAGS.iter().copied())
                 .chain(["--out", dir.as_ref()]);
-            println!("field      simulating LM-M into {dir}:");
+            crate::outln!("field      simulating LM-M into {dir}:")?;
             SimulateOnly::try_parse_from(args)
                 .context("building the simulate flags")?
                 .simulate
                 .run()
                 .context("simulating the field")?;
         } else {
-            println!(
+            crate::outln!(
                 "field      maps: `lmhost demo --plots DIR` (or `lmhost simulate --foci 4 --out DIR`)"
-            );
+            )?;
         }
         Ok(())
     }
@@ -350,7 +352,7 @@ impl Args {
             timeout_ms: None,
             tries: 1,
         };
-        crate::stream::run::install_stop_signals()?;
+        crate::stop::graceful();
         let t_up = std::time::Instant::now();
         let (mut dev, session) = crate::cmd::session::open_playing(&port_args, &plan_args)?;
         let up_s = t_up.elapsed().as_secs_f64();
@@ -413,11 +415,11 @@ impl Args {
             "left_silent": true,
         });
         if self.json {
-            println!("{v}");
+            crate::outln!("{v}")?;
             return Ok(());
         }
-        println!("lmhost demo: {port} (autd3's firmware emulator when `autd3:emulator`)");
-        println!(
+        crate::outln!("lmhost demo: {port} (autd3's firmware emulator when `autd3:emulator`)")?;
+        crate::outln!(
             "stimulus   LM-M A = 3 mm, 4 foci 3 mm apart, asked 5 Hz, 0.23 mm steps: {} steps × {} transducers, \
              dwell {} µs on the 25 µs grid → {:.3} Hz ({:+.3} Hz), step {:.4} mm ({:+.4} mm)",
             u.steps,
@@ -427,8 +429,8 @@ impl Args {
             g.freq_error_hz,
             g.step_mm,
             g.step_error_mm
-        );
-        println!(
+        )?;
+        crate::outln!(
             "upload     GainSTM in {} frames, {:.0} ms with open and play; FPGA read-back: {}",
             u.frames,
             up_s * 1e3,
@@ -436,16 +438,16 @@ impl Args {
                 .map_or("not available on this link".into(), |n| format!(
                     "{n} mismatches"
                 ))
-        );
-        println!(
+        )?;
+        crate::outln!(
             "centroids  {} applied as PhaseCorrection ({} filter); centroid → correction acked by the FPGA p50 {} µs, p99 {} µs, max {} µs",
             report.acked,
             self.filter.name(),
             lat(50.0),
             lat(99.0),
             lat(100.0)
-        );
-        println!(
+        )?;
+        crate::outln!(
             "muting     every status while away: {} ({}); {} statuses playing while present; left silent",
             if muted_while_away {
                 "Muted"
@@ -454,7 +456,7 @@ impl Args {
             },
             away_reason.map_or("n/a", |r| r.describe()),
             playing_while_present
-        );
+        )?;
         Ok(())
     }
 }

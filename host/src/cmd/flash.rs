@@ -94,12 +94,12 @@ fn flash(board: &Board, elf: &std::path::Path) -> anyhow::Result<()> {
         .and_then(|mut c| c.reset())
         .map_err(|e| anyhow::anyhow!("{e}"))
         .context("resetting the board")?;
-    println!(
+    crate::outln!(
         "flashed {} onto {} ({}) and reset it",
         elf.display(),
         board.name,
         board.chip
-    );
+    )?;
     Ok(())
 }
 

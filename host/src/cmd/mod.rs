@@ -98,12 +98,15 @@ impl QueryArgs {
     }
 
     /// Prints `v` as one line of JSON with `--json`, else with `text`.
-    fn print<T: Serialize>(&self, v: &T, text: impl FnOnce(&T)) -> anyhow::Result<()> {
+    fn print<T: Serialize>(
+        &self,
+        v: &T,
+        text: impl FnOnce(&T) -> anyhow::Result<()>,
+    ) -> anyhow::Result<()> {
         if self.json {
-            println!("{}", serde_json::to_string(v)?);
+            crate::outln!("{}", serde_json::to_string(v)?)
         } else {
-            text(v);
+            text(v)
         }
-        Ok(())
     }
 }

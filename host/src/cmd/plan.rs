@@ -233,7 +233,7 @@ impl PlanArgs {
             static WARNED: std::sync::atomic::AtomicBool =
                 std::sync::atomic::AtomicBool::new(false);
             if !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed) {
-                eprintln!("warning: {w}");
+                crate::errln!("warning: {w}");
             }
         }
         Ok(plan)
@@ -362,14 +362,14 @@ impl Args {
             write_out(out, &plan)?;
         }
         if self.json {
-            println!(
+            crate::outln!(
                 "{}",
                 serde_json::to_string(&summary_json(&plan, self.phases))?
-            );
+            )?;
         } else {
-            print!("{}", summary_text(&plan));
+            crate::out!("{}", summary_text(&plan))?;
             if let Some(out) = &self.out {
-                println!("wrote {}", out.display());
+                crate::outln!("wrote {}", out.display())?;
             }
         }
         Ok(())

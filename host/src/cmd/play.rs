@@ -35,9 +35,9 @@ impl Args {
         dev.play_at(self.slot, at, self.untracked)?;
         let st = dev.status().context("reading the device status")?;
         if self.untracked {
-            eprintln!("{UNTRACKED_WARNING}");
+            crate::errln!("{UNTRACKED_WARNING}");
         }
-        println!("{}", play_outcome(self.slot, &st));
+        crate::outln!("{}", play_outcome(self.slot, &st))?;
         Ok(())
     }
 }

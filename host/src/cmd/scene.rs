@@ -40,30 +40,35 @@ impl Args {
                 "min_dwell_s": s.min_dwell_s,
                 "transducers": tr,
             });
-            println!("{}", serde_json::to_string(&v)?);
+            crate::outln!("{}", serde_json::to_string(&v)?)?;
         } else {
-            println!(
+            crate::outln!(
                 "{}: {} devices, {} transducers",
                 s.name,
                 s.devices.len(),
                 t.len()
-            );
-            println!(
+            )?;
+            crate::outln!(
                 "medium {:.2} m/s (λ = {:.3} mm), attenuation {} Np/m, directivity {:?}",
                 s.sound_speed_m_s,
                 2.0 * std::f64::consts::PI / s.wavenumber_rad_per_mm(),
                 s.attenuation_np_per_m,
                 s.directivity
-            );
+            )?;
             for (i, d) in s.devices.iter().enumerate() {
                 let n = [d.rotation[0][2], d.rotation[1][2], d.rotation[2][2]];
-                println!(
+                crate::outln!(
                     "  device {i}: centre ({:.1}, {:.1}, {:.1}) mm, normal ({:.3}, {:.3}, {:.3})",
-                    d.center_mm[0], d.center_mm[1], d.center_mm[2], n[0], n[1], n[2]
-                );
+                    d.center_mm[0],
+                    d.center_mm[1],
+                    d.center_mm[2],
+                    n[0],
+                    n[1],
+                    n[2]
+                )?;
             }
             if let Some(r) = &s.reflector {
-                println!(
+                crate::outln!(
                     "reflector through ({:.1}, {:.1}, {:.1}) mm, normal ({:.3}, {:.3}, {:.3})",
                     r.point_mm[0],
                     r.point_mm[1],
@@ -71,13 +76,15 @@ impl Args {
                     r.normal[0],
                     r.normal[1],
                     r.normal[2]
-                );
+                )?;
             }
             let c = s.center_mm;
-            println!(
+            crate::outln!(
                 "default LM centre ({:.1}, {:.1}, {:.1}) mm",
-                c[0], c[1], c[2]
-            );
+                c[0],
+                c[1],
+                c[2]
+            )?;
         }
         Ok(())
     }

@@ -59,7 +59,7 @@ pub fn open_playing(
         anyhow::bail!("{where_} holds {n} phases that differ from the plan");
     }
     dev.play(upload.slot, false)?;
-    eprintln!(
+    crate::errln!(
         "{where_}: uploaded {} steps, dwell {} µs, {:.3} Hz (asked {} Hz), step {:.4} mm, read-back {}; \
          playing slot {}, muted until tracked; left silent on exit",
         upload.steps,

@@ -1,7 +1,6 @@
 //! `lmhost sim`: the firmware core on a pseudo-terminal with a real clock.
 //! Prints the pty path on stdout, then serves until stopped.
 
-use std::io::Write as _;
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
@@ -72,9 +71,9 @@ impl Args {
         };
         let core = Arc::new(Mutex::new(FwCore::new(cfg)?));
         let pty = Pty::open()?;
-        println!("{}", pty.path);
-        crate::error::stdout_write(std::io::stdout().flush())?;
-        eprintln!(
+        crate::outln!("{}", pty.path)?;
+        crate::out::flush_stdout()?;
+        crate::errln!(
             "lmhost sim: simulated device on {} (Ctrl-C to stop)",
             pty.path
         );
@@ -90,7 +89,7 @@ impl Args {
         // Only reached with --seconds: what the device measured.
         let st = core.lock().unwrap_or_else(|e| e.into_inner()).stats();
         let p = |q| crate::clock::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
-        eprintln!(
+        crate::errln!(
             "lmhost sim: {} frames ({} muted), {} centroid updates applied; host receipt → applying step p50 {} µs, p99 {} µs, max {} µs",
             st.frames,
             st.muted_frames,

@@ -184,8 +184,8 @@ impl Args {
         let sim = simulate_plan(&plan, &view)?;
         let r = self.plan.radius;
         write_outputs(&plan, &sim, &view, r, &self.out)?;
-        println!("{}", sim.text_summary(&plan, r));
-        println!("wrote {}", self.out.display());
+        crate::outln!("{}", sim.text_summary(&plan, r))?;
+        crate::outln!("wrote {}", self.out.display())?;
         Ok(())
     }
 }

@@ -14,21 +14,22 @@ pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
 }
 
 /// The text form of a status.
-pub fn print_status(s: &lm_proto::Status) {
+pub fn print_status(s: &lm_proto::Status) -> anyhow::Result<()> {
     let slot = s.slot.map_or("none".to_owned(), |s| s.to_string());
     let queued = s.queued_slot.map_or("none".to_owned(), |s| {
         format!("{s} (takes over at the next cycle boundary)")
     });
-    println!("state:            {:?}", s.state);
-    println!("mute reason:      {}", s.mute_reason.describe());
-    println!("slot:             {slot}");
-    println!("queued slot:      {queued}");
-    println!("step:             {}", s.step);
-    println!("cycles:           {}", s.cycles);
-    println!("missed deadlines: {}", s.missed_deadlines);
-    println!("last centroid:    #{}", s.last_centroid_seq);
-    println!("correction:       {:?} µm", s.correction_um);
-    println!("bad frames:       {}", s.bad_frames);
-    println!("CRC errors:       {}", s.crc_errors);
-    println!("nacks sent:       {}", s.nacks);
+    crate::outln!("state:            {:?}", s.state)?;
+    crate::outln!("mute reason:      {}", s.mute_reason.describe())?;
+    crate::outln!("slot:             {slot}")?;
+    crate::outln!("queued slot:      {queued}")?;
+    crate::outln!("step:             {}", s.step)?;
+    crate::outln!("cycles:           {}", s.cycles)?;
+    crate::outln!("missed deadlines: {}", s.missed_deadlines)?;
+    crate::outln!("last centroid:    #{}", s.last_centroid_seq)?;
+    crate::outln!("correction:       {:?} µm", s.correction_um)?;
+    crate::outln!("bad frames:       {}", s.bad_frames)?;
+    crate::outln!("CRC errors:       {}", s.crc_errors)?;
+    crate::outln!("nacks sent:       {}", s.nacks)?;
+    Ok(())
 }

@@ -14,7 +14,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let mut dev = self.device.open()?;
         dev.stop()?;
-        println!("stopped");
+        crate::outln!("stopped")?;
         Ok(())
     }
 }

@@ -158,7 +158,7 @@ impl Args {
                 }
             }
         };
-        crate::stream::run::install_stop_signals()?;
+        crate::stop::graceful();
         let (mut dev, session) = crate::cmd::session::open_playing(&self.port, &self.plan)?;
         let where_ = dev.describe();
         let (mut absent, mut muted_absent) = (0u64, 0u64);
@@ -229,10 +229,10 @@ impl Args {
                 v["muted_absent_updates"] = muted_absent.into();
                 v["upload"] = serde_json::to_value(s)?;
             }
-            println!("{v}");
+            crate::outln!("{v}")?;
             return Ok(());
         }
-        println!(
+        crate::outln!(
             "streamed {} samples ({} with a finger) to {where_} in {:.2} s with the {} filter; device at #{} ({:?})",
             report.samples,
             report.present,
@@ -240,15 +240,15 @@ impl Args {
             self.filter.name(),
             status.last_centroid_seq,
             status.state
-        );
-        println!(
+        )?;
+        crate::outln!(
             "latency host receipt → device ack: p50 {} µs, p99 {} µs, max {} µs; applied at the next step boundary (≤ one dwell later)",
             p(50.0),
             p(99.0),
             p(100.0)
-        );
+        )?;
         if let Some(s) = &session {
-            println!(
+            crate::outln!(
                 "{} corrections applied on {where_} (dwell {} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
                 report.acked,
                 s.upload.dwell_us,
@@ -257,41 +257,43 @@ impl Args {
                     .readback_mismatches
                     .map_or("n/a".into(), |n| n.to_string()),
                 status.mute_reason.describe()
-            );
+            )?;
         }
         let dropped = report.rejected.total();
         if dropped > 0 || bad_datagrams > 0 {
-            println!(
+            crate::outln!(
                 "dropped {dropped} implausible samples ({} out of order, {} out of range, {} jumps); skipped {bad_datagrams} bad datagrams",
-                report.rejected.out_of_order, report.rejected.out_of_range, report.rejected.jumps
-            );
+                report.rejected.out_of_order,
+                report.rejected.out_of_range,
+                report.rejected.jumps
+            )?;
         }
         if report.outside_work_volume > 0 {
-            println!(
+            crate::outln!(
                 "{} updates outside the device's work volume (muted until the finger came back; see upload --max-offset)",
                 report.outside_work_volume
-            );
+            )?;
         }
         if report.stopped {
-            println!(
+            crate::outln!(
                 "stopped by signal; device {}",
                 if report.muted_at_end {
                     "muted"
                 } else {
                     "NOT muted (the mute update failed)"
                 }
-            );
+            )?;
         }
         if !scores.is_empty() {
-            println!("filter      lag (ms)  jitter (mm)  error vs now (mm)");
+            crate::outln!("filter      lag (ms)  jitter (mm)  error vs now (mm)")?;
             for s in &scores {
-                println!(
+                crate::outln!(
                     "{:<10} {:>8.1} {:>12.3} {:>18.3}",
                     s.filter.name(),
                     s.lag_ms,
                     s.jitter_mm,
                     s.error_mm
-                );
+                )?;
             }
         }
         Ok(())

@@ -214,7 +214,7 @@ impl Run {
         }
         let res = self.pipe.step(frame.t_s, &frame.depth);
         let profile = self.z_profile(&frame, &res);
-        self.report(&frame, &res, profile);
+        self.report(&frame, &res, profile)?;
         let index = self.tally.frames - 1;
         if self.want_plot {
             let keep = match self.plot_at {
@@ -252,7 +252,12 @@ impl Run {
         Some((rel, due))
     }
 
-    fn report(&mut self, frame: &Frame, r: &FrameResult, profile: Option<(Vec<f64>, bool)>) {
+    fn report(
+        &mut self,
+        frame: &Frame,
+        r: &FrameResult,
+        profile: Option<(Vec<f64>, bool)>,
+    ) -> anyhow::Result<()> {
         for t in [&mut self.tally, &mut self.second] {
             t.frames += 1;
             t.present += r.present as u64;
@@ -298,13 +303,13 @@ impl Run {
                 v["truth_present"] = truth.present.into();
                 v["truth_mm"] = serde_json::json!(truth.contact.centroid_mm);
             }
-            println!("{v}");
+            crate::outln!("{v}")?;
         } else if r.t_s >= self.next_summary {
             let s = std::mem::take(&mut self.second);
             let c = r.centroid_mm().map_or("none".to_owned(), |c| {
                 format!("({:.2}, {:.2}, {:.2}) mm", c[0], c[1], c[2])
             });
-            println!(
+            crate::outln!(
                 "t {:>7.2} s  frames {:>3}  present {:>3}  gated {:>3}  points {:>4}  centroid {c}  track p50 {:.0} µs",
                 r.t_s,
                 s.frames,
@@ -312,9 +317,10 @@ impl Run {
                 s.gated,
                 r.contact.points,
                 percentile(&s.track_us, 50.0)
-            );
+            )?;
             self.next_summary = (r.t_s + 1.0).floor();
         }
+        Ok(())
     }
 }
 
@@ -579,7 +585,7 @@ impl Args {
             // played first, and the array is left silent at the end.
             let plan = crate::cmd::session::default_plan_args(self.scene.as_deref())?;
             if self.port.target()? != crate::connect::Target::Lm {
-                crate::stream::run::install_stop_signals()?;
+                crate::stop::graceful();
             }
             let (mut dev, session) = crate::cmd::session::open_playing(&self.port, &plan)?;
             let where_ = dev.describe();
@@ -618,17 +624,17 @@ impl Args {
         if let Some(r) = run.rec.take() {
             let n = r.finish()?;
             if !self.json {
-                println!(
+                crate::outln!(
                     "recorded {n} frames to {}",
                     self.record.as_ref().expect("recording").display()
-                );
+                )?;
             }
         }
         if let (Some(dir), Some((i, depth))) = (&self.plot, &run.plot_frame) {
             let path = dir.join(format!("track_frame_{i}.png"));
             crate::track::plot::frame_png(&run.pipe.tracker, depth, &path)?;
             if !self.json {
-                println!("plot {}", path.display());
+                crate::outln!("plot {}", path.display())?;
             }
         } else if let (Some(_), Some(n)) = (&self.plot, self.plot_frame) {
             crate::bad_input!("--plot-frame {n} is beyond the {} frames", run.tally.frames);
@@ -636,9 +642,10 @@ impl Args {
         let t = &run.tally;
         let out = |line: String| {
             if self.json {
-                eprintln!("{line}");
+                crate::errln!("{line}");
+                Ok(())
             } else {
-                println!("{line}");
+                crate::outln!("{line}")
             }
         };
         out(format!(
@@ -653,26 +660,26 @@ impl Args {
             percentile(&t.track_us, 50.0),
             percentile(&t.track_us, 99.0),
             kind.name()
-        ));
+        ))?;
         if self.synthetic {
             out(format!(
                 "vs ground truth: centroid error {:.3} mm RMS over {} frames, presence wrong on {} frames away from transitions",
                 (t.err2 / t.err_n.max(1) as f64).sqrt(),
                 t.err_n,
                 t.presence_wrong
-            ));
+            ))?;
         }
         if run.z_profile.is_some() {
             out(format!(
                 "surface depth profile: {} re-plans above {} mm in {} frames",
                 run.replans, self.replan_mm, t.frames
-            ));
+            ))?;
         }
         if let Some(r) = &replanner {
             out(format!(
                 "device re-plans: {} uploaded and played, {} skipped while no slot was free",
                 r.uploaded, r.skipped
-            ));
+            ))?;
         }
         if let Some((r, where_)) = device_report {
             let p = |q| r.ack_percentile_us(q).unwrap_or(0);
@@ -685,7 +692,7 @@ impl Args {
                 p(99.0),
                 kind.name(),
                 crate::track::report::filter_lag_ms(kind, 90.0)
-            ));
+            ))?;
         }
         Ok(())
     }

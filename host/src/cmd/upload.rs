@@ -104,7 +104,7 @@ impl Args {
             crate::connect::open_with(&self.port, &plan.scene, self.encoding.into(), !self.json)?;
         if dev.needs_host() && !self.no_play {
             // Ctrl-C / SIGTERM end the hold below; the array is left silent.
-            crate::stream::run::install_stop_signals()?;
+            crate::stop::graceful();
         }
         let report = dev.upload(&plan, self.slot)?;
         let slot = report.slot;
@@ -114,7 +114,7 @@ impl Args {
             let st = dev.status().context("reading the device status")?;
             outcome = Some((play_outcome(slot, &st), st));
             if self.untracked {
-                eprintln!("{UNTRACKED_WARNING}");
+                crate::errln!("{UNTRACKED_WARNING}");
             }
         }
         let h = &plan.sequence.header;
@@ -128,9 +128,9 @@ impl Args {
             v["steps"] = h.steps.into();
             v["transducers"] = h.transducers.into();
             v["max_offset_um"] = h.max_offset_um.into();
-            println!("{v}");
+            crate::outln!("{v}")?;
         } else {
-            println!(
+            crate::outln!(
                 "uploaded {} steps × {} transducers to slot {slot}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
                 h.steps,
                 h.transducers,
@@ -138,16 +138,16 @@ impl Args {
                 wire.sequence_bytes,
                 wire.payload_bytes,
                 wire.wire_bytes_sent + wire.wire_bytes_received
-            );
-            println!(
+            )?;
+            crate::outln!(
                 "{:.3} s, {:.1} kB/s payload, wire efficiency {:.1} %, CRC {:08x}, {} retries",
                 wire.seconds,
                 wire.payload_bytes as f64 / wire.seconds.max(1e-9) / 1e3,
                 wire.wire_efficiency() * 100.0,
                 wire.crc32,
                 wire.retries
-            );
-            self.print_outcome(&outcome, slot, h, "stream centroids with `lmhost stream`");
+            )?;
+            self.print_outcome(&outcome, slot, h, "stream centroids with `lmhost stream`")?;
         }
         Ok(())
     }
@@ -169,26 +169,27 @@ impl Args {
         slot: u8,
         h: &lm_proto::UploadHeader,
         how_to_stream: &str,
-    ) {
+    ) -> anyhow::Result<()> {
         match outcome {
-            Some((text, _)) if self.untracked => println!("{text}, untracked"),
+            Some((text, _)) if self.untracked => crate::outln!("{text}, untracked")?,
             Some((text, st)) => {
-                println!("{text}");
+                crate::outln!("{text}")?;
                 if st.state == DeviceState::Muted {
-                    println!(
+                    crate::outln!(
                         "muted ({}) until the device tracks a finger within {} mm of the \
                          centre: {how_to_stream}, or upload with \
                          --untracked to play without tracking",
                         st.mute_reason.describe(),
                         f64::from(h.max_offset_um) / 1000.0
-                    );
+                    )?;
                 }
             }
-            None => println!(
+            None => crate::outln!(
                 "not playing (--no-play): `lmhost play --slot {slot}` plays it \
                  (add --untracked to play without tracking)"
-            ),
+            )?,
         }
+        Ok(())
     }
 
     /// AUTD3: report the realised grid timing and the FPGA read-back, then
@@ -232,9 +233,9 @@ impl Args {
                 None => serde_json::Value::Null,
                 Some(d) => d.map(|d| d.as_secs_f64()).into(),
             };
-            println!("{v}");
+            crate::outln!("{v}")?;
         } else {
-            println!(
+            crate::outln!(
                 "uploaded {} steps × {} transducers to {port} slot {}: dwell {} µs on the 25 µs grid \
                  ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
                  ({:+.4} mm), {} frames",
@@ -250,17 +251,19 @@ impl Args {
                 g.step_mm,
                 g.step_error_mm,
                 r.frames
-            );
+            )?;
             match r.readback_mismatches {
-                Some(n) => println!("read back from the FPGA: {n} phases differ from the plan"),
-                None => println!("this link cannot read the FPGA back"),
+                Some(n) => {
+                    crate::outln!("read back from the FPGA: {n} phases differ from the plan")?
+                }
+                None => crate::outln!("this link cannot read the FPGA back")?,
             }
             self.print_outcome(
                 &outcome,
                 r.slot,
                 h,
                 &format!("`lmhost stream --port {port}` uploads, plays and streams in one go"),
-            );
+            )?;
         }
         if let Some(n) = r.readback_mismatches.filter(|&n| n > 0) {
             anyhow::bail!("{port} holds {n} phases that differ from the plan");
@@ -268,16 +271,16 @@ impl Args {
         use std::io::Write as _;
         std::io::stdout().flush()?;
         match hold {
-            None if !self.no_play => eprintln!(
+            None if !self.no_play => crate::errln!(
                 "{port} lives in this process: exiting after the read-back leaves it silent \
                  (--hold SECONDS keeps it playing)"
             ),
-            None => eprintln!(
+            None => crate::errln!(
                 "{port} holds the sequence only while lmhost holds the link: it is gone on exit \
                  (`lmhost stream --port {port}` uploads, plays and streams)"
             ),
             Some(d) => {
-                eprintln!(
+                crate::errln!(
                     "holding {port} {}; the array is left silent on exit",
                     match d {
                         Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),

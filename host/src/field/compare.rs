@@ -132,10 +132,10 @@ pub fn compare(
         }
         s["maps"] = serde_json::Value::Object(maps);
         summary.push(s);
-        println!(
+        crate::outln!(
             "{kind} A = {r} mm: {}",
             sim.text_summary(plan, *r).replace('\n', "; ")
-        );
+        )?;
     }
     let path = out.join("summary.json");
     std::fs::write(
@@ -147,6 +147,6 @@ pub fn compare(
         }))? + "\n",
     )
     .with_context(|| format!("cannot write {}", path.display()))?;
-    println!("wrote {}", out.display());
+    crate::outln!("wrote {}", out.display())?;
     Ok(())
 }

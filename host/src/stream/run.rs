@@ -2,7 +2,6 @@
 //! the device, one acked `Centroid` frame per sample, with per-update
 //! timing.
 
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use lm_proto::Centroid;
@@ -14,43 +13,7 @@ use crate::backend::{Backend, CentroidOutcome};
 use crate::clock::monotonic_us;
 use crate::units::mm_to_um;
 
-/// Set by SIGINT/SIGTERM in `lmhost stream` (see [`install_stop_signals`]).
-static STOP: AtomicBool = AtomicBool::new(false);
-
-/// Whether a stop (Ctrl-C, SIGTERM) was requested: sources and the loop
-/// end, and the device is muted before `stream` returns.
-pub fn stop_requested() -> bool {
-    STOP.load(Ordering::Relaxed)
-}
-
-/// Ask a running [`stream`] to end (what the signal handler does).
-pub fn request_stop() {
-    STOP.store(true, Ordering::Relaxed);
-}
-
-extern "C" fn on_stop_signal(_: nix::libc::c_int) {
-    // Only an atomic store: async-signal-safe.
-    STOP.store(true, Ordering::Relaxed);
-}
-
-/// Make SIGINT (Ctrl-C) and SIGTERM end a stream session cleanly: the
-/// loop stops, the device is muted (a `present = false` update), the
-/// report is printed and the port is released.
-pub fn install_stop_signals() -> anyhow::Result<()> {
-    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
-    let act = SigAction::new(
-        SigHandler::Handler(on_stop_signal),
-        SaFlags::empty(),
-        SigSet::empty(),
-    );
-    for sig in [Signal::SIGINT, Signal::SIGTERM] {
-        // SAFETY: the handler only stores to an atomic, which is
-        // async-signal-safe; no other handler is replaced in this process.
-        unsafe { sigaction(sig, &act) }
-            .map_err(|e| anyhow::anyhow!("installing the {sig} handler: {e}"))?;
-    }
-    Ok(())
-}
+use crate::stop::requested as stop_requested;
 
 /// Sleep `d`, waking early when a stop is requested; the device's
 /// housekeeping ([`Backend::tick`]: the host-side staleness mute of an

@@ -231,7 +231,7 @@ pub struct UdpCounts {
 
 /// Samples from UDP datagrams on 127.0.0.1:`port`, one line (or several,
 /// newline-separated) per datagram. Ends after `idle` without a datagram,
-/// or when a stop was requested ([`super::run::stop_requested`]).
+/// or when a stop was requested ([`crate::stop::requested`]).
 ///
 /// A bad line (garbage, not UTF-8, non-finite, longer than
 /// [`MAX_LINE_BYTES`]) is skipped and its datagram counted in `counts`;
@@ -257,7 +257,7 @@ pub fn udp(
     let mut ended = false;
     Ok(std::iter::from_fn(move || {
         loop {
-            if ended || super::run::stop_requested() {
+            if ended || crate::stop::requested() {
                 return None;
             }
             if let Some(s) = pending.pop_front() {

@@ -95,7 +95,7 @@ pub fn on_thread(mut src: Box<dyn FrameSource + Send>) -> Threaded {
                     Err(e) => Err(e),
                 };
                 let end = f.is_err();
-                if tx.send(f).is_err() || end || crate::stream::run::stop_requested() {
+                if tx.send(f).is_err() || end || crate::stop::requested() {
                     break;
                 }
             }

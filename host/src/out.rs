@@ -1,0 +1,96 @@
+//! The one path to standard output and standard error.
+//!
+//! Every line lmhost prints goes through [`outln!`](crate::outln) /
+//! [`out!`](crate::out) (stdout) or [`errln!`](crate::errln) (stderr);
+//! `print!`-style macros, which panic on a write error, are not used
+//! (clippy's `print_stdout` and `print_stderr` are denied).
+//!
+//! - stdout closed by its reader (`| head`): [`StdoutClosed`], which `main`
+//!   turns into a quiet exit 0;
+//! - any other stdout error (`> /dev/full`): [`StdoutError`], one line and
+//!   exit 1;
+//! - a stderr error: ignored (there is nowhere left to say it); the exit
+//!   code says what happened.
+
+use std::io::Write as _;
+
+pub use crate::error::StdoutClosed;
+
+/// Writing to standard output failed for a reason other than a closed
+/// pipe.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write to standard output: {}", crate::files::reason(.0))]
+pub struct StdoutError(pub std::io::Error);
+
+/// Maps a stdout write result: broken pipe → [`StdoutClosed`], other
+/// errors → [`StdoutError`].
+pub fn stdout_result(r: std::io::Result<()>) -> anyhow::Result<()> {
+    match r {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
+        Err(e) => Err(StdoutError(e).into()),
+    }
+}
+
+/// Writes `args` to stdout (line-buffered: a full line is written at once).
+pub fn stdout_fmt(args: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
+    stdout_result(std::io::stdout().lock().write_fmt(args))
+}
+
+/// Flushes stdout (what `main` does last).
+pub fn flush_stdout() -> anyhow::Result<()> {
+    stdout_result(std::io::stdout().lock().flush())
+}
+
+/// Writes `args` to stderr; a failure is ignored, never a panic.
+pub fn stderr_fmt(args: std::fmt::Arguments<'_>) {
+    let _ = std::io::stderr().lock().write_fmt(args);
+}
+
+/// `println!` that returns `anyhow::Result<()>` instead of panicking.
+#[macro_export]
+macro_rules! outln {
+    () => {
+        $crate::out::stdout_fmt(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::out::stdout_fmt(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `print!` that returns `anyhow::Result<()>` instead of panicking.
+#[macro_export]
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::out::stdout_fmt(format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` that never panics (a lost stderr is ignored).
+#[macro_export]
+macro_rules! errln {
+    () => {
+        $crate::out::stderr_fmt(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::out::stderr_fmt(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_closed_pipe_is_quiet_and_a_full_disk_is_an_error() {
+        let e = stdout_result(Err(std::io::ErrorKind::BrokenPipe.into())).unwrap_err();
+        assert!(e.is::<StdoutClosed>());
+        let e = stdout_result(Err(std::io::Error::from_raw_os_error(libc::ENOSPC))).unwrap_err();
+        assert!(e.is::<StdoutError>());
+        assert_eq!(
+            e.to_string(),
+            "cannot write to standard output: no space left on device"
+        );
+        assert!(stdout_result(Ok(())).is_ok());
+    }
+}

@@ -1,0 +1,138 @@
+//! The one stop flag: what SIGINT (Ctrl-C) and SIGTERM do.
+//!
+//! `main` calls [`install`] before any command runs. From then on a signal
+//! does one of two things:
+//!
+//! - in a command that polls the flag (it called [`graceful`]: `stream`,
+//!   `track`, `demo`, `upload --hold`), it sets the flag; the command's loop
+//!   ends, the device is muted, recordings are finished and the report is
+//!   printed;
+//! - in any other command, it removes the temporary files of the outputs
+//!   still being written ([`crate::files::Output`]) and exits at once with
+//!   128 + the signal number, as the default action would have, so no
+//!   half-written file is left behind under any name.
+
+use std::ffi::{CString, c_char};
+use std::sync::atomic::{AtomicBool, AtomicPtr, Ordering};
+
+static STOP: AtomicBool = AtomicBool::new(false);
+static GRACEFUL: AtomicBool = AtomicBool::new(false);
+
+/// Temporary files to remove when a signal ends the process. Slots hold
+/// leaked C strings (never freed, so the handler never reads freed memory).
+const MAX_TEMPS: usize = 256;
+static TEMPS: [AtomicPtr<c_char>; MAX_TEMPS] =
+    [const { AtomicPtr::new(std::ptr::null_mut()) }; MAX_TEMPS];
+
+/// Whether a stop (Ctrl-C, SIGTERM) was requested.
+pub fn requested() -> bool {
+    STOP.load(Ordering::SeqCst)
+}
+
+/// Ask the running command to stop (what the signal handler does).
+pub fn request() {
+    STOP.store(true, Ordering::SeqCst);
+}
+
+/// Declare that this command polls [`requested`] and ends cleanly: from
+/// now on a signal only sets the flag.
+pub fn graceful() {
+    GRACEFUL.store(true, Ordering::SeqCst);
+}
+
+/// Errors once a stop was requested, for `?` in a loop that holds a device.
+pub fn check() -> anyhow::Result<()> {
+    if requested() {
+        anyhow::bail!("interrupted; the array was left silent");
+    }
+    Ok(())
+}
+
+extern "C" fn on_signal(sig: libc::c_int) {
+    // Async-signal-safe only: atomics, unlink(2), _exit(2).
+    STOP.store(true, Ordering::SeqCst);
+    if GRACEFUL.load(Ordering::SeqCst) {
+        return;
+    }
+    for slot in &TEMPS {
+        let p = slot.load(Ordering::SeqCst);
+        if !p.is_null() {
+            // SAFETY: `p` is a leaked, NUL-terminated C string (never freed).
+            unsafe { libc::unlink(p) };
+        }
+    }
+    // SAFETY: _exit is async-signal-safe; no destructors run, which is
+    // what the default action of the signal would have done too.
+    unsafe { libc::_exit(128 + sig) };
+}
+
+/// Install the SIGINT and SIGTERM handler (once, from `main`).
+pub fn install() -> anyhow::Result<()> {
+    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
+    let act = SigAction::new(
+        SigHandler::Handler(on_signal),
+        SaFlags::empty(),
+        SigSet::empty(),
+    );
+    for sig in [Signal::SIGINT, Signal::SIGTERM] {
+        // SAFETY: the handler does only async-signal-safe work (atomics,
+        // unlink, _exit); no other handler for these signals exists.
+        unsafe { sigaction(sig, &act) }
+            .map_err(|e| anyhow::anyhow!("installing the {sig} handler: {e}"))?;
+    }
+    Ok(())
+}
+
+/// A temporary file the handler removes if a signal ends the process.
+#[derive(Debug)]
+pub(crate) struct TempGuard(Option<usize>);
+
+impl TempGuard {
+    /// Register `path`; `None` inside when all slots are taken (the file is
+    /// then only removed by `Drop`).
+    pub(crate) fn register(path: &std::path::Path) -> TempGuard {
+        use std::os::unix::ffi::OsStrExt as _;
+        let Ok(c) = CString::new(path.as_os_str().as_bytes()) else {
+            return TempGuard(None);
+        };
+        let p = c.into_raw();
+        for (i, slot) in TEMPS.iter().enumerate() {
+            if slot
+                .compare_exchange(std::ptr::null_mut(), p, Ordering::SeqCst, Ordering::SeqCst)
+                .is_ok()
+            {
+                return TempGuard(Some(i));
+            }
+        }
+        // SAFETY: `p` came from `into_raw` above and was not shared.
+        drop(unsafe { CString::from_raw(p) });
+        TempGuard(None)
+    }
+}
+
+impl Drop for TempGuard {
+    fn drop(&mut self) {
+        if let Some(i) = self.0 {
+            // Leaked on purpose: the handler may be reading it right now.
+            TEMPS[i].store(std::ptr::null_mut(), Ordering::SeqCst);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_temp_file_is_registered_until_dropped() {
+        let path = std::env::temp_dir().join("lmhost-stop-test");
+        let g = TempGuard::register(&path);
+        let i = g.0.expect("a free slot");
+        let p = TEMPS[i].load(Ordering::SeqCst);
+        // SAFETY: registered slots hold leaked C strings.
+        let s = unsafe { std::ffi::CStr::from_ptr(p) };
+        assert_eq!(s.to_str().unwrap(), path.to_str().unwrap());
+        drop(g);
+        assert!(TEMPS[i].load(Ordering::SeqCst) != p);
+    }
+}
