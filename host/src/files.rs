@@ -10,7 +10,7 @@
 //!   destination on [`Output::commit`]. A file lmhost writes is therefore
 //!   whole or absent, after a full disk, an error, Ctrl-C
 //!   ([`crate::stop`] removes the temporary file) or `kill -9` (a leftover
-//!   `.NAME.lmhost-PID.tmp`, never the named file). A failed overwrite
+//!   `.NAME.lmhost-PID.tmp.EXT`, never the named file). A failed overwrite
 //!   leaves the previous file as it was.
 //! - **Output = input**: an output that is one of this process's inputs
 //!   (the same file, also through a link or another name) is refused
@@ -45,6 +45,29 @@ pub fn reason(e: &std::io::Error) -> String {
                 None => s,
             }
         }
+    }
+}
+
+/// [`reason`] for an error from a library that wraps an I/O error (an
+/// image encoder, say): the first `io::Error` in its source chain, else an
+/// `os error N` in its text, else its text.
+pub fn reason_of(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut cur = Some(e);
+    while let Some(c) = cur {
+        if let Some(io) = c.downcast_ref::<std::io::Error>() {
+            return reason(io);
+        }
+        cur = c.source();
+    }
+    let text = e.to_string();
+    let code = text
+        .split("(os error ")
+        .nth(1)
+        .and_then(|t| t.split(')').next())
+        .and_then(|n| n.parse::<i32>().ok());
+    match code {
+        Some(n) => reason(&std::io::Error::from_raw_os_error(n)),
+        None => text,
     }
 }
 
@@ -229,9 +252,15 @@ impl Output {
         let name = dest
             .file_name()
             .ok_or_else(|| WriteError::new(dest, std::io::ErrorKind::InvalidInput.into()))?;
+        // `.NAME.lmhost-PID.tmp.EXT`: hidden, and with the destination's
+        // extension, for writers that pick the format by it (PNG plots).
         let mut tmp_name = std::ffi::OsString::from(".");
         tmp_name.push(name);
         tmp_name.push(format!(".lmhost-{}.tmp", std::process::id()));
+        if let Some(ext) = dest.extension() {
+            tmp_name.push(".");
+            tmp_name.push(ext);
+        }
         let tmp = dest.with_file_name(tmp_name);
         // Registered before it exists, so a signal never leaves it behind.
         let guard = crate::stop::TempGuard::register(&tmp);
@@ -318,6 +347,19 @@ impl Drop for Output {
     }
 }
 
+/// Runs `write`, which writes the file at the path it is given (a library
+/// that takes a path, such as the PNG encoder), then moves that file into
+/// place at `dest` whole (see [`Output`]); on error nothing is left.
+pub fn write_via(
+    dest: &Path,
+    write: impl FnOnce(&Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let out = Output::create(dest)?;
+    write(&out.tmp)?;
+    out.commit()?;
+    Ok(())
+}
+
 /// Writes `bytes` to `path` whole or not at all (see [`Output`]).
 pub fn write_whole(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     let mut out = Output::create(path)?;
@@ -371,6 +413,24 @@ mod tests {
         o.write_bytes(b"+more").unwrap();
         o.commit().unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"HEADtail+more");
+    }
+
+    #[test]
+    fn a_wrapped_io_error_is_said_in_words() {
+        #[derive(Debug, thiserror::Error)]
+        #[error("encoder: {0}")]
+        struct Wrapped(#[source] std::io::Error);
+        let w = Wrapped(std::io::Error::from_raw_os_error(libc::ENOSPC));
+        assert_eq!(reason_of(&w), "no space left on device");
+        #[derive(Debug, thiserror::Error)]
+        #[error("{0}")]
+        struct Text(&'static str);
+        let text = Text(
+            "ImageError(IoError(Custom { error: \"No space left on device (os error 28)\" }))",
+        );
+        assert_eq!(reason_of(&text), "no space left on device");
+        let plain = std::fmt::Error;
+        assert_eq!(reason_of(&plain), plain.to_string());
     }
 
     #[test]

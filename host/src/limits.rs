@@ -154,31 +154,15 @@ mod tests {
 pub const MAX_TEXT_FILE_BYTES: u64 = 1 << 20;
 
 /// Reads the UTF-8 text file `path` (`what` names it in errors), refusing
-/// one longer than [`MAX_TEXT_FILE_BYTES`] before reading it whole.
+/// one longer than [`MAX_TEXT_FILE_BYTES`] before reading it whole, and
+/// anything but a regular file before opening it
+/// ([`crate::files::read_input`]).
 pub fn read_text_file(what: &str, path: &std::path::Path) -> Result<String, InputError> {
-    use std::io::Read as _;
-    let cannot =
-        |reason: &str| InputError::new(format!("cannot read {what} {}: {reason}", path.display()));
-    let reason = |e: &std::io::Error| match e.kind() {
-        std::io::ErrorKind::NotFound => "no such file".to_owned(),
-        std::io::ErrorKind::PermissionDenied => "permission denied".to_owned(),
-        std::io::ErrorKind::IsADirectory => "it is a directory".to_owned(),
-        _ => e.to_string(),
-    };
-    let f = std::fs::File::open(path).map_err(|e| cannot(&reason(&e)))?;
-    if f.metadata().is_ok_and(|m| m.is_dir()) {
-        return Err(cannot("it is a directory"));
-    }
-    let mut bytes = Vec::new();
-    f.take(MAX_TEXT_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| cannot(&reason(&e)))?;
-    if bytes.len() as u64 > MAX_TEXT_FILE_BYTES {
-        return Err(InputError::new(format!(
-            "{what} {} is larger than {} bytes, the most a {what} may be",
-            path.display(),
-            MAX_TEXT_FILE_BYTES
-        )));
-    }
-    String::from_utf8(bytes).map_err(|_| cannot("it is not UTF-8 text"))
+    let bytes = crate::files::read_input(what, path, MAX_TEXT_FILE_BYTES)?;
+    String::from_utf8(bytes).map_err(|_| {
+        InputError::new(format!(
+            "cannot read {what} {}: it is not UTF-8 text",
+            path.display()
+        ))
+    })
 }

@@ -38,11 +38,33 @@ const SPEC: &str = "10 spec and implementation agree";
 const VALIDATION: &str = "11 one header, one validation";
 const UNTRACKED: &str = "untracked play and mute reason";
 const PAPER: &str = "paper fidelity";
+/// Classes of issue 18 (hostile input, round 3).
+const OUTPUT_ERRORS: &str = "r3-1 output errors";
+const SAME_FILE: &str = "r3-3 an output that is an input";
+const PARTIAL: &str = "r3-4 no partial outputs";
+const ODD_PATHS: &str = "r3-5 odd input paths";
+const PATH_MESSAGES: &str = "r3-11 input-path messages";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 13] = [
-    DURATION, PIPE, MEMORY, WORK, CENTROIDS, PLANS, EXIT, SESSIONS, PLAY, SPEC, VALIDATION,
-    UNTRACKED, PAPER,
+const CLASSES: [&str; 18] = [
+    DURATION,
+    PIPE,
+    MEMORY,
+    WORK,
+    CENTROIDS,
+    PLANS,
+    EXIT,
+    SESSIONS,
+    PLAY,
+    SPEC,
+    VALIDATION,
+    UNTRACKED,
+    PAPER,
+    OUTPUT_ERRORS,
+    SAME_FILE,
+    PARTIAL,
+    ODD_PATHS,
+    PATH_MESSAGES,
 ];
 
 /// What a run produced, for custom checks.
@@ -64,6 +86,8 @@ struct Ctx {
     small: String,
     dir: PathBuf,
     scenes: PathBuf,
+    /// A small full-able tmpfs (`{full}`), when the tests run as root.
+    full: Option<PathBuf>,
 }
 
 type Check = fn(&Ctx, &Run) -> Result<(), String>;
@@ -88,6 +112,9 @@ struct Case {
     /// A command run after this one, whose stdout must contain the text.
     then: Option<(Vec<String>, String)>,
     check: Option<Check>,
+    /// Send stdout / stderr to this file instead of a pipe (`/dev/full`).
+    stdout_to: Option<String>,
+    stderr_to: Option<String>,
 }
 
 fn words(args: &str) -> Vec<String> {
@@ -110,6 +137,8 @@ fn case(class: &'static str, args: &str) -> Case {
         signal: None,
         then: None,
         check: None,
+        stdout_to: None,
+        stderr_to: None,
     }
 }
 
@@ -167,6 +196,17 @@ impl Case {
     }
     fn check(mut self, f: Check) -> Self {
         self.check = Some(f);
+        self
+    }
+    /// Stdout to `/dev/full`: a failed write is one line and exit 1.
+    fn full_stdout(mut self) -> Self {
+        self.stdout_to = Some("/dev/full".to_owned());
+        self.code(1)
+            .err("cannot write to standard output: no space left on device")
+    }
+    /// Stderr to `/dev/full`: the exit code alone tells, and no panic.
+    fn full_stderr(mut self) -> Self {
+        self.stderr_to = Some("/dev/full".to_owned());
         self
     }
 }
@@ -348,6 +388,58 @@ fn fixtures(dir: &Path) {
     w("cam_unknown.toml", cam("k1 = 0.1\n").as_bytes());
     std::fs::create_dir_all(dir.join("a_directory")).unwrap();
     w("a_file", b"");
+    round3_fixtures(dir);
+}
+
+/// The scene the output-onto-input cases must leave as it was.
+const SCENE_COPY: &str = "[[device]]\ncenter_mm = [0.0, 0.0, 0.0]\n";
+
+/// Fixtures of round 3: a FIFO, a scene reached by three names.
+fn round3_fixtures(dir: &Path) {
+    let st = Command::new("mkfifo")
+        .arg(dir.join("fifo"))
+        .status()
+        .unwrap();
+    assert!(st.success(), "mkfifo");
+    std::fs::write(dir.join("scene_copy.toml"), SCENE_COPY).unwrap();
+    std::os::unix::fs::symlink(dir.join("scene_copy.toml"), dir.join("scene_link.toml")).unwrap();
+    std::fs::hard_link(dir.join("scene_copy.toml"), dir.join("scene_hard.toml")).unwrap();
+    std::fs::write(
+        dir.join("stream_copy.csv"),
+        csv(&["0,0,0,200,1", "0.011,0,0,200,1"]),
+    )
+    .unwrap();
+}
+
+/// A small tmpfs at `dir/full` for the disk-full cases, when root may
+/// mount one; unmounted on drop. `Err` says why there is none.
+struct FullDisk(PathBuf);
+
+impl FullDisk {
+    /// 32 KiB, with `keep.bin` (10 bytes) already on it.
+    fn mount(dir: &Path) -> Result<FullDisk, String> {
+        let at = dir.join("full");
+        std::fs::create_dir_all(&at).map_err(|e| e.to_string())?;
+        let out = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", "size=32k", "tmpfs"])
+            .arg(&at)
+            .output()
+            .map_err(|e| format!("cannot run mount: {e}"))?;
+        if !out.status.success() {
+            return Err(format!(
+                "mount -t tmpfs failed (not root?): {}",
+                String::from_utf8_lossy(&out.stderr).trim()
+            ));
+        }
+        std::fs::write(at.join("keep.bin"), b"0123456789").map_err(|e| e.to_string())?;
+        Ok(FullDisk(at))
+    }
+}
+
+impl Drop for FullDisk {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
 }
 
 /// Cases on devices of their own whose state carries from case to case
@@ -695,6 +787,7 @@ fn cases() -> Vec<Case> {
         EXIT       "sim --faults ber=1e-4,ber=1e-3" .err("given twice");
         WORK       "track --synthetic --enter-frames 4000000000" .err("--enter-frames");
     });
+    v.extend(round3_cases());
     // Every plan flag with NaN: refused, never planned.
     for flag in ["--radius", "--spacing", "--freq", "--step"] {
         v.push(case(PLANS, "plan --foci 2").args(flag).args("NaN"));
@@ -772,6 +865,25 @@ fn expand(s: &str, ctx: &Ctx) -> String {
         .replace("{small}", &ctx.small)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
+        .replace(
+            "{full}",
+            &ctx.full
+                .as_ref()
+                .map_or(String::new(), |p| p.display().to_string()),
+        )
+}
+
+/// Where stdout or stderr of a case goes: a pipe, or the file named.
+fn sink(to: &Option<String>) -> Stdio {
+    match to {
+        None => Stdio::piped(),
+        Some(p) => Stdio::from(
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(p)
+                .expect("opening the case's output file"),
+        ),
+    }
 }
 
 /// Runs `lmhost args`, feeding stdin and datagrams and sending a signal as
@@ -783,8 +895,8 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
         .env_remove("LMHOST_PORT")
         .env("RUST_BACKTRACE", "0")
         .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+        .stdout(sink(&c.stdout_to))
+        .stderr(sink(&c.stderr_to))
         .spawn()
         .expect("spawning lmhost");
     let mut stdin = child.stdin.take();
@@ -798,19 +910,23 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
             }
         }
     });
-    let mut out_pipe = child.stdout.take().unwrap();
+    let out_pipe = child.stdout.take();
     let close = c.close_stdout;
     let reader = std::thread::spawn(move || {
         let mut s = Vec::new();
-        if !close {
-            let _ = out_pipe.read_to_end(&mut s);
+        if let Some(mut p) = out_pipe
+            && !close
+        {
+            let _ = p.read_to_end(&mut s);
         }
         String::from_utf8_lossy(&s).into_owned()
     });
-    let mut err_pipe = child.stderr.take().unwrap();
+    let err_pipe = child.stderr.take();
     let err_reader = std::thread::spawn(move || {
         let mut s = Vec::new();
-        let _ = err_pipe.read_to_end(&mut s);
+        if let Some(mut p) = err_pipe {
+            let _ = p.read_to_end(&mut s);
+        }
         String::from_utf8_lossy(&s).into_owned()
     });
     if let Some((port, datagrams)) = &c.udp {
@@ -859,7 +975,7 @@ fn judge(c: &Case, ctx: &Ctx, r: &Run) -> Vec<String> {
     if r.code != Some(c.code) {
         bad.push(format!("exit {:?}, want {}", r.code, c.code));
     }
-    if c.code != 0 && r.stderr.lines().count() != 1 {
+    if c.code != 0 && c.stderr_to.is_none() && r.stderr.lines().count() != 1 {
         bad.push(format!(
             "stderr is {} lines, want 1",
             r.stderr.lines().count()
@@ -905,6 +1021,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     fixtures(&dir);
+    let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
         dev: dev.port.clone(),
@@ -912,6 +1029,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         small: small.port.clone(),
         dir: dir.clone(),
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
+        full: full.as_ref().ok().map(|f| f.0.clone()),
     };
     let up = Command::new(lmhost())
         .args(["upload", "--port", &ctx.port])
@@ -923,8 +1041,13 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         String::from_utf8_lossy(&up.stderr)
     );
 
-    let all = cases();
+    let mut all = cases();
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
+    if let Err(why) = &full {
+        let before = all.len();
+        all.retain(|c| !c.args.iter().any(|a| a.contains("{full}")));
+        println!("skipped {} disk-full cases: {why}", before - all.len());
+    }
     let (mut panics, mut hangs) = (0, 0);
     let mut failures = Vec::new();
     for c in &all {
@@ -969,4 +1092,224 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         all.len(),
         failures.join("\n")
     );
+}
+
+/// Issue 18's classes 1, 3, 4, 5 and 11 for plan, scene, simulate, stream
+/// and the device commands.
+fn round3_cases() -> Vec<Case> {
+    let mut v = table! {
+        // 1. Every write to stdout goes one way: a full disk is one line, exit 1.
+        OUTPUT_ERRORS "plan" .full_stdout();
+        OUTPUT_ERRORS "plan --json --phases" .full_stdout();
+        OUTPUT_ERRORS "plan --foci 4 --out {dir}/full_stdout.npy" .full_stdout();
+        OUTPUT_ERRORS "scene" .full_stdout();
+        OUTPUT_ERRORS "scene --scene {scenes}/paper.toml --json" .full_stdout();
+        OUTPUT_ERRORS "plan --help" .full_stdout();
+        OUTPUT_ERRORS "--version" .full_stdout();
+        OUTPUT_ERRORS "status --port {port}" .full_stdout();
+        OUTPUT_ERRORS "status --port {port} --json" .full_stdout();
+        OUTPUT_ERRORS "info --port {port}" .full_stdout();
+        OUTPUT_ERRORS "bench --quick --section planner" .full_stdout();
+        OUTPUT_ERRORS "simulate --plane-size 2 --plane-step 1 --out {dir}/full_stdout_sim"
+                      .full_stdout();
+        OUTPUT_ERRORS "stream --port {port} --input {dir}/ok.csv" .full_stdout();
+        OUTPUT_ERRORS "stream --port {port} --input {dir}/ok.csv --json" .full_stdout();
+        OUTPUT_ERRORS "upload --port {port} --no-play --slot 1" .full_stdout();
+        OUTPUT_ERRORS "sim --seconds 0.3" .full_stdout();
+        OUTPUT_ERRORS "track" .depth("ok.npy", "cam.toml").full_stdout();
+        OUTPUT_ERRORS "track" .depth("ok.npy", "cam.toml").args("--json").full_stdout();
+        // ... and a lost stderr changes nothing but what can be said.
+        OUTPUT_ERRORS "plan --radius nan" .full_stderr();
+        OUTPUT_ERRORS "plan --no-such-flag" .full_stderr();
+        OUTPUT_ERRORS "plan" .full_stderr().ok();
+        OUTPUT_ERRORS "plan --scene {dir}/edge_on.toml" .full_stderr().ok();
+        OUTPUT_ERRORS "status --port /dev/lmhost-no-such-port" .full_stderr().code(1);
+        OUTPUT_ERRORS "stream --port {port} --input {dir}/ok.csv" .full_stderr().ok();
+        OUTPUT_ERRORS "plan" .full_stdout().full_stderr();
+        // 3. An output that is an input is refused before anything is written.
+        SAME_FILE     "plan --scene {dir}/scene_copy.toml --out {dir}/scene_copy.toml"
+                      .err("scene_copy.toml").check(scene_copy_intact);
+        SAME_FILE     "plan --scene {dir}/scene_copy.toml --out {dir}/scene_link.toml"
+                      .err("scene_link.toml").check(scene_copy_intact);
+        SAME_FILE     "plan --scene {dir}/scene_link.toml --out {dir}/scene_hard.toml"
+                      .err("scene_hard.toml").check(scene_copy_intact);
+        SAME_FILE     "plan --scene {dir}/scene_copy.toml --out {dir}/./scene_copy.toml"
+                      .check(scene_copy_intact);
+        SAME_FILE     "simulate --scene {dir}/scene_copy.toml --plane-size 2 --plane-step 1 --out {dir}/scene_copy.toml"
+                      .check(scene_copy_intact);
+        SAME_FILE     "plan --scene {dir}/scene_copy.toml --out {dir}/scene_copy_out.npy" .ok()
+                      .check(scene_copy_intact);
+        // 4. No partial outputs: a directory that is not there leaves nothing.
+        PARTIAL       "plan --out {dir}/no_such_dir/p.npy" .code(1).err("no_such_dir/p.npy")
+                      .check(dir_whole);
+        PARTIAL       "plan --out {dir}/a_directory" .code(1).err("a_directory").check(dir_whole);
+        PARTIAL       "plan --out {dir}/whole.npy" .ok().check(dir_whole);
+        PARTIAL       "plan --out {dir}/whole.json" .ok().check(dir_whole);
+        PARTIAL       "simulate --plane-size 2 --plane-step 1 --out {dir}/whole_sim" .ok()
+                      .check(dir_whole);
+        // ... and a full disk (a 32 KiB tmpfs) leaves nothing that looks complete.
+        PARTIAL       "plan --out {full}/p.npy" .code(1).err("p.npy").err("no space left")
+                      .check(full_whole);
+        PARTIAL       "plan --out {full}/p.json" .code(1).err("p.json").err("no space left")
+                      .check(full_whole);
+        PARTIAL       "plan --out {full}/p.bin --foci 4" .code(1).err("no space left")
+                      .check(full_whole);
+        PARTIAL       "plan --out {full}/keep.bin" .code(1).err("keep.bin").check(full_whole);
+        PARTIAL       "simulate --plane-size 30 --plane-step 0.5 --out {full}/sim" .code(1)
+                      .err("no space left").check(full_whole);
+        PARTIAL       "simulate --compare --plane-size 2 --plane-step 1 --out {full}/cmp" .code(1)
+                      .err("no space left").check(full_whole);
+        // 5. Odd input paths: refused at once, with the path and the reason.
+        ODD_PATHS     "plan --scene {dir}/fifo" .err("fifo").err("FIFO");
+        ODD_PATHS     "simulate --scene {dir}/fifo --out {dir}/odd_sim" .err("FIFO");
+        ODD_PATHS     "scene --scene {dir}/fifo" .err("FIFO");
+        ODD_PATHS     "upload --port {port} --scene {dir}/fifo" .err("FIFO");
+        ODD_PATHS     "stream --port {port} --input {dir}/fifo" .err("FIFO");
+        ODD_PATHS     "track" .depth("ok.npy", "fifo").err("FIFO");
+        ODD_PATHS     "plan --scene /dev/null" .err("/dev/null").err("device node");
+        ODD_PATHS     "plan --scene /dev/zero" .err("/dev/zero").err("device node");
+        ODD_PATHS     "stream --port {port} --input /dev/zero" .err("device node");
+        ODD_PATHS     "track --depth {dir}/ok.npy --intrinsics /dev/zero --scene {scenes}/paper.toml"
+                      .err("device node");
+        ODD_PATHS     "scene --scene {dir}/a_directory" .err("a_directory").err("directory");
+        ODD_PATHS     "plan --scene {dir}/no_such.toml" .err("no_such.toml").err("no such file");
+        ODD_PATHS     "stream --port {port} --input {dir}/stream_copy.csv" .ok()
+                      .out("streamed 2 samples");
+        ODD_PATHS     "stream --port {port} --input -" .stdin(csv(&["0,0,0,200,1"])).ok()
+                      .out("streamed 1 samples");
+        // 11. Input-path messages keep the path and the reason.
+        PATH_MESSAGES "stream --port {port} --input {dir}/a_directory" .err("a_directory")
+                      .err("directory");
+        PATH_MESSAGES "stream --port {port} --input {dir}/no_such.csv" .err("no_such.csv")
+                      .err("no such file");
+        PATH_MESSAGES "plan --scene {dir}/a_file/x.toml" .err("a_file/x.toml")
+                      .err("not a directory");
+        PATH_MESSAGES "track --depth {dir}/no_such.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml"
+                      .err("no_such.npy").err("no such file");
+        PATH_MESSAGES "track" .depth("ok.npy", "no_such.toml").err("no_such.toml")
+                      .err("no such file");
+    };
+    // Every output error names what failed and nothing panics.
+    for c in &mut v {
+        if c.stdout_to.is_some() && c.code == 1 && c.stderr_to.is_some() {
+            c.stderr_has.clear();
+        }
+    }
+    v
+}
+
+/// The scene reached by three names is as the fixtures wrote it.
+fn scene_copy_intact(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let text =
+        std::fs::read_to_string(ctx.dir.join("scene_copy.toml")).map_err(|e| e.to_string())?;
+    if text != SCENE_COPY {
+        return Err(format!("scene_copy.toml was changed: {text:?}"));
+    }
+    Ok(())
+}
+
+/// Every file under `{dir}` is whole (see [`every_file_whole`]).
+fn dir_whole(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    every_file_whole(&ctx.dir)
+}
+
+/// Every file on the full tmpfs is whole and `keep.bin` is as it was.
+fn full_whole(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let Some(full) = &ctx.full else {
+        return Ok(());
+    };
+    every_file_whole(full)?;
+    let keep = std::fs::read(full.join("keep.bin")).map_err(|e| e.to_string())?;
+    if keep != b"0123456789" {
+        return Err("keep.bin was changed by a failed overwrite".into());
+    }
+    Ok(())
+}
+
+/// No temporary file is left, every `.npy`'s header agrees with its size,
+/// every `.json` parses and every `.png` ends with its IEND chunk.
+fn every_file_whole(dir: &Path) -> Result<(), String> {
+    let entries = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    for e in entries {
+        let e = e.map_err(|e| e.to_string())?;
+        let path = e.path();
+        let name = e.file_name().to_string_lossy().into_owned();
+        let ft = e.file_type().map_err(|e| e.to_string())?;
+        if ft.is_dir() {
+            every_file_whole(&path)?;
+            continue;
+        }
+        if !ft.is_file() {
+            continue;
+        }
+        if name.contains(".lmhost-") {
+            return Err(format!("temporary file left behind: {}", path.display()));
+        }
+        let bytes = std::fs::read(&path).map_err(|e| e.to_string())?;
+        let bad = |why: &str| Err(format!("{} is not whole: {why}", path.display()));
+        if name.ends_with(".npy") {
+            if let Err(why) = npy_whole(&bytes) {
+                // The hostile fixtures are broken on purpose.
+                if !FIXTURE_NPY.contains(&name.as_str()) {
+                    return bad(&why);
+                }
+            }
+        } else if name.ends_with(".json") {
+            if serde_json::from_slice::<serde_json::Value>(&bytes).is_err() {
+                return bad("not JSON");
+            }
+        } else if name.ends_with(".png") && !bytes.ends_with(&[0xAE, 0x42, 0x60, 0x82]) {
+            return bad("no IEND chunk at the end");
+        }
+    }
+    Ok(())
+}
+
+/// The broken `.npy` fixtures of [`fixtures`].
+const FIXTURE_NPY: [&str; 8] = [
+    "tb.npy",
+    "overflow.npy",
+    "negative.npy",
+    "truncated.npy",
+    "long_tail.npy",
+    "header_lie.npy",
+    "twice.npy",
+    "float.npy",
+];
+
+/// Whether an `.npy`'s header (shape, dtype) agrees with its length.
+fn npy_whole(b: &[u8]) -> Result<(), String> {
+    if b.len() < 10 || &b[..6] != b"\x93NUMPY" {
+        return Err("no npy magic".into());
+    }
+    let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
+    let header = std::str::from_utf8(b.get(10..10 + hlen).ok_or("short header")?)
+        .map_err(|_| "header not text")?;
+    let item: usize = if header.contains("<f8") {
+        8
+    } else if header.contains("<u2") {
+        2
+    } else if header.contains("|u1") || header.contains("<u1") {
+        1
+    } else {
+        return Err(format!("unknown dtype in {header}"));
+    };
+    let shape = header
+        .split("'shape': (")
+        .nth(1)
+        .and_then(|t| t.split(')').next())
+        .ok_or("no shape")?;
+    let mut n = 1usize;
+    for d in shape.split(',').map(str::trim).filter(|d| !d.is_empty()) {
+        n = n
+            .checked_mul(d.parse::<usize>().map_err(|_| "bad shape")?)
+            .ok_or("shape overflows")?;
+    }
+    if b.len() != 10 + hlen + n * item {
+        return Err(format!(
+            "header says {n} items of {item} bytes, the file has {} data bytes",
+            b.len() - 10 - hlen
+        ));
+    }
+    Ok(())
 }

@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::ValueEnum;
 use lm_proto::codec::Encoding;
 use serde_json::json;
@@ -351,7 +350,7 @@ fn write_out(path: &Path, plan: &Plan) -> anyhow::Result<()> {
         Some("npy") => plan.sequence.to_npy(),
         _ => plan.sequence.phases.clone(),
     };
-    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))
+    crate::files::write_whole(path, &bytes)
 }
 
 impl Args {

@@ -3,8 +3,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
-
 use crate::cmd::plan::{PlanArgs, parse_vec3};
 use crate::error::InputError;
 use crate::field::study::{View, simulate_plan, write_outputs};
@@ -164,8 +162,16 @@ impl Args {
     /// Run the subcommand.
     pub fn run(self) -> anyhow::Result<()> {
         let view = self.view()?;
-        std::fs::create_dir_all(&self.out)
-            .with_context(|| format!("cannot create output directory {}", self.out.display()))?;
+        // The scene is an input: refuse an --out that is it, before writing.
+        self.plan.load_scene()?;
+        crate::files::not_an_input("--out", &self.out)?;
+        std::fs::create_dir_all(&self.out).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot create output directory {}: {}",
+                self.out.display(),
+                crate::files::reason(&e)
+            )
+        })?;
         if self.compare {
             let multi = if self.plan.foci > 1 {
                 self.plan.foci

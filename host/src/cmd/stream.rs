@@ -143,16 +143,7 @@ impl Args {
                 None => (stdin_samples(), Pace::Arrival),
                 Some(p) if p.as_os_str() == "-" => (stdin_samples(), Pace::Arrival),
                 Some(p) => {
-                    if p.is_dir() {
-                        crate::bad_input!("--input {} is a directory, not a file", p.display());
-                    }
-                    let f = std::fs::File::open(p).map_err(|e| {
-                        crate::InputError::new(format!(
-                            "cannot read {}: {}",
-                            p.display(),
-                            io_reason(&e)
-                        ))
-                    })?;
+                    let f = crate::files::open_input("--input file", p)?;
                     let reader = std::io::BufReader::new(f);
                     (on_thread(move || source::replay_lines(reader)), pace)
                 }
@@ -305,12 +296,4 @@ impl Args {
 /// interrupted; the thread is left to end with the process).
 fn stdin_samples() -> Threaded {
     on_thread(|| source::read_lines(std::io::stdin().lock()))
-}
-
-fn io_reason(e: &std::io::Error) -> &'static str {
-    match e.kind() {
-        std::io::ErrorKind::NotFound => "no such file",
-        std::io::ErrorKind::PermissionDenied => "permission denied",
-        _ => "read error",
-    }
 }

@@ -138,15 +138,13 @@ pub fn compare(
         )?;
     }
     let path = out.join("summary.json");
-    std::fs::write(
-        &path,
-        serde_json::to_string_pretty(&json!({
-            "compare": summary,
-            "normalisation": "png_normalised panels (and normalisation_* values) divide each \
-                panel's map by its own peak, as the paper's figures do; png panels share one scale",
-        }))? + "\n",
-    )
-    .with_context(|| format!("cannot write {}", path.display()))?;
+    let text = serde_json::to_string_pretty(&json!({
+        "compare": summary,
+        "normalisation": "png_normalised panels (and normalisation_* values) divide each \
+            panel's map by its own peak, as the paper's figures do; png panels share one scale",
+    }))? + "\n";
+    // Last: a summary.json exists only when every file it names was written.
+    crate::files::write_whole(&path, text.as_bytes())?;
     crate::outln!("wrote {}", out.display())?;
     Ok(())
 }

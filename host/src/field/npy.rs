@@ -1,7 +1,5 @@
 //! Minimal NPY (NumPy format 1.0) writer for 2-D little-endian f64 maps.
 
-use std::io::Write;
-
 /// Bytes of a C-order `rows × cols` f64 array in NPY 1.0 format.
 ///
 /// Panics never; `data.len()` must equal `rows * cols` (checked: a
@@ -30,15 +28,15 @@ pub fn encode_f64(rows: usize, cols: usize, data: &[f64]) -> std::io::Result<Vec
     Ok(out)
 }
 
-/// Write a `rows × cols` f64 map to `path` as `.npy`.
+/// Write a `rows × cols` f64 map to `path` as `.npy`, whole or not at all.
 pub fn write_f64(
     path: &std::path::Path,
     rows: usize,
     cols: usize,
     data: &[f64],
-) -> std::io::Result<()> {
-    let bytes = encode_f64(rows, cols, data)?;
-    std::fs::File::create(path)?.write_all(&bytes)
+) -> anyhow::Result<()> {
+    let bytes = encode_f64(rows, cols, data).map_err(|e| crate::files::WriteError::new(path, e))?;
+    crate::files::write_whole(path, &bytes)
 }
 
 #[cfg(test)]

@@ -225,22 +225,26 @@ fn vmax(maps: &[&[f64]]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Write one heatmap with a colour bar to `path` (PNG).
+/// Write one heatmap with a colour bar to `path` (PNG), whole or not at
+/// all ([`crate::files::write_via`]).
 pub fn heatmap(
     path: &Path,
     plane: &ObservationPlane,
     panel: &Panel,
     unit: &str,
-) -> Result<(), PlotError> {
+) -> anyhow::Result<()> {
     register_font();
     let e = err(path);
-    let root = BitMapBackend::new(path, (760, 640)).into_drawing_area();
-    root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-    let (main, bar) = root.split_horizontally(640);
-    let top = vmax(&[panel.map]);
-    draw_panel(&main, plane, panel, top, 16).map_err(&e)?;
-    draw_colorbar(&bar, top, unit, 14).map_err(&e)?;
-    root.present().map_err(|x| e(x.to_string()))
+    crate::files::write_via(path, |tmp| {
+        let root = BitMapBackend::new(tmp, (760, 640)).into_drawing_area();
+        root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+        let (main, bar) = root.split_horizontally(640);
+        let top = vmax(&[panel.map]);
+        draw_panel(&main, plane, panel, top, 16).map_err(&e)?;
+        draw_colorbar(&bar, top, unit, 14).map_err(&e)?;
+        root.present().map_err(|x| e(crate::files::reason_of(&x)))?;
+        Ok(())
+    })
 }
 
 /// Write a grid of panels sharing one colour scale to `path` (PNG).
@@ -253,31 +257,35 @@ pub fn grid(
     cols: usize,
     title: &str,
     unit: &str,
-) -> Result<(), PlotError> {
+) -> anyhow::Result<()> {
     register_font();
     let e = err(path);
     if rows * cols < panels.len() || rows == 0 || cols == 0 {
         return Err(e(format!(
             "{} panels do not fit {rows} × {cols}",
             panels.len()
-        )));
+        ))
+        .into());
     }
     let (pw, ph) = (300u32, 300u32);
     let bar_w = 110u32;
     let title_h = 40u32;
     let size = (pw * cols as u32 + bar_w, ph * rows as u32 + title_h);
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-    let root = root
-        .titled(title, ("sans-serif", 22))
-        .map_err(|x| e(x.to_string()))?;
-    let (main, bar) = root.split_horizontally(pw * cols as u32);
-    let top = vmax(&panels.iter().map(|p| p.map).collect::<Vec<_>>());
-    for (area, panel) in main.split_evenly((rows, cols)).iter().zip(panels) {
-        draw_panel(area, plane, panel, top, 12).map_err(&e)?;
-    }
-    draw_colorbar(&bar, top, unit, 13).map_err(&e)?;
-    root.present().map_err(|x| e(x.to_string()))
+    crate::files::write_via(path, |tmp| {
+        let root = BitMapBackend::new(tmp, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
+        let root = root
+            .titled(title, ("sans-serif", 22))
+            .map_err(|x| e(x.to_string()))?;
+        let (main, bar) = root.split_horizontally(pw * cols as u32);
+        let top = vmax(&panels.iter().map(|p| p.map).collect::<Vec<_>>());
+        for (area, panel) in main.split_evenly((rows, cols)).iter().zip(panels) {
+            draw_panel(area, plane, panel, top, 12).map_err(&e)?;
+        }
+        draw_colorbar(&bar, top, unit, 13).map_err(&e)?;
+        root.present().map_err(|x| e(crate::files::reason_of(&x)))?;
+        Ok(())
+    })
 }
 
 #[cfg(test)]

@@ -6,7 +6,6 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Context;
 use serde_json::json;
 
 use crate::error::InputError;
@@ -384,8 +383,7 @@ pub fn write_outputs(
     };
     for (stem, title, unit, map) in map_list(&sim.maps) {
         let npy_path = out.join(format!("{stem}.npy"));
-        npy::write_f64(&npy_path, sim.maps.nv, sim.maps.nu, map)
-            .with_context(|| format!("cannot write {}", npy_path.display()))?;
+        npy::write_f64(&npy_path, sim.maps.nv, sim.maps.nu, map)?;
         let panel = Panel {
             title: format!(
                 "{title}: {kind}, A = {radius_mm} mm, N = {}",
@@ -398,8 +396,11 @@ pub fn write_outputs(
     }
     let summary = sim.summary_json(plan, view, radius_mm);
     let path = out.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    // Last: a summary.json exists only when every file it names was written.
+    crate::files::write_whole(
+        &path,
+        (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+    )?;
     Ok(())
 }
 
