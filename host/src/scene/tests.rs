@@ -123,7 +123,7 @@ fn missing_scene_file_is_a_one_line_input_error() {
     let e = Scene::load(Path::new("/nonexistent/scene.toml")).unwrap_err();
     assert_eq!(
         e.to_string(),
-        "cannot read scene file /nonexistent/scene.toml: no such file"
+        "cannot read scene file /nonexistent/scene.toml: no such file or directory"
     );
 }
 
