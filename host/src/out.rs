@@ -1,7 +1,7 @@
 //! The one path to standard output and standard error.
 //!
 //! Every line lmhost prints goes through [`outln!`](crate::outln) /
-//! [`out!`](crate::out) (stdout) or [`errln!`](crate::errln) (stderr);
+//! [`out!`](macro@crate::out) (stdout) or [`errln!`](crate::errln) (stderr);
 //! `print!`-style macros, which panic on a write error, are not used
 //! (clippy's `print_stdout` and `print_stderr` are denied).
 //!

@@ -457,10 +457,10 @@ impl Core for FwCore {
             out.extend_from_slice(reply)
         });
         let after = self.device.status(now_us).last_centroid_seq;
-        if after != before {
-            if let Some(c) = centroids.iter().find(|c| c.seq == after && c.present) {
-                self.waiting.push(c.host_time_us);
-            }
+        if after != before
+            && let Some(c) = centroids.iter().find(|c| c.seq == after && c.present)
+        {
+            self.waiting.push(c.host_time_us);
         }
         self.poll(now_us);
     }

@@ -305,7 +305,8 @@ mod tests {
     #[test]
     fn validate_maps_each_violation_to_its_code() {
         assert_eq!(header().validate(&LIMITS), Ok(()));
-        let cases: [(fn(&mut UploadHeader), NackCode); 9] = [
+        type Break = fn(&mut UploadHeader);
+        let cases: [(Break, NackCode); 9] = [
             (|h| h.steps = 0, NackCode::OutOfRange),
             (|h| h.transducers = 0, NackCode::OutOfRange),
             (|h| h.sound_speed_mm_s = 0, NackCode::OutOfRange),

@@ -151,7 +151,7 @@ impl Rig {
             ),
         );
         drop(clean);
-        let encoding = if seed % 2 == 0 {
+        let encoding = if seed.is_multiple_of(2) {
             Encoding::Delta
         } else {
             Encoding::Raw

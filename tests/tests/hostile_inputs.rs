@@ -322,7 +322,7 @@ fn fixtures(dir: &Path) {
     // Depth recordings and intrinsics for `track`.
     let npy = |name: &str, header: &str, data: usize, len_field: Option<u16>| {
         let mut h = header.as_bytes().to_vec();
-        while (10 + h.len() + 1) % 64 != 0 {
+        while !(10 + h.len() + 1).is_multiple_of(64) {
             h.push(b' ');
         }
         h.push(b'\n');

@@ -90,6 +90,7 @@ impl Board {
         usart.cr1().write(|w| w.ue().clear_bit());
         usart
             .brr()
+            // SAFETY: BRR takes any divisor; 100 MHz / 115200 fits its 16 bits.
             .write(|w| unsafe { w.bits(KERNEL_HZ.div_ceil(BAUD)) });
         usart.cr1().write(|w| {
             w.fifoen()
@@ -105,7 +106,9 @@ impl Board {
         let tim = dp.TIM2;
         tim.cr1().write(|w| w.cen().clear_bit());
         tim.psc()
+            // SAFETY: any 16-bit prescaler is valid; KERNEL_HZ / TIMER_HZ - 1 fits.
             .write(|w| unsafe { w.bits(KERNEL_HZ / TIMER_HZ - 1) });
+        // SAFETY: TIM2 is 32 bits wide: every auto-reload value is valid.
         tim.arr().write(|w| unsafe { w.bits(u32::MAX) });
         tim.egr().write(|w| w.ug().set_bit()); // load PSC now
         tim.cr1().write(|w| w.cen().set_bit());
@@ -114,6 +117,7 @@ impl Board {
         spi.cr1().write(|w| w.spe().clear_bit());
         // 8-bit frames, kernel clock / 4, mode 0, software chip select.
         spi.cfg1()
+            // SAFETY: DSIZE 7 (8-bit frames) and MBR 1 (/4) are valid field values.
             .write(|w| unsafe { w.dsize().bits(7).mbr().bits(1) });
         spi.cfg2()
             .write(|w| w.master().set_bit().ssm().set_bit().afcntr().set_bit());
@@ -164,6 +168,7 @@ impl Link {
     fn pump(&mut self) {
         while !self.tx.is_empty() && self.usart.isr().read().txe().bit_is_set() {
             if let Some(b) = self.tx.pop_front() {
+                // SAFETY: TDR takes any byte in its low 9 bits.
                 self.usart.tdr().write(|w| unsafe { w.bits(u32::from(b)) });
             }
         }
@@ -257,6 +262,7 @@ impl Spi1 {
             let sr = self.0.sr().read();
             if sent < len && sent - got < FIFO_DEPTH && sr.txp().bit_is_set() {
                 let b = tx.get(sent).copied().unwrap_or(0xFF);
+                // SAFETY: the 8-bit data register takes any byte.
                 self.0.txdr8().write(|w| unsafe { w.txdr().bits(b) });
                 sent += 1;
             }

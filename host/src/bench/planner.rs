@@ -114,7 +114,7 @@ fn frame_case(scene: &Scene, plan: &SynthPlan, traj: &Trajectory, opts: &Options
             j += 1;
         })
     };
-    let fast = time_plan(&plan);
+    let fast = time_plan(plan);
     let portable = time_plan(&plan.clone().portable());
     let mut q = vec![0u8; t];
     let reference = time_per_call(b, r / 10, || {

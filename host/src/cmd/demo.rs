@@ -177,7 +177,7 @@ impl Args {
                     back_us = Some(now);
                 }
                 n += 1;
-                if n % 9 == 0 {
+                if n.is_multiple_of(9) {
                     states.push((s.present, c.status()?.state));
                 }
                 Ok(())

@@ -118,7 +118,7 @@ pub(super) fn finish(plane: &ObservationPlane, steps: usize, stats: &[Stats]) ->
 /// fast path. Propagation terms are computed once per point block in f32
 /// (phase reduced to turns in f64 first), multiplied by the drive matrix of
 /// all steps, and reduced to statistics on the fly; the grid is split over
-/// two threads. Agrees with [`simulate_reference`] to ~1e-5 relative at the
+/// two threads. Agrees with [`simulate_reference`](super::simulate_reference) to ~1e-5 relative at the
 /// peak (checked in tests and in `lmhost bench`).
 pub fn simulate(
     model: &FieldModel,

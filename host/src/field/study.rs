@@ -404,8 +404,6 @@ pub fn write_outputs(
     Ok(())
 }
 
-/// Radii of the `--compare` grid (the paper's conditions).
-
 #[cfg(test)]
 mod tests {
     use super::*;

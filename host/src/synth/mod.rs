@@ -6,7 +6,7 @@
 //! amplitude. Phases are handled in **turns** (`φ / 2π`) and quantised as
 //! `round(turns · 256) mod 256`.
 //!
-//! - [`reference`]: plain f64, the definition every fast path is checked
+//! - [`reference`](mod@reference): plain f64, the definition every fast path is checked
 //!   against. `k r` is reduced to a fraction of a turn in f64 before any
 //!   trigonometry.
 //! - [`fast`]: the hot path. Geometry is prepared once in a

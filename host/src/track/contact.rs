@@ -6,7 +6,7 @@
 //! them (clipped to the frame) is scanned. A pixel's point is computed in
 //! the box's own frame as `o + Z · (d_row + c · d_col)` (camera origin `o`
 //! and ray directions precomputed per row), so the inner loop is a few
-//! multiply-adds and three comparisons. [`reference`] is the plain
+//! multiply-adds and three comparisons. [`reference()`] is the plain
 //! full-frame f64 version it is checked against.
 
 use super::intrinsics::Intrinsics;

@@ -18,7 +18,7 @@
 //! (`|u| ≤ ½`; Taylor to degree 9/10, error < 4e-6, then the double angle)
 //! and a branch-free atan2 (Cephes `atanf` polynomial). Where the sum is
 //! small (`|S| < 0.1 Σ|w|`), its angle is ill-conditioned, so those
-//! transducers are recomputed with the f64 [`reference`](super::reference)
+//! transducers are recomputed with the f64 [`reference`](mod@super::reference)
 //! in one scalar fix-up pass shared by every multi-focus path. Result: every u8 is within 0.51 LSB of the
 //! exact phase.
 //!

@@ -93,8 +93,8 @@ const TESTS: &[(&str, Test)] = &[
 
 #[entry]
 fn main() -> ! {
-    // SAFETY: the only owner of TIMER0.
     let mut ctx = Ctx {
+        // SAFETY: the only owner of TIMER0.
         timer: unsafe { Timer::new(TIMER0_BASE) },
         clock: TimeExtender::new(),
     };
