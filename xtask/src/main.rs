@@ -1,7 +1,7 @@
 //! `cargo xtask <task>`: project tasks.
 //!
 //! - `ci [--from STEP]`: THE test command. Installs what is missing (the thumb target,
-//!   `qemu-system-arm` when root), then runs every step in [`STEPS`] in order,
+//!   clippy and rustfmt, `qemu-system-arm` when root), then runs every step in [`STEPS`] in order,
 //!   streaming output, stopping at the first failure, and printing a timing
 //!   summary.
 //! - `build-fw`: release build of the QEMU firmware and the Nucleo board.
@@ -44,6 +44,10 @@ const STEPS: &[Step] = &[
         run: step_setup,
     },
     Step {
+        name: "lint: cargo fmt --check, module cycles at every folder level",
+        run: step_lint_source,
+    },
+    Step {
         name: "thumb build: lm-proto + lm-fw-core (no_std; plain and with defmt)",
         run: step_thumb_libs,
     },
@@ -70,6 +74,10 @@ const STEPS: &[Step] = &[
     Step {
         name: "cargo build: lmhost with the `flash` feature (probe-rs, no system libs)",
         run: step_flash_build,
+    },
+    Step {
+        name: "lint: clippy -D warnings (host crates; thumb crates per board), rustdoc -D warnings",
+        run: step_lint_clippy_doc,
     },
     Step {
         name: "long run: lm-proto fuzz (release, ignored)",
@@ -242,7 +250,72 @@ fn thumb_build(c: &Ctx, args: &[&str]) -> Result<(), String> {
 
 fn step_setup(_: &Ctx) -> Result<(), String> {
     ensure_thumb_target()?;
+    ensure_components()?;
     ensure_qemu()
+}
+
+/// clippy and rustfmt, which the lint steps run.
+fn ensure_components() -> Result<(), String> {
+    for (sub, component) in [("clippy", "clippy"), ("fmt", "rustfmt")] {
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let have = Command::new(cargo)
+            .args([sub, "--version"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if have {
+            println!("{component}: installed");
+            continue;
+        }
+        run(Command::new("rustup").args(["component", "add", component])).map_err(|e| {
+            format!("{e}\n{component} is missing; install it with `rustup component add {component}`")
+        })?;
+    }
+    Ok(())
+}
+
+/// Formatting and the module graph: cheap, so they run first.
+fn step_lint_source(c: &Ctx) -> Result<(), String> {
+    run(c.cargo(&["fmt", "--all", "--", "--check"]))?;
+    run(Command::new("python3")
+        .current_dir(&c.root)
+        .args(["xtask/module_cycles.py", "host/src"]))
+}
+
+/// Lints every crate with the warnings it must not have: clippy's default
+/// set plus undocumented `unsafe`, `print!`-family output (host) and APIs
+/// newer than the declared `rust-version` (clippy's `incompatible_msrv`);
+/// rustdoc's broken links. The thumb crates are linted for the thumb target,
+/// each board in its own invocation (see `nucleo_build`).
+fn step_lint_clippy_doc(c: &Ctx) -> Result<(), String> {
+    const DENY: [&str; 4] = [
+        "-D",
+        "warnings",
+        "-D",
+        "clippy::undocumented_unsafe_blocks",
+    ];
+    let clippy = |args: &[&str]| {
+        let mut all = vec!["clippy"];
+        all.extend_from_slice(args);
+        all.push("--");
+        all.extend_from_slice(&DENY);
+        run(c.cargo(&all))
+    };
+    clippy(&[
+        "--workspace",
+        "--exclude",
+        QEMU_PKG,
+        "--exclude",
+        NUCLEO_PKG,
+        "--all-targets",
+    ])?;
+    clippy(&["--target", THUMB, "-p", "lm-proto", "-p", "lm-fw-core"])?;
+    clippy(&["--target", THUMB, "-p", QEMU_PKG, "--bins"])?;
+    clippy(&["--target", THUMB, "-p", NUCLEO_PKG])?;
+    run(c
+        .cargo(&["doc", "--no-deps", "-p", "lmhost", "-p", "lm-proto", "-p", "lm-fw-core"])
+        .env("RUSTDOCFLAGS", "-D warnings"))
 }
 
 fn step_thumb_libs(c: &Ctx) -> Result<(), String> {
