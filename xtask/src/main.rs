@@ -269,7 +269,9 @@ fn ensure_components() -> Result<(), String> {
             continue;
         }
         run(Command::new("rustup").args(["component", "add", component])).map_err(|e| {
-            format!("{e}\n{component} is missing; install it with `rustup component add {component}`")
+            format!(
+                "{e}\n{component} is missing; install it with `rustup component add {component}`"
+            )
         })?;
     }
     Ok(())
@@ -289,12 +291,7 @@ fn step_lint_source(c: &Ctx) -> Result<(), String> {
 /// rustdoc's broken links. The thumb crates are linted for the thumb target,
 /// each board in its own invocation (see `nucleo_build`).
 fn step_lint_clippy_doc(c: &Ctx) -> Result<(), String> {
-    const DENY: [&str; 4] = [
-        "-D",
-        "warnings",
-        "-D",
-        "clippy::undocumented_unsafe_blocks",
-    ];
+    const DENY: [&str; 4] = ["-D", "warnings", "-D", "clippy::undocumented_unsafe_blocks"];
     let clippy = |args: &[&str]| {
         let mut all = vec!["clippy"];
         all.extend_from_slice(args);
@@ -314,7 +311,16 @@ fn step_lint_clippy_doc(c: &Ctx) -> Result<(), String> {
     clippy(&["--target", THUMB, "-p", QEMU_PKG, "--bins"])?;
     clippy(&["--target", THUMB, "-p", NUCLEO_PKG])?;
     run(c
-        .cargo(&["doc", "--no-deps", "-p", "lmhost", "-p", "lm-proto", "-p", "lm-fw-core"])
+        .cargo(&[
+            "doc",
+            "--no-deps",
+            "-p",
+            "lmhost",
+            "-p",
+            "lm-proto",
+            "-p",
+            "lm-fw-core",
+        ])
         .env("RUSTDOCFLAGS", "-D warnings"))
 }
 

@@ -14,8 +14,8 @@
 //! The same portable code is compiled three times: baseline, AVX2+FMA and
 //! AVX-512, chosen at run time.
 
-use super::maps::{Stats, twiddles};
 use super::model::Source;
+use super::stats::{Stats, twiddles};
 use super::{FieldModel, ObservationPlane};
 use crate::directivity::Directivity;
 

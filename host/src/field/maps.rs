@@ -2,8 +2,7 @@
 //! over the cycle's steps, reduced to [`FieldMaps`], and [`simulate`], the
 //! fast path that fills them.
 
-use std::f64::consts::PI;
-
+use super::stats::Stats;
 use super::{FieldError, FieldModel, ObservationPlane, kernel};
 
 /// Default radiation-pressure coefficient α (2: a perfect reflector).
@@ -30,17 +29,6 @@ pub struct FieldMaps {
     /// square `A₁²/2` of its bin-1 sinusoid, `A₁ = 2 |X₁| / N` with
     /// `X₁ = Σₛ P(s) e^{−j2πs/N}` (`A₁ = |X₁| / N` for N = 2; 0 for N = 1).
     pub lm_power_pa2: Vec<f64>,
-}
-
-/// Per-point statistics of the radiation pressure over the cycle.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Stats {
-    pub(super) amp0: f64,
-    pub(super) p0: f64,
-    pub(super) sum: f64,
-    pub(super) max: f64,
-    pub(super) x1_re: f64,
-    pub(super) x1_im: f64,
 }
 
 /// Radiation-pressure settings.
@@ -77,16 +65,6 @@ pub(super) fn check_inputs(
         return Err(FieldError::BadAlpha(rad.alpha));
     }
     plane.validated()
-}
-
-/// DFT twiddles `e^{−j2πs/N}` for bin 1.
-pub(super) fn twiddles(steps: usize) -> Vec<(f64, f64)> {
-    (0..steps)
-        .map(|s| {
-            let a = -2.0 * PI * s as f64 / steps as f64;
-            (a.cos(), a.sin())
-        })
-        .collect()
 }
 
 pub(super) fn finish(plane: &ObservationPlane, steps: usize, stats: &[Stats]) -> FieldMaps {

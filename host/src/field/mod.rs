@@ -44,6 +44,7 @@ mod plane;
 pub mod plot;
 mod post;
 mod reference;
+mod stats;
 pub mod study;
 
 pub use crate::directivity::Directivity;

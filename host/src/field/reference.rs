@@ -1,7 +1,8 @@
 //! The plain f64 loop the fast path is checked against: one transfer row
 //! per point, one dot product per step, no blocking, no threads.
 
-use super::maps::{Stats, check_inputs, finish, twiddles};
+use super::maps::{check_inputs, finish};
+use super::stats::{Stats, twiddles};
 use super::{C64, FieldError, FieldMaps, FieldModel, ObservationPlane, Radiation, drive_from_u8};
 
 /// Maps of a phase sequence (step-major, `steps × transducers` bytes) by

@@ -46,15 +46,6 @@ impl Kernels {
         angles: angles_rows::<false>,
     };
 
-    /// The best build this CPU runs.
-    pub(super) fn detect() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(k) = super::avx2::kernels() {
-            return k;
-        }
-        Self::PORTABLE
-    }
-
     /// Single-focus frame.
     pub(super) fn focus(&self, rows: Rows<'_>, p: &Prep, off: f32, out: &mut [u8]) {
         (self.focus[usize::from(p.far)])(rows, p, off, out)

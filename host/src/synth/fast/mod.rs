@@ -34,6 +34,7 @@
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod kernels;
+
 #[cfg(test)]
 mod tests;
 
@@ -147,7 +148,7 @@ impl SynthPlan {
             kappa,
             max_p,
             q_offset: (256.0 * m) as f32,
-            kernels: Kernels::detect(),
+            kernels: best_kernels(),
         }
     }
 
@@ -401,4 +402,14 @@ impl SynthPlan {
                 .map(|(i, &k)| (table.points[k], weight(weights, i)))
         });
     }
+}
+
+/// The best kernel build this CPU runs (chosen here, above both builds, so
+/// neither imports the other's selector).
+fn best_kernels() -> Kernels {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(k) = avx2::kernels() {
+        return k;
+    }
+    Kernels::PORTABLE
 }
