@@ -9,13 +9,13 @@
 //! # Driving a [`Device`]
 //!
 //! ```
-//! use lm_fw_core::{Config, Device, RecordingDriver, memory_bytes};
+//! use lm_fw_core::{Config, Device, RecordingDriver, TakeOnce, memory_bytes};
 //!
 //! // Sequence memory: two slots of 200 steps × 996 transducers each.
-//! static mut MEM: [u8; memory_bytes(200 * 996, 996)] = [0; memory_bytes(200 * 996, 996)];
+//! const BYTES: usize = memory_bytes(200 * 996, 996);
+//! static MEM: TakeOnce<[u8; BYTES]> = TakeOnce::new([0; BYTES]);
 //! # fn main() {
-//! #[allow(static_mut_refs)]
-//! let mem: &'static mut [u8] = unsafe { &mut MEM }; // a board: cortex_m::singleton! or similar
+//! let mem: &'static mut [u8] = MEM.take().unwrap(); // once, in the board's main
 //! let mut dev = Device::new(Config::new(1_000_000), mem).unwrap();
 //! let mut out = RecordingDriver::<16>::new();
 //! let now = 0u64; // free-running timer count at Config::timer_hz
@@ -104,12 +104,14 @@ pub mod output;
 pub mod player;
 pub mod serve;
 pub mod store;
+mod take_once;
 pub mod time;
 
 pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
 pub use output::{OutputDriver, OutputFrame, Record, RecordingDriver, SpiOutput};
 pub use serve::{HostLink, Server, serve};
 pub use store::{CHUNK_LOG, SLOTS, StoreError, memory_bytes};
+pub use take_once::TakeOnce;
 pub use time::TimeExtender;
 
 /// Largest transducer count the core's tables hold (offsets, frame

@@ -8,11 +8,10 @@
 mod board;
 
 use core::mem::MaybeUninit;
-use core::ptr::addr_of_mut;
 
 use cortex_m::peripheral::NVIC;
 use cortex_m_rt::entry;
-use lm_fw_core::{Config, Device, SpiOutput, memory_bytes, serve};
+use lm_fw_core::{Config, Device, SpiOutput, TakeOnce, memory_bytes, serve};
 use stm32h7::stm32h743v::{self as pac, interrupt};
 
 /// Raw phase bytes per slot: 232 KiB (200 steps × 996 transducers need
@@ -25,9 +24,9 @@ const ARRAY_TRANSDUCERS: u16 = 996;
 const STORE_BYTES: usize = memory_bytes(SLOT_BYTES, ARRAY_TRANSDUCERS as usize);
 
 /// Both sequence slots with their transducer positions.
-static mut SEQUENCE_STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
+static SEQUENCE_STORE: TakeOnce<[u8; STORE_BYTES]> = TakeOnce::new([0; STORE_BYTES]);
 /// The core's state outside the store.
-static mut DEVICE: MaybeUninit<Device<'static>> = MaybeUninit::uninit();
+static DEVICE: TakeOnce<MaybeUninit<Device<'static>>> = TakeOnce::new(MaybeUninit::uninit());
 
 #[entry]
 fn main() -> ! {
@@ -37,13 +36,12 @@ fn main() -> ! {
     let board::Board { link, timer, spi } = board::Board::init(dp);
     let mut cfg = Config::new(board::TIMER_HZ);
     cfg.max_transducers = ARRAY_TRANSDUCERS;
-    // SAFETY: `main` runs once and is the only user of these statics.
-    let dev = unsafe {
-        let store = &mut *addr_of_mut!(SEQUENCE_STORE);
-        match Device::new(cfg, store) {
-            Ok(d) => (*addr_of_mut!(DEVICE)).write(d),
-            Err(e) => panic!("device setup: {e}"),
-        }
+    let (Some(store), Some(slot)) = (SEQUENCE_STORE.take(), DEVICE.take()) else {
+        panic!("board statics taken twice")
+    };
+    let dev = match Device::new(cfg, store) {
+        Ok(d) => slot.write(d),
+        Err(e) => panic!("device setup: {e}"),
     };
     // SAFETY: the handler only touches the receive side (see board::usart3_rx_isr).
     unsafe { NVIC::unmask(pac::Interrupt::USART3) };

@@ -5,29 +5,26 @@
 #![no_main]
 
 use core::mem::MaybeUninit;
-use core::ptr::addr_of_mut;
 
 use cortex_m_rt::entry;
-use lm_fw_core::{Device, serve};
+use lm_fw_core::{Device, TakeOnce, serve};
 use lm_fw_qemu::{FrameCounter, STORE_BYTES, TIMER0_BASE, Timer, UART0_BASE, Uart, config};
 
 /// Both sequence slots with their transducer positions.
-static mut SEQUENCE_STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
+static SEQUENCE_STORE: TakeOnce<[u8; STORE_BYTES]> = TakeOnce::new([0; STORE_BYTES]);
 /// The core's state outside the store (a static, so the ELF's memory map shows it).
-static mut DEVICE: MaybeUninit<Device<'static>> = MaybeUninit::uninit();
+static DEVICE: TakeOnce<MaybeUninit<Device<'static>>> = TakeOnce::new(MaybeUninit::uninit());
 
 #[entry]
 fn main() -> ! {
-    // SAFETY: `main` runs once and is the only user of these statics and of
-    // UART0 and TIMER0.
-    let (uart, timer, dev) = unsafe {
-        let store = &mut *addr_of_mut!(SEQUENCE_STORE);
-        let dev = match Device::new(config(), store) {
-            Ok(d) => d,
-            Err(e) => panic!("device setup: {e}"),
-        };
-        let dev = (*addr_of_mut!(DEVICE)).write(dev);
-        (Uart::new(UART0_BASE, 115_200), Timer::new(TIMER0_BASE), dev)
+    let (Some(store), Some(slot)) = (SEQUENCE_STORE.take(), DEVICE.take()) else {
+        panic!("board statics taken twice")
     };
+    let dev = match Device::new(config(), store) {
+        Ok(d) => slot.write(d),
+        Err(e) => panic!("device setup: {e}"),
+    };
+    // SAFETY: `main` runs once and is the only user of UART0 and TIMER0.
+    let (uart, timer) = unsafe { (Uart::new(UART0_BASE, 115_200), Timer::new(TIMER0_BASE)) };
     serve(uart, || timer.now(), dev, &mut FrameCounter::default())
 }

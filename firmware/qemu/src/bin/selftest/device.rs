@@ -8,8 +8,8 @@ use lm_proto::{Message, NackCode};
 use crate::support::*;
 use crate::{Ctx, Failed, INSTR_PER_COUNT, TestResult};
 
-pub fn store_commit_checks_crc(_: &mut Ctx) -> TestResult {
-    let mut dev = device();
+pub fn store_commit_checks_crc(_: &mut Ctx, mem: &mut [u8]) -> TestResult {
+    let mut dev = device(mem);
     let r = upload(&mut dev, 0, 20, 996, 200_000, true);
     check!(
         r == Message::Nack(NackCode::CrcMismatch),
@@ -36,12 +36,12 @@ pub fn store_commit_checks_crc(_: &mut Ctx) -> TestResult {
     Ok(())
 }
 
-pub fn player_follows_timer_schedule(c: &mut Ctx) -> TestResult {
+pub fn player_follows_timer_schedule(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
     // 7 steps in 10 ms: 250,000 counts per cycle, 35,714.28 per step, so the
     // floor(k·P/N) rounding is exercised. 996 transducers: real frames.
     let (steps, period_us) = (7usize, 10_000u32);
     let p = u64::from(period_us) * u64::from(PCLK_HZ) / 1_000_000;
-    let mut dev = device();
+    let mut dev = device(mem);
     check!(upload(&mut dev, 0, steps, 996, period_us, false) == Message::Ack);
     let timer = Timer::clone_of(&c.timer);
     let mut rec = Recorder::new(&timer);
@@ -111,8 +111,8 @@ pub fn reference_offset(i: usize, c: [i32; 3]) -> f64 {
     (dist(CENTER_UM) - dist(c)) * 40_000.0 * 256.0 / (f64::from(SOUND_SPEED_MM_S) * 1e3)
 }
 
-pub fn correction_applied_to_frames(c: &mut Ctx) -> TestResult {
-    let mut dev = device();
+pub fn correction_applied_to_frames(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
+    let mut dev = device(mem);
     check!(upload(&mut dev, 0, 4, 996, 8_000, false) == Message::Ack);
     let timer = Timer::clone_of(&c.timer);
     let mut rec = Recorder::new(&timer);
@@ -151,8 +151,8 @@ pub fn correction_applied_to_frames(c: &mut Ctx) -> TestResult {
     Ok(())
 }
 
-pub fn gate_mutes_within_one_step(c: &mut Ctx) -> TestResult {
-    let mut dev = device();
+pub fn gate_mutes_within_one_step(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
+    let mut dev = device(mem);
     dev.set_centroid_timeout_us(3_000);
     check!(upload(&mut dev, 0, 8, 996, 8_000, false) == Message::Ack);
     let timer = Timer::clone_of(&c.timer);

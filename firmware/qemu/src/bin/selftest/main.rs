@@ -74,7 +74,7 @@ impl Ctx {
 
 /// The tests, in order. The `measure_*` ones print figures for
 /// BENCHMARKS.md and check only that the measured work really happened.
-type Test = fn(&mut Ctx) -> TestResult;
+type Test = fn(&mut Ctx, &mut [u8]) -> TestResult;
 
 const TESTS: &[(&str, Test)] = &[
     ("timer_counts_instructions", timer_counts_instructions),
@@ -98,10 +98,13 @@ fn main() -> ! {
         timer: unsafe { Timer::new(TIMER0_BASE) },
         clock: TimeExtender::new(),
     };
+    let Some(store) = support::STORE.take() else {
+        panic!("the test store is taken once")
+    };
     let (mut passed, mut failed) = (0u32, 0u32);
     for (name, test) in TESTS {
         hprint!("test {} ... ", name);
-        match test(&mut ctx) {
+        match test(&mut ctx, store) {
             Ok(()) => {
                 passed += 1;
                 hprintln!("ok");

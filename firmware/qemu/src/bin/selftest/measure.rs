@@ -17,7 +17,7 @@ pub fn spin(n: u32) {
     }
 }
 
-pub fn timer_counts_instructions(c: &mut Ctx) -> TestResult {
+pub fn timer_counts_instructions(c: &mut Ctx, _: &mut [u8]) -> TestResult {
     let n = 500_000u32;
     let t0 = c.timer.now();
     spin(n);
@@ -35,9 +35,9 @@ pub fn timer_counts_instructions(c: &mut Ctx) -> TestResult {
     Ok(())
 }
 
-pub fn measure_step_cost(c: &mut Ctx) -> TestResult {
+pub fn measure_step_cost(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
     // 200 steps × 996 transducers, 200 ms cycle (1 ms dwell), correction on.
-    let mut dev = device();
+    let mut dev = device(mem);
     dev.set_centroid_timeout_us(u32::MAX);
     let r = upload(&mut dev, 0, 200, 996, 200_000, false);
     check!(r == Message::Ack, "upload answered {:?}", r);
@@ -112,8 +112,8 @@ pub fn vsqrt(x: f32) -> f32 {
     unsafe { lm_vsqrt(x) }
 }
 
-pub fn measure_centroid_cost(c: &mut Ctx) -> TestResult {
-    let mut dev = device();
+pub fn measure_centroid_cost(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
+    let mut dev = device(mem);
     check!(upload(&mut dev, 0, 200, 996, 200_000, false) == Message::Ack);
     let now = c.now();
     check!(dev.handle(&play_now(0), now) == Message::Ack);

@@ -1,23 +1,19 @@
 //! What the test groups share: a fresh device over one static store, the
 //! test layout and sequence, upload and message helpers, a frame recorder.
 
-use core::ptr::addr_of_mut;
-
-use lm_fw_core::{Device, OutputDriver, OutputFrame};
+use lm_fw_core::{Device, OutputDriver, OutputFrame, TakeOnce};
 use lm_fw_qemu::{ARRAY_TRANSDUCERS, STORE_BYTES, Timer, config};
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, Geometry, MAX_CHUNK,
     MAX_GEOMETRY_POSITIONS, Message, Play, PlayAt, Positions, UploadHeader,
 };
 
-/// Sequence memory for the devices the tests build (one at a time).
-pub static mut STORE: [u8; STORE_BYTES] = [0; STORE_BYTES];
+/// Sequence memory for the devices the tests build (one at a time): taken
+/// once by `main`, lent to each test.
+pub static STORE: TakeOnce<[u8; STORE_BYTES]> = TakeOnce::new([0; STORE_BYTES]);
 
-/// A fresh device over [`STORE`].
-pub fn device() -> Device<'static> {
-    // SAFETY: tests run one after another and each drops its device before
-    // the next calls this, so the store is never borrowed twice at once.
-    let mem = unsafe { &mut *addr_of_mut!(STORE) };
+/// A fresh device over `mem` (the test's loan of [`STORE`]).
+pub fn device(mem: &mut [u8]) -> Device<'_> {
     match Device::new(config(), mem) {
         Ok(d) => d,
         Err(e) => panic!("device setup: {e}"),

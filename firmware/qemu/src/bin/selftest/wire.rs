@@ -7,7 +7,7 @@ use lm_proto::{FeedResult, FrameDecoder, MAX_ENCODED_FRAME, Message, encode_fram
 use crate::support::*;
 use crate::{Ctx, Failed, TestResult};
 
-pub fn proto_vectors_on_target(_: &mut Ctx) -> TestResult {
+pub fn proto_vectors_on_target(_: &mut Ctx, _: &mut [u8]) -> TestResult {
     let mut wire = [0u8; 2 * MAX_ENCODED_FRAME];
     let mut again = [0u8; MAX_ENCODED_FRAME];
     let mut count = 0;
@@ -22,9 +22,9 @@ pub fn proto_vectors_on_target(_: &mut Ctx) -> TestResult {
     Ok(())
 }
 
-pub fn frames_through_feed(c: &mut Ctx) -> TestResult {
+pub fn frames_through_feed(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
     // The byte path the firmware uses: encoded requests in, encoded replies out.
-    let mut dev = device();
+    let mut dev = device(mem);
     let mut wire = [0u8; MAX_ENCODED_FRAME];
     let mut reply = [0u8; MAX_ENCODED_FRAME];
     let mut reply_len = 0;
