@@ -3,8 +3,10 @@
 //! chunked upload ([`client`]), and a fault-injecting wrapper for tests
 //! ([`proxy`]).
 //!
-//! Units convert here and only here: the library's millimetres and seconds
-//! become the wire's micrometres and microseconds.
+//! The link carries what it is given: wire values (micrometres,
+//! microseconds) are built from the library's millimetres and seconds by
+//! [`crate::units`], where every host → wire conversion lives, before they
+//! reach a client call.
 
 pub mod client;
 pub mod discover;
