@@ -23,6 +23,7 @@ pub mod geom;
 pub mod limits;
 pub mod link;
 pub mod out;
+pub mod reader;
 pub mod rng;
 pub mod scene;
 pub mod sequence;

@@ -492,7 +492,7 @@ fn streaming_mutes_when_a_live_source_goes_silent() {
     });
     let report = stream(
         &mut b,
-        on_thread(move || rx),
+        on_thread(move || rx).unwrap(),
         &mut Passthrough,
         |p| p,
         Pace::Arrival,

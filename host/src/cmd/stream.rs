@@ -132,20 +132,20 @@ impl Args {
         let (samples, pace) = if self.synthetic {
             let secs = self.seconds;
             (
-                on_thread(move || track.samples().take_while(move |s| s.t_s < secs).map(Ok)),
+                on_thread(move || track.samples().take_while(move |s| s.t_s < secs).map(Ok))?,
                 pace,
             )
         } else if let Some(port) = self.udp {
             let udp = source::udp(port, seconds, udp_counts.clone())?;
-            (on_thread(move || udp), Pace::Arrival)
+            (on_thread(move || udp)?, Pace::Arrival)
         } else {
             match self.input.as_deref() {
-                None => (stdin_samples(), Pace::Arrival),
-                Some(p) if p.as_os_str() == "-" => (stdin_samples(), Pace::Arrival),
+                None => (stdin_samples()?, Pace::Arrival),
+                Some(p) if p.as_os_str() == "-" => (stdin_samples()?, Pace::Arrival),
                 Some(p) => {
                     let f = crate::files::open_input("--input file", p)?;
                     let reader = std::io::BufReader::new(f);
-                    (on_thread(move || source::replay_lines(reader)), pace)
+                    (on_thread(move || source::replay_lines(reader))?, pace)
                 }
             }
         };
@@ -294,6 +294,6 @@ impl Args {
 /// Stdin samples, read on their own thread: Ctrl-C and the device's
 /// housekeeping go on while no line arrives (a blocking read cannot be
 /// interrupted; the thread is left to end with the process).
-fn stdin_samples() -> Threaded {
+fn stdin_samples() -> anyhow::Result<Threaded> {
     on_thread(|| source::read_lines(std::io::stdin().lock()))
 }

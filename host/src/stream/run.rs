@@ -83,16 +83,7 @@ pub const TICK: Duration = Duration::from_millis(10);
 /// Samples buffered between a reader thread and the loop ([`on_thread`]).
 const READ_AHEAD: usize = 64;
 
-/// What a [`Feed`] had within the time it was given.
-#[derive(Debug)]
-pub enum Next<T> {
-    /// The next item.
-    Ready(T),
-    /// Nothing yet; the source goes on.
-    Idle,
-    /// The source ended.
-    End,
-}
+pub use crate::reader::Next;
 
 /// Where the streaming loop gets samples: waits at most `wait` so the loop
 /// can run [`Backend::tick`] and notice a stop while a live source is
@@ -111,45 +102,25 @@ impl<I: Iterator<Item = anyhow::Result<Sample>>> Feed for I {
     }
 }
 
-/// Samples read on their own thread into a small bounded channel, so a
-/// source blocked on input (stdin, a socket, a camera) does not hold up
-/// the loop's housekeeping. Made by [`on_thread`].
-pub struct Threaded {
-    rx: std::sync::mpsc::Receiver<anyhow::Result<Sample>>,
-}
+/// Samples read on their own thread ([`crate::reader`]), so a source
+/// blocked on input (stdin, a socket, a camera) does not hold up the
+/// loop's housekeeping. Made by [`on_thread`].
+pub struct Threaded(crate::reader::Reader<Sample>);
 
 impl Feed for Threaded {
     fn next_within(&mut self, wait: Duration) -> Next<anyhow::Result<Sample>> {
-        use std::sync::mpsc::RecvTimeoutError;
-        match self.rx.recv_timeout(wait) {
-            Ok(s) => Next::Ready(s),
-            Err(RecvTimeoutError::Timeout) => Next::Idle,
-            Err(RecvTimeoutError::Disconnected) => Next::End,
-        }
+        self.0.next_within(wait)
     }
 }
 
 /// Run the source `make` builds on a reader thread of its own (built
-/// there, so it need not be `Send`). The thread is never joined: when the
-/// loop ends first, the thread ends at its next sample (the channel is
-/// closed) or with the process, even if it is blocked reading stdin.
-pub fn on_thread<F, I>(make: F) -> Threaded
+/// there, so it need not be `Send`); see [`crate::reader::spawn`].
+pub fn on_thread<F, I>(make: F) -> anyhow::Result<Threaded>
 where
     F: FnOnce() -> I + Send + 'static,
     I: IntoIterator<Item = anyhow::Result<Sample>>,
 {
-    let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD);
-    std::thread::Builder::new()
-        .name("lmhost-samples".into())
-        .spawn(move || {
-            for s in make() {
-                if tx.send(s).is_err() || stop_requested() {
-                    break;
-                }
-            }
-        })
-        .expect("spawning the sample reader thread");
-    Threaded { rx }
+    crate::reader::spawn("lmhost-samples", READ_AHEAD, make).map(Threaded)
 }
 
 /// Stream the samples of `feed` through `filter` to the device `dev`;
