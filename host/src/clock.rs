@@ -1,4 +1,5 @@
-//! The clock the host and the simulated device share, and the bounded
+//! The clock the host and the simulated device share ([`monotonic_us`],
+//! [`Clock`]: the real one or a manual one tests move), and the bounded
 //! statistics measured against it (latency rings, percentiles).
 //!
 //! Time is microseconds of `CLOCK_MONOTONIC`, which every process on the
@@ -6,6 +7,9 @@
 //! compared with the moment a simulated device applied the update.
 
 use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
 
 /// Microseconds of `CLOCK_MONOTONIC`: the clock the simulated device and
 /// the host share.
@@ -13,6 +17,76 @@ pub fn monotonic_us() -> u64 {
     let ts = nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
         .expect("CLOCK_MONOTONIC is always available on Linux");
     ts.tv_sec() as u64 * 1_000_000 + ts.tv_nsec() as u64 / 1_000
+}
+
+/// A monotonic clock, cheap to clone (clones share the time): the real
+/// `CLOCK_MONOTONIC` ([`monotonic_us`]) for the CLI, or a manual clock for
+/// tests, whose `sleep` moves time on instead of waiting, so loop-end swaps,
+/// staleness rules and retries are tested without wall-clock timing.
+#[derive(Debug, Clone)]
+pub enum Clock {
+    /// `CLOCK_MONOTONIC`.
+    Real,
+    /// Nanoseconds set by the test.
+    Manual(Arc<AtomicU64>),
+}
+
+impl Clock {
+    /// The real clock.
+    pub fn real() -> Self {
+        Self::Real
+    }
+
+    /// A manual clock at `t = 0`.
+    pub fn manual() -> Self {
+        Self::manual_at_us(0)
+    }
+
+    /// A manual clock at `us` microseconds.
+    pub fn manual_at_us(us: u64) -> Self {
+        Self::Manual(Arc::new(AtomicU64::new(us.saturating_mul(1000))))
+    }
+
+    /// Whether time moves only when a test moves it.
+    pub fn is_manual(&self) -> bool {
+        matches!(self, Self::Manual(_))
+    }
+
+    /// Now.
+    pub fn now(&self) -> Duration {
+        match self {
+            Self::Real => Duration::from_micros(monotonic_us()),
+            Self::Manual(ns) => Duration::from_nanos(ns.load(Ordering::SeqCst)),
+        }
+    }
+
+    /// Now, µs.
+    pub fn now_us(&self) -> u64 {
+        self.now().as_micros() as u64
+    }
+
+    /// Waits `d` (real) or moves time on by `d` (manual).
+    pub fn sleep(&self, d: Duration) {
+        match self {
+            Self::Real => std::thread::sleep(d),
+            Self::Manual(_) => self.advance(d),
+        }
+    }
+
+    /// Moves a manual clock on by `d`; the real clock ignores it.
+    pub fn advance(&self, d: Duration) {
+        if let Self::Manual(ns) = self {
+            ns.fetch_add(d.as_nanos() as u64, Ordering::SeqCst);
+        }
+    }
+
+    /// Sets a manual clock to `us` (never backwards); the real clock
+    /// ignores it.
+    pub fn set_us(&self, us: u64) {
+        if let Self::Manual(ns) = self {
+            ns.fetch_max(us.saturating_mul(1000), Ordering::SeqCst);
+        }
+    }
 }
 
 /// How many recent samples a statistics ring keeps (memory stays bounded).

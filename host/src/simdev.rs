@@ -13,7 +13,7 @@ use std::time::Duration;
 
 use anyhow::Context as _;
 
-use crate::clock::{STATS_RING, monotonic_us, push_ring};
+use crate::clock::{Clock, STATS_RING, monotonic_us, push_ring};
 use crate::link::Transport;
 use crate::link::proxy::{Faults, Faulty};
 
@@ -60,25 +60,6 @@ pub struct SimStats {
     pub mute_changes: VecDeque<(u64, bool)>,
 }
 
-/// A clock: the real monotonic one, or a virtual one tests advance.
-#[derive(Debug, Clone)]
-pub enum Clock {
-    /// `CLOCK_MONOTONIC`.
-    Real,
-    /// Shared virtual microseconds.
-    Virtual(Arc<Mutex<u64>>),
-}
-
-impl Clock {
-    /// Now, µs.
-    pub fn now_us(&self) -> u64 {
-        match self {
-            Clock::Real => monotonic_us(),
-            Clock::Virtual(t) => *t.lock().unwrap_or_else(|e| e.into_inner()),
-        }
-    }
-}
-
 /// The device in process, as a [`Transport`]: every send is handled at
 /// once; a receive with nothing pending waits for the timeout (real clock)
 /// or advances the virtual clock by it, playing the steps due meanwhile.
@@ -101,8 +82,8 @@ impl<C: Core> InProcess<C> {
     /// Play the steps due up to `until_us` (virtual clock: also sets it).
     pub fn advance_to(&mut self, until_us: u64) {
         let mut core = self.core.lock().unwrap_or_else(|e| e.into_inner());
-        if let Clock::Virtual(t) = &self.clock {
-            let mut now = *t.lock().unwrap_or_else(|e| e.into_inner());
+        if self.clock.is_manual() {
+            let mut now = self.clock.now_us();
             // Step through every deadline so the player never sees a jump.
             while let Some(next) = core.poll(now) {
                 if next > until_us {
@@ -110,7 +91,7 @@ impl<C: Core> InProcess<C> {
                 }
                 now = next.max(now + 1);
             }
-            *t.lock().unwrap_or_else(|e| e.into_inner()) = until_us.max(now);
+            self.clock.set_us(until_us.max(now));
             core.poll(until_us);
         } else {
             core.poll(self.clock.now_us());
@@ -133,9 +114,8 @@ impl<C: Core> Transport for InProcess<C> {
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
         if self.pending.is_empty() {
-            match &self.clock {
-                Clock::Real => std::thread::sleep(timeout),
-                Clock::Virtual(_) => {}
+            if !self.clock.is_manual() {
+                std::thread::sleep(timeout);
             }
             let until = self.clock.now_us() + timeout.as_micros() as u64;
             self.advance_to(until);

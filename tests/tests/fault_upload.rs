@@ -14,17 +14,18 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use lm_proto::{Encoding, PlayAt, UploadHeader};
+use lmhost::clock::Clock;
 use lmhost::link::proxy::{Faults, Faulty};
 use lmhost::link::{Client, LinkError, UploadSpec};
 use lmhost::rng::SplitMix64;
 use lmhost::sequence::Sequence;
-use lmhost::simdev::{CapturedFrame, Clock, FwCore, InProcess, SimConfig};
+use lmhost::simdev::{CapturedFrame, FwCore, InProcess, SimConfig};
 
 type Link = Faulty<InProcess<FwCore>>;
 
 struct Rig {
     core: Arc<Mutex<FwCore>>,
-    time: Arc<Mutex<u64>>,
+    time: Clock,
     client: Client<Link>,
     playing: (u8, Sequence),
     corrupt_commits: u32,
@@ -77,8 +78,8 @@ impl Rig {
         };
         let core = Arc::new(Mutex::new(FwCore::new(cfg).unwrap()));
         core.lock().unwrap().set_capture(true);
-        let time = Arc::new(Mutex::new(1_000_000u64));
-        let link = InProcess::new(core.clone(), Clock::Virtual(time.clone()));
+        let time = Clock::manual_at_us(1_000_000);
+        let link = InProcess::new(core.clone(), time.clone());
         let mut client = Client::new(Faulty::new(link, Faults::default(), seed));
         client.timeout = Duration::from_millis(20);
         client.tries = 10;
@@ -103,7 +104,7 @@ impl Rig {
     }
 
     fn now(&self) -> u64 {
-        *self.time.lock().unwrap()
+        self.time.now_us()
     }
 
     /// Let the device play for `us` of virtual time.
@@ -145,7 +146,7 @@ impl Rig {
         let clean = std::mem::replace(
             self.client.transport_mut(),
             Faulty::new(
-                InProcess::new(self.core.clone(), Clock::Virtual(self.time.clone())),
+                InProcess::new(self.core.clone(), self.time.clone()),
                 faults,
                 seed,
             ),
@@ -163,7 +164,7 @@ impl Rig {
             .map(|_| ());
         // Back to a clean link to inspect the device.
         *self.client.transport_mut() = Faulty::new(
-            InProcess::new(self.core.clone(), Clock::Virtual(self.time.clone())),
+            InProcess::new(self.core.clone(), self.time.clone()),
             Faults::default(),
             seed,
         );

@@ -9,10 +9,11 @@
 use std::sync::{Arc, Mutex};
 
 use lm_proto::{Centroid, Encoding, PlayAt};
+use lmhost::clock::Clock;
 use lmhost::clock::STATS_RING;
 use lmhost::link::{Client, UploadSpec};
 use lmhost::sequence::Plan;
-use lmhost::simdev::{Clock, Core, FwCore, InProcess, SimConfig};
+use lmhost::simdev::{Core, FwCore, InProcess, SimConfig};
 
 fn rss_kib() -> u64 {
     let statm = std::fs::read_to_string("/proc/self/statm").unwrap();
@@ -26,13 +27,13 @@ fn lm_m() -> UploadSpec {
 
 fn soak(minutes: u64) {
     let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default()).unwrap()));
-    let time = Arc::new(Mutex::new(1_000_000u64));
-    let mut client = Client::new(InProcess::new(core.clone(), Clock::Virtual(time.clone())));
+    let time = Clock::manual_at_us(1_000_000);
+    let mut client = Client::new(InProcess::new(core.clone(), time.clone()));
     let spec = lm_m();
     let dwell_us = spec.header.period_us as u64 / spec.header.steps as u64;
     client.upload(&spec, 0, 1024, |_, _| {}).unwrap();
     client.play(0, PlayAt::Immediate, false).unwrap();
-    let start = *time.lock().unwrap();
+    let start = time.now_us();
     let updates = minutes * 60 * 90;
     let mut rss_after_first_minute = 0;
     for i in 0..updates {

@@ -25,12 +25,12 @@ use autd3::prelude::{
 };
 use lm_fw_core::gate::Gate;
 
-use super::clock::Clock;
 use super::emulator::{EmulatorHandle, EmulatorLink};
 use super::port::Autd3Port;
 use super::{correction, geometry, safety, timing};
 use crate::array::AUTD3_TRANSDUCERS;
 use crate::backend::{Backend, BackendInfo, CentroidOutcome, UploadReport};
+use crate::clock::Clock;
 use crate::error::InputError;
 use crate::scene::Scene;
 use crate::sequence::Plan;

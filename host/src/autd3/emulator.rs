@@ -16,7 +16,7 @@ use autd3::core::geometry::Geometry;
 use autd3::core::link::{Link, LinkError, RxMessage, TxBufferPoolSync, TxMessage};
 use autd3_firmware_emulator::CPUEmulator;
 
-use super::clock::Clock;
+use crate::clock::Clock;
 
 #[derive(Default)]
 struct State {

@@ -9,9 +9,7 @@
 //! - [`correction`]: centroid offsets from `lm-fw-core` as `PhaseCorrection`;
 //! - [`safety`]: the firmware's gate, mute, silencer settings;
 //! - [`device`]: [`Autd3Backend`], the [`Backend`](crate::backend::Backend).
-//! - [`clock`]: real or manual time for the emulator and the gate.
 
-pub mod clock;
 pub mod correction;
 pub mod device;
 pub mod emulator;
@@ -23,7 +21,6 @@ pub mod timing;
 #[cfg(test)]
 mod tests;
 
-pub use clock::Clock;
 pub use device::Autd3Backend;
 pub use emulator::{EmulatorHandle, EmulatorLink};
 pub use port::Autd3Port;

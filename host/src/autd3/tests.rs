@@ -1,5 +1,6 @@
 //! The AUTD3 backend against autd3's firmware emulator.
 
+use crate::clock::Clock;
 use std::time::Duration;
 
 use autd3::core::environment::Environment;
