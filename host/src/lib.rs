@@ -28,6 +28,7 @@ pub mod rng;
 pub mod scene;
 pub mod sequence;
 pub mod simdev;
+pub mod stimulus;
 pub mod stop;
 pub mod stream;
 pub mod synth;

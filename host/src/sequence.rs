@@ -293,7 +293,7 @@ impl Plan {
     pub fn paper_lm_m() -> Result<Self, InputError> {
         let scene = Scene::default();
         let mut params = LmParams::paper(scene.center_mm);
-        params.foci = 4;
+        params.foci = crate::trajectory::paper::LM_M_FOCI;
         Self::new(scene, &params, &Synthesis::Linear)
     }
 

@@ -26,6 +26,23 @@ pub const MAX_FOCI: usize = 32;
 /// Most steps per cycle (the wire's `steps` is a u16).
 pub const MAX_STEPS: usize = u16::MAX as usize;
 
+/// The paper's 5 Hz stimulus: the one definition of every default
+/// (`LmParams::paper`, `stimulus::Stimulus::default`, the CLI's flags).
+pub mod paper {
+    /// LM circle radius A (mm).
+    pub const RADIUS_MM: f64 = 3.0;
+    /// Foci per step (1: LM-S).
+    pub const FOCI: usize = 1;
+    /// Spacing d between neighbouring foci along the circle (mm).
+    pub const SPACING_MM: f64 = 3.0;
+    /// LM frequency f (Hz).
+    pub const FREQ_HZ: f64 = 5.0;
+    /// Step width d_LM (mm).
+    pub const STEP_MM: f64 = 0.23;
+    /// Foci of the paper's LM-M.
+    pub const LM_M_FOCI: usize = 4;
+}
+
 /// How the number of steps is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Steps {
@@ -62,11 +79,11 @@ impl LmParams {
     /// f = 5 Hz, d_LM = 0.23 mm, d = 3 mm, one focus.
     pub fn paper(center_mm: Vec3) -> Self {
         Self {
-            radius_mm: 3.0,
-            freq_hz: 5.0,
-            steps: Steps::Width(0.23),
-            foci: 1,
-            spacing_mm: 3.0,
+            radius_mm: paper::RADIUS_MM,
+            freq_hz: paper::FREQ_HZ,
+            steps: Steps::Width(paper::STEP_MM),
+            foci: paper::FOCI,
+            spacing_mm: paper::SPACING_MM,
             center_mm,
             z_profile_mm: Vec::new(),
             plane: LmPlane::default(),

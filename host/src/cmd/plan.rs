@@ -9,15 +9,14 @@ use clap::ValueEnum;
 use lm_proto::codec::Encoding;
 use serde_json::json;
 
+use crate::connect::Target;
 use crate::error::InputError;
 use crate::geom::Vec3;
 use crate::limits;
 use crate::scene::Scene;
 use crate::sequence::{Plan, Synthesis};
-use crate::trajectory::{LmParams, Steps};
-
-/// Default step width d_LM (mm): the paper's 5 Hz condition.
-pub const DEFAULT_STEP_MM: f64 = 0.23;
+use crate::stimulus::{Stimulus, TargetPlan};
+use crate::trajectory::{Steps, paper};
 
 /// Multi-focus synthesis method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
@@ -36,19 +35,19 @@ pub struct PlanArgs {
     #[arg(
         long,
         value_name = "MM",
-        default_value_t = 3.0,
+        default_value_t = paper::RADIUS_MM,
         allow_negative_numbers = true
     )]
     pub radius: f64,
     /// Foci per step, 1..=32: 1 = LM-S, more = LM-M (foci rotate together).
-    #[arg(long, value_name = "N", default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = paper::FOCI)]
     pub foci: usize,
     /// Spacing d between neighbouring foci along the circle in mm (LM-M),
     /// above 0 and at most 1000.
     #[arg(
         long,
         value_name = "MM",
-        default_value_t = 3.0,
+        default_value_t = paper::SPACING_MM,
         allow_negative_numbers = true
     )]
     pub spacing: f64,
@@ -56,7 +55,7 @@ pub struct PlanArgs {
     #[arg(
         long,
         value_name = "HZ",
-        default_value_t = 5.0,
+        default_value_t = paper::FREQ_HZ,
         allow_negative_numbers = true
     )]
     pub freq: f64,
@@ -88,7 +87,7 @@ pub struct PlanArgs {
     #[arg(long, value_enum, default_value_t = Method::Linear)]
     pub method: Method,
     /// GS-PAT iterations (with --method gspat), 1..=1000.
-    #[arg(long, value_name = "N", default_value_t = 20)]
+    #[arg(long, value_name = "N", default_value_t = crate::stimulus::GSPAT_ITERATIONS)]
     pub iterations: usize,
     /// Real weight per focus, comma-separated, each within ±1e6 and not
     /// all zero (linear synthesis only).
@@ -146,96 +145,67 @@ pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
     Ok(v)
 }
 
-/// Below this angle between the LM plane and the beam axis the circle runs
-/// along the beam instead of across the finger pad.
-pub const MIN_LM_PLANE_BEAM_ANGLE_DEG: f64 = 30.0;
-
-/// A one-line warning when the scene's LM plane is within
-/// [`MIN_LM_PLANE_BEAM_ANGLE_DEG`] of containing the beam axis.
-pub fn lm_plane_warning(scene: &Scene, center_mm: Vec3) -> Option<String> {
-    let a = scene.lm_plane_beam_angle_deg(center_mm)?;
-    (a < MIN_LM_PLANE_BEAM_ANGLE_DEG).then(|| {
-        format!(
-            "the LM plane of {} is {a:.0}° from the beam axis (under {MIN_LM_PLANE_BEAM_ANGLE_DEG:.0}°): \
-             the circle runs along the wave, not across the finger pad; set lm_plane.c along the wave",
-            scene.name
-        )
-    })
-}
-
 impl PlanArgs {
     /// The scene named by `--scene`, or the built-in one.
     pub fn load_scene(&self) -> Result<Scene, InputError> {
         Scene::load_or_default(self.scene.as_deref())
     }
 
-    /// Stimulus parameters for `scene` (its centre and plane by default).
-    pub fn params(&self, scene: &Scene) -> Result<LmParams, InputError> {
-        let center_mm = match &self.center {
-            Some(c) => parse_vec3("center", c)?,
-            None => scene.center_mm,
-        };
+    /// The stimulus the flags describe (strings parsed, nothing planned).
+    pub fn stimulus(&self) -> Result<Stimulus, InputError> {
+        let center_mm = self
+            .center
+            .as_deref()
+            .map(|c| parse_vec3("center", c))
+            .transpose()?;
         let steps = match (self.step, self.steps) {
             (_, Some(n)) => Steps::Count(n),
             (Some(w), None) => Steps::Width(w),
-            (None, None) => Steps::Width(DEFAULT_STEP_MM),
+            (None, None) => Steps::Width(paper::STEP_MM),
         };
         let z_profile_mm = match &self.z {
             Some(z) => parse_list("z", z)?,
             None => Vec::new(),
         };
-        Ok(LmParams {
-            radius_mm: self.radius,
-            freq_hz: self.freq,
-            steps,
-            foci: self.foci,
-            spacing_mm: self.spacing,
-            center_mm,
-            z_profile_mm,
-            plane: scene.lm_plane,
-        })
-    }
-
-    /// The synthesis method the flags ask for.
-    pub fn synthesis(&self) -> Result<Synthesis, InputError> {
-        Ok(match (self.method, &self.weights) {
+        let synthesis = match (self.method, &self.weights) {
             (Method::Gspat, Some(_)) => {
                 return Err(InputError::new("--weights applies to --method linear only"));
             }
-            (Method::Gspat, None) => {
-                if !(1..=limits::MAX_ITERATIONS).contains(&self.iterations) {
-                    return Err(InputError::new(format!(
-                        "--iterations {} is out of range: allowed 1..={}",
-                        self.iterations,
-                        limits::MAX_ITERATIONS
-                    )));
-                }
-                Synthesis::GsPat {
-                    iterations: self.iterations,
-                }
-            }
+            (Method::Gspat, None) => crate::stimulus::gspat(self.iterations)?,
             (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
             (Method::Linear, None) => Synthesis::Linear,
+        };
+        Ok(Stimulus {
+            radius_mm: self.radius,
+            foci: self.foci,
+            spacing_mm: self.spacing,
+            freq_hz: self.freq,
+            steps,
+            center_mm,
+            z_profile_mm,
+            synthesis,
         })
     }
 
-    /// Loads the scene, plans the trajectory and synthesises the sequence.
+    /// Loads the scene and plans the stimulus for `target`, printing its
+    /// warnings (once per run, even when a command plans many stimuli).
     /// Bad flags or scene files are [`InputError`]s (exit code 2).
-    pub fn plan(&self) -> anyhow::Result<Plan> {
+    pub fn plan_for(&self, target: &Target) -> anyhow::Result<TargetPlan> {
         let scene = self.load_scene()?;
-        let params = self.params(&scene)?;
-        let synthesis = self.synthesis()?;
-        // Plan first: a plan that cannot be made is one error line, no warning.
-        let plan = Plan::new(scene, &params, &synthesis)?;
-        if let Some(w) = lm_plane_warning(&plan.scene, params.center_mm) {
-            // Once per run, even when a command plans many stimuli.
-            static WARNED: std::sync::atomic::AtomicBool =
-                std::sync::atomic::AtomicBool::new(false);
-            if !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed) {
+        let planned = self.stimulus()?.plan_for(target, scene)?;
+        static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+        if !planned.warnings.is_empty() && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            for w in &planned.warnings {
                 crate::errln!("warning: {w}");
             }
         }
-        Ok(plan)
+        Ok(planned)
+    }
+
+    /// [`Self::plan_for`] the LM firmware (the stimulus as asked).
+    pub fn plan(&self) -> anyhow::Result<Plan> {
+        Ok(self.plan_for(&Target::Lm)?.plan)
     }
 }
 

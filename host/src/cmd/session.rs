@@ -10,21 +10,6 @@ use crate::backend::{Backend, UploadReport};
 use crate::cmd::plan::PlanArgs;
 use crate::connect::{Target, open};
 use crate::link::PortArgs;
-use crate::sequence::Plan;
-
-/// The plan for the device `target` names: the 25 µs dwell grid on AUTD3
-/// (with its realised timing), else the plan the flags ask for.
-pub fn plan_for(target: &Target, args: &PlanArgs) -> anyhow::Result<(Plan, Option<GridTiming>)> {
-    match target {
-        // The CLI's own planning path (warnings included).
-        Target::Lm => Ok((args.plan()?, None)),
-        Target::Autd3(_) => {
-            let scene = args.load_scene()?;
-            let params = args.params(&scene)?;
-            target.plan_on_grid(&params, &scene, &args.synthesis()?)
-        }
-    }
-}
 
 /// What [`open_playing`] uploaded before a session (AUTD3 only).
 #[derive(Debug, Clone, Serialize)]
@@ -50,8 +35,11 @@ pub fn open_playing(
         let scene = plan.load_scene()?;
         return Ok((open(port, &scene)?, None));
     };
-    let (plan, grid) = plan_for(&target, plan)?;
-    let timing = grid.context("an AUTD3 plan is on its grid")?;
+    let planned = plan.plan_for(&target)?;
+    let (plan, timing) = (
+        planned.plan,
+        planned.grid.context("an AUTD3 plan is on its grid")?,
+    );
     let mut dev = open(port, &plan.scene)?;
     let upload = dev.upload(&plan, None)?;
     let where_ = dev.describe();

@@ -98,7 +98,8 @@ impl Args {
                 "--hold applies to AUTD3 ports only (the LM firmware plays on its own)"
             );
         }
-        let (mut plan, grid) = crate::cmd::session::plan_for(&target, &self.plan)?;
+        let planned = self.plan.plan_for(&target)?;
+        let (mut plan, grid) = (planned.plan, planned.grid);
         plan.sequence.set_max_offset_mm(self.max_offset)?;
         let mut dev =
             crate::connect::open_with(&self.port, &plan.scene, self.encoding.into(), !self.json)?;

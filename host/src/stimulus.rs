@@ -1,0 +1,170 @@
+//! A stimulus as a study names it, its defaults, and its plan for a device.
+//!
+//! [`Stimulus`] holds what the plan flags (`--radius`, `--foci`, ...), the
+//! demo and (later) a stimulus library entry say: everything about the
+//! stimulus and nothing about the rig. Its [`Default`] is the paper's 5 Hz
+//! condition (LM-S, A = 3 mm, 0.23 mm steps) from [`paper`], the one place
+//! the defaults are written; the CLI's flag defaults read the same
+//! constants. [`Stimulus::plan_for`] is the one
+//! entry point from a stimulus to the phases a given device plays: on an
+//! AUTD3 on its 25 µs dwell grid, on the LM firmware as asked.
+
+use crate::autd3::GridTiming;
+use crate::connect::Target;
+use crate::error::InputError;
+use crate::geom::Vec3;
+use crate::scene::Scene;
+use crate::sequence::{Plan, Synthesis};
+use crate::trajectory::{LmParams, Steps, paper};
+
+/// Default GS-PAT iterations.
+pub const GSPAT_ITERATIONS: usize = 20;
+
+/// Below this angle between the LM plane and the beam axis the circle runs
+/// along the beam instead of across the finger pad.
+pub const MIN_LM_PLANE_BEAM_ANGLE_DEG: f64 = 30.0;
+
+/// One stimulus, independent of the rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stimulus {
+    /// Circle radius A (mm).
+    pub radius_mm: f64,
+    /// Foci per step.
+    pub foci: usize,
+    /// Spacing d between neighbouring foci along the circle (mm).
+    pub spacing_mm: f64,
+    /// LM frequency f (Hz).
+    pub freq_hz: f64,
+    /// Step width or count.
+    pub steps: Steps,
+    /// Circle centre in finger space (mm); `None`: the scene's centre.
+    pub center_mm: Option<Vec3>,
+    /// Per-step depth along the LM plane's c axis (mm).
+    pub z_profile_mm: Vec<f64>,
+    /// Multi-focus synthesis.
+    pub synthesis: Synthesis,
+}
+
+impl Default for Stimulus {
+    /// The paper's LM-S at 5 Hz: A = 3 mm, d_LM = 0.23 mm.
+    fn default() -> Self {
+        Self {
+            radius_mm: paper::RADIUS_MM,
+            foci: paper::FOCI,
+            spacing_mm: paper::SPACING_MM,
+            freq_hz: paper::FREQ_HZ,
+            steps: Steps::Width(paper::STEP_MM),
+            center_mm: None,
+            z_profile_mm: Vec::new(),
+            synthesis: Synthesis::Linear,
+        }
+    }
+}
+
+/// A stimulus planned for one device.
+#[derive(Debug, Clone)]
+pub struct TargetPlan {
+    /// The plan (on the device's dwell grid).
+    pub plan: Plan,
+    /// Realised timing on the 25 µs grid (AUTD3 only).
+    pub grid: Option<GridTiming>,
+    /// One-line warnings about the stimulus in this scene.
+    pub warnings: Vec<String>,
+}
+
+impl Stimulus {
+    /// The paper's LM-M: the default with four foci 3 mm apart.
+    pub fn paper_lm_m() -> Self {
+        Self {
+            foci: paper::LM_M_FOCI,
+            ..Self::default()
+        }
+    }
+
+    /// The trajectory parameters in `scene` (its centre and LM plane unless
+    /// the stimulus names a centre).
+    pub fn params(&self, scene: &Scene) -> LmParams {
+        LmParams {
+            radius_mm: self.radius_mm,
+            freq_hz: self.freq_hz,
+            steps: self.steps,
+            foci: self.foci,
+            spacing_mm: self.spacing_mm,
+            center_mm: self.center_mm.unwrap_or(scene.center_mm),
+            z_profile_mm: self.z_profile_mm.clone(),
+            plane: scene.lm_plane,
+        }
+    }
+
+    /// Plans the stimulus in `scene` for the device `target` names. A plan
+    /// that cannot be made is one error and no warning.
+    pub fn plan_for(&self, target: &Target, scene: Scene) -> anyhow::Result<TargetPlan> {
+        let params = self.params(&scene);
+        let (plan, grid) = target.plan_on_grid(&params, &scene, &self.synthesis)?;
+        let warnings = lm_plane_warning(&plan.scene, params.center_mm)
+            .into_iter()
+            .collect();
+        Ok(TargetPlan {
+            plan,
+            grid,
+            warnings,
+        })
+    }
+
+    /// Plans the stimulus in `scene` as asked (the LM firmware's timing).
+    pub fn plan(&self, scene: Scene) -> anyhow::Result<TargetPlan> {
+        self.plan_for(&Target::Lm, scene)
+    }
+}
+
+/// A one-line warning when the scene's LM plane is within
+/// [`MIN_LM_PLANE_BEAM_ANGLE_DEG`] of containing the beam axis.
+pub fn lm_plane_warning(scene: &Scene, center_mm: Vec3) -> Option<String> {
+    let a = scene.lm_plane_beam_angle_deg(center_mm)?;
+    (a < MIN_LM_PLANE_BEAM_ANGLE_DEG).then(|| {
+        format!(
+            "the LM plane of {} is {a:.0}° from the beam axis (under {MIN_LM_PLANE_BEAM_ANGLE_DEG:.0}°): \
+             the circle runs along the wave, not across the finger pad; set lm_plane.c along the wave",
+            scene.name
+        )
+    })
+}
+
+/// Checks a GS-PAT iteration count (1..=[`crate::limits::MAX_ITERATIONS`]).
+pub fn gspat(iterations: usize) -> Result<Synthesis, InputError> {
+    if !(1..=crate::limits::MAX_ITERATIONS).contains(&iterations) {
+        return Err(InputError::new(format!(
+            "--iterations {iterations} is out of range: allowed 1..={}",
+            crate::limits::MAX_ITERATIONS
+        )));
+    }
+    Ok(Synthesis::GsPat { iterations })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_is_the_papers_5_hz_lm_s_and_lm_m_adds_foci() {
+        let scene = Scene::default();
+        let p = Stimulus::default().params(&scene);
+        assert_eq!(p, LmParams::paper(scene.center_mm));
+        let m = Stimulus::paper_lm_m().plan(scene.clone()).unwrap();
+        assert_eq!(m.plan.trajectory.foci, 4);
+        assert_eq!(m.plan.trajectory.steps, 82);
+        assert!(m.grid.is_none() && m.warnings.is_empty());
+    }
+
+    #[test]
+    fn an_autd3_plan_lands_on_the_25_us_grid() {
+        let target = Target::Autd3(crate::autd3::Autd3Port::Emulator);
+        let t = Stimulus::default()
+            .plan_for(&target, Scene::default())
+            .unwrap();
+        let g = t.grid.expect("grid timing on AUTD3");
+        let dwell_us = t.plan.sequence.dwell_us();
+        assert_eq!(dwell_us % 25.0, 0.0, "{dwell_us}");
+        assert!(g.freq_error_hz.abs() < 0.5, "{g:?}");
+    }
+}
