@@ -15,6 +15,7 @@ pub mod bench;
 pub mod clock;
 pub mod cmd;
 pub mod connect;
+pub mod demo;
 pub mod directivity;
 pub mod error;
 pub mod field;

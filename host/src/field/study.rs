@@ -36,6 +36,31 @@ pub struct View {
     pub reference: bool,
 }
 
+/// Default observation plane width and height (mm).
+pub const PLANE_SIZE_MM: f64 = 20.0;
+/// Default observation grid step (mm).
+pub const PLANE_STEP_MM: f64 = 0.2;
+/// Default force-disk diameter (mm): the paper's gauge disk.
+pub const DISK_MM: f64 = 15.0;
+
+impl Default for View {
+    /// A 20 mm square at 0.2 mm on the LM plane about the LM centre, the
+    /// paper's 15 mm force disk, α = 2, air at 20 °C, no calibration.
+    fn default() -> Self {
+        Self {
+            size_mm: (PLANE_SIZE_MM, PLANE_SIZE_MM),
+            step_mm: PLANE_STEP_MM,
+            center_mm: None,
+            axes: None,
+            rad: Radiation::default(),
+            density: super::DEFAULT_DENSITY_KG_M3,
+            disk_mm: DISK_MM,
+            calibration: 1.0,
+            reference: false,
+        }
+    }
+}
+
 /// Refuses a simulation beyond [`limits::MAX_SIM_WORK`] (or the
 /// reference loop's budget) before it starts, naming what to reduce.
 pub fn check_work(
