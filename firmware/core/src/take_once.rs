@@ -37,6 +37,8 @@ impl<T> TakeOnce<T> {
     }
 
     /// The value, the first time; `None` on every later call.
+    // `&self` → `&mut T` is the point: the atomic makes it happen once.
+    #[allow(clippy::mut_from_ref)]
     pub fn take(&'static self) -> Option<&'static mut T> {
         if self.taken.swap(true, Ordering::AcqRel) {
             return None;
