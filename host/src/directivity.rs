@@ -69,14 +69,13 @@ const DIR_COEF_D: [f64; 9] = [
 ];
 
 /// Directivity model of a transducer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Directivity {
     /// Omnidirectional point source: gain 1 at every angle.
     Omni,
     /// T4010A1 spec-sheet directivity, AUTD3's piecewise cubic table.
     #[default]
-    #[value(name = "t4010a1")]
     T4010A1,
 }
 

@@ -14,7 +14,7 @@ pub struct Args {
     #[arg(long, value_name = "S", default_value_t = 4.0)]
     seconds: f64,
     /// Centroid filter.
-    #[arg(long, value_enum, default_value_t = FilterKind::Kalman)]
+    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
     filter: FilterKind,
     /// How the host reaches the simulated device: `pty` (the serial path
     /// any tool uses) or `socket` (a socket pair: no tty layer, lowest

@@ -6,6 +6,7 @@ use serde::Serialize;
 use crate::backend::Backend;
 use crate::connect::DeviceArgs;
 
+mod args;
 pub mod bench;
 pub mod demo;
 pub mod flash;

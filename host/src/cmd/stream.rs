@@ -59,7 +59,7 @@ pub struct Args {
     #[arg(long, value_name = "START,END")]
     away: Option<String>,
     /// Centroid filter.
-    #[arg(long, value_enum, default_value_t = FilterKind::Kalman)]
+    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
     filter: FilterKind,
     /// Kalman filter: predict this far ahead (ms), e.g. the link latency.
     #[arg(long, value_name = "MS", default_value_t = 0.0)]

@@ -84,7 +84,7 @@ pub struct Args {
     #[arg(long, value_name = "N", requires = "plot")]
     plot_frame: Option<u64>,
     /// Centroid filter [default: gaussian (the paper's) with --port, else none].
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = super::args::filter())]
     filter: Option<FilterKind>,
     /// Also measure the finger surface's depth z_j along a circle of
     /// RADIUS_MM in STEPS steps about the centroid (relative to the centre,

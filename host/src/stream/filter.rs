@@ -16,7 +16,7 @@ use super::Sample;
 pub const MAX_COAST_S: f64 = 1.0;
 
 /// Which filter to run, as chosen on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FilterKind {
     /// No smoothing: raw tracker centroids.
@@ -43,6 +43,16 @@ impl FilterKind {
         }
     }
 
+    /// What it does, in a line (the CLI's help).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::None => "No smoothing: raw tracker centroids",
+            Self::Gaussian => "The paper's Gaussian over the last 10 frames (lag ≈ 4.5 frames)",
+            Self::Kalman => "Constant-velocity Kalman filter, unbiased on ramps (the default)",
+            Self::OneEuro => "The one-euro filter (speed-adaptive low-pass)",
+        }
+    }
+
     /// The name used on the command line.
     pub fn name(self) -> &'static str {
         match self {
@@ -57,7 +67,19 @@ impl FilterKind {
 impl FromStr for FilterKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        <Self as clap::ValueEnum>::from_str(s, true)
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| {
+                let names: Vec<_> = Self::ALL.iter().map(|k| k.name()).collect();
+                format!("unknown filter `{s}`: one of {}", names.join(", "))
+            })
+    }
+}
+
+impl std::fmt::Display for FilterKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
