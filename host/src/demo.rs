@@ -18,7 +18,7 @@ use crate::connect::{LmBackend, Target};
 use crate::link::Client;
 use crate::scene::Scene;
 use crate::simdev::{SimConfig, SimStats, SimThread};
-use crate::stimulus::Stimulus;
+use crate::stimulus::{Stimulus, Timing};
 use crate::stream::filter::{FilterKind, Passthrough};
 use crate::stream::run::{Pace, stream};
 use crate::stream::synthetic::FingerTrack;
@@ -217,22 +217,11 @@ pub struct Report {
     pub realtime_priority: Option<bool>,
     /// [`STIMULUS`].
     pub stimulus: &'static str,
-    /// Steps per cycle.
-    pub steps: usize,
     /// Transducers.
     pub transducers: usize,
-    /// Dwell per step, µs (AUTD3: on its 25 µs grid).
-    pub dwell_us: f64,
-    /// Realised LM frequency, Hz.
-    pub freq_hz: f64,
-    /// Realised step width, mm.
-    pub step_mm: f64,
-    /// Realised − requested frequency (AUTD3's grid), Hz.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub freq_error_hz: Option<f64>,
-    /// Realised − requested step (AUTD3's grid), mm.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub step_error_mm: Option<f64>,
+    /// Steps, dwell, frequency and step width, realised and requested.
+    #[serde(flatten)]
+    pub timing: Timing,
     /// Phases read back that differ from the plan (`None`: no read-back).
     pub readback_mismatches: Option<u64>,
     /// The upload.
@@ -333,19 +322,14 @@ pub fn run(
             .as_ref()
             .map(|s| percentile(s.latencies_us.iter().copied(), p).unwrap_or(0))
     };
-    let dwell_us = up.dwell_us;
+    let dwell_us = planned.timing.dwell_us;
     Ok(Report {
         device: dev.describe(),
         link: sim.map(|s| s.link),
         realtime_priority: sim.map(|s| s.realtime),
         stimulus: STIMULUS,
-        steps: up.steps,
         transducers: up.transducers,
-        dwell_us,
-        freq_hz: up.freq_hz,
-        step_mm: plan.trajectory.step_mm,
-        freq_error_hz: planned.grid.as_ref().map(|g| g.freq_error_hz),
-        step_error_mm: planned.grid.as_ref().map(|g| g.step_error_mm),
+        timing: planned.timing.clone(),
         readback_mismatches: up.readback_mismatches,
         upload: UploadFigures {
             slot: up.slot,

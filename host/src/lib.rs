@@ -36,5 +36,6 @@ pub mod synth;
 pub mod track;
 pub mod trajectory;
 pub mod units;
+pub mod upload;
 
 pub use error::InputError;

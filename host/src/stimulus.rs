@@ -66,10 +66,69 @@ impl Default for Stimulus {
 pub struct TargetPlan {
     /// The plan (on the device's dwell grid).
     pub plan: Plan,
-    /// Realised timing on the 25 µs grid (AUTD3 only).
-    pub grid: Option<GridTiming>,
+    /// What the device will play against what was asked.
+    pub timing: Timing,
     /// One-line warnings about the stimulus in this scene.
     pub warnings: Vec<String>,
+}
+
+/// Realised timing against the request, on every backend: the LM firmware
+/// plays the asked frequency (its step is the nearest whole `N`), an AUTD3
+/// the nearest on its 25 µs grid.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Timing {
+    /// Steps per cycle `N`.
+    pub steps: usize,
+    /// Dwell per step (µs).
+    pub dwell_us: f64,
+    /// Dwell the request asked for, `1 / (N f)` (µs).
+    pub requested_dwell_us: f64,
+    /// `dwell_us - requested_dwell_us`.
+    pub dwell_error_us: f64,
+    /// Realised LM frequency (Hz).
+    pub freq_hz: f64,
+    /// Requested LM frequency (Hz).
+    pub requested_freq_hz: f64,
+    /// `freq_hz - requested_freq_hz`.
+    pub freq_error_hz: f64,
+    /// Realised step width `2πA / N` (mm).
+    pub step_mm: f64,
+    /// Requested step width (mm; for a step count, `2πA / N`).
+    pub requested_step_mm: f64,
+    /// `step_mm - requested_step_mm`.
+    pub step_error_mm: f64,
+    /// AUTD3: dwell = `divide` × 25 µs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub divide: Option<u16>,
+}
+
+impl Timing {
+    fn new(
+        plan: &Plan,
+        requested_freq_hz: f64,
+        requested_step_mm: f64,
+        divide: Option<u16>,
+    ) -> Self {
+        // What the device plays: the header's whole-µs period.
+        let t = &plan.trajectory;
+        let period_us = f64::from(plan.sequence.header.period_us);
+        let dwell_us = plan.sequence.dwell_us();
+        let requested_dwell_us = 1e6 / (requested_freq_hz * t.steps as f64);
+        let freq_hz = 1e6 / period_us;
+        Self {
+            steps: t.steps,
+            dwell_us,
+            requested_dwell_us,
+            dwell_error_us: dwell_us - requested_dwell_us,
+            freq_hz,
+            requested_freq_hz,
+            freq_error_hz: freq_hz - requested_freq_hz,
+            step_mm: t.step_mm,
+            requested_step_mm,
+            step_error_mm: t.step_mm - requested_step_mm,
+            divide,
+        }
+    }
 }
 
 impl Stimulus {
@@ -104,9 +163,24 @@ impl Stimulus {
         let warnings = lm_plane_warning(&plan.scene, params.center_mm)
             .into_iter()
             .collect();
+        let timing = match grid {
+            Some(GridTiming {
+                divide,
+                requested_freq_hz,
+                requested_step_mm,
+                ..
+            }) => Timing::new(&plan, requested_freq_hz, requested_step_mm, Some(divide)),
+            None => {
+                let requested_step_mm = match self.steps {
+                    Steps::Width(w) => w,
+                    Steps::Count(_) => plan.trajectory.step_mm,
+                };
+                Timing::new(&plan, self.freq_hz, requested_step_mm, None)
+            }
+        };
         Ok(TargetPlan {
             plan,
-            grid,
+            timing,
             warnings,
         })
     }
@@ -153,7 +227,13 @@ mod tests {
         let m = Stimulus::paper_lm_m().plan(scene.clone()).unwrap();
         assert_eq!(m.plan.trajectory.foci, 4);
         assert_eq!(m.plan.trajectory.steps, 82);
-        assert!(m.grid.is_none() && m.warnings.is_empty());
+        assert!(m.timing.divide.is_none() && m.warnings.is_empty());
+        // 200 ms is a whole number of µs: the LM firmware plays 5 Hz exactly.
+        assert_eq!(m.timing.freq_error_hz, 0.0, "{:?}", m.timing);
+        assert!(
+            (m.timing.step_error_mm - (2.0 * std::f64::consts::PI * 3.0 / 82.0 - 0.23)).abs()
+                < 1e-12
+        );
     }
 
     #[test]
@@ -162,9 +242,13 @@ mod tests {
         let t = Stimulus::default()
             .plan_for(&target, Scene::default())
             .unwrap();
-        let g = t.grid.expect("grid timing on AUTD3");
-        let dwell_us = t.plan.sequence.dwell_us();
-        assert_eq!(dwell_us % 25.0, 0.0, "{dwell_us}");
-        assert!(g.freq_error_hz.abs() < 0.5, "{g:?}");
+        let g = &t.timing;
+        assert_eq!(g.divide, Some(98), "{g:?}");
+        assert!((g.dwell_us - 2450.0).abs() < 1e-9, "{g:?}");
+        assert!((g.freq_error_hz + 0.0229).abs() < 1e-3, "{g:?}");
+        assert!(
+            (g.dwell_error_us - (2450.0 - 1e6 / (5.0 * 82.0))).abs() < 1e-9,
+            "{g:?}"
+        );
     }
 }

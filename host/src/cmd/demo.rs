@@ -143,18 +143,22 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
         _ => String::new(),
     };
     crate::outln!("lmhost demo: {}{via}", r.device)?;
-    let grid = match (r.freq_error_hz, r.step_error_mm) {
-        (Some(f), Some(s)) => format!(" on the 25 µs grid ({f:+.3} Hz, {s:+.4} mm)"),
-        _ => String::new(),
+    let t = &r.timing;
+    let grid = if t.divide.is_some() {
+        " on the 25 µs grid"
+    } else {
+        ""
     };
     crate::outln!(
-        "stimulus   {}: {} steps × {} transducers, dwell {:.0} µs{grid}, {:.3} Hz, step {:.4} mm",
+        "stimulus   {}: {} steps × {} transducers, dwell {:.0} µs{grid}, {:.3} Hz ({:+.3} Hz), step {:.4} mm ({:+.4} mm)",
         r.stimulus,
-        r.steps,
+        t.steps,
         r.transducers,
-        r.dwell_us,
-        r.freq_hz,
-        r.step_mm
+        t.dwell_us,
+        t.freq_hz,
+        t.freq_error_hz,
+        t.step_mm,
+        t.step_error_mm
     )?;
     let u = &r.upload;
     let bytes = match (
@@ -184,7 +188,7 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
             "steps      {} played: mean dwell {:.1} µs (planned {:.1}), {} missed deadlines, p99 lateness {} µs",
             p.steps_played,
             p.mean_dwell_us,
-            r.dwell_us,
+            t.dwell_us,
             p.missed_deadlines,
             p.step_late_p99_us
         )?;

@@ -2,14 +2,13 @@
 //! which holds a sequence only while lmhost holds the link, plan, upload,
 //! read back and play first.
 
-use anyhow::Context as _;
 use serde::Serialize;
 
-use crate::autd3::GridTiming;
 use crate::backend::{Backend, UploadReport};
 use crate::cmd::plan::PlanArgs;
 use crate::connect::{Target, open};
 use crate::link::PortArgs;
+use crate::stimulus::Timing;
 
 /// What [`open_playing`] uploaded before a session (AUTD3 only).
 #[derive(Debug, Clone, Serialize)]
@@ -17,7 +16,7 @@ pub struct SessionUpload {
     /// The upload.
     pub upload: UploadReport,
     /// Realised timing on the 25 µs grid.
-    pub timing: GridTiming,
+    pub timing: Timing,
 }
 
 /// Opens the device for a streaming session (`stream`, `track`, `demo`).
@@ -36,10 +35,7 @@ pub fn open_playing(
         return Ok((open(port, &scene)?, None));
     };
     let planned = plan.plan_for(&target)?;
-    let (plan, timing) = (
-        planned.plan,
-        planned.grid.context("an AUTD3 plan is on its grid")?,
-    );
+    let (plan, timing) = (planned.plan, planned.timing);
     let mut dev = open(port, &plan.scene)?;
     let upload = dev.upload(&plan, None)?;
     let where_ = dev.describe();

@@ -1,14 +1,12 @@
 //! `lmhost upload`: plan, check it fits the device, upload, commit, play.
 
-use anyhow::Context as _;
 use lm_proto::{DeviceState, Encoding, Status};
 
-use crate::autd3::GridTiming;
-use crate::backend::{Backend, UploadReport};
 use crate::cmd::plan::PlanArgs;
 use crate::connect::Target;
 use crate::link::PortArgs;
 use crate::sequence::DEFAULT_MAX_OFFSET_MM;
+use crate::upload::{Play, UploadOutcome};
 
 /// Sequence encoding on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -98,179 +96,56 @@ impl Args {
                 "--hold applies to AUTD3 ports only (the LM firmware plays on its own)"
             );
         }
-        let planned = self.plan.plan_for(&target)?;
-        let (mut plan, grid) = (planned.plan, planned.grid);
-        plan.sequence.set_max_offset_mm(self.max_offset)?;
-        let mut dev =
-            crate::connect::open_with(&self.port, &plan.scene, self.encoding.into(), !self.json)?;
-        if dev.needs_host() && !self.no_play {
+        let mut planned = self.plan.plan_for(&target)?;
+        planned.plan.sequence.set_max_offset_mm(self.max_offset)?;
+        let mut dev = crate::connect::open_with(
+            &self.port,
+            &planned.plan.scene,
+            self.encoding.into(),
+            !self.json,
+        )?;
+        let needs_host = dev.needs_host();
+        if needs_host && !self.no_play {
             // Ctrl-C / SIGTERM end the hold below; the array is left silent.
             crate::stop::graceful();
         }
-        let report = dev.upload(&plan, self.slot)?;
-        let slot = report.slot;
-        let mut outcome = None;
-        if !self.no_play {
-            dev.play(slot, self.untracked)?;
-            let st = dev.status().context("reading the device status")?;
-            outcome = Some((play_outcome(slot, &st), st));
-            if self.untracked {
-                crate::errln!("{UNTRACKED_WARNING}");
-            }
+        let play = match (self.no_play, self.untracked) {
+            (true, _) => Play::No,
+            (false, false) => Play::Tracked,
+            (false, true) => Play::Untracked,
+        };
+        let o = crate::upload::upload(dev.as_mut(), &planned, self.slot, play)?;
+        if self.untracked {
+            crate::errln!("{UNTRACKED_WARNING}");
         }
-        let h = &plan.sequence.header;
-        let Some(wire) = report.wire else {
-            return self.finish_autd3(dev.as_mut(), &report, grid, outcome, hold, h);
+        let port = o.port.clone();
+        // AUTD3: the array plays only while lmhost holds the link; the
+        // emulator exits at once by default.
+        let hold = match (needs_host && !self.no_play, hold) {
+            (false, _) => None,
+            (true, Some(d)) => Some(Some(d)),
+            (true, None) if port.starts_with("autd3:emulator") => None,
+            (true, None) => Some(None),
         };
         if self.json {
-            let mut v = serde_json::to_value(wire)?;
-            v["wire_efficiency"] = wire.wire_efficiency().into();
-            self.play_json(&mut v, &outcome, slot);
-            v["steps"] = h.steps.into();
-            v["transducers"] = h.transducers.into();
-            v["max_offset_um"] = h.max_offset_um.into();
+            let mut v = serde_json::to_value(&o)?;
+            if needs_host {
+                v["hold_s"] = match hold {
+                    None => serde_json::Value::Null,
+                    Some(d) => d.map(|d| d.as_secs_f64()).into(),
+                };
+            }
             crate::outln!("{v}")?;
         } else {
-            crate::outln!(
-                "uploaded {} steps × {} transducers to slot {slot}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
-                h.steps,
-                h.transducers,
-                wire.raw_bytes,
-                wire.sequence_bytes,
-                wire.payload_bytes,
-                wire.wire_bytes_sent + wire.wire_bytes_received
-            )?;
-            crate::outln!(
-                "{:.3} s, {:.1} kB/s payload, wire efficiency {:.1} %, CRC {:08x}, {} retries",
-                wire.seconds,
-                wire.payload_bytes as f64 / wire.seconds.max(1e-9) / 1e3,
-                wire.wire_efficiency() * 100.0,
-                wire.crc32,
-                wire.retries
-            )?;
-            self.print_outcome(&outcome, slot, h, "stream centroids with `lmhost stream`")?;
+            print_text(&o, needs_host)?;
         }
-        Ok(())
-    }
-
-    /// The play fields of the JSON report: playing, queued (into `slot`)
-    /// and untracked.
-    fn play_json(&self, v: &mut serde_json::Value, outcome: &Option<(String, Status)>, slot: u8) {
-        v["playing"] = (!self.no_play).into();
-        v["queued"] = outcome
-            .as_ref()
-            .is_some_and(|(_, st)| st.queued_slot == Some(slot))
-            .into();
-        v["untracked"] = self.untracked.into();
-    }
-
-    fn print_outcome(
-        &self,
-        outcome: &Option<(String, Status)>,
-        slot: u8,
-        h: &lm_proto::UploadHeader,
-        how_to_stream: &str,
-    ) -> anyhow::Result<()> {
-        match outcome {
-            Some((text, _)) if self.untracked => crate::outln!("{text}, untracked")?,
-            Some((text, st)) => {
-                crate::outln!("{text}")?;
-                if st.state == DeviceState::Muted {
-                    crate::outln!(
-                        "muted ({}) until the device tracks a finger within {} mm of the \
-                         centre: {how_to_stream}, or upload with \
-                         --untracked to play without tracking",
-                        st.mute_reason.describe(),
-                        f64::from(h.max_offset_um) / 1000.0
-                    )?;
-                }
-            }
-            None => crate::outln!(
-                "not playing (--no-play): `lmhost play --slot {slot}` plays it \
-                 (add --untracked to play without tracking)"
-            )?,
-        }
-        Ok(())
-    }
-
-    /// AUTD3: report the realised grid timing and the FPGA read-back, then
-    /// hold the link (the array plays only while lmhost holds it) until
-    /// Ctrl-C / SIGTERM or `--hold`; the emulator exits at once by default.
-    fn finish_autd3(
-        &self,
-        dev: &mut dyn Backend,
-        r: &UploadReport,
-        grid: Option<GridTiming>,
-        outcome: Option<(String, Status)>,
-        hold: Option<std::time::Duration>,
-        h: &lm_proto::UploadHeader,
-    ) -> anyhow::Result<()> {
-        let port = dev.describe();
-        let g = grid.context("an AUTD3 upload is planned on its grid")?;
-        let emulator = port.starts_with("autd3:emulator");
-        let hold = match (self.no_play, hold, emulator) {
-            (true, _, _) => None,
-            (false, Some(d), _) => Some(Some(d)),
-            (false, None, true) => None,
-            (false, None, false) => Some(None),
-        };
-        let requested_dwell_us = 1e6 / (g.requested_freq_hz * g.steps as f64);
-        if self.json {
-            let mut v = serde_json::to_value(r)?;
-            v["port"] = port.clone().into();
-            self.play_json(&mut v, &outcome, r.slot);
-            v["mute_reason"] =
-                serde_json::to_value(outcome.as_ref().map(|(_, st)| st.mute_reason))?;
-            v["divide"] = g.divide.into();
-            v["requested_dwell_us"] = requested_dwell_us.into();
-            v["dwell_error_us"] = (r.dwell_us - requested_dwell_us).into();
-            v["requested_freq_hz"] = g.requested_freq_hz.into();
-            v["freq_error_hz"] = g.freq_error_hz.into();
-            v["step_mm"] = g.step_mm.into();
-            v["requested_step_mm"] = g.requested_step_mm.into();
-            v["step_error_mm"] = g.step_error_mm.into();
-            v["max_offset_um"] = h.max_offset_um.into();
-            v["hold_s"] = match hold {
-                None => serde_json::Value::Null,
-                Some(d) => d.map(|d| d.as_secs_f64()).into(),
-            };
-            crate::outln!("{v}")?;
-        } else {
-            crate::outln!(
-                "uploaded {} steps × {} transducers to {port} slot {}: dwell {} µs on the 25 µs grid \
-                 ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
-                 ({:+.4} mm), {} frames",
-                r.steps,
-                r.transducers,
-                r.slot,
-                r.dwell_us,
-                r.dwell_us - requested_dwell_us,
-                requested_dwell_us,
-                g.freq_hz,
-                g.freq_error_hz,
-                g.requested_freq_hz,
-                g.step_mm,
-                g.step_error_mm,
-                r.frames
-            )?;
-            match r.readback_mismatches {
-                Some(n) => {
-                    crate::outln!("read back from the FPGA: {n} phases differ from the plan")?
-                }
-                None => crate::outln!("this link cannot read the FPGA back")?,
-            }
-            self.print_outcome(
-                &outcome,
-                r.slot,
-                h,
-                &format!("`lmhost stream --port {port}` uploads, plays and streams in one go"),
-            )?;
-        }
-        if let Some(n) = r.readback_mismatches.filter(|&n| n > 0) {
+        if let Some(n) = o.readback_mismatches.filter(|&n| n > 0) {
             anyhow::bail!("{port} holds {n} phases that differ from the plan");
         }
-        use std::io::Write as _;
-        std::io::stdout().flush()?;
+        if !needs_host {
+            return Ok(());
+        }
+        crate::out::flush_stdout()?;
         match hold {
             None if !self.no_play => crate::errln!(
                 "{port} lives in this process: exiting after the read-back leaves it silent \
@@ -288,10 +163,96 @@ impl Args {
                         None => "until Ctrl-C or SIGTERM".into(),
                     }
                 );
-                crate::connect::hold(dev, d)?;
+                crate::connect::hold(dev.as_mut(), d)?;
             }
         }
         dev.stop()
+    }
+}
+
+/// The text report of an upload (`--json` prints [`UploadOutcome`]).
+fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
+    let t = &o.timing;
+    match &o.wire {
+        Some(w) => {
+            let r = &w.report;
+            crate::outln!(
+                "uploaded {} steps × {} transducers to slot {}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
+                t.steps,
+                o.transducers,
+                o.slot,
+                r.raw_bytes,
+                r.sequence_bytes,
+                r.payload_bytes,
+                r.wire_bytes_sent + r.wire_bytes_received
+            )?;
+            crate::outln!(
+                "{:.3} s, {:.1} kB/s payload, wire efficiency {:.1} %, CRC {:08x}, {} retries",
+                r.seconds,
+                r.payload_bytes as f64 / r.seconds.max(1e-9) / 1e3,
+                w.wire_efficiency * 100.0,
+                r.crc32,
+                r.retries
+            )?;
+        }
+        None => {
+            crate::outln!(
+                "uploaded {} steps × {} transducers to {} slot {}: dwell {} µs on the 25 µs grid \
+                 ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
+                 ({:+.4} mm), {} frames",
+                t.steps,
+                o.transducers,
+                o.port,
+                o.slot,
+                t.dwell_us,
+                t.dwell_error_us,
+                t.requested_dwell_us,
+                t.freq_hz,
+                t.freq_error_hz,
+                t.requested_freq_hz,
+                t.step_mm,
+                t.step_error_mm,
+                o.frames.unwrap_or(0)
+            )?;
+            match o.readback_mismatches {
+                Some(n) => {
+                    crate::outln!("read back from the FPGA: {n} phases differ from the plan")?
+                }
+                None => crate::outln!("this link cannot read the FPGA back")?,
+            }
+        }
+    }
+    let how_to_stream = if needs_host {
+        format!(
+            "`lmhost stream --port {}` uploads, plays and streams in one go",
+            o.port
+        )
+    } else {
+        "stream centroids with `lmhost stream`".to_owned()
+    };
+    let played = if o.queued {
+        format!("slot {} queued for the next cycle boundary", o.slot)
+    } else {
+        format!("playing slot {}", o.slot)
+    };
+    match (o.playing, o.untracked, o.state) {
+        (false, ..) => crate::outln!(
+            "not playing (--no-play): `lmhost play --slot {}` plays it \
+             (add --untracked to play without tracking)",
+            o.slot
+        ),
+        (true, true, _) => crate::outln!("{played}, untracked"),
+        (true, false, Some(DeviceState::Muted)) => {
+            crate::outln!("{played}")?;
+            crate::outln!(
+                "muted ({}) until the device tracks a finger within {} mm of the \
+                 centre: {how_to_stream}, or upload with \
+                 --untracked to play without tracking",
+                o.mute_reason.map_or("unknown", |r| r.describe()),
+                f64::from(o.max_offset_um) / 1000.0
+            )
+        }
+        (true, false, _) => crate::outln!("{played}"),
     }
 }
 
