@@ -8,7 +8,8 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::Centroid;
-use lmhost::autd3::{Autd3Backend, Clock, timing};
+use lmhost::autd3::{Autd3Backend, timing};
+use lmhost::clock::Clock;
 use lmhost::backend::Backend;
 use lmhost::scene::Scene;
 use lmhost::sequence::Synthesis;
