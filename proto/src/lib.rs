@@ -25,7 +25,9 @@ mod error;
 mod frame;
 mod header;
 mod message;
+mod nack;
 pub mod vectors;
+mod wire;
 
 pub use codec::Encoding;
 pub use crc::{Crc32, crc32};
@@ -37,8 +39,9 @@ pub use frame::{
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
     BeginUpload, Centroid, Chunk, Commit, DeviceState, Geometry, Info, Message, MessageType,
-    MuteReason, NackCode, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
+    MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
 };
+pub use nack::NackCode;
 
 /// Protocol version carried in every frame header.
 pub const PROTOCOL_VERSION: u8 = 2;

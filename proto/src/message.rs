@@ -1,180 +1,50 @@
 //! Message types and their payload layouts (all integers little-endian).
 //! Byte layouts are listed in `proto/SPEC.md`.
 
-use core::fmt;
-
 use crate::codec::Encoding;
 use crate::error::EncodeError;
 use crate::header::{DeviceLimits, HeaderError, UploadHeader};
+use crate::nack::NackCode;
+use crate::wire::wire_enum;
 use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN, len};
 
-/// Message type byte (second header byte). Requests are `0x01..=0x7F`,
-/// responses `0x80..=0xFF`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-#[repr(u8)]
-pub enum MessageType {
-    /// Request device info; answered by `Info`.
-    GetInfo = 0x01,
-    /// Start uploading a sequence into a slot.
-    BeginUpload = 0x02,
-    /// Transducer positions for centroid correction.
-    Geometry = 0x03,
-    /// A piece of the encoded sequence stream.
-    Chunk = 0x04,
-    /// Finish an upload, check the raw sequence CRC.
-    Commit = 0x05,
-    /// Start playing a slot.
-    Play = 0x06,
-    /// Stop playing.
-    Stop = 0x07,
-    /// Centroid (LM centre) update.
-    Centroid = 0x08,
-    /// Request status; answered by `Status`.
-    GetStatus = 0x09,
-    /// Request done.
-    Ack = 0x80,
-    /// Request refused, with a code.
-    Nack = 0x81,
-    /// Device info.
-    Info = 0x82,
-    /// Device status.
-    Status = 0x83,
+wire_enum! {
+    /// Message type byte (second header byte). Requests are `0x01..=0x7F`,
+    /// responses `0x80..=0xFF`.
+    pub enum MessageType {
+        /// Request device info; answered by `Info`.
+        GetInfo = 0x01,
+        /// Start uploading a sequence into a slot.
+        BeginUpload = 0x02,
+        /// Transducer positions for centroid correction.
+        Geometry = 0x03,
+        /// A piece of the encoded sequence stream.
+        Chunk = 0x04,
+        /// Finish an upload, check the raw sequence CRC.
+        Commit = 0x05,
+        /// Start playing a slot.
+        Play = 0x06,
+        /// Stop playing.
+        Stop = 0x07,
+        /// Centroid (LM centre) update.
+        Centroid = 0x08,
+        /// Request status; answered by `Status`.
+        GetStatus = 0x09,
+        /// Request done.
+        Ack = 0x80,
+        /// Request refused, with a code.
+        Nack = 0x81,
+        /// Device info.
+        Info = 0x82,
+        /// Device status.
+        Status = 0x83,
+    }
 }
 
 impl MessageType {
-    /// Every type this version knows, in wire order.
-    pub const ALL: [MessageType; 13] = [
-        Self::GetInfo,
-        Self::BeginUpload,
-        Self::Geometry,
-        Self::Chunk,
-        Self::Commit,
-        Self::Play,
-        Self::Stop,
-        Self::Centroid,
-        Self::GetStatus,
-        Self::Ack,
-        Self::Nack,
-        Self::Info,
-        Self::Status,
-    ];
-
-    /// The type for a wire byte, if this version knows it.
-    pub fn from_u8(b: u8) -> Option<Self> {
-        Self::ALL.iter().copied().find(|t| *t as u8 == b)
-    }
-
     /// True for device-to-host messages (`0x80..`).
     pub fn is_response(self) -> bool {
-        self as u8 >= 0x80
-    }
-}
-
-/// Why a request was refused (`Nack` payload byte).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-pub enum NackCode {
-    /// 1: message type unknown to the device.
-    UnknownType,
-    /// 2: payload has the wrong length or an invalid field value.
-    Malformed,
-    /// 3: frame carries another protocol version.
-    BadVersion,
-    /// 4: slot number does not exist.
-    BadSlot,
-    /// 5: the slot is playing (stop or use another slot first).
-    SlotPlaying,
-    /// 6: sequence does not fit the slot or exceeds `max_transducers`.
-    TooLarge,
-    /// 7: a field is outside its allowed range (zero steps, offset past
-    /// `encoded_len`, geometry index past `transducers`, ...).
-    OutOfRange,
-    /// 8: chunk offset is not the next expected one (gap, or an overlap
-    /// with different data).
-    OutOfOrder,
-    /// 9: commit CRC differs from the CRC of the decoded raw sequence.
-    CrcMismatch,
-    /// 10: play of a slot that holds no committed sequence.
-    NotCommitted,
-    /// 11: `period_us / steps` is below the device's `min_dwell_us`.
-    DwellTooShort,
-    /// 12: chunk, geometry or commit without a matching `BeginUpload`.
-    NoUpload,
-    /// 13: device cannot take the request now; retry later.
-    Busy,
-    /// 14: commit before all `encoded_len` bytes (or all geometry) arrived.
-    Incomplete,
-    /// 15: the encoded sequence stream is invalid for its encoding.
-    BadStream,
-    /// A code this version does not know (from a newer peer). Never
-    /// constructed with a known code's value.
-    Other(u8),
-}
-
-/// Every known code: value, wire byte, description. The one table
-/// [`NackCode::to_u8`], [`NackCode::from_u8`] and `Display` read.
-const NACK_TABLE: [(NackCode, u8, &str); 15] = [
-    (NackCode::UnknownType, 1, "unknown message type"),
-    (NackCode::Malformed, 2, "malformed request"),
-    (NackCode::BadVersion, 3, "unsupported protocol version"),
-    (NackCode::BadSlot, 4, "no such slot"),
-    (NackCode::SlotPlaying, 5, "slot is playing or queued"),
-    (NackCode::TooLarge, 6, "sequence too large for the device"),
-    (NackCode::OutOfRange, 7, "field out of range"),
-    (NackCode::OutOfOrder, 8, "chunk out of order"),
-    (NackCode::CrcMismatch, 9, "sequence CRC mismatch"),
-    (
-        NackCode::NotCommitted,
-        10,
-        "slot holds no committed sequence",
-    ),
-    (
-        NackCode::DwellTooShort,
-        11,
-        "dwell time below the device minimum",
-    ),
-    (
-        NackCode::NoUpload,
-        12,
-        "no upload in progress for this slot",
-    ),
-    (NackCode::Busy, 13, "device busy"),
-    (NackCode::Incomplete, 14, "upload incomplete"),
-    (NackCode::BadStream, 15, "invalid encoded sequence stream"),
-];
-
-impl NackCode {
-    /// The wire byte.
-    pub fn to_u8(self) -> u8 {
-        match self {
-            Self::Other(b) => b,
-            known => NACK_TABLE
-                .iter()
-                .find(|(c, _, _)| *c == known)
-                .map_or(0, |(_, b, _)| *b),
-        }
-    }
-
-    /// The code for a wire byte (unknown values become [`NackCode::Other`]).
-    pub fn from_u8(b: u8) -> Self {
-        NACK_TABLE
-            .iter()
-            .find(|(_, v, _)| *v == b)
-            .map_or(Self::Other(b), |(c, _, _)| *c)
-    }
-}
-
-impl fmt::Display for NackCode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match NACK_TABLE.iter().find(|(c, _, _)| c == self) {
-            Some((_, _, s)) => f.write_str(s),
-            None => write!(f, "unknown nack code {}", self.to_u8()),
-        }
+        self.to_u8() >= 0x80
     }
 }
 
@@ -199,6 +69,20 @@ pub struct Info {
     pub min_dwell_us: u32,
     /// Largest chunk the device accepts (≤ [`MAX_CHUNK`]).
     pub max_chunk: u16,
+}
+
+// Here rather than in `header`, so that `header` needs nothing from the
+// messages (they import it).
+impl DeviceLimits {
+    /// The limits a device reported in its `Info`.
+    pub fn from_info(info: &Info) -> Self {
+        Self {
+            slots: info.slots,
+            max_transducers: info.max_transducers,
+            slot_bytes: info.slot_bytes,
+            min_dwell_us: info.min_dwell_us,
+        }
+    }
 }
 
 /// Start of an upload into a slot: the slot, the [`UploadHeader`] and how
@@ -350,16 +234,14 @@ pub struct Commit {
     pub crc32: u32,
 }
 
-/// When `Play` takes effect.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-pub enum PlayAt {
-    /// 0: at the end of the current cycle (seamless switch); at once when idle.
-    NextCycle,
-    /// 1: at once, from step 0.
-    Immediate,
+wire_enum! {
+    /// When `Play` takes effect.
+    pub enum PlayAt {
+        /// 0: at the end of the current cycle (seamless switch); at once when idle.
+        NextCycle = 0,
+        /// 1: at once, from step 0.
+        Immediate = 1,
+    }
 }
 
 /// Start playing a committed slot.
@@ -395,75 +277,40 @@ pub struct Centroid {
     pub host_time_us: u64,
 }
 
-/// Player state in `Status`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-pub enum DeviceState {
-    /// 0: nothing played since reset.
-    #[default]
-    Idle,
-    /// 1: playing a slot.
-    Playing,
-    /// 2: playing but the output is gated (no presence, stale centroid, ...).
-    Muted,
-    /// 3: stopped by `Stop`.
-    Stopped,
+wire_enum! {
+    /// Player state in `Status`.
+    #[derive(Default)]
+    pub enum DeviceState {
+        /// 0: nothing played since reset.
+        #[default]
+        Idle = 0,
+        /// 1: playing a slot.
+        Playing = 1,
+        /// 2: playing but the output is gated (no presence, stale centroid, ...).
+        Muted = 2,
+        /// 3: stopped by `Stop`.
+        Stopped = 3,
+    }
 }
 
-/// Why the output is silent (`Status::mute_reason`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
-#[non_exhaustive]
-pub enum MuteReason {
-    /// 0: not muted (playing, or idle: nothing was ever played).
-    #[default]
-    None,
-    /// 1: playing, no centroid since `Play` (tracked play needs one).
-    WaitingForTracking,
-    /// 2: the last centroid said no finger is present.
-    FingerAbsent,
-    /// 3: no centroid within the device's timeout.
-    TrackingStale,
-    /// 4: the last centroid lay outside the slot's work volume.
-    CentroidOutOfRange,
-    /// 5: stopped by `Stop`.
-    Stopped,
-}
-
-impl MuteReason {
-    const ALL: [MuteReason; 6] = [
-        Self::None,
-        Self::WaitingForTracking,
-        Self::FingerAbsent,
-        Self::TrackingStale,
-        Self::CentroidOutOfRange,
-        Self::Stopped,
-    ];
-
-    /// The wire byte.
-    pub fn to_u8(self) -> u8 {
-        Self::ALL.iter().position(|r| *r == self).unwrap_or(0) as u8
-    }
-
-    /// The reason for a wire byte, if known.
-    pub fn from_u8(b: u8) -> Option<Self> {
-        Self::ALL.get(usize::from(b)).copied()
-    }
-
-    /// Words for humans ("waiting for tracking").
-    pub fn describe(self) -> &'static str {
-        match self {
-            Self::None => "none",
-            Self::WaitingForTracking => "waiting for tracking",
-            Self::FingerAbsent => "finger absent",
-            Self::TrackingStale => "tracking stale",
-            Self::CentroidOutOfRange => "centroid out of range",
-            Self::Stopped => "stopped",
-        }
+wire_enum! {
+    /// Why the output is silent (`Status::mute_reason`).
+    #[derive(Default)]
+    #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+    pub enum MuteReason {
+        /// 0: not muted (playing, or idle: nothing was ever played).
+        #[default]
+        None = 0 => "none",
+        /// 1: playing, no centroid since `Play` (tracked play needs one).
+        WaitingForTracking = 1 => "waiting for tracking",
+        /// 2: the last centroid said no finger is present.
+        FingerAbsent = 2 => "finger absent",
+        /// 3: no centroid within the device's timeout.
+        TrackingStale = 3 => "tracking stale",
+        /// 4: the last centroid lay outside the slot's work volume.
+        CentroidOutOfRange = 4 => "centroid out of range",
+        /// 5: stopped by `Stop`.
+        Stopped = 5 => "stopped",
     }
 }
 
@@ -723,10 +570,7 @@ impl<'a> Message<'a> {
             }
             Self::Play(p) => s.put(&[
                 p.slot,
-                match p.at {
-                    PlayAt::NextCycle => 0,
-                    PlayAt::Immediate => 1,
-                },
+                p.at.to_u8(),
                 if p.untracked { PLAY_FLAG_UNTRACKED } else { 0 },
             ]),
             Self::Centroid(c) => {
@@ -747,15 +591,7 @@ impl<'a> Message<'a> {
                 s.put(&i.max_chunk.to_le_bytes())
             }
             Self::Status(st) => {
-                s.put(&[
-                    match st.state {
-                        DeviceState::Idle => 0,
-                        DeviceState::Playing => 1,
-                        DeviceState::Muted => 2,
-                        DeviceState::Stopped => 3,
-                    },
-                    st.slot.unwrap_or(NO_SLOT),
-                ])?;
+                s.put(&[st.state.to_u8(), st.slot.unwrap_or(NO_SLOT)])?;
                 s.put(&st.step.to_le_bytes())?;
                 for v in [
                     st.cycles,
@@ -840,11 +676,7 @@ impl<'a> Message<'a> {
             }),
             MessageType::Play => Self::Play(Play {
                 slot: r.u8()?,
-                at: match r.u8()? {
-                    0 => PlayAt::NextCycle,
-                    1 => PlayAt::Immediate,
-                    _ => return Err("unknown play timing"),
-                },
+                at: PlayAt::from_u8(r.u8()?).ok_or("unknown play timing")?,
                 untracked: match r.u8()? {
                     0 => false,
                     PLAY_FLAG_UNTRACKED => true,
@@ -869,13 +701,7 @@ impl<'a> Message<'a> {
                 max_chunk: r.u16()?,
             }),
             MessageType::Status => Self::Status(Status {
-                state: match r.u8()? {
-                    0 => DeviceState::Idle,
-                    1 => DeviceState::Playing,
-                    2 => DeviceState::Muted,
-                    3 => DeviceState::Stopped,
-                    _ => return Err("unknown device state"),
-                },
+                state: DeviceState::from_u8(r.u8()?).ok_or("unknown device state")?,
                 slot: match r.u8()? {
                     NO_SLOT => None,
                     s => Some(s),
