@@ -3,10 +3,11 @@
 
 use crate::codec::Encoding;
 use crate::error::EncodeError;
+use crate::field::{self, Field};
 use crate::header::{DeviceLimits, HeaderError, UploadHeader};
 use crate::nack::NackCode;
 use crate::wire::wire_enum;
-use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN, len};
+use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN};
 
 wire_enum! {
     /// Message type byte (second header byte). Requests are `0x01..=0x7F`,
@@ -167,9 +168,7 @@ impl<'a> Positions<'a> {
         match self.0 {
             PosRepr::Bytes(b) => {
                 let r = b.get(i.checked_mul(POSITION_LEN)?..)?.get(..POSITION_LEN)?;
-                Some(core::array::from_fn(|k| {
-                    i32::from_le_bytes([r[4 * k], r[4 * k + 1], r[4 * k + 2], r[4 * k + 3]])
-                }))
+                Some(xyz_from_le(r.try_into().ok()?))
             }
             PosRepr::Points(p) => p.get(i).copied(),
         }
@@ -406,64 +405,80 @@ impl Sink for SliceSink<'_> {
     }
 }
 
-fn put_xyz(s: &mut impl Sink, v: &[i32; 3]) -> Result<(), EncodeError> {
-    v.iter().try_for_each(|c| s.put(&c.to_le_bytes()))
+/// Writes `bytes` into field `f` of a payload being built (the widths are
+/// the layout's, checked by every round-trip test).
+fn set(p: &mut [u8], f: Field, bytes: &[u8]) {
+    p[f].copy_from_slice(bytes);
 }
 
-/// Bounds-checked little-endian reader over an untrusted payload.
-struct Reader<'a> {
-    buf: &'a [u8],
+/// `[x, y, z]` from a 12-byte record (`POSITION_LEN`, `i32` LE each).
+fn xyz_from_le(b: [u8; POSITION_LEN]) -> [i32; 3] {
+    core::array::from_fn(|k| {
+        i32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+    })
 }
 
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], &'static str> {
-        if self.buf.len() < n {
+/// `[x, y, z]` as a 12-byte record.
+fn xyz_le(v: &[i32; 3]) -> [u8; POSITION_LEN] {
+    let mut b = [0; 12];
+    for (d, c) in b.chunks_exact_mut(4).zip(v) {
+        d.copy_from_slice(&c.to_le_bytes());
+    }
+    b
+}
+
+/// An untrusted payload, read field by field. Reads never panic: a field
+/// outside the payload is an error (which [`Fields::exact`] and
+/// [`Fields::head`] rule out before any field is read).
+struct Fields<'a>(&'a [u8]);
+
+impl<'a> Fields<'a> {
+    /// A payload of exactly `len` bytes.
+    fn exact(payload: &'a [u8], len: usize) -> Result<Self, &'static str> {
+        match payload.len().cmp(&len) {
+            core::cmp::Ordering::Less => Err("payload too short"),
+            core::cmp::Ordering::Greater => Err("payload too long"),
+            core::cmp::Ordering::Equal => Ok(Self(payload)),
+        }
+    }
+    /// A head of `len` bytes and the rest of the payload.
+    fn head(payload: &'a [u8], len: usize) -> Result<(Self, &'a [u8]), &'static str> {
+        if payload.len() < len {
             return Err("payload too short");
         }
-        let (head, rest) = self.buf.split_at(n);
-        self.buf = rest;
-        Ok(head)
+        let (head, rest) = payload.split_at(len);
+        Ok((Self(head), rest))
     }
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], &'static str> {
-        let b = self.take(N)?;
-        let mut a = [0u8; N];
-        a.copy_from_slice(b);
-        Ok(a)
+    fn array<const N: usize>(&self, f: Field) -> Result<[u8; N], &'static str> {
+        let b = self.0.get(f).ok_or("payload too short")?;
+        b.try_into()
+            .map_err(|_| "field width differs from its type")
     }
-    fn u8(&mut self) -> Result<u8, &'static str> {
-        Ok(self.array::<1>()?[0])
+    fn u8(&self, f: Field) -> Result<u8, &'static str> {
+        Ok(self.array::<1>(f)?[0])
     }
-    fn u16(&mut self) -> Result<u16, &'static str> {
-        Ok(u16::from_le_bytes(self.array()?))
+    fn u16(&self, f: Field) -> Result<u16, &'static str> {
+        Ok(u16::from_le_bytes(self.array(f)?))
     }
-    fn u32(&mut self) -> Result<u32, &'static str> {
-        Ok(u32::from_le_bytes(self.array()?))
+    fn u32(&self, f: Field) -> Result<u32, &'static str> {
+        Ok(u32::from_le_bytes(self.array(f)?))
     }
-    fn u64(&mut self) -> Result<u64, &'static str> {
-        Ok(u64::from_le_bytes(self.array()?))
+    fn u64(&self, f: Field) -> Result<u64, &'static str> {
+        Ok(u64::from_le_bytes(self.array(f)?))
     }
-    fn i32(&mut self) -> Result<i32, &'static str> {
-        Ok(i32::from_le_bytes(self.array()?))
+    fn xyz(&self, f: Field) -> Result<[i32; 3], &'static str> {
+        Ok(xyz_from_le(self.array(f)?))
     }
-    fn xyz(&mut self) -> Result<[i32; 3], &'static str> {
-        Ok([self.i32()?, self.i32()?, self.i32()?])
-    }
-    fn bool(&mut self) -> Result<bool, &'static str> {
-        match self.u8()? {
+    fn bool(&self, f: Field) -> Result<bool, &'static str> {
+        match self.u8(f)? {
             0 => Ok(false),
             1 => Ok(true),
             _ => Err("bool field not 0 or 1"),
         }
     }
-    fn rest(&mut self) -> &'a [u8] {
-        core::mem::take(&mut self.buf)
-    }
-    fn end(&self) -> Result<(), &'static str> {
-        if self.buf.is_empty() {
-            Ok(())
-        } else {
-            Err("payload too long")
-        }
+    /// A slot byte, [`NO_SLOT`] meaning none.
+    fn slot(&self, f: Field) -> Result<Option<u8>, &'static str> {
+        Ok(Some(self.u8(f)?).filter(|s| *s != NO_SLOT))
     }
 }
 
@@ -497,15 +512,15 @@ impl<'a> Message<'a> {
     pub fn payload_len(&self) -> usize {
         match self {
             Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => 0,
-            Self::BeginUpload(_) => len::BEGIN_UPLOAD,
-            Self::Geometry(g) => len::GEOMETRY_HEAD + POSITION_LEN * g.positions.len(),
-            Self::Chunk(c) => len::CHUNK_HEAD + c.data.len(),
-            Self::Commit(_) => len::COMMIT,
-            Self::Play(_) => len::PLAY,
-            Self::Centroid(_) => len::CENTROID,
-            Self::Nack(_) => len::NACK,
-            Self::Info(_) => len::INFO,
-            Self::Status(_) => len::STATUS,
+            Self::BeginUpload(_) => field::begin_upload::LEN,
+            Self::Geometry(g) => field::geometry::LEN + POSITION_LEN * g.positions.len(),
+            Self::Chunk(c) => field::chunk::LEN + c.data.len(),
+            Self::Commit(_) => field::commit::LEN,
+            Self::Play(_) => field::play::LEN,
+            Self::Centroid(_) => field::centroid::LEN,
+            Self::Nack(_) => field::nack::LEN,
+            Self::Info(_) => field::info::LEN,
+            Self::Status(_) => field::status::LEN,
         }
     }
 
@@ -542,69 +557,109 @@ impl<'a> Message<'a> {
         match self {
             Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => Ok(()),
             Self::BeginUpload(b) => {
+                use field::begin_upload as f;
                 let h = &b.header;
-                s.put(&[b.slot])?;
-                s.put(&h.steps.to_le_bytes())?;
-                s.put(&h.transducers.to_le_bytes())?;
-                s.put(&h.period_us.to_le_bytes())?;
-                s.put(&[b.encoding.to_u8()])?;
-                s.put(&b.encoded_len.to_le_bytes())?;
-                put_xyz(s, &h.center_um)?;
-                s.put(&[h.foci_per_step])?;
-                s.put(&h.sound_speed_mm_s.to_le_bytes())?;
-                s.put(&h.max_offset_um.to_le_bytes())
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[b.slot]);
+                set(&mut p, f::STEPS, &h.steps.to_le_bytes());
+                set(&mut p, f::TRANSDUCERS, &h.transducers.to_le_bytes());
+                set(&mut p, f::PERIOD_US, &h.period_us.to_le_bytes());
+                set(&mut p, f::ENCODING, &[b.encoding.to_u8()]);
+                set(&mut p, f::ENCODED_LEN, &b.encoded_len.to_le_bytes());
+                set(&mut p, f::CENTER_UM, &xyz_le(&h.center_um));
+                set(&mut p, f::FOCI_PER_STEP, &[h.foci_per_step]);
+                set(
+                    &mut p,
+                    f::SOUND_SPEED_MM_S,
+                    &h.sound_speed_mm_s.to_le_bytes(),
+                );
+                set(&mut p, f::MAX_OFFSET_UM, &h.max_offset_um.to_le_bytes());
+                s.put(&p)
             }
             Self::Geometry(g) => {
-                s.put(&[g.slot])?;
-                s.put(&g.first.to_le_bytes())?;
-                g.positions.iter().try_for_each(|p| put_xyz(s, &p))
+                use field::geometry as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[g.slot]);
+                set(&mut p, f::FIRST, &g.first.to_le_bytes());
+                s.put(&p)?;
+                g.positions.iter().try_for_each(|q| s.put(&xyz_le(&q)))
             }
             Self::Chunk(c) => {
-                s.put(&[c.slot])?;
-                s.put(&c.offset.to_le_bytes())?;
+                use field::chunk as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[c.slot]);
+                set(&mut p, f::OFFSET, &c.offset.to_le_bytes());
+                s.put(&p)?;
                 s.put(c.data)
             }
             Self::Commit(c) => {
-                s.put(&[c.slot])?;
-                s.put(&c.crc32.to_le_bytes())
+                use field::commit as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[c.slot]);
+                set(&mut p, f::CRC32, &c.crc32.to_le_bytes());
+                s.put(&p)
             }
-            Self::Play(p) => s.put(&[
-                p.slot,
-                p.at.to_u8(),
-                if p.untracked { PLAY_FLAG_UNTRACKED } else { 0 },
-            ]),
+            Self::Play(q) => {
+                use field::play as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[q.slot]);
+                set(&mut p, f::AT, &[q.at.to_u8()]);
+                let flags = if q.untracked { PLAY_FLAG_UNTRACKED } else { 0 };
+                set(&mut p, f::FLAGS, &[flags]);
+                s.put(&p)
+            }
             Self::Centroid(c) => {
-                s.put(&c.seq.to_le_bytes())?;
-                put_xyz(s, &c.pos_um)?;
-                s.put(&[c.present as u8])?;
-                s.put(&c.host_time_us.to_le_bytes())
+                use field::centroid as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SEQ, &c.seq.to_le_bytes());
+                set(&mut p, f::POS_UM, &xyz_le(&c.pos_um));
+                set(&mut p, f::PRESENT, &[u8::from(c.present)]);
+                set(&mut p, f::HOST_TIME_US, &c.host_time_us.to_le_bytes());
+                s.put(&p)
             }
-            Self::Nack(code) => s.put(&[code.to_u8()]),
+            Self::Nack(code) => {
+                use field::nack as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::CODE, &[code.to_u8()]);
+                s.put(&p)
+            }
             Self::Info(i) => {
-                s.put(&[i.proto_version])?;
-                s.put(&i.fw_version)?;
-                s.put(&i.max_transducers.to_le_bytes())?;
-                s.put(&i.slot_bytes.to_le_bytes())?;
-                s.put(&[i.slots])?;
-                s.put(&i.timer_hz.to_le_bytes())?;
-                s.put(&i.min_dwell_us.to_le_bytes())?;
-                s.put(&i.max_chunk.to_le_bytes())
+                use field::info as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::PROTO_VERSION, &[i.proto_version]);
+                set(&mut p, f::FW_VERSION, &i.fw_version);
+                set(&mut p, f::MAX_TRANSDUCERS, &i.max_transducers.to_le_bytes());
+                set(&mut p, f::SLOT_BYTES, &i.slot_bytes.to_le_bytes());
+                set(&mut p, f::SLOTS, &[i.slots]);
+                set(&mut p, f::TIMER_HZ, &i.timer_hz.to_le_bytes());
+                set(&mut p, f::MIN_DWELL_US, &i.min_dwell_us.to_le_bytes());
+                set(&mut p, f::MAX_CHUNK, &i.max_chunk.to_le_bytes());
+                s.put(&p)
             }
             Self::Status(st) => {
-                s.put(&[st.state.to_u8(), st.slot.unwrap_or(NO_SLOT)])?;
-                s.put(&st.step.to_le_bytes())?;
-                for v in [
-                    st.cycles,
-                    st.missed_deadlines,
-                    st.last_centroid_seq,
-                    st.bad_frames,
-                    st.crc_errors,
-                    st.nacks,
-                ] {
-                    s.put(&v.to_le_bytes())?;
-                }
-                put_xyz(s, &st.correction_um)?;
-                s.put(&[st.queued_slot.unwrap_or(NO_SLOT), st.mute_reason.to_u8()])
+                use field::status as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::STATE, &[st.state.to_u8()]);
+                set(&mut p, f::SLOT, &[st.slot.unwrap_or(NO_SLOT)]);
+                set(&mut p, f::STEP, &st.step.to_le_bytes());
+                set(&mut p, f::CYCLES, &st.cycles.to_le_bytes());
+                set(
+                    &mut p,
+                    f::MISSED_DEADLINES,
+                    &st.missed_deadlines.to_le_bytes(),
+                );
+                set(
+                    &mut p,
+                    f::LAST_CENTROID_SEQ,
+                    &st.last_centroid_seq.to_le_bytes(),
+                );
+                set(&mut p, f::BAD_FRAMES, &st.bad_frames.to_le_bytes());
+                set(&mut p, f::CRC_ERRORS, &st.crc_errors.to_le_bytes());
+                set(&mut p, f::NACKS, &st.nacks.to_le_bytes());
+                set(&mut p, f::CORRECTION_UM, &xyz_le(&st.correction_um));
+                set(&mut p, f::QUEUED_SLOT, &[st.queued_slot.unwrap_or(NO_SLOT)]);
+                set(&mut p, f::MUTE_REASON, &[st.mute_reason.to_u8()]);
+                s.put(&p)
             }
         }
     }
@@ -612,114 +667,128 @@ impl<'a> Message<'a> {
     /// Parses an untrusted payload of type `msg_type`.
     pub(crate) fn parse(msg_type: u8, payload: &'a [u8]) -> Result<Self, PayloadError> {
         let t = MessageType::from_u8(msg_type).ok_or(PayloadError::UnknownType)?;
-        let mut r = Reader { buf: payload };
-        let m = Self::parse_known(t, &mut r).map_err(PayloadError::Malformed)?;
-        r.end().map_err(PayloadError::Malformed)?;
-        Ok(m)
+        Self::parse_known(t, payload).map_err(PayloadError::Malformed)
     }
 
-    fn parse_known(t: MessageType, r: &mut Reader<'a>) -> Result<Self, &'static str> {
+    fn parse_known(t: MessageType, payload: &'a [u8]) -> Result<Self, &'static str> {
         Ok(match t {
-            MessageType::GetInfo => Self::GetInfo,
-            MessageType::Stop => Self::Stop,
-            MessageType::GetStatus => Self::GetStatus,
-            MessageType::Ack => Self::Ack,
+            MessageType::GetInfo => Fields::exact(payload, 0).map(|_| Self::GetInfo)?,
+            MessageType::Stop => Fields::exact(payload, 0).map(|_| Self::Stop)?,
+            MessageType::GetStatus => Fields::exact(payload, 0).map(|_| Self::GetStatus)?,
+            MessageType::Ack => Fields::exact(payload, 0).map(|_| Self::Ack)?,
             MessageType::BeginUpload => {
-                let slot = r.u8()?;
-                let steps = r.u16()?;
-                let transducers = r.u16()?;
-                let period_us = r.u32()?;
-                let encoding = Encoding::from_u8(r.u8()?).ok_or("unknown encoding")?;
-                let encoded_len = r.u32()?;
+                use field::begin_upload as f;
+                let p = Fields::exact(payload, f::LEN)?;
                 Self::BeginUpload(BeginUpload {
-                    slot,
-                    encoding,
-                    encoded_len,
+                    slot: p.u8(f::SLOT)?,
+                    encoding: Encoding::from_u8(p.u8(f::ENCODING)?).ok_or("unknown encoding")?,
+                    encoded_len: p.u32(f::ENCODED_LEN)?,
                     header: UploadHeader {
-                        steps,
-                        transducers,
-                        period_us,
-                        center_um: r.xyz()?,
-                        foci_per_step: r.u8()?,
-                        sound_speed_mm_s: r.u32()?,
-                        max_offset_um: r.u32()?,
+                        steps: p.u16(f::STEPS)?,
+                        transducers: p.u16(f::TRANSDUCERS)?,
+                        period_us: p.u32(f::PERIOD_US)?,
+                        center_um: p.xyz(f::CENTER_UM)?,
+                        foci_per_step: p.u8(f::FOCI_PER_STEP)?,
+                        sound_speed_mm_s: p.u32(f::SOUND_SPEED_MM_S)?,
+                        max_offset_um: p.u32(f::MAX_OFFSET_UM)?,
                     },
                 })
             }
             MessageType::Geometry => {
-                let slot = r.u8()?;
-                let first = r.u16()?;
-                let bytes = r.rest();
+                use field::geometry as f;
+                let (p, bytes) = Fields::head(payload, f::LEN)?;
                 let positions = Positions::from_le_bytes(bytes)
                     .ok_or("positions not a multiple of POSITION_LEN bytes")?;
                 if positions.len() > MAX_GEOMETRY_POSITIONS {
                     return Err("too many positions");
                 }
                 Self::Geometry(Geometry {
-                    slot,
-                    first,
+                    slot: p.u8(f::SLOT)?,
+                    first: p.u16(f::FIRST)?,
                     positions,
                 })
             }
             MessageType::Chunk => {
-                let slot = r.u8()?;
-                let offset = r.u32()?;
-                let data = r.rest();
+                use field::chunk as f;
+                let (p, data) = Fields::head(payload, f::LEN)?;
                 if data.len() > MAX_CHUNK {
                     return Err("chunk longer than MAX_CHUNK");
                 }
-                Self::Chunk(Chunk { slot, offset, data })
+                Self::Chunk(Chunk {
+                    slot: p.u8(f::SLOT)?,
+                    offset: p.u32(f::OFFSET)?,
+                    data,
+                })
             }
-            MessageType::Commit => Self::Commit(Commit {
-                slot: r.u8()?,
-                crc32: r.u32()?,
-            }),
-            MessageType::Play => Self::Play(Play {
-                slot: r.u8()?,
-                at: PlayAt::from_u8(r.u8()?).ok_or("unknown play timing")?,
-                untracked: match r.u8()? {
-                    0 => false,
-                    PLAY_FLAG_UNTRACKED => true,
-                    _ => return Err("unknown play flag bits"),
-                },
-            }),
-            MessageType::Centroid => Self::Centroid(Centroid {
-                seq: r.u32()?,
-                pos_um: r.xyz()?,
-                present: r.bool()?,
-                host_time_us: r.u64()?,
-            }),
-            MessageType::Nack => Self::Nack(NackCode::from_u8(r.u8()?)),
-            MessageType::Info => Self::Info(Info {
-                proto_version: r.u8()?,
-                fw_version: r.array()?,
-                max_transducers: r.u16()?,
-                slot_bytes: r.u32()?,
-                slots: r.u8()?,
-                timer_hz: r.u32()?,
-                min_dwell_us: r.u32()?,
-                max_chunk: r.u16()?,
-            }),
-            MessageType::Status => Self::Status(Status {
-                state: DeviceState::from_u8(r.u8()?).ok_or("unknown device state")?,
-                slot: match r.u8()? {
-                    NO_SLOT => None,
-                    s => Some(s),
-                },
-                step: r.u16()?,
-                cycles: r.u32()?,
-                missed_deadlines: r.u32()?,
-                last_centroid_seq: r.u32()?,
-                bad_frames: r.u32()?,
-                crc_errors: r.u32()?,
-                nacks: r.u32()?,
-                correction_um: r.xyz()?,
-                queued_slot: match r.u8()? {
-                    NO_SLOT => None,
-                    s => Some(s),
-                },
-                mute_reason: MuteReason::from_u8(r.u8()?).ok_or("unknown mute reason")?,
-            }),
+            MessageType::Commit => {
+                use field::commit as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Commit(Commit {
+                    slot: p.u8(f::SLOT)?,
+                    crc32: p.u32(f::CRC32)?,
+                })
+            }
+            MessageType::Play => {
+                use field::play as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Play(Play {
+                    slot: p.u8(f::SLOT)?,
+                    at: PlayAt::from_u8(p.u8(f::AT)?).ok_or("unknown play timing")?,
+                    untracked: match p.u8(f::FLAGS)? {
+                        0 => false,
+                        PLAY_FLAG_UNTRACKED => true,
+                        _ => return Err("unknown play flag bits"),
+                    },
+                })
+            }
+            MessageType::Centroid => {
+                use field::centroid as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Centroid(Centroid {
+                    seq: p.u32(f::SEQ)?,
+                    pos_um: p.xyz(f::POS_UM)?,
+                    present: p.bool(f::PRESENT)?,
+                    host_time_us: p.u64(f::HOST_TIME_US)?,
+                })
+            }
+            MessageType::Nack => {
+                use field::nack as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Nack(NackCode::from_u8(p.u8(f::CODE)?))
+            }
+            MessageType::Info => {
+                use field::info as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Info(Info {
+                    proto_version: p.u8(f::PROTO_VERSION)?,
+                    fw_version: p.array(f::FW_VERSION)?,
+                    max_transducers: p.u16(f::MAX_TRANSDUCERS)?,
+                    slot_bytes: p.u32(f::SLOT_BYTES)?,
+                    slots: p.u8(f::SLOTS)?,
+                    timer_hz: p.u32(f::TIMER_HZ)?,
+                    min_dwell_us: p.u32(f::MIN_DWELL_US)?,
+                    max_chunk: p.u16(f::MAX_CHUNK)?,
+                })
+            }
+            MessageType::Status => {
+                use field::status as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Status(Status {
+                    state: DeviceState::from_u8(p.u8(f::STATE)?).ok_or("unknown device state")?,
+                    slot: p.slot(f::SLOT)?,
+                    step: p.u16(f::STEP)?,
+                    cycles: p.u32(f::CYCLES)?,
+                    missed_deadlines: p.u32(f::MISSED_DEADLINES)?,
+                    last_centroid_seq: p.u32(f::LAST_CENTROID_SEQ)?,
+                    bad_frames: p.u32(f::BAD_FRAMES)?,
+                    crc_errors: p.u32(f::CRC_ERRORS)?,
+                    nacks: p.u32(f::NACKS)?,
+                    correction_um: p.xyz(f::CORRECTION_UM)?,
+                    queued_slot: p.slot(f::QUEUED_SLOT)?,
+                    mute_reason: MuteReason::from_u8(p.u8(f::MUTE_REASON)?)
+                        .ok_or("unknown mute reason")?,
+                })
+            }
         })
     }
 }

@@ -1,9 +1,33 @@
-//! Declaring wire enums from one table (in the manner of smoltcp's `wire`
-//! modules).
+//! Declaring wire enums and payload layouts, each from one table (in the
+//! manner of smoltcp's `wire` modules).
 //!
 //! [`wire_enum!`] declares a one-byte enum: its variants, their wire bytes
 //! and, where given, words for humans; it writes `ALL`, `from_u8`, `to_u8`
-//! (and `describe`/`Display`) from that one table.
+//! (and `describe`/`Display`) from that one table. [`layout!`] declares a
+//! payload's fields as byte ranges and derives the payload length from the
+//! last field's end, after checking at compile time that the fields tile
+//! `0..LEN` without gaps or overlaps.
+
+/// Byte range of one payload field.
+pub type Field = core::ops::Range<usize>;
+
+/// The end of the last of `fields`, which must follow each other from
+/// offset 0 with no gap or overlap (checked when the constant is built, so
+/// a bad layout does not compile).
+pub(crate) const fn tiled_len(fields: &[Field]) -> usize {
+    let mut end = 0;
+    let mut i = 0;
+    while i < fields.len() {
+        assert!(
+            fields[i].start == end,
+            "payload fields must follow each other"
+        );
+        assert!(fields[i].end > fields[i].start, "payload field is empty");
+        end = fields[i].end;
+        i += 1;
+    }
+    end
+}
 
 /// True if `bytes` holds no value twice.
 pub(crate) const fn distinct(bytes: &[u8]) -> bool {
@@ -150,7 +174,28 @@ macro_rules! wire_enum {
     };
 }
 
-pub(crate) use wire_enum;
+/// Declares a payload layout: a module of [`Field`] constants in wire
+/// order, and `LEN`, the end of the last one (the whole payload for fixed
+/// messages, the fixed head for variable ones). The fields must tile
+/// `0..LEN`, or the crate does not compile.
+macro_rules! layout {
+    (
+        $(#[$meta:meta])*
+        pub mod $name:ident {
+            $( $(#[$fmeta:meta])* $field:ident = $range:expr, )+
+        }
+    ) => {
+        $(#[$meta])*
+        pub mod $name {
+            use $crate::wire::Field;
+            $( $(#[$fmeta])* pub const $field: Field = $range; )+
+            /// Bytes up to the end of the last field.
+            pub const LEN: usize = $crate::wire::tiled_len(&[$($field),+]);
+        }
+    };
+}
+
+pub(crate) use {layout, wire_enum};
 
 #[cfg(test)]
 mod tests {
@@ -186,5 +231,24 @@ mod tests {
         for r in MuteReason::ALL {
             assert_eq!(r.to_string(), r.describe());
         }
+    }
+
+    /// The derived lengths are the ones SPEC section 3 states.
+    #[test]
+    fn lengths_are_the_spec_ones() {
+        use crate::{HEADER_LEN, len};
+        let got = [
+            HEADER_LEN,
+            len::BEGIN_UPLOAD,
+            len::GEOMETRY_HEAD,
+            len::CHUNK_HEAD,
+            len::COMMIT,
+            len::PLAY,
+            len::CENTROID,
+            len::NACK,
+            len::INFO,
+            len::STATUS,
+        ];
+        assert_eq!(got, [4, 35, 3, 5, 5, 3, 25, 1, 21, 42]);
     }
 }
