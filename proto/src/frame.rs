@@ -6,6 +6,7 @@ use core::fmt;
 use crate::cobs;
 use crate::crc::Crc32;
 use crate::error::EncodeError;
+use crate::field::frame::{SEQ, TYPE, VERSION};
 use crate::message::{Message, PayloadError, Sink};
 use crate::{CRC_LEN, HEADER_LEN, MAX_FRAME, MAX_PAYLOAD, MIN_FRAME, PROTOCOL_VERSION};
 
@@ -159,8 +160,10 @@ pub fn decode_frame(decoded: &[u8]) -> Result<Frame<'_>, FrameError> {
         return Err(FrameError::Crc { received, computed });
     }
     let (header, payload) = body.split_at(HEADER_LEN);
-    let (version, msg_type) = (header[0], header[1]);
-    let seq = u16::from_le_bytes([header[2], header[3]]);
+    let (version, msg_type) = (header[VERSION.start], header[TYPE.start]);
+    let mut seq = [0; 2];
+    seq.copy_from_slice(&header[SEQ]);
+    let seq = u16::from_le_bytes(seq);
     if version != PROTOCOL_VERSION {
         return Err(FrameError::BadVersion {
             version,
@@ -193,8 +196,11 @@ impl Sink for FrameSink<'_> {
 }
 
 fn header(seq: u16, msg: &Message<'_>) -> [u8; HEADER_LEN] {
-    let s = seq.to_le_bytes();
-    [PROTOCOL_VERSION, msg.msg_type() as u8, s[0], s[1]]
+    let mut h = [0; HEADER_LEN];
+    h[VERSION].copy_from_slice(&[PROTOCOL_VERSION]);
+    h[TYPE].copy_from_slice(&[msg.msg_type().to_u8()]);
+    h[SEQ].copy_from_slice(&seq.to_le_bytes());
+    h
 }
 
 /// Encodes one frame for the wire into `buf`: `0x00`, COBS(header,

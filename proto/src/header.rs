@@ -1,12 +1,12 @@
 //! The upload header: what a slot plays, written once. The host checks it
-//! against the device's [`Info`] before sending ([`UploadHeader::validate`]
+//! against the device's [`Info`](crate::Info) before sending ([`UploadHeader::validate`]
 //! with [`DeviceLimits::from_info`]); the device runs the same check on
 //! receipt with its own limits. One type, one check, both ends.
 
 use core::fmt;
 
 use crate::codec::{Encoding, encoded_len_range};
-use crate::message::{Info, NackCode};
+use crate::nack::NackCode;
 use crate::{MAX_OFFSET_UM, SOUND_SPEED_MM_S};
 
 /// What a slot plays, as planned: shape, timing, planned centre, the speed
@@ -36,7 +36,7 @@ pub struct UploadHeader {
     pub max_offset_um: u32,
 }
 
-/// What a device can hold and play: the part of [`Info`] an upload is
+/// What a device can hold and play: the part of [`Info`](crate::Info) an upload is
 /// checked against.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -49,18 +49,6 @@ pub struct DeviceLimits {
     pub slot_bytes: u32,
     /// Shortest step dwell the device plays, µs.
     pub min_dwell_us: u32,
-}
-
-impl DeviceLimits {
-    /// The limits a device reported in its `Info`.
-    pub fn from_info(info: &Info) -> Self {
-        Self {
-            slots: info.slots,
-            max_transducers: info.max_transducers,
-            slot_bytes: info.slot_bytes,
-            min_dwell_us: info.min_dwell_us,
-        }
-    }
 }
 
 /// Why an upload header (or a `BeginUpload`) is refused; each maps to the

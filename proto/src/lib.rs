@@ -22,10 +22,13 @@ pub mod codec;
 mod crc;
 mod decoder;
 mod error;
+pub mod field;
 mod frame;
 mod header;
 mod message;
+mod nack;
 pub mod vectors;
+mod wire;
 
 pub use codec::Encoding;
 pub use crc::{Crc32, crc32};
@@ -37,8 +40,9 @@ pub use frame::{
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
     BeginUpload, Centroid, Chunk, Commit, DeviceState, Geometry, Info, Message, MessageType,
-    MuteReason, NackCode, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
+    MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
 };
+pub use nack::NackCode;
 
 /// Protocol version carried in every frame header.
 pub const PROTOCOL_VERSION: u8 = 2;
@@ -56,8 +60,8 @@ pub const MAX_GEOMETRY_POSITIONS: usize = MAX_CHUNK / POSITION_LEN;
 /// Largest message payload (the largest message, `Chunk`, needs
 /// `MAX_CHUNK + len::CHUNK_HEAD`; the rest is headroom for future fields).
 pub const MAX_PAYLOAD: usize = MAX_CHUNK + 16;
-/// Frame header length: version, type, seq (u16 LE).
-pub const HEADER_LEN: usize = 4;
+/// Frame header length: version, type, seq (u16 LE) ([`field::frame`]).
+pub const HEADER_LEN: usize = field::frame::LEN;
 /// Frame check length (CRC-32 LE).
 pub const CRC_LEN: usize = 4;
 /// Largest decoded frame: header, payload, CRC.
@@ -80,26 +84,28 @@ pub const SOUND_SPEED_MM_S: core::ops::RangeInclusive<u32> = 100_000..=2_000_000
 pub const MAX_OFFSET_UM: core::ops::RangeInclusive<u32> = 1..=100_000;
 
 /// Payload length of each fixed-size message, and the fixed heads of the
-/// variable ones (SPEC section 3).
+/// variable ones (SPEC section 3): the end of the last of its [`field`]s.
 pub mod len {
+    use crate::field;
+
     /// `BeginUpload`.
-    pub const BEGIN_UPLOAD: usize = 35;
+    pub const BEGIN_UPLOAD: usize = field::begin_upload::LEN;
     /// `Geometry` before its positions (slot, first).
-    pub const GEOMETRY_HEAD: usize = 3;
+    pub const GEOMETRY_HEAD: usize = field::geometry::LEN;
     /// `Chunk` before its data (slot, offset).
-    pub const CHUNK_HEAD: usize = 5;
+    pub const CHUNK_HEAD: usize = field::chunk::LEN;
     /// `Commit`.
-    pub const COMMIT: usize = 5;
+    pub const COMMIT: usize = field::commit::LEN;
     /// `Play`.
-    pub const PLAY: usize = 3;
+    pub const PLAY: usize = field::play::LEN;
     /// `Centroid`.
-    pub const CENTROID: usize = 25;
+    pub const CENTROID: usize = field::centroid::LEN;
     /// `Nack`.
-    pub const NACK: usize = 1;
+    pub const NACK: usize = field::nack::LEN;
     /// `Info`.
-    pub const INFO: usize = 21;
+    pub const INFO: usize = field::info::LEN;
     /// `Status`.
-    pub const STATUS: usize = 42;
+    pub const STATUS: usize = field::status::LEN;
 }
 
 /// Exact-byte test vectors (`proto/vectors/frames.txt`), format described

@@ -1,180 +1,51 @@
 //! Message types and their payload layouts (all integers little-endian).
 //! Byte layouts are listed in `proto/SPEC.md`.
 
-use core::fmt;
-
 use crate::codec::Encoding;
 use crate::error::EncodeError;
+use crate::field::{self, Field};
 use crate::header::{DeviceLimits, HeaderError, UploadHeader};
-use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN, len};
+use crate::nack::NackCode;
+use crate::wire::wire_enum;
+use crate::{MAX_CHUNK, MAX_GEOMETRY_POSITIONS, NO_SLOT, POSITION_LEN};
 
-/// Message type byte (second header byte). Requests are `0x01..=0x7F`,
-/// responses `0x80..=0xFF`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-#[repr(u8)]
-pub enum MessageType {
-    /// Request device info; answered by `Info`.
-    GetInfo = 0x01,
-    /// Start uploading a sequence into a slot.
-    BeginUpload = 0x02,
-    /// Transducer positions for centroid correction.
-    Geometry = 0x03,
-    /// A piece of the encoded sequence stream.
-    Chunk = 0x04,
-    /// Finish an upload, check the raw sequence CRC.
-    Commit = 0x05,
-    /// Start playing a slot.
-    Play = 0x06,
-    /// Stop playing.
-    Stop = 0x07,
-    /// Centroid (LM centre) update.
-    Centroid = 0x08,
-    /// Request status; answered by `Status`.
-    GetStatus = 0x09,
-    /// Request done.
-    Ack = 0x80,
-    /// Request refused, with a code.
-    Nack = 0x81,
-    /// Device info.
-    Info = 0x82,
-    /// Device status.
-    Status = 0x83,
+wire_enum! {
+    /// Message type byte (second header byte). Requests are `0x01..=0x7F`,
+    /// responses `0x80..=0xFF`.
+    pub enum MessageType {
+        /// Request device info; answered by `Info`.
+        GetInfo = 0x01,
+        /// Start uploading a sequence into a slot.
+        BeginUpload = 0x02,
+        /// Transducer positions for centroid correction.
+        Geometry = 0x03,
+        /// A piece of the encoded sequence stream.
+        Chunk = 0x04,
+        /// Finish an upload, check the raw sequence CRC.
+        Commit = 0x05,
+        /// Start playing a slot.
+        Play = 0x06,
+        /// Stop playing.
+        Stop = 0x07,
+        /// Centroid (LM centre) update.
+        Centroid = 0x08,
+        /// Request status; answered by `Status`.
+        GetStatus = 0x09,
+        /// Request done.
+        Ack = 0x80,
+        /// Request refused, with a code.
+        Nack = 0x81,
+        /// Device info.
+        Info = 0x82,
+        /// Device status.
+        Status = 0x83,
+    }
 }
 
 impl MessageType {
-    /// Every type this version knows, in wire order.
-    pub const ALL: [MessageType; 13] = [
-        Self::GetInfo,
-        Self::BeginUpload,
-        Self::Geometry,
-        Self::Chunk,
-        Self::Commit,
-        Self::Play,
-        Self::Stop,
-        Self::Centroid,
-        Self::GetStatus,
-        Self::Ack,
-        Self::Nack,
-        Self::Info,
-        Self::Status,
-    ];
-
-    /// The type for a wire byte, if this version knows it.
-    pub fn from_u8(b: u8) -> Option<Self> {
-        Self::ALL.iter().copied().find(|t| *t as u8 == b)
-    }
-
     /// True for device-to-host messages (`0x80..`).
     pub fn is_response(self) -> bool {
-        self as u8 >= 0x80
-    }
-}
-
-/// Why a request was refused (`Nack` payload byte).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-pub enum NackCode {
-    /// 1: message type unknown to the device.
-    UnknownType,
-    /// 2: payload has the wrong length or an invalid field value.
-    Malformed,
-    /// 3: frame carries another protocol version.
-    BadVersion,
-    /// 4: slot number does not exist.
-    BadSlot,
-    /// 5: the slot is playing (stop or use another slot first).
-    SlotPlaying,
-    /// 6: sequence does not fit the slot or exceeds `max_transducers`.
-    TooLarge,
-    /// 7: a field is outside its allowed range (zero steps, offset past
-    /// `encoded_len`, geometry index past `transducers`, ...).
-    OutOfRange,
-    /// 8: chunk offset is not the next expected one (gap, or an overlap
-    /// with different data).
-    OutOfOrder,
-    /// 9: commit CRC differs from the CRC of the decoded raw sequence.
-    CrcMismatch,
-    /// 10: play of a slot that holds no committed sequence.
-    NotCommitted,
-    /// 11: `period_us / steps` is below the device's `min_dwell_us`.
-    DwellTooShort,
-    /// 12: chunk, geometry or commit without a matching `BeginUpload`.
-    NoUpload,
-    /// 13: device cannot take the request now; retry later.
-    Busy,
-    /// 14: commit before all `encoded_len` bytes (or all geometry) arrived.
-    Incomplete,
-    /// 15: the encoded sequence stream is invalid for its encoding.
-    BadStream,
-    /// A code this version does not know (from a newer peer). Never
-    /// constructed with a known code's value.
-    Other(u8),
-}
-
-/// Every known code: value, wire byte, description. The one table
-/// [`NackCode::to_u8`], [`NackCode::from_u8`] and `Display` read.
-const NACK_TABLE: [(NackCode, u8, &str); 15] = [
-    (NackCode::UnknownType, 1, "unknown message type"),
-    (NackCode::Malformed, 2, "malformed request"),
-    (NackCode::BadVersion, 3, "unsupported protocol version"),
-    (NackCode::BadSlot, 4, "no such slot"),
-    (NackCode::SlotPlaying, 5, "slot is playing or queued"),
-    (NackCode::TooLarge, 6, "sequence too large for the device"),
-    (NackCode::OutOfRange, 7, "field out of range"),
-    (NackCode::OutOfOrder, 8, "chunk out of order"),
-    (NackCode::CrcMismatch, 9, "sequence CRC mismatch"),
-    (
-        NackCode::NotCommitted,
-        10,
-        "slot holds no committed sequence",
-    ),
-    (
-        NackCode::DwellTooShort,
-        11,
-        "dwell time below the device minimum",
-    ),
-    (
-        NackCode::NoUpload,
-        12,
-        "no upload in progress for this slot",
-    ),
-    (NackCode::Busy, 13, "device busy"),
-    (NackCode::Incomplete, 14, "upload incomplete"),
-    (NackCode::BadStream, 15, "invalid encoded sequence stream"),
-];
-
-impl NackCode {
-    /// The wire byte.
-    pub fn to_u8(self) -> u8 {
-        match self {
-            Self::Other(b) => b,
-            known => NACK_TABLE
-                .iter()
-                .find(|(c, _, _)| *c == known)
-                .map_or(0, |(_, b, _)| *b),
-        }
-    }
-
-    /// The code for a wire byte (unknown values become [`NackCode::Other`]).
-    pub fn from_u8(b: u8) -> Self {
-        NACK_TABLE
-            .iter()
-            .find(|(_, v, _)| *v == b)
-            .map_or(Self::Other(b), |(c, _, _)| *c)
-    }
-}
-
-impl fmt::Display for NackCode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match NACK_TABLE.iter().find(|(c, _, _)| c == self) {
-            Some((_, _, s)) => f.write_str(s),
-            None => write!(f, "unknown nack code {}", self.to_u8()),
-        }
+        self.to_u8() >= 0x80
     }
 }
 
@@ -199,6 +70,20 @@ pub struct Info {
     pub min_dwell_us: u32,
     /// Largest chunk the device accepts (≤ [`MAX_CHUNK`]).
     pub max_chunk: u16,
+}
+
+// Here rather than in `header`, so that `header` needs nothing from the
+// messages (they import it).
+impl DeviceLimits {
+    /// The limits a device reported in its `Info`.
+    pub fn from_info(info: &Info) -> Self {
+        Self {
+            slots: info.slots,
+            max_transducers: info.max_transducers,
+            slot_bytes: info.slot_bytes,
+            min_dwell_us: info.min_dwell_us,
+        }
+    }
 }
 
 /// Start of an upload into a slot: the slot, the [`UploadHeader`] and how
@@ -283,9 +168,7 @@ impl<'a> Positions<'a> {
         match self.0 {
             PosRepr::Bytes(b) => {
                 let r = b.get(i.checked_mul(POSITION_LEN)?..)?.get(..POSITION_LEN)?;
-                Some(core::array::from_fn(|k| {
-                    i32::from_le_bytes([r[4 * k], r[4 * k + 1], r[4 * k + 2], r[4 * k + 3]])
-                }))
+                Some(xyz_from_le(r.try_into().ok()?))
             }
             PosRepr::Points(p) => p.get(i).copied(),
         }
@@ -350,16 +233,14 @@ pub struct Commit {
     pub crc32: u32,
 }
 
-/// When `Play` takes effect.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-pub enum PlayAt {
-    /// 0: at the end of the current cycle (seamless switch); at once when idle.
-    NextCycle,
-    /// 1: at once, from step 0.
-    Immediate,
+wire_enum! {
+    /// When `Play` takes effect.
+    pub enum PlayAt {
+        /// 0: at the end of the current cycle (seamless switch); at once when idle.
+        NextCycle = 0,
+        /// 1: at once, from step 0.
+        Immediate = 1,
+    }
 }
 
 /// Start playing a committed slot.
@@ -395,75 +276,40 @@ pub struct Centroid {
     pub host_time_us: u64,
 }
 
-/// Player state in `Status`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-pub enum DeviceState {
-    /// 0: nothing played since reset.
-    #[default]
-    Idle,
-    /// 1: playing a slot.
-    Playing,
-    /// 2: playing but the output is gated (no presence, stale centroid, ...).
-    Muted,
-    /// 3: stopped by `Stop`.
-    Stopped,
+wire_enum! {
+    /// Player state in `Status`.
+    #[derive(Default)]
+    pub enum DeviceState {
+        /// 0: nothing played since reset.
+        #[default]
+        Idle = 0,
+        /// 1: playing a slot.
+        Playing = 1,
+        /// 2: playing but the output is gated (no presence, stale centroid, ...).
+        Muted = 2,
+        /// 3: stopped by `Stop`.
+        Stopped = 3,
+    }
 }
 
-/// Why the output is silent (`Status::mute_reason`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
-#[non_exhaustive]
-pub enum MuteReason {
-    /// 0: not muted (playing, or idle: nothing was ever played).
-    #[default]
-    None,
-    /// 1: playing, no centroid since `Play` (tracked play needs one).
-    WaitingForTracking,
-    /// 2: the last centroid said no finger is present.
-    FingerAbsent,
-    /// 3: no centroid within the device's timeout.
-    TrackingStale,
-    /// 4: the last centroid lay outside the slot's work volume.
-    CentroidOutOfRange,
-    /// 5: stopped by `Stop`.
-    Stopped,
-}
-
-impl MuteReason {
-    const ALL: [MuteReason; 6] = [
-        Self::None,
-        Self::WaitingForTracking,
-        Self::FingerAbsent,
-        Self::TrackingStale,
-        Self::CentroidOutOfRange,
-        Self::Stopped,
-    ];
-
-    /// The wire byte.
-    pub fn to_u8(self) -> u8 {
-        Self::ALL.iter().position(|r| *r == self).unwrap_or(0) as u8
-    }
-
-    /// The reason for a wire byte, if known.
-    pub fn from_u8(b: u8) -> Option<Self> {
-        Self::ALL.get(usize::from(b)).copied()
-    }
-
-    /// Words for humans ("waiting for tracking").
-    pub fn describe(self) -> &'static str {
-        match self {
-            Self::None => "none",
-            Self::WaitingForTracking => "waiting for tracking",
-            Self::FingerAbsent => "finger absent",
-            Self::TrackingStale => "tracking stale",
-            Self::CentroidOutOfRange => "centroid out of range",
-            Self::Stopped => "stopped",
-        }
+wire_enum! {
+    /// Why the output is silent (`Status::mute_reason`).
+    #[derive(Default)]
+    #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+    pub enum MuteReason {
+        /// 0: not muted (playing, or idle: nothing was ever played).
+        #[default]
+        None = 0 => "none",
+        /// 1: playing, no centroid since `Play` (tracked play needs one).
+        WaitingForTracking = 1 => "waiting for tracking",
+        /// 2: the last centroid said no finger is present.
+        FingerAbsent = 2 => "finger absent",
+        /// 3: no centroid within the device's timeout.
+        TrackingStale = 3 => "tracking stale",
+        /// 4: the last centroid lay outside the slot's work volume.
+        CentroidOutOfRange = 4 => "centroid out of range",
+        /// 5: stopped by `Stop`.
+        Stopped = 5 => "stopped",
     }
 }
 
@@ -559,64 +405,80 @@ impl Sink for SliceSink<'_> {
     }
 }
 
-fn put_xyz(s: &mut impl Sink, v: &[i32; 3]) -> Result<(), EncodeError> {
-    v.iter().try_for_each(|c| s.put(&c.to_le_bytes()))
+/// Writes `bytes` into field `f` of a payload being built (the widths are
+/// the layout's, checked by every round-trip test).
+fn set(p: &mut [u8], f: Field, bytes: &[u8]) {
+    p[f].copy_from_slice(bytes);
 }
 
-/// Bounds-checked little-endian reader over an untrusted payload.
-struct Reader<'a> {
-    buf: &'a [u8],
+/// `[x, y, z]` from a 12-byte record (`POSITION_LEN`, `i32` LE each).
+fn xyz_from_le(b: [u8; POSITION_LEN]) -> [i32; 3] {
+    core::array::from_fn(|k| {
+        i32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+    })
 }
 
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], &'static str> {
-        if self.buf.len() < n {
+/// `[x, y, z]` as a 12-byte record.
+fn xyz_le(v: &[i32; 3]) -> [u8; POSITION_LEN] {
+    let mut b = [0; 12];
+    for (d, c) in b.chunks_exact_mut(4).zip(v) {
+        d.copy_from_slice(&c.to_le_bytes());
+    }
+    b
+}
+
+/// An untrusted payload, read field by field. Reads never panic: a field
+/// outside the payload is an error (which [`Fields::exact`] and
+/// [`Fields::head`] rule out before any field is read).
+struct Fields<'a>(&'a [u8]);
+
+impl<'a> Fields<'a> {
+    /// A payload of exactly `len` bytes.
+    fn exact(payload: &'a [u8], len: usize) -> Result<Self, &'static str> {
+        match payload.len().cmp(&len) {
+            core::cmp::Ordering::Less => Err("payload too short"),
+            core::cmp::Ordering::Greater => Err("payload too long"),
+            core::cmp::Ordering::Equal => Ok(Self(payload)),
+        }
+    }
+    /// A head of `len` bytes and the rest of the payload.
+    fn head(payload: &'a [u8], len: usize) -> Result<(Self, &'a [u8]), &'static str> {
+        if payload.len() < len {
             return Err("payload too short");
         }
-        let (head, rest) = self.buf.split_at(n);
-        self.buf = rest;
-        Ok(head)
+        let (head, rest) = payload.split_at(len);
+        Ok((Self(head), rest))
     }
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], &'static str> {
-        let b = self.take(N)?;
-        let mut a = [0u8; N];
-        a.copy_from_slice(b);
-        Ok(a)
+    fn array<const N: usize>(&self, f: Field) -> Result<[u8; N], &'static str> {
+        let b = self.0.get(f).ok_or("payload too short")?;
+        b.try_into()
+            .map_err(|_| "field width differs from its type")
     }
-    fn u8(&mut self) -> Result<u8, &'static str> {
-        Ok(self.array::<1>()?[0])
+    fn u8(&self, f: Field) -> Result<u8, &'static str> {
+        Ok(self.array::<1>(f)?[0])
     }
-    fn u16(&mut self) -> Result<u16, &'static str> {
-        Ok(u16::from_le_bytes(self.array()?))
+    fn u16(&self, f: Field) -> Result<u16, &'static str> {
+        Ok(u16::from_le_bytes(self.array(f)?))
     }
-    fn u32(&mut self) -> Result<u32, &'static str> {
-        Ok(u32::from_le_bytes(self.array()?))
+    fn u32(&self, f: Field) -> Result<u32, &'static str> {
+        Ok(u32::from_le_bytes(self.array(f)?))
     }
-    fn u64(&mut self) -> Result<u64, &'static str> {
-        Ok(u64::from_le_bytes(self.array()?))
+    fn u64(&self, f: Field) -> Result<u64, &'static str> {
+        Ok(u64::from_le_bytes(self.array(f)?))
     }
-    fn i32(&mut self) -> Result<i32, &'static str> {
-        Ok(i32::from_le_bytes(self.array()?))
+    fn xyz(&self, f: Field) -> Result<[i32; 3], &'static str> {
+        Ok(xyz_from_le(self.array(f)?))
     }
-    fn xyz(&mut self) -> Result<[i32; 3], &'static str> {
-        Ok([self.i32()?, self.i32()?, self.i32()?])
-    }
-    fn bool(&mut self) -> Result<bool, &'static str> {
-        match self.u8()? {
+    fn bool(&self, f: Field) -> Result<bool, &'static str> {
+        match self.u8(f)? {
             0 => Ok(false),
             1 => Ok(true),
             _ => Err("bool field not 0 or 1"),
         }
     }
-    fn rest(&mut self) -> &'a [u8] {
-        core::mem::take(&mut self.buf)
-    }
-    fn end(&self) -> Result<(), &'static str> {
-        if self.buf.is_empty() {
-            Ok(())
-        } else {
-            Err("payload too long")
-        }
+    /// A slot byte, [`NO_SLOT`] meaning none.
+    fn slot(&self, f: Field) -> Result<Option<u8>, &'static str> {
+        Ok(Some(self.u8(f)?).filter(|s| *s != NO_SLOT))
     }
 }
 
@@ -650,15 +512,15 @@ impl<'a> Message<'a> {
     pub fn payload_len(&self) -> usize {
         match self {
             Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => 0,
-            Self::BeginUpload(_) => len::BEGIN_UPLOAD,
-            Self::Geometry(g) => len::GEOMETRY_HEAD + POSITION_LEN * g.positions.len(),
-            Self::Chunk(c) => len::CHUNK_HEAD + c.data.len(),
-            Self::Commit(_) => len::COMMIT,
-            Self::Play(_) => len::PLAY,
-            Self::Centroid(_) => len::CENTROID,
-            Self::Nack(_) => len::NACK,
-            Self::Info(_) => len::INFO,
-            Self::Status(_) => len::STATUS,
+            Self::BeginUpload(_) => field::begin_upload::LEN,
+            Self::Geometry(g) => field::geometry::LEN + POSITION_LEN * g.positions.len(),
+            Self::Chunk(c) => field::chunk::LEN + c.data.len(),
+            Self::Commit(_) => field::commit::LEN,
+            Self::Play(_) => field::play::LEN,
+            Self::Centroid(_) => field::centroid::LEN,
+            Self::Nack(_) => field::nack::LEN,
+            Self::Info(_) => field::info::LEN,
+            Self::Status(_) => field::status::LEN,
         }
     }
 
@@ -695,80 +557,109 @@ impl<'a> Message<'a> {
         match self {
             Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => Ok(()),
             Self::BeginUpload(b) => {
+                use field::begin_upload as f;
                 let h = &b.header;
-                s.put(&[b.slot])?;
-                s.put(&h.steps.to_le_bytes())?;
-                s.put(&h.transducers.to_le_bytes())?;
-                s.put(&h.period_us.to_le_bytes())?;
-                s.put(&[b.encoding.to_u8()])?;
-                s.put(&b.encoded_len.to_le_bytes())?;
-                put_xyz(s, &h.center_um)?;
-                s.put(&[h.foci_per_step])?;
-                s.put(&h.sound_speed_mm_s.to_le_bytes())?;
-                s.put(&h.max_offset_um.to_le_bytes())
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[b.slot]);
+                set(&mut p, f::STEPS, &h.steps.to_le_bytes());
+                set(&mut p, f::TRANSDUCERS, &h.transducers.to_le_bytes());
+                set(&mut p, f::PERIOD_US, &h.period_us.to_le_bytes());
+                set(&mut p, f::ENCODING, &[b.encoding.to_u8()]);
+                set(&mut p, f::ENCODED_LEN, &b.encoded_len.to_le_bytes());
+                set(&mut p, f::CENTER_UM, &xyz_le(&h.center_um));
+                set(&mut p, f::FOCI_PER_STEP, &[h.foci_per_step]);
+                set(
+                    &mut p,
+                    f::SOUND_SPEED_MM_S,
+                    &h.sound_speed_mm_s.to_le_bytes(),
+                );
+                set(&mut p, f::MAX_OFFSET_UM, &h.max_offset_um.to_le_bytes());
+                s.put(&p)
             }
             Self::Geometry(g) => {
-                s.put(&[g.slot])?;
-                s.put(&g.first.to_le_bytes())?;
-                g.positions.iter().try_for_each(|p| put_xyz(s, &p))
+                use field::geometry as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[g.slot]);
+                set(&mut p, f::FIRST, &g.first.to_le_bytes());
+                s.put(&p)?;
+                g.positions.iter().try_for_each(|q| s.put(&xyz_le(&q)))
             }
             Self::Chunk(c) => {
-                s.put(&[c.slot])?;
-                s.put(&c.offset.to_le_bytes())?;
+                use field::chunk as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[c.slot]);
+                set(&mut p, f::OFFSET, &c.offset.to_le_bytes());
+                s.put(&p)?;
                 s.put(c.data)
             }
             Self::Commit(c) => {
-                s.put(&[c.slot])?;
-                s.put(&c.crc32.to_le_bytes())
+                use field::commit as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[c.slot]);
+                set(&mut p, f::CRC32, &c.crc32.to_le_bytes());
+                s.put(&p)
             }
-            Self::Play(p) => s.put(&[
-                p.slot,
-                match p.at {
-                    PlayAt::NextCycle => 0,
-                    PlayAt::Immediate => 1,
-                },
-                if p.untracked { PLAY_FLAG_UNTRACKED } else { 0 },
-            ]),
+            Self::Play(q) => {
+                use field::play as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[q.slot]);
+                set(&mut p, f::AT, &[q.at.to_u8()]);
+                let flags = if q.untracked { PLAY_FLAG_UNTRACKED } else { 0 };
+                set(&mut p, f::FLAGS, &[flags]);
+                s.put(&p)
+            }
             Self::Centroid(c) => {
-                s.put(&c.seq.to_le_bytes())?;
-                put_xyz(s, &c.pos_um)?;
-                s.put(&[c.present as u8])?;
-                s.put(&c.host_time_us.to_le_bytes())
+                use field::centroid as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SEQ, &c.seq.to_le_bytes());
+                set(&mut p, f::POS_UM, &xyz_le(&c.pos_um));
+                set(&mut p, f::PRESENT, &[u8::from(c.present)]);
+                set(&mut p, f::HOST_TIME_US, &c.host_time_us.to_le_bytes());
+                s.put(&p)
             }
-            Self::Nack(code) => s.put(&[code.to_u8()]),
+            Self::Nack(code) => {
+                use field::nack as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::CODE, &[code.to_u8()]);
+                s.put(&p)
+            }
             Self::Info(i) => {
-                s.put(&[i.proto_version])?;
-                s.put(&i.fw_version)?;
-                s.put(&i.max_transducers.to_le_bytes())?;
-                s.put(&i.slot_bytes.to_le_bytes())?;
-                s.put(&[i.slots])?;
-                s.put(&i.timer_hz.to_le_bytes())?;
-                s.put(&i.min_dwell_us.to_le_bytes())?;
-                s.put(&i.max_chunk.to_le_bytes())
+                use field::info as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::PROTO_VERSION, &[i.proto_version]);
+                set(&mut p, f::FW_VERSION, &i.fw_version);
+                set(&mut p, f::MAX_TRANSDUCERS, &i.max_transducers.to_le_bytes());
+                set(&mut p, f::SLOT_BYTES, &i.slot_bytes.to_le_bytes());
+                set(&mut p, f::SLOTS, &[i.slots]);
+                set(&mut p, f::TIMER_HZ, &i.timer_hz.to_le_bytes());
+                set(&mut p, f::MIN_DWELL_US, &i.min_dwell_us.to_le_bytes());
+                set(&mut p, f::MAX_CHUNK, &i.max_chunk.to_le_bytes());
+                s.put(&p)
             }
             Self::Status(st) => {
-                s.put(&[
-                    match st.state {
-                        DeviceState::Idle => 0,
-                        DeviceState::Playing => 1,
-                        DeviceState::Muted => 2,
-                        DeviceState::Stopped => 3,
-                    },
-                    st.slot.unwrap_or(NO_SLOT),
-                ])?;
-                s.put(&st.step.to_le_bytes())?;
-                for v in [
-                    st.cycles,
-                    st.missed_deadlines,
-                    st.last_centroid_seq,
-                    st.bad_frames,
-                    st.crc_errors,
-                    st.nacks,
-                ] {
-                    s.put(&v.to_le_bytes())?;
-                }
-                put_xyz(s, &st.correction_um)?;
-                s.put(&[st.queued_slot.unwrap_or(NO_SLOT), st.mute_reason.to_u8()])
+                use field::status as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::STATE, &[st.state.to_u8()]);
+                set(&mut p, f::SLOT, &[st.slot.unwrap_or(NO_SLOT)]);
+                set(&mut p, f::STEP, &st.step.to_le_bytes());
+                set(&mut p, f::CYCLES, &st.cycles.to_le_bytes());
+                set(
+                    &mut p,
+                    f::MISSED_DEADLINES,
+                    &st.missed_deadlines.to_le_bytes(),
+                );
+                set(
+                    &mut p,
+                    f::LAST_CENTROID_SEQ,
+                    &st.last_centroid_seq.to_le_bytes(),
+                );
+                set(&mut p, f::BAD_FRAMES, &st.bad_frames.to_le_bytes());
+                set(&mut p, f::CRC_ERRORS, &st.crc_errors.to_le_bytes());
+                set(&mut p, f::NACKS, &st.nacks.to_le_bytes());
+                set(&mut p, f::CORRECTION_UM, &xyz_le(&st.correction_um));
+                set(&mut p, f::QUEUED_SLOT, &[st.queued_slot.unwrap_or(NO_SLOT)]);
+                set(&mut p, f::MUTE_REASON, &[st.mute_reason.to_u8()]);
+                s.put(&p)
             }
         }
     }
@@ -776,124 +667,128 @@ impl<'a> Message<'a> {
     /// Parses an untrusted payload of type `msg_type`.
     pub(crate) fn parse(msg_type: u8, payload: &'a [u8]) -> Result<Self, PayloadError> {
         let t = MessageType::from_u8(msg_type).ok_or(PayloadError::UnknownType)?;
-        let mut r = Reader { buf: payload };
-        let m = Self::parse_known(t, &mut r).map_err(PayloadError::Malformed)?;
-        r.end().map_err(PayloadError::Malformed)?;
-        Ok(m)
+        Self::parse_known(t, payload).map_err(PayloadError::Malformed)
     }
 
-    fn parse_known(t: MessageType, r: &mut Reader<'a>) -> Result<Self, &'static str> {
+    fn parse_known(t: MessageType, payload: &'a [u8]) -> Result<Self, &'static str> {
         Ok(match t {
-            MessageType::GetInfo => Self::GetInfo,
-            MessageType::Stop => Self::Stop,
-            MessageType::GetStatus => Self::GetStatus,
-            MessageType::Ack => Self::Ack,
+            MessageType::GetInfo => Fields::exact(payload, 0).map(|_| Self::GetInfo)?,
+            MessageType::Stop => Fields::exact(payload, 0).map(|_| Self::Stop)?,
+            MessageType::GetStatus => Fields::exact(payload, 0).map(|_| Self::GetStatus)?,
+            MessageType::Ack => Fields::exact(payload, 0).map(|_| Self::Ack)?,
             MessageType::BeginUpload => {
-                let slot = r.u8()?;
-                let steps = r.u16()?;
-                let transducers = r.u16()?;
-                let period_us = r.u32()?;
-                let encoding = Encoding::from_u8(r.u8()?).ok_or("unknown encoding")?;
-                let encoded_len = r.u32()?;
+                use field::begin_upload as f;
+                let p = Fields::exact(payload, f::LEN)?;
                 Self::BeginUpload(BeginUpload {
-                    slot,
-                    encoding,
-                    encoded_len,
+                    slot: p.u8(f::SLOT)?,
+                    encoding: Encoding::from_u8(p.u8(f::ENCODING)?).ok_or("unknown encoding")?,
+                    encoded_len: p.u32(f::ENCODED_LEN)?,
                     header: UploadHeader {
-                        steps,
-                        transducers,
-                        period_us,
-                        center_um: r.xyz()?,
-                        foci_per_step: r.u8()?,
-                        sound_speed_mm_s: r.u32()?,
-                        max_offset_um: r.u32()?,
+                        steps: p.u16(f::STEPS)?,
+                        transducers: p.u16(f::TRANSDUCERS)?,
+                        period_us: p.u32(f::PERIOD_US)?,
+                        center_um: p.xyz(f::CENTER_UM)?,
+                        foci_per_step: p.u8(f::FOCI_PER_STEP)?,
+                        sound_speed_mm_s: p.u32(f::SOUND_SPEED_MM_S)?,
+                        max_offset_um: p.u32(f::MAX_OFFSET_UM)?,
                     },
                 })
             }
             MessageType::Geometry => {
-                let slot = r.u8()?;
-                let first = r.u16()?;
-                let bytes = r.rest();
+                use field::geometry as f;
+                let (p, bytes) = Fields::head(payload, f::LEN)?;
                 let positions = Positions::from_le_bytes(bytes)
                     .ok_or("positions not a multiple of POSITION_LEN bytes")?;
                 if positions.len() > MAX_GEOMETRY_POSITIONS {
                     return Err("too many positions");
                 }
                 Self::Geometry(Geometry {
-                    slot,
-                    first,
+                    slot: p.u8(f::SLOT)?,
+                    first: p.u16(f::FIRST)?,
                     positions,
                 })
             }
             MessageType::Chunk => {
-                let slot = r.u8()?;
-                let offset = r.u32()?;
-                let data = r.rest();
+                use field::chunk as f;
+                let (p, data) = Fields::head(payload, f::LEN)?;
                 if data.len() > MAX_CHUNK {
                     return Err("chunk longer than MAX_CHUNK");
                 }
-                Self::Chunk(Chunk { slot, offset, data })
+                Self::Chunk(Chunk {
+                    slot: p.u8(f::SLOT)?,
+                    offset: p.u32(f::OFFSET)?,
+                    data,
+                })
             }
-            MessageType::Commit => Self::Commit(Commit {
-                slot: r.u8()?,
-                crc32: r.u32()?,
-            }),
-            MessageType::Play => Self::Play(Play {
-                slot: r.u8()?,
-                at: match r.u8()? {
-                    0 => PlayAt::NextCycle,
-                    1 => PlayAt::Immediate,
-                    _ => return Err("unknown play timing"),
-                },
-                untracked: match r.u8()? {
-                    0 => false,
-                    PLAY_FLAG_UNTRACKED => true,
-                    _ => return Err("unknown play flag bits"),
-                },
-            }),
-            MessageType::Centroid => Self::Centroid(Centroid {
-                seq: r.u32()?,
-                pos_um: r.xyz()?,
-                present: r.bool()?,
-                host_time_us: r.u64()?,
-            }),
-            MessageType::Nack => Self::Nack(NackCode::from_u8(r.u8()?)),
-            MessageType::Info => Self::Info(Info {
-                proto_version: r.u8()?,
-                fw_version: r.array()?,
-                max_transducers: r.u16()?,
-                slot_bytes: r.u32()?,
-                slots: r.u8()?,
-                timer_hz: r.u32()?,
-                min_dwell_us: r.u32()?,
-                max_chunk: r.u16()?,
-            }),
-            MessageType::Status => Self::Status(Status {
-                state: match r.u8()? {
-                    0 => DeviceState::Idle,
-                    1 => DeviceState::Playing,
-                    2 => DeviceState::Muted,
-                    3 => DeviceState::Stopped,
-                    _ => return Err("unknown device state"),
-                },
-                slot: match r.u8()? {
-                    NO_SLOT => None,
-                    s => Some(s),
-                },
-                step: r.u16()?,
-                cycles: r.u32()?,
-                missed_deadlines: r.u32()?,
-                last_centroid_seq: r.u32()?,
-                bad_frames: r.u32()?,
-                crc_errors: r.u32()?,
-                nacks: r.u32()?,
-                correction_um: r.xyz()?,
-                queued_slot: match r.u8()? {
-                    NO_SLOT => None,
-                    s => Some(s),
-                },
-                mute_reason: MuteReason::from_u8(r.u8()?).ok_or("unknown mute reason")?,
-            }),
+            MessageType::Commit => {
+                use field::commit as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Commit(Commit {
+                    slot: p.u8(f::SLOT)?,
+                    crc32: p.u32(f::CRC32)?,
+                })
+            }
+            MessageType::Play => {
+                use field::play as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Play(Play {
+                    slot: p.u8(f::SLOT)?,
+                    at: PlayAt::from_u8(p.u8(f::AT)?).ok_or("unknown play timing")?,
+                    untracked: match p.u8(f::FLAGS)? {
+                        0 => false,
+                        PLAY_FLAG_UNTRACKED => true,
+                        _ => return Err("unknown play flag bits"),
+                    },
+                })
+            }
+            MessageType::Centroid => {
+                use field::centroid as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Centroid(Centroid {
+                    seq: p.u32(f::SEQ)?,
+                    pos_um: p.xyz(f::POS_UM)?,
+                    present: p.bool(f::PRESENT)?,
+                    host_time_us: p.u64(f::HOST_TIME_US)?,
+                })
+            }
+            MessageType::Nack => {
+                use field::nack as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Nack(NackCode::from_u8(p.u8(f::CODE)?))
+            }
+            MessageType::Info => {
+                use field::info as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Info(Info {
+                    proto_version: p.u8(f::PROTO_VERSION)?,
+                    fw_version: p.array(f::FW_VERSION)?,
+                    max_transducers: p.u16(f::MAX_TRANSDUCERS)?,
+                    slot_bytes: p.u32(f::SLOT_BYTES)?,
+                    slots: p.u8(f::SLOTS)?,
+                    timer_hz: p.u32(f::TIMER_HZ)?,
+                    min_dwell_us: p.u32(f::MIN_DWELL_US)?,
+                    max_chunk: p.u16(f::MAX_CHUNK)?,
+                })
+            }
+            MessageType::Status => {
+                use field::status as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::Status(Status {
+                    state: DeviceState::from_u8(p.u8(f::STATE)?).ok_or("unknown device state")?,
+                    slot: p.slot(f::SLOT)?,
+                    step: p.u16(f::STEP)?,
+                    cycles: p.u32(f::CYCLES)?,
+                    missed_deadlines: p.u32(f::MISSED_DEADLINES)?,
+                    last_centroid_seq: p.u32(f::LAST_CENTROID_SEQ)?,
+                    bad_frames: p.u32(f::BAD_FRAMES)?,
+                    crc_errors: p.u32(f::CRC_ERRORS)?,
+                    nacks: p.u32(f::NACKS)?,
+                    correction_um: p.xyz(f::CORRECTION_UM)?,
+                    queued_slot: p.slot(f::QUEUED_SLOT)?,
+                    mute_reason: MuteReason::from_u8(p.u8(f::MUTE_REASON)?)
+                        .ok_or("unknown mute reason")?,
+                })
+            }
         })
     }
 }
