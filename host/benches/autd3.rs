@@ -9,8 +9,8 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::Centroid;
 use lmhost::autd3::{Autd3Backend, timing};
-use lmhost::clock::Clock;
 use lmhost::backend::Backend;
+use lmhost::clock::Clock;
 use lmhost::scene::Scene;
 use lmhost::sequence::Synthesis;
 use lmhost::trajectory::LmParams;

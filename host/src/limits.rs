@@ -57,15 +57,114 @@ pub const JUMPS_TO_ACCEPT: u32 = 3;
 /// flood); fewer are skipped and counted.
 pub const MAX_BAD_DATAGRAMS_IN_A_ROW: u64 = 1_000;
 
-/// A number for a message: plain when short, scientific when huge or tiny
-/// (`1e300`, not three hundred digits).
+/// A number for a message, the one formatter every message uses: exactly
+/// as given when short (`100.0004`, `0.23`), else six significant digits
+/// (`2439.02`, `0.000232831`); scientific when huge or tiny (`1e300`, not
+/// three hundred digits); `NaN`, `inf`.
 pub fn show(v: f64) -> String {
     let a = v.abs();
-    if v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&a) {
+    let moderate = v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&a);
+    let exact = if moderate {
         format!("{v}")
     } else {
         format!("{v:e}")
+    };
+    let sig = exact
+        .split('e')
+        .next()
+        .unwrap_or("")
+        .trim_start_matches(['-', '0', '.'])
+        .bytes()
+        .filter(u8::is_ascii_digit)
+        .count();
+    if sig <= 10 {
+        return exact;
     }
+    let trim = |t: String| {
+        if t.contains('.') {
+            t.trim_end_matches('0').trim_end_matches('.').to_owned()
+        } else {
+            t
+        }
+    };
+    if moderate {
+        let decimals = (5 - a.log10().floor() as i32).max(0) as usize;
+        trim(format!("{v:.decimals$}"))
+    } else {
+        let t = format!("{v:.5e}");
+        match t.split_once('e') {
+            Some((m, e)) => format!("{}e{e}", trim(m.to_owned())),
+            None => t,
+        }
+    }
+}
+
+/// A number for a message with an optional precision (`{:.3}`): fixed
+/// point when moderate, scientific when huge or tiny, like [`show`].
+#[derive(Debug, Clone, Copy)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0;
+        let a = v.abs();
+        let moderate = v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&a);
+        match (f.precision(), moderate) {
+            (Some(p), true) => write!(f, "{v:.p$}"),
+            (Some(p), false) => write!(f, "{v:.p$e}"),
+            (None, _) => f.write_str(&show(v)),
+        }
+    }
+}
+
+/// Every number in a message through [`show`]: a numeric token with more
+/// than 15 digits (a huge or tiny value printed in full, or a saturated
+/// integer) is rewritten in scientific form, so no message carries a
+/// 300-digit number whatever formatted it. Paths and words are left alone.
+pub fn tidy_numbers(msg: &str) -> String {
+    let b = msg.as_bytes();
+    let mut out = String::with_capacity(msg.len());
+    let mut i = 0;
+    let boundary_before = |i: usize| {
+        i == 0
+            || matches!(
+                b[i - 1],
+                b' ' | b'(' | b'[' | b'=' | b',' | b':' | b'-' | b'+' | b'\t'
+            )
+    };
+    while i < b.len() {
+        if b[i].is_ascii_digit() && boundary_before(i) {
+            let start = i;
+            while i < b.len() && (b[i].is_ascii_digit() || b[i] == b'.') {
+                i += 1;
+            }
+            if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+                let mut j = i + 1;
+                if j < b.len() && (b[j] == b'-' || b[j] == b'+') {
+                    j += 1;
+                }
+                if j < b.len() && b[j].is_ascii_digit() {
+                    i = j;
+                    while i < b.len() && b[i].is_ascii_digit() {
+                        i += 1;
+                    }
+                }
+            }
+            let tok = &msg[start..i];
+            let digits = tok.bytes().filter(u8::is_ascii_digit).count();
+            let next_ok =
+                i == b.len() || !(b[i].is_ascii_alphanumeric() || b[i] == b'/' || b[i] == b'_');
+            match tok.parse::<f64>() {
+                Ok(v) if digits > 15 && next_ok => out.push_str(&show(v)),
+                _ => out.push_str(tok),
+            }
+        } else {
+            let c = msg[i..].chars().next().unwrap_or(' ');
+            out.push(c);
+            i += c.len_utf8();
+        }
+    }
+    out
 }
 
 /// Most field work `lmhost simulate` accepts: grid points × transducers
@@ -120,6 +219,24 @@ pub fn position_mm(what: &str, v: [f64; 3]) -> Result<[f64; 3], InputError> {
     }
 }
 
+/// Largest accepted text input file (scene, intrinsics), bytes. A scene
+/// with the most devices a sequence can address is a few tens of kB.
+pub const MAX_TEXT_FILE_BYTES: u64 = 1 << 20;
+
+/// Reads the UTF-8 text file `path` (`what` names it in errors), refusing
+/// one longer than [`MAX_TEXT_FILE_BYTES`] before reading it whole, and
+/// anything but a regular file before opening it
+/// ([`crate::files::read_input`]).
+pub fn read_text_file(what: &str, path: &std::path::Path) -> Result<String, InputError> {
+    let bytes = crate::files::read_input(what, path, MAX_TEXT_FILE_BYTES)?;
+    String::from_utf8(bytes).map_err(|_| {
+        InputError::new(format!(
+            "cannot read {what} {}: it is not UTF-8 text",
+            path.display()
+        ))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -138,6 +255,29 @@ mod tests {
     }
 
     #[test]
+    fn numbers_in_messages_stay_short() {
+        let tiny = format!("step {} mm", 1e-300);
+        assert_eq!(tidy_numbers(&tiny), "step 1e-300 mm");
+        let huge = format!("period {} s, N = {}", 1e300, u64::MAX);
+        assert_eq!(tidy_numbers(&huge), "period 1e300 s, N = 1.84467e19");
+        let fine = "dwell 2.439 ms at /tmp/12345678901234567890/x, 0.30000000000000004";
+        assert_eq!(
+            tidy_numbers(fine),
+            fine.replace("0.30000000000000004", "0.3")
+        );
+        assert_eq!(show(100.0004), "100.0004");
+        assert_eq!(show(9.999999999999999e299), "1e300");
+        assert_eq!(show(1e6 / f64::from(u32::MAX)), "0.000232831");
+        assert_eq!(show(2439.0243902439024), "2439.02");
+        assert_eq!(show(f64::NAN), "NaN");
+        assert_eq!(show(-5e-324), "-5e-324");
+        assert_eq!(tidy_numbers("µs ±1e-300 é"), "µs ±1e-300 é");
+        assert_eq!(format!("{:.3}", Num(1e-300)), "1.000e-300");
+        assert_eq!(format!("{:.3}", Num(2.5)), "2.500");
+        assert_eq!(format!("{}", Num(1e300)), "1e300");
+    }
+
+    #[test]
     fn ranges_name_the_limits() {
         assert_eq!(in_range("--radius", 3.0, 0.0, 100.0, "mm").unwrap(), 3.0);
         let e = in_range("--radius", 1e30, 0.0, 100.0, "mm").unwrap_err();
@@ -147,22 +287,4 @@ mod tests {
         let e = position_mm("c", [0.0, 0.0, 1e300]).unwrap_err();
         assert!(e.0.contains("±2000 mm"), "{e}");
     }
-}
-
-/// Largest accepted text input file (scene, intrinsics), bytes. A scene
-/// with the most devices a sequence can address is a few tens of kB.
-pub const MAX_TEXT_FILE_BYTES: u64 = 1 << 20;
-
-/// Reads the UTF-8 text file `path` (`what` names it in errors), refusing
-/// one longer than [`MAX_TEXT_FILE_BYTES`] before reading it whole, and
-/// anything but a regular file before opening it
-/// ([`crate::files::read_input`]).
-pub fn read_text_file(what: &str, path: &std::path::Path) -> Result<String, InputError> {
-    let bytes = crate::files::read_input(what, path, MAX_TEXT_FILE_BYTES)?;
-    String::from_utf8(bytes).map_err(|_| {
-        InputError::new(format!(
-            "cannot read {what} {}: it is not UTF-8 text",
-            path.display()
-        ))
-    })
 }

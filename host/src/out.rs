@@ -42,9 +42,11 @@ pub fn flush_stdout() -> anyhow::Result<()> {
     stdout_result(std::io::stdout().lock().flush())
 }
 
-/// Writes `args` to stderr; a failure is ignored, never a panic.
+/// Writes `args` to stderr, every number through
+/// [`crate::limits::tidy_numbers`]; a failure is ignored, never a panic.
 pub fn stderr_fmt(args: std::fmt::Arguments<'_>) {
-    let _ = std::io::stderr().lock().write_fmt(args);
+    let text = crate::limits::tidy_numbers(&args.to_string());
+    let _ = std::io::stderr().lock().write_all(text.as_bytes());
 }
 
 /// `println!` that returns `anyhow::Result<()>` instead of panicking.

@@ -44,13 +44,16 @@ pub fn sound_speed_from_celsius(temp_c: f64) -> f64 {
 /// Speed of sound in m/s to the wire's rounded mm/s, or an error outside
 /// the range a device accepts ([`lm_proto::SOUND_SPEED_MM_S`]).
 pub fn sound_speed_mm_s(sound_speed_m_s: f64) -> Result<u32, InputError> {
-    let mm_s = (sound_speed_m_s * 1000.0).round();
     let range = lm_proto::SOUND_SPEED_MM_S;
-    if !(mm_s >= f64::from(*range.start()) && mm_s <= f64::from(*range.end())) {
+    // The exact value is checked before it is rounded to the wire's unit.
+    let exact = sound_speed_m_s * 1000.0;
+    let mm_s = exact.round();
+    if !(exact >= f64::from(*range.start()) && exact <= f64::from(*range.end())) {
         return Err(InputError::new(format!(
-            "speed of sound {sound_speed_m_s} m/s is outside the {}-{} m/s a device accepts",
+            "speed of sound {} m/s is outside the {}-{} m/s a device accepts",
+            crate::limits::show(sound_speed_m_s),
             range.start() / 1000,
-            range.end() / 1000
+            range.end() / 1000,
         )));
     }
     Ok(mm_s as u32)
@@ -59,12 +62,23 @@ pub fn sound_speed_mm_s(sound_speed_m_s: f64) -> Result<u32, InputError> {
 /// A work volume in mm to the wire's µm, or an error outside the
 /// (0, 100] mm a device accepts ([`lm_proto::MAX_OFFSET_UM`]).
 pub fn max_offset_um(max_offset_mm: f64) -> Result<u32, InputError> {
-    let um = (max_offset_mm * 1000.0).round();
     let range = lm_proto::MAX_OFFSET_UM;
-    if !(max_offset_mm > 0.0 && um <= f64::from(*range.end()) && um >= f64::from(*range.start())) {
+    // The exact value is checked before it is rounded to whole µm (100.0004
+    // is outside (0, 100], not 100).
+    let exact_um = max_offset_mm * 1000.0;
+    let um = exact_um.round();
+    if !(max_offset_mm > 0.0 && exact_um <= f64::from(*range.end())) {
         return Err(InputError::new(format!(
-            "work volume (--max-offset) {max_offset_mm} mm is outside (0, {}] mm",
+            "work volume (--max-offset) {} mm is outside (0, {}] mm",
+            crate::limits::show(max_offset_mm),
             range.end() / 1000
+        )));
+    }
+    if um < f64::from(*range.start()) {
+        return Err(InputError::new(format!(
+            "work volume (--max-offset) {} mm is less than the wire's {} µm; give at least 0.001 mm",
+            crate::limits::show(max_offset_mm),
+            range.start()
         )));
     }
     Ok(um as u32)
@@ -77,7 +91,8 @@ pub fn vec_mm_to_um(v: Vec3) -> Result<[i32; 3], InputError> {
         let um = (x * 1000.0).round();
         if !(um.is_finite() && um.abs() <= f64::from(i32::MAX)) {
             return Err(InputError::new(format!(
-                "coordinate {x} mm does not fit the wire's i32 micrometres (±2147 m)"
+                "coordinate {} mm does not fit the wire's i32 micrometres (±2147 m)",
+                crate::limits::show(x)
             )));
         }
         *o = um as i32;
@@ -90,7 +105,10 @@ pub fn period_us(period_s: f64) -> Result<u32, InputError> {
     let period_us = (period_s * 1e6).round();
     if period_us > f64::from(u32::MAX) {
         return Err(InputError::new(format!(
-            "period {period_s} s exceeds the wire's u32 microseconds"
+            "period {} s exceeds the wire's u32 microseconds (at most {} s: give an LM frequency of at least {} Hz)",
+            crate::limits::show(period_s),
+            f64::from(u32::MAX) / 1e6,
+            crate::limits::Num(1e6 / f64::from(u32::MAX))
         )));
     }
     Ok(period_us as u32)

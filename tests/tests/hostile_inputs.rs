@@ -44,9 +44,10 @@ const SAME_FILE: &str = "r3-3 an output that is an input";
 const PARTIAL: &str = "r3-4 no partial outputs";
 const ODD_PATHS: &str = "r3-5 odd input paths";
 const PATH_MESSAGES: &str = "r3-11 input-path messages";
+const NUMBERS: &str = "r3-7 numbers in messages";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 18] = [
+const CLASSES: [&str; 19] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -65,6 +66,7 @@ const CLASSES: [&str; 18] = [
     PARTIAL,
     ODD_PATHS,
     PATH_MESSAGES,
+    NUMBERS,
 ];
 
 /// What a run produced, for custom checks.
@@ -1189,6 +1191,35 @@ fn round3_cases() -> Vec<Case> {
         PATH_MESSAGES "track" .depth("ok.npy", "no_such.toml").err("no_such.toml")
                       .err("no such file");
     };
+    // 7. One formatter for every number in a message; ranges checked before rounding.
+    v.extend(table! {
+        NUMBERS "plan --freq 1e-300" .err("period 1e300 s").err("at least").check(short_numbers);
+        NUMBERS "plan --freq 1e300" .check(short_numbers);
+        NUMBERS "plan --step 1e-300" .err("1e-300").check(short_numbers);
+        NUMBERS "plan --step 5e-324" .check(short_numbers);
+        NUMBERS "plan --spacing 1e-300 --foci 2" .err("1e-300").check(short_numbers);
+        NUMBERS "plan --radius -1e300" .check(short_numbers);
+        NUMBERS "plan --center 0,0,1e300" .check(short_numbers);
+        NUMBERS "simulate --plane-step 1e-308 --out {dir}/n1" .err("points").check(short_numbers);
+        NUMBERS "simulate --plane-step 5e-324 --out {dir}/n2" .check(short_numbers);
+        NUMBERS "simulate --alpha -1e300 --out {dir}/n3" .check(short_numbers);
+        NUMBERS "simulate --density 1e300 --out {dir}/n4" .check(short_numbers);
+        NUMBERS "simulate --disk 1e-300 --plane-size 2 --plane-step 1 --out {dir}/n5" .ok()
+                .check(short_numbers);
+        NUMBERS "upload --port {port} --max-offset 100.0004 --no-play" .err("100.0004")
+                .err("(0, 100] mm").check(short_numbers);
+        NUMBERS "upload --port {port} --max-offset 1e-300 --no-play" .check(short_numbers);
+        NUMBERS "upload --port {port} --max-offset 0.0004 --no-play" .err("0.001 mm");
+        NUMBERS "upload --port {port} --max-offset 1e300 --no-play" .check(short_numbers);
+        NUMBERS "upload --port autd3:emulator --freq 1e-300" .check(short_numbers);
+        NUMBERS "upload --port autd3:emulator --freq 1e300" .check(short_numbers);
+        NUMBERS "stream --port {port} --lead-ms 1e300" .check(short_numbers);
+        NUMBERS "track --synthetic --fast --seconds 1e300" .check(short_numbers);
+        NUMBERS "sim --faults ber=1e300" .check(short_numbers);
+        NUMBERS "sim --faults ber=-1e300" .check(short_numbers);
+        NUMBERS "demo --seconds 1e300" .check(short_numbers);
+        NUMBERS "demo --seconds 0.9999999" .err("0.9999999");
+    });
     // Every output error names what failed and nothing panics.
     for c in &mut v {
         if c.stdout_to.is_some() && c.code == 1 && c.stderr_to.is_some() {
@@ -1310,6 +1341,24 @@ fn npy_whole(b: &[u8]) -> Result<(), String> {
             "header says {n} items of {item} bytes, the file has {} data bytes",
             b.len() - 10 - hlen
         ));
+    }
+    Ok(())
+}
+
+/// No line of the run carries a number of 20 digits or more, and no
+/// stderr line is longer than 300 characters.
+fn short_numbers(_: &Ctx, r: &Run) -> Result<(), String> {
+    for line in r.stdout.lines().chain(r.stderr.lines()) {
+        let mut run = 0;
+        for c in line.chars() {
+            run = if c.is_ascii_digit() { run + 1 } else { 0 };
+            if run >= 20 {
+                return Err(format!("a 20-digit number: {line}"));
+            }
+        }
+    }
+    if let Some(l) = r.stderr.lines().find(|l| l.chars().count() > 300) {
+        return Err(format!("a {}-character message: {l}", l.chars().count()));
     }
     Ok(())
 }

@@ -65,12 +65,16 @@ impl ObservationPlane {
         }
         self.u = u;
         self.v = v;
-        let n = self.nu().saturating_mul(self.nv());
-        if n > MAX_GRID_POINTS {
+        // Counted in f64 before any integer conversion, so a tiny step is
+        // refused with its real size, not with saturated integers.
+        let count = |w: f64| (w / self.step_mm + 1e-9).floor() + 1.0;
+        let (nu, nv) = (count(self.width_mm), count(self.height_mm));
+        if !(nu * nv <= MAX_GRID_POINTS as f64) {
             return Err(FieldError::BadPlane(format!(
-                "{} × {} = {n} points is more than {MAX_GRID_POINTS}; use a coarser step",
-                self.nu(),
-                self.nv()
+                "{} × {} = {} points is more than {MAX_GRID_POINTS}; use a coarser step",
+                crate::limits::show(nu),
+                crate::limits::show(nv),
+                crate::limits::show(nu * nv)
             )));
         }
         Ok(self)

@@ -362,27 +362,29 @@ impl Sim {
     /// The three-line summary `lmhost simulate` prints.
     pub fn text_summary(&self, plan: &Plan, radius_mm: f64) -> String {
         let t = &plan.trajectory;
+        use crate::limits::Num as N;
         let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
         format!(
-            "{} {}, A = {radius_mm} mm, N = {} steps, {} transducers; \
+            "{} {}, A = {} mm, N = {} steps, {} transducers; \
              grid {} × {} at {} mm in {:.3} s ({})\n\
              peak amplitude {:.0} Pa, radiation pressure {:.1} Pa (step 0), {:.1} Pa (cycle mean)\n\
              force on a {} mm disk: {:.4} N (step 0), {:.4} N (cycle mean){}",
             t.foci,
             if t.foci == 1 { "focus" } else { "foci" },
+            N(radius_mm),
             t.steps,
             plan.scene.transducer_count(),
             self.maps.nu,
             self.maps.nv,
-            self.plane.step_mm,
+            N(self.plane.step_mm),
             self.seconds,
             self.path,
-            pk(&self.maps.amplitude_pa),
-            pk(&self.maps.pressure_pa),
-            pk(&self.maps.mean_pressure_pa),
-            self.disk_mm,
-            self.force_step0_n,
-            self.force_mean_n,
+            N(pk(&self.maps.amplitude_pa)),
+            N(pk(&self.maps.pressure_pa)),
+            N(pk(&self.maps.mean_pressure_pa)),
+            N(self.disk_mm),
+            N(self.force_step0_n),
+            N(self.force_mean_n),
             if self.clipped {
                 " (disk clipped by the grid)"
             } else {
