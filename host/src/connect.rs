@@ -19,7 +19,19 @@ impl PortArgs {
     /// `autd3:` port is an [`InputError`](crate::InputError) (exit 2).
     pub fn target(&self) -> Result<Target, crate::InputError> {
         let env = std::env::var(discover::PORT_ENV).ok();
-        match self.port.as_deref().or(env.as_deref()) {
+        let port = self.port.as_deref().or(env.as_deref());
+        if let Some((prefix, _)) = port.and_then(|p| p.split_once(':'))
+            && ["tcp", "autd3"]
+                .iter()
+                .any(|k| prefix.eq_ignore_ascii_case(k) && prefix != *k)
+        {
+            return Err(crate::InputError::new(format!(
+                "--port {}: port prefixes are lowercase: tcp:HOST:PORT, autd3:emulator, \
+                 autd3:soem[:IF], autd3:ethercrab[:IF], autd3:remote:HOST:PORT, or a serial port path",
+                port.unwrap_or_default()
+            )));
+        }
+        match port {
             Some(p) if Autd3Port::is_autd3(p) => Ok(Target::Autd3(Autd3Port::parse(p)?)),
             _ => Ok(Target::Lm),
         }

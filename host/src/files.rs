@@ -38,6 +38,9 @@ pub fn reason(e: &std::io::Error) -> String {
         K::ReadOnlyFilesystem => "read-only file system".into(),
         K::AlreadyExists => "it already exists".into(),
         K::WriteZero => "the device accepted no more bytes".into(),
+        K::ConnectionRefused => "connection refused".into(),
+        K::TimedOut => "timed out".into(),
+        K::AddrInUse => "address in use by another process".into(),
         _ => {
             let s = e.to_string();
             match s.find(" (os error") {

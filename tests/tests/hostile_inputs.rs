@@ -45,9 +45,10 @@ const PARTIAL: &str = "r3-4 no partial outputs";
 const ODD_PATHS: &str = "r3-5 odd input paths";
 const PATH_MESSAGES: &str = "r3-11 input-path messages";
 const NUMBERS: &str = "r3-7 numbers in messages";
+const PORTS: &str = "r3-10 port strings";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 19] = [
+const CLASSES: [&str; 20] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -67,6 +68,7 @@ const CLASSES: [&str; 19] = [
     ODD_PATHS,
     PATH_MESSAGES,
     NUMBERS,
+    PORTS,
 ];
 
 /// What a run produced, for custom checks.
@@ -90,6 +92,8 @@ struct Ctx {
     scenes: PathBuf,
     /// A small full-able tmpfs (`{full}`), when the tests run as root.
     full: Option<PathBuf>,
+    /// A device another lmhost holds open for the whole suite (`{busy}`).
+    busy: String,
 }
 
 type Check = fn(&Ctx, &Run) -> Result<(), String>;
@@ -865,6 +869,7 @@ fn expand(s: &str, ctx: &Ctx) -> String {
         .replace("{dev}", &ctx.dev)
         .replace("{wv}", &ctx.wv)
         .replace("{small}", &ctx.small)
+        .replace("{busy}", &ctx.busy)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
         .replace(
@@ -1018,6 +1023,21 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let dev = Sim::start(&[]);
     let wv = Sim::start(&["--centroid-timeout-ms", "600000"]);
     let small = Sim::start(&["--slot-steps", "10"]);
+    let busy = Sim::start(&[]);
+    let mut holder = Command::new(lmhost())
+        .args([
+            "stream",
+            "--port",
+            &busy.port,
+            "--synthetic",
+            "--seconds",
+            "600",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the port holder");
+    std::thread::sleep(Duration::from_millis(500));
     let dir =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -1032,6 +1052,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         dir: dir.clone(),
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
         full: full.as_ref().ok().map(|f| f.0.clone()),
+        busy: busy.port.clone(),
     };
     let up = Command::new(lmhost())
         .args(["upload", "--port", &ctx.port])
@@ -1083,6 +1104,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         let n = all.iter().filter(|c| c.class == *class).count();
         println!("  {class}: {n} cases");
     }
+    let _ = holder.kill();
+    let _ = holder.wait();
     let _ = std::fs::remove_dir_all(&dir);
     assert!(all.len() >= 100, "only {} cases", all.len());
     let want: BTreeSet<&str> = CLASSES.into_iter().collect();
@@ -1219,6 +1242,29 @@ fn round3_cases() -> Vec<Case> {
         NUMBERS "sim --faults ber=-1e300" .check(short_numbers);
         NUMBERS "demo --seconds 1e300" .check(short_numbers);
         NUMBERS "demo --seconds 0.9999999" .err("0.9999999");
+    });
+    // 10. Port strings: checked as input, wrong case hinted, a held port said.
+    v.extend(table! {
+        PORTS "status --port tcp:127.0.0.1:80:90" .err("colon");
+        PORTS "status --port tcp:127.0.0.1:4000:" .err("tcp:HOST:PORT");
+        PORTS "status --port tcp:my%20host:4000" .err("host");
+        PORTS "status --port tcp:[::1]:x" .err("1..=65535");
+        PORTS "status --port tcp:[::1:4000" .err("tcp:HOST:PORT");
+        PORTS "status --port tcp:a/b:4000" .err("host");
+        PORTS "status --port TCP:127.0.0.1:1" .err("lowercase").err("tcp:HOST:PORT");
+        PORTS "status --port Tcp:127.0.0.1:1" .err("lowercase");
+        PORTS "status --port AUTD3:emulator" .err("lowercase").err("autd3:emulator");
+        PORTS "upload --port Autd3:emulator" .err("lowercase");
+        PORTS "stream --port AUTD3:emulator --synthetic --seconds 1" .err("lowercase");
+        PORTS "status --port autd3:remote:127.0.0.1:1" .code(1).check(cause_once);
+        PORTS "status --port tcp:127.0.0.1:1" .code(1).err("connection refused");
+        PORTS "status --port {busy}" .code(1).err("in use by another process");
+        PORTS "upload --port {busy}" .code(1).err("in use by another process");
+    });
+    // A space inside one argument (the table splits on whitespace).
+    v.push(Case {
+        args: vec!["status".into(), "--port".into(), "tcp:my host:4000".into()],
+        ..case(PORTS, "").err("host `my host`")
     });
     // Every output error names what failed and nothing panics.
     for c in &mut v {
@@ -1359,6 +1405,15 @@ fn short_numbers(_: &Ctx, r: &Run) -> Result<(), String> {
     }
     if let Some(l) = r.stderr.lines().find(|l| l.chars().count() > 300) {
         return Err(format!("a {}-character message: {l}", l.chars().count()));
+    }
+    Ok(())
+}
+
+/// No part of the one error line is said twice in a row.
+fn cause_once(_: &Ctx, r: &Run) -> Result<(), String> {
+    let parts: Vec<&str> = r.stderr.trim().split(": ").collect();
+    if parts.windows(2).any(|w| w[0] == w[1]) {
+        return Err(format!("a cause said twice: {}", r.stderr.trim()));
     }
     Ok(())
 }

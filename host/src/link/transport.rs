@@ -49,8 +49,17 @@ impl Serial {
         let port = serialport::new(path, baud)
             .timeout(Duration::from_millis(100))
             .open()
-            .map_err(|e| anyhow::anyhow!("{}", e.description))
-            .with_context(|| format!("opening serial port {path}"))?;
+            .map_err(|e| {
+                let busy = e.description.contains("exclusive lock")
+                    || e.description.contains("Device or resource busy");
+                if busy {
+                    anyhow::anyhow!(
+                        "{path} is in use by another process (another lmhost?); stop it or use another port"
+                    )
+                } else {
+                    anyhow::anyhow!("opening serial port {path}: {}", e.description)
+                }
+            })?;
         Ok(Self {
             port,
             path: path.to_owned(),
@@ -130,7 +139,8 @@ impl Tcp {
     /// Connect to `addr` (`host:port`).
     pub fn connect(addr: &str) -> anyhow::Result<Self> {
         check_tcp_addr(addr)?;
-        let stream = TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
+        let stream = TcpStream::connect(addr)
+            .map_err(|e| anyhow::anyhow!("connecting to {addr}: {}", crate::files::reason(&e)))?;
         stream.set_nodelay(true).context("setting TCP_NODELAY")?;
         Ok(Self {
             stream,
@@ -154,6 +164,18 @@ pub fn check_tcp_addr(addr: &str) -> Result<(), crate::InputError> {
     };
     if host.is_empty() {
         return Err(bad("no host"));
+    }
+    let bracketed = host.starts_with('[') && host.ends_with(']');
+    if !bracketed && host.contains(':') {
+        return Err(bad(&format!(
+            "`{host}` has a colon: one HOST and one PORT (an IPv6 host goes in brackets, [::1])"
+        )));
+    }
+    if let Some(c) = host
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '_' | '[' | ']' | ':')))
+    {
+        return Err(bad(&format!("host `{host}` has the character {c:?}")));
     }
     match port.parse::<u16>() {
         Ok(p) if p > 0 => {}
