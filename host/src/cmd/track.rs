@@ -52,15 +52,16 @@ pub struct Args {
     /// leave) and report its ground truth too.
     #[arg(long)]
     synthetic: bool,
-    /// Synthetic finger: seconds to render.
-    #[arg(long, value_name = "S", default_value_t = 6.0)]
-    seconds: f64,
-    /// Synthetic finger: depth noise (mm, 1 σ).
-    #[arg(long, value_name = "MM", default_value_t = 0.5)]
-    noise_mm: f64,
-    /// Synthetic finger: fraction of pixels with no data.
-    #[arg(long, value_name = "FRACTION", default_value_t = 0.02)]
-    holes: f64,
+    /// Synthetic finger: seconds to render, in (0, 3600] [default: 6].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    seconds: Option<f64>,
+    /// Synthetic finger: depth noise (mm, 1 σ), in [0, 50] [default: 0.5].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    noise_mm: Option<f64>,
+    /// Synthetic finger: fraction of pixels with no data, in [0, 1]
+    /// [default: 0.02].
+    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true)]
+    holes: Option<f64>,
     /// Live RealSense camera (needs python3 with pyrealsense2).
     #[arg(long)]
     camera: bool,
@@ -332,6 +333,8 @@ struct DeviceReplan {
     sign: f64,
     uploaded: u64,
     skipped: u64,
+    failed: u64,
+    last_failure: Option<String>,
 }
 
 impl DeviceReplan {
@@ -367,6 +370,8 @@ impl DeviceReplan {
             sign,
             uploaded: 0,
             skipped: 0,
+            failed: 0,
+            last_failure: None,
         })
     }
 
@@ -390,11 +395,21 @@ impl DeviceReplan {
         };
         let mut params = self.params.clone();
         params.z_profile_mm = profile.iter().map(|z| z * self.sign).collect();
-        let plan = crate::sequence::Plan::new(
+        // A measured profile the planner refuses (out of range) is a
+        // re-plan failure, counted and reported; the session goes on.
+        let plan = match crate::sequence::Plan::new(
             self.scene.clone(),
             &params,
             &crate::sequence::Synthesis::Linear,
-        )?;
+        ) {
+            Ok(plan) => plan,
+            Err(e) => {
+                *pending.borrow_mut() = None;
+                self.failed += 1;
+                self.last_failure = Some(e.to_string());
+                return Ok(());
+            }
+        };
         client
             .upload(&plan, Some(slot))
             .with_context(|| format!("re-plan: uploading to slot {slot}"))?;
@@ -432,15 +447,35 @@ impl Args {
                 "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
             );
         }
+        for (flag, given) in [
+            ("--seconds", self.seconds.is_some()),
+            ("--noise-mm", self.noise_mm.is_some()),
+            ("--holes", self.holes.is_some()),
+        ] {
+            if given && !self.synthetic {
+                crate::bad_input!(
+                    "{flag} applies to --synthetic only (it renders the synthetic finger)"
+                );
+            }
+        }
         if self.synthetic {
-            if !(self.seconds.is_finite() && self.seconds > 0.0 && self.seconds <= 3600.0) {
-                crate::bad_input!("--seconds {} must be in (0, 3600]", self.seconds);
+            let seconds = self.seconds.unwrap_or(6.0);
+            let noise_mm = self.noise_mm.unwrap_or(0.5);
+            let holes = self.holes.unwrap_or(0.02);
+            if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
+                crate::bad_input!(
+                    "--seconds {} must be in (0, 3600]",
+                    crate::limits::show(seconds)
+                );
             }
-            if !(self.noise_mm.is_finite() && (0.0..=50.0).contains(&self.noise_mm)) {
-                crate::bad_input!("--noise-mm {} must be in [0, 50]", self.noise_mm);
+            if !(noise_mm.is_finite() && (0.0..=50.0).contains(&noise_mm)) {
+                crate::bad_input!(
+                    "--noise-mm {} must be in [0, 50]",
+                    crate::limits::show(noise_mm)
+                );
             }
-            if !(self.holes.is_finite() && (0.0..=1.0).contains(&self.holes)) {
-                crate::bad_input!("--holes {} must be in [0, 1]", self.holes);
+            if !(holes.is_finite() && (0.0..=1.0).contains(&holes)) {
+                crate::bad_input!("--holes {} must be in [0, 1]", crate::limits::show(holes));
             }
             let intr = match &self.intrinsics {
                 Some(p) => Intrinsics::load(p)?,
@@ -448,9 +483,17 @@ impl Args {
             };
             let rig = Rig::of_scene_or_default(scene);
             let mut sim = FingerSim::new(rig, intr, background_of(scene));
-            sim.noise_mm = self.noise_mm;
-            sim.holes = self.holes;
-            return Ok((Box::new(source::Synthetic::new(sim, self.seconds)), rig));
+            sim.noise_mm = noise_mm;
+            sim.holes = holes;
+            if (seconds * sim.rate_hz).round() < 1.0 {
+                crate::bad_input!(
+                    "--seconds {} renders no frame at {} fps; give at least {} s",
+                    crate::limits::show(seconds),
+                    sim.rate_hz,
+                    crate::limits::show(0.5 / sim.rate_hz)
+                );
+            }
+            return Ok((Box::new(source::Synthetic::new(sim, seconds)), rig));
         }
         let rig = Rig::of_scene(scene)?;
         if let Some(d) = &self.depth {
@@ -461,29 +504,30 @@ impl Args {
             )?;
             return Ok((Box::new(r), rig));
         }
-        // Live streams are read on their own thread: the device's
-        // housekeeping (the AUTD3 staleness mute) goes on while no frame
-        // arrives.
-        let src: Box<dyn FrameSource + Send> = if self.camera {
+        // Live streams are read on their own thread (the device's
+        // housekeeping goes on while no frame arrives) and held to the
+        // live deadlines (source::HEADER_DEADLINE, source::FRAME_DEADLINE).
+        let src: Box<dyn FrameSource> = if self.camera {
             Box::new(source::camera()?)
         } else {
             match self.stream.as_deref() {
                 Some(p) if p.as_os_str() == "-" => {
-                    Box::new(source::Stream::new(std::io::stdin(), "stdin")?)
+                    Box::new(source::Live::start("stdin", None, || {
+                        source::Stream::new(std::io::stdin(), "stdin")
+                    })?)
                 }
                 Some(p) => {
-                    let f = std::fs::File::open(p).map_err(|_| {
-                        crate::InputError::new(format!("cannot read stream {}", p.display()))
-                    })?;
-                    Box::new(source::Stream::new(
-                        std::io::BufReader::new(f),
-                        &p.display().to_string(),
-                    )?)
+                    let f = crate::files::open_input("--stream file", p)?;
+                    let what = p.display().to_string();
+                    Box::new(source::Live::start(&what.clone(), None, move || {
+                        source::Stream::new(std::io::BufReader::new(f), &what)
+                    })?)
                 }
-                None => unreachable!("one source was checked above"),
+                None => crate::bad_input!(
+                    "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
+                ),
             }
         };
-        let src: Box<dyn FrameSource> = Box::new(source::on_thread(src));
         if let Some(ip) = &self.intrinsics {
             let given = Intrinsics::load(ip)?;
             let got = src.intrinsics();
@@ -506,6 +550,9 @@ impl Args {
         if self.scene.is_none() && !self.synthetic {
             crate::bad_input!("--scene is needed: its [camera] and [tracking] place the box");
         }
+        // Every source ends on Ctrl-C / SIGTERM: the recording is finished,
+        // the device muted and the report printed.
+        crate::stop::graceful();
         let (src, rig) = self.source(&scene)?;
         let intr = src.intrinsics();
         let device = self.port.port.is_some();
@@ -516,6 +563,8 @@ impl Args {
         });
         let show_filtered = device || self.filter.is_some();
         let tracker = Tracker::new(intr, rig);
+        // Said once the run is over (a run that fails says its error alone).
+        let hopeless = crate::track::check_rig(&tracker).err();
         let pipe = Pipeline::new(
             tracker,
             Hysteresis::new(self.enter_frames, self.leave_frames),
@@ -526,8 +575,14 @@ impl Args {
             None => None,
         };
         if let Some(d) = &self.plot {
-            std::fs::create_dir_all(d)
-                .with_context(|| format!("creating the plot directory {}", d.display()))?;
+            crate::files::not_an_input("--plot", d)?;
+            std::fs::create_dir_all(d).map_err(|e| {
+                anyhow::anyhow!(
+                    "cannot create the plot directory {}: {}",
+                    d.display(),
+                    crate::files::reason(&e)
+                )
+            })?;
         }
         let z_profile = match &self.z_profile {
             None => None,
@@ -584,9 +639,6 @@ impl Args {
             // AUTD3: the default stimulus for the scene is uploaded and
             // played first, and the array is left silent at the end.
             let plan = crate::cmd::session::default_plan_args(self.scene.as_deref())?;
-            if self.port.target()? != crate::connect::Target::Lm {
-                crate::stop::graceful();
-            }
             let (mut dev, session) = crate::cmd::session::open_playing(&self.port, &plan)?;
             let where_ = dev.describe();
             let pace = if self.fast || live {
@@ -618,7 +670,7 @@ impl Args {
             }
             device_report = Some((report, where_));
         } else {
-            while run.next()?.is_some() {}
+            while !crate::stop::requested() && run.next()?.is_some() {}
         }
         let seconds = started.elapsed().as_secs_f64();
         if let Some(r) = run.rec.take() {
@@ -639,7 +691,23 @@ impl Args {
         } else if let (Some(_), Some(n)) = (&self.plot, self.plot_frame) {
             crate::bad_input!("--plot-frame {n} is beyond the {} frames", run.tally.frames);
         }
+        if self.plot.is_some() && run.plot_frame.is_none() && self.plot_frame.is_none() {
+            crate::errln!(
+                "warning: --plot wrote nothing: the run had no frame ({} frames)",
+                run.tally.frames
+            );
+        }
         let t = &run.tally;
+        match &hopeless {
+            Some(why) => crate::errln!("warning: {why}"),
+            None if t.frames > 0 && t.present == 0 && !crate::stop::requested() => {
+                crate::errln!(
+                    "warning: no frame of {} had a contact area in the tracking box: check the camera pose, the box and depth_scale",
+                    t.frames
+                )
+            }
+            None => {}
+        }
         let out = |line: String| {
             if self.json {
                 crate::errln!("{line}");
@@ -677,11 +745,34 @@ impl Args {
         }
         if let Some(r) = &replanner {
             out(format!(
-                "device re-plans: {} uploaded and played, {} skipped while no slot was free",
-                r.uploaded, r.skipped
+                "device re-plans: {} uploaded and played, {} skipped while no slot was free, {} failed{}",
+                r.uploaded,
+                r.skipped,
+                r.failed,
+                r.last_failure
+                    .as_ref()
+                    .map_or(String::new(), |e| format!(" (last: {e})"))
+            ))?;
+        }
+        if crate::stop::requested() {
+            out(format!(
+                "stopped by signal{}",
+                if device_report.as_ref().is_some_and(|(r, _)| r.muted_at_end) {
+                    "; device muted"
+                } else {
+                    ""
+                }
             ))?;
         }
         if let Some((r, where_)) = device_report {
+            out(format!(
+                "device refusals: {} centroids outside the work volume (muted until one is inside), {} dropped by the plausibility gate ({} out of range, {} jumps, {} out of order)",
+                r.outside_work_volume,
+                r.rejected.total(),
+                r.rejected.out_of_range,
+                r.rejected.jumps,
+                r.rejected.out_of_order
+            ))?;
             let p = |q| r.ack_percentile_us(q).unwrap_or(0);
             out(format!(
                 "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {:.0} µs + device ack p50 {} µs, p99 {} µs, plus the {} filter's lag {:.1} ms (90 fps)",

@@ -127,5 +127,45 @@ impl Pipeline {
     }
 }
 
+/// Why no frame can ever find a finger with this rig, if so: a camera
+/// that cannot see the tracking box (too far, facing away, the box off the
+/// frame), a `min_points` above the box's pixel count, or a `depth_scale`
+/// whose deepest value lies short of the box. `lmhost track` warns with it
+/// before the first frame: a silent run with no contact in any frame is
+/// never the answer to a wrong setup.
+pub fn check_rig(tracker: &contact::Tracker) -> Result<(), crate::InputError> {
+    let intr = tracker.intrinsics();
+    let rig = tracker.rig();
+    let pixels = tracker.roi().pixels();
+    if pixels == 0 {
+        return Err(crate::InputError::new(format!(
+            "the camera cannot see the tracking box: it covers no pixel of the {}×{} frame (box off-screen, behind the camera or too far); check the scene's [camera] and [tracking]",
+            intr.width, intr.height
+        )));
+    }
+    let min_points = rig.track_box.min_points as usize;
+    if min_points > pixels {
+        return Err(crate::InputError::new(format!(
+            "[tracking] min_points {min_points} exceeds the {pixels} pixels the box covers in the frame: no frame can have a contact area; lower min_points"
+        )));
+    }
+    let nearest_mm = rig
+        .track_box
+        .corners()
+        .iter()
+        .map(|c| rig.camera.to_camera(*c)[2])
+        .fold(f64::INFINITY, f64::min);
+    let deepest_mm = f64::from(u16::MAX) * intr.depth_scale * 1000.0;
+    if deepest_mm < nearest_mm {
+        return Err(crate::InputError::new(format!(
+            "depth_scale {} m makes the deepest reading {} mm, short of the tracking box ({} mm from the camera): every depth is ~0 to the tracker; depth_scale is metres per depth unit (0.001 for a RealSense)",
+            crate::limits::show(intr.depth_scale),
+            crate::limits::show(deepest_mm),
+            crate::limits::show(nearest_mm)
+        )));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests;

@@ -7,7 +7,7 @@
 //! recording; nothing is allocated before the file's size has confirmed it.
 
 use std::fs::File;
-use std::io::{BufReader, Read, Seek, SeekFrom, Write};
+use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
 use crate::InputError;
@@ -169,17 +169,9 @@ fn check_len(path: &Path, h: &Header, file_len: u64, item: u64) -> Result<(), In
 }
 
 fn open(path: &Path) -> Result<(File, u64), InputError> {
-    let f = File::open(path).map_err(|e| {
-        InputError::new(format!(
-            "cannot read {}: {}",
-            path.display(),
-            match e.kind() {
-                std::io::ErrorKind::NotFound => "no such file",
-                std::io::ErrorKind::PermissionDenied => "permission denied",
-                _ => "read error",
-            }
-        ))
-    })?;
+    // Checked before it is opened: a FIFO, a directory or a device node is
+    // refused at once, and the file is remembered as an input.
+    let f = crate::files::open_input("recording", path)?;
     let len = f
         .metadata()
         .map_err(|_| bad(path, "cannot read its size"))?
@@ -293,76 +285,70 @@ fn header_bytes(descr: &str, shape: &str, total: usize) -> Vec<u8> {
 /// Fixed header size of written recordings: room for any shape, 64-aligned.
 const WRITE_HEADER: usize = 128;
 
-/// Writes a `uint16` (frames, height, width) `.npy` frame by frame; the
-/// header's frame count is rewritten every 90 frames and on `finish`.
+/// Writes a `uint16` (frames, height, width) `.npy` frame by frame into a
+/// [`crate::files::Output`]: the header's frame count is written on
+/// [`DepthNpyWriter::finish`], which renames the file into place, so the
+/// named file is whole or absent (dropped unfinished, it never appears).
 pub struct DepthNpyWriter {
-    file: std::io::BufWriter<File>,
+    out: crate::files::Output,
     height: u32,
     width: u32,
     frames: u64,
 }
 
 impl DepthNpyWriter {
-    /// Create `path` for frames of `width` × `height`.
-    pub fn create(path: &Path, width: u32, height: u32) -> std::io::Result<Self> {
+    /// Start writing `path` for frames of `width` × `height`.
+    pub fn create(path: &Path, width: u32, height: u32) -> anyhow::Result<Self> {
         let mut w = Self {
-            file: std::io::BufWriter::new(File::create(path)?),
+            out: crate::files::Output::create(path)?,
             height,
             width,
             frames: 0,
         };
-        w.write_header()?;
+        let h = w.header();
+        w.out.write_bytes(&h)?;
         Ok(w)
     }
 
-    fn write_header(&mut self) -> std::io::Result<()> {
+    fn header(&self) -> Vec<u8> {
         let shape = format!("({}, {}, {})", self.frames, self.height, self.width);
-        let h = header_bytes("<u2", &shape, WRITE_HEADER);
-        let f = self.file.get_mut();
-        let pos = f.stream_position()?;
-        f.seek(SeekFrom::Start(0))?;
-        f.write_all(&h)?;
-        f.seek(SeekFrom::Start(pos.max(WRITE_HEADER as u64)))?;
-        Ok(())
+        header_bytes("<u2", &shape, WRITE_HEADER)
     }
 
     /// Append one frame (`width × height` values, row-major).
-    pub fn push(&mut self, data: &[u16]) -> std::io::Result<()> {
+    pub fn push(&mut self, data: &[u16]) -> anyhow::Result<()> {
         if data.len() != self.width as usize * self.height as usize {
-            return Err(std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "frame size changed while recording",
-            ));
+            anyhow::bail!(
+                "{}: frame size changed while recording",
+                self.out.path().display()
+            );
         }
         let mut bytes = Vec::with_capacity(data.len() * 2);
         for v in data {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
-        self.file.write_all(&bytes)?;
+        self.out.write_bytes(&bytes)?;
         self.frames += 1;
-        if self.frames.is_multiple_of(90) {
-            self.file.flush()?;
-            self.write_header()?;
-        }
         Ok(())
     }
 
-    /// Write the final header and flush; returns the frame count.
-    pub fn finish(mut self) -> std::io::Result<u64> {
-        self.file.flush()?;
-        self.write_header()?;
-        self.file.flush()?;
+    /// Write the final header, sync and move the file into place; returns
+    /// the frame count.
+    pub fn finish(mut self) -> anyhow::Result<u64> {
+        let h = self.header();
+        self.out.write_at(0, &h)?;
+        self.out.commit()?;
         Ok(self.frames)
     }
 }
 
-/// Write a `float64` (n,) `.npy`.
-pub fn write_f64_1d(path: &Path, data: &[f64]) -> std::io::Result<()> {
+/// Write a `float64` (n,) `.npy`, whole or not at all.
+pub fn write_f64_1d(path: &Path, data: &[f64]) -> anyhow::Result<()> {
     let mut out = header_bytes("<f8", &format!("({},)", data.len()), WRITE_HEADER);
     for v in data {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    std::fs::write(path, out)
+    crate::files::write_whole(path, &out)
 }
 
 #[cfg(test)]

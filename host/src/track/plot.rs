@@ -47,56 +47,61 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
     );
 
     let err = |e: String| anyhow::anyhow!("cannot draw {}: {e}", path.display());
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&BLACK).map_err(|e| err(e.to_string()))?;
-    for (i, (c, r)) in window.enumerate() {
-        let v = depth[(r * intr.width + c) as usize];
-        let colour = if inside[i] {
-            RGBColor(230, 40, 40)
-        } else if v == 0 {
-            RGBColor(10, 10, 60)
-        } else {
-            let g = (255.0 * (1.0 - (v as f64 - lo) / (hi - lo).max(1.0))).clamp(30.0, 255.0) as u8;
-            RGBColor(g, g, g)
+    // Drawn to a temporary file renamed into place: whole or absent.
+    crate::files::write_via(path, |tmp| {
+        let root = BitMapBackend::new(tmp, size).into_drawing_area();
+        root.fill(&BLACK).map_err(|e| err(e.to_string()))?;
+        for (i, (c, r)) in window.enumerate() {
+            let v = depth[(r * intr.width + c) as usize];
+            let colour = if inside[i] {
+                RGBColor(230, 40, 40)
+            } else if v == 0 {
+                RGBColor(10, 10, 60)
+            } else {
+                let g =
+                    (255.0 * (1.0 - (v as f64 - lo) / (hi - lo).max(1.0))).clamp(30.0, 255.0) as u8;
+                RGBColor(g, g, g)
+            };
+            let (x, y) = (((c - c0) * px) as i32, ((r - r0) * px) as i32);
+            root.draw(&Rectangle::new(
+                [(x, y), (x + px as i32, y + px as i32)],
+                colour.filled(),
+            ))
+            .map_err(|e| err(e.to_string()))?;
+        }
+        let to_px = |p: Vec3| -> Option<(i32, i32)> {
+            let q = tracker.rig().camera.to_camera(p);
+            (q[2] > 1e-6).then(|| {
+                let [u, v] = intr.project(q);
+                (
+                    ((u - c0 as f64 + 0.5) * px as f64) as i32,
+                    ((v - r0 as f64 + 0.5) * px as f64) as i32,
+                )
+            })
         };
-        let (x, y) = (((c - c0) * px) as i32, ((r - r0) * px) as i32);
-        root.draw(&Rectangle::new(
-            [(x, y), (x + px as i32, y + px as i32)],
-            colour.filled(),
-        ))
-        .map_err(|e| err(e.to_string()))?;
-    }
-    let to_px = |p: Vec3| -> Option<(i32, i32)> {
-        let q = tracker.rig().camera.to_camera(p);
-        (q[2] > 1e-6).then(|| {
-            let [u, v] = intr.project(q);
-            (
-                ((u - c0 as f64 + 0.5) * px as f64) as i32,
-                ((v - r0 as f64 + 0.5) * px as f64) as i32,
-            )
-        })
-    };
-    let corners = tracker.rig().track_box.corners();
-    for i in 0..8usize {
-        for k in 0..3 {
-            let j = i ^ (1 << k);
-            if j > i
-                && let (Some(a), Some(b)) = (to_px(corners[i]), to_px(corners[j]))
-            {
-                root.draw(&PathElement::new(vec![a, b], YELLOW.stroke_width(2)))
+        let corners = tracker.rig().track_box.corners();
+        for i in 0..8usize {
+            for k in 0..3 {
+                let j = i ^ (1 << k);
+                if j > i
+                    && let (Some(a), Some(b)) = (to_px(corners[i]), to_px(corners[j]))
+                {
+                    root.draw(&PathElement::new(vec![a, b], YELLOW.stroke_width(2)))
+                        .map_err(|e| err(e.to_string()))?;
+                }
+            }
+        }
+        if let Some(c) = tracker.track(depth).centroid_mm
+            && let Some((x, y)) = to_px(c)
+        {
+            let s = (3 * px as i32).max(8);
+            for seg in [[(x - s, y), (x + s, y)], [(x, y - s), (x, y + s)]] {
+                root.draw(&PathElement::new(seg.to_vec(), GREEN.stroke_width(3)))
                     .map_err(|e| err(e.to_string()))?;
             }
         }
-    }
-    if let Some(c) = tracker.track(depth).centroid_mm
-        && let Some((x, y)) = to_px(c)
-    {
-        let s = (3 * px as i32).max(8);
-        for seg in [[(x - s, y), (x + s, y)], [(x, y - s), (x, y + s)]] {
-            root.draw(&PathElement::new(seg.to_vec(), GREEN.stroke_width(3)))
-                .map_err(|e| err(e.to_string()))?;
-        }
-    }
-    root.present().map_err(|e| err(e.to_string()))?;
-    Ok(())
+        root.present()
+            .map_err(|e| err(crate::files::reason_of(&e)))?;
+        Ok(())
+    })
 }

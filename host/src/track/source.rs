@@ -72,39 +72,99 @@ pub trait FrameSource {
 /// frame is up to a few MB).
 const FRAMES_AHEAD: usize = 4;
 
-/// A live source read on its own thread ([`on_thread`]), so the streaming
-/// loop keeps the device's housekeeping running while no frame arrives.
-pub struct Threaded {
-    rx: std::sync::mpsc::Receiver<anyhow::Result<Frame>>,
+/// How long a live source may take to send its `LMDEPTH1` header (the
+/// camera's start-up included) before it counts as stalled.
+pub const HEADER_DEADLINE: std::time::Duration = std::time::Duration::from_secs(10);
+/// The longest silence between two frames of a live source (or inside a
+/// frame) before it counts as stalled: the run ends with an error and the
+/// camera bridge is killed.
+pub const FRAME_DEADLINE: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// A live `LMDEPTH1` source (the camera bridge, `--stream`), read on its
+/// own thread ([`crate::reader`]) so the streaming loop keeps the device's
+/// housekeeping running while no frame arrives, and held to
+/// [`HEADER_DEADLINE`] and [`FRAME_DEADLINE`]: a source that stalls, even in
+/// the middle of a frame, ends the run with a clear error in bounded time.
+pub struct Live {
+    frames: crate::reader::Reader<Frame>,
     intr: Intrinsics,
+    what: String,
+    last: std::time::Instant,
+    /// The bridge process, killed on a stall and when the source is dropped.
+    child: Option<u32>,
 }
 
-/// Read `src` on a thread of its own. The thread is never joined: when
-/// the reader is dropped first, the thread ends at its next frame (the
-/// channel is closed) or with the process, even if blocked reading stdin.
-pub fn on_thread(mut src: Box<dyn FrameSource + Send>) -> Threaded {
-    let intr = src.intrinsics();
-    let (tx, rx) = std::sync::mpsc::sync_channel(FRAMES_AHEAD);
-    std::thread::Builder::new()
-        .name("lmhost-frames".into())
-        .spawn(move || {
-            loop {
-                let f = match src.next_frame() {
-                    Ok(Some(f)) => Ok(f),
-                    Ok(None) => break,
-                    Err(e) => Err(e),
-                };
-                let end = f.is_err();
-                if tx.send(f).is_err() || end || crate::stop::requested() {
-                    break;
-                }
+impl Live {
+    /// Reads the stream `open` makes (on the reader thread: opening it may
+    /// block) and waits at most [`HEADER_DEADLINE`] for its header. `child`
+    /// is the producing process, if lmhost started one.
+    pub fn start<R, F>(what: &str, child: Option<u32>, open: F) -> anyhow::Result<Live>
+    where
+        R: Read + 'static,
+        F: FnOnce() -> anyhow::Result<Stream<R>> + Send + 'static,
+    {
+        let (htx, hrx) = std::sync::mpsc::sync_channel(1);
+        let frames = crate::reader::spawn("lmhost-frames", FRAMES_AHEAD, move || {
+            let stream = open();
+            let (header, stream) = match stream {
+                Ok(s) => (Ok(s.intr), Some(s)),
+                Err(e) => (Err(e), None),
+            };
+            let _ = htx.send(header);
+            let mut stream = stream;
+            std::iter::from_fn(move || stream.as_mut()?.next_frame().transpose())
+        })?;
+        let mut live = Live {
+            frames,
+            intr: Intrinsics::D435_848X480,
+            what: what.to_owned(),
+            last: std::time::Instant::now(),
+            child,
+        };
+        match hrx.recv_timeout(HEADER_DEADLINE) {
+            Ok(Ok(intr)) => live.intr = intr,
+            Ok(Err(e)) => return Err(e),
+            Err(_) => {
+                live.kill();
+                anyhow::bail!(
+                    "{what} sent no LMDEPTH1 header within {} s: it is stalled (or not an LMDEPTH1 source)",
+                    HEADER_DEADLINE.as_secs()
+                );
             }
-        })
-        .expect("spawning the frame reader thread");
-    Threaded { rx, intr }
+        }
+        live.last = std::time::Instant::now();
+        Ok(live)
+    }
+
+    fn kill(&mut self) {
+        if let Some(pid) = self.child.take() {
+            // SAFETY: kill(2) on a pid this process spawned; no memory is touched.
+            unsafe { libc::kill(pid as libc::pid_t, libc::SIGKILL) };
+        }
+    }
+
+    fn stalled(&mut self) -> anyhow::Error {
+        self.kill();
+        anyhow::anyhow!(
+            "{}: no frame for {} s: the source is stalled{}",
+            self.what,
+            FRAME_DEADLINE.as_secs(),
+            if self.child.is_none() {
+                ""
+            } else {
+                " (killed)"
+            }
+        )
+    }
 }
 
-impl FrameSource for Threaded {
+impl Drop for Live {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+impl FrameSource for Live {
     fn intrinsics(&self) -> Intrinsics {
         self.intr
     }
@@ -112,14 +172,27 @@ impl FrameSource for Threaded {
         true
     }
     fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
-        self.rx.recv().ok().transpose()
+        loop {
+            match self.next_frame_within(std::time::Duration::from_millis(100))? {
+                Next::Ready(f) => return Ok(Some(f)),
+                Next::End => return Ok(None),
+                Next::Idle if crate::stop::requested() => return Ok(None),
+                Next::Idle => {}
+            }
+        }
     }
     fn next_frame_within(&mut self, wait: std::time::Duration) -> anyhow::Result<Next<Frame>> {
-        use std::sync::mpsc::RecvTimeoutError;
-        match self.rx.recv_timeout(wait) {
-            Ok(f) => Ok(Next::Ready(f?)),
-            Err(RecvTimeoutError::Timeout) => Ok(Next::Idle),
-            Err(RecvTimeoutError::Disconnected) => Ok(Next::End),
+        let left = FRAME_DEADLINE.saturating_sub(self.last.elapsed());
+        if left.is_zero() {
+            return Err(self.stalled());
+        }
+        match self.frames.next_within(wait.min(left)) {
+            Next::Ready(f) => {
+                self.last = std::time::Instant::now();
+                Ok(Next::Ready(f?))
+            }
+            Next::Idle => Ok(Next::Idle),
+            Next::End => Ok(Next::End),
         }
     }
 }
@@ -400,10 +473,11 @@ pub fn stream_frame(t_s: f64, depth: &[u16]) -> Vec<u8> {
 /// The RealSense bridge (Python, `pyrealsense2`), embedded.
 pub const BRIDGE_PY: &str = include_str!("realsense_bridge.py");
 
-/// Start the RealSense bridge and read its stream: the live camera.
-/// Fails (exit 1) with one line when python3, pyrealsense2 or a camera is
-/// missing.
-pub fn camera() -> anyhow::Result<Stream<std::process::ChildStdout>> {
+/// Start the RealSense bridge and read its stream: the live camera, held
+/// to the live deadlines ([`Live`]). Fails (exit 1) with one line when
+/// python3, pyrealsense2 or a camera is missing, or the bridge stalls (it
+/// is killed then).
+pub fn camera() -> anyhow::Result<Live> {
     use std::process::{Command, Stdio};
     let python = std::env::var("LMHOST_PYTHON").unwrap_or_else(|_| "python3".into());
     let mut child = Command::new(&python)
@@ -417,33 +491,49 @@ pub fn camera() -> anyhow::Result<Stream<std::process::ChildStdout>> {
                 "no camera: cannot run `{python}` (the RealSense bridge needs python3 with pyrealsense2)"
             )
         })?;
-    let stdout = child.stdout.take().expect("piped stdout");
-    let mut stderr = child.stderr.take().expect("piped stderr");
-    match Stream::new(stdout, "the RealSense bridge") {
-        Ok(mut s) => {
-            // Drain the bridge's diagnostics so it never blocks on them.
-            std::thread::spawn(move || std::io::copy(&mut stderr, &mut std::io::sink()));
-            s.child = Some(child);
-            Ok(s)
+    let pid = child.id();
+    let (Some(stdout), Some(mut stderr)) = (child.stdout.take(), child.stderr.take()) else {
+        anyhow::bail!("the RealSense bridge has no output pipes");
+    };
+    // Drain the bridge's diagnostics so it never blocks on them; keep the
+    // last line for the error when it sends no stream.
+    let last_line = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+    let keep = last_line.clone();
+    std::thread::spawn(move || {
+        let mut msg = String::new();
+        let _ = stderr.read_to_string(&mut msg);
+        if let Some(l) = msg.lines().rev().find(|l| !l.trim().is_empty()) {
+            *keep.lock().unwrap_or_else(|e| e.into_inner()) = l.trim().to_owned();
         }
-        Err(_) => {
-            let _ = child.wait();
-            let mut msg = String::new();
-            let _ = stderr.read_to_string(&mut msg);
-            let line = msg
-                .lines()
-                .rev()
-                .find(|l| !l.trim().is_empty())
-                .unwrap_or("the RealSense bridge sent no stream")
-                .trim()
-                .to_owned();
-            anyhow::bail!("{line}")
+    });
+    let open = move || {
+        let r = Stream::new(stdout, "the RealSense bridge");
+        match r {
+            Ok(mut s) => {
+                s.child = Some(child);
+                Ok(s)
+            }
+            Err(e) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                let line = last_line.lock().unwrap_or_else(|e| e.into_inner()).clone();
+                if line.is_empty() {
+                    Err(e)
+                } else {
+                    Err(anyhow::anyhow!("{line}"))
+                }
+            }
         }
-    }
+    };
+    Live::start("the RealSense bridge", Some(pid), open)
 }
 
 /// Records what a source delivers: `REC.npy` plus intrinsics and time
-/// stamps beside it.
+/// stamps beside it. Every file goes through [`crate::files`]: nothing
+/// appears under its name until [`Recorder::finish`] (a run stopped by
+/// Ctrl-C or SIGTERM finishes its recording; one ended by an error or
+/// `kill -9` leaves none), and none may be one of the run's inputs.
 pub struct Recorder {
     path: PathBuf,
     writer: DepthNpyWriter,
@@ -452,13 +542,15 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// Start recording frames of `intr` to `path`.
+    /// Start recording frames of `intr` to `path`; refuses (exit 2) a
+    /// recording or a file beside it that is one of this run's inputs.
     pub fn create(path: &Path, intr: Intrinsics) -> anyhow::Result<Self> {
-        use anyhow::Context as _;
-        let writer = DepthNpyWriter::create(path, intr.width, intr.height)
-            .with_context(|| format!("creating {}", path.display()))?;
-        std::fs::write(intrinsics_beside(path), intr.to_toml())
-            .with_context(|| format!("writing {}", intrinsics_beside(path).display()))?;
+        crate::files::distinct_outputs(&[
+            ("--record", path),
+            ("--record's intrinsics", &intrinsics_beside(path)),
+            ("--record's time stamps", &timestamps_beside(path)),
+        ])?;
+        let writer = DepthNpyWriter::create(path, intr.width, intr.height)?;
         Ok(Self {
             path: path.to_owned(),
             writer,
@@ -469,24 +561,20 @@ impl Recorder {
 
     /// Append a frame.
     pub fn push(&mut self, f: &Frame) -> anyhow::Result<()> {
-        use anyhow::Context as _;
-        self.writer
-            .push(&f.depth)
-            .with_context(|| format!("writing {}", self.path.display()))?;
+        self.writer.push(&f.depth)?;
         self.times.push(f.t_s);
         Ok(())
     }
 
-    /// Finish the files; returns the frame count.
+    /// Finish the files (time stamps and intrinsics first, the recording
+    /// last, so a recording that exists has both beside it); returns the
+    /// frame count.
     pub fn finish(self) -> anyhow::Result<u64> {
-        use anyhow::Context as _;
-        let n = self
-            .writer
-            .finish()
-            .with_context(|| format!("writing {}", self.path.display()))?;
-        let tp = timestamps_beside(&self.path);
-        write_f64_1d(&tp, &self.times).with_context(|| format!("writing {}", tp.display()))?;
-        let _ = self.intr;
-        Ok(n)
+        write_f64_1d(&timestamps_beside(&self.path), &self.times)?;
+        crate::files::write_whole(
+            &intrinsics_beside(&self.path),
+            self.intr.to_toml().as_bytes(),
+        )?;
+        self.writer.finish()
     }
 }
