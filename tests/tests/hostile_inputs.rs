@@ -46,9 +46,13 @@ const ODD_PATHS: &str = "r3-5 odd input paths";
 const PATH_MESSAGES: &str = "r3-11 input-path messages";
 const NUMBERS: &str = "r3-7 numbers in messages";
 const PORTS: &str = "r3-10 port strings";
+const REC_SIGNAL: &str = "r3-2 recordings survive signals";
+const STALLS: &str = "r3-6 stalls";
+const RIG: &str = "r3-8 rig sanity";
+const REFUSALS: &str = "r3-9 device refusals said";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 20] = [
+const CLASSES: [&str; 24] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -69,6 +73,10 @@ const CLASSES: [&str; 20] = [
     PATH_MESSAGES,
     NUMBERS,
     PORTS,
+    REC_SIGNAL,
+    STALLS,
+    RIG,
+    REFUSALS,
 ];
 
 /// What a run produced, for custom checks.
@@ -121,6 +129,8 @@ struct Case {
     /// Send stdout / stderr to this file instead of a pipe (`/dev/full`).
     stdout_to: Option<String>,
     stderr_to: Option<String>,
+    /// Environment variables set for the run (values expanded).
+    env: Vec<(String, String)>,
 }
 
 fn words(args: &str) -> Vec<String> {
@@ -145,6 +155,7 @@ fn case(class: &'static str, args: &str) -> Case {
         check: None,
         stdout_to: None,
         stderr_to: None,
+        env: Vec::new(),
     }
 }
 
@@ -202,6 +213,10 @@ impl Case {
     }
     fn check(mut self, f: Check) -> Self {
         self.check = Some(f);
+        self
+    }
+    fn env(mut self, k: &str, v: &str) -> Self {
+        self.env.push((k.to_owned(), v.to_owned()));
         self
     }
     /// Stdout to `/dev/full`: a failed write is one line and exit 1.
@@ -413,6 +428,27 @@ fn round3_fixtures(dir: &Path) {
     std::fs::write(
         dir.join("stream_copy.csv"),
         csv(&["0,0,0,200,1", "0.011,0,0,200,1"]),
+    )
+    .unwrap();
+    std::fs::copy(dir.join("ok.npy"), dir.join("in.npy")).unwrap();
+    // Valid time stamps named as `--record rec2.npy` would name its own.
+    let mut ts = std::fs::read(dir.join("gap100k_ts.npy")).unwrap();
+    let n = ts.len();
+    ts[n - 8..].copy_from_slice(&0.011f64.to_le_bytes());
+    std::fs::write(dir.join("rec2.timestamps.npy"), &ts).unwrap();
+    // A camera bridge that sends a bad header and stays alive.
+    let bridge = dir.join("stalled_bridge.sh");
+    std::fs::write(&bridge, "#!/bin/sh\nprintf BADHEADER\nexec sleep 60\n").unwrap();
+    let st = Command::new("chmod")
+        .arg("+x")
+        .arg(&bridge)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    // A D435-sized camera whose depth unit makes every depth ~0.
+    std::fs::write(
+        dir.join("cam_tiny_scale.toml"),
+        "width = 848\nheight = 480\nfx = 600.0\nfy = 600.0\nppx = 424.0\nppy = 240.0\ndepth_scale = 1e-9\n",
     )
     .unwrap();
 }
@@ -901,6 +937,7 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
         .args(&args)
         .env_remove("LMHOST_PORT")
         .env("RUST_BACKTRACE", "0")
+        .envs(c.env.iter().map(|(k, v)| (k.clone(), expand(v, ctx))))
         .stdin(Stdio::piped())
         .stdout(sink(&c.stdout_to))
         .stderr(sink(&c.stderr_to))
@@ -1266,6 +1303,67 @@ fn round3_cases() -> Vec<Case> {
         args: vec!["status".into(), "--port".into(), "tcp:my host:4000".into()],
         ..case(PORTS, "").err("host `my host`")
     });
+    // A header and half of frame 0 of a 4×4 LMDEPTH1 stream: it stalls.
+    let mut half = b"LMDEPTH1".to_vec();
+    half.extend(4u32.to_le_bytes());
+    half.extend(4u32.to_le_bytes());
+    for x in [2.0f64, 2.0, 1.5, 1.5, 0.001] {
+        half.extend(x.to_le_bytes());
+    }
+    half.extend(0f64.to_le_bytes());
+    half.extend([0u8; 10]);
+    v.extend(table! {
+        // 2. A recording stopped by a signal is finished and replays.
+        REC_SIGNAL "track --synthetic --seconds 60 --record {dir}/sig_int.npy" .signal("INT", 1500)
+                   .ok().out("recorded").out("stopped by signal").check(sig_int_replays);
+        REC_SIGNAL "track --synthetic --seconds 60 --json --record {dir}/sig_term.npy"
+                   .signal("TERM", 1500).ok().check(sig_term_replays);
+        REC_SIGNAL "track --synthetic --seconds 60 --port {port} --record {dir}/sig_dev.npy"
+                   .signal("INT", 1500).ok().out("stopped by signal; device muted")
+                   .then("status --port {port} --json", "\"state\":\"Muted\"");
+        REC_SIGNAL "track --synthetic --seconds 60" .signal("TERM", 1000).ok()
+                   .out("stopped by signal");
+        // 3. An output that is an input, refused before anything is written.
+        SAME_FILE  "track --depth {dir}/in.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --record {dir}/in.npy"
+                   .err("in.npy").check(in_npy_intact);
+        SAME_FILE  "track --depth {dir}/ok.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --timestamps {dir}/rec2.timestamps.npy --record {dir}/rec2.npy"
+                   .err("rec2.timestamps.npy").check(rec2_ts_intact);
+        SAME_FILE  "track --depth {dir}/in.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --plot {dir}/in.npy"
+                   .err("in.npy").check(in_npy_intact);
+        // 4. A failed recording leaves nothing under its name.
+        PARTIAL    "track --synthetic --seconds 2 --record {full}/r.npy" .code(1)
+                   .err("no space left").check(full_whole);
+        // 5. Odd input paths for every track input.
+        ODD_PATHS  "track --depth {dir}/fifo --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml"
+                   .err("FIFO");
+        ODD_PATHS  "track --depth {dir}/ok.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --timestamps {dir}/fifo"
+                   .err("FIFO");
+        ODD_PATHS  "track --stream {dir}/fifo --scene {scenes}/paper.toml" .err("FIFO");
+        ODD_PATHS  "track --stream /dev/zero --scene {scenes}/paper.toml" .err("device node");
+        ODD_PATHS  "track --stream {dir}/a_directory --scene {scenes}/paper.toml" .err("directory");
+        PATH_MESSAGES "track --stream {dir}/no_such.bin --scene {scenes}/paper.toml"
+                   .err("no_such.bin").err("no such file");
+        // 6. Stalls end in bounded time with a clear error.
+        STALLS     "track --camera --scene {scenes}/paper.toml" .code(1).err("no LMDEPTH1 header")
+                   .env("LMHOST_PYTHON", "{dir}/stalled_bridge.sh");
+        STALLS     "track --stream - --scene {scenes}/paper.toml --intrinsics {dir}/cam.toml"
+                   .stdin(half.clone()).hold_stdin().code(1).err("stalled");
+        STALLS     "track --stream - --scene {scenes}/paper.toml" .stdin(b"LMDEPTH1".to_vec())
+                   .hold_stdin().code(1).err("no LMDEPTH1 header");
+        // 8. Rigs no frame can find a finger in: said, never silent.
+        RIG        "track" .depth("ok.npy", "cam.toml").ok().err("warning: ").err("min_points");
+        RIG        "track --synthetic --fast --seconds 0.5 --intrinsics {dir}/cam_tiny_scale.toml"
+                   .ok().err("depth_scale");
+        RIG        "track --synthetic --seconds 1e-300" .err("no frame");
+        RIG        "track" .depth("ok.npy", "cam.toml").args("--seconds 3") .err("--synthetic only");
+        RIG        "track" .depth("ok.npy", "cam.toml").args("--noise-mm 1") .err("--synthetic only");
+        RIG        "track --camera --holes 0.5 --scene {scenes}/paper.toml" .err("--synthetic only");
+        // 9. What the device refused is said.
+        REFUSALS   "track --synthetic --fast --seconds 1 --port {port}" .ok()
+                   .out("device refusals:").out("outside the work volume");
+        REFUSALS   "track --synthetic --fast --seconds 1 --port {port} --json" .ok()
+                   .err("device refusals:");
+    });
     // Every output error names what failed and nothing panics.
     for c in &mut v {
         if c.stdout_to.is_some() && c.code == 1 && c.stderr_to.is_some() {
@@ -1414,6 +1512,67 @@ fn cause_once(_: &Ctx, r: &Run) -> Result<(), String> {
     let parts: Vec<&str> = r.stderr.trim().split(": ").collect();
     if parts.windows(2).any(|w| w[0] == w[1]) {
         return Err(format!("a cause said twice: {}", r.stderr.trim()));
+    }
+    Ok(())
+}
+
+/// `in.npy` is still the fixture it was (a copy of `ok.npy`).
+fn in_npy_intact(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let a = std::fs::read(ctx.dir.join("in.npy")).map_err(|e| e.to_string())?;
+    let b = std::fs::read(ctx.dir.join("ok.npy")).map_err(|e| e.to_string())?;
+    if a != b {
+        return Err("in.npy was changed".into());
+    }
+    Ok(())
+}
+
+/// A recording stopped by a signal: whole, with time stamps and intrinsics
+/// beside it, and it replays with as many frames as it holds.
+fn recording_replays(ctx: &Ctx, name: &str) -> Result<(), String> {
+    let npy = ctx.dir.join(format!("{name}.npy"));
+    let ts = ctx.dir.join(format!("{name}.timestamps.npy"));
+    let cam = ctx.dir.join(format!("{name}.intrinsics.toml"));
+    for p in [&npy, &ts, &cam] {
+        if !p.exists() {
+            return Err(format!("{} is missing", p.display()));
+        }
+    }
+    for p in [&npy, &ts] {
+        let b = std::fs::read(p).map_err(|e| e.to_string())?;
+        npy_whole(&b).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    let out = Command::new(lmhost())
+        .args(["track", "--depth"])
+        .arg(&npy)
+        .args(["--fast", "--scene"])
+        .arg(ctx.scenes.join("paper.toml"))
+        .output()
+        .map_err(|e| e.to_string())?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() || !text.contains(" frames of 848×480") || text.starts_with("0 frames")
+    {
+        return Err(format!(
+            "the recording does not replay: {text} {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    Ok(())
+}
+
+fn sig_int_replays(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    recording_replays(ctx, "sig_int")
+}
+
+fn sig_term_replays(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    recording_replays(ctx, "sig_term")
+}
+
+/// The time stamps `--record rec2.npy` would have overwritten are intact
+/// and no `rec2.npy` was written.
+fn rec2_ts_intact(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let b = std::fs::read(ctx.dir.join("rec2.timestamps.npy")).map_err(|e| e.to_string())?;
+    if b[b.len() - 8..] != 0.011f64.to_le_bytes() || ctx.dir.join("rec2.npy").exists() {
+        return Err("rec2 files were written".into());
     }
     Ok(())
 }
