@@ -1348,7 +1348,7 @@ fn round3_cases() -> Vec<Case> {
                    .env("LMHOST_PYTHON", "{dir}/stalled_bridge.sh");
         STALLS     "track --stream - --scene {scenes}/paper.toml --intrinsics {dir}/cam.toml"
                    .stdin(half.clone()).hold_stdin().code(1).err("stalled");
-        STALLS     "track --stream - --scene {scenes}/paper.toml" .stdin(b"LMDEPTH1".to_vec())
+        STALLS     "track --stream - --scene {scenes}/paper.toml" .stdin(b"LMDEPTH1")
                    .hold_stdin().code(1).err("no LMDEPTH1 header");
         // 8. Rigs no frame can find a finger in: said, never silent.
         RIG        "track" .depth("ok.npy", "cam.toml").ok().err("warning: ").err("min_points");

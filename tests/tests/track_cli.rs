@@ -294,8 +294,8 @@ fn bad_recordings_and_flags_are_one_line_errors() {
     let (d, cam, rec_s, _) = recorded("bad", "r.npy", "0.1", &[]);
     let rec = Path::new(&rec_s);
     // Truncated.
-    let b = std::fs::read(&rec).unwrap();
-    std::fs::write(&rec, &b[..b.len() - 7]).unwrap();
+    let b = std::fs::read(rec).unwrap();
+    std::fs::write(rec, &b[..b.len() - 7]).unwrap();
     let err = depth_error(&rec_s, &["--scene", &paper()]);
     assert!(err.contains("truncated"), "{err}");
     // Wrong dtype.
@@ -305,11 +305,11 @@ fn bad_recordings_and_flags_are_one_line_errors() {
     f8.extend_from_slice(&(h.len() as u16).to_le_bytes());
     f8.extend_from_slice(h.as_bytes());
     f8.extend_from_slice(&[0; 32]);
-    std::fs::write(&rec, &f8).unwrap();
+    std::fs::write(rec, &f8).unwrap();
     let err = depth_error(&rec_s, &["--scene", &paper(), "--intrinsics", &cam]);
     assert!(err.contains("uint16"), "{err}");
     // Intrinsics that do not match the frames.
-    std::fs::write(&rec, &b).unwrap();
+    std::fs::write(rec, &b).unwrap();
     let full = d.join("full.toml");
     std::fs::write(
         &full,

@@ -185,8 +185,11 @@ impl Run {
         // sleep, so a wild time stamp is an error naming the frame, not a
         // panic or a day-long wait (paced or not, as `stream` does).
         let index = self.tally.frames;
+        // NaN counts as too far: `is_some_and` keeps only a gap within it.
         if let Some(prev) = self.prev_t_s
-            && !(frame.t_s - prev <= crate::limits::MAX_REPLAY_GAP_S)
+            && !(frame.t_s - prev)
+                .partial_cmp(&crate::limits::MAX_REPLAY_GAP_S)
+                .is_some_and(|o| o.is_le())
         {
             crate::bad_input!(
                 "frame {index}: time stamp {} s is {} s after the previous frame's; at most {} s between frames",

@@ -69,12 +69,13 @@ impl ObservationPlane {
         // refused with its real size, not with saturated integers.
         let count = |w: f64| (w / self.step_mm + 1e-9).floor() + 1.0;
         let (nu, nv) = (count(self.width_mm), count(self.height_mm));
-        if !(nu * nv <= MAX_GRID_POINTS as f64) {
+        let points = nu * nv;
+        if points.is_nan() || points > MAX_GRID_POINTS as f64 {
             return Err(FieldError::BadPlane(format!(
                 "{} × {} = {} points is more than {MAX_GRID_POINTS}; use a coarser step",
                 crate::limits::show(nu),
                 crate::limits::show(nv),
-                crate::limits::show(nu * nv)
+                crate::limits::show(points)
             )));
         }
         Ok(self)

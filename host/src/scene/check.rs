@@ -6,18 +6,7 @@ use crate::geom::{Vec3, add, euler_xyz_deg, mat_mul, mat_vec, norm, sub};
 use crate::units;
 
 use super::file::{PoseFile, SceneFile};
-use super::{DEFAULT_MIN_DWELL_S, Device, LmPlane, Reflector, Scene, unit};
-
-pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
-    if field.ends_with("rotation_deg") && !v.iter().all(|x| x.abs() <= 360.0) {
-        return Err(format!("field `{field}` must be within ±360°, got {v:?}"));
-    }
-    if v.iter().all(|x| x.is_finite()) {
-        Ok(v)
-    } else {
-        Err(format!("field `{field}` must be finite, got {v:?}"))
-    }
-}
+use super::{DEFAULT_MIN_DWELL_S, Device, LmPlane, Reflector, Scene, finite3, unit};
 
 impl SceneFile {
     pub(super) fn resolve(self, origin: &str) -> Result<Scene, String> {

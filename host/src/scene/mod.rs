@@ -58,6 +58,17 @@ mod check;
 mod file;
 mod parts;
 pub mod rig;
+pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
+    if field.ends_with("rotation_deg") && !v.iter().all(|x| x.abs() <= 360.0) {
+        return Err(format!("field `{field}` must be within ±360°, got {v:?}"));
+    }
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(v)
+    } else {
+        Err(format!("field `{field}` must be finite, got {v:?}"))
+    }
+}
+
 #[cfg(test)]
 mod tests;
 

@@ -20,7 +20,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::check::finite3;
+use super::finite3;
 use crate::geom::{Vec3, add, cross, dot, norm, scale, sub};
 
 /// Tolerance on unit length and orthogonality of given axes.
