@@ -361,6 +361,7 @@ fn fixtures(dir: &Path) {
     // (file, header, data bytes, header length field if it lies)
     for (name, header, data, len_field) in [
         ("ok.npy", u2("(2, 4, 4)"), 64, None),
+        ("empty.npy", u2("(0, 4, 4)"), 0, None),
         ("tb.npy", u2("(1000000000, 8192, 8192)"), 64, None),
         (
             "overflow.npy",
@@ -1358,6 +1359,9 @@ fn round3_cases() -> Vec<Case> {
         RIG        "track" .depth("ok.npy", "cam.toml").args("--seconds 3") .err("--synthetic only");
         RIG        "track" .depth("ok.npy", "cam.toml").args("--noise-mm 1") .err("--synthetic only");
         RIG        "track --camera --holes 0.5 --scene {scenes}/paper.toml" .err("--synthetic only");
+        // 11. A --plot that writes nothing says so.
+        PATH_MESSAGES "track" .depth("empty.npy", "cam.toml").args("--plot {dir}/noplot") .ok()
+                   .err("--plot wrote nothing");
         // 9. What the device refused is said.
         REFUSALS   "track --synthetic --fast --seconds 1 --port {port}" .ok()
                    .out("device refusals:").out("outside the work volume");
