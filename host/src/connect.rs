@@ -9,12 +9,12 @@ use lm_proto::{Centroid, Encoding, Info, NackCode, PlayAt, Status};
 
 use crate::autd3::{Autd3Backend, Autd3Port, GridTiming};
 use crate::backend::{Backend, BackendInfo, CentroidOutcome, UploadReport, check_slot, free_slot};
-use crate::link::{Client, LinkError, PortArgs, Transport, UploadSpec, discover};
+use crate::link::{Client, LinkError, PortSpec, Transport, UploadSpec, discover};
 use crate::scene::Scene;
 use crate::sequence::{Plan, Synthesis};
 use crate::trajectory::LmParams;
 
-impl PortArgs {
+impl PortSpec {
     /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
     /// `autd3:` port is an [`InputError`](crate::InputError) (exit 2).
     pub fn target(&self) -> Result<Target, crate::InputError> {
@@ -66,36 +66,16 @@ impl Target {
     }
 }
 
-/// The device a command talks to: its port and, for AUTD3 ports, the
-/// scene whose devices the rig has (`info`, `status`, `play`, `stop`).
-#[derive(Debug, clap::Args)]
-pub struct DeviceArgs {
-    #[command(flatten)]
-    port: PortArgs,
-    /// AUTD3 ports: scene file whose devices the rig has [default: the
-    /// built-in array].
-    #[arg(long, value_name = "FILE")]
-    scene: Option<std::path::PathBuf>,
-}
-
-impl DeviceArgs {
-    /// Loads the scene and opens the device (see [`open`]).
-    pub fn open(&self) -> anyhow::Result<Box<dyn Backend>> {
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
-        open(&self.port, &scene)
-    }
-}
-
 /// Opens the device `port` names for `scene` (an AUTD3 rig is built from
 /// the scene's devices; the LM firmware ignores it).
-pub fn open(port: &PortArgs, scene: &Scene) -> anyhow::Result<Box<dyn Backend>> {
+pub fn open(port: &PortSpec, scene: &Scene) -> anyhow::Result<Box<dyn Backend>> {
     open_with(port, scene, Encoding::Delta, false)
 }
 
 /// [`open`], uploading to the LM firmware with `encoding`, with a progress
 /// bar on stderr when `progress` and stderr is a terminal.
 pub fn open_with(
-    port: &PortArgs,
+    port: &PortSpec,
     scene: &Scene,
     encoding: Encoding,
     progress: bool,

@@ -1,9 +1,11 @@
 //! `lmhost`: plan, upload and stream lateral-modulation (LM) ultrasound
 //! haptics for AUTD3-class phased arrays.
 //!
-//! The library does the work; the `lmhost` binary is a thin clap front end
-//! over [`cmd`]. Units and the sign of the phase are fixed once, in
-//! [`units`]; everything else links there.
+//! The library does the work and knows nothing of the command line; the
+//! `lmhost` binary (`src/main.rs` and its private `cmd` module, the only
+//! place that uses clap) parses flags, calls the library and prints. Units
+//! and the sign of the phase are fixed once, in [`units`]; everything else
+//! links there.
 #![warn(missing_docs)]
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 #![cfg_attr(test, allow(clippy::print_stdout, clippy::print_stderr))]
@@ -13,7 +15,6 @@ pub mod autd3;
 pub mod backend;
 pub mod bench;
 pub mod clock;
-pub mod cmd;
 pub mod connect;
 pub mod demo;
 pub mod directivity;

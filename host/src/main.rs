@@ -14,7 +14,11 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use lmhost::{InputError, cmd::Command, errln, out::StdoutClosed};
+use lmhost::{InputError, errln, out::StdoutClosed};
+
+mod cmd;
+
+use cmd::Command;
 
 /// Plan, upload and stream lateral-modulation ultrasound haptics.
 #[derive(Debug, Parser)]

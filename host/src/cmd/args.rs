@@ -3,7 +3,63 @@
 
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 
-use crate::stream::filter::FilterKind;
+use lmhost::backend::Backend;
+use lmhost::link::PortSpec;
+use lmhost::scene::Scene;
+use lmhost::stream::filter::FilterKind;
+
+/// Port flags shared by every command that talks to a device.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PortArgs {
+    /// Serial port or pty path, `tcp:HOST:PORT`, or an AUTD3 rig
+    /// (`autd3:emulator`, `autd3:soem[:IFNAME]`, `autd3:ethercrab[:IFNAME]`,
+    /// `autd3:remote:HOST:PORT`) [default: $LMHOST_PORT, else the one LM
+    /// board found by USB id].
+    #[arg(long, value_name = "PATH")]
+    pub port: Option<String>,
+    /// Baud rate for real serial ports (ptys ignore it).
+    #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
+    pub baud: u32,
+    /// Response timeout per attempt, ms, 1..=60000 [default: 100 + twice
+    /// the time a full chunk takes at --baud].
+    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=lmhost::limits::MAX_TIMEOUT_MS))]
+    pub timeout_ms: Option<u64>,
+    /// Attempts per request before giving up, 1..=100.
+    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=i64::from(lmhost::limits::MAX_TRIES)))]
+    pub tries: u32,
+}
+
+impl PortArgs {
+    /// The library's port description.
+    pub fn spec(&self) -> PortSpec {
+        PortSpec {
+            port: self.port.clone(),
+            baud: self.baud,
+            timeout_ms: self.timeout_ms,
+            tries: self.tries,
+        }
+    }
+}
+
+/// The device a command talks to: its port and, for AUTD3 ports, the
+/// scene whose devices the rig has (`info`, `status`, `play`, `stop`).
+#[derive(Debug, clap::Args)]
+pub struct DeviceArgs {
+    #[command(flatten)]
+    port: PortArgs,
+    /// AUTD3 ports: scene file whose devices the rig has [default: the
+    /// built-in array].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<std::path::PathBuf>,
+}
+
+impl DeviceArgs {
+    /// Loads the scene and opens the device ([`lmhost::connect::open`]).
+    pub fn open(&self) -> anyhow::Result<Box<dyn Backend>> {
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        lmhost::connect::open(&self.port.spec(), &scene)
+    }
+}
 
 /// `--filter`: one of [`FilterKind::ALL`] by name, with each one's help.
 pub fn filter() -> impl TypedValueParser<Value = FilterKind> {

@@ -1,6 +1,6 @@
 //! `lmhost bench`: the bench report (timings and accuracy per subsystem).
 
-use crate::bench::{self, Options};
+use lmhost::bench::{self, Options};
 
 /// Time and check the numeric paths; print the bench report.
 #[derive(Debug, clap::Args)]
@@ -21,13 +21,13 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let sections = bench::run(&Options { quick: self.quick }, &self.section)?;
         if self.json {
-            crate::outln!(
+            lmhost::outln!(
                 "{}",
                 serde_json::to_string(&serde_json::json!({ "sections": sections }))?
             )?;
         } else {
             for s in &sections {
-                crate::out!("{}", s.text)?;
+                lmhost::out!("{}", s.text)?;
             }
         }
         Ok(())

@@ -1,11 +1,11 @@
-//! `lmhost demo`: the whole loop on a device in a few seconds ([`crate::demo`]):
+//! `lmhost demo`: the whole loop on a device in a few seconds ([`lmhost::demo`]):
 //! the simulated LM device by default, or an AUTD3 with `--port`.
 
 use anyhow::Context as _;
 
-use crate::connect::Target;
-use crate::demo::{Finger, Options, Report, SimDevice, SimLink};
-use crate::stream::filter::FilterKind;
+use lmhost::connect::Target;
+use lmhost::demo::{Finger, Options, Report, SimDevice, SimLink};
+use lmhost::stream::filter::FilterKind;
 
 /// Run the end-to-end demo on the simulated device (or an AUTD3).
 #[derive(Debug, clap::Args)]
@@ -63,9 +63,9 @@ impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
         if !(self.seconds.is_finite() && (1.0..=600.0).contains(&self.seconds)) {
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "--seconds {} must be between 1 and 600",
-                crate::limits::show(self.seconds)
+                lmhost::limits::show(self.seconds)
             );
         }
         let opts = Options {
@@ -78,22 +78,20 @@ impl Args {
         };
         let report = match &self.port {
             Some(p) => {
-                if !crate::autd3::Autd3Port::is_autd3(p) {
-                    crate::bad_input!(
+                if !lmhost::autd3::Autd3Port::is_autd3(p) {
+                    lmhost::bad_input!(
                         "demo --port takes an AUTD3 port (autd3:emulator, ...); without it the \
                          demo starts its own simulated LM device"
                     );
                 }
-                let target = Target::Autd3(crate::autd3::Autd3Port::parse(p)?);
-                let port = crate::link::PortArgs {
-                    port: Some(p.clone()),
-                    baud: 115_200,
-                    timeout_ms: None,
+                let target = Target::Autd3(lmhost::autd3::Autd3Port::parse(p)?);
+                let port = lmhost::link::PortSpec {
                     tries: 1,
+                    ..lmhost::link::PortSpec::new(Some(p.clone()))
                 };
-                crate::stop::graceful();
-                let mut dev = crate::connect::open(&port, &crate::scene::Scene::default())?;
-                crate::demo::run(dev.as_mut(), &target, None, opts)?
+                lmhost::stop::graceful();
+                let mut dev = lmhost::connect::open(&port, &lmhost::scene::Scene::default())?;
+                lmhost::demo::run(dev.as_mut(), &target, None, opts)?
             }
             None => {
                 let link = match self.link {
@@ -101,24 +99,24 @@ impl Args {
                     LinkArg::Socket => SimLink::Socket,
                 };
                 let (sim, mut dev) = SimDevice::start(link)?;
-                let report = crate::demo::run(dev.as_mut(), &Target::Lm, Some(&sim), opts);
+                let report = lmhost::demo::run(dev.as_mut(), &Target::Lm, Some(&sim), opts);
                 drop(dev);
                 sim.stop()?;
                 report?
             }
         };
         if self.json {
-            return crate::outln!("{}", serde_json::to_string(&report)?);
+            return lmhost::outln!("{}", serde_json::to_string(&report)?);
         }
         print_text(&report)?;
         match &self.plots {
             Some(dir) => {
-                crate::outln!("field      simulating LM-M into {}:", dir.display())?;
-                let text = crate::demo::write_field(dir).context("simulating the field")?;
-                crate::outln!("{text}")?;
-                crate::outln!("wrote {}", dir.display())
+                lmhost::outln!("field      simulating LM-M into {}:", dir.display())?;
+                let text = lmhost::demo::write_field(dir).context("simulating the field")?;
+                lmhost::outln!("{text}")?;
+                lmhost::outln!("wrote {}", dir.display())
             }
-            None => crate::outln!(
+            None => lmhost::outln!(
                 "field      maps: `lmhost demo --plots DIR` (or `lmhost simulate --foci 4 --out DIR`)"
             ),
         }
@@ -142,14 +140,14 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
         ),
         _ => String::new(),
     };
-    crate::outln!("lmhost demo: {}{via}", r.device)?;
+    lmhost::outln!("lmhost demo: {}{via}", r.device)?;
     let t = &r.timing;
     let grid = if t.divide.is_some() {
         " on the 25 µs grid"
     } else {
         ""
     };
-    crate::outln!(
+    lmhost::outln!(
         "stimulus   {}: {} steps × {} transducers, dwell {:.0} µs{grid}, {:.3} Hz ({:+.3} Hz), step {:.4} mm ({:+.4} mm)",
         r.stimulus,
         t.steps,
@@ -178,13 +176,13 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
     let readback = r
         .readback_mismatches
         .map_or("not available".into(), |n| format!("{n} mismatches"));
-    crate::outln!(
+    lmhost::outln!(
         "upload     {bytes}{:.0} ms; read-back {readback}; slot {}",
         u.seconds * 1e3,
         u.slot
     )?;
     if let Some(p) = &r.playback {
-        crate::outln!(
+        lmhost::outln!(
             "steps      {} played: mean dwell {:.1} µs (planned {:.1}), {} missed deadlines, p99 lateness {} µs",
             p.steps_played,
             p.mean_dwell_us,
@@ -195,7 +193,7 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
     }
     let c = &r.centroids;
     let us = |x: Option<u64>| x.map_or("n/a".to_owned(), |v| format!("{v} µs"));
-    crate::outln!(
+    lmhost::outln!(
         "centroids  {} sent at 90 fps ({} filter), {} applied; acked p50 {}, p99 {}, max {}",
         c.sent,
         c.filter,
@@ -205,7 +203,7 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
         us(c.correction_latency_max_us)
     )?;
     if let (Some(t), Some(p50)) = (c.target_us, c.latency_p50_us) {
-        crate::outln!(
+        lmhost::outln!(
             "           to the applying step p50 {p50} µs, p99 {}, max {} (target ≤ dwell + 1 ms = {t:.0} µs)",
             us(c.latency_p99_us),
             us(c.latency_max_us)
@@ -213,7 +211,7 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
     }
     let m = &r.muting;
     let ms = |x: Option<f64>| x.map_or("n/a".to_owned(), |v| format!("{v:.1} ms"));
-    crate::outln!(
+    lmhost::outln!(
         "muting     finger left → muted after {}; back → sounding after {}; every status while away: {} ({}); left silent",
         ms(m.mute_after_leave_ms),
         ms(m.resume_after_return_ms),
@@ -225,7 +223,7 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
         m.mute_reason_while_away.map_or("n/a", |r| r.describe())
     )?;
     if let Some(t) = &r.tracking {
-        crate::outln!(
+        lmhost::outln!(
             "tracking   depth frames 848×480 → contact-area centroid: error {:.3} mm RMS vs truth, presence wrong on {} steady frames; track p50 {:.0} µs, p99 {:.0} µs per frame; the {} filter's lag {:.1} ms",
             t.centroid_error_rms_mm,
             t.presence_wrong_frames,

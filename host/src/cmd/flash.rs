@@ -47,7 +47,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let Some(board) = BOARDS.iter().find(|b| b.name == self.board) else {
             let known: Vec<_> = BOARDS.iter().map(|b| b.name).collect();
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "unknown board `{}` (known: {})",
                 self.board,
                 known.join(", ")
@@ -55,7 +55,7 @@ impl Args {
         };
         let elf = self.elf.clone().unwrap_or_else(|| PathBuf::from(board.elf));
         if !elf.is_file() {
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "firmware ELF {} not found; build it with `{}` or pass --elf FILE",
                 elf.display(),
                 board.build
@@ -94,7 +94,7 @@ fn flash(board: &Board, elf: &std::path::Path) -> anyhow::Result<()> {
         .and_then(|mut c| c.reset())
         .map_err(|e| anyhow::anyhow!("{e}"))
         .context("resetting the board")?;
-    crate::outln!(
+    lmhost::outln!(
         "flashed {} onto {} ({}) and reset it",
         elf.display(),
         board.name,

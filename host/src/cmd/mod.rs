@@ -3,10 +3,10 @@
 use clap::Subcommand;
 use serde::Serialize;
 
-use crate::backend::Backend;
-use crate::connect::DeviceArgs;
+use args::DeviceArgs;
+use lmhost::backend::Backend;
 
-mod args;
+pub mod args;
 pub mod bench;
 pub mod demo;
 pub mod flash;
@@ -105,7 +105,7 @@ impl QueryArgs {
         text: impl FnOnce(&T) -> anyhow::Result<()>,
     ) -> anyhow::Result<()> {
         if self.json {
-            crate::outln!("{}", serde_json::to_string(v)?)
+            lmhost::outln!("{}", serde_json::to_string(v)?)
         } else {
             text(v)
         }

@@ -9,14 +9,14 @@ use clap::ValueEnum;
 use lm_proto::codec::Encoding;
 use serde_json::json;
 
-use crate::connect::Target;
-use crate::error::InputError;
-use crate::geom::Vec3;
-use crate::limits;
-use crate::scene::Scene;
-use crate::sequence::{Plan, Synthesis};
-use crate::stimulus::{Stimulus, TargetPlan};
-use crate::trajectory::{Steps, paper};
+use lmhost::connect::Target;
+use lmhost::error::InputError;
+use lmhost::geom::Vec3;
+use lmhost::limits;
+use lmhost::scene::Scene;
+use lmhost::sequence::{Plan, Synthesis};
+use lmhost::stimulus::{Stimulus, TargetPlan};
+use lmhost::trajectory::{Steps, paper};
 
 /// Multi-focus synthesis method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
@@ -87,7 +87,7 @@ pub struct PlanArgs {
     #[arg(long, value_enum, default_value_t = Method::Linear)]
     pub method: Method,
     /// GS-PAT iterations (with --method gspat), 1..=1000.
-    #[arg(long, value_name = "N", default_value_t = crate::stimulus::GSPAT_ITERATIONS)]
+    #[arg(long, value_name = "N", default_value_t = lmhost::stimulus::GSPAT_ITERATIONS)]
     pub iterations: usize,
     /// Real weight per focus, comma-separated, each within ±1e6 and not
     /// all zero (linear synthesis only).
@@ -171,7 +171,7 @@ impl PlanArgs {
             (Method::Gspat, Some(_)) => {
                 return Err(InputError::new("--weights applies to --method linear only"));
             }
-            (Method::Gspat, None) => crate::stimulus::gspat(self.iterations)?,
+            (Method::Gspat, None) => lmhost::stimulus::gspat(self.iterations)?,
             (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
             (Method::Linear, None) => Synthesis::Linear,
         };
@@ -197,7 +197,7 @@ impl PlanArgs {
         if !planned.warnings.is_empty() && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
         {
             for w in &planned.warnings {
-                crate::errln!("warning: {w}");
+                lmhost::errln!("warning: {w}");
             }
         }
         Ok(planned)
@@ -320,7 +320,7 @@ fn write_out(path: &Path, plan: &Plan) -> anyhow::Result<()> {
         Some("npy") => plan.sequence.to_npy(),
         _ => plan.sequence.phases.clone(),
     };
-    crate::files::write_whole(path, &bytes)
+    lmhost::files::write_whole(path, &bytes)
 }
 
 impl Args {
@@ -331,14 +331,14 @@ impl Args {
             write_out(out, &plan)?;
         }
         if self.json {
-            crate::outln!(
+            lmhost::outln!(
                 "{}",
                 serde_json::to_string(&summary_json(&plan, self.phases))?
             )?;
         } else {
-            crate::out!("{}", summary_text(&plan))?;
+            lmhost::out!("{}", summary_text(&plan))?;
             if let Some(out) = &self.out {
-                crate::outln!("wrote {}", out.display())?;
+                lmhost::outln!("wrote {}", out.display())?;
             }
         }
         Ok(())

@@ -3,8 +3,8 @@
 use anyhow::Context as _;
 use lm_proto::PlayAt;
 
+use super::args::DeviceArgs;
 use crate::cmd::upload::{UNTRACKED_WARNING, play_outcome};
-use crate::connect::DeviceArgs;
 
 /// Play a slot that holds a committed sequence.
 #[derive(Debug, clap::Args)]
@@ -35,9 +35,9 @@ impl Args {
         dev.play_at(self.slot, at, self.untracked)?;
         let st = dev.status().context("reading the device status")?;
         if self.untracked {
-            crate::errln!("{UNTRACKED_WARNING}");
+            lmhost::errln!("{UNTRACKED_WARNING}");
         }
-        crate::outln!("{}", play_outcome(self.slot, &st))?;
+        lmhost::outln!("{}", play_outcome(self.slot, &st))?;
         Ok(())
     }
 }

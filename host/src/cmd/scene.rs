@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use serde_json::json;
 
-use crate::scene::Scene;
+use lmhost::scene::Scene;
 
 /// Show a scene; `--json` exports every transducer's position and normal.
 #[derive(Debug, clap::Args)]
@@ -40,15 +40,15 @@ impl Args {
                 "min_dwell_s": s.min_dwell_s,
                 "transducers": tr,
             });
-            crate::outln!("{}", serde_json::to_string(&v)?)?;
+            lmhost::outln!("{}", serde_json::to_string(&v)?)?;
         } else {
-            crate::outln!(
+            lmhost::outln!(
                 "{}: {} devices, {} transducers",
                 s.name,
                 s.devices.len(),
                 t.len()
             )?;
-            crate::outln!(
+            lmhost::outln!(
                 "medium {:.2} m/s (λ = {:.3} mm), attenuation {} Np/m, directivity {:?}",
                 s.sound_speed_m_s,
                 2.0 * std::f64::consts::PI / s.wavenumber_rad_per_mm(),
@@ -57,7 +57,7 @@ impl Args {
             )?;
             for (i, d) in s.devices.iter().enumerate() {
                 let n = [d.rotation[0][2], d.rotation[1][2], d.rotation[2][2]];
-                crate::outln!(
+                lmhost::outln!(
                     "  device {i}: centre ({:.1}, {:.1}, {:.1}) mm, normal ({:.3}, {:.3}, {:.3})",
                     d.center_mm[0],
                     d.center_mm[1],
@@ -68,7 +68,7 @@ impl Args {
                 )?;
             }
             if let Some(r) = &s.reflector {
-                crate::outln!(
+                lmhost::outln!(
                     "reflector through ({:.1}, {:.1}, {:.1}) mm, normal ({:.3}, {:.3}, {:.3})",
                     r.point_mm[0],
                     r.point_mm[1],
@@ -79,7 +79,7 @@ impl Args {
                 )?;
             }
             let c = s.center_mm;
-            crate::outln!(
+            lmhost::outln!(
                 "default LM centre ({:.1}, {:.1}, {:.1}) mm",
                 c[0],
                 c[1],

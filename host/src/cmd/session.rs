@@ -4,11 +4,11 @@
 
 use serde::Serialize;
 
-use crate::backend::{Backend, UploadReport};
 use crate::cmd::plan::PlanArgs;
-use crate::connect::{Target, open};
-use crate::link::PortArgs;
-use crate::stimulus::Timing;
+use lmhost::backend::{Backend, UploadReport};
+use lmhost::connect::{Target, open};
+use lmhost::link::PortSpec;
+use lmhost::stimulus::Timing;
 
 /// What [`open_playing`] uploaded before a session (AUTD3 only).
 #[derive(Debug, Clone, Serialize)]
@@ -26,7 +26,7 @@ pub struct SessionUpload {
 /// 25 µs grid, uploaded, read back and played, tracked, first. Returns the
 /// device and, on AUTD3, what was uploaded.
 pub fn open_playing(
-    port: &PortArgs,
+    port: &PortSpec,
     plan: &PlanArgs,
 ) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
     let target = port.target()?;
@@ -43,7 +43,7 @@ pub fn open_playing(
         anyhow::bail!("{where_} holds {n} phases that differ from the plan");
     }
     dev.play(upload.slot, false)?;
-    crate::errln!(
+    lmhost::errln!(
         "{where_}: uploaded {} steps, dwell {} µs, {:.3} Hz (asked {} Hz), step {:.4} mm, read-back {}; \
          playing slot {}, muted until tracked; left silent on exit",
         upload.steps,

@@ -4,8 +4,8 @@
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
-use crate::link::proxy::Faults;
-use crate::simdev::{Core as _, FwCore, Pty, ServeOptions, SimConfig, serve};
+use lmhost::link::proxy::Faults;
+use lmhost::simdev::{Core as _, FwCore, Pty, ServeOptions, SimConfig, serve};
 
 /// Run the simulated device (any serial tool can talk to it).
 #[derive(Debug, clap::Args)]
@@ -41,27 +41,27 @@ impl Args {
         let faults = match &self.faults {
             Some(spec) => Some((
                 spec.parse::<Faults>()
-                    .map_err(|e| crate::InputError::new(format!("--faults: {e}")))?,
+                    .map_err(|e| lmhost::InputError::new(format!("--faults: {e}")))?,
                 self.seed,
             )),
             None => None,
         };
-        if !(1..=crate::limits::MAX_SLOT_STEPS).contains(&self.slot_steps) {
-            crate::bad_input!(
+        if !(1..=lmhost::limits::MAX_SLOT_STEPS).contains(&self.slot_steps) {
+            lmhost::bad_input!(
                 "--slot-steps {} is out of range: allowed 1..={}",
                 self.slot_steps,
-                crate::limits::MAX_SLOT_STEPS
+                lmhost::limits::MAX_SLOT_STEPS
             );
         }
         if self.centroid_timeout_ms > 3_600_000 {
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "--centroid-timeout-ms {} is out of range: allowed 0..=3600000",
                 self.centroid_timeout_ms
             );
         }
         let stop_after = self
             .seconds
-            .map(|s| crate::limits::duration_s("--seconds", s, crate::limits::MAX_SECONDS))
+            .map(|s| lmhost::limits::duration_s("--seconds", s, lmhost::limits::MAX_SECONDS))
             .transpose()?;
         let cfg = SimConfig {
             slot_steps: self.slot_steps,
@@ -71,9 +71,9 @@ impl Args {
         };
         let core = Arc::new(Mutex::new(FwCore::new(cfg)?));
         let pty = Pty::open()?;
-        crate::outln!("{}", pty.path)?;
-        crate::out::flush_stdout()?;
-        crate::errln!(
+        lmhost::outln!("{}", pty.path)?;
+        lmhost::out::flush_stdout()?;
+        lmhost::errln!(
             "lmhost sim: simulated device on {} (Ctrl-C to stop)",
             pty.path
         );
@@ -88,8 +88,8 @@ impl Args {
         serve(core.clone(), pty, ServeOptions { faults }, stop)?;
         // Only reached with --seconds: what the device measured.
         let st = core.lock().unwrap_or_else(|e| e.into_inner()).stats();
-        let p = |q| crate::clock::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
-        crate::errln!(
+        let p = |q| lmhost::clock::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
+        lmhost::errln!(
             "lmhost sim: {} frames ({} muted), {} centroid updates applied; host receipt → applying step p50 {} µs, p99 {} µs, max {} µs",
             st.frames,
             st.muted_frames,

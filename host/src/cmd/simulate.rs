@@ -4,10 +4,10 @@
 use std::path::PathBuf;
 
 use crate::cmd::plan::{PlanArgs, parse_vec3};
-use crate::error::InputError;
-use crate::field::study::{View, simulate_plan, write_outputs};
-use crate::field::{self, Radiation, compare};
-use crate::limits;
+use lmhost::error::InputError;
+use lmhost::field::study::{View, simulate_plan, write_outputs};
+use lmhost::field::{self, Radiation, compare};
+use lmhost::limits;
 
 /// Simulate the acoustic field of an LM stimulus and plot it.
 #[derive(Debug, clap::Args)]
@@ -164,12 +164,12 @@ impl Args {
         let view = self.view()?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
-        crate::files::not_an_input("--out", &self.out)?;
+        lmhost::files::not_an_input("--out", &self.out)?;
         std::fs::create_dir_all(&self.out).map_err(|e| {
             anyhow::anyhow!(
                 "cannot create output directory {}: {}",
                 self.out.display(),
-                crate::files::reason(&e)
+                lmhost::files::reason(&e)
             )
         })?;
         if self.compare {
@@ -190,8 +190,8 @@ impl Args {
         let sim = simulate_plan(&plan, &view)?;
         let r = self.plan.radius;
         write_outputs(&plan, &sim, &view, r, &self.out)?;
-        crate::outln!("{}", sim.text_summary(&plan, r))?;
-        crate::outln!("wrote {}", self.out.display())?;
+        lmhost::outln!("{}", sim.text_summary(&plan, r))?;
+        lmhost::outln!("wrote {}", self.out.display())?;
         Ok(())
     }
 }

@@ -19,17 +19,17 @@ pub fn print_status(s: &lm_proto::Status) -> anyhow::Result<()> {
     let queued = s.queued_slot.map_or("none".to_owned(), |s| {
         format!("{s} (takes over at the next cycle boundary)")
     });
-    crate::outln!("state:            {:?}", s.state)?;
-    crate::outln!("mute reason:      {}", s.mute_reason.describe())?;
-    crate::outln!("slot:             {slot}")?;
-    crate::outln!("queued slot:      {queued}")?;
-    crate::outln!("step:             {}", s.step)?;
-    crate::outln!("cycles:           {}", s.cycles)?;
-    crate::outln!("missed deadlines: {}", s.missed_deadlines)?;
-    crate::outln!("last centroid:    #{}", s.last_centroid_seq)?;
-    crate::outln!("correction:       {:?} µm", s.correction_um)?;
-    crate::outln!("bad frames:       {}", s.bad_frames)?;
-    crate::outln!("CRC errors:       {}", s.crc_errors)?;
-    crate::outln!("nacks sent:       {}", s.nacks)?;
+    lmhost::outln!("state:            {:?}", s.state)?;
+    lmhost::outln!("mute reason:      {}", s.mute_reason.describe())?;
+    lmhost::outln!("slot:             {slot}")?;
+    lmhost::outln!("queued slot:      {queued}")?;
+    lmhost::outln!("step:             {}", s.step)?;
+    lmhost::outln!("cycles:           {}", s.cycles)?;
+    lmhost::outln!("missed deadlines: {}", s.missed_deadlines)?;
+    lmhost::outln!("last centroid:    #{}", s.last_centroid_seq)?;
+    lmhost::outln!("correction:       {:?} µm", s.correction_um)?;
+    lmhost::outln!("bad frames:       {}", s.bad_frames)?;
+    lmhost::outln!("CRC errors:       {}", s.crc_errors)?;
+    lmhost::outln!("nacks sent:       {}", s.nacks)?;
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! `lmhost stop`: stop playing and mute the output.
 
-use crate::connect::DeviceArgs;
+use super::args::DeviceArgs;
 
 /// Stop playing (the output mutes at once).
 #[derive(Debug, clap::Args)]
@@ -14,7 +14,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let mut dev = self.device.open()?;
         dev.stop()?;
-        crate::outln!("stopped")?;
+        lmhost::outln!("stopped")?;
         Ok(())
     }
 }

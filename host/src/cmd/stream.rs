@@ -4,13 +4,13 @@
 use anyhow::Context as _;
 use std::path::PathBuf;
 
+use super::args::PortArgs;
 use crate::cmd::plan::PlanArgs;
-use crate::link::PortArgs;
-use crate::stream::filter::{FilterKind, Kalman};
-use crate::stream::metrics::score;
-use crate::stream::run::{Pace, Threaded, on_thread, stream};
-use crate::stream::source;
-use crate::stream::synthetic::FingerTrack;
+use lmhost::stream::filter::{FilterKind, Kalman};
+use lmhost::stream::metrics::score;
+use lmhost::stream::run::{Pace, Threaded, on_thread, stream};
+use lmhost::stream::source;
+use lmhost::stream::synthetic::FingerTrack;
 
 /// Seconds of the synthetic track the filter table is scored over
 /// (offline, whatever the session's length, so a long or stopped session
@@ -77,9 +77,9 @@ pub struct Args {
     json: bool,
 }
 
-fn parse_away(s: &str) -> Result<(f64, f64), crate::InputError> {
+fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
     let bad = || {
-        crate::InputError::new(format!(
+        lmhost::InputError::new(format!(
             "--away `{s}` must be START,END in seconds with START < END"
         ))
     };
@@ -98,17 +98,17 @@ impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
         let max_s = if self.synthetic && self.fast {
-            crate::limits::MAX_FAST_SYNTHETIC_S
+            lmhost::limits::MAX_FAST_SYNTHETIC_S
         } else {
-            crate::limits::MAX_SECONDS
+            lmhost::limits::MAX_SECONDS
         };
-        let seconds = crate::limits::duration_s("--seconds", self.seconds, max_s)?;
+        let seconds = lmhost::limits::duration_s("--seconds", self.seconds, max_s)?;
         if !self.lead_ms.is_finite() || self.lead_ms.abs() > 1000.0 {
-            crate::bad_input!("--lead-ms {} must be within ±1000", self.lead_ms);
+            lmhost::bad_input!("--lead-ms {} must be within ±1000", self.lead_ms);
         }
         let away = self.away.as_deref().map(parse_away).transpose()?;
         if away.is_some() && !self.synthetic {
-            crate::bad_input!("--away only applies to --synthetic");
+            lmhost::bad_input!("--away only applies to --synthetic");
         }
         let scene = self.plan.load_scene()?;
         let track = FingerTrack {
@@ -116,7 +116,7 @@ impl Args {
             away_s: away,
             ..FingerTrack::default()
         };
-        let mut filter: Box<dyn crate::stream::filter::Filter + Send> = match self.filter {
+        let mut filter: Box<dyn lmhost::stream::filter::Filter + Send> = match self.filter {
             FilterKind::Kalman => Box::new(Kalman::with_lead(self.lead_ms / 1e3)),
             other => other.build(),
         };
@@ -143,14 +143,14 @@ impl Args {
                 None => (stdin_samples()?, Pace::Arrival),
                 Some(p) if p.as_os_str() == "-" => (stdin_samples()?, Pace::Arrival),
                 Some(p) => {
-                    let f = crate::files::open_input("--input file", p)?;
+                    let f = lmhost::files::open_input("--input file", p)?;
                     let reader = std::io::BufReader::new(f);
                     (on_thread(move || source::replay_lines(reader))?, pace)
                 }
             }
         };
-        crate::stop::graceful();
-        let (mut dev, session) = crate::cmd::session::open_playing(&self.port, &self.plan)?;
+        lmhost::stop::graceful();
+        let (mut dev, session) = crate::cmd::session::open_playing(&self.port.spec(), &self.plan)?;
         let where_ = dev.describe();
         let (mut absent, mut muted_absent) = (0u64, 0u64);
         let report = stream(
@@ -172,7 +172,7 @@ impl Args {
         )
         .map_err(|e| {
             // A bad line is the user's input: say so in one line.
-            if e.downcast_ref::<crate::InputError>().is_some() {
+            if e.downcast_ref::<lmhost::InputError>().is_some() {
                 e
             } else {
                 e.context(format!("streaming centroids to {where_}"))
@@ -220,10 +220,10 @@ impl Args {
                 v["muted_absent_updates"] = muted_absent.into();
                 v["upload"] = serde_json::to_value(s)?;
             }
-            crate::outln!("{v}")?;
+            lmhost::outln!("{v}")?;
             return Ok(());
         }
-        crate::outln!(
+        lmhost::outln!(
             "streamed {} samples ({} with a finger) to {where_} in {:.2} s with the {} filter; device at #{} ({:?})",
             report.samples,
             report.present,
@@ -232,14 +232,14 @@ impl Args {
             status.last_centroid_seq,
             status.state
         )?;
-        crate::outln!(
+        lmhost::outln!(
             "latency host receipt → device ack: p50 {} µs, p99 {} µs, max {} µs; applied at the next step boundary (≤ one dwell later)",
             p(50.0),
             p(99.0),
             p(100.0)
         )?;
         if let Some(s) = &session {
-            crate::outln!(
+            lmhost::outln!(
                 "{} corrections applied on {where_} (dwell {} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
                 report.acked,
                 s.upload.dwell_us,
@@ -252,7 +252,7 @@ impl Args {
         }
         let dropped = report.rejected.total();
         if dropped > 0 || bad_datagrams > 0 {
-            crate::outln!(
+            lmhost::outln!(
                 "dropped {dropped} implausible samples ({} out of order, {} out of range, {} jumps); skipped {bad_datagrams} bad datagrams",
                 report.rejected.out_of_order,
                 report.rejected.out_of_range,
@@ -260,13 +260,13 @@ impl Args {
             )?;
         }
         if report.outside_work_volume > 0 {
-            crate::outln!(
+            lmhost::outln!(
                 "{} updates outside the device's work volume (muted until the finger came back; see upload --max-offset)",
                 report.outside_work_volume
             )?;
         }
         if report.stopped {
-            crate::outln!(
+            lmhost::outln!(
                 "stopped by signal; device {}",
                 if report.muted_at_end {
                     "muted"
@@ -276,9 +276,9 @@ impl Args {
             )?;
         }
         if !scores.is_empty() {
-            crate::outln!("filter      lag (ms)  jitter (mm)  error vs now (mm)")?;
+            lmhost::outln!("filter      lag (ms)  jitter (mm)  error vs now (mm)")?;
             for s in &scores {
-                crate::outln!(
+                lmhost::outln!(
                     "{:<10} {:>8.1} {:>12.3} {:>18.3}",
                     s.filter.name(),
                     s.lag_ms,

@@ -6,18 +6,18 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 
-use crate::link::PortArgs;
-use crate::scene::Scene;
-use crate::stream::Sample;
-use crate::stream::filter::{FilterKind, Passthrough};
-use crate::stream::run::{Feed, Next, Pace, stream};
-use crate::track::contact::Tracker;
-use crate::track::intrinsics::Intrinsics;
-use crate::track::presence::Hysteresis;
-use crate::track::rig::Rig;
-use crate::track::source::{self, Frame, FrameSource, Recorder};
-use crate::track::synth::{FingerSim, background_of};
-use crate::track::{FrameResult, Pipeline};
+use super::args::PortArgs;
+use lmhost::scene::Scene;
+use lmhost::stream::Sample;
+use lmhost::stream::filter::{FilterKind, Passthrough};
+use lmhost::stream::run::{Feed, Next, Pace, stream};
+use lmhost::track::contact::Tracker;
+use lmhost::track::intrinsics::Intrinsics;
+use lmhost::track::presence::Hysteresis;
+use lmhost::track::rig::Rig;
+use lmhost::track::source::{self, Frame, FrameSource, Recorder};
+use lmhost::track::synth::{FingerSim, background_of};
+use lmhost::track::{FrameResult, Pipeline};
 
 /// Track the finger in depth frames: the contact area inside the scene's
 /// detection box and its centroid, one result per frame.
@@ -127,7 +127,7 @@ struct Tally {
 }
 
 struct Run {
-    z_profile: Option<(f64, usize, crate::track::surface::Replanner)>,
+    z_profile: Option<(f64, usize, lmhost::track::surface::Replanner)>,
     replans: u64,
     /// The latest re-planned profile not yet uploaded (with --replan).
     pending: Option<std::rc::Rc<std::cell::RefCell<Option<Vec<f64>>>>>,
@@ -188,14 +188,14 @@ impl Run {
         // NaN counts as too far: `is_some_and` keeps only a gap within it.
         if let Some(prev) = self.prev_t_s
             && !(frame.t_s - prev)
-                .partial_cmp(&crate::limits::MAX_REPLAY_GAP_S)
+                .partial_cmp(&lmhost::limits::MAX_REPLAY_GAP_S)
                 .is_some_and(|o| o.is_le())
         {
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "frame {index}: time stamp {} s is {} s after the previous frame's; at most {} s between frames",
-                crate::limits::show(frame.t_s),
-                crate::limits::show(frame.t_s - prev),
-                crate::limits::MAX_REPLAY_GAP_S
+                lmhost::limits::show(frame.t_s),
+                lmhost::limits::show(frame.t_s - prev),
+                lmhost::limits::MAX_REPLAY_GAP_S
             );
         }
         self.prev_t_s = Some(frame.t_s);
@@ -207,9 +207,9 @@ impl Run {
             // Finite by now: consecutive gaps are bounded above, and every
             // source refuses non-finite or decreasing stamps.
             let due = Duration::try_from_secs_f64((frame.t_s - ft0).max(0.0)).map_err(|_| {
-                crate::InputError::new(format!(
+                lmhost::InputError::new(format!(
                     "frame {index}: time stamp {} s cannot be replayed",
-                    crate::limits::show(frame.t_s)
+                    lmhost::limits::show(frame.t_s)
                 ))
             })?;
             if let Some(wait) = due.checked_sub(t0.elapsed()) {
@@ -240,14 +240,14 @@ impl Run {
         let (radius, steps, replan) = self.z_profile.as_mut()?;
         let c = r.centroid_mm()?;
         let tb = &self.pipe.tracker.rig().track_box;
-        let rel = crate::geom::sub(c, tb.center_mm);
+        let rel = lmhost::geom::sub(c, tb.center_mm);
         let ab = [
-            crate::geom::dot(tb.axes[0], rel),
-            crate::geom::dot(tb.axes[1], rel),
+            lmhost::geom::dot(tb.axes[0], rel),
+            lmhost::geom::dot(tb.axes[1], rel),
         ];
         let prof =
-            crate::track::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
-        let rel = crate::track::surface::relative(&prof)?;
+            lmhost::track::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
+        let rel = lmhost::track::surface::relative(&prof)?;
         let due = replan.update(&rel);
         self.replans += due as u64;
         if let (true, Some(p)) = (due, &self.pending) {
@@ -307,13 +307,13 @@ impl Run {
                 v["truth_present"] = truth.present.into();
                 v["truth_mm"] = serde_json::json!(truth.contact.centroid_mm);
             }
-            crate::outln!("{v}")?;
+            lmhost::outln!("{v}")?;
         } else if r.t_s >= self.next_summary {
             let s = std::mem::take(&mut self.second);
             let c = r.centroid_mm().map_or("none".to_owned(), |c| {
                 format!("({:.2}, {:.2}, {:.2}) mm", c[0], c[1], c[2])
             });
-            crate::outln!(
+            lmhost::outln!(
                 "t {:>7.2} s  frames {:>3}  present {:>3}  gated {:>3}  points {:>4}  centroid {c}  track p50 {:.0} µs",
                 r.t_s,
                 s.frames,
@@ -331,7 +331,7 @@ impl Run {
 /// Uploads re-planned depth profiles to the device (`--replan`).
 struct DeviceReplan {
     scene: Scene,
-    params: crate::trajectory::LmParams,
+    params: lmhost::trajectory::LmParams,
     /// Box c (mm) → LM plane c (mm): ±1, the axes being checked parallel.
     sign: f64,
     uploaded: u64,
@@ -349,24 +349,24 @@ impl DeviceReplan {
         let b = &rig.track_box;
         let pl = &scene.lm_plane;
         let cos1 = 1f64.to_radians().cos();
-        let aligned = |u: crate::geom::Vec3, v: crate::geom::Vec3| {
-            crate::geom::dot(u, v) >= cos1 * crate::geom::norm(u) * crate::geom::norm(v)
+        let aligned = |u: lmhost::geom::Vec3, v: lmhost::geom::Vec3| {
+            lmhost::geom::dot(u, v) >= cos1 * lmhost::geom::norm(u) * lmhost::geom::norm(v)
         };
         if !(aligned(b.axes[0], pl.a) && aligned(b.axes[1], pl.b)) {
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "--replan needs the tracking box's first two axes along the scene's lm_plane a and b (within 1°): the surface profile is sampled in the box and planned in the LM plane"
             );
         }
-        let sign = crate::geom::dot(b.axes[2], pl.c).signum();
-        let mut params = crate::trajectory::LmParams::paper(scene.center_mm);
+        let sign = lmhost::geom::dot(b.axes[2], pl.c).signum();
+        let mut params = lmhost::trajectory::LmParams::paper(scene.center_mm);
         params.radius_mm = radius_mm;
-        params.steps = crate::trajectory::Steps::Count(steps);
-        crate::sequence::Plan::new(scene.clone(), &params, &crate::sequence::Synthesis::Linear)
+        params.steps = lmhost::trajectory::Steps::Count(steps);
+        lmhost::sequence::Plan::new(scene.clone(), &params, &lmhost::sequence::Synthesis::Linear)
             .map_err(|e| {
-                crate::InputError::new(format!(
-                    "--replan: the circle of --z-profile cannot be planned: {e}"
-                ))
-            })?;
+            lmhost::InputError::new(format!(
+                "--replan: the circle of --z-profile cannot be planned: {e}"
+            ))
+        })?;
         Ok(Self {
             scene: scene.clone(),
             params,
@@ -382,7 +382,7 @@ impl DeviceReplan {
     /// (else it stays pending for the next sample).
     fn maybe_upload(
         &mut self,
-        client: &mut dyn crate::backend::Backend,
+        client: &mut dyn lmhost::backend::Backend,
         pending: &std::cell::RefCell<Option<Vec<f64>>>,
     ) -> anyhow::Result<()> {
         let Some(profile) = pending.borrow().clone() else {
@@ -392,7 +392,7 @@ impl DeviceReplan {
         let st = client
             .status()
             .context("re-plan: reading the device status")?;
-        let Some(slot) = crate::backend::free_slot(info.slots, &st) else {
+        let Some(slot) = lmhost::backend::free_slot(info.slots, &st) else {
             self.skipped += 1;
             return Ok(());
         };
@@ -400,10 +400,10 @@ impl DeviceReplan {
         params.z_profile_mm = profile.iter().map(|z| z * self.sign).collect();
         // A measured profile the planner refuses (out of range) is a
         // re-plan failure, counted and reported; the session goes on.
-        let plan = match crate::sequence::Plan::new(
+        let plan = match lmhost::sequence::Plan::new(
             self.scene.clone(),
             &params,
-            &crate::sequence::Synthesis::Linear,
+            &lmhost::sequence::Synthesis::Linear,
         ) {
             Ok(plan) => plan,
             Err(e) => {
@@ -446,7 +446,7 @@ impl Args {
         .filter(|b| **b)
         .count();
         if picked != 1 {
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
             );
         }
@@ -456,7 +456,7 @@ impl Args {
             ("--holes", self.holes.is_some()),
         ] {
             if given && !self.synthetic {
-                crate::bad_input!(
+                lmhost::bad_input!(
                     "{flag} applies to --synthetic only (it renders the synthetic finger)"
                 );
             }
@@ -466,19 +466,19 @@ impl Args {
             let noise_mm = self.noise_mm.unwrap_or(0.5);
             let holes = self.holes.unwrap_or(0.02);
             if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
-                crate::bad_input!(
+                lmhost::bad_input!(
                     "--seconds {} must be in (0, 3600]",
-                    crate::limits::show(seconds)
+                    lmhost::limits::show(seconds)
                 );
             }
             if !(noise_mm.is_finite() && (0.0..=50.0).contains(&noise_mm)) {
-                crate::bad_input!(
+                lmhost::bad_input!(
                     "--noise-mm {} must be in [0, 50]",
-                    crate::limits::show(noise_mm)
+                    lmhost::limits::show(noise_mm)
                 );
             }
             if !(holes.is_finite() && (0.0..=1.0).contains(&holes)) {
-                crate::bad_input!("--holes {} must be in [0, 1]", crate::limits::show(holes));
+                lmhost::bad_input!("--holes {} must be in [0, 1]", lmhost::limits::show(holes));
             }
             let intr = match &self.intrinsics {
                 Some(p) => Intrinsics::load(p)?,
@@ -489,11 +489,11 @@ impl Args {
             sim.noise_mm = noise_mm;
             sim.holes = holes;
             if (seconds * sim.rate_hz).round() < 1.0 {
-                crate::bad_input!(
+                lmhost::bad_input!(
                     "--seconds {} renders no frame at {} fps; give at least {} s",
-                    crate::limits::show(seconds),
+                    lmhost::limits::show(seconds),
                     sim.rate_hz,
-                    crate::limits::show(0.5 / sim.rate_hz)
+                    lmhost::limits::show(0.5 / sim.rate_hz)
                 );
             }
             return Ok((Box::new(source::Synthetic::new(sim, seconds)), rig));
@@ -520,13 +520,13 @@ impl Args {
                     })?)
                 }
                 Some(p) => {
-                    let f = crate::files::open_input("--stream file", p)?;
+                    let f = lmhost::files::open_input("--stream file", p)?;
                     let what = p.display().to_string();
                     Box::new(source::Live::start(&what.clone(), None, move || {
                         source::Stream::new(std::io::BufReader::new(f), &what)
                     })?)
                 }
-                None => crate::bad_input!(
+                None => lmhost::bad_input!(
                     "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
                 ),
             }
@@ -546,16 +546,16 @@ impl Args {
             ("--leave-frames", self.leave_frames),
         ] {
             if !(1..=90).contains(&v) {
-                crate::bad_input!("{name} {v} must be between 1 and 90");
+                lmhost::bad_input!("{name} {v} must be between 1 and 90");
             }
         }
         let scene = Scene::load_or_default(self.scene.as_deref())?;
         if self.scene.is_none() && !self.synthetic {
-            crate::bad_input!("--scene is needed: its [camera] and [tracking] place the box");
+            lmhost::bad_input!("--scene is needed: its [camera] and [tracking] place the box");
         }
         // Every source ends on Ctrl-C / SIGTERM: the recording is finished,
         // the device muted and the report printed.
-        crate::stop::graceful();
+        lmhost::stop::graceful();
         let (src, rig) = self.source(&scene)?;
         let intr = src.intrinsics();
         let device = self.port.port.is_some();
@@ -567,7 +567,7 @@ impl Args {
         let show_filtered = device || self.filter.is_some();
         let tracker = Tracker::new(intr, rig);
         // Said once the run is over (a run that fails says its error alone).
-        let hopeless = crate::track::check_rig(&tracker).err();
+        let hopeless = lmhost::track::check_rig(&tracker).err();
         let pipe = Pipeline::new(
             tracker,
             Hysteresis::new(self.enter_frames, self.leave_frames),
@@ -578,12 +578,12 @@ impl Args {
             None => None,
         };
         if let Some(d) = &self.plot {
-            crate::files::not_an_input("--plot", d)?;
+            lmhost::files::not_an_input("--plot", d)?;
             std::fs::create_dir_all(d).map_err(|e| {
                 anyhow::anyhow!(
                     "cannot create the plot directory {}: {}",
                     d.display(),
-                    crate::files::reason(&e)
+                    lmhost::files::reason(&e)
                 )
             })?;
         }
@@ -591,7 +591,7 @@ impl Args {
             None => None,
             Some(spec) => {
                 let bad = || {
-                    crate::InputError::new(format!(
+                    lmhost::InputError::new(format!(
                         "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
                     ))
                 };
@@ -602,9 +602,9 @@ impl Args {
                     return Err(bad().into());
                 }
                 if !(self.replan_mm.is_finite() && self.replan_mm >= 0.0) {
-                    crate::bad_input!("--replan-mm {} must be ≥ 0", self.replan_mm);
+                    lmhost::bad_input!("--replan-mm {} must be ≥ 0", self.replan_mm);
                 }
-                Some((r, n, crate::track::surface::Replanner::new(self.replan_mm)))
+                Some((r, n, lmhost::track::surface::Replanner::new(self.replan_mm)))
             }
         };
         let live = src.live();
@@ -642,7 +642,7 @@ impl Args {
             // AUTD3: the default stimulus for the scene is uploaded and
             // played first, and the array is left silent at the end.
             let plan = crate::cmd::session::default_plan_args(self.scene.as_deref())?;
-            let (mut dev, session) = crate::cmd::session::open_playing(&self.port, &plan)?;
+            let (mut dev, session) = crate::cmd::session::open_playing(&self.port.spec(), &plan)?;
             let where_ = dev.describe();
             let pace = if self.fast || live {
                 Pace::Arrival
@@ -662,7 +662,7 @@ impl Args {
                 },
             )
             .map_err(|e| {
-                if e.downcast_ref::<crate::InputError>().is_some() {
+                if e.downcast_ref::<lmhost::InputError>().is_some() {
                     e
                 } else {
                     e.context(format!("streaming centroids to {where_}"))
@@ -673,13 +673,13 @@ impl Args {
             }
             device_report = Some((report, where_));
         } else {
-            while !crate::stop::requested() && run.next()?.is_some() {}
+            while !lmhost::stop::requested() && run.next()?.is_some() {}
         }
         let seconds = started.elapsed().as_secs_f64();
         if let Some(r) = run.rec.take() {
             let n = r.finish()?;
             if !self.json {
-                crate::outln!(
+                lmhost::outln!(
                     "recorded {n} frames to {}",
                     self.record.as_ref().expect("recording").display()
                 )?;
@@ -687,24 +687,24 @@ impl Args {
         }
         if let (Some(dir), Some((i, depth))) = (&self.plot, &run.plot_frame) {
             let path = dir.join(format!("track_frame_{i}.png"));
-            crate::track::plot::frame_png(&run.pipe.tracker, depth, &path)?;
+            lmhost::track::plot::frame_png(&run.pipe.tracker, depth, &path)?;
             if !self.json {
-                crate::outln!("plot {}", path.display())?;
+                lmhost::outln!("plot {}", path.display())?;
             }
         } else if let (Some(_), Some(n)) = (&self.plot, self.plot_frame) {
-            crate::bad_input!("--plot-frame {n} is beyond the {} frames", run.tally.frames);
+            lmhost::bad_input!("--plot-frame {n} is beyond the {} frames", run.tally.frames);
         }
         if self.plot.is_some() && run.plot_frame.is_none() && self.plot_frame.is_none() {
-            crate::errln!(
+            lmhost::errln!(
                 "warning: --plot wrote nothing: the run had no frame ({} frames)",
                 run.tally.frames
             );
         }
         let t = &run.tally;
         match &hopeless {
-            Some(why) => crate::errln!("warning: {why}"),
-            None if t.frames > 0 && t.present == 0 && !crate::stop::requested() => {
-                crate::errln!(
+            Some(why) => lmhost::errln!("warning: {why}"),
+            None if t.frames > 0 && t.present == 0 && !lmhost::stop::requested() => {
+                lmhost::errln!(
                     "warning: no frame of {} had a contact area in the tracking box: check the camera pose, the box and depth_scale",
                     t.frames
                 )
@@ -713,10 +713,10 @@ impl Args {
         }
         let out = |line: String| {
             if self.json {
-                crate::errln!("{line}");
+                lmhost::errln!("{line}");
                 Ok(())
             } else {
-                crate::outln!("{line}")
+                lmhost::outln!("{line}")
             }
         };
         out(format!(
@@ -757,7 +757,7 @@ impl Args {
                     .map_or(String::new(), |e| format!(" (last: {e})"))
             ))?;
         }
-        if crate::stop::requested() {
+        if lmhost::stop::requested() {
             out(format!(
                 "stopped by signal{}",
                 if device_report.as_ref().is_some_and(|(r, _)| r.muted_at_end) {
@@ -785,7 +785,7 @@ impl Args {
                 p(50.0),
                 p(99.0),
                 kind.name(),
-                crate::track::report::filter_lag_ms(kind, 90.0)
+                lmhost::track::report::filter_lag_ms(kind, 90.0)
             ))?;
         }
         Ok(())

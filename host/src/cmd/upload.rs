@@ -2,11 +2,11 @@
 
 use lm_proto::{DeviceState, Encoding, Status};
 
+use super::args::PortArgs;
 use crate::cmd::plan::PlanArgs;
-use crate::connect::Target;
-use crate::link::PortArgs;
-use crate::sequence::DEFAULT_MAX_OFFSET_MM;
-use crate::upload::{Play, UploadOutcome};
+use lmhost::connect::Target;
+use lmhost::sequence::DEFAULT_MAX_OFFSET_MM;
+use lmhost::upload::{Play, UploadOutcome};
 
 /// Sequence encoding on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -86,20 +86,20 @@ pub fn play_outcome(slot: u8, status: &Status) -> String {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let target = self.port.target()?;
+        let target = self.port.spec().target()?;
         let hold = self
             .hold
-            .map(|h| crate::limits::duration_s("--hold", h, crate::limits::MAX_SECONDS))
+            .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
             .transpose()?;
         if hold.is_some() && target == Target::Lm {
-            crate::bad_input!(
+            lmhost::bad_input!(
                 "--hold applies to AUTD3 ports only (the LM firmware plays on its own)"
             );
         }
         let mut planned = self.plan.plan_for(&target)?;
         planned.plan.sequence.set_max_offset_mm(self.max_offset)?;
-        let mut dev = crate::connect::open_with(
-            &self.port,
+        let mut dev = lmhost::connect::open_with(
+            &self.port.spec(),
             &planned.plan.scene,
             self.encoding.into(),
             !self.json,
@@ -107,16 +107,16 @@ impl Args {
         let needs_host = dev.needs_host();
         if needs_host && !self.no_play {
             // Ctrl-C / SIGTERM end the hold below; the array is left silent.
-            crate::stop::graceful();
+            lmhost::stop::graceful();
         }
         let play = match (self.no_play, self.untracked) {
             (true, _) => Play::No,
             (false, false) => Play::Tracked,
             (false, true) => Play::Untracked,
         };
-        let o = crate::upload::upload(dev.as_mut(), &planned, self.slot, play)?;
+        let o = lmhost::upload::upload(dev.as_mut(), &planned, self.slot, play)?;
         if self.untracked {
-            crate::errln!("{UNTRACKED_WARNING}");
+            lmhost::errln!("{UNTRACKED_WARNING}");
         }
         let port = o.port.clone();
         // AUTD3: the array plays only while lmhost holds the link; the
@@ -135,7 +135,7 @@ impl Args {
                     Some(d) => d.map(|d| d.as_secs_f64()).into(),
                 };
             }
-            crate::outln!("{v}")?;
+            lmhost::outln!("{v}")?;
         } else {
             print_text(&o, needs_host)?;
         }
@@ -145,25 +145,25 @@ impl Args {
         if !needs_host {
             return Ok(());
         }
-        crate::out::flush_stdout()?;
+        lmhost::out::flush_stdout()?;
         match hold {
-            None if !self.no_play => crate::errln!(
+            None if !self.no_play => lmhost::errln!(
                 "{port} lives in this process: exiting after the read-back leaves it silent \
                  (--hold SECONDS keeps it playing)"
             ),
-            None => crate::errln!(
+            None => lmhost::errln!(
                 "{port} holds the sequence only while lmhost holds the link: it is gone on exit \
                  (`lmhost stream --port {port}` uploads, plays and streams)"
             ),
             Some(d) => {
-                crate::errln!(
+                lmhost::errln!(
                     "holding {port} {}; the array is left silent on exit",
                     match d {
                         Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
                         None => "until Ctrl-C or SIGTERM".into(),
                     }
                 );
-                crate::connect::hold(dev.as_mut(), d)?;
+                lmhost::connect::hold(dev.as_mut(), d)?;
             }
         }
         dev.stop()
@@ -176,7 +176,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
     match &o.wire {
         Some(w) => {
             let r = &w.report;
-            crate::outln!(
+            lmhost::outln!(
                 "uploaded {} steps × {} transducers to slot {}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
                 t.steps,
                 o.transducers,
@@ -186,7 +186,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
                 r.payload_bytes,
                 r.wire_bytes_sent + r.wire_bytes_received
             )?;
-            crate::outln!(
+            lmhost::outln!(
                 "{:.3} s, {:.1} kB/s payload, wire efficiency {:.1} %, CRC {:08x}, {} retries",
                 r.seconds,
                 r.payload_bytes as f64 / r.seconds.max(1e-9) / 1e3,
@@ -196,7 +196,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
             )?;
         }
         None => {
-            crate::outln!(
+            lmhost::outln!(
                 "uploaded {} steps × {} transducers to {} slot {}: dwell {} µs on the 25 µs grid \
                  ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
                  ({:+.4} mm), {} frames",
@@ -216,9 +216,9 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
             )?;
             match o.readback_mismatches {
                 Some(n) => {
-                    crate::outln!("read back from the FPGA: {n} phases differ from the plan")?
+                    lmhost::outln!("read back from the FPGA: {n} phases differ from the plan")?
                 }
-                None => crate::outln!("this link cannot read the FPGA back")?,
+                None => lmhost::outln!("this link cannot read the FPGA back")?,
             }
         }
     }
@@ -236,15 +236,15 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
         format!("playing slot {}", o.slot)
     };
     match (o.playing, o.untracked, o.state) {
-        (false, ..) => crate::outln!(
+        (false, ..) => lmhost::outln!(
             "not playing (--no-play): `lmhost play --slot {}` plays it \
              (add --untracked to play without tracking)",
             o.slot
         ),
-        (true, true, _) => crate::outln!("{played}, untracked"),
+        (true, true, _) => lmhost::outln!("{played}, untracked"),
         (true, false, Some(DeviceState::Muted)) => {
-            crate::outln!("{played}")?;
-            crate::outln!(
+            lmhost::outln!("{played}")?;
+            lmhost::outln!(
                 "muted ({}) until the device tracks a finger within {} mm of the \
                  centre: {how_to_stream}, or upload with \
                  --untracked to play without tracking",
@@ -252,7 +252,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
                 f64::from(o.max_offset_um) / 1000.0
             )
         }
-        (true, false, _) => crate::outln!("{played}"),
+        (true, false, _) => lmhost::outln!("{played}"),
     }
 }
 

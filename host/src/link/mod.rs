@@ -16,28 +16,36 @@ pub mod transport;
 pub use client::{Client, LinkError, LinkStats, Reply, UploadReport, UploadSpec};
 pub use transport::Transport;
 
-/// Port flags shared by every command that talks to a device.
-#[derive(Debug, Clone, clap::Args)]
-pub struct PortArgs {
+/// Which device port to open and how (the CLI's `--port`, `--baud`,
+/// `--timeout-ms`, `--tries`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PortSpec {
     /// Serial port or pty path, `tcp:HOST:PORT`, or an AUTD3 rig
-    /// (`autd3:emulator`, `autd3:soem[:IFNAME]`, `autd3:ethercrab[:IFNAME]`,
-    /// `autd3:remote:HOST:PORT`) [default: $LMHOST_PORT, else the one LM
-    /// board found by USB id].
-    #[arg(long, value_name = "PATH")]
+    /// (`autd3:...`); `None`: `$LMHOST_PORT`, else the one LM board found
+    /// by USB id.
     pub port: Option<String>,
     /// Baud rate for real serial ports (ptys ignore it).
-    #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
     pub baud: u32,
-    /// Response timeout per attempt, ms, 1..=60000 [default: 100 + twice
-    /// the time a full chunk takes at --baud].
-    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=crate::limits::MAX_TIMEOUT_MS))]
+    /// Response timeout per attempt, ms; `None`: 100 + twice the time a
+    /// full chunk takes at `baud`.
     pub timeout_ms: Option<u64>,
-    /// Attempts per request before giving up, 1..=100.
-    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::limits::MAX_TRIES)))]
+    /// Attempts per request before giving up.
     pub tries: u32,
 }
 
-impl PortArgs {
+impl PortSpec {
+    /// `port` with the defaults: 115 200 Bd, the default timeout, 8 tries.
+    pub fn new(port: Option<String>) -> Self {
+        Self {
+            port,
+            baud: 115_200,
+            timeout_ms: None,
+            tries: 8,
+        }
+    }
+}
+
+impl PortSpec {
     /// Resolve the port and open a client on it (the LM firmware; every
     /// command opens its device through [`crate::connect::open`], which
     /// sends AUTD3 ports elsewhere).
