@@ -415,13 +415,7 @@ pub fn write_field(dir: &std::path::Path) -> anyhow::Result<String> {
     let plan = Stimulus::paper_lm_m().plan(Scene::default())?.plan;
     let view = View::default();
     let sim = simulate_plan(&plan, &view)?;
-    std::fs::create_dir_all(dir).map_err(|e| {
-        anyhow::anyhow!(
-            "cannot create output directory {}: {}",
-            dir.display(),
-            crate::files::reason(&e)
-        )
-    })?;
+    crate::files::output_dir("--plots", dir)?;
     write_outputs(&plan, &sim, &view, crate::trajectory::paper::RADIUS_MM, dir)?;
     Ok(sim.text_summary(&plan, crate::trajectory::paper::RADIUS_MM))
 }

@@ -214,6 +214,19 @@ pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
     Ok(())
 }
 
+/// Makes the output directory `dir` (and its parents) that `flag` names,
+/// refusing (exit 2) one that is an input; a failure names it (exit 1).
+pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<()> {
+    not_an_input(flag, dir)?;
+    std::fs::create_dir_all(dir).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot create the {flag} directory {}: {}",
+            dir.display(),
+            reason(&e)
+        )
+    })
+}
+
 /// A write to `path` failed: exit 1, naming the file.
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write {}: {}", .path.display(), reason(.source))]

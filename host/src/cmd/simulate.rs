@@ -164,14 +164,7 @@ impl Args {
         let view = self.view()?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
-        lmhost::files::not_an_input("--out", &self.out)?;
-        std::fs::create_dir_all(&self.out).map_err(|e| {
-            anyhow::anyhow!(
-                "cannot create output directory {}: {}",
-                self.out.display(),
-                lmhost::files::reason(&e)
-            )
-        })?;
+        lmhost::files::output_dir("--out", &self.out)?;
         if self.compare {
             let multi = if self.plan.foci > 1 {
                 self.plan.foci

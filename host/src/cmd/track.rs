@@ -578,14 +578,7 @@ impl Args {
             None => None,
         };
         if let Some(d) = &self.plot {
-            lmhost::files::not_an_input("--plot", d)?;
-            std::fs::create_dir_all(d).map_err(|e| {
-                anyhow::anyhow!(
-                    "cannot create the plot directory {}: {}",
-                    d.display(),
-                    lmhost::files::reason(&e)
-                )
-            })?;
+            lmhost::files::output_dir("--plot", d)?;
         }
         let z_profile = match &self.z_profile {
             None => None,
