@@ -15,11 +15,122 @@
 //! coordinates (the mirrored frame when the scene has a reflector), as on
 //! the wire.
 
-use lm_proto::{Centroid, DeviceState, Info, PlayAt, Status};
+use lm_proto::{Centroid, DeviceState, Info, NackCode, PlayAt, Status};
 use serde::Serialize;
 
 use crate::InputError;
+use crate::link::LinkError;
 use crate::sequence::Plan;
+
+/// What kind of failure a [`BackendError`] is: what a caller may branch on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// Bad input: a slot the device lacks, a plan it cannot hold (exit 2).
+    Input,
+    /// The device refused the request with a named code.
+    Refused(NackCode),
+    /// The link or the device failed (I/O, timeout, no answer).
+    Failed,
+}
+
+/// A failed device operation: its [`ErrorKind`] and the whole message
+/// chain (whose causes stay reachable through `source`, so an
+/// [`InputError`] inside still exits 2).
+#[derive(Debug)]
+pub struct BackendError {
+    kind: ErrorKind,
+    error: anyhow::Error,
+}
+
+/// The result of a device operation.
+pub type Result<T> = std::result::Result<T, BackendError>;
+
+impl BackendError {
+    /// An error of `kind` saying `error`.
+    pub fn new(kind: ErrorKind, error: impl Into<anyhow::Error>) -> Self {
+        Self {
+            kind,
+            error: error.into(),
+        }
+    }
+
+    /// A refusal with `code`, saying `msg`.
+    pub fn refused(code: NackCode, msg: impl std::fmt::Display) -> Self {
+        Self::new(ErrorKind::Refused(code), anyhow::anyhow!("{msg}"))
+    }
+
+    /// A failure saying `msg`.
+    pub fn failed(msg: impl std::fmt::Display) -> Self {
+        Self::new(ErrorKind::Failed, anyhow::anyhow!("{msg}"))
+    }
+
+    /// What kind of failure it is.
+    pub fn kind(&self) -> ErrorKind {
+        self.kind
+    }
+
+    /// The device's refusal code, when it refused.
+    pub fn refusal(&self) -> Option<NackCode> {
+        match self.kind {
+            ErrorKind::Refused(code) => Some(code),
+            _ => None,
+        }
+    }
+
+    /// Adds context (one more message in front), keeping the kind.
+    pub fn context(self, msg: impl std::fmt::Display + Send + Sync + 'static) -> Self {
+        Self {
+            kind: self.kind,
+            error: self.error.context(msg),
+        }
+    }
+}
+
+impl std::fmt::Display for BackendError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // The head only: the causes follow through `source`.
+        write!(f, "{}", self.error)
+    }
+}
+
+impl std::error::Error for BackendError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(self.error.as_ref())
+    }
+}
+
+impl From<anyhow::Error> for BackendError {
+    /// Classifies by the chain: an [`InputError`] is input, a device's
+    /// `Nack` a refusal, anything else a failure.
+    fn from(error: anyhow::Error) -> Self {
+        let kind = error
+            .chain()
+            .find_map(|c| {
+                if c.is::<InputError>() {
+                    Some(ErrorKind::Input)
+                } else if let Some(LinkError::Nack { code, .. }) = c.downcast_ref::<LinkError>() {
+                    Some(ErrorKind::Refused(*code))
+                } else {
+                    c.downcast_ref::<BackendError>().map(BackendError::kind)
+                }
+            })
+            .unwrap_or(ErrorKind::Failed);
+        Self { kind, error }
+    }
+}
+
+impl From<InputError> for BackendError {
+    fn from(e: InputError) -> Self {
+        Self::new(ErrorKind::Input, e)
+    }
+}
+
+impl From<LinkError> for BackendError {
+    fn from(e: LinkError) -> Self {
+        anyhow::Error::from(e).into()
+    }
+}
 
 /// What a device says about itself.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -81,26 +192,29 @@ pub trait Backend {
     /// Where the device is, for messages (`/dev/ttyACM0`, `autd3:emulator`).
     fn describe(&self) -> String;
     /// Identity and capabilities.
-    fn info(&mut self) -> anyhow::Result<BackendInfo>;
+    fn info(&mut self) -> Result<BackendInfo>;
     /// Playing state, in the firmware's terms.
-    fn status(&mut self) -> anyhow::Result<Status>;
+    fn status(&mut self) -> Result<Status>;
     /// Uploads `plan` into `slot` (`None`: a slot neither playing nor
     /// queued) without touching the playing one; a failed upload leaves
     /// the playing slot playing.
-    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport>;
+    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> Result<UploadReport>;
     /// Plays `slot` at `at`; muted until tracked unless `untracked`.
-    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()>;
+    /// `NextCycle` returns at once and the device switches at the end of
+    /// the playing cycle (`Status::queued_slot` until then).
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> Result<()>;
     /// Plays `slot`, switching at the end of the playing cycle.
-    fn play(&mut self, slot: u8, untracked: bool) -> anyhow::Result<()> {
+    fn play(&mut self, slot: u8, untracked: bool) -> Result<()> {
         self.play_at(slot, PlayAt::NextCycle, untracked)
     }
     /// Silences the array.
-    fn stop(&mut self) -> anyhow::Result<()>;
-    /// Applies a centroid update (correction and safety gate).
-    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome>;
+    fn stop(&mut self) -> Result<()>;
+    /// Applies a centroid update (correction and safety gate). A centroid
+    /// that is not newer than the last is refused with `OutOfOrder`.
+    fn centroid(&mut self, c: &Centroid) -> Result<CentroidOutcome>;
     /// Housekeeping the host must run between updates (≥ every 10 ms
     /// while playing): staleness muting where the device cannot time it.
-    fn tick(&mut self) -> anyhow::Result<()> {
+    fn tick(&mut self) -> Result<()> {
         Ok(())
     }
     /// Whether output lasts only while lmhost holds the link (AUTD3).
@@ -124,7 +238,7 @@ pub fn free_slot(slots: u8, status: &Status) -> Option<u8> {
 }
 
 /// Checks `slot` exists on the device (bad input otherwise, exit 2).
-pub fn check_slot(slot: u8, info: &Info) -> Result<(), InputError> {
+pub fn check_slot(slot: u8, info: &Info) -> std::result::Result<(), InputError> {
     if slot >= info.slots {
         return Err(InputError::new(format!(
             "--slot {slot} does not exist: the device has {} slots (0-{})",

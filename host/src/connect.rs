@@ -8,7 +8,9 @@ use anyhow::Context as _;
 use lm_proto::{Centroid, Encoding, Info, NackCode, PlayAt, Status};
 
 use crate::autd3::{Autd3Backend, Autd3Port, GridTiming};
-use crate::backend::{Backend, BackendInfo, CentroidOutcome, UploadReport, check_slot, free_slot};
+use crate::backend::{
+    Backend, BackendInfo, CentroidOutcome, Result as BResult, UploadReport, check_slot, free_slot,
+};
 use crate::link::{Client, LinkError, PortSpec, Transport, UploadSpec, discover};
 use crate::scene::Scene;
 use crate::sequence::{Plan, Synthesis};
@@ -131,7 +133,7 @@ impl<T: Transport> Backend for LmBackend<T> {
         self.client.transport().describe()
     }
 
-    fn info(&mut self) -> anyhow::Result<BackendInfo> {
+    fn info(&mut self) -> BResult<BackendInfo> {
         let i = self.lm_info()?;
         let [a, b, c] = i.fw_version;
         Ok(BackendInfo {
@@ -146,11 +148,11 @@ impl<T: Transport> Backend for LmBackend<T> {
         })
     }
 
-    fn status(&mut self) -> anyhow::Result<Status> {
+    fn status(&mut self) -> BResult<Status> {
         Ok(self.client.status()?)
     }
 
-    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport> {
+    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
         let spec = UploadSpec::from_plan(plan, self.encoding)?;
         let info = self.lm_info()?;
         let where_ = self.describe();
@@ -203,19 +205,20 @@ impl<T: Transport> Backend for LmBackend<T> {
         })
     }
 
-    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> BResult<()> {
         let info = self.lm_info()?;
         check_slot(slot, &info)?;
-        self.client
+        Ok(self
+            .client
             .play(slot, at, untracked)
-            .with_context(|| format!("playing slot {slot}"))
+            .with_context(|| format!("playing slot {slot}"))?)
     }
 
-    fn stop(&mut self) -> anyhow::Result<()> {
-        self.client.stop().context("stopping the device")
+    fn stop(&mut self) -> BResult<()> {
+        Ok(self.client.stop().context("stopping the device")?)
     }
 
-    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome> {
+    fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
         match self.client.centroid(*c) {
             Ok(()) => Ok(CentroidOutcome::Applied),
             Err(LinkError::Nack {

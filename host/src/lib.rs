@@ -15,6 +15,7 @@ pub mod autd3;
 pub mod backend;
 pub mod bench;
 pub mod clock;
+pub mod conformance;
 pub mod connect;
 pub mod demo;
 pub mod directivity;

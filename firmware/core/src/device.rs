@@ -2,16 +2,15 @@
 //! wired together. Boards and the host simulator drive only this.
 
 use lm_proto::{
-    BeginUpload, Centroid, DeviceLimits, DeviceState, FeedResult, FrameDecoder, Info, MAX_CHUNK,
-    MAX_ENCODED_FRAME, Message, MuteReason, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status,
-    encode_frame,
+    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Info, MAX_CHUNK,
+    MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status, encode_frame,
 };
 
 use crate::MAX_TRANSDUCERS;
 use crate::correction::{apply_offsets, compute_offsets, sound_speed_m_s};
-use crate::gate::Gate;
 use crate::output::{OutputDriver, OutputFrame};
-use crate::player::{PlayState, Player, Timing};
+use crate::player::{Player, Timing};
+use crate::policy::{Policy, Session};
 use crate::store::{SLOTS, Store, StoreError};
 
 /// Device configuration, chosen by the board.
@@ -115,21 +114,15 @@ struct Handler<'m> {
     cfg: Config,
     store: Store<'m>,
     player: Player,
-    gate: Gate,
+    /// Session, gate, untracked play, work volume: the safety rules.
+    policy: Policy,
     counters: Counters,
-    /// Last centroid with presence (µm).
-    centroid_um: Option<[i32; 3]>,
     /// Slot the offsets were computed for (None: offsets are zero).
     offsets_for: Option<u8>,
     offsets: [u8; MAX_TRANSDUCERS],
     frame: [u8; MAX_TRANSDUCERS],
     /// Re-send the current step at once (Stop, presence lost).
     refresh: bool,
-    /// The session plays untracked (`Play` flag): not gated, not corrected.
-    untracked: bool,
-    /// The last present centroid lay outside the playing slot's work
-    /// volume: muted until an in-range one arrives.
-    out_of_range: bool,
 }
 
 /// The whole device core.
@@ -163,15 +156,12 @@ impl<'m> Device<'m> {
                 cfg,
                 store,
                 player: Player::new(cfg.timer_hz),
-                gate: Gate::new(timeout, cfg.require_tracking),
+                policy: Policy::new(timeout, cfg.require_tracking),
                 counters: Counters::default(),
-                centroid_um: None,
                 offsets_for: None,
                 offsets: [0; MAX_TRANSDUCERS],
                 frame: [0; MAX_TRANSDUCERS],
                 refresh: false,
-                untracked: false,
-                out_of_range: false,
             },
         })
     }
@@ -270,8 +260,9 @@ impl<'m> Device<'m> {
     /// Changes the centroid timeout (µs).
     pub fn set_centroid_timeout_us(&mut self, us: u32) {
         self.handler.cfg.centroid_timeout_us = us;
-        self.handler.gate.timeout_counts =
-            u64::from(us) * u64::from(self.handler.cfg.timer_hz) / 1_000_000;
+        self.handler
+            .policy
+            .set_timeout(u64::from(us) * u64::from(self.handler.cfg.timer_hz) / 1_000_000);
     }
 
     /// Changes the minimum step dwell (µs), checked at `BeginUpload` and `Play`.
@@ -282,7 +273,7 @@ impl<'m> Device<'m> {
     /// Turns muting before the first centroid update on or off.
     pub fn set_require_tracking(&mut self, on: bool) {
         self.handler.cfg.require_tracking = on;
-        self.handler.gate.require_tracking = on;
+        self.handler.policy.set_require_tracking(on);
     }
 
     /// Per-transducer correction offsets (u8 phase LSB) being added to the
@@ -290,7 +281,7 @@ impl<'m> Device<'m> {
     /// centroid yet, or nothing playing).
     pub fn offsets(&self) -> &[u8] {
         let c = &self.handler;
-        if c.untracked {
+        if !c.policy.correcting() {
             return &[];
         }
         match c.player.slot().filter(|s| c.offsets_for == Some(*s)) {
@@ -330,57 +321,29 @@ impl Handler<'_> {
         DeviceLimits::from_info(&self.info())
     }
 
-    /// Why a playing device is silent at `now` (None while it sounds).
-    fn mute_reason(&self, now: u64) -> MuteReason {
-        match self.player.state() {
-            PlayState::Idle => MuteReason::None,
-            PlayState::Stopped => MuteReason::Stopped,
-            PlayState::Playing if self.untracked => MuteReason::None,
-            PlayState::Playing if self.out_of_range => MuteReason::CentroidOutOfRange,
-            PlayState::Playing => self.gate.mute_reason(now),
-        }
-    }
-
     /// Playing and not muted at `now`.
     fn sounding(&self, now: u64) -> bool {
-        self.player.state() == PlayState::Playing && self.mute_reason(now) == MuteReason::None
+        self.policy.sounding(now)
     }
 
     fn status(&self, now: u64) -> Status {
-        let mute_reason = self.mute_reason(now);
-        let state = match self.player.state() {
-            PlayState::Idle => DeviceState::Idle,
-            PlayState::Stopped => DeviceState::Stopped,
-            PlayState::Playing if mute_reason == MuteReason::None => DeviceState::Playing,
-            PlayState::Playing => DeviceState::Muted,
-        };
         let slot = self.player.slot();
-        // Only what the player applies: offsets computed for the playing
-        // slot (from a centroid checked against its work volume).
-        let applied = self.player.state() == PlayState::Playing
-            && !self.untracked
-            && !self.out_of_range
-            && slot.is_some()
-            && self.offsets_for == slot;
-        let correction_um = match (self.centroid_um, slot.and_then(|s| self.store.header(s))) {
-            (Some(c), Some(h)) if applied => {
-                core::array::from_fn(|i| c[i].wrapping_sub(h.center_um[i]))
-            }
-            _ => [0; 3],
-        };
+        let correction_um = slot
+            .and_then(|s| self.store.header(s))
+            .map_or([0; 3], |h| self.policy.correction_um(h.center_um));
         Status {
-            state,
+            state: self.policy.state(now),
             slot,
             step: self.player.step(),
             cycles: self.player.cycles(),
             missed_deadlines: self.player.missed(),
-            last_centroid_seq: self.gate.last_seq(),
+            last_centroid_seq: self.policy.last_seq(),
             bad_frames: self.counters.bad_frames,
             crc_errors: self.counters.crc_errors,
             nacks: self.counters.nacks,
             correction_um,
             queued_slot: self.player.pending(),
-            mute_reason,
+            mute_reason: self.policy.mute_reason(now),
         }
     }
 
@@ -426,6 +389,7 @@ impl Handler<'_> {
                 #[cfg(feature = "defmt")]
                 defmt::info!("stop");
                 self.player.stop();
+                self.policy.stop();
                 self.refresh = true;
                 Message::Ack
             }
@@ -485,7 +449,6 @@ impl Handler<'_> {
         if !self.dwell_ok(t) {
             return Err(NackCode::DwellTooShort);
         }
-        let was_playing = self.player.state() == PlayState::Playing;
         let ok = match p.at {
             PlayAt::Immediate => self.player.start(p.slot, t, now),
             _ => self.player.queue(p.slot, t, now),
@@ -493,20 +456,11 @@ impl Handler<'_> {
         if !ok {
             return Err(NackCode::DwellTooShort);
         }
-        if was_playing {
-            // Same session (e.g. a re-planned sequence): keep the gate open,
-            // but a host that restarted may count centroids from 0 again.
-            self.gate.restart_sequence();
-        } else {
-            // A new play session needs fresh tracking.
-            self.gate.reset();
-            self.centroid_um = None;
+        if self.policy.session() != Session::Playing {
+            // A new session: fresh tracking, no offsets.
             self.offsets_for = None;
-            self.out_of_range = false;
         }
-        // Takes effect at once, for the session (a tracked Play ends an
-        // untracked session and the gate decides again).
-        self.untracked = p.untracked;
+        self.policy.play(p.untracked);
         self.refresh = true;
         #[cfg(feature = "defmt")]
         defmt::info!(
@@ -519,47 +473,42 @@ impl Handler<'_> {
     }
 
     fn centroid(&mut self, c: &Centroid, now: u64) -> Result<(), NackCode> {
-        if !self.gate.is_fresh(c.seq) {
-            return Err(NackCode::OutOfOrder);
-        }
         let playing = self.player.slot().and_then(|s| self.store.header(s));
-        if c.present && playing.is_some_and(|h| !h.in_work_volume(c.pos_um)) {
-            // Never steer outside the work volume: refuse and mute until a
-            // present centroid inside it arrives.
-            self.out_of_range = true;
-            self.offsets_for = None;
-            self.refresh = true;
-            return Err(NackCode::OutOfRange);
-        }
-        self.gate.update(c.seq, c.present, now);
-        self.out_of_range = false;
-        if c.present {
-            self.centroid_um = Some(c.pos_um);
-            if let Some(slot) = self.player.slot() {
-                self.recompute(slot);
+        match self.policy.centroid(c, playing, now) {
+            Ok(Some(_)) => {
+                if let Some(slot) = self.player.slot() {
+                    self.recompute(slot);
+                }
+                Ok(())
             }
-        } else {
-            self.refresh = true;
+            Ok(None) => {
+                self.refresh = true;
+                Ok(())
+            }
+            Err(NackCode::OutOfRange) => {
+                // Never steer outside the work volume: muted until a
+                // present centroid inside it arrives.
+                self.offsets_for = None;
+                self.refresh = true;
+                Err(NackCode::OutOfRange)
+            }
+            Err(e) => Err(e),
         }
-        Ok(())
     }
 
-    /// Recomputes the offsets for `slot` from the last centroid.
+    /// Recomputes the offsets for `slot` from the last centroid, as far as
+    /// the policy lets it steer (a slot taking over with another centre or
+    /// volume is re-checked).
     fn recompute(&mut self, slot: u8) {
-        let (Some(c), Some(h), Some(pos)) = (
-            self.centroid_um,
-            self.store.header(slot).copied(),
-            self.store.positions(slot),
-        ) else {
+        let (Some(h), Some(pos)) = (self.store.header(slot).copied(), self.store.positions(slot))
+        else {
             self.offsets_for = None;
             return;
         };
-        if !h.in_work_volume(c) {
-            // A slot taking over with another centre or volume.
-            self.out_of_range = true;
+        let Some(c) = self.policy.steer_for(&h) else {
             self.offsets_for = None;
             return;
-        }
+        };
         let t = usize::from(h.transducers);
         compute_offsets(
             pos,
@@ -582,7 +531,6 @@ impl Handler<'_> {
                 self.player.missed() - missed_before
             );
         }
-        let playing = self.player.state() == PlayState::Playing;
         let (slot, step, at) = match due {
             Some(d) => (d.slot, d.step, d.at),
             None if self.refresh => {
@@ -595,10 +543,10 @@ impl Handler<'_> {
             None => return self.player.deadline(),
         };
         self.refresh = false;
-        if self.centroid_um.is_some() && self.offsets_for != Some(slot) && !self.out_of_range {
+        if self.offsets_for != Some(slot) && self.policy.correcting() {
             self.recompute(slot);
         }
-        let amplitude = if playing && self.sounding(now) {
+        let amplitude = if self.sounding(now) {
             self.cfg.amplitude
         } else {
             0
@@ -606,7 +554,7 @@ impl Handler<'_> {
         let phases: &[u8] = match self.store.step(slot, step) {
             Some(p) => {
                 let t = p.len();
-                if self.offsets_for == Some(slot) && !self.untracked {
+                if self.offsets_for == Some(slot) && self.policy.correcting() {
                     apply_offsets(p, &self.offsets[..t], &mut self.frame[..t]);
                 } else {
                     self.frame[..t].copy_from_slice(p);

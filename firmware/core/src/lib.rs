@@ -102,6 +102,7 @@ mod device;
 pub mod gate;
 pub mod output;
 pub mod player;
+pub mod policy;
 pub mod serve;
 pub mod store;
 mod take_once;

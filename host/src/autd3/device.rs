@@ -23,18 +23,20 @@ use autd3::prelude::{
     PhaseCorrection, ReadsFPGAState, SamplingConfig, Segment, SenderOption, Silencer, Static,
     SwapSegmentGainSTM, WithFiniteLoop, WithSegment,
 };
-use lm_fw_core::gate::Gate;
+use lm_fw_core::policy::{Policy, Session};
 
 use super::emulator::{EmulatorHandle, EmulatorLink};
 use super::port::Autd3Port;
 use super::{correction, geometry, safety, timing};
 use crate::array::AUTD3_TRANSDUCERS;
-use crate::backend::{Backend, BackendInfo, CentroidOutcome, UploadReport};
+use crate::backend::{
+    Backend, BackendError, BackendInfo, CentroidOutcome, Result as BResult, UploadReport,
+};
 use crate::clock::Clock;
 use crate::error::InputError;
 use crate::scene::Scene;
 use crate::sequence::Plan;
-use lm_proto::{Centroid, DeviceState, MuteReason, PlayAt, Status, UploadHeader};
+use lm_proto::{Centroid, MuteReason, NackCode, PlayAt, Status, UploadHeader};
 
 /// What a segment holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,20 +54,19 @@ pub struct Autd3Backend {
     clock: Clock,
     positions: Vec<u8>,
     slots: [Option<Slot>; 2],
+    /// Slot whose segment plays (or starts from silence at its next loop
+    /// boundary, see `rearm`).
     playing: Option<u8>,
+    /// Slot that takes over from `playing` at the end of its loop (the
+    /// firmware's queued slot).
+    queued: Option<u8>,
     /// Segment switched to with `SyncIdx`, still to be set to loop forever.
     rearm: Option<u8>,
-    gate: Gate,
-    untracked: bool,
+    /// The firmware's safety rules (session, gate, untracked, work volume).
+    policy: Policy,
     /// Modulation intensity last sent.
     output: u8,
     offsets: Vec<u8>,
-    centroid_um: Option<[i32; 3]>,
-    centroids: u64,
-    /// Stopped by `stop` (until the next play).
-    stopped: bool,
-    /// The last present centroid lay outside the playing slot's work volume.
-    out_of_range: bool,
     closed: bool,
 }
 
@@ -201,15 +202,11 @@ impl Autd3Backend {
             positions,
             slots: [None; 2],
             playing: None,
+            queued: None,
             rearm: None,
-            gate: safety::gate(false),
-            untracked: false,
+            policy: safety::policy(),
             output: safety::FULL,
             offsets: vec![0; n],
-            centroid_um: None,
-            centroids: 0,
-            stopped: false,
-            out_of_range: false,
             closed: false,
         };
         me.ctl.send(Silencer::default())?;
@@ -255,15 +252,15 @@ impl Autd3Backend {
     /// Recomputes the offsets for the slot that plays (or will) and sends them.
     fn update_correction(&mut self) -> anyhow::Result<()> {
         let slot = self.playing.and_then(|s| self.slots[usize::from(s)]);
-        match (slot, self.centroid_um) {
-            (Some(s), Some(c)) if s.header.in_work_volume(c) => correction::offsets_into(
+        match slot.and_then(|s| Some((s, self.policy.steer_for(&s.header)?))) {
+            Some((s, c)) => correction::offsets_into(
                 &self.positions,
                 s.header.center_um,
                 c,
                 s.header.sound_speed_mm_s,
                 &mut self.offsets,
             ),
-            _ => self.offsets.fill(0),
+            None => self.offsets.fill(0),
         }
         self.send_offsets()
     }
@@ -279,21 +276,16 @@ impl Autd3Backend {
 
     /// Why the output is silent now, by the firmware's rules.
     pub fn mute_reason(&self) -> MuteReason {
-        if self.stopped {
-            MuteReason::Stopped
-        } else if self.playing.is_none() || self.untracked {
-            MuteReason::None
-        } else if self.out_of_range {
-            MuteReason::CentroidOutOfRange
-        } else {
-            self.gate.mute_reason(self.now_us())
-        }
+        self.policy.mute_reason(self.now_us())
     }
 
-    /// Mutes or unmutes as the gate says; finishes a pending switch.
+    /// Mutes or unmutes as the policy says; finishes a pending switch. A
+    /// start from silence stays muted until the devices play the new
+    /// segment (the old one must not sound meanwhile).
     fn apply_gate(&mut self) -> anyhow::Result<()> {
         self.finish_switch(false)?;
-        let want = if self.playing.is_some() && self.mute_reason() == MuteReason::None {
+        let starting = self.rearm.is_some() && self.queued.is_none();
+        let want = if self.policy.sounding(self.now_us()) && !starting {
             safety::FULL
         } else {
             safety::MUTED
@@ -335,6 +327,12 @@ impl Autd3Backend {
                     .send(SwapSegmentGainSTM(segment(slot), Immediate))
                     .context("setting the new segment to loop")?;
                 self.rearm = None;
+                if self.queued.take().is_some() {
+                    // The queued slot took over: its own centre and work
+                    // volume from now on.
+                    self.playing = Some(slot);
+                    self.update_correction()?;
+                }
                 return Ok(());
             }
             if !wait {
@@ -353,7 +351,12 @@ impl Autd3Backend {
         self.request_play_at(slot, PlayAt::NextCycle, untracked)
     }
 
-    /// [`Self::request_play`] at `at`: `Immediate` swaps at once.
+    /// [`Self::request_play`] at `at`. As on the firmware, a slot played
+    /// while another plays takes over at the end of its loop (`queued`
+    /// until then) and one played from silence starts at once (it sounds
+    /// from the new segment's first loop boundary). `Immediate` is refused
+    /// while another slot plays: autd3 firmware switches a segment uploaded
+    /// for a loop-end switch only at a loop end.
     pub fn request_play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
         if slot > 1 {
             return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {slot}")).into());
@@ -367,22 +370,27 @@ impl Autd3Backend {
             );
         }
         self.finish_switch(true)?;
-        if at == PlayAt::Immediate {
-            self.ctl
-                .send(SwapSegmentGainSTM(segment(slot), Immediate))
-                .with_context(|| format!("switching to slot {slot}"))?;
-            self.rearm = None;
-        } else if self.playing != Some(slot) {
+        let playing = self.policy.session() == Session::Playing;
+        if playing && at == PlayAt::Immediate && self.playing != Some(slot) {
+            return Err(InputError::new(
+                "an AUTD3 switches sequences at the end of a loop only; play without --immediate",
+            )
+            .into());
+        }
+        if self.current_segment()? != Some(slot) {
             self.ctl
                 .send(SwapSegmentGainSTM(segment(slot), SyncIdx))
                 .with_context(|| format!("switching to slot {slot}"))?;
             self.rearm = Some(slot);
+            if playing {
+                self.queued = Some(slot);
+            } else {
+                self.playing = Some(slot);
+            }
+        } else {
+            self.playing = Some(slot);
         }
-        self.playing = Some(slot);
-        self.untracked = untracked;
-        self.stopped = false;
-        self.out_of_range = false;
-        self.gate = safety::gate(untracked);
+        self.policy.play(untracked);
         self.update_correction()?;
         self.apply_gate()
     }
@@ -417,7 +425,10 @@ impl Autd3Backend {
         }))
     }
 
+    /// Leaves the array silent for good: mute, then a null gain in the
+    /// playing segment (on drop; `stop` only mutes).
     fn silence(&mut self) -> anyhow::Result<()> {
+        self.policy.stop();
         self.set_output(safety::MUTED)?;
         let seg = match self.playing {
             Some(s) => s,
@@ -428,8 +439,8 @@ impl Autd3Backend {
             .context("sending the null gain")?;
         self.slots[usize::from(seg)] = None;
         self.playing = None;
+        self.queued = None;
         self.rearm = None;
-        self.stopped = true;
         Ok(())
     }
 }
@@ -443,7 +454,7 @@ impl Backend for Autd3Backend {
         true
     }
 
-    fn info(&mut self) -> anyhow::Result<BackendInfo> {
+    fn info(&mut self) -> BResult<BackendInfo> {
         let firmware = self
             .ctl
             .firmware_version()
@@ -463,47 +474,32 @@ impl Backend for Autd3Backend {
         })
     }
 
-    fn status(&mut self) -> anyhow::Result<Status> {
+    fn status(&mut self) -> BResult<Status> {
         self.apply_gate()?;
-        let mute_reason = self.mute_reason();
-        let state = match (self.playing, self.stopped) {
-            (_, true) => DeviceState::Stopped,
-            (None, false) => DeviceState::Idle,
-            (Some(_), false) if mute_reason == MuteReason::None => DeviceState::Playing,
-            (Some(_), false) => DeviceState::Muted,
-        };
+        let now = self.now_us();
         // Until the devices take over a `SyncIdx` switch, the old segment
         // plays and the new one is queued, as on the firmware.
-        let (slot, queued_slot) = match self.rearm {
-            Some(q) => (self.current_segment()?.filter(|&s| s != q), Some(q)),
-            None => (self.playing, None),
-        };
-        let correction_um = match (
-            self.playing.and_then(|s| self.slots[usize::from(s)]),
-            self.centroid_um,
-        ) {
-            (Some(s), Some(c)) if mute_reason == MuteReason::None && !self.untracked => {
-                [0, 1, 2].map(|i| c[i].saturating_sub(s.header.center_um[i]))
-            }
-            _ => [0; 3],
-        };
+        let (slot, queued_slot) = (self.playing, self.queued);
+        let correction_um = slot
+            .and_then(|s| self.slots[usize::from(s)])
+            .map_or([0; 3], |s| self.policy.correction_um(s.header.center_um));
         Ok(Status {
-            state,
+            state: self.policy.state(now),
             slot,
             step: 0,
             cycles: 0,
             missed_deadlines: 0,
-            last_centroid_seq: self.gate.last_seq(),
+            last_centroid_seq: self.policy.last_seq(),
             bad_frames: 0,
             crc_errors: 0,
             nacks: 0,
             correction_um,
             queued_slot,
-            mute_reason,
+            mute_reason: self.policy.mute_reason(now),
         })
     }
 
-    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> anyhow::Result<UploadReport> {
+    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
         let h = &plan.sequence.header;
         let t = self.ctl.num_transducers();
         let steps = usize::from(h.steps);
@@ -535,10 +531,22 @@ impl Backend for Autd3Backend {
             Some(s) if s > 1 => {
                 return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {s}")).into());
             }
-            Some(s) if Some(s) == self.playing => {
-                bail!("slot {s} is playing; upload into the idle slot");
+            Some(s)
+                if Some(s) == self.queued
+                    || (Some(s) == self.playing && self.policy.session() == Session::Playing) =>
+            {
+                return Err(BackendError::refused(
+                    NackCode::SlotPlaying,
+                    format!("slot {s} is playing; upload into the idle slot"),
+                ));
             }
             Some(s) => s,
+            None if self.queued.is_some() => {
+                return Err(BackendError::refused(
+                    NackCode::SlotPlaying,
+                    "no free slot: one plays and the other is queued",
+                ));
+            }
             None => match self.playing {
                 Some(p) => 1 - p,
                 None => 1 - self.current_segment()?.unwrap_or(0),
@@ -593,48 +601,55 @@ impl Backend for Autd3Backend {
         })
     }
 
-    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> BResult<()> {
+        // A start from silence returns once the new segment plays (within
+        // one loop); a slot queued behind a playing one returns at once, as
+        // on the firmware, and `tick` / `status` see the switch through.
         self.request_play_at(slot, at, untracked)?;
-        self.finish_switch(true)?;
-        self.apply_gate()
-    }
-
-    fn stop(&mut self) -> anyhow::Result<()> {
-        self.silence()
-    }
-
-    fn centroid(&mut self, c: &Centroid) -> anyhow::Result<CentroidOutcome> {
-        if !self.gate.is_fresh(c.seq) {
-            bail!(
-                "centroid {} is not newer than {}; ignored",
-                c.seq,
-                self.gate.last_seq()
-            );
+        if self.queued.is_none() {
+            self.finish_switch(true)?;
         }
+        Ok(self.apply_gate()?)
+    }
+
+    /// Mutes at once, as the firmware's `Stop`; the segments stay, so a
+    /// later `play` resumes without an upload (drop writes the null gain).
+    fn stop(&mut self) -> BResult<()> {
+        self.policy.stop();
+        // As the firmware's Stop, a queued slot is dropped (the devices may
+        // still switch; a later play checks which segment plays).
+        self.queued = None;
+        Ok(self.set_output(safety::MUTED)?)
+    }
+
+    fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
         let header = self
             .playing
             .and_then(|s| self.slots[usize::from(s)])
             .map(|s| s.header);
-        if c.present && header.is_some_and(|h| !h.in_work_volume(c.pos_um)) {
-            // Never steer outside the work volume: refuse and mute until a
-            // present centroid inside it arrives (the firmware's rule).
-            self.out_of_range = true;
-            self.apply_gate()?;
-            return Ok(CentroidOutcome::OutOfRange);
-        }
-        self.gate.update(c.seq, c.present, self.now_us());
-        self.out_of_range = false;
-        if c.present {
-            self.centroid_um = Some(c.pos_um);
-            self.update_correction()?;
-        }
-        self.centroids += 1;
+        let last = self.policy.last_seq();
+        let outcome = match self.policy.centroid(c, header.as_ref(), self.now_us()) {
+            Ok(Some(_)) => {
+                self.update_correction()?;
+                CentroidOutcome::Applied
+            }
+            Ok(None) => CentroidOutcome::Applied,
+            // Never steered outside the work volume: muted until a present
+            // centroid inside it arrives.
+            Err(NackCode::OutOfRange) => CentroidOutcome::OutOfRange,
+            Err(code) => {
+                return Err(BackendError::refused(
+                    code,
+                    format!("centroid {} is not newer than {last}; ignored", c.seq),
+                ));
+            }
+        };
         self.apply_gate()?;
-        Ok(CentroidOutcome::Applied)
+        Ok(outcome)
     }
 
-    fn tick(&mut self) -> anyhow::Result<()> {
-        self.apply_gate()
+    fn tick(&mut self) -> BResult<()> {
+        Ok(self.apply_gate()?)
     }
 }
 

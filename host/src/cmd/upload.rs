@@ -166,7 +166,7 @@ impl Args {
                 lmhost::connect::hold(dev.as_mut(), d)?;
             }
         }
-        dev.stop()
+        Ok(dev.stop()?)
     }
 }
 

@@ -253,7 +253,7 @@ fn pump(
                 continue;
             }
             Err(e) => {
-                return Err(e.context(format!("sending centroid #{seq}")));
+                return Err(anyhow::Error::from(e).context(format!("sending centroid #{seq}")));
             }
         }
         crate::clock::push_ring(
