@@ -634,8 +634,8 @@ impl Args {
         if device {
             // AUTD3: the default stimulus for the scene is uploaded and
             // played first, and the array is left silent at the end.
-            let plan = crate::cmd::session::default_plan_args(self.scene.as_deref())?;
-            let (mut dev, session) = crate::cmd::session::open_playing(&self.port.spec(), &plan)?;
+            let (mut dev, session) =
+                crate::cmd::session::open_playing_default(&self.port.spec(), &scene)?;
             let where_ = dev.describe();
             let pace = if self.fast || live {
                 Pace::Arrival
