@@ -8,7 +8,8 @@ use crate::cmd::plan::PlanArgs;
 use lmhost::backend::{Backend, UploadReport};
 use lmhost::connect::{Target, open};
 use lmhost::link::PortSpec;
-use lmhost::stimulus::Timing;
+use lmhost::scene::Scene;
+use lmhost::stimulus::{Stimulus, TargetPlan, Timing};
 
 /// What [`open_playing`] uploaded before a session (AUTD3 only).
 #[derive(Debug, Clone, Serialize)]
@@ -29,12 +30,45 @@ pub fn open_playing(
     port: &PortSpec,
     plan: &PlanArgs,
 ) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
+    open_planned(
+        port,
+        || Ok(plan.load_scene()?),
+        |target| plan.plan_for(target),
+    )
+}
+
+/// [`open_playing`] with the default stimulus ([`Stimulus::default`], what
+/// `lmhost upload --scene FILE` plans with no other flag) in `scene`: the
+/// plan `track --port autd3:...` plays.
+pub fn open_playing_default(
+    port: &PortSpec,
+    scene: &Scene,
+) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
+    open_planned(
+        port,
+        || Ok(scene.clone()),
+        |target| {
+            let planned = Stimulus::default().plan_for(target, scene.clone())?;
+            for w in &planned.warnings {
+                lmhost::errln!("warning: {w}");
+            }
+            Ok(planned)
+        },
+    )
+}
+
+/// [`open_playing`] given how to load the scene (the LM firmware) and how
+/// to plan the stimulus for a target (an AUTD3).
+fn open_planned(
+    port: &PortSpec,
+    scene: impl FnOnce() -> anyhow::Result<Scene>,
+    plan_for: impl FnOnce(&Target) -> anyhow::Result<TargetPlan>,
+) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
     let target = port.target()?;
     let Target::Autd3(_) = &target else {
-        let scene = plan.load_scene()?;
-        return Ok((open(port, &scene)?, None));
+        return Ok((open(port, &scene()?)?, None));
     };
-    let planned = plan.plan_for(&target)?;
+    let planned = plan_for(&target)?;
     let (plan, timing) = (planned.plan, planned.timing);
     let mut dev = open(port, &plan.scene)?;
     let upload = dev.upload(&plan, None)?;
@@ -57,21 +91,4 @@ pub fn open_playing(
         upload.slot
     );
     Ok((dev, Some(SessionUpload { upload, timing })))
-}
-
-/// The stimulus flags' defaults for `scene` (what `lmhost upload --scene
-/// FILE` plans with no other flag): the plan `track --port autd3:...` plays.
-pub fn default_plan_args(scene: Option<&std::path::Path>) -> anyhow::Result<PlanArgs> {
-    #[derive(clap::Parser)]
-    struct Defaults {
-        #[command(flatten)]
-        plan: PlanArgs,
-    }
-    let mut args = vec![std::ffi::OsString::from("lmhost")];
-    if let Some(s) = scene {
-        args.push("--scene".into());
-        args.push(s.into());
-    }
-    use clap::Parser as _;
-    Ok(Defaults::try_parse_from(args)?.plan)
 }

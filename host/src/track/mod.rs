@@ -9,7 +9,8 @@
 //! and a centroid filter (`stream::filter`), and yields the samples the
 //! streaming loop (`stream::run`) sends to the device. [`surface`] gives
 //! the finger surface's depth along the planned circle; [`plot`] draws a
-//! frame.
+//! frame. [`session`] is `lmhost track`'s whole run: a source through the
+//! pipeline, recorded, plotted, scored and streamed.
 
 pub mod contact;
 pub mod intrinsics;
@@ -18,6 +19,7 @@ pub mod plot;
 pub mod presence;
 pub mod report;
 pub mod rig;
+pub mod session;
 pub mod source;
 pub mod surface;
 pub mod synth;
