@@ -17,6 +17,8 @@ use std::path::{Path, PathBuf};
 use std::process::Child;
 use std::time::{Duration, Instant};
 
+use lmhost::backend::Backend;
+
 use lm_proto::{
     BeginUpload, Centroid, Chunk, Commit, DeviceState, Encoding, FeedResult, FrameDecoder,
     Geometry, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode,
@@ -421,4 +423,86 @@ fn firmware_under_qemu_speaks_the_protocol() {
     assert_eq!(link.status().state, DeviceState::Playing);
     link.ack(&Message::Stop);
     assert_eq!(link.status().state, DeviceState::Stopped);
+}
+
+/// Lets `d` pass on the firmware's own clock: QEMU's virtual time may run
+/// slower than the wall clock, so wait until the player has stepped that
+/// long (it steps while muted too; every wait of the table is while a
+/// slot plays).
+fn wait_on_device(
+    dev: &mut dyn Backend,
+    d: Duration,
+    steps: u64,
+    dwell_us: f64,
+) -> anyhow::Result<()> {
+    let pos = |st: &Status| u64::from(st.cycles) * steps + u64::from(st.step);
+    let start = pos(&dev.status()?);
+    let need = (d.as_secs_f64() * 1e6 / dwell_us).ceil() as u64 + 1;
+    let give_up = Instant::now() + d * 50 + Duration::from_secs(10);
+    loop {
+        std::thread::sleep(Duration::from_millis(5));
+        // (A slot taking over restarts the count: the wait only gets longer.)
+        if pos(&dev.status()?) >= start + need {
+            return Ok(());
+        }
+        anyhow::ensure!(
+            Instant::now() < give_up,
+            "the firmware's player did not advance"
+        );
+    }
+}
+
+/// The device policy's conformance table (`lmhost::conformance`), the
+/// same one the simulated device and the AUTD3 emulator pass, against the
+/// firmware under QEMU: a fresh QEMU per scenario.
+#[test]
+fn firmware_under_qemu_conforms_to_the_device_policy() {
+    use lmhost::conformance::{Dut, run};
+    use lmhost::connect::Target;
+    use lmhost::scene::Scene;
+    use lmhost::stimulus::Stimulus;
+    if !qemu_installed() {
+        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+        return;
+    }
+    let elf = firmware_elf();
+    let wide = Stimulus::default()
+        .plan_for(&Target::Lm, Scene::default())
+        .unwrap()
+        .plan;
+    let mut narrow = wide.clone();
+    narrow.sequence.set_max_offset_mm(2.0).unwrap();
+    let steps = u64::from(wide.sequence.header.steps);
+    let dwell_us = wide.sequence.dwell_us();
+    let mut held: Vec<Qemu> = Vec::new();
+    let failures = run(
+        &mut || {
+            held.clear();
+            let port = free_port();
+            let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
+            let out = std::fs::File::create(&log)?;
+            let child = qemu_command(&elf, port, false)
+                .stdout(out.try_clone()?)
+                .stderr(out)
+                .spawn()?;
+            held.push(Qemu { child, log });
+            let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+            let deadline = Instant::now() + Duration::from_secs(20);
+            let dev = loop {
+                match lmhost::connect::open(&spec, &Scene::default()) {
+                    Ok(d) => break d,
+                    Err(e) if Instant::now() > deadline => return Err(e),
+                    Err(_) => std::thread::sleep(Duration::from_millis(50)),
+                }
+            };
+            Ok(Dut {
+                dev,
+                wait: Box::new(move |dev, d| wait_on_device(dev, d, steps, dwell_us)),
+            })
+        },
+        &wide,
+        &narrow,
+    )
+    .unwrap();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
