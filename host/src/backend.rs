@@ -147,11 +147,41 @@ pub struct BackendInfo {
     pub slots: u8,
     /// Firmware version per device.
     pub firmware: Vec<String>,
-    /// Dwell grid (µs), when the device samples on one.
-    pub dwell_grid_us: Option<u32>,
-    /// The LM firmware's own `Info` (LM firmware only).
-    #[serde(skip)]
-    pub lm: Option<Info>,
+    /// What this kind of device has of its own (serialised as its
+    /// `dwell_grid_us`, null on the LM firmware).
+    #[serde(rename = "dwell_grid_us", serialize_with = "Kind::serialize_grid")]
+    pub kind: Kind,
+}
+
+/// What differs per kind of device: the one place a caller branches on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Kind {
+    /// The LM firmware, with its own `Info`: plays on its own once uploaded,
+    /// any dwell on its µs timer.
+    LmFirmware(Info),
+    /// An AUTD3 rig: dwell on the FPGA's sampling grid; output lasts only
+    /// while lmhost holds the link.
+    Autd3 {
+        /// The sampling grid (µs).
+        dwell_grid_us: u32,
+    },
+}
+
+impl Kind {
+    /// The dwell grid (µs), when the device samples on one.
+    pub fn dwell_grid_us(&self) -> Option<u32> {
+        match self {
+            Self::LmFirmware(_) => None,
+            Self::Autd3 { dwell_grid_us } => Some(*dwell_grid_us),
+        }
+    }
+
+    fn serialize_grid<S: serde::Serializer>(
+        k: &Kind,
+        s: S,
+    ) -> std::result::Result<S::Ok, S::Error> {
+        k.dwell_grid_us().serialize(s)
+    }
 }
 
 /// The result of an upload.
@@ -167,14 +197,73 @@ pub struct UploadReport {
     pub dwell_us: f64,
     /// LM frequency (Hz).
     pub freq_hz: f64,
-    /// Link frames the upload took (AUTD3 emulator; 0 where not counted).
-    pub frames: u64,
-    /// Phases read back from the device that differ from the plan
-    /// (`None` when the device cannot be read back).
-    pub readback_mismatches: Option<u64>,
-    /// The serial link's transfer report (LM firmware only).
-    #[serde(skip)]
-    pub wire: Option<crate::link::UploadReport>,
+    /// How it got there (serialised as `frames` and `readback_mismatches`).
+    #[serde(flatten)]
+    pub transfer: Transfer,
+}
+
+/// How an upload reached the device, per kind of device.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Transfer {
+    /// Over the LM firmware's framed link: its transfer report.
+    Wire(crate::link::UploadReport),
+    /// Through the autd3 crates.
+    Autd3 {
+        /// Link frames the upload took (counted on the emulator, else 0).
+        frames: u64,
+        /// Phases read back that differ from the plan (`None` on a real
+        /// link, which cannot be read back).
+        readback_mismatches: Option<u64>,
+    },
+}
+
+impl UploadReport {
+    /// Phases read back from the device that differ from the plan (`None`
+    /// when the device cannot be read back).
+    pub fn readback_mismatches(&self) -> Option<u64> {
+        match self.transfer {
+            Transfer::Wire(_) => None,
+            Transfer::Autd3 {
+                readback_mismatches,
+                ..
+            } => readback_mismatches,
+        }
+    }
+
+    /// Link frames the upload took, where counted.
+    pub fn frames(&self) -> Option<u64> {
+        match self.transfer {
+            Transfer::Autd3 { frames, .. } if frames > 0 => Some(frames),
+            _ => None,
+        }
+    }
+
+    /// The framed link's transfer report (the LM firmware).
+    pub fn wire(&self) -> Option<&crate::link::UploadReport> {
+        match &self.transfer {
+            Transfer::Wire(w) => Some(w),
+            Transfer::Autd3 { .. } => None,
+        }
+    }
+}
+
+impl Serialize for Transfer {
+    /// As the fields it always had: `frames` (0 where not counted) and
+    /// `readback_mismatches` (null where not read back).
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct as _;
+        let (frames, readback) = match *self {
+            Self::Wire(_) => (0, None),
+            Self::Autd3 {
+                frames,
+                readback_mismatches,
+            } => (frames, readback_mismatches),
+        };
+        let mut st = s.serialize_struct("Transfer", 2)?;
+        st.serialize_field("frames", &frames)?;
+        st.serialize_field("readback_mismatches", &readback)?;
+        st.end()
+    }
 }
 
 /// What a centroid update did.

@@ -17,13 +17,16 @@ use lm_proto::{Centroid, DeviceState, MuteReason, NackCode, PlayAt};
 use crate::backend::{Backend, CentroidOutcome};
 use crate::sequence::Plan;
 
+/// Lets a duration pass on a device's clock.
+pub type Wait = Box<dyn FnMut(&mut dyn Backend, Duration) -> anyhow::Result<()>>;
+
 /// A device under test and the way to let time pass for it.
 pub struct Dut {
     /// The device, freshly opened (idle, nothing uploaded).
     pub dev: Box<dyn Backend>,
     /// Lets `d` pass on the device's clock (a manual clock moves on; a
     /// device on its own clock is watched until it has played that long).
-    pub wait: Box<dyn FnMut(&mut dyn Backend, Duration) -> anyhow::Result<()>>,
+    pub wait: Wait,
 }
 
 /// What a scenario does.

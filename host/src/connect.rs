@@ -9,7 +9,8 @@ use lm_proto::{Centroid, Encoding, Info, NackCode, PlayAt, Status};
 
 use crate::autd3::{Autd3Backend, Autd3Port, GridTiming};
 use crate::backend::{
-    Backend, BackendInfo, CentroidOutcome, Result as BResult, UploadReport, check_slot, free_slot,
+    Backend, BackendInfo, CentroidOutcome, Kind, Result as BResult, Transfer, UploadReport,
+    check_slot, free_slot,
 };
 use crate::link::{Client, LinkError, PortSpec, Transport, UploadSpec, discover};
 use crate::scene::Scene;
@@ -143,8 +144,7 @@ impl<T: Transport> Backend for LmBackend<T> {
             transducers: usize::from(i.max_transducers),
             slots: i.slots,
             firmware: vec![format!("{a}.{b}.{c}")],
-            dwell_grid_us: None,
-            lm: Some(i),
+            kind: Kind::LmFirmware(i),
         })
     }
 
@@ -199,9 +199,7 @@ impl<T: Transport> Backend for LmBackend<T> {
             transducers: usize::from(h.transducers),
             dwell_us: plan.sequence.dwell_us(),
             freq_hz: 1e6 / f64::from(h.period_us.max(1)),
-            frames: 0,
-            readback_mismatches: None,
-            wire: Some(report),
+            transfer: Transfer::Wire(report),
         })
     }
 

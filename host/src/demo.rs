@@ -255,7 +255,7 @@ pub fn run(
     let plan = &planned.plan;
     let t_up = std::time::Instant::now();
     let up = dev.upload(plan, None).context("uploading LM-M")?;
-    if let Some(n) = up.readback_mismatches.filter(|&n| n > 0) {
+    if let Some(n) = up.readback_mismatches().filter(|&n| n > 0) {
         anyhow::bail!(
             "{} holds {n} phases that differ from the plan",
             dev.describe()
@@ -314,7 +314,7 @@ pub fn run(
     let stats = sim.map(|s| s.sim.stats());
     dev.stop().context("silencing the array")?;
 
-    let wire = up.wire.as_ref();
+    let wire = up.wire();
     let ack = |p| report.ack_percentile_us(p);
     let away = || states.iter().filter(|(p, _)| !p);
     let sim_lat = |p| {
@@ -330,11 +330,11 @@ pub fn run(
         stimulus: STIMULUS,
         transducers: up.transducers,
         timing: planned.timing.clone(),
-        readback_mismatches: up.readback_mismatches,
+        readback_mismatches: up.readback_mismatches(),
         upload: UploadFigures {
             slot: up.slot,
             seconds: wire.map_or(up_s, |w| w.seconds),
-            frames: (up.frames > 0).then_some(up.frames),
+            frames: up.frames(),
             raw_bytes: wire.map(|w| w.raw_bytes),
             encoded_bytes: wire.map(|w| w.sequence_bytes),
             wire_bytes: wire.map(|w| w.wire_bytes_sent + w.wire_bytes_received),

@@ -90,9 +90,9 @@ pub fn upload(
         transducers: r.transducers,
         max_offset_um: plan.sequence.header.max_offset_um,
         timing: planned.timing.clone(),
-        frames: (r.frames > 0).then_some(r.frames),
-        readback_mismatches: r.readback_mismatches,
-        wire: r.wire.map(|report| WireFigures {
+        frames: r.frames(),
+        readback_mismatches: r.readback_mismatches(),
+        wire: r.wire().map(|&report| WireFigures {
             report,
             wire_efficiency: report.wire_efficiency(),
         }),

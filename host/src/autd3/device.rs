@@ -30,7 +30,8 @@ use super::port::Autd3Port;
 use super::{correction, geometry, safety, timing};
 use crate::array::AUTD3_TRANSDUCERS;
 use crate::backend::{
-    Backend, BackendError, BackendInfo, CentroidOutcome, Result as BResult, UploadReport,
+    Backend, BackendError, BackendInfo, CentroidOutcome, Kind, Result as BResult, Transfer,
+    UploadReport,
 };
 use crate::clock::Clock;
 use crate::error::InputError;
@@ -469,8 +470,9 @@ impl Backend for Autd3Backend {
             transducers: self.ctl.num_transducers(),
             slots: 2,
             firmware,
-            dwell_grid_us: Some(timing::SAMPLING_PERIOD_US),
-            lm: None,
+            kind: Kind::Autd3 {
+                dwell_grid_us: timing::SAMPLING_PERIOD_US,
+            },
         })
     }
 
@@ -595,9 +597,10 @@ impl Backend for Autd3Backend {
             transducers: t,
             dwell_us,
             freq_hz: 1e6 / (steps as f64 * dwell_us),
-            frames,
-            readback_mismatches: self.readback_mismatches(slot, phases),
-            wire: None,
+            transfer: Transfer::Autd3 {
+                frames,
+                readback_mismatches: self.readback_mismatches(slot, phases),
+            },
         })
     }
 

@@ -140,7 +140,7 @@ fn gain_stm_reads_back_byte_exact_for_lm_s_and_lm_m() {
                 let (plan, g) = lm(&scene, a, foci);
                 let r = b.upload(&plan, None).unwrap();
                 assert_eq!(
-                    r.readback_mismatches,
+                    r.readback_mismatches(),
                     Some(0),
                     "{} A={a} foci={foci}",
                     scene.name
@@ -351,7 +351,10 @@ fn link_broken_mid_upload_keeps_the_playing_segment() {
     assert!(b.play(0, true).is_err());
     assert_eq!(stm_segment(&h), Segment::S1);
     // Repaired, the same upload goes through.
-    assert_eq!(b.upload(&y, Some(0)).unwrap().readback_mismatches, Some(0));
+    assert_eq!(
+        b.upload(&y, Some(0)).unwrap().readback_mismatches(),
+        Some(0)
+    );
 }
 
 #[test]

@@ -73,7 +73,7 @@ fn open_planned(
     let mut dev = open(port, &plan.scene)?;
     let upload = dev.upload(&plan, None)?;
     let where_ = dev.describe();
-    if let Some(n) = upload.readback_mismatches.filter(|&n| n > 0) {
+    if let Some(n) = upload.readback_mismatches().filter(|&n| n > 0) {
         anyhow::bail!("{where_} holds {n} phases that differ from the plan");
     }
     dev.play(upload.slot, false)?;
@@ -86,7 +86,7 @@ fn open_planned(
         timing.requested_freq_hz,
         timing.step_mm,
         upload
-            .readback_mismatches
+            .readback_mismatches()
             .map_or("not available".into(), |n| format!("{n} mismatches")),
         upload.slot
     );

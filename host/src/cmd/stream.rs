@@ -245,7 +245,7 @@ impl Args {
                 s.upload.dwell_us,
                 s.upload.freq_hz,
                 s.upload
-                    .readback_mismatches
+                    .readback_mismatches()
                     .map_or("n/a".into(), |n| n.to_string()),
                 status.mute_reason.describe()
             )?;
