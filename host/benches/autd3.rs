@@ -28,7 +28,11 @@ fn emulator(c: &mut Criterion) {
         let r = b.upload(&plan, Some(0)).expect("upload");
         eprintln!(
             "LM-M A = {a} mm: N = {}, dwell {} us, {:.3} Hz, {:?} frames, read-back mismatches {:?}",
-            t.steps, t.dwell_us, t.freq_hz, r.frames(), r.readback_mismatches()
+            t.steps,
+            t.dwell_us,
+            t.freq_hz,
+            r.frames(),
+            r.readback_mismatches()
         );
         g.bench_function(
             format!("upload LM-M A = {a} mm ({} x 996)", t.steps),
