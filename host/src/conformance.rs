@@ -359,6 +359,22 @@ mod tests {
         (wide, narrow)
     }
 
+    /// A fresh simulated LM firmware in process on a manual clock.
+    fn sim_dut() -> anyhow::Result<Dut> {
+        let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default())?));
+        let clock = Clock::manual_at_us(1_000_000);
+        let client = Client::new(InProcess::new(core, clock.clone()));
+        let mut dev = LmBackend::new(client, lm_proto::Encoding::Delta);
+        dev.progress = false;
+        Ok(Dut {
+            dev: Box::new(dev),
+            wait: Box::new(move |_, d| {
+                clock.advance(d);
+                Ok(())
+            }),
+        })
+    }
+
     fn assert_conforms(failures: Vec<String>) {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
@@ -366,25 +382,7 @@ mod tests {
     #[test]
     fn the_simulated_lm_firmware_conforms() {
         let (wide, narrow) = plans(&Target::Lm);
-        let failures = run(
-            &mut || {
-                let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default())?));
-                let clock = Clock::manual_at_us(1_000_000);
-                let client = Client::new(InProcess::new(core, clock.clone()));
-                let mut dev = LmBackend::new(client, lm_proto::Encoding::Delta);
-                dev.progress = false;
-                Ok(Dut {
-                    dev: Box::new(dev),
-                    wait: Box::new(move |_, d| {
-                        clock.advance(d);
-                        Ok(())
-                    }),
-                })
-            },
-            &wide,
-            &narrow,
-        )
-        .unwrap();
+        let failures = run(&mut sim_dut, &wide, &narrow).unwrap();
         assert_conforms(failures);
     }
 
@@ -417,25 +415,7 @@ mod tests {
         let (wide, _) = plans(&Target::Lm);
         // Both "plans" wide: the take-over scenario expects a mute that a
         // 20 mm volume never gives.
-        let failures = run(
-            &mut || {
-                let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default())?));
-                let clock = Clock::manual_at_us(1_000_000);
-                let client = Client::new(InProcess::new(core, clock.clone()));
-                let mut dev = LmBackend::new(client, lm_proto::Encoding::Delta);
-                dev.progress = false;
-                Ok(Dut {
-                    dev: Box::new(dev),
-                    wait: Box::new(move |_, d| {
-                        clock.advance(d);
-                        Ok(())
-                    }),
-                })
-            },
-            &wide,
-            &wide,
-        )
-        .unwrap();
+        let failures = run(&mut sim_dut, &wide, &wide).unwrap();
         assert!(
             failures.iter().any(|f| f.contains("taking over")),
             "{failures:?}"
