@@ -18,6 +18,23 @@ impl InputError {
     }
 }
 
+/// An error chain as one line: the messages joined with ": ", a cause
+/// said once even when its parent's text already includes it.
+pub fn one_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string().replace('\n', " ");
+        if line.ends_with(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
 /// Return early with an [`InputError`] built from a format string.
 #[macro_export]
 macro_rules! bad_input {

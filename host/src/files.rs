@@ -245,6 +245,100 @@ impl WriteError {
     }
 }
 
+/// An append-only log of lines (events, trial rows): every line is written
+/// whole or not at all. A line that fails (a full disk) is cut off again,
+/// so the file ends at the last whole line; [`AppendLog::open`] drops a
+/// torn last line a crash left behind. [`AppendLog::sync`] makes what was
+/// written durable.
+#[derive(Debug)]
+pub struct AppendLog {
+    path: PathBuf,
+    file: File,
+    len: u64,
+}
+
+impl AppendLog {
+    /// Starts `path` afresh (an existing file is replaced).
+    pub fn create(path: &Path) -> anyhow::Result<Self> {
+        not_an_input("output", path)?;
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)
+            .map_err(|e| WriteError::new(path, e))?;
+        Ok(Self {
+            path: path.to_owned(),
+            file,
+            len: 0,
+        })
+    }
+
+    /// Opens `path` to append (creating it), first cutting off a torn last
+    /// line (one without its newline). Returns the log and its whole lines.
+    pub fn open(path: &Path) -> anyhow::Result<(Self, Vec<String>)> {
+        use std::io::Read as _;
+        not_an_input("output", path)?;
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(|e| WriteError::new(path, e))?;
+        let mut text = Vec::new();
+        file.read_to_end(&mut text)
+            .map_err(|e| WriteError::new(path, e))?;
+        let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        file.set_len(whole as u64)
+            .and_then(|()| file.seek(SeekFrom::End(0)).map(|_| ()))
+            .map_err(|e| WriteError::new(path, e))?;
+        let lines = String::from_utf8_lossy(&text[..whole])
+            .lines()
+            .map(str::to_owned)
+            .collect();
+        Ok((
+            Self {
+                path: path.to_owned(),
+                file,
+                len: whole as u64,
+            },
+            lines,
+        ))
+    }
+
+    /// Appends `line` and a newline in one write; on failure the file is
+    /// cut back to where it was.
+    pub fn line(&mut self, line: &str) -> Result<(), WriteError> {
+        let mut buf = Vec::with_capacity(line.len() + 1);
+        buf.extend_from_slice(line.as_bytes());
+        buf.push(b'\n');
+        match self.file.write_all(&buf) {
+            Ok(()) => {
+                self.len += buf.len() as u64;
+                Ok(())
+            }
+            Err(e) => {
+                let _ = self.file.set_len(self.len);
+                let _ = self.file.seek(SeekFrom::Start(self.len));
+                Err(WriteError::new(&self.path, e))
+            }
+        }
+    }
+
+    /// Makes every line written so far durable (fsync).
+    pub fn sync(&mut self) -> Result<(), WriteError> {
+        self.file
+            .sync_data()
+            .map_err(|e| WriteError::new(&self.path, e))
+    }
+
+    /// Where it is.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
 /// A file being written: a temporary file beside the destination until
 /// [`Output::commit`] renames it into place. Dropped uncommitted, it
 /// removes the temporary file and leaves the destination untouched.

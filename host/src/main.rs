@@ -64,19 +64,7 @@ fn finish(result: anyhow::Result<()>) -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) if err.chain().any(|c| c.is::<StdoutClosed>()) => ExitCode::SUCCESS,
         Err(err) => {
-            // One line: the context chain joined with ": ", a cause said
-            // once even when its parent's text already includes it.
-            let mut line = String::new();
-            for cause in err.chain() {
-                let text = cause.to_string().replace('\n', " ");
-                if line.ends_with(&text) {
-                    continue;
-                }
-                if !line.is_empty() {
-                    line.push_str(": ");
-                }
-                line.push_str(&text);
-            }
+            let line = lmhost::error::one_line(&err);
             errln!("error: {line}");
             if err.chain().any(|c| c.is::<InputError>()) {
                 ExitCode::from(2)

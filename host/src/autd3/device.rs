@@ -63,6 +63,10 @@ pub struct Autd3Backend {
     queued: Option<u8>,
     /// Segment switched to with `SyncIdx`, still to be set to loop forever.
     rearm: Option<u8>,
+    /// When the playing slot's loop began on the devices' clock (µs), and
+    /// the time it had played when stopped: the status's step and cycles.
+    started_us: Option<u64>,
+    played_us: Option<u64>,
     /// The firmware's safety rules (session, gate, untracked, work volume).
     policy: Policy,
     /// Modulation intensity last sent.
@@ -205,6 +209,8 @@ impl Autd3Backend {
             playing: None,
             queued: None,
             rearm: None,
+            started_us: None,
+            played_us: None,
             policy: safety::policy(),
             output: safety::FULL,
             offsets: vec![0; n],
@@ -297,6 +303,28 @@ impl Autd3Backend {
         Ok(())
     }
 
+    /// Step within the cycle and cycles completed of the playing slot,
+    /// from the time it has played (frozen at `stop`, as the firmware's
+    /// counters).
+    fn counters(&self, now: u64) -> (u16, u32) {
+        let Some(s) = self.playing.and_then(|p| self.slots[usize::from(p)]) else {
+            return (0, 0);
+        };
+        let Some(played) = self
+            .played_us
+            .or_else(|| self.started_us.map(|t0| now.saturating_sub(t0)))
+        else {
+            return (0, 0);
+        };
+        let dwell = u64::from(timing::dwell_us(u32::from(s.divide))).max(1);
+        let steps = (played / dwell) as usize;
+        let n = s.steps.max(1);
+        (
+            (steps % n) as u16,
+            (steps / n).min(u32::MAX as usize) as u32,
+        )
+    }
+
     /// The STM segment the devices play, from their FPGA state.
     fn current_segment(&mut self) -> anyhow::Result<Option<u8>> {
         let states = self.ctl.fpga_state().context("reading the FPGA state")?;
@@ -328,6 +356,12 @@ impl Autd3Backend {
                     .send(SwapSegmentGainSTM(segment(slot), Immediate))
                     .context("setting the new segment to loop")?;
                 self.rearm = None;
+                // SyncIdx switched at the new segment's index 0, on a
+                // boundary of its period on the devices' shared clock.
+                let now = self.now_us();
+                let period_us = period.as_micros() as u64;
+                self.started_us = Some(now - now % period_us.max(1));
+                self.played_us = None;
                 if self.queued.take().is_some() {
                     // The queued slot took over: its own centre and work
                     // volume from now on.
@@ -389,6 +423,10 @@ impl Autd3Backend {
                 self.playing = Some(slot);
             }
         } else {
+            if !playing {
+                self.started_us = Some(self.now_us());
+                self.played_us = None;
+            }
             self.playing = Some(slot);
         }
         self.policy.play(untracked);
@@ -485,11 +523,12 @@ impl Backend for Autd3Backend {
         let correction_um = slot
             .and_then(|s| self.slots[usize::from(s)])
             .map_or([0; 3], |s| self.policy.correction_um(s.header.center_um));
+        let (step, cycles) = self.counters(now);
         Ok(Status {
             state: self.policy.state(now),
             slot,
-            step: 0,
-            cycles: 0,
+            step,
+            cycles,
             missed_deadlines: 0,
             last_centroid_seq: self.policy.last_seq(),
             bad_frames: 0,
@@ -618,6 +657,11 @@ impl Backend for Autd3Backend {
     /// Mutes at once, as the firmware's `Stop`; the segments stay, so a
     /// later `play` resumes without an upload (drop writes the null gain).
     fn stop(&mut self) -> BResult<()> {
+        if self.policy.session() == Session::Playing
+            && let Some(t0) = self.started_us
+        {
+            self.played_us = Some(self.now_us().saturating_sub(t0));
+        }
         self.policy.stop();
         // As the firmware's Stop, a queued slot is dropped (the devices may
         // still switch; a later play checks which segment plays).

@@ -13,6 +13,7 @@ pub mod flash;
 pub mod info;
 pub mod plan;
 pub mod play;
+pub mod rig;
 pub mod scene;
 pub mod session;
 pub mod sim;
@@ -52,6 +53,9 @@ pub enum Command {
     Stream(stream::Args),
     /// Flash the firmware onto a board with a debug probe.
     Flash(flash::Args),
+    /// Hold the device for a study: preload a stimulus library, present on
+    /// command (a control socket), log what played.
+    Session(rig::Args),
     /// Track the finger in depth frames (contact-area centroid), optionally
     /// streaming it to the device.
     Track(track::Args),
@@ -75,6 +79,7 @@ impl Command {
             Command::Stream(a) => a.run(),
             Command::Flash(a) => a.run(),
             Command::Track(a) => a.run(),
+            Command::Session(a) => a.run(),
         }
     }
 }

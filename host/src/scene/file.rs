@@ -6,7 +6,7 @@ use crate::directivity::Directivity;
 use crate::geom::Vec3;
 
 /// One line from a TOML error: `line N, field `key`: message`.
-pub(super) fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+pub(crate) fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     let msg = e.message().lines().next().unwrap_or("invalid TOML").trim();
     match e.span() {
         Some(span) => {

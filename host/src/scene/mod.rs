@@ -56,6 +56,7 @@
 
 mod check;
 mod file;
+pub(crate) use file::toml_error_line;
 mod parts;
 pub mod rig;
 pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {

@@ -1,0 +1,180 @@
+//! `lmhost session`: hold the device and the finger source, preload a
+//! stimulus library, take commands on a control socket, log events.
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use lmhost::library::Library;
+use lmhost::rig::Session;
+use lmhost::rig::serve::{self, Control, Finger, OnDisconnect, Options};
+use lmhost::scene::Scene;
+use lmhost::stream::filter::FilterKind;
+use lmhost::stream::run::on_thread;
+use lmhost::stream::source;
+
+use super::args::PortArgs;
+
+/// What to do when the controlling client goes away.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Disconnect {
+    /// Stop the presentation (the array goes silent) and keep serving.
+    Stop,
+    /// Carry on playing.
+    Continue,
+    /// End the session.
+    Quit,
+}
+
+/// Arguments of `lmhost session`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    lmhost session --library studies/paper-library.toml --port autd3:emulator --control /tmp/lm.sock --synthetic\n  \
+    echo '{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a3\",\"gate\":\"untracked\",\"on_s\":2}' | \\\n    \
+    lmhost session --library studies/paper-library.toml --port autd3:emulator --control -\n\n\
+    The control protocol (JSON lines) is in host/src/rig/PROTOCOL.md.")]
+pub struct Args {
+    /// Stimulus library (TOML, one [[stimulus]] table per entry).
+    #[arg(long, value_name = "FILE")]
+    library: PathBuf,
+    #[command(flatten)]
+    port: PortArgs,
+    /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// Control socket: a Unix socket path (created mode 0600), or `-` for
+    /// commands on stdin and replies and events on stdout
+    /// [default: $XDG_RUNTIME_DIR/lmhost.sock, else /tmp/lmhost-$USER.sock].
+    #[arg(long, value_name = "PATH")]
+    control: Option<PathBuf>,
+    /// Also listen on 127.0.0.1:PORT (TCP, local only).
+    #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
+    tcp: Option<u16>,
+    /// Event log (JSON lines; every line whole).
+    #[arg(long, value_name = "FILE")]
+    events: Option<PathBuf>,
+    /// A synthetic finger resting at the scene's centre.
+    #[arg(long, conflicts_with_all = ["stream", "udp"])]
+    synthetic: bool,
+    /// Finger centroids as JSON or CSV lines from FILE, or `-` for stdin
+    /// (the formats `lmhost stream` reads, `lmhost track --json` lines
+    /// included).
+    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
+    stream: Option<PathBuf>,
+    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT.
+    #[arg(long, value_name = "PORT")]
+    udp: Option<u16>,
+    /// Centroid filter.
+    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
+    filter: FilterKind,
+    /// When the client that sent `present`, `prepare` or `stop` disconnects.
+    #[arg(long, value_enum, default_value_t = Disconnect::Stop)]
+    on_disconnect: Disconnect,
+}
+
+fn default_socket() -> PathBuf {
+    match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
+        Some(d) => PathBuf::from(d).join("lmhost.sock"),
+        None => {
+            let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
+            PathBuf::from(format!("/tmp/lmhost-{user}.sock"))
+        }
+    }
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        let control = match &self.control {
+            Some(p) if p.as_os_str() == "-" => Control::Stdio,
+            other => Control::Socket {
+                unix: other.clone().unwrap_or_else(default_socket),
+                tcp: self.tcp,
+            },
+        };
+        if control == Control::Stdio && self.tcp.is_some() {
+            lmhost::bad_input!("--tcp needs a socket --control, not `-`");
+        }
+        let stream_stdin = self.stream.as_ref().is_some_and(|p| p.as_os_str() == "-");
+        if control == Control::Stdio && stream_stdin {
+            lmhost::bad_input!("--control - and --stream - cannot both read stdin");
+        }
+        let library = Library::load(&self.library)?;
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        if let Some(e) = &self.events {
+            lmhost::files::not_an_input("--events", e)?;
+        }
+        let spec = self.port.spec();
+        let target = spec.target()?;
+        let plans = library.plan_for(&target, &scene)?;
+        let mut warned = std::collections::BTreeSet::new();
+        for w in plans.iter().flat_map(|p| &p.warnings) {
+            if warned.insert(w.clone()) {
+                lmhost::errln!("warning: {w}");
+            }
+        }
+        let finger = if self.synthetic {
+            Finger::Synthetic
+        } else if let Some(port) = self.udp {
+            let counts = std::sync::Arc::new(source::UdpCounts::default());
+            let udp = source::udp(
+                port,
+                lmhost::limits::duration_s(
+                    "session",
+                    lmhost::limits::MAX_SECONDS,
+                    lmhost::limits::MAX_SECONDS,
+                )?,
+                counts,
+            )?;
+            Finger::Samples(on_thread(move || udp)?)
+        } else if let Some(p) = &self.stream {
+            if stream_stdin {
+                Finger::Samples(on_thread(|| source::read_lines(std::io::stdin().lock()))?)
+            } else {
+                let f = lmhost::files::open_input("--stream file", p)?;
+                let reader = std::io::BufReader::new(f);
+                Finger::Samples(on_thread(move || source::read_lines(reader))?)
+            }
+        } else {
+            Finger::None
+        };
+        let dev = lmhost::connect::open(&spec, &scene)?;
+        let where_ = dev.describe();
+        let session = Session::new(dev, &library, plans, scene)
+            .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+        if let Control::Socket { unix, tcp } = &control {
+            lmhost::errln!(
+                "lmhost: session on {where_}: {} stimuli; control socket {}{}",
+                library.entries.len(),
+                unix.display(),
+                tcp.map(|p| format!(" and 127.0.0.1:{p}"))
+                    .unwrap_or_default()
+            );
+        }
+        let report = serve::serve(
+            session,
+            Options {
+                control,
+                on_disconnect: match self.on_disconnect {
+                    Disconnect::Stop => OnDisconnect::Stop,
+                    Disconnect::Continue => OnDisconnect::Continue,
+                    Disconnect::Quit => OnDisconnect::Quit,
+                },
+                events: self.events.clone(),
+                finger,
+                filter: self.filter.build(),
+            },
+        )?;
+        lmhost::errln!(
+            "lmhost: session ended ({}); {} commands, {} events; the array is silent",
+            report
+                .reason
+                .map(|r| serde_json::to_string(&r)
+                    .unwrap_or_default()
+                    .replace('"', ""))
+                .unwrap_or_default(),
+            report.commands,
+            report.events
+        );
+        Ok(())
+    }
+}
