@@ -21,6 +21,7 @@ pub mod simulate;
 pub mod status;
 pub mod stop;
 pub mod stream;
+pub mod study;
 pub mod track;
 pub mod upload;
 
@@ -56,6 +57,9 @@ pub enum Command {
     /// Hold the device for a study: preload a stimulus library, present on
     /// command (a control socket), log what played.
     Session(rig::Args),
+    /// Run a study protocol on the rig session, or summarise its answers.
+    #[command(subcommand_required = true)]
+    Study(study::Args),
     /// Track the finger in depth frames (contact-area centroid), optionally
     /// streaming it to the device.
     Track(track::Args),
@@ -80,6 +84,7 @@ impl Command {
             Command::Flash(a) => a.run(),
             Command::Track(a) => a.run(),
             Command::Session(a) => a.run(),
+            Command::Study(a) => a.run(),
         }
     }
 }

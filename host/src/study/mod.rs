@@ -354,6 +354,7 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
         r.drain()?;
         if let Some(t) = plan.get(first - 1) {
             r.session().prepare(&t.stimulus)?;
+            r.drain()?;
         }
         for (i, t) in plan.iter().enumerate().skip(first - 1) {
             let t0 = monotonic_us();
@@ -555,6 +556,8 @@ impl Runner {
             }),
         };
         self.session().present(&req)?;
+        // A new play forgets old centroids: track again at once.
+        self.next_feed_us = 0;
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
         let mut adjust = None;
