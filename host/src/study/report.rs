@@ -290,16 +290,8 @@ fn draw<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .disable_x_mesh()
-        .x_labels(n.max(1))
-        .x_label_formatter(&|x| {
-            let i = x.floor() as usize;
-            if (x - i as f64 - 0.5).abs() < 0.01 {
-                names.get(i).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
-        })
-        .x_label_style(("sans-serif", 11))
+        .x_labels(0)
+        .y_max_light_lines(1)
         .y_desc(question)
         .draw()
         .map_err(s)?;
@@ -346,6 +338,18 @@ fn draw<DB: DrawingBackend>(
                     .filter(|v| **v < wlo || **v > whi)
                     .map(|v| Circle::new((x, *v), 3, RED.filled())),
             )
+            .map_err(s)?;
+    }
+    // Condition names under their boxes (the axis' own ticks fall
+    // between them).
+    let style = TextStyle::from(("sans-serif", 12).into_font())
+        .pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Center,
+            plotters::style::text_anchor::VPos::Top,
+        ));
+    for (i, name) in names.iter().enumerate() {
+        let (px, py) = chart.backend_coord(&(i as f64 + 0.5, lo - pad));
+        root.draw(&Text::new(name.clone(), (px, py + 8), style.clone()))
             .map_err(s)?;
     }
     Ok(())
