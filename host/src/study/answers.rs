@@ -252,7 +252,8 @@ impl Terminal {
         let saved = tcgetattr(&stdin).ok();
         if let Some(t) = &saved {
             let mut raw = t.clone();
-            raw.local_flags.remove(LocalFlags::ICANON | LocalFlags::ECHO);
+            raw.local_flags
+                .remove(LocalFlags::ICANON | LocalFlags::ECHO);
             let _ = tcsetattr(&stdin, SetArg::TCSANOW, &raw);
         }
         let (tx, rx) = channel();
@@ -381,9 +382,9 @@ impl Answers for Piped {
         match self.rx.try_recv() {
             Ok(l) => {
                 self.n += 1;
-                q.parse(&l).map(Some).map_err(|m| {
-                    InputError::new(format!("stdin line {}: {m}", self.n)).into()
-                })
+                q.parse(&l)
+                    .map(Some)
+                    .map_err(|m| InputError::new(format!("stdin line {}: {m}", self.n)).into())
             }
             Err(TryRecvError::Empty) => Ok(None),
             Err(TryRecvError::Disconnected) => Err(InputError::new(format!(

@@ -138,7 +138,7 @@ fn unix_s() -> u64 {
 
 fn resume_hint(o: &RunOptions) -> String {
     format!(
-        "lmhost study run {} --participant {} --out {} --resume (and the same --port)",
+        "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger and --responses)",
         o.protocol.display(),
         o.participant,
         o.out.display()
@@ -179,9 +179,8 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
                 crate::files::reason(&e)
             ))
         })?;
-        let f: SessionFile = serde_json::from_str(&text).map_err(|e| {
-            InputError::new(format!("--resume: {}: {e}", session_path.display()))
-        })?;
+        let f: SessionFile = serde_json::from_str(&text)
+            .map_err(|e| InputError::new(format!("--resume: {}: {e}", session_path.display())))?;
         if f.protocol != p.text {
             crate::bad_input!(
                 "--resume: {} was written for another protocol (`{}`); {} differs",
@@ -363,7 +362,9 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
             trials_log.sync()?;
             r.events.sync()?;
             report.ran += 1;
-            report.trial_s.push(monotonic_us().saturating_sub(t0) as f64 / 1e6);
+            report
+                .trial_s
+                .push(monotonic_us().saturating_sub(t0) as f64 / 1e6);
             report.presented_s.push(presented);
             if i + 1 < plan.len() {
                 r.wait(p.timeline.iti_s * r.scale)?;
@@ -376,7 +377,11 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
         Err(e) if e.is::<Interrupted>() => OffsetReason::Quit,
         Err(_) => OffsetReason::Error,
     };
-    let last = r.session.take().map(|s| s.close(reason)).unwrap_or_default();
+    let last = r
+        .session
+        .take()
+        .map(|s| s.close(reason))
+        .unwrap_or_default();
     let logged = r.log_events(last).and_then(|()| Ok(r.events.sync()?));
     for l in r.all_events.iter() {
         match &l.kind {
@@ -429,7 +434,9 @@ struct Runner {
 
 impl Runner {
     fn session(&mut self) -> &mut Session {
-        self.session.as_mut().expect("the session is open until the end")
+        self.session
+            .as_mut()
+            .expect("the session is open until the end")
     }
 
     fn log_events(&mut self, events: Vec<Event>) -> anyhow::Result<()> {
@@ -438,7 +445,10 @@ impl Runner {
             if let EventKind::Finger { present } = e.kind {
                 self.finger_present = Some(present);
             }
-            if matches!(e.kind, EventKind::Switch { .. } | EventKind::Preloaded { .. }) {
+            if matches!(
+                e.kind,
+                EventKind::Switch { .. } | EventKind::Preloaded { .. }
+            ) {
                 self.all_events.push(e.clone());
             }
             self.trial_events.push(e);
@@ -452,7 +462,8 @@ impl Runner {
         if let serde_json::Value::Object(o) = v {
             m.extend(o);
         }
-        self.events.line(&serde_json::Value::Object(m).to_string())?;
+        self.events
+            .line(&serde_json::Value::Object(m).to_string())?;
         Ok(())
     }
 
@@ -587,7 +598,11 @@ impl Runner {
                 if ans == a.same {
                     break;
                 }
-                let step = if ans == a.stronger { -a.step_mm } else { a.step_mm };
+                let step = if ans == a.stronger {
+                    -a.step_mm
+                } else {
+                    a.step_mm
+                };
                 depth = (depth + step).clamp(a.min_mm, a.max_mm);
                 depths.push(depth);
                 self.log(serde_json::json!({"event": "depth", "trial": t.trial, "depth_mm": depth, "answer": ans}))?;
@@ -757,4 +772,215 @@ fn s_participant(log: &AppendLog) -> String {
         .and_then(Path::file_name)
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn studies(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../studies")
+            .join(name)
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("lmhost-study-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn the_paper_protocols_have_15_conditions_in_2_sets() {
+        let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+        assert_eq!(p.conditions.len(), 15);
+        assert_eq!(p.trials(), 30);
+        assert_eq!(p.conditions[0].stimulus, "lms-5hz-a2");
+        assert_eq!(p.conditions[14].stimulus, "lms-25hz-a6");
+        assert_eq!(p.conditions[5].levels, ["lmm-5hz", "2"]);
+        assert!(p.timeline.while_touching && p.adjustment.is_none());
+        let q: Vec<String> = p.questions.iter().flat_map(|q| q.columns()).collect();
+        assert_eq!(
+            q,
+            [
+                "vibration",
+                "movement",
+                "shape_flat",
+                "shape_convex",
+                "shape_concave"
+            ]
+        );
+        let p3 = Protocol::load(&studies("paper-exp3.toml")).unwrap();
+        let a = p3.adjustment.as_ref().unwrap();
+        assert_eq!((a.step_mm, a.max, a.start_mm), (0.25, 20, 4.0));
+        assert_eq!(p3.timeline.on_s, Some(2.0));
+        assert_eq!(p3.timeline.off_s, 2.0);
+        assert_eq!(p3.timeline.gate, Some(crate::rig::Gate::Untracked));
+    }
+
+    #[test]
+    fn each_set_is_a_permutation_and_the_seed_fixes_the_order() {
+        let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+        let a = design::plan(&p, 7);
+        assert_eq!(a.len(), 30);
+        for set in 1..=2 {
+            let mut c: Vec<usize> = a
+                .iter()
+                .filter(|t| t.set == set)
+                .map(|t| t.condition)
+                .collect();
+            c.sort_unstable();
+            assert_eq!(c, (0..15).collect::<Vec<_>>());
+        }
+        assert!(a.iter().enumerate().all(|(i, t)| t.trial == i + 1));
+        for t in &a {
+            assert_eq!(t.stimulus, p.conditions[t.condition].stimulus);
+            let mut o = t.orders[2].clone();
+            o.sort_unstable();
+            assert_eq!(o, [0, 1, 2], "the shape items are a permutation");
+            assert_eq!(t.orders[0], Vec::<usize>::new());
+        }
+        assert_eq!(a, design::plan(&p, 7));
+        let b = design::plan(&p, 8);
+        assert_ne!(
+            a.iter().map(|t| t.condition).collect::<Vec<_>>(),
+            b.iter().map(|t| t.condition).collect::<Vec<_>>()
+        );
+        // The two sets are drawn independently.
+        let sets: Vec<Vec<usize>> = a
+            .chunks(15)
+            .map(|c| c.iter().map(|t| t.condition).collect())
+            .collect();
+        assert_ne!(sets[0], sets[1]);
+        // Every order of 3 items turns up over many trials.
+        let mut seen = std::collections::BTreeSet::new();
+        for s in 0..20 {
+            for t in design::plan(&p, s) {
+                seen.insert(t.orders[2].clone());
+            }
+        }
+        assert_eq!(seen.len(), 6);
+    }
+
+    #[test]
+    fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
+        let base = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
+        let path = studies("test.toml");
+        for (from, to, needle) in [
+            ("sets = 2", "sets = 0", "line 21, field `sets`"),
+            ("sets = 2", "sets = 2\ncolour = 1", "unknown field `colour`"),
+            (
+                "\"2\", \"3\"",
+                "\"7\", \"3\"",
+                "stimulus `lms-5hz-a7`, which is not in",
+            ),
+            (
+                "{type}-a{radius}",
+                "{type}-a{size}",
+                "`{size}`, which is not a factor",
+            ),
+            (
+                "points = 7\nlow = \"not",
+                "points = 12\nlow = \"not",
+                "line 42, field `points`",
+            ),
+            (
+                "id = \"movement\"\nkind = \"likert\"\npoints = 7",
+                "id = \"movement\"\nkind = \"likert\"\npoints = 1",
+                "line 50, field `points`: question `movement`",
+            ),
+            (
+                "kind = \"likert\"\npoints = 7\nlow = \"does",
+                "kind = \"number\"\npoints = 7\nlow = \"does",
+                "does not apply",
+            ),
+            (
+                "library = \"paper-library.toml\"",
+                "library = \"nope.toml\"",
+                "field `library`",
+            ),
+            (
+                "while_touching = true",
+                "while_touching = false",
+                "give `on_s`",
+            ),
+            ("iti_s = 1.0", "iti_s = -1", "field `iti_s`"),
+            ("id = \"movement\"", "id = \"vibration\"", "given twice"),
+            (
+                "id = \"movement\"",
+                "id = \"trial\"",
+                "column `trial` is used twice",
+            ),
+            (
+                "gate = \"tracked\"",
+                "gate = \"loose\"",
+                "unknown variant `loose`",
+            ),
+        ] {
+            assert!(base.contains(from), "{from}");
+            let text = base.replacen(from, to, 1);
+            let e = Protocol::from_toml(&text, &path).unwrap_err().to_string();
+            assert!(e.contains(needle), "{to}: {e}");
+            assert!(e.starts_with("study protocol "), "{e}");
+            assert!(e.contains("test.toml"), "{e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
+        let base = std::fs::read_to_string(studies("paper-exp3.toml")).unwrap();
+        let text = base.replacen("off_s = 2.0", "off_s = 2.0\nrepeat = 3", 1);
+        let e = Protocol::from_toml(&text, &path).unwrap_err().to_string();
+        assert!(e.contains("field `repeat`"), "{e}");
+        let text = base.replacen("same = \"same\"", "same = \"weaker\"", 1);
+        assert!(Protocol::from_toml(&text, &path).is_err());
+    }
+
+    #[test]
+    fn resume_keeps_the_whole_rows_of_a_torn_trials_csv() {
+        let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+        let plan = design::plan(&p, 7);
+        let header = record::header(&p);
+        let row = |t: &Planned| {
+            let mut r = vec![
+                "P".to_owned(),
+                t.trial.to_string(),
+                t.set.to_string(),
+                t.stimulus.clone(),
+            ];
+            r.resize(header.len(), "1".into());
+            record::line(&r)
+        };
+        let d = scratch("resume");
+        let path = d.join("trials.csv");
+        let mut text = record::line(&header) + "\n";
+        for t in &plan[..3] {
+            text += &(row(t) + "\n");
+        }
+        // kill -9 in the middle of the fourth row.
+        text += &row(&plan[3])[..20];
+        std::fs::write(&path, &text).unwrap();
+        let (_, lines) = AppendLog::open(&path).unwrap();
+        let rows = record::check_rows(&lines, &header, &plan, "trials.csv").unwrap();
+        assert_eq!(rows.len(), 3, "the torn row is dropped: trial 4 runs again");
+        assert_eq!(rows[2][3], plan[2].stimulus);
+        // 5 answers per Experiment 1 trial to skip in a responses file.
+        assert_eq!(record::answers_used(&p, &header, &rows[0]), 5);
+        // Rows out of the session's order are refused.
+        let swapped = vec![lines[0].clone(), lines[2].clone()];
+        let e = record::check_rows(&swapped, &header, &plan, "trials.csv").unwrap_err();
+        assert!(e.contains("expected trial 1"), "{e}");
+        let mut wrong = header.clone();
+        wrong.pop();
+        assert!(record::check_rows(&lines, &wrong, &plan, "t").is_err());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn participant_ids_name_a_folder() {
+        for ok in ["P01", "s-3_a.b"] {
+            assert!(check_participant(ok).is_ok());
+        }
+        for bad in ["", "..", "a/b", "a b", &"x".repeat(65)] {
+            assert!(check_participant(bad).is_err(), "{bad}");
+        }
+    }
 }

@@ -330,7 +330,9 @@ pub fn expand(template: &str, factors: &[Factor], levels: &[String]) -> Result<S
     while let Some(i) = rest.find('{') {
         out.push_str(&rest[..i]);
         let Some(j) = rest[i..].find('}') else {
-            return Err(format!("stimulus template `{template}` has an unclosed `{{`"));
+            return Err(format!(
+                "stimulus template `{template}` has an unclosed `{{`"
+            ));
         };
         let name = &rest[i + 1..i + j];
         let k = factors.iter().position(|f| f.name == name).ok_or_else(|| {
@@ -358,20 +360,37 @@ impl Protocol {
         let file: File =
             toml::from_str(text).map_err(|e| bad(crate::scene::toml_error_line(text, &e)))?;
         // Field errors after parsing name the field's line too.
-        let at = |field: &str, msg: String| {
-            let line = text
-                .lines()
-                .position(|l| {
-                    let k = l.split('=').next().unwrap_or("").trim();
-                    k == field
+        // The line of `field`, the first at or after the line that gives
+        // `anchor` (a table's `id` or `name`).
+        let line_of = |anchor: Option<(&str, &str)>, field: &str| {
+            let lines: Vec<&str> = text.lines().collect();
+            let key = |l: &str| l.split('=').next().unwrap_or("").trim().to_owned();
+            let from = anchor
+                .and_then(|(k, v)| {
+                    lines.iter().position(|l| {
+                        key(l) == k
+                            && l.split('=')
+                                .nth(1)
+                                .is_some_and(|x| x.trim() == format!("\"{v}\""))
+                    })
                 })
-                .map(|n| format!("line {}, ", n + 1))
-                .unwrap_or_default();
-            bad(format!("{line}field `{field}`: {msg}"))
+                .unwrap_or(0);
+            lines[from..]
+                .iter()
+                .position(|l| key(l) == field)
+                .map(|n| format!("line {}, ", from + n + 1))
+                .unwrap_or_default()
         };
+        let at_in = |anchor: Option<(&str, &str)>, field: &str, msg: String| {
+            bad(format!("{}field `{field}`: {msg}", line_of(anchor, field)))
+        };
+        let at = |field: &str, msg: String| at_in(None, field, msg);
         check_name("name", &file.name).map_err(|m| at("name", m))?;
         if !(1..=MAX_SETS).contains(&file.sets) {
-            return Err(at("sets", format!("{} is out of range 1..={MAX_SETS}", file.sets)));
+            return Err(at(
+                "sets",
+                format!("{} is out of range 1..={MAX_SETS}", file.sets),
+            ));
         }
         let t = &file.timeline;
         let on_s = t
@@ -393,8 +412,8 @@ impl Protocol {
         }
         let off_s = seconds("off_s", t.off_s, true).map_err(|m| at("off_s", m))?;
         let iti_s = seconds("iti_s", t.iti_s, true).map_err(|m| at("iti_s", m))?;
-        let touch_s = seconds("touch_s", t.touch_s.unwrap_or(3.0), false)
-            .map_err(|m| at("touch_s", m))?;
+        let touch_s =
+            seconds("touch_s", t.touch_s.unwrap_or(3.0), false).map_err(|m| at("touch_s", m))?;
         let repeat = t.repeat.unwrap_or(1);
         if !(1..=crate::rig::MAX_REPEAT).contains(&repeat) {
             return Err(at(
@@ -422,7 +441,9 @@ impl Protocol {
             touch_s,
         };
         if file.factor.is_empty() {
-            return Err(bad("no factors: add at least one [[factor]] with `name` and `levels`".into()));
+            return Err(bad(
+                "no factors: add at least one [[factor]] with `name` and `levels`".into(),
+            ));
         }
         let mut factors: Vec<Factor> = Vec::new();
         for f in file.factor {
@@ -447,10 +468,7 @@ impl Protocol {
                 "{n} conditions; at most {MAX_CONDITIONS} fit one protocol"
             )));
         }
-        let library_path = path
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join(&file.library);
+        let library_path = path.parent().unwrap_or(Path::new(".")).join(&file.library);
         let library = Library::load(&library_path).map_err(|e| {
             at(
                 "library",
@@ -489,14 +507,19 @@ impl Protocol {
         let mut questions: Vec<Question> = Vec::new();
         for q in file.question {
             let id = q.id.clone();
-            let qbad = |field: &str, m: String| at(field, format!("question `{id}`: {m}"));
+            let qbad = |field: &str, m: String| {
+                at_in(Some(("id", &id)), field, format!("question `{id}`: {m}"))
+            };
             check_name("question id", &q.id).map_err(|m| qbad("id", m))?;
             if questions.iter().any(|x| x.id == q.id) {
                 return Err(qbad("id", "given twice".into()));
             }
             let only = |field: &str, given: bool, kind: &str| {
                 if given {
-                    Err(qbad(field, format!("`{field}` does not apply to a {kind} question")))
+                    Err(qbad(
+                        field,
+                        format!("`{field}` does not apply to a {kind} question"),
+                    ))
                 } else {
                     Ok(())
                 }
@@ -523,7 +546,10 @@ impl Protocol {
                     only("max", q.max.is_some(), "likert")?;
                     let points = q.points.unwrap_or(7);
                     if !(2..=MAX_OPTIONS as u32).contains(&points) {
-                        return Err(qbad("points", format!("{points} is out of range 2..={MAX_OPTIONS}")));
+                        return Err(qbad(
+                            "points",
+                            format!("{points} is out of range 2..={MAX_OPTIONS}"),
+                        ));
                     }
                     let items = q.items.unwrap_or_default();
                     if !items.is_empty() {
@@ -533,7 +559,10 @@ impl Protocol {
                         }
                     }
                     if q.shuffle && items.is_empty() {
-                        return Err(qbad("shuffle", "a likert question shuffles its `items`; give them".into()));
+                        return Err(qbad(
+                            "shuffle",
+                            "a likert question shuffles its `items`; give them".into(),
+                        ));
                     }
                     Kind::Likert {
                         points,
@@ -550,7 +579,12 @@ impl Protocol {
                     let options = q.options.unwrap_or_default();
                     list("options", &options)?;
                     if let Some(o) = options.iter().find(|o| o.parse::<usize>().is_ok()) {
-                        return Err(qbad("options", format!("option `{o}` is a number; answers by number are 1-based indices")));
+                        return Err(qbad(
+                            "options",
+                            format!(
+                                "option `{o}` is a number; answers by number are 1-based indices"
+                            ),
+                        ));
                     }
                     Kind::Choice { options }
                 }
@@ -578,15 +612,32 @@ impl Protocol {
             .map(|a| -> Result<Adjustment, InputError> {
                 let max_mm = a.max_mm.unwrap_or(100.0);
                 if !(a.step_mm.is_finite() && a.step_mm > 0.0 && a.step_mm <= 100.0) {
-                    return Err(at("step_mm", "give millimetres above 0 and at most 100".into()));
+                    return Err(at(
+                        "step_mm",
+                        "give millimetres above 0 and at most 100".into(),
+                    ));
                 }
-                if !(a.min_mm.is_finite() && max_mm.is_finite() && a.min_mm <= a.start_mm && a.start_mm <= max_mm) {
-                    return Err(at("start_mm", format!("give min_mm <= start_mm <= max_mm (max_mm defaults to 100)")));
+                if !(a.min_mm.is_finite()
+                    && max_mm.is_finite()
+                    && a.min_mm <= a.start_mm
+                    && a.start_mm <= max_mm)
+                {
+                    return Err(at(
+                        "start_mm",
+                        format!("give min_mm <= start_mm <= max_mm (max_mm defaults to 100)"),
+                    ));
                 }
                 if !(1..=MAX_ADJUSTMENTS).contains(&a.max) {
-                    return Err(at("max", format!("{} is out of range 1..={MAX_ADJUSTMENTS}", a.max)));
+                    return Err(at(
+                        "max",
+                        format!("{} is out of range 1..={MAX_ADJUSTMENTS}", a.max),
+                    ));
                 }
-                for (f, l) in [("stronger", &a.stronger), ("weaker", &a.weaker), ("same", &a.same)] {
+                for (f, l) in [
+                    ("stronger", &a.stronger),
+                    ("weaker", &a.weaker),
+                    ("same", &a.same),
+                ] {
                     check_label(f, l).map_err(|m| at(f, m))?;
                 }
                 if a.stronger == a.weaker || a.stronger == a.same || a.weaker == a.same {
@@ -613,7 +664,9 @@ impl Protocol {
         {
             for c in names {
                 if cols.contains(&c) || super::record::FIXED.contains(&c.as_str()) {
-                    return Err(bad(format!("column `{c}` is used twice (factor and question names and trials.csv's own columns must differ)")));
+                    return Err(bad(format!(
+                        "column `{c}` is used twice (factor and question names and trials.csv's own columns must differ)"
+                    )));
                 }
                 cols.push(c);
             }

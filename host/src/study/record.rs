@@ -89,7 +89,11 @@ pub fn field(s: &str) -> String {
 
 /// A CSV line from fields.
 pub fn line(fields: &[String]) -> String {
-    fields.iter().map(|f| field(f)).collect::<Vec<_>>().join(",")
+    fields
+        .iter()
+        .map(|f| field(f))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// Splits one CSV line (quoted fields as [`field`] writes them).
@@ -220,20 +224,18 @@ pub fn check_rows(
         return Ok(Vec::new());
     };
     if split(first)? != header {
-        return Err(format!(
-            "{file}: its header is not this protocol's columns"
-        ));
+        return Err(format!("{file}: its header is not this protocol's columns"));
     }
     let mut rows = Vec::new();
     for (i, l) in lines[1..].iter().enumerate() {
         let r = split(l).map_err(|m| format!("{file} line {}: {m}", i + 2))?;
         let want = plan.get(i).ok_or_else(|| {
-            format!("{file} line {}: more rows than the session has trials", i + 2)
+            format!(
+                "{file} line {}: more rows than the session has trials",
+                i + 2
+            )
         })?;
-        if r.len() != header.len()
-            || r[1] != want.trial.to_string()
-            || r[3] != want.stimulus
-        {
+        if r.len() != header.len() || r[1] != want.trial.to_string() || r[3] != want.stimulus {
             return Err(format!(
                 "{file} line {}: expected trial {} ({}), found `{}`",
                 i + 2,

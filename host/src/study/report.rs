@@ -54,9 +54,8 @@ fn participant_dirs(dir: &Path) -> Result<Vec<PathBuf>, InputError> {
     if dir.join("trials.csv").is_file() {
         return Ok(vec![dir.to_owned()]);
     }
-    let rd = std::fs::read_dir(dir).map_err(|e| {
-        InputError::new(format!("{}: {}", dir.display(), crate::files::reason(&e)))
-    })?;
+    let rd = std::fs::read_dir(dir)
+        .map_err(|e| InputError::new(format!("{}: {}", dir.display(), crate::files::reason(&e))))?;
     let mut v: Vec<PathBuf> = rd
         .filter_map(Result::ok)
         .map(|e| e.path())
@@ -128,7 +127,8 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         crate::bad_input!("{}: nothing to report", dir.display());
     };
     let col = |name: &str| h.iter().position(|x| x == name);
-    let stim = col("stimulus").ok_or_else(|| InputError::new("trials.csv has no stimulus column"))?;
+    let stim =
+        col("stimulus").ok_or_else(|| InputError::new("trials.csv has no stimulus column"))?;
     let factors: Vec<usize> = s
         .columns
         .iter()
@@ -149,7 +149,10 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         let Some(c) = col(name) else { continue };
         let mut by: BTreeMap<(usize, String), (Vec<String>, Vec<f64>)> = BTreeMap::new();
         for r in &rows {
-            let key = (order.get(&r[stim]).copied().unwrap_or(usize::MAX), r[stim].clone());
+            let key = (
+                order.get(&r[stim]).copied().unwrap_or(usize::MAX),
+                r[stim].clone(),
+            );
             let levels = factors.iter().map(|&i| r[i].clone()).collect();
             let e = by.entry(key.clone()).or_insert((levels, Vec::new()));
             if r[c].is_empty() {
@@ -243,8 +246,9 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         crate::files::write_via(&png, |tmp| {
             let root = BitMapBackend::new(tmp, size).into_drawing_area();
             draw(&root, q, &group).map_err(e)?;
-            root.present()
-                .map_err(|x| anyhow::anyhow!("{}: {}", png.display(), crate::files::reason_of(&x)))?;
+            root.present().map_err(|x| {
+                anyhow::anyhow!("{}: {}", png.display(), crate::files::reason_of(&x))
+            })?;
             Ok(())
         })?;
         out.files.push(png);
@@ -307,7 +311,12 @@ fn draw<DB: DrawingBackend>(
             quantile(&g.values, 0.75),
         );
         let iqr = q3 - q1;
-        let wlo = g.values.iter().copied().find(|v| *v >= q1 - 1.5 * iqr).unwrap_or(q1);
+        let wlo = g
+            .values
+            .iter()
+            .copied()
+            .find(|v| *v >= q1 - 1.5 * iqr)
+            .unwrap_or(q1);
         let whi = g
             .values
             .iter()
@@ -327,8 +336,14 @@ fn draw<DB: DrawingBackend>(
                 PathElement::new(vec![(x - w, med), (x + w, med)], BLACK.stroke_width(2)),
                 PathElement::new(vec![(x, q3), (x, whi)], blue.stroke_width(1)),
                 PathElement::new(vec![(x, q1), (x, wlo)], blue.stroke_width(1)),
-                PathElement::new(vec![(x - w / 2.0, whi), (x + w / 2.0, whi)], blue.stroke_width(1)),
-                PathElement::new(vec![(x - w / 2.0, wlo), (x + w / 2.0, wlo)], blue.stroke_width(1)),
+                PathElement::new(
+                    vec![(x - w / 2.0, whi), (x + w / 2.0, whi)],
+                    blue.stroke_width(1),
+                ),
+                PathElement::new(
+                    vec![(x - w / 2.0, wlo), (x + w / 2.0, wlo)],
+                    blue.stroke_width(1),
+                ),
             ])
             .map_err(s)?;
         chart
@@ -342,11 +357,12 @@ fn draw<DB: DrawingBackend>(
     }
     // Condition names under their boxes (the axis' own ticks fall
     // between them).
-    let style = TextStyle::from(("sans-serif", 12).into_font())
-        .pos(plotters::style::text_anchor::Pos::new(
+    let style = TextStyle::from(("sans-serif", 12).into_font()).pos(
+        plotters::style::text_anchor::Pos::new(
             plotters::style::text_anchor::HPos::Center,
             plotters::style::text_anchor::VPos::Top,
-        ));
+        ),
+    );
     for (i, name) in names.iter().enumerate() {
         let (px, py) = chart.backend_coord(&(i as f64 + 0.5, lo - pad));
         root.draw(&Text::new(name.clone(), (px, py + 8), style.clone()))
