@@ -403,10 +403,17 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
         } else {
             crate::error::one_line(&e)
         };
+        let kept = if done == 0 {
+            "no trial is finished".to_owned()
+        } else {
+            format!(
+                "trials 1..={done} of {} are in {}",
+                plan.len(),
+                trials_path.display()
+            )
+        };
         let msg = format!(
-            "{what}; the array is silent; trials 1..={done} of {} are in {}; continue with: {}",
-            plan.len(),
-            trials_path.display(),
+            "{what}; the array is silent; {kept}; continue with: {}",
             resume_hint(o)
         );
         return Err(if e.chain().any(|c| c.is::<InputError>()) {

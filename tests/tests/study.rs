@@ -1,0 +1,465 @@
+//! `lmhost study run` / `report` end to end: the paper's Experiment 1
+//! protocol on autd3's emulator and on the simulated LM device (30 trials,
+//! every condition twice, each set a permutation, answers as given), a
+//! `kill -9` mid-run then `--resume` giving the uninterrupted run's trials,
+//! Experiment 3's adjustment loop, the report's files, and bad input
+//! refused with exit 2.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+mod link_support;
+use link_support::{Sim, lmhost};
+
+fn studies(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../studies")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lmhost-e2e-study-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Experiment 1's answers: vibration, movement, then the three shape
+/// items in the order shown; a different number on every line.
+fn exp1_answers(dir: &Path) -> (PathBuf, Vec<String>) {
+    let a: Vec<String> = (0..150)
+        .map(|i| ((i * 5 + i / 7) % 7 + 1).to_string())
+        .collect();
+    let p = dir.join("answers.txt");
+    std::fs::write(&p, a.join("\n") + "\n").unwrap();
+    (p, a)
+}
+
+fn study(args: &[&str]) -> Command {
+    let mut c = Command::new(lmhost());
+    c.arg("study").args(args).env_remove("LMHOST_PORT");
+    c
+}
+
+fn run_exp1(port: &str, out: &Path, answers: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "run",
+        studies("paper-exp1.toml").leak(),
+        "--port",
+        port,
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--time-scale",
+        "0.02",
+        "--responses",
+        answers.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    study(&args).output().unwrap()
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "exit {:?}: {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// `trials.csv` as maps of column → value (no quoted fields are expected
+/// in these runs).
+fn rows(dir: &Path) -> Vec<BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(dir.join("trials.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), head.len(), "{l}");
+            head.iter()
+                .zip(f)
+                .map(|(h, v)| ((*h).to_owned(), v.to_owned()))
+                .collect()
+        })
+        .collect()
+}
+
+/// 30 rows, every condition twice, each set a permutation of the 15, the
+/// answers recorded in the order given, timing from the device.
+fn check_exp1(rows: &[BTreeMap<String, String>], answers: &[String]) {
+    assert_eq!(rows.len(), 30);
+    for set in ["1", "2"] {
+        let mut s: Vec<&str> = rows
+            .iter()
+            .filter(|r| r["set"] == set)
+            .map(|r| r["stimulus"].as_str())
+            .collect();
+        s.sort_unstable();
+        s.dedup();
+        assert_eq!(s.len(), 15, "set {set} is a permutation of 15");
+    }
+    let mut count: BTreeMap<&str, usize> = BTreeMap::new();
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r["trial"], (i + 1).to_string());
+        *count.entry(r["stimulus"].as_str()).or_default() += 1;
+        assert_eq!(r["stimulus"], format!("{}-a{}", r["type"], r["radius"]));
+        let a = &answers[i * 5..i * 5 + 5];
+        assert_eq!(r["vibration"], a[0]);
+        assert_eq!(r["movement"], a[1]);
+        let order: Vec<&str> = r["shape_order"].split('|').collect();
+        assert_eq!(order.len(), 3);
+        for (k, item) in order.iter().enumerate() {
+            assert_eq!(r[&format!("shape_{item}")], a[2 + k], "trial {}", i + 1);
+        }
+        assert!(r["steps"].parse::<u32>().unwrap() > 0);
+        assert!(r["onset_us"].parse::<u64>().unwrap() < r["offset_us"].parse::<u64>().unwrap());
+        let on: f64 = r["presented_s"].parse().unwrap();
+        // touch_s = 3 s at a time scale of 0.02: about 60 ms.
+        assert!((0.04..1.0).contains(&on), "presented {on} s");
+        assert!(r["device_presented_s"].parse::<f64>().unwrap() > 0.0);
+        assert_eq!(r["on_phases"], "1");
+    }
+    assert_eq!(count.len(), 15);
+    assert!(count.values().all(|n| *n == 2), "{count:?}");
+}
+
+fn order(rows: &[BTreeMap<String, String>]) -> Vec<(String, String)> {
+    rows.iter()
+        .map(|r| (r["stimulus"].clone(), r["shape_order"].clone()))
+        .collect()
+}
+
+#[test]
+fn exp1_on_the_emulator_records_every_trial_and_reports() {
+    let d = scratch("emu");
+    let (answers, a) = exp1_answers(&d);
+    let out = d.join("out");
+    ok(&run_exp1(
+        "autd3:emulator",
+        &out,
+        &answers,
+        &["--seed", "7"],
+    ));
+    let p = out.join("P01");
+    let r = rows(&p);
+    check_exp1(&r, &a);
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p.join("session.json")).unwrap()).unwrap();
+    assert_eq!(s["seed"], 7);
+    assert_eq!(s["trials"].as_array().unwrap().len(), 30);
+    assert_eq!(s["runs"][0]["time_scale"], 0.02);
+    assert_eq!(s["runs"][0]["library"].as_array().unwrap().len(), 15);
+    assert_eq!(s["runs"][0]["device"]["backend"], "autd3");
+    let events = std::fs::read_to_string(p.join("events.jsonl")).unwrap();
+    let onsets = events
+        .lines()
+        .filter(|l| l.contains("\"event\":\"onset\""))
+        .count();
+    assert_eq!(onsets, 30);
+    for l in events.lines() {
+        serde_json::from_str::<serde_json::Value>(l).unwrap();
+    }
+    // The report: summary per condition and question, box plots.
+    let o = study(&["report", out.to_str().unwrap()]).output().unwrap();
+    ok(&o);
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let mut lines = summary.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "stimulus,type,radius,question,n,median,q1,q3,iqr"
+    );
+    // 15 conditions × 5 answer columns, 2 answers each.
+    let body: Vec<&str> = lines.collect();
+    assert_eq!(body.len(), 75);
+    assert!(body.iter().all(|l| l.split(',').nth(4) == Some("2")));
+    for q in [
+        "vibration",
+        "movement",
+        "shape_flat",
+        "shape_convex",
+        "shape_concave",
+    ] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("box-{q}.{ext}"));
+            assert!(
+                std::fs::metadata(&f).unwrap().len() > 1000,
+                "{}",
+                f.display()
+            );
+        }
+    }
+    let svg = std::fs::read_to_string(out.join("box-vibration.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("lms-25hz-a6"));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn exp1_on_the_simulated_lm_device_gives_the_same_order() {
+    let sim = Sim::start(&[]);
+    let d = scratch("sim");
+    let (answers, a) = exp1_answers(&d);
+    let out = d.join("out");
+    ok(&run_exp1(&sim.port, &out, &answers, &["--seed", "7"]));
+    let r = rows(&out.join("P01"));
+    check_exp1(&r, &a);
+    // The same seed on another device: the same order.
+    let e = d.join("emu");
+    ok(&run_exp1("autd3:emulator", &e, &answers, &["--seed", "7"]));
+    assert_eq!(order(&r), order(&rows(&e.join("P01"))));
+    let s = std::fs::read_to_string(out.join("P01/session.json")).unwrap();
+    assert!(s.contains("\"backend\": \"lm-firmware\""), "{s}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn kill_9_then_resume_gives_the_uninterrupted_trials() {
+    let d = scratch("resume");
+    let (answers, a) = exp1_answers(&d);
+    let whole = d.join("whole");
+    ok(&run_exp1(
+        "autd3:emulator",
+        &whole,
+        &answers,
+        &["--seed", "7"],
+    ));
+    let out = d.join("out");
+    let mut child = study(&[
+        "run",
+        &studies("paper-exp1.toml"),
+        "--port",
+        "autd3:emulator",
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--time-scale",
+        "0.1",
+        "--responses",
+        answers.to_str().unwrap(),
+        "--seed",
+        "7",
+    ])
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    let csv = out.join("P01/trials.csv");
+    let t0 = Instant::now();
+    while std::fs::read_to_string(&csv).map_or(0, |s| s.lines().count()) < 6 {
+        assert!(t0.elapsed() < Duration::from_secs(30), "no progress");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let before = rows(&out.join("P01")).len();
+    assert!((5..30).contains(&before), "{before} rows before the kill");
+    // Without --resume the participant's folder is refused.
+    let o = run_exp1("autd3:emulator", &out, &answers, &[]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("--resume") && e.trim().lines().count() == 1,
+        "{e}"
+    );
+    // A different seed on --resume is refused too.
+    let o = run_exp1(
+        "autd3:emulator",
+        &out,
+        &answers,
+        &["--resume", "--seed", "8"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let o = run_exp1("autd3:emulator", &out, &answers, &["--resume"]);
+    ok(&o);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains(&format!("resuming at trial {}", before + 1)),
+        "{e}"
+    );
+    let r = rows(&out.join("P01"));
+    check_exp1(&r, &a);
+    let w = rows(&whole.join("P01"));
+    let keep = |rows: &[BTreeMap<String, String>]| -> Vec<Vec<String>> {
+        let cols = [
+            "trial",
+            "set",
+            "stimulus",
+            "vibration",
+            "movement",
+            "shape_flat",
+            "shape_convex",
+            "shape_concave",
+            "shape_order",
+        ];
+        rows.iter()
+            .map(|r| cols.iter().map(|c| r[*c].clone()).collect())
+            .collect()
+    };
+    assert_eq!(keep(&r), keep(&w));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("P01/session.json")).unwrap())
+            .unwrap();
+    assert_eq!(s["runs"].as_array().unwrap().len(), 2);
+    assert_eq!(s["runs"][1]["first_trial"], before + 1);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn exp3_runs_its_adjustment_loop_and_logs_every_depth() {
+    let d = scratch("exp3");
+    // Per trial: same | stronger, same | weaker, weaker, same.
+    let mut a: Vec<&str> = Vec::new();
+    for t in 0..30 {
+        a.extend_from_slice(match t % 3 {
+            0 => &["same"][..],
+            1 => &["stronger", "same"][..],
+            _ => &["2", "weaker", "3"][..],
+        });
+    }
+    let answers = d.join("answers.txt");
+    std::fs::write(&answers, a.join("\n")).unwrap();
+    let out = d.join("out");
+    let o = study(&[
+        "run",
+        &studies("paper-exp3.toml"),
+        "--port",
+        "autd3:emulator",
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--time-scale",
+        "0.01",
+        "--responses",
+        answers.to_str().unwrap(),
+        "--seed",
+        "3",
+    ])
+    .output()
+    .unwrap();
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("next depth 3.75 mm (stronger)"), "{err}");
+    assert!(err.contains("next depth 4.50 mm (weaker)"), "{err}");
+    let r = rows(&out.join("P01"));
+    assert_eq!(r.len(), 30);
+    for (i, row) in r.iter().enumerate() {
+        let (n, depths, last, answers) = match i % 3 {
+            0 => ("0", "4.00", "4.00", "same"),
+            1 => ("1", "4.00|3.75", "3.75", "stronger|same"),
+            _ => ("2", "4.00|4.25|4.50", "4.50", "weaker|weaker|same"),
+        };
+        assert_eq!(row["adjustments"], n);
+        assert_eq!(row["depths_mm"], depths);
+        assert_eq!(row["final_depth_mm"], last);
+        assert_eq!(row["adjust_answers"], answers);
+        // One on-phase per answer: the stimulus repeats on/off until "same".
+        assert_eq!(
+            row["on_phases"],
+            (n.parse::<usize>().unwrap() + 1).to_string()
+        );
+    }
+    let events = std::fs::read_to_string(out.join("P01/events.jsonl")).unwrap();
+    let depths = events
+        .lines()
+        .filter(|l| l.contains("\"event\":\"depth\""))
+        .count();
+    assert_eq!(depths, 30 + 10 + 20);
+    assert!(events.contains("\"gate\":\"untracked\""));
+    let o = study(&["report", out.join("P01").to_str().unwrap()])
+        .output()
+        .unwrap();
+    ok(&o);
+    let summary = std::fs::read_to_string(out.join("P01/summary.csv")).unwrap();
+    assert_eq!(summary.lines().count(), 16);
+    assert!(summary.contains(",final_depth_mm,2,"), "{summary}");
+    assert!(out.join("P01/box-final_depth_mm.svg").exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
+    let d = scratch("bad");
+    let out = d.join("out");
+    let lines = |o: &Output| String::from_utf8_lossy(&o.stderr).trim().to_owned();
+    // A bad answer names its line.
+    let answers = d.join("answers.txt");
+    std::fs::write(&answers, "3\n4\n5\n9\n").unwrap();
+    let o = run_exp1("autd3:emulator", &out, &answers, &["--seed", "1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", lines(&o));
+    let all = lines(&o);
+    let e = all.lines().last().unwrap();
+    assert!(e.starts_with("error: "), "{all}");
+    assert!(
+        e.contains("answers.txt line 4: `9` is not an answer"),
+        "{e}"
+    );
+    assert!(
+        e.contains("no trial is finished") && e.contains("continue with:"),
+        "{e}"
+    );
+    // A protocol naming a stimulus the library lacks: refused before the
+    // port is even opened (a port that does not exist).
+    let text = std::fs::read_to_string(studies("paper-exp1.toml"))
+        .unwrap()
+        .replace("\"2\", \"3\"", "\"2\", \"9\"")
+        .replace("paper-library.toml", &studies("paper-library.toml"));
+    let proto = d.join("p.toml");
+    std::fs::write(&proto, text).unwrap();
+    let o = study(&[
+        "run",
+        proto.to_str().unwrap(),
+        "--port",
+        "/dev/nonexistent-lm",
+        "--participant",
+        "P02",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--responses",
+        answers.to_str().unwrap(),
+    ])
+    .output()
+    .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let e = lines(&o);
+    assert!(
+        e.contains("p.toml: line") && e.contains("`lms-5hz-a9`"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1);
+    // --resume with another protocol.
+    let o = study(&[
+        "run",
+        &studies("paper-exp3.toml"),
+        "--port",
+        "autd3:emulator",
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--responses",
+        answers.to_str().unwrap(),
+        "--resume",
+    ])
+    .output()
+    .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(lines(&o).contains("another protocol"), "{}", lines(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}
