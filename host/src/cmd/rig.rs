@@ -175,6 +175,19 @@ impl Args {
             report.commands,
             report.events
         );
+        let f = &report.figures;
+        let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1} ms"));
+        if f.switches > 0 || f.timed_on_phases > 0 {
+            lmhost::errln!(
+                "lmhost: {} switches (latency p50 {}, p99 {}, max {}); {} timed on-phases (|device − on_s| max {})",
+                f.switches,
+                ms(f.switch_p50_ms),
+                ms(f.switch_p99_ms),
+                ms(f.switch_max_ms),
+                f.timed_on_phases,
+                ms(f.on_error_max_abs_ms)
+            );
+        }
         Ok(())
     }
 }

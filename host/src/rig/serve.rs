@@ -93,6 +93,8 @@ pub struct Report {
     pub events: u64,
     /// Why it ended.
     pub reason: Option<OffsetReason>,
+    /// What the session measured.
+    pub figures: super::Figures,
 }
 
 enum Inbound {
@@ -525,6 +527,7 @@ pub fn serve(mut session: Session, opts: Options) -> anyhow::Result<Report> {
         Err(_) => OffsetReason::Error,
     };
     report.reason = Some(reason);
+    report.figures = session.figures();
     let last = session.close(reason);
     let written = out.events(last);
     report.events = out.events;
