@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::ValueEnum;
 use lmhost::library::Library;
 use lmhost::rig::Session;
-use lmhost::rig::serve::{self, Control, Finger, OnDisconnect, Options};
+use lmhost::rig::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
 use lmhost::scene::Scene;
 use lmhost::stream::filter::FilterKind;
 use lmhost::stream::run::on_thread;
@@ -137,6 +137,7 @@ impl Args {
         } else {
             Finger::None
         };
+        let endpoint = Endpoint::bind(&control)?;
         let dev = lmhost::connect::open(&spec, &scene)?;
         let where_ = dev.describe();
         let session = Session::new(dev, &library, plans, scene)
@@ -153,7 +154,7 @@ impl Args {
         let report = serve::serve(
             session,
             Options {
-                control,
+                control: endpoint,
                 on_disconnect: match self.on_disconnect {
                     Disconnect::Stop => OnDisconnect::Stop,
                     Disconnect::Continue => OnDisconnect::Continue,

@@ -367,7 +367,7 @@ impl Session {
             .transpose()?;
         let off = match req.off_s {
             None => Duration::ZERO,
-            Some(s) if s == 0.0 => Duration::ZERO,
+            Some(0.0) => Duration::ZERO,
             Some(s) => crate::limits::duration_s("off_s", s, MAX_PHASE_S)?,
         };
         let repeat = req.repeat.unwrap_or(1);
