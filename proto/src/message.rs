@@ -325,7 +325,8 @@ pub struct Status {
     pub slot: Option<u8>,
     /// Current step within the cycle.
     pub step: u16,
-    /// Cycles completed since `Play`.
+    /// Cycles completed since the playing slot began (its `Play`, or the
+    /// cycle boundary where a queued slot took over).
     pub cycles: u32,
     /// Step deadlines missed since reset.
     pub missed_deadlines: u32,

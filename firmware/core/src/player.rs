@@ -189,7 +189,9 @@ impl Player {
                 };
                 if now >= end {
                     self.missed = self.missed.saturating_add((to_end - 1) as u32);
-                    self.cycles = self.cycles.wrapping_add(1);
+                    // The queued slot's own play begins: its cycles count
+                    // from 0, so step and cycles say how long it has played.
+                    self.cycles = 0;
                     self.pending = None;
                     // Checked schedulable when queued.
                     if let Some(ns) =
@@ -313,7 +315,9 @@ mod tests {
         assert_eq!(p.tick(750).map(|d| d.step), Some(3));
         assert_eq!(p.tick(1000), due(1, 0, 1000));
         assert_eq!(p.tick(1150), due(1, 1, 1150));
+        assert_eq!(p.cycles(), 0);
         assert_eq!(p.tick(1300), due(1, 0, 1300));
+        assert_eq!(p.cycles(), 1);
         assert!(!p.busy(0));
         assert_eq!(p.missed(), 0);
     }

@@ -14,6 +14,7 @@ use serde::Serialize;
 
 mod field;
 mod planner;
+mod session;
 mod track;
 
 pub use field::FieldFigures;
@@ -57,6 +58,7 @@ pub const SECTIONS: &[(&str, SectionFn)] = &[
     ("planner", planner::section),
     ("field", field::section),
     ("track", track::section),
+    ("session", session::section),
 ];
 
 /// Runs the sections named in `only` (all when empty), in report order.

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::ValueEnum;
 use lmhost::library::Library;
 use lmhost::rig::Session;
-use lmhost::rig::serve::{self, Control, Finger, OnDisconnect, Options};
+use lmhost::rig::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
 use lmhost::scene::Scene;
 use lmhost::stream::filter::FilterKind;
 use lmhost::stream::run::on_thread;
@@ -137,6 +137,7 @@ impl Args {
         } else {
             Finger::None
         };
+        let endpoint = Endpoint::bind(&control)?;
         let dev = lmhost::connect::open(&spec, &scene)?;
         let where_ = dev.describe();
         let session = Session::new(dev, &library, plans, scene)
@@ -153,7 +154,7 @@ impl Args {
         let report = serve::serve(
             session,
             Options {
-                control,
+                control: endpoint,
                 on_disconnect: match self.on_disconnect {
                     Disconnect::Stop => OnDisconnect::Stop,
                     Disconnect::Continue => OnDisconnect::Continue,
@@ -175,6 +176,19 @@ impl Args {
             report.commands,
             report.events
         );
+        let f = &report.figures;
+        let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1} ms"));
+        if f.switches > 0 || f.timed_on_phases > 0 {
+            lmhost::errln!(
+                "lmhost: {} switches (latency p50 {}, p99 {}, max {}); {} timed on-phases (|device − on_s| max {})",
+                f.switches,
+                ms(f.switch_p50_ms),
+                ms(f.switch_p99_ms),
+                ms(f.switch_max_ms),
+                f.timed_on_phases,
+                ms(f.on_error_max_abs_ms)
+            );
+        }
         Ok(())
     }
 }

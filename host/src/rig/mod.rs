@@ -66,6 +66,23 @@ pub struct Loaded {
     pub crc32: u32,
 }
 
+/// What a session measured (from its events).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct Figures {
+    /// Switches between stimuli at a cycle end.
+    pub switches: usize,
+    /// Median switch latency, request to the device playing the new one (ms).
+    pub switch_p50_ms: Option<f64>,
+    /// 99th percentile switch latency (ms).
+    pub switch_p99_ms: Option<f64>,
+    /// Largest switch latency (ms).
+    pub switch_max_ms: Option<f64>,
+    /// Timed on-phases ended by their timer.
+    pub timed_on_phases: usize,
+    /// Largest |device-played time − on_s| over them (ms).
+    pub on_error_max_abs_ms: Option<f64>,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     /// Asked to take over from the stimulus playing; switches at its cycle
@@ -121,8 +138,10 @@ pub struct Session {
     seq: u32,
     next_status_us: u64,
     last_pos_um: [i32; 3],
-    /// Switch latencies so far (µs), and on-phases' device-time errors (µs).
+    /// Switch latencies so far (µs).
     switch_us: Vec<u64>,
+    /// Timed on-phases: device-played time minus `on_s` (µs).
+    on_error_us: Vec<i64>,
 }
 
 fn gate_of(untracked: bool) -> Gate {
@@ -183,6 +202,7 @@ impl Session {
             next_status_us: 0,
             last_pos_um: [0; 3],
             switch_us: Vec::new(),
+            on_error_us: Vec::new(),
         };
         if me.loaded.len() <= usize::from(me.info.slots) {
             for i in 0..me.loaded.len() {
@@ -232,10 +252,24 @@ impl Session {
         self.current.is_some()
     }
 
-    /// Switch latencies measured so far (µs, request to the device playing
-    /// the new stimulus).
-    pub fn switch_latencies_us(&self) -> &[u64] {
-        &self.switch_us
+    /// What the session measured so far: switch latencies and the timed
+    /// on-phases' error by the device's counters.
+    pub fn figures(&self) -> Figures {
+        let pct = |p| crate::clock::percentile(self.switch_us.iter().copied(), p);
+        let ms = |us: Option<u64>| us.map(|u| u as f64 / 1e3);
+        Figures {
+            switches: self.switch_us.len(),
+            switch_p50_ms: ms(pct(50.0)),
+            switch_p99_ms: ms(pct(99.0)),
+            switch_max_ms: ms(self.switch_us.iter().copied().max()),
+            timed_on_phases: self.on_error_us.len(),
+            on_error_max_abs_ms: self
+                .on_error_us
+                .iter()
+                .map(|e| e.unsigned_abs())
+                .max()
+                .map(|u| u as f64 / 1e3),
+        }
     }
 
     /// Whether the presentation running has no end of its own (no
@@ -247,10 +281,11 @@ impl Session {
     }
 
     pub(crate) fn emit(&mut self, kind: EventKind) {
-        self.events.push(Event {
-            t_host_us: monotonic_us(),
-            kind,
-        });
+        self.emit_at(monotonic_us(), kind);
+    }
+
+    fn emit_at(&mut self, t_host_us: u64, kind: EventKind) {
+        self.events.push(Event { t_host_us, kind });
     }
 
     /// Uploads entry `i` into `slot` (`None`: one neither playing nor
@@ -332,7 +367,7 @@ impl Session {
             .transpose()?;
         let off = match req.off_s {
             None => Duration::ZERO,
-            Some(s) if s == 0.0 => Duration::ZERO,
+            Some(0.0) => Duration::ZERO,
             Some(s) => crate::limits::duration_s("off_s", s, MAX_PHASE_S)?,
         };
         let repeat = req.repeat.unwrap_or(1);
@@ -422,7 +457,12 @@ impl Session {
 
     /// Marks the current presentation on from now and emits its onset.
     fn onset(&mut self) {
-        let now = monotonic_us();
+        self.onset_at(monotonic_us());
+    }
+
+    /// Marks the current presentation on since `now` (host µs) and emits
+    /// its onset stamped then.
+    fn onset_at(&mut self, now: u64) {
         let Some(p) = &mut self.current else { return };
         p.phase = Phase::On { since_us: now };
         p.muted_since = None;
@@ -430,18 +470,30 @@ impl Session {
         let (entry, slot, rep, untracked) = (p.entry, p.slot, p.rep, p.untracked);
         self.mute = None;
         self.next_status_us = 0;
-        self.emit(EventKind::Onset {
-            stimulus: self.loaded[entry].id.clone(),
-            slot,
-            gate: gate_of(untracked),
-            rep,
-        });
+        self.emit_at(
+            now,
+            EventKind::Onset {
+                stimulus: self.loaded[entry].id.clone(),
+                slot,
+                gate: gate_of(untracked),
+                rep,
+            },
+        );
     }
 
     /// Emits the offset of the current on-phase (`device`: what the device
     /// played, s) and leaves the presentation as it is.
     fn offset(&mut self, reason: OffsetReason, device: Option<f64>) -> anyhow::Result<()> {
-        let now = monotonic_us();
+        self.offset_at(monotonic_us(), reason, device)
+    }
+
+    /// [`Self::offset`] stamped `now` (host µs).
+    fn offset_at(
+        &mut self,
+        now: u64,
+        reason: OffsetReason,
+        device: Option<f64>,
+    ) -> anyhow::Result<()> {
         let Some(p) = &mut self.current else {
             return Ok(());
         };
@@ -454,20 +506,23 @@ impl Session {
         let presented = now.saturating_sub(since_us) as f64 / 1e6;
         let muted = p.muted_us as f64 / 1e6;
         let (entry, slot, rep) = (p.entry, p.slot, p.rep);
-        self.emit(EventKind::Offset {
-            stimulus: self.loaded[entry].id.clone(),
-            slot,
-            rep,
-            reason,
-            presented_s: presented,
-            device_presented_s: device,
-            muted_s: muted,
-            present_fraction: if presented > 0.0 {
-                (1.0 - muted / presented).clamp(0.0, 1.0)
-            } else {
-                0.0
+        self.emit_at(
+            now,
+            EventKind::Offset {
+                stimulus: self.loaded[entry].id.clone(),
+                slot,
+                rep,
+                reason,
+                presented_s: presented,
+                device_presented_s: device,
+                muted_s: muted,
+                present_fraction: if presented > 0.0 {
+                    (1.0 - muted / presented).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                },
             },
-        });
+        );
         Ok(())
     }
 
@@ -481,15 +536,19 @@ impl Session {
             .dev
             .status()
             .map_err(|e| e.context("reading the device status"))?;
-        let plan = &self.loaded.iter().find(|l| l.slot == Some(slot));
-        Ok(plan.and_then(|l| {
-            let h = &l.planned.plan.sequence.header;
-            (s.slot == Some(slot)).then(|| {
-                let steps = u64::from(h.steps.max(1));
-                let played = u64::from(s.cycles) * steps + u64::from(s.step);
-                played as f64 * f64::from(h.period_us) / steps as f64 / 1e6
-            })
-        }))
+        Ok(self.played_us(slot, &s).map(|us| us as f64 / 1e6))
+    }
+
+    /// How long (µs) the device has played `slot`, by its step and cycle
+    /// counters in `s` (`None` when it does not play `slot`).
+    fn played_us(&self, slot: u8, s: &Status) -> Option<u64> {
+        let l = self.loaded.iter().find(|l| l.slot == Some(slot))?;
+        let h = &l.planned.plan.sequence.header;
+        (s.slot == Some(slot)).then(|| {
+            let steps = u64::from(h.steps.max(1));
+            let played = u64::from(s.cycles) * steps + u64::from(s.step);
+            played * u64::from(h.period_us) / steps
+        })
     }
 
     /// Stops whatever plays or waits: the array is silent afterwards.
@@ -603,8 +662,12 @@ impl Session {
         let Some(p) = &self.current else {
             return Ok(());
         };
-        let slot = p.slot;
+        let (slot, on) = (p.slot, p.on);
         let device = self.stop_device(slot)?;
+        if let (Some(d), Some(on)) = (device, on) {
+            self.on_error_us
+                .push((d * 1e6).round() as i64 - on.as_micros() as i64);
+        }
         self.offset(OffsetReason::Timer, device)?;
         let Some(p) = &mut self.current else {
             return Ok(());
@@ -630,7 +693,11 @@ impl Session {
             && s.slot == Some(p.slot)
             && s.queued_slot != Some(p.slot)
         {
-            let latency = now.saturating_sub(requested_us);
+            // The device switched before this status was read: by its own
+            // counters, `played` ago.
+            let played = self.played_us(p.slot, s).unwrap_or(0);
+            let switched_at = now.saturating_sub(played).max(requested_us);
+            let latency = switched_at - requested_us;
             let from = self
                 .outgoing
                 .as_ref()
@@ -639,21 +706,27 @@ impl Session {
             // The outgoing one's offset, then the new one's onset.
             let incoming = self.current.take();
             self.current = self.outgoing.take();
-            let _ = self.offset(OffsetReason::Switch, None);
+            let _ = self.offset_at(switched_at, OffsetReason::Switch, None);
             if let Some(o) = self.current.take() {
-                self.emit(EventKind::Done {
-                    stimulus: self.loaded[o.entry].id.clone(),
-                    reps: o.rep,
-                });
+                self.emit_at(
+                    switched_at,
+                    EventKind::Done {
+                        stimulus: self.loaded[o.entry].id.clone(),
+                        reps: o.rep,
+                    },
+                );
             }
             self.current = incoming;
             self.switch_us.push(latency);
-            self.emit(EventKind::Switch {
-                from,
-                to,
-                latency_ms: latency as f64 / 1e3,
-            });
-            self.onset();
+            self.emit_at(
+                switched_at,
+                EventKind::Switch {
+                    from,
+                    to,
+                    latency_ms: latency as f64 / 1e3,
+                },
+            );
+            self.onset_at(switched_at);
             return;
         }
         let on = self
@@ -751,3 +824,6 @@ impl Session {
         events
     }
 }
+
+#[cfg(test)]
+mod tests;

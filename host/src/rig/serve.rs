@@ -70,10 +70,47 @@ pub enum Finger {
     Samples(Threaded),
 }
 
+/// A control endpoint, bound before the device opens (so a bad
+/// `--control` costs no device time); the Unix socket is removed when it
+/// is dropped.
+pub struct Endpoint {
+    unix: Option<(std::os::unix::net::UnixListener, UnixSocket)>,
+    tcp: Option<std::net::TcpListener>,
+    stdio: bool,
+}
+
+impl Endpoint {
+    /// Binds `control`.
+    pub fn bind(control: &Control) -> anyhow::Result<Self> {
+        match control {
+            Control::Stdio => Ok(Self {
+                unix: None,
+                tcp: None,
+                stdio: true,
+            }),
+            Control::Socket { unix, tcp } => {
+                let unix = bind_unix(unix)?;
+                let tcp = tcp
+                    .map(|port| {
+                        std::net::TcpListener::bind(("127.0.0.1", port)).map_err(|e| {
+                            anyhow::anyhow!("--tcp 127.0.0.1:{port}: {}", crate::files::reason(&e))
+                        })
+                    })
+                    .transpose()?;
+                Ok(Self {
+                    unix: Some(unix),
+                    tcp,
+                    stdio: false,
+                })
+            }
+        }
+    }
+}
+
 /// How to serve.
 pub struct Options {
     /// The control endpoint.
-    pub control: Control,
+    pub control: Endpoint,
     /// When the controlling client goes away.
     pub on_disconnect: OnDisconnect,
     /// The event log.
@@ -93,6 +130,8 @@ pub struct Report {
     pub events: u64,
     /// Why it ended.
     pub reason: Option<OffsetReason>,
+    /// What the session measured.
+    pub figures: super::Figures,
 }
 
 enum Inbound {
@@ -108,6 +147,9 @@ struct Conn {
 }
 
 type Conns = Arc<Mutex<HashMap<u64, Conn>>>;
+
+/// A connection's reading and writing halves.
+type Halves = (Box<dyn Read + Send>, Box<dyn Write + Send>);
 
 /// Reads bounded lines from `r` into `tx` as client `id`'s.
 fn read_lines(id: u64, r: impl Read, tx: &Sender<Inbound>) {
@@ -195,7 +237,7 @@ fn bind_unix(path: &Path) -> anyhow::Result<(std::os::unix::net::UnixListener, U
 fn spawn_acceptor<S>(
     name: &str,
     accept: impl Fn() -> std::io::Result<S> + Send + 'static,
-    split: fn(&S) -> std::io::Result<(Box<dyn Read + Send>, Box<dyn Write + Send>)>,
+    split: fn(&S) -> std::io::Result<Halves>,
     conns: Conns,
     tx: Sender<Inbound>,
     next_id: Arc<std::sync::atomic::AtomicU64>,
@@ -238,16 +280,12 @@ where
     Ok(())
 }
 
-fn split_unix(
-    s: &std::os::unix::net::UnixStream,
-) -> std::io::Result<(Box<dyn Read + Send>, Box<dyn Write + Send>)> {
+fn split_unix(s: &std::os::unix::net::UnixStream) -> std::io::Result<Halves> {
     s.set_write_timeout(Some(WRITE_TIMEOUT))?;
     Ok((Box::new(s.try_clone()?), Box::new(s.try_clone()?)))
 }
 
-fn split_tcp(
-    s: &std::net::TcpStream,
-) -> std::io::Result<(Box<dyn Read + Send>, Box<dyn Write + Send>)> {
+fn split_tcp(s: &std::net::TcpStream) -> std::io::Result<Halves> {
     s.set_write_timeout(Some(WRITE_TIMEOUT))?;
     s.set_nodelay(true)?;
     Ok((Box::new(s.try_clone()?), Box::new(s.try_clone()?)))
@@ -363,30 +401,28 @@ pub fn serve(mut session: Session, opts: Options) -> anyhow::Result<Report> {
     let conns: Conns = Arc::new(Mutex::new(HashMap::new()));
     let (tx, rx): (Sender<Inbound>, Receiver<Inbound>) = channel();
     let next_id = Arc::new(std::sync::atomic::AtomicU64::new(1));
-    let mut _socket = None;
-    let stdio = control == Control::Stdio;
-    match &control {
-        Control::Stdio => {
+    let stdio = control.stdio;
+    let _socket = match control {
+        Endpoint { stdio: true, .. } => {
             let tx = tx.clone();
             std::thread::Builder::new()
                 .name("lmhost-stdin".into())
                 .spawn(move || read_lines(STDIO, std::io::stdin(), &tx))?;
+            None
         }
-        Control::Socket { unix, tcp } => {
-            let (l, guard) = bind_unix(unix)?;
-            _socket = Some(guard);
-            spawn_acceptor(
-                "lmhost-unix",
-                move || l.accept().map(|(s, _)| s),
-                split_unix,
-                conns.clone(),
-                tx.clone(),
-                next_id.clone(),
-            )?;
-            if let Some(port) = tcp {
-                let l = std::net::TcpListener::bind(("127.0.0.1", *port)).map_err(|e| {
-                    anyhow::anyhow!("--tcp 127.0.0.1:{port}: {}", crate::files::reason(&e))
-                })?;
+        Endpoint { unix, tcp, .. } => {
+            let guard = unix.map(|(l, guard)| {
+                spawn_acceptor(
+                    "lmhost-unix",
+                    move || l.accept().map(|(s, _)| s),
+                    split_unix,
+                    conns.clone(),
+                    tx.clone(),
+                    next_id.clone(),
+                )
+                .map(|()| guard)
+            });
+            if let Some(l) = tcp {
                 spawn_acceptor(
                     "lmhost-tcp",
                     move || l.accept().map(|(s, _)| s),
@@ -396,8 +432,9 @@ pub fn serve(mut session: Session, opts: Options) -> anyhow::Result<Report> {
                     next_id.clone(),
                 )?;
             }
+            guard.transpose()?
         }
-    }
+    };
     drop(tx);
     let log = events.as_deref().map(AppendLog::create).transpose()?;
     let mut out = Out {
@@ -525,6 +562,7 @@ pub fn serve(mut session: Session, opts: Options) -> anyhow::Result<Report> {
         Err(_) => OffsetReason::Error,
     };
     report.reason = Some(reason);
+    report.figures = session.figures();
     let last = session.close(reason);
     let written = out.events(last);
     report.events = out.events;

@@ -1,0 +1,346 @@
+//! `lmhost session` end to end: the real binary against `lmhost sim` and
+//! the AUTD3 emulator, over stdio and the Unix control socket.
+
+use std::io::{BufRead as _, BufReader, Write as _};
+use std::os::unix::net::UnixStream;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+mod link_support;
+use link_support::{Sim, lmhost, run_stdin};
+
+/// The repository's paper library.
+fn library() -> String {
+    format!(
+        "{}/../studies/paper-library.toml",
+        env!("CARGO_MANIFEST_DIR")
+    )
+}
+
+fn lines(out: &[u8]) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(out)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+fn events<'a>(v: &'a [serde_json::Value], name: &str) -> Vec<&'a serde_json::Value> {
+    v.iter().filter(|e| e["event"] == name).collect()
+}
+
+#[test]
+fn stdio_control_presents_timed_on_phases_and_ends_silent() {
+    for port in ["autd3:emulator", "sim"] {
+        let sim = (port == "sim").then(|| Sim::start(&[]));
+        let port = sim.as_ref().map_or(port.to_owned(), |s| s.port.clone());
+        let script = concat!(
+            r#"{"cmd":"library"}"#,
+            "\n",
+            r#"{"cmd":"present","stimulus":"lms-25hz-a3","gate":"untracked","on_s":0.4,"off_s":0.1,"repeat":2}"#,
+            "\n",
+            r#"{"cmd":"present","stimulus":"nope"}"#,
+            "\n",
+        );
+        let out = run_stdin(
+            &[
+                "session",
+                "--library",
+                &library(),
+                "--port",
+                &port,
+                "--control",
+                "-",
+            ],
+            script.as_bytes(),
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{port}: {err}");
+        let v = lines(&out.stdout);
+        let lib = v.iter().find(|r| r["cmd"] == "library").unwrap();
+        assert_eq!(lib["stimuli"].as_array().unwrap().len(), 15, "{port}");
+        let refused = v.iter().find(|r| r["ok"] == false).unwrap();
+        assert!(
+            refused["error"]
+                .as_str()
+                .unwrap()
+                .contains("no stimulus `nope`"),
+            "{refused}"
+        );
+        let offsets = events(&v, "offset");
+        assert_eq!(offsets.len(), 2, "{port}: {v:?}");
+        let dwell_s = lib["stimuli"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["id"] == "lms-25hz-a3")
+            .unwrap()["dwell_us"]
+            .as_f64()
+            .unwrap()
+            / 1e6;
+        for o in offsets {
+            assert_eq!(o["reason"], "timer");
+            let d = o["device_presented_s"].as_f64().unwrap();
+            assert!(
+                (d - 0.4).abs() <= dwell_s + 0.01,
+                "{port}: {d} s (dwell {dwell_s})"
+            );
+        }
+        assert_eq!(v.last().unwrap()["event"], "closed", "{port}");
+        assert!(err.contains("the array is silent"), "{err}");
+    }
+}
+
+#[test]
+fn bad_session_flags_and_files_are_one_line_input_errors() {
+    let dir = tempdir();
+    let bad_lib = dir.join("bad.toml");
+    std::fs::write(&bad_lib, "[[stimulus]]\nid = \"x\"\nradius = -3\n").unwrap();
+    let not_socket = dir.join("plain");
+    std::fs::write(&not_socket, "").unwrap();
+    let lib = library();
+    for (args, needle) in [
+        (
+            vec![
+                "session",
+                "--library",
+                "/nonexistent.toml",
+                "--control",
+                "-",
+                "--port",
+                "autd3:emulator",
+            ],
+            "nonexistent",
+        ),
+        (
+            vec![
+                "session",
+                "--library",
+                bad_lib.to_str().unwrap(),
+                "--control",
+                "-",
+                "--port",
+                "autd3:emulator",
+            ],
+            "stimulus `x`",
+        ),
+        (
+            vec![
+                "session",
+                "--library",
+                &lib,
+                "--control",
+                not_socket.to_str().unwrap(),
+                "--port",
+                "autd3:emulator",
+            ],
+            "not a socket",
+        ),
+        (
+            vec![
+                "session",
+                "--library",
+                &lib,
+                "--control",
+                "-",
+                "--tcp",
+                "5000",
+                "--port",
+                "autd3:emulator",
+            ],
+            "--tcp",
+        ),
+        (
+            vec![
+                "session",
+                "--library",
+                &lib,
+                "--control",
+                "-",
+                "--stream",
+                "-",
+                "--port",
+                "autd3:emulator",
+            ],
+            "stdin",
+        ),
+    ] {
+        let out = run_stdin(&args, b"");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
+
+fn tempdir() -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "lmhost-session-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos()
+    ));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn connect(path: &std::path::Path) -> UnixStream {
+    let end = Instant::now() + Duration::from_secs(30);
+    loop {
+        match UnixStream::connect(path) {
+            Ok(s) => return s,
+            Err(e) if Instant::now() > end => panic!("{}: {e}", path.display()),
+            Err(_) => std::thread::sleep(Duration::from_millis(50)),
+        }
+    }
+}
+
+fn send(s: &mut UnixStream, r: &mut BufReader<UnixStream>, cmd: &str) -> serde_json::Value {
+    writeln!(s, "{cmd}").unwrap();
+    loop {
+        let mut line = String::new();
+        r.read_line(&mut line).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+        if v.get("cmd").is_some() {
+            return v;
+        }
+    }
+}
+
+#[test]
+fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
+    let sim = Sim::start(&[]);
+    let dir = tempdir();
+    let sock = dir.join("lm.sock");
+    let log = dir.join("events.jsonl");
+    let child = Command::new(lmhost())
+        .args(["session", "--library", &library(), "--port", &sim.port])
+        .args([
+            "--control",
+            sock.to_str().unwrap(),
+            "--events",
+            log.to_str().unwrap(),
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        let mut s = connect(&sock);
+        let mut r = BufReader::new(s.try_clone().unwrap());
+        use std::os::unix::fs::PermissionsExt as _;
+        let mode = std::fs::metadata(&sock).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o600);
+        assert_eq!(send(&mut s, &mut r, r#"{"cmd":"subscribe"}"#)["ok"], true);
+        let rep = send(
+            &mut s,
+            &mut r,
+            r#"{"cmd":"present","stimulus":"lms-25hz-a4","gate":"untracked"}"#,
+        );
+        assert_eq!(rep["ok"], true, "{rep}");
+        // The onset arrives as an event on this connection.
+        loop {
+            let mut line = String::new();
+            r.read_line(&mut line).unwrap();
+            if line.contains(r#""event":"onset""#) {
+                break;
+            }
+        }
+        let st = send(&mut s, &mut r, r#"{"cmd":"status"}"#);
+        assert_eq!(st["status"]["state"], "playing", "{st}");
+        // Dropped here: the controlling client goes away.
+    }
+    let mut s = connect(&sock);
+    let mut r = BufReader::new(s.try_clone().unwrap());
+    let end = Instant::now() + Duration::from_secs(10);
+    loop {
+        let st = send(&mut s, &mut r, r#"{"cmd":"status"}"#);
+        if st["status"]["state"] != "playing" {
+            break;
+        }
+        assert!(
+            Instant::now() < end,
+            "still playing after the client left: {st}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert_eq!(send(&mut s, &mut r, r#"{"cmd":"quit"}"#)["ok"], true);
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!sock.exists(), "the socket is removed at the end");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let v = lines(text.as_bytes());
+    let off = events(&v, "offset");
+    assert_eq!(off.len(), 1, "{text}");
+    assert_eq!(off[0]["reason"], "disconnect");
+    assert_eq!(v.last().unwrap()["event"], "closed");
+    assert!(text.ends_with('\n'));
+}
+
+#[test]
+fn sigterm_ends_the_session_silent_with_a_closed_event() {
+    let dir = tempdir();
+    let sock = dir.join("lm.sock");
+    let log = dir.join("events.jsonl");
+    let child = Command::new(lmhost())
+        .args([
+            "session",
+            "--library",
+            &library(),
+            "--port",
+            "autd3:emulator",
+            "--synthetic",
+        ])
+        .args([
+            "--control",
+            sock.to_str().unwrap(),
+            "--events",
+            log.to_str().unwrap(),
+        ])
+        .args(["--on-disconnect", "continue"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        let mut s = connect(&sock);
+        let mut r = BufReader::new(s.try_clone().unwrap());
+        let rep = send(
+            &mut s,
+            &mut r,
+            r#"{"cmd":"present","stimulus":"lmm-5hz-a3"}"#,
+        );
+        assert_eq!(rep["ok"], true, "{rep}");
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    // SAFETY-free: kill(1) sends SIGTERM.
+    let st = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = lines(std::fs::read_to_string(&log).unwrap().as_bytes());
+    assert!(
+        !events(&v, "finger").is_empty(),
+        "the synthetic finger was seen"
+    );
+    let off = events(&v, "offset");
+    assert_eq!(off.len(), 1);
+    assert_eq!(off[0]["reason"], "quit");
+    assert_eq!(v.last().unwrap()["event"], "closed");
+}
