@@ -24,6 +24,32 @@ pub const MAX_SECONDS: f64 = 3_600.0;
 /// Most adjustments per trial.
 pub const MAX_ADJUSTMENTS: u32 = 1_000;
 
+/// `trials.csv`'s own columns (factor and question names may not reuse
+/// them; `record` writes them).
+pub const FIXED: [&str; 21] = [
+    "participant",
+    "trial",
+    "set",
+    "stimulus",
+    "steps",
+    "dwell_us",
+    "freq_hz",
+    "step_mm",
+    "onset_us",
+    "offset_us",
+    "device_presented_s",
+    "presented_s",
+    "present_fraction",
+    "on_phases",
+    "mutes",
+    "switch_ms",
+    "start_depth_mm",
+    "adjustments",
+    "adjust_answers",
+    "depths_mm",
+    "final_depth_mm",
+];
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct File {
@@ -313,7 +339,7 @@ fn check_label(what: &str, s: &str) -> Result<(), String> {
 }
 
 fn seconds(what: &str, s: f64, zero_ok: bool) -> Result<f64, String> {
-    if !s.is_finite() || s < 0.0 || s > MAX_SECONDS || (!zero_ok && s == 0.0) {
+    if !s.is_finite() || !(0.0..=MAX_SECONDS).contains(&s) || (!zero_ok && s == 0.0) {
         return Err(format!(
             "{what} = {} is out of range: give seconds {} and at most {MAX_SECONDS}",
             crate::limits::show(s),
@@ -624,7 +650,7 @@ impl Protocol {
                 {
                     return Err(at(
                         "start_mm",
-                        format!("give min_mm <= start_mm <= max_mm (max_mm defaults to 100)"),
+                        "give min_mm <= start_mm <= max_mm (max_mm defaults to 100)".into(),
                     ));
                 }
                 if !(1..=MAX_ADJUSTMENTS).contains(&a.max) {
@@ -663,7 +689,7 @@ impl Protocol {
             .chain(questions.iter().flat_map(Question::columns));
         {
             for c in names {
-                if cols.contains(&c) || super::record::FIXED.contains(&c.as_str()) {
+                if cols.contains(&c) || FIXED.contains(&c.as_str()) {
                     return Err(bad(format!(
                         "column `{c}` is used twice (factor and question names and trials.csv's own columns must differ)"
                     )));

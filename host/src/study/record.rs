@@ -35,31 +35,6 @@ pub const ADJUST: [&str; 4] = [
 /// The final depth column.
 pub const FINAL_DEPTH: &str = "final_depth_mm";
 
-/// Every fixed column name (factors and questions may not reuse them).
-pub const FIXED: [&str; 21] = [
-    "participant",
-    "trial",
-    "set",
-    "stimulus",
-    "steps",
-    "dwell_us",
-    "freq_hz",
-    "step_mm",
-    "onset_us",
-    "offset_us",
-    "device_presented_s",
-    "presented_s",
-    "present_fraction",
-    "on_phases",
-    "mutes",
-    "switch_ms",
-    "start_depth_mm",
-    "adjustments",
-    "adjust_answers",
-    "depths_mm",
-    "final_depth_mm",
-];
-
 /// The header of `trials.csv` for `p`.
 pub fn header(p: &Protocol) -> Vec<String> {
     let mut h: Vec<String> = HEAD.iter().map(|s| (*s).to_owned()).collect();
