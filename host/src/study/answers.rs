@@ -431,6 +431,40 @@ mod tests {
         assert_eq!(n.parse("2.5").unwrap(), "2.5");
         assert!(n.parse("11").is_err());
         assert!(n.parse("nan").is_err());
+        // A shuffled choice: numbers index the order shown, labels record.
+        let q = Question {
+            id: "shape".into(),
+            text: String::new(),
+            kind: Kind::Choice {
+                options: vec!["flat".into(), "convex".into(), "concave".into()],
+            },
+            shuffle: true,
+        };
+        let asked = Asked::of(&q, &[2, 0, 1]);
+        assert_eq!(asked.len(), 1);
+        assert!(
+            asked[0]
+                .prompt
+                .contains("1 = concave, 2 = flat, 3 = convex")
+        );
+        assert_eq!(asked[0].parse("1").unwrap(), "concave");
+        assert_eq!(asked[0].parse("convex").unwrap(), "convex");
+        let q = Question {
+            id: "shape".into(),
+            text: "match?".into(),
+            kind: Kind::Likert {
+                points: 7,
+                low: "no".into(),
+                high: "yes".into(),
+                items: vec!["flat".into(), "convex".into()],
+            },
+            shuffle: true,
+        };
+        let cols: Vec<String> = Asked::of(&q, &[1, 0])
+            .into_iter()
+            .map(|a| a.column)
+            .collect();
+        assert_eq!(cols, ["shape_convex", "shape_flat"]);
         let mut l = Lines::from_text("--responses r.txt".into(), "3\n9\n");
         assert_eq!(l.poll(&likert()).unwrap().as_deref(), Some("3"));
         let e = l.poll(&likert()).unwrap_err().to_string();
