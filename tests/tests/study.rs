@@ -399,17 +399,18 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     std::fs::write(&answers, "3\n4\n5\n9\n").unwrap();
     let o = run_exp1("autd3:emulator", &out, &answers, &["--seed", "1"]);
     assert_eq!(o.status.code(), Some(2), "{}", lines(&o));
-    let all = lines(&o);
-    let e = all.lines().last().unwrap();
-    assert!(e.starts_with("error: "), "{all}");
+    let e = lines(&o);
     assert!(
         e.contains("answers.txt line 4: `9` is not an answer"),
         "{e}"
     );
-    assert!(
-        e.contains("no trial is finished") && e.contains("continue with:"),
-        "{e}"
-    );
+    assert_eq!(e.lines().count(), 1, "checked before the device opens: {e}");
+    assert!(!out.join("P01").exists(), "nothing written");
+    // Too few answers: the line where they end.
+    std::fs::write(&answers, "3\n".repeat(149)).unwrap();
+    let o = run_exp1("autd3:emulator", &out, &answers, &["--seed", "1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", lines(&o));
+    assert!(lines(&o).contains("ended at line 150"), "{}", lines(&o));
     // A protocol naming a stimulus the library lacks: refused before the
     // port is even opened (a port that does not exist).
     let text = std::fs::read_to_string(studies("paper-exp1.toml"))
@@ -441,24 +442,37 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
         "{e}"
     );
     assert_eq!(e.lines().count(), 1);
-    // --resume with another protocol.
-    let o = study(&[
-        "run",
-        &studies("paper-exp3.toml"),
-        "--port",
-        "autd3:emulator",
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--finger",
-        "synthetic",
-        "--responses",
-        answers.to_str().unwrap(),
-        "--resume",
-    ])
-    .output()
-    .unwrap();
+    // --resume with nothing to resume, then with another protocol.
+    let resume3 = |out: &Path| {
+        study(&[
+            "run",
+            &studies("paper-exp3.toml"),
+            "--port",
+            "autd3:emulator",
+            "--participant",
+            "P01",
+            "--out",
+            out.to_str().unwrap(),
+            "--finger",
+            "synthetic",
+            "--responses",
+            answers.to_str().unwrap(),
+            "--resume",
+        ])
+        .output()
+        .unwrap()
+    };
+    let o = resume3(&out);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(lines(&o).contains("nothing to resume"), "{}", lines(&o));
+    std::fs::create_dir_all(out.join("P01")).unwrap();
+    let session = serde_json::json!({
+        "protocol_name": "paper-exp1", "protocol_file": "x", "protocol": "name = \"paper-exp1\"",
+        "library_file": "y", "participant": "P01", "seed": 1, "question_order": [],
+        "columns": [], "trials": [], "runs": [],
+    });
+    std::fs::write(out.join("P01/session.json"), session.to_string()).unwrap();
+    let o = resume3(&out);
     assert_eq!(o.status.code(), Some(2));
     assert!(lines(&o).contains("another protocol"), "{}", lines(&o));
     let _ = std::fs::remove_dir_all(&d);

@@ -166,6 +166,7 @@ pub trait Answers {
 }
 
 /// Answers from a file or stdin, one per line, checked as they are used.
+#[derive(Debug, Clone)]
 pub struct Lines {
     name: String,
     lines: Vec<String>,
@@ -214,6 +215,32 @@ impl Lines {
     pub fn skip(&mut self, n: usize) {
         self.next = (self.next + n).min(self.lines.len());
     }
+}
+
+/// Walks the answers `trials` will ask for, in order, through `answers`:
+/// the first bad or missing one is the error (before the device opens).
+pub fn dry_run(
+    p: &super::protocol::Protocol,
+    trials: &[super::design::Planned],
+    answers: &mut dyn Answers,
+) -> anyhow::Result<()> {
+    for t in trials {
+        if let Some(a) = &p.adjustment {
+            let q = Asked::adjustment(a, a.start_mm);
+            for _ in 0..a.max {
+                let ans = answers.poll(&q)?;
+                if ans.as_deref() == Some(a.same.as_str()) {
+                    break;
+                }
+            }
+        }
+        for (q, order) in p.questions.iter().zip(&t.orders) {
+            for asked in Asked::of(q, order) {
+                answers.poll(&asked)?;
+            }
+        }
+    }
+    Ok(())
 }
 
 impl Answers for Lines {

@@ -242,6 +242,11 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
         AnswerSource::File(path) => Some(answers::Lines::open(path)?),
         AnswerSource::Interactive => None,
     };
+    if let Some(l) = &lines
+        && !o.resume
+    {
+        answers::dry_run(&p, &plan, &mut l.clone())?;
+    }
     let scene = Scene::load_or_default(o.scene.as_deref())?;
     let target = o.port.target()?;
     let plans = p.library.plan_for(&target, &scene)?;
@@ -276,6 +281,9 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
                     .map(|r| record::answers_used(&p, &header, r))
                     .sum(),
             );
+            if o.resume {
+                answers::dry_run(&p, &plan[done.len()..], &mut l.clone())?;
+            }
             Box::new(l)
         }
         None if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
