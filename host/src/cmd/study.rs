@@ -4,6 +4,9 @@
 use std::path::PathBuf;
 
 use clap::{Subcommand, ValueEnum};
+use lmhost::stream::filter::FilterKind;
+use lmhost::stream::run::on_thread;
+use lmhost::stream::source;
 use lmhost::study::{self, AnswerSource, FingerSource, RunOptions};
 
 use super::args::PortArgs;
@@ -57,9 +60,20 @@ struct RunArgs {
     /// [default: keys at the terminal].
     #[arg(long, value_name = "FILE")]
     responses: Option<PathBuf>,
-    /// The finger source.
+    /// The finger source: a synthetic one, or none (then --stream or
+    /// --udp may give tracked centroids).
     #[arg(long, value_enum, default_value_t = Finger::None)]
     finger: Finger,
+    /// Tracked finger centroids as JSON or CSV lines from FILE, or `-` for
+    /// stdin (`lmhost track --json` lines included).
+    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
+    stream: Option<PathBuf>,
+    /// Tracked finger centroids as UDP datagrams on 127.0.0.1:PORT.
+    #[arg(long, value_name = "PORT")]
+    udp: Option<u16>,
+    /// Centroid filter for --stream / --udp.
+    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
+    filter: FilterKind,
     /// Multiplies every duration of the timeline (recorded).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     time_scale: f64,
@@ -91,8 +105,56 @@ impl Args {
 }
 
 impl RunArgs {
+    fn finger(&self) -> anyhow::Result<FingerSource> {
+        let tracked = self.stream.is_some() || self.udp.is_some();
+        if tracked && self.finger == Finger::Synthetic {
+            lmhost::bad_input!("--finger synthetic and --stream / --udp exclude each other");
+        }
+        let stdin = self.stream.as_ref().is_some_and(|p| p.as_os_str() == "-");
+        let responses_stdin = self.responses.as_ref().is_none_or(|p| p.as_os_str() == "-");
+        if stdin && responses_stdin {
+            lmhost::bad_input!("--stream - reads stdin, so the answers need --responses FILE");
+        }
+        let filter = self.filter.build();
+        Ok(if let Some(port) = self.udp {
+            let counts = std::sync::Arc::new(source::UdpCounts::default());
+            let udp = source::udp(
+                port,
+                lmhost::limits::duration_s(
+                    "study",
+                    lmhost::limits::MAX_SECONDS,
+                    lmhost::limits::MAX_SECONDS,
+                )?,
+                counts,
+            )?;
+            FingerSource::Samples {
+                feed: on_thread(move || udp)?,
+                filter,
+                name: format!("udp:{port}"),
+            }
+        } else if let Some(p) = &self.stream {
+            let feed = if stdin {
+                on_thread(|| source::read_lines(std::io::stdin().lock()))?
+            } else {
+                let f = lmhost::files::open_input("--stream file", p)?;
+                let reader = std::io::BufReader::new(f);
+                on_thread(move || source::read_lines(reader))?
+            };
+            FingerSource::Samples {
+                feed,
+                filter,
+                name: format!("stream:{}", p.display()),
+            }
+        } else if self.finger == Finger::Synthetic {
+            FingerSource::Synthetic
+        } else {
+            FingerSource::None
+        })
+    }
+
     fn run(self) -> anyhow::Result<()> {
-        let r = study::run(&RunOptions {
+        let finger = self.finger()?;
+        let r = study::run(RunOptions {
             protocol: self.protocol,
             port: self.port.spec(),
             scene: self.scene,
@@ -103,10 +165,7 @@ impl RunArgs {
                 Some(p) => AnswerSource::File(p),
                 None => AnswerSource::Interactive,
             },
-            finger: match self.finger {
-                Finger::None => FingerSource::None,
-                Finger::Synthetic => FingerSource::Synthetic,
-            },
+            finger,
             time_scale: self.time_scale,
             resume: self.resume,
         })?;

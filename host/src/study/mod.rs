@@ -44,13 +44,38 @@ pub const FINGER_PERIOD_US: u64 = 11_111;
 pub const MAX_TIME_SCALE: f64 = 100.0;
 
 /// Where the finger comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FingerSource {
     /// None: the protocol may not wait for the finger.
     None,
     /// A finger at the scene's centre that touches for each trial and
     /// leaves between trials.
     Synthetic,
+    /// Tracked centroids (a file, stdin, UDP: `lmhost track --json`'s
+    /// lines) through a filter; the finger is present when they say so.
+    Samples {
+        /// The reader thread.
+        feed: crate::stream::run::Threaded,
+        /// The centroid filter.
+        filter: Box<dyn crate::stream::filter::Filter + Send>,
+        /// What it is, for `session.json`.
+        name: String,
+    },
+}
+
+impl FingerSource {
+    fn name(&self) -> String {
+        match self {
+            Self::None => "none".into(),
+            Self::Synthetic => "synthetic".into(),
+            Self::Samples { name, .. } => name.clone(),
+        }
+    }
+}
+
+impl std::fmt::Debug for FingerSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
 }
 
 /// Where answers come from.
@@ -64,7 +89,7 @@ pub enum AnswerSource {
 }
 
 /// What `lmhost study run` was asked to do.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct RunOptions {
     /// The protocol file.
     pub protocol: PathBuf,
@@ -151,7 +176,7 @@ fn resume_hint(o: &RunOptions) -> String {
 struct Interrupted;
 
 /// Runs (or resumes) one participant's session.
-pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
+pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     check_participant(&o.participant)?;
     if !(o.time_scale.is_finite() && o.time_scale > 0.0 && o.time_scale <= MAX_TIME_SCALE) {
         crate::bad_input!(
@@ -160,9 +185,9 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
         );
     }
     let p = Protocol::load(&o.protocol)?;
-    if p.timeline.wait_for_finger && o.finger == FingerSource::None {
+    if p.timeline.wait_for_finger && matches!(o.finger, FingerSource::None) {
         crate::bad_input!(
-            "study protocol {}: the timeline waits for the finger: give --finger synthetic",
+            "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp)",
             o.protocol.display()
         );
     }
@@ -318,19 +343,22 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
             })
             .collect(),
         time_scale: o.time_scale,
-        finger: match o.finger {
-            FingerSource::None => "none".into(),
-            FingerSource::Synthetic => "synthetic".into(),
-        },
+        finger: o.finger.name(),
     });
     crate::files::write_whole(&session_path, &serde_json::to_vec_pretty(&file)?)?;
     crate::stop::graceful();
     let centre = session.scene().center_mm;
+    let (samples, synthetic) = match std::mem::replace(&mut o.finger, FingerSource::None) {
+        FingerSource::Samples { feed, filter, .. } => (Some((feed, filter)), None),
+        FingerSource::Synthetic => (None, Some(centre)),
+        FingerSource::None => (None, None),
+    };
     let mut r = Runner {
+        samples,
         session: Some(session),
         events: events_log,
         answers,
-        synthetic: (o.finger == FingerSource::Synthetic).then_some(centre),
+        synthetic,
         touching: false,
         next_feed_us: 0,
         finger_present: None,
@@ -422,7 +450,7 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
         };
         let msg = format!(
             "{what}; the array is silent; {kept}; continue with: {}",
-            resume_hint(o)
+            resume_hint(&o)
         );
         return Err(if e.chain().any(|c| c.is::<InputError>()) {
             InputError::new(msg).into()
@@ -434,7 +462,13 @@ pub fn run(o: &RunOptions) -> anyhow::Result<RunReport> {
     Ok(report)
 }
 
+type Samples = (
+    crate::stream::run::Threaded,
+    Box<dyn crate::stream::filter::Filter + Send>,
+);
+
 struct Runner {
+    samples: Option<Samples>,
     session: Option<Session>,
     events: AppendLog,
     answers: Box<dyn Answers>,
@@ -500,6 +534,26 @@ impl Runner {
             if now >= self.next_feed_us {
                 self.next_feed_us = now + FINGER_PERIOD_US;
                 self.session().finger(Some(c))?;
+            }
+        }
+        if let Some((feed, filter)) = &mut self.samples {
+            use crate::stream::run::Feed as _;
+            let mut last = None;
+            loop {
+                match feed.next_within(Duration::ZERO) {
+                    crate::reader::Next::Ready(x) => last = Some(filter.update(&x?)),
+                    crate::reader::Next::Idle => break,
+                    crate::reader::Next::End => {
+                        return Err(InputError::new(
+                            "the finger's centroid stream ended before the session",
+                        )
+                        .into());
+                    }
+                }
+            }
+            // Only the newest sample matters to the device.
+            if let Some(p) = last {
+                self.session().finger(p)?;
             }
         }
         self.session().poll()?;
