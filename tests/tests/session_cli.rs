@@ -344,3 +344,64 @@ fn sigterm_ends_the_session_silent_with_a_closed_event() {
     assert_eq!(off[0]["reason"], "quit");
     assert_eq!(v.last().unwrap()["event"], "closed");
 }
+
+#[test]
+fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
+    let dir = tempdir();
+    let rec = dir.join("d.npy");
+    let scene = format!("{}/../scenes/paper.toml", env!("CARGO_MANIFEST_DIR"));
+    let out = Command::new(lmhost())
+        .args([
+            "track",
+            "--synthetic",
+            "--scene",
+            &scene,
+            "--seconds",
+            "1.5",
+        ])
+        .args(["--record", rec.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = run_stdin(
+        &[
+            "session",
+            "--library",
+            &library(),
+            "--scene",
+            &scene,
+            "--port",
+            "autd3:emulator",
+            "--control",
+            "-",
+            "--depth",
+            rec.to_str().unwrap(),
+        ],
+        concat!(
+            r#"{"cmd":"present","stimulus":"lms-25hz-a3","on_s":1.2}"#,
+            "\n"
+        )
+        .as_bytes(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = lines(&out.stdout);
+    // The synthetic finger arrives after a while: muted until then.
+    assert!(
+        events(&v, "finger").iter().any(|e| e["present"] == true),
+        "{v:?}"
+    );
+    assert!(!events(&v, "mute").is_empty(), "{v:?}");
+    assert!(!events(&v, "unmute").is_empty(), "{v:?}");
+    let off = events(&v, "offset");
+    let f = off[0]["present_fraction"].as_f64().unwrap();
+    assert!(f > 0.0 && f < 1.0, "{}", off[0]);
+}

@@ -53,8 +53,27 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     events: Option<PathBuf>,
     /// A synthetic finger resting at the scene's centre.
-    #[arg(long, conflicts_with_all = ["stream", "udp"])]
+    #[arg(long, conflicts_with_all = ["stream", "udp", "depth", "camera", "depth_stream"])]
     synthetic: bool,
+    /// The finger tracked in recorded depth frames (`.npy`, uint16,
+    /// frames × height × width; intrinsics and time stamps beside it),
+    /// replayed at their recorded speed; needs --scene with [camera] and
+    /// [tracking].
+    #[arg(long, value_name = "FILE.npy", conflicts_with_all = ["stream", "udp", "camera", "depth_stream"])]
+    depth: Option<PathBuf>,
+    /// The finger tracked live from a RealSense camera (needs --scene).
+    #[arg(long, conflicts_with_all = ["stream", "udp", "depth_stream"])]
+    camera: bool,
+    /// The finger tracked in an LMDEPTH1 depth stream from FILE, `-` for
+    /// stdin (needs --scene).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["stream", "udp"])]
+    depth_stream: Option<PathBuf>,
+    /// Camera intrinsics (TOML) for --depth [default: beside it].
+    #[arg(long, value_name = "FILE")]
+    intrinsics: Option<PathBuf>,
+    /// Time stamps for --depth [default: beside it, else 90 fps].
+    #[arg(long, value_name = "FILE")]
+    timestamps: Option<PathBuf>,
     /// Finger centroids as JSON or CSV lines from FILE, or `-` for stdin
     /// (the formats `lmhost stream` reads, `lmhost track --json` lines
     /// included).
@@ -94,9 +113,11 @@ impl Args {
         if control == Control::Stdio && self.tcp.is_some() {
             lmhost::bad_input!("--tcp needs a socket --control, not `-`");
         }
-        let stream_stdin = self.stream.as_ref().is_some_and(|p| p.as_os_str() == "-");
+        let stream_stdin = [&self.stream, &self.depth_stream]
+            .iter()
+            .any(|s| s.as_ref().is_some_and(|p| p.as_os_str() == "-"));
         if control == Control::Stdio && stream_stdin {
-            lmhost::bad_input!("--control - and --stream - cannot both read stdin");
+            lmhost::bad_input!("--control - and a finger source on `-` cannot both read stdin");
         }
         let library = Library::load(&self.library)?;
         let scene = Scene::load_or_default(self.scene.as_deref())?;
@@ -112,7 +133,55 @@ impl Args {
                 lmhost::errln!("warning: {w}");
             }
         }
-        let finger = if self.synthetic {
+        let tracked = self.depth.is_some() || self.camera || self.depth_stream.is_some();
+        if (self.intrinsics.is_some() || self.timestamps.is_some()) && self.depth.is_none() {
+            lmhost::bad_input!("--intrinsics and --timestamps apply to --depth only");
+        }
+        if tracked && self.scene.is_none() {
+            lmhost::bad_input!(
+                "--scene is needed with --depth, --camera and --depth-stream: its [camera] and [tracking] place the box"
+            );
+        }
+        for p in [&self.depth, &self.intrinsics, &self.timestamps]
+            .into_iter()
+            .flatten()
+        {
+            lmhost::files::check_input("input", p)?;
+        }
+        let finger = if tracked {
+            let opts = lmhost::track::session::Options {
+                scene: self.scene.clone(),
+                depth: self.depth.clone(),
+                timestamps: self.timestamps.clone(),
+                intrinsics: self.intrinsics.clone(),
+                synthetic: false,
+                seconds: None,
+                noise_mm: None,
+                holes: None,
+                camera: self.camera,
+                stream: self.depth_stream.clone(),
+                record: None,
+                fast: false,
+                json: false,
+                plot: None,
+                plot_frame: None,
+                filter: Some(FilterKind::None),
+                z_profile: None,
+                replan_mm: 0.3,
+                replan: false,
+                enter_frames: 2,
+                leave_frames: 2,
+                device: false,
+            };
+            Finger::Samples(on_thread(move || {
+                let it: Box<dyn Iterator<Item = anyhow::Result<lmhost::stream::Sample>>> =
+                    match lmhost::track::session::Session::open(opts) {
+                        Ok(s) => Box::new(s.samples()),
+                        Err(e) => Box::new(std::iter::once(Err(e))),
+                    };
+                it
+            })?)
+        } else if self.synthetic {
             Finger::Synthetic
         } else if let Some(port) = self.udp {
             let counts = std::sync::Arc::new(source::UdpCounts::default());

@@ -213,6 +213,28 @@ impl Session {
         })
     }
 
+    /// The gated centre of every frame as a finger sample, paced like the
+    /// source (a replay at its recorded speed unless `fast`), until the
+    /// source ends or a stop is requested: the finger source of the rig
+    /// session. Nothing is printed.
+    pub fn samples(mut self) -> impl Iterator<Item = anyhow::Result<Sample>> {
+        let mut done = false;
+        std::iter::from_fn(move || {
+            if done || crate::stop::requested() {
+                return None;
+            }
+            let r = self.run.next(&mut |_| Ok(()));
+            match r {
+                Ok(Some(res)) => Some(Ok(res.sample())),
+                Ok(None) => None,
+                Err(e) => {
+                    done = true;
+                    Some(Err(e))
+                }
+            }
+        })
+    }
+
     /// The scene the session tracks in (the device's stimulus is planned
     /// in it).
     pub fn scene(&self) -> &Scene {
