@@ -559,7 +559,8 @@ mod tests {
     #[test]
     fn step_decoder_matches_the_whole_sequence_step_by_step() {
         let t = 7;
-        let phases: [u8; 7 * 13] = core::array::from_fn(|i| ((i / 7) * (i % 7 + 2) * 5 + i % 3) as u8);
+        let phases: [u8; 7 * 13] =
+            core::array::from_fn(|i| ((i / 7) * (i % 7 + 2) * 5 + i % 3) as u8);
         for enc in [Encoding::Raw, Encoding::Delta] {
             let mut buf = [0u8; 512];
             let n = encode(enc, &phases, t, &mut buf).unwrap();

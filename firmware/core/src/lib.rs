@@ -111,7 +111,7 @@ pub mod time;
 pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
 pub use output::{OutputDriver, OutputFrame, Record, RecordingDriver, SpiOutput};
 pub use serve::{HostLink, Server, serve};
-pub use store::{CHUNK_LOG, SLOTS, StoreError, memory_bytes};
+pub use store::{BOARD_LIBRARY_BYTES, CHUNK_LOG, Form, SLOTS, StoreError, memory_bytes};
 pub use take_once::TakeOnce;
 pub use time::TimeExtender;
 

@@ -84,19 +84,21 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
             any::<u32>(),
             (any::<u16>(), any::<u16>(), any::<u32>(), any::<u32>())
         )
-            .prop_map(|(p, fw, mt, sb, sl, hz, dw, (mc, rt, rc, lf))| Message::Info(Info {
-                proto_version: p,
-                fw_version: fw,
-                max_transducers: mt,
-                slot_bytes: sb,
-                slots: sl,
-                timer_hz: hz,
-                min_dwell_us: dw,
-                max_chunk: mc,
-                rig_transducers: rt,
-                rig_crc32: rc,
-                library_free: lf,
-            })),
+            .prop_map(
+                |(p, fw, mt, sb, sl, hz, dw, (mc, rt, rc, lf))| Message::Info(Info {
+                    proto_version: p,
+                    fw_version: fw,
+                    max_transducers: mt,
+                    slot_bytes: sb,
+                    slots: sl,
+                    timer_hz: hz,
+                    min_dwell_us: dw,
+                    max_chunk: mc,
+                    rig_transducers: rt,
+                    rig_crc32: rc,
+                    library_free: lf,
+                })
+            ),
         (any::<u16>(), any::<u32>())
             .prop_map(|(transducers, crc32)| Message::BeginRig(BeginRig { transducers, crc32 })),
         Just(Message::CommitRig),
