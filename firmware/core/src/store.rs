@@ -13,10 +13,12 @@
 //! **The storage rule**, decided at `BeginUpload` with the space the upload
 //! would have (free bytes plus the slot's old entry and any unfinished
 //! upload, which it replaces): a Raw upload is stored Raw; a Delta upload
-//! is expanded to Raw when, after that, at least half of the arena is
-//! still free ([`Store::raw_fits`]); otherwise it is kept as Delta. What
-//! does not fit even so is refused with `LibraryFull`, and the old entry
-//! stays as it was.
+//! is expanded to Raw when its raw form is no larger than its stream (a
+//! few big steps, e.g. 4 mm at 25 Hz), or when after expanding at least
+//! three quarters of the arena would still be free ([`Store::raw_fits`]:
+//! the first, small entries of a library play from raw frames); otherwise
+//! it is kept as Delta. Greedy, in upload order. What does not fit even so
+//! is refused with `LibraryFull`, and the old entry stays as it was.
 //!
 //! **Space**: an entry is placed first-fit in the gaps between entries; when
 //! no gap is large enough but the free bytes are, the entries are
@@ -354,11 +356,12 @@ impl<'m> Store<'m> {
         }
     }
 
-    /// The storage rule for a Delta upload: expand to Raw when `raw` bytes
-    /// leave at least half of the arena free out of `free` (see the module
-    /// docs).
-    pub fn raw_fits(&self, raw: u64, free: u64) -> bool {
-        raw <= free && free - raw >= self.arena.len() as u64 / 2
+    /// The storage rule for a Delta upload of `raw` raw bytes and
+    /// `encoded` stream bytes with `free` bytes available: expand to Raw
+    /// when raw is no larger, or when it leaves at least three quarters of
+    /// the arena free (see the module docs).
+    pub fn raw_fits(&self, raw: u64, encoded: u64, free: u64) -> bool {
+        raw <= encoded || (raw <= free && free - raw >= self.arena.len() as u64 / 4 * 3)
     }
 
     /// Drops `slot`'s entry (and the play cursor on it).
@@ -396,7 +399,7 @@ impl<'m> Store<'m> {
         let free = u64::from(self.free_bytes()) + reclaim as u64;
         let raw = h.raw_len();
         let form = match b.encoding {
-            Encoding::Delta if !self.raw_fits(raw, free) => Form::Delta,
+            Encoding::Delta if !self.raw_fits(raw, u64::from(b.encoded_len), free) => Form::Delta,
             _ => Form::Raw,
         };
         let need = match form {
@@ -866,8 +869,8 @@ mod tests {
         let raw: [u8; 45] = core::array::from_fn(|i| ((i / 5) * (i % 5 + 1) * 3) as u8);
         let mut enc = [0u8; 256];
         let n = lm_proto::codec::encode(Encoding::Delta, &raw, usize::from(t), &mut enc).unwrap();
-        // 60 bytes: 45 raw would leave 15 < 30 free, so the entry stays Delta;
-        // 200: expanded to Raw.
+        // 60 bytes: 45 raw would leave 15 < 45 free, so the entry stays Delta;
+        // 200: expanded to Raw (155 ≥ 150 free).
         for (arena, form) in [(60, Form::Delta), (200, Form::Raw)] {
             let mut mem = [0u8; memory_bytes(200, 5)];
             let mut st = Store::new(&mut mem[..memory_bytes(arena, 5)], 5).unwrap();
