@@ -447,6 +447,7 @@ impl StepDecoder {
         let mut used = 0;
         let mut done = 0u16;
         while self.step < self.steps && done < max_steps {
+            let used_before = used;
             let k = usize::from(self.step);
             let (head, rest) = ring.split_at_mut((k % 3) * t);
             let (cur, tail) = rest.split_at_mut(t);
@@ -464,27 +465,52 @@ impl StepDecoder {
                         _ => &tail[(j % 3 - k % 3 - 1) * t..(j % 3 - k % 3) * t],
                     }
                 };
-                let prev = row(k - 1);
-                let prev2 = (k >= 2).then(|| row(k - 2));
-                while self.idx < t {
-                    let e = loop {
-                        if let Some((e, len)) = peek_code(self.acc, self.nbits) {
-                            self.nbits -= len;
-                            self.acc &= (1u32 << self.nbits) - 1;
-                            break e;
-                        }
-                        let Some(&b) = data.get(used) else {
-                            return Ok(used);
-                        };
+                let prev = &row(k - 1)[..t];
+                let prev2 = if k >= 2 { row(k - 2) } else { prev };
+                let prev2 = &prev2[..t];
+                let cur = &mut cur[..t];
+                let (mut acc, mut nbits) = (self.acc, self.nbits);
+                let mut i = self.idx;
+                while i < t {
+                    // Keep at least 11 bits (the longest code) buffered
+                    // while input lasts: then a code always decodes.
+                    while nbits <= 16 {
+                        let Some(&b) = data.get(used) else { break };
                         used += 1;
-                        self.acc = (self.acc << 8) | u32::from(b);
-                        self.nbits += 8;
-                        self.consumed += 1;
+                        acc = (acc << 8) | u32::from(b);
+                        nbits += 8;
+                    }
+                    let (e, len) = if nbits >= 11 {
+                        // Fast path: every code is complete (`acc` holds
+                        // exactly `nbits` bits).
+                        if acc >> (nbits - 1) == 0 {
+                            (0, 1)
+                        } else {
+                            match (acc >> (nbits - 3)) & 0b111 {
+                                0b100 => (1, 3),
+                                0b101 => (-1, 3),
+                                0b110 => ((((acc >> (nbits - 7)) as u8) << 4) as i8 >> 4, 7),
+                                _ => ((acc >> (nbits - 11)) as u8 as i8, 11),
+                            }
+                        }
+                    } else {
+                        match peek_code(acc, nbits) {
+                            Some(c) => c,
+                            None => break,
+                        }
                     };
-                    let i = self.idx;
-                    cur[i] = predict(prev[i], prev2.map(|p| p[i])).wrapping_add(e as u8);
-                    self.idx += 1;
+                    nbits -= len;
+                    acc &= (1u32 << nbits) - 1;
+                    // Step 1 is predicted by step 0 alone (prev2 = prev
+                    // makes 2·p − p = p).
+                    let pred = prev[i].wrapping_mul(2).wrapping_sub(prev2[i]);
+                    cur[i] = pred.wrapping_add(e as u8);
+                    i += 1;
                 }
+                self.consumed += used - used_before;
+                self.idx = i;
+                self.acc = acc;
+                self.nbits = nbits;
             }
             if self.idx < t {
                 return Ok(used);
