@@ -140,9 +140,9 @@ pub struct Device<'m> {
 }
 
 impl<'m> Device<'m> {
-    /// A device over `mem`, the sequence memory (see
-    /// [`memory_bytes`](crate::memory_bytes) for the size a slot capacity
-    /// needs).
+    /// A device over `mem`, the sequence memory: the rig's positions and the
+    /// stimulus library's arena (see [`memory_bytes`](crate::memory_bytes)
+    /// for the size a library needs).
     pub fn new(cfg: Config, mem: &'m mut [u8]) -> Result<Self, DeviceError> {
         if cfg.timer_hz == 0 {
             return Err(DeviceError::BadTimer);
