@@ -352,6 +352,9 @@ mod tests {
             timer_hz: 1_000_000,
             min_dwell_us: 1000,
             max_chunk: 1024,
+            rig_transducers: 0,
+            rig_crc32: 0,
+            library_free: 200 * 996,
         }
     }
 

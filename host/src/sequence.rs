@@ -191,6 +191,7 @@ impl Sequence {
             foci_per_step: traj.foci as u8,
             sound_speed_mm_s: units::sound_speed_mm_s(scene.sound_speed_m_s)?,
             max_offset_um: units::max_offset_um(DEFAULT_MAX_OFFSET_MM)?,
+            intensity: u8::MAX,
         })
     }
 

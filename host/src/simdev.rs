@@ -279,7 +279,10 @@ pub fn serve<C: Core>(
 /// Settings of a simulated device.
 #[derive(Debug, Clone, Copy)]
 pub struct SimConfig {
-    /// Steps per slot the memory holds at the full transducer count.
+    /// Steps at the full transducer count of a raw sequence; the library
+    /// holds twice that (the two slots of protocol version 2; the default
+    /// 400 is more than the boards' library,
+    /// [`lm_fw_core::BOARD_LIBRARY_BYTES`]).
     pub slot_steps: u32,
     /// Most transducers.
     pub max_transducers: u16,
@@ -378,7 +381,7 @@ impl FwCore {
     /// process (the simulator is built once per run).
     pub fn new(cfg: SimConfig) -> anyhow::Result<Self> {
         let t = cfg.max_transducers as usize;
-        let bytes = lm_fw_core::memory_bytes(cfg.slot_steps as usize * t, t);
+        let bytes = lm_fw_core::memory_bytes(2 * cfg.slot_steps as usize * t, t);
         let mem: &'static mut [u8] = Box::leak(vec![0u8; bytes].into_boxed_slice());
         let mut c = lm_fw_core::Config::new(1_000_000);
         c.max_transducers = cfg.max_transducers;

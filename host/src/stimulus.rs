@@ -43,6 +43,9 @@ pub struct Stimulus {
     pub z_profile_mm: Vec<f64>,
     /// Multi-focus synthesis.
     pub synthesis: Synthesis,
+    /// Output intensity, 0..=1 (1 = full); the plan's header carries
+    /// `round(intensity × 255)` (the device puts it in every output frame).
+    pub intensity: f64,
 }
 
 impl Default for Stimulus {
@@ -57,6 +60,7 @@ impl Default for Stimulus {
             center_mm: None,
             z_profile_mm: Vec::new(),
             synthesis: Synthesis::Linear,
+            intensity: 1.0,
         }
     }
 }
@@ -158,8 +162,10 @@ impl Stimulus {
     /// Plans the stimulus in `scene` for the device `target` names. A plan
     /// that cannot be made is one error and no warning.
     pub fn plan_for(&self, target: &Target, scene: Scene) -> anyhow::Result<TargetPlan> {
+        let intensity = intensity_byte(self.intensity)?;
         let params = self.params(&scene);
-        let (plan, grid) = target.plan_on_grid(&params, &scene, &self.synthesis)?;
+        let (mut plan, grid) = target.plan_on_grid(&params, &scene, &self.synthesis)?;
+        plan.sequence.header.intensity = intensity;
         let warnings = lm_plane_warning(&plan.scene, params.center_mm)
             .into_iter()
             .collect();
@@ -189,6 +195,17 @@ impl Stimulus {
     pub fn plan(&self, scene: Scene) -> anyhow::Result<TargetPlan> {
         self.plan_for(&Target::Lm, scene)
     }
+}
+
+/// The wire intensity `round(intensity × 255)` of an intensity in 0..=1;
+/// anything else (NaN included) is an [`InputError`], never clamped.
+pub fn intensity_byte(intensity: f64) -> Result<u8, InputError> {
+    if !(0.0..=1.0).contains(&intensity) {
+        return Err(InputError::new(format!(
+            "intensity {intensity} is out of range: allowed 0..=1 (1 = full)"
+        )));
+    }
+    Ok((intensity * 255.0).round() as u8)
 }
 
 /// A one-line warning when the scene's LM plane is within
@@ -234,6 +251,28 @@ mod tests {
             (m.timing.step_error_mm - (2.0 * std::f64::consts::PI * 3.0 / 82.0 - 0.23)).abs()
                 < 1e-12
         );
+    }
+
+    #[test]
+    fn intensity_goes_into_the_header_and_out_of_range_is_input_error() {
+        let half = Stimulus {
+            intensity: 0.5,
+            ..Stimulus::default()
+        };
+        let p = half.plan(Scene::default()).unwrap();
+        assert_eq!(p.plan.sequence.header.intensity, 128);
+        let full = Stimulus::default().plan(Scene::default()).unwrap();
+        assert_eq!(full.plan.sequence.header.intensity, 255);
+        assert_eq!(intensity_byte(0.0).unwrap(), 0);
+        for bad in [-0.01, 1.01, f64::NAN, f64::INFINITY] {
+            let s = Stimulus {
+                intensity: bad,
+                ..Stimulus::default()
+            };
+            let e = s.plan(Scene::default()).unwrap_err();
+            assert!(e.downcast_ref::<InputError>().is_some(), "{bad}: {e}");
+            assert!(!e.to_string().contains('\n'), "one line: {e}");
+        }
     }
 
     #[test]

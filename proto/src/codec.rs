@@ -12,7 +12,10 @@
 //!   cannot go below 50 %: they need ~3.3 bits each). Layout in `SPEC.md`.
 //!
 //! The host encodes with [`encode`] (size it with [`encoded_len`]); the
-//! device decodes chunk by chunk with the no-heap streaming [`Decoder`].
+//! device decodes chunk by chunk with the no-heap streaming [`Decoder`]
+//! (into the whole raw sequence), or keeps the encoded stream and decodes it
+//! one step at a time with [`StepDecoder`] (over a ring of three steps:
+//! checking an upload it keeps encoded, and playing it).
 
 use core::fmt;
 
@@ -303,8 +306,16 @@ impl Decoder {
 
     /// The next residual and its code length, if enough bits are buffered.
     fn peek_code(&self) -> Option<(i8, u32)> {
-        let n = self.nbits;
-        let top = |k: u32| (self.acc >> (n - k)) & ((1 << k) - 1);
+        peek_code(self.acc, self.nbits)
+    }
+}
+
+/// The residual at the top of the `n` buffered bits of `acc` and its code
+/// length, if enough bits are buffered.
+#[inline]
+fn peek_code(acc: u32, n: u32) -> Option<(i8, u32)> {
+    {
+        let top = |k: u32| (acc >> (n - k)) & ((1 << k) - 1);
         if n < 1 {
             return None;
         }
@@ -321,6 +332,203 @@ impl Decoder {
             0b111 if n >= 11 => Some((top(11) as u8 as i8, 11)),
             _ => None,
         }
+    }
+}
+
+/// Streaming decoder over a **ring of three steps** instead of the whole
+/// sequence (no heap, no sequence-sized buffer): each completed step is
+/// handed to a callback and stays readable in the ring until two more
+/// steps complete ([`StepDecoder::row`]). A device uses it to check the CRC
+/// of an upload it keeps encoded (fed chunk by chunk) and to play such an
+/// entry (fed the stored stream from [`consumed`](Self::consumed), one step
+/// per call; a new cycle [`restart`](Self::restart)s it). Same stream rules
+/// and errors as [`Decoder`]; after an error it keeps returning it.
+#[derive(Clone, Debug)]
+pub struct StepDecoder {
+    encoding: Encoding,
+    transducers: usize,
+    steps: u16,
+    /// The step being decoded (`steps` once complete).
+    step: u16,
+    /// Phases of `step` decoded so far.
+    idx: usize,
+    consumed: usize,
+    acc: u32,
+    nbits: u32,
+    failed: Option<CodecError>,
+}
+
+impl StepDecoder {
+    /// A decoder for `steps` × `transducers` phases.
+    pub fn new(encoding: Encoding, steps: u16, transducers: u16) -> Self {
+        Self {
+            encoding,
+            transducers: usize::from(transducers),
+            steps,
+            step: 0,
+            idx: 0,
+            consumed: 0,
+            acc: 0,
+            nbits: 0,
+            failed: None,
+        }
+    }
+
+    /// Ring bytes the decoder needs for `transducers`: three steps.
+    pub const fn ring_len(transducers: usize) -> usize {
+        3 * transducers
+    }
+
+    /// Back to step 0 (the caller feeds the stream from its start again).
+    pub fn restart(&mut self) {
+        *self = Self::new(self.encoding, self.steps, self.transducers as u16);
+    }
+
+    /// Steps completed so far (the next one to complete is this index).
+    pub fn steps_done(&self) -> u16 {
+        self.step
+    }
+
+    /// Encoded bytes taken so far (the stream offset the next feed starts at).
+    pub fn consumed(&self) -> usize {
+        self.consumed
+    }
+
+    /// Checks the stream ended exactly at the end of the sequence.
+    pub fn finish(&self) -> Result<(), CodecError> {
+        match self.failed {
+            Some(e) => Err(e),
+            None if self.step < self.steps => Err(CodecError::Truncated),
+            None => Ok(()),
+        }
+    }
+
+    /// Phases of completed step `step` in `ring` (valid until two more
+    /// steps complete); empty if `ring` is too short.
+    pub fn row(ring: &[u8], transducers: usize, step: u16) -> &[u8] {
+        let at = usize::from(step % 3) * transducers;
+        ring.get(at..at + transducers).unwrap_or(&[])
+    }
+
+    /// Decodes from `data`, the stream continuing at
+    /// [`consumed`](Self::consumed), until `data` runs out or `max_steps`
+    /// more steps complete; `on_step(k, phases)` sees each completed step.
+    /// Returns the bytes of `data` taken (bits of a partly used byte are
+    /// kept). Once the last step completes, `data` must hold nothing more
+    /// (`Overlong`) and the padding must be zero (`BadPadding`).
+    pub fn feed(
+        &mut self,
+        data: &[u8],
+        ring: &mut [u8],
+        max_steps: u16,
+        mut on_step: impl FnMut(u16, &[u8]),
+    ) -> Result<usize, CodecError> {
+        if let Some(e) = self.failed {
+            return Err(e);
+        }
+        let r = self.feed_inner(data, ring, max_steps, &mut on_step);
+        if let Err(e) = r {
+            self.failed = Some(e);
+        }
+        r
+    }
+
+    fn feed_inner(
+        &mut self,
+        data: &[u8],
+        ring: &mut [u8],
+        max_steps: u16,
+        on_step: &mut impl FnMut(u16, &[u8]),
+    ) -> Result<usize, CodecError> {
+        let t = self.transducers;
+        if ring.len() < Self::ring_len(t) {
+            return Err(CodecError::BufferTooSmall);
+        }
+        let mut used = 0;
+        let mut done = 0u16;
+        while self.step < self.steps && done < max_steps {
+            let used_before = used;
+            let k = usize::from(self.step);
+            let (head, rest) = ring.split_at_mut((k % 3) * t);
+            let (cur, tail) = rest.split_at_mut(t);
+            if self.encoding == Encoding::Raw || k == 0 {
+                let n = (t - self.idx).min(data.len() - used);
+                cur[self.idx..self.idx + n].copy_from_slice(&data[used..used + n]);
+                self.idx += n;
+                used += n;
+                self.consumed += n;
+            } else {
+                // The two previous steps, wherever the ring holds them.
+                let row = |j: usize| -> &[u8] {
+                    match (j % 3).cmp(&(k % 3)) {
+                        core::cmp::Ordering::Less => &head[(j % 3) * t..(j % 3 + 1) * t],
+                        _ => &tail[(j % 3 - k % 3 - 1) * t..(j % 3 - k % 3) * t],
+                    }
+                };
+                let prev = &row(k - 1)[..t];
+                let prev2 = if k >= 2 { row(k - 2) } else { prev };
+                let prev2 = &prev2[..t];
+                let cur = &mut cur[..t];
+                let (mut acc, mut nbits) = (self.acc, self.nbits);
+                let mut i = self.idx;
+                while i < t {
+                    // Keep at least 11 bits (the longest code) buffered
+                    // while input lasts: then a code always decodes.
+                    while nbits <= 16 {
+                        let Some(&b) = data.get(used) else { break };
+                        used += 1;
+                        acc = (acc << 8) | u32::from(b);
+                        nbits += 8;
+                    }
+                    let (e, len) = if nbits >= 11 {
+                        // Fast path: every code is complete (`acc` holds
+                        // exactly `nbits` bits).
+                        if acc >> (nbits - 1) == 0 {
+                            (0, 1)
+                        } else {
+                            match (acc >> (nbits - 3)) & 0b111 {
+                                0b100 => (1, 3),
+                                0b101 => (-1, 3),
+                                0b110 => ((((acc >> (nbits - 7)) as u8) << 4) as i8 >> 4, 7),
+                                _ => ((acc >> (nbits - 11)) as u8 as i8, 11),
+                            }
+                        }
+                    } else {
+                        match peek_code(acc, nbits) {
+                            Some(c) => c,
+                            None => break,
+                        }
+                    };
+                    nbits -= len;
+                    acc &= (1u32 << nbits) - 1;
+                    // Step 1 is predicted by step 0 alone (prev2 = prev
+                    // makes 2·p − p = p).
+                    let pred = prev[i].wrapping_mul(2).wrapping_sub(prev2[i]);
+                    cur[i] = pred.wrapping_add(e as u8);
+                    i += 1;
+                }
+                self.consumed += used - used_before;
+                self.idx = i;
+                self.acc = acc;
+                self.nbits = nbits;
+            }
+            if self.idx < t {
+                return Ok(used);
+            }
+            on_step(self.step, cur);
+            self.step += 1;
+            self.idx = 0;
+            done += 1;
+        }
+        if self.step == self.steps {
+            if used < data.len() || self.nbits >= 8 {
+                return Err(CodecError::Overlong);
+            }
+            if self.acc != 0 {
+                return Err(CodecError::BadPadding);
+            }
+        }
+        Ok(used)
     }
 }
 
@@ -371,6 +579,57 @@ mod tests {
             let mut d = Decoder::new(enc, 0, 5);
             d.feed(&[], &mut []).unwrap();
             assert_eq!(d.feed(&[1], &mut []), Err(CodecError::Overlong));
+        }
+    }
+
+    #[test]
+    fn step_decoder_matches_the_whole_sequence_step_by_step() {
+        let t = 7;
+        let phases: [u8; 7 * 13] =
+            core::array::from_fn(|i| ((i / 7) * (i % 7 + 2) * 5 + i % 3) as u8);
+        for enc in [Encoding::Raw, Encoding::Delta] {
+            let mut buf = [0u8; 512];
+            let n = encode(enc, &phases, t, &mut buf).unwrap();
+            let stream = &buf[..n];
+            // Fed in small pieces: every step reported once, in order.
+            for piece in [1, 3, 64] {
+                let mut d = StepDecoder::new(enc, 13, t as u16);
+                let mut ring = [0u8; 21];
+                let mut seen = 0u16;
+                for p in stream.chunks(piece) {
+                    let used = d
+                        .feed(p, &mut ring, u16::MAX, |k, row| {
+                            assert_eq!(k, seen);
+                            assert_eq!(row, &phases[usize::from(k) * t..][..t]);
+                            seen += 1;
+                        })
+                        .unwrap();
+                    assert_eq!(used, p.len());
+                }
+                d.finish().unwrap();
+                assert_eq!((seen, d.consumed()), (13, n));
+            }
+            // One step per call from the stored stream, twice round.
+            let mut d = StepDecoder::new(enc, 13, t as u16);
+            let mut ring = [0u8; 21];
+            for _cycle in 0..2 {
+                for k in 0..13u16 {
+                    let at = d.consumed();
+                    d.feed(&stream[at..], &mut ring, 1, |_, _| {}).unwrap();
+                    assert_eq!(d.steps_done(), k + 1);
+                    let row = StepDecoder::row(&ring, t, k);
+                    assert_eq!(row, &phases[usize::from(k) * t..][..t], "{enc:?} step {k}");
+                }
+                d.finish().unwrap();
+                d.restart();
+            }
+            let mut d = StepDecoder::new(enc, 13, t as u16);
+            let mut long = [0u8; 513];
+            long[..n].copy_from_slice(stream);
+            assert_eq!(
+                d.feed(&long[..n + 1], &mut ring, u16::MAX, |_, _| {}),
+                Err(CodecError::Overlong)
+            );
         }
     }
 

@@ -43,16 +43,28 @@ layout! {
         SOUND_SPEED_MM_S = 27..31,
         /// Work volume, µm, u32.
         MAX_OFFSET_UM = 31..35,
+        /// CRC-32 of the rig (positions table) the phases were planned for, u32.
+        RIG_CRC32 = 35..39,
+        /// Output intensity, 0-255 (255 = full), u8.
+        INTENSITY = 39..40,
     }
 }
 
 layout! {
     /// `Geometry` before its positions (which run from `LEN` to the end).
     pub mod geometry {
-        /// Slot of the upload, u8.
-        SLOT = 0..1,
         /// Index of the first transducer, u16.
-        FIRST = 1..3,
+        FIRST = 0..2,
+    }
+}
+
+layout! {
+    /// `BeginRig`.
+    pub mod begin_rig {
+        /// Transducers of the rig, u16.
+        TRANSDUCERS = 0..2,
+        /// CRC-32 of the positions table (12-byte records), u32.
+        CRC32 = 2..6,
     }
 }
 
@@ -129,6 +141,12 @@ layout! {
         MIN_DWELL_US = 15..19,
         /// Largest chunk accepted, u16.
         MAX_CHUNK = 19..21,
+        /// Transducers of the rig the device holds (0 = none), u16.
+        RIG_TRANSDUCERS = 21..23,
+        /// CRC-32 of that rig's positions table (0 when none), u32.
+        RIG_CRC32 = 23..27,
+        /// Free library bytes now, u32.
+        LIBRARY_FREE = 27..31,
     }
 }
 

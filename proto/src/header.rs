@@ -34,6 +34,9 @@ pub struct UploadHeader {
     /// `center_um` the device steers to, within [`MAX_OFFSET_UM`]. A
     /// centroid farther away is refused (`OutOfRange`) and mutes the output.
     pub max_offset_um: u32,
+    /// Output intensity, 0-255 (255 = full): the device puts it in every
+    /// output frame of the entry so the transducer driver scales its duty.
+    pub intensity: u8,
 }
 
 /// What a device can hold and play: the part of [`Info`](crate::Info) an upload is
@@ -45,7 +48,8 @@ pub struct DeviceLimits {
     pub slots: u8,
     /// Most transducers a sequence may drive.
     pub max_transducers: u16,
-    /// Raw sequence bytes (steps × transducers) one slot holds.
+    /// Largest raw sequence (steps × transducers bytes) one library entry
+    /// may have.
     pub slot_bytes: u32,
     /// Shortest step dwell the device plays, µs.
     pub min_dwell_us: u32,
@@ -280,6 +284,7 @@ mod tests {
             foci_per_step: 1,
             sound_speed_mm_s: 340_000,
             max_offset_um: 20_000,
+            intensity: 255,
         }
     }
 

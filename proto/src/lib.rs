@@ -39,13 +39,13 @@ pub use frame::{
 };
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
-    BeginUpload, Centroid, Chunk, Commit, DeviceState, Geometry, Info, Message, MessageType,
-    MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceState, Geometry, Info, Message,
+    MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status, rig_crc32,
 };
 pub use nack::NackCode;
 
 /// Protocol version carried in every frame header.
-pub const PROTOCOL_VERSION: u8 = 2;
+pub const PROTOCOL_VERSION: u8 = 3;
 /// Carrier frequency of the transducers, Hz (the wavenumber of a slot is
 /// 2π · `CARRIER_HZ` / its speed of sound).
 pub const CARRIER_HZ: u32 = 40_000;
@@ -90,7 +90,9 @@ pub mod len {
 
     /// `BeginUpload`.
     pub const BEGIN_UPLOAD: usize = field::begin_upload::LEN;
-    /// `Geometry` before its positions (slot, first).
+    /// `BeginRig`.
+    pub const BEGIN_RIG: usize = field::begin_rig::LEN;
+    /// `Geometry` before its positions (first).
     pub const GEOMETRY_HEAD: usize = field::geometry::LEN;
     /// `Chunk` before its data (slot, offset).
     pub const CHUNK_HEAD: usize = field::chunk::LEN;

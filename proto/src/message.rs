@@ -17,7 +17,7 @@ wire_enum! {
         GetInfo = 0x01,
         /// Start uploading a sequence into a slot.
         BeginUpload = 0x02,
-        /// Transducer positions for centroid correction.
+        /// Transducer positions of the rig being uploaded.
         Geometry = 0x03,
         /// A piece of the encoded sequence stream.
         Chunk = 0x04,
@@ -31,6 +31,10 @@ wire_enum! {
         Centroid = 0x08,
         /// Request status; answered by `Status`.
         GetStatus = 0x09,
+        /// Start uploading the rig's transducer positions.
+        BeginRig = 0x0A,
+        /// Finish the rig upload, check the positions' CRC.
+        CommitRig = 0x0B,
         /// Request done.
         Ack = 0x80,
         /// Request refused, with a code.
@@ -70,6 +74,23 @@ pub struct Info {
     pub min_dwell_us: u32,
     /// Largest chunk the device accepts (≤ [`MAX_CHUNK`]).
     pub max_chunk: u16,
+    /// Transducers of the rig the device holds; 0: none yet.
+    pub rig_transducers: u16,
+    /// CRC-32 of the rig's positions table ([`rig_crc32`]); 0 when none.
+    pub rig_crc32: u32,
+    /// Library bytes free now (an entry takes its raw or its Delta size).
+    pub library_free: u32,
+}
+
+/// CRC-32 of a rig's positions table: every position as its 12-byte
+/// record (`[i32; 3]` µm LE), in transducer order. `BeginRig`,
+/// `BeginUpload::rig_crc32` and `Info::rig_crc32` carry it.
+pub fn rig_crc32(positions: &Positions<'_>) -> u32 {
+    let mut c = crate::Crc32::new();
+    for p in positions.iter() {
+        c.update(&xyz_le(&p));
+    }
+    c.finish()
 }
 
 // Here rather than in `header`, so that `header` needs nothing from the
@@ -101,6 +122,9 @@ pub struct BeginUpload {
     /// Total bytes of the encoded stream (sum of chunk lengths), within
     /// [`encoded_len_range`](crate::codec::encoded_len_range).
     pub encoded_len: u32,
+    /// CRC-32 of the rig the phases were planned for ([`rig_crc32`]); the
+    /// device refuses the upload unless it holds that rig.
+    pub rig_crc32: u32,
 }
 
 impl BeginUpload {
@@ -195,13 +219,23 @@ impl serde::Serialize for Positions<'_> {
     }
 }
 
-/// Transducer positions for centroid correction, `first..first+len`.
+/// Start of a rig upload: the device's one positions table, which every
+/// library entry's centroid correction uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct BeginRig {
+    /// Transducers (positions) of the rig.
+    pub transducers: u16,
+    /// CRC-32 of the whole positions table ([`rig_crc32`]).
+    pub crc32: u32,
+}
+
+/// Transducer positions of the rig being uploaded, `first..first+len`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Geometry<'a> {
-    /// Slot of the upload in progress.
-    pub slot: u8,
     /// Index of the first transducer in this frame.
     pub first: u16,
     /// Positions, µm, drive coordinates.
@@ -373,6 +407,10 @@ pub enum Message<'a> {
     Centroid(Centroid),
     /// Request status.
     GetStatus,
+    /// Start a rig upload.
+    BeginRig(BeginRig),
+    /// Finish a rig upload.
+    CommitRig,
     /// Request done.
     Ack,
     /// Request refused.
@@ -502,6 +540,8 @@ impl<'a> Message<'a> {
             Self::Stop => MessageType::Stop,
             Self::Centroid(_) => MessageType::Centroid,
             Self::GetStatus => MessageType::GetStatus,
+            Self::BeginRig(_) => MessageType::BeginRig,
+            Self::CommitRig => MessageType::CommitRig,
             Self::Ack => MessageType::Ack,
             Self::Nack(_) => MessageType::Nack,
             Self::Info(_) => MessageType::Info,
@@ -512,7 +552,8 @@ impl<'a> Message<'a> {
     /// Payload length on the wire (before framing).
     pub fn payload_len(&self) -> usize {
         match self {
-            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => 0,
+            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack | Self::CommitRig => 0,
+            Self::BeginRig(_) => field::begin_rig::LEN,
             Self::BeginUpload(_) => field::begin_upload::LEN,
             Self::Geometry(g) => field::geometry::LEN + POSITION_LEN * g.positions.len(),
             Self::Chunk(c) => field::chunk::LEN + c.data.len(),
@@ -556,7 +597,14 @@ impl<'a> Message<'a> {
     pub(crate) fn emit(&self, s: &mut impl Sink) -> Result<(), EncodeError> {
         self.check()?;
         match self {
-            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack => Ok(()),
+            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack | Self::CommitRig => Ok(()),
+            Self::BeginRig(r) => {
+                use field::begin_rig as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::TRANSDUCERS, &r.transducers.to_le_bytes());
+                set(&mut p, f::CRC32, &r.crc32.to_le_bytes());
+                s.put(&p)
+            }
             Self::BeginUpload(b) => {
                 use field::begin_upload as f;
                 let h = &b.header;
@@ -575,12 +623,13 @@ impl<'a> Message<'a> {
                     &h.sound_speed_mm_s.to_le_bytes(),
                 );
                 set(&mut p, f::MAX_OFFSET_UM, &h.max_offset_um.to_le_bytes());
+                set(&mut p, f::RIG_CRC32, &b.rig_crc32.to_le_bytes());
+                set(&mut p, f::INTENSITY, &[h.intensity]);
                 s.put(&p)
             }
             Self::Geometry(g) => {
                 use field::geometry as f;
                 let mut p = [0; f::LEN];
-                set(&mut p, f::SLOT, &[g.slot]);
                 set(&mut p, f::FIRST, &g.first.to_le_bytes());
                 s.put(&p)?;
                 g.positions.iter().try_for_each(|q| s.put(&xyz_le(&q)))
@@ -635,6 +684,9 @@ impl<'a> Message<'a> {
                 set(&mut p, f::TIMER_HZ, &i.timer_hz.to_le_bytes());
                 set(&mut p, f::MIN_DWELL_US, &i.min_dwell_us.to_le_bytes());
                 set(&mut p, f::MAX_CHUNK, &i.max_chunk.to_le_bytes());
+                set(&mut p, f::RIG_TRANSDUCERS, &i.rig_transducers.to_le_bytes());
+                set(&mut p, f::RIG_CRC32, &i.rig_crc32.to_le_bytes());
+                set(&mut p, f::LIBRARY_FREE, &i.library_free.to_le_bytes());
                 s.put(&p)
             }
             Self::Status(st) => {
@@ -677,6 +729,15 @@ impl<'a> Message<'a> {
             MessageType::Stop => Fields::exact(payload, 0).map(|_| Self::Stop)?,
             MessageType::GetStatus => Fields::exact(payload, 0).map(|_| Self::GetStatus)?,
             MessageType::Ack => Fields::exact(payload, 0).map(|_| Self::Ack)?,
+            MessageType::CommitRig => Fields::exact(payload, 0).map(|_| Self::CommitRig)?,
+            MessageType::BeginRig => {
+                use field::begin_rig as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                Self::BeginRig(BeginRig {
+                    transducers: p.u16(f::TRANSDUCERS)?,
+                    crc32: p.u32(f::CRC32)?,
+                })
+            }
             MessageType::BeginUpload => {
                 use field::begin_upload as f;
                 let p = Fields::exact(payload, f::LEN)?;
@@ -684,6 +745,7 @@ impl<'a> Message<'a> {
                     slot: p.u8(f::SLOT)?,
                     encoding: Encoding::from_u8(p.u8(f::ENCODING)?).ok_or("unknown encoding")?,
                     encoded_len: p.u32(f::ENCODED_LEN)?,
+                    rig_crc32: p.u32(f::RIG_CRC32)?,
                     header: UploadHeader {
                         steps: p.u16(f::STEPS)?,
                         transducers: p.u16(f::TRANSDUCERS)?,
@@ -692,6 +754,7 @@ impl<'a> Message<'a> {
                         foci_per_step: p.u8(f::FOCI_PER_STEP)?,
                         sound_speed_mm_s: p.u32(f::SOUND_SPEED_MM_S)?,
                         max_offset_um: p.u32(f::MAX_OFFSET_UM)?,
+                        intensity: p.u8(f::INTENSITY)?,
                     },
                 })
             }
@@ -704,7 +767,6 @@ impl<'a> Message<'a> {
                     return Err("too many positions");
                 }
                 Self::Geometry(Geometry {
-                    slot: p.u8(f::SLOT)?,
                     first: p.u16(f::FIRST)?,
                     positions,
                 })
@@ -769,6 +831,9 @@ impl<'a> Message<'a> {
                     timer_hz: p.u32(f::TIMER_HZ)?,
                     min_dwell_us: p.u32(f::MIN_DWELL_US)?,
                     max_chunk: p.u16(f::MAX_CHUNK)?,
+                    rig_transducers: p.u16(f::RIG_TRANSDUCERS)?,
+                    rig_crc32: p.u32(f::RIG_CRC32)?,
+                    library_free: p.u32(f::LIBRARY_FREE)?,
                 })
             }
             MessageType::Status => {

@@ -17,7 +17,7 @@ wire_enum! {
         BadSlot = 4 => "no such slot",
         /// 5: the slot is playing (stop or use another slot first).
         SlotPlaying = 5 => "slot is playing or queued",
-        /// 6: sequence does not fit the slot or exceeds `max_transducers`.
+        /// 6: sequence exceeds `slot_bytes` or `max_transducers`.
         TooLarge = 6 => "sequence too large for the device",
         /// 7: a field is outside its allowed range (zero steps, offset past
         /// `encoded_len`, geometry index past `transducers`, ...).
@@ -39,6 +39,15 @@ wire_enum! {
         Incomplete = 14 => "upload incomplete",
         /// 15: the encoded sequence stream is invalid for its encoding.
         BadStream = 15 => "invalid encoded sequence stream",
+        /// 16: the library has no room for the entry (even after freeing
+        /// the slot's old entry and compacting); overwrite or free another.
+        LibraryFull = 16 => "stimulus library full",
+        /// 17: `BeginUpload` before the device holds a rig (send `BeginRig`,
+        /// `Geometry`, `CommitRig` first).
+        NoRig = 17 => "device holds no rig (transducer positions)",
+        /// 18: `BeginUpload` planned for another rig than the device holds
+        /// (CRC or transducer count differ).
+        RigMismatch = 18 => "sequence planned for another rig than the device holds",
     } else {
         /// A code this version does not know (from a newer peer). Never
         /// constructed with a known code's value.

@@ -225,7 +225,7 @@ mod tests {
             assert_eq!(c.to_u8(), b);
             assert_eq!(NackCode::ALL.contains(&c), !matches!(c, NackCode::Other(_)));
         }
-        assert_eq!(NackCode::ALL.len(), 15);
+        assert_eq!(NackCode::ALL.len(), 18);
         assert_eq!(NackCode::Busy.to_string(), "device busy");
         assert_eq!(NackCode::Other(99).to_string(), "unknown nack code 99");
         for r in MuteReason::ALL {
@@ -240,6 +240,7 @@ mod tests {
         let got = [
             HEADER_LEN,
             len::BEGIN_UPLOAD,
+            len::BEGIN_RIG,
             len::GEOMETRY_HEAD,
             len::CHUNK_HEAD,
             len::COMMIT,
@@ -249,6 +250,6 @@ mod tests {
             len::INFO,
             len::STATUS,
         ];
-        assert_eq!(got, [4, 35, 3, 5, 5, 3, 25, 1, 21, 42]);
+        assert_eq!(got, [4, 40, 6, 2, 5, 5, 3, 25, 1, 31, 42]);
     }
 }

@@ -4,7 +4,7 @@
 mod common;
 
 use common::Rng;
-use lm_proto::codec::{self, CodecError, Decoder};
+use lm_proto::codec::{self, CodecError, Decoder, StepDecoder};
 use lm_proto::{Encoding, crc32};
 use proptest::prelude::*;
 use std::ops::Range;
@@ -176,6 +176,63 @@ fn named_hard_cases() {
         codec::encoded_len(Encoding::Delta, &[7; 17 * 9], 17),
         Ok(17 + (17 * 8usize).div_ceil(8))
     );
+}
+
+/// The step decoder (a ring of three steps) agrees with the whole-sequence
+/// decoder on random streams, fed in random pieces: the same steps, the
+/// same verdict.
+#[test]
+fn step_decoder_agrees_with_the_decoder_on_random_streams() {
+    let mut rng = Rng(7);
+    for case in 0..3000 {
+        let steps = rng.below(12) as u16;
+        let t = rng.below(9) as u16 + 1;
+        let enc = rng.encoding();
+        // Half valid streams (maybe cut or extended), half noise.
+        let mut stream = if case % 2 == 0 {
+            let mut phases = vec![0u8; usize::from(steps) * usize::from(t)];
+            rng.fill(&mut phases);
+            let mut buf = vec![0u8; phases.len() * 2 + 8];
+            let n = codec::encode(enc, &phases, usize::from(t), &mut buf).unwrap();
+            buf.truncate(n);
+            buf
+        } else {
+            let mut b = vec![0u8; rng.below(200)];
+            rng.fill(&mut b);
+            b
+        };
+        match rng.below(4) {
+            0 => stream.truncate(stream.len().saturating_sub(1)),
+            1 => stream.push(rng.below(256) as u8),
+            _ => {}
+        }
+        let mut whole = vec![0u8; usize::from(steps) * usize::from(t)];
+        let mut d = Decoder::new(enc, steps, t);
+        let r1 = d.feed(&stream, &mut whole).and_then(|()| d.finish());
+        let mut s = StepDecoder::new(enc, steps, t);
+        let mut ring = vec![0u8; StepDecoder::ring_len(usize::from(t))];
+        let mut rows = Vec::new();
+        let mut i = 0;
+        let mut r2 = Ok(());
+        while i < stream.len() {
+            let j = (i + 1 + rng.below(16)).min(stream.len());
+            match s.feed(&stream[i..j], &mut ring, u16::MAX, |_, row| {
+                rows.extend_from_slice(row)
+            }) {
+                Ok(used) => assert_eq!(used, j - i, "case {case}"),
+                Err(e) => {
+                    r2 = Err(e);
+                    break;
+                }
+            }
+            i = j;
+        }
+        let r2 = r2.and_then(|()| s.finish());
+        assert_eq!(r1.is_ok(), r2.is_ok(), "case {case}: {r1:?} vs {r2:?}");
+        if r1.is_ok() {
+            assert_eq!(rows, whole, "case {case}");
+        }
+    }
 }
 
 #[test]

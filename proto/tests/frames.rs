@@ -41,7 +41,6 @@ fn samples() -> Vec<(u16, Owned)> {
         (
             65535,
             Owned::Geometry {
-                slot: 1,
                 first: 85,
                 points: vec![[1, -2, 3], [0, 0, 0], [-96520, 66040, 0]],
             },
@@ -334,13 +333,12 @@ fn invalid_field_values_are_rejected_on_both_sides() {
     );
     let too_many = vec![[0i32; 3]; MAX_GEOMETRY_POSITIONS + 1];
     let g = Message::Geometry(Geometry {
-        slot: 0,
         first: 0,
         positions: Positions::from_points(&too_many),
     });
     assert_eq!(encoded_frame_len(1, &g), Err(EncodeError::TooLarge));
     // A parsed geometry over the limit is malformed too.
-    let mut f = vec![PROTOCOL_VERSION, MessageType::Geometry as u8, 3, 0, 0, 0, 0];
+    let mut f = vec![PROTOCOL_VERSION, MessageType::Geometry as u8, 3, 0, 0, 0];
     f.extend(std::iter::repeat_n(1u8, 12 * (MAX_GEOMETRY_POSITIONS + 1)));
     f.extend([0; 4]);
     fix_crc(&mut f);
@@ -374,7 +372,6 @@ fn unknown_types_carry_seq_and_type_for_the_nack() {
 fn positions_read_back_from_bytes() {
     let pts = [[1, -2, 3], [i32::MIN, i32::MAX, 0]];
     let m = Message::Geometry(Geometry {
-        slot: 0,
         first: 4,
         positions: Positions::from_points(&pts),
     });

@@ -34,7 +34,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             rng.next_u64() as i32,
         ]
     };
-    let m = match rng.below(13) {
+    let m = match rng.below(15) {
         0 => Message::GetInfo,
         1 => Message::Stop,
         2 => Message::GetStatus,
@@ -68,6 +68,9 @@ fn random_message(rng: &mut Rng) -> Owned {
             timer_hz: rng.next_u64() as u32,
             min_dwell_us: rng.next_u64() as u32,
             max_chunk: rng.next_u64() as u16,
+            rig_transducers: rng.next_u64() as u16,
+            rig_crc32: rng.next_u64() as u32,
+            library_free: rng.next_u64() as u32,
         }),
         9 => Message::BeginUpload(BeginUpload {
             slot: rng.byte(),
@@ -79,10 +82,17 @@ fn random_message(rng: &mut Rng) -> Owned {
                 foci_per_step: rng.byte(),
                 sound_speed_mm_s: rng.next_u64() as u32,
                 max_offset_um: rng.next_u64() as u32,
+                intensity: rng.byte(),
             },
             encoding: rng.encoding(),
             encoded_len: rng.next_u64() as u32,
+            rig_crc32: rng.next_u64() as u32,
         }),
+        13 => Message::BeginRig(BeginRig {
+            transducers: rng.next_u64() as u16,
+            crc32: rng.next_u64() as u32,
+        }),
+        14 => Message::CommitRig,
         10 => Message::Status(Status {
             state: [
                 DeviceState::Idle,
@@ -113,7 +123,6 @@ fn random_message(rng: &mut Rng) -> Owned {
         11 => {
             let n = rng.below(MAX_GEOMETRY_POSITIONS + 1);
             return Owned::Geometry {
-                slot: rng.byte(),
                 first: rng.next_u64() as u16,
                 points: (0..n).map(|_| x(rng)).collect(),
             };

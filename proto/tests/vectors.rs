@@ -21,16 +21,43 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "info" => (
             0,
             Message::Info(Info {
-                proto_version: 1,
+                proto_version: 3,
                 fw_version: [0, 1, 0],
                 max_transducers: 996,
-                slot_bytes: 262_144,
-                slots: 2,
+                slot_bytes: 487_424,
+                slots: 32,
                 timer_hz: 1_000_000,
                 min_dwell_us: 100,
                 max_chunk: 1024,
+                rig_transducers: 996,
+                rig_crc32: 0x89AB_CDEF,
+                library_free: 300_000,
             }),
         ),
+        "info_no_rig" => (
+            0,
+            Message::Info(Info {
+                proto_version: 3,
+                fw_version: [1, 2, 3],
+                max_transducers: 249,
+                slot_bytes: 1000,
+                slots: 32,
+                timer_hz: 25_000_000,
+                min_dwell_us: 1000,
+                max_chunk: 512,
+                rig_transducers: 0,
+                rig_crc32: 0,
+                library_free: 1000,
+            }),
+        ),
+        "begin_rig" => (
+            26,
+            Message::BeginRig(BeginRig {
+                transducers: 996,
+                crc32: 0x89AB_CDEF,
+            }),
+        ),
+        "commit_rig" => (27, Message::CommitRig),
         "begin_upload" => (
             1,
             Message::BeginUpload(BeginUpload {
@@ -43,9 +70,11 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                     foci_per_step: 4,
                     sound_speed_mm_s: 343_200,
                     max_offset_um: 20_000,
+                    intensity: 255,
                 },
                 encoding: Encoding::Delta,
                 encoded_len: 22_000,
+                rig_crc32: 0x89AB_CDEF,
             }),
         ),
         "begin_upload_raw" => (
@@ -60,15 +89,16 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                     foci_per_step: 1,
                     sound_speed_mm_s: 100_000,
                     max_offset_um: 100_000,
+                    intensity: 128,
                 },
                 encoding: Encoding::Raw,
                 encoded_len: 1,
+                rig_crc32: 1,
             }),
         ),
         "geometry" => (
             3,
             Message::Geometry(Geometry {
-                slot: 0,
                 first: 996,
                 positions: Positions::from_points(&POS),
             }),
@@ -76,7 +106,6 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "geometry_empty" => (
             4,
             Message::Geometry(Geometry {
-                slot: 2,
                 first: 0,
                 positions: Positions::from_points(&[]),
             }),
@@ -186,6 +215,9 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         ),
         "ack" => (0xBEEF, Message::Ack),
         "nack" => (16, Message::Nack(NackCode::OutOfOrder)),
+        "nack_library_full" => (16, Message::Nack(NackCode::LibraryFull)),
+        "nack_no_rig" => (16, Message::Nack(NackCode::NoRig)),
+        "nack_rig_mismatch" => (16, Message::Nack(NackCode::RigMismatch)),
         "nack_unknown_code" => (17, Message::Nack(NackCode::Other(200))),
         _ => return None,
     };

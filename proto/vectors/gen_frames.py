@@ -4,7 +4,7 @@ spec with Python's own CRC (zlib) and a separate COBS, independent of the
 Rust code that the vectors check. Run: python3 gen_frames.py > frames.txt"""
 import struct, zlib
 
-VERSION = 2
+VERSION = 3
 
 def cobs(data):
     out, block = bytearray(), bytearray()
@@ -41,14 +41,23 @@ def raw(name, fields, wire, error):
 
 xyz = lambda v: struct.pack("<3i", *v)
 
-def begin(slot, steps, t, period, enc, enc_len, center, foci, speed, max_off):
+def begin(slot, steps, t, period, enc, enc_len, center, foci, speed, max_off, rig, intensity):
     return (struct.pack("<BHHIBI", slot, steps, t, period, enc, enc_len) + xyz(center)
-            + bytes([foci]) + struct.pack("<II", speed, max_off))
+            + bytes([foci]) + struct.pack("<III", speed, max_off, rig) + bytes([intensity]))
 
-def small_begin(slot, enc, enc_len, max_off=20000):
+def rig_crc(points):
+    """CRC-32 of a rig: its positions as 12-byte records, in order."""
+    return zlib.crc32(b"".join(xyz(p) for p in points))
+
+# The device records' rig: two transducers 10 mm apart.
+DEV_RIG = [(-5000, 0, 0), (5000, 0, 0)]
+
+def small_begin(slot, enc, enc_len, max_off=20000, rig=None, intensity=255):
     """The device records' upload: 2 steps x 2 transducers, 200 ms a step,
-    one focus at (0, 0, 200) mm, 340 m/s."""
-    return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), 1, 340000, max_off)
+    one focus at (0, 0, 200) mm, 340 m/s, for DEV_RIG."""
+    rig = rig_crc(DEV_RIG) if rig is None else rig
+    return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), 1, 340000, max_off, rig,
+                 intensity)
 
 def status(state, slot, step, counters, corr, queued, reason):
     return (bytes([state, slot]) + struct.pack("<H6I", step, *counters) + xyz(corr)
@@ -56,23 +65,33 @@ def status(state, slot, step, counters, corr, queued, reason):
 
 rec("get_info", 0x01, 0, "GetInfo", b"")
 rec("info", 0x82, 0,
-    "Info proto_version=1 fw_version=0.1.0 max_transducers=996 slot_bytes=262144 "
-    "slots=2 timer_hz=1000000 min_dwell_us=100 max_chunk=1024",
-    struct.pack("<B3BHIBIIH", 1, 0, 1, 0, 996, 262144, 2, 1000000, 100, 1024))
+    "Info proto_version=3 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
+    "slots=32 timer_hz=1000000 min_dwell_us=100 max_chunk=1024 rig_transducers=996 "
+    "rig_crc32=0x89abcdef library_free=300000",
+    struct.pack("<B3BHIBIIHHII", 3, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
+                0x89ABCDEF, 300000))
+rec("info_no_rig", 0x82, 0,
+    "Info proto_version=3 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
+    "slots=32 timer_hz=25000000 min_dwell_us=1000 max_chunk=512 rig_transducers=0 "
+    "rig_crc32=0x00000000 library_free=1000",
+    struct.pack("<B3BHIBIIHHII", 3, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000))
 rec("begin_upload", 0x02, 1,
     "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
     "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200 "
-    "max_offset_um=20000",
-    begin(0, 82, 996, 200000, 1, 22000, (0, 30000, 30000), 4, 343200, 20000))
+    "max_offset_um=20000 rig_crc32=0x89abcdef intensity=255",
+    begin(0, 82, 996, 200000, 1, 22000, (0, 30000, 30000), 4, 343200, 20000, 0x89ABCDEF, 255))
 rec("begin_upload_raw", 0x02, 2,
     "BeginUpload slot=1 steps=1 transducers=1 period_us=1000 encoding=Raw(0) "
     "encoded_len=1 center_um=[-1,-2,-3] foci_per_step=1 sound_speed_mm_s=100000 (lowest accepted) "
-    "max_offset_um=100000 (largest accepted)",
-    begin(1, 1, 1, 1000, 0, 1, (-1, -2, -3), 1, 100000, 100000))
+    "max_offset_um=100000 (largest accepted) rig_crc32=0x00000001 intensity=128",
+    begin(1, 1, 1, 1000, 0, 1, (-1, -2, -3), 1, 100000, 100000, 1, 128))
+rec("begin_rig", 0x0A, 26, "BeginRig transducers=996 crc32=0x89abcdef",
+    struct.pack("<HI", 996, 0x89ABCDEF))
+rec("commit_rig", 0x0B, 27, "CommitRig", b"")
 rec("geometry", 0x03, 3,
-    "Geometry slot=0 first=996 positions=[[-96520,-66040,0],[-86360,-66040,0]]",
-    struct.pack("<BH", 0, 996) + xyz((-96520, -66040, 0)) + xyz((-86360, -66040, 0)))
-rec("geometry_empty", 0x03, 4, "Geometry slot=2 first=0 positions=[]", struct.pack("<BH", 2, 0))
+    "Geometry first=996 positions=[[-96520,-66040,0],[-86360,-66040,0]]",
+    struct.pack("<H", 996) + xyz((-96520, -66040, 0)) + xyz((-86360, -66040, 0)))
+rec("geometry_empty", 0x03, 4, "Geometry first=0 positions=[]", struct.pack("<H", 0))
 rec("chunk", 0x04, 5, "Chunk slot=0 offset=1024 data=[00 01 02 ff 00]",
     struct.pack("<BI", 0, 1024) + bytes([0, 1, 2, 0xFF, 0]))
 rec("chunk_long", 0x04, 6,
@@ -107,14 +126,17 @@ rec("status_muted", 0x83, 15,
     status(2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4))
 rec("ack", 0x80, 0xBEEF, "Ack", b"")
 rec("nack", 0x81, 16, "Nack code=OutOfOrder(8)", bytes([8]))
+rec("nack_library_full", 0x81, 16, "Nack code=LibraryFull(16)", bytes([16]))
+rec("nack_no_rig", 0x81, 16, "Nack code=NoRig(17)", bytes([17]))
+rec("nack_rig_mismatch", 0x81, 16, "Nack code=RigMismatch(18)", bytes([18]))
 rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version does not know)", bytes([200]))
 
 # Bad frames: what a decoder must report.
 rec("err_crc", 0x80, 18, "Ack with the CRC's lowest bit flipped", b"", crc_xor=1, error="crc")
 rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC", b"",
     error="unknown_type")
-rec("err_bad_version", 0x01, 20, "GetInfo with version 1 (the previous one), valid CRC", b"",
-    version=1,
+rec("err_bad_version", 0x01, 20, "GetInfo with version 2 (the previous one), valid CRC", b"",
+    version=2,
     error="bad_version")
 rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", bytes([0, 2, 0]),
     error="malformed")
@@ -127,8 +149,14 @@ rec("err_malformed_len", 0x05, 22, "Commit with a 4-byte payload (needs 5)", byt
 rec("err_malformed_bool", 0x08, 23, "Centroid with present=2",
     struct.pack("<I", 1) + xyz((0, 0, 0)) + b"\x02" + struct.pack("<Q", 0), error="malformed")
 rec("err_malformed_begin_short", 0x02, 24,
-    "BeginUpload with the 31-byte payload of version 1 that lacks max_offset_um (needs 35)",
-    begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1)[:31], error="malformed")
+    "BeginUpload with the 35-byte payload of version 2 that lacks rig_crc32 and intensity "
+    "(needs 40)",
+    begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1, 0, 255)[:35], error="malformed")
+rec("err_malformed_geometry_v2", 0x03, 24,
+    "Geometry with the version 2 slot byte before first (2 + 12n bytes needed, got 3 + 12)",
+    struct.pack("<BH", 0, 0) + xyz((1, 2, 3)), error="malformed")
+rec("err_malformed_commit_rig", 0x0B, 24, "CommitRig with a 1-byte payload (needs 0)", b"\x00",
+    error="malformed")
 rec("err_malformed_status_reason", 0x83, 25, "Status with mute_reason=6 (no such reason)",
     status(2, 0, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6), error="malformed")
 raw("err_cobs", "block code 5 but the delimiter comes after 2 data bytes", bytes([0, 5, 1, 2, 0]),
@@ -136,19 +164,36 @@ raw("err_cobs", "block code 5 but the delimiter comes after 2 data bytes", bytes
 raw("err_too_short", "3 decoded bytes", b"\x00" + cobs(bytes([1, 1, 0])) + b"\x00", "too_short")
 
 # Device behaviour (SPEC sections 2, 3): fed in file order, after the records
-# above, to a fresh device (2 slots, 996 transducers, min_dwell_us <= 1000,
-# tracking required: the default),
+# above, to a fresh device (at least 32 slots, 996 transducers,
+# min_dwell_us <= 1000, tracking required: the default, no rig),
 # each request gets the response in its `expect` line.
 SMALL = [1, 2, 3, 4]
-rec("dev_begin", 0x02, 100,
+DEV_CRC = rig_crc(DEV_RIG)
+rec("dev_begin_no_rig", 0x02, 96,
+    "BeginUpload slot=1 steps=2 transducers=2 ... before any rig (refused: NoRig)",
+    small_begin(1, 0, 4), expect="nack NoRig")
+rec("dev_begin_rig", 0x0A, 97, f"BeginRig transducers=2 crc32=0x{DEV_CRC:08x}",
+    struct.pack("<HI", 2, DEV_CRC), expect="ack")
+rec("dev_commit_rig_early", 0x0B, 98, "CommitRig before every position arrived",
+    b"", expect="nack Incomplete")
+rec("dev_geometry", 0x03, 99, "Geometry first=0 positions=[[-5000,0,0],[5000,0,0]]",
+    struct.pack("<H", 0) + b"".join(xyz(p) for p in DEV_RIG), expect="ack")
+rec("dev_commit_rig", 0x0B, 100, "CommitRig (positions CRC matches BeginRig's)", b"",
+    expect="ack")
+rec("dev_begin_rig_same", 0x0A, 101,
+    "the same BeginRig again (the device holds that rig: acked, nothing changes)",
+    struct.pack("<HI", 2, DEV_CRC), expect="ack")
+rec("dev_begin_rig_mismatch", 0x02, 102,
+    "BeginUpload slot=1 ... rig_crc32=0x12345678 (not the device's rig: RigMismatch)",
+    small_begin(1, 0, 4, rig=0x12345678), expect="nack RigMismatch")
+rec("dev_begin", 0x02, 103,
     "BeginUpload slot=1 steps=2 transducers=2 period_us=200000 encoding=Raw(0) encoded_len=4 "
-    "center_um=[0,0,200000] foci_per_step=1 sound_speed_mm_s=340000 max_offset_um=20000",
-    small_begin(1, 0, 4), expect="ack")
-rec("dev_geometry", 0x03, 101, "Geometry slot=1 first=0 positions=[[-5000,0,0],[5000,0,0]]",
-    struct.pack("<BH", 1, 0) + xyz((-5000, 0, 0)) + xyz((5000, 0, 0)), expect="ack")
-rec("dev_chunk_a", 0x04, 102, "Chunk slot=1 offset=0 data=[01 02]",
+    "center_um=[0,0,200000] foci_per_step=1 sound_speed_mm_s=340000 max_offset_um=20000 "
+    f"rig_crc32=0x{DEV_CRC:08x} intensity=200",
+    small_begin(1, 0, 4, intensity=200), expect="ack")
+rec("dev_chunk_a", 0x04, 202, "Chunk slot=1 offset=0 data=[01 02]",
     struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
-rec("dev_chunk_b", 0x04, 103, "Chunk slot=1 offset=2 data=[03 04]",
+rec("dev_chunk_b", 0x04, 203, "Chunk slot=1 offset=2 data=[03 04]",
     struct.pack("<BI", 1, 2) + bytes(SMALL[2:]), expect="ack")
 rec("dev_chunk_a_again", 0x04, 104,
     "Chunk slot=1 offset=0 data=[01 02] (an earlier chunk repeated: identical, acked)",
@@ -179,6 +224,10 @@ for name, seq, fields, enc, enc_len, max_off in [
      0, 4, 100001),
 ]:
     rec(name, 0x02, seq, fields, small_begin(0, enc, enc_len, max_off), expect="nack OutOfRange")
+rec("dev_play_slot_31", 0x06, 140, "Play slot=31 at=Immediate(1) flags=0 (a library entry never uploaded)",
+    bytes([31, 1, 0]), expect="nack NotCommitted")
+rec("dev_play_slot_32", 0x06, 141, "Play slot=32 at=Immediate(1) flags=0 (no such entry)",
+    bytes([32, 1, 0]), expect="nack BadSlot")
 rec("dev_play_tracked", 0x06, 114, "Play slot=1 at=Immediate(1) flags=0", bytes([1, 1, 0]),
     expect="ack")
 rec("dev_status_waiting", 0x09, 115, "GetStatus (muted: waiting for tracking)", b"",

@@ -32,9 +32,13 @@ struct Rig {
     verified_commits: u32,
 }
 
+/// Transducers of the simulated rig (one AUTD3 board).
+const RIG_TRANSDUCERS: u16 = 249;
+
 fn spec(rng: &mut SplitMix64) -> Sequence {
     let steps = 2 + rng.below(40) as u16;
-    let transducers = 1 + rng.below(249) as u16;
+    // One rig per device (protocol v3): every entry drives its transducers.
+    let transducers = RIG_TRANSDUCERS;
     // Half smooth (what the planner makes, Delta-friendly), half noise.
     let smooth = rng.below(2) == 0;
     let base: Vec<u8> = (0..transducers).map(|_| rng.next_u64() as u8).collect();
@@ -57,6 +61,7 @@ fn spec(rng: &mut SplitMix64) -> Sequence {
             foci_per_step: 1,
             sound_speed_mm_s: 340_000,
             max_offset_um: 20_000,
+            intensity: 255,
         },
         phases,
     }

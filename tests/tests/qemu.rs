@@ -20,9 +20,10 @@ use std::time::{Duration, Instant};
 use lmhost::backend::Backend;
 
 use lm_proto::{
-    BeginUpload, Centroid, Chunk, Commit, DeviceState, Encoding, FeedResult, FrameDecoder,
-    Geometry, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode,
-    PROTOCOL_VERSION, Play, PlayAt, Positions, Status, UploadHeader, codec, crc32, encode_frame,
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceState, Encoding, FeedResult,
+    FrameDecoder, Geometry, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message,
+    NackCode, PROTOCOL_VERSION, Play, PlayAt, Positions, Status, UploadHeader, codec, crc32,
+    encode_frame, rig_crc32,
 };
 
 mod qemu_support;
@@ -249,7 +250,8 @@ fn firmware_under_qemu_speaks_the_protocol() {
         panic!("GetInfo not answered with Info")
     };
     assert_eq!(info.proto_version, PROTOCOL_VERSION);
-    assert!(info.slots >= 2, "{info:?}");
+    assert!(info.slots >= 32, "{info:?}");
+    assert_eq!((info.rig_transducers, info.rig_crc32), (0, 0), "{info:?}");
     assert!(info.max_transducers >= 996, "{info:?}");
     assert!(info.slot_bytes >= 200 * 996, "{info:?}");
     assert_eq!(info.max_chunk as usize, MAX_CHUNK);
@@ -279,27 +281,36 @@ fn firmware_under_qemu_speaks_the_protocol() {
         Reply::Nack(_)
     ));
 
-    link.ack(&Message::BeginUpload(BeginUpload {
-        slot: 0,
-        header: UploadHeader {
-            steps: steps as u16,
-            transducers: t as u16,
-            period_us,
-            center_um,
-            foci_per_step: 1,
-            sound_speed_mm_s: SOUND_SPEED_MM_S,
-            max_offset_um: 20_000,
-        },
-        encoding: Encoding::Delta,
-        encoded_len: n as u32,
+    // The rig first, once: the positions every entry is planned for.
+    let rig = rig_crc32(&Positions::from_points(&pos));
+    link.ack(&Message::BeginRig(BeginRig {
+        transducers: t as u16,
+        crc32: rig,
     }));
     for (i, group) in pos.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
         link.ack(&Message::Geometry(Geometry {
-            slot: 0,
             first: (i * MAX_GEOMETRY_POSITIONS) as u16,
             positions: Positions::from_points(group),
         }));
     }
+    link.ack(&Message::CommitRig);
+    let header = |steps: u16| UploadHeader {
+        steps,
+        transducers: t as u16,
+        period_us,
+        center_um,
+        foci_per_step: 1,
+        sound_speed_mm_s: SOUND_SPEED_MM_S,
+        max_offset_um: 20_000,
+        intensity: 255,
+    };
+    link.ack(&Message::BeginUpload(BeginUpload {
+        slot: 0,
+        header: header(steps as u16),
+        encoding: Encoding::Delta,
+        encoded_len: n as u32,
+        rig_crc32: rig,
+    }));
     for (i, data) in enc.chunks(MAX_CHUNK).enumerate() {
         link.ack(&Message::Chunk(Chunk {
             slot: 0,
@@ -313,31 +324,21 @@ fn firmware_under_qemu_speaks_the_protocol() {
     }));
 
     // A corrupt upload (wrong CRC) into the other slot is refused and never playable.
-    let small = [10u8, 20, 30, 40, 11, 21, 31, 41];
+    let small: Vec<u8> = (0..2 * t).map(|i| (i * 7) as u8).collect();
     link.ack(&Message::BeginUpload(BeginUpload {
         slot: 1,
-        header: UploadHeader {
-            steps: 2,
-            transducers: 4,
-            period_us,
-            center_um,
-            foci_per_step: 1,
-            sound_speed_mm_s: SOUND_SPEED_MM_S,
-            max_offset_um: 20_000,
-        },
+        header: header(2),
         encoding: Encoding::Raw,
         encoded_len: small.len() as u32,
+        rig_crc32: rig,
     }));
-    link.ack(&Message::Geometry(Geometry {
-        slot: 1,
-        first: 0,
-        positions: Positions::from_points(&pos[..4]),
-    }));
-    link.ack(&Message::Chunk(Chunk {
-        slot: 1,
-        offset: 0,
-        data: &small,
-    }));
+    for (i, data) in small.chunks(MAX_CHUNK).enumerate() {
+        link.ack(&Message::Chunk(Chunk {
+            slot: 1,
+            offset: (i * MAX_CHUNK) as u32,
+            data,
+        }));
+    }
     assert_eq!(
         link.request(&Message::Commit(Commit {
             slot: 1,
@@ -505,4 +506,233 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
     )
     .unwrap();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The paper's 15 stimuli (SPEC: LM-S and LM-M at 5 Hz with 0.23 mm steps,
+/// LM-S at 25 Hz with 4 mm steps, radii 2-6 mm), planned on the default
+/// scene (996 transducers), with a name each.
+fn paper_set() -> Vec<(String, lmhost::sequence::Plan)> {
+    use lmhost::connect::Target;
+    use lmhost::scene::Scene;
+    use lmhost::stimulus::Stimulus;
+    use lmhost::trajectory::Steps;
+    let mut v = Vec::new();
+    for (foci, freq_hz, step_mm) in [(1, 5.0, 0.23), (4, 5.0, 0.23), (1, 25.0, 4.0)] {
+        for radius_mm in [2.0, 3.0, 4.0, 5.0, 6.0] {
+            let s = Stimulus {
+                radius_mm,
+                foci,
+                freq_hz,
+                steps: Steps::Width(step_mm),
+                ..Stimulus::default()
+            };
+            let plan = s.plan_for(&Target::Lm, Scene::default()).unwrap().plan;
+            let name = format!(
+                "LM-{} {freq_hz} Hz A={radius_mm} mm",
+                if foci == 1 { "S" } else { "M" }
+            );
+            v.push((name, plan));
+        }
+    }
+    v
+}
+
+/// Frame bytes (delimiters included) of preloading `set` into slots 0..
+/// over a clean link: the rig once, then per stimulus `BeginUpload`,
+/// 1024-byte chunks and `Commit` (Delta, or Raw where Delta is larger, as
+/// the client sends them); and the acks coming back.
+fn preload_frame_bytes(set: &[(String, lmhost::sequence::Plan)]) -> (u64, u64) {
+    use lm_proto::encoded_frame_len;
+    use lmhost::link::UploadSpec;
+    let len = |m: &Message<'_>| encoded_frame_len(1, m).unwrap() as u64;
+    let ack = len(&Message::Ack);
+    let (mut sent, mut acks) = (0, 0);
+    for (slot, (_, plan)) in set.iter().enumerate() {
+        let spec = UploadSpec::from_plan(plan, Encoding::Delta).unwrap();
+        if slot == 0 {
+            sent += len(&Message::BeginRig(BeginRig {
+                transducers: spec.header.transducers,
+                crc32: spec.rig_crc32,
+            }));
+            for (i, g) in spec.positions_um.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
+                sent += len(&Message::Geometry(Geometry {
+                    first: (i * MAX_GEOMETRY_POSITIONS) as u16,
+                    positions: Positions::from_points(g),
+                }));
+                acks += 1;
+            }
+            sent += len(&Message::CommitRig);
+            acks += 2;
+        }
+        sent += len(&Message::BeginUpload(spec.begin(slot as u8)));
+        for (i, data) in spec.encoded.chunks(MAX_CHUNK).enumerate() {
+            sent += len(&Message::Chunk(Chunk {
+                slot: slot as u8,
+                offset: (i * MAX_CHUNK) as u32,
+                data,
+            }));
+            acks += 1;
+        }
+        sent += len(&Message::Commit(Commit {
+            slot: slot as u8,
+            crc32: spec.crc32,
+        }));
+        acks += 2;
+    }
+    (sent, acks * ack)
+}
+
+/// The paper's set resident on the firmware under QEMU, through the
+/// library's LM backend: the rig goes once, every stimulus fits the
+/// board's library, each plays at once from silence, a queued one takes
+/// over at the cycle boundary, and what does not fit is refused by name.
+/// Prints the bytes the preload takes on the wire.
+#[test]
+fn firmware_under_qemu_holds_the_papers_stimulus_library() {
+    use lmhost::backend::Transfer;
+    use lmhost::connect::LmBackend;
+    if !qemu_installed() {
+        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+        return;
+    }
+    let elf = firmware_elf();
+    let port = free_port();
+    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
+    let out = std::fs::File::create(&log).unwrap();
+    let child = qemu_command(&elf, port, false)
+        .stdout(out.try_clone().unwrap())
+        .stderr(out)
+        .spawn()
+        .expect("start qemu-system-arm");
+    let _qemu = Qemu { child, log };
+    let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let client = loop {
+        match spec.connect() {
+            Ok(c) => break c,
+            Err(e) if Instant::now() > deadline => panic!("connecting to QEMU: {e}"),
+            Err(_) => std::thread::sleep(Duration::from_millis(50)),
+        }
+    };
+    let mut dev = LmBackend::new(client, Encoding::Delta);
+    dev.progress = false;
+    let info = dev.info().unwrap();
+    assert!(info.slots >= 32, "{info:?}");
+    let free_at_start = dev.client.info().unwrap().library_free;
+
+    let set = paper_set();
+    assert_eq!(set.len(), 15);
+    let (mut raw, mut seq_bytes, mut rig_bytes, mut wire_sent, mut wire_recv) = (0, 0, 0, 0, 0);
+    for (slot, (name, plan)) in set.iter().enumerate() {
+        let r = dev.upload(plan, Some(slot as u8)).unwrap();
+        let Transfer::Wire(w) = r.transfer else {
+            panic!("{r:?}")
+        };
+        assert_eq!(w.slot, slot as u8);
+        // The rig goes with the first upload only.
+        assert_eq!(w.rig_bytes > 0, slot == 0, "{name}: {w:?}");
+        println!(
+            "{name:<22} {:>3} steps: raw {:>6} B, on the wire {:>6} B ({} B of frames sent)",
+            r.steps, w.raw_bytes, w.sequence_bytes, w.wire_bytes_sent
+        );
+        raw += w.raw_bytes;
+        seq_bytes += w.sequence_bytes;
+        rig_bytes += w.rig_bytes;
+        wire_sent += w.wire_bytes_sent;
+        wire_recv += w.wire_bytes_received;
+    }
+    let free = dev.client.info().unwrap().library_free;
+    let stored = free_at_start - free;
+    let total_wire = wire_sent + wire_recv;
+    println!(
+        "paper library: raw {raw} B; sequences on the wire {seq_bytes} B + rig {rig_bytes} B; \
+         stored {stored} B of {free_at_start} ({free} free)"
+    );
+    println!(
+        "preload: {wire_sent} B sent + {wire_recv} B received = {total_wire} B on the wire; \
+         at 115200 Bd (10 bits a byte) {:.1} s, at 1 MB/s (USB full speed) {:.2} s",
+        total_wire as f64 * 10.0 / 115_200.0,
+        total_wire as f64 / 1e6
+    );
+    assert!(
+        u64::from(free) > u64::from(free_at_start) / 5,
+        "room to spare"
+    );
+    let (sent, received) = preload_frame_bytes(&set);
+    assert!(sent <= wire_sent, "{sent} > {wire_sent}");
+    println!(
+        "preload without resends: {sent} B sent + {received} B of acks = {} B; \
+         at 115200 Bd {:.1} s, at 1 MB/s {:.2} s",
+        sent + received,
+        (sent + received) as f64 * 10.0 / 115_200.0,
+        (sent + received) as f64 / 1e6
+    );
+
+    // Each resident stimulus plays at once from silence with one short Play.
+    for (slot, (name, plan)) in set.iter().enumerate() {
+        dev.stop().unwrap();
+        dev.play(slot as u8, true).unwrap();
+        let st = dev.status().unwrap();
+        assert_eq!(
+            (st.state, st.slot, st.queued_slot),
+            (DeviceState::Playing, Some(slot as u8), None),
+            "{name}"
+        );
+        let steps = u64::from(plan.sequence.header.steps);
+        wait_on_device(
+            &mut dev,
+            Duration::from_millis(5),
+            steps,
+            plan.sequence.dwell_us(),
+        )
+        .unwrap();
+    }
+
+    // While slot 5 (LM-M 5 Hz, A = 2 mm) plays, slot 12 (LM-S 25 Hz,
+    // A = 4 mm) queued with NextCycle takes over at the cycle boundary.
+    dev.stop().unwrap();
+    dev.play(5, true).unwrap();
+    let before = dev.status().unwrap();
+    dev.play_at(12, PlayAt::NextCycle, true).unwrap();
+    let queued = dev.status().unwrap();
+    assert_eq!(
+        (queued.slot, queued.queued_slot),
+        (Some(5), Some(12)),
+        "{queued:?}"
+    );
+    let give_up = Instant::now() + Duration::from_secs(60);
+    let mut last = queued;
+    while last.slot == Some(5) {
+        assert!(Instant::now() < give_up, "no swap: {last:?}");
+        // Until the swap, slot 5 plays on through its cycle.
+        assert_eq!(last.queued_slot, Some(12), "{last:?}");
+        std::thread::sleep(Duration::from_millis(5));
+        last = dev.status().unwrap();
+    }
+    assert_eq!((last.slot, last.queued_slot), (Some(12), None), "{last:?}");
+    assert_eq!(last.state, DeviceState::Playing);
+    // The swap took no step early and skipped none.
+    assert_eq!(last.missed_deadlines, before.missed_deadlines, "{last:?}");
+
+    // What does not fit is refused by name, and nothing changes: a raw
+    // LM-M at A = 6 mm (163 kB) into a new slot, with ~100 kB free.
+    let big = &set[9].1;
+    let mut raw_dev = dev;
+    raw_dev.encoding = Encoding::Raw;
+    let e = raw_dev.upload(big, Some(20)).unwrap_err();
+    assert_eq!(e.refusal(), Some(NackCode::LibraryFull), "{e}");
+    let chain = anyhow::Error::new(e)
+        .chain()
+        .map(|c| c.to_string())
+        .collect::<Vec<_>>();
+    assert!(
+        chain.join(": ").contains("stimulus library full"),
+        "{chain:?}"
+    );
+    assert_eq!(raw_dev.client.info().unwrap().library_free, free);
+    let st = raw_dev.status().unwrap();
+    assert_eq!((st.slot, st.state), (Some(12), DeviceState::Playing));
+    assert_eq!(st.missed_deadlines, before.missed_deadlines, "{st:?}");
+    let e = raw_dev.play(20, true).unwrap_err();
+    assert_eq!(e.refusal(), Some(NackCode::NotCommitted), "{e:#}");
 }

@@ -395,12 +395,16 @@ fn replan_uploads_the_surface_profile_into_the_idle_slot() {
         .parse()
         .unwrap();
     assert!(uploaded >= 1, "{line}");
-    // The re-planned sequence went to slot 1 and plays (or is queued for
-    // the next cycle boundary); slot 0 was never written while it played.
+    // The re-planned sequence went to a free library entry and plays (or
+    // is queued for the next cycle boundary); slot 0 was never written
+    // while it played. (With 32 entries a re-plan made while the previous
+    // one is still queued takes the next free entry, so which one depends
+    // on how many re-plans the run made.)
     let st = json(&["status", "--port", &sim.port, "--json"]);
+    let replanned = |v: &serde_json::Value| v.as_u64().is_some_and(|s| s != 0);
     assert!(
-        st["slot"] == 1 || st["queued_slot"] == 1,
-        "re-plan not in slot 1: {st}"
+        replanned(&st["slot"]) || replanned(&st["queued_slot"]),
+        "no re-plan playing or queued: {st}"
     );
     assert_eq!(st["nacks"], 0, "{st}");
 

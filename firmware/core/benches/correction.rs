@@ -11,8 +11,8 @@ use lm_fw_core::correction::{apply_offsets, compute_offsets};
 use lm_fw_core::{Config, Device, OutputDriver, OutputFrame, memory_bytes};
 use lm_proto::codec::Encoding;
 use lm_proto::{
-    BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_CHUNK, MAX_GEOMETRY_POSITIONS, Message,
-    Play, PlayAt, Positions, UploadHeader,
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_CHUNK, MAX_GEOMETRY_POSITIONS,
+    Message, Play, PlayAt, Positions, UploadHeader,
 };
 
 const T: usize = 996;
@@ -59,6 +59,20 @@ fn bench(c: &mut Criterion) {
     let mem = Box::leak(vec![0u8; memory_bytes(usize::from(steps) * T, T)].into_boxed_slice());
     let mut dev = Device::new(Config::new(1_000_000), mem).unwrap();
     let raw: Vec<u8> = (0..usize::from(steps) * T).map(|i| (i * 3) as u8).collect();
+    let rig = lm_proto::rig_crc32(&Positions::from_points(&pts));
+    let begin_rig = Message::BeginRig(BeginRig {
+        transducers: T as u16,
+        crc32: rig,
+    });
+    assert_eq!(dev.handle(&begin_rig, 0), Message::Ack);
+    for (i, ps) in pts.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
+        let g = Message::Geometry(Geometry {
+            first: (i * MAX_GEOMETRY_POSITIONS) as u16,
+            positions: Positions::from_points(ps),
+        });
+        assert_eq!(dev.handle(&g, 0), Message::Ack);
+    }
+    assert_eq!(dev.handle(&Message::CommitRig, 0), Message::Ack);
     let begin = Message::BeginUpload(BeginUpload {
         slot: 0,
         header: UploadHeader {
@@ -69,19 +83,13 @@ fn bench(c: &mut Criterion) {
             foci_per_step: 1,
             sound_speed_mm_s: 340_000,
             max_offset_um: 20_000,
+            intensity: 255,
         },
         encoding: Encoding::Raw,
         encoded_len: raw.len() as u32,
+        rig_crc32: rig,
     });
     assert_eq!(dev.handle(&begin, 0), Message::Ack);
-    for (i, ps) in pts.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
-        let g = Message::Geometry(Geometry {
-            slot: 0,
-            first: (i * MAX_GEOMETRY_POSITIONS) as u16,
-            positions: Positions::from_points(ps),
-        });
-        assert_eq!(dev.handle(&g, 0), Message::Ack);
-    }
     for (i, d) in raw.chunks(MAX_CHUNK).enumerate() {
         let m = Message::Chunk(Chunk {
             slot: 0,

@@ -9,7 +9,7 @@ use lm_proto::{
 use crate::MAX_TRANSDUCERS;
 use crate::correction::{apply_offsets, compute_offsets, sound_speed_m_s};
 use crate::output::{OutputDriver, OutputFrame};
-use crate::player::{Player, Timing};
+use crate::player::{PlayState, Player, Timing};
 use crate::policy::{Policy, Session};
 use crate::store::{SLOTS, Store, StoreError};
 
@@ -140,9 +140,9 @@ pub struct Device<'m> {
 }
 
 impl<'m> Device<'m> {
-    /// A device over `mem`, the sequence memory (see
-    /// [`memory_bytes`](crate::memory_bytes) for the size a slot capacity
-    /// needs).
+    /// A device over `mem`, the sequence memory: the rig's positions and the
+    /// stimulus library's arena (see [`memory_bytes`](crate::memory_bytes)
+    /// for the size a library needs).
     pub fn new(cfg: Config, mem: &'m mut [u8]) -> Result<Self, DeviceError> {
         if cfg.timer_hz == 0 {
             return Err(DeviceError::BadTimer);
@@ -313,6 +313,9 @@ impl Handler<'_> {
             timer_hz: self.cfg.timer_hz,
             min_dwell_us: self.cfg.min_dwell_us,
             max_chunk: MAX_CHUNK as u16,
+            rig_transducers: self.store.rig().map_or(0, |r| r.0),
+            rig_crc32: self.store.rig().map_or(0, |r| r.1),
+            library_free: self.store.free_bytes(),
         }
     }
 
@@ -363,10 +366,9 @@ impl Handler<'_> {
             Message::GetInfo => Message::Info(self.info()),
             Message::GetStatus => Message::Status(self.status(now)),
             Message::BeginUpload(b) => Self::result(self.begin_upload(b)),
-            Message::Geometry(g) => Self::result(
-                self.writable(g.slot)
-                    .and_then(|()| self.store.geometry(g.slot, g.first, &g.positions)),
-            ),
+            Message::BeginRig(r) => Self::result(self.begin_rig(r.transducers, r.crc32)),
+            Message::Geometry(g) => Self::result(self.store.geometry(g.first, &g.positions)),
+            Message::CommitRig => Self::result(self.store.commit_rig()),
             Message::Chunk(c) => Self::result(
                 self.writable(c.slot)
                     .and_then(|()| self.store.chunk(c.slot, c.offset, c.data)),
@@ -407,6 +409,20 @@ impl Handler<'_> {
         } else {
             Ok(())
         }
+    }
+
+    /// A rig upload; one that would change the rig (and so drop every
+    /// entry) is refused with `Busy` while an entry plays or is queued.
+    fn begin_rig(&mut self, transducers: u16, crc32: u32) -> Result<(), NackCode> {
+        let change = self.store.rig_would_change(transducers, crc32);
+        let busy = self.player.state() == PlayState::Playing || self.player.pending().is_some();
+        if change && busy {
+            return Err(NackCode::Busy);
+        }
+        if change {
+            self.offsets_for = None;
+        }
+        self.store.begin_rig(transducers, crc32)
     }
 
     fn dwell_ok(&self, t: Timing) -> bool {
@@ -551,6 +567,7 @@ impl Handler<'_> {
         } else {
             0
         };
+        let intensity = self.store.header(slot).map_or(0, |h| h.intensity);
         let phases: &[u8] = match self.store.step(slot, step) {
             Some(p) => {
                 let t = p.len();
@@ -568,6 +585,7 @@ impl Handler<'_> {
             slot,
             step,
             amplitude,
+            intensity,
             phases,
         };
         match out.write_frame(&frame) {

@@ -1,5 +1,6 @@
-//! Hardware-free core of the LM firmware: sequence store, drift-free
-//! player, centroid correction, safety gating and the protocol handler.
+//! Hardware-free core of the LM firmware: the resident stimulus library
+//! and the rig's positions, drift-free player, centroid correction, safety
+//! gating and the protocol handler.
 //!
 //! It never touches hardware, never allocates and never panics on input:
 //! a board (or the host simulator) owns the UART, the timer and the SPI
@@ -11,8 +12,8 @@
 //! ```
 //! use lm_fw_core::{Config, Device, RecordingDriver, TakeOnce, memory_bytes};
 //!
-//! // Sequence memory: two slots of 200 steps × 996 transducers each.
-//! const BYTES: usize = memory_bytes(200 * 996, 996);
+//! // Sequence memory: a 448 KiB library and a rig of up to 996 positions.
+//! const BYTES: usize = memory_bytes(448 * 1024, 996);
 //! static MEM: TakeOnce<[u8; BYTES]> = TakeOnce::new([0; BYTES]);
 //! # fn main() {
 //! let mem: &'static mut [u8] = MEM.take().unwrap(); // once, in the board's main
@@ -34,7 +35,7 @@
 //! # API at a glance
 //!
 //! - [`Device::new`]`(`[`Config`]`, &mut mem)`: `mem` is the sequence memory,
-//!   [`memory_bytes`]`(slot_bytes, max_transducers)` long.
+//!   [`memory_bytes`]`(library_bytes, max_transducers)` long.
 //! - [`Device::feed`]`(bytes, now, &mut |reply| ..)`: received bytes in, one
 //!   encoded response frame out per request.
 //! - [`Device::poll`]`(now, &mut driver) -> Option<u64>`: writes due frames,
@@ -45,21 +46,26 @@
 //!   [`Device::set_centroid_timeout_us`], [`Device::set_min_dwell_us`],
 //!   [`Device::set_require_tracking`].
 //! - Output: [`OutputDriver`] receives a [`OutputFrame`] (phases with correction
-//!   applied, amplitude 0 when muted); [`SpiOutput`] sends it over an
-//!   embedded-hal 1.0 `SpiDevice` as one transaction
-//!   `[0xA5, amplitude, step u16 LE, transducers u16 LE, phases..]`;
+//!   applied, amplitude 0 when muted, the entry's intensity); [`SpiOutput`]
+//!   sends it over an embedded-hal 1.0 `SpiDevice` as one transaction
+//!   `[0xA5, amplitude, intensity, step u16 LE, transducers u16 LE, phases..]`;
 //!   [`RecordingDriver`] keeps the last frames for tests.
 //!
 //! # Behaviour
 //!
-//! - Store ([`store`]): [`SLOTS`] slots; `BeginUpload` checked by
-//!   [`lm_proto::BeginUpload::validate`] (the host runs the same check);
-//!   chunks in stream order (Raw or Delta through
-//!   [`lm_proto::codec::Decoder`]); identical repeats of received data are
-//!   acked (Delta: any of the last [`CHUNK_LOG`] chunks); commit checks
-//!   completeness, every position and the raw CRC-32, and a repeated commit
-//!   with the same CRC is acked again. Writes to the playing or queued slot
-//!   get `SlotPlaying`.
+//! - Library ([`store`]): [`SLOTS`] entries in one arena, each stored Raw
+//!   or as its Delta stream (decoded step by step while it plays; the rule
+//!   is in the module docs), first-fit with compaction, `LibraryFull` when
+//!   an entry does not fit (nothing changes); `BeginUpload` checked by
+//!   [`lm_proto::BeginUpload::validate`] (the host runs the same check),
+//!   then the rig (`NoRig`, `RigMismatch`) and the space; one upload at a
+//!   time; chunks in stream order; identical repeats of received data are
+//!   acked; commit checks completeness and the raw CRC-32, and a repeated
+//!   commit with the same CRC is acked again. Writes to the playing or
+//!   queued slot get `SlotPlaying`.
+//! - Rig: one positions table (`BeginRig`, `Geometry`, `CommitRig`, CRC-32
+//!   checked) used by every entry's correction; another rig drops every
+//!   entry and is refused with `Busy` while something plays.
 //! - Player ([`player`], [`time`]): step k of a cycle at
 //!   floor(k·P/N) counts after the cycle start, integer only; `Play` with
 //!   `NextCycle` swaps at the cycle boundary; late polls count missed
@@ -89,11 +95,13 @@
 //!
 //! `size_of::<Device>()` is the core's whole state outside the sequence
 //! memory: receive decoder (`MAX_FRAME`), send buffer (`MAX_ENCODED_FRAME`),
-//! offset and frame tables ([`MAX_TRANSDUCERS`] bytes each), two upload
-//! states (codec decoder, running CRC, position bitmap, chunk log). 5,232 bytes on
+//! offset and frame tables ([`MAX_TRANSDUCERS`] bytes each), the library's
+//! entry table, one upload state (codec decoders, running CRC, chunk log),
+//! the rig's position bitmap and two three-step decode rings (upload check,
+//! playback; 3 × [`MAX_TRANSDUCERS`] bytes each). 12,512 bytes on
 //! thumbv7em (a compile-time assertion keeps it ≤ 16 KB). The sequence
-//! memory is [`memory_bytes`]`(slot_bytes, max_transducers)`: per slot the
-//! raw phases plus 12 bytes of position per transducer.
+//! memory is [`memory_bytes`]`(library_bytes, max_transducers)`: the rig's
+//! 12 bytes per transducer, then the library's arena.
 #![no_std]
 #![warn(missing_docs)]
 
@@ -111,7 +119,7 @@ pub mod time;
 pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
 pub use output::{OutputDriver, OutputFrame, Record, RecordingDriver, SpiOutput};
 pub use serve::{HostLink, Server, serve};
-pub use store::{CHUNK_LOG, SLOTS, StoreError, memory_bytes};
+pub use store::{BOARD_LIBRARY_BYTES, CHUNK_LOG, Form, SLOTS, StoreError, memory_bytes};
 pub use take_once::TakeOnce;
 pub use time::TimeExtender;
 

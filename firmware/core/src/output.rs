@@ -3,7 +3,8 @@
 use embedded_hal::spi::{Operation, SpiDevice};
 
 /// One output frame: the phases of every transducer for one step (centroid
-/// correction already applied) and the amplitude. Amplitude 0 = muted.
+/// correction already applied), the amplitude (the gate: 0 = muted) and
+/// the entry's intensity. The driver's duty is amplitude × intensity / 255².
 #[derive(Debug, Clone, Copy)]
 pub struct OutputFrame<'a> {
     /// Timer count at which the step was due.
@@ -14,6 +15,8 @@ pub struct OutputFrame<'a> {
     pub step: u16,
     /// Drive amplitude, 0 (muted) to 255 (full).
     pub amplitude: u8,
+    /// The playing entry's intensity (`UploadHeader::intensity`), 0-255.
+    pub intensity: u8,
     /// Phase per transducer (u8 = round(φ/2π·256) mod 256).
     pub phases: &'a [u8],
 }
@@ -37,13 +40,22 @@ impl<T: OutputDriver + ?Sized> OutputDriver for &mut T {
 pub const SPI_FRAME_MAGIC: u8 = 0xA5;
 
 /// Bytes of the SPI frame header written before the phases.
-pub const SPI_HEADER_LEN: usize = 6;
+pub const SPI_HEADER_LEN: usize = 7;
 
-/// The SPI header for a frame: `[0xA5, amplitude, step u16 LE, transducers u16 LE]`.
+/// The SPI header for a frame:
+/// `[0xA5, amplitude, intensity, step u16 LE, transducers u16 LE]`.
 pub fn spi_header(frame: &OutputFrame<'_>) -> [u8; SPI_HEADER_LEN] {
     let s = frame.step.to_le_bytes();
     let n = (frame.phases.len() as u16).to_le_bytes();
-    [SPI_FRAME_MAGIC, frame.amplitude, s[0], s[1], n[0], n[1]]
+    [
+        SPI_FRAME_MAGIC,
+        frame.amplitude,
+        frame.intensity,
+        s[0],
+        s[1],
+        n[0],
+        n[1],
+    ]
 }
 
 /// Sends each frame as one SPI transaction (chip select held):
@@ -85,6 +97,8 @@ pub struct Record {
     pub step: u16,
     /// [`OutputFrame::amplitude`].
     pub amplitude: u8,
+    /// [`OutputFrame::intensity`].
+    pub intensity: u8,
     /// CRC-32 of the phases.
     pub phase_crc: u32,
     /// The first phase bytes (zero-padded).
@@ -113,6 +127,7 @@ impl<const N: usize> RecordingDriver<N> {
                 slot: 0,
                 step: 0,
                 amplitude: 0,
+                intensity: 0,
                 phase_crc: 0,
                 head: [0; 8],
             }; N],
@@ -157,6 +172,7 @@ impl<const N: usize> OutputDriver for RecordingDriver<N> {
                 slot: frame.slot,
                 step: frame.step,
                 amplitude: frame.amplitude,
+                intensity: frame.intensity,
                 phase_crc: lm_proto::crc32(frame.phases),
                 head,
             };
@@ -204,12 +220,16 @@ mod tests {
             slot: 1,
             step: 0x0102,
             amplitude: 0,
+            intensity: 128,
             phases: &phases,
         };
         out.write_frame(&f).unwrap();
         let spi = out.release();
         assert_eq!(spi.transactions.len(), 1);
-        assert_eq!(spi.transactions[0], [0xA5, 0, 0x02, 0x01, 3, 0, 10, 20, 30]);
+        assert_eq!(
+            spi.transactions[0],
+            [0xA5, 0, 128, 0x02, 0x01, 3, 0, 10, 20, 30]
+        );
     }
 
     #[test]
@@ -222,6 +242,7 @@ mod tests {
                 slot: 0,
                 step,
                 amplitude: 255,
+                intensity: 255,
                 phases: &phases,
             })
             .unwrap();

@@ -219,6 +219,7 @@ mod tests {
             foci_per_step: 1,
             sound_speed_mm_s: 346_000,
             max_offset_um,
+            intensity: 255,
         }
     }
 

@@ -1,32 +1,69 @@
-//! Sequence store: [`SLOTS`] slots over caller-provided memory.
+//! The resident stimulus library: [`SLOTS`] entries in one arena of
+//! caller-provided memory, plus the rig (the one transducer positions
+//! table every entry's centroid correction uses).
 //!
-//! Each slot's memory is `[positions: max_transducers × 12 B][raw phases]`.
-//! An upload is `BeginUpload`, `Geometry` frames (any order of whole
-//! frames, each at its index), `Chunk`s in stream order, then `Commit`.
-//! The store never decides whether a slot is playing: the caller refuses
-//! writes to the playing slot before calling in here. Every write path
-//! starts by marking the slot uncommitted, so a slot that is not
-//! [`committed`](Store::is_committed) is never played, and a failed upload
-//! cannot reach any other slot.
+//! Memory is `[rig: max_transducers × 12 B][arena]` ([`memory_bytes`]).
+//! An entry takes a variable range of the arena, in one of two forms:
+//!
+//! - **Raw**: the steps × transducers phases, as before (a step is a slice).
+//! - **Delta**: the Delta stream as uploaded, decoded step by step while it
+//!   plays ([`lm_proto::codec::StepDecoder`] over a three-step ring; a new
+//!   cycle, or a step before the last decoded one, re-decodes from step 0).
+//!
+//! **The storage rule**, decided at `BeginUpload` with the space the upload
+//! would have (free bytes plus the slot's old entry and any unfinished
+//! upload, which it replaces): a Raw upload is stored Raw; a Delta upload
+//! is expanded to Raw when its raw form is no larger than its stream (a
+//! few big steps, e.g. 4 mm at 25 Hz), or when after expanding at least
+//! three quarters of the arena would still be free ([`Store::raw_fits`]:
+//! the first, small entries of a library play from raw frames); otherwise
+//! it is kept as Delta. Greedy, in upload order. What does not fit even so
+//! is refused with `LibraryFull`, and the old entry stays as it was.
+//!
+//! **Space**: an entry is placed first-fit in the gaps between entries; when
+//! no gap is large enough but the free bytes are, the entries are
+//! compacted towards the arena's start first (the playing entry included:
+//! its bytes move, its decoding position is relative to the entry, so it
+//! plays on). Overwriting an entry (a `BeginUpload` into its slot) frees
+//! its space; so does a `BeginRig` for another rig (every entry is
+//! dropped: its phases were planned for the old positions).
+//!
+//! **Uploads**: one at a time. `BeginUpload`, `Chunk`s in stream order,
+//! `Commit`. A `BeginUpload` abandons an unfinished upload (its entry is
+//! dropped). Every write path starts by marking the slot uncommitted, so a
+//! slot that is not [`committed`](Store::is_committed) is never played, and
+//! a failed upload cannot reach any other entry. The store never decides
+//! whether a slot is playing: the caller refuses writes to the playing or
+//! queued slot before calling in here.
 //!
 //! Repeats are idempotent (SPEC section 2): a chunk lying wholly in the
 //! received part of the stream with identical bytes is acked without
-//! effect (Raw: compared with the stored bytes at any offset; Delta, whose
-//! stream bytes are not kept: any of the last [`CHUNK_LOG`] accepted chunks,
-//! by offset, length and CRC-32); a `Commit` of a committed slot with its
-//! CRC is acked again.
+//! effect (Raw uploads, and Delta uploads kept as Delta: compared with the
+//! stored bytes at any offset; Delta expanded to Raw, whose stream bytes are
+//! not kept: any of the last [`CHUNK_LOG`] accepted chunks, by offset,
+//! length and CRC-32); a `Commit` of a committed slot with its CRC is
+//! acked again, and so is a `BeginRig` of the rig the device holds.
 
-use lm_proto::codec::{Decoder, Encoding};
+use lm_proto::codec::{Decoder, Encoding, StepDecoder};
 use lm_proto::{
     BeginUpload, Crc32, DeviceLimits, NackCode, POSITION_LEN as POSITION_BYTES, Positions,
     UploadHeader,
 };
 
-/// Number of slots.
-pub const SLOTS: usize = 2;
+use crate::MAX_TRANSDUCERS;
 
-/// Accepted Delta chunks remembered per upload to recognise repeats.
+/// Library entries (slot numbers `0..SLOTS`).
+pub const SLOTS: usize = 32;
+
+/// Accepted chunks remembered per upload to recognise repeats (Delta
+/// streams expanded to Raw).
 pub const CHUNK_LOG: usize = 16;
+
+/// Ring bytes of one step decoder (three steps).
+const RING: usize = StepDecoder::ring_len(MAX_TRANSDUCERS);
+
+/// Bitmap words for received rig positions (one bit per transducer).
+const GEOMETRY_WORDS: usize = MAX_TRANSDUCERS.div_ceil(32);
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum State {
@@ -34,6 +71,47 @@ enum State {
     Uploading,
     Committed,
 }
+
+/// How an entry is kept in the arena.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Form {
+    /// Steps × transducers phase bytes.
+    Raw,
+    /// The Delta stream, decoded while playing.
+    Delta,
+}
+
+/// One library entry: where it lies and what it plays.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    state: State,
+    form: Form,
+    header: UploadHeader,
+    /// Arena range `off..off + len` (len 0 while empty).
+    off: usize,
+    len: usize,
+    /// Raw CRC-32 of the committed sequence (repeated commits).
+    crc: u32,
+}
+
+const EMPTY: Entry = Entry {
+    state: State::Empty,
+    form: Form::Raw,
+    header: UploadHeader {
+        steps: 0,
+        transducers: 0,
+        period_us: 0,
+        center_um: [0; 3],
+        foci_per_step: 0,
+        sound_speed_mm_s: 0,
+        max_offset_um: 0,
+        intensity: 0,
+    },
+    off: 0,
+    len: 0,
+    crc: 0,
+};
 
 /// An accepted chunk, to recognise a re-sent duplicate.
 #[derive(Debug, Clone, Copy, Default)]
@@ -43,35 +121,45 @@ struct LoggedChunk {
     crc: u32,
 }
 
-/// Upload bookkeeping of one slot.
+/// The upload in progress.
 #[derive(Debug, Clone)]
 struct Upload {
+    slot: u8,
+    encoding: Encoding,
     encoded_len: u32,
+    /// Raw form: decodes into the entry's arena range.
     decoder: Decoder,
+    /// Delta form: checks the stream kept in the arena, step by step.
+    check: StepDecoder,
     /// CRC over the raw phases decoded so far (updated per chunk).
     crc: Crc32,
-    encoding: Encoding,
-    /// Ring of the last accepted chunks (Delta repeats).
+    /// Ring of the last accepted chunks (Delta expanded to Raw).
     log: [LoggedChunk; CHUNK_LOG],
     logged: usize,
-    /// Number of positions received; positions arrive in whole frames.
-    geometry_mask_words: [u32; GEOMETRY_WORDS],
     failed: bool,
 }
 
-/// Bitmap words for received positions (one bit per transducer).
-const GEOMETRY_WORDS: usize = crate::MAX_TRANSDUCERS.div_ceil(32);
+/// The rig: the positions table's state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Rig {
+    None,
+    Uploading {
+        transducers: u16,
+        crc: u32,
+        mask: [u32; GEOMETRY_WORDS],
+    },
+    Ready {
+        transducers: u16,
+        crc: u32,
+    },
+}
 
-/// One slot: memory plus state.
-#[derive(Debug)]
-struct Slot<'m> {
-    positions: &'m mut [u8],
-    phases: &'m mut [u8],
-    state: State,
-    header: Option<UploadHeader>,
-    upload: Option<Upload>,
-    /// Raw CRC-32 of the committed sequence (repeated commits).
-    committed_crc: u32,
+/// Where the playing Delta entry's decoding stands.
+#[derive(Debug, Clone)]
+struct Cursor {
+    slot: Option<u8>,
+    dec: StepDecoder,
+    ring: [u8; RING],
 }
 
 /// Why the store could not be built.
@@ -81,7 +169,7 @@ struct Slot<'m> {
 pub enum StoreError {
     /// `max_transducers` is zero or above [`crate::MAX_TRANSDUCERS`].
     BadTransducerCount,
-    /// The memory does not leave one raw step per slot after the positions.
+    /// The memory does not leave one raw step after the rig's positions.
     TooSmall,
 }
 
@@ -89,61 +177,74 @@ impl core::fmt::Display for StoreError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
             Self::BadTransducerCount => "max_transducers must be 1..=MAX_TRANSDUCERS",
-            Self::TooSmall => "sequence memory too small for the positions and one step per slot",
+            Self::TooSmall => "sequence memory too small for the rig and one step",
         })
     }
 }
 
-/// Bytes of memory a board must give for `slot_bytes` raw phase bytes per
-/// slot and `max_transducers` positions per slot.
-pub const fn memory_bytes(slot_bytes: usize, max_transducers: usize) -> usize {
-    SLOTS * (slot_bytes + max_transducers * POSITION_BYTES)
+/// Bytes of memory a board must give for a library arena of
+/// `library_bytes` and a rig of up to `max_transducers` positions.
+pub const fn memory_bytes(library_bytes: usize, max_transducers: usize) -> usize {
+    library_bytes + max_transducers * POSITION_BYTES
 }
 
-/// The sequence store.
+/// The library arena the boards give: 448 KiB, which with the rig and the
+/// core's state fits the Nucleo-H743's 512 KiB AXI SRAM (QEMU gives the
+/// same, so its tests show what the Nucleo holds).
+pub const BOARD_LIBRARY_BYTES: usize = 448 * 1024;
+
+/// The library.
 #[derive(Debug)]
 pub struct Store<'m> {
-    slots: [Slot<'m>; SLOTS],
+    rig_mem: &'m mut [u8],
+    arena: &'m mut [u8],
+    entries: [Entry; SLOTS],
+    upload: Option<Upload>,
+    rig: Rig,
+    /// Upload check ring (Delta entries).
+    ring: [u8; RING],
+    cursor: Cursor,
     max_transducers: u16,
-    slot_bytes: u32,
 }
 
 impl<'m> Store<'m> {
-    /// Splits `mem` into [`SLOTS`] equal slots, each with room for
-    /// `max_transducers` positions; the rest of each slot holds phases.
+    /// Splits `mem` into the rig's positions (`max_transducers` × 12 B) and
+    /// the arena (the rest).
     pub fn new(mem: &'m mut [u8], max_transducers: u16) -> Result<Self, StoreError> {
         let t = usize::from(max_transducers);
-        if t == 0 || t > crate::MAX_TRANSDUCERS {
+        if t == 0 || t > MAX_TRANSDUCERS {
             return Err(StoreError::BadTransducerCount);
         }
-        let per_slot = (mem.len() / SLOTS).min(u32::MAX as usize);
         let pos_len = t * POSITION_BYTES;
-        if per_slot < pos_len + 1 {
+        if mem.len() < pos_len + t || mem.len() - pos_len > u32::MAX as usize {
             return Err(StoreError::TooSmall);
         }
-        let (a, rest) = mem.split_at_mut(per_slot);
-        let (b, _) = rest.split_at_mut(per_slot);
-        let make = |m: &'m mut [u8]| {
-            let (positions, phases) = m.split_at_mut(pos_len);
-            Slot {
-                positions,
-                phases,
-                state: State::Empty,
-                header: None,
-                upload: None,
-                committed_crc: 0,
-            }
-        };
+        let (rig_mem, arena) = mem.split_at_mut(pos_len);
         Ok(Self {
-            slots: [make(a), make(b)],
+            rig_mem,
+            arena,
+            entries: [EMPTY; SLOTS],
+            upload: None,
+            rig: Rig::None,
+            ring: [0; RING],
+            cursor: Cursor {
+                slot: None,
+                dec: StepDecoder::new(Encoding::Delta, 0, 0),
+                ring: [0; RING],
+            },
             max_transducers,
-            slot_bytes: (per_slot - pos_len) as u32,
         })
     }
 
-    /// Raw phase bytes one slot holds (`Info::slot_bytes`).
+    /// Largest raw sequence one entry may have: the arena (`Info::slot_bytes`).
     pub fn slot_bytes(&self) -> u32 {
-        self.slot_bytes
+        self.arena.len() as u32
+    }
+
+    /// Arena bytes not taken by an entry or an upload (`Info::library_free`).
+    pub fn free_bytes(&self) -> u32 {
+        let used: usize = self.entries.iter().map(|e| e.len).sum();
+        (self.arena.len() - used) as u32
     }
 
     /// Most transducers a sequence may have.
@@ -151,53 +252,97 @@ impl<'m> Store<'m> {
         self.max_transducers
     }
 
-    fn slot(&mut self, slot: u8) -> Result<&mut Slot<'m>, NackCode> {
-        self.slots
-            .get_mut(usize::from(slot))
-            .ok_or(NackCode::BadSlot)
+    fn committed(&self, slot: u8) -> Option<&Entry> {
+        self.entries
+            .get(usize::from(slot))
+            .filter(|e| e.state == State::Committed)
     }
 
     /// Whether `slot` holds a committed sequence.
     pub fn is_committed(&self, slot: u8) -> bool {
-        self.slots
-            .get(usize::from(slot))
-            .is_some_and(|s| s.state == State::Committed)
+        self.committed(slot).is_some()
     }
 
     /// Header of a committed slot.
     pub fn header(&self, slot: u8) -> Option<&UploadHeader> {
-        let s = self.slots.get(usize::from(slot))?;
-        if s.state == State::Committed {
-            s.header.as_ref()
-        } else {
-            None
-        }
+        self.committed(slot).map(|e| &e.header)
     }
 
-    /// Phases of step `step` of a committed slot.
-    pub fn step(&self, slot: u8, step: u16) -> Option<&[u8]> {
-        let s = self.slots.get(usize::from(slot))?;
-        let h = s.header.as_ref().filter(|_| s.state == State::Committed)?;
+    /// How a committed slot is stored.
+    pub fn form(&self, slot: u8) -> Option<Form> {
+        self.committed(slot).map(|e| e.form)
+    }
+
+    /// Arena bytes a committed slot takes.
+    pub fn stored_bytes(&self, slot: u8) -> Option<u32> {
+        self.committed(slot).map(|e| e.len as u32)
+    }
+
+    /// Phases of step `step` of a committed slot. Raw entries: a slice of
+    /// the arena. Delta entries: decoded into the play ring, from the last
+    /// step decoded for this slot (the next step costs one step of
+    /// decoding; an earlier one, e.g. step 0 of a new cycle, restarts at
+    /// step 0).
+    pub fn step(&mut self, slot: u8, step: u16) -> Option<&[u8]> {
+        let e = *self.committed(slot)?;
+        let h = e.header;
         if step >= h.steps {
             return None;
         }
         let t = usize::from(h.transducers);
-        let start = usize::from(step) * t;
-        s.phases.get(start..start + t)
+        let data = &self.arena[e.off..e.off + e.len];
+        if e.form == Form::Raw {
+            let start = usize::from(step) * t;
+            return data.get(start..start + t);
+        }
+        let c = &mut self.cursor;
+        if c.slot != Some(slot) {
+            c.slot = Some(slot);
+            c.dec = StepDecoder::new(Encoding::Delta, h.steps, h.transducers);
+        }
+        let done = c.dec.steps_done();
+        if step + 1 != done {
+            if step < done {
+                c.dec.restart();
+            }
+            let more = step + 1 - c.dec.steps_done();
+            let at = c.dec.consumed();
+            // The stream was checked at commit; an error cannot happen, and
+            // would only silence this step.
+            c.dec
+                .feed(data.get(at..)?, &mut c.ring, more, |_, _| {})
+                .ok()?;
+            if c.dec.steps_done() != step + 1 {
+                c.slot = None;
+                return None;
+            }
+        }
+        Some(StepDecoder::row(&c.ring, t, step))
     }
 
-    /// Positions (packed `[i32; 3]` µm LE) of a committed slot.
+    /// The rig's positions (packed `[i32; 3]` µm LE) for a committed slot
+    /// (planned for that rig, so as many as its transducers).
     pub fn positions(&self, slot: u8) -> Option<&[u8]> {
-        let s = self.slots.get(usize::from(slot))?;
-        let h = s.header.as_ref().filter(|_| s.state == State::Committed)?;
-        s.positions
-            .get(..usize::from(h.transducers) * POSITION_BYTES)
+        let h = self.header(slot)?;
+        match self.rig {
+            Rig::Ready { transducers, .. } if transducers == h.transducers => self
+                .rig_mem
+                .get(..usize::from(transducers) * POSITION_BYTES),
+            _ => None,
+        }
     }
 
     /// CRC-32 of a committed slot's raw sequence.
     pub fn committed_crc(&self, slot: u8) -> Option<u32> {
-        let s = self.slots.get(usize::from(slot))?;
-        (s.state == State::Committed).then_some(s.committed_crc)
+        self.committed(slot).map(|e| e.crc)
+    }
+
+    /// The rig the device holds: transducers and CRC-32.
+    pub fn rig(&self) -> Option<(u16, u32)> {
+        match self.rig {
+            Rig::Ready { transducers, crc } => Some((transducers, crc)),
+            _ => None,
+        }
     }
 
     /// What the store itself can hold (no dwell limit: that is the
@@ -206,70 +351,148 @@ impl<'m> Store<'m> {
         DeviceLimits {
             slots: SLOTS as u8,
             max_transducers: self.max_transducers,
-            slot_bytes: self.slot_bytes,
+            slot_bytes: self.slot_bytes(),
             min_dwell_us: 0,
         }
     }
 
+    /// The storage rule for a Delta upload of `raw` raw bytes and
+    /// `encoded` stream bytes with `free` bytes available: expand to Raw
+    /// when raw is no larger, or when it leaves at least three quarters of
+    /// the arena free (see the module docs).
+    pub fn raw_fits(&self, raw: u64, encoded: u64, free: u64) -> bool {
+        raw <= encoded || (raw <= free && free - raw >= self.arena.len() as u64 / 4 * 3)
+    }
+
+    /// Drops `slot`'s entry (and the play cursor on it).
+    fn drop_entry(&mut self, slot: usize) {
+        self.entries[slot] = EMPTY;
+        if self.cursor.slot == Some(slot as u8) {
+            self.cursor.slot = None;
+        }
+    }
+
     /// Starts an upload (the caller has checked the slot is not playing
-    /// and the dwell). Any previous content of the slot is invalidated.
-    /// The header is checked with [`BeginUpload::validate`] against the
-    /// store's [`limits`](Self::limits).
+    /// and the dwell). Checked with [`BeginUpload::validate`] against the
+    /// store's [`limits`](Self::limits), then the rig (`NoRig`,
+    /// `RigMismatch`), then the space (`LibraryFull`); on any refusal
+    /// nothing changes. On success the slot's old entry and any unfinished
+    /// upload are dropped.
     pub fn begin(&mut self, b: &BeginUpload) -> Result<(), NackCode> {
         b.validate(&self.limits())?;
-        let s = self.slot(b.slot)?;
+        let slot = usize::from(b.slot);
         let h = b.header;
-        s.state = State::Uploading;
-        s.header = Some(h);
-        s.upload = Some(Upload {
+        match self.rig {
+            Rig::Ready { transducers, crc } => {
+                if crc != b.rig_crc32 || transducers != h.transducers {
+                    return Err(NackCode::RigMismatch);
+                }
+            }
+            _ => return Err(NackCode::NoRig),
+        }
+        let abandoned = self
+            .upload
+            .as_ref()
+            .map(|u| usize::from(u.slot))
+            .filter(|&s| s != slot);
+        let reclaim = self.entries[slot].len + abandoned.map_or(0, |s| self.entries[s].len);
+        let free = u64::from(self.free_bytes()) + reclaim as u64;
+        let raw = h.raw_len();
+        let form = match b.encoding {
+            Encoding::Delta if !self.raw_fits(raw, u64::from(b.encoded_len), free) => Form::Delta,
+            _ => Form::Raw,
+        };
+        let need = match form {
+            Form::Raw => raw,
+            Form::Delta => u64::from(b.encoded_len),
+        };
+        if need > free {
+            return Err(NackCode::LibraryFull);
+        }
+        self.drop_entry(slot);
+        if let Some(s) = abandoned {
+            self.drop_entry(s);
+        }
+        let need = need as usize;
+        let off = match self.first_fit(need) {
+            Some(off) => off,
+            None => {
+                self.compact();
+                self.arena.len() - self.free_bytes() as usize
+            }
+        };
+        self.entries[slot] = Entry {
+            state: State::Uploading,
+            form,
+            header: h,
+            off,
+            len: need,
+            crc: 0,
+        };
+        self.upload = Some(Upload {
+            slot: b.slot,
+            encoding: b.encoding,
             encoded_len: b.encoded_len,
             decoder: Decoder::new(b.encoding, h.steps, h.transducers),
+            check: StepDecoder::new(b.encoding, h.steps, h.transducers),
             crc: Crc32::new(),
-            encoding: b.encoding,
             log: [LoggedChunk::default(); CHUNK_LOG],
             logged: 0,
-            geometry_mask_words: [0; GEOMETRY_WORDS],
             failed: false,
         });
         Ok(())
     }
 
-    fn uploading(&mut self, slot: u8) -> Result<(&mut Slot<'m>, UploadHeader), NackCode> {
-        let s = self.slot(slot)?;
-        match (s.state, s.header) {
-            (State::Uploading, Some(h)) if s.upload.is_some() => Ok((s, h)),
-            _ => Err(NackCode::NoUpload),
+    /// Slots of the entries holding space, in arena order.
+    fn by_offset(&self) -> ([u8; SLOTS], usize) {
+        let mut order = [0u8; SLOTS];
+        let mut n = 0;
+        for (i, e) in self.entries.iter().enumerate() {
+            if e.len > 0 {
+                order[n] = i as u8;
+                n += 1;
+            }
         }
+        // Insertion sort: at most SLOTS entries.
+        for i in 1..n {
+            let mut j = i;
+            while j > 0
+                && self.entries[usize::from(order[j - 1])].off
+                    > self.entries[usize::from(order[j])].off
+            {
+                order.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+        (order, n)
     }
 
-    /// Stores positions `first..first + positions.len()`.
-    pub fn geometry(
-        &mut self,
-        slot: u8,
-        first: u16,
-        positions: &Positions<'_>,
-    ) -> Result<(), NackCode> {
-        let (s, h) = self.uploading(slot)?;
-        let first = usize::from(first);
-        let n = positions.len();
-        if first + n > usize::from(h.transducers) {
-            return Err(NackCode::OutOfRange);
-        }
-        let Some(up) = s.upload.as_mut() else {
-            return Err(NackCode::NoUpload);
-        };
-        for i in 0..n {
-            let Some(p) = positions.get(i) else {
-                return Err(NackCode::Malformed);
-            };
-            let k = first + i;
-            let dst = &mut s.positions[k * POSITION_BYTES..(k + 1) * POSITION_BYTES];
-            for (c, v) in p.iter().enumerate() {
-                dst[c * 4..c * 4 + 4].copy_from_slice(&v.to_le_bytes());
+    /// The start of the first gap of at least `need` bytes.
+    fn first_fit(&self, need: usize) -> Option<usize> {
+        let (order, n) = self.by_offset();
+        let mut at = 0;
+        for &s in &order[..n] {
+            let e = &self.entries[usize::from(s)];
+            if e.off - at >= need {
+                return Some(at);
             }
-            up.geometry_mask_words[k / 32] |= 1 << (k % 32);
+            at = e.off + e.len;
         }
-        Ok(())
+        (self.arena.len() - at >= need).then_some(at)
+    }
+
+    /// Moves every entry towards the arena's start, closing the gaps.
+    fn compact(&mut self) {
+        let (order, n) = self.by_offset();
+        let mut at = 0;
+        for &s in &order[..n] {
+            let e = &mut self.entries[usize::from(s)];
+            if e.off != at {
+                self.arena.copy_within(e.off..e.off + e.len, at);
+                e.off = at;
+            }
+            at += e.len;
+        }
     }
 
     /// Stores a chunk of the encoded stream at `offset`.
@@ -277,9 +500,10 @@ impl<'m> Store<'m> {
     /// Chunks must arrive in order; a repeat of received data with the
     /// same bytes is acknowledged without effect (see the module docs).
     pub fn chunk(&mut self, slot: u8, offset: u32, data: &[u8]) -> Result<(), NackCode> {
-        let (s, _) = self.uploading(slot)?;
-        let Some(up) = s.upload.as_mut() else {
-            return Err(NackCode::NoUpload);
+        let e = self.entries[usize::from(slot).min(SLOTS - 1)];
+        let up = match self.upload.as_mut() {
+            Some(u) if u.slot == slot => u,
+            _ => return Err(NackCode::NoUpload),
         };
         if up.failed {
             return Err(NackCode::BadStream);
@@ -289,11 +513,17 @@ impl<'m> Store<'m> {
         if end > u64::from(up.encoded_len) {
             return Err(NackCode::OutOfRange);
         }
-        let consumed = up.decoder.consumed() as u64;
+        let mem = &mut self.arena[e.off..e.off + e.len];
+        let consumed = match e.form {
+            Form::Raw => up.decoder.consumed(),
+            Form::Delta => up.check.consumed(),
+        } as u64;
         if u64::from(offset) < consumed && end <= consumed {
-            let same = match up.encoding {
-                // Raw: the stream is the phases; compare what is stored.
-                Encoding::Raw => s.phases.get(offset as usize..end as usize) == Some(data),
+            let same = match (e.form, up.encoding) {
+                // The stream is in the arena: compare what is stored.
+                (Form::Delta, _) | (Form::Raw, Encoding::Raw) => {
+                    mem.get(offset as usize..end as usize) == Some(data)
+                }
                 _ => {
                     let crc = lm_proto::crc32(data);
                     up.log[..up.logged.min(CHUNK_LOG)]
@@ -307,16 +537,28 @@ impl<'m> Store<'m> {
                 Err(NackCode::OutOfOrder)
             };
         }
-        if offset as usize != up.decoder.consumed() {
+        if u64::from(offset) != consumed {
             return Err(NackCode::OutOfOrder);
         }
-        let before = up.decoder.decoded();
-        if up.decoder.feed(data, s.phases).is_err() {
+        let ok = match e.form {
+            Form::Raw => {
+                let before = up.decoder.decoded();
+                let ok = up.decoder.feed(data, mem).is_ok();
+                up.crc.update(&mem[before..up.decoder.decoded()]);
+                ok
+            }
+            Form::Delta => {
+                mem[offset as usize..end as usize].copy_from_slice(data);
+                let crc = &mut up.crc;
+                up.check
+                    .feed(data, &mut self.ring, u16::MAX, |_, row| crc.update(row))
+                    .is_ok()
+            }
+        };
+        if !ok {
             up.failed = true;
             return Err(NackCode::BadStream);
         }
-        let after = up.decoder.decoded();
-        up.crc.update(&s.phases[before..after]);
         up.log[up.logged % CHUNK_LOG] = LoggedChunk {
             offset,
             len,
@@ -326,40 +568,138 @@ impl<'m> Store<'m> {
         Ok(())
     }
 
-    /// Finishes an upload: the whole stream and every position must have
-    /// arrived and the raw sequence CRC must match `crc32`. On success the
-    /// slot becomes playable; on a CRC mismatch the upload is dropped. A
+    /// Finishes an upload: the whole stream must have arrived and the raw
+    /// sequence CRC must match `crc32`. On success the slot becomes
+    /// playable; on a CRC mismatch the upload and its entry are dropped. A
     /// repeat of the commit that succeeded (same CRC) is acked again.
     pub fn commit(&mut self, slot: u8, crc32: u32) -> Result<(), NackCode> {
         if self.committed_crc(slot) == Some(crc32) {
             return Ok(());
         }
-        let (s, h) = self.uploading(slot)?;
-        let Some(up) = s.upload.as_ref() else {
-            return Err(NackCode::NoUpload);
+        let e = self.entries[usize::from(slot).min(SLOTS - 1)];
+        let up = match self.upload.as_mut() {
+            Some(u) if u.slot == slot => u,
+            _ => return Err(NackCode::NoUpload),
         };
         if up.failed {
             return Err(NackCode::BadStream);
         }
-        if up.decoder.consumed() as u64 != u64::from(up.encoded_len) {
+        let (consumed, finished) = match e.form {
+            Form::Raw => (up.decoder.consumed(), up.decoder.finish()),
+            Form::Delta => (up.check.consumed(), up.check.finish()),
+        };
+        if consumed as u64 != u64::from(up.encoded_len) {
             return Err(NackCode::Incomplete);
         }
-        if up.decoder.finish().is_err() {
+        if finished.is_err() {
             return Err(NackCode::BadStream);
         }
-        let t = usize::from(h.transducers);
-        let all_positions = (0..t).all(|k| up.geometry_mask_words[k / 32] & (1 << (k % 32)) != 0);
-        if !all_positions {
-            return Err(NackCode::Incomplete);
-        }
-        if up.crc.finish() != crc32 {
-            s.state = State::Empty;
-            s.upload = None;
+        let good = up.crc.finish() == crc32;
+        self.upload = None;
+        let s = usize::from(slot);
+        if !good {
+            self.drop_entry(s);
             return Err(NackCode::CrcMismatch);
         }
-        s.state = State::Committed;
-        s.committed_crc = crc32;
-        s.upload = None;
+        self.entries[s].state = State::Committed;
+        self.entries[s].crc = crc32;
+        Ok(())
+    }
+
+    /// Starts a rig upload of `transducers` positions whose table has CRC
+    /// `crc32` (the caller has checked that nothing plays). The rig the
+    /// device holds already: acked, nothing changes. Another: every entry
+    /// and any upload are dropped (planned for the old positions).
+    pub fn begin_rig(&mut self, transducers: u16, crc32: u32) -> Result<(), NackCode> {
+        if self.rig() == Some((transducers, crc32)) {
+            return Ok(());
+        }
+        if transducers == 0 {
+            return Err(NackCode::OutOfRange);
+        }
+        if transducers > self.max_transducers {
+            return Err(NackCode::TooLarge);
+        }
+        for s in 0..SLOTS {
+            self.drop_entry(s);
+        }
+        self.upload = None;
+        self.rig = Rig::Uploading {
+            transducers,
+            crc: crc32,
+            mask: [0; GEOMETRY_WORDS],
+        };
+        Ok(())
+    }
+
+    /// Whether a rig upload is under way (the caller refuses it while
+    /// anything plays only when it would change the rig).
+    pub fn rig_would_change(&self, transducers: u16, crc32: u32) -> bool {
+        self.rig() != Some((transducers, crc32))
+    }
+
+    /// Stores rig positions `first..first + positions.len()`. On a rig
+    /// already committed, positions identical to the stored ones are acked
+    /// (a repeat), others are `NoUpload`.
+    pub fn geometry(&mut self, first: u16, positions: &Positions<'_>) -> Result<(), NackCode> {
+        if let Rig::Ready { transducers, .. } = self.rig {
+            let first = usize::from(first);
+            let same = first + positions.len() <= usize::from(transducers)
+                && positions.iter().enumerate().all(|(i, p)| {
+                    let k = (first + i) * POSITION_BYTES;
+                    let r = &self.rig_mem[k..k + POSITION_BYTES];
+                    (0..3).all(|c| r[c * 4..c * 4 + 4] == p[c].to_le_bytes())
+                });
+            return if same {
+                Ok(())
+            } else {
+                Err(NackCode::NoUpload)
+            };
+        }
+        let Rig::Uploading {
+            transducers, mask, ..
+        } = &mut self.rig
+        else {
+            return Err(NackCode::NoUpload);
+        };
+        let first = usize::from(first);
+        let n = positions.len();
+        if first + n > usize::from(*transducers) {
+            return Err(NackCode::OutOfRange);
+        }
+        for (i, p) in positions.iter().enumerate() {
+            let k = first + i;
+            let dst = &mut self.rig_mem[k * POSITION_BYTES..(k + 1) * POSITION_BYTES];
+            for (c, v) in p.iter().enumerate() {
+                dst[c * 4..c * 4 + 4].copy_from_slice(&v.to_le_bytes());
+            }
+            mask[k / 32] |= 1 << (k % 32);
+        }
+        Ok(())
+    }
+
+    /// Finishes the rig upload: every position must have arrived and the
+    /// table's CRC-32 must be `BeginRig`'s (else the rig is dropped,
+    /// `CrcMismatch`). A repeat after success is acked again.
+    pub fn commit_rig(&mut self) -> Result<(), NackCode> {
+        let (transducers, crc, mask) = match self.rig {
+            Rig::Ready { .. } => return Ok(()),
+            Rig::None => return Err(NackCode::NoUpload),
+            Rig::Uploading {
+                transducers,
+                crc,
+                mask,
+            } => (transducers, crc, mask),
+        };
+        let t = usize::from(transducers);
+        if !(0..t).all(|k| mask[k / 32] & (1 << (k % 32)) != 0) {
+            return Err(NackCode::Incomplete);
+        }
+        if lm_proto::crc32(&self.rig_mem[..t * POSITION_BYTES]) != crc {
+            self.rig = Rig::None;
+            return Err(NackCode::CrcMismatch);
+        }
+        self.rig = Rig::Ready { transducers, crc };
         Ok(())
     }
 }
@@ -367,6 +707,18 @@ impl<'m> Store<'m> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const PTS: [[i32; 3]; 4] = [
+        [0, 0, 0],
+        [10_000, 0, 0],
+        [0, 10_000, 0],
+        [10_000, 10_000, 0],
+    ];
+
+    fn rig_crc(t: u16) -> u32 {
+        let pts: [[i32; 3]; 8] = core::array::from_fn(|i| PTS[i % 4]);
+        lm_proto::rig_crc32(&Positions::from_points(&pts[..usize::from(t)]))
+    }
 
     fn begin(slot: u8, steps: u16, t: u16) -> BeginUpload {
         BeginUpload {
@@ -379,25 +731,24 @@ mod tests {
                 foci_per_step: 1,
                 sound_speed_mm_s: 340_000,
                 max_offset_um: 20_000,
+                intensity: 255,
             },
             encoding: Encoding::Raw,
             encoded_len: u32::from(steps) * u32::from(t),
+            rig_crc32: rig_crc(t),
         }
     }
 
-    fn geometry(store: &mut Store<'_>, slot: u8, t: u16) {
-        let pts: [[i32; 3]; 4] = [
-            [0, 0, 0],
-            [10_000, 0, 0],
-            [0, 10_000, 0],
-            [10_000, 10_000, 0],
-        ];
+    /// Uploads the test rig of `t` (≤ 8) transducers.
+    fn rig(store: &mut Store<'_>, t: u16) {
+        store.begin_rig(t, rig_crc(t)).unwrap();
         for first in 0..t {
             let i = usize::from(first) % 4;
             store
-                .geometry(slot, first, &Positions::from_points(&pts[i..i + 1]))
+                .geometry(first, &Positions::from_points(&PTS[i..i + 1]))
                 .unwrap();
         }
+        store.commit_rig().unwrap();
     }
 
     #[test]
@@ -405,9 +756,9 @@ mod tests {
         let mut mem = [0u8; memory_bytes(64, 4)];
         let mut st = Store::new(&mut mem, 4).unwrap();
         assert_eq!(st.slot_bytes(), 64);
+        rig(&mut st, 4);
         let data: [u8; 12] = core::array::from_fn(|i| i as u8 * 7);
         st.begin(&begin(1, 3, 4)).unwrap();
-        geometry(&mut st, 1, 4);
         assert_eq!(st.chunk(1, 0, &data[..5]), Ok(()));
         assert_eq!(
             st.chunk(1, 0, &data[..5]),
@@ -426,12 +777,12 @@ mod tests {
         assert_eq!(st.chunk(1, 12, &[1]), Err(NackCode::OutOfRange));
         assert_eq!(st.commit(1, 1), Err(NackCode::CrcMismatch));
         assert!(!st.is_committed(1));
+        assert_eq!(st.free_bytes(), 64, "a failed upload frees its space");
         assert_eq!(
             st.commit(1, lm_proto::crc32(&data)),
             Err(NackCode::NoUpload)
         );
         st.begin(&begin(1, 3, 4)).unwrap();
-        geometry(&mut st, 1, 4);
         assert_eq!(
             st.commit(1, lm_proto::crc32(&data)),
             Err(NackCode::Incomplete)
@@ -445,13 +796,16 @@ mod tests {
         assert_eq!(st.step(1, 2), Some(&data[8..12]));
         assert_eq!(st.step(1, 3), None);
         assert_eq!(&st.positions(1).unwrap()[12..16], &10_000i32.to_le_bytes());
+        assert_eq!(st.form(1), Some(Form::Raw));
     }
 
     #[test]
     fn refuses_bad_headers() {
         let mut mem = [0u8; memory_bytes(64, 4)];
         let mut st = Store::new(&mut mem, 4).unwrap();
-        assert_eq!(st.begin(&begin(2, 1, 1)), Err(NackCode::BadSlot));
+        assert_eq!(st.begin(&begin(0, 1, 4)), Err(NackCode::NoRig));
+        rig(&mut st, 4);
+        assert_eq!(st.begin(&begin(SLOTS as u8, 1, 1)), Err(NackCode::BadSlot));
         assert_eq!(st.begin(&begin(0, 17, 4)), Err(NackCode::TooLarge));
         assert_eq!(st.begin(&begin(0, 1, 5)), Err(NackCode::TooLarge));
         assert_eq!(st.begin(&begin(0, 0, 4)), Err(NackCode::OutOfRange));
@@ -469,64 +823,79 @@ mod tests {
         let mut b = begin(0, 2, 4);
         b.header.max_offset_um = 0;
         assert_eq!(st.begin(&b), Err(NackCode::OutOfRange));
+        // Another rig: its CRC, or its transducer count.
+        let mut b = begin(0, 2, 4);
+        b.rig_crc32 ^= 1;
+        assert_eq!(st.begin(&b), Err(NackCode::RigMismatch));
+        assert_eq!(st.begin(&begin(0, 2, 3)), Err(NackCode::RigMismatch));
         assert_eq!(st.chunk(0, 0, &[0]), Err(NackCode::NoUpload));
         assert!(Store::new(&mut [0u8; 10], 4).is_err());
     }
 
     #[test]
-    fn commit_needs_every_position() {
+    fn rig_needs_every_position_and_its_crc() {
         let mut mem = [0u8; memory_bytes(64, 4)];
         let mut st = Store::new(&mut mem, 4).unwrap();
-        st.begin(&begin(0, 1, 4)).unwrap();
-        st.chunk(0, 0, &[1, 2, 3, 4]).unwrap();
-        let p = [[1, 2, 3]; 3];
-        st.geometry(0, 0, &Positions::from_points(&p)).unwrap();
+        assert_eq!(st.commit_rig(), Err(NackCode::NoUpload));
+        st.begin_rig(4, rig_crc(4)).unwrap();
+        let p = Positions::from_points(&PTS[..3]);
+        st.geometry(0, &p).unwrap();
+        assert_eq!(st.geometry(2, &p), Err(NackCode::OutOfRange));
+        assert_eq!(st.commit_rig(), Err(NackCode::Incomplete));
+        st.geometry(3, &Positions::from_points(&PTS[3..])).unwrap();
+        assert_eq!(st.commit_rig(), Ok(()));
+        assert_eq!(st.rig(), Some((4, rig_crc(4))));
+        assert_eq!(st.commit_rig(), Ok(()), "repeat");
+        let p = Positions::from_points(&PTS[2..]);
+        assert_eq!(st.geometry(2, &p), Ok(()), "identical repeat");
         assert_eq!(
-            st.geometry(0, 2, &Positions::from_points(&p)),
-            Err(NackCode::OutOfRange)
+            st.geometry(1, &p),
+            Err(NackCode::NoUpload),
+            "other positions"
         );
-        assert_eq!(
-            st.commit(0, lm_proto::crc32(&[1, 2, 3, 4])),
-            Err(NackCode::Incomplete)
-        );
-        st.geometry(0, 3, &Positions::from_points(&p[..1])).unwrap();
-        st.commit(0, lm_proto::crc32(&[1, 2, 3, 4])).unwrap();
+        // A wrong CRC drops the rig.
+        st.begin_rig(4, 1).unwrap();
+        st.geometry(0, &Positions::from_points(&PTS)).unwrap();
+        assert_eq!(st.commit_rig(), Err(NackCode::CrcMismatch));
+        assert_eq!(st.rig(), None);
+        assert_eq!(st.begin_rig(0, 0), Err(NackCode::OutOfRange));
+        assert_eq!(st.begin_rig(5, 0), Err(NackCode::TooLarge));
     }
 
     #[test]
-    fn delta_stream_decodes_into_slot() {
+    fn delta_stream_kept_or_expanded_plays_the_same_steps() {
         let t = 5u16;
         let steps = 9u16;
         let raw: [u8; 45] = core::array::from_fn(|i| ((i / 5) * (i % 5 + 1) * 3) as u8);
         let mut enc = [0u8; 256];
         let n = lm_proto::codec::encode(Encoding::Delta, &raw, usize::from(t), &mut enc).unwrap();
-        let mut mem = [0u8; memory_bytes(64, 5)];
-        let mut st = Store::new(&mut mem, 5).unwrap();
-        let mut b = begin(0, steps, t);
-        b.encoding = Encoding::Delta;
-        b.encoded_len = n as u32;
-        st.begin(&b).unwrap();
-        assert!(n <= 3 * CHUNK_LOG, "every chunk stays logged");
-        let p = [[0, 0, 0]; 5];
-        st.geometry(0, 0, &Positions::from_points(&p)).unwrap();
-        let mut off = 0;
-        for piece in enc[..n].chunks(3) {
-            st.chunk(0, off as u32, piece).unwrap();
-            off += piece.len();
-        }
-        // Repeats of any logged chunk are acked; other bytes are not.
-        assert_eq!(st.chunk(0, 0, &enc[..3]), Ok(()));
-        assert_eq!(st.chunk(0, 3, &enc[3..6]), Ok(()));
-        assert_eq!(st.chunk(0, 3, &[0xAA; 3]), Err(NackCode::OutOfOrder));
-        assert_eq!(
-            st.chunk(0, 1, &enc[1..4]),
-            Err(NackCode::OutOfOrder),
-            "unlogged"
-        );
-        st.commit(0, lm_proto::crc32(&raw)).unwrap();
-        for k in 0..steps {
-            let s = usize::from(k) * 5;
-            assert_eq!(st.step(0, k).unwrap(), &raw[s..s + 5]);
+        // 60 bytes: 45 raw would leave 15 < 45 free, so the entry stays Delta;
+        // 200: expanded to Raw (155 ≥ 150 free).
+        for (arena, form) in [(60, Form::Delta), (200, Form::Raw)] {
+            let mut mem = [0u8; memory_bytes(200, 5)];
+            let mut st = Store::new(&mut mem[..memory_bytes(arena, 5)], 5).unwrap();
+            rig(&mut st, 5);
+            let mut b = begin(0, steps, t);
+            b.encoding = Encoding::Delta;
+            b.encoded_len = n as u32;
+            st.begin(&b).unwrap();
+            assert!(n <= 3 * CHUNK_LOG, "every chunk stays logged");
+            let mut off = 0;
+            for piece in enc[..n].chunks(3) {
+                st.chunk(0, off as u32, piece).unwrap();
+                off += piece.len();
+            }
+            // Repeats of any received chunk are acked; other bytes are not.
+            assert_eq!(st.chunk(0, 0, &enc[..3]), Ok(()));
+            assert_eq!(st.chunk(0, 3, &enc[3..6]), Ok(()));
+            assert_eq!(st.chunk(0, 3, &[0xAA; 3]), Err(NackCode::OutOfOrder));
+            st.commit(0, lm_proto::crc32(&raw)).unwrap();
+            assert_eq!(st.form(0), Some(form));
+            // Twice round, then a jump back and a skip ahead.
+            for k in (0..steps).chain(0..steps).chain([4, 2, 8, 0]) {
+                let s = usize::from(k) * 5;
+                assert_eq!(st.step(0, k).unwrap(), &raw[s..s + 5], "{form:?} step {k}");
+            }
         }
     }
 }

@@ -64,8 +64,12 @@ fn info_reports_configuration() {
     };
     assert_eq!(i.proto_version, PROTOCOL_VERSION);
     assert_eq!(i.max_transducers, 996);
-    assert_eq!(i.slot_bytes, 200 * 996);
-    assert_eq!(i.slots, 2);
+    // The test memory holds a library of two such sequences.
+    assert_eq!(i.slot_bytes, 2 * 200 * 996);
+    assert_eq!(i.library_free, 2 * 200 * 996);
+    assert_eq!(i.slots as usize, lm_fw_core::SLOTS);
+    assert!(i.slots >= 32);
+    assert_eq!((i.rig_transducers, i.rig_crc32), (0, 0), "no rig yet");
     assert_eq!(i.timer_hz, 1_000_000);
     assert_eq!(i.min_dwell_us, 1000);
     assert_eq!(i.max_chunk, 1024);
@@ -112,6 +116,9 @@ fn min_dwell_is_enforced_at_begin_and_play() {
     // Exactly 1 ms per step is allowed.
     seq.period_us = 100_000;
     let begin = seq.begin(0, Encoding::Raw);
+    for m in seq.rig_requests() {
+        acks(&mut dev, 2, &m, 0);
+    }
     acks(&mut dev, 2, &begin, 0);
     seq.upload(&mut dev, 0, Encoding::Raw, 0);
     let start = play(0, PlayAt::Immediate);
@@ -152,7 +159,11 @@ fn uploads_into_the_playing_slot_are_refused() {
         &mut dev,
         &[
             (4, other, NackCode::SlotPlaying),
-            (5, seq.begin(2, Encoding::Raw), NackCode::BadSlot),
+            (
+                5,
+                seq.begin(lm_fw_core::SLOTS as u8, Encoding::Raw),
+                NackCode::BadSlot,
+            ),
             (6, play(1, PlayAt::Immediate), NackCode::NotCommitted),
         ],
     );
@@ -188,7 +199,11 @@ fn interrupted_upload_never_touches_the_playing_slot() {
             }
             // Interrupted: a commit now is refused, and so is playing slot 1.
             let commit = request(&mut dev, 500, &b.commit(1), now);
-            if cut < reqs.len() {
+            let rig = b.rig_requests().len();
+            if cut <= rig {
+                // Only the rig so far (the device holds it already).
+                assert_eq!(commit, Reply::Nack(NackCode::NoUpload), "cut {cut}");
+            } else if cut < reqs.len() {
                 assert_eq!(commit, Reply::Nack(NackCode::Incomplete), "cut {cut}");
             } else {
                 // All data there but a corrupt CRC.
@@ -449,10 +464,15 @@ fn chunks_past_end_and_out_of_order_are_nacked() {
             foci_per_step: 1,
             sound_speed_mm_s: 340_000,
             max_offset_um: 20_000,
+            intensity: 255,
         },
         encoding: Encoding::Raw,
         encoded_len: 8,
+        rig_crc32: Seq::pattern(1, 4, 1000, 0).rig_crc32(),
     });
+    for m in Seq::pattern(1, 4, 1000, 0).rig_requests() {
+        acks(&mut dev, 1, &m, 0);
+    }
     acks(&mut dev, 1, &b, 0);
     let ch = |offset, data: &'static [u8]| {
         Message::Chunk(Chunk {

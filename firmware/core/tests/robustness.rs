@@ -11,14 +11,14 @@ use common::*;
 use lm_fw_core::{Device, OutputDriver, OutputFrame};
 use lm_proto::codec::Encoding;
 use lm_proto::{
-    BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_ENCODED_FRAME, MAX_FRAME, Message,
-    PROTOCOL_VERSION, Play, PlayAt, Positions, UploadHeader, cobs, encode_frame,
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_ENCODED_FRAME, MAX_FRAME,
+    Message, PROTOCOL_VERSION, Play, PlayAt, Positions, UploadHeader, cobs, encode_frame,
 };
 
 /// Fails the test if a sounding frame comes from a slot that is not
 /// known-committed.
 struct Guard {
-    committed: [bool; 2],
+    committed: [bool; lm_fw_core::SLOTS],
     sounding: u64,
     frames: u64,
 }
@@ -47,14 +47,23 @@ const POINTS: [[i32; 3]; 16] = [[1_000, -2_000, 0]; 16];
 /// A random request, biased towards values the small device accepts.
 fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'static> {
     let slot = r.below(3) as u8;
-    match r.below(10) {
+    let t = 1 + r.below(18) as u16;
+    match r.below(12) {
         0 => Message::GetInfo,
+        10 => {
+            let t = 1 + r.below(18) as u16;
+            Message::BeginRig(BeginRig {
+                transducers: t,
+                crc32: Seq::pattern(1, t, 1000, 0).rig_crc32(),
+            })
+        }
+        11 => Message::CommitRig,
         1 => Message::GetStatus,
         2 => Message::BeginUpload(BeginUpload {
             slot,
             header: UploadHeader {
                 steps: 1 + r.below(40) as u16,
-                transducers: 1 + r.below(18) as u16,
+                transducers: t,
                 period_us: (r.below(200) as u32 + 1) * 1000,
                 center_um: [r.next() as i32 % 50_000, 0, 200_000],
                 foci_per_step: r.byte(),
@@ -69,6 +78,13 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
                     1 => r.next() as u32,
                     _ => 1 + r.below(30_000) as u32,
                 },
+                intensity: r.byte(),
+            },
+            // Mostly the rig of the scripted uploads' sequences.
+            rig_crc32: if r.below(8) == 0 {
+                r.next() as u32
+            } else {
+                Seq::pattern(1, t, 1000, 0).rig_crc32()
             },
             encoding: if r.below(2) == 0 {
                 Encoding::Raw
@@ -80,7 +96,6 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
         3 => {
             let n = r.below(17) as usize;
             Message::Geometry(Geometry {
-                slot,
                 first: r.below(20) as u16,
                 positions: Positions::from_points(&POINTS[..n]),
             })
@@ -167,7 +182,7 @@ fn run(seed: u64, frames: u64) -> (u64, u64, u64) {
     let mut r = Rng(seed);
     let mut dev: Device<'static> = device(config(16), 512);
     let mut guard = Guard {
-        committed: [false; 2],
+        committed: [false; lm_fw_core::SLOTS],
         sounding: 0,
         frames: 0,
     };

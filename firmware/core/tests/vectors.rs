@@ -45,18 +45,17 @@ fn expected(name: &str) -> Option<Option<Reply>> {
     let nack = |c| Some(Some(Reply::Nack(c)));
     Some(match name {
         "get_info" => return Some(Some(Reply::Other)), // checked below
-        "begin_upload" | "begin_upload_raw" | "stop" | "centroid" => Some(Reply::Ack),
-        "geometry" => return nack(OutOfRange), // first = 996 of 996
-        "geometry_empty" => return nack(BadSlot),
-        "chunk" => return nack(OutOfOrder), // offset 1024, nothing received yet
-        "chunk_long" => return nack(OutOfRange), // 300 bytes into encoded_len 1
-        "chunk_empty" => return nack(OutOfRange), // offset u32::MAX
-        "commit" => return nack(Incomplete),
+        // No rig yet: uploads are refused until one is committed.
+        "begin_upload" | "begin_upload_raw" => return nack(NoRig),
+        "begin_rig" | "geometry_empty" | "stop" | "centroid" => Some(Reply::Ack),
+        "commit_rig" => return nack(Incomplete), // no position has arrived
+        "geometry" => return nack(OutOfRange),   // first = 996 of 996
+        "chunk" | "chunk_long" | "chunk_empty" | "commit" => return nack(NoUpload),
         "play_next_cycle" | "play_immediate" => return nack(NotCommitted),
         "centroid_absent" => return nack(OutOfOrder), // seq u32::MAX is older than 42 (wrapping)
         "get_status" => return Some(Some(Reply::Other)), // checked below
-        "info" | "status" | "status_idle" | "status_muted" | "ack" | "nack"
-        | "nack_unknown_code" => {
+        "info" | "info_no_rig" | "status" | "status_idle" | "status_muted" | "ack" | "nack"
+        | "nack_library_full" | "nack_no_rig" | "nack_rig_mismatch" | "nack_unknown_code" => {
             return nack(UnknownType);
         }
         "err_unknown_type" => return nack(UnknownType),

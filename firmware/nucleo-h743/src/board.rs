@@ -144,9 +144,11 @@ impl Board {
     }
 }
 
-/// Bytes the receive queue holds: more than one full frame, so a long SPI
-/// frame or step never makes the UART overrun.
-const RX_RING: usize = 4096;
+/// Bytes the receive queue holds: almost two full frames (the host has one
+/// request in flight), so a long SPI frame or step never makes the UART
+/// overrun. 2 KiB rather than 4 keeps the statics outside the library
+/// within 16 KB now that the core holds two decode rings.
+const RX_RING: usize = 2048;
 /// Bytes of queued replies: many small responses.
 const TX_RING: usize = 1024;
 

@@ -11,19 +11,19 @@ use core::mem::MaybeUninit;
 
 use cortex_m::peripheral::NVIC;
 use cortex_m_rt::entry;
-use lm_fw_core::{Config, Device, SpiOutput, TakeOnce, memory_bytes, serve};
+use lm_fw_core::{BOARD_LIBRARY_BYTES, Config, Device, SpiOutput, TakeOnce, memory_bytes, serve};
 use stm32h7::stm32h743v::{self as pac, interrupt};
 
-/// Raw phase bytes per slot: 232 KiB (200 steps × 996 transducers need
-/// 199,200); both slots with positions fill 487 KiB of the 512 KiB AXI SRAM.
-const SLOT_BYTES: usize = 232 * 1024;
+/// The stimulus library's arena: 448 KiB; with the rig's positions
+/// (11,952 B) and the core's state it fits the 512 KiB AXI SRAM.
+const LIBRARY_BYTES: usize = BOARD_LIBRARY_BYTES;
 /// Transducers of the array this board drives (four AUTD3 boards), reported
 /// as `Info::max_transducers`; at most `lm_fw_core::MAX_TRANSDUCERS` (1024,
 /// the core's table size).
 const ARRAY_TRANSDUCERS: u16 = 996;
-const STORE_BYTES: usize = memory_bytes(SLOT_BYTES, ARRAY_TRANSDUCERS as usize);
+const STORE_BYTES: usize = memory_bytes(LIBRARY_BYTES, ARRAY_TRANSDUCERS as usize);
 
-/// Both sequence slots with their transducer positions.
+/// The stimulus library and the rig's transducer positions.
 static SEQUENCE_STORE: TakeOnce<[u8; STORE_BYTES]> = TakeOnce::new([0; STORE_BYTES]);
 /// The core's state outside the store.
 static DEVICE: TakeOnce<MaybeUninit<Device<'static>>> = TakeOnce::new(MaybeUninit::uninit());

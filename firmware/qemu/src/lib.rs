@@ -17,14 +17,16 @@ use core::ptr::{read_volatile, write_volatile};
 
 use lm_fw_core::{Config, HostLink, OutputDriver, OutputFrame};
 
-/// Raw phase bytes per slot: 256 KiB (200 steps × 996 transducers need 199,200).
-pub const SLOT_BYTES: usize = 256 * 1024;
+/// The stimulus library's arena: the Nucleo-H743's
+/// ([`lm_fw_core::BOARD_LIBRARY_BYTES`], 448 KiB), so what QEMU holds the
+/// real board holds.
+pub const LIBRARY_BYTES: usize = lm_fw_core::BOARD_LIBRARY_BYTES;
 /// Transducers of the array this board drives (four AUTD3 boards), reported
 /// as `Info::max_transducers`; at most `lm_fw_core::MAX_TRANSDUCERS` (1024,
 /// the core's table size).
 pub const ARRAY_TRANSDUCERS: u16 = 996;
-/// Bytes of sequence memory for the core (both slots, with positions).
-pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(SLOT_BYTES, ARRAY_TRANSDUCERS as usize);
+/// Bytes of sequence memory for the core (the library and the rig's positions).
+pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(LIBRARY_BYTES, ARRAY_TRANSDUCERS as usize);
 
 /// The core's configuration on this board: TIMER0's 25 MHz counts.
 pub fn config() -> Config {
@@ -147,6 +149,8 @@ pub struct FrameCounter {
     pub last_step: u16,
     /// Phase of transducer 0 in the last frame (keeps the frame observable).
     pub last_phase0: u8,
+    /// Intensity of the last frame.
+    pub last_intensity: u8,
 }
 
 impl OutputDriver for FrameCounter {
@@ -158,6 +162,7 @@ impl OutputDriver for FrameCounter {
         }
         self.last_step = frame.step;
         self.last_phase0 = frame.phases.first().copied().unwrap_or(0);
+        self.last_intensity = frame.intensity;
         Ok(())
     }
 }

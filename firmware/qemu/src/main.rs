@@ -10,7 +10,7 @@ use cortex_m_rt::entry;
 use lm_fw_core::{Device, TakeOnce, serve};
 use lm_fw_qemu::{FrameCounter, STORE_BYTES, TIMER0_BASE, Timer, UART0_BASE, Uart, config};
 
-/// Both sequence slots with their transducer positions.
+/// The stimulus library and the rig's transducer positions.
 static SEQUENCE_STORE: TakeOnce<[u8; STORE_BYTES]> = TakeOnce::new([0; STORE_BYTES]);
 /// The core's state outside the store (a static, so the ELF's memory map shows it).
 static DEVICE: TakeOnce<MaybeUninit<Device<'static>>> = TakeOnce::new(MaybeUninit::uninit());

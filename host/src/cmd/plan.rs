@@ -184,6 +184,7 @@ impl PlanArgs {
             center_mm,
             z_profile_mm,
             synthesis,
+            ..Stimulus::default()
         })
     }
 

@@ -5,14 +5,22 @@
 //! the device's state ambiguous (a chunk that may or may not have landed),
 //! the client restarts the whole upload from `BeginUpload` rather than
 //! guess: the device only ever plays a slot whose CRC it checked itself.
+//!
+//! The rig (the transducer positions) goes to the device once: before an
+//! upload the client makes sure the device holds the rig the sequence was
+//! planned for (its CRC-32, from the device's `Info` the first time, then
+//! remembered), and sends `BeginRig`, `Geometry`, `CommitRig` only when it
+//! does not; later uploads carry phases only. A device that lost the rig
+//! (reset) answers `NoRig` / `RigMismatch`, and the client sends it again.
 
 use std::time::{Duration, Instant};
 
 use lm_proto::codec::CodecError;
 use lm_proto::{
-    BeginUpload, Centroid, Chunk, Commit, DeviceLimits, Encoding, FeedResult, FrameDecoder,
-    Geometry, HeaderError, Info, MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message,
-    NackCode, POSITION_LEN, Play, PlayAt, Positions, Status, UploadHeader, encode_frame,
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceLimits, Encoding, FeedResult,
+    FrameDecoder, Geometry, HeaderError, Info, MAX_CHUNK, MAX_ENCODED_FRAME,
+    MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play, PlayAt, Positions, Status,
+    UploadHeader, encode_frame, rig_crc32,
 };
 
 use crate::sequence::{Plan, Sequence};
@@ -115,7 +123,8 @@ pub struct LinkStats {
 }
 
 /// A sequence ready to upload, in wire units: the header, the bytes
-/// [`Sequence::encode`] produced (sent as they are) and the positions.
+/// [`Sequence::encode`] produced (sent as they are) and the positions of
+/// the rig it was planned for.
 #[derive(Debug, Clone, PartialEq)]
 pub struct UploadSpec {
     /// What the slot will play (checked by [`UploadSpec::check_fits`]).
@@ -128,10 +137,15 @@ pub struct UploadSpec {
     pub crc32: u32,
     /// Transducer positions in drive coordinates (µm), one per transducer.
     pub positions_um: Vec<[i32; 3]>,
+    /// CRC-32 of the positions table ([`lm_proto::rig_crc32`]).
+    pub rig_crc32: u32,
 }
 
 impl UploadSpec {
     /// `sequence` encoded as `encoding`, with its transducers' positions.
+    /// Delta falls back to Raw for a sequence it would not shrink (a few
+    /// large steps, e.g. 4 mm at 25 Hz): fewer bytes on the wire, and the
+    /// device keeps such an entry raw anyway.
     pub fn new(
         sequence: &Sequence,
         positions_um: Vec<[i32; 3]>,
@@ -140,11 +154,18 @@ impl UploadSpec {
         if positions_um.len() != usize::from(sequence.header.transducers) {
             return Err(LinkError::Codec(CodecError::BadShape));
         }
+        let mut encoded = sequence.encode(encoding)?;
+        let mut encoding = encoding;
+        if encoding == Encoding::Delta && encoded.len() as u64 > sequence.header.raw_len() {
+            encoded = sequence.encode(Encoding::Raw)?;
+            encoding = Encoding::Raw;
+        }
         Ok(Self {
             header: sequence.header,
             encoding,
-            encoded: sequence.encode(encoding)?,
+            encoded,
             crc32: sequence.crc32(),
+            rig_crc32: rig_crc32(&Positions::from_points(&positions_um)),
             positions_um,
         })
     }
@@ -161,6 +182,7 @@ impl UploadSpec {
             header: self.header,
             encoding: self.encoding,
             encoded_len: self.encoded.len().min(u32::MAX as usize) as u32,
+            rig_crc32: self.rig_crc32,
         }
     }
 
@@ -180,8 +202,10 @@ pub struct UploadReport {
     pub raw_bytes: u64,
     /// Encoded sequence bytes (the chunks' data).
     pub sequence_bytes: u64,
-    /// Useful bytes sent: the encoded sequence plus the transducer
-    /// positions (12 bytes each).
+    /// Rig positions sent with this upload (12 bytes each); 0 when the
+    /// device already held the rig.
+    pub rig_bytes: u64,
+    /// Useful bytes sent: the encoded sequence plus any rig positions.
     pub payload_bytes: u64,
     /// All bytes written to the wire during the upload (frames, resends).
     pub wire_bytes_sent: u64,
@@ -222,6 +246,8 @@ pub struct Client<T> {
     pub upload_attempts: u32,
     /// Counters.
     pub stats: LinkStats,
+    /// The rig (transducers, CRC-32) the device is known to hold.
+    rig: Option<(u16, u32)>,
 }
 
 impl<T: Transport> Client<T> {
@@ -237,6 +263,7 @@ impl<T: Transport> Client<T> {
             tries: 8,
             upload_attempts: 4,
             stats: LinkStats::default(),
+            rig: None,
         }
     }
 
@@ -388,9 +415,56 @@ impl<T: Transport> Client<T> {
         self.expect_ack("centroid", &Message::Centroid(c))
     }
 
+    /// Makes sure the device holds the rig of `positions_um` (CRC `crc`):
+    /// asks its `Info` the first time, then remembers; sends the positions
+    /// (`BeginRig`, `Geometry` frames, `CommitRig`) only when the device
+    /// does not hold them. Returns the position bytes sent (0: none).
+    pub fn ensure_rig(&mut self, positions_um: &[[i32; 3]], crc: u32) -> Result<u64, LinkError> {
+        let t = u16::try_from(positions_um.len())
+            .map_err(|_| LinkError::Codec(CodecError::BadShape))?;
+        if self.rig == Some((t, crc)) {
+            return Ok(0);
+        }
+        let info = self.info()?;
+        if (info.rig_transducers, info.rig_crc32) == (t, crc) {
+            self.rig = Some((t, crc));
+            return Ok(0);
+        }
+        self.rig = None;
+        let begin = Message::BeginRig(BeginRig {
+            transducers: t,
+            crc32: crc,
+        });
+        self.expect_ack("begin rig", &begin)?;
+        // Groups adapt like chunks: writes at fixed indices are idempotent,
+        // so only the group size changes.
+        let min_group = MIN_ADAPTIVE_CHUNK / POSITION_LEN;
+        let mut group = MAX_GEOMETRY_POSITIONS;
+        let mut first = 0usize;
+        while first < positions_um.len() {
+            let pts = &positions_um[first..(first + group).min(positions_um.len())];
+            let g = Geometry {
+                first: first as u16,
+                positions: Positions::from_points(pts),
+            };
+            let retries_before = self.stats.retries;
+            self.expect_ack("geometry", &Message::Geometry(g))?;
+            first += pts.len();
+            group = if self.stats.retries > retries_before {
+                (group / 2).max(min_group)
+            } else {
+                (group * 2).min(MAX_GEOMETRY_POSITIONS)
+            };
+        }
+        self.expect_ack("commit rig", &Message::CommitRig)?;
+        self.rig = Some((t, crc));
+        Ok((POSITION_LEN * positions_um.len()) as u64)
+    }
+
     /// Upload `spec` into `slot` (call [`UploadSpec::check_fits`] first)
-    /// and commit it. `progress(done, total)` is called after each acked
-    /// chunk.
+    /// and commit it, after the rig if the device does not hold it
+    /// ([`ensure_rig`](Self::ensure_rig)). `progress(done, total)` is
+    /// called after each acked chunk.
     pub fn upload(
         &mut self,
         spec: &UploadSpec,
@@ -402,6 +476,7 @@ impl<T: Transport> Client<T> {
         let before = self.stats;
         let crc32 = spec.crc32;
         let chunk = chunk.clamp(1, MAX_CHUNK);
+        let mut rig_bytes = self.ensure_rig(&spec.positions_um, spec.rig_crc32)?;
         let mut last = None;
         for attempt in 0..self.upload_attempts {
             if attempt > 0 {
@@ -410,15 +485,15 @@ impl<T: Transport> Client<T> {
             // A restart after a chunk that never got through starts with
             // frames a quarter the size (down to the adaptive minimum).
             let size = (chunk >> (2 * attempt.min(8))).max(MIN_ADAPTIVE_CHUNK.min(chunk));
-            match self.upload_once(spec, slot, size, &mut progress) {
+            match self.upload_once(spec, slot, size, &mut rig_bytes, &mut progress) {
                 Ok(()) => {
                     let s = self.stats;
                     return Ok(UploadReport {
                         slot,
                         raw_bytes: spec.header.raw_len(),
                         sequence_bytes: spec.encoded.len() as u64,
-                        payload_bytes: spec.encoded.len() as u64
-                            + (POSITION_LEN * spec.positions_um.len()) as u64,
+                        rig_bytes,
+                        payload_bytes: spec.encoded.len() as u64 + rig_bytes,
                         wire_bytes_sent: s.bytes_sent - before.bytes_sent,
                         wire_bytes_received: s.bytes_received - before.bytes_received,
                         seconds: start.elapsed().as_secs_f64(),
@@ -435,6 +510,9 @@ impl<T: Transport> Client<T> {
                             | NackCode::SlotPlaying
                             | NackCode::TooLarge
                             | NackCode::DwellTooShort
+                            | NackCode::LibraryFull
+                            | NackCode::NoRig
+                            | NackCode::RigMismatch
                             | NackCode::BadVersion
                             | NackCode::UnknownType,
                         ..
@@ -455,30 +533,23 @@ impl<T: Transport> Client<T> {
         spec: &UploadSpec,
         slot: u8,
         chunk: usize,
+        rig_bytes: &mut u64,
         progress: &mut impl FnMut(u64, u64),
     ) -> Result<(), LinkError> {
         let (encoded, crc32) = (&spec.encoded[..], spec.crc32);
-        self.expect_ack("begin upload", &Message::BeginUpload(spec.begin(slot)))?;
-        // Positions adapt like chunks (below): writes at fixed indices are
-        // idempotent, so only the group size changes.
-        let min_group = MIN_ADAPTIVE_CHUNK / POSITION_LEN;
-        let mut group = (chunk / POSITION_LEN).clamp(min_group, MAX_GEOMETRY_POSITIONS);
-        let mut first = 0usize;
-        while first < spec.positions_um.len() {
-            let pts = &spec.positions_um[first..(first + group).min(spec.positions_um.len())];
-            let g = Geometry {
-                slot,
-                first: first as u16,
-                positions: Positions::from_points(pts),
-            };
-            let retries_before = self.stats.retries;
-            self.expect_ack("geometry", &Message::Geometry(g))?;
-            first += pts.len();
-            group = if self.stats.retries > retries_before {
-                (group / 2).max(min_group)
-            } else {
-                (group * 2).min(MAX_GEOMETRY_POSITIONS)
-            };
+        let begin = Message::BeginUpload(spec.begin(slot));
+        match self.expect_ack("begin upload", &begin) {
+            // The device lost the rig (a reset) or holds another: send
+            // ours again, once, and begin again.
+            Err(LinkError::Nack {
+                code: NackCode::NoRig | NackCode::RigMismatch,
+                ..
+            }) => {
+                self.rig = None;
+                *rig_bytes += self.ensure_rig(&spec.positions_um, spec.rig_crc32)?;
+                self.expect_ack("begin upload", &begin)?;
+            }
+            r => r?,
         }
         let total = encoded.len() as u64;
         // Adaptive chunk size: a chunk that needed a resend halves the size
@@ -528,6 +599,9 @@ mod tests {
             timer_hz: 1_000_000,
             min_dwell_us: 1000,
             max_chunk: 1024,
+            rig_transducers: 0,
+            rig_crc32: 0,
+            library_free: 200 * 996,
         }
     }
 

@@ -10,7 +10,6 @@ use proptest::prelude::*;
 pub enum Owned {
     Plain(Message<'static>),
     Geometry {
-        slot: u8,
         first: u16,
         points: Vec<[i32; 3]>,
     },
@@ -25,12 +24,7 @@ impl Owned {
     pub fn msg(&self) -> Message<'_> {
         match self {
             Owned::Plain(m) => *m,
-            Owned::Geometry {
-                slot,
-                first,
-                points,
-            } => Message::Geometry(Geometry {
-                slot: *slot,
+            Owned::Geometry { first, points } => Message::Geometry(Geometry {
                 first: *first,
                 positions: Positions::from_points(points),
             }),
@@ -88,18 +82,26 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
             any::<u8>(),
             any::<u32>(),
             any::<u32>(),
-            any::<u16>()
+            (any::<u16>(), any::<u16>(), any::<u32>(), any::<u32>())
         )
-            .prop_map(|(p, fw, mt, sb, sl, hz, dw, mc)| Message::Info(Info {
-                proto_version: p,
-                fw_version: fw,
-                max_transducers: mt,
-                slot_bytes: sb,
-                slots: sl,
-                timer_hz: hz,
-                min_dwell_us: dw,
-                max_chunk: mc,
-            })),
+            .prop_map(
+                |(p, fw, mt, sb, sl, hz, dw, (mc, rt, rc, lf))| Message::Info(Info {
+                    proto_version: p,
+                    fw_version: fw,
+                    max_transducers: mt,
+                    slot_bytes: sb,
+                    slots: sl,
+                    timer_hz: hz,
+                    min_dwell_us: dw,
+                    max_chunk: mc,
+                    rig_transducers: rt,
+                    rig_crc32: rc,
+                    library_free: lf,
+                })
+            ),
+        (any::<u16>(), any::<u32>())
+            .prop_map(|(transducers, crc32)| Message::BeginRig(BeginRig { transducers, crc32 })),
+        Just(Message::CommitRig),
         (
             (
                 any::<u8>(),
@@ -108,10 +110,11 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                 any::<u32>(),
                 any::<bool>()
             ),
-            (any::<u32>(), xyz(), any::<u8>(), any::<u32>(), any::<u32>())
+            (any::<u32>(), xyz(), any::<u8>(), any::<u32>(), any::<u32>()),
+            (any::<u32>(), any::<u8>())
         )
             .prop_map(
-                |((slot, steps, t, period, delta), (len, c, f, speed, off))| {
+                |((slot, steps, t, period, delta), (len, c, f, speed, off), (rig, intensity))| {
                     Message::BeginUpload(BeginUpload {
                         slot,
                         header: UploadHeader {
@@ -122,6 +125,7 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                             foci_per_step: f,
                             sound_speed_mm_s: speed,
                             max_offset_um: off,
+                            intensity,
                         },
                         encoding: if delta {
                             Encoding::Delta
@@ -129,6 +133,7 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                             Encoding::Raw
                         },
                         encoded_len: len,
+                        rig_crc32: rig,
                     })
                 }
             ),
@@ -167,8 +172,8 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
     ];
     prop_oneof![
         6 => plain.prop_map(Owned::Plain),
-        1 => (any::<u8>(), any::<u16>(), proptest::collection::vec(xyz(), 0..=MAX_GEOMETRY_POSITIONS))
-            .prop_map(|(slot, first, points)| Owned::Geometry { slot, first, points }),
+        1 => (any::<u16>(), proptest::collection::vec(xyz(), 0..=MAX_GEOMETRY_POSITIONS))
+            .prop_map(|(first, points)| Owned::Geometry { first, points }),
         1 => (any::<u8>(), any::<u32>(), proptest::collection::vec(any::<u8>(), 0..=MAX_CHUNK))
             .prop_map(|(slot, offset, data)| Owned::Chunk { slot, offset, data }),
     ]

@@ -5,8 +5,9 @@
 use lm_fw_core::{Config, Device, OutputDriver, OutputFrame, memory_bytes};
 use lm_proto::codec::Encoding;
 use lm_proto::{
-    BeginUpload, Chunk, Commit, FeedResult, FrameDecoder, Geometry, MAX_CHUNK, MAX_ENCODED_FRAME,
-    MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt, Positions, UploadHeader, encode_frame,
+    BeginRig, BeginUpload, Chunk, Commit, FeedResult, FrameDecoder, Geometry, MAX_CHUNK,
+    MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode, Play, PlayAt, Positions,
+    UploadHeader, encode_frame,
 };
 
 /// Deterministic xorshift64* generator (no dependency, reproducible).
@@ -29,9 +30,11 @@ impl Rng {
     }
 }
 
-/// Leaks sequence memory for a device (tests only).
+/// Leaks sequence memory for a device (tests only): a library of twice
+/// `slot_bytes`, so two raw sequences of that size fit (the two slots of
+/// protocol version 2).
 pub fn memory(slot_bytes: usize, max_t: usize) -> &'static mut [u8] {
-    Box::leak(vec![0u8; memory_bytes(slot_bytes, max_t)].into_boxed_slice())
+    Box::leak(vec![0u8; memory_bytes(2 * slot_bytes, max_t)].into_boxed_slice())
 }
 
 pub fn device(cfg: Config, slot_bytes: usize) -> Device<'static> {
@@ -154,13 +157,38 @@ impl Seq {
                 foci_per_step: 1,
                 sound_speed_mm_s: self.sound_speed_mm_s,
                 max_offset_um: 20_000,
+                intensity: 255,
             },
             encoding: enc,
             encoded_len: self.encode(enc).len() as u32,
+            rig_crc32: self.rig_crc32(),
         })
     }
 
-    /// Every request of an upload except the commit, in order.
+    /// CRC-32 of the positions (the rig this sequence was planned for).
+    pub fn rig_crc32(&self) -> u32 {
+        lm_proto::rig_crc32(&Positions::from_points(&self.positions))
+    }
+
+    /// The rig upload: `BeginRig`, `Geometry` frames, `CommitRig` (all
+    /// acked again when the device already holds this rig).
+    pub fn rig_requests(&self) -> Vec<Message<'_>> {
+        let mut v = vec![Message::BeginRig(BeginRig {
+            transducers: self.transducers,
+            crc32: self.rig_crc32(),
+        })];
+        for (i, ps) in self.positions.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
+            v.push(Message::Geometry(Geometry {
+                first: (i * MAX_GEOMETRY_POSITIONS) as u16,
+                positions: Positions::from_points(ps),
+            }));
+        }
+        v.push(Message::CommitRig);
+        v
+    }
+
+    /// Every request of an upload except the commit, in order (the rig's
+    /// first).
     pub fn upload_requests<'a>(
         &'a self,
         slot: u8,
@@ -168,14 +196,8 @@ impl Seq {
         stream: &'a [u8],
         chunk: usize,
     ) -> Vec<Message<'a>> {
-        let mut v = vec![self.begin(slot, enc)];
-        for (i, ps) in self.positions.chunks(MAX_GEOMETRY_POSITIONS).enumerate() {
-            v.push(Message::Geometry(Geometry {
-                slot,
-                first: (i * MAX_GEOMETRY_POSITIONS) as u16,
-                positions: Positions::from_points(ps),
-            }));
-        }
+        let mut v = self.rig_requests();
+        v.push(self.begin(slot, enc));
         for (i, c) in stream.chunks(chunk.min(MAX_CHUNK)).enumerate() {
             v.push(Message::Chunk(Chunk {
                 slot,

@@ -24,8 +24,8 @@ pub fn store_commit_checks_crc(_: &mut Ctx, mem: &mut [u8]) -> TestResult {
     );
     let r = upload(&mut dev, 0, 20, 996, 200_000, false);
     check!(r == Message::Ack, "good commit answered {:?}", r);
-    // Too big for a slot: refused at BeginUpload.
-    let r = upload(&mut dev, 1, 300, 996, 300_000, false);
+    // Larger than the whole library: refused at BeginUpload.
+    let r = upload(&mut dev, 1, 470, 996, 470_000, false);
     check!(
         r == Message::Nack(NackCode::TooLarge),
         "oversized upload answered {:?}",

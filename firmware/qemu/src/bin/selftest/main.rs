@@ -56,7 +56,9 @@ use device::{
     correction_applied_to_frames, gate_mutes_within_one_step, player_follows_timer_schedule,
     store_commit_checks_crc,
 };
-use measure::{measure_centroid_cost, measure_step_cost, timer_counts_instructions};
+use measure::{
+    measure_centroid_cost, measure_raw_vs_delta_step, measure_step_cost, timer_counts_instructions,
+};
 use wire::{frames_through_feed, proto_vectors_on_target};
 
 /// What every test gets: the timer and the player's time base.
@@ -89,6 +91,7 @@ const TESTS: &[(&str, Test)] = &[
     ("frames_through_feed", frames_through_feed),
     ("measure_step_cost", measure_step_cost),
     ("measure_centroid_cost", measure_centroid_cost),
+    ("measure_raw_vs_delta_step", measure_raw_vs_delta_step),
 ];
 
 #[entry]

@@ -1,9 +1,10 @@
 //! The timer against the instruction count, and the cost figures
 //! BENCHMARKS.md quotes (each checks only that the work really happened).
 
-use lm_fw_core::Device;
-use lm_fw_qemu::{FrameCounter, hprintln};
-use lm_proto::{MAX_ENCODED_FRAME, Message, encode_frame};
+use lm_fw_core::{Device, OutputDriver, OutputFrame, memory_bytes};
+use lm_fw_qemu::{ARRAY_TRANSDUCERS, FrameCounter, config, hprintln};
+use lm_proto::codec::{self, Encoding};
+use lm_proto::{MAX_ENCODED_FRAME, Message, Play, PlayAt, encode_frame};
 
 use crate::support::*;
 use crate::{Ctx, Failed, INSTR_PER_COUNT, TestResult};
@@ -181,6 +182,147 @@ pub fn measure_centroid_cost(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
         "    measure: 1992 square roots (2 per transducer): libm::sqrtf {} instructions, FPU vsqrt.f32 {}",
         soft,
         hard
+    );
+    Ok(())
+}
+
+/// Checks every frame against the raw sequence (outside the timed polls).
+struct Verify<'r> {
+    raw: &'r [u8],
+    t: usize,
+    frames: u32,
+    wrong: u32,
+}
+
+impl OutputDriver for Verify<'_> {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, f: &OutputFrame<'_>) -> Result<(), Self::Error> {
+        self.frames += 1;
+        let k = usize::from(f.step) * self.t;
+        if self.raw.get(k..k + self.t) != Some(f.phases) {
+            self.wrong += 1;
+        }
+        Ok(())
+    }
+}
+
+/// A paper-like sequence into `raw` (steps × `t`): against the Delta
+/// predictor the residuals are 0 (50 %), ±1 (40 %) and 3 (10 %), about
+/// 2.4 bits a phase, 30 % of raw (the paper's stimuli: 19-29 %).
+fn paper_like(raw: &mut [u8], t: usize) {
+    for idx in 0..raw.len() {
+        let (k, i) = (idx / t, idx % t);
+        raw[idx] = if k == 0 {
+            phase(0, i)
+        } else {
+            let pred = if k == 1 {
+                raw[idx - t]
+            } else {
+                raw[idx - t].wrapping_mul(2).wrapping_sub(raw[idx - 2 * t])
+            };
+            let h = ((k as u32).wrapping_mul(2_654_435_761) ^ (i as u32).wrapping_mul(40_503))
+                .wrapping_mul(2_246_822_519)
+                >> 24;
+            let e: i8 = match h % 10 {
+                0..=4 => 0,
+                5 | 6 => 1,
+                7 | 8 => -1,
+                _ => 3,
+            };
+            pred.wrapping_add(e as u8)
+        };
+    }
+}
+
+/// Per-step cost of playing a Raw entry and the same sequence kept as
+/// Delta (decoded step by step while playing), untracked (no correction),
+/// 100 steps × 996, over two cycles (the wrap included).
+pub fn measure_raw_vs_delta_step(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
+    const STEPS: usize = 100;
+    const T: usize = ARRAY_TRANSDUCERS as usize;
+    let (dev_mem, scratch) = mem.split_at_mut(memory_bytes(200 * 1024, T));
+    let (raw, enc) = scratch.split_at_mut(STEPS * T);
+    paper_like(raw, T);
+    let n = match codec::encode(Encoding::Delta, raw, T, enc) {
+        Ok(n) => n,
+        Err(e) => {
+            hprintln!("    encode: {}", e);
+            return Err(Failed);
+        }
+    };
+    let crc = lm_proto::crc32(raw);
+    let mut dev = match Device::new(config(), dev_mem) {
+        Ok(d) => d,
+        Err(e) => panic!("device setup: {e}"),
+    };
+    let h = header(STEPS, T, 100_000);
+    let r = upload_stream(&mut dev, 0, h, Encoding::Raw, raw, crc);
+    check!(r == Message::Ack, "raw upload answered {:?}", r);
+    let before = dev.info().library_free;
+    let r = upload_stream(&mut dev, 1, h, Encoding::Delta, &enc[..n], crc);
+    check!(r == Message::Ack, "delta upload answered {:?}", r);
+    let stored = before - dev.info().library_free;
+    check!(
+        stored as usize == n,
+        "kept {} B, the stream is {} B",
+        stored,
+        n
+    );
+    let mut figures = [(0u32, 0u32); 2];
+    for slot in 0..2u8 {
+        let play = Message::Play(Play {
+            slot,
+            at: PlayAt::Immediate,
+            untracked: true,
+        });
+        let t0 = c.now();
+        check!(dev.handle(&play, t0) == Message::Ack);
+        let mut out = FrameCounter::default();
+        let mut deadline = dev.poll(t0, &mut out);
+        let (mut total, mut worst, frames) = (0u32, 0u32, 2 * STEPS as u32);
+        for _ in 0..frames {
+            let Some(d) = deadline else { break };
+            let a = c.timer.now();
+            deadline = dev.poll(d, &mut out);
+            let b = c.timer.now();
+            total += b.wrapping_sub(a);
+            worst = worst.max(b.wrapping_sub(a));
+        }
+        check!(out.frames == frames + 1, "{} frames", out.frames);
+        check!(out.muted == 0 && out.last_intensity == 255);
+        figures[usize::from(slot)] = (total * INSTR_PER_COUNT / frames, worst * INSTR_PER_COUNT);
+        // The same two cycles again, every frame checked against raw.
+        let t1 = c.now();
+        check!(dev.handle(&play, t1) == Message::Ack);
+        let mut v = Verify {
+            raw,
+            t: T,
+            frames: 0,
+            wrong: 0,
+        };
+        let mut deadline = dev.poll(t1, &mut v);
+        for _ in 0..frames {
+            let Some(d) = deadline else { break };
+            deadline = dev.poll(d, &mut v);
+        }
+        check!(
+            v.frames == frames + 1 && v.wrong == 0,
+            "slot {}: {} of {} frames differ from the raw phases",
+            slot,
+            v.wrong,
+            v.frames
+        );
+    }
+    hprintln!("");
+    hprintln!(
+        "    measure: step playback, 996 transducers, untracked, 100 steps x 2 cycles: Raw entry mean {} instructions, max {}; Delta entry ({} B, {}% of raw) mean {}, max {} (+-{} per sample)",
+        figures[0].0,
+        figures[0].1,
+        n,
+        n * 100 / raw.len(),
+        figures[1].0,
+        figures[1].1,
+        INSTR_PER_COUNT
     );
     Ok(())
 }

@@ -4,8 +4,8 @@
 use lm_fw_core::{Device, OutputDriver, OutputFrame, TakeOnce};
 use lm_fw_qemu::{ARRAY_TRANSDUCERS, STORE_BYTES, Timer, config};
 use lm_proto::{
-    BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, Geometry, MAX_CHUNK,
-    MAX_GEOMETRY_POSITIONS, Message, Play, PlayAt, Positions, UploadHeader,
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, Geometry, MAX_CHUNK,
+    MAX_GEOMETRY_POSITIONS, Message, POSITION_LEN, Play, PlayAt, Positions, UploadHeader,
 };
 
 /// Sequence memory for the devices the tests build (one at a time): taken
@@ -39,31 +39,27 @@ pub const CENTER_UM: [i32; 3] = [0, 0, 150_000];
 /// uploaded value.
 pub const SOUND_SPEED_MM_S: u32 = 343_200;
 
-/// Uploads the test sequence (Raw, `steps` × `t`) into `slot`; returns the
-/// commit's reply. `corrupt` flips the commit CRC.
-pub fn upload(
-    dev: &mut Device<'_>,
-    slot: u8,
-    steps: usize,
-    t: usize,
-    period_us: u32,
-    corrupt: bool,
-) -> Message<'static> {
-    let begin = BeginUpload {
-        slot,
-        header: UploadHeader {
-            steps: steps as u16,
-            transducers: t as u16,
-            period_us,
-            center_um: CENTER_UM,
-            foci_per_step: 1,
-            sound_speed_mm_s: SOUND_SPEED_MM_S,
-            max_offset_um: 20_000,
-        },
-        encoding: Encoding::Raw,
-        encoded_len: (steps * t) as u32,
+/// CRC-32 of the test rig's first `t` positions.
+pub fn rig_crc32(t: usize) -> u32 {
+    let mut crc = Crc32::new();
+    for i in 0..t {
+        let mut rec = [0u8; POSITION_LEN];
+        for (d, c) in rec.chunks_exact_mut(4).zip(position_um(i)) {
+            d.copy_from_slice(&c.to_le_bytes());
+        }
+        crc.update(&rec);
+    }
+    crc.finish()
+}
+
+/// Sends the test rig of `t` transducers (acked again when the device
+/// holds it already); returns the first reply that is not an ack.
+pub fn rig(dev: &mut Device<'_>, t: usize) -> Message<'static> {
+    let begin = BeginRig {
+        transducers: t as u16,
+        crc32: rig_crc32(t),
     };
-    let r = dev.handle(&Message::BeginUpload(begin), 0);
+    let r = dev.handle(&Message::BeginRig(begin), 0);
     if r != Message::Ack {
         return r;
     }
@@ -74,7 +70,6 @@ pub fn upload(
             *p = position_um(first + j);
         }
         let g = Geometry {
-            slot,
             first: first as u16,
             positions: Positions::from_points(&pts[..n]),
         };
@@ -82,6 +77,87 @@ pub fn upload(
         if r != Message::Ack {
             return r;
         }
+    }
+    dev.handle(&Message::CommitRig, 0)
+}
+
+/// The header of a test sequence of `steps` × `t`.
+pub fn header(steps: usize, t: usize, period_us: u32) -> UploadHeader {
+    UploadHeader {
+        steps: steps as u16,
+        transducers: t as u16,
+        period_us,
+        center_um: CENTER_UM,
+        foci_per_step: 1,
+        sound_speed_mm_s: SOUND_SPEED_MM_S,
+        max_offset_um: 20_000,
+        intensity: 255,
+    }
+}
+
+/// Uploads an encoded `stream` into `slot` after the rig; returns the
+/// first reply that is not an ack (or the commit's).
+pub fn upload_stream(
+    dev: &mut Device<'_>,
+    slot: u8,
+    header: UploadHeader,
+    encoding: Encoding,
+    stream: &[u8],
+    crc32: u32,
+) -> Message<'static> {
+    let r = rig(dev, usize::from(header.transducers));
+    if r != Message::Ack {
+        return r;
+    }
+    let begin = BeginUpload {
+        slot,
+        header,
+        encoding,
+        encoded_len: stream.len() as u32,
+        rig_crc32: rig_crc32(usize::from(header.transducers)),
+    };
+    let r = dev.handle(&Message::BeginUpload(begin), 0);
+    if r != Message::Ack {
+        return r;
+    }
+    for (i, data) in stream.chunks(MAX_CHUNK).enumerate() {
+        let c = Chunk {
+            slot,
+            offset: (i * MAX_CHUNK) as u32,
+            data,
+        };
+        let r = dev.handle(&Message::Chunk(c), 0);
+        if r != Message::Ack {
+            return r;
+        }
+    }
+    dev.handle(&Message::Commit(Commit { slot, crc32 }), 0)
+}
+
+/// Uploads the test sequence (Raw, `steps` × `t`) into `slot` after the
+/// rig; returns the commit's reply. `corrupt` flips the commit CRC.
+pub fn upload(
+    dev: &mut Device<'_>,
+    slot: u8,
+    steps: usize,
+    t: usize,
+    period_us: u32,
+    corrupt: bool,
+) -> Message<'static> {
+    let r = rig(dev, t);
+    if r != Message::Ack {
+        return r;
+    }
+    let begin = BeginUpload {
+        slot,
+        header: header(steps, t, period_us),
+        encoding: Encoding::Raw,
+        encoded_len: (steps * t) as u32,
+        rig_crc32: rig_crc32(t),
+    };
+    let r = dev.handle(&Message::BeginUpload(begin), 0);
+    if r != Message::Ack {
+        return r;
     }
     let mut crc = Crc32::new();
     let mut buf = [0u8; MAX_CHUNK];
