@@ -10,6 +10,7 @@
 //! freq = 5.0             # Hz
 //! step = 0.23            # mm; or `steps = 82`
 //! center = [0, 0, 200]   # mm, finger space; default: the scene's centre
+//! intensity = 1.0        # 0..=1 of full output
 //! untracked = false      # the default gate when a `present` names none
 //! ```
 //!
@@ -110,12 +111,6 @@ impl EntryFile {
         };
         if let Some(i) = self.intensity {
             crate::limits::in_range("intensity", i, 0.0, 1.0, "").map_err(|e| e.to_string())?;
-            if i != 1.0 {
-                return Err(format!(
-                    "intensity {} is not supported yet: every stimulus plays at full intensity (1.0)",
-                    crate::limits::show(i)
-                ));
-            }
         }
         let center_mm = self
             .center
@@ -130,6 +125,7 @@ impl EntryFile {
                 freq_hz: self.freq.unwrap_or(d.freq_hz),
                 steps,
                 center_mm,
+                intensity: self.intensity.unwrap_or(d.intensity),
                 ..d
             },
             untracked: self.untracked,
@@ -206,7 +202,7 @@ mod tests {
     #[test]
     fn entries_default_to_the_plan_flags_and_keep_file_order() {
         let lib = Library::from_toml(
-            "[[stimulus]]\nid = \"b\"\nfoci = 4\n\n[[stimulus]]\nid = \"a\"\nsteps = 64\nfreq = 25\nuntracked = true\n",
+            "[[stimulus]]\nid = \"b\"\nfoci = 4\nintensity = 0.5\n\n[[stimulus]]\nid = \"a\"\nsteps = 64\nfreq = 25\nuntracked = true\n",
             "t",
         )
         .unwrap();
@@ -214,6 +210,8 @@ mod tests {
         assert_eq!(lib.entries[0].id, "b");
         assert_eq!(lib.entries[0].stimulus.foci, 4);
         assert_eq!(lib.entries[0].stimulus.radius_mm, 3.0);
+        assert_eq!(lib.entries[0].stimulus.intensity, 0.5);
+        assert_eq!(lib.entries[1].stimulus.intensity, 1.0);
         assert!(!lib.entries[0].untracked);
         assert_eq!(lib.entries[1].stimulus.steps, Steps::Count(64));
         assert_eq!(lib.entries[1].stimulus.freq_hz, 25.0);
@@ -239,6 +237,7 @@ mod tests {
             ("[[stimulus]]\nid = \"a\"\nradius = \"3\"\n", "line 3"),
             ("[[stimulus]]\nid = \"a\"\ncolour = 1\n", "unknown field"),
             ("[[stimulus]]\nid = \"a\"\nintensity = 2\n", "0..=1"),
+            ("[[stimulus]]\nid = \"a\"\nintensity = -0.5\n", "0..=1"),
             ("[[stimulus]]\nid = \"a\"\ncenter = [0, 0, 1e9]\n", "±2000"),
         ] {
             let e = Library::from_toml(text, "lib.toml")

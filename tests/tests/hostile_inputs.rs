@@ -707,6 +707,12 @@ fn cases() -> Vec<Case> {
         PLANS      "upload --port {port} --weights 0" .err("all zero");
         PLANS      "plan --scene {dir}/abutting.toml --center 96,0,200" .ok();
         PLANS      "plan --radius 100 --steps 4 --freq 1" .ok();
+        PLANS      "plan --intensity 1.5" .err("0..=1");
+        PLANS      "plan --intensity -0.1" .err("0..=1");
+        PLANS      "plan --intensity nan" .err("0..=1");
+        PLANS      "upload --port {port} --intensity 2" .err("0..=1");
+        PLANS      "simulate --intensity 0.5 --out {dir}/p0" .err("full output");
+        PLANS      "plan --intensity 0.25" .ok();
         PLANS      "simulate --alpha 1e300 --out {dir}/p2" .err("0..=2");
         PLANS      "simulate --calibration 1e300 --out {dir}/p3" .err("--calibration");
         PLANS      "simulate --calibration 0 --out {dir}/p3c" .err("--calibration");

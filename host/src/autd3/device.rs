@@ -293,7 +293,7 @@ impl Autd3Backend {
         self.finish_switch(false)?;
         let starting = self.rearm.is_some() && self.queued.is_none();
         let want = if self.policy.sounding(self.now_us()) && !starting {
-            safety::FULL
+            self.level()
         } else {
             safety::MUTED
         };
@@ -301,6 +301,14 @@ impl Autd3Backend {
             self.set_output(want)?;
         }
         Ok(())
+    }
+
+    /// The output level while sounding: the playing slot's intensity (its
+    /// header's `intensity`, 255 = full) as the modulation level.
+    fn level(&self) -> u8 {
+        self.playing
+            .and_then(|p| self.slots[usize::from(p)])
+            .map_or(safety::FULL, |s| s.header.intensity)
     }
 
     /// Step within the cycle and cycles completed of the playing slot,

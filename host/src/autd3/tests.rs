@@ -525,3 +525,30 @@ fn streaming_mutes_when_a_live_source_goes_silent() {
     assert_eq!(st.state, DeviceState::Muted);
     assert_eq!(st.mute_reason, MuteReason::TrackingStale);
 }
+
+#[test]
+fn a_stimulus_intensity_is_the_output_level_while_it_sounds() {
+    let (scene, mut b, h, _clock) = open_default();
+    let half = crate::stimulus::Stimulus {
+        intensity: 0.5,
+        ..crate::stimulus::Stimulus::default()
+    }
+    .plan_for(
+        &crate::connect::Target::Autd3(crate::autd3::Autd3Port::Emulator),
+        scene.clone(),
+    )
+    .unwrap()
+    .plan;
+    assert_eq!(half.sequence.header.intensity, 128);
+    let slot = b.upload(&half, None).unwrap().slot;
+    b.play(slot, true).unwrap();
+    assert_eq!(modulation(&h), 128, "half intensity while sounding");
+    b.stop().unwrap();
+    assert_eq!(modulation(&h), safety::MUTED);
+    // A full-intensity stimulus in the other slot sounds at full level.
+    let (full, _) = lm(&scene, 3.0, 1);
+    let other = b.upload(&full, None).unwrap().slot;
+    assert_ne!(other, slot);
+    b.play(other, true).unwrap();
+    assert_eq!(modulation(&h), safety::FULL);
+}

@@ -23,7 +23,21 @@ pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
             lmhost::outln!("protocol:        {}", i.proto_version)?;
             lmhost::outln!("firmware:        {a}.{b}.{c}")?;
             lmhost::outln!("transducers:     up to {}", i.max_transducers)?;
-            lmhost::outln!("slots:           {} × {} bytes", i.slots, i.slot_bytes)?;
+            lmhost::outln!(
+                "library:         {} entries in {} bytes ({} free; an entry is stored raw or as its Delta stream)",
+                i.slots,
+                i.slot_bytes,
+                i.library_free
+            )?;
+            if i.rig_transducers > 0 {
+                lmhost::outln!(
+                    "rig:             {} transducers (positions CRC-32 {:08x})",
+                    i.rig_transducers,
+                    i.rig_crc32
+                )?;
+            } else {
+                lmhost::outln!("rig:             none yet (the first upload sends it)")?;
+            }
             lmhost::outln!("timer:           {} Hz", i.timer_hz)?;
             lmhost::outln!("minimum dwell:   {} µs", i.min_dwell_us)?;
             lmhost::outln!("largest chunk:   {} bytes", i.max_chunk)?;

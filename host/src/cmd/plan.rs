@@ -89,6 +89,16 @@ pub struct PlanArgs {
     /// GS-PAT iterations (with --method gspat), 1..=1000.
     #[arg(long, value_name = "N", default_value_t = lmhost::stimulus::GSPAT_ITERATIONS)]
     pub iterations: usize,
+    /// Output intensity, 0..=1 of full: the device scales its drive (the LM
+    /// firmware's output frames carry it, an AUTD3 plays it as its
+    /// modulation level). `simulate` models full output only.
+    #[arg(
+        long,
+        value_name = "0..1",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    pub intensity: f64,
     /// Real weight per focus, comma-separated, each within ±1e6 and not
     /// all zero (linear synthesis only).
     #[arg(long, value_name = "W,W,...")]
@@ -184,7 +194,7 @@ impl PlanArgs {
             center_mm,
             z_profile_mm,
             synthesis,
-            ..Stimulus::default()
+            intensity: limits::in_range("--intensity", self.intensity, 0.0, 1.0, "")?,
         })
     }
 

@@ -162,6 +162,12 @@ impl Args {
     /// Run the subcommand.
     pub fn run(self) -> anyhow::Result<()> {
         let view = self.view()?;
+        if self.plan.intensity != 1.0 {
+            lmhost::bad_input!(
+                "--intensity {} applies to devices: simulate models full output (its maps scale with the drive amplitude the driver makes of it)",
+                lmhost::limits::show(self.plan.intensity)
+            );
+        }
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
         lmhost::files::output_dir("--out", &self.out)?;
