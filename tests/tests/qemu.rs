@@ -26,6 +26,7 @@ use lm_proto::{
     encode_frame, rig_crc32,
 };
 
+mod link_support;
 mod qemu_support;
 use qemu_support::{firmware_elf, free_port, qemu_command, qemu_installed};
 
@@ -735,4 +736,131 @@ fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     assert_eq!(st.missed_deadlines, before.missed_deadlines, "{st:?}");
     let e = raw_dev.play(20, true).unwrap_err();
     assert_eq!(e.refusal(), Some(NackCode::NotCommitted), "{e:#}");
+}
+
+/// `lmhost session` against the firmware under QEMU: the paper's library
+/// resident, two switches at the cycle end and a timed on-phase, read from
+/// the session's events; the figures are printed for BENCHMARKS.md (no
+/// timing is asserted: under `-icount` the guest's time is its own).
+#[test]
+fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
+    if !qemu_installed() {
+        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+        return;
+    }
+    let elf = firmware_elf();
+    let port = free_port();
+    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
+    let out = std::fs::File::create(&log).unwrap();
+    // `-icount shift=auto`: the guest's clock follows the host's, so what
+    // the device counts and what the host times can be compared (with
+    // `shift=0` a busy guest's second lasts as long as QEMU takes to run
+    // 10^9 instructions).
+    let child = std::process::Command::new("qemu-system-arm")
+        .args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-icount", "shift=auto,sleep=on"])
+        .arg("-serial")
+        .arg(format!("tcp:127.0.0.1:{port},server=on,wait=off"))
+        .arg("-kernel")
+        .arg(&elf)
+        .stdout(out.try_clone().unwrap())
+        .stderr(out)
+        .spawn()
+        .expect("start qemu-system-arm");
+    let _qemu = Qemu { child, log };
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(Instant::now() < deadline, "QEMU's UART never listened");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // QEMU's UART takes one client: the probe above was it until it closed.
+    std::thread::sleep(Duration::from_millis(200));
+    // Three of the paper's stimuli (the whole set preloads in the QEMU
+    // library test above; a loaded machine makes QEMU's UART slow).
+    let library = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("session-lib-{port}.toml"));
+    std::fs::write(
+        &library,
+        "[[stimulus]]\nid = \"lms-5hz-a3\"\n\n[[stimulus]]\nid = \"lmm-5hz-a3\"\nfoci = 4\n\n\
+         [[stimulus]]\nid = \"lms-5hz-a5\"\nradius = 5\n",
+    )
+    .unwrap();
+    let tcp = format!("tcp:127.0.0.1:{port}");
+    let script = [
+        r#"{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked"}"#,
+        r#"{"cmd":"present","stimulus":"lmm-5hz-a3","gate":"untracked"}"#,
+        r#"{"cmd":"present","stimulus":"lms-5hz-a5","gate":"untracked"}"#,
+        r#"{"cmd":"stop"}"#,
+        r#"{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked","on_s":2}"#,
+    ];
+    let mut child = std::process::Command::new(link_support::lmhost())
+        .args([
+            "session",
+            "--library",
+            library.to_str().unwrap(),
+            "--port",
+            &tcp,
+            "--control",
+            "-",
+        ])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<serde_json::Value>();
+    let stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        use std::io::BufRead as _;
+        for line in std::io::BufReader::new(stdout).lines() {
+            let v: serde_json::Value = serde_json::from_str(&line.unwrap()).unwrap();
+            if tx.send(v).is_err() {
+                break;
+            }
+        }
+    });
+    let mut events = Vec::new();
+    // Commands go in once the library is on the device.
+    let wait_ready = Instant::now() + Duration::from_secs(120);
+    loop {
+        let v = rx
+            .recv_timeout(wait_ready.saturating_duration_since(Instant::now()))
+            .expect("the session never got ready");
+        let ready = v["event"] == "ready";
+        events.push(v);
+        if ready {
+            break;
+        }
+    }
+    {
+        let mut stdin = child.stdin.take().unwrap();
+        for line in script {
+            writeln!(stdin, "{line}").unwrap();
+            // Each stimulus plays a few cycles before the next.
+            std::thread::sleep(Duration::from_millis(700));
+        }
+    }
+    let out = child.wait_with_output().unwrap();
+    reader.join().unwrap();
+    events.extend(rx.try_iter());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let ready = events.iter().find(|e| e["event"] == "ready").unwrap();
+    assert_eq!(ready["resident"], 3, "{ready}");
+    let switches: Vec<f64> = events
+        .iter()
+        .filter(|e| e["event"] == "switch")
+        .map(|e| e["latency_ms"].as_f64().unwrap())
+        .collect();
+    assert_eq!(switches.len(), 2, "{events:?}");
+    let timed = events
+        .iter()
+        .find(|e| e["event"] == "offset" && e["reason"] == "timer")
+        .unwrap();
+    let device = timed["device_presented_s"].as_f64().unwrap();
+    assert!(device > 1.0, "{timed}");
+    println!(
+        "QEMU session: switch latency {switches:?} ms (5 Hz: one cycle is 200 ms); 2 s untracked on-phase: device {device} s, host {} s",
+        timed["presented_s"]
+    );
 }
