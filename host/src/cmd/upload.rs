@@ -129,12 +129,12 @@ impl Args {
         };
         if self.json {
             let mut v = serde_json::to_value(&o)?;
-            if needs_host {
-                v["hold_s"] = match hold {
-                    None => serde_json::Value::Null,
-                    Some(d) => d.map(|d| d.as_secs_f64()).into(),
-                };
-            }
+            // null on the LM firmware (it plays on its own) and when the
+            // emulator exits at once: the same keys on every backend.
+            v["hold_s"] = match hold {
+                None => serde_json::Value::Null,
+                Some(d) => d.map(|d| d.as_secs_f64()).into(),
+            };
             lmhost::outln!("{v}")?;
         } else {
             print_text(&o, needs_host)?;
@@ -199,7 +199,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
             lmhost::outln!(
                 "uploaded {} steps × {} transducers to {} slot {}: dwell {} µs on the 25 µs grid \
                  ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
-                 ({:+.4} mm), {} frames",
+                 ({:+.4} mm), {} frames, {} phase bytes in {:.3} s, CRC {:08x}",
                 t.steps,
                 o.transducers,
                 o.port,
@@ -212,7 +212,10 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
                 t.requested_freq_hz,
                 t.step_mm,
                 t.step_error_mm,
-                o.frames.unwrap_or(0)
+                o.frames.map_or("uncounted".into(), |f| f.to_string()),
+                o.payload_bytes,
+                o.seconds,
+                o.crc32
             )?;
             match o.readback_mismatches {
                 Some(n) => {
