@@ -378,8 +378,12 @@ impl Session {
         }
         if let Some(r) = &self.replanner {
             summary.push(format!(
-                "device re-plans: {} uploaded and played, {} skipped while no slot was free, {} failed{}",
+                "device re-plans: {} uploaded and played{}, {} skipped while no slot was free, {} failed{}",
                 r.uploaded,
+                r.last_plan
+                    .map_or(String::new(), |(n, f, d)| format!(
+                        " (last: {n} steps × {f} foci, dwell {d:.1} µs)"
+                    )),
                 r.skipped,
                 r.failed,
                 r.last_failure
@@ -789,6 +793,8 @@ struct DeviceReplan {
     skipped: u64,
     failed: u64,
     last_failure: Option<String>,
+    /// The last plan uploaded: steps, foci per step, dwell (µs).
+    last_plan: Option<(usize, usize, f64)>,
 }
 
 impl DeviceReplan {
@@ -811,6 +817,7 @@ impl DeviceReplan {
             skipped: 0,
             failed: 0,
             last_failure: None,
+            last_plan: None,
         })
     }
 
@@ -853,6 +860,11 @@ impl DeviceReplan {
             .with_context(|| format!("re-plan: playing slot {slot}"))?;
         *pending.borrow_mut() = None;
         self.uploaded += 1;
+        self.last_plan = Some((
+            plan.trajectory.steps,
+            plan.trajectory.foci,
+            plan.sequence.dwell_us(),
+        ));
         Ok(())
     }
 }
