@@ -509,7 +509,7 @@ fn track_plan_flags_upload_and_play_on_the_lm_firmware_too() {
 #[test]
 fn track_json_lines_stream_to_the_device() {
     let cam = half_intrinsics(&dir("track-to-stream"));
-    let lines_out = synthetic(&cam, "0.5", &["--json", "--filter", "gaussian"]);
+    let lines_out = synthetic(&cam, "1.5", &["--json", "--filter", "gaussian"]);
     let n = lines_out.lines().count();
     assert!(n > 30, "{lines_out}");
     let file = dir("track-to-stream-file").join("track.jsonl");
