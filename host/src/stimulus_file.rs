@@ -57,8 +57,15 @@ impl Content {
 
 /// The file's array and its dwell, if it gives one.
 enum Loaded {
-    Phases { steps: usize, phases: Vec<u8> },
-    Foci { steps: usize, foci: usize, mm: Vec<f64> },
+    Phases {
+        steps: usize,
+        phases: Vec<u8>,
+    },
+    Foci {
+        steps: usize,
+        foci: usize,
+        mm: Vec<f64>,
+    },
 }
 
 #[derive(serde::Deserialize)]
@@ -111,8 +118,8 @@ pub fn plan_for(
             "{steps} steps; the device takes {lo}..={hi} steps"
         )));
     }
-    let (dwell_s, requested_dwell_us, divide) = timing(target, &scene, steps, freq_hz, dwell_us)
-        .map_err(|e| bad(e.to_string()))?;
+    let (dwell_s, requested_dwell_us, divide) =
+        timing(target, &scene, steps, freq_hz, dwell_us).map_err(|e| bad(e.to_string()))?;
     let (foci_mm, foci) = match &loaded {
         Loaded::Phases { .. } => (Vec::new(), 1),
         Loaded::Foci { foci, mm, .. } => (
@@ -122,8 +129,7 @@ pub fn plan_for(
     };
     for (i, f) in foci_mm.iter().enumerate() {
         let (j, k) = (i / foci, i % foci);
-        limits::position_mm("focus", *f)
-            .map_err(|e| bad(format!("step {j} focus {k}: {e}")))?;
+        limits::position_mm("focus", *f).map_err(|e| bad(format!("step {j} focus {k}: {e}")))?;
         if !scene.faces(scene.drive_point(*f)) {
             return Err(bad(format!(
                 "step {j} focus {k} [{:.1}, {:.1}, {:.1}] mm is behind or in the plane of every device",
@@ -136,7 +142,9 @@ pub fn plan_for(
         (None, true) => scene.center_mm,
         (None, false) => {
             let n = foci_mm.len() as f64;
-            let s = foci_mm.iter().fold([0.0; 3], |a, f| crate::geom::add(a, *f));
+            let s = foci_mm
+                .iter()
+                .fold([0.0; 3], |a, f| crate::geom::add(a, *f));
             crate::geom::scale(s, 1.0 / n)
         }
     };
@@ -155,7 +163,12 @@ pub fn plan_for(
     };
     let drive_mm: Vec<Vec3> = foci_mm.iter().map(|&f| scene.drive_point(f)).collect();
     let step_mm = (0..steps)
-        .map(|j| crate::geom::norm(crate::geom::sub(foci_mm[((j + 1) % steps) * foci], foci_mm[j * foci])))
+        .map(|j| {
+            crate::geom::norm(crate::geom::sub(
+                foci_mm[((j + 1) % steps) * foci],
+                foci_mm[j * foci],
+            ))
+        })
         .sum::<f64>()
         / steps as f64;
     let trajectory = Trajectory {
@@ -310,7 +323,12 @@ fn read(
                 if steps == 0 {
                     return Err(bad("has no steps".into()));
                 }
-                if let Some((i, r)) = j.phases.iter().enumerate().find(|(_, r)| r.len() != transducers) {
+                if let Some((i, r)) = j
+                    .phases
+                    .iter()
+                    .enumerate()
+                    .find(|(_, r)| r.len() != transducers)
+                {
                     return Err(bad(format!(
                         "step {i} has {} phases; the scene has {transducers} transducers",
                         r.len()
@@ -419,7 +437,13 @@ fn read(
     }
     let steps = steps as usize;
     Ok(match content {
-        Content::Phases => (Loaded::Phases { steps, phases: bytes }, None),
+        Content::Phases => (
+            Loaded::Phases {
+                steps,
+                phases: bytes,
+            },
+            None,
+        ),
         Content::Foci => {
             let mm: Vec<f64> = bytes
                 .chunks_exact(8)
@@ -467,9 +491,20 @@ mod tests {
             .plan(scene.clone())
             .unwrap();
         let p = tmp("rt.npy", &planned.plan.sequence.to_npy());
-        let got = plan_for(Content::Phases, &p, &Target::Lm, scene.clone(), Some(5.0), None).unwrap();
+        let got = plan_for(
+            Content::Phases,
+            &p,
+            &Target::Lm,
+            scene.clone(),
+            Some(5.0),
+            None,
+        )
+        .unwrap();
         assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
-        assert_eq!(got.plan.sequence.header.period_us, planned.plan.sequence.header.period_us);
+        assert_eq!(
+            got.plan.sequence.header.period_us,
+            planned.plan.sequence.header.period_us
+        );
         assert_eq!(got.timing.steps, 82);
         // On AUTD3 the same file at 5 Hz lands on the grid: 2450 µs.
         let a = Target::Autd3(crate::autd3::Autd3Port::Emulator);
@@ -486,7 +521,15 @@ mod tests {
         let t = &planned.plan.trajectory;
         let mm: Vec<f64> = t.foci_mm.iter().flatten().copied().collect();
         let p = tmp("foci.npy", &npy_f64(&[t.steps, t.foci, 3], &mm));
-        let got = plan_for(Content::Foci, &p, &Target::Lm, scene.clone(), Some(5.0), Some(t.center_mm)).unwrap();
+        let got = plan_for(
+            Content::Foci,
+            &p,
+            &Target::Lm,
+            scene.clone(),
+            Some(5.0),
+            Some(t.center_mm),
+        )
+        .unwrap();
         assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
         assert_eq!(got.plan.sequence.header, planned.plan.sequence.header);
         // JSON, with a dwell on the grid for AUTD3.
@@ -498,13 +541,16 @@ mod tests {
         assert_eq!(g.timing.divide, Some(98));
     }
 
+    /// A bad file: name, bytes, content, target, --freq, what the error says.
+    type Bad<'a> = (&'a str, Vec<u8>, Content, &'a Target, Option<f64>, &'a str);
+
     #[test]
     fn bad_files_are_one_line_naming_the_file() {
         let scene = Scene::default();
         let a = Target::Autd3(crate::autd3::Autd3Port::Emulator);
         let row = vec![0u8; 996];
         let ok_rows = serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 2000.0});
-        let cases: Vec<(&str, Vec<u8>, Content, &Target, Option<f64>, &str)> = vec![
+        let cases: Vec<Bad<'_>> = vec![
             ("short.json", serde_json::json!({"phases": [[1, 2, 3]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "996 transducers"),
             ("notime.json", serde_json::json!({"phases": vec![row.clone(); 4]}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "no timing"),
             ("twice.json", ok_rows.to_string().into_bytes(), Content::Phases, &Target::Lm, Some(5.0), "give one"),

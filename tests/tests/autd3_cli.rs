@@ -211,10 +211,7 @@ fn synthetic_stream_applies_corrections_and_mutes_on_absence() {
         ],
     );
     assert_eq!(v["upload"]["readback_mismatches"], 0);
-    assert!(
-        v["upload"]["step_mm"].as_f64().unwrap() > 0.2,
-        "{v}"
-    );
+    assert!(v["upload"]["step_mm"].as_f64().unwrap() > 0.2, "{v}");
 }
 
 #[test]

@@ -56,10 +56,15 @@ fn upload_json_has_the_same_keys_on_both_backends() {
     // Same stimulus, same phases: the same CRC on both (the default is on
     // the grid's N too); what one cannot know is null there.
     assert_eq!(lm["crc32"], a["crc32"]);
-    assert!(lm["frames"].is_null() && lm["divide"].is_null() && lm["readback_mismatches"].is_null());
+    assert!(
+        lm["frames"].is_null() && lm["divide"].is_null() && lm["readback_mismatches"].is_null()
+    );
     assert!(lm["wire_bytes_sent"].as_u64().unwrap() > 0, "{lm}");
     assert_eq!(a["divide"], 98);
-    assert!(a["frames"].as_u64().unwrap() > 0 && a["wire_bytes_sent"].is_null(), "{a}");
+    assert!(
+        a["frames"].as_u64().unwrap() > 0 && a["wire_bytes_sent"].is_null(),
+        "{a}"
+    );
     assert_eq!(a["payload_bytes"], 82 * 996);
     assert!(lm["seconds"].as_f64().unwrap() > 0.0 && a["seconds"].as_f64().unwrap() > 0.0);
 }
@@ -70,15 +75,35 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
     ok(&["upload", "--port", &sim.port]);
     // No stimulus flag: the LM firmware keeps what it plays (slot 0).
     let v = json(&[
-        "stream", "--port", &sim.port, "--synthetic", "--fast", "--seconds", "0.2", "--json",
+        "stream",
+        "--port",
+        &sim.port,
+        "--synthetic",
+        "--fast",
+        "--seconds",
+        "0.2",
+        "--json",
     ]);
     assert!(v["upload"].is_null(), "{v}");
     let st = json(&["status", "--port", &sim.port, "--json"]);
-    assert_eq!((st["slot"].clone(), st["queued_slot"].clone()), (0.into(), serde_json::Value::Null));
+    assert_eq!(
+        (st["slot"].clone(), st["queued_slot"].clone()),
+        (0.into(), serde_json::Value::Null)
+    );
     // Stimulus flags: planned, uploaded into the free slot and played.
     let v = json(&[
-        "stream", "--port", &sim.port, "--synthetic", "--fast", "--seconds", "0.2", "--foci", "4",
-        "--radius", "3", "--json",
+        "stream",
+        "--port",
+        &sim.port,
+        "--synthetic",
+        "--fast",
+        "--seconds",
+        "0.2",
+        "--foci",
+        "4",
+        "--radius",
+        "3",
+        "--json",
     ]);
     let u = &v["upload"];
     assert_eq!(u["slot"], 1, "{v}");
@@ -88,14 +113,34 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
     assert!(st["slot"] == 1 || st["queued_slot"] == 1, "{st}");
     // On AUTD3 the same flags give the same report, on the grid.
     let a = json(&[
-        "stream", "--port", "autd3:emulator", "--synthetic", "--fast", "--seconds", "0.2",
-        "--foci", "4", "--radius", "3", "--json",
+        "stream",
+        "--port",
+        "autd3:emulator",
+        "--synthetic",
+        "--fast",
+        "--seconds",
+        "0.2",
+        "--foci",
+        "4",
+        "--radius",
+        "3",
+        "--json",
     ]);
     assert_eq!(keys(&a["upload"]), keys(u), "{a}");
     assert_eq!(a["upload"]["divide"], 98);
     // A flag that cannot apply is refused.
-    let e = refused(&["stream", "--port", &sim.port, "--iterations", "5", "--synthetic"]);
-    assert!(e.contains("--iterations applies to --method gspat only"), "{e}");
+    let e = refused(&[
+        "stream",
+        "--port",
+        &sim.port,
+        "--iterations",
+        "5",
+        "--synthetic",
+    ]);
+    assert!(
+        e.contains("--iterations applies to --method gspat only"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -103,7 +148,14 @@ fn plan_target_autd3_is_what_the_autd3_plays() {
     let d = dir("target");
     let npy = d.join("a5.npy");
     let v = json(&[
-        "plan", "--target", "autd3", "--radius", "5", "--json", "--out", npy.to_str().unwrap(),
+        "plan",
+        "--target",
+        "autd3",
+        "--radius",
+        "5",
+        "--json",
+        "--out",
+        npy.to_str().unwrap(),
     ]);
     assert_eq!(v["steps"], 136, "{v}");
     assert_eq!(v["target"], "autd3");
@@ -111,21 +163,43 @@ fn plan_target_autd3_is_what_the_autd3_plays() {
     assert_eq!(v["timing"]["dwell_us"], 1475.0, "{v}");
     assert_eq!(json(&["plan", "--radius", "5", "--json"])["steps"], 137);
     let text = ok(&["plan", "--target", "autd3", "--radius", "5"]);
-    assert!(text.contains("steps N = 136") && text.contains("dwell 1475 µs = 59 × 25 µs"), "{text}");
+    assert!(
+        text.contains("steps N = 136") && text.contains("dwell 1475 µs = 59 × 25 µs"),
+        "{text}"
+    );
     // The AUTD3 backend uploads the same phases (its read-back is clean
     // against its plan, and the CRCs agree) ...
-    let a = json(&["upload", "--port", "autd3:emulator", "--radius", "5", "--json"]);
-    assert_eq!((a["steps"].clone(), a["readback_mismatches"].clone()), (136.into(), 0.into()));
+    let a = json(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--radius",
+        "5",
+        "--json",
+    ]);
+    assert_eq!(
+        (a["steps"].clone(), a["readback_mismatches"].clone()),
+        (136.into(), 0.into())
+    );
     assert_eq!(a["crc32"], v["crc32"], "{a}");
     // ... and the exported file, uploaded as phases at 5 Hz, reads back
     // byte for byte with the same timing.
     let f = json(&[
-        "upload", "--port", "autd3:emulator", "--phases", npy.to_str().unwrap(), "--freq", "5",
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--phases",
+        npy.to_str().unwrap(),
+        "--freq",
+        "5",
         "--json",
     ]);
     assert_eq!(f["crc32"], v["crc32"], "{f}");
     assert_eq!(f["readback_mismatches"], 0, "{f}");
-    assert_eq!((f["steps"].clone(), f["divide"].clone()), (136.into(), 59.into()));
+    assert_eq!(
+        (f["steps"].clone(), f["divide"].clone()),
+        (136.into(), 59.into())
+    );
     let bytes = std::fs::read(&npy).unwrap();
     assert_eq!(bytes.len(), 128 + 136 * 996);
 }
@@ -142,16 +216,34 @@ fn stimulus_files_upload_through_the_same_checks() {
         })
         .collect();
     let fj = d.join("foci.json");
-    std::fs::write(&fj, serde_json::json!({"foci_mm": foci, "dwell_us": 25000}).to_string()).unwrap();
+    std::fs::write(
+        &fj,
+        serde_json::json!({"foci_mm": foci, "dwell_us": 25000}).to_string(),
+    )
+    .unwrap();
     let fj = fj.to_str().unwrap();
     let v = json(&["upload", "--port", &sim.port, "--foci-file", fj, "--json"]);
-    assert_eq!((v["steps"].clone(), v["freq_hz"].clone()), (8.into(), 5.0.into()), "{v}");
+    assert_eq!(
+        (v["steps"].clone(), v["freq_hz"].clone()),
+        (8.into(), 5.0.into()),
+        "{v}"
+    );
     // The same circle planned: the same phases.
     let p = json(&["plan", "--steps", "8", "--json"]);
     assert_eq!(v["crc32"], p["crc32"], "{v}");
     // On AUTD3 too (25 ms is on the grid), read back clean.
-    let a = json(&["upload", "--port", "autd3:emulator", "--foci-file", fj, "--json"]);
-    assert_eq!((a["divide"].clone(), a["readback_mismatches"].clone()), (1000.into(), 0.into()));
+    let a = json(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--foci-file",
+        fj,
+        "--json",
+    ]);
+    assert_eq!(
+        (a["divide"].clone(), a["readback_mismatches"].clone()),
+        (1000.into(), 0.into())
+    );
     // Phases as JSON, and the refusals.
     let pj = d.join("phases.json");
     std::fs::write(
@@ -166,6 +258,14 @@ fn stimulus_files_upload_through_the_same_checks() {
     assert!(e.contains(pj) && e.contains("25 µs grid"), "{e}");
     let e = refused(&["upload", "--port", &sim.port, "--phases", pj, "--freq", "5"]);
     assert!(e.contains("give one"), "{e}");
-    let e = refused(&["upload", "--port", &sim.port, "--foci-file", fj, "--radius", "3"]);
+    let e = refused(&[
+        "upload",
+        "--port",
+        &sim.port,
+        "--foci-file",
+        fj,
+        "--radius",
+        "3",
+    ]);
     assert!(e.contains("--radius"), "{e}");
 }

@@ -421,18 +421,51 @@ fn fixtures(dir: &Path) {
 fn stimulus_fixtures(dir: &Path) {
     let w = |name: &str, body: String| std::fs::write(dir.join(name), body).unwrap();
     let rows = |n: usize, t: usize| vec![vec![0u8; t]; n];
-    w("ph_short.json", serde_json::json!({"phases": rows(4, 10), "dwell_us": 2000}).to_string());
-    w("ph_notime.json", serde_json::json!({"phases": rows(4, 996)}).to_string());
-    w("ph_2010.json", serde_json::json!({"phases": rows(4, 996), "dwell_us": 2010}).to_string());
+    w(
+        "ph_short.json",
+        serde_json::json!({"phases": rows(4, 10), "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "ph_notime.json",
+        serde_json::json!({"phases": rows(4, 996)}).to_string(),
+    );
+    w(
+        "ph_2010.json",
+        serde_json::json!({"phases": rows(4, 996), "dwell_us": 2010}).to_string(),
+    );
     // Not JSON at all (NaN), so named apart from the .json outputs checked whole.
-    w("ph_nan.phases", r#"{"phases": [[0]], "dwell_us": NaN}"#.to_owned());
-    w("ph_neg.json", serde_json::json!({"phases": rows(4, 996), "dwell_us": -5}).to_string());
-    w("ph_empty.json", serde_json::json!({"phases": [], "dwell_us": 2000}).to_string());
-    w("ph_big.json", serde_json::json!({"phases": [[300]], "dwell_us": 2000}).to_string());
-    w("fo_behind.json", serde_json::json!({"foci_mm": [[[0, 0, -50]]], "dwell_us": 2000}).to_string());
-    w("fo_far.json", serde_json::json!({"foci_mm": [[[0, 0, 1e300]]], "dwell_us": 2000}).to_string());
-    w("fo_many.json", serde_json::json!({"foci_mm": [vec![[0, 0, 200]; 33]], "dwell_us": 2000}).to_string());
-    w("fo_short.json", serde_json::json!({"foci_mm": [[[0, 0, 200]]], "dwell_us": 10}).to_string());
+    w(
+        "ph_nan.phases",
+        r#"{"phases": [[0]], "dwell_us": NaN}"#.to_owned(),
+    );
+    w(
+        "ph_neg.json",
+        serde_json::json!({"phases": rows(4, 996), "dwell_us": -5}).to_string(),
+    );
+    w(
+        "ph_empty.json",
+        serde_json::json!({"phases": [], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "ph_big.json",
+        serde_json::json!({"phases": [[300]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_behind.json",
+        serde_json::json!({"foci_mm": [[[0, 0, -50]]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_far.json",
+        serde_json::json!({"foci_mm": [[[0, 0, 1e300]]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_many.json",
+        serde_json::json!({"foci_mm": [vec![[0, 0, 200]; 33]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_short.json",
+        serde_json::json!({"foci_mm": [[[0, 0, 200]]], "dwell_us": 10}).to_string(),
+    );
     // An .npy of phases for 10 transducers, and one shorter than its shape.
     let npy = |shape: &str, data: usize| {
         let h = format!("{{'descr': '|u1', 'fortran_order': False, 'shape': {shape}, }}");

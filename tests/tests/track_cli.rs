@@ -490,7 +490,8 @@ fn track_plan_flags_upload_and_play_on_the_lm_firmware_too() {
     assert!(o.status.success(), "{err}");
     // The same summary line as on AUTD3, naming what was planned.
     assert!(
-        err.contains(&format!("{}: uploaded ", sim.port)) && err.contains("read-back not available"),
+        err.contains(&format!("{}: uploaded ", sim.port))
+            && err.contains("read-back not available"),
         "{err}"
     );
     let st = json(&["status", "--port", &sim.port, "--json"]);
@@ -500,8 +501,17 @@ fn track_plan_flags_upload_and_play_on_the_lm_firmware_too() {
     assert!(one_line_error(&o, 2).contains("--radius applies with --port only"));
     // --replan measures the depth profile: --z cannot apply.
     let o = run(&[
-        "track", "--synthetic", "--seconds", "0.1", "--port", &sim.port, "--z-profile", "3,8",
-        "--replan", "--z", "1",
+        "track",
+        "--synthetic",
+        "--seconds",
+        "0.1",
+        "--port",
+        &sim.port,
+        "--z-profile",
+        "3,8",
+        "--replan",
+        "--z",
+        "1",
     ]);
     assert!(one_line_error(&o, 2).contains("--z cannot apply with --replan"));
 }

@@ -32,12 +32,7 @@ pub fn open_playing(
     for w in &planned.warnings {
         lmhost::errln!("warning: {w}");
     }
-    let mut dev = open_with(
-        port,
-        &planned.plan.scene,
-        lm_proto::Encoding::Delta,
-        false,
-    )?;
+    let mut dev = open_with(port, &planned.plan.scene, lm_proto::Encoding::Delta, false)?;
     let o = upload(dev.as_mut(), &planned, None, Play::Tracked)?;
     let where_ = dev.describe();
     if let Some(n) = o.readback_mismatches.filter(|&n| n > 0) {
@@ -62,11 +57,7 @@ pub fn summary(o: &UploadOutcome, needs_host: bool) -> String {
         o.crc32,
         o.readback_mismatches
             .map_or("not available".into(), |n| format!("{n} mismatches")),
-        if o.queued {
-            "queued"
-        } else {
-            "playing"
-        },
+        if o.queued { "queued" } else { "playing" },
         o.slot,
         if needs_host {
             "; left silent on exit"

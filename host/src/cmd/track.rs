@@ -21,7 +21,8 @@ use lmhost::trajectory::Steps;
 /// pyrealsense2 bridge) or an LMDEPTH1 stream (`--stream FILE|-`).
 /// With `--port` the filtered, gated centre is streamed to the device.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "The stimulus (with --port), alike on every backend: with any \
+#[command(
+    after_help = "The stimulus (with --port), alike on every backend: with any \
     stimulus flag (--radius, --foci, --spacing, --freq, --step, --steps, --center, --z, \
     --method, --iterations, --weights) that stimulus is planned for the device (on AUTD3's \
     25 µs dwell grid), uploaded into a free slot and played before tracking, with a \
@@ -29,7 +30,8 @@ use lmhost::trajectory::Steps;
     `lmhost upload` put there and an AUTD3 plays the default stimulus (LM-S, A = 3 mm, \
     5 Hz, 0.23 mm steps). Without --port a stimulus flag cannot apply and is refused. \
     With --replan the stimulus's radius and steps are --z-profile's and its depth \
-    profile is measured, so --step and --z are refused.")]
+    profile is measured, so --step and --z are refused."
+)]
 pub struct Args {
     /// Stream the filtered centre to the device on this port (only when
     /// `--port` is given; $LMHOST_PORT alone does not enable streaming).
@@ -154,7 +156,10 @@ impl Args {
                 "{f} applies with --port only: the stimulus is planned for and played on the device"
             );
         }
-        for (flag, given) in [("--z", stimulus.z.is_some()), ("--step", stimulus.step.is_some())] {
+        for (flag, given) in [
+            ("--z", stimulus.z.is_some()),
+            ("--step", stimulus.step.is_some()),
+        ] {
             if replan && given {
                 lmhost::bad_input!(
                     "{flag} cannot apply with --replan: the re-plan's steps and depth profile come from --z-profile"

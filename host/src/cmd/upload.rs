@@ -28,7 +28,8 @@ impl From<EncodingArg> for Encoding {
 
 /// Plan a stimulus and upload it to the device.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Stimulus files (instead of planning one): --phases FILE takes \
+#[command(
+    after_help = "Stimulus files (instead of planning one): --phases FILE takes \
     the phases themselves, a .npy of uint8 with shape (steps, transducers) (what \
     `lmhost plan --out F.npy` writes) or JSON {\"phases\": [[p, ...], ...], \"dwell_us\": D}; \
     --foci-file FILE takes foci in mm (finger space, mirrored like a planned stimulus), a \
@@ -40,7 +41,8 @@ impl From<EncodingArg> for Encoding {
     scene's centre) and --max-offset apply; the other stimulus flags cannot and are \
     refused. A file is checked like a planned stimulus: the scene's transducer count, \
     the device's step limits, the dwell limits, finite foci within ±2000 mm in front of \
-    the array; an .npy exactly as long as its shape, JSON at most 64 MiB.")]
+    the array; an .npy exactly as long as its shape, JSON at most 64 MiB."
+)]
 pub struct Args {
     #[command(flatten)]
     plan: PlanArgs,

@@ -415,9 +415,18 @@ mod tests {
                 r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2,3],"colour":1}"#,
                 "unknown field `colour`",
             ),
-            (r#"{"t_s":0.5,"present":true,"centroid_mm":null}"#, "needs its centre"),
-            (r#"{"t_s":0.5,"centroid_mm":[1,2,3]}"#, "missing field `present`"),
-            (r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2]}"#, "line 3"),
+            (
+                r#"{"t_s":0.5,"present":true,"centroid_mm":null}"#,
+                "needs its centre",
+            ),
+            (
+                r#"{"t_s":0.5,"centroid_mm":[1,2,3]}"#,
+                "missing field `present`",
+            ),
+            (
+                r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2]}"#,
+                "line 3",
+            ),
         ] {
             let e = parse_line(bad, 3).unwrap_err().to_string();
             assert!(e.contains(says) && e.starts_with("line 3"), "{bad}: {e}");
