@@ -34,6 +34,7 @@ pub mod scene;
 pub mod sequence;
 pub mod simdev;
 pub mod stimulus;
+pub mod stimulus_file;
 pub mod stop;
 pub mod stream;
 pub mod study;

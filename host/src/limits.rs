@@ -228,7 +228,16 @@ pub const MAX_TEXT_FILE_BYTES: u64 = 1 << 20;
 /// anything but a regular file before opening it
 /// ([`crate::files::read_input`]).
 pub fn read_text_file(what: &str, path: &std::path::Path) -> Result<String, InputError> {
-    let bytes = crate::files::read_input(what, path, MAX_TEXT_FILE_BYTES)?;
+    read_text_file_up_to(what, path, MAX_TEXT_FILE_BYTES)
+}
+
+/// [`read_text_file`] with its own limit, `max` bytes (a stimulus file).
+pub fn read_text_file_up_to(
+    what: &str,
+    path: &std::path::Path,
+    max: u64,
+) -> Result<String, InputError> {
+    let bytes = crate::files::read_input(what, path, max)?;
     String::from_utf8(bytes).map_err(|_| {
         InputError::new(format!(
             "cannot read {what} {}: it is not UTF-8 text",

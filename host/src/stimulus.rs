@@ -101,8 +101,7 @@ pub struct Timing {
     pub requested_step_mm: f64,
     /// `step_mm - requested_step_mm`.
     pub step_error_mm: f64,
-    /// AUTD3: dwell = `divide` × 25 µs.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// AUTD3: dwell = `divide` × 25 µs (`None`, JSON `null`, elsewhere).
     pub divide: Option<u16>,
 }
 

@@ -19,7 +19,7 @@ pub enum Play {
     Untracked,
 }
 
-/// The serial link's transfer figures (LM firmware).
+/// The serial link's transfer figures (LM firmware), the JSON's `wire`.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct WireFigures {
     /// The link's report.
@@ -29,7 +29,8 @@ pub struct WireFigures {
     pub wire_efficiency: f64,
 }
 
-/// What an upload and the play after it did.
+/// What an upload and the play after it did: the same keys on every
+/// backend (a figure a backend cannot know is `null`, never missing).
 #[derive(Debug, Clone, Serialize)]
 pub struct UploadOutcome {
     /// The device, as it describes itself.
@@ -41,16 +42,26 @@ pub struct UploadOutcome {
     /// Work volume: the device refuses a centroid farther than this from
     /// the planned centre (µm).
     pub max_offset_um: u32,
-    /// Steps, dwell, frequency and step width, realised and requested.
+    /// Steps, dwell, frequency and step width, realised and requested, and
+    /// the AUTD3 `divide` (`null` on the LM firmware).
     #[serde(flatten)]
     pub timing: Timing,
-    /// Link frames the upload took (AUTD3).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// CRC-32 of the phases uploaded (the raw sequence, step-major).
+    pub crc32: u32,
+    /// Seconds the upload took (wall clock, the call to the backend).
+    pub seconds: f64,
+    /// Phase bytes sent: the encoded sequence on the LM firmware, the raw
+    /// steps × transducers on an AUTD3.
+    pub payload_bytes: u64,
+    /// Bytes the link sent, framing included (`None` where not known: an
+    /// AUTD3).
+    pub wire_bytes_sent: Option<u64>,
+    /// Link frames the upload took (`None` where not counted: the LM
+    /// firmware, a real AUTD3 link).
     pub frames: Option<u64>,
     /// Phases read back that differ from the plan (`None`: no read-back).
     pub readback_mismatches: Option<u64>,
-    /// Bytes, time, CRC and retries on the serial link (LM firmware).
-    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    /// The serial link's full report (LM firmware; `None` on an AUTD3).
     pub wire: Option<WireFigures>,
     /// Whether it was played.
     pub playing: bool,
@@ -73,7 +84,9 @@ pub fn upload(
     play: Play,
 ) -> anyhow::Result<UploadOutcome> {
     let plan = &planned.plan;
+    let started = std::time::Instant::now();
     let r = dev.upload(plan, slot)?;
+    let seconds = started.elapsed().as_secs_f64();
     let status: Option<Status> = match play {
         Play::No => None,
         Play::Tracked | Play::Untracked => {
@@ -90,6 +103,12 @@ pub fn upload(
         transducers: r.transducers,
         max_offset_um: plan.sequence.header.max_offset_um,
         timing: planned.timing.clone(),
+        crc32: plan.sequence.crc32(),
+        seconds,
+        payload_bytes: r
+            .wire()
+            .map_or(plan.sequence.phases.len() as u64, |w| w.sequence_bytes),
+        wire_bytes_sent: r.wire().map(|w| w.wire_bytes_sent),
         frames: r.frames(),
         readback_mismatches: r.readback_mismatches(),
         wire: r.wire().map(|&report| WireFigures {

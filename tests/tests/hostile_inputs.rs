@@ -50,9 +50,11 @@ const REC_SIGNAL: &str = "r3-2 recordings survive signals";
 const STALLS: &str = "r3-6 stalls";
 const RIG: &str = "r3-8 rig sanity";
 const REFUSALS: &str = "r3-9 device refusals said";
+/// One behaviour on every backend: stimulus flags and files.
+const STIMULI: &str = "r4 stimulus flags and files";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 24] = [
+const CLASSES: [&str; 25] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -77,6 +79,7 @@ const CLASSES: [&str; 24] = [
     STALLS,
     RIG,
     REFUSALS,
+    STIMULI,
 ];
 
 /// What a run produced, for custom checks.
@@ -410,7 +413,81 @@ fn fixtures(dir: &Path) {
     w("cam_unknown.toml", cam("k1 = 0.1\n").as_bytes());
     std::fs::create_dir_all(dir.join("a_directory")).unwrap();
     w("a_file", b"");
+    stimulus_fixtures(dir);
     round3_fixtures(dir);
+}
+
+/// Stimulus files (`upload --phases`, `--foci-file`) and track lines.
+fn stimulus_fixtures(dir: &Path) {
+    let w = |name: &str, body: String| std::fs::write(dir.join(name), body).unwrap();
+    let rows = |n: usize, t: usize| vec![vec![0u8; t]; n];
+    w(
+        "ph_short.json",
+        serde_json::json!({"phases": rows(4, 10), "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "ph_notime.json",
+        serde_json::json!({"phases": rows(4, 996)}).to_string(),
+    );
+    w(
+        "ph_2010.json",
+        serde_json::json!({"phases": rows(4, 996), "dwell_us": 2010}).to_string(),
+    );
+    // Not JSON at all (NaN), so named apart from the .json outputs checked whole.
+    w(
+        "ph_nan.phases",
+        r#"{"phases": [[0]], "dwell_us": NaN}"#.to_owned(),
+    );
+    w(
+        "ph_neg.json",
+        serde_json::json!({"phases": rows(4, 996), "dwell_us": -5}).to_string(),
+    );
+    w(
+        "ph_empty.json",
+        serde_json::json!({"phases": [], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "ph_big.json",
+        serde_json::json!({"phases": [[300]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_behind.json",
+        serde_json::json!({"foci_mm": [[[0, 0, -50]]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_far.json",
+        serde_json::json!({"foci_mm": [[[0, 0, 1e300]]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_many.json",
+        serde_json::json!({"foci_mm": [vec![[0, 0, 200]; 33]], "dwell_us": 2000}).to_string(),
+    );
+    w(
+        "fo_short.json",
+        serde_json::json!({"foci_mm": [[[0, 0, 200]]], "dwell_us": 10}).to_string(),
+    );
+    // An .npy of phases for 10 transducers, and one shorter than its shape.
+    let npy = |shape: &str, data: usize| {
+        let h = format!("{{'descr': '|u1', 'fortran_order': False, 'shape': {shape}, }}");
+        let mut b = b"\x93NUMPY\x01\x00".to_vec();
+        b.extend_from_slice(&((h.len() + 1) as u16).to_le_bytes());
+        b.extend_from_slice(h.as_bytes());
+        b.push(b'\n');
+        b.extend(std::iter::repeat_n(0u8, data));
+        b
+    };
+    std::fs::write(dir.join("ph_10.npy"), npy("(2, 10)", 20)).unwrap();
+    std::fs::write(dir.join("ph_ok.npy"), npy("(2, 996)", 2 * 996)).unwrap();
+    std::fs::write(dir.join("ph_trunc.npy"), npy("(2, 996)", 996)).unwrap();
+    std::fs::write(dir.join("ph_1d.npy"), npy("(996,)", 996)).unwrap();
+    w(
+        "track_extra.jsonl",
+        r#"{"t_s":0,"points":1,"present":false,"centroid_mm":null,"colour":1}"#.to_owned() + "\n",
+    );
+    w(
+        "track_nopos.jsonl",
+        r#"{"t_s":0,"points":1,"present":true,"centroid_mm":null}"#.to_owned() + "\n",
+    );
 }
 
 /// The scene the output-onto-input cases must leave as it was.
@@ -1374,6 +1451,46 @@ fn round3_cases() -> Vec<Case> {
         REFUSALS   "track --synthetic --fast --seconds 1 --port {port} --json" .ok()
                    .err("device refusals:");
     });
+    // Round 4: a stimulus flag is never silently ignored; stimulus files
+    // get the planned stimulus's checks, one line naming the file.
+    v.extend(table! {
+        STIMULI    "stream --port {port} --synthetic --iterations 5" .err("--iterations applies to --method gspat only");
+        STIMULI    "stream --port {port} --synthetic --radius -1" .err("radius");
+        STIMULI    "stream --port {port} --synthetic --step 0.2 --steps 8" .err("--step");
+        STIMULI    "stream --port autd3:emulator --synthetic --freq 100 --steps 82" .err("25 µs");
+        STIMULI    "track --synthetic --seconds 0.1 --radius 4" .err("--radius applies with --port only");
+        STIMULI    "track --synthetic --seconds 0.1 --foci 4 --scene {scenes}/paper.toml" .err("--foci applies with --port only");
+        STIMULI    "track --synthetic --seconds 0.1 --port {port} --z-profile 3,8 --replan --z 1" .err("--z cannot apply with --replan");
+        STIMULI    "track --synthetic --seconds 0.1 --port {port} --z-profile 3,8 --replan --step 0.2" .err("--step cannot apply");
+        STIMULI    "track --synthetic --seconds 0.1 --port {port} --z-profile 3,8 --replan --radius 4" .err("differs from --z-profile");
+        STIMULI    "track --synthetic --seconds 0.1 --port {port} --z-profile 3,8 --replan --steps 9" .err("differs from --z-profile");
+        STIMULI    "track --synthetic --seconds 0.1 --port autd3:emulator --z-profile 3,1 --replan" .err("--replan").err("2..=1024");
+        STIMULI    "plan --target lm3" .err("--target");
+        STIMULI    "upload --port {port} --phases {dir}/nope.npy --freq 5" .err("cannot read --phases file");
+        STIMULI    "upload --port {port} --phases {dir}/a_directory --freq 5" .err("it is a directory");
+        STIMULI    "upload --port {port} --phases {dir}/ph_short.json" .err("ph_short.json").err("996 transducers");
+        STIMULI    "upload --port {port} --phases {dir}/ph_notime.json" .err("ph_notime.json").err("no timing");
+        STIMULI    "upload --port {port} --phases {dir}/ph_2010.json --freq 5" .err("give one");
+        STIMULI    "upload --port autd3:emulator --phases {dir}/ph_2010.json" .err("ph_2010.json").err("25 µs grid");
+        STIMULI    "upload --port {port} --phases {dir}/ph_nan.phases" .err("ph_nan.phases").err("not a phases JSON");
+        STIMULI    "upload --port {port} --phases {dir}/ph_neg.json" .err("above 0");
+        STIMULI    "upload --port {port} --phases {dir}/ph_empty.json" .err("no steps");
+        STIMULI    "upload --port {port} --phases {dir}/ph_big.json" .err("ph_big.json");
+        STIMULI    "upload --port {port} --phases {dir}/ok.csv" .err("ok.csv").err("not a phases JSON");
+        STIMULI    "upload --port {port} --phases {dir}/ph_10.npy --freq 5" .err("ph_10.npy").err("996 transducers");
+        STIMULI    "upload --port {port} --phases {dir}/ph_trunc.npy --freq 5" .err("ph_trunc.npy").err("needs");
+        STIMULI    "upload --port {port} --phases {dir}/ph_1d.npy --freq 5" .err("(steps, transducers)");
+        STIMULI    "upload --port {port} --phases {dir}/ph_ok.npy --freq 1e300" .err("--freq");
+        STIMULI    "upload --port {port} --phases {dir}/ph_10.npy --freq 5 --radius 3" .err("--radius");
+        STIMULI    "upload --port {port} --phases {dir}/ph_10.npy --foci-file {dir}/fo_far.json" .err("--foci-file");
+        STIMULI    "upload --port {port} --foci-file {dir}/fo_behind.json" .err("fo_behind.json").err("behind");
+        STIMULI    "upload --port {port} --foci-file {dir}/fo_far.json" .err("fo_far.json").err("±2000");
+        STIMULI    "upload --port {port} --foci-file {dir}/fo_many.json" .err("at most 32");
+        STIMULI    "upload --port {port} --foci-file {dir}/fo_short.json" .err("above 1000 Hz");
+        STIMULI    "upload --port {port} --foci-file {dir}/fo_far.json --method gspat" .err("--method");
+        STIMULI    "stream --port {port} --input {dir}/track_extra.jsonl" .err("line 1").err("unknown field `colour`");
+        STIMULI    "stream --port {port} --input {dir}/track_nopos.jsonl" .err("line 1").err("needs its centre");
+    });
     // Every output error names what failed and nothing panics.
     for c in &mut v {
         if c.stdout_to.is_some() && c.code == 1 && c.stderr_to.is_some() {
@@ -1451,7 +1568,8 @@ fn every_file_whole(dir: &Path) -> Result<(), String> {
 }
 
 /// The broken `.npy` fixtures of [`fixtures`].
-const FIXTURE_NPY: [&str; 8] = [
+const FIXTURE_NPY: [&str; 9] = [
+    "ph_trunc.npy",
     "tb.npy",
     "overflow.npy",
     "negative.npy",

@@ -46,9 +46,9 @@ fn upload_wire_efficiency_is_at_least_95_percent() {
     let sim = Sim::start(&[]);
     for enc in ["raw", "delta"] {
         let up = upload_json(&sim.port, &["--foci", "4", "--encoding", enc]);
-        let eff = up["wire_efficiency"].as_f64().unwrap();
+        let eff = up["wire"]["wire_efficiency"].as_f64().unwrap();
         assert!(eff >= 0.95, "{enc}: {up}");
-        assert_eq!(up["retries"], 0);
+        assert_eq!(up["wire"]["retries"], 0);
     }
 }
 
@@ -132,7 +132,7 @@ fn upload_through_a_noisy_link_retries_and_commits() {
     let sim = Sim::start(&["--faults", "ber=1e-4,drop=1e-5", "--seed", "3"]);
     let p = sim.port.as_str();
     let up = upload_json(p, &["--foci", "4", "--timeout-ms", "100"]);
-    assert!(up["retries"].as_u64().unwrap() > 0, "{up}");
+    assert!(up["wire"]["retries"].as_u64().unwrap() > 0, "{up}");
     let st = json(&[
         "status",
         "--port",

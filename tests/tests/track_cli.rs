@@ -421,3 +421,139 @@ fn replan_uploads_the_surface_profile_into_the_idle_slot() {
     ]);
     one_line_error(&out, 2);
 }
+
+/// The number after `device re-plans: ` and the rest of that line.
+fn replans(out: &str) -> (u64, String) {
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("device re-plans: "))
+        .unwrap_or_else(|| panic!("no re-plan line: {out}"));
+    let n = line["device re-plans: ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    (n, line.to_owned())
+}
+
+#[test]
+fn replan_on_the_autd3_emulator_plans_lm_m_on_the_25_us_grid() {
+    let cam = half_intrinsics(&dir("replan-autd3"));
+    let out = synthetic(
+        &cam,
+        "1.5",
+        &[
+            "--port",
+            "autd3:emulator",
+            "--z-profile",
+            "3,8",
+            "--replan",
+            "--replan-mm",
+            "0.2",
+            "--foci",
+            "2",
+            "--freq",
+            "4.9",
+        ],
+    );
+    let (uploaded, line) = replans(&out);
+    assert!(uploaded >= 1, "{line}");
+    // LM-M (2 foci) on --z-profile's 8 steps; 1 / (8 × 4.9 Hz) = 25.51 ms
+    // lands on the grid at 25.5 ms (the LM firmware would play 25510.2 µs).
+    assert!(
+        line.contains("last: 8 steps × 2 foci, dwell 25500.0 µs"),
+        "{line}"
+    );
+}
+
+#[test]
+fn track_plan_flags_upload_and_play_on_the_lm_firmware_too() {
+    let (cam, sim) = camera_and_device("track-flags");
+    let before = json(&["status", "--port", &sim.port, "--json"]);
+    assert_eq!(before["slot"], 0);
+    let scene = paper();
+    let o = run(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "0.3",
+        "--fast",
+        "--scene",
+        &scene,
+        "--intrinsics",
+        &cam,
+        "--port",
+        &sim.port,
+        "--foci",
+        "4",
+        "--radius",
+        "4",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    // The same summary line as on AUTD3, naming what was planned.
+    assert!(
+        err.contains(&format!("{}: uploaded ", sim.port))
+            && err.contains("read-back not available"),
+        "{err}"
+    );
+    let st = json(&["status", "--port", &sim.port, "--json"]);
+    assert!(st["slot"] == 1 || st["queued_slot"] == 1, "{st}");
+    // Without --port a stimulus flag cannot apply: refused, not ignored.
+    let o = run(&["track", "--synthetic", "--seconds", "0.1", "--radius", "4"]);
+    assert!(one_line_error(&o, 2).contains("--radius applies with --port only"));
+    // --replan measures the depth profile: --z cannot apply.
+    let o = run(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "0.1",
+        "--port",
+        &sim.port,
+        "--z-profile",
+        "3,8",
+        "--replan",
+        "--z",
+        "1",
+    ]);
+    assert!(one_line_error(&o, 2).contains("--z cannot apply with --replan"));
+}
+
+#[test]
+fn track_json_lines_stream_to_the_device() {
+    let cam = half_intrinsics(&dir("track-to-stream"));
+    let lines_out = synthetic(&cam, "1.5", &["--json", "--filter", "gaussian"]);
+    let n = lines_out.lines().count();
+    assert!(n > 30, "{lines_out}");
+    let file = dir("track-to-stream-file").join("track.jsonl");
+    std::fs::write(&file, &lines_out).unwrap();
+    let sim = Sim::start(&[]);
+    ok(&["upload", "--port", &sim.port, "--scene", &paper()]);
+    let v = json(&[
+        "stream",
+        "--port",
+        &sim.port,
+        "--scene",
+        &paper(),
+        "--input",
+        file.to_str().unwrap(),
+        "--fast",
+        "--json",
+    ]);
+    assert_eq!(v["samples"], n as u64, "{v}");
+    assert_eq!(v["acked"], n as u64, "{v}");
+    // The gated, filtered centre decides presence: as many as track said.
+    let gated = lines_out
+        .lines()
+        .filter(|l| l.contains("\"gated_present\":true"))
+        .count();
+    assert_eq!(v["present"], gated as u64, "{v}");
+    assert!(gated > 0, "{lines_out}");
+    // Piped straight in, too.
+    let o = run_stdin(
+        &["stream", "--port", &sim.port, "--scene", &paper(), "--json"],
+        lines_out.as_bytes(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

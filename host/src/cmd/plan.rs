@@ -15,7 +15,7 @@ use lmhost::geom::Vec3;
 use lmhost::limits;
 use lmhost::scene::Scene;
 use lmhost::sequence::{Plan, Synthesis};
-use lmhost::stimulus::{Stimulus, TargetPlan};
+use lmhost::stimulus::{Stimulus, TargetPlan, Timing};
 use lmhost::trajectory::{Steps, paper};
 
 /// Multi-focus synthesis method.
@@ -220,17 +220,147 @@ impl PlanArgs {
     }
 }
 
+/// The stimulus flags of a streaming session (`stream`, `track --port`):
+/// the plan flags of [`PlanArgs`] without defaults, so a session knows
+/// which were given. Any one given plans that stimulus for the device,
+/// uploads it into a free slot and plays it (every backend); none given
+/// keeps what the LM firmware plays (an AUTD3, which holds nothing, plays
+/// the default stimulus).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct StimulusFlags {
+    /// Stimulus: LM circle radius A in mm, 0..=100 [default: 3].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    pub radius: Option<f64>,
+    /// Stimulus: foci per step, 1..=32 (more than 1 = LM-M) [default: 1].
+    #[arg(long, value_name = "N")]
+    pub foci: Option<usize>,
+    /// Stimulus: spacing d between neighbouring foci in mm (LM-M)
+    /// [default: 3].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    pub spacing: Option<f64>,
+    /// Stimulus: LM frequency f in Hz, above 0 and at most 1000 [default: 5].
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub freq: Option<f64>,
+    /// Stimulus: step width d_LM in mm; N = round(2πA / d_LM)
+    /// [default: 0.23].
+    #[arg(
+        long,
+        value_name = "MM",
+        conflicts_with = "steps",
+        allow_negative_numbers = true
+    )]
+    pub step: Option<f64>,
+    /// Stimulus: steps per cycle N, 1..=65535 (instead of --step).
+    #[arg(long, value_name = "N")]
+    pub steps: Option<usize>,
+    /// Stimulus: LM centre X,Y,Z in mm, finger space [default: the
+    /// scene's centre].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub center: Option<String>,
+    /// Stimulus: per-step depth along the LM plane's c axis in mm, one
+    /// value or one per step [default: 0].
+    #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
+    pub z: Option<String>,
+    /// Stimulus: multi-focus synthesis [default: linear].
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
+    /// Stimulus: GS-PAT iterations, 1..=1000 (with --method gspat)
+    /// [default: 20].
+    #[arg(long, value_name = "N")]
+    pub iterations: Option<usize>,
+    /// Stimulus: real weight per focus, comma-separated (linear synthesis).
+    #[arg(long, value_name = "W,W,...")]
+    pub weights: Option<String>,
+}
+
+impl StimulusFlags {
+    /// The flags given, by name (`--radius`, ...), in the order of `--help`.
+    pub fn given(&self) -> Vec<&'static str> {
+        let s = self;
+        [
+            ("--radius", s.radius.is_some()),
+            ("--foci", s.foci.is_some()),
+            ("--spacing", s.spacing.is_some()),
+            ("--freq", s.freq.is_some()),
+            ("--step", s.step.is_some()),
+            ("--steps", s.steps.is_some()),
+            ("--center", s.center.is_some()),
+            ("--z", s.z.is_some()),
+            ("--method", s.method.is_some()),
+            ("--iterations", s.iterations.is_some()),
+            ("--weights", s.weights.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(n, g)| g.then_some(n))
+        .collect()
+    }
+
+    /// The plan flags these stand for in `scene` (defaults filled in, as
+    /// `lmhost upload` would take them); `--iterations` without
+    /// `--method gspat` cannot apply and is refused.
+    pub fn plan_args(&self, scene: Option<PathBuf>) -> Result<PlanArgs, InputError> {
+        let method = self.method.unwrap_or_default();
+        if self.iterations.is_some() && method != Method::Gspat {
+            return Err(InputError::new(
+                "--iterations applies to --method gspat only",
+            ));
+        }
+        Ok(PlanArgs {
+            radius: self.radius.unwrap_or(paper::RADIUS_MM),
+            foci: self.foci.unwrap_or(paper::FOCI),
+            spacing: self.spacing.unwrap_or(paper::SPACING_MM),
+            freq: self.freq.unwrap_or(paper::FREQ_HZ),
+            step: self.step,
+            steps: self.steps,
+            center: self.center.clone(),
+            z: self.z.clone(),
+            scene,
+            method,
+            iterations: self
+                .iterations
+                .unwrap_or(lmhost::stimulus::GSPAT_ITERATIONS),
+            weights: self.weights.clone(),
+        })
+    }
+}
+
+/// `plan --target`: which device the plan is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TargetArg {
+    /// The LM firmware (any whole-µs dwell).
+    Lm,
+    /// An AUTD3 (dwell on the 25 µs FPGA grid).
+    Autd3,
+}
+
+impl TargetArg {
+    /// The device kind to plan for (an AUTD3 plans alike on every link).
+    pub fn target(self) -> Target {
+        match self {
+            Self::Lm => Target::Lm,
+            Self::Autd3 => Target::Autd3(lmhost::autd3::Autd3Port::Emulator),
+        }
+    }
+}
+
 /// Plan an LM stimulus: trajectory, phases, encodings.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
     lmhost plan                                   # LM-S, A = 3 mm, 5 Hz, 0.23 mm steps\n  \
     lmhost plan --radius 6 --foci 4 --spacing 3   # LM-M\n  \
     lmhost plan --scene scenes/paper.toml --foci 4 --out lmm.npy\n  \
+    lmhost plan --target autd3 --radius 5 --out autd3.npy  # what an AUTD3 plays (25 µs grid)\n  \
     lmhost plan --json --phases > plan.json")]
 pub struct Args {
     /// The stimulus.
     #[command(flatten)]
     pub plan: PlanArgs,
+    /// The device the phases are for: `lm` plans the timing as asked (what
+    /// the LM firmware plays), `autd3` on AUTD3's 25 µs dwell grid (N and
+    /// the dwell an AUTD3 realises: exactly what `upload --port autd3:...`
+    /// plays); the summary, `--json` and `--out` say the realised timing.
+    #[arg(long, value_enum, default_value_t = TargetArg::Lm)]
+    pub target: TargetArg,
     /// Print a machine-readable JSON summary instead of text.
     #[arg(long)]
     pub json: bool,
@@ -317,14 +447,42 @@ pub fn summary_text(plan: &Plan) -> String {
     out
 }
 
-fn write_out(path: &Path, plan: &Plan) -> anyhow::Result<()> {
+/// The target and its realised timing in a JSON summary.
+fn add_target(v: &mut serde_json::Value, target: TargetArg, timing: &Timing) {
+    v["target"] = json!(match target {
+        TargetArg::Lm => "lm",
+        TargetArg::Autd3 => "autd3",
+    });
+    v["timing"] = json!(timing);
+}
+
+/// The text line of an AUTD3 plan: the grid and the timing errors.
+fn autd3_line(t: &Timing) -> String {
+    format!(
+        "on AUTD3's 25 µs grid: dwell {:.0} µs = {} × 25 µs ({:+.1} µs from {:.1} µs), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm ({:+.4} mm from {:.4} mm)",
+        t.dwell_us,
+        t.divide.unwrap_or(0),
+        t.dwell_error_us,
+        t.requested_dwell_us,
+        t.freq_hz,
+        t.freq_error_hz,
+        t.requested_freq_hz,
+        t.step_mm,
+        t.step_error_mm,
+        t.requested_step_mm
+    )
+}
+
+fn write_out(path: &Path, plan: &Plan, target: TargetArg, timing: &Timing) -> anyhow::Result<()> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     let bytes = match ext.as_deref() {
         Some("json") => {
-            let mut b = serde_json::to_vec(&summary_json(plan, true))?;
+            let mut v = summary_json(plan, true);
+            add_target(&mut v, target, timing);
+            let mut b = serde_json::to_vec(&v)?;
             b.push(b'\n');
             b
         }
@@ -337,17 +495,20 @@ fn write_out(path: &Path, plan: &Plan) -> anyhow::Result<()> {
 impl Args {
     /// Plans, prints and writes.
     pub fn run(self) -> anyhow::Result<()> {
-        let plan = self.plan.plan()?;
+        let planned = self.plan.plan_for(&self.target.target())?;
+        let plan = &planned.plan;
         if let Some(out) = &self.out {
-            write_out(out, &plan)?;
+            write_out(out, plan, self.target, &planned.timing)?;
         }
         if self.json {
-            lmhost::outln!(
-                "{}",
-                serde_json::to_string(&summary_json(&plan, self.phases))?
-            )?;
+            let mut v = summary_json(plan, self.phases);
+            add_target(&mut v, self.target, &planned.timing);
+            lmhost::outln!("{}", serde_json::to_string(&v)?)?;
         } else {
-            lmhost::out!("{}", summary_text(&plan))?;
+            lmhost::out!("{}", summary_text(plan))?;
+            if self.target == TargetArg::Autd3 {
+                lmhost::outln!("{}", autd3_line(&planned.timing))?;
+            }
             if let Some(out) = &self.out {
                 lmhost::outln!("wrote {}", out.display())?;
             }

@@ -1,94 +1,68 @@
-//! A streaming session's device (`stream`, `track`, `demo`): on an AUTD3,
-//! which holds a sequence only while lmhost holds the link, plan, upload,
-//! read back and play first.
+//! A streaming session's device (`stream`, `track --port`): one rule on
+//! every backend. A stimulus named by the plan flags is planned for the
+//! device (AUTD3's 25 µs grid included), uploaded into a free slot, read
+//! back where the device can be, and played; with no plan flag the LM
+//! firmware keeps what it plays and an AUTD3, which holds a sequence only
+//! while lmhost holds the link, plays the default stimulus.
 
-use serde::Serialize;
-
-use crate::cmd::plan::PlanArgs;
-use lmhost::backend::{Backend, UploadReport};
-use lmhost::connect::{Target, open};
+use lmhost::backend::Backend;
+use lmhost::connect::{Target, open, open_with};
 use lmhost::link::PortSpec;
 use lmhost::scene::Scene;
-use lmhost::stimulus::{Stimulus, TargetPlan, Timing};
+use lmhost::stimulus::Stimulus;
+use lmhost::upload::{Play, UploadOutcome, upload};
 
-/// What [`open_playing`] uploaded before a session (AUTD3 only).
-#[derive(Debug, Clone, Serialize)]
-pub struct SessionUpload {
-    /// The upload.
-    pub upload: UploadReport,
-    /// Realised timing on the 25 µs grid.
-    pub timing: Timing,
-}
-
-/// Opens the device for a streaming session (`stream`, `track`, `demo`).
-/// The LM firmware already holds its sequence (uploaded and played with
-/// `lmhost upload`); an AUTD3 holds one only while lmhost holds the link,
-/// so there the plan the flags ask for (or the defaults) is planned on the
-/// 25 µs grid, uploaded, read back and played, tracked, first. Returns the
-/// device and, on AUTD3, what was uploaded.
+/// Opens the device for a streaming session and, as the module doc says,
+/// plans, uploads and plays `stimulus` in `scene` first (`None`: the
+/// default on an AUTD3, nothing on the LM firmware). Prints the one-line
+/// upload summary on stderr; returns the device and the upload report.
 pub fn open_playing(
     port: &PortSpec,
-    plan: &PlanArgs,
-) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
-    open_planned(
-        port,
-        || Ok(plan.load_scene()?),
-        |target| plan.plan_for(target),
-    )
-}
-
-/// [`open_playing`] with the default stimulus ([`Stimulus::default`], what
-/// `lmhost upload --scene FILE` plans with no other flag) in `scene`: the
-/// plan `track --port autd3:...` plays.
-pub fn open_playing_default(
-    port: &PortSpec,
     scene: &Scene,
-) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
-    open_planned(
-        port,
-        || Ok(scene.clone()),
-        |target| {
-            let planned = Stimulus::default().plan_for(target, scene.clone())?;
-            for w in &planned.warnings {
-                lmhost::errln!("warning: {w}");
-            }
-            Ok(planned)
-        },
-    )
-}
-
-/// [`open_playing`] given how to load the scene (the LM firmware) and how
-/// to plan the stimulus for a target (an AUTD3).
-fn open_planned(
-    port: &PortSpec,
-    scene: impl FnOnce() -> anyhow::Result<Scene>,
-    plan_for: impl FnOnce(&Target) -> anyhow::Result<TargetPlan>,
-) -> anyhow::Result<(Box<dyn Backend>, Option<SessionUpload>)> {
+    stimulus: Option<&Stimulus>,
+) -> anyhow::Result<(Box<dyn Backend>, Option<UploadOutcome>)> {
     let target = port.target()?;
-    let Target::Autd3(_) = &target else {
-        return Ok((open(port, &scene()?)?, None));
+    let default = Stimulus::default();
+    let stimulus = match (stimulus, &target) {
+        (Some(s), _) => s,
+        (None, Target::Autd3(_)) => &default,
+        (None, Target::Lm) => return Ok((open(port, scene)?, None)),
     };
-    let planned = plan_for(&target)?;
-    let (plan, timing) = (planned.plan, planned.timing);
-    let mut dev = open(port, &plan.scene)?;
-    let upload = dev.upload(&plan, None)?;
+    let planned = stimulus.plan_for(&target, scene.clone())?;
+    for w in &planned.warnings {
+        lmhost::errln!("warning: {w}");
+    }
+    let mut dev = open_with(port, &planned.plan.scene, lm_proto::Encoding::Delta, false)?;
+    let o = upload(dev.as_mut(), &planned, None, Play::Tracked)?;
     let where_ = dev.describe();
-    if let Some(n) = upload.readback_mismatches().filter(|&n| n > 0) {
+    if let Some(n) = o.readback_mismatches.filter(|&n| n > 0) {
         anyhow::bail!("{where_} holds {n} phases that differ from the plan");
     }
-    dev.play(upload.slot, false)?;
-    lmhost::errln!(
-        "{where_}: uploaded {} steps, dwell {} µs, {:.3} Hz (asked {} Hz), step {:.4} mm, read-back {}; \
-         playing slot {}, muted until tracked; left silent on exit",
-        upload.steps,
-        upload.dwell_us,
-        upload.freq_hz,
-        timing.requested_freq_hz,
-        timing.step_mm,
-        upload
-            .readback_mismatches()
+    lmhost::errln!("{}", summary(&o, dev.needs_host()));
+    Ok((dev, Some(o)))
+}
+
+/// The one-line summary of a session's upload, alike on every backend.
+pub fn summary(o: &UploadOutcome, needs_host: bool) -> String {
+    let t = &o.timing;
+    format!(
+        "{}: uploaded {} steps, dwell {:.1} µs, {:.3} Hz (asked {} Hz), step {:.4} mm, crc32 {:08x}, read-back {}; \
+         {} slot {}, muted until tracked{}",
+        o.port,
+        t.steps,
+        t.dwell_us,
+        t.freq_hz,
+        t.requested_freq_hz,
+        t.step_mm,
+        o.crc32,
+        o.readback_mismatches
             .map_or("not available".into(), |n| format!("{n} mismatches")),
-        upload.slot
-    );
-    Ok((dev, Some(SessionUpload { upload, timing })))
+        if o.queued { "queued" } else { "playing" },
+        o.slot,
+        if needs_host {
+            "; left silent on exit"
+        } else {
+            ""
+        }
+    )
 }

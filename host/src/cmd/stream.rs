@@ -5,7 +5,7 @@ use anyhow::Context as _;
 use std::path::PathBuf;
 
 use super::args::PortArgs;
-use crate::cmd::plan::PlanArgs;
+use crate::cmd::plan::StimulusFlags;
 use lmhost::stream::filter::{FilterKind, Kalman};
 use lmhost::stream::metrics::score;
 use lmhost::stream::run::{Pace, Threaded, on_thread, stream};
@@ -30,7 +30,14 @@ const FILTER_SCORE_S: f64 = 20.0;
     a bad datagram is skipped and counted; 1000 bad datagrams in a row end the session.\n\n\
     Stopping: Ctrl-C (SIGINT) or SIGTERM ends the session, mutes the device (an update \
     with present = false), prints the report and frees the port for `lmhost stop` / \
-    `lmhost status`. While `stream` runs it holds the port: stop it first."
+    `lmhost status`. While `stream` runs it holds the port: stop it first.\n\n\
+    The stimulus, alike on every backend: with any stimulus flag (--radius, --foci, \
+    --spacing, --freq, --step, --steps, --center, --z, --method, --iterations, --weights) \
+    that stimulus is planned for the device (on AUTD3's 25 µs dwell grid), uploaded into \
+    a free slot and played before streaming, with a one-line summary on stderr. With \
+    none, the LM firmware keeps playing what `lmhost upload` put there and an AUTD3 \
+    (which holds nothing while lmhost is away) plays the default stimulus (LM-S, \
+    A = 3 mm, 5 Hz, 0.23 mm steps). --scene alone only mirrors the centroids."
 )]
 pub struct Args {
     #[command(flatten)]
@@ -64,11 +71,15 @@ pub struct Args {
     /// Kalman filter: predict this far ahead (ms), e.g. the link latency.
     #[arg(long, value_name = "MS", default_value_t = 0.0)]
     lead_ms: f64,
-    /// The scene (its reflector mirrors centroids into drive coordinates)
-    /// and, on AUTD3 ports only, the stimulus uploaded and played before
-    /// streaming (the LM firmware plays what `lmhost upload` put there).
+    /// Scene file (TOML): its reflector mirrors centroids into drive
+    /// coordinates, and a stimulus is planned in it [default: four AUTD3
+    /// in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// The stimulus played while streaming (see below: given, it is
+    /// uploaded and played on every backend).
     #[command(flatten)]
-    plan: PlanArgs,
+    stimulus: StimulusFlags,
     /// Replay files and the synthetic finger as fast as the link allows.
     #[arg(long)]
     fast: bool,
@@ -110,7 +121,11 @@ impl Args {
         if away.is_some() && !self.synthetic {
             lmhost::bad_input!("--away only applies to --synthetic");
         }
-        let scene = self.plan.load_scene()?;
+        let scene = lmhost::scene::Scene::load_or_default(self.scene.as_deref())?;
+        let stimulus = match self.stimulus.given().is_empty() {
+            true => None,
+            false => Some(self.stimulus.plan_args(self.scene.clone())?.stimulus()?),
+        };
         let track = FingerTrack {
             center_mm: scene.center_mm,
             away_s: away,
@@ -150,8 +165,10 @@ impl Args {
             }
         };
         lmhost::stop::graceful();
-        let (mut dev, session) = crate::cmd::session::open_playing(&self.port.spec(), &self.plan)?;
+        let (mut dev, session) =
+            crate::cmd::session::open_playing(&self.port.spec(), &scene, stimulus.as_ref())?;
         let where_ = dev.describe();
+        let needs_host = dev.needs_host();
         let (mut absent, mut muted_absent) = (0u64, 0u64);
         let report = stream(
             dev.as_mut(),
@@ -161,7 +178,7 @@ impl Args {
             pace,
             |dev, s, _| {
                 // AUTD3: the host runs the gate, so check it as it goes.
-                if session.is_some() && !s.present {
+                if needs_host && !s.present {
                     absent += 1;
                     if dev.status()?.state == lm_proto::DeviceState::Muted {
                         muted_absent += 1;
@@ -181,7 +198,7 @@ impl Args {
         let status = dev
             .status()
             .context("reading the device status after streaming")?;
-        if session.is_some() {
+        if needs_host {
             // AUTD3: the array plays only while lmhost holds it; leave it
             // silent (STM stopped, null gain) before letting go.
             dev.stop().context("silencing the array")?;
@@ -213,12 +230,14 @@ impl Args {
                 "stopped": report.stopped, "muted_at_end": report.muted_at_end,
             });
             let mut v = v;
-            if let Some(s) = &session {
+            // What was uploaded before streaming, on every backend (null:
+            // the LM firmware kept what it played).
+            v["upload"] = serde_json::to_value(&session)?;
+            if needs_host {
                 v["mute_reason"] = serde_json::to_value(status.mute_reason)?;
                 v["applied"] = report.acked.into();
                 v["absent_updates"] = absent.into();
                 v["muted_absent_updates"] = muted_absent.into();
-                v["upload"] = serde_json::to_value(s)?;
             }
             lmhost::outln!("{v}")?;
             return Ok(());
@@ -238,14 +257,13 @@ impl Args {
             p(99.0),
             p(100.0)
         )?;
-        if let Some(s) = &session {
+        if let Some(s) = session.as_ref().filter(|_| needs_host) {
             lmhost::outln!(
                 "{} corrections applied on {where_} (dwell {} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
                 report.acked,
-                s.upload.dwell_us,
-                s.upload.freq_hz,
-                s.upload
-                    .readback_mismatches()
+                s.timing.dwell_us,
+                s.timing.freq_hz,
+                s.readback_mismatches
                     .map_or("n/a".into(), |n| n.to_string()),
                 status.mute_reason.describe()
             )?;

@@ -5,8 +5,12 @@
 use std::path::PathBuf;
 
 use super::args::PortArgs;
+use crate::cmd::plan::StimulusFlags;
+use lmhost::sequence::Plan;
+use lmhost::stimulus::Stimulus;
 use lmhost::stream::filter::FilterKind;
 use lmhost::track::session::{Device, Options, Session};
+use lmhost::trajectory::Steps;
 
 /// Track the finger in depth frames: the contact area inside the scene's
 /// detection box and its centroid, one result per frame.
@@ -17,6 +21,17 @@ use lmhost::track::session::{Device, Options, Session};
 /// pyrealsense2 bridge) or an LMDEPTH1 stream (`--stream FILE|-`).
 /// With `--port` the filtered, gated centre is streamed to the device.
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "The stimulus (with --port), alike on every backend: with any \
+    stimulus flag (--radius, --foci, --spacing, --freq, --step, --steps, --center, --z, \
+    --method, --iterations, --weights) that stimulus is planned for the device (on AUTD3's \
+    25 µs dwell grid), uploaded into a free slot and played before tracking, with a \
+    one-line summary on stderr. With none, the LM firmware keeps playing what \
+    `lmhost upload` put there and an AUTD3 plays the default stimulus (LM-S, A = 3 mm, \
+    5 Hz, 0.23 mm steps). Without --port a stimulus flag cannot apply and is refused. \
+    With --replan the stimulus's radius and steps are --z-profile's and its depth \
+    profile is measured, so --step and --z are refused."
+)]
 pub struct Args {
     /// Stream the filtered centre to the device on this port (only when
     /// `--port` is given; $LMHOST_PORT alone does not enable streaming).
@@ -86,10 +101,11 @@ pub struct Args {
     #[arg(long, value_name = "MM", default_value_t = 0.3, requires = "z_profile")]
     replan_mm: f64,
     /// With --port and --z-profile: when the surface profile moves more
-    /// than --replan-mm, plan the paper's LM-S circle (5 Hz, radius and
-    /// steps of --z-profile, about the scene centre) with that depth
-    /// profile, upload it into a slot that is neither playing nor queued
-    /// and play it at the next cycle boundary. Off by default: each
+    /// than --replan-mm, plan the stimulus of the stimulus flags (the
+    /// paper's LM-S at 5 Hz by default; LM-M with --foci) with the radius
+    /// and steps of --z-profile and that depth profile, for the device (on
+    /// an AUTD3 its 25 µs grid), upload it into a slot that is neither
+    /// playing nor queued and play it at the next cycle boundary. Off by default: each
     /// re-plan uploads steps × transducers bytes and holds the centroid
     /// stream meanwhile (about 0.45 s for 100 steps × 996 transducers,
     /// 38 kB, at 921600 baud; a pty takes milliseconds), so use it on fast links.
@@ -101,6 +117,9 @@ pub struct Args {
     /// Consecutive frames without one that close it.
     #[arg(long, value_name = "N", default_value_t = 2)]
     leave_frames: u32,
+    /// With --port: the stimulus played while tracking (see below).
+    #[command(flatten)]
+    stimulus: StimulusFlags,
 }
 
 impl Args {
@@ -129,7 +148,25 @@ impl Args {
             replan,
             enter_frames,
             leave_frames,
+            stimulus,
         } = self;
+        let given = stimulus.given();
+        if let (Some(f), None) = (given.first(), &port.port) {
+            lmhost::bad_input!(
+                "{f} applies with --port only: the stimulus is planned for and played on the device"
+            );
+        }
+        for (flag, given) in [
+            ("--z", stimulus.z.is_some()),
+            ("--step", stimulus.step.is_some()),
+        ] {
+            if replan && given {
+                lmhost::bad_input!(
+                    "{flag} cannot apply with --replan: the re-plan's steps and depth profile come from --z-profile"
+                );
+            }
+        }
+        let plan_args = stimulus.plan_args(scene.clone())?;
         let session = Session::open(Options {
             scene,
             depth,
@@ -156,13 +193,46 @@ impl Args {
         })?;
         let mut print = |line: &str| lmhost::outln!("{line}");
         let report = if port.port.is_some() {
-            // AUTD3: the default stimulus for the scene is uploaded and
-            // played first, and the array is left silent at the end.
-            let (mut dev, upload) =
-                super::session::open_playing_default(&port.spec(), session.scene())?;
+            let target = port.spec().target()?;
+            let mut stim = (!given.is_empty())
+                .then(|| plan_args.stimulus())
+                .transpose()?;
+            // --replan: the stimulus on --z-profile's circle, checked once.
+            let replan_stim = match session.z_profile_circle().filter(|_| replan) {
+                None => None,
+                Some((r, n)) => {
+                    let s = replan_stimulus(plan_args.stimulus()?, &stimulus, r, n)?;
+                    s.plan_for(&target, session.scene().clone()).map_err(|e| {
+                        lmhost::InputError::new(format!(
+                            "--replan: the stimulus on the --z-profile circle cannot be planned for this device: {e}"
+                        ))
+                    })?;
+                    if stim.is_some() {
+                        stim = Some(s.clone());
+                    }
+                    Some(s)
+                }
+            };
+            // The stimulus is uploaded and played first on every backend
+            // (an AUTD3 without stimulus flags: the default); an AUTD3 is
+            // left silent at the end.
+            let (mut dev, _upload) =
+                super::session::open_playing(&port.spec(), session.scene(), stim.as_ref())?;
+            let scene = session.scene().clone();
+            let mut plan_with = replan_stim.map(|s| {
+                move |z: &[f64]| -> anyhow::Result<Plan> {
+                    let mut s = s.clone();
+                    s.z_profile_mm = z.to_vec();
+                    Ok(s.plan_for(&target, scene.clone())?.plan)
+                }
+            });
+            let silence_at_end = dev.needs_host();
             let device = Device {
                 backend: dev.as_mut(),
-                silence_at_end: upload.is_some(),
+                silence_at_end,
+                replan: plan_with
+                    .as_mut()
+                    .map(|f| f as &mut dyn FnMut(&[f64]) -> anyhow::Result<Plan>),
             };
             session.run(Some(device), &mut print)?
         } else {
@@ -180,4 +250,28 @@ impl Args {
         }
         Ok(())
     }
+}
+
+/// The re-plan's stimulus: `s` on the `--z-profile` circle (radius `r`,
+/// `n` steps). A --radius or --steps that names another circle cannot
+/// apply and is refused.
+fn replan_stimulus(
+    mut s: Stimulus,
+    flags: &StimulusFlags,
+    r: f64,
+    n: usize,
+) -> Result<Stimulus, lmhost::InputError> {
+    if let Some(a) = flags.radius.filter(|&a| a != r) {
+        lmhost::bad_input!(
+            "--radius {a} differs from --z-profile's radius {r}: the re-plan plays the circle the surface is measured on (leave --radius out)"
+        );
+    }
+    if let Some(k) = flags.steps.filter(|&k| k != n) {
+        lmhost::bad_input!(
+            "--steps {k} differs from --z-profile's {n} steps: the re-plan plays one step per measured depth (leave --steps out)"
+        );
+    }
+    s.radius_mm = r;
+    s.steps = Steps::Count(n);
+    Ok(s)
 }

@@ -28,9 +28,41 @@ impl From<EncodingArg> for Encoding {
 
 /// Plan a stimulus and upload it to the device.
 #[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Stimulus files (instead of planning one): --phases FILE takes \
+    the phases themselves, a .npy of uint8 with shape (steps, transducers) (what \
+    `lmhost plan --out F.npy` writes) or JSON {\"phases\": [[p, ...], ...], \"dwell_us\": D}; \
+    --foci-file FILE takes foci in mm (finger space, mirrored like a planned stimulus), a \
+    .npy of float64 with shape (steps, foci, 3) or JSON {\"foci_mm\": [[[x, y, z], ...], \
+    ...], \"dwell_us\": D}, and synthesises the phases with the planner (linear). Give the \
+    timing once: --freq HZ (the dwell is 1/(N f); on an AUTD3 the nearest on its 25 µs \
+    grid) or dwell_us in a JSON file (on an AUTD3 a multiple of 25 µs from 1000 µs). \
+    --scene, --center (the work volume's centre; default: the foci's mean, else the \
+    scene's centre) and --max-offset apply; the other stimulus flags cannot and are \
+    refused. A file is checked like a planned stimulus: the scene's transducer count, \
+    the device's step limits, the dwell limits, finite foci within ±2000 mm in front of \
+    the array; an .npy exactly as long as its shape, JSON at most 64 MiB."
+)]
 pub struct Args {
     #[command(flatten)]
     plan: PlanArgs,
+    /// Upload these phases instead of planning: .npy uint8 (steps,
+    /// transducers) or JSON (see below).
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = FILE_CONFLICTS
+    )]
+    phases: Option<std::path::PathBuf>,
+    /// Synthesise the phases of these foci instead of planning a circle:
+    /// .npy float64 (steps, foci, 3) in mm, or JSON (see below).
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = FILE_CONFLICTS,
+        conflicts_with = "phases"
+    )]
+    foci_file: Option<std::path::PathBuf>,
     #[command(flatten)]
     port: PortArgs,
     /// Slot to write [default: one that is neither playing nor queued].
@@ -70,6 +102,33 @@ pub struct Args {
     json: bool,
 }
 
+/// The plan flags a stimulus file leaves no room for.
+const FILE_CONFLICTS: [&str; 9] = [
+    "radius",
+    "foci",
+    "spacing",
+    "step",
+    "steps",
+    "z",
+    "method",
+    "iterations",
+    "weights",
+];
+
+/// Whether `--freq` was given on the command line (not its default): a
+/// stimulus file takes its timing from exactly one place.
+fn freq_given() -> bool {
+    use clap::CommandFactory as _;
+    crate::Cli::command()
+        .try_get_matches_from(std::env::args_os())
+        .ok()
+        .and_then(|m| {
+            m.subcommand_matches("upload")
+                .map(|u| u.value_source("freq") == Some(clap::parser::ValueSource::CommandLine))
+        })
+        .unwrap_or(false)
+}
+
 /// The one-line warning printed when playing untracked.
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
      with no gating or correction, until `lmhost stop`";
@@ -96,7 +155,31 @@ impl Args {
                 "--hold applies to AUTD3 ports only (the LM firmware plays on its own)"
             );
         }
-        let mut planned = self.plan.plan_for(&target)?;
+        let file = match (&self.phases, &self.foci_file) {
+            (Some(p), _) => Some((lmhost::stimulus_file::Content::Phases, p)),
+            (None, Some(p)) => Some((lmhost::stimulus_file::Content::Foci, p)),
+            (None, None) => None,
+        };
+        let mut planned = match file {
+            None => self.plan.plan_for(&target)?,
+            Some((content, path)) => {
+                let center = self
+                    .plan
+                    .center
+                    .as_deref()
+                    .map(|c| crate::cmd::plan::parse_vec3("center", c))
+                    .transpose()?;
+                let freq = freq_given().then_some(self.plan.freq);
+                lmhost::stimulus_file::plan_for(
+                    content,
+                    path,
+                    &target,
+                    self.plan.load_scene()?,
+                    freq,
+                    center,
+                )?
+            }
+        };
         planned.plan.sequence.set_max_offset_mm(self.max_offset)?;
         let mut dev = lmhost::connect::open_with(
             &self.port.spec(),
@@ -129,12 +212,12 @@ impl Args {
         };
         if self.json {
             let mut v = serde_json::to_value(&o)?;
-            if needs_host {
-                v["hold_s"] = match hold {
-                    None => serde_json::Value::Null,
-                    Some(d) => d.map(|d| d.as_secs_f64()).into(),
-                };
-            }
+            // null on the LM firmware (it plays on its own) and when the
+            // emulator exits at once: the same keys on every backend.
+            v["hold_s"] = match hold {
+                None => serde_json::Value::Null,
+                Some(d) => d.map(|d| d.as_secs_f64()).into(),
+            };
             lmhost::outln!("{v}")?;
         } else {
             print_text(&o, needs_host)?;
@@ -199,7 +282,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
             lmhost::outln!(
                 "uploaded {} steps × {} transducers to {} slot {}: dwell {} µs on the 25 µs grid \
                  ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
-                 ({:+.4} mm), {} frames",
+                 ({:+.4} mm), {} frames, {} phase bytes in {:.3} s, CRC {:08x}",
                 t.steps,
                 o.transducers,
                 o.port,
@@ -212,7 +295,10 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
                 t.requested_freq_hz,
                 t.step_mm,
                 t.step_error_mm,
-                o.frames.unwrap_or(0)
+                o.frames.map_or("uncounted".into(), |f| f.to_string()),
+                o.payload_bytes,
+                o.seconds,
+                o.crc32
             )?;
             match o.readback_mismatches {
                 Some(n) => {

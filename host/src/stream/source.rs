@@ -4,12 +4,19 @@
 //! Text formats, one sample per line:
 //! - JSON: `{"t": 0.011, "x": 1.2, "y": -0.4, "z": 201.0, "present": true}`
 //!   (`present` defaults to true);
+//! - JSON as `lmhost track --json` prints it (`{"t_s": .., "present": ..,
+//!   "centroid_mm": [x, y, z] | null, ...}`): its time, and its filtered,
+//!   gated centre (`filtered_mm`, `gated_present`) when the line has one,
+//!   else its raw centroid; its other known keys are ignored, an unknown
+//!   key is refused as in the plain form;
 //! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; an
 //!   optional header line starting with `t` is skipped; `#` starts a comment.
 //!
 //! Units: seconds and millimetres.
 
 use std::io::BufRead;
+
+use serde::Deserialize as _;
 
 use super::Sample;
 use crate::InputError;
@@ -30,6 +37,55 @@ fn yes() -> bool {
     true
 }
 
+/// A line of `lmhost track --json` (the keys `track::session` prints).
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TrackLine {
+    t_s: f64,
+    present: bool,
+    centroid_mm: Option<[f64; 3]>,
+    #[serde(default)]
+    gated_present: Option<bool>,
+    #[serde(default)]
+    filtered_mm: Option<[f64; 3]>,
+    #[serde(default, rename = "points")]
+    _points: serde::de::IgnoredAny,
+    #[serde(default, rename = "z_profile_mm")]
+    _z_profile_mm: serde::de::IgnoredAny,
+    #[serde(default, rename = "replan")]
+    _replan: serde::de::IgnoredAny,
+    #[serde(default, rename = "truth_present")]
+    _truth_present: serde::de::IgnoredAny,
+    #[serde(default, rename = "truth_mm")]
+    _truth_mm: serde::de::IgnoredAny,
+}
+
+impl TrackLine {
+    /// Its sample: the filtered, gated centre when the line has one, else
+    /// the raw centroid; a finger needs a position.
+    fn sample(self, line_no: usize) -> Result<Sample, InputError> {
+        let (pos, present) = match self.gated_present {
+            Some(g) => (self.filtered_mm, g),
+            None => (self.centroid_mm, self.present),
+        };
+        match (pos, present) {
+            (Some(p), present) => Ok(Sample {
+                t_s: self.t_s,
+                pos_mm: p,
+                present,
+            }),
+            (None, false) => Ok(Sample {
+                t_s: self.t_s,
+                pos_mm: [0.0; 3],
+                present: false,
+            }),
+            (None, true) => Err(InputError::new(format!(
+                "line {line_no}: a track line with a finger present needs its centre (centroid_mm or filtered_mm)"
+            ))),
+        }
+    }
+}
+
 /// Parse one line; `Ok(None)` for blank lines, comments and a CSV header.
 /// `line_no` (1-based) goes into the error message.
 pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputError> {
@@ -44,13 +100,20 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         return Ok(None);
     }
     let sample = if line.starts_with('{') {
-        let j: JsonSample = serde_json::from_str(line).map_err(|e| {
+        let bad = |e: serde_json::Error| {
             InputError::new(format!("line {line_no}: not a centroid JSON object ({e})"))
-        })?;
-        Sample {
-            t_s: j.t,
-            pos_mm: [j.x, j.y, j.z],
-            present: j.present,
+        };
+        let v: serde_json::Value = serde_json::from_str(line).map_err(bad)?;
+        // `lmhost track --json` lines carry `t_s`; plain centroids `t`.
+        if v.get("t_s").is_some() {
+            TrackLine::deserialize(v).map_err(bad)?.sample(line_no)?
+        } else {
+            let j = JsonSample::deserialize(v).map_err(bad)?;
+            Sample {
+                t_s: j.t,
+                pos_mm: [j.x, j.y, j.z],
+                present: j.present,
+            }
         }
     } else {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -320,6 +383,55 @@ pub fn udp(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parses_track_json_lines() {
+        // Raw centroid (no filter): `present` and `centroid_mm`.
+        let raw = r#"{"t_s":0.25,"points":310,"present":true,"centroid_mm":[1.5,2,200],"truth_present":true,"truth_mm":[1,2,3],"z_profile_mm":null,"replan":false}"#;
+        assert_eq!(
+            parse_line(raw, 1).unwrap().unwrap(),
+            Sample {
+                t_s: 0.25,
+                pos_mm: [1.5, 2.0, 200.0],
+                present: true
+            }
+        );
+        // The filtered, gated centre wins when the line has one.
+        let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":false,"filtered_mm":null}"#;
+        assert_eq!(
+            parse_line(f, 1).unwrap().unwrap(),
+            Sample {
+                t_s: 0.5,
+                pos_mm: [0.0; 3],
+                present: false
+            }
+        );
+        let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":true,"filtered_mm":[4,5,6]}"#;
+        assert_eq!(parse_line(f, 1).unwrap().unwrap().pos_mm, [4.0, 5.0, 6.0]);
+        let absent = r#"{"t_s":0.5,"points":0,"present":false,"centroid_mm":null}"#;
+        assert!(!parse_line(absent, 1).unwrap().unwrap().present);
+        for (bad, says) in [
+            (
+                r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2,3],"colour":1}"#,
+                "unknown field `colour`",
+            ),
+            (
+                r#"{"t_s":0.5,"present":true,"centroid_mm":null}"#,
+                "needs its centre",
+            ),
+            (
+                r#"{"t_s":0.5,"centroid_mm":[1,2,3]}"#,
+                "missing field `present`",
+            ),
+            (
+                r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2]}"#,
+                "line 3",
+            ),
+        ] {
+            let e = parse_line(bad, 3).unwrap_err().to_string();
+            assert!(e.contains(says) && e.starts_with("line 3"), "{bad}: {e}");
+        }
+    }
 
     #[test]
     fn parses_json_and_csv() {

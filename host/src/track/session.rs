@@ -32,11 +32,10 @@ use crate::error::InputError;
 use crate::geom;
 use crate::limits::show;
 use crate::scene::Scene;
-use crate::sequence::{Plan, Synthesis};
+use crate::sequence::Plan;
 use crate::stream::Sample;
 use crate::stream::filter::{FilterKind, Passthrough};
 use crate::stream::run::{Feed, Next, Pace, StreamReport, stream};
-use crate::trajectory::{LmParams, Steps};
 
 /// What a session tracks and how: the `lmhost track` flags as plain
 /// values (the error messages name those flags).
@@ -95,12 +94,20 @@ pub struct Options {
     pub device: bool,
 }
 
+/// Plans the device's stimulus with a measured depth profile (mm along
+/// the LM plane's c axis, one value per step): the caller's stimulus, on
+/// the device's dwell grid (`--replan`).
+pub type Replan<'a> = &'a mut dyn FnMut(&[f64]) -> anyhow::Result<Plan>;
+
 /// The device a session streams to.
 pub struct Device<'a> {
     /// The device, its stimulus playing.
     pub backend: &'a mut dyn Backend,
     /// Stop it at the end (an AUTD3, which lmhost started playing).
     pub silence_at_end: bool,
+    /// With [`Options::replan`]: how to plan a measured profile (its
+    /// length is the `--z-profile` step count).
+    pub replan: Option<Replan<'a>>,
 }
 
 /// What a session measured, for the caller to print.
@@ -177,7 +184,7 @@ impl Session {
         };
         let live = src.live();
         let replanner = match (&z_profile, opts.replan) {
-            (Some((r, n, _)), true) => Some(DeviceReplan::new(&scene, &rig, *r, *n)?),
+            (Some(_), true) => Some(DeviceReplan::new(&scene, &rig)?),
             _ => None,
         };
         let run = Run {
@@ -241,6 +248,12 @@ impl Session {
         &self.scene
     }
 
+    /// The circle `--z-profile` samples the surface on: radius (mm) and
+    /// steps (a re-plan's stimulus has that radius and step count).
+    pub fn z_profile_circle(&self) -> Option<(f64, usize)> {
+        self.run.z_profile.as_ref().map(|(r, n, _)| (*r, *n))
+    }
+
     /// Tracks every frame until the source ends or a stop is requested,
     /// streaming the gated, filtered centre to `device` if given, and
     /// hands each output line (a JSON object per frame, or a summary per
@@ -255,8 +268,12 @@ impl Session {
         if let Some(Device {
             backend,
             silence_at_end,
+            mut replan,
         }) = device
         {
+            if self.replanner.is_some() && replan.is_none() {
+                anyhow::bail!("--replan needs a planner for the device's stimulus");
+            }
             let where_ = backend.describe();
             let pace = if self.opts.fast || self.live {
                 Pace::Arrival
@@ -275,8 +292,8 @@ impl Session {
                 &mut Passthrough,
                 |p| scene.drive_point(p),
                 pace,
-                |client, _, _| match (&mut *replanner, &pending) {
-                    (Some(r), Some(p)) => r.maybe_upload(client, p),
+                |client, _, _| match (&mut *replanner, &pending, &mut replan) {
+                    (Some(r), Some(p), Some(plan)) => r.maybe_upload(client, p, &mut **plan),
                     _ => Ok(()),
                 },
             )
@@ -361,8 +378,12 @@ impl Session {
         }
         if let Some(r) = &self.replanner {
             summary.push(format!(
-                "device re-plans: {} uploaded and played, {} skipped while no slot was free, {} failed{}",
+                "device re-plans: {} uploaded and played{}, {} skipped while no slot was free, {} failed{}",
                 r.uploaded,
+                r.last_plan
+                    .map_or(String::new(), |(n, f, d)| format!(
+                        " (last: {n} steps × {f} foci, dwell {d:.1} µs)"
+                    )),
                 r.skipped,
                 r.failed,
                 r.last_failure
@@ -763,24 +784,23 @@ impl Run {
     }
 }
 
-/// Uploads re-planned depth profiles to the device (`replan`).
+/// Uploads re-planned depth profiles to the device (`replan`), planned by
+/// the caller ([`Replan`]: the session's stimulus on the device's grid).
 struct DeviceReplan {
-    scene: Scene,
-    params: LmParams,
     /// Box c (mm) → LM plane c (mm): ±1, the axes being checked parallel.
     sign: f64,
     uploaded: u64,
     skipped: u64,
     failed: u64,
     last_failure: Option<String>,
+    /// The last plan uploaded: steps, foci per step, dwell (µs).
+    last_plan: Option<(usize, usize, f64)>,
 }
 
 impl DeviceReplan {
-    /// The paper's LM-S about the scene centre with `radius_mm` and
-    /// `steps` (checked by planning it flat once). The surface profile is
-    /// sampled on the tracking box's a–b circle, so the box must lie in the
-    /// LM plane (axes parallel within 1°).
-    fn new(scene: &Scene, rig: &Rig, radius_mm: f64, steps: usize) -> anyhow::Result<Self> {
+    /// The surface profile is sampled on the tracking box's a–b circle, so
+    /// the box must lie in the LM plane (axes parallel within 1°).
+    fn new(scene: &Scene, rig: &Rig) -> anyhow::Result<Self> {
         let b = &rig.track_box;
         let pl = &scene.lm_plane;
         let cos1 = 1f64.to_radians().cos();
@@ -791,23 +811,13 @@ impl DeviceReplan {
                 "--replan needs the tracking box's first two axes along the scene's lm_plane a and b (within 1°): the surface profile is sampled in the box and planned in the LM plane"
             );
         }
-        let sign = geom::dot(b.axes[2], pl.c).signum();
-        let mut params = LmParams::paper(scene.center_mm);
-        params.radius_mm = radius_mm;
-        params.steps = Steps::Count(steps);
-        Plan::new(scene.clone(), &params, &Synthesis::Linear).map_err(|e| {
-            InputError::new(format!(
-                "--replan: the circle of --z-profile cannot be planned: {e}"
-            ))
-        })?;
         Ok(Self {
-            scene: scene.clone(),
-            params,
-            sign,
+            sign: geom::dot(b.axes[2], pl.c).signum(),
             uploaded: 0,
             skipped: 0,
             failed: 0,
             last_failure: None,
+            last_plan: None,
         })
     }
 
@@ -817,6 +827,7 @@ impl DeviceReplan {
         &mut self,
         client: &mut dyn Backend,
         pending: &RefCell<Option<Vec<f64>>>,
+        plan_with: &mut dyn FnMut(&[f64]) -> anyhow::Result<Plan>,
     ) -> anyhow::Result<()> {
         let Some(profile) = pending.borrow().clone() else {
             return Ok(());
@@ -829,11 +840,10 @@ impl DeviceReplan {
             self.skipped += 1;
             return Ok(());
         };
-        let mut params = self.params.clone();
-        params.z_profile_mm = profile.iter().map(|z| z * self.sign).collect();
+        let z: Vec<f64> = profile.iter().map(|z| z * self.sign).collect();
         // A measured profile the planner refuses (out of range) is a
         // re-plan failure, counted and reported; the session goes on.
-        let plan = match Plan::new(self.scene.clone(), &params, &Synthesis::Linear) {
+        let plan = match plan_with(&z) {
             Ok(plan) => plan,
             Err(e) => {
                 *pending.borrow_mut() = None;
@@ -850,6 +860,11 @@ impl DeviceReplan {
             .with_context(|| format!("re-plan: playing slot {slot}"))?;
         *pending.borrow_mut() = None;
         self.uploaded += 1;
+        self.last_plan = Some((
+            plan.trajectory.steps,
+            plan.trajectory.foci,
+            plan.sequence.dwell_us(),
+        ));
         Ok(())
     }
 }
