@@ -271,6 +271,9 @@ pub struct StimulusFlags {
     /// Stimulus: real weight per focus, comma-separated (linear synthesis).
     #[arg(long, value_name = "W,W,...")]
     pub weights: Option<String>,
+    /// Stimulus: output intensity, 0..=1 of full [default: 1].
+    #[arg(long, value_name = "0..1", allow_negative_numbers = true)]
+    pub intensity: Option<f64>,
 }
 
 impl StimulusFlags {
@@ -289,6 +292,7 @@ impl StimulusFlags {
             ("--method", s.method.is_some()),
             ("--iterations", s.iterations.is_some()),
             ("--weights", s.weights.is_some()),
+            ("--intensity", s.intensity.is_some()),
         ]
         .into_iter()
         .filter_map(|(n, g)| g.then_some(n))
@@ -320,6 +324,7 @@ impl StimulusFlags {
                 .iterations
                 .unwrap_or(lmhost::stimulus::GSPAT_ITERATIONS),
             weights: self.weights.clone(),
+            intensity: self.intensity.unwrap_or(1.0),
         })
     }
 }
