@@ -278,6 +278,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             slot: 0,
             at: PlayAt::Immediate,
             untracked: false,
+            steps: 0,
         })),
         Reply::Nack(_)
     ));
@@ -352,6 +353,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             slot: 1,
             at: PlayAt::Immediate,
             untracked: false,
+            steps: 0,
         })),
         Reply::Nack(NackCode::NotCommitted)
     );
@@ -363,6 +365,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         slot: 0,
         at: PlayAt::Immediate,
         untracked: false,
+        steps: 0,
     }));
     assert_eq!(link.status().state, DeviceState::Muted);
     let mut cseq = 1;
