@@ -212,6 +212,17 @@ impl<T: Transport> Backend for LmBackend<T> {
             .with_context(|| format!("playing slot {slot}"))?)
     }
 
+    /// Sent as `Play.steps` with `NextCycle` (at once from silence): the
+    /// firmware counts the steps and stops itself.
+    fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> BResult<()> {
+        let info = self.lm_info()?;
+        check_slot(slot, &info)?;
+        Ok(self
+            .client
+            .play_steps(slot, PlayAt::NextCycle, untracked, steps)
+            .with_context(|| format!("playing slot {slot} for {steps} steps"))?)
+    }
+
     fn stop(&mut self) -> BResult<()> {
         Ok(self.client.stop().context("stopping the device")?)
     }
