@@ -29,7 +29,12 @@ pub struct Args {
     /// it when the devices' clock says the steps have played. From silence
     /// it starts at once; while another slot plays it takes over at the
     /// end of that cycle and counts from there.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        value_parser = clap::value_parser!(u32).range(1..)
+    )]
     steps: Option<u32>,
 }
 
