@@ -296,6 +296,22 @@ pub trait Backend {
     fn play(&mut self, slot: u8, untracked: bool) -> Result<()> {
         self.play_at(slot, PlayAt::NextCycle, untracked)
     }
+    /// Plays `slot` for `steps` steps, then stops as [`stop`](Self::stop)
+    /// does (`Status` then shows `Stopped` with `cycles × N + step ==
+    /// steps`); 0 = until `stop`, as [`play`](Self::play). Starts at once
+    /// from silence, or, while another slot plays, queued at the end of its
+    /// cycle, where the count begins.
+    ///
+    /// Who times it: the LM firmware counts the steps on its own timer and
+    /// stops itself at the boundary (`Play.steps`), whatever the link's
+    /// latency. An AUTD3 cannot stop itself: the host stops it in
+    /// [`tick`](Self::tick), [`status`](Self::status) or
+    /// [`centroid`](Self::centroid) once the devices' clock says `steps`
+    /// have played, so it sounds late by as much as those calls are (keep
+    /// ticking ≤ every dwell); its `Status` counts the steps it really
+    /// played (frozen at that stop), so `cycles × N + step` exceeds `steps`
+    /// by the host's lateness in dwells.
+    fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> Result<()>;
     /// Silences the array.
     fn stop(&mut self) -> Result<()>;
     /// Applies a centroid update (correction and safety gate). A centroid

@@ -212,6 +212,17 @@ impl<T: Transport> Backend for LmBackend<T> {
             .with_context(|| format!("playing slot {slot}"))?)
     }
 
+    /// Sent as `Play.steps` with `NextCycle` (at once from silence): the
+    /// firmware counts the steps and stops itself.
+    fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> BResult<()> {
+        let info = self.lm_info()?;
+        check_slot(slot, &info)?;
+        Ok(self
+            .client
+            .play_steps(slot, PlayAt::NextCycle, untracked, steps)
+            .with_context(|| format!("playing slot {slot} for {steps} steps"))?)
+    }
+
     fn stop(&mut self) -> BResult<()> {
         Ok(self.client.stop().context("stopping the device")?)
     }
@@ -242,5 +253,113 @@ pub fn hold(dev: &mut dyn Backend, max: Option<std::time::Duration>) -> anyhow::
         }
         dev.tick()?;
         std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use lm_proto::DeviceState;
+
+    use super::*;
+    use crate::clock::Clock;
+    use crate::simdev::{FwCore, InProcess, SimConfig};
+    use crate::stimulus::Stimulus;
+
+    /// The simulated firmware in process on a manual clock, keeping its
+    /// output frames.
+    fn sim() -> (LmBackend<InProcess<FwCore>>, Arc<Mutex<FwCore>>, Clock) {
+        let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default()).unwrap()));
+        core.lock().unwrap().set_capture(true);
+        let clock = Clock::manual_at_us(1_000_000);
+        let client = Client::new(InProcess::new(core.clone(), clock.clone()));
+        let mut dev = LmBackend::new(client, Encoding::Delta);
+        dev.progress = false;
+        (dev, core, clock)
+    }
+
+    fn plan() -> Plan {
+        Stimulus::default()
+            .plan_for(&Target::Lm, Scene::default())
+            .unwrap()
+            .plan
+    }
+
+    /// Where the firmware's schedule puts boundary `g` after a start at `t0`.
+    fn boundary(plan: &Plan, t0: u64, g: u64) -> u64 {
+        let h = &plan.sequence.header;
+        t0 + g * u64::from(h.period_us) / u64::from(h.steps)
+    }
+
+    /// Moves the device's clock to `us`, polling it at every deadline on
+    /// the way (as a board's timer would).
+    fn to(dev: &mut LmBackend<InProcess<FwCore>>, us: u64) {
+        dev.client.transport_mut().advance_to(us);
+    }
+
+    fn count(st: &Status, n: u16) -> u64 {
+        u64::from(st.cycles) * u64::from(n) + u64::from(st.step)
+    }
+
+    #[test]
+    fn play_for_stops_on_the_devices_timer_at_the_step_boundary() {
+        let (mut dev, core, clock) = sim();
+        let plan = plan();
+        let n = plan.sequence.header.steps;
+        let steps = 2 * u32::from(n) + 3;
+        let slot = dev.upload(&plan, None).unwrap().slot;
+        core.lock().unwrap().take_captured();
+        let t0 = clock.now_us();
+        dev.play_for(slot, true, steps).unwrap();
+        let end = boundary(&plan, t0, u64::from(steps));
+        to(&mut dev, end - 1);
+        let st = dev.status().unwrap();
+        assert_eq!(st.state, DeviceState::Playing);
+        assert_eq!(count(&st, n), u64::from(steps) - 1);
+        to(&mut dev, end);
+        let st = dev.status().unwrap();
+        assert_eq!(
+            (st.state, st.slot, st.queued_slot),
+            (DeviceState::Stopped, Some(slot), None)
+        );
+        assert_eq!(count(&st, n), u64::from(steps));
+        assert_eq!(st.missed_deadlines, 0);
+        // Frozen afterwards.
+        to(&mut dev, end + 10_000_000);
+        assert_eq!(dev.status().unwrap(), st);
+        let frames = core.lock().unwrap().take_captured();
+        let sounding = frames.iter().filter(|f| f.amplitude > 0).count();
+        assert_eq!(sounding, steps as usize);
+        assert_eq!(frames.last().map(|f| f.amplitude), Some(0));
+    }
+
+    #[test]
+    fn a_queued_play_for_counts_from_the_takeover() {
+        let (mut dev, core, clock) = sim();
+        let plan = plan();
+        let n = plan.sequence.header.steps;
+        let a = dev.upload(&plan, Some(0)).unwrap().slot;
+        let b = dev.upload(&plan, Some(1)).unwrap().slot;
+        let t0 = clock.now_us();
+        dev.play(a, true).unwrap();
+        to(&mut dev, boundary(&plan, t0, 2));
+        core.lock().unwrap().take_captured();
+        dev.play_for(b, true, u32::from(n) + 2).unwrap();
+        assert_eq!(dev.status().unwrap().queued_slot, Some(b));
+        // Slot b takes over at the end of a's first cycle.
+        let takeover = boundary(&plan, t0, u64::from(n));
+        to(&mut dev, boundary(&plan, takeover, u64::from(n) + 2) - 1);
+        assert_eq!(dev.status().unwrap().state, DeviceState::Playing);
+        to(&mut dev, boundary(&plan, takeover, u64::from(n) + 2));
+        let st = dev.status().unwrap();
+        assert_eq!((st.state, st.slot), (DeviceState::Stopped, Some(b)));
+        assert_eq!(count(&st, n), u64::from(n) + 2);
+        let frames = core.lock().unwrap().take_captured();
+        let from_b = frames
+            .iter()
+            .filter(|f| f.slot == b && f.amplitude > 0)
+            .count();
+        assert_eq!(from_b, usize::from(n) + 2);
     }
 }

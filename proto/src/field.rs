@@ -97,6 +97,8 @@ layout! {
         AT = 1..2,
         /// Flag bits (`PLAY_FLAG_UNTRACKED`), u8.
         FLAGS = 2..3,
+        /// Steps to play before stopping (0 = until `Stop`), u32.
+        STEPS = 3..7,
     }
 }
 

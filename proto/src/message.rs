@@ -290,6 +290,12 @@ pub struct Play {
     /// output is not gated by centroids and no correction is applied; it
     /// sounds until `Stop`. Off by default.
     pub untracked: bool,
+    /// Steps to play, counted from the slot's start (from the takeover for
+    /// a queued `NextCycle` play), after which the device stops by itself
+    /// as `Stop` does, at that step boundary by its own timer; `Status`
+    /// then shows `Stopped` with `cycles × N + step == steps`. 0 = play
+    /// until `Stop`.
+    pub steps: u32,
 }
 
 /// `Play` flags bit: play without tracking.
@@ -321,7 +327,7 @@ wire_enum! {
         Playing = 1,
         /// 2: playing but the output is gated (no presence, stale centroid, ...).
         Muted = 2,
-        /// 3: stopped by `Stop`.
+        /// 3: stopped by `Stop`, or by itself after a `Play`'s `steps`.
         Stopped = 3,
     }
 }
@@ -342,7 +348,7 @@ wire_enum! {
         TrackingStale = 3 => "tracking stale",
         /// 4: the last centroid lay outside the slot's work volume.
         CentroidOutOfRange = 4 => "centroid out of range",
-        /// 5: stopped by `Stop`.
+        /// 5: stopped by `Stop`, or by itself after a `Play`'s `steps`.
         Stopped = 5 => "stopped",
     }
 }
@@ -656,6 +662,7 @@ impl<'a> Message<'a> {
                 set(&mut p, f::AT, &[q.at.to_u8()]);
                 let flags = if q.untracked { PLAY_FLAG_UNTRACKED } else { 0 };
                 set(&mut p, f::FLAGS, &[flags]);
+                set(&mut p, f::STEPS, &q.steps.to_le_bytes());
                 s.put(&p)
             }
             Self::Centroid(c) => {
@@ -802,6 +809,7 @@ impl<'a> Message<'a> {
                         PLAY_FLAG_UNTRACKED => true,
                         _ => return Err("unknown play flag bits"),
                     },
+                    steps: p.u32(f::STEPS)?,
                 })
             }
             MessageType::Centroid => {

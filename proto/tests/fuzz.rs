@@ -52,6 +52,11 @@ fn random_message(rng: &mut Rng) -> Owned {
                 PlayAt::Immediate
             },
             untracked: rng.below(2) == 1,
+            steps: if rng.below(2) == 0 {
+                0
+            } else {
+                rng.next_u64() as u32
+            },
         }),
         7 => Message::Centroid(Centroid {
             seq: rng.next_u64() as u32,

@@ -147,6 +147,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 slot: 1,
                 at: PlayAt::NextCycle,
                 untracked: false,
+                steps: 0,
             }),
         ),
         "play_immediate" => (
@@ -155,6 +156,16 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 slot: 0,
                 at: PlayAt::Immediate,
                 untracked: false,
+                steps: 0,
+            }),
+        ),
+        "play_steps" => (
+            28,
+            Message::Play(Play {
+                slot: 2,
+                at: PlayAt::NextCycle,
+                untracked: true,
+                steps: 100_000,
             }),
         ),
         "stop" => (11, Message::Stop),

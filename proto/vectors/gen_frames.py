@@ -59,6 +59,10 @@ def small_begin(slot, enc, enc_len, max_off=20000, rig=None, intensity=255):
     return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), 1, 340000, max_off, rig,
                  intensity)
 
+def play(slot, at, flags, steps=0):
+    """Play: slot, at, flags, steps (u32, 0 = until Stop)."""
+    return bytes([slot, at, flags]) + struct.pack("<I", steps)
+
 def status(state, slot, step, counters, corr, queued, reason):
     return (bytes([state, slot]) + struct.pack("<H6I", step, *counters) + xyz(corr)
             + bytes([queued, reason]))
@@ -99,8 +103,10 @@ rec("chunk_long", 0x04, 6,
     struct.pack("<BI", 1, 0) + bytes((i % 255) + 1 for i in range(300)))
 rec("chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[]", struct.pack("<BI", 0, 0xFFFFFFFF))
 rec("commit", 0x05, 8, "Commit slot=0 crc32=0xcbf43926", struct.pack("<BI", 0, 0xCBF43926))
-rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0) flags=0", bytes([1, 0, 0]))
-rec("play_immediate", 0x06, 10, "Play slot=0 at=Immediate(1) flags=0", bytes([0, 1, 0]))
+rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0) flags=0 steps=0", play(1, 0, 0))
+rec("play_immediate", 0x06, 10, "Play slot=0 at=Immediate(1) flags=0 steps=0", play(0, 1, 0))
+rec("play_steps", 0x06, 28, "Play slot=2 at=NextCycle(0) flags=untracked(1) steps=100000",
+    play(2, 0, 1, 100000))
 rec("stop", 0x07, 11, "Stop", b"")
 rec("centroid", 0x08, 12,
     "Centroid seq=42 pos_um=[-1500,30250,29800] present=true host_time_us=1234567890123",
@@ -138,12 +144,15 @@ rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC
 rec("err_bad_version", 0x01, 20, "GetInfo with version 2 (the previous one), valid CRC", b"",
     version=2,
     error="bad_version")
-rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", bytes([0, 2, 0]),
+rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", play(0, 2, 0),
     error="malformed")
 rec("err_malformed_play_flags", 0x06, 21, "Play slot=0 at=0 flags=0x02 (unknown flag bit)",
-    bytes([0, 0, 2]), error="malformed")
-rec("err_malformed_play_short", 0x06, 21, "Play with the 2-byte payload of version 1 (needs 3)",
+    play(0, 0, 2), error="malformed")
+rec("err_malformed_play_short", 0x06, 21, "Play with the 2-byte payload of version 1 (needs 7)",
     bytes([0, 0]), error="malformed")
+rec("err_malformed_play_no_steps", 0x06, 21,
+    "Play with the 3-byte payload of version 2, without steps (needs 7)",
+    bytes([0, 0, 0]), error="malformed")
 rec("err_malformed_len", 0x05, 22, "Commit with a 4-byte payload (needs 5)", bytes([0, 1, 2, 3]),
     error="malformed")
 rec("err_malformed_bool", 0x08, 23, "Centroid with present=2",
@@ -224,11 +233,12 @@ for name, seq, fields, enc, enc_len, max_off in [
      0, 4, 100001),
 ]:
     rec(name, 0x02, seq, fields, small_begin(0, enc, enc_len, max_off), expect="nack OutOfRange")
-rec("dev_play_slot_31", 0x06, 140, "Play slot=31 at=Immediate(1) flags=0 (a library entry never uploaded)",
-    bytes([31, 1, 0]), expect="nack NotCommitted")
-rec("dev_play_slot_32", 0x06, 141, "Play slot=32 at=Immediate(1) flags=0 (no such entry)",
-    bytes([32, 1, 0]), expect="nack BadSlot")
-rec("dev_play_tracked", 0x06, 114, "Play slot=1 at=Immediate(1) flags=0", bytes([1, 1, 0]),
+rec("dev_play_slot_31", 0x06, 140,
+    "Play slot=31 at=Immediate(1) flags=0 steps=0 (a library entry never uploaded)",
+    play(31, 1, 0), expect="nack NotCommitted")
+rec("dev_play_slot_32", 0x06, 141, "Play slot=32 at=Immediate(1) flags=0 steps=0 (no such entry)",
+    play(32, 1, 0), expect="nack BadSlot")
+rec("dev_play_tracked", 0x06, 114, "Play slot=1 at=Immediate(1) flags=0 steps=0", play(1, 1, 0),
     expect="ack")
 rec("dev_status_waiting", 0x09, 115, "GetStatus (muted: waiting for tracking)", b"",
     expect="status Muted WaitingForTracking")
@@ -252,11 +262,16 @@ rec("dev_centroid_edge", 0x08, 121,
     struct.pack("<I", 1003) + xyz((12000, 16000, 200000)) + b"\x01" + struct.pack("<Q", 0),
     expect="ack")
 rec("dev_status_back", 0x09, 122, "GetStatus (playing again)", b"", expect="status Playing None")
-rec("dev_play_untracked", 0x06, 123, "Play slot=1 at=Immediate(1) flags=untracked(1)",
-    bytes([1, 1, 1]), expect="ack")
+rec("dev_play_untracked", 0x06, 123, "Play slot=1 at=Immediate(1) flags=untracked(1) steps=0",
+    play(1, 1, 1), expect="ack")
 rec("dev_centroid_absent", 0x08, 124, "Centroid seq=1004 pos_um=[0,0,0] present=false",
     struct.pack("<I", 1004) + xyz((0, 0, 0)) + b"\x00" + struct.pack("<Q", 0), expect="ack")
 rec("dev_status_untracked", 0x09, 125, "GetStatus (untracked: plays without a finger)", b"",
+    expect="status Playing None")
+rec("dev_play_steps", 0x06, 128,
+    "Play slot=1 at=Immediate(1) flags=untracked(1) steps=3 (no time passes: still playing)",
+    play(1, 1, 1, 3), expect="ack")
+rec("dev_status_steps", 0x09, 129, "GetStatus (playing its 3 steps)", b"",
     expect="status Playing None")
 rec("dev_stop", 0x07, 126, "Stop", b"", expect="ack")
 rec("dev_status_stopped", 0x09, 127, "GetStatus (stopped)", b"", expect="status Stopped Stopped")

@@ -593,6 +593,12 @@ fn device_state_cases() -> Vec<Case> {
                    .then("status --port {dev} --json", "\"mute_reason\":\"waiting_for_tracking\"");
         // 10. The device's own answers, as the spec has them.
         SPEC       "play --port {dev} --slot 40" .err("32 slots");
+        // A timed play needs a step count of at least 1, and plays from
+        // silence or queued (never --immediate).
+        PLAY       "play --port {dev} --slot 1 --steps 0" .err("--steps");
+        PLAY       "play --port {dev} --slot 1 --steps -5" .err("--steps");
+        PLAY       "play --port {dev} --slot 1 --steps 4294967296" .err("--steps");
+        PLAY       "play --port {dev} --slot 1 --steps 10 --immediate" .err("--immediate");
         SPEC       "play --port {dev} --slot 32 --untracked" .err("32 slots");
         SPEC       "upload --port {dev} --slot 32" .err("32 slots");
         UNTRACKED  "stop --port {dev}" .ok()

@@ -278,6 +278,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             slot: 0,
             at: PlayAt::Immediate,
             untracked: false,
+            steps: 0,
         })),
         Reply::Nack(_)
     ));
@@ -352,6 +353,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             slot: 1,
             at: PlayAt::Immediate,
             untracked: false,
+            steps: 0,
         })),
         Reply::Nack(NackCode::NotCommitted)
     );
@@ -363,6 +365,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         slot: 0,
         at: PlayAt::Immediate,
         untracked: false,
+        steps: 0,
     }));
     assert_eq!(link.status().state, DeviceState::Muted);
     let mut cseq = 1;
@@ -862,5 +865,72 @@ fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
     println!(
         "QEMU session: switch latency {switches:?} ms (5 Hz: one cycle is 200 ms); 2 s untracked on-phase: device {device} s, host {} s",
         timed["presented_s"]
+    );
+}
+
+/// `play_for` on the firmware under QEMU: the device counts the steps of a
+/// 5 Hz stimulus on its own timer and stops itself at the boundary, with
+/// no deadline missed; its status shows the count at the limit, frozen.
+#[test]
+fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
+    use lmhost::connect::Target;
+    use lmhost::scene::Scene;
+    use lmhost::stimulus::Stimulus;
+    if !qemu_installed() {
+        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+        return;
+    }
+    let elf = firmware_elf();
+    let port = free_port();
+    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
+    let out = std::fs::File::create(&log).unwrap();
+    let child = qemu_command(&elf, port, false)
+        .stdout(out.try_clone().unwrap())
+        .stderr(out)
+        .spawn()
+        .expect("start qemu-system-arm");
+    let _qemu = Qemu { child, log };
+    let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut dev = loop {
+        match lmhost::connect::open(&spec, &Scene::default()) {
+            Ok(d) => break d,
+            Err(e) if Instant::now() > deadline => panic!("{e:#}"),
+            Err(_) => std::thread::sleep(Duration::from_millis(50)),
+        }
+    };
+    let plan = Stimulus::default()
+        .plan_for(&Target::Lm, Scene::default())
+        .unwrap()
+        .plan;
+    let h = plan.sequence.header;
+    assert_eq!(h.period_us, 200_000, "a 5 Hz stimulus");
+    let n = u64::from(h.steps);
+    let steps = 2 * h.steps as u32 + 7;
+    let slot = dev.upload(&plan, None).unwrap().slot;
+    dev.play_for(slot, true, steps).unwrap();
+    let count = |st: &Status| u64::from(st.cycles) * n + u64::from(st.step);
+    let give_up = Instant::now() + Duration::from_secs(60);
+    let st = loop {
+        let st = dev.status().unwrap();
+        if st.state == DeviceState::Stopped {
+            break st;
+        }
+        assert_eq!(st.state, DeviceState::Playing, "{st:?}");
+        assert!(count(&st) < u64::from(steps), "{st:?}");
+        assert!(Instant::now() < give_up, "never stopped: {st:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(count(&st), u64::from(steps), "{st:?}");
+    assert_eq!(
+        (st.slot, st.queued_slot, st.mute_reason),
+        (Some(slot), None, lm_proto::MuteReason::Stopped)
+    );
+    assert_eq!(st.missed_deadlines, 0);
+    std::thread::sleep(Duration::from_millis(300));
+    let later = dev.status().unwrap();
+    assert_eq!(
+        (later.state, count(&later)),
+        (DeviceState::Stopped, u64::from(steps))
     );
 }

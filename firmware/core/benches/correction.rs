@@ -109,6 +109,7 @@ fn bench(c: &mut Criterion) {
                 slot: 0,
                 at: PlayAt::Immediate,
                 untracked: false,
+                steps: 0,
             }),
             0
         ),

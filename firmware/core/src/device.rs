@@ -466,8 +466,8 @@ impl Handler<'_> {
             return Err(NackCode::DwellTooShort);
         }
         let ok = match p.at {
-            PlayAt::Immediate => self.player.start(p.slot, t, now),
-            _ => self.player.queue(p.slot, t, now),
+            PlayAt::Immediate => self.player.start(p.slot, t, now, p.steps),
+            _ => self.player.queue(p.slot, t, now, p.steps),
         };
         if !ok {
             return Err(NackCode::DwellTooShort);
@@ -548,7 +548,16 @@ impl Handler<'_> {
             );
         }
         let (slot, step, at) = match due {
-            Some(d) => (d.slot, d.step, d.at),
+            Some(d) => {
+                if d.stop {
+                    // The play's steps have played: stop as `Stop` does,
+                    // and the frame for this boundary goes out muted.
+                    #[cfg(feature = "defmt")]
+                    defmt::info!("slot {} played its steps: stop", d.slot);
+                    self.policy.stop();
+                }
+                (d.slot, d.step, d.at)
+            }
             None if self.refresh => {
                 let Some(slot) = self.player.slot() else {
                     self.refresh = false;

@@ -128,6 +128,11 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
                 PlayAt::Immediate
             },
             untracked: r.below(4) == 0,
+            steps: if r.below(3) == 0 {
+                r.below(40) as u32
+            } else {
+                0
+            },
         }),
         8 => {
             *seqs = seqs.wrapping_add(r.below(3) as u32).wrapping_sub(1);

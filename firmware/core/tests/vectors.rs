@@ -51,7 +51,7 @@ fn expected(name: &str) -> Option<Option<Reply>> {
         "commit_rig" => return nack(Incomplete), // no position has arrived
         "geometry" => return nack(OutOfRange),   // first = 996 of 996
         "chunk" | "chunk_long" | "chunk_empty" | "commit" => return nack(NoUpload),
-        "play_next_cycle" | "play_immediate" => return nack(NotCommitted),
+        "play_next_cycle" | "play_immediate" | "play_steps" => return nack(NotCommitted),
         "centroid_absent" => return nack(OutOfOrder), // seq u32::MAX is older than 42 (wrapping)
         "get_status" => return Some(Some(Reply::Other)), // checked below
         "info" | "info_no_rig" | "status" | "status_idle" | "status_muted" | "ack" | "nack"

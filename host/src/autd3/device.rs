@@ -67,6 +67,11 @@ pub struct Autd3Backend {
     /// the time it had played when stopped: the status's step and cycles.
     started_us: Option<u64>,
     played_us: Option<u64>,
+    /// Steps the playing slot plays before the host stops it (0 = until
+    /// `stop`), counted from `started_us`; and the queued slot's, counted
+    /// from its takeover.
+    limit: u32,
+    queued_limit: u32,
     /// The firmware's safety rules (session, gate, untracked, work volume).
     policy: Policy,
     /// Modulation intensity last sent.
@@ -211,6 +216,8 @@ impl Autd3Backend {
             rearm: None,
             started_us: None,
             played_us: None,
+            limit: 0,
+            queued_limit: 0,
             policy: safety::policy(),
             output: safety::FULL,
             offsets: vec![0; n],
@@ -291,6 +298,7 @@ impl Autd3Backend {
     /// segment (the old one must not sound meanwhile).
     fn apply_gate(&mut self) -> anyhow::Result<()> {
         self.finish_switch(false)?;
+        self.stop_at_limit()?;
         let starting = self.rearm.is_some() && self.queued.is_none();
         let want = if self.policy.sounding(self.now_us()) && !starting {
             self.level()
@@ -301,6 +309,49 @@ impl Autd3Backend {
             self.set_output(want)?;
         }
         Ok(())
+    }
+
+    /// Stops (as `stop`) once the devices' clock says the playing slot has
+    /// played its `limit` steps; `played_us` keeps the real stop time, so
+    /// the status shows how late the host was. A limit on the loop end
+    /// with a slot queued waits for the takeover instead (as the firmware).
+    fn stop_at_limit(&mut self) -> anyhow::Result<()> {
+        let starting = self.rearm.is_some() && self.queued.is_none();
+        if self.limit == 0 || starting || self.policy.session() != Session::Playing {
+            return Ok(());
+        }
+        let (Some(t0), Some(s)) = (
+            self.started_us,
+            self.playing.and_then(|p| self.slots[usize::from(p)]),
+        ) else {
+            return Ok(());
+        };
+        let dwell = u64::from(timing::dwell_us(u32::from(s.divide))).max(1);
+        let played = self.now_us().saturating_sub(t0) / dwell;
+        let limit = u64::from(self.limit);
+        let n = s.steps.max(1) as u64;
+        let awaits_takeover = self.queued.is_some() && limit % n == 0 && played < limit + n;
+        if played >= limit && !awaits_takeover {
+            self.mute_and_stop()?;
+        }
+        Ok(())
+    }
+
+    /// The firmware's `Stop`: freezes the counters at now, drops a queued
+    /// slot and the limits, mutes at once.
+    fn mute_and_stop(&mut self) -> anyhow::Result<()> {
+        if self.policy.session() == Session::Playing
+            && let Some(t0) = self.started_us
+        {
+            self.played_us = Some(self.now_us().saturating_sub(t0));
+        }
+        self.policy.stop();
+        // As the firmware's Stop, a queued slot is dropped (the devices may
+        // still switch; a later play checks which segment plays).
+        self.queued = None;
+        self.limit = 0;
+        self.queued_limit = 0;
+        self.set_output(safety::MUTED)
     }
 
     /// The output level while sounding: the playing slot's intensity (its
@@ -371,6 +422,7 @@ impl Autd3Backend {
                 self.started_us = Some(now - now % period_us.max(1));
                 self.played_us = None;
                 if self.queued.take().is_some() {
+                    self.limit = std::mem::take(&mut self.queued_limit);
                     // The queued slot took over: its own centre and work
                     // volume from now on.
                     self.playing = Some(slot);
@@ -401,6 +453,22 @@ impl Autd3Backend {
     /// while another slot plays: autd3 firmware switches a segment uploaded
     /// for a loop-end switch only at a loop end.
     pub fn request_play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
+        self.request(slot, at, untracked, 0)
+    }
+
+    /// [`Self::request_play`] for `steps` steps (0 = until `stop`), counted
+    /// from the start (or the takeover) on the devices' clock; `tick`,
+    /// `status` and `centroid` stop it once they have played.
+    pub fn request_play_for(
+        &mut self,
+        slot: u8,
+        untracked: bool,
+        steps: u32,
+    ) -> anyhow::Result<()> {
+        self.request(slot, PlayAt::NextCycle, untracked, steps)
+    }
+
+    fn request(&mut self, slot: u8, at: PlayAt, untracked: bool, steps: u32) -> anyhow::Result<()> {
         if slot > 1 {
             return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {slot}")).into());
         }
@@ -427,15 +495,29 @@ impl Autd3Backend {
             self.rearm = Some(slot);
             if playing {
                 self.queued = Some(slot);
+                self.queued_limit = steps;
             } else {
                 self.playing = Some(slot);
+                self.limit = steps;
             }
         } else {
+            let now = self.now_us();
             if !playing {
-                self.started_us = Some(self.now_us());
+                self.started_us = Some(now);
                 self.played_us = None;
+            } else if steps != 0 {
+                // The same slot again: no switch on the devices, so the
+                // count begins at its next loop boundary, as a firmware
+                // restart queued for the cycle end.
+                if let (Some(t0), Some(s)) = (self.started_us, self.slots[usize::from(slot)]) {
+                    let period =
+                        (s.steps as u64 * u64::from(timing::dwell_us(u32::from(s.divide)))).max(1);
+                    let loops = now.saturating_sub(t0).div_ceil(period);
+                    self.started_us = Some(t0 + loops * period);
+                }
             }
             self.playing = Some(slot);
+            self.limit = steps;
         }
         self.policy.play(untracked);
         self.update_correction()?;
@@ -662,22 +744,26 @@ impl Backend for Autd3Backend {
         Ok(self.apply_gate()?)
     }
 
+    /// Timed by the host on the devices' clock (`stop_at_limit`): an AUTD3
+    /// cannot stop itself.
+    fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> BResult<()> {
+        self.request_play_for(slot, untracked, steps)?;
+        if self.queued.is_none() {
+            self.finish_switch(true)?;
+        }
+        Ok(self.apply_gate()?)
+    }
+
     /// Mutes at once, as the firmware's `Stop`; the segments stay, so a
     /// later `play` resumes without an upload (drop writes the null gain).
     fn stop(&mut self) -> BResult<()> {
-        if self.policy.session() == Session::Playing
-            && let Some(t0) = self.started_us
-        {
-            self.played_us = Some(self.now_us().saturating_sub(t0));
-        }
-        self.policy.stop();
-        // As the firmware's Stop, a queued slot is dropped (the devices may
-        // still switch; a later play checks which segment plays).
-        self.queued = None;
-        Ok(self.set_output(safety::MUTED)?)
+        Ok(self.mute_and_stop()?)
     }
 
     fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
+        // A play whose steps have played is stopped before the update.
+        self.finish_switch(false)?;
+        self.stop_at_limit()?;
         let header = self
             .playing
             .and_then(|s| self.slots[usize::from(s)])

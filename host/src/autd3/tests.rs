@@ -552,3 +552,50 @@ fn a_stimulus_intensity_is_the_output_level_while_it_sounds() {
     b.play(other, true).unwrap();
     assert_eq!(modulation(&h), safety::FULL);
 }
+
+#[test]
+fn play_for_is_stopped_by_the_host_once_the_devices_clock_says_the_steps_played() {
+    let (scene, mut b, h, clock) = open_default();
+    let (plan, g) = lm(&scene, 3.0, 1);
+    let n = g.steps as u64;
+    let slot = b.upload(&plan, None).unwrap().slot;
+    let dwell = Duration::from_micros(u64::from(g.dwell_us));
+    let steps = 2 * n as u32 + 3;
+    b.play_for(slot, true, steps).unwrap();
+    let count = |st: &lm_proto::Status| u64::from(st.cycles) * n + u64::from(st.step);
+    // Ticked every dwell: it sounds until the tick that sees the limit.
+    let mut ticks = 0;
+    loop {
+        b.tick().unwrap();
+        let st = b.status().unwrap();
+        if st.state == DeviceState::Stopped {
+            assert_eq!(count(&st), u64::from(steps));
+            assert_eq!((st.slot, st.mute_reason), (Some(slot), MuteReason::Stopped));
+            break;
+        }
+        assert_eq!(st.state, DeviceState::Playing);
+        assert!(count(&st) < u64::from(steps));
+        assert_eq!(modulation(&h), safety::FULL);
+        clock.advance(dwell);
+        ticks += 1;
+        assert!(ticks <= 3 * n, "never stopped");
+    }
+    assert_eq!(modulation(&h), safety::MUTED);
+    // Frozen at the stop.
+    let st = b.status().unwrap();
+    clock.advance(dwell * 50);
+    assert_eq!(b.status().unwrap(), st);
+    // A late tick: the status is honest about the host's lateness.
+    b.play_for(slot, true, 5).unwrap();
+    clock.advance(dwell * 7 + dwell / 2);
+    b.tick().unwrap();
+    let st = b.status().unwrap();
+    assert_eq!(st.state, DeviceState::Stopped);
+    assert_eq!(count(&st), 7);
+    assert_eq!(modulation(&h), safety::MUTED);
+    // 0 = until stop.
+    b.play_for(slot, true, 0).unwrap();
+    clock.advance(dwell * (10 * n as u32));
+    b.tick().unwrap();
+    assert_eq!(b.status().unwrap().state, DeviceState::Playing);
+}

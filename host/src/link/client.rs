@@ -392,15 +392,29 @@ impl<T: Transport> Client<T> {
         }
     }
 
-    /// Play a committed slot; `untracked` plays without tracking (the
-    /// device does not gate or correct the output until `Stop`).
+    /// Play a committed slot until `Stop`; `untracked` plays without
+    /// tracking (the device does not gate or correct the output until
+    /// `Stop`).
     pub fn play(&mut self, slot: u8, at: PlayAt, untracked: bool) -> Result<(), LinkError> {
+        self.play_steps(slot, at, untracked, 0)
+    }
+
+    /// Play a committed slot for `steps` steps, counted and stopped by the
+    /// device's own timer (`Play.steps`, SPEC section 3); 0 = until `Stop`.
+    pub fn play_steps(
+        &mut self,
+        slot: u8,
+        at: PlayAt,
+        untracked: bool,
+        steps: u32,
+    ) -> Result<(), LinkError> {
         self.expect_ack(
             "play",
             &Message::Play(Play {
                 slot,
                 at,
                 untracked,
+                steps,
             }),
         )
     }

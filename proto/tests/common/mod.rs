@@ -55,17 +55,20 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
         nack_code().prop_map(Message::Nack),
         (any::<u8>(), any::<u32>())
             .prop_map(|(slot, crc32)| Message::Commit(Commit { slot, crc32 })),
-        (any::<u8>(), any::<bool>(), any::<bool>()).prop_map(|(slot, now, untracked)| {
-            Message::Play(Play {
-                slot,
-                at: if now {
-                    PlayAt::Immediate
-                } else {
-                    PlayAt::NextCycle
-                },
-                untracked,
-            })
-        }),
+        (any::<u8>(), any::<bool>(), any::<bool>(), any::<u32>()).prop_map(
+            |(slot, now, untracked, steps)| {
+                Message::Play(Play {
+                    slot,
+                    at: if now {
+                        PlayAt::Immediate
+                    } else {
+                        PlayAt::NextCycle
+                    },
+                    untracked,
+                    steps,
+                })
+            }
+        ),
         (any::<u32>(), xyz(), any::<bool>(), any::<u64>()).prop_map(|(seq, pos_um, present, t)| {
             Message::Centroid(Centroid {
                 seq,

@@ -238,6 +238,7 @@ pub fn play(slot: u8, at: PlayAt) -> Message<'static> {
         slot,
         at,
         untracked: false,
+        steps: 0,
     })
 }
 

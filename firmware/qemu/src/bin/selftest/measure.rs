@@ -274,6 +274,7 @@ pub fn measure_raw_vs_delta_step(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
             slot,
             at: PlayAt::Immediate,
             untracked: true,
+            steps: 0,
         });
         let t0 = c.now();
         check!(dev.handle(&play, t0) == Message::Ack);

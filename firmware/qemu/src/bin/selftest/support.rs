@@ -188,6 +188,7 @@ pub fn play_now(slot: u8) -> Message<'static> {
         slot,
         at: PlayAt::Immediate,
         untracked: false,
+        steps: 0,
     })
 }
 
