@@ -43,6 +43,10 @@ pub use protocol::{Command, Event, EventKind, Gate, LibraryItem, OffsetReason, P
 /// changes, switches).
 pub const STATUS_EVERY: Duration = Duration::from_millis(5);
 
+/// How long after a timed on-phase should have ended the host stops a
+/// device that has not stopped itself.
+pub const LATE_STOP: Duration = Duration::from_secs(1);
+
 /// Longest `on_s` / `off_s`, seconds.
 pub const MAX_PHASE_S: f64 = 3_600.0;
 
@@ -412,9 +416,10 @@ impl Session {
         let playing = self.current.as_ref().and_then(Presentation::sounding_slot);
         let id = self.loaded[i].id.clone();
         match playing {
-            Some(old) if old != slot => {
-                self.dev
-                    .play(slot, untracked)
+            Some(old) if old != slot || on.is_some() => {
+                // Another stimulus (or this one again, timed): the device
+                // takes over at the playing cycle's end.
+                self.start(slot, untracked, on)
                     .map_err(|e| e.context(format!("presenting `{id}`")))?;
                 p.phase = Phase::Switching {
                     requested_us: monotonic_us(),
@@ -428,8 +433,7 @@ impl Session {
                 let old_untracked = self.current.as_ref().is_some_and(|c| c.untracked);
                 self.offset(OffsetReason::Replaced, None)?;
                 if old_untracked != untracked {
-                    self.dev
-                        .play(slot, untracked)
+                    self.start(slot, untracked, None)
                         .map_err(|e| e.context(format!("presenting `{id}`")))?;
                 }
                 self.current = Some(p);
@@ -445,14 +449,36 @@ impl Session {
                         reps: 0,
                     });
                 }
-                self.dev
-                    .play(slot, untracked)
+                self.start(slot, untracked, on)
                     .map_err(|e| e.context(format!("presenting `{id}`")))?;
                 self.current = Some(p);
                 self.onset();
             }
         }
         Ok(())
+    }
+
+    /// Plays `slot`: for `on` (the device stops itself after that many of
+    /// the slot's steps, [`Backend::play_for`]) or until stopped.
+    fn start(&mut self, slot: u8, untracked: bool, on: Option<Duration>) -> anyhow::Result<()> {
+        let r = match on {
+            Some(on) => {
+                let steps = self.steps_for(slot, on);
+                self.dev.play_for(slot, untracked, steps)
+            }
+            None => self.dev.play(slot, untracked),
+        };
+        r.map_err(anyhow::Error::from)
+    }
+
+    /// The step count of `slot`'s stimulus closest to `on` (at least one).
+    fn steps_for(&self, slot: u8, on: Duration) -> u32 {
+        let dwell_us = self
+            .loaded
+            .iter()
+            .find(|l| l.slot == Some(slot))
+            .map_or(1.0, |l| l.planned.plan.sequence.dwell_us());
+        ((on.as_secs_f64() * 1e6 / dwell_us).round() as u64).clamp(1, u64::from(u32::MAX)) as u32
     }
 
     /// Marks the current presentation on from now and emits its onset.
@@ -624,20 +650,22 @@ impl Session {
         if let Some(p) = &self.current {
             match p.phase {
                 Phase::On { since_us } => {
+                    // The device ends a timed on-phase itself (seen in its
+                    // status); should it not have within a second more,
+                    // the host stops it.
                     if let Some(on) = p.on
-                        && now >= since_us + on.as_micros() as u64
+                        && now >= since_us + on.as_micros() as u64 + LATE_STOP.as_micros() as u64
                     {
-                        self.end_on_phase()?;
+                        self.end_on_phase(None)?;
                     }
                 }
                 Phase::Off { until_us } => {
                     if now >= until_us {
-                        let (slot, untracked) = (p.slot, p.untracked);
+                        let (slot, untracked, on) = (p.slot, p.untracked, p.on);
                         if let Some(p) = &mut self.current {
                             p.rep += 1;
                         }
-                        self.dev
-                            .play(slot, untracked)
+                        self.start(slot, untracked, on)
                             .map_err(|e| e.context("presenting the next on-phase"))?;
                         self.onset();
                     }
@@ -651,19 +679,23 @@ impl Session {
                 .dev
                 .status()
                 .map_err(|e| e.context("reading the device status"))?;
-            self.observe(&s);
+            self.observe(&s)?;
         }
         Ok(())
     }
 
-    /// The end of a timed on-phase: silence, offset, then the next
-    /// on-phase after `off`, or done.
-    fn end_on_phase(&mut self) -> anyhow::Result<()> {
+    /// The end of a timed on-phase (`device`: what the device played when
+    /// it stopped itself; `None`: the host stops it now), offset, then the
+    /// next on-phase after `off`, or done.
+    fn end_on_phase(&mut self, device: Option<f64>) -> anyhow::Result<()> {
         let Some(p) = &self.current else {
             return Ok(());
         };
         let (slot, on) = (p.slot, p.on);
-        let device = self.stop_device(slot)?;
+        let device = match device {
+            Some(d) => Some(d),
+            None => self.stop_device(slot)?,
+        };
         if let (Some(d), Some(on)) = (device, on) {
             self.on_error_us
                 .push((d * 1e6).round() as i64 - on.as_micros() as i64);
@@ -685,9 +717,39 @@ impl Session {
         Ok(())
     }
 
-    /// Follows the device: a switch taking effect, mute changes.
-    fn observe(&mut self, s: &Status) {
+    /// Follows the device: a switch taking effect, a timed on-phase ending,
+    /// mute changes.
+    fn observe(&mut self, s: &Status) -> anyhow::Result<()> {
         let now = monotonic_us();
+        // The outgoing stimulus was timed and the device ended it before
+        // its cycle end (dropping the queued one): its offset, then the new
+        // one from silence.
+        if let Some(p) = &self.current
+            && matches!(p.phase, Phase::Switching { .. })
+            && s.state == DeviceState::Stopped
+        {
+            let incoming = self.current.take();
+            self.current = self.outgoing.take();
+            let played = self
+                .current
+                .as_ref()
+                .and_then(|o| self.played_us(o.slot, s))
+                .map(|us| us as f64 / 1e6);
+            self.offset(OffsetReason::Timer, played)?;
+            if let Some(o) = self.current.take() {
+                self.emit(EventKind::Done {
+                    stimulus: self.loaded[o.entry].id.clone(),
+                    reps: o.rep,
+                });
+            }
+            self.current = incoming;
+            if let Some(p) = &self.current {
+                let (slot, untracked, on) = (p.slot, p.untracked, p.on);
+                self.start(slot, untracked, on)?;
+                self.onset();
+            }
+            return Ok(());
+        }
         if let Some(p) = &self.current
             && let Phase::Switching { requested_us } = p.phase
             && s.slot == Some(p.slot)
@@ -724,17 +786,28 @@ impl Session {
                     from,
                     to,
                     latency_ms: latency as f64 / 1e3,
+                    detected_ms: now.saturating_sub(requested_us) as f64 / 1e3,
                 },
             );
             self.onset_at(switched_at);
-            return;
+            return Ok(());
         }
         let on = self
             .current
             .as_ref()
             .is_some_and(|p| matches!(p.phase, Phase::On { .. }));
         if !on {
-            return;
+            return Ok(());
+        }
+        // A timed on-phase the device ended itself: its counters say how
+        // long it played.
+        if let Some(p) = &self.current
+            && p.on.is_some()
+            && s.state == DeviceState::Stopped
+            && s.slot == Some(p.slot)
+        {
+            let played = self.played_us(p.slot, s).map(|us| us as f64 / 1e6);
+            return self.end_on_phase(played);
         }
         let mute = (s.state == DeviceState::Muted).then_some(s.mute_reason);
         if mute != self.mute {
@@ -756,6 +829,7 @@ impl Session {
                 None => EventKind::Unmute,
             });
         }
+        Ok(())
     }
 
     /// What the `status` command answers.

@@ -196,8 +196,13 @@ pub enum EventKind {
         from: Option<String>,
         /// The one that plays now.
         to: String,
-        /// From the request to the device playing it (ms).
+        /// From the request to the device playing it (ms): the status that
+        /// showed the switch, less what the device's counters say it had
+        /// played of the new stimulus by then.
         latency_ms: f64,
+        /// From the request to the status that showed the switch (ms): an
+        /// upper bound by the host's clock alone.
+        detected_ms: f64,
     },
     /// A presentation ended (all its on-phases, or stopped).
     Done {
@@ -418,11 +423,12 @@ mod tests {
                 from: Some("a".into()),
                 to: "b".into(),
                 latency_ms: 1.5,
+                detected_ms: 2.0,
             },
         };
         assert_eq!(
             serde_json::to_string(&e).unwrap(),
-            r#"{"t_host_us":7,"event":"switch","from":"a","to":"b","latency_ms":1.5}"#
+            r#"{"t_host_us":7,"event":"switch","from":"a","to":"b","latency_ms":1.5,"detected_ms":2.0}"#
         );
         assert_eq!(
             mute_name(MuteReason::CentroidOutOfRange),
