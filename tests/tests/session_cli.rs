@@ -405,3 +405,73 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
     let f = off[0]["present_fraction"].as_f64().unwrap();
     assert!(f > 0.0 && f < 1.0, "{}", off[0]);
 }
+
+#[test]
+fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
+    let dir = tempdir();
+    let sock = dir.join("lm.sock");
+    let child = Command::new(lmhost())
+        .args([
+            "session",
+            "--library",
+            &library(),
+            "--port",
+            "autd3:emulator",
+        ])
+        .args(["--control", sock.to_str().unwrap()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut s = connect(&sock);
+    let mut r = BufReader::new(s.try_clone().unwrap());
+    let mut reply = |s: &mut UnixStream, bytes: &[u8]| -> serde_json::Value {
+        s.write_all(bytes).unwrap();
+        let mut line = String::new();
+        r.read_line(&mut line).unwrap();
+        serde_json::from_str(&line).unwrap_or_else(|e| panic!("{e}: {line}"))
+    };
+    // A 100 kB line: refused without being buffered whole.
+    let mut long = vec![b'x'; 100_000];
+    long.push(b'\n');
+    let v = reply(&mut s, &long);
+    assert_eq!(v["ok"], false);
+    assert!(
+        v["error"].as_str().unwrap().contains("longer than 4096"),
+        "{v}"
+    );
+    for (bytes, needle) in [
+        (&b"\xff\xfe\x00garbage\n"[..], "bad command"),
+        (b"[1,2,3]\n", "bad command"),
+        (
+            b"{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a3\",\"on_s\":1e308}\n",
+            "on_s",
+        ),
+        (
+            b"{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a3\",\"repeat\":4294967296}\n",
+            "bad command",
+        ),
+        (
+            b"{\"cmd\":\"present\",\"stimulus\":\"../../etc/passwd\"}\n",
+            "no stimulus",
+        ),
+    ] {
+        let v = reply(&mut s, bytes);
+        assert_eq!(v["ok"], false, "{v}");
+        let e = v["error"].as_str().unwrap();
+        assert!(e.contains(needle) && !e.contains('\n'), "{e}");
+    }
+    // Still serving.
+    let v = reply(&mut s, b"{\"cmd\":\"status\"}\n");
+    assert_eq!(v["ok"], true, "{v}");
+    let v = reply(&mut s, b"{\"cmd\":\"quit\"}\n");
+    assert_eq!(v["ok"], true, "{v}");
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
