@@ -148,6 +148,13 @@ impl Args {
         {
             lmhost::files::check_input("input", p)?;
         }
+        let endpoint = Endpoint::bind(&control)?;
+        let dev = lmhost::connect::open(&spec, &scene)?;
+        let where_ = dev.describe();
+        let session = Session::new(dev, &library, plans, scene)
+            .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+        // The finger source starts once the device is ready, so a replay
+        // runs from its first frame while the session takes commands.
         let finger = if tracked {
             let opts = lmhost::track::session::Options {
                 scene: self.scene.clone(),
@@ -206,11 +213,6 @@ impl Args {
         } else {
             Finger::None
         };
-        let endpoint = Endpoint::bind(&control)?;
-        let dev = lmhost::connect::open(&spec, &scene)?;
-        let where_ = dev.describe();
-        let session = Session::new(dev, &library, plans, scene)
-            .map_err(|e| e.context(format!("starting the session on {where_}")))?;
         if let Control::Socket { unix, tcp } = &control {
             lmhost::errln!(
                 "lmhost: session on {where_}: {} stimuli; control socket {}{}",
