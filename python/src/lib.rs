@@ -94,6 +94,9 @@ fn vec3(what: &str, v: Vec<f64>) -> PyResult<[f64; 3]> {
         .map_err(|_| bad(format!("{what} takes three numbers (x, y, z) in mm")))
 }
 
+/// Two (N, 3) arrays.
+type Pair<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
 /// A scene: transducers, reflector, LM plane and the rig's camera.
 #[pyclass(name = "Scene", module = "lmhost._lmhost", frozen)]
 #[derive(Clone)]
@@ -135,7 +138,7 @@ impl Scene_ {
     fn transducers<'py>(
         &self,
         py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+    ) -> PyResult<Pair<'py>> {
         let t = self.scene.transducers();
         let pos: Vec<Vec<f64>> = t.iter().map(|t| t.pos_mm.to_vec()).collect();
         let nrm: Vec<Vec<f64>> = t.iter().map(|t| t.normal.to_vec()).collect();
