@@ -55,7 +55,10 @@ class Plan:
     @property
     def foci_mm(self) -> npt.NDArray[np.float64]:
         """Shape (steps, foci, 3), mm."""
-    def save(self, path: PathLike) -> None: ...
+    def save(self, path: PathLike) -> None:
+        """The files `lmhost plan --out PATH` writes (.json, .npy, raw)."""
+    def summary(self, phases: bool = False) -> Dict[str, Any]:
+        """What `lmhost plan --json` prints."""
 
 class Field:
     mean_pressure: npt.NDArray[np.float64]

@@ -135,10 +135,7 @@ impl Scene_ {
 
     /// Transducer positions (N, 3) in mm and unit normals (N, 3).
     #[getter]
-    fn transducers<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<Pair<'py>> {
+    fn transducers<'py>(&self, py: Python<'py>) -> PyResult<Pair<'py>> {
         let t = self.scene.transducers();
         let pos: Vec<Vec<f64>> = t.iter().map(|t| t.pos_mm.to_vec()).collect();
         let nrm: Vec<Vec<f64>> = t.iter().map(|t| t.normal.to_vec()).collect();
@@ -163,6 +160,15 @@ struct Plan_ {
     planned: TargetPlan,
     radius_mm: f64,
     target: String,
+}
+
+impl Plan_ {
+    fn target_kind(&self) -> Target {
+        match self.target.as_str() {
+            "autd3" => Target::Autd3(lmhost::autd3::Autd3Port::Emulator),
+            _ => Target::Lm,
+        }
+    }
 }
 
 #[pymethods]
@@ -258,26 +264,20 @@ impl Plan_ {
         PyArray1::from_vec(py, flat).reshape([t.steps, t.foci, 3])
     }
 
-    /// Writes the sequence like `lmhost plan --out`: `.npy` (uint8,
-    /// steps × transducers) or anything else as raw step-major bytes.
+    /// Writes the files `lmhost plan --out PATH` writes: `.json` (summary
+    /// with phases), `.npy` (uint8, steps × transducers) or anything else
+    /// as raw step-major bytes; whole or absent.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        if ext.as_deref() == Some("json") {
-            return Err(bad(
-                "Plan.save writes .npy or raw bytes; the JSON summary is `lmhost plan --json`",
-            ));
-        }
         run(py, || {
-            let s = &self.planned.plan.sequence;
-            let bytes = match ext.as_deref() {
-                Some("npy") => s.to_npy(),
-                _ => s.phases.clone(),
-            };
+            let bytes = self.planned.out_bytes(&path, &self.target_kind())?;
             lmhost::files::write_whole(&path, &bytes)
         })
+    }
+
+    /// The summary `lmhost plan --json` prints (`phases=True` adds them).
+    #[pyo3(signature = (phases=false))]
+    fn summary(&self, py: Python<'_>, phases: bool) -> PyResult<PyObject> {
+        to_python(py, &self.planned.summary_json(&self.target_kind(), phases))
     }
 }
 

@@ -33,9 +33,20 @@ def test_plan_phases_equal_the_cli_byte_for_byte(lmhost_bin, root, tmp_path, sce
     assert p.foci_mm.shape == (p.steps, foci, 3)
 
 
+@pytest.mark.parametrize("target", ["lm", "autd3"])
+@pytest.mark.parametrize("ext", ["json", "bin"])
+def test_plan_save_writes_what_plan_out_writes(lmhost_bin, root, tmp_path, target, ext):
+    out = tmp_path / f"cli.{ext}"
+    cli(lmhost_bin, "plan", "--scene", root / PAPER, "--foci", 4, "--target", target, "--out", out)
+    mine = tmp_path / f"py.{ext}"
+    lmhost.plan(foci=4, scene=lmhost.Scene.load(root / PAPER), target=target).save(mine)
+    assert mine.read_bytes() == out.read_bytes()
+
+
 def test_plan_summary_matches_cli_json(lmhost_bin, root):
     j = json.loads(cli(lmhost_bin, "plan", "--foci", 4, "--radius", 5, "--json").stdout)
     p = lmhost.plan(foci=4, radius=5)
+    assert p.summary() == j
     assert p.steps == j["steps"]
     assert p.index_offset == j["index_offset"]
     assert p.step_mm == j["step_mm"]
