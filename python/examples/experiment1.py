@@ -13,6 +13,7 @@ studies/paper-exp1.toml` is the full runner (resume, questions, reports).
 import argparse
 import csv
 import random
+import time
 
 import lmhost
 
@@ -47,6 +48,6 @@ with lmhost.Session(library=args.library, port=args.port, scene=args.scene,
                 rating = int(input(f"set {set_} trial {trial} ({stim}): vibration 1-7? "))
             w.writerow([set_, trial, stim, off["presented_s"], off["present_fraction"], rating])
             f.flush()
-            # inter-trial interval: silence while the rating is taken, then 1 s
             s.wait_for("done", timeout=10, stimulus=stim)
+            time.sleep(1.0)  # the inter-trial interval, in silence
 print(f"wrote {args.out}")
