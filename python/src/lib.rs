@@ -771,6 +771,15 @@ fn _bench_rust(
     })
 }
 
+/// Panics inside the library, for the test that a panic becomes
+/// `RuntimeError` and never unwinds into the interpreter.
+#[pyfunction]
+fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
+    run(py, || -> anyhow::Result<()> {
+        panic!("a panic inside lmhost")
+    })
+}
+
 /// The extension module behind `import lmhost`.
 #[pymodule]
 fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -784,5 +793,6 @@ fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(_bench_rust, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     Ok(())
 }

@@ -3,6 +3,8 @@ same error lines."""
 
 import json
 import math
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -222,3 +224,29 @@ def test_session_against_the_emulator(lmhost_bin, root):
         with pytest.raises(ValueError):
             s.present("no-such-stimulus")
         s.stop()
+
+
+def test_a_panic_is_an_exception_not_a_crash():
+    with pytest.raises(RuntimeError, match="internal error: a panic inside lmhost"):
+        lmhost._lmhost._panic_for_test()
+    assert lmhost.plan().steps == 82  # the interpreter carries on
+
+
+def test_long_calls_release_the_gil():
+    done = threading.Event()
+    ticks = 0
+
+    def work():
+        lmhost.simulate(lmhost.plan(foci=4), plane_size=4, plane_step=0.4)
+        done.set()
+
+    t = threading.Thread(target=work)
+    t0 = time.perf_counter()
+    t.start()
+    while not done.is_set():
+        ticks += 1
+        time.sleep(0.001)
+    t.join()
+    took = time.perf_counter() - t0
+    # Python ran beside the call: about one tick per millisecond it took.
+    assert ticks > 0.3 * took * 1000, (ticks, took)
