@@ -232,8 +232,11 @@ class Device:
     ) -> Dict[str, Any]:
         """Upload ``plan`` (planned for this device kind) into ``slot``
         (default: a free one), play it unless ``play=False``; returns the
-        report ``lmhost upload --json`` prints (without ``hold_s``)."""
-        return json.loads(self._d.upload(plan, slot, bool(play), bool(untracked)))
+        report ``lmhost upload --json`` prints, the same keys (``hold_s`` is
+        None: an AUTD3 plays while this object holds it, see :meth:`tick`)."""
+        report = json.loads(self._d.upload(plan, slot, bool(play), bool(untracked)))
+        report["hold_s"] = None
+        return report
 
     def play(self, slot: int, untracked: bool = False) -> None:
         """Play ``slot`` (tracked unless ``untracked``)."""

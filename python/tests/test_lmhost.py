@@ -3,6 +3,7 @@ same error lines."""
 
 import json
 import math
+import subprocess
 import threading
 import time
 
@@ -125,6 +126,35 @@ def test_device_emulator_upload_reads_back_clean():
         assert dev.status()["state"] in ("Playing", "playing")
         assert dev.centroid(0.0, 0.0, 200.0) == "applied"
         dev.stop()
+
+
+def test_upload_report_has_the_keys_of_upload_json(lmhost_bin):
+    want = json.loads(cli(lmhost_bin, "upload", "--port", "autd3:emulator", "--json").stdout)
+    with lmhost.Device("autd3:emulator") as dev:
+        got = dev.upload(lmhost.plan(target="autd3"))
+    assert set(got) == set(want)
+    for k in ["crc32", "payload_bytes", "frames", "readback_mismatches", "steps", "dwell_us",
+              "divide", "playing", "state", "mute_reason"]:
+        assert got[k] == want[k], k
+
+
+def test_session_by_its_socket_path(lmhost_bin, root, tmp_path):
+    sock = tmp_path / "s.sock"
+    proc = subprocess.Popen([str(lmhost_bin), "session", "--library",
+                             str(root / "studies/paper-library.toml"), "--port", "autd3:emulator",
+                             "--synthetic", "--control", str(sock)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        with lmhost.Session(socket_path=sock) as s:
+            assert len(s.library()) == 15
+            s.present("lmm-5hz-a4", gate="untracked")
+            assert s.wait_for("onset")["stimulus"] == "lmm-5hz-a4"
+            s.stop()
+            assert s.wait_for("offset")["reason"] == "stop"
+        assert proc.poll() is None  # a session it did not start keeps serving
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
 
 
 def test_device_refuses_a_plan_for_another_target():
