@@ -298,6 +298,41 @@ impl Plan {
         Self::new(scene, &params, &Synthesis::Linear)
     }
 
+    /// The JSON summary `lmhost plan --json` prints (`phases` adds the
+    /// sequence, steps × transducers).
+    pub fn summary_json(&self, phases: bool) -> serde_json::Value {
+        let t = &self.trajectory;
+        let s = &self.sequence;
+        let raw = s.encoded_len(Encoding::Raw);
+        let delta = s.encoded_len(Encoding::Delta);
+        let steps: Vec<_> = (0..t.steps).map(|j| t.foci_step(j).to_vec()).collect();
+        let mut v = serde_json::json!({
+            "scene": self.scene.name,
+            "transducers": s.header.transducers,
+            "steps": t.steps,
+            "foci_per_step": t.foci,
+            "index_offset": t.index_offset,
+            "step_mm": t.step_mm,
+            "dwell_s": t.dwell_s,
+            "period_s": t.period_s,
+            "header": s.header,
+            "center_mm": t.center_mm,
+            "mirrored": self.scene.reflector.is_some(),
+            "foci_mm": steps,
+            "encoding": {"raw_bytes": raw, "delta_bytes": delta, "delta_ratio": delta as f64 / raw as f64},
+            "crc32": s.crc32(),
+        });
+        if self.scene.reflector.is_some() {
+            let drive: Vec<_> = (0..t.steps).map(|j| t.drive_step(j).to_vec()).collect();
+            v["drive_foci_mm"] = serde_json::json!(drive);
+        }
+        if phases {
+            let rows: Vec<&[u8]> = (0..t.steps).map(|j| s.step(j)).collect();
+            v["phases"] = serde_json::json!(rows);
+        }
+        v
+    }
+
     /// The scene's transducer positions in wire µm, in phase order.
     pub fn positions_um(&self) -> Result<Vec<[i32; 3]>, InputError> {
         self.scene

@@ -76,6 +76,39 @@ pub struct TargetPlan {
     pub warnings: Vec<String>,
 }
 
+impl TargetPlan {
+    /// The JSON summary `lmhost plan --json --target ...` prints: the
+    /// plan's [`Plan::summary_json`] with the target and its realised timing.
+    pub fn summary_json(&self, target: &Target, phases: bool) -> serde_json::Value {
+        let mut v = self.plan.summary_json(phases);
+        v["target"] = serde_json::json!(match target {
+            Target::Lm => "lm",
+            Target::Autd3(_) => "autd3",
+        });
+        v["timing"] = serde_json::json!(self.timing);
+        v
+    }
+
+    /// What `lmhost plan --out PATH` writes, by `PATH`'s extension: `.json`
+    /// (the summary with the phases), `.npy` (u8, steps × transducers),
+    /// anything else the raw phase bytes (step-major).
+    pub fn out_bytes(&self, path: &std::path::Path, target: &Target) -> anyhow::Result<Vec<u8>> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        Ok(match ext.as_deref() {
+            Some("json") => {
+                let mut b = serde_json::to_vec(&self.summary_json(target, true))?;
+                b.push(b'\n');
+                b
+            }
+            Some("npy") => self.plan.sequence.to_npy(),
+            _ => self.plan.sequence.phases.clone(),
+        })
+    }
+}
+
 /// Realised timing against the request, on every backend: the LM firmware
 /// plays the asked frequency (its step is the nearest whole `N`), an AUTD3
 /// the nearest on its 25 µs grid.

@@ -4,6 +4,8 @@
 //!   clippy and rustfmt, `qemu-system-arm` when root), then runs every step in [`STEPS`] in order,
 //!   streaming output, stopping at the first failure, and printing a timing
 //!   summary.
+//! - `python`: the CI's Python step alone: builds the `lmhost` package
+//!   into a venv under the target dir and runs `pytest python/tests`.
 //! - `build-fw`: release build of the QEMU firmware and the Nucleo board.
 //! - `qemu [--tcp PORT]`: run the firmware under QEMU, UART0 on a pty
 //!   (default) or on a TCP port on 127.0.0.1.
@@ -62,6 +64,10 @@ const STEPS: &[Step] = &[
     Step {
         name: "cargo test (host crates + firmware core + e2e)",
         run: step_host_test,
+    },
+    Step {
+        name: "python: the lmhost package (maturin develop, own venv under target/) + pytest",
+        run: step_python,
     },
     Step {
         name: "on-target tests under QEMU (-icount shift=0)",
@@ -356,6 +362,58 @@ fn step_host_test(c: &Ctx) -> Result<(), String> {
         .env("LM_FW_QEMU_ELF", c.firmware_elf()))
 }
 
+/// The Python package: a virtual environment of its own under the target
+/// dir (nothing global), maturin, numpy and pytest from the package index,
+/// the binding built in the workspace's target dir and dev profile (pyo3
+/// and lmhost compiled once, shared with the other steps), then pytest
+/// against the real `target/debug/lmhost`.
+fn step_python(c: &Ctx) -> Result<(), String> {
+    let venv = c.target_dir.join("py-venv");
+    let bin = venv.join("bin");
+    let python = bin.join("python");
+    if !python.exists() {
+        run(Command::new("python3").arg("-m").arg("venv").arg(&venv))
+            .map_err(|e| format!("{e}\nthe python step needs python3 with its venv module"))?;
+    }
+    run(Command::new(&python).args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--disable-pip-version-check",
+        "maturin>=1.5,<2",
+        "numpy",
+        "pytest",
+    ]))?;
+    run(c.cargo(&["build", "-p", "lmhost"]))?;
+    let path = match std::env::var_os("PATH") {
+        Some(p) => {
+            let mut all = vec![bin.clone()];
+            all.extend(std::env::split_paths(&p));
+            std::env::join_paths(all).map_err(|e| format!("PATH: {e}"))?
+        }
+        None => bin.clone().into_os_string(),
+    };
+    run(Command::new(bin.join("maturin"))
+        .current_dir(c.root.join("python"))
+        .args(["develop", "--quiet"])
+        .env("VIRTUAL_ENV", &venv)
+        .env("PATH", &path)
+        .env("CARGO_TARGET_DIR", &c.target_dir))?;
+    run(Command::new(&python)
+        .current_dir(&c.root)
+        .args([
+            "-m",
+            "pytest",
+            "python/tests",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+        ])
+        .env("LMHOST_BIN", c.target_dir.join("debug").join("lmhost"))
+        .env("CARGO_TARGET_DIR", &c.target_dir))
+}
+
 /// QEMU command line for `elf`: no display, semihosting for output and exit
 /// status, and optionally a fixed 1 ns of virtual time per instruction.
 fn qemu_cmd(elf: &Path, icount: bool) -> Command {
@@ -581,8 +639,10 @@ fn main() -> ExitCode {
         Some("build-fw") if args.len() == 1 => build_fw(&c),
         Some("qemu") => qemu(&c, &args[1..]),
         Some("size") if args.len() == 1 => size(&c),
+        Some("python") if args.len() == 1 => step_python(&c),
         _ => Err(
-            "usage: cargo xtask <ci [--from STEP] | build-fw | qemu [--tcp PORT] | size>".into(),
+            "usage: cargo xtask <ci [--from STEP] | python | build-fw | qemu [--tcp PORT] | size>"
+                .into(),
         ),
     };
     match result {

@@ -3,11 +3,10 @@
 //! The planning flags live in [`PlanArgs`] so `upload` and `simulate` can
 //! `#[command(flatten)]` them and call [`PlanArgs::plan`].
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::ValueEnum;
 use lm_proto::codec::Encoding;
-use serde_json::json;
 
 use lmhost::connect::Target;
 use lmhost::error::InputError;
@@ -379,40 +378,6 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-/// The JSON summary of a plan (`phases` adds the sequence).
-pub fn summary_json(plan: &Plan, phases: bool) -> serde_json::Value {
-    let t = &plan.trajectory;
-    let s = &plan.sequence;
-    let raw = s.encoded_len(Encoding::Raw);
-    let delta = s.encoded_len(Encoding::Delta);
-    let steps: Vec<_> = (0..t.steps).map(|j| t.foci_step(j).to_vec()).collect();
-    let mut v = json!({
-        "scene": plan.scene.name,
-        "transducers": s.header.transducers,
-        "steps": t.steps,
-        "foci_per_step": t.foci,
-        "index_offset": t.index_offset,
-        "step_mm": t.step_mm,
-        "dwell_s": t.dwell_s,
-        "period_s": t.period_s,
-        "header": s.header,
-        "center_mm": t.center_mm,
-        "mirrored": plan.scene.reflector.is_some(),
-        "foci_mm": steps,
-        "encoding": {"raw_bytes": raw, "delta_bytes": delta, "delta_ratio": delta as f64 / raw as f64},
-        "crc32": s.crc32(),
-    });
-    if plan.scene.reflector.is_some() {
-        let drive: Vec<_> = (0..t.steps).map(|j| t.drive_step(j).to_vec()).collect();
-        v["drive_foci_mm"] = json!(drive);
-    }
-    if phases {
-        let rows: Vec<&[u8]> = (0..t.steps).map(|j| s.step(j)).collect();
-        v["phases"] = json!(rows);
-    }
-    v
-}
-
 /// A short human summary.
 pub fn summary_text(plan: &Plan) -> String {
     let t = &plan.trajectory;
@@ -452,15 +417,6 @@ pub fn summary_text(plan: &Plan) -> String {
     out
 }
 
-/// The target and its realised timing in a JSON summary.
-fn add_target(v: &mut serde_json::Value, target: TargetArg, timing: &Timing) {
-    v["target"] = json!(match target {
-        TargetArg::Lm => "lm",
-        TargetArg::Autd3 => "autd3",
-    });
-    v["timing"] = json!(timing);
-}
-
 /// The text line of an AUTD3 plan: the grid and the timing errors.
 fn autd3_line(t: &Timing) -> String {
     format!(
@@ -478,36 +434,17 @@ fn autd3_line(t: &Timing) -> String {
     )
 }
 
-fn write_out(path: &Path, plan: &Plan, target: TargetArg, timing: &Timing) -> anyhow::Result<()> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let bytes = match ext.as_deref() {
-        Some("json") => {
-            let mut v = summary_json(plan, true);
-            add_target(&mut v, target, timing);
-            let mut b = serde_json::to_vec(&v)?;
-            b.push(b'\n');
-            b
-        }
-        Some("npy") => plan.sequence.to_npy(),
-        _ => plan.sequence.phases.clone(),
-    };
-    lmhost::files::write_whole(path, &bytes)
-}
-
 impl Args {
     /// Plans, prints and writes.
     pub fn run(self) -> anyhow::Result<()> {
         let planned = self.plan.plan_for(&self.target.target())?;
         let plan = &planned.plan;
+        let target = self.target.target();
         if let Some(out) = &self.out {
-            write_out(out, plan, self.target, &planned.timing)?;
+            lmhost::files::write_whole(out, &planned.out_bytes(out, &target)?)?;
         }
         if self.json {
-            let mut v = summary_json(plan, self.phases);
-            add_target(&mut v, self.target, &planned.timing);
+            let v = planned.summary_json(&target, self.phases);
             lmhost::outln!("{}", serde_json::to_string(&v)?)?;
         } else {
             lmhost::out!("{}", summary_text(plan))?;
@@ -554,7 +491,7 @@ mod tests {
             .unwrap();
         assert_eq!(p.trajectory.index_offset, 13);
         assert_eq!(p.trajectory.center_mm, [0.0, 0.0, 220.0]);
-        let j = summary_json(&p, false);
+        let j = p.summary_json(false);
         assert_eq!(j["steps"], 86);
         assert!(j.get("phases").is_none());
         assert_eq!(j["foci_mm"][0].as_array().unwrap().len(), 4);
@@ -585,7 +522,7 @@ mod tests {
         let p = args(&["--scene", path, "--foci", "4"]).plan().unwrap();
         assert_eq!(p.trajectory.center_mm, [0.0, 30.0, 30.0]);
         assert_eq!(p.sequence.header.center_um, [0, 30_000, -30_000]);
-        let j = summary_json(&p, true);
+        let j = p.summary_json(true);
         assert_eq!(j["phases"].as_array().unwrap().len(), 82);
         assert!(j["drive_foci_mm"].is_array());
     }

@@ -7,7 +7,6 @@ use crate::cmd::plan::{PlanArgs, parse_vec3};
 use lmhost::error::InputError;
 use lmhost::field::study::{View, simulate_plan, write_outputs};
 use lmhost::field::{self, Radiation, compare};
-use lmhost::limits;
 
 /// Simulate the acoustic field of an LM stimulus and plot it.
 #[derive(Debug, clap::Args)]
@@ -126,37 +125,23 @@ impl Args {
                 Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]]))
             }
         };
-        let calibration = positive("calibration", self.calibration)
-            .and_then(|k| limits::in_range("--calibration", k, 0.0, 1e6, ""))?;
-        positive("alpha", self.alpha)?;
-        positive("density", self.density)?;
-        positive("disk", self.disk)?;
-        limits::in_range("--alpha", self.alpha, 0.0, 2.0, "")?;
-        limits::in_range("--density", self.density, 0.0, 100.0, "kg/m³")?;
-        limits::in_range("--disk", self.disk, 0.0, 1000.0, "mm")?;
-        limits::in_range("--plane-step", self.plane_step, 0.0, 1000.0, "mm")?;
-        limits::in_range("--plane-size", size_mm.0, 0.0, 1000.0, "mm")?;
-        limits::in_range("--plane-size", size_mm.1, 0.0, 1000.0, "mm")?;
-        Ok(View {
+        let view = View {
             size_mm,
-            step_mm: positive("plane-step", self.plane_step)?,
+            step_mm: self.plane_step,
             center_mm: self
                 .plane_center
                 .as_deref()
-                .map(|c| {
-                    parse_vec3("plane-center", c)
-                        .and_then(|v| limits::position_mm("--plane-center", v))
-                })
+                .map(|c| parse_vec3("plane-center", c))
                 .transpose()?,
             axes,
-            rad: Radiation {
-                alpha: positive("alpha", self.alpha)?,
-            },
-            density: positive("density", self.density)?,
-            disk_mm: positive("disk", self.disk)?,
-            calibration,
+            rad: Radiation { alpha: self.alpha },
+            density: self.density,
+            disk_mm: self.disk,
+            calibration: self.calibration,
             reference: self.reference,
-        })
+        };
+        view.check()?;
+        Ok(view)
     }
 
     /// Run the subcommand.

@@ -43,6 +43,42 @@ pub const PLANE_STEP_MM: f64 = 0.2;
 /// Default force-disk diameter (mm): the paper's gauge disk.
 pub const DISK_MM: f64 = 15.0;
 
+impl View {
+    /// Checks every number against the limits `lmhost simulate` documents
+    /// (the messages name its flags); the plane's own checks and the work
+    /// limit come later, in [`simulate_plan`].
+    pub fn check(&self) -> Result<(), crate::InputError> {
+        use crate::limits::in_range;
+        let positive = |flag: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(crate::InputError::new(format!(
+                    "--{flag} must be a finite number > 0, got {v}"
+                )))
+            }
+        };
+        positive("plane-size", self.size_mm.0)?;
+        positive("plane-size", self.size_mm.1)?;
+        positive("calibration", self.calibration)?;
+        in_range("--calibration", self.calibration, 0.0, 1e6, "")?;
+        positive("alpha", self.rad.alpha)?;
+        positive("density", self.density)?;
+        positive("disk", self.disk_mm)?;
+        in_range("--alpha", self.rad.alpha, 0.0, 2.0, "")?;
+        in_range("--density", self.density, 0.0, 100.0, "kg/m³")?;
+        in_range("--disk", self.disk_mm, 0.0, 1000.0, "mm")?;
+        in_range("--plane-step", self.step_mm, 0.0, 1000.0, "mm")?;
+        in_range("--plane-size", self.size_mm.0, 0.0, 1000.0, "mm")?;
+        in_range("--plane-size", self.size_mm.1, 0.0, 1000.0, "mm")?;
+        positive("plane-step", self.step_mm)?;
+        if let Some(c) = self.center_mm {
+            crate::limits::position_mm("--plane-center", c)?;
+        }
+        Ok(())
+    }
+}
+
 impl Default for View {
     /// A 20 mm square at 0.2 mm on the LM plane about the LM centre, the
     /// paper's 15 mm force disk, α = 2, air at 20 °C, no calibration.

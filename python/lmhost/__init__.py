@@ -1,0 +1,473 @@
+"""lmhost from Python: lateral-modulation (LM) ultrasound haptics.
+
+The same library as the ``lmhost`` command line, called from Python:
+
+* :func:`plan` plans a stimulus (``lmhost plan``), :class:`Plan` holds it;
+* :func:`simulate` computes its acoustic field (``lmhost simulate``);
+* :class:`Tracker` finds the finger's contact area in depth frames
+  (``lmhost track``);
+* :class:`Device` opens a device by any ``--port`` form and uploads
+  (``lmhost upload``);
+* :class:`Session` drives a running ``lmhost session`` over its control
+  socket (the JSON-line protocol in ``host/src/rig/PROTOCOL.md``).
+
+Bad input raises :class:`ValueError` with the line the CLI prints; device
+and I/O faults raise :class:`DeviceError` (an :class:`OSError`).
+Units are in the names: ``_mm``, ``_us``, ``_hz``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Dict, Iterator, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _lmhost
+from ._lmhost import DeviceError, Scene
+
+__all__ = [
+    "DeviceError",
+    "Device",
+    "Field",
+    "Plan",
+    "Scene",
+    "Session",
+    "TrackResult",
+    "Tracker",
+    "find_binary",
+    "plan",
+    "simulate",
+]
+
+Plan = _lmhost.Plan
+Field = _lmhost.Field
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def plan(
+    radius: float = 3.0,
+    foci: int = 1,
+    spacing: float = 3.0,
+    freq: float = 5.0,
+    step: float = 0.23,
+    steps: Optional[int] = None,
+    center: Optional[Sequence[float]] = None,
+    scene: Optional[Scene] = None,
+    intensity: float = 1.0,
+    target: str = "lm",
+) -> Plan:
+    """Plan an LM stimulus, as ``lmhost plan`` does.
+
+    radius: circle radius A in mm (0 = a static focus). foci: foci per step
+    (1 = LM-S, more = LM-M). spacing: distance between neighbouring foci
+    (mm). freq: LM frequency (Hz). step: step width d_LM (mm), or give
+    ``steps`` (N) instead. center: LM centre (x, y, z) in mm, default the
+    scene's. scene: default the flat 2 x 2 AUTD3. intensity: 0..1 of full.
+    target: ``"lm"`` (the LM firmware's timing) or ``"autd3"`` (AUTD3's
+    25 us dwell grid).
+    """
+    return _lmhost.plan(
+        float(radius),
+        int(foci),
+        float(spacing),
+        float(freq),
+        float(step),
+        None if steps is None else int(steps),
+        None if center is None else [float(c) for c in center],
+        scene,
+        float(intensity),
+        str(target),
+    )
+
+
+_PLANE_SIZE, _PLANE_STEP, _ALPHA, _DENSITY, _DISK = _lmhost.simulate_defaults()
+
+
+def simulate(
+    plan: Plan,
+    plane_size: Union[float, Tuple[float, float]] = _PLANE_SIZE,
+    plane_step: float = _PLANE_STEP,
+    plane_center: Optional[Sequence[float]] = None,
+    plane_axes: Optional[Sequence[float]] = None,
+    alpha: float = _ALPHA,
+    density: float = _DENSITY,
+    disk: float = _DISK,
+    calibration: float = 1.0,
+    reference: bool = False,
+) -> Field:
+    """Simulate the plan's acoustic field on the LM plane (``lmhost simulate``).
+
+    Returns a :class:`Field`: ``mean_pressure`` (Pa) and ``lm_power`` (Pa^2)
+    maps (rows along v, columns along u), ``pressure``, ``amplitude`` and
+    ``max_pressure``, the axes ``u_mm`` / ``v_mm``, ``force_n`` and
+    ``summary`` (the dict ``lmhost simulate`` writes as summary.json).
+    Defaults equal the CLI's.
+    """
+    if isinstance(plane_size, (int, float)):
+        size = (float(plane_size), float(plane_size))
+    else:
+        w, h = plane_size
+        size = (float(w), float(h))
+    return _lmhost.simulate(
+        plan,
+        size,
+        float(plane_step),
+        None if plane_center is None else [float(c) for c in plane_center],
+        None if plane_axes is None else [float(a) for a in plane_axes],
+        float(alpha),
+        float(density),
+        float(disk),
+        float(calibration),
+        bool(reference),
+    )
+
+
+class TrackResult:
+    """One frame's contact area.
+
+    present: at least ``min_points`` depth points in the box (this frame
+    alone); centroid_mm: their centroid (mm, scene) when present, else None;
+    points: depth points in the box; gated: presence after hysteresis (the
+    device gate); t_s: the frame time (s).
+    """
+
+    __slots__ = ("t_s", "points", "present", "centroid_mm", "gated")
+
+    def __init__(self, t_s, points, present, centroid_mm, gated):
+        self.t_s = t_s
+        self.points = points
+        self.present = present
+        self.centroid_mm = None if centroid_mm is None else tuple(centroid_mm)
+        self.gated = gated
+
+    def __repr__(self) -> str:
+        return (
+            f"TrackResult(t_s={self.t_s:.4f}, points={self.points}, "
+            f"present={self.present}, centroid_mm={self.centroid_mm}, gated={self.gated})"
+        )
+
+
+def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[str, str]:
+    if isinstance(intrinsics, dict):
+        lines = []
+        for k, v in intrinsics.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ValueError(f"intrinsics dict: `{k}` must be a number, got {v!r}")
+            lines.append(f"{k} = {v}")
+        return "\n".join(lines) + "\n", "dict"
+    path = Path(intrinsics)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ValueError(f"intrinsics {path}: cannot read it: {e.strerror}") from None
+    return text, str(path)
+
+
+class Tracker:
+    """The paper's contact-area tracker (``lmhost track``'s per-frame work).
+
+    scene: a :class:`Scene` with ``[camera]`` and ``[tracking]``.
+    intrinsics: a dict (width, height, fx, fy, ppx, ppy, depth_scale) or the
+    path of an intrinsics TOML (``lmhost track --record`` writes one beside
+    the recording).
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        intrinsics: Union[Dict[str, Any], PathLike],
+        enter_frames: int = 2,
+        leave_frames: int = 2,
+    ) -> None:
+        text, origin = _intrinsics_toml(intrinsics)
+        self._t = _lmhost.Tracker(scene, text, origin, int(enter_frames), int(leave_frames))
+
+    @property
+    def shape(self) -> Tuple[int, int]:
+        """Frame shape (height, width) the intrinsics describe."""
+        return self._t.shape
+
+    def process(self, depth: np.ndarray, t: Optional[float] = None) -> TrackResult:
+        """Track one depth frame (numpy uint16, shape (H, W)) taken at ``t`` s
+        (default: seconds since the tracker was made)."""
+        return TrackResult(*self._t.process(depth, t))
+
+
+class Device:
+    """A device by its ``--port`` name: a serial/pty path, ``tcp:HOST:PORT``,
+    or an AUTD3 (``autd3:emulator``, ``autd3:soem[:IF]``, ...).
+
+    Use it as a context manager; closing an AUTD3 leaves it silent.
+    """
+
+    def __init__(self, port: str, scene: Optional[Scene] = None) -> None:
+        self._d = _lmhost.Device(str(port), scene)
+
+    @property
+    def port(self) -> str:
+        return self._d.port
+
+    def info(self) -> Dict[str, Any]:
+        """Identity and capabilities (``lmhost info``)."""
+        return self._d.info()
+
+    def status(self) -> Dict[str, Any]:
+        """The device's status (``lmhost status``)."""
+        return self._d.status()
+
+    def upload(
+        self,
+        plan: Plan,
+        slot: Optional[int] = None,
+        play: bool = True,
+        untracked: bool = False,
+    ) -> Dict[str, Any]:
+        """Upload ``plan`` (planned for this device kind) into ``slot``
+        (default: a free one), play it unless ``play=False``; returns the
+        report ``lmhost upload --json`` prints, the same keys (``hold_s`` is
+        None: an AUTD3 plays while this object holds it, see :meth:`tick`)."""
+        report = json.loads(self._d.upload(plan, slot, bool(play), bool(untracked)))
+        report["hold_s"] = None
+        return report
+
+    def play(self, slot: int, untracked: bool = False) -> None:
+        """Play ``slot`` (tracked unless ``untracked``)."""
+        self._d.play(int(slot), bool(untracked))
+
+    def stop(self) -> None:
+        """Stop: the array is silent."""
+        self._d.stop()
+
+    def centroid(self, x: float, y: float, z: float, present: bool = True) -> str:
+        """Send a finger centroid (mm, finger space): ``"applied"`` or
+        ``"out_of_range"``."""
+        return self._d.centroid(float(x), float(y), float(z), bool(present))
+
+    def tick(self) -> None:
+        """Keep a host-driven link (AUTD3) going; call it while playing."""
+        self._d.tick()
+
+    def close(self) -> None:
+        self._d.close()
+
+    def __enter__(self) -> "Device":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def find_binary() -> str:
+    """The ``lmhost`` binary: ``$LMHOST_BIN``, else ``lmhost`` on ``PATH``."""
+    env = os.environ.get("LMHOST_BIN")
+    if env:
+        if not os.access(env, os.X_OK):
+            raise DeviceError(f"LMHOST_BIN={env} is not an executable")
+        return env
+    found = shutil.which("lmhost")
+    if found is None:
+        raise DeviceError(
+            "cannot find the lmhost binary: set LMHOST_BIN or put lmhost on PATH "
+            "(`cargo build --release -p lmhost` builds target/release/lmhost)"
+        )
+    return found
+
+
+class Session:
+    """A client of ``lmhost session``'s control socket (JSON lines).
+
+    Either connect to a running session (``socket_path=``), or start one:
+    ``Session(library="studies/paper-library.toml", port="autd3:emulator",
+    synthetic=True)`` runs ``lmhost session`` (found by :func:`find_binary`)
+    with a private control socket and quits it on :meth:`close`.
+    Every command returns the reply dict; a refused one raises ValueError.
+    """
+
+    def __init__(
+        self,
+        library: Optional[PathLike] = None,
+        port: Optional[str] = None,
+        scene: Optional[PathLike] = None,
+        socket_path: Optional[PathLike] = None,
+        synthetic: bool = False,
+        args: Sequence[str] = (),
+        timeout: float = 30.0,
+    ) -> None:
+        self._proc: Optional[subprocess.Popen] = None
+        self._tmp: Optional[tempfile.TemporaryDirectory] = None
+        self._events: list = []
+        self._buf = b""
+        self.ready: Optional[Dict[str, Any]] = None
+        if socket_path is None:
+            if library is None:
+                raise ValueError("Session needs library= (to start one) or socket_path=")
+            self._tmp = tempfile.TemporaryDirectory(prefix="lmhost-session-")
+            socket_path = os.path.join(self._tmp.name, "control.sock")
+            cmd = [find_binary(), "session", "--library", str(library), "--control", str(socket_path)]
+            if port is not None:
+                cmd += ["--port", str(port)]
+            if scene is not None:
+                cmd += ["--scene", str(scene)]
+            if synthetic:
+                cmd.append("--synthetic")
+            cmd += list(args)
+            self._stderr = tempfile.TemporaryFile()
+            self._proc = subprocess.Popen(
+                cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=self._stderr
+            )
+        self._sock = self._connect(str(socket_path), timeout)
+        self._sock.settimeout(timeout)
+        self.command("subscribe")
+
+    def _connect(self, path: str, timeout: float) -> socket.socket:
+        deadline = time.monotonic() + timeout
+        while True:
+            s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            try:
+                s.connect(path)
+                return s
+            except OSError:
+                s.close()
+                if self._proc is not None and self._proc.poll() is not None:
+                    raise self._died() from None
+                if time.monotonic() > deadline:
+                    raise DeviceError(f"no lmhost session answers on {path}") from None
+                time.sleep(0.05)
+
+    def _died(self) -> Exception:
+        assert self._proc is not None
+        self._stderr.seek(0)
+        err = self._stderr.read().decode(errors="replace").strip().splitlines()
+        line = err[-1] if err else f"exit code {self._proc.returncode}"
+        if line.startswith("error: "):
+            line = line[len("error: "):]
+        return (ValueError if self._proc.returncode == 2 else DeviceError)(line)
+
+    def _line(self) -> Dict[str, Any]:
+        while b"\n" not in self._buf:
+            try:
+                chunk = self._sock.recv(65536)
+            except socket.timeout:
+                raise DeviceError("the lmhost session did not answer in time") from None
+            if not chunk:
+                if self._proc is not None and self._proc.poll() is not None:
+                    raise self._died()
+                raise DeviceError("the lmhost session closed the connection")
+            self._buf += chunk
+        line, self._buf = self._buf.split(b"\n", 1)
+        return json.loads(line)
+
+    def command(self, cmd: str, **fields: Any) -> Dict[str, Any]:
+        """Send one command; events that arrive meanwhile are kept for
+        :meth:`events`. Returns the reply; ``ok: false`` raises ValueError."""
+        msg = {"cmd": cmd}
+        msg.update({k: v for k, v in fields.items() if v is not None})
+        self._sock.sendall((json.dumps(msg) + "\n").encode())
+        while True:
+            v = self._line()
+            if "event" in v:
+                self._note(v)
+                continue
+            if not v.get("ok"):
+                raise ValueError(v.get("error", "refused"))
+            return v
+
+    def _note(self, ev: Dict[str, Any]) -> None:
+        if ev.get("event") == "ready":
+            self.ready = ev
+        self._events.append(ev)
+
+    def present(
+        self,
+        stimulus: str,
+        gate: Optional[str] = None,
+        on_s: Optional[float] = None,
+        off_s: Optional[float] = None,
+        repeat: Optional[int] = None,
+    ) -> Dict[str, Any]:
+        """Present a library entry (``gate``: "tracked" or "untracked")."""
+        return self.command(
+            "present", stimulus=stimulus, gate=gate, on_s=on_s, off_s=off_s, repeat=repeat
+        )
+
+    def prepare(self, stimulus: str) -> int:
+        """Load an entry into an idle slot; returns the slot."""
+        return self.command("prepare", stimulus=stimulus)["slot"]
+
+    def stop(self) -> None:
+        """Stop what plays or waits: the array is silent."""
+        self.command("stop")
+
+    def status(self) -> Dict[str, Any]:
+        """The session's and the device's state."""
+        return self.command("status")["status"]
+
+    def library(self) -> list:
+        """The entries as planned for this device."""
+        return self.command("library")["stimuli"]
+
+    def events(self, timeout: Optional[float] = None) -> Iterator[Dict[str, Any]]:
+        """Events as they come (the ones already received first); ends after
+        ``timeout`` seconds without one, or at ``closed``."""
+        while True:
+            while self._events:
+                ev = self._events.pop(0)
+                yield ev
+                if ev.get("event") == "closed":
+                    return
+            old = self._sock.gettimeout()
+            self._sock.settimeout(timeout)
+            try:
+                v = self._line()
+            except DeviceError:
+                return
+            finally:
+                self._sock.settimeout(old)
+            if "event" in v:
+                self._note(v)
+
+    def wait_for(self, event: str, timeout: float = 30.0, **match: Any) -> Dict[str, Any]:
+        """The next event named ``event`` (with fields equal to ``match``)."""
+        deadline = time.monotonic() + timeout
+        for ev in self.events(timeout=timeout):
+            if ev.get("event") == event and all(ev.get(k) == v for k, v in match.items()):
+                return ev
+            if time.monotonic() > deadline:
+                break
+        raise DeviceError(f"no `{event}` event within {timeout} s")
+
+    def close(self) -> None:
+        """Quit a session this object started (the array is left silent);
+        just disconnect from one it did not."""
+        try:
+            if self._proc is not None and self._proc.poll() is None:
+                try:
+                    self.command("quit")
+                except (OSError, ValueError):
+                    pass
+        finally:
+            self._sock.close()
+            if self._proc is not None:
+                try:
+                    self._proc.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    self._proc.terminate()
+                    self._proc.wait()
+                self._proc = None
+            if self._tmp is not None:
+                self._tmp.cleanup()
+                self._tmp = None
+
+    def __enter__(self) -> "Session":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

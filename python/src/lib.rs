@@ -1,0 +1,798 @@
+//! `lmhost._lmhost`: the Python binding of the lmhost library.
+//!
+//! Thin on purpose: every function here calls the library the way the
+//! `lmhost` binary's `cmd/` modules do (`Stimulus::plan_for`,
+//! `field::study::simulate_plan`, `track::Pipeline`, `connect::open`,
+//! `upload::upload`) and converts values at the boundary. It never plans,
+//! simulates or tracks on its own. The pythonic surface (keyword defaults,
+//! `Session`, context managers) lives in `python/lmhost/__init__.py`.
+//!
+//! Errors: an [`InputError`] anywhere in a chain raises `ValueError` with
+//! the line the CLI prints ([`one_line`]); any other failure raises
+//! `lmhost.DeviceError` (an `OSError`); a panic raises `RuntimeError`,
+//! never unwinds into the interpreter. Long calls release the GIL.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+use lmhost::backend::{Backend, BackendError, ErrorKind};
+use lmhost::connect::Target;
+use lmhost::error::{InputError, one_line};
+use lmhost::field::study::{View, simulate_plan};
+use lmhost::field::{self, Radiation};
+use lmhost::link::PortSpec;
+use lmhost::scene::Scene;
+use lmhost::stimulus::{Stimulus, TargetPlan};
+use lmhost::track::Pipeline;
+use lmhost::track::contact::Tracker as ContactTracker;
+use lmhost::track::intrinsics::Intrinsics;
+use lmhost::track::presence::Hysteresis;
+use lmhost::track::rig::Rig;
+use lmhost::trajectory::Steps;
+use lmhost::upload::Play;
+
+create_exception!(
+    _lmhost,
+    DeviceError,
+    PyOSError,
+    "A device or I/O fault (the CLI's exit code 1)."
+);
+
+/// Whether the chain says the input was bad (exit code 2 in the CLI).
+fn is_input(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.is::<InputError>()
+            || c.downcast_ref::<BackendError>()
+                .is_some_and(|b| b.kind() == ErrorKind::Input)
+    })
+}
+
+fn to_py(e: anyhow::Error) -> PyErr {
+    let line = one_line(&e);
+    if is_input(&e) {
+        PyValueError::new_err(line)
+    } else {
+        DeviceError::new_err(line)
+    }
+}
+
+fn bad(msg: impl Into<String>) -> PyErr {
+    PyValueError::new_err(msg.into())
+}
+
+fn panic_err(p: Box<dyn std::any::Any + Send>) -> PyErr {
+    let msg = p
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into());
+    PyRuntimeError::new_err(format!("lmhost internal error: {msg}"))
+}
+
+/// Runs `f` without the GIL, a panic caught as `RuntimeError`.
+fn run<T: Send>(py: Python<'_>, f: impl FnOnce() -> anyhow::Result<T> + Send) -> PyResult<T> {
+    py.allow_threads(|| catch_unwind(AssertUnwindSafe(f)))
+        .map_err(panic_err)?
+        .map_err(to_py)
+}
+
+/// `serde_json::Value` → Python (through `json.loads`: one parser).
+fn to_python(py: Python<'_>, v: &serde_json::Value) -> PyResult<PyObject> {
+    let json = py.import("json")?;
+    Ok(json.call_method1("loads", (v.to_string(),))?.unbind())
+}
+
+fn vec3(what: &str, v: Vec<f64>) -> PyResult<[f64; 3]> {
+    v.try_into()
+        .map_err(|_| bad(format!("{what} takes three numbers (x, y, z) in mm")))
+}
+
+/// Two (N, 3) arrays.
+type Pair<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
+/// A scene: transducers, reflector, LM plane and the rig's camera.
+#[pyclass(name = "Scene", module = "lmhost._lmhost", frozen)]
+#[derive(Clone)]
+struct Scene_ {
+    scene: Scene,
+}
+
+#[pymethods]
+impl Scene_ {
+    /// Load and check a TOML scene file (`ValueError` when it is bad).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let scene = run(py, || Ok(Scene::load(&path)?))?;
+        Ok(Self { scene })
+    }
+
+    /// The built-in scene: four AUTD3 in a flat 2 × 2 facing +z.
+    #[staticmethod]
+    fn flat() -> Self {
+        Self {
+            scene: Scene::default(),
+        }
+    }
+
+    /// The scene's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.scene.name.clone()
+    }
+
+    /// The default LM centre (mm).
+    #[getter]
+    fn center_mm(&self) -> [f64; 3] {
+        self.scene.center_mm
+    }
+
+    /// Transducer positions (N, 3) in mm and unit normals (N, 3).
+    #[getter]
+    fn transducers<'py>(&self, py: Python<'py>) -> PyResult<Pair<'py>> {
+        let t = self.scene.transducers();
+        let pos: Vec<Vec<f64>> = t.iter().map(|t| t.pos_mm.to_vec()).collect();
+        let nrm: Vec<Vec<f64>> = t.iter().map(|t| t.normal.to_vec()).collect();
+        Ok((
+            PyArray2::from_vec2(py, &pos).map_err(|e| bad(e.to_string()))?,
+            PyArray2::from_vec2(py, &nrm).map_err(|e| bad(e.to_string()))?,
+        ))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scene({:?}, {} transducers)",
+            self.scene.name,
+            self.scene.transducer_count()
+        )
+    }
+}
+
+/// A planned stimulus: phases, timing and trajectory for one device kind.
+#[pyclass(name = "Plan", module = "lmhost._lmhost", frozen)]
+struct Plan_ {
+    planned: TargetPlan,
+    radius_mm: f64,
+    target: String,
+}
+
+impl Plan_ {
+    fn target_kind(&self) -> Target {
+        match self.target.as_str() {
+            "autd3" => Target::Autd3(lmhost::autd3::Autd3Port::Emulator),
+            _ => Target::Lm,
+        }
+    }
+}
+
+#[pymethods]
+impl Plan_ {
+    /// Phases, uint8, shape (steps, transducers).
+    #[getter]
+    fn phases<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<u8>>> {
+        let s = &self.planned.plan.sequence;
+        let n = self.planned.plan.trajectory.steps;
+        PyArray1::from_slice(py, &s.phases).reshape([n, s.phases.len() / n.max(1)])
+    }
+
+    /// Steps per LM cycle N.
+    #[getter]
+    fn steps(&self) -> usize {
+        self.planned.plan.trajectory.steps
+    }
+
+    /// Dwell per step as the device plays it (µs).
+    #[getter]
+    fn dwell_us(&self) -> f64 {
+        self.planned.timing.dwell_us
+    }
+
+    /// LM frequency as the device plays it (Hz).
+    #[getter]
+    fn freq_hz(&self) -> f64 {
+        self.planned.timing.freq_hz
+    }
+
+    /// Step width along the circle (mm).
+    #[getter]
+    fn step_mm(&self) -> f64 {
+        self.planned.plan.trajectory.step_mm
+    }
+
+    /// Index offset l between neighbouring foci (LM-M).
+    #[getter]
+    fn index_offset(&self) -> usize {
+        self.planned.plan.trajectory.index_offset
+    }
+
+    /// Circle radius A asked (mm).
+    #[getter]
+    fn radius_mm(&self) -> f64 {
+        self.radius_mm
+    }
+
+    /// LM centre (mm, finger space).
+    #[getter]
+    fn center_mm(&self) -> [f64; 3] {
+        self.planned.plan.trajectory.center_mm
+    }
+
+    /// `"lm"` or `"autd3"`: the device kind planned for.
+    #[getter]
+    fn target(&self) -> String {
+        self.target.clone()
+    }
+
+    /// Transducers in the plan's scene.
+    #[getter]
+    fn transducers(&self) -> usize {
+        usize::from(self.planned.plan.sequence.header.transducers)
+    }
+
+    /// CRC-32 of the phases (as the device checks it).
+    #[getter]
+    fn crc32(&self) -> u32 {
+        self.planned.plan.sequence.crc32()
+    }
+
+    /// One-line warnings about the stimulus in this scene.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.planned.warnings.clone()
+    }
+
+    /// Realised against requested timing (dict, as `lmhost plan --json`).
+    #[getter]
+    fn timing(&self, py: Python<'_>) -> PyResult<PyObject> {
+        let v = serde_json::to_value(&self.planned.timing).map_err(|e| bad(e.to_string()))?;
+        to_python(py, &v)
+    }
+
+    /// Foci per step (mm, finger space), shape (steps, foci, 3).
+    #[getter]
+    fn foci_mm<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let t = &self.planned.plan.trajectory;
+        let flat: Vec<f64> = (0..t.steps)
+            .flat_map(|j| t.foci_step(j).iter().flatten().copied().collect::<Vec<_>>())
+            .collect();
+        PyArray1::from_vec(py, flat).reshape([t.steps, t.foci, 3])
+    }
+
+    /// Writes the files `lmhost plan --out PATH` writes: `.json` (summary
+    /// with phases), `.npy` (uint8, steps × transducers) or anything else
+    /// as raw step-major bytes; whole or absent.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        run(py, || {
+            let bytes = self.planned.out_bytes(&path, &self.target_kind())?;
+            lmhost::files::write_whole(&path, &bytes)
+        })
+    }
+
+    /// The summary `lmhost plan --json` prints (`phases=True` adds them).
+    #[pyo3(signature = (phases=false))]
+    fn summary(&self, py: Python<'_>, phases: bool) -> PyResult<PyObject> {
+        to_python(py, &self.planned.summary_json(&self.target_kind(), phases))
+    }
+}
+
+/// Plans a stimulus: `Stimulus::plan_for` the target in the scene, as
+/// `lmhost plan` does.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (radius, foci, spacing, freq, step, steps, center, scene, intensity, target))]
+fn plan(
+    py: Python<'_>,
+    radius: f64,
+    foci: i64,
+    spacing: f64,
+    freq: f64,
+    step: f64,
+    steps: Option<i64>,
+    center: Option<Vec<f64>>,
+    scene: Option<&Scene_>,
+    intensity: f64,
+    target: &str,
+) -> PyResult<Plan_> {
+    let target_kind = match target {
+        "lm" => Target::Lm,
+        "autd3" => Target::Autd3(lmhost::autd3::Autd3Port::Emulator),
+        t => {
+            return Err(bad(format!(
+                "target must be \"lm\" or \"autd3\", got {t:?}"
+            )));
+        }
+    };
+    let foci = usize::try_from(foci).map_err(|_| bad(format!("--foci {foci} must be 1..=32")))?;
+    let steps = match steps {
+        Some(n) => Steps::Count(
+            usize::try_from(n).map_err(|_| bad(format!("--steps {n} must be 1..=65535")))?,
+        ),
+        None => Steps::Width(step),
+    };
+    let center_mm = center.map(|c| vec3("center", c)).transpose()?;
+    if let Some(c) = center_mm
+        && !c.iter().all(|x| x.is_finite())
+    {
+        return Err(bad(format!("--center must be finite, got {c:?}")));
+    }
+    let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
+    let planned = run(py, || {
+        let stimulus = Stimulus {
+            radius_mm: radius,
+            foci,
+            spacing_mm: spacing,
+            freq_hz: freq,
+            steps,
+            center_mm,
+            intensity: lmhost::limits::in_range("--intensity", intensity, 0.0, 1.0, "")?,
+            ..Stimulus::default()
+        };
+        stimulus.plan_for(&target_kind, scene)
+    })?;
+    Ok(Plan_ {
+        planned,
+        radius_mm: radius,
+        target: target.to_owned(),
+    })
+}
+
+/// The field on the observation plane: maps (rows v, columns u) and force.
+#[pyclass(name = "Field", module = "lmhost._lmhost", frozen)]
+struct Field_ {
+    #[pyo3(get)]
+    mean_pressure: PyObject,
+    #[pyo3(get)]
+    lm_power: PyObject,
+    #[pyo3(get)]
+    pressure: PyObject,
+    #[pyo3(get)]
+    amplitude: PyObject,
+    #[pyo3(get)]
+    max_pressure: PyObject,
+    #[pyo3(get)]
+    u_mm: PyObject,
+    #[pyo3(get)]
+    v_mm: PyObject,
+    #[pyo3(get)]
+    force_n: f64,
+    #[pyo3(get)]
+    summary: PyObject,
+}
+
+/// Simulates a plan's field as `lmhost simulate` does (same checks, same
+/// summary); the CLI's `--plane-size W,H` is `plane_size=(w, h)`.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (plan, plane_size, plane_step, plane_center, plane_axes, alpha, density, disk, calibration, reference))]
+fn simulate(
+    py: Python<'_>,
+    plan: &Plan_,
+    plane_size: (f64, f64),
+    plane_step: f64,
+    plane_center: Option<Vec<f64>>,
+    plane_axes: Option<Vec<f64>>,
+    alpha: f64,
+    density: f64,
+    disk: f64,
+    calibration: f64,
+    reference: bool,
+) -> PyResult<Field_> {
+    let intensity = f64::from(plan.planned.plan.sequence.header.intensity) / 255.0;
+    if intensity != 1.0 {
+        return Err(bad(format!(
+            "--intensity {} applies to devices: simulate models full output (its maps scale with the drive amplitude the driver makes of it)",
+            lmhost::limits::show(intensity)
+        )));
+    }
+    let axes = match plane_axes {
+        None => None,
+        Some(v) if v.len() == 6 => Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]])),
+        Some(_) => {
+            return Err(bad(
+                "--plane-axes takes six numbers UX,UY,UZ,VX,VY,VZ".to_string()
+            ));
+        }
+    };
+    let view = View {
+        size_mm: plane_size,
+        step_mm: plane_step,
+        center_mm: plane_center.map(|c| vec3("plane_center", c)).transpose()?,
+        axes,
+        rad: Radiation { alpha },
+        density,
+        disk_mm: disk,
+        calibration,
+        reference,
+    };
+    let p = &plan.planned.plan;
+    let (sim, summary) = run(py, || {
+        view.check()?;
+        let sim = simulate_plan(p, &view)?;
+        let summary = sim.summary_json(p, &view, plan.radius_mm);
+        Ok((sim, summary))
+    })?;
+    let m = &sim.maps;
+    let map = |v: &[f64]| -> PyResult<PyObject> {
+        Ok(PyArray1::from_slice(py, v)
+            .reshape([m.nv, m.nu])?
+            .into_any()
+            .unbind())
+    };
+    let u: Vec<f64> = (0..sim.plane.nu()).map(|i| sim.plane.u_mm(i)).collect();
+    let v: Vec<f64> = (0..sim.plane.nv()).map(|i| sim.plane.v_mm(i)).collect();
+    Ok(Field_ {
+        mean_pressure: map(&m.mean_pressure_pa)?,
+        lm_power: map(&m.lm_power_pa2)?,
+        pressure: map(&m.pressure_pa)?,
+        amplitude: map(&m.amplitude_pa)?,
+        max_pressure: map(&m.max_pressure_pa)?,
+        u_mm: PyArray1::from_vec(py, u).into_any().unbind(),
+        v_mm: PyArray1::from_vec(py, v).into_any().unbind(),
+        force_n: sim.force_mean_n,
+        summary: to_python(py, &summary)?,
+    })
+}
+
+/// The defaults `lmhost simulate` has, for the Python wrapper.
+#[pyfunction]
+fn simulate_defaults() -> (f64, f64, f64, f64, f64) {
+    (
+        field::study::PLANE_SIZE_MM,
+        field::study::PLANE_STEP_MM,
+        field::DEFAULT_RADIATION_ALPHA,
+        field::DEFAULT_DENSITY_KG_M3,
+        field::study::DISK_MM,
+    )
+}
+
+/// The paper's contact-area tracker with presence hysteresis, as
+/// `lmhost track` runs it on recorded frames (no filter).
+#[pyclass(name = "Tracker", module = "lmhost._lmhost", frozen)]
+struct Tracker_ {
+    pipe: Mutex<Pipeline>,
+    width: usize,
+    height: usize,
+    min_points: u32,
+    started: Instant,
+}
+
+#[pymethods]
+impl Tracker_ {
+    /// `intrinsics_toml` is TOML text (`origin` names it in messages);
+    /// the scene needs `[camera]` and `[tracking]`.
+    #[new]
+    #[pyo3(signature = (scene, intrinsics_toml, origin, enter_frames=2, leave_frames=2))]
+    fn new(
+        scene: &Scene_,
+        intrinsics_toml: &str,
+        origin: &str,
+        enter_frames: u32,
+        leave_frames: u32,
+    ) -> PyResult<Self> {
+        let intr = Intrinsics::from_toml(intrinsics_toml, origin).map_err(|e| to_py(e.into()))?;
+        let rig = Rig::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
+        let tracker = ContactTracker::new(intr, rig);
+        let min_points = tracker.rig().track_box.min_points;
+        let pipe = Pipeline::new(
+            tracker,
+            Hysteresis::new(enter_frames, leave_frames),
+            lmhost::stream::filter::FilterKind::None.build(),
+        );
+        Ok(Self {
+            pipe: Mutex::new(pipe),
+            width: intr.width as usize,
+            height: intr.height as usize,
+            min_points,
+            started: Instant::now(),
+        })
+    }
+
+    /// Frame shape (height, width) the intrinsics describe.
+    #[getter]
+    fn shape(&self) -> (usize, usize) {
+        (self.height, self.width)
+    }
+
+    /// Points needed for a contact (the scene's `min_points`).
+    #[getter]
+    fn min_points(&self) -> u32 {
+        self.min_points
+    }
+
+    /// One frame: `(t_s, points, present, centroid_mm, gated)`.
+    #[pyo3(signature = (depth, t=None))]
+    #[allow(clippy::type_complexity)]
+    fn process(
+        &self,
+        py: Python<'_>,
+        depth: &Bound<'_, PyAny>,
+        t: Option<f64>,
+    ) -> PyResult<(f64, u32, bool, Option<[f64; 3]>, bool)> {
+        let arr = depth.downcast::<PyArray2<u16>>().map_err(|_| {
+            bad(format!(
+                "depth frame must be a numpy uint16 array of shape ({}, {})",
+                self.height, self.width
+            ))
+        })?;
+        let shape = arr.shape();
+        if shape != [self.height, self.width] {
+            return Err(bad(format!(
+                "depth frame has shape {shape:?} but the intrinsics say ({}, {})",
+                self.height, self.width
+            )));
+        }
+        if let Some(t) = t
+            && !t.is_finite()
+        {
+            return Err(bad(format!("t must be finite seconds, got {t}")));
+        }
+        let ro = arr.readonly();
+        let owned;
+        let slice: &[u16] = match ro.as_slice() {
+            Ok(s) => s,
+            Err(_) => {
+                owned = ro.as_array().iter().copied().collect::<Vec<u16>>();
+                &owned
+            }
+        };
+        let t_s = t.unwrap_or_else(|| self.started.elapsed().as_secs_f64());
+        let r = run(py, || {
+            let mut pipe = self
+                .pipe
+                .lock()
+                .map_err(|_| anyhow::anyhow!("tracker poisoned by an earlier panic"))?;
+            Ok(pipe.step(t_s, slice))
+        })?;
+        Ok((r.t_s, r.contact.points, r.present, r.centroid_mm(), r.gated))
+    }
+}
+
+/// Moves a value the GIL-free closure uses on this same thread.
+struct OnThisThread<T>(T);
+// SAFETY: `allow_threads` runs its closure on the calling thread; the value
+// never reaches another thread (the pyclass holding it is `unsendable`).
+unsafe impl<T> Send for OnThisThread<T> {}
+
+/// A device opened by its `--port` name.
+#[pyclass(name = "Device", module = "lmhost._lmhost", unsendable)]
+struct Device_ {
+    dev: Option<Box<dyn Backend>>,
+    scene: Scene,
+    port: String,
+    seq: u32,
+}
+
+impl Device_ {
+    fn with<T: Send>(
+        &mut self,
+        py: Python<'_>,
+        f: impl FnOnce(&mut dyn Backend) -> anyhow::Result<T> + Send,
+    ) -> PyResult<T> {
+        let dev = self
+            .dev
+            .as_mut()
+            .ok_or_else(|| DeviceError::new_err(format!("{} is closed", self.port)))?;
+        let dev = OnThisThread(dev);
+        run(py, move || {
+            let dev = dev;
+            f(dev.0.as_mut())
+        })
+    }
+}
+
+#[pymethods]
+impl Device_ {
+    /// Opens `port` (any `--port` form) for `scene`.
+    #[new]
+    fn new(py: Python<'_>, port: String, scene: Option<&Scene_>) -> PyResult<Self> {
+        let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
+        let spec = PortSpec::new(Some(port.clone()));
+        let s = scene.clone();
+        let dev = run(py, move || {
+            Ok(OnThisThread(lmhost::connect::open_with(
+                &spec,
+                &s,
+                lm_proto::Encoding::Delta,
+                false,
+            )?))
+        })?
+        .0;
+        Ok(Self {
+            dev: Some(dev),
+            scene,
+            port,
+            seq: 0,
+        })
+    }
+
+    /// Identity and capabilities (dict).
+    fn info(&mut self, py: Python<'_>) -> PyResult<PyObject> {
+        let v = self.with(py, |d| Ok(serde_json::to_value(d.info()?)?))?;
+        to_python(py, &v)
+    }
+
+    /// The device's status (dict).
+    fn status(&mut self, py: Python<'_>) -> PyResult<PyObject> {
+        let v = self.with(py, |d| Ok(serde_json::to_value(d.status()?)?))?;
+        to_python(py, &v)
+    }
+
+    /// Uploads through `lmhost::upload::upload` (the `lmhost upload --json`
+    /// report, as a JSON string). The plan must be for this device kind.
+    fn upload(
+        &mut self,
+        py: Python<'_>,
+        plan: &Plan_,
+        slot: Option<u8>,
+        play: bool,
+        untracked: bool,
+    ) -> PyResult<String> {
+        let kind = if self.port.starts_with("autd3:") {
+            "autd3"
+        } else {
+            "lm"
+        };
+        if plan.target != kind {
+            return Err(bad(format!(
+                "the plan is for target={:?} but {} is an {kind} device: plan with target={kind:?}",
+                plan.target, self.port
+            )));
+        }
+        let planned = &plan.planned;
+        let play = match (play, untracked) {
+            (false, _) => Play::No,
+            (true, false) => Play::Tracked,
+            (true, true) => Play::Untracked,
+        };
+        self.with(py, move |d| {
+            let o = lmhost::upload::upload(d, planned, slot, play)?;
+            Ok(serde_json::to_string(&o)?)
+        })
+    }
+
+    /// Plays `slot` (tracked unless `untracked`).
+    #[pyo3(signature = (slot, untracked=false))]
+    fn play(&mut self, py: Python<'_>, slot: u8, untracked: bool) -> PyResult<()> {
+        self.with(py, |d| Ok(d.play(slot, untracked)?))
+    }
+
+    /// Stops playing: the array is silent.
+    fn stop(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.with(py, |d| Ok(d.stop()?))
+    }
+
+    /// Sends a finger centroid (mm, finger space); returns `"applied"` or
+    /// `"out_of_range"`.
+    #[pyo3(signature = (x, y, z, present=true))]
+    fn centroid(
+        &mut self,
+        py: Python<'_>,
+        x: f64,
+        y: f64,
+        z: f64,
+        present: bool,
+    ) -> PyResult<&'static str> {
+        let p = lmhost::limits::position_mm("centroid", [x, y, z]).map_err(|e| to_py(e.into()))?;
+        let pos_um = self.scene.drive_point(p).map(lmhost::units::mm_to_um);
+        let mut seq = self.seq;
+        let out = self.with(py, move |d| {
+            if seq == 0 {
+                seq = d.status()?.last_centroid_seq;
+            }
+            seq = seq.wrapping_add(1).max(1);
+            let c = lm_proto::Centroid {
+                seq,
+                pos_um,
+                present,
+                host_time_us: lmhost::clock::monotonic_us(),
+            };
+            Ok((seq, d.centroid(&c)?))
+        })?;
+        self.seq = out.0;
+        Ok(match out.1 {
+            lmhost::backend::CentroidOutcome::Applied => "applied",
+            lmhost::backend::CentroidOutcome::OutOfRange => "out_of_range",
+        })
+    }
+
+    /// Keeps a host-driven link (AUTD3) ticking once.
+    fn tick(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.with(py, |d| Ok(d.tick()?))
+    }
+
+    /// Where the device is.
+    #[getter]
+    fn port(&self) -> String {
+        self.port.clone()
+    }
+
+    /// Stops an AUTD3 (it plays only while held) and closes the device.
+    fn close(&mut self, py: Python<'_>) -> PyResult<()> {
+        let needs_host = self.dev.as_ref().is_some_and(|d| d.needs_host());
+        if needs_host {
+            let r = self.with(py, |d| Ok(d.stop()?));
+            self.dev = None;
+            r
+        } else {
+            self.dev = None;
+            Ok(())
+        }
+    }
+}
+
+/// Rust-side timings for the benchmark: `plan` and `Tracker.process`
+/// without Python in between (seconds per call, best of `repeats`).
+#[pyfunction]
+fn _bench_rust(
+    py: Python<'_>,
+    scene: &Scene_,
+    intrinsics_toml: &str,
+    depth: &Bound<'_, PyArray2<u16>>,
+    repeats: usize,
+) -> PyResult<(f64, f64)> {
+    let intr = Intrinsics::from_toml(intrinsics_toml, "bench").map_err(|e| to_py(e.into()))?;
+    let rig = Rig::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
+    let ro = depth.readonly();
+    let frame = ro.as_slice().map_err(|e| bad(e.to_string()))?;
+    let flat = Scene::default();
+    run(py, || {
+        let best = |f: &mut dyn FnMut() -> anyhow::Result<()>| -> anyhow::Result<f64> {
+            let mut best = f64::INFINITY;
+            for _ in 0..repeats.max(1) {
+                let t0 = Instant::now();
+                f()?;
+                best = best.min(t0.elapsed().as_secs_f64());
+            }
+            Ok(best)
+        };
+        let plan_s = best(&mut || {
+            let s = Stimulus::paper_lm_m();
+            std::hint::black_box(s.plan_for(&Target::Lm, flat.clone())?);
+            Ok(())
+        })?;
+        let mut pipe = Pipeline::new(
+            ContactTracker::new(intr, rig),
+            Hysteresis::new(2, 2),
+            lmhost::stream::filter::FilterKind::None.build(),
+        );
+        let mut t = 0.0;
+        let track_s = best(&mut || {
+            t += 1.0 / 90.0;
+            std::hint::black_box(pipe.step(t, frame));
+            Ok(())
+        })?;
+        Ok((plan_s, track_s))
+    })
+}
+
+/// Panics inside the library, for the test that a panic becomes
+/// `RuntimeError` and never unwinds into the interpreter.
+#[pyfunction]
+fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
+    run(py, || -> anyhow::Result<()> {
+        panic!("a panic inside lmhost")
+    })
+}
+
+/// The extension module behind `import lmhost`.
+#[pymodule]
+fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("DeviceError", m.py().get_type::<DeviceError>())?;
+    m.add_class::<Scene_>()?;
+    m.add_class::<Plan_>()?;
+    m.add_class::<Field_>()?;
+    m.add_class::<Tracker_>()?;
+    m.add_class::<Device_>()?;
+    m.add_function(wrap_pyfunction!(plan, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(_bench_rust, m)?)?;
+    m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
+    Ok(())
+}
