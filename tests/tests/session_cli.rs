@@ -367,32 +367,53 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let out = run_stdin(
-        &[
-            "session",
-            "--library",
-            &library(),
-            "--scene",
-            &scene,
-            "--port",
-            "autd3:emulator",
-            "--control",
-            "-",
-            "--depth",
-            rec.to_str().unwrap(),
-        ],
-        concat!(
-            r#"{"cmd":"present","stimulus":"lms-25hz-a3","on_s":1.2}"#,
-            "\n"
-        )
-        .as_bytes(),
-    );
+    // An endless tracked presentation, stopped once the finger has
+    // unmuted it: however slowly the replay runs on a loaded machine.
+    let mut child = Command::new(lmhost())
+        .args(["session", "--library", &library(), "--scene", &scene])
+        .args(["--port", "autd3:emulator", "--control", "-"])
+        .args(["--depth", rec.to_str().unwrap()])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // A watchdog: a session that never unmutes ends the test, not CI.
+    let pid = child.id().to_string();
+    std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_secs(90));
+        let _ = Command::new("kill").args(["-9", &pid]).status();
+    });
+    let mut stdin = child.stdin.take().unwrap();
+    writeln!(stdin, r#"{{"cmd":"present","stimulus":"lms-25hz-a3"}}"#).unwrap();
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        if stdout.read_line(&mut line).unwrap() == 0 {
+            panic!("the session ended before the finger unmuted it: {seen}");
+        }
+        seen.push_str(&line);
+        if line.contains(r#""event":"unmute""#) {
+            break;
+        }
+    }
+    writeln!(stdin, r#"{{"cmd":"stop"}}"#).unwrap();
+    drop(stdin);
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut stdout, &mut rest).unwrap();
+    seen.push_str(&rest);
+    let out = child.wait_with_output().unwrap();
     assert_eq!(
         out.status.code(),
         Some(0),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    let out = std::process::Output {
+        stdout: seen.into_bytes(),
+        ..out
+    };
     let v = lines(&out.stdout);
     // The synthetic finger arrives after a while: muted until then.
     assert!(
