@@ -380,9 +380,13 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
         .unwrap();
     // A watchdog: a session that never unmutes ends the test, not CI.
     let pid = child.id().to_string();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watch = done.clone();
     std::thread::spawn(move || {
         std::thread::sleep(Duration::from_secs(90));
-        let _ = Command::new("kill").args(["-9", &pid]).status();
+        if !watch.load(std::sync::atomic::Ordering::SeqCst) {
+            let _ = Command::new("kill").args(["-9", &pid]).status();
+        }
     });
     let mut stdin = child.stdin.take().unwrap();
     writeln!(stdin, r#"{{"cmd":"present","stimulus":"lms-25hz-a3"}}"#).unwrap();
@@ -404,6 +408,7 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
     std::io::Read::read_to_string(&mut stdout, &mut rest).unwrap();
     seen.push_str(&rest);
     let out = child.wait_with_output().unwrap();
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
     assert_eq!(
         out.status.code(),
         Some(0),
