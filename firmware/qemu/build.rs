@@ -35,7 +35,9 @@ fn check_root_map(path: &Path) {
     let mut code = String::new();
     while let Some(start) = rest.find("/*") {
         code.push_str(&rest[..start]);
-        let end = rest[start..].find("*/").expect("unterminated comment in root memory.x");
+        let end = rest[start..]
+            .find("*/")
+            .expect("unterminated comment in root memory.x");
         rest = &rest[start + end + 2..];
     }
     code.push_str(rest);

@@ -801,6 +801,8 @@ fn cases() -> Vec<Case> {
         PLANS      "simulate --calibration 1e300 --out {dir}/p3" .err("--calibration");
         PLANS      "simulate --calibration 0 --out {dir}/p3c" .err("--calibration");
         PLANS      "simulate --disk 1e300 --out {dir}/p4" .err("--disk");
+        PLANS      "simulate --width-mm 10 --out {dir}/p4w" .err("--width-mm");
+        PLANS      "simulate --width-mm nan --out {dir}/p4n" .err("--width-mm");
         PLANS      "simulate --plane-center 0,0,1e30 --out {dir}/p5" .err("±2000 mm");
         PLANS      "simulate --plane-size 1e9 --out {dir}/p6" .err("--plane-size");
         EXIT       "stream --port {port} --udp 0" .err("--udp");
