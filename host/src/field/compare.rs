@@ -182,14 +182,18 @@ pub fn compare(
             &norm,
             fig,
         )?;
-        let name = |p: &std::path::PathBuf| json!(p.file_name().map(|n| n.to_string_lossy()));
-        files.insert(
-            key.to_string(),
-            json!({
-                "shared_scale": written.iter().map(name).collect::<Vec<_>>(),
-                "normalised": written_norm.iter().map(name).collect::<Vec<_>>(),
-            }),
-        );
+        // `png`, `png_normalised`, `svg`, ...: the files this run wrote.
+        let mut named = serde_json::Map::new();
+        for (paths, suffix) in [(&written, ""), (&written_norm, "_normalised")] {
+            for p in paths.iter() {
+                let ext = p
+                    .extension()
+                    .map_or(String::new(), |e| e.to_string_lossy().into());
+                let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+                named.insert(format!("{ext}{suffix}"), json!(name));
+            }
+        }
+        files.insert(key.to_string(), serde_json::Value::Object(named));
     }
     let mut summary = Vec::new();
     for (c, r, plan, sim) in &sims {
@@ -210,9 +214,11 @@ pub fn compare(
             let mut m = json!({
                 "title": title, "unit": unit,
                 "npy": npy_name,
-                "figures": files[key].clone(),
                 "peak": sim.peak_json(map),
             });
+            if let (Some(m), Some(f)) = (m.as_object_mut(), files[key].as_object()) {
+                m.extend(f.clone());
+            }
             m[norm_key] = json!(field::peak(map).map_or(0.0, |p| p.1));
             maps.insert(key.to_string(), m);
         }
