@@ -303,7 +303,7 @@ mod tests {
         for text in ["orbit", "foci", "15 mm gauge disk", "LM-S", "LM-M", "25 Hz"] {
             assert!(svg.contains(text), "no `{text}`");
         }
-        assert_eq!(svg.matches("<image").count(), 15);
+        assert_eq!(svg.matches("href=\"data:image/png;base64,").count(), 15);
         let sizes = font_sizes_pt(&svg);
         assert!(sizes.len() > 20, "{sizes:?}");
         let min = sizes.iter().cloned().fold(f64::INFINITY, f64::min);

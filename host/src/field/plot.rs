@@ -591,7 +591,7 @@ pub fn figure(
                     draw_figure(&root, &lay, plane, panels, (rows, cols), labels).map_err(&e)?;
                     root.present().map_err(|x| e(x.to_string()))?;
                 }
-                let svg = printed_size(&svg, lay.size, fig.width_mm);
+                let svg = finish_svg(&svg, lay.size, fig.width_mm);
                 crate::files::write_whole(&path, svg.as_bytes())?;
             }
         }
@@ -600,14 +600,17 @@ pub fn figure(
     Ok(written)
 }
 
-/// Gives the SVG its printed size in mm (the `viewBox` stays in units).
-fn printed_size(svg: &str, (w, h): (u32, u32), width_mm: f64) -> String {
+/// Gives the SVG its printed size in mm (the `viewBox` stays in units)
+/// and its embedded maps the MIME type viewers need (plotters writes
+/// `data:png`, which browsers and Inkscape do not show).
+fn finish_svg(svg: &str, (w, h): (u32, u32), width_mm: f64) -> String {
     let height_mm = width_mm * h as f64 / w as f64;
     svg.replacen(
         &format!("width=\"{w}\" height=\"{h}\""),
         &format!("width=\"{width_mm:.2}mm\" height=\"{height_mm:.2}mm\""),
         1,
     )
+    .replace("href=\"data:png;base64,", "href=\"data:image/png;base64,")
 }
 
 /// Writes one heatmap with a colour bar and a legend ([`figure`] with one
