@@ -416,6 +416,13 @@ pub fn write_field(dir: &std::path::Path) -> anyhow::Result<String> {
     let view = View::default();
     let sim = simulate_plan(&plan, &view)?;
     crate::files::output_dir("--plots", dir)?;
-    write_outputs(&plan, &sim, &view, crate::trajectory::paper::RADIUS_MM, dir)?;
+    write_outputs(
+        &plan,
+        &sim,
+        &view,
+        crate::trajectory::paper::RADIUS_MM,
+        &crate::field::plot::Figure::default(),
+        dir,
+    )?;
     Ok(sim.text_summary(&plan, crate::trajectory::paper::RADIUS_MM))
 }

@@ -801,6 +801,8 @@ fn cases() -> Vec<Case> {
         PLANS      "simulate --calibration 1e300 --out {dir}/p3" .err("--calibration");
         PLANS      "simulate --calibration 0 --out {dir}/p3c" .err("--calibration");
         PLANS      "simulate --disk 1e300 --out {dir}/p4" .err("--disk");
+        PLANS      "simulate --width-mm 10 --out {dir}/p4w" .err("--width-mm");
+        PLANS      "simulate --width-mm nan --out {dir}/p4n" .err("--width-mm");
         PLANS      "simulate --plane-center 0,0,1e30 --out {dir}/p5" .err("±2000 mm");
         PLANS      "simulate --plane-size 1e9 --out {dir}/p6" .err("--plane-size");
         EXIT       "stream --port {port} --udp 0" .err("--udp");
@@ -939,14 +941,15 @@ fn no_warning(_: &Ctx, r: &Run) -> Result<(), String> {
     Ok(())
 }
 
-/// Every `.npy`/`.png` named in summary.json exists.
+/// Every `.npy`/`.png`/`.svg` named in summary.json exists.
 fn named_files_exist(dir: &Path) -> Result<serde_json::Value, String> {
     let text = std::fs::read_to_string(dir.join("summary.json")).map_err(|e| e.to_string())?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
     fn walk(v: &serde_json::Value, dir: &Path, missing: &mut Vec<String>) {
         match v {
             serde_json::Value::String(s)
-                if (s.ends_with(".npy") || s.ends_with(".png")) && !dir.join(s).exists() =>
+                if [".npy", ".png", ".svg"].iter().any(|e| s.ends_with(e))
+                    && !dir.join(s).exists() =>
             {
                 missing.push(s.clone());
             }
@@ -967,13 +970,15 @@ fn named_files_exist(dir: &Path) -> Result<serde_json::Value, String> {
 fn compare_summary_is_true(ctx: &Ctx, _: &Run) -> Result<(), String> {
     let v = named_files_exist(&ctx.dir.join("compare"))?;
     let panels = v["compare"].as_array().ok_or("no compare array")?;
-    if panels.len() != 10 {
+    // The paper's 3 × 5 grid.
+    if panels.len() != 15 {
         return Err(format!("{} panels", panels.len()));
     }
     for p in panels {
         let m = &p["maps"]["mean_pressure"];
         if !(m["normalisation_pa"].as_f64().is_some_and(|x| x > 0.0)
             && m["png_normalised"].is_string()
+            && m["svg_normalised"].is_string()
             && p["radial"]["profile_pa"].is_array()
             && p["radial"]["peak_radius_mm"].is_number())
         {

@@ -118,6 +118,8 @@ fn simulate_writes_maps_heatmaps_and_a_summary() {
     ] {
         let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
         assert_eq!(&png[1..4], b"PNG", "{stem}.png");
+        let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
+        assert!(svg.starts_with("<svg width=\"88.00mm\""), "{stem}.svg");
         assert!(out.join(format!("{stem}.npy")).exists());
     }
 }
@@ -139,23 +141,40 @@ fn simulate_force_scales_with_the_calibration_factor() {
 }
 
 #[test]
-fn simulate_compare_renders_one_grid_figure() {
+fn simulate_compare_renders_the_papers_grid() {
     let (out, _) = simulate_ok(
         "compare",
-        &["--compare", "--plane-size", "12", "--plane-step", "2"],
+        &[
+            "--compare",
+            "--plane-size",
+            "12",
+            "--plane-step",
+            "2",
+            "--width-mm",
+            "180",
+        ],
     );
     let png = std::fs::read(out.join("compare_mean_pressure.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    let svg = std::fs::read_to_string(out.join("compare_mean_pressure.svg")).unwrap();
+    assert!(svg.starts_with("<svg width=\"180.00mm\""));
+    assert!(svg.contains("a (mm)") && svg.contains("LM-S") && svg.contains("orbit"));
     let s = summary(&out);
     let runs = s["compare"].as_array().unwrap();
-    assert_eq!(runs.len(), 10);
+    // Rows LM-S 5 Hz, LM-M 5 Hz, LM-S 25 Hz; columns A = 2..6 mm.
+    assert_eq!(runs.len(), 15);
     let radii: Vec<f64> = runs
         .iter()
         .map(|r| r["stimulus"]["radius_mm"].as_f64().unwrap())
         .collect();
-    assert_eq!(radii, [2.0, 3.0, 4.0, 5.0, 6.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    assert_eq!(radii, [2.0, 3.0, 4.0, 5.0, 6.0].repeat(3));
     assert!(runs[..5].iter().all(|r| r["stimulus"]["foci"] == 1));
-    assert!(runs[5..].iter().all(|r| r["stimulus"]["foci"] == 4));
+    assert!(runs[5..10].iter().all(|r| r["stimulus"]["foci"] == 4));
+    assert!(runs[10..].iter().all(|r| r["stimulus"]["foci"] == 1));
+    assert!(runs[10..].iter().all(|r| r["condition"]["freq_hz"] == 25.0));
+    // 4 mm steps at 25 Hz: N = round(2πA / 4), 3 at A = 2 mm.
+    assert_eq!(runs[10]["stimulus"]["steps"], 3);
+    assert_eq!(runs[10]["stem"], "lms_25hz_2mm");
     // A wider LM-S orbit spreads the same energy: its time-averaged peak drops.
     let peak = |i: usize| {
         runs[i]["maps"]["mean_pressure"]["peak"]["value"]

@@ -1,22 +1,26 @@
 //! `lmhost simulate`: plan a stimulus, simulate its acoustic field on the
-//! LM plane and write heatmaps (PNG), maps (`.npy`) and a JSON summary.
+//! LM plane and write figures (PNG and SVG), maps (`.npy`) and a JSON
+//! summary.
 
 use std::path::PathBuf;
 
 use crate::cmd::plan::{PlanArgs, parse_vec3};
 use lmhost::error::InputError;
 use lmhost::field::study::{View, simulate_plan, write_outputs};
-use lmhost::field::{self, Radiation, compare};
+use lmhost::field::{self, Radiation, compare, plot};
 
 /// Simulate the acoustic field of an LM stimulus and plot it.
 #[derive(Debug, clap::Args)]
 #[command(
-    after_help = "Writes into --out: mean_pressure.png (time-averaged radiation \
-    pressure), lm_power.png (power at the LM frequency), pressure.png and amplitude.png \
-    (step 0), one .npy per map and summary.json.\n\nExamples:\n  \
+    after_help = "Writes into --out one figure per map as PNG (288 dpi) and SVG, \
+    --width-mm wide: mean_pressure (time-averaged radiation pressure), lm_power (power at \
+    the LM frequency), pressure, amplitude (step 0) and max_pressure; one .npy per map and \
+    summary.json. Figures have no title: axes a, b are the scene's LM plane axes (mm from \
+    the LM centre), with a legend for the orbit, the foci and the gauge disk. No PDF: \
+    convert the SVG.\n\nExamples:\n  \
     lmhost simulate --radius 3 --foci 4 --out lmm3\n  \
-    lmhost simulate --scene scenes/paper.toml --radius 3 --out paper\n  \
-    lmhost simulate --compare --out compare       # LM-S vs LM-M, A = 2..6 mm"
+    lmhost simulate --scene scenes/paper.toml --radius 3 --width-mm 180 --out paper\n  \
+    lmhost simulate --compare --out compare       # the paper's 3 x 5 grid"
 )]
 pub struct Args {
     #[command(flatten)]
@@ -72,10 +76,20 @@ pub struct Args {
     /// Use the plain f64 loop instead of the fast path (slow; for checking).
     #[arg(long)]
     reference: bool,
-    /// Render LM-S and LM-M (--foci, or 4 if --foci is 1) at radii 2-6 mm
-    /// as one grid figure instead of a single stimulus.
+    /// Render the paper's 3 x 5 grid instead of a single stimulus: rows
+    /// LM-S and LM-M (--foci, or 4 if --foci is 1) at --freq with --step,
+    /// then LM-S at 25 Hz with 4 mm steps; columns A = 2-6 mm.
     #[arg(long)]
     compare: bool,
+    /// Printed figure width in mm, 60..=500 (one column 88, two columns
+    /// 180); tick labels are 7.5 pt at that width.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = plot::ONE_COLUMN_MM,
+        allow_negative_numbers = true
+    )]
+    width_mm: f64,
 }
 
 fn positive(flag: &str, v: f64) -> Result<f64, InputError> {
@@ -147,6 +161,11 @@ impl Args {
     /// Run the subcommand.
     pub fn run(self) -> anyhow::Result<()> {
         let view = self.view()?;
+        let fig = plot::Figure {
+            width_mm: self.width_mm,
+            ..plot::Figure::default()
+        };
+        fig.check()?;
         if self.plan.intensity != 1.0 {
             lmhost::bad_input!(
                 "--intensity {} applies to devices: simulate models full output (its maps scale with the drive amplitude the driver makes of it)",
@@ -162,18 +181,24 @@ impl Args {
             } else {
                 4
             };
-            let plan_for = |foci, radius| {
+            let conditions = compare::paper_conditions(multi, self.plan.freq);
+            let plan_for = |c: &compare::Condition, radius| {
                 let mut a = self.plan.clone();
                 a.radius = radius;
-                a.foci = foci;
+                a.foci = c.foci;
+                a.freq = c.freq_hz;
+                if let Some(step) = c.step_mm {
+                    a.step = Some(step);
+                    a.steps = None;
+                }
                 a.plan()
             };
-            return compare::compare(multi, plan_for, &view, &self.out);
+            return compare::compare(&conditions, plan_for, &view, &fig, &self.out);
         }
         let plan = self.plan.plan()?;
         let sim = simulate_plan(&plan, &view)?;
         let r = self.plan.radius;
-        write_outputs(&plan, &sim, &view, r, &self.out)?;
+        write_outputs(&plan, &sim, &view, r, &fig, &self.out)?;
         lmhost::outln!("{}", sim.text_summary(&plan, r))?;
         lmhost::outln!("wrote {}", self.out.display())?;
         Ok(())

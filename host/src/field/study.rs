@@ -9,7 +9,7 @@ use std::time::Instant;
 use serde_json::json;
 
 use crate::error::InputError;
-use crate::field::plot::{self, Overlay, Panel};
+use crate::field::plot::{self, Figure, Labels, Overlay, Panel};
 use crate::field::{self, FieldMaps, ObservationPlane, Radiation, npy};
 use crate::limits;
 use crate::sequence::Plan;
@@ -195,37 +195,52 @@ pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
     })
 }
 
-/// The maps written, with file stem, title and unit.
-pub fn map_list(m: &FieldMaps) -> [(&'static str, &'static str, &'static str, &[f64]); 5] {
+/// A written map: file stem, title, unit, colour-bar label (short, with
+/// the unit) and the map.
+pub type MapEntry<'a> = (
+    &'static str,
+    &'static str,
+    &'static str,
+    &'static str,
+    &'a [f64],
+);
+
+/// The maps written, with file stem, title, unit and colour-bar label.
+pub fn map_list(m: &FieldMaps) -> [MapEntry<'_>; 5] {
     [
         (
             "mean_pressure",
             "Time-averaged radiation pressure",
             "Pa",
+            "mean rad. pressure (Pa)",
             &m.mean_pressure_pa,
         ),
         (
             "lm_power",
             "Radiation-pressure power at the LM frequency",
             "Pa²",
+            "power at f_LM (Pa²)",
             &m.lm_power_pa2,
         ),
         (
             "pressure",
             "Radiation pressure, step 0",
             "Pa",
+            "rad. pressure (Pa)",
             &m.pressure_pa,
         ),
         (
             "amplitude",
             "Sound pressure amplitude, step 0",
             "Pa",
+            "amplitude (Pa)",
             &m.amplitude_pa,
         ),
         (
             "max_pressure",
             "Maximum radiation pressure over the cycle",
             "Pa",
+            "max rad. pressure (Pa)",
             &m.max_pressure_pa,
         ),
     ]
@@ -296,6 +311,19 @@ pub fn radial_json(
     })
 }
 
+/// A figure's axis names (the scene's LM plane axes where the plane lies
+/// along them) and the gauge disk; the caller adds the rest.
+pub fn labels(plan: &Plan, plane: &ObservationPlane, disk_mm: f64) -> Labels {
+    let lm = &plan.scene.lm_plane;
+    let (x, y) = plot::axis_names(plane, lm.a, lm.b);
+    Labels {
+        x,
+        y,
+        disk_mm: Some(disk_mm),
+        ..Labels::default()
+    }
+}
+
 /// Orbit (focus 0 over every step) and step-0 foci in plane coordinates.
 pub fn overlay(plan: &Plan, plane: &ObservationPlane, disk_mm: f64) -> Overlay {
     let t = &plan.trajectory;
@@ -335,7 +363,7 @@ impl Sim {
         let p = &self.plane;
         let maps: serde_json::Map<String, serde_json::Value> = map_list(&self.maps)
             .iter()
-            .map(|(stem, title, unit, m)| {
+            .map(|(stem, title, unit, _, m)| {
                 (
                     stem.to_string(),
                     json!({
@@ -343,6 +371,7 @@ impl Sim {
                         "unit": unit,
                         "npy": format!("{stem}.npy"),
                         "png": format!("{stem}.png"),
+                        "svg": format!("{stem}.svg"),
                         "peak": self.peak_json(m),
                     }),
                 )
@@ -430,32 +459,29 @@ impl Sim {
     }
 }
 
-/// Writes one `.npy` and one PNG per map and `summary.json` into `out`.
+/// Writes one `.npy` and one figure per map (`fig`'s formats) and
+/// `summary.json` into `out`.
 pub fn write_outputs(
     plan: &Plan,
     sim: &Sim,
     view: &View,
     radius_mm: f64,
+    fig: &Figure,
     out: &Path,
 ) -> anyhow::Result<()> {
     let ov = overlay(plan, &sim.plane, sim.disk_mm);
-    let kind = if plan.trajectory.foci > 1 {
-        "LM-M"
-    } else {
-        "LM-S"
-    };
-    for (stem, title, unit, map) in map_list(&sim.maps) {
+    for (stem, _, _, colorbar, map) in map_list(&sim.maps) {
         let npy_path = out.join(format!("{stem}.npy"));
         npy::write_f64(&npy_path, sim.maps.nv, sim.maps.nu, map)?;
         let panel = Panel {
-            title: format!(
-                "{title}: {kind}, A = {radius_mm} mm, N = {}",
-                plan.trajectory.steps
-            ),
             map,
             overlay: ov.clone(),
         };
-        plot::heatmap(&out.join(format!("{stem}.png")), &sim.plane, &panel, unit)?;
+        let labels = Labels {
+            colorbar: colorbar.into(),
+            ..labels(plan, &sim.plane, sim.disk_mm)
+        };
+        plot::heatmap(&out.join(stem), &sim.plane, &panel, &labels, fig)?;
     }
     let summary = sim.summary_json(plan, view, radius_mm);
     let path = out.join("summary.json");
