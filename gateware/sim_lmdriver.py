@@ -8,6 +8,7 @@ and `N passed, M failed`; exits 1 if any failed. Figures also go to
 """
 
 import json
+import os
 import random
 import re
 import sys
@@ -20,6 +21,8 @@ from amaranth.sim import Simulator
 from lmdriver import COUNTS, SPI_FRAME_MAGIC, SPI_HEADER_LEN, LmDriver, duty_counts
 
 ROOT = Path(__file__).resolve().parent.parent
+#: frames.bin in, figures.json out (`cargo xtask gateware` sets it).
+OUT = Path(os.environ.get("LM_GW_OUT", ROOT / "target" / "gateware"))
 N = 16  # channels in the simulation (the fixture's transducers)
 K = 2  # clocks per carrier count in the simulation (speed)
 HALF = 2  # clocks per SCK half period: SCK = f_clk / 4, the fastest allowed
@@ -180,7 +183,7 @@ FRAMES = []
 
 
 def load_frames():
-    path = ROOT / "target" / "gateware" / "frames.bin"
+    path = OUT / "frames.bin"
     data = path.read_bytes()
     frames, i = [], 0
     while i < len(data):
@@ -243,6 +246,9 @@ def test_lm_m_frames_from_the_core():
     FIG["duty_counts"] = patterns[0][1]
     FIG["frames_checked"] = len(frames)
     FIG["frame_bytes"] = len(frames[0])
+    FIG["spi_frame_clocks"] = cs_high[0] - (cs_high[0] - 2 * HALF - 16 * HALF * len(frames[0]))
+    # CS low to CS high, in SCK periods at the board's SCK (DRIVER.md).
+    FIG["spi_frame_us_at_16mhz"] = FIG["spi_frame_clocks"] / (2 * HALF) / 16
     assert rec["good"][-1] == len(frames) and rec["bad"][-1] == 0
 
 
@@ -393,7 +399,11 @@ def test_documented_clock_k8():
 
 def main():
     global FRAMES
-    FRAMES = load_frames()
+    try:
+        FRAMES = load_frames()
+    except OSError as e:
+        print(f"cannot read the core's frames ({e}): run `cargo xtask gateware`")
+        return 2
     tests = [v for k, v in globals().items() if k.startswith("test_")]
     passed = failed = 0
     t0 = time.perf_counter()
@@ -417,7 +427,7 @@ def main():
         print(f"  latch to output: {FIG['latch_to_output_clocks_min'] / clk * 1e6:.2f}"
               f"..{FIG['latch_to_output_clocks_max'] / clk * 1e6:.2f} µs"
               f" (carrier period {period_s * 1e6:.0f} µs)")
-    out = ROOT / "target" / "gateware" / "figures.json"
+    out = OUT / "figures.json"
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(FIG, indent=1))
     print(f"{passed} passed, {failed} failed ({time.perf_counter() - t0:.1f} s)")

@@ -6,6 +6,10 @@
 //!   summary.
 //! - `python`: the CI's Python step alone: builds the `lmhost` package
 //!   into a venv under the target dir and runs `pytest python/tests`.
+//! - `gateware`: the CI's gateware step alone: dumps the core's SPI frames for
+//!   a planned LM-M sequence, then simulates the transducer driver
+//!   (`gateware/`, Amaranth in a venv under the target dir) against
+//!   `firmware/DRIVER.md`.
 //! - `build-fw`: release build of the QEMU firmware and the Nucleo board.
 //! - `qemu [--tcp PORT]`: run the firmware under QEMU, UART0 on a pty
 //!   (default) or on a TCP port on 127.0.0.1.
@@ -68,6 +72,10 @@ const STEPS: &[Step] = &[
     Step {
         name: "python: the lmhost package (maturin develop, own venv under target/) + pytest",
         run: step_python,
+    },
+    Step {
+        name: "gateware: driver simulation on the core's LM-M SPI frames (Amaranth, own venv)",
+        run: step_gateware,
     },
     Step {
         name: "on-target tests under QEMU (-icount shift=0)",
@@ -414,6 +422,39 @@ fn step_python(c: &Ctx) -> Result<(), String> {
         .env("CARGO_TARGET_DIR", &c.target_dir))
 }
 
+/// The transducer-driver gateware: the exact SPI frames `lm-fw-core` sends
+/// for a planned LM-M sequence (its `spi_frames` test writes them to
+/// `target/gateware/frames.bin`), then the Amaranth simulation tests in a
+/// virtual environment of their own under the target dir (pure Python, no
+/// Yosys needed to simulate).
+fn step_gateware(c: &Ctx) -> Result<(), String> {
+    let out = c.target_dir.join("gateware");
+    let frames = out.join("frames.bin");
+    let _ = std::fs::remove_file(&frames);
+    run(c
+        .cargo(&["test", "-q", "-p", "lm-fw-core", "--test", "spi_frames"])
+        .env("LM_GW_FRAMES_OUT", &frames))?;
+    let venv = c.target_dir.join("gw-venv");
+    let python = venv.join("bin").join("python");
+    if !python.exists() {
+        run(Command::new("python3").arg("-m").arg("venv").arg(&venv))
+            .map_err(|e| format!("{e}\nthe gateware step needs python3 with its venv module"))?;
+    }
+    run(Command::new(&python).args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--disable-pip-version-check",
+        "amaranth>=0.5,<0.6",
+    ]))?;
+    run(Command::new(&python)
+        .current_dir(c.root.join("gateware"))
+        .arg("sim_lmdriver.py")
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .env("LM_GW_OUT", &out))
+}
+
 /// QEMU command line for `elf`: no display, semihosting for output and exit
 /// status, and optionally a fixed 1 ns of virtual time per instruction.
 fn qemu_cmd(elf: &Path, icount: bool) -> Command {
@@ -640,8 +681,9 @@ fn main() -> ExitCode {
         Some("qemu") => qemu(&c, &args[1..]),
         Some("size") if args.len() == 1 => size(&c),
         Some("python") if args.len() == 1 => step_python(&c),
+        Some("gateware") if args.len() == 1 => step_gateware(&c),
         _ => Err(
-            "usage: cargo xtask <ci [--from STEP] | python | build-fw | qemu [--tcp PORT] | size>"
+            "usage: cargo xtask <ci [--from STEP] | python | gateware | build-fw | qemu [--tcp PORT] | size>"
                 .into(),
         ),
     };
