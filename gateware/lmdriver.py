@@ -143,12 +143,21 @@ class LmDriver(wiring.Component):
         active = Signal()
         silence = Signal(range(self.timeout_cycles + 1))
 
+        # Duty from the header, pipelined (two clocks): the header arrives
+        # at least N + 4 bytes before the latch can be armed.
+        product = Signal(16)
+        back_duty = Signal(8)
+        m.d.sync += [
+            product.eq(back_amp * back_int),
+            back_duty.eq((product * 129 + 32768) >> 16),
+        ]
+
         with m.If(cs_rise & ~whole):
             m.d.sync += bad.eq(bad + 1)
         with m.If(wrap & pending):
             m.d.sync += [f.eq(b) for f, b in zip(front, back)]
             m.d.sync += [
-                duty.eq((back_amp * back_int * 129 + 32768) >> 16),
+                duty.eq(back_duty),
                 active.eq(1),
                 pending.eq(0),
                 silence.eq(0),
@@ -178,13 +187,13 @@ class LmDriver(wiring.Component):
 if __name__ == "__main__":
     import argparse
 
-    from amaranth.back import verilog
+    from amaranth.back import rtlil
 
-    p = argparse.ArgumentParser(description="Write the driver as Verilog")
+    p = argparse.ArgumentParser(description="Write the driver as RTLIL (for Yosys)")
     p.add_argument("--channels", type=int, default=256)
     p.add_argument("--clocks-per-count", type=int, default=8)
     p.add_argument("out")
     a = p.parse_args()
     top = LmDriver(a.channels, a.clocks_per_count)
     with open(a.out, "w") as f:
-        f.write(verilog.convert(top, name="lm_driver"))
+        f.write(rtlil.convert(top, name="lm_driver"))
