@@ -523,7 +523,7 @@ fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
         println!("{}", line.trim_start_matches("Info: ").trim());
     }
     // nextpnr reports fmax after placement and again after routing: the last counts.
-    if let Some(line) = text.lines().filter(|l| l.contains("Max frequency")).last() {
+    if let Some(line) = text.lines().rfind(|l| l.contains("Max frequency")) {
         println!(
             "after routing: {}",
             line.trim_start_matches("Info: ").trim()
