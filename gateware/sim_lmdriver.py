@@ -206,7 +206,7 @@ def test_lm_m_frames_from_the_core():
     frame, in order, switching at the first period start after CS high;
     edges at the phase; high time from amplitude x intensity."""
     frames = FRAMES
-    assert len(frames) >= 24 and all(valid(f) for f in frames), "frames.bin"
+    assert len(frames) >= 25 and all(valid(f) for f in frames), "frames.bin"
     rng = random.Random(17)
     period = COUNTS * K
     w = Wave()
@@ -223,9 +223,12 @@ def test_lm_m_frames_from_the_core():
     FIG["sim_clocks_per_s"] = len(w) / (time.perf_counter() - t0)
     patterns = [pattern_of(f) for f in frames]
     shown = classify(rec, patterns, N, K)
+    # A muted frame (the core's last, on Stop) shows as silence.
     keys = [patterns[i] if i >= 0 else None for _, i in shown]
+    want = [p if p[1] > 0 else None for p in patterns]
     starts = [s for s, _ in shown]
-    assert all(patterns[j] != patterns[j + 1] for j in range(len(frames) - 1))
+    assert all(want[j] != want[j + 1] for j in range(len(frames) - 1))
+    assert want[-1] is None and frames[-1][1] == 0, "the core's Stop frame is muted"
     # Silent until the first frame, then frame j from the first period start
     # after its CS high (+ the synchroniser) until frame j + 1's.
     lat = []
@@ -233,13 +236,14 @@ def test_lm_m_frames_from_the_core():
     for j, at in enumerate(cs_high):
         q = next(q for q in range(q_prev, len(starts)) if starts[q] > at + SYNC - 2)
         assert all(k == prev_key for k in keys[q_prev + (j > 0):q]), f"frame {j - 1} held"
-        assert keys[q] == patterns[j], f"frame {j} shown at the next period start"
+        assert keys[q] == want[j], f"frame {j} shown at the next period start"
         assert starts[q] - at <= period + SYNC, (j, starts[q] - at)
         lat.append(starts[q] - at)
-        q_prev, prev_key = q, patterns[j]
+        q_prev, prev_key = q, want[j]
     assert all(k == prev_key for k in keys[q_prev:])
     # Periods indexed by pattern: replace indices by the frame shown.
     shown = [(s, patterns.index(k) if k else -1) for s, k in zip(starts, keys)]
+    FIG["stop_frame_silent_after_clocks"] = lat[-1]
     FIG["latch_to_output_clocks_max"] = max(lat)
     FIG["latch_to_output_clocks_min"] = min(lat)
     err = edge_error_lsb(rec, patterns, shown, N, K)

@@ -6,7 +6,8 @@
 //! transducers of `lmhost plan --foci 4 --steps 24 --freq 5
 //! --intensity 0.8` (the paper's LM-M on the built-in array), step-major.
 //! With `LM_GW_FRAMES_OUT` set, the frames are written there as
-//! `u32 LE length + bytes` records, one per SPI transaction.
+//! `u32 LE length + bytes` records, one per SPI transaction: two cycles,
+//! then the muted frame the core sends on `Stop`.
 
 mod common;
 
@@ -78,15 +79,22 @@ fn play_lm_m(cycles: u64) -> Vec<Vec<u8>> {
             .expect("a playing device has a deadline");
     }
     wire.transactions.truncate(total);
+    // Stop: the core sends one muted frame (amplitude 0) at once.
+    assert_eq!(request(&mut dev, 902, &Message::Stop, now), Reply::Ack);
+    dev.poll(now, &mut SpiOutput::new(&mut wire));
+    assert_eq!(wire.transactions.len(), total + 1, "one muted frame on Stop");
     wire.transactions
 }
 
 #[test]
 fn lm_m_frames_are_header_then_the_planned_phases() {
     let frames = play_lm_m(2);
-    assert_eq!(frames.len(), 2 * usize::from(STEPS));
+    assert_eq!(frames.len(), 2 * usize::from(STEPS) + 1);
     let t = usize::from(CHANNELS);
-    for (g, f) in frames.iter().enumerate() {
+    let (played, stop) = frames.split_at(frames.len() - 1);
+    assert_eq!(stop[0].len(), SPI_HEADER_LEN + t);
+    assert_eq!(&stop[0][..3], &[SPI_FRAME_MAGIC, 0, INTENSITY], "muted on Stop");
+    for (g, f) in played.iter().enumerate() {
         let k = g % usize::from(STEPS);
         assert_eq!(f.len(), SPI_HEADER_LEN + t, "frame {g}: one transaction");
         assert_eq!(f[0], SPI_FRAME_MAGIC);
