@@ -82,7 +82,11 @@ fn play_lm_m(cycles: u64) -> Vec<Vec<u8>> {
     // Stop: the core sends one muted frame (amplitude 0) at once.
     assert_eq!(request(&mut dev, 902, &Message::Stop, now), Reply::Ack);
     dev.poll(now, &mut SpiOutput::new(&mut wire));
-    assert_eq!(wire.transactions.len(), total + 1, "one muted frame on Stop");
+    assert_eq!(
+        wire.transactions.len(),
+        total + 1,
+        "one muted frame on Stop"
+    );
     wire.transactions
 }
 
@@ -93,7 +97,11 @@ fn lm_m_frames_are_header_then_the_planned_phases() {
     let t = usize::from(CHANNELS);
     let (played, stop) = frames.split_at(frames.len() - 1);
     assert_eq!(stop[0].len(), SPI_HEADER_LEN + t);
-    assert_eq!(&stop[0][..3], &[SPI_FRAME_MAGIC, 0, INTENSITY], "muted on Stop");
+    assert_eq!(
+        &stop[0][..3],
+        &[SPI_FRAME_MAGIC, 0, INTENSITY],
+        "muted on Stop"
+    );
     for (g, f) in played.iter().enumerate() {
         let k = g % usize::from(STEPS);
         assert_eq!(f.len(), SPI_HEADER_LEN + t, "frame {g}: one transaction");
