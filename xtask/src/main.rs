@@ -6,6 +6,13 @@
 //!   summary.
 //! - `python`: the CI's Python step alone: builds the `lmhost` package
 //!   into a venv under the target dir and runs `pytest python/tests`.
+//! - `gateware`: the CI's gateware step alone: dumps the core's SPI frames for
+//!   a planned LM-M sequence, then simulates the transducer driver
+//!   (`gateware/`, Amaranth in a venv under the target dir) against
+//!   `firmware/DRIVER.md`.
+//! - `bitstream [--channels N]`: synthesises the driver for an iCE40 HX8K
+//!   (ct256) with Yosys, nextpnr-ice40 and icepack from Debian (installed
+//!   when missing and root); prints utilisation and fmax. Not part of `ci`.
 //! - `build-fw`: release build of the QEMU firmware and the Nucleo board.
 //! - `qemu [--tcp PORT]`: run the firmware under QEMU, UART0 on a pty
 //!   (default) or on a TCP port on 127.0.0.1.
@@ -68,6 +75,10 @@ const STEPS: &[Step] = &[
     Step {
         name: "python: the lmhost package (maturin develop, own venv under target/) + pytest",
         run: step_python,
+    },
+    Step {
+        name: "gateware: driver simulation on the core's LM-M SPI frames (Amaranth, own venv)",
+        run: step_gateware,
     },
     Step {
         name: "on-target tests under QEMU (-icount shift=0)",
@@ -414,6 +425,127 @@ fn step_python(c: &Ctx) -> Result<(), String> {
         .env("CARGO_TARGET_DIR", &c.target_dir))
 }
 
+/// The transducer-driver gateware: the exact SPI frames `lm-fw-core` sends
+/// for a planned LM-M sequence (its `spi_frames` test writes them to
+/// `target/gateware/frames.bin`), then the Amaranth simulation tests in a
+/// virtual environment of their own under the target dir (pure Python, no
+/// Yosys needed to simulate).
+fn step_gateware(c: &Ctx) -> Result<(), String> {
+    let out = c.target_dir.join("gateware");
+    let frames = out.join("frames.bin");
+    let _ = std::fs::remove_file(&frames);
+    run(c
+        .cargo(&["test", "-q", "-p", "lm-fw-core", "--test", "spi_frames"])
+        .env("LM_GW_FRAMES_OUT", &frames))?;
+    let venv = c.target_dir.join("gw-venv");
+    let python = venv.join("bin").join("python");
+    if !python.exists() {
+        run(Command::new("python3").arg("-m").arg("venv").arg(&venv))
+            .map_err(|e| format!("{e}\nthe gateware step needs python3 with its venv module"))?;
+    }
+    run(Command::new(&python).args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--disable-pip-version-check",
+        "amaranth>=0.5,<0.6",
+    ]))?;
+    run(Command::new(&python)
+        .current_dir(c.root.join("gateware"))
+        .arg("sim_lmdriver.py")
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .env("LM_GW_OUT", &out))
+}
+
+/// Default channel count of `bitstream`: one pin per channel, so the
+/// HX8K's 206 I/Os and 7680 cells bound it (DRIVER.md, BENCHMARKS.md).
+const BITSTREAM_CHANNELS: &str = "64";
+
+/// Yosys + nextpnr-ice40 + icepack for the driver at the documented clock
+/// (81.92 MHz), pins left to the placer (no board yet).
+fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
+    let channels = match args {
+        [] => BITSTREAM_CHANNELS.to_string(),
+        [flag, n] if flag == "--channels" && n.parse::<u16>().is_ok_and(|n| n > 0) => n.clone(),
+        _ => return Err("usage: cargo xtask bitstream [--channels N]".into()),
+    };
+    if !has_program("yosys") || !has_program("nextpnr-ice40") || !has_program("icepack") {
+        if !is_root() {
+            return Err("bitstream needs yosys, nextpnr-ice40 and icepack: \
+                        apt-get install -y yosys nextpnr-ice40 fpga-icestorm"
+                .into());
+        }
+        run(Command::new("apt-get").args([
+            "install",
+            "-y",
+            "yosys",
+            "nextpnr-ice40",
+            "fpga-icestorm",
+        ]))?;
+    }
+    let python = c.target_dir.join("gw-venv").join("bin").join("python");
+    if !python.exists() {
+        return Err("run `cargo xtask gateware` first (it sets up the venv)".into());
+    }
+    let out = c.target_dir.join("gateware").join("bitstream");
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let il = out.join(format!("lm_driver_{channels}.il"));
+    let json = out.join(format!("lm_driver_{channels}.json"));
+    let asc = out.join(format!("lm_driver_{channels}.asc"));
+    let bin = out.join(format!("lm_driver_{channels}.bin"));
+    let log = out.join(format!("nextpnr_{channels}.log"));
+    run(Command::new(&python)
+        .arg(c.root.join("gateware").join("lmdriver.py"))
+        .args(["--channels", &channels])
+        .arg(&il)
+        .env("PYTHONDONTWRITEBYTECODE", "1"))?;
+    run(Command::new("yosys").arg("-q").arg("-p").arg(format!(
+        "read_rtlil {}; synth_ice40 -top lm_driver -json {}",
+        il.display(),
+        json.display()
+    )))?;
+    let pnr = Command::new("nextpnr-ice40")
+        .args(["--hx8k", "--package", "ct256", "--freq", "81.92"])
+        .arg("--pcf-allow-unconstrained")
+        .arg("--json")
+        .arg(&json)
+        .arg("--asc")
+        .arg(&asc)
+        .arg("--log")
+        .arg(&log)
+        .stderr(Stdio::null())
+        .status()
+        .map_err(|e| format!("cannot start nextpnr-ice40: {e}"))?;
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let keep = |l: &&str| l.contains("ICESTORM_LC:") || l.contains("SB_IO:") || l.contains("ERROR");
+    for line in text.lines().filter(keep) {
+        println!("{}", line.trim_start_matches("Info: ").trim());
+    }
+    // nextpnr reports fmax after placement and again after routing: the last counts.
+    if let Some(line) = text.lines().rfind(|l| l.contains("Max frequency")) {
+        println!(
+            "after routing: {}",
+            line.trim_start_matches("Info: ").trim()
+        );
+    }
+    if !pnr.success() {
+        return Err(format!(
+            "nextpnr-ice40 failed ({pnr}); see {}",
+            log.display()
+        ));
+    }
+    run(Command::new("icepack").arg(&asc).arg(&bin))?;
+    println!("bitstream: {}", bin.display());
+    Ok(())
+}
+
+/// Whether `name` is on `PATH`.
+fn has_program(name: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(name).is_file()))
+}
+
 /// QEMU command line for `elf`: no display, semihosting for output and exit
 /// status, and optionally a fixed 1 ns of virtual time per instruction.
 fn qemu_cmd(elf: &Path, icount: bool) -> Command {
@@ -640,8 +772,10 @@ fn main() -> ExitCode {
         Some("qemu") => qemu(&c, &args[1..]),
         Some("size") if args.len() == 1 => size(&c),
         Some("python") if args.len() == 1 => step_python(&c),
+        Some("gateware") if args.len() == 1 => step_gateware(&c),
+        Some("bitstream") => bitstream(&c, &args[1..]),
         _ => Err(
-            "usage: cargo xtask <ci [--from STEP] | python | build-fw | qemu [--tcp PORT] | size>"
+            "usage: cargo xtask <ci [--from STEP] | python | gateware | bitstream [--channels N] | build-fw | qemu [--tcp PORT] | size>"
                 .into(),
         ),
     };

@@ -1,0 +1,132 @@
+//! The exact SPI bytes the core sends for a planned LM-M sequence: the
+//! input of the gateware simulation (`cargo xtask gateware`, see
+//! `firmware/DRIVER.md`).
+//!
+//! The sequence is `gateware/fixtures/lmm-24x16.phases`: the first 16
+//! transducers of `lmhost plan --foci 4 --steps 24 --freq 5
+//! --intensity 0.8` (the paper's LM-M on the built-in array), step-major.
+//! With `LM_GW_FRAMES_OUT` set, the frames are written there as
+//! `u32 LE length + bytes` records, one per SPI transaction: two cycles,
+//! then the muted frame the core sends on `Stop`.
+
+mod common;
+
+use common::*;
+use embedded_hal::spi::{Operation, SpiDevice};
+use lm_fw_core::SpiOutput;
+use lm_fw_core::output::{SPI_FRAME_MAGIC, SPI_HEADER_LEN};
+use lm_proto::codec::Encoding;
+use lm_proto::{Message, PlayAt};
+
+const PHASES: &[u8] = include_bytes!("../../../gateware/fixtures/lmm-24x16.phases");
+const STEPS: u16 = 24;
+const CHANNELS: u16 = 16;
+const PERIOD_US: u32 = 200_000;
+/// `round(0.8 × 255)`.
+const INTENSITY: u8 = 204;
+
+/// An SPI device keeping each transaction's written bytes.
+#[derive(Default)]
+struct Wire {
+    transactions: Vec<Vec<u8>>,
+}
+
+impl embedded_hal::spi::ErrorType for Wire {
+    type Error = core::convert::Infallible;
+}
+
+impl SpiDevice for Wire {
+    fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), Self::Error> {
+        let mut bytes = Vec::new();
+        for op in ops.iter() {
+            if let Operation::Write(w) = op {
+                bytes.extend_from_slice(w);
+            }
+        }
+        self.transactions.push(bytes);
+        Ok(())
+    }
+}
+
+/// Uploads the fixture, plays it for `cycles` cycles through [`SpiOutput`]
+/// and returns every SPI transaction.
+fn play_lm_m(cycles: u64) -> Vec<Vec<u8>> {
+    let mut seq = Seq::pattern(STEPS, CHANNELS, PERIOD_US, 0);
+    seq.phases = PHASES.to_vec();
+    let mut dev = device(config(CHANNELS), PHASES.len());
+    let stream = seq.encode(Encoding::Raw);
+    for (i, mut m) in seq
+        .upload_requests(0, Encoding::Raw, &stream, 700)
+        .into_iter()
+        .enumerate()
+    {
+        if let Message::BeginUpload(b) = &mut m {
+            b.header.intensity = INTENSITY;
+        }
+        assert_eq!(request(&mut dev, i as u16, &m, 0), Reply::Ack, "{m:?}");
+    }
+    assert_eq!(request(&mut dev, 900, &seq.commit(0), 0), Reply::Ack);
+    assert_eq!(
+        request(&mut dev, 901, &play(0, PlayAt::Immediate), 0),
+        Reply::Ack
+    );
+    let mut wire = Wire::default();
+    let total = cycles as usize * usize::from(STEPS);
+    let mut now = 0;
+    while wire.transactions.len() < total {
+        now = dev
+            .poll(now, &mut SpiOutput::new(&mut wire))
+            .expect("a playing device has a deadline");
+    }
+    wire.transactions.truncate(total);
+    // Stop: the core sends one muted frame (amplitude 0) at once.
+    assert_eq!(request(&mut dev, 902, &Message::Stop, now), Reply::Ack);
+    dev.poll(now, &mut SpiOutput::new(&mut wire));
+    assert_eq!(
+        wire.transactions.len(),
+        total + 1,
+        "one muted frame on Stop"
+    );
+    wire.transactions
+}
+
+#[test]
+fn lm_m_frames_are_header_then_the_planned_phases() {
+    let frames = play_lm_m(2);
+    assert_eq!(frames.len(), 2 * usize::from(STEPS) + 1);
+    let t = usize::from(CHANNELS);
+    let (played, stop) = frames.split_at(frames.len() - 1);
+    assert_eq!(stop[0].len(), SPI_HEADER_LEN + t);
+    assert_eq!(
+        &stop[0][..3],
+        &[SPI_FRAME_MAGIC, 0, INTENSITY],
+        "muted on Stop"
+    );
+    for (g, f) in played.iter().enumerate() {
+        let k = g % usize::from(STEPS);
+        assert_eq!(f.len(), SPI_HEADER_LEN + t, "frame {g}: one transaction");
+        assert_eq!(f[0], SPI_FRAME_MAGIC);
+        assert_eq!(f[1], 255, "unmuted (tracking not required)");
+        assert_eq!(f[2], INTENSITY);
+        assert_eq!(u16::from_le_bytes([f[3], f[4]]) as usize, k);
+        assert_eq!(u16::from_le_bytes([f[5], f[6]]), CHANNELS);
+        // Centroid at the planned centre: the phases go out as planned.
+        assert_eq!(
+            &f[SPI_HEADER_LEN..],
+            &PHASES[k * t..(k + 1) * t],
+            "step {k}"
+        );
+    }
+    if let Some(path) = std::env::var_os("LM_GW_FRAMES_OUT") {
+        let mut bytes = Vec::new();
+        for f in &frames {
+            bytes.extend_from_slice(&(f.len() as u32).to_le_bytes());
+            bytes.extend_from_slice(f);
+        }
+        let path = std::path::PathBuf::from(path);
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).unwrap();
+        }
+        std::fs::write(&path, bytes).unwrap();
+    }
+}
