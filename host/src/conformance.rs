@@ -335,15 +335,11 @@ fn run_one(
 
 #[cfg(test)]
 mod tests {
-    use std::sync::{Arc, Mutex};
-
     use super::*;
     use crate::autd3::{Autd3Backend, Autd3Port};
     use crate::clock::Clock;
-    use crate::connect::{LmBackend, Target};
-    use crate::link::Client;
+    use crate::connect::Target;
     use crate::scene::Scene;
-    use crate::simdev::{FwCore, InProcess, SimConfig};
     use crate::stimulus::Stimulus;
 
     /// The paper's LM-S for `target` on the built-in scene: wide (the
@@ -361,11 +357,8 @@ mod tests {
 
     /// A fresh simulated LM firmware in process on a manual clock.
     fn sim_dut() -> anyhow::Result<Dut> {
-        let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default())?));
         let clock = Clock::manual_at_us(1_000_000);
-        let client = Client::new(InProcess::new(core, clock.clone()));
-        let mut dev = LmBackend::new(client, lm_proto::Encoding::Delta);
-        dev.progress = false;
+        let (dev, _) = crate::connect::simulated(clock.clone())?;
         Ok(Dut {
             dev: Box::new(dev),
             wait: Box::new(move |_, d| {

@@ -15,7 +15,9 @@ use crate::backend::{
 use crate::link::{Client, LinkError, PortSpec, Transport, UploadSpec, discover};
 use crate::scene::Scene;
 use crate::sequence::{Plan, Synthesis};
+use crate::simdev::{FwCore, InProcess, SimConfig};
 use crate::trajectory::LmParams;
+use std::sync::{Arc, Mutex};
 
 impl PortSpec {
     /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
@@ -127,6 +129,23 @@ impl<T: Transport> LmBackend<T> {
         self.info = Some(i);
         Ok(i)
     }
+}
+
+/// The simulated LM firmware in process, as a backend.
+pub type Simulated = LmBackend<InProcess<FwCore>>;
+
+/// The simulated LM firmware ([`FwCore`] with its default configuration)
+/// in process on `clock`, without a progress bar: the device of tests,
+/// benches and the conformance table. The core comes back too, to read its
+/// output or counters.
+pub fn simulated(clock: crate::clock::Clock) -> anyhow::Result<(Simulated, Arc<Mutex<FwCore>>)> {
+    let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default())?));
+    let mut dev = LmBackend::new(
+        Client::new(InProcess::new(core.clone(), clock)),
+        Encoding::Delta,
+    );
+    dev.progress = false;
+    Ok((dev, core))
 }
 
 impl<T: Transport> Backend for LmBackend<T> {
@@ -264,18 +283,14 @@ mod tests {
 
     use super::*;
     use crate::clock::Clock;
-    use crate::simdev::{FwCore, InProcess, SimConfig};
     use crate::stimulus::Stimulus;
 
     /// The simulated firmware in process on a manual clock, keeping its
     /// output frames.
     fn sim() -> (LmBackend<InProcess<FwCore>>, Arc<Mutex<FwCore>>, Clock) {
-        let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default()).unwrap()));
-        core.lock().unwrap().set_capture(true);
         let clock = Clock::manual_at_us(1_000_000);
-        let client = Client::new(InProcess::new(core.clone(), clock.clone()));
-        let mut dev = LmBackend::new(client, Encoding::Delta);
-        dev.progress = false;
+        let (dev, core) = simulated(clock.clone()).unwrap();
+        core.lock().unwrap().set_capture(true);
         (dev, core, clock)
     }
 

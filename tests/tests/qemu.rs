@@ -28,7 +28,7 @@ use lm_proto::{
 
 mod link_support;
 mod qemu_support;
-use qemu_support::{firmware_elf, free_port, qemu_command, qemu_installed};
+use qemu_support::{firmware_elf, free_port, qemu_command, qemu_command_icount, qemu_installed};
 
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
 const SOUND_SPEED_MM_S: u32 = 340_000;
@@ -41,16 +41,19 @@ struct Qemu {
 }
 
 impl Qemu {
+    /// Starts `cmd` (QEMU serving UART0 on `port`), its console output to
+    /// a log file.
+    fn spawn(mut cmd: std::process::Command, port: u16) -> std::io::Result<Qemu> {
+        let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
+        let out = std::fs::File::create(&log)?;
+        let child = cmd.stdout(out.try_clone()?).stderr(out).spawn()?;
+        Ok(Qemu { child, log })
+    }
+
     fn start(elf: &Path) -> (Qemu, TcpStream) {
         let port = free_port();
-        let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
-        let out = std::fs::File::create(&log).unwrap();
-        let child = qemu_command(elf, port, true)
-            .stdout(out.try_clone().unwrap())
-            .stderr(out)
-            .spawn()
-            .expect("start qemu-system-arm");
-        let mut q = Qemu { child, log };
+        let mut q =
+            Qemu::spawn(qemu_command(elf, port, true), port).expect("start qemu-system-arm");
         let deadline = Instant::now() + Duration::from_secs(20);
         loop {
             match TcpStream::connect(("127.0.0.1", port)) {
@@ -88,6 +91,18 @@ impl Drop for Qemu {
         let _ = self.child.wait();
         if std::thread::panicking() {
             eprintln!("{}", self.output());
+        }
+    }
+}
+
+/// `connect` retried for 20 s while QEMU starts listening.
+fn within_20_s<T>(mut connect: impl FnMut() -> anyhow::Result<T>) -> anyhow::Result<T> {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        match connect() {
+            Ok(t) => return Ok(t),
+            Err(e) if Instant::now() > deadline => return Err(e),
+            Err(_) => std::thread::sleep(Duration::from_millis(50)),
         }
     }
 }
@@ -484,22 +499,9 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
         &mut || {
             held.clear();
             let port = free_port();
-            let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
-            let out = std::fs::File::create(&log)?;
-            let child = qemu_command(&elf, port, false)
-                .stdout(out.try_clone()?)
-                .stderr(out)
-                .spawn()?;
-            held.push(Qemu { child, log });
+            held.push(Qemu::spawn(qemu_command(&elf, port, false), port)?);
             let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
-            let deadline = Instant::now() + Duration::from_secs(20);
-            let dev = loop {
-                match lmhost::connect::open(&spec, &Scene::default()) {
-                    Ok(d) => break d,
-                    Err(e) if Instant::now() > deadline => return Err(e),
-                    Err(_) => std::thread::sleep(Duration::from_millis(50)),
-                }
-            };
+            let dev = within_20_s(|| lmhost::connect::open(&spec, &Scene::default()))?;
             Ok(Dut {
                 dev,
                 wait: Box::new(move |dev, d| wait_on_device(dev, d, steps, dwell_us)),
@@ -601,23 +603,10 @@ fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     }
     let elf = firmware_elf();
     let port = free_port();
-    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
-    let out = std::fs::File::create(&log).unwrap();
-    let child = qemu_command(&elf, port, false)
-        .stdout(out.try_clone().unwrap())
-        .stderr(out)
-        .spawn()
-        .expect("start qemu-system-arm");
-    let _qemu = Qemu { child, log };
+    let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
     let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let client = loop {
-        match spec.connect() {
-            Ok(c) => break c,
-            Err(e) if Instant::now() > deadline => panic!("connecting to QEMU: {e}"),
-            Err(_) => std::thread::sleep(Duration::from_millis(50)),
-        }
-    };
+    let client =
+        within_20_s(|| spec.connect()).unwrap_or_else(|e| panic!("connecting to QEMU: {e}"));
     let mut dev = LmBackend::new(client, Encoding::Delta);
     dev.progress = false;
     let info = dev.info().unwrap();
@@ -753,25 +742,15 @@ fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
     }
     let elf = firmware_elf();
     let port = free_port();
-    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
-    let out = std::fs::File::create(&log).unwrap();
     // `-icount shift=auto`: the guest's clock follows the host's, so what
     // the device counts and what the host times can be compared (with
     // `shift=0` a busy guest's second lasts as long as QEMU takes to run
     // 10^9 instructions).
-    let child = std::process::Command::new("qemu-system-arm")
-        .args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
-        .args(["-semihosting-config", "enable=on,target=native"])
-        .args(["-icount", "shift=auto,sleep=on"])
-        .arg("-serial")
-        .arg(format!("tcp:127.0.0.1:{port},server=on,wait=off"))
-        .arg("-kernel")
-        .arg(&elf)
-        .stdout(out.try_clone().unwrap())
-        .stderr(out)
-        .spawn()
-        .expect("start qemu-system-arm");
-    let _qemu = Qemu { child, log };
+    let _qemu = Qemu::spawn(
+        qemu_command_icount(&elf, port, false, "shift=auto,sleep=on"),
+        port,
+    )
+    .expect("start qemu-system-arm");
     let deadline = Instant::now() + Duration::from_secs(20);
     while TcpStream::connect(("127.0.0.1", port)).is_err() {
         assert!(Instant::now() < deadline, "QEMU's UART never listened");
@@ -894,23 +873,10 @@ fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
     }
     let elf = firmware_elf();
     let port = free_port();
-    let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
-    let out = std::fs::File::create(&log).unwrap();
-    let child = qemu_command(&elf, port, false)
-        .stdout(out.try_clone().unwrap())
-        .stderr(out)
-        .spawn()
-        .expect("start qemu-system-arm");
-    let _qemu = Qemu { child, log };
+    let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
     let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let mut dev = loop {
-        match lmhost::connect::open(&spec, &Scene::default()) {
-            Ok(d) => break d,
-            Err(e) if Instant::now() > deadline => panic!("{e:#}"),
-            Err(_) => std::thread::sleep(Duration::from_millis(50)),
-        }
-    };
+    let mut dev = within_20_s(|| lmhost::connect::open(&spec, &Scene::default()))
+        .unwrap_or_else(|e| panic!("{e:#}"));
     let plan = Stimulus::default()
         .plan_for(&Target::Lm, Scene::default())
         .unwrap()

@@ -3,7 +3,6 @@
 //! events, on the simulated LM firmware (in process, real clock) and the
 //! AUTD3 emulator.
 
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
@@ -12,12 +11,10 @@ use super::{Options, Section};
 use crate::autd3::{Autd3Backend, Autd3Port};
 use crate::backend::Backend;
 use crate::clock::Clock;
-use crate::connect::{LmBackend, Target};
+use crate::connect::Target;
 use crate::library::Library;
-use crate::link::Client;
 use crate::rig::{EventKind, Gate, Present, Session};
 use crate::scene::Scene;
-use crate::simdev::{FwCore, InProcess, SimConfig};
 
 /// The paper's 5 Hz LM-S and LM-M at A = 3 mm.
 const LIBRARY: &str = r#"
@@ -54,13 +51,7 @@ pub struct SessionFigures {
 }
 
 fn lm_dev() -> anyhow::Result<Box<dyn Backend>> {
-    let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default())?));
-    let mut dev = LmBackend::new(
-        Client::new(InProcess::new(core, Clock::real())),
-        lm_proto::Encoding::Delta,
-    );
-    dev.progress = false;
-    Ok(Box::new(dev))
+    Ok(Box::new(crate::connect::simulated(Clock::real())?.0))
 }
 
 fn autd3_dev() -> anyhow::Result<Box<dyn Backend>> {

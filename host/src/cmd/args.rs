@@ -73,3 +73,30 @@ pub fn filter() -> impl TypedValueParser<Value = FilterKind> {
             .unwrap_or(FilterKind::Kalman)
     })
 }
+
+/// Tracked finger centroids on a reader thread, for `session` and `study
+/// run`: UDP datagrams on 127.0.0.1:`udp`, else JSON or CSV lines from
+/// `stream` (`-`: stdin; `lmhost track --json` lines included); `None`
+/// when neither is given.
+pub fn centroid_feed(
+    udp: Option<u16>,
+    stream: Option<&std::path::Path>,
+) -> anyhow::Result<Option<lmhost::stream::run::Threaded>> {
+    use lmhost::stream::run::on_thread;
+    use lmhost::stream::source;
+    if let Some(port) = udp {
+        let max = lmhost::limits::MAX_SECONDS;
+        let idle = lmhost::limits::duration_s("--udp idle time", max, max)?;
+        let udp = source::udp(port, idle, std::sync::Arc::default())?;
+        return Ok(Some(on_thread(move || udp)?));
+    }
+    let Some(p) = stream else {
+        return Ok(None);
+    };
+    Ok(Some(if p.as_os_str() == "-" {
+        on_thread(|| source::read_lines(std::io::stdin().lock()))?
+    } else {
+        let reader = std::io::BufReader::new(lmhost::files::open_input("--stream file", p)?);
+        on_thread(move || source::read_lines(reader))?
+    }))
+}

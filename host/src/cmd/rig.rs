@@ -10,7 +10,6 @@ use lmhost::rig::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options}
 use lmhost::scene::Scene;
 use lmhost::stream::filter::FilterKind;
 use lmhost::stream::run::on_thread;
-use lmhost::stream::source;
 
 use super::args::PortArgs;
 
@@ -190,26 +189,8 @@ impl Args {
             })?)
         } else if self.synthetic {
             Finger::Synthetic
-        } else if let Some(port) = self.udp {
-            let counts = std::sync::Arc::new(source::UdpCounts::default());
-            let udp = source::udp(
-                port,
-                lmhost::limits::duration_s(
-                    "session",
-                    lmhost::limits::MAX_SECONDS,
-                    lmhost::limits::MAX_SECONDS,
-                )?,
-                counts,
-            )?;
-            Finger::Samples(on_thread(move || udp)?)
-        } else if let Some(p) = &self.stream {
-            if stream_stdin {
-                Finger::Samples(on_thread(|| source::read_lines(std::io::stdin().lock()))?)
-            } else {
-                let f = lmhost::files::open_input("--stream file", p)?;
-                let reader = std::io::BufReader::new(f);
-                Finger::Samples(on_thread(move || source::read_lines(reader))?)
-            }
+        } else if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
+            Finger::Samples(feed)
         } else {
             Finger::None
         };

@@ -5,8 +5,6 @@ use std::path::PathBuf;
 
 use clap::{Subcommand, ValueEnum};
 use lmhost::stream::filter::FilterKind;
-use lmhost::stream::run::on_thread;
-use lmhost::stream::source;
 use lmhost::study::{self, AnswerSource, FingerSource, RunOptions};
 
 use super::args::PortArgs;
@@ -116,40 +114,20 @@ impl RunArgs {
             lmhost::bad_input!("--stream - reads stdin, so the answers need --responses FILE");
         }
         let filter = self.filter.build();
-        Ok(if let Some(port) = self.udp {
-            let counts = std::sync::Arc::new(source::UdpCounts::default());
-            let udp = source::udp(
-                port,
-                lmhost::limits::duration_s(
-                    "study",
-                    lmhost::limits::MAX_SECONDS,
-                    lmhost::limits::MAX_SECONDS,
-                )?,
-                counts,
-            )?;
-            FingerSource::Samples {
-                feed: on_thread(move || udp)?,
-                filter,
-                name: format!("udp:{port}"),
-            }
-        } else if let Some(p) = &self.stream {
-            let feed = if stdin {
-                on_thread(|| source::read_lines(std::io::stdin().lock()))?
+        let name = match (self.udp, &self.stream) {
+            (Some(port), _) => format!("udp:{port}"),
+            (None, Some(p)) => format!("stream:{}", p.display()),
+            (None, None) => String::new(),
+        };
+        Ok(
+            if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
+                FingerSource::Samples { feed, filter, name }
+            } else if self.finger == Finger::Synthetic {
+                FingerSource::Synthetic
             } else {
-                let f = lmhost::files::open_input("--stream file", p)?;
-                let reader = std::io::BufReader::new(f);
-                on_thread(move || source::read_lines(reader))?
-            };
-            FingerSource::Samples {
-                feed,
-                filter,
-                name: format!("stream:{}", p.display()),
-            }
-        } else if self.finger == Finger::Synthetic {
-            FingerSource::Synthetic
-        } else {
-            FingerSource::None
-        })
+                FingerSource::None
+            },
+        )
     }
 
     fn run(self) -> anyhow::Result<()> {

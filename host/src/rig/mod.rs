@@ -404,15 +404,7 @@ impl Session {
             muted_us: 0,
         };
         // A presentation waiting to switch in never played: drop it.
-        if let Some(c) = self
-            .current
-            .take_if(|c| matches!(c.phase, Phase::Switching { .. }))
-        {
-            self.emit(EventKind::Cancelled {
-                stimulus: self.loaded[c.entry].id.clone(),
-            });
-            self.current = self.outgoing.take();
-        }
+        self.cancel_switch();
         let playing = self.current.as_ref().and_then(Presentation::sounding_slot);
         let id = self.loaded[i].id.clone();
         match playing {
@@ -579,15 +571,7 @@ impl Session {
 
     /// Stops whatever plays or waits: the array is silent afterwards.
     pub fn stop(&mut self, reason: OffsetReason) -> anyhow::Result<()> {
-        if let Some(p) = self
-            .current
-            .take_if(|c| matches!(c.phase, Phase::Switching { .. }))
-        {
-            self.emit(EventKind::Cancelled {
-                stimulus: self.loaded[p.entry].id.clone(),
-            });
-            self.current = self.outgoing.take();
-        }
+        self.cancel_switch();
         let slot = self.current.as_ref().map(|p| p.slot);
         let device = match slot {
             Some(s) => self.stop_device(s)?,
@@ -717,6 +701,45 @@ impl Session {
         Ok(())
     }
 
+    /// Drops a presentation still waiting for its switch (it never
+    /// played; `cancelled`): the outgoing one is current again.
+    fn cancel_switch(&mut self) {
+        if let Some(c) = self
+            .current
+            .take_if(|c| matches!(c.phase, Phase::Switching { .. }))
+        {
+            self.emit(EventKind::Cancelled {
+                stimulus: self.loaded[c.entry].id.clone(),
+            });
+            self.current = self.outgoing.take();
+        }
+    }
+
+    /// Ends the outgoing presentation at `at` (host µs; its offset for
+    /// `reason` with what the `device` played, then `done`) and makes the
+    /// one waiting for the switch current.
+    fn hand_over(
+        &mut self,
+        at: u64,
+        reason: OffsetReason,
+        device: Option<f64>,
+    ) -> anyhow::Result<()> {
+        let incoming = self.current.take();
+        self.current = self.outgoing.take();
+        self.offset_at(at, reason, device)?;
+        if let Some(o) = self.current.take() {
+            self.emit_at(
+                at,
+                EventKind::Done {
+                    stimulus: self.loaded[o.entry].id.clone(),
+                    reps: o.rep,
+                },
+            );
+        }
+        self.current = incoming;
+        Ok(())
+    }
+
     /// Follows the device: a switch taking effect, a timed on-phase ending,
     /// mute changes.
     fn observe(&mut self, s: &Status) -> anyhow::Result<()> {
@@ -728,21 +751,12 @@ impl Session {
             && matches!(p.phase, Phase::Switching { .. })
             && s.state == DeviceState::Stopped
         {
-            let incoming = self.current.take();
-            self.current = self.outgoing.take();
             let played = self
-                .current
+                .outgoing
                 .as_ref()
                 .and_then(|o| self.played_us(o.slot, s))
                 .map(|us| us as f64 / 1e6);
-            self.offset(OffsetReason::Timer, played)?;
-            if let Some(o) = self.current.take() {
-                self.emit(EventKind::Done {
-                    stimulus: self.loaded[o.entry].id.clone(),
-                    reps: o.rep,
-                });
-            }
-            self.current = incoming;
+            self.hand_over(now, OffsetReason::Timer, played)?;
             if let Some(p) = &self.current {
                 let (slot, untracked, on) = (p.slot, p.untracked, p.on);
                 self.start(slot, untracked, on)?;
@@ -766,19 +780,7 @@ impl Session {
                 .map(|o| self.loaded[o.entry].id.clone());
             let to = self.loaded[p.entry].id.clone();
             // The outgoing one's offset, then the new one's onset.
-            let incoming = self.current.take();
-            self.current = self.outgoing.take();
-            let _ = self.offset_at(switched_at, OffsetReason::Switch, None);
-            if let Some(o) = self.current.take() {
-                self.emit_at(
-                    switched_at,
-                    EventKind::Done {
-                        stimulus: self.loaded[o.entry].id.clone(),
-                        reps: o.rep,
-                    },
-                );
-            }
-            self.current = incoming;
+            self.hand_over(switched_at, OffsetReason::Switch, None)?;
             self.switch_us.push(latency);
             self.emit_at(
                 switched_at,

@@ -1,15 +1,12 @@
 //! The session against the simulated LM firmware and the AUTD3 emulator,
 //! on the real clock (short stimuli: 25 Hz, a few steps).
 
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::*;
 use crate::autd3::{Autd3Backend, Autd3Port};
 use crate::clock::Clock;
-use crate::connect::{LmBackend, Target};
-use crate::link::Client;
-use crate::simdev::{FwCore, InProcess, SimConfig};
+use crate::connect::Target;
 
 /// Three short stimuli: 25 Hz LM-S (40 ms cycles) at two radii and an
 /// LM-M, plus a 5 Hz one.
@@ -36,11 +33,7 @@ untracked = true
 "#;
 
 fn lm_dev() -> Box<dyn Backend> {
-    let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default()).unwrap()));
-    let client = Client::new(InProcess::new(core, Clock::real()));
-    let mut dev = LmBackend::new(client, lm_proto::Encoding::Delta);
-    dev.progress = false;
-    Box::new(dev)
+    Box::new(crate::connect::simulated(Clock::real()).unwrap().0)
 }
 
 fn autd3_dev() -> Box<dyn Backend> {

@@ -72,11 +72,18 @@ pub fn free_port() -> u16 {
 /// firmware's timer follows its own work, not the host's load, and a
 /// deadline is missed only if the firmware itself is too slow.
 pub fn qemu_command(elf: &Path, port: u16, wait: bool) -> Command {
+    qemu_command_icount(elf, port, wait, "shift=0")
+}
+
+/// [`qemu_command`] with another `-icount` setting (`shift=auto,sleep=on`:
+/// the guest's clock follows the host's, for comparing device counts with
+/// host times).
+pub fn qemu_command_icount(elf: &Path, port: u16, wait: bool, icount: &str) -> Command {
     let wait = if wait { "on" } else { "off" };
     let mut cmd = Command::new("qemu-system-arm");
     cmd.args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
         .args(["-semihosting-config", "enable=on,target=native"])
-        .args(["-icount", "shift=0"])
+        .args(["-icount", icount])
         .arg("-serial")
         .arg(format!("tcp:127.0.0.1:{port},server=on,wait={wait}"))
         .arg("-kernel")
