@@ -27,6 +27,7 @@ pub mod library;
 pub mod limits;
 pub mod link;
 pub mod out;
+pub mod pdf;
 pub mod reader;
 pub mod rig;
 pub mod rng;

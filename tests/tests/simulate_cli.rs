@@ -120,8 +120,25 @@ fn simulate_writes_maps_heatmaps_and_a_summary() {
         assert_eq!(&png[1..4], b"PNG", "{stem}.png");
         let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
         assert!(svg.starts_with("<svg width=\"88.00mm\""), "{stem}.svg");
+        let pdf = std::fs::read(out.join(format!("{stem}.pdf"))).unwrap();
+        assert!(
+            pdf.starts_with(b"%PDF-1.4") && pdf.ends_with(b"%%EOF\n"),
+            "{stem}.pdf"
+        );
+        // 88 mm wide: 249.4 pt (to the layout's quarter point).
+        assert!(
+            (pdf_width_pt(&pdf) - 88.0 / 25.4 * 72.0).abs() < 0.3,
+            "{stem}.pdf"
+        );
         assert!(out.join(format!("{stem}.npy")).exists());
     }
+}
+
+/// The page width of a one-page PDF (pt), from its MediaBox.
+fn pdf_width_pt(pdf: &[u8]) -> f64 {
+    let text = String::from_utf8_lossy(pdf);
+    let rest = text.split("/MediaBox [0 0 ").nth(1).expect("a MediaBox");
+    rest.split(' ').next().unwrap().parse().unwrap()
 }
 
 #[test]
@@ -159,6 +176,8 @@ fn simulate_compare_renders_the_papers_grid() {
     let svg = std::fs::read_to_string(out.join("compare_mean_pressure.svg")).unwrap();
     assert!(svg.starts_with("<svg width=\"180.00mm\""));
     assert!(svg.contains("a (mm)") && svg.contains("LM-S") && svg.contains("orbit"));
+    let pdf = std::fs::read(out.join("compare_mean_pressure.pdf")).unwrap();
+    assert!((pdf_width_pt(&pdf) - 180.0 / 25.4 * 72.0).abs() < 0.3);
     let s = summary(&out);
     let runs = s["compare"].as_array().unwrap();
     // Rows LM-S 5 Hz, LM-M 5 Hz, LM-S 25 Hz; columns A = 2..6 mm.

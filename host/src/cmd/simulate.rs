@@ -1,5 +1,5 @@
 //! `lmhost simulate`: plan a stimulus, simulate its acoustic field on the
-//! LM plane and write figures (PNG and SVG), maps (`.npy`) and a JSON
+//! LM plane and write figures (PNG, SVG and PDF), maps (`.npy`) and a JSON
 //! summary.
 
 use std::path::PathBuf;
@@ -12,12 +12,12 @@ use lmhost::field::{self, Radiation, compare, plot};
 /// Simulate the acoustic field of an LM stimulus and plot it.
 #[derive(Debug, clap::Args)]
 #[command(
-    after_help = "Writes into --out one figure per map as PNG (288 dpi) and SVG, \
+    after_help = "Writes into --out one figure per map as PNG (288 dpi), SVG and PDF, \
     --width-mm wide: mean_pressure (time-averaged radiation pressure), lm_power (power at \
     the LM frequency), pressure, amplitude (step 0) and max_pressure; one .npy per map and \
     summary.json. Figures have no title: axes a, b are the scene's LM plane axes (mm from \
-    the LM centre), with a legend for the orbit, the foci and the gauge disk. No PDF: \
-    convert the SVG.\n\nExamples:\n  \
+    the LM centre), with a legend for the orbit, the foci and the gauge disk. The PDF \
+    embeds its font (a subset of DejaVu Sans).\n\nExamples:\n  \
     lmhost simulate --radius 3 --foci 4 --out lmm3\n  \
     lmhost simulate --scene scenes/paper.toml --radius 3 --width-mm 180 --out paper\n  \
     lmhost simulate --compare --out compare       # the paper's 3 x 5 grid"

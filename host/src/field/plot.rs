@@ -1,10 +1,11 @@
-//! Paper-ready heatmaps of field maps (plotters): PNG (bitmap backend)
-//! and SVG, sized in millimetres for a one- or two-column figure.
+//! Paper-ready heatmaps of field maps (plotters): PNG (bitmap backend),
+//! SVG and PDF ([`crate::pdf`]), sized in millimetres for a one- or
+//! two-column figure.
 //!
-//! Text is rasterised by `ab_glyph` from DejaVu Sans, embedded in the
-//! binary (`host/assets/fonts`, Bitstream Vera licence), so plotting needs
-//! no system font libraries. There is no PDF: no pure-Rust SVG → PDF path
-//! is among the workspace's dependencies; convert the SVG (e.g. Inkscape).
+//! Text is DejaVu Sans, embedded in the binary (`host/assets/fonts`,
+//! Bitstream Vera licence): rasterised by `ab_glyph` in the PNG, embedded
+//! as a TrueType font in the PDF, so plotting needs no system font
+//! libraries.
 //!
 //! A figure is a grid of panels sharing one colour scale, with tick labels
 //! only on the outer panels, row and column labels instead of a title, one
@@ -23,7 +24,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::ObservationPlane;
 use crate::error::InputError;
 
-static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+pub(crate) static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
 pub(crate) fn register_font() {
@@ -74,6 +75,9 @@ pub enum Format {
     Png,
     /// Vector (text and overlays as vectors, each heatmap one embedded PNG).
     Svg,
+    /// Vector PDF: as the SVG, text in the embedded font, each heatmap one
+    /// embedded image.
+    Pdf,
 }
 
 impl Format {
@@ -82,6 +86,7 @@ impl Format {
         match self {
             Format::Png => "png",
             Format::Svg => "svg",
+            Format::Pdf => "pdf",
         }
     }
 }
@@ -111,11 +116,11 @@ pub struct Figure {
 }
 
 impl Default for Figure {
-    /// One column wide, PNG and SVG.
+    /// One column wide, PNG, SVG and PDF.
     fn default() -> Self {
         Self {
             width_mm: ONE_COLUMN_MM,
-            formats: vec![Format::Png, Format::Svg],
+            formats: vec![Format::Png, Format::Svg, Format::Pdf],
         }
     }
 }
@@ -241,11 +246,12 @@ impl Layout {
         TextStyle::from(("sans-serif", size_pt * self.font_k).into_font()).color(&BLACK)
     }
 
-    /// For `format`: the SVG backend writes a font's size / 1.24.
+    /// For `format`: the SVG and PDF backends take a font's size / 1.24
+    /// as its em.
     fn for_format(&self, format: Format) -> Self {
         let k = match format {
             Format::Png => 1.0,
-            Format::Svg => 1.24,
+            Format::Svg | Format::Pdf => 1.24,
         };
         Self {
             font_k: UNITS_PER_PT * k,
@@ -593,6 +599,18 @@ pub fn figure(
                 }
                 let svg = finish_svg(&svg, lay.size, fig.width_mm);
                 crate::files::write_whole(&path, svg.as_bytes())?;
+            }
+            Format::Pdf => {
+                let mut pdf = Vec::new();
+                {
+                    let backend =
+                        crate::pdf::PdfBackend::new(&mut pdf, lay.size, 1.0 / UNITS_PER_PT, FONT)
+                            .map_err(|x| e(x.to_string()))?;
+                    let root = backend.into_drawing_area();
+                    draw_figure(&root, &lay, plane, panels, (rows, cols), labels).map_err(&e)?;
+                    root.present().map_err(|x| e(x.to_string()))?;
+                }
+                crate::files::write_whole(&path, &pdf)?;
             }
         }
         written.push(path);
