@@ -188,7 +188,7 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
         "shape_convex",
         "shape_concave",
     ] {
-        for ext in ["png", "svg"] {
+        for ext in ["png", "svg", "pdf"] {
             let f = out.join(format!("box-{q}.{ext}"));
             assert!(
                 std::fs::metadata(&f).unwrap().len() > 1000,
@@ -199,6 +199,8 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     }
     let svg = std::fs::read_to_string(out.join("box-vibration.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("lms-25hz-a6"));
+    let pdf = std::fs::read(out.join("box-vibration.pdf")).unwrap();
+    assert!(pdf.starts_with(b"%PDF-1.4") && pdf.ends_with(b"%%EOF\n"));
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -20,7 +20,7 @@ pub struct Args {
 enum Sub {
     /// Run (or resume) one participant's session of a protocol.
     Run(RunArgs),
-    /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG).
+    /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG, PDF).
     Report(ReportArgs),
 }
 

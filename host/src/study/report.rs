@@ -263,6 +263,20 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         }
         crate::files::write_whole(&svg_path, svg.as_bytes())?;
         out.files.push(svg_path);
+        // The PDF at the SVG's 96 units per inch.
+        let pdf_path = dir.join(format!("box-{q}.pdf"));
+        let e = |x: String| anyhow::anyhow!("drawing {}: {x}", pdf_path.display());
+        let mut pdf = Vec::new();
+        {
+            let backend =
+                crate::pdf::PdfBackend::new(&mut pdf, size, 0.75, crate::field::plot::FONT)
+                    .map_err(|x| e(x.to_string()))?;
+            let root = backend.into_drawing_area();
+            draw(&root, q, &group).map_err(e)?;
+            root.present().map_err(|x| e(x.to_string()))?;
+        }
+        crate::files::write_whole(&pdf_path, &pdf)?;
+        out.files.push(pdf_path);
     }
     Ok(out)
 }
