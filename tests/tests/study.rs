@@ -2,8 +2,8 @@
 //! protocol on autd3's emulator and on the simulated LM device (30 trials,
 //! every condition twice, each set a permutation, answers as given), a
 //! `kill -9` mid-run then `--resume` giving the uninterrupted run's trials,
-//! Experiment 3's adjustment loop, the report's files, and bad input
-//! refused with exit 2.
+//! Experiment 3's adjustment loop, the report's files, answers typed as
+//! single keys at a (pseudo-)terminal, and bad input refused with exit 2.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -201,6 +201,85 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     assert!(svg.starts_with("<svg") && svg.contains("lms-25hz-a6"));
     let pdf = std::fs::read(out.join("box-vibration.pdf")).unwrap();
     assert!(pdf.starts_with(b"%PDF-1.4") && pdf.ends_with(b"%%EOF\n"));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Single keys at a terminal: a pseudo-terminal as stdin, each question
+/// answered the moment it is shown by a key the scale lacks (refused) and
+/// then a valid key, every answer recorded as typed, and the terminal's
+/// mode (canonical, echo) back when the run ends.
+#[test]
+fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
+    use std::io::{BufRead, BufReader, Write};
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    use nix::sys::termios::{LocalFlags, tcgetattr};
+
+    let d = scratch("tty");
+    let out = d.join("out");
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let cooked = LocalFlags::ICANON | LocalFlags::ECHO;
+    assert!(tcgetattr(&pty.slave).unwrap().local_flags.contains(cooked));
+    let mut child = study(&[
+        "run",
+        &studies("paper-exp1.toml"),
+        "--port",
+        "autd3:emulator",
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--time-scale",
+        "0.02",
+    ])
+    .stdin(Stdio::from(pty.slave.try_clone().unwrap()))
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    // A run that stops answering is killed, so the test fails, not hangs.
+    let done = Arc::new(AtomicBool::new(false));
+    let watchdog = {
+        let (done, pid) = (done.clone(), child.id().to_string());
+        std::thread::spawn(move || {
+            let t0 = Instant::now();
+            while !done.load(Ordering::Relaxed) {
+                if t0.elapsed() > Duration::from_secs(120) {
+                    let _ = Command::new("kill").args(["-9", &pid]).status();
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let mut keys = std::fs::File::from(pty.master);
+    let (mut typed, mut refused, mut log) = (Vec::new(), 0, Vec::new());
+    for line in BufReader::new(child.stderr.take().unwrap()).lines() {
+        let line = line.unwrap();
+        if line.starts_with("  `9` is not an answer") {
+            refused += 1;
+        }
+        if !line.starts_with(' ') && line.ends_with(']') && line.contains("[1 = ") {
+            let k = b'1' + (typed.len() * 3 % 7) as u8;
+            keys.write_all(&[b'9', k]).unwrap();
+            typed.push((k as char).to_string());
+        }
+        log.push(line);
+    }
+    let status = child.wait().unwrap();
+    done.store(true, Ordering::Relaxed);
+    watchdog.join().unwrap();
+    assert!(status.success(), "{status}: {}", log.join("\n"));
+    assert_eq!(typed.len(), 150, "5 questions × 30 trials");
+    assert_eq!(refused, 150, "every `9` refused on a 7-point scale");
+    check_exp1(&rows(&out.join("P01")), &typed);
+    assert!(
+        tcgetattr(&pty.slave).unwrap().local_flags.contains(cooked),
+        "the terminal is left in raw mode"
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 

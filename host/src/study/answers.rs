@@ -319,11 +319,13 @@ impl Drop for Terminal {
 impl Answers for Terminal {
     fn poll(&mut self, q: &Asked) -> anyhow::Result<Option<String>> {
         if self.asked.as_deref() != Some(&q.prompt) {
-            crate::errln!("{}", q.prompt);
-            self.asked = Some(q.prompt.clone());
-            // Keys typed before the question are not answers to it.
+            // Keys typed before the question are not answers to it; drop
+            // them before it is shown, so a key pressed the moment it
+            // appears counts.
             while self.keys.try_recv().is_ok() {}
             self.line.clear();
+            crate::errln!("{}", q.prompt);
+            self.asked = Some(q.prompt.clone());
         }
         loop {
             let k = match self.keys.try_recv() {
