@@ -356,6 +356,11 @@ impl Output {
     /// directory cannot take a file or `dest` is a directory.
     pub fn create(dest: &Path) -> anyhow::Result<Output> {
         not_an_input("output", dest)?;
+        Self::open(dest)
+    }
+
+    /// [`Output::create`] without the input check.
+    fn open(dest: &Path) -> anyhow::Result<Output> {
         if std::fs::metadata(dest).is_ok_and(|m| m.is_dir()) {
             return Err(WriteError::new(dest, std::io::ErrorKind::IsADirectory.into()).into());
         }
@@ -466,6 +471,16 @@ pub fn write_via(
 ) -> anyhow::Result<()> {
     let out = Output::create(dest)?;
     write(&out.tmp)?;
+    out.commit()?;
+    Ok(())
+}
+
+/// Replaces `path`, one of this process's inputs, deliberately (a command
+/// that updates the file it read, such as `calibrate --write`): whole or
+/// not at all, as [`write_whole`].
+pub fn replace_input(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let mut out = Output::open(path)?;
+    out.write_bytes(bytes)?;
     out.commit()?;
     Ok(())
 }

@@ -14,6 +14,7 @@ pub mod array;
 pub mod autd3;
 pub mod backend;
 pub mod bench;
+pub mod calibrate;
 pub mod clock;
 pub mod conformance;
 pub mod connect;

@@ -100,7 +100,7 @@ def simulate(
     alpha: float = _ALPHA,
     density: float = _DENSITY,
     disk: float = _DISK,
-    calibration: float = 1.0,
+    calibration: Optional[float] = None,
     reference: bool = False,
 ) -> Field:
     """Simulate the plan's acoustic field on the LM plane (``lmhost simulate``).
@@ -109,7 +109,8 @@ def simulate(
     maps (rows along v, columns along u), ``pressure``, ``amplitude`` and
     ``max_pressure``, the axes ``u_mm`` / ``v_mm``, ``force_n`` and
     ``summary`` (the dict ``lmhost simulate`` writes as summary.json).
-    Defaults equal the CLI's.
+    Defaults equal the CLI's. ``calibration=None`` applies the scene's
+    ``[calibration]`` (if any); a number replaces it.
     """
     if isinstance(plane_size, (int, float)):
         size = (float(plane_size), float(plane_size))
@@ -125,7 +126,7 @@ def simulate(
         float(alpha),
         float(density),
         float(disk),
-        float(calibration),
+        None if calibration is None else float(calibration),
         bool(reference),
     )
 

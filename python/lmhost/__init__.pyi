@@ -92,7 +92,7 @@ def simulate(
     alpha: float = ...,
     density: float = ...,
     disk: float = 15.0,
-    calibration: float = 1.0,
+    calibration: Optional[float] = None,
     reference: bool = False,
 ) -> Field: ...
 

@@ -380,7 +380,7 @@ fn simulate(
     alpha: f64,
     density: f64,
     disk: f64,
-    calibration: f64,
+    calibration: Option<f64>,
     reference: bool,
 ) -> PyResult<Field_> {
     let intensity = f64::from(plan.planned.plan.sequence.header.intensity) / 255.0;

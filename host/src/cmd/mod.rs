@@ -8,6 +8,7 @@ use lmhost::backend::Backend;
 
 pub mod args;
 pub mod bench;
+pub mod calibrate;
 pub mod demo;
 pub mod flash;
 pub mod info;
@@ -63,6 +64,9 @@ pub enum Command {
     /// Track the finger in depth frames (contact-area centroid), optionally
     /// streaming it to the device.
     Track(track::Args),
+    /// Calibrate the rig (camera pose, force) into its scene file.
+    #[command(subcommand_required = true)]
+    Calibrate(calibrate::Args),
 }
 
 impl Command {
@@ -85,6 +89,7 @@ impl Command {
             Command::Track(a) => a.run(),
             Command::Session(a) => a.run(),
             Command::Study(a) => a.run(),
+            Command::Calibrate(a) => a.run(),
         }
     }
 }

@@ -64,15 +64,11 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     disk: f64,
-    /// Factor applied to the simulated force (e.g. measured / simulated),
-    /// above 0 and at most 1e6 (0 would zero every force).
-    #[arg(
-        long,
-        value_name = "K",
-        default_value_t = 1.0,
-        allow_negative_numbers = true
-    )]
-    calibration: f64,
+    /// Factor on the simulated radiation pressure (measured / simulated
+    /// force), in place of the scene's [calibration] (see `lmhost calibrate
+    /// force`); above 0 and at most 1e6. Every map and force carries it.
+    #[arg(long, value_name = "K", allow_negative_numbers = true)]
+    calibration: Option<f64>,
     /// Use the plain f64 loop instead of the fast path (slow; for checking).
     #[arg(long)]
     reference: bool,

@@ -31,6 +31,28 @@ pub struct FieldMaps {
     pub lm_power_pa2: Vec<f64>,
 }
 
+impl FieldMaps {
+    /// Applies a force calibration `k` (measured / simulated radiation
+    /// force): radiation pressure ×k, its power at the LM frequency ×k²,
+    /// the sound-pressure amplitude ×√k (radiation pressure goes with the
+    /// amplitude squared).
+    pub fn calibrate(&mut self, k: f64) {
+        if k == 1.0 {
+            return;
+        }
+        let (a, k2) = (k.sqrt(), k * k);
+        self.amplitude_pa.iter_mut().for_each(|v| *v *= a);
+        for m in [
+            &mut self.pressure_pa,
+            &mut self.mean_pressure_pa,
+            &mut self.max_pressure_pa,
+        ] {
+            m.iter_mut().for_each(|v| *v *= k);
+        }
+        self.lm_power_pa2.iter_mut().for_each(|v| *v *= k2);
+    }
+}
+
 /// Radiation-pressure settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Radiation {

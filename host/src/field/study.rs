@@ -30,8 +30,9 @@ pub struct View {
     pub density: f64,
     /// Diameter of the force disk (mm).
     pub disk_mm: f64,
-    /// Factor applied to the simulated force.
-    pub calibration: f64,
+    /// Factor on the simulated radiation pressure in place of the scene's
+    /// `[calibration]` (`None`: the scene's, or 1 without one).
+    pub calibration: Option<f64>,
     /// Use the plain f64 loop instead of the fast path.
     pub reference: bool,
 }
@@ -60,8 +61,16 @@ impl View {
         };
         positive("plane-size", self.size_mm.0)?;
         positive("plane-size", self.size_mm.1)?;
-        positive("calibration", self.calibration)?;
-        in_range("--calibration", self.calibration, 0.0, 1e6, "")?;
+        if let Some(k) = self.calibration {
+            positive("calibration", k)?;
+            in_range(
+                "--calibration",
+                k,
+                0.0,
+                crate::scene::MAX_PRESSURE_SCALE,
+                "",
+            )?;
+        }
         positive("alpha", self.rad.alpha)?;
         positive("density", self.density)?;
         positive("disk", self.disk_mm)?;
@@ -81,7 +90,8 @@ impl View {
 
 impl Default for View {
     /// A 20 mm square at 0.2 mm on the LM plane about the LM centre, the
-    /// paper's 15 mm force disk, α = 2, air at 20 °C, no calibration.
+    /// paper's 15 mm force disk, α = 2, air at 20 °C, the scene's
+    /// calibration.
     fn default() -> Self {
         Self {
             size_mm: (PLANE_SIZE_MM, PLANE_SIZE_MM),
@@ -91,7 +101,7 @@ impl Default for View {
             rad: Radiation::default(),
             density: super::DEFAULT_DENSITY_KG_M3,
             disk_mm: DISK_MM,
-            calibration: 1.0,
+            calibration: None,
             reference: false,
         }
     }
@@ -141,6 +151,40 @@ pub struct Sim {
     pub disk_mm: f64,
     /// Which kernel computed the maps.
     pub path: &'static str,
+    /// The factor the maps and forces carry, and where it came from.
+    pub calibration: (f64, CalibrationSource),
+}
+
+/// Where a simulation's calibration factor came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalibrationSource {
+    /// No calibration: the model's Pa.
+    None,
+    /// The scene's `[calibration]`.
+    Scene,
+    /// `--calibration` (or the Python `calibration=`), replacing the scene's.
+    Flag,
+}
+
+impl CalibrationSource {
+    /// Its name in summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            CalibrationSource::None => "none",
+            CalibrationSource::Scene => "scene",
+            CalibrationSource::Flag => "--calibration",
+        }
+    }
+}
+
+/// The calibration factor for `scene` seen through `view`: the view's
+/// override, else the scene's `[calibration]`, else 1.
+pub fn calibration_for(scene: &crate::scene::Scene, view: &View) -> (f64, CalibrationSource) {
+    match (view.calibration, &scene.calibration) {
+        (Some(k), _) => (k, CalibrationSource::Flag),
+        (None, Some(c)) => (c.pressure_scale, CalibrationSource::Scene),
+        (None, None) => (1.0, CalibrationSource::None),
+    }
 }
 
 /// Simulates `plan` on the plane `view` describes, after the work check.
@@ -174,6 +218,11 @@ pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
         field::simulate(&model, &plane, &seq.phases, steps, view.rad)
     }
     .map_err(|e| InputError::new(e.to_string()))?;
+    // The one place the calibration is applied: every map, so the forces
+    // integrated from them below are calibrated too.
+    let calibration = calibration_for(&plan.scene, view);
+    let mut maps = maps;
+    maps.calibrate(calibration.0);
     let seconds = t0.elapsed().as_secs_f64();
     // The disk sits on the LM centre, projected into the plane.
     let c = plane.project(plan.trajectory.center_mm);
@@ -183,8 +232,8 @@ pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
         plane,
         maps,
         seconds,
-        force_step0_n: f0 * view.calibration,
-        force_mean_n: fm * view.calibration,
+        force_step0_n: f0,
+        force_mean_n: fm,
         clipped,
         disk_mm: view.disk_mm,
         path: if view.reference {
@@ -192,6 +241,7 @@ pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
         } else {
             field::fast_path_isa()
         },
+        calibration,
     })
 }
 
@@ -414,7 +464,8 @@ impl Sim {
             "maps": maps,
             "force": {
                 "disk_diameter_mm": self.disk_mm,
-                "calibration": view.calibration,
+                "calibration": self.calibration.0,
+                "calibration_source": self.calibration.1.name(),
                 "step0_n": self.force_step0_n,
                 "mean_n": self.force_mean_n,
                 "disk_clipped": self.clipped,
@@ -433,7 +484,7 @@ impl Sim {
             "{} {}, A = {} mm, N = {} steps, {} transducers; \
              grid {} × {} at {} mm in {:.3} s ({})\n\
              peak amplitude {:.0} Pa, radiation pressure {:.1} Pa (step 0), {:.1} Pa (cycle mean)\n\
-             force on a {} mm disk: {:.4} N (step 0), {:.4} N (cycle mean){}",
+             force on a {} mm disk: {:.4} N (step 0), {:.4} N (cycle mean){}{}",
             t.foci,
             if t.foci == 1 { "focus" } else { "foci" },
             N(radius_mm),
@@ -454,6 +505,14 @@ impl Sim {
                 " (disk clipped by the grid)"
             } else {
                 ""
+            },
+            match self.calibration {
+                (_, CalibrationSource::None) => String::new(),
+                (k, s) => format!(
+                    "\ncalibrated: pressures and forces × {} ({})",
+                    N(k),
+                    s.name()
+                ),
             },
         )
     }

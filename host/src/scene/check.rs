@@ -5,8 +5,11 @@ use crate::array;
 use crate::geom::{Vec3, add, euler_xyz_deg, mat_mul, mat_vec, norm, sub};
 use crate::units;
 
-use super::file::{PoseFile, SceneFile};
-use super::{DEFAULT_MIN_DWELL_S, Device, LmPlane, Reflector, Scene, finite3, unit};
+use super::file::{CalibrationFile, PoseFile, SceneFile};
+use super::{
+    Calibration, DEFAULT_MIN_DWELL_S, Device, LmPlane, MAX_PRESSURE_SCALE, Reflector, Scene,
+    finite3, unit,
+};
 
 impl SceneFile {
     pub(super) fn resolve(self, origin: &str) -> Result<Scene, String> {
@@ -110,9 +113,11 @@ impl SceneFile {
             None => DEFAULT_MIN_DWELL_S,
         };
         let (camera, tracking) = super::rig::resolve(self.camera, self.tracking)?;
+        let calibration = self.calibration.map(calibration).transpose()?;
         Ok(Scene {
             camera,
             tracking,
+            calibration,
             name: self.name.unwrap_or_else(|| origin.to_string()),
             devices,
             reflector,
@@ -124,6 +129,28 @@ impl SceneFile {
             min_dwell_s,
         })
     }
+}
+
+/// `[calibration]`: a scale in (0, 1e6], positive finite figures.
+fn calibration(c: CalibrationFile) -> Result<Calibration, String> {
+    let k = c.pressure_scale;
+    if !(k.is_finite() && k > 0.0 && k <= MAX_PRESSURE_SCALE) {
+        return Err(format!(
+            "field `calibration.pressure_scale` must be > 0 and at most {MAX_PRESSURE_SCALE:e}, got {k}"
+        ));
+    }
+    let positive = |v: Option<f64>, name: &str, max: f64| match v {
+        Some(x) if !(x.is_finite() && x > 0.0 && x <= max) => Err(format!(
+            "field `calibration.{name}` must be > 0 and at most {max}, got {x}"
+        )),
+        _ => Ok(v),
+    };
+    Ok(Calibration {
+        pressure_scale: k,
+        measured_n: positive(c.measured_n, "measured_n", 1e3)?,
+        simulated_n: positive(c.simulated_n, "simulated_n", 1e3)?,
+        disk_mm: positive(c.disk_mm, "disk_mm", 1000.0)?,
+    })
 }
 
 /// Two devices overlap when transducers of different devices are closer

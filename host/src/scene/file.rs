@@ -39,6 +39,17 @@ pub(super) struct SceneFile {
     pub(super) device: Vec<DeviceFile>,
     pub(super) camera: Option<super::rig::CameraFile>,
     pub(super) tracking: Option<super::rig::TrackingFile>,
+    pub(super) calibration: Option<CalibrationFile>,
+}
+
+/// `[calibration]`: the force calibration `lmhost calibrate force` writes.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct CalibrationFile {
+    pub(super) pressure_scale: f64,
+    pub(super) measured_n: Option<f64>,
+    pub(super) simulated_n: Option<f64>,
+    pub(super) disk_mm: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]

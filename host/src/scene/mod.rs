@@ -117,7 +117,29 @@ pub struct Scene {
     pub camera: Option<rig::CameraPose>,
     /// Detection box (`[tracking]`), for `lmhost track`.
     pub tracking: Option<rig::TrackBox>,
+    /// Force calibration (`[calibration]`), applied to every simulated
+    /// radiation-pressure map and force.
+    pub calibration: Option<Calibration>,
 }
+
+/// The scene's force calibration: the simulated radiation pressure (and
+/// so every force) times `pressure_scale` is what the rig measures. The
+/// sound-pressure amplitude scales by its square root, power at the LM
+/// frequency (Pa²) by its square. `lmhost calibrate force` derives it.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Calibration {
+    /// Factor on the simulated radiation pressure, in (0, 1e6].
+    pub pressure_scale: f64,
+    /// The measured static-focus force it was derived from (N).
+    pub measured_n: Option<f64>,
+    /// The uncalibrated simulated force it was derived from (N).
+    pub simulated_n: Option<f64>,
+    /// Diameter of the gauge disk of the measurement (mm).
+    pub disk_mm: Option<f64>,
+}
+
+/// Largest `[calibration] pressure_scale` (and `--calibration`) taken.
+pub const MAX_PRESSURE_SCALE: f64 = 1e6;
 
 impl Default for Scene {
     /// Four AUTD3 in a flat 2 × 2 array centred on the origin, facing +z,
@@ -143,6 +165,7 @@ impl Default for Scene {
             min_dwell_s: DEFAULT_MIN_DWELL_S,
             camera: None,
             tracking: None,
+            calibration: None,
         }
     }
 }
