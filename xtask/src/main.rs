@@ -10,6 +10,10 @@
 //!   a planned LM-M sequence, then simulates the transducer driver
 //!   (`gateware/`, Amaranth in a venv under the target dir) against
 //!   `firmware/DRIVER.md`.
+//! - `ethercat`: the CI's opt-in backends step alone: builds lmhost with
+//!   `flash` and (as root, installing libpcap-dev and CMake ≥ 3.28) both
+//!   EtherCAT links, then checks that opening them without an adapter or
+//!   without privileges is one line and exit 1.
 //! - `bitstream [--channels N]`: synthesises the driver for an iCE40 HX8K
 //!   (ct256) with Yosys, nextpnr-ice40 and icepack from Debian (installed
 //!   when missing and root); prints utilisation and fmax. Not part of `ci`.
@@ -89,8 +93,8 @@ const STEPS: &[Step] = &[
         run: step_build_nucleo,
     },
     Step {
-        name: "cargo build: lmhost with the `flash` feature (probe-rs, no system libs)",
-        run: step_flash_build,
+        name: "cargo build: lmhost with its opt-in backends (flash; as root, EtherCAT: SOEM, ethercrab) and the EtherCAT missing-adapter smoke test",
+        run: step_optional_backends,
     },
     Step {
         name: "lint: clippy -D warnings (host crates; thumb crates per board), rustdoc -D warnings",
@@ -359,10 +363,207 @@ fn step_host_build(c: &Ctx) -> Result<(), String> {
     run(c.cargo(&["build"]))
 }
 
-fn step_flash_build(c: &Ctx) -> Result<(), String> {
-    // Off by default because probe-rs takes minutes to build; built here so
-    // `lmhost flash` cannot rot unnoticed.
-    run(c.cargo(&["build", "-p", "lmhost", "--features", "flash"]))
+/// The opt-in backends, built once together so none rots unnoticed:
+/// `flash` (probe-rs, minutes to build) always; as root also the EtherCAT
+/// links (`autd3-soem` builds SOEM with CMake ≥ 3.28, `autd3-ethercrab`
+/// links libpcap), installing what they need, then the smoke test.
+fn step_optional_backends(c: &Ctx) -> Result<(), String> {
+    if !is_root() {
+        println!(
+            "ethercat: skipped (not root: the EtherCAT build needs libpcap-dev from apt and the smoke test raw sockets); building `flash` alone"
+        );
+        return run(c.cargo(&["build", "-p", "lmhost", "--features", "flash"]));
+    }
+    let path = ensure_ethercat_tools(c)?;
+    run(c
+        .cargo(&[
+            "build",
+            "-p",
+            "lmhost",
+            "--features",
+            "flash,autd3-soem,autd3-ethercrab",
+        ])
+        .env("PATH", path))?;
+    ethercat_smoke(&c.target_dir.join("debug").join("lmhost"))
+}
+
+fn step_ethercat(c: &Ctx) -> Result<(), String> {
+    step_optional_backends(c)
+}
+
+/// libpcap-dev (apt) and CMake ≥ 3.28 (Debian's or, when older, from the
+/// package index into a venv under the target dir); returns the PATH for
+/// the build.
+fn ensure_ethercat_tools(c: &Ctx) -> Result<std::ffi::OsString, String> {
+    if Path::new("/usr/include/pcap/pcap.h").exists() {
+        println!("libpcap-dev: installed");
+    } else {
+        if !have_program("apt-get") {
+            return Err("libpcap-dev is missing and there is no apt-get; install libpcap's headers and rerun".into());
+        }
+        run(Command::new("apt-get")
+            .args(["install", "-y", "--no-install-recommends", "libpcap-dev"])
+            .env("DEBIAN_FRONTEND", "noninteractive"))
+        .or_else(|_| {
+            run(Command::new("apt-get").arg("update"))?;
+            run(Command::new("apt-get")
+                .args(["install", "-y", "--no-install-recommends", "libpcap-dev"])
+                .env("DEBIAN_FRONTEND", "noninteractive"))
+        })?;
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    if cmake_at_least(Path::new("cmake"), (3, 28)) {
+        println!("cmake ≥ 3.28: installed");
+        return Ok(path);
+    }
+    let venv = c.target_dir.join("tools-venv");
+    let bin = venv.join("bin");
+    if !cmake_at_least(&bin.join("cmake"), (3, 28)) {
+        if !venv.join("bin").join("python").exists() {
+            run(Command::new("python3").arg("-m").arg("venv").arg(&venv)).map_err(|e| {
+                format!(
+                    "{e}\nthe EtherCAT build needs python3 with its venv module for CMake ≥ 3.28"
+                )
+            })?;
+        }
+        // SOEM's CMakeLists predate CMake 4's removal of old policies.
+        run(Command::new(bin.join("python")).args([
+            "-m",
+            "pip",
+            "install",
+            "--disable-pip-version-check",
+            "-q",
+            "cmake>=3.28,<4",
+        ]))?;
+    }
+    let mut p = std::ffi::OsString::from(bin.as_os_str());
+    p.push(":");
+    p.push(path);
+    Ok(p)
+}
+
+/// Whether `cmake --version` says at least `min`.
+fn cmake_at_least(cmake: &Path, min: (u32, u32)) -> bool {
+    let Ok(out) = Command::new(cmake).arg("--version").output() else {
+        return false;
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    let v: Vec<u32> = text
+        .split_whitespace()
+        .nth(2)
+        .unwrap_or("")
+        .split('.')
+        .take(2)
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    v.len() == 2 && (v[0], v[1]) >= min
+}
+
+/// Runs `cmd` with a deadline; `None` when it had to be killed.
+fn output_within(
+    mut cmd: Command,
+    limit: Duration,
+) -> Result<Option<std::process::Output>, String> {
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot start `{}`: {e}", show(&cmd)))?;
+    let t0 = Instant::now();
+    loop {
+        match child.try_wait() {
+            Ok(Some(_)) => {
+                return child
+                    .wait_with_output()
+                    .map(Some)
+                    .map_err(|e| e.to_string());
+            }
+            Ok(None) if t0.elapsed() > limit => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Ok(None);
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+}
+
+/// Opening each EtherCAT link without an adapter (a missing interface,
+/// no AUTD3 on any) and without privileges (as `nobody`, via setpriv)
+/// must fail in one line with exit 1, within a bound.
+fn ethercat_smoke(lmhost: &Path) -> Result<(), String> {
+    let mut cases: Vec<(Vec<String>, &str, &str)> = Vec::new();
+    for link in ["soem", "ethercrab"] {
+        cases.push((
+            vec![format!("autd3:{link}:lm-no-such-if0")],
+            "no network interface",
+            "",
+        ));
+        cases.push((vec![format!("autd3:{link}")], "no AUTD", ""));
+    }
+    let privileged = cases.len();
+    if have_program("setpriv") {
+        for link in ["soem", "ethercrab"] {
+            cases.push((
+                vec![format!("autd3:{link}")],
+                "raw-socket privileges",
+                "nobody",
+            ));
+        }
+    } else {
+        println!("ethercat: setpriv missing, the unprivileged cases are skipped");
+    }
+    let (mut passed, mut failed) = (0, 0);
+    for (i, (port, want, _)) in cases.iter().enumerate() {
+        let mut cmd = if i >= privileged {
+            let mut c = Command::new("setpriv");
+            c.args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+                .arg(lmhost)
+                .current_dir("/tmp");
+            c
+        } else {
+            Command::new(lmhost)
+        };
+        cmd.args(["info", "--port", &port[0]])
+            .env_remove("RUST_BACKTRACE");
+        let who = if i >= privileged { " (as nobody)" } else { "" };
+        let verdict = match output_within(cmd, Duration::from_secs(60))? {
+            None => Err("did not end within 60 s".to_string()),
+            Some(o) => {
+                let err = String::from_utf8_lossy(&o.stderr).to_string();
+                let lines = err.trim_end().lines().count();
+                if o.status.code() != Some(1) {
+                    Err(format!("exit {:?}, want 1: {err}", o.status.code()))
+                } else if lines != 1 || !err.starts_with("error: ") {
+                    Err(format!(
+                        "{lines} lines on stderr, want one `error: ` line: {err}"
+                    ))
+                } else if !err.to_lowercase().contains(&want.to_lowercase()) {
+                    Err(format!("`{}` does not say `{want}`", err.trim_end()))
+                } else {
+                    Ok(err.trim_end().to_string())
+                }
+            }
+        };
+        match verdict {
+            Ok(line) => {
+                passed += 1;
+                println!("ok   {}{who}: {line}", port[0]);
+            }
+            Err(e) => {
+                failed += 1;
+                println!("FAIL {}{who}: {e}", port[0]);
+            }
+        }
+    }
+    println!("ethercat smoke: {passed} passed, {failed} failed");
+    if failed == 0 {
+        Ok(())
+    } else {
+        Err(format!("{failed} EtherCAT smoke cases failed"))
+    }
 }
 
 fn step_host_test(c: &Ctx) -> Result<(), String> {
@@ -774,8 +975,9 @@ fn main() -> ExitCode {
         Some("python") if args.len() == 1 => step_python(&c),
         Some("gateware") if args.len() == 1 => step_gateware(&c),
         Some("bitstream") => bitstream(&c, &args[1..]),
+        Some("ethercat") if args.len() == 1 => step_ethercat(&c),
         _ => Err(
-            "usage: cargo xtask <ci [--from STEP] | python | gateware | bitstream [--channels N] | build-fw | qemu [--tcp PORT] | size>"
+            "usage: cargo xtask <ci [--from STEP] | python | gateware | ethercat | bitstream [--channels N] | build-fw | qemu [--tcp PORT] | size>"
                 .into(),
         ),
     };

@@ -125,6 +125,7 @@ impl Autd3Backend {
             }
             #[cfg(feature = "autd3-soem")]
             Autd3Port::Soem { ifname } => {
+                super::ethercat::preflight(&port.to_string(), ifname.as_deref())?;
                 let link = autd3_link_soem::SOEM::new(
                     |slave: u16, status: autd3_link_soem::Status| {
                         crate::errln!("lmhost: AUTD3 device {slave}: EtherCAT {status:?}");
@@ -138,16 +139,43 @@ impl Autd3Backend {
             }
             #[cfg(feature = "autd3-ethercrab")]
             Autd3Port::EtherCrab { ifname } => {
-                let link = autd3_link_ethercrab::EtherCrab::new(
-                    |dev: usize, status: autd3_link_ethercrab::Status| {
-                        crate::errln!("lmhost: AUTD3 device {dev}: EtherCAT {status:?}");
-                    },
-                    autd3_link_ethercrab::EtherCrabOption {
-                        ifname: ifname.clone(),
-                        ..Default::default()
-                    },
-                );
-                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+                super::ethercat::preflight(&port.to_string(), ifname.as_deref())?;
+                let open = |ifname: &str| {
+                    let link = autd3_link_ethercrab::EtherCrab::new(
+                        |dev: usize, status: autd3_link_ethercrab::Status| {
+                            crate::errln!("lmhost: AUTD3 device {dev}: EtherCAT {status:?}");
+                        },
+                        autd3_link_ethercrab::EtherCrabOption {
+                            ifname: Some(ifname.to_string()),
+                            ..Default::default()
+                        },
+                    );
+                    Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
+                };
+                match ifname {
+                    Some(i) => open(i),
+                    // ethercrab's own search walks libpcap's device list,
+                    // whose pseudo-devices (names of 16+ bytes such as
+                    // `bluetooth-monitor`) panic it: walk the kernel's
+                    // network interfaces instead, first answer wins.
+                    None => {
+                        let tried =
+                            super::ethercat::candidates(std::path::Path::new("/sys/class/net"));
+                        for i in &tried {
+                            if let Ok(me) = open(i) {
+                                return Ok(me);
+                            }
+                        }
+                        bail!(
+                            "opening {port}: no AUTD3 device answered on any interface (tried {})",
+                            if tried.is_empty() {
+                                "none".to_string()
+                            } else {
+                                tried.join(", ")
+                            }
+                        )
+                    }
+                }
             }
             #[allow(unreachable_patterns)]
             other => bail!(
@@ -199,7 +227,14 @@ impl Autd3Backend {
             sender_option(emulator.is_some()),
             autd3::core::sleep::StdSleeper,
         )
-        .with_context(|| format!("opening {port}"))?;
+        .map_err(|e| {
+            if emulator.is_none() && port.feature().is_some() {
+                // EtherCAT: the link's bare "timeout" made specific.
+                anyhow::anyhow!(super::ethercat::explain(&format!("opening {port}"), &e))
+            } else {
+                anyhow::Error::new(e).context(format!("opening {port}"))
+            }
+        })?;
         // autd3 lengths are mm, so its sound speed is mm/s.
         ctl.environment.sound_speed = scene.sound_speed_m_s as f32 * 1000.0;
         geometry::check_positions(scene, ctl.geometry())?;

@@ -13,6 +13,7 @@
 pub mod correction;
 pub mod device;
 pub mod emulator;
+pub mod ethercat;
 pub mod geometry;
 pub mod port;
 pub mod safety;
