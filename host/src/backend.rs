@@ -326,6 +326,14 @@ pub trait Backend {
     fn needs_host(&self) -> bool {
         false
     }
+    /// Where [`Status`]'s `step` and `cycles` come from: `"device"` (the
+    /// LM firmware counts them on its timer) or `"host clock"` (AUTD3:
+    /// autd3 reads back no STM index; the FPGA derives it from the
+    /// synchronised clock, and so does the host, from the time the devices
+    /// have played: the emulator's FPGA index agrees, see the tests).
+    fn counters_source(&self) -> &'static str {
+        "device"
+    }
 }
 
 /// The slot an upload without `--slot` writes: one that neither plays nor

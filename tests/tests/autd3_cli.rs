@@ -138,10 +138,40 @@ fn upload_reads_back_byte_exact_for_lm_s_and_lm_m_with_errors_vs_the_request() {
 
 #[test]
 fn untracked_upload_plays_at_once_and_no_play_does_not() {
-    let v = emulator_json("upload", &["--untracked", "--hold", "0.2"]);
+    // With --hold, the report and then, after the hold, one status line
+    // with what played: at least the 0.2 s held, counted in steps.
+    let o = run(&[
+        "upload",
+        "--port",
+        "autd3:emulator",
+        "--untracked",
+        "--hold",
+        "0.2",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let [v, last] = &lines[..] else {
+        panic!("want two JSON lines, got {lines:?}");
+    };
     assert_eq!(v["untracked"], true);
     assert_eq!(v["mute_reason"], "none", "{v}");
     assert_eq!(v["hold_s"], 0.2);
+    assert_eq!(last["counters"], "host clock", "{last}");
+    let st = &last["status"];
+    let (n, dwell) = (
+        v["steps"].as_u64().unwrap(),
+        v["dwell_us"].as_f64().unwrap(),
+    );
+    let played = st["cycles"].as_u64().unwrap() * n + st["step"].as_u64().unwrap();
+    assert!(st["step"].as_u64().unwrap() < n, "{last}");
+    assert!(
+        played as f64 * dwell >= 0.19e6,
+        "{played} steps of {dwell} µs: {last}"
+    );
     let v = emulator_json("upload", &["--no-play"]);
     assert_eq!(v["playing"], false);
     assert!(v["mute_reason"].is_null(), "{v}");

@@ -639,6 +639,10 @@ impl Backend for Autd3Backend {
         })
     }
 
+    fn counters_source(&self) -> &'static str {
+        "host clock"
+    }
+
     fn status(&mut self) -> BResult<Status> {
         self.apply_gate()?;
         let now = self.now_us();

@@ -599,3 +599,25 @@ fn play_for_is_stopped_by_the_host_once_the_devices_clock_says_the_steps_played(
     b.tick().unwrap();
     assert_eq!(b.status().unwrap().state, DeviceState::Playing);
 }
+
+#[test]
+fn status_step_is_the_emulated_fpgas_stm_index_while_it_plays() {
+    let (scene, mut b, h, clock) = open_default();
+    assert_eq!(b.counters_source(), "host clock");
+    let (plan, g) = lm(&scene, 3.0, 1);
+    let slot = b.upload(&plan, None).unwrap().slot;
+    b.play(slot, true).unwrap();
+    let dwell = u64::from(g.dwell_us);
+    let n = g.steps as u64;
+    let mut seen = std::collections::BTreeSet::new();
+    // Every third of a dwell over two and a half cycles.
+    for k in 0..(5 * n * 3 / 2) {
+        clock.advance(Duration::from_micros(dwell / 3 + k % 2));
+        let st = b.status().unwrap();
+        let fpga = h.with_cpus(|c| c[0].fpga().current_stm_idx());
+        assert_eq!(usize::from(st.step), fpga, "at {} µs", clock.now_us());
+        seen.insert(st.step);
+    }
+    assert_eq!(seen.len() as u64, n, "every index of the cycle seen");
+    assert!(b.status().unwrap().cycles >= 2);
+}

@@ -247,6 +247,15 @@ impl Args {
                     }
                 );
                 lmhost::connect::hold(dev.as_mut(), d)?;
+                if self.json {
+                    // What played, before the stop silences it: one line.
+                    let status = dev.status()?;
+                    let v = serde_json::json!({
+                        "status": status,
+                        "counters": dev.counters_source(),
+                    });
+                    lmhost::outln!("{v}")?;
+                }
             }
         }
         Ok(dev.stop()?)
