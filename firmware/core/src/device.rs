@@ -30,6 +30,10 @@ pub struct Config {
     pub require_tracking: bool,
     /// Amplitude of unmuted frames (default 255).
     pub amplitude: u8,
+    /// While a step lasts longer than this (µs), its frame is sent again
+    /// this often, so the transducer driver's 100 ms silence timeout
+    /// (`firmware/DRIVER.md`) never cuts a long dwell; 0 = never.
+    pub frame_repeat_us: u32,
 }
 
 impl Config {
@@ -46,6 +50,7 @@ impl Config {
             centroid_timeout_us: 100_000,
             require_tracking: true,
             amplitude: 255,
+            frame_repeat_us: 50_000,
         }
     }
 }
@@ -123,6 +128,8 @@ struct Handler<'m> {
     frame: [u8; MAX_TRANSDUCERS],
     /// Re-send the current step at once (Stop, presence lost).
     refresh: bool,
+    /// When the last frame went out (timer counts), for repeats.
+    last_frame: Option<u64>,
 }
 
 /// The whole device core.
@@ -162,6 +169,7 @@ impl<'m> Device<'m> {
                 offsets: [0; MAX_TRANSDUCERS],
                 frame: [0; MAX_TRANSDUCERS],
                 refresh: false,
+                last_frame: None,
             },
         })
     }
@@ -234,7 +242,7 @@ impl<'m> Device<'m> {
         if self.handler.refresh {
             return Some(0);
         }
-        self.handler.player.deadline()
+        self.handler.deadline()
     }
 
     /// The `Info` response.
@@ -536,6 +544,26 @@ impl Handler<'_> {
         self.offsets_for = Some(slot);
     }
 
+    /// When the current frame must go out again ([`Config::frame_repeat_us`]
+    /// after the last one), while something plays.
+    fn repeat_at(&self) -> Option<u64> {
+        let us = u64::from(self.cfg.frame_repeat_us);
+        if us == 0 {
+            return None;
+        }
+        self.player.deadline()?;
+        let every = (us * u64::from(self.cfg.timer_hz) / 1_000_000).max(1);
+        self.last_frame.map(|t| t.saturating_add(every))
+    }
+
+    /// The next time `poll` has work: a step boundary or a repeat.
+    fn deadline(&self) -> Option<u64> {
+        match (self.player.deadline(), self.repeat_at()) {
+            (Some(d), Some(r)) => Some(d.min(r)),
+            (d, _) => d,
+        }
+    }
+
     fn poll<D: OutputDriver>(&mut self, now: u64, out: &mut D) -> Option<u64> {
         #[cfg(feature = "defmt")]
         let missed_before = self.player.missed();
@@ -558,14 +586,14 @@ impl Handler<'_> {
                 }
                 (d.slot, d.step, d.at)
             }
-            None if self.refresh => {
+            None if self.refresh || self.repeat_at().is_some_and(|t| now >= t) => {
                 let Some(slot) = self.player.slot() else {
                     self.refresh = false;
-                    return self.player.deadline();
+                    return self.deadline();
                 };
                 (slot, self.player.step(), now)
             }
-            None => return self.player.deadline(),
+            None => return self.deadline(),
         };
         self.refresh = false;
         if self.offsets_for != Some(slot) && self.policy.correcting() {
@@ -601,6 +629,7 @@ impl Handler<'_> {
             Ok(()) => self.counters.frames_out = self.counters.frames_out.wrapping_add(1),
             Err(_) => self.counters.output_errors = self.counters.output_errors.wrapping_add(1),
         }
-        self.player.deadline()
+        self.last_frame = Some(now);
+        self.deadline()
     }
 }

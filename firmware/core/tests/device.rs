@@ -514,6 +514,66 @@ fn config_defaults_are_documented_values() {
     assert_eq!(c.min_dwell_us, 1000);
     assert_eq!(c.centroid_timeout_us, 100_000);
     assert!(c.require_tracking);
+    // Half the transducer driver's 100 ms silence timeout.
+    assert_eq!(c.frame_repeat_us, 50_000);
+}
+
+/// A step of 300 ms outlasts the driver's 100 ms timeout: its frame goes
+/// out again every 50 ms, unchanged, until the next step; Stop ends the
+/// repeats with its muted frame; 0 turns them off.
+#[test]
+fn a_long_dwell_is_repeated_before_the_drivers_timeout_until_stop() {
+    for repeat_us in [50_000, 0] {
+        let mut cfg = config(8);
+        cfg.frame_repeat_us = repeat_us;
+        let mut dev = device(cfg, 2 * 8);
+        let a = Seq::pattern(2, 8, 600_000, 3);
+        a.upload(&mut dev, 0, Encoding::Raw, 0);
+        acks(&mut dev, 1, &play_untracked(0), 1_000);
+        let mut out = Capture::default();
+        let mut now = 1_000;
+        while now < 1_000 + 1_200_000 {
+            now = dev.poll(now, &mut out).unwrap();
+        }
+        let f = &out.frames;
+        if repeat_us == 0 {
+            // Only the step boundaries: 300 ms apart.
+            assert!(
+                f.windows(2).all(|w| w[1].0 - w[0].0 == 300_000),
+                "{:?}",
+                f.iter().map(|x| x.0).collect::<Vec<_>>()
+            );
+            continue;
+        }
+        assert!(
+            f.windows(2).all(|w| w[1].0 - w[0].0 <= 50_000),
+            "a gap over 50 ms"
+        );
+        // Six frames per 300 ms step, each the step's phases at full amplitude.
+        assert_eq!(
+            f.len(),
+            4 * 6,
+            "{:?}",
+            f.iter().map(|x| (x.0, x.2)).collect::<Vec<_>>()
+        );
+        for (k, x) in f.iter().enumerate() {
+            let step = ((k / 6) % 2) as u16;
+            assert_eq!(
+                (x.2, x.3, x.4.as_slice()),
+                (step, 255, a.step(step)),
+                "frame {k}"
+            );
+        }
+        // Stop: one muted frame, then nothing more to send.
+        acks(&mut dev, 2, &Message::Stop, now);
+        out.frames.clear();
+        assert_eq!(dev.poll(now, &mut out), None);
+        assert_eq!(out.frames.len(), 1);
+        assert_eq!(out.frames[0].3, 0);
+        assert_eq!(dev.next_deadline(), None);
+        assert_eq!(dev.poll(now + 500_000, &mut out), None);
+        assert_eq!(out.frames.len(), 1, "no repeats after Stop");
+    }
 }
 
 #[test]
