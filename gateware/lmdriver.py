@@ -12,6 +12,14 @@ The contract (SPI mode, frame layout, latch, timing, faults) is
 Safety: after reset, and when no valid frame was latched for
 `timeout_cycles`, every output is low until the next valid frame.
 
+Several boards on one bus: a frame carries `total` phases and this board
+drives `n` of them from channel `first` (four 64-channel boards with
+`first` = 0, 64, 128, 192 drive 256 channels from the same SCK, MOSI and
+CS). Each checks the whole frame. So that boards on one reference clock
+also share the carrier's phase, the first valid frame after reset or a
+timeout latches at once and restarts the carrier there: every board sees
+the same CS edge, and its outputs were silent, so nothing glitches.
+
 Clock: f_clk = 40 kHz x 256 x k (k = `clocks_per_count`, default 8:
 81.92 MHz). The SPI pins are sampled in the clock domain, so SCK must be
 at most f_clk / 4.
@@ -39,12 +47,17 @@ def duty_counts(amplitude, intensity):
 
 
 class LmDriver(wiring.Component):
-    """`n` channels; `clocks_per_count` clocks per 1/256 carrier period;
-    `timeout_cycles` clocks without a latched frame before going silent."""
+    """`n` channels, the frame's channels `first`..`first + n` of `total`
+    (default: all, `total` = `n`); `clocks_per_count` clocks per 1/256
+    carrier period; `timeout_cycles` clocks without a latched frame before
+    going silent."""
 
-    def __init__(self, n=256, clocks_per_count=8, timeout_cycles=None):
-        assert 1 <= n <= 0xFFFF and clocks_per_count >= 1
+    def __init__(self, n=256, clocks_per_count=8, timeout_cycles=None, first=0, total=None):
+        total = n if total is None else total
+        assert 1 <= n and 0 <= first and first + n <= total <= 0xFFFF and clocks_per_count >= 1
         self.n = n
+        self.first = first
+        self.total = total
         self.k = clocks_per_count
         period = COUNTS * clocks_per_count
         # Default: 100 ms (DRIVER.md, "MCU silent").
@@ -67,6 +80,7 @@ class LmDriver(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         n = self.n
+        total, first = self.total, self.first
 
         sck = Signal()
         mosi = Signal()
@@ -84,14 +98,14 @@ class LmDriver(wiring.Component):
         # --- SPI slave and back buffer -------------------------------
         shift = Signal(7)
         bits = Signal(3)
-        index = Signal(range(SPI_HEADER_LEN + n + 2))  # saturates at the top
+        index = Signal(range(SPI_HEADER_LEN + total + 2))  # saturates at the top
         ok = Signal()
         back = [Signal(8, name=f"back{i}") for i in range(n)]
         back_amp = Signal(8)
         back_int = Signal(8)
         pending = Signal()
         byte = Cat(mosi, shift)
-        last_index = SPI_HEADER_LEN + n + 1
+        last_index = SPI_HEADER_LEN + total + 1
 
         with m.If(cs_fall):
             m.d.sync += [bits.eq(0), index.eq(0), ok.eq(~pending)]
@@ -112,19 +126,19 @@ class LmDriver(wiring.Component):
                         with m.If(~pending):
                             m.d.sync += back_int.eq(byte)
                     with m.Case(5):
-                        with m.If(byte != (n & 0xFF)):
+                        with m.If(byte != (total & 0xFF)):
                             m.d.sync += ok.eq(0)
                     with m.Case(6):
-                        with m.If(byte != (n >> 8)):
+                        with m.If(byte != (total >> 8)):
                             m.d.sync += ok.eq(0)
                     for i in range(n):
-                        with m.Case(SPI_HEADER_LEN + i):
+                        with m.Case(SPI_HEADER_LEN + first + i):
                             with m.If(~pending):
                                 m.d.sync += back[i].eq(byte)
 
         good = Signal(16)
         bad = Signal(16)
-        whole = ok & (bits == 0) & (index == SPI_HEADER_LEN + n)
+        whole = ok & (bits == 0) & (index == SPI_HEADER_LEN + total)
         latch = Signal()
 
         # --- carrier ---------------------------------------------------
@@ -163,6 +177,18 @@ class LmDriver(wiring.Component):
                 silence.eq(0),
                 good.eq(good + 1),
             ]
+        with m.Elif(cs_rise & whole & ~active):
+            # From silence: latch now and restart the carrier here (after
+            # the carrier's own update above, so this assignment wins).
+            m.d.sync += [f.eq(b) for f, b in zip(front, back)]
+            m.d.sync += [
+                duty.eq(back_duty),
+                active.eq(1),
+                silence.eq(0),
+                good.eq(good + 1),
+                sub.eq(0),
+                count.eq(0),
+            ]
         with m.Else():
             with m.If(cs_rise & whole):
                 m.d.sync += pending.eq(1)
@@ -191,9 +217,11 @@ if __name__ == "__main__":
 
     p = argparse.ArgumentParser(description="Write the driver as RTLIL (for Yosys)")
     p.add_argument("--channels", type=int, default=256)
+    p.add_argument("--first", type=int, default=0, help="first frame channel this board drives")
+    p.add_argument("--total", type=int, default=None, help="phases per frame [default: --channels]")
     p.add_argument("--clocks-per-count", type=int, default=8)
     p.add_argument("out")
     a = p.parse_args()
-    top = LmDriver(a.channels, a.clocks_per_count)
+    top = LmDriver(a.channels, a.clocks_per_count, first=a.first, total=a.total)
     with open(a.out, "w") as f:
         f.write(rtlil.convert(top, name="lm_driver"))

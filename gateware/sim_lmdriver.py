@@ -88,9 +88,9 @@ def valid(frame, n=N):
 
 # --- simulation ------------------------------------------------------------
 
-def simulate(wave, n=N, k=K, timeout_cycles=None):
+def simulate(wave, n=N, k=K, timeout_cycles=None, first=0, total=None):
     """Runs the wave; returns per clock: out, period_start, active, good, bad."""
-    dut = LmDriver(n, k, timeout_cycles)
+    dut = LmDriver(n, k, timeout_cycles, first=first, total=total)
     rst = Signal()
     top = Module()
     top.submodules.dut = ResetInserter({"sync": rst})(dut)
@@ -127,11 +127,16 @@ def expected_high(pattern, n, k):
 
 
 def periods(rec, n, k):
-    """[(start clock, per-channel high offsets)] for every whole period."""
+    """[(start clock, per-channel high offsets)] for every whole period. A
+    period cut short by a carrier restart (the first latch from silence)
+    must be silent, and is skipped."""
     period = COUNTS * k
     starts = [t for t, v in enumerate(rec["ps"]) if v]
     res = []
-    for s in starts:
+    for j, s in enumerate(starts):
+        if j + 1 < len(starts) and starts[j + 1] - s < period:
+            assert not any(rec["out"][s:starts[j + 1]]), f"a cut period at clock {s} is not silent"
+            continue
         if s + period > len(rec["out"]):
             break
         words = rec["out"][s:s + period]
@@ -383,6 +388,50 @@ def test_random_spi_fuzz():
     FIG["fuzz_transactions"] = sent
     FIG["fuzz_accepted"] = len(accepted)
     assert shown
+
+
+def test_boards_on_one_bus_drive_their_slice_in_phase():
+    """Two 8-channel boards (`first` 0 and 8) on one bus, reset at
+    different times, get the same 16-phase frames: each shows its slice,
+    edges exact, and their carriers start on the same clock from the first
+    frame on; a 16-channel board sees the same."""
+    period = COUNTS * K
+    rng = random.Random(29)
+    frames = [frame_bytes(255, 255, [rng.randrange(256) for _ in range(N)], step=s)
+              for s in range(3)]
+    half = N // 2
+    recs, waves = [], []
+    for lead in (0, 777):  # the second board leaves reset 777 clocks later
+        w = Wave()
+        w.reset(3 + lead)
+        w.idle(period + 300 - lead)
+        firsts = []
+        for f in frames:
+            firsts.append(w.frame(f))
+            w.idle(period + 100)
+        w.idle(period)
+        waves.append((w, firsts))
+    assert waves[0][1] == waves[1][1], "the same CS edges on both"
+    for board, (w, _) in enumerate(waves):
+        recs.append(simulate(w, n=half, first=board * half, total=N,
+                             timeout_cycles=100 * period))
+    starts = [[t for t, v in enumerate(r["ps"]) if v and t > waves[0][1][0]] for r in recs]
+    assert starts[0] and starts[0] == starts[1], "carriers in phase after the first frame"
+    for board, r in enumerate(recs):
+        pats = [(tuple(f[SPI_HEADER_LEN + board * half:SPI_HEADER_LEN + (board + 1) * half]),
+                 duty_counts(f[1], f[2])) for f in frames]
+        shown = classify(r, pats, half, K)
+        assert sorted({i for _, i in shown if i >= 0}) == [0, 1, 2], shown
+        assert edge_error_lsb(r, pats, shown, half, K) <= 1
+        assert r["good"][-1] == 3 and r["bad"][-1] == 0
+    # A frame for a 24-channel rig is not whole for a board expecting 16.
+    w = Wave()
+    w.reset()
+    w.frame(frame_bytes(255, 255, [0] * 24))
+    w.idle(2 * period)
+    r = simulate(w, n=half, first=half, total=N, timeout_cycles=100 * period)
+    assert r["good"][-1] == 0 and r["bad"][-1] == 1
+    FIG["boards_in_phase"] = 2
 
 
 def test_documented_clock_k8():
