@@ -220,8 +220,9 @@ if __name__ == "__main__":
     p.add_argument("--first", type=int, default=0, help="first frame channel this board drives")
     p.add_argument("--total", type=int, default=None, help="phases per frame [default: --channels]")
     p.add_argument("--clocks-per-count", type=int, default=8)
+    p.add_argument("--name", default="lm_driver", help="the top module's name")
     p.add_argument("out")
     a = p.parse_args()
     top = LmDriver(a.channels, a.clocks_per_count, first=a.first, total=a.total)
     with open(a.out, "w") as f:
-        f.write(rtlil.convert(top, name="lm_driver"))
+        f.write(rtlil.convert(top, name=a.name))

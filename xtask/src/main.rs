@@ -9,7 +9,9 @@
 //! - `gateware`: the CI's gateware step alone: dumps the core's SPI frames for
 //!   a planned LM-M sequence, then simulates the transducer driver
 //!   (`gateware/`, Amaranth in a venv under the target dir) against
-//!   `firmware/DRIVER.md`.
+//!   `firmware/DRIVER.md`; then the full-width chain (the paper's LM-M,
+//!   996 channels on four boards) as Verilog under Verilator (Yosys and
+//!   Verilator from Debian, installed as root when missing).
 //! - `ethercat`: the CI's opt-in backends step alone: builds lmhost with
 //!   `flash` and (as root, installing libpcap-dev and CMake ≥ 3.28) both
 //!   EtherCAT links, then checks that opening them without an adapter or
@@ -81,7 +83,7 @@ const STEPS: &[Step] = &[
         run: step_python,
     },
     Step {
-        name: "gateware: driver simulation on the core's LM-M SPI frames (Amaranth, own venv)",
+        name: "gateware: driver simulation on the core's LM-M SPI frames (Amaranth, own venv), then full width: plan → core → SPI → Verilator, 996 channels",
         run: step_gateware,
     },
     Step {
@@ -656,7 +658,74 @@ fn step_gateware(c: &Ctx) -> Result<(), String> {
         .current_dir(c.root.join("gateware"))
         .arg("sim_lmdriver.py")
         .env("PYTHONDONTWRITEBYTECODE", "1")
-        .env("LM_GW_OUT", &out))
+        .env("LM_GW_OUT", &out))?;
+    full_width(c, &python, &out)
+}
+
+/// Transducers of the paper's rig (`scenes/paper.toml`) and the channels
+/// of one driver board in the full-width run.
+const FULL_WIDTH: (&str, &str) = ("996", "256");
+
+/// The whole chain at full width: `lmhost plan` (the paper's LM-M on the
+/// paper's scene) → lm-fw-core (`spi_frames`' full-width test) → the SPI
+/// bytes → the driver as Verilog (Yosys) on four boards under Verilator →
+/// every edge of every channel against the plan (`gateware/full_width.py`).
+fn full_width(c: &Ctx, python: &Path, out: &Path) -> Result<(), String> {
+    let missing: Vec<&str> = ["yosys", "verilator"]
+        .into_iter()
+        .filter(|p| !has_program(p))
+        .collect();
+    if !missing.is_empty() {
+        if !is_root() || !have_program("apt-get") {
+            return Err(format!(
+                "the full-width gateware run needs {} (Debian: `sudo apt-get install -y yosys verilator`)",
+                missing.join(" and ")
+            ));
+        }
+        run(Command::new("apt-get")
+            .args(["install", "-y", "--no-install-recommends"])
+            .args(&missing)
+            .env("DEBIAN_FRONTEND", "noninteractive"))?;
+    }
+    run(c.cargo(&["build", "-q", "-p", "lmhost"]))?;
+    let phases = out.join("lmm-paper.bin");
+    run(Command::new(c.target_dir.join("debug").join("lmhost"))
+        .current_dir(&c.root)
+        .args([
+            "plan",
+            "--scene",
+            "scenes/paper.toml",
+            "--radius",
+            "3",
+            "--foci",
+            "4",
+            "--out",
+        ])
+        .arg(&phases))?;
+    let frames = out.join("frames-full.bin");
+    let _ = std::fs::remove_file(&frames);
+    run(c
+        .cargo(&[
+            "test",
+            "-q",
+            "-p",
+            "lm-fw-core",
+            "--test",
+            "spi_frames",
+            "--",
+            "--ignored",
+            "full_width",
+        ])
+        .env("LM_GW_PHASES", &phases)
+        .env("LM_GW_CHANNELS", FULL_WIDTH.0)
+        .env("LM_GW_FRAMES_OUT", &frames))?;
+    run(Command::new(python)
+        .current_dir(c.root.join("gateware"))
+        .arg("full_width.py")
+        .arg(&frames)
+        .args(["--total", FULL_WIDTH.0, "--board", FULL_WIDTH.1, "--work"])
+        .arg(out.join("verilator"))
+        .env("PYTHONDONTWRITEBYTECODE", "1"))
 }
 
 /// Default channel count of `bitstream`: one pin per channel, so the

@@ -8,6 +8,11 @@
 //! With `LM_GW_FRAMES_OUT` set, the frames are written there as
 //! `u32 LE length + bytes` records, one per SPI transaction: two cycles,
 //! then the muted frame the core sends on `Stop`.
+//!
+//! The full-width run (ignored here; `cargo xtask gateware` runs it) plays
+//! the phases `lmhost plan --out X.bin` wrote (`LM_GW_PHASES`, step-major,
+//! `LM_GW_CHANNELS` transducers, 5 Hz) the same way and writes its frames to
+//! `LM_GW_FRAMES_OUT`.
 
 mod common;
 
@@ -51,9 +56,22 @@ impl SpiDevice for Wire {
 /// Uploads the fixture, plays it for `cycles` cycles through [`SpiOutput`]
 /// and returns every SPI transaction.
 fn play_lm_m(cycles: u64) -> Vec<Vec<u8>> {
-    let mut seq = Seq::pattern(STEPS, CHANNELS, PERIOD_US, 0);
-    seq.phases = PHASES.to_vec();
-    let mut dev = device(config(CHANNELS), PHASES.len());
+    play_phases(PHASES, STEPS, CHANNELS, INTENSITY, cycles)
+}
+
+/// Uploads `phases` (`steps` × `channels`, step-major, 5 Hz) with
+/// `intensity`, plays `cycles` cycles through [`SpiOutput`], stops, and
+/// returns every SPI transaction.
+fn play_phases(
+    phases: &[u8],
+    steps: u16,
+    channels: u16,
+    intensity: u8,
+    cycles: u64,
+) -> Vec<Vec<u8>> {
+    let mut seq = Seq::pattern(steps, channels, PERIOD_US, 0);
+    seq.phases = phases.to_vec();
+    let mut dev = device(config(channels), phases.len());
     let stream = seq.encode(Encoding::Raw);
     for (i, mut m) in seq
         .upload_requests(0, Encoding::Raw, &stream, 700)
@@ -61,7 +79,7 @@ fn play_lm_m(cycles: u64) -> Vec<Vec<u8>> {
         .enumerate()
     {
         if let Message::BeginUpload(b) = &mut m {
-            b.header.intensity = INTENSITY;
+            b.header.intensity = intensity;
         }
         assert_eq!(request(&mut dev, i as u16, &m, 0), Reply::Ack, "{m:?}");
     }
@@ -71,7 +89,7 @@ fn play_lm_m(cycles: u64) -> Vec<Vec<u8>> {
         Reply::Ack
     );
     let mut wire = Wire::default();
-    let total = cycles as usize * usize::from(STEPS);
+    let total = cycles as usize * usize::from(steps);
     let mut now = 0;
     while wire.transactions.len() < total {
         now = dev
@@ -118,15 +136,47 @@ fn lm_m_frames_are_header_then_the_planned_phases() {
         );
     }
     if let Some(path) = std::env::var_os("LM_GW_FRAMES_OUT") {
-        let mut bytes = Vec::new();
-        for f in &frames {
-            bytes.extend_from_slice(&(f.len() as u32).to_le_bytes());
-            bytes.extend_from_slice(f);
-        }
-        let path = std::path::PathBuf::from(path);
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).unwrap();
-        }
-        std::fs::write(&path, bytes).unwrap();
+        write_frames(std::path::Path::new(&path), &frames);
     }
+}
+
+/// Writes `frames` as `u32 LE length + bytes` records to `path`.
+fn write_frames(path: &std::path::Path, frames: &[Vec<u8>]) {
+    let mut bytes = Vec::new();
+    for f in frames {
+        bytes.extend_from_slice(&(f.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(f);
+    }
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).unwrap();
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// The paper's LM-M at full width: one cycle of the planner's phases and
+/// the Stop frame, each frame the header and that step's phases.
+#[test]
+#[ignore = "run by `cargo xtask gateware` with LM_GW_PHASES from `lmhost plan --out`"]
+fn full_width_frames_from_the_planner() {
+    let var = |k: &str| std::env::var_os(k).unwrap_or_else(|| panic!("{k} is not set"));
+    let phases = std::fs::read(var("LM_GW_PHASES")).unwrap();
+    let channels: u16 = var("LM_GW_CHANNELS").to_str().unwrap().parse().unwrap();
+    let t = usize::from(channels);
+    assert!(
+        !phases.is_empty() && phases.len() % t == 0,
+        "{} bytes",
+        phases.len()
+    );
+    let steps = u16::try_from(phases.len() / t).unwrap();
+    let frames = play_phases(&phases, steps, channels, 255, 1);
+    assert_eq!(frames.len(), usize::from(steps) + 1);
+    for (k, f) in frames[..usize::from(steps)].iter().enumerate() {
+        assert_eq!(f.len(), SPI_HEADER_LEN + t);
+        assert_eq!(
+            &f[SPI_HEADER_LEN..],
+            &phases[k * t..(k + 1) * t],
+            "step {k}"
+        );
+    }
+    write_frames(std::path::Path::new(&var("LM_GW_FRAMES_OUT")), &frames);
 }
