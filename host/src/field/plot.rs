@@ -747,7 +747,7 @@ mod tests {
     }
 
     #[test]
-    fn heatmap_writes_png_and_svg_at_the_printed_width() {
+    fn heatmap_writes_png_svg_and_pdf_at_the_printed_width() {
         let plane = ObservationPlane {
             center_mm: [0.0; 3],
             u: [1.0, 0.0, 0.0],
@@ -781,7 +781,10 @@ mod tests {
             ..Figure::default()
         };
         let written = heatmap(&dir.join("t"), &plane, &panel, &labels, &fig).unwrap();
-        assert_eq!(written, [dir.join("t.png"), dir.join("t.svg")]);
+        assert_eq!(
+            written,
+            [dir.join("t.png"), dir.join("t.svg"), dir.join("t.pdf")]
+        );
         let bytes = std::fs::read(dir.join("t.png")).unwrap();
         assert_eq!(&bytes[1..4], b"PNG");
         // 180 mm at 4 units per pt: 2041 pixels (288 dpi).
