@@ -91,7 +91,7 @@ const STEPS: &[Step] = &[
         run: step_qemu_selftest,
     },
     Step {
-        name: "thumb build: Nucleo-H743 board",
+        name: "thumb build: Nucleo-H743 board (crystal clock), size report",
         run: step_build_nucleo,
     },
     Step {
@@ -871,8 +871,17 @@ fn nucleo_build(c: &Ctx) -> Result<(), String> {
     thumb_build(c, &["-p", NUCLEO_PKG])
 }
 
+/// The real board, on its crystal clock (`firmware/nucleo-h743/src/clocks.rs`:
+/// its dividers are checked at compile time), and its memory map.
 fn step_build_nucleo(c: &Ctx) -> Result<(), String> {
-    nucleo_build(c)
+    nucleo_build(c)?;
+    let elf_path = c.nucleo_elf();
+    let bytes =
+        std::fs::read(&elf_path).map_err(|e| format!("cannot read {}: {e}", elf_path.display()))?;
+    let report = elf::memory_map(&bytes).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    println!("== Nucleo-H743: {}", elf_path.display());
+    print!("{report}");
+    Ok(())
 }
 
 /// Runs the ignored long tests of one test target in release mode.

@@ -4,9 +4,11 @@
 //! select (together an `embedded-hal-bus` [`ExclusiveDevice`]), USART3 as
 //! the serve loop's [`HostLink`].
 //!
-//! Clocks stay at their reset values: HSI 64 MHz, all bus prescalers 1, so
-//! USART3's kernel clock (pclk1), TIM2's clock and SPI1's kernel clock
-//! (per_ck = HSI) are all 64 MHz. The player needs no more than that.
+//! Clocks: [`crate::clocks`] puts the board on the ST-LINK's crystal
+//! (400 MHz core, USART3 on the 100 MHz APB1, TIM2 from the 200 MHz timer
+//! clock), or leaves it on HSI (64 MHz everywhere) if HSE does not start;
+//! the dividers below follow whichever it reports. SPI1's kernel clock is
+//! per_ck (HSI, 64 MHz) in both cases.
 
 use core::cell::RefCell;
 use core::convert::Infallible;
@@ -21,8 +23,6 @@ use heapless::spsc::{Consumer, Producer, Queue};
 use lm_fw_core::HostLink;
 use stm32h7::stm32h743v as pac;
 
-/// Kernel clock of USART3, TIM2 and SPI1 after reset (HSI).
-pub const KERNEL_HZ: u32 = 64_000_000;
 /// TIM2 count rate: the player's clock.
 pub const TIMER_HZ: u32 = 1_000_000;
 /// Baud rate of the ST-LINK virtual COM port link: lmhost's default.
@@ -40,12 +40,17 @@ pub struct Board {
     pub timer: Timer,
     /// SPI1 (PA5 SCK, PA6 MISO, PB5 MOSI; PD14 chip select = Arduino D13/D12/D11/D10).
     pub spi: DriverSpi,
+    /// The clocks, and which oscillator they come from (not on the wire
+    /// yet: `Info` has no field for it in protocol v3).
+    #[allow(dead_code)]
+    pub clocks: crate::clocks::Clocks,
 }
 
 impl Board {
     /// Enables the clocks and configures pins, USART3, TIM2 and SPI1.
     /// Call once: the receive queue is a singleton.
     pub fn init(dp: pac::Peripherals) -> Board {
+        let clocks = crate::clocks::init(&dp.PWR, &dp.RCC, &dp.FLASH);
         let rcc = &dp.RCC;
         rcc.ahb4enr().modify(|_, w| {
             w.gpioaen()
@@ -90,8 +95,8 @@ impl Board {
         usart.cr1().write(|w| w.ue().clear_bit());
         usart
             .brr()
-            // SAFETY: BRR takes any divisor; 100 MHz / 115200 fits its 16 bits.
-            .write(|w| unsafe { w.bits(KERNEL_HZ.div_ceil(BAUD)) });
+            // SAFETY: BRR takes any divisor; 100 or 64 MHz / 115200 fits its 16 bits.
+            .write(|w| unsafe { w.bits(clocks.usart_hz.div_ceil(BAUD)) });
         usart.cr1().write(|w| {
             w.fifoen()
                 .set_bit()
@@ -106,8 +111,9 @@ impl Board {
         let tim = dp.TIM2;
         tim.cr1().write(|w| w.cen().clear_bit());
         tim.psc()
-            // SAFETY: any 16-bit prescaler is valid; KERNEL_HZ / TIMER_HZ - 1 fits.
-            .write(|w| unsafe { w.bits(KERNEL_HZ / TIMER_HZ - 1) });
+            // SAFETY: any 16-bit prescaler is valid; 200 (or 64) MHz / 1 MHz − 1
+            // fits (checked at compile time in `clocks`).
+            .write(|w| unsafe { w.bits(clocks.tim2_hz / TIMER_HZ - 1) });
         // SAFETY: TIM2 is 32 bits wide: every auto-reload value is valid.
         tim.arr().write(|w| unsafe { w.bits(u32::MAX) });
         tim.egr().write(|w| w.ug().set_bit()); // load PSC now
@@ -140,6 +146,7 @@ impl Board {
             },
             timer: Timer(tim),
             spi,
+            clocks,
         }
     }
 }
@@ -335,12 +342,15 @@ impl OutputPin for ChipSelect {
     }
 }
 
-/// Busy-wait delays in core cycles (the core runs at [`KERNEL_HZ`]), for a
+/// Busy-wait delays in core cycles, counted at the fastest core clock
+/// ([`crate::clocks::SYS_HZ`], so at least as long on HSI), for a
 /// transaction's `DelayNs` operations.
 pub struct CycleDelay;
 
 impl DelayNs for CycleDelay {
     fn delay_ns(&mut self, ns: u32) {
-        cortex_m::asm::delay((u64::from(ns) * u64::from(KERNEL_HZ / 1_000_000) / 1000) as u32 + 1);
+        cortex_m::asm::delay(
+            (u64::from(ns) * u64::from(crate::clocks::SYS_HZ / 1_000_000) / 1000) as u32 + 1,
+        );
     }
 }
