@@ -22,6 +22,8 @@ fn main() {
     println!("cargo:rerun-if-changed={}", board_map.display());
     println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     println!("cargo:rerun-if-changed=build.rs");
+    // The host link's rate (`board::BAUD`), chosen when building.
+    println!("cargo:rerun-if-env-changed=LM_BAUD");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
 }
 

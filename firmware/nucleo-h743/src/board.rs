@@ -25,8 +25,44 @@ use stm32h7::stm32h743v as pac;
 
 /// TIM2 count rate: the player's clock.
 pub const TIMER_HZ: u32 = 1_000_000;
-/// Baud rate of the ST-LINK virtual COM port link: lmhost's default.
-pub const BAUD: u32 = 115_200;
+/// Baud rate of the ST-LINK virtual COM port link: `LM_BAUD` when the
+/// firmware was built, else 115 200 (lmhost's default `--baud`). The
+/// ST-LINK/V3's VCP goes far higher; USART3 (16× oversampling) takes up to
+/// 4 Mbaud on either clock, checked here with the rate error on both.
+pub const BAUD: u32 = match option_env!("LM_BAUD") {
+    Some(s) => parse_baud(s),
+    None => 115_200,
+};
+
+const _: () = {
+    assert!(BAUD >= 1200 && BAUD <= 4_000_000, "LM_BAUD must be 1200..=4000000");
+    // The rate error from BRR's rounding, per mille, on the crystal's
+    // 100 MHz APB1 and on HSI's 64 MHz: within 2 %.
+    let mut i = 0;
+    let clocks = [crate::clocks::APB1_HZ, crate::clocks::HSI_HZ];
+    while i < clocks.len() {
+        let brr = clocks[i].div_ceil(BAUD);
+        let real = clocks[i] / brr;
+        let err = (BAUD - real) as u64 * 1000 / BAUD as u64;
+        assert!(err < 20, "LM_BAUD is more than 2 % off on one of the clocks");
+        i += 1;
+    }
+};
+
+/// `LM_BAUD` as a number, at compile time.
+const fn parse_baud(s: &str) -> u32 {
+    let b = s.as_bytes();
+    assert!(!b.is_empty(), "LM_BAUD is empty");
+    let mut v: u32 = 0;
+    let mut i = 0;
+    while i < b.len() {
+        assert!(b[i].is_ascii_digit(), "LM_BAUD must be a number of baud");
+        v = v * 10 + (b[i] - b'0') as u32;
+        assert!(v <= 100_000_000, "LM_BAUD is too large");
+        i += 1;
+    }
+    v
+}
 
 /// SPI1 with chip select PD14 held low for each transaction: the
 /// transducer driver, as the core's `SpiOutput` wants it.
