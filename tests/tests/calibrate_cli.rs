@@ -135,55 +135,16 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
 
     // Bad input: one line, exit 2, the scene untouched.
     let before = std::fs::read(&scene).unwrap();
-    refused(
-        &run(&[
-            "calibrate",
-            "force",
-            "--measured",
-            "0",
-            "--scene",
-            s,
-            "--write",
-        ]),
-        "--measured",
-    );
-    refused(
-        &run(&[
-            "calibrate",
-            "force",
-            "--measured",
-            "0.02",
-            "--disk",
-            "-3",
-            "--scene",
-            s,
-        ]),
-        "--disk",
-    );
-    refused(
-        &run(&[
-            "calibrate",
-            "force",
-            "--measured",
-            "0.02",
-            "--out",
-            "x.toml",
-        ]),
-        "--scene",
-    );
-    refused(
-        &run(&[
-            "calibrate",
-            "force",
-            "--measured",
-            "0.02",
-            "--scene",
-            s,
-            "--out",
-            s,
-        ]),
-        "refusing",
-    );
+    for (args, says) in [
+        (&["0", "--scene", s, "--write"][..], "--measured"),
+        (&["0.02", "--disk", "-3", "--scene", s], "--disk"),
+        (&["0.02", "--out", "x.toml"], "--scene"),
+        (&["0.02", "--scene", s, "--out", s], "refusing"),
+    ] {
+        let mut all = vec!["calibrate", "force", "--measured"];
+        all.extend_from_slice(args);
+        refused(&run(&all), says);
+    }
     assert_eq!(std::fs::read(&scene).unwrap(), before);
     let x = d.join("x");
     let bad = d.join("bad.toml");

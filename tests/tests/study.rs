@@ -45,7 +45,9 @@ fn study(args: &[&str]) -> Command {
     c
 }
 
-fn run_exp1(port: &str, out: &Path, answers: &Path, extra: &[&str]) -> Output {
+/// `lmhost study run` of Experiment 1 for participant P01 with a
+/// synthetic finger at `time_scale`, then `extra`.
+fn exp1(port: &str, out: &Path, time_scale: &str, extra: &[&str]) -> Command {
     let mut args = vec![
         "run",
         studies("paper-exp1.toml").leak(),
@@ -58,12 +60,16 @@ fn run_exp1(port: &str, out: &Path, answers: &Path, extra: &[&str]) -> Output {
         "--finger",
         "synthetic",
         "--time-scale",
-        "0.02",
-        "--responses",
-        answers.to_str().unwrap(),
+        time_scale,
     ];
     args.extend_from_slice(extra);
-    study(&args).output().unwrap()
+    study(&args)
+}
+
+fn run_exp1(port: &str, out: &Path, answers: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["--responses", answers.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    exp1(port, out, "0.02", &args).output().unwrap()
 }
 
 fn ok(o: &Output) {
@@ -221,25 +227,12 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
     let pty = nix::pty::openpty(None, None).unwrap();
     let cooked = LocalFlags::ICANON | LocalFlags::ECHO;
     assert!(tcgetattr(&pty.slave).unwrap().local_flags.contains(cooked));
-    let mut child = study(&[
-        "run",
-        &studies("paper-exp1.toml"),
-        "--port",
-        "autd3:emulator",
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--finger",
-        "synthetic",
-        "--time-scale",
-        "0.02",
-    ])
-    .stdin(Stdio::from(pty.slave.try_clone().unwrap()))
-    .stdout(Stdio::null())
-    .stderr(Stdio::piped())
-    .spawn()
-    .unwrap();
+    let mut child = exp1("autd3:emulator", &out, "0.02", &[])
+        .stdin(Stdio::from(pty.slave.try_clone().unwrap()))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     // A run that stops answering is killed, so the test fails, not hangs.
     let done = Arc::new(AtomicBool::new(false));
     let watchdog = {
@@ -313,24 +306,12 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
         &["--seed", "7"],
     ));
     let out = d.join("out");
-    let mut child = study(&[
-        "run",
-        &studies("paper-exp1.toml"),
-        "--port",
+    let mut child = exp1(
         "autd3:emulator",
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--finger",
-        "synthetic",
-        "--time-scale",
+        &out,
         "0.1",
-        "--responses",
-        answers.to_str().unwrap(),
-        "--seed",
-        "7",
-    ])
+        &["--responses", answers.to_str().unwrap(), "--seed", "7"],
+    )
     .stderr(Stdio::null())
     .spawn()
     .unwrap();

@@ -35,7 +35,10 @@ pub const BAUD: u32 = match option_env!("LM_BAUD") {
 };
 
 const _: () = {
-    assert!(BAUD >= 1200 && BAUD <= 4_000_000, "LM_BAUD must be 1200..=4000000");
+    assert!(
+        BAUD >= 1200 && BAUD <= 4_000_000,
+        "LM_BAUD must be 1200..=4000000"
+    );
     // The rate error from BRR's rounding, per mille, on the crystal's
     // 100 MHz APB1 and on HSI's 64 MHz: within 2 %.
     let mut i = 0;
@@ -44,7 +47,10 @@ const _: () = {
         let brr = clocks[i].div_ceil(BAUD);
         let real = clocks[i] / brr;
         let err = (BAUD - real) as u64 * 1000 / BAUD as u64;
-        assert!(err < 20, "LM_BAUD is more than 2 % off on one of the clocks");
+        assert!(
+            err < 20,
+            "LM_BAUD is more than 2 % off on one of the clocks"
+        );
         i += 1;
     }
 };

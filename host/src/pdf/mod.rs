@@ -152,6 +152,15 @@ fn deflate(data: &[u8]) -> Vec<u8> {
     z.finish().unwrap_or_default()
 }
 
+/// `m` to the first point, `l` to the others: a path's operators.
+fn path_ops(points: impl IntoIterator<Item = BackendCoord>) -> String {
+    let mut ops = String::new();
+    for (i, (x, y)) in points.into_iter().enumerate() {
+        let _ = write!(ops, "{x} {y} {} ", if i == 0 { "m" } else { "l" });
+    }
+    ops
+}
+
 /// A number for the content stream: at most 3 decimals, no `-0`.
 fn num(v: f64) -> String {
     let r = (v * 1000.0).round() / 1000.0;
@@ -422,10 +431,7 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         path: I,
         style: &S,
     ) -> R<'a> {
-        let mut ops = String::new();
-        for (i, (x, y)) in path.into_iter().enumerate() {
-            let _ = write!(ops, "{x} {y} {} ", if i == 0 { "m" } else { "l" });
-        }
+        let ops = path_ops(path);
         if !ops.is_empty() && self.stroke_setup(style).is_some() {
             self.content.push_str(&ops);
             self.content.push_str("S Q\n");
@@ -478,10 +484,7 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         vert: I,
         style: &S,
     ) -> R<'a> {
-        let mut ops = String::new();
-        for (i, (x, y)) in vert.into_iter().enumerate() {
-            let _ = write!(ops, "{x} {y} {} ", if i == 0 { "m" } else { "l" });
-        }
+        let ops = path_ops(vert);
         if !ops.is_empty() && self.fill_setup(style.color()).is_some() {
             self.content.push_str(&ops);
             self.content.push_str("h f Q\n");
