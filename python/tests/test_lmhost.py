@@ -84,6 +84,27 @@ def test_simulate_matches_the_cli_summary(lmhost_bin, tmp_path):
     assert f.force_n > 0
 
 
+def test_simulate_carries_the_scenes_force_calibration(lmhost_bin, root, tmp_path):
+    """`lmhost calibrate force` writes [calibration]; Python's simulate then
+    gives the measured force for the static focus and the CLI's maps, and
+    an explicit calibration replaces the scene's."""
+    scene = tmp_path / "rig.toml"
+    scene.write_text((root / PAPER).read_text())
+    cli(lmhost_bin, "calibrate", "force", "--measured", 0.022, "--scene", scene, "--write")
+    static = lmhost.plan(radius=0, scene=lmhost.Scene.load(scene))
+    f = lmhost.simulate(static, plane_size=17, plane_step=0.25)
+    assert abs(f.force_n - 0.022) < 1e-9
+    assert f.summary["force"]["calibration_source"] == "scene"
+    out = tmp_path / "sim"
+    cli(lmhost_bin, "simulate", "--scene", scene, "--radius", 0, "--plane-size", 17,
+        "--plane-step", 0.25, "--out", out)
+    assert np.allclose(f.mean_pressure, np.load(out / "mean_pressure.npy"))
+    raw = lmhost.simulate(static, plane_size=17, plane_step=0.25, calibration=1.0)
+    k = f.summary["force"]["calibration"]
+    assert 0 < k < 1 and abs(raw.force_n * k - 0.022) < 1e-9
+    assert np.allclose(f.amplitude, raw.amplitude * k ** 0.5)
+
+
 def test_tracker_equals_lmhost_track_json(lmhost_bin, root, tmp_path):
     rec = tmp_path / "rec.npy"
     cli(lmhost_bin, "track", "--synthetic", "--seconds", 1, "--record", rec,
