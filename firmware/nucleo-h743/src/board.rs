@@ -76,8 +76,9 @@ pub type DriverSpi = ExclusiveDevice<Spi1, ChipSelect, CycleDelay>;
 
 /// The board's peripherals, set up.
 pub struct Board {
-    /// USART3 on PD8 (TX) / PD9 (RX): the ST-LINK virtual COM port.
-    pub link: Link,
+    /// The host link: the user USB port (when on the crystal) and USART3
+    /// on PD8 (TX) / PD9 (RX), the ST-LINK virtual COM port.
+    pub link: Links,
     /// TIM2, free-running 32-bit at [`TIMER_HZ`].
     pub timer: Timer,
     /// SPI1 (PA5 SCK, PA6 MISO, PB5 MOSI; PD14 chip select = Arduino D13/D12/D11/D10).
@@ -93,6 +94,7 @@ impl Board {
     /// Call once: the receive queue is a singleton.
     pub fn init(dp: pac::Peripherals) -> Board {
         let clocks = crate::clocks::init(&dp.PWR, &dp.RCC, &dp.FLASH);
+        let usb = crate::usb::init(&clocks, &dp.PWR, &dp.RCC, &dp.GPIOA);
         let rcc = &dp.RCC;
         rcc.ahb4enr().modify(|_, w| {
             w.gpioaen()
@@ -181,10 +183,14 @@ impl Board {
         critical_section::with(|cs| RX.borrow(cs).replace(Some(producer)));
         let Ok(spi) = ExclusiveDevice::new(Spi1(spi), ChipSelect(dp.GPIOD), CycleDelay);
         Board {
-            link: Link {
-                usart,
-                rx: consumer,
-                tx: Deque::new(),
+            link: Links {
+                uart: Link {
+                    usart,
+                    rx: consumer,
+                    tx: Deque::new(),
+                },
+                usb,
+                reply_usb: false,
             },
             timer: Timer(tim),
             spi,
@@ -251,6 +257,46 @@ impl HostLink for Link {
 
     fn flush(&mut self) {
         self.pump();
+    }
+}
+
+/// The two host links the firmware serves: replies go back on the link
+/// the last request came from. One host at a time: requests interleaved
+/// from both would garble each other's frames (the decoder counts them).
+pub struct Links {
+    uart: Link,
+    usb: Option<crate::usb::UsbLink>,
+    reply_usb: bool,
+}
+
+impl HostLink for Links {
+    fn receive(&mut self, buf: &mut [u8]) -> usize {
+        if let Some(u) = &mut self.usb {
+            let n = u.receive(buf);
+            if n > 0 {
+                self.reply_usb = true;
+                return n;
+            }
+        }
+        let n = self.uart.receive(buf);
+        if n > 0 {
+            self.reply_usb = false;
+        }
+        n
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        match &mut self.usb {
+            Some(u) if self.reply_usb => u.send(bytes),
+            _ => self.uart.send(bytes),
+        }
+    }
+
+    fn flush(&mut self) {
+        self.uart.flush();
+        if let Some(u) = &mut self.usb {
+            u.flush();
+        }
     }
 }
 

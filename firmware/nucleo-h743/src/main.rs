@@ -7,6 +7,7 @@
 
 mod board;
 mod clocks;
+mod usb;
 
 use core::mem::MaybeUninit;
 

@@ -11,12 +11,19 @@ pub const PORT_ENV: &str = "LMHOST_PORT";
 
 /// USB ids of boards the firmware runs on, with a name for messages.
 pub const KNOWN_BOARDS: &[(u16, u16, &str)] = &[
+    // The firmware's own CDC-ACM port on the Nucleo's user USB connector
+    // (firmware/nucleo-h743/src/usb.rs: ST's VCP id); preferred when the
+    // board's ST-LINK port shows up too (it is the faster link).
+    (0x0483, 0x5740, "Nucleo-H743 user USB (LM firmware)"),
     // ST-LINK/V3 and V2-1 virtual COM ports (Nucleo boards).
     (0x0483, 0x374e, "ST-LINK/V3 (Nucleo-H743ZI)"),
     (0x0483, 0x374f, "ST-LINK/V3"),
     (0x0483, 0x3753, "ST-LINK/V3"),
     (0x0483, 0x374b, "ST-LINK/V2-1"),
 ];
+
+/// The USB id of the firmware's own CDC-ACM port.
+pub const FIRMWARE_USB: (u16, u16) = (0x0483, 0x5740);
 
 /// A tty found in sysfs.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -98,6 +105,14 @@ pub fn choose(
         return Ok(p.to_owned());
     }
     let boards: Vec<&PortInfo> = found.iter().filter(|p| p.board().is_some()).collect();
+    let own: Vec<&PortInfo> = boards
+        .iter()
+        .copied()
+        .filter(|p| p.usb == Some(FIRMWARE_USB))
+        .collect();
+    if let [one] = own.as_slice() {
+        return Ok(one.path.clone());
+    }
     match boards.as_slice() {
         [one] => Ok(one.path.clone()),
         [] => {
@@ -167,6 +182,41 @@ mod tests {
         );
         assert_eq!(choose(None, None, &found).unwrap(), "/dev/ttyACM0");
         let _ = std::fs::remove_dir_all(root);
+    }
+
+    #[test]
+    fn the_firmwares_usb_port_is_preferred_to_the_st_link_of_the_same_board() {
+        let port = |path: &str, usb| PortInfo {
+            path: path.into(),
+            usb: Some(usb),
+        };
+        let both = vec![
+            port("/dev/ttyACM0", (0x0483, 0x374e)),
+            port("/dev/ttyACM1", FIRMWARE_USB),
+        ];
+        assert_eq!(choose(None, None, &both).unwrap(), "/dev/ttyACM1");
+        assert_eq!(
+            PortInfo::board(&both[1]),
+            Some("Nucleo-H743 user USB (LM firmware)")
+        );
+        // The id the firmware enumerates with is this one.
+        let fw = include_str!("../../../firmware/nucleo-h743/src/usb.rs");
+        let want = format!(
+            "pub const VID_PID: (u16, u16) = (0x{:04x}, 0x{:04x});",
+            FIRMWARE_USB.0, FIRMWARE_USB.1
+        );
+        assert!(fw.contains(&want), "firmware/nucleo-h743/src/usb.rs: {want}");
+        // Two boards' USB ports: ambiguous, as before.
+        let two = vec![
+            port("/dev/ttyACM1", FIRMWARE_USB),
+            port("/dev/ttyACM2", FIRMWARE_USB),
+        ];
+        assert!(
+            choose(None, None, &two)
+                .unwrap_err()
+                .to_string()
+                .contains("several")
+        );
     }
 
     #[test]
