@@ -16,9 +16,10 @@
 //!   `flash` and (as root, installing libpcap-dev and CMake ≥ 3.28) both
 //!   EtherCAT links, then checks that opening them without an adapter or
 //!   without privileges is one line and exit 1.
-//! - `bitstream [--channels N]`: synthesises the driver for an iCE40 HX8K
-//!   (ct256) with Yosys, nextpnr-ice40 and icepack from Debian (installed
-//!   when missing and root); prints utilisation and fmax. Not part of `ci`.
+//! - `bitstream [--first F] [--total T]`: synthesises the driver for the
+//!   iCE40-HX8K Breakout Board (64 channels, PLL, its pin map) with Yosys,
+//!   nextpnr-ice40 and icepack from Debian (installed when missing and
+//!   root); prints utilisation and fmax. Not part of `ci`.
 //! - `build-fw`: release build of the QEMU firmware and the Nucleo board.
 //! - `qemu [--tcp PORT]`: run the firmware under QEMU, UART0 on a pty
 //!   (default) or on a TCP port on 127.0.0.1.
@@ -728,18 +729,21 @@ fn full_width(c: &Ctx, python: &Path, out: &Path) -> Result<(), String> {
         .env("PYTHONDONTWRITEBYTECODE", "1"))
 }
 
-/// Default channel count of `bitstream`: one pin per channel, so the
-/// HX8K's 206 I/Os and 7680 cells bound it (DRIVER.md, BENCHMARKS.md).
-const BITSTREAM_CHANNELS: &str = "64";
-
-/// Yosys + nextpnr-ice40 + icepack for the driver at the documented clock
-/// (81.92 MHz), pins left to the placer (no board yet).
+/// Yosys + nextpnr-ice40 + icepack for one iCE40-HX8K Breakout Board
+/// (`gateware/hx8k.py`: 64 channels, the PLL from a 10.24 MHz reference to
+/// the documented 81.92 MHz, pins in `gateware/ice40hx8k-b-evn.pcf`);
+/// `--first F --total T`: the board drives frame channels F..F + 64 of T.
 fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
-    let channels = match args {
-        [] => BITSTREAM_CHANNELS.to_string(),
-        [flag, n] if flag == "--channels" && n.parse::<u16>().is_ok_and(|n| n > 0) => n.clone(),
-        _ => return Err("usage: cargo xtask bitstream [--channels N]".into()),
-    };
+    let (mut first, mut total) = ("0".to_string(), "64".to_string());
+    let mut rest = args.iter();
+    while let Some(flag) = rest.next() {
+        let v = rest.next().filter(|v| v.parse::<u16>().is_ok());
+        match (flag.as_str(), v) {
+            ("--first", Some(v)) => first = v.clone(),
+            ("--total", Some(v)) => total = v.clone(),
+            _ => return Err("usage: cargo xtask bitstream [--first F] [--total T]".into()),
+        }
+    }
     if !has_program("yosys") || !has_program("nextpnr-ice40") || !has_program("icepack") {
         if !is_root() {
             return Err("bitstream needs yosys, nextpnr-ice40 and icepack: \
@@ -760,24 +764,26 @@ fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
     }
     let out = c.target_dir.join("gateware").join("bitstream");
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let il = out.join(format!("lm_driver_{channels}.il"));
-    let json = out.join(format!("lm_driver_{channels}.json"));
-    let asc = out.join(format!("lm_driver_{channels}.asc"));
-    let bin = out.join(format!("lm_driver_{channels}.bin"));
-    let log = out.join(format!("nextpnr_{channels}.log"));
+    let stem = format!("hx8k_{first}_of_{total}");
+    let il = out.join(format!("{stem}.il"));
+    let json = out.join(format!("{stem}.json"));
+    let asc = out.join(format!("{stem}.asc"));
+    let bin = out.join(format!("{stem}.bin"));
+    let log = out.join(format!("nextpnr_{stem}.log"));
     run(Command::new(&python)
-        .arg(c.root.join("gateware").join("lmdriver.py"))
-        .args(["--channels", &channels])
+        .arg(c.root.join("gateware").join("hx8k.py"))
+        .args(["--first", &first, "--total", &total])
         .arg(&il)
         .env("PYTHONDONTWRITEBYTECODE", "1"))?;
     run(Command::new("yosys").arg("-q").arg("-p").arg(format!(
-        "read_rtlil {}; synth_ice40 -top lm_driver -json {}",
+        "read_rtlil {}; synth_ice40 -top top -json {}",
         il.display(),
         json.display()
     )))?;
     let pnr = Command::new("nextpnr-ice40")
         .args(["--hx8k", "--package", "ct256", "--freq", "81.92"])
-        .arg("--pcf-allow-unconstrained")
+        .arg("--pcf")
+        .arg(c.root.join("gateware").join("ice40hx8k-b-evn.pcf"))
         .arg("--json")
         .arg(&json)
         .arg("--asc")
@@ -788,7 +794,12 @@ fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
         .status()
         .map_err(|e| format!("cannot start nextpnr-ice40: {e}"))?;
     let text = std::fs::read_to_string(&log).unwrap_or_default();
-    let keep = |l: &&str| l.contains("ICESTORM_LC:") || l.contains("SB_IO:") || l.contains("ERROR");
+    let keep = |l: &&str| {
+        l.contains("ICESTORM_LC:")
+            || l.contains("SB_IO:")
+            || l.contains("ICESTORM_PLL:")
+            || l.contains("ERROR")
+    };
     for line in text.lines().filter(keep) {
         println!("{}", line.trim_start_matches("Info: ").trim());
     }
@@ -1055,7 +1066,7 @@ fn main() -> ExitCode {
         Some("bitstream") => bitstream(&c, &args[1..]),
         Some("ethercat") if args.len() == 1 => step_ethercat(&c),
         _ => Err(
-            "usage: cargo xtask <ci [--from STEP] | python | gateware | ethercat | bitstream [--channels N] | build-fw | qemu [--tcp PORT] | size>"
+            "usage: cargo xtask <ci [--from STEP] | python | gateware | ethercat | bitstream [--first F] [--total T] | build-fw | qemu [--tcp PORT] | size>"
                 .into(),
         ),
     };

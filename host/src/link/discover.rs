@@ -205,7 +205,10 @@ mod tests {
             "pub const VID_PID: (u16, u16) = (0x{:04x}, 0x{:04x});",
             FIRMWARE_USB.0, FIRMWARE_USB.1
         );
-        assert!(fw.contains(&want), "firmware/nucleo-h743/src/usb.rs: {want}");
+        assert!(
+            fw.contains(&want),
+            "firmware/nucleo-h743/src/usb.rs: {want}"
+        );
         // Two boards' USB ports: ambiguous, as before.
         let two = vec![
             port("/dev/ttyACM1", FIRMWARE_USB),
