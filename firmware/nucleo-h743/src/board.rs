@@ -93,7 +93,7 @@ impl Board {
     /// Enables the clocks and configures pins, USART3, TIM2 and SPI1.
     /// Call once: the receive queue is a singleton.
     pub fn init(dp: pac::Peripherals) -> Board {
-        let clocks = crate::clocks::init(&dp.PWR, &dp.RCC, &dp.FLASH);
+        let clocks = crate::clocks::init(&dp.PWR, &dp.RCC, &dp.FLASH, &dp.GPIOC);
         let usb = crate::usb::init(&clocks, &dp.PWR, &dp.RCC, &dp.GPIOA);
         let rcc = &dp.RCC;
         rcc.ahb4enr().modify(|_, w| {

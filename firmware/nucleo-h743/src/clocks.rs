@@ -32,6 +32,17 @@ pub const AHB_HZ: u32 = SYS_HZ / 2;
 pub const APB1_HZ: u32 = AHB_HZ / 2;
 /// TIM2's clock: twice APB1 when APB1 is divided (TIMPRE = 0).
 pub const TIM2_HZ: u32 = 2 * APB1_HZ;
+/// PLL2 for the driver boards' shared 10.24 MHz reference (40 kHz × 256,
+/// `firmware/DRIVER.md`) on MCO2 (PC9): 8 MHz / 5 = 1.6 MHz (PLL2RGE
+/// 1-2 MHz) × 256 = 409.6 MHz (medium VCO, 150-420 MHz) / 40.
+pub const DIVM2: u32 = 5;
+/// PLL2 multiplier.
+pub const DIVN2: u32 = 256;
+/// PLL2 P divider.
+pub const DIVP2: u32 = 40;
+/// The reference the gateware multiplies by 8 (`gateware/hx8k.py`).
+pub const DRIVER_REF_HZ: u32 = 10_240_000;
+
 /// Polls of HSERDY before falling back to HSI (≥ 10 ms at 64 MHz; the
 /// ST-LINK's MCO is running before the target leaves reset).
 pub const HSE_TIMEOUT: u32 = 1_000_000;
@@ -50,6 +61,15 @@ const _: () = {
             && TIM2_HZ / crate::board::TIMER_HZ <= 65_536
     );
     assert!(HSI_HZ.is_multiple_of(crate::board::TIMER_HZ));
+    let ref2 = HSE_HZ / DIVM2;
+    assert!(HSE_HZ.is_multiple_of(DIVM2) && ref2 >= 1_000_000 && ref2 <= 2_000_000);
+    let vco2 = ref2 as u64 * DIVN2 as u64;
+    assert!(vco2 >= 150_000_000 && vco2 <= 420_000_000);
+    assert!(
+        vco2 == DRIVER_REF_HZ as u64 * DIVP2 as u64,
+        "10.24 MHz exactly"
+    );
+    assert!(DIVP2 <= 128);
 };
 
 /// Which oscillator the board runs from.
@@ -74,7 +94,7 @@ pub struct Clocks {
 }
 
 /// Brings the board onto the crystal (or leaves it on HSI); call first.
-pub fn init(pwr: &pac::PWR, rcc: &pac::RCC, flash: &pac::FLASH) -> Clocks {
+pub fn init(pwr: &pac::PWR, rcc: &pac::RCC, flash: &pac::FLASH, gpioc: &pac::GPIOC) -> Clocks {
     let hsi = Clocks {
         source: Source::InternalRc,
         usart_hz: HSI_HZ,
@@ -128,6 +148,38 @@ pub fn init(pwr: &pac::PWR, rcc: &pac::RCC, flash: &pac::FLASH) -> Clocks {
         });
     rcc.cr().modify(|_, w| w.pll1on().on());
     while !rcc.cr().read().pll1rdy().is_ready() {}
+
+    // The driver boards' 10.24 MHz reference: PLL2 P on MCO2 (PC9, AF0).
+    // SAFETY: DIVM2 = 5 is in 1..=63 (checked above).
+    rcc.pllckselr()
+        .modify(|_, w| unsafe { w.divm2().bits(DIVM2 as u8) });
+    rcc.pllcfgr().modify(|_, w| {
+        w.pll2rge()
+            .range1()
+            .pll2vcosel()
+            .medium_vco()
+            .divp2en()
+            .enabled()
+    });
+    rcc.pll2divr()
+        // SAFETY: divider − 1 values in range (checked above).
+        .write(|w| unsafe {
+            w.divn2()
+                .bits((DIVN2 - 1) as u16)
+                .divp2()
+                .bits((DIVP2 - 1) as u8)
+        });
+    rcc.cr().modify(|_, w| w.pll2on().on());
+    while !rcc.cr().read().pll2rdy().is_ready() {}
+    // SAFETY: MCO2PRE 1 is "divide by 1".
+    rcc.cfgr()
+        .modify(|_, w| unsafe { w.mco2().pll2_p().mco2pre().bits(1) });
+    rcc.ahb4enr().modify(|_, w| w.gpiocen().set_bit());
+    gpioc.afrh().modify(|_, w| w.afr9().af0());
+    gpioc
+        .ospeedr()
+        .modify(|_, w| w.ospeedr9().very_high_speed());
+    gpioc.moder().modify(|_, w| w.moder9().alternate());
 
     rcc.d1cfgr()
         .modify(|_, w| w.d1cpre().div1().hpre().div2().d1ppre().div2());
