@@ -48,7 +48,7 @@ pub fn check_interface(port: &str, ifname: &str, sys_class_net: &Path) -> anyhow
 pub fn raw_socket_allowed() -> Result<(), std::io::Error> {
     #[cfg(target_os = "linux")]
     {
-        // SAFETY: plain socket(2) and close(2) on a descriptor we own.
+        // SAFETY: socket(2) takes plain integers and touches no memory of ours.
         let fd = unsafe {
             libc::socket(
                 libc::AF_PACKET,
@@ -59,6 +59,7 @@ pub fn raw_socket_allowed() -> Result<(), std::io::Error> {
         if fd < 0 {
             return Err(std::io::Error::last_os_error());
         }
+        // SAFETY: `fd` is the descriptor just opened above, closed once.
         unsafe { libc::close(fd) };
     }
     Ok(())
