@@ -8,7 +8,7 @@
 //! give the page size. Text sizes follow plotters' SVG backend: a style's
 //! size / 1.24 is the em, so a layout made for SVG is right for PDF too.
 //! Text is WinAnsi-encoded; a character outside WinAnsi is drawn as `?`.
-//! The font is embedded as a subset ([`subset`]): only the glyphs the page
+//! The font is embedded as a subset (module `subset`): only the glyphs the page
 //! draws keep their outlines.
 //! Nothing depends on the clock, so the same figure gives the same bytes.
 
