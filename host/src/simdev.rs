@@ -387,6 +387,7 @@ impl FwCore {
         c.max_transducers = cfg.max_transducers;
         c.centroid_timeout_us = cfg.centroid_timeout_us;
         c.require_tracking = cfg.require_tracking;
+        c.clock = lm_proto::ClockSource::Emulated;
         let device = lm_fw_core::Device::new(c, mem)
             .map_err(|e| anyhow::anyhow!("building the simulated device: {e}"))?;
         Ok(Self {

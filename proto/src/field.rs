@@ -149,6 +149,8 @@ layout! {
         RIG_CRC32 = 23..27,
         /// Free library bytes now, u32.
         LIBRARY_FREE = 27..31,
+        /// `ClockSource` of the player's timer, u8.
+        CLOCK = 31..32,
     }
 }
 

@@ -39,13 +39,14 @@ pub use frame::{
 };
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
-    BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceState, Geometry, Info, Message,
-    MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status, rig_crc32,
+    BeginRig, BeginUpload, Centroid, Chunk, ClockSource, Commit, DeviceState, Geometry, Info,
+    Message, MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
+    rig_crc32,
 };
 pub use nack::NackCode;
 
 /// Protocol version carried in every frame header.
-pub const PROTOCOL_VERSION: u8 = 3;
+pub const PROTOCOL_VERSION: u8 = 4;
 /// Carrier frequency of the transducers, Hz (the wavenumber of a slot is
 /// 2π · `CARRIER_HZ` / its speed of sound).
 pub const CARRIER_HZ: u32 = 40_000;

@@ -80,6 +80,8 @@ pub struct Info {
     pub rig_crc32: u32,
     /// Library bytes free now (an entry takes its raw or its Delta size).
     pub library_free: u32,
+    /// What the player's timer counts: how accurate a dwell is.
+    pub clock: ClockSource,
 }
 
 /// CRC-32 of a rig's positions table: every position as its 12-byte
@@ -314,6 +316,23 @@ pub struct Centroid {
     pub present: bool,
     /// Host clock when the position was measured, µs.
     pub host_time_us: u64,
+}
+
+wire_enum! {
+    /// The oscillator the player's timer runs from, in `Info`.
+    #[derive(Default)]
+    pub enum ClockSource {
+        /// 0: not said.
+        #[default]
+        Unknown = 0,
+        /// 1: an internal RC oscillator (the Nucleo's HSI fallback: ~1 %).
+        InternalRc = 1,
+        /// 2: a crystal (the Nucleo on HSE: ±50 ppm or better).
+        Crystal = 2,
+        /// 3: emulated on a host machine (QEMU, the simulated device): the
+        /// host's clock.
+        Emulated = 3,
+    }
 }
 
 wire_enum! {
@@ -694,6 +713,7 @@ impl<'a> Message<'a> {
                 set(&mut p, f::RIG_TRANSDUCERS, &i.rig_transducers.to_le_bytes());
                 set(&mut p, f::RIG_CRC32, &i.rig_crc32.to_le_bytes());
                 set(&mut p, f::LIBRARY_FREE, &i.library_free.to_le_bytes());
+                set(&mut p, f::CLOCK, &[i.clock.to_u8()]);
                 s.put(&p)
             }
             Self::Status(st) => {
@@ -842,6 +862,7 @@ impl<'a> Message<'a> {
                     rig_transducers: p.u16(f::RIG_TRANSDUCERS)?,
                     rig_crc32: p.u32(f::RIG_CRC32)?,
                     library_free: p.u32(f::LIBRARY_FREE)?,
+                    clock: ClockSource::from_u8(p.u8(f::CLOCK)?).ok_or("unknown clock source")?,
                 })
             }
             MessageType::Status => {

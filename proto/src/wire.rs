@@ -250,6 +250,6 @@ mod tests {
             len::INFO,
             len::STATUS,
         ];
-        assert_eq!(got, [4, 40, 6, 2, 5, 5, 7, 25, 1, 31, 42]);
+        assert_eq!(got, [4, 40, 6, 2, 5, 5, 7, 25, 1, 32, 42]);
     }
 }

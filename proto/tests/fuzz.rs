@@ -76,6 +76,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             rig_transducers: rng.next_u64() as u16,
             rig_crc32: rng.next_u64() as u32,
             library_free: rng.next_u64() as u32,
+            clock: ClockSource::from_u8(rng.byte() % 4).unwrap(),
         }),
         9 => Message::BeginUpload(BeginUpload {
             slot: rng.byte(),

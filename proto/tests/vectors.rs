@@ -21,7 +21,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "info" => (
             0,
             Message::Info(Info {
-                proto_version: 3,
+                proto_version: 4,
                 fw_version: [0, 1, 0],
                 max_transducers: 996,
                 slot_bytes: 487_424,
@@ -32,12 +32,13 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 rig_transducers: 996,
                 rig_crc32: 0x89AB_CDEF,
                 library_free: 300_000,
+                clock: ClockSource::Crystal,
             }),
         ),
         "info_no_rig" => (
             0,
             Message::Info(Info {
-                proto_version: 3,
+                proto_version: 4,
                 fw_version: [1, 2, 3],
                 max_transducers: 249,
                 slot_bytes: 1000,
@@ -48,6 +49,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 rig_transducers: 0,
                 rig_crc32: 0,
                 library_free: 1000,
+                clock: ClockSource::InternalRc,
             }),
         ),
         "begin_rig" => (

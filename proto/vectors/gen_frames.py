@@ -4,7 +4,7 @@ spec with Python's own CRC (zlib) and a separate COBS, independent of the
 Rust code that the vectors check. Run: python3 gen_frames.py > frames.txt"""
 import struct, zlib
 
-VERSION = 3
+VERSION = 4
 
 def cobs(data):
     out, block = bytearray(), bytearray()
@@ -69,16 +69,16 @@ def status(state, slot, step, counters, corr, queued, reason):
 
 rec("get_info", 0x01, 0, "GetInfo", b"")
 rec("info", 0x82, 0,
-    "Info proto_version=3 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
+    "Info proto_version=4 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
     "slots=32 timer_hz=1000000 min_dwell_us=100 max_chunk=1024 rig_transducers=996 "
-    "rig_crc32=0x89abcdef library_free=300000",
-    struct.pack("<B3BHIBIIHHII", 3, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
-                0x89ABCDEF, 300000))
+    "rig_crc32=0x89abcdef library_free=300000 clock=Crystal(2)",
+    struct.pack("<B3BHIBIIHHIIB", 4, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
+                0x89ABCDEF, 300000, 2))
 rec("info_no_rig", 0x82, 0,
-    "Info proto_version=3 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
+    "Info proto_version=4 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
     "slots=32 timer_hz=25000000 min_dwell_us=1000 max_chunk=512 rig_transducers=0 "
-    "rig_crc32=0x00000000 library_free=1000",
-    struct.pack("<B3BHIBIIHHII", 3, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000))
+    "rig_crc32=0x00000000 library_free=1000 clock=InternalRc(1)",
+    struct.pack("<B3BHIBIIHHIIB", 4, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000, 1))
 rec("begin_upload", 0x02, 1,
     "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
     "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200 "
@@ -141,8 +141,8 @@ rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version do
 rec("err_crc", 0x80, 18, "Ack with the CRC's lowest bit flipped", b"", crc_xor=1, error="crc")
 rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC", b"",
     error="unknown_type")
-rec("err_bad_version", 0x01, 20, "GetInfo with version 2 (the previous one), valid CRC", b"",
-    version=2,
+rec("err_bad_version", 0x01, 20, "GetInfo with version 3 (the previous one), valid CRC", b"",
+    version=3,
     error="bad_version")
 rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", play(0, 2, 0),
     error="malformed")

@@ -266,6 +266,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         panic!("GetInfo not answered with Info")
     };
     assert_eq!(info.proto_version, PROTOCOL_VERSION);
+    assert_eq!(info.clock, lm_proto::ClockSource::Emulated);
     assert!(info.slots >= 32, "{info:?}");
     assert_eq!((info.rig_transducers, info.rig_crc32), (0, 0), "{info:?}");
     assert!(info.max_transducers >= 996, "{info:?}");

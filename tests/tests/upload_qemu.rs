@@ -61,6 +61,8 @@ fn lmhost_drives_the_firmware_under_qemu() {
     let p = q.port.as_str();
     let info = json(&["info", "--port", p, "--json"]);
     assert_eq!(info["max_transducers"], 996, "{info}");
+    // QEMU's timer follows the host machine's clock, and says so.
+    assert_eq!(info["clock"], "Emulated", "{info}");
     let up = upload_json(p, &["--foci", "4"]);
     assert_eq!(up["steps"], 82, "{up}");
     assert_eq!(up["playing"], true);

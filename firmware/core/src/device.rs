@@ -34,6 +34,8 @@ pub struct Config {
     /// this often, so the transducer driver's 100 ms silence timeout
     /// (`firmware/DRIVER.md`) never cuts a long dwell; 0 = never.
     pub frame_repeat_us: u32,
+    /// What the timer counts, reported in `Info` (the board knows).
+    pub clock: lm_proto::ClockSource,
 }
 
 impl Config {
@@ -51,6 +53,7 @@ impl Config {
             require_tracking: true,
             amplitude: 255,
             frame_repeat_us: 50_000,
+            clock: lm_proto::ClockSource::Unknown,
         }
     }
 }
@@ -324,6 +327,7 @@ impl Handler<'_> {
             rig_transducers: self.store.rig().map_or(0, |r| r.0),
             rig_crc32: self.store.rig().map_or(0, |r| r.1),
             library_free: self.store.free_bytes(),
+            clock: self.cfg.clock,
         }
     }
 

@@ -73,6 +73,15 @@ fn info_reports_configuration() {
     assert_eq!(i.timer_hz, 1_000_000);
     assert_eq!(i.min_dwell_us, 1000);
     assert_eq!(i.max_chunk, 1024);
+    // The board says what its timer runs from; unknown unless it does.
+    assert_eq!(i.clock, lm_proto::ClockSource::Unknown);
+    let mut cfg = config(996);
+    cfg.clock = lm_proto::ClockSource::Crystal;
+    let mut on_crystal = device(cfg, 200 * 996);
+    let Reply::Info(i) = request(&mut on_crystal, 4, &Message::GetInfo, 0) else {
+        panic!("no info")
+    };
+    assert_eq!(i.clock, lm_proto::ClockSource::Crystal);
     let s = status(&mut dev, 0);
     assert_eq!(s.state, DeviceState::Idle);
     assert_eq!(s.slot, None);

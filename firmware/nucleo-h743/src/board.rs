@@ -83,9 +83,7 @@ pub struct Board {
     pub timer: Timer,
     /// SPI1 (PA5 SCK, PA6 MISO, PB5 MOSI; PD14 chip select = Arduino D13/D12/D11/D10).
     pub spi: DriverSpi,
-    /// The clocks, and which oscillator they come from (not on the wire
-    /// yet: `Info` has no field for it in protocol v3).
-    #[allow(dead_code)]
+    /// The clocks, and which oscillator they come from (`Info.clock`).
     pub clocks: crate::clocks::Clocks,
 }
 

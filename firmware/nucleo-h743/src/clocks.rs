@@ -84,8 +84,7 @@ pub enum Source {
 /// The clocks the peripherals were set up with.
 #[derive(Debug, Clone, Copy)]
 pub struct Clocks {
-    /// The oscillator (for `Info` once the protocol carries it).
-    #[allow(dead_code)]
+    /// The oscillator (`Info.clock`).
     pub source: Source,
     /// USART3's kernel clock (APB1), Hz.
     pub usart_hz: u32,

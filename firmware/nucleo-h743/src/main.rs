@@ -35,16 +35,19 @@ fn main() -> ! {
     let Some(dp) = pac::Peripherals::take() else {
         panic!("peripherals taken twice")
     };
-    // The clock source is not on the wire yet (a protocol change): see
-    // clocks.rs for what each gives.
     let board::Board {
         link,
         timer,
         spi,
-        clocks: _,
+        clocks,
     } = board::Board::init(dp);
     let mut cfg = Config::new(board::TIMER_HZ);
     cfg.max_transducers = ARRAY_TRANSDUCERS;
+    // `lmhost info` says which oscillator the dwells are timed by.
+    cfg.clock = match clocks.source {
+        clocks::Source::Crystal => lm_proto::ClockSource::Crystal,
+        clocks::Source::InternalRc => lm_proto::ClockSource::InternalRc,
+    };
     let (Some(store), Some(slot)) = (SEQUENCE_STORE.take(), DEVICE.take()) else {
         panic!("board statics taken twice")
     };

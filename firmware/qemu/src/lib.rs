@@ -32,6 +32,8 @@ pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(LIBRARY_BYTES, ARRAY_TRA
 pub fn config() -> Config {
     let mut c = Config::new(PCLK_HZ);
     c.max_transducers = ARRAY_TRANSDUCERS;
+    // QEMU's timer follows the host machine's clock.
+    c.clock = lm_proto::ClockSource::Emulated;
     c
 }
 

@@ -38,7 +38,17 @@ pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
             } else {
                 lmhost::outln!("rig:             none yet (the first upload sends it)")?;
             }
-            lmhost::outln!("timer:           {} Hz", i.timer_hz)?;
+            lmhost::outln!(
+                "timer:           {} Hz, from {}",
+                i.timer_hz,
+                match i.clock {
+                    lm_proto::ClockSource::Crystal => "a crystal (±50 ppm or better)",
+                    lm_proto::ClockSource::InternalRc =>
+                        "the internal RC oscillator (~1 %: the crystal clock did not start)",
+                    lm_proto::ClockSource::Emulated => "the host machine's clock (emulated)",
+                    _ => "an unknown oscillator",
+                }
+            )?;
             lmhost::outln!("minimum dwell:   {} µs", i.min_dwell_us)?;
             lmhost::outln!("largest chunk:   {} bytes", i.max_chunk)?;
             Ok(())

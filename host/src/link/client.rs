@@ -616,6 +616,7 @@ mod tests {
             rig_transducers: 0,
             rig_crc32: 0,
             library_free: 200 * 996,
+            clock: lm_proto::ClockSource::Emulated,
         }
     }
 

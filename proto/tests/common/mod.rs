@@ -85,10 +85,16 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
             any::<u8>(),
             any::<u32>(),
             any::<u32>(),
-            (any::<u16>(), any::<u16>(), any::<u32>(), any::<u32>())
+            (
+                any::<u16>(),
+                any::<u16>(),
+                any::<u32>(),
+                any::<u32>(),
+                0u8..4
+            )
         )
             .prop_map(
-                |(p, fw, mt, sb, sl, hz, dw, (mc, rt, rc, lf))| Message::Info(Info {
+                |(p, fw, mt, sb, sl, hz, dw, (mc, rt, rc, lf, ck))| Message::Info(Info {
                     proto_version: p,
                     fw_version: fw,
                     max_transducers: mt,
@@ -100,6 +106,7 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                     rig_transducers: rt,
                     rig_crc32: rc,
                     library_free: lf,
+                    clock: ClockSource::from_u8(ck).unwrap(),
                 })
             ),
         (any::<u16>(), any::<u32>())
