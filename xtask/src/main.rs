@@ -390,10 +390,6 @@ fn step_optional_backends(c: &Ctx) -> Result<(), String> {
     ethercat_smoke(&c.target_dir.join("debug").join("lmhost"))
 }
 
-fn step_ethercat(c: &Ctx) -> Result<(), String> {
-    step_optional_backends(c)
-}
-
 /// libpcap-dev (apt) and CMake ≥ 3.28 (Debian's or, when older, from the
 /// package index into a venv under the target dir); returns the PATH for
 /// the build.
@@ -1064,7 +1060,7 @@ fn main() -> ExitCode {
         Some("python") if args.len() == 1 => step_python(&c),
         Some("gateware") if args.len() == 1 => step_gateware(&c),
         Some("bitstream") => bitstream(&c, &args[1..]),
-        Some("ethercat") if args.len() == 1 => step_ethercat(&c),
+        Some("ethercat") if args.len() == 1 => step_optional_backends(&c),
         _ => Err(
             "usage: cargo xtask <ci [--from STEP] | python | gateware | ethercat | bitstream [--first F] [--total T] | build-fw | qemu [--tcp PORT] | size>"
                 .into(),

@@ -133,6 +133,8 @@ struct Handler<'m> {
     refresh: bool,
     /// When the last frame went out (timer counts), for repeats.
     last_frame: Option<u64>,
+    /// [`Config::frame_repeat_us`] in timer counts (0 = never).
+    repeat_every: u64,
 }
 
 /// The whole device core.
@@ -159,6 +161,11 @@ impl<'m> Device<'m> {
         }
         let store = Store::new(mem, cfg.max_transducers).map_err(DeviceError::Store)?;
         let timeout = u64::from(cfg.centroid_timeout_us) * u64::from(cfg.timer_hz) / 1_000_000;
+        // Timer counts between repeats of a long step's frame (0 = never).
+        let repeat_every = match cfg.frame_repeat_us {
+            0 => 0,
+            us => (u64::from(us) * u64::from(cfg.timer_hz) / 1_000_000).max(1),
+        };
         Ok(Self {
             rx: FrameDecoder::new(),
             tx: [0; MAX_ENCODED_FRAME],
@@ -173,6 +180,7 @@ impl<'m> Device<'m> {
                 frame: [0; MAX_TRANSDUCERS],
                 refresh: false,
                 last_frame: None,
+                repeat_every,
             },
         })
     }
@@ -551,13 +559,11 @@ impl Handler<'_> {
     /// When the current frame must go out again ([`Config::frame_repeat_us`]
     /// after the last one), while something plays.
     fn repeat_at(&self) -> Option<u64> {
-        let us = u64::from(self.cfg.frame_repeat_us);
-        if us == 0 {
+        if self.repeat_every == 0 {
             return None;
         }
         self.player.deadline()?;
-        let every = (us * u64::from(self.cfg.timer_hz) / 1_000_000).max(1);
-        self.last_frame.map(|t| t.saturating_add(every))
+        self.last_frame.map(|t| t.saturating_add(self.repeat_every))
     }
 
     /// The next time `poll` has work: a step boundary or a repeat.
