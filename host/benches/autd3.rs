@@ -8,12 +8,13 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::Centroid;
-use lmhost::autd3::{Autd3Backend, timing};
-use lmhost::backend::Backend;
 use lmhost::clock::Clock;
-use lmhost::scene::Scene;
-use lmhost::sequence::Synthesis;
-use lmhost::trajectory::LmParams;
+use lmhost::device::autd3::Autd3Backend;
+use lmhost::device::backend::Backend;
+use lmhost::plan::grid as timing;
+use lmhost::plan::scene::Scene;
+use lmhost::plan::sequence::Synthesis;
+use lmhost::plan::trajectory::LmParams;
 
 fn emulator(c: &mut Criterion) {
     let scene = Scene::default();

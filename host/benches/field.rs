@@ -7,10 +7,10 @@
 use std::f64::consts::PI;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use lmhost::array::{Transducer, autd3_local_center_mm, autd3_local_positions_mm};
 use lmhost::field::{
     Directivity, FieldModel, Medium, ObservationPlane, Radiation, simulate, simulate_reference,
 };
+use lmhost::plan::array::{Transducer, autd3_local_center_mm, autd3_local_positions_mm};
 
 /// Four AUTD3 in a flat 2 × 2 array centred on the origin, facing +z.
 fn four_autd3() -> Vec<Transducer> {

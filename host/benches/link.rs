@@ -6,12 +6,12 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::{Centroid, Encoding, PlayAt};
 use lmhost::clock::monotonic_us;
-use lmhost::link::transport::Serial;
-use lmhost::link::{Client, UploadSpec};
-use lmhost::sequence::Plan;
-use lmhost::simdev::{SimConfig, SimThread};
-use lmhost::stream::filter::FilterKind;
-use lmhost::stream::synthetic::FingerTrack;
+use lmhost::device::link::transport::Serial;
+use lmhost::device::link::{Client, UploadSpec};
+use lmhost::device::simdev::{SimConfig, SimThread};
+use lmhost::plan::sequence::Plan;
+use lmhost::sense::stream::filter::FilterKind;
+use lmhost::sense::stream::synthetic::FingerTrack;
 
 fn pty(c: &mut Criterion) {
     let sim = SimThread::start(SimConfig::default()).expect("simulated device");

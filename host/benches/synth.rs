@@ -11,11 +11,11 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lm_proto::codec::Encoding;
-use lmhost::scene::Scene;
-use lmhost::sequence::{Sequence, SynthWorkspace, Synthesis};
-use lmhost::synth::fast::SynthPlan;
-use lmhost::synth::{quantise_turns, reference};
-use lmhost::trajectory::{LmParams, Trajectory};
+use lmhost::plan::scene::Scene;
+use lmhost::plan::sequence::{Sequence, SynthWorkspace, Synthesis};
+use lmhost::plan::synth::fast::SynthPlan;
+use lmhost::plan::synth::{quantise_turns, reference};
+use lmhost::plan::trajectory::{LmParams, Trajectory};
 
 fn lm(foci: usize) -> (Scene, Trajectory) {
     let scene = Scene::default();
@@ -99,8 +99,8 @@ mod autd3_cmp {
     use autd3::prelude::*;
     use criterion::BenchmarkGroup;
     use criterion::measurement::WallTime;
-    use lmhost::array::autd3_local_center_mm;
-    use lmhost::trajectory::Trajectory;
+    use lmhost::plan::array::autd3_local_center_mm;
+    use lmhost::plan::trajectory::Trajectory;
     use std::hint::black_box;
 
     /// The same four devices as `Scene::default()`: AUTD3 places a device by

@@ -5,8 +5,8 @@
 //! `cargo bench -p lmhost --bench track`
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use lmhost::track::contact::reference;
-use lmhost::track::report::bench_frame;
+use lmhost::sense::track::contact::reference;
+use lmhost::sense::track::report::bench_frame;
 
 fn track(c: &mut Criterion) {
     let (tracker, frame, sim) = bench_frame();

@@ -2,48 +2,42 @@
 //! haptics for AUTD3-class phased arrays.
 //!
 //! The library does the work and knows nothing of the command line; the
-//! `lmhost` binary (`src/main.rs` and its private `cmd` module, the only
-//! place that uses clap) parses flags, calls the library and prints. Units
-//! and the sign of the phase are fixed once, in [`units`]; everything else
-//! links there.
+//! `lmhost` binary (the `lmhost-cli` crate, the only user of clap) parses
+//! flags, calls the library and prints. Units and the sign of the phase
+//! are fixed once, in [`units`]; everything else links there.
+//!
+//! The library is grouped into wings by role, over a small base:
+//!
+//! | wing | job | may import |
+//! |---|---|---|
+//! | [`lab`] | the rig session, studies, calibration, demo, bench | every wing |
+//! | [`sense`] | depth frames → centroid, centroid streaming | `device`, `field`, `plan`, base |
+//! | [`device`] | backends, the LM link, AUTD3, the simulated device, upload | `plan`, base |
+//! | [`field`] | acoustic field simulation and figures | `plan`, base |
+//! | [`plan`] | scene, trajectory, synthesis, sequence, stimulus, library | base |
+//! | base | [`units`], [`geom`], [`clock`], [`limits`], [`files`], [`npy`], [`out`], [`stop`], [`rng`], [`error`], [`pdf`] | base only |
+//!
+//! `python3 xtask/module_cycles.py` enforces the order (a CI step).
 #![warn(missing_docs)]
 #![deny(clippy::print_stdout, clippy::print_stderr)]
 #![cfg_attr(test, allow(clippy::print_stdout, clippy::print_stderr))]
 
-pub mod array;
-pub mod autd3;
-pub mod backend;
-pub mod bench;
-pub mod calibrate;
-pub mod clock;
-pub mod conformance;
-pub mod connect;
-pub mod demo;
-pub mod directivity;
-pub mod error;
+pub mod device;
 pub mod field;
+pub mod lab;
+pub mod plan;
+pub mod sense;
+
+pub mod clock;
+pub mod error;
 pub mod files;
 pub mod geom;
-pub mod library;
 pub mod limits;
-pub mod link;
+pub mod npy;
 pub mod out;
 pub mod pdf;
-pub mod reader;
-pub mod rig;
 pub mod rng;
-pub mod scene;
-pub mod sequence;
-pub mod simdev;
-pub mod stimulus;
-pub mod stimulus_file;
 pub mod stop;
-pub mod stream;
-pub mod study;
-pub mod synth;
-pub mod track;
-pub mod trajectory;
 pub mod units;
-pub mod upload;
 
 pub use error::InputError;

@@ -22,21 +22,21 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
-use lmhost::backend::{Backend, BackendError, ErrorKind};
-use lmhost::connect::Target;
+use lmhost::device::backend::{Backend, BackendError, ErrorKind};
+use lmhost::device::link::PortSpec;
+use lmhost::device::upload::Play;
 use lmhost::error::{InputError, one_line};
 use lmhost::field::study::{View, simulate_plan};
 use lmhost::field::{self, Radiation};
-use lmhost::link::PortSpec;
-use lmhost::scene::Scene;
-use lmhost::stimulus::{Stimulus, TargetPlan};
-use lmhost::track::Pipeline;
-use lmhost::track::contact::Tracker as ContactTracker;
-use lmhost::track::intrinsics::Intrinsics;
-use lmhost::track::presence::Hysteresis;
-use lmhost::track::rig::Rig;
-use lmhost::trajectory::Steps;
-use lmhost::upload::Play;
+use lmhost::plan::scene::Scene;
+use lmhost::plan::stimulus::{Stimulus, TargetPlan};
+use lmhost::plan::target::Target;
+use lmhost::plan::trajectory::Steps;
+use lmhost::sense::track::Pipeline;
+use lmhost::sense::track::contact::Tracker as ContactTracker;
+use lmhost::sense::track::intrinsics::Intrinsics;
+use lmhost::sense::track::presence::Hysteresis;
+use lmhost::sense::track::rig::Rig;
 
 create_exception!(
     _lmhost,
@@ -165,7 +165,7 @@ struct Plan_ {
 impl Plan_ {
     fn target_kind(&self) -> Target {
         match self.target.as_str() {
-            "autd3" => Target::Autd3(lmhost::autd3::Autd3Port::Emulator),
+            "autd3" => Target::Autd3,
             _ => Target::Lm,
         }
     }
@@ -301,7 +301,7 @@ fn plan(
 ) -> PyResult<Plan_> {
     let target_kind = match target {
         "lm" => Target::Lm,
-        "autd3" => Target::Autd3(lmhost::autd3::Autd3Port::Emulator),
+        "autd3" => Target::Autd3,
         t => {
             return Err(bad(format!(
                 "target must be \"lm\" or \"autd3\", got {t:?}"
@@ -482,7 +482,7 @@ impl Tracker_ {
         let pipe = Pipeline::new(
             tracker,
             Hysteresis::new(enter_frames, leave_frames),
-            lmhost::stream::filter::FilterKind::None.build(),
+            lmhost::sense::stream::filter::FilterKind::None.build(),
         );
         Ok(Self {
             pipe: Mutex::new(pipe),
@@ -595,7 +595,7 @@ impl Device_ {
         let spec = PortSpec::new(Some(port.clone()));
         let s = scene.clone();
         let dev = run(py, move || {
-            Ok(OnThisThread(lmhost::connect::open_with(
+            Ok(OnThisThread(lmhost::device::connect::open_with(
                 &spec,
                 &s,
                 lm_proto::Encoding::Delta,
@@ -623,7 +623,7 @@ impl Device_ {
         to_python(py, &v)
     }
 
-    /// Uploads through `lmhost::upload::upload` (the `lmhost upload --json`
+    /// Uploads through `lmhost::device::upload::upload` (the `lmhost upload --json`
     /// report, as a JSON string). The plan must be for this device kind.
     fn upload(
         &mut self,
@@ -651,7 +651,7 @@ impl Device_ {
             (true, true) => Play::Untracked,
         };
         self.with(py, move |d| {
-            let o = lmhost::upload::upload(d, planned, slot, play)?;
+            let o = lmhost::device::upload::upload(d, planned, slot, play)?;
             Ok(serde_json::to_string(&o)?)
         })
     }
@@ -696,8 +696,8 @@ impl Device_ {
         })?;
         self.seq = out.0;
         Ok(match out.1 {
-            lmhost::backend::CentroidOutcome::Applied => "applied",
-            lmhost::backend::CentroidOutcome::OutOfRange => "out_of_range",
+            lmhost::device::backend::CentroidOutcome::Applied => "applied",
+            lmhost::device::backend::CentroidOutcome::OutOfRange => "out_of_range",
         })
     }
 
@@ -759,7 +759,7 @@ fn _bench_rust(
         let mut pipe = Pipeline::new(
             ContactTracker::new(intr, rig),
             Hysteresis::new(2, 2),
-            lmhost::stream::filter::FilterKind::None.build(),
+            lmhost::sense::stream::filter::FilterKind::None.build(),
         );
         let mut t = 0.0;
         let track_s = best(&mut || {

@@ -21,7 +21,7 @@ def _binary() -> Path:
 def lmhost_bin() -> Path:
     b = _binary()
     if not b.exists():
-        pytest.fail(f"{b} is missing: build it with `cargo build -p lmhost` (or set LMHOST_BIN)")
+        pytest.fail(f"{b} is missing: build it with `cargo build -p lmhost-cli` (or set LMHOST_BIN)")
     os.environ["LMHOST_BIN"] = str(b)
     return b
 

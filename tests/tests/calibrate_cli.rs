@@ -6,12 +6,12 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use lmhost::calibrate::camera::render_ball;
 use lmhost::geom::{Vec3, add, euler_xyz_deg, norm, sub};
-use lmhost::scene::Scene;
-use lmhost::scene::rig::CameraPose;
-use lmhost::track::intrinsics::Intrinsics;
-use lmhost::track::npy::DepthNpyWriter;
+use lmhost::lab::calibrate::camera::render_ball;
+use lmhost::npy::DepthNpyWriter;
+use lmhost::plan::scene::Scene;
+use lmhost::plan::scene::rig::CameraPose;
+use lmhost::sense::track::intrinsics::Intrinsics;
 
 mod link_support;
 use link_support::lmhost;

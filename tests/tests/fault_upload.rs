@@ -15,11 +15,11 @@ use std::time::Duration;
 
 use lm_proto::{Encoding, PlayAt, UploadHeader};
 use lmhost::clock::Clock;
-use lmhost::link::proxy::{Faults, Faulty};
-use lmhost::link::{Client, LinkError, UploadSpec};
+use lmhost::device::link::proxy::{Faults, Faulty};
+use lmhost::device::link::{Client, LinkError, UploadSpec};
+use lmhost::device::simdev::{CapturedFrame, FwCore, InProcess, SimConfig};
+use lmhost::plan::sequence::Sequence;
 use lmhost::rng::SplitMix64;
-use lmhost::sequence::Sequence;
-use lmhost::simdev::{CapturedFrame, FwCore, InProcess, SimConfig};
 
 type Link = Faulty<InProcess<FwCore>>;
 

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use std::process::Child;
 use std::time::{Duration, Instant};
 
-use lmhost::backend::Backend;
+use lmhost::device::backend::Backend;
 
 use lm_proto::{
     BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceState, Encoding, FeedResult,
@@ -473,15 +473,15 @@ fn wait_on_device(
     }
 }
 
-/// The device policy's conformance table (`lmhost::conformance`), the
+/// The device policy's conformance table (`lmhost::device::conformance`), the
 /// same one the simulated device and the AUTD3 emulator pass, against the
 /// firmware under QEMU: a fresh QEMU per scenario.
 #[test]
 fn firmware_under_qemu_conforms_to_the_device_policy() {
-    use lmhost::conformance::{Dut, run};
-    use lmhost::connect::Target;
-    use lmhost::scene::Scene;
-    use lmhost::stimulus::Stimulus;
+    use lmhost::device::conformance::{Dut, run};
+    use lmhost::plan::scene::Scene;
+    use lmhost::plan::stimulus::Stimulus;
+    use lmhost::plan::target::Target;
     if !qemu_installed() {
         println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
         return;
@@ -501,8 +501,8 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
             held.clear();
             let port = free_port();
             held.push(Qemu::spawn(qemu_command(&elf, port, false), port)?);
-            let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
-            let dev = within_20_s(|| lmhost::connect::open(&spec, &Scene::default()))?;
+            let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+            let dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))?;
             Ok(Dut {
                 dev,
                 wait: Box::new(move |dev, d| wait_on_device(dev, d, steps, dwell_us)),
@@ -518,11 +518,11 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
 /// The paper's 15 stimuli (SPEC: LM-S and LM-M at 5 Hz with 0.23 mm steps,
 /// LM-S at 25 Hz with 4 mm steps, radii 2-6 mm), planned on the default
 /// scene (996 transducers), with a name each.
-fn paper_set() -> Vec<(String, lmhost::sequence::Plan)> {
-    use lmhost::connect::Target;
-    use lmhost::scene::Scene;
-    use lmhost::stimulus::Stimulus;
-    use lmhost::trajectory::Steps;
+fn paper_set() -> Vec<(String, lmhost::plan::sequence::Plan)> {
+    use lmhost::plan::scene::Scene;
+    use lmhost::plan::stimulus::Stimulus;
+    use lmhost::plan::target::Target;
+    use lmhost::plan::trajectory::Steps;
     let mut v = Vec::new();
     for (foci, freq_hz, step_mm) in [(1, 5.0, 0.23), (4, 5.0, 0.23), (1, 25.0, 4.0)] {
         for radius_mm in [2.0, 3.0, 4.0, 5.0, 6.0] {
@@ -548,9 +548,9 @@ fn paper_set() -> Vec<(String, lmhost::sequence::Plan)> {
 /// over a clean link: the rig once, then per stimulus `BeginUpload`,
 /// 1024-byte chunks and `Commit` (Delta, or Raw where Delta is larger, as
 /// the client sends them); and the acks coming back.
-fn preload_frame_bytes(set: &[(String, lmhost::sequence::Plan)]) -> (u64, u64) {
+fn preload_frame_bytes(set: &[(String, lmhost::plan::sequence::Plan)]) -> (u64, u64) {
     use lm_proto::encoded_frame_len;
-    use lmhost::link::UploadSpec;
+    use lmhost::device::link::UploadSpec;
     let len = |m: &Message<'_>| encoded_frame_len(1, m).unwrap() as u64;
     let ack = len(&Message::Ack);
     let (mut sent, mut acks) = (0, 0);
@@ -596,8 +596,8 @@ fn preload_frame_bytes(set: &[(String, lmhost::sequence::Plan)]) -> (u64, u64) {
 /// Prints the bytes the preload takes on the wire.
 #[test]
 fn firmware_under_qemu_holds_the_papers_stimulus_library() {
-    use lmhost::backend::Transfer;
-    use lmhost::connect::LmBackend;
+    use lmhost::device::backend::Transfer;
+    use lmhost::device::connect::LmBackend;
     if !qemu_installed() {
         println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
         return;
@@ -605,7 +605,7 @@ fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     let elf = firmware_elf();
     let port = free_port();
     let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
     let client =
         within_20_s(|| spec.connect()).unwrap_or_else(|e| panic!("connecting to QEMU: {e}"));
     let mut dev = LmBackend::new(client, Encoding::Delta);
@@ -865,9 +865,9 @@ fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
 /// no deadline missed; its status shows the count at the limit, frozen.
 #[test]
 fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
-    use lmhost::connect::Target;
-    use lmhost::scene::Scene;
-    use lmhost::stimulus::Stimulus;
+    use lmhost::plan::scene::Scene;
+    use lmhost::plan::stimulus::Stimulus;
+    use lmhost::plan::target::Target;
     if !qemu_installed() {
         println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
         return;
@@ -875,8 +875,8 @@ fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
     let elf = firmware_elf();
     let port = free_port();
     let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = lmhost::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
-    let mut dev = within_20_s(|| lmhost::connect::open(&spec, &Scene::default()))
+    let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    let mut dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))
         .unwrap_or_else(|e| panic!("{e:#}"));
     let plan = Stimulus::default()
         .plan_for(&Target::Lm, Scene::default())

@@ -11,9 +11,9 @@ use std::sync::{Arc, Mutex};
 use lm_proto::{Centroid, Encoding, PlayAt};
 use lmhost::clock::Clock;
 use lmhost::clock::STATS_RING;
-use lmhost::link::{Client, UploadSpec};
-use lmhost::sequence::Plan;
-use lmhost::simdev::{Core, FwCore, InProcess, SimConfig};
+use lmhost::device::link::{Client, UploadSpec};
+use lmhost::device::simdev::{Core, FwCore, InProcess, SimConfig};
+use lmhost::plan::sequence::Plan;
 
 fn rss_kib() -> u64 {
     let statm = std::fs::read_to_string("/proc/self/statm").unwrap();

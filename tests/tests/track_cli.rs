@@ -169,8 +169,8 @@ fn a_synthetic_recording_replays_to_the_same_results() {
 
 #[test]
 fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
-    use lmhost::track::intrinsics::Intrinsics;
-    use lmhost::track::source::{stream_frame, stream_header};
+    use lmhost::sense::track::intrinsics::Intrinsics;
+    use lmhost::sense::track::source::{stream_frame, stream_header};
     let d = dir("stream");
     let intr = Intrinsics {
         width: 424,
@@ -187,8 +187,9 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
     let want = lines(&synthetic(&cam, "1", &["--json", "--record", &rec]));
     let mut bytes = stream_header(&intr);
     let mut r =
-        lmhost::track::source::Replay::open_with_defaults(Path::new(&rec), None, None).unwrap();
-    use lmhost::track::source::FrameSource as _;
+        lmhost::sense::track::source::Replay::open_with_defaults(Path::new(&rec), None, None)
+            .unwrap();
+    use lmhost::sense::track::source::FrameSource as _;
     while let Some(f) = r.next_frame().unwrap() {
         bytes.extend(stream_frame(f.t_s, &f.depth));
     }

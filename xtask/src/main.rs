@@ -60,7 +60,7 @@ const STEPS: &[Step] = &[
         run: step_setup,
     },
     Step {
-        name: "lint: cargo fmt --check, module cycles at every folder level",
+        name: "lint: cargo fmt --check, module cycles and wing order in every crate, clap only in the CLI",
         run: step_lint_source,
     },
     Step {
@@ -301,12 +301,31 @@ fn ensure_components() -> Result<(), String> {
     Ok(())
 }
 
-/// Formatting and the module graph: cheap, so they run first.
+/// Formatting, the module graph and the wing order of every crate, and
+/// clap only in the CLI: cheap, so they run first.
 fn step_lint_source(c: &Ctx) -> Result<(), String> {
     run(c.cargo(&["fmt", "--all", "--", "--check"]))?;
     run(Command::new("python3")
         .current_dir(&c.root)
-        .args(["xtask/module_cycles.py", "host/src"]))
+        .arg("xtask/module_cycles.py"))?;
+    // The library and the Python package never parse a command line.
+    for pkg in ["lmhost", "lmhost-py"] {
+        let tree = c
+            .cargo(&["tree", "-p", pkg, "-e", "normal,build", "--prefix", "none"])
+            .output()
+            .map_err(|e| format!("cannot run cargo tree: {e}"))?;
+        if !tree.status.success() {
+            return Err(format!("cargo tree -p {pkg} failed"));
+        }
+        if String::from_utf8_lossy(&tree.stdout)
+            .lines()
+            .any(|l| l.starts_with("clap "))
+        {
+            return Err(format!("{pkg} depends on clap: only lmhost-cli may"));
+        }
+    }
+    println!("clap: only in lmhost-cli");
+    Ok(())
 }
 
 /// Lints every crate with the warnings it must not have: clippy's default
@@ -375,14 +394,14 @@ fn step_optional_backends(c: &Ctx) -> Result<(), String> {
         println!(
             "ethercat: skipped (not root: the EtherCAT build needs libpcap-dev from apt and the smoke test raw sockets); building `flash` alone"
         );
-        return run(c.cargo(&["build", "-p", "lmhost", "--features", "flash"]));
+        return run(c.cargo(&["build", "-p", "lmhost-cli", "--features", "flash"]));
     }
     let path = ensure_ethercat_tools(c)?;
     run(c
         .cargo(&[
             "build",
             "-p",
-            "lmhost",
+            "lmhost-cli",
             "--features",
             "flash,autd3-soem,autd3-ethercrab",
         ])
@@ -596,7 +615,7 @@ fn step_python(c: &Ctx) -> Result<(), String> {
         "numpy",
         "pytest",
     ]))?;
-    run(c.cargo(&["build", "-p", "lmhost"]))?;
+    run(c.cargo(&["build", "-p", "lmhost-cli"]))?;
     let path = match std::env::var_os("PATH") {
         Some(p) => {
             let mut all = vec![bin.clone()];
@@ -684,7 +703,7 @@ fn full_width(c: &Ctx, python: &Path, out: &Path) -> Result<(), String> {
             .args(&missing)
             .env("DEBIAN_FRONTEND", "noninteractive"))?;
     }
-    run(c.cargo(&["build", "-q", "-p", "lmhost"]))?;
+    run(c.cargo(&["build", "-q", "-p", "lmhost-cli"]))?;
     let phases = out.join("lmm-paper.bin");
     run(Command::new(c.target_dir.join("debug").join("lmhost"))
         .current_dir(&c.root)

@@ -23,8 +23,7 @@ use heapless::spsc::{Consumer, Producer, Queue};
 use lm_fw_core::HostLink;
 use stm32h7::stm32h743v as pac;
 
-/// TIM2 count rate: the player's clock.
-pub const TIMER_HZ: u32 = 1_000_000;
+pub use crate::clocks::TIMER_HZ;
 /// Baud rate of the ST-LINK virtual COM port link: `LM_BAUD` when the
 /// firmware was built, else 115 200 (lmhost's default `--baud`). The
 /// ST-LINK/V3's VCP goes far higher; USART3 (16× oversampling) takes up to

@@ -15,6 +15,8 @@
 use stm32h7::stm32h743v as pac;
 
 /// The ST-LINK/V3's MCO into PH0 (HSE bypass).
+/// TIM2 count rate: the player's clock.
+pub const TIMER_HZ: u32 = 1_000_000;
 pub const HSE_HZ: u32 = 8_000_000;
 /// The internal RC oscillator after reset.
 pub const HSI_HZ: u32 = 64_000_000;
@@ -56,11 +58,8 @@ const _: () = {
     assert!(SYS_HZ == 400_000_000, "VOS1 allows 400 MHz");
     assert!(AHB_HZ <= 200_000_000 && APB1_HZ <= 100_000_000);
     // TIM2 counts 1 MHz exactly, with a 16-bit prescaler.
-    assert!(
-        TIM2_HZ.is_multiple_of(crate::board::TIMER_HZ)
-            && TIM2_HZ / crate::board::TIMER_HZ <= 65_536
-    );
-    assert!(HSI_HZ.is_multiple_of(crate::board::TIMER_HZ));
+    assert!(TIM2_HZ.is_multiple_of(TIMER_HZ) && TIM2_HZ / TIMER_HZ <= 65_536);
+    assert!(HSI_HZ.is_multiple_of(TIMER_HZ));
     let ref2 = HSE_HZ / DIVM2;
     assert!(HSE_HZ.is_multiple_of(DIVM2) && ref2 >= 1_000_000 && ref2 <= 2_000_000);
     let vco2 = ref2 as u64 * DIVN2 as u64;

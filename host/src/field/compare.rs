@@ -9,8 +9,9 @@ use serde_json::json;
 
 use crate::field::plot::{self, Figure, Labels, Panel};
 use crate::field::study::{View, labels, overlay, simulate_plan};
-use crate::field::{self, FieldMaps, npy};
-use crate::sequence::Plan;
+use crate::field::{self, FieldMaps};
+use crate::npy;
+use crate::plan::sequence::Plan;
 
 /// Radii of the `--compare` grid (the paper's conditions).
 pub const COMPARE_RADII_MM: [f64; 5] = [2.0, 3.0, 4.0, 5.0, 6.0];
@@ -248,9 +249,9 @@ pub fn compare(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
-    use crate::sequence::Synthesis;
-    use crate::trajectory::{LmParams, Steps};
+    use crate::plan::scene::Scene;
+    use crate::plan::sequence::Synthesis;
+    use crate::plan::trajectory::{LmParams, Steps};
 
     /// Every `font-size` in `svg`, in points at its printed width.
     fn font_sizes_pt(svg: &str) -> Vec<f64> {

@@ -17,7 +17,7 @@
 use super::model::Source;
 use super::stats::{Stats, twiddles};
 use super::{FieldModel, ObservationPlane};
-use crate::directivity::Directivity;
+use crate::plan::directivity::Directivity;
 
 /// Points per block (a multiple of [`TILE_ROWS`]).
 const BLOCK: usize = 16;

@@ -39,7 +39,6 @@ pub mod compare;
 mod kernel;
 mod maps;
 mod model;
-pub mod npy;
 mod plane;
 pub mod plot;
 mod post;
@@ -47,7 +46,7 @@ mod reference;
 mod stats;
 pub mod study;
 
-pub use crate::directivity::Directivity;
+pub use crate::plan::directivity::Directivity;
 pub use kernel::isa as fast_path_isa;
 pub use maps::{DEFAULT_RADIATION_ALPHA, FieldMaps, Radiation, simulate};
 pub use model::{

@@ -5,9 +5,9 @@
 use std::f64::consts::PI;
 
 use super::FieldError;
-use crate::array::Transducer;
-use crate::directivity::Directivity;
 use crate::geom::{axpy, dot, is_finite, normalized, sub};
+use crate::plan::array::Transducer;
+use crate::plan::directivity::Directivity;
 use crate::units::wavenumber_rad_per_mm;
 
 /// Source amplitude `P0` of one T4010A1 at full drive (Pa·mm, peak).
@@ -288,10 +288,10 @@ pub fn drive_from_rad(phases_rad: &[f64]) -> Vec<C64> {
         .collect()
 }
 
-/// The field model of a planner [`Scene`](crate::scene::Scene): its
+/// The field model of a planner [`Scene`](crate::plan::scene::Scene): its
 /// transducers, directivity, medium and (only if it has one) reflector.
 pub fn model_for_scene(
-    scene: &crate::scene::Scene,
+    scene: &crate::plan::scene::Scene,
     density_kg_m3: f64,
 ) -> Result<FieldModel, crate::InputError> {
     let medium = Medium {

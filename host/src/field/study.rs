@@ -10,9 +10,10 @@ use serde_json::json;
 
 use crate::error::InputError;
 use crate::field::plot::{self, Figure, Labels, Overlay, Panel};
-use crate::field::{self, FieldMaps, ObservationPlane, Radiation, npy};
+use crate::field::{self, FieldMaps, ObservationPlane, Radiation};
 use crate::limits;
-use crate::sequence::Plan;
+use crate::npy;
+use crate::plan::sequence::Plan;
 
 /// Observation settings: the plane, the radiation model and the force disk.
 pub struct View {
@@ -67,7 +68,7 @@ impl View {
                 "--calibration",
                 k,
                 0.0,
-                crate::scene::MAX_PRESSURE_SCALE,
+                crate::plan::scene::MAX_PRESSURE_SCALE,
                 "",
             )?;
         }
@@ -179,7 +180,7 @@ impl CalibrationSource {
 
 /// The calibration factor for `scene` seen through `view`: the view's
 /// override, else the scene's `[calibration]`, else 1.
-pub fn calibration_for(scene: &crate::scene::Scene, view: &View) -> (f64, CalibrationSource) {
+pub fn calibration_for(scene: &crate::plan::scene::Scene, view: &View) -> (f64, CalibrationSource) {
     match (view.calibration, &scene.calibration) {
         (Some(k), _) => (k, CalibrationSource::Flag),
         (None, Some(c)) => (c.pressure_scale, CalibrationSource::Scene),

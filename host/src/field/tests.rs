@@ -4,8 +4,8 @@
 use std::f64::consts::PI;
 
 use super::*;
-use crate::array::{Transducer, autd3_local_center_mm, autd3_local_positions_mm};
 use crate::geom::{axpy, dot, normalized, sub};
+use crate::plan::array::{Transducer, autd3_local_center_mm, autd3_local_positions_mm};
 use crate::rng::SplitMix64;
 
 const Z: [f64; 3] = [0.0, 0.0, 1.0];

@@ -27,7 +27,7 @@ pub fn lmhost() -> PathBuf {
             "build",
             "--quiet",
             "-p",
-            "lmhost",
+            "lmhost-cli",
             "--bin",
             "lmhost",
             "--target-dir",
@@ -36,8 +36,8 @@ pub fn lmhost() -> PathBuf {
         if release {
             cmd.arg("--release");
         }
-        let status = cmd.status().expect("running cargo build -p lmhost");
-        assert!(status.success(), "cargo build -p lmhost failed");
+        let status = cmd.status().expect("running cargo build -p lmhost-cli");
+        assert!(status.success(), "cargo build -p lmhost-cli failed");
         profile_dir.join("lmhost")
     })
     .clone()

@@ -1,0 +1,128 @@
+//! One module per `lmhost` subcommand, each an `Args` struct with `run`.
+
+use clap::Subcommand;
+use serde::Serialize;
+
+use args::DeviceArgs;
+use lmhost::device::backend::Backend;
+
+pub mod args;
+pub mod bench;
+pub mod calibrate;
+pub mod demo;
+pub mod flash;
+pub mod info;
+pub mod opening;
+pub mod plan;
+pub mod play;
+pub mod scene;
+pub mod session;
+pub mod sim;
+pub mod simulate;
+pub mod status;
+pub mod stop;
+pub mod stream;
+pub mod study;
+pub mod track;
+pub mod upload;
+
+/// Every `lmhost` subcommand.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Plan an LM stimulus: trajectory, phases, encodings.
+    Plan(plan::Args),
+    /// Show a scene or export its transducers.
+    Scene(scene::Args),
+    /// Simulate a stimulus's acoustic field and plot it.
+    Simulate(simulate::Args),
+    /// Time and check the numeric paths; print the bench report.
+    Bench(bench::Args),
+    /// Run the simulated device on a pty (prints its path).
+    Sim(sim::Args),
+    /// Show what the device is and what it can hold.
+    Info(QueryArgs),
+    /// Show what the device is doing and its error counters.
+    Status(QueryArgs),
+    /// Plan a stimulus, upload it, commit it and play it.
+    Upload(upload::Args),
+    /// Play a committed slot.
+    Play(play::Args),
+    /// Stop playing (mutes at once).
+    Stop(stop::Args),
+    /// Simulated device, LM-M upload, streamed finger, short report.
+    Demo(demo::Args),
+    /// Stream finger centroids to the device.
+    Stream(stream::Args),
+    /// Flash the firmware onto a board with a debug probe.
+    Flash(flash::Args),
+    /// Hold the device for a study: preload a stimulus library, present on
+    /// command (a control socket), log what played.
+    Session(session::Args),
+    /// Run a study protocol on the rig session, or summarise its answers.
+    #[command(subcommand_required = true)]
+    Study(study::Args),
+    /// Track the finger in depth frames (contact-area centroid), optionally
+    /// streaming it to the device.
+    Track(track::Args),
+    /// Calibrate the rig (camera pose, force) into its scene file.
+    #[command(subcommand_required = true)]
+    Calibrate(calibrate::Args),
+}
+
+impl Command {
+    /// Run the chosen subcommand.
+    pub fn run(self) -> anyhow::Result<()> {
+        match self {
+            Command::Plan(a) => a.run(),
+            Command::Scene(a) => a.run(),
+            Command::Simulate(a) => a.run(),
+            Command::Bench(a) => a.run(),
+            Command::Sim(a) => a.run(),
+            Command::Info(a) => info::run(&a),
+            Command::Status(a) => status::run(&a),
+            Command::Upload(a) => a.run(),
+            Command::Play(a) => a.run(),
+            Command::Stop(a) => a.run(),
+            Command::Demo(a) => a.run(),
+            Command::Stream(a) => a.run(),
+            Command::Flash(a) => a.run(),
+            Command::Track(a) => a.run(),
+            Command::Session(a) => a.run(),
+            Command::Study(a) => a.run(),
+            Command::Calibrate(a) => a.run(),
+        }
+    }
+}
+
+/// Arguments of a command that asks the device one thing and prints the
+/// answer (`info`, `status`).
+#[derive(Debug, clap::Args)]
+pub struct QueryArgs {
+    #[command(flatten)]
+    device: DeviceArgs,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+impl QueryArgs {
+    /// Opens the device; returns it and what it is (for messages).
+    fn open(&self) -> anyhow::Result<(Box<dyn Backend>, String)> {
+        let dev = self.device.open()?;
+        let where_ = dev.describe();
+        Ok((dev, where_))
+    }
+
+    /// Prints `v` as one line of JSON with `--json`, else with `text`.
+    fn print<T: Serialize>(
+        &self,
+        v: &T,
+        text: impl FnOnce(&T) -> anyhow::Result<()>,
+    ) -> anyhow::Result<()> {
+        if self.json {
+            lmhost::outln!("{}", serde_json::to_string(v)?)
+        } else {
+            text(v)
+        }
+    }
+}

@@ -1,0 +1,550 @@
+//! `lmhost plan`: plan an LM stimulus and print or write its phase sequence.
+//!
+//! The planning flags live in [`PlanArgs`] so `upload` and `simulate` can
+//! `#[command(flatten)]` them and call [`PlanArgs::plan`].
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use lm_proto::codec::Encoding;
+
+use lmhost::error::InputError;
+use lmhost::geom::Vec3;
+use lmhost::limits;
+use lmhost::plan::scene::Scene;
+use lmhost::plan::sequence::{Plan, Synthesis};
+use lmhost::plan::stimulus::{Stimulus, TargetPlan, Timing};
+use lmhost::plan::target::Target;
+use lmhost::plan::trajectory::{Steps, paper};
+
+/// Multi-focus synthesis method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum Method {
+    /// The paper's linear synthesis, equal weights (fast path).
+    #[default]
+    Linear,
+    /// GS-PAT phase-only solver: equal pressure at every focus (slower).
+    Gspat,
+}
+
+/// The stimulus flags shared by `plan`, `upload` and `simulate`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// LM circle radius A in mm, 0..=100 (0 = a static focus).
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = paper::RADIUS_MM,
+        allow_negative_numbers = true
+    )]
+    pub radius: f64,
+    /// Foci per step, 1..=32: 1 = LM-S, more = LM-M (foci rotate together).
+    #[arg(long, value_name = "N", default_value_t = paper::FOCI)]
+    pub foci: usize,
+    /// Spacing d between neighbouring foci along the circle in mm (LM-M),
+    /// above 0 and at most 1000.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = paper::SPACING_MM,
+        allow_negative_numbers = true
+    )]
+    pub spacing: f64,
+    /// LM frequency f in Hz (cycles per second), above 0 and at most 1000.
+    #[arg(
+        long,
+        value_name = "HZ",
+        default_value_t = paper::FREQ_HZ,
+        allow_negative_numbers = true
+    )]
+    pub freq: f64,
+    /// Step width d_LM in mm, above 0 and at most 1000;
+    /// N = round(2πA / d_LM) [default: 0.23].
+    #[arg(
+        long,
+        value_name = "MM",
+        conflicts_with = "steps",
+        allow_negative_numbers = true
+    )]
+    pub step: Option<f64>,
+    /// Steps per cycle N, 1..=65535 (instead of --step).
+    #[arg(long, value_name = "N")]
+    pub steps: Option<usize>,
+    /// LM centre X,Y,Z in mm, finger space, each within ±2000 and in front
+    /// of the array [default: the scene's centre, (0,0,200) for the
+    /// built-in array].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub center: Option<String>,
+    /// Per-step depth along the LM plane's c axis in mm, each within ±100:
+    /// one value, or one per step, comma-separated [default: 0].
+    #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
+    pub z: Option<String>,
+    /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// Multi-focus synthesis.
+    #[arg(long, value_enum, default_value_t = Method::Linear)]
+    pub method: Method,
+    /// GS-PAT iterations (with --method gspat), 1..=1000.
+    #[arg(long, value_name = "N", default_value_t = lmhost::plan::stimulus::GSPAT_ITERATIONS)]
+    pub iterations: usize,
+    /// Output intensity, 0..=1 of full: the device scales its drive (the LM
+    /// firmware's output frames carry it, an AUTD3 plays it as its
+    /// modulation level). `simulate` models full output only.
+    #[arg(
+        long,
+        value_name = "0..1",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    pub intensity: f64,
+    /// Real weight per focus, comma-separated, each within ±1e6 and not
+    /// all zero (linear synthesis only).
+    #[arg(long, value_name = "W,W,...")]
+    pub weights: Option<String>,
+}
+
+fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
+    s.split(',')
+        .map(|x| {
+            x.trim().parse::<f64>().map_err(|_| {
+                InputError::new(format!(
+                    "--{flag}: `{}` is not a number (got `{s}`)",
+                    x.trim()
+                ))
+            })
+        })
+        .collect()
+}
+
+/// Parses `--weights`: finite, each within ±[`limits::MAX_WEIGHT`], not
+/// all zero (all-zero weights would play silence as if it were a plan).
+fn parse_weights(s: &str) -> Result<Vec<f64>, InputError> {
+    let w = parse_list("weights", s)?;
+    for &x in &w {
+        limits::in_range(
+            "--weights value",
+            x,
+            -limits::MAX_WEIGHT,
+            limits::MAX_WEIGHT,
+            "",
+        )?;
+    }
+    if w.iter().all(|&x| x == 0.0) {
+        return Err(InputError::new(format!(
+            "--weights `{s}` are all zero: at least one focus needs a non-zero weight"
+        )));
+    }
+    Ok(w)
+}
+
+/// Parses `X,Y,Z` (mm); finite values only.
+pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
+    let v = parse_list(flag, s)?;
+    let v: Vec3 = v.try_into().map_err(|_| {
+        InputError::new(format!(
+            "--{flag} takes three comma-separated numbers X,Y,Z, got `{s}`"
+        ))
+    })?;
+    if !v.iter().all(|x| x.is_finite()) {
+        return Err(InputError::new(format!(
+            "--{flag} must be finite, got `{s}`"
+        )));
+    }
+    Ok(v)
+}
+
+impl PlanArgs {
+    /// The scene named by `--scene`, or the built-in one.
+    pub fn load_scene(&self) -> Result<Scene, InputError> {
+        Scene::load_or_default(self.scene.as_deref())
+    }
+
+    /// The stimulus the flags describe (strings parsed, nothing planned).
+    pub fn stimulus(&self) -> Result<Stimulus, InputError> {
+        let center_mm = self
+            .center
+            .as_deref()
+            .map(|c| parse_vec3("center", c))
+            .transpose()?;
+        let steps = match (self.step, self.steps) {
+            (_, Some(n)) => Steps::Count(n),
+            (Some(w), None) => Steps::Width(w),
+            (None, None) => Steps::Width(paper::STEP_MM),
+        };
+        let z_profile_mm = match &self.z {
+            Some(z) => parse_list("z", z)?,
+            None => Vec::new(),
+        };
+        let synthesis = match (self.method, &self.weights) {
+            (Method::Gspat, Some(_)) => {
+                return Err(InputError::new("--weights applies to --method linear only"));
+            }
+            (Method::Gspat, None) => lmhost::plan::stimulus::gspat(self.iterations)?,
+            (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
+            (Method::Linear, None) => Synthesis::Linear,
+        };
+        Ok(Stimulus {
+            radius_mm: self.radius,
+            foci: self.foci,
+            spacing_mm: self.spacing,
+            freq_hz: self.freq,
+            steps,
+            center_mm,
+            z_profile_mm,
+            synthesis,
+            intensity: limits::in_range("--intensity", self.intensity, 0.0, 1.0, "")?,
+        })
+    }
+
+    /// Loads the scene and plans the stimulus for `target`, printing its
+    /// warnings (once per run, even when a command plans many stimuli).
+    /// Bad flags or scene files are [`InputError`]s (exit code 2).
+    pub fn plan_for(&self, target: &Target) -> anyhow::Result<TargetPlan> {
+        let scene = self.load_scene()?;
+        let planned = self.stimulus()?.plan_for(target, scene)?;
+        static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+        if !planned.warnings.is_empty() && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            for w in &planned.warnings {
+                lmhost::errln!("warning: {w}");
+            }
+        }
+        Ok(planned)
+    }
+
+    /// [`Self::plan_for`] the LM firmware (the stimulus as asked).
+    pub fn plan(&self) -> anyhow::Result<Plan> {
+        Ok(self.plan_for(&Target::Lm)?.plan)
+    }
+}
+
+/// The stimulus flags of a streaming session (`stream`, `track --port`):
+/// the plan flags of [`PlanArgs`] without defaults, so a session knows
+/// which were given. Any one given plans that stimulus for the device,
+/// uploads it into a free slot and plays it (every backend); none given
+/// keeps what the LM firmware plays (an AUTD3, which holds nothing, plays
+/// the default stimulus).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct StimulusFlags {
+    /// Stimulus: LM circle radius A in mm, 0..=100 [default: 3].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    pub radius: Option<f64>,
+    /// Stimulus: foci per step, 1..=32 (more than 1 = LM-M) [default: 1].
+    #[arg(long, value_name = "N")]
+    pub foci: Option<usize>,
+    /// Stimulus: spacing d between neighbouring foci in mm (LM-M)
+    /// [default: 3].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    pub spacing: Option<f64>,
+    /// Stimulus: LM frequency f in Hz, above 0 and at most 1000 [default: 5].
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub freq: Option<f64>,
+    /// Stimulus: step width d_LM in mm; N = round(2πA / d_LM)
+    /// [default: 0.23].
+    #[arg(
+        long,
+        value_name = "MM",
+        conflicts_with = "steps",
+        allow_negative_numbers = true
+    )]
+    pub step: Option<f64>,
+    /// Stimulus: steps per cycle N, 1..=65535 (instead of --step).
+    #[arg(long, value_name = "N")]
+    pub steps: Option<usize>,
+    /// Stimulus: LM centre X,Y,Z in mm, finger space [default: the
+    /// scene's centre].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub center: Option<String>,
+    /// Stimulus: per-step depth along the LM plane's c axis in mm, one
+    /// value or one per step [default: 0].
+    #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
+    pub z: Option<String>,
+    /// Stimulus: multi-focus synthesis [default: linear].
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
+    /// Stimulus: GS-PAT iterations, 1..=1000 (with --method gspat)
+    /// [default: 20].
+    #[arg(long, value_name = "N")]
+    pub iterations: Option<usize>,
+    /// Stimulus: real weight per focus, comma-separated (linear synthesis).
+    #[arg(long, value_name = "W,W,...")]
+    pub weights: Option<String>,
+    /// Stimulus: output intensity, 0..=1 of full [default: 1].
+    #[arg(long, value_name = "0..1", allow_negative_numbers = true)]
+    pub intensity: Option<f64>,
+}
+
+impl StimulusFlags {
+    /// The flags given, by name (`--radius`, ...), in the order of `--help`.
+    pub fn given(&self) -> Vec<&'static str> {
+        let s = self;
+        [
+            ("--radius", s.radius.is_some()),
+            ("--foci", s.foci.is_some()),
+            ("--spacing", s.spacing.is_some()),
+            ("--freq", s.freq.is_some()),
+            ("--step", s.step.is_some()),
+            ("--steps", s.steps.is_some()),
+            ("--center", s.center.is_some()),
+            ("--z", s.z.is_some()),
+            ("--method", s.method.is_some()),
+            ("--iterations", s.iterations.is_some()),
+            ("--weights", s.weights.is_some()),
+            ("--intensity", s.intensity.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(n, g)| g.then_some(n))
+        .collect()
+    }
+
+    /// The plan flags these stand for in `scene` (defaults filled in, as
+    /// `lmhost upload` would take them); `--iterations` without
+    /// `--method gspat` cannot apply and is refused.
+    pub fn plan_args(&self, scene: Option<PathBuf>) -> Result<PlanArgs, InputError> {
+        let method = self.method.unwrap_or_default();
+        if self.iterations.is_some() && method != Method::Gspat {
+            return Err(InputError::new(
+                "--iterations applies to --method gspat only",
+            ));
+        }
+        Ok(PlanArgs {
+            radius: self.radius.unwrap_or(paper::RADIUS_MM),
+            foci: self.foci.unwrap_or(paper::FOCI),
+            spacing: self.spacing.unwrap_or(paper::SPACING_MM),
+            freq: self.freq.unwrap_or(paper::FREQ_HZ),
+            step: self.step,
+            steps: self.steps,
+            center: self.center.clone(),
+            z: self.z.clone(),
+            scene,
+            method,
+            iterations: self
+                .iterations
+                .unwrap_or(lmhost::plan::stimulus::GSPAT_ITERATIONS),
+            weights: self.weights.clone(),
+            intensity: self.intensity.unwrap_or(1.0),
+        })
+    }
+}
+
+/// `plan --target`: which device the plan is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TargetArg {
+    /// The LM firmware (any whole-µs dwell).
+    Lm,
+    /// An AUTD3 (dwell on the 25 µs FPGA grid).
+    Autd3,
+}
+
+impl TargetArg {
+    /// The device kind to plan for (an AUTD3 plans alike on every link).
+    pub fn target(self) -> Target {
+        match self {
+            Self::Lm => Target::Lm,
+            Self::Autd3 => Target::Autd3,
+        }
+    }
+}
+
+/// Plan an LM stimulus: trajectory, phases, encodings.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    lmhost plan                                   # LM-S, A = 3 mm, 5 Hz, 0.23 mm steps\n  \
+    lmhost plan --radius 6 --foci 4 --spacing 3   # LM-M\n  \
+    lmhost plan --scene scenes/paper.toml --foci 4 --out lmm.npy\n  \
+    lmhost plan --target autd3 --radius 5 --out autd3.npy  # what an AUTD3 plays (25 µs grid)\n  \
+    lmhost plan --json --phases > plan.json")]
+pub struct Args {
+    /// The stimulus.
+    #[command(flatten)]
+    pub plan: PlanArgs,
+    /// The device the phases are for: `lm` plans the timing as asked (what
+    /// the LM firmware plays), `autd3` on AUTD3's 25 µs dwell grid (N and
+    /// the dwell an AUTD3 realises: exactly what `upload --port autd3:...`
+    /// plays); the summary, `--json` and `--out` say the realised timing.
+    #[arg(long, value_enum, default_value_t = TargetArg::Lm)]
+    pub target: TargetArg,
+    /// Print a machine-readable JSON summary instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Include the phases (steps × transducers) in the JSON summary.
+    #[arg(long, requires = "json")]
+    pub phases: bool,
+    /// Write the sequence to FILE: .json (summary with phases), .npy
+    /// (u8, shape steps × transducers) or anything else as raw bytes
+    /// (step-major).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// A short human summary.
+pub fn summary_text(plan: &Plan) -> String {
+    let t = &plan.trajectory;
+    let s = &plan.sequence;
+    let raw = s.encoded_len(Encoding::Raw);
+    let delta = s.encoded_len(Encoding::Delta);
+    let kind = if t.foci == 1 {
+        "LM-S".to_string()
+    } else {
+        format!("LM-M ({} foci, l = {})", t.foci, t.index_offset)
+    };
+    let c = t.center_mm;
+    let mut out = format!(
+        "{kind} on {}: {} transducers\n\
+         steps N = {}, step {:.4} mm, dwell {:.3} ms, period {:.1} ms ({:.3} Hz)\n\
+         centre ({:.3}, {:.3}, {:.3}) mm{}\n\
+         sequence {raw} bytes raw, {delta} bytes delta ({:.1} %), crc32 {:08x}",
+        plan.scene.name,
+        s.header.transducers,
+        t.steps,
+        t.step_mm,
+        t.dwell_s * 1e3,
+        t.period_s * 1e3,
+        1.0 / t.period_s,
+        c[0],
+        c[1],
+        c[2],
+        if plan.scene.reflector.is_some() {
+            ", foci mirrored through the reflector"
+        } else {
+            ""
+        },
+        100.0 * delta as f64 / raw as f64,
+        s.crc32(),
+    );
+    out.push('\n');
+    out
+}
+
+/// The text line of an AUTD3 plan: the grid and the timing errors.
+fn autd3_line(t: &Timing) -> String {
+    format!(
+        "on AUTD3's 25 µs grid: dwell {:.0} µs = {} × 25 µs ({:+.1} µs from {:.1} µs), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm ({:+.4} mm from {:.4} mm)",
+        t.dwell_us,
+        t.divide.unwrap_or(0),
+        t.dwell_error_us,
+        t.requested_dwell_us,
+        t.freq_hz,
+        t.freq_error_hz,
+        t.requested_freq_hz,
+        t.step_mm,
+        t.step_error_mm,
+        t.requested_step_mm
+    )
+}
+
+impl Args {
+    /// Plans, prints and writes.
+    pub fn run(self) -> anyhow::Result<()> {
+        let planned = self.plan.plan_for(&self.target.target())?;
+        let plan = &planned.plan;
+        let target = self.target.target();
+        if let Some(out) = &self.out {
+            lmhost::files::write_whole(out, &planned.out_bytes(out, &target)?)?;
+        }
+        if self.json {
+            let v = planned.summary_json(&target, self.phases);
+            lmhost::outln!("{}", serde_json::to_string(&v)?)?;
+        } else {
+            lmhost::out!("{}", summary_text(plan))?;
+            if self.target == TargetArg::Autd3 {
+                lmhost::outln!("{}", autd3_line(&planned.timing))?;
+            }
+            if let Some(out) = &self.out {
+                lmhost::outln!("wrote {}", out.display())?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        plan: PlanArgs,
+    }
+
+    fn args(a: &[&str]) -> PlanArgs {
+        Cli::try_parse_from(std::iter::once("x").chain(a.iter().copied()))
+            .unwrap()
+            .plan
+    }
+
+    #[test]
+    fn defaults_are_the_paper_lm_s() {
+        let p = args(&[]).plan().unwrap();
+        assert_eq!(p.trajectory.steps, 82);
+        assert_eq!(p.trajectory.center_mm, [0.0, 0.0, 200.0]);
+        assert_eq!(p.sequence.phases.len(), 82 * 996);
+    }
+
+    #[test]
+    fn lm_m_flags() {
+        let p = args(&["--foci", "4", "--step", "0.22", "--center", "0,0,220"])
+            .plan()
+            .unwrap();
+        assert_eq!(p.trajectory.index_offset, 13);
+        assert_eq!(p.trajectory.center_mm, [0.0, 0.0, 220.0]);
+        let j = p.summary_json(false);
+        assert_eq!(j["steps"], 86);
+        assert!(j.get("phases").is_none());
+        assert_eq!(j["foci_mm"][0].as_array().unwrap().len(), 4);
+    }
+
+    #[test]
+    fn bad_flags_are_input_errors() {
+        for a in [
+            &["--radius", "-1"][..],
+            &["--radius", "NaN"],
+            &["--freq", "inf"],
+            &["--center", "1,2"],
+            &["--center", "1,x,3"],
+            &["--center", "0,0,inf"],
+            &["--z", "1,2,3"],
+            &["--foci", "2", "--weights", "1"],
+            &["--scene", "/nonexistent.toml"],
+        ] {
+            let e = args(a).plan().unwrap_err();
+            assert!(e.chain().any(|c| c.is::<InputError>()), "{a:?}: {e}");
+            assert!(!e.to_string().contains('\n'));
+        }
+    }
+
+    #[test]
+    fn paper_scene_defaults_to_the_marker() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml");
+        let p = args(&["--scene", path, "--foci", "4"]).plan().unwrap();
+        assert_eq!(p.trajectory.center_mm, [0.0, 30.0, 30.0]);
+        assert_eq!(p.sequence.header.center_um, [0, 30_000, -30_000]);
+        let j = p.summary_json(true);
+        assert_eq!(j["phases"].as_array().unwrap().len(), 82);
+        assert!(j["drive_foci_mm"].is_array());
+    }
+
+    #[test]
+    fn out_of_range_plan_numbers_are_input_errors_naming_the_range() {
+        for (a, want) in [
+            (&["--weights", "0"][..], "all zero"),
+            (&["--foci", "2", "--weights", "0,0"], "all zero"),
+            (&["--weights", "1e300"], "1e300 is out of range"),
+            (
+                &["--method", "gspat", "--iterations", "100000000"],
+                "1..=1000",
+            ),
+            (&["--z", "1e12"], "-100..=100"),
+            (&["--radius", "1e30", "--steps", "4"], "0..=100"),
+            (&["--center", "0,0,1e30"], "±2000"),
+            (&["--center", "0,0,-100"], "behind or in the plane"),
+        ] {
+            let e = args(a).plan().unwrap_err();
+            assert!(e.chain().any(|c| c.is::<InputError>()), "{a:?}: {e}");
+            assert!(e.to_string().contains(want), "{a:?}: {e}");
+        }
+    }
+}

@@ -1,0 +1,246 @@
+//! `lmhost session`: hold the device and the finger source, preload a
+//! stimulus library, take commands on a control socket, log events.
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use lmhost::lab::session::Session;
+use lmhost::lab::session::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
+use lmhost::plan::library::Library;
+use lmhost::plan::scene::Scene;
+use lmhost::sense::stream::filter::FilterKind;
+use lmhost::sense::stream::run::on_thread;
+
+use super::args::PortArgs;
+
+/// What to do when the controlling client goes away.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Disconnect {
+    /// Stop the presentation (the array goes silent) and keep serving.
+    Stop,
+    /// Carry on playing.
+    Continue,
+    /// End the session.
+    Quit,
+}
+
+/// Arguments of `lmhost session`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    lmhost session --library studies/paper-library.toml --port autd3:emulator --control /tmp/lm.sock --synthetic\n  \
+    echo '{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a3\",\"gate\":\"untracked\",\"on_s\":2}' | \\\n    \
+    lmhost session --library studies/paper-library.toml --port autd3:emulator --control -\n\n\
+    The control protocol (JSON lines) is in host/src/rig/PROTOCOL.md.")]
+pub struct Args {
+    /// Stimulus library (TOML, one [[stimulus]] table per entry).
+    #[arg(long, value_name = "FILE")]
+    library: PathBuf,
+    #[command(flatten)]
+    port: PortArgs,
+    /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// Control socket: a Unix socket path (created mode 0600), or `-` for
+    /// commands on stdin and replies and events on stdout
+    /// [default: $XDG_RUNTIME_DIR/lmhost.sock, else /tmp/lmhost-$USER.sock].
+    #[arg(long, value_name = "PATH")]
+    control: Option<PathBuf>,
+    /// Also listen on 127.0.0.1:PORT (TCP, local only).
+    #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
+    tcp: Option<u16>,
+    /// Event log (JSON lines; every line whole).
+    #[arg(long, value_name = "FILE")]
+    events: Option<PathBuf>,
+    /// A synthetic finger resting at the scene's centre.
+    #[arg(long, conflicts_with_all = ["stream", "udp", "depth", "camera", "depth_stream"])]
+    synthetic: bool,
+    /// The finger tracked in recorded depth frames (`.npy`, uint16,
+    /// frames × height × width; intrinsics and time stamps beside it),
+    /// replayed at their recorded speed; needs --scene with [camera] and
+    /// [tracking].
+    #[arg(long, value_name = "FILE.npy", conflicts_with_all = ["stream", "udp", "camera", "depth_stream"])]
+    depth: Option<PathBuf>,
+    /// The finger tracked live from a RealSense camera (needs --scene).
+    #[arg(long, conflicts_with_all = ["stream", "udp", "depth_stream"])]
+    camera: bool,
+    /// The finger tracked in an LMDEPTH1 depth stream from FILE, `-` for
+    /// stdin (needs --scene).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["stream", "udp"])]
+    depth_stream: Option<PathBuf>,
+    /// Camera intrinsics (TOML) for --depth [default: beside it].
+    #[arg(long, value_name = "FILE")]
+    intrinsics: Option<PathBuf>,
+    /// Time stamps for --depth [default: beside it, else 90 fps].
+    #[arg(long, value_name = "FILE")]
+    timestamps: Option<PathBuf>,
+    /// Finger centroids as JSON or CSV lines from FILE, or `-` for stdin
+    /// (the formats `lmhost stream` reads, `lmhost track --json` lines
+    /// included).
+    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
+    stream: Option<PathBuf>,
+    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT.
+    #[arg(long, value_name = "PORT")]
+    udp: Option<u16>,
+    /// Centroid filter.
+    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
+    filter: FilterKind,
+    /// When the client that sent `present`, `prepare` or `stop` disconnects.
+    #[arg(long, value_enum, default_value_t = Disconnect::Stop)]
+    on_disconnect: Disconnect,
+}
+
+fn default_socket() -> PathBuf {
+    match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
+        Some(d) => PathBuf::from(d).join("lmhost.sock"),
+        None => {
+            let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
+            PathBuf::from(format!("/tmp/lmhost-{user}.sock"))
+        }
+    }
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        let control = match &self.control {
+            Some(p) if p.as_os_str() == "-" => Control::Stdio,
+            other => Control::Socket {
+                unix: other.clone().unwrap_or_else(default_socket),
+                tcp: self.tcp,
+            },
+        };
+        if control == Control::Stdio && self.tcp.is_some() {
+            lmhost::bad_input!("--tcp needs a socket --control, not `-`");
+        }
+        let stream_stdin = [&self.stream, &self.depth_stream]
+            .iter()
+            .any(|s| s.as_ref().is_some_and(|p| p.as_os_str() == "-"));
+        if control == Control::Stdio && stream_stdin {
+            lmhost::bad_input!("--control - and a finger source on `-` cannot both read stdin");
+        }
+        let library = Library::load(&self.library)?;
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
+        if let Some(e) = &self.events {
+            lmhost::files::not_an_input("--events", e)?;
+        }
+        let spec = self.port.spec();
+        let target = spec.device()?.target();
+        let plans = library.plan_for(&target, &scene)?;
+        let mut warned = std::collections::BTreeSet::new();
+        for w in plans.iter().flat_map(|p| &p.warnings) {
+            if warned.insert(w.clone()) {
+                lmhost::errln!("warning: {w}");
+            }
+        }
+        let tracked = self.depth.is_some() || self.camera || self.depth_stream.is_some();
+        if (self.intrinsics.is_some() || self.timestamps.is_some()) && self.depth.is_none() {
+            lmhost::bad_input!("--intrinsics and --timestamps apply to --depth only");
+        }
+        if tracked && self.scene.is_none() {
+            lmhost::bad_input!(
+                "--scene is needed with --depth, --camera and --depth-stream: its [camera] and [tracking] place the box"
+            );
+        }
+        for p in [&self.depth, &self.intrinsics, &self.timestamps]
+            .into_iter()
+            .flatten()
+        {
+            lmhost::files::check_input("input", p)?;
+        }
+        let endpoint = Endpoint::bind(&control)?;
+        let dev = lmhost::device::connect::open(&spec, &scene)?;
+        let where_ = dev.describe();
+        let session = Session::new(dev, &library, plans, scene)
+            .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+        // The finger source starts once the device is ready, so a replay
+        // runs from its first frame while the session takes commands.
+        let finger = if tracked {
+            let opts = lmhost::sense::track::session::Options {
+                scene: self.scene.clone(),
+                depth: self.depth.clone(),
+                timestamps: self.timestamps.clone(),
+                intrinsics: self.intrinsics.clone(),
+                synthetic: false,
+                seconds: None,
+                noise_mm: None,
+                holes: None,
+                camera: self.camera,
+                stream: self.depth_stream.clone(),
+                record: None,
+                fast: false,
+                json: false,
+                plot: None,
+                plot_frame: None,
+                filter: Some(FilterKind::None),
+                z_profile: None,
+                replan_mm: 0.3,
+                replan: false,
+                enter_frames: 2,
+                leave_frames: 2,
+                device: false,
+            };
+            Finger::Samples(on_thread(move || {
+                let it: Box<dyn Iterator<Item = anyhow::Result<lmhost::sense::stream::Sample>>> =
+                    match lmhost::sense::track::session::Session::open(opts) {
+                        Ok(s) => Box::new(s.samples()),
+                        Err(e) => Box::new(std::iter::once(Err(e))),
+                    };
+                it
+            })?)
+        } else if self.synthetic {
+            Finger::Synthetic
+        } else if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
+            Finger::Samples(feed)
+        } else {
+            Finger::None
+        };
+        if let Control::Socket { unix, tcp } = &control {
+            lmhost::errln!(
+                "lmhost: session on {where_}: {} stimuli; control socket {}{}",
+                library.entries.len(),
+                unix.display(),
+                tcp.map(|p| format!(" and 127.0.0.1:{p}"))
+                    .unwrap_or_default()
+            );
+        }
+        let report = serve::serve(
+            session,
+            Options {
+                control: endpoint,
+                on_disconnect: match self.on_disconnect {
+                    Disconnect::Stop => OnDisconnect::Stop,
+                    Disconnect::Continue => OnDisconnect::Continue,
+                    Disconnect::Quit => OnDisconnect::Quit,
+                },
+                events: self.events.clone(),
+                finger,
+                filter: self.filter.build(),
+            },
+        )?;
+        lmhost::errln!(
+            "lmhost: session ended ({}); {} commands, {} events; the array is silent",
+            report
+                .reason
+                .map(|r| serde_json::to_string(&r)
+                    .unwrap_or_default()
+                    .replace('"', ""))
+                .unwrap_or_default(),
+            report.commands,
+            report.events
+        );
+        let f = &report.figures;
+        let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1} ms"));
+        if f.switches > 0 || f.timed_on_phases > 0 {
+            lmhost::errln!(
+                "lmhost: {} switches (latency p50 {}, p99 {}, max {}); {} timed on-phases (|device − on_s| max {})",
+                f.switches,
+                ms(f.switch_p50_ms),
+                ms(f.switch_p99_ms),
+                ms(f.switch_max_ms),
+                f.timed_on_phases,
+                ms(f.on_error_max_abs_ms)
+            );
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,103 @@
+//! `lmhost sim`: the firmware core on a pseudo-terminal with a real clock.
+//! Prints the pty path on stdout, then serves until stopped.
+
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+
+use lmhost::device::link::proxy::Faults;
+use lmhost::device::simdev::{Core as _, FwCore, Pty, ServeOptions, SimConfig, serve};
+
+/// Run the simulated device (any serial tool can talk to it).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Mute when no centroid update came for this long (ms, at most
+    /// 3600000: it travels as µs in a u32).
+    #[arg(long, value_name = "MS", default_value_t = 100)]
+    centroid_timeout_ms: u32,
+    /// Play even before the first centroid update (the firmware's default
+    /// is to stay muted until a finger is tracked).
+    #[arg(long)]
+    no_tracking: bool,
+    /// Steps per slot at 996 transducers (1..=65535, the wire's u16 step
+    /// count).
+    #[arg(long, value_name = "N", default_value_t = 400)]
+    slot_steps: u32,
+    /// Damage the link on the device's side, e.g. `ber=1e-4,drop=1e-5`
+    /// (rates: ber, drop, dup, truncate; `cut=BYTES` kills the link).
+    #[arg(long, value_name = "SPEC")]
+    faults: Option<String>,
+    /// Seed of the fault generator.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Stop after this many seconds (at most 86400) [default: serve until
+    /// killed].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    seconds: Option<f64>,
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        let faults = match &self.faults {
+            Some(spec) => Some((
+                spec.parse::<Faults>()
+                    .map_err(|e| lmhost::InputError::new(format!("--faults: {e}")))?,
+                self.seed,
+            )),
+            None => None,
+        };
+        if !(1..=lmhost::limits::MAX_SLOT_STEPS).contains(&self.slot_steps) {
+            lmhost::bad_input!(
+                "--slot-steps {} is out of range: allowed 1..={}",
+                self.slot_steps,
+                lmhost::limits::MAX_SLOT_STEPS
+            );
+        }
+        if self.centroid_timeout_ms > 3_600_000 {
+            lmhost::bad_input!(
+                "--centroid-timeout-ms {} is out of range: allowed 0..=3600000",
+                self.centroid_timeout_ms
+            );
+        }
+        let stop_after = self
+            .seconds
+            .map(|s| lmhost::limits::duration_s("--seconds", s, lmhost::limits::MAX_SECONDS))
+            .transpose()?;
+        let cfg = SimConfig {
+            slot_steps: self.slot_steps,
+            centroid_timeout_us: self.centroid_timeout_ms.saturating_mul(1000),
+            require_tracking: !self.no_tracking,
+            ..SimConfig::default()
+        };
+        let core = Arc::new(Mutex::new(FwCore::new(cfg)?));
+        let pty = Pty::open()?;
+        lmhost::outln!("{}", pty.path)?;
+        lmhost::out::flush_stdout()?;
+        lmhost::errln!(
+            "lmhost sim: simulated device on {} (Ctrl-C to stop)",
+            pty.path
+        );
+        let stop = Arc::new(AtomicBool::new(false));
+        if let Some(d) = stop_after {
+            let stop = stop.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(d);
+                stop.store(true, std::sync::atomic::Ordering::Relaxed);
+            });
+        }
+        serve(core.clone(), pty, ServeOptions { faults }, stop)?;
+        // Only reached with --seconds: what the device measured.
+        let st = core.lock().unwrap_or_else(|e| e.into_inner()).stats();
+        let p = |q| lmhost::clock::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
+        lmhost::errln!(
+            "lmhost sim: {} frames ({} muted), {} centroid updates applied; host receipt → applying step p50 {} µs, p99 {} µs, max {} µs",
+            st.frames,
+            st.muted_frames,
+            st.centroids_applied,
+            p(50.0),
+            p(99.0),
+            p(100.0)
+        );
+        Ok(())
+    }
+}

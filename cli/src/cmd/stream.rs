@@ -1,0 +1,317 @@
+//! `lmhost stream`: finger centroids to the device, filtered and mirrored
+//! into drive coordinates, one acked update per sample.
+
+use anyhow::Context as _;
+use std::path::PathBuf;
+
+use super::args::PortArgs;
+use crate::cmd::plan::StimulusFlags;
+use lmhost::sense::stream::filter::{FilterKind, Kalman};
+use lmhost::sense::stream::metrics::score;
+use lmhost::sense::stream::run::{Pace, Threaded, on_thread, stream};
+use lmhost::sense::stream::source;
+use lmhost::sense::stream::synthetic::FingerTrack;
+
+/// Seconds of the synthetic track the filter table is scored over
+/// (offline, whatever the session's length, so a long or stopped session
+/// does not wait on it).
+const FILTER_SCORE_S: f64 = 20.0;
+
+/// Stream finger centroids (mm, scene frame) to the device.
+///
+/// Input lines are JSON (`{"t":0.011,"x":1.2,"y":-0.4,"z":201,"present":true}`)
+/// or CSV (`t,x,y,z,present`), from stdin, a file, or UDP datagrams.
+#[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Limits: a line may be at most 4096 bytes; a replayed file may \
+    pause at most 60 s between time stamps. Samples that cannot be a finger (time stamp \
+    going backwards, a coordinate beyond ±2000 mm, a jump of more than 50 mm that 3 \
+    samples in a row do not confirm) are dropped and counted in the report. With --udp, \
+    a bad datagram is skipped and counted; 1000 bad datagrams in a row end the session.\n\n\
+    Stopping: Ctrl-C (SIGINT) or SIGTERM ends the session, mutes the device (an update \
+    with present = false), prints the report and frees the port for `lmhost stop` / \
+    `lmhost status`. While `stream` runs it holds the port: stop it first.\n\n\
+    The stimulus, alike on every backend: with any stimulus flag (--radius, --foci, \
+    --spacing, --freq, --step, --steps, --center, --z, --method, --iterations, --weights) \
+    that stimulus is planned for the device (on AUTD3's 25 µs dwell grid), uploaded into \
+    a free slot and played before streaming, with a one-line summary on stderr. With \
+    none, the LM firmware keeps playing what `lmhost upload` put there and an AUTD3 \
+    (which holds nothing while lmhost is away) plays the default stimulus (LM-S, \
+    A = 3 mm, 5 Hz, 0.23 mm steps). --scene alone only mirrors the centroids."
+)]
+pub struct Args {
+    #[command(flatten)]
+    port: PortArgs,
+    /// Read samples from FILE (`-` = stdin, the default) and replay them at
+    /// their time stamps.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["udp", "synthetic"])]
+    input: Option<PathBuf>,
+    /// Receive samples as UDP datagrams on 127.0.0.1:PORT (1..=65535).
+    #[arg(long, value_name = "PORT", conflicts_with = "synthetic", value_parser = clap::value_parser!(u16).range(1..))]
+    udp: Option<u16>,
+    /// Stream a synthetic finger (90 fps, depth-camera-like noise) and
+    /// report every filter's lag and jitter on it.
+    #[arg(long)]
+    synthetic: bool,
+    /// Synthetic finger: seconds to stream; UDP: stop after this long idle.
+    /// At most 86400 (3600 with --synthetic --fast).
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 10.0,
+        allow_negative_numbers = true
+    )]
+    seconds: f64,
+    /// Synthetic finger: away from START to END seconds, e.g. `4,5`.
+    #[arg(long, value_name = "START,END")]
+    away: Option<String>,
+    /// Centroid filter.
+    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
+    filter: FilterKind,
+    /// Kalman filter: predict this far ahead (ms), e.g. the link latency.
+    #[arg(long, value_name = "MS", default_value_t = 0.0)]
+    lead_ms: f64,
+    /// Scene file (TOML): its reflector mirrors centroids into drive
+    /// coordinates, and a stimulus is planned in it [default: four AUTD3
+    /// in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// The stimulus played while streaming (see below: given, it is
+    /// uploaded and played on every backend).
+    #[command(flatten)]
+    stimulus: StimulusFlags,
+    /// Replay files and the synthetic finger as fast as the link allows.
+    #[arg(long)]
+    fast: bool,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
+    let bad = || {
+        lmhost::InputError::new(format!(
+            "--away `{s}` must be START,END in seconds with START < END"
+        ))
+    };
+    let (a, b) = s.split_once(',').ok_or_else(bad)?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
+    if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        let max_s = if self.synthetic && self.fast {
+            lmhost::limits::MAX_FAST_SYNTHETIC_S
+        } else {
+            lmhost::limits::MAX_SECONDS
+        };
+        let seconds = lmhost::limits::duration_s("--seconds", self.seconds, max_s)?;
+        if !self.lead_ms.is_finite() || self.lead_ms.abs() > 1000.0 {
+            lmhost::bad_input!("--lead-ms {} must be within ±1000", self.lead_ms);
+        }
+        let away = self.away.as_deref().map(parse_away).transpose()?;
+        if away.is_some() && !self.synthetic {
+            lmhost::bad_input!("--away only applies to --synthetic");
+        }
+        let scene = lmhost::plan::scene::Scene::load_or_default(self.scene.as_deref())?;
+        let stimulus = match self.stimulus.given().is_empty() {
+            true => None,
+            false => Some(self.stimulus.plan_args(self.scene.clone())?.stimulus()?),
+        };
+        let track = FingerTrack {
+            center_mm: scene.center_mm,
+            away_s: away,
+            ..FingerTrack::default()
+        };
+        let mut filter: Box<dyn lmhost::sense::stream::filter::Filter + Send> = match self.filter {
+            FilterKind::Kalman => Box::new(Kalman::with_lead(self.lead_ms / 1e3)),
+            other => other.build(),
+        };
+        let pace = if self.fast {
+            Pace::Arrival
+        } else {
+            Pace::Timestamps
+        };
+        let udp_counts = std::sync::Arc::new(source::UdpCounts::default());
+        // Every source is read on its own thread, so the loop keeps the
+        // device's housekeeping (the AUTD3 staleness mute) running while a
+        // live source is silent.
+        let (samples, pace) = if self.synthetic {
+            let secs = self.seconds;
+            (
+                on_thread(move || track.samples().take_while(move |s| s.t_s < secs).map(Ok))?,
+                pace,
+            )
+        } else if let Some(port) = self.udp {
+            let udp = source::udp(port, seconds, udp_counts.clone())?;
+            (on_thread(move || udp)?, Pace::Arrival)
+        } else {
+            match self.input.as_deref() {
+                None => (stdin_samples()?, Pace::Arrival),
+                Some(p) if p.as_os_str() == "-" => (stdin_samples()?, Pace::Arrival),
+                Some(p) => {
+                    let f = lmhost::files::open_input("--input file", p)?;
+                    let reader = std::io::BufReader::new(f);
+                    (on_thread(move || source::replay_lines(reader))?, pace)
+                }
+            }
+        };
+        lmhost::stop::graceful();
+        let (mut dev, session) =
+            crate::cmd::opening::open_playing(&self.port.spec(), &scene, stimulus.as_ref())?;
+        let where_ = dev.describe();
+        let needs_host = dev.needs_host();
+        let (mut absent, mut muted_absent) = (0u64, 0u64);
+        let report = stream(
+            dev.as_mut(),
+            samples,
+            filter.as_mut(),
+            |p| scene.drive_point(p),
+            pace,
+            |dev, s, _| {
+                // AUTD3: the host runs the gate, so check it as it goes.
+                if needs_host && !s.present {
+                    absent += 1;
+                    if dev.status()?.state == lm_proto::DeviceState::Muted {
+                        muted_absent += 1;
+                    }
+                }
+                Ok(())
+            },
+        )
+        .map_err(|e| {
+            // A bad line is the user's input: say so in one line.
+            if e.downcast_ref::<lmhost::InputError>().is_some() {
+                e
+            } else {
+                e.context(format!("streaming centroids to {where_}"))
+            }
+        })?;
+        let status = dev
+            .status()
+            .context("reading the device status after streaming")?;
+        if needs_host {
+            // AUTD3: the array plays only while lmhost holds it; leave it
+            // silent (STM stopped, null gain) before letting go.
+            dev.stop().context("silencing the array")?;
+        }
+        let bad_datagrams = udp_counts
+            .bad_datagrams
+            .load(std::sync::atomic::Ordering::Relaxed);
+        // The filters are scored offline on the first 20 s of the same
+        // synthetic track (a property of the track, so a long session does
+        // not make the report slow); not after Ctrl-C, which asks to end now.
+        let scores: Vec<_> = if self.synthetic && !report.stopped {
+            FilterKind::ALL
+                .iter()
+                .map(|k| score(*k, &track, FILTER_SCORE_S))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let p = |q| report.ack_percentile_us(q).unwrap_or(0);
+        if self.json {
+            let v = serde_json::json!({
+                "samples": report.samples, "acked": report.acked, "present": report.present,
+                "last_seq": report.last_seq, "device_last_seq": status.last_centroid_seq,
+                "seconds": report.seconds, "filter": self.filter.name(),
+                "ack_p50_us": p(50.0), "ack_p99_us": p(99.0), "ack_max_us": p(100.0),
+                "device_state": status.state, "filters": scores,
+                "rejected": report.rejected, "bad_datagrams": bad_datagrams,
+                "outside_work_volume": report.outside_work_volume,
+                "stopped": report.stopped, "muted_at_end": report.muted_at_end,
+            });
+            let mut v = v;
+            // What was uploaded before streaming, on every backend (null:
+            // the LM firmware kept what it played).
+            v["upload"] = serde_json::to_value(&session)?;
+            if needs_host {
+                v["mute_reason"] = serde_json::to_value(status.mute_reason)?;
+                v["applied"] = report.acked.into();
+                v["absent_updates"] = absent.into();
+                v["muted_absent_updates"] = muted_absent.into();
+            }
+            lmhost::outln!("{v}")?;
+            return Ok(());
+        }
+        lmhost::outln!(
+            "streamed {} samples ({} with a finger) to {where_} in {:.2} s with the {} filter; device at #{} ({:?})",
+            report.samples,
+            report.present,
+            report.seconds,
+            self.filter.name(),
+            status.last_centroid_seq,
+            status.state
+        )?;
+        lmhost::outln!(
+            "latency host receipt → device ack: p50 {} µs, p99 {} µs, max {} µs; applied at the next step boundary (≤ one dwell later)",
+            p(50.0),
+            p(99.0),
+            p(100.0)
+        )?;
+        if let Some(s) = session.as_ref().filter(|_| needs_host) {
+            lmhost::outln!(
+                "{} corrections applied on {where_} (dwell {} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
+                report.acked,
+                s.timing.dwell_us,
+                s.timing.freq_hz,
+                s.readback_mismatches
+                    .map_or("n/a".into(), |n| n.to_string()),
+                status.mute_reason.describe()
+            )?;
+        }
+        let dropped = report.rejected.total();
+        if dropped > 0 || bad_datagrams > 0 {
+            lmhost::outln!(
+                "dropped {dropped} implausible samples ({} out of order, {} out of range, {} jumps); skipped {bad_datagrams} bad datagrams",
+                report.rejected.out_of_order,
+                report.rejected.out_of_range,
+                report.rejected.jumps
+            )?;
+        }
+        if report.outside_work_volume > 0 {
+            lmhost::outln!(
+                "{} updates outside the device's work volume (muted until the finger came back; see upload --max-offset)",
+                report.outside_work_volume
+            )?;
+        }
+        if report.stopped {
+            lmhost::outln!(
+                "stopped by signal; device {}",
+                if report.muted_at_end {
+                    "muted"
+                } else {
+                    "NOT muted (the mute update failed)"
+                }
+            )?;
+        }
+        if !scores.is_empty() {
+            lmhost::outln!("filter      lag (ms)  jitter (mm)  error vs now (mm)")?;
+            for s in &scores {
+                lmhost::outln!(
+                    "{:<10} {:>8.1} {:>12.3} {:>18.3}",
+                    s.filter.name(),
+                    s.lag_ms,
+                    s.jitter_mm,
+                    s.error_mm
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Stdin samples, read on their own thread: Ctrl-C and the device's
+/// housekeeping go on while no line arrives (a blocking read cannot be
+/// interrupted; the thread is left to end with the process).
+fn stdin_samples() -> anyhow::Result<Threaded> {
+    on_thread(|| source::read_lines(std::io::stdin().lock()))
+}

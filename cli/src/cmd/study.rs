@@ -1,0 +1,193 @@
+//! `lmhost study`: run a study protocol on the rig session (`run`) and
+//! summarise its answers (`report`).
+
+use std::path::PathBuf;
+
+use clap::{Subcommand, ValueEnum};
+use lmhost::lab::study::{self, AnswerSource, FingerSource, RunOptions};
+use lmhost::sense::stream::filter::FilterKind;
+
+use super::args::PortArgs;
+
+/// Arguments of `lmhost study`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    cmd: Sub,
+}
+
+#[derive(Debug, Subcommand)]
+enum Sub {
+    /// Run (or resume) one participant's session of a protocol.
+    Run(RunArgs),
+    /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG, PDF).
+    Report(ReportArgs),
+}
+
+/// Where the finger comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Finger {
+    /// No finger (protocols that do not wait for one).
+    None,
+    /// A finger at the scene's centre touching for each trial.
+    Synthetic,
+}
+
+/// Arguments of `lmhost study run`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic\n  \
+    lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic --resume\n\n\
+    Writes OUT/ID/trials.csv, session.json and events.jsonl.")]
+struct RunArgs {
+    /// The protocol (TOML; see studies/paper-exp1.toml).
+    #[arg(value_name = "PROTOCOL")]
+    protocol: PathBuf,
+    #[command(flatten)]
+    port: PortArgs,
+    /// The participant's id (names the folder OUT/ID).
+    #[arg(long, value_name = "ID")]
+    participant: String,
+    /// The study's output folder.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Seed of the trial order [default: from the clock; recorded].
+    #[arg(long, value_name = "N")]
+    seed: Option<u64>,
+    /// Answers, one per line in the order asked, or `-` for stdin
+    /// [default: keys at the terminal].
+    #[arg(long, value_name = "FILE")]
+    responses: Option<PathBuf>,
+    /// The finger source: a synthetic one, or none (then --stream or
+    /// --udp may give tracked centroids).
+    #[arg(long, value_enum, default_value_t = Finger::None)]
+    finger: Finger,
+    /// Tracked finger centroids as JSON or CSV lines from FILE, or `-` for
+    /// stdin (`lmhost track --json` lines included).
+    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
+    stream: Option<PathBuf>,
+    /// Tracked finger centroids as UDP datagrams on 127.0.0.1:PORT.
+    #[arg(long, value_name = "PORT")]
+    udp: Option<u16>,
+    /// Centroid filter for --stream / --udp.
+    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
+    filter: FilterKind,
+    /// Multiplies every duration of the timeline (recorded).
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    time_scale: f64,
+    /// Continue OUT/ID's session at its first unfinished trial.
+    #[arg(long)]
+    resume: bool,
+    /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+}
+
+/// Arguments of `lmhost study report`.
+#[derive(Debug, clap::Args)]
+struct ReportArgs {
+    /// A participant's folder, or the study's --out folder (every
+    /// participant in it).
+    #[arg(value_name = "DIR")]
+    dir: PathBuf,
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        match self.cmd {
+            Sub::Run(a) => a.run(),
+            Sub::Report(a) => a.run(),
+        }
+    }
+}
+
+impl RunArgs {
+    fn finger(&self) -> anyhow::Result<FingerSource> {
+        let tracked = self.stream.is_some() || self.udp.is_some();
+        if tracked && self.finger == Finger::Synthetic {
+            lmhost::bad_input!("--finger synthetic and --stream / --udp exclude each other");
+        }
+        let stdin = self.stream.as_ref().is_some_and(|p| p.as_os_str() == "-");
+        let responses_stdin = self.responses.as_ref().is_none_or(|p| p.as_os_str() == "-");
+        if stdin && responses_stdin {
+            lmhost::bad_input!("--stream - reads stdin, so the answers need --responses FILE");
+        }
+        let filter = self.filter.build();
+        let name = match (self.udp, &self.stream) {
+            (Some(port), _) => format!("udp:{port}"),
+            (None, Some(p)) => format!("stream:{}", p.display()),
+            (None, None) => String::new(),
+        };
+        Ok(
+            if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
+                FingerSource::Samples { feed, filter, name }
+            } else if self.finger == Finger::Synthetic {
+                FingerSource::Synthetic
+            } else {
+                FingerSource::None
+            },
+        )
+    }
+
+    fn run(self) -> anyhow::Result<()> {
+        let finger = self.finger()?;
+        let r = study::run(RunOptions {
+            protocol: self.protocol,
+            port: self.port.spec(),
+            scene: self.scene,
+            participant: self.participant,
+            out: self.out,
+            seed: self.seed,
+            answers: match self.responses {
+                Some(p) => AnswerSource::File(p),
+                None => AnswerSource::Interactive,
+            },
+            finger,
+            time_scale: self.time_scale,
+            resume: self.resume,
+        })?;
+        let mean = |v: &[f64]| {
+            if v.is_empty() {
+                0.0
+            } else {
+                v.iter().sum::<f64>() / v.len() as f64
+            }
+        };
+        lmhost::errln!(
+            "lmhost: {} of {} trials done (this run {}, from trial {}; seed {}); mean trial {:.3} s, on {:.3} s; {} uploads, mean {:.3} s; {} switches{}; files in {}",
+            r.first - 1 + r.ran,
+            r.trials,
+            r.ran,
+            r.first,
+            r.seed,
+            mean(&r.trial_s),
+            mean(&r.presented_s),
+            r.uploads,
+            r.upload_mean_s,
+            r.switch_ms.len(),
+            if r.switch_ms.is_empty() {
+                String::new()
+            } else {
+                format!(", mean latency {:.2} ms", mean(&r.switch_ms))
+            },
+            r.dir.display()
+        );
+        Ok(())
+    }
+}
+
+impl ReportArgs {
+    fn run(self) -> anyhow::Result<()> {
+        let r = study::report::report(&self.dir)?;
+        for f in &r.files {
+            lmhost::outln!("{}", f.display())?;
+        }
+        lmhost::errln!(
+            "lmhost: {} participants, {} trials summarised",
+            r.participants,
+            r.rows
+        );
+        Ok(())
+    }
+}

@@ -1,0 +1,371 @@
+//! Opening the device `--port` names: the LM firmware ([`LmBackend`] over
+//! a [`Client`]) or an AUTD3 rig ([`Autd3Backend`]), both behind
+//! [`Backend`]; and holding an AUTD3 link while it plays.
+
+use std::io::IsTerminal as _;
+
+use anyhow::Context as _;
+use lm_proto::{Centroid, Encoding, Info, NackCode, PlayAt, Status};
+
+use crate::device::autd3::{Autd3Backend, Autd3Port};
+use crate::device::backend::{
+    Backend, BackendInfo, CentroidOutcome, Kind, Result as BResult, Transfer, UploadReport,
+    check_slot, free_slot,
+};
+use crate::device::link::{Client, LinkError, PortSpec, Transport, UploadSpec, discover};
+use crate::device::simdev::{FwCore, InProcess, SimConfig};
+use crate::plan::scene::Scene;
+use crate::plan::sequence::Plan;
+use crate::plan::target::Target;
+use std::sync::{Arc, Mutex};
+
+impl PortSpec {
+    /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
+    /// `autd3:` port is an [`InputError`](crate::InputError) (exit 2).
+    pub fn device(&self) -> Result<DeviceKind, crate::InputError> {
+        let env = std::env::var(discover::PORT_ENV).ok();
+        let port = self.port.as_deref().or(env.as_deref());
+        if let Some((prefix, _)) = port.and_then(|p| p.split_once(':'))
+            && ["tcp", "autd3"]
+                .iter()
+                .any(|k| prefix.eq_ignore_ascii_case(k) && prefix != *k)
+        {
+            return Err(crate::InputError::new(format!(
+                "--port {}: port prefixes are lowercase: tcp:HOST:PORT, autd3:emulator, \
+                 autd3:soem[:IF], autd3:ethercrab[:IF], autd3:remote:HOST:PORT, or a serial port path",
+                port.unwrap_or_default()
+            )));
+        }
+        match port {
+            Some(p) if Autd3Port::is_autd3(p) => Ok(DeviceKind::Autd3(Autd3Port::parse(p)?)),
+            _ => Ok(DeviceKind::Lm),
+        }
+    }
+}
+
+/// The device `--port` names, before it is opened.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DeviceKind {
+    /// The LM firmware on a serial port, pty or TCP socket.
+    Lm,
+    /// An AUTD3 rig.
+    Autd3(Autd3Port),
+}
+
+impl DeviceKind {
+    /// What the planner needs of this device: its dwell grid and limits.
+    pub fn target(&self) -> Target {
+        match self {
+            Self::Lm => Target::Lm,
+            Self::Autd3(_) => Target::Autd3,
+        }
+    }
+}
+
+/// Opens the device `port` names for `scene` (an AUTD3 rig is built from
+/// the scene's devices; the LM firmware ignores it).
+pub fn open(port: &PortSpec, scene: &Scene) -> anyhow::Result<Box<dyn Backend>> {
+    open_with(port, scene, Encoding::Delta, false)
+}
+
+/// [`open`], uploading to the LM firmware with `encoding`, with a progress
+/// bar on stderr when `progress` and stderr is a terminal.
+pub fn open_with(
+    port: &PortSpec,
+    scene: &Scene,
+    encoding: Encoding,
+    progress: bool,
+) -> anyhow::Result<Box<dyn Backend>> {
+    Ok(match port.device()? {
+        DeviceKind::Lm => {
+            let mut b = LmBackend::new(port.connect()?, encoding);
+            b.progress &= progress;
+            Box::new(b)
+        }
+        DeviceKind::Autd3(p) => Box::new(Autd3Backend::open(&p, scene)?),
+    })
+}
+
+/// The LM firmware behind a [`Client`].
+pub struct LmBackend<T: Transport> {
+    /// The link.
+    pub client: Client<T>,
+    /// Wire encoding for uploads.
+    pub encoding: Encoding,
+    /// Draw a progress bar on stderr while uploading.
+    pub progress: bool,
+    info: Option<Info>,
+}
+
+impl<T: Transport> LmBackend<T> {
+    /// Wraps `client`; a progress bar is drawn when stderr is a terminal.
+    pub fn new(client: Client<T>, encoding: Encoding) -> Self {
+        Self {
+            client,
+            encoding,
+            progress: std::io::stderr().is_terminal(),
+            info: None,
+        }
+    }
+
+    fn lm_info(&mut self) -> anyhow::Result<Info> {
+        if let Some(i) = self.info {
+            return Ok(i);
+        }
+        let where_ = self.describe();
+        let i = self
+            .client
+            .info()
+            .with_context(|| format!("asking {where_} for its info"))?;
+        self.info = Some(i);
+        Ok(i)
+    }
+}
+
+/// The simulated LM firmware in process, as a backend.
+pub type Simulated = LmBackend<InProcess<FwCore>>;
+
+/// The simulated LM firmware ([`FwCore`] with its default configuration)
+/// in process on `clock`, without a progress bar: the device of tests,
+/// benches and the conformance table. The core comes back too, to read its
+/// output or counters.
+pub fn simulated(clock: crate::clock::Clock) -> anyhow::Result<(Simulated, Arc<Mutex<FwCore>>)> {
+    let core = Arc::new(Mutex::new(FwCore::new(SimConfig::default())?));
+    let mut dev = LmBackend::new(
+        Client::new(InProcess::new(core.clone(), clock)),
+        Encoding::Delta,
+    );
+    dev.progress = false;
+    Ok((dev, core))
+}
+
+impl<T: Transport> Backend for LmBackend<T> {
+    fn describe(&self) -> String {
+        self.client.transport().describe()
+    }
+
+    fn info(&mut self) -> BResult<BackendInfo> {
+        let i = self.lm_info()?;
+        let [a, b, c] = i.fw_version;
+        Ok(BackendInfo {
+            backend: "lm-firmware".into(),
+            port: self.describe(),
+            devices: 1,
+            transducers: usize::from(i.max_transducers),
+            slots: i.slots,
+            firmware: vec![format!("{a}.{b}.{c}")],
+            kind: Kind::LmFirmware(i),
+        })
+    }
+
+    fn status(&mut self) -> BResult<Status> {
+        Ok(self.client.status()?)
+    }
+
+    fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
+        let spec = UploadSpec::from_plan(plan, self.encoding)?;
+        let info = self.lm_info()?;
+        let where_ = self.describe();
+        let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
+        let slot = match slot {
+            Some(s) => {
+                check_slot(s, &info)?;
+                s
+            }
+            None => {
+                let st = self.client.status().context("reading the device status")?;
+                free_slot(info.slots, &st).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "no free slot on {where_}: every slot is playing or queued; \
+                         use --slot N or `lmhost stop` first"
+                    )
+                })?
+            }
+        };
+        spec.check_fits(&info, slot).map_err(|e| {
+            crate::InputError::new(format!("the sequence does not fit {where_}: {e}"))
+        })?;
+        let tty = self.progress;
+        let report = self
+            .client
+            .upload(&spec, slot, chunk, |done, total| {
+                if tty {
+                    let pct = done as f64 / total.max(1) as f64;
+                    let bar = "#".repeat((pct * 30.0) as usize);
+                    crate::out::stderr_fmt(format_args!(
+                        "\ruploading [{bar:<30}] {:>3.0} %",
+                        pct * 100.0
+                    ));
+                    if done == total {
+                        crate::errln!();
+                    }
+                }
+            })
+            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
+        let h = &spec.header;
+        Ok(UploadReport {
+            slot,
+            steps: usize::from(h.steps),
+            transducers: usize::from(h.transducers),
+            dwell_us: plan.sequence.dwell_us(),
+            freq_hz: 1e6 / f64::from(h.period_us.max(1)),
+            transfer: Transfer::Wire(report),
+        })
+    }
+
+    fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> BResult<()> {
+        let info = self.lm_info()?;
+        check_slot(slot, &info)?;
+        Ok(self
+            .client
+            .play(slot, at, untracked)
+            .with_context(|| format!("playing slot {slot}"))?)
+    }
+
+    /// Sent as `Play.steps` with `NextCycle` (at once from silence): the
+    /// firmware counts the steps and stops itself.
+    fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> BResult<()> {
+        let info = self.lm_info()?;
+        check_slot(slot, &info)?;
+        Ok(self
+            .client
+            .play_steps(slot, PlayAt::NextCycle, untracked, steps)
+            .with_context(|| format!("playing slot {slot} for {steps} steps"))?)
+    }
+
+    fn stop(&mut self) -> BResult<()> {
+        Ok(self.client.stop().context("stopping the device")?)
+    }
+
+    fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
+        match self.client.centroid(*c) {
+            Ok(()) => Ok(CentroidOutcome::Applied),
+            Err(LinkError::Nack {
+                code: NackCode::OutOfRange,
+                ..
+            }) => Ok(CentroidOutcome::OutOfRange),
+            Err(e) => Err(e.into()),
+        }
+    }
+}
+
+/// Holds the link, ticking the safety gate every 10 ms, until Ctrl-C /
+/// SIGTERM ([`crate::stop::requested`]) or `max` elapses.
+/// Returns whether a stop was requested.
+pub fn hold(dev: &mut dyn Backend, max: Option<std::time::Duration>) -> anyhow::Result<bool> {
+    let end = max.map(|d| std::time::Instant::now() + d);
+    loop {
+        if crate::stop::requested() {
+            return Ok(true);
+        }
+        if end.is_some_and(|e| std::time::Instant::now() >= e) {
+            return Ok(false);
+        }
+        dev.tick()?;
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use lm_proto::DeviceState;
+
+    use super::*;
+    use crate::clock::Clock;
+    use crate::plan::stimulus::Stimulus;
+
+    /// The simulated firmware in process on a manual clock, keeping its
+    /// output frames.
+    fn sim() -> (LmBackend<InProcess<FwCore>>, Arc<Mutex<FwCore>>, Clock) {
+        let clock = Clock::manual_at_us(1_000_000);
+        let (dev, core) = simulated(clock.clone()).unwrap();
+        core.lock().unwrap().set_capture(true);
+        (dev, core, clock)
+    }
+
+    fn plan() -> Plan {
+        Stimulus::default()
+            .plan_for(&Target::Lm, Scene::default())
+            .unwrap()
+            .plan
+    }
+
+    /// Where the firmware's schedule puts boundary `g` after a start at `t0`.
+    fn boundary(plan: &Plan, t0: u64, g: u64) -> u64 {
+        let h = &plan.sequence.header;
+        t0 + g * u64::from(h.period_us) / u64::from(h.steps)
+    }
+
+    /// Moves the device's clock to `us`, polling it at every deadline on
+    /// the way (as a board's timer would).
+    fn to(dev: &mut LmBackend<InProcess<FwCore>>, us: u64) {
+        dev.client.transport_mut().advance_to(us);
+    }
+
+    fn count(st: &Status, n: u16) -> u64 {
+        u64::from(st.cycles) * u64::from(n) + u64::from(st.step)
+    }
+
+    #[test]
+    fn play_for_stops_on_the_devices_timer_at_the_step_boundary() {
+        let (mut dev, core, clock) = sim();
+        let plan = plan();
+        let n = plan.sequence.header.steps;
+        let steps = 2 * u32::from(n) + 3;
+        let slot = dev.upload(&plan, None).unwrap().slot;
+        core.lock().unwrap().take_captured();
+        let t0 = clock.now_us();
+        dev.play_for(slot, true, steps).unwrap();
+        let end = boundary(&plan, t0, u64::from(steps));
+        to(&mut dev, end - 1);
+        let st = dev.status().unwrap();
+        assert_eq!(st.state, DeviceState::Playing);
+        assert_eq!(count(&st, n), u64::from(steps) - 1);
+        to(&mut dev, end);
+        let st = dev.status().unwrap();
+        assert_eq!(
+            (st.state, st.slot, st.queued_slot),
+            (DeviceState::Stopped, Some(slot), None)
+        );
+        assert_eq!(count(&st, n), u64::from(steps));
+        assert_eq!(st.missed_deadlines, 0);
+        // Frozen afterwards.
+        to(&mut dev, end + 10_000_000);
+        assert_eq!(dev.status().unwrap(), st);
+        let frames = core.lock().unwrap().take_captured();
+        let sounding = frames.iter().filter(|f| f.amplitude > 0).count();
+        assert_eq!(sounding, steps as usize);
+        assert_eq!(frames.last().map(|f| f.amplitude), Some(0));
+    }
+
+    #[test]
+    fn a_queued_play_for_counts_from_the_takeover() {
+        let (mut dev, core, clock) = sim();
+        let plan = plan();
+        let n = plan.sequence.header.steps;
+        let a = dev.upload(&plan, Some(0)).unwrap().slot;
+        let b = dev.upload(&plan, Some(1)).unwrap().slot;
+        let t0 = clock.now_us();
+        dev.play(a, true).unwrap();
+        to(&mut dev, boundary(&plan, t0, 2));
+        core.lock().unwrap().take_captured();
+        dev.play_for(b, true, u32::from(n) + 2).unwrap();
+        assert_eq!(dev.status().unwrap().queued_slot, Some(b));
+        // Slot b takes over at the end of a's first cycle.
+        let takeover = boundary(&plan, t0, u64::from(n));
+        to(&mut dev, boundary(&plan, takeover, u64::from(n) + 2) - 1);
+        assert_eq!(dev.status().unwrap().state, DeviceState::Playing);
+        to(&mut dev, boundary(&plan, takeover, u64::from(n) + 2));
+        let st = dev.status().unwrap();
+        assert_eq!((st.state, st.slot), (DeviceState::Stopped, Some(b)));
+        assert_eq!(count(&st, n), u64::from(n) + 2);
+        let frames = core.lock().unwrap().take_captured();
+        let from_b = frames
+            .iter()
+            .filter(|f| f.slot == b && f.amplitude > 0)
+            .count();
+        assert_eq!(from_b, usize::from(n) + 2);
+    }
+}

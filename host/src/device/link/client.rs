@@ -1,0 +1,665 @@
+//! Request/response client: one request in flight, matched by seq, with
+//! timeouts and retries; chunked upload with acks and a whole-sequence CRC.
+//!
+//! Retries resend the same frame with the same seq. Where a lost ack makes
+//! the device's state ambiguous (a chunk that may or may not have landed),
+//! the client restarts the whole upload from `BeginUpload` rather than
+//! guess: the device only ever plays a slot whose CRC it checked itself.
+//!
+//! The rig (the transducer positions) goes to the device once: before an
+//! upload the client makes sure the device holds the rig the sequence was
+//! planned for (its CRC-32, from the device's `Info` the first time, then
+//! remembered), and sends `BeginRig`, `Geometry`, `CommitRig` only when it
+//! does not; later uploads carry phases only. A device that lost the rig
+//! (reset) answers `NoRig` / `RigMismatch`, and the client sends it again.
+
+use std::time::{Duration, Instant};
+
+use lm_proto::codec::CodecError;
+use lm_proto::{
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceLimits, Encoding, FeedResult,
+    FrameDecoder, Geometry, HeaderError, Info, MAX_CHUNK, MAX_ENCODED_FRAME,
+    MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play, PlayAt, Positions, Status,
+    UploadHeader, encode_frame, rig_crc32,
+};
+
+use crate::plan::sequence::{Plan, Sequence};
+
+use super::transport::Transport;
+
+/// Link failures (the operation failed; exit 1).
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    /// No valid response after all retries.
+    #[error(
+        "no response from the device to {what} after {tries} tries ({timeout_ms} ms each); \
+         check the port, cable and that the firmware runs"
+    )]
+    Timeout {
+        /// The request.
+        what: &'static str,
+        /// Attempts made.
+        tries: u32,
+        /// Per-attempt timeout.
+        timeout_ms: u64,
+    },
+    /// The device refused a request.
+    #[error("the device refused {what}: {code}")]
+    Nack {
+        /// The request.
+        what: &'static str,
+        /// Its reason.
+        code: NackCode,
+    },
+    /// A response of the wrong kind.
+    #[error("unexpected response to {what}: {got}")]
+    Unexpected {
+        /// The request.
+        what: &'static str,
+        /// What came back.
+        got: &'static str,
+    },
+    /// The transport failed.
+    #[error("link I/O failed during {what}: {source}")]
+    Io {
+        /// The request.
+        what: &'static str,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The sequence could not be encoded (its phases are not steps ×
+    /// transducers, or the positions do not match the transducers).
+    #[error("the sequence cannot be encoded: {0}")]
+    Codec(#[from] CodecError),
+    /// The upload could not be completed within its restart budget.
+    #[error("upload failed after {attempts} attempts; last error: {last}")]
+    UploadGaveUp {
+        /// Whole-upload attempts made.
+        attempts: u32,
+        /// Why the last one failed.
+        last: Box<LinkError>,
+    },
+}
+
+/// A response, owned.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Reply {
+    /// Done.
+    Ack,
+    /// Refused.
+    Nack(NackCode),
+    /// Device info.
+    Info(Info),
+    /// Device status.
+    Status(Status),
+}
+
+impl Reply {
+    fn name(&self) -> &'static str {
+        match self {
+            Reply::Ack => "ack",
+            Reply::Nack(_) => "nack",
+            Reply::Info(_) => "info",
+            Reply::Status(_) => "status",
+        }
+    }
+}
+
+/// Byte and event counts of one client.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct LinkStats {
+    /// Bytes written to the transport.
+    pub bytes_sent: u64,
+    /// Bytes read from the transport.
+    pub bytes_received: u64,
+    /// Requests sent (first attempts).
+    pub requests: u64,
+    /// Resends after a timeout.
+    pub retries: u64,
+    /// Received frames that failed to decode (CRC, framing).
+    pub bad_frames: u64,
+    /// Whole-upload restarts.
+    pub upload_restarts: u64,
+}
+
+/// A sequence ready to upload, in wire units: the header, the bytes
+/// [`Sequence::encode`] produced (sent as they are) and the positions of
+/// the rig it was planned for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UploadSpec {
+    /// What the slot will play (checked by [`UploadSpec::check_fits`]).
+    pub header: UploadHeader,
+    /// Encoding of `encoded`.
+    pub encoding: Encoding,
+    /// The encoded sequence stream.
+    pub encoded: Vec<u8>,
+    /// CRC-32 of the raw sequence (the `Commit` value).
+    pub crc32: u32,
+    /// Transducer positions in drive coordinates (µm), one per transducer.
+    pub positions_um: Vec<[i32; 3]>,
+    /// CRC-32 of the positions table ([`lm_proto::rig_crc32`]).
+    pub rig_crc32: u32,
+}
+
+impl UploadSpec {
+    /// `sequence` encoded as `encoding`, with its transducers' positions.
+    /// Delta falls back to Raw for a sequence it would not shrink (a few
+    /// large steps, e.g. 4 mm at 25 Hz): fewer bytes on the wire, and the
+    /// device keeps such an entry raw anyway.
+    pub fn new(
+        sequence: &Sequence,
+        positions_um: Vec<[i32; 3]>,
+        encoding: Encoding,
+    ) -> Result<Self, LinkError> {
+        if positions_um.len() != usize::from(sequence.header.transducers) {
+            return Err(LinkError::Codec(CodecError::BadShape));
+        }
+        let mut encoded = sequence.encode(encoding)?;
+        let mut encoding = encoding;
+        if encoding == Encoding::Delta && encoded.len() as u64 > sequence.header.raw_len() {
+            encoded = sequence.encode(Encoding::Raw)?;
+            encoding = Encoding::Raw;
+        }
+        Ok(Self {
+            header: sequence.header,
+            encoding,
+            encoded,
+            crc32: sequence.crc32(),
+            rig_crc32: rig_crc32(&Positions::from_points(&positions_um)),
+            positions_um,
+        })
+    }
+
+    /// A plan's sequence and scene positions, encoded as `encoding`.
+    pub fn from_plan(plan: &Plan, encoding: Encoding) -> anyhow::Result<Self> {
+        Ok(Self::new(&plan.sequence, plan.positions_um()?, encoding)?)
+    }
+
+    /// The `BeginUpload` of this sequence into `slot`.
+    pub fn begin(&self, slot: u8) -> BeginUpload {
+        BeginUpload {
+            slot,
+            header: self.header,
+            encoding: self.encoding,
+            encoded_len: self.encoded.len().min(u32::MAX as usize) as u32,
+            rig_crc32: self.rig_crc32,
+        }
+    }
+
+    /// Whether it fits `info`'s device in `slot`: the device's own check
+    /// ([`BeginUpload::validate`]), run before sending anything.
+    pub fn check_fits(&self, info: &Info, slot: u8) -> Result<(), HeaderError> {
+        self.begin(slot).validate(&DeviceLimits::from_info(info))
+    }
+}
+
+/// What an upload did.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct UploadReport {
+    /// Slot written.
+    pub slot: u8,
+    /// Raw sequence bytes.
+    pub raw_bytes: u64,
+    /// Encoded sequence bytes (the chunks' data).
+    pub sequence_bytes: u64,
+    /// Rig positions sent with this upload (12 bytes each); 0 when the
+    /// device already held the rig.
+    pub rig_bytes: u64,
+    /// Useful bytes sent: the encoded sequence plus any rig positions.
+    pub payload_bytes: u64,
+    /// All bytes written to the wire during the upload (frames, resends).
+    pub wire_bytes_sent: u64,
+    /// All bytes read from the wire during the upload.
+    pub wire_bytes_received: u64,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// CRC-32 of the raw sequence, as the device confirmed.
+    pub crc32: u32,
+    /// Resends during the upload.
+    pub retries: u64,
+    /// Whole-upload restarts.
+    pub restarts: u64,
+}
+
+impl UploadReport {
+    /// Payload bytes over all wire bytes in both directions.
+    pub fn wire_efficiency(&self) -> f64 {
+        self.payload_bytes as f64 / (self.wire_bytes_sent + self.wire_bytes_received).max(1) as f64
+    }
+}
+
+/// Smallest chunk the adaptive upload shrinks to on a noisy link (bytes).
+pub const MIN_ADAPTIVE_CHUNK: usize = 64;
+
+/// The client.
+pub struct Client<T> {
+    transport: T,
+    decoder: FrameDecoder,
+    seq: u16,
+    rx: Vec<u8>,
+    tx: Vec<u8>,
+    /// Per-attempt response timeout.
+    pub timeout: Duration,
+    /// Attempts per request (first try included).
+    pub tries: u32,
+    /// Whole-upload attempts.
+    pub upload_attempts: u32,
+    /// Counters.
+    pub stats: LinkStats,
+    /// The rig (transducers, CRC-32) the device is known to hold.
+    rig: Option<(u16, u32)>,
+}
+
+impl<T: Transport> Client<T> {
+    /// A client on `transport` with defaults for a local link.
+    pub fn new(transport: T) -> Self {
+        Self {
+            transport,
+            decoder: FrameDecoder::new(),
+            seq: 0,
+            rx: vec![0; 4096],
+            tx: vec![0; MAX_ENCODED_FRAME],
+            timeout: Duration::from_millis(300),
+            tries: 8,
+            upload_attempts: 4,
+            stats: LinkStats::default(),
+            rig: None,
+        }
+    }
+
+    /// The transport.
+    pub fn transport(&self) -> &T {
+        &self.transport
+    }
+
+    /// The transport, mutably.
+    pub fn transport_mut(&mut self) -> &mut T {
+        &mut self.transport
+    }
+
+    /// Send `msg` and wait for the response with the same seq, resending
+    /// on timeout.
+    pub fn request(&mut self, what: &'static str, msg: &Message<'_>) -> Result<Reply, LinkError> {
+        self.seq = self.seq.wrapping_add(1);
+        let seq = self.seq;
+        let n = encode_frame(seq, msg, &mut self.tx).map_err(|e| LinkError::Io {
+            what,
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string()),
+        })?;
+        self.stats.requests += 1;
+        for attempt in 0..self.tries {
+            if attempt > 0 {
+                self.stats.retries += 1;
+            }
+            self.transport
+                .send(&self.tx[..n])
+                .map_err(|source| LinkError::Io { what, source })?;
+            self.stats.bytes_sent += n as u64;
+            if let Some(r) = self.wait_for(seq, what)? {
+                return Ok(r);
+            }
+        }
+        Err(LinkError::Timeout {
+            what,
+            tries: self.tries,
+            timeout_ms: self.timeout.as_millis() as u64,
+        })
+    }
+
+    /// Read until a response with `seq` arrives or the timeout passes.
+    fn wait_for(&mut self, seq: u16, what: &'static str) -> Result<Option<Reply>, LinkError> {
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            let got = self
+                .transport
+                .recv(&mut self.rx, left)
+                .map_err(|source| LinkError::Io { what, source })?;
+            if got == 0 {
+                // Transports return 0 only once the timeout has passed (on
+                // their own clock, which may be virtual).
+                return Ok(None);
+            }
+            self.stats.bytes_received += got as u64;
+            let mut input: &[u8] = &self.rx[..got];
+            let mut found = None;
+            loop {
+                input = match self.decoder.feed(input) {
+                    FeedResult::Consumed => break,
+                    FeedResult::Frame { frame, remaining } => {
+                        if frame.seq == seq && found.is_none() {
+                            found = match frame.message {
+                                Message::Ack => Some(Reply::Ack),
+                                Message::Nack(c) => Some(Reply::Nack(c)),
+                                Message::Info(i) => Some(Reply::Info(i)),
+                                Message::Status(s) => Some(Reply::Status(s)),
+                                // Not a response: an echo or noise that decoded; ignore.
+                                _ => None,
+                            };
+                        }
+                        remaining
+                    }
+                    FeedResult::Error { remaining, .. } => {
+                        self.stats.bad_frames += 1;
+                        remaining
+                    }
+                };
+            }
+            if found.is_some() {
+                return Ok(found);
+            }
+        }
+    }
+
+    fn expect_ack(&mut self, what: &'static str, msg: &Message<'_>) -> Result<(), LinkError> {
+        match self.request(what, msg)? {
+            Reply::Ack => Ok(()),
+            Reply::Nack(code) => Err(LinkError::Nack { what, code }),
+            other => Err(LinkError::Unexpected {
+                what,
+                got: other.name(),
+            }),
+        }
+    }
+
+    /// Device info.
+    pub fn info(&mut self) -> Result<Info, LinkError> {
+        match self.request("info", &Message::GetInfo)? {
+            Reply::Info(i) => Ok(i),
+            Reply::Nack(code) => Err(LinkError::Nack { what: "info", code }),
+            other => Err(LinkError::Unexpected {
+                what: "info",
+                got: other.name(),
+            }),
+        }
+    }
+
+    /// Device status.
+    pub fn status(&mut self) -> Result<Status, LinkError> {
+        match self.request("status", &Message::GetStatus)? {
+            Reply::Status(s) => Ok(s),
+            Reply::Nack(code) => Err(LinkError::Nack {
+                what: "status",
+                code,
+            }),
+            other => Err(LinkError::Unexpected {
+                what: "status",
+                got: other.name(),
+            }),
+        }
+    }
+
+    /// Play a committed slot until `Stop`; `untracked` plays without
+    /// tracking (the device does not gate or correct the output until
+    /// `Stop`).
+    pub fn play(&mut self, slot: u8, at: PlayAt, untracked: bool) -> Result<(), LinkError> {
+        self.play_steps(slot, at, untracked, 0)
+    }
+
+    /// Play a committed slot for `steps` steps, counted and stopped by the
+    /// device's own timer (`Play.steps`, SPEC section 3); 0 = until `Stop`.
+    pub fn play_steps(
+        &mut self,
+        slot: u8,
+        at: PlayAt,
+        untracked: bool,
+        steps: u32,
+    ) -> Result<(), LinkError> {
+        self.expect_ack(
+            "play",
+            &Message::Play(Play {
+                slot,
+                at,
+                untracked,
+                steps,
+            }),
+        )
+    }
+
+    /// Stop (mutes at once).
+    pub fn stop(&mut self) -> Result<(), LinkError> {
+        self.expect_ack("stop", &Message::Stop)
+    }
+
+    /// Send one centroid update and wait for its ack.
+    pub fn centroid(&mut self, c: Centroid) -> Result<(), LinkError> {
+        self.expect_ack("centroid", &Message::Centroid(c))
+    }
+
+    /// Makes sure the device holds the rig of `positions_um` (CRC `crc`):
+    /// asks its `Info` the first time, then remembers; sends the positions
+    /// (`BeginRig`, `Geometry` frames, `CommitRig`) only when the device
+    /// does not hold them. Returns the position bytes sent (0: none).
+    pub fn ensure_rig(&mut self, positions_um: &[[i32; 3]], crc: u32) -> Result<u64, LinkError> {
+        let t = u16::try_from(positions_um.len())
+            .map_err(|_| LinkError::Codec(CodecError::BadShape))?;
+        if self.rig == Some((t, crc)) {
+            return Ok(0);
+        }
+        let info = self.info()?;
+        if (info.rig_transducers, info.rig_crc32) == (t, crc) {
+            self.rig = Some((t, crc));
+            return Ok(0);
+        }
+        self.rig = None;
+        let begin = Message::BeginRig(BeginRig {
+            transducers: t,
+            crc32: crc,
+        });
+        self.expect_ack("begin rig", &begin)?;
+        // Groups adapt like chunks: writes at fixed indices are idempotent,
+        // so only the group size changes.
+        let min_group = MIN_ADAPTIVE_CHUNK / POSITION_LEN;
+        let mut group = MAX_GEOMETRY_POSITIONS;
+        let mut first = 0usize;
+        while first < positions_um.len() {
+            let pts = &positions_um[first..(first + group).min(positions_um.len())];
+            let g = Geometry {
+                first: first as u16,
+                positions: Positions::from_points(pts),
+            };
+            let retries_before = self.stats.retries;
+            self.expect_ack("geometry", &Message::Geometry(g))?;
+            first += pts.len();
+            group = if self.stats.retries > retries_before {
+                (group / 2).max(min_group)
+            } else {
+                (group * 2).min(MAX_GEOMETRY_POSITIONS)
+            };
+        }
+        self.expect_ack("commit rig", &Message::CommitRig)?;
+        self.rig = Some((t, crc));
+        Ok((POSITION_LEN * positions_um.len()) as u64)
+    }
+
+    /// Upload `spec` into `slot` (call [`UploadSpec::check_fits`] first)
+    /// and commit it, after the rig if the device does not hold it
+    /// ([`ensure_rig`](Self::ensure_rig)). `progress(done, total)` is
+    /// called after each acked chunk.
+    pub fn upload(
+        &mut self,
+        spec: &UploadSpec,
+        slot: u8,
+        chunk: usize,
+        mut progress: impl FnMut(u64, u64),
+    ) -> Result<UploadReport, LinkError> {
+        let start = Instant::now();
+        let before = self.stats;
+        let crc32 = spec.crc32;
+        let chunk = chunk.clamp(1, MAX_CHUNK);
+        let mut rig_bytes = self.ensure_rig(&spec.positions_um, spec.rig_crc32)?;
+        let mut last = None;
+        for attempt in 0..self.upload_attempts {
+            if attempt > 0 {
+                self.stats.upload_restarts += 1;
+            }
+            // A restart after a chunk that never got through starts with
+            // frames a quarter the size (down to the adaptive minimum).
+            let size = (chunk >> (2 * attempt.min(8))).max(MIN_ADAPTIVE_CHUNK.min(chunk));
+            match self.upload_once(spec, slot, size, &mut rig_bytes, &mut progress) {
+                Ok(()) => {
+                    let s = self.stats;
+                    return Ok(UploadReport {
+                        slot,
+                        raw_bytes: spec.header.raw_len(),
+                        sequence_bytes: spec.encoded.len() as u64,
+                        rig_bytes,
+                        payload_bytes: spec.encoded.len() as u64 + rig_bytes,
+                        wire_bytes_sent: s.bytes_sent - before.bytes_sent,
+                        wire_bytes_received: s.bytes_received - before.bytes_received,
+                        seconds: start.elapsed().as_secs_f64(),
+                        crc32,
+                        retries: s.retries - before.retries,
+                        restarts: s.upload_restarts - before.upload_restarts,
+                    });
+                }
+                // Refusals that a restart cannot mend end the upload at once.
+                Err(
+                    e @ LinkError::Nack {
+                        code:
+                            NackCode::BadSlot
+                            | NackCode::SlotPlaying
+                            | NackCode::TooLarge
+                            | NackCode::DwellTooShort
+                            | NackCode::LibraryFull
+                            | NackCode::NoRig
+                            | NackCode::RigMismatch
+                            | NackCode::BadVersion
+                            | NackCode::UnknownType,
+                        ..
+                    },
+                ) => return Err(e),
+                Err(e @ LinkError::Io { .. }) => return Err(e),
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(LinkError::UploadGaveUp {
+            attempts: self.upload_attempts,
+            last: Box::new(last.expect("at least one attempt")),
+        })
+    }
+
+    fn upload_once(
+        &mut self,
+        spec: &UploadSpec,
+        slot: u8,
+        chunk: usize,
+        rig_bytes: &mut u64,
+        progress: &mut impl FnMut(u64, u64),
+    ) -> Result<(), LinkError> {
+        let (encoded, crc32) = (&spec.encoded[..], spec.crc32);
+        let begin = Message::BeginUpload(spec.begin(slot));
+        match self.expect_ack("begin upload", &begin) {
+            // The device lost the rig (a reset) or holds another: send
+            // ours again, once, and begin again.
+            Err(LinkError::Nack {
+                code: NackCode::NoRig | NackCode::RigMismatch,
+                ..
+            }) => {
+                self.rig = None;
+                *rig_bytes += self.ensure_rig(&spec.positions_um, spec.rig_crc32)?;
+                self.expect_ack("begin upload", &begin)?;
+            }
+            r => r?,
+        }
+        let total = encoded.len() as u64;
+        // Adaptive chunk size: a chunk that needed a resend halves the size
+        // of the next ones (a noisy link loses fewer short frames); a run of
+        // clean chunks doubles it back. A frame is never changed while it
+        // may have landed, so resends stay idempotent.
+        let mut size = chunk;
+        let mut clean_run = 0;
+        let mut offset = 0usize;
+        while offset < encoded.len() {
+            let data = &encoded[offset..(offset + size).min(encoded.len())];
+            let retries_before = self.stats.retries;
+            let msg = Message::Chunk(Chunk {
+                slot,
+                offset: offset as u32,
+                data,
+            });
+            self.expect_ack("chunk", &msg)?;
+            offset += data.len();
+            if self.stats.retries > retries_before {
+                size = (size / 2).max(MIN_ADAPTIVE_CHUNK.min(chunk));
+                clean_run = 0;
+            } else {
+                clean_run += 1;
+                if clean_run >= 16 {
+                    size = (size * 2).min(chunk);
+                    clean_run = 0;
+                }
+            }
+            progress(offset as u64, total);
+        }
+        self.expect_ack("commit", &Message::Commit(Commit { slot, crc32 }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info() -> Info {
+        Info {
+            proto_version: lm_proto::PROTOCOL_VERSION,
+            fw_version: [0, 1, 0],
+            max_transducers: 996,
+            slot_bytes: 200 * 996,
+            slots: 2,
+            timer_hz: 1_000_000,
+            min_dwell_us: 1000,
+            max_chunk: 1024,
+            rig_transducers: 0,
+            rig_crc32: 0,
+            library_free: 200 * 996,
+            clock: lm_proto::ClockSource::Emulated,
+        }
+    }
+
+    #[test]
+    fn spec_carries_the_bytes_sequence_encode_made_and_the_device_check() {
+        let plan = Plan::paper_lm_m().unwrap();
+        let spec = UploadSpec::from_plan(&plan, Encoding::Delta).unwrap();
+        assert_eq!(spec.encoded, plan.sequence.encode(Encoding::Delta).unwrap());
+        assert_eq!(spec.crc32, lm_proto::crc32(&plan.sequence.phases));
+        assert_eq!(spec.header, plan.sequence.header);
+        let b = spec.begin(1);
+        assert_eq!((b.slot, b.encoded_len as usize), (1, spec.encoded.len()));
+        assert_eq!(spec.check_fits(&info(), 1), Ok(()));
+        assert_eq!(
+            spec.check_fits(&info(), 2).map_err(|e| e.nack()),
+            Err(NackCode::BadSlot)
+        );
+        let small = Info {
+            slot_bytes: 10 * 996,
+            ..info()
+        };
+        assert_eq!(
+            spec.check_fits(&small, 0).map_err(|e| e.nack()),
+            Err(NackCode::TooLarge)
+        );
+        let slow = Info {
+            min_dwell_us: 5000,
+            ..info()
+        };
+        let e = spec.check_fits(&slow, 0).unwrap_err();
+        assert_eq!(e.nack(), NackCode::DwellTooShort);
+        assert!(e.to_string().contains("minimum 5000 µs"), "{e}");
+    }
+
+    #[test]
+    fn inconsistent_sequences_are_a_typed_codec_error() {
+        let plan = Plan::paper_lm_m().unwrap();
+        let e = UploadSpec::new(&plan.sequence, vec![[0; 3]; 3], Encoding::Raw).unwrap_err();
+        assert!(matches!(e, LinkError::Codec(CodecError::BadShape)), "{e}");
+        let mut seq = plan.sequence.clone();
+        seq.phases.truncate(10);
+        let pos = plan.positions_um().unwrap();
+        let e = UploadSpec::new(&seq, pos, Encoding::Delta).unwrap_err();
+        assert!(matches!(e, LinkError::Codec(CodecError::BadShape)), "{e}");
+    }
+}

@@ -1,0 +1,68 @@
+//! The host side of the link: byte transports ([`transport`]), which port
+//! to open ([`discover`]), the request/response client with retries and
+//! chunked upload ([`client`]), and a fault-injecting wrapper for tests
+//! ([`proxy`]).
+//!
+//! The link carries what it is given: wire values (micrometres,
+//! microseconds) are built from the library's millimetres and seconds by
+//! [`crate::units`], where every host → wire conversion lives, before they
+//! reach a client call.
+
+pub mod client;
+pub mod discover;
+pub mod proxy;
+pub mod transport;
+
+pub use client::{Client, LinkError, LinkStats, Reply, UploadReport, UploadSpec};
+pub use transport::Transport;
+
+/// Which device port to open and how (the CLI's `--port`, `--baud`,
+/// `--timeout-ms`, `--tries`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PortSpec {
+    /// Serial port or pty path, `tcp:HOST:PORT`, or an AUTD3 rig
+    /// (`autd3:...`); `None`: `$LMHOST_PORT`, else the one LM board found
+    /// by USB id.
+    pub port: Option<String>,
+    /// Baud rate for real serial ports (ptys ignore it).
+    pub baud: u32,
+    /// Response timeout per attempt, ms; `None`: 100 + twice the time a
+    /// full chunk takes at `baud`.
+    pub timeout_ms: Option<u64>,
+    /// Attempts per request before giving up.
+    pub tries: u32,
+}
+
+impl PortSpec {
+    /// `port` with the defaults: 115 200 Bd, the default timeout, 8 tries.
+    pub fn new(port: Option<String>) -> Self {
+        Self {
+            port,
+            baud: 115_200,
+            timeout_ms: None,
+            tries: 8,
+        }
+    }
+}
+
+impl PortSpec {
+    /// Resolve the port and open a client on it (the LM firmware; every
+    /// command opens its device through [`crate::device::connect::open`], which
+    /// sends AUTD3 ports elsewhere).
+    pub fn connect(&self) -> anyhow::Result<Client<Box<dyn Transport>>> {
+        if self.baud == 0 {
+            return Err(crate::InputError::new("--baud must be above 0").into());
+        }
+        if self.tries == 0 {
+            return Err(crate::InputError::new("--tries must be at least 1").into());
+        }
+        let path = discover::resolve(self.port.as_deref())?;
+        let transport = transport::open(&path, self.baud)?;
+        let mut client = Client::new(transport);
+        let chunk_ms = (lm_proto::MAX_ENCODED_FRAME as u64 * 10 * 1000).div_ceil(self.baud as u64);
+        client.timeout =
+            std::time::Duration::from_millis(self.timeout_ms.unwrap_or(100 + 2 * chunk_ms));
+        client.tries = self.tries;
+        Ok(client)
+    }
+}

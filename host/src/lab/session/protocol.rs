@@ -1,0 +1,440 @@
+//! The session's control protocol: commands in, replies and events out,
+//! one JSON object per line (`host/src/rig/PROTOCOL.md`).
+
+use lm_proto::MuteReason;
+use serde::{Deserialize, Serialize};
+
+use super::Loaded;
+use crate::error::InputError;
+
+/// Longest command line, bytes (longer lines are refused, not buffered).
+pub const MAX_COMMAND_BYTES: usize = crate::limits::MAX_LINE_BYTES;
+
+/// The safety gate a presentation plays under.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Gate {
+    /// Muted until a finger is tracked, steered to it (the default).
+    Tracked,
+    /// Plays where planned whatever the finger does.
+    Untracked,
+}
+
+/// `present`: what to play and for how long.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Present {
+    /// The library entry's id.
+    pub stimulus: String,
+    /// `tracked` or `untracked` (default: the entry's).
+    #[serde(default)]
+    pub gate: Option<Gate>,
+    /// Seconds per on-phase (default: until `stop` or the next `present`).
+    #[serde(default)]
+    pub on_s: Option<f64>,
+    /// Seconds of silence between on-phases (default 0).
+    #[serde(default)]
+    pub off_s: Option<f64>,
+    /// On-phases (default 1; more need `on_s`).
+    #[serde(default)]
+    pub repeat: Option<u32>,
+}
+
+/// A command, as sent on the control socket.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Command {
+    /// Present a stimulus.
+    Present(Present),
+    /// Load a stimulus into a slot that does not play, ahead of `present`.
+    Prepare {
+        /// The library entry's id.
+        stimulus: String,
+    },
+    /// Stop what plays: the array goes silent.
+    Stop,
+    /// The session's and the device's state.
+    Status,
+    /// The library as planned for this device.
+    Library,
+    /// Receive events on this connection.
+    Subscribe,
+    /// End the session (the array goes silent).
+    Quit,
+}
+
+impl Command {
+    /// Parses one command line; a bad line is an [`InputError`] of one
+    /// line.
+    pub fn parse(line: &str) -> Result<Self, InputError> {
+        if line.len() > MAX_COMMAND_BYTES {
+            return Err(InputError::new(format!(
+                "command of {} bytes is longer than {MAX_COMMAND_BYTES}",
+                line.len()
+            )));
+        }
+        serde_json::from_str(line).map_err(|e| {
+            let msg = e.to_string();
+            let msg = msg.split(" at line ").next().unwrap_or(&msg);
+            let hint = if msg.contains("expected one of") {
+                ""
+            } else {
+                " (a command is a JSON object such as {\"cmd\":\"present\",\"stimulus\":\"ID\"}; commands: present, prepare, stop, status, library, subscribe, quit)"
+            };
+            InputError::new(format!("bad command: {msg}{hint}"))
+        })
+    }
+
+    /// Its `cmd` name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Present(_) => "present",
+            Self::Prepare { .. } => "prepare",
+            Self::Stop => "stop",
+            Self::Status => "status",
+            Self::Library => "library",
+            Self::Subscribe => "subscribe",
+            Self::Quit => "quit",
+        }
+    }
+}
+
+/// Why an on-phase ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OffsetReason {
+    /// Its `on_s` elapsed.
+    Timer,
+    /// A `stop` command.
+    Stop,
+    /// Another stimulus took over at the cycle end.
+    Switch,
+    /// The same stimulus was presented again.
+    Replaced,
+    /// `quit`, or the session ended (Ctrl-C, SIGTERM, end of input).
+    Quit,
+    /// The controlling client went away (`--on-disconnect stop`).
+    Disconnect,
+    /// The session failed.
+    Error,
+}
+
+/// One event: what happened and when (host monotonic µs).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Event {
+    /// Host monotonic clock (µs).
+    pub t_host_us: u64,
+    /// What happened.
+    #[serde(flatten)]
+    pub kind: EventKind,
+}
+
+/// What an [`Event`] reports.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum EventKind {
+    /// A stimulus was uploaded to the device.
+    Preloaded {
+        /// Its id.
+        stimulus: String,
+        /// The slot it went to.
+        slot: u8,
+        /// Upload time (s).
+        seconds: f64,
+        /// Bytes sent on a framed link.
+        wire_bytes: Option<u64>,
+        /// Phases read back that differ (AUTD3 emulator).
+        readback_mismatches: Option<u64>,
+    },
+    /// The session took commands from here on.
+    Ready {
+        /// Backend kind.
+        backend: String,
+        /// The port.
+        port: String,
+        /// Library entries.
+        stimuli: usize,
+        /// Entries resident on the device.
+        resident: usize,
+        /// The device's slots.
+        slots: u8,
+    },
+    /// An on-phase began (the device plays it).
+    Onset {
+        /// The stimulus.
+        stimulus: String,
+        /// Its slot.
+        slot: u8,
+        /// Its gate.
+        gate: Gate,
+        /// On-phase number, 1-based.
+        rep: u32,
+    },
+    /// An on-phase ended.
+    Offset {
+        /// The stimulus.
+        stimulus: String,
+        /// Its slot.
+        slot: u8,
+        /// On-phase number.
+        rep: u32,
+        /// Why.
+        reason: OffsetReason,
+        /// Host time from onset to offset (s).
+        presented_s: f64,
+        /// Time the device played, from its own step and cycle counters
+        /// (s; `null` where the device played on, at a switch).
+        device_presented_s: Option<f64>,
+        /// Time muted within it (host, s).
+        muted_s: f64,
+        /// `1 - muted_s / presented_s`.
+        present_fraction: f64,
+    },
+    /// The device switched from one stimulus to the next at a cycle end.
+    Switch {
+        /// The stimulus that played.
+        from: Option<String>,
+        /// The one that plays now.
+        to: String,
+        /// From the request to the device playing it (ms): the status that
+        /// showed the switch, less what the device's counters say it had
+        /// played of the new stimulus by then.
+        latency_ms: f64,
+        /// From the request to the status that showed the switch (ms): an
+        /// upper bound by the host's clock alone.
+        detected_ms: f64,
+    },
+    /// A presentation ended (all its on-phases, or stopped).
+    Done {
+        /// The stimulus.
+        stimulus: String,
+        /// On-phases played.
+        reps: u32,
+    },
+    /// A presentation waiting for its switch was replaced or stopped
+    /// before it played.
+    Cancelled {
+        /// The stimulus.
+        stimulus: String,
+    },
+    /// The finger appeared or left.
+    Finger {
+        /// Whether it is there.
+        present: bool,
+    },
+    /// The output muted during an on-phase.
+    Mute {
+        /// Why (`waiting_for_tracking`, `finger_absent`, `tracking_stale`,
+        /// `centroid_out_of_range`).
+        reason: String,
+    },
+    /// The output sounds again.
+    Unmute,
+    /// A command was refused.
+    Refused {
+        /// The command.
+        command: String,
+        /// Why, one line.
+        error: String,
+    },
+    /// The session ended; the array is silent.
+    Closed {
+        /// Why.
+        reason: OffsetReason,
+    },
+}
+
+/// A mute reason's name in events (snake case of the wire's name).
+pub fn mute_name(r: MuteReason) -> String {
+    let s = format!("{r:?}");
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if c.is_ascii_uppercase() {
+            if i > 0 {
+                out.push('_');
+            }
+            out.push(c.to_ascii_lowercase());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// A library entry as the `library` command lists it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LibraryItem {
+    /// Its id.
+    pub id: String,
+    /// The slot holding it (`null`: on the host only).
+    pub slot: Option<u8>,
+    /// Its default gate.
+    pub gate: Gate,
+    /// Realised timing on this device.
+    #[serde(flatten)]
+    pub timing: crate::plan::stimulus::Timing,
+    /// Foci per step.
+    pub foci: usize,
+    /// Circle radius (mm).
+    pub radius_mm: f64,
+    /// CRC-32 of its phases.
+    pub crc32: u32,
+}
+
+impl LibraryItem {
+    pub(super) fn of(l: &Loaded) -> Self {
+        Self {
+            id: l.id.clone(),
+            slot: l.slot,
+            gate: if l.untracked {
+                Gate::Untracked
+            } else {
+                Gate::Tracked
+            },
+            timing: l.planned.timing.clone(),
+            foci: l.planned.plan.trajectory.foci,
+            radius_mm: l.stimulus.radius_mm,
+            crc32: l.crc32,
+        }
+    }
+}
+
+/// The `status` command's answer.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StatusReply {
+    /// The stimulus presented (or waiting to switch in).
+    pub stimulus: Option<String>,
+    /// `on`, `off` (between on-phases) or `switching`.
+    pub phase: Option<&'static str>,
+    /// On-phase number.
+    pub rep: Option<u32>,
+    /// On-phases asked for.
+    pub repeat: Option<u32>,
+    /// Its gate.
+    pub gate: Option<Gate>,
+    /// Whether a finger is there (`null`: no sample yet).
+    pub finger_present: Option<bool>,
+    /// The device's state (`idle`, `playing`, `muted`, `stopped`).
+    pub state: String,
+    /// Slot playing or last played.
+    pub slot: Option<u8>,
+    /// Slot queued to take over.
+    pub queued_slot: Option<u8>,
+    /// Why it is muted.
+    pub mute_reason: Option<String>,
+    /// Step within the cycle.
+    pub step: u16,
+    /// Cycles since the play.
+    pub cycles: u32,
+}
+
+/// A reply to one command: `{"ok":true,"cmd":...}` plus data, or
+/// `{"ok":false,"cmd":...,"error":"..."}`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Reply(pub serde_json::Map<String, serde_json::Value>);
+
+impl Reply {
+    /// Success for `cmd`.
+    pub fn ok(cmd: &str) -> Self {
+        let mut m = serde_json::Map::new();
+        m.insert("ok".into(), true.into());
+        m.insert("cmd".into(), cmd.into());
+        Self(m)
+    }
+
+    /// Failure for `cmd` (`""` when the line was not a command).
+    pub fn error(cmd: &str, msg: impl Into<String>) -> Self {
+        let mut m = serde_json::Map::new();
+        m.insert("ok".into(), false.into());
+        m.insert("cmd".into(), cmd.into());
+        m.insert("error".into(), msg.into().into());
+        Self(m)
+    }
+
+    /// Adds `key`.
+    pub fn with(mut self, key: &str, v: impl Serialize) -> Self {
+        self.0.insert(
+            key.into(),
+            serde_json::to_value(v).unwrap_or(serde_json::Value::Null),
+        );
+        self
+    }
+
+    /// Whether it reports success.
+    pub fn is_ok(&self) -> bool {
+        self.0.get("ok") == Some(&serde_json::Value::Bool(true))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commands_parse_and_bad_ones_say_what_is_accepted() {
+        assert_eq!(
+            Command::parse(r#"{"cmd":"present","stimulus":"a","gate":"untracked","on_s":2,"off_s":2,"repeat":3}"#)
+                .unwrap(),
+            Command::Present(Present {
+                stimulus: "a".into(),
+                gate: Some(Gate::Untracked),
+                on_s: Some(2.0),
+                off_s: Some(2.0),
+                repeat: Some(3),
+            })
+        );
+        assert_eq!(Command::parse(r#"{"cmd":"stop"}"#).unwrap(), Command::Stop);
+        for (line, needle) in [
+            ("", "bad command"),
+            ("{}", "missing field `cmd`"),
+            (r#"{"cmd":"dance"}"#, "unknown variant `dance`"),
+            (r#"{"cmd":"present"}"#, "missing field `stimulus`"),
+            (
+                r#"{"cmd":"present","stimulus":"a","gate":"loose"}"#,
+                "unknown variant `loose`",
+            ),
+            (
+                r#"{"cmd":"present","stimulus":"a","colour":1}"#,
+                "unknown field `colour`",
+            ),
+            (
+                r#"{"cmd":"present","stimulus":"a","repeat":-1}"#,
+                "invalid value",
+            ),
+        ] {
+            let e = Command::parse(line).unwrap_err().to_string();
+            assert!(e.contains(needle), "{line}: {e}");
+            assert!(e.starts_with("bad command: ") && !e.contains('\n'), "{e}");
+        }
+        let long = format!(r#"{{"cmd":"present","stimulus":"{}"}}"#, "a".repeat(5000));
+        assert!(
+            Command::parse(&long)
+                .unwrap_err()
+                .to_string()
+                .contains("longer than")
+        );
+    }
+
+    #[test]
+    fn events_are_flat_json_with_their_name() {
+        let e = Event {
+            t_host_us: 7,
+            kind: EventKind::Switch {
+                from: Some("a".into()),
+                to: "b".into(),
+                latency_ms: 1.5,
+                detected_ms: 2.0,
+            },
+        };
+        assert_eq!(
+            serde_json::to_string(&e).unwrap(),
+            r#"{"t_host_us":7,"event":"switch","from":"a","to":"b","latency_ms":1.5,"detected_ms":2.0}"#
+        );
+        assert_eq!(
+            mute_name(MuteReason::CentroidOutOfRange),
+            "centroid_out_of_range"
+        );
+        assert!(Reply::ok("x").is_ok());
+        assert!(!Reply::error("x", "no").is_ok());
+    }
+}

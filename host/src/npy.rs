@@ -1,0 +1,510 @@
+//! NumPy `.npy` files, the one module that reads and writes them: the
+//! header writer every output uses ([`header`], [`encode_f64`],
+//! [`encode_u8`]), and depth recordings as `.npy`: `uint16` (frames, height, width) frames and
+//! optional `float64` (frames,) time stamps.
+//!
+//! The reader is strict: NPY versions 1–3, `'<u2'` / `'<f8'` only, C order,
+//! header ≤ 64 KiB, and the data must be exactly as long as the shape says.
+//! Frames are read one at a time, so memory is one frame however long the
+//! recording; nothing is allocated before the file's size has confirmed it.
+
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::{Path, PathBuf};
+
+use crate::InputError;
+
+/// Largest accepted header (bytes).
+pub const MAX_HEADER: usize = 64 * 1024;
+/// Largest accepted frame side (pixels).
+pub const MAX_SIDE: u64 = 8192;
+
+/// A parsed NPY header.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Header {
+    /// `descr`, e.g. `<u2`.
+    pub descr: String,
+    /// Shape.
+    pub shape: Vec<u64>,
+    /// Offset of the data (bytes).
+    pub data_offset: u64,
+}
+
+fn bad(path: &Path, msg: impl std::fmt::Display) -> InputError {
+    InputError::new(format!("{}: {msg}", path.display()))
+}
+
+/// Parse the header of an NPY file of `file_len` bytes from `r`.
+pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Header, InputError> {
+    let mut pre = [0u8; 8];
+    r.read_exact(&mut pre)
+        .map_err(|_| bad(path, "not an .npy file (shorter than its magic)"))?;
+    if &pre[..6] != b"\x93NUMPY" {
+        return Err(bad(path, "not an .npy file (bad magic)"));
+    }
+    let (len, prefix) = match pre[6] {
+        1 => {
+            let mut l = [0u8; 2];
+            r.read_exact(&mut l)
+                .map_err(|_| bad(path, "truncated .npy header"))?;
+            (u16::from_le_bytes(l) as usize, 10)
+        }
+        2 | 3 => {
+            let mut l = [0u8; 4];
+            r.read_exact(&mut l)
+                .map_err(|_| bad(path, "truncated .npy header"))?;
+            (u32::from_le_bytes(l) as usize, 12)
+        }
+        v => {
+            return Err(bad(
+                path,
+                format!(".npy version {v} is not supported (1–3)"),
+            ));
+        }
+    };
+    if len > MAX_HEADER || (prefix + len) as u64 > file_len {
+        return Err(bad(
+            path,
+            format!(".npy header of {len} bytes is longer than the file or {MAX_HEADER} bytes"),
+        ));
+    }
+    let mut h = vec![0u8; len];
+    r.read_exact(&mut h)
+        .map_err(|_| bad(path, "truncated .npy header"))?;
+    let text = std::str::from_utf8(&h).map_err(|_| bad(path, ".npy header is not text"))?;
+    for key in ["descr", "fortran_order", "shape"] {
+        if text.matches(&format!("'{key}'")).count() > 1 {
+            return Err(bad(path, format!(".npy header gives '{key}' twice")));
+        }
+    }
+    let descr = dict_value(text, "descr")
+        .and_then(|v| v.strip_prefix('\'').and_then(|v| v.split('\'').next()))
+        .ok_or_else(|| bad(path, ".npy header has no 'descr'"))?
+        .to_string();
+    match dict_value(text, "fortran_order") {
+        Some(v) if v.starts_with("False") => {}
+        Some(v) if v.starts_with("True") => {
+            return Err(bad(
+                path,
+                "Fortran-order arrays are not supported; save in C order",
+            ));
+        }
+        _ => return Err(bad(path, ".npy header has no 'fortran_order'")),
+    }
+    let shape_txt = dict_value(text, "shape")
+        .and_then(|v| v.strip_prefix('('))
+        .and_then(|v| v.split(')').next())
+        .ok_or_else(|| bad(path, ".npy header has no 'shape'"))?;
+    let shape = shape_txt
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.trim_end_matches('L').parse::<u64>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|_| {
+            bad(
+                path,
+                format!(".npy shape `({shape_txt})` is not a tuple of sizes"),
+            )
+        })?;
+    Ok(Header {
+        descr,
+        shape,
+        data_offset: (prefix + len) as u64,
+    })
+}
+
+/// The text after `'key':` in a Python dict literal.
+fn dict_value<'a>(text: &'a str, key: &str) -> Option<&'a str> {
+    let pat = format!("'{key}'");
+    // A key given twice is ambiguous (Python keeps the last, a careless
+    // reader the first): treated as missing, so the header is refused.
+    if text.matches(&pat).count() != 1 {
+        return None;
+    }
+    let at = text.find(&pat)? + pat.len();
+    Some(text[at..].trim_start().strip_prefix(':')?.trim_start())
+}
+
+fn check_descr(path: &Path, h: &Header, want: &str, what: &str) -> Result<(), InputError> {
+    if h.descr == want {
+        return Ok(());
+    }
+    let hint = if h.descr.starts_with('>') {
+        " (big-endian)"
+    } else {
+        ""
+    };
+    Err(bad(
+        path,
+        format!("dtype `{}`{hint}, expected {what} `{want}`", h.descr),
+    ))
+}
+
+fn check_len(path: &Path, h: &Header, file_len: u64, item: u64) -> Result<(), InputError> {
+    let want = h
+        .shape
+        .iter()
+        .try_fold(item, |acc, &d| acc.checked_mul(d))
+        .ok_or_else(|| bad(path, format!("shape {:?} is too large", h.shape)))?;
+    let have = file_len - h.data_offset;
+    if have < want {
+        return Err(bad(
+            path,
+            format!(
+                "truncated: shape {:?} needs {want} bytes of data, the file has {have}",
+                h.shape
+            ),
+        ));
+    }
+    if have > want {
+        return Err(bad(
+            path,
+            format!(
+                "{} bytes after the data of shape {:?}",
+                have - want,
+                h.shape
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn open(path: &Path) -> Result<(File, u64), InputError> {
+    // Checked before it is opened: a FIFO, a directory or a device node is
+    // refused at once, and the file is remembered as an input.
+    let f = crate::files::open_input("recording", path)?;
+    let len = f
+        .metadata()
+        .map_err(|_| bad(path, "cannot read its size"))?
+        .len();
+    Ok((f, len))
+}
+
+/// Frames of a `uint16` (frames, height, width) `.npy`, read one at a time.
+pub struct DepthNpy {
+    path: PathBuf,
+    reader: BufReader<File>,
+    /// Number of frames.
+    pub frames: u64,
+    /// Frame height (rows).
+    pub height: u32,
+    /// Frame width (columns).
+    pub width: u32,
+    next: u64,
+}
+
+impl DepthNpy {
+    /// Open and check a recording.
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        let (f, len) = open(path)?;
+        let mut reader = BufReader::new(f);
+        let h = read_header(&mut reader, len, path)?;
+        check_descr(path, &h, "<u2", "uint16")?;
+        let [frames, height, width] = h.shape[..] else {
+            return Err(bad(
+                path,
+                format!("shape {:?} must be (frames, height, width)", h.shape),
+            ));
+        };
+        if !(1..=MAX_SIDE).contains(&height) || !(1..=MAX_SIDE).contains(&width) {
+            return Err(bad(
+                path,
+                format!("frame size {width}×{height} must be 1..={MAX_SIDE} on each side"),
+            ));
+        }
+        check_len(path, &h, len, 2)?;
+        Ok(Self {
+            path: path.to_owned(),
+            reader,
+            frames,
+            height: height as u32,
+            width: width as u32,
+            next: 0,
+        })
+    }
+
+    /// Read the next frame into `buf` (resized to width × height); `false`
+    /// after the last frame.
+    pub fn read_into(&mut self, buf: &mut Vec<u16>) -> Result<bool, InputError> {
+        if self.next >= self.frames {
+            return Ok(false);
+        }
+        let n = self.width as usize * self.height as usize;
+        let mut bytes = vec![0u8; n * 2];
+        self.reader
+            .read_exact(&mut bytes)
+            .map_err(|_| bad(&self.path, format!("frame {} is truncated", self.next)))?;
+        buf.clear();
+        buf.extend(
+            bytes
+                .chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]])),
+        );
+        self.next += 1;
+        Ok(true)
+    }
+}
+
+/// Read a `float64` (n,) `.npy` of time stamps (s): finite, non-decreasing.
+pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
+    let (f, len) = open(path)?;
+    let mut reader = BufReader::new(f);
+    let h = read_header(&mut reader, len, path)?;
+    check_descr(path, &h, "<f8", "float64")?;
+    if h.shape.len() != 1 {
+        return Err(bad(path, format!("shape {:?} must be (frames,)", h.shape)));
+    }
+    check_len(path, &h, len, 8)?;
+    let mut bytes = Vec::new();
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|_| bad(path, "read error"))?;
+    let t: Vec<f64> = bytes
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")))
+        .collect();
+    if let Some(i) = t.iter().position(|v| !v.is_finite()) {
+        return Err(bad(path, format!("time stamp {i} is not finite")));
+    }
+    if let Some(i) = t.windows(2).position(|w| w[1] < w[0]) {
+        return Err(bad(path, format!("time stamp {} goes backwards", i + 1)));
+    }
+    Ok(t)
+}
+
+/// An NPY 1.0 header for a C-order array of `descr` and `shape`, padded
+/// with spaces to a multiple of 64 bytes and at least `min_len` bytes long
+/// (a writer that rewrites the shape later reserves room with `min_len`).
+/// The one NPY header writer: every `.npy` lmhost writes starts here.
+pub fn header(descr: &str, shape: &[u64], min_len: usize) -> Vec<u8> {
+    let dims: Vec<String> = shape.iter().map(u64::to_string).collect();
+    let shape = match dims.len() {
+        1 => format!("({},)", dims[0]),
+        _ => format!("({})", dims.join(", ")),
+    };
+    let mut h = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+    // Magic (6) + version (2) + header length (2) + header + '\n'.
+    let unpadded = 10 + h.len() + 1;
+    let total = unpadded.max(min_len).next_multiple_of(64);
+    h.push_str(&" ".repeat(total - unpadded));
+    h.push('\n');
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"\x93NUMPY\x01\x00");
+    out.extend_from_slice(&(h.len() as u16).to_le_bytes());
+    out.extend_from_slice(h.as_bytes());
+    out
+}
+
+/// Bytes of a C-order `rows × cols` f64 array as `.npy`; an error when
+/// `data.len()` is not `rows × cols`.
+pub fn encode_f64(rows: usize, cols: usize, data: &[f64]) -> std::io::Result<Vec<u8>> {
+    if data.len() != rows.saturating_mul(cols) {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("map has {} values, not {rows} × {cols}", data.len()),
+        ));
+    }
+    let mut out = header("<f8", &[rows as u64, cols as u64], 0);
+    out.reserve(data.len() * 8);
+    for v in data {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    Ok(out)
+}
+
+/// Bytes of a C-order `rows × cols` u8 array as `.npy` (`data` must hold
+/// `rows × cols` values).
+pub fn encode_u8(rows: usize, cols: usize, data: &[u8]) -> Vec<u8> {
+    debug_assert_eq!(data.len(), rows * cols);
+    let mut out = header("|u1", &[rows as u64, cols as u64], 0);
+    out.extend_from_slice(data);
+    out
+}
+
+/// Write a `rows × cols` f64 map to `path` as `.npy`, whole or not at all.
+pub fn write_f64(path: &Path, rows: usize, cols: usize, data: &[f64]) -> anyhow::Result<()> {
+    let bytes = encode_f64(rows, cols, data).map_err(|e| crate::files::WriteError::new(path, e))?;
+    crate::files::write_whole(path, &bytes)
+}
+
+/// Fixed header size of written recordings: room for any shape, 64-aligned.
+const WRITE_HEADER: usize = 128;
+
+/// Writes a `uint16` (frames, height, width) `.npy` frame by frame into a
+/// [`crate::files::Output`]: the header's frame count is written on
+/// [`DepthNpyWriter::finish`], which renames the file into place, so the
+/// named file is whole or absent (dropped unfinished, it never appears).
+pub struct DepthNpyWriter {
+    out: crate::files::Output,
+    height: u32,
+    width: u32,
+    frames: u64,
+}
+
+impl DepthNpyWriter {
+    /// Start writing `path` for frames of `width` × `height`.
+    pub fn create(path: &Path, width: u32, height: u32) -> anyhow::Result<Self> {
+        let mut w = Self {
+            out: crate::files::Output::create(path)?,
+            height,
+            width,
+            frames: 0,
+        };
+        let h = w.header();
+        w.out.write_bytes(&h)?;
+        Ok(w)
+    }
+
+    fn header(&self) -> Vec<u8> {
+        header(
+            "<u2",
+            &[self.frames, u64::from(self.height), u64::from(self.width)],
+            WRITE_HEADER,
+        )
+    }
+
+    /// Append one frame (`width × height` values, row-major).
+    pub fn push(&mut self, data: &[u16]) -> anyhow::Result<()> {
+        if data.len() != self.width as usize * self.height as usize {
+            anyhow::bail!(
+                "{}: frame size changed while recording",
+                self.out.path().display()
+            );
+        }
+        let mut bytes = Vec::with_capacity(data.len() * 2);
+        for v in data {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        self.out.write_bytes(&bytes)?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Write the final header, sync and move the file into place; returns
+    /// the frame count.
+    pub fn finish(mut self) -> anyhow::Result<u64> {
+        let h = self.header();
+        self.out.write_at(0, &h)?;
+        self.out.commit()?;
+        Ok(self.frames)
+    }
+}
+
+/// Write a `float64` (n,) `.npy`, whole or not at all.
+pub fn write_f64_1d(path: &Path, data: &[f64]) -> anyhow::Result<()> {
+    let mut out = header("<f8", &[data.len() as u64], WRITE_HEADER);
+    for v in data {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    crate::files::write_whole(path, &out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("lmhost-npy-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d.join(name)
+    }
+
+    #[test]
+    fn written_recordings_read_back() {
+        let p = tmp("rt.npy");
+        let mut w = DepthNpyWriter::create(&p, 3, 2).unwrap();
+        w.push(&[1, 2, 3, 4, 5, 65535]).unwrap();
+        w.push(&[0; 6]).unwrap();
+        assert_eq!(w.finish().unwrap(), 2);
+        let mut r = DepthNpy::open(&p).unwrap();
+        assert_eq!((r.frames, r.height, r.width), (2, 2, 3));
+        let mut b = Vec::new();
+        assert!(r.read_into(&mut b).unwrap());
+        assert_eq!(b, [1, 2, 3, 4, 5, 65535]);
+        assert!(r.read_into(&mut b).unwrap());
+        assert!(!r.read_into(&mut b).unwrap());
+        let t = tmp("t.npy");
+        write_f64_1d(&t, &[0.0, 0.011]).unwrap();
+        assert_eq!(read_timestamps(&t).unwrap(), [0.0, 0.011]);
+    }
+
+    #[test]
+    fn truncated_npy_is_an_input_error() {
+        let p = tmp("trunc.npy");
+        let mut w = DepthNpyWriter::create(&p, 4, 4).unwrap();
+        w.push(&[7; 16]).unwrap();
+        w.finish().unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &bytes[..bytes.len() - 3]).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("truncated"), "{e}");
+        std::fs::write(&p, &bytes[..20]).unwrap();
+        assert!(DepthNpy::open(&p).is_err());
+        std::fs::write(&p, b"").unwrap();
+        assert!(DepthNpy::open(&p).is_err());
+    }
+
+    /// `bytes` written to `p`, then opened: the error's text.
+    fn open_error(p: &std::path::Path, bytes: &[u8]) -> String {
+        std::fs::write(p, bytes).unwrap();
+        DepthNpy::open(p).err().unwrap().to_string()
+    }
+
+    /// A header for `descr` and `shape`, then `data` zero bytes.
+    fn npy(descr: &str, shape: &str, data: usize) -> Vec<u8> {
+        // Written by hand, so a malformed shape can be tested.
+        let mut text =
+            format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+        text.push_str(&" ".repeat(128 - 10 - text.len() - 1));
+        text.push('\n');
+        let mut h = b"\x93NUMPY\x01\x00".to_vec();
+        h.extend_from_slice(&(text.len() as u16).to_le_bytes());
+        h.extend_from_slice(text.as_bytes());
+        h.extend_from_slice(&vec![0; data]);
+        h
+    }
+
+    #[test]
+    fn wrong_dtype_shape_and_order_are_input_errors() {
+        let p = tmp("dtype.npy");
+        crate::npy::write_f64(&p, 2, 2, &[0.0; 4]).unwrap();
+        let e = DepthNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("dtype `<f8`") && e.contains("uint16"), "{e}");
+        let e = open_error(&p, &npy("<u2", "(4, 4)", 32));
+        assert!(e.contains("(frames, height, width)"), "{e}");
+        let mut h = header("<u2", &[1, 2, 2], 128);
+        let at = h.windows(5).position(|w| w == b"False").unwrap();
+        h[at..at + 5].copy_from_slice(b"True ");
+        h.extend_from_slice(&[0; 8]);
+        let e = open_error(&p, &h);
+        assert!(e.contains("Fortran"), "{e}");
+        let e = open_error(&p, &npy(">u2", "(1, 2, 2)", 8));
+        assert!(e.contains("big-endian"), "{e}");
+        // A huge shape in a tiny file: refused before any allocation.
+        let e = open_error(&p, &npy("<u2", "(100000000, 8000, 8000)", 8));
+        assert!(e.contains("truncated"), "{e}");
+        // A header length beyond the file.
+        let mut h = b"\x93NUMPY\x02\x00".to_vec();
+        h.extend_from_slice(&u32::MAX.to_le_bytes());
+        let e = open_error(&p, &h);
+        assert!(e.contains("header"), "{e}");
+    }
+
+    #[test]
+    fn header_is_aligned_and_data_follows() {
+        let b = encode_f64(2, 3, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).unwrap();
+        assert_eq!(&b[..8], b"\x93NUMPY\x01\x00");
+        let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
+        assert_eq!((10 + hl) % 64, 0);
+        let h = std::str::from_utf8(&b[10..10 + hl]).unwrap();
+        assert!(h.contains("'shape': (2, 3)"), "{h}");
+        assert!(h.ends_with('\n'));
+        assert_eq!(b.len(), 10 + hl + 48);
+        assert_eq!(
+            f64::from_le_bytes(b[10 + hl + 40..].try_into().unwrap()),
+            6.0
+        );
+        assert!(encode_f64(2, 2, &[1.0]).is_err());
+    }
+}

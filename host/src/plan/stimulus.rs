@@ -1,0 +1,325 @@
+//! A stimulus as a study names it, its defaults, and its plan for a device.
+//!
+//! [`Stimulus`] holds what the plan flags (`--radius`, `--foci`, ...), the
+//! demo and (later) a stimulus library entry say: everything about the
+//! stimulus and nothing about the rig. Its [`Default`] is the paper's 5 Hz
+//! condition (LM-S, A = 3 mm, 0.23 mm steps) from [`paper`], the one place
+//! the defaults are written; the CLI's flag defaults read the same
+//! constants. [`Stimulus::plan_for`] is the one
+//! entry point from a stimulus to the phases a given device plays: on an
+//! AUTD3 on its 25 µs dwell grid, on the LM firmware as asked.
+
+use crate::error::InputError;
+use crate::geom::Vec3;
+use crate::plan::grid::GridTiming;
+use crate::plan::scene::Scene;
+use crate::plan::sequence::{Plan, Synthesis};
+use crate::plan::target::Target;
+use crate::plan::trajectory::{LmParams, Steps, paper};
+
+/// Default GS-PAT iterations.
+pub const GSPAT_ITERATIONS: usize = 20;
+
+/// Below this angle between the LM plane and the beam axis the circle runs
+/// along the beam instead of across the finger pad.
+pub const MIN_LM_PLANE_BEAM_ANGLE_DEG: f64 = 30.0;
+
+/// One stimulus, independent of the rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stimulus {
+    /// Circle radius A (mm).
+    pub radius_mm: f64,
+    /// Foci per step.
+    pub foci: usize,
+    /// Spacing d between neighbouring foci along the circle (mm).
+    pub spacing_mm: f64,
+    /// LM frequency f (Hz).
+    pub freq_hz: f64,
+    /// Step width or count.
+    pub steps: Steps,
+    /// Circle centre in finger space (mm); `None`: the scene's centre.
+    pub center_mm: Option<Vec3>,
+    /// Per-step depth along the LM plane's c axis (mm).
+    pub z_profile_mm: Vec<f64>,
+    /// Multi-focus synthesis.
+    pub synthesis: Synthesis,
+    /// Output intensity, 0..=1 (1 = full); the plan's header carries
+    /// `round(intensity × 255)` (the device puts it in every output frame).
+    pub intensity: f64,
+}
+
+impl Default for Stimulus {
+    /// The paper's LM-S at 5 Hz: A = 3 mm, d_LM = 0.23 mm.
+    fn default() -> Self {
+        Self {
+            radius_mm: paper::RADIUS_MM,
+            foci: paper::FOCI,
+            spacing_mm: paper::SPACING_MM,
+            freq_hz: paper::FREQ_HZ,
+            steps: Steps::Width(paper::STEP_MM),
+            center_mm: None,
+            z_profile_mm: Vec::new(),
+            synthesis: Synthesis::Linear,
+            intensity: 1.0,
+        }
+    }
+}
+
+/// A stimulus planned for one device.
+#[derive(Debug, Clone)]
+pub struct TargetPlan {
+    /// The plan (on the device's dwell grid).
+    pub plan: Plan,
+    /// What the device will play against what was asked.
+    pub timing: Timing,
+    /// One-line warnings about the stimulus in this scene.
+    pub warnings: Vec<String>,
+}
+
+impl TargetPlan {
+    /// The JSON summary `lmhost plan --json --target ...` prints: the
+    /// plan's [`Plan::summary_json`] with the target and its realised timing.
+    pub fn summary_json(&self, target: &Target, phases: bool) -> serde_json::Value {
+        let mut v = self.plan.summary_json(phases);
+        v["target"] = serde_json::json!(match target {
+            Target::Lm => "lm",
+            Target::Autd3 => "autd3",
+        });
+        v["timing"] = serde_json::json!(self.timing);
+        v
+    }
+
+    /// What `lmhost plan --out PATH` writes, by `PATH`'s extension: `.json`
+    /// (the summary with the phases), `.npy` (u8, steps × transducers),
+    /// anything else the raw phase bytes (step-major).
+    pub fn out_bytes(&self, path: &std::path::Path, target: &Target) -> anyhow::Result<Vec<u8>> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        Ok(match ext.as_deref() {
+            Some("json") => {
+                let mut b = serde_json::to_vec(&self.summary_json(target, true))?;
+                b.push(b'\n');
+                b
+            }
+            Some("npy") => self.plan.sequence.to_npy(),
+            _ => self.plan.sequence.phases.clone(),
+        })
+    }
+}
+
+/// Realised timing against the request, on every backend: the LM firmware
+/// plays the asked frequency (its step is the nearest whole `N`), an AUTD3
+/// the nearest on its 25 µs grid.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Timing {
+    /// Steps per cycle `N`.
+    pub steps: usize,
+    /// Dwell per step (µs).
+    pub dwell_us: f64,
+    /// Dwell the request asked for, `1 / (N f)` (µs).
+    pub requested_dwell_us: f64,
+    /// `dwell_us - requested_dwell_us`.
+    pub dwell_error_us: f64,
+    /// Realised LM frequency (Hz).
+    pub freq_hz: f64,
+    /// Requested LM frequency (Hz).
+    pub requested_freq_hz: f64,
+    /// `freq_hz - requested_freq_hz`.
+    pub freq_error_hz: f64,
+    /// Realised step width `2πA / N` (mm).
+    pub step_mm: f64,
+    /// Requested step width (mm; for a step count, `2πA / N`).
+    pub requested_step_mm: f64,
+    /// `step_mm - requested_step_mm`.
+    pub step_error_mm: f64,
+    /// AUTD3: dwell = `divide` × 25 µs (`None`, JSON `null`, elsewhere).
+    pub divide: Option<u16>,
+}
+
+impl Timing {
+    fn new(
+        plan: &Plan,
+        requested_freq_hz: f64,
+        requested_step_mm: f64,
+        divide: Option<u16>,
+    ) -> Self {
+        // What the device plays: the header's whole-µs period.
+        let t = &plan.trajectory;
+        let period_us = f64::from(plan.sequence.header.period_us);
+        let dwell_us = plan.sequence.dwell_us();
+        let requested_dwell_us = 1e6 / (requested_freq_hz * t.steps as f64);
+        let freq_hz = 1e6 / period_us;
+        Self {
+            steps: t.steps,
+            dwell_us,
+            requested_dwell_us,
+            dwell_error_us: dwell_us - requested_dwell_us,
+            freq_hz,
+            requested_freq_hz,
+            freq_error_hz: freq_hz - requested_freq_hz,
+            step_mm: t.step_mm,
+            requested_step_mm,
+            step_error_mm: t.step_mm - requested_step_mm,
+            divide,
+        }
+    }
+}
+
+impl Stimulus {
+    /// The paper's LM-M: the default with four foci 3 mm apart.
+    pub fn paper_lm_m() -> Self {
+        Self {
+            foci: paper::LM_M_FOCI,
+            ..Self::default()
+        }
+    }
+
+    /// The trajectory parameters in `scene` (its centre and LM plane unless
+    /// the stimulus names a centre).
+    pub fn params(&self, scene: &Scene) -> LmParams {
+        LmParams {
+            radius_mm: self.radius_mm,
+            freq_hz: self.freq_hz,
+            steps: self.steps,
+            foci: self.foci,
+            spacing_mm: self.spacing_mm,
+            center_mm: self.center_mm.unwrap_or(scene.center_mm),
+            z_profile_mm: self.z_profile_mm.clone(),
+            plane: scene.lm_plane,
+        }
+    }
+
+    /// Plans the stimulus in `scene` for the device `target` names. A plan
+    /// that cannot be made is one error and no warning.
+    pub fn plan_for(&self, target: &Target, scene: Scene) -> anyhow::Result<TargetPlan> {
+        let intensity = intensity_byte(self.intensity)?;
+        let params = self.params(&scene);
+        let (mut plan, grid) = target.plan_on_grid(&params, &scene, &self.synthesis)?;
+        plan.sequence.header.intensity = intensity;
+        let warnings = lm_plane_warning(&plan.scene, params.center_mm)
+            .into_iter()
+            .collect();
+        let timing = match grid {
+            Some(GridTiming {
+                divide,
+                requested_freq_hz,
+                requested_step_mm,
+                ..
+            }) => Timing::new(&plan, requested_freq_hz, requested_step_mm, Some(divide)),
+            None => {
+                let requested_step_mm = match self.steps {
+                    Steps::Width(w) => w,
+                    Steps::Count(_) => plan.trajectory.step_mm,
+                };
+                Timing::new(&plan, self.freq_hz, requested_step_mm, None)
+            }
+        };
+        Ok(TargetPlan {
+            plan,
+            timing,
+            warnings,
+        })
+    }
+
+    /// Plans the stimulus in `scene` as asked (the LM firmware's timing).
+    pub fn plan(&self, scene: Scene) -> anyhow::Result<TargetPlan> {
+        self.plan_for(&Target::Lm, scene)
+    }
+}
+
+/// The wire intensity `round(intensity × 255)` of an intensity in 0..=1;
+/// anything else (NaN included) is an [`InputError`], never clamped.
+pub fn intensity_byte(intensity: f64) -> Result<u8, InputError> {
+    if !(0.0..=1.0).contains(&intensity) {
+        return Err(InputError::new(format!(
+            "intensity {intensity} is out of range: allowed 0..=1 (1 = full)"
+        )));
+    }
+    Ok((intensity * 255.0).round() as u8)
+}
+
+/// A one-line warning when the scene's LM plane is within
+/// [`MIN_LM_PLANE_BEAM_ANGLE_DEG`] of containing the beam axis.
+pub fn lm_plane_warning(scene: &Scene, center_mm: Vec3) -> Option<String> {
+    let a = scene.lm_plane_beam_angle_deg(center_mm)?;
+    (a < MIN_LM_PLANE_BEAM_ANGLE_DEG).then(|| {
+        format!(
+            "the LM plane of {} is {a:.0}° from the beam axis (under {MIN_LM_PLANE_BEAM_ANGLE_DEG:.0}°): \
+             the circle runs along the wave, not across the finger pad; set lm_plane.c along the wave",
+            scene.name
+        )
+    })
+}
+
+/// Checks a GS-PAT iteration count (1..=[`crate::limits::MAX_ITERATIONS`]).
+pub fn gspat(iterations: usize) -> Result<Synthesis, InputError> {
+    if !(1..=crate::limits::MAX_ITERATIONS).contains(&iterations) {
+        return Err(InputError::new(format!(
+            "--iterations {iterations} is out of range: allowed 1..={}",
+            crate::limits::MAX_ITERATIONS
+        )));
+    }
+    Ok(Synthesis::GsPat { iterations })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_is_the_papers_5_hz_lm_s_and_lm_m_adds_foci() {
+        let scene = Scene::default();
+        let p = Stimulus::default().params(&scene);
+        assert_eq!(p, LmParams::paper(scene.center_mm));
+        let m = Stimulus::paper_lm_m().plan(scene.clone()).unwrap();
+        assert_eq!(m.plan.trajectory.foci, 4);
+        assert_eq!(m.plan.trajectory.steps, 82);
+        assert!(m.timing.divide.is_none() && m.warnings.is_empty());
+        // 200 ms is a whole number of µs: the LM firmware plays 5 Hz exactly.
+        assert_eq!(m.timing.freq_error_hz, 0.0, "{:?}", m.timing);
+        assert!(
+            (m.timing.step_error_mm - (2.0 * std::f64::consts::PI * 3.0 / 82.0 - 0.23)).abs()
+                < 1e-12
+        );
+    }
+
+    #[test]
+    fn intensity_goes_into_the_header_and_out_of_range_is_input_error() {
+        let half = Stimulus {
+            intensity: 0.5,
+            ..Stimulus::default()
+        };
+        let p = half.plan(Scene::default()).unwrap();
+        assert_eq!(p.plan.sequence.header.intensity, 128);
+        let full = Stimulus::default().plan(Scene::default()).unwrap();
+        assert_eq!(full.plan.sequence.header.intensity, 255);
+        assert_eq!(intensity_byte(0.0).unwrap(), 0);
+        for bad in [-0.01, 1.01, f64::NAN, f64::INFINITY] {
+            let s = Stimulus {
+                intensity: bad,
+                ..Stimulus::default()
+            };
+            let e = s.plan(Scene::default()).unwrap_err();
+            assert!(e.downcast_ref::<InputError>().is_some(), "{bad}: {e}");
+            assert!(!e.to_string().contains('\n'), "one line: {e}");
+        }
+    }
+
+    #[test]
+    fn an_autd3_plan_lands_on_the_25_us_grid() {
+        let target = Target::Autd3;
+        let t = Stimulus::default()
+            .plan_for(&target, Scene::default())
+            .unwrap();
+        let g = &t.timing;
+        assert_eq!(g.divide, Some(98), "{g:?}");
+        assert!((g.dwell_us - 2450.0).abs() < 1e-9, "{g:?}");
+        assert!((g.freq_error_hz + 0.0229).abs() < 1e-3, "{g:?}");
+        assert!(
+            (g.dwell_error_us - (2450.0 - 1e6 / (5.0 * 82.0))).abs() < 1e-9,
+            "{g:?}"
+        );
+    }
+}

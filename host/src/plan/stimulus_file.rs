@@ -1,0 +1,580 @@
+//! A stimulus from a file (`lmhost upload --phases FILE`, `--foci-file
+//! FILE`), through the checks a planned stimulus gets, for one device.
+//!
+//! Formats:
+//! - phases: `.npy` `uint8` of shape `(steps, transducers)` (what `lmhost
+//!   plan --out F.npy` writes), or JSON `{"phases": [[u8, ...], ...],
+//!   "dwell_us": D}` (`dwell_us` optional);
+//! - foci: `.npy` `float64` of shape `(steps, foci, 3)` in mm, finger space
+//!   (mirrored through the scene's reflector like a planned stimulus), or
+//!   JSON `{"foci_mm": [[[x, y, z], ...], ...], "dwell_us": D}`; the phases
+//!   are synthesised with the planner's linear synthesis.
+//!
+//! Timing: exactly one of a dwell in the file (µs per step) and an LM
+//! frequency (`--freq`: the dwell is `1 / (N f)`). On an AUTD3 a frequency
+//! lands on the 25 µs grid (the realised timing is reported) and a dwell in
+//! the file must lie on it. Every file is checked before it is read whole:
+//! its size (an `.npy` exactly as long as its shape says, JSON at most
+//! [`MAX_JSON_BYTES`]), its shape against the scene's transducers, the step
+//! limits of the device, finite values, the dwell limits and, for foci, the
+//! work volume (±2000 mm, in front of the array). A bad file is one
+//! [`InputError`] naming the file.
+
+use std::io::Read as _;
+use std::path::Path;
+
+use crate::error::InputError;
+use crate::geom::Vec3;
+use crate::limits;
+use crate::plan::grid::{self as grid, MAX_PATTERNS, MIN_PATTERNS};
+use crate::plan::scene::Scene;
+use crate::plan::sequence::{Plan, Sequence};
+use crate::plan::stimulus::{TargetPlan, Timing};
+use crate::plan::synth::fast::SynthPlan;
+use crate::plan::target::Target;
+use crate::plan::trajectory::{MAX_FOCI, MAX_STEPS, Steps, Trajectory};
+
+/// Largest JSON stimulus file (bytes), checked before it is read.
+pub const MAX_JSON_BYTES: u64 = 64 << 20;
+
+/// What the file holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Content {
+    /// Phases, `(steps, transducers)` u8.
+    Phases,
+    /// Foci, `(steps, foci, 3)` mm.
+    Foci,
+}
+
+impl Content {
+    fn what(self) -> &'static str {
+        match self {
+            Self::Phases => "--phases file",
+            Self::Foci => "--foci-file",
+        }
+    }
+}
+
+/// The file's array and its dwell, if it gives one.
+enum Loaded {
+    Phases {
+        steps: usize,
+        phases: Vec<u8>,
+    },
+    Foci {
+        steps: usize,
+        foci: usize,
+        mm: Vec<f64>,
+    },
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PhasesJson {
+    phases: Vec<Vec<u8>>,
+    #[serde(default)]
+    dwell_us: Option<f64>,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FociJson {
+    foci_mm: Vec<Vec<[f64; 3]>>,
+    #[serde(default)]
+    dwell_us: Option<f64>,
+}
+
+/// Loads `path` and makes the plan `target` plays, in `scene`: `freq_hz`
+/// is `--freq` when given, `center_mm` `--center` (the work volume's
+/// centre; default: the foci's mean, or the scene's centre for phases).
+pub fn plan_for(
+    content: Content,
+    path: &Path,
+    target: &Target,
+    scene: Scene,
+    freq_hz: Option<f64>,
+    center_mm: Option<Vec3>,
+) -> Result<TargetPlan, InputError> {
+    let what = content.what();
+    let bad = |msg: String| InputError::new(format!("{what} {}: {msg}", path.display()));
+    let transducers = scene.transducers().len();
+    let (loaded, dwell_us) = read(content, path, transducers).map_err(|e| {
+        // Errors of the npy reader already name the path.
+        if e.to_string().starts_with(&path.display().to_string()) {
+            InputError::new(format!("{what} {e}"))
+        } else {
+            e
+        }
+    })?;
+    let steps = match &loaded {
+        Loaded::Phases { steps, .. } | Loaded::Foci { steps, .. } => *steps,
+    };
+    let (lo, hi) = match target {
+        Target::Lm => (1, MAX_STEPS),
+        Target::Autd3 => (MIN_PATTERNS, MAX_PATTERNS),
+    };
+    if !(lo..=hi).contains(&steps) {
+        return Err(bad(format!(
+            "{steps} steps; the device takes {lo}..={hi} steps"
+        )));
+    }
+    let (dwell_s, requested_dwell_us, divide) =
+        timing(target, &scene, steps, freq_hz, dwell_us).map_err(|e| bad(e.to_string()))?;
+    let (foci_mm, foci) = match &loaded {
+        Loaded::Phases { .. } => (Vec::new(), 1),
+        Loaded::Foci { foci, mm, .. } => (
+            mm.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            *foci,
+        ),
+    };
+    for (i, f) in foci_mm.iter().enumerate() {
+        let (j, k) = (i / foci, i % foci);
+        limits::position_mm("focus", *f).map_err(|e| bad(format!("step {j} focus {k}: {e}")))?;
+        if !scene.faces(scene.drive_point(*f)) {
+            return Err(bad(format!(
+                "step {j} focus {k} [{:.1}, {:.1}, {:.1}] mm is behind or in the plane of every device",
+                f[0], f[1], f[2]
+            )));
+        }
+    }
+    let center_mm = match (center_mm, foci_mm.is_empty()) {
+        (Some(c), _) => c,
+        (None, true) => scene.center_mm,
+        (None, false) => {
+            let n = foci_mm.len() as f64;
+            let s = foci_mm
+                .iter()
+                .fold([0.0; 3], |a, f| crate::geom::add(a, *f));
+            crate::geom::scale(s, 1.0 / n)
+        }
+    };
+    limits::position_mm("center", center_mm)?;
+    if !scene.faces(scene.drive_point(center_mm)) {
+        return Err(InputError::new(format!(
+            "center [{:.1}, {:.1}, {:.1}] mm is behind or in the plane of every device",
+            center_mm[0], center_mm[1], center_mm[2]
+        )));
+    }
+    // A phases file has no foci: its trajectory is the centre, still.
+    let foci_mm = if foci_mm.is_empty() {
+        vec![center_mm; steps]
+    } else {
+        foci_mm
+    };
+    let drive_mm: Vec<Vec3> = foci_mm.iter().map(|&f| scene.drive_point(f)).collect();
+    let step_mm = (0..steps)
+        .map(|j| {
+            crate::geom::norm(crate::geom::sub(
+                foci_mm[((j + 1) % steps) * foci],
+                foci_mm[j * foci],
+            ))
+        })
+        .sum::<f64>()
+        / steps as f64;
+    let trajectory = Trajectory {
+        steps,
+        foci,
+        index_offset: 0,
+        step_mm,
+        dwell_s,
+        period_s: dwell_s * steps as f64,
+        center_mm,
+        foci_mm,
+        drive_mm,
+    };
+    let header = Sequence::header_for(&scene, &trajectory, transducers)?;
+    let phases = match loaded {
+        Loaded::Phases { phases, .. } => phases,
+        Loaded::Foci { .. } => {
+            let synth = SynthPlan::new(&scene.transducers(), scene.wavenumber_rad_per_mm());
+            let mut scratch = synth.scratch();
+            let mut phases = vec![0u8; steps * transducers];
+            for (j, out) in phases.chunks_exact_mut(transducers).enumerate() {
+                synth.foci(trajectory.drive_step(j), None, &mut scratch, out);
+            }
+            phases
+        }
+    };
+    let plan = Plan {
+        scene,
+        trajectory,
+        sequence: Sequence { header, phases },
+    };
+    let period_us = f64::from(plan.sequence.header.period_us);
+    let dwell_us = plan.sequence.dwell_us();
+    let requested_freq_hz = freq_hz.unwrap_or(1e6 / (requested_dwell_us * steps as f64));
+    let freq = 1e6 / period_us;
+    let timing = Timing {
+        steps,
+        dwell_us,
+        requested_dwell_us,
+        dwell_error_us: dwell_us - requested_dwell_us,
+        freq_hz: freq,
+        requested_freq_hz,
+        freq_error_hz: freq - requested_freq_hz,
+        step_mm,
+        requested_step_mm: step_mm,
+        step_error_mm: 0.0,
+        divide,
+    };
+    Ok(TargetPlan {
+        plan,
+        timing,
+        warnings: Vec::new(),
+    })
+}
+
+/// The dwell (s), the dwell asked (µs) and the AUTD3 divide.
+fn timing(
+    target: &Target,
+    scene: &Scene,
+    steps: usize,
+    freq_hz: Option<f64>,
+    dwell_us: Option<f64>,
+) -> Result<(f64, f64, Option<u16>), InputError> {
+    let asked_us = match (freq_hz, dwell_us) {
+        (Some(_), Some(_)) => {
+            return Err(InputError::new(
+                "gives a dwell_us and --freq gives another timing: give one",
+            ));
+        }
+        (None, None) => {
+            return Err(InputError::new(
+                "has no timing: give --freq HZ or a dwell_us in a JSON file",
+            ));
+        }
+        (Some(f), None) => {
+            limits::in_range("--freq", f, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
+            if f <= 0.0 {
+                return Err(InputError::new(format!("--freq {f} must be above 0 Hz")));
+            }
+            1e6 / (f * steps as f64)
+        }
+        (None, Some(d)) => {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(InputError::new(format!(
+                    "dwell_us {} must be a finite number above 0",
+                    limits::show(d)
+                )));
+            }
+            let f = 1e6 / (d * steps as f64);
+            if f > limits::MAX_FREQ_HZ {
+                return Err(InputError::new(format!(
+                    "dwell_us {} over {steps} steps is {} Hz, above {} Hz",
+                    limits::show(d),
+                    limits::Num(f),
+                    limits::MAX_FREQ_HZ
+                )));
+            }
+            d
+        }
+    };
+    let (dwell_s, divide) = match (target, freq_hz) {
+        (Target::Lm, _) => (asked_us * 1e-6, None),
+        (Target::Autd3, Some(f)) => {
+            let g = grid::grid_timing(0.0, f, Steps::Count(steps), scene.min_dwell_s)?;
+            (f64::from(g.dwell_us) * 1e-6, Some(g.divide))
+        }
+        (Target::Autd3, None) => {
+            let d = grid::divide_for_dwell(asked_us * 1e-6)
+                .filter(|&d| u32::from(d) >= grid::SILENCER_MIN_DIVIDE)
+                .ok_or_else(|| {
+                    InputError::new(format!(
+                        "dwell_us {} is not on AUTD3's 25 µs grid from {} to {} µs",
+                        limits::show(asked_us),
+                        grid::dwell_us(grid::SILENCER_MIN_DIVIDE),
+                        grid::dwell_us(grid::MAX_DIVIDE)
+                    ))
+                })?;
+            (f64::from(grid::dwell_us(u32::from(d))) * 1e-6, Some(d))
+        }
+    };
+    if dwell_s < scene.min_dwell_s * (1.0 - 1e-12) {
+        return Err(InputError::new(format!(
+            "dwell {:.4} ms is below the device minimum {:.4} ms",
+            dwell_s * 1e3,
+            scene.min_dwell_s * 1e3
+        )));
+    }
+    crate::units::period_us(dwell_s * steps as f64)?;
+    Ok((dwell_s, asked_us, divide))
+}
+
+/// Reads the file by its extension (`.npy`, else JSON), checked against
+/// `transducers` before the data is read.
+fn read(
+    content: Content,
+    path: &Path,
+    transducers: usize,
+) -> Result<(Loaded, Option<f64>), InputError> {
+    let what = content.what();
+    let bad = |msg: String| InputError::new(format!("{what} {}: {msg}", path.display()));
+    let is_npy = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
+    if !is_npy {
+        let text = limits::read_text_file_up_to(what, path, MAX_JSON_BYTES)?;
+        return match content {
+            Content::Phases => {
+                let j: PhasesJson = serde_json::from_str(&text)
+                    .map_err(|e| bad(format!("not a phases JSON object ({e})")))?;
+                let steps = j.phases.len();
+                if steps == 0 {
+                    return Err(bad("has no steps".into()));
+                }
+                if let Some((i, r)) = j
+                    .phases
+                    .iter()
+                    .enumerate()
+                    .find(|(_, r)| r.len() != transducers)
+                {
+                    return Err(bad(format!(
+                        "step {i} has {} phases; the scene has {transducers} transducers",
+                        r.len()
+                    )));
+                }
+                Ok((
+                    Loaded::Phases {
+                        steps,
+                        phases: j.phases.concat(),
+                    },
+                    j.dwell_us,
+                ))
+            }
+            Content::Foci => {
+                let j: FociJson = serde_json::from_str(&text)
+                    .map_err(|e| bad(format!("not a foci JSON object ({e})")))?;
+                let steps = j.foci_mm.len();
+                let foci = j.foci_mm.first().map_or(0, Vec::len);
+                if steps == 0 || foci == 0 {
+                    return Err(bad("has no steps or no foci".into()));
+                }
+                if foci > MAX_FOCI {
+                    return Err(bad(format!("{foci} foci per step; at most {MAX_FOCI}")));
+                }
+                if let Some((i, r)) = j.foci_mm.iter().enumerate().find(|(_, r)| r.len() != foci) {
+                    return Err(bad(format!(
+                        "step {i} has {} foci, step 0 has {foci}: every step needs as many",
+                        r.len()
+                    )));
+                }
+                let mm: Vec<f64> = j.foci_mm.iter().flatten().flatten().copied().collect();
+                Ok((Loaded::Foci { steps, foci, mm }, j.dwell_us))
+            }
+        };
+    }
+    let mut f = crate::files::open_input(what, path)?;
+    let len = f
+        .metadata()
+        .map_err(|e| bad(crate::files::reason(&e)))?
+        .len();
+    let mut r = std::io::BufReader::new(&mut f);
+    let h = crate::npy::read_header(&mut r, len, path)?;
+    let (descr, elem, want_rank) = match content {
+        Content::Phases => ("|u1", 1u64, 2),
+        Content::Foci => ("<f8", 8u64, 3),
+    };
+    let descr_ok = h.descr == descr || (content == Content::Phases && h.descr == "u1");
+    if !descr_ok {
+        return Err(bad(format!(
+            ".npy dtype '{}' is not '{descr}' ({})",
+            h.descr,
+            match content {
+                Content::Phases => "uint8 phases",
+                Content::Foci => "float64 mm",
+            }
+        )));
+    }
+    if h.shape.len() != want_rank {
+        return Err(bad(format!(
+            ".npy shape {:?} is not {}",
+            h.shape,
+            match content {
+                Content::Phases => "(steps, transducers)",
+                Content::Foci => "(steps, foci, 3)",
+            }
+        )));
+    }
+    let steps = h.shape[0];
+    if steps == 0 || steps > MAX_STEPS as u64 {
+        return Err(bad(format!("{steps} steps; at most {MAX_STEPS}")));
+    }
+    let (per_step, foci) = match content {
+        Content::Phases => {
+            if h.shape[1] != transducers as u64 {
+                return Err(bad(format!(
+                    "{} phases per step; the scene has {transducers} transducers",
+                    h.shape[1]
+                )));
+            }
+            (h.shape[1], 0)
+        }
+        Content::Foci => {
+            let foci = h.shape[1];
+            if foci == 0 || foci > MAX_FOCI as u64 || h.shape[2] != 3 {
+                return Err(bad(format!(
+                    ".npy shape {:?} is not (steps, foci, 3) with 1..={MAX_FOCI} foci",
+                    h.shape
+                )));
+            }
+            (foci * 3, foci as usize)
+        }
+    };
+    let data = steps * per_step * elem;
+    if len != h.data_offset + data {
+        return Err(bad(format!(
+            "{len} bytes, but its shape {:?} needs {} (header and data)",
+            h.shape,
+            h.data_offset + data
+        )));
+    }
+    let mut bytes = Vec::with_capacity(data as usize);
+    r.read_to_end(&mut bytes)
+        .map_err(|e| bad(crate::files::reason(&e)))?;
+    if bytes.len() as u64 != data {
+        return Err(bad("changed while it was read".into()));
+    }
+    let steps = steps as usize;
+    Ok(match content {
+        Content::Phases => (
+            Loaded::Phases {
+                steps,
+                phases: bytes,
+            },
+            None,
+        ),
+        Content::Foci => {
+            let mm: Vec<f64> = bytes
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect();
+            (Loaded::Foci { steps, foci, mm }, None)
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("lmhost-stimfile-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    fn npy_f64(shape: &[usize], data: &[f64]) -> Vec<u8> {
+        let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
+        let header = format!(
+            "{{'descr': '<f8', 'fortran_order': False, 'shape': ({},), }}",
+            dims.join(", ")
+        );
+        let mut out = b"\x93NUMPY\x01\x00".to_vec();
+        let pad = (64 - (10 + header.len() + 1) % 64) % 64;
+        out.extend_from_slice(&((header.len() + pad + 1) as u16).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        out.extend(std::iter::repeat_n(b' ', pad));
+        out.push(b'\n');
+        for v in data {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out
+    }
+
+    #[test]
+    fn a_planned_sequence_round_trips_through_a_phases_file() {
+        let scene = Scene::default();
+        let planned = crate::plan::stimulus::Stimulus::default()
+            .plan(scene.clone())
+            .unwrap();
+        let p = tmp("rt.npy", &planned.plan.sequence.to_npy());
+        let got = plan_for(
+            Content::Phases,
+            &p,
+            &Target::Lm,
+            scene.clone(),
+            Some(5.0),
+            None,
+        )
+        .unwrap();
+        assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
+        assert_eq!(
+            got.plan.sequence.header.period_us,
+            planned.plan.sequence.header.period_us
+        );
+        assert_eq!(got.timing.steps, 82);
+        // On AUTD3 the same file at 5 Hz lands on the grid: 2450 µs.
+        let a = Target::Autd3;
+        let g = plan_for(Content::Phases, &p, &a, scene, Some(5.0), None).unwrap();
+        assert_eq!((g.timing.divide, g.timing.dwell_us), (Some(98), 2450.0));
+    }
+
+    #[test]
+    fn foci_files_synthesise_like_the_planner() {
+        let scene = Scene::default();
+        let planned = crate::plan::stimulus::Stimulus::paper_lm_m()
+            .plan(scene.clone())
+            .unwrap();
+        let t = &planned.plan.trajectory;
+        let mm: Vec<f64> = t.foci_mm.iter().flatten().copied().collect();
+        let p = tmp("foci.npy", &npy_f64(&[t.steps, t.foci, 3], &mm));
+        let got = plan_for(
+            Content::Foci,
+            &p,
+            &Target::Lm,
+            scene.clone(),
+            Some(5.0),
+            Some(t.center_mm),
+        )
+        .unwrap();
+        assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
+        assert_eq!(got.plan.sequence.header, planned.plan.sequence.header);
+        // JSON, with a dwell on the grid for AUTD3.
+        let rows: Vec<Vec<[f64; 3]>> = (0..t.steps).map(|j| t.foci_step(j).to_vec()).collect();
+        let j = serde_json::json!({"foci_mm": rows, "dwell_us": 2450.0}).to_string();
+        let p = tmp("foci.json", j.as_bytes());
+        let a = Target::Autd3;
+        let g = plan_for(Content::Foci, &p, &a, scene, None, None).unwrap();
+        assert_eq!(g.timing.divide, Some(98));
+    }
+
+    /// A bad file: name, bytes, content, target, --freq, what the error says.
+    type Bad<'a> = (&'a str, Vec<u8>, Content, &'a Target, Option<f64>, &'a str);
+
+    #[test]
+    fn bad_files_are_one_line_naming_the_file() {
+        let scene = Scene::default();
+        let a = Target::Autd3;
+        let row = vec![0u8; 996];
+        let ok_rows = serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 2000.0});
+        let cases: Vec<Bad<'_>> = vec![
+            ("short.json", serde_json::json!({"phases": [[1, 2, 3]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "996 transducers"),
+            ("notime.json", serde_json::json!({"phases": vec![row.clone(); 4]}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "no timing"),
+            ("twice.json", ok_rows.to_string().into_bytes(), Content::Phases, &Target::Lm, Some(5.0), "give one"),
+            ("offgrid.json", serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 2010.0}).to_string().into_bytes(), Content::Phases, &a, None, "25 µs grid"),
+            ("fast.json", serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 10.0}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "above 1000 Hz"),
+            ("extra.json", serde_json::json!({"phases": [row.clone()], "dwell_us": 2000.0, "x": 1}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "unknown field"),
+            ("few.json", serde_json::json!({"phases": [row.clone()], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Phases, &a, None, "2..=1024 steps"),
+            ("behind.json", serde_json::json!({"foci_mm": [[[0, 0, -50]]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Foci, &Target::Lm, None, "behind"),
+            ("far.json", serde_json::json!({"foci_mm": [[[0, 0, 1e9]]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Foci, &Target::Lm, None, "±2000"),
+            ("ragged.json", serde_json::json!({"foci_mm": [[[0, 0, 200]], [[0, 0, 200], [1, 0, 200]]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Foci, &Target::Lm, None, "as many"),
+            ("nan.npy", npy_f64(&[1, 1, 3], &[0.0, f64::NAN, 200.0]), Content::Foci, &Target::Lm, Some(5.0), "out of range"),
+            ("shape.npy", npy_f64(&[1, 3], &[0.0, 0.0, 200.0]), Content::Foci, &Target::Lm, Some(5.0), "(steps, foci, 3)"),
+            ("dtype.npy", npy_f64(&[1, 1, 3], &[0.0, 0.0, 200.0]), Content::Phases, &Target::Lm, Some(5.0), "uint8"),
+            ("trunc.npy", npy_f64(&[2, 1, 3], &[0.0, 0.0, 200.0]), Content::Foci, &Target::Lm, Some(5.0), "needs"),
+        ];
+        for (name, bytes, content, target, freq, says) in cases {
+            let p = tmp(name, &bytes);
+            let e = plan_for(content, &p, target, scene.clone(), freq, None)
+                .err()
+                .unwrap_or_else(|| panic!("{name} was accepted"))
+                .to_string();
+            assert!(e.contains(says), "{name}: {e}");
+            assert!(e.contains(name), "{name}: {e}");
+            assert!(!e.contains('\n'), "{name}: {e}");
+        }
+    }
+}

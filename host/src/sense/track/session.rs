@@ -1,0 +1,944 @@
+//! A tracking session (`lmhost track`): depth frames from one source
+//! through the [`Pipeline`], one result per frame, optionally recorded,
+//! plotted, scored against the synthetic finger's ground truth, measured
+//! for the finger surface's depth profile and streamed to a device, which
+//! re-plans its circle when that profile moves.
+//!
+//! [`Session::open`] checks the [`Options`] and opens the source (a bad
+//! option is an [`InputError`] naming its flag); [`Session::run`] tracks
+//! until the source ends or a stop is requested ([`crate::stop`]), hands
+//! every output line to the caller as it comes and returns the [`Report`].
+//! The session prints nothing itself: the caller prints the lines, the
+//! warnings and the closing summary.
+
+use std::cell::RefCell;
+use std::path::PathBuf;
+use std::rc::Rc;
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+
+use super::contact::Tracker;
+use super::intrinsics::Intrinsics;
+use super::presence::Hysteresis;
+use super::rig::Rig;
+use super::source::{self, Frame, FrameSource, Recorder};
+use super::surface::Replanner;
+use super::synth::{FingerSim, background_of};
+use super::{FrameResult, Pipeline};
+use crate::clock::percentile;
+use crate::device::backend::Backend;
+use crate::error::InputError;
+use crate::geom;
+use crate::limits::show;
+use crate::plan::scene::Scene;
+use crate::plan::sequence::Plan;
+use crate::sense::stream::Sample;
+use crate::sense::stream::filter::{FilterKind, Passthrough};
+use crate::sense::stream::run::{Feed, Next, Pace, StreamReport, stream};
+
+/// What a session tracks and how: the `lmhost track` flags as plain
+/// values (the error messages name those flags).
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Scene with `[camera]` and `[tracking]` (needed but for the
+    /// synthetic finger, which falls back to a rig about its centre).
+    pub scene: Option<PathBuf>,
+    /// Source: recorded depth frames (`.npy`, uint16, frames × height ×
+    /// width).
+    pub depth: Option<PathBuf>,
+    /// Time stamps of `depth` [default: beside it, else 90 fps].
+    pub timestamps: Option<PathBuf>,
+    /// Camera intrinsics TOML [default: beside `depth`; the synthetic
+    /// finger: a D435 at 848 × 480; a stream: checked against its own].
+    pub intrinsics: Option<PathBuf>,
+    /// Source: the synthetic finger, with ground truth.
+    pub synthetic: bool,
+    /// Synthetic finger: seconds to render, in (0, 3600] [default: 6].
+    pub seconds: Option<f64>,
+    /// Synthetic finger: depth noise (mm, 1 σ), in [0, 50] [default: 0.5].
+    pub noise_mm: Option<f64>,
+    /// Synthetic finger: fraction of pixels with no data, in [0, 1]
+    /// [default: 0.02].
+    pub holes: Option<f64>,
+    /// Source: a live RealSense camera.
+    pub camera: bool,
+    /// Source: an LMDEPTH1 stream from this file (`-` = stdin).
+    pub stream: Option<PathBuf>,
+    /// Save the frames as this `.npy`, intrinsics and time stamps beside.
+    pub record: Option<PathBuf>,
+    /// Replay as fast as possible instead of at the recorded speed.
+    pub fast: bool,
+    /// One JSON object per frame instead of a summary line per second.
+    pub json: bool,
+    /// Write a PNG of one frame into this directory.
+    pub plot: Option<PathBuf>,
+    /// The frame to plot [default: the first with a contact area].
+    pub plot_frame: Option<u64>,
+    /// Centroid filter [default: gaussian with `device`, else none].
+    pub filter: Option<FilterKind>,
+    /// `RADIUS_MM,STEPS`: measure the finger surface's depth along that
+    /// circle about the centroid.
+    pub z_profile: Option<String>,
+    /// Re-plan threshold for `z_profile` (mm).
+    pub replan_mm: f64,
+    /// Upload and play the re-planned circle on the device.
+    pub replan: bool,
+    /// Consecutive frames with a contact area that open the gate, 1..=90.
+    pub enter_frames: u32,
+    /// Consecutive frames without one that close it, 1..=90.
+    pub leave_frames: u32,
+    /// The centres go to a device given to [`Session::run`]: the default
+    /// filter is gaussian, frames are not paced and every line shows the
+    /// gated, filtered centre.
+    pub device: bool,
+}
+
+/// Plans the device's stimulus with a measured depth profile (mm along
+/// the LM plane's c axis, one value per step): the caller's stimulus, on
+/// the device's dwell grid (`--replan`).
+pub type Replan<'a> = &'a mut dyn FnMut(&[f64]) -> anyhow::Result<Plan>;
+
+/// The device a session streams to.
+pub struct Device<'a> {
+    /// The device, its stimulus playing.
+    pub backend: &'a mut dyn Backend,
+    /// Stop it at the end (an AUTD3, which lmhost started playing).
+    pub silence_at_end: bool,
+    /// With [`Options::replan`]: how to plan a measured profile (its
+    /// length is the `--z-profile` step count).
+    pub replan: Option<Replan<'a>>,
+}
+
+/// What a session measured, for the caller to print.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    /// Warnings about the run (without a `warning: ` prefix).
+    pub warnings: Vec<String>,
+    /// The closing summary, one line each.
+    pub summary: Vec<String>,
+}
+
+/// An opened session: [`Session::run`] it.
+pub struct Session {
+    opts: Options,
+    scene: Scene,
+    intr: Intrinsics,
+    filter: FilterKind,
+    /// Why no frame can find a finger; said once the run is over (a run
+    /// that fails says its error alone).
+    hopeless: Option<InputError>,
+    live: bool,
+    replanner: Option<DeviceReplan>,
+    run: Run,
+    /// The run's seconds count from here (a device opened in between
+    /// counts too).
+    started: Instant,
+}
+
+impl Session {
+    /// Checks `opts`, loads the scene and opens the source, the recording
+    /// and the plot directory. From here on Ctrl-C / SIGTERM end the
+    /// session cleanly ([`crate::stop::graceful`]), and the run's time
+    /// counts (opening the device included).
+    pub fn open(opts: Options) -> anyhow::Result<Self> {
+        for (name, v) in [
+            ("--enter-frames", opts.enter_frames),
+            ("--leave-frames", opts.leave_frames),
+        ] {
+            if !(1..=90).contains(&v) {
+                crate::bad_input!("{name} {v} must be between 1 and 90");
+            }
+        }
+        let scene = Scene::load_or_default(opts.scene.as_deref())?;
+        if opts.scene.is_none() && !opts.synthetic {
+            crate::bad_input!("--scene is needed: its [camera] and [tracking] place the box");
+        }
+        // Every source ends on Ctrl-C / SIGTERM: the recording is finished,
+        // the device muted and the report printed.
+        crate::stop::graceful();
+        let (src, rig) = open_source(&opts, &scene)?;
+        let intr = src.intrinsics();
+        let filter = opts.filter.unwrap_or(if opts.device {
+            FilterKind::Gaussian
+        } else {
+            FilterKind::None
+        });
+        let tracker = Tracker::new(intr, rig);
+        let hopeless = super::check_rig(&tracker).err();
+        let pipe = Pipeline::new(
+            tracker,
+            Hysteresis::new(opts.enter_frames, opts.leave_frames),
+            filter.build(),
+        );
+        let rec = match &opts.record {
+            Some(p) => Some(Recorder::create(p, intr)?),
+            None => None,
+        };
+        if let Some(d) = &opts.plot {
+            crate::files::output_dir("--plot", d)?;
+        }
+        let z_profile = match &opts.z_profile {
+            None => None,
+            Some(spec) => Some(parse_z_profile(spec, opts.replan_mm)?),
+        };
+        let live = src.live();
+        let replanner = match (&z_profile, opts.replan) {
+            (Some(_), true) => Some(DeviceReplan::new(&scene, &rig)?),
+            _ => None,
+        };
+        let run = Run {
+            z_profile,
+            replans: 0,
+            pending: replanner.as_ref().map(|_| Rc::new(RefCell::new(None))),
+            src,
+            pipe,
+            rec,
+            json: opts.json,
+            show_filtered: opts.device || opts.filter.is_some(),
+            paced: !opts.fast && !live && !opts.device,
+            start: None,
+            plot_at: opts.plot_frame,
+            plot_frame: None,
+            want_plot: opts.plot.is_some(),
+            tally: Tally::default(),
+            second: Tally::default(),
+            next_summary: f64::NEG_INFINITY,
+            prev_truth: [None; 2],
+            prev_t_s: None,
+        };
+        Ok(Self {
+            opts,
+            scene,
+            intr,
+            filter,
+            hopeless,
+            live,
+            replanner,
+            run,
+            started: Instant::now(),
+        })
+    }
+
+    /// The gated centre of every frame as a finger sample, paced like the
+    /// source (a replay at its recorded speed unless `fast`), until the
+    /// source ends or a stop is requested: the finger source of the rig
+    /// session. Nothing is printed.
+    pub fn samples(mut self) -> impl Iterator<Item = anyhow::Result<Sample>> {
+        let mut done = false;
+        std::iter::from_fn(move || {
+            if done || crate::stop::requested() {
+                return None;
+            }
+            let r = self.run.next(&mut |_| Ok(()));
+            match r {
+                Ok(Some(res)) => Some(Ok(res.sample())),
+                Ok(None) => None,
+                Err(e) => {
+                    done = true;
+                    Some(Err(e))
+                }
+            }
+        })
+    }
+
+    /// The scene the session tracks in (the device's stimulus is planned
+    /// in it).
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The circle `--z-profile` samples the surface on: radius (mm) and
+    /// steps (a re-plan's stimulus has that radius and step count).
+    pub fn z_profile_circle(&self) -> Option<(f64, usize)> {
+        self.run.z_profile.as_ref().map(|(r, n, _)| (*r, *n))
+    }
+
+    /// Tracks every frame until the source ends or a stop is requested,
+    /// streaming the gated, filtered centre to `device` if given, and
+    /// hands each output line (a JSON object per frame, or a summary per
+    /// second; the recording and the plot written) to `print` as it
+    /// comes. Finishes the recording and writes the plot.
+    pub fn run(
+        mut self,
+        device: Option<Device<'_>>,
+        print: &mut dyn FnMut(&str) -> anyhow::Result<()>,
+    ) -> anyhow::Result<Report> {
+        let mut streamed = None;
+        if let Some(Device {
+            backend,
+            silence_at_end,
+            mut replan,
+        }) = device
+        {
+            if self.replanner.is_some() && replan.is_none() {
+                anyhow::bail!("--replan needs a planner for the device's stimulus");
+            }
+            let where_ = backend.describe();
+            let pace = if self.opts.fast || self.live {
+                Pace::Arrival
+            } else {
+                Pace::Timestamps
+            };
+            let scene = &self.scene;
+            let replanner = &mut self.replanner;
+            let pending = self.run.pending.clone();
+            let report = stream(
+                &mut *backend,
+                RunFeed {
+                    run: &mut self.run,
+                    print: &mut *print,
+                },
+                &mut Passthrough,
+                |p| scene.drive_point(p),
+                pace,
+                |client, _, _| match (&mut *replanner, &pending, &mut replan) {
+                    (Some(r), Some(p), Some(plan)) => r.maybe_upload(client, p, &mut **plan),
+                    _ => Ok(()),
+                },
+            )
+            .map_err(|e| {
+                if e.downcast_ref::<InputError>().is_some() {
+                    e
+                } else {
+                    e.context(format!("streaming centroids to {where_}"))
+                }
+            })?;
+            if silence_at_end {
+                backend.stop().context("silencing the array")?;
+            }
+            streamed = Some((report, where_));
+        } else {
+            while !crate::stop::requested() && self.run.next(print)?.is_some() {}
+        }
+        let seconds = self.started.elapsed().as_secs_f64();
+        let opts = &self.opts;
+        let run = &mut self.run;
+        if let Some(r) = run.rec.take() {
+            let n = r.finish()?;
+            if !opts.json {
+                print(&format!(
+                    "recorded {n} frames to {}",
+                    opts.record.as_ref().expect("recording").display()
+                ))?;
+            }
+        }
+        if let (Some(dir), Some((i, depth))) = (&opts.plot, &run.plot_frame) {
+            let path = dir.join(format!("track_frame_{i}.png"));
+            super::plot::frame_png(&run.pipe.tracker, depth, &path)?;
+            if !opts.json {
+                print(&format!("plot {}", path.display()))?;
+            }
+        } else if let (Some(_), Some(n)) = (&opts.plot, opts.plot_frame) {
+            crate::bad_input!("--plot-frame {n} is beyond the {} frames", run.tally.frames);
+        }
+        let stopped = crate::stop::requested();
+        let t = &run.tally;
+        let mut warnings = Vec::new();
+        if opts.plot.is_some() && run.plot_frame.is_none() && opts.plot_frame.is_none() {
+            warnings.push(format!(
+                "--plot wrote nothing: the run had no frame ({} frames)",
+                t.frames
+            ));
+        }
+        match &self.hopeless {
+            Some(why) => warnings.push(why.to_string()),
+            None if t.frames > 0 && t.present == 0 && !stopped => warnings.push(format!(
+                "no frame of {} had a contact area in the tracking box: check the camera pose, the box and depth_scale",
+                t.frames
+            )),
+            None => {}
+        }
+        let mut summary = vec![format!(
+            "{} frames of {}×{} in {:.2} s: {} with a contact area, {} gated present; box rectangle {} px; track p50 {:.1} µs, p99 {:.1} µs per frame (budget 11.1 ms at 90 fps); filter {}",
+            t.frames,
+            self.intr.width,
+            self.intr.height,
+            seconds,
+            t.present,
+            t.gated,
+            run.pipe.tracker.roi().pixels(),
+            t.track_p_us(50.0),
+            t.track_p_us(99.0),
+            self.filter.name()
+        )];
+        if opts.synthetic {
+            summary.push(format!(
+                "vs ground truth: centroid error {:.3} mm RMS over {} frames, presence wrong on {} frames away from transitions",
+                (t.err2 / t.err_n.max(1) as f64).sqrt(),
+                t.err_n,
+                t.presence_wrong
+            ));
+        }
+        if run.z_profile.is_some() {
+            summary.push(format!(
+                "surface depth profile: {} re-plans above {} mm in {} frames",
+                run.replans, opts.replan_mm, t.frames
+            ));
+        }
+        if let Some(r) = &self.replanner {
+            summary.push(format!(
+                "device re-plans: {} uploaded and played{}, {} skipped while no slot was free, {} failed{}",
+                r.uploaded,
+                r.last_plan
+                    .map_or(String::new(), |(n, f, d)| format!(
+                        " (last: {n} steps × {f} foci, dwell {d:.1} µs)"
+                    )),
+                r.skipped,
+                r.failed,
+                r.last_failure
+                    .as_ref()
+                    .map_or(String::new(), |e| format!(" (last: {e})"))
+            ));
+        }
+        if stopped {
+            summary.push(format!(
+                "stopped by signal{}",
+                if streamed.as_ref().is_some_and(|(r, _)| r.muted_at_end) {
+                    "; device muted"
+                } else {
+                    ""
+                }
+            ));
+        }
+        if let Some((r, where_)) = streamed {
+            summary.extend(device_lines(&r, &where_, t, self.filter));
+        }
+        Ok(Report { warnings, summary })
+    }
+}
+
+/// The closing lines about the centroids streamed to the device.
+fn device_lines(r: &StreamReport, where_: &str, t: &Tally, filter: FilterKind) -> [String; 2] {
+    let p = |q| r.ack_percentile_us(q).unwrap_or(0);
+    [
+        format!(
+            "device refusals: {} centroids outside the work volume (muted until one is inside), {} dropped by the plausibility gate ({} out of range, {} jumps, {} out of order)",
+            r.outside_work_volume,
+            r.rejected.total(),
+            r.rejected.out_of_range,
+            r.rejected.jumps,
+            r.rejected.out_of_order
+        ),
+        format!(
+            "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {:.0} µs + device ack p50 {} µs, p99 {} µs, plus the {} filter's lag {:.1} ms (90 fps)",
+            r.acked,
+            r.present,
+            t.track_p_us(50.0),
+            p(50.0),
+            p(99.0),
+            filter.name(),
+            super::report::filter_lag_ms(filter, 90.0)
+        ),
+    ]
+}
+
+/// Parses `--z-profile RADIUS_MM,STEPS` and checks `--replan-mm`.
+fn parse_z_profile(spec: &str, replan_mm: f64) -> anyhow::Result<(f64, usize, Replanner)> {
+    let bad = || {
+        InputError::new(format!(
+            "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
+        ))
+    };
+    let (r, n) = spec.split_once(',').ok_or_else(bad)?;
+    let r: f64 = r.trim().parse().map_err(|_| bad())?;
+    let n: usize = n.trim().parse().map_err(|_| bad())?;
+    if !(r > 0.0 && r <= 20.0 && (1..=1000).contains(&n)) {
+        return Err(bad().into());
+    }
+    if !(replan_mm.is_finite() && replan_mm >= 0.0) {
+        crate::bad_input!("--replan-mm {} must be ≥ 0", replan_mm);
+    }
+    Ok((r, n, Replanner::new(replan_mm)))
+}
+
+/// The source `opts` name (exactly one) and the rig it is seen with.
+fn open_source(opts: &Options, scene: &Scene) -> anyhow::Result<(Box<dyn FrameSource>, Rig)> {
+    let picked = [
+        opts.depth.is_some(),
+        opts.synthetic,
+        opts.camera,
+        opts.stream.is_some(),
+    ]
+    .iter()
+    .filter(|b| **b)
+    .count();
+    if picked != 1 {
+        crate::bad_input!(
+            "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
+        );
+    }
+    for (flag, given) in [
+        ("--seconds", opts.seconds.is_some()),
+        ("--noise-mm", opts.noise_mm.is_some()),
+        ("--holes", opts.holes.is_some()),
+    ] {
+        if given && !opts.synthetic {
+            crate::bad_input!(
+                "{flag} applies to --synthetic only (it renders the synthetic finger)"
+            );
+        }
+    }
+    if opts.synthetic {
+        let seconds = opts.seconds.unwrap_or(6.0);
+        let noise_mm = opts.noise_mm.unwrap_or(0.5);
+        let holes = opts.holes.unwrap_or(0.02);
+        if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
+            crate::bad_input!("--seconds {} must be in (0, 3600]", show(seconds));
+        }
+        if !(noise_mm.is_finite() && (0.0..=50.0).contains(&noise_mm)) {
+            crate::bad_input!("--noise-mm {} must be in [0, 50]", show(noise_mm));
+        }
+        if !(holes.is_finite() && (0.0..=1.0).contains(&holes)) {
+            crate::bad_input!("--holes {} must be in [0, 1]", show(holes));
+        }
+        let intr = match &opts.intrinsics {
+            Some(p) => Intrinsics::load(p)?,
+            None => Intrinsics::D435_848X480,
+        };
+        let rig = Rig::of_scene_or_default(scene);
+        let mut sim = FingerSim::new(rig, intr, background_of(scene));
+        sim.noise_mm = noise_mm;
+        sim.holes = holes;
+        if (seconds * sim.rate_hz).round() < 1.0 {
+            crate::bad_input!(
+                "--seconds {} renders no frame at {} fps; give at least {} s",
+                show(seconds),
+                sim.rate_hz,
+                show(0.5 / sim.rate_hz)
+            );
+        }
+        return Ok((Box::new(source::Synthetic::new(sim, seconds)), rig));
+    }
+    let rig = Rig::of_scene(scene)?;
+    if let Some(d) = &opts.depth {
+        let r = source::Replay::open_with_defaults(
+            d,
+            opts.intrinsics.as_deref(),
+            opts.timestamps.as_deref(),
+        )?;
+        return Ok((Box::new(r), rig));
+    }
+    // Live streams are read on their own thread (the device's
+    // housekeeping goes on while no frame arrives) and held to the
+    // live deadlines (source::HEADER_DEADLINE, source::FRAME_DEADLINE).
+    let src: Box<dyn FrameSource> = if opts.camera {
+        Box::new(source::camera()?)
+    } else {
+        match opts.stream.as_deref() {
+            Some(p) if p.as_os_str() == "-" => {
+                Box::new(source::Live::start("stdin", None, || {
+                    source::Stream::new(std::io::stdin(), "stdin")
+                })?)
+            }
+            Some(p) => {
+                let f = crate::files::open_input("--stream file", p)?;
+                let what = p.display().to_string();
+                Box::new(source::Live::start(&what.clone(), None, move || {
+                    source::Stream::new(std::io::BufReader::new(f), &what)
+                })?)
+            }
+            None => crate::bad_input!(
+                "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
+            ),
+        }
+    };
+    if let Some(ip) = &opts.intrinsics {
+        let given = Intrinsics::load(ip)?;
+        let got = src.intrinsics();
+        given.check_frames(got.width, got.height, "the stream")?;
+    }
+    Ok((src, rig))
+}
+
+/// Per-run counters.
+#[derive(Debug, Default)]
+struct Tally {
+    frames: u64,
+    present: u64,
+    gated: u64,
+    /// Tracking time per frame (ns).
+    track_ns: Vec<u64>,
+    err2: f64,
+    err_n: u64,
+    presence_wrong: u64,
+}
+
+impl Tally {
+    /// The `p`-th percentile of the tracking time per frame (µs; 0 with
+    /// no frame).
+    fn track_p_us(&self, p: f64) -> f64 {
+        percentile(self.track_ns.iter().copied(), p).unwrap_or(0) as f64 / 1000.0
+    }
+}
+
+/// The frame loop's state.
+struct Run {
+    z_profile: Option<(f64, usize, Replanner)>,
+    replans: u64,
+    /// The latest re-planned profile not yet uploaded (with `replan`).
+    pending: Option<Rc<RefCell<Option<Vec<f64>>>>>,
+    src: Box<dyn FrameSource>,
+    pipe: Pipeline,
+    rec: Option<Recorder>,
+    json: bool,
+    show_filtered: bool,
+    paced: bool,
+    start: Option<(Instant, f64)>,
+    plot_at: Option<u64>,
+    plot_frame: Option<(u64, Vec<u16>)>,
+    want_plot: bool,
+    tally: Tally,
+    second: Tally,
+    next_summary: f64,
+    prev_truth: [Option<(bool, bool)>; 2],
+    prev_t_s: Option<f64>,
+}
+
+/// The tracked centres of a [`Run`] as the streaming loop's feed: a live
+/// source idles (the loop ticks the device) while no frame arrives.
+struct RunFeed<'a> {
+    run: &'a mut Run,
+    print: &'a mut dyn FnMut(&str) -> anyhow::Result<()>,
+}
+
+impl Feed for RunFeed<'_> {
+    fn next_within(&mut self, wait: Duration) -> Next<anyhow::Result<Sample>> {
+        match self.run.next_within(wait, self.print) {
+            Ok(Next::Ready(r)) => Next::Ready(Ok(r.sample())),
+            Ok(Next::Idle) => Next::Idle,
+            Ok(Next::End) => Next::End,
+            Err(e) => Next::Ready(Err(e)),
+        }
+    }
+}
+
+impl Run {
+    fn next(
+        &mut self,
+        print: &mut dyn FnMut(&str) -> anyhow::Result<()>,
+    ) -> anyhow::Result<Option<FrameResult>> {
+        loop {
+            match self.next_within(Duration::from_secs(3600), print)? {
+                Next::Ready(r) => return Ok(Some(r)),
+                Next::Idle => {}
+                Next::End => return Ok(None),
+            }
+        }
+    }
+
+    /// The next frame's result if a frame comes within `wait`.
+    fn next_within(
+        &mut self,
+        wait: Duration,
+        print: &mut dyn FnMut(&str) -> anyhow::Result<()>,
+    ) -> anyhow::Result<Next<FrameResult>> {
+        let frame = match self.src.next_frame_within(wait)? {
+            Next::Ready(f) => f,
+            Next::Idle => return Ok(Next::Idle),
+            Next::End => return Ok(Next::End),
+        };
+        // Every source: a gap between frames is at most what a replay may
+        // sleep, so a wild time stamp is an error naming the frame, not a
+        // panic or a day-long wait (paced or not, as `stream` does).
+        let index = self.tally.frames;
+        // NaN counts as too far: `is_some_and` keeps only a gap within it.
+        if let Some(prev) = self.prev_t_s
+            && !(frame.t_s - prev)
+                .partial_cmp(&crate::limits::MAX_REPLAY_GAP_S)
+                .is_some_and(|o| o.is_le())
+        {
+            crate::bad_input!(
+                "frame {index}: time stamp {} s is {} s after the previous frame's; at most {} s between frames",
+                show(frame.t_s),
+                show(frame.t_s - prev),
+                crate::limits::MAX_REPLAY_GAP_S
+            );
+        }
+        self.prev_t_s = Some(frame.t_s);
+        if let Some(r) = &mut self.rec {
+            r.push(&frame)?;
+        }
+        if self.paced {
+            let (t0, ft0) = *self.start.get_or_insert((Instant::now(), frame.t_s));
+            // Finite by now: consecutive gaps are bounded above, and every
+            // source refuses non-finite or decreasing stamps.
+            let due = Duration::try_from_secs_f64((frame.t_s - ft0).max(0.0)).map_err(|_| {
+                InputError::new(format!(
+                    "frame {index}: time stamp {} s cannot be replayed",
+                    show(frame.t_s)
+                ))
+            })?;
+            if let Some(wait) = due.checked_sub(t0.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+        let res = self.pipe.step(frame.t_s, &frame.depth);
+        let profile = self.z_profile(&frame, &res);
+        self.report(&frame, &res, profile, print)?;
+        let index = self.tally.frames - 1;
+        if self.want_plot {
+            let keep = match self.plot_at {
+                Some(n) => index == n,
+                // The first frame with a contact area, else the first frame.
+                None => res.present || self.plot_frame.is_none(),
+            };
+            if keep {
+                self.plot_frame = Some((index, frame.depth.clone()));
+                self.want_plot = self.plot_at.is_none() && !res.present;
+            }
+        }
+        Ok(Next::Ready(res))
+    }
+
+    /// The relative depth profile about the raw centroid, and whether a
+    /// re-plan is due.
+    fn z_profile(&mut self, frame: &Frame, r: &FrameResult) -> Option<(Vec<f64>, bool)> {
+        let (radius, steps, replan) = self.z_profile.as_mut()?;
+        let c = r.centroid_mm()?;
+        let tb = &self.pipe.tracker.rig().track_box;
+        let rel = geom::sub(c, tb.center_mm);
+        let ab = [geom::dot(tb.axes[0], rel), geom::dot(tb.axes[1], rel)];
+        let prof = super::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
+        let rel = super::surface::relative(&prof)?;
+        let due = replan.update(&rel);
+        self.replans += due as u64;
+        if let (true, Some(p)) = (due, &self.pending) {
+            *p.borrow_mut() = Some(rel.clone());
+        }
+        Some((rel, due))
+    }
+
+    /// Counts the frame, scores it against the ground truth and prints its
+    /// line (or the summary line of the second it ends).
+    fn report(
+        &mut self,
+        frame: &Frame,
+        r: &FrameResult,
+        profile: Option<(Vec<f64>, bool)>,
+        print: &mut dyn FnMut(&str) -> anyhow::Result<()>,
+    ) -> anyhow::Result<()> {
+        for t in [&mut self.tally, &mut self.second] {
+            t.frames += 1;
+            t.present += r.present as u64;
+            t.gated += r.gated as u64;
+            t.track_ns.push((r.track_s * 1e9) as u64);
+        }
+        if let Some(truth) = &frame.truth {
+            // Presence is judged away from transitions: frame k-1 counts when
+            // the truth of k-2, k-1 and k agree (so at most one frame late or
+            // early is forgiven); evaluated one frame behind.
+            if let [Some((t2, _)), Some((t1, raw1))] = self.prev_truth
+                && t2 == t1
+                && t1 == truth.present
+                && raw1 != t1
+            {
+                self.tally.presence_wrong += 1;
+            }
+            self.prev_truth = [self.prev_truth[1], Some((truth.present, r.present))];
+            if let (true, Some(c), Some(tc)) =
+                (truth.present, r.centroid_mm(), truth.contact.centroid_mm)
+            {
+                let e2: f64 = (0..3).map(|k| (c[k] - tc[k]).powi(2)).sum();
+                self.tally.err2 += e2;
+                self.tally.err_n += 1;
+            }
+        }
+        if self.json {
+            let mut v = serde_json::json!({
+                "t_s": r.t_s,
+                "points": r.contact.points,
+                "present": r.present,
+                "centroid_mm": r.centroid_mm(),
+            });
+            if self.show_filtered {
+                v["gated_present"] = r.gated.into();
+                v["filtered_mm"] = serde_json::json!(r.filtered_mm);
+            }
+            if self.z_profile.is_some() {
+                v["z_profile_mm"] = serde_json::json!(profile.as_ref().map(|p| &p.0));
+                v["replan"] = profile.as_ref().is_some_and(|p| p.1).into();
+            }
+            if let Some(truth) = &frame.truth {
+                v["truth_present"] = truth.present.into();
+                v["truth_mm"] = serde_json::json!(truth.contact.centroid_mm);
+            }
+            print(&v.to_string())?;
+        } else if r.t_s >= self.next_summary {
+            let s = std::mem::take(&mut self.second);
+            let c = r.centroid_mm().map_or("none".to_owned(), |c| {
+                format!("({:.2}, {:.2}, {:.2}) mm", c[0], c[1], c[2])
+            });
+            print(&format!(
+                "t {:>7.2} s  frames {:>3}  present {:>3}  gated {:>3}  points {:>4}  centroid {c}  track p50 {:.0} µs",
+                r.t_s,
+                s.frames,
+                s.present,
+                s.gated,
+                r.contact.points,
+                s.track_p_us(50.0)
+            ))?;
+            self.next_summary = (r.t_s + 1.0).floor();
+        }
+        Ok(())
+    }
+}
+
+/// Uploads re-planned depth profiles to the device (`replan`), planned by
+/// the caller ([`Replan`]: the session's stimulus on the device's grid).
+struct DeviceReplan {
+    /// Box c (mm) → LM plane c (mm): ±1, the axes being checked parallel.
+    sign: f64,
+    uploaded: u64,
+    skipped: u64,
+    failed: u64,
+    last_failure: Option<String>,
+    /// The last plan uploaded: steps, foci per step, dwell (µs).
+    last_plan: Option<(usize, usize, f64)>,
+}
+
+impl DeviceReplan {
+    /// The surface profile is sampled on the tracking box's a–b circle, so
+    /// the box must lie in the LM plane (axes parallel within 1°).
+    fn new(scene: &Scene, rig: &Rig) -> anyhow::Result<Self> {
+        let b = &rig.track_box;
+        let pl = &scene.lm_plane;
+        let cos1 = 1f64.to_radians().cos();
+        let aligned =
+            |u: geom::Vec3, v: geom::Vec3| geom::dot(u, v) >= cos1 * geom::norm(u) * geom::norm(v);
+        if !(aligned(b.axes[0], pl.a) && aligned(b.axes[1], pl.b)) {
+            crate::bad_input!(
+                "--replan needs the tracking box's first two axes along the scene's lm_plane a and b (within 1°): the surface profile is sampled in the box and planned in the LM plane"
+            );
+        }
+        Ok(Self {
+            sign: geom::dot(b.axes[2], pl.c).signum(),
+            uploaded: 0,
+            skipped: 0,
+            failed: 0,
+            last_failure: None,
+            last_plan: None,
+        })
+    }
+
+    /// Upload and queue the pending profile, if any and a slot is free
+    /// (else it stays pending for the next sample).
+    fn maybe_upload(
+        &mut self,
+        client: &mut dyn Backend,
+        pending: &RefCell<Option<Vec<f64>>>,
+        plan_with: &mut dyn FnMut(&[f64]) -> anyhow::Result<Plan>,
+    ) -> anyhow::Result<()> {
+        let Some(profile) = pending.borrow().clone() else {
+            return Ok(());
+        };
+        let info = client.info().context("re-plan: reading the device info")?;
+        let st = client
+            .status()
+            .context("re-plan: reading the device status")?;
+        let Some(slot) = crate::device::backend::free_slot(info.slots, &st) else {
+            self.skipped += 1;
+            return Ok(());
+        };
+        let z: Vec<f64> = profile.iter().map(|z| z * self.sign).collect();
+        // A measured profile the planner refuses (out of range) is a
+        // re-plan failure, counted and reported; the session goes on.
+        let plan = match plan_with(&z) {
+            Ok(plan) => plan,
+            Err(e) => {
+                *pending.borrow_mut() = None;
+                self.failed += 1;
+                self.last_failure = Some(e.to_string());
+                return Ok(());
+            }
+        };
+        client
+            .upload(&plan, Some(slot))
+            .with_context(|| format!("re-plan: uploading to slot {slot}"))?;
+        client
+            .play(slot, false)
+            .with_context(|| format!("re-plan: playing slot {slot}"))?;
+        *pending.borrow_mut() = None;
+        self.uploaded += 1;
+        self.last_plan = Some((
+            plan.trajectory.steps,
+            plan.trajectory.foci,
+            plan.sequence.dwell_us(),
+        ));
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn synthetic(json: bool) -> Options {
+        Options {
+            scene: Some(PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../scenes/paper.toml"
+            ))),
+            depth: None,
+            timestamps: None,
+            intrinsics: None,
+            synthetic: true,
+            seconds: Some(0.2),
+            noise_mm: None,
+            holes: None,
+            camera: false,
+            stream: None,
+            record: None,
+            fast: true,
+            json,
+            plot: None,
+            plot_frame: None,
+            filter: None,
+            z_profile: Some("3,8".into()),
+            replan_mm: 0.3,
+            replan: false,
+            enter_frames: 2,
+            leave_frames: 2,
+            device: false,
+        }
+    }
+
+    #[test]
+    fn a_synthetic_session_prints_a_line_per_frame_and_scores_the_truth() {
+        let mut lines = Vec::new();
+        let report = Session::open(synthetic(true))
+            .unwrap()
+            .run(None, &mut |l: &str| {
+                lines.push(l.to_owned());
+                Ok(())
+            })
+            .unwrap();
+        let frames = (0.2f64 * 90.0).round() as usize;
+        assert_eq!(lines.len(), frames, "{lines:?}");
+        for l in &lines {
+            let v: serde_json::Value = serde_json::from_str(l).unwrap();
+            assert!(v["truth_present"].is_boolean() && v.get("z_profile_mm").is_some());
+            assert!(v.get("filtered_mm").is_none(), "no filter, no device: {v}");
+        }
+        assert!(report.summary[0].starts_with(&format!("{frames} frames of 848×480")));
+        assert!(report.summary[1].starts_with("vs ground truth: centroid error"));
+        assert!(report.summary[2].starts_with("surface depth profile:"));
+        assert_eq!(report.summary.len(), 3, "{report:?}");
+    }
+
+    #[test]
+    fn bad_options_are_input_errors_naming_the_flag() {
+        let mut o = synthetic(false);
+        o.enter_frames = 0;
+        let e = Session::open(o).err().unwrap();
+        assert!(e.downcast_ref::<InputError>().is_some());
+        assert_eq!(e.to_string(), "--enter-frames 0 must be between 1 and 90");
+        let mut o = synthetic(false);
+        o.z_profile = Some("3".into());
+        let e = Session::open(o).err().unwrap().to_string();
+        assert!(
+            e.starts_with("--z-profile `3` must be RADIUS_MM,STEPS"),
+            "{e}"
+        );
+    }
+}
