@@ -19,7 +19,7 @@ fn track(c: &mut Criterion) {
         b.iter(|| {
             reference(
                 tracker.intrinsics(),
-                tracker.rig(),
+                tracker.setup(),
                 std::hint::black_box(&frame),
             )
         })

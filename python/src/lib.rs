@@ -33,10 +33,10 @@ use lmhost::plan::stimulus::{Stimulus, TargetPlan};
 use lmhost::plan::target::Target;
 use lmhost::plan::trajectory::Steps;
 use lmhost::sense::track::Pipeline;
+use lmhost::sense::track::camera::CameraSetup;
 use lmhost::sense::track::contact::Tracker as ContactTracker;
 use lmhost::sense::track::intrinsics::Intrinsics;
 use lmhost::sense::track::presence::Hysteresis;
-use lmhost::sense::track::rig::Rig;
 
 create_exception!(
     _lmhost,
@@ -476,9 +476,9 @@ impl Tracker_ {
         leave_frames: u32,
     ) -> PyResult<Self> {
         let intr = Intrinsics::from_toml(intrinsics_toml, origin).map_err(|e| to_py(e.into()))?;
-        let rig = Rig::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
+        let rig = CameraSetup::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
         let tracker = ContactTracker::new(intr, rig);
-        let min_points = tracker.rig().track_box.min_points;
+        let min_points = tracker.setup().track_box.min_points;
         let pipe = Pipeline::new(
             tracker,
             Hysteresis::new(enter_frames, leave_frames),
@@ -737,7 +737,7 @@ fn _bench_rust(
     repeats: usize,
 ) -> PyResult<(f64, f64)> {
     let intr = Intrinsics::from_toml(intrinsics_toml, "bench").map_err(|e| to_py(e.into()))?;
-    let rig = Rig::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
+    let rig = CameraSetup::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
     let ro = depth.readonly();
     let frame = ro.as_slice().map_err(|e| bad(e.to_string()))?;
     let flat = Scene::default();

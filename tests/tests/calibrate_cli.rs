@@ -10,7 +10,7 @@ use lmhost::geom::{Vec3, add, euler_xyz_deg, norm, sub};
 use lmhost::lab::calibrate::camera::render_ball;
 use lmhost::npy::DepthNpyWriter;
 use lmhost::plan::scene::Scene;
-use lmhost::plan::scene::rig::CameraPose;
+use lmhost::plan::scene::camera::CameraPose;
 use lmhost::sense::track::intrinsics::Intrinsics;
 
 mod link_support;

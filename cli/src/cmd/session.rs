@@ -155,7 +155,7 @@ impl Args {
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
         let finger = if tracked {
-            let opts = lmhost::sense::track::session::Options {
+            let opts = lmhost::sense::track::run::Options {
                 scene: self.scene.clone(),
                 depth: self.depth.clone(),
                 timestamps: self.timestamps.clone(),
@@ -181,7 +181,7 @@ impl Args {
             };
             Finger::Samples(on_thread(move || {
                 let it: Box<dyn Iterator<Item = anyhow::Result<lmhost::sense::stream::Sample>>> =
-                    match lmhost::sense::track::session::Session::open(opts) {
+                    match lmhost::sense::track::run::TrackRun::open(opts) {
                         Ok(s) => Box::new(s.samples()),
                         Err(e) => Box::new(std::iter::once(Err(e))),
                     };

@@ -10,7 +10,7 @@ use lmhost::plan::sequence::Plan;
 use lmhost::plan::stimulus::Stimulus;
 use lmhost::plan::trajectory::Steps;
 use lmhost::sense::stream::filter::FilterKind;
-use lmhost::sense::track::session::{Device, Options, Session};
+use lmhost::sense::track::run::{Device, Options, TrackRun};
 
 /// Track the finger in depth frames: the contact area inside the scene's
 /// detection box and its centroid, one result per frame.
@@ -167,7 +167,7 @@ impl Args {
             }
         }
         let plan_args = stimulus.plan_args(scene.clone())?;
-        let session = Session::open(Options {
+        let session = TrackRun::open(Options {
             scene,
             depth,
             timestamps,

@@ -43,7 +43,7 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
     let intr = *tracker.intrinsics();
     let reps = if opts.quick { 50 } else { 500 };
     let fast = tracker.track(&frame);
-    let slow = reference(&intr, tracker.rig(), &frame);
+    let slow = reference(&intr, tracker.setup(), &frame);
     let matches = fast.points == slow.points
         && match (fast.centroid_mm, slow.centroid_mm) {
             (Some(a), Some(b)) => (0..3).all(|k| (a[k] - b[k]).abs() < 1e-9),
@@ -54,7 +54,7 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
         std::hint::black_box(tracker.track(std::hint::black_box(&frame)));
     });
     let reference_s = time_per_call(3, if opts.quick { 1 } else { 5 }, || {
-        std::hint::black_box(reference(&intr, tracker.rig(), &frame));
+        std::hint::black_box(reference(&intr, tracker.setup(), &frame));
     });
     let mut out = Vec::new();
     let render_s = time_per_call(3, if opts.quick { 1 } else { 5 }, || {

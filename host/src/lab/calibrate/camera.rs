@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::InputError;
 use crate::geom::{Vec3, add, cross, dot, norm, scale, sub};
 use crate::npy::DepthNpy;
-use crate::plan::scene::rig::CameraPose;
+use crate::plan::scene::camera::CameraPose;
 use crate::sense::track::intrinsics::Intrinsics;
 
 /// A pixel is in front of the background when it is this much nearer (mm).

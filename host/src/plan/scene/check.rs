@@ -112,7 +112,7 @@ impl SceneFile {
             }
             None => DEFAULT_MIN_DWELL_S,
         };
-        let (camera, tracking) = super::rig::resolve(self.camera, self.tracking)?;
+        let (camera, tracking) = super::camera::resolve(self.camera, self.tracking)?;
         let calibration = self.calibration.map(calibration).transpose()?;
         Ok(Scene {
             camera,

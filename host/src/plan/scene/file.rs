@@ -37,8 +37,8 @@ pub(super) struct SceneFile {
     pub(super) rig: Option<PoseFile>,
     #[serde(default)]
     pub(super) device: Vec<DeviceFile>,
-    pub(super) camera: Option<super::rig::CameraFile>,
-    pub(super) tracking: Option<super::rig::TrackingFile>,
+    pub(super) camera: Option<super::camera::CameraFile>,
+    pub(super) tracking: Option<super::camera::TrackingFile>,
     pub(super) calibration: Option<CalibrationFile>,
 }
 

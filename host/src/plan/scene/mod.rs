@@ -57,8 +57,8 @@
 mod check;
 mod file;
 pub(crate) use file::toml_error_line;
+pub mod camera;
 mod parts;
-pub mod rig;
 pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
     if field.ends_with("rotation_deg") && !v.iter().all(|x| x.abs() <= 360.0) {
         return Err(format!("field `{field}` must be within ±360°, got {v:?}"));
@@ -114,9 +114,9 @@ pub struct Scene {
     /// Shortest dwell per step the device accepts (s).
     pub min_dwell_s: f64,
     /// Depth camera pose (`[camera]`), for `lmhost track`.
-    pub camera: Option<rig::CameraPose>,
+    pub camera: Option<camera::CameraPose>,
     /// Detection box (`[tracking]`), for `lmhost track`.
-    pub tracking: Option<rig::TrackBox>,
+    pub tracking: Option<camera::TrackBox>,
     /// Force calibration (`[calibration]`), applied to every simulated
     /// radiation-pressure map and force.
     pub calibration: Option<Calibration>,

@@ -7,8 +7,8 @@
 //! link boundary, like every other unit conversion.
 
 pub mod filter;
-pub mod gate;
 pub mod metrics;
+pub mod plausible;
 pub mod run;
 pub mod source;
 pub mod synthetic;

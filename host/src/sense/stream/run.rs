@@ -8,7 +8,7 @@ use lm_proto::Centroid;
 
 use super::Sample;
 use super::filter::Filter;
-use super::gate::{Gate, GateCounts};
+use super::plausible::{Plausibility, PlausibilityCounts};
 use crate::clock::monotonic_us;
 use crate::device::backend::{Backend, CentroidOutcome};
 use crate::units::mm_to_um;
@@ -58,7 +58,7 @@ pub struct StreamReport {
     /// `seq` of the last update sent.
     pub last_seq: u32,
     /// Samples the plausibility gate dropped (not sent), by reason.
-    pub rejected: GateCounts,
+    pub rejected: PlausibilityCounts,
     /// Updates the device refused as outside the slot's work volume (it
     /// mutes until the finger is back in range; the session goes on).
     pub outside_work_volume: u64,
@@ -189,7 +189,7 @@ fn pump(
     start: Instant,
 ) -> anyhow::Result<()> {
     let mut first_t: Option<f64> = None;
-    let mut gate = Gate::default();
+    let mut gate = Plausibility::default();
     let mut next_tick = Instant::now() + TICK;
     loop {
         if stop_requested() {

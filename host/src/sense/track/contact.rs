@@ -9,8 +9,8 @@
 //! multiply-adds and three comparisons. [`reference()`] is the plain
 //! full-frame f64 version it is checked against.
 
+use super::camera::CameraSetup;
 use super::intrinsics::Intrinsics;
-use super::rig::Rig;
 use crate::geom::{Vec3, add, dot, scale};
 
 /// What one frame's contact area is.
@@ -46,7 +46,7 @@ impl Roi {
 #[derive(Debug, Clone)]
 pub struct Tracker {
     intr: Intrinsics,
-    rig: Rig,
+    setup: CameraSetup,
     roi: Roi,
     /// Camera optical centre in box coordinates (mm).
     origin: Vec3,
@@ -59,10 +59,10 @@ pub struct Tracker {
 }
 
 impl Tracker {
-    /// A tracker for frames described by `intr`, seen by `rig`.
-    pub fn new(intr: Intrinsics, rig: Rig) -> Self {
-        let cam = rig.camera;
-        let b = rig.track_box;
+    /// A tracker for frames described by `intr`, seen by `setup`.
+    pub fn new(intr: Intrinsics, setup: CameraSetup) -> Self {
+        let cam = setup.camera;
+        let b = setup.track_box;
         // Box coordinates of a camera vector v: axes_box · (R_cam v).
         let to_box = |v: Vec3| -> Vec3 {
             let scene = cam
@@ -81,8 +81,8 @@ impl Tracker {
         let step_row = to_box([0.0, 1.0 / intr.fy, 0.0]);
         Self {
             intr,
-            rig,
-            roi: box_roi(&intr, &rig),
+            setup,
+            roi: box_roi(&intr, &setup),
             origin,
             ray0,
             step_col,
@@ -102,9 +102,9 @@ impl Tracker {
         &self.intr
     }
 
-    /// The rig.
-    pub fn rig(&self) -> &Rig {
-        &self.rig
+    /// The setup.
+    pub fn setup(&self) -> &CameraSetup {
+        &self.setup
     }
 
     /// Visit every point inside the box: `f(col, row, p_box)` with `p_box`
@@ -152,7 +152,7 @@ impl Tracker {
 
     /// A box-coordinate point in scene coordinates.
     pub fn box_to_scene(&self, p: Vec3) -> Vec3 {
-        let b = &self.rig.track_box;
+        let b = &self.setup.track_box;
         b.axes
             .iter()
             .zip(&p)
@@ -163,7 +163,7 @@ impl Tracker {
 /// The pixel rectangle that can see the box: the bounding rectangle of
 /// its projected corners, clipped to the frame. A corner at or behind the
 /// camera plane makes it the whole frame.
-pub fn box_roi(intr: &Intrinsics, rig: &Rig) -> Roi {
+pub fn box_roi(intr: &Intrinsics, setup: &CameraSetup) -> Roi {
     let full = Roi {
         c0: 0,
         c1: intr.width,
@@ -171,8 +171,8 @@ pub fn box_roi(intr: &Intrinsics, rig: &Rig) -> Roi {
         r1: intr.height,
     };
     let (mut umin, mut umax, mut vmin, mut vmax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for corner in rig.track_box.corners() {
-        let q = rig.camera.to_camera(corner);
+    for corner in setup.track_box.corners() {
+        let q = setup.camera.to_camera(corner);
         if q[2] <= 1e-6 {
             return full;
         }
@@ -202,7 +202,7 @@ pub fn box_roi(intr: &Intrinsics, rig: &Rig) -> Roi {
 
 /// The plain version: every pixel deprojected as the intrinsics say, moved
 /// into the scene by the camera pose, tested against the box.
-pub fn reference(intr: &Intrinsics, rig: &Rig, depth: &[u16]) -> Contact {
+pub fn reference(intr: &Intrinsics, setup: &CameraSetup, depth: &[u16]) -> Contact {
     let mut n = 0u32;
     let mut sum = [0.0; 3];
     for r in 0..intr.height {
@@ -211,10 +211,10 @@ pub fn reference(intr: &Intrinsics, rig: &Rig, depth: &[u16]) -> Contact {
             if v == 0 {
                 continue;
             }
-            let p = rig
+            let p = setup
                 .camera
                 .to_scene(intr.deproject(c, r, v as f64 * intr.mm_per_unit()));
-            if rig.track_box.contains(p) {
+            if setup.track_box.contains(p) {
                 n += 1;
                 sum = add(sum, p);
             }

@@ -2,7 +2,7 @@
 //!
 //! A depth frame ([`source`]: a `.npy` recording, the synthetic finger
 //! [`synth`], or a live camera stream) is deprojected with the camera's
-//! [`intrinsics`], moved into the scene by the camera pose ([`rig`], the
+//! [`intrinsics`], moved into the scene by the camera pose ([`setup`], the
 //! scene's `[camera]`), and the points inside the detection box (the
 //! scene's `[tracking]`) are the contact area ([`contact`]); their centroid
 //! is the LM centre. [`Pipeline`] adds presence hysteresis ([`presence`])
@@ -12,13 +12,13 @@
 //! frame. [`session`] is `lmhost track`'s whole run: a source through the
 //! pipeline, recorded, plotted, scored and streamed.
 
+pub mod camera;
 pub mod contact;
 pub mod intrinsics;
 pub mod plot;
 pub mod presence;
 pub mod report;
-pub mod rig;
-pub mod session;
+pub mod run;
 pub mod source;
 pub mod surface;
 pub mod synth;
@@ -93,7 +93,7 @@ impl Pipeline {
         let t0 = std::time::Instant::now();
         let contact = self.tracker.track(depth);
         let track_s = t0.elapsed().as_secs_f64();
-        let present = contact.points >= self.tracker.rig().track_box.min_points;
+        let present = contact.points >= self.tracker.setup().track_box.min_points;
         let gated = self.gate.update(present);
         if present {
             self.last = contact.centroid_mm;
@@ -128,7 +128,7 @@ impl Pipeline {
     }
 }
 
-/// Why no frame can ever find a finger with this rig, if so: a camera
+/// Why no frame can ever find a finger with this setup, if so: a camera
 /// that cannot see the tracking box (too far, facing away, the box off the
 /// frame), a `min_points` above the box's pixel count, or a `depth_scale`
 /// whose deepest value lies short of the box. `lmhost track` warns with it
@@ -136,7 +136,7 @@ impl Pipeline {
 /// never the answer to a wrong setup.
 pub fn check_rig(tracker: &contact::Tracker) -> Result<(), crate::InputError> {
     let intr = tracker.intrinsics();
-    let rig = tracker.rig();
+    let setup = tracker.setup();
     let pixels = tracker.roi().pixels();
     if pixels == 0 {
         return Err(crate::InputError::new(format!(
@@ -144,17 +144,17 @@ pub fn check_rig(tracker: &contact::Tracker) -> Result<(), crate::InputError> {
             intr.width, intr.height
         )));
     }
-    let min_points = rig.track_box.min_points as usize;
+    let min_points = setup.track_box.min_points as usize;
     if min_points > pixels {
         return Err(crate::InputError::new(format!(
             "[tracking] min_points {min_points} exceeds the {pixels} pixels the box covers in the frame: no frame can have a contact area; lower min_points"
         )));
     }
-    let nearest_mm = rig
+    let nearest_mm = setup
         .track_box
         .corners()
         .iter()
-        .map(|c| rig.camera.to_camera(*c)[2])
+        .map(|c| setup.camera.to_camera(*c)[2])
         .fold(f64::INFINITY, f64::min);
     let deepest_mm = f64::from(u16::MAX) * intr.depth_scale * 1000.0;
     if deepest_mm < nearest_mm {

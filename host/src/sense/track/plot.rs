@@ -70,7 +70,7 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
             .map_err(|e| err(e.to_string()))?;
         }
         let to_px = |p: Vec3| -> Option<(i32, i32)> {
-            let q = tracker.rig().camera.to_camera(p);
+            let q = tracker.setup().camera.to_camera(p);
             (q[2] > 1e-6).then(|| {
                 let [u, v] = intr.project(q);
                 (
@@ -79,7 +79,7 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
                 )
             })
         };
-        let corners = tracker.rig().track_box.corners();
+        let corners = tracker.setup().track_box.corners();
         for i in 0..8usize {
             for k in 0..3 {
                 let j = i ^ (1 << k);

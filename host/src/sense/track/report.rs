@@ -2,10 +2,10 @@
 //! lag it reports, and the timed frame the `track` bench section
 //! ([`crate::lab::bench`]) and the criterion bench share.
 
+use super::camera::CameraSetup;
 use super::contact::Tracker;
 use super::intrinsics::Intrinsics;
 use super::presence::Hysteresis;
-use super::rig::Rig;
 use super::synth::{FingerSim, background_of};
 use super::{FrameResult, Pipeline};
 use crate::plan::scene::Scene;
@@ -13,21 +13,21 @@ use crate::sense::stream::Sample;
 use crate::sense::stream::filter::FilterKind;
 
 /// The paper's scene if it is found beside the binary's sources, else the
-/// built-in one with a derived rig.
-fn bench_rig() -> (Scene, Rig) {
+/// built-in one with a derived setup.
+fn bench_setup() -> (Scene, CameraSetup) {
     let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
     let scene = Scene::load(&p).unwrap_or_default();
-    let rig = Rig::of_scene_or_default(&scene);
-    (scene, rig)
+    let setup = CameraSetup::of_scene_or_default(&scene);
+    (scene, setup)
 }
 
 /// One 848 × 480 frame with the finger resting on the marker (noise 0.5 mm,
 /// 2 % holes), its tracker and its synthetic finger.
 pub fn bench_frame() -> (Tracker, Vec<u16>, FingerSim) {
-    let (scene, rig) = bench_rig();
+    let (scene, setup) = bench_setup();
     let intr = Intrinsics::D435_848X480;
-    let tracker = Tracker::new(intr, rig);
-    let sim = FingerSim::new(rig, intr, background_of(&scene));
+    let tracker = Tracker::new(intr, setup);
+    let sim = FingerSim::new(setup, intr, background_of(&scene));
     let mut f = Vec::new();
     sim.render(180, &tracker, &mut f);
     (tracker, f, sim)
@@ -59,12 +59,12 @@ impl DepthFeed {
     /// starts resting on the marker, so the finger leaves after ≈ 0.38 ×
     /// `seconds` and is back after ≈ 0.54 × `seconds`.
     pub fn new(scene: &Scene, filter: FilterKind, seconds: f64) -> Self {
-        let rig = Rig::of_scene_or_default(scene);
+        let setup = CameraSetup::of_scene_or_default(scene);
         let intr = Intrinsics::D435_848X480;
-        let mut sim = FingerSim::new(rig, intr, background_of(scene));
+        let mut sim = FingerSim::new(setup, intr, background_of(scene));
         sim.period_s = 0.6 * seconds;
         sim.phase_s = 1.0;
-        let tracker = Tracker::new(intr, rig);
+        let tracker = Tracker::new(intr, setup);
         let mut pipe = Pipeline::new(tracker, Hysteresis::default(), filter.build());
         // The finger is already on the marker when the demo starts: open the
         // gate on frame 0 seen just before.

@@ -311,7 +311,7 @@ impl Synthetic {
     /// `seconds` of the synthetic finger.
     pub fn new(sim: FingerSim, seconds: f64) -> Self {
         Self {
-            tracker: Tracker::new(sim.intr, sim.rig),
+            tracker: Tracker::new(sim.intr, sim.setup),
             frames: (seconds * sim.rate_hz).round() as u64,
             sim,
             index: 0,

@@ -158,7 +158,7 @@ pub fn compare(
     steps: usize,
     threshold_mm: f64,
 ) -> SurfaceComparison {
-    let tracker = Tracker::new(sim.intr, sim.rig);
+    let tracker = Tracker::new(sim.intr, sim.setup);
     let mut frame = Vec::new();
     let mut replan = Replanner::new(threshold_mm);
     let (mut e_flat, mut e_replan, mut e_frame, mut n, mut frames) = (0.0, 0.0, 0.0, 0u64, 0u64);
@@ -170,7 +170,7 @@ pub fn compare(
         };
         let c = tracker.track(&frame);
         let Some(cen) = c.centroid_mm else { continue };
-        let b = &sim.rig.track_box;
+        let b = &sim.setup.track_box;
         let rel = crate::geom::sub(cen, b.center_mm);
         let ab = [
             crate::geom::dot(b.axes[0], rel),
@@ -244,7 +244,7 @@ mod tests {
             "/../scenes/paper.toml"
         )))
         .unwrap();
-        let rig = super::super::rig::Rig::of_scene(&scene).unwrap();
+        let setup = super::super::camera::CameraSetup::of_scene(&scene).unwrap();
         let mut intr = super::super::intrinsics::Intrinsics::D435_848X480;
         // A half-size frame keeps the debug-build test quick.
         intr.width = 424;
@@ -253,7 +253,7 @@ mod tests {
         intr.fy /= 2.0;
         intr.ppx = 211.5;
         intr.ppy = 119.5;
-        let sim = FingerSim::new(rig, intr, super::super::synth::background_of(&scene));
+        let sim = FingerSim::new(setup, intr, super::super::synth::background_of(&scene));
         let c = compare(&sim, 2.5, 3.0, 16, 0.3);
         eprintln!("{c:?}");
         assert!(c.frames > 50, "{c:?}");

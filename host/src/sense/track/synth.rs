@@ -1,6 +1,6 @@
 //! The synthetic finger: depth frames of a fingertip approaching the
 //! marker, resting on it with tremor, sliding, resting, and leaving, seen by
-//! the rig's camera, with sensor noise and holes, and the ground truth.
+//! the setup's camera, with sensor noise and holes, and the ground truth.
 //!
 //! The fingertip is an ellipsoid (semi-axes 8 × 12 × 7 mm along the box's
 //! a, b, c axes: a finger pad 16 mm wide) whose lowest point along −c is
@@ -15,9 +15,9 @@
 //! tremor (≈ 0.1 mm at 8–11 Hz) to 2.5 s, slide ±2.5 mm along a to 4 s,
 //! rest to 4.8 s, leave by 5.6 s, away to 6 s.
 
+use super::camera::CameraSetup;
 use super::contact::{Contact, Roi, Tracker};
 use super::intrinsics::Intrinsics;
-use super::rig::Rig;
 use crate::geom::{Vec3, add, dot, scale, sub};
 use crate::rng::SplitMix64;
 
@@ -28,7 +28,7 @@ pub const PERIOD_S: f64 = 6.0;
 #[derive(Debug, Clone, Copy)]
 pub struct FingerSim {
     /// Camera and box.
-    pub rig: Rig,
+    pub setup: CameraSetup,
     /// Frame format.
     pub intr: Intrinsics,
     /// Frame rate (Hz).
@@ -69,9 +69,9 @@ pub struct Truth {
 
 impl FingerSim {
     /// The paper's finger with default noise (0.5 mm) and 2 % holes.
-    pub fn new(rig: Rig, intr: Intrinsics, background: Option<(Vec3, Vec3)>) -> Self {
+    pub fn new(setup: CameraSetup, intr: Intrinsics, background: Option<(Vec3, Vec3)>) -> Self {
         Self {
-            rig,
+            setup,
             intr,
             rate_hz: 90.0,
             noise_mm: 0.5,
@@ -90,7 +90,7 @@ impl FingerSim {
     /// The pad tip in box coordinates at `t_s`, `None` while away.
     pub fn tip_box(&self, t_s: f64) -> Option<Vec3> {
         let t = (t_s / self.period_s * PERIOD_S + self.phase_s).rem_euclid(PERIOD_S);
-        let face = self.rig.track_box.size_mm[2] / 2.0;
+        let face = self.setup.track_box.size_mm[2] / 2.0;
         let rest = face - self.rest_depth_mm;
         let out = face + 15.0;
         let smooth = |x: f64| {
@@ -116,7 +116,7 @@ impl FingerSim {
 
     /// The pad tip in scene coordinates at `t_s`.
     pub fn tip_mm(&self, t_s: f64) -> Option<Vec3> {
-        let b = &self.rig.track_box;
+        let b = &self.setup.track_box;
         self.tip_box(t_s).map(|p| {
             b.axes
                 .iter()
@@ -135,7 +135,7 @@ impl FingerSim {
         let truth = Truth {
             tip_mm: tip,
             contact,
-            present: contact.points >= self.rig.track_box.min_points,
+            present: contact.points >= self.setup.track_box.min_points,
         };
         let mut rng = SplitMix64::new(self.seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let mpu = self.intr.mm_per_unit();
@@ -165,8 +165,8 @@ impl FingerSim {
     /// (all linear in c and r), so the hit parameter is the camera depth Z.
     pub fn render_clean(&self, tip: Option<Vec3>, out: &mut Vec<u16>) {
         let intr = &self.intr;
-        let cam = &self.rig.camera;
-        let b = &self.rig.track_box;
+        let cam = &self.setup.camera;
+        let b = &self.setup.track_box;
         out.clear();
         out.resize(intr.width as usize * intr.height as usize, 0);
         let mpu = intr.mm_per_unit();

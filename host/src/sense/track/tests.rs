@@ -1,9 +1,9 @@
 //! Hard cases and accuracy of the tracker on the synthetic finger.
 
+use super::camera::CameraSetup;
 use super::contact::{Tracker, reference};
 use super::intrinsics::Intrinsics;
 use super::presence::Hysteresis;
-use super::rig::Rig;
 use super::source::{FrameSource, Replay};
 use super::synth::{FingerSim, background_of};
 use super::{FrameResult, Pipeline};
@@ -20,21 +20,21 @@ fn paper() -> Scene {
     .unwrap()
 }
 
-fn setup() -> (Scene, Rig, Intrinsics, Tracker) {
+fn setup() -> (Scene, CameraSetup, Intrinsics, Tracker) {
     let scene = paper();
-    let rig = Rig::of_scene(&scene).unwrap();
+    let setup = CameraSetup::of_scene(&scene).unwrap();
     let intr = Intrinsics::D435_848X480;
-    (scene, rig, intr, Tracker::new(intr, rig))
+    (scene, setup, intr, Tracker::new(intr, setup))
 }
 
 /// [`setup`] with the synthetic finger over the scene's background.
-fn setup_sim() -> (Rig, Intrinsics, Tracker, FingerSim) {
-    let (scene, rig, intr, tr) = setup();
+fn setup_sim() -> (CameraSetup, Intrinsics, Tracker, FingerSim) {
+    let (scene, setup, intr, tr) = setup();
     (
-        rig,
+        setup,
         intr,
         tr,
-        FingerSim::new(rig, intr, background_of(&scene)),
+        FingerSim::new(setup, intr, background_of(&scene)),
     )
 }
 
@@ -57,7 +57,7 @@ fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
 
 #[test]
 fn fast_path_matches_the_full_frame_reference() {
-    let (rig, intr, tr, sim) = setup_sim();
+    let (setup, intr, tr, sim) = setup_sim();
     let mut rng = SplitMix64::new(7);
     for t in [0.5, 1.0, 3.0, 3.3] {
         let mut f = frame_at(&sim, t);
@@ -69,7 +69,7 @@ fn fast_path_matches_the_full_frame_reference() {
             }
         }
         let fast = tr.track(&f);
-        let slow = reference(&intr, &rig, &f);
+        let slow = reference(&intr, &setup, &f);
         assert_eq!(fast.points, slow.points, "t {t}");
         if let (Some(a), Some(b)) = (fast.centroid_mm, slow.centroid_mm) {
             assert!(close(a, b, 1e-9), "{a:?} {b:?}");
@@ -92,11 +92,11 @@ fn empty_box() {
 /// Every pixel at `depth`: tracked by the fast path and the reference,
 /// both must find nothing in the box.
 fn uniform_frame_is_empty(depth: u16) {
-    let (_, rig, intr, tr) = setup();
+    let (_, setup, intr, tr) = setup();
     let f = vec![depth; (intr.width * intr.height) as usize];
     let c = tr.track(&f);
     assert_eq!((c.points, c.centroid_mm), (0, None), "depth {depth}");
-    assert_eq!(reference(&intr, &rig, &f).points, 0, "depth {depth}");
+    assert_eq!(reference(&intr, &setup, &f).points, 0, "depth {depth}");
 }
 
 #[test]
@@ -112,8 +112,8 @@ fn saturated_depth_65535() {
 
 #[test]
 fn finger_at_the_box_edge() {
-    let (rig, intr, tr, sim) = setup_sim();
-    let tb = rig.track_box;
+    let (setup, intr, tr, sim) = setup_sim();
+    let tb = setup.track_box;
     // Tip 5 mm off along a: half the pad is outside the box's side.
     let centre = sim.tip_mm(2.0).unwrap();
     let edge = add(centre, scale(tb.axes[0], 5.0));
@@ -130,13 +130,13 @@ fn finger_at_the_box_edge() {
     assert!(tb.contains(c), "centroid inside the box");
     let along = crate::geom::dot(tb.axes[0], crate::geom::sub(c, tb.center_mm));
     assert!(along > 1.0, "centroid moves towards the edge: {along}");
-    let r = reference(&intr, &rig, &f);
+    let r = reference(&intr, &setup, &f);
     assert_eq!(r.points, half.points);
 }
 
 #[test]
 fn holes_95_percent() {
-    let (rig, _, tr, mut sim) = setup_sim();
+    let (setup, _, tr, mut sim) = setup_sim();
     sim.holes = 0.95;
     sim.noise_mm = 0.5;
     let mut f = Vec::new();
@@ -146,9 +146,9 @@ fn holes_95_percent() {
     // About 5 % of the area survives: under min_points, so not present,
     // but the centroid of what is left is still defined and in the box.
     assert!(c.points < truth.contact.points / 5, "{c:?}");
-    assert!(c.points < rig.track_box.min_points);
+    assert!(c.points < setup.track_box.min_points);
     if let Some(p) = c.centroid_mm {
-        assert!(rig.track_box.contains(p));
+        assert!(setup.track_box.contains(p));
     }
     let mut pipe = Pipeline::new(
         tr.clone(),
@@ -161,10 +161,10 @@ fn holes_95_percent() {
 
 #[test]
 fn a_second_object_in_the_box() {
-    let (rig, intr, tr, mut sim) = setup_sim();
+    let (setup, intr, tr, mut sim) = setup_sim();
     let finger = tr.track(&frame_at(&sim, 2.0));
     // A 3 mm ball near the box's far corner, inside the box.
-    let tb = rig.track_box;
+    let tb = setup.track_box;
     let mut at = tb.center_mm;
     for (k, s) in [(0, -3.5), (1, -3.0), (2, -6.0)] {
         at = add(at, scale(tb.axes[k], s));
@@ -175,7 +175,7 @@ fn a_second_object_in_the_box() {
     // Defined result: the centroid of everything in the box (the paper's
     // method), pulled towards the second object.
     assert!(both.points > finger.points, "{both:?} {finger:?}");
-    let r = reference(&intr, &rig, &f);
+    let r = reference(&intr, &setup, &f);
     assert_eq!(r.points, both.points);
     assert!(close(
         r.centroid_mm.unwrap(),
@@ -308,7 +308,7 @@ fn accuracy_on_the_synthetic_finger_at_half_a_millimetre_of_noise() {
 
 #[test]
 fn one_noisy_frame_neither_mutes_nor_unmutes() {
-    let (rig, intr, tr, sim) = setup_sim();
+    let (setup, intr, tr, sim) = setup_sim();
     let on = frame_at(&sim, 2.0);
     let off = vec![0u16; on.len()];
     let mut pipe = Pipeline::new(tr, Hysteresis::default(), FilterKind::Gaussian.build());
@@ -323,7 +323,7 @@ fn one_noisy_frame_neither_mutes_nor_unmutes() {
         [false, false, false, false, true, true, true, true, false]
     );
     let mut pipe2 = Pipeline::new(
-        Tracker::new(intr, rig),
+        Tracker::new(intr, setup),
         Hysteresis::default(),
         FilterKind::Gaussian.build(),
     );

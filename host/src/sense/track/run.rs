@@ -4,8 +4,8 @@
 //! for the finger surface's depth profile and streamed to a device, which
 //! re-plans its circle when that profile moves.
 //!
-//! [`Session::open`] checks the [`Options`] and opens the source (a bad
-//! option is an [`InputError`] naming its flag); [`Session::run`] tracks
+//! [`TrackRun::open`] checks the [`Options`] and opens the source (a bad
+//! option is an [`InputError`] naming its flag); [`TrackRun::run`] tracks
 //! until the source ends or a stop is requested ([`crate::stop`]), hands
 //! every output line to the caller as it comes and returns the [`Report`].
 //! The session prints nothing itself: the caller prints the lines, the
@@ -18,10 +18,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 
+use super::camera::CameraSetup;
 use super::contact::Tracker;
 use super::intrinsics::Intrinsics;
 use super::presence::Hysteresis;
-use super::rig::Rig;
 use super::source::{self, Frame, FrameSource, Recorder};
 use super::surface::Replanner;
 use super::synth::{FingerSim, background_of};
@@ -42,7 +42,7 @@ use crate::sense::stream::run::{Feed, Next, Pace, StreamReport, stream};
 #[derive(Debug, Clone)]
 pub struct Options {
     /// Scene with `[camera]` and `[tracking]` (needed but for the
-    /// synthetic finger, which falls back to a rig about its centre).
+    /// synthetic finger, which falls back to a setup about its centre).
     pub scene: Option<PathBuf>,
     /// Source: recorded depth frames (`.npy`, uint16, frames × height ×
     /// width).
@@ -88,7 +88,7 @@ pub struct Options {
     pub enter_frames: u32,
     /// Consecutive frames without one that close it, 1..=90.
     pub leave_frames: u32,
-    /// The centres go to a device given to [`Session::run`]: the default
+    /// The centres go to a device given to [`TrackRun::run`]: the default
     /// filter is gaussian, frames are not paced and every line shows the
     /// gated, filtered centre.
     pub device: bool,
@@ -119,8 +119,8 @@ pub struct Report {
     pub summary: Vec<String>,
 }
 
-/// An opened session: [`Session::run`] it.
-pub struct Session {
+/// An opened `lmhost track` run: [`TrackRun::run`] it.
+pub struct TrackRun {
     opts: Options,
     scene: Scene,
     intr: Intrinsics,
@@ -136,7 +136,7 @@ pub struct Session {
     started: Instant,
 }
 
-impl Session {
+impl TrackRun {
     /// Checks `opts`, loads the scene and opens the source, the recording
     /// and the plot directory. From here on Ctrl-C / SIGTERM end the
     /// session cleanly ([`crate::stop::graceful`]), and the run's time
@@ -157,14 +157,14 @@ impl Session {
         // Every source ends on Ctrl-C / SIGTERM: the recording is finished,
         // the device muted and the report printed.
         crate::stop::graceful();
-        let (src, rig) = open_source(&opts, &scene)?;
+        let (src, setup) = open_source(&opts, &scene)?;
         let intr = src.intrinsics();
         let filter = opts.filter.unwrap_or(if opts.device {
             FilterKind::Gaussian
         } else {
             FilterKind::None
         });
-        let tracker = Tracker::new(intr, rig);
+        let tracker = Tracker::new(intr, setup);
         let hopeless = super::check_rig(&tracker).err();
         let pipe = Pipeline::new(
             tracker,
@@ -184,7 +184,7 @@ impl Session {
         };
         let live = src.live();
         let replanner = match (&z_profile, opts.replan) {
-            (Some(_), true) => Some(DeviceReplan::new(&scene, &rig)?),
+            (Some(_), true) => Some(DeviceReplan::new(&scene, &setup)?),
             _ => None,
         };
         let run = Run {
@@ -222,7 +222,7 @@ impl Session {
 
     /// The gated centre of every frame as a finger sample, paced like the
     /// source (a replay at its recorded speed unless `fast`), until the
-    /// source ends or a stop is requested: the finger source of the rig
+    /// source ends or a stop is requested: the finger source of the session
     /// session. Nothing is printed.
     pub fn samples(mut self) -> impl Iterator<Item = anyhow::Result<Sample>> {
         let mut done = false;
@@ -452,8 +452,11 @@ fn parse_z_profile(spec: &str, replan_mm: f64) -> anyhow::Result<(f64, usize, Re
     Ok((r, n, Replanner::new(replan_mm)))
 }
 
-/// The source `opts` name (exactly one) and the rig it is seen with.
-fn open_source(opts: &Options, scene: &Scene) -> anyhow::Result<(Box<dyn FrameSource>, Rig)> {
+/// The source `opts` name (exactly one) and the setup it is seen with.
+fn open_source(
+    opts: &Options,
+    scene: &Scene,
+) -> anyhow::Result<(Box<dyn FrameSource>, CameraSetup)> {
     let picked = [
         opts.depth.is_some(),
         opts.synthetic,
@@ -496,8 +499,8 @@ fn open_source(opts: &Options, scene: &Scene) -> anyhow::Result<(Box<dyn FrameSo
             Some(p) => Intrinsics::load(p)?,
             None => Intrinsics::D435_848X480,
         };
-        let rig = Rig::of_scene_or_default(scene);
-        let mut sim = FingerSim::new(rig, intr, background_of(scene));
+        let setup = CameraSetup::of_scene_or_default(scene);
+        let mut sim = FingerSim::new(setup, intr, background_of(scene));
         sim.noise_mm = noise_mm;
         sim.holes = holes;
         if (seconds * sim.rate_hz).round() < 1.0 {
@@ -508,16 +511,16 @@ fn open_source(opts: &Options, scene: &Scene) -> anyhow::Result<(Box<dyn FrameSo
                 show(0.5 / sim.rate_hz)
             );
         }
-        return Ok((Box::new(source::Synthetic::new(sim, seconds)), rig));
+        return Ok((Box::new(source::Synthetic::new(sim, seconds)), setup));
     }
-    let rig = Rig::of_scene(scene)?;
+    let setup = CameraSetup::of_scene(scene)?;
     if let Some(d) = &opts.depth {
         let r = source::Replay::open_with_defaults(
             d,
             opts.intrinsics.as_deref(),
             opts.timestamps.as_deref(),
         )?;
-        return Ok((Box::new(r), rig));
+        return Ok((Box::new(r), setup));
     }
     // Live streams are read on their own thread (the device's
     // housekeeping goes on while no frame arrives) and held to the
@@ -548,7 +551,7 @@ fn open_source(opts: &Options, scene: &Scene) -> anyhow::Result<(Box<dyn FrameSo
         let got = src.intrinsics();
         given.check_frames(got.width, got.height, "the stream")?;
     }
-    Ok((src, rig))
+    Ok((src, setup))
 }
 
 /// Per-run counters.
@@ -696,7 +699,7 @@ impl Run {
     fn z_profile(&mut self, frame: &Frame, r: &FrameResult) -> Option<(Vec<f64>, bool)> {
         let (radius, steps, replan) = self.z_profile.as_mut()?;
         let c = r.centroid_mm()?;
-        let tb = &self.pipe.tracker.rig().track_box;
+        let tb = &self.pipe.tracker.setup().track_box;
         let rel = geom::sub(c, tb.center_mm);
         let ab = [geom::dot(tb.axes[0], rel), geom::dot(tb.axes[1], rel)];
         let prof = super::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
@@ -800,8 +803,8 @@ struct DeviceReplan {
 impl DeviceReplan {
     /// The surface profile is sampled on the tracking box's a–b circle, so
     /// the box must lie in the LM plane (axes parallel within 1°).
-    fn new(scene: &Scene, rig: &Rig) -> anyhow::Result<Self> {
-        let b = &rig.track_box;
+    fn new(scene: &Scene, setup: &CameraSetup) -> anyhow::Result<Self> {
+        let b = &setup.track_box;
         let pl = &scene.lm_plane;
         let cos1 = 1f64.to_radians().cos();
         let aligned =
@@ -906,7 +909,7 @@ mod tests {
     #[test]
     fn a_synthetic_session_prints_a_line_per_frame_and_scores_the_truth() {
         let mut lines = Vec::new();
-        let report = Session::open(synthetic(true))
+        let report = TrackRun::open(synthetic(true))
             .unwrap()
             .run(None, &mut |l: &str| {
                 lines.push(l.to_owned());
@@ -930,12 +933,12 @@ mod tests {
     fn bad_options_are_input_errors_naming_the_flag() {
         let mut o = synthetic(false);
         o.enter_frames = 0;
-        let e = Session::open(o).err().unwrap();
+        let e = TrackRun::open(o).err().unwrap();
         assert!(e.downcast_ref::<InputError>().is_some());
         assert_eq!(e.to_string(), "--enter-frames 0 must be between 1 and 90");
         let mut o = synthetic(false);
         o.z_profile = Some("3".into());
-        let e = Session::open(o).err().unwrap().to_string();
+        let e = TrackRun::open(o).err().unwrap().to_string();
         assert!(
             e.starts_with("--z-profile `3` must be RADIUS_MM,STEPS"),
             "{e}"

@@ -1,4 +1,4 @@
-//! Plausibility gate in front of the filters: a tracker sample that cannot
+//! The plausibility check in front of the filters: a tracker sample that cannot
 //! be a finger is dropped and counted, never filtered or sent.
 //!
 //! Rules (the paper drops outliers too), limits in [`crate::limits`]:
@@ -29,7 +29,7 @@ pub enum Reject {
 
 /// Counts of dropped samples, by reason.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-pub struct GateCounts {
+pub struct PlausibilityCounts {
     /// Time stamps going backwards.
     pub out_of_order: u64,
     /// Coordinates beyond ±`MAX_CENTROID_MM`.
@@ -38,7 +38,7 @@ pub struct GateCounts {
     pub jumps: u64,
 }
 
-impl GateCounts {
+impl PlausibilityCounts {
     /// All dropped samples.
     pub fn total(&self) -> u64 {
         self.out_of_order + self.out_of_range + self.jumps
@@ -47,19 +47,19 @@ impl GateCounts {
 
 /// The gate's state: the last accepted sample and the current run of jumps.
 #[derive(Debug, Clone, Default)]
-pub struct Gate {
+pub struct Plausibility {
     last_t_s: Option<f64>,
     last_pos_mm: Option<[f64; 3]>,
     jump_run: Vec<[f64; 3]>,
     /// What was dropped so far.
-    pub counts: GateCounts,
+    pub counts: PlausibilityCounts,
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-impl Gate {
+impl Plausibility {
     /// Checks `s`; `Ok` means it may go to the filter.
     pub fn check(&mut self, s: &Sample) -> Result<(), Reject> {
         let r = self.judge(s);
@@ -129,7 +129,7 @@ mod tests {
 
     #[test]
     fn drops_out_of_order_out_of_range_and_single_jumps() {
-        let mut g = Gate::default();
+        let mut g = Plausibility::default();
         assert_eq!(g.check(&at(1.0, 0.0)), Ok(()));
         assert_eq!(g.check(&at(-1e300, 0.0)), Err(Reject::OutOfOrder));
         assert_eq!(g.check(&at(1.1, 1e30)), Err(Reject::OutOfRange));
@@ -137,7 +137,7 @@ mod tests {
         assert_eq!(g.check(&at(1.3, 1.0)), Ok(()));
         assert_eq!(
             g.counts,
-            GateCounts {
+            PlausibilityCounts {
                 out_of_order: 1,
                 out_of_range: 1,
                 jumps: 1
@@ -148,7 +148,7 @@ mod tests {
 
     #[test]
     fn a_real_move_is_followed_after_three_agreeing_jumps() {
-        let mut g = Gate::default();
+        let mut g = Plausibility::default();
         assert_eq!(g.check(&at(0.0, 0.0)), Ok(()));
         assert_eq!(g.check(&at(0.1, 100.0)), Err(Reject::Jump));
         assert_eq!(g.check(&at(0.2, 101.0)), Err(Reject::Jump));
@@ -162,7 +162,7 @@ mod tests {
 
     #[test]
     fn absent_samples_only_need_their_time_stamp() {
-        let mut g = Gate::default();
+        let mut g = Plausibility::default();
         let gone = Sample {
             t_s: 0.0,
             pos_mm: [1e300, 0.0, 0.0],

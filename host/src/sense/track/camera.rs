@@ -1,31 +1,31 @@
 //! The depth camera and the detection box of a scene, together: the
-//! scene's own `[camera]` and `[tracking]` ([`crate::plan::scene::rig`]), or a
-//! rig derived from its LM plane.
+//! scene's own `[camera]` and `[tracking]` ([`crate::plan::scene::camera`]), or a
+//! setup derived from its LM plane.
 
 use serde::Serialize;
 
 use crate::geom::{cross, scale, sub};
 use crate::plan::scene::Scene;
-pub use crate::plan::scene::rig::{CameraPose, TrackBox};
+pub use crate::plan::scene::camera::{CameraPose, TrackBox};
 
 /// The depth camera and the detection box of a scene.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Rig {
+pub struct CameraSetup {
     /// Camera pose.
     pub camera: CameraPose,
     /// Detection box.
     pub track_box: TrackBox,
 }
 
-/// Default `min_points` when a rig is derived: a 1 × 1 cm pad seen at
+/// Default `min_points` when a setup is derived: a 1 × 1 cm pad seen at
 /// ≈ 0.5 mm per pixel covers hundreds of pixels; 20 rejects specks.
 pub const DEFAULT_MIN_POINTS: u32 = 20;
 
-impl Rig {
-    /// The scene's rig, or an error saying what is missing.
-    pub fn of_scene(scene: &Scene) -> Result<Rig, crate::InputError> {
+impl CameraSetup {
+    /// The scene's setup, or an error saying what is missing.
+    pub fn of_scene(scene: &Scene) -> Result<CameraSetup, crate::InputError> {
         match (scene.camera, scene.tracking) {
-            (Some(camera), Some(track_box)) => Ok(Rig { camera, track_box }),
+            (Some(camera), Some(track_box)) => Ok(CameraSetup { camera, track_box }),
             (None, _) => Err(crate::InputError::new(format!(
                 "scene `{}` has no [camera] section (needed to track depth frames)",
                 scene.name
@@ -37,18 +37,18 @@ impl Rig {
         }
     }
 
-    /// The scene's rig, or one derived from its LM plane and centre: the
+    /// The scene's setup, or one derived from its LM plane and centre: the
     /// paper's box (1 × 1 × 2 cm, from the marker surface at the centre to
     /// 2 cm behind it along −c, the finger coming from +c) and a camera
     /// 250 mm from the centre whose optical axis is c turned 60° towards b,
     /// so it sees the finger pad obliquely from in front of the display
     /// (the same construction as `scenes/paper.toml`).
-    pub fn of_scene_or_default(scene: &Scene) -> Rig {
+    pub fn of_scene_or_default(scene: &Scene) -> CameraSetup {
         Self::of_scene(scene).unwrap_or_else(|_| Self::derived(scene))
     }
 
-    /// The derived rig described at [`Rig::of_scene_or_default`].
-    pub fn derived(scene: &Scene) -> Rig {
+    /// The derived setup described at [`CameraSetup::of_scene_or_default`].
+    pub fn derived(scene: &Scene) -> CameraSetup {
         let p = &scene.lm_plane;
         let (a, b, c) = (p.a, p.b, p.c);
         let track_box = TrackBox {
@@ -69,7 +69,7 @@ impl Rig {
             position_mm: sub(scene.center_mm, scale(forward, 250.0)),
             axes: [x_axis, y_axis, forward],
         };
-        Rig { camera, track_box }
+        CameraSetup { camera, track_box }
     }
 }
 
@@ -77,7 +77,7 @@ impl Rig {
 mod tests {
     use super::*;
     use crate::geom::{dot, norm};
-    use crate::plan::scene::rig::frame;
+    use crate::plan::scene::camera::frame;
 
     #[test]
     fn derived_rig_is_orthonormal_and_sees_the_box() {
@@ -86,10 +86,10 @@ mod tests {
             "/../scenes/paper.toml"
         )))
         .unwrap();
-        let d = Rig::derived(&scene);
+        let d = CameraSetup::derived(&scene);
         assert!(frame(d.camera.axes, "t").is_ok());
-        // paper.toml's rig is the derived one, written out.
-        let r = Rig::of_scene(&scene).unwrap();
+        // paper.toml's setup is the derived one, written out.
+        let r = CameraSetup::of_scene(&scene).unwrap();
         for k in 0..3 {
             for i in 0..3 {
                 assert!((r.camera.axes[k][i] - d.camera.axes[k][i]).abs() < 1e-9);
