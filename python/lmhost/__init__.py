@@ -9,7 +9,7 @@ The same library as the ``lmhost`` command line, called from Python:
 * :class:`Device` opens a device by any ``--port`` form and uploads
   (``lmhost upload``);
 * :class:`Session` drives a running ``lmhost session`` over its control
-  socket (the JSON-line protocol in ``host/src/rig/PROTOCOL.md``).
+  socket (the JSON-line protocol in ``host/src/lab/session/PROTOCOL.md``).
 
 Bad input raises :class:`ValueError` with the line the CLI prints; device
 and I/O faults raise :class:`DeviceError` (an :class:`OSError`).

@@ -30,7 +30,7 @@ pub enum Disconnect {
     lmhost session --library studies/paper-library.toml --port autd3:emulator --control /tmp/lm.sock --synthetic\n  \
     echo '{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a3\",\"gate\":\"untracked\",\"on_s\":2}' | \\\n    \
     lmhost session --library studies/paper-library.toml --port autd3:emulator --control -\n\n\
-    The control protocol (JSON lines) is in host/src/rig/PROTOCOL.md.")]
+    The control protocol (JSON lines) is in host/src/lab/session/PROTOCOL.md.")]
 pub struct Args {
     /// Stimulus library (TOML, one [[stimulus]] table per entry).
     #[arg(long, value_name = "FILE")]

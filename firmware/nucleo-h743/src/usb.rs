@@ -2,7 +2,7 @@
 //! internal full-speed PHY on PA11 (D−) / PA12 (D+), through
 //! `synopsys-usb-otg`, `usb-device` and `usbd-serial`. The protocol is the
 //! same as on the ST-LINK UART; lmhost finds the board by the USB id
-//! [`VID_PID`] (`host/src/link/discover.rs`).
+//! [`VID_PID`] (`host/src/device/link/discover.rs`).
 //!
 //! USB needs an exact 48 MHz: PLL3 Q makes it from the crystal (8 MHz / 4
 //! × 240 / 10), so the port exists only when the board runs from HSE; on

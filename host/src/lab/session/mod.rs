@@ -8,7 +8,7 @@
 //! ([`Session::drain_events`]) to a log, the control socket's subscribers
 //! or a study. [`serve`](crate::lab::session::serve::serve) runs it behind a control
 //! socket (`lmhost session`); the study runner drives it in process. The
-//! protocol is specified in `host/src/rig/PROTOCOL.md`.
+//! protocol is specified in `host/src/lab/session/PROTOCOL.md`.
 //!
 //! Stimuli are planned for the device at start. Where the device has a slot
 //! per entry, every entry is uploaded before the first command (the LM

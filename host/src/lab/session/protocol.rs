@@ -1,5 +1,5 @@
 //! The session's control protocol: commands in, replies and events out,
-//! one JSON object per line (`host/src/rig/PROTOCOL.md`).
+//! one JSON object per line (`host/src/lab/session/PROTOCOL.md`).
 
 use lm_proto::MuteReason;
 use serde::{Deserialize, Serialize};

@@ -1,7 +1,7 @@
 # RealSense bridge for `lmhost track --camera`: opens the first Intel
 # RealSense D4xx with pyrealsense2 and writes its depth stream (Z16,
 # 848 x 480 at 90 fps, 100 um depth units where the sensor allows) to
-# stdout in the LMDEPTH1 format (host/src/track/source.rs):
+# stdout in the LMDEPTH1 format (host/src/sense/track/source.rs):
 #   header: b"LMDEPTH1", u32 width, u32 height, f64 fx, fy, ppx, ppy, depth_scale
 #   frame:  f64 time stamp (s), width*height u16, row-major
 # Every failure is one line on stderr and exit status 3.
