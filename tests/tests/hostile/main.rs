@@ -1,0 +1,528 @@
+//! Hostile inputs: the real `lmhost` binary against `lmhost sim`, one table
+//! of cases, each the kind of thing a tracker, a script or a typo feeds it.
+//!
+//! Every case asserts the exit code, that an error is exactly one line of
+//! stderr, that nothing `panicked`, and that the run ends within
+//! [`TIME_LIMIT`] (killed and failed otherwise). To add a case, append a
+//! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
+//! round: `cases_r1.rs`, `cases_r3.rs`, …); `{port}` is
+//! the shared simulated device, `{dir}` a scratch directory with the
+//! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`.
+//!
+//! Run with `--nocapture` to see the summary line
+//! `hostile inputs: N cases, K classes, 0 panics, 0 hangs`.
+
+#[path = "../link_support/mod.rs"]
+mod link_support;
+
+use std::collections::BTreeSet;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use link_support::{Sim, lmhost};
+
+/// Longest any case may run before it counts as a hang.
+const TIME_LIMIT: Duration = Duration::from_secs(20);
+
+/// Classes (issue 9's numbered defects and the paper audit).
+const DURATION: &str = "1 float to duration";
+const PIPE: &str = "2 broken pipe";
+const MEMORY: &str = "3 unbounded memory";
+const WORK: &str = "4 unbounded work";
+const CENTROIDS: &str = "5 wild centroids";
+const PLANS: &str = "6 silently wrong plans";
+const EXIT: &str = "7 exit codes";
+const SESSIONS: &str = "8 streaming sessions";
+const PLAY: &str = "9 play semantics";
+const SPEC: &str = "10 spec and implementation agree";
+const VALIDATION: &str = "11 one header, one validation";
+const UNTRACKED: &str = "untracked play and mute reason";
+const PAPER: &str = "paper fidelity";
+/// Classes of issue 18 (hostile input, round 3).
+const OUTPUT_ERRORS: &str = "r3-1 output errors";
+const SAME_FILE: &str = "r3-3 an output that is an input";
+const PARTIAL: &str = "r3-4 no partial outputs";
+const ODD_PATHS: &str = "r3-5 odd input paths";
+const PATH_MESSAGES: &str = "r3-11 input-path messages";
+const NUMBERS: &str = "r3-7 numbers in messages";
+const PORTS: &str = "r3-10 port strings";
+const REC_SIGNAL: &str = "r3-2 recordings survive signals";
+const STALLS: &str = "r3-6 stalls";
+const RIG: &str = "r3-8 rig sanity";
+const REFUSALS: &str = "r3-9 device refusals said";
+/// One behaviour on every backend: stimulus flags and files.
+const STIMULI: &str = "r4 stimulus flags and files";
+
+/// Every class the suite must cover.
+const CLASSES: [&str; 25] = [
+    DURATION,
+    PIPE,
+    MEMORY,
+    WORK,
+    CENTROIDS,
+    PLANS,
+    EXIT,
+    SESSIONS,
+    PLAY,
+    SPEC,
+    VALIDATION,
+    UNTRACKED,
+    PAPER,
+    OUTPUT_ERRORS,
+    SAME_FILE,
+    PARTIAL,
+    ODD_PATHS,
+    PATH_MESSAGES,
+    NUMBERS,
+    PORTS,
+    REC_SIGNAL,
+    STALLS,
+    RIG,
+    REFUSALS,
+    STIMULI,
+];
+
+/// What a run produced, for custom checks.
+struct Run {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+/// Where the fixtures and the devices are.
+struct Ctx {
+    port: String,
+    /// A device of its own for the play-state cases (`{dev}`), run in order.
+    dev: String,
+    /// A device with a 10-minute centroid timeout for the work-volume
+    /// cases (`{wv}`), so a status right after a stream is not stale.
+    wv: String,
+    /// A device whose slots hold 10 steps (`{small}`).
+    small: String,
+    dir: PathBuf,
+    scenes: PathBuf,
+    /// A small full-able tmpfs (`{full}`), when the tests run as root.
+    full: Option<PathBuf>,
+    /// A device another lmhost holds open for the whole suite (`{busy}`).
+    busy: String,
+}
+
+type Check = fn(&Ctx, &Run) -> Result<(), String>;
+
+/// One hostile input and what must happen.
+#[derive(Clone)]
+struct Case {
+    class: &'static str,
+    args: Vec<String>,
+    stdin: Vec<u8>,
+    /// Keep stdin open (a live tracker) until the case ends.
+    hold_stdin: bool,
+    code: i32,
+    stderr_has: Vec<String>,
+    stdout_has: Vec<String>,
+    /// Close our end of stdout at once (a reader that went away).
+    close_stdout: bool,
+    /// Datagrams sent to 127.0.0.1:port after the command started.
+    udp: Option<(u16, Vec<Vec<u8>>)>,
+    /// Send this signal after this many ms.
+    signal: Option<(&'static str, u64)>,
+    /// A command run after this one, whose stdout must contain the text.
+    then: Option<(Vec<String>, String)>,
+    check: Option<Check>,
+    /// Send stdout / stderr to this file instead of a pipe (`/dev/full`).
+    stdout_to: Option<String>,
+    stderr_to: Option<String>,
+    /// Environment variables set for the run (values expanded).
+    env: Vec<(String, String)>,
+}
+
+fn words(args: &str) -> Vec<String> {
+    args.split_whitespace().map(str::to_owned).collect()
+}
+
+/// A case in `class` running `lmhost args` (split on whitespace); by
+/// default it must exit 2.
+fn case(class: &'static str, args: &str) -> Case {
+    Case {
+        class,
+        args: words(args),
+        stdin: Vec::new(),
+        hold_stdin: false,
+        code: 2,
+        stderr_has: Vec::new(),
+        stdout_has: Vec::new(),
+        close_stdout: false,
+        udp: None,
+        signal: None,
+        then: None,
+        check: None,
+        stdout_to: None,
+        stderr_to: None,
+        env: Vec::new(),
+    }
+}
+
+impl Case {
+    fn code(mut self, c: i32) -> Self {
+        self.code = c;
+        self
+    }
+    fn ok(self) -> Self {
+        self.code(0)
+    }
+    fn err(mut self, s: &str) -> Self {
+        self.stderr_has.push(s.to_owned());
+        self
+    }
+    fn out(mut self, s: &str) -> Self {
+        self.stdout_has.push(s.to_owned());
+        self
+    }
+    fn stdin(mut self, b: impl AsRef<[u8]>) -> Self {
+        self.stdin = b.as_ref().to_vec();
+        self
+    }
+    fn hold_stdin(mut self) -> Self {
+        self.hold_stdin = true;
+        self
+    }
+    /// More arguments, split on whitespace.
+    fn args(mut self, more: &str) -> Self {
+        self.args.extend(words(more));
+        self
+    }
+    /// `track` over the depth fixture `npy` with intrinsics `cam`.
+    fn depth(self, npy: &str, cam: &str) -> Self {
+        self.args(&format!(
+            "--depth {{dir}}/{npy} --intrinsics {{dir}}/{cam} --scene {{scenes}}/paper.toml --fast"
+        ))
+    }
+    fn closed_stdout(mut self) -> Self {
+        self.close_stdout = true;
+        self.code = 0;
+        self
+    }
+    fn udp(mut self, port: u16, datagrams: Vec<Vec<u8>>) -> Self {
+        self.udp = Some((port, datagrams));
+        self
+    }
+    fn signal(mut self, sig: &'static str, after_ms: u64) -> Self {
+        self.signal = Some((sig, after_ms));
+        self
+    }
+    fn then(mut self, args: &str, want: &str) -> Self {
+        self.then = Some((words(args), want.to_owned()));
+        self
+    }
+    fn check(mut self, f: Check) -> Self {
+        self.check = Some(f);
+        self
+    }
+    fn env(mut self, k: &str, v: &str) -> Self {
+        self.env.push((k.to_owned(), v.to_owned()));
+        self
+    }
+    /// Stdout to `/dev/full`: a failed write is one line and exit 1.
+    fn full_stdout(mut self) -> Self {
+        self.stdout_to = Some("/dev/full".to_owned());
+        self.code(1)
+            .err("cannot write to standard output: no space left on device")
+    }
+    /// Stderr to `/dev/full`: the exit code alone tells, and no panic.
+    fn full_stderr(mut self) -> Self {
+        self.stderr_to = Some("/dev/full".to_owned());
+        self
+    }
+}
+
+/// The case table, one case a row: `CLASS "args" .expectation(..)…;`
+/// stands for `case(CLASS, "args").expectation(..)…`.
+macro_rules! table {
+    ($($class:ident $args:literal $(.$m:ident($($a:expr),*))*;)*) => {
+        vec![$(case($class, $args)$(.$m($($a),*))*),*]
+    };
+}
+
+fn csv(lines: &[&str]) -> String {
+    lines.iter().map(|l| format!("{l}\n")).collect()
+}
+
+fn garbage(n: usize) -> Vec<Vec<u8>> {
+    (0..n)
+        .map(|i| format!("garbage {i}").into_bytes())
+        .collect()
+}
+
+fn good_udp(n: usize) -> Vec<Vec<u8>> {
+    (0..n)
+        .map(|i| format!("{},0,0,200,1", i as f64 / 90.0).into_bytes())
+        .collect()
+}
+
+mod cases_r1;
+mod cases_r3;
+mod checks;
+mod fixtures;
+
+use cases_r1::cases;
+use cases_r3::round3_cases;
+use checks::*;
+use fixtures::*;
+
+fn expand(s: &str, ctx: &Ctx) -> String {
+    s.replace("{port}", &ctx.port)
+        .replace("{dev}", &ctx.dev)
+        .replace("{wv}", &ctx.wv)
+        .replace("{small}", &ctx.small)
+        .replace("{busy}", &ctx.busy)
+        .replace("{dir}", &ctx.dir.display().to_string())
+        .replace("{scenes}", &ctx.scenes.display().to_string())
+        .replace(
+            "{full}",
+            &ctx.full
+                .as_ref()
+                .map_or(String::new(), |p| p.display().to_string()),
+        )
+}
+
+/// Where stdout or stderr of a case goes: a pipe, or the file named.
+fn sink(to: &Option<String>) -> Stdio {
+    match to {
+        None => Stdio::piped(),
+        Some(p) => Stdio::from(
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(p)
+                .expect("opening the case's output file"),
+        ),
+    }
+}
+
+/// Runs `lmhost args`, feeding stdin and datagrams and sending a signal as
+/// the case asks; kills it after [`TIME_LIMIT`] (`None` = a hang).
+fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
+    let args: Vec<String> = c.args.iter().map(|a| expand(a, ctx)).collect();
+    let mut child = Command::new(lmhost())
+        .args(&args)
+        .env_remove("LMHOST_PORT")
+        .env("RUST_BACKTRACE", "0")
+        .envs(c.env.iter().map(|(k, v)| (k.clone(), expand(v, ctx))))
+        .stdin(Stdio::piped())
+        .stdout(sink(&c.stdout_to))
+        .stderr(sink(&c.stderr_to))
+        .spawn()
+        .expect("spawning lmhost");
+    let mut stdin = child.stdin.take();
+    let input = c.stdin.clone();
+    let hold = c.hold_stdin;
+    let feeder = std::thread::spawn(move || {
+        if let Some(mut s) = stdin.take() {
+            let _ = s.write_all(&input);
+            if hold {
+                std::thread::sleep(TIME_LIMIT);
+            }
+        }
+    });
+    let out_pipe = child.stdout.take();
+    let close = c.close_stdout;
+    let reader = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        if let Some(mut p) = out_pipe
+            && !close
+        {
+            let _ = p.read_to_end(&mut s);
+        }
+        String::from_utf8_lossy(&s).into_owned()
+    });
+    let err_pipe = child.stderr.take();
+    let err_reader = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        if let Some(mut p) = err_pipe {
+            let _ = p.read_to_end(&mut s);
+        }
+        String::from_utf8_lossy(&s).into_owned()
+    });
+    if let Some((port, datagrams)) = &c.udp {
+        std::thread::sleep(Duration::from_millis(400));
+        let sock = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        for d in datagrams {
+            let _ = sock.send_to(d, ("127.0.0.1", *port));
+            std::thread::sleep(Duration::from_micros(300));
+        }
+    }
+    if let Some((sig, after_ms)) = c.signal {
+        std::thread::sleep(Duration::from_millis(after_ms));
+        let _ = Command::new("kill")
+            .arg(format!("-{sig}"))
+            .arg(child.id().to_string())
+            .status();
+    }
+    let start = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break Some(st);
+        }
+        if start.elapsed() > TIME_LIMIT {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    drop(feeder);
+    let stdout = reader.join().unwrap();
+    let stderr = err_reader.join().unwrap();
+    status.map(|st| Run {
+        code: st.code(),
+        stdout,
+        stderr,
+    })
+}
+
+/// What is wrong with a run of `c`, if anything.
+fn judge(c: &Case, ctx: &Ctx, r: &Run) -> Vec<String> {
+    let mut bad = Vec::new();
+    if r.stderr.contains("panicked") || r.code == Some(101) {
+        bad.push("panicked".to_owned());
+    }
+    if r.code != Some(c.code) {
+        bad.push(format!("exit {:?}, want {}", r.code, c.code));
+    }
+    if c.code != 0 && c.stderr_to.is_none() && r.stderr.lines().count() != 1 {
+        bad.push(format!(
+            "stderr is {} lines, want 1",
+            r.stderr.lines().count()
+        ));
+    }
+    if c.close_stdout && !r.stderr.is_empty() {
+        bad.push("closed stdout must end quietly".to_owned());
+    }
+    for s in &c.stderr_has {
+        if !r.stderr.contains(&expand(s, ctx)) {
+            bad.push(format!("stderr lacks `{s}`"));
+        }
+    }
+    for s in &c.stdout_has {
+        if !r.stdout.contains(s.as_str()) {
+            bad.push(format!("stdout lacks `{s}`"));
+        }
+    }
+    if let Some(f) = c.check
+        && let Err(e) = f(ctx, r)
+    {
+        bad.push(e);
+    }
+    if let Some((args, want)) = &c.then {
+        let args: Vec<String> = args.iter().map(|a| expand(a, ctx)).collect();
+        let out = Command::new(lmhost()).args(&args).output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        if !text.contains(want.as_str()) {
+            bad.push(format!("then {args:?}: stdout lacks `{want}`: {text}"));
+        }
+    }
+    bad
+}
+
+#[test]
+fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
+    let sim = Sim::start(&[]);
+    let dev = Sim::start(&[]);
+    let wv = Sim::start(&["--centroid-timeout-ms", "600000"]);
+    let small = Sim::start(&["--slot-steps", "10"]);
+    let busy = Sim::start(&[]);
+    let mut holder = Command::new(lmhost())
+        .args([
+            "stream",
+            "--port",
+            &busy.port,
+            "--synthetic",
+            "--seconds",
+            "600",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the port holder");
+    std::thread::sleep(Duration::from_millis(500));
+    let dir =
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    fixtures(&dir);
+    let full = FullDisk::mount(&dir);
+    let ctx = Ctx {
+        port: sim.port.clone(),
+        dev: dev.port.clone(),
+        wv: wv.port.clone(),
+        small: small.port.clone(),
+        dir: dir.clone(),
+        scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
+        full: full.as_ref().ok().map(|f| f.0.clone()),
+        busy: busy.port.clone(),
+    };
+    let up = Command::new(lmhost())
+        .args(["upload", "--port", &ctx.port])
+        .output()
+        .unwrap();
+    assert!(
+        up.status.success(),
+        "{}",
+        String::from_utf8_lossy(&up.stderr)
+    );
+
+    let mut all = cases();
+    let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
+    if let Err(why) = &full {
+        let before = all.len();
+        all.retain(|c| !c.args.iter().any(|a| a.contains("{full}")));
+        println!("skipped {} disk-full cases: {why}", before - all.len());
+    }
+    let (mut panics, mut hangs) = (0, 0);
+    let mut failures = Vec::new();
+    for c in &all {
+        let label = format!("[{}] lmhost {}", c.class, c.args.join(" "));
+        match execute(c, &ctx) {
+            None => {
+                hangs += 1;
+                failures.push(format!("{label}: no exit within {TIME_LIMIT:?}"));
+            }
+            Some(r) => {
+                if r.stderr.contains("panicked") || r.code == Some(101) {
+                    panics += 1;
+                }
+                let bad = judge(c, &ctx, &r);
+                if !bad.is_empty() {
+                    failures.push(format!(
+                        "{label}: {}\n    stderr: {}",
+                        bad.join("; "),
+                        r.stderr.trim()
+                    ));
+                }
+            }
+        }
+    }
+    println!(
+        "hostile inputs: {} cases, {} classes, {panics} panics, {hangs} hangs",
+        all.len(),
+        classes.len()
+    );
+    for class in &classes {
+        let n = all.iter().filter(|c| c.class == *class).count();
+        println!("  {class}: {n} cases");
+    }
+    let _ = holder.kill();
+    let _ = holder.wait();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(all.len() >= 100, "only {} cases", all.len());
+    let want: BTreeSet<&str> = CLASSES.into_iter().collect();
+    assert_eq!(classes, want, "classes covered");
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        all.len(),
+        failures.join("\n")
+    );
+}
