@@ -2,7 +2,7 @@
 //!
 //! On the crystal: the ST-LINK's 8 MHz MCO drives the H743's HSE input in
 //! bypass mode (PF0/PH0-OSC_IN; UM2407 §7.5.1 "MCO from ST-LINK
-//! (Default)", the same default on the MB1137 board, UM1974); PLL1 makes
+//! (Default)"; UM1974 describes the same for MB1137); PLL1 makes
 //! the 400 MHz core clock (VOS1), 200 MHz AXI/AHB, 100 MHz APBs; PLL2 P the
 //! driver boards' 10.24 MHz reference on MCO2; PLL3 Q USB's 48 MHz. The
 //! 1 MHz timebase divides the 200 MHz APB1 timer clock by 200.
@@ -12,14 +12,14 @@
 //! trimmed by the host's start-of-frame packets (CRS), and there is no
 //! reference output.
 //!
-//! Every limit below is RM0433's (§8 "Reset and clock control"): PLL input
+//! Every limit below is RM0433's ("Reset and clock control"): PLL input
 //! ranges and VCO ranges, DIVN/DIVM/DIVP ranges, the VOS1 bus maxima. The
 //! checks run at compile time (`const _: () = ...` at the end of this
 //! file), so a wrong divider fails the build of the firmware and of these
 //! tests alike; [`check_plan`] is the same check callable from a test.
 
 /// The ST-LINK's MCO into PF0/PH0-OSC_IN (HSE bypass), Hz: 8 MHz on both
-/// boards (UM2407 §7.5.1; UM1974 "OSC clock supply").
+/// boards (UM2407 §7.5.1; on MB1137, UM1974's HSE clock section).
 pub const HSE_HZ: u32 = 8_000_000;
 /// The internal RC oscillator, HSIDIV /1, Hz.
 pub const HSI_HZ: u32 = 64_000_000;
@@ -100,7 +100,7 @@ pub const AHB_HZ: u32 = SYS_HZ / AHB_DIV;
 /// APB1 on the crystal: USART3's kernel clock (pclk1), Hz.
 pub const APB1_HZ: u32 = AHB_HZ / APB_DIV;
 /// TIM2's clock on the crystal: with TIMPRE = 0 and APB1 divided by 2 it is
-/// twice pclk1 (RM0433 §8.5.9, "Timer clock"), Hz.
+/// twice pclk1 (RM0433, RCC "Timer clock"), Hz.
 pub const APB1_TIMER_HZ: u32 = timer_clock(AHB_HZ, APB_DIV);
 /// MCO2's output on the crystal, Hz.
 pub const MCO2_HZ: u32 = pll_output(HSE_HZ, PLL2, PLL2.p);
@@ -153,7 +153,7 @@ pub const fn pll_output(input_hz: u32, pll: Pll, div: Option<u32>) -> u32 {
 }
 
 /// TIMx on APB1 with TIMPRE = 0: the AHB clock when APB1 is divided by 1
-/// or 2, else twice pclk1 (RM0433 §8.5.9).
+/// or 2, else twice pclk1 (RM0433, RCC "Timer clock").
 pub const fn timer_clock(ahb_hz: u32, apb_div: u32) -> u32 {
     if apb_div <= 2 {
         ahb_hz
@@ -162,7 +162,7 @@ pub const fn timer_clock(ahb_hz: u32, apb_div: u32) -> u32 {
     }
 }
 
-/// Which VCO range a PLL runs in (RM0433 §8.5.5, PLLxVCOSEL).
+/// Which VCO range a PLL runs in (RM0433, RCC_PLLCFGR.PLLxVCOSEL).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Vco {
     /// 150..=420 MHz: required when the PLL input is below 2 MHz.
@@ -217,7 +217,7 @@ pub const fn check_pll(input_hz: u32, pll: Pll, is_pll1: bool) -> Result<Vco, &'
 /// USART3's divider as the HAL programs it (embassy-stm32 0.6
 /// `find_and_set_brr` for a USART on H7: the smallest prescaler PRESC for
 /// which BRR = round(f / PRESC / baud) fits 16 bits, 16× oversampling for
-/// BRR >= 16, 8× for 8 <= BRR < 16; RM0433 §48.5.7, "USART baud rate
+/// BRR >= 16, 8× for 8 <= BRR < 16; RM0433, USART "Baud rate
 /// generation").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct UsartDivider {
@@ -229,7 +229,7 @@ pub struct UsartDivider {
     pub over8: bool,
 }
 
-/// PRESC's dividers in register order (RM0433 §48.8.12).
+/// PRESC's dividers in register order (RM0433, USART_PRESC).
 const USART_PRESC: [u32; 12] = [1, 2, 4, 6, 8, 10, 12, 16, 32, 64, 128, 256];
 
 /// The divider for `baud` from `kernel_hz`, or `None` if none fits.
