@@ -1,6 +1,6 @@
 //! The SPI loopback self-test's pattern and comparison.
 //!
-//! With one wire from MOSI to MISO and
+//! With one wire from MOSI to MISO (see [`crate::pins::LOOPBACK_WIRE`]) and
 //! the driver's chip select held high, SPI1 sends [`LOOPBACK_BYTES`] bytes
 //! and reads the same number back; every byte must come back unchanged.
 //!
