@@ -235,6 +235,49 @@ pub fn memory_map(b: &[u8]) -> Result<String, String> {
     Ok(r)
 }
 
+/// The interrupts of `irqs` (number, name) whose vector-table entry is
+/// cortex-m-rt's `DefaultHandler`, i.e. that have no handler of their own
+/// linked in. An error if the ELF has no vector table or `DefaultHandler`.
+pub fn unbound_interrupts<'a>(b: &[u8], irqs: &[(u32, &'a str)]) -> Result<Vec<&'a str>, String> {
+    let secs = sections(b)?;
+    let vt = secs
+        .iter()
+        .find(|s| s.name == ".vector_table")
+        .ok_or("no .vector_table section")?;
+    let default = symbols(b, &secs)?
+        .iter()
+        .find(|s| s.name == "DefaultHandler")
+        .map(|s| s.addr & !1)
+        .ok_or("no DefaultHandler symbol")?;
+    let mut unbound = Vec::new();
+    for &(n, name) in irqs {
+        // 16 exception entries, then one word per interrupt.
+        let at = (16 + n as usize) * 4;
+        if at + 4 > vt.size as usize {
+            return Err(format!("IRQ {n} ({name}) is beyond the vector table"));
+        }
+        let handler = u32_at(b, vt.offset as usize + at)? & !1;
+        if handler == default || handler == 0 {
+            unbound.push(name);
+        }
+    }
+    Ok(unbound)
+}
+
+/// The address of the symbol named `name`, if the ELF has it.
+pub fn symbol_address(b: &[u8], name: &str) -> Result<Option<u32>, String> {
+    let secs = sections(b)?;
+    Ok(symbols(b, &secs)?
+        .iter()
+        .find(|s| s.name == name)
+        .map(|s| s.addr))
+}
+
+/// Whether the ELF has a section named `name`.
+pub fn has_section(b: &[u8], name: &str) -> Result<bool, String> {
+    Ok(sections(b)?.iter().any(|s| s.name == name))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
