@@ -39,9 +39,10 @@ pub const SPI_SCK_HZ: u32 = 16_000_000;
 /// default 81.92 MHz (`firmware/DRIVER.md`, "Bus").
 pub const DRIVER_MAX_SCK_HZ: u32 = 20_480_000;
 /// Reads of RCC_CR.HSERDY before the board gives up on HSE and stays on
-/// HSI: 10⁶ register reads at 64 MHz, tens of milliseconds; the ST-LINK's
-/// MCO runs before it releases the target's reset, so a present clock is
-/// ready long before.
+/// HSI: 10⁶ reads of a register in the D3 domain at 64 MHz, some tens to a
+/// few hundred milliseconds of start-up on a board without the clock; the
+/// ST-LINK's MCO runs before it releases the target's reset, so a present
+/// clock is ready at the first reads.
 pub const HSE_READY_POLLS: u32 = 1_000_000;
 
 /// One PLL's dividers, as RM0433 names them (DIVMx, DIVNx, DIVPx, DIVQx,
