@@ -50,7 +50,7 @@ static RX_BUF: AxiBytes<CHUNK> = AxiBytes::new();
 /// Set by the thread when it hands a job over, cleared by the SPI task when
 /// the job is done: the buffers belong to whoever this says.
 static BUSY: AtomicBool = AtomicBool::new(false);
-/// The last job's outcome (`Outcome as u8`).
+/// The last job's outcome (`Outcome as u8`), until `wait_idle` takes it.
 static OUTCOME: AtomicU8 = AtomicU8::new(Outcome::Done as u8);
 /// The job for the SPI task.
 static JOB: Signal<CriticalSectionRawMutex, Job> = Signal::new();
@@ -132,7 +132,8 @@ impl DriverOutput {
                 }
             }
         }
-        match OUTCOME.load(Ordering::Relaxed) {
+        // Taken, so that each job's outcome is reported once.
+        match OUTCOME.swap(Outcome::Done as u8, Ordering::Relaxed) {
             x if x == Outcome::Done as u8 => Ok(()),
             _ => Err(SpiFault::Transfer),
         }
