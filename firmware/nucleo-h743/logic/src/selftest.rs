@@ -32,7 +32,7 @@ const TAPS: u16 = 0xB400;
 /// The LFSR's first state (any non-zero value).
 const SEED: u16 = 0xACE1;
 
-/// The loopback pattern: [`PREFIX`] then LFSR bytes, as an endless
+/// The loopback pattern: the fixed bytes, then LFSR bytes, as an endless
 /// iterator. Two `Pattern::new()` give the same bytes.
 #[derive(Debug, Clone)]
 pub struct Pattern {
