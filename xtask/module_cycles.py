@@ -21,6 +21,7 @@ import re
 import sys
 
 CRATES = ['proto/src', 'firmware/core/src', 'firmware/qemu/src', 'firmware/nucleo-h743/src',
+          'firmware/nucleo-h743/logic/src',
           'host/src', 'cli/src', 'python/src', 'xtask/src']
 #: The host's wings, lowest first; every other top-level module is base.
 WINGS = {'host/src': ['plan', 'field', 'device', 'sense', 'lab']}

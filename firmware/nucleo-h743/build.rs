@@ -22,9 +22,11 @@ fn main() {
     println!("cargo:rerun-if-changed={}", board_map.display());
     println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
     println!("cargo:rerun-if-changed=build.rs");
-    // The host link's rate (`board::BAUD`), chosen when building.
-    println!("cargo:rerun-if-env-changed=LM_BAUD");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
+    // defmt's log-string table (defmt.x comes from defmt's own build
+    // script, on the search path); this board's binaries only, so the QEMU
+    // board, built in its own cargo invocation, never sees it.
+    println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
 }
 
 /// Panics unless `path` is only comments and [`ROOT_INCLUDE`].

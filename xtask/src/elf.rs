@@ -9,6 +9,10 @@ const RAM: std::ops::Range<u32> = 0x2000_0000..0x4000_0000;
 /// Symbols whose (demangled) name contains one of these hold the sequence
 /// store: the slots the board gives the core.
 const STORE_MARKERS: &[&str] = &["SEQUENCE_STORE", "SLOT_MEM", "STORE"];
+/// RAM sections are grouped by the 16 MiB window they start in: one
+/// memory per window on these chips (H743: DTCM at 0x2000_0000, AXI SRAM
+/// at 0x2400_0000).
+const WINDOW: u32 = 0xFF00_0000;
 
 struct Section {
     name: String,
@@ -134,7 +138,7 @@ fn demangle(s: &str) -> String {
 }
 
 /// The memory map report: allocated sections, flash/RAM totals, the largest
-/// RAM objects, and static RAM outside the sequence store.
+/// RAM objects, RAM per memory, and static RAM beside the sequence store.
 pub fn memory_map(b: &[u8]) -> Result<String, String> {
     const SHF_ALLOC: u32 = 2;
     const SHT_NOBITS: u32 = 8;
@@ -171,9 +175,27 @@ pub fn memory_map(b: &[u8]) -> Result<String, String> {
     writeln!(r, "code memory used: {flash} bytes").unwrap();
     writeln!(
         r,
-        "static RAM (.data + .bss + .uninit): {ram} bytes (the rest is stack)"
+        "static RAM (.data + .bss + .uninit + board sections): {ram} bytes (the stack takes the rest of its RAM)"
     )
     .unwrap();
+    // Per memory (a board may place statics in more than one: the Nucleo's
+    // DTCM and AXI SRAM), by the 16 MiB window they start in.
+    let mut windows: Vec<(u32, u64)> = Vec::new();
+    for s in secs
+        .iter()
+        .filter(|s| s.flags & SHF_ALLOC != 0 && s.size > 0 && RAM.contains(&s.addr))
+    {
+        let w = s.addr & WINDOW;
+        match windows.iter_mut().find(|(a, _)| *a == w) {
+            Some((_, n)) => *n += u64::from(s.size),
+            None => windows.push((w, u64::from(s.size))),
+        }
+    }
+    if windows.len() > 1 {
+        for (w, n) in &windows {
+            writeln!(r, "  in RAM from {w:#010x}: {n} bytes").unwrap();
+        }
+    }
 
     let mut objs: Vec<Symbol> = symbols(b, &secs)?
         .into_iter()
@@ -196,13 +218,64 @@ pub fn memory_map(b: &[u8]) -> Result<String, String> {
         writeln!(r, "  {:>10}  {}{tag}", s.size, s.name).unwrap();
     }
     writeln!(r, "sequence store: {store} bytes").unwrap();
+    // What shares the store's memory with it (the target keeps the
+    // Nucleo's 512 KiB AXI SRAM from overflowing).
+    let store_window = objs.iter().find(|s| is_store(s)).map(|s| s.addr & WINDOW);
+    let beside = windows
+        .iter()
+        .filter(|(w, _)| Some(*w) == store_window || store_window.is_none())
+        .map(|(_, n)| n)
+        .sum::<u64>()
+        - store;
     writeln!(
         r,
-        "static RAM outside the sequence store: {} bytes (target <= 16384)",
-        ram - store
+        "static RAM beside the sequence store, in its memory: {beside} bytes (target <= 16384)"
     )
     .unwrap();
     Ok(r)
+}
+
+/// The interrupts of `irqs` (number, name) whose vector-table entry is
+/// cortex-m-rt's `DefaultHandler`, i.e. that have no handler of their own
+/// linked in. An error if the ELF has no vector table or `DefaultHandler`.
+pub fn unbound_interrupts<'a>(b: &[u8], irqs: &[(u32, &'a str)]) -> Result<Vec<&'a str>, String> {
+    let secs = sections(b)?;
+    let vt = secs
+        .iter()
+        .find(|s| s.name == ".vector_table")
+        .ok_or("no .vector_table section")?;
+    let default = symbols(b, &secs)?
+        .iter()
+        .find(|s| s.name == "DefaultHandler")
+        .map(|s| s.addr & !1)
+        .ok_or("no DefaultHandler symbol")?;
+    let mut unbound = Vec::new();
+    for &(n, name) in irqs {
+        // 16 exception entries, then one word per interrupt.
+        let at = (16 + n as usize) * 4;
+        if at + 4 > vt.size as usize {
+            return Err(format!("IRQ {n} ({name}) is beyond the vector table"));
+        }
+        let handler = u32_at(b, vt.offset as usize + at)? & !1;
+        if handler == default || handler == 0 {
+            unbound.push(name);
+        }
+    }
+    Ok(unbound)
+}
+
+/// The address of the symbol named `name`, if the ELF has it.
+pub fn symbol_address(b: &[u8], name: &str) -> Result<Option<u32>, String> {
+    let secs = sections(b)?;
+    Ok(symbols(b, &secs)?
+        .iter()
+        .find(|s| s.name == name)
+        .map(|s| s.addr))
+}
+
+/// Whether the ELF has a section named `name`.
+pub fn has_section(b: &[u8], name: &str) -> Result<bool, String> {
+    Ok(sections(b)?.iter().any(|s| s.name == name))
 }
 
 #[cfg(test)]

@@ -92,7 +92,7 @@ const STEPS: &[Step] = &[
         run: step_qemu_selftest,
     },
     Step {
-        name: "thumb build: Nucleo-H743 board (crystal clock), size report",
+        name: "thumb build: Nucleo-H743 board (embassy-stm32, defmt), its interrupt handlers, size report",
         run: step_build_nucleo,
     },
     Step {
@@ -891,20 +891,55 @@ fn step_qemu_selftest(c: &Ctx) -> Result<(), String> {
 }
 
 /// Its own cargo invocation: built together with the QEMU board, the
-/// Nucleo PAC's `rt` feature would switch on cortex-m-rt's `device` feature
-/// for the QEMU board too (see ARCHITECTURE.md, Memory maps).
+/// Nucleo's `rt` feature (embassy-stm32 → stm32-metapac) would switch on
+/// cortex-m-rt's `device` feature for the QEMU board too, and its defmt
+/// features would reach the QEMU board's lm-fw-core (see ARCHITECTURE.md,
+/// Memory maps).
 fn nucleo_build(c: &Ctx) -> Result<(), String> {
     thumb_build(c, &["-p", NUCLEO_PKG])
 }
 
-/// The real board, on its crystal clock (`firmware/nucleo-h743/src/clocks.rs`:
-/// its dividers are checked at compile time), and its memory map.
+/// Interrupts the Nucleo firmware must have handlers for (STM32H743
+/// vector numbers, stm32-metapac): USART3's receive path, USB, the SPI
+/// DMA streams, the timebase and the two executors.
+const NUCLEO_IRQS: &[(u32, &str)] = &[
+    (39, "USART3 (ST-LINK VCP, BufferedUart)"),
+    (101, "OTG_FS (user USB)"),
+    (11, "DMA1_STREAM0 (SPI1 TX)"),
+    (12, "DMA1_STREAM1 (SPI1 RX)"),
+    (28, "TIM2 (embassy-time, 1 MHz)"),
+    (52, "UART4 (SPI task's executor)"),
+    (53, "UART5 (USB task's executor)"),
+];
+
+/// The real board on embassy-stm32 (its clock plan is checked at compile
+/// time, `firmware/nucleo-h743/logic/src/clocks.rs`), and what the ELF must
+/// show: a handler for every interrupt it relies on (a missing one is how
+/// the UART once stayed deaf), defmt's log table, RTT's control block in
+/// the DTCM (coherent with the D-cache on); then its memory map.
 fn step_build_nucleo(c: &Ctx) -> Result<(), String> {
     nucleo_build(c)?;
     let elf_path = c.nucleo_elf();
     let bytes =
         std::fs::read(&elf_path).map_err(|e| format!("cannot read {}: {e}", elf_path.display()))?;
-    let report = elf::memory_map(&bytes).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    let at = |e: String| format!("{}: {e}", elf_path.display());
+    let unbound = elf::unbound_interrupts(&bytes, NUCLEO_IRQS).map_err(at)?;
+    if !unbound.is_empty() {
+        return Err(at(format!("no handler for {}", unbound.join(", "))));
+    }
+    if !elf::has_section(&bytes, ".defmt").map_err(at)? {
+        return Err(at("no .defmt section: defmt logging is not linked".into()));
+    }
+    match elf::symbol_address(&bytes, "_SEGGER_RTT").map_err(at)? {
+        Some(a) if (0x2000_0000..0x2002_0000).contains(&a) => {}
+        Some(a) => return Err(at(format!("_SEGGER_RTT at {a:#010x}, not in the DTCM"))),
+        None => return Err(at("no _SEGGER_RTT: defmt-rtt is not linked".into())),
+    }
+    println!(
+        "Nucleo-H743: handlers for {} interrupts, defmt table, RTT block in the DTCM",
+        NUCLEO_IRQS.len()
+    );
+    let report = elf::memory_map(&bytes).map_err(at)?;
     println!("== Nucleo-H743: {}", elf_path.display());
     print!("{report}");
     Ok(())

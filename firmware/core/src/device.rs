@@ -193,10 +193,16 @@ impl<'m> Device<'m> {
         while !input.is_empty() {
             let (reply, rest) = match self.rx.feed(input) {
                 FeedResult::Consumed => break,
-                FeedResult::Frame { frame, remaining } => (
-                    Some((frame.seq, self.handler.handle(&frame.message, now))),
-                    remaining,
-                ),
+                FeedResult::Frame { frame, remaining } => {
+                    // One line per request, by kind (a chunk's bytes are not
+                    // logged): the board's link traffic at `debug`.
+                    #[cfg(feature = "defmt")]
+                    defmt::debug!("request {}", frame.message.msg_type());
+                    (
+                        Some((frame.seq, self.handler.handle(&frame.message, now))),
+                        remaining,
+                    )
+                }
                 FeedResult::Error { error, remaining } => {
                     if error.is_crc() {
                         self.handler.counters.crc_errors =

@@ -1,182 +1,169 @@
-//! The Nucleo's user USB connector as a CDC-ACM serial port: OTG2 with its
-//! internal full-speed PHY on PA11 (D−) / PA12 (D+), through
-//! `synopsys-usb-otg`, `usb-device` and `usbd-serial`. The protocol is the
-//! same as on the ST-LINK UART; lmhost finds the board by the USB id
-//! [`VID_PID`] (`host/src/device/link/discover.rs`).
+//! The Nucleo's user USB connector (CN13, micro-AB) as a CDC-ACM serial
+//! port: USB OTG FS (the H743's OTG2 core with its internal full-speed PHY
+//! on PA11/PA12), embassy-stm32's driver and embassy-usb's CDC-ACM class.
+//! The protocol is the same as on the ST-LINK UART; lmhost finds the board
+//! by the USB id [`VID_PID`] (`host/src/device/link/discover.rs`).
 //!
-//! USB needs an exact 48 MHz: PLL3 Q makes it from the crystal (8 MHz / 4
-//! × 240 / 10), so the port exists only when the board runs from HSE; on
-//! the HSI fallback the UART alone carries the link.
+//! The USB device and the class run as tasks on an interrupt executor
+//! (src/main.rs); bytes cross to the thread-mode serve loop through two
+//! pipes, [`RX`] and [`TX`], which the serve loop reads and writes without
+//! waiting (`src/link.rs`).
+//!
+//! Clock: PLL3 Q, 48 MHz from the crystal; on the HSI fallback HSI48 with
+//! its CRS trimming to the host's start-of-frame packets
+//! (src/clocks.rs), so the port exists on both.
 
-use synopsys_usb_otg::{UsbBus, UsbPeripheral};
-use usb_device::bus::UsbBusAllocator;
-use usb_device::device::{
-    StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbDeviceState, UsbVidPid,
-};
-use usbd_serial::{SerialPort, USB_CLASS_CDC};
+use core::sync::atomic::{AtomicBool, Ordering};
 
-use stm32h7::stm32h743v as pac;
+use embassy_executor::SendSpawner;
+use embassy_futures::join::join;
+use embassy_futures::select::select;
+use embassy_stm32::peripherals;
+use embassy_stm32::usb::Driver;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::pipe::Pipe;
+use embassy_usb::Builder;
+use embassy_usb::class::cdc_acm::{CdcAcmClass, Receiver, Sender, State};
+use embassy_usb::driver::EndpointError;
+use lm_fw_core::TakeOnce;
+use static_cell::StaticCell;
 
 /// ST's vendor id and its virtual COM port product id.
 pub const VID_PID: (u16, u16) = (0x0483, 0x5740);
-/// PLL3 dividers for the 48 MHz USB kernel clock from the 8 MHz HSE.
-const DIVM3: u32 = 4;
-const DIVN3: u32 = 240;
-const DIVQ3: u32 = 10;
 
-const _: () = {
-    let reference = crate::clocks::HSE_HZ / DIVM3;
-    assert!(reference >= 2_000_000 && reference <= 4_000_000);
-    let vco = reference as u64 * DIVN3 as u64;
-    assert!(vco >= 192_000_000 && vco <= 836_000_000);
-    assert!(vco / DIVQ3 as u64 == 48_000_000, "USB needs 48 MHz exactly");
-};
+/// The driver on the user USB connector.
+pub type UsbDriver = Driver<'static, peripherals::USB_OTG_FS>;
 
-/// OTG2 (the FS core at 0x4008_0000) for `synopsys-usb-otg`.
-pub struct Otg2 {
-    ahb_hz: u32,
-}
+/// Full-speed bulk packets.
+const PACKET: usize = 64;
+/// Bytes each pipe holds: several requests' worth (a chunk frame is at
+/// most a few hundred bytes), so the host never waits on a step.
+const PIPE_BYTES: usize = 2048;
 
-// SAFETY: the register block is OTG2's, owned by this driver alone (Board::init
-// takes the peripherals once); its FIFO is 4 KiB and it has 9 endpoints
-// (RM0433), as stm32h7xx-hal declares them.
-unsafe impl UsbPeripheral for Otg2 {
-    const REGISTERS: *const () = pac::OTG2_HS_GLOBAL::PTR as *const ();
-    const HIGH_SPEED: bool = false;
-    const FIFO_DEPTH_WORDS: usize = 1024;
-    const ENDPOINT_COUNT: usize = 9;
+/// Bytes from the host, for the serve loop.
+pub static RX: Pipe<CriticalSectionRawMutex, PIPE_BYTES> = Pipe::new();
+/// Replies from the serve loop, for the host.
+pub static TX: Pipe<CriticalSectionRawMutex, PIPE_BYTES> = Pipe::new();
+/// A host has the port configured: replies are worth queueing.
+pub static CONNECTED: AtomicBool = AtomicBool::new(false);
 
-    fn enable() {
-        // SAFETY: single-bit read-modify-writes of RCC from the one thread
-        // that configures clocks, before interrupts use RCC.
-        let rcc = unsafe { &*pac::RCC::PTR };
-        rcc.ahb1enr().modify(|_, w| w.usb2otgen().set_bit());
-        rcc.ahb1rstr().modify(|_, w| w.usb2otgrst().set_bit());
-        rcc.ahb1rstr().modify(|_, w| w.usb2otgrst().clear_bit());
-    }
+/// OUT endpoint buffer for the driver (all OUT packets pass through it).
+static EP_OUT: TakeOnce<[u8; 256]> = TakeOnce::new([0; 256]);
 
-    fn ahb_frequency_hz(&self) -> u32 {
-        self.ahb_hz
+/// The OUT endpoint buffer `Driver::new_fs` wants; once.
+pub fn ep_out_buffer() -> &'static mut [u8] {
+    match EP_OUT.take() {
+        Some(b) => b,
+        None => panic!("USB endpoint buffer taken twice"),
     }
 }
 
-/// The CDC-ACM port as a host link.
-pub struct UsbLink {
-    dev: UsbDevice<'static, UsbBus<Otg2>>,
-    serial: SerialPort<'static, UsbBus<Otg2>>,
-}
-
-/// Sets up the 48 MHz clock, the pins and the device; `None` when the
-/// board is not on the crystal. Call once, from `Board::init`.
-pub fn init(
-    clocks: &crate::clocks::Clocks,
-    pwr: &pac::PWR,
-    rcc: &pac::RCC,
-    gpioa: &pac::GPIOA,
-) -> Option<UsbLink> {
-    if clocks.source != crate::clocks::Source::Crystal {
-        return None;
-    }
-    // 48 MHz from PLL3 Q.
-    rcc.pllckselr()
-        // SAFETY: DIVM3 = 4 is in 1..=63 (checked above).
-        .modify(|_, w| unsafe { w.divm3().bits(DIVM3 as u8) });
-    rcc.pllcfgr().modify(|_, w| {
-        w.pll3rge()
-            .range2()
-            .pll3vcosel()
-            .wide_vco()
-            .divq3en()
-            .enabled()
-    });
-    rcc.pll3divr()
-        // SAFETY: the fields hold divider − 1, in range (checked above).
-        .write(|w| unsafe {
-            w.divn3()
-                .bits((DIVN3 - 1) as u16)
-                .divq3()
-                .bits((DIVQ3 - 1) as u8)
-        });
-    rcc.cr().modify(|_, w| w.pll3on().on());
-    while !rcc.cr().read().pll3rdy().is_ready() {}
-    rcc.d2ccip2r().modify(|_, w| w.usbsel().pll3_q());
-    // The USB transceiver's 3.3 V supply detector.
-    pwr.cr3().modify(|_, w| w.usb33den().set_bit());
-    while pwr.cr3().read().usb33rdy().bit_is_clear() {}
-    // PA11 D−, PA12 D+ on AF10.
-    rcc.ahb4enr().modify(|_, w| w.gpioaen().set_bit());
-    gpioa.afrh().modify(|_, w| w.afr11().af10().afr12().af10());
-    gpioa.ospeedr().modify(|_, w| {
-        w.ospeedr11()
-            .very_high_speed()
-            .ospeedr12()
-            .very_high_speed()
-    });
-    gpioa
-        .moder()
-        .modify(|_, w| w.moder11().alternate().moder12().alternate());
-
-    let ep_memory = cortex_m::singleton!(: [u32; 1024] = [0; 1024])?;
-    let bus = UsbBus::new(
-        Otg2 {
-            ahb_hz: crate::clocks::AHB_HZ,
-        },
-        ep_memory,
+/// Spawns the USB task on `spawner`: it builds the device (ids, strings,
+/// one CDC-ACM function) and runs it. The device and the class are built
+/// inside the task, on the executor that runs them, because they are not
+/// `Send`; their buffers live in the task's own (static) memory.
+pub fn start(driver: UsbDriver, spawner: SendSpawner) {
+    spawner.spawn(run(driver).unwrap_or_else(|_| panic!("USB task")));
+    defmt::info!(
+        "USB CDC-ACM on the user USB connector (CN13): {=u16:04x}:{=u16:04x}",
+        VID_PID.0,
+        VID_PID.1
     );
-    let bus: &'static UsbBusAllocator<UsbBus<Otg2>> =
-        cortex_m::singleton!(: UsbBusAllocator<UsbBus<Otg2>> = bus)?;
-    let serial = SerialPort::new(bus);
-    let dev = UsbDeviceBuilder::new(bus, UsbVidPid(VID_PID.0, VID_PID.1))
-        .strings(&[StringDescriptors::default()
-            .manufacturer("lmhost")
-            .product("LM firmware (Nucleo-H743)")
-            .serial_number("lm-fw")])
-        .ok()?
-        .device_class(USB_CLASS_CDC)
-        .build();
-    Some(UsbLink { dev, serial })
 }
 
-impl UsbLink {
-    /// Services the bus (enumeration, transfers); cheap when idle.
-    pub fn poll(&mut self) {
-        self.dev.poll(&mut [&mut self.serial]);
-    }
+/// The descriptors and the class state, built in the task on first run.
+/// `StaticCell` because `State` is not `Sync` (a `TakeOnce` wants it): it
+/// is created and used on the USB executor only.
+static USB_MEM: StaticCell<UsbMem> = StaticCell::new();
 
-    /// Bytes that arrived, into `buf`.
-    pub fn receive(&mut self, buf: &mut [u8]) -> usize {
-        self.poll();
-        self.serial.read(buf).unwrap_or(0)
-    }
+struct UsbMem {
+    config_descriptor: [u8; 256],
+    bos_descriptor: [u8; 256],
+    control_buf: [u8; 64],
+    state: State<'static>,
+}
 
-    /// Sends `bytes`, servicing the bus while the port's buffer is full; a
-    /// reply to a host that went away (not configured) is dropped.
-    pub fn send(&mut self, mut bytes: &[u8]) {
-        let mut stalls = 0u32;
-        while !bytes.is_empty() {
-            if self.dev.state() != UsbDeviceState::Configured {
-                return;
-            }
-            match self.serial.write(bytes) {
-                Ok(n) if n > 0 => {
-                    bytes = &bytes[n..];
-                    stalls = 0;
-                }
-                _ => {
-                    stalls += 1;
-                    // A host that stopped reading: give up after ~1 M polls.
-                    if stalls > 1_000_000 {
-                        return;
-                    }
-                }
-            }
-            self.poll();
+#[embassy_executor::task]
+async fn run(driver: UsbDriver) -> ! {
+    let mem = USB_MEM.init(UsbMem {
+        config_descriptor: [0; 256],
+        bos_descriptor: [0; 256],
+        control_buf: [0; 64],
+        state: State::new(),
+    });
+    let mut config = embassy_usb::Config::new(VID_PID.0, VID_PID.1);
+    config.manufacturer = Some("lmhost");
+    config.product = Some("LM firmware Nucleo-H743");
+    config.serial_number = Some("lm-fw");
+    // Self-powered from the ST-LINK's USB; draws nothing from CN13.
+    config.self_powered = true;
+    config.max_power = 0;
+    // A CDC-ACM function with an interface association descriptor, which
+    // Windows needs and Linux and macOS accept.
+    config.device_class = 0xEF;
+    config.device_sub_class = 0x02;
+    config.device_protocol = 0x01;
+    config.composite_with_iads = true;
+    let mut builder = Builder::new(
+        driver,
+        config,
+        &mut mem.config_descriptor,
+        &mut mem.bos_descriptor,
+        &mut [],
+        &mut mem.control_buf,
+    );
+    let class = CdcAcmClass::new(&mut builder, &mut mem.state, PACKET as u16);
+    let mut device = builder.build();
+    join(device.run(), serial(class)).await;
+    unreachable!("the USB device and the serial loop run forever")
+}
+
+/// Moves packets between the endpoints and the pipes while a host is
+/// there; on a disconnect drops what was queued for it.
+async fn serial(class: CdcAcmClass<'static, UsbDriver>) -> ! {
+    let (mut tx, mut rx) = class.split();
+    loop {
+        rx.wait_connection().await;
+        CONNECTED.store(true, Ordering::Release);
+        defmt::info!("USB CDC: host connected");
+        select(host_to_core(&mut rx), core_to_host(&mut tx)).await;
+        CONNECTED.store(false, Ordering::Release);
+        TX.clear();
+        defmt::info!("USB CDC: host gone");
+    }
+}
+
+async fn host_to_core(rx: &mut Receiver<'static, UsbDriver>) -> EndpointError {
+    let mut buf = [0u8; PACKET];
+    loop {
+        match rx.read_packet(&mut buf).await {
+            // Waits while the serve loop has not taken the previous bytes:
+            // the host's OUT packets are NAKed meanwhile, nothing is lost.
+            Ok(n) => RX.write_all(&buf[..n]).await,
+            Err(e) => return e,
         }
     }
+}
 
-    /// Moves queued bytes on.
-    pub fn flush(&mut self) {
-        self.poll();
-        let _ = self.serial.flush();
+async fn core_to_host(tx: &mut Sender<'static, UsbDriver>) -> EndpointError {
+    let mut buf = [0u8; PACKET];
+    loop {
+        let n = TX.read(&mut buf).await;
+        if let Err(e) = tx.write_packet(&buf[..n]).await {
+            return e;
+        }
+        // A full packet with nothing behind it ends with a zero-length one,
+        // so the host hands the reply over now.
+        if n == PACKET
+            && TX.is_empty()
+            && let Err(e) = tx.write_packet(&[]).await
+        {
+            return e;
+        }
     }
+}
+
+/// Whether a host has the port configured.
+pub fn connected() -> bool {
+    CONNECTED.load(Ordering::Acquire)
 }
