@@ -152,9 +152,16 @@ class LmDriver(wiring.Component):
         pending = Signal()
         byte = Cat(mosi, shift)
         # Our phases: frame bytes start .. stop - 1 (start >= the header).
-        in_slice = (index >= start) & (index < stop)
+        # Registered: the index is used when a byte completes, at least 8
+        # SCK periods (32 clocks) after it last changed, so a copy one
+        # clock old is the same value and keeps the compares and the
+        # subtraction off the path to the 64 phase registers.
+        in_slice = Signal()
         rel = Signal(range(n))
-        m.d.comb += rel.eq((index - start)[:len(rel)])
+        m.d.sync += [
+            in_slice.eq((index >= start) & (index < stop)),
+            rel.eq((index - start)[:len(rel)]),
+        ]
 
         with m.If(cs_fall):
             m.d.sync += [bits.eq(0), index.eq(0), ok.eq(~pending)]
@@ -268,9 +275,11 @@ ROM_MAGIC = 0x4C4D
 
 def stamp_words(n, first, total):
     """A board's slice ROM: first, total, its channel count, the magic,
-    then zeros. `SliceRom` reads words 0-3 once after reset."""
+    then the placeholder's own words (`SliceRom` reads words 0-3 once
+    after reset; random filler keeps every bit column of the ROM distinct,
+    which `icebram` needs to find a stamped ROM again)."""
     assert 1 <= n and 0 <= first and first + n <= total <= 0xFFFF
-    return [first, total, n, ROM_MAGIC] + [0] * (ROM_DEPTH - 4)
+    return [first, total, n, ROM_MAGIC] + placeholder_words()[4:]
 
 
 def placeholder_words(seed=0x4C4D5F31):
@@ -295,7 +304,7 @@ def hex_lines(words):
 class SliceRom(wiring.Component):
     """The board's slice (`first`, `total`) read once after reset from a
     256 x 16 ROM (`init`: `stamp_words` or `placeholder_words`). `valid`
-    goes high five clocks after reset, and only if word 2 is this board's
+    goes high six clocks after reset, and only if word 2 is this board's
     channel count `n`, word 3 is `ROM_MAGIC` and the slice fits
     (`first + n <= total`)."""
 
@@ -327,7 +336,9 @@ class SliceRom(wiring.Component):
                 m.d.sync += channels.eq(rd.data)
             with m.Case(4):
                 m.d.sync += [magic.eq(rd.data), loaded.eq(1)]
-        m.d.comb += self.valid.eq(loaded & (channels == self.n) & (magic == ROM_MAGIC)
+        # Registered: `valid` resets the whole driver, so it comes from a
+        # flip-flop, not from the comparators.
+        m.d.sync += self.valid.eq(loaded & (channels == self.n) & (magic == ROM_MAGIC)
                                   & (self.first + self.n <= self.total))
         return m
 
