@@ -10,7 +10,7 @@
 //!   a planned LM-M sequence, then simulates the transducer driver
 //!   (`gateware/`, Amaranth in a venv under the target dir) against
 //!   `firmware/DRIVER.md`; then the full-width chain (the paper's LM-M,
-//!   996 channels on four boards) as Verilog under Verilator (Yosys and
+//!   996 channels on 16 boards: 15 × 64 + 36) as Verilog under Verilator (Yosys and
 //!   Verilator from Debian, installed as root when missing).
 //! - `ethercat`: the CI's opt-in backends step alone: builds lmhost with
 //!   `flash` and (as root, installing libpcap-dev and CMake ≥ 3.28) both
@@ -666,13 +666,16 @@ fn step_gateware(c: &Ctx) -> Result<(), String> {
 }
 
 /// Transducers of the paper's rig (`scenes/paper.toml`) and the channels
-/// of one driver board in the full-width run.
-const FULL_WIDTH: (&str, &str) = ("996", "256");
+/// of one driver board in the full-width run (the HX8K breakout board's
+/// 64: 15 boards of 64 and one of 36, as `cargo xtask bitstream --all`).
+const FULL_WIDTH: (&str, &str) = ("996", "64");
 
 /// The whole chain at full width: `lmhost plan` (the paper's LM-M on the
 /// paper's scene) → lm-fw-core (`spi_frames`' full-width test) → the SPI
-/// bytes → the driver as Verilog (Yosys) on four boards under Verilator →
-/// every edge of every channel against the plan (`gateware/full_width.py`).
+/// bytes → the driver as Verilog (Yosys) on the 16 boards of the array
+/// under Verilator (one module per distinct channel count, instantiated
+/// per board with its slice) → every edge of every channel against the
+/// plan (`gateware/full_width.py`).
 fn full_width(c: &Ctx, python: &Path, out: &Path) -> Result<(), String> {
     let missing: Vec<&str> = ["yosys", "verilator"]
         .into_iter()
