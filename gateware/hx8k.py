@@ -58,8 +58,8 @@ def _header(power, balls):
 
 HEADERS = {
     # Bank 0. Shared on the board: A16, A15, B15, B13, B14, B12, B10 with
-    # the FT2232H's second port (UART lines), and B5, B4, A2, A1, C5, C4,
-    # B3, C3 with LEDs D9..D2.
+    # the FT2232H's UART lines (sheet 2), and B5, B4, A2, A1, C5, C4, B3,
+    # C3 with LEDs D9..D2 (sheet 5).
     "J1": _header({2: "VCCIO0"}, [
         "A16", "A15", "B15", "B13", "B14", "B12", "B11", "A11", "B10", "A10", "C9",
         "A9", "B9", "B8", "A7", "B7", "C7", "A6", "C6", "B6", "C5", "A5", "C4",
@@ -83,7 +83,7 @@ HEADERS = {
 }
 #: Balls on a header that the design must leave alone.
 RESERVED = {"P13": "CBSEL1", "J3": "12 MHz oscillator"}
-#: LED D9 (net LED0 on the schematic; not on a header the design uses).
+#: LED D9 (net LED0, EB85 sheets 3 and 5; also on J1, which the design does not use).
 LED_BALL = "B5"
 
 #: The bus and the output enable: J2 pins 25-37, each beside a ground pin

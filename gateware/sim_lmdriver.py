@@ -511,6 +511,45 @@ def test_a_board_without_its_stamp_stays_silent():
     assert rec["good"][-1] == 0 and rec["bad"][-1] == 1 and not any(rec["out"])
 
 
+def test_pin_file_and_wiring_tables_match_the_board():
+    """`hx8k.py` holds the board's header map (EB85's schematic) and the
+    pin choice; the checked-in PCF and firmware/DRIVER.md's tables must be
+    exactly what it says, and the choice must keep off ground, supply,
+    reserved and shared pins."""
+    import hx8k
+
+    pcf = (ROOT / "gateware/ice40hx8k-b-evn.pcf").read_text()
+    assert pcf == hx8k.pcf_text(), "ice40hx8k-b-evn.pcf: rewrite it with `python hx8k.py --pcf`"
+    used = [*hx8k.CONTROL.values(), *hx8k.GUARDS, *hx8k.OUTPUTS]
+    balls = [hx8k.ball(w) for w in used] + [hx8k.LED_BALL]
+    assert len(hx8k.OUTPUTS) == hx8k.CHANNELS == 64 and len(set(balls)) == len(balls)
+    for where in used:
+        net = hx8k.ball(where)
+        assert net != "GND" and not net.startswith("VCC") and net not in hx8k.RESERVED, where
+        assert where[0] != "J1", f"{where}: J1 is shared with the FT2232H and the LEDs"
+    assert all(sum(1 for v in h.values() if v == "GND") == 10 for h in hx8k.HEADERS.values())
+    doc = (ROOT / "firmware/DRIVER.md").read_text()
+    rows = re.findall(r"^\| (\d+) \| (J\d) \| (\d+) \| ([A-T]\d+) \| (\d) \|$", doc, re.M)
+    bank = {"J1": 0, "J2": 1, "J3": 2, "J4": 3}
+    want = [(str(k), h, str(p), hx8k.ball((h, p)), str(bank[h])) for k, (h, p) in enumerate(hx8k.OUTPUTS)]
+    assert rows == want, "DRIVER.md's output table and hx8k.OUTPUTS differ"
+    for name, label in [("clk_ref", "reference"), ("cs_n", "CS"), ("mosi", "MOSI"), ("sck", "SCK"),
+                        ("oe_n", "`oe_n`")]:
+        hdr, pin = hx8k.CONTROL[name]
+        assert re.search(rf"^\| {re.escape(label)}[^|]* \| {pin} \| {hx8k.ball((hdr, pin))}\b", doc, re.M), name
+    guards = ", ".join(str(p) for _, p in hx8k.GUARDS)
+    assert f"| guard, driven low | {guards} | " in doc
+    # The array table: 996 transducers as `cargo xtask bitstream --all` splits them.
+    arr = re.findall(r"^\| (\d+) \| (\d+) \| (\d+) \| (\d+)-(\d+) \| `hx8k_b(\d\d)_(\d+)-(\d+)_of_996\.bin` \|$",
+                     doc, re.M)
+    want = [(i, 64 * i, min(64, 996 - 64 * i)) for i in range(16)]
+    got = [(int(b), int(f), int(n)) for b, f, n, *_ in arr]
+    assert got == want, got
+    assert all(int(lo) == f and int(hi) == f + n - 1 and int(b2) == b and int(lo2) == f and int(hi2) == f + n - 1
+               for (b, f, n), (_, _, _, lo, hi, b2, lo2, hi2) in zip(want, arr))
+    FIG["pins_checked"] = len(used)
+
+
 def test_documented_clock_k8():
     """At the documented clock (k = 8, 81.92 MHz) with SCK = 16 MHz-like
     ratio (f_clk / 5, rounded to whole clocks: 3+2): edges exact."""
