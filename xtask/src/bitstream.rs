@@ -86,7 +86,7 @@ fn parse_args(args: &[String]) -> Result<Vec<Board>, String> {
     if all {
         if channels.is_some() || first.is_some() {
             return Err(format!(
-                "--all splits the array into {BOARD_CHANNELS}-channel boards itself: no --channels or --first\n{USAGE}"
+                "--all splits the array into {BOARD_CHANNELS}-channel boards itself: no --channels or --first"
             ));
         }
         let total = total.unwrap_or(PAPER_TOTAL);
@@ -345,14 +345,19 @@ pub fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
     counts.dedup();
     counts.reverse();
     println!(
-        "{} board(s), {} distinct netlist(s) ({} channels): placing and routing each once, in parallel",
+        "{} board(s), {} distinct netlist(s) ({} channels): placing and routing each once{}",
         boards.len(),
         counts.len(),
         counts
             .iter()
             .map(u16::to_string)
             .collect::<Vec<_>>()
-            .join(", ")
+            .join(", "),
+        if counts.len() > 1 {
+            ", in parallel"
+        } else {
+            ""
+        }
     );
     let templates: Vec<Result<Template, String>> = std::thread::scope(|s| {
         let handles: Vec<_> = counts
@@ -380,6 +385,10 @@ pub fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
     let mut rows = Vec::new();
     let mut failure = None;
     for b in &boards {
+        // A failed build must not leave an older bitstream under the board's name.
+        for ext in ["bin", "asc", "rom.hex"] {
+            let _ = std::fs::remove_file(out.join(format!("{}.{ext}", b.name())));
+        }
         let t = templates
             .iter()
             .find(|t| t.channels == b.channels)
