@@ -10,16 +10,21 @@
 //!   a planned LM-M sequence, then simulates the transducer driver
 //!   (`gateware/`, Amaranth in a venv under the target dir) against
 //!   `firmware/DRIVER.md`; then the full-width chain (the paper's LM-M,
-//!   996 channels on four boards) as Verilog under Verilator (Yosys and
+//!   996 channels on 16 boards: 15 × 64 + 36) as Verilog under Verilator (Yosys and
 //!   Verilator from Debian, installed as root when missing).
 //! - `ethercat`: the CI's opt-in backends step alone: builds lmhost with
 //!   `flash` and (as root, installing libpcap-dev and CMake ≥ 3.28) both
 //!   EtherCAT links, then checks that opening them without an adapter or
 //!   without privileges is one line and exit 1.
-//! - `bitstream [--first F] [--total T]`: synthesises the driver for the
-//!   iCE40-HX8K Breakout Board (64 channels, PLL, its pin map) with Yosys,
-//!   nextpnr-ice40 and icepack from Debian (installed when missing and
-//!   root); prints utilisation and fmax. Not part of `ci`.
+//! - `bitstream [--channels N] [--first F] [--total T]` or `bitstream --all
+//!   [--total T]`: the iCE40-HX8K Breakout Board's bitstreams (up to 64
+//!   channels, PLL, its pin map) with Yosys, nextpnr-ice40, icebram and
+//!   icepack from Debian (installed when missing and root): one board, or
+//!   every board of a T-transducer array (default 996: 15 × 64 + 36), each
+//!   distinct channel count placed and routed once and each board's slice
+//!   stamped into it ([`bitstream`]); prints a table of utilisation and
+//!   fmax and fails when a board does not fit or meet 81.92 MHz. Not part
+//!   of `ci`.
 //! - `build-fw`: release build of the QEMU firmware and the Nucleo board.
 //! - `qemu [--tcp PORT]`: run the firmware under QEMU, UART0 on a pty
 //!   (default) or on a TCP port on 127.0.0.1.
@@ -27,6 +32,7 @@
 //!
 //! std only: the ELF reader for `size` is in [`elf`].
 
+mod bitstream;
 mod elf;
 
 use std::borrow::BorrowMut;
@@ -679,13 +685,16 @@ fn step_gateware(c: &Ctx) -> Result<(), String> {
 }
 
 /// Transducers of the paper's rig (`scenes/paper.toml`) and the channels
-/// of one driver board in the full-width run.
-const FULL_WIDTH: (&str, &str) = ("996", "256");
+/// of one driver board in the full-width run (the HX8K breakout board's
+/// 64: 15 boards of 64 and one of 36, as `cargo xtask bitstream --all`).
+const FULL_WIDTH: (&str, &str) = ("996", "64");
 
 /// The whole chain at full width: `lmhost plan` (the paper's LM-M on the
 /// paper's scene) → lm-fw-core (`spi_frames`' full-width test) → the SPI
-/// bytes → the driver as Verilog (Yosys) on four boards under Verilator →
-/// every edge of every channel against the plan (`gateware/full_width.py`).
+/// bytes → the driver as Verilog (Yosys) on the 16 boards of the array
+/// under Verilator (one module per distinct channel count, instantiated
+/// per board with its slice) → every edge of every channel against the
+/// plan (`gateware/full_width.py`).
 fn full_width(c: &Ctx, python: &Path, out: &Path) -> Result<(), String> {
     let missing: Vec<&str> = ["yosys", "verilator"]
         .into_iter()
@@ -742,98 +751,6 @@ fn full_width(c: &Ctx, python: &Path, out: &Path) -> Result<(), String> {
         .args(["--total", FULL_WIDTH.0, "--board", FULL_WIDTH.1, "--work"])
         .arg(out.join("verilator"))
         .env("PYTHONDONTWRITEBYTECODE", "1"))
-}
-
-/// Yosys + nextpnr-ice40 + icepack for one iCE40-HX8K Breakout Board
-/// (`gateware/hx8k.py`: 64 channels, the PLL from a 10.24 MHz reference to
-/// the documented 81.92 MHz, pins in `gateware/ice40hx8k-b-evn.pcf`);
-/// `--first F --total T`: the board drives frame channels F..F + 64 of T.
-fn bitstream(c: &Ctx, args: &[String]) -> Result<(), String> {
-    let (mut first, mut total) = ("0".to_string(), "64".to_string());
-    let mut rest = args.iter();
-    while let Some(flag) = rest.next() {
-        let v = rest.next().filter(|v| v.parse::<u16>().is_ok());
-        match (flag.as_str(), v) {
-            ("--first", Some(v)) => first = v.clone(),
-            ("--total", Some(v)) => total = v.clone(),
-            _ => return Err("usage: cargo xtask bitstream [--first F] [--total T]".into()),
-        }
-    }
-    if !has_program("yosys") || !has_program("nextpnr-ice40") || !has_program("icepack") {
-        if !is_root() {
-            return Err("bitstream needs yosys, nextpnr-ice40 and icepack: \
-                        apt-get install -y yosys nextpnr-ice40 fpga-icestorm"
-                .into());
-        }
-        run(Command::new("apt-get").args([
-            "install",
-            "-y",
-            "yosys",
-            "nextpnr-ice40",
-            "fpga-icestorm",
-        ]))?;
-    }
-    let python = c.target_dir.join("gw-venv").join("bin").join("python");
-    if !python.exists() {
-        return Err("run `cargo xtask gateware` first (it sets up the venv)".into());
-    }
-    let out = c.target_dir.join("gateware").join("bitstream");
-    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let stem = format!("hx8k_{first}_of_{total}");
-    let il = out.join(format!("{stem}.il"));
-    let json = out.join(format!("{stem}.json"));
-    let asc = out.join(format!("{stem}.asc"));
-    let bin = out.join(format!("{stem}.bin"));
-    let log = out.join(format!("nextpnr_{stem}.log"));
-    run(Command::new(&python)
-        .arg(c.root.join("gateware").join("hx8k.py"))
-        .args(["--first", &first, "--total", &total])
-        .arg(&il)
-        .env("PYTHONDONTWRITEBYTECODE", "1"))?;
-    run(Command::new("yosys").arg("-q").arg("-p").arg(format!(
-        "read_rtlil {}; synth_ice40 -top top -json {}",
-        il.display(),
-        json.display()
-    )))?;
-    let pnr = Command::new("nextpnr-ice40")
-        .args(["--hx8k", "--package", "ct256", "--freq", "81.92"])
-        .arg("--pcf")
-        .arg(c.root.join("gateware").join("ice40hx8k-b-evn.pcf"))
-        .arg("--json")
-        .arg(&json)
-        .arg("--asc")
-        .arg(&asc)
-        .arg("--log")
-        .arg(&log)
-        .stderr(Stdio::null())
-        .status()
-        .map_err(|e| format!("cannot start nextpnr-ice40: {e}"))?;
-    let text = std::fs::read_to_string(&log).unwrap_or_default();
-    let keep = |l: &&str| {
-        l.contains("ICESTORM_LC:")
-            || l.contains("SB_IO:")
-            || l.contains("ICESTORM_PLL:")
-            || l.contains("ERROR")
-    };
-    for line in text.lines().filter(keep) {
-        println!("{}", line.trim_start_matches("Info: ").trim());
-    }
-    // nextpnr reports fmax after placement and again after routing: the last counts.
-    if let Some(line) = text.lines().rfind(|l| l.contains("Max frequency")) {
-        println!(
-            "after routing: {}",
-            line.trim_start_matches("Info: ").trim()
-        );
-    }
-    if !pnr.success() {
-        return Err(format!(
-            "nextpnr-ice40 failed ({pnr}); see {}",
-            log.display()
-        ));
-    }
-    run(Command::new("icepack").arg(&asc).arg(&bin))?;
-    println!("bitstream: {}", bin.display());
-    Ok(())
 }
 
 /// Whether `name` is on `PATH`.
@@ -1113,10 +1030,10 @@ fn main() -> ExitCode {
         Some("size") if args.len() == 1 => size(&c),
         Some("python") if args.len() == 1 => step_python(&c),
         Some("gateware") if args.len() == 1 => step_gateware(&c),
-        Some("bitstream") => bitstream(&c, &args[1..]),
+        Some("bitstream") => bitstream::bitstream(&c, &args[1..]),
         Some("ethercat") if args.len() == 1 => step_optional_backends(&c),
         _ => Err(
-            "usage: cargo xtask <ci [--from STEP] | python | gateware | ethercat | bitstream [--first F] [--total T] | build-fw | qemu [--tcp PORT] | size>"
+            "usage: cargo xtask <ci [--from STEP] | python | gateware | ethercat | bitstream [--channels N] [--first F] [--total T] | bitstream --all [--total T] | build-fw | qemu [--tcp PORT] | size>"
                 .into(),
         ),
     };
