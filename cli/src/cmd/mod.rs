@@ -25,6 +25,7 @@ pub mod stream;
 pub mod study;
 pub mod track;
 pub mod upload;
+pub mod wiring;
 
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]
@@ -33,6 +34,8 @@ pub enum Command {
     Plan(plan::Args),
     /// Show a scene or export its transducers.
     Scene(scene::Args),
+    /// Which driver-board header pin drives which transducer (CSV).
+    Wiring(wiring::Args),
     /// Simulate a stimulus's acoustic field and plot it.
     Simulate(simulate::Args),
     /// Time and check the numeric paths; print the bench report.
@@ -75,6 +78,7 @@ impl Command {
         match self {
             Command::Plan(a) => a.run(),
             Command::Scene(a) => a.run(),
+            Command::Wiring(a) => a.run(),
             Command::Simulate(a) => a.run(),
             Command::Bench(a) => a.run(),
             Command::Sim(a) => a.run(),

@@ -2,8 +2,8 @@
 //! The [`backend::Backend`] trait every device kind implements, the serial
 //! link and its client for the LM firmware, AUTD3 arrays through the autd3
 //! crates, opening the device a port names ([`connect`]), the simulated
-//! LM device, the one upload report, and the device policy's conformance
-//! table.
+//! LM device, the one upload report, the device policy's conformance
+//! table, and the wiring map of the driver boards.
 //!
 //! Imports the base and the planning wing; never the sensing or lab wings.
 
@@ -14,3 +14,4 @@ pub mod connect;
 pub mod link;
 pub mod simdev;
 pub mod upload;
+pub mod wiring;
