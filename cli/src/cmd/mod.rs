@@ -10,6 +10,7 @@ pub mod args;
 pub mod bench;
 pub mod calibrate;
 pub mod demo;
+pub mod doctor;
 pub mod flash;
 pub mod info;
 pub mod opening;
@@ -36,6 +37,8 @@ pub enum Command {
     Scene(scene::Args),
     /// Which driver-board header pin drives which transducer (CSV).
     Wiring(wiring::Args),
+    /// Check the rig: what is connected, and what to do about what is not.
+    Doctor(doctor::Args),
     /// Simulate a stimulus's acoustic field and plot it.
     Simulate(simulate::Args),
     /// Time and check the numeric paths; print the bench report.
@@ -79,6 +82,7 @@ impl Command {
             Command::Plan(a) => a.run(),
             Command::Scene(a) => a.run(),
             Command::Wiring(a) => a.run(),
+            Command::Doctor(a) => a.run(),
             Command::Simulate(a) => a.run(),
             Command::Bench(a) => a.run(),
             Command::Sim(a) => a.run(),
