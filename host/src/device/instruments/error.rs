@@ -45,13 +45,22 @@ pub enum InstrumentError {
         /// The instrument's error, in words.
         detail: String,
     },
+    /// A stop was requested (Ctrl-C, SIGTERM) while a move ran or a series
+    /// was taken; a move was stopped first.
+    #[error("{port}: {detail}")]
+    Interrupted {
+        /// The instrument's port.
+        port: String,
+        /// What was interrupted.
+        detail: String,
+    },
     /// The port itself failed (unplugged adapter, closed pty).
-    #[error("{port}: {}", crate::files::reason(source))]
+    #[error("{port}: {}", crate::files::reason(error))]
     Io {
         /// The instrument's port.
         port: String,
-        /// The I/O error.
-        source: std::io::Error,
+        /// The I/O error (said in the message, so not a separate cause).
+        error: std::io::Error,
     },
 }
 

@@ -125,6 +125,12 @@ pub trait ForceGauge {
         let t0 = clock.now();
         let mut samples = Vec::with_capacity(n);
         for i in 0..n {
+            if crate::stop::requested() {
+                return Err(InstrumentError::Interrupted {
+                    port: self.port().to_owned(),
+                    detail: format!("sampling interrupted by a stop request after {i} readings"),
+                });
+            }
             let due = t0 + std::time::Duration::from_secs_f64(i as f64 / rate_hz);
             let now = clock.now();
             if due > now {

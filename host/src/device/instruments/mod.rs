@@ -11,7 +11,8 @@
 //! | [`Stage`]: absolute moves on the push axis (mm, soft limits), waited for within a timeout from distance and speed, stop, home | [`ChuoQt`]: CHUO PRECISION QT controllers (QT-AMM3, QT-ADM2, …), 9600 baud | [`SimStage`]: moves at its speed (5 mm/s) on a [`crate::clock::Clock`] |
 //! | [`ForceGauge`]: one reading in N (the gauge's unit read from the reply and converted), a time-stamped series at a rate | [`Imada`]: IMADA ZTS/ZTA (`D`), 19200 baud; [`Mark10`]: Mark-10 Series 4/5/7 (`?`), 115200 baud | [`SimGauge`]: a ZTS-50N reading a [`FingerPad`] at the stage's position |
 //!
-//! [`press`] is one push of the experiment over any stage and gauge, with
+//! [`open_gauge`] and [`open_stage`] open what a port names (a serial
+//! path, or `sim` for the twin). [`press`] is one push of the experiment over any stage and gauge, with
 //! the safe ending every failure gets (stimulus off, stage stopped and
 //! back at rest). Errors are one [`InstrumentError`] type whose message
 //! starts with the port.
@@ -28,6 +29,7 @@ pub mod error;
 pub mod gauge;
 pub mod imada;
 pub mod mark10;
+pub mod open;
 pub mod port;
 pub mod press;
 pub mod sim_gauge;
@@ -41,9 +43,13 @@ pub use error::InstrumentError;
 pub use gauge::{ForceGauge, Reading, Series};
 pub use imada::Imada;
 pub use mark10::Mark10;
+pub use open::{GaugeModel, GaugeOptions, SIM, StageOptions, open_gauge, open_stage};
 pub use port::Port;
 pub use press::{PressError, PressPlan, Pressed, press};
 pub use sim_gauge::{GaugeSpec, SimGauge};
 pub use sim_stage::{SimStage, StageProbe};
 pub use stage::{Move, Stage, StageLimits};
 pub use unit::ForceUnit;
+
+#[cfg(test)]
+mod gauge_driver_tests;

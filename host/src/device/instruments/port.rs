@@ -54,11 +54,11 @@ pub fn open_serial(
         .map_err(|e| match e.kind {
             serialport::ErrorKind::Io(kind) => InstrumentError::Io {
                 port: path.to_owned(),
-                source: std::io::Error::new(kind, e.description),
+                error: std::io::Error::new(kind, e.description),
             },
             _ => InstrumentError::Io {
                 port: path.to_owned(),
-                source: std::io::Error::other(e.description),
+                error: std::io::Error::other(e.description),
             },
         })
 }
@@ -103,10 +103,10 @@ impl<P: Port> LineIo<P> {
         self.reply_timeout
     }
 
-    fn io(&self, source: std::io::Error) -> InstrumentError {
+    fn io(&self, error: std::io::Error) -> InstrumentError {
         InstrumentError::Io {
             port: self.name.clone(),
-            source,
+            error,
         }
     }
 

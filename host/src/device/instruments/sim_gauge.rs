@@ -127,7 +127,8 @@ impl ForceGauge for SimGauge {
                 ),
             ));
         }
-        let shown = (raw / self.spec.resolution_n).round() * self.spec.resolution_n;
+        // `+ 0.0` turns a rounded −0 into 0, as a display shows it.
+        let shown = (raw / self.spec.resolution_n).round() * self.spec.resolution_n + 0.0;
         Ok(Reading {
             at_us,
             force_n: shown,

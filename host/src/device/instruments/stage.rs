@@ -186,6 +186,16 @@ pub fn wait_idle<S: Stage + ?Sized>(
         if !stage.is_moving()? {
             return Ok(clock.now().saturating_sub(t0));
         }
+        if crate::stop::requested() {
+            let stopped = match stage.stop() {
+                Ok(()) => "stopped".to_owned(),
+                Err(e) => format!("stop failed: {e}"),
+            };
+            return Err(InstrumentError::Interrupted {
+                port: stage.port().to_owned(),
+                detail: format!("{} interrupted by a stop request ({stopped})", what()),
+            });
+        }
         if clock.now().saturating_sub(t0) >= timeout {
             // A stuck move is stopped before anything else is said; a stop
             // that fails too is reported with it.
