@@ -180,24 +180,25 @@ impl<P: Port> ChuoQt<P> {
     /// `CHUOSEIKI`; the first answer after power-up may be noise, so it is
     /// asked three times (the adapter asks five) before giving up.
     fn identify(&mut self) -> Result<(), InstrumentError> {
-        let mut last = None;
-        for _ in 0..3 {
-            match self.io.ask("?:CHUOSEIKI", TERM) {
+        let mut tries = 0;
+        loop {
+            tries += 1;
+            let err = match self.io.ask("?:CHUOSEIKI", TERM) {
                 Ok(reply) if reply.starts_with("CHUOSEIKI") => return Ok(()),
-                Ok(reply) => {
-                    last = Some(InstrumentError::protocol(
-                        self.io.name(),
-                        format!(
-                            "not a Chuo Seiki QT controller: ?:CHUOSEIKI answered {}",
-                            quote(reply.as_bytes())
-                        ),
-                    ))
-                }
-                Err(e) if e.is_silence() => last = Some(e),
+                Ok(reply) => InstrumentError::protocol(
+                    self.io.name(),
+                    format!(
+                        "not a Chuo Seiki QT controller: ?:CHUOSEIKI answered {}",
+                        quote(reply.as_bytes())
+                    ),
+                ),
+                Err(e) if e.is_silence() => e,
                 Err(e) => return Err(e),
+            };
+            if tries == 3 {
+                return Err(err);
             }
         }
-        Err(last.expect("three tries were made"))
     }
 
     fn axis(&self) -> char {

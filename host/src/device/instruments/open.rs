@@ -2,9 +2,7 @@
 //! `sim` for its simulated twin, so the bench commands and the study open
 //! both the same way.
 
-use std::time::Duration;
-
-use super::chuo::{Axis, ChuoQt, QT_BAUD, QtConfig};
+use super::chuo::{Axis, ChuoQt, QT_BAUD, QT_REPLY_TIMEOUT, QtConfig};
 use super::contact::FingerPad;
 use super::gauge::ForceGauge;
 use super::imada::{IMADA_BAUD, Imada};
@@ -120,7 +118,7 @@ pub fn open_stage(o: &StageOptions) -> anyhow::Result<Box<dyn Stage>> {
         speed_mm_s: o.speed_mm_s,
         accel_ms: 100,
         baud: o.baud.unwrap_or(QT_BAUD),
-        reply_timeout: Duration::from_millis(500),
+        reply_timeout: QT_REPLY_TIMEOUT,
     };
     Ok(Box::new(ChuoQt::open(&o.port, cfg)?))
 }

@@ -37,9 +37,9 @@ impl Port for Box<dyn serialport::SerialPort> {
     }
 }
 
-/// Serial settings of an instrument: baud rate, always 8 data bits, no
-/// parity, one stop bit, no flow control (what all three manuals give as
-/// the factory setting).
+/// Open a serial instrument at `baud`, 8 data bits, no parity, one stop
+/// bit, no flow control: the factory setting of all three kinds (see each
+/// driver's docs).
 pub fn open_serial(
     path: &str,
     baud: u32,
