@@ -12,7 +12,7 @@
 //! | [`ForceGauge`]: one reading in N (the gauge's unit read from the reply and converted), a time-stamped series at a rate | [`Imada`]: IMADA ZTS/ZTA (`D`), 19200 baud; [`Mark10`]: Mark-10 Series 4/5/7 (`?`), 115200 baud | [`SimGauge`]: a ZTS-50N reading a [`FingerPad`] at the stage's position |
 //!
 //! [`open_gauge`] and [`open_stage`] open what a port names (a serial
-//! path, or `sim` for the twin). [`press`] is one push of the experiment over any stage and gauge, with
+//! path, or `sim` for the twin). [`press()`] is one push of the experiment over any stage and gauge, with
 //! the safe ending every failure gets (stimulus off, stage stopped and
 //! back at rest). Errors are one [`InstrumentError`] type whose message
 //! starts with the port.
