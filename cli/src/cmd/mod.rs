@@ -12,6 +12,7 @@ pub mod calibrate;
 pub mod demo;
 pub mod doctor;
 pub mod flash;
+pub mod gauge;
 pub mod info;
 pub mod opening;
 pub mod plan;
@@ -20,6 +21,7 @@ pub mod scene;
 pub mod session;
 pub mod sim;
 pub mod simulate;
+pub mod stage;
 pub mod status;
 pub mod stop;
 pub mod stream;
@@ -73,6 +75,12 @@ pub enum Command {
     /// Calibrate the rig (camera pose, force) into its scene file.
     #[command(subcommand_required = true)]
     Calibrate(calibrate::Args),
+    /// Read a force gauge (IMADA, Mark-10) or its simulated twin.
+    #[command(subcommand_required = true)]
+    Gauge(gauge::Args),
+    /// Drive a motorised stage (Chuo Seiki QT) or its simulated twin.
+    #[command(subcommand_required = true)]
+    Stage(stage::Args),
 }
 
 impl Command {
@@ -98,6 +106,8 @@ impl Command {
             Command::Session(a) => a.run(),
             Command::Study(a) => a.run(),
             Command::Calibrate(a) => a.run(),
+            Command::Gauge(a) => a.run(),
+            Command::Stage(a) => a.run(),
         }
     }
 }
