@@ -235,13 +235,11 @@ fn conditions(
         .try_fold(1usize, |n, f| n.checked_mul(f.levels.len()))
         .filter(|n| (1..=MAX_CONDITIONS).contains(n))
         .ok_or_else(|| {
-            let product = factors
-                .iter()
-                .map(|f| f.levels.len().to_string())
-                .collect::<Vec<_>>()
-                .join(" x ");
+            let product: f64 = factors.iter().map(|f| f.levels.len() as f64).product();
             e.bad(format!(
-                "{product} conditions; a protocol has 1 to {MAX_CONDITIONS}"
+                "{} factors give {} conditions; a protocol has 1 to {MAX_CONDITIONS}",
+                factors.len(),
+                crate::limits::show(product)
             ))
         })?;
     let mut out = Vec::with_capacity(n);
