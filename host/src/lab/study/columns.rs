@@ -191,14 +191,19 @@ impl Holds {
     /// quote doubled), with list columns of at most `items` values: bounds
     /// how much a file being resumed or reported may hold.
     fn max_bytes(&self, items: usize) -> usize {
+        // A label quoted, every quote doubled.
         let label = |l: &[String]| 2 * l.iter().map(String::len).max().unwrap_or(0) + 2;
-        // A number as the runner or a participant writes it.
-        const NUMBER: usize = 2 * MAX_LABEL_BYTES + 2;
+        // A number the runner writes (a count, `{:.4}` of a time); ids
+        // and numbers hold nothing that needs quoting.
+        const NUMBER: usize = 32;
         match self {
-            Self::Participant | Self::Stimulus => 2 * crate::plan::library::MAX_ID_LEN + 2,
-            Self::Count | Self::Answers | Self::Adjustments(_) => 24,
+            Self::Participant | Self::Stimulus => crate::plan::library::MAX_ID_LEN,
+            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured => NUMBER,
             Self::Level(l) | Self::Choice(l) => label(l),
-            Self::Measured | Self::Number(..) | Self::Depth(..) | Self::Likert(_) => NUMBER,
+            Self::Likert(_) => 1,
+            // As the participant gave it.
+            Self::Number(..) => MAX_LABEL_BYTES,
+            Self::Depth(..) => NUMBER,
             Self::Order(n) => label(n) * n.len().max(1),
             Self::Depths(..) => (NUMBER + 1) * items,
             Self::AdjustAnswers(l) => (label(l) + 1) * items,

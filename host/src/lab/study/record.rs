@@ -15,9 +15,11 @@ use super::design::Planned;
 use super::protocol::{Condition, Factor, Question};
 use crate::error::InputError;
 
-/// Largest `session.json`: the protocol's text (at most 1 MiB, escaped),
-/// the most trials a protocol has (100 000) with their shown orders, and a
-/// few thousand runs' device and library records.
+/// Largest `session.json`: the most trials a session has
+/// ([`super::protocol::MAX_TRIALS`]) with 32 questions of 9 items each
+/// (46 MB, see the test), the protocol's text (1 MiB, a few times that
+/// escaped) and a few hundred runs' device and library records (8 kB for a
+/// library of 2 entries, under 1 MB for 256).
 pub const MAX_SESSION_BYTES: u64 = 256 << 20;
 
 /// One run of the session (the first, and one per `--resume`).

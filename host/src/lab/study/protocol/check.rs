@@ -7,8 +7,8 @@ use toml::Spanned;
 
 use super::file::{File, KindFile, QuestionFile, repeated};
 use super::{
-    Adjustment, Condition, Factor, Kind, MAX_CONDITIONS, MAX_OPTIONS, MAX_QUESTIONS, Question,
-    Timeline, Unlinked,
+    Adjustment, Condition, Factor, Kind, MAX_CONDITIONS, MAX_OPTIONS, MAX_QUESTIONS, MAX_TRIALS,
+    Question, Timeline, Unlinked,
 };
 use crate::error::InputError;
 use crate::lab::study::columns::{AdjustColumns, Column, Columns, Holds};
@@ -40,6 +40,14 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
     let timeline = timeline(&file, e)?;
     let factors = factors(&file, e)?;
     let conditions = conditions(&file.stimulus, &factors, e)?;
+    let sets = file.sets.0;
+    if conditions.len().saturating_mul(sets) > MAX_TRIALS {
+        return Err(e.bad(format!(
+            "{} conditions in {sets} sets make {} trials; at most {MAX_TRIALS} fit one session",
+            conditions.len(),
+            conditions.len().saturating_mul(sets)
+        )));
+    }
     if file.question.len() > MAX_QUESTIONS {
         return Err(e.bad(format!(
             "{} questions; at most {MAX_QUESTIONS}",
@@ -116,7 +124,7 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         name: file.name.0,
         library: file.library,
         stimulus: file.stimulus,
-        sets: file.sets.0,
+        sets,
         timeline,
         factors,
         conditions,

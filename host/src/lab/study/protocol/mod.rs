@@ -17,6 +17,9 @@ use crate::plan::library::Library;
 pub const MAX_SETS: usize = 100;
 /// Most conditions (the factors' product).
 pub const MAX_CONDITIONS: usize = 1_000;
+/// Most trials in a session (conditions × sets): over 2.5 h at a second
+/// a trial, and what bounds `session.json` and `trials.csv`.
+pub const MAX_TRIALS: usize = 10_000;
 /// Most questions per trial.
 pub const MAX_QUESTIONS: usize = 32;
 /// Most Likert points, choice options or Likert items.

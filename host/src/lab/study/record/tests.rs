@@ -246,3 +246,55 @@ fn csv_lines_quote_what_needs_it_and_read_back() {
         .collect();
     assert_eq!(back, f);
 }
+
+#[test]
+fn the_largest_session_fits_the_bounds() {
+    // 1000 conditions in 10 sets, 32 Likert questions of 9 shuffled items:
+    // every order in session.json as long as a protocol allows.
+    let library = studies("paper-library.toml");
+    let mut text = format!(
+        "name = \"big\"\nlibrary = \"{}\"\nsets = 10\nstimulus = \"lms-5hz-a2\"\n\
+         [timeline]\non_s = 1.0\n",
+        library.display()
+    );
+    for f in ["a", "b", "c"] {
+        let levels: Vec<String> = (0..10).map(|i| format!("\"{i}\"")).collect();
+        text += &format!(
+            "[[factor]]\nname = \"{f}\"\nlevels = [{}]\n",
+            levels.join(", ")
+        );
+    }
+    for q in 0..32 {
+        let items: Vec<String> = (0..9).map(|i| format!("\"item{i}\"")).collect();
+        text += &format!(
+            "[[question]]\nid = \"q{q}\"\nkind = \"likert\"\nitems = [{}]\nshuffle = true\n",
+            items.join(", ")
+        );
+    }
+    let p = Protocol::from_toml(&text, &studies("big.toml")).unwrap();
+    assert_eq!(p.trials(), crate::lab::study::protocol::MAX_TRIALS);
+    let plan = design::plan(&p, 1);
+    let s = SessionFile {
+        protocol_name: p.name.clone(),
+        protocol_file: String::new(),
+        protocol: "x".repeat(1 << 20),
+        library_file: String::new(),
+        participant: "P01".into(),
+        seed: 1,
+        question_order: Vec::new(),
+        columns: columns(&p.columns),
+        trials: plan.clone(),
+        runs: Vec::new(),
+    };
+    let bytes = serde_json::to_vec_pretty(&s).unwrap().len() as u64;
+    assert!(bytes < MAX_SESSION_BYTES / 4, "{bytes} bytes");
+    // trials.csv's bound follows the protocol: here a few kB a row.
+    let row = p.columns.max_row_bytes();
+    assert!((1_000..20_000).contains(&row), "{row} bytes a row");
+    let e = Protocol::from_toml(
+        &text.replace("sets = 10", "sets = 11"),
+        &studies("big.toml"),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("11000 trials; at most 10000"), "{e}");
+}
