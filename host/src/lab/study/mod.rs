@@ -1,16 +1,23 @@
 //! Studies on the rig session: `lmhost study run` presents a protocol's
 //! conditions in seeded random order through a [`Session`] held in
-//! process, asks the questions after each trial (or runs Experiment 3's
-//! method of adjustment while the stimulus repeats), and appends every
-//! finished trial to `trials.csv` before the next one starts;
-//! `lmhost study report` summarises the answers.
+//! process, runs the protocol's [`procedure`] while the stimulus repeats
+//! (Experiment 3's method of adjustment), asks the questions after each
+//! trial, and appends every finished trial to `trials.csv` before the next
+//! one starts; `lmhost study report` summarises the answers.
 //!
 //! The files of a participant, in `OUT/ID/`: `trials.csv` (a row per
 //! finished trial, whole lines, synced), `session.json` (the protocol's
 //! text, seed, trial order with shown option orders, device, library
 //! CRCs; written whole) and `events.jsonl` (every session event and the
 //! runner's `trial` and `depth` lines). `--resume` continues at the first
-//! trial not on disk, in the order `session.json` holds.
+//! trial not on disk, in the order `session.json` holds, after [`start`]
+//! has checked every file and changed none.
+//!
+//! By role: `protocol` (the file, checked), `design` (the seeded order),
+//! `columns` (trials.csv's header, once), `answers` (what is asked, where
+//! answers come from), `procedure`, `trial` (a trial's answers and row),
+//! `record` (the files, read back checked), `start` (new or resumed), this
+//! module's runner (presenting through the session), `report`.
 //!
 //! This module never parses flags or maps errors to exit codes; bad input
 //! is an [`InputError`] (exit 2 in `main`).
@@ -23,6 +30,8 @@ pub mod protocol;
 pub mod record;
 pub mod report;
 pub mod start;
+#[cfg(test)]
+pub(crate) mod test_files;
 pub mod trial;
 
 use std::path::{Path, PathBuf};
@@ -662,27 +671,6 @@ impl Runner {
             &given,
             procedure.as_deref(),
         ))
-    }
-}
-
-/// Files the study's tests share.
-#[cfg(test)]
-pub(crate) mod test_files {
-    use std::path::{Path, PathBuf};
-
-    /// A protocol of `studies/`.
-    pub(crate) fn studies(name: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../studies")
-            .join(name)
-    }
-
-    /// A fresh scratch folder.
-    pub(crate) fn scratch(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("lmhost-study-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
     }
 }
 

@@ -288,6 +288,10 @@ fn the_largest_session_fits_the_bounds() {
     };
     let bytes = serde_json::to_vec_pretty(&s).unwrap().len() as u64;
     assert!(bytes < MAX_SESSION_BYTES / 4, "{bytes} bytes");
+    eprintln!(
+        "largest session.json: {bytes} bytes; a trials.csv row at most {} bytes",
+        p.columns.max_row_bytes()
+    );
     // trials.csv's bound follows the protocol: here a few kB a row.
     let row = p.columns.max_row_bytes();
     assert!((1_000..20_000).contains(&row), "{row} bytes a row");
