@@ -369,7 +369,10 @@ impl Answers for Terminal {
                 0x7f | 0x08 => {
                     self.line.pop();
                 }
-                k if k.is_ascii_graphic() || k == b' ' => self.line.push(k as char),
+                // One byte past the longest answer is enough to refuse it.
+                k if (k.is_ascii_graphic() || k == b' ') && self.line.len() <= MAX_ANSWER_BYTES => {
+                    self.line.push(k as char);
+                }
                 _ => {}
             }
         }
@@ -377,15 +380,32 @@ impl Answers for Terminal {
 }
 
 /// Reads stdin lines lazily (a pipe that is not a terminal, no
-/// `--responses`): answers as they arrive.
-pub fn stdin_lines() -> anyhow::Result<Receiver<String>> {
+/// `--responses`): answers as they arrive. A line longer than
+/// [`crate::limits::MAX_LINE_BYTES`] ends the stream with an error, read
+/// no further.
+pub fn stdin_lines() -> anyhow::Result<Receiver<Result<String, String>>> {
     let (tx, rx) = channel();
     std::thread::Builder::new()
         .name("lmhost-answers".into())
         .spawn(move || {
-            for l in std::io::stdin().lock().lines() {
-                let Ok(l) = l else { break };
-                if tx.send(l).is_err() {
+            let mut stdin = std::io::stdin().lock();
+            loop {
+                let mut line = Vec::new();
+                let max = crate::limits::MAX_LINE_BYTES as u64;
+                match (&mut stdin).take(max + 1).read_until(b'\n', &mut line) {
+                    Ok(0) | Err(_) => break,
+                    Ok(_) => {}
+                }
+                let ended = line.last() == Some(&b'\n');
+                let item = if !ended && line.len() as u64 > max {
+                    Err(format!("a line longer than {max} bytes"))
+                } else {
+                    String::from_utf8(line)
+                        .map(|l| l.trim_end_matches(['\n', '\r']).to_owned())
+                        .map_err(|_| "a line that is not UTF-8 text".to_owned())
+                };
+                let stop = item.is_err();
+                if tx.send(item).is_err() || stop {
                     break;
                 }
             }
@@ -395,7 +415,7 @@ pub fn stdin_lines() -> anyhow::Result<Receiver<String>> {
 
 /// Answers as stdin lines arrive.
 pub struct Piped {
-    rx: Receiver<String>,
+    rx: Receiver<Result<String, String>>,
     n: usize,
 }
 
@@ -414,9 +434,11 @@ impl Answers for Piped {
         match self.rx.try_recv() {
             Ok(l) => {
                 self.n += 1;
-                q.parse(&l)
+                let n = self.n;
+                let bad = |m: String| InputError::new(format!("stdin line {n}: {m}"));
+                q.parse(&l.map_err(bad)?)
                     .map(Some)
-                    .map_err(|m| InputError::new(format!("stdin line {}: {m}", self.n)).into())
+                    .map_err(|m| bad(m).into())
             }
             Err(TryRecvError::Empty) => Ok(None),
             Err(TryRecvError::Disconnected) => Err(InputError::new(format!(
