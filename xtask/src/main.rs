@@ -598,11 +598,18 @@ fn step_host_test(c: &Ctx) -> Result<(), String> {
         .env("LM_FW_QEMU_ELF", c.firmware_elf()))
 }
 
+/// The scipy that wrote `host/tests/stats/reference.json`; a new one means
+/// regenerating it (`scipy_reference.py write`) and reading the diff.
+const SCIPY: &str = "scipy==1.17.1";
+
 /// The Python package: a virtual environment of its own under the target
 /// dir (nothing global), maturin, numpy and pytest from the package index,
 /// the binding built in the workspace's target dir and dev profile (pyo3
 /// and lmhost compiled once, shared with the other steps), then pytest
-/// against the real `target/debug/lmhost`.
+/// against the real `target/debug/lmhost`. Before that, the statistics'
+/// reference: scipy (pinned: the fixture is its output) recomputes
+/// `host/tests/stats/reference.json`, which must not differ from the
+/// committed one, so the values `stats_scipy.rs` checks really are scipy's.
 fn step_python(c: &Ctx) -> Result<(), String> {
     let venv = c.target_dir.join("py-venv");
     let bin = venv.join("bin");
@@ -620,6 +627,12 @@ fn step_python(c: &Ctx) -> Result<(), String> {
         "maturin>=1.5,<2",
         "numpy",
         "pytest",
+        SCIPY,
+    ]))?;
+    run(Command::new(&python).current_dir(&c.root).args([
+        "host/tests/stats/scipy_reference.py",
+        "check",
+        "host/tests/stats/reference.json",
     ]))?;
     run(c.cargo(&["build", "-p", "lmhost-cli"]))?;
     let path = match std::env::var_os("PATH") {
