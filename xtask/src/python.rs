@@ -1,4 +1,4 @@
-//! The Python package: a virtual environment of its own under the target
+//! The Python package (and the statistics' scipy reference): a virtual environment of its own under the target
 //! dir (nothing global), maturin, numpy and pytest from the package index,
 //! the binding built in the workspace's target dir and dev profile (pyo3
 //! and lmhost compiled once, shared with the other steps), then pytest
@@ -10,11 +10,24 @@ use crate::ctx::Ctx;
 use crate::proc::{Log, run};
 use crate::setup;
 
-/// What the Python step installs into its venv.
-pub const PACKAGES: &[&str] = &["maturin>=1.5,<2", "numpy", "pytest"];
+/// What the Python step installs into its venv. scipy is pinned: it wrote
+/// `host/tests/stats/reference.json`, and a new one means regenerating it
+/// (`scipy_reference.py write`) and reading the diff.
+pub const PACKAGES: &[&str] = &["maturin>=1.5,<2", "numpy", "pytest", "scipy==1.17.1"];
 
 pub fn step(c: &Ctx, log: &Log) -> Result<(), String> {
     let python = setup::venv(c, log, "py-venv", PACKAGES)?;
+    // The statistics' reference: scipy recomputes it, and it must not differ
+    // from the committed one, so the values `stats_scipy.rs` checks really
+    // are scipy's.
+    run(
+        log,
+        Command::new(&python).current_dir(&c.root).args([
+            "host/tests/stats/scipy_reference.py",
+            "check",
+            "host/tests/stats/reference.json",
+        ]),
+    )?;
     let bin = python
         .parent()
         .ok_or("the venv's python has no directory")?
