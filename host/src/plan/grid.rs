@@ -19,7 +19,7 @@ pub const MAX_PATTERNS: usize = autd3::core::firmware::GAIN_STM_BUF_SIZE_MAX;
 /// Largest sampling divide (the FPGA register is a u16).
 pub const MAX_DIVIDE: u32 = u16::MAX as u32;
 /// Smallest divide the silencer (1 ms phase completion, strict mode, see
-/// [`super::safety`]) accepts: 40 × 25 µs = 1 ms, the rig's 1 kHz update limit.
+/// [`crate::device::autd3::safety`]) accepts: 40 × 25 µs = 1 ms, the rig's 1 kHz update limit.
 pub const SILENCER_MIN_DIVIDE: u32 = 40;
 
 /// The realised timing of an LM cycle on the 25 µs grid.
