@@ -14,7 +14,8 @@
 //!
 //! One file per group: `support` (the device, test sequence and frame
 //! recorder the groups share), `wire` (byte vectors, frames through the
-//! feed), `device` (store, player, correction, gate), `measure` (the timer
+//! feed), `device` (store, player, correction, gate, host lease,
+//! self-test), `measure` (the timer
 //! check and the cost figures).
 
 use cortex_m_rt::entry;
@@ -53,8 +54,8 @@ mod support;
 mod wire;
 
 use device::{
-    correction_applied_to_frames, gate_mutes_within_one_step, player_follows_timer_schedule,
-    store_commit_checks_crc,
+    correction_applied_to_frames, gate_mutes_within_one_step, lease_silences_a_quiet_host,
+    player_follows_timer_schedule, self_test_is_unsupported_here, store_commit_checks_crc,
 };
 use measure::{
     measure_centroid_cost, measure_raw_vs_delta_step, measure_step_cost, timer_counts_instructions,
@@ -88,6 +89,11 @@ const TESTS: &[(&str, Test)] = &[
     ),
     ("correction_applied_to_frames", correction_applied_to_frames),
     ("gate_mutes_within_one_step", gate_mutes_within_one_step),
+    ("lease_silences_a_quiet_host", lease_silences_a_quiet_host),
+    (
+        "self_test_is_unsupported_here",
+        self_test_is_unsupported_here,
+    ),
     ("frames_through_feed", frames_through_feed),
     ("measure_step_cost", measure_step_cost),
     ("measure_centroid_cost", measure_centroid_cost),

@@ -151,7 +151,9 @@ pub fn measure_centroid_cost(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
         let len = encode_frame(seq as u16, &msg, &mut wire).map_err(|_| Failed)?;
         let now = c.now();
         let a = c.timer.now();
-        dev.feed(&wire[..len], now, &mut |_| acks += 1);
+        dev.feed(&wire[..len], now, &mut FrameCounter::default(), &mut |_| {
+            acks += 1
+        });
         fed += c.timer.now().wrapping_sub(a);
     }
     check!(acks == n, "{} replies to {} centroid frames", acks, n);
@@ -275,6 +277,7 @@ pub fn measure_raw_vs_delta_step(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
             at: PlayAt::Immediate,
             untracked: true,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         });
         let t0 = c.now();
         check!(dev.handle(&play, t0) == Message::Ack);
