@@ -295,6 +295,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             at: PlayAt::Immediate,
             untracked: false,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         })),
         Reply::Nack(_)
     ));
@@ -370,6 +371,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             at: PlayAt::Immediate,
             untracked: false,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         })),
         Reply::Nack(NackCode::NotCommitted)
     );
@@ -382,6 +384,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         at: PlayAt::Immediate,
         untracked: false,
         steps: 0,
+        lease_ms: lm_proto::DEFAULT_LEASE_MS,
     }));
     assert_eq!(link.status().state, DeviceState::Muted);
     let mut cseq = 1;
