@@ -2,7 +2,7 @@
 //! info, upload (BeginUpload, Geometry, Chunks), commit, play, centroid,
 //! status, stop.
 //!
-//! QEMU runs `mps2-an386` with UART0 on a TCP socket on 127.0.0.1 and
+//! QEMU runs `mps2-an500` with UART0 on a TCP socket on 127.0.0.1 and
 //! `-icount shift=0`, so the player's timer runs on the guest's own
 //! instruction count and the test can demand zero missed deadlines. The
 //! firmware ELF comes from `LM_FW_QEMU_ELF` (set by `cargo xtask ci`, which

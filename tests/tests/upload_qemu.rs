@@ -1,4 +1,4 @@
-//! The real `lmhost` binary against the firmware under QEMU (`mps2-an386`,
+//! The real `lmhost` binary against the firmware under QEMU (`mps2-an500`,
 //! UART0 on a TCP socket): info, upload, play, stream, status, stop; what
 //! lmhost plays lasts while it holds the port.
 //!

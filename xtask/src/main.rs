@@ -42,8 +42,11 @@ const QEMU_PKG: &str = "lm-fw-qemu";
 const NUCLEO_PKG: &str = "lm-fw-nucleo-h743";
 /// Binary that runs the on-target tests under QEMU.
 const SELFTEST_BIN: &str = "lm-fw-qemu-selftest";
-/// QEMU machine: Cortex-M4F, CMSDK UART0 at 0x4000_4000, 25 MHz APB timers.
-const QEMU_MACHINE: &str = "mps2-an386";
+/// QEMU machine: AN500, a Cortex-M7 with FPv5 as on the STM32H743; the
+/// same map where the image lives as the AN386 (M4F) it replaced: ZBT
+/// SSRAM1 at 0 and SSRAM2&3 at 0x2000_0000 (4 MiB each), CMSDK UART0 at
+/// 0x4000_4000, TIMER0 at 0x4000_0000 on the 25 MHz APB clock.
+const QEMU_MACHINE: &str = "mps2-an500";
 /// Wall-clock limit for one QEMU on-target run (it normally takes seconds).
 const QEMU_TIMEOUT: Duration = Duration::from_secs(600);
 
@@ -1032,7 +1035,7 @@ fn size(c: &Ctx) -> Result<(), String> {
         build_qemu_fw(c)?;
     }
     let nucleo_elf = c.nucleo_elf();
-    for (board, elf_path) in [("QEMU mps2-an386", qemu_elf), ("Nucleo-H743", nucleo_elf)] {
+    for (board, elf_path) in [("QEMU mps2-an500", qemu_elf), ("Nucleo-H743", nucleo_elf)] {
         if !elf_path.exists() {
             println!(
                 "{board}: {} not built (run `cargo xtask build-fw`)",
