@@ -234,7 +234,7 @@ class Device:
         """Upload ``plan`` (planned for this device kind) into ``slot``
         (default: a free one), play it unless ``play=False``; returns the
         report ``lmhost upload --json`` prints, the same keys (``hold_s`` is
-        None: an AUTD3 plays while this object holds it, see :meth:`tick`)."""
+        None: what plays lasts while this object holds it, see :meth:`tick`)."""
         report = json.loads(self._d.upload(plan, slot, bool(play), bool(untracked)))
         report["hold_s"] = None
         return report
@@ -253,7 +253,10 @@ class Device:
         return self._d.centroid(float(x), float(y), float(z), bool(present))
 
     def tick(self) -> None:
-        """Keep a host-driven link (AUTD3) going; call it while playing."""
+        """Keep what plays going: an AUTD3's host-driven link, the LM
+        firmware's host lease (it stops by itself a lease, 1 s, after the
+        last request it heard; centroids renew it too). Call it at least
+        every 10 ms while playing."""
         self._d.tick()
 
     def close(self) -> None:

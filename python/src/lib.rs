@@ -701,7 +701,8 @@ impl Device_ {
         })
     }
 
-    /// Keeps a host-driven link (AUTD3) ticking once.
+    /// Keeps what plays going once: an AUTD3's host-driven link, the LM
+    /// firmware's host lease when a renewal is due.
     fn tick(&mut self, py: Python<'_>) -> PyResult<()> {
         self.with(py, |d| Ok(d.tick()?))
     }
@@ -712,7 +713,8 @@ impl Device_ {
         self.port.clone()
     }
 
-    /// Stops an AUTD3 (it plays only while held) and closes the device.
+    /// Stops what this host plays (an AUTD3, or the LM firmware under its
+    /// lease: both play only while held) and closes the device.
     fn close(&mut self, py: Python<'_>) -> PyResult<()> {
         let needs_host = self.dev.as_ref().is_some_and(|d| d.needs_host());
         if needs_host {

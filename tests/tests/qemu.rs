@@ -2,7 +2,7 @@
 //! info, upload (BeginUpload, Geometry, Chunks), commit, play, centroid,
 //! status, stop.
 //!
-//! QEMU runs `mps2-an386` with UART0 on a TCP socket on 127.0.0.1 and
+//! QEMU runs `mps2-an500` with UART0 on a TCP socket on 127.0.0.1 and
 //! `-icount shift=0`, so the player's timer runs on the guest's own
 //! instruction count and the test can demand zero missed deadlines. The
 //! firmware ELF comes from `LM_FW_QEMU_ELF` (set by `cargo xtask ci`, which
@@ -295,6 +295,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             at: PlayAt::Immediate,
             untracked: false,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         })),
         Reply::Nack(_)
     ));
@@ -370,6 +371,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             at: PlayAt::Immediate,
             untracked: false,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         })),
         Reply::Nack(NackCode::NotCommitted)
     );
@@ -382,6 +384,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         at: PlayAt::Immediate,
         untracked: false,
         steps: 0,
+        lease_ms: lm_proto::DEFAULT_LEASE_MS,
     }));
     assert_eq!(link.status().state, DeviceState::Muted);
     let mut cseq = 1;

@@ -2,7 +2,7 @@
 //! wired together. Boards and the host simulator drive only this.
 
 use lm_proto::{
-    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Info, MAX_CHUNK,
+    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Info, LEASE_MS, MAX_CHUNK,
     MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status, encode_frame,
 };
 
@@ -113,6 +113,9 @@ pub struct Counters {
     pub output_errors: u32,
     /// Frames written to the output driver.
     pub frames_out: u32,
+    /// Plays stopped because their host lease expired (the policy's count,
+    /// as `Status` reports it).
+    pub lease_expiries: u32,
 }
 
 /// Everything but the receive decoder (split so a parsed frame can borrow
@@ -135,6 +138,18 @@ struct Handler<'m> {
     last_frame: Option<u64>,
     /// [`Config::frame_repeat_us`] in timer counts (0 = never).
     repeat_every: u64,
+    /// The play session's host lease as its `Play` gave it, ms (0: none yet).
+    lease_ms: u16,
+}
+
+/// The output of [`Device::handle`]: writes nothing and has no self-test.
+struct NoOutput;
+
+impl OutputDriver for NoOutput {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, _: &OutputFrame<'_>) -> Result<(), Self::Error> {
+        Ok(())
+    }
 }
 
 /// The whole device core.
@@ -181,14 +196,23 @@ impl<'m> Device<'m> {
                 refresh: false,
                 last_frame: None,
                 repeat_every,
+                lease_ms: 0,
             },
         })
     }
 
     /// Feeds received bytes. Each complete request is handled at `now` and
     /// its encoded response frame (delimiters included) is passed to
-    /// `send`. Never panics, whatever the bytes.
-    pub fn feed(&mut self, bytes: &[u8], now: u64, send: &mut impl FnMut(&[u8])) {
+    /// `send`; `out` is the output [`poll`](Self::poll) writes to, which a
+    /// `SelfTest` request tests ([`OutputDriver::self_test`]). Never
+    /// panics, whatever the bytes.
+    pub fn feed<D: OutputDriver>(
+        &mut self,
+        bytes: &[u8],
+        now: u64,
+        out: &mut D,
+        send: &mut impl FnMut(&[u8]),
+    ) {
         let mut input = bytes;
         while !input.is_empty() {
             let (reply, rest) = match self.rx.feed(input) {
@@ -199,7 +223,7 @@ impl<'m> Device<'m> {
                     #[cfg(feature = "defmt")]
                     defmt::debug!("request {}", frame.message.msg_type());
                     (
-                        Some((frame.seq, self.handler.handle(&frame.message, now))),
+                        Some((frame.seq, self.handler.handle(&frame.message, now, out))),
                         remaining,
                     )
                 }
@@ -241,9 +265,21 @@ impl<'m> Device<'m> {
 
     /// Handles one parsed request at `now` and returns the response
     /// (without encoding it or touching the counters). For tests and
-    /// transports that parse frames themselves.
+    /// transports that parse frames themselves. Without an output, a
+    /// `SelfTest` is answered `Unsupported`
+    /// ([`handle_with_output`](Self::handle_with_output) runs it).
     pub fn handle(&mut self, msg: &Message<'_>, now: u64) -> Message<'static> {
-        self.handler.handle(msg, now)
+        self.handler.handle(msg, now, &mut NoOutput)
+    }
+
+    /// [`handle`](Self::handle), with the output a `SelfTest` tests.
+    pub fn handle_with_output<D: OutputDriver>(
+        &mut self,
+        msg: &Message<'_>,
+        now: u64,
+        out: &mut D,
+    ) -> Message<'static> {
+        self.handler.handle(msg, now, out)
     }
 
     /// Runs the player at `now`: writes the frame of a newly due step (or a
@@ -274,7 +310,10 @@ impl<'m> Device<'m> {
 
     /// Counters.
     pub fn counters(&self) -> Counters {
-        self.handler.counters
+        Counters {
+            lease_expiries: self.handler.policy.lease_expiries(),
+            ..self.handler.counters
+        }
     }
 
     /// Configuration.
@@ -373,6 +412,8 @@ impl Handler<'_> {
             correction_um,
             queued_slot: self.player.pending(),
             mute_reason: self.policy.mute_reason(now),
+            lease_ms: self.lease_ms,
+            lease_expiries: self.policy.lease_expiries(),
         }
     }
 
@@ -387,7 +428,46 @@ impl Handler<'_> {
         }
     }
 
-    fn handle(&mut self, msg: &Message<'_>, now: u64) -> Message<'static> {
+    /// Handles a request: first ends a play whose host lease has run out
+    /// (a late request never revives it), then answers; a request it
+    /// accepts (anything but a `Nack`) renews the lease.
+    fn handle<D: OutputDriver>(
+        &mut self,
+        msg: &Message<'_>,
+        now: u64,
+        out: &mut D,
+    ) -> Message<'static> {
+        self.expire_lease(now);
+        let reply = self.answer(msg, now, out);
+        if !matches!(reply, Message::Nack(_)) {
+            self.policy.renew(now);
+        }
+        reply
+    }
+
+    /// Ends the play if its host lease has run out at `now`: as `Stop`
+    /// (the player stops, the output mutes on the next poll), the reason
+    /// and the count kept by the policy.
+    fn expire_lease(&mut self, now: u64) {
+        if self.policy.expire_lease(now) {
+            #[cfg(feature = "defmt")]
+            defmt::warn!("host lease expired: stop");
+            self.player.stop();
+            self.refresh = true;
+        }
+    }
+
+    /// Whether a slot plays or is queued.
+    fn busy(&self) -> bool {
+        self.player.state() == PlayState::Playing || self.player.pending().is_some()
+    }
+
+    fn answer<D: OutputDriver>(
+        &mut self,
+        msg: &Message<'_>,
+        now: u64,
+        out: &mut D,
+    ) -> Message<'static> {
         match msg {
             Message::GetInfo => Message::Info(self.info()),
             Message::GetStatus => Message::Status(self.status(now)),
@@ -422,6 +502,11 @@ impl Handler<'_> {
                 Message::Ack
             }
             Message::Centroid(c) => Self::result(self.centroid(c, now)),
+            // Its only effect, the renewal, is `handle`'s.
+            Message::Renew => Message::Ack,
+            // The test uses the output's bus: never while a slot plays.
+            Message::SelfTest if self.busy() => Message::Nack(NackCode::Busy),
+            Message::SelfTest => Message::SelfTestResult(out.self_test()),
             // Responses (or anything newer) sent to the device.
             _ => Message::Nack(NackCode::UnknownType),
         }
@@ -441,8 +526,7 @@ impl Handler<'_> {
     /// entry) is refused with `Busy` while an entry plays or is queued.
     fn begin_rig(&mut self, transducers: u16, crc32: u32) -> Result<(), NackCode> {
         let change = self.store.rig_would_change(transducers, crc32);
-        let busy = self.player.state() == PlayState::Playing || self.player.pending().is_some();
-        if change && busy {
+        if change && self.busy() {
             return Err(NackCode::Busy);
         }
         if change {
@@ -483,6 +567,9 @@ impl Handler<'_> {
         if usize::from(p.slot) >= SLOTS {
             return Err(NackCode::BadSlot);
         }
+        if !LEASE_MS.contains(&p.lease_ms) {
+            return Err(NackCode::OutOfRange);
+        }
         let h = *self.store.header(p.slot).ok_or(NackCode::NotCommitted)?;
         let t = Timing {
             steps: h.steps,
@@ -503,6 +590,9 @@ impl Handler<'_> {
             self.offsets_for = None;
         }
         self.policy.play(p.untracked);
+        let lease = u64::from(p.lease_ms) * u64::from(self.cfg.timer_hz) / 1000;
+        self.policy.set_lease(lease.max(1), now);
+        self.lease_ms = p.lease_ms;
         self.refresh = true;
         #[cfg(feature = "defmt")]
         defmt::info!(
@@ -572,15 +662,23 @@ impl Handler<'_> {
         self.last_frame.map(|t| t.saturating_add(self.repeat_every))
     }
 
-    /// The next time `poll` has work: a step boundary or a repeat.
+    /// The next time `poll` has work: a step boundary, a repeat or the
+    /// host lease's end.
     fn deadline(&self) -> Option<u64> {
-        match (self.player.deadline(), self.repeat_at()) {
-            (Some(d), Some(r)) => Some(d.min(r)),
-            (d, _) => d,
-        }
+        [
+            self.player.deadline(),
+            self.repeat_at(),
+            self.policy.lease_deadline(),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
     }
 
     fn poll<D: OutputDriver>(&mut self, now: u64, out: &mut D) -> Option<u64> {
+        // A lease that ran out stops the play before any step is due: no
+        // frame due after it sounds, however late this poll.
+        self.expire_lease(now);
         #[cfg(feature = "defmt")]
         let missed_before = self.player.missed();
         let due = self.player.tick(now);

@@ -1,4 +1,4 @@
-//! LM firmware for QEMU's mps2-an386 board: UART0 carries the protocol,
+//! LM firmware for QEMU's mps2-an500 board (Cortex-M7): UART0 carries the protocol,
 //! TIMER0 (25 MHz) drives the player, frames go to a counting sink.
 //! Run it with `cargo xtask qemu`.
 #![no_std]

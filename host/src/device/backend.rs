@@ -15,7 +15,7 @@
 //! coordinates (the mirrored frame when the scene has a reflector), as on
 //! the wire.
 
-use lm_proto::{Centroid, DeviceState, Info, NackCode, PlayAt, Status};
+use lm_proto::{Centroid, DeviceState, Info, NackCode, PlayAt, SelfTest, Status};
 use serde::Serialize;
 
 use crate::InputError;
@@ -156,8 +156,8 @@ pub struct BackendInfo {
 /// What differs per kind of device: the one place a caller branches on it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Kind {
-    /// The LM firmware, with its own `Info`: plays on its own once uploaded,
-    /// any dwell on its µs timer.
+    /// The LM firmware, with its own `Info`: plays on its own timer while
+    /// its host renews the lease, any dwell on its µs timer.
     LmFirmware(Info),
     /// An AUTD3 rig: dwell on the FPGA's sampling grid; output lasts only
     /// while lmhost holds the link.
@@ -318,13 +318,21 @@ pub trait Backend {
     /// that is not newer than the last is refused with `OutOfOrder`.
     fn centroid(&mut self, c: &Centroid) -> Result<CentroidOutcome>;
     /// Housekeeping the host must run between updates (≥ every 10 ms
-    /// while playing): staleness muting where the device cannot time it.
+    /// while playing): staleness muting where the device cannot time it
+    /// (AUTD3), renewing the host lease when due (the LM firmware).
     fn tick(&mut self) -> Result<()> {
         Ok(())
     }
-    /// Whether output lasts only while lmhost holds the link (AUTD3).
+    /// Whether output lasts only while lmhost holds the link (and keeps
+    /// [`tick`](Self::tick)ing): an AUTD3 always, the LM firmware while
+    /// something this host played plays (its host lease ends it otherwise).
     fn needs_host(&self) -> bool {
         false
+    }
+    /// Runs the device's output self-test (the LM boards' SPI loopback);
+    /// `Unsupported` where the device has none.
+    fn self_test(&mut self) -> Result<SelfTest> {
+        Ok(SelfTest::Unsupported)
     }
     /// Where [`Status`]'s `step` and `cycles` come from: `"device"` (the
     /// LM firmware counts them on its timer) or `"host clock"` (AUTD3:

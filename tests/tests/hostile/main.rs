@@ -479,7 +479,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         busy: busy.port.clone(),
     };
     let up = Command::new(lmhost())
-        .args(["upload", "--port", &ctx.port])
+        .args(["upload", "--port", &ctx.port, "--hold", "0.05"])
         .output()
         .unwrap();
     assert!(

@@ -1,5 +1,6 @@
 //! Shared by the QEMU end-to-end tests: find (or build) the firmware ELF and
-//! launch `qemu-system-arm` (`mps2-an386`) with UART0 on a TCP port.
+//! launch `qemu-system-arm` (`mps2-an500`, the Cortex-M7 the STM32H743
+//! has) with UART0 on a TCP port.
 //!
 //! The ELF comes from `LM_FW_QEMU_ELF` (set by `cargo xtask ci`, which builds
 //! it first); without it it is built with
@@ -81,7 +82,7 @@ pub fn qemu_command(elf: &Path, port: u16, wait: bool) -> Command {
 pub fn qemu_command_icount(elf: &Path, port: u16, wait: bool, icount: &str) -> Command {
     let wait = if wait { "on" } else { "off" };
     let mut cmd = Command::new("qemu-system-arm");
-    cmd.args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
+    cmd.args(["-M", "mps2-an500", "-display", "none", "-monitor", "none"])
         .args(["-semihosting-config", "enable=on,target=native"])
         .args(["-icount", icount])
         .arg("-serial")

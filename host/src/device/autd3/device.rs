@@ -667,6 +667,9 @@ impl Backend for Autd3Backend {
             correction_um,
             queued_slot,
             mute_reason: self.policy.mute_reason(now),
+            // The array plays only while lmhost holds the link: no lease.
+            lease_ms: 0,
+            lease_expiries: self.policy.lease_expiries(),
         })
     }
 

@@ -189,6 +189,18 @@ pub fn play_now(slot: u8) -> Message<'static> {
         at: PlayAt::Immediate,
         untracked: false,
         steps: 0,
+        lease_ms: lm_proto::DEFAULT_LEASE_MS,
+    })
+}
+
+/// An untracked play of `slot` with a `lease_ms` host lease.
+pub fn play_leased(slot: u8, lease_ms: u16) -> Message<'static> {
+    Message::Play(Play {
+        slot,
+        at: PlayAt::Immediate,
+        untracked: true,
+        steps: 0,
+        lease_ms,
     })
 }
 
