@@ -243,12 +243,8 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         let size = ((90 * group.len() as u32).max(400) + 100, 520);
         let png = dir.join(format!("box-{q}.png"));
         let e = |x: String| anyhow::anyhow!("drawing {}: {x}", png.display());
-        crate::files::write_via(&png, |tmp| {
-            let root = BitMapBackend::new(tmp, size).into_drawing_area();
-            draw(&root, q, &group).map_err(e)?;
-            root.present().map_err(|x| {
-                anyhow::anyhow!("{}: {}", png.display(), crate::files::reason_of(&x))
-            })?;
+        crate::field::plot::write_png(&png, size, |root| {
+            draw(root, q, &group).map_err(e)?;
             Ok(())
         })?;
         out.files.push(png);
