@@ -660,7 +660,7 @@ mod tests {
         // axis checks (unit, orthogonal, right-handed) pass.
         let base = "[[device]]\ncenter_mm = [0, 0, 0]\n";
         let scene = crate::plan::scene::Scene::from_toml(
-            &super::super::with_table(base, "camera", &cal.table()),
+            &super::super::with_table(base, "camera", &cal.table(), "s.toml").unwrap(),
             "s.toml",
         )
         .unwrap();
