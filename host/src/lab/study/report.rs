@@ -12,19 +12,8 @@ use plotters::prelude::*;
 use super::record::{self, SessionFile};
 use crate::error::InputError;
 
-/// Quantile `q` of sorted `v` by linear interpolation (numpy's default).
-pub fn quantile(v: &[f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let x = q * (v.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x - x.floor());
-    if i + 1 < v.len() {
-        v[i] + f * (v[i + 1] - v[i])
-    } else {
-        v[i]
-    }
-}
+/// Quantile `q` of sorted `v` (the one definition, [`crate::clock::quantile`]).
+pub use crate::clock::quantile;
 
 /// One condition's numbers for one question.
 #[derive(Debug, Clone, PartialEq)]
