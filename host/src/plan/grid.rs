@@ -81,7 +81,7 @@ pub fn grid_timing(
 ) -> Result<GridTiming, InputError> {
     if !(freq_hz.is_finite() && freq_hz > 0.0) {
         return Err(InputError::new(format!(
-            "freq (--freq) must be a finite number > 0 Hz, got {}",
+            "frequency (--freq) must be a finite number > 0 Hz, got {}",
             crate::limits::show(freq_hz)
         )));
     }

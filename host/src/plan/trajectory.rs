@@ -121,8 +121,9 @@ fn finite_pos(v: f64, name: &str, unit: &str, allow_zero: bool) -> Result<(), In
         return Ok(());
     }
     let need = if allow_zero { "≥ 0" } else { "> 0" };
+    let what = if name == "freq" { "frequency" } else { name };
     Err(InputError::new(format!(
-        "{name} (--{name}) must be a finite number {need} {unit}, got {}",
+        "{what} (--{name}) must be a finite number {need} {unit}, got {}",
         crate::limits::show(v)
     )))
 }

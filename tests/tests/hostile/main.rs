@@ -54,9 +54,14 @@ const RIG: &str = "r3-8 rig sanity";
 const REFUSALS: &str = "r3-9 device refusals said";
 /// One behaviour on every backend: stimulus flags and files.
 const STIMULI: &str = "r4 stimulus flags and files";
+/// Round 4, files (issues 30.4, 30.12, 30.16).
+const OUT_DEST: &str = "r4-30.4 output destinations";
+const EVENT_LOGS: &str = "r4-30.4 event logs never block";
+const MESSAGES: &str = "r4-30.16 one reason, named fields, sane ranges";
+const SCENE_EDITS: &str = "r4-30.16 scenes calibrated in any form";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 25] = [
+const CLASSES: [&str; 29] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -82,6 +87,10 @@ const CLASSES: [&str; 25] = [
     RIG,
     REFUSALS,
     STIMULI,
+    OUT_DEST,
+    EVENT_LOGS,
+    MESSAGES,
+    SCENE_EDITS,
 ];
 
 /// What a run produced, for custom checks.
@@ -263,11 +272,13 @@ fn good_udp(n: usize) -> Vec<Vec<u8>> {
 
 mod cases_r1;
 mod cases_r3;
+mod cases_r4_files;
 mod checks;
 mod fixtures;
 
 use cases_r1::cases;
 use cases_r3::round3_cases;
+use cases_r4_files::{round4_files_cases, round4_files_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -451,6 +462,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     fixtures(&dir);
+    round4_files_fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -473,6 +485,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     );
 
     let mut all = cases();
+    // Last: the session cases preload the shared device's library.
+    all.extend(round4_files_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();
