@@ -118,6 +118,10 @@ pub(super) fn open_in_place(path: &Path) -> anyhow::Result<File> {
         return Err(refusal(path, &m, WRITES).into());
     }
     blocking(&f).map_err(|e| WriteError::new(path, e))?;
+    if t.is_file() {
+        // Written from the start: nothing of the old contents stays.
+        f.set_len(0).map_err(|e| WriteError::new(path, e))?;
+    }
     Ok(f)
 }
 
