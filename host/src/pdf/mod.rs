@@ -326,7 +326,10 @@ impl<'a> PdfBackend<'a> {
             x.color_space().device_rgb();
             x.filter(Filter::FlateDecode);
         }
-        Ok(pdf.finish())
+        // A line end after `%%EOF`, as most writers leave one.
+        let mut bytes = pdf.finish();
+        bytes.push(b'\n');
+        Ok(bytes)
     }
 }
 
