@@ -66,7 +66,7 @@ pub struct Args {
     disk: f64,
     /// Factor on the simulated radiation pressure (measured / simulated
     /// force), in place of the scene's [calibration] (see `lmhost calibrate
-    /// force`); above 0 and at most 1e6. Every map and force carries it.
+    /// force`); 1e-6..=1e6. Every map and force carries it.
     #[arg(long, value_name = "K", allow_negative_numbers = true)]
     calibration: Option<f64>,
     /// Use the plain f64 loop instead of the fast path (slow; for checking).

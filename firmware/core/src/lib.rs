@@ -10,13 +10,14 @@
 //! # Driving a [`Device`]
 //!
 //! ```
-//! use lm_fw_core::{Config, Device, RecordingDriver, TakeOnce, memory_bytes};
+//! use lm_fw_core::{Config, Device, RecordingDriver, memory_bytes};
+//! use static_cell::ConstStaticCell;
 //!
 //! // Sequence memory: a 448 KiB library and a rig of up to 996 positions.
 //! const BYTES: usize = memory_bytes(448 * 1024, 996);
-//! static MEM: TakeOnce<[u8; BYTES]> = TakeOnce::new([0; BYTES]);
+//! static MEM: ConstStaticCell<[u8; BYTES]> = ConstStaticCell::new([0; BYTES]);
 //! # fn main() {
-//! let mem: &'static mut [u8] = MEM.take().unwrap(); // once, in the board's main
+//! let mem: &'static mut [u8] = MEM.take(); // once, in the board's main
 //! let mut dev = Device::new(Config::new(1_000_000), mem).unwrap();
 //! let mut out = RecordingDriver::<16>::new();
 //! let now = 0u64; // free-running timer count at Config::timer_hz

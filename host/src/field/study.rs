@@ -67,7 +67,7 @@ impl View {
             in_range(
                 "--calibration",
                 k,
-                0.0,
+                crate::plan::scene::MIN_PRESSURE_SCALE,
                 crate::plan::scene::MAX_PRESSURE_SCALE,
                 "",
             )?;

@@ -81,12 +81,14 @@ pub fn grid_timing(
 ) -> Result<GridTiming, InputError> {
     if !(freq_hz.is_finite() && freq_hz > 0.0) {
         return Err(InputError::new(format!(
-            "frequency must be a finite number > 0 Hz, got {freq_hz}"
+            "frequency (--freq) must be a finite number > 0 Hz, got {}",
+            crate::limits::show(freq_hz)
         )));
     }
     if !(radius_mm.is_finite() && radius_mm >= 0.0) {
         return Err(InputError::new(format!(
-            "radius must be a finite number ≥ 0 mm, got {radius_mm}"
+            "radius (--radius) must be a finite number ≥ 0 mm, got {}",
+            crate::limits::show(radius_mm)
         )));
     }
     if !(min_dwell_s.is_finite() && min_dwell_s >= 0.0) {
@@ -109,7 +111,8 @@ pub fn grid_timing(
         Steps::Width(w) => {
             if !(w.is_finite() && w > 0.0) {
                 return Err(InputError::new(format!(
-                    "step width must be a finite number > 0 mm, got {w}"
+                    "step (--step) must be a finite number > 0 mm, got {}",
+                    crate::limits::show(w)
                 )));
             }
             let ideal = circumference / w;

@@ -61,9 +61,14 @@ const STUDY_REPORT: &str = "r4-study-3 study report";
 const STUDY_READS: &str = "r4-study-4 bounded regular study reads";
 const STUDY_COUNTS: &str = "r4-study-5 counts that wrap";
 const STUDY_NUMBERS: &str = "r4-study-6 numbers name the field";
+/// Round 4, files (issues 30.4, 30.12, 30.16).
+const OUT_DEST: &str = "r4-30.4 output destinations";
+const EVENT_LOGS: &str = "r4-30.4 event logs never block";
+const MESSAGES: &str = "r4-30.16 one reason, named fields, sane ranges";
+const SCENE_EDITS: &str = "r4-30.16 scenes calibrated in any form";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 31] = [
+const CLASSES: [&str; 35] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -95,6 +100,10 @@ const CLASSES: [&str; 31] = [
     STUDY_READS,
     STUDY_COUNTS,
     STUDY_NUMBERS,
+    OUT_DEST,
+    EVENT_LOGS,
+    MESSAGES,
+    SCENE_EDITS,
 ];
 
 /// What a run produced, for custom checks.
@@ -276,12 +285,14 @@ fn good_udp(n: usize) -> Vec<Vec<u8>> {
 
 mod cases_r1;
 mod cases_r3;
+mod cases_r4_files;
 mod cases_r4_study;
 mod checks;
 mod fixtures;
 
 use cases_r1::cases;
 use cases_r3::round3_cases;
+use cases_r4_files::{round4_files_cases, round4_files_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use checks::*;
 use fixtures::*;
@@ -467,6 +478,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     std::fs::create_dir_all(&dir).unwrap();
     fixtures(&dir);
     study_fixtures(&dir);
+    round4_files_fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -490,6 +502,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
 
     let mut all = cases();
     all.extend(study_cases());
+    // Last: the session cases preload the shared device's library.
+    all.extend(round4_files_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();

@@ -112,7 +112,7 @@ fn main() -> ! {
         timer: unsafe { Timer::new(TIMER0_BASE) },
         clock: TimeExtender::new(),
     };
-    let Some(store) = support::STORE.take() else {
+    let Some(store) = support::STORE.try_take() else {
         panic!("the test store is taken once")
     };
     let (mut passed, mut failed) = (0u32, 0u32);
