@@ -237,6 +237,12 @@ impl<T: Transport> Backend for LmBackend<T> {
         Ok(self.client.stop().context("stopping the device")?)
     }
 
+    /// The firmware's player keeps one queued slot: a later play replaces
+    /// it (`lm_fw_core::player::Player::queue`).
+    fn replaces_queued(&self) -> bool {
+        true
+    }
+
     fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
         match self.client.centroid(*c) {
             Ok(()) => Ok(CentroidOutcome::Applied),
