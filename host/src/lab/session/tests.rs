@@ -1,15 +1,22 @@
 //! The session against the simulated LM firmware and the AUTD3 emulator,
-//! on the real clock (short stimuli: 25 Hz, a few steps).
+//! each on a manual clock the session shares: whole presentations run
+//! under the [`Driver`] with time moved on by the tests, never slept.
 
-use std::time::{Duration, Instant};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
+use super::driver::{Driver, Finger};
 use super::*;
 use crate::clock::Clock;
 use crate::device::autd3::Autd3Backend;
+use crate::device::connect::LmBackend;
+use crate::device::link::Client;
+use crate::device::simdev::{FwCore, InProcess, SimConfig};
 use crate::plan::target::Target;
+use crate::sense::stream::filter::Passthrough;
 
 /// Three short stimuli: 25 Hz LM-S (40 ms cycles) at two radii and an
-/// LM-M, plus a 5 Hz one.
+/// LM-M, untracked by default.
 const LIB: &str = r#"
 [[stimulus]]
 id = "a"
@@ -32,44 +39,81 @@ step = 1.0
 untracked = true
 "#;
 
-fn lm_dev() -> Box<dyn Backend> {
-    Box::new(crate::device::connect::simulated(Clock::real()).unwrap().0)
+/// A session on `dev` over `lib`, driven with `finger`.
+fn driver(
+    lib: &str,
+    target: &Target,
+    dev: Box<dyn Backend>,
+    clock: &Clock,
+    finger: Finger,
+) -> Driver {
+    let lib = Library::from_toml(lib, "test").unwrap();
+    let plans = lib.plan_for(target, &Scene::default()).unwrap();
+    let s = Session::new(dev, &lib, plans, Scene::default(), clock.clone()).unwrap();
+    Driver::new(s, finger, Box::new(Passthrough))
 }
 
-fn autd3_dev() -> Box<dyn Backend> {
+fn lm(clock: &Clock) -> Box<dyn Backend> {
+    Box::new(crate::device::connect::simulated(clock.clone()).unwrap().0)
+}
+
+fn autd3(clock: &Clock) -> Box<dyn Backend> {
     Box::new(
-        Autd3Backend::open_emulator(&Scene::default(), Clock::real(), None)
+        Autd3Backend::open_emulator(&Scene::default(), clock.clone(), None)
             .unwrap()
             .0,
     )
 }
 
-fn session(target: &Target, dev: Box<dyn Backend>) -> Session {
-    let lib = Library::from_toml(LIB, "test").unwrap();
-    let plans = lib.plan_for(target, &Scene::default()).unwrap();
-    Session::new(dev, &lib, plans, Scene::default()).unwrap()
-}
-
-fn both() -> Vec<(&'static str, Session)> {
+/// Both backends on clocks of their own, driven with `finger`.
+fn both(finger: fn() -> Finger) -> Vec<(&'static str, Driver, Clock)> {
+    let (c1, c2) = (
+        Clock::manual_at_us(1_000_000),
+        Clock::manual_at_us(1_000_000),
+    );
     vec![
-        ("lm", session(&Target::Lm, lm_dev())),
-        ("autd3", session(&Target::Autd3, autd3_dev())),
+        ("lm", driver(LIB, &Target::Lm, lm(&c1), &c1, finger()), c1),
+        (
+            "autd3",
+            driver(LIB, &Target::Autd3, autd3(&c2), &c2, finger()),
+            c2,
+        ),
     ]
 }
 
-/// Polls until `done` says so (or 5 s), collecting the events.
-fn run_until(s: &mut Session, mut done: impl FnMut(&[Event]) -> bool) -> Vec<Event> {
+fn no_finger() -> Finger {
+    Finger::None
+}
+
+fn synthetic() -> Finger {
+    Finger::Synthetic
+}
+
+/// Turns `d` and moves the clock on to its next wake until `done` says
+/// so or `limit` of session time passed; the events seen.
+fn run_until(
+    d: &mut Driver,
+    clock: &Clock,
+    limit: Duration,
+    mut done: impl FnMut(&[Event]) -> bool,
+) -> Vec<Event> {
+    let end = clock.now_us() + limit.as_micros() as u64;
     let mut all = Vec::new();
-    let end = Instant::now() + Duration::from_secs(5);
-    while Instant::now() < end {
-        s.poll().unwrap();
-        all.extend(s.drain_events());
+    while clock.now_us() < end {
+        all.extend(d.turn().unwrap());
         if done(&all) {
             break;
         }
-        std::thread::sleep(Duration::from_millis(1));
+        let w = d
+            .wait_time(Duration::from_secs(1))
+            .max(Duration::from_micros(50));
+        clock.advance(w);
     }
     all
+}
+
+fn run_for(d: &mut Driver, clock: &Clock, t: Duration) -> Vec<Event> {
+    run_until(d, clock, t, |_| false)
 }
 
 fn present(
@@ -88,49 +132,59 @@ fn present(
     }
 }
 
+fn untracked(id: &str) -> Present {
+    present(id, Some(Gate::Untracked), None, None, None)
+}
+
 fn kinds(events: &[Event]) -> Vec<&EventKind> {
     events.iter().map(|e| &e.kind).collect()
 }
 
+fn has(events: &[Event], f: impl Fn(&EventKind) -> bool) -> bool {
+    events.iter().any(|e| f(&e.kind))
+}
+
 #[test]
-fn the_whole_library_is_resident_where_the_device_has_the_slots() {
-    for (name, mut s) in both() {
-        let ev = s.drain_events();
+fn what_fits_is_preloaded_one_slot_each() {
+    for (name, mut d, _) in both(no_finger) {
+        let ev = d.session().drain_events();
         let pre = ev
             .iter()
             .filter(|e| matches!(e.kind, EventKind::Preloaded { .. }))
             .count();
-        let ready = ev.iter().find_map(|e| match &e.kind {
-            EventKind::Ready {
-                resident, slots, ..
-            } => Some((*resident, *slots)),
-            _ => None,
-        });
-        let (resident, slots) = ready.unwrap();
+        let (resident, slots) = ev
+            .iter()
+            .find_map(|e| match &e.kind {
+                EventKind::Ready {
+                    resident, slots, ..
+                } => Some((*resident, *slots)),
+                _ => None,
+            })
+            .unwrap();
         assert_eq!(resident, pre, "{name}");
-        // All three with a slot each, else the first only (the rest on
-        // the host, loaded when presented).
-        let want = if usize::from(slots) >= 3 { 3 } else { 1 };
-        assert_eq!(resident, want, "{name}");
-        assert!(s.library().iter().all(|i| i.crc32 != 0), "{name}");
+        assert_eq!(resident, usize::from(slots).min(3), "{name}");
+        assert!(d.session().library().iter().all(|i| i.crc32 != 0), "{name}");
     }
 }
 
 #[test]
 fn timed_on_phases_last_on_s_by_the_devices_counters_and_repeat() {
-    for (name, mut s) in both() {
-        s.drain_events();
-        s.present(&present(
-            "a",
-            Some(Gate::Untracked),
-            Some(0.3),
-            Some(0.1),
-            Some(2),
-        ))
-        .unwrap();
-        let ev = run_until(&mut s, |e| {
-            e.iter().any(|e| matches!(e.kind, EventKind::Done { .. }))
+    for (name, mut d, clock) in both(no_finger) {
+        d.session().drain_events();
+        let t0 = clock.now_us();
+        d.session()
+            .present(&present(
+                "a",
+                Some(Gate::Untracked),
+                Some(0.3),
+                Some(0.1),
+                Some(2),
+            ))
+            .unwrap();
+        let ev = run_until(&mut d, &clock, Duration::from_secs(5), |e| {
+            has(e, |k| matches!(k, EventKind::Done { .. }))
         });
+        let s = d.session();
         let dwell_s = s.loaded()[0].planned.timing.dwell_us / 1e6;
         let offsets: Vec<_> = ev
             .iter()
@@ -150,50 +204,46 @@ fn timed_on_phases_last_on_s_by_the_devices_counters_and_repeat() {
             assert_eq!(reason, OffsetReason::Timer, "{name}");
             assert_eq!(rep, i as u32 + 1);
             let device = device.unwrap();
-            // The device played on_s: to half a dwell where it times the
-            // play itself (the LM firmware), to a dwell plus the host's tick
-            // where the host stops it (AUTD3).
-            let tol = if name == "lm" {
-                dwell_s / 2.0 + 1e-9
-            } else {
-                dwell_s + 0.01
-            };
+            // The LM firmware times the play itself (to the step); the
+            // host stops an AUTD3 at its next tick.
+            let tol = dwell_s / 2.0 + TICK_EVERY.as_secs_f64() + 1e-9;
+            assert!((device - 0.3).abs() <= tol, "{name}: device {device} s");
+            // On a manual clock, the host's view is as exact as its polls.
             assert!(
-                (device - 0.3).abs() <= tol,
-                "{name}: device {device} s, dwell {dwell_s}"
+                (host - 0.3).abs() <= tol + STATUS_EVERY.as_secs_f64(),
+                "{name}: host {host} s"
             );
-            assert!((host - 0.3).abs() < 0.05, "{name}: host {host} s");
         }
-        let onsets = ev
+        let onsets: Vec<u64> = ev
             .iter()
             .filter(|e| matches!(e.kind, EventKind::Onset { .. }))
-            .count();
-        assert_eq!(onsets, 2, "{name}");
+            .map(|e| e.t_host_us)
+            .collect();
+        assert_eq!(onsets.len(), 2, "{name}");
+        // The second on-phase begins off_s after the first one's offset.
+        let gap = (onsets[1] - onsets[0]) as f64 / 1e6;
+        assert!((gap - 0.4).abs() < 0.02, "{name}: {gap} s between onsets");
         assert!(matches!(
             ev.last().unwrap().kind,
             EventKind::Done { reps: 2, .. }
         ));
         assert!(!s.presenting());
-        let st = s.status().unwrap();
-        assert_ne!(
-            st.state, "playing",
-            "{name}: silent after the last on-phase"
-        );
+        assert_ne!(s.status().unwrap().state, "playing", "{name}: silent after");
         assert_eq!(s.figures().timed_on_phases, 2);
+        // Session time, not wall time: well under a second of it passed
+        // beyond the presentation.
+        assert!(clock.now_us() - t0 < 1_500_000, "{name}");
     }
 }
 
 #[test]
 fn a_stimulus_presented_over_another_takes_over_at_the_cycle_end() {
-    for (name, mut s) in both() {
-        s.present(&present("a", Some(Gate::Untracked), None, None, None))
-            .unwrap();
-        run_until(&mut s, |_| false).len();
-        s.drain_events();
-        s.present(&present("b", Some(Gate::Untracked), None, None, None))
-            .unwrap();
-        let ev = run_until(&mut s, |e| {
-            e.iter().any(|e| matches!(e.kind, EventKind::Onset { .. }))
+    for (name, mut d, clock) in both(no_finger) {
+        d.session().present(&untracked("a")).unwrap();
+        run_for(&mut d, &clock, Duration::from_millis(57));
+        d.session().present(&untracked("b")).unwrap();
+        let ev = run_until(&mut d, &clock, Duration::from_secs(2), |e| {
+            has(e, |k| matches!(k, EventKind::Onset { .. }))
         });
         let k = kinds(&ev);
         let latency = ev
@@ -205,18 +255,18 @@ fn a_stimulus_presented_over_another_takes_over_at_the_cycle_end() {
                     from,
                     to,
                 } => {
-                    assert_eq!(from.as_deref(), Some("a"));
-                    assert_eq!(to, "b");
+                    assert_eq!((from.as_deref(), to.as_str()), (Some("a"), "b"));
                     assert!(latency_ms <= detected_ms, "{latency_ms} > {detected_ms}");
                     Some(*latency_ms)
                 }
                 _ => None,
             })
             .unwrap_or_else(|| panic!("{name}: no switch in {k:?}"));
-        let period_ms = 1e3 / s.loaded()[0].planned.timing.freq_hz;
+        let period_ms = 1e3 / d.session().loaded()[0].planned.timing.freq_hz;
+        // 57 ms into a 40 ms cycle: the cycle ends 23 ms later.
         assert!(
-            latency <= period_ms + 10.0,
-            "{name}: {latency} ms > one cycle {period_ms} + 10"
+            latency <= period_ms + 1.0,
+            "{name}: {latency} ms > one cycle {period_ms}"
         );
         let off = ev.iter().position(|e| {
             matches!(
@@ -231,71 +281,132 @@ fn a_stimulus_presented_over_another_takes_over_at_the_cycle_end() {
             .iter()
             .position(|e| matches!(e.kind, EventKind::Onset { .. }));
         assert!(off.unwrap() < on.unwrap(), "{name}: {k:?}");
-        assert_eq!(s.status().unwrap().stimulus.as_deref(), Some("b"));
-        s.stop(OffsetReason::Stop).unwrap();
-        assert_eq!(s.figures().switches, 1);
+        assert_eq!(d.session().status().unwrap().stimulus.as_deref(), Some("b"));
+        d.session().stop(OffsetReason::Stop).unwrap();
+        assert_eq!(d.session().figures().switches, 1);
     }
 }
 
 #[test]
+fn from_silence_a_resident_stimulus_starts_within_one_dwell() {
+    let clock = Clock::manual_at_us(1_000_000);
+    let mut d = driver(LIB, &Target::Lm, lm(&clock), &clock, Finger::None);
+    for (i, id) in ["a", "b", "m", "b", "a"].into_iter().enumerate() {
+        // At varied times, from every slot.
+        run_for(
+            &mut d,
+            &clock,
+            Duration::from_micros(7_300 * i as u64 + 1_000),
+        );
+        d.session().present(&untracked(id)).unwrap();
+        run_for(&mut d, &clock, Duration::from_millis(30));
+        d.session().stop(OffsetReason::Stop).unwrap();
+    }
+    let s = d.session();
+    let dwell_ms = s
+        .loaded()
+        .iter()
+        .map(|l| l.planned.timing.dwell_us / 1e3)
+        .fold(0.0, f64::max);
+    let f = s.figures();
+    assert_eq!(f.onsets, 5);
+    assert!(
+        f.onset_max_ms.unwrap() <= dwell_ms + 1.0,
+        "{f:?}, dwell {dwell_ms} ms"
+    );
+}
+
+#[test]
 fn a_tracked_presentation_mutes_without_a_finger_and_sounds_with_one() {
-    for (name, mut s) in both() {
-        s.present(&present("a", None, None, None, None)).unwrap();
-        let ev = run_until(&mut s, |e| {
-            e.iter().any(|e| matches!(e.kind, EventKind::Mute { .. }))
+    for (name, mut d, clock) in both(synthetic) {
+        d.touch(false).unwrap();
+        d.session()
+            .present(&present("a", None, None, None, None))
+            .unwrap();
+        let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
+            has(e, |k| matches!(k, EventKind::Mute { .. }))
         });
         assert!(
-            ev.iter().any(|e| matches!(&e.kind, EventKind::Mute { reason } if reason == "waiting_for_tracking")),
+            has(
+                &ev,
+                |k| matches!(k, EventKind::Mute { reason } if reason == "waiting_for_tracking" || reason == "finger_absent")
+            ),
             "{name}: {:?}",
             kinds(&ev)
         );
-        let c = s.scene().center_mm;
-        let ev = {
-            let mut all = Vec::new();
-            let end = Instant::now() + Duration::from_secs(5);
-            while Instant::now() < end
-                && !all
-                    .iter()
-                    .any(|e: &Event| matches!(e.kind, EventKind::Unmute))
-            {
-                s.finger(Some(c)).unwrap();
-                s.poll().unwrap();
-                all.extend(s.drain_events());
-                std::thread::sleep(Duration::from_millis(5));
-            }
-            all
-        };
+        d.touch(true).unwrap();
+        let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
+            has(e, |k| matches!(k, EventKind::Unmute))
+        });
         assert!(
-            ev.iter()
-                .any(|e| matches!(e.kind, EventKind::Finger { present: true })),
+            has(&ev, |k| matches!(k, EventKind::Finger { present: true })),
             "{name}"
         );
         assert!(
-            ev.iter().any(|e| matches!(e.kind, EventKind::Unmute)),
+            has(&ev, |k| matches!(k, EventKind::Unmute)),
             "{name}: {:?}",
             kinds(&ev)
         );
-        s.stop(OffsetReason::Stop).unwrap();
-        let ev = s.drain_events();
-        let frac = ev.iter().find_map(|e| match e.kind {
-            EventKind::Offset {
-                present_fraction,
-                muted_s,
-                ..
-            } => Some((present_fraction, muted_s)),
-            _ => None,
-        });
-        let (frac, muted) = frac.unwrap();
-        assert!(muted > 0.0 && frac < 1.0, "{name}: {frac} {muted}");
+        // The synthetic finger keeps the gate open on the driver's
+        // schedule: no mute over half a second.
+        let ev = run_for(&mut d, &clock, Duration::from_millis(500));
+        assert!(
+            !has(&ev, |k| matches!(k, EventKind::Mute { .. })),
+            "{name}: {:?}",
+            kinds(&ev)
+        );
+        d.session().stop(OffsetReason::Stop).unwrap();
+        let ev = d.session().drain_events();
+        let (frac, muted) = ev
+            .iter()
+            .find_map(|e| match e.kind {
+                EventKind::Offset {
+                    present_fraction,
+                    muted_s,
+                    ..
+                } => Some((present_fraction, muted_s)),
+                _ => None,
+            })
+            .unwrap();
+        assert!(
+            muted > 0.0 && frac < 1.0 && frac > 0.5,
+            "{name}: {frac} {muted}"
+        );
+    }
+}
+
+#[test]
+fn a_tracked_presentation_without_a_finger_source_is_refused() {
+    for (name, mut d, _) in both(no_finger) {
+        let r = d
+            .session()
+            .handle(&Command::Present(present("a", None, None, None, None)), 1);
+        assert!(!r.is_ok(), "{name}");
+        let msg = r.0["error"].as_str().unwrap();
+        assert!(
+            msg.contains("no finger source") && msg.contains("untracked"),
+            "{msg}"
+        );
+        // The entry's own gate counts too; untracked ones play.
+        assert!(
+            d.session()
+                .handle(&Command::Present(untracked("a")), 1)
+                .is_ok()
+        );
+        assert!(
+            d.session()
+                .handle(&Command::Present(present("m", None, None, None, None)), 1)
+                .is_ok()
+        );
     }
 }
 
 #[test]
 fn bad_commands_are_refused_and_leave_the_device_as_it_was() {
-    for (name, mut s) in both() {
-        s.present(&present("a", Some(Gate::Untracked), None, None, None))
-            .unwrap();
-        s.drain_events();
+    for (name, mut d, _) in both(synthetic) {
+        d.session().present(&untracked("a")).unwrap();
+        d.session().drain_events();
+        let long = "q".repeat(4000);
         for (cmd, needle) in [
             (
                 Command::Present(present("zz", None, None, None, None)),
@@ -319,20 +430,25 @@ fn bad_commands_are_refused_and_leave_the_device_as_it_was() {
                 },
                 "no stimulus `q`",
             ),
+            (
+                Command::Present(present(&long, None, None, None, None)),
+                "(4000 bytes)",
+            ),
         ] {
-            let r = s.handle(&cmd);
+            let r = d.session().handle(&cmd, 1);
             assert!(!r.is_ok(), "{name}: {cmd:?}");
             let msg = r.0["error"].as_str().unwrap().to_owned();
             assert!(msg.contains(needle), "{name}: {msg}");
+            assert!(msg.len() < 400, "{name}: the id is not echoed whole");
             assert!(matches!(
-                &s.drain_events()[..],
+                &d.session().drain_events()[..],
                 [Event {
                     kind: EventKind::Refused { .. },
                     ..
                 }]
             ));
         }
-        let st = s.status().unwrap();
+        let st = d.session().status().unwrap();
         assert_eq!(
             (st.stimulus.as_deref(), st.phase),
             (Some("a"), Some("on")),
@@ -343,11 +459,275 @@ fn bad_commands_are_refused_and_leave_the_device_as_it_was() {
 }
 
 #[test]
+fn a_third_present_replaces_the_one_waiting_for_its_switch() {
+    for (name, mut d, clock) in both(no_finger) {
+        d.session().present(&untracked("a")).unwrap();
+        run_for(&mut d, &clock, Duration::from_millis(45));
+        d.session().present(&untracked("b")).unwrap();
+        let r = d.session().handle(&Command::Present(untracked("m")), 1);
+        if name == "autd3" {
+            // An AUTD3 cannot take a queued switch back (yet): refused
+            // with the reason, and the switch to `b` goes ahead.
+            assert!(!r.is_ok());
+            let msg = r.0["error"].as_str().unwrap();
+            assert!(msg.contains("cannot replace `b`"), "{msg}");
+            let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
+                has(e, |k| matches!(k, EventKind::Switch { .. }))
+            });
+            assert!(has(
+                &ev,
+                |k| matches!(k, EventKind::Switch { to, .. } if to == "b")
+            ));
+            continue;
+        }
+        assert!(r.is_ok(), "{name}: {r:?}");
+        let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
+            has(e, |k| matches!(k, EventKind::Switch { .. }))
+        });
+        assert!(
+            has(
+                &ev,
+                |k| matches!(k, EventKind::Cancelled { stimulus } if stimulus == "b")
+            ),
+            "{name}: {:?}",
+            kinds(&ev)
+        );
+        assert!(
+            has(
+                &ev,
+                |k| matches!(k, EventKind::Switch { from: Some(f), to, .. } if f == "a" && to == "m")
+            ),
+            "{name}: {:?}",
+            kinds(&ev)
+        );
+        assert!(!has(
+            &ev,
+            |k| matches!(k, EventKind::Onset { stimulus, .. } if stimulus == "b")
+        ));
+        let st = d.session().status().unwrap();
+        assert_eq!(
+            (st.stimulus.as_deref(), st.state.as_str()),
+            (Some("m"), "playing")
+        );
+        // The same again while `a` → `b` waits: `a` plays on through its
+        // cycle end.
+        d.session().present(&untracked("a")).unwrap();
+        run_for(&mut d, &clock, Duration::from_millis(10));
+        d.session().present(&untracked("b")).unwrap();
+        d.session().present(&untracked("m")).unwrap();
+        let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
+            has(e, |k| matches!(k, EventKind::Onset { .. }))
+        });
+        assert!(
+            has(
+                &ev,
+                |k| matches!(k, EventKind::Onset { stimulus, .. } if stimulus == "m")
+            ),
+            "{:?}",
+            kinds(&ev)
+        );
+    }
+}
+
+#[test]
+fn a_client_going_away_stops_only_what_it_presented() {
+    for (name, mut d, clock) in both(no_finger) {
+        // Client 1 presents; client 2 goes away: nothing changes.
+        d.session().handle(&Command::Present(untracked("a")), 1);
+        run_for(&mut d, &clock, Duration::from_millis(20));
+        assert!(!d.session().client_gone(2).unwrap(), "{name}");
+        assert_eq!(d.session().status().unwrap().state, "playing");
+        // Client 2 asks for `b`, then goes away before the switch: its
+        // `b` is cancelled; `a` plays on where the device can take the
+        // switch back, else everything stops.
+        run_for(&mut d, &clock, Duration::from_millis(3));
+        d.session().handle(&Command::Present(untracked("b")), 2);
+        assert!(d.session().client_gone(2).unwrap(), "{name}");
+        let ev = run_for(&mut d, &clock, Duration::from_millis(120));
+        assert!(
+            !has(
+                &ev,
+                |k| matches!(k, EventKind::Onset { stimulus, .. } if stimulus == "b")
+            ),
+            "{name}: {:?}",
+            kinds(&ev)
+        );
+        let st = d.session().status().unwrap();
+        if name == "lm" {
+            assert_eq!(
+                (st.stimulus.as_deref(), st.state.as_str()),
+                (Some("a"), "playing"),
+                "{name}"
+            );
+            assert!(
+                !has(&ev, |k| matches!(k, EventKind::Offset { .. })),
+                "{name}: {:?}",
+                kinds(&ev)
+            );
+        } else {
+            assert_ne!(st.state, "playing", "{name}");
+            continue;
+        }
+        // Client 1 goes away: its `a` stops.
+        assert!(d.session().client_gone(1).unwrap());
+        let ev = d.session().drain_events();
+        assert!(has(&ev, |k| matches!(
+            k,
+            EventKind::Offset {
+                reason: OffsetReason::Disconnect,
+                ..
+            }
+        )));
+        assert_ne!(d.session().status().unwrap().state, "playing");
+    }
+}
+
+/// The simulated firmware with a library of `steps` raw steps of 996
+/// transducers, uploading Raw (so every entry takes its raw size).
+fn small_lm(clock: &Clock, steps: u32) -> Box<dyn Backend> {
+    let core = Arc::new(Mutex::new(
+        FwCore::new(SimConfig {
+            slot_steps: steps / 2,
+            ..SimConfig::default()
+        })
+        .unwrap(),
+    ));
+    let mut dev = LmBackend::new(
+        Client::new(InProcess::new(core, clock.clone())),
+        lm_proto::Encoding::Raw,
+    );
+    dev.progress = false;
+    Box::new(dev)
+}
+
+/// Six 10 Hz LM-S entries of 19 to 50 steps (207 in all).
+const BIG: &str = r#"
+[[stimulus]]
+id = "r3"
+radius = 3
+freq = 10
+step = 1.0
+untracked = true
+[[stimulus]]
+id = "r4"
+radius = 4
+freq = 10
+step = 1.0
+untracked = true
+[[stimulus]]
+id = "r5"
+radius = 5
+freq = 10
+step = 1.0
+untracked = true
+[[stimulus]]
+id = "r6"
+radius = 6
+freq = 10
+step = 1.0
+untracked = true
+[[stimulus]]
+id = "r7"
+radius = 7
+freq = 10
+step = 1.0
+untracked = true
+[[stimulus]]
+id = "r8"
+radius = 8
+freq = 10
+step = 1.0
+untracked = true
+"#;
+
+#[test]
+fn a_library_larger_than_the_devices_memory_loads_on_demand_in_place_of_idle_entries() {
+    let clock = Clock::manual_at_us(1_000_000);
+    // Room for 120 steps: the first four entries (113 steps), not all six.
+    let mut d = driver(
+        BIG,
+        &Target::Lm,
+        small_lm(&clock, 120),
+        &clock,
+        Finger::None,
+    );
+    let ev = d.session().drain_events();
+    let resident = ev.iter().find_map(|e| match e.kind {
+        EventKind::Ready { resident, .. } => Some(resident),
+        _ => None,
+    });
+    assert_eq!(resident, Some(4), "{:?}", kinds(&ev));
+    let ids = ["r3", "r4", "r5", "r6", "r7", "r8"];
+    let mut evicted = Vec::new();
+    // Three rounds through the library, each entry presented over the
+    // one before: never refused.
+    for round in 0..3 {
+        for id in ids {
+            d.session()
+                .present(&untracked(id))
+                .unwrap_or_else(|e| panic!("round {round}, {id}: {e:#}"));
+            let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
+                has(
+                    e,
+                    |k| matches!(k, EventKind::Onset { stimulus, .. } if stimulus == id),
+                )
+            });
+            assert!(
+                has(
+                    &ev,
+                    |k| matches!(k, EventKind::Onset { stimulus, .. } if stimulus == id)
+                ),
+                "{id}: {:?}",
+                kinds(&ev)
+            );
+            for e in &ev {
+                if let EventKind::Preloaded {
+                    evicted: x,
+                    stimulus,
+                    ..
+                } = &e.kind
+                {
+                    assert!(!x.contains(stimulus));
+                    evicted.extend(x.iter().cloned());
+                }
+                assert!(!matches!(e.kind, EventKind::Refused { .. }));
+            }
+        }
+    }
+    assert!(!evicted.is_empty());
+    // Only idle entries make room: never the one playing when it loaded.
+    let st = d.session().status().unwrap();
+    assert_eq!(st.stimulus.as_deref(), Some("r8"));
+    let resident = d
+        .session()
+        .library()
+        .iter()
+        .filter(|i| i.slot.is_some())
+        .count();
+    assert!(resident < 6, "{resident}");
+    // An entry that cannot fit beside the playing one, even alone, is
+    // refused with the reason and nothing changes.
+    let mut tiny = driver(BIG, &Target::Lm, small_lm(&clock, 60), &clock, Finger::None);
+    tiny.session().present(&untracked("r5")).unwrap();
+    let r = tiny.session().handle(&Command::Present(untracked("r8")), 1);
+    let msg = r.0["error"].as_str().unwrap_or_default();
+    assert!(
+        msg.contains("does not fit the device's library memory"),
+        "{msg}"
+    );
+    assert_eq!(
+        tiny.session().status().unwrap().stimulus.as_deref(),
+        Some("r5")
+    );
+}
+
+#[test]
 fn closing_leaves_the_array_silent_and_says_so() {
-    for (name, mut s) in both() {
-        s.present(&present("m", None, None, None, None)).unwrap();
-        s.poll().unwrap();
-        let ev = s.close(OffsetReason::Quit);
+    for (name, d, _) in both(no_finger) {
+        let mut d = d;
+        d.session().present(&untracked("m")).unwrap();
+        d.turn().unwrap();
+        let ev = d.into_session().close(OffsetReason::Quit);
         let k = kinds(&ev);
         assert!(
             matches!(
@@ -368,5 +748,20 @@ fn closing_leaves_the_array_silent_and_says_so() {
             )),
             "{name}"
         );
+    }
+}
+
+#[test]
+fn the_driver_ticks_the_device_while_nothing_else_is_due() {
+    let clock = Clock::manual_at_us(1_000_000);
+    let mut d = driver(LIB, &Target::Lm, lm(&clock), &clock, Finger::None);
+    d.session().present(&untracked("a")).unwrap();
+    // However long the caller would wait, the next turn is due within a
+    // tick and a status read.
+    for _ in 0..50 {
+        d.turn().unwrap();
+        let w = d.wait_time(Duration::from_secs(10));
+        assert!(w <= TICK_EVERY && w <= STATUS_EVERY, "{w:?}");
+        clock.advance(w.max(Duration::from_micros(1)));
     }
 }
