@@ -74,9 +74,6 @@ pub struct Report {
 /// Longest wait for client lines between two turns.
 const MAX_WAIT: Duration = Duration::from_millis(10);
 
-/// Most client lines handled in one turn (the timelines come first).
-const LINES_PER_TURN: usize = 64;
-
 /// How long a TCP client may take to send its token.
 pub const AUTH_WITHIN: Duration = Duration::from_secs(5);
 
@@ -429,13 +426,15 @@ pub fn serve(session: Session, opts: Options) -> anyhow::Result<Report> {
                     None
                 }
             };
-            let mut n = 0;
+            // Lines until the next turn is due (one at least): a client
+            // that floods commands gets the time between the session's
+            // deadlines, never the deadlines themselves.
+            let due = d.next_wake();
             while let Some(m) = msg.take() {
                 if let Some(end) = lp.handle(&mut d, m)? {
                     return Ok(end);
                 }
-                n += 1;
-                if n < LINES_PER_TURN {
+                if clock.now_us() < due {
                     msg = rx.try_recv().ok();
                 }
             }
