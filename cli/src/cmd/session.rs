@@ -262,6 +262,12 @@ impl Args {
                 filter: self.filter.build(),
             },
         )?;
+        if report.dropped_clients > 0 {
+            lmhost::errln!(
+                "lmhost: {} clients were disconnected for not reading their replies and events",
+                report.dropped_clients
+            );
+        }
         lmhost::errln!(
             "lmhost: session ended ({}); {} commands, {} events; the array is silent",
             report

@@ -193,7 +193,10 @@ impl Loop {
         line: Arc<str>,
     ) -> anyhow::Result<Option<Ended>> {
         match self.conns.get(&id) {
-            Some(c) if !c.send(line) => self.drop_client(d, id),
+            Some(c) if !c.send(line) => {
+                self.report.dropped_clients += 1;
+                self.drop_client(d, id)
+            }
             _ => Ok(None),
         }
     }
@@ -218,6 +221,7 @@ impl Loop {
                 .map(|(id, _)| *id)
                 .collect();
             for id in full {
+                self.report.dropped_clients += 1;
                 if let Some(end) = self.drop_client(d, id)? {
                     return Ok(Some(end));
                 }
