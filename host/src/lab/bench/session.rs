@@ -154,6 +154,8 @@ fn measure(
         })?;
     }
     d.session().stop(OffsetReason::Stop)?;
+    // The stop's own `done` is not the timed presentation's.
+    d.session().drain_events();
     let switches = d.session_ref().figures();
     d.session()
         .present(&present("lms", Some(on_s), Some(on_phases)))?;
