@@ -334,6 +334,16 @@ pub trait Backend {
     fn self_test(&mut self) -> Result<SelfTest> {
         Ok(SelfTest::Unsupported)
     }
+    /// Whether a [`play`](Self::play) or [`play_for`](Self::play_for)
+    /// while a slot is queued replaces the queued one at once, as the LM
+    /// firmware's queue does (the slot it replaced is free again). The
+    /// rig session relies on it to replace a presentation waiting for its
+    /// switch, or to take the switch back when its client goes away;
+    /// where it is false (the default), a session refuses the one and
+    /// stops for the other.
+    fn replaces_queued(&self) -> bool {
+        false
+    }
     /// Where [`Status`]'s `step` and `cycles` come from: `"device"` (the
     /// LM firmware counts them on its timer) or `"host clock"` (AUTD3:
     /// autd3 reads back no STM index; the FPGA derives it from the

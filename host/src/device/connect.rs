@@ -286,6 +286,12 @@ impl<T: Transport> Backend for LmBackend<T> {
             .context("running the device's self-test")?)
     }
 
+    /// The firmware's player keeps one queued slot: a later play replaces
+    /// it (`lm_fw_core::player::Player::queue`).
+    fn replaces_queued(&self) -> bool {
+        true
+    }
+
     fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
         match self.client.centroid(*c) {
             Ok(()) => Ok(CentroidOutcome::Applied),

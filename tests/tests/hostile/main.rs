@@ -7,7 +7,8 @@
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
 //! round: `cases_r1.rs`, `cases_r3.rs`, …); `{port}` is
 //! the shared simulated device, `{dir}` a scratch directory with the
-//! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`.
+//! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`. A
+//! case may run a client of the command beside it (`.during(f)`).
 //!
 //! Run with `--nocapture` to see the summary line
 //! `hostile inputs: N cases, K classes, 0 panics, 0 hangs`.
@@ -67,8 +68,18 @@ const EVENT_LOGS: &str = "r4-30.4 event logs never block";
 const MESSAGES: &str = "r4-30.16 one reason, named fields, sane ranges";
 const SCENE_EDITS: &str = "r4-30.16 scenes calibrated in any form";
 
+/// The rig session (issues 30, 31.3): `cases_r4_session.rs`.
+const SESSION_STALLS: &str = "r4-s1 no client slows the session";
+const SESSION_LINES: &str = "r4-s2 bounded control lines";
+const SESSION_TCP: &str = "r4-s3 local TCP control authenticated";
+const SESSION_LIBRARY: &str = "r4-s4 library larger than the device";
+const SESSION_MEANINGLESS: &str = "r4-s5 meaningless session input refused";
+const SESSION_SEMANTICS: &str = "r4-s6 session semantics";
+const SESSION_MESSAGES: &str = "r4-s7 session messages";
+const SESSION_OUTPUTS: &str = "r4-s8 session inputs before outputs";
+
 /// Every class the suite must cover.
-const CLASSES: [&str; 35] = [
+const CLASSES: [&str; 43] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -104,6 +115,14 @@ const CLASSES: [&str; 35] = [
     EVENT_LOGS,
     MESSAGES,
     SCENE_EDITS,
+    SESSION_STALLS,
+    SESSION_LINES,
+    SESSION_TCP,
+    SESSION_LIBRARY,
+    SESSION_MEANINGLESS,
+    SESSION_SEMANTICS,
+    SESSION_MESSAGES,
+    SESSION_OUTPUTS,
 ];
 
 /// What a run produced, for custom checks.
@@ -111,6 +130,8 @@ struct Run {
     code: Option<i32>,
     stdout: String,
     stderr: String,
+    /// What the `during` client found.
+    during: Result<(), String>,
 }
 
 /// Where the fixtures and the devices are.
@@ -129,9 +150,15 @@ struct Ctx {
     full: Option<PathBuf>,
     /// A device another lmhost holds open for the whole suite (`{busy}`).
     busy: String,
+    /// A device of its own for the session cases (`{sess}`), whose
+    /// library they fill.
+    sess: String,
 }
 
 type Check = fn(&Ctx, &Run) -> Result<(), String>;
+
+/// Runs beside the command (a client of it), given its process id.
+type During = fn(&Ctx, u32) -> Result<(), String>;
 
 /// One hostile input and what must happen.
 #[derive(Clone)]
@@ -158,6 +185,8 @@ struct Case {
     stderr_to: Option<String>,
     /// Environment variables set for the run (values expanded).
     env: Vec<(String, String)>,
+    /// Runs while the command does; its error fails the case.
+    during: Option<During>,
 }
 
 fn words(args: &str) -> Vec<String> {
@@ -183,6 +212,7 @@ fn case(class: &'static str, args: &str) -> Case {
         stdout_to: None,
         stderr_to: None,
         env: Vec::new(),
+        during: None,
     }
 }
 
@@ -242,6 +272,10 @@ impl Case {
         self.check = Some(f);
         self
     }
+    fn during(mut self, f: During) -> Self {
+        self.during = Some(f);
+        self
+    }
     fn env(mut self, k: &str, v: &str) -> Self {
         self.env.push((k.to_owned(), v.to_owned()));
         self
@@ -286,6 +320,7 @@ fn good_udp(n: usize) -> Vec<Vec<u8>> {
 mod cases_r1;
 mod cases_r3;
 mod cases_r4_files;
+mod cases_r4_session;
 mod cases_r4_study;
 mod checks;
 mod fixtures;
@@ -303,6 +338,7 @@ fn expand(s: &str, ctx: &Ctx) -> String {
         .replace("{wv}", &ctx.wv)
         .replace("{small}", &ctx.small)
         .replace("{busy}", &ctx.busy)
+        .replace("{sess}", &ctx.sess)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
         .replace(
@@ -386,17 +422,26 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
             .status();
     }
     let start = Instant::now();
-    let status = loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            break Some(st);
-        }
-        if start.elapsed() > TIME_LIMIT {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
+    let pid = child.id();
+    let (status, during) = std::thread::scope(|s| {
+        let during = c.during.map(|f| s.spawn(move || f(ctx, pid)));
+        let status = loop {
+            if let Some(st) = child.try_wait().unwrap() {
+                break Some(st);
+            }
+            if start.elapsed() > TIME_LIMIT {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        let during = during.map_or(Ok(()), |h| {
+            h.join()
+                .unwrap_or_else(|_| Err("the during client panicked".into()))
+        });
+        (status, during)
+    });
     drop(feeder);
     let stdout = reader.join().unwrap();
     let stderr = err_reader.join().unwrap();
@@ -404,6 +449,7 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
         code: st.code(),
         stdout,
         stderr,
+        during,
     })
 }
 
@@ -440,6 +486,9 @@ fn judge(c: &Case, ctx: &Ctx, r: &Run) -> Vec<String> {
     {
         bad.push(e);
     }
+    if let Err(e) = &r.during {
+        bad.push(format!("during: {e}"));
+    }
     if let Some((args, want)) = &c.then {
         let args: Vec<String> = args.iter().map(|a| expand(a, ctx)).collect();
         let out = Command::new(lmhost()).args(&args).output().unwrap();
@@ -458,6 +507,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let wv = Sim::start(&["--centroid-timeout-ms", "600000"]);
     let small = Sim::start(&["--slot-steps", "10"]);
     let busy = Sim::start(&[]);
+    let sess = Sim::start(&[]);
     let mut holder = Command::new(lmhost())
         .args([
             "stream",
@@ -479,6 +529,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     fixtures(&dir);
     study_fixtures(&dir);
     round4_files_fixtures(&dir);
+    cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -489,6 +540,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
         full: full.as_ref().ok().map(|f| f.0.clone()),
         busy: busy.port.clone(),
+        sess: sess.port.clone(),
     };
     let up = Command::new(lmhost())
         .args(["upload", "--port", &ctx.port, "--hold", "0.05"])
@@ -502,8 +554,9 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
 
     let mut all = cases();
     all.extend(study_cases());
-    // Last: the session cases preload the shared device's library.
     all.extend(round4_files_cases());
+    // Last: the session cases preload the shared device's library.
+    all.extend(cases_r4_session::cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();
