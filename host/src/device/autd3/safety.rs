@@ -27,7 +27,7 @@
 use lm_fw_core::policy::Policy;
 
 /// Mute after this long without a centroid update (µs), as the firmware.
-pub const STALE_US: u64 = 100_000;
+pub const STALE_US: u64 = lm_fw_core::DEFAULT_CENTROID_TIMEOUT_US as u64;
 /// Modulation intensity that silences the array.
 pub const MUTED: u8 = 0;
 /// Modulation intensity for full output.
