@@ -448,8 +448,9 @@ fn firmware_under_qemu_speaks_the_protocol() {
 
 /// Lets `d` pass on the firmware's own clock: QEMU's virtual time may run
 /// slower than the wall clock, so wait until the player has stepped that
-/// long (it steps while muted too; every wait of the table is while a
-/// slot plays).
+/// long (it steps while muted too). A player that stops on its own (a
+/// timed play) or was stopped counts no more: then `d` of wall time passes,
+/// the least it would have taken.
 fn wait_on_device(
     dev: &mut dyn Backend,
     d: Duration,
@@ -457,13 +458,19 @@ fn wait_on_device(
     dwell_us: f64,
 ) -> anyhow::Result<()> {
     let pos = |st: &Status| u64::from(st.cycles) * steps + u64::from(st.step);
+    let begun = Instant::now();
     let start = pos(&dev.status()?);
     let need = (d.as_secs_f64() * 1e6 / dwell_us).ceil() as u64 + 1;
-    let give_up = Instant::now() + d * 50 + Duration::from_secs(10);
+    let give_up = begun + d * 50 + Duration::from_secs(10);
     loop {
         std::thread::sleep(Duration::from_millis(5));
+        let st = dev.status()?;
+        if matches!(st.state, DeviceState::Stopped | DeviceState::Idle) {
+            std::thread::sleep(d.saturating_sub(begun.elapsed()));
+            return Ok(());
+        }
         // (A slot taking over restarts the count: the wait only gets longer.)
-        if pos(&dev.status()?) >= start + need {
+        if pos(&st) >= start + need {
             return Ok(());
         }
         anyhow::ensure!(
