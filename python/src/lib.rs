@@ -565,6 +565,8 @@ struct Device_ {
     dev: Option<Box<dyn Backend>>,
     scene: Scene,
     port: String,
+    /// What `port` names, as the library reads it.
+    kind: lmhost::device::connect::DeviceKind,
     seq: u32,
 }
 
@@ -593,6 +595,7 @@ impl Device_ {
     fn new(py: Python<'_>, port: String, scene: Option<&Scene_>) -> PyResult<Self> {
         let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
         let spec = PortSpec::new(Some(port.clone()));
+        let kind = spec.device().map_err(|e| to_py(e.into()))?;
         let s = scene.clone();
         let dev = run(py, move || {
             Ok(OnThisThread(lmhost::device::connect::open_with(
@@ -607,6 +610,7 @@ impl Device_ {
             dev: Some(dev),
             scene,
             port,
+            kind,
             seq: 0,
         })
     }
@@ -633,12 +637,11 @@ impl Device_ {
         play: bool,
         untracked: bool,
     ) -> PyResult<String> {
-        let kind = if self.port.starts_with("autd3:") {
-            "autd3"
-        } else {
-            "lm"
+        let kind = match self.kind.target() {
+            Target::Lm => "lm",
+            Target::Autd3 => "autd3",
         };
-        if plan.target != kind {
+        if plan.target_kind() != self.kind.target() {
             return Err(bad(format!(
                 "the plan is for target={:?} but {} is an {kind} device: plan with target={kind:?}",
                 plan.target, self.port
