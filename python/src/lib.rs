@@ -567,7 +567,8 @@ struct Device_ {
     port: String,
     /// What `port` names, as the library reads it.
     kind: lmhost::device::connect::DeviceKind,
-    seq: u32,
+    /// Numbers and sends centroids (the library's one sender).
+    centroids: lmhost::device::centroids::CentroidSender,
 }
 
 impl Device_ {
@@ -611,7 +612,7 @@ impl Device_ {
             scene,
             port,
             kind,
-            seq: 0,
+            centroids: Default::default(),
         })
     }
 
@@ -682,23 +683,14 @@ impl Device_ {
         present: bool,
     ) -> PyResult<&'static str> {
         let p = lmhost::limits::position_mm("centroid", [x, y, z]).map_err(|e| to_py(e.into()))?;
-        let pos_um = self.scene.drive_point(p).map(lmhost::units::mm_to_um);
-        let mut seq = self.seq;
+        let pos_um = present.then(|| self.scene.drive_point(p).map(lmhost::units::mm_to_um));
+        let mut sender = self.centroids.clone();
         let out = self.with(py, move |d| {
-            if seq == 0 {
-                seq = d.status()?.last_centroid_seq;
-            }
-            seq = seq.wrapping_add(1).max(1);
-            let c = lm_proto::Centroid {
-                seq,
-                pos_um,
-                present,
-                host_time_us: lmhost::clock::monotonic_us(),
-            };
-            Ok((seq, d.centroid(&c)?))
+            let r = sender.send(d, pos_um, lmhost::clock::monotonic_us());
+            Ok((sender, r))
         })?;
-        self.seq = out.0;
-        Ok(match out.1 {
+        self.centroids = out.0;
+        Ok(match out.1.map_err(|e| to_py(e.into()))? {
             lmhost::device::backend::CentroidOutcome::Applied => "applied",
             lmhost::device::backend::CentroidOutcome::OutOfRange => "out_of_range",
         })

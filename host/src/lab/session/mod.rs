@@ -27,10 +27,11 @@ pub mod serve;
 
 use std::time::Duration;
 
-use lm_proto::{Centroid, DeviceState, MuteReason, Status};
+use lm_proto::{DeviceState, MuteReason, Status};
 
 use crate::clock::monotonic_us;
 use crate::device::backend::{Backend, BackendInfo, CentroidOutcome, ErrorKind};
+use crate::device::centroids::CentroidSender;
 use crate::error::InputError;
 use crate::plan::library::Library;
 use crate::plan::scene::Scene;
@@ -139,9 +140,9 @@ pub struct Session {
     /// Mute reason last seen while on (`None`: sounding).
     mute: Option<MuteReason>,
     finger: Option<bool>,
-    seq: u32,
+    /// Numbers and sends the finger's centroids.
+    centroids: CentroidSender,
     next_status_us: u64,
-    last_pos_um: [i32; 3],
     /// Switch latencies so far (µs).
     switch_us: Vec<u64>,
     /// Timed on-phases: device-played time minus `on_s` (µs).
@@ -202,9 +203,8 @@ impl Session {
             events: Vec::new(),
             mute: None,
             finger: None,
-            seq: status.last_centroid_seq,
+            centroids: CentroidSender::continuing(status.last_centroid_seq),
             next_status_us: 0,
-            last_pos_um: [0; 3],
             switch_us: Vec::new(),
             on_error_us: Vec::new(),
         };
@@ -600,29 +600,19 @@ impl Session {
             self.finger = Some(present);
             self.emit(EventKind::Finger { present });
         }
-        if let Some(p) = pos_mm {
-            self.last_pos_um = self.scene.drive_point(p).map(mm_to_um);
-        }
-        self.seq = self.seq.wrapping_add(1).max(1);
-        let c = Centroid {
-            seq: self.seq,
-            pos_um: self.last_pos_um,
-            present,
-            host_time_us: monotonic_us(),
-        };
-        match self.dev.centroid(&c) {
+        let pos_um = pos_mm.map(|p| self.scene.drive_point(p).map(mm_to_um));
+        match self
+            .centroids
+            .send(self.dev.as_mut(), pos_um, monotonic_us())
+        {
             Ok(CentroidOutcome::Applied | CentroidOutcome::OutOfRange) => Ok(()),
             // Not newer than the device's last (another client streamed):
-            // continue after it.
+            // the sender continues after it.
             Err(e) if matches!(e.kind(), ErrorKind::Refused(lm_proto::NackCode::OutOfOrder)) => {
-                if let Ok(s) = self.dev.status() {
-                    self.seq = s.last_centroid_seq;
-                }
                 Ok(())
             }
-            Err(e) => {
-                Err(anyhow::Error::from(e).context(format!("sending centroid #{}", self.seq)))
-            }
+            Err(e) => Err(anyhow::Error::from(e)
+                .context(format!("sending centroid #{}", self.centroids.last_seq()))),
         }
     }
 
