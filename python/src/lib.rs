@@ -383,13 +383,6 @@ fn simulate(
     calibration: Option<f64>,
     reference: bool,
 ) -> PyResult<Field_> {
-    let intensity = f64::from(plan.planned.plan.sequence.header.intensity) / 255.0;
-    if intensity != 1.0 {
-        return Err(bad(format!(
-            "--intensity {} applies to devices: simulate models full output (its maps scale with the drive amplitude the driver makes of it)",
-            lmhost::limits::show(intensity)
-        )));
-    }
     let axes = match plane_axes {
         None => None,
         Some(v) if v.len() == 6 => Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]])),
