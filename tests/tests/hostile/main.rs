@@ -54,9 +54,12 @@ const RIG: &str = "r3-8 rig sanity";
 const REFUSALS: &str = "r3-9 device refusals said";
 /// One behaviour on every backend: stimulus flags and files.
 const STIMULI: &str = "r4 stimulus flags and files";
+/// Classes of round 4's device work (issues 26, 30, 31).
+const STALE_LOCK: &str = "r4-30.15 a port lock dies with its holder";
+const AUTD3_SLOTS: &str = "r4-31 AUTD3 slots, segments and the in-process emulator";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 25] = [
+const CLASSES: [&str; 27] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -82,6 +85,8 @@ const CLASSES: [&str; 25] = [
     RIG,
     REFUSALS,
     STIMULI,
+    STALE_LOCK,
+    AUTD3_SLOTS,
 ];
 
 /// What a run produced, for custom checks.
@@ -107,6 +112,8 @@ struct Ctx {
     full: Option<PathBuf>,
     /// A device another lmhost holds open for the whole suite (`{busy}`).
     busy: String,
+    /// A device whose holder was killed with SIGKILL (`{stale}`).
+    stale: String,
 }
 
 type Check = fn(&Ctx, &Run) -> Result<(), String>;
@@ -263,11 +270,13 @@ fn good_udp(n: usize) -> Vec<Vec<u8>> {
 
 mod cases_r1;
 mod cases_r3;
+mod cases_r4_device;
 mod checks;
 mod fixtures;
 
 use cases_r1::cases;
 use cases_r3::round3_cases;
+use cases_r4_device::round4_device_cases;
 use checks::*;
 use fixtures::*;
 
@@ -277,6 +286,7 @@ fn expand(s: &str, ctx: &Ctx) -> String {
         .replace("{wv}", &ctx.wv)
         .replace("{small}", &ctx.small)
         .replace("{busy}", &ctx.busy)
+        .replace("{stale}", &ctx.stale)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
         .replace(
@@ -445,6 +455,34 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         .stderr(Stdio::null())
         .spawn()
         .expect("spawning the port holder");
+    // A device whose holder dies without a word: killed once it holds it.
+    let stale = Sim::start(&[]);
+    let mut victim = Command::new(lmhost())
+        .args([
+            "stream",
+            "--port",
+            &stale.port,
+            "--synthetic",
+            "--seconds",
+            "600",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the holder to kill");
+    let give_up = Instant::now() + Duration::from_secs(20);
+    while Command::new(lmhost())
+        .args(["status", "--port", &stale.port])
+        .output()
+        .unwrap()
+        .status
+        .success()
+    {
+        assert!(Instant::now() < give_up, "the holder never held its port");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    victim.kill().expect("SIGKILL to the holder");
+    victim.wait().unwrap();
     std::thread::sleep(Duration::from_millis(500));
     let dir =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
@@ -461,6 +499,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
         full: full.as_ref().ok().map(|f| f.0.clone()),
         busy: busy.port.clone(),
+        stale: stale.port.clone(),
     };
     let up = Command::new(lmhost())
         .args(["upload", "--port", &ctx.port])
@@ -473,6 +512,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     );
 
     let mut all = cases();
+    all.extend(round4_device_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();
