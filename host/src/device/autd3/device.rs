@@ -157,13 +157,35 @@ impl Autd3Backend {
     }
 
     pub(super) fn send_offsets(&mut self) -> anyhow::Result<()> {
+        self.switch_and_correct(None, true)
+    }
+
+    /// Sends a switch to `slot`'s segment (`None`: none) and the offsets
+    /// (if `offsets`) in one frame: a start from silence takes one frame
+    /// for them and one for the output, whatever changed.
+    fn switch_and_correct(&mut self, slot: Option<u8>, offsets: bool) -> anyhow::Result<()> {
         let off = &self.offsets;
-        self.ctl
-            .send(PhaseCorrection::new(|dev: &Device| {
+        let correction = || {
+            PhaseCorrection::new(|dev: &Device| {
                 let base = dev.idx() * AUTD3_TRANSDUCERS;
                 move |tr: &Transducer| Phase(off[base + tr.idx()])
-            }))
-            .context("sending the phase correction")?;
+            })
+        };
+        let sent = match (slot, offsets) {
+            (Some(s), true) => self
+                .ctl
+                .send((SwapSegmentGainSTM(segment(s), Immediate), correction())),
+            (Some(s), false) => self.ctl.send(SwapSegmentGainSTM(segment(s), Immediate)),
+            (None, true) => self.ctl.send(correction()),
+            (None, false) => return Ok(()),
+        };
+        match slot {
+            Some(s) => sent.with_context(|| format!("switching to slot {s}"))?,
+            None => sent.context("sending the phase correction")?,
+        }
+        if slot.is_some() {
+            self.stm_segment = slot;
+        }
         Ok(())
     }
 
@@ -177,6 +199,12 @@ impl Autd3Backend {
     /// lets it steer (a slot taking over re-checks the last centroid
     /// against its own work volume), and sends them if they changed.
     fn update_correction(&mut self) -> anyhow::Result<()> {
+        let changed = self.recompute_offsets();
+        self.switch_and_correct(None, changed)
+    }
+
+    /// [`Self::update_correction`] without sending: whether they changed.
+    fn recompute_offsets(&mut self) -> bool {
         let mut next = vec![0u8; self.offsets.len()];
         if let Some(h) = self.playing_header()
             && let Some(c) = self.policy.steer_for(&h)
@@ -190,11 +218,11 @@ impl Autd3Backend {
             );
         }
         self.offsets_for = self.player.slot();
-        if next != self.offsets {
-            self.offsets = next;
-            self.send_offsets()?;
+        if next == self.offsets {
+            return false;
         }
-        Ok(())
+        self.offsets = next;
+        true
     }
 
     /// Steps held by `slot` (`None`: empty or half-written).
@@ -233,22 +261,21 @@ impl Autd3Backend {
             self.player.stop();
             self.policy.stop();
         }
-        if self.player.state() == PlayState::Playing
-            && let Some(slot) = self.player.slot()
-            && Some(slot) != self.stm_segment
+        let switch = self
+            .player
+            .slot()
+            .filter(|&s| self.player.state() == PlayState::Playing && Some(s) != self.stm_segment);
+        if let Some(slot) = switch
+            && before.is_some_and(|b| b != slot)
         {
-            if before.is_some_and(|b| b != slot) {
-                // A takeover at the cycle end, switched now: the steps the
-                // new slot has counted played on the old one.
-                let st = (self.player.cycles(), self.player.step());
-                let n = self.slots[usize::from(slot)].map_or(0, |s| s.steps as u64);
-                self.add_late(u64::from(st.0) * n + u64::from(st.1));
-            }
-            self.switch_to(slot)?;
+            // A takeover at the cycle end, switched now: the steps the new
+            // slot has counted played on the old one.
+            let st = (self.player.cycles(), self.player.step());
+            let n = self.slots[usize::from(slot)].map_or(0, |s| s.steps as u64);
+            self.add_late(u64::from(st.0) * n + u64::from(st.1));
         }
-        if self.player.slot() != self.offsets_for {
-            self.update_correction()?;
-        }
+        let offsets = self.player.slot() != self.offsets_for && self.recompute_offsets();
+        self.switch_and_correct(switch, offsets)?;
         let level = match self.playing_header() {
             Some(h) if self.player.state() == PlayState::Playing && self.policy.sounding(now) => {
                 h.intensity
@@ -263,15 +290,6 @@ impl Autd3Backend {
         self.late_steps = self
             .late_steps
             .saturating_add(steps.min(u64::from(u32::MAX)) as u32);
-    }
-
-    /// Makes the devices play `slot`'s segment from now on.
-    fn switch_to(&mut self, slot: u8) -> anyhow::Result<()> {
-        self.ctl
-            .send(SwapSegmentGainSTM(segment(slot), Immediate))
-            .with_context(|| format!("switching to slot {slot}"))?;
-        self.stm_segment = Some(slot);
-        Ok(())
     }
 
     fn resident(&self, slot: u8) -> anyhow::Result<Slot> {

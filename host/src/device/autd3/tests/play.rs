@@ -73,10 +73,17 @@ fn onset_from_silence_is_within_a_dwell_in_either_segment() {
         assert_eq!(output(&h), 0, "silent after stop");
         // Somewhere else in the loop each time.
         clock.advance(period * 3 + period * k as u32 / 7 + Duration::from_micros(313));
-        let t0 = clock.now();
+        let (t0, f0) = (clock.now(), h.frames());
         b.play(slot, true).unwrap();
         let took = clock.now() - t0;
         assert!(took <= limit, "slot {slot}: {took:?} > {limit:?}");
+        // On a real link each frame is 1-2 ms: two (segment and
+        // correction, then the output with its lease), never a loop.
+        assert!(
+            h.frames() - f0 <= 2,
+            "slot {slot}: {} frames",
+            h.frames() - f0
+        );
         assert!(output(&h) > 0, "slot {slot} sounds at once");
         assert!(
             plays(&h, if slot == 0 { &y } else { &x }, slot),
