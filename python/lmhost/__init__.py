@@ -253,7 +253,9 @@ class Device:
         return self._d.centroid(float(x), float(y), float(z), bool(present))
 
     def tick(self) -> None:
-        """Keep a host-driven link (AUTD3) going; call it while playing."""
+        """Keep a host-driven link (AUTD3) going; call it while playing, at
+        least every half second: an AUTD3 falls silent one lease (1 s) after
+        the last renewal, so a dead script leaves it silent."""
         self._d.tick()
 
     def close(self) -> None:

@@ -689,7 +689,8 @@ impl Device_ {
         })
     }
 
-    /// Keeps a host-driven link (AUTD3) ticking once.
+    /// Keeps a host-driven link (AUTD3) ticking once: its safety gate,
+    /// timed plays, queued switches and its lease renewal.
     fn tick(&mut self, py: Python<'_>) -> PyResult<()> {
         self.with(py, |d| Ok(d.tick()?))
     }
