@@ -253,10 +253,11 @@ class Device:
         return self._d.centroid(float(x), float(y), float(z), bool(present))
 
     def tick(self) -> None:
-        """Keep what plays going: an AUTD3's host-driven link, the LM
-        firmware's host lease (it stops by itself a lease, 1 s, after the
-        last request it heard; centroids renew it too). Call it at least
-        every 10 ms while playing."""
+        """Keep what plays going: an AUTD3's host-driven link (it falls
+        silent one lease, 1 s, after the last renewal), the LM firmware's
+        host lease (it stops by itself a lease after the last request it
+        heard; centroids renew it too). Call it at least every 10 ms while
+        playing."""
         self._d.tick()
 
     def close(self) -> None:

@@ -208,3 +208,42 @@ fn upload_through_a_noisy_link_retries_and_commits() {
     );
     assert_eq!(st["slot"], 0, "{st}");
 }
+
+/// Issue 30.15: a port's lock dies with its holder. An lmhost killed with
+/// SIGKILL (no destructor runs) must not leave the simulated device's pty
+/// "in use" for the next command, while a live holder still keeps it.
+#[test]
+fn a_port_held_by_a_killed_lmhost_is_free_at_once() {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let sim = Sim::start(&[]);
+    let p = sim.port.as_str();
+    let mut holder = Command::new(link_support::lmhost())
+        .args(["stream", "--port", p, "--synthetic", "--seconds", "600"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the holder");
+    // A guard against hanging, not a timing goal.
+    let give_up = Instant::now() + Duration::from_secs(20);
+    loop {
+        let o = run(&["status", "--port", p]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        if !o.status.success() && err.contains("in use by another process") {
+            assert_eq!(o.status.code(), Some(1), "{err}");
+            break;
+        }
+        assert!(Instant::now() < give_up, "the holder never held {p}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    holder.kill().expect("SIGKILL to the holder");
+    holder.wait().unwrap();
+    let o = run(&["status", "--port", p]);
+    assert!(
+        o.status.success(),
+        "after the holder died: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // And twice in a row: nothing of ours stays behind either.
+    ok(&["status", "--port", p]);
+}

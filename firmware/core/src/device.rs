@@ -11,6 +11,7 @@ use crate::correction::{apply_offsets, compute_offsets, sound_speed_m_s};
 use crate::output::{OutputDriver, OutputFrame};
 use crate::player::{PlayState, Player, Timing};
 use crate::policy::{Policy, Session};
+use crate::status::Mechanics;
 use crate::store::{SLOTS, Store, StoreError};
 
 /// Device configuration, chosen by the board.
@@ -47,9 +48,9 @@ impl Config {
         Self {
             timer_hz,
             fw_version: FW_VERSION,
-            max_transducers: 996,
+            max_transducers: DEFAULT_TRANSDUCERS,
             min_dwell_us: 1000,
-            centroid_timeout_us: 100_000,
+            centroid_timeout_us: DEFAULT_CENTROID_TIMEOUT_US,
             require_tracking: true,
             amplitude: 255,
             frame_repeat_us: 50_000,
@@ -57,6 +58,14 @@ impl Config {
         }
     }
 }
+
+/// Transducers of the rig the defaults are for: four AUTD3 boards of 249,
+/// the array every board crate and the simulated device drive.
+pub const DEFAULT_TRANSDUCERS: u16 = 996;
+
+/// Default centroid timeout (µs): the output mutes after this long without
+/// a centroid update, on the firmware and (held by the host) on an AUTD3.
+pub const DEFAULT_CENTROID_TIMEOUT_US: u32 = 100_000;
 
 /// This crate's version as `[major, minor, patch]`.
 pub const FW_VERSION: [u8; 3] = [
@@ -395,26 +404,15 @@ impl Handler<'_> {
     }
 
     fn status(&self, now: u64) -> Status {
-        let slot = self.player.slot();
-        let correction_um = slot
-            .and_then(|s| self.store.header(s))
-            .map_or([0; 3], |h| self.policy.correction_um(h.center_um));
-        Status {
-            state: self.policy.state(now),
-            slot,
-            step: self.player.step(),
-            cycles: self.player.cycles(),
+        let playing = self.player.slot().and_then(|s| self.store.header(s));
+        let m = Mechanics {
             missed_deadlines: self.player.missed(),
-            last_centroid_seq: self.policy.last_seq(),
             bad_frames: self.counters.bad_frames,
             crc_errors: self.counters.crc_errors,
             nacks: self.counters.nacks,
-            correction_um,
-            queued_slot: self.player.pending(),
-            mute_reason: self.policy.mute_reason(now),
             lease_ms: self.lease_ms,
-            lease_expiries: self.policy.lease_expiries(),
-        }
+        };
+        crate::status::status(&self.player, &self.policy, playing, m, now)
     }
 
     fn result(r: Result<(), NackCode>) -> Message<'static> {

@@ -88,7 +88,9 @@
 //!   does (reason `LeaseExpired`, counted), at the expiry (it is one of
 //!   [`Device::poll`]'s deadlines), before any later step or request.
 //! - `SelfTest`: the output's self-test, `Busy` while a slot plays.
-//! - `Status` reports the queued slot and why the output is muted.
+//! - `Status` reports the queued slot and why the output is muted; it is
+//!   assembled once, in [`status`], from the player and the policy (the
+//!   host's AUTD3 backend calls the same function).
 //! - Gating ([`gate`]): presence false or a stale centroid (older than
 //!   [`Config::centroid_timeout_us`]) mutes (amplitude 0) within one step;
 //!   with [`Config::require_tracking`] (default) output stays muted from
@@ -121,11 +123,15 @@ pub mod output;
 pub mod player;
 pub mod policy;
 pub mod serve;
+pub mod status;
 pub mod store;
 mod take_once;
 pub mod time;
 
-pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
+pub use device::{
+    Config, Counters, DEFAULT_CENTROID_TIMEOUT_US, DEFAULT_TRANSDUCERS, Device, DeviceError,
+    FW_VERSION,
+};
 pub use output::{OutputDriver, OutputFrame, Record, RecordingDriver, SpiOutput};
 pub use serve::{HostLink, Server, serve};
 pub use store::{BOARD_LIBRARY_BYTES, CHUNK_LOG, Form, SLOTS, StoreError, memory_bytes};

@@ -29,7 +29,7 @@ pub const LIBRARY_BYTES: usize = lm_fw_core::BOARD_LIBRARY_BYTES;
 /// Transducers of the array this board drives (four AUTD3 boards), reported
 /// as `Info::max_transducers`; at most `lm_fw_core::MAX_TRANSDUCERS` (1024,
 /// the core's table size).
-pub const ARRAY_TRANSDUCERS: u16 = 996;
+pub const ARRAY_TRANSDUCERS: u16 = lm_fw_core::DEFAULT_TRANSDUCERS;
 /// Bytes of sequence memory for the core (the library and the rig's positions).
 pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(LIBRARY_BYTES, ARRAY_TRANSDUCERS as usize);
 

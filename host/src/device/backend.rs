@@ -132,6 +132,12 @@ impl From<LinkError> for BackendError {
     }
 }
 
+/// How long a presentation sounds after the host's last renewal before the
+/// device ends it on its own (the host died, hung or was killed): the same
+/// default for the LM firmware's lease and an AUTD3's
+/// ([`Backend::set_lease`]).
+pub const DEFAULT_LEASE: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// What a device says about itself.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BackendInfo {
@@ -304,13 +310,14 @@ pub trait Backend {
     ///
     /// Who times it: the LM firmware counts the steps on its own timer and
     /// stops itself at the boundary (`Play.steps`), whatever the link's
-    /// latency. An AUTD3 cannot stop itself: the host stops it in
-    /// [`tick`](Self::tick), [`status`](Self::status) or
-    /// [`centroid`](Self::centroid) once the devices' clock says `steps`
-    /// have played, so it sounds late by as much as those calls are (keep
-    /// ticking ≤ every dwell); its `Status` counts the steps it really
-    /// played (frozen at that stop), so `cycles × N + step` exceeds `steps`
-    /// by the host's lateness in dwells.
+    /// latency. An AUTD3 cannot stop itself: the same player
+    /// (`lm_fw_core::player`) runs in the host on its clock, and the host
+    /// stops the array in [`tick`](Self::tick), [`status`](Self::status)
+    /// or [`centroid`](Self::centroid) once the player says `steps` have
+    /// played, so it sounds late by as much as those calls are (keep
+    /// ticking ≤ every dwell); its `Status` counts as the firmware's
+    /// (`cycles × N + step == steps`) and `missed_deadlines` counts the
+    /// steps that sounded past the limit.
     fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> Result<()>;
     /// Silences the array.
     fn stop(&mut self) -> Result<()>;
@@ -318,9 +325,20 @@ pub trait Backend {
     /// that is not newer than the last is refused with `OutOfOrder`.
     fn centroid(&mut self, c: &Centroid) -> Result<CentroidOutcome>;
     /// Housekeeping the host must run between updates (≥ every 10 ms
-    /// while playing): staleness muting where the device cannot time it
-    /// (AUTD3), renewing the host lease when due (the LM firmware).
+    /// while playing): staleness muting, stops, switches and lease renewals
+    /// where the device cannot time them (AUTD3), renewing the host lease
+    /// when due (the LM firmware).
     fn tick(&mut self) -> Result<()> {
+        Ok(())
+    }
+    /// Sets how long a presentation sounds without the host renewing it
+    /// ([`DEFAULT_LEASE`] until set; renewed by [`tick`](Self::tick), so
+    /// tick at least every half lease). Out of the device's range is bad
+    /// input. A device whose lease is set elsewhere (the LM firmware: the
+    /// port's `lease_ms`, sent with every play) keeps this default, which
+    /// does nothing.
+    fn set_lease(&mut self, lease: std::time::Duration) -> Result<()> {
+        let _ = lease;
         Ok(())
     }
     /// Whether output lasts only while lmhost holds the link (and keeps
@@ -346,9 +364,9 @@ pub trait Backend {
     }
     /// Where [`Status`]'s `step` and `cycles` come from: `"device"` (the
     /// LM firmware counts them on its timer) or `"host clock"` (AUTD3:
-    /// autd3 reads back no STM index; the FPGA derives it from the
-    /// synchronised clock, and so does the host, from the time the devices
-    /// have played: the emulator's FPGA index agrees, see the tests).
+    /// autd3 reads back no STM index, so the firmware's player counts the
+    /// steps played on the host's clock; the FPGA's index steps with it,
+    /// from another point of the cycle, see the tests).
     fn counters_source(&self) -> &'static str {
         "device"
     }

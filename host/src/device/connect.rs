@@ -60,6 +60,12 @@ impl DeviceKind {
             Self::Autd3(_) => Target::Autd3,
         }
     }
+
+    /// Whether the device lives in this process and ends with it (autd3's
+    /// emulator): nothing outside can use it after lmhost exits.
+    pub fn in_process(&self) -> bool {
+        matches!(self, Self::Autd3(p) if p.is_emulator())
+    }
 }
 
 /// Opens the device `port` names for `scene` (an AUTD3 rig is built from
@@ -362,6 +368,18 @@ mod tests {
 
     fn count(st: &Status, n: u16) -> u64 {
         u64::from(st.cycles) * u64::from(n) + u64::from(st.step)
+    }
+
+    #[test]
+    fn the_device_kind_says_what_lives_in_this_process() {
+        let kind = |p: &str| PortSpec::new(Some(p.into())).device().unwrap();
+        assert!(kind("autd3:emulator").in_process());
+        assert!(kind("autd3:emulator:4").in_process());
+        for p in ["autd3:soem", "autd3:remote:h:1", "/dev/ttyACM0", "tcp:h:1"] {
+            assert!(!kind(p).in_process(), "{p}");
+        }
+        assert_eq!(kind("autd3:emulator").target(), Target::Autd3);
+        assert_eq!(kind("/dev/ttyACM0").target(), Target::Lm);
     }
 
     #[test]

@@ -310,8 +310,8 @@ impl Default for SimConfig {
     fn default() -> Self {
         Self {
             slot_steps: 400,
-            max_transducers: 996,
-            centroid_timeout_us: 100_000,
+            max_transducers: lm_fw_core::DEFAULT_TRANSDUCERS,
+            centroid_timeout_us: lm_fw_core::DEFAULT_CENTROID_TIMEOUT_US,
             require_tracking: true,
             loopback: None,
         }

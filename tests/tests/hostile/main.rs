@@ -78,8 +78,12 @@ const SESSION_SEMANTICS: &str = "r4-s6 session semantics";
 const SESSION_MESSAGES: &str = "r4-s7 session messages";
 const SESSION_OUTPUTS: &str = "r4-s8 session inputs before outputs";
 
+/// Classes of round 4's device work (issues 26, 30, 31).
+const STALE_LOCK: &str = "r4-30.15 a port lock dies with its holder";
+const AUTD3_SLOTS: &str = "r4-31 AUTD3 slots, segments and the in-process emulator";
+
 /// Every class the suite must cover.
-const CLASSES: [&str; 43] = [
+const CLASSES: [&str; 45] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -123,6 +127,8 @@ const CLASSES: [&str; 43] = [
     SESSION_SEMANTICS,
     SESSION_MESSAGES,
     SESSION_OUTPUTS,
+    STALE_LOCK,
+    AUTD3_SLOTS,
 ];
 
 /// What a run produced, for custom checks.
@@ -153,6 +159,8 @@ struct Ctx {
     /// A device of its own for the session cases (`{sess}`), whose
     /// library they fill.
     sess: String,
+    /// A device whose holder was killed with SIGKILL (`{stale}`).
+    stale: String,
 }
 
 type Check = fn(&Ctx, &Run) -> Result<(), String>;
@@ -319,6 +327,7 @@ fn good_udp(n: usize) -> Vec<Vec<u8>> {
 
 mod cases_r1;
 mod cases_r3;
+mod cases_r4_device;
 mod cases_r4_files;
 mod cases_r4_session;
 mod cases_r4_study;
@@ -327,6 +336,7 @@ mod fixtures;
 
 use cases_r1::cases;
 use cases_r3::round3_cases;
+use cases_r4_device::round4_device_cases;
 use cases_r4_files::{round4_files_cases, round4_files_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use checks::*;
@@ -339,6 +349,7 @@ fn expand(s: &str, ctx: &Ctx) -> String {
         .replace("{small}", &ctx.small)
         .replace("{busy}", &ctx.busy)
         .replace("{sess}", &ctx.sess)
+        .replace("{stale}", &ctx.stale)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
         .replace(
@@ -521,6 +532,34 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         .stderr(Stdio::null())
         .spawn()
         .expect("spawning the port holder");
+    // A device whose holder dies without a word: killed once it holds it.
+    let stale = Sim::start(&[]);
+    let mut victim = Command::new(lmhost())
+        .args([
+            "stream",
+            "--port",
+            &stale.port,
+            "--synthetic",
+            "--seconds",
+            "600",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the holder to kill");
+    let give_up = Instant::now() + Duration::from_secs(20);
+    while Command::new(lmhost())
+        .args(["status", "--port", &stale.port])
+        .output()
+        .unwrap()
+        .status
+        .success()
+    {
+        assert!(Instant::now() < give_up, "the holder never held its port");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    victim.kill().expect("SIGKILL to the holder");
+    victim.wait().unwrap();
     std::thread::sleep(Duration::from_millis(500));
     let dir =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
@@ -540,6 +579,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
         full: full.as_ref().ok().map(|f| f.0.clone()),
         busy: busy.port.clone(),
+        stale: stale.port.clone(),
         sess: sess.port.clone(),
     };
     let up = Command::new(lmhost())
@@ -557,6 +597,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(round4_files_cases());
     // Last: the session cases preload the shared device's library.
     all.extend(cases_r4_session::cases());
+    all.extend(round4_device_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();

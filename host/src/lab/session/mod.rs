@@ -38,10 +38,11 @@ mod stage;
 
 use std::time::Duration;
 
-use lm_proto::{Centroid, DeviceState, MuteReason};
+use lm_proto::{DeviceState, MuteReason};
 
 use crate::clock::Clock;
 use crate::device::backend::{Backend, BackendInfo, CentroidOutcome, ErrorKind};
+use crate::device::centroids::CentroidSender;
 use crate::error::InputError;
 use crate::plan::library::Library;
 use crate::plan::scene::Scene;
@@ -102,10 +103,10 @@ pub struct Session {
     /// Whether anything feeds finger samples (else tracked presentations
     /// are refused: they would stay muted).
     finger_source: bool,
-    seq: u32,
+    /// Numbers and sends the finger's centroids.
+    centroids: CentroidSender,
     next_status_us: u64,
     next_tick_us: u64,
-    last_pos_um: [i32; 3],
     /// Onset latencies from silence (µs), switch latencies (µs), timed
     /// on-phases' device-played time minus `on_s` (µs).
     onset_us: Vec<u64>,
@@ -159,10 +160,9 @@ impl Session {
             mute: None,
             finger: None,
             finger_source: true,
-            seq: status.last_centroid_seq,
+            centroids: CentroidSender::continuing(status.last_centroid_seq),
             next_status_us: 0,
             next_tick_us: 0,
-            last_pos_um: [0; 3],
             onset_us: Vec::new(),
             switch_us: Vec::new(),
             on_error_us: Vec::new(),
@@ -571,29 +571,19 @@ impl Session {
             self.finger = Some(present);
             self.emit(EventKind::Finger { present });
         }
-        if let Some(p) = pos_mm {
-            self.last_pos_um = self.scene.drive_point(p).map(mm_to_um);
-        }
-        self.seq = self.seq.wrapping_add(1).max(1);
-        let c = Centroid {
-            seq: self.seq,
-            pos_um: self.last_pos_um,
-            present,
-            host_time_us: self.clock.now_us(),
-        };
-        match self.dev.centroid(&c) {
+        let pos_um = pos_mm.map(|p| self.scene.drive_point(p).map(mm_to_um));
+        match self
+            .centroids
+            .send(self.dev.as_mut(), pos_um, self.clock.now_us())
+        {
             Ok(CentroidOutcome::Applied | CentroidOutcome::OutOfRange) => Ok(()),
             // Not newer than the device's last (another client streamed):
-            // continue after it.
+            // the sender continues after it.
             Err(e) if matches!(e.kind(), ErrorKind::Refused(lm_proto::NackCode::OutOfOrder)) => {
-                if let Ok(s) = self.dev.status() {
-                    self.seq = s.last_centroid_seq;
-                }
                 Ok(())
             }
-            Err(e) => {
-                Err(anyhow::Error::from(e).context(format!("sending centroid #{}", self.seq)))
-            }
+            Err(e) => Err(anyhow::Error::from(e)
+                .context(format!("sending centroid #{}", self.centroids.last_seq()))),
         }
     }
 
