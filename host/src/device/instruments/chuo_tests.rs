@@ -344,5 +344,9 @@ fn the_driver_runs_over_a_real_pty() {
     let (m, waited, at) = result.unwrap();
     assert_eq!((m.at_mm, at), (0.2, 0.2));
     assert!(waited.as_secs_f64() >= 0.04, "{waited:?}");
-    assert!(m.took_s > 0.0 && m.took_s <= waited.as_secs_f64(), "{}", m.took_s);
+    assert!(
+        m.took_s > 0.0 && m.took_s <= waited.as_secs_f64(),
+        "{}",
+        m.took_s
+    );
 }
