@@ -1,7 +1,8 @@
 //! Accuracy of the fast path against the f64 reference: seeded random
 //! foci, weights, named hard cases, both kernel builds.
 
-use super::kernels::{atan2_turns, cos_sin_turns};
+use super::kernels::{atan2_lsb, phasor};
+use super::lanes::{Arr, LANES, Lanes};
 use super::*;
 use crate::plan::scene::Scene;
 use crate::plan::synth::{error_lsb, reference};
@@ -208,25 +209,43 @@ fn odd_transducer_counts_use_the_tail_path() {
 
 #[test]
 fn kernels_are_accurate_alone() {
-    kernels_accurate::<false>();
-    kernels_accurate::<true>();
+    let mut runs = vec![("plain arrays", lanes_accuracy::<Arr>())];
+    #[cfg(target_arch = "x86_64")]
+    runs.push(("SSE2", lanes_accuracy::<super::sse2::Sse>()));
+    #[cfg(target_arch = "x86_64")]
+    runs.extend(super::avx2::lanes_accuracy().map(|e| ("AVX2 + FMA", e)));
+    for (lanes, (phasor_err, angle_err)) in runs {
+        eprintln!("{lanes}: phasor error {phasor_err:e}, angle error {angle_err:e} LSB");
+        assert!(phasor_err < 6e-7, "{lanes}: {phasor_err}");
+        assert!(angle_err < 2e-5, "{lanes}: {angle_err} LSB");
+    }
 }
 
-fn kernels_accurate<const F: bool>() {
-    let mut worst: f32 = 0.0;
-    for i in -2000..=2000 {
-        let t = i as f32 / 997.0;
-        let (c, s) = cos_sin_turns::<F>(t);
-        let a = 2.0 * std::f64::consts::PI * f64::from(t);
-        worst = worst.max((f64::from(c) - a.cos()).abs() as f32);
-        worst = worst.max((f64::from(s) - a.sin()).abs() as f32);
-        let (y, x) = (s * 0.7, c * 0.7);
-        let at = f64::from(atan2_turns::<F>(y, x));
-        let want = f64::from(y).atan2(f64::from(x)) / (2.0 * std::f64::consts::PI);
-        let d = (at - want).rem_euclid(1.0);
-        worst = worst.max(d.min(1.0 - d) as f32);
+/// Worst absolute error of [`phasor`] over `u` in `[−½, ½]` and of
+/// [`atan2_lsb`] (LSB) on those phasors scaled by 0.7 and 3.
+#[inline(always)]
+pub(super) fn lanes_accuracy<V: Lanes>() -> (f64, f64) {
+    const STEPS: i32 = 1 << 16;
+    let (mut worst_phasor, mut worst_angle) = (0.0f64, 0.0f64);
+    for block in (-STEPS / 2..=STEPS / 2).step_by(LANES) {
+        let ua: [f32; LANES] = std::array::from_fn(|l| (block + l as i32) as f32 / STEPS as f32);
+        let (c, s) = phasor(V::load(&ua));
+        for scale in [0.7, 3.0] {
+            let (x, y) = (c * V::splat(scale), s * V::splat(scale));
+            let a = atan2_lsb(y, x).to_array();
+            let (c, s, x, y) = (c.to_array(), s.to_array(), x.to_array(), y.to_array());
+            for l in 0..LANES {
+                let t = 2.0 * std::f64::consts::PI * f64::from(ua[l]);
+                worst_phasor = worst_phasor
+                    .max((f64::from(c[l]) - t.cos()).abs())
+                    .max((f64::from(s[l]) + t.sin()).abs());
+                let want = f64::from(y[l]).atan2(f64::from(x[l])) * 128.0 / std::f64::consts::PI;
+                let d = (f64::from(a[l]) - want).rem_euclid(256.0);
+                worst_angle = worst_angle.max(d.min(256.0 - d));
+            }
+        }
     }
-    assert!(worst < 1e-5, "{worst}");
+    (worst_phasor, worst_angle)
 }
 
 #[test]
