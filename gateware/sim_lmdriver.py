@@ -18,7 +18,8 @@ from pathlib import Path
 from amaranth import Module, ResetInserter, Signal
 from amaranth.sim import Simulator
 
-from lmdriver import COUNTS, SPI_FRAME_MAGIC, SPI_HEADER_LEN, LmDriver, duty_counts
+from lmdriver import (COUNTS, ROM_DEPTH, ROM_MAGIC, SPI_FRAME_MAGIC, SPI_HEADER_LEN, Board,
+                      LmDriver, duty_counts, placeholder_words, stamp_words)
 
 ROOT = Path(__file__).resolve().parent.parent
 #: frames.bin in, figures.json out (`cargo xtask gateware` sets it).
@@ -88,17 +89,22 @@ def valid(frame, n=N):
 
 # --- simulation ------------------------------------------------------------
 
-def simulate(wave, n=N, k=K, timeout_cycles=None, first=0, total=None):
-    """Runs the wave; returns per clock: out, period_start, active, good, bad."""
-    dut = LmDriver(n, k, timeout_cycles, first=first, total=total)
+def simulate(wave, n=N, k=K, timeout_cycles=None, first=0, total=None, dut=None, static=()):
+    """Runs the wave; returns per clock: out, period_start, active, good,
+    bad (and `ready` for a `Board`). `dut` replaces the default driver;
+    `static` is (port, value) pairs held from the first clock."""
+    dut = dut or LmDriver(n, k, timeout_cycles, first=first, total=total)
     rst = Signal()
     top = Module()
     top.submodules.dut = ResetInserter({"sync": rst})(dut)
     sim = Simulator(top)
     sim.add_clock(1 / (40e3 * 256 * k))
-    rec = {"out": [], "ps": [], "active": [], "good": [], "bad": []}
+    rec = {"out": [], "ps": [], "active": [], "good": [], "bad": [], "ready": []}
+    has_ready = isinstance(dut, Board)
 
     async def bench(ctx):
+        for port, value in static:
+            ctx.set(port, value)
         prev = (None, None, None, None)
         for t in range(len(wave)):
             cur = (wave.cs[t], wave.sck[t], wave.mosi[t], wave.rst[t])
@@ -112,6 +118,8 @@ def simulate(wave, n=N, k=K, timeout_cycles=None, first=0, total=None):
             rec["active"].append(ctx.get(dut.active))
             rec["good"].append(ctx.get(dut.good_frames))
             rec["bad"].append(ctx.get(dut.bad_frames))
+            if has_ready:
+                rec["ready"].append(ctx.get(dut.ready))
 
     sim.add_testbench(bench)
     sim.run()
@@ -432,6 +440,114 @@ def test_boards_on_one_bus_drive_their_slice_in_phase():
     r = simulate(w, n=half, first=half, total=N, timeout_cycles=100 * period)
     assert r["good"][-1] == 0 and r["bad"][-1] == 1
     FIG["boards_in_phase"] = 2
+
+
+def test_last_board_of_the_paper_array_latches_its_slice():
+    """The 16th board of the paper's 996-transducer array: 36 channels
+    from 960, its slice not in the netlist but read from its stamped ROM
+    (`Board`, as the bitstream has it). It shows phases 960..995 of each
+    996-phase frame, edges exact, from the period after each frame."""
+    period = COUNTS * K
+    rng = random.Random(996)
+    total, first, n = 996, 960, 36
+    frames = [frame_bytes(255, 200 + 40 * j, [rng.randrange(256) for _ in range(total)], step=j)
+              for j in range(2)]
+    w = Wave()
+    w.reset()
+    w.idle(20)  # the ROM is read in 5 clocks
+    w.frame(frames[0])
+    w.idle(period + 10)
+    w.frame(frames[1])
+    w.idle(2 * period)
+    # At K = 2 and SCK = f_clk / 4 a frame lasts 62 carrier periods: a long timeout.
+    rec = simulate(w, n=n, dut=Board(n, stamp_words(n, first, total), K, 1000 * period))
+    assert rec["ready"][10] == 1 and all(rec["ready"][10:]), "ready once the ROM is read"
+    pats = [(tuple(f[SPI_HEADER_LEN + first:SPI_HEADER_LEN + first + n]), duty_counts(f[1], f[2]))
+            for f in frames]
+    shown = classify(rec, pats, n, K)
+    seq = [i for _, i in shown]
+    dedup = [x for j, x in enumerate(seq) if j == 0 or seq[j - 1] != x]
+    assert dedup == [-1, 0, 1], dedup
+    assert edge_error_lsb(rec, pats, shown, n, K) == 0
+    assert rec["good"][-1] == 2 and rec["bad"][-1] == 0, (rec["good"][-1], rec["bad"][-1])
+    FIG["last_board_channels"] = n
+
+
+def test_a_board_without_its_stamp_stays_silent():
+    """An unstamped template (placeholder ROM), a ROM stamped for another
+    channel count, a slice past the frame's end: `ready` stays low and no
+    frame latches. A driver given such a slice on its ports drops every
+    frame itself, and so does a board whose slice is right, for a frame
+    whose count is one short (the count is checked against the port)."""
+    period = COUNTS * K
+    rng = random.Random(7)
+    f = frame_bytes(255, 255, [rng.randrange(256) for _ in range(8)])
+    w = Wave()
+    w.reset()
+    w.idle(20)
+    w.frame(f)
+    w.idle(2 * period)
+    short_count = Wave()
+    short_count.reset()
+    short_count.idle(20)
+    short_count.frame(frame_bytes(255, 255, [rng.randrange(256) for _ in range(8)], count=7))
+    short_count.idle(2 * period)
+    overrun = [7, 8, 4, ROM_MAGIC] + [0] * (ROM_DEPTH - 4)  # channels 7..10 of 8
+    for name, rom in [("placeholder", placeholder_words()), ("stamped for 8 channels",
+                      stamp_words(8, 0, 8)), ("slice past the end", overrun)]:
+        rec = simulate(w, n=4, dut=Board(4, rom, K, 100 * period))
+        assert not any(rec["ready"]), name
+        assert rec["good"][-1] == 0 and not any(rec["out"]), name
+    # The same board stamped right latches the frame (the test has teeth).
+    rec = simulate(w, n=4, dut=Board(4, stamp_words(4, 4, 8), K, 100 * period))
+    assert rec["ready"][-1] and rec["good"][-1] == 1 and any(rec["out"])
+    drv = LmDriver(4, K, 100 * period, slice_ports=True)
+    rec = simulate(w, n=4, dut=drv, static=[(drv.first, 5), (drv.total, 8)])
+    assert rec["good"][-1] == 0 and rec["bad"][-1] == 1 and not any(rec["out"])
+    rec = simulate(w, n=4, dut=(drv := LmDriver(4, K, 100 * period, slice_ports=True)),
+                   static=[(drv.first, 4), (drv.total, 8)])
+    assert rec["good"][-1] == 1 and rec["bad"][-1] == 0
+    rec = simulate(short_count, n=4, dut=Board(4, stamp_words(4, 4, 8), K, 100 * period))
+    assert rec["good"][-1] == 0 and rec["bad"][-1] == 1 and not any(rec["out"])
+
+
+def test_pin_file_and_wiring_tables_match_the_board():
+    """`hx8k.py` holds the board's header map (EB85's schematic) and the
+    pin choice; the checked-in PCF and firmware/DRIVER.md's tables must be
+    exactly what it says, and the choice must keep off ground, supply,
+    reserved and shared pins."""
+    import hx8k
+
+    pcf = (ROOT / "gateware/ice40hx8k-b-evn.pcf").read_text()
+    assert pcf == hx8k.pcf_text(), "ice40hx8k-b-evn.pcf: rewrite it with `python hx8k.py --pcf`"
+    used = [*hx8k.CONTROL.values(), *hx8k.GUARDS, *hx8k.OUTPUTS]
+    balls = [hx8k.ball(w) for w in used] + [hx8k.LED_BALL]
+    assert len(hx8k.OUTPUTS) == hx8k.CHANNELS == 64 and len(set(balls)) == len(balls)
+    for where in used:
+        net = hx8k.ball(where)
+        assert net != "GND" and not net.startswith("VCC") and net not in hx8k.RESERVED, where
+        assert where[0] != "J1", f"{where}: J1 is shared with the FT2232H and the LEDs"
+    assert all(sum(1 for v in h.values() if v == "GND") == 10 for h in hx8k.HEADERS.values())
+    doc = (ROOT / "firmware/DRIVER.md").read_text()
+    rows = re.findall(r"^\| (\d+) \| (J\d) \| (\d+) \| ([A-T]\d+) \| (\d) \|$", doc, re.M)
+    bank = {"J1": 0, "J2": 1, "J3": 2, "J4": 3}
+    want = [(str(k), h, str(p), hx8k.ball((h, p)), str(bank[h])) for k, (h, p) in enumerate(hx8k.OUTPUTS)]
+    assert rows == want, "DRIVER.md's output table and hx8k.OUTPUTS differ"
+    for name, label in [("clk_ref", "reference"), ("cs_n", "CS"), ("mosi", "MOSI"), ("sck", "SCK"),
+                        ("oe_n", "`oe_n`")]:
+        hdr, pin = hx8k.CONTROL[name]
+        assert re.search(rf"^\| {re.escape(label)}[^|]* \| {pin} \| {hx8k.ball((hdr, pin))}\b", doc, re.M), name
+    guards = ", ".join(str(p) for _, p in hx8k.GUARDS)
+    assert f"| guard, driven low | {guards} | " in doc
+    # The array table: 996 transducers as `cargo xtask bitstream --all` splits them.
+    arr = re.findall(r"^\| (\d+) \| (\d+) \| (\d+) \| (\d+)-(\d+) \| `hx8k_b(\d\d)_(\d+)-(\d+)_of_996\.bin` \|$",
+                     doc, re.M)
+    want = [(i, 64 * i, min(64, 996 - 64 * i)) for i in range(16)]
+    got = [(int(b), int(f), int(n)) for b, f, n, *_ in arr]
+    assert got == want, got
+    assert all(int(lo) == f and int(hi) == f + n - 1 and int(b2) == b and int(lo2) == f and int(hi2) == f + n - 1
+               for (b, f, n), (_, _, _, lo, hi, b2, lo2, hi2) in zip(want, arr))
+    FIG["pins_checked"] = len(used)
 
 
 def test_documented_clock_k8():

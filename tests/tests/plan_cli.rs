@@ -115,3 +115,43 @@ fn bad_scene_file_names_file_and_field() {
         "{err}"
     );
 }
+
+#[test]
+fn wiring_maps_every_transducer_of_a_scene_to_a_board_pin() {
+    let dir = std::env::temp_dir().join(format!("lmhost-wiring-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("wiring.csv");
+    let o = run(&[
+        "wiring",
+        "--scene",
+        &scene_path(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 996);
+    // Positions are the scene's own, in its index order.
+    let scene = run(&["scene", "--scene", &scene_path(), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&scene.stdout).unwrap();
+    let x0 = v["transducers"][995]["pos_mm"][0].as_f64().unwrap();
+    assert!((rows[995][8].parse::<f64>().unwrap() - x0).abs() < 1e-3);
+    // Sixteen boards, the last one with 36 channels, each pin used once per board.
+    assert_eq!(rows[995][1], "15");
+    assert_eq!(rows.iter().filter(|r| r[1] == "15").count(), 36);
+    let board0: std::collections::BTreeSet<_> = rows
+        .iter()
+        .filter(|r| r[1] == "0")
+        .map(|r| (r[3], r[4]))
+        .collect();
+    assert_eq!(board0.len(), 64);
+    // A board larger than the breakout board's outputs is bad input.
+    let o = run(&["wiring", "--channels-per-board", "65"]);
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

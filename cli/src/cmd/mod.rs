@@ -10,21 +10,26 @@ pub mod args;
 pub mod bench;
 pub mod calibrate;
 pub mod demo;
+pub mod doctor;
 pub mod flash;
+pub mod gauge;
 pub mod info;
 pub mod opening;
 pub mod plan;
 pub mod play;
 pub mod scene;
+pub mod selftest;
 pub mod session;
 pub mod sim;
 pub mod simulate;
+pub mod stage;
 pub mod status;
 pub mod stop;
 pub mod stream;
 pub mod study;
 pub mod track;
 pub mod upload;
+pub mod wiring;
 
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]
@@ -33,6 +38,10 @@ pub enum Command {
     Plan(plan::Args),
     /// Show a scene or export its transducers.
     Scene(scene::Args),
+    /// Which driver-board header pin drives which transducer (CSV).
+    Wiring(wiring::Args),
+    /// Check the rig: what is connected, and what to do about what is not.
+    Doctor(doctor::Args),
     /// Simulate a stimulus's acoustic field and plot it.
     Simulate(simulate::Args),
     /// Time and check the numeric paths; print the bench report.
@@ -49,6 +58,8 @@ pub enum Command {
     Play(play::Args),
     /// Stop playing (mutes at once).
     Stop(stop::Args),
+    /// Run the board's SPI loopback self-test (a jumper from MOSI to MISO).
+    Selftest(selftest::Args),
     /// Simulated device, LM-M upload, streamed finger, short report.
     Demo(demo::Args),
     /// Stream finger centroids to the device.
@@ -67,6 +78,12 @@ pub enum Command {
     /// Calibrate the rig (camera pose, force) into its scene file.
     #[command(subcommand_required = true)]
     Calibrate(calibrate::Args),
+    /// Read a force gauge (IMADA, Mark-10) or its simulated twin.
+    #[command(subcommand_required = true)]
+    Gauge(gauge::Args),
+    /// Drive a motorised stage (Chuo Seiki QT) or its simulated twin.
+    #[command(subcommand_required = true)]
+    Stage(stage::Args),
 }
 
 impl Command {
@@ -75,6 +92,8 @@ impl Command {
         match self {
             Command::Plan(a) => a.run(),
             Command::Scene(a) => a.run(),
+            Command::Wiring(a) => a.run(),
+            Command::Doctor(a) => a.run(),
             Command::Simulate(a) => a.run(),
             Command::Bench(a) => a.run(),
             Command::Sim(a) => a.run(),
@@ -83,6 +102,7 @@ impl Command {
             Command::Upload(a) => a.run(),
             Command::Play(a) => a.run(),
             Command::Stop(a) => a.run(),
+            Command::Selftest(a) => a.run(),
             Command::Demo(a) => a.run(),
             Command::Stream(a) => a.run(),
             Command::Flash(a) => a.run(),
@@ -90,6 +110,8 @@ impl Command {
             Command::Session(a) => a.run(),
             Command::Study(a) => a.run(),
             Command::Calibrate(a) => a.run(),
+            Command::Gauge(a) => a.run(),
+            Command::Stage(a) => a.run(),
         }
     }
 }
@@ -111,6 +133,11 @@ impl QueryArgs {
         let dev = self.device.open()?;
         let where_ = dev.describe();
         Ok((dev, where_))
+    }
+
+    /// The host lease `--lease` asks for, ms.
+    fn lease_ms(&self) -> u16 {
+        self.device.lease_ms()
     }
 
     /// Prints `v` as one line of JSON with `--json`, else with `text`.

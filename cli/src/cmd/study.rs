@@ -19,7 +19,7 @@ pub struct Args {
 #[derive(Debug, Subcommand)]
 enum Sub {
     /// Run (or resume) one participant's session of a protocol.
-    Run(RunArgs),
+    Run(Box<RunArgs>),
     /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG, PDF).
     Report(ReportArgs),
 }
@@ -96,7 +96,7 @@ impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
         match self.cmd {
-            Sub::Run(a) => a.run(),
+            Sub::Run(a) => (*a).run(),
             Sub::Report(a) => a.run(),
         }
     }
@@ -180,6 +180,15 @@ impl RunArgs {
 impl ReportArgs {
     fn run(self) -> anyhow::Result<()> {
         let r = study::report::report(&self.dir)?;
+        for (d, why) in &r.skipped {
+            lmhost::errln!("warning: skipped {}: {why}", d.display());
+        }
+        for f in &r.torn {
+            lmhost::errln!(
+                "warning: {} ends in a torn row (a run stopped mid-write): its whole rows are reported",
+                f.display()
+            );
+        }
         for f in &r.files {
             lmhost::outln!("{}", f.display())?;
         }

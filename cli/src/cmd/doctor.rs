@@ -1,0 +1,54 @@
+//! `lmhost doctor`: what is connected, and what to do about what is not.
+
+use lmhost::lab::doctor::{self, Env, Options};
+
+/// Check the rig: LM boards on USB (or --port), the debug probe, AUTD3 over
+/// EtherCAT (links, interface, privileges), the depth camera and its
+/// bridge. One line per check; exit 1 when something connected does not
+/// work, 0 otherwise (missing pieces are listed with what to do).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Also check this device (a serial port or pty, `tcp:HOST:PORT`, or
+    /// `autd3:...`); repeatable.
+    #[arg(long, value_name = "PORT")]
+    pub port: Vec<String>,
+    /// Response timeout per request to an LM board (ms).
+    #[arg(long, value_name = "MS", default_value_t = 300,
+          value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    pub timeout_ms: u64,
+    /// Print JSON (one array of checks) instead of lines.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl Args {
+    /// Checks and prints.
+    pub fn run(self) -> anyhow::Result<()> {
+        let checks = doctor::run(
+            &Env::live(),
+            &Options {
+                ports: self.port,
+                timeout_ms: self.timeout_ms,
+            },
+        );
+        if self.json {
+            lmhost::outln!("{}", serde_json::to_string(&checks)?)?;
+        } else {
+            for c in &checks {
+                lmhost::outln!("{}", c.line())?;
+            }
+        }
+        if doctor::healthy(&checks) {
+            Ok(())
+        } else {
+            anyhow::bail!(
+                "{} of {} checks failed",
+                checks
+                    .iter()
+                    .filter(|c| c.outcome == doctor::Outcome::Fail)
+                    .count(),
+                checks.len()
+            )
+        }
+    }
+}

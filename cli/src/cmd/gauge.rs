@@ -1,0 +1,120 @@
+//! `lmhost gauge read`: a force gauge's reading, or the median of a series
+//! (bench testing the Experiment 3 gauge, or its simulated twin).
+
+use clap::Subcommand;
+use serde_json::json;
+
+use lmhost::device::instruments::{ForceUnit, GaugeModel, GaugeOptions, open_gauge};
+use lmhost::limits::Num as N;
+
+/// Read a force gauge (IMADA ZTS/ZTA, Mark-10) or its simulated twin.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(Debug, Subcommand)]
+enum What {
+    /// One reading in newtons, or with --for the median of a series.
+    #[command(after_help = "Examples:\n  \
+        lmhost gauge read --port /dev/ttyUSB0 --model imada\n  \
+        lmhost gauge read --port /dev/ttyACM0 --model mark10 --for 2\n  \
+        lmhost gauge read --port sim --sim-depth 2 --for 2")]
+    Read(ReadArgs),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Model {
+    /// IMADA ZTS/ZTA (`D` request, 19200 baud from the factory).
+    Imada,
+    /// Mark-10 Series 4/5/7 (`?` request, 115200 baud from the factory).
+    Mark10,
+}
+
+#[derive(Debug, clap::Args)]
+struct ReadArgs {
+    /// Serial port of the gauge, or `sim` for the simulated ZTS-50N.
+    #[arg(long, value_name = "PORT")]
+    port: String,
+    /// The gauge's protocol.
+    #[arg(long, value_enum, default_value_t = Model::Imada)]
+    model: Model,
+    /// Baud rate [default: the model's factory setting].
+    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    baud: Option<u32>,
+    /// Sample for S seconds and print the median (the paper's 2 s).
+    #[arg(long = "for", value_name = "S", allow_negative_numbers = true)]
+    for_s: Option<f64>,
+    /// Sampling rate with --for, Hz.
+    #[arg(
+        long,
+        value_name = "HZ",
+        default_value_t = 50.0,
+        allow_negative_numbers = true
+    )]
+    rate: f64,
+    /// With `--port sim`: how deep the probe sits in the finger pad, mm.
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    sim_depth: Option<f64>,
+    /// With `--port sim`: the noise seed.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+impl Args {
+    /// Run it.
+    pub fn run(self) -> anyhow::Result<()> {
+        match self.what {
+            What::Read(a) => a.run(),
+        }
+    }
+}
+
+impl ReadArgs {
+    fn run(self) -> anyhow::Result<()> {
+        let options = GaugeOptions {
+            port: self.port.clone(),
+            model: match self.model {
+                Model::Imada => GaugeModel::Imada,
+                Model::Mark10 => GaugeModel::Mark10,
+            },
+            baud: self.baud,
+            sim_depth_mm: self.sim_depth,
+            seed: self.seed,
+        };
+        let mut gauge = open_gauge(&options)?;
+        let Some(for_s) = self.for_s else {
+            let r = gauge.read()?;
+            return if self.json {
+                lmhost::outln!("{}", serde_json::to_string(&r)?)
+            } else if r.unit == ForceUnit::N {
+                lmhost::outln!("{:.3} N", N(r.force_n))
+            } else {
+                lmhost::outln!("{:.3} N ({} {} as sent)", N(r.force_n), N(r.value), r.unit)
+            };
+        };
+        // Ctrl-C ends the series (an error saying so), not the process.
+        lmhost::stop::graceful();
+        let series = gauge.sample(for_s, self.rate)?;
+        let median = series.median_n().unwrap_or(f64::NAN);
+        if self.json {
+            return lmhost::outln!("{}", json!({ "median_n": median, "series": series }));
+        }
+        let forces = series.samples.iter().map(|r| r.force_n);
+        let min = forces.clone().fold(f64::INFINITY, f64::min);
+        let max = forces.fold(f64::NEG_INFINITY, f64::max);
+        lmhost::outln!(
+            "median {:.3} N of {} readings over {} s at {} Hz (min {:.3}, max {:.3} N)",
+            N(median),
+            series.samples.len(),
+            N(for_s),
+            N(self.rate),
+            N(min),
+            N(max)
+        )
+    }
+}

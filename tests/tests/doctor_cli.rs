@@ -1,0 +1,65 @@
+//! `lmhost doctor` end to end: healthy devices pass, a dead one fails in
+//! one line, and every check is one line.
+
+mod link_support;
+use link_support::{Sim, run};
+
+#[test]
+fn doctor_passes_the_simulated_device_and_the_autd3_emulator() {
+    let sim = Sim::start(&[]);
+    let o = run(&["doctor", "--port", &sim.port, "--port", "autd3:emulator"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{out}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let lm: Vec<&str> = out.lines().filter(|l| l.contains("lm board:")).collect();
+    assert!(
+        lm.iter().any(|l| l.starts_with("ok ")
+            && l.contains(&sim.port)
+            && l.contains("996 transducers")),
+        "{out}"
+    );
+    assert!(
+        out.lines().any(|l| l.starts_with("ok ")
+            && l.contains("autd3:emulator")
+            && l.contains("996 transducers")),
+        "{out}"
+    );
+    // JSON has the same checks.
+    let o = run(&["doctor", "--port", &sim.port, "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        v.as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c["what"] == "lm board" && c["outcome"] == "ok")
+    );
+}
+
+#[test]
+fn a_device_that_does_not_answer_fails_the_doctor_in_one_line() {
+    let dir = std::env::temp_dir().join(format!("lmhost-doctor-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A regular file is not a board: opening it as a port fails.
+    let not_a_port = dir.join("ttyNONE");
+    let o = run(&[
+        "doctor",
+        "--port",
+        not_a_port.to_str().unwrap(),
+        "--timeout-ms",
+        "50",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let fail: Vec<&str> = out.lines().filter(|l| l.starts_with("FAIL")).collect();
+    assert_eq!(fail.len(), 1, "{out}");
+    assert!(
+        fail[0].contains("ttyNONE") && fail[0].contains(" — "),
+        "{out}"
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
