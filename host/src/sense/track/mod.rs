@@ -13,6 +13,7 @@
 //! pipeline, recorded, plotted, scored and streamed.
 
 pub mod camera;
+pub mod colour;
 pub mod contact;
 pub mod intrinsics;
 pub mod plot;
