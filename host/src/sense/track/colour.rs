@@ -178,7 +178,7 @@ impl ColourCamera {
     /// Pixel (column, row) of a colour-camera point (mm, z > 0):
     /// `rs2_project_point_to_pixel`. `None` behind the camera.
     pub fn project(&self, p: Vec3) -> Option<[f64; 2]> {
-        if !(p[2] > 0.0) {
+        if p[2].is_nan() || p[2] <= 0.0 {
             return None;
         }
         let [x, y] = self.distort(p[0] / p[2], p[1] / p[2]);
