@@ -311,5 +311,14 @@ fn a_thousand_random_faulty_uploads() {
 #[test]
 #[ignore = "long: run in release with --ignored"]
 fn ten_thousand_random_faulty_uploads() {
-    campaign(10_000, 3);
+    campaign((10_000.0 * long_scale()).round() as u64, 3);
+}
+
+/// The long run's share of its full size: `LM_LONG_SCALE` in (0, 1] (the
+/// CI's everyday run), 1 when unset (`cargo xtask ci --full`).
+fn long_scale() -> f64 {
+    let s = std::env::var("LM_LONG_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok());
+    s.filter(|s: &f64| *s > 0.0 && *s <= 1.0).unwrap_or(1.0)
 }

@@ -539,3 +539,41 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     assert!(lines(&o).contains("another protocol"), "{}", lines(&o));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Answers piped on stdin (no `--responses`, not a terminal) are lines of
+/// at most 4096 bytes: a longer one ends the run as bad input, read no
+/// further, the array silent and the session resumable.
+#[test]
+fn stdin_answers_are_bounded_lines() {
+    use std::io::Write;
+    let d = scratch("stdin");
+    let out = d.join("out");
+    let mut child = exp1("autd3:emulator", &out, "0.02", &["--seed", "1"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // 64 MiB without a line break: never held whole.
+    let mut stdin = child.stdin.take().unwrap();
+    let feeder = std::thread::spawn(move || {
+        let block = vec![b'7'; 1 << 20];
+        for _ in 0..64 {
+            if stdin.write_all(&block).is_err() {
+                return;
+            }
+        }
+    });
+    let o = child.wait_with_output().unwrap();
+    feeder.join().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    let last = e.trim().lines().last().unwrap_or_default();
+    assert!(
+        last.contains("stdin line 1: a line longer than 4096 bytes")
+            && last.contains("the array is silent")
+            && last.contains("--resume"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

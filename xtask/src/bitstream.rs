@@ -11,7 +11,12 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-use crate::{Ctx, has_program, is_root, run};
+use crate::ctx::Ctx;
+use crate::proc::{Log, has_program, is_root};
+
+fn run(cmd: &mut Command) -> Result<(), String> {
+    crate::proc::run(&Log::Terminal, cmd)
+}
 
 /// Output pins of one breakout board (`hx8k.CHANNELS`).
 const BOARD_CHANNELS: u16 = 64;

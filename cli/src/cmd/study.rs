@@ -180,6 +180,15 @@ impl RunArgs {
 impl ReportArgs {
     fn run(self) -> anyhow::Result<()> {
         let r = study::report::report(&self.dir)?;
+        for (d, why) in &r.skipped {
+            lmhost::errln!("warning: skipped {}: {why}", d.display());
+        }
+        for f in &r.torn {
+            lmhost::errln!(
+                "warning: {} ends in a torn row (a run stopped mid-write): its whole rows are reported",
+                f.display()
+            );
+        }
         for f in &r.files {
             lmhost::outln!("{}", f.display())?;
         }

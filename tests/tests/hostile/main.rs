@@ -54,9 +54,16 @@ const RIG: &str = "r3-8 rig sanity";
 const REFUSALS: &str = "r3-9 device refusals said";
 /// One behaviour on every backend: stimulus flags and files.
 const STIMULI: &str = "r4 stimulus flags and files";
+/// The study's data (issues 31.5, 31.6, 30).
+const STUDY_RESUME: &str = "r4-study-1 resume validates first";
+const STUDY_LABELS: &str = "r4-study-2 labels and answers";
+const STUDY_REPORT: &str = "r4-study-3 study report";
+const STUDY_READS: &str = "r4-study-4 bounded regular study reads";
+const STUDY_COUNTS: &str = "r4-study-5 counts that wrap";
+const STUDY_NUMBERS: &str = "r4-study-6 numbers name the field";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 25] = [
+const CLASSES: [&str; 31] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -82,6 +89,12 @@ const CLASSES: [&str; 25] = [
     RIG,
     REFUSALS,
     STIMULI,
+    STUDY_RESUME,
+    STUDY_LABELS,
+    STUDY_REPORT,
+    STUDY_READS,
+    STUDY_COUNTS,
+    STUDY_NUMBERS,
 ];
 
 /// What a run produced, for custom checks.
@@ -263,11 +276,13 @@ fn good_udp(n: usize) -> Vec<Vec<u8>> {
 
 mod cases_r1;
 mod cases_r3;
+mod cases_r4_study;
 mod checks;
 mod fixtures;
 
 use cases_r1::cases;
 use cases_r3::round3_cases;
+use cases_r4_study::{study_cases, study_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -451,6 +466,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     fixtures(&dir);
+    study_fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -473,6 +489,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     );
 
     let mut all = cases();
+    all.extend(study_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();

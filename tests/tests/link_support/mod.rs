@@ -7,12 +7,17 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::OnceLock;
 
-/// Path of the `lmhost` binary in this test's target dir and profile,
-/// built once per test process (`CARGO_BIN_EXE_*` only exists within a
-/// package, and lmhost lives in another).
+/// Path of the `lmhost` binary: `LMHOST_BIN` when set (the CI builds it
+/// once and runs test executables side by side, which must not wait on
+/// cargo's lock), else built once per test process in this test's target
+/// dir and profile (`CARGO_BIN_EXE_*` only exists within a package, and
+/// lmhost lives in another).
 pub fn lmhost() -> PathBuf {
     static BIN: OnceLock<PathBuf> = OnceLock::new();
     BIN.get_or_init(|| {
+        if let Some(bin) = std::env::var_os("LMHOST_BIN") {
+            return PathBuf::from(bin);
+        }
         // target/<profile>/deps/<test>-<hash>
         let exe = std::env::current_exe().expect("test executable path");
         let profile_dir = exe

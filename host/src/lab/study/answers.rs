@@ -6,7 +6,7 @@ use std::io::{BufRead as _, Read as _};
 use std::path::Path;
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 
-use super::protocol::{Adjustment, Kind, Question};
+use super::protocol::{Kind, Question};
 use crate::error::InputError;
 
 /// One thing asked: a question, a Likert item or an adjustment.
@@ -89,28 +89,17 @@ impl Asked {
         }
     }
 
-    /// The adjustment's question.
-    pub fn adjustment(a: &Adjustment, depth_mm: f64) -> Asked {
-        let text = if a.text.is_empty() {
-            "Compared with the ultrasound, the pushing force was"
-        } else {
-            &a.text
-        };
-        let shown = vec![a.stronger.clone(), a.weaker.clone(), a.same.clone()];
-        Asked {
-            column: "adjust".into(),
-            prompt: format!(
-                "{text} (depth {depth_mm:.2} mm) [1 = {}, 2 = {}, 3 = {}]",
-                shown[0], shown[1], shown[2]
-            ),
-            accepts: Accepts::Choice(shown),
-        }
-    }
-
     /// Checks `text` and returns the value recorded: a Likert point, a
     /// choice's label, a number as given.
     pub fn parse(&self, text: &str) -> Result<String, String> {
         let t = text.trim();
+        if t.len() > MAX_ANSWER_BYTES {
+            return Err(format!(
+                "an answer to `{}` of {} bytes: at most {MAX_ANSWER_BYTES}",
+                self.column,
+                t.len()
+            ));
+        }
         match &self.accepts {
             Accepts::Likert(points) => match t.parse::<u32>() {
                 Ok(v) if (1..=*points).contains(&v) => Ok(v.to_string()),
@@ -158,6 +147,9 @@ impl Asked {
     }
 }
 
+/// Longest answer, bytes (a label's longest; numbers are shorter).
+pub const MAX_ANSWER_BYTES: usize = super::columns::MAX_LABEL_BYTES;
+
 /// Where answers come from.
 pub trait Answers {
     /// The answer to `q` if one is ready (`Ok(None)`: not yet; the caller
@@ -185,11 +177,17 @@ impl Lines {
             let mut s = String::new();
             std::io::stdin()
                 .lock()
-                .take(MAX_RESPONSES_BYTES)
+                .take(MAX_RESPONSES_BYTES + 1)
                 .read_to_string(&mut s)
                 .map_err(|e| {
                     InputError::new(format!("--responses -: {}", crate::files::reason(&e)))
                 })?;
+            if s.len() as u64 > MAX_RESPONSES_BYTES {
+                return Err(InputError::new(format!(
+                    "--responses -: more than {MAX_RESPONSES_BYTES} bytes, the most a responses file may be"
+                ))
+                .into());
+            }
             ("--responses -".to_owned(), s)
         } else {
             let b = crate::files::read_input("--responses file", path, MAX_RESPONSES_BYTES)?;
@@ -211,36 +209,41 @@ impl Lines {
         }
     }
 
-    /// Skips `n` answers (those of trials already on disk).
-    pub fn skip(&mut self, n: usize) {
-        self.next = (self.next + n).min(self.lines.len());
+    /// Skips `n` answers (those of trials already on disk); more than the
+    /// file holds is the error.
+    pub fn skip(&mut self, n: usize) -> Result<(), InputError> {
+        match self.next.checked_add(n).filter(|&k| k <= self.lines.len()) {
+            Some(k) => {
+                self.next = k;
+                Ok(())
+            }
+            None => Err(InputError::new(format!(
+                "{} has {} answers, fewer than the {n} the finished trials took",
+                self.name,
+                self.lines.len()
+            ))),
+        }
     }
-}
 
-/// Walks the answers `trials` will ask for, in order, through `answers`:
-/// the first bad or missing one is the error (before the device opens).
-pub fn dry_run(
-    p: &super::protocol::Protocol,
-    trials: &[super::design::Planned],
-    answers: &mut dyn Answers,
-) -> anyhow::Result<()> {
-    for t in trials {
-        if let Some(a) = &p.adjustment {
-            let q = Asked::adjustment(a, a.start_mm);
-            for _ in 0..a.max {
-                let ans = answers.poll(&q)?;
-                if ans.as_deref() == Some(a.same.as_str()) {
-                    break;
+    /// Refuses answers left after the last one used (blank lines at the
+    /// end are not answers).
+    pub fn check_used_up(&self) -> Result<(), InputError> {
+        let rest = &self.lines[self.next.min(self.lines.len())..];
+        match rest.iter().position(|l| !l.is_empty()) {
+            None => Ok(()),
+            Some(i) => Err(InputError::new(format!(
+                "{} line {}: `{}` is left over: the session asks for {} answers{}",
+                self.name,
+                self.next + i + 1,
+                rest[i].chars().take(60).collect::<String>().escape_debug(),
+                self.next,
+                match rest[i + 1..].iter().filter(|l| !l.is_empty()).count() {
+                    0 => String::new(),
+                    n => format!(" ({n} more follow)"),
                 }
-            }
-        }
-        for (q, order) in p.questions.iter().zip(&t.orders) {
-            for asked in Asked::of(q, order) {
-                answers.poll(&asked)?;
-            }
+            ))),
         }
     }
-    Ok(())
 }
 
 impl Answers for Lines {
@@ -366,7 +369,10 @@ impl Answers for Terminal {
                 0x7f | 0x08 => {
                     self.line.pop();
                 }
-                k if k.is_ascii_graphic() || k == b' ' => self.line.push(k as char),
+                // One byte past the longest answer is enough to refuse it.
+                k if (k.is_ascii_graphic() || k == b' ') && self.line.len() <= MAX_ANSWER_BYTES => {
+                    self.line.push(k as char);
+                }
                 _ => {}
             }
         }
@@ -374,15 +380,32 @@ impl Answers for Terminal {
 }
 
 /// Reads stdin lines lazily (a pipe that is not a terminal, no
-/// `--responses`): answers as they arrive.
-pub fn stdin_lines() -> anyhow::Result<Receiver<String>> {
+/// `--responses`): answers as they arrive. A line longer than
+/// [`crate::limits::MAX_LINE_BYTES`] ends the stream with an error, read
+/// no further.
+pub fn stdin_lines() -> anyhow::Result<Receiver<Result<String, String>>> {
     let (tx, rx) = channel();
     std::thread::Builder::new()
         .name("lmhost-answers".into())
         .spawn(move || {
-            for l in std::io::stdin().lock().lines() {
-                let Ok(l) = l else { break };
-                if tx.send(l).is_err() {
+            let mut stdin = std::io::stdin().lock();
+            loop {
+                let mut line = Vec::new();
+                let max = crate::limits::MAX_LINE_BYTES as u64;
+                match (&mut stdin).take(max + 1).read_until(b'\n', &mut line) {
+                    Ok(0) | Err(_) => break,
+                    Ok(_) => {}
+                }
+                let ended = line.last() == Some(&b'\n');
+                let item = if !ended && line.len() as u64 > max {
+                    Err(format!("a line longer than {max} bytes"))
+                } else {
+                    String::from_utf8(line)
+                        .map(|l| l.trim_end_matches(['\n', '\r']).to_owned())
+                        .map_err(|_| "a line that is not UTF-8 text".to_owned())
+                };
+                let stop = item.is_err();
+                if tx.send(item).is_err() || stop {
                     break;
                 }
             }
@@ -392,7 +415,7 @@ pub fn stdin_lines() -> anyhow::Result<Receiver<String>> {
 
 /// Answers as stdin lines arrive.
 pub struct Piped {
-    rx: Receiver<String>,
+    rx: Receiver<Result<String, String>>,
     n: usize,
 }
 
@@ -411,9 +434,11 @@ impl Answers for Piped {
         match self.rx.try_recv() {
             Ok(l) => {
                 self.n += 1;
-                q.parse(&l)
+                let n = self.n;
+                let bad = |m: String| InputError::new(format!("stdin line {n}: {m}"));
+                q.parse(&l.map_err(bad)?)
                     .map(Some)
-                    .map_err(|m| InputError::new(format!("stdin line {}: {m}", self.n)).into())
+                    .map_err(|m| bad(m).into())
             }
             Err(TryRecvError::Empty) => Ok(None),
             Err(TryRecvError::Disconnected) => Err(InputError::new(format!(
@@ -500,5 +525,15 @@ mod tests {
         assert!(e.starts_with("--responses r.txt line 2: `9`"), "{e}");
         let e = l.poll(&likert()).unwrap_err().to_string();
         assert!(e.contains("ended at line 3"), "{e}");
+        // Every answer used: nothing left over; a blank tail is no answer.
+        let mut l = Lines::from_text("--responses r.txt".into(), "3\n4\n\n");
+        l.skip(1).unwrap();
+        let e = l.check_used_up().unwrap_err().to_string();
+        assert!(e.contains("line 2: `4` is left over"), "{e}");
+        l.poll(&likert()).unwrap();
+        l.check_used_up().unwrap();
+        assert!(l.skip(2).is_err(), "skipping past the end");
+        let long = "7".repeat(MAX_ANSWER_BYTES + 1);
+        assert!(likert().parse(&long).unwrap_err().contains("bytes"));
     }
 }

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::protocol::Protocol;
+use super::protocol::{Condition, Protocol, Question};
 use crate::rng::SplitMix64;
 
 /// One planned trial.
@@ -34,14 +34,23 @@ pub fn permutation(rng: &mut SplitMix64, n: usize) -> Vec<usize> {
 
 /// The whole session's trials for `seed`.
 pub fn plan(p: &Protocol, seed: u64) -> Vec<Planned> {
+    plan_of(p.sets, &p.conditions, &p.questions, seed)
+}
+
+/// [`plan`] from a protocol's parts (the report has no library).
+pub fn plan_of(
+    sets: usize,
+    conditions: &[Condition],
+    questions: &[Question],
+    seed: u64,
+) -> Vec<Planned> {
     let mut order = SplitMix64::new(seed);
     // A second stream: option orders do not change the condition order.
     let mut options = SplitMix64::new(seed ^ 0x0F71_0A5E_ED00_0005_u64);
-    let mut out = Vec::with_capacity(p.trials());
-    for set in 1..=p.sets {
-        for c in permutation(&mut order, p.conditions.len()) {
-            let orders = p
-                .questions
+    let mut out = Vec::with_capacity(sets.saturating_mul(conditions.len()));
+    for set in 1..=sets {
+        for c in permutation(&mut order, conditions.len()) {
+            let orders = questions
                 .iter()
                 .map(|q| {
                     if q.shuffle {
@@ -55,7 +64,7 @@ pub fn plan(p: &Protocol, seed: u64) -> Vec<Planned> {
                 trial: out.len() + 1,
                 set,
                 condition: c,
-                stimulus: p.conditions[c].stimulus.clone(),
+                stimulus: conditions[c].stimulus.clone(),
                 orders,
             });
         }
@@ -70,4 +79,54 @@ pub fn clock_seed() -> u64 {
         .unwrap_or_default();
     // Small enough to type back in.
     (t.as_nanos() as u64 ^ u64::from(std::process::id())) % 1_000_000_000
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lab::study::test_files::studies;
+
+    #[test]
+    fn each_set_is_a_permutation_and_the_seed_fixes_the_order() {
+        let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+        let a = plan(&p, 7);
+        assert_eq!(a.len(), 30);
+        for set in 1..=2 {
+            let mut c: Vec<usize> = a
+                .iter()
+                .filter(|t| t.set == set)
+                .map(|t| t.condition)
+                .collect();
+            c.sort_unstable();
+            assert_eq!(c, (0..15).collect::<Vec<_>>());
+        }
+        assert!(a.iter().enumerate().all(|(i, t)| t.trial == i + 1));
+        for t in &a {
+            assert_eq!(t.stimulus, p.conditions[t.condition].stimulus);
+            let mut o = t.orders[2].clone();
+            o.sort_unstable();
+            assert_eq!(o, [0, 1, 2], "the shape items are a permutation");
+            assert_eq!(t.orders[0], Vec::<usize>::new());
+        }
+        assert_eq!(a, plan(&p, 7));
+        let b = plan(&p, 8);
+        assert_ne!(
+            a.iter().map(|t| t.condition).collect::<Vec<_>>(),
+            b.iter().map(|t| t.condition).collect::<Vec<_>>()
+        );
+        // The two sets are drawn independently.
+        let sets: Vec<Vec<usize>> = a
+            .chunks(15)
+            .map(|c| c.iter().map(|t| t.condition).collect())
+            .collect();
+        assert_ne!(sets[0], sets[1]);
+        // Every order of 3 items turns up over many trials.
+        let mut seen = std::collections::BTreeSet::new();
+        for s in 0..20 {
+            for t in plan(&p, s) {
+                seen.insert(t.orders[2].clone());
+            }
+        }
+        assert_eq!(seen.len(), 6);
+    }
 }

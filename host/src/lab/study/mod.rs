@@ -1,25 +1,38 @@
 //! Studies on the rig session: `lmhost study run` presents a protocol's
 //! conditions in seeded random order through a [`Session`] held in
-//! process, asks the questions after each trial (or runs Experiment 3's
-//! method of adjustment while the stimulus repeats), and appends every
-//! finished trial to `trials.csv` before the next one starts;
-//! `lmhost study report` summarises the answers.
+//! process, runs the protocol's [`procedure`] while the stimulus repeats
+//! (Experiment 3's method of adjustment), asks the questions after each
+//! trial, and appends every finished trial to `trials.csv` before the next
+//! one starts; `lmhost study report` summarises the answers.
 //!
 //! The files of a participant, in `OUT/ID/`: `trials.csv` (a row per
 //! finished trial, whole lines, synced), `session.json` (the protocol's
 //! text, seed, trial order with shown option orders, device, library
 //! CRCs; written whole) and `events.jsonl` (every session event and the
 //! runner's `trial` and `depth` lines). `--resume` continues at the first
-//! trial not on disk, in the order `session.json` holds.
+//! trial not on disk, in the order `session.json` holds, after [`start`]
+//! has checked every file and changed none.
+//!
+//! By role: `protocol` (the file, checked), `design` (the seeded order),
+//! `columns` (trials.csv's header, once), `answers` (what is asked, where
+//! answers come from), `procedure`, `trial` (a trial's answers and row),
+//! `record` (the files, read back checked), `start` (new or resumed), this
+//! module's runner (presenting through the session), `report`.
 //!
 //! This module never parses flags or maps errors to exit codes; bad input
 //! is an [`InputError`] (exit 2 in `main`).
 
 pub mod answers;
+pub mod columns;
 pub mod design;
+pub mod procedure;
 pub mod protocol;
 pub mod record;
 pub mod report;
+pub mod start;
+#[cfg(test)]
+pub(crate) mod test_files;
+pub mod trial;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -32,9 +45,12 @@ use crate::lab::session::{Event, EventKind, OffsetReason, Present, Session};
 use crate::plan::scene::Scene;
 
 use answers::{Answers, Asked};
+use columns::Row;
 use design::Planned;
+use procedure::Step;
 use protocol::Protocol;
-use record::{Run, SessionFile};
+use record::{Expect, Run};
+use start::Start;
 
 /// The device is polled at least this often while a trial runs.
 pub const POLL: Duration = Duration::from_millis(1);
@@ -191,87 +207,14 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             o.protocol.display()
         );
     }
-    let dir = o.out.join(&o.participant);
-    let session_path = dir.join("session.json");
-    let trials_path = dir.join("trials.csv");
-    let events_path = dir.join("events.jsonl");
-    let header = record::header(&p);
-    let (mut file, plan) = if o.resume {
-        let text = std::fs::read_to_string(&session_path).map_err(|e| {
-            InputError::new(format!(
-                "--resume: cannot read {}: {} (nothing to resume; run without --resume)",
-                session_path.display(),
-                crate::files::reason(&e)
-            ))
-        })?;
-        let f: SessionFile = serde_json::from_str(&text)
-            .map_err(|e| InputError::new(format!("--resume: {}: {e}", session_path.display())))?;
-        if f.protocol != p.text {
-            crate::bad_input!(
-                "--resume: {} was written for another protocol (`{}`); {} differs",
-                session_path.display(),
-                f.protocol_name,
-                o.protocol.display()
-            );
-        }
-        if f.participant != o.participant {
-            crate::bad_input!(
-                "--resume: {} belongs to participant `{}`, not `{}`",
-                session_path.display(),
-                f.participant,
-                o.participant
-            );
-        }
-        if let Some(s) = o.seed
-            && s != f.seed
-        {
-            crate::bad_input!(
-                "--resume: the session's seed is {}, not --seed {s} (leave --seed out)",
-                f.seed
-            );
-        }
-        let plan = design::plan(&p, f.seed);
-        if plan != f.trials {
-            crate::bad_input!(
-                "--resume: {}'s trial order does not follow from its seed",
-                session_path.display()
-            );
-        }
-        (f, plan)
+    let paths = start::Paths::new(&o.out, &o.participant);
+    // Everything is checked (and a responses file dry-run) before the
+    // device opens and before any file changes.
+    let mut st: Start = if o.resume {
+        start::resume(&o, &p, &paths)?
     } else {
-        if std::fs::read_dir(&dir).is_ok_and(|mut d| d.next().is_some()) {
-            crate::bad_input!(
-                "{} is not empty: give --resume to continue that session, or another --participant / --out",
-                dir.display()
-            );
-        }
-        let seed = o.seed.unwrap_or_else(design::clock_seed);
-        let plan = design::plan(&p, seed);
-        let f = SessionFile {
-            protocol_name: p.name.clone(),
-            protocol_file: o.protocol.display().to_string(),
-            protocol: p.text.clone(),
-            library_file: p.library_path.display().to_string(),
-            participant: o.participant.clone(),
-            seed,
-            question_order: p.questions.iter().map(|q| q.id.clone()).collect(),
-            columns: record::columns(&p),
-            trials: plan.clone(),
-            runs: Vec::new(),
-        };
-        (f, plan)
+        start::fresh(&o, &p, &paths)?
     };
-    // A responses file is read (and checked to exist) before the device
-    // opens.
-    let lines = match &o.answers {
-        AnswerSource::File(path) => Some(answers::Lines::open(path)?),
-        AnswerSource::Interactive => None,
-    };
-    if let Some(l) = &lines
-        && !o.resume
-    {
-        answers::dry_run(&p, &plan, &mut l.clone())?;
-    }
     let scene = Scene::load_or_default(o.scene.as_deref())?;
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
@@ -281,52 +224,19 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             crate::errln!("warning: {w}");
         }
     }
-    crate::files::output_dir("--out", &dir)?;
-    // The rows already on disk (a torn last line dropped).
-    let (mut trials_log, done) = if o.resume {
-        let (log, lines) = AppendLog::open(&trials_path)?;
-        let rows = record::check_rows(&lines, &header, &plan, &trials_path.display().to_string())
-            .map_err(InputError::new)?;
-        (log, rows)
-    } else {
-        (AppendLog::create(&trials_path)?, Vec::new())
-    };
-    if done.is_empty() && o.resume {
-        // A run killed before its header: start the file again.
-        trials_log = AppendLog::create(&trials_path)?;
-    }
-    if done.is_empty() {
-        trials_log.line(&record::line(&header))?;
-        trials_log.sync()?;
-    }
-    let answers: Box<dyn Answers> = match lines {
-        Some(mut l) => {
-            l.skip(
-                done.iter()
-                    .map(|r| record::answers_used(&p, &header, r))
-                    .sum(),
-            );
-            if o.resume {
-                answers::dry_run(&p, &plan[done.len()..], &mut l.clone())?;
-            }
-            Box::new(l)
-        }
+    let answers: Box<dyn Answers> = match st.lines.take() {
+        Some(l) => Box::new(l),
         None if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
             Box::new(answers::Terminal::open()?)
         }
         None => Box::new(answers::Piped::open()?),
     };
-    let events_log = if o.resume {
-        AppendLog::open(&events_path)?.0
-    } else {
-        AppendLog::create(&events_path)?
-    };
-    let first = done.len() + 1;
+    let first = st.done + 1;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene)
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
-    file.runs.push(Run {
+    st.file.runs.push(Run {
         started_unix_s: unix_s(),
         first_trial: first,
         lmhost_version: env!("CARGO_PKG_VERSION").into(),
@@ -345,7 +255,13 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         time_scale: o.time_scale,
         finger: o.finger.name(),
     });
-    crate::files::write_whole(&session_path, &serde_json::to_vec_pretty(&file)?)?;
+    // session.json first: a run stopped before its trials.csv header is
+    // still resumable.
+    crate::files::output_dir("--out", &paths.dir)?;
+    crate::files::write_whole(&paths.session, &serde_json::to_vec_pretty(&st.file)?)?;
+    let mut trials_log = st.open_trials(&p, &paths.trials)?;
+    let events_log = st.open_events(o.resume, &paths.events)?;
+    let (file, plan) = (st.file, st.plan);
     crate::stop::graceful();
     let centre = session.scene().center_mm;
     let (samples, synthetic) = match std::mem::replace(&mut o.finger, FingerSource::None) {
@@ -367,7 +283,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         all_events: Vec::new(),
     };
     let mut report = RunReport {
-        dir: dir.clone(),
+        dir: paths.dir.clone(),
         trials: plan.len(),
         first,
         seed: file.seed,
@@ -385,29 +301,21 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             String::new()
         }
     );
-    let result = (|| -> anyhow::Result<()> {
-        r.drain()?;
-        if let Some(t) = plan.get(first - 1) {
-            r.session().prepare(&t.stimulus)?;
-            r.drain()?;
-        }
-        for (i, t) in plan.iter().enumerate().skip(first - 1) {
-            let t0 = monotonic_us();
-            let (row, presented) = r.trial(&p, t, plan.get(i + 1))?;
-            trials_log.line(&record::line(&row))?;
-            trials_log.sync()?;
-            r.events.sync()?;
-            report.ran += 1;
-            report
-                .trial_s
-                .push(monotonic_us().saturating_sub(t0) as f64 / 1e6);
-            report.presented_s.push(presented);
-            if i + 1 < plan.len() {
-                r.wait(p.timeline.iti_s * r.scale)?;
-            }
-        }
-        Ok(())
-    })();
+    let expect = Expect {
+        participant: &o.participant,
+        factors: &p.factors,
+        conditions: &p.conditions,
+        questions: &p.questions,
+    };
+    let result = run_trials(
+        &mut r,
+        &p,
+        &expect,
+        &plan,
+        first,
+        &mut trials_log,
+        &mut report,
+    );
     let reason = match &result {
         Ok(()) => OffsetReason::Quit,
         Err(e) if e.is::<Interrupted>() => OffsetReason::Quit,
@@ -433,33 +341,73 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         report.upload_mean_s /= report.uploads as f64;
     }
     if let Err(e) = result {
-        let done = first - 1 + report.ran;
-        let what = if e.is::<Interrupted>() {
-            "interrupted".to_owned()
-        } else {
-            crate::error::one_line(&e)
-        };
-        let kept = if done == 0 {
-            "no trial is finished".to_owned()
-        } else {
-            format!(
-                "trials 1..={done} of {} are in {}",
-                plan.len(),
-                trials_path.display()
-            )
-        };
-        let msg = format!(
-            "{what}; the array is silent; {kept}; continue with: {}",
-            resume_hint(&o)
-        );
-        return Err(if e.chain().any(|c| c.is::<InputError>()) {
-            InputError::new(msg).into()
-        } else {
-            anyhow::anyhow!(msg)
-        });
+        return Err(stopped(e, &o, &report, &paths.trials));
     }
     logged?;
     Ok(report)
+}
+
+/// Runs trials `first..` of `plan`, each row on disk before the next.
+fn run_trials(
+    r: &mut Runner,
+    p: &Protocol,
+    expect: &Expect,
+    plan: &[Planned],
+    first: usize,
+    trials_log: &mut AppendLog,
+    report: &mut RunReport,
+) -> anyhow::Result<()> {
+    r.drain()?;
+    if let Some(t) = plan.get(first - 1) {
+        r.session().prepare(&t.stimulus)?;
+        r.drain()?;
+    }
+    for (i, t) in plan.iter().enumerate().skip(first - 1) {
+        let t0 = monotonic_us();
+        let (row, presented) = r.trial(p, expect, t, plan.get(i + 1))?;
+        let fields = p.columns.fields(&row).map_err(|m| anyhow::anyhow!(m))?;
+        trials_log.line(&record::line(&fields))?;
+        trials_log.sync()?;
+        r.events.sync()?;
+        report.ran += 1;
+        report
+            .trial_s
+            .push(monotonic_us().saturating_sub(t0) as f64 / 1e6);
+        report.presented_s.push(presented);
+        if i + 1 < plan.len() {
+            r.wait(p.timeline.iti_s * r.scale)?;
+        }
+    }
+    Ok(())
+}
+
+/// The error of a run that stopped early: what happened, that the array is
+/// silent, what is kept and how to continue.
+fn stopped(e: anyhow::Error, o: &RunOptions, report: &RunReport, trials: &Path) -> anyhow::Error {
+    let done = report.first - 1 + report.ran;
+    let what = if e.is::<Interrupted>() {
+        "interrupted".to_owned()
+    } else {
+        crate::error::one_line(&e)
+    };
+    let kept = if done == 0 {
+        "no trial is finished".to_owned()
+    } else {
+        format!(
+            "trials 1..={done} of {} are in {}",
+            report.trials,
+            trials.display()
+        )
+    };
+    let msg = format!(
+        "{what}; the array is silent; {kept}; continue with: {}",
+        resume_hint(o)
+    );
+    if e.chain().any(|c| c.is::<InputError>()) {
+        InputError::new(msg).into()
+    } else {
+        anyhow::anyhow!(msg)
+    }
 }
 
 type Samples = (
@@ -600,9 +548,10 @@ impl Runner {
     fn trial(
         &mut self,
         p: &Protocol,
+        expect: &Expect,
         t: &Planned,
         next: Option<&Planned>,
-    ) -> anyhow::Result<(Vec<String>, f64)> {
+    ) -> anyhow::Result<(Row, f64)> {
         let tl = &p.timeline;
         self.trial_events.clear();
         self.log(serde_json::json!({
@@ -640,20 +589,26 @@ impl Runner {
         self.next_feed_us = 0;
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
-        let mut adjust = None;
-        if let Some(a) = &p.adjustment {
-            let mut depth = a.start_mm;
-            let mut depths = vec![depth];
-            let mut given = Vec::new();
-            crate::errln!("  depth {depth:.2} mm");
-            self.log(serde_json::json!({"event": "depth", "trial": t.trial, "depth_mm": depth, "answer": null}))?;
-            loop {
+        let mut procedure = procedure::start(p, &t.stimulus);
+        if let Some(pr) = procedure.as_deref_mut() {
+            let (what, unit) = pr.level_unit();
+            let level_event = |level: f64, answer: Option<&str>| {
+                let mut v = serde_json::json!({"event": what, "trial": t.trial, "answer": answer});
+                v[format!("{what}_{unit}")] = level.into();
+                v
+            };
+            if let Some(first) = pr.next() {
+                crate::errln!("  {what} {:.2} {unit}", first.level);
+                self.log(level_event(first.level, None))?;
+            }
+            while !pr.finished() {
+                // One answer per finished on-phase.
                 let offsets = self
                     .trial_events
                     .iter()
                     .filter(|e| matches!(e.kind, EventKind::Offset { .. }))
                     .count();
-                if offsets <= given.len() {
+                if offsets <= pr.answers() {
                     self.tick()?;
                     if !self.session().presenting() {
                         break;
@@ -661,30 +616,22 @@ impl Runner {
                     std::thread::sleep(POLL);
                     continue;
                 }
-                let q = Asked::adjustment(a, depth);
-                let ans = self.ask(&q)?;
-                given.push(ans.clone());
-                if ans == a.same {
-                    break;
+                let ans = self.ask(&pr.asked())?;
+                match pr.respond(&ans) {
+                    Step::Done => {}
+                    Step::Next(level) => {
+                        self.log(level_event(level, Some(&ans)))?;
+                        crate::errln!("  next {what} {level:.2} {unit} ({ans})");
+                    }
+                    Step::Last { level, why } => {
+                        self.log(level_event(level, Some(&ans)))?;
+                        crate::errln!("  {why}");
+                    }
                 }
-                let step = if ans == a.stronger {
-                    -a.step_mm
-                } else {
-                    a.step_mm
-                };
-                depth = (depth + step).clamp(a.min_mm, a.max_mm);
-                depths.push(depth);
-                self.log(serde_json::json!({"event": "depth", "trial": t.trial, "depth_mm": depth, "answer": ans}))?;
-                if depths.len() as u32 > a.max {
-                    crate::errln!("  {} adjustments: the trial ends at {depth:.2} mm", a.max);
-                    break;
-                }
-                crate::errln!("  next depth {depth:.2} mm ({ans})");
             }
             if self.session().presenting() {
                 self.session().stop(OffsetReason::Stop)?;
             }
-            adjust = Some((a.start_mm, depths, given));
         } else {
             while self.session().presenting() {
                 self.tick()?;
@@ -707,341 +654,29 @@ impl Runner {
             self.drain()?;
         }
         let timing_events = std::mem::take(&mut self.trial_events);
-        let mut answers: Vec<(String, String)> = Vec::new();
-        for (q, order) in p.questions.iter().zip(&t.orders) {
-            for asked in Asked::of(q, order) {
-                let a = self.ask(&asked)?;
-                answers.push((asked.column, a));
-            }
-        }
+        let given = trial::ask_each(p, t, |q| self.ask(q))?;
         self.trial_events = timing_events;
         self.drain()?;
-        Ok(self.row(p, t, &answers, adjust))
-    }
-
-    fn row(
-        &self,
-        p: &Protocol,
-        t: &Planned,
-        answers: &[(String, String)],
-        adjust: Option<(f64, Vec<f64>, Vec<String>)>,
-    ) -> (Vec<String>, f64) {
-        let s = self.session.as_ref().expect("open");
-        let mut onset = None;
-        let mut offset = None;
-        let (mut presented, mut muted, mut device, mut device_known) = (0.0, 0.0, 0.0, true);
-        let (mut phases, mut mutes, mut switch) = (0usize, 0usize, None);
-        for e in &self.trial_events {
-            match &e.kind {
-                EventKind::Onset { stimulus, .. } if *stimulus == t.stimulus => {
-                    onset.get_or_insert(e.t_host_us);
-                }
-                EventKind::Offset {
-                    stimulus,
-                    presented_s,
-                    device_presented_s,
-                    muted_s,
-                    ..
-                } if *stimulus == t.stimulus => {
-                    offset = Some(e.t_host_us);
-                    phases += 1;
-                    presented += presented_s;
-                    muted += muted_s;
-                    match device_presented_s {
-                        Some(d) => device += d,
-                        None => device_known = false,
-                    }
-                }
-                EventKind::Mute { .. } => mutes += 1,
-                EventKind::Switch { to, latency_ms, .. } if *to == t.stimulus => {
-                    switch = Some(*latency_ms);
-                }
-                _ => {}
-            }
-        }
-        let timing = s
+        let timing = self
+            .session()
             .loaded()
             .iter()
             .find(|l| l.id == t.stimulus)
             .map(|l| l.planned.timing.clone());
-        let opt = |v: Option<String>| v.unwrap_or_default();
-        let mut row = vec![
-            s_participant(&self.events),
-            t.trial.to_string(),
-            t.set.to_string(),
-            t.stimulus.clone(),
-        ];
-        row.extend(p.conditions[t.condition].levels.iter().cloned());
-        row.extend([
-            opt(timing.as_ref().map(|x| x.steps.to_string())),
-            opt(timing.as_ref().map(|x| format!("{:.3}", x.dwell_us))),
-            opt(timing.as_ref().map(|x| format!("{:.4}", x.freq_hz))),
-            opt(timing.as_ref().map(|x| format!("{:.4}", x.step_mm))),
-            opt(onset.map(|v| v.to_string())),
-            opt(offset.map(|v| v.to_string())),
-            if phases > 0 && device_known {
-                format!("{device:.4}")
-            } else {
-                String::new()
-            },
-            format!("{presented:.4}"),
-            if presented > 0.0 {
-                format!("{:.4}", (1.0 - muted / presented).clamp(0.0, 1.0))
-            } else {
-                String::new()
-            },
-            phases.to_string(),
-            mutes.to_string(),
-            opt(switch.map(|v| format!("{v:.3}"))),
-        ]);
-        for q in &p.questions {
-            for c in q.columns() {
-                row.push(
-                    answers
-                        .iter()
-                        .find(|(k, _)| *k == c)
-                        .map(|(_, v)| v.clone())
-                        .unwrap_or_default(),
-                );
-            }
-            if q.shuffle {
-                let i = p.questions.iter().position(|x| x.id == q.id).unwrap_or(0);
-                let names: Vec<String> = t.orders[i]
-                    .iter()
-                    .map(|&k| match &q.kind {
-                        protocol::Kind::Likert { items, .. } => items[k].clone(),
-                        protocol::Kind::Choice { options } => options[k].clone(),
-                        protocol::Kind::Number { .. } => String::new(),
-                    })
-                    .collect();
-                row.push(names.join("|"));
-            }
-        }
-        if let Some((start, depths, given)) = adjust {
-            row.push(format!("{start:.2}"));
-            row.push((depths.len() - 1).to_string());
-            row.push(given.join("|"));
-            row.push(
-                depths
-                    .iter()
-                    .map(|d| format!("{d:.2}"))
-                    .collect::<Vec<_>>()
-                    .join("|"),
-            );
-            row.push(format!("{:.2}", depths.last().copied().unwrap_or(start)));
-        }
-        (row, presented)
+        Ok(trial::row(
+            expect,
+            t,
+            &self.trial_events,
+            timing.as_ref(),
+            &given,
+            procedure.as_deref(),
+        ))
     }
-}
-
-/// The participant, from the log's folder name.
-fn s_participant(log: &AppendLog) -> String {
-    log.path()
-        .parent()
-        .and_then(Path::file_name)
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn studies(name: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../studies")
-            .join(name)
-    }
-
-    fn scratch(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("lmhost-study-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
-    #[test]
-    fn the_paper_protocols_have_15_conditions_in_2_sets() {
-        let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
-        assert_eq!(p.conditions.len(), 15);
-        assert_eq!(p.trials(), 30);
-        assert_eq!(p.conditions[0].stimulus, "lms-5hz-a2");
-        assert_eq!(p.conditions[14].stimulus, "lms-25hz-a6");
-        assert_eq!(p.conditions[5].levels, ["lmm-5hz", "2"]);
-        assert!(p.timeline.while_touching && p.adjustment.is_none());
-        let q: Vec<String> = p.questions.iter().flat_map(|q| q.columns()).collect();
-        assert_eq!(
-            q,
-            [
-                "vibration",
-                "movement",
-                "shape_flat",
-                "shape_convex",
-                "shape_concave"
-            ]
-        );
-        let p3 = Protocol::load(&studies("paper-exp3.toml")).unwrap();
-        let a = p3.adjustment.as_ref().unwrap();
-        assert_eq!((a.step_mm, a.max, a.start_mm), (0.25, 20, 4.0));
-        assert_eq!(p3.timeline.on_s, Some(2.0));
-        assert_eq!(p3.timeline.off_s, 2.0);
-        assert_eq!(p3.timeline.gate, Some(crate::lab::session::Gate::Untracked));
-    }
-
-    #[test]
-    fn each_set_is_a_permutation_and_the_seed_fixes_the_order() {
-        let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
-        let a = design::plan(&p, 7);
-        assert_eq!(a.len(), 30);
-        for set in 1..=2 {
-            let mut c: Vec<usize> = a
-                .iter()
-                .filter(|t| t.set == set)
-                .map(|t| t.condition)
-                .collect();
-            c.sort_unstable();
-            assert_eq!(c, (0..15).collect::<Vec<_>>());
-        }
-        assert!(a.iter().enumerate().all(|(i, t)| t.trial == i + 1));
-        for t in &a {
-            assert_eq!(t.stimulus, p.conditions[t.condition].stimulus);
-            let mut o = t.orders[2].clone();
-            o.sort_unstable();
-            assert_eq!(o, [0, 1, 2], "the shape items are a permutation");
-            assert_eq!(t.orders[0], Vec::<usize>::new());
-        }
-        assert_eq!(a, design::plan(&p, 7));
-        let b = design::plan(&p, 8);
-        assert_ne!(
-            a.iter().map(|t| t.condition).collect::<Vec<_>>(),
-            b.iter().map(|t| t.condition).collect::<Vec<_>>()
-        );
-        // The two sets are drawn independently.
-        let sets: Vec<Vec<usize>> = a
-            .chunks(15)
-            .map(|c| c.iter().map(|t| t.condition).collect())
-            .collect();
-        assert_ne!(sets[0], sets[1]);
-        // Every order of 3 items turns up over many trials.
-        let mut seen = std::collections::BTreeSet::new();
-        for s in 0..20 {
-            for t in design::plan(&p, s) {
-                seen.insert(t.orders[2].clone());
-            }
-        }
-        assert_eq!(seen.len(), 6);
-    }
-
-    #[test]
-    fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
-        let base = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
-        let path = studies("test.toml");
-        for (from, to, needle) in [
-            ("sets = 2", "sets = 0", "line 21, field `sets`"),
-            ("sets = 2", "sets = 2\ncolour = 1", "unknown field `colour`"),
-            (
-                "\"2\", \"3\"",
-                "\"7\", \"3\"",
-                "stimulus `lms-5hz-a7`, which is not in",
-            ),
-            (
-                "{type}-a{radius}",
-                "{type}-a{size}",
-                "`{size}`, which is not a factor",
-            ),
-            (
-                "points = 7\nlow = \"not",
-                "points = 12\nlow = \"not",
-                "line 42, field `points`",
-            ),
-            (
-                "id = \"movement\"\nkind = \"likert\"\npoints = 7",
-                "id = \"movement\"\nkind = \"likert\"\npoints = 1",
-                "line 50, field `points`: question `movement`",
-            ),
-            (
-                "kind = \"likert\"\npoints = 7\nlow = \"does",
-                "kind = \"number\"\npoints = 7\nlow = \"does",
-                "does not apply",
-            ),
-            (
-                "library = \"paper-library.toml\"",
-                "library = \"nope.toml\"",
-                "field `library`",
-            ),
-            (
-                "while_touching = true",
-                "while_touching = false",
-                "give `on_s`",
-            ),
-            ("iti_s = 1.0", "iti_s = -1", "field `iti_s`"),
-            ("id = \"movement\"", "id = \"vibration\"", "given twice"),
-            (
-                "id = \"movement\"",
-                "id = \"trial\"",
-                "column `trial` is used twice",
-            ),
-            (
-                "gate = \"tracked\"",
-                "gate = \"loose\"",
-                "unknown variant `loose`",
-            ),
-        ] {
-            assert!(base.contains(from), "{from}");
-            let text = base.replacen(from, to, 1);
-            let e = Protocol::from_toml(&text, &path).unwrap_err().to_string();
-            assert!(e.contains(needle), "{to}: {e}");
-            assert!(e.starts_with("study protocol "), "{e}");
-            assert!(e.contains("test.toml"), "{e}");
-            assert!(!e.contains('\n'), "{e}");
-        }
-        let base = std::fs::read_to_string(studies("paper-exp3.toml")).unwrap();
-        let text = base.replacen("off_s = 2.0", "off_s = 2.0\nrepeat = 3", 1);
-        let e = Protocol::from_toml(&text, &path).unwrap_err().to_string();
-        assert!(e.contains("field `repeat`"), "{e}");
-        let text = base.replacen("same = \"same\"", "same = \"weaker\"", 1);
-        assert!(Protocol::from_toml(&text, &path).is_err());
-    }
-
-    #[test]
-    fn resume_keeps_the_whole_rows_of_a_torn_trials_csv() {
-        let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
-        let plan = design::plan(&p, 7);
-        let header = record::header(&p);
-        let row = |t: &Planned| {
-            let mut r = vec![
-                "P".to_owned(),
-                t.trial.to_string(),
-                t.set.to_string(),
-                t.stimulus.clone(),
-            ];
-            r.resize(header.len(), "1".into());
-            record::line(&r)
-        };
-        let d = scratch("resume");
-        let path = d.join("trials.csv");
-        let mut text = record::line(&header) + "\n";
-        for t in &plan[..3] {
-            text += &(row(t) + "\n");
-        }
-        // kill -9 in the middle of the fourth row.
-        text += &row(&plan[3])[..20];
-        std::fs::write(&path, &text).unwrap();
-        let (_, lines) = AppendLog::open(&path).unwrap();
-        let rows = record::check_rows(&lines, &header, &plan, "trials.csv").unwrap();
-        assert_eq!(rows.len(), 3, "the torn row is dropped: trial 4 runs again");
-        assert_eq!(rows[2][3], plan[2].stimulus);
-        // 5 answers per Experiment 1 trial to skip in a responses file.
-        assert_eq!(record::answers_used(&p, &header, &rows[0]), 5);
-        // Rows out of the session's order are refused.
-        let swapped = vec![lines[0].clone(), lines[2].clone()];
-        let e = record::check_rows(&swapped, &header, &plan, "trials.csv").unwrap_err();
-        assert!(e.contains("expected trial 1"), "{e}");
-        let mut wrong = header.clone();
-        wrong.pop();
-        assert!(record::check_rows(&lines, &wrong, &plan, "t").is_err());
-        let _ = std::fs::remove_dir_all(&d);
-    }
 
     #[test]
     fn participant_ids_name_a_folder() {

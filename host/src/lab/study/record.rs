@@ -1,112 +1,26 @@
 //! What a participant's run leaves on disk: `trials.csv` (a row per
 //! finished trial, appended whole and synced before the next trial),
-//! `session.json` (written whole) and `events.jsonl`; and reading them back
-//! for `--resume` and the report.
+//! `session.json` (written whole) and `events.jsonl`; and reading them back,
+//! checked whole before anything is changed, for `--resume` and the report.
+//! Every read is bounded and of regular files only ([`read_own`]): a FIFO
+//! or a device node is refused at once, a file larger than the session
+//! could have written is refused before it is read.
+
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::columns::{self, Columns, Holds, Row};
 use super::design::Planned;
-use super::protocol::Protocol;
+use super::protocol::{Condition, Factor, Question};
+use crate::error::InputError;
 
-/// `trials.csv`'s own columns before the factors.
-pub const HEAD: [&str; 4] = ["participant", "trial", "set", "stimulus"];
-/// Its own columns after the factors (timing as realised and played).
-pub const TIMING: [&str; 12] = [
-    "steps",
-    "dwell_us",
-    "freq_hz",
-    "step_mm",
-    "onset_us",
-    "offset_us",
-    "device_presented_s",
-    "presented_s",
-    "present_fraction",
-    "on_phases",
-    "mutes",
-    "switch_ms",
-];
-/// The adjustment's columns, where used.
-pub const ADJUST: [&str; 4] = [
-    "start_depth_mm",
-    "adjustments",
-    "adjust_answers",
-    "depths_mm",
-];
-/// The final depth column.
-pub const FINAL_DEPTH: &str = "final_depth_mm";
-
-/// The header of `trials.csv` for `p`.
-pub fn header(p: &Protocol) -> Vec<String> {
-    let mut h: Vec<String> = HEAD.iter().map(|s| (*s).to_owned()).collect();
-    h.extend(p.factors.iter().map(|f| f.name.clone()));
-    h.extend(TIMING.iter().map(|s| (*s).to_owned()));
-    for q in &p.questions {
-        h.extend(q.columns());
-        if q.shuffle {
-            h.push(format!("{}_order", q.id));
-        }
-    }
-    if p.adjustment.is_some() {
-        h.extend(ADJUST.iter().map(|s| (*s).to_owned()));
-        h.push(FINAL_DEPTH.into());
-    }
-    h
-}
-
-/// One CSV field, quoted when it holds a comma, quote or line break.
-pub fn field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_owned()
-    }
-}
-
-/// A CSV line from fields.
-pub fn line(fields: &[String]) -> String {
-    fields
-        .iter()
-        .map(|f| field(f))
-        .collect::<Vec<_>>()
-        .join(",")
-}
-
-/// Splits one CSV line (quoted fields as [`field`] writes them).
-pub fn split(line: &str) -> Result<Vec<String>, String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
-    let mut chars = line.chars().peekable();
-    let mut quoted = false;
-    let mut start = true;
-    while let Some(c) = chars.next() {
-        if quoted {
-            if c == '"' {
-                if chars.peek() == Some(&'"') {
-                    chars.next();
-                    cur.push('"');
-                } else {
-                    quoted = false;
-                }
-            } else {
-                cur.push(c);
-            }
-        } else if c == '"' && start {
-            quoted = true;
-            start = false;
-        } else if c == ',' {
-            out.push(std::mem::take(&mut cur));
-            start = true;
-        } else {
-            cur.push(c);
-            start = false;
-        }
-    }
-    if quoted {
-        return Err("a quoted field is not closed".into());
-    }
-    out.push(cur);
-    Ok(out)
-}
+/// Largest `session.json`: the most trials a session has
+/// ([`super::protocol::MAX_TRIALS`]) with 32 questions of 9 items each
+/// (46 MB, see the test), the protocol's text (1 MiB, a few times that
+/// escaped) and a few hundred runs' device and library records (8 kB for a
+/// library of 2 entries, under 1 MB for 256).
+pub const MAX_SESSION_BYTES: u64 = 256 << 20;
 
 /// One run of the session (the first, and one per `--resume`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -153,94 +67,321 @@ pub struct SessionFile {
     pub runs: Vec<Run>,
 }
 
-/// The condition and answer columns of `p` with their kinds.
-pub fn columns(p: &Protocol) -> Vec<(String, String)> {
-    let mut v: Vec<(String, String)> = p
-        .factors
+/// The condition and answer columns of a header with their kinds (the
+/// depth the trial ended at, not the one it started from).
+pub fn columns(cols: &Columns) -> Vec<(String, String)> {
+    cols.list()
         .iter()
-        .map(|f| (f.name.clone(), "factor".to_owned()))
-        .collect();
-    for q in &p.questions {
-        let kind = match q.kind {
-            super::protocol::Kind::Likert { .. } => "likert",
-            super::protocol::Kind::Choice { .. } => "choice",
-            super::protocol::Kind::Number { .. } => "number",
+        .filter(|c| c.name != columns::START_DEPTH)
+        .filter_map(|c| c.holds.kind().map(|k| (c.name.clone(), k.to_owned())))
+        .collect()
+}
+
+/// Reads a file this command wrote and will continue (`trials.csv` and
+/// `session.json` on `--resume`): checked a regular file by its metadata
+/// first ([`crate::files::check_input`]: a FIFO, a device node, a
+/// directory is an error at once), opened without blocking, refused when
+/// longer than `max` bytes before it is read. Unlike
+/// [`crate::files::read_input`] it is not remembered as an input, so the
+/// run may append to it and replace it afterwards.
+pub fn read_own(what: &str, path: &Path, max: u64) -> Result<Vec<u8>, InputError> {
+    use std::io::Read as _;
+    use std::os::unix::fs::OpenOptionsExt as _;
+    let cannot =
+        |why: String| InputError::new(format!("cannot read {what} {}: {why}", path.display()));
+    crate::files::check_input(what, path)?;
+    let f = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| cannot(crate::files::reason(&e)))?;
+    // The path may have changed between the check and the open.
+    if !f.metadata().is_ok_and(|m| m.is_file()) {
+        return Err(cannot("it is not a regular file".into()));
+    }
+    let mut bytes = Vec::new();
+    f.take(max + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| cannot(crate::files::reason(&e)))?;
+    if bytes.len() as u64 > max {
+        return Err(InputError::new(format!(
+            "{what} {} is larger than {max} bytes, more than this session can have written",
+            path.display()
+        )));
+    }
+    Ok(bytes)
+}
+
+/// Reads and parses `session.json` at `path`; a bad value names its field.
+pub fn read_session(path: &Path) -> Result<SessionFile, InputError> {
+    let bytes = read_own("session file", path, MAX_SESSION_BYTES)?;
+    let mut de = serde_json::Deserializer::from_slice(&bytes);
+    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let field = e.path().to_string();
+        let inner = e.into_inner();
+        InputError::new(if field == "." {
+            format!("{}: {inner}", path.display())
+        } else {
+            format!("{}: field `{field}`: {inner}", path.display())
+        })
+    })
+}
+
+/// One CSV line (no line break) from `fields`, quoted where needed.
+pub fn line<S: AsRef<[u8]>>(fields: &[S]) -> String {
+    let mut w = csv::WriterBuilder::new()
+        .flexible(true)
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_writer(Vec::new());
+    // Writing to memory fails only for a record of no fields.
+    if fields.is_empty() || w.write_record(fields).is_err() {
+        return String::new();
+    }
+    let mut bytes = w.into_inner().unwrap_or_default();
+    bytes.pop();
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// What every row of a session holds before its trial runs.
+#[derive(Debug, Clone, Copy)]
+pub struct Expect<'a> {
+    /// The participant's id.
+    pub participant: &'a str,
+    /// The protocol's factors.
+    pub factors: &'a [Factor],
+    /// Its conditions.
+    pub conditions: &'a [Condition],
+    /// Its questions.
+    pub questions: &'a [Question],
+}
+
+impl Expect<'_> {
+    /// Trial `t`'s values that follow from the plan: participant, trial,
+    /// set, stimulus, the condition's levels and the orders shown.
+    pub fn row(&self, t: &Planned) -> Row {
+        let mut r = Row::default();
+        r.set(columns::PARTICIPANT, self.participant);
+        r.set(columns::TRIAL, t.trial.to_string());
+        r.set(columns::SET, t.set.to_string());
+        r.set(columns::STIMULUS, t.stimulus.as_str());
+        if let Some(c) = self.conditions.get(t.condition) {
+            for (f, l) in self.factors.iter().zip(&c.levels) {
+                r.set(&f.name, l.as_str());
+            }
+        }
+        for (q, order) in self.questions.iter().zip(&t.orders) {
+            if q.shuffle {
+                let names = q.shown_names();
+                let shown: Vec<&str> = order
+                    .iter()
+                    .filter_map(|&i| names.get(i).map(String::as_str))
+                    .collect();
+                r.set(&format!("{}_order", q.id), shown.join("|"));
+            }
+        }
+        r
+    }
+}
+
+/// What is after the last whole row of a `trials.csv`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tail {
+    /// Nothing: the file ends with a whole row (or its header).
+    Clean,
+    /// The beginning of the next trial's row, cut by a crash: dropped.
+    TornRow,
+    /// No whole header (a crash before it was synced, or no file): the
+    /// file starts again.
+    NoHeader,
+}
+
+/// A `trials.csv` read back and checked.
+#[derive(Debug, Clone)]
+pub struct Trials {
+    /// The whole rows, fields in header order.
+    pub rows: Vec<Vec<String>>,
+    /// What follows them.
+    pub tail: Tail,
+}
+
+impl Trials {
+    /// Answers the rows took (their `answers` column), to skip in a
+    /// responses file.
+    pub fn answers_used(&self, cols: &Columns) -> usize {
+        let Some(i) = cols.index(columns::ANSWERS) else {
+            return 0;
         };
-        v.extend(q.columns().into_iter().map(|c| (c, kind.to_owned())));
+        self.rows
+            .iter()
+            .filter_map(|r| r.get(i)?.parse::<usize>().ok())
+            .fold(0, usize::saturating_add)
     }
-    if p.adjustment.is_some() {
-        v.push((FINAL_DEPTH.to_owned(), "depth".to_owned()));
-    }
-    v
 }
 
-/// The answers a finished row used (to skip them in a responses file on
-/// `--resume`): one per question column, plus its adjustment answers.
-pub fn answers_used(p: &Protocol, header: &[String], row: &[String]) -> usize {
-    let q: usize = p.questions.iter().map(|q| q.columns().len()).sum();
-    let adj = header
-        .iter()
-        .position(|h| h == "adjust_answers")
-        .and_then(|i| row.get(i))
-        .map_or(0, |s| s.split('|').filter(|x| !x.is_empty()).count());
-    q + adj
-}
-
-/// Checks the whole rows of a `trials.csv` being resumed: its header is
-/// `header` and its rows are trials 1, 2, … of `plan`, in order. Returns
-/// the rows (fields split).
-pub fn check_rows(
-    lines: &[String],
-    header: &[String],
+/// Reads the `trials.csv` at `path` written with header `cols` for `plan`
+/// and checks all of it before anything may change it: the header is
+/// `cols`, row *k* is trial *k* as planned with every value what its
+/// column holds, and anything after the last line break is provably the
+/// start of the next trial's row (or of the header). A missing file has
+/// no header.
+pub fn read_trials(
+    path: &Path,
+    cols: &Columns,
     plan: &[Planned],
-    file: &str,
-) -> Result<Vec<Vec<String>>, String> {
-    let Some(first) = lines.first() else {
-        return Ok(Vec::new());
-    };
-    if split(first)? != header {
-        return Err(format!("{file}: its header is not this protocol's columns"));
+    expect: &Expect,
+) -> Result<Trials, InputError> {
+    if std::fs::symlink_metadata(path).is_err_and(|e| e.kind() == std::io::ErrorKind::NotFound) {
+        return Ok(Trials {
+            rows: Vec::new(),
+            tail: Tail::NoHeader,
+        });
     }
-    let mut rows = Vec::new();
-    for (i, l) in lines[1..].iter().enumerate() {
-        let r = split(l).map_err(|m| format!("{file} line {}: {m}", i + 2))?;
-        let want = plan.get(i).ok_or_else(|| {
-            format!(
-                "{file} line {}: more rows than the session has trials",
-                i + 2
+    let header = line(&cols.names());
+    let max =
+        (header.len() + 1) as u64 + (plan.len() as u64).saturating_mul(cols.max_row_bytes() as u64);
+    let bytes = read_own("trials file", path, max)?;
+    let file = path.display();
+    let split = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let (whole, tail) = bytes.split_at(split);
+    let bad = |line: usize, msg: String| InputError::new(format!("{file} line {line}: {msg}"));
+    if whole.is_empty() {
+        // Nothing but, perhaps, a header cut short.
+        if header.as_bytes().starts_with(tail) {
+            return Ok(Trials {
+                rows: Vec::new(),
+                tail: Tail::NoHeader,
+            });
+        }
+        return Err(bad(1, "not the start of this protocol's header".into()));
+    }
+    let whole = std::str::from_utf8(whole)
+        .map_err(|_| InputError::new(format!("{file}: not UTF-8 text")))?;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(whole.as_bytes());
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    let answer_columns = cols
+        .list()
+        .iter()
+        .filter(|c| {
+            matches!(
+                c.holds,
+                Holds::Likert(_) | Holds::Choice(_) | Holds::Number(..)
             )
+        })
+        .count();
+    let adjust = cols.index(columns::ADJUST_ANSWERS);
+    let count = cols.index(columns::ANSWERS);
+    for (k, rec) in reader.records().enumerate() {
+        let rec = rec.map_err(|e| {
+            let at = e.position().map_or(k + 1, |p| p.line() as usize);
+            bad(at, e.to_string())
         })?;
-        if r.len() != header.len() || r[1] != want.trial.to_string() || r[3] != want.stimulus {
-            return Err(format!(
-                "{file} line {}: expected trial {} ({}), found `{}`",
-                i + 2,
-                want.trial,
-                want.stimulus,
-                l.chars().take(60).collect::<String>()
+        let n = rec.position().map_or(k + 1, |p| p.line() as usize);
+        let f: Vec<String> = rec.iter().map(str::to_owned).collect();
+        if k == 0 {
+            if f != cols.names() {
+                let at = cols.names().iter().zip(&f).position(|(a, b)| a != b);
+                return Err(bad(
+                    1,
+                    match at {
+                        Some(i) => format!(
+                            "the header is not this protocol's columns: column {} is `{}`, not `{}`",
+                            i + 1,
+                            f[i].escape_debug(),
+                            cols.names()[i]
+                        ),
+                        None => format!(
+                            "the header has {} columns, this protocol's has {}",
+                            f.len(),
+                            cols.list().len()
+                        ),
+                    },
+                ));
+            }
+            continue;
+        }
+        let Some(t) = plan.get(k - 1) else {
+            return Err(bad(
+                n,
+                format!("the session has only {} trials", plan.len()),
+            ));
+        };
+        if f.len() != cols.list().len() {
+            return Err(bad(
+                n,
+                format!("{} fields, the header has {}", f.len(), cols.list().len()),
             ));
         }
-        rows.push(r);
+        let want = cols.fields(&expect.row(t)).map_err(|m| bad(n, m))?;
+        for ((c, v), w) in cols.list().iter().zip(&f).zip(&want) {
+            if !w.is_empty() && v != w {
+                return Err(bad(
+                    n,
+                    format!(
+                        "column `{}` is `{}`, but trial {} of the session has `{w}`",
+                        c.name,
+                        v.escape_debug(),
+                        t.trial
+                    ),
+                ));
+            }
+            c.holds.check(v).map_err(|m| {
+                bad(
+                    n,
+                    format!("column `{}`: `{}`: {m}", c.name, v.escape_debug()),
+                )
+            })?;
+        }
+        if let Some(ci) = count {
+            let adjusted = adjust
+                .filter(|&i| !f[i].is_empty())
+                .map_or(0, |i| f[i].split(columns::LIST_SEPARATOR).count());
+            let given = answer_columns + adjusted;
+            if f[ci] != given.to_string() {
+                return Err(bad(
+                    n,
+                    format!(
+                        "column `{}` is `{}`, but the row holds {given} answers",
+                        columns::ANSWERS,
+                        f[ci].escape_debug()
+                    ),
+                ));
+            }
+        }
+        rows.push(f);
     }
-    Ok(rows)
+    let lines = whole.matches('\n').count();
+    if tail.is_empty() {
+        return Ok(Trials {
+            rows,
+            tail: Tail::Clean,
+        });
+    }
+    // A crash cuts a row's one write short: what is left is the start of
+    // the next trial's row, whose first columns the plan fixes.
+    let torn = plan.get(rows.len()).is_some_and(|t| {
+        let known = cols.fields(&expect.row(t)).unwrap_or_default();
+        let lead = 4 + expect.factors.len();
+        let prefix = line(&known[..lead.min(known.len())]) + ",";
+        prefix.as_bytes().starts_with(tail) || tail.starts_with(prefix.as_bytes())
+    });
+    if !torn {
+        return Err(bad(
+            lines + 1,
+            format!(
+                "`{}` is neither a whole row nor the start of trial {}'s row; nothing was cut (fix or remove that line)",
+                String::from_utf8_lossy(&tail[..tail.len().min(60)]).escape_debug(),
+                rows.len() + 1
+            ),
+        ));
+    }
+    Ok(Trials {
+        rows,
+        tail: Tail::TornRow,
+    })
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn csv_fields_quote_what_needs_it_and_split_back() {
-        let f = vec![
-            "plain".to_owned(),
-            "a,b".to_owned(),
-            "say \"hi\"".to_owned(),
-            String::new(),
-            "1|2".to_owned(),
-        ];
-        let l = line(&f);
-        assert_eq!(l, "plain,\"a,b\",\"say \"\"hi\"\"\",,1|2");
-        assert_eq!(split(&l).unwrap(), f);
-        assert!(split("\"open").is_err());
-        assert_eq!(split("").unwrap(), vec![String::new()]);
-    }
-}
+mod tests;

@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::record::{self, SessionFile};
+use super::design;
+use super::protocol::Unlinked;
+use super::record::{self, Expect, SessionFile, Tail};
 use crate::error::InputError;
 
 /// Quantile `q` of sorted `v` by linear interpolation (numpy's default).
@@ -39,7 +41,7 @@ pub struct Stat {
     pub values: Vec<f64>,
 }
 
-/// What the report wrote.
+/// What the report read and wrote.
 #[derive(Debug, Clone, Default)]
 pub struct Report {
     /// Participants read.
@@ -48,112 +50,179 @@ pub struct Report {
     pub rows: usize,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// Folders that are not a participant's, and why.
+    pub skipped: Skipped,
+    /// Participants whose `trials.csv` ends in a torn row (a run killed
+    /// and not resumed): its whole rows are reported.
+    pub torn: Vec<PathBuf>,
 }
 
-fn participant_dirs(dir: &Path) -> Result<Vec<PathBuf>, InputError> {
-    if dir.join("trials.csv").is_file() {
-        return Ok(vec![dir.to_owned()]);
+/// Folders skipped, each with the reason.
+pub type Skipped = Vec<(PathBuf, String)>;
+
+/// Why folder `d` holds no participant, if it does not: its
+/// `session.json` and `trials.csv` must be regular files.
+fn not_a_participant(d: &Path) -> Option<String> {
+    ["session.json", "trials.csv"].into_iter().find_map(|f| {
+        crate::files::check_input(f, &d.join(f))
+            .err()
+            .map(|e| e.to_string())
+    })
+}
+
+/// The participant folders `dir` stands for (itself, when it holds a
+/// session) and the folders in it skipped, each with the reason.
+fn participant_dirs(dir: &Path) -> Result<(Vec<PathBuf>, Skipped), InputError> {
+    let holds = |f: &str| std::fs::symlink_metadata(dir.join(f)).is_ok();
+    if holds("session.json") || holds("trials.csv") {
+        return match not_a_participant(dir) {
+            None => Ok((vec![dir.to_owned()], Vec::new())),
+            Some(why) => Err(InputError::new(why)),
+        };
     }
-    let rd = std::fs::read_dir(dir)
-        .map_err(|e| InputError::new(format!("{}: {}", dir.display(), crate::files::reason(&e))))?;
-    let mut v: Vec<PathBuf> = rd
+    let rd = std::fs::read_dir(dir).map_err(|e| {
+        InputError::new(format!(
+            "cannot read {}: {}",
+            dir.display(),
+            crate::files::reason(&e)
+        ))
+    })?;
+    let mut folders: Vec<PathBuf> = rd
         .filter_map(Result::ok)
         .map(|e| e.path())
-        .filter(|p| p.join("trials.csv").is_file() && p.join("session.json").is_file())
+        .filter(|p| p.is_dir())
         .collect();
-    v.sort();
-    if v.is_empty() {
+    folders.sort();
+    let (mut ok, mut skipped) = (Vec::new(), Vec::new());
+    for d in folders {
+        match not_a_participant(&d) {
+            None => ok.push(d),
+            Some(why) => skipped.push((d, why)),
+        }
+    }
+    if ok.is_empty() {
+        let why: Vec<String> = skipped
+            .iter()
+            .map(|(d, w)| format!("{}: {w}", d.display()))
+            .collect();
         return Err(InputError::new(format!(
-            "{}: no trials.csv in it or in its folders (give a participant folder or the study's --out)",
-            dir.display()
+            "{}: no participant folder in it (one holds session.json and trials.csv; give a participant folder or the study's --out){}",
+            dir.display(),
+            if why.is_empty() {
+                String::new()
+            } else {
+                format!("; skipped {}", why.join("; "))
+            }
         )));
     }
-    Ok(v)
+    Ok((ok, skipped))
+}
+
+/// One participant's session, checked.
+struct Participant {
+    session: SessionFile,
+    protocol: Unlinked,
+    plan: Vec<design::Planned>,
+    trials: record::Trials,
+}
+
+/// Reads and checks participant folder `d`: its protocol, its order from
+/// its seed, and every row of its `trials.csv` against both.
+fn read_participant(d: &Path) -> Result<Participant, InputError> {
+    let sp = d.join("session.json");
+    let session = record::read_session(&sp)?;
+    let origin = format!("{} (its protocol)", sp.display());
+    let protocol = Unlinked::from_toml(&session.protocol, &origin)?;
+    let plan = design::plan_of(
+        protocol.sets,
+        &protocol.conditions,
+        &protocol.questions,
+        session.seed,
+    );
+    if plan != session.trials {
+        crate::bad_input!(
+            "{}: its trial order does not follow from its seed",
+            sp.display()
+        );
+    }
+    let expect = Expect {
+        participant: &session.participant,
+        factors: &protocol.factors,
+        conditions: &protocol.conditions,
+        questions: &protocol.questions,
+    };
+    let trials = record::read_trials(&d.join("trials.csv"), &protocol.columns, &plan, &expect)?;
+    Ok(Participant {
+        session,
+        protocol,
+        plan,
+        trials,
+    })
 }
 
 /// Reads every participant under `dir` and writes the summary and figures
-/// into `dir`.
+/// into `dir`. Every value summarised is one its column accepts (a Likert
+/// point on its scale, a number in its range, finite).
 pub fn report(dir: &Path) -> anyhow::Result<Report> {
-    let dirs = participant_dirs(dir)?;
-    let mut protocol: Option<SessionFile> = None;
-    let mut header: Option<Vec<String>> = None;
-    let mut rows: Vec<Vec<String>> = Vec::new();
+    let (dirs, skipped) = participant_dirs(dir)?;
+    let mut first: Option<Participant> = None;
+    // (condition, stimulus, row) of every participant.
+    let mut rows: Vec<(usize, Vec<String>)> = Vec::new();
+    let mut out = Report {
+        participants: dirs.len(),
+        skipped,
+        ..Report::default()
+    };
     for d in &dirs {
-        let sp = d.join("session.json");
-        let text = std::fs::read_to_string(&sp).map_err(|e| {
-            InputError::new(format!("{}: {}", sp.display(), crate::files::reason(&e)))
-        })?;
-        let s: SessionFile = serde_json::from_str(&text)
-            .map_err(|e| InputError::new(format!("{}: {e}", sp.display())))?;
-        if let Some(p) = &protocol
-            && p.protocol != s.protocol
+        let p = read_participant(d)?;
+        if let Some(f) = &first
+            && f.session.protocol != p.session.protocol
         {
             crate::bad_input!(
                 "{}: another protocol (`{}`) than {} (`{}`): report one protocol at a time",
-                sp.display(),
-                s.protocol_name,
+                d.join("session.json").display(),
+                p.session.protocol_name,
                 dirs[0].display(),
-                p.protocol_name
+                f.session.protocol_name
             );
         }
-        protocol.get_or_insert(s);
-        let tp = d.join("trials.csv");
-        let text = std::fs::read_to_string(&tp).map_err(|e| {
-            InputError::new(format!("{}: {}", tp.display(), crate::files::reason(&e)))
-        })?;
-        let mut lines = text.lines();
-        let h = record::split(lines.next().unwrap_or_default())
-            .map_err(|m| InputError::new(format!("{}: {m}", tp.display())))?;
-        if header.as_ref().is_some_and(|x| *x != h) {
-            crate::bad_input!("{}: its columns differ from the others'", tp.display());
+        if p.trials.tail == Tail::TornRow {
+            out.torn.push(d.join("trials.csv"));
         }
-        for (i, l) in lines.enumerate() {
-            let r = record::split(l)
-                .map_err(|m| InputError::new(format!("{} line {}: {m}", tp.display(), i + 2)))?;
-            if r.len() != h.len() {
-                crate::bad_input!(
-                    "{} line {}: {} fields, the header has {}",
-                    tp.display(),
-                    i + 2,
-                    r.len(),
-                    h.len()
-                );
-            }
-            rows.push(r);
-        }
-        header.get_or_insert(h);
+        rows.extend(
+            p.trials
+                .rows
+                .iter()
+                .zip(&p.plan)
+                .map(|(r, t)| (t.condition, r.clone())),
+        );
+        first.get_or_insert(p);
     }
-    let (Some(s), Some(h)) = (protocol, header) else {
+    let Some(first) = first else {
         crate::bad_input!("{}: nothing to report", dir.display());
     };
-    let col = |name: &str| h.iter().position(|x| x == name);
-    let stim =
-        col("stimulus").ok_or_else(|| InputError::new("trials.csv has no stimulus column"))?;
-    let factors: Vec<usize> = s
-        .columns
+    let cols = &first.protocol.columns;
+    let factor_names: Vec<String> = first
+        .protocol
+        .factors
         .iter()
-        .filter(|(_, k)| k == "factor")
-        .filter_map(|(n, _)| col(n))
+        .map(|f| f.name.clone())
         .collect();
-    // Conditions in the protocol's order.
-    let mut order: BTreeMap<String, usize> = BTreeMap::new();
-    for t in &s.trials {
-        order.entry(t.stimulus.clone()).or_insert(t.condition);
-    }
+    let factor_at: Vec<usize> = factor_names.iter().filter_map(|n| cols.index(n)).collect();
+    let stim = cols
+        .index(super::columns::STIMULUS)
+        .ok_or_else(|| InputError::new("trials.csv has no stimulus column"))?;
     let mut stats: Vec<Stat> = Vec::new();
     let mut choices: BTreeMap<(usize, String, String, String), usize> = BTreeMap::new();
-    for (name, kind) in &s.columns {
-        if kind == "factor" {
+    for (name, kind) in record::columns(cols) {
+        let Some(c) = cols.index(&name).filter(|_| kind != "factor") else {
             continue;
-        }
-        let Some(c) = col(name) else { continue };
+        };
+        let holds = &cols.list()[c].holds;
         let mut by: BTreeMap<(usize, String), (Vec<String>, Vec<f64>)> = BTreeMap::new();
-        for r in &rows {
-            let key = (
-                order.get(&r[stim]).copied().unwrap_or(usize::MAX),
-                r[stim].clone(),
-            );
-            let levels = factors.iter().map(|&i| r[i].clone()).collect();
+        for (condition, r) in &rows {
+            let key = (*condition, r[stim].clone());
+            let levels = factor_at.iter().map(|&i| r[i].clone()).collect();
             let e = by.entry(key.clone()).or_insert((levels, Vec::new()));
             if r[c].is_empty() {
                 continue;
@@ -162,7 +231,8 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
                 *choices
                     .entry((key.0, key.1, name.clone(), r[c].clone()))
                     .or_default() += 1;
-            } else if let Ok(v) = r[c].parse::<f64>() {
+            } else if let Some(v) = holds.number(&r[c]) {
+                // read_trials checked it: finite and in range.
                 e.1.push(v);
             }
         }
@@ -179,18 +249,11 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
             });
         }
     }
-    let factor_names: Vec<String> = factors.iter().map(|&i| h[i].clone()).collect();
-    let mut out = Report {
-        participants: dirs.len(),
-        rows: rows.len(),
-        files: Vec::new(),
-    };
-    let mut csv = String::new();
+    out.rows = rows.len();
     let mut head = vec!["stimulus".to_owned()];
     head.extend(factor_names.iter().cloned());
     head.extend(["question", "n", "median", "q1", "q3", "iqr"].map(String::from));
-    csv.push_str(&record::line(&head));
-    csv.push('\n');
+    let mut csv = record::line(&head) + "\n";
     let num = |x: f64| {
         if x.is_nan() {
             String::new()
@@ -210,8 +273,7 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
             num(q3),
             num(q3 - q1),
         ]);
-        csv.push_str(&record::line(&f));
-        csv.push('\n');
+        csv += &(record::line(&f) + "\n");
     }
     let p = dir.join("summary.csv");
     crate::files::write_whole(&p, csv.as_bytes())?;
@@ -219,21 +281,21 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
     if !choices.is_empty() {
         let mut csv = String::from("stimulus,question,option,count\n");
         for ((_, stimulus, q, o), n) in &choices {
-            csv.push_str(&record::line(&[
-                stimulus.clone(),
-                q.clone(),
-                o.clone(),
-                n.to_string(),
-            ]));
-            csv.push('\n');
+            csv += &(record::line(&[stimulus.clone(), q.clone(), o.clone(), n.to_string()]) + "\n");
         }
         let p = dir.join("choices.csv");
         crate::files::write_whole(&p, csv.as_bytes())?;
         out.files.push(p);
     }
+    figures(dir, &stats, &mut out.files)?;
+    Ok(out)
+}
+
+/// A box plot per numeric question: PNG, SVG and PDF.
+fn figures(dir: &Path, stats: &[Stat], files: &mut Vec<PathBuf>) -> anyhow::Result<()> {
     crate::field::plot::register_font();
     let mut questions: Vec<&str> = Vec::new();
-    for st in &stats {
+    for st in stats {
         if !questions.contains(&st.question.as_str()) {
             questions.push(&st.question);
         }
@@ -251,7 +313,7 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
             })?;
             Ok(())
         })?;
-        out.files.push(png);
+        files.push(png);
         let svg_path = dir.join(format!("box-{q}.svg"));
         let mut svg = String::new();
         {
@@ -262,7 +324,7 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
                 .map_err(|x| anyhow::anyhow!("drawing {}: {x}", svg_path.display()))?;
         }
         crate::files::write_whole(&svg_path, svg.as_bytes())?;
-        out.files.push(svg_path);
+        files.push(svg_path);
         // The PDF at the SVG's 96 units per inch.
         let pdf_path = dir.join(format!("box-{q}.pdf"));
         let e = |x: String| anyhow::anyhow!("drawing {}: {x}", pdf_path.display());
@@ -276,9 +338,9 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
             root.present().map_err(|x| e(x.to_string()))?;
         }
         crate::files::write_whole(&pdf_path, &pdf)?;
-        out.files.push(pdf_path);
+        files.push(pdf_path);
     }
-    Ok(out)
+    Ok(())
 }
 
 /// One box per condition: quartile box, median line, whiskers to the most
@@ -295,7 +357,16 @@ fn draw<DB: DrawingBackend>(
         (a.min(v), b.max(v))
     });
     let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
+    // The values are checked finite and in range; a span that overflows
+    // would have the axis' ticks loop forever, so it is refused too.
     let pad = ((hi - lo) * 0.08).max(0.5);
+    if !(lo - pad).is_finite() || !(hi + pad).is_finite() {
+        return Err(format!(
+            "the values span {} to {}, too wide to draw",
+            crate::limits::show(lo),
+            crate::limits::show(hi)
+        ));
+    }
     let n = group.len();
     let names: Vec<String> = group.iter().map(|g| g.stimulus.clone()).collect();
     let mut chart = ChartBuilder::on(root)

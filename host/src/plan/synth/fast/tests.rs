@@ -73,9 +73,19 @@ fn random_foci_within_0_51_lsb(plan: &SynthPlan, seed: u64, cases: usize, xy: f6
 #[test]
 #[ignore = "long: run in release by cargo xtask ci"]
 fn long_random_foci_are_within_0_51_lsb() {
+    let cases = (50_000.0 * long_scale()).round() as usize;
     for plan in plans() {
-        random_foci_within_0_51_lsb(&plan, 0x10_0000, 50_000, 1000.0, (-1000.0, 1000.0));
+        random_foci_within_0_51_lsb(&plan, 0x10_0000, cases, 1000.0, (-1000.0, 1000.0));
     }
+}
+
+/// The long run's share of its full size: `LM_LONG_SCALE` in (0, 1] (the
+/// CI's everyday run), 1 when unset (`cargo xtask ci --full`).
+fn long_scale() -> f64 {
+    let s = std::env::var("LM_LONG_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok());
+    s.filter(|s: &f64| *s > 0.0 && *s <= 1.0).unwrap_or(1.0)
 }
 
 #[test]

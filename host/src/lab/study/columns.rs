@@ -1,0 +1,449 @@
+//! `trials.csv`'s header, once: every column's name and what it holds, in
+//! the order written. The runner fills a [`Row`] by column name, resume
+//! and the report check every value against what its column holds, and
+//! the protocol refuses factor and question names that would repeat a
+//! column. Nothing here knows the protocol's file format.
+
+/// The columns before the factors.
+pub const PARTICIPANT: &str = "participant";
+/// The 1-based trial number.
+pub const TRIAL: &str = "trial";
+/// The 1-based set.
+pub const SET: &str = "set";
+/// The library entry presented.
+pub const STIMULUS: &str = "stimulus";
+/// The columns after the factors: timing as realised and played.
+pub const TIMING: [&str; 12] = [
+    "steps",
+    "dwell_us",
+    "freq_hz",
+    "step_mm",
+    "onset_us",
+    "offset_us",
+    "device_presented_s",
+    "presented_s",
+    "present_fraction",
+    "on_phases",
+    "mutes",
+    "switch_ms",
+];
+/// How many answers the trial took (questions and procedure), so a resumed
+/// run skips exactly those in a responses file.
+pub const ANSWERS: &str = "answers";
+/// The adjustment's columns, where used.
+pub const START_DEPTH: &str = "start_depth_mm";
+/// Adjustments made (answers that changed the depth).
+pub const ADJUSTMENTS: &str = "adjustments";
+/// The adjustment answers in order, `|`-joined.
+pub const ADJUST_ANSWERS: &str = "adjust_answers";
+/// Every depth presented, `|`-joined.
+pub const DEPTHS: &str = "depths_mm";
+/// The depth the trial ended at.
+pub const FINAL_DEPTH: &str = "final_depth_mm";
+/// Joins the values of a list column (option orders, adjustment answers
+/// and depths); labels may not contain it.
+pub const LIST_SEPARATOR: char = '|';
+
+/// Every name the runner writes itself (factor and question names must
+/// differ from them).
+pub fn fixed() -> impl Iterator<Item = &'static str> {
+    [PARTICIPANT, TRIAL, SET, STIMULUS, ANSWERS]
+        .into_iter()
+        .chain(TIMING)
+        .chain([
+            START_DEPTH,
+            ADJUSTMENTS,
+            ADJUST_ANSWERS,
+            DEPTHS,
+            FINAL_DEPTH,
+        ])
+}
+
+/// Longest label (factor level, option, adjustment answer), bytes.
+pub const MAX_LABEL_BYTES: usize = 200;
+
+/// What a column holds, and so which values it accepts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Holds {
+    /// The participant's id.
+    Participant,
+    /// A 1-based count (trial, set).
+    Count,
+    /// A library entry's id.
+    Stimulus,
+    /// One of a factor's levels.
+    Level(Vec<String>),
+    /// A measured number, or empty when not measured.
+    Measured,
+    /// A count of answers.
+    Answers,
+    /// A Likert point, 1..=points (empty: not asked).
+    Likert(u32),
+    /// One of these labels (empty: not asked).
+    Choice(Vec<String>),
+    /// A number in `min..=max` (empty: not asked).
+    Number(f64, f64),
+    /// These names in the order shown, `|`-joined.
+    Order(Vec<String>),
+    /// A depth in `min..=max` mm.
+    Depth(f64, f64),
+    /// Depths in `min..=max` mm, `|`-joined.
+    Depths(f64, f64),
+    /// A count of adjustments, at most this many.
+    Adjustments(u32),
+    /// The adjustment's answers, `|`-joined, each one of these labels.
+    AdjustAnswers(Vec<String>),
+}
+
+impl Holds {
+    /// The kind recorded in `session.json`'s `columns` (condition and
+    /// answer columns only).
+    pub fn kind(&self) -> Option<&'static str> {
+        Some(match self {
+            Self::Level(_) => "factor",
+            Self::Likert(_) => "likert",
+            Self::Choice(_) => "choice",
+            Self::Number(..) => "number",
+            Self::Depth(..) => "depth",
+            _ => return None,
+        })
+    }
+
+    /// The number an answer or depth value stands for, when it has one.
+    pub fn number(&self, value: &str) -> Option<f64> {
+        match self {
+            Self::Likert(_) | Self::Number(..) | Self::Depth(..) => value.parse().ok(),
+            _ => None,
+        }
+    }
+
+    /// Checks `value`; the error says what the column accepts.
+    pub fn check(&self, value: &str) -> Result<(), String> {
+        let list = |v: &str| {
+            v.split(LIST_SEPARATOR)
+                .map(str::to_owned)
+                .collect::<Vec<_>>()
+        };
+        let count =
+            |v: &str, lo: u64| v.parse::<u64>().is_ok_and(|n| n >= lo) && !v.starts_with('+');
+        let number = |v: &str, lo: f64, hi: f64| {
+            v.parse::<f64>()
+                .is_ok_and(|x| x.is_finite() && lo <= x && x <= hi)
+        };
+        let range = |lo: f64, hi: f64| {
+            format!(
+                "from {} to {}",
+                crate::limits::show(lo),
+                crate::limits::show(hi)
+            )
+        };
+        let ok = match self {
+            Self::Participant => !value.is_empty(),
+            Self::Count => count(value, 1),
+            Self::Stimulus => crate::plan::library::check_id(value).is_ok(),
+            Self::Level(levels) => levels.iter().any(|l| l == value),
+            Self::Measured => value.is_empty() || number(value, f64::MIN, f64::MAX),
+            Self::Answers => count(value, 0),
+            Self::Likert(points) => {
+                value.is_empty()
+                    || value
+                        .parse::<u32>()
+                        .is_ok_and(|v| (1..=*points).contains(&v))
+            }
+            Self::Choice(labels) => value.is_empty() || labels.iter().any(|l| l == value),
+            Self::Number(lo, hi) => value.is_empty() || number(value, *lo, *hi),
+            Self::Order(names) => {
+                let mut got = list(value);
+                got.sort();
+                let mut want = names.clone();
+                want.sort();
+                got == want
+            }
+            Self::Depth(lo, hi) => number(value, *lo, *hi),
+            Self::Depths(lo, hi) => list(value).iter().all(|v| number(v, *lo, *hi)),
+            Self::Adjustments(max) => value.parse::<u32>().is_ok_and(|n| n <= *max),
+            Self::AdjustAnswers(labels) => {
+                value.is_empty() || list(value).iter().all(|v| labels.contains(v))
+            }
+        };
+        if ok {
+            return Ok(());
+        }
+        Err(match self {
+            Self::Participant => "give the participant's id".into(),
+            Self::Count => "give a whole number from 1".into(),
+            Self::Stimulus => "give a library entry's id".into(),
+            Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
+            Self::Measured => "give a finite number or nothing".into(),
+            Self::Answers => "give a whole number from 0".into(),
+            Self::Likert(p) => format!("give 1 to {p} or nothing"),
+            Self::Choice(l) => format!("give one of {} or nothing", l.join(", ")),
+            Self::Number(lo, hi) => format!("give a number {} or nothing", range(*lo, *hi)),
+            Self::Order(n) => format!("give {} in some order, `|`-joined", n.join(", ")),
+            Self::Depth(lo, hi) => format!("give millimetres {}", range(*lo, *hi)),
+            Self::Depths(lo, hi) => format!("give `|`-joined millimetres {}", range(*lo, *hi)),
+            Self::Adjustments(max) => format!("give a whole number from 0 to {max}"),
+            Self::AdjustAnswers(l) => format!("give `|`-joined answers of {}", l.join(", ")),
+        })
+    }
+
+    /// The most bytes a value may take in `trials.csv` (quoted, every
+    /// quote doubled), with list columns of at most `items` values: bounds
+    /// how much a file being resumed or reported may hold.
+    fn max_bytes(&self, items: usize) -> usize {
+        // A label quoted, every quote doubled.
+        let label = |l: &[String]| 2 * l.iter().map(String::len).max().unwrap_or(0) + 2;
+        // A number the runner writes (a count, `{:.4}` of a time); ids
+        // and numbers hold nothing that needs quoting.
+        const NUMBER: usize = 32;
+        match self {
+            Self::Participant | Self::Stimulus => crate::plan::library::MAX_ID_LEN,
+            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured => NUMBER,
+            Self::Level(l) | Self::Choice(l) => label(l),
+            Self::Likert(_) => 1,
+            // As the participant gave it.
+            Self::Number(..) => MAX_LABEL_BYTES,
+            Self::Depth(..) => NUMBER,
+            Self::Order(n) => label(n) * n.len().max(1),
+            Self::Depths(..) => (NUMBER + 1) * items,
+            Self::AdjustAnswers(l) => (label(l) + 1) * items,
+        }
+    }
+}
+
+/// One column.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Column {
+    /// Its name in the header.
+    pub name: String,
+    /// What it holds.
+    pub holds: Holds,
+}
+
+impl Column {
+    /// A column named `name` holding `holds`.
+    pub fn new(name: impl Into<String>, holds: Holds) -> Self {
+        Self {
+            name: name.into(),
+            holds,
+        }
+    }
+}
+
+/// The method of adjustment's part of the header.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdjustColumns {
+    /// Depth limits, mm.
+    pub min_mm: f64,
+    /// Depth limits, mm.
+    pub max_mm: f64,
+    /// Most adjustments.
+    pub max: u32,
+    /// The answers it accepts.
+    pub labels: Vec<String>,
+}
+
+/// The header: every column in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Columns {
+    list: Vec<Column>,
+    /// Most adjustments (sizes the depth lists).
+    adjustments: u32,
+}
+
+impl Columns {
+    /// The header of a protocol with these factor columns, question columns
+    /// (answers and their `_order` columns) and adjustment. A name given
+    /// twice is the error.
+    pub fn new(
+        factors: Vec<Column>,
+        questions: Vec<Column>,
+        adjust: Option<&AdjustColumns>,
+    ) -> Result<Self, String> {
+        let mut list = vec![
+            Column::new(PARTICIPANT, Holds::Participant),
+            Column::new(TRIAL, Holds::Count),
+            Column::new(SET, Holds::Count),
+            Column::new(STIMULUS, Holds::Stimulus),
+        ];
+        list.extend(factors);
+        list.extend(TIMING.iter().map(|n| Column::new(*n, Holds::Measured)));
+        list.push(Column::new(ANSWERS, Holds::Answers));
+        list.extend(questions);
+        if let Some(a) = adjust {
+            list.extend([
+                Column::new(START_DEPTH, Holds::Depth(a.min_mm, a.max_mm)),
+                Column::new(ADJUSTMENTS, Holds::Adjustments(a.max)),
+                Column::new(ADJUST_ANSWERS, Holds::AdjustAnswers(a.labels.clone())),
+                Column::new(DEPTHS, Holds::Depths(a.min_mm, a.max_mm)),
+                Column::new(FINAL_DEPTH, Holds::Depth(a.min_mm, a.max_mm)),
+            ]);
+        }
+        for (i, c) in list.iter().enumerate() {
+            if list[..i].iter().any(|x| x.name == c.name) {
+                return Err(format!(
+                    "column `{}` is used twice (factor and question names and trials.csv's own columns must differ)",
+                    c.name
+                ));
+            }
+        }
+        Ok(Self {
+            list,
+            adjustments: adjust.map_or(0, |a| a.max),
+        })
+    }
+
+    /// The columns in order.
+    pub fn list(&self) -> &[Column] {
+        &self.list
+    }
+
+    /// The names in order (the header line).
+    pub fn names(&self) -> Vec<&str> {
+        self.list.iter().map(|c| c.name.as_str()).collect()
+    }
+
+    /// Where column `name` is.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.list.iter().position(|c| c.name == name)
+    }
+
+    /// The column called `name`.
+    pub fn get(&self, name: &str) -> Option<&Column> {
+        self.list.iter().find(|c| c.name == name)
+    }
+
+    /// The most bytes one row may take, its line break included.
+    pub fn max_row_bytes(&self) -> usize {
+        // A list holds a depth per adjustment and the first.
+        let items = self.adjustments as usize + 1;
+        self.list
+            .iter()
+            .map(|c| c.holds.max_bytes(items) + 1)
+            .sum::<usize>()
+            + 2
+    }
+
+    /// The fields of `row` in header order; a value for a column the
+    /// header lacks, or one that would break the line, is an error (a
+    /// runner that writes what it does not declare).
+    pub fn fields(&self, row: &Row) -> Result<Vec<String>, String> {
+        let mut out = vec![String::new(); self.list.len()];
+        for (name, value) in &row.values {
+            let i = self.index(name).ok_or_else(|| {
+                format!("trials.csv has no column `{name}` for the value `{value}`")
+            })?;
+            if value.chars().any(char::is_control) {
+                return Err(format!(
+                    "the value of `{name}` holds a control character: `{}`",
+                    value.escape_debug()
+                ));
+            }
+            out[i].clone_from(value);
+        }
+        Ok(out)
+    }
+}
+
+/// A trial's values by column name, as the runner and the procedure fill
+/// them; [`Columns::fields`] puts them in the header's order.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Row {
+    values: Vec<(String, String)>,
+}
+
+impl Row {
+    /// Sets column `name` (a second value replaces the first).
+    pub fn set(&mut self, name: &str, value: impl Into<String>) {
+        let value = value.into();
+        match self.values.iter_mut().find(|(n, _)| n == name) {
+            Some(v) => v.1 = value,
+            None => self.values.push((name.to_owned(), value)),
+        }
+    }
+
+    /// The value of column `name`, if set.
+    pub fn get(&self, name: &str) -> Option<&str> {
+        self.values
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cols() -> Columns {
+        Columns::new(
+            vec![Column::new(
+                "type",
+                Holds::Level(vec!["a".into(), "b".into()]),
+            )],
+            vec![Column::new("vibration", Holds::Likert(7))],
+            None,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn rows_are_keyed_by_name_and_come_out_in_header_order() {
+        let c = cols();
+        assert_eq!(
+            c.names()[..5],
+            ["participant", "trial", "set", "stimulus", "type"]
+        );
+        assert_eq!(c.names().last(), Some(&"vibration"));
+        let mut r = Row::default();
+        r.set("vibration", "3");
+        r.set(TRIAL, "2");
+        r.set(TRIAL, "4");
+        let f = c.fields(&r).unwrap();
+        assert_eq!(f[1], "4");
+        assert_eq!(f[c.index("vibration").unwrap()], "3");
+        assert_eq!(f[0], "");
+        // A column the header lacks is an error, not a silent drop.
+        r.set("colour", "red");
+        assert!(c.fields(&r).unwrap_err().contains("no column `colour`"));
+        let mut r = Row::default();
+        r.set("vibration", "3\n4");
+        assert!(c.fields(&r).is_err());
+    }
+
+    #[test]
+    fn a_name_given_twice_is_refused() {
+        let e = Columns::new(
+            vec![Column::new("trial", Holds::Level(vec!["a".into()]))],
+            Vec::new(),
+            None,
+        )
+        .unwrap_err();
+        assert!(e.contains("column `trial` is used twice"), "{e}");
+        assert!(fixed().any(|n| n == FINAL_DEPTH));
+    }
+
+    #[test]
+    fn values_are_checked_by_what_the_column_holds() {
+        let ok = |h: Holds, v: &str| h.check(v).is_ok();
+        assert!(ok(Holds::Likert(7), "7") && ok(Holds::Likert(7), ""));
+        assert!(!ok(Holds::Likert(7), "99") && !ok(Holds::Likert(7), "x"));
+        assert!(Holds::Likert(7).check("0").unwrap_err().contains("1 to 7"));
+        assert!(ok(Holds::Number(0.0, 10.0), "2.5"));
+        for bad in ["inf", "NaN", "1e308", "-1", "x"] {
+            assert!(!ok(Holds::Number(0.0, 10.0), bad), "{bad}");
+        }
+        assert!(
+            !ok(Holds::Measured, "inf") && ok(Holds::Measured, "") && ok(Holds::Measured, "1.5")
+        );
+        assert!(ok(Holds::Count, "3") && !ok(Holds::Count, "0") && !ok(Holds::Count, "+3"));
+        let o = Holds::Order(vec!["flat".into(), "convex".into()]);
+        assert!(ok(o.clone(), "convex|flat") && !ok(o.clone(), "convex") && !ok(o, "flat|flat"));
+        let d = Holds::Depths(0.0, 10.0);
+        assert!(ok(d.clone(), "4.00|4.25") && !ok(d, "4.00|11"));
+        let a = Holds::AdjustAnswers(vec!["same".into(), "weaker".into()]);
+        assert!(ok(a.clone(), "weaker|same") && !ok(a, "weaker|Same"));
+        assert_eq!(Holds::Likert(7).kind(), Some("likert"));
+        assert_eq!(Holds::Measured.kind(), None);
+    }
+}

@@ -1,0 +1,401 @@
+//! The parsed file → a checked protocol (all but its library): the checks
+//! that look at more than one value, each error naming the line and field.
+
+use std::ops::Range;
+
+use toml::Spanned;
+
+use super::file::{File, KindFile, QuestionFile, repeated};
+use super::{
+    Adjustment, Condition, Factor, Kind, MAX_CONDITIONS, MAX_OPTIONS, MAX_QUESTIONS, MAX_TRIALS,
+    Question, Timeline, Unlinked,
+};
+use crate::error::InputError;
+use crate::lab::study::columns::{AdjustColumns, Column, Columns, Holds};
+
+/// Errors that name the protocol file and, for a field, its line.
+pub(super) struct Errors<'a> {
+    pub text: &'a str,
+    pub origin: &'a str,
+}
+
+impl Errors<'_> {
+    /// An error about the whole file.
+    pub fn bad(&self, msg: impl std::fmt::Display) -> InputError {
+        InputError::new(format!("study protocol {}: {msg}", self.origin))
+    }
+
+    /// An error about `field`, whose value starts at `span`.
+    pub fn at(&self, span: Range<usize>, field: &str, msg: impl std::fmt::Display) -> InputError {
+        let line = self.text[..span.start.min(self.text.len())]
+            .matches('\n')
+            .count()
+            + 1;
+        self.bad(format!("line {line}, field `{field}`: {msg}"))
+    }
+}
+
+/// Checks what parsing alone cannot.
+pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
+    let timeline = timeline(&file, e)?;
+    let factors = factors(&file, e)?;
+    let conditions = conditions(&file.stimulus, &factors, e)?;
+    let sets = file.sets.0;
+    if conditions.len().saturating_mul(sets) > MAX_TRIALS {
+        return Err(e.bad(format!(
+            "{} conditions in {sets} sets make {} trials; at most {MAX_TRIALS} fit one session",
+            conditions.len(),
+            conditions.len().saturating_mul(sets)
+        )));
+    }
+    if file.question.len() > MAX_QUESTIONS {
+        return Err(e.bad(format!(
+            "{} questions; at most {MAX_QUESTIONS}",
+            file.question.len()
+        )));
+    }
+    let mut questions: Vec<Question> = Vec::new();
+    for q in file.question {
+        let id = q.id.get_ref().0.clone();
+        if questions.iter().any(|x| x.id == id) {
+            return Err(e.at(q.id.span(), "id", format!("question `{id}`: given twice")));
+        }
+        questions.push(question(q, e)?);
+    }
+    let adjustment = file
+        .adjustment
+        .map(|a| {
+            let span = a.span();
+            let a = a.into_inner();
+            let given = [&a.stronger, &a.weaker, &a.same];
+            let labels = given.map(|l| l.get_ref().0.as_str());
+            if let Some((i, j)) = repeated(&labels) {
+                let names = ["stronger", "weaker", "same"];
+                // A default label is on no line: name the table's.
+                let at = Some(given[j].span()).filter(|s| !s.is_empty());
+                return Err(e.at(
+                    at.unwrap_or(span),
+                    names[j],
+                    format!(
+                        "`{}` and `{}` ({}) are the same answer: the three must differ, also in case",
+                        labels[j], labels[i], names[i]
+                    ),
+                ));
+            }
+            let (min_mm, max_mm, start) = (a.min_mm.0, a.max_mm.0, a.start_mm.get_ref().0);
+            if !(min_mm <= start && start <= max_mm) {
+                return Err(e.at(
+                    a.start_mm.span(),
+                    "start_mm",
+                    "give min_mm <= start_mm <= max_mm (max_mm defaults to 100)",
+                ));
+            }
+            Ok(Adjustment {
+                text: a.text,
+                start_mm: start,
+                step_mm: a.step_mm.0,
+                max: a.max.0,
+                min_mm,
+                max_mm,
+                stronger: a.stronger.into_inner().0,
+                weaker: a.weaker.into_inner().0,
+                same: a.same.into_inner().0,
+            })
+        })
+        .transpose()?;
+    let columns = Columns::new(
+        factors
+            .iter()
+            .map(|f| Column::new(&f.name, Holds::Level(f.levels.clone())))
+            .collect(),
+        questions.iter().flat_map(Question::column_list).collect(),
+        adjustment
+            .as_ref()
+            .map(|a| AdjustColumns {
+                min_mm: a.min_mm,
+                max_mm: a.max_mm,
+                max: a.max,
+                labels: a.labels(),
+            })
+            .as_ref(),
+    )
+    .map_err(|m| e.bad(m))?;
+    Ok(Unlinked {
+        name: file.name.0,
+        library: file.library,
+        stimulus: file.stimulus,
+        sets,
+        timeline,
+        factors,
+        conditions,
+        questions,
+        adjustment,
+        columns,
+    })
+}
+
+fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
+    let span = file.timeline.span();
+    let t = file.timeline.get_ref();
+    let on_s = t.on_s.as_ref().map(|s| s.get_ref().0);
+    let while_touching = t.while_touching.as_ref().is_some_and(|w| *w.get_ref());
+    if on_s.is_none() && !while_touching {
+        return Err(e.at(
+            span,
+            "on_s",
+            "give `on_s` or `while_touching = true` in [timeline]",
+        ));
+    }
+    if let Some(w) = t
+        .while_touching
+        .as_ref()
+        .filter(|_| while_touching && !t.wait_for_finger)
+    {
+        return Err(e.at(
+            w.span(),
+            "while_touching",
+            "needs `wait_for_finger = true` (it ends when the finger leaves)",
+        ));
+    }
+    let repeat = match &t.repeat {
+        None => 1,
+        Some(r) => {
+            let max = crate::lab::session::MAX_REPEAT;
+            let n = *r.get_ref();
+            if !(1..=max).contains(&n) {
+                return Err(e.at(r.span(), "repeat", format!("{n} is out of range 1..={max}")));
+            }
+            if file.adjustment.is_some() {
+                return Err(e.at(
+                    r.span(),
+                    "repeat",
+                    "an [adjustment] trial repeats its on/off phases until answered: give `on_s` and no `repeat`",
+                ));
+            }
+            if on_s.is_none() {
+                return Err(e.at(r.span(), "repeat", "needs `on_s`"));
+            }
+            n
+        }
+    };
+    if file.adjustment.is_some() && on_s.is_none() {
+        return Err(e.at(
+            span,
+            "on_s",
+            "an [adjustment] trial repeats its on/off phases until answered: give `on_s`",
+        ));
+    }
+    Ok(Timeline {
+        wait_for_finger: t.wait_for_finger,
+        on_s,
+        while_touching,
+        off_s: t.off_s.0,
+        repeat,
+        iti_s: t.iti_s.0,
+        gate: t.gate,
+        touch_s: t.touch_s.map_or(3.0, |s| s.0),
+    })
+}
+
+fn factors(file: &File, e: &Errors) -> Result<Vec<Factor>, InputError> {
+    if file.factor.is_empty() {
+        return Err(e.bad("no factors: add at least one [[factor]] with `name` and `levels`"));
+    }
+    let mut out: Vec<Factor> = Vec::new();
+    for f in &file.factor {
+        let name = f.name.get_ref().0.clone();
+        if out.iter().any(|x| x.name == name) {
+            return Err(e.at(
+                f.name.span(),
+                "name",
+                format!("factor `{name}` is given twice"),
+            ));
+        }
+        let levels: Vec<String> = f.levels.get_ref().iter().map(|l| l.0.clone()).collect();
+        if levels.is_empty() {
+            return Err(e.at(
+                f.levels.span(),
+                "levels",
+                format!("factor `{name}` has no levels"),
+            ));
+        }
+        if let Some(i) = (1..levels.len()).find(|&i| levels[..i].contains(&levels[i])) {
+            return Err(e.at(
+                f.levels.span(),
+                "levels",
+                format!("factor `{name}`: level `{}` is given twice", levels[i]),
+            ));
+        }
+        out.push(Factor { name, levels });
+    }
+    Ok(out)
+}
+
+/// The factors' product, first factor slowest; the count checked before
+/// anything is allocated (64 factors of two levels would wrap to 0).
+fn conditions(
+    template: &Spanned<String>,
+    factors: &[Factor],
+    e: &Errors,
+) -> Result<Vec<Condition>, InputError> {
+    let n = factors
+        .iter()
+        .try_fold(1usize, |n, f| n.checked_mul(f.levels.len()))
+        .filter(|n| (1..=MAX_CONDITIONS).contains(n))
+        .ok_or_else(|| {
+            let product: f64 = factors.iter().map(|f| f.levels.len() as f64).product();
+            e.bad(format!(
+                "{} factors give {} conditions; a protocol has 1 to {MAX_CONDITIONS}",
+                factors.len(),
+                crate::limits::show(product)
+            ))
+        })?;
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n {
+        let mut rest = k;
+        let mut levels = vec![String::new(); factors.len()];
+        for (i, f) in factors.iter().enumerate().rev() {
+            levels[i] = f.levels[rest % f.levels.len()].clone();
+            rest /= f.levels.len();
+        }
+        let stimulus = super::expand(template.get_ref(), factors, &levels)
+            .map_err(|m| e.at(template.span(), "stimulus", m))?;
+        if let Err(m) = crate::plan::library::check_id(&stimulus) {
+            return Err(e.at(
+                template.span(),
+                "stimulus",
+                format!("condition {}: {m}", levels.join("/")),
+            ));
+        }
+        out.push(Condition { levels, stimulus });
+    }
+    Ok(out)
+}
+
+fn question(q: QuestionFile, e: &Errors) -> Result<Question, InputError> {
+    let id = q.id.get_ref().0.clone();
+    let qbad = |span: Range<usize>, field: &str, m: String| {
+        e.at(span, field, format!("question `{id}`: {m}"))
+    };
+    let kind_name = match q.kind {
+        KindFile::Likert => "likert",
+        KindFile::Choice => "choice",
+        KindFile::Number => "number",
+    };
+    let only = |field: &str, span: Option<Range<usize>>, applies: bool| match span {
+        Some(s) if !applies => Err(qbad(
+            s,
+            field,
+            format!("`{field}` does not apply to a {kind_name} question"),
+        )),
+        _ => Ok(()),
+    };
+    let (likert, choice, number) = (
+        matches!(q.kind, KindFile::Likert),
+        matches!(q.kind, KindFile::Choice),
+        matches!(q.kind, KindFile::Number),
+    );
+    only("points", q.points.as_ref().map(Spanned::span), likert)?;
+    only("low", q.low.as_ref().map(Spanned::span), likert)?;
+    only("high", q.high.as_ref().map(Spanned::span), likert)?;
+    only("items", q.items.as_ref().map(Spanned::span), likert)?;
+    only("options", q.options.as_ref().map(Spanned::span), choice)?;
+    only("min", q.min.as_ref().map(Spanned::span), number)?;
+    only("max", q.max.as_ref().map(Spanned::span), number)?;
+    let shuffle = q.shuffle.as_ref().is_some_and(|s| *s.get_ref());
+    if let Some(s) = q.shuffle.as_ref().filter(|_| shuffle) {
+        only("shuffle", Some(s.span()), !number)?;
+    }
+    // Items and options: 2 to MAX_OPTIONS, told apart as answers are.
+    let list = |field: &str, span: Range<usize>, v: Vec<String>| {
+        if v.len() < 2 || v.len() > MAX_OPTIONS {
+            return Err(qbad(
+                span,
+                field,
+                format!("give 2 to {MAX_OPTIONS} {field}"),
+            ));
+        }
+        let refs: Vec<&str> = v.iter().map(String::as_str).collect();
+        if let Some((i, j)) = repeated(&refs) {
+            return Err(qbad(
+                span,
+                field,
+                format!(
+                    "`{}` and `{}` are the same answer: give each once, also in case",
+                    v[j], v[i]
+                ),
+            ));
+        }
+        Ok(v)
+    };
+    let kind = match q.kind {
+        KindFile::Likert => {
+            let points = q.points.as_ref().map_or(7, |p| *p.get_ref());
+            if !(2..=MAX_OPTIONS as u32).contains(&points) {
+                let span = q.points.as_ref().map_or(q.id.span(), Spanned::span);
+                return Err(qbad(
+                    span,
+                    "points",
+                    format!("{points} is out of range 2..={MAX_OPTIONS}"),
+                ));
+            }
+            let items = match q.items {
+                Some(i) => {
+                    let span = i.span();
+                    list(
+                        "items",
+                        span,
+                        i.into_inner().into_iter().map(|n| n.0).collect(),
+                    )?
+                }
+                None => Vec::new(),
+            };
+            if let Some(s) = q.shuffle.as_ref().filter(|_| shuffle && items.is_empty()) {
+                return Err(qbad(
+                    s.span(),
+                    "shuffle",
+                    "a likert question shuffles its `items`; give them".into(),
+                ));
+            }
+            Kind::Likert {
+                points,
+                low: q.low.map(|l| l.into_inner().0).unwrap_or_default(),
+                high: q.high.map(|l| l.into_inner().0).unwrap_or_default(),
+                items,
+            }
+        }
+        KindFile::Choice => {
+            let Some(o) = q.options else {
+                return Err(qbad(
+                    q.id.span(),
+                    "options",
+                    format!("give 2 to {MAX_OPTIONS} options"),
+                ));
+            };
+            let span = o.span();
+            Kind::Choice {
+                options: list(
+                    "options",
+                    span,
+                    o.into_inner().into_iter().map(|l| l.0).collect(),
+                )?,
+            }
+        }
+        KindFile::Number => {
+            let lim = super::MAX_NUMBER;
+            let min = q.min.as_ref().map_or(-lim, |m| m.get_ref().0);
+            let max = q.max.as_ref().map_or(lim, |m| m.get_ref().0);
+            if min > max {
+                let span = q.max.as_ref().map_or(q.id.span(), Spanned::span);
+                return Err(qbad(span, "max", "give `min` <= `max`".into()));
+            }
+            Kind::Number { min, max }
+        }
+    };
+    Ok(Question {
+        id,
+        text: q.text,
+        kind,
+        shuffle,
+    })
+}

@@ -1,0 +1,248 @@
+use super::*;
+use crate::lab::study::test_files::studies;
+
+#[test]
+fn the_paper_protocols_have_15_conditions_in_2_sets() {
+    let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+    assert_eq!(p.conditions.len(), 15);
+    assert_eq!(p.trials(), 30);
+    assert_eq!(p.conditions[0].stimulus, "lms-5hz-a2");
+    assert_eq!(p.conditions[14].stimulus, "lms-25hz-a6");
+    assert_eq!(p.conditions[5].levels, ["lmm-5hz", "2"]);
+    assert!(p.timeline.while_touching && p.adjustment.is_none());
+    let q: Vec<String> = p.questions.iter().flat_map(|q| q.columns()).collect();
+    assert_eq!(
+        q,
+        [
+            "vibration",
+            "movement",
+            "shape_flat",
+            "shape_convex",
+            "shape_concave"
+        ]
+    );
+    let p3 = Protocol::load(&studies("paper-exp3.toml")).unwrap();
+    let a = p3.adjustment.as_ref().unwrap();
+    assert_eq!((a.step_mm, a.max, a.start_mm), (0.25, 20, 4.0));
+    assert_eq!(p3.timeline.on_s, Some(2.0));
+    assert_eq!(p3.timeline.off_s, 2.0);
+    assert_eq!(p3.timeline.gate, Some(crate::lab::session::Gate::Untracked));
+}
+
+#[test]
+fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
+    let base = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
+    let path = studies("test.toml");
+    for (from, to, needle) in [
+        ("sets = 2", "sets = 0", "line 21, field `sets`"),
+        ("sets = 2", "sets = 2\ncolour = 1", "unknown field `colour`"),
+        (
+            "\"2\", \"3\"",
+            "\"7\", \"3\"",
+            "stimulus `lms-5hz-a7`, which is not in",
+        ),
+        (
+            "{type}-a{radius}",
+            "{type}-a{size}",
+            "`{size}`, which is not a factor",
+        ),
+        (
+            "points = 7\nlow = \"not",
+            "points = 12\nlow = \"not",
+            "line 42, field `points`",
+        ),
+        (
+            "id = \"movement\"\nkind = \"likert\"\npoints = 7",
+            "id = \"movement\"\nkind = \"likert\"\npoints = 1",
+            "line 50, field `points`: question `movement`",
+        ),
+        (
+            "kind = \"likert\"\npoints = 7\nlow = \"does",
+            "kind = \"number\"\npoints = 7\nlow = \"does",
+            "does not apply",
+        ),
+        (
+            "library = \"paper-library.toml\"",
+            "library = \"nope.toml\"",
+            "field `library`",
+        ),
+        (
+            "while_touching = true",
+            "while_touching = false",
+            "give `on_s`",
+        ),
+        ("iti_s = 1.0", "iti_s = -1", "field `iti_s`"),
+        ("id = \"movement\"", "id = \"vibration\"", "given twice"),
+        (
+            "id = \"movement\"",
+            "id = \"trial\"",
+            "column `trial` is used twice",
+        ),
+        (
+            "gate = \"tracked\"",
+            "gate = \"loose\"",
+            "unknown variant `loose`",
+        ),
+    ] {
+        assert!(base.contains(from), "{from}");
+        let text = base.replacen(from, to, 1);
+        let e = Protocol::from_toml(&text, &path).unwrap_err().to_string();
+        assert!(e.contains(needle), "{to}: {e}");
+        assert!(e.starts_with("study protocol "), "{e}");
+        assert!(e.contains("test.toml"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+    let base = std::fs::read_to_string(studies("paper-exp3.toml")).unwrap();
+    let text = base.replacen("off_s = 2.0", "off_s = 2.0\nrepeat = 3", 1);
+    let e = Protocol::from_toml(&text, &path).unwrap_err().to_string();
+    assert!(e.contains("field `repeat`"), "{e}");
+    let text = base.replacen("same = \"same\"", "same = \"weaker\"", 1);
+    assert!(Protocol::from_toml(&text, &path).is_err());
+}
+
+fn refused(text: &str) -> String {
+    let e = Protocol::from_toml(text, &studies("test.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("study protocol ") && !e.contains('\n'), "{e}");
+    e
+}
+
+#[test]
+fn answer_labels_are_told_apart_as_answers_are_matched() {
+    let exp1 = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
+    let exp3 = std::fs::read_to_string(studies("paper-exp3.toml")).unwrap();
+    // The adjustment's labels get the choice options' checks, and both
+    // are told apart ignoring case, as answers are matched.
+    for (from, to, needle) in [
+        (
+            "same = \"same\"",
+            "same = \"Stronger\"",
+            "line 43, field `same`: `Stronger` and `stronger`",
+        ),
+        (
+            "same = \"same\"",
+            "same = \"3\"",
+            "line 43, field `same`: `3` is a number",
+        ),
+        (
+            "weaker = \"weaker\"",
+            "weaker = \"+2\"",
+            "field `weaker`: `+2` is a number",
+        ),
+        ("same = \"same\"", "same = \"a|b\"", "holds `|`"),
+        ("same = \"same\"", "same = \" same\"", "spaces at an end"),
+        ("same = \"same\"", "same = \"\"", "field `same`"),
+    ] {
+        assert!(exp3.contains(from));
+        let e = refused(&exp3.replacen(from, to, 1));
+        assert!(e.contains(needle), "{to}: {e}");
+    }
+    let choice = "[[question]]\nid = \"pick\"\nkind = \"choice\"\noptions = ";
+    for (options, needle) in [
+        (
+            "[\"Same\", \"same\"]",
+            "`same` and `Same` are the same answer",
+        ),
+        ("[\"flat\", \"2\"]", "`2` is a number"),
+        ("[\"flat\", \"a|b\"]", "holds `|`"),
+        ("[\"flat\"]", "give 2 to 9 options"),
+    ] {
+        let e = refused(&format!("{exp1}\n{choice}{options}\n"));
+        assert!(e.contains(needle), "{options}: {e}");
+        assert!(e.contains("field `options`"), "{e}");
+    }
+    let p = Protocol::from_toml(
+        &format!("{exp1}\n{choice}[\"Flat\", \"convex-ish\", \"1.5\"]\n"),
+        &studies("test.toml"),
+    )
+    .unwrap();
+    assert_eq!(p.questions.len(), 4);
+}
+
+#[test]
+fn counts_are_checked_not_wrapped() {
+    let exp1 = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
+    // 64 two-level factors: 2^64 conditions, which wrap to 0 unchecked.
+    let mut text = exp1.replace(
+        "stimulus = \"{type}-a{radius}\"",
+        "stimulus = \"lms-5hz-a2\"",
+    );
+    for i in 0..64 {
+        text += &format!("\n[[factor]]\nname = \"f{i}\"\nlevels = [\"a\", \"b\"]\n");
+    }
+    let e = refused(&text);
+    assert!(e.contains("conditions; a protocol has 1 to 1000"), "{e}");
+    // Numbers that do not fit name their field and line.
+    for (from, to, needle) in [
+        (
+            "sets = 2",
+            "sets = 1e3",
+            "line 21, field `sets`: invalid type: floating point",
+        ),
+        (
+            "sets = 2",
+            "sets = 99999999999999999999",
+            "line 21, field `sets`",
+        ),
+        ("sets = 2", "sets = -1", "line 21, field `sets`"),
+        (
+            "iti_s = 1.0",
+            "iti_s = inf",
+            "field `iti_s`: inf is out of range",
+        ),
+        (
+            "iti_s = 1.0",
+            "iti_s = nan",
+            "field `iti_s`: NaN is out of range",
+        ),
+        (
+            "touch_s = 3.0",
+            "touch_s = 1e308",
+            "field `touch_s`: 1e308 is out of range",
+        ),
+        (
+            "points = 7\nlow = \"not",
+            "points = 4294967296\nlow = \"not",
+            "line 42, field `points`",
+        ),
+    ] {
+        assert!(exp1.contains(from), "{from}");
+        let e = refused(&exp1.replacen(from, to, 1));
+        assert!(e.contains(needle), "{to}: {e}");
+    }
+    let exp3 = std::fs::read_to_string(studies("paper-exp3.toml")).unwrap();
+    for (from, to, needle) in [
+        (
+            "max_mm = 10.0",
+            "max_mm = 1e308",
+            "field `max_mm`: 1e308 is out of range",
+        ),
+        (
+            "start_mm = 4.0",
+            "start_mm = 40.0",
+            "field `start_mm`: give min_mm <= start_mm",
+        ),
+        (
+            "max = 20",
+            "max = 0",
+            "field `max`: 0 is out of range 1..=1000",
+        ),
+        ("step_mm = 0.25", "step_mm = -0.25", "field `step_mm`"),
+    ] {
+        assert!(exp3.contains(from), "{from}");
+        let e = refused(&exp3.replacen(from, to, 1));
+        assert!(e.contains(needle), "{to}: {e}");
+    }
+    let number = "[[question]]\nid = \"guess\"\nkind = \"number\"\n";
+    let e = refused(&format!("{exp1}\n{number}max = 1e308\n"));
+    assert!(e.contains("field `max`: 1e308 is out of range"), "{e}");
+    let p = Protocol::from_toml(&format!("{exp1}\n{number}"), &studies("test.toml")).unwrap();
+    assert_eq!(
+        p.questions[3].kind,
+        Kind::Number {
+            min: -MAX_NUMBER,
+            max: MAX_NUMBER
+        }
+    );
+}

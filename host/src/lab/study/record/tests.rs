@@ -1,0 +1,304 @@
+use super::*;
+use crate::lab::study::design;
+use crate::lab::study::protocol::Protocol;
+use crate::lab::study::test_files::{scratch, studies};
+
+fn exp1() -> (Protocol, Vec<Planned>) {
+    let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+    let plan = design::plan(&p, 7);
+    (p, plan)
+}
+
+fn expect(p: &Protocol) -> Expect<'_> {
+    Expect {
+        participant: "P01",
+        factors: &p.factors,
+        conditions: &p.conditions,
+        questions: &p.questions,
+    }
+}
+
+/// Trial `t`'s row as the runner writes it, every answer `answer`.
+fn row(p: &Protocol, t: &Planned, answer: &str) -> String {
+    let mut r = expect(p).row(t);
+    for q in &p.questions {
+        for c in q.columns() {
+            r.set(&c, answer);
+        }
+    }
+    r.set("presented_s", "0.0600");
+    r.set(columns::ANSWERS, "5");
+    line(&p.columns.fields(&r).unwrap())
+}
+
+fn file(p: &Protocol, plan: &[Planned], n: usize) -> String {
+    let mut text = line(&p.columns.names()) + "\n";
+    for t in &plan[..n] {
+        text += &(row(p, t, "3") + "\n");
+    }
+    text
+}
+
+#[test]
+fn a_torn_last_row_is_found_and_the_file_left_as_it_is() {
+    let (p, plan) = exp1();
+    let d = scratch("torn");
+    let path = d.join("trials.csv");
+    let fourth = row(&p, &plan[3], "3");
+    // kill -9 anywhere in the fourth row's one write.
+    for cut in [1, 3, 20, fourth.len() - 1, fourth.len()] {
+        let text = file(&p, &plan, 3) + &fourth[..cut];
+        std::fs::write(&path, &text).unwrap();
+        let t = read_trials(&path, &p.columns, &plan, &expect(&p)).unwrap();
+        assert_eq!(t.rows.len(), 3, "cut at {cut}: trial 4 runs again");
+        assert_eq!(t.tail, Tail::TornRow);
+        assert_eq!(t.rows[2][3], plan[2].stimulus);
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            text,
+            "reading changes nothing"
+        );
+        // 5 answers per Experiment 1 trial to skip in a responses file.
+        assert_eq!(t.answers_used(&p.columns), 15);
+    }
+    // A header cut short, or no file: the file starts again.
+    let header = line(&p.columns.names());
+    for cut in [0, 5, header.len()] {
+        std::fs::write(&path, &header[..cut]).unwrap();
+        let t = read_trials(&path, &p.columns, &plan, &expect(&p)).unwrap();
+        assert_eq!((t.rows.len(), t.tail), (0, Tail::NoHeader));
+    }
+    std::fs::remove_file(&path).unwrap();
+    let t = read_trials(&path, &p.columns, &plan, &expect(&p)).unwrap();
+    assert_eq!(t.tail, Tail::NoHeader);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
+    let (p, plan) = exp1();
+    let d = scratch("refused");
+    let path = d.join("trials.csv");
+    let good = file(&p, &plan, 3);
+    let fourth = row(&p, &plan[3], "3");
+    let fifth = row(&p, &plan[4], "3");
+    let swapped = line(&p.columns.names()) + "\n" + &row(&p, &plan[1], "3") + "\n";
+    let rows: Vec<&str> = good.lines().collect();
+    for (text, needle) in [
+        (
+            "garbage".to_owned(),
+            "line 1: not the start of this protocol's header",
+        ),
+        (
+            "garbage\n".to_owned(),
+            "line 1: the header is not this protocol's columns",
+        ),
+        (
+            good.clone() + "garbage",
+            "line 5: `garbage` is neither a whole row",
+        ),
+        (
+            good.clone() + &fifth[..30],
+            "nor the start of trial 4's row",
+        ),
+        (swapped, "line 2: column `trial` is `2`, but trial 1"),
+        (
+            good.replace(",3,3,3,3,3", ",3,99,3,3,3"),
+            "column `movement`: `99`: give 1 to 7",
+        ),
+        (
+            good.replace(",3,3,3,3,3", ",3,x,3,3,3"),
+            "column `movement`: `x`",
+        ),
+        (
+            good.replace(",0.0600,", ",inf,"),
+            "column `presented_s`: `inf`",
+        ),
+        (
+            good.replace(",5,3,3", ",4,3,3"),
+            "column `answers` is `4`, but the row holds 5 answers",
+        ),
+        (
+            good.replacen("\nP01,", "\nP02,", 1),
+            "column `participant` is `P02`",
+        ),
+        (
+            format!(
+                "{}\n{}\n",
+                rows[..3].join("\n"),
+                rows[3].replace(",3,3,3,3,3", ",3,3")
+            ),
+            "line 4: 22 fields, the header has 25",
+        ),
+        (
+            good.clone() + &fourth + "\n" + &fourth + "\n",
+            "line 6: column `trial` is `4`, but trial 5",
+        ),
+        (format!("{good}{}", "\u{fffd}"), "neither a whole row"),
+    ] {
+        std::fs::write(&path, &text).unwrap();
+        let e = match read_trials(&path, &p.columns, &plan, &expect(&p)) {
+            Ok(t) => panic!("{needle}: accepted {t:?}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains(needle), "{needle}: {e}");
+        assert!(!e.contains('\n'), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            text,
+            "left as it was"
+        );
+    }
+    // More rows than trials.
+    let one = design::plan(&p, 7)[..1].to_vec();
+    std::fs::write(&path, file(&p, &plan, 2)).unwrap();
+    let e = read_trials(&path, &p.columns, &one, &expect(&p)).unwrap_err();
+    assert!(
+        e.to_string().contains("the session has only 1 trials"),
+        "{e}"
+    );
+    // Larger than the session could have written: refused before reading.
+    std::fs::write(
+        &path,
+        good + &"x".repeat(p.columns.max_row_bytes() * 2) + "\n",
+    )
+    .unwrap();
+    let e = read_trials(&path, &p.columns, &one, &expect(&p)).unwrap_err();
+    assert!(e.to_string().contains("larger than"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_fifo_or_device_is_refused_at_once() {
+    let (p, plan) = exp1();
+    let d = scratch("fifo");
+    let fifo = d.join("trials.csv");
+    nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
+    let e = read_trials(&fifo, &p.columns, &plan, &expect(&p)).unwrap_err();
+    assert!(e.to_string().contains("FIFO"), "{e}");
+    let e = read_session(&fifo).unwrap_err();
+    assert!(e.to_string().contains("FIFO"), "{e}");
+    let e = read_trials(Path::new("/dev/zero"), &p.columns, &plan, &expect(&p)).unwrap_err();
+    assert!(e.to_string().contains("device node"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn session_json_errors_name_the_field() {
+    let d = scratch("session");
+    let path = d.join("session.json");
+    let (p, plan) = exp1();
+    let s = SessionFile {
+        protocol_name: p.name.clone(),
+        protocol_file: "x".into(),
+        protocol: p.text.clone(),
+        library_file: "y".into(),
+        participant: "P01".into(),
+        seed: 7,
+        question_order: Vec::new(),
+        columns: columns(&p.columns),
+        trials: plan,
+        runs: Vec::new(),
+    };
+    let good = serde_json::to_string_pretty(&s).unwrap();
+    std::fs::write(&path, &good).unwrap();
+    assert_eq!(read_session(&path).unwrap().seed, 7);
+    for (from, to, needle) in [
+        ("\"seed\": 7", "\"seed\": -7", "field `seed`"),
+        ("\"seed\": 7", "\"seed\": 1e400", "field `seed`"),
+        (
+            "\"condition\": ",
+            "\"condition\": -",
+            "field `trials[0].condition`",
+        ),
+    ] {
+        std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
+        let e = read_session(&path).unwrap_err().to_string();
+        assert!(e.contains(needle), "{to}: {e}");
+        assert!(e.contains("session.json"), "{e}");
+    }
+    // The kinds session.json records: factors, answers, the final depth.
+    let kinds: Vec<&str> = s.columns.iter().map(|(_, k)| k.as_str()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "factor", "factor", "likert", "likert", "likert", "likert", "likert"
+        ]
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn csv_lines_quote_what_needs_it_and_read_back() {
+    let f = ["plain", "a,b", "say \"hi\"", "", "1|2"];
+    let l = line(&f);
+    assert_eq!(l, "plain,\"a,b\",\"say \"\"hi\"\"\",,1|2");
+    let mut r = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_reader(l.as_bytes());
+    let back: Vec<String> = r
+        .records()
+        .next()
+        .unwrap()
+        .unwrap()
+        .iter()
+        .map(str::to_owned)
+        .collect();
+    assert_eq!(back, f);
+}
+
+#[test]
+fn the_largest_session_fits_the_bounds() {
+    // 1000 conditions in 10 sets, 32 Likert questions of 9 shuffled items:
+    // every order in session.json as long as a protocol allows.
+    let library = studies("paper-library.toml");
+    let mut text = format!(
+        "name = \"big\"\nlibrary = \"{}\"\nsets = 10\nstimulus = \"lms-5hz-a2\"\n\
+         [timeline]\non_s = 1.0\n",
+        library.display()
+    );
+    for f in ["a", "b", "c"] {
+        let levels: Vec<String> = (0..10).map(|i| format!("\"{i}\"")).collect();
+        text += &format!(
+            "[[factor]]\nname = \"{f}\"\nlevels = [{}]\n",
+            levels.join(", ")
+        );
+    }
+    for q in 0..32 {
+        let items: Vec<String> = (0..9).map(|i| format!("\"item{i}\"")).collect();
+        text += &format!(
+            "[[question]]\nid = \"q{q}\"\nkind = \"likert\"\nitems = [{}]\nshuffle = true\n",
+            items.join(", ")
+        );
+    }
+    let p = Protocol::from_toml(&text, &studies("big.toml")).unwrap();
+    assert_eq!(p.trials(), crate::lab::study::protocol::MAX_TRIALS);
+    let plan = design::plan(&p, 1);
+    let s = SessionFile {
+        protocol_name: p.name.clone(),
+        protocol_file: String::new(),
+        protocol: "x".repeat(1 << 20),
+        library_file: String::new(),
+        participant: "P01".into(),
+        seed: 1,
+        question_order: Vec::new(),
+        columns: columns(&p.columns),
+        trials: plan.clone(),
+        runs: Vec::new(),
+    };
+    let bytes = serde_json::to_vec_pretty(&s).unwrap().len() as u64;
+    assert!(bytes < MAX_SESSION_BYTES / 4, "{bytes} bytes");
+    eprintln!(
+        "largest session.json: {bytes} bytes; a trials.csv row at most {} bytes",
+        p.columns.max_row_bytes()
+    );
+    // trials.csv's bound follows the protocol: here a few kB a row.
+    let row = p.columns.max_row_bytes();
+    assert!((1_000..20_000).contains(&row), "{row} bytes a row");
+    let e = Protocol::from_toml(
+        &text.replace("sets = 10", "sets = 11"),
+        &studies("big.toml"),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("11000 trials; at most 10000"), "{e}");
+}

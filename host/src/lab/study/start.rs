@@ -1,0 +1,194 @@
+//! Starting or resuming a participant's session: every check comes before
+//! anything is written. A resume reads `session.json` and `trials.csv`
+//! through the bounded regular-file reader, checks them against the
+//! protocol and the seed's plan, and only then may the torn tail of
+//! `trials.csv` (provably the start of the next row) be cut; a refused
+//! resume leaves every file as it was.
+
+use std::path::{Path, PathBuf};
+
+use super::answers::Lines;
+use super::design::{self, Planned};
+use super::protocol::Protocol;
+use super::record::{self, Expect, SessionFile, Tail};
+use super::{AnswerSource, RunOptions, trial};
+use crate::error::InputError;
+use crate::files::AppendLog;
+
+/// A participant's files.
+#[derive(Debug, Clone)]
+pub struct Paths {
+    /// `OUT/ID`.
+    pub dir: PathBuf,
+    /// `session.json`.
+    pub session: PathBuf,
+    /// `trials.csv`.
+    pub trials: PathBuf,
+    /// `events.jsonl`.
+    pub events: PathBuf,
+}
+
+impl Paths {
+    /// The files of participant `id` under `out`.
+    pub fn new(out: &Path, id: &str) -> Self {
+        let dir = out.join(id);
+        Self {
+            session: dir.join("session.json"),
+            trials: dir.join("trials.csv"),
+            events: dir.join("events.jsonl"),
+            dir,
+        }
+    }
+}
+
+/// A session checked and ready to (re)start.
+#[derive(Debug)]
+pub struct Start {
+    /// `session.json` as it will be written (this run not yet added).
+    pub file: SessionFile,
+    /// Every trial in order.
+    pub plan: Vec<Planned>,
+    /// Trials already on disk.
+    pub done: usize,
+    /// What follows them in `trials.csv`.
+    pub tail: Tail,
+    /// A responses file, its used answers skipped and the rest dry-run.
+    pub lines: Option<Lines>,
+}
+
+/// Checks a new session of `o` for protocol `p`.
+pub fn fresh(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Start> {
+    if std::fs::read_dir(&paths.dir).is_ok_and(|mut d| d.next().is_some()) {
+        crate::bad_input!(
+            "{} is not empty: give --resume to continue that session, or another --participant / --out",
+            paths.dir.display()
+        );
+    }
+    let seed = o.seed.unwrap_or_else(design::clock_seed);
+    let plan = design::plan(p, seed);
+    let lines = answers(o, p, &plan, 0)?;
+    let file = SessionFile {
+        protocol_name: p.name.clone(),
+        protocol_file: o.protocol.display().to_string(),
+        protocol: p.text.clone(),
+        library_file: p.library_path.display().to_string(),
+        participant: o.participant.clone(),
+        seed,
+        question_order: p.questions.iter().map(|q| q.id.clone()).collect(),
+        columns: record::columns(&p.columns),
+        trials: plan.clone(),
+        runs: Vec::new(),
+    };
+    Ok(Start {
+        file,
+        plan,
+        done: 0,
+        tail: Tail::NoHeader,
+        lines,
+    })
+}
+
+/// Checks the session of `o` on disk for `--resume`.
+pub fn resume(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Start> {
+    let refused = |e: InputError| InputError::new(format!("--resume: {e}; nothing was changed"));
+    if std::fs::symlink_metadata(&paths.session).is_err() {
+        crate::bad_input!(
+            "--resume: {} does not exist: nothing to resume (run without --resume{})",
+            paths.session.display(),
+            if std::fs::read_dir(&paths.dir).is_ok_and(|mut d| d.next().is_some()) {
+                format!(" after removing {}", paths.dir.display())
+            } else {
+                String::new()
+            }
+        );
+    }
+    let f = record::read_session(&paths.session).map_err(refused)?;
+    let session = paths.session.display();
+    if f.protocol != p.text {
+        crate::bad_input!(
+            "--resume: {session} was written for another protocol (`{}`); {} differs",
+            f.protocol_name,
+            o.protocol.display()
+        );
+    }
+    if f.participant != o.participant {
+        crate::bad_input!(
+            "--resume: {session} belongs to participant `{}`, not `{}`",
+            f.participant,
+            o.participant
+        );
+    }
+    if let Some(s) = o.seed
+        && s != f.seed
+    {
+        crate::bad_input!(
+            "--resume: the session's seed is {}, not --seed {s} (leave --seed out)",
+            f.seed
+        );
+    }
+    let plan = design::plan(p, f.seed);
+    if plan != f.trials {
+        crate::bad_input!("--resume: {session}'s trial order does not follow from its seed");
+    }
+    let expect = Expect {
+        participant: &o.participant,
+        factors: &p.factors,
+        conditions: &p.conditions,
+        questions: &p.questions,
+    };
+    let trials = record::read_trials(&paths.trials, &p.columns, &plan, &expect).map_err(refused)?;
+    // The event log is appended to: a FIFO or device there would block.
+    if std::fs::symlink_metadata(&paths.events).is_ok() {
+        crate::files::check_input("event log", &paths.events).map_err(refused)?;
+    }
+    let done = trials.rows.len();
+    let lines = answers(o, p, &plan[done..], trials.answers_used(&p.columns))?;
+    Ok(Start {
+        file: f,
+        plan,
+        done,
+        tail: trials.tail,
+        lines,
+    })
+}
+
+/// The responses file of `o`, `skip` answers used, dry-run over `rest`.
+fn answers(
+    o: &RunOptions,
+    p: &Protocol,
+    rest: &[Planned],
+    skip: usize,
+) -> anyhow::Result<Option<Lines>> {
+    let AnswerSource::File(path) = &o.answers else {
+        return Ok(None);
+    };
+    let mut l = Lines::open(path)?;
+    l.skip(skip)?;
+    trial::dry_run(p, rest, &mut l.clone())?;
+    Ok(Some(l))
+}
+
+impl Start {
+    /// Opens `trials.csv` to append, after [`resume`]'s checks: a torn row
+    /// is cut, a file without a whole header starts again with it.
+    pub fn open_trials(&self, p: &Protocol, path: &Path) -> anyhow::Result<AppendLog> {
+        let mut log = match self.tail {
+            Tail::NoHeader => AppendLog::create(path)?,
+            Tail::Clean | Tail::TornRow => AppendLog::open(path)?.0,
+        };
+        if self.tail == Tail::NoHeader {
+            log.line(&record::line(&p.columns.names()))?;
+            log.sync()?;
+        }
+        Ok(log)
+    }
+
+    /// Opens `events.jsonl`: appended to on resume, new otherwise.
+    pub fn open_events(&self, resume: bool, path: &Path) -> anyhow::Result<AppendLog> {
+        Ok(if resume {
+            AppendLog::open(path)?.0
+        } else {
+            AppendLog::create(path)?
+        })
+    }
+}

@@ -1,0 +1,287 @@
+//! The host crates: one build of every test and the binary (linted as it
+//! compiles), then the test binaries run side by side.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use crate::ctx::Ctx;
+use crate::proc::{Log, run};
+
+/// One test executable cargo built.
+#[derive(Debug, Clone)]
+struct TestBin {
+    /// `package/target` for the summary.
+    name: String,
+    /// The executable.
+    exe: PathBuf,
+    /// Its package's directory: cargo runs tests there.
+    dir: PathBuf,
+    /// Its package's name (`CARGO_PKG_NAME` at run time).
+    package: String,
+}
+
+/// Test binaries that take longest, started first so they do not end the
+/// run alone (names as in the summary; the rest keep cargo's order).
+const SLOW_FIRST: &[&str] = &[
+    "lm-e2e/qemu",
+    "lm-e2e/hostile",
+    "lm-e2e/session_cli",
+    "lm-e2e/study",
+    "lm-e2e/autd3_cli",
+    "lm-e2e/track_cli",
+    "lmhost/lmhost",
+];
+
+/// How many test binaries run at once: most of their time is spent
+/// waiting on devices, pipes and child processes, not on a core.
+const JOBS: usize = 4;
+
+/// `cargo test --no-run --all-targets` for the default members (every test,
+/// bench and example, linted as it compiles) and the `lmhost` binary, and
+/// the list of test executables for [`test`]; the binary is copied where
+/// the tests find it (`LMHOST_BIN`).
+pub fn build(c: &Ctx, log: &Log) -> Result<(), String> {
+    let list = c.ci_dir().join("tests.json");
+    let out = std::fs::File::create(&list)
+        .map_err(|e| format!("cannot create {}: {e}", list.display()))?;
+    run(
+        log,
+        c.cargo(&[
+            "test",
+            "--no-run",
+            "--all-targets",
+            "--message-format=json-render-diagnostics",
+        ])
+        .stdout(Stdio::from(out)),
+    )?;
+    run(log, c.cargo(&["build", "-p", "lmhost-cli"]))?;
+    let bin = c.lmhost_for_tests();
+    std::fs::copy(c.lmhost(), &bin)
+        .map_err(|e| format!("cannot copy the lmhost binary to {}: {e}", bin.display()))?;
+    let bins = test_bins(&list)?;
+    log.line(format!("{} test executables", bins.len()));
+    Ok(())
+}
+
+/// The test executables in cargo's JSON messages (benches are built for
+/// the lints, not run: criterion times them with `cargo bench`).
+fn test_bins(list: &Path) -> Result<Vec<TestBin>, String> {
+    let text = std::fs::read_to_string(list)
+        .map_err(|e| format!("cannot read {}: {e}", list.display()))?;
+    let mut v = Vec::new();
+    for line in text.lines() {
+        let Ok(m) = serde_json::from_str::<serde_json::Value>(line) else {
+            continue;
+        };
+        if m["reason"] != "compiler-artifact" || m["profile"]["test"] != true {
+            continue;
+        }
+        let Some(exe) = m["executable"].as_str() else {
+            continue;
+        };
+        let kinds: Vec<&str> = m["target"]["kind"]
+            .as_array()
+            .map(|k| k.iter().filter_map(|s| s.as_str()).collect())
+            .unwrap_or_default();
+        if kinds.contains(&"bench") {
+            continue;
+        }
+        let manifest = PathBuf::from(m["manifest_path"].as_str().unwrap_or_default());
+        let package = m["package_id"]
+            .as_str()
+            .and_then(package_name)
+            .unwrap_or_default();
+        let target = m["target"]["name"].as_str().unwrap_or_default();
+        v.push(TestBin {
+            name: format!("{package}/{target}"),
+            exe: PathBuf::from(exe),
+            dir: manifest.parent().map(Path::to_path_buf).unwrap_or_default(),
+            package,
+        });
+    }
+    if v.is_empty() {
+        return Err(format!("{} lists no test executable", list.display()));
+    }
+    Ok(v)
+}
+
+/// The package name in a cargo package id (`path+file:///…/tests#lm-e2e@0.1.0`
+/// or `registry+…#name@version`).
+fn package_name(id: &str) -> Option<String> {
+    let (path, after) = id.rsplit_once('#')?;
+    match after.split_once('@') {
+        Some((name, _)) => Some(name.to_string()),
+        // No explicit name: the package is named as its directory.
+        None => path.rsplit('/').next().map(str::to_string),
+    }
+}
+
+/// (summary name, executable, package directory) of every test
+/// executable the host build listed.
+pub fn test_executables(c: &Ctx) -> Result<Vec<(String, PathBuf, PathBuf)>, String> {
+    Ok(test_bins(&c.ci_dir().join("tests.json"))?
+        .into_iter()
+        .map(|b| (b.name, b.exe, b.dir))
+        .collect())
+}
+
+/// What one test executable did.
+struct Outcome {
+    name: String,
+    ok: bool,
+    passed: u64,
+    failed: u64,
+    took: Duration,
+    output: String,
+}
+
+/// Runs every test executable [`build`] listed, [`JOBS`] at a time, each
+/// as `cargo test` would (in its package's directory, with cargo's
+/// variables), then the doc tests; prints each executable's output whole
+/// as it ends and one summary line.
+pub fn test(c: &Ctx, log: &Log) -> Result<(), String> {
+    let mut bins = test_bins(&c.ci_dir().join("tests.json"))?;
+    bins.sort_by_key(|b| {
+        SLOW_FIRST
+            .iter()
+            .position(|s| *s == b.name)
+            .unwrap_or(SLOW_FIRST.len())
+    });
+    let queue = Arc::new(Mutex::new(
+        bins.into_iter().collect::<std::collections::VecDeque<_>>(),
+    ));
+    let results = Arc::new(Mutex::new(Vec::<Outcome>::new()));
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let env: Vec<(&str, std::ffi::OsString)> = vec![
+        ("CARGO", cargo),
+        ("LMHOST_BIN", c.lmhost_for_tests().into_os_string()),
+        ("LM_FW_QEMU_ELF", c.firmware_elf().into_os_string()),
+        ("CARGO_TARGET_DIR", c.target_dir.clone().into_os_string()),
+    ];
+    std::thread::scope(|s| {
+        for _ in 0..JOBS {
+            let (queue, results, env) = (queue.clone(), results.clone(), &env);
+            s.spawn(move || {
+                loop {
+                    let Some(b) = queue.lock().unwrap_or_else(|e| e.into_inner()).pop_front()
+                    else {
+                        break;
+                    };
+                    let o = run_bin(&b, env);
+                    log.line(format!(
+                        "---- {} ({:.1} s) ----\n{}",
+                        o.name,
+                        o.took.as_secs_f64(),
+                        o.output.trim_end()
+                    ));
+                    results.lock().unwrap_or_else(|e| e.into_inner()).push(o);
+                }
+            });
+        }
+    });
+    let results = std::mem::take(&mut *results.lock().unwrap_or_else(|e| e.into_inner()));
+    // Doc tests are compiled by rustdoc at run time, so they go through cargo.
+    let doc = run(log, c.cargo(&["test", "--doc"]));
+    let (passed, failed): (u64, u64) = results
+        .iter()
+        .fold((0, 0), |(p, f), o| (p + o.passed, f + o.failed));
+    let bad: Vec<&str> = results
+        .iter()
+        .filter(|o| !o.ok)
+        .map(|o| o.name.as_str())
+        .collect();
+    let mut times: BTreeMap<u64, &str> = BTreeMap::new();
+    for o in &results {
+        times.insert(o.took.as_millis() as u64, o.name.as_str());
+    }
+    let slowest: Vec<String> = times
+        .iter()
+        .rev()
+        .take(3)
+        .map(|(ms, n)| format!("{n} {:.0} s", *ms as f64 / 1000.0))
+        .collect();
+    log.line(format!(
+        "host tests: {passed} passed, {failed} failed in {} executables (slowest: {}), doc tests {}",
+        results.len(),
+        slowest.join(", "),
+        if doc.is_ok() { "passed" } else { "FAILED" }
+    ));
+    if !bad.is_empty() {
+        return Err(format!("failing test executables: {}", bad.join(", ")));
+    }
+    doc
+}
+
+/// Runs one test executable to its end, capturing what it prints.
+fn run_bin(b: &TestBin, env: &[(&str, std::ffi::OsString)]) -> Outcome {
+    let t0 = Instant::now();
+    let mut cmd = Command::new(&b.exe);
+    cmd.current_dir(&b.dir)
+        .env("CARGO_MANIFEST_DIR", &b.dir)
+        .env("CARGO_PKG_NAME", &b.package)
+        .stdin(Stdio::null());
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let (ok, output) = match cmd.output() {
+        Ok(o) => {
+            let mut s = String::from_utf8_lossy(&o.stdout).into_owned();
+            s.push_str(&String::from_utf8_lossy(&o.stderr));
+            (o.status.success(), s)
+        }
+        Err(e) => (false, format!("cannot start {}: {e}", b.exe.display())),
+    };
+    let (mut passed, mut failed) = (0, 0);
+    for l in output.lines().filter(|l| l.starts_with("test result:")) {
+        passed += count(l, "passed").unwrap_or(0);
+        failed += count(l, "failed").unwrap_or(0);
+    }
+    Outcome {
+        name: b.name.clone(),
+        ok,
+        passed,
+        failed,
+        took: t0.elapsed(),
+        output,
+    }
+}
+
+/// `N key` in a `test result:` line.
+fn count(line: &str, key: &str) -> Option<u64> {
+    let words: Vec<&str> = line
+        .split(|ch: char| ch == ';' || ch == '.' || ch.is_whitespace())
+        .filter(|w| !w.is_empty())
+        .collect();
+    words
+        .windows(2)
+        .find(|w| w[1] == key)
+        .and_then(|w| w[0].parse().ok())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_come_from_the_result_line() {
+        let l = "test result: ok. 218 passed; 3 failed; 1 ignored; 0 measured; 0 filtered out; finished in 22.25s";
+        assert_eq!(count(l, "passed"), Some(218));
+        assert_eq!(count(l, "failed"), Some(3));
+        assert_eq!(count(l, "ignored"), Some(1));
+    }
+
+    #[test]
+    fn package_names_come_from_ids() {
+        assert_eq!(
+            package_name("path+file:///work/main/tests#lm-e2e@0.1.0").as_deref(),
+            Some("lm-e2e")
+        );
+        assert_eq!(
+            package_name("path+file:///work/main/host#0.1.0").as_deref(),
+            Some("host")
+        );
+    }
+}
