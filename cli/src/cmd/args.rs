@@ -100,3 +100,12 @@ pub fn centroid_feed(
         on_thread(move || source::read_lines(reader))?
     }))
 }
+
+/// `--view ADDR`: a port (on 127.0.0.1, local only) or HOST:PORT.
+pub fn view_addr(s: &str) -> Result<std::net::SocketAddr, String> {
+    if let Ok(port) = s.parse::<u16>() {
+        return Ok(std::net::SocketAddr::from(([127, 0, 0, 1], port)));
+    }
+    s.parse()
+        .map_err(|_| format!("`{s}` is neither a port nor HOST:PORT (e.g. 8000 or 127.0.0.1:8000)"))
+}

@@ -127,6 +127,9 @@ pub struct RunOptions {
     pub time_scale: f64,
     /// Continue an interrupted run.
     pub resume: bool,
+    /// Serve the live view here (its participant's page answers unless
+    /// answers come from a file).
+    pub view: Option<std::net::SocketAddr>,
 }
 
 /// What a run did.
@@ -224,18 +227,23 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             crate::errln!("warning: {w}");
         }
     }
-    let answers: Box<dyn Answers> = match st.lines.take() {
-        Some(l) => Box::new(l),
-        None if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
-            Box::new(answers::Terminal::open()?)
-        }
-        None => Box::new(answers::Piped::open()?),
-    };
     let first = st.done + 1;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene)
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+    let view = match o.view {
+        Some(addr) => Some(start_view(addr, &session, &o.finger)?),
+        None => None,
+    };
+    let answers: Box<dyn Answers> = match (st.lines.take(), &view) {
+        (Some(l), _) => Box::new(l),
+        (None, Some(v)) => Box::new(v.answers()),
+        (None, None) if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
+            Box::new(answers::Terminal::open()?)
+        }
+        (None, None) => Box::new(answers::Piped::open()?),
+    };
     st.file.runs.push(Run {
         started_unix_s: unix_s(),
         first_trial: first,
@@ -281,6 +289,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         scale: o.time_scale,
         trial_events: Vec::new(),
         all_events: Vec::new(),
+        view,
     };
     let mut report = RunReport {
         dir: paths.dir.clone(),
@@ -345,6 +354,34 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     }
     logged?;
     Ok(report)
+}
+
+/// Starts the live view of `session` at `addr` and prints its pages: the
+/// synthetic finger is rendered in colour; tracked centroids bring no
+/// colour stream, so their view shows the overlay without video.
+fn start_view(
+    addr: std::net::SocketAddr,
+    session: &Session,
+    finger: &FingerSource,
+) -> anyhow::Result<crate::lab::view::View> {
+    use crate::lab::view;
+    let v = view::View::start(view::Options {
+        addr,
+        scene: session.scene().clone(),
+        colour: view::default_colour(),
+        frames: match finger {
+            FingerSource::Synthetic => view::Frames::Synthetic,
+            _ => view::Frames::Pushed,
+        },
+        stimuli: view::stimuli(session.loaded()),
+    })?;
+    crate::errln!(
+        "lmhost: view on {}: experimenter {} ; participant {}",
+        v.addr(),
+        v.experimenter_url(),
+        v.participant_url()
+    );
+    Ok(v)
 }
 
 /// Runs trials `first..` of `plan`, each row on disk before the next.
@@ -427,6 +464,7 @@ struct Runner {
     scale: f64,
     trial_events: Vec<Event>,
     all_events: Vec<Event>,
+    view: Option<crate::lab::view::View>,
 }
 
 impl Runner {
@@ -437,6 +475,9 @@ impl Runner {
     }
 
     fn log_events(&mut self, events: Vec<Event>) -> anyhow::Result<()> {
+        if let Some(v) = &self.view {
+            v.events(&events);
+        }
         for e in events {
             self.events.line(&serde_json::to_string(&e)?)?;
             if let EventKind::Finger { present } = e.kind {
@@ -482,6 +523,9 @@ impl Runner {
             if now >= self.next_feed_us {
                 self.next_feed_us = now + FINGER_PERIOD_US;
                 self.session().finger(Some(c))?;
+                if let Some(v) = &self.view {
+                    v.finger(Some(c));
+                }
             }
         }
         if let Some((feed, filter)) = &mut self.samples {
@@ -502,6 +546,9 @@ impl Runner {
             // Only the newest sample matters to the device.
             if let Some(p) = last {
                 self.session().finger(p)?;
+                if let Some(v) = &self.view {
+                    v.finger(p);
+                }
             }
         }
         self.session().poll()?;
@@ -518,6 +565,9 @@ impl Runner {
             self.tick()
         } else {
             self.session().finger(None)?;
+            if let Some(v) = &self.view {
+                v.finger(None);
+            }
             self.drain()
         }
     }
