@@ -1,4 +1,4 @@
-//! Links with cortex-m-rt's `link.x` and this board's map (the mps2-an386
+//! Links with cortex-m-rt's `link.x` and this board's map (the mps2-an500
 //! one in `memory.x`), independent of the linker's cwd.
 //!
 //! `link.x` does `INCLUDE memory.x`; the one `memory.x` the linker can find

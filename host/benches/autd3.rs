@@ -1,8 +1,9 @@
 //! AUTD3 backend timing on autd3's firmware emulator (in-process, real
-//! clock): LM-M uploads at A = 3 and 6 mm into the idle segment, and one
+//! clock): LM-M uploads at A = 3 and 6 mm into the idle segment, one
 //! centroid update (lm-fw-core offsets → PhaseCorrection → applied in the
-//! emulated FPGA, acknowledged). The frame count per upload is printed
-//! for the EtherCAT estimate in BENCHMARKS.md.
+//! emulated FPGA, acknowledged), and a start from silence (stop, then play
+//! the other segment untracked). The frame count per upload and per start
+//! is printed for the EtherCAT estimate in BENCHMARKS.md.
 //!
 //! `cargo bench -p lmhost --bench autd3`
 
@@ -18,7 +19,7 @@ use lmhost::plan::trajectory::LmParams;
 
 fn emulator(c: &mut Criterion) {
     let scene = Scene::default();
-    let (mut b, _h) = Autd3Backend::open_emulator(&scene, Clock::real(), None).expect("emulator");
+    let (mut b, h) = Autd3Backend::open_emulator(&scene, Clock::real(), None).expect("emulator");
     let mut g = c.benchmark_group("autd3 emulator");
     g.sample_size(20);
     for a in [3.0, 6.0] {
@@ -64,6 +65,26 @@ fn emulator(c: &mut Criterion) {
             })
         },
     );
+    // A start from silence in the other segment: what an onset costs.
+    b.stop().expect("stop");
+    let f0 = h.frames();
+    b.play(0, true).expect("play");
+    b.stop().expect("stop");
+    let f1 = h.frames();
+    b.play(1, true).expect("play");
+    eprintln!(
+        "start from silence: {} frames (segment and correction, output and lease); stop: {} frame",
+        h.frames() - f1,
+        f1 - f0 - (h.frames() - f1)
+    );
+    let mut slot = 0;
+    g.bench_function("stop + play from silence in the other segment", |bch| {
+        bch.iter(|| {
+            slot ^= 1;
+            b.stop().expect("stop");
+            b.play(slot, true).expect("play")
+        })
+    });
     g.finish();
 }
 

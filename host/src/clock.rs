@@ -1,6 +1,6 @@
 //! The clock the host and the simulated device share ([`monotonic_us`],
 //! [`Clock`]: the real one or a manual one tests move), and the bounded
-//! statistics measured against it (latency rings, percentiles).
+//! statistics measured against it (latency rings, the one percentile).
 //!
 //! Time is microseconds of `CLOCK_MONOTONIC`, which every process on the
 //! machine shares, so a host's `Centroid::host_time_us` stamps can be
@@ -101,15 +101,31 @@ pub fn push_ring(ring: &mut VecDeque<u64>, v: u64) {
     ring.push_back(v);
 }
 
-/// The `p`-th percentile (0–100) of `values`, nearest rank.
+/// Quantile `q` (0–1) of sorted `v` by linear interpolation between the
+/// two nearest ranks (numpy's and R's default, type 7): the one
+/// definition every percentile, median and quartile in lmhost uses. NaN
+/// when `v` is empty.
+pub fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let x = q.clamp(0.0, 1.0) * (v.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x - x.floor());
+    match v.get(i + 1) {
+        Some(next) => v[i] + f * (next - v[i]),
+        None => v[i],
+    }
+}
+
+/// The `p`-th percentile (0–100) of `values` ([`quantile`]), rounded to
+/// the nearest integer; `None` when there are none.
 pub fn percentile(values: impl IntoIterator<Item = u64>, p: f64) -> Option<u64> {
-    let mut v: Vec<u64> = values.into_iter().collect();
+    let mut v: Vec<f64> = values.into_iter().map(|x| x as f64).collect();
     if v.is_empty() {
         return None;
     }
-    v.sort_unstable();
-    let rank = ((p / 100.0) * v.len() as f64).ceil().max(1.0) as usize;
-    Some(v[rank.min(v.len()) - 1])
+    v.sort_by(f64::total_cmp);
+    Some(quantile(&v, p / 100.0).round() as u64)
 }
 
 #[cfg(test)]
@@ -117,11 +133,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn percentile_by_nearest_rank() {
+    fn one_percentile_interpolates_like_numpy() {
+        // numpy.percentile([1, 2, 3, 4, 5], [50, 100, 25, 90]).
         assert_eq!(percentile([5, 1, 4, 2, 3], 50.0), Some(3));
         assert_eq!(percentile([5, 1, 4, 2, 3], 100.0), Some(5));
+        assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.25), 2.0);
+        assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0], 0.5), 2.5);
+        assert!((quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.9) - 4.6).abs() < 1e-12);
         assert_eq!(percentile((1..=100).rev(), 99.0), Some(99));
+        assert_eq!(percentile([10, 20], 50.0), Some(15));
         assert_eq!(percentile([], 99.0), None);
+        assert!(quantile(&[], 0.5).is_nan());
     }
 
     #[test]

@@ -15,7 +15,7 @@
 //! | [`device`] | backends, the LM link, AUTD3, the simulated device, upload | `plan`, base |
 //! | [`field`] | acoustic field simulation and figures | `plan`, base |
 //! | [`plan`] | scene, trajectory, synthesis, sequence, stimulus, library | base |
-//! | base | [`units`], [`geom`], [`clock`], [`limits`], [`files`], [`npy`], [`out`], [`stop`], [`rng`], [`error`], [`pdf`] | base only |
+//! | base | [`units`], [`geom`], [`clock`], [`limits`], [`files`], [`npy`], [`out`](mod@out), [`stop`], [`rng`], [`error`], [`pdf`] | base only |
 //!
 //! `python3 xtask/module_cycles.py` enforces the order (a CI step).
 #![warn(missing_docs)]

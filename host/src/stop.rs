@@ -1,12 +1,14 @@
-//! The one stop flag: what SIGINT (Ctrl-C) and SIGTERM do.
+//! The one stop flag: what the ending signals ([`SIGNALS`]: SIGINT
+//! (Ctrl-C), SIGTERM, SIGHUP (the terminal closed), SIGQUIT (Ctrl-\) and
+//! SIGUSR1) do.
 //!
-//! `main` calls [`install`] before any command runs. From then on a signal
-//! does one of two things:
+//! `main` calls [`install`] before any command runs. From then on any of
+//! them does one of two things:
 //!
 //! - in a command that polls the flag (it called [`graceful`]: `stream`,
-//!   `track`, `demo`, `upload --hold`), it sets the flag; the command's loop
-//!   ends, the device is muted, recordings are finished and the report is
-//!   printed;
+//!   `track`, `demo`, `upload --hold`, `session`, `study`), it sets the
+//!   flag; the command's loop ends, the device is muted, recordings are
+//!   finished and the report is printed;
 //! - in any other command, it removes the temporary files of the outputs
 //!   still being written ([`crate::files::Output`]) and exits at once with
 //!   128 + the signal number, as the default action would have, so no
@@ -24,7 +26,15 @@ const MAX_TEMPS: usize = 256;
 static TEMPS: [AtomicPtr<c_char>; MAX_TEMPS] =
     [const { AtomicPtr::new(std::ptr::null_mut()) }; MAX_TEMPS];
 
-/// Whether a stop (Ctrl-C, SIGTERM) was requested.
+/// The signals that end a command. Each one's default action would end the
+/// process at once (SIGQUIT with a core dump), leaving an array that a
+/// session or a hold loop plays sounding: all of them go through the flag.
+pub const SIGNALS: [nix::sys::signal::Signal; 5] = {
+    use nix::sys::signal::Signal::*;
+    [SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGUSR1]
+};
+
+/// Whether a stop (one of [`SIGNALS`]) was requested.
 pub fn requested() -> bool {
     STOP.load(Ordering::SeqCst)
 }
@@ -66,15 +76,15 @@ extern "C" fn on_signal(sig: libc::c_int) {
     unsafe { libc::_exit(128 + sig) };
 }
 
-/// Install the SIGINT and SIGTERM handler (once, from `main`).
+/// Install the handler of [`SIGNALS`] (once, from `main`).
 pub fn install() -> anyhow::Result<()> {
-    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, Signal, sigaction};
+    use nix::sys::signal::{SaFlags, SigAction, SigHandler, SigSet, sigaction};
     let act = SigAction::new(
         SigHandler::Handler(on_signal),
         SaFlags::empty(),
         SigSet::empty(),
     );
-    for sig in [Signal::SIGINT, Signal::SIGTERM] {
+    for sig in SIGNALS {
         // SAFETY: the handler does only async-signal-safe work (atomics,
         // unlink, _exit); no other handler for these signals exists.
         unsafe { sigaction(sig, &act) }

@@ -99,6 +99,8 @@ layout! {
         FLAGS = 2..3,
         /// Steps to play before stopping (0 = until `Stop`), u32.
         STEPS = 3..7,
+        /// Host lease, ms (`LEASE_MS`), u16.
+        LEASE_MS = 7..9,
     }
 }
 
@@ -181,5 +183,27 @@ layout! {
         QUEUED_SLOT = 40..41,
         /// `MuteReason`, u8.
         MUTE_REASON = 41..42,
+        /// Host lease of the play session, ms (0 = none yet), u16.
+        LEASE_MS = 42..44,
+        /// Plays stopped because their host lease expired, u32.
+        LEASE_EXPIRIES = 44..48,
+    }
+}
+
+layout! {
+    /// `SelfTestResult`.
+    pub mod self_test {
+        /// `SelfTest` outcome: 0 unsupported, 1 passed, 2 failed, u8.
+        OUTCOME = 0..1,
+        /// Bytes sent and read back, u32.
+        BYTES = 1..5,
+        /// Bytes read back that differ from those sent, u32.
+        MISMATCHES = 5..9,
+        /// Index of the first such byte, u32.
+        FIRST_MISMATCH = 9..13,
+        /// The byte sent there, u8.
+        SENT = 13..14,
+        /// The byte read back there, u8.
+        GOT = 14..15,
     }
 }

@@ -40,13 +40,13 @@ pub use frame::{
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
     BeginRig, BeginUpload, Centroid, Chunk, ClockSource, Commit, DeviceState, Geometry, Info,
-    Message, MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, Status,
-    rig_crc32,
+    Message, MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, SelfTest,
+    Status, rig_crc32,
 };
 pub use nack::NackCode;
 
 /// Protocol version carried in every frame header.
-pub const PROTOCOL_VERSION: u8 = 4;
+pub const PROTOCOL_VERSION: u8 = 5;
 /// Carrier frequency of the transducers, Hz (the wavenumber of a slot is
 /// 2π · `CARRIER_HZ` / its speed of sound).
 pub const CARRIER_HZ: u32 = 40_000;
@@ -84,6 +84,15 @@ pub const SOUND_SPEED_MM_S: core::ops::RangeInclusive<u32> = 100_000..=2_000_000
 /// 1 µm ..= 100 mm around the planned centre; others are `OutOfRange`.
 pub const MAX_OFFSET_UM: core::ops::RangeInclusive<u32> = 1..=100_000;
 
+/// `Play::lease_ms` a device accepts: 100 ms ..= 60 s; others (0
+/// included: there is no "forever") are refused with `OutOfRange`. A play
+/// ends within its lease of the last request the device accepted (SPEC
+/// section 3, the host lease).
+pub const LEASE_MS: core::ops::RangeInclusive<u16> = 100..=60_000;
+
+/// The lease hosts ask for unless told otherwise, ms (1 s).
+pub const DEFAULT_LEASE_MS: u16 = 1000;
+
 /// Payload length of each fixed-size message, and the fixed heads of the
 /// variable ones (SPEC section 3): the end of the last of its [`field`]s.
 pub mod len {
@@ -109,6 +118,8 @@ pub mod len {
     pub const INFO: usize = field::info::LEN;
     /// `Status`.
     pub const STATUS: usize = field::status::LEN;
+    /// `SelfTestResult`.
+    pub const SELF_TEST_RESULT: usize = field::self_test::LEN;
 }
 
 /// Exact-byte test vectors (`proto/vectors/frames.txt`), format described

@@ -35,6 +35,10 @@ wire_enum! {
         BeginRig = 0x0A,
         /// Finish the rig upload, check the positions' CRC.
         CommitRig = 0x0B,
+        /// Renew the host lease of what plays (nothing else).
+        Renew = 0x0C,
+        /// Run the output's self-test; answered by `SelfTestResult`.
+        SelfTest = 0x0D,
         /// Request done.
         Ack = 0x80,
         /// Request refused, with a code.
@@ -43,6 +47,8 @@ wire_enum! {
         Info = 0x82,
         /// Device status.
         Status = 0x83,
+        /// Outcome of a `SelfTest`.
+        SelfTestResult = 0x84,
     }
 }
 
@@ -290,7 +296,7 @@ pub struct Play {
     pub at: PlayAt,
     /// Play without tracking (flags bit 0, [`PLAY_FLAG_UNTRACKED`]): the
     /// output is not gated by centroids and no correction is applied; it
-    /// sounds until `Stop`. Off by default.
+    /// sounds until `Stop` (or the lease ends). Off by default.
     pub untracked: bool,
     /// Steps to play, counted from the slot's start (from the takeover for
     /// a queued `NextCycle` play), after which the device stops by itself
@@ -298,6 +304,11 @@ pub struct Play {
     /// then shows `Stopped` with `cycles × N + step == steps`. 0 = play
     /// until `Stop`.
     pub steps: u32,
+    /// Host lease, ms, within [`LEASE_MS`](crate::LEASE_MS) (else
+    /// `OutOfRange`): the device stops the play, as `Stop` does, once this
+    /// long has passed without a request it accepted (every accepted
+    /// request renews it; `Renew` does nothing else).
+    pub lease_ms: u16,
 }
 
 /// `Play` flags bit: play without tracking.
@@ -369,7 +380,40 @@ wire_enum! {
         CentroidOutOfRange = 4 => "centroid out of range",
         /// 5: stopped by `Stop`, or by itself after a `Play`'s `steps`.
         Stopped = 5 => "stopped",
+        /// 6: stopped by the device because no request came from the host
+        /// within the play's lease (`Play::lease_ms`).
+        LeaseExpired = 6 => "host lease expired",
     }
+}
+
+/// What an output self-test found (`SelfTestResult`): on the boards, an
+/// SPI loopback (MOSI jumpered to MISO, chip select inactive) of a known
+/// pattern.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case", tag = "outcome"))]
+pub enum SelfTest {
+    /// 0: the board has no self-test.
+    Unsupported,
+    /// 1: every byte came back as sent.
+    Passed {
+        /// Bytes sent and read back.
+        bytes: u32,
+    },
+    /// 2: some bytes came back different (no jumper, a broken line).
+    Failed {
+        /// Bytes sent and read back.
+        bytes: u32,
+        /// Bytes read back that differ from those sent.
+        mismatches: u32,
+        /// Index of the first of them.
+        first_mismatch: u32,
+        /// The byte sent there.
+        sent: u8,
+        /// The byte read back there.
+        got: u8,
+    },
 }
 
 /// Device status (response to `GetStatus`). The default is a device fresh
@@ -405,6 +449,10 @@ pub struct Status {
     pub queued_slot: Option<u8>,
     /// Why the output is silent ([`MuteReason::None`] while it sounds).
     pub mute_reason: MuteReason,
+    /// Host lease of the play session (its last `Play`), ms; 0 before any.
+    pub lease_ms: u16,
+    /// Plays the device stopped because their lease expired, since reset.
+    pub lease_expiries: u32,
 }
 
 /// One protocol message, borrowing bulk bytes (chunk data, positions) from
@@ -436,6 +484,10 @@ pub enum Message<'a> {
     BeginRig(BeginRig),
     /// Finish a rig upload.
     CommitRig,
+    /// Renew the host lease.
+    Renew,
+    /// Run the output's self-test.
+    SelfTest,
     /// Request done.
     Ack,
     /// Request refused.
@@ -444,6 +496,8 @@ pub enum Message<'a> {
     Info(Info),
     /// Device status.
     Status(Status),
+    /// Outcome of a self-test.
+    SelfTestResult(SelfTest),
 }
 
 /// Output of payload emission: a plain buffer or the frame encoder.
@@ -567,17 +621,26 @@ impl<'a> Message<'a> {
             Self::GetStatus => MessageType::GetStatus,
             Self::BeginRig(_) => MessageType::BeginRig,
             Self::CommitRig => MessageType::CommitRig,
+            Self::Renew => MessageType::Renew,
+            Self::SelfTest => MessageType::SelfTest,
             Self::Ack => MessageType::Ack,
             Self::Nack(_) => MessageType::Nack,
             Self::Info(_) => MessageType::Info,
             Self::Status(_) => MessageType::Status,
+            Self::SelfTestResult(_) => MessageType::SelfTestResult,
         }
     }
 
     /// Payload length on the wire (before framing).
     pub fn payload_len(&self) -> usize {
         match self {
-            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack | Self::CommitRig => 0,
+            Self::GetInfo
+            | Self::Stop
+            | Self::GetStatus
+            | Self::Ack
+            | Self::CommitRig
+            | Self::Renew
+            | Self::SelfTest => 0,
             Self::BeginRig(_) => field::begin_rig::LEN,
             Self::BeginUpload(_) => field::begin_upload::LEN,
             Self::Geometry(g) => field::geometry::LEN + POSITION_LEN * g.positions.len(),
@@ -588,6 +651,7 @@ impl<'a> Message<'a> {
             Self::Nack(_) => field::nack::LEN,
             Self::Info(_) => field::info::LEN,
             Self::Status(_) => field::status::LEN,
+            Self::SelfTestResult(_) => field::self_test::LEN,
         }
     }
 
@@ -622,7 +686,13 @@ impl<'a> Message<'a> {
     pub(crate) fn emit(&self, s: &mut impl Sink) -> Result<(), EncodeError> {
         self.check()?;
         match self {
-            Self::GetInfo | Self::Stop | Self::GetStatus | Self::Ack | Self::CommitRig => Ok(()),
+            Self::GetInfo
+            | Self::Stop
+            | Self::GetStatus
+            | Self::Ack
+            | Self::CommitRig
+            | Self::Renew
+            | Self::SelfTest => Ok(()),
             Self::BeginRig(r) => {
                 use field::begin_rig as f;
                 let mut p = [0; f::LEN];
@@ -682,6 +752,7 @@ impl<'a> Message<'a> {
                 let flags = if q.untracked { PLAY_FLAG_UNTRACKED } else { 0 };
                 set(&mut p, f::FLAGS, &[flags]);
                 set(&mut p, f::STEPS, &q.steps.to_le_bytes());
+                set(&mut p, f::LEASE_MS, &q.lease_ms.to_le_bytes());
                 s.put(&p)
             }
             Self::Centroid(c) => {
@@ -739,6 +810,30 @@ impl<'a> Message<'a> {
                 set(&mut p, f::CORRECTION_UM, &xyz_le(&st.correction_um));
                 set(&mut p, f::QUEUED_SLOT, &[st.queued_slot.unwrap_or(NO_SLOT)]);
                 set(&mut p, f::MUTE_REASON, &[st.mute_reason.to_u8()]);
+                set(&mut p, f::LEASE_MS, &st.lease_ms.to_le_bytes());
+                set(&mut p, f::LEASE_EXPIRIES, &st.lease_expiries.to_le_bytes());
+                s.put(&p)
+            }
+            Self::SelfTestResult(t) => {
+                use field::self_test as f;
+                let mut p = [0; f::LEN];
+                let (outcome, bytes, mismatches, first, sent, got) = match *t {
+                    SelfTest::Unsupported => (0u8, 0, 0, 0, 0, 0),
+                    SelfTest::Passed { bytes } => (1, bytes, 0, 0, 0, 0),
+                    SelfTest::Failed {
+                        bytes,
+                        mismatches,
+                        first_mismatch,
+                        sent,
+                        got,
+                    } => (2, bytes, mismatches, first_mismatch, sent, got),
+                };
+                set(&mut p, f::OUTCOME, &[outcome]);
+                set(&mut p, f::BYTES, &bytes.to_le_bytes());
+                set(&mut p, f::MISMATCHES, &mismatches.to_le_bytes());
+                set(&mut p, f::FIRST_MISMATCH, &first.to_le_bytes());
+                set(&mut p, f::SENT, &[sent]);
+                set(&mut p, f::GOT, &[got]);
                 s.put(&p)
             }
         }
@@ -757,6 +852,8 @@ impl<'a> Message<'a> {
             MessageType::GetStatus => Fields::exact(payload, 0).map(|_| Self::GetStatus)?,
             MessageType::Ack => Fields::exact(payload, 0).map(|_| Self::Ack)?,
             MessageType::CommitRig => Fields::exact(payload, 0).map(|_| Self::CommitRig)?,
+            MessageType::Renew => Fields::exact(payload, 0).map(|_| Self::Renew)?,
+            MessageType::SelfTest => Fields::exact(payload, 0).map(|_| Self::SelfTest)?,
             MessageType::BeginRig => {
                 use field::begin_rig as f;
                 let p = Fields::exact(payload, f::LEN)?;
@@ -830,6 +927,7 @@ impl<'a> Message<'a> {
                         _ => return Err("unknown play flag bits"),
                     },
                     steps: p.u32(f::STEPS)?,
+                    lease_ms: p.u16(f::LEASE_MS)?,
                 })
             }
             MessageType::Centroid => {
@@ -882,6 +980,32 @@ impl<'a> Message<'a> {
                     queued_slot: p.slot(f::QUEUED_SLOT)?,
                     mute_reason: MuteReason::from_u8(p.u8(f::MUTE_REASON)?)
                         .ok_or("unknown mute reason")?,
+                    lease_ms: p.u16(f::LEASE_MS)?,
+                    lease_expiries: p.u32(f::LEASE_EXPIRIES)?,
+                })
+            }
+            MessageType::SelfTestResult => {
+                use field::self_test as f;
+                let p = Fields::exact(payload, f::LEN)?;
+                let bytes = p.u32(f::BYTES)?;
+                let rest = (
+                    p.u32(f::MISMATCHES)?,
+                    p.u32(f::FIRST_MISMATCH)?,
+                    p.u8(f::SENT)?,
+                    p.u8(f::GOT)?,
+                );
+                Self::SelfTestResult(match p.u8(f::OUTCOME)? {
+                    0 if bytes == 0 && rest == (0, 0, 0, 0) => SelfTest::Unsupported,
+                    1 if rest == (0, 0, 0, 0) => SelfTest::Passed { bytes },
+                    2 => SelfTest::Failed {
+                        bytes,
+                        mismatches: rest.0,
+                        first_mismatch: rest.1,
+                        sent: rest.2,
+                        got: rest.3,
+                    },
+                    0 | 1 => return Err("self-test field set that its outcome does not have"),
+                    _ => return Err("unknown self-test outcome"),
                 })
             }
         })

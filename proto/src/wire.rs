@@ -249,7 +249,8 @@ mod tests {
             len::NACK,
             len::INFO,
             len::STATUS,
+            len::SELF_TEST_RESULT,
         ];
-        assert_eq!(got, [4, 40, 6, 2, 5, 5, 7, 25, 1, 32, 42]);
+        assert_eq!(got, [4, 40, 6, 2, 5, 5, 9, 25, 1, 32, 48, 15]);
     }
 }

@@ -36,6 +36,8 @@ fn samples() -> Vec<(u16, Owned)> {
                 correction_um: [5, -5, 0],
                 queued_slot: Some(0),
                 mute_reason: MuteReason::TrackingStale,
+                lease_ms: 1000,
+                lease_expiries: 3,
             })),
         ),
         (

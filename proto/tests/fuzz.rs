@@ -34,7 +34,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             rng.next_u64() as i32,
         ]
     };
-    let m = match rng.below(15) {
+    let m = match rng.below(18) {
         0 => Message::GetInfo,
         1 => Message::Stop,
         2 => Message::GetStatus,
@@ -57,6 +57,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             } else {
                 rng.next_u64() as u32
             },
+            lease_ms: rng.next_u64() as u16,
         }),
         7 => Message::Centroid(Centroid {
             seq: rng.next_u64() as u32,
@@ -99,6 +100,21 @@ fn random_message(rng: &mut Rng) -> Owned {
             crc32: rng.next_u64() as u32,
         }),
         14 => Message::CommitRig,
+        15 => Message::Renew,
+        16 => Message::SelfTest,
+        17 => Message::SelfTestResult(match rng.below(3) {
+            0 => SelfTest::Unsupported,
+            1 => SelfTest::Passed {
+                bytes: rng.next_u64() as u32,
+            },
+            _ => SelfTest::Failed {
+                bytes: rng.next_u64() as u32,
+                mismatches: rng.next_u64() as u32,
+                first_mismatch: rng.next_u64() as u32,
+                sent: rng.byte(),
+                got: rng.byte(),
+            },
+        }),
         10 => Message::Status(Status {
             state: [
                 DeviceState::Idle,
@@ -124,7 +140,9 @@ fn random_message(rng: &mut Rng) -> Owned {
             } else {
                 Some(rng.below(255) as u8)
             },
-            mute_reason: MuteReason::from_u8(rng.below(6) as u8).unwrap(),
+            mute_reason: MuteReason::from_u8(rng.below(7) as u8).unwrap(),
+            lease_ms: rng.next_u64() as u16,
+            lease_expiries: rng.next_u64() as u32,
         }),
         11 => {
             let n = rng.below(MAX_GEOMETRY_POSITIONS + 1);

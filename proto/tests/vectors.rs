@@ -21,7 +21,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "info" => (
             0,
             Message::Info(Info {
-                proto_version: 4,
+                proto_version: 5,
                 fw_version: [0, 1, 0],
                 max_transducers: 996,
                 slot_bytes: 487_424,
@@ -38,7 +38,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "info_no_rig" => (
             0,
             Message::Info(Info {
-                proto_version: 4,
+                proto_version: 5,
                 fw_version: [1, 2, 3],
                 max_transducers: 249,
                 slot_bytes: 1000,
@@ -150,6 +150,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 at: PlayAt::NextCycle,
                 untracked: false,
                 steps: 0,
+                lease_ms: 1000,
             }),
         ),
         "play_immediate" => (
@@ -159,6 +160,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 at: PlayAt::Immediate,
                 untracked: false,
                 steps: 0,
+                lease_ms: 100,
             }),
         ),
         "play_steps" => (
@@ -168,9 +170,12 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 at: PlayAt::NextCycle,
                 untracked: true,
                 steps: 100_000,
+                lease_ms: 60_000,
             }),
         ),
         "stop" => (11, Message::Stop),
+        "renew" => (29, Message::Renew),
+        "self_test" => (30, Message::SelfTest),
         "centroid" => (
             12,
             Message::Centroid(Centroid {
@@ -205,6 +210,8 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 correction_um: [-1500, 250, -200],
                 queued_slot: Some(0),
                 mute_reason: MuteReason::None,
+                lease_ms: 1000,
+                lease_expiries: 2,
             }),
         ),
         // A device fresh from reset.
@@ -224,6 +231,36 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 correction_um: [0, 0, 0],
                 queued_slot: None,
                 mute_reason: MuteReason::CentroidOutOfRange,
+                lease_ms: 60_000,
+                lease_expiries: 0,
+            }),
+        ),
+        "status_lease_expired" => (
+            16,
+            Message::Status(Status {
+                state: DeviceState::Stopped,
+                slot: Some(4),
+                step: 9,
+                cycles: 12,
+                mute_reason: MuteReason::LeaseExpired,
+                lease_ms: 1000,
+                lease_expiries: u32::MAX,
+                ..Status::default()
+            }),
+        ),
+        "self_test_unsupported" => (30, Message::SelfTestResult(SelfTest::Unsupported)),
+        "self_test_passed" => (
+            30,
+            Message::SelfTestResult(SelfTest::Passed { bytes: 1024 }),
+        ),
+        "self_test_failed" => (
+            30,
+            Message::SelfTestResult(SelfTest::Failed {
+                bytes: 1024,
+                mismatches: 1020,
+                first_mismatch: 3,
+                sent: 0x03,
+                got: 0xFF,
             }),
         ),
         "ack" => (0xBEEF, Message::Ack),
@@ -397,4 +434,33 @@ fn unknown_type_vector_maps_to_an_unknown_type_nack() {
         }
     );
     assert_eq!(e.nack(), Some((19, NackCode::UnknownType)));
+}
+
+/// `frames.txt` is exactly what the independent generator writes from the
+/// spec (`python3 vectors/gen_frames.py > vectors/frames.txt`), so neither
+/// is edited alone. Skipped, with a message, without python3.
+#[test]
+fn vector_file_is_what_the_generator_writes() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/vectors");
+    let out = match std::process::Command::new("python3")
+        .arg("gen_frames.py")
+        .current_dir(dir)
+        .output()
+    {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("skipped: python3 cannot run ({e})");
+            return;
+        }
+    };
+    assert!(
+        out.status.success(),
+        "gen_frames.py failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.stdout == TEST_VECTORS.as_bytes(),
+        "vectors/frames.txt differs from what gen_frames.py writes: run \
+         `python3 gen_frames.py > frames.txt` in proto/vectors"
+    );
 }

@@ -4,7 +4,7 @@ spec with Python's own CRC (zlib) and a separate COBS, independent of the
 Rust code that the vectors check. Run: python3 gen_frames.py > frames.txt"""
 import struct, zlib
 
-VERSION = 4
+VERSION = 5
 
 def cobs(data):
     out, block = bytearray(), bytearray()
@@ -59,26 +59,34 @@ def small_begin(slot, enc, enc_len, max_off=20000, rig=None, intensity=255):
     return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), 1, 340000, max_off, rig,
                  intensity)
 
-def play(slot, at, flags, steps=0):
-    """Play: slot, at, flags, steps (u32, 0 = until Stop)."""
-    return bytes([slot, at, flags]) + struct.pack("<I", steps)
+# The host lease (SPEC section 2): Play.lease_ms within 100 ..= 60000.
+DEFAULT_LEASE_MS = 1000
 
-def status(state, slot, step, counters, corr, queued, reason):
+def play(slot, at, flags, steps=0, lease_ms=DEFAULT_LEASE_MS):
+    """Play: slot, at, flags, steps (u32, 0 = until Stop), lease_ms (u16)."""
+    return bytes([slot, at, flags]) + struct.pack("<IH", steps, lease_ms)
+
+def status(state, slot, step, counters, corr, queued, reason, lease_ms=0, expiries=0):
     return (bytes([state, slot]) + struct.pack("<H6I", step, *counters) + xyz(corr)
-            + bytes([queued, reason]))
+            + bytes([queued, reason]) + struct.pack("<HI", lease_ms, expiries))
+
+def self_test(outcome, n=0, mismatches=0, first=0, sent=0, got=0):
+    """SelfTestResult: outcome (0 unsupported, 1 passed, 2 failed), bytes,
+    mismatches, first_mismatch (u32 each), sent, got (u8 each)."""
+    return bytes([outcome]) + struct.pack("<III", n, mismatches, first) + bytes([sent, got])
 
 rec("get_info", 0x01, 0, "GetInfo", b"")
 rec("info", 0x82, 0,
-    "Info proto_version=4 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
+    "Info proto_version=5 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
     "slots=32 timer_hz=1000000 min_dwell_us=100 max_chunk=1024 rig_transducers=996 "
     "rig_crc32=0x89abcdef library_free=300000 clock=Crystal(2)",
-    struct.pack("<B3BHIBIIHHIIB", 4, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
+    struct.pack("<B3BHIBIIHHIIB", 5, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
                 0x89ABCDEF, 300000, 2))
 rec("info_no_rig", 0x82, 0,
-    "Info proto_version=4 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
+    "Info proto_version=5 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
     "slots=32 timer_hz=25000000 min_dwell_us=1000 max_chunk=512 rig_transducers=0 "
     "rig_crc32=0x00000000 library_free=1000 clock=InternalRc(1)",
-    struct.pack("<B3BHIBIIHHIIB", 4, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000, 1))
+    struct.pack("<B3BHIBIIHHIIB", 5, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000, 1))
 rec("begin_upload", 0x02, 1,
     "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
     "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200 "
@@ -103,11 +111,17 @@ rec("chunk_long", 0x04, 6,
     struct.pack("<BI", 1, 0) + bytes((i % 255) + 1 for i in range(300)))
 rec("chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[]", struct.pack("<BI", 0, 0xFFFFFFFF))
 rec("commit", 0x05, 8, "Commit slot=0 crc32=0xcbf43926", struct.pack("<BI", 0, 0xCBF43926))
-rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0) flags=0 steps=0", play(1, 0, 0))
-rec("play_immediate", 0x06, 10, "Play slot=0 at=Immediate(1) flags=0 steps=0", play(0, 1, 0))
-rec("play_steps", 0x06, 28, "Play slot=2 at=NextCycle(0) flags=untracked(1) steps=100000",
-    play(2, 0, 1, 100000))
+rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0) flags=0 steps=0 lease_ms=1000",
+    play(1, 0, 0))
+rec("play_immediate", 0x06, 10,
+    "Play slot=0 at=Immediate(1) flags=0 steps=0 lease_ms=100 (shortest accepted)",
+    play(0, 1, 0, lease_ms=100))
+rec("play_steps", 0x06, 28,
+    "Play slot=2 at=NextCycle(0) flags=untracked(1) steps=100000 lease_ms=60000 (longest accepted)",
+    play(2, 0, 1, 100000, lease_ms=60000))
 rec("stop", 0x07, 11, "Stop", b"")
+rec("renew", 0x0C, 29, "Renew", b"")
+rec("self_test", 0x0D, 30, "SelfTest", b"")
 rec("centroid", 0x08, 12,
     "Centroid seq=42 pos_um=[-1500,30250,29800] present=true host_time_us=1234567890123",
     struct.pack("<I", 42) + xyz((-1500, 30250, 29800)) + b"\x01" + struct.pack("<Q", 1234567890123))
@@ -118,18 +132,29 @@ rec("get_status", 0x09, 14, "GetStatus", b"")
 rec("status", 0x83, 14,
     "Status state=Playing(1) slot=1 step=17 cycles=300 missed_deadlines=0 last_centroid_seq=42 "
     "bad_frames=2 crc_errors=1 nacks=3 correction_um=[-1500,250,-200] queued_slot=0 "
-    "mute_reason=None(0)",
-    status(1, 1, 17, (300, 0, 42, 2, 1, 3), (-1500, 250, -200), 0, 0))
+    "mute_reason=None(0) lease_ms=1000 lease_expiries=2",
+    status(1, 1, 17, (300, 0, 42, 2, 1, 3), (-1500, 250, -200), 0, 0, 1000, 2))
 rec("status_idle", 0x83, 15,
     "Status state=Idle(0) slot=none(0xff) step=0 cycles=0 missed_deadlines=0 last_centroid_seq=0 "
     "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0] queued_slot=none(0xff) "
-    "mute_reason=None(0)",
+    "mute_reason=None(0) lease_ms=0 lease_expiries=0",
     status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0))
 rec("status_muted", 0x83, 15,
     "Status state=Muted(2) slot=0 step=3 cycles=1 missed_deadlines=0 last_centroid_seq=7 "
     "bad_frames=0 crc_errors=0 nacks=1 correction_um=[0,0,0] queued_slot=none(0xff) "
-    "mute_reason=CentroidOutOfRange(4)",
-    status(2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4))
+    "mute_reason=CentroidOutOfRange(4) lease_ms=60000 lease_expiries=0",
+    status(2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4, 60000, 0))
+rec("status_lease_expired", 0x83, 16,
+    "Status state=Stopped(3) slot=4 step=9 cycles=12 missed_deadlines=0 last_centroid_seq=0 "
+    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0] queued_slot=none(0xff) "
+    "mute_reason=LeaseExpired(6) lease_ms=1000 lease_expiries=4294967295",
+    status(3, 4, 9, (12, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6, 1000, 0xFFFFFFFF))
+rec("self_test_unsupported", 0x84, 30, "SelfTestResult outcome=Unsupported(0) (other fields 0)",
+    self_test(0))
+rec("self_test_passed", 0x84, 30, "SelfTestResult outcome=Passed(1) bytes=1024", self_test(1, 1024))
+rec("self_test_failed", 0x84, 30,
+    "SelfTestResult outcome=Failed(2) bytes=1024 mismatches=1020 first_mismatch=3 sent=0x03 got=0xff",
+    self_test(2, 1024, 1020, 3, 0x03, 0xFF))
 rec("ack", 0x80, 0xBEEF, "Ack", b"")
 rec("nack", 0x81, 16, "Nack code=OutOfOrder(8)", bytes([8]))
 rec("nack_library_full", 0x81, 16, "Nack code=LibraryFull(16)", bytes([16]))
@@ -141,18 +166,23 @@ rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version do
 rec("err_crc", 0x80, 18, "Ack with the CRC's lowest bit flipped", b"", crc_xor=1, error="crc")
 rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC", b"",
     error="unknown_type")
-rec("err_bad_version", 0x01, 20, "GetInfo with version 3 (the previous one), valid CRC", b"",
-    version=3,
+rec("err_bad_version", 0x01, 20, "GetInfo with version 4 (the previous one), valid CRC", b"",
+    version=4,
     error="bad_version")
 rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", play(0, 2, 0),
     error="malformed")
 rec("err_malformed_play_flags", 0x06, 21, "Play slot=0 at=0 flags=0x02 (unknown flag bit)",
     play(0, 0, 2), error="malformed")
-rec("err_malformed_play_short", 0x06, 21, "Play with the 2-byte payload of version 1 (needs 7)",
+rec("err_malformed_play_short", 0x06, 21, "Play with the 2-byte payload of version 1 (needs 9)",
     bytes([0, 0]), error="malformed")
 rec("err_malformed_play_no_steps", 0x06, 21,
-    "Play with the 3-byte payload of version 2, without steps (needs 7)",
+    "Play with the 3-byte payload of version 2, without steps (needs 9)",
     bytes([0, 0, 0]), error="malformed")
+rec("err_malformed_play_no_lease", 0x06, 21,
+    "Play with the 7-byte payload of versions 3 and 4, without lease_ms (needs 9)",
+    play(0, 0, 0)[:7], error="malformed")
+rec("err_malformed_renew", 0x0C, 21, "Renew with a 1-byte payload (needs 0)", b"\x00",
+    error="malformed")
 rec("err_malformed_len", 0x05, 22, "Commit with a 4-byte payload (needs 5)", bytes([0, 1, 2, 3]),
     error="malformed")
 rec("err_malformed_bool", 0x08, 23, "Centroid with present=2",
@@ -166,15 +196,24 @@ rec("err_malformed_geometry_v2", 0x03, 24,
     struct.pack("<BH", 0, 0) + xyz((1, 2, 3)), error="malformed")
 rec("err_malformed_commit_rig", 0x0B, 24, "CommitRig with a 1-byte payload (needs 0)", b"\x00",
     error="malformed")
-rec("err_malformed_status_reason", 0x83, 25, "Status with mute_reason=6 (no such reason)",
-    status(2, 0, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6), error="malformed")
+rec("err_malformed_status_reason", 0x83, 25, "Status with mute_reason=7 (no such reason)",
+    status(2, 0, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 7), error="malformed")
+rec("err_malformed_status_v4", 0x83, 25,
+    "Status with the 42-byte payload of version 4, without the lease fields (needs 48)",
+    status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0)[:42], error="malformed")
+rec("err_malformed_self_test_outcome", 0x84, 25, "SelfTestResult with outcome=3 (no such outcome)",
+    self_test(3), error="malformed")
+rec("err_malformed_self_test_fields", 0x84, 25,
+    "SelfTestResult outcome=Passed(1) bytes=1024 with mismatches=1 (passed has none)",
+    self_test(1, 1024, 1), error="malformed")
 raw("err_cobs", "block code 5 but the delimiter comes after 2 data bytes", bytes([0, 5, 1, 2, 0]),
     "cobs")
 raw("err_too_short", "3 decoded bytes", b"\x00" + cobs(bytes([1, 1, 0])) + b"\x00", "too_short")
 
 # Device behaviour (SPEC sections 2, 3): fed in file order, after the records
 # above, to a fresh device (at least 32 slots, 996 transducers,
-# min_dwell_us <= 1000, tracking required: the default, no rig),
+# min_dwell_us <= 1000, tracking required: the default, no rig, no self-test;
+# no time passes, so no lease expires),
 # each request gets the response in its `expect` line.
 SMALL = [1, 2, 3, 4]
 DEV_CRC = rig_crc(DEV_RIG)
@@ -238,8 +277,26 @@ rec("dev_play_slot_31", 0x06, 140,
     play(31, 1, 0), expect="nack NotCommitted")
 rec("dev_play_slot_32", 0x06, 141, "Play slot=32 at=Immediate(1) flags=0 steps=0 (no such entry)",
     play(32, 1, 0), expect="nack BadSlot")
-rec("dev_play_tracked", 0x06, 114, "Play slot=1 at=Immediate(1) flags=0 steps=0", play(1, 1, 0),
+rec("dev_play_lease_zero", 0x06, 142,
+    "Play slot=1 at=Immediate(1) flags=0 steps=0 lease_ms=0 (no lease: out of range)",
+    play(1, 1, 0, lease_ms=0), expect="nack OutOfRange")
+rec("dev_play_lease_long", 0x06, 143,
+    "Play slot=1 at=Immediate(1) flags=0 steps=0 lease_ms=60001 (above 60 s: out of range)",
+    play(1, 1, 0, lease_ms=60001), expect="nack OutOfRange")
+rec("dev_play_lease_short", 0x06, 144,
+    "Play slot=1 at=Immediate(1) flags=0 steps=0 lease_ms=99 (below 100 ms: out of range)",
+    play(1, 1, 0, lease_ms=99), expect="nack OutOfRange")
+rec("dev_status_not_played", 0x09, 145, "GetStatus (the refused plays changed nothing: idle)",
+    b"", expect="status Idle None")
+rec("dev_self_test_idle", 0x0D, 146,
+    "SelfTest while nothing plays (a device without a self-test: unsupported)",
+    b"", expect="self_test Unsupported")
+rec("dev_play_tracked", 0x06, 114,
+    "Play slot=1 at=Immediate(1) flags=0 steps=0 lease_ms=1000", play(1, 1, 0),
     expect="ack")
+rec("dev_renew", 0x0C, 147, "Renew while playing", b"", expect="ack")
+rec("dev_self_test_busy", 0x0D, 148, "SelfTest while a slot plays (refused: Busy)", b"",
+    expect="nack Busy")
 rec("dev_status_waiting", 0x09, 115, "GetStatus (muted: waiting for tracking)", b"",
     expect="status Muted WaitingForTracking")
 rec("dev_centroid_in_range", 0x08, 116,
@@ -262,19 +319,23 @@ rec("dev_centroid_edge", 0x08, 121,
     struct.pack("<I", 1003) + xyz((12000, 16000, 200000)) + b"\x01" + struct.pack("<Q", 0),
     expect="ack")
 rec("dev_status_back", 0x09, 122, "GetStatus (playing again)", b"", expect="status Playing None")
-rec("dev_play_untracked", 0x06, 123, "Play slot=1 at=Immediate(1) flags=untracked(1) steps=0",
-    play(1, 1, 1), expect="ack")
+rec("dev_play_untracked", 0x06, 123,
+    "Play slot=1 at=Immediate(1) flags=untracked(1) steps=0 lease_ms=60000",
+    play(1, 1, 1, lease_ms=60000), expect="ack")
 rec("dev_centroid_absent", 0x08, 124, "Centroid seq=1004 pos_um=[0,0,0] present=false",
     struct.pack("<I", 1004) + xyz((0, 0, 0)) + b"\x00" + struct.pack("<Q", 0), expect="ack")
 rec("dev_status_untracked", 0x09, 125, "GetStatus (untracked: plays without a finger)", b"",
     expect="status Playing None")
 rec("dev_play_steps", 0x06, 128,
-    "Play slot=1 at=Immediate(1) flags=untracked(1) steps=3 (no time passes: still playing)",
+    "Play slot=1 at=Immediate(1) flags=untracked(1) steps=3 lease_ms=1000 "
+    "(no time passes: still playing)",
     play(1, 1, 1, 3), expect="ack")
 rec("dev_status_steps", 0x09, 129, "GetStatus (playing its 3 steps)", b"",
     expect="status Playing None")
 rec("dev_stop", 0x07, 126, "Stop", b"", expect="ack")
 rec("dev_status_stopped", 0x09, 127, "GetStatus (stopped)", b"", expect="status Stopped Stopped")
+rec("dev_renew_stopped", 0x0C, 149, "Renew while nothing plays (acked, changes nothing)", b"",
+    expect="ack")
 
 print("""# lm-proto exact-byte test vectors (generated by gen_frames.py from SPEC.md,
 # independently of the Rust encoder). Records are separated by blank lines;
@@ -289,7 +350,8 @@ print("""# lm-proto exact-byte test vectors (generated by gen_frames.py from SPE
 #            crc | unknown_type | bad_version | malformed | cobs | too_short
 #   expect   device behaviour records only (names dev_*): the response of a
 #            fresh device fed every record in file order: ack |
-#            nack <NackCode> | status <DeviceState> <MuteReason>
+#            nack <NackCode> | status <DeviceState> <MuteReason> |
+#            self_test <outcome> (Unsupported, Passed, Failed)
 """)
 for name, t, seq, fields, decoded, wire, error, expect in records:
     print(f"name {name}")

@@ -234,7 +234,7 @@ class Device:
         """Upload ``plan`` (planned for this device kind) into ``slot``
         (default: a free one), play it unless ``play=False``; returns the
         report ``lmhost upload --json`` prints, the same keys (``hold_s`` is
-        None: an AUTD3 plays while this object holds it, see :meth:`tick`)."""
+        None: what plays lasts while this object holds it, see :meth:`tick`)."""
         report = json.loads(self._d.upload(plan, slot, bool(play), bool(untracked)))
         report["hold_s"] = None
         return report
@@ -253,7 +253,11 @@ class Device:
         return self._d.centroid(float(x), float(y), float(z), bool(present))
 
     def tick(self) -> None:
-        """Keep a host-driven link (AUTD3) going; call it while playing."""
+        """Keep what plays going: an AUTD3's host-driven link (it falls
+        silent one lease, 1 s, after the last renewal), the LM firmware's
+        host lease (it stops by itself a lease after the last request it
+        heard; centroids renew it too). Call it at least every 10 ms while
+        playing."""
         self._d.tick()
 
     def close(self) -> None:
@@ -285,10 +289,14 @@ def find_binary() -> str:
 class Session:
     """A client of ``lmhost session``'s control socket (JSON lines).
 
-    Either connect to a running session (``socket_path=``), or start one:
+    Either connect to a running session (``socket_path=``, or
+    ``tcp_port=`` for one started with ``--tcp``), or start one:
     ``Session(library="studies/paper-library.toml", port="autd3:emulator",
     synthetic=True)`` runs ``lmhost session`` (found by :func:`find_binary`)
     with a private control socket and quits it on :meth:`close`.
+    Over TCP the client first sends the session's token: ``token=``, or
+    read from ``token_file=`` (default: ``SOCKET.token`` beside
+    ``socket_path``, a file only the session's user can read).
     Every command returns the reply dict; a refused one raises ValueError.
     """
 
@@ -301,6 +309,9 @@ class Session:
         synthetic: bool = False,
         args: Sequence[str] = (),
         timeout: float = 30.0,
+        tcp_port: Optional[int] = None,
+        token: Optional[str] = None,
+        token_file: Optional[PathLike] = None,
     ) -> None:
         self._proc: Optional[subprocess.Popen] = None
         self._tmp: Optional[tempfile.TemporaryDirectory] = None
@@ -319,13 +330,26 @@ class Session:
                 cmd += ["--scene", str(scene)]
             if synthetic:
                 cmd.append("--synthetic")
+            if tcp_port is not None:
+                cmd += ["--tcp", str(int(tcp_port))]
             cmd += list(args)
             self._stderr = tempfile.TemporaryFile()
             self._proc = subprocess.Popen(
                 cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=self._stderr
             )
-        self._sock = self._connect(str(socket_path), timeout)
-        self._sock.settimeout(timeout)
+        if tcp_port is None:
+            self._sock = self._connect(str(socket_path), timeout)
+            self._sock.settimeout(timeout)
+        else:
+            if token_file is None and token is None:
+                if socket_path is None:
+                    raise ValueError("Session over TCP needs token=, token_file= or socket_path=")
+                token_file = str(socket_path) + ".token"
+            self._sock = self._connect_tcp(int(tcp_port), timeout)
+            self._sock.settimeout(timeout)
+            if token is None:
+                token = self._read_token(str(token_file), timeout)
+            self.command("auth", token=token)
         self.command("subscribe")
 
     def _connect(self, path: str, timeout: float) -> socket.socket:
@@ -341,6 +365,29 @@ class Session:
                     raise self._died() from None
                 if time.monotonic() > deadline:
                     raise DeviceError(f"no lmhost session answers on {path}") from None
+                time.sleep(0.05)
+
+    def _connect_tcp(self, port: int, timeout: float) -> socket.socket:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                return socket.create_connection(("127.0.0.1", port), timeout=timeout)
+            except OSError:
+                if self._proc is not None and self._proc.poll() is not None:
+                    raise self._died() from None
+                if time.monotonic() > deadline:
+                    raise DeviceError(f"no lmhost session answers on 127.0.0.1:{port}") from None
+                time.sleep(0.05)
+
+    def _read_token(self, path: str, timeout: float) -> str:
+        # A session that is starting writes it before it listens.
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                return Path(path).read_text().strip()
+            except FileNotFoundError:
+                if time.monotonic() > deadline:
+                    raise DeviceError(f"no session token in {path}") from None
                 time.sleep(0.05)
 
     def _died(self) -> Exception:

@@ -3,6 +3,8 @@ same error lines."""
 
 import json
 import math
+import os
+import socket
 import subprocess
 import threading
 import time
@@ -173,6 +175,34 @@ def test_session_by_its_socket_path(lmhost_bin, root, tmp_path):
             s.stop()
             assert s.wait_for("offset")["reason"] == "stop"
         assert proc.poll() is None  # a session it did not start keeps serving
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+def test_session_over_tcp_needs_its_token(lmhost_bin, root, tmp_path):
+    sock = tmp_path / "t.sock"
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    proc = subprocess.Popen([str(lmhost_bin), "session", "--library",
+                             str(root / "studies/paper-library.toml"), "--port", "autd3:emulator",
+                             "--control", str(sock), "--tcp", str(port)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        with lmhost.Session(socket_path=sock, tcp_port=port) as s:
+            assert len(s.library()) == 15
+        assert (os.stat(str(sock) + ".token").st_mode & 0o777) == 0o600
+        # Without the token: one refusal, then the connection is closed.
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as c:
+            c.sendall(b'{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked"}\n')
+            reply = json.loads(c.makefile().readline())
+            assert reply["ok"] is False and "token" in reply["error"]
+            assert c.recv(1) == b""
+        with pytest.raises(ValueError, match="authentication"):
+            lmhost.Session(tcp_port=port, token="0" * 32)
+        with lmhost.Session(socket_path=sock) as s:
+            assert s.status()["state"] != "playing"
     finally:
         proc.terminate()
         proc.wait(timeout=10)

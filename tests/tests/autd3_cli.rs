@@ -175,8 +175,8 @@ fn untracked_upload_plays_at_once_and_no_play_does_not() {
     let v = emulator_json("upload", &["--no-play"]);
     assert_eq!(v["playing"], false);
     assert!(v["mute_reason"].is_null(), "{v}");
-    // --hold is for AUTD3 only: the LM firmware plays on its own.
-    assert!(fails(&["upload", "--port", "/dev/null", "--hold", "1"], 2).contains("--hold"));
+    // --hold is checked before any device is opened, on every backend.
+    assert!(fails(&["upload", "--port", "/dev/null", "--hold", "0"], 2).contains("--hold"));
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 use std::path::PathBuf;
 
 mod link_support;
-use link_support::{Sim, json, ok, run};
+use link_support::{BRIEF_HOLD, Sim, json, ok, run, upload_json};
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lm-consistency-{}-{name}", std::process::id()));
@@ -32,7 +32,7 @@ fn refused(args: &[&str]) -> String {
 #[test]
 fn upload_json_has_the_same_keys_on_both_backends() {
     let sim = Sim::start(&[]);
-    let lm = json(&["upload", "--port", &sim.port, "--json"]);
+    let lm = upload_json(&sim.port, &[]);
     let a = json(&["upload", "--port", "autd3:emulator", "--json"]);
     assert_eq!(keys(&lm), keys(&a), "\nLM {lm}\nAUTD3 {a}");
     for k in [
@@ -72,8 +72,8 @@ fn upload_json_has_the_same_keys_on_both_backends() {
 #[test]
 fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port]);
-    // No stimulus flag: the LM firmware keeps what it plays (slot 0).
+    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
+    // No stimulus flag: the LM firmware plays again what it played (slot 0).
     let v = json(&[
         "stream",
         "--port",
@@ -222,7 +222,7 @@ fn stimulus_files_upload_through_the_same_checks() {
     )
     .unwrap();
     let fj = fj.to_str().unwrap();
-    let v = json(&["upload", "--port", &sim.port, "--foci-file", fj, "--json"]);
+    let v = upload_json(&sim.port, &["--foci-file", fj]);
     assert_eq!(
         (v["steps"].clone(), v["freq_hz"].clone()),
         (8.into(), 5.0.into()),
@@ -252,7 +252,7 @@ fn stimulus_files_upload_through_the_same_checks() {
     )
     .unwrap();
     let pj = pj.to_str().unwrap();
-    let v = json(&["upload", "--port", &sim.port, "--phases", pj, "--json"]);
+    let v = upload_json(&sim.port, &["--phases", pj]);
     assert_eq!(v["steps"], 4);
     let e = refused(&["upload", "--port", "autd3:emulator", "--phases", pj]);
     assert!(e.contains(pj) && e.contains("25 µs grid"), "{e}");

@@ -1,8 +1,10 @@
 //! The firmware under QEMU, driven over its UART with the real protocol:
 //! info, upload (BeginUpload, Geometry, Chunks), commit, play, centroid,
-//! status, stop.
+//! status, stop; and the paper's stimulus library resident. lmhost's
+//! device layer against it (conformance, timed play, session) is
+//! `qemu_device.rs`.
 //!
-//! QEMU runs `mps2-an386` with UART0 on a TCP socket on 127.0.0.1 and
+//! QEMU runs `mps2-an500` with UART0 on a TCP socket on 127.0.0.1 and
 //! `-icount shift=0`, so the player's timer runs on the guest's own
 //! instruction count and the test can demand zero missed deadlines. The
 //! firmware ELF comes from `LM_FW_QEMU_ELF` (set by `cargo xtask ci`, which
@@ -13,8 +15,6 @@
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
-use std::path::{Path, PathBuf};
-use std::process::Child;
 use std::time::{Duration, Instant};
 
 use lmhost::device::backend::Backend;
@@ -28,84 +28,12 @@ use lm_proto::{
 
 mod link_support;
 mod qemu_support;
-use qemu_support::{firmware_elf, free_port, qemu_command, qemu_command_icount, qemu_installed};
+use qemu_support::{
+    Qemu, firmware_elf, free_port, qemu_command, qemu_installed, wait_on_device, within_20_s,
+};
 
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
 const SOUND_SPEED_MM_S: u32 = 340_000;
-
-/// A running QEMU; killed on drop. Its console output goes to a log file
-/// that is printed if the test fails.
-struct Qemu {
-    child: Child,
-    log: PathBuf,
-}
-
-impl Qemu {
-    /// Starts `cmd` (QEMU serving UART0 on `port`), its console output to
-    /// a log file.
-    fn spawn(mut cmd: std::process::Command, port: u16) -> std::io::Result<Qemu> {
-        let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
-        let out = std::fs::File::create(&log)?;
-        let child = cmd.stdout(out.try_clone()?).stderr(out).spawn()?;
-        Ok(Qemu { child, log })
-    }
-
-    fn start(elf: &Path) -> (Qemu, TcpStream) {
-        let port = free_port();
-        let mut q =
-            Qemu::spawn(qemu_command(elf, port, true), port).expect("start qemu-system-arm");
-        let deadline = Instant::now() + Duration::from_secs(20);
-        loop {
-            match TcpStream::connect(("127.0.0.1", port)) {
-                Ok(s) => {
-                    s.set_nodelay(true).unwrap();
-                    return (q, s);
-                }
-                Err(e) if Instant::now() > deadline => {
-                    panic!(
-                        "cannot connect to QEMU's UART on port {port}: {e}\n{}",
-                        q.output()
-                    )
-                }
-                Err(_) => {
-                    if let Ok(Some(st)) = q.child.try_wait() {
-                        panic!("QEMU exited early ({st})\n{}", q.output());
-                    }
-                    std::thread::sleep(Duration::from_millis(50));
-                }
-            }
-        }
-    }
-
-    fn output(&self) -> String {
-        format!(
-            "--- QEMU output ---\n{}",
-            std::fs::read_to_string(&self.log).unwrap_or_default()
-        )
-    }
-}
-
-impl Drop for Qemu {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        if std::thread::panicking() {
-            eprintln!("{}", self.output());
-        }
-    }
-}
-
-/// `connect` retried for 20 s while QEMU starts listening.
-fn within_20_s<T>(mut connect: impl FnMut() -> anyhow::Result<T>) -> anyhow::Result<T> {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    loop {
-        match connect() {
-            Ok(t) => return Ok(t),
-            Err(e) if Instant::now() > deadline => return Err(e),
-            Err(_) => std::thread::sleep(Duration::from_millis(50)),
-        }
-    }
-}
 
 /// Request/response over the socket, matched by sequence number.
 struct Link {
@@ -295,6 +223,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             at: PlayAt::Immediate,
             untracked: false,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         })),
         Reply::Nack(_)
     ));
@@ -370,6 +299,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
             at: PlayAt::Immediate,
             untracked: false,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         })),
         Reply::Nack(NackCode::NotCommitted)
     );
@@ -382,6 +312,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         at: PlayAt::Immediate,
         untracked: false,
         steps: 0,
+        lease_ms: lm_proto::DEFAULT_LEASE_MS,
     }));
     assert_eq!(link.status().state, DeviceState::Muted);
     let mut cseq = 1;
@@ -444,75 +375,6 @@ fn firmware_under_qemu_speaks_the_protocol() {
     assert_eq!(link.status().state, DeviceState::Playing);
     link.ack(&Message::Stop);
     assert_eq!(link.status().state, DeviceState::Stopped);
-}
-
-/// Lets `d` pass on the firmware's own clock: QEMU's virtual time may run
-/// slower than the wall clock, so wait until the player has stepped that
-/// long (it steps while muted too; every wait of the table is while a
-/// slot plays).
-fn wait_on_device(
-    dev: &mut dyn Backend,
-    d: Duration,
-    steps: u64,
-    dwell_us: f64,
-) -> anyhow::Result<()> {
-    let pos = |st: &Status| u64::from(st.cycles) * steps + u64::from(st.step);
-    let start = pos(&dev.status()?);
-    let need = (d.as_secs_f64() * 1e6 / dwell_us).ceil() as u64 + 1;
-    let give_up = Instant::now() + d * 50 + Duration::from_secs(10);
-    loop {
-        std::thread::sleep(Duration::from_millis(5));
-        // (A slot taking over restarts the count: the wait only gets longer.)
-        if pos(&dev.status()?) >= start + need {
-            return Ok(());
-        }
-        anyhow::ensure!(
-            Instant::now() < give_up,
-            "the firmware's player did not advance"
-        );
-    }
-}
-
-/// The device policy's conformance table (`lmhost::device::conformance`), the
-/// same one the simulated device and the AUTD3 emulator pass, against the
-/// firmware under QEMU: a fresh QEMU per scenario.
-#[test]
-fn firmware_under_qemu_conforms_to_the_device_policy() {
-    use lmhost::device::conformance::{Dut, run};
-    use lmhost::plan::scene::Scene;
-    use lmhost::plan::stimulus::Stimulus;
-    use lmhost::plan::target::Target;
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
-        return;
-    }
-    let elf = firmware_elf();
-    let wide = Stimulus::default()
-        .plan_for(&Target::Lm, Scene::default())
-        .unwrap()
-        .plan;
-    let mut narrow = wide.clone();
-    narrow.sequence.set_max_offset_mm(2.0).unwrap();
-    let steps = u64::from(wide.sequence.header.steps);
-    let dwell_us = wide.sequence.dwell_us();
-    let mut held: Vec<Qemu> = Vec::new();
-    let failures = run(
-        &mut || {
-            held.clear();
-            let port = free_port();
-            held.push(Qemu::spawn(qemu_command(&elf, port, false), port)?);
-            let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
-            let dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))?;
-            Ok(Dut {
-                dev,
-                wait: Box::new(move |dev, d| wait_on_device(dev, d, steps, dwell_us)),
-            })
-        },
-        &wide,
-        &narrow,
-    )
-    .unwrap();
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 /// The paper's 15 stimuli (SPEC: LM-S and LM-M at 5 Hz with 0.23 mm steps,
@@ -729,187 +591,4 @@ fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     assert_eq!(st.missed_deadlines, before.missed_deadlines, "{st:?}");
     let e = raw_dev.play(20, true).unwrap_err();
     assert_eq!(e.refusal(), Some(NackCode::NotCommitted), "{e:#}");
-}
-
-/// `lmhost session` against the firmware under QEMU: the paper's library
-/// resident, two switches at the cycle end and a timed on-phase, read from
-/// the session's events; the figures are printed for BENCHMARKS.md (no
-/// timing is asserted: under `-icount` the guest's time is its own).
-#[test]
-fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
-        return;
-    }
-    let elf = firmware_elf();
-    let port = free_port();
-    // `-icount shift=auto`: the guest's clock follows the host's, so what
-    // the device counts and what the host times can be compared (with
-    // `shift=0` a busy guest's second lasts as long as QEMU takes to run
-    // 10^9 instructions).
-    let _qemu = Qemu::spawn(
-        qemu_command_icount(&elf, port, false, "shift=auto,sleep=on"),
-        port,
-    )
-    .expect("start qemu-system-arm");
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(Instant::now() < deadline, "QEMU's UART never listened");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    // QEMU's UART takes one client: the probe above was it until it closed.
-    std::thread::sleep(Duration::from_millis(200));
-    // Three of the paper's stimuli (the whole set preloads in the QEMU
-    // library test above; a loaded machine makes QEMU's UART slow).
-    let library = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("session-lib-{port}.toml"));
-    std::fs::write(
-        &library,
-        "[[stimulus]]\nid = \"lms-5hz-a3\"\n\n[[stimulus]]\nid = \"lmm-5hz-a3\"\nfoci = 4\n\n\
-         [[stimulus]]\nid = \"lms-5hz-a5\"\nradius = 5\n",
-    )
-    .unwrap();
-    let tcp = format!("tcp:127.0.0.1:{port}");
-    let script = [
-        r#"{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked"}"#,
-        r#"{"cmd":"present","stimulus":"lmm-5hz-a3","gate":"untracked"}"#,
-        r#"{"cmd":"present","stimulus":"lms-5hz-a5","gate":"untracked"}"#,
-        r#"{"cmd":"stop"}"#,
-        r#"{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked","on_s":2}"#,
-    ];
-    let mut child = std::process::Command::new(link_support::lmhost())
-        .args([
-            "session",
-            "--library",
-            library.to_str().unwrap(),
-            "--port",
-            &tcp,
-            "--control",
-            "-",
-        ])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let (tx, rx) = std::sync::mpsc::channel::<serde_json::Value>();
-    let stdout = child.stdout.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        use std::io::BufRead as _;
-        for line in std::io::BufReader::new(stdout).lines() {
-            let v: serde_json::Value = serde_json::from_str(&line.unwrap()).unwrap();
-            if tx.send(v).is_err() {
-                break;
-            }
-        }
-    });
-    let mut events = Vec::new();
-    // Commands go in once the library is on the device.
-    let wait_ready = Instant::now() + Duration::from_secs(120);
-    loop {
-        let v = rx
-            .recv_timeout(wait_ready.saturating_duration_since(Instant::now()))
-            .expect("the session never got ready");
-        let ready = v["event"] == "ready";
-        events.push(v);
-        if ready {
-            break;
-        }
-    }
-    {
-        let mut stdin = child.stdin.take().unwrap();
-        for line in script {
-            writeln!(stdin, "{line}").unwrap();
-            // Each stimulus plays a few cycles before the next.
-            std::thread::sleep(Duration::from_millis(700));
-        }
-    }
-    let out = child.wait_with_output().unwrap();
-    reader.join().unwrap();
-    events.extend(rx.try_iter());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    let ready = events.iter().find(|e| e["event"] == "ready").unwrap();
-    assert_eq!(ready["resident"], 3, "{ready}");
-    let switches: Vec<(f64, f64)> = events
-        .iter()
-        .filter(|e| e["event"] == "switch")
-        .map(|e| {
-            let (l, d) = (
-                e["latency_ms"].as_f64().unwrap(),
-                e["detected_ms"].as_f64().unwrap(),
-            );
-            assert!(l <= d, "{e}");
-            (l, d)
-        })
-        .collect();
-    assert_eq!(switches.len(), 2, "{events:?}");
-    let timed = events
-        .iter()
-        .find(|e| e["event"] == "offset" && e["reason"] == "timer")
-        .unwrap();
-    let device = timed["device_presented_s"].as_f64().unwrap();
-    // The firmware timed the on-phase itself: 2 s to half a dwell (5 Hz,
-    // 82 steps: 2.439 ms).
-    assert!(
-        (device - 2.0).abs() <= 0.5 * 200.0 / 82.0 / 1e3 + 1e-9,
-        "{timed}"
-    );
-    println!(
-        "QEMU session: switch (latency, detected) {switches:?} ms (5 Hz: one cycle is 200 ms); 2 s untracked on-phase: device {device} s, host {} s",
-        timed["presented_s"]
-    );
-}
-
-/// `play_for` on the firmware under QEMU: the device counts the steps of a
-/// 5 Hz stimulus on its own timer and stops itself at the boundary, with
-/// no deadline missed; its status shows the count at the limit, frozen.
-#[test]
-fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
-    use lmhost::plan::scene::Scene;
-    use lmhost::plan::stimulus::Stimulus;
-    use lmhost::plan::target::Target;
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
-        return;
-    }
-    let elf = firmware_elf();
-    let port = free_port();
-    let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
-    let mut dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))
-        .unwrap_or_else(|e| panic!("{e:#}"));
-    let plan = Stimulus::default()
-        .plan_for(&Target::Lm, Scene::default())
-        .unwrap()
-        .plan;
-    let h = plan.sequence.header;
-    assert_eq!(h.period_us, 200_000, "a 5 Hz stimulus");
-    let n = u64::from(h.steps);
-    let steps = 2 * h.steps as u32 + 7;
-    let slot = dev.upload(&plan, None).unwrap().slot;
-    dev.play_for(slot, true, steps).unwrap();
-    let count = |st: &Status| u64::from(st.cycles) * n + u64::from(st.step);
-    let give_up = Instant::now() + Duration::from_secs(60);
-    let st = loop {
-        let st = dev.status().unwrap();
-        if st.state == DeviceState::Stopped {
-            break st;
-        }
-        assert_eq!(st.state, DeviceState::Playing, "{st:?}");
-        assert!(count(&st) < u64::from(steps), "{st:?}");
-        assert!(Instant::now() < give_up, "never stopped: {st:?}");
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    assert_eq!(count(&st), u64::from(steps), "{st:?}");
-    assert_eq!(
-        (st.slot, st.queued_slot, st.mute_reason),
-        (Some(slot), None, lm_proto::MuteReason::Stopped)
-    );
-    assert_eq!(st.missed_deadlines, 0);
-    std::thread::sleep(Duration::from_millis(300));
-    let later = dev.status().unwrap();
-    assert_eq!(
-        (later.state, count(&later)),
-        (DeviceState::Stopped, u64::from(steps))
-    );
 }

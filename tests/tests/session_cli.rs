@@ -501,3 +501,85 @@ fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Issue 26: a session playing an untracked presentation on the LM
+/// firmware (which plays on by itself) is ended by `signal` like SIGTERM:
+/// the array is silent afterwards, as `lmhost status` shows.
+fn a_signal_leaves_the_array_silent(signal: &str) {
+    let sim = Sim::start(&[]);
+    let dir = tempdir();
+    let sock = dir.join("lm.sock");
+    let log = dir.join("events.jsonl");
+    let mut child = Command::new(lmhost())
+        .args(["session", "--library", &library(), "--port", &sim.port])
+        .args(["--control", sock.to_str().unwrap()])
+        .args(["--events", log.to_str().unwrap()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        let mut s = connect(&sock);
+        let mut r = BufReader::new(s.try_clone().unwrap());
+        let rep = send(
+            &mut s,
+            &mut r,
+            r#"{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked"}"#,
+        );
+        assert_eq!(rep["ok"], true, "{rep}");
+        let st = send(&mut s, &mut r, r#"{"cmd":"status"}"#);
+        assert_eq!(st["status"]["state"], "playing", "{st}");
+        let st = Command::new("kill")
+            .args([&format!("-{signal}"), &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(st.success());
+        // The connection stays open until the session is gone.
+        let end = Instant::now() + Duration::from_secs(20);
+        while child.try_wait().unwrap().is_none() {
+            assert!(Instant::now() < end, "SIG{signal}: the session did not end");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "SIG{signal}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let status = Command::new(lmhost())
+        .args(["status", "--port", &sim.port, "--json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&status.stdout)
+        .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&status.stderr)));
+    assert!(
+        matches!(v["state"].as_str(), Some("Stopped" | "Idle")),
+        "SIG{signal}: the array plays on: {v}"
+    );
+    let ev = lines(std::fs::read_to_string(&log).unwrap().as_bytes());
+    assert_eq!(ev.last().unwrap()["event"], "closed", "SIG{signal}");
+    assert_eq!(events(&ev, "offset")[0]["reason"], "quit", "SIG{signal}");
+}
+
+#[test]
+fn sighup_leaves_the_array_silent() {
+    a_signal_leaves_the_array_silent("HUP");
+}
+
+#[test]
+fn sigquit_leaves_the_array_silent() {
+    a_signal_leaves_the_array_silent("QUIT");
+}
+
+#[test]
+fn sigusr1_leaves_the_array_silent() {
+    a_signal_leaves_the_array_silent("USR1");
+}
+
+#[test]
+fn sigterm_leaves_the_array_silent() {
+    a_signal_leaves_the_array_silent("TERM");
+}

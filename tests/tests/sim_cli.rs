@@ -1,8 +1,8 @@
 //! The real `lmhost` binary against `lmhost sim`: info, status, upload,
-//! play, stop, and the errors a user meets.
+//! play, stop, selftest, and the errors a user meets.
 
 mod link_support;
-use link_support::{Sim, json, ok, run, upload_json};
+use link_support::{BRIEF_HOLD, Sim, json, ok, run, upload_json};
 
 #[test]
 fn info_reports_device_limits() {
@@ -24,21 +24,42 @@ fn upload_commits_plays_and_switches_slots() {
     assert_eq!(up["steps"], 82, "{up}");
     assert_eq!(up["slot"], 0);
     assert_eq!(up["playing"], true);
-    let st = json(&["status", "--port", p, "--json"]);
     // The firmware mutes until the first centroid arrives.
-    assert_eq!(st["state"], "Muted", "{st}");
-    assert_eq!(st["slot"], 0);
-    // A second upload goes to the other slot and leaves slot 0 playing.
+    assert_eq!(up["state"], "Muted", "{up}");
+    // The upload held it briefly, then left it silent.
+    let st = json(&["status", "--port", p, "--json"]);
+    assert_eq!(
+        (
+            st["state"].clone(),
+            st["mute_reason"].clone(),
+            st["slot"].clone()
+        ),
+        ("Stopped".into(), "stopped".into(), 0.into()),
+        "{st}"
+    );
+    // A second upload goes to the other slot.
     let up2 = upload_json(p, &["--radius", "2", "--no-play"]);
     assert_eq!(up2["slot"], 1);
-    assert_eq!(json(&["status", "--port", p, "--json"])["slot"], 0);
-    ok(&["play", "--port", p, "--slot", "1", "--immediate"]);
-    assert_eq!(json(&["status", "--port", p, "--json"])["slot"], 1);
+    let text = ok(&[
+        "play",
+        "--port",
+        p,
+        "--slot",
+        "1",
+        "--immediate",
+        "--hold",
+        BRIEF_HOLD,
+    ]);
+    assert_eq!(text.trim(), "playing slot 1");
+    let st = json(&["status", "--port", p, "--json"]);
+    assert_eq!(st["slot"], 1);
+    assert_eq!(st["state"], "Stopped");
     ok(&["stop", "--port", p]);
     let st = json(&["status", "--port", p, "--json"]);
     assert_eq!(st["state"], "Stopped");
     assert_eq!(st["crc_errors"], 0);
     assert_eq!(st["bad_frames"], 0);
+    assert_eq!(st["lease_expiries"], 0, "every host stopped what it played");
 }
 
 #[test]
@@ -68,6 +89,44 @@ fn sequence_too_big_is_refused_before_sending() {
     assert_eq!(
         st["nacks"], 0,
         "nothing was sent, so nothing was refused: {st}"
+    );
+}
+
+/// `lmhost selftest`: one line, exit 0 when the loopback passes, 1 when it
+/// fails or the board has none.
+#[test]
+fn selftest_reports_the_boards_spi_loopback_in_one_line() {
+    let cases = [
+        (
+            &["--loopback", "ok"][..],
+            Some(0),
+            "spi loopback: passed (1024 bytes)",
+        ),
+        (&["--loopback", "broken"], Some(1), "spi loopback: failed: "),
+        (&[], Some(1), "spi loopback: not supported by this board"),
+    ];
+    for (sim_args, code, want) in cases {
+        let sim = Sim::start(sim_args);
+        let out = run(&["selftest", "--port", &sim.port]);
+        assert_eq!(out.status.code(), code, "{sim_args:?}");
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(text.trim().lines().count(), 1, "{text}");
+        assert!(text.contains(want), "{sim_args:?}: {text}");
+        let v = json(&["status", "--port", &sim.port, "--json"]);
+        assert_eq!(v["nacks"], 0, "{v}");
+    }
+    let sim = Sim::start(&["--loopback", "broken"]);
+    let out = run(&["selftest", "--port", &sim.port, "--json"]);
+    assert_eq!(out.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["outcome"], "failed", "{v}");
+    assert_eq!(
+        (v["bytes"].clone(), v["first_mismatch"].clone()),
+        (1024.into(), 0.into())
     );
 }
 
@@ -148,4 +207,43 @@ fn upload_through_a_noisy_link_retries_and_commits() {
         "{st}"
     );
     assert_eq!(st["slot"], 0, "{st}");
+}
+
+/// Issue 30.15: a port's lock dies with its holder. An lmhost killed with
+/// SIGKILL (no destructor runs) must not leave the simulated device's pty
+/// "in use" for the next command, while a live holder still keeps it.
+#[test]
+fn a_port_held_by_a_killed_lmhost_is_free_at_once() {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let sim = Sim::start(&[]);
+    let p = sim.port.as_str();
+    let mut holder = Command::new(link_support::lmhost())
+        .args(["stream", "--port", p, "--synthetic", "--seconds", "600"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the holder");
+    // A guard against hanging, not a timing goal.
+    let give_up = Instant::now() + Duration::from_secs(20);
+    loop {
+        let o = run(&["status", "--port", p]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        if !o.status.success() && err.contains("in use by another process") {
+            assert_eq!(o.status.code(), Some(1), "{err}");
+            break;
+        }
+        assert!(Instant::now() < give_up, "the holder never held {p}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    holder.kill().expect("SIGKILL to the holder");
+    holder.wait().unwrap();
+    let o = run(&["status", "--port", p]);
+    assert!(
+        o.status.success(),
+        "after the holder died: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // And twice in a row: nothing of ours stays behind either.
+    ok(&["status", "--port", p]);
 }

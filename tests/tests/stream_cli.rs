@@ -4,12 +4,12 @@
 use std::process::{Command, Stdio};
 
 mod link_support;
-use link_support::{Sim, json, lmhost, ok, run, stream_stdin, success_json};
+use link_support::{BRIEF_HOLD, Sim, json, lmhost, ok, run, stream_stdin, success_json};
 
 #[test]
 fn stdin_csv_and_json_lines_all_reach_the_device() {
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port]);
+    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
     let mut input = String::from("t,x,y,z,present\n");
     for i in 0..50 {
         input.push_str(&format!("{},0.5,0,200,1\n", i as f64 / 90.0));
@@ -29,30 +29,37 @@ fn a_bad_line_is_a_one_line_input_error() {
     let sim = Sim::start(&[]);
     let out = stream_stdin(&sim.port, &[], "0,0,0,200,1\n0.1,0,0,200,maybe\n");
     assert_eq!(out.status.code(), Some(2));
+    // The device's summary (it plays the default stimulus: nothing had
+    // played), then the one error line.
     let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("line 2") && err.contains("present"), "{err}");
+    let errors: Vec<_> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{err}");
+    assert_eq!(err.lines().last(), errors.first().copied(), "{err}");
+    assert!(
+        errors[0].contains("line 2") && errors[0].contains("present"),
+        "{err}"
+    );
 }
 
+/// Each stream plays the entry the device played last again (a
+/// presentation lasts only while its host holds it) and reports the
+/// device's state at its end.
 #[test]
 fn finger_leaving_mutes_and_returning_resumes() {
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port]);
-    let present = "0,0,0,200,1\n0.011,0,0,200,1\n";
-    stream_stdin(&sim.port, &[], present);
+    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
+    let state = |input: &str| {
+        success_json(&stream_stdin(&sim.port, &["--json"], input))["device_state"].clone()
+    };
+    assert_eq!(state("0,0,0,200,1\n0.011,0,0,200,1\n"), "Playing");
+    assert_eq!(state("0,0,0,200,1\n0.011,0,0,200,0\n"), "Muted");
+    assert_eq!(state("0,0,0,200,0\n0.011,0,0,200,1\n"), "Playing");
+    // Each stream left it silent.
+    let st = json(&["status", "--port", &sim.port, "--json"]);
     assert_eq!(
-        json(&["status", "--port", &sim.port, "--json"])["state"],
-        "Playing"
-    );
-    stream_stdin(&sim.port, &[], "0.022,0,0,200,0\n");
-    assert_eq!(
-        json(&["status", "--port", &sim.port, "--json"])["state"],
-        "Muted"
-    );
-    stream_stdin(&sim.port, &[], "0.033,0,0,200,1\n");
-    assert_eq!(
-        json(&["status", "--port", &sim.port, "--json"])["state"],
-        "Playing"
+        (st["state"].clone(), st["slot"].clone()),
+        ("Stopped".into(), 0.into()),
+        "{st}"
     );
 }
 
@@ -60,27 +67,28 @@ fn finger_leaving_mutes_and_returning_resumes() {
 fn centroids_are_mirrored_through_the_scene_reflector() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml");
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--scene", scene]);
+    ok(&[
+        "upload", "--port", &sim.port, "--scene", scene, "--hold", BRIEF_HOLD,
+    ]);
     // The finger 1 mm along x and 2 mm above the paper's centre (0, 30, 30);
     // the reflector is z = 0, so in drive space that is 2 mm further down.
-    stream_stdin(
+    let out = stream_stdin(
         &sim.port,
-        &["--scene", scene, "--filter", "none"],
+        &["--scene", scene, "--filter", "none", "--json"],
         "0,1,30,32,1\n",
     );
-    std::thread::sleep(std::time::Duration::from_millis(20));
-    let st = json(&["status", "--port", &sim.port, "--json"]);
+    let v = success_json(&out);
     assert_eq!(
-        st["correction_um"],
+        v["device_correction_um"],
         serde_json::json!([1000, 0, -2000]),
-        "{st}"
+        "{v}"
     );
 }
 
 #[test]
 fn udp_datagrams_are_streamed() {
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port]);
+    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
     let port = {
         let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
         probe.local_addr().unwrap().port()
@@ -115,7 +123,7 @@ fn udp_datagrams_are_streamed() {
 #[test]
 fn synthetic_finger_reports_every_filter() {
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port]);
+    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
     let v = json(&[
         "stream",
         "--port",
@@ -140,7 +148,7 @@ fn synthetic_finger_reports_every_filter() {
 #[test]
 fn recorded_file_replays() {
     let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port]);
+    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
     let path = std::env::temp_dir().join(format!("lmhost-track-{}.csv", std::process::id()));
     let text: String = (0..30)
         .map(|i| format!("{},0,0,200,1\n", i as f64 / 90.0))

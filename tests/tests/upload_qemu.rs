@@ -1,5 +1,6 @@
-//! The real `lmhost` binary against the firmware under QEMU (`mps2-an386`,
-//! UART0 on a TCP socket): info, upload, play, stream, status, stop.
+//! The real `lmhost` binary against the firmware under QEMU (`mps2-an500`,
+//! UART0 on a TCP socket): info, upload, play, stream, status, stop; what
+//! lmhost plays lasts while it holds the port.
 //!
 //! The firmware ELF comes from `LM_FW_QEMU_ELF` (set by `cargo xtask ci`);
 //! without it the test builds it for `thumbv7em-none-eabihf` into its own
@@ -66,17 +67,28 @@ fn lmhost_drives_the_firmware_under_qemu() {
     let up = upload_json(p, &["--foci", "4"]);
     assert_eq!(up["steps"], 82, "{up}");
     assert_eq!(up["playing"], true);
-    assert_eq!(json(&["status", "--port", p, "--json"])["state"], "Muted");
-    let out = stream_stdin(p, &[], "0,0.5,0,200,1\n");
+    assert_eq!(up["state"], "Muted", "{up}");
+    // The upload held it briefly and left it silent.
+    assert_eq!(json(&["status", "--port", p, "--json"])["state"], "Stopped");
+    // The stream plays it again, tracked, and leaves it silent too.
+    let out = stream_stdin(p, &["--json"], "0,0.5,0,200,1\n");
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["device_state"], "Playing", "{v}");
+    assert_eq!(v["device_last_seq"], 1, "{v}");
     let st = json(&["status", "--port", p, "--json"]);
-    assert_eq!(st["state"], "Playing", "{st}");
+    assert_eq!(
+        (st["state"].clone(), st["mute_reason"].clone()),
+        ("Stopped".into(), "stopped".into()),
+        "{st}"
+    );
     assert_eq!(st["last_centroid_seq"], 1);
     assert_eq!(st["crc_errors"], 0);
+    assert_eq!(st["lease_ms"], 1000);
     link_support::ok(&["stop", "--port", p]);
     assert_eq!(json(&["status", "--port", p, "--json"])["state"], "Stopped");
 }

@@ -10,8 +10,11 @@ use crate::elf;
 use crate::proc::{Log, run, run_within, show};
 use crate::setup;
 
-/// QEMU machine: Cortex-M4F, CMSDK UART0 at 0x4000_4000, 25 MHz APB timers.
-pub const QEMU_MACHINE: &str = "mps2-an386";
+/// QEMU machine: AN500, a Cortex-M7 with FPv5 as on the STM32H743; the
+/// same map where the image lives as the AN386 (M4F) it replaced: ZBT
+/// SSRAM1 at 0 and SSRAM2&3 at 0x2000_0000 (4 MiB each), CMSDK UART0 at
+/// 0x4000_4000, TIMER0 at 0x4000_0000 on the 25 MHz APB clock.
+pub const QEMU_MACHINE: &str = "mps2-an500";
 /// Wall-clock limit for one QEMU on-target run (it normally takes seconds).
 const QEMU_TIMEOUT: Duration = Duration::from_secs(600);
 

@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use crate::ctx::Ctx;
-use crate::proc::{Log, run};
+use crate::proc::{Log, run, run_to};
 
 /// One test executable cargo built.
 #[derive(Debug, Clone)]
@@ -47,15 +47,15 @@ pub fn build(c: &Ctx, log: &Log) -> Result<(), String> {
     let list = c.ci_dir().join("tests.json");
     let out = std::fs::File::create(&list)
         .map_err(|e| format!("cannot create {}: {e}", list.display()))?;
-    run(
+    run_to(
         log,
-        c.cargo(&[
+        &mut c.cargo(&[
             "test",
             "--no-run",
             "--all-targets",
             "--message-format=json-render-diagnostics",
-        ])
-        .stdout(Stdio::from(out)),
+        ]),
+        out,
     )?;
     run(log, c.cargo(&["build", "-p", "lmhost-cli"]))?;
     let bin = c.lmhost_for_tests();

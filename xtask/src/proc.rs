@@ -55,10 +55,28 @@ pub fn run(log: &Log, mut cmd: impl BorrowMut<Command>) -> Result<(), String> {
     run_within(log, cmd.borrow_mut(), None)
 }
 
+/// [`run`] with its standard output in `out` (the log keeps its errors).
+pub fn run_to(log: &Log, cmd: &mut Command, out: std::fs::File) -> Result<(), String> {
+    spawn_wait(log, cmd, Some(out), None)
+}
+
 /// [`run`] with a wall-clock limit: killed and failed past it.
 pub fn run_within(log: &Log, cmd: &mut Command, limit: Option<Duration>) -> Result<(), String> {
+    spawn_wait(log, cmd, None, limit)
+}
+
+fn spawn_wait(
+    log: &Log,
+    cmd: &mut Command,
+    stdout: Option<std::fs::File>,
+    limit: Option<Duration>,
+) -> Result<(), String> {
     log.line(format!("$ {}", show(cmd)));
-    let (out, err) = log.stdio()?;
+    let (log_out, err) = log.stdio()?;
+    let out: Stdio = match stdout {
+        Some(f) => f.into(),
+        None => log_out,
+    };
     let mut child = cmd
         .stdout(out)
         .stderr(err)

@@ -27,6 +27,30 @@ pub struct PortArgs {
     /// Attempts per request before giving up, 1..=100.
     #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=i64::from(lmhost::limits::MAX_TRIES)))]
     pub tries: u32,
+    /// LM firmware: the host lease, 0.1 to 60 s. What lmhost plays stops
+    /// by itself this long after the device last heard from it (lmhost
+    /// renews it every quarter lease while it holds the port), so the
+    /// array falls silent when lmhost dies.
+    #[arg(long, value_name = "S", default_value = "1", value_parser = lease_ms, allow_negative_numbers = true)]
+    pub lease: u16,
+}
+
+/// `--lease S` as milliseconds, within the device's bounds.
+fn lease_ms(s: &str) -> Result<u16, String> {
+    let (lo, hi) = (*lm_proto::LEASE_MS.start(), *lm_proto::LEASE_MS.end());
+    let bad = || {
+        format!(
+            "{s} is not a lease: {} to {} s (there is no \"forever\")",
+            f64::from(lo) / 1000.0,
+            f64::from(hi) / 1000.0
+        )
+    };
+    let secs: f64 = s.trim().parse().map_err(|_| bad())?;
+    let ms = (secs * 1000.0).round();
+    if !(f64::from(lo)..=f64::from(hi)).contains(&ms) {
+        return Err(bad());
+    }
+    Ok(ms as u16)
 }
 
 impl PortArgs {
@@ -37,6 +61,7 @@ impl PortArgs {
             baud: self.baud,
             timeout_ms: self.timeout_ms,
             tries: self.tries,
+            lease_ms: self.lease,
         }
     }
 }
@@ -54,6 +79,11 @@ pub struct DeviceArgs {
 }
 
 impl DeviceArgs {
+    /// The host lease `--lease` asks for, ms.
+    pub fn lease_ms(&self) -> u16 {
+        self.port.lease
+    }
+
     /// Loads the scene and opens the device ([`lmhost::device::connect::open`]).
     pub fn open(&self) -> anyhow::Result<Box<dyn Backend>> {
         let scene = Scene::load_or_default(self.scene.as_deref())?;

@@ -44,8 +44,8 @@ enum What {
         gauge carrying a 15 mm disk that faces the wave (the paper measured 0.022 N), then:\n\n  \
         lmhost calibrate force --measured 0.022 --scene scenes/paper.toml --write\n\n\
         Every simulated radiation pressure and force is then multiplied by \
-        measured / simulated (amplitudes by its square root); `simulate --calibration K` \
-        replaces the scene's factor for one run."
+        measured / simulated (amplitudes by its square root), a factor that must come out \
+        in 1e-6..=1e6; `simulate --calibration K` replaces the scene's factor for one run."
     )]
     Force(ForceArgs),
 }
@@ -86,7 +86,8 @@ struct CameraArgs {
 
 #[derive(Debug, clap::Args)]
 struct ForceArgs {
-    /// The measured force of the static focus (N).
+    /// The measured force of the static focus (N), 0.0001..=100: a reading
+    /// below a gauge's 0.1 mN resolution is refused.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     measured: f64,
     /// Diameter of the gauge's disk (mm).

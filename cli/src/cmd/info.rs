@@ -51,6 +51,14 @@ pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
             )?;
             lmhost::outln!("minimum dwell:   {} µs", i.min_dwell_us)?;
             lmhost::outln!("largest chunk:   {} bytes", i.max_chunk)?;
+            let lease = q.lease_ms();
+            lmhost::outln!(
+                "host lease:      {} s: what lmhost plays stops by itself this long after the device last heard from it (renewed every {} s while lmhost holds the port; --lease {}-{} s)",
+                f64::from(lease) / 1000.0,
+                f64::from(lease / 4) / 1000.0,
+                f64::from(*lm_proto::LEASE_MS.start()) / 1000.0,
+                f64::from(*lm_proto::LEASE_MS.end()) / 1000.0
+            )?;
             Ok(())
         }),
     }

@@ -18,6 +18,7 @@ pub mod opening;
 pub mod plan;
 pub mod play;
 pub mod scene;
+pub mod selftest;
 pub mod session;
 pub mod sim;
 pub mod simulate;
@@ -57,6 +58,8 @@ pub enum Command {
     Play(play::Args),
     /// Stop playing (mutes at once).
     Stop(stop::Args),
+    /// Run the board's SPI loopback self-test (a jumper from MOSI to MISO).
+    Selftest(selftest::Args),
     /// Simulated device, LM-M upload, streamed finger, short report.
     Demo(demo::Args),
     /// Stream finger centroids to the device.
@@ -99,6 +102,7 @@ impl Command {
             Command::Upload(a) => a.run(),
             Command::Play(a) => a.run(),
             Command::Stop(a) => a.run(),
+            Command::Selftest(a) => a.run(),
             Command::Demo(a) => a.run(),
             Command::Stream(a) => a.run(),
             Command::Flash(a) => a.run(),
@@ -129,6 +133,11 @@ impl QueryArgs {
         let dev = self.device.open()?;
         let where_ = dev.describe();
         Ok((dev, where_))
+    }
+
+    /// The host lease `--lease` asks for, ms.
+    fn lease_ms(&self) -> u16 {
+        self.device.lease_ms()
     }
 
     /// Prints `v` as one line of JSON with `--json`, else with `text`.

@@ -1,4 +1,4 @@
-//! `lmhost play`: play a committed slot.
+//! `lmhost play`: play a committed slot, holding the link while it plays.
 
 use std::time::Duration;
 
@@ -20,13 +20,25 @@ pub struct Args {
     #[arg(long, conflicts_with = "steps")]
     immediate: bool,
     /// Play without tracking: the device sounds without a finger (no
-    /// gating, no correction) until `lmhost stop`.
+    /// gating, no correction) while lmhost holds it.
     #[arg(long)]
     untracked: bool,
+    /// Keep playing this many seconds, then stop [default: until Ctrl-C /
+    /// SIGTERM]. What lmhost plays lasts only while it holds the port:
+    /// the LM firmware stops by itself one host lease (--lease) after
+    /// lmhost exits or dies, an AUTD3 at once.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        conflicts_with = "steps",
+        allow_negative_numbers = true
+    )]
+    hold: Option<f64>,
     /// Play this many steps (1 to 4294967295), then stop: a presentation
     /// of N dwells timed by the device's own clock, not the link's. The LM
-    /// firmware stops itself; on an AUTD3 lmhost holds the link and stops
-    /// it when the devices' clock says the steps have played. From silence
+    /// firmware stops itself (lmhost holds the link, renewing its lease,
+    /// until then); on an AUTD3 lmhost holds the link and stops it when
+    /// the devices' clock says the steps have played. From silence
     /// it starts at once; while another slot plays it takes over at the
     /// end of that cycle and counts from there.
     #[arg(
@@ -41,12 +53,20 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
+        let hold = self
+            .hold
+            .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
+            .transpose()?;
         let mut dev = self.device.open()?;
         let at = if self.immediate {
             PlayAt::Immediate
         } else {
             PlayAt::NextCycle
         };
+        // What plays lasts only while lmhost holds the link (an AUTD3; the
+        // LM firmware by its host lease): Ctrl-C / SIGTERM end the hold
+        // below and leave the array silent.
+        lmhost::stop::graceful();
         match self.steps {
             Some(n) => dev.play_for(self.slot, self.untracked, n)?,
             None => dev.play_at(self.slot, at, self.untracked)?,
@@ -56,18 +76,42 @@ impl Args {
             lmhost::errln!("{UNTRACKED_WARNING}");
         }
         let outcome = play_outcome(self.slot, &st);
+        let where_ = dev.describe();
         let Some(n) = self.steps else {
             lmhost::outln!("{outcome}")?;
-            return Ok(());
+            if !dev.needs_host() {
+                return Ok(());
+            }
+            lmhost::out::flush_stdout()?;
+            lmhost::errln!(
+                "holding {where_} {}; the array is left silent on exit",
+                match hold {
+                    Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
+                    None => "until Ctrl-C or SIGTERM".into(),
+                }
+            );
+            lmhost::device::connect::hold(dev.as_mut(), hold)?;
+            return Ok(dev.stop()?);
         };
-        if !dev.needs_host() {
-            lmhost::outln!("{outcome}, for {n} steps (the device stops itself)")?;
-            return Ok(());
-        }
-        // An AUTD3 plays only while lmhost holds the link, and cannot stop
-        // itself: tick until its clock says the steps have played.
-        lmhost::outln!("{outcome}, for {n} steps (lmhost stops it)")?;
-        lmhost::stop::graceful();
+        // The LM firmware counts the steps and stops itself; an AUTD3 cannot
+        // and lmhost stops it when the devices' clock says they have
+        // played. Either way lmhost holds the link until then.
+        lmhost::outln!(
+            "{outcome}, for {n} steps ({})",
+            if dev.counters_source() == "device" {
+                "the device stops itself"
+            } else {
+                "lmhost stops it"
+            }
+        )?;
+        lmhost::out::flush_stdout()?;
+        // An AUTD3 is stopped by `tick` (on time to a millisecond); the LM
+        // firmware's status goes over the link, so ask it less often.
+        let every = if dev.counters_source() == "device" {
+            Duration::from_millis(20)
+        } else {
+            Duration::from_millis(1)
+        };
         loop {
             if lmhost::stop::requested() {
                 dev.stop()?;
@@ -77,7 +121,7 @@ impl Args {
             if dev.status()?.state == DeviceState::Stopped {
                 break;
             }
-            std::thread::sleep(Duration::from_millis(1));
+            std::thread::sleep(every);
         }
         let st = dev.status()?;
         lmhost::outln!("stopped after cycle {} step {}", st.cycles, st.step)?;

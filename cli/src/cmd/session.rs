@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
+use lmhost::clock::Clock;
 use lmhost::lab::session::Session;
 use lmhost::lab::session::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
 use lmhost::plan::library::Library;
@@ -89,6 +90,50 @@ pub struct Args {
     on_disconnect: Disconnect,
 }
 
+impl Args {
+    /// Opens (and so remembers as inputs) every file the finger source
+    /// will read: the depth recording and its intrinsics and time stamps,
+    /// given or beside it, and a centroid or depth stream file.
+    fn resolve_finger_inputs(&self) -> anyhow::Result<()> {
+        use lmhost::files::open_input;
+        use lmhost::sense::track::source::{intrinsics_beside, timestamps_beside};
+        if let Some(d) = &self.depth {
+            open_input("--depth recording", d)?;
+            match &self.intrinsics {
+                Some(i) => drop(open_input("--intrinsics", i)?),
+                None => {
+                    let i = intrinsics_beside(d);
+                    if !i.exists() {
+                        lmhost::bad_input!(
+                            "--intrinsics is needed (no {} beside the recording)",
+                            i.display()
+                        );
+                    }
+                    open_input("--depth recording's intrinsics", &i)?;
+                }
+            }
+            match &self.timestamps {
+                Some(t) => drop(open_input("--timestamps", t)?),
+                None => {
+                    let t = timestamps_beside(d);
+                    if t.exists() {
+                        open_input("--depth recording's time stamps", &t)?;
+                    }
+                }
+            }
+        }
+        for (what, p) in [
+            ("--stream file", &self.stream),
+            ("--depth-stream file", &self.depth_stream),
+        ] {
+            if let Some(p) = p.as_deref().filter(|p| p.as_os_str() != "-") {
+                open_input(what, p)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 fn default_socket() -> PathBuf {
     match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
         Some(d) => PathBuf::from(d).join("lmhost.sock"),
@@ -120,6 +165,18 @@ impl Args {
         }
         let library = Library::load(&self.library)?;
         let scene = Scene::load_or_default(self.scene.as_deref())?;
+        let tracked = self.depth.is_some() || self.camera || self.depth_stream.is_some();
+        if (self.intrinsics.is_some() || self.timestamps.is_some()) && self.depth.is_none() {
+            lmhost::bad_input!("--intrinsics and --timestamps apply to --depth only");
+        }
+        if tracked && self.scene.is_none() {
+            lmhost::bad_input!(
+                "--scene is needed with --depth, --camera and --depth-stream: its [camera] and [tracking] place the box"
+            );
+        }
+        // Every input, defaults and sidecars included, is known (and
+        // remembered as an input) before any output is created.
+        self.resolve_finger_inputs()?;
         if let Some(e) = &self.events {
             lmhost::files::not_an_input("--events", e)?;
         }
@@ -132,25 +189,10 @@ impl Args {
                 lmhost::errln!("warning: {w}");
             }
         }
-        let tracked = self.depth.is_some() || self.camera || self.depth_stream.is_some();
-        if (self.intrinsics.is_some() || self.timestamps.is_some()) && self.depth.is_none() {
-            lmhost::bad_input!("--intrinsics and --timestamps apply to --depth only");
-        }
-        if tracked && self.scene.is_none() {
-            lmhost::bad_input!(
-                "--scene is needed with --depth, --camera and --depth-stream: its [camera] and [tracking] place the box"
-            );
-        }
-        for p in [&self.depth, &self.intrinsics, &self.timestamps]
-            .into_iter()
-            .flatten()
-        {
-            lmhost::files::check_input("input", p)?;
-        }
         let endpoint = Endpoint::bind(&control)?;
         let dev = lmhost::device::connect::open(&spec, &scene)?;
         let where_ = dev.describe();
-        let session = Session::new(dev, &library, plans, scene)
+        let session = Session::new(dev, &library, plans, scene, Clock::real())
             .map_err(|e| e.context(format!("starting the session on {where_}")))?;
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
@@ -179,18 +221,18 @@ impl Args {
                 leave_frames: 2,
                 device: false,
             };
-            Finger::Samples(on_thread(move || {
+            Finger::Samples(Box::new(on_thread(move || {
                 let it: Box<dyn Iterator<Item = anyhow::Result<lmhost::sense::stream::Sample>>> =
                     match lmhost::sense::track::run::TrackRun::open(opts) {
                         Ok(s) => Box::new(s.samples()),
                         Err(e) => Box::new(std::iter::once(Err(e))),
                     };
                 it
-            })?)
+            })?))
         } else if self.synthetic {
             Finger::Synthetic
         } else if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
-            Finger::Samples(feed)
+            Finger::Samples(Box::new(feed))
         } else {
             Finger::None
         };
@@ -199,8 +241,11 @@ impl Args {
                 "lmhost: session on {where_}: {} stimuli; control socket {}{}",
                 library.entries.len(),
                 unix.display(),
-                tcp.map(|p| format!(" and 127.0.0.1:{p}"))
-                    .unwrap_or_default()
+                tcp.map(|p| format!(
+                    " and 127.0.0.1:{p} (clients send the token in {} first)",
+                    serve::token_path(unix).display()
+                ))
+                .unwrap_or_default()
             );
         }
         let report = serve::serve(
@@ -217,6 +262,12 @@ impl Args {
                 filter: self.filter.build(),
             },
         )?;
+        if report.dropped_clients > 0 {
+            lmhost::errln!(
+                "lmhost: {} clients were disconnected for not reading their replies and events",
+                report.dropped_clients
+            );
+        }
         lmhost::errln!(
             "lmhost: session ended ({}); {} commands, {} events; the array is silent",
             report

@@ -5,7 +5,16 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
 use lmhost::device::link::proxy::Faults;
-use lmhost::device::simdev::{Core as _, FwCore, Pty, ServeOptions, SimConfig, serve};
+use lmhost::device::simdev::{Core as _, FwCore, Loopback, Pty, ServeOptions, SimConfig, serve};
+
+/// The simulated board's SPI loopback jumper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LoopbackArg {
+    /// In place: every byte comes back (the self-test passes).
+    Ok,
+    /// Missing: MISO reads 0xFF (the self-test fails).
+    Broken,
+}
 
 /// Run the simulated device (any serial tool can talk to it).
 #[derive(Debug, clap::Args)]
@@ -29,6 +38,10 @@ pub struct Args {
     /// Seed of the fault generator.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Simulate an SPI loopback jumper for `lmhost selftest` [default:
+    /// none: the self-test is not supported, as on QEMU].
+    #[arg(long, value_enum, value_name = "JUMPER")]
+    loopback: Option<LoopbackArg>,
     /// Stop after this many seconds (at most 86400) [default: serve until
     /// killed].
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
@@ -67,6 +80,10 @@ impl Args {
             slot_steps: self.slot_steps,
             centroid_timeout_us: self.centroid_timeout_ms.saturating_mul(1000),
             require_tracking: !self.no_tracking,
+            loopback: self.loopback.map(|l| match l {
+                LoopbackArg::Ok => Loopback::Ok,
+                LoopbackArg::Broken => Loopback::Broken,
+            }),
             ..SimConfig::default()
         };
         let core = Arc::new(Mutex::new(FwCore::new(cfg)?));

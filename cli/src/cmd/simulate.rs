@@ -66,7 +66,7 @@ pub struct Args {
     disk: f64,
     /// Factor on the simulated radiation pressure (measured / simulated
     /// force), in place of the scene's [calibration] (see `lmhost calibrate
-    /// force`); above 0 and at most 1e6. Every map and force carries it.
+    /// force`); 1e-6..=1e6. Every map and force carries it.
     #[arg(long, value_name = "K", allow_negative_numbers = true)]
     calibration: Option<f64>,
     /// Use the plain f64 loop instead of the fast path (slow; for checking).
@@ -162,12 +162,10 @@ impl Args {
             ..plot::Figure::default()
         };
         fig.check()?;
-        if self.plan.intensity != 1.0 {
-            lmhost::bad_input!(
-                "--intensity {} applies to devices: simulate models full output (its maps scale with the drive amplitude the driver makes of it)",
-                lmhost::limits::show(self.plan.intensity)
-            );
-        }
+        // Refused before any output directory is made.
+        lmhost::field::study::check_full_output(lmhost::plan::stimulus::intensity_byte(
+            self.plan.intensity,
+        )?)?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
         lmhost::files::output_dir("--out", &self.out)?;

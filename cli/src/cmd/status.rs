@@ -19,7 +19,15 @@ pub fn print_status(s: &lm_proto::Status) -> anyhow::Result<()> {
     let queued = s.queued_slot.map_or("none".to_owned(), |s| {
         format!("{s} (takes over at the next cycle boundary)")
     });
-    lmhost::outln!("state:            {:?}", s.state)?;
+    if s.mute_reason == lm_proto::MuteReason::LeaseExpired {
+        lmhost::outln!(
+            "state:            {:?} (stopped: {})",
+            s.state,
+            s.mute_reason.describe()
+        )?;
+    } else {
+        lmhost::outln!("state:            {:?}", s.state)?;
+    }
     lmhost::outln!("mute reason:      {}", s.mute_reason.describe())?;
     lmhost::outln!("slot:             {slot}")?;
     lmhost::outln!("queued slot:      {queued}")?;
@@ -31,5 +39,16 @@ pub fn print_status(s: &lm_proto::Status) -> anyhow::Result<()> {
     lmhost::outln!("bad frames:       {}", s.bad_frames)?;
     lmhost::outln!("CRC errors:       {}", s.crc_errors)?;
     lmhost::outln!("nacks sent:       {}", s.nacks)?;
+    match s.lease_ms {
+        0 => lmhost::outln!(
+            "host lease:       none ({} plays ended by one)",
+            s.lease_expiries
+        )?,
+        ms => lmhost::outln!(
+            "host lease:       {} s ({} plays ended by one since reset)",
+            f64::from(ms) / 1000.0,
+            s.lease_expiries
+        )?,
+    }
     Ok(())
 }

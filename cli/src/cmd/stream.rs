@@ -30,14 +30,18 @@ const FILTER_SCORE_S: f64 = 20.0;
     a bad datagram is skipped and counted; 1000 bad datagrams in a row end the session.\n\n\
     Stopping: Ctrl-C (SIGINT) or SIGTERM ends the session, mutes the device (an update \
     with present = false), prints the report and frees the port for `lmhost stop` / \
-    `lmhost status`. While `stream` runs it holds the port: stop it first.\n\n\
+    `lmhost status`. While `stream` runs it holds the port: stop it first. What it \
+    played stops when it ends (the LM firmware by itself one host lease, --lease, \
+    after lmhost dies).\n\n\
     The stimulus, alike on every backend: with any stimulus flag (--radius, --foci, \
     --spacing, --freq, --step, --steps, --center, --z, --method, --iterations, --weights) \
     that stimulus is planned for the device (on AUTD3's 25 µs dwell grid), uploaded into \
     a free slot and played before streaming, with a one-line summary on stderr. With \
-    none, the LM firmware keeps playing what `lmhost upload` put there and an AUTD3 \
-    (which holds nothing while lmhost is away) plays the default stimulus (LM-S, \
-    A = 3 mm, 5 Hz, 0.23 mm steps). --scene alone only mirrors the centroids."
+    none, the LM firmware plays the entry it plays or played last, tracked (what \
+    `lmhost upload` put there; a presentation lasts only while its host holds it), and \
+    otherwise, like an AUTD3 (which holds nothing while lmhost is away), plays \
+    the default stimulus (LM-S, A = 3 mm, 5 Hz, 0.23 mm steps). --scene alone only \
+    mirrors the centroids."
 )]
 pub struct Args {
     #[command(flatten)]
@@ -224,7 +228,8 @@ impl Args {
                 "last_seq": report.last_seq, "device_last_seq": status.last_centroid_seq,
                 "seconds": report.seconds, "filter": self.filter.name(),
                 "ack_p50_us": p(50.0), "ack_p99_us": p(99.0), "ack_max_us": p(100.0),
-                "device_state": status.state, "filters": scores,
+                "device_state": status.state, "device_correction_um": status.correction_um,
+                "filters": scores,
                 "rejected": report.rejected, "bad_datagrams": bad_datagrams,
                 "outside_work_volume": report.outside_work_volume,
                 "stopped": report.stopped, "muted_at_end": report.muted_at_end,

@@ -19,7 +19,7 @@ pub struct Args {
 #[derive(Debug, Subcommand)]
 enum Sub {
     /// Run (or resume) one participant's session of a protocol.
-    Run(RunArgs),
+    Run(Box<RunArgs>),
     /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG, PDF).
     Report(ReportArgs),
 }
@@ -102,7 +102,7 @@ impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
         match self.cmd {
-            Sub::Run(a) => a.run(),
+            Sub::Run(a) => (*a).run(),
             Sub::Report(a) => a.run(),
         }
     }

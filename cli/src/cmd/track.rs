@@ -26,9 +26,10 @@ use lmhost::sense::track::run::{Device, Options, TrackRun};
     stimulus flag (--radius, --foci, --spacing, --freq, --step, --steps, --center, --z, \
     --method, --iterations, --weights) that stimulus is planned for the device (on AUTD3's \
     25 µs dwell grid), uploaded into a free slot and played before tracking, with a \
-    one-line summary on stderr. With none, the LM firmware keeps playing what \
-    `lmhost upload` put there and an AUTD3 plays the default stimulus (LM-S, A = 3 mm, \
-    5 Hz, 0.23 mm steps). Without --port a stimulus flag cannot apply and is refused. \
+    one-line summary on stderr. With none, the LM firmware plays the entry it plays or \
+    played last (what `lmhost upload` put there), tracked, and otherwise, like \
+    an AUTD3, plays the default stimulus (LM-S, A = 3 mm, 5 Hz, 0.23 mm steps); what \
+    plays stops when tracking ends. Without --port a stimulus flag cannot apply and is refused. \
     With --replan the stimulus's radius and steps are --z-profile's and its depth \
     profile is measured, so --step and --z are refused."
 )]

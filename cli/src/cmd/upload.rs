@@ -6,7 +6,6 @@ use super::args::PortArgs;
 use crate::cmd::plan::PlanArgs;
 use lmhost::device::upload::{Play, UploadOutcome};
 use lmhost::plan::sequence::DEFAULT_MAX_OFFSET_MM;
-use lmhost::plan::target::Target;
 
 /// Sequence encoding on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -72,7 +71,7 @@ pub struct Args {
     #[arg(long)]
     no_play: bool,
     /// Play without tracking: the device sounds without a finger (no
-    /// gating, no correction) until `lmhost stop`.
+    /// gating, no correction) while lmhost holds it.
     #[arg(long, conflicts_with = "no_play")]
     untracked: bool,
     /// Work volume in mm, (0, 100]: the device refuses (and mutes on) a
@@ -87,9 +86,11 @@ pub struct Args {
     /// Wire encoding.
     #[arg(long, value_enum, default_value_t = EncodingArg::Delta)]
     encoding: EncodingArg,
-    /// AUTD3 ports: keep the link and play this many seconds (the array
-    /// plays only while lmhost holds the link) [default: until Ctrl-C /
-    /// SIGTERM on a real rig; exit after the read-back on the emulator].
+    /// Keep the link and play this many seconds, then stop (what lmhost
+    /// plays lasts only while it holds the link: the LM firmware stops by
+    /// itself one host lease, --lease, after lmhost exits or dies; an
+    /// AUTD3 at once) [default: until Ctrl-C / SIGTERM; on the AUTD3
+    /// emulator, exit after the read-back].
     #[arg(
         long,
         value_name = "SECONDS",
@@ -131,7 +132,7 @@ fn freq_given() -> bool {
 
 /// The one-line warning printed when playing untracked.
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
-     with no gating or correction, until `lmhost stop`";
+     with no gating or correction, while lmhost holds it";
 
 /// What a `Play` did, from the status right after it.
 pub fn play_outcome(slot: u8, status: &Status) -> String {
@@ -145,16 +146,12 @@ pub fn play_outcome(slot: u8, status: &Status) -> String {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let target = self.port.spec().device()?.target();
+        let kind = self.port.spec().device()?;
+        let target = kind.target();
         let hold = self
             .hold
             .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
             .transpose()?;
-        if hold.is_some() && target == Target::Lm {
-            lmhost::bad_input!(
-                "--hold applies to AUTD3 ports only (the LM firmware plays on its own)"
-            );
-        }
         let file = match (&self.phases, &self.foci_file) {
             (Some(p), _) => Some((lmhost::plan::stimulus_file::Content::Phases, p)),
             (None, Some(p)) => Some((lmhost::plan::stimulus_file::Content::Foci, p)),
@@ -187,8 +184,7 @@ impl Args {
             self.encoding.into(),
             !self.json,
         )?;
-        let needs_host = dev.needs_host();
-        if needs_host && !self.no_play {
+        if !self.no_play {
             // Ctrl-C / SIGTERM end the hold below; the array is left silent.
             lmhost::stop::graceful();
         }
@@ -198,22 +194,24 @@ impl Args {
             (false, true) => Play::Untracked,
         };
         let o = lmhost::device::upload::upload(dev.as_mut(), &planned, self.slot, play)?;
+        // An AUTD3 always, the LM firmware once it plays (its host lease).
+        let needs_host = dev.needs_host();
         if self.untracked {
             lmhost::errln!("{UNTRACKED_WARNING}");
         }
         let port = o.port.clone();
-        // AUTD3: the array plays only while lmhost holds the link; the
-        // emulator exits at once by default.
+        // The array plays only while lmhost holds the link (the LM firmware
+        // by its host lease); the AUTD3 emulator exits at once by default.
         let hold = match (needs_host && !self.no_play, hold) {
             (false, _) => None,
             (true, Some(d)) => Some(Some(d)),
-            (true, None) if port.starts_with("autd3:emulator") => None,
+            (true, None) if kind.in_process() => None,
             (true, None) => Some(None),
         };
         if self.json {
             let mut v = serde_json::to_value(&o)?;
-            // null on the LM firmware (it plays on its own) and when the
-            // emulator exits at once: the same keys on every backend.
+            // null when holding until a signal, without a play, and when
+            // the emulator exits at once: the same keys on every backend.
             v["hold_s"] = match hold {
                 None => serde_json::Value::Null,
                 Some(d) => d.map(|d| d.as_secs_f64()).into(),
@@ -221,9 +219,6 @@ impl Args {
             lmhost::outln!("{v}")?;
         } else {
             print_text(&o, needs_host)?;
-        }
-        if let Some(n) = o.readback_mismatches.filter(|&n| n > 0) {
-            anyhow::bail!("{port} holds {n} phases that differ from the plan");
         }
         if !needs_host {
             return Ok(());
@@ -370,6 +365,8 @@ mod tests {
             correction_um: [0; 3],
             queued_slot: queued,
             mute_reason: MuteReason::None,
+            lease_ms: 1000,
+            lease_expiries: 0,
         }
     }
 

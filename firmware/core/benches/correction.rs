@@ -110,6 +110,7 @@ fn bench(c: &mut Criterion) {
                 at: PlayAt::Immediate,
                 untracked: false,
                 steps: 0,
+                lease_ms: *lm_proto::LEASE_MS.end(),
             }),
             0
         ),
@@ -124,8 +125,15 @@ fn bench(c: &mut Criterion) {
     assert_eq!(dev.handle(&centroid, 0), Message::Ack);
     dev.set_centroid_timeout_us(u32::MAX);
     let mut now = dev.poll(0, &mut Sink).unwrap();
+    // The host renews its lease now and then, as a host does (timer counts).
+    let renew_every = u64::from(dev.config().timer_hz) * 10;
+    let mut renewed = 0;
     c.bench_function("Device::poll step (996, corrected)", |b| {
         b.iter(|| {
+            if now - renewed >= renew_every {
+                dev.handle(&Message::Renew, now);
+                renewed = now;
+            }
             now = dev.poll(now, &mut Sink).unwrap();
         })
     });

@@ -2,7 +2,7 @@
 //! wired together. Boards and the host simulator drive only this.
 
 use lm_proto::{
-    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Info, MAX_CHUNK,
+    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Info, LEASE_MS, MAX_CHUNK,
     MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status, encode_frame,
 };
 
@@ -11,6 +11,7 @@ use crate::correction::{apply_offsets, compute_offsets, sound_speed_m_s};
 use crate::output::{OutputDriver, OutputFrame};
 use crate::player::{PlayState, Player, Timing};
 use crate::policy::{Policy, Session};
+use crate::status::Mechanics;
 use crate::store::{SLOTS, Store, StoreError};
 
 /// Device configuration, chosen by the board.
@@ -47,9 +48,9 @@ impl Config {
         Self {
             timer_hz,
             fw_version: FW_VERSION,
-            max_transducers: 996,
+            max_transducers: DEFAULT_TRANSDUCERS,
             min_dwell_us: 1000,
-            centroid_timeout_us: 100_000,
+            centroid_timeout_us: DEFAULT_CENTROID_TIMEOUT_US,
             require_tracking: true,
             amplitude: 255,
             frame_repeat_us: 50_000,
@@ -57,6 +58,14 @@ impl Config {
         }
     }
 }
+
+/// Transducers of the rig the defaults are for: four AUTD3 boards of 249,
+/// the array every board crate and the simulated device drive.
+pub const DEFAULT_TRANSDUCERS: u16 = 996;
+
+/// Default centroid timeout (µs): the output mutes after this long without
+/// a centroid update, on the firmware and (held by the host) on an AUTD3.
+pub const DEFAULT_CENTROID_TIMEOUT_US: u32 = 100_000;
 
 /// This crate's version as `[major, minor, patch]`.
 pub const FW_VERSION: [u8; 3] = [
@@ -113,6 +122,9 @@ pub struct Counters {
     pub output_errors: u32,
     /// Frames written to the output driver.
     pub frames_out: u32,
+    /// Plays stopped because their host lease expired (the policy's count,
+    /// as `Status` reports it).
+    pub lease_expiries: u32,
 }
 
 /// Everything but the receive decoder (split so a parsed frame can borrow
@@ -135,6 +147,18 @@ struct Handler<'m> {
     last_frame: Option<u64>,
     /// [`Config::frame_repeat_us`] in timer counts (0 = never).
     repeat_every: u64,
+    /// The play session's host lease as its `Play` gave it, ms (0: none yet).
+    lease_ms: u16,
+}
+
+/// The output of [`Device::handle`]: writes nothing and has no self-test.
+struct NoOutput;
+
+impl OutputDriver for NoOutput {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, _: &OutputFrame<'_>) -> Result<(), Self::Error> {
+        Ok(())
+    }
 }
 
 /// The whole device core.
@@ -181,14 +205,23 @@ impl<'m> Device<'m> {
                 refresh: false,
                 last_frame: None,
                 repeat_every,
+                lease_ms: 0,
             },
         })
     }
 
     /// Feeds received bytes. Each complete request is handled at `now` and
     /// its encoded response frame (delimiters included) is passed to
-    /// `send`. Never panics, whatever the bytes.
-    pub fn feed(&mut self, bytes: &[u8], now: u64, send: &mut impl FnMut(&[u8])) {
+    /// `send`; `out` is the output [`poll`](Self::poll) writes to, which a
+    /// `SelfTest` request tests ([`OutputDriver::self_test`]). Never
+    /// panics, whatever the bytes.
+    pub fn feed<D: OutputDriver>(
+        &mut self,
+        bytes: &[u8],
+        now: u64,
+        out: &mut D,
+        send: &mut impl FnMut(&[u8]),
+    ) {
         let mut input = bytes;
         while !input.is_empty() {
             let (reply, rest) = match self.rx.feed(input) {
@@ -199,7 +232,7 @@ impl<'m> Device<'m> {
                     #[cfg(feature = "defmt")]
                     defmt::debug!("request {}", frame.message.msg_type());
                     (
-                        Some((frame.seq, self.handler.handle(&frame.message, now))),
+                        Some((frame.seq, self.handler.handle(&frame.message, now, out))),
                         remaining,
                     )
                 }
@@ -241,9 +274,21 @@ impl<'m> Device<'m> {
 
     /// Handles one parsed request at `now` and returns the response
     /// (without encoding it or touching the counters). For tests and
-    /// transports that parse frames themselves.
+    /// transports that parse frames themselves. Without an output, a
+    /// `SelfTest` is answered `Unsupported`
+    /// ([`handle_with_output`](Self::handle_with_output) runs it).
     pub fn handle(&mut self, msg: &Message<'_>, now: u64) -> Message<'static> {
-        self.handler.handle(msg, now)
+        self.handler.handle(msg, now, &mut NoOutput)
+    }
+
+    /// [`handle`](Self::handle), with the output a `SelfTest` tests.
+    pub fn handle_with_output<D: OutputDriver>(
+        &mut self,
+        msg: &Message<'_>,
+        now: u64,
+        out: &mut D,
+    ) -> Message<'static> {
+        self.handler.handle(msg, now, out)
     }
 
     /// Runs the player at `now`: writes the frame of a newly due step (or a
@@ -274,7 +319,10 @@ impl<'m> Device<'m> {
 
     /// Counters.
     pub fn counters(&self) -> Counters {
-        self.handler.counters
+        Counters {
+            lease_expiries: self.handler.policy.lease_expiries(),
+            ..self.handler.counters
+        }
     }
 
     /// Configuration.
@@ -356,24 +404,15 @@ impl Handler<'_> {
     }
 
     fn status(&self, now: u64) -> Status {
-        let slot = self.player.slot();
-        let correction_um = slot
-            .and_then(|s| self.store.header(s))
-            .map_or([0; 3], |h| self.policy.correction_um(h.center_um));
-        Status {
-            state: self.policy.state(now),
-            slot,
-            step: self.player.step(),
-            cycles: self.player.cycles(),
+        let playing = self.player.slot().and_then(|s| self.store.header(s));
+        let m = Mechanics {
             missed_deadlines: self.player.missed(),
-            last_centroid_seq: self.policy.last_seq(),
             bad_frames: self.counters.bad_frames,
             crc_errors: self.counters.crc_errors,
             nacks: self.counters.nacks,
-            correction_um,
-            queued_slot: self.player.pending(),
-            mute_reason: self.policy.mute_reason(now),
-        }
+            lease_ms: self.lease_ms,
+        };
+        crate::status::status(&self.player, &self.policy, playing, m, now)
     }
 
     fn result(r: Result<(), NackCode>) -> Message<'static> {
@@ -387,7 +426,46 @@ impl Handler<'_> {
         }
     }
 
-    fn handle(&mut self, msg: &Message<'_>, now: u64) -> Message<'static> {
+    /// Handles a request: first ends a play whose host lease has run out
+    /// (a late request never revives it), then answers; a request it
+    /// accepts (anything but a `Nack`) renews the lease.
+    fn handle<D: OutputDriver>(
+        &mut self,
+        msg: &Message<'_>,
+        now: u64,
+        out: &mut D,
+    ) -> Message<'static> {
+        self.expire_lease(now);
+        let reply = self.answer(msg, now, out);
+        if !matches!(reply, Message::Nack(_)) {
+            self.policy.renew(now);
+        }
+        reply
+    }
+
+    /// Ends the play if its host lease has run out at `now`: as `Stop`
+    /// (the player stops, the output mutes on the next poll), the reason
+    /// and the count kept by the policy.
+    fn expire_lease(&mut self, now: u64) {
+        if self.policy.expire_lease(now) {
+            #[cfg(feature = "defmt")]
+            defmt::warn!("host lease expired: stop");
+            self.player.stop();
+            self.refresh = true;
+        }
+    }
+
+    /// Whether a slot plays or is queued.
+    fn busy(&self) -> bool {
+        self.player.state() == PlayState::Playing || self.player.pending().is_some()
+    }
+
+    fn answer<D: OutputDriver>(
+        &mut self,
+        msg: &Message<'_>,
+        now: u64,
+        out: &mut D,
+    ) -> Message<'static> {
         match msg {
             Message::GetInfo => Message::Info(self.info()),
             Message::GetStatus => Message::Status(self.status(now)),
@@ -422,6 +500,11 @@ impl Handler<'_> {
                 Message::Ack
             }
             Message::Centroid(c) => Self::result(self.centroid(c, now)),
+            // Its only effect, the renewal, is `handle`'s.
+            Message::Renew => Message::Ack,
+            // The test uses the output's bus: never while a slot plays.
+            Message::SelfTest if self.busy() => Message::Nack(NackCode::Busy),
+            Message::SelfTest => Message::SelfTestResult(out.self_test()),
             // Responses (or anything newer) sent to the device.
             _ => Message::Nack(NackCode::UnknownType),
         }
@@ -441,8 +524,7 @@ impl Handler<'_> {
     /// entry) is refused with `Busy` while an entry plays or is queued.
     fn begin_rig(&mut self, transducers: u16, crc32: u32) -> Result<(), NackCode> {
         let change = self.store.rig_would_change(transducers, crc32);
-        let busy = self.player.state() == PlayState::Playing || self.player.pending().is_some();
-        if change && busy {
+        if change && self.busy() {
             return Err(NackCode::Busy);
         }
         if change {
@@ -483,6 +565,9 @@ impl Handler<'_> {
         if usize::from(p.slot) >= SLOTS {
             return Err(NackCode::BadSlot);
         }
+        if !LEASE_MS.contains(&p.lease_ms) {
+            return Err(NackCode::OutOfRange);
+        }
         let h = *self.store.header(p.slot).ok_or(NackCode::NotCommitted)?;
         let t = Timing {
             steps: h.steps,
@@ -503,6 +588,9 @@ impl Handler<'_> {
             self.offsets_for = None;
         }
         self.policy.play(p.untracked);
+        let lease = u64::from(p.lease_ms) * u64::from(self.cfg.timer_hz) / 1000;
+        self.policy.set_lease(lease.max(1), now);
+        self.lease_ms = p.lease_ms;
         self.refresh = true;
         #[cfg(feature = "defmt")]
         defmt::info!(
@@ -572,15 +660,23 @@ impl Handler<'_> {
         self.last_frame.map(|t| t.saturating_add(self.repeat_every))
     }
 
-    /// The next time `poll` has work: a step boundary or a repeat.
+    /// The next time `poll` has work: a step boundary, a repeat or the
+    /// host lease's end.
     fn deadline(&self) -> Option<u64> {
-        match (self.player.deadline(), self.repeat_at()) {
-            (Some(d), Some(r)) => Some(d.min(r)),
-            (d, _) => d,
-        }
+        [
+            self.player.deadline(),
+            self.repeat_at(),
+            self.policy.lease_deadline(),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
     }
 
     fn poll<D: OutputDriver>(&mut self, now: u64, out: &mut D) -> Option<u64> {
+        // A lease that ran out stops the play before any step is due: no
+        // frame due after it sounds, however late this poll.
+        self.expire_lease(now);
         #[cfg(feature = "defmt")]
         let missed_before = self.player.missed();
         let due = self.player.tick(now);

@@ -10,18 +10,19 @@
 //! # Driving a [`Device`]
 //!
 //! ```
-//! use lm_fw_core::{Config, Device, RecordingDriver, TakeOnce, memory_bytes};
+//! use lm_fw_core::{Config, Device, RecordingDriver, memory_bytes};
+//! use static_cell::ConstStaticCell;
 //!
 //! // Sequence memory: a 448 KiB library and a rig of up to 996 positions.
 //! const BYTES: usize = memory_bytes(448 * 1024, 996);
-//! static MEM: TakeOnce<[u8; BYTES]> = TakeOnce::new([0; BYTES]);
+//! static MEM: ConstStaticCell<[u8; BYTES]> = ConstStaticCell::new([0; BYTES]);
 //! # fn main() {
-//! let mem: &'static mut [u8] = MEM.take().unwrap(); // once, in the board's main
+//! let mem: &'static mut [u8] = MEM.take(); // once, in the board's main
 //! let mut dev = Device::new(Config::new(1_000_000), mem).unwrap();
 //! let mut out = RecordingDriver::<16>::new();
 //! let now = 0u64; // free-running timer count at Config::timer_hz
 //! let received: &[u8] = &[]; // bytes from the UART, any piece size
-//! dev.feed(received, now, &mut |reply: &[u8]| { /* write reply to the UART */ });
+//! dev.feed(received, now, &mut out, &mut |reply: &[u8]| { /* write reply to the UART */ });
 //! let next = dev.poll(now, &mut out); // Some(t): call poll again at t
 //! assert_eq!(next, None); // nothing plays yet
 //! # }
@@ -36,8 +37,9 @@
 //!
 //! - [`Device::new`]`(`[`Config`]`, &mut mem)`: `mem` is the sequence memory,
 //!   [`memory_bytes`]`(library_bytes, max_transducers)` long.
-//! - [`Device::feed`]`(bytes, now, &mut |reply| ..)`: received bytes in, one
-//!   encoded response frame out per request.
+//! - [`Device::feed`]`(bytes, now, &mut driver, &mut |reply| ..)`: received
+//!   bytes in, one encoded response frame out per request (the driver for
+//!   `SelfTest`, [`OutputDriver::self_test`]).
 //! - [`Device::poll`]`(now, &mut driver) -> Option<u64>`: writes due frames,
 //!   returns the next deadline ([`Device::next_deadline`] peeks it).
 //! - [`Device::info`], [`Device::status`], [`Device::counters`],
@@ -49,7 +51,9 @@
 //!   applied, amplitude 0 when muted, the entry's intensity); [`SpiOutput`]
 //!   sends it over an embedded-hal 1.0 `SpiDevice` as one transaction
 //!   `[0xA5, amplitude, intensity, step u16 LE, transducers u16 LE, phases..]`;
-//!   [`RecordingDriver`] keeps the last frames for tests.
+//!   [`RecordingDriver`] keeps the last frames for tests. A board with an
+//!   SPI loopback jumper overrides [`OutputDriver::self_test`] with
+//!   [`output::loopback_test`] (the default answers `Unsupported`).
 //!
 //! # Behaviour
 //!
@@ -79,7 +83,14 @@
 //!   refused (`OutOfRange`) and mutes until an in-range one arrives; a
 //!   queued slot taking over re-checks the last centroid against its own.
 //! - Untracked play (`Play` flag): no gating, no correction, until `Stop`.
-//! - `Status` reports the queued slot and why the output is muted.
+//! - Host lease (`Play.lease_ms`, [`policy`]): every accepted request
+//!   renews it; a play whose host stays silent that long stops as `Stop`
+//!   does (reason `LeaseExpired`, counted), at the expiry (it is one of
+//!   [`Device::poll`]'s deadlines), before any later step or request.
+//! - `SelfTest`: the output's self-test, `Busy` while a slot plays.
+//! - `Status` reports the queued slot and why the output is muted; it is
+//!   assembled once, in [`status`], from the player and the policy (the
+//!   host's AUTD3 backend calls the same function).
 //! - Gating ([`gate`]): presence false or a stale centroid (older than
 //!   [`Config::centroid_timeout_us`]) mutes (amplitude 0) within one step;
 //!   with [`Config::require_tracking`] (default) output stays muted from
@@ -98,7 +109,7 @@
 //! offset and frame tables ([`MAX_TRANSDUCERS`] bytes each), the library's
 //! entry table, one upload state (codec decoders, running CRC, chunk log),
 //! the rig's position bitmap and two three-step decode rings (upload check,
-//! playback; 3 × [`MAX_TRANSDUCERS`] bytes each). 12,512 bytes on
+//! playback; 3 × [`MAX_TRANSDUCERS`] bytes each). 12,576 bytes on
 //! thumbv7em (a compile-time assertion keeps it ≤ 16 KB). The sequence
 //! memory is [`memory_bytes`]`(library_bytes, max_transducers)`: the rig's
 //! 12 bytes per transducer, then the library's arena.
@@ -112,11 +123,15 @@ pub mod output;
 pub mod player;
 pub mod policy;
 pub mod serve;
+pub mod status;
 pub mod store;
 mod take_once;
 pub mod time;
 
-pub use device::{Config, Counters, Device, DeviceError, FW_VERSION};
+pub use device::{
+    Config, Counters, DEFAULT_CENTROID_TIMEOUT_US, DEFAULT_TRANSDUCERS, Device, DeviceError,
+    FW_VERSION,
+};
 pub use output::{OutputDriver, OutputFrame, Record, RecordingDriver, SpiOutput};
 pub use serve::{HostLink, Server, serve};
 pub use store::{BOARD_LIBRARY_BYTES, CHUNK_LOG, Form, SLOTS, StoreError, memory_bytes};

@@ -1,6 +1,8 @@
-//! Output towards the transducer driver: one frame per step.
+//! Output towards the transducer driver: one frame per step, and the
+//! output's self-test (an SPI loopback on the boards that have one).
 
 use embedded_hal::spi::{Operation, SpiDevice};
+use lm_proto::SelfTest;
 
 /// One output frame: the phases of every transducer for one step (centroid
 /// correction already applied), the amplitude (the gate: 0 = muted) and
@@ -27,12 +29,81 @@ pub trait OutputDriver {
     type Error;
     /// Sends one frame to the hardware, as soon as possible.
     fn write_frame(&mut self, frame: &OutputFrame<'_>) -> Result<(), Self::Error>;
+    /// Runs the output's self-test (the protocol's `SelfTest`; the core
+    /// calls it only while nothing plays). A board with an SPI output
+    /// tests the bus by a loopback through one jumper from MOSI to MISO,
+    /// chip select held inactive, with [`loopback_test`]. The default: the
+    /// board has none.
+    fn self_test(&mut self) -> SelfTest {
+        SelfTest::Unsupported
+    }
 }
 
 impl<T: OutputDriver + ?Sized> OutputDriver for &mut T {
     type Error = T::Error;
     fn write_frame(&mut self, frame: &OutputFrame<'_>) -> Result<(), Self::Error> {
         (**self).write_frame(frame)
+    }
+    fn self_test(&mut self) -> SelfTest {
+        (**self).self_test()
+    }
+}
+
+/// Bytes one loopback self-test sends and reads back.
+pub const LOOPBACK_BYTES: usize = 1024;
+
+/// Byte `i` of the loopback pattern: every byte value once (0-255), then
+/// walking ones and walking zeros (256-511, a stuck or swapped line shows
+/// at once), then a scrambled sequence (512-1023, so a shifted or
+/// repeated read does not match by chance).
+pub const fn loopback_pattern(i: usize) -> u8 {
+    let k = i % LOOPBACK_BYTES;
+    if k < 256 {
+        k as u8
+    } else if k < 512 {
+        let bit = 1u8 << (k % 8);
+        if (k / 8) & 1 == 0 { bit } else { !bit }
+    } else {
+        ((k as u32).wrapping_mul(2_654_435_761) >> 24) as u8
+    }
+}
+
+/// The loopback self-test over `transfer(sent, received)`, one full-duplex
+/// SPI transfer of equal lengths (a board calls its bus with chip select
+/// held inactive, so the driver boards ignore it): [`LOOPBACK_BYTES`] of
+/// [`loopback_pattern`] in pieces of 64, every byte read back compared
+/// with the one sent. A transfer that fails counts its piece as read back
+/// as zeros (so it fails the test unless the pattern is zero there).
+pub fn loopback_test<E>(mut transfer: impl FnMut(&[u8], &mut [u8]) -> Result<(), E>) -> SelfTest {
+    const PIECE: usize = 64;
+    let (mut mismatches, mut first) = (0u32, None);
+    let mut sent = [0u8; PIECE];
+    let mut got = [0u8; PIECE];
+    for start in (0..LOOPBACK_BYTES).step_by(PIECE) {
+        for (j, b) in sent.iter_mut().enumerate() {
+            *b = loopback_pattern(start + j);
+        }
+        got.fill(0);
+        if transfer(&sent, &mut got).is_err() {
+            got.fill(0);
+        }
+        for (j, (s, g)) in sent.iter().zip(&got).enumerate() {
+            if s != g {
+                mismatches += 1;
+                first.get_or_insert(((start + j) as u32, *s, *g));
+            }
+        }
+    }
+    let bytes = LOOPBACK_BYTES as u32;
+    match first {
+        None => SelfTest::Passed { bytes },
+        Some((first_mismatch, sent, got)) => SelfTest::Failed {
+            bytes,
+            mismatches,
+            first_mismatch,
+            sent,
+            got,
+        },
     }
 }
 
@@ -230,6 +301,59 @@ mod tests {
             spi.transactions[0],
             [0xA5, 0, 128, 0x02, 0x01, 3, 0, 10, 20, 30]
         );
+    }
+
+    #[test]
+    fn loopback_passes_through_a_jumper_and_names_the_first_bad_byte() {
+        let echo = |s: &[u8], g: &mut [u8]| -> Result<(), ()> {
+            g.copy_from_slice(s);
+            Ok(())
+        };
+        assert_eq!(loopback_test(echo), SelfTest::Passed { bytes: 1024 });
+        // No jumper: MISO pulled up reads 0xFF everywhere.
+        let open = |_: &[u8], g: &mut [u8]| -> Result<(), ()> {
+            g.fill(0xFF);
+            Ok(())
+        };
+        let want_ff = (0..LOOPBACK_BYTES)
+            .filter(|&i| loopback_pattern(i) != 0xFF)
+            .count() as u32;
+        assert_eq!(
+            loopback_test(open),
+            SelfTest::Failed {
+                bytes: 1024,
+                mismatches: want_ff,
+                first_mismatch: 0,
+                sent: 0,
+                got: 0xFF
+            }
+        );
+        // One stuck bit.
+        let stuck = |s: &[u8], g: &mut [u8]| -> Result<(), ()> {
+            for (g, s) in g.iter_mut().zip(s) {
+                *g = s | 0x10;
+            }
+            Ok(())
+        };
+        match loopback_test(stuck) {
+            SelfTest::Failed {
+                first_mismatch,
+                sent,
+                got,
+                ..
+            } => assert_eq!((first_mismatch, sent, got), (0, 0, 0x10)),
+            other => panic!("{other:?}"),
+        }
+        // A bus that errors fails.
+        let err = |_: &[u8], _: &mut [u8]| Err(());
+        assert!(matches!(loopback_test(err), SelfTest::Failed { .. }));
+        // The pattern has every byte value and both walks.
+        let mut seen = [false; 256];
+        for i in 0..256 {
+            seen[usize::from(loopback_pattern(i))] = true;
+        }
+        assert!(seen.iter().all(|s| *s));
+        assert_eq!((loopback_pattern(256), loopback_pattern(264)), (0x01, 0xFE));
     }
 
     #[test]

@@ -26,6 +26,15 @@
 //!   ([`Policy::steer_for`]). The array never steers outside the volume.
 //! - **Stale** centroids (sequence number not newer) are refused
 //!   ([`NackCode::OutOfOrder`]) and change nothing.
+//! - **Host lease**: a play carries a lease ([`Policy::set_lease`], the
+//!   firmware's `Play.lease_ms`); every request the device accepts renews
+//!   it ([`Policy::renew`]); once it has passed without one, the play ends
+//!   as `Stop` ends it, counted, with the reason `LeaseExpired`
+//!   ([`Policy::expire_lease`], which the owner calls before it handles a
+//!   request or plays a step, so a late call still stops and a late
+//!   request never revives it). Every kind of play has one on the
+//!   firmware; without [`Policy::set_lease`] (the AUTD3 backend today) a
+//!   play has none.
 //!
 //! Times are in whatever unit the owner's clock counts (timer counts on
 //! the firmware, µs on the host); the timeout is in the same unit.
@@ -47,7 +56,7 @@ pub enum Session {
 }
 
 /// The safety policy's state: session, gate, untracked flag, work-volume
-/// mute and the last centroid.
+/// mute, the last centroid and the host lease.
 #[derive(Debug, Clone, Copy)]
 pub struct Policy {
     gate: Gate,
@@ -57,6 +66,15 @@ pub struct Policy {
     out_of_range: bool,
     /// Last present centroid accepted (µm, drive coordinates).
     centroid_um: Option<[i32; 3]>,
+    /// How long a play lasts without hearing from its host (`None`: no
+    /// lease).
+    lease: Option<u64>,
+    /// When the host was last heard from (an accepted request).
+    renewed: u64,
+    /// The session was ended by its lease (not by `Stop` or its steps).
+    lease_ended: bool,
+    /// Plays ended by their lease, since reset (wrapping).
+    lease_expiries: u32,
 }
 
 impl Policy {
@@ -69,6 +87,10 @@ impl Policy {
             untracked: false,
             out_of_range: false,
             centroid_um: None,
+            lease: None,
+            renewed: 0,
+            lease_ended: false,
+            lease_expiries: 0,
         }
     }
 
@@ -108,13 +130,59 @@ impl Policy {
         }
         self.session = Session::Playing;
         self.untracked = untracked;
+        self.lease_ended = false;
     }
 
     /// A `Stop`: a playing session ends; an idle device stays idle.
     pub fn stop(&mut self) {
         if self.session == Session::Playing {
             self.session = Session::Stopped;
+            self.lease_ended = false;
         }
+    }
+
+    /// The play session's host lease: it ends `lease` after the last
+    /// renewal; this call (with its `Play`) is one, at `now`.
+    pub fn set_lease(&mut self, lease: u64, now: u64) {
+        self.lease = Some(lease);
+        self.renewed = now;
+    }
+
+    /// The host was heard from at `now` (the owner accepted a request):
+    /// the lease runs from here.
+    pub fn renew(&mut self, now: u64) {
+        self.renewed = self.renewed.max(now);
+    }
+
+    /// When the playing session's lease runs out (`None`: nothing plays,
+    /// or no lease): a time the owner must act at, like a step boundary.
+    pub fn lease_deadline(&self) -> Option<u64> {
+        let lease = self.lease?;
+        (self.session == Session::Playing).then(|| self.renewed.saturating_add(lease))
+    }
+
+    /// Whether the playing session's lease has run out at `now`.
+    pub fn lease_expired(&self, now: u64) -> bool {
+        self.lease_deadline().is_some_and(|d| now >= d)
+    }
+
+    /// Ends the playing session if its lease has run out at `now` (as a
+    /// `Stop`, the reason kept and counted); returns whether it did, so
+    /// the owner stops its output too. Call it before handling a request
+    /// or playing a step.
+    pub fn expire_lease(&mut self, now: u64) -> bool {
+        if !self.lease_expired(now) {
+            return false;
+        }
+        self.session = Session::Stopped;
+        self.lease_ended = true;
+        self.lease_expiries = self.lease_expiries.wrapping_add(1);
+        true
+    }
+
+    /// Plays ended by their lease since reset.
+    pub fn lease_expiries(&self) -> u32 {
+        self.lease_expiries
     }
 
     /// A centroid update at `now`, checked against `volume`, the header of
@@ -183,6 +251,7 @@ impl Policy {
     pub fn mute_reason(&self, now: u64) -> MuteReason {
         match self.session {
             Session::Idle => MuteReason::None,
+            Session::Stopped if self.lease_ended => MuteReason::LeaseExpired,
             Session::Stopped => MuteReason::Stopped,
             Session::Playing if self.untracked => MuteReason::None,
             Session::Playing if self.out_of_range => MuteReason::CentroidOutOfRange,
@@ -190,9 +259,11 @@ impl Policy {
         }
     }
 
-    /// Playing and not muted at `now`.
+    /// Playing, within its lease, and not muted at `now`.
     pub fn sounding(&self, now: u64) -> bool {
-        self.session == Session::Playing && self.mute_reason(now) == MuteReason::None
+        self.session == Session::Playing
+            && !self.lease_expired(now)
+            && self.mute_reason(now) == MuteReason::None
     }
 
     /// The `Status` state at `now`.
@@ -315,5 +386,48 @@ mod tests {
         assert!(p.sounding(1_000_000), "never stale");
         p.play(false);
         assert_eq!(p.steer_for(&h), Some([1000, 0, 200_000]), "tracked again");
+    }
+
+    #[test]
+    fn a_play_ends_when_its_host_lease_runs_out() {
+        let mut p = Policy::new(100, true);
+        p.play(true);
+        p.set_lease(1000, 50);
+        assert_eq!(p.lease_deadline(), Some(1050));
+        p.renew(400);
+        p.renew(300); // never backwards
+        assert_eq!(p.lease_deadline(), Some(1400));
+        assert!(!p.expire_lease(1399));
+        assert!(p.sounding(1399));
+        assert!(!p.sounding(1400), "not sounding once it ran out");
+        // Called late: still ends, once.
+        assert!(p.expire_lease(5000));
+        assert!(!p.expire_lease(6000));
+        assert_eq!(
+            (p.state(5000), p.mute_reason(5000)),
+            (DeviceState::Stopped, MuteReason::LeaseExpired)
+        );
+        assert_eq!(p.lease_expiries(), 1);
+        assert_eq!(p.lease_deadline(), None, "nothing plays");
+        // A renewal after the end revives nothing.
+        p.renew(5001);
+        assert_eq!(p.state(5001), DeviceState::Stopped);
+        // A new play starts afresh; a Stop ends it with its own reason.
+        p.play(true);
+        p.set_lease(1000, 6000);
+        assert_eq!(p.mute_reason(6000), MuteReason::None);
+        p.stop();
+        assert_eq!(p.mute_reason(6000), MuteReason::Stopped);
+        assert!(!p.expire_lease(99_999), "a stopped play has no lease");
+        assert_eq!(p.lease_expiries(), 1);
+    }
+
+    #[test]
+    fn without_a_lease_a_play_lasts() {
+        let mut p = Policy::new(100, false);
+        p.play(true);
+        assert_eq!(p.lease_deadline(), None);
+        assert!(!p.expire_lease(u64::MAX));
+        assert!(p.sounding(u64::MAX));
     }
 }

@@ -49,7 +49,7 @@ impl Server {
         let n = link.receive(&mut rx);
         let now = self.clock.extend(count());
         if n > 0 {
-            dev.feed(&rx[..n], now, &mut |reply: &[u8]| link.send(reply));
+            dev.feed(&rx[..n], now, out, &mut |reply: &[u8]| link.send(reply));
         }
         dev.poll(now, out);
         link.flush();

@@ -1,51 +1,37 @@
 //! Memory a board hands to the core: a `static` lent out once as
 //! `&'static mut`, with no `static mut` and no `unsafe` in the board.
+//! Boards use [`static_cell::ConstStaticCell`] for this: its value is the
+//! `static`'s initialiser, never built on the stack (a store is hundreds
+//! of kB, which `cortex_m::singleton!` or `StaticCell::init` would first
+//! build there), and `try_take` hands it out exactly once.
 //!
 //! ```
-//! use lm_fw_core::TakeOnce;
+//! use static_cell::ConstStaticCell;
 //!
-//! static STORE: TakeOnce<[u8; 64]> = TakeOnce::new([0; 64]);
-//! let store: &'static mut [u8; 64] = STORE.take().unwrap();
+//! static STORE: ConstStaticCell<[u8; 64]> = ConstStaticCell::new([0; 64]);
+//! let store: &'static mut [u8; 64] = STORE.try_take().unwrap();
 //! store[0] = 1;
-//! assert!(STORE.take().is_none()); // never a second `&mut`
+//! assert!(STORE.try_take().is_none()); // never a second `&mut`
 //! ```
+//!
+//! [`TakeOnce`] is that cell under its old name, kept only until the
+//! Nucleo board (being rewritten) moves to `ConstStaticCell`; remove it then.
 
-use core::cell::UnsafeCell;
-use core::sync::atomic::{AtomicBool, Ordering};
+use static_cell::ConstStaticCell;
 
-/// A value that [`TakeOnce::take`] hands out exactly once, for the rest of
-/// the program. Unlike `cortex_m::singleton!`, the value is a `static`'s
-/// initialiser, never built on the stack (a store is hundreds of kB).
-pub struct TakeOnce<T> {
-    value: UnsafeCell<T>,
-    taken: AtomicBool,
-}
-
-// SAFETY: the value is reached only through the one `&'static mut` that
-// `take` hands out (the atomic swap lets exactly one caller through), so
-// sharing the cell between threads or interrupts shares no access to `T`;
-// moving that access to another thread needs `T: Send`.
-unsafe impl<T: Send> Sync for TakeOnce<T> {}
+/// [`ConstStaticCell`] with `take` returning `None` on a second call:
+/// the Nucleo board's name for it until it moves to `static_cell`.
+pub struct TakeOnce<T>(ConstStaticCell<T>);
 
 impl<T> TakeOnce<T> {
     /// A cell holding `value`.
     pub const fn new(value: T) -> Self {
-        Self {
-            value: UnsafeCell::new(value),
-            taken: AtomicBool::new(false),
-        }
+        Self(ConstStaticCell::new(value))
     }
 
     /// The value, the first time; `None` on every later call.
-    // `&self` → `&mut T` is the point: the atomic makes it happen once.
-    #[allow(clippy::mut_from_ref)]
     pub fn take(&'static self) -> Option<&'static mut T> {
-        if self.taken.swap(true, Ordering::AcqRel) {
-            return None;
-        }
-        // SAFETY: `taken` was false, so no other reference to the value was
-        // ever made, and none will be: this one lives for the program.
-        Some(unsafe { &mut *self.value.get() })
+        self.0.try_take()
     }
 }
 

@@ -133,6 +133,13 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             } else {
                 0
             },
+            // Mostly valid leases, short ones (so they expire within the
+            // run), and some out of range.
+            lease_ms: match r.below(8) {
+                0 => r.next() as u16,
+                1..=3 => 100 + r.below(200) as u16,
+                _ => lm_proto::DEFAULT_LEASE_MS,
+            },
         }),
         8 => {
             *seqs = seqs.wrapping_add(r.below(3) as u32).wrapping_sub(1);

@@ -7,8 +7,8 @@ mod common;
 
 use common::*;
 use lm_fw_core::{OutputDriver, OutputFrame, TimeExtender};
-use lm_proto::PlayAt;
 use lm_proto::codec::Encoding;
+use lm_proto::{Message, PlayAt};
 
 struct Check {
     t0: u64,
@@ -82,11 +82,17 @@ fn run(timer_hz: u32, steps: u16, period_us: u32, total: u64) -> Check {
     let mut rng = Rng(timer_hz as u64 ^ u64::from(steps));
     let min_step = p / u64::from(steps);
     let mut deadline = dev.poll(now, &mut chk).unwrap();
+    // The host renews its lease (1 s) twice a second, as lmhost does.
+    let mut renewed = now;
     while chk.g < total {
         // Poll late by up to half a step (interrupt latency, busy loop).
         let t = deadline + rng.below(min_step / 2);
         let now = ext.extend(t as u32);
         assert_eq!(now, t, "extender follows the 64-bit time across wraps");
+        if now - renewed >= u64::from(timer_hz) / 2 {
+            assert_eq!(request(&mut dev, 2, &Message::Renew, now), Reply::Ack);
+            renewed = now;
+        }
         deadline = dev.poll(now, &mut chk).unwrap();
     }
     assert_eq!(dev.status(deadline).missed_deadlines, 0);

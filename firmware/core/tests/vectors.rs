@@ -35,6 +35,10 @@ fn words(r: &Reply) -> String {
         Reply::Ack => "ack".into(),
         Reply::Nack(c) => format!("nack {c:?}"),
         Reply::Status(s) => format!("status {:?} {:?}", s.state, s.mute_reason),
+        Reply::SelfTest(t) => {
+            let name = format!("{t:?}");
+            format!("self_test {}", name.split([' ', '{']).next().unwrap_or(""))
+        }
         other => format!("{other:?}"),
     }
 }
@@ -47,15 +51,30 @@ fn expected(name: &str) -> Option<Option<Reply>> {
         "get_info" => return Some(Some(Reply::Other)), // checked below
         // No rig yet: uploads are refused until one is committed.
         "begin_upload" | "begin_upload_raw" => return nack(NoRig),
-        "begin_rig" | "geometry_empty" | "stop" | "centroid" => Some(Reply::Ack),
+        "begin_rig" | "geometry_empty" | "stop" | "centroid" | "renew" => Some(Reply::Ack),
+        // Nothing plays, and the test device has no self-test.
+        "self_test" => Some(Reply::SelfTest(lm_proto::SelfTest::Unsupported)),
         "commit_rig" => return nack(Incomplete), // no position has arrived
         "geometry" => return nack(OutOfRange),   // first = 996 of 996
         "chunk" | "chunk_long" | "chunk_empty" | "commit" => return nack(NoUpload),
         "play_next_cycle" | "play_immediate" | "play_steps" => return nack(NotCommitted),
         "centroid_absent" => return nack(OutOfOrder), // seq u32::MAX is older than 42 (wrapping)
         "get_status" => return Some(Some(Reply::Other)), // checked below
-        "info" | "info_no_rig" | "status" | "status_idle" | "status_muted" | "ack" | "nack"
-        | "nack_library_full" | "nack_no_rig" | "nack_rig_mismatch" | "nack_unknown_code" => {
+        "info"
+        | "info_no_rig"
+        | "status"
+        | "status_idle"
+        | "status_muted"
+        | "status_lease_expired"
+        | "self_test_unsupported"
+        | "self_test_passed"
+        | "self_test_failed"
+        | "ack"
+        | "nack"
+        | "nack_library_full"
+        | "nack_no_rig"
+        | "nack_rig_mismatch"
+        | "nack_unknown_code" => {
             return nack(UnknownType);
         }
         "err_unknown_type" => return nack(UnknownType),

@@ -51,7 +51,7 @@ const LIBRARY_BYTES: usize = BOARD_LIBRARY_BYTES;
 /// Transducers of the array this board drives (four AUTD3 boards), reported
 /// as `Info::max_transducers`; at most `lm_fw_core::MAX_TRANSDUCERS` (1024,
 /// the core's table size).
-const ARRAY_TRANSDUCERS: u16 = 996;
+const ARRAY_TRANSDUCERS: u16 = lm_fw_core::DEFAULT_TRANSDUCERS;
 const STORE_BYTES: usize = memory_bytes(LIBRARY_BYTES, ARRAY_TRANSDUCERS as usize);
 
 /// The stimulus library and the rig's transducer positions, in the AXI

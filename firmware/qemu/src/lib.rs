@@ -1,11 +1,16 @@
-//! Board support for QEMU's `mps2-an386` (Cortex-M4F, 25 MHz): the CMSDK
-//! UART0 that carries the protocol, CMSDK TIMER0 as the player's free-running
-//! clock, a counting output sink, and a panic handler that reports over
-//! semihosting and exits QEMU with a failure status. No logic of its own:
-//! [`lm_fw_core::serve`] hands received bytes and timer counts to
-//! [`lm_fw_core::Device`].
+//! Board support for QEMU's `mps2-an500` (Cortex-M7 with FPv5, the core of
+//! the STM32H743; 25 MHz peripherals): the CMSDK UART0 that carries the
+//! protocol, CMSDK TIMER0 as the player's free-running clock, a counting
+//! output sink, and a panic handler that reports over semihosting and exits
+//! QEMU with a failure status. No logic of its own: [`lm_fw_core::serve`]
+//! hands received bytes and timer counts to [`lm_fw_core::Device`].
 //!
-//! Output: QEMU's AN386 model has no device behind an SPI bus that could
+//! The same image runs on `mps2-an386` (Cortex-M4F): both FPGA images put
+//! ZBT SSRAM1 at 0, SSRAM2&3 at `0x2000_0000`, UART0 and TIMER0 where this
+//! crate looks for them, and the thumbv7em-eabihf code uses only the
+//! single-precision FPU both cores have.
+//!
+//! Output: QEMU's MPS2 models have no device behind an SPI bus that could
 //! stand for the transducer driver, so frames go to [`FrameCounter`], which
 //! keeps what a test needs to see (count, last step, muted frames). The real
 //! board (`firmware/nucleo-h743`) sends them over SPI1 with the core's
@@ -24,7 +29,7 @@ pub const LIBRARY_BYTES: usize = lm_fw_core::BOARD_LIBRARY_BYTES;
 /// Transducers of the array this board drives (four AUTD3 boards), reported
 /// as `Info::max_transducers`; at most `lm_fw_core::MAX_TRANSDUCERS` (1024,
 /// the core's table size).
-pub const ARRAY_TRANSDUCERS: u16 = 996;
+pub const ARRAY_TRANSDUCERS: u16 = lm_fw_core::DEFAULT_TRANSDUCERS;
 /// Bytes of sequence memory for the core (the library and the rig's positions).
 pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(LIBRARY_BYTES, ARRAY_TRANSDUCERS as usize);
 
@@ -37,7 +42,7 @@ pub fn config() -> Config {
     c
 }
 
-/// Peripheral clock of the AN386 image: the APB timers and UART count this.
+/// Peripheral clock of the MPS2 images: the APB timers and UART count this.
 pub const PCLK_HZ: u32 = 25_000_000;
 
 /// CMSDK APB UART (QEMU `cmsdk-apb-uart`).
@@ -45,7 +50,7 @@ pub struct Uart {
     base: usize,
 }
 
-/// UART0 of the AN386 image, wired to QEMU's `serial0`.
+/// UART0 of the MPS2 images, wired to QEMU's `serial0`.
 pub const UART0_BASE: usize = 0x4000_4000;
 
 const UART_DATA: usize = 0x00;
@@ -103,7 +108,7 @@ pub struct Timer {
     base: usize,
 }
 
-/// TIMER0 of the AN386 image.
+/// TIMER0 of the MPS2 images.
 pub const TIMER0_BASE: usize = 0x4000_0000;
 
 const TIMER_CTRL: usize = 0x00;

@@ -1,4 +1,4 @@
-//! LM firmware for QEMU's mps2-an386 board: UART0 carries the protocol,
+//! LM firmware for QEMU's mps2-an500 board (Cortex-M7): UART0 carries the protocol,
 //! TIMER0 (25 MHz) drives the player, frames go to a counting sink.
 //! Run it with `cargo xtask qemu`.
 #![no_std]
@@ -7,17 +7,19 @@
 use core::mem::MaybeUninit;
 
 use cortex_m_rt::entry;
-use lm_fw_core::{Device, TakeOnce, serve};
+use lm_fw_core::{Device, serve};
 use lm_fw_qemu::{FrameCounter, STORE_BYTES, TIMER0_BASE, Timer, UART0_BASE, Uart, config};
+use static_cell::ConstStaticCell;
 
 /// The stimulus library and the rig's transducer positions.
-static SEQUENCE_STORE: TakeOnce<[u8; STORE_BYTES]> = TakeOnce::new([0; STORE_BYTES]);
+static SEQUENCE_STORE: ConstStaticCell<[u8; STORE_BYTES]> = ConstStaticCell::new([0; STORE_BYTES]);
 /// The core's state outside the store (a static, so the ELF's memory map shows it).
-static DEVICE: TakeOnce<MaybeUninit<Device<'static>>> = TakeOnce::new(MaybeUninit::uninit());
+static DEVICE: ConstStaticCell<MaybeUninit<Device<'static>>> =
+    ConstStaticCell::new(MaybeUninit::uninit());
 
 #[entry]
 fn main() -> ! {
-    let (Some(store), Some(slot)) = (SEQUENCE_STORE.take(), DEVICE.take()) else {
+    let (Some(store), Some(slot)) = (SEQUENCE_STORE.try_take(), DEVICE.try_take()) else {
         panic!("board statics taken twice")
     };
     let dev = match Device::new(config(), store) {

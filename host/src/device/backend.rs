@@ -15,7 +15,7 @@
 //! coordinates (the mirrored frame when the scene has a reflector), as on
 //! the wire.
 
-use lm_proto::{Centroid, DeviceState, Info, NackCode, PlayAt, Status};
+use lm_proto::{Centroid, DeviceState, Info, NackCode, PlayAt, SelfTest, Status};
 use serde::Serialize;
 
 use crate::InputError;
@@ -132,6 +132,12 @@ impl From<LinkError> for BackendError {
     }
 }
 
+/// How long a presentation sounds after the host's last renewal before the
+/// device ends it on its own (the host died, hung or was killed): the same
+/// default for the LM firmware's lease and an AUTD3's
+/// ([`Backend::set_lease`]).
+pub const DEFAULT_LEASE: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// What a device says about itself.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BackendInfo {
@@ -156,8 +162,8 @@ pub struct BackendInfo {
 /// What differs per kind of device: the one place a caller branches on it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Kind {
-    /// The LM firmware, with its own `Info`: plays on its own once uploaded,
-    /// any dwell on its µs timer.
+    /// The LM firmware, with its own `Info`: plays on its own timer while
+    /// its host renews the lease, any dwell on its µs timer.
     LmFirmware(Info),
     /// An AUTD3 rig: dwell on the FPGA's sampling grid; output lasts only
     /// while lmhost holds the link.
@@ -304,13 +310,14 @@ pub trait Backend {
     ///
     /// Who times it: the LM firmware counts the steps on its own timer and
     /// stops itself at the boundary (`Play.steps`), whatever the link's
-    /// latency. An AUTD3 cannot stop itself: the host stops it in
-    /// [`tick`](Self::tick), [`status`](Self::status) or
-    /// [`centroid`](Self::centroid) once the devices' clock says `steps`
-    /// have played, so it sounds late by as much as those calls are (keep
-    /// ticking ≤ every dwell); its `Status` counts the steps it really
-    /// played (frozen at that stop), so `cycles × N + step` exceeds `steps`
-    /// by the host's lateness in dwells.
+    /// latency. An AUTD3 cannot stop itself: the same player
+    /// (`lm_fw_core::player`) runs in the host on its clock, and the host
+    /// stops the array in [`tick`](Self::tick), [`status`](Self::status)
+    /// or [`centroid`](Self::centroid) once the player says `steps` have
+    /// played, so it sounds late by as much as those calls are (keep
+    /// ticking ≤ every dwell); its `Status` counts as the firmware's
+    /// (`cycles × N + step == steps`) and `missed_deadlines` counts the
+    /// steps that sounded past the limit.
     fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> Result<()>;
     /// Silences the array.
     fn stop(&mut self) -> Result<()>;
@@ -318,19 +325,48 @@ pub trait Backend {
     /// that is not newer than the last is refused with `OutOfOrder`.
     fn centroid(&mut self, c: &Centroid) -> Result<CentroidOutcome>;
     /// Housekeeping the host must run between updates (≥ every 10 ms
-    /// while playing): staleness muting where the device cannot time it.
+    /// while playing): staleness muting, stops, switches and lease renewals
+    /// where the device cannot time them (AUTD3), renewing the host lease
+    /// when due (the LM firmware).
     fn tick(&mut self) -> Result<()> {
         Ok(())
     }
-    /// Whether output lasts only while lmhost holds the link (AUTD3).
+    /// Sets how long a presentation sounds without the host renewing it
+    /// ([`DEFAULT_LEASE`] until set; renewed by [`tick`](Self::tick), so
+    /// tick at least every half lease). Out of the device's range is bad
+    /// input. A device whose lease is set elsewhere (the LM firmware: the
+    /// port's `lease_ms`, sent with every play) keeps this default, which
+    /// does nothing.
+    fn set_lease(&mut self, lease: std::time::Duration) -> Result<()> {
+        let _ = lease;
+        Ok(())
+    }
+    /// Whether output lasts only while lmhost holds the link (and keeps
+    /// [`tick`](Self::tick)ing): an AUTD3 always, the LM firmware while
+    /// something this host played plays (its host lease ends it otherwise).
     fn needs_host(&self) -> bool {
+        false
+    }
+    /// Runs the device's output self-test (the LM boards' SPI loopback);
+    /// `Unsupported` where the device has none.
+    fn self_test(&mut self) -> Result<SelfTest> {
+        Ok(SelfTest::Unsupported)
+    }
+    /// Whether a [`play`](Self::play) or [`play_for`](Self::play_for)
+    /// while a slot is queued replaces the queued one at once, as the LM
+    /// firmware's queue does (the slot it replaced is free again). The
+    /// rig session relies on it to replace a presentation waiting for its
+    /// switch, or to take the switch back when its client goes away;
+    /// where it is false (the default), a session refuses the one and
+    /// stops for the other.
+    fn replaces_queued(&self) -> bool {
         false
     }
     /// Where [`Status`]'s `step` and `cycles` come from: `"device"` (the
     /// LM firmware counts them on its timer) or `"host clock"` (AUTD3:
-    /// autd3 reads back no STM index; the FPGA derives it from the
-    /// synchronised clock, and so does the host, from the time the devices
-    /// have played: the emulator's FPGA index agrees, see the tests).
+    /// autd3 reads back no STM index, so the firmware's player counts the
+    /// steps played on the host's clock; the FPGA's index steps with it,
+    /// from another point of the cycle, see the tests).
     fn counters_source(&self) -> &'static str {
         "device"
     }

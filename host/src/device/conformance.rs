@@ -1,6 +1,7 @@
 //! The device policy's conformance table: play / centroid / stop / loss /
-//! out-of-volume scenarios that every [`Backend`] must pass with the same
-//! states, mute reasons, corrections and centroid outcomes.
+//! out-of-volume / timed-play / queued-takeover scenarios that every
+//! [`Backend`] must pass with the same states, mute reasons, corrections,
+//! centroid outcomes, slots and step counts.
 //!
 //! The rules live once, in [`lm_fw_core::policy`]; this table checks that
 //! each device actually follows them through its own mechanics: the LM
@@ -49,6 +50,15 @@ pub enum Step {
         /// Untracked play.
         untracked: bool,
     },
+    /// Plays `slot` for `steps` steps (`play_for`).
+    PlayFor {
+        /// Slot.
+        slot: u8,
+        /// Steps to play.
+        steps: u32,
+        /// Untracked play.
+        untracked: bool,
+    },
     /// `Stop`.
     Stop,
     /// A centroid `dx_um` from the planned centre along x.
@@ -86,6 +96,10 @@ pub struct Expect {
     pub correction_x_um: i32,
     /// A centroid step's outcome.
     pub outcome: Option<Outcome>,
+    /// `(Status::slot, Status::queued_slot)`, where the step checks them.
+    pub slots: Option<(Option<u8>, Option<u8>)>,
+    /// Steps played, `cycles × N + step`, where the step checks them.
+    pub played: Option<u64>,
 }
 
 /// A named scenario: steps, each with the state expected after it.
@@ -102,6 +116,26 @@ const fn ex(state: DeviceState, mute: MuteReason, correction_x_um: i32) -> Expec
         mute,
         correction_x_um,
         outcome: None,
+        slots: None,
+        played: None,
+    }
+}
+
+impl Expect {
+    /// Also checks the playing (or last played) and the queued slot.
+    const fn slots(self, slot: Option<u8>, queued: Option<u8>) -> Self {
+        Expect {
+            slots: Some((slot, queued)),
+            ..self
+        }
+    }
+
+    /// Also checks the steps played.
+    const fn played(self, steps: u64) -> Self {
+        Expect {
+            played: Some(steps),
+            ..self
+        }
     }
 }
 
@@ -143,10 +177,25 @@ const UPLOAD: Step = Step::Upload {
     narrow: false,
 };
 const STALE_WAIT: Step = Step::Wait(300);
+/// The wide plan into slot 0 too.
+const UPLOAD_0: Step = Step::Upload {
+    slot: 0,
+    narrow: false,
+};
+/// A timed play's steps: 73 ms of the 5 Hz stimulus, fewer than a cycle.
+const TIMED: u32 = 30;
 
 use DeviceState::{Idle, Muted, Playing, Stopped};
 use MuteReason as M;
 use Outcome::{Applied, OutOfRange, Stale};
+
+const fn play_for(slot: u8) -> Step {
+    Step::PlayFor {
+        slot,
+        steps: TIMED,
+        untracked: true,
+    }
+}
 
 /// The table.
 pub const SCENARIOS: &[Scenario] = &[
@@ -243,6 +292,55 @@ pub const SCENARIOS: &[Scenario] = &[
         ],
     },
     Scenario {
+        name: "a timed play stops by itself after its steps, counted at the limit and frozen",
+        steps: &[
+            (UPLOAD, ex(Idle, M::None, 0)),
+            (play_for(1), ex(Playing, M::None, 0).slots(Some(1), None)),
+            (
+                Step::Wait(300),
+                ex(Stopped, M::Stopped, 0)
+                    .slots(Some(1), None)
+                    .played(TIMED as u64),
+            ),
+            (
+                Step::Wait(100),
+                ex(Stopped, M::Stopped, 0)
+                    .slots(Some(1), None)
+                    .played(TIMED as u64),
+            ),
+        ],
+    },
+    Scenario {
+        name: "a slot played while another plays takes over at the cycle end; its timed play counts from there",
+        steps: &[
+            (UPLOAD, ex(Idle, M::None, 0)),
+            (UPLOAD_0, ex(Idle, M::None, 0)),
+            (play(1, true), ex(Playing, M::None, 0).slots(Some(1), None)),
+            (play_for(0), ex(Playing, M::None, 0).slots(Some(1), Some(0))),
+            // Past the cycle end (≤ 201 ms) and the 30 steps after it.
+            (
+                Step::Wait(500),
+                ex(Stopped, M::Stopped, 0)
+                    .slots(Some(0), None)
+                    .played(TIMED as u64),
+            ),
+        ],
+    },
+    Scenario {
+        name: "stop drops a queued slot: it never takes over",
+        steps: &[
+            (UPLOAD, ex(Idle, M::None, 0)),
+            (UPLOAD_0, ex(Idle, M::None, 0)),
+            (play(1, true), ex(Playing, M::None, 0).slots(Some(1), None)),
+            (
+                play(0, true),
+                ex(Playing, M::None, 0).slots(Some(1), Some(0)),
+            ),
+            (Step::Stop, ex(Stopped, M::Stopped, 0).slots(Some(1), None)),
+            (STALE_WAIT, ex(Stopped, M::Stopped, 0).slots(Some(1), None)),
+        ],
+    },
+    Scenario {
         name: "stop then play starts a new session: old centroids forgotten",
         steps: &[
             (UPLOAD, ex(Idle, M::None, 0)),
@@ -281,6 +379,7 @@ fn run_one(
     failures: &mut Vec<String>,
 ) -> anyhow::Result<()> {
     let center = wide.sequence.header.center_um;
+    let n = u64::from(wide.sequence.header.steps);
     for (i, (step, want)) in sc.steps.iter().enumerate() {
         let mut outcome = None;
         match *step {
@@ -292,6 +391,11 @@ fn run_one(
                 at,
                 untracked,
             } => dut.dev.play_at(slot, at, untracked)?,
+            Step::PlayFor {
+                slot,
+                steps,
+                untracked,
+            } => dut.dev.play_for(slot, untracked, steps)?,
             Step::Stop => dut.dev.stop()?,
             Step::Centroid {
                 seq,
@@ -319,6 +423,11 @@ fn run_one(
             mute: st.mute_reason,
             correction_x_um: st.correction_um[0],
             outcome,
+            // Compared only where the table checks them.
+            slots: want.slots.map(|_| (st.slot, st.queued_slot)),
+            played: want
+                .played
+                .map(|_| u64::from(st.cycles) * n + u64::from(st.step)),
         };
         let other_axes = st.correction_um[1] != 0 || st.correction_um[2] != 0;
         if got != *want || other_axes {

@@ -5,7 +5,7 @@
 use std::io::IsTerminal as _;
 
 use anyhow::Context as _;
-use lm_proto::{Centroid, Encoding, Info, NackCode, PlayAt, Status};
+use lm_proto::{Centroid, DeviceState, Encoding, Info, NackCode, PlayAt, SelfTest, Status};
 
 use crate::device::autd3::{Autd3Backend, Autd3Port};
 use crate::device::backend::{
@@ -60,6 +60,12 @@ impl DeviceKind {
             Self::Autd3(_) => Target::Autd3,
         }
     }
+
+    /// Whether the device lives in this process and ends with it (autd3's
+    /// emulator): nothing outside can use it after lmhost exits.
+    pub fn in_process(&self) -> bool {
+        matches!(self, Self::Autd3(p) if p.is_emulator())
+    }
 }
 
 /// Opens the device `port` names for `scene` (an AUTD3 rig is built from
@@ -95,6 +101,8 @@ pub struct LmBackend<T: Transport> {
     /// Draw a progress bar on stderr while uploading.
     pub progress: bool,
     info: Option<Info>,
+    /// A play of this host may be sounding: keep its lease renewed.
+    playing: bool,
 }
 
 impl<T: Transport> LmBackend<T> {
@@ -105,6 +113,7 @@ impl<T: Transport> LmBackend<T> {
             encoding,
             progress: std::io::stderr().is_terminal(),
             info: None,
+            playing: false,
         }
     }
 
@@ -119,6 +128,19 @@ impl<T: Transport> LmBackend<T> {
             .with_context(|| format!("asking {where_} for its info"))?;
         self.info = Some(i);
         Ok(i)
+    }
+}
+
+/// Leaves the array silent when the backend goes away while something it
+/// played plays (an error, an early return): one try, so a dead link
+/// does not hold the exit up; should it fail, the host lease ends the
+/// play.
+impl<T: Transport> Drop for LmBackend<T> {
+    fn drop(&mut self) {
+        if self.playing {
+            self.client.tries = 1;
+            let _ = self.client.stop();
+        }
     }
 }
 
@@ -159,7 +181,13 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 
     fn status(&mut self) -> BResult<Status> {
-        Ok(self.client.status()?)
+        let s = self.client.status()?;
+        if !matches!(s.state, DeviceState::Playing | DeviceState::Muted) {
+            // Stopped by itself (a timed play's end, the lease): nothing
+            // left to renew.
+            self.playing = false;
+        }
+        Ok(s)
     }
 
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
@@ -216,10 +244,11 @@ impl<T: Transport> Backend for LmBackend<T> {
     fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> BResult<()> {
         let info = self.lm_info()?;
         check_slot(slot, &info)?;
-        Ok(self
-            .client
+        self.client
             .play(slot, at, untracked)
-            .with_context(|| format!("playing slot {slot}"))?)
+            .with_context(|| format!("playing slot {slot}"))?;
+        self.playing = true;
+        Ok(())
     }
 
     /// Sent as `Play.steps` with `NextCycle` (at once from silence): the
@@ -227,14 +256,46 @@ impl<T: Transport> Backend for LmBackend<T> {
     fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> BResult<()> {
         let info = self.lm_info()?;
         check_slot(slot, &info)?;
-        Ok(self
-            .client
+        self.client
             .play_steps(slot, PlayAt::NextCycle, untracked, steps)
-            .with_context(|| format!("playing slot {slot} for {steps} steps"))?)
+            .with_context(|| format!("playing slot {slot} for {steps} steps"))?;
+        self.playing = true;
+        Ok(())
     }
 
     fn stop(&mut self) -> BResult<()> {
-        Ok(self.client.stop().context("stopping the device")?)
+        self.client.stop().context("stopping the device")?;
+        self.playing = false;
+        Ok(())
+    }
+
+    /// Renews the host lease when a quarter of it has passed without a
+    /// request the device accepted (a streaming host's centroids renew it
+    /// for free).
+    fn tick(&mut self) -> BResult<()> {
+        if self.playing && self.client.renew_due() {
+            self.client
+                .renew()
+                .context("renewing the host lease (the device stops without it)")?;
+        }
+        Ok(())
+    }
+
+    fn needs_host(&self) -> bool {
+        self.playing
+    }
+
+    fn self_test(&mut self) -> BResult<SelfTest> {
+        Ok(self
+            .client
+            .self_test()
+            .context("running the device's self-test")?)
+    }
+
+    /// The firmware's player keeps one queued slot: a later play replaces
+    /// it (`lm_fw_core::player::Player::queue`).
+    fn replaces_queued(&self) -> bool {
+        true
     }
 
     fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
@@ -249,8 +310,9 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 }
 
-/// Holds the link, ticking the safety gate every 10 ms, until Ctrl-C /
-/// SIGTERM ([`crate::stop::requested`]) or `max` elapses.
+/// Holds the link, ticking every 10 ms (an AUTD3's safety gate, the LM
+/// firmware's host lease), until Ctrl-C / SIGTERM
+/// ([`crate::stop::requested`]) or `max` elapses.
 /// Returns whether a stop was requested.
 pub fn hold(dev: &mut dyn Backend, max: Option<std::time::Duration>) -> anyhow::Result<bool> {
     let end = max.map(|d| std::time::Instant::now() + d);
@@ -306,6 +368,18 @@ mod tests {
 
     fn count(st: &Status, n: u16) -> u64 {
         u64::from(st.cycles) * u64::from(n) + u64::from(st.step)
+    }
+
+    #[test]
+    fn the_device_kind_says_what_lives_in_this_process() {
+        let kind = |p: &str| PortSpec::new(Some(p.into())).device().unwrap();
+        assert!(kind("autd3:emulator").in_process());
+        assert!(kind("autd3:emulator:4").in_process());
+        for p in ["autd3:soem", "autd3:remote:h:1", "/dev/ttyACM0", "tcp:h:1"] {
+            assert!(!kind(p).in_process(), "{p}");
+        }
+        assert_eq!(kind("autd3:emulator").target(), Target::Autd3);
+        assert_eq!(kind("/dev/ttyACM0").target(), Target::Lm);
     }
 
     #[test]
@@ -367,5 +441,69 @@ mod tests {
             .filter(|f| f.slot == b && f.amplitude > 0)
             .count();
         assert_eq!(from_b, usize::from(n) + 2);
+    }
+
+    /// The LM backend holds what it plays by its host lease: `tick` renews
+    /// it (so a holding lmhost keeps it playing however long), and a host
+    /// that stops ticking loses it within the lease (real clock).
+    #[test]
+    fn tick_renews_the_lease_and_a_quiet_host_loses_the_play() {
+        let (mut dev, _core) = simulated(Clock::real()).unwrap();
+        dev.client.lease_ms = 200;
+        let slot = dev.upload(&plan(), None).unwrap().slot;
+        assert!(!dev.needs_host(), "nothing plays yet");
+        dev.play(slot, true).unwrap();
+        assert!(dev.needs_host());
+        let t0 = std::time::Instant::now();
+        while t0.elapsed() < std::time::Duration::from_millis(700) {
+            dev.tick().unwrap();
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        let st = dev.status().unwrap();
+        assert_eq!(st.state, DeviceState::Playing, "{st:?}");
+        assert_eq!(st.lease_ms, 200);
+        // The host goes quiet for more than a lease.
+        std::thread::sleep(std::time::Duration::from_millis(400));
+        let st = dev.status().unwrap();
+        assert_eq!(
+            (st.state, st.mute_reason, st.lease_expiries),
+            (DeviceState::Stopped, lm_proto::MuteReason::LeaseExpired, 1)
+        );
+        assert!(!dev.needs_host(), "nothing of this host plays any more");
+        dev.tick().unwrap();
+        // A stop ends the hold without an expiry.
+        dev.play(slot, true).unwrap();
+        dev.stop().unwrap();
+        assert!(!dev.needs_host());
+        assert_eq!(
+            dev.status().unwrap().mute_reason,
+            lm_proto::MuteReason::Stopped
+        );
+    }
+
+    /// `SelfTest` through the backend: the simulated board's loopback, or
+    /// none.
+    #[test]
+    fn self_test_reaches_the_simulated_loopback() {
+        use crate::device::simdev::Loopback;
+        for (loopback, want) in [
+            (None, "Unsupported"),
+            (Some(Loopback::Ok), "Passed"),
+            (Some(Loopback::Broken), "Failed"),
+        ] {
+            let core = Arc::new(Mutex::new(
+                FwCore::new(SimConfig {
+                    loopback,
+                    ..SimConfig::default()
+                })
+                .unwrap(),
+            ));
+            let mut dev = LmBackend::new(
+                Client::new(InProcess::new(core, Clock::manual())),
+                Encoding::Delta,
+            );
+            let t = dev.self_test().unwrap();
+            assert!(format!("{t:?}").starts_with(want), "{t:?}");
+        }
     }
 }

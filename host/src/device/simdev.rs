@@ -290,17 +290,30 @@ pub struct SimConfig {
     pub centroid_timeout_us: u32,
     /// Mute from `Play` until the first centroid.
     pub require_tracking: bool,
+    /// An SPI loopback jumper for `SelfTest` (`None`: the device has no
+    /// self-test, as QEMU's board).
+    pub loopback: Option<Loopback>,
+}
+
+/// The simulated board's SPI loopback (`lmhost sim --loopback`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Loopback {
+    /// A jumper from MOSI to MISO: every byte comes back.
+    Ok,
+    /// No jumper: MISO floats high and reads 0xFF.
+    Broken,
 }
 
 impl Default for SimConfig {
     /// Four AUTD3 (996 transducers), 400 steps per slot, the firmware's
-    /// default 100 ms centroid timeout, tracking required.
+    /// default 100 ms centroid timeout, tracking required, no self-test.
     fn default() -> Self {
         Self {
             slot_steps: 400,
-            max_transducers: 996,
-            centroid_timeout_us: 100_000,
+            max_transducers: lm_fw_core::DEFAULT_TRANSDUCERS,
+            centroid_timeout_us: lm_fw_core::DEFAULT_CENTROID_TIMEOUT_US,
             require_tracking: true,
+            loopback: None,
         }
     }
 }
@@ -313,6 +326,7 @@ struct Probe<'a> {
     /// Accepted centroids waiting for their first frame: host stamp (µs).
     waiting: &'a mut Vec<u64>,
     capture: Option<&'a mut Vec<CapturedFrame>>,
+    loopback: Option<Loopback>,
 }
 
 /// An output frame kept by [`FwCore::set_capture`] (tests compare them
@@ -365,6 +379,20 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
         }
         Ok(())
     }
+
+    /// The firmware core's loopback test over the simulated jumper.
+    fn self_test(&mut self) -> lm_proto::SelfTest {
+        let Some(lb) = self.loopback else {
+            return lm_proto::SelfTest::Unsupported;
+        };
+        lm_fw_core::output::loopback_test(|sent: &[u8], got: &mut [u8]| {
+            match lb {
+                Loopback::Ok => got.copy_from_slice(sent),
+                Loopback::Broken => got.fill(0xFF),
+            }
+            Ok::<(), core::convert::Infallible>(())
+        })
+    }
 }
 
 /// [`lm_fw_core::Device`] with a 1 MHz timer (counts = µs) as a [`Core`].
@@ -374,6 +402,7 @@ pub struct FwCore {
     stats: SimStats,
     waiting: Vec<u64>,
     capture: Option<Vec<CapturedFrame>>,
+    loopback: Option<Loopback>,
 }
 
 impl FwCore {
@@ -396,6 +425,7 @@ impl FwCore {
             stats: SimStats::default(),
             waiting: Vec::new(),
             capture: None,
+            loopback: cfg.loopback,
         })
     }
 
@@ -437,9 +467,17 @@ impl Core for FwCore {
             };
         }
         let before = self.device.status(now_us).last_centroid_seq;
-        self.device.feed(bytes, now_us, &mut |reply: &[u8]| {
-            out.extend_from_slice(reply)
-        });
+        let mut probe = Probe {
+            stats: &mut self.stats,
+            now_us,
+            waiting: &mut self.waiting,
+            capture: self.capture.as_mut(),
+            loopback: self.loopback,
+        };
+        self.device
+            .feed(bytes, now_us, &mut probe, &mut |reply: &[u8]| {
+                out.extend_from_slice(reply)
+            });
         let after = self.device.status(now_us).last_centroid_seq;
         if after != before
             && let Some(c) = centroids.iter().find(|c| c.seq == after && c.present)
@@ -455,6 +493,7 @@ impl Core for FwCore {
             now_us,
             waiting: &mut self.waiting,
             capture: self.capture.as_mut(),
+            loopback: self.loopback,
         };
         // Nothing plays: centroids are not waiting for a frame.
         let next = self.device.poll(now_us, &mut probe);

@@ -67,7 +67,7 @@ impl View {
             in_range(
                 "--calibration",
                 k,
-                0.0,
+                crate::plan::scene::MIN_PRESSURE_SCALE,
                 crate::plan::scene::MAX_PRESSURE_SCALE,
                 "",
             )?;
@@ -188,8 +188,25 @@ pub fn calibration_for(scene: &crate::plan::scene::Scene, view: &View) -> (f64, 
     }
 }
 
-/// Simulates `plan` on the plane `view` describes, after the work check.
+/// The one intensity rule of a simulation: it models full output (its
+/// maps scale with the drive amplitude the driver makes of an intensity),
+/// so a stimulus of another `intensity` (0-255, 255 = full) is refused as
+/// bad input rather than simulated as if it were full.
+pub fn check_full_output(intensity: u8) -> Result<(), crate::InputError> {
+    if intensity == u8::MAX {
+        return Ok(());
+    }
+    Err(crate::InputError::new(format!(
+        "intensity {} ({intensity}/255) applies to devices: simulate models full output \
+         (its maps scale with the drive amplitude the driver makes of it)",
+        crate::limits::show(f64::from(intensity) / 255.0)
+    )))
+}
+
+/// Simulates `plan` on the plane `view` describes, after the work check;
+/// a plan not at full intensity is refused ([`check_full_output`]).
 pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
+    check_full_output(plan.sequence.header.intensity)?;
     let model = field::model_for_scene(&plan.scene, view.density)?;
     let (u, v) = view
         .axes
@@ -557,6 +574,37 @@ pub fn write_outputs(
 mod tests {
     use super::*;
     use crate::field;
+
+    #[test]
+    fn only_full_output_is_simulated() {
+        assert!(check_full_output(255).is_ok());
+        let e = check_full_output(128).unwrap_err().to_string();
+        assert!(e.contains("128/255") && e.contains("full output"), "{e}");
+        // The plan's own intensity decides, wherever the call comes from.
+        let half = crate::plan::stimulus::Stimulus {
+            intensity: 0.5,
+            ..Default::default()
+        }
+        .plan_for(
+            &crate::plan::target::Target::Lm,
+            crate::plan::scene::Scene::default(),
+        )
+        .unwrap()
+        .plan;
+        let view = View {
+            size_mm: (2.0, 2.0),
+            step_mm: 1.0,
+            center_mm: None,
+            axes: None,
+            rad: Radiation::default(),
+            density: 1.0,
+            disk_mm: 1.0,
+            calibration: None,
+            reference: false,
+        };
+        let e = simulate_plan(&half, &view).err().unwrap();
+        assert!(e.chain().any(|c| c.is::<InputError>()), "{e:#}");
+    }
 
     #[test]
     fn simulation_work_is_bounded() {

@@ -1,24 +1,25 @@
-//! A plotters [`DrawingBackend`] that writes a one-page PDF 1.4: lines,
-//! paths, rectangles, circles and polygons as vectors, text as real text
-//! in the embedded DejaVu Sans (the font the PNG and SVG figures use, so
-//! layouts agree), and bitmaps (the heatmaps) as Flate-compressed RGB
-//! images, as the SVG embeds them.
+//! A plotters [`DrawingBackend`] that draws a one-page PDF through
+//! `pdf-writer`: lines, paths, rectangles, circles and polygons as
+//! vectors, bitmaps (the heatmaps) as Flate-compressed RGB images, as the
+//! SVG embeds them, and text as real text in the embedded TrueType font
+//! (DejaVu Sans, the font of the PNG and SVG figures, so layouts agree).
+//!
+//! Text is Unicode: each character is its glyph, shown through a CID font
+//! (`Identity-H`) with a `ToUnicode` map, so it can be searched and copied.
+//! The font is embedded as a subset cut by `subsetter` to the glyphs the
+//! page draws, named `TAG+PostScriptName` as PDF wants a subset to be; the
+//! tag comes from the glyphs, so the same figure gives the same bytes (no
+//! clock, no random IDs).
 //!
 //! Coordinates are backend units with y down; `unit_pt` points per unit
 //! give the page size. Text sizes follow plotters' SVG backend: a style's
 //! size / 1.24 is the em, so a layout made for SVG is right for PDF too.
-//! Text is WinAnsi-encoded; a character outside WinAnsi is drawn as `?`.
-//! The font is embedded as a subset (module `subset`): only the glyphs the page
-//! draws keep their outlines.
-//! Nothing depends on the clock, so the same figure gives the same bytes.
 
-mod subset;
-
-use std::collections::BTreeSet;
-use std::fmt::Write as _;
+use std::collections::BTreeMap;
 use std::io::Write as _;
 
-use ab_glyph::{Font, FontRef};
+use pdf_writer::types::{CidFontType, FontFlags, LineCapStyle, LineJoinStyle, SystemInfo};
+use pdf_writer::{Content, Filter, Finish as _, Name, Pdf, Rect, Ref, Str, TextStr};
 use plotters_backend::text_anchor::{HPos, VPos};
 use plotters_backend::{
     BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingBackend, DrawingErrorKind,
@@ -28,8 +29,8 @@ use plotters_backend::{
 /// A style's size per em, as plotters' SVG backend writes it.
 const SIZE_PER_EM: f64 = 1.24;
 
-/// Drawing a PDF failed (a bitmap of the wrong size, a font that is not
-/// TrueType).
+/// Drawing a PDF failed (a bitmap of the wrong size, a font that cannot be
+/// read or cut).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct PdfError(String);
@@ -39,110 +40,80 @@ pub struct PdfBackend<'a> {
     out: &'a mut Vec<u8>,
     size: (u32, u32),
     unit_pt: f64,
-    font: FontMetrics,
-    content: String,
+    font: Face,
+    content: Content,
     /// RGB images: width, height, pixels.
     images: Vec<(u32, u32, Vec<u8>)>,
     /// Distinct alpha values below 1 (in thousandths), one ExtGState each.
     alphas: Vec<u16>,
-    /// WinAnsi codes the text uses.
-    used: [bool; 256],
+    /// The font's glyphs the text uses, numbered in the subset.
+    glyphs: subsetter::GlyphRemapper,
+    /// What each subset glyph stands for (the `ToUnicode` map).
+    chars: BTreeMap<u16, char>,
     presented: bool,
 }
 
 /// What the page needs of the embedded TrueType font.
-struct FontMetrics {
+struct Face {
     bytes: &'static [u8],
-    /// Advance of WinAnsi codes 32..=255, in 1/1000 em.
-    widths: Vec<f64>,
+    face: ttf_parser::Face<'static>,
+    /// The PostScript name (`DejaVuSans`).
+    name: String,
+    /// Per mille of an em.
+    per_mille: f64,
     ascent: f64,
     descent: f64,
-    bbox: [i32; 4],
+    cap_height: f64,
+    bbox: Rect,
 }
 
-impl FontMetrics {
+impl Face {
     fn new(bytes: &'static [u8]) -> Result<Self, PdfError> {
-        let font = FontRef::try_from_slice(bytes)
-            .map_err(|_| PdfError("the embedded font is not a TrueType font".into()))?;
-        let upem = f64::from(font.units_per_em().unwrap_or(1000.0));
-        let per_mille = |v: f32| f64::from(v) * 1000.0 / upem;
-        let widths = (32u8..=255)
-            .map(|b| per_mille(font.h_advance_unscaled(font.glyph_id(win_ansi_char(b)))))
-            .collect();
-        let bbox = head_bbox(bytes)
-            .map(|b| b.map(|v| (f64::from(v) * 1000.0 / upem).round() as i32))
-            .unwrap_or([-1000, -300, 2000, 1000]);
+        let f = ttf_parser::Face::parse(bytes, 0)
+            .map_err(|e| PdfError(format!("the embedded font cannot be read: {e}")))?;
+        let per_mille = 1000.0 / f64::from(f.units_per_em());
+        let name = f
+            .names()
+            .into_iter()
+            .filter(|n| n.name_id == ttf_parser::name_id::POST_SCRIPT_NAME)
+            .filter_map(|n| n.to_string())
+            .find(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_graphic()))
+            .unwrap_or_else(|| "Font".into());
+        let b = f.global_bounding_box();
+        let k = |v: i16| (f64::from(v) * per_mille) as f32;
+        let bbox = Rect::new(k(b.x_min), k(b.y_min), k(b.x_max), k(b.y_max));
+        let ascent = f64::from(f.ascender()) * per_mille;
+        let descent = f64::from(f.descender()) * per_mille;
+        let cap_height = f64::from(f.capital_height().unwrap_or(f.ascender())) * per_mille;
         Ok(Self {
             bytes,
-            widths,
-            ascent: per_mille(font.ascent_unscaled()),
-            descent: per_mille(font.descent_unscaled()),
+            face: f,
+            name,
+            per_mille,
+            ascent,
+            descent,
+            cap_height,
             bbox,
         })
     }
 
+    /// Each character's glyph and advance (per mille); a character the
+    /// font lacks is glyph 0, the font's "missing" box.
+    fn shape(&self, text: &str) -> Vec<(char, u16, f64)> {
+        let f = &self.face;
+        text.chars()
+            .map(|c| {
+                let g = f.glyph_index(c).unwrap_or(ttf_parser::GlyphId(0));
+                let adv = f64::from(f.glyph_hor_advance(g).unwrap_or(0)) * self.per_mille;
+                (c, g.0, adv)
+            })
+            .collect()
+    }
+
     /// Width of `text` at `em` units per em, as the PDF draws it (no kerning).
     fn width(&self, text: &str, em: f64) -> f64 {
-        encode(text)
-            .iter()
-            .map(|&b| self.widths[usize::from(b.max(32) - 32)])
-            .sum::<f64>()
-            * em
-            / 1000.0
+        self.shape(text).iter().map(|g| g.2).sum::<f64>() * em / 1000.0
     }
-}
-
-/// The font bounding box from the TrueType `head` table (font units).
-fn head_bbox(ttf: &[u8]) -> Option<[i16; 4]> {
-    let u16_at = |at: usize| Some(u16::from_be_bytes(ttf.get(at..at + 2)?.try_into().ok()?));
-    let u32_at = |at: usize| Some(u32::from_be_bytes(ttf.get(at..at + 4)?.try_into().ok()?));
-    let tables = usize::from(u16_at(4)?);
-    for i in 0..tables {
-        let rec = 12 + 16 * i;
-        if ttf.get(rec..rec + 4)? == b"head" {
-            let off = u32_at(rec + 8)? as usize;
-            let at = |k: usize| u16_at(off + k).map(|v| v as i16);
-            return Some([at(36)?, at(38)?, at(40)?, at(42)?]);
-        }
-    }
-    None
-}
-
-/// The character WinAnsiEncoding gives byte `b` (`b` ≥ 32).
-fn win_ansi_char(b: u8) -> char {
-    const HIGH: [char; 32] = [
-        '€', '\u{FFFD}', '‚', 'ƒ', '„', '…', '†', '‡', 'ˆ', '‰', 'Š', '‹', 'Œ', '\u{FFFD}', 'Ž',
-        '\u{FFFD}', '\u{FFFD}', '‘', '’', '“', '”', '•', '–', '—', '˜', '™', 'š', '›', 'œ',
-        '\u{FFFD}', 'ž', 'Ÿ',
-    ];
-    match b {
-        0x80..=0x9F => HIGH[usize::from(b - 0x80)],
-        _ => char::from(b),
-    }
-}
-
-/// `text` in WinAnsiEncoding; characters it lacks become `?`.
-fn encode(text: &str) -> Vec<u8> {
-    text.chars()
-        .map(|c| match u32::from(c) {
-            0x20..=0x7E | 0xA0..=0xFF => c as u8,
-            _ => (0x80u8..=0x9F)
-                .find(|&b| win_ansi_char(b) == c && c != '\u{FFFD}')
-                .unwrap_or(b'?'),
-        })
-        .collect()
-}
-
-/// A PDF literal string's body: `(`, `)` and `\` escaped, the rest as is.
-fn literal(bytes: &[u8]) -> Vec<u8> {
-    let mut s = Vec::with_capacity(bytes.len() + 2);
-    for &b in bytes {
-        if matches!(b, b'(' | b')' | b'\\') {
-            s.push(b'\\');
-        }
-        s.push(b);
-    }
-    s
 }
 
 fn deflate(data: &[u8]) -> Vec<u8> {
@@ -152,24 +123,22 @@ fn deflate(data: &[u8]) -> Vec<u8> {
     z.finish().unwrap_or_default()
 }
 
-/// `m` to the first point, `l` to the others: a path's operators.
-fn path_ops(points: impl IntoIterator<Item = BackendCoord>) -> String {
-    let mut ops = String::new();
-    for (i, (x, y)) in points.into_iter().enumerate() {
-        let _ = write!(ops, "{x} {y} {} ", if i == 0 { "m" } else { "l" });
+/// Six capital letters from the glyphs a subset keeps: its tag, the same
+/// for the same glyphs (FNV-1a).
+fn subset_tag(glyphs: impl IntoIterator<Item = u16>) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for g in glyphs {
+        for b in g.to_be_bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
     }
-    ops
-}
-
-/// A number for the content stream: at most 3 decimals, no `-0`.
-fn num(v: f64) -> String {
-    let r = (v * 1000.0).round() / 1000.0;
-    if r == 0.0 {
-        "0".into()
-    } else {
-        let s = format!("{r:.3}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    }
+    (0..6)
+        .map(|_| {
+            let c = char::from(b'A' + (h % 26) as u8);
+            h /= 26;
+            c
+        })
+        .collect()
 }
 
 impl<'a> PdfBackend<'a> {
@@ -185,25 +154,30 @@ impl<'a> PdfBackend<'a> {
             out,
             size,
             unit_pt,
-            font: FontMetrics::new(font)?,
-            content: String::new(),
+            font: Face::new(font)?,
+            content: Content::new(),
             images: Vec::new(),
             alphas: Vec::new(),
-            used: [false; 256],
+            glyphs: subsetter::GlyphRemapper::new(),
+            chars: BTreeMap::new(),
             presented: false,
         })
     }
 
-    /// Sets the colour (fill or stroke) and returns the ExtGState to use
-    /// for its alpha, if any; `None` when fully transparent (draw nothing).
+    /// Saves the state and sets the colour (fill or stroke) and its alpha;
+    /// `None` when fully transparent (nothing to draw, nothing saved).
     fn paint(&mut self, c: BackendColor, stroke: bool) -> Option<()> {
         if c.alpha <= 0.0 {
             return None;
         }
         let (r, g, b) = c.rgb;
-        let op = if stroke { "RG" } else { "rg" };
-        let k = |v: u8| num(f64::from(v) / 255.0);
-        let _ = write!(self.content, "{} {} {} {op} ", k(r), k(g), k(b));
+        let k = |v: u8| f32::from(v) / 255.0;
+        self.content.save_state();
+        if stroke {
+            self.content.set_stroke_rgb(k(r), k(g), k(b));
+        } else {
+            self.content.set_fill_rgb(k(r), k(g), k(b));
+        }
         if c.alpha < 1.0 {
             let a = (c.alpha * 1000.0).round().clamp(1.0, 999.0) as u16;
             let i = match self.alphas.iter().position(|&x| x == a) {
@@ -213,154 +187,149 @@ impl<'a> PdfBackend<'a> {
                     self.alphas.len() - 1
                 }
             };
-            let _ = write!(self.content, "/GS{i} gs ");
+            self.content
+                .set_parameters(Name(format!("GS{i}").as_bytes()));
         }
         Some(())
     }
 
     fn stroke_setup<S: BackendStyle>(&mut self, style: &S) -> Option<()> {
-        self.content.push_str("q ");
-        if self.paint(style.color(), true).is_none() {
-            self.content.truncate(self.content.len() - 2);
-            return None;
-        }
-        let _ = write!(self.content, "{} w ", style.stroke_width());
+        self.paint(style.color(), true)?;
+        self.content.set_line_width(style.stroke_width() as f32);
         Some(())
     }
 
-    fn fill_setup(&mut self, color: BackendColor) -> Option<()> {
-        self.content.push_str("q ");
-        if self.paint(color, false).is_none() {
-            self.content.truncate(self.content.len() - 2);
-            return None;
-        }
-        Some(())
-    }
-
-    /// The embedded font: the subset of the glyphs the text uses, or the
-    /// whole font if it cannot be cut.
-    fn font_file(&self) -> Vec<u8> {
-        let Ok(font) = FontRef::try_from_slice(self.font.bytes) else {
-            return self.font.bytes.to_vec();
-        };
-        let used: BTreeSet<u16> = (32u8..=255)
-            .filter(|&b| self.used[usize::from(b)])
-            .map(|b| font.glyph_id(win_ansi_char(b)).0)
-            .collect();
-        subset::subset(self.font.bytes, &used).unwrap_or_else(|| self.font.bytes.to_vec())
+    /// The font file: the subset of the glyphs drawn.
+    fn font_file(&self) -> Result<Vec<u8>, PdfError> {
+        subsetter::subset(self.font.bytes, 0, &self.glyphs)
+            .map_err(|e| PdfError(format!("cannot cut the font to the glyphs drawn: {e}")))
     }
 
     /// The whole file.
-    fn build(&self) -> Vec<u8> {
+    fn build(&self) -> Result<Vec<u8>, PdfError> {
         let (w, h) = self.size;
         let (wpt, hpt) = (f64::from(w) * self.unit_pt, f64::from(h) * self.unit_pt);
-        // Units to points, y down.
-        let content = format!(
-            "{} 0 0 {} 0 {} cm 1 j 1 J\n{}",
-            num(self.unit_pt),
-            num(-self.unit_pt),
-            num(hpt),
-            self.content
+        let id = Ref::new;
+        let (catalog, pages, page, content, font, cid_font, descriptor, file, cmap, info) = (
+            id(1),
+            id(2),
+            id(3),
+            id(4),
+            id(5),
+            id(6),
+            id(7),
+            id(8),
+            id(9),
+            id(10),
         );
-        let mut objects: Vec<Vec<u8>> = Vec::new();
-        let stream = |dict: String, data: &[u8]| {
-            let mut o = format!("<< {dict} /Length {} >>\nstream\n", data.len()).into_bytes();
-            o.extend_from_slice(data);
-            o.extend_from_slice(b"\nendstream");
-            o
-        };
-        // 1 catalog, 2 pages, 3 page, 4 content, 5 font, 6 descriptor,
-        // 7 font file, 8 info, 9.. images.
-        let image_ids: Vec<usize> = (0..self.images.len()).map(|i| 9 + i).collect();
-        objects.push(b"<< /Type /Catalog /Pages 2 0 R >>".to_vec());
-        objects.push(b"<< /Type /Pages /Kids [3 0 R] /Count 1 >>".to_vec());
-        let mut res = String::from("/Font << /F1 5 0 R >>");
-        if !image_ids.is_empty() {
-            res.push_str(" /XObject <<");
-            for (i, id) in image_ids.iter().enumerate() {
-                let _ = write!(res, " /Im{i} {id} 0 R");
+        let gs = |i: usize| id(11 + i as i32);
+        let im = |i: usize| id(11 + (self.alphas.len() + i) as i32);
+        let mut pdf = Pdf::new();
+        pdf.set_version(1, 4);
+        pdf.catalog(catalog).pages(pages);
+        pdf.pages(pages).kids([page]).count(1);
+        let mut p = pdf.page(page);
+        p.parent(pages)
+            .media_box(Rect::new(0.0, 0.0, wpt as f32, hpt as f32))
+            .contents(content);
+        let mut res = p.resources();
+        res.fonts().pair(Name(b"F1"), font);
+        if !self.images.is_empty() {
+            let mut x = res.x_objects();
+            for i in 0..self.images.len() {
+                x.pair(Name(format!("Im{i}").as_bytes()), im(i));
             }
-            res.push_str(" >>");
         }
         if !self.alphas.is_empty() {
-            res.push_str(" /ExtGState <<");
-            for (i, a) in self.alphas.iter().enumerate() {
-                let a = num(f64::from(*a) / 1000.0);
-                let _ = write!(res, " /GS{i} << /CA {a} /ca {a} >>");
+            let mut g = res.ext_g_states();
+            for i in 0..self.alphas.len() {
+                g.pair(Name(format!("GS{i}").as_bytes()), gs(i));
             }
-            res.push_str(" >>");
         }
-        objects.push(
-            format!(
-                "<< /Type /Page /Parent 2 0 R /MediaBox [0 0 {} {}] /Resources << {res} >> /Contents 4 0 R >>",
-                num(wpt),
-                num(hpt)
-            )
-            .into_bytes(),
-        );
-        // Text bytes ≥ 0x80 are held as chars U+0080..=U+00FF (see
-        // `draw_text`); everything else is ASCII.
-        let content: Vec<u8> = content
-            .chars()
-            .map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?'))
-            .collect();
-        objects.push(stream("/Filter /FlateDecode".into(), &deflate(&content)));
+        res.finish();
+        p.finish();
+
+        // Units to points, y down; then what was drawn.
+        let mut head = Content::new();
+        let u = self.unit_pt as f32;
+        head.transform([u, 0.0, 0.0, -u, 0.0, hpt as f32])
+            .set_line_join(LineJoinStyle::RoundJoin)
+            .set_line_cap(LineCapStyle::RoundCap);
+        let mut stream = head.finish().into_vec();
+        stream.push(b'\n');
+        stream.extend_from_slice(self.content.as_bytes());
+        pdf.stream(content, &deflate(&stream))
+            .filter(Filter::FlateDecode);
+
+        // The font: Type 0 over a CID TrueType font, glyph = CID in the subset.
         let f = &self.font;
-        let widths: Vec<String> = f.widths.iter().map(|&w| num(w.round())).collect();
-        objects.push(
-            format!(
-                "<< /Type /Font /Subtype /TrueType /BaseFont /DejaVuSans /FirstChar 32 /LastChar 255 \
-                 /Widths [{}] /Encoding /WinAnsiEncoding /FontDescriptor 6 0 R >>",
-                widths.join(" ")
-            )
-            .into_bytes(),
-        );
-        let [x0, y0, x1, y1] = f.bbox;
-        objects.push(
-            format!(
-                "<< /Type /FontDescriptor /FontName /DejaVuSans /Flags 32 /FontBBox [{x0} {y0} {x1} {y1}] \
-                 /ItalicAngle 0 /Ascent {} /Descent {} /CapHeight {} /StemV 80 /FontFile2 7 0 R >>",
-                num(f.ascent.round()),
-                num(f.descent.round()),
-                num((f.ascent * 0.8).round())
-            )
-            .into_bytes(),
-        );
-        let file = self.font_file();
-        objects.push(stream(
-            format!("/Filter /FlateDecode /Length1 {}", file.len()),
-            &deflate(&file),
-        ));
-        objects.push(b"<< /Producer (lmhost) >>".to_vec());
-        for (iw, ih, px) in &self.images {
-            objects.push(stream(
-                format!(
-                    "/Type /XObject /Subtype /Image /Width {iw} /Height {ih} /ColorSpace /DeviceRGB \
-                     /BitsPerComponent 8 /Filter /FlateDecode"
-                ),
-                &deflate(px),
-            ));
+        let tag = subset_tag(self.glyphs.remapped_gids());
+        let base = format!("{tag}+{}", f.name);
+        pdf.type0_font(font)
+            .base_font(Name(base.as_bytes()))
+            .encoding_predefined(Name(b"Identity-H"))
+            .descendant_font(cid_font)
+            .to_unicode(cmap);
+        let face = &f.face;
+        let widths: Vec<f32> = self
+            .glyphs
+            .remapped_gids()
+            .map(|g| {
+                let adv = face.glyph_hor_advance(ttf_parser::GlyphId(g)).unwrap_or(0);
+                (f64::from(adv) * f.per_mille).round() as f32
+            })
+            .collect();
+        let system = SystemInfo {
+            registry: Str(b"Adobe"),
+            ordering: Str(b"Identity"),
+            supplement: 0,
+        };
+        let mut cid = pdf.cid_font(cid_font);
+        cid.subtype(CidFontType::Type2)
+            .base_font(Name(base.as_bytes()))
+            .system_info(system)
+            .font_descriptor(descriptor)
+            .cid_to_gid_map_predefined(Name(b"Identity"));
+        cid.widths().consecutive(0, widths);
+        cid.finish();
+        pdf.font_descriptor(descriptor)
+            .name(Name(base.as_bytes()))
+            .flags(FontFlags::SYMBOLIC)
+            .bbox(f.bbox)
+            .italic_angle(0.0)
+            .ascent(f.ascent.round() as f32)
+            .descent(f.descent.round() as f32)
+            .cap_height(f.cap_height.round() as f32)
+            .stem_v(80.0)
+            .font_file2(file);
+        let sub = self.font_file()?;
+        pdf.stream(file, &deflate(&sub))
+            .filter(Filter::FlateDecode)
+            .pair(Name(b"Length1"), sub.len() as i32);
+        let mut map = pdf_writer::types::UnicodeCmap::new(Name(b"Custom"), system);
+        for (&g, &c) in &self.chars {
+            map.pair(g, c);
         }
-        let mut pdf = b"%PDF-1.4\n%\xE2\xE3\xCF\xD3\n".to_vec();
-        let mut offsets = Vec::with_capacity(objects.len());
-        for (i, o) in objects.iter().enumerate() {
-            offsets.push(pdf.len());
-            pdf.extend_from_slice(format!("{} 0 obj\n", i + 1).as_bytes());
-            pdf.extend_from_slice(o);
-            pdf.extend_from_slice(b"\nendobj\n");
+        pdf.cmap(cmap, &deflate(map.finish().as_slice()))
+            .filter(Filter::FlateDecode);
+        pdf.document_info(info).producer(TextStr("lmhost"));
+        for (i, a) in self.alphas.iter().enumerate() {
+            let a = f32::from(*a) / 1000.0;
+            pdf.ext_graphics(gs(i))
+                .stroking_alpha(a)
+                .non_stroking_alpha(a);
         }
-        let xref = pdf.len();
-        let mut table = format!("xref\n0 {}\n0000000000 65535 f \n", objects.len() + 1);
-        for off in offsets {
-            let _ = writeln!(table, "{off:010} 00000 n ");
+        for (i, (iw, ih, px)) in self.images.iter().enumerate() {
+            let data = deflate(px);
+            let mut x = pdf.image_xobject(im(i), &data);
+            x.width(*iw as i32).height(*ih as i32).bits_per_component(8);
+            x.color_space().device_rgb();
+            x.filter(Filter::FlateDecode);
         }
-        let _ = write!(
-            table,
-            "trailer\n<< /Size {} /Root 1 0 R /Info 8 0 R >>\nstartxref\n{xref}\n%%EOF\n",
-            objects.len() + 1
-        );
-        pdf.extend_from_slice(table.as_bytes());
-        pdf
+        // A line end after `%%EOF`, as most writers leave one.
+        let mut bytes = pdf.finish();
+        bytes.push(b'\n');
+        Ok(bytes)
     }
 }
 
@@ -379,15 +348,18 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
 
     fn present(&mut self) -> R<'a> {
         if !self.presented {
-            *self.out = self.build();
+            *self.out = self.build().map_err(DrawingErrorKind::DrawingError)?;
             self.presented = true;
         }
         Ok(())
     }
 
     fn draw_pixel(&mut self, (x, y): BackendCoord, color: BackendColor) -> R<'a> {
-        if self.fill_setup(color).is_some() {
-            let _ = writeln!(self.content, "{x} {y} 1 1 re f Q");
+        if self.paint(color, false).is_some() {
+            self.content
+                .rect(x as f32, y as f32, 1.0, 1.0)
+                .fill_nonzero()
+                .restore_state();
         }
         Ok(())
     }
@@ -399,11 +371,11 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         style: &S,
     ) -> R<'a> {
         if self.stroke_setup(style).is_some() {
-            let _ = writeln!(
-                self.content,
-                "{} {} m {} {} l S Q",
-                from.0, from.1, to.0, to.1
-            );
+            self.content
+                .move_to(from.0 as f32, from.1 as f32)
+                .line_to(to.0 as f32, to.1 as f32)
+                .stroke()
+                .restore_state();
         }
         Ok(())
     }
@@ -415,13 +387,20 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         style: &S,
         fill: bool,
     ) -> R<'a> {
-        let (w, h) = (br.0 - ul.0, br.1 - ul.1);
-        if fill {
-            if self.fill_setup(style.color()).is_some() {
-                let _ = writeln!(self.content, "{} {} {w} {h} re f Q", ul.0, ul.1);
+        let (w, h) = ((br.0 - ul.0) as f32, (br.1 - ul.1) as f32);
+        let on = if fill {
+            self.paint(style.color(), false)
+        } else {
+            self.stroke_setup(style)
+        };
+        if on.is_some() {
+            self.content.rect(ul.0 as f32, ul.1 as f32, w, h);
+            if fill {
+                self.content.fill_nonzero();
+            } else {
+                self.content.stroke();
             }
-        } else if self.stroke_setup(style).is_some() {
-            let _ = writeln!(self.content, "{} {} {w} {h} re S Q", ul.0, ul.1);
+            self.content.restore_state();
         }
         Ok(())
     }
@@ -431,11 +410,12 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         path: I,
         style: &S,
     ) -> R<'a> {
-        let ops = path_ops(path);
-        if !ops.is_empty() && self.stroke_setup(style).is_some() {
-            self.content.push_str(&ops);
-            self.content.push_str("S Q\n");
+        let pts: Vec<BackendCoord> = path.into_iter().collect();
+        if pts.is_empty() || self.stroke_setup(style).is_none() {
+            return Ok(());
         }
+        self.path(&pts);
+        self.content.stroke().restore_state();
         Ok(())
     }
 
@@ -447,7 +427,7 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         fill: bool,
     ) -> R<'a> {
         let on = if fill {
-            self.fill_setup(style.color())
+            self.paint(style.color(), false)
         } else {
             self.stroke_setup(style)
         };
@@ -455,27 +435,20 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
             return Ok(());
         }
         // Four cubic Béziers, the usual 0.5523 handle.
-        let (x, y, r) = (f64::from(cx), f64::from(cy), f64::from(radius));
-        let k = 0.552_284_75 * r;
-        let p = |a: f64, b: f64| format!("{} {}", num(a), num(b));
-        let _ = writeln!(
-            self.content,
-            "{} m {} {} {} c {} {} {} c {} {} {} c {} {} {} c {} Q",
-            p(x + r, y),
-            p(x + r, y + k),
-            p(x + k, y + r),
-            p(x, y + r),
-            p(x - k, y + r),
-            p(x - r, y + k),
-            p(x - r, y),
-            p(x - r, y - k),
-            p(x - k, y - r),
-            p(x, y - r),
-            p(x + k, y - r),
-            p(x + r, y - k),
-            p(x + r, y),
-            if fill { "f" } else { "S" }
-        );
+        let (x, y, r) = (cx as f32, cy as f32, radius as f32);
+        let k = 0.552_284_8 * r;
+        let c = &mut self.content;
+        c.move_to(x + r, y)
+            .cubic_to(x + r, y + k, x + k, y + r, x, y + r)
+            .cubic_to(x - k, y + r, x - r, y + k, x - r, y)
+            .cubic_to(x - r, y - k, x - k, y - r, x, y - r)
+            .cubic_to(x + k, y - r, x + r, y - k, x + r, y);
+        if fill {
+            c.fill_nonzero();
+        } else {
+            c.stroke();
+        }
+        c.restore_state();
         Ok(())
     }
 
@@ -484,11 +457,12 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         vert: I,
         style: &S,
     ) -> R<'a> {
-        let ops = path_ops(vert);
-        if !ops.is_empty() && self.fill_setup(style.color()).is_some() {
-            self.content.push_str(&ops);
-            self.content.push_str("h f Q\n");
+        let pts: Vec<BackendCoord> = vert.into_iter().collect();
+        if pts.is_empty() || self.paint(style.color(), false).is_none() {
+            return Ok(());
         }
+        self.path(&pts);
+        self.content.close_path().fill_nonzero().restore_state();
         Ok(())
     }
 
@@ -499,7 +473,8 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         pos: BackendCoord,
     ) -> R<'a> {
         let em = style.size() / SIZE_PER_EM;
-        let w = self.font.width(text, em);
+        let shaped = self.font.shape(text);
+        let w = shaped.iter().map(|g| g.2).sum::<f64>() * em / 1000.0;
         let anchor = style.anchor();
         let dx = match anchor.h_pos {
             HPos::Left => 0.0,
@@ -523,29 +498,33 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         let (ox, oy) = turn(dx, dy);
         let (ax, ay) = turn(1.0, 0.0);
         let (ux, uy) = turn(0.0, -1.0);
-        let bytes = encode(text);
-        for &b in &bytes {
-            self.used[usize::from(b)] = true;
+        // Two bytes a glyph, its number in the subset (Identity-H).
+        let mut cids = Vec::with_capacity(2 * shaped.len());
+        for (c, g, _) in shaped {
+            let new = self.glyphs.remap(g);
+            if g != 0 {
+                self.chars.entry(new).or_insert(c);
+            }
+            cids.extend_from_slice(&new.to_be_bytes());
         }
-        let body = literal(&bytes);
-        if self.fill_setup(style.color()).is_none() {
+        if self.paint(style.color(), false).is_none() {
             return Ok(());
         }
-        let _ = write!(
-            self.content,
-            "BT /F1 {} Tf {} {} {} {} {} {} Tm (",
-            num(em),
-            num(ax),
-            num(ay),
-            num(ux),
-            num(uy),
-            num(f64::from(pos.0) + ox),
-            num(f64::from(pos.1) + oy)
-        );
-        // WinAnsi bytes ≥ 0x80 are not UTF-8: the content holds them as
-        // chars U+0080..=U+00FF and `build` writes them back as bytes.
-        self.content.extend(body.iter().map(|&b| char::from(b)));
-        self.content.push_str(") Tj ET Q\n");
+        let f = |v: f64| v as f32;
+        self.content
+            .begin_text()
+            .set_font(Name(b"F1"), f(em))
+            .set_text_matrix([
+                f(ax),
+                f(ay),
+                f(ux),
+                f(uy),
+                f(f64::from(pos.0) + ox),
+                f(f64::from(pos.1) + oy),
+            ])
+            .show(Str(&cids))
+            .end_text()
+            .restore_state();
         Ok(())
     }
 
@@ -568,211 +547,34 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         };
         let i = self.images.len();
         self.images.push((iw, ih, px.to_vec()));
-        let _ = writeln!(
-            self.content,
-            "q {iw} 0 0 {} {x} {} cm /Im{i} Do Q",
-            -i64::from(ih),
-            i64::from(y) + i64::from(ih)
-        );
+        self.content
+            .save_state()
+            .transform([
+                iw as f32,
+                0.0,
+                0.0,
+                -(ih as f32),
+                x as f32,
+                (i64::from(y) + i64::from(ih)) as f32,
+            ])
+            .x_object(Name(format!("Im{i}").as_bytes()))
+            .restore_state();
         Ok(())
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use std::io::Read as _;
-
-    use plotters::prelude::*;
-
-    use super::*;
-    use crate::field::ObservationPlane;
-    use crate::field::plot::{self, Figure, Format, Labels, Overlay, Panel};
-
-    /// Object `n`'s bytes (after `n 0 obj`), found through the xref table,
-    /// which must point exactly at it.
-    fn object(pdf: &[u8], n: usize) -> &[u8] {
-        let tail = std::str::from_utf8(&pdf[pdf.len() - 40..]).unwrap();
-        let sx: usize = tail
-            .split("startxref\n")
-            .nth(1)
-            .unwrap()
-            .lines()
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        assert!(
-            pdf[sx..].starts_with(b"xref\n0 "),
-            "startxref points at the table"
-        );
-        // Entries are 20 bytes; entry 0 (the free list head) ends " f \n".
-        let first = sx + pdf[sx..].windows(4).position(|w| w == b" f \n").unwrap() + 4;
-        let entry = first + 20 * (n - 1);
-        let off: usize = std::str::from_utf8(&pdf[entry..entry + 10])
-            .unwrap()
-            .parse()
-            .unwrap();
-        let head = format!("{n} 0 obj\n");
-        assert!(pdf[off..].starts_with(head.as_bytes()), "xref entry {n}");
-        let body = &pdf[off + head.len()..];
-        let end = body.windows(7).position(|w| w == b"endobj\n").unwrap();
-        &body[..end]
-    }
-
-    /// The inflated data of a stream object.
-    fn stream_data(obj: &[u8]) -> Vec<u8> {
-        let s = obj.windows(7).position(|w| w == b"stream\n").unwrap() + 7;
-        let e = obj.windows(10).rposition(|w| w == b"\nendstream").unwrap();
-        let mut out = Vec::new();
-        flate2::read::ZlibDecoder::new(&obj[s..e])
-            .read_to_end(&mut out)
-            .unwrap();
-        out
-    }
-
-    fn contains(hay: &[u8], needle: &str) -> bool {
-        hay.windows(needle.len()).any(|w| w == needle.as_bytes())
-    }
-
-    #[test]
-    fn figure_pdf_is_well_formed_sized_and_carries_real_text() {
-        let dir = std::env::temp_dir().join(format!("lmhost-pdf-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let plane = ObservationPlane {
-            center_mm: [0.0, 0.0, 200.0],
-            u: [1.0, 0.0, 0.0],
-            v: [0.0, 1.0, 0.0],
-            width_mm: 10.0,
-            height_mm: 8.0,
-            step_mm: 1.0,
-        };
-        let map: Vec<f64> = (0..plane.nu() * plane.nv()).map(|i| i as f64).collect();
-        let panel = Panel {
-            map: &map,
-            overlay: Overlay {
-                orbit: (0..16)
-                    .map(|k| {
-                        let a = k as f64 * std::f64::consts::TAU / 16.0;
-                        [2.0 * a.cos(), 2.0 * a.sin()]
-                    })
-                    .collect(),
-                foci: vec![[2.0, 0.0]],
-                disk: Some(([0.0, 0.0], 6.0)),
-            },
-        };
-        let labels = Labels {
-            x: "a (mm)".into(),
-            y: "b (mm)".into(),
-            colorbar: "mean rad. pressure (Pa)".into(),
-            disk_mm: Some(6.0),
-            ..Labels::default()
-        };
-        let fig = Figure {
-            width_mm: 120.0,
-            formats: vec![Format::Pdf],
-        };
-        let written = plot::heatmap(&dir.join("m"), &plane, &panel, &labels, &fig).unwrap();
-        assert_eq!(written, vec![dir.join("m.pdf")]);
-        let pdf = std::fs::read(dir.join("m.pdf")).unwrap();
-        // The same figure, the same bytes.
-        plot::heatmap(&dir.join("again"), &plane, &panel, &labels, &fig).unwrap();
-        assert!(std::fs::read(dir.join("again.pdf")).unwrap() == pdf);
-        std::fs::remove_dir_all(&dir).unwrap();
-        assert!(pdf.starts_with(b"%PDF-1.4\n") && pdf.ends_with(b"%%EOF\n"));
-
-        // The page is the figure's printed width.
-        let page = std::str::from_utf8(object(&pdf, 3)).unwrap().to_string();
-        let mb = page.split("/MediaBox [0 0 ").nth(1).unwrap();
-        let w_pt: f64 = mb.split(' ').next().unwrap().parse().unwrap();
-        assert!((w_pt - 120.0 / 25.4 * 72.0).abs() < 0.5, "{w_pt} pt");
-        // One embedded image: the heatmap, at its size in units.
-        assert!(page.contains("/Im0 9 0 R") && !page.contains("/Im1"));
-        // The overlays' alpha (the disk is drawn at 0.9).
-        assert!(page.contains("/CA 0.9 /ca 0.9"), "{page}");
-
-        // Text is text: the axis names, the legend, the rotated y name.
-        let content = stream_data(object(&pdf, 4));
-        for t in ["(a \\(mm\\)) Tj", "(orbit) Tj", "(6 mm gauge disk) Tj"] {
-            assert!(contains(&content, t), "{t}");
+impl PdfBackend<'_> {
+    /// `m` to the first point, `l` to the others.
+    fn path(&mut self, pts: &[BackendCoord]) {
+        for (i, &(x, y)) in pts.iter().enumerate() {
+            if i == 0 {
+                self.content.move_to(x as f32, y as f32);
+            } else {
+                self.content.line_to(x as f32, y as f32);
+            }
         }
-        // The y name reads upwards: advance (0, -1), glyph up (-1, 0).
-        let text = String::from_utf8_lossy(&content);
-        let y_name = text
-            .lines()
-            .find(|l| l.contains("(b \\(mm\\)) Tj"))
-            .unwrap();
-        assert!(y_name.contains(" Tf 0 -1 -1 0 "), "{y_name}");
-
-        // The font file is DejaVu Sans cut to the glyphs drawn: the
-        // letters of the labels have outlines, others do not.
-        let font = std::str::from_utf8(object(&pdf, 5)).unwrap();
-        assert!(font.contains("/Encoding /WinAnsiEncoding"));
-        let file = stream_data(object(&pdf, 7));
-        assert!(file.len() * 4 < plot::FONT.len(), "{} bytes", file.len());
-        let sub = FontRef::try_from_slice(&file).unwrap();
-        for (c, drawn) in [('o', true), ('b', true), ('Z', false), ('Q', false)] {
-            assert_eq!(sub.outline(sub.glyph_id(c)).is_some(), drawn, "{c}");
-        }
-        // The image is the map's pixels, RGB.
-        let img = object(&pdf, 9);
-        let head = String::from_utf8_lossy(&img[..200]);
-        let iw: usize = head
-            .split("/Width ")
-            .nth(1)
-            .unwrap()
-            .split(' ')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        let ih: usize = head
-            .split("/Height ")
-            .nth(1)
-            .unwrap()
-            .split(' ')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        assert_eq!(stream_data(img).len(), iw * ih * 3);
-    }
-
-    #[test]
-    fn text_is_win_ansi_and_measured_as_drawn() {
-        assert_eq!(encode("µ×°–é"), vec![0xB5, 0xD7, 0xB0, 0x96, 0xE9]);
-        assert_eq!(encode("a中b"), b"a?b".to_vec());
-        assert_eq!(literal(b"f(x) \\ y"), b"f\\(x\\) \\\\ y".to_vec());
-        let m = FontMetrics::new(plot::FONT).unwrap();
-        // Widths from the font: a wide letter is wider than a narrow one,
-        // a digit is a digit wide, and a string is the sum of its letters.
-        let w = |s: &str| m.width(s, 1000.0);
-        assert!(w("W") > 1.5 * w("i"));
-        assert!((w("0") - w("8")).abs() < 1e-9);
-        assert!((w("Wi") - w("W") - w("i")).abs() < 1e-9);
-        assert!(
-            m.ascent > 700.0 && m.descent < -100.0,
-            "{} {}",
-            m.ascent,
-            m.descent
-        );
-        let [x0, y0, x1, y1] = m.bbox;
-        assert!(x0 < 0 && y0 < 0 && x1 > 1000 && y1 > 900, "{:?}", m.bbox);
-        // A non-TrueType font is an error, not a panic.
-        assert!(FontMetrics::new(b"not a font").is_err());
-    }
-
-    #[test]
-    fn a_short_bitmap_is_an_error() {
-        let mut out = Vec::new();
-        let mut b = PdfBackend::new(&mut out, (10, 10), 1.0, plot::FONT).unwrap();
-        assert!(b.blit_bitmap((0, 0), (4, 4), &[0; 47]).is_err());
-        b.blit_bitmap((0, 0), (4, 4), &[0; 48]).unwrap();
-        b.present().unwrap();
-        assert!(out.starts_with(b"%PDF"));
-        // Nothing is drawn in full transparency.
-        let mut out2 = Vec::new();
-        let mut b = PdfBackend::new(&mut out2, (10, 10), 1.0, plot::FONT).unwrap();
-        b.draw_line((0, 0), (5, 5), &TRANSPARENT).unwrap();
-        assert!(b.content.is_empty());
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -19,7 +19,7 @@ pub const MAX_PATTERNS: usize = autd3::core::firmware::GAIN_STM_BUF_SIZE_MAX;
 /// Largest sampling divide (the FPGA register is a u16).
 pub const MAX_DIVIDE: u32 = u16::MAX as u32;
 /// Smallest divide the silencer (1 ms phase completion, strict mode, see
-/// [`super::safety`]) accepts: 40 × 25 µs = 1 ms, the rig's 1 kHz update limit.
+/// [`crate::device::autd3::safety`]) accepts: 40 × 25 µs = 1 ms, the rig's 1 kHz update limit.
 pub const SILENCER_MIN_DIVIDE: u32 = 40;
 
 /// The realised timing of an LM cycle on the 25 µs grid.
@@ -81,12 +81,14 @@ pub fn grid_timing(
 ) -> Result<GridTiming, InputError> {
     if !(freq_hz.is_finite() && freq_hz > 0.0) {
         return Err(InputError::new(format!(
-            "frequency must be a finite number > 0 Hz, got {freq_hz}"
+            "frequency (--freq) must be a finite number > 0 Hz, got {}",
+            crate::limits::show(freq_hz)
         )));
     }
     if !(radius_mm.is_finite() && radius_mm >= 0.0) {
         return Err(InputError::new(format!(
-            "radius must be a finite number ≥ 0 mm, got {radius_mm}"
+            "radius (--radius) must be a finite number ≥ 0 mm, got {}",
+            crate::limits::show(radius_mm)
         )));
     }
     if !(min_dwell_s.is_finite() && min_dwell_s >= 0.0) {
@@ -109,7 +111,8 @@ pub fn grid_timing(
         Steps::Width(w) => {
             if !(w.is_finite() && w > 0.0) {
                 return Err(InputError::new(format!(
-                    "step width must be a finite number > 0 mm, got {w}"
+                    "step (--step) must be a finite number > 0 mm, got {}",
+                    crate::limits::show(w)
                 )));
             }
             let ideal = circumference / w;

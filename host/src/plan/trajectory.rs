@@ -121,8 +121,10 @@ fn finite_pos(v: f64, name: &str, unit: &str, allow_zero: bool) -> Result<(), In
         return Ok(());
     }
     let need = if allow_zero { "≥ 0" } else { "> 0" };
+    let what = if name == "freq" { "frequency" } else { name };
     Err(InputError::new(format!(
-        "{name} must be a finite number {need} {unit}, got {v}"
+        "{what} (--{name}) must be a finite number {need} {unit}, got {}",
+        crate::limits::show(v)
     )))
 }
 
@@ -145,7 +147,7 @@ impl Trajectory {
     /// dwell). Every rejection is an [`InputError`] naming the parameter.
     pub fn plan(p: &LmParams, scene: &Scene) -> Result<Self, InputError> {
         finite_pos(p.radius_mm, "radius", "mm", true)?;
-        finite_pos(p.freq_hz, "frequency", "Hz", false)?;
+        finite_pos(p.freq_hz, "freq", "Hz", false)?;
         limits::in_range("radius", p.radius_mm, 0.0, limits::MAX_RADIUS_MM, "mm")?;
         limits::in_range("frequency", p.freq_hz, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
         if !p.center_mm.iter().all(|x| x.is_finite()) {

@@ -52,11 +52,33 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
         Just(Message::Stop),
         Just(Message::GetStatus),
         Just(Message::Ack),
+        Just(Message::Renew),
+        Just(Message::SelfTest),
+        prop_oneof![
+            Just(SelfTest::Unsupported),
+            any::<u32>().prop_map(|bytes| SelfTest::Passed { bytes }),
+            any::<(u32, u32, u32, u8, u8)>().prop_map(
+                |(bytes, mismatches, first_mismatch, sent, got)| SelfTest::Failed {
+                    bytes,
+                    mismatches,
+                    first_mismatch,
+                    sent,
+                    got,
+                }
+            ),
+        ]
+        .prop_map(Message::SelfTestResult),
         nack_code().prop_map(Message::Nack),
         (any::<u8>(), any::<u32>())
             .prop_map(|(slot, crc32)| Message::Commit(Commit { slot, crc32 })),
-        (any::<u8>(), any::<bool>(), any::<bool>(), any::<u32>()).prop_map(
-            |(slot, now, untracked, steps)| {
+        (
+            any::<u8>(),
+            any::<bool>(),
+            any::<bool>(),
+            any::<u32>(),
+            any::<u16>()
+        )
+            .prop_map(|(slot, now, untracked, steps, lease_ms)| {
                 Message::Play(Play {
                     slot,
                     at: if now {
@@ -66,9 +88,9 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                     },
                     untracked,
                     steps,
+                    lease_ms,
                 })
-            }
-        ),
+            }),
         (any::<u32>(), xyz(), any::<bool>(), any::<u64>()).prop_map(|(seq, pos_um, present, t)| {
             Message::Centroid(Centroid {
                 seq,
@@ -156,28 +178,33 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
             ),
             xyz(),
             proptest::option::of(0u8..=254),
-            0u8..6
+            0u8..7,
+            any::<(u16, u32)>()
         )
             .prop_map(
-                |((st, slot, step, c), corr, queued, reason)| Message::Status(Status {
-                    state: [
-                        DeviceState::Idle,
-                        DeviceState::Playing,
-                        DeviceState::Muted,
-                        DeviceState::Stopped
-                    ][st as usize],
-                    slot,
-                    step,
-                    cycles: c[0],
-                    missed_deadlines: c[1],
-                    last_centroid_seq: c[2],
-                    bad_frames: c[3],
-                    crc_errors: c[4],
-                    nacks: c[5],
-                    correction_um: corr,
-                    queued_slot: queued,
-                    mute_reason: MuteReason::from_u8(reason).unwrap(),
-                })
+                |((st, slot, step, c), corr, queued, reason, (lease_ms, lease_expiries))| {
+                    Message::Status(Status {
+                        state: [
+                            DeviceState::Idle,
+                            DeviceState::Playing,
+                            DeviceState::Muted,
+                            DeviceState::Stopped,
+                        ][st as usize],
+                        slot,
+                        step,
+                        cycles: c[0],
+                        missed_deadlines: c[1],
+                        last_centroid_seq: c[2],
+                        bad_frames: c[3],
+                        crc_errors: c[4],
+                        nacks: c[5],
+                        correction_um: corr,
+                        queued_slot: queued,
+                        mute_reason: MuteReason::from_u8(reason).unwrap(),
+                        lease_ms,
+                        lease_expiries,
+                    })
+                }
             ),
     ];
     prop_oneof![

@@ -13,44 +13,53 @@ pub(crate) fn device_state_cases() -> Vec<Case> {
         ])
     };
     table! {
-        // Untracked play: the device sounds without a finger, and says so.
-        UNTRACKED  "upload --port {dev} --freq 0.05 --untracked" .ok()
+        // Untracked play: the device sounds without a finger, and says so;
+        // what lmhost plays lasts while it holds the port (here briefly).
+        UNTRACKED  "upload --port {dev} --freq 0.05 --untracked --hold 0.05" .ok()
                    .err("warning: playing untracked").out("playing slot 0, untracked")
-                   .then("status --port {dev} --json", "\"state\":\"Playing\"");
-        // 9. Play semantics: a free slot, a queued play, the library's next
-        // free entry.
+                   .then("status --port {dev} --json", "\"mute_reason\":\"stopped\"");
+        // 9. Play semantics: a free slot, the library's next free entry.
         PLAY       "upload --port {dev} --radius 2 --no-play" .ok().out("to slot 1")
                    .then("status --port {dev} --json", "\"slot\":0");
-        PLAY       "play --port {dev} --slot 1" .ok()
-                   .out("slot 1 queued for the next cycle boundary")
-                   .then("status --port {dev} --json", "\"queued_slot\":1");
-        PLAY       "status --port {dev}" .ok().out("queued slot:      1");
-        PLAY       "upload --port {dev} --no-play" .ok().out("to slot 2")
-                   .then("status --port {dev} --json", "\"queued_slot\":1");
-        // The queued play is tracked: it ends the untracked session at once
-        // (the device mutes and says why), while slot 0 plays to the boundary.
-        PLAY       "upload --port {dev} --json" .ok()
-                   .then("status --port {dev} --json", "\"mute_reason\":\"waiting_for_tracking\"");
+        PLAY       "play --port {dev} --slot 1 --hold 0.05" .ok().out("playing slot 1")
+                   .then("status --port {dev} --json", "\"slot\":1");
+        PLAY       "status --port {dev}" .ok().out("queued slot:      none");
+        PLAY       "upload --port {dev} --no-play" .ok().out("to slot 0")
+                   .then("status --port {dev} --json", "\"queued_slot\":null");
+        PLAY       "upload --port {dev} --json --hold 0.05" .ok()
+                   .out("\"mute_reason\":\"waiting_for_tracking\"")
+                   .then("status --port {dev} --json", "\"state\":\"Stopped\"");
         // 10. The device's own answers, as the spec has them.
         SPEC       "play --port {dev} --slot 40" .err("32 slots");
         // A timed play needs a step count of at least 1, and plays from
-        // silence or queued (never --immediate).
+        // silence or queued (never --immediate); lmhost holds it until the
+        // device has stopped itself.
         PLAY       "play --port {dev} --slot 1 --steps 0" .err("--steps");
         PLAY       "play --port {dev} --slot 1 --steps -5" .err("--steps");
         PLAY       "play --port {dev} --slot 1 --steps 4294967296" .err("--steps");
         PLAY       "play --port {dev} --slot 1 --steps 10 --immediate" .err("--immediate");
+        PLAY       "play --port {dev} --slot 1 --steps 10 --hold 1" .err("--hold");
+        PLAY       "play --port {dev} --slot 1 --steps 10 --untracked" .ok()
+                   .out("the device stops itself").out("stopped after cycle 0 step 10")
+                   .then("status --port {dev} --json", "\"mute_reason\":\"stopped\"");
+        // The host lease: 0.1 to 60 s, no "forever".
+        PLAY       "play --port {dev} --slot 1 --lease 0" .err("0.1 to 60 s");
+        PLAY       "play --port {dev} --slot 1 --lease 61" .err("0.1 to 60 s");
+        PLAY       "upload --port {dev} --lease forever" .err("0.1 to 60 s");
+        PLAY       "play --port {dev} --slot 1 --hold -1" .err("--hold");
         SPEC       "play --port {dev} --slot 32 --untracked" .err("32 slots");
         SPEC       "upload --port {dev} --slot 32" .err("32 slots");
         UNTRACKED  "stop --port {dev}" .ok()
                    .then("status --port {dev} --json", "\"mute_reason\":\"stopped\"");
         UNTRACKED  "status --port {dev}" .ok().out("mute reason:      stopped");
-        UNTRACKED  "upload --port {dev}" .ok().out("waiting for tracking").out("--untracked")
-                   .then("status --port {dev} --json", "\"mute_reason\":\"waiting_for_tracking\"");
+        UNTRACKED  "upload --port {dev} --hold 0.05" .ok().out("waiting for tracking")
+                   .out("--untracked")
+                   .then("status --port {dev} --json", "\"state\":\"Stopped\"");
         UNTRACKED  "stop --port {dev}" .ok()
                    .then("status --port {dev} --json", "\"state\":\"Stopped\"");
-        UNTRACKED  "play --port {dev} --slot 1 --untracked" .ok()
+        UNTRACKED  "play --port {dev} --slot 1 --untracked --hold 0.05" .ok()
                    .err("warning: playing untracked")
-                   .then("status --port {dev} --json", "\"state\":\"Playing\"");
+                   .then("status --port {dev} --json", "\"lease_expiries\":0");
         UNTRACKED  "stop --port {dev}" .ok()
                    .then("status --port {dev} --json", "\"queued_slot\":null");
         // 11. One header, one validation, before any byte is sent.
@@ -67,23 +76,23 @@ pub(crate) fn device_state_cases() -> Vec<Case> {
                    .then("status --port {small} --json", "\"nacks\":0");
         VALIDATION "upload --port {small} --foci 4 --slot 1" .err("does not fit")
                    .then("status --port {small} --json", "\"bad_frames\":0");
-        VALIDATION "upload --port {small} --steps 10 --freq 1" .ok()
+        VALIDATION "upload --port {small} --steps 10 --freq 1 --hold 0.05" .ok()
                    .then("status --port {small} --json", "\"nacks\":0");
         SPEC       "play --port {small} --slot 1" .code(1).err("refused play");
         // 5. The device's work volume: a centroid 30 mm off the planned
         // centre is refused (muted, counted), one inside unmutes.
-        CENTROIDS  "upload --port {wv}" .ok().out("within 20 mm of the centre");
+        // Each stream plays the uploaded entry again and reports the
+        // device's state before it leaves it silent.
+        CENTROIDS  "upload --port {wv} --hold 0.05" .ok().out("within 20 mm of the centre");
         CENTROIDS  "stream --port {wv} --json" .stdin(at(30.0)).ok()
                    .out("\"outside_work_volume\":3")
-                   .then("status --port {wv} --json", "\"mute_reason\":\"centroid_out_of_range\"");
-        CENTROIDS  "stream --port {wv}" .stdin(at(-25.0)).ok().out("outside")
-                   .then("status --port {wv} --json", "\"state\":\"Muted\"");
+                   .out("\"mute_reason\":\"centroid_out_of_range\"");
+        CENTROIDS  "stream --port {wv}" .stdin(at(-25.0)).ok().out("outside").out("(Muted)");
         CENTROIDS  "stream --port {wv} --json" .stdin(at(0.0)).ok()
-                   .out("\"outside_work_volume\":0")
-                   .then("status --port {wv} --json", "\"state\":\"Playing\"");
+                   .out("\"outside_work_volume\":0").out("\"device_state\":\"Playing\"");
         CENTROIDS  "stream --port {wv} --json" .stdin(at(19.0)).ok()
-                   .out("\"outside_work_volume\":0")
-                   .then("status --port {wv} --json", "\"mute_reason\":\"none\"");
+                   .out("\"outside_work_volume\":0").out("\"mute_reason\":\"none\"")
+                   .then("status --port {wv} --json", "\"state\":\"Stopped\"");
     }
 }
 
@@ -273,7 +282,7 @@ pub(crate) fn cases() -> Vec<Case> {
                    .err("flood");
         SESSIONS   "stream --port {port}" .stdin(csv(&["0,0,0,200,1"])).hold_stdin()
                    .signal("INT", 700).ok().out("stopped by signal; device muted")
-                   .then("status --port {port} --json", "\"state\":\"Muted\"");
+                   .then("status --port {port} --json", "\"state\":\"Stopped\"");
         SESSIONS   "stream --port {port} --json" .stdin(csv(&["0,0,0,200,1"])).hold_stdin()
                    .signal("TERM", 700).ok().out("\"stopped\":true").out("\"muted_at_end\":true");
         SESSIONS   "stream --port {port} --udp 47007 --seconds 60" .signal("INT", 700).ok()

@@ -167,7 +167,7 @@ pub(crate) fn round3_cases() -> Vec<Case> {
                    .signal("TERM", 1500).ok().check(sig_term_replays);
         REC_SIGNAL "track --synthetic --seconds 60 --port {port} --record {dir}/sig_dev.npy"
                    .signal("INT", 1500).ok().out("stopped by signal; device muted")
-                   .then("status --port {port} --json", "\"state\":\"Muted\"");
+                   .then("status --port {port} --json", "\"state\":\"Stopped\"");
         REC_SIGNAL "track --synthetic --seconds 60" .signal("TERM", 1000).ok()
                    .out("stopped by signal");
         // 3. An output that is an input, refused before anything is written.

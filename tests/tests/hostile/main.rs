@@ -7,7 +7,8 @@
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
 //! round: `cases_r1.rs`, `cases_r3.rs`, …); `{port}` is
 //! the shared simulated device, `{dir}` a scratch directory with the
-//! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`.
+//! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`. A
+//! case may run a client of the command beside it (`.during(f)`).
 //!
 //! Run with `--nocapture` to see the summary line
 //! `hostile inputs: N cases, K classes, 0 panics, 0 hangs`.
@@ -61,9 +62,28 @@ const STUDY_REPORT: &str = "r4-study-3 study report";
 const STUDY_READS: &str = "r4-study-4 bounded regular study reads";
 const STUDY_COUNTS: &str = "r4-study-5 counts that wrap";
 const STUDY_NUMBERS: &str = "r4-study-6 numbers name the field";
+/// Round 4, files (issues 30.4, 30.12, 30.16).
+const OUT_DEST: &str = "r4-30.4 output destinations";
+const EVENT_LOGS: &str = "r4-30.4 event logs never block";
+const MESSAGES: &str = "r4-30.16 one reason, named fields, sane ranges";
+const SCENE_EDITS: &str = "r4-30.16 scenes calibrated in any form";
+
+/// The rig session (issues 30, 31.3): `cases_r4_session.rs`.
+const SESSION_STALLS: &str = "r4-s1 no client slows the session";
+const SESSION_LINES: &str = "r4-s2 bounded control lines";
+const SESSION_TCP: &str = "r4-s3 local TCP control authenticated";
+const SESSION_LIBRARY: &str = "r4-s4 library larger than the device";
+const SESSION_MEANINGLESS: &str = "r4-s5 meaningless session input refused";
+const SESSION_SEMANTICS: &str = "r4-s6 session semantics";
+const SESSION_MESSAGES: &str = "r4-s7 session messages";
+const SESSION_OUTPUTS: &str = "r4-s8 session inputs before outputs";
+
+/// Classes of round 4's device work (issues 26, 30, 31).
+const STALE_LOCK: &str = "r4-30.15 a port lock dies with its holder";
+const AUTD3_SLOTS: &str = "r4-31 AUTD3 slots, segments and the in-process emulator";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 31] = [
+const CLASSES: [&str; 45] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -95,6 +115,20 @@ const CLASSES: [&str; 31] = [
     STUDY_READS,
     STUDY_COUNTS,
     STUDY_NUMBERS,
+    OUT_DEST,
+    EVENT_LOGS,
+    MESSAGES,
+    SCENE_EDITS,
+    SESSION_STALLS,
+    SESSION_LINES,
+    SESSION_TCP,
+    SESSION_LIBRARY,
+    SESSION_MEANINGLESS,
+    SESSION_SEMANTICS,
+    SESSION_MESSAGES,
+    SESSION_OUTPUTS,
+    STALE_LOCK,
+    AUTD3_SLOTS,
 ];
 
 /// What a run produced, for custom checks.
@@ -102,6 +136,8 @@ struct Run {
     code: Option<i32>,
     stdout: String,
     stderr: String,
+    /// What the `during` client found.
+    during: Result<(), String>,
 }
 
 /// Where the fixtures and the devices are.
@@ -120,9 +156,17 @@ struct Ctx {
     full: Option<PathBuf>,
     /// A device another lmhost holds open for the whole suite (`{busy}`).
     busy: String,
+    /// A device of its own for the session cases (`{sess}`), whose
+    /// library they fill.
+    sess: String,
+    /// A device whose holder was killed with SIGKILL (`{stale}`).
+    stale: String,
 }
 
 type Check = fn(&Ctx, &Run) -> Result<(), String>;
+
+/// Runs beside the command (a client of it), given its process id.
+type During = fn(&Ctx, u32) -> Result<(), String>;
 
 /// One hostile input and what must happen.
 #[derive(Clone)]
@@ -149,6 +193,8 @@ struct Case {
     stderr_to: Option<String>,
     /// Environment variables set for the run (values expanded).
     env: Vec<(String, String)>,
+    /// Runs while the command does; its error fails the case.
+    during: Option<During>,
 }
 
 fn words(args: &str) -> Vec<String> {
@@ -174,6 +220,7 @@ fn case(class: &'static str, args: &str) -> Case {
         stdout_to: None,
         stderr_to: None,
         env: Vec::new(),
+        during: None,
     }
 }
 
@@ -233,6 +280,10 @@ impl Case {
         self.check = Some(f);
         self
     }
+    fn during(mut self, f: During) -> Self {
+        self.during = Some(f);
+        self
+    }
     fn env(mut self, k: &str, v: &str) -> Self {
         self.env.push((k.to_owned(), v.to_owned()));
         self
@@ -276,12 +327,17 @@ fn good_udp(n: usize) -> Vec<Vec<u8>> {
 
 mod cases_r1;
 mod cases_r3;
+mod cases_r4_device;
+mod cases_r4_files;
+mod cases_r4_session;
 mod cases_r4_study;
 mod checks;
 mod fixtures;
 
 use cases_r1::cases;
 use cases_r3::round3_cases;
+use cases_r4_device::round4_device_cases;
+use cases_r4_files::{round4_files_cases, round4_files_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use checks::*;
 use fixtures::*;
@@ -292,6 +348,8 @@ fn expand(s: &str, ctx: &Ctx) -> String {
         .replace("{wv}", &ctx.wv)
         .replace("{small}", &ctx.small)
         .replace("{busy}", &ctx.busy)
+        .replace("{sess}", &ctx.sess)
+        .replace("{stale}", &ctx.stale)
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
         .replace(
@@ -375,17 +433,26 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
             .status();
     }
     let start = Instant::now();
-    let status = loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            break Some(st);
-        }
-        if start.elapsed() > TIME_LIMIT {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
+    let pid = child.id();
+    let (status, during) = std::thread::scope(|s| {
+        let during = c.during.map(|f| s.spawn(move || f(ctx, pid)));
+        let status = loop {
+            if let Some(st) = child.try_wait().unwrap() {
+                break Some(st);
+            }
+            if start.elapsed() > TIME_LIMIT {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        let during = during.map_or(Ok(()), |h| {
+            h.join()
+                .unwrap_or_else(|_| Err("the during client panicked".into()))
+        });
+        (status, during)
+    });
     drop(feeder);
     let stdout = reader.join().unwrap();
     let stderr = err_reader.join().unwrap();
@@ -393,6 +460,7 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
         code: st.code(),
         stdout,
         stderr,
+        during,
     })
 }
 
@@ -429,6 +497,9 @@ fn judge(c: &Case, ctx: &Ctx, r: &Run) -> Vec<String> {
     {
         bad.push(e);
     }
+    if let Err(e) = &r.during {
+        bad.push(format!("during: {e}"));
+    }
     if let Some((args, want)) = &c.then {
         let args: Vec<String> = args.iter().map(|a| expand(a, ctx)).collect();
         let out = Command::new(lmhost()).args(&args).output().unwrap();
@@ -447,6 +518,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let wv = Sim::start(&["--centroid-timeout-ms", "600000"]);
     let small = Sim::start(&["--slot-steps", "10"]);
     let busy = Sim::start(&[]);
+    let sess = Sim::start(&[]);
     let mut holder = Command::new(lmhost())
         .args([
             "stream",
@@ -460,6 +532,34 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         .stderr(Stdio::null())
         .spawn()
         .expect("spawning the port holder");
+    // A device whose holder dies without a word: killed once it holds it.
+    let stale = Sim::start(&[]);
+    let mut victim = Command::new(lmhost())
+        .args([
+            "stream",
+            "--port",
+            &stale.port,
+            "--synthetic",
+            "--seconds",
+            "600",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the holder to kill");
+    let give_up = Instant::now() + Duration::from_secs(20);
+    while Command::new(lmhost())
+        .args(["status", "--port", &stale.port])
+        .output()
+        .unwrap()
+        .status
+        .success()
+    {
+        assert!(Instant::now() < give_up, "the holder never held its port");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    victim.kill().expect("SIGKILL to the holder");
+    victim.wait().unwrap();
     std::thread::sleep(Duration::from_millis(500));
     let dir =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
@@ -467,6 +567,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     std::fs::create_dir_all(&dir).unwrap();
     fixtures(&dir);
     study_fixtures(&dir);
+    round4_files_fixtures(&dir);
+    cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -477,9 +579,11 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         scenes: Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes"),
         full: full.as_ref().ok().map(|f| f.0.clone()),
         busy: busy.port.clone(),
+        stale: stale.port.clone(),
+        sess: sess.port.clone(),
     };
     let up = Command::new(lmhost())
-        .args(["upload", "--port", &ctx.port])
+        .args(["upload", "--port", &ctx.port, "--hold", "0.05"])
         .output()
         .unwrap();
     assert!(
@@ -490,6 +594,10 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
 
     let mut all = cases();
     all.extend(study_cases());
+    all.extend(round4_files_cases());
+    // Last: the session cases preload the shared device's library.
+    all.extend(cases_r4_session::cases());
+    all.extend(round4_device_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();

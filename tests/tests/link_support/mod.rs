@@ -85,12 +85,94 @@ pub fn success_json(out: &Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("JSON on stdout")
 }
 
-/// `lmhost upload --port <port> <extra…> --json`, parsed.
+/// `lmhost upload --port <port> <extra…> --json`, its report parsed. What
+/// it plays lasts only while lmhost holds it: unless `extra` says
+/// `--no-play` or `--hold`, it holds for [`BRIEF_HOLD`] and stops (its
+/// second line, the status after the hold, is left out).
 pub fn upload_json(port: &str, extra: &[&str]) -> serde_json::Value {
     let mut args = vec!["upload", "--port", port];
     args.extend_from_slice(extra);
+    if !extra.iter().any(|a| *a == "--no-play" || *a == "--hold") {
+        args.extend_from_slice(&["--hold", BRIEF_HOLD]);
+    }
     args.push("--json");
-    json(&args)
+    let text = ok(&args);
+    let first = text.lines().next().unwrap_or("");
+    serde_json::from_str(first).unwrap_or_else(|e| panic!("{args:?}: bad JSON {e}: {text}"))
+}
+
+/// Seconds a test's `upload` or `play` holds what it plays before it
+/// stops (`--hold`).
+pub const BRIEF_HOLD: &str = "0.05";
+
+/// Runs `lmhost args…` (a command that plays and holds the device), takes
+/// its first stdout line, then kills it with SIGKILL, as a crash would:
+/// what it played plays on for its host lease (the tests give `--lease
+/// 60`; every later request renews it), then stops by itself. How the
+/// tests look at a playing device from other lmhost processes.
+pub fn detached(args: &[&str]) -> String {
+    let h = Holder::start(args);
+    let line = h.line();
+    h.kill();
+    line
+}
+
+/// A running lmhost that holds the device (`upload`, `play`, `stream`):
+/// its stdout lines as they come; killed on drop.
+pub struct Holder {
+    child: Child,
+    lines: std::sync::mpsc::Receiver<String>,
+}
+
+impl Holder {
+    /// Starts `lmhost args…`.
+    pub fn start(args: &[&str]) -> Holder {
+        let mut child = Command::new(lmhost())
+            .args(args)
+            .env_remove("LMHOST_PORT")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("starting lmhost");
+        let out = child.stdout.take().expect("stdout");
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Holder { child, lines }
+    }
+
+    /// Its next stdout line (within 60 s).
+    pub fn line(&self) -> String {
+        self.lines
+            .recv_timeout(std::time::Duration::from_secs(60))
+            .expect("a line from the holding lmhost")
+    }
+
+    /// Kills it with SIGKILL, as a crash would: nothing of it runs on.
+    pub fn kill(mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// Ends it with SIGTERM (Ctrl-C's twin) and waits for its exit code.
+    pub fn terminate(mut self) -> Option<i32> {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        self.child.wait().ok().and_then(|s| s.code())
+    }
+}
+
+impl Drop for Holder {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
 }
 
 /// Run `lmhost stream --port <port> <extra…>` with `input` on stdin, to

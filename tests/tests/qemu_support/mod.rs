@@ -1,5 +1,6 @@
 //! Shared by the QEMU end-to-end tests: find (or build) the firmware ELF and
-//! launch `qemu-system-arm` (`mps2-an386`) with UART0 on a TCP port.
+//! launch `qemu-system-arm` (`mps2-an500`, the Cortex-M7 the STM32H743
+//! has) with UART0 on a TCP port.
 //!
 //! The ELF comes from `LM_FW_QEMU_ELF` (set by `cargo xtask ci`, which builds
 //! it first); without it it is built with
@@ -7,9 +8,10 @@
 //! the test's own target dir.
 #![allow(dead_code)]
 
-use std::net::TcpListener;
+use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
 
 /// The firmware's target.
 pub const THUMB: &str = "thumbv7em-none-eabihf";
@@ -81,7 +83,7 @@ pub fn qemu_command(elf: &Path, port: u16, wait: bool) -> Command {
 pub fn qemu_command_icount(elf: &Path, port: u16, wait: bool, icount: &str) -> Command {
     let wait = if wait { "on" } else { "off" };
     let mut cmd = Command::new("qemu-system-arm");
-    cmd.args(["-M", "mps2-an386", "-display", "none", "-monitor", "none"])
+    cmd.args(["-M", "mps2-an500", "-display", "none", "-monitor", "none"])
         .args(["-semihosting-config", "enable=on,target=native"])
         .args(["-icount", icount])
         .arg("-serial")
@@ -89,4 +91,118 @@ pub fn qemu_command_icount(elf: &Path, port: u16, wait: bool, icount: &str) -> C
         .arg("-kernel")
         .arg(elf);
     cmd
+}
+
+/// A running QEMU; killed on drop. Its console output goes to a log file
+/// that is printed if the test fails.
+pub struct Qemu {
+    child: Child,
+    log: PathBuf,
+}
+
+impl Qemu {
+    /// Starts `cmd` (QEMU serving UART0 on `port`), its console output to
+    /// a log file.
+    pub fn spawn(mut cmd: std::process::Command, port: u16) -> std::io::Result<Qemu> {
+        let log = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("qemu-{port}.log"));
+        let out = std::fs::File::create(&log)?;
+        let child = cmd.stdout(out.try_clone()?).stderr(out).spawn()?;
+        Ok(Qemu { child, log })
+    }
+
+    /// Starts the firmware `elf` waiting for a client on a free port, and
+    /// connects to its UART.
+    pub fn start(elf: &Path) -> (Qemu, TcpStream) {
+        let port = free_port();
+        let mut q =
+            Qemu::spawn(qemu_command(elf, port, true), port).expect("start qemu-system-arm");
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            match TcpStream::connect(("127.0.0.1", port)) {
+                Ok(s) => {
+                    s.set_nodelay(true).unwrap();
+                    return (q, s);
+                }
+                Err(e) if Instant::now() > deadline => {
+                    panic!(
+                        "cannot connect to QEMU's UART on port {port}: {e}\n{}",
+                        q.output()
+                    )
+                }
+                Err(_) => {
+                    if let Ok(Some(st)) = q.child.try_wait() {
+                        panic!("QEMU exited early ({st})\n{}", q.output());
+                    }
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+            }
+        }
+    }
+
+    /// What QEMU printed so far.
+    pub fn output(&self) -> String {
+        format!(
+            "--- QEMU output ---\n{}",
+            std::fs::read_to_string(&self.log).unwrap_or_default()
+        )
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if std::thread::panicking() {
+            eprintln!("{}", self.output());
+        }
+    }
+}
+
+/// `connect` retried for 20 s while QEMU starts listening.
+pub fn within_20_s<T>(mut connect: impl FnMut() -> anyhow::Result<T>) -> anyhow::Result<T> {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        match connect() {
+            Ok(t) => return Ok(t),
+            Err(e) if Instant::now() > deadline => return Err(e),
+            Err(_) => std::thread::sleep(Duration::from_millis(50)),
+        }
+    }
+}
+
+/// Lets `d` pass on the firmware's own clock: QEMU's virtual time may run
+/// slower than the wall clock, so wait until the player has stepped that
+/// long (it steps while muted too). A player that stops on its own (a
+/// timed play) or was stopped counts no more: then `d` of wall time passes,
+/// the least it would have taken.
+pub fn wait_on_device(
+    dev: &mut dyn lmhost::device::backend::Backend,
+    d: Duration,
+    steps: u64,
+    dwell_us: f64,
+) -> anyhow::Result<()> {
+    let pos = |st: &lm_proto::Status| u64::from(st.cycles) * steps + u64::from(st.step);
+    let begun = Instant::now();
+    let start = pos(&dev.status()?);
+    let need = (d.as_secs_f64() * 1e6 / dwell_us).ceil() as u64 + 1;
+    let give_up = begun + d * 50 + Duration::from_secs(10);
+    loop {
+        std::thread::sleep(Duration::from_millis(5));
+        let st = dev.status()?;
+        if matches!(
+            st.state,
+            lm_proto::DeviceState::Stopped | lm_proto::DeviceState::Idle
+        ) {
+            std::thread::sleep(d.saturating_sub(begun.elapsed()));
+            return Ok(());
+        }
+        // (A slot taking over restarts the count: the wait only gets longer.)
+        if pos(&st) >= start + need {
+            return Ok(());
+        }
+        anyhow::ensure!(
+            Instant::now() < give_up,
+            "the firmware's player did not advance"
+        );
+    }
 }

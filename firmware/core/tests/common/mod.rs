@@ -49,6 +49,7 @@ pub enum Reply {
     Nack(NackCode),
     Info(lm_proto::Info),
     Status(lm_proto::Status),
+    SelfTest(lm_proto::SelfTest),
     Other,
 }
 
@@ -69,7 +70,10 @@ pub fn request(dev: &mut Device<'_>, seq: u16, msg: &Message<'_>, now: u64) -> R
 /// Feeds raw bytes; returns every (seq, reply) the device sent.
 pub fn feed(dev: &mut Device<'_>, bytes: &[u8], now: u64) -> Vec<(u16, Reply)> {
     let mut out = Vec::new();
-    dev.feed(bytes, now, &mut |b: &[u8]| out.extend_from_slice(b));
+    let mut driver = lm_fw_core::RecordingDriver::<1>::new();
+    dev.feed(bytes, now, &mut driver, &mut |b: &[u8]| {
+        out.extend_from_slice(b)
+    });
     let mut dec = FrameDecoder::new();
     let mut replies = Vec::new();
     let mut input: &[u8] = &out;
@@ -82,6 +86,7 @@ pub fn feed(dev: &mut Device<'_>, bytes: &[u8], now: u64) -> Vec<(u16, Reply)> {
                     Message::Nack(c) => Reply::Nack(c),
                     Message::Info(i) => Reply::Info(i),
                     Message::Status(s) => Reply::Status(s),
+                    Message::SelfTestResult(t) => Reply::SelfTest(t),
                     _ => Reply::Other,
                 };
                 replies.push((frame.seq, r));
@@ -239,6 +244,7 @@ pub fn play(slot: u8, at: PlayAt) -> Message<'static> {
         at,
         untracked: false,
         steps: 0,
+        lease_ms: lm_proto::DEFAULT_LEASE_MS,
     })
 }
 

@@ -1,271 +1,118 @@
 //! [`Autd3Backend`]: an AUTD3 rig as a [`Backend`].
 //!
+//! The decisions are the firmware's own: an `lm_fw_core` [`Player`] on a
+//! 1 MHz clock (the host's µs) says which slot plays, which is queued, when
+//! a queued one takes over (the playing slot's cycle end, counted from its
+//! start), when a play's steps are done and what `Status` counts; a
+//! [`Policy`] says when the array may sound and where it steers. This file
+//! only makes the devices follow them ([`Autd3Backend::sync`], run on every
+//! call): the STM segment the player's slot sits in plays, the output
+//! ([`super::output`]) sounds at the slot's intensity while the policy
+//! allows and its lease is renewed, and the correction follows the slot.
+//!
 //! Slots are the two STM segments. `upload` writes a GainSTM of the planned
-//! phases (phase-only packing, full intensity) into a segment without
-//! switching to it; `play` switches with `SyncIdx`, i.e. when the new
-//! segment's index wraps to 0 on the devices' shared clock, which is the end
-//! of the playing loop when both have the same period (autd3 firmware only
-//! allows `SyncIdx` for a finite loop count, so a segment is written with the
-//! largest count and set to loop forever, `Immediate` on the same segment,
-//! once the switch is seen). A failed upload leaves the playing segment alone.
-
-use std::num::NonZeroU16;
-use std::time::Duration;
+//! phases (phase-only packing, full intensity) into a segment, looping
+//! forever, without switching to it, and reads it back where it can: a
+//! mismatch fails the upload. A slot starts with an `Immediate` switch
+//! (autd3 firmware allows it into an endless loop only), so a play from
+//! silence sounds at once wherever the slot sits; a queued slot is switched
+//! to the same way when the player's cycle end comes, on the first call at
+//! or after it, which is why the host keeps ticking while a slot is queued
+//! (steps that sound late are counted in `missed_deadlines`). The devices'
+//! STM index runs on their synchronised clock, so a slot starts at some
+//! point of its cycle: a phase offset the player's count does not see.
 
 use anyhow::{Context, bail};
 use autd3::Controller;
-use autd3::core::firmware::transition_mode::{Immediate, Later, SyncIdx};
+use autd3::core::ethercat::DcSysTime;
+use autd3::core::firmware::transition_mode::{Immediate, Later};
 use autd3::core::geometry::{Device, Transducer};
 use autd3::core::link::Link;
 use autd3::gain::Custom;
 use autd3::prelude::{
-    Drive, GainSTM, GainSTMMode, GainSTMOption, Intensity, Null, ParallelMode, Phase,
-    PhaseCorrection, ReadsFPGAState, SamplingConfig, Segment, SenderOption, Silencer, Static,
-    SwapSegmentGainSTM, WithFiniteLoop, WithSegment,
+    Drive, GainSTM, GainSTMMode, GainSTMOption, Intensity, Null, Phase, PhaseCorrection,
+    SamplingConfig, Segment, SwapSegmentGainSTM, WithSegment,
 };
-use lm_fw_core::policy::{Policy, Session};
+use lm_fw_core::player::{PlayState, Player, Timing};
+use lm_fw_core::policy::Policy;
+use lm_fw_core::status::Mechanics;
+use std::num::NonZeroU16;
+use std::time::Duration;
 
-use super::emulator::{EmulatorHandle, EmulatorLink};
+use super::correction;
+use super::emulator::EmulatorHandle;
+use super::output::Output;
 use super::port::Autd3Port;
-use super::{correction, geometry, safety};
 use crate::clock::Clock;
 use crate::device::backend::{
     Backend, BackendError, BackendInfo, CentroidOutcome, Kind, Result as BResult, Transfer,
-    UploadReport,
+    UploadReport, free_slot,
 };
 use crate::error::InputError;
 use crate::plan::array::AUTD3_TRANSDUCERS;
 use crate::plan::grid as timing;
-use crate::plan::scene::Scene;
 use crate::plan::sequence::Plan;
 use lm_proto::{Centroid, MuteReason, NackCode, PlayAt, Status, UploadHeader};
 
+/// The player's clock: the host's microseconds.
+pub(super) const TIMER_HZ: u32 = 1_000_000;
+
 /// What a segment holds.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Slot {
+pub(super) struct Slot {
     steps: usize,
     divide: u16,
     header: UploadHeader,
 }
 
+impl Slot {
+    fn dwell_us(&self) -> u64 {
+        u64::from(timing::dwell_us(u32::from(self.divide)))
+    }
+
+    /// The player's view: steps and period on its µs clock.
+    fn timing(&self) -> Timing {
+        Timing {
+            // ≤ GainSTM's 1024 patterns, checked at upload.
+            steps: self.steps as u16,
+            period_us: (self.steps as u64 * self.dwell_us()).min(u64::from(u32::MAX)) as u32,
+        }
+    }
+}
+
 /// An AUTD3 rig driven through the autd3 crates.
 pub struct Autd3Backend {
-    ctl: Controller<Box<dyn Link>>,
-    port: Autd3Port,
-    emulator: Option<EmulatorHandle>,
-    clock: Clock,
-    positions: Vec<u8>,
-    slots: [Option<Slot>; 2],
-    /// Slot whose segment plays (or starts from silence at its next loop
-    /// boundary, see `rearm`).
-    playing: Option<u8>,
-    /// Slot that takes over from `playing` at the end of its loop (the
-    /// firmware's queued slot).
-    queued: Option<u8>,
-    /// Segment switched to with `SyncIdx`, still to be set to loop forever.
-    rearm: Option<u8>,
-    /// When the playing slot's loop began on the devices' clock (µs), and
-    /// the time it had played when stopped: the status's step and cycles.
-    started_us: Option<u64>,
-    played_us: Option<u64>,
-    /// Steps the playing slot plays before the host stops it (0 = until
-    /// `stop`), counted from `started_us`; and the queued slot's, counted
-    /// from its takeover.
-    limit: u32,
-    queued_limit: u32,
+    pub(super) ctl: Controller<Box<dyn Link>>,
+    pub(super) port: Autd3Port,
+    pub(super) emulator: Option<EmulatorHandle>,
+    pub(super) clock: Clock,
+    pub(super) positions: Vec<u8>,
+    pub(super) slots: [Option<Slot>; 2],
+    /// The STM segment the devices play, as last switched to (`None`: none
+    /// yet, or its data was rewritten since, so the next start switches
+    /// again and the devices take its new length).
+    pub(super) stm_segment: Option<u8>,
+    /// The firmware's player: the slot that plays, the queued one, limits
+    /// and counters.
+    pub(super) player: Player,
     /// The firmware's safety rules (session, gate, untracked, work volume).
-    policy: Policy,
-    /// Modulation intensity last sent.
-    output: u8,
-    offsets: Vec<u8>,
-    closed: bool,
+    pub(super) policy: Policy,
+    /// The modulation: level and lease.
+    pub(super) output: Output,
+    pub(super) offsets: Vec<u8>,
+    /// Slot the offsets were computed for.
+    pub(super) offsets_for: Option<u8>,
+    /// Steps that sounded past a stop or a switch because the host made it
+    /// late (`Status::missed_deadlines`).
+    pub(super) late_steps: u32,
+    pub(super) closed: bool,
 }
 
 fn segment(slot: u8) -> Segment {
     if slot == 0 { Segment::S0 } else { Segment::S1 }
 }
 
-/// The emulator answers at once, so frames go back to back; real links keep
-/// autd3's pacing (one frame per 1 ms, ack polled every 1 ms).
-fn sender_option(emulated: bool) -> SenderOption {
-    if emulated {
-        SenderOption {
-            send_interval: None,
-            receive_interval: None,
-            timeout: Some(Duration::from_millis(200)),
-            parallel: ParallelMode::Off,
-        }
-    } else {
-        SenderOption::default()
-    }
-}
-
 impl Autd3Backend {
-    /// Opens `port` for `scene`. The emulator gets as many devices as the
-    /// scene; a real link must report the same number.
-    pub fn open(port: &Autd3Port, scene: &Scene) -> anyhow::Result<Self> {
-        match port {
-            Autd3Port::Emulator => Ok(Self::open_emulator(scene, Clock::real(), None)?.0),
-            Autd3Port::EmulatorRig { devices } => {
-                Ok(Self::open_emulator(scene, Clock::real(), Some(*devices))?.0)
-            }
-            Autd3Port::Remote { host, port: tcp } => {
-                use std::net::ToSocketAddrs;
-                let addr = (host.as_str(), *tcp)
-                    .to_socket_addrs()
-                    .with_context(|| format!("resolving {port}"))?
-                    .next()
-                    .with_context(|| format!("{port}: the host has no address"))?;
-                let link = autd3_link_remote::Remote::new(
-                    addr,
-                    autd3_link_remote::RemoteOption {
-                        timeout: Some(Duration::from_secs(2)),
-                    },
-                );
-                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
-            }
-            #[cfg(feature = "autd3-soem")]
-            Autd3Port::Soem { ifname } => {
-                super::ethercat::preflight(&port.to_string(), ifname.as_deref())?;
-                let link = autd3_link_soem::SOEM::new(
-                    |slave: u16, status: autd3_link_soem::Status| {
-                        crate::errln!("lmhost: AUTD3 device {slave}: EtherCAT {status:?}");
-                    },
-                    autd3_link_soem::SOEMOption {
-                        ifname: ifname.clone(),
-                        ..Default::default()
-                    },
-                );
-                Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
-            }
-            #[cfg(feature = "autd3-ethercrab")]
-            Autd3Port::EtherCrab { ifname } => {
-                super::ethercat::preflight(&port.to_string(), ifname.as_deref())?;
-                let open = |ifname: &str| {
-                    let link = autd3_link_ethercrab::EtherCrab::new(
-                        |dev: usize, status: autd3_link_ethercrab::Status| {
-                            crate::errln!("lmhost: AUTD3 device {dev}: EtherCAT {status:?}");
-                        },
-                        autd3_link_ethercrab::EtherCrabOption {
-                            ifname: Some(ifname.to_string()),
-                            ..Default::default()
-                        },
-                    );
-                    Self::open_link(Box::new(link), port.clone(), scene, Clock::real(), None)
-                };
-                match ifname {
-                    Some(i) => open(i),
-                    // ethercrab's own search walks libpcap's device list,
-                    // whose pseudo-devices (names of 16+ bytes such as
-                    // `bluetooth-monitor`) panic it: walk the kernel's
-                    // network interfaces instead, first answer wins.
-                    None => {
-                        let tried =
-                            super::ethercat::candidates(std::path::Path::new("/sys/class/net"));
-                        for i in &tried {
-                            if let Ok(me) = open(i) {
-                                return Ok(me);
-                            }
-                        }
-                        bail!(
-                            "opening {port}: no AUTD3 device answered on any interface (tried {})",
-                            if tried.is_empty() {
-                                "none".to_string()
-                            } else {
-                                tried.join(", ")
-                            }
-                        )
-                    }
-                }
-            }
-            #[allow(unreachable_patterns)]
-            other => bail!(
-                "{other}: this lmhost was built without the `{}` feature (EtherCAT links are opt-in: they need system libraries and raw-socket privileges)",
-                other.feature().unwrap_or("?")
-            ),
-        }
-    }
-
-    /// Opens an emulated rig of `rig_devices` boards (`None`: the scene's
-    /// count) on `clock`, returning the handle to its emulated devices.
-    pub fn open_emulator(
-        scene: &Scene,
-        clock: Clock,
-        rig_devices: Option<usize>,
-    ) -> anyhow::Result<(Self, EmulatorHandle)> {
-        if let Some(n) = rig_devices.filter(|&n| n != scene.devices.len()) {
-            return Err(InputError::new(format!(
-                "scene `{}` has {} devices but the AUTD3 rig has {n}",
-                scene.name,
-                scene.devices.len()
-            ))
-            .into());
-        }
-        let (link, handle) = EmulatorLink::new(clock.clone());
-        let me = Self::open_link(
-            Box::new(link),
-            Autd3Port::Emulator,
-            scene,
-            clock,
-            Some(handle.clone()),
-        )?;
-        Ok((me, handle))
-    }
-
-    /// Opens `link` (already built for `port`) for `scene`.
-    pub fn open_link(
-        link: Box<dyn Link>,
-        port: Autd3Port,
-        scene: &Scene,
-        clock: Clock,
-        emulator: Option<EmulatorHandle>,
-    ) -> anyhow::Result<Self> {
-        geometry::check_no_overlap(scene)?;
-        let positions = correction::packed_positions_um(scene)?;
-        let mut ctl = Controller::open_with(
-            geometry::devices(scene),
-            link,
-            sender_option(emulator.is_some()),
-            autd3::core::sleep::StdSleeper,
-        )
-        .map_err(|e| {
-            if emulator.is_none() && port.feature().is_some() {
-                // EtherCAT: the link's bare "timeout" made specific.
-                anyhow::anyhow!(super::ethercat::explain(&format!("opening {port}"), &e))
-            } else {
-                anyhow::Error::new(e).context(format!("opening {port}"))
-            }
-        })?;
-        // autd3 lengths are mm, so its sound speed is mm/s.
-        ctl.environment.sound_speed = scene.sound_speed_m_s as f32 * 1000.0;
-        geometry::check_positions(scene, ctl.geometry())?;
-        let n = ctl.num_transducers();
-        let mut me = Self {
-            ctl,
-            port,
-            emulator,
-            clock,
-            positions,
-            slots: [None; 2],
-            playing: None,
-            queued: None,
-            rearm: None,
-            started_us: None,
-            played_us: None,
-            limit: 0,
-            queued_limit: 0,
-            policy: safety::policy(),
-            output: safety::FULL,
-            offsets: vec![0; n],
-            closed: false,
-        };
-        me.ctl.send(Silencer::default())?;
-        me.ctl.send(ReadsFPGAState::new(|_| true))?;
-        me.set_output(safety::MUTED)?;
-        me.send_offsets()?;
-        Ok(me)
-    }
-
     /// autd3's geometry of the rig (same device order as the scene).
     pub fn geometry(&self) -> &autd3::core::geometry::Geometry {
         self.ctl.geometry()
@@ -276,43 +123,106 @@ impl Autd3Backend {
         self.emulator.as_ref()
     }
 
+    /// How long the array sounds without the host (see [`super::output`]).
+    pub fn lease(&self) -> Duration {
+        self.output.lease()
+    }
+
+    /// Changes the lease (from the next renewal on); out of range is bad
+    /// input.
+    pub fn set_lease(&mut self, lease: Duration) -> Result<(), InputError> {
+        self.output.set_lease(lease)
+    }
+
     fn now_us(&self) -> u64 {
         self.clock.now().as_micros() as u64
     }
 
-    fn set_output(&mut self, intensity: u8) -> anyhow::Result<()> {
-        self.ctl
-            .send(Static::new(intensity))
-            .context("setting the output level")?;
-        self.output = intensity;
-        Ok(())
+    /// The devices' clock now: the emulator runs on ours; a real rig's
+    /// EtherCAT clock is the system time since 2000-01-01 UTC (autd3's
+    /// `DcSysTime::now`, which needs a feature this build leaves out).
+    fn dc_now(&self) -> DcSysTime {
+        /// 1970-01-01 to 2000-01-01, s.
+        const EPOCH_2000_S: u64 = 946_684_800;
+        match &self.emulator {
+            Some(_) => super::emulator::sys_time(self.clock.now()),
+            None => {
+                let unix = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .unwrap_or_default();
+                let since_2000 = unix.saturating_sub(Duration::from_secs(EPOCH_2000_S));
+                DcSysTime::new(since_2000.as_nanos() as u64)
+            }
+        }
     }
 
-    fn send_offsets(&mut self) -> anyhow::Result<()> {
+    pub(super) fn send_offsets(&mut self) -> anyhow::Result<()> {
+        self.switch_and_correct(None, true)
+    }
+
+    /// Sends a switch to `slot`'s segment (`None`: none) and the offsets
+    /// (if `offsets`) in one frame: a start from silence takes one frame
+    /// for them and one for the output, whatever changed.
+    fn switch_and_correct(&mut self, slot: Option<u8>, offsets: bool) -> anyhow::Result<()> {
         let off = &self.offsets;
-        self.ctl
-            .send(PhaseCorrection::new(|dev: &Device| {
+        let correction = || {
+            PhaseCorrection::new(|dev: &Device| {
                 let base = dev.idx() * AUTD3_TRANSDUCERS;
                 move |tr: &Transducer| Phase(off[base + tr.idx()])
-            }))
-            .context("sending the phase correction")?;
+            })
+        };
+        let sent = match (slot, offsets) {
+            (Some(s), true) => self
+                .ctl
+                .send((SwapSegmentGainSTM(segment(s), Immediate), correction())),
+            (Some(s), false) => self.ctl.send(SwapSegmentGainSTM(segment(s), Immediate)),
+            (None, true) => self.ctl.send(correction()),
+            (None, false) => return Ok(()),
+        };
+        match slot {
+            Some(s) => sent.with_context(|| format!("switching to slot {s}"))?,
+            None => sent.context("sending the phase correction")?,
+        }
+        if slot.is_some() {
+            self.stm_segment = slot;
+        }
         Ok(())
     }
 
-    /// Recomputes the offsets for the slot that plays (or will) and sends them.
+    /// The header of the slot the player holds (playing or last played).
+    fn playing_header(&self) -> Option<UploadHeader> {
+        let s = self.player.slot()?;
+        self.slots[usize::from(s)].map(|s| s.header)
+    }
+
+    /// Recomputes the offsets for the player's slot, as far as the policy
+    /// lets it steer (a slot taking over re-checks the last centroid
+    /// against its own work volume), and sends them if they changed.
     fn update_correction(&mut self) -> anyhow::Result<()> {
-        let slot = self.playing.and_then(|s| self.slots[usize::from(s)]);
-        match slot.and_then(|s| Some((s, self.policy.steer_for(&s.header)?))) {
-            Some((s, c)) => correction::offsets_into(
+        let changed = self.recompute_offsets();
+        self.switch_and_correct(None, changed)
+    }
+
+    /// [`Self::update_correction`] without sending: whether they changed.
+    fn recompute_offsets(&mut self) -> bool {
+        let mut next = vec![0u8; self.offsets.len()];
+        if let Some(h) = self.playing_header()
+            && let Some(c) = self.policy.steer_for(&h)
+        {
+            correction::offsets_into(
                 &self.positions,
-                s.header.center_um,
+                h.center_um,
                 c,
-                s.header.sound_speed_mm_s,
-                &mut self.offsets,
-            ),
-            None => self.offsets.fill(0),
+                h.sound_speed_mm_s,
+                &mut next,
+            );
         }
-        self.send_offsets()
+        self.offsets_for = self.player.slot();
+        if next == self.offsets {
+            return false;
+        }
+        self.offsets = next;
+        true
     }
 
     /// Steps held by `slot` (`None`: empty or half-written).
@@ -329,235 +239,95 @@ impl Autd3Backend {
         self.policy.mute_reason(self.now_us())
     }
 
-    /// Mutes or unmutes as the policy says; finishes a pending switch. A
-    /// start from silence stays muted until the devices play the new
-    /// segment (the old one must not sound meanwhile).
-    fn apply_gate(&mut self) -> anyhow::Result<()> {
-        self.finish_switch(false)?;
-        self.stop_at_limit()?;
-        let starting = self.rearm.is_some() && self.queued.is_none();
-        let want = if self.policy.sounding(self.now_us()) && !starting {
-            self.level()
-        } else {
-            safety::MUTED
-        };
-        if want != self.output {
-            self.set_output(want)?;
-        }
-        Ok(())
-    }
-
-    /// Stops (as `stop`) once the devices' clock says the playing slot has
-    /// played its `limit` steps; `played_us` keeps the real stop time, so
-    /// the status shows how late the host was. A limit on the loop end
-    /// with a slot queued waits for the takeover instead (as the firmware).
-    fn stop_at_limit(&mut self) -> anyhow::Result<()> {
-        let starting = self.rearm.is_some() && self.queued.is_none();
-        if self.limit == 0 || starting || self.policy.session() != Session::Playing {
-            return Ok(());
-        }
-        let (Some(t0), Some(s)) = (
-            self.started_us,
-            self.playing.and_then(|p| self.slots[usize::from(p)]),
-        ) else {
-            return Ok(());
-        };
-        let dwell = u64::from(timing::dwell_us(u32::from(s.divide))).max(1);
-        let played = self.now_us().saturating_sub(t0) / dwell;
-        let limit = u64::from(self.limit);
-        let n = s.steps.max(1) as u64;
-        let awaits_takeover = self.queued.is_some() && limit % n == 0 && played < limit + n;
-        if played >= limit && !awaits_takeover {
-            self.mute_and_stop()?;
-        }
-        Ok(())
-    }
-
-    /// The firmware's `Stop`: freezes the counters at now, drops a queued
-    /// slot and the limits, mutes at once.
-    fn mute_and_stop(&mut self) -> anyhow::Result<()> {
-        if self.policy.session() == Session::Playing
-            && let Some(t0) = self.started_us
+    /// Makes the devices follow the player and the policy at the host's
+    /// now: a play whose steps are done stops, a queued slot whose time has
+    /// come is switched to, a lapsed lease ends the play, and the output
+    /// sounds exactly while the policy allows (its lease renewed).
+    pub(super) fn sync(&mut self) -> anyhow::Result<()> {
+        let now = self.now_us();
+        let before = self.player.slot();
+        if let Some(d) = self.player.tick(now)
+            && d.stop
         {
-            self.played_us = Some(self.now_us().saturating_sub(t0));
+            // Its steps have played: stopped as `Stop`; the steps that
+            // sounded after the boundary are the host's lateness.
+            self.policy.stop();
+            let dwell = self.slots[usize::from(d.slot)].map_or(1, |s| s.dwell_us().max(1));
+            self.add_late(now.saturating_sub(d.at) / dwell);
         }
-        self.policy.stop();
-        // As the firmware's Stop, a queued slot is dropped (the devices may
-        // still switch; a later play checks which segment plays).
-        self.queued = None;
-        self.limit = 0;
-        self.queued_limit = 0;
-        self.set_output(safety::MUTED)
-    }
-
-    /// The output level while sounding: the playing slot's intensity (its
-    /// header's `intensity`, 255 = full) as the modulation level.
-    fn level(&self) -> u8 {
-        self.playing
-            .and_then(|p| self.slots[usize::from(p)])
-            .map_or(safety::FULL, |s| s.header.intensity)
-    }
-
-    /// Step within the cycle and cycles completed of the playing slot,
-    /// from the time it has played (frozen at `stop`, as the firmware's
-    /// counters).
-    fn counters(&self, now: u64) -> (u16, u32) {
-        let Some(s) = self.playing.and_then(|p| self.slots[usize::from(p)]) else {
-            return (0, 0);
-        };
-        let Some(played) = self
-            .played_us
-            .or_else(|| self.started_us.map(|t0| now.saturating_sub(t0)))
-        else {
-            return (0, 0);
-        };
-        let dwell = u64::from(timing::dwell_us(u32::from(s.divide))).max(1);
-        let steps = (played / dwell) as usize;
-        let n = s.steps.max(1);
-        (
-            (steps % n) as u16,
-            (steps / n).min(u32::MAX as usize) as u32,
-        )
-    }
-
-    /// The STM segment the devices play, from their FPGA state.
-    fn current_segment(&mut self) -> anyhow::Result<Option<u8>> {
-        let states = self.ctl.fpga_state().context("reading the FPGA state")?;
-        let mut seg = None;
-        for s in states {
-            let s = s.and_then(|s| s.current_stm_segment()).map(|s| s as u8);
-            if seg.is_some() && seg != Some(s) {
-                bail!("the devices play different STM segments");
-            }
-            seg = Some(s);
+        if self.output.lapsed(now) {
+            // Nobody renewed the lease: the array fell silent on its own,
+            // and the play is over, as when the LM firmware's lease ends.
+            self.player.stop();
+            self.policy.stop();
         }
-        Ok(seg.flatten())
-    }
-
-    /// After a `SyncIdx` switch: once the devices play the new segment, make
-    /// it loop forever. With `wait`, waits up to one loop period + 100 ms.
-    fn finish_switch(&mut self, wait: bool) -> anyhow::Result<()> {
-        let Some(slot) = self.rearm else {
-            return Ok(());
-        };
-        let s = self.slots[usize::from(slot)].context("switching to an empty slot")?;
-        let period = Duration::from_micros(
-            s.steps as u64 * u64::from(timing::dwell_us(u32::from(s.divide))),
-        );
-        let deadline = self.clock.now() + period + Duration::from_millis(100);
-        loop {
-            if self.current_segment()? == Some(slot) {
-                self.ctl
-                    .send(SwapSegmentGainSTM(segment(slot), Immediate))
-                    .context("setting the new segment to loop")?;
-                self.rearm = None;
-                // SyncIdx switched at the new segment's index 0, on a
-                // boundary of its period on the devices' shared clock.
-                let now = self.now_us();
-                let period_us = period.as_micros() as u64;
-                self.started_us = Some(now - now % period_us.max(1));
-                self.played_us = None;
-                if self.queued.take().is_some() {
-                    self.limit = std::mem::take(&mut self.queued_limit);
-                    // The queued slot took over: its own centre and work
-                    // volume from now on.
-                    self.playing = Some(slot);
-                    self.update_correction()?;
-                }
-                return Ok(());
-            }
-            if !wait {
-                return Ok(());
-            }
-            if self.clock.now() > deadline {
-                bail!("the devices did not switch to slot {slot} within one loop");
-            }
-            self.clock.sleep(Duration::from_millis(1));
+        let switch = self
+            .player
+            .slot()
+            .filter(|&s| self.player.state() == PlayState::Playing && Some(s) != self.stm_segment);
+        if let Some(slot) = switch
+            && before.is_some_and(|b| b != slot)
+        {
+            // A takeover at the cycle end, switched now: the steps the new
+            // slot has counted played on the old one.
+            let st = (self.player.cycles(), self.player.step());
+            let n = self.slots[usize::from(slot)].map_or(0, |s| s.steps as u64);
+            self.add_late(u64::from(st.0) * n + u64::from(st.1));
         }
+        let offsets = self.player.slot() != self.offsets_for && self.recompute_offsets();
+        self.switch_and_correct(switch, offsets)?;
+        let level = match self.playing_header() {
+            Some(h) if self.player.state() == PlayState::Playing && self.policy.sounding(now) => {
+                h.intensity
+            }
+            _ => 0,
+        };
+        let dc = self.dc_now();
+        self.output.set(&mut self.ctl, level, now, dc)
     }
 
-    /// Starts the switch to `slot` at the end of the playing loop without
-    /// waiting for it (tests step the clock in between).
-    pub fn request_play(&mut self, slot: u8, untracked: bool) -> anyhow::Result<()> {
-        self.request_play_at(slot, PlayAt::NextCycle, untracked)
+    fn add_late(&mut self, steps: u64) {
+        self.late_steps = self
+            .late_steps
+            .saturating_add(steps.min(u64::from(u32::MAX)) as u32);
     }
 
-    /// [`Self::request_play`] at `at`. As on the firmware, a slot played
-    /// while another plays takes over at the end of its loop (`queued`
-    /// until then) and one played from silence starts at once (it sounds
-    /// from the new segment's first loop boundary). `Immediate` is refused
-    /// while another slot plays: autd3 firmware switches a segment uploaded
-    /// for a loop-end switch only at a loop end.
-    pub fn request_play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> anyhow::Result<()> {
-        self.request(slot, at, untracked, 0)
-    }
-
-    /// [`Self::request_play`] for `steps` steps (0 = until `stop`), counted
-    /// from the start (or the takeover) on the devices' clock; `tick`,
-    /// `status` and `centroid` stop it once they have played.
-    pub fn request_play_for(
-        &mut self,
-        slot: u8,
-        untracked: bool,
-        steps: u32,
-    ) -> anyhow::Result<()> {
-        self.request(slot, PlayAt::NextCycle, untracked, steps)
-    }
-
-    fn request(&mut self, slot: u8, at: PlayAt, untracked: bool, steps: u32) -> anyhow::Result<()> {
+    fn resident(&self, slot: u8) -> anyhow::Result<Slot> {
         if slot > 1 {
             return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {slot}")).into());
         }
-        if self.slots[usize::from(slot)].is_none() {
-            bail!(
+        match self.slots[usize::from(slot)] {
+            Some(s) => Ok(s),
+            None => bail!(
                 "slot {slot} of {} is empty: an AUTD3 holds a sequence only while lmhost holds the link; \
                  `lmhost upload --port {}` uploads and plays",
                 self.port,
                 self.port
-            );
+            ),
         }
-        self.finish_switch(true)?;
-        let playing = self.policy.session() == Session::Playing;
-        if playing && at == PlayAt::Immediate && self.playing != Some(slot) {
-            return Err(InputError::new(
-                "an AUTD3 switches sequences at the end of a loop only; play without --immediate",
-            )
-            .into());
+    }
+
+    /// The firmware's `Play`: at once (`Immediate`, or from silence) or
+    /// queued for the playing slot's cycle end, for `steps` steps (0 =
+    /// until `stop`).
+    fn request(&mut self, slot: u8, at: PlayAt, untracked: bool, steps: u32) -> anyhow::Result<()> {
+        let s = self.resident(slot)?;
+        self.sync()?;
+        let now = self.now_us();
+        let ok = match at {
+            PlayAt::Immediate => self.player.start(slot, s.timing(), now, steps),
+            _ => self.player.queue(slot, s.timing(), now, steps),
+        };
+        if !ok {
+            bail!("slot {slot}'s timing cannot be played");
         }
-        if self.current_segment()? != Some(slot) {
-            self.ctl
-                .send(SwapSegmentGainSTM(segment(slot), SyncIdx))
-                .with_context(|| format!("switching to slot {slot}"))?;
-            self.rearm = Some(slot);
-            if playing {
-                self.queued = Some(slot);
-                self.queued_limit = steps;
-            } else {
-                self.playing = Some(slot);
-                self.limit = steps;
-            }
-        } else {
-            let now = self.now_us();
-            if !playing {
-                self.started_us = Some(now);
-                self.played_us = None;
-            } else if steps != 0 {
-                // The same slot again: no switch on the devices, so the
-                // count begins at its next loop boundary, as a firmware
-                // restart queued for the cycle end.
-                if let (Some(t0), Some(s)) = (self.started_us, self.slots[usize::from(slot)]) {
-                    let period =
-                        (s.steps as u64 * u64::from(timing::dwell_us(u32::from(s.divide)))).max(1);
-                    let loops = now.saturating_sub(t0).div_ceil(period);
-                    self.started_us = Some(t0 + loops * period);
-                }
-            }
-            self.playing = Some(slot);
-            self.limit = steps;
-        }
+        let new_session = self.policy.session() != lm_fw_core::policy::Session::Playing;
         self.policy.play(untracked);
-        self.update_correction()?;
-        self.apply_gate()
+        if new_session {
+            // Fresh tracking: no offsets until a centroid says where.
+            self.offsets_for = None;
+        }
+        self.sync()
     }
 
     /// Phases read back from the emulated FPGA that differ from `phases`
@@ -593,20 +363,56 @@ impl Autd3Backend {
     /// Leaves the array silent for good: mute, then a null gain in the
     /// playing segment (on drop; `stop` only mutes).
     fn silence(&mut self) -> anyhow::Result<()> {
+        self.player.stop();
         self.policy.stop();
-        self.set_output(safety::MUTED)?;
-        let seg = match self.playing {
-            Some(s) => s,
-            None => self.current_segment()?.unwrap_or(0),
-        };
+        self.output.mute(&mut self.ctl)?;
+        let seg = self.stm_segment.unwrap_or(0);
         self.ctl
             .send(WithSegment::new(Null::new(), segment(seg), Immediate))
             .context("sending the null gain")?;
         self.slots[usize::from(seg)] = None;
-        self.playing = None;
-        self.queued = None;
-        self.rearm = None;
         Ok(())
+    }
+
+    fn status_now(&self) -> Status {
+        let m = Mechanics {
+            missed_deadlines: self.late_steps,
+            lease_ms: u16::try_from(self.lease().as_millis()).unwrap_or(u16::MAX),
+            ..Mechanics::default()
+        };
+        let h = self.playing_header();
+        lm_fw_core::status::status(&self.player, &self.policy, h.as_ref(), m, self.now_us())
+    }
+
+    /// Writes `plan`'s phases into `slot`'s segment (looping forever, no
+    /// switch) and reads them back; a mismatch leaves the slot empty.
+    fn write_segment(&mut self, plan: &Plan, slot: u8, divide: u16) -> anyhow::Result<u64> {
+        let t = self.ctl.num_transducers();
+        let steps = usize::from(plan.sequence.header.steps);
+        let phases = &plan.sequence.phases;
+        let gains: Vec<_> = (0..steps)
+            .map(|j| {
+                Custom::new(move |dev: &Device| {
+                    let base = j * t + dev.idx() * AUTD3_TRANSDUCERS;
+                    move |tr: &Transducer| Drive {
+                        phase: Phase(phases[base + tr.idx()]),
+                        intensity: Intensity::MAX,
+                    }
+                })
+            })
+            .collect();
+        let stm = GainSTM::new(
+            gains,
+            SamplingConfig::new(NonZeroU16::new(divide).context("zero divide")?),
+            GainSTMOption {
+                mode: GainSTMMode::PhaseFull,
+            },
+        );
+        let frames0 = self.emulator.as_ref().map_or(0, |e| e.frames());
+        self.ctl
+            .send(WithSegment::new(stm, segment(slot), Later))
+            .with_context(|| format!("uploading to slot {slot} on {}", self.port))?;
+        Ok(self.emulator.as_ref().map_or(0, |e| e.frames()) - frames0)
     }
 }
 
@@ -645,29 +451,8 @@ impl Backend for Autd3Backend {
     }
 
     fn status(&mut self) -> BResult<Status> {
-        self.apply_gate()?;
-        let now = self.now_us();
-        // Until the devices take over a `SyncIdx` switch, the old segment
-        // plays and the new one is queued, as on the firmware.
-        let (slot, queued_slot) = (self.playing, self.queued);
-        let correction_um = slot
-            .and_then(|s| self.slots[usize::from(s)])
-            .map_or([0; 3], |s| self.policy.correction_um(s.header.center_um));
-        let (step, cycles) = self.counters(now);
-        Ok(Status {
-            state: self.policy.state(now),
-            slot,
-            step,
-            cycles,
-            missed_deadlines: 0,
-            last_centroid_seq: self.policy.last_seq(),
-            bad_frames: 0,
-            crc_errors: 0,
-            nacks: 0,
-            correction_um,
-            queued_slot,
-            mute_reason: self.policy.mute_reason(now),
-        })
+        self.sync()?;
+        Ok(self.status_now())
     }
 
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
@@ -697,63 +482,42 @@ impl Backend for Autd3Backend {
                     plan.sequence.dwell_us()
                 ))
             })?;
-        self.finish_switch(true)?;
+        self.sync()?;
         let slot = match slot {
             Some(s) if s > 1 => {
                 return Err(InputError::new(format!("AUTD3 has slots 0 and 1, got {s}")).into());
             }
-            Some(s)
-                if Some(s) == self.queued
-                    || (Some(s) == self.playing && self.policy.session() == Session::Playing) =>
-            {
+            Some(s) if self.player.busy(s) => {
                 return Err(BackendError::refused(
                     NackCode::SlotPlaying,
                     format!("slot {s} is playing; upload into the idle slot"),
                 ));
             }
             Some(s) => s,
-            None if self.queued.is_some() => {
-                return Err(BackendError::refused(
+            None => free_slot(2, &self.status_now()).ok_or_else(|| {
+                BackendError::refused(
                     NackCode::SlotPlaying,
                     "no free slot: one plays and the other is queued",
-                ));
-            }
-            None => match self.playing {
-                Some(p) => 1 - p,
-                None => 1 - self.current_segment()?.unwrap_or(0),
-            },
+                )
+            })?,
         };
-        // The segment is being overwritten: until it arrives whole it is empty.
+        // An upload sends nothing else for a while: start it on a fresh lease.
+        let (now, dc) = (self.now_us(), self.dc_now());
+        self.output.refresh(&mut self.ctl, now, dc)?;
+        // The segment is being overwritten: until it arrives whole it is
+        // empty, and a start switches to it anew.
         self.slots[usize::from(slot)] = None;
-        let phases = &plan.sequence.phases;
-        let gains: Vec<_> = (0..steps)
-            .map(|j| {
-                Custom::new(move |dev: &Device| {
-                    let base = j * t + dev.idx() * AUTD3_TRANSDUCERS;
-                    move |tr: &Transducer| Drive {
-                        phase: Phase(phases[base + tr.idx()]),
-                        intensity: Intensity::MAX,
-                    }
-                })
-            })
-            .collect();
-        let stm = GainSTM::new(
-            gains,
-            SamplingConfig::new(NonZeroU16::new(divide).context("zero divide")?),
-            GainSTMOption {
-                mode: GainSTMMode::PhaseFull,
-            },
-        );
-        let frames0 = self.emulator.as_ref().map_or(0, |e| e.frames());
-        self.ctl
-            .send(WithFiniteLoop::new(
-                stm,
-                NonZeroU16::MAX,
-                segment(slot),
-                Later,
-            ))
-            .with_context(|| format!("uploading to slot {slot} on {}", self.port))?;
-        let frames = self.emulator.as_ref().map_or(0, |e| e.frames()) - frames0;
+        if self.stm_segment == Some(slot) {
+            self.stm_segment = None;
+        }
+        let frames = self.write_segment(plan, slot, divide)?;
+        let readback = self.readback_mismatches(slot, &plan.sequence.phases);
+        if let Some(n) = readback.filter(|&n| n > 0) {
+            return Err(BackendError::failed(format!(
+                "{} holds {n} phases in slot {slot} that differ from the plan; the slot is left empty",
+                self.port
+            )));
+        }
         self.slots[usize::from(slot)] = Some(Slot {
             steps,
             divide,
@@ -768,46 +532,38 @@ impl Backend for Autd3Backend {
             freq_hz: 1e6 / (steps as f64 * dwell_us),
             transfer: Transfer::Autd3 {
                 frames,
-                readback_mismatches: self.readback_mismatches(slot, phases),
+                readback_mismatches: readback,
             },
         })
     }
 
+    /// As the firmware: from silence (or `Immediate`) at once, sounding
+    /// within one frame; while another slot plays, queued for its cycle end.
     fn play_at(&mut self, slot: u8, at: PlayAt, untracked: bool) -> BResult<()> {
-        // A start from silence returns once the new segment plays (within
-        // one loop); a slot queued behind a playing one returns at once, as
-        // on the firmware, and `tick` / `status` see the switch through.
-        self.request_play_at(slot, at, untracked)?;
-        if self.queued.is_none() {
-            self.finish_switch(true)?;
-        }
-        Ok(self.apply_gate()?)
+        Ok(self.request(slot, at, untracked, 0)?)
     }
 
-    /// Timed by the host on the devices' clock (`stop_at_limit`): an AUTD3
-    /// cannot stop itself.
+    /// Timed by the firmware's player on the host's clock: `tick`, `status`
+    /// and `centroid` stop it once its steps have played (late by as much
+    /// as those calls are, counted in `missed_deadlines`).
     fn play_for(&mut self, slot: u8, untracked: bool, steps: u32) -> BResult<()> {
-        self.request_play_for(slot, untracked, steps)?;
-        if self.queued.is_none() {
-            self.finish_switch(true)?;
-        }
-        Ok(self.apply_gate()?)
+        Ok(self.request(slot, PlayAt::NextCycle, untracked, steps)?)
     }
 
-    /// Mutes at once, as the firmware's `Stop`; the segments stay, so a
-    /// later `play` resumes without an upload (drop writes the null gain).
+    /// Mutes at once, as the firmware's `Stop` (a queued slot is dropped);
+    /// the segments stay, so a later `play` resumes without an upload
+    /// (drop writes the null gain).
     fn stop(&mut self) -> BResult<()> {
-        Ok(self.mute_and_stop()?)
+        self.sync()?;
+        self.player.stop();
+        self.policy.stop();
+        Ok(self.sync()?)
     }
 
     fn centroid(&mut self, c: &Centroid) -> BResult<CentroidOutcome> {
         // A play whose steps have played is stopped before the update.
-        self.finish_switch(false)?;
-        self.stop_at_limit()?;
-        let header = self
-            .playing
-            .and_then(|s| self.slots[usize::from(s)])
-            .map(|s| s.header);
+        self.sync()?;
+        let header = self.playing_header();
         let last = self.policy.last_seq();
         let outcome = match self.policy.centroid(c, header.as_ref(), self.now_us()) {
             Ok(Some(_)) => {
@@ -825,12 +581,16 @@ impl Backend for Autd3Backend {
                 ));
             }
         };
-        self.apply_gate()?;
+        self.sync()?;
         Ok(outcome)
     }
 
     fn tick(&mut self) -> BResult<()> {
-        Ok(self.apply_gate()?)
+        Ok(self.sync()?)
+    }
+
+    fn set_lease(&mut self, lease: Duration) -> BResult<()> {
+        Ok(Autd3Backend::set_lease(self, lease)?)
     }
 }
 

@@ -6,7 +6,9 @@
 //! shares them through an [`EmulatorHandle`] so the backend (and tests) can
 //! read the FPGA memory back: STM phases per segment and index, the phase
 //! correction table, the modulation, the silencer, the playing segment.
-//! The link can be broken after a number of frames to test failed uploads.
+//! The link can be broken after a number of frames to test failed uploads,
+//! and can damage one phase of the next GainSTM upload on its way to the
+//! devices (a transfer fault only a read-back finds).
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
@@ -25,7 +27,43 @@ struct State {
     frames: u64,
     /// Fail every send once `frames` reaches this.
     break_at: Option<u64>,
+    /// Flip a bit of the first phase of the next GainSTM upload.
+    damage_stm: bool,
+    /// The devices' time at their last update (ns of `DcSysTime`).
+    updated_ns: u64,
 }
+
+impl State {
+    /// Brings every device to `t`. A real FPGA runs continuously; the
+    /// emulator acts at the times it is updated, so a `SysTime` segment
+    /// switch that falls between two updates is first played out at its
+    /// own time (else a clock that jumped would switch late).
+    fn update_to(&mut self, t: DcSysTime) {
+        const TRANSITION_MODE_SYS_TIME: u8 = 0x01;
+        let last = self.updated_ns;
+        for cpu in self.cpus.iter_mut() {
+            let f = cpu.fpga();
+            let mut due: Vec<u64> = [f.modulation_transition_mode(), f.stm_transition_mode()]
+                .into_iter()
+                .filter(|m| m.mode == TRANSITION_MODE_SYS_TIME)
+                .map(|m| m.value)
+                .filter(|&v| v > last && v < t.sys_time())
+                .collect();
+            due.sort_unstable();
+            for v in due {
+                cpu.update_with_sys_time(DcSysTime::new(v));
+            }
+            cpu.update_with_sys_time(t);
+        }
+        self.updated_ns = self.updated_ns.max(t.sys_time());
+    }
+}
+
+/// autd3 firmware's message tag of a GainSTM write, and its flag of the
+/// first message of one (whose 16-byte head precedes the phases).
+const TAG_GAIN_STM: u8 = 0x41;
+const GAIN_STM_FLAG_BEGIN: u8 = 1 << 0;
+const GAIN_STM_HEAD_BYTES: usize = 16;
 
 /// Shared access to the emulated devices.
 #[derive(Clone)]
@@ -43,8 +81,7 @@ impl EmulatorHandle {
     /// Runs `f` on the emulated devices after bringing them to the clock's time.
     pub fn with_cpus<R>(&self, f: impl FnOnce(&[CPUEmulator]) -> R) -> R {
         let mut s = self.lock();
-        let t = sys_time(self.clock.now());
-        s.cpus.iter_mut().for_each(|c| c.update_with_sys_time(t));
+        s.update_to(sys_time(self.clock.now()));
         f(&s.cpus)
     }
 
@@ -58,6 +95,13 @@ impl EmulatorHandle {
     pub fn break_after(&self, frames: Option<u64>) {
         let mut s = self.lock();
         s.break_at = frames.map(|n| s.frames + n);
+    }
+
+    /// Damages the next GainSTM upload on its way: the first board gets
+    /// the first transducer's phase of the first pattern with one bit
+    /// flipped, as a transfer fault would (the upload itself succeeds).
+    pub fn damage_next_stm_upload(&self) {
+        self.lock().damage_stm = true;
     }
 
     /// The clock the devices run on.
@@ -118,15 +162,23 @@ impl Link for EmulatorLink {
         Ok(self.pool.borrow())
     }
 
-    fn send(&mut self, tx: Vec<TxMessage>) -> Result<(), LinkError> {
+    fn send(&mut self, mut tx: Vec<TxMessage>) -> Result<(), LinkError> {
         let mut s = self.handle.lock();
         if s.break_at.is_some_and(|n| s.frames >= n) {
             self.pool.return_buffer(tx);
             return Err(LinkError::new("emulated link is broken"));
         }
-        let t = sys_time(self.handle.clock.now());
+        if s.damage_stm
+            && let Some(p) = tx.first_mut().map(TxMessage::payload_mut)
+            && p.len() > GAIN_STM_HEAD_BYTES
+            && p[0] == TAG_GAIN_STM
+            && p[1] & GAIN_STM_FLAG_BEGIN != 0
+        {
+            p[GAIN_STM_HEAD_BYTES] ^= 0x10;
+            s.damage_stm = false;
+        }
+        s.update_to(sys_time(self.handle.clock.now()));
         for cpu in s.cpus.iter_mut() {
-            cpu.update_with_sys_time(t);
             cpu.send(&tx);
         }
         s.frames += 1;
@@ -140,9 +192,8 @@ impl Link for EmulatorLink {
         if s.break_at.is_some_and(|n| s.frames >= n) {
             return Err(LinkError::new("emulated link is broken"));
         }
-        let t = sys_time(self.handle.clock.now());
+        s.update_to(sys_time(self.handle.clock.now()));
         for cpu in s.cpus.iter_mut() {
-            cpu.update_with_sys_time(t);
             if let Some(r) = rx.get_mut(cpu.idx()) {
                 *r = cpu.rx();
             }

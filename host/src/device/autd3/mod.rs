@@ -7,13 +7,20 @@
 //! - [`emulator`]: autd3's CPU + FPGA emulator as a clocked link with read-back;
 //! - [`correction`]: centroid offsets from `lm-fw-core` as `PhaseCorrection`;
 //! - [`safety`]: the firmware's gate, mute, silencer settings;
-//! - [`device`]: [`Autd3Backend`], the [`Backend`](crate::device::backend::Backend).
+//! - [`firmware`]: the firmware version these autd3 crates speak, checked at open;
+//! - [`open`]: a port's link, the rig checked against the scene and firmware;
+//! - [`output`]: the output level through the modulation, under a lease;
+//! - [`device`]: [`Autd3Backend`], the [`Backend`](crate::device::backend::Backend),
+//!   driving the firmware's own player and policy.
 
 pub mod correction;
 pub mod device;
 pub mod emulator;
 pub mod ethercat;
+pub mod firmware;
 pub mod geometry;
+pub mod open;
+pub mod output;
 pub mod port;
 pub mod safety;
 

@@ -41,6 +41,12 @@ pub enum Autd3Port {
 }
 
 impl Autd3Port {
+    /// Whether the rig is autd3's emulator, which lives in this process
+    /// (and ends with it).
+    pub fn is_emulator(&self) -> bool {
+        matches!(self, Self::Emulator | Self::EmulatorRig { .. })
+    }
+
     /// Whether `port` asks for the AUTD3 backend (starts with `autd3:`).
     pub fn is_autd3(port: &str) -> bool {
         port.starts_with(PREFIX)

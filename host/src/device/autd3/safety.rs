@@ -9,7 +9,8 @@
 //!   [`Backend::tick`](crate::device::backend::Backend::tick).
 //! - **Mute** is the modulation: `Static(0)` silences every transducer
 //!   (through the silencer's intensity ramp) without touching the STM
-//!   segments, `Static(255)` restores full intensity.
+//!   segments; sounding is a leased modulation at the stimulus's intensity
+//!   ([`super::output`]).
 //! - **Silencer**: autd3's default, kept on purpose: fixed completion steps,
 //!   intensity 10 × 25 µs = 250 µs, phase 40 × 25 µs = 1 ms, strict mode.
 //!   It limits how fast drive phase and amplitude may change, which keeps
@@ -21,13 +22,14 @@
 //!   unwinding) mutes, then writes a `Null` gain into the playing segment;
 //!   autd3's own close then clears the devices. Ctrl-C / SIGTERM become a
 //!   flag ([`crate::stop`]) so the polling loop returns and `Drop` runs.
-//!   AUTD3 firmware has no host watchdog here: output lasts only while
-//!   lmhost holds the link, and a killed (SIGKILL) host leaves it playing.
+//!   AUTD3 firmware has no host watchdog, so the output carries its own:
+//!   a killed (SIGKILL) or hung host leaves it sounding at most one lease
+//!   ([`super::output`]), then silent.
 
 use lm_fw_core::policy::Policy;
 
 /// Mute after this long without a centroid update (µs), as the firmware.
-pub const STALE_US: u64 = 100_000;
+pub const STALE_US: u64 = lm_fw_core::DEFAULT_CENTROID_TIMEOUT_US as u64;
 /// Modulation intensity that silences the array.
 pub const MUTED: u8 = 0;
 /// Modulation intensity for full output.

@@ -12,6 +12,11 @@
 //! remembered), and sends `BeginRig`, `Geometry`, `CommitRig` only when it
 //! does not; later uploads carry phases only. A device that lost the rig
 //! (reset) answers `NoRig` / `RigMismatch`, and the client sends it again.
+//!
+//! Every play carries the client's host lease ([`Client::lease_ms`]); the
+//! client notes when the device last accepted a request (each one renews
+//! the lease) and [`Client::renew_due`] says when a `Renew` is due: after a
+//! quarter lease without one (SPEC section 2).
 
 use std::time::{Duration, Instant};
 
@@ -19,8 +24,8 @@ use lm_proto::codec::CodecError;
 use lm_proto::{
     BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceLimits, Encoding, FeedResult,
     FrameDecoder, Geometry, HeaderError, Info, MAX_CHUNK, MAX_ENCODED_FRAME,
-    MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play, PlayAt, Positions, Status,
-    UploadHeader, encode_frame, rig_crc32,
+    MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play, PlayAt, Positions, SelfTest,
+    Status, UploadHeader, encode_frame, rig_crc32,
 };
 
 use crate::plan::sequence::{Plan, Sequence};
@@ -92,6 +97,8 @@ pub enum Reply {
     Info(Info),
     /// Device status.
     Status(Status),
+    /// Outcome of a self-test.
+    SelfTest(SelfTest),
 }
 
 impl Reply {
@@ -101,6 +108,7 @@ impl Reply {
             Reply::Nack(_) => "nack",
             Reply::Info(_) => "info",
             Reply::Status(_) => "status",
+            Reply::SelfTest(_) => "self-test result",
         }
     }
 }
@@ -248,6 +256,11 @@ pub struct Client<T> {
     pub stats: LinkStats,
     /// The rig (transducers, CRC-32) the device is known to hold.
     rig: Option<(u16, u32)>,
+    /// Host lease every `Play` carries, ms (within [`lm_proto::LEASE_MS`]).
+    pub lease_ms: u16,
+    /// When the request the device last accepted was sent (the device
+    /// renewed the lease no earlier).
+    last_accepted: Option<Instant>,
 }
 
 impl<T: Transport> Client<T> {
@@ -264,6 +277,8 @@ impl<T: Transport> Client<T> {
             upload_attempts: 4,
             stats: LinkStats::default(),
             rig: None,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
+            last_accepted: None,
         }
     }
 
@@ -291,11 +306,15 @@ impl<T: Transport> Client<T> {
             if attempt > 0 {
                 self.stats.retries += 1;
             }
+            let sent = Instant::now();
             self.transport
                 .send(&self.tx[..n])
                 .map_err(|source| LinkError::Io { what, source })?;
             self.stats.bytes_sent += n as u64;
             if let Some(r) = self.wait_for(seq, what)? {
+                if !matches!(r, Reply::Nack(_)) {
+                    self.last_accepted = Some(sent);
+                }
                 return Ok(r);
             }
         }
@@ -336,6 +355,7 @@ impl<T: Transport> Client<T> {
                                 Message::Nack(c) => Some(Reply::Nack(c)),
                                 Message::Info(i) => Some(Reply::Info(i)),
                                 Message::Status(s) => Some(Reply::Status(s)),
+                                Message::SelfTestResult(t) => Some(Reply::SelfTest(t)),
                                 // Not a response: an echo or noise that decoded; ignore.
                                 _ => None,
                             };
@@ -392,9 +412,9 @@ impl<T: Transport> Client<T> {
         }
     }
 
-    /// Play a committed slot until `Stop`; `untracked` plays without
-    /// tracking (the device does not gate or correct the output until
-    /// `Stop`).
+    /// Play a committed slot until `Stop` (or until the host lease runs
+    /// out: keep [`renew`](Self::renew)ing); `untracked` plays without
+    /// tracking (the device does not gate or correct the output).
     pub fn play(&mut self, slot: u8, at: PlayAt, untracked: bool) -> Result<(), LinkError> {
         self.play_steps(slot, at, untracked, 0)
     }
@@ -415,8 +435,36 @@ impl<T: Transport> Client<T> {
                 at,
                 untracked,
                 steps,
+                lease_ms: self.lease_ms,
             }),
         )
+    }
+
+    /// Renews the host lease (any accepted request does; this one does
+    /// nothing else).
+    pub fn renew(&mut self) -> Result<(), LinkError> {
+        self.expect_ack("renew", &Message::Renew)
+    }
+
+    /// Whether a renewal is due: a quarter of [`lease_ms`](Self::lease_ms)
+    /// has passed since the device last accepted a request (or none was).
+    pub fn renew_due(&self) -> bool {
+        let quarter = std::time::Duration::from_millis(u64::from(self.lease_ms) / 4);
+        self.last_accepted.is_none_or(|t| t.elapsed() >= quarter)
+    }
+
+    /// Runs the device's output self-test (its SPI loopback); `Busy` while
+    /// a slot plays.
+    pub fn self_test(&mut self) -> Result<SelfTest, LinkError> {
+        let what = "self test";
+        match self.request(what, &Message::SelfTest)? {
+            Reply::SelfTest(t) => Ok(t),
+            Reply::Nack(code) => Err(LinkError::Nack { what, code }),
+            other => Err(LinkError::Unexpected {
+                what,
+                got: other.name(),
+            }),
+        }
     }
 
     /// Stop (mutes at once).

@@ -31,16 +31,21 @@ pub struct PortSpec {
     pub timeout_ms: Option<u64>,
     /// Attempts per request before giving up.
     pub tries: u32,
+    /// The LM firmware's host lease, ms: a play ends this long after the
+    /// device last heard from lmhost (within [`lm_proto::LEASE_MS`]).
+    pub lease_ms: u16,
 }
 
 impl PortSpec {
-    /// `port` with the defaults: 115 200 Bd, the default timeout, 8 tries.
+    /// `port` with the defaults: 115 200 Bd, the default timeout, 8 tries,
+    /// a 1 s lease.
     pub fn new(port: Option<String>) -> Self {
         Self {
             port,
             baud: 115_200,
             timeout_ms: None,
             tries: 8,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         }
     }
 }
@@ -56,6 +61,15 @@ impl PortSpec {
         if self.tries == 0 {
             return Err(crate::InputError::new("--tries must be at least 1").into());
         }
+        if !lm_proto::LEASE_MS.contains(&self.lease_ms) {
+            return Err(crate::InputError::new(format!(
+                "--lease {} s is out of range: allowed {}..={} s",
+                f64::from(self.lease_ms) / 1000.0,
+                f64::from(*lm_proto::LEASE_MS.start()) / 1000.0,
+                f64::from(*lm_proto::LEASE_MS.end()) / 1000.0
+            ))
+            .into());
+        }
         let path = discover::resolve(self.port.as_deref())?;
         let transport = transport::open(&path, self.baud)?;
         let mut client = Client::new(transport);
@@ -63,6 +77,7 @@ impl PortSpec {
         client.timeout =
             std::time::Duration::from_millis(self.timeout_ms.unwrap_or(100 + 2 * chunk_ms));
         client.tries = self.tries;
+        client.lease_ms = self.lease_ms;
         Ok(client)
     }
 }

@@ -44,24 +44,49 @@ pub struct Serial {
 }
 
 impl Serial {
-    /// Open `path` at `baud` (8N1, no flow control, raw).
+    /// Open `path` at `baud` (8N1, no flow control, raw), for this process
+    /// alone.
+    ///
+    /// The port is held by an exclusive `flock` on its open file
+    /// description, which the kernel drops with the process however it
+    /// ends. Not by `TIOCEXCL` (serialport's default): that flag lives on
+    /// the tty until its last descriptor closes, so after a `kill -9` it
+    /// outlived its holder for as long as the other side held the tty open
+    /// (`lmhost sim` holds its pty's slave), and every later open was told
+    /// the port was in use.
     pub fn open(path: &str, baud: u32) -> anyhow::Result<Self> {
+        let in_use = || {
+            anyhow::anyhow!(
+                "{path} is in use by another process (another lmhost?); stop it or use another port"
+            )
+        };
         let port = serialport::new(path, baud)
             .timeout(Duration::from_millis(100))
-            .open()
+            .exclusive(false)
+            .open_native()
             .map_err(|e| {
-                let busy = e.description.contains("exclusive lock")
+                let busy = e.description.contains("lock")
                     || e.description.contains("Device or resource busy");
                 if busy {
-                    anyhow::anyhow!(
-                        "{path} is in use by another process (another lmhost?); stop it or use another port"
-                    )
+                    in_use()
                 } else {
                     anyhow::anyhow!("opening serial port {path}: {}", e.description)
                 }
             })?;
+        // The shared lock serialport took becomes exclusive, or the port is
+        // someone else's.
+        let fd = std::os::fd::AsRawFd::as_raw_fd(&port);
+        // SAFETY: flock(2) on the descriptor `port` owns and keeps open.
+        if unsafe { libc::flock(fd, libc::LOCK_EX | libc::LOCK_NB) } != 0 {
+            let e = std::io::Error::last_os_error();
+            return Err(if e.kind() == std::io::ErrorKind::WouldBlock {
+                in_use()
+            } else {
+                anyhow::anyhow!("locking serial port {path}: {}", crate::files::reason(&e))
+            });
+        }
         Ok(Self {
-            port,
+            port: Box::new(port),
             path: path.to_owned(),
         })
     }

@@ -1,7 +1,8 @@
-//! The `session` section: switch latency between stimuli and the timed
-//! on-phases' error by the device's own counters, from the rig session's
-//! events, on the simulated LM firmware (in process, real clock) and the
-//! AUTD3 emulator.
+//! The `session` section: onset latency from silence and switch latency
+//! between stimuli (request to the device playing, by its own counters),
+//! and the timed on-phases' error, from the rig session's figures, on the
+//! simulated LM firmware (in process, real clock) and the AUTD3 emulator.
+//! The session runs under its [`Driver`], as in `lmhost session`.
 
 use std::time::{Duration, Instant};
 
@@ -11,10 +12,12 @@ use super::{Options, Section};
 use crate::clock::Clock;
 use crate::device::autd3::Autd3Backend;
 use crate::device::backend::Backend;
-use crate::lab::session::{EventKind, Gate, Present, Session};
+use crate::lab::session::driver::{Driver, Finger};
+use crate::lab::session::{EventKind, Gate, OffsetReason, Present, Session};
 use crate::plan::library::Library;
 use crate::plan::scene::Scene;
 use crate::plan::target::Target;
+use crate::sense::stream::filter::Passthrough;
 
 /// The paper's 5 Hz LM-S and LM-M at A = 3 mm.
 const LIBRARY: &str = r#"
@@ -30,6 +33,20 @@ foci = 4
 pub struct SessionFigures {
     /// The device.
     pub backend: String,
+    /// Onsets from silence measured (alternating between the two
+    /// stimuli, so between slots).
+    pub onsets: usize,
+    /// Onset latency percentiles and maximum (ms): from the `present` to
+    /// the device playing, by its own counters.
+    pub onset_p50_ms: f64,
+    /// 99th percentile (nearest rank).
+    pub onset_p99_ms: f64,
+    /// Maximum.
+    pub onset_max_ms: f64,
+    /// The target: one dwell + 1 ms (ms).
+    pub onset_limit_ms: f64,
+    /// Each onset's offset from the ideal (the `present`), ms, in order.
+    pub onset_ms: Vec<f64>,
     /// Switches measured.
     pub switches: usize,
     /// Switch latency percentiles and maximum (ms).
@@ -46,7 +63,7 @@ pub struct SessionFigures {
     pub on_s: f64,
     /// Largest |device-played − on_s| (ms).
     pub on_error_max_ms: f64,
-    /// One dwell, the target for it (ms).
+    /// One dwell (ms).
     pub dwell_ms: f64,
 }
 
@@ -62,69 +79,113 @@ fn autd3_dev() -> anyhow::Result<Box<dyn Backend>> {
     ))
 }
 
-/// Polls `s` until an event `want` says so (or `within`).
-fn wait_for(
-    s: &mut Session,
+/// Turns `d` until `done` holds (or `within`), events in hand.
+fn run_until(
+    d: &mut Driver,
     within: Duration,
-    want: impl Fn(&EventKind) -> bool,
+    mut done: impl FnMut(&Driver, &[EventKind]) -> bool,
 ) -> anyhow::Result<()> {
     let end = Instant::now() + within;
     while Instant::now() < end {
-        s.poll()?;
-        if s.drain_events().iter().any(|e| want(&e.kind)) {
+        let ev: Vec<EventKind> = d.turn()?.into_iter().map(|e| e.kind).collect();
+        if done(d, &ev) {
             return Ok(());
         }
-        std::thread::sleep(Duration::from_micros(500));
+        d.wait(Duration::from_millis(1));
     }
     anyhow::bail!("the session did not get there within {within:?}")
+}
+
+/// Keeps `d` turning for `t`.
+fn idle(d: &mut Driver, t: Duration) -> anyhow::Result<()> {
+    let end = Instant::now() + t;
+    while Instant::now() < end {
+        d.turn()?;
+        d.wait(Duration::from_millis(1));
+    }
+    Ok(())
+}
+
+fn present(id: &str, on: Option<f64>, repeat: Option<u32>) -> Present {
+    Present {
+        stimulus: id.into(),
+        gate: Some(Gate::Untracked),
+        on_s: on,
+        off_s: on.map(|_| 0.1),
+        repeat,
+    }
 }
 
 fn measure(
     name: &str,
     target: &Target,
     dev: Box<dyn Backend>,
-    switches: usize,
+    n: usize,
     on_phases: u32,
     on_s: f64,
 ) -> anyhow::Result<SessionFigures> {
     let lib = Library::from_toml(LIBRARY, "bench")?;
     let scene = Scene::default();
     let plans = lib.plan_for(target, &scene)?;
-    let mut s = Session::new(dev, &lib, plans, scene)?;
-    let present = |id: &str, on: Option<f64>, repeat: Option<u32>| Present {
-        stimulus: id.into(),
-        gate: Some(Gate::Untracked),
-        on_s: on,
-        off_s: on.map(|_| 0.1),
-        repeat,
-    };
-    s.present(&present("lms", None, None))?;
-    for i in 0..switches {
-        let id = if i % 2 == 0 { "lmm" } else { "lms" };
-        // Ask at a random point of the playing cycle.
-        std::thread::sleep(Duration::from_millis(37 * (i as u64 % 5)));
-        s.prepare(id)?;
-        s.present(&present(id, None, None))?;
-        wait_for(&mut s, Duration::from_secs(5), |k| {
-            matches!(k, EventKind::Switch { .. })
+    let s = Session::new(dev, &lib, plans, scene, Clock::real())?;
+    let mut d = Driver::new(s, Finger::None, Box::new(Passthrough));
+    let ids = ["lms", "lmm"];
+    // Onsets from silence, each stimulus where it sits, at varied times.
+    for i in 0..n {
+        let id = ids[i % 2];
+        d.session().prepare(id)?;
+        idle(&mut d, Duration::from_millis(20 + 13 * (i as u64 % 7)))?;
+        let before = d.session_ref().figures().onsets;
+        d.session().present(&present(id, None, None))?;
+        run_until(&mut d, Duration::from_secs(5), |d, _| {
+            d.session_ref().figures().onsets > before
+        })?;
+        d.session().stop(OffsetReason::Stop)?;
+    }
+    d.session().present(&present("lms", None, None))?;
+    for i in 0..n {
+        let id = ids[(i + 1) % 2];
+        // Ask at a varied point of the playing cycle.
+        idle(&mut d, Duration::from_millis(37 * (i as u64 % 5)))?;
+        d.session().prepare(id)?;
+        d.session().present(&present(id, None, None))?;
+        run_until(&mut d, Duration::from_secs(5), |_, ev| {
+            ev.iter().any(|k| matches!(k, EventKind::Switch { .. }))
         })?;
     }
-    s.stop(crate::lab::session::OffsetReason::Stop)?;
-    s.drain_events();
-    s.present(&present("lms", Some(on_s), Some(on_phases)))?;
+    d.session().stop(OffsetReason::Stop)?;
+    // The stop's own `done` is not the timed presentation's.
+    d.session().drain_events();
+    let switches = d.session_ref().figures();
+    d.session()
+        .present(&present("lms", Some(on_s), Some(on_phases)))?;
     let all = Duration::from_secs_f64((on_s + 0.1) * f64::from(on_phases) + 5.0);
-    wait_for(&mut s, all, |k| matches!(k, EventKind::Done { .. }))?;
+    run_until(&mut d, all, |_, ev| {
+        ev.iter().any(|k| matches!(k, EventKind::Done { .. }))
+    })?;
+    let s = d.into_session();
     let f = s.figures();
+    let onset_ms = s.onset_latencies_ms()[..n.min(f.onsets)].to_vec();
+    let pct = |p: f64| {
+        let us: Vec<u64> = onset_ms.iter().map(|m| (m * 1e3).round() as u64).collect();
+        crate::clock::percentile(us, p).map_or(f64::NAN, |u| u as f64 / 1e3)
+    };
     let timing = &s.loaded()[0].planned.timing;
     let period_ms = 1e3 / timing.freq_hz.min(s.loaded()[1].planned.timing.freq_hz);
-    let dwell_ms = timing.dwell_us / 1e3;
-    s.close(crate::lab::session::OffsetReason::Quit);
+    let dwell_ms = timing.dwell_us.max(s.loaded()[1].planned.timing.dwell_us) / 1e3;
+    s.close(OffsetReason::Quit);
     Ok(SessionFigures {
         backend: name.into(),
-        switches: f.switches,
-        switch_p50_ms: f.switch_p50_ms.unwrap_or(f64::NAN),
-        switch_p99_ms: f.switch_p99_ms.unwrap_or(f64::NAN),
-        switch_max_ms: f.switch_max_ms.unwrap_or(f64::NAN),
+        onsets: onset_ms.len(),
+        onset_p50_ms: pct(50.0),
+        onset_p99_ms: pct(99.0),
+        onset_max_ms: onset_ms.iter().copied().fold(f64::NAN, f64::max),
+        onset_limit_ms: dwell_ms + 1.0,
+        onset_ms,
+        switches: switches.switches,
+        switch_p50_ms: switches.switch_p50_ms.unwrap_or(f64::NAN),
+        switch_p99_ms: switches.switch_p99_ms.unwrap_or(f64::NAN),
+        switch_max_ms: switches.switch_max_ms.unwrap_or(f64::NAN),
         switch_limit_ms: period_ms + 10.0,
         on_phases: f.timed_on_phases,
         on_s,
@@ -135,7 +196,7 @@ fn measure(
 
 /// The `session` section.
 pub fn section(opts: &Options) -> anyhow::Result<Section> {
-    let (switches, phases, on_s) = if opts.quick {
+    let (n, phases, on_s) = if opts.quick {
         (4, 2, 0.5)
     } else {
         (40, 5, 2.0)
@@ -145,7 +206,7 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
             "simulated LM firmware",
             &Target::Lm,
             lm_dev()?,
-            switches,
+            n,
             phases,
             on_s,
         )?,
@@ -153,24 +214,26 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
             "AUTD3 emulator",
             &Target::Autd3,
             autd3_dev()?,
-            switches,
+            n,
             phases,
             on_s,
         )?,
     ];
-    let mut text = String::from("session (paper LM-S <-> LM-M at 5 Hz, A = 3 mm; events)\n");
+    let mut text = String::from(
+        "session (paper LM-S <-> LM-M at 5 Hz, A = 3 mm; the session's figures under its driver)\n",
+    );
     for f in &figures {
         text.push_str(&format!(
-            "  {:<22} switch p50 {:6.1} ms  p99 {:6.1} ms  max {:6.1} ms (limit {:.1})  {} x {} s on: |device - on_s| max {:.2} ms (dwell {:.2})\n",
-            f.backend,
-            f.switch_p50_ms,
-            f.switch_p99_ms,
-            f.switch_max_ms,
-            f.switch_limit_ms,
-            f.on_phases,
-            f.on_s,
-            f.on_error_max_ms,
-            f.dwell_ms
+            "  {:<22} onset  p50 {:6.2} ms  p99 {:6.2} ms  max {:6.2} ms (limit {:.2}, {} onsets)\n",
+            f.backend, f.onset_p50_ms, f.onset_p99_ms, f.onset_max_ms, f.onset_limit_ms, f.onsets
+        ));
+        text.push_str(&format!(
+            "  {:<22} switch p50 {:6.1} ms  p99 {:6.1} ms  max {:6.1} ms (limit {:.1}, {} switches)\n",
+            "", f.switch_p50_ms, f.switch_p99_ms, f.switch_max_ms, f.switch_limit_ms, f.switches
+        ));
+        text.push_str(&format!(
+            "  {:<22} {} x {} s on: |device - on_s| max {:.2} ms (dwell {:.2})\n",
+            "", f.on_phases, f.on_s, f.on_error_max_ms, f.dwell_ms
         ));
     }
     Section::new("session", &figures, text)

@@ -25,6 +25,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::InputError;
+use nalgebra::{Matrix3, Matrix4, Quaternion, SymmetricEigen, UnitQuaternion, Vector3};
+
 use crate::geom::{Vec3, add, cross, dot, norm, scale, sub};
 use crate::npy::DepthNpy;
 use crate::plan::scene::camera::CameraPose;
@@ -215,12 +217,18 @@ fn background_depth(path: &Path, intr: &Intrinsics) -> Result<Vec<f64>, InputErr
     Ok((0..frames[0].len())
         .map(|i| {
             col.clear();
-            col.extend(frames.iter().map(|f| f[i]).filter(|&d| d > 0));
+            col.extend(
+                frames
+                    .iter()
+                    .map(|f| f[i])
+                    .filter(|&d| d > 0)
+                    .map(f64::from),
+            );
             if col.is_empty() {
                 return 0.0;
             }
-            col.sort_unstable();
-            f64::from(col[col.len() / 2]) * mm
+            col.sort_by(f64::total_cmp);
+            crate::clock::quantile(&col, 0.5) * mm
         })
         .collect())
 }
@@ -247,29 +255,17 @@ fn sphere_fit(pts: &[Vec3], r: f64, c0: Vec3) -> Vec3 {
                 }
             }
         }
-        let Some(step) = solve3(jtj, jtr) else { break };
+        let m = Matrix3::from_fn(|i, j| jtj[i][j]);
+        let Some(step) = m.cholesky().map(|c| c.solve(&Vector3::from(jtr))) else {
+            break;
+        };
+        let step = [step[0], step[1], step[2]];
         c = sub(c, step);
         if norm(step) < 1e-7 {
             break;
         }
     }
     c
-}
-
-/// Solves `m x = v` (Cramer's rule); `None` when singular.
-fn solve3(m: [[f64; 3]; 3], v: Vec3) -> Option<Vec3> {
-    let det = dot(m[0], cross(m[1], m[2]));
-    if det.is_nan() || det.abs() <= 1e-12 {
-        return None;
-    }
-    let cols = |k: usize| {
-        let mut mm = m;
-        for (row, &val) in mm.iter_mut().zip(&v) {
-            row[k] = val;
-        }
-        dot(mm[0], cross(mm[1], mm[2])) / det
-    };
-    Some([cols(0), cols(1), cols(2)])
 }
 
 /// Finds a ball of `diameter` among `pts` (camera, mm): seeded at the
@@ -333,59 +329,9 @@ pub fn find_ball(pts: &[Vec3], diameter: f64, what: &str) -> Result<Ball, InputE
     })
 }
 
-/// Eigenvector of the largest eigenvalue of a symmetric 4 × 4 matrix
-/// (cyclic Jacobi), and the eigenvalues sorted descending.
-fn top_eigenvector(mut a: [[f64; 4]; 4]) -> ([f64; 4], [f64; 4]) {
-    let mut v = [[0.0; 4]; 4];
-    for (i, row) in v.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    for _ in 0..100 {
-        let off: f64 = (0..4)
-            .flat_map(|i| (0..4).filter(move |&j| j != i).map(move |j| (i, j)))
-            .map(|(i, j)| a[i][j] * a[i][j])
-            .sum();
-        if off < 1e-30 {
-            break;
-        }
-        for p in 0..3 {
-            for q in p + 1..4 {
-                if a[p][q].abs() < 1e-300 {
-                    continue;
-                }
-                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
-                for row in a.iter_mut() {
-                    let (akp, akq) = (row[p], row[q]);
-                    row[p] = c * akp - s * akq;
-                    row[q] = s * akp + c * akq;
-                }
-                let (rp, rq) = (a[p], a[q]);
-                for k in 0..4 {
-                    a[p][k] = c * rp[k] - s * rq[k];
-                    a[q][k] = s * rp[k] + c * rq[k];
-                }
-                for row in v.iter_mut() {
-                    let (vp, vq) = (row[p], row[q]);
-                    row[p] = c * vp - s * vq;
-                    row[q] = s * vp + c * vq;
-                }
-            }
-        }
-    }
-    let mut order = [0, 1, 2, 3];
-    order.sort_by(|&i, &j| a[j][j].total_cmp(&a[i][i]));
-    let top = order[0];
-    (
-        [v[0][top], v[1][top], v[2][top], v[3][top]],
-        order.map(|i| a[i][i]),
-    )
-}
-
 /// The rotation and translation with `to ≈ R from + t`, least squares
-/// (Horn 1987, unit quaternions).
+/// (Horn 1987, unit quaternions: the rotation is the eigenvector of the
+/// largest eigenvalue of a symmetric 4 × 4 matrix, nalgebra's solver).
 pub fn rigid_fit(from: &[Vec3], to: &[Vec3]) -> ([[f64; 3]; 3], Vec3) {
     let n = from.len() as f64;
     let mean = |v: &[Vec3]| v.iter().fold([0.0; 3], |a, p| add(a, scale(*p, 1.0 / n)));
@@ -400,30 +346,31 @@ pub fn rigid_fit(from: &[Vec3], to: &[Vec3]) -> ([[f64; 3]; 3], Vec3) {
         }
     }
     let [[sxx, sxy, sxz], [syx, syy, syz], [szx, szy, szz]] = s;
-    let m = [
-        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
-        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
-        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
-        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
-    ];
-    let ([w, x, y, z], _) = top_eigenvector(m);
-    let r = [
-        [
-            w * w + x * x - y * y - z * z,
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            w * w - x * x + y * y - z * z,
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            w * w - x * x - y * y + z * z,
-        ],
-    ];
+    let n = Matrix4::new(
+        sxx + syy + szz,
+        syz - szy,
+        szx - sxz,
+        sxy - syx,
+        syz - szy,
+        sxx - syy - szz,
+        sxy + syx,
+        szx + sxz,
+        szx - sxz,
+        sxy + syx,
+        -sxx + syy - szz,
+        syz + szy,
+        sxy - syx,
+        szx + sxz,
+        syz + szy,
+        -sxx - syy + szz,
+    );
+    // The rotation is the unit quaternion of N's largest eigenvalue.
+    let eig = SymmetricEigen::new(n);
+    let top = eig.eigenvalues.imax();
+    let q = eig.eigenvectors.column(top);
+    let rot = UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]));
+    let m = rot.to_rotation_matrix();
+    let r: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| m[(i, j)]));
     let rc = [dot(r[0], cf), dot(r[1], cf), dot(r[2], cf)];
     (r, sub(ct, rc))
 }
@@ -660,7 +607,7 @@ mod tests {
         // axis checks (unit, orthogonal, right-handed) pass.
         let base = "[[device]]\ncenter_mm = [0, 0, 0]\n";
         let scene = crate::plan::scene::Scene::from_toml(
-            &super::super::with_table(base, "camera", &cal.table()),
+            &super::super::with_table(base, "camera", &cal.table(), "s.toml").unwrap(),
             "s.toml",
         )
         .unwrap();

@@ -14,10 +14,15 @@ use serde::Serialize;
 use crate::error::InputError;
 use crate::field::study::{View, simulate_plan};
 use crate::geom::Vec3;
-use crate::plan::scene::{MAX_PRESSURE_SCALE, Scene};
+use crate::limits::show;
+use crate::plan::scene::{MAX_PRESSURE_SCALE, MIN_PRESSURE_SCALE, Scene};
 use crate::plan::sequence::{Plan, Synthesis};
 use crate::plan::trajectory::{LmParams, Steps};
 
+/// Smallest force `--measured` takes (N): 0.1 mN, a force gauge's
+/// resolution and 1/200 of the paper's 0.022 N. Below it the reading is
+/// noise, and the scale derived from it would silence every map.
+pub const MIN_MEASURED_N: f64 = 1e-4;
 /// Largest force `--measured` takes (N): well above any array's.
 pub const MAX_MEASURED_N: f64 = 100.0;
 /// Grid step of the simulation (mm).
@@ -49,11 +54,11 @@ impl ForceCalibration {
              # {} mm disk; the model gives {:.5} N. Every simulated pressure and force is\n\
              # multiplied by pressure_scale (amplitudes by its square root).\n\
              pressure_scale = {}\nmeasured_n = {}\nsimulated_n = {}\ndisk_mm = {}\n",
-            c[0],
-            c[1],
-            c[2],
-            self.measured_n,
-            self.disk_mm,
+            show(c[0]),
+            show(c[1]),
+            show(c[2]),
+            show(self.measured_n),
+            show(self.disk_mm),
             self.simulated_n,
             f(self.pressure_scale),
             f(self.measured_n),
@@ -72,15 +77,17 @@ pub fn calibrate(
     disk_mm: f64,
     center_mm: Option<Vec3>,
 ) -> anyhow::Result<ForceCalibration> {
-    if !(measured_n.is_finite() && measured_n > 0.0 && measured_n <= MAX_MEASURED_N) {
+    if !(measured_n.is_finite() && (MIN_MEASURED_N..=MAX_MEASURED_N).contains(&measured_n)) {
         return Err(InputError::new(format!(
-            "--measured must be a force in N, > 0 and at most {MAX_MEASURED_N}, got {measured_n}"
+            "--measured must be a force of {MIN_MEASURED_N}..={MAX_MEASURED_N} N, got {} N",
+            show(measured_n)
         ))
         .into());
     }
     if !(disk_mm.is_finite() && disk_mm > 0.0 && disk_mm <= 100.0) {
         return Err(InputError::new(format!(
-            "--disk must be a diameter in mm, > 0 and at most 100, got {disk_mm}"
+            "--disk must be a diameter in mm, > 0 and at most 100, got {}",
+            show(disk_mm)
         ))
         .into());
     }
@@ -107,9 +114,13 @@ pub fn calibrate(
         .into());
     }
     let pressure_scale = measured_n / simulated_n;
-    if !(pressure_scale > 0.0 && pressure_scale <= MAX_PRESSURE_SCALE) {
+    if !(MIN_PRESSURE_SCALE..=MAX_PRESSURE_SCALE).contains(&pressure_scale) {
         return Err(InputError::new(format!(
-            "measured / simulated = {pressure_scale:e} is outside (0, {MAX_PRESSURE_SCALE:e}]"
+            "measured / simulated = {} N / {} N = {} is outside {MIN_PRESSURE_SCALE:e}..={MAX_PRESSURE_SCALE:e}: \
+             check --measured, --disk and the scene",
+            show(measured_n),
+            show(simulated_n),
+            show(pressure_scale)
         ))
         .into());
     }
@@ -148,7 +159,8 @@ mod tests {
         let text =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml"))
                 .unwrap();
-        let updated = super::super::with_table(&text, "calibration", &cal.table());
+        let updated =
+            super::super::with_table(&text, "calibration", &cal.table(), "paper.toml").unwrap();
         let scene = Scene::from_toml(&updated, "paper.toml").unwrap();
         let c = scene.calibration.unwrap();
         assert_eq!(c.pressure_scale, cal.pressure_scale, "written exactly");
@@ -211,6 +223,8 @@ mod tests {
         let raw = scene_with("");
         for (m, d) in [
             (0.0, 15.0),
+            (1e-300, 15.0),
+            (5e-5, 15.0),
             (-0.02, 15.0),
             (f64::NAN, 15.0),
             (1e3, 15.0),

@@ -2,35 +2,47 @@
 //! its whole life, presents stimuli from a [`Library`] on command and logs
 //! what was actually played as [`Event`]s.
 //!
-//! [`Session`] is the core and has no I/O of its own besides the device:
-//! it takes [`Command`]s and finger samples, runs each presentation's
-//! timeline in [`Session::poll`], and queues events the caller drains
-//! ([`Session::drain_events`]) to a log, the control socket's subscribers
-//! or a study. [`serve`](crate::lab::session::serve::serve) runs it behind a control
-//! socket (`lmhost session`); the study runner drives it in process. The
-//! protocol is specified in `host/src/lab/session/PROTOCOL.md`.
+//! [`Session`] is a polled state machine, as smoltcp's interface is: it
+//! has no I/O of its own besides the device and no time but the
+//! [`Clock`] it is given. It takes [`Command`]s and finger samples, moves
+//! its one [`stage`] (idle, on, off, switching from one stimulus to the
+//! next) in [`Session::poll`], says in [`Session::poll_at`] when it next
+//! has work, and queues events the caller drains
+//! ([`Session::drain_events`]). [`driver::Driver`] runs it (the finger
+//! source, the loop's deadlines) for both `lmhost session`
+//! ([`serve::serve`], behind a control socket) and `lmhost study`. Tests
+//! run it on a manual clock shared with the simulated device or the AUTD3
+//! emulator, without sleeping. The protocol is specified in
+//! `host/src/lab/session/PROTOCOL.md`.
 //!
-//! Stimuli are planned for the device at start. Where the device has a slot
-//! per entry, every entry is uploaded before the first command (the LM
-//! firmware's resident library); otherwise (an AUTD3's two segments) the
-//! library stays on the host and an entry goes into the idle slot when
-//! presented or, ahead of time, on `prepare`. A stimulus presented while
-//! another plays takes over at the playing cycle's end (`switch` event with
-//! its latency); one presented from silence starts at once.
+//! Stimuli are planned for the device at start and preloaded as far as the
+//! device's slots and library memory go ([`resident`]); the rest load when
+//! presented or, ahead of time, on `prepare`, in place of the least
+//! recently used idle entry when the memory is full. A stimulus presented
+//! while another plays takes over at the playing cycle's end (`switch`
+//! event with its latency); one presented from silence starts at once.
 //!
-//! Time stamps: `t_host_us` is the host's monotonic clock
-//! ([`crate::clock::monotonic_us`]); what the device played is read from
-//! its own step and cycle counters at the offset (`device_presented_s`).
+//! Time stamps: `t_host_us` is the session's clock (the host's monotonic
+//! clock, [`crate::clock::monotonic_us`], outside tests); what the device
+//! played is read from its own step and cycle counters at the offset
+//! (`device_presented_s`).
 
+mod conn;
+pub mod driver;
+mod endpoint;
+mod eventlog;
 pub mod protocol;
+mod resident;
 pub mod serve;
+mod stage;
 
 use std::time::Duration;
 
-use lm_proto::{Centroid, DeviceState, MuteReason, Status};
+use lm_proto::{DeviceState, MuteReason};
 
-use crate::clock::monotonic_us;
+use crate::clock::Clock;
 use crate::device::backend::{Backend, BackendInfo, CentroidOutcome, ErrorKind};
+use crate::device::centroids::CentroidSender;
 use crate::error::InputError;
 use crate::plan::library::Library;
 use crate::plan::scene::Scene;
@@ -38,14 +50,10 @@ use crate::plan::stimulus::TargetPlan;
 use crate::units::mm_to_um;
 
 pub use protocol::{Command, Event, EventKind, Gate, LibraryItem, OffsetReason, Present, Reply};
+pub use resident::Loaded;
+pub use stage::{IN_PROCESS, LATE_STOP, Owner, STATUS_EVERY, TICK_EVERY};
 
-/// How often the device's status is read while a stimulus plays (mute
-/// changes, switches).
-pub const STATUS_EVERY: Duration = Duration::from_millis(5);
-
-/// How long after a timed on-phase should have ended the host stops a
-/// device that has not stopped itself.
-pub const LATE_STOP: Duration = Duration::from_secs(1);
+use stage::{OnPhase, Presentation, Stage};
 
 /// Longest `on_s` / `off_s`, seconds.
 pub const MAX_PHASE_S: f64 = 3_600.0;
@@ -53,26 +61,19 @@ pub const MAX_PHASE_S: f64 = 3_600.0;
 /// Most on-phases one `present` asks for.
 pub const MAX_REPEAT: u32 = 10_000;
 
-/// A library entry planned for this device, and where it is on it.
-#[derive(Debug, Clone)]
-pub struct Loaded {
-    /// The entry's id.
-    pub id: String,
-    /// The stimulus.
-    pub stimulus: crate::plan::stimulus::Stimulus,
-    /// Its plan on this device's grid.
-    pub planned: TargetPlan,
-    /// Its default gate.
-    pub untracked: bool,
-    /// The slot holding it now, if any.
-    pub slot: Option<u8>,
-    /// CRC-32 of its phases.
-    pub crc32: u32,
-}
-
 /// What a session measured (from its events).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct Figures {
+    /// On-phases begun from silence whose start the device's counters
+    /// showed.
+    pub onsets: usize,
+    /// Median onset latency: from the ideal start (the `present`, or the
+    /// end of the off-phase before) to the device playing (ms).
+    pub onset_p50_ms: Option<f64>,
+    /// 99th percentile onset latency (ms).
+    pub onset_p99_ms: Option<f64>,
+    /// Largest onset latency (ms).
+    pub onset_max_ms: Option<f64>,
     /// Switches between stimuli at a cycle end.
     pub switches: usize,
     /// Median switch latency, request to the device playing the new one (ms).
@@ -87,65 +88,32 @@ pub struct Figures {
     pub on_error_max_abs_ms: Option<f64>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Phase {
-    /// Asked to take over from the stimulus playing; switches at its cycle
-    /// end.
-    Switching { requested_us: u64 },
-    /// Playing since `since_us` (host).
-    On { since_us: u64 },
-    /// Silent between on-phases until `until_us` (host).
-    Off { until_us: u64 },
-}
-
-#[derive(Debug, Clone)]
-struct Presentation {
-    entry: usize,
-    slot: u8,
-    untracked: bool,
-    on: Option<Duration>,
-    off: Duration,
-    repeat: u32,
-    /// The on-phase playing or last played, 1-based.
-    rep: u32,
-    phase: Phase,
-    /// Since when (host µs) the output is muted in this on-phase, and the
-    /// muted time of this on-phase before that (µs).
-    muted_since: Option<u64>,
-    muted_us: u64,
-}
-
-impl Presentation {
-    fn sounding_slot(&self) -> Option<u8> {
-        match self.phase {
-            Phase::On { .. } => Some(self.slot),
-            _ => None,
-        }
-    }
-}
-
 /// A session over an open device.
 pub struct Session {
     dev: Box<dyn Backend>,
     info: BackendInfo,
     scene: Scene,
+    clock: Clock,
     loaded: Vec<Loaded>,
-    /// The newest presentation: its timeline runs.
-    current: Option<Presentation>,
-    /// The presentation still playing while `current` waits for the cycle
-    /// end to take over.
-    outgoing: Option<Presentation>,
+    stage: Stage,
     events: Vec<Event>,
     /// Mute reason last seen while on (`None`: sounding).
     mute: Option<MuteReason>,
     finger: Option<bool>,
-    seq: u32,
+    /// Whether anything feeds finger samples (else tracked presentations
+    /// are refused: they would stay muted).
+    finger_source: bool,
+    /// Numbers and sends the finger's centroids.
+    centroids: CentroidSender,
     next_status_us: u64,
-    last_pos_um: [i32; 3],
-    /// Switch latencies so far (µs).
+    next_tick_us: u64,
+    /// Onset latencies from silence (µs), switch latencies (µs), timed
+    /// on-phases' device-played time minus `on_s` (µs).
+    onset_us: Vec<u64>,
     switch_us: Vec<u64>,
-    /// Timed on-phases: device-played time minus `on_s` (µs).
     on_error_us: Vec<i64>,
+    /// Entries shrunk to make room for the load under way.
+    shrunk: Vec<String>,
 }
 
 fn gate_of(untracked: bool) -> Gate {
@@ -158,14 +126,16 @@ fn gate_of(untracked: bool) -> Gate {
 
 impl Session {
     /// Takes over `dev` with `library`'s entries planned for it (`plans`,
-    /// in order; [`Library::plan_for`]) and preloads: every entry into a
-    /// slot of its own when the device has enough slots, else the first.
-    /// The device starts silent. Emits `preloaded` per upload and `ready`.
+    /// in order; [`Library::plan_for`]) on `clock` (the device's own, in
+    /// tests) and preloads what fits. The device starts silent. Emits
+    /// `preloaded` per upload and `ready`. A session has a finger source
+    /// unless told otherwise ([`Session::set_finger_source`]).
     pub fn new(
         mut dev: Box<dyn Backend>,
         library: &Library,
         plans: Vec<TargetPlan>,
         scene: Scene,
+        clock: Clock,
     ) -> anyhow::Result<Self> {
         anyhow::ensure!(
             plans.len() == library.entries.len(),
@@ -179,42 +149,26 @@ impl Session {
         let status = dev
             .status()
             .map_err(|e| e.context("reading the device status"))?;
-        let loaded = library
-            .entries
-            .iter()
-            .zip(plans)
-            .map(|(e, planned)| Loaded {
-                id: e.id.clone(),
-                crc32: planned.plan.sequence.crc32(),
-                stimulus: e.stimulus.clone(),
-                planned,
-                untracked: e.untracked,
-                slot: None,
-            })
-            .collect::<Vec<_>>();
         let mut me = Self {
             dev,
             info,
             scene,
-            loaded,
-            current: None,
-            outgoing: None,
+            clock,
+            loaded: resident::entries(library, plans),
+            stage: Stage::Idle,
             events: Vec::new(),
             mute: None,
             finger: None,
-            seq: status.last_centroid_seq,
+            finger_source: true,
+            centroids: CentroidSender::continuing(status.last_centroid_seq),
             next_status_us: 0,
-            last_pos_um: [0; 3],
+            next_tick_us: 0,
+            onset_us: Vec::new(),
             switch_us: Vec::new(),
             on_error_us: Vec::new(),
+            shrunk: Vec::new(),
         };
-        if me.loaded.len() <= usize::from(me.info.slots) {
-            for i in 0..me.loaded.len() {
-                me.load(i, Some(i as u8))?;
-            }
-        } else {
-            me.load(0, None)?;
-        }
+        me.preload()?;
         let resident = me.loaded.iter().filter(|l| l.slot.is_some()).count();
         me.emit(EventKind::Ready {
             backend: me.info.backend.clone(),
@@ -226,6 +180,12 @@ impl Session {
         Ok(me)
     }
 
+    /// Says whether anything feeds finger samples: without, a tracked
+    /// presentation is refused (it would stay muted throughout).
+    pub fn set_finger_source(&mut self, present: bool) {
+        self.finger_source = present;
+    }
+
     /// The device as it described itself at start.
     pub fn info(&self) -> &BackendInfo {
         &self.info
@@ -234,6 +194,11 @@ impl Session {
     /// The scene (its reflector mirrors centroids into drive coordinates).
     pub fn scene(&self) -> &Scene {
         &self.scene
+    }
+
+    /// The session's clock.
+    pub fn clock(&self) -> &Clock {
+        &self.clock
     }
 
     /// The library as planned for this device.
@@ -253,18 +218,28 @@ impl Session {
 
     /// Whether a presentation runs (on, switching or between on-phases).
     pub fn presenting(&self) -> bool {
-        self.current.is_some()
+        !matches!(self.stage, Stage::Idle)
     }
 
-    /// What the session measured so far: switch latencies and the timed
-    /// on-phases' error by the device's counters.
+    /// Whether the presentation running has no end of its own (no
+    /// `on_s`): it plays until `stop`.
+    pub fn presenting_endless(&self) -> bool {
+        matches!(&self.stage, Stage::On(p, _) if p.on.is_none())
+    }
+
+    /// What the session measured so far: onset and switch latencies and
+    /// the timed on-phases' error by the device's counters.
     pub fn figures(&self) -> Figures {
-        let pct = |p| crate::clock::percentile(self.switch_us.iter().copied(), p);
         let ms = |us: Option<u64>| us.map(|u| u as f64 / 1e3);
+        let pct = |v: &[u64], p| ms(crate::clock::percentile(v.iter().copied(), p));
         Figures {
+            onsets: self.onset_us.len(),
+            onset_p50_ms: pct(&self.onset_us, 50.0),
+            onset_p99_ms: pct(&self.onset_us, 99.0),
+            onset_max_ms: ms(self.onset_us.iter().copied().max()),
             switches: self.switch_us.len(),
-            switch_p50_ms: ms(pct(50.0)),
-            switch_p99_ms: ms(pct(99.0)),
+            switch_p50_ms: pct(&self.switch_us, 50.0),
+            switch_p99_ms: pct(&self.switch_us, 99.0),
             switch_max_ms: ms(self.switch_us.iter().copied().max()),
             timed_on_phases: self.on_error_us.len(),
             on_error_max_abs_ms: self
@@ -276,94 +251,57 @@ impl Session {
         }
     }
 
-    /// Whether the presentation running has no end of its own (no
-    /// `on_s`): it plays until `stop`.
-    pub fn presenting_endless(&self) -> bool {
-        self.current
-            .as_ref()
-            .is_some_and(|p| p.on.is_none() && matches!(p.phase, Phase::On { .. }))
+    /// Each onset latency from silence so far (ms), in order.
+    pub fn onset_latencies_ms(&self) -> Vec<f64> {
+        self.onset_us.iter().map(|&u| u as f64 / 1e3).collect()
     }
 
     pub(crate) fn emit(&mut self, kind: EventKind) {
-        self.emit_at(monotonic_us(), kind);
+        let now = self.clock.now_us();
+        self.emit_at(now, kind);
     }
 
     fn emit_at(&mut self, t_host_us: u64, kind: EventKind) {
         self.events.push(Event { t_host_us, kind });
     }
 
-    /// Uploads entry `i` into `slot` (`None`: one neither playing nor
-    /// queued), evicting whatever entry that slot held.
-    fn load(&mut self, i: usize, slot: Option<u8>) -> anyhow::Result<u8> {
-        let t0 = monotonic_us();
-        let r = self
-            .dev
-            .upload(&self.loaded[i].planned.plan, slot)
-            .map_err(|e| e.context(format!("uploading stimulus `{}`", self.loaded[i].id)))?;
-        for l in &mut self.loaded {
-            if l.slot == Some(r.slot) {
-                l.slot = None;
-            }
-        }
-        self.loaded[i].slot = Some(r.slot);
-        self.emit(EventKind::Preloaded {
-            stimulus: self.loaded[i].id.clone(),
-            slot: r.slot,
-            seconds: monotonic_us().saturating_sub(t0) as f64 / 1e6,
-            wire_bytes: r.wire().map(|w| w.wire_bytes_sent),
-            readback_mismatches: r.readback_mismatches(),
-        });
-        Ok(r.slot)
-    }
-
     fn entry(&self, id: &str) -> Result<usize, InputError> {
         self.loaded.iter().position(|l| l.id == id).ok_or_else(|| {
-            let ids: Vec<&str> = self.loaded.iter().take(8).map(|l| l.id.as_str()).collect();
+            let ids: Vec<String> = self
+                .loaded
+                .iter()
+                .take(8)
+                .map(|l| protocol::clip(&l.id))
+                .collect();
             InputError::new(format!(
                 "no stimulus `{}` in the library (it has {}{})",
-                id.escape_debug(),
+                protocol::clip(id),
                 ids.join(", "),
                 if self.loaded.len() > 8 { ", ..." } else { "" }
             ))
         })
     }
 
-    /// Makes entry `i` resident (a no-op when it is), in a slot neither
-    /// playing nor queued.
-    fn ensure_loaded(&mut self, i: usize) -> anyhow::Result<u8> {
-        if let Some(s) = self.loaded[i].slot {
-            return Ok(s);
-        }
-        let busy: Vec<u8> = [&self.current, &self.outgoing]
-            .into_iter()
-            .flatten()
-            .map(|p| p.slot)
-            .collect();
-        let free = |s: &u8| !busy.contains(s);
-        let empty = (0..self.info.slots)
-            .filter(free)
-            .find(|s| !self.loaded.iter().any(|l| l.slot == Some(*s)));
-        let slot = empty.or_else(|| (0..self.info.slots).find(free));
-        let Some(slot) = slot else {
-            return Err(InputError::new(format!(
-                "stimulus `{}` cannot be loaded now: every slot of the device plays or is queued",
-                self.loaded[i].id
-            ))
-            .into());
-        };
-        self.load(i, Some(slot))
-    }
-
     /// Uploads `id` ahead of its `present` (into a slot that does not
     /// play), so its switch is only a slot change. Returns the slot.
     pub fn prepare(&mut self, id: &str) -> anyhow::Result<u8> {
         let i = self.entry(id)?;
+        self.touch(i);
         self.ensure_loaded(i)
     }
 
-    /// Starts a presentation: from silence at once; over a playing
-    /// stimulus at that stimulus's cycle end (a `switch` event then).
+    /// Starts a presentation asked for in process ([`IN_PROCESS`]); see
+    /// [`Session::present_for`].
     pub fn present(&mut self, req: &Present) -> anyhow::Result<()> {
+        self.present_for(req, IN_PROCESS)
+    }
+
+    /// Starts a presentation for `owner`: from silence at once; over a
+    /// playing stimulus at that stimulus's cycle end (a `switch` event
+    /// then); one waiting for its switch is replaced (`cancelled`). A
+    /// refused present changes nothing.
+    pub fn present_for(&mut self, req: &Present, owner: Owner) -> anyhow::Result<()> {
+        let now = self.clock.now_us();
         let i = self.entry(&req.stimulus)?;
         let on = req
             .on_s
@@ -390,8 +328,25 @@ impl Session {
             Some(g) => g == Gate::Untracked,
             None => self.loaded[i].untracked,
         };
+        let id = protocol::clip(&self.loaded[i].id);
+        if !untracked && !self.finger_source {
+            return Err(InputError::new(format!(
+                "stimulus `{id}` is tracked, but this session has no finger source: it would stay muted; present it with \"gate\":\"untracked\", or give the session a finger source"
+            ))
+            .into());
+        }
+        if let Stage::Switching { to, .. } = &self.stage
+            && !self.dev.replaces_queued()
+        {
+            return Err(anyhow::anyhow!(
+                "stimulus `{id}` cannot replace `{}` before its switch: this device cannot take a queued switch back; present it once `{}` plays",
+                protocol::clip(&self.loaded[to.entry].id),
+                protocol::clip(&self.loaded[to.entry].id),
+            ));
+        }
+        self.touch(i);
         let slot = self.ensure_loaded(i)?;
-        let mut p = Presentation {
+        let p = Presentation {
             entry: i,
             slot,
             untracked,
@@ -399,54 +354,89 @@ impl Session {
             off,
             repeat,
             rep: 1,
-            phase: Phase::On { since_us: 0 },
-            muted_since: None,
-            muted_us: 0,
+            owner,
         };
-        // A presentation waiting to switch in never played: drop it.
-        self.cancel_switch();
-        let playing = self.current.as_ref().and_then(Presentation::sounding_slot);
-        let id = self.loaded[i].id.clone();
-        match playing {
-            Some(old) if old != slot || on.is_some() => {
-                // Another stimulus (or this one again, timed): the device
-                // takes over at the playing cycle's end.
-                self.start(slot, untracked, on)
-                    .map_err(|e| e.context(format!("presenting `{id}`")))?;
-                p.phase = Phase::Switching {
-                    requested_us: monotonic_us(),
-                };
-                self.outgoing = self.current.replace(p);
-                self.next_status_us = 0;
-            }
-            Some(_) => {
-                // The same stimulus again: a new timeline, no device change
-                // unless the gate changes.
-                let old_untracked = self.current.as_ref().is_some_and(|c| c.untracked);
-                self.offset(OffsetReason::Replaced, None)?;
-                if old_untracked != untracked {
-                    self.start(slot, untracked, None)
-                        .map_err(|e| e.context(format!("presenting `{id}`")))?;
+        let context = |e: anyhow::Error| e.context(format!("presenting `{id}`"));
+        match std::mem::take(&mut self.stage) {
+            Stage::Idle => {
+                if let Err(e) = self.start(slot, untracked, on) {
+                    return Err(context(e));
                 }
-                self.current = Some(p);
-                self.onset();
+                let at = self.clock.now_us();
+                self.begin_on(p, OnPhase::new(at, now));
             }
-            None => {
-                if let Some(c) = &self.current {
-                    // Between on-phases of another presentation.
-                    let name = self.loaded[c.entry].id.clone();
-                    self.current = None;
-                    self.emit(EventKind::Done {
-                        stimulus: name,
-                        reps: 0,
-                    });
+            Stage::Off(old, until) => {
+                if let Err(e) = self.start(slot, untracked, on) {
+                    self.stage = Stage::Off(old, until);
+                    return Err(context(e));
                 }
-                self.start(slot, untracked, on)
-                    .map_err(|e| e.context(format!("presenting `{id}`")))?;
-                self.current = Some(p);
-                self.onset();
+                let at = self.clock.now_us();
+                self.done_at(at, &old);
+                self.begin_on(p, OnPhase::new(at, now));
+            }
+            Stage::On(old, phase) => self.over(old, phase, p, None, now).map_err(context)?,
+            Stage::Switching { from, on, to, .. } => {
+                self.over(from, on, p, Some(to), now).map_err(context)?
             }
         }
+        Ok(())
+    }
+
+    /// `p` presented while `old` plays (and `waiting` waits to take over
+    /// from it, on the device's queue): another stimulus, a timed one, or
+    /// any while the device holds a queued slot, queues on the device and
+    /// takes over at the cycle end; the same stimulus again, endless,
+    /// starts a new timeline at once. On failure the stage is as it was.
+    fn over(
+        &mut self,
+        old: Presentation,
+        mut phase: OnPhase,
+        p: Presentation,
+        waiting: Option<Presentation>,
+        now: u64,
+    ) -> anyhow::Result<()> {
+        let restore = |me: &mut Self, old, phase, waiting: Option<Presentation>, requested_us| {
+            me.stage = match waiting {
+                Some(to) => Stage::Switching {
+                    from: old,
+                    on: phase,
+                    to,
+                    requested_us,
+                },
+                None => Stage::On(old, phase),
+            };
+        };
+        let queue = p.slot != old.slot || p.on.is_some() || waiting.is_some();
+        if queue {
+            if let Err(e) = self.start(p.slot, p.untracked, p.on) {
+                restore(self, old, phase, waiting, now);
+                return Err(e);
+            }
+            if let Some(w) = waiting {
+                self.emit(EventKind::Cancelled {
+                    stimulus: self.loaded[w.entry].id.clone(),
+                });
+            }
+            self.stage = Stage::Switching {
+                from: old,
+                on: phase,
+                to: p,
+                requested_us: now,
+            };
+            self.next_status_us = 0;
+            return Ok(());
+        }
+        // The same stimulus again, endless: a new timeline; the device
+        // changes only with the gate.
+        if old.untracked != p.untracked
+            && let Err(e) = self.start(p.slot, p.untracked, None)
+        {
+            restore(self, old, phase, None, now);
+            return Err(e);
+        }
+        let at = self.clock.now_us();
+        self.offset_at(at, &old, &mut phase, OffsetReason::Replaced, None);
+        self.begin_on(p, OnPhase::new(at, now));
         Ok(())
     }
 
@@ -463,6 +453,33 @@ impl Session {
         r.map_err(anyhow::Error::from)
     }
 
+    /// Queues the playing `p` behind itself, which takes the device's
+    /// queued slot back ([`Backend::replaces_queued`]): it plays on, a
+    /// timed one for the steps it has left after this cycle (at least one).
+    fn requeue(&mut self, p: &Presentation) -> anyhow::Result<()> {
+        let Some(on) = p.on else {
+            return self.start(p.slot, p.untracked, None);
+        };
+        let s = self
+            .dev
+            .status()
+            .map_err(|e| e.context("reading the device status"))?;
+        let n = u64::from(
+            self.loaded[p.entry]
+                .planned
+                .plan
+                .sequence
+                .header
+                .steps
+                .max(1),
+        );
+        let played = u64::from(s.cycles) * n + u64::from(s.step);
+        let cycle_end = (played / n + 1) * n;
+        let left = u64::from(self.steps_for(p.slot, on)).saturating_sub(cycle_end);
+        let left = left.clamp(1, u64::from(u32::MAX)) as u32;
+        Ok(self.dev.play_for(p.slot, p.untracked, left)?)
+    }
+
     /// The step count of `slot`'s stimulus closest to `on` (at least one).
     fn steps_for(&self, slot: u8, on: Duration) -> u32 {
         let dwell_us = self
@@ -473,123 +490,77 @@ impl Session {
         ((on.as_secs_f64() * 1e6 / dwell_us).round() as u64).clamp(1, u64::from(u32::MAX)) as u32
     }
 
-    /// Marks the current presentation on from now and emits its onset.
-    fn onset(&mut self) {
-        self.onset_at(monotonic_us());
-    }
-
-    /// Marks the current presentation on since `now` (host µs) and emits
-    /// its onset stamped then.
-    fn onset_at(&mut self, now: u64) {
-        let Some(p) = &mut self.current else { return };
-        p.phase = Phase::On { since_us: now };
-        p.muted_since = None;
-        p.muted_us = 0;
-        let (entry, slot, rep, untracked) = (p.entry, p.slot, p.rep, p.untracked);
-        self.mute = None;
-        self.next_status_us = 0;
-        self.emit_at(
-            now,
-            EventKind::Onset {
-                stimulus: self.loaded[entry].id.clone(),
-                slot,
-                gate: gate_of(untracked),
-                rep,
-            },
-        );
-    }
-
-    /// Emits the offset of the current on-phase (`device`: what the device
-    /// played, s) and leaves the presentation as it is.
-    fn offset(&mut self, reason: OffsetReason, device: Option<f64>) -> anyhow::Result<()> {
-        self.offset_at(monotonic_us(), reason, device)
-    }
-
-    /// [`Self::offset`] stamped `now` (host µs).
-    fn offset_at(
-        &mut self,
-        now: u64,
-        reason: OffsetReason,
-        device: Option<f64>,
-    ) -> anyhow::Result<()> {
-        let Some(p) = &mut self.current else {
-            return Ok(());
-        };
-        let Phase::On { since_us } = p.phase else {
-            return Ok(());
-        };
-        if let Some(m) = p.muted_since.take() {
-            p.muted_us += now.saturating_sub(m);
-        }
-        let presented = now.saturating_sub(since_us) as f64 / 1e6;
-        let muted = p.muted_us as f64 / 1e6;
-        let (entry, slot, rep) = (p.entry, p.slot, p.rep);
-        self.emit_at(
-            now,
-            EventKind::Offset {
-                stimulus: self.loaded[entry].id.clone(),
-                slot,
-                rep,
-                reason,
-                presented_s: presented,
-                device_presented_s: device,
-                muted_s: muted,
-                present_fraction: if presented > 0.0 {
-                    (1.0 - muted / presented).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                },
-            },
-        );
-        Ok(())
-    }
-
-    /// Stops the device and returns the seconds it played since the
-    /// on-phase began, by its own step and cycle counters.
-    fn stop_device(&mut self, slot: u8) -> anyhow::Result<Option<f64>> {
-        self.dev
-            .stop()
-            .map_err(|e| e.context("stopping the device"))?;
-        let s = self
-            .dev
-            .status()
-            .map_err(|e| e.context("reading the device status"))?;
-        Ok(self.played_us(slot, &s).map(|us| us as f64 / 1e6))
-    }
-
-    /// How long (µs) the device has played `slot`, by its step and cycle
-    /// counters in `s` (`None` when it does not play `slot`).
-    fn played_us(&self, slot: u8, s: &Status) -> Option<u64> {
-        let l = self.loaded.iter().find(|l| l.slot == Some(slot))?;
-        let h = &l.planned.plan.sequence.header;
-        (s.slot == Some(slot)).then(|| {
-            let steps = u64::from(h.steps.max(1));
-            let played = u64::from(s.cycles) * steps + u64::from(s.step);
-            played * u64::from(h.period_us) / steps
-        })
-    }
-
     /// Stops whatever plays or waits: the array is silent afterwards.
     pub fn stop(&mut self, reason: OffsetReason) -> anyhow::Result<()> {
-        self.cancel_switch();
-        let slot = self.current.as_ref().map(|p| p.slot);
-        let device = match slot {
-            Some(s) => self.stop_device(s)?,
-            None => {
+        match std::mem::take(&mut self.stage) {
+            Stage::Idle => {
                 self.dev
                     .stop()
                     .map_err(|e| e.context("stopping the device"))?;
-                None
             }
-        };
-        self.offset(reason, device)?;
-        if let Some(p) = self.current.take() {
-            self.emit(EventKind::Done {
-                stimulus: self.loaded[p.entry].id.clone(),
-                reps: p.rep,
-            });
+            Stage::Off(p, _) => {
+                self.dev
+                    .stop()
+                    .map_err(|e| e.context("stopping the device"))?;
+                let now = self.clock.now_us();
+                self.done_at(now, &p);
+            }
+            Stage::On(p, mut on) => {
+                let device = self.stop_device(p.slot)?;
+                let now = self.clock.now_us();
+                self.offset_at(now, &p, &mut on, reason, device);
+                self.done_at(now, &p);
+            }
+            Stage::Switching {
+                from, mut on, to, ..
+            } => {
+                let device = self.stop_device(from.slot)?;
+                let now = self.clock.now_us();
+                self.emit(EventKind::Cancelled {
+                    stimulus: self.loaded[to.entry].id.clone(),
+                });
+                self.offset_at(now, &from, &mut on, reason, device);
+                self.done_at(now, &from);
+            }
         }
         Ok(())
+    }
+
+    /// The client `owner` went away: what it asked for and still plays or
+    /// waits stops (a presentation waiting for its switch is cancelled,
+    /// the one playing on plays on); another client's is left alone.
+    /// Returns whether anything stopped.
+    pub fn client_gone(&mut self, owner: Owner) -> anyhow::Result<bool> {
+        match &self.stage {
+            Stage::Switching { to, .. } if to.owner == owner => {
+                let Stage::Switching { from, on, to, .. } = std::mem::take(&mut self.stage) else {
+                    return Ok(false);
+                };
+                // Back to what plays: the queued slot is taken back by
+                // queueing the playing one, where the device can.
+                if self.dev.replaces_queued() {
+                    self.requeue(&from)?;
+                    self.emit(EventKind::Cancelled {
+                        stimulus: self.loaded[to.entry].id.clone(),
+                    });
+                    self.stage = Stage::On(from, on);
+                } else {
+                    self.stage = Stage::Switching {
+                        from,
+                        on,
+                        to,
+                        requested_us: self.clock.now_us(),
+                    };
+                    self.stop(OffsetReason::Disconnect)?;
+                }
+                Ok(true)
+            }
+            Stage::On(p, _) | Stage::Off(p, _) if p.owner == owner => {
+                self.stop(OffsetReason::Disconnect)?;
+                Ok(true)
+            }
+            _ => Ok(false),
+        }
     }
 
     /// A finger sample (finger space, mm; `None`: no finger): to the device
@@ -600,238 +571,20 @@ impl Session {
             self.finger = Some(present);
             self.emit(EventKind::Finger { present });
         }
-        if let Some(p) = pos_mm {
-            self.last_pos_um = self.scene.drive_point(p).map(mm_to_um);
-        }
-        self.seq = self.seq.wrapping_add(1).max(1);
-        let c = Centroid {
-            seq: self.seq,
-            pos_um: self.last_pos_um,
-            present,
-            host_time_us: monotonic_us(),
-        };
-        match self.dev.centroid(&c) {
+        let pos_um = pos_mm.map(|p| self.scene.drive_point(p).map(mm_to_um));
+        match self
+            .centroids
+            .send(self.dev.as_mut(), pos_um, self.clock.now_us())
+        {
             Ok(CentroidOutcome::Applied | CentroidOutcome::OutOfRange) => Ok(()),
             // Not newer than the device's last (another client streamed):
-            // continue after it.
+            // the sender continues after it.
             Err(e) if matches!(e.kind(), ErrorKind::Refused(lm_proto::NackCode::OutOfOrder)) => {
-                if let Ok(s) = self.dev.status() {
-                    self.seq = s.last_centroid_seq;
-                }
                 Ok(())
             }
-            Err(e) => {
-                Err(anyhow::Error::from(e).context(format!("sending centroid #{}", self.seq)))
-            }
+            Err(e) => Err(anyhow::Error::from(e)
+                .context(format!("sending centroid #{}", self.centroids.last_seq()))),
         }
-    }
-
-    /// Runs the timelines (on/off phases, switches) and the device's
-    /// housekeeping; call it at least every few milliseconds.
-    pub fn poll(&mut self) -> anyhow::Result<()> {
-        self.dev.tick()?;
-        let now = monotonic_us();
-        if let Some(p) = &self.current {
-            match p.phase {
-                Phase::On { since_us } => {
-                    // The device ends a timed on-phase itself (seen in its
-                    // status); should it not have within a second more,
-                    // the host stops it.
-                    if let Some(on) = p.on
-                        && now >= since_us + on.as_micros() as u64 + LATE_STOP.as_micros() as u64
-                    {
-                        self.end_on_phase(None)?;
-                    }
-                }
-                Phase::Off { until_us } => {
-                    if now >= until_us {
-                        let (slot, untracked, on) = (p.slot, p.untracked, p.on);
-                        if let Some(p) = &mut self.current {
-                            p.rep += 1;
-                        }
-                        self.start(slot, untracked, on)
-                            .map_err(|e| e.context("presenting the next on-phase"))?;
-                        self.onset();
-                    }
-                }
-                Phase::Switching { .. } => {}
-            }
-        }
-        if self.current.is_some() && now >= self.next_status_us {
-            self.next_status_us = now + STATUS_EVERY.as_micros() as u64;
-            let s = self
-                .dev
-                .status()
-                .map_err(|e| e.context("reading the device status"))?;
-            self.observe(&s)?;
-        }
-        Ok(())
-    }
-
-    /// The end of a timed on-phase (`device`: what the device played when
-    /// it stopped itself; `None`: the host stops it now), offset, then the
-    /// next on-phase after `off`, or done.
-    fn end_on_phase(&mut self, device: Option<f64>) -> anyhow::Result<()> {
-        let Some(p) = &self.current else {
-            return Ok(());
-        };
-        let (slot, on) = (p.slot, p.on);
-        let device = match device {
-            Some(d) => Some(d),
-            None => self.stop_device(slot)?,
-        };
-        if let (Some(d), Some(on)) = (device, on) {
-            self.on_error_us
-                .push((d * 1e6).round() as i64 - on.as_micros() as i64);
-        }
-        self.offset(OffsetReason::Timer, device)?;
-        let Some(p) = &mut self.current else {
-            return Ok(());
-        };
-        if p.rep < p.repeat {
-            p.phase = Phase::Off {
-                until_us: monotonic_us() + p.off.as_micros() as u64,
-            };
-        } else if let Some(p) = self.current.take() {
-            self.emit(EventKind::Done {
-                stimulus: self.loaded[p.entry].id.clone(),
-                reps: p.rep,
-            });
-        }
-        Ok(())
-    }
-
-    /// Drops a presentation still waiting for its switch (it never
-    /// played; `cancelled`): the outgoing one is current again.
-    fn cancel_switch(&mut self) {
-        if let Some(c) = self
-            .current
-            .take_if(|c| matches!(c.phase, Phase::Switching { .. }))
-        {
-            self.emit(EventKind::Cancelled {
-                stimulus: self.loaded[c.entry].id.clone(),
-            });
-            self.current = self.outgoing.take();
-        }
-    }
-
-    /// Ends the outgoing presentation at `at` (host µs; its offset for
-    /// `reason` with what the `device` played, then `done`) and makes the
-    /// one waiting for the switch current.
-    fn hand_over(
-        &mut self,
-        at: u64,
-        reason: OffsetReason,
-        device: Option<f64>,
-    ) -> anyhow::Result<()> {
-        let incoming = self.current.take();
-        self.current = self.outgoing.take();
-        self.offset_at(at, reason, device)?;
-        if let Some(o) = self.current.take() {
-            self.emit_at(
-                at,
-                EventKind::Done {
-                    stimulus: self.loaded[o.entry].id.clone(),
-                    reps: o.rep,
-                },
-            );
-        }
-        self.current = incoming;
-        Ok(())
-    }
-
-    /// Follows the device: a switch taking effect, a timed on-phase ending,
-    /// mute changes.
-    fn observe(&mut self, s: &Status) -> anyhow::Result<()> {
-        let now = monotonic_us();
-        // The outgoing stimulus was timed and the device ended it before
-        // its cycle end (dropping the queued one): its offset, then the new
-        // one from silence.
-        if let Some(p) = &self.current
-            && matches!(p.phase, Phase::Switching { .. })
-            && s.state == DeviceState::Stopped
-        {
-            let played = self
-                .outgoing
-                .as_ref()
-                .and_then(|o| self.played_us(o.slot, s))
-                .map(|us| us as f64 / 1e6);
-            self.hand_over(now, OffsetReason::Timer, played)?;
-            if let Some(p) = &self.current {
-                let (slot, untracked, on) = (p.slot, p.untracked, p.on);
-                self.start(slot, untracked, on)?;
-                self.onset();
-            }
-            return Ok(());
-        }
-        if let Some(p) = &self.current
-            && let Phase::Switching { requested_us } = p.phase
-            && s.slot == Some(p.slot)
-            && s.queued_slot != Some(p.slot)
-        {
-            // The device switched before this status was read: by its own
-            // counters, `played` ago.
-            let played = self.played_us(p.slot, s).unwrap_or(0);
-            let switched_at = now.saturating_sub(played).max(requested_us);
-            let latency = switched_at - requested_us;
-            let from = self
-                .outgoing
-                .as_ref()
-                .map(|o| self.loaded[o.entry].id.clone());
-            let to = self.loaded[p.entry].id.clone();
-            // The outgoing one's offset, then the new one's onset.
-            self.hand_over(switched_at, OffsetReason::Switch, None)?;
-            self.switch_us.push(latency);
-            self.emit_at(
-                switched_at,
-                EventKind::Switch {
-                    from,
-                    to,
-                    latency_ms: latency as f64 / 1e3,
-                    detected_ms: now.saturating_sub(requested_us) as f64 / 1e3,
-                },
-            );
-            self.onset_at(switched_at);
-            return Ok(());
-        }
-        let on = self
-            .current
-            .as_ref()
-            .is_some_and(|p| matches!(p.phase, Phase::On { .. }));
-        if !on {
-            return Ok(());
-        }
-        // A timed on-phase the device ended itself: its counters say how
-        // long it played.
-        if let Some(p) = &self.current
-            && p.on.is_some()
-            && s.state == DeviceState::Stopped
-            && s.slot == Some(p.slot)
-        {
-            let played = self.played_us(p.slot, s).map(|us| us as f64 / 1e6);
-            return self.end_on_phase(played);
-        }
-        let mute = (s.state == DeviceState::Muted).then_some(s.mute_reason);
-        if mute != self.mute {
-            if let Some(p) = &mut self.current {
-                match (p.muted_since, mute) {
-                    (None, Some(_)) => p.muted_since = Some(now),
-                    (Some(m), None) => {
-                        p.muted_us += now.saturating_sub(m);
-                        p.muted_since = None;
-                    }
-                    _ => {}
-                }
-            }
-            self.mute = mute;
-            self.emit(match mute {
-                Some(reason) => EventKind::Mute {
-                    reason: protocol::mute_name(reason),
-                },
-                None => EventKind::Unmute,
-            });
-        }
-        Ok(())
     }
 
     /// What the `status` command answers.
@@ -840,14 +593,10 @@ impl Session {
             .dev
             .status()
             .map_err(|e| e.context("reading the device status"))?;
-        let p = self.current.as_ref();
+        let p = self.stage.newest();
         Ok(protocol::StatusReply {
             stimulus: p.map(|p| self.loaded[p.entry].id.clone()),
-            phase: p.map(|p| match p.phase {
-                Phase::Switching { .. } => "switching",
-                Phase::On { .. } => "on",
-                Phase::Off { .. } => "off",
-            }),
+            phase: self.stage.name(),
             rep: p.map(|p| p.rep),
             repeat: p.map(|p| p.repeat),
             gate: p.map(|p| gate_of(p.untracked)),
@@ -862,37 +611,39 @@ impl Session {
         })
     }
 
-    /// Handles one command; `Quit` is the caller's (it answers ok here).
-    pub fn handle(&mut self, cmd: &Command) -> Reply {
+    /// Handles one command from `client`; `Quit`, `Subscribe` and `Auth`
+    /// are the caller's (they answer ok here).
+    pub fn handle(&mut self, cmd: &Command, client: Owner) -> Reply {
         let r: anyhow::Result<Reply> = match cmd {
-            Command::Present(p) => self.present(p).map(|()| Reply::ok("present")),
+            Command::Present(p) => self.present_for(p, client).map(|()| Reply::ok("present")),
             Command::Prepare { stimulus } => self
                 .prepare(stimulus)
                 .map(|slot| Reply::ok("prepare").with("slot", slot)),
             Command::Stop => self.stop(OffsetReason::Stop).map(|()| Reply::ok("stop")),
             Command::Status => self.status().map(|s| Reply::ok("status").with("status", s)),
             Command::Library => Ok(Reply::ok("library").with("stimuli", self.library())),
-            Command::Subscribe => Ok(Reply::ok("subscribe")),
-            Command::Quit => Ok(Reply::ok("quit")),
+            Command::Subscribe | Command::Quit | Command::Auth { .. } => Ok(Reply::ok(cmd.name())),
         };
         r.unwrap_or_else(|e| {
             let msg = crate::error::one_line(&e);
-            self.emit(EventKind::Refused {
-                command: cmd.name().into(),
-                error: msg.clone(),
-            });
+            self.refused(cmd.name(), &msg);
             Reply::error(cmd.name(), msg)
         })
+    }
+
+    /// Emits `refused` for `command` (`""`: the line was not a command).
+    pub fn refused(&mut self, command: &str, error: &str) {
+        self.emit(EventKind::Refused {
+            command: command.into(),
+            error: error.into(),
+        });
     }
 
     /// Ends the session: stops what plays (offset `reason`) and leaves the
     /// array silent (the backend's drop); returns the last events.
     pub fn close(mut self, reason: OffsetReason) -> Vec<Event> {
         if let Err(e) = self.stop(reason) {
-            self.emit(EventKind::Refused {
-                command: "stop".into(),
-                error: crate::error::one_line(&e),
-            });
+            self.refused("stop", &crate::error::one_line(&e));
         }
         self.emit(EventKind::Closed { reason });
         let events = self.drain_events();

@@ -4,7 +4,6 @@
 use lm_proto::MuteReason;
 use serde::{Deserialize, Serialize};
 
-use super::Loaded;
 use crate::error::InputError;
 
 /// Longest command line, bytes (longer lines are refused, not buffered).
@@ -41,8 +40,7 @@ pub struct Present {
 }
 
 /// A command, as sent on the control socket.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Command {
     /// Present a stimulus.
     Present(Present),
@@ -61,27 +59,133 @@ pub enum Command {
     Subscribe,
     /// End the session (the array goes silent).
     Quit,
+    /// Authenticate a TCP connection (its first line there).
+    Auth {
+        /// The session's token, from its token file.
+        token: String,
+    },
 }
+
+/// Every command's name and the fields it takes: a field not listed is
+/// refused, a command without fields takes none.
+const FIELDS: [(&str, &[&str]); 8] = [
+    ("present", &["stimulus", "gate", "on_s", "off_s", "repeat"]),
+    ("prepare", &["stimulus"]),
+    ("stop", &[]),
+    ("status", &[]),
+    ("library", &[]),
+    ("subscribe", &[]),
+    ("quit", &[]),
+    ("auth", &["token"]),
+];
+
+/// Most characters of a value from a command line that a reply or an event
+/// repeats (a longer one is cut, with its length said).
+pub const MAX_ECHO_CHARS: usize = 64;
+
+/// `s` as a message may repeat it: at most [`MAX_ECHO_CHARS`] characters,
+/// escaped; a longer one is cut and says how long it was.
+pub fn clip(s: &str) -> String {
+    let n = s.chars().count();
+    if n <= MAX_ECHO_CHARS {
+        return s.escape_debug().to_string();
+    }
+    let head: String = s.chars().take(MAX_ECHO_CHARS - 16).collect();
+    format!("{}... ({} bytes)", head.escape_debug(), s.len())
+}
+
+/// Cuts every `quoted` fragment of `msg` (serde quotes the values it
+/// names) with [`clip`].
+fn clip_quoted(msg: &str) -> String {
+    let mut out = String::new();
+    let mut parts = msg.split('`');
+    if let Some(first) = parts.next() {
+        out.push_str(first);
+    }
+    for (i, part) in parts.enumerate() {
+        out.push('`');
+        // Odd fragments are inside quotes.
+        out.push_str(&if i % 2 == 0 {
+            clip(part)
+        } else {
+            part.to_owned()
+        });
+    }
+    out
+}
+
+fn bad(msg: impl std::fmt::Display) -> InputError {
+    InputError::new(format!("bad command: {}", clip_quoted(&msg.to_string())))
+}
+
+const HINT: &str = " (a command is a JSON object such as {\"cmd\":\"present\",\"stimulus\":\"ID\"}; commands: present, prepare, stop, status, library, subscribe, quit, auth)";
 
 impl Command {
     /// Parses one command line; a bad line is an [`InputError`] of one
-    /// line.
+    /// line, repeating at most [`MAX_ECHO_CHARS`] of any value in it.
     pub fn parse(line: &str) -> Result<Self, InputError> {
         if line.len() > MAX_COMMAND_BYTES {
             return Err(InputError::new(format!(
-                "command of {} bytes is longer than {MAX_COMMAND_BYTES}",
+                "bad command: {} bytes is longer than {MAX_COMMAND_BYTES}",
                 line.len()
             )));
         }
-        serde_json::from_str(line).map_err(|e| {
+        let v: serde_json::Value = serde_json::from_str(line).map_err(|e| {
             let msg = e.to_string();
-            let msg = msg.split(" at line ").next().unwrap_or(&msg);
-            let hint = if msg.contains("expected one of") {
-                ""
+            bad(format!(
+                "{}{HINT}",
+                msg.split(" at line ").next().unwrap_or(&msg)
+            ))
+        })?;
+        let serde_json::Value::Object(map) = v else {
+            return Err(bad(format!("not a JSON object{HINT}")));
+        };
+        let name = match map.get("cmd") {
+            Some(serde_json::Value::String(c)) => c.as_str(),
+            Some(_) => return Err(bad("`cmd` is not a string")),
+            None => return Err(bad(format!("missing field `cmd`{HINT}"))),
+        };
+        let Some((name, fields)) = FIELDS.iter().find(|(n, _)| *n == name) else {
+            let names: Vec<&str> = FIELDS.iter().map(|(n, _)| *n).collect();
+            return Err(bad(format!(
+                "unknown command `{name}`, expected one of {}",
+                names.join(", ")
+            )));
+        };
+        if let Some(k) = map
+            .keys()
+            .find(|k| *k != "cmd" && !fields.contains(&k.as_str()))
+        {
+            return Err(bad(if fields.is_empty() {
+                format!("unknown field `{k}`: `{name}` takes no fields")
             } else {
-                " (a command is a JSON object such as {\"cmd\":\"present\",\"stimulus\":\"ID\"}; commands: present, prepare, stop, status, library, subscribe, quit)"
-            };
-            InputError::new(format!("bad command: {msg}{hint}"))
+                format!("unknown field `{k}`: `{name}` takes {}", fields.join(", "))
+            }));
+        }
+        let mut rest = map.clone();
+        rest.remove("cmd");
+        let rest = serde_json::Value::Object(rest);
+        let field = |key: &str| -> Result<String, InputError> {
+            match rest.get(key) {
+                Some(serde_json::Value::String(s)) => Ok(s.clone()),
+                Some(_) => Err(bad(format!("`{key}` is not a string"))),
+                None => Err(bad(format!("missing field `{key}`"))),
+            }
+        };
+        Ok(match *name {
+            "present" => Self::Present(serde_json::from_value(rest).map_err(bad)?),
+            "prepare" => Self::Prepare {
+                stimulus: field("stimulus")?,
+            },
+            "auth" => Self::Auth {
+                token: field("token")?,
+            },
+            "stop" => Self::Stop,
+            "status" => Self::Status,
+            "library" => Self::Library,
+            "subscribe" => Self::Subscribe,
+            // The last name of `FIELDS`.
+            _ => Self::Quit,
         })
     }
 
@@ -95,6 +199,7 @@ impl Command {
             Self::Library => "library",
             Self::Subscribe => "subscribe",
             Self::Quit => "quit",
+            Self::Auth { .. } => "auth",
         }
     }
 }
@@ -145,6 +250,9 @@ pub enum EventKind {
         wire_bytes: Option<u64>,
         /// Phases read back that differ (AUTD3 emulator).
         readback_mismatches: Option<u64>,
+        /// The entries whose place it took (the slot held one; the
+        /// device's library memory was full), now on the host only.
+        evicted: Vec<String>,
     },
     /// The session took commands from here on.
     Ready {
@@ -281,24 +389,6 @@ pub struct LibraryItem {
     pub crc32: u32,
 }
 
-impl LibraryItem {
-    pub(super) fn of(l: &Loaded) -> Self {
-        Self {
-            id: l.id.clone(),
-            slot: l.slot,
-            gate: if l.untracked {
-                Gate::Untracked
-            } else {
-                Gate::Tracked
-            },
-            timing: l.planned.timing.clone(),
-            foci: l.planned.plan.trajectory.foci,
-            radius_mm: l.stimulus.radius_mm,
-            crc32: l.crc32,
-        }
-    }
-}
-
 /// The `status` command's answer.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StatusReply {
@@ -384,10 +474,34 @@ mod tests {
             })
         );
         assert_eq!(Command::parse(r#"{"cmd":"stop"}"#).unwrap(), Command::Stop);
+        assert_eq!(
+            Command::parse(r#"{"cmd":"auth","token":"t"}"#).unwrap(),
+            Command::Auth { token: "t".into() }
+        );
         for (line, needle) in [
             ("", "bad command"),
             ("{}", "missing field `cmd`"),
-            (r#"{"cmd":"dance"}"#, "unknown variant `dance`"),
+            (r#"{"cmd":"dance"}"#, "unknown command `dance`"),
+            (r#"{"cmd":7}"#, "`cmd` is not a string"),
+            ("[1,2]", "not a JSON object"),
+            (
+                r#"{"cmd":"stop","stimulus":"x"}"#,
+                "unknown field `stimulus`: `stop` takes no fields",
+            ),
+            (
+                r#"{"cmd":"status","verbose":true}"#,
+                "`status` takes no fields",
+            ),
+            (r#"{"cmd":"quit","now":1}"#, "`quit` takes no fields"),
+            (
+                r#"{"cmd":"prepare","stimulus":"a","gate":"tracked"}"#,
+                "`prepare` takes stimulus",
+            ),
+            (
+                r#"{"cmd":"prepare","stimulus":3}"#,
+                "`stimulus` is not a string",
+            ),
+            (r#"{"cmd":"auth"}"#, "missing field `token`"),
             (r#"{"cmd":"present"}"#, "missing field `stimulus`"),
             (
                 r#"{"cmd":"present","stimulus":"a","gate":"loose"}"#,
@@ -413,6 +527,24 @@ mod tests {
                 .to_string()
                 .contains("longer than")
         );
+    }
+
+    #[test]
+    fn values_repeated_in_messages_are_bounded() {
+        let long = "z".repeat(4000);
+        for line in [
+            format!(r#"{{"cmd":"{long}"}}"#),
+            format!(r#"{{"cmd":"stop","{long}":1}}"#),
+            format!(r#"{{"cmd":"present","stimulus":"a","gate":"{long}"}}"#),
+        ] {
+            let e = Command::parse(&line).unwrap_err().to_string();
+            assert!(e.len() < 400, "{} bytes: {e}", e.len());
+            assert!(e.contains("(4000 bytes)"), "{e}");
+        }
+        assert_eq!(clip("short"), "short");
+        assert_eq!(clip("a\nb"), "a\\nb");
+        let c = clip(&"é".repeat(100));
+        assert!(c.ends_with("(200 bytes)") && c.chars().count() < 70, "{c}");
     }
 
     #[test]

@@ -1,110 +1,45 @@
-//! `lmhost session`'s run: a [`Session`] behind a control socket (a Unix
-//! socket, optionally `127.0.0.1:PORT`, or stdin/stdout), fed by a finger
-//! source, its events to the subscribers and to a log file.
+//! `lmhost session`'s run: a [`Session`] behind a control endpoint (a Unix
+//! socket, optionally `127.0.0.1:PORT` with a token, or stdin/stdout), fed
+//! by a finger source, its events to the subscribers and to a log file.
 //!
-//! One thread owns the session and the device; each connection has a
-//! reader thread that hands whole lines over a channel. Lines are bounded
-//! ([`MAX_COMMAND_BYTES`]); a client that cannot take its output within
-//! [`WRITE_TIMEOUT`] is dropped, never waited for.
+//! One thread owns the session and the device and turns its
+//! [`Driver`]; it waits for client lines only until the driver's next
+//! deadline. Every connection has a reader thread (bounded lines) and a
+//! writer thread behind a bounded queue ([`super::conn`]), and the event
+//! log has a writer of its own ([`super::eventlog`]): the loop never
+//! waits on a client or a disk.
 
 use std::collections::HashMap;
-use std::io::{BufRead as _, BufReader, Read, Write};
-use std::os::unix::fs::PermissionsExt as _;
-use std::path::{Path, PathBuf};
-use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
-use std::sync::{Arc, Mutex};
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{RecvTimeoutError, SyncSender, sync_channel};
 use std::time::{Duration, Instant};
 
-use super::Session;
-use super::protocol::{Command, Event, EventKind, MAX_COMMAND_BYTES, OffsetReason, Reply};
-use crate::error::InputError;
-use crate::files::AppendLog;
-use crate::sense::reader::Next;
-use crate::sense::stream::Sample;
+use super::conn::{self, Conn, INBOUND_QUEUE, Inbound, STDIO};
+use super::driver::Driver;
+use super::endpoint::Token;
+use super::eventlog::EventLog;
+use super::protocol::{Command, Event, MAX_COMMAND_BYTES, OffsetReason, Reply};
+use super::{Owner, Session};
+use crate::clock::Clock;
 use crate::sense::stream::filter::Filter;
-use crate::sense::stream::run::{Feed as _, Threaded};
-use crate::sense::stream::synthetic::FingerTrack;
 
-/// A client that cannot take a line within this is dropped.
-pub const WRITE_TIMEOUT: Duration = Duration::from_millis(500);
-
-/// Most control connections at once.
-pub const MAX_CLIENTS: usize = 16;
-
-/// How long the loop waits for a command before running the timelines.
-const IDLE: Duration = Duration::from_millis(1);
-
-/// Where commands come from.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Control {
-    /// Commands on stdin, replies and events on stdout (end of input: the
-    /// running timed presentation finishes, then the session ends).
-    Stdio,
-    /// A Unix socket at `unix` (mode 0600), and `127.0.0.1:tcp` if given.
-    Socket {
-        /// The socket's path.
-        unix: PathBuf,
-        /// A local TCP port as well.
-        tcp: Option<u16>,
-    },
-}
+pub use super::conn::{CLIENT_QUEUE, MAX_CLIENTS};
+pub use super::driver::Finger;
+pub use super::endpoint::{Control, Endpoint, MAX_SOCKET_PATH_BYTES, token_path};
 
 /// What the session does when the client controlling it goes away.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OnDisconnect {
-    /// Stop the presentation (the array goes silent); keep serving.
+    /// Stop what that client presented (the array goes silent); keep
+    /// serving.
     Stop,
     /// Carry on.
     Continue,
     /// End the session.
     Quit,
-}
-
-/// Where the finger comes from.
-pub enum Finger {
-    /// No finger source (untracked presentations only sound).
-    None,
-    /// A synthetic finger resting at the scene's centre (with noise).
-    Synthetic,
-    /// Samples from a reader thread (a file, stdin, UDP).
-    Samples(Threaded),
-}
-
-/// A control endpoint, bound before the device opens (so a bad
-/// `--control` costs no device time); the Unix socket is removed when it
-/// is dropped.
-pub struct Endpoint {
-    unix: Option<(std::os::unix::net::UnixListener, UnixSocket)>,
-    tcp: Option<std::net::TcpListener>,
-    stdio: bool,
-}
-
-impl Endpoint {
-    /// Binds `control`.
-    pub fn bind(control: &Control) -> anyhow::Result<Self> {
-        match control {
-            Control::Stdio => Ok(Self {
-                unix: None,
-                tcp: None,
-                stdio: true,
-            }),
-            Control::Socket { unix, tcp } => {
-                let unix = bind_unix(unix)?;
-                let tcp = tcp
-                    .map(|port| {
-                        std::net::TcpListener::bind(("127.0.0.1", port)).map_err(|e| {
-                            anyhow::anyhow!("--tcp 127.0.0.1:{port}: {}", crate::files::reason(&e))
-                        })
-                    })
-                    .transpose()?;
-                Ok(Self {
-                    unix: Some(unix),
-                    tcp,
-                    stdio: false,
-                })
-            }
-        }
-    }
 }
 
 /// How to serve.
@@ -128,453 +63,428 @@ pub struct Report {
     pub commands: u64,
     /// Events written.
     pub events: u64,
+    /// Clients dropped because they did not take their lines.
+    pub dropped_clients: u64,
     /// Why it ended.
     pub reason: Option<OffsetReason>,
     /// What the session measured.
     pub figures: super::Figures,
 }
 
-enum Inbound {
-    Line(u64, String),
-    TooLong(u64),
-    Gone(u64),
+/// Longest wait for client lines between two turns.
+const MAX_WAIT: Duration = Duration::from_millis(10);
+
+/// How long a TCP client may take to send its token.
+pub const AUTH_WITHIN: Duration = Duration::from_secs(5);
+
+/// How long the end waits for the clients' writers to send the last lines.
+const LINGER: Duration = Duration::from_millis(500);
+
+/// How long the end waits for standard output to take the last lines.
+const STDOUT_LINGER: Duration = Duration::from_secs(5);
+
+/// A connection's halves: reader, writer, and how to shut it down.
+type Halves = (
+    Box<dyn std::io::Read + Send>,
+    Box<dyn std::io::Write + Send>,
+    Box<dyn Fn() + Send>,
+);
+
+fn unix_halves(s: std::os::unix::net::UnixStream) -> std::io::Result<Halves> {
+    let (r, w) = (s.try_clone()?, s.try_clone()?);
+    Ok((
+        Box::new(r),
+        Box::new(w),
+        Box::new(move || {
+            let _ = s.shutdown(std::net::Shutdown::Both);
+        }),
+    ))
 }
 
-struct Conn {
-    writer: Box<dyn Write + Send>,
-    subscribed: bool,
-    controller: bool,
+fn tcp_halves(s: std::net::TcpStream) -> std::io::Result<Halves> {
+    s.set_nodelay(true)?;
+    let (r, w) = (s.try_clone()?, s.try_clone()?);
+    Ok((
+        Box::new(r),
+        Box::new(w),
+        Box::new(move || {
+            let _ = s.shutdown(std::net::Shutdown::Both);
+        }),
+    ))
 }
 
-type Conns = Arc<Mutex<HashMap<u64, Conn>>>;
-
-/// A connection's reading and writing halves.
-type Halves = (Box<dyn Read + Send>, Box<dyn Write + Send>);
-
-/// Reads bounded lines from `r` into `tx` as client `id`'s.
-fn read_lines(id: u64, r: impl Read, tx: &Sender<Inbound>) {
-    let mut r = BufReader::new(r);
-    loop {
-        let mut buf = Vec::new();
-        match (&mut r)
-            .take(MAX_COMMAND_BYTES as u64 + 1)
-            .read_until(b'\n', &mut buf)
-        {
-            Ok(0) | Err(_) => break,
-            Ok(_) => {}
-        }
-        if buf.last() != Some(&b'\n') && buf.len() > MAX_COMMAND_BYTES {
-            // Refused, and the rest of the line skipped.
-            if tx.send(Inbound::TooLong(id)).is_err() {
-                return;
-            }
-            let mut rest = Vec::new();
-            if r.read_until(b'\n', &mut rest).map_or(true, |n| n == 0) {
-                break;
-            }
-            continue;
-        }
-        let line = String::from_utf8_lossy(&buf).trim().to_owned();
-        if line.is_empty() {
-            continue;
-        }
-        if tx.send(Inbound::Line(id, line)).is_err() {
-            return;
-        }
-    }
-    let _ = tx.send(Inbound::Gone(id));
+/// What the acceptors share.
+#[derive(Clone)]
+struct Accept {
+    tx: SyncSender<Inbound>,
+    live: Arc<AtomicUsize>,
+    next_id: Arc<AtomicU64>,
+    clock: Clock,
 }
 
-/// A bound Unix socket, removed when dropped.
-struct UnixSocket {
-    path: PathBuf,
-}
-
-impl Drop for UnixSocket {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
-    }
-}
-
-fn bind_unix(path: &Path) -> anyhow::Result<(std::os::unix::net::UnixListener, UnixSocket)> {
-    use std::os::unix::net::{UnixListener, UnixStream};
-    if std::fs::symlink_metadata(path).is_ok() {
-        if UnixStream::connect(path).is_ok() {
-            return Err(InputError::new(format!(
-                "--control {}: another session listens there",
-                path.display()
-            ))
-            .into());
-        }
-        let is_socket = std::fs::symlink_metadata(path).is_ok_and(|m| {
-            use std::os::unix::fs::FileTypeExt as _;
-            m.file_type().is_socket()
-        });
-        if !is_socket {
-            return Err(InputError::new(format!(
-                "--control {}: exists and is not a socket; give a new path",
-                path.display()
-            ))
-            .into());
-        }
-        // A socket no one listens on: a session that died.
-        std::fs::remove_file(path)
-            .map_err(|e| anyhow::anyhow!("removing the stale socket {}: {e}", path.display()))?;
-    }
-    let l = UnixListener::bind(path).map_err(|e| {
-        anyhow::anyhow!("--control {}: {}", path.display(), crate::files::reason(&e))
-    })?;
-    let guard = UnixSocket {
-        path: path.to_owned(),
-    };
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600)).map_err(|e| {
-        anyhow::anyhow!("--control {}: {}", path.display(), crate::files::reason(&e))
-    })?;
-    Ok((l, guard))
-}
-
-/// Accepts connections of `accept` on a thread of its own.
-fn spawn_acceptor<S>(
+/// Accepts connections on a thread of its own; `authed`: whether its
+/// clients may send commands at once (the Unix socket's mode already
+/// keeps others out).
+fn spawn_acceptor<S: Send + 'static>(
     name: &str,
     accept: impl Fn() -> std::io::Result<S> + Send + 'static,
-    split: fn(&S) -> std::io::Result<Halves>,
-    conns: Conns,
-    tx: Sender<Inbound>,
-    next_id: Arc<std::sync::atomic::AtomicU64>,
-) -> anyhow::Result<()>
-where
-    S: Send + 'static,
-{
+    halves: fn(S) -> std::io::Result<Halves>,
+    authed: bool,
+    a: Accept,
+) -> anyhow::Result<()> {
     std::thread::Builder::new()
         .name(name.into())
         .spawn(move || {
             while let Ok(s) = accept() {
-                let Ok((r, mut w)) = split(&s) else { continue };
-                let mut map = conns.lock().unwrap_or_else(|p| p.into_inner());
-                if map.len() >= MAX_CLIENTS {
-                    let _ = writeln!(
-                        w,
-                        "{}",
-                        serde_json::Value::from(
-                            Reply::error("", format!("too many clients (at most {MAX_CLIENTS})")).0
-                        )
-                    );
+                let Ok((r, mut w, shutdown)) = halves(s) else {
+                    continue;
+                };
+                if a.live.fetch_add(1, Ordering::SeqCst) >= MAX_CLIENTS {
+                    a.live.fetch_sub(1, Ordering::SeqCst);
+                    // Said on this thread: one short line to a new socket.
+                    let _ = writeln!(w, "{}", conn::too_many());
+                    shutdown();
                     continue;
                 }
-                let id = next_id.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                map.insert(
-                    id,
-                    Conn {
-                        writer: w,
-                        subscribed: false,
-                        controller: false,
-                    },
-                );
-                drop(map);
-                let tx = tx.clone();
-                let _ = std::thread::Builder::new()
-                    .name("lmhost-client".into())
-                    .spawn(move || read_lines(id, r, &tx));
+                let id = a.next_id.fetch_add(1, Ordering::SeqCst);
+                let now = a.clock.now_us();
+                let Ok(c) =
+                    conn::socket_conn(id, w, shutdown, a.live.clone(), authed, now, a.tx.clone())
+                else {
+                    continue;
+                };
+                // Joined before any of its lines.
+                if a.tx.send(Inbound::Joined(id, c)).is_err()
+                    || conn::spawn_reader(id, r, a.tx.clone()).is_err()
+                {
+                    return;
+                }
             }
         })?;
     Ok(())
 }
 
-fn split_unix(s: &std::os::unix::net::UnixStream) -> std::io::Result<Halves> {
-    s.set_write_timeout(Some(WRITE_TIMEOUT))?;
-    Ok((Box::new(s.try_clone()?), Box::new(s.try_clone()?)))
+/// Why the loop ended early: standard output failed.
+enum Ended {
+    Reason(OffsetReason),
+    /// Standard output was closed by its reader: a quiet end.
+    StdoutClosed,
 }
 
-fn split_tcp(s: &std::net::TcpStream) -> std::io::Result<Halves> {
-    s.set_write_timeout(Some(WRITE_TIMEOUT))?;
-    s.set_nodelay(true)?;
-    Ok((Box::new(s.try_clone()?), Box::new(s.try_clone()?)))
+/// The loop's state besides the driver.
+struct Loop {
+    conns: HashMap<Owner, Conn>,
+    log: Option<EventLog>,
+    token: Option<Token>,
+    on_disconnect: OnDisconnect,
+    /// The client that last sent `present`, `prepare` or `stop`.
+    controller: Option<Owner>,
+    stdin_done: bool,
+    report: Report,
 }
 
-/// The stdio client's id.
-const STDIO: u64 = 0;
-
-struct Out {
-    conns: Conns,
-    log: Option<AppendLog>,
-    stdio: bool,
-    events: u64,
-}
-
-impl Out {
-    fn send_to(&mut self, id: u64, line: &str) -> anyhow::Result<()> {
-        if id == STDIO && self.stdio {
-            crate::outln!("{line}")?;
-            return crate::out::flush_stdout();
+impl Loop {
+    /// Queues `line` for client `id`; a client that cannot take it is
+    /// dropped (standard output: the session ends).
+    fn send_to(
+        &mut self,
+        d: &mut Driver,
+        id: Owner,
+        line: Arc<str>,
+    ) -> anyhow::Result<Option<Ended>> {
+        match self.conns.get(&id) {
+            Some(c) if !c.send(line) => {
+                self.report.dropped_clients += 1;
+                self.drop_client(d, id)
+            }
+            _ => Ok(None),
         }
-        let mut map = self.conns.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(c) = map.get_mut(&id)
-            && writeln!(c.writer, "{line}")
-                .and_then(|()| c.writer.flush())
-                .is_err()
-        {
-            map.remove(&id);
-        }
-        Ok(())
     }
 
-    fn events(&mut self, events: Vec<Event>) -> anyhow::Result<()> {
+    fn reply(&mut self, d: &mut Driver, id: Owner, r: Reply) -> anyhow::Result<Option<Ended>> {
+        let line: Arc<str> = Arc::from(serde_json::Value::from(r.0).to_string());
+        self.send_to(d, id, line)
+    }
+
+    /// Events to the log and to every subscriber.
+    fn events(&mut self, d: &mut Driver, events: Vec<Event>) -> anyhow::Result<Option<Ended>> {
         for e in events {
-            let line = serde_json::to_string(&e)?;
-            self.events += 1;
+            let line: Arc<str> = Arc::from(serde_json::to_string(&e)?);
+            self.report.events += 1;
             if let Some(log) = &mut self.log {
-                log.line(&line)?;
+                log.line(line.clone())?;
             }
-            if self.stdio {
-                self.send_to(STDIO, &line)?;
+            let full: Vec<Owner> = self
+                .conns
+                .iter()
+                .filter(|(_, c)| c.subscribed && !c.send(line.clone()))
+                .map(|(id, _)| *id)
+                .collect();
+            for id in full {
+                self.report.dropped_clients += 1;
+                if let Some(end) = self.drop_client(d, id)? {
+                    return Ok(Some(end));
+                }
             }
-            let mut map = self.conns.lock().unwrap_or_else(|p| p.into_inner());
-            map.retain(|_, c| {
-                !c.subscribed
-                    || writeln!(c.writer, "{line}")
-                        .and_then(|()| c.writer.flush())
-                        .is_ok()
-            });
         }
-        if let Some(log) = &mut self.log {
-            log.sync()?;
+        Ok(None)
+    }
+
+    /// Drops client `id` (it went away or does not read): what it
+    /// presented stops, or the session ends, as `--on-disconnect` says.
+    fn drop_client(&mut self, d: &mut Driver, id: Owner) -> anyhow::Result<Option<Ended>> {
+        let Some(c) = self.conns.remove(&id) else {
+            return Ok(None);
+        };
+        if id == STDIO {
+            // Nothing reads the session's output any more.
+            anyhow::bail!(
+                "standard output fell {} lines behind (nothing reads it); the session ended",
+                conn::CLIENT_QUEUE
+            );
+        }
+        let authed = c.authed;
+        drop(c);
+        if !authed {
+            return Ok(None);
+        }
+        match self.on_disconnect {
+            OnDisconnect::Stop => {
+                d.session().client_gone(id)?;
+            }
+            OnDisconnect::Quit if self.controller == Some(id) => {
+                return Ok(Some(Ended::Reason(OffsetReason::Disconnect)));
+            }
+            _ => {}
+        }
+        Ok(None)
+    }
+
+    fn handle(&mut self, d: &mut Driver, msg: Inbound) -> anyhow::Result<Option<Ended>> {
+        match msg {
+            Inbound::Joined(id, c) => {
+                self.conns.insert(id, c);
+                Ok(None)
+            }
+            Inbound::Line(id, line) => self.line(d, id, &line),
+            Inbound::TooLong(id) => {
+                let msg = format!("bad command: longer than {MAX_COMMAND_BYTES} bytes");
+                if !self.conns.get(&id).is_some_and(|c| c.authed) {
+                    self.reply(d, id, Reply::error("", msg))?;
+                    return self.drop_client(d, id);
+                }
+                d.session().refused("", &msg);
+                self.reply(d, id, Reply::error("", msg))
+            }
+            Inbound::Gone(id) if id == STDIO => {
+                self.stdin_done = true;
+                Ok(None)
+            }
+            Inbound::Gone(id) => self.drop_client(d, id),
+            Inbound::StdoutFailed(None) => Ok(Some(Ended::StdoutClosed)),
+            Inbound::StdoutFailed(Some(e)) => Err(e),
+        }
+    }
+
+    /// One line from client `id`.
+    fn line(&mut self, d: &mut Driver, id: Owner, line: &str) -> anyhow::Result<Option<Ended>> {
+        let Some(c) = self.conns.get_mut(&id) else {
+            return Ok(None);
+        };
+        if !c.authed {
+            // A TCP client: its token first, nothing else.
+            let ok = matches!(Command::parse(line), Ok(Command::Auth { token })
+                if self.token.as_ref().is_some_and(|t| t.matches(&token)));
+            if ok {
+                c.authed = true;
+                return self.reply(d, id, Reply::ok("auth"));
+            }
+            let file = self.token.as_ref().map(|t| t.path.display().to_string());
+            let msg = format!(
+                "authentication needed: the first line on TCP is {{\"cmd\":\"auth\",\"token\":TOKEN}} with the token in {}; closing",
+                file.unwrap_or_default()
+            );
+            self.reply(d, id, Reply::error("auth", msg))?;
+            return self.drop_client(d, id);
+        }
+        self.report.commands += 1;
+        let cmd = match Command::parse(line) {
+            Ok(cmd) => cmd,
+            Err(e) => {
+                d.session().refused("", &e.to_string());
+                return self.reply(d, id, Reply::error("", e.to_string()));
+            }
+        };
+        match &cmd {
+            Command::Subscribe => c.subscribed = true,
+            Command::Present(_) | Command::Prepare { .. } | Command::Stop => {
+                self.controller = Some(id);
+            }
+            _ => {}
+        }
+        let reply = d.session().handle(&cmd, id);
+        let end = self.reply(d, id, reply)?;
+        if cmd == Command::Quit {
+            return Ok(Some(Ended::Reason(OffsetReason::Quit)));
+        }
+        Ok(end)
+    }
+
+    /// Drops TCP clients that did not send their token in time.
+    fn expire(&mut self, d: &mut Driver, now_us: u64) -> anyhow::Result<()> {
+        let late: Vec<Owner> = self
+            .conns
+            .iter()
+            .filter(|(_, c)| !c.authed && now_us >= c.since_us + AUTH_WITHIN.as_micros() as u64)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in late {
+            self.drop_client(d, id)?;
         }
         Ok(())
     }
 }
 
-/// A synthetic finger resting at the scene's centre, sampled at its rate.
-struct Synthetic {
-    samples: Box<dyn Iterator<Item = Sample>>,
-    start: Instant,
-    next: Option<Sample>,
-}
-
-impl Synthetic {
-    fn new(center_mm: [f64; 3]) -> Self {
-        let track = FingerTrack {
-            center_mm,
-            away_s: None,
-            ..FingerTrack::default()
-        };
-        Self {
-            samples: Box::new(track.samples()),
-            start: Instant::now(),
-            next: None,
-        }
-    }
-
-    /// The samples due by now.
-    fn due(&mut self) -> Vec<Sample> {
-        let t = self.start.elapsed().as_secs_f64();
-        let mut out = Vec::new();
-        loop {
-            let s = match self.next.take() {
-                Some(s) => s,
-                None => match self.samples.next() {
-                    Some(s) => s,
-                    None => break,
-                },
-            };
-            if s.t_s > t {
-                self.next = Some(s);
-                break;
-            }
-            out.push(s);
-        }
-        // Catch up without flooding: only the newest matters.
-        out.into_iter().last().into_iter().collect()
-    }
-}
-
-/// Serves `session` until `quit`, Ctrl-C / SIGTERM, the end of stdin
-/// (stdio control) or an error; the array is silent when it returns.
-pub fn serve(mut session: Session, opts: Options) -> anyhow::Result<Report> {
+/// Serves `session` until `quit`, a stop signal, the end of stdin (stdio
+/// control), the controlling client going away (`--on-disconnect quit`)
+/// or an error; the array is silent when it returns.
+pub fn serve(session: Session, opts: Options) -> anyhow::Result<Report> {
     crate::stop::graceful();
     let Options {
-        control,
+        mut control,
         on_disconnect,
         events,
         finger,
-        mut filter,
+        filter,
     } = opts;
-    let conns: Conns = Arc::new(Mutex::new(HashMap::new()));
-    let (tx, rx): (Sender<Inbound>, Receiver<Inbound>) = channel();
-    let next_id = Arc::new(std::sync::atomic::AtomicU64::new(1));
-    let stdio = control.stdio;
-    let _socket = match control {
-        Endpoint { stdio: true, .. } => {
-            let tx = tx.clone();
-            std::thread::Builder::new()
-                .name("lmhost-stdin".into())
-                .spawn(move || read_lines(STDIO, std::io::stdin(), &tx))?;
-            None
-        }
-        Endpoint { unix, tcp, .. } => {
-            let guard = unix.map(|(l, guard)| {
-                spawn_acceptor(
-                    "lmhost-unix",
-                    move || l.accept().map(|(s, _)| s),
-                    split_unix,
-                    conns.clone(),
-                    tx.clone(),
-                    next_id.clone(),
-                )
-                .map(|()| guard)
-            });
-            if let Some(l) = tcp {
-                spawn_acceptor(
-                    "lmhost-tcp",
-                    move || l.accept().map(|(s, _)| s),
-                    split_tcp,
-                    conns.clone(),
-                    tx.clone(),
-                    next_id.clone(),
-                )?;
-            }
-            guard.transpose()?
-        }
+    let log = events.as_deref().map(EventLog::create).transpose()?;
+    let clock = session.clock().clone();
+    let (tx, rx) = sync_channel::<Inbound>(INBOUND_QUEUE);
+    // The TCP listener goes to its acceptor; the token to the loop (its
+    // file goes when the loop ends).
+    let (tcp, token) = match control.tcp.take() {
+        Some((l, t)) => (Some(l), Some(t)),
+        None => (None, None),
     };
-    drop(tx);
-    let log = events.as_deref().map(AppendLog::create).transpose()?;
-    let mut out = Out {
-        conns: conns.clone(),
+    let mut lp = Loop {
+        conns: HashMap::new(),
         log,
-        stdio,
-        events: 0,
+        token,
+        on_disconnect,
+        controller: None,
+        stdin_done: false,
+        report: Report::default(),
     };
-    let mut report = Report::default();
-    let mut synthetic = match finger {
-        Finger::Synthetic => Some(Synthetic::new(session.scene().center_mm)),
-        _ => None,
+    let accept = Accept {
+        tx: tx.clone(),
+        live: Arc::new(AtomicUsize::new(0)),
+        next_id: Arc::new(AtomicU64::new(STDIO + 1)),
+        clock: clock.clone(),
     };
-    let mut feed = match finger {
-        Finger::Samples(t) => Some(t),
-        _ => None,
-    };
-    let mut stdin_done = false;
-    let result = (|| -> anyhow::Result<OffsetReason> {
-        out.events(session.drain_events())?;
+    if control.stdio {
+        lp.conns.insert(STDIO, conn::stdout_conn(tx.clone())?);
+        conn::spawn_reader(STDIO, std::io::stdin(), tx.clone())?;
+    }
+    if let Some(l) = control.unix.take() {
+        spawn_acceptor(
+            "lmhost-unix",
+            move || l.accept().map(|(s, _)| s),
+            unix_halves,
+            true,
+            accept.clone(),
+        )?;
+    }
+    if let Some(l) = tcp {
+        spawn_acceptor(
+            "lmhost-tcp",
+            move || l.accept().map(|(s, _)| s),
+            tcp_halves,
+            false,
+            accept.clone(),
+        )?;
+    }
+    drop((tx, accept));
+    let mut d = Driver::new(session, finger, filter);
+    let result = (|| -> anyhow::Result<Ended> {
         loop {
             if crate::stop::requested() {
-                return Ok(OffsetReason::Quit);
+                return Ok(Ended::Reason(OffsetReason::Quit));
             }
-            if let Some(s) = &mut synthetic {
-                for x in s.due() {
-                    let p = filter.update(&x);
-                    session.finger(p)?;
-                }
+            let ev = d.turn()?;
+            if let Some(end) = lp.events(&mut d, ev)? {
+                return Ok(end);
             }
-            if let Some(f) = &mut feed {
-                loop {
-                    match f.next_within(Duration::ZERO) {
-                        Next::Ready(s) => {
-                            let s = s?;
-                            let p = filter.update(&s);
-                            session.finger(p)?;
-                        }
-                        Next::Idle => break,
-                        Next::End => {
-                            feed = None;
-                            break;
-                        }
-                    }
-                }
+            lp.expire(&mut d, clock.now_us())?;
+            if lp.stdin_done
+                && (!d.session_ref().presenting() || d.session_ref().presenting_endless())
+            {
+                return Ok(Ended::Reason(OffsetReason::Quit));
             }
-            match rx.recv_timeout(IDLE) {
-                Ok(Inbound::Line(id, line)) => {
-                    report.commands += 1;
-                    let reply = match Command::parse(&line) {
-                        Err(e) => {
-                            session_refused(&mut session, "", &e.to_string());
-                            Reply::error("", e.to_string())
-                        }
-                        Ok(cmd) => {
-                            if let Some(c) =
-                                conns.lock().unwrap_or_else(|p| p.into_inner()).get_mut(&id)
-                            {
-                                match cmd {
-                                    Command::Subscribe => c.subscribed = true,
-                                    Command::Present(_)
-                                    | Command::Prepare { .. }
-                                    | Command::Stop => {
-                                        c.controller = true;
-                                    }
-                                    _ => {}
-                                }
-                            }
-                            let reply = session.handle(&cmd);
-                            if cmd == Command::Quit {
-                                out.send_to(id, &serde_json::Value::from(reply.0).to_string())?;
-                                return Ok(OffsetReason::Quit);
-                            }
-                            reply
-                        }
-                    };
-                    out.send_to(id, &serde_json::Value::from(reply.0).to_string())?;
-                }
-                Ok(Inbound::TooLong(id)) => {
-                    let msg = format!("bad command: longer than {MAX_COMMAND_BYTES} bytes");
-                    session_refused(&mut session, "", &msg);
-                    out.send_to(
-                        id,
-                        &serde_json::Value::from(Reply::error("", msg).0).to_string(),
-                    )?;
-                }
-                Ok(Inbound::Gone(id)) => {
-                    if id == STDIO && stdio {
-                        stdin_done = true;
-                    } else {
-                        let was = conns
-                            .lock()
-                            .unwrap_or_else(|p| p.into_inner())
-                            .remove(&id)
-                            .is_some_and(|c| c.controller);
-                        if was {
-                            match on_disconnect {
-                                OnDisconnect::Continue => {}
-                                OnDisconnect::Stop => session.stop(OffsetReason::Disconnect)?,
-                                OnDisconnect::Quit => return Ok(OffsetReason::Disconnect),
-                            }
-                        }
-                    }
-                }
-                Err(RecvTimeoutError::Timeout) => {}
+            let mut msg = match rx.recv_timeout(d.wait_time(MAX_WAIT)) {
+                Ok(m) => Some(m),
+                Err(RecvTimeoutError::Timeout) => None,
                 Err(RecvTimeoutError::Disconnected) => {
-                    // Stdin ended and no listener is left: only the
-                    // timelines remain.
-                    stdin_done = true;
-                    std::thread::sleep(IDLE);
+                    // No endpoint left (stdin ended): only the timelines.
+                    lp.stdin_done = true;
+                    d.wait(MAX_WAIT);
+                    None
                 }
-            }
-            session.poll()?;
-            out.events(session.drain_events())?;
-            if stdin_done && !session.presenting() {
-                return Ok(OffsetReason::Quit);
-            }
-            if stdin_done && session.presenting_endless() {
-                return Ok(OffsetReason::Quit);
+            };
+            // Lines until the next turn is due (one at least): a client
+            // that floods commands gets the time between the session's
+            // deadlines, never the deadlines themselves.
+            let due = d.next_wake();
+            while let Some(m) = msg.take() {
+                if let Some(end) = lp.handle(&mut d, m)? {
+                    return Ok(end);
+                }
+                if clock.now_us() < due {
+                    msg = rx.try_recv().ok();
+                }
             }
         }
     })();
     let reason = match &result {
-        Ok(r) => *r,
+        Ok(Ended::Reason(r)) => *r,
+        Ok(Ended::StdoutClosed) => OffsetReason::Disconnect,
         Err(_) => OffsetReason::Error,
     };
-    report.reason = Some(reason);
-    report.figures = session.figures();
-    let last = session.close(reason);
-    let written = out.events(last);
-    report.events = out.events;
-    let reason = result?;
+    lp.report.figures = d.session_ref().figures();
+    let last = d.into_session().close(reason);
+    // The last events go out however the loop ended.
+    let written = lp.last_events(last);
+    let logged = lp.log.as_mut().map_or(Ok(()), EventLog::finish);
+    let until = Instant::now() + LINGER;
+    let stdout_until = Instant::now() + STDOUT_LINGER;
+    for (id, c) in lp.conns.drain() {
+        c.finish(if id == STDIO { stdout_until } else { until });
+    }
+    drop(control);
+    drop(lp.token.take());
+    lp.report.reason = Some(reason);
+    match result? {
+        Ended::StdoutClosed => return Err(crate::out::StdoutClosed.into()),
+        Ended::Reason(_) => {}
+    }
     written?;
-    report.reason = Some(reason);
-    Ok(report)
+    logged?;
+    Ok(lp.report)
 }
 
-fn session_refused(session: &mut Session, command: &str, error: &str) {
-    session.emit(EventKind::Refused {
-        command: command.into(),
-        error: error.into(),
-    });
+impl Loop {
+    /// The session's last events (after it closed): a client that cannot
+    /// take them is left out.
+    fn last_events(&mut self, events: Vec<Event>) -> anyhow::Result<()> {
+        for e in events {
+            let line: Arc<str> = Arc::from(serde_json::to_string(&e)?);
+            self.report.events += 1;
+            if let Some(log) = &mut self.log {
+                log.line(line.clone())?;
+            }
+            for c in self.conns.values().filter(|c| c.subscribed) {
+                c.send(line.clone());
+            }
+        }
+        Ok(())
+    }
 }

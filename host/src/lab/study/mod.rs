@@ -41,8 +41,10 @@ use crate::clock::monotonic_us;
 use crate::device::link::PortSpec;
 use crate::error::InputError;
 use crate::files::AppendLog;
+use crate::lab::session::driver::{Driver, Finger};
 use crate::lab::session::{Event, EventKind, OffsetReason, Present, Session};
 use crate::plan::scene::Scene;
+use crate::sense::stream::filter::Passthrough;
 
 use answers::{Answers, Asked};
 use columns::Row;
@@ -210,6 +212,28 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             o.protocol.display()
         );
     }
+    // As in `lmhost session`: a tracked presentation without a finger
+    // source would stay muted through every trial.
+    if matches!(o.finger, FingerSource::None)
+        && let Some(c) = p.conditions.iter().find(|c| {
+            let untracked = p
+                .library
+                .entries
+                .iter()
+                .find(|e| e.id == c.stimulus)
+                .is_some_and(|e| e.untracked);
+            match p.timeline.gate {
+                Some(g) => g == crate::lab::session::Gate::Tracked,
+                None => !untracked,
+            }
+        })
+    {
+        crate::bad_input!(
+            "study protocol {}: stimulus `{}` plays tracked, but there is no finger source, so every trial would stay muted: give --finger synthetic or a tracked source (--stream, --udp), or set the timeline's gate = \"untracked\"",
+            o.protocol.display(),
+            c.stimulus
+        );
+    }
     let paths = start::Paths::new(&o.out, &o.participant);
     // Everything is checked (and a responses file dry-run) before the
     // device opens and before any file changes.
@@ -230,7 +254,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let first = st.done + 1;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
-    let session = Session::new(dev, &p.library, plans, scene)
+    let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
     let view = match o.view {
         Some(addr) => Some(start_view(addr, &session, &o.finger)?),
@@ -271,20 +295,20 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let events_log = st.open_events(o.resume, &paths.events)?;
     let (file, plan) = (st.file, st.plan);
     crate::stop::graceful();
-    let centre = session.scene().center_mm;
-    let (samples, synthetic) = match std::mem::replace(&mut o.finger, FingerSource::None) {
-        FingerSource::Samples { feed, filter, .. } => (Some((feed, filter)), None),
-        FingerSource::Synthetic => (None, Some(centre)),
-        FingerSource::None => (None, None),
+    let driver = match std::mem::replace(&mut o.finger, FingerSource::None) {
+        FingerSource::Samples { feed, filter, .. } => {
+            Driver::new(session, Finger::Samples(Box::new(feed)), filter)
+        }
+        // Off the array until a trial waits for it.
+        FingerSource::Synthetic => {
+            Driver::new(session, Finger::Synthetic, Box::new(Passthrough)).lifted()
+        }
+        FingerSource::None => Driver::new(session, Finger::None, Box::new(Passthrough)),
     };
     let mut r = Runner {
-        samples,
-        session: Some(session),
+        driver: Some(driver),
         events: events_log,
         answers,
-        synthetic,
-        touching: false,
-        next_feed_us: 0,
         finger_present: None,
         scale: o.time_scale,
         trial_events: Vec::new(),
@@ -331,9 +355,9 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         Err(_) => OffsetReason::Error,
     };
     let last = r
-        .session
+        .driver
         .take()
-        .map(|s| s.close(reason))
+        .map(|d| d.into_session().close(reason))
         .unwrap_or_default();
     let logged = r.log_events(last).and_then(|()| Ok(r.events.sync()?));
     for l in r.all_events.iter() {
@@ -447,19 +471,11 @@ fn stopped(e: anyhow::Error, o: &RunOptions, report: &RunReport, trials: &Path) 
     }
 }
 
-type Samples = (
-    crate::sense::stream::run::Threaded,
-    Box<dyn crate::sense::stream::filter::Filter + Send>,
-);
-
 struct Runner {
-    samples: Option<Samples>,
-    session: Option<Session>,
+    /// The session and the finger, turned by the study's loop.
+    driver: Option<Driver>,
     events: AppendLog,
     answers: Box<dyn Answers>,
-    synthetic: Option<[f64; 3]>,
-    touching: bool,
-    next_feed_us: u64,
     finger_present: Option<bool>,
     scale: f64,
     trial_events: Vec<Event>,
@@ -468,10 +484,14 @@ struct Runner {
 }
 
 impl Runner {
-    fn session(&mut self) -> &mut Session {
-        self.session
+    fn driver(&mut self) -> &mut Driver {
+        self.driver
             .as_mut()
             .expect("the session is open until the end")
+    }
+
+    fn session(&mut self) -> &mut Session {
+        self.driver().session()
     }
 
     fn log_events(&mut self, events: Vec<Event>) -> anyhow::Result<()> {
@@ -510,65 +530,40 @@ impl Runner {
         self.log_events(e)
     }
 
-    /// One turn: the synthetic finger when due, the session's timelines,
-    /// its events to the log, a stop request.
+    /// One turn of the session's driver (the finger when due, the
+    /// timelines, the device's housekeeping), its events to the log, a
+    /// stop request.
     fn tick(&mut self) -> anyhow::Result<()> {
         if crate::stop::requested() {
             return Err(Interrupted.into());
         }
-        if let Some(c) = self.synthetic
-            && self.touching
-        {
-            let now = monotonic_us();
-            if now >= self.next_feed_us {
-                self.next_feed_us = now + FINGER_PERIOD_US;
-                self.session().finger(Some(c))?;
-                if let Some(v) = &self.view {
-                    v.finger(Some(c));
-                }
-            }
+        let events = self.driver().turn()?;
+        self.show_finger();
+        if self.driver().feed_ended() {
+            return Err(
+                InputError::new("the finger's centroid stream ended before the session").into(),
+            );
         }
-        if let Some((feed, filter)) = &mut self.samples {
-            use crate::sense::stream::run::Feed as _;
-            let mut last = None;
-            loop {
-                match feed.next_within(Duration::ZERO) {
-                    crate::sense::reader::Next::Ready(x) => last = Some(filter.update(&x?)),
-                    crate::sense::reader::Next::Idle => break,
-                    crate::sense::reader::Next::End => {
-                        return Err(InputError::new(
-                            "the finger's centroid stream ended before the session",
-                        )
-                        .into());
-                    }
-                }
-            }
-            // Only the newest sample matters to the device.
-            if let Some(p) = last {
-                self.session().finger(p)?;
-                if let Some(v) = &self.view {
-                    v.finger(p);
-                }
-            }
-        }
-        self.session().poll()?;
-        self.drain()
+        self.log_events(events)
+    }
+
+    /// Waits until the driver's next turn, at most [`POLL`] (answers and
+    /// the finger are looked at that often).
+    fn pause(&mut self) {
+        self.driver().wait(POLL);
     }
 
     fn touch(&mut self, on: bool) -> anyhow::Result<()> {
-        if self.synthetic.is_none() || self.touching == on {
-            return Ok(());
-        }
-        self.touching = on;
-        if on {
-            self.next_feed_us = 0;
-            self.tick()
-        } else {
-            self.session().finger(None)?;
-            if let Some(v) = &self.view {
-                v.finger(None);
-            }
-            self.drain()
+        self.driver().touch(on)?;
+        self.tick()
+    }
+
+    /// The finger as last sent to the device, to the view.
+    fn show_finger(&mut self) {
+        if let Some(p) = self.driver().take_finger()
+            && let Some(v) = &self.view
+        {
+            v.finger(p);
         }
     }
 
@@ -580,7 +575,7 @@ impl Runner {
             if monotonic_us() >= until {
                 return Ok(());
             }
-            std::thread::sleep(POLL);
+            self.pause();
         }
     }
 
@@ -590,7 +585,7 @@ impl Runner {
             if let Some(a) = self.answers.poll(q)? {
                 return Ok(a);
             }
-            std::thread::sleep(POLL);
+            self.pause();
         }
     }
 
@@ -618,7 +613,7 @@ impl Runner {
             self.touch(true)?;
             while self.finger_present != Some(true) {
                 self.tick()?;
-                std::thread::sleep(POLL);
+                self.pause();
             }
         }
         let adjusting = p.adjustment.is_some();
@@ -636,7 +631,7 @@ impl Runner {
         };
         self.session().present(&req)?;
         // A new play forgets old centroids: track again at once.
-        self.next_feed_us = 0;
+        self.driver().track_now()?;
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
         let mut procedure = procedure::start(p, &t.stimulus);
@@ -663,7 +658,7 @@ impl Runner {
                     if !self.session().presenting() {
                         break;
                     }
-                    std::thread::sleep(POLL);
+                    self.pause();
                     continue;
                 }
                 let ans = self.ask(&pr.asked())?;
@@ -686,14 +681,14 @@ impl Runner {
             while self.session().presenting() {
                 self.tick()?;
                 if tl.while_touching {
-                    if self.synthetic.is_some() && monotonic_us() >= touch_until {
+                    if self.driver().synthetic() && monotonic_us() >= touch_until {
                         self.touch(false)?;
                     }
                     if self.finger_present == Some(false) {
                         self.session().stop(OffsetReason::Stop)?;
                     }
                 }
-                std::thread::sleep(POLL);
+                self.pause();
             }
         }
         self.drain()?;

@@ -14,19 +14,8 @@ use super::protocol::Unlinked;
 use super::record::{self, Expect, SessionFile, Tail};
 use crate::error::InputError;
 
-/// Quantile `q` of sorted `v` by linear interpolation (numpy's default).
-pub fn quantile(v: &[f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let x = q * (v.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x - x.floor());
-    if i + 1 < v.len() {
-        v[i] + f * (v[i + 1] - v[i])
-    } else {
-        v[i]
-    }
-}
+/// Quantile `q` of sorted `v` (the one definition, [`crate::clock::quantile`]).
+pub use crate::clock::quantile;
 
 /// One condition's numbers for one question.
 #[derive(Debug, Clone, PartialEq)]
@@ -305,12 +294,8 @@ fn figures(dir: &Path, stats: &[Stat], files: &mut Vec<PathBuf>) -> anyhow::Resu
         let size = ((90 * group.len() as u32).max(400) + 100, 520);
         let png = dir.join(format!("box-{q}.png"));
         let e = |x: String| anyhow::anyhow!("drawing {}: {x}", png.display());
-        crate::files::write_via(&png, |tmp| {
-            let root = BitMapBackend::new(tmp, size).into_drawing_area();
-            draw(&root, q, &group).map_err(e)?;
-            root.present().map_err(|x| {
-                anyhow::anyhow!("{}: {}", png.display(), crate::files::reason_of(&x))
-            })?;
+        crate::field::plot::write_png(&png, size, |root| {
+            draw(root, q, &group).map_err(e)?;
             Ok(())
         })?;
         files.push(png);

@@ -7,8 +7,8 @@ use crate::units;
 
 use super::file::{CalibrationFile, PoseFile, SceneFile};
 use super::{
-    Calibration, DEFAULT_MIN_DWELL_S, Device, LmPlane, MAX_PRESSURE_SCALE, Reflector, Scene,
-    finite3, unit,
+    Calibration, DEFAULT_MIN_DWELL_S, Device, LmPlane, MAX_PRESSURE_SCALE, MIN_PRESSURE_SCALE,
+    Reflector, Scene, finite3, unit,
 };
 
 impl SceneFile {
@@ -131,17 +131,20 @@ impl SceneFile {
     }
 }
 
-/// `[calibration]`: a scale in (0, 1e6], positive finite figures.
+/// `[calibration]`: a scale in [`MIN_PRESSURE_SCALE`]..=[`MAX_PRESSURE_SCALE`],
+/// positive finite figures.
 fn calibration(c: CalibrationFile) -> Result<Calibration, String> {
     let k = c.pressure_scale;
-    if !(k.is_finite() && k > 0.0 && k <= MAX_PRESSURE_SCALE) {
+    if !(MIN_PRESSURE_SCALE..=MAX_PRESSURE_SCALE).contains(&k) {
         return Err(format!(
-            "field `calibration.pressure_scale` must be > 0 and at most {MAX_PRESSURE_SCALE:e}, got {k}"
+            "field `calibration.pressure_scale` must be {MIN_PRESSURE_SCALE:e}..={MAX_PRESSURE_SCALE:e}, got {}",
+            crate::limits::show(k)
         ));
     }
     let positive = |v: Option<f64>, name: &str, max: f64| match v {
         Some(x) if !(x.is_finite() && x > 0.0 && x <= max) => Err(format!(
-            "field `calibration.{name}` must be > 0 and at most {max}, got {x}"
+            "field `calibration.{name}` must be > 0 and at most {max}, got {}",
+            crate::limits::show(x)
         )),
         _ => Ok(v),
     };

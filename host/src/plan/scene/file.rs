@@ -5,23 +5,86 @@ use serde::Deserialize;
 use crate::geom::Vec3;
 use crate::plan::directivity::Directivity;
 
-/// One line from a TOML error: `line N, field `key`: message`.
+/// One line from a TOML error: `line N, field `path`: message`, the line
+/// and the field found from the error's byte span (the field is the
+/// innermost key whose key or value holds it: `device[1].center_mm`, also
+/// for dotted keys, inline tables and arrays over several lines).
 pub(crate) fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     let msg = e.message().lines().next().unwrap_or("invalid TOML").trim();
-    match e.span() {
-        Some(span) => {
-            let start = span.start.min(text.len());
-            let line_no = text[..start].matches('\n').count() + 1;
-            let line = text.lines().nth(line_no - 1).unwrap_or("");
-            let key = line.split('=').next().unwrap_or("").trim();
-            if line.contains('=') && !key.is_empty() {
-                format!("line {line_no}, field `{key}`: {msg}")
-            } else {
-                format!("line {line_no}: {msg}")
-            }
-        }
-        None => msg.to_string(),
+    let Some(span) = e.span() else {
+        return msg.to_string();
+    };
+    let at = span.start.min(text.len());
+    let line_no = text.as_bytes()[..at]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1;
+    match field_at(text, at) {
+        Some(field) => format!("line {line_no}, field `{field}`: {msg}"),
+        None => format!("line {line_no}: {msg}"),
     }
+}
+
+/// The dotted path of the innermost key at byte `at` of `text`, by the
+/// spans of its parse (none when the text does not parse, as when the
+/// error is in its syntax).
+fn field_at(text: &str, at: usize) -> Option<String> {
+    let doc = toml_edit::Document::parse(text).ok()?;
+    let mut path = Vec::new();
+    walk_table(doc.as_table(), at, &mut path).then(|| path.join("."))
+}
+
+fn holds(span: Option<std::ops::Range<usize>>, at: usize) -> bool {
+    span.is_some_and(|s| s.start <= at && at < s.end.max(s.start + 1))
+}
+
+/// Pushes onto `path` the keys down to the one at `at`; whether found.
+fn walk_table(t: &toml_edit::Table, at: usize, path: &mut Vec<String>) -> bool {
+    for (k, item) in t.iter() {
+        let key = t.key(k).and_then(toml_edit::Key::span);
+        path.push(k.to_owned());
+        if walk_item(item, at, path) || holds(key, at) {
+            return true;
+        }
+        path.pop();
+    }
+    false
+}
+
+fn walk_item(item: &toml_edit::Item, at: usize, path: &mut Vec<String>) -> bool {
+    use toml_edit::Item;
+    match item {
+        Item::Table(t) => walk_table(t, at, path) || holds(t.span(), at),
+        Item::ArrayOfTables(a) => a.iter().enumerate().any(|(i, t)| {
+            let last = path.len() - 1;
+            let name = std::mem::take(&mut path[last]);
+            path[last] = format!("{name}[{i}]");
+            let found = walk_table(t, at, path) || holds(t.span(), at);
+            if !found {
+                path[last] = name;
+            }
+            found
+        }),
+        Item::Value(v) => walk_value(v, at, path),
+        Item::None => false,
+    }
+}
+
+fn walk_value(v: &toml_edit::Value, at: usize, path: &mut Vec<String>) -> bool {
+    let toml_edit::Value::InlineTable(t) = v else {
+        return holds(v.span(), at);
+    };
+    let inner = t.iter().any(|(k, v)| {
+        path.push(k.to_owned());
+        let key = t.key(k).and_then(toml_edit::Key::span);
+        let found = walk_value(v, at, path) || holds(key, at);
+        if !found {
+            path.pop();
+        }
+        found
+    });
+    inner || holds(t.span(), at)
 }
 
 #[derive(Debug, Deserialize)]

@@ -128,7 +128,8 @@ pub struct Scene {
 /// frequency (Pa²) by its square. `lmhost calibrate force` derives it.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Calibration {
-    /// Factor on the simulated radiation pressure, in (0, 1e6].
+    /// Factor on the simulated radiation pressure, in
+    /// [`MIN_PRESSURE_SCALE`]..=[`MAX_PRESSURE_SCALE`].
     pub pressure_scale: f64,
     /// The measured static-focus force it was derived from (N).
     pub measured_n: Option<f64>,
@@ -138,6 +139,9 @@ pub struct Calibration {
     pub disk_mm: Option<f64>,
 }
 
+/// Smallest `[calibration] pressure_scale` (and `--calibration`) taken:
+/// below it every map is silence, not a calibration.
+pub const MIN_PRESSURE_SCALE: f64 = 1e-6;
 /// Largest `[calibration] pressure_scale` (and `--calibration`) taken.
 pub const MAX_PRESSURE_SCALE: f64 = 1e6;
 

@@ -187,3 +187,37 @@ fn lm_plane_beam_angle_flags_a_plane_that_contains_the_beam() {
         "the paper scene's circle must face the reflected wave: {a}°"
     );
 }
+
+/// Every parse error names its line and the field there, found by the
+/// error's span, whatever form the key has.
+#[test]
+fn parse_errors_name_the_line_and_the_field_by_span() {
+    let dev = "[[device]]\ncenter_mm = [0, 0, 0]\n";
+    for (text, want) in [
+        // A wrong type in the second device, its array over two lines.
+        (
+            format!("{dev}[[device]]\ncenter_mm = [0,\n  \"x\", 0]\n"),
+            "line 5, field `device[1].center_mm`",
+        ),
+        // A dotted key and an inline table.
+        (
+            format!("medium.sound_speed_m_s = \"fast\"\n{dev}"),
+            "line 1, field `medium.sound_speed_m_s`",
+        ),
+        (
+            format!("calibration = {{ pressure_scale = true }}\n{dev}"),
+            "line 1, field `calibration.pressure_scale`",
+        ),
+        // An unknown key is named, a missing one is on its table's line.
+        (
+            format!("{dev}[rig]\nspin = 1\n"),
+            "line 4, field `rig.spin`",
+        ),
+        (format!("{dev}[reflector]\nnormal = [0, 0, 1]\n"), "line 3"),
+        // A syntax error has a line but no field.
+        (format!("center_mm = [0, 0\n{dev}"), "line 2: "),
+    ] {
+        let e = Scene::from_toml(&text, "s.toml").unwrap_err().0;
+        assert!(e.contains(want) && !e.contains('\n'), "{text:?}: {e}");
+    }
+}

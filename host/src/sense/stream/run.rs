@@ -4,13 +4,12 @@
 
 use std::time::{Duration, Instant};
 
-use lm_proto::Centroid;
-
 use super::Sample;
 use super::filter::Filter;
 use super::plausible::{Plausibility, PlausibilityCounts};
 use crate::clock::monotonic_us;
 use crate::device::backend::{Backend, CentroidOutcome};
+use crate::device::centroids::CentroidSender;
 use crate::units::mm_to_um;
 
 use crate::stop::requested as stop_requested;
@@ -140,8 +139,10 @@ pub fn stream(
 ) -> anyhow::Result<StreamReport> {
     let start = Instant::now();
     let mut report = StreamReport::default();
-    let mut last_pos = [0i32; 3];
-    let mut seq = client_seq_start(client)?;
+    // Numbered after the device's last accepted centroid, so a second
+    // stream in the same play session is not refused as stale.
+    let mut sender = CentroidSender::after(client)
+        .map_err(|e| e.context("reading the device status before streaming"))?;
     let result = pump(
         client,
         &mut feed,
@@ -150,24 +151,16 @@ pub fn stream(
         pace,
         &mut between,
         &mut report,
-        &mut last_pos,
-        &mut seq,
+        &mut sender,
         start,
     );
     report.stopped = stop_requested();
     if result.is_err() || report.stopped {
         // The session ends early: leave the device muted, not steering to
         // the last centroid. Best effort when the link itself failed.
-        seq = seq.wrapping_add(1).max(1);
-        let mute = Centroid {
-            seq,
-            pos_um: last_pos,
-            present: false,
-            host_time_us: monotonic_us(),
-        };
-        if client.centroid(&mute).is_ok() {
+        if sender.send(client, None, monotonic_us()).is_ok() {
             report.muted_at_end = true;
-            report.last_seq = seq;
+            report.last_seq = sender.last_seq();
         }
     }
     result?;
@@ -184,8 +177,7 @@ fn pump(
     pace: Pace,
     between: &mut impl FnMut(&mut dyn Backend, &Sample, u64) -> anyhow::Result<()>,
     report: &mut StreamReport,
-    last_pos: &mut [i32; 3],
-    seq: &mut u32,
+    sender: &mut CentroidSender,
     start: Instant,
 ) -> anyhow::Result<()> {
     let mut first_t: Option<f64> = None;
@@ -231,19 +223,13 @@ fn pump(
         }
         let received_us = monotonic_us();
         let filtered = filter.update(&s);
-        if let Some(p) = filtered {
-            *last_pos = to_drive(p).map(mm_to_um);
+        if filtered.is_some() {
             report.present += 1;
         }
-        *seq = seq.wrapping_add(1).max(1);
-        let seq = *seq;
-        let c = Centroid {
-            seq,
-            pos_um: *last_pos,
-            present: filtered.is_some(),
-            host_time_us: received_us,
-        };
-        match client.centroid(&c) {
+        let pos_um = filtered.map(|p| to_drive(p).map(mm_to_um));
+        let outcome = sender.send(client, pos_um, received_us);
+        let seq = sender.last_seq();
+        match outcome {
             Ok(CentroidOutcome::Applied) => {}
             // The device refused to steer there and muted; keep following
             // the finger, it unmutes when the finger is back in range.
@@ -265,14 +251,4 @@ fn pump(
         between(client, &s, received_us)?;
     }
     Ok(())
-}
-
-/// Start numbering after the device's last accepted centroid, so a second
-/// stream in the same play session is not refused as stale.
-fn client_seq_start(client: &mut dyn Backend) -> anyhow::Result<u32> {
-    use anyhow::Context as _;
-    Ok(client
-        .status()
-        .context("reading the device status before streaming")?
-        .last_centroid_seq)
 }

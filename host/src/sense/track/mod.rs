@@ -2,14 +2,14 @@
 //!
 //! A depth frame ([`source`]: a `.npy` recording, the synthetic finger
 //! [`synth`], or a live camera stream) is deprojected with the camera's
-//! [`intrinsics`], moved into the scene by the camera pose ([`setup`], the
+//! [`intrinsics`], moved into the scene by the camera pose ([`camera`], the
 //! scene's `[camera]`), and the points inside the detection box (the
 //! scene's `[tracking]`) are the contact area ([`contact`]); their centroid
 //! is the LM centre. [`Pipeline`] adds presence hysteresis ([`presence`])
 //! and a centroid filter (`stream::filter`), and yields the samples the
 //! streaming loop (`stream::run`) sends to the device. [`surface`] gives
 //! the finger surface's depth along the planned circle; [`plot`] draws a
-//! frame. [`session`] is `lmhost track`'s whole run: a source through the
+//! frame. [`run`] is `lmhost track`'s whole run: a source through the
 //! pipeline, recorded, plotted, scored and streamed.
 
 pub mod camera;

@@ -47,9 +47,8 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
     );
 
     let err = |e: String| anyhow::anyhow!("cannot draw {}: {e}", path.display());
-    // Drawn to a temporary file renamed into place: whole or absent.
-    crate::files::write_via(path, |tmp| {
-        let root = BitMapBackend::new(tmp, size).into_drawing_area();
+    // Drawn in memory, then written whole or not at all.
+    crate::field::plot::write_png(path, size, |root| {
         root.fill(&BLACK).map_err(|e| err(e.to_string()))?;
         for (i, (c, r)) in window.enumerate() {
             let v = depth[(r * intr.width + c) as usize];
@@ -100,8 +99,6 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
                     .map_err(|e| err(e.to_string()))?;
             }
         }
-        root.present()
-            .map_err(|e| err(crate::files::reason_of(&e)))?;
         Ok(())
     })
 }

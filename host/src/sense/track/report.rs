@@ -131,7 +131,7 @@ impl DepthFeed {
             return 0.0;
         }
         v.sort_by(f64::total_cmp);
-        v[((p / 100.0) * (v.len() - 1) as f64).round() as usize] * 1e6
+        crate::clock::quantile(&v, p / 100.0) * 1e6
     }
 
     /// The filter's lag (ms): [`filter_lag_ms`] at the feed's frame rate.

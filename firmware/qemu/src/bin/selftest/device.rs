@@ -203,3 +203,146 @@ pub fn gate_mutes_within_one_step(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
     check!(dev.handle(&Message::Stop, c.now()) == Message::Ack);
     Ok(())
 }
+
+/// Counts frames by sound and notes when (TIMER0) they were written.
+struct LeaseWatch<'t> {
+    timer: &'t Timer,
+    sounding: u32,
+    muted: u32,
+    /// Written time of the last sounding frame and of the first muted one.
+    last_sounding_at: u32,
+    first_muted_at: Option<u32>,
+}
+
+impl lm_fw_core::OutputDriver for LeaseWatch<'_> {
+    type Error = core::convert::Infallible;
+    fn write_frame(&mut self, f: &lm_fw_core::OutputFrame<'_>) -> Result<(), Self::Error> {
+        let t = self.timer.now();
+        if f.amplitude == 0 {
+            self.muted += 1;
+            self.first_muted_at.get_or_insert(t);
+        } else {
+            self.sounding += 1;
+            self.last_sounding_at = t;
+        }
+        Ok(())
+    }
+}
+
+/// The host lease on the firmware: renewed, an untracked play keeps
+/// sounding; once the host goes quiet it ends one lease after the last
+/// renewal, within a poll of the expiry (the serve loop's timing), muted,
+/// with no frame after it, and `Status` says why.
+pub fn lease_silences_a_quiet_host(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
+    const LEASE_MS: u16 = 100;
+    let lease = u64::from(LEASE_MS) * u64::from(PCLK_HZ) / 1000;
+    let step = u64::from(PCLK_HZ) / 1000;
+    let mut dev = device(mem);
+    // 8 steps of 1 ms, 996 transducers.
+    check!(upload(&mut dev, 0, 8, 996, 8_000, false) == Message::Ack);
+    let timer = Timer::clone_of(&c.timer);
+    let mut w = LeaseWatch {
+        timer: &timer,
+        sounding: 0,
+        muted: 0,
+        last_sounding_at: 0,
+        first_muted_at: None,
+    };
+    let t0 = c.now();
+    check!(dev.handle(&play_leased(0, LEASE_MS), t0) == Message::Ack);
+    // A host renewing every half lease for 2.5 leases.
+    let mut renewed = t0;
+    while c.now() - t0 < 5 * lease / 2 {
+        let now = c.now();
+        if now - renewed >= lease / 2 {
+            check!(dev.handle(&Message::Renew, now) == Message::Ack);
+            renewed = now;
+        }
+        dev.poll(now, &mut w);
+    }
+    check!(
+        w.muted == 0 && dev.is_sounding(c.now()),
+        "renewed play stopped ({} muted frames)",
+        w.muted
+    );
+    // The host goes quiet: the serve loop polls on.
+    let expiry = renewed + lease;
+    while dev.next_deadline().is_some() && c.now() < expiry + 10 * step {
+        let now = c.now();
+        dev.poll(now, &mut w);
+    }
+    check!(
+        dev.next_deadline().is_none(),
+        "still playing 10 ms after the lease"
+    );
+    let Some(muted_at) = w.first_muted_at else {
+        hprintln!("    no muted frame at the expiry");
+        return Err(Failed);
+    };
+    // Written time is TIMER0's low 32 bits; the run is far from a wrap.
+    let late = muted_at.wrapping_sub(expiry as u32);
+    check!(
+        u64::from(late) < step,
+        "silent {} counts after the expiry (a step is {})",
+        late,
+        step
+    );
+    check!(
+        w.last_sounding_at.wrapping_sub(expiry as u32) as i32 <= 0,
+        "a sounding frame went out after the expiry"
+    );
+    check!(w.muted == 1, "{} muted frames", w.muted);
+    let st = dev.status(c.now());
+    check!(
+        st.state == lm_proto::DeviceState::Stopped
+            && st.mute_reason == lm_proto::MuteReason::LeaseExpired
+            && st.lease_ms == LEASE_MS
+            && st.lease_expiries == 1,
+        "{:?}",
+        st
+    );
+    hprint!(
+        "({} frames sounded; muted {} counts = {} instructions after the expiry) ",
+        w.sounding,
+        late,
+        late * INSTR_PER_COUNT
+    );
+    Ok(())
+}
+
+/// `SelfTest` on this board (QEMU has no SPI loopback): `Unsupported`
+/// through the byte path, `Busy` while a slot plays.
+pub fn self_test_is_unsupported_here(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
+    let mut dev = device(mem);
+    let mut out = lm_fw_qemu::FrameCounter::default();
+    let mut ask = |dev: &mut Device<'_>, now: u64| -> Option<Message<'static>> {
+        let mut wire = [0u8; lm_proto::MAX_ENCODED_FRAME];
+        let n = lm_proto::encode_frame(5, &Message::SelfTest, &mut wire).ok()?;
+        let mut reply = [0u8; lm_proto::MAX_ENCODED_FRAME];
+        let mut len = 0;
+        dev.feed(&wire[..n], now, &mut out, &mut |r| {
+            len = r.len();
+            reply[..len].copy_from_slice(r);
+        });
+        match lm_proto::FrameDecoder::new().feed(&reply[..len]) {
+            lm_proto::FeedResult::Frame { frame, .. } => match frame.message {
+                Message::SelfTestResult(t) => Some(Message::SelfTestResult(t)),
+                Message::Nack(code) => Some(Message::Nack(code)),
+                _ => None,
+            },
+            _ => None,
+        }
+    };
+    let r = ask(&mut dev, c.now());
+    check!(
+        r == Some(Message::SelfTestResult(lm_proto::SelfTest::Unsupported)),
+        "{:?}",
+        r
+    );
+    check!(upload(&mut dev, 0, 4, 996, 8_000, false) == Message::Ack);
+    check!(dev.handle(&play_leased(0, 1000), c.now()) == Message::Ack);
+    let r = ask(&mut dev, c.now());
+    check!(r == Some(Message::Nack(NackCode::Busy)), "{:?}", r);
+    check!(dev.handle(&Message::Stop, c.now()) == Message::Ack);
+    Ok(())
+}

@@ -1,5 +1,5 @@
-//! On-target tests: the core and the wire code on the Cortex-M4F under
-//! `qemu-system-arm -M mps2-an386 -icount shift=0 -semihosting-config
+//! On-target tests: the core and the wire code on the Cortex-M7 under
+//! `qemu-system-arm -M mps2-an500 -icount shift=0 -semihosting-config
 //! enable=on,target=native` (`cargo xtask ci` runs it so). Prints one line per
 //! test, then `N passed, N failed`; the semihosting exit status is the verdict.
 //!
@@ -14,7 +14,8 @@
 //!
 //! One file per group: `support` (the device, test sequence and frame
 //! recorder the groups share), `wire` (byte vectors, frames through the
-//! feed), `device` (store, player, correction, gate), `measure` (the timer
+//! feed), `device` (store, player, correction, gate, host lease,
+//! self-test), `measure` (the timer
 //! check and the cost figures).
 
 use cortex_m_rt::entry;
@@ -53,11 +54,12 @@ mod support;
 mod wire;
 
 use device::{
-    correction_applied_to_frames, gate_mutes_within_one_step, player_follows_timer_schedule,
-    store_commit_checks_crc,
+    correction_applied_to_frames, gate_mutes_within_one_step, lease_silences_a_quiet_host,
+    player_follows_timer_schedule, self_test_is_unsupported_here, store_commit_checks_crc,
 };
 use measure::{
-    measure_centroid_cost, measure_raw_vs_delta_step, measure_step_cost, timer_counts_instructions,
+    cpu_is_a_cortex_m_with_an_fpu, measure_centroid_cost, measure_raw_vs_delta_step,
+    measure_step_cost, timer_counts_instructions,
 };
 use wire::{frames_through_feed, proto_vectors_on_target};
 
@@ -79,6 +81,10 @@ impl Ctx {
 type Test = fn(&mut Ctx, &mut [u8]) -> TestResult;
 
 const TESTS: &[(&str, Test)] = &[
+    (
+        "cpu_is_a_cortex_m_with_an_fpu",
+        cpu_is_a_cortex_m_with_an_fpu,
+    ),
     ("timer_counts_instructions", timer_counts_instructions),
     ("proto_vectors_on_target", proto_vectors_on_target),
     ("store_commit_checks_crc", store_commit_checks_crc),
@@ -88,6 +94,11 @@ const TESTS: &[(&str, Test)] = &[
     ),
     ("correction_applied_to_frames", correction_applied_to_frames),
     ("gate_mutes_within_one_step", gate_mutes_within_one_step),
+    ("lease_silences_a_quiet_host", lease_silences_a_quiet_host),
+    (
+        "self_test_is_unsupported_here",
+        self_test_is_unsupported_here,
+    ),
     ("frames_through_feed", frames_through_feed),
     ("measure_step_cost", measure_step_cost),
     ("measure_centroid_cost", measure_centroid_cost),
@@ -101,7 +112,7 @@ fn main() -> ! {
         timer: unsafe { Timer::new(TIMER0_BASE) },
         clock: TimeExtender::new(),
     };
-    let Some(store) = support::STORE.take() else {
+    let Some(store) = support::STORE.try_take() else {
         panic!("the test store is taken once")
     };
     let (mut passed, mut failed) = (0u32, 0u32);

@@ -2,7 +2,7 @@
 //! BENCHMARKS.md quotes (each checks only that the work really happened).
 
 use lm_fw_core::{Device, OutputDriver, OutputFrame, memory_bytes};
-use lm_fw_qemu::{ARRAY_TRANSDUCERS, FrameCounter, config, hprintln};
+use lm_fw_qemu::{ARRAY_TRANSDUCERS, FrameCounter, config, hprint, hprintln};
 use lm_proto::codec::{self, Encoding};
 use lm_proto::{MAX_ENCODED_FRAME, Message, Play, PlayAt, encode_frame};
 
@@ -16,6 +16,52 @@ pub fn spin(n: u32) {
     unsafe {
         core::arch::asm!("1:", "subs {0}, #1", "bne 1b", inout(reg) n => _, options(nomem, nostack));
     }
+}
+
+/// SCB CPUID: implementer, variant, part number, revision.
+const CPUID: usize = 0xE000_ED00;
+/// Media and VFP feature register 0: which FPU the core has.
+const MVFR0: usize = 0xE000_EF40;
+
+/// Says which core the run is on (the figures below are its instruction
+/// counts): a Cortex-M4 or M7 by CPUID, with the single-precision FPU
+/// this image's hard-float code needs (MVFR0), and whether it also has
+/// double precision (the M7's FPv5, as on the STM32H743).
+pub fn cpu_is_a_cortex_m_with_an_fpu(_: &mut Ctx, _: &mut [u8]) -> TestResult {
+    // SAFETY: CPUID and MVFR0 are read-only system registers every
+    // ARMv7-M core with an FPU has; reading them has no side effect.
+    let (cpuid, mvfr0) = unsafe {
+        (
+            core::ptr::read_volatile(CPUID as *const u32),
+            core::ptr::read_volatile(MVFR0 as *const u32),
+        )
+    };
+    let core = match (cpuid >> 4) & 0xFFF {
+        0xC24 => "Cortex-M4",
+        0xC27 => "Cortex-M7",
+        _ => "unknown",
+    };
+    let (single, double) = ((mvfr0 >> 4) & 0xF, (mvfr0 >> 8) & 0xF);
+    hprint!(
+        "({} r{}p{}, CPUID {:#010x}; FPU single {}, double {}) ",
+        core,
+        (cpuid >> 20) & 0xF,
+        cpuid & 0xF,
+        cpuid,
+        if single != 0 { "yes" } else { "no" },
+        if double != 0 { "yes" } else { "no" }
+    );
+    check!(
+        core != "unknown",
+        "CPUID {:#010x} is neither an M4 nor an M7",
+        cpuid
+    );
+    check!(
+        single != 0,
+        "no single-precision FPU (MVFR0 {:#010x})",
+        mvfr0
+    );
+    Ok(())
 }
 
 pub fn timer_counts_instructions(c: &mut Ctx, _: &mut [u8]) -> TestResult {
@@ -151,7 +197,9 @@ pub fn measure_centroid_cost(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
         let len = encode_frame(seq as u16, &msg, &mut wire).map_err(|_| Failed)?;
         let now = c.now();
         let a = c.timer.now();
-        dev.feed(&wire[..len], now, &mut |_| acks += 1);
+        dev.feed(&wire[..len], now, &mut FrameCounter::default(), &mut |_| {
+            acks += 1
+        });
         fed += c.timer.now().wrapping_sub(a);
     }
     check!(acks == n, "{} replies to {} centroid frames", acks, n);
@@ -275,6 +323,7 @@ pub fn measure_raw_vs_delta_step(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
             at: PlayAt::Immediate,
             untracked: true,
             steps: 0,
+            lease_ms: lm_proto::DEFAULT_LEASE_MS,
         });
         let t0 = c.now();
         check!(dev.handle(&play, t0) == Message::Ack);

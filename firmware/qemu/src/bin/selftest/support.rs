@@ -1,16 +1,17 @@
 //! What the test groups share: a fresh device over one static store, the
 //! test layout and sequence, upload and message helpers, a frame recorder.
 
-use lm_fw_core::{Device, OutputDriver, OutputFrame, TakeOnce};
+use lm_fw_core::{Device, OutputDriver, OutputFrame};
 use lm_fw_qemu::{ARRAY_TRANSDUCERS, STORE_BYTES, Timer, config};
 use lm_proto::{
     BeginRig, BeginUpload, Centroid, Chunk, Commit, Crc32, Encoding, Geometry, MAX_CHUNK,
     MAX_GEOMETRY_POSITIONS, Message, POSITION_LEN, Play, PlayAt, Positions, UploadHeader,
 };
+use static_cell::ConstStaticCell;
 
 /// Sequence memory for the devices the tests build (one at a time): taken
 /// once by `main`, lent to each test.
-pub static STORE: TakeOnce<[u8; STORE_BYTES]> = TakeOnce::new([0; STORE_BYTES]);
+pub static STORE: ConstStaticCell<[u8; STORE_BYTES]> = ConstStaticCell::new([0; STORE_BYTES]);
 
 /// A fresh device over `mem` (the test's loan of [`STORE`]).
 pub fn device(mem: &mut [u8]) -> Device<'_> {
@@ -189,6 +190,18 @@ pub fn play_now(slot: u8) -> Message<'static> {
         at: PlayAt::Immediate,
         untracked: false,
         steps: 0,
+        lease_ms: lm_proto::DEFAULT_LEASE_MS,
+    })
+}
+
+/// An untracked play of `slot` with a `lease_ms` host lease.
+pub fn play_leased(slot: u8, lease_ms: u16) -> Message<'static> {
+    Message::Play(Play {
+        slot,
+        at: PlayAt::Immediate,
+        untracked: true,
+        steps: 0,
+        lease_ms,
     })
 }
 

@@ -1,7 +1,7 @@
 //! The wire code on target: the proto crate's byte vectors, and frames fed
 //! byte by byte through the device.
 
-use lm_fw_qemu::{ARRAY_TRANSDUCERS, PCLK_HZ, hprintln};
+use lm_fw_qemu::{ARRAY_TRANSDUCERS, FrameCounter, PCLK_HZ, hprintln};
 use lm_proto::{FeedResult, FrameDecoder, MAX_ENCODED_FRAME, Message, encode_frame, vectors};
 
 use crate::support::*;
@@ -28,16 +28,17 @@ pub fn frames_through_feed(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
     let mut wire = [0u8; MAX_ENCODED_FRAME];
     let mut reply = [0u8; MAX_ENCODED_FRAME];
     let mut reply_len = 0;
+    let mut out = FrameCounter::default();
     let n = encode_frame(42, &Message::GetInfo, &mut wire).map_err(|_| Failed)?;
     // Garbage first, then the request split in two pieces.
-    dev.feed(&[0x13, 0x37, 0x00], c.now(), &mut |_| {});
+    dev.feed(&[0x13, 0x37, 0x00], c.now(), &mut out, &mut |_| {});
     let now = c.now();
-    dev.feed(&wire[..3], now, &mut |r| {
+    dev.feed(&wire[..3], now, &mut out, &mut |r| {
         reply_len = r.len();
         reply[..r.len()].copy_from_slice(r);
     });
     check!(reply_len == 0, "replied to half a frame");
-    dev.feed(&wire[3..n], now, &mut |r| {
+    dev.feed(&wire[3..n], now, &mut out, &mut |r| {
         reply_len = r.len();
         reply[..r.len()].copy_from_slice(r);
     });

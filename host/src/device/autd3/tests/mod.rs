@@ -179,8 +179,10 @@ fn paper_timing_lands_on_the_fpga_divide() {
         let f = c[0].fpga();
         assert_eq!(f.stm_freq_divide(Segment::S1), 98);
         assert!(f.is_stm_gain_mode(Segment::S1));
-        // Written with the largest finite loop count (65535 loops = rep 0xFFFE).
-        assert_eq!(f.stm_loop_count(Segment::S1), 0xFFFE);
+        // Written looping forever (rep 0xFFFF): autd3 firmware switches
+        // into an endless segment at once, so a play from silence sounds
+        // at once wherever the slot sits.
+        assert_eq!(f.stm_loop_count(Segment::S1), 0xFFFF);
     });
     // A dwell off the grid is refused as bad input.
     let mut off = plan.clone();
@@ -189,48 +191,60 @@ fn paper_timing_lands_on_the_fpga_divide() {
     assert_eq!(e.kind(), crate::device::backend::ErrorKind::Input, "{e:#}");
 }
 
+/// Issue 31.4: a read-back that differs is the upload's own failure, on
+/// every caller (upload, stream, session, study, Python): the slot is
+/// left empty, so nothing can play what was not planned.
 #[test]
-fn play_switches_segments_only_at_the_loop_end() {
-    let (scene, mut b, h, clock) = open_default();
-    let (x, g) = lm(&scene, 3.0, 1);
-    // Same N and dwell at another radius: both loops end together on the
-    // devices' shared clock, which is where SyncIdx switches.
-    let mut p = LmParams::paper(scene.center_mm);
-    p.radius_mm = 5.0;
-    p.steps = Steps::Count(g.steps);
-    let (y, gy) = timing::plan(&p, &scene, &Synthesis::Linear).unwrap();
-    assert_eq!((gy.steps, gy.divide), (g.steps, g.divide));
-    let period = Duration::from_micros(g.steps as u64 * u64::from(g.dwell_us));
-    assert_eq!(b.upload(&x, None).unwrap().slot, 1);
+fn a_damaged_upload_fails_and_leaves_its_slot_empty() {
+    let (scene, mut b, h, _c) = open_default();
+    let (x, _) = lm(&scene, 3.0, 1);
+    let (y, _) = lm(&scene, 5.0, 4);
+    b.upload(&x, Some(1)).unwrap();
     b.play(1, true).unwrap();
-    assert_eq!(stm_segment(&h), Segment::S1);
-    assert_eq!(b.upload(&y, None).unwrap().slot, 0);
-    // Mid-loop: ask for slot 0; it must not switch before the loop ends.
-    let now = clock.now();
-    let next_end = Duration::from_nanos(
-        ((now.as_nanos() / period.as_nanos()) + 2) as u64 * period.as_nanos() as u64,
+    h.damage_next_stm_upload();
+    let e = b.upload(&y, Some(0)).unwrap_err();
+    assert_eq!(e.kind(), crate::device::backend::ErrorKind::Failed, "{e:#}");
+    assert!(
+        e.to_string()
+            .contains("holds 1 phases in slot 0 that differ from the plan"),
+        "{e}"
     );
-    clock.advance(next_end - period / 2 - now);
-    b.request_play(0, true).unwrap();
-    for _ in 0..9 {
-        clock.advance(period / 20);
-        assert_eq!(stm_segment(&h), Segment::S1, "switched mid-loop");
+    assert_eq!(b.slot_steps(0), None);
+    assert!(b.play(0, true).is_err(), "a damaged slot does not play");
+    assert_eq!(
+        b.status().unwrap().slot,
+        Some(1),
+        "the playing slot plays on"
+    );
+    assert_eq!(stm_segment(&h), Segment::S1);
+    // Sent again undamaged, it goes through and reads back clean.
+    let r = b.upload(&y, Some(0)).unwrap();
+    assert_eq!(r.readback_mismatches(), Some(0));
+    // The shared upload path says the same (what the CLI, the session and
+    // Python call).
+    h.damage_next_stm_upload();
+    let planned = crate::plan::stimulus::Stimulus::default()
+        .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
+        .unwrap();
+    let e = crate::device::upload::upload(
+        &mut b,
+        &planned,
+        Some(0),
+        crate::device::upload::Play::Untracked,
+    )
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("differ from the plan"), "{e:#}");
+    assert_eq!(b.status().unwrap().slot, Some(1));
+}
+
+#[test]
+fn the_emulator_runs_the_firmware_these_crates_speak() {
+    let (_, mut b, _h, _c) = open_default();
+    let info = b.info().unwrap();
+    assert_eq!(info.firmware.len(), 4);
+    for f in &info.firmware {
+        assert!(f.contains(&firmware::needed()), "{f}");
     }
-    clock.advance(next_end - Duration::from_micros(10) - clock.now());
-    assert_eq!(stm_segment(&h), Segment::S1, "switched before the loop end");
-    assert_eq!(h.with_cpus(|c| c[0].fpga().current_stm_idx()), g.steps - 1);
-    clock.advance(Duration::from_micros(20));
-    assert_eq!(stm_segment(&h), Segment::S0);
-    assert_eq!(h.with_cpus(|c| c[0].fpga().current_stm_idx()), 0);
-    // The pending switch completes: slot 0 now loops forever.
-    b.tick().unwrap();
-    clock.advance(period * 3 + period / 3);
-    assert_eq!(stm_segment(&h), Segment::S0);
-    let idx = h.with_cpus(|c| c[0].fpga().current_stm_idx());
-    assert!(idx > 0 && idx < g.steps, "{idx}");
-    assert_eq!(b.status().unwrap().slot, Some(0));
-    // Uploading into the playing slot is refused.
-    assert!(b.upload(&x, Some(0)).is_err());
 }
 
 #[test]
@@ -551,71 +565,4 @@ fn a_stimulus_intensity_is_the_output_level_while_it_sounds() {
     assert_eq!(modulation(&h), safety::FULL);
 }
 
-#[test]
-fn play_for_is_stopped_by_the_host_once_the_devices_clock_says_the_steps_played() {
-    let (scene, mut b, h, clock) = open_default();
-    let (plan, g) = lm(&scene, 3.0, 1);
-    let n = g.steps as u64;
-    let slot = b.upload(&plan, None).unwrap().slot;
-    let dwell = Duration::from_micros(u64::from(g.dwell_us));
-    let steps = 2 * n as u32 + 3;
-    b.play_for(slot, true, steps).unwrap();
-    let count = |st: &lm_proto::Status| u64::from(st.cycles) * n + u64::from(st.step);
-    // Ticked every dwell: it sounds until the tick that sees the limit.
-    let mut ticks = 0;
-    loop {
-        b.tick().unwrap();
-        let st = b.status().unwrap();
-        if st.state == DeviceState::Stopped {
-            assert_eq!(count(&st), u64::from(steps));
-            assert_eq!((st.slot, st.mute_reason), (Some(slot), MuteReason::Stopped));
-            break;
-        }
-        assert_eq!(st.state, DeviceState::Playing);
-        assert!(count(&st) < u64::from(steps));
-        assert_eq!(modulation(&h), safety::FULL);
-        clock.advance(dwell);
-        ticks += 1;
-        assert!(ticks <= 3 * n, "never stopped");
-    }
-    assert_eq!(modulation(&h), safety::MUTED);
-    // Frozen at the stop.
-    let st = b.status().unwrap();
-    clock.advance(dwell * 50);
-    assert_eq!(b.status().unwrap(), st);
-    // A late tick: the status is honest about the host's lateness.
-    b.play_for(slot, true, 5).unwrap();
-    clock.advance(dwell * 7 + dwell / 2);
-    b.tick().unwrap();
-    let st = b.status().unwrap();
-    assert_eq!(st.state, DeviceState::Stopped);
-    assert_eq!(count(&st), 7);
-    assert_eq!(modulation(&h), safety::MUTED);
-    // 0 = until stop.
-    b.play_for(slot, true, 0).unwrap();
-    clock.advance(dwell * (10 * n as u32));
-    b.tick().unwrap();
-    assert_eq!(b.status().unwrap().state, DeviceState::Playing);
-}
-
-#[test]
-fn status_step_is_the_emulated_fpgas_stm_index_while_it_plays() {
-    let (scene, mut b, h, clock) = open_default();
-    assert_eq!(b.counters_source(), "host clock");
-    let (plan, g) = lm(&scene, 3.0, 1);
-    let slot = b.upload(&plan, None).unwrap().slot;
-    b.play(slot, true).unwrap();
-    let dwell = u64::from(g.dwell_us);
-    let n = g.steps as u64;
-    let mut seen = std::collections::BTreeSet::new();
-    // Every third of a dwell over two and a half cycles.
-    for k in 0..(5 * n * 3 / 2) {
-        clock.advance(Duration::from_micros(dwell / 3 + k % 2));
-        let st = b.status().unwrap();
-        let fpga = h.with_cpus(|c| c[0].fpga().current_stm_idx());
-        assert_eq!(usize::from(st.step), fpga, "at {} µs", clock.now_us());
-        seen.insert(st.step);
-    }
-    assert_eq!(seen.len() as u64, n, "every index of the cycle seen");
-    assert!(b.status().unwrap().cycles >= 2);
-}
+mod play;

@@ -1,0 +1,272 @@
+//! Files lmhost reads and writes.
+//!
+//! - **Inputs** ([`open_input`], [`read_input`]): a path is checked by its
+//!   metadata before it is opened, so a FIFO, a directory, a device node, a
+//!   socket or a missing file is a one-line [`InputError`] at once (never an
+//!   `open` that blocks); standard input stays the way to stream. Every
+//!   input's identity (device and inode) is remembered.
+//! - **Outputs** ([`Output`], [`write_whole`]): the destination is looked
+//!   at first ([`dest`]). A regular file (or a new name) gets a temporary
+//!   file beside it, synced and renamed over it on [`Output::commit`], so a
+//!   file lmhost writes is whole or absent after a full disk, an error,
+//!   Ctrl-C ([`crate::stop`] removes the temporary file) or `kill -9` (a
+//!   leftover `.NAME.lmhost-PID.tmp.EXT`, never the named file); a failed
+//!   overwrite leaves the previous file as it was. A symlink is followed
+//!   and its target replaced (the link stays a link); the replaced file
+//!   keeps its permission bits and owner; a file with other names (hard
+//!   links) is replaced under this name only, and a note says so. A
+//!   character device (`/dev/null`) or a FIFO with a reader is written in
+//!   place; a FIFO with no reader, a block device, a socket or a directory
+//!   is refused.
+//! - **Logs** ([`AppendLog`]): lines appended whole to a file written in
+//!   place, opened without blocking (a FIFO with no reader is refused).
+//! - **Output = input**: an output that is one of this process's inputs
+//!   (the same file, also through a link or another name) is refused
+//!   before anything is written, as is an output given twice
+//!   ([`distinct_outputs`]).
+
+mod dest;
+mod log;
+mod output;
+
+pub use log::AppendLog;
+pub use output::{Output, replace_input, write_whole};
+
+use std::fs::{File, Metadata};
+use std::os::unix::fs::{FileTypeExt as _, MetadataExt as _, OpenOptionsExt as _};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use crate::error::InputError;
+
+/// What went wrong with an I/O call, in words (no `os error N`).
+pub fn reason(e: &std::io::Error) -> String {
+    use std::io::ErrorKind as K;
+    match e.kind() {
+        K::NotFound => "no such file or directory".into(),
+        K::PermissionDenied => "permission denied".into(),
+        K::IsADirectory => "it is a directory".into(),
+        K::NotADirectory => "a part of the path is not a directory".into(),
+        K::StorageFull => "no space left on device".into(),
+        K::QuotaExceeded => "disk quota exceeded".into(),
+        K::ReadOnlyFilesystem => "read-only file system".into(),
+        K::AlreadyExists => "it already exists".into(),
+        K::WriteZero => "the device accepted no more bytes".into(),
+        K::ConnectionRefused => "connection refused".into(),
+        K::TimedOut => "timed out".into(),
+        K::AddrInUse => "address in use by another process".into(),
+        _ => {
+            let s = e.to_string();
+            match s.find(" (os error") {
+                Some(i) => s[..i].to_owned(),
+                None => s,
+            }
+        }
+    }
+}
+
+/// [`reason`] for an error from a library that wraps an I/O error (an
+/// image encoder, say): the first `io::Error` in its source chain, else an
+/// `os error N` in its text, else its text.
+pub fn reason_of(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut cur = Some(e);
+    while let Some(c) = cur {
+        if let Some(io) = c.downcast_ref::<std::io::Error>() {
+            return reason(io);
+        }
+        cur = c.source();
+    }
+    let text = e.to_string();
+    let code = text
+        .split("(os error ")
+        .nth(1)
+        .and_then(|t| t.split(')').next())
+        .and_then(|n| n.parse::<i32>().ok());
+    match code {
+        Some(n) => reason(&std::io::Error::from_raw_os_error(n)),
+        None => text,
+    }
+}
+
+/// Identity of a file: (device, inode).
+type Id = (u64, u64);
+
+/// Inputs opened by this process (identity and the path given).
+static INPUTS: Mutex<Vec<(Id, PathBuf)>> = Mutex::new(Vec::new());
+
+fn id(m: &Metadata) -> Id {
+    (m.dev(), m.ino())
+}
+
+/// What kind of non-regular file `m` is, in words.
+fn kind(m: &Metadata) -> Option<&'static str> {
+    let t = m.file_type();
+    if t.is_file() {
+        None
+    } else if t.is_dir() {
+        Some("it is a directory")
+    } else if t.is_fifo() {
+        Some("it is a FIFO (named pipe), not a regular file; pipe into standard input instead")
+    } else if t.is_char_device() || t.is_block_device() {
+        Some("it is a device node, not a regular file")
+    } else if t.is_socket() {
+        Some("it is a socket, not a regular file")
+    } else {
+        Some("it is not a regular file")
+    }
+}
+
+/// Checks that `path` is an existing regular file (`what` names it in
+/// errors, e.g. "--scene file") without opening it.
+pub fn check_input(what: &str, path: &Path) -> Result<Metadata, InputError> {
+    let cannot =
+        |why: &str| InputError::new(format!("cannot read {what} {}: {why}", path.display()));
+    let m = std::fs::metadata(path).map_err(|e| cannot(&reason(&e)))?;
+    if let Some(k) = kind(&m) {
+        return Err(cannot(k));
+    }
+    Ok(m)
+}
+
+/// Opens the regular file `path` for reading (checked first, see
+/// [`check_input`]) and remembers it as an input.
+pub fn open_input(what: &str, path: &Path) -> Result<File, InputError> {
+    let cannot =
+        |why: &str| InputError::new(format!("cannot read {what} {}: {why}", path.display()));
+    check_input(what, path)?;
+    // O_NONBLOCK: should the path turn into a FIFO between the check and
+    // the open, the open still returns at once (regular files ignore it).
+    let f = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| cannot(&reason(&e)))?;
+    let m = f.metadata().map_err(|e| cannot(&reason(&e)))?;
+    if let Some(k) = kind(&m) {
+        return Err(cannot(k));
+    }
+    INPUTS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push((id(&m), path.to_owned()));
+    Ok(f)
+}
+
+/// Reads the whole input file `path`, refusing one longer than `max`
+/// bytes before reading it.
+pub fn read_input(what: &str, path: &Path, max: u64) -> Result<Vec<u8>, InputError> {
+    use std::io::Read as _;
+    let f = open_input(what, path)?;
+    let mut bytes = Vec::new();
+    f.take(max + 1).read_to_end(&mut bytes).map_err(|e| {
+        InputError::new(format!(
+            "cannot read {what} {}: {}",
+            path.display(),
+            reason(&e)
+        ))
+    })?;
+    if bytes.len() as u64 > max {
+        return Err(InputError::new(format!(
+            "{what} {} is larger than {max} bytes, the most a {what} may be",
+            path.display()
+        )));
+    }
+    Ok(bytes)
+}
+
+/// The input `path` is, if it exists and was opened as one.
+fn input_named_by(path: &Path) -> Option<PathBuf> {
+    let m = std::fs::metadata(path).ok()?;
+    let inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
+    inputs
+        .iter()
+        .find(|(i, _)| *i == id(&m))
+        .map(|(_, p)| p.clone())
+}
+
+/// Refuses to write `path` when it is one of this process's inputs.
+pub fn not_an_input(flag: &str, path: &Path) -> Result<(), InputError> {
+    match input_named_by(path) {
+        Some(input) => Err(InputError::new(format!(
+            "{flag} {} is the input {}: refusing to overwrite it; choose another output path",
+            path.display(),
+            input.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Refuses outputs that are the same file as each other (by name after
+/// resolving the directory, or by identity when they exist) or as an
+/// input: `outputs` are (flag, path) pairs, checked before anything is
+/// written.
+pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
+    // By the name written: a symlink's target.
+    let key = |p: &Path| -> PathBuf {
+        let p = dest::follow(p).unwrap_or_else(|_| p.to_owned());
+        let dir = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_owned());
+        dir.join(p.file_name().unwrap_or_default())
+    };
+    for (i, (flag, p)) in outputs.iter().enumerate() {
+        not_an_input(flag, p)?;
+        for (flag2, q) in &outputs[..i] {
+            let same_id = match (std::fs::metadata(p), std::fs::metadata(q)) {
+                (Ok(a), Ok(b)) => id(&a) == id(&b),
+                _ => false,
+            };
+            if same_id || key(p) == key(q) {
+                return Err(InputError::new(format!(
+                    "{flag} {} and {flag2} {} are the same file; give each output its own path",
+                    p.display(),
+                    q.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Makes the output directory `dir` (and its parents) that `flag` names,
+/// refusing (exit 2) one that is an input; a failure names it (exit 1).
+pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<()> {
+    not_an_input(flag, dir)?;
+    std::fs::create_dir_all(dir).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot create the {flag} directory {}: {}",
+            dir.display(),
+            reason(&e)
+        )
+    })
+}
+
+/// A write to `path` failed: exit 1, naming the file and the reason in
+/// words, once (the I/O error is kept, not chained as a source, so the
+/// one-line message does not say it again in the OS's words).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {}: {}", .path.display(), reason(.io))]
+pub struct WriteError {
+    path: PathBuf,
+    io: std::io::Error,
+}
+
+impl WriteError {
+    /// The error of writing `path`.
+    pub fn new(path: &Path, io: std::io::Error) -> Self {
+        Self {
+            path: path.to_owned(),
+            io,
+        }
+    }
+
+    /// The I/O error behind it.
+    pub fn io(&self) -> &std::io::Error {
+        &self.io
+    }
+}
+
+#[cfg(test)]
+mod tests;

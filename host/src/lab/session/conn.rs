@@ -1,0 +1,330 @@
+//! Control connections, off the session's loop: each has a reader thread
+//! that hands whole lines of at most [`MAX_COMMAND_BYTES`] to the loop
+//! (the rest of a longer line is skipped in fixed-size chunks, never
+//! buffered) and a writer thread fed through a bounded queue. The loop
+//! only ever queues a line without waiting: a client whose queue is full
+//! is dropped, so no client can hold the loop, the finger feed or the
+//! device's tick up.
+
+use std::io::{BufRead as _, BufReader, Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
+
+use super::protocol::{MAX_COMMAND_BYTES, Reply};
+
+/// Lines queued for one client before it counts as not reading: it is
+/// dropped then (a second of events at their busiest).
+pub const CLIENT_QUEUE: usize = 1024;
+
+/// Lines from the clients waiting for the loop: a client that sends
+/// faster than the loop takes them waits (its socket's flow control).
+pub const INBOUND_QUEUE: usize = 256;
+
+/// Most control connections at once.
+pub const MAX_CLIENTS: usize = 16;
+
+/// The stdio client's id (commands on stdin, replies on stdout).
+pub const STDIO: u64 = 0;
+
+/// What the connections' threads tell the loop.
+pub enum Inbound {
+    /// A connection opened (sent before any of its lines).
+    Joined(u64, Conn),
+    /// A whole line (without its newline).
+    Line(u64, String),
+    /// A line longer than [`MAX_COMMAND_BYTES`] (skipped).
+    TooLong(u64),
+    /// The client went away (its input ended or a write to it failed).
+    Gone(u64),
+    /// Writing standard output failed: `None` when its reader closed it.
+    StdoutFailed(Option<anyhow::Error>),
+}
+
+/// The loop's handle on one connection.
+pub struct Conn {
+    queue: Option<SyncSender<Arc<str>>>,
+    /// Yields once the writer has ended.
+    done: Option<Receiver<()>>,
+    shutdown: Option<Box<dyn Fn() + Send>>,
+    live: Option<Arc<AtomicUsize>>,
+    /// Whether it receives events.
+    pub subscribed: bool,
+    /// Whether it may send commands (a TCP client after `auth`).
+    pub authed: bool,
+    /// When it connected (session clock, µs).
+    pub since_us: u64,
+}
+
+impl Conn {
+    /// Queues `line` for the client without waiting; false when its queue
+    /// is full or its writer has ended (the caller drops it).
+    pub fn send(&self, line: Arc<str>) -> bool {
+        self.queue.as_ref().is_some_and(|q| {
+            !matches!(
+                q.try_send(line),
+                Err(TrySendError::Full(_) | TrySendError::Disconnected(_))
+            )
+        })
+    }
+
+    /// Lets the writer write what is queued, waiting for it until
+    /// `until` at most, then closes the connection.
+    pub fn finish(mut self, until: std::time::Instant) {
+        self.queue = None;
+        if let Some(d) = &self.done {
+            let _ = d.recv_timeout(until.saturating_duration_since(std::time::Instant::now()));
+        }
+    }
+}
+
+impl Drop for Conn {
+    /// Closes the socket (which ends its reader and a writer blocked on
+    /// it) and frees its place among [`MAX_CLIENTS`].
+    fn drop(&mut self) {
+        if let Some(s) = &self.shutdown {
+            s();
+        }
+        if let Some(l) = &self.live {
+            l.fetch_sub(1, Ordering::SeqCst);
+        }
+    }
+}
+
+/// Reads lines from `r`, calling `deliver` with each whole line (its
+/// newline and a `\r` cut) or `None` for one longer than
+/// [`MAX_COMMAND_BYTES`]; memory stays bounded by that whatever the input.
+/// Stops at the end of input, a read error, or when `deliver` says so.
+pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Option<String>) -> bool) {
+    /// Hands over the line gathered (none when it was skipped).
+    fn hand(
+        line: &mut Vec<u8>,
+        skipping: bool,
+        deliver: &mut impl FnMut(Option<String>) -> bool,
+    ) -> bool {
+        let text = String::from_utf8_lossy(line).trim().to_owned();
+        line.clear();
+        skipping || text.is_empty() || deliver(Some(text))
+    }
+    let mut r = BufReader::with_capacity(8192, r);
+    let mut line: Vec<u8> = Vec::with_capacity(MAX_COMMAND_BYTES);
+    let mut skipping = false;
+    loop {
+        let chunk = match r.fill_buf() {
+            Ok([]) => break,
+            Ok(c) => c,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(_) => return,
+        };
+        let (part, end) = match chunk.iter().position(|&b| b == b'\n') {
+            Some(i) => (&chunk[..i], Some(i + 1)),
+            None => (chunk, None),
+        };
+        let mut go = true;
+        if !skipping {
+            if line.len() + part.len() > MAX_COMMAND_BYTES {
+                // Refused at once; the rest of the line is read past.
+                line.clear();
+                skipping = true;
+                go = deliver(None);
+            } else {
+                line.extend_from_slice(part);
+            }
+        }
+        let used = end.unwrap_or(chunk.len());
+        r.consume(used);
+        if end.is_some() {
+            go = go && hand(&mut line, skipping, &mut deliver);
+            skipping = false;
+        }
+        if !go {
+            return;
+        }
+    }
+    hand(&mut line, skipping, &mut deliver);
+}
+
+/// Starts `id`'s reader on a thread of its own.
+pub fn spawn_reader(
+    id: u64,
+    r: impl Read + Send + 'static,
+    tx: SyncSender<Inbound>,
+) -> std::io::Result<()> {
+    std::thread::Builder::new()
+        .name("lmhost-client".into())
+        .spawn(move || {
+            read_lines(r, |l| {
+                tx.send(match l {
+                    Some(l) => Inbound::Line(id, l),
+                    None => Inbound::TooLong(id),
+                })
+                .is_ok()
+            });
+            let _ = tx.send(Inbound::Gone(id));
+        })?;
+    Ok(())
+}
+
+/// Writes the lines of `rx` to `w`, flushing whenever the queue is empty;
+/// returns the first error.
+fn write_lines(rx: &Receiver<Arc<str>>, mut w: impl Write) -> std::io::Result<()> {
+    while let Ok(line) = rx.recv() {
+        writeln!(w, "{line}")?;
+        while let Ok(more) = rx.try_recv() {
+            writeln!(w, "{more}")?;
+        }
+        w.flush()?;
+    }
+    Ok(())
+}
+
+/// A connection over a socket: its writer thread and its loop handle.
+pub fn socket_conn(
+    id: u64,
+    w: impl Write + Send + 'static,
+    shutdown: Box<dyn Fn() + Send>,
+    live: Arc<AtomicUsize>,
+    authed: bool,
+    now_us: u64,
+    notify: SyncSender<Inbound>,
+) -> std::io::Result<Conn> {
+    let (queue, rx) = sync_channel(CLIENT_QUEUE);
+    let (done_tx, done) = sync_channel(1);
+    std::thread::Builder::new()
+        .name("lmhost-client-out".into())
+        .spawn(move || {
+            if write_lines(&rx, std::io::BufWriter::new(w)).is_err() {
+                let _ = notify.send(Inbound::Gone(id));
+            }
+            let _ = done_tx.send(());
+        })?;
+    Ok(Conn {
+        queue: Some(queue),
+        done: Some(done),
+        shutdown: Some(shutdown),
+        live: Some(live),
+        subscribed: false,
+        authed,
+        since_us: now_us,
+    })
+}
+
+/// The stdio client: replies and events to standard output through
+/// [`crate::out`], from a thread of its own.
+pub fn stdout_conn(notify: SyncSender<Inbound>) -> std::io::Result<Conn> {
+    let (queue, rx) = sync_channel::<Arc<str>>(CLIENT_QUEUE);
+    let (done_tx, done) = sync_channel(1);
+    std::thread::Builder::new()
+        .name("lmhost-stdout".into())
+        .spawn(move || {
+            let r = (|| -> anyhow::Result<()> {
+                while let Ok(line) = rx.recv() {
+                    crate::outln!("{line}")?;
+                    while let Ok(more) = rx.try_recv() {
+                        crate::outln!("{more}")?;
+                    }
+                    crate::out::flush_stdout()?;
+                }
+                Ok(())
+            })();
+            if let Err(e) = r {
+                let closed = e.is::<crate::out::StdoutClosed>();
+                let _ = notify.send(Inbound::StdoutFailed((!closed).then_some(e)));
+            }
+            let _ = done_tx.send(());
+        })?;
+    Ok(Conn {
+        queue: Some(queue),
+        done: Some(done),
+        shutdown: None,
+        live: None,
+        subscribed: true,
+        authed: true,
+        since_us: 0,
+    })
+}
+
+/// One line refusing a client over [`MAX_CLIENTS`].
+pub fn too_many() -> String {
+    serde_json::Value::from(Reply::error("", format!("too many clients (at most {MAX_CLIENTS})")).0)
+        .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lines(input: &[u8]) -> Vec<Option<String>> {
+        let mut out = Vec::new();
+        read_lines(input, |l| {
+            out.push(l);
+            true
+        });
+        out
+    }
+
+    #[test]
+    fn lines_are_whole_and_bounded_and_long_ones_are_skipped() {
+        let long = vec![b'x'; 3 * MAX_COMMAND_BYTES + 17];
+        let mut input = b"a\r\n\n  \nb\n".to_vec();
+        input.extend(&long);
+        input.extend(b"\nc\n");
+        input.extend(vec![b'y'; MAX_COMMAND_BYTES]);
+        input.extend(b"\nlast");
+        let got = lines(&input);
+        assert_eq!(
+            got,
+            [
+                Some("a".into()),
+                Some("b".into()),
+                None,
+                Some("c".into()),
+                Some("y".repeat(MAX_COMMAND_BYTES)),
+                Some("last".into()),
+            ]
+        );
+    }
+
+    /// A reader that yields `n` bytes without a newline, in 8 KiB reads.
+    struct Endless(u64);
+
+    impl Read for Endless {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let n = (buf.len() as u64).min(self.0) as usize;
+            buf[..n].fill(b'z');
+            self.0 -= n as u64;
+            Ok(n)
+        }
+    }
+
+    #[test]
+    fn a_line_without_end_is_refused_once_and_read_past_in_chunks() {
+        // 64 MiB without a newline: refused once, nothing buffered beyond
+        // the bound (the line buffer never grows past its capacity).
+        let mut seen = Vec::new();
+        read_lines(Endless(64 << 20), |l| {
+            seen.push(l.map(|s| s.len()));
+            true
+        });
+        assert_eq!(seen, [None]);
+    }
+
+    #[test]
+    fn a_full_client_queue_says_so_without_waiting() {
+        let (queue, _rx) = sync_channel(2);
+        let c = Conn {
+            queue: Some(queue),
+            done: None,
+            shutdown: None,
+            live: None,
+            subscribed: true,
+            authed: true,
+            since_us: 0,
+        };
+        let line: Arc<str> = Arc::from("x");
+        assert!(c.send(line.clone()) && c.send(line.clone()));
+        let t = std::time::Instant::now();
+        assert!(!c.send(line), "full");
+        assert!(t.elapsed() < std::time::Duration::from_millis(50));
+    }
+}

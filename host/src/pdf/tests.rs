@@ -1,0 +1,187 @@
+//! The PDF a figure gives: sized, repeatable, text as Unicode glyphs of a
+//! named font subset.
+
+use std::io::Read as _;
+
+use plotters::prelude::*;
+
+use super::*;
+use crate::field::ObservationPlane;
+use crate::field::plot::{self, Figure, Format, Labels, Overlay, Panel};
+
+/// Object `n`'s bytes, between `n 0 obj` and `endobj`.
+fn object(pdf: &[u8], n: usize) -> &[u8] {
+    let head = format!("\n{n} 0 obj\n");
+    let at = pdf
+        .windows(head.len())
+        .position(|w| w == head.as_bytes())
+        .unwrap_or_else(|| panic!("object {n}"))
+        + head.len();
+    let end = pdf[at..].windows(6).position(|w| w == b"endobj").unwrap();
+    &pdf[at..at + end]
+}
+
+/// The inflated data of a stream object (`/Length` bytes after `stream`).
+fn stream_data(obj: &[u8]) -> Vec<u8> {
+    let text = String::from_utf8_lossy(obj);
+    let len: usize = text
+        .split("/Length ")
+        .nth(1)
+        .unwrap()
+        .split(|c: char| !c.is_ascii_digit())
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let s = obj.windows(7).position(|w| w == b"stream\n").unwrap() + 7;
+    let mut out = Vec::new();
+    flate2::read::ZlibDecoder::new(&obj[s..s + len])
+        .read_to_end(&mut out)
+        .unwrap();
+    out
+}
+
+fn text(obj: &[u8]) -> String {
+    String::from_utf8_lossy(obj).into_owned()
+}
+
+#[test]
+fn figure_pdf_is_sized_repeatable_and_embeds_a_font_subset() {
+    let dir = std::env::temp_dir().join(format!("lmhost-pdf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let plane = ObservationPlane {
+        center_mm: [0.0, 0.0, 200.0],
+        u: [1.0, 0.0, 0.0],
+        v: [0.0, 1.0, 0.0],
+        width_mm: 10.0,
+        height_mm: 8.0,
+        step_mm: 1.0,
+    };
+    let map: Vec<f64> = (0..plane.nu() * plane.nv()).map(|i| i as f64).collect();
+    let panel = Panel {
+        map: &map,
+        overlay: Overlay {
+            orbit: (0..16)
+                .map(|k| {
+                    let a = k as f64 * std::f64::consts::TAU / 16.0;
+                    [2.0 * a.cos(), 2.0 * a.sin()]
+                })
+                .collect(),
+            foci: vec![[2.0, 0.0]],
+            disk: Some(([0.0, 0.0], 6.0)),
+        },
+    };
+    let labels = Labels {
+        x: "a (mm)".into(),
+        y: "v ∥ (0, 1, 0) (mm)".into(),
+        colorbar: "mean rad. pressure (Pa)".into(),
+        disk_mm: Some(6.0),
+        ..Labels::default()
+    };
+    let fig = Figure {
+        width_mm: 120.0,
+        formats: vec![Format::Pdf],
+    };
+    let written = plot::heatmap(&dir.join("m"), &plane, &panel, &labels, &fig).unwrap();
+    assert_eq!(written, vec![dir.join("m.pdf")]);
+    let pdf = std::fs::read(dir.join("m.pdf")).unwrap();
+    // The same figure, the same bytes.
+    plot::heatmap(&dir.join("again"), &plane, &panel, &labels, &fig).unwrap();
+    assert!(std::fs::read(dir.join("again.pdf")).unwrap() == pdf);
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(pdf.starts_with(b"%PDF-1.4\n"));
+    assert!(pdf.ends_with(b"%%EOF\n"));
+
+    // The page is the figure's printed width.
+    let page = text(object(&pdf, 3));
+    let mb = page.split("/MediaBox [0 0 ").nth(1).unwrap();
+    let w_pt: f64 = mb.split(' ').next().unwrap().parse().unwrap();
+    assert!((w_pt - 120.0 / 25.4 * 72.0).abs() < 0.5, "{w_pt} pt");
+    // One embedded image (the heatmap) and the overlays' alpha (the
+    // disk is drawn at 0.9).
+    assert!(page.contains("/Im0 ") && !page.contains("/Im1"), "{page}");
+    assert!(page.contains("/GS0 11 0 R"), "{page}");
+    assert!(text(object(&pdf, 11)).contains("/CA 0.9"));
+
+    // The font is a subset, named as one: `ABCDEF+DejaVuSans`.
+    let font = text(object(&pdf, 5));
+    let base = font.split("/BaseFont /").nth(1).unwrap();
+    let (tag, name) = base.split_once('+').unwrap();
+    assert!(tag.len() == 6 && tag.bytes().all(|b| b.is_ascii_uppercase()));
+    assert!(name.starts_with("DejaVuSans"), "{name}");
+    assert!(font.contains("/Identity-H") && font.contains("/ToUnicode 9 0 R"));
+    // Cut to the glyphs drawn: a few dozen, not DejaVu's 6000.
+    let file = stream_data(object(&pdf, 8));
+    let sub = ttf_parser::Face::parse(&file, 0).unwrap();
+    let full = ttf_parser::Face::parse(plot::FONT, 0).unwrap();
+    assert!(
+        (20..80).contains(&sub.number_of_glyphs()) && full.number_of_glyphs() > 5000,
+        "{} glyphs",
+        sub.number_of_glyphs()
+    );
+    assert!(file.len() * 20 < plot::FONT.len(), "{} bytes", file.len());
+    // Every character drawn is in the ToUnicode map, the ∥ included.
+    let cmap = text(&stream_data(object(&pdf, 9)));
+    for c in ['a', 'm', 'P', '∥', '(', '6'] {
+        let hex = format!("<{:04X}>", u32::from(c));
+        assert!(cmap.contains(&hex), "{c} {hex}");
+    }
+    // The image is the map's pixels, RGB.
+    let img = object(&pdf, 12);
+    let head = text(&img[..200.min(img.len())]);
+    let num = |key: &str| -> usize {
+        head.split(key)
+            .nth(1)
+            .unwrap()
+            .split(|c: char| !c.is_ascii_digit())
+            .nth(1)
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(stream_data(img).len(), num("/Width") * num("/Height") * 3);
+}
+
+#[test]
+fn text_is_unicode_glyphs_shown_and_measured_as_drawn() {
+    let mut out = Vec::new();
+    let mut b = PdfBackend::new(&mut out, (200, 100), 1.0, plot::FONT).unwrap();
+    let style = TextStyle::from(("sans-serif", 12.4).into_font()).color(&BLACK);
+    b.draw_text("µ∥a", &style, (10, 20)).unwrap();
+    b.draw_text("aa", &style, (10, 40)).unwrap();
+    // Glyphs numbered in order of first use after .notdef: µ 1, ∥ 2, a 3.
+    let content = String::from_utf8_lossy(b.content.as_bytes()).into_owned();
+    assert!(content.contains("/F1 10 Tf"), "{content}");
+    let shown: Vec<&str> = content.lines().filter(|l| l.ends_with("Tj")).collect();
+    assert_eq!(shown.len(), 2, "{content}");
+    assert!(
+        content.contains(r"(\000\001\000\002\000\003) Tj"),
+        "{content}"
+    );
+    assert!(content.contains(r"(\000\003\000\003) Tj"), "{content}");
+    assert_eq!(b.chars.values().collect::<String>(), "µ∥a");
+    // Widths from the font: a wide letter is wider than a narrow one,
+    // a digit is a digit wide, and a string is the sum of its letters.
+    let w = |s: &str| b.font.width(s, 1000.0);
+    assert!(w("W") > 1.5 * w("i"));
+    assert!((w("0") - w("8")).abs() < 1e-9);
+    assert!((w("Wi") - w("W") - w("i")).abs() < 1e-9);
+    assert!(b.font.ascent > 700.0 && b.font.descent < -100.0);
+    b.present().unwrap();
+    assert!(out.starts_with(b"%PDF"));
+    // A font that is not a font is an error, not a panic.
+    assert!(PdfBackend::new(&mut Vec::new(), (1, 1), 1.0, b"not a font").is_err());
+}
+
+#[test]
+fn a_short_bitmap_is_an_error_and_transparency_draws_nothing() {
+    let mut out = Vec::new();
+    let mut b = PdfBackend::new(&mut out, (10, 10), 1.0, plot::FONT).unwrap();
+    assert!(b.blit_bitmap((0, 0), (4, 4), &[0; 47]).is_err());
+    b.blit_bitmap((0, 0), (4, 4), &[0; 48]).unwrap();
+    let before = b.content.as_bytes().len();
+    b.draw_line((0, 0), (5, 5), &TRANSPARENT).unwrap();
+    assert_eq!(b.content.as_bytes().len(), before);
+    b.present().unwrap();
+    assert!(out.starts_with(b"%PDF"));
+}
