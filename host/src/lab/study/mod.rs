@@ -25,6 +25,7 @@
 pub mod answers;
 pub mod columns;
 pub mod design;
+pub mod live;
 pub mod procedure;
 pub mod protocol;
 pub mod record;
@@ -257,17 +258,10 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
     let view = match o.view {
-        Some(addr) => Some(start_view(addr, &session, &o.finger)?),
+        Some(addr) => Some(live::start_view(addr, &session, &o.finger)?),
         None => None,
     };
-    let answers: Box<dyn Answers> = match (st.lines.take(), &view) {
-        (Some(l), _) => Box::new(l),
-        (None, Some(v)) => Box::new(v.answers()),
-        (None, None) if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
-            Box::new(answers::Terminal::open()?)
-        }
-        (None, None) => Box::new(answers::Piped::open()?),
-    };
+    let answers = live::answer_source(st.lines.take(), view.as_ref())?;
     st.file.runs.push(Run {
         started_unix_s: unix_s(),
         first_trial: first,
@@ -378,34 +372,6 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     }
     logged?;
     Ok(report)
-}
-
-/// Starts the live view of `session` at `addr` and prints its pages: the
-/// synthetic finger is rendered in colour; tracked centroids bring no
-/// colour stream, so their view shows the overlay without video.
-fn start_view(
-    addr: std::net::SocketAddr,
-    session: &Session,
-    finger: &FingerSource,
-) -> anyhow::Result<crate::lab::view::View> {
-    use crate::lab::view;
-    let v = view::View::start(view::Options {
-        addr,
-        scene: session.scene().clone(),
-        colour: view::default_colour(),
-        frames: match finger {
-            FingerSource::Synthetic => view::Frames::Synthetic,
-            _ => view::Frames::Pushed,
-        },
-        stimuli: view::stimuli(session.loaded()),
-    })?;
-    crate::errln!(
-        "lmhost: view on {}: experimenter {} ; participant {}",
-        v.addr(),
-        v.experimenter_url(),
-        v.participant_url()
-    );
-    Ok(v)
 }
 
 /// Runs trials `first..` of `plan`, each row on disk before the next.
@@ -538,7 +504,10 @@ impl Runner {
             return Err(Interrupted.into());
         }
         let events = self.driver().turn()?;
-        self.show_finger();
+        // The finger as sent to the device, to the view.
+        if let (Some(p), Some(v)) = (self.driver().take_finger(), &self.view) {
+            v.finger(p);
+        }
         if self.driver().feed_ended() {
             return Err(
                 InputError::new("the finger's centroid stream ended before the session").into(),
@@ -556,15 +525,6 @@ impl Runner {
     fn touch(&mut self, on: bool) -> anyhow::Result<()> {
         self.driver().touch(on)?;
         self.tick()
-    }
-
-    /// The finger as last sent to the device, to the view.
-    fn show_finger(&mut self) {
-        if let Some(p) = self.driver().take_finger()
-            && let Some(v) = &self.view
-        {
-            v.finger(p);
-        }
     }
 
     /// Keeps the device served for `s` seconds.

@@ -6,8 +6,9 @@
 //! [`View::start`] serves [`server`] on its own threads; the caller's
 //! loop tells it what happens ([`View::events`], [`View::finger`]) and
 //! hands it colour frames ([`View::push_frame`], or the synthetic finger's
-//! own renderer), and a study asks the participant through
-//! [`answers::ViewAnswers`]. The view never holds the caller up: frames
+//! own renderer), and a study asks the participant through a
+//! [`Participant`] handle (the study's answer source over it lives in
+//! the study, `lab/study/live.rs`). The view never holds the caller up: frames
 //! are encoded on a thread of their own (the newest wins), each browser
 //! gets the newest frame when it is ready for one, and a client that
 //! stops reading is dropped. Endpoints and pages: `lab/view/VIEW.md`.
@@ -19,7 +20,6 @@
 //! camera pose, the depth → colour extrinsics and the colour intrinsics
 //! ([`crate::sense::track::overlay`]).
 
-pub mod answers;
 pub mod draw;
 pub mod server;
 mod state;
@@ -36,7 +36,7 @@ use crate::sense::track::overlay::ColourView;
 use crate::sense::track::synth::{FingerSim, background_of};
 use crate::sense::track::synth_colour::ColourSim;
 use state::Shared;
-pub use state::{Figures, Stimulus};
+pub use state::{EXPERIMENT2_RADII_MM, Figures, Question, Stimulus};
 
 /// The synthetic colour video's frame rate (Hz): the paper's view is a
 /// camera's RGB stream, 30 fps.
@@ -163,9 +163,11 @@ impl View {
         self.shared.push(img);
     }
 
-    /// Where answers come from when the participant's page gives them.
-    pub fn answers(&self) -> answers::ViewAnswers {
-        answers::ViewAnswers::new(self.shared.clone())
+    /// The participant's page, to ask questions on and take answers from.
+    pub fn participant(&self) -> Participant {
+        Participant {
+            shared: self.shared.clone(),
+        }
     }
 
     /// What the view measured.
@@ -180,6 +182,24 @@ impl Drop for View {
         for t in self.threads.drain(..) {
             let _ = t.join();
         }
+    }
+}
+
+/// The participant's page as seen by whoever asks the questions.
+pub struct Participant {
+    shared: Arc<Shared>,
+}
+
+impl Participant {
+    /// Shows `q` on the page (`None`: no question; a new `seq` clears an
+    /// earlier answer).
+    pub fn ask(&self, q: Option<Question>) {
+        self.shared.ask(q);
+    }
+
+    /// The page's answer to question `seq`, once.
+    pub fn take_answer(&self, seq: u64) -> Option<String> {
+        self.shared.take_answer(seq)
     }
 }
 

@@ -43,6 +43,9 @@ pub struct Encoded {
     pub height: u32,
 }
 
+/// Experiment 2's circle radii (mm): the paper's stimulus radii.
+pub const EXPERIMENT2_RADII_MM: [f64; 5] = [2.0, 3.0, 4.0, 5.0, 6.0];
+
 /// What the participant is asked.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Question {
@@ -268,7 +271,7 @@ impl Shared {
             .question
             .as_ref()
             .and_then(|q| q.radii_mm.clone())
-            .unwrap_or_else(|| super::answers::EXPERIMENT2_RADII_MM.to_vec());
+            .unwrap_or_else(|| EXPERIMENT2_RADII_MM.to_vec());
         if participant {
             return self
                 .scene

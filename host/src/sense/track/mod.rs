@@ -15,6 +15,7 @@
 pub mod camera;
 pub mod colour;
 pub mod contact;
+pub mod frame;
 pub mod intrinsics;
 pub mod overlay;
 pub mod plot;

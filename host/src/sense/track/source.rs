@@ -29,8 +29,9 @@ use std::path::{Path, PathBuf};
 
 use super::colour::{ColourCamera, ColourImage};
 use super::contact::Tracker;
+pub use super::frame::{Frame, FrameSource};
 use super::intrinsics::Intrinsics;
-use super::synth::{FingerSim, Truth};
+use super::synth::FingerSim;
 use super::synth_colour::ColourSim;
 pub use super::wire::{
     MAGIC, MAGIC_COLOUR, Stream, stream_frame, stream_frame_colour, stream_header,
@@ -43,41 +44,6 @@ use crate::sense::stream::run::Next;
 
 /// Default frame rate when a recording has no time stamps (the paper's 90 fps).
 pub const DEFAULT_FPS: f64 = 90.0;
-
-/// One depth frame.
-#[derive(Debug, Clone)]
-pub struct Frame {
-    /// Time stamp (s).
-    pub t_s: f64,
-    /// Row-major depth values.
-    pub depth: Vec<u16>,
-    /// Ground truth (synthetic frames only).
-    pub truth: Option<Truth>,
-    /// The colour image captured with this frame, if the source has a
-    /// colour stream and one came with it.
-    pub colour: Option<ColourImage>,
-}
-
-/// A source of frames.
-pub trait FrameSource {
-    /// The frames' intrinsics.
-    fn intrinsics(&self) -> Intrinsics;
-    /// The colour camera, if frames carry colour images.
-    fn colour_camera(&self) -> Option<ColourCamera> {
-        None
-    }
-    /// The next frame, `None` at the end.
-    fn next_frame(&mut self) -> anyhow::Result<Option<Frame>>;
-    /// Whether the source is live (already paced by the sensor).
-    fn live(&self) -> bool {
-        false
-    }
-    /// The next frame if one comes within `wait` (a source read on its own
-    /// thread, [`Live`], can idle; others block until it comes).
-    fn next_frame_within(&mut self, _wait: std::time::Duration) -> anyhow::Result<Next<Frame>> {
-        Ok(self.next_frame()?.map_or(Next::End, Next::Ready))
-    }
-}
 
 /// Frames buffered between a reader thread and the tracker (a few: a
 /// frame is up to a few MB).

@@ -29,8 +29,8 @@
 use std::io::Read;
 
 use super::colour::{ColourCamera, ColourImage, Distortion};
+use super::frame::{Frame, FrameSource};
 use super::intrinsics::Intrinsics;
-use super::source::{Frame, FrameSource};
 use crate::InputError;
 
 /// `LMDEPTH1`'s magic.
