@@ -320,60 +320,87 @@ fn browser_present() -> bool {
     false
 }
 
+/// `lmhost study run studies/paper-exp2.toml --view 0` on autd3's
+/// emulator with the synthetic finger, its view's pages read from stderr.
+struct Study {
+    child: Child,
+    participant: String,
+    experimenter: String,
+    port: u16,
+    token: String,
+    /// The rest of stderr, drained so the study never blocks on it.
+    log: std::thread::JoinHandle<String>,
+}
+
+impl Study {
+    fn start(out: &Path, scene_file: &Path) -> Study {
+        let _ = std::fs::remove_dir_all(out);
+        let mut child = Command::new(lmhost())
+            .args(["study", "run"])
+            .arg(root().join("studies/paper-exp2.toml"))
+            .args(["--port", "autd3:emulator", "--finger", "synthetic"])
+            .args(["--participant", "P01", "--seed", "5", "--time-scale", "0.2"])
+            .args(["--view", "0", "--out"])
+            .arg(out)
+            .arg("--scene")
+            .arg(scene_file)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut err = BufReader::new(child.stderr.take().unwrap());
+        let mut line = String::new();
+        let (experimenter, participant) = loop {
+            line.clear();
+            assert!(
+                err.read_line(&mut line).unwrap() > 0,
+                "the study ended before its view"
+            );
+            // "lmhost: view on ADDR: experimenter URL ; participant URL"
+            if let (Some(e), Some(p)) = (
+                line.find("experimenter http://"),
+                line.find("participant http://"),
+            ) {
+                let e = line[e + "experimenter ".len()..].split(' ').next().unwrap();
+                let p = line[p + "participant ".len()..].trim();
+                break (e.to_owned(), p.to_owned());
+            }
+        };
+        let log = std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = err.read_to_string(&mut s);
+            s
+        });
+        let hostport = participant["http://".len()..].split('/').next().unwrap();
+        let port: u16 = hostport.rsplit(':').next().unwrap().parse().unwrap();
+        let token = participant.rsplit("token=").next().unwrap().to_owned();
+        Study {
+            child,
+            participant,
+            experimenter,
+            port,
+            token,
+            log,
+        }
+    }
+}
+
 #[test]
 fn participant_page_shows_the_circles_and_answers_experiment_2() {
     if !browser_present() {
         return;
     }
     let out = std::env::temp_dir().join(format!("lmhost-e2e-browser-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
     let scene_file = root().join("scenes/paper.toml");
-    let mut study = Command::new(lmhost())
-        .args(["study", "run"])
-        .arg(root().join("studies/paper-exp2.toml"))
-        .args([
-            "--port",
-            "autd3:emulator",
-            "--finger",
-            "synthetic",
-            "--participant",
-            "P01",
-        ])
-        .args(["--seed", "5", "--time-scale", "0.2", "--view", "0", "--out"])
-        .arg(&out)
-        .arg("--scene")
-        .arg(&scene_file)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut err = BufReader::new(study.stderr.take().unwrap());
-    let mut participant = String::new();
-    let mut line = String::new();
-    while participant.is_empty() {
-        line.clear();
-        assert!(
-            err.read_line(&mut line).unwrap() > 0,
-            "the study ended before its view"
-        );
-        if let Some(at) = line.find("participant http://") {
-            participant = line[at + "participant ".len()..].trim().to_owned();
-        }
-    }
-    // The rest of stderr is drained so the study never blocks on it.
-    let log = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = err.read_to_string(&mut s);
-        s
-    });
-    let hostport = participant["http://".len()..]
-        .split('/')
-        .next()
-        .unwrap()
-        .to_owned();
-    let port: u16 = hostport.rsplit(':').next().unwrap().parse().unwrap();
-    let token = participant.rsplit("token=").next().unwrap().to_owned();
+    let Study {
+        mut child,
+        participant,
+        port,
+        token,
+        log,
+        ..
+    } = Study::start(&out, &scene_file);
     // No token, no view.
     assert_eq!(http(port, "GET", "/frame.png", None).0, 403);
     assert_eq!(http(port, "GET", "/participant?token=0000", None).0, 403);
@@ -394,6 +421,7 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
     let centre = view.pixel(c).unwrap();
 
     let mut radius_px_seen = Vec::new();
+    let mut figures = Vec::new();
     for trial in 1..=30 {
         // The question is up when the videos are live.
         d.until(
@@ -481,6 +509,11 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
         } else {
             Vec::new()
         };
+        if trial == 30 {
+            // The view's figures while it still runs: the last answer
+            // ends the study and its view.
+            figures = http(port, "GET", &format!("/state.json?token={token}"), None).1;
+        }
         d.click(&format!("#choice{pick}"));
         if trial == 1 {
             // ... and frames change: the finger comes back for trial 2.
@@ -499,13 +532,10 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
         radius_px_seen.windows(2).all(|w| w[1] > w[0]),
         "{radius_px_seen:?}"
     );
-    let figures =
-        String::from_utf8(http(port, "GET", &format!("/state.json?token={token}"), None).1)
-            .unwrap();
-    let status = study.wait().unwrap();
+    let status = child.wait().unwrap();
     let log = log.join().unwrap();
     assert!(status.success(), "{log}");
-    let v: serde_json::Value = serde_json::from_str(&figures).unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&figures).unwrap();
     eprintln!("view figures (debug build, one page): {}", v["figures"]);
     let csv = std::fs::read_to_string(out.join("P01/trials.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().collect();
@@ -523,4 +553,46 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
     for (i, g) in got.iter().enumerate().skip(1) {
         assert_eq!(*g, labels[(i + 1) % 5], "trial {}", i + 1);
     }
+}
+
+/// BENCHMARKS.md's view figures: two Chromium pages (the experimenter's
+/// and the participant's, the Experiment 2 setup) on one view for 70 s,
+/// then the view's own figures over the last minute: frame in → drawn
+/// latency and frames drawn per second per page. Prints them; no timing
+/// is asserted. Run on a release binary:
+/// `cargo build --release -p lmhost-cli && LMHOST_BIN=target/release/lmhost
+/// cargo test --release -p lm-e2e --test browser -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement for BENCHMARKS.md (70 s)"]
+fn measure_two_pages() {
+    if !browser_present() {
+        return;
+    }
+    let out =
+        std::env::temp_dir().join(format!("lmhost-e2e-browser-measure-{}", std::process::id()));
+    let mut s = Study::start(&out, &root().join("scenes/paper.toml"));
+    let pages = [&s.experimenter, &s.participant].map(|url| {
+        let d = Driver::start();
+        d.cmd("POST", "url", serde_json::json!({"url": url}));
+        d.until("return window.lmFrames > 5", Duration::from_secs(30));
+        d
+    });
+    // The latency samples cover the last minute: the pages' start-up is
+    // out of it by then.
+    std::thread::sleep(Duration::from_secs(70));
+    let state = http(
+        s.port,
+        "GET",
+        &format!("/state.json?token={}", s.token),
+        None,
+    )
+    .1;
+    let v: serde_json::Value = serde_json::from_slice(&state).unwrap();
+    let f = &v["figures"];
+    drop(pages);
+    let _ = s.child.kill();
+    let _ = s.child.wait();
+    let _ = s.log.join();
+    println!("view figures, 2 pages, 70 s: {f}");
+    assert_eq!(f["fps"].as_array().map(Vec::len), Some(2), "{f}");
 }

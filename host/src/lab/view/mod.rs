@@ -21,6 +21,7 @@
 //! ([`crate::sense::track::overlay`]).
 
 pub mod draw;
+pub mod http;
 pub mod server;
 mod state;
 
@@ -46,7 +47,8 @@ pub const SYNTHETIC_FPS: f64 = 30.0;
 /// pad and the largest circle with room around it.
 pub const CROP_HALF_MM: f64 = 12.0;
 
-/// Most browser connections at once (pages, WebSockets, snapshots).
+/// Most pages at once (their WebSockets); other connections are bounded
+/// by [`http::MAX_CONNECTIONS`].
 pub const MAX_CLIENTS: usize = 8;
 
 /// Where the colour frames come from.
@@ -96,9 +98,9 @@ impl View {
         };
         let token = state::new_token()?;
         let shared = Arc::new(Shared::new(scene, opts.stimuli, token.clone()));
-        let (server, addr) = server::bind(opts.addr)?;
+        let (listener, addr) = http::bind(opts.addr)?;
         let mut threads = vec![
-            server::spawn(server, shared.clone())?,
+            server::spawn(listener, shared.clone())?,
             state::spawn_encoder(shared.clone())?,
         ];
         if let Frames::Synthetic = opts.frames {

@@ -1,50 +1,28 @@
-//! The view's HTTP server: tiny_http on threads, the pages, the frame and
+//! The view's endpoints over [`super::http`]: the pages, the frame and
 //! state endpoints, the participant's answer, and a WebSocket per page
 //! (tungstenite over the upgraded connection) that carries the frames
 //! and what happens to the browser. Every request carries the view's
 //! token (`?token=`, compared in constant time); the endpoints are
 //! documented in `lab/view/VIEW.md`.
 
-use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 
-use tiny_http::{Header, Method, Request, Response, Server, StatusCode};
-
 use super::draw;
+use super::http::{Request, Response};
 use super::state::Shared;
 
 const EXPERIMENTER_HTML: &str = include_str!("experimenter.html");
 const PARTICIPANT_HTML: &str = include_str!("participant.html");
 const VIEW_JS: &str = include_str!("view.js");
 
-/// Binds `addr` (port 0: any free port); returns the bound address.
-pub fn bind(addr: SocketAddr) -> anyhow::Result<(Server, SocketAddr)> {
-    let server = Server::http(addr)
-        .map_err(|e| anyhow::anyhow!("--view {addr}: cannot listen there ({e})"))?;
-    let bound = server
-        .server_addr()
-        .to_ip()
-        .ok_or_else(|| anyhow::anyhow!("--view {addr}: not an IP address"))?;
-    Ok((server, bound))
-}
-
-/// Serves until the view closes.
+/// Serves on `l` until the view closes.
 pub(super) fn spawn(
-    server: Server,
+    l: std::net::TcpListener,
     sh: Arc<Shared>,
 ) -> anyhow::Result<std::thread::JoinHandle<()>> {
-    Ok(std::thread::Builder::new()
-        .name("lmhost-view-http".into())
-        .spawn(move || {
-            while !sh.lock().closed {
-                match server.recv_timeout(Duration::from_millis(100)) {
-                    Ok(Some(req)) => handle(req, &sh),
-                    Ok(None) => {}
-                    Err(_) => std::thread::sleep(Duration::from_millis(10)),
-                }
-            }
-        })?)
+    let closed = sh.clone();
+    super::http::serve(l, move || closed.lock().closed, move |r| handle(r, &sh))
 }
 
 /// The value of `key` in a query string, percent-decoded.
@@ -89,36 +67,28 @@ fn same(a: &str, b: &str) -> bool {
             == 0
 }
 
-fn header(k: &str, v: &str) -> Header {
-    Header::from_bytes(k.as_bytes(), v.as_bytes()).expect("ASCII header")
+fn text(code: u16, msg: &str) -> Response {
+    Response::text(code, msg)
 }
 
-fn text(code: u16, msg: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-    Response::from_string(format!("{msg}\n"))
-        .with_status_code(StatusCode(code))
-        .with_header(header("Content-Type", "text/plain; charset=utf-8"))
-}
-
-fn bytes(mime: &str, b: Vec<u8>) -> Response<std::io::Cursor<Vec<u8>>> {
-    Response::from_data(b)
-        .with_header(header("Content-Type", mime))
-        .with_header(header("Cache-Control", "no-store"))
+fn bytes(mime: &'static str, b: Vec<u8>) -> Response {
+    Response::bytes(mime, b)
 }
 
 fn handle(req: Request, sh: &Arc<Shared>) {
-    let url = req.url().to_owned();
-    let (path, query) = url.split_once('?').unwrap_or((&url, ""));
+    let (path, query) = (req.path.clone(), req.query.clone());
+    let query = query.as_str();
     let token_ok = param(query, "token").is_some_and(|t| same(&t, &sh.token));
     if !token_ok {
-        let _ = req.respond(text(
+        req.respond(text(
             403,
             "forbidden: open the address lmhost printed (it carries the session's token)",
         ));
         return;
     }
-    let get = *req.method() == Method::Get;
-    let post = *req.method() == Method::Post;
-    let r = match (path, get, post) {
+    let get = req.method == "GET";
+    let post = req.method == "POST";
+    let r = match (path.as_str(), get, post) {
         ("/", true, _) => bytes(
             "text/html; charset=utf-8",
             EXPERIMENTER_HTML
@@ -138,16 +108,8 @@ fn handle(req: Request, sh: &Arc<Shared>) {
             None => text(503, "no frame yet"),
         },
         ("/state.json", true, _) => bytes("application/json", state_json(sh).into_bytes()),
-        ("/pressure.png", true, _) => {
-            // Seconds of work: off the server's thread.
-            let sh = sh.clone();
-            let _ = std::thread::Builder::new()
-                .name("lmhost-view-map".into())
-                .spawn(move || {
-                    let _ = req.respond(pressure(&sh));
-                });
-            return;
-        }
+        // Seconds of work, on this connection's own thread.
+        ("/pressure.png", true, _) => pressure(sh),
         ("/answer", _, true) => {
             let seq = param(query, "seq").and_then(|s| s.parse().ok());
             match (seq, param(query, "choice")) {
@@ -176,10 +138,10 @@ fn handle(req: Request, sh: &Arc<Shared>) {
         | ("/answer" | "/drawn", _, _) => text(405, "method not allowed"),
         _ => text(404, "not found"),
     };
-    let _ = req.respond(r);
+    req.respond(r);
 }
 
-fn frame_png(sh: &Shared, radius: Option<&str>) -> Response<std::io::Cursor<Vec<u8>>> {
+fn frame_png(sh: &Shared, radius: Option<&str>) -> Response {
     let radius = match radius.map(str::parse::<f64>) {
         None => None,
         Some(Ok(r)) if r.is_finite() && r > 0.0 && r <= 50.0 => Some(r),
@@ -209,7 +171,7 @@ fn state_json(sh: &Shared) -> String {
     v.to_string()
 }
 
-fn pressure(sh: &Shared) -> Response<std::io::Cursor<Vec<u8>>> {
+fn pressure(sh: &Shared) -> Response {
     let Some(plan) = sh.playing_plan() else {
         return text(409, "nothing plays now");
     };
@@ -239,51 +201,40 @@ fn websocket(req: Request, sh: &Arc<Shared>, role: Option<&str>) {
         Some("participant") => true,
         Some("experimenter") | None => false,
         Some(_) => {
-            let _ = req.respond(text(400, "role is experimenter or participant"));
+            req.respond(text(400, "role is experimenter or participant"));
             return;
         }
     };
-    let key = req
-        .headers()
-        .iter()
-        .find(|h| h.field.equiv("Sec-WebSocket-Key"))
-        .map(|h| h.value.as_str().to_owned());
-    let Some(key) = key else {
-        let _ = req.respond(text(400, "a WebSocket upgrade is expected here"));
+    let Some(key) = req.header("Sec-WebSocket-Key").map(str::to_owned) else {
+        req.respond(text(400, "a WebSocket upgrade is expected here"));
         return;
     };
     {
         let mut s = sh.lock();
         if s.clients >= super::MAX_CLIENTS {
             drop(s);
-            let _ = req.respond(text(503, "too many pages open"));
+            req.respond(text(503, "too many pages open"));
             return;
         }
         s.clients += 1;
     }
     let accept = tungstenite::handshake::derive_accept_key(key.as_bytes());
-    let resp = Response::empty(StatusCode(101))
-        .with_header(header("Upgrade", "websocket"))
-        .with_header(header("Connection", "Upgrade"))
-        .with_header(header("Sec-WebSocket-Accept", &accept));
-    let stream = req.upgrade("websocket", resp);
-    let shared = sh.clone();
-    // Not joined: a page that stops reading blocks only its own thread,
-    // which ends with the process.
-    let spawned = std::thread::Builder::new()
-        .name("lmhost-view-ws".into())
-        .spawn(move || {
-            let ws = tungstenite::WebSocket::from_raw_socket(
-                stream,
-                tungstenite::protocol::Role::Server,
-                None,
-            );
-            let _ = feed(ws, &shared, participant);
-            shared.lock().clients -= 1;
-        });
-    if spawned.is_err() {
-        sh.lock().clients -= 1;
+    let upgraded = req.upgrade(&[
+        ("Upgrade", "websocket"),
+        ("Connection", "Upgrade"),
+        ("Sec-WebSocket-Accept", &accept),
+    ]);
+    // On this connection's thread; a page that stops reading its frames
+    // fails a write within the connection's timeout and is dropped.
+    if let Ok(stream) = upgraded {
+        let ws = tungstenite::WebSocket::from_raw_socket(
+            stream,
+            tungstenite::protocol::Role::Server,
+            None,
+        );
+        let _ = feed(ws, sh, participant);
     }
+    sh.lock().clients -= 1;
 }
 
 /// Sends the page every new frame (its overlay as JSON, then the JPEG),
