@@ -26,6 +26,11 @@ pub(super) fn start_view(
         },
         stimuli: view::stimuli(session.loaded()),
     })?;
+    if !v.addr().ip().is_loopback() {
+        crate::errln!(
+            "warning: --view {addr} is reachable from other hosts: whoever has the address and its token can watch and answer for the participant"
+        );
+    }
     crate::errln!(
         "lmhost: view on {}: experimenter {} ; participant {}",
         v.addr(),

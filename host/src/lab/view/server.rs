@@ -78,6 +78,22 @@ fn bytes(mime: &'static str, b: Vec<u8>) -> Response {
 fn handle(req: Request, sh: &Arc<Shared>) {
     let (path, query) = (req.path.clone(), req.query.clone());
     let query = query.as_str();
+    // Unknown paths first: which paths exist is no secret (VIEW.md).
+    const KNOWN: [&str; 9] = [
+        "/",
+        "/participant",
+        "/ws",
+        "/frame.png",
+        "/frame.jpg",
+        "/state.json",
+        "/pressure.png",
+        "/answer",
+        "/drawn",
+    ];
+    if !KNOWN.contains(&path.as_str()) {
+        req.respond(text(404, "not found"));
+        return;
+    }
     let token_ok = param(query, "token").is_some_and(|t| same(&t, &sh.token));
     if !token_ok {
         req.respond(text(
