@@ -354,7 +354,7 @@ fn random_frames_million() {
     let mut sounding = 0;
     let per_seed = (250_000.0 * long_scale()).round() as u64;
     for seed in 1..=4u64 {
-        let (f, rep, s) = run(seed * 0x9E37_79B9_7F4A_7C15, per_seed);
+        let (f, rep, s) = run(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15), per_seed);
         total += f;
         replies += rep;
         sounding += s;

@@ -213,6 +213,12 @@ impl OutputDriver for DriverOutput {
         Self::start(Job::Frame { len });
         previous
     }
+
+    /// The protocol's `SelfTest` (the core asks only while nothing plays):
+    /// the same loopback as at boot, its report as the host reads it.
+    fn self_test(&mut self) -> lm_proto::SelfTest {
+        self.spi_loopback().into()
+    }
 }
 
 /// Runs the jobs `DriverOutput` hands over, one at a time.

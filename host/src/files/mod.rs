@@ -6,7 +6,7 @@
 //!   `open` that blocks); standard input stays the way to stream. Every
 //!   input's identity (device and inode) is remembered.
 //! - **Outputs** ([`Output`], [`write_whole`]): the destination is looked
-//!   at first ([`dest`]). A regular file (or a new name) gets a temporary
+//!   at first (`dest`). A regular file (or a new name) gets a temporary
 //!   file beside it, synced and renamed over it on [`Output::commit`], so a
 //!   file lmhost writes is whole or absent after a full disk, an error,
 //!   Ctrl-C ([`crate::stop`] removes the temporary file) or `kill -9` (a

@@ -172,6 +172,7 @@ fn a_replaced_file_keeps_its_mode_and_owner() {
     std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
     write_whole(&p, b"newer").unwrap();
     assert_eq!(mode(&p), 0o640);
+    // SAFETY: geteuid has no preconditions and cannot fail.
     if unsafe { libc::geteuid() } == 0 {
         std::os::unix::fs::chown(&p, Some(4321), Some(4322)).unwrap();
         write_whole(&p, b"root keeps the owner").unwrap();

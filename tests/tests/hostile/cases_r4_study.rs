@@ -66,10 +66,10 @@ pub(crate) fn study_cases() -> Vec<Case> {
         // 2. Labels are checked as answers are matched; no answer is left over.
         c(STUDY_LABELS, proto("same_case"))
             .err("`same` and `Same`")
-            .err("field `same`"),
+            .err("field `adjustment.same`"),
         c(STUDY_LABELS, proto("numeric_label"))
             .err("`3` is a number")
-            .err("field `same`"),
+            .err("field `adjustment.same`"),
         c(STUDY_LABELS, proto("pipe_label")).err("holds `|`"),
         c(STUDY_LABELS, proto("choice_case")).err("`same` and `Same` are the same answer"),
         c(STUDY_LABELS, proto("choice_number")).err("`2` is a number"),
@@ -122,8 +122,8 @@ pub(crate) fn study_cases() -> Vec<Case> {
         c(STUDY_COUNTS, proto("sets0")).err("field `sets`: 0 is out of range"),
         // 6. Number errors name their field (and line).
         c(STUDY_NUMBERS, proto("sets_float")).err("line 3, field `sets`"),
-        c(STUDY_NUMBERS, proto("iti_huge")).err("field `iti_s`: -1e308 is out of range"),
-        c(STUDY_NUMBERS, proto("points_float")).err("field `points`"),
+        c(STUDY_NUMBERS, proto("iti_huge")).err("field `timeline.iti_s`: -1e308 is out of range"),
+        c(STUDY_NUMBERS, proto("points_float")).err("field `question[0].points`"),
         c(STUDY_NUMBERS, resume("seed_text")).err("field `seed`"),
         c(STUDY_NUMBERS, resume("trial_float")).err("column `trial` is `1e3`"),
         c(STUDY_NUMBERS, run("huge_number.txt", "huge_number"))

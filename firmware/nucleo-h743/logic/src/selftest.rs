@@ -148,6 +148,31 @@ impl LoopbackReport {
     }
 }
 
+impl From<LoopbackReport> for lm_proto::SelfTest {
+    /// What `SelfTest` answers `lmhost selftest`: passed when bytes were
+    /// compared and all came back, else the count and the first mismatch
+    /// (nothing compared at all, a stuck bus, is a failure at byte 0).
+    fn from(r: LoopbackReport) -> Self {
+        match (r.passed(), r.first) {
+            (true, _) => Self::Passed { bytes: r.bytes },
+            (false, Some(m)) => Self::Failed {
+                bytes: r.bytes,
+                mismatches: r.mismatches,
+                first_mismatch: m.index,
+                sent: m.sent,
+                got: m.got,
+            },
+            (false, None) => Self::Failed {
+                bytes: r.bytes,
+                mismatches: 0,
+                first_mismatch: 0,
+                sent: 0,
+                got: 0,
+            },
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -168,6 +193,40 @@ mod tests {
             r.check(&sent, &fault(&sent));
         }
         r
+    }
+
+    #[test]
+    fn reports_answer_the_protocols_self_test() {
+        use lm_proto::SelfTest;
+        let sent = pattern();
+        let mut ok = LoopbackReport::new();
+        ok.check(&sent, &sent);
+        assert_eq!(
+            SelfTest::from(ok),
+            SelfTest::Passed {
+                bytes: LOOPBACK_BYTES as u32
+            }
+        );
+        let mut bad = sent.clone();
+        bad[300] ^= 0x10;
+        bad[301] ^= 0x01;
+        let mut r = LoopbackReport::new();
+        r.check(&sent, &bad);
+        assert_eq!(
+            SelfTest::from(r),
+            SelfTest::Failed {
+                bytes: LOOPBACK_BYTES as u32,
+                mismatches: 2,
+                first_mismatch: 300,
+                sent: sent[300],
+                got: bad[300],
+            }
+        );
+        // A bus that never moved compared nothing: not a pass.
+        assert!(matches!(
+            SelfTest::from(LoopbackReport::new()),
+            SelfTest::Failed { bytes: 0, .. }
+        ));
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! a queued one takes over (the playing slot's cycle end, counted from its
 //! start), when a play's steps are done and what `Status` counts; a
 //! [`Policy`] says when the array may sound and where it steers. This file
-//! only makes the devices follow them ([`Autd3Backend::sync`], run on every
+//! only makes the devices follow them (`Autd3Backend::sync`, run on every
 //! call): the STM segment the player's slot sits in plays, the output
 //! ([`super::output`]) sounds at the slot's intensity while the policy
 //! allows and its lease is renewed, and the correction follows the slot.
@@ -138,14 +138,17 @@ impl Autd3Backend {
         self.clock.now().as_micros() as u64
     }
 
-    /// The devices' clock now: the emulator runs on ours; a real rig's
+    /// The devices' clock: the emulator runs on ours; a real rig's
     /// EtherCAT clock is the system time since 2000-01-01 UTC (autd3's
-    /// `DcSysTime::now`, which needs a feature this build leaves out).
-    fn dc_now(&self) -> DcSysTime {
+    /// `DcSysTime::now`, which needs a feature this build leaves out). A
+    /// reading that outlives the borrow of `self`, so a switch that missed
+    /// its time can read it again.
+    fn dc_clock(&self) -> impl Fn() -> DcSysTime + 'static {
         /// 1970-01-01 to 2000-01-01, s.
         const EPOCH_2000_S: u64 = 946_684_800;
-        match &self.emulator {
-            Some(_) => super::emulator::sys_time(self.clock.now()),
+        let emulated = self.emulator.is_some().then(|| self.clock.clone());
+        move || match &emulated {
+            Some(clock) => super::emulator::sys_time(clock.now()),
             None => {
                 let unix = std::time::SystemTime::now()
                     .duration_since(std::time::UNIX_EPOCH)
@@ -282,8 +285,8 @@ impl Autd3Backend {
             }
             _ => 0,
         };
-        let dc = self.dc_now();
-        self.output.set(&mut self.ctl, level, now, dc)
+        let dc = self.dc_clock();
+        self.output.set(&mut self.ctl, level, now, &dc)
     }
 
     fn add_late(&mut self, steps: u64) {
@@ -502,8 +505,8 @@ impl Backend for Autd3Backend {
             })?,
         };
         // An upload sends nothing else for a while: start it on a fresh lease.
-        let (now, dc) = (self.now_us(), self.dc_now());
-        self.output.refresh(&mut self.ctl, now, dc)?;
+        let (now, dc) = (self.now_us(), self.dc_clock());
+        self.output.refresh(&mut self.ctl, now, &dc)?;
         // The segment is being overwritten: until it arrives whole it is
         // empty, and a start switches to it anew.
         self.slots[usize::from(slot)] = None;

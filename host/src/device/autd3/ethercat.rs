@@ -100,15 +100,12 @@ pub fn realtime_warning() -> String {
 }
 
 /// The checks before `port` (an EtherCAT port on `ifname`, if given)
-/// opens; warns once per process when the link's thread will not get
-/// real-time priority.
+/// opens; warns once per process, when the link may open, that its thread
+/// will not get real-time priority.
 pub fn preflight(port: &str, ifname: Option<&str>) -> anyhow::Result<()> {
     static WARNED: std::sync::Once = std::sync::Once::new();
     if let Some(i) = ifname {
         check_interface(port, i, Path::new("/sys/class/net"))?;
-    }
-    if !realtime_allowed() {
-        WARNED.call_once(|| crate::errln!("lmhost: {}", realtime_warning()));
     }
     raw_socket_allowed().map_err(|e| {
         let denied = matches!(e.raw_os_error(), Some(libc::EPERM) | Some(libc::EACCES));
@@ -120,7 +117,13 @@ pub fn preflight(port: &str, ifname: Option<&str>) -> anyhow::Result<()> {
         } else {
             anyhow::anyhow!("{port}: cannot open a raw socket: {}", crate::files::reason(&e))
         }
-    })
+    })?;
+    // Only for a link that can open at all: a refusal above is the one
+    // line (its setcap already names cap_sys_nice).
+    if !realtime_allowed() {
+        WARNED.call_once(|| crate::errln!("lmhost: {}", realtime_warning()));
+    }
+    Ok(())
 }
 
 /// The link's own error made specific: its "timeout" means no EtherCAT

@@ -32,7 +32,9 @@ use autd3::core::ethercat::DcSysTime;
 use autd3::core::firmware::transition_mode::{Immediate, SysTime};
 use autd3::core::link::Link;
 use autd3::modulation::Custom;
-use autd3::prelude::{SamplingConfig, Segment, Static, WithFiniteLoop, WithSegment};
+use autd3::prelude::{
+    AUTDDriverError, SamplingConfig, Segment, Static, WithFiniteLoop, WithSegment,
+};
 
 use crate::error::InputError;
 
@@ -40,6 +42,11 @@ use crate::error::InputError;
 /// refuses one less than 10 ms ahead of its clock when the frame arrives,
 /// and a real link takes a few milliseconds.
 pub const SWITCH_MARGIN_US: u64 = 50_000;
+/// Times a `SysTime` switch is tried, each on a fresh reading of the
+/// devices' clock and twice the margin of the one before: a host stalled
+/// past the margin (a loaded machine, a slow link) gets autd3 firmware's
+/// `MissTransitionTime` and tries again rather than failing the command.
+const SWITCH_TRIES: u32 = 3;
 /// Shortest and longest lease (µs): at least four margins, so a renewal
 /// fits well inside one; at most 10 s.
 pub const LEASE_US: std::ops::RangeInclusive<u64> = 200_000..=10_000_000;
@@ -147,7 +154,7 @@ impl Output {
         ctl: &mut Controller<Box<dyn Link>>,
         level: u8,
         now_us: u64,
-        dc_now: DcSysTime,
+        dc: &dyn Fn() -> DcSysTime,
     ) -> anyhow::Result<()> {
         if level == 0 {
             if self.level != 0 {
@@ -156,10 +163,10 @@ impl Output {
             return Ok(());
         }
         if level != self.level || self.lapsed(now_us) {
-            return self.sound(ctl, level, now_us, dc_now);
+            return self.sound(ctl, level, now_us, dc);
         }
         if now_us >= self.armed_us + self.lease_us / 2 && now_us >= self.switch_us {
-            self.renew(ctl, now_us, dc_now)?;
+            self.renew(ctl, now_us, dc)?;
         }
         Ok(())
     }
@@ -170,10 +177,10 @@ impl Output {
         &mut self,
         ctl: &mut Controller<Box<dyn Link>>,
         now_us: u64,
-        dc_now: DcSysTime,
+        dc: &dyn Fn() -> DcSysTime,
     ) -> anyhow::Result<()> {
         if self.level != 0 && !self.lapsed(now_us) && now_us >= self.switch_us {
-            self.renew(ctl, now_us, dc_now)?;
+            self.renew(ctl, now_us, dc)?;
         }
         Ok(())
     }
@@ -185,16 +192,24 @@ impl Output {
         ctl: &mut Controller<Box<dyn Link>>,
         level: u8,
         now_us: u64,
-        dc_now: DcSysTime,
+        dc: &dyn Fn() -> DcSysTime,
     ) -> anyhow::Result<()> {
         let (buffer, _) = lease_buffer(level, self.lease_us);
-        let at = SysTime(dc_now + Duration::from_micros(SWITCH_MARGIN_US));
         let lease_seg = other(self.seg);
-        ctl.send((
-            WithSegment::new(Static::new(level), self.seg, Immediate),
-            WithFiniteLoop::new(buffer, NonZeroU16::MIN, lease_seg, at),
-        ))
-        .context("setting the output level")?;
+        let seg = self.seg;
+        let sent = switch_at(dc, |at| {
+            ctl.send((
+                WithSegment::new(Static::new(level), seg, Immediate),
+                WithFiniteLoop::new(buffer.clone(), NonZeroU16::MIN, lease_seg, at),
+            ))
+        });
+        if let Err(e) = sent {
+            // The endless level may have gone out without its lease:
+            // never leave it so.
+            let _ = ctl.send(WithSegment::new(Static::new(0), seg, Immediate));
+            self.level = 0;
+            return Err(anyhow::Error::from(e).context("setting the output level"));
+        }
         self.arm(lease_seg, level, now_us);
         Ok(())
     }
@@ -205,13 +220,19 @@ impl Output {
         &mut self,
         ctl: &mut Controller<Box<dyn Link>>,
         now_us: u64,
-        dc_now: DcSysTime,
+        dc: &dyn Fn() -> DcSysTime,
     ) -> anyhow::Result<()> {
         let (buffer, _) = lease_buffer(self.level, self.lease_us);
-        let at = SysTime(dc_now + Duration::from_micros(SWITCH_MARGIN_US));
         let lease_seg = other(self.seg);
-        ctl.send(WithFiniteLoop::new(buffer, NonZeroU16::MIN, lease_seg, at))
-            .context("renewing the output's lease")?;
+        switch_at(dc, |at| {
+            ctl.send(WithFiniteLoop::new(
+                buffer.clone(),
+                NonZeroU16::MIN,
+                lease_seg,
+                at,
+            ))
+        })
+        .context("renewing the output's lease")?;
         self.arm(lease_seg, self.level, now_us);
         Ok(())
     }
@@ -221,6 +242,26 @@ impl Output {
         self.level = level;
         self.armed_us = now_us;
         self.switch_us = now_us + SWITCH_MARGIN_US;
+    }
+}
+
+/// Sends what `send` builds for a `SysTime` switch [`SWITCH_MARGIN_US`]
+/// ahead of the devices' clock, read anew for each of [`SWITCH_TRIES`]
+/// tries (the margin doubling) while the devices say the time was missed.
+fn switch_at(
+    dc: &dyn Fn() -> DcSysTime,
+    mut send: impl FnMut(SysTime) -> Result<(), AUTDDriverError>,
+) -> Result<(), AUTDDriverError> {
+    let mut margin = SWITCH_MARGIN_US;
+    let mut tries = 1;
+    loop {
+        match send(SysTime(dc() + Duration::from_micros(margin))) {
+            Err(AUTDDriverError::MissTransitionTime) if tries < SWITCH_TRIES => {
+                tries += 1;
+                margin *= 2;
+            }
+            r => return r,
+        }
     }
 }
 

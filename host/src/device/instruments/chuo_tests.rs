@@ -331,13 +331,22 @@ fn the_driver_runs_over_a_real_pty() {
     });
     let result = (|| {
         let mut qt = ChuoQt::open(&path, cfg())?;
+        // The controller is idle no sooner than 40 ms after the command
+        // arrives, which is after this instant: a lower bound that holds
+        // however late this thread runs (`took_s` starts after the reply).
+        let t0 = std::time::Instant::now();
         let m = qt.move_to(0.2)?;
-        Ok::<_, InstrumentError>((m, qt.position_mm()?))
+        Ok::<_, InstrumentError>((m, t0.elapsed(), qt.position_mm()?))
     })();
     done.store(true, Ordering::SeqCst);
     peer.join().unwrap();
     drop(pair.slave);
-    let (m, at) = result.unwrap();
+    let (m, waited, at) = result.unwrap();
     assert_eq!((m.at_mm, at), (0.2, 0.2));
-    assert!(m.took_s >= 0.04 - 1e-3, "{}", m.took_s);
+    assert!(waited.as_secs_f64() >= 0.04, "{waited:?}");
+    assert!(
+        m.took_s > 0.0 && m.took_s <= waited.as_secs_f64(),
+        "{}",
+        m.took_s
+    );
 }

@@ -1,6 +1,6 @@
 //! Paper-ready heatmaps of field maps (plotters): PNG (bitmap backend),
 //! SVG and PDF ([`crate::pdf`]), sized in millimetres for a one- or
-//! two-column figure; the drawing itself is [`draw`]'s.
+//! two-column figure; the drawing itself is `draw`'s.
 //!
 //! Text is DejaVu Sans, embedded in the binary (`host/assets/fonts`,
 //! Bitstream Vera licence): rasterised by `ab_glyph` in the PNG, embedded

@@ -5,7 +5,7 @@
 //! [`Session`] is a polled state machine, as smoltcp's interface is: it
 //! has no I/O of its own besides the device and no time but the
 //! [`Clock`] it is given. It takes [`Command`]s and finger samples, moves
-//! its one [`stage`] (idle, on, off, switching from one stimulus to the
+//! its one `stage` (idle, on, off, switching from one stimulus to the
 //! next) in [`Session::poll`], says in [`Session::poll_at`] when it next
 //! has work, and queues events the caller drains
 //! ([`Session::drain_events`]). [`driver::Driver`] runs it (the finger
@@ -16,7 +16,7 @@
 //! `host/src/lab/session/PROTOCOL.md`.
 //!
 //! Stimuli are planned for the device at start and preloaded as far as the
-//! device's slots and library memory go ([`resident`]); the rest load when
+//! device's slots and library memory go (`resident`); the rest load when
 //! presented or, ahead of time, on `prepare`, in place of the least
 //! recently used idle entry when the memory is full. A stimulus presented
 //! while another plays takes over at the playing cycle's end (`switch`

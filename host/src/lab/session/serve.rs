@@ -5,8 +5,8 @@
 //! One thread owns the session and the device and turns its
 //! [`Driver`]; it waits for client lines only until the driver's next
 //! deadline. Every connection has a reader thread (bounded lines) and a
-//! writer thread behind a bounded queue ([`super::conn`]), and the event
-//! log has a writer of its own ([`super::eventlog`]): the loop never
+//! writer thread behind a bounded queue (`super::conn`), and the event
+//! log has a writer of its own (`super::eventlog`): the loop never
 //! waits on a client or a disk.
 
 use std::collections::HashMap;

@@ -29,10 +29,47 @@ pub(crate) fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
 /// The dotted path of the innermost key at byte `at` of `text`, by the
 /// spans of its parse (none when the text does not parse, as when the
 /// error is in its syntax).
-fn field_at(text: &str, at: usize) -> Option<String> {
-    let doc = toml_edit::Document::parse(text).ok()?;
+pub(crate) fn field_at(text: &str, at: usize) -> Option<String> {
+    let Ok(doc) = toml_edit::Document::parse(text) else {
+        // A value toml_edit cannot hold (an integer past i64, say): the
+        // key on the error's line, under the table header above it.
+        return field_on_line(text, at);
+    };
     let mut path = Vec::new();
     walk_table(doc.as_table(), at, &mut path).then(|| path.join("."))
+}
+
+/// `key = …` on the line holding byte `at`, prefixed by the last table
+/// header above it (`[[name]]` numbered as the spans walk numbers it).
+fn field_on_line(text: &str, at: usize) -> Option<String> {
+    let start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[start..].lines().next()?;
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim();
+    let bare = |k: &str| {
+        !k.is_empty()
+            && k.chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    };
+    if !bare(key) {
+        return None;
+    }
+    let mut header: Option<String> = None;
+    let mut counts = std::collections::HashMap::<String, usize>::new();
+    for l in text[..start].lines() {
+        let l = l.trim();
+        if let Some(name) = l.strip_prefix("[[").and_then(|r| r.strip_suffix("]]")) {
+            let n = counts.entry(name.trim().to_owned()).or_default();
+            header = Some(format!("{}[{}]", name.trim(), *n));
+            *n += 1;
+        } else if let Some(name) = l.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
+            header = Some(name.trim().to_owned());
+        }
+    }
+    Some(match header {
+        Some(h) => format!("{h}.{key}"),
+        None => key.to_owned(),
+    })
 }
 
 fn holds(span: Option<std::ops::Range<usize>>, at: usize) -> bool {

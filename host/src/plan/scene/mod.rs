@@ -56,7 +56,7 @@
 
 mod check;
 mod file;
-pub(crate) use file::toml_error_line;
+pub(crate) use file::{field_at, toml_error_line};
 pub mod camera;
 mod parts;
 pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {

@@ -49,12 +49,12 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
         (
             "points = 7\nlow = \"not",
             "points = 12\nlow = \"not",
-            "line 42, field `points`",
+            "line 42, field `question[0].points`",
         ),
         (
             "id = \"movement\"\nkind = \"likert\"\npoints = 7",
             "id = \"movement\"\nkind = \"likert\"\npoints = 1",
-            "line 50, field `points`: question `movement`",
+            "line 50, field `question[1].points`: question `movement`",
         ),
         (
             "kind = \"likert\"\npoints = 7\nlow = \"does",
@@ -71,7 +71,7 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
             "while_touching = false",
             "give `on_s`",
         ),
-        ("iti_s = 1.0", "iti_s = -1", "field `iti_s`"),
+        ("iti_s = 1.0", "iti_s = -1", "field `timeline.iti_s`"),
         ("id = \"movement\"", "id = \"vibration\"", "given twice"),
         (
             "id = \"movement\"",
@@ -95,7 +95,7 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
     let base = std::fs::read_to_string(studies("paper-exp3.toml")).unwrap();
     let text = base.replacen("off_s = 2.0", "off_s = 2.0\nrepeat = 3", 1);
     let e = Protocol::from_toml(&text, &path).unwrap_err().to_string();
-    assert!(e.contains("field `repeat`"), "{e}");
+    assert!(e.contains("field `timeline.repeat`"), "{e}");
     let text = base.replacen("same = \"same\"", "same = \"weaker\"", 1);
     assert!(Protocol::from_toml(&text, &path).is_err());
 }
@@ -118,21 +118,21 @@ fn answer_labels_are_told_apart_as_answers_are_matched() {
         (
             "same = \"same\"",
             "same = \"Stronger\"",
-            "line 43, field `same`: `Stronger` and `stronger`",
+            "line 43, field `adjustment.same`: `Stronger` and `stronger`",
         ),
         (
             "same = \"same\"",
             "same = \"3\"",
-            "line 43, field `same`: `3` is a number",
+            "line 43, field `adjustment.same`: `3` is a number",
         ),
         (
             "weaker = \"weaker\"",
             "weaker = \"+2\"",
-            "field `weaker`: `+2` is a number",
+            "field `adjustment.weaker`: `+2` is a number",
         ),
         ("same = \"same\"", "same = \"a|b\"", "holds `|`"),
         ("same = \"same\"", "same = \" same\"", "spaces at an end"),
-        ("same = \"same\"", "same = \"\"", "field `same`"),
+        ("same = \"same\"", "same = \"\"", "field `adjustment.same`"),
     ] {
         assert!(exp3.contains(from));
         let e = refused(&exp3.replacen(from, to, 1));
@@ -150,7 +150,7 @@ fn answer_labels_are_told_apart_as_answers_are_matched() {
     ] {
         let e = refused(&format!("{exp1}\n{choice}{options}\n"));
         assert!(e.contains(needle), "{options}: {e}");
-        assert!(e.contains("field `options`"), "{e}");
+        assert!(e.contains("field `question[3].options`"), "{e}");
     }
     let p = Protocol::from_toml(
         &format!("{exp1}\n{choice}[\"Flat\", \"convex-ish\", \"1.5\"]\n"),
@@ -189,22 +189,22 @@ fn counts_are_checked_not_wrapped() {
         (
             "iti_s = 1.0",
             "iti_s = inf",
-            "field `iti_s`: inf is out of range",
+            "field `timeline.iti_s`: inf is out of range",
         ),
         (
             "iti_s = 1.0",
             "iti_s = nan",
-            "field `iti_s`: NaN is out of range",
+            "field `timeline.iti_s`: NaN is out of range",
         ),
         (
             "touch_s = 3.0",
             "touch_s = 1e308",
-            "field `touch_s`: 1e308 is out of range",
+            "field `timeline.touch_s`: 1e308 is out of range",
         ),
         (
             "points = 7\nlow = \"not",
             "points = 4294967296\nlow = \"not",
-            "line 42, field `points`",
+            "line 42, field `question[0].points`",
         ),
     ] {
         assert!(exp1.contains(from), "{from}");
@@ -216,19 +216,23 @@ fn counts_are_checked_not_wrapped() {
         (
             "max_mm = 10.0",
             "max_mm = 1e308",
-            "field `max_mm`: 1e308 is out of range",
+            "field `adjustment.max_mm`: 1e308 is out of range",
         ),
         (
             "start_mm = 4.0",
             "start_mm = 40.0",
-            "field `start_mm`: give min_mm <= start_mm",
+            "field `adjustment.start_mm`: give min_mm <= start_mm",
         ),
         (
             "max = 20",
             "max = 0",
-            "field `max`: 0 is out of range 1..=1000",
+            "field `adjustment.max`: 0 is out of range 1..=1000",
         ),
-        ("step_mm = 0.25", "step_mm = -0.25", "field `step_mm`"),
+        (
+            "step_mm = 0.25",
+            "step_mm = -0.25",
+            "field `adjustment.step_mm`",
+        ),
     ] {
         assert!(exp3.contains(from), "{from}");
         let e = refused(&exp3.replacen(from, to, 1));
@@ -236,7 +240,10 @@ fn counts_are_checked_not_wrapped() {
     }
     let number = "[[question]]\nid = \"guess\"\nkind = \"number\"\n";
     let e = refused(&format!("{exp1}\n{number}max = 1e308\n"));
-    assert!(e.contains("field `max`: 1e308 is out of range"), "{e}");
+    assert!(
+        e.contains("field `question[3].max`: 1e308 is out of range"),
+        "{e}"
+    );
     let p = Protocol::from_toml(&format!("{exp1}\n{number}"), &studies("test.toml")).unwrap();
     assert_eq!(
         p.questions[3].kind,

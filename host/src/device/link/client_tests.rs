@@ -1,0 +1,61 @@
+use super::*;
+
+fn info() -> Info {
+    Info {
+        proto_version: lm_proto::PROTOCOL_VERSION,
+        fw_version: [0, 1, 0],
+        max_transducers: 996,
+        slot_bytes: 200 * 996,
+        slots: 2,
+        timer_hz: 1_000_000,
+        min_dwell_us: 1000,
+        max_chunk: 1024,
+        rig_transducers: 0,
+        rig_crc32: 0,
+        library_free: 200 * 996,
+        clock: lm_proto::ClockSource::Emulated,
+    }
+}
+
+#[test]
+fn spec_carries_the_bytes_sequence_encode_made_and_the_device_check() {
+    let plan = Plan::paper_lm_m().unwrap();
+    let spec = UploadSpec::from_plan(&plan, Encoding::Delta).unwrap();
+    assert_eq!(spec.encoded, plan.sequence.encode(Encoding::Delta).unwrap());
+    assert_eq!(spec.crc32, lm_proto::crc32(&plan.sequence.phases));
+    assert_eq!(spec.header, plan.sequence.header);
+    let b = spec.begin(1);
+    assert_eq!((b.slot, b.encoded_len as usize), (1, spec.encoded.len()));
+    assert_eq!(spec.check_fits(&info(), 1), Ok(()));
+    assert_eq!(
+        spec.check_fits(&info(), 2).map_err(|e| e.nack()),
+        Err(NackCode::BadSlot)
+    );
+    let small = Info {
+        slot_bytes: 10 * 996,
+        ..info()
+    };
+    assert_eq!(
+        spec.check_fits(&small, 0).map_err(|e| e.nack()),
+        Err(NackCode::TooLarge)
+    );
+    let slow = Info {
+        min_dwell_us: 5000,
+        ..info()
+    };
+    let e = spec.check_fits(&slow, 0).unwrap_err();
+    assert_eq!(e.nack(), NackCode::DwellTooShort);
+    assert!(e.to_string().contains("minimum 5000 µs"), "{e}");
+}
+
+#[test]
+fn inconsistent_sequences_are_a_typed_codec_error() {
+    let plan = Plan::paper_lm_m().unwrap();
+    let e = UploadSpec::new(&plan.sequence, vec![[0; 3]; 3], Encoding::Raw).unwrap_err();
+    assert!(matches!(e, LinkError::Codec(CodecError::BadShape)), "{e}");
+    let mut seq = plan.sequence.clone();
+    seq.phases.truncate(10);
+    let pos = plan.positions_um().unwrap();
+    let e = UploadSpec::new(&seq, pos, Encoding::Delta).unwrap_err();
+    assert!(matches!(e, LinkError::Codec(CodecError::BadShape)), "{e}");
+}
