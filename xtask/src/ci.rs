@@ -66,7 +66,7 @@ const STEPS: &[Step] = &[
     },
     Step {
         id: "apt",
-        name: "setup: qemu-system-arm, verilator, yosys, libpcap-dev (apt, as root)",
+        name: "setup: qemu-system-arm, verilator, yosys, libpcap-dev, chromium, chromium-driver (apt, as root)",
         after: &[],
         background: true,
         run: |_, log, _| setup::ensure_apt(log, setup::APT),
@@ -104,8 +104,9 @@ const STEPS: &[Step] = &[
     },
     Step {
         id: "test",
-        name: "cargo test: the host crates' and end-to-end test executables side by side, then doc tests",
-        after: &["build"],
+        name: "cargo test: the host crates' and end-to-end test executables side by side (the browser test required), then doc tests",
+        // apt: the browser test needs Chromium installed before it runs.
+        after: &["build", "apt"],
         background: false,
         run: |c, log, _| host::test(c, log, host::Which::Host),
     },

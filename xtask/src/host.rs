@@ -31,6 +31,7 @@ const SLOW_FIRST: &[&str] = &[
     "lm-e2e/hostile",
     "lm-e2e/session_cli",
     "lm-e2e/study",
+    "lm-e2e/browser",
     "lm-e2e/autd3_cli",
     "lm-e2e/track_cli",
     "lmhost/lmhost",
@@ -176,6 +177,9 @@ pub fn test(c: &Ctx, log: &Log, which: Which) -> Result<(), String> {
         ("LMHOST_BIN", c.lmhost_for_tests().into_os_string()),
         ("LM_FW_QEMU_ELF", c.firmware_elf().into_os_string()),
         ("CARGO_TARGET_DIR", c.target_dir.clone().into_os_string()),
+        // The browser test (lm-e2e/browser) fails rather than skips without
+        // Chromium: the apt step installed it.
+        ("LM_REQUIRE_BROWSER", "1".into()),
     ];
     std::thread::scope(|s| {
         for _ in 0..JOBS {

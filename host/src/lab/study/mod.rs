@@ -25,6 +25,7 @@
 pub mod answers;
 pub mod columns;
 pub mod design;
+pub mod live;
 pub mod procedure;
 pub mod protocol;
 pub mod record;
@@ -129,6 +130,9 @@ pub struct RunOptions {
     pub time_scale: f64,
     /// Continue an interrupted run.
     pub resume: bool,
+    /// Serve the live view here (its participant's page answers unless
+    /// answers come from a file).
+    pub view: Option<std::net::SocketAddr>,
 }
 
 /// What a run did.
@@ -248,18 +252,16 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             crate::errln!("warning: {w}");
         }
     }
-    let answers: Box<dyn Answers> = match st.lines.take() {
-        Some(l) => Box::new(l),
-        None if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
-            Box::new(answers::Terminal::open()?)
-        }
-        None => Box::new(answers::Piped::open()?),
-    };
     let first = st.done + 1;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+    let view = match o.view {
+        Some(addr) => Some(live::start_view(addr, &session, &o.finger)?),
+        None => None,
+    };
+    let answers = live::answer_source(st.lines.take(), view.as_ref())?;
     st.file.runs.push(Run {
         started_unix_s: unix_s(),
         first_trial: first,
@@ -305,6 +307,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         scale: o.time_scale,
         trial_events: Vec::new(),
         all_events: Vec::new(),
+        view,
     };
     let mut report = RunReport {
         dir: paths.dir.clone(),
@@ -443,6 +446,7 @@ struct Runner {
     scale: f64,
     trial_events: Vec<Event>,
     all_events: Vec<Event>,
+    view: Option<crate::lab::view::View>,
 }
 
 impl Runner {
@@ -457,6 +461,9 @@ impl Runner {
     }
 
     fn log_events(&mut self, events: Vec<Event>) -> anyhow::Result<()> {
+        if let Some(v) = &self.view {
+            v.events(&events);
+        }
         for e in events {
             self.events.line(&serde_json::to_string(&e)?)?;
             if let EventKind::Finger { present } = e.kind {
@@ -497,6 +504,10 @@ impl Runner {
             return Err(Interrupted.into());
         }
         let events = self.driver().turn()?;
+        // The finger as sent to the device, to the view.
+        if let (Some(p), Some(v)) = (self.driver().take_finger(), &self.view) {
+            v.finger(p);
+        }
         if self.driver().feed_ended() {
             return Err(
                 InputError::new("the finger's centroid stream ended before the session").into(),
