@@ -135,7 +135,13 @@ fn spawn_acceptor<S: Send + 'static>(
     std::thread::Builder::new()
         .name(name.into())
         .spawn(move || {
-            while let Ok(s) = accept() {
+            loop {
+                let s = match accept() {
+                    Ok(s) => s,
+                    // A signal landed on this thread: accept again.
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                    Err(_) => break,
+                };
                 let Ok((r, mut w, shutdown)) = halves(s) else {
                     continue;
                 };
