@@ -249,11 +249,14 @@ impl Loop {
                 conn::CLIENT_QUEUE
             );
         }
-        let authed = c.authed;
-        drop(c);
-        if !authed {
+        if !c.authed {
+            // Its refusal is queued: let the writer send that one short
+            // line (a fresh socket's buffer takes it at once) before the
+            // socket closes, else the client sees only the close.
+            c.finish(std::time::Instant::now() + std::time::Duration::from_millis(100));
             return Ok(None);
         }
+        drop(c);
         match self.on_disconnect {
             OnDisconnect::Stop => {
                 d.session().client_gone(id)?;
