@@ -29,7 +29,8 @@ use lm_proto::{
 mod link_support;
 mod qemu_support;
 use qemu_support::{
-    Qemu, firmware_elf, free_port, qemu_command, qemu_installed, wait_on_device, within_20_s,
+    Qemu, firmware_elf, free_port, port_spec, qemu_command, qemu_installed, wait_on_device,
+    within_20_s,
 };
 
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
@@ -467,7 +468,7 @@ fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     let elf = firmware_elf();
     let port = free_port();
     let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    let spec = port_spec(port);
     let client =
         within_20_s(|| spec.connect()).unwrap_or_else(|e| panic!("connecting to QEMU: {e}"));
     let mut dev = LmBackend::new(client, Encoding::Delta);

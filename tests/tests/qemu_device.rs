@@ -15,7 +15,7 @@ use lm_proto::{DeviceState, Status};
 mod link_support;
 mod qemu_support;
 use qemu_support::{
-    Qemu, firmware_elf, free_port, qemu_command, qemu_command_icount, qemu_installed,
+    Qemu, firmware_elf, free_port, port_spec, qemu_command, qemu_command_icount, qemu_installed,
     wait_on_device, within_20_s,
 };
 
@@ -47,7 +47,7 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
             held.clear();
             let port = free_port();
             held.push(Qemu::spawn(qemu_command(&elf, port, false), port)?);
-            let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+            let spec = port_spec(port);
             let dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))?;
             Ok(Dut {
                 dev,
@@ -205,7 +205,7 @@ fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
     let elf = firmware_elf();
     let port = free_port();
     let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    let spec = port_spec(port);
     let mut dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))
         .unwrap_or_else(|e| panic!("{e:#}"));
     let plan = Stimulus::default()

@@ -172,7 +172,7 @@ pub fn test(c: &Ctx, log: &Log, which: Which) -> Result<(), String> {
     ));
     let results = Arc::new(Mutex::new(Vec::<Outcome>::new()));
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let env: Vec<(&str, std::ffi::OsString)> = vec![
+    let mut env: Vec<(&str, std::ffi::OsString)> = vec![
         ("CARGO", cargo),
         ("LMHOST_BIN", c.lmhost_for_tests().into_os_string()),
         ("LM_FW_QEMU_ELF", c.firmware_elf().into_os_string()),
@@ -181,8 +181,17 @@ pub fn test(c: &Ctx, log: &Log, which: Which) -> Result<(), String> {
         // Chromium: the apt step installed it.
         ("LM_REQUIRE_BROWSER", "1".into()),
     ];
+    let mut jobs = JOBS;
+    if which == Which::Firmware {
+        // Each of these runs QEMU per test: one executable at a time, two
+        // tests at a time, and a response timeout for an emulated board
+        // that runs beside the host tests (QEMU slows with the machine).
+        jobs = 1;
+        env.push(("RUST_TEST_THREADS", "2".into()));
+        env.push(("LMHOST_TIMEOUT_MS", "3000".into()));
+    }
     std::thread::scope(|s| {
-        for _ in 0..JOBS {
+        for _ in 0..jobs {
             let (queue, results, env) = (queue.clone(), results.clone(), &env);
             s.spawn(move || {
                 loop {

@@ -20,9 +20,11 @@ pub struct PortArgs {
     /// Baud rate for real serial ports (ptys ignore it).
     #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
     pub baud: u32,
-    /// Response timeout per attempt, ms, 1..=60000 [default: 100 + twice
-    /// the time a full chunk takes at --baud].
-    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=lmhost::limits::MAX_TIMEOUT_MS))]
+    /// Response timeout per attempt, ms, 1..=60000 [default:
+    /// $LMHOST_TIMEOUT_MS, else 100 + twice the time a full chunk takes at
+    /// --baud; a slow link or an emulated board on a busy machine wants
+    /// more].
+    #[arg(long, value_name = "MS", env = "LMHOST_TIMEOUT_MS", value_parser = clap::value_parser!(u64).range(1..=lmhost::limits::MAX_TIMEOUT_MS))]
     pub timeout_ms: Option<u64>,
     /// Attempts per request before giving up, 1..=100.
     #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=i64::from(lmhost::limits::MAX_TRIES)))]

@@ -206,3 +206,14 @@ pub fn wait_on_device(
         );
     }
 }
+
+/// The port spec of the firmware under QEMU on `port`, with the response
+/// timeout `LMHOST_TIMEOUT_MS` asks for (as the CLI takes it): QEMU's
+/// speed follows the host's load, and CI runs it beside other work.
+pub fn port_spec(port: u16) -> lmhost::device::link::PortSpec {
+    let mut spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    spec.timeout_ms = std::env::var("LMHOST_TIMEOUT_MS")
+        .ok()
+        .map(|v| v.parse().expect("LMHOST_TIMEOUT_MS: milliseconds"));
+    spec
+}
