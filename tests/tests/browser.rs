@@ -526,7 +526,7 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
                 std::thread::sleep(Duration::from_millis(50));
             }
         }
-        d.until("return document.getElementById('status').textContent === 'Thank you.' || document.querySelectorAll('.choice.off').length > 0", Duration::from_secs(10));
+        d.until("return document.getElementById('status').textContent === 'Thank you.' || document.querySelectorAll('.choice.off').length > 0", Duration::from_secs(30));
     }
     assert!(
         radius_px_seen.windows(2).all(|w| w[1] > w[0]),

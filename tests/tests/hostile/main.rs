@@ -459,14 +459,22 @@ fn execute(c: &Case, ctx: &Ctx) -> Option<Run> {
     let pid = child.id();
     let (status, during) = std::thread::scope(|s| {
         let during = c.during.map(|f| s.spawn(move || f(ctx, pid)));
+        let mut failed = None;
         let status = loop {
             if let Some(st) = child.try_wait().unwrap() {
                 break Some(st);
             }
-            if start.elapsed() > TIME_LIMIT {
+            // A client that gave up will not end the command: end it, and
+            // say what the client found rather than only that it hung.
+            if failed.is_none() && during.as_ref().is_some_and(|h| h.is_finished()) {
+                failed = Some(start.elapsed());
+            }
+            let client_gave_up =
+                failed.is_some_and(|t| start.elapsed() > t + Duration::from_secs(5));
+            if start.elapsed() > TIME_LIMIT || client_gave_up {
                 let _ = child.kill();
-                let _ = child.wait();
-                break None;
+                let st = child.wait().ok();
+                break if client_gave_up { st } else { None };
             }
             std::thread::sleep(Duration::from_millis(10));
         };

@@ -69,11 +69,39 @@ impl Conn {
     }
 
     /// Lets the writer write what is queued, waiting for it until
-    /// `until` at most, then closes the connection.
+    /// `until` at most, then closes the connection (the session's end).
     pub fn finish(mut self, until: std::time::Instant) {
         self.queue = None;
         if let Some(d) = &self.done {
             let _ = d.recv_timeout(until.saturating_duration_since(std::time::Instant::now()));
+        }
+    }
+
+    /// Lets the writer write what is queued, then closes the connection:
+    /// off the loop, on a short-lived thread that waits for the writer at
+    /// most `within` (the loop never waits on a client; the connection
+    /// keeps its place among [`MAX_CLIENTS`] until it is closed, which
+    /// bounds these threads).
+    pub fn close_after_writing(mut self, within: std::time::Duration) {
+        self.queue = None;
+        let (done, shutdown, live) = (self.done.take(), self.shutdown.take(), self.live.take());
+        let close = move || {
+            if let Some(d) = done {
+                let _ = d.recv_timeout(within);
+            }
+            if let Some(s) = shutdown {
+                s();
+            }
+            if let Some(l) = live {
+                l.fetch_sub(1, Ordering::SeqCst);
+            }
+        };
+        if let Err(e) = std::thread::Builder::new()
+            .name("lmhost-client-close".into())
+            .spawn(close)
+        {
+            // No thread to spare: close now (the refusal may be lost).
+            crate::errln!("lmhost: closing a client at once: {e}");
         }
     }
 }

@@ -250,10 +250,10 @@ impl Loop {
             );
         }
         if !c.authed {
-            // Its refusal is queued: let the writer send that one short
-            // line (a fresh socket's buffer takes it at once) before the
-            // socket closes, else the client sees only the close.
-            c.finish(std::time::Instant::now() + std::time::Duration::from_millis(100));
+            // Its refusal is queued: the writer sends that one short line
+            // before the socket closes (else the client sees only the
+            // close), without the loop waiting for it.
+            c.close_after_writing(std::time::Duration::from_secs(2));
             return Ok(None);
         }
         drop(c);
