@@ -27,6 +27,22 @@ pub const TIMING: [&str; 12] = [
     "mutes",
     "switch_ms",
 ];
+/// Wall-clock time of the trial's start, RFC 3339 UTC (to the ms).
+pub const TIME_UTC: &str = "time_utc";
+/// The device's missed deadlines during the trial (its status before and
+/// after; empty when the device does not count them).
+pub const MISSED_DEADLINES: &str = "missed_deadlines";
+/// The device's lease expiries (mutes for want of the host) during the
+/// trial.
+pub const LEASE_EXPIRIES: &str = "lease_expiries";
+/// What a "not perceived" answer is typed as and recorded as, in a column
+/// whose question allows it: its own value, never a number.
+pub const NOT_PERCEIVED: &str = "na";
+/// The response-time column of answer column `column`: seconds from the
+/// question being asked to its answer.
+pub fn rt_column(column: &str) -> String {
+    format!("{column}_rt_s")
+}
 /// How many answers the trial took (questions and procedure), so a resumed
 /// run skips exactly those in a responses file.
 pub const ANSWERS: &str = "answers";
@@ -47,9 +63,10 @@ pub const LIST_SEPARATOR: char = '|';
 /// Every name the runner writes itself (factor and question names must
 /// differ from them).
 pub fn fixed() -> impl Iterator<Item = &'static str> {
-    [PARTICIPANT, TRIAL, SET, STIMULUS, ANSWERS]
+    [PARTICIPANT, TRIAL, SET, STIMULUS, TIME_UTC, ANSWERS]
         .into_iter()
         .chain(TIMING)
+        .chain([MISSED_DEADLINES, LEASE_EXPIRIES])
         .chain([
             START_DEPTH,
             ADJUSTMENTS,
@@ -75,6 +92,8 @@ pub enum Holds {
     Level(Vec<String>),
     /// A measured number, or empty when not measured.
     Measured,
+    /// A wall-clock time, RFC 3339 UTC.
+    Time,
     /// A count of answers.
     Answers,
     /// A Likert point, 1..=points (empty: not asked).
@@ -143,6 +162,7 @@ impl Holds {
             Self::Stimulus => crate::plan::library::check_id(value).is_ok(),
             Self::Level(levels) => levels.iter().any(|l| l == value),
             Self::Measured => value.is_empty() || number(value, f64::MIN, f64::MAX),
+            Self::Time => crate::lab::study::provenance::is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
             Self::Likert(points) => {
                 value.is_empty()
@@ -175,6 +195,7 @@ impl Holds {
             Self::Stimulus => "give a library entry's id".into(),
             Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
             Self::Measured => "give a finite number or nothing".into(),
+            Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
             Self::Likert(p) => format!("give 1 to {p} or nothing"),
             Self::Choice(l) => format!("give one of {} or nothing", l.join(", ")),
@@ -198,7 +219,9 @@ impl Holds {
         const NUMBER: usize = 32;
         match self {
             Self::Participant | Self::Stimulus => crate::plan::library::MAX_ID_LEN,
-            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured => NUMBER,
+            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured | Self::Time => {
+                NUMBER
+            }
             Self::Level(l) | Self::Choice(l) => label(l),
             Self::Likert(_) => 1,
             // As the participant gave it.
@@ -218,6 +241,9 @@ pub struct Column {
     pub name: String,
     /// What it holds.
     pub holds: Holds,
+    /// Whether it may hold [`NOT_PERCEIVED`] (an answer column whose
+    /// question allows it).
+    pub not_perceived: bool,
 }
 
 impl Column {
@@ -226,6 +252,36 @@ impl Column {
         Self {
             name: name.into(),
             holds,
+            not_perceived: false,
+        }
+    }
+
+    /// The same column, allowing [`NOT_PERCEIVED`] too.
+    pub fn allowing_not_perceived(mut self) -> Self {
+        self.not_perceived = true;
+        self
+    }
+
+    /// Checks `value` against what the column holds.
+    pub fn check(&self, value: &str) -> Result<(), String> {
+        if self.not_perceived && value == NOT_PERCEIVED {
+            return Ok(());
+        }
+        self.holds.check(value).map_err(|m| {
+            if self.not_perceived {
+                format!("{m}, or `{NOT_PERCEIVED}`")
+            } else {
+                m
+            }
+        })
+    }
+
+    fn max_bytes(&self, items: usize) -> usize {
+        let b = self.holds.max_bytes(items);
+        if self.not_perceived {
+            b.max(NOT_PERCEIVED.len())
+        } else {
+            b
         }
     }
 }
@@ -267,7 +323,13 @@ impl Columns {
             Column::new(STIMULUS, Holds::Stimulus),
         ];
         list.extend(factors);
-        list.extend(TIMING.iter().map(|n| Column::new(*n, Holds::Measured)));
+        list.push(Column::new(TIME_UTC, Holds::Time));
+        list.extend(
+            TIMING
+                .iter()
+                .chain(&[MISSED_DEADLINES, LEASE_EXPIRIES])
+                .map(|n| Column::new(*n, Holds::Measured)),
+        );
         list.push(Column::new(ANSWERS, Holds::Answers));
         list.extend(questions);
         if let Some(a) = adjust {
@@ -319,7 +381,7 @@ impl Columns {
         let items = self.adjustments as usize + 1;
         self.list
             .iter()
-            .map(|c| c.holds.max_bytes(items) + 1)
+            .map(|c| c.max_bytes(items) + 1)
             .sum::<usize>()
             + 2
     }

@@ -27,6 +27,7 @@ pub mod columns;
 pub mod design;
 pub mod procedure;
 pub mod protocol;
+pub mod provenance;
 pub mod record;
 pub mod report;
 pub mod start;
@@ -129,6 +130,8 @@ pub struct RunOptions {
     pub time_scale: f64,
     /// Continue an interrupted run.
     pub resume: bool,
+    /// Continue it on a rig that differs from the last run's (recorded).
+    pub resume_anyway: bool,
 }
 
 /// What a run did.
@@ -239,7 +242,15 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     } else {
         start::fresh(&o, &p, &paths)?
     };
-    let scene = Scene::load_or_default(o.scene.as_deref())?;
+    let scene_text = match &o.scene {
+        Some(path) => Some(crate::limits::read_text_file("scene file", path)?),
+        None => None,
+    };
+    let scene = match (&o.scene, &scene_text) {
+        (Some(path), Some(text)) => Scene::from_toml(text, &path.display().to_string())?,
+        _ => Scene::default(),
+    };
+    let scene_record = provenance::SceneRecord::of(o.scene.as_deref(), scene_text.as_deref());
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
     let mut warned = std::collections::BTreeSet::new();
@@ -250,6 +261,9 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     }
     let answers: Box<dyn Answers> = match st.lines.take() {
         Some(l) => Box::new(l),
+        None if o.answers == AnswerSource::File("-".into()) => {
+            Box::new(answers::Piped::named("--responses -")?)
+        }
         None if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
             Box::new(answers::Terminal::open()?)
         }
@@ -260,7 +274,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
-    st.file.runs.push(Run {
+    let info = session.info().clone();
+    let mut this_run = Run {
         started_unix_s: unix_s(),
         first_trial: first,
         lmhost_version: env!("CARGO_PKG_VERSION").into(),
@@ -278,7 +293,28 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             .collect(),
         time_scale: o.time_scale,
         finger: o.finger.name(),
-    });
+        scene: Some(scene_record),
+        backend: info.backend.clone(),
+        port: info.port.clone(),
+        resumed_anyway: None,
+    };
+    // A resumed session continues on the rig it ran on, or says what
+    // differs (before any file changes; the array has not sounded).
+    if let Some(last) = st.file.runs.last() {
+        let d = provenance::rig_differences(last, &this_run);
+        if !d.is_empty() {
+            let what = d.join("; ");
+            if !o.resume_anyway {
+                drop(session.close(OffsetReason::Quit));
+                crate::bad_input!(
+                    "--resume: this rig differs from the session's: {what}; nothing was changed (give --resume-anyway to go on, recorded in session.json)"
+                );
+            }
+            crate::errln!("warning: --resume-anyway: the rig differs: {what}");
+            this_run.resumed_anyway = Some(what);
+        }
+    }
+    st.file.runs.push(this_run);
     // session.json first: a run stopped before its trials.csv header is
     // still resumable.
     crate::files::output_dir("--out", &paths.dir)?;
@@ -528,11 +564,13 @@ impl Runner {
         }
     }
 
-    fn ask(&mut self, q: &Asked) -> anyhow::Result<String> {
+    /// The answer to `q` and its response time, s.
+    fn ask(&mut self, q: &Asked) -> anyhow::Result<(String, f64)> {
+        let asked = monotonic_us();
         loop {
             self.tick()?;
             if let Some(a) = self.answers.poll(q)? {
-                return Ok(a);
+                return Ok((a, monotonic_us().saturating_sub(asked) as f64 / 1e6));
             }
             self.pause();
         }
@@ -551,13 +589,11 @@ impl Runner {
         self.log(serde_json::json!({
             "event": "trial", "trial": t.trial, "set": t.set, "stimulus": t.stimulus,
         }))?;
-        crate::errln!(
-            "trial {}/{} (set {}): {}",
-            t.trial,
-            p.trials(),
-            t.set,
-            t.stimulus
-        );
+        // The participant may see this line: the stimulus is in the
+        // event log only.
+        crate::errln!("trial {}/{} (set {})", t.trial, p.trials(), t.set);
+        let time_utc = provenance::now_utc();
+        let before = self.session().device_counters().ok();
         if tl.wait_for_finger {
             self.touch(true)?;
             while self.finger_present != Some(true) {
@@ -610,7 +646,7 @@ impl Runner {
                     self.pause();
                     continue;
                 }
-                let ans = self.ask(&pr.asked())?;
+                let (ans, _) = self.ask(&pr.asked())?;
                 match pr.respond(&ans) {
                     Step::Done => {}
                     Step::Next(level) => {
@@ -641,6 +677,13 @@ impl Runner {
             }
         }
         self.drain()?;
+        // Over the presentation: the answers that follow play nothing.
+        let after = self.session().device_counters().ok();
+        let health = trial::Health {
+            time_utc,
+            missed_deadlines: before.zip(after).map(|(b, a)| a.0.wrapping_sub(b.0)),
+            lease_expiries: before.zip(after).map(|(b, a)| a.1.wrapping_sub(b.1)),
+        };
         self.touch(false)?;
         // The next stimulus loads while the participant answers.
         if let Some(n) = next {
@@ -662,6 +705,7 @@ impl Runner {
             t,
             &self.trial_events,
             timing.as_ref(),
+            &health,
             &given,
             procedure.as_deref(),
         ))

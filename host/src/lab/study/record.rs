@@ -39,6 +39,20 @@ pub struct Run {
     pub time_scale: f64,
     /// `--finger`.
     pub finger: String,
+    /// The scene (file and CRC-32 of its text); absent in files written
+    /// before it was recorded.
+    #[serde(default)]
+    pub scene: Option<super::provenance::SceneRecord>,
+    /// The backend kind (`autd3`, `lm-firmware`, ...).
+    #[serde(default)]
+    pub backend: String,
+    /// The port as given.
+    #[serde(default)]
+    pub port: String,
+    /// What differed from the previous run's rig when `--resume-anyway`
+    /// went on regardless.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resumed_anyway: Option<String>,
 }
 
 /// `session.json`.
@@ -327,7 +341,7 @@ pub fn read_trials(
                     ),
                 ));
             }
-            c.holds.check(v).map_err(|m| {
+            c.check(v).map_err(|m| {
                 bad(
                     n,
                     format!("column `{}`: `{}`: {m}", c.name, v.escape_debug()),

@@ -399,10 +399,26 @@ fn question(q: QuestionFile, e: &Errors) -> Result<Question, InputError> {
             Kind::Number { min, max }
         }
     };
+    // `na` is what the participant types for it, so an option may not
+    // be `na` too.
+    if q.not_perceived.is_some()
+        && let Kind::Choice { options } = &kind
+        && let Some(o) = options
+            .iter()
+            .find(|o| o.eq_ignore_ascii_case(crate::lab::study::columns::NOT_PERCEIVED))
+    {
+        let span = q.not_perceived.as_ref().map_or(q.id.span(), Spanned::span);
+        return Err(qbad(
+            span,
+            "not_perceived",
+            format!("option `{o}` is what \"not perceived\" is typed as: rename the option"),
+        ));
+    }
     Ok(Question {
         id,
         text: q.text,
         kind,
         shuffle,
+        not_perceived: q.not_perceived.map(|l| l.into_inner().0),
     })
 }

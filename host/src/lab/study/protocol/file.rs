@@ -73,6 +73,7 @@ pub(super) struct QuestionFile {
     pub shuffle: Option<Spanned<bool>>,
     pub min: Option<Spanned<Number>>,
     pub max: Option<Spanned<Number>>,
+    pub not_perceived: Option<Spanned<Label>>,
 }
 
 #[derive(Debug, Deserialize)]
