@@ -7,8 +7,8 @@ use std::path::Path;
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 
 use super::protocol::{Kind, Question};
-pub use crate::lab::study::columns::NOT_PERCEIVED;
 use crate::error::InputError;
+pub use crate::lab::study::columns::NOT_PERCEIVED;
 
 /// One thing asked: a question, a Likert item or an adjustment.
 #[derive(Debug, Clone, PartialEq)]
@@ -610,7 +610,11 @@ mod tests {
             not_perceived: Some("could not perceive".into()),
         };
         let a = &Asked::of(&q, &[])[0];
-        assert!(a.prompt.ends_with("[na = could not perceive]"), "{}", a.prompt);
+        assert!(
+            a.prompt.ends_with("[na = could not perceive]"),
+            "{}",
+            a.prompt
+        );
         assert_eq!(a.parse("na").unwrap(), NOT_PERCEIVED);
         assert_eq!(a.parse(" NA ").unwrap(), NOT_PERCEIVED);
         assert_eq!(a.parse("4").unwrap(), "4");

@@ -22,6 +22,7 @@
 //! This module never parses flags or maps errors to exit codes; bad input
 //! is an [`InputError`] (exit 2 in `main`).
 
+pub mod analysis;
 pub mod answers;
 pub mod columns;
 pub mod design;

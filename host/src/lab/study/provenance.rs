@@ -105,9 +105,7 @@ pub fn rig_differences(before: &Run, now: &Run) -> Vec<String> {
 
 /// `t` as RFC 3339 UTC to the millisecond (`2026-11-26T08:41:59.123Z`).
 pub fn rfc3339_utc(t: std::time::SystemTime) -> String {
-    let d = t
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap_or_default();
+    let d = t.duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
     let secs = d.as_secs();
     let (days, rem) = (secs / 86_400, secs % 86_400);
     let (y, m, dd) = civil_from_days(days as i64);

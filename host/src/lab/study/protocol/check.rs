@@ -69,6 +69,7 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         }
         questions.push(question(q, e)?);
     }
+    let report = super::report::check(file.report, &factors, e)?;
     let adjustment = file
         .adjustment
         .map(|a| {
@@ -138,6 +139,7 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         questions,
         adjustment,
         columns,
+        report,
     })
 }
 

@@ -25,6 +25,7 @@ pub(super) struct File {
     #[serde(default)]
     pub question: Vec<QuestionFile>,
     pub adjustment: Option<Spanned<AdjustmentFile>>,
+    pub report: Option<super::report::ReportFile>,
 }
 
 #[derive(Debug, Deserialize)]

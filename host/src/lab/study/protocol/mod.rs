@@ -5,6 +5,9 @@
 
 mod check;
 mod file;
+mod report;
+
+pub use report::{PairSpec, ReportSpec};
 
 use std::path::{Path, PathBuf};
 
@@ -242,6 +245,8 @@ pub struct Protocol {
     pub adjustment: Option<Adjustment>,
     /// trials.csv's header.
     pub columns: Columns,
+    /// What `study report` tests.
+    pub report: ReportSpec,
 }
 
 /// A protocol checked but for its library: all `study report` needs of
@@ -268,6 +273,8 @@ pub struct Unlinked {
     pub adjustment: Option<Adjustment>,
     /// trials.csv's header.
     pub columns: Columns,
+    /// What `study report` tests.
+    pub report: ReportSpec,
 }
 
 impl Unlinked {
@@ -358,6 +365,7 @@ impl Protocol {
             questions: u.questions,
             adjustment: u.adjustment,
             columns: u.columns,
+            report: u.report,
         })
     }
 
