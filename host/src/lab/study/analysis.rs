@@ -408,3 +408,6 @@ pub fn text(all: &[QuestionStats]) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests;

@@ -122,7 +122,11 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
             "factor = \"type\"\npairs = [[\"lms-5hz\", \"lm-x\"]]\n",
             "`lm-x` is not a level of factor `type`",
         ),
-        ("repeats = \"mean\"", "repeats = \"mode\"", "unknown variant `mode`"),
+        (
+            "repeats = \"mean\"",
+            "repeats = \"mode\"",
+            "unknown variant `mode`",
+        ),
     ] {
         assert!(base.contains(from), "{from}");
         let text = base.replacen(from, to, 1);
