@@ -82,8 +82,13 @@ const SESSION_OUTPUTS: &str = "r4-s8 session inputs before outputs";
 const STALE_LOCK: &str = "r4-30.15 a port lock dies with its holder";
 const AUTD3_SLOTS: &str = "r4-31 AUTD3 slots, segments and the in-process emulator";
 
+/// Round 4, the paper's experiments (issue 28): `cases_r4_paper.rs`.
+const PAPER_ANSWERS: &str = "r4-28.1 not perceived and answers as asked";
+const PAPER_REPORT: &str = "r4-28.3 the report's tests declared";
+const PAPER_RIG: &str = "r4-28.5 resume on the same rig";
+
 /// Every class the suite must cover.
-const CLASSES: [&str; 45] = [
+const CLASSES: [&str; 48] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -129,6 +134,9 @@ const CLASSES: [&str; 45] = [
     SESSION_OUTPUTS,
     STALE_LOCK,
     AUTD3_SLOTS,
+    PAPER_ANSWERS,
+    PAPER_REPORT,
+    PAPER_RIG,
 ];
 
 /// What a run produced, for custom checks.
@@ -329,6 +337,7 @@ mod cases_r1;
 mod cases_r3;
 mod cases_r4_device;
 mod cases_r4_files;
+mod cases_r4_paper;
 mod cases_r4_session;
 mod cases_r4_study;
 mod checks;
@@ -338,6 +347,7 @@ use cases_r1::cases;
 use cases_r3::round3_cases;
 use cases_r4_device::round4_device_cases;
 use cases_r4_files::{round4_files_cases, round4_files_fixtures};
+use cases_r4_paper::{paper_cases, paper_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use checks::*;
 use fixtures::*;
@@ -567,6 +577,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     std::fs::create_dir_all(&dir).unwrap();
     fixtures(&dir);
     study_fixtures(&dir);
+    paper_fixtures(&dir);
     round4_files_fixtures(&dir);
     cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
@@ -594,6 +605,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
 
     let mut all = cases();
     all.extend(study_cases());
+    all.extend(paper_cases());
     all.extend(round4_files_cases());
     // Last: the session cases preload the shared device's library.
     all.extend(cases_r4_session::cases());

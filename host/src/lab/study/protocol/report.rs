@@ -96,7 +96,7 @@ pub(super) fn check(
         Some(a) if !(*a.get_ref() > 0.0 && *a.get_ref() < 1.0) => {
             return Err(e.at(
                 a.span(),
-                "report.alpha",
+                "alpha",
                 format!(
                     "{} is not a significance level: give a number between 0 and 1",
                     crate::limits::show(*a.get_ref())
@@ -126,11 +126,11 @@ pub(super) fn check(
     match &r.friedman {
         Some(list) => {
             for n in list.get_ref() {
-                let f = factor(&n.0, list.span(), "report.friedman")?;
+                let f = factor(&n.0, list.span(), "friedman")?;
                 if !wide(f) {
                     return Err(e.at(
                         list.span(),
-                        "report.friedman",
+                        "friedman",
                         format!(
                             "factor `{}` has {} levels; a Friedman test compares at least 3",
                             f.name,
@@ -148,7 +148,7 @@ pub(super) fn check(
         let f = factor(
             &p.factor.get_ref().0,
             p.factor.span(),
-            "report.pairs.factor",
+            "factor",
         )?;
         let list = match &p.pairs {
             None => crate::lab::stats::table::all_pairs(
@@ -161,7 +161,7 @@ pub(super) fn check(
                         if !f.levels.contains(l) {
                             return Err(e.at(
                                 given.span(),
-                                "report.pairs.pairs",
+                                "pairs",
                                 format!(
                                     "`{}` is not a level of factor `{}` ({})",
                                     l.escape_debug(),
@@ -174,7 +174,7 @@ pub(super) fn check(
                     if a.0 == b.0 {
                         return Err(e.at(
                             given.span(),
-                            "report.pairs.pairs",
+                            "pairs",
                             format!("`{}` is paired with itself", a.0),
                         ));
                     }
@@ -186,7 +186,7 @@ pub(super) fn check(
         if list.is_empty() {
             return Err(e.at(
                 p.factor.span(),
-                "report.pairs.factor",
+                "factor",
                 format!("factor `{}` has one level: nothing to pair", f.name),
             ));
         }
