@@ -45,7 +45,6 @@ use crate::error::InputError;
 use crate::files::AppendLog;
 use crate::lab::session::driver::{Driver, Finger};
 use crate::lab::session::{Event, EventKind, OffsetReason, Present, Session};
-use crate::plan::scene::Scene;
 use crate::sense::stream::filter::Passthrough;
 
 use answers::{Answers, Asked};
@@ -53,7 +52,7 @@ use columns::Row;
 use design::Planned;
 use procedure::Step;
 use protocol::Protocol;
-use record::{Expect, Run};
+use record::Expect;
 use start::Start;
 
 /// The device is polled at least this often while a trial runs.
@@ -177,12 +176,6 @@ pub fn check_participant(id: &str) -> Result<(), InputError> {
     Ok(())
 }
 
-fn unix_s() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
-}
-
 fn resume_hint(o: &RunOptions) -> String {
     format!(
         "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger and --responses)",
@@ -243,15 +236,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     } else {
         start::fresh(&o, &p, &paths)?
     };
-    let scene_text = match &o.scene {
-        Some(path) => Some(crate::limits::read_text_file("scene file", path)?),
-        None => None,
-    };
-    let scene = match (&o.scene, &scene_text) {
-        (Some(path), Some(text)) => Scene::from_toml(text, &path.display().to_string())?,
-        _ => Scene::default(),
-    };
-    let scene_record = provenance::SceneRecord::of(o.scene.as_deref(), scene_text.as_deref());
+    let (scene, scene_record) = provenance::load_scene(o.scene.as_deref())?;
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
     let mut warned = std::collections::BTreeSet::new();
@@ -275,45 +260,12 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
-    let info = session.info().clone();
-    let mut this_run = Run {
-        started_unix_s: unix_s(),
-        first_trial: first,
-        lmhost_version: env!("CARGO_PKG_VERSION").into(),
-        device: serde_json::to_value(session.info())?,
-        library: session
-            .loaded()
-            .iter()
-            .map(|l| {
-                serde_json::json!({
-                    "id": l.id,
-                    "crc32": format!("{:08x}", l.crc32),
-                    "timing": l.planned.timing,
-                })
-            })
-            .collect(),
-        time_scale: o.time_scale,
-        finger: o.finger.name(),
-        scene: Some(scene_record),
-        backend: info.backend.clone(),
-        port: info.port.clone(),
-        resumed_anyway: None,
-    };
+    let mut this_run = provenance::run_record(&session, first, &o, scene_record)?;
     // A resumed session continues on the rig it ran on, or says what
     // differs (before any file changes; the array has not sounded).
-    if let Some(last) = st.file.runs.last() {
-        let d = provenance::rig_differences(last, &this_run);
-        if !d.is_empty() {
-            let what = d.join("; ");
-            if !o.resume_anyway {
-                drop(session.close(OffsetReason::Quit));
-                crate::bad_input!(
-                    "--resume: this rig differs from the session's: {what}; nothing was changed (give --resume-anyway to go on, recorded in session.json)"
-                );
-            }
-            crate::errln!("warning: --resume-anyway: the rig differs: {what}");
-            this_run.resumed_anyway = Some(what);
-        }
+    if let Err(e) = provenance::check_rig(&st.file.runs, &mut this_run, o.resume_anyway) {
+        drop(session.close(OffsetReason::Quit));
+        return Err(e.into());
     }
     st.file.runs.push(this_run);
     // session.json first: a run stopped before its trials.csv header is

@@ -8,6 +8,80 @@
 use serde::{Deserialize, Serialize};
 
 use super::record::Run;
+use crate::error::InputError;
+use crate::lab::session::Session;
+use crate::plan::scene::Scene;
+
+/// The scene of `--scene` (`None`: the built-in one) and its record.
+pub fn load_scene(path: Option<&std::path::Path>) -> Result<(Scene, SceneRecord), InputError> {
+    Ok(match path {
+        Some(p) => {
+            let text = crate::limits::read_text_file("scene file", p)?;
+            let scene = Scene::from_toml(&text, &p.display().to_string())?;
+            (scene, SceneRecord::of(Some(p), Some(&text)))
+        }
+        None => (Scene::default(), SceneRecord::of(None, None)),
+    })
+}
+
+/// This run's record in `session.json`: the device as it described
+/// itself, every library entry as planned for it (id, CRC-32, timing),
+/// the scene, the time scale and the finger.
+pub fn run_record(
+    session: &Session,
+    first_trial: usize,
+    o: &super::RunOptions,
+    scene: SceneRecord,
+) -> anyhow::Result<Run> {
+    let info = session.info();
+    Ok(Run {
+        started_unix_s: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs()),
+        first_trial,
+        lmhost_version: env!("CARGO_PKG_VERSION").into(),
+        device: serde_json::to_value(info)?,
+        library: session
+            .loaded()
+            .iter()
+            .map(|l| {
+                serde_json::json!({
+                    "id": l.id,
+                    "crc32": format!("{:08x}", l.crc32),
+                    "timing": l.planned.timing,
+                })
+            })
+            .collect(),
+        time_scale: o.time_scale,
+        finger: format!("{:?}", o.finger),
+        scene: Some(scene),
+        backend: info.backend.clone(),
+        port: info.port.clone(),
+        resumed_anyway: None,
+    })
+}
+
+/// Refuses `now` when it differs from the last of `runs` in its rig,
+/// unless `anyway`: then `now` records what differed (and a warning
+/// says it).
+pub fn check_rig(runs: &[Run], now: &mut Run, anyway: bool) -> Result<(), InputError> {
+    let Some(last) = runs.last() else {
+        return Ok(());
+    };
+    let d = rig_differences(last, now);
+    if d.is_empty() {
+        return Ok(());
+    }
+    let what = d.join("; ");
+    if !anyway {
+        return Err(InputError::new(format!(
+            "--resume: this rig differs from the session's: {what}; nothing was changed (give --resume-anyway to go on, recorded in session.json)"
+        )));
+    }
+    crate::errln!("warning: --resume-anyway: the rig differs: {what}");
+    now.resumed_anyway = Some(what);
+    Ok(())
+}
 
 /// The scene a run used.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

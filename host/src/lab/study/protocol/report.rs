@@ -145,11 +145,7 @@ pub(super) fn check(
     }
     let mut pairs = Vec::new();
     for p in &r.pairs {
-        let f = factor(
-            &p.factor.get_ref().0,
-            p.factor.span(),
-            "factor",
-        )?;
+        let f = factor(&p.factor.get_ref().0, p.factor.span(), "factor")?;
         let list = match &p.pairs {
             None => crate::lab::stats::table::all_pairs(
                 &f.levels.iter().map(String::as_str).collect::<Vec<_>>(),
