@@ -305,9 +305,15 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
             refused += 1;
         }
         if !line.starts_with(' ') && line.ends_with(']') && line.contains("[1 = ") {
-            let k = b'1' + (typed.len() * 3 % 7) as u8;
-            keys.write_all(&[b'9', k]).unwrap();
-            typed.push((k as char).to_string());
+            // Every 17th answer is "not perceived", typed as `na`.
+            if typed.len() % 17 == 2 {
+                keys.write_all(b"9na").unwrap();
+                typed.push("na".to_owned());
+            } else {
+                let k = b'1' + (typed.len() * 3 % 7) as u8;
+                keys.write_all(&[b'9', k]).unwrap();
+                typed.push((k as char).to_string());
+            }
         }
         log.push(line);
     }
@@ -716,5 +722,62 @@ fn responses_from_stdin_are_read_one_at_a_time_as_asked() {
     assert!(status.success(), "{status}: {}", log.join("\n"));
     assert_eq!(given.len(), 150, "one line per question asked");
     check_exp1(&rows(&out.join("P01")), &given);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `--responses -` lines are checked as they come: a bad one or stdin's
+/// end ends the run as bad input, the array silent and the session
+/// resumable.
+#[test]
+fn responses_from_stdin_are_checked_as_they_come() {
+    let d = scratch("live-bad");
+    for (id, input, want) in [
+        (
+            "B1",
+            "1\n9\n",
+            "--responses - line 2: `9` is not an answer to `movement`",
+        ),
+        (
+            "B2",
+            "na\n",
+            "--responses - ended: an answer to `movement` is needed",
+        ),
+    ] {
+        let o = study(&[
+            "run",
+            &studies("paper-exp1.toml"),
+            "--port",
+            "autd3:emulator",
+            "--participant",
+            id,
+            "--out",
+            d.to_str().unwrap(),
+            "--finger",
+            "synthetic",
+            "--time-scale",
+            "0.02",
+            "--responses",
+            "-",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .and_then(|mut c| {
+            use std::io::Write;
+            c.stdin.take().unwrap().write_all(input.as_bytes())?;
+            c.wait_with_output()
+        })
+        .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        let last = e.trim().lines().last().unwrap_or_default();
+        assert!(
+            last.contains(want)
+                && last.contains("the array is silent")
+                && last.contains("--resume"),
+            "{e}"
+        );
+    }
     let _ = std::fs::remove_dir_all(&d);
 }
