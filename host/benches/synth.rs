@@ -1,5 +1,6 @@
 //! Phase synthesis speed over the built-in 2 × 2 AUTD3 array (996
-//! transducers): one frame with 1 and 4 foci, fast path vs f64 reference,
+//! transducers): one frame with 1 and 4 foci, fast path (the build this
+//! CPU runs, and the portable build) vs f64 reference,
 //! and a whole LM-M sequence (A = 3 mm, N = 82, 4 foci: plan, synthesise,
 //! quantise, Delta-encode). With `--features autd3-compare`, the `autd3`
 //! crate's `Focus` gain on the same geometry and focus runs in the same
@@ -31,6 +32,8 @@ fn frames(c: &mut Criterion) {
     let kappa = plan.kappa_turns_per_mm();
     let mut out = vec![0u8; plan.len()];
     let mut scratch = plan.scratch();
+    // The baseline build (SSE2 on x86-64, no FMA), for CPUs without AVX2.
+    let portable = plan.clone().portable();
     for foci in [1, 4] {
         let (_, t) = lm(foci);
         let mut g = c.benchmark_group(format!("frame_{foci}_foci_996"));
@@ -39,6 +42,12 @@ fn frames(c: &mut Criterion) {
             b.iter(|| {
                 j = (j + 1) % t.steps;
                 plan.foci(black_box(t.drive_step(j)), None, &mut scratch, &mut out);
+            })
+        });
+        g.bench_function("fast_f32_portable", |b| {
+            b.iter(|| {
+                j = (j + 1) % t.steps;
+                portable.foci(black_box(t.drive_step(j)), None, &mut scratch, &mut out);
             })
         });
         g.bench_function("reference_f64", |b| {

@@ -1,9 +1,10 @@
 //! NumPy `.npy` files, the one module that reads and writes them: the
 //! header writer every output uses ([`header`], [`encode_f64`],
-//! [`encode_u8`]), and depth recordings as `.npy`: `uint16` (frames, height, width) frames and
-//! optional `float64` (frames,) time stamps.
+//! [`encode_u8`]), and recordings as `.npy`: depth as `uint16` (frames,
+//! height, width), colour as `uint8` (frames, height, width, 3) RGB, and
+//! `float64` (frames,) time stamps.
 //!
-//! The reader is strict: NPY versions 1–3, `'<u2'` / `'<f8'` only, C order,
+//! The reader is strict: NPY versions 1–3, `'<u2'` / `'|u1'` / `'<f8'` only, C order,
 //! header ≤ 64 KiB, and the data must be exactly as long as the shape says.
 //! Frames are read one at a time, so memory is one frame however long the
 //! recording; nothing is allocated before the file's size has confirmed it.
@@ -246,6 +247,64 @@ impl DepthNpy {
     }
 }
 
+/// Colour frames of a `uint8` (frames, height, width, 3) `.npy` (RGB),
+/// read one at a time.
+pub struct ColourNpy {
+    path: PathBuf,
+    reader: BufReader<File>,
+    /// Number of frames.
+    pub frames: u64,
+    /// Frame height (rows).
+    pub height: u32,
+    /// Frame width (columns).
+    pub width: u32,
+    next: u64,
+}
+
+impl ColourNpy {
+    /// Open and check a colour recording.
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        let (f, len) = open(path)?;
+        let mut reader = BufReader::new(f);
+        let h = read_header(&mut reader, len, path)?;
+        check_descr(path, &h, "|u1", "uint8")?;
+        let [frames, height, width, 3] = h.shape[..] else {
+            return Err(bad(
+                path,
+                format!("shape {:?} must be (frames, height, width, 3)", h.shape),
+            ));
+        };
+        if !(1..=MAX_SIDE).contains(&height) || !(1..=MAX_SIDE).contains(&width) {
+            return Err(bad(
+                path,
+                format!("frame size {width}×{height} must be 1..={MAX_SIDE} on each side"),
+            ));
+        }
+        check_len(path, &h, len, 1)?;
+        Ok(Self {
+            path: path.to_owned(),
+            reader,
+            frames,
+            height: height as u32,
+            width: width as u32,
+            next: 0,
+        })
+    }
+
+    /// The next frame (width × height × 3 bytes), `None` after the last.
+    pub fn read(&mut self) -> Result<Option<Vec<u8>>, InputError> {
+        if self.next >= self.frames {
+            return Ok(None);
+        }
+        let mut bytes = vec![0u8; self.width as usize * self.height as usize * 3];
+        self.reader
+            .read_exact(&mut bytes)
+            .map_err(|_| bad(&self.path, format!("frame {} is truncated", self.next)))?;
+        self.next += 1;
+        Ok(Some(bytes))
+    }
+}
+
 /// Read a `float64` (n,) `.npy` of time stamps (s): finite, non-decreasing.
 pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
     let (f, len) = open(path)?;
@@ -391,6 +450,65 @@ impl DepthNpyWriter {
     }
 }
 
+/// Writes a `uint8` (frames, height, width, 3) `.npy` of RGB frames as
+/// [`DepthNpyWriter`] writes depth: whole or absent.
+pub struct ColourNpyWriter {
+    out: crate::files::Output,
+    height: u32,
+    width: u32,
+    frames: u64,
+}
+
+impl ColourNpyWriter {
+    /// Start writing `path` for RGB frames of `width` × `height`.
+    pub fn create(path: &Path, width: u32, height: u32) -> anyhow::Result<Self> {
+        let mut w = Self {
+            out: crate::files::Output::create(path)?,
+            height,
+            width,
+            frames: 0,
+        };
+        let h = w.header();
+        w.out.write_bytes(&h)?;
+        Ok(w)
+    }
+
+    fn header(&self) -> Vec<u8> {
+        header(
+            "|u1",
+            &[
+                self.frames,
+                u64::from(self.height),
+                u64::from(self.width),
+                3,
+            ],
+            WRITE_HEADER,
+        )
+    }
+
+    /// Append one frame (`width × height × 3` bytes, row-major RGB).
+    pub fn push(&mut self, rgb: &[u8]) -> anyhow::Result<()> {
+        if rgb.len() != self.width as usize * self.height as usize * 3 {
+            anyhow::bail!(
+                "{}: colour frame size changed while recording",
+                self.out.path().display()
+            );
+        }
+        self.out.write_bytes(rgb)?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Write the final header, sync and move the file into place; returns
+    /// the frame count.
+    pub fn finish(mut self) -> anyhow::Result<u64> {
+        let h = self.header();
+        self.out.write_at(0, &h)?;
+        self.out.commit()?;
+        Ok(self.frames)
+    }
+}
+
 /// Write a `float64` (n,) `.npy`, whole or not at all.
 pub fn write_f64_1d(path: &Path, data: &[f64]) -> anyhow::Result<()> {
     let mut out = header("<f8", &[data.len() as u64], WRITE_HEADER);
@@ -427,6 +545,26 @@ mod tests {
         let t = tmp("t.npy");
         write_f64_1d(&t, &[0.0, 0.011]).unwrap();
         assert_eq!(read_timestamps(&t).unwrap(), [0.0, 0.011]);
+    }
+
+    #[test]
+    fn colour_recordings_read_back_and_check_their_shape() {
+        let p = tmp("rgb.npy");
+        let mut w = ColourNpyWriter::create(&p, 2, 1).unwrap();
+        w.push(&[1, 2, 3, 4, 5, 6]).unwrap();
+        assert!(w.push(&[0; 5]).is_err());
+        assert_eq!(w.finish().unwrap(), 1);
+        let mut r = ColourNpy::open(&p).unwrap();
+        assert_eq!((r.frames, r.height, r.width), (1, 1, 2));
+        assert_eq!(r.read().unwrap().unwrap(), [1, 2, 3, 4, 5, 6]);
+        assert!(r.read().unwrap().is_none());
+        let e = ColourNpy::open(&tmp("rt.npy").with_file_name("missing.npy"))
+            .err()
+            .unwrap();
+        assert!(!e.to_string().is_empty());
+        std::fs::write(&p, header("|u1", &[1, 1, 2, 4], 128)).unwrap();
+        let e = ColourNpy::open(&p).err().unwrap().to_string();
+        assert!(e.contains("(frames, height, width, 3)"), "{e}");
     }
 
     #[test]

@@ -73,13 +73,121 @@ fn predict(prev: u8, prev2: Option<u8>) -> u8 {
 
 /// Prefix code of one residual: `(bits, length)`.
 #[inline]
-fn residual_code(e: i8) -> (u32, u32) {
+const fn residual_code(e: i8) -> (u32, u32) {
     match e {
         0 => (0b0, 1),
         1 => (0b100, 3),
         -1 => (0b101, 3),
         -8..=7 => ((0b110 << 4) | (e as u8 & 0xF) as u32, 7),
         _ => ((0b111 << 8) | e as u8 as u32, 11),
+    }
+}
+
+/// [`residual_code`] of every residual byte, split into its bits and its
+/// length: the encoder's two lookups.
+const CODE_BITS: [u16; 256] = code_table().0;
+const CODE_LEN: [u8; 256] = code_table().1;
+
+const fn code_table() -> ([u16; 256], [u8; 256]) {
+    let (mut bits, mut len) = ([0u16; 256], [0u8; 256]);
+    let mut i = 0;
+    while i < 256 {
+        let (b, l) = residual_code(i as u8 as i8);
+        bits[i] = b as u16;
+        len[i] = l as u8;
+        i += 1;
+    }
+    (bits, len)
+}
+
+/// Residuals of one step (`cur` against its prediction from `prev` and
+/// `prev2`; `prev2 = prev` predicts step 1 by step 0) into `res`, all four
+/// the same length. Byte-wise wrapping arithmetic, which compilers
+/// vectorise.
+#[inline]
+fn step_residuals(cur: &[u8], prev: &[u8], prev2: &[u8], res: &mut [u8]) {
+    let n = res.len();
+    let (cur, prev, prev2) = (&cur[..n], &prev[..n], &prev2[..n]);
+    for i in 0..n {
+        res[i] = cur[i].wrapping_sub(prev[i].wrapping_mul(2).wrapping_sub(prev2[i]));
+    }
+}
+
+/// Residuals per [`step_residuals`] call: a stack buffer, step by step.
+const RESIDUAL_CHUNK: usize = 256;
+
+/// The Delta bit stream: codes appended MSB first into a 64-bit
+/// accumulator, whole bytes written out after each group of codes.
+struct BitWriter<'a> {
+    out: &'a mut [u8],
+    /// Bytes written.
+    n: usize,
+    /// Pending bits: the low `nbits` bits (higher bits are stale).
+    acc: u64,
+    nbits: u32,
+}
+
+impl BitWriter<'_> {
+    /// Appends the low `len` bits of `code` (`len ≤ 56`, `len ≥ 1`).
+    #[inline(always)]
+    fn put(&mut self, code: u64, len: u32) -> Result<(), CodecError> {
+        self.acc = (self.acc << len) | code;
+        self.nbits += len;
+        if let Some(dst) = self.out.get_mut(self.n..self.n + 8) {
+            // The pending bits at the top, zeros below: writing all eight
+            // bytes is harmless (the next write starts at the partial byte).
+            dst.copy_from_slice(&(self.acc << (64 - self.nbits)).to_be_bytes());
+            self.n += (self.nbits / 8) as usize;
+            self.nbits %= 8;
+            Ok(())
+        } else {
+            self.put_bytes()
+        }
+    }
+
+    /// Writes the whole pending bytes one at a time (the end of `out`).
+    #[cold]
+    fn put_bytes(&mut self) -> Result<(), CodecError> {
+        while self.nbits >= 8 {
+            self.nbits -= 8;
+            *self.out.get_mut(self.n).ok_or(CodecError::BufferTooSmall)? =
+                (self.acc >> self.nbits) as u8;
+            self.n += 1;
+        }
+        Ok(())
+    }
+
+    /// Appends the codes of `res`, four at a time (at most 44 bits).
+    #[inline]
+    fn put_residuals(&mut self, res: &[u8]) -> Result<(), CodecError> {
+        let code = |e: u8| {
+            (
+                u64::from(CODE_BITS[usize::from(e)]),
+                u32::from(CODE_LEN[usize::from(e)]),
+            )
+        };
+        let mut quads = res.chunks_exact(4);
+        for q in &mut quads {
+            let ((c0, l0), (c1, l1)) = (code(q[0]), code(q[1]));
+            let ((c2, l2), (c3, l3)) = (code(q[2]), code(q[3]));
+            let (a, b) = ((c0 << l1) | c1, (c2 << l3) | c3);
+            self.put((a << (l2 + l3)) | b, l0 + l1 + l2 + l3)?;
+        }
+        for &e in quads.remainder() {
+            let (c, l) = code(e);
+            self.put(c, l)?;
+        }
+        Ok(())
+    }
+
+    /// Pads the last byte with zeros; returns the bytes written.
+    fn finish(mut self) -> Result<usize, CodecError> {
+        if self.nbits > 0 {
+            *self.out.get_mut(self.n).ok_or(CodecError::BufferTooSmall)? =
+                (self.acc << (8 - self.nbits)) as u8;
+            self.n += 1;
+        }
+        Ok(self.n)
     }
 }
 
@@ -90,7 +198,9 @@ fn check_shape(phases: &[u8], transducers: usize) -> Result<(), CodecError> {
     Ok(())
 }
 
-/// Residuals of steps 1.. in stream order.
+/// Residuals of steps 1.. in stream order, one at a time (the
+/// definition the chunked encoder is checked against).
+#[cfg(test)]
 fn residuals(phases: &[u8], t: usize) -> impl Iterator<Item = i8> + '_ {
     (t..phases.len()).map(move |i| {
         let prev2 = i.checked_sub(2 * t).map(|j| phases[j]);
@@ -109,9 +219,14 @@ pub fn encoded_len(
         Encoding::Raw => phases.len(),
         Encoding::Delta => {
             let head = transducers.min(phases.len());
-            let bits: usize = residuals(phases, transducers)
-                .map(|e| residual_code(e).1 as usize)
-                .sum();
+            let mut bits = 0usize;
+            for_each_residual_chunk(phases, transducers, |res| {
+                bits += res
+                    .iter()
+                    .map(|&e| usize::from(CODE_LEN[usize::from(e)]))
+                    .sum::<usize>();
+                Ok::<(), CodecError>(())
+            })?;
             head + bits.div_ceil(8)
         }
     })
@@ -140,7 +255,8 @@ pub fn encoded_len_range(
 }
 
 /// Encodes `phases` (steps × `transducers`, step-major) into `out`;
-/// returns the encoded length (= [`encoded_len`]).
+/// returns the encoded length (= [`encoded_len`]). Up to 7 bytes of `out`
+/// past that length may be overwritten (with zeros).
 pub fn encode(
     encoding: Encoding,
     phases: &[u8],
@@ -158,24 +274,43 @@ pub fn encode(
     if encoding == Encoding::Raw {
         return Ok(head);
     }
-    let mut n = head;
-    let (mut acc, mut nbits) = (0u32, 0u32);
-    for e in residuals(phases, transducers) {
-        let (code, len) = residual_code(e);
-        acc = (acc << len) | code;
-        nbits += len;
-        while nbits >= 8 {
-            nbits -= 8;
-            *out.get_mut(n).ok_or(CodecError::BufferTooSmall)? = (acc >> nbits) as u8;
-            n += 1;
+    let t = transducers;
+    let mut w = BitWriter {
+        out,
+        n: head,
+        acc: 0,
+        nbits: 0,
+    };
+    for_each_residual_chunk(phases, t, |res| w.put_residuals(res))?;
+    w.finish()
+}
+
+/// The residuals of steps 1.. of `phases` (`t > 0` transducers) in stream
+/// order, handed to `f` a chunk at a time.
+#[inline(always)]
+fn for_each_residual_chunk<E>(
+    phases: &[u8],
+    t: usize,
+    mut f: impl FnMut(&[u8]) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut res = [0u8; RESIDUAL_CHUNK];
+    for k in 1..phases.len() / t {
+        let prev = &phases[(k - 1) * t..k * t];
+        // Step 1: prediction 2·p − p = p, the first difference.
+        let prev2 = if k >= 2 {
+            &phases[(k - 2) * t..(k - 1) * t]
+        } else {
+            prev
+        };
+        let cur = &phases[k * t..(k + 1) * t];
+        for i in (0..t).step_by(RESIDUAL_CHUNK) {
+            let j = (i + RESIDUAL_CHUNK).min(t);
+            let res = &mut res[..j - i];
+            step_residuals(&cur[i..j], &prev[i..j], &prev2[i..j], res);
+            f(res)?;
         }
-        acc &= (1 << nbits) - 1;
     }
-    if nbits > 0 {
-        *out.get_mut(n).ok_or(CodecError::BufferTooSmall)? = (acc << (8 - nbits)) as u8;
-        n += 1;
-    }
-    Ok(n)
+    Ok(())
 }
 
 /// Streaming no-heap decoder for the device: feed the encoded stream in
@@ -630,6 +765,75 @@ mod tests {
                 d.feed(&long[..n + 1], &mut ring, u16::MAX, |_, _| {}),
                 Err(CodecError::Overlong)
             );
+        }
+    }
+
+    /// The encoder as first written, one code and one byte at a time: the
+    /// fast encoder must produce exactly its bytes and errors.
+    fn encode_bitwise(phases: &[u8], t: usize, out: &mut [u8]) -> Result<usize, CodecError> {
+        check_shape(phases, t)?;
+        let head = t.min(phases.len());
+        out.get_mut(..head)
+            .ok_or(CodecError::BufferTooSmall)?
+            .copy_from_slice(&phases[..head]);
+        let mut n = head;
+        let (mut acc, mut nbits) = (0u32, 0u32);
+        for e in residuals(phases, t) {
+            let (code, len) = residual_code(e);
+            acc = (acc << len) | code;
+            nbits += len;
+            while nbits >= 8 {
+                nbits -= 8;
+                *out.get_mut(n).ok_or(CodecError::BufferTooSmall)? = (acc >> nbits) as u8;
+                n += 1;
+            }
+            acc &= (1 << nbits) - 1;
+        }
+        if nbits > 0 {
+            *out.get_mut(n).ok_or(CodecError::BufferTooSmall)? = (acc << (8 - nbits)) as u8;
+            n += 1;
+        }
+        Ok(n)
+    }
+
+    #[test]
+    fn encoder_matches_the_bitwise_encoder() {
+        // SplitMix64: residuals from smooth (mostly 0, ±1) to random.
+        let mut state = 0x5eed_u64;
+        let mut next = || {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        };
+        let mut phases = [0u8; 2048];
+        let (mut fast, mut slow) = ([0u8; 4096], [0u8; 4096]);
+        for case in 0..400 {
+            let t = 1 + (next() % 300) as usize;
+            let steps = (next() % 7) as usize;
+            let noise = [1, 3, 17, 256][case % 4];
+            let phases = &mut phases[..(t * steps).min(2048) / t * t];
+            for (i, p) in phases.iter_mut().enumerate() {
+                let (k, j) = (i / t, i % t);
+                let smooth = (k * (j % 13 + 1) + j * 7) as u64;
+                *p = (smooth + next() % noise) as u8;
+            }
+            let want = encode_bitwise(phases, t, &mut slow);
+            let len = want.unwrap();
+            assert_eq!(encoded_len(Encoding::Delta, phases, t), Ok(len));
+            // Roomy, exact and short buffers: same bytes, same errors.
+            for size in [4096, len, len.saturating_sub(1), len / 2] {
+                let got = encode(Encoding::Delta, phases, t, &mut fast[..size]);
+                assert_eq!(
+                    got,
+                    encode_bitwise(phases, t, &mut slow[..size]),
+                    "case {case}"
+                );
+                if let Ok(n) = got {
+                    assert_eq!(fast[..n], slow[..n], "case {case} size {size}");
+                }
+            }
         }
     }
 

@@ -185,7 +185,7 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
     let cam = half_intrinsics(&d);
     let rec = d.join("src.npy").display().to_string();
     let want = lines(&synthetic(&cam, "1", &["--json", "--record", &rec]));
-    let mut bytes = stream_header(&intr);
+    let mut bytes = stream_header(&intr, None);
     let mut r =
         lmhost::sense::track::source::Replay::open_with_defaults(Path::new(&rec), None, None)
             .unwrap();

@@ -66,7 +66,7 @@ const STEPS: &[Step] = &[
     },
     Step {
         id: "apt",
-        name: "setup: qemu-system-arm, verilator, yosys, libpcap-dev (apt, as root)",
+        name: "setup: qemu-system-arm, verilator, yosys, libpcap-dev, chromium, chromium-driver (apt, as root)",
         after: &[],
         background: true,
         run: |_, log, _| setup::ensure_apt(log, setup::APT),
@@ -99,22 +99,26 @@ const STEPS: &[Step] = &[
         id: "firmware",
         name: "thumb build: lm-proto + lm-fw-core (plain, defmt), QEMU firmware + on-target tests, Nucleo-H743 (embassy-stm32, defmt): handlers, size report; linted as they compile",
         after: &["build"],
-        background: false,
+        background: true,
         run: |c, log, _| firmware::thumb(c, log),
     },
     Step {
         id: "test",
-        name: "cargo test: the host crates' and end-to-end test executables side by side, then doc tests",
-        after: &["build", "firmware"],
+        name: "cargo test: the host crates' and end-to-end test executables side by side (the browser test required), then doc tests",
+        // apt: the browser test needs Chromium installed before it runs.
+        after: &["build", "apt"],
         background: false,
-        run: |c, log, _| host::test(c, log),
+        run: |c, log, _| host::test(c, log, host::Which::Host),
     },
     Step {
         id: "qemu",
-        name: "on-target tests under QEMU (-icount shift=0)",
-        after: &["firmware", "apt"],
-        background: true,
-        run: |c, log, _| firmware::qemu_selftest(c, log),
+        name: "on-target tests under QEMU (-icount shift=0), then lmhost against the firmware under QEMU (e2e)",
+        after: &["firmware", "apt", "build"],
+        background: false,
+        run: |c, log, _| {
+            firmware::qemu_selftest(c, log)?;
+            host::test(c, log, host::Which::Firmware)
+        },
     },
     Step {
         id: "python",

@@ -27,13 +27,29 @@ struct TestBin {
 /// run alone (names as in the summary; the rest keep cargo's order).
 const SLOW_FIRST: &[&str] = &[
     "lm-e2e/qemu",
+    "lm-e2e/qemu_device",
     "lm-e2e/hostile",
     "lm-e2e/session_cli",
     "lm-e2e/study",
+    "lm-e2e/browser",
     "lm-e2e/autd3_cli",
     "lm-e2e/track_cli",
     "lmhost/lmhost",
 ];
+
+/// The test executables that talk to the firmware under QEMU: they run in
+/// the `qemu` step, once the thumb build is done, so the host tests need
+/// not wait for it.
+pub const NEEDS_FIRMWARE: &[&str] = &["lm-e2e/qemu", "lm-e2e/qemu_device", "lm-e2e/upload_qemu"];
+
+/// Which of the listed test executables a step runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Which {
+    /// Every one but [`NEEDS_FIRMWARE`], then the doc tests.
+    Host,
+    /// Only [`NEEDS_FIRMWARE`].
+    Firmware,
+}
 
 /// How many test binaries run at once: most of their time is spent
 /// waiting on devices, pipes and child processes, not on a core.
@@ -142,8 +158,9 @@ struct Outcome {
 /// as `cargo test` would (in its package's directory, with cargo's
 /// variables), then the doc tests; prints each executable's output whole
 /// as it ends and one summary line.
-pub fn test(c: &Ctx, log: &Log) -> Result<(), String> {
+pub fn test(c: &Ctx, log: &Log, which: Which) -> Result<(), String> {
     let mut bins = test_bins(&c.ci_dir().join("tests.json"))?;
+    bins.retain(|b| NEEDS_FIRMWARE.contains(&b.name.as_str()) == (which == Which::Firmware));
     bins.sort_by_key(|b| {
         SLOW_FIRST
             .iter()
@@ -160,6 +177,9 @@ pub fn test(c: &Ctx, log: &Log) -> Result<(), String> {
         ("LMHOST_BIN", c.lmhost_for_tests().into_os_string()),
         ("LM_FW_QEMU_ELF", c.firmware_elf().into_os_string()),
         ("CARGO_TARGET_DIR", c.target_dir.clone().into_os_string()),
+        // The browser test (lm-e2e/browser) fails rather than skips without
+        // Chromium: the apt step installed it.
+        ("LM_REQUIRE_BROWSER", "1".into()),
     ];
     std::thread::scope(|s| {
         for _ in 0..JOBS {
@@ -184,7 +204,10 @@ pub fn test(c: &Ctx, log: &Log) -> Result<(), String> {
     });
     let results = std::mem::take(&mut *results.lock().unwrap_or_else(|e| e.into_inner()));
     // Doc tests are compiled by rustdoc at run time, so they go through cargo.
-    let doc = run(log, c.cargo(&["test", "--doc"]));
+    let doc = match which {
+        Which::Host => run(log, c.cargo(&["test", "--doc"])),
+        Which::Firmware => Ok(()),
+    };
     let (passed, failed): (u64, u64) = results
         .iter()
         .fold((0, 0), |(p, f), o| (p + o.passed, f + o.failed));
@@ -204,10 +227,18 @@ pub fn test(c: &Ctx, log: &Log) -> Result<(), String> {
         .map(|(ms, n)| format!("{n} {:.0} s", *ms as f64 / 1000.0))
         .collect();
     log.line(format!(
-        "host tests: {passed} passed, {failed} failed in {} executables (slowest: {}), doc tests {}",
+        "{} tests: {passed} passed, {failed} failed in {} executables (slowest: {}){}",
+        match which {
+            Which::Host => "host",
+            Which::Firmware => "firmware-under-QEMU",
+        },
         results.len(),
         slowest.join(", "),
-        if doc.is_ok() { "passed" } else { "FAILED" }
+        match (which, doc.is_ok()) {
+            (Which::Firmware, _) => "",
+            (Which::Host, true) => ", doc tests passed",
+            (Which::Host, false) => ", doc tests FAILED",
+        }
     ));
     if !bad.is_empty() {
         return Err(format!("failing test executables: {}", bad.join(", ")));

@@ -14,6 +14,9 @@ pub const APT: &[(&str, &str)] = &[
     ("verilator", "/usr/bin/verilator"),
     ("yosys", "/usr/bin/yosys"),
     ("libpcap-dev", "/usr/include/pcap/pcap.h"),
+    // The live view's browser test (tests/tests/browser.rs).
+    ("chromium", "/usr/bin/chromium"),
+    ("chromium-driver", "/usr/bin/chromedriver"),
 ];
 
 fn thumb_target_installed() -> bool {

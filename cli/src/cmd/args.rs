@@ -130,3 +130,17 @@ pub fn centroid_feed(
         on_thread(move || source::read_lines(reader))?
     }))
 }
+
+/// `--view ADDR`: a port (on 127.0.0.1, local only) or HOST:PORT.
+pub fn view_addr(s: &str) -> Result<std::net::SocketAddr, String> {
+    if let Ok(port) = s.parse::<u16>() {
+        return Ok(std::net::SocketAddr::from(([127, 0, 0, 1], port)));
+    }
+    if !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()) {
+        return Err(format!(
+            "port {s} is out of range: give 0..=65535 (0: any free port)"
+        ));
+    }
+    s.parse()
+        .map_err(|_| format!("`{s}` is neither a port nor HOST:PORT (e.g. 8000 or 127.0.0.1:8000)"))
+}

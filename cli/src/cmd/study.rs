@@ -87,6 +87,12 @@ struct RunArgs {
     /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
+    /// Serve the live view (the finger's video with the stimulus; the
+    /// participant's page answers unless --responses is given) on ADDR:
+    /// a port (on 127.0.0.1) or HOST:PORT; 0 picks a free port. Its
+    /// addresses, with their token, are printed.
+    #[arg(long, value_name = "ADDR", value_parser = super::args::view_addr)]
+    view: Option<std::net::SocketAddr>,
 }
 
 /// Arguments of `lmhost study report`.
@@ -153,6 +159,7 @@ impl RunArgs {
             time_scale: self.time_scale,
             resume: self.resume,
             resume_anyway: self.resume_anyway,
+            view: self.view,
         })?;
         let mean = |v: &[f64]| {
             if v.is_empty() {

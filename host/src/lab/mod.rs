@@ -11,3 +11,4 @@ pub mod doctor;
 pub mod session;
 pub mod stats;
 pub mod study;
+pub mod view;

@@ -56,6 +56,10 @@ pub struct Driver {
     /// Whether the synthetic finger touches (a study lifts it between
     /// trials).
     touching: bool,
+    /// The newest finger sent to the session since
+    /// [`take_finger`](Self::take_finger) (`Some(None)`: lifted), for an
+    /// observer such as the live view.
+    sent: Option<Option<[f64; 3]>>,
 }
 
 impl Driver {
@@ -86,6 +90,7 @@ impl Driver {
             source,
             filter,
             touching: true,
+            sent: None,
         }
     }
 
@@ -126,8 +131,15 @@ impl Driver {
         if on {
             self.track_now()
         } else {
+            self.sent = Some(None);
             self.session.finger(None)
         }
+    }
+
+    /// The newest finger sample sent since the last call (`Some(None)`:
+    /// no finger), or `None` when nothing was sent.
+    pub fn take_finger(&mut self) -> Option<Option<[f64; 3]>> {
+        self.sent.take()
     }
 
     /// Whether the finger is the synthetic one.
@@ -217,7 +229,10 @@ impl Driver {
             }
         }
         match last {
-            Some(p) => self.session.finger(p),
+            Some(p) => {
+                self.sent = Some(p);
+                self.session.finger(p)
+            }
             None => Ok(()),
         }
     }

@@ -26,6 +26,7 @@ pub mod analysis;
 pub mod answers;
 pub mod columns;
 pub mod design;
+pub mod live;
 pub mod procedure;
 pub mod protocol;
 pub mod provenance;
@@ -132,6 +133,9 @@ pub struct RunOptions {
     pub resume: bool,
     /// Continue it on a rig that differs from the last run's (recorded).
     pub resume_anyway: bool,
+    /// Serve the live view here (its participant's page answers unless
+    /// answers come from a file).
+    pub view: Option<std::net::SocketAddr>,
 }
 
 /// What a run did.
@@ -245,16 +249,6 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             crate::errln!("warning: {w}");
         }
     }
-    let answers: Box<dyn Answers> = match st.lines.take() {
-        Some(l) => Box::new(l),
-        None if o.answers == AnswerSource::File("-".into()) => {
-            Box::new(answers::Piped::named("--responses -")?)
-        }
-        None if nix::unistd::isatty(std::io::stdin()).unwrap_or(false) => {
-            Box::new(answers::Terminal::open()?)
-        }
-        None => Box::new(answers::Piped::open()?),
-    };
     let first = st.done + 1;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
@@ -267,6 +261,16 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         drop(session.close(OffsetReason::Quit));
         return Err(e.into());
     }
+    let view = match o.view {
+        Some(addr) => Some(live::start_view(addr, &session, &o.finger)?),
+        None => None,
+    };
+    // `--responses -` answers each question as it is asked, from stdin.
+    let answers: Box<dyn Answers> = if o.answers == AnswerSource::File("-".into()) {
+        Box::new(answers::Piped::named("--responses -")?)
+    } else {
+        live::answer_source(st.lines.take(), view.as_ref())?
+    };
     st.file.runs.push(this_run);
     // session.json first: a run stopped before its trials.csv header is
     // still resumable.
@@ -294,6 +298,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         scale: o.time_scale,
         trial_events: Vec::new(),
         all_events: Vec::new(),
+        view,
     };
     let mut report = RunReport {
         dir: paths.dir.clone(),
@@ -432,6 +437,7 @@ struct Runner {
     scale: f64,
     trial_events: Vec<Event>,
     all_events: Vec<Event>,
+    view: Option<crate::lab::view::View>,
 }
 
 impl Runner {
@@ -446,6 +452,9 @@ impl Runner {
     }
 
     fn log_events(&mut self, events: Vec<Event>) -> anyhow::Result<()> {
+        if let Some(v) = &self.view {
+            v.events(&events);
+        }
         for e in events {
             self.events.line(&serde_json::to_string(&e)?)?;
             if let EventKind::Finger { present } = e.kind {
@@ -486,6 +495,10 @@ impl Runner {
             return Err(Interrupted.into());
         }
         let events = self.driver().turn()?;
+        // The finger as sent to the device, to the view.
+        if let (Some(p), Some(v)) = (self.driver().take_finger(), &self.view) {
+            v.finger(p);
+        }
         if self.driver().feed_ended() {
             return Err(
                 InputError::new("the finger's centroid stream ended before the session").into(),

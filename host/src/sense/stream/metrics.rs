@@ -60,15 +60,15 @@ pub fn score(kind: FilterKind, track: &FingerTrack, seconds: f64) -> FilterScore
             .sum::<f64>()
             / n
     };
-    // Coarse 1 ms grid over −50…+200 ms, then refine to 0.05 ms.
-    let coarse = (-50..=200)
-        .map(|ms| ms as f64 * 1e-3)
-        .min_by(|a, b| mse(*a).total_cmp(&mse(*b)))
-        .unwrap_or(0.0);
-    let lag_s = (-20..=20)
-        .map(|i| coarse + i as f64 * 5e-5)
-        .min_by(|a, b| mse(*a).total_cmp(&mse(*b)))
-        .unwrap_or(coarse);
+    // Coarse 2 ms grid over −50…+200 ms, then refine to 0.05 ms within
+    // ±1 ms of its best; each τ's error computed once.
+    let best = |taus: &mut dyn Iterator<Item = f64>| {
+        taus.map(|t| (t, mse(t)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(t, _)| t)
+    };
+    let coarse = best(&mut (-25..=100).map(|i| f64::from(i) * 2e-3)).unwrap_or(0.0);
+    let lag_s = best(&mut (-20..=20).map(|i| coarse + f64::from(i) * 5e-5)).unwrap_or(coarse);
     let jitter = (out.iter().map(|(_, p, q)| dist2(p, q)).sum::<f64>() / n).sqrt();
     let error = (out
         .iter()

@@ -13,8 +13,11 @@
 //! pipeline, recorded, plotted, scored and streamed.
 
 pub mod camera;
+pub mod colour;
 pub mod contact;
+pub mod frame;
 pub mod intrinsics;
+pub mod overlay;
 pub mod plot;
 pub mod presence;
 pub mod report;
@@ -22,6 +25,8 @@ pub mod run;
 pub mod source;
 pub mod surface;
 pub mod synth;
+pub mod synth_colour;
+pub mod wire;
 
 use crate::geom::Vec3;
 use crate::sense::stream::Sample;
@@ -168,5 +173,7 @@ pub fn check_rig(tracker: &contact::Tracker) -> Result<(), crate::InputError> {
     Ok(())
 }
 
+#[cfg(test)]
+mod colour_tests;
 #[cfg(test)]
 mod tests;

@@ -172,7 +172,7 @@ impl TrackRun {
             filter.build(),
         );
         let rec = match &opts.record {
-            Some(p) => Some(Recorder::create(p, intr)?),
+            Some(p) => Some(Recorder::create(p, intr, src.colour_camera())?),
             None => None,
         };
         if let Some(d) = &opts.plot {

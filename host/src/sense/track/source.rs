@@ -1,18 +1,14 @@
 //! Where depth frames come from: a recording (`.npy`), the synthetic
-//! finger, or a live stream in the `LMDEPTH1` format (the RealSense bridge,
-//! or any tool writing it to stdin); and the recorder.
-//!
-//! `LMDEPTH1` stream (all little-endian):
-//! - header, 56 bytes: the 8 ASCII bytes `LMDEPTH1`, `u32` width, `u32`
-//!   height, then `f64` fx, fy, ppx, ppy, depth_scale (see [`Intrinsics`]);
-//! - then per frame: `f64` time stamp (s), width × height `u16` depth values,
-//!   row-major (Z16: 0 = no data).
-//!
-//! The stream ends at a frame boundary; a partial frame is an error.
+//! finger, or a live stream in the `LMDEPTH1` or `LMCOLOR1` format
+//! ([`super::wire`]: the RealSense bridge, or any tool writing it to
+//! stdin); and the recorder. A frame may carry the colour image captured
+//! with it ([`Frame::colour`]); sources that have a colour stream say so in
+//! [`FrameSource::colour_camera`].
 //!
 //! The live camera (`lmhost track --camera`) is this stream produced by a
 //! small Python bridge on the `pyrealsense2` wheel ([`BRIDGE_PY`], embedded
-//! and run as `python3 -c`; `LMHOST_PYTHON` picks another interpreter). A
+//! and run as `python3 -c`; `LMHOST_PYTHON` picks another interpreter;
+//! `LMHOST_CAMERA_COLOUR=0` asks it for depth only). A
 //! direct V4L2 path was not taken: the crates.io V4L2 bindings (`v4l` /
 //! `v4l2-sys-mit`) run bindgen at build time, which needs libclang and
 //! kernel headers, and librealsense's own wheel also sets the depth units
@@ -22,51 +18,32 @@
 //!
 //! A recording `REC.npy` is replayed with its intrinsics from
 //! `REC.intrinsics.toml` and time stamps from `REC.timestamps.npy` when
-//! those files sit beside it and no other is given.
+//! those files sit beside it and no other is given. Its colour stream, when
+//! recorded, is `REC.colour.npy` (uint8, frames × height × width × 3, RGB)
+//! with `REC.colour.toml` (the [`ColourCamera`]) and
+//! `REC.colour.timestamps.npy`; a replay hands each depth frame the newest
+//! colour image not later than it (each once), as the live stream did.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::colour::{ColourCamera, ColourImage};
 use super::contact::Tracker;
+pub use super::frame::{Frame, FrameSource};
 use super::intrinsics::Intrinsics;
-use super::synth::{FingerSim, Truth};
+use super::synth::FingerSim;
+use super::synth_colour::ColourSim;
+pub use super::wire::{
+    MAGIC, MAGIC_COLOUR, Stream, stream_frame, stream_frame_colour, stream_header,
+};
 use crate::InputError;
-use crate::npy::{DepthNpy, DepthNpyWriter, read_timestamps, write_f64_1d};
+use crate::npy::{
+    ColourNpy, ColourNpyWriter, DepthNpy, DepthNpyWriter, read_timestamps, write_f64_1d,
+};
 use crate::sense::stream::run::Next;
-
-/// Stream magic.
-pub const MAGIC: &[u8; 8] = b"LMDEPTH1";
 
 /// Default frame rate when a recording has no time stamps (the paper's 90 fps).
 pub const DEFAULT_FPS: f64 = 90.0;
-
-/// One depth frame.
-#[derive(Debug, Clone)]
-pub struct Frame {
-    /// Time stamp (s).
-    pub t_s: f64,
-    /// Row-major depth values.
-    pub depth: Vec<u16>,
-    /// Ground truth (synthetic frames only).
-    pub truth: Option<Truth>,
-}
-
-/// A source of frames.
-pub trait FrameSource {
-    /// The frames' intrinsics.
-    fn intrinsics(&self) -> Intrinsics;
-    /// The next frame, `None` at the end.
-    fn next_frame(&mut self) -> anyhow::Result<Option<Frame>>;
-    /// Whether the source is live (already paced by the sensor).
-    fn live(&self) -> bool {
-        false
-    }
-    /// The next frame if one comes within `wait` (a source read on its own
-    /// thread, [`Live`], can idle; others block until it comes).
-    fn next_frame_within(&mut self, _wait: std::time::Duration) -> anyhow::Result<Next<Frame>> {
-        Ok(self.next_frame()?.map_or(Next::End, Next::Ready))
-    }
-}
 
 /// Frames buffered between a reader thread and the tracker (a few: a
 /// frame is up to a few MB).
@@ -88,6 +65,7 @@ pub const FRAME_DEADLINE: std::time::Duration = std::time::Duration::from_secs(5
 pub struct Live {
     frames: crate::sense::reader::Reader<Frame>,
     intr: Intrinsics,
+    colour: Option<ColourCamera>,
     what: String,
     last: std::time::Instant,
     /// The bridge process, killed on a stall and when the source is dropped.
@@ -107,7 +85,7 @@ impl Live {
         let frames = crate::sense::reader::spawn("lmhost-frames", FRAMES_AHEAD, move || {
             let stream = open();
             let (header, stream) = match stream {
-                Ok(s) => (Ok(s.intr), Some(s)),
+                Ok(s) => (Ok((s.intrinsics(), s.colour_camera())), Some(s)),
                 Err(e) => (Err(e), None),
             };
             let _ = htx.send(header);
@@ -117,12 +95,13 @@ impl Live {
         let mut live = Live {
             frames,
             intr: Intrinsics::D435_848X480,
+            colour: None,
             what: what.to_owned(),
             last: std::time::Instant::now(),
             child,
         };
         match hrx.recv_timeout(HEADER_DEADLINE) {
-            Ok(Ok(intr)) => live.intr = intr,
+            Ok(Ok((intr, colour))) => (live.intr, live.colour) = (intr, colour),
             Ok(Err(e)) => return Err(e),
             Err(_) => {
                 live.kill();
@@ -168,6 +147,9 @@ impl FrameSource for Live {
     fn intrinsics(&self) -> Intrinsics {
         self.intr
     }
+    fn colour_camera(&self) -> Option<ColourCamera> {
+        self.colour
+    }
     fn live(&self) -> bool {
         true
     }
@@ -207,16 +189,91 @@ pub fn timestamps_beside(npy: &Path) -> PathBuf {
     npy.with_extension("timestamps.npy")
 }
 
+/// `REC.colour.npy`, `REC.colour.toml` and `REC.colour.timestamps.npy`
+/// beside `REC.npy`: the recording's colour stream.
+pub fn colour_beside(npy: &Path) -> [PathBuf; 3] {
+    [
+        npy.with_extension("colour.npy"),
+        npy.with_extension("colour.toml"),
+        npy.with_extension("colour.timestamps.npy"),
+    ]
+}
+
+/// A recording's colour stream, handed out with the depth frames.
+struct ColourReplay {
+    npy: ColourNpy,
+    cam: ColourCamera,
+    times: Vec<f64>,
+    next: usize,
+}
+
+impl ColourReplay {
+    /// The files beside `depth`, if its colour stream was recorded.
+    fn open_beside(depth: &Path) -> Result<Option<Self>, InputError> {
+        let [npy, toml, times] = colour_beside(depth);
+        if !npy.exists() {
+            return Ok(None);
+        }
+        let cam = ColourCamera::load(&toml)?;
+        let times = read_timestamps(&times)?;
+        let npy = ColourNpy::open(&npy)?;
+        let what = npy_name(depth);
+        if (npy.width, npy.height) != (cam.width, cam.height) {
+            return Err(InputError::new(format!(
+                "{what}'s colour frames are {}×{} but its colour camera says {}×{}",
+                npy.width, npy.height, cam.width, cam.height
+            )));
+        }
+        if times.len() as u64 != npy.frames {
+            return Err(InputError::new(format!(
+                "{} colour time stamps for {} colour frames beside {what}",
+                times.len(),
+                npy.frames
+            )));
+        }
+        Ok(Some(Self {
+            npy,
+            cam,
+            times,
+            next: 0,
+        }))
+    }
+
+    /// The newest colour image not later than `t_s` not handed out yet.
+    fn upto(&mut self, t_s: f64) -> Result<Option<ColourImage>, InputError> {
+        let mut last = None;
+        while self.next < self.times.len() && self.times[self.next] <= t_s {
+            let rgb = self.npy.read()?.ok_or_else(|| {
+                InputError::new("a colour recording ended before its time stamps")
+            })?;
+            last = Some(ColourImage {
+                t_s: self.times[self.next],
+                width: self.cam.width,
+                height: self.cam.height,
+                rgb: std::sync::Arc::new(rgb),
+            });
+            self.next += 1;
+        }
+        Ok(last)
+    }
+}
+
+fn npy_name(p: &Path) -> String {
+    p.display().to_string()
+}
+
 /// Replay of a `.npy` recording.
 pub struct Replay {
     npy: DepthNpy,
     intr: Intrinsics,
     times: Option<Vec<f64>>,
     index: u64,
+    colour: Option<ColourReplay>,
 }
 
 impl Replay {
     /// Open `depth` with `intr`; `times` (s) must have one entry per frame.
+    /// A colour stream recorded beside it comes along.
     pub fn open(
         depth: &Path,
         intr: Intrinsics,
@@ -239,6 +296,7 @@ impl Replay {
             intr,
             times,
             index: 0,
+            colour: ColourReplay::open_beside(depth)?,
         })
     }
 
@@ -280,6 +338,9 @@ impl FrameSource for Replay {
     fn intrinsics(&self) -> Intrinsics {
         self.intr
     }
+    fn colour_camera(&self) -> Option<ColourCamera> {
+        self.colour.as_ref().map(|c| c.cam)
+    }
     fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
         let mut depth = Vec::new();
         if !self.npy.read_into(&mut depth)? {
@@ -291,10 +352,15 @@ impl FrameSource for Replay {
             Some(t) => t[i as usize],
             None => i as f64 / DEFAULT_FPS,
         };
+        let colour = match &mut self.colour {
+            Some(c) => c.upto(t_s)?,
+            None => None,
+        };
         Ok(Some(Frame {
             t_s,
             depth,
             truth: None,
+            colour,
         }))
     }
 }
@@ -305,6 +371,7 @@ pub struct Synthetic {
     tracker: Tracker,
     frames: u64,
     index: u64,
+    colour: Option<(ColourSim, u64)>,
 }
 
 impl Synthetic {
@@ -315,7 +382,15 @@ impl Synthetic {
             frames: (seconds * sim.rate_hz).round() as u64,
             sim,
             index: 0,
+            colour: None,
         }
+    }
+
+    /// Also renders the colour image of every `every`-th frame (1: each
+    /// one; 3: 30 fps beside depth at 90).
+    pub fn with_colour(mut self, colour: ColourSim, every: u64) -> Self {
+        self.colour = Some((colour, every.max(1)));
+        self
     }
 }
 
@@ -323,151 +398,36 @@ impl FrameSource for Synthetic {
     fn intrinsics(&self) -> Intrinsics {
         self.sim.intr
     }
+    fn colour_camera(&self) -> Option<ColourCamera> {
+        self.colour.as_ref().map(|(c, _)| c.cam)
+    }
     fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
         if self.index >= self.frames {
             return Ok(None);
         }
         let mut depth = Vec::new();
         let (t_s, truth) = self.sim.render(self.index, &self.tracker, &mut depth);
+        let colour = match &self.colour {
+            Some((c, every)) if self.index.is_multiple_of(*every) => {
+                let mut rgb = Vec::new();
+                c.render(truth.tip_mm, &mut rgb);
+                Some(ColourImage {
+                    t_s,
+                    width: c.cam.width,
+                    height: c.cam.height,
+                    rgb: std::sync::Arc::new(rgb),
+                })
+            }
+            _ => None,
+        };
         self.index += 1;
         Ok(Some(Frame {
             t_s,
             depth,
             truth: Some(truth),
+            colour,
         }))
     }
-}
-
-/// An `LMDEPTH1` stream.
-pub struct Stream<R: Read> {
-    reader: R,
-    intr: Intrinsics,
-    what: String,
-    frames: u64,
-    last_t: f64,
-    child: Option<std::process::Child>,
-}
-
-fn read_full<R: Read>(r: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
-    let mut got = 0;
-    while got < buf.len() {
-        match r.read(&mut buf[got..]) {
-            Ok(0) => break,
-            Ok(n) => got += n,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(got)
-}
-
-impl<R: Read> Stream<R> {
-    /// Read the header from `reader`; `what` names the stream in errors.
-    pub fn new(mut reader: R, what: &str) -> anyhow::Result<Self> {
-        let mut h = [0u8; 56];
-        let n = read_full(&mut reader, &mut h)?;
-        if n < h.len() {
-            return Err(InputError::new(format!(
-                "{what}: ended after {n} bytes, before its 56-byte LMDEPTH1 header"
-            ))
-            .into());
-        }
-        if &h[..8] != MAGIC {
-            return Err(
-                InputError::new(format!("{what}: not an LMDEPTH1 stream (bad magic)")).into(),
-            );
-        }
-        let u = |i: usize| u32::from_le_bytes(h[i..i + 4].try_into().expect("4 bytes"));
-        let f = |i: usize| f64::from_le_bytes(h[i..i + 8].try_into().expect("8 bytes"));
-        let intr = Intrinsics {
-            width: u(8),
-            height: u(12),
-            fx: f(16),
-            fy: f(24),
-            ppx: f(32),
-            ppy: f(40),
-            depth_scale: f(48),
-        };
-        intr.check(what)?;
-        Ok(Self {
-            reader,
-            intr,
-            what: what.to_owned(),
-            frames: 0,
-            last_t: f64::NEG_INFINITY,
-            child: None,
-        })
-    }
-}
-
-impl<R: Read> FrameSource for Stream<R> {
-    fn intrinsics(&self) -> Intrinsics {
-        self.intr
-    }
-    fn live(&self) -> bool {
-        true
-    }
-    fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
-        let mut t = [0u8; 8];
-        let n = read_full(&mut self.reader, &mut t)?;
-        if n == 0 {
-            if let Some(mut c) = self.child.take() {
-                let status = c.wait()?;
-                if !status.success() && self.frames == 0 {
-                    anyhow::bail!("the RealSense bridge exited ({status}) before sending a frame");
-                }
-            }
-            return Ok(None);
-        }
-        let px = self.intr.width as usize * self.intr.height as usize;
-        let mut bytes = vec![0u8; px * 2];
-        if n < 8 || read_full(&mut self.reader, &mut bytes)? < bytes.len() {
-            return Err(InputError::new(format!(
-                "{}: ended inside frame {}",
-                self.what, self.frames
-            ))
-            .into());
-        }
-        let t_s = f64::from_le_bytes(t);
-        if !t_s.is_finite() || t_s < self.last_t {
-            return Err(InputError::new(format!(
-                "{}: frame {} has time stamp {t_s}, not finite and non-decreasing",
-                self.what, self.frames
-            ))
-            .into());
-        }
-        self.last_t = t_s;
-        self.frames += 1;
-        let depth = bytes
-            .chunks_exact(2)
-            .map(|b| u16::from_le_bytes([b[0], b[1]]))
-            .collect();
-        Ok(Some(Frame {
-            t_s,
-            depth,
-            truth: None,
-        }))
-    }
-}
-
-/// The header of an `LMDEPTH1` stream for `intr`.
-pub fn stream_header(intr: &Intrinsics) -> Vec<u8> {
-    let mut out = MAGIC.to_vec();
-    out.extend_from_slice(&intr.width.to_le_bytes());
-    out.extend_from_slice(&intr.height.to_le_bytes());
-    for v in [intr.fx, intr.fy, intr.ppx, intr.ppy, intr.depth_scale] {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    out
-}
-
-/// One frame of an `LMDEPTH1` stream.
-pub fn stream_frame(t_s: f64, depth: &[u16]) -> Vec<u8> {
-    let mut out = t_s.to_le_bytes().to_vec();
-    for v in depth {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    out
 }
 
 /// The RealSense bridge (Python, `pyrealsense2`), embedded.
@@ -530,7 +490,8 @@ pub fn camera() -> anyhow::Result<Live> {
 }
 
 /// Records what a source delivers: `REC.npy` plus intrinsics and time
-/// stamps beside it. Every file goes through [`crate::files`]: nothing
+/// stamps beside it, and its colour stream when it has one
+/// ([`colour_beside`]). Every file goes through [`crate::files`]: nothing
 /// appears under its name until [`Recorder::finish`] (a run stopped by
 /// Ctrl-C or SIGTERM finishes its recording; one ended by an error or
 /// `kill -9` leaves none), and none may be one of the run's inputs.
@@ -539,37 +500,72 @@ pub struct Recorder {
     writer: DepthNpyWriter,
     intr: Intrinsics,
     times: Vec<f64>,
+    colour: Option<(ColourNpyWriter, ColourCamera, Vec<f64>)>,
 }
 
 impl Recorder {
-    /// Start recording frames of `intr` to `path`; refuses (exit 2) a
-    /// recording or a file beside it that is one of this run's inputs.
-    pub fn create(path: &Path, intr: Intrinsics) -> anyhow::Result<Self> {
-        crate::files::distinct_outputs(&[
+    /// Start recording frames of `intr` (and colour images of `colour`) to
+    /// `path`; refuses (exit 2) a recording or a file beside it that is one
+    /// of this run's inputs.
+    pub fn create(
+        path: &Path,
+        intr: Intrinsics,
+        colour: Option<ColourCamera>,
+    ) -> anyhow::Result<Self> {
+        let [cnpy, ctoml, ctimes] = colour_beside(path);
+        let (ipath, tpath) = (intrinsics_beside(path), timestamps_beside(path));
+        let mut outs = vec![
             ("--record", path),
-            ("--record's intrinsics", &intrinsics_beside(path)),
-            ("--record's time stamps", &timestamps_beside(path)),
-        ])?;
+            ("--record's intrinsics", ipath.as_path()),
+            ("--record's time stamps", tpath.as_path()),
+        ];
+        if colour.is_some() {
+            outs.extend([
+                ("--record's colour frames", cnpy.as_path()),
+                ("--record's colour camera", ctoml.as_path()),
+                ("--record's colour time stamps", ctimes.as_path()),
+            ]);
+        }
+        crate::files::distinct_outputs(&outs)?;
         let writer = DepthNpyWriter::create(path, intr.width, intr.height)?;
+        let colour = match colour {
+            Some(c) => Some((
+                ColourNpyWriter::create(&cnpy, c.width, c.height)?,
+                c,
+                Vec::new(),
+            )),
+            None => None,
+        };
         Ok(Self {
             path: path.to_owned(),
             writer,
             intr,
             times: Vec::new(),
+            colour,
         })
     }
 
-    /// Append a frame.
+    /// Append a frame (and the colour image riding with it).
     pub fn push(&mut self, f: &Frame) -> anyhow::Result<()> {
         self.writer.push(&f.depth)?;
         self.times.push(f.t_s);
+        if let (Some((w, _, times)), Some(c)) = (&mut self.colour, &f.colour) {
+            w.push(&c.rgb)?;
+            times.push(c.t_s);
+        }
         Ok(())
     }
 
-    /// Finish the files (time stamps and intrinsics first, the recording
-    /// last, so a recording that exists has both beside it); returns the
-    /// frame count.
+    /// Finish the files (the colour stream, time stamps and intrinsics
+    /// first, the recording last, so a recording that exists has all of
+    /// them beside it); returns the frame count.
     pub fn finish(self) -> anyhow::Result<u64> {
+        if let Some((w, cam, times)) = self.colour {
+            let [_, ctoml, ctimes] = colour_beside(&self.path);
+            write_f64_1d(&ctimes, &times)?;
+            crate::files::write_whole(&ctoml, cam.to_toml().as_bytes())?;
+            w.finish()?;
+        }
         write_f64_1d(&timestamps_beside(&self.path), &self.times)?;
         crate::files::write_whole(
             &intrinsics_beside(&self.path),

@@ -243,7 +243,7 @@ fn recording_replays_frame_for_frame() {
     sim.window = Some(tr.roi());
     let p = tmp("rec.npy");
     let mut src = super::source::Synthetic::new(sim, 0.2);
-    let mut rec = super::source::Recorder::create(&p, intr).unwrap();
+    let mut rec = super::source::Recorder::create(&p, intr, None).unwrap();
     let mut want = Vec::new();
     while let Some(f) = src.next_frame().unwrap() {
         rec.push(&f).unwrap();

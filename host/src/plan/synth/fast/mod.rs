@@ -1,7 +1,7 @@
-//! The fast synthesis path: f32 struct-of-arrays, written so the compiler
-//! vectorises it (flat loops over equal-length slices, no branches in the
-//! inner loops), planned once and run per frame into caller-owned buffers
-//! without allocating.
+//! The fast synthesis path: f32 struct-of-arrays in blocks of eight
+//! transducers, computed in explicit SIMD lanes (module `lanes`) with no
+//! branches in the inner loops, planned once and run per frame into
+//! caller-owned buffers without allocating.
 //!
 //! **Precision.** Positions are stored relative to the array centroid `c`.
 //! For a focus `f` with `u = f − c`, `r0 = |u|` (f64) and a transducer at
@@ -14,38 +14,47 @@
 //!   grows with the distance, so precision holds at kilometres.
 //! - near foci: `κ |u − p| − round(κ r0)` directly in f32 (`r ≤ 3 max|p|`).
 //!
-//! With several foci the phasor sum uses a branch-free sin/cos of `π u`
-//! (`|u| ≤ ½`; Taylor to degree 9/10, error < 4e-6, then the double angle)
-//! and a branch-free atan2 (Cephes `atanf` polynomial). Where the sum is
+//! With several foci the phasor sum uses a branch-free `√2 sin/cos` of
+//! `π u` (`|u| ≤ ½`; minimax polynomials of degree 9/8, then the double
+//! angle in two operations) and a branch-free atan2 (one division, Cephes
+//! `atanf` polynomial). Where the sum is
 //! small (`|S| < 0.1 Σ|w|`), its angle is ill-conditioned, so those
 //! transducers are recomputed with the f64 [`reference`](mod@super::reference)
 //! in one scalar fix-up pass shared by every multi-focus path. Result: every u8 is within 0.51 LSB of the
 //! exact phase.
 //!
 //! **Instruction sets.** The kernels (module `kernels`) are generic over
-//! whether fused multiply-add is available; [`Isa::Avx2Fma`] runs them
-//! inside `#[target_feature(enable = "avx2,fma")]` functions (module
-//! `avx2`), [`Isa::Portable`] is the baseline build (SSE2 on x86-64) and
-//! is tested against the reference too. Without FMA `mul_add` would be a
-//! library call, hence the switch. The build is chosen once, when the plan
+//! eight f32 lanes; [`Isa::Avx2Fma`] runs them on one ymm register with
+//! FMA inside `#[target_feature(enable = "avx2,fma")]` functions (module
+//! `avx2`), [`Isa::Portable`] on two SSE2 registers (module `sse2`, the
+//! x86-64 baseline; plain arrays elsewhere), a multiply then an add where
+//! FMA is missing (`f32::mul_add` would be a library call). Both builds
+//! are tested against the reference. The build is chosen once, when the plan
 //! is made (as RustFFT chooses its algorithm once): the plan holds a table
 //! of kernel functions and a frame only calls through it.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod kernels;
+mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod sse2;
 
 #[cfg(test)]
 mod tests;
 
-use kernels::{Kernels, Prep, Rows};
+use kernels::{Kernels, Prep, Rows, Term};
+use lanes::LANES;
 
 use super::{Weight, reference};
 use crate::geom::{Vec3, norm, sub};
 use crate::plan::array::Transducer;
 
-/// Padding of the struct-of-arrays rows (lanes of the widest vector).
-const L: usize = 8;
+/// Padding of the struct-of-arrays rows (the kernels' block of lanes).
+const L: usize = LANES;
+
+/// Foci (or table terms) a [`Scratch`] holds without allocating.
+const SCRATCH_FOCI: usize = crate::plan::trajectory::MAX_FOCI;
 
 /// Which kernel build runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -86,21 +95,17 @@ pub struct SynthPlan {
     kernels: Kernels,
 }
 
-/// Caller-owned scratch for multi-focus frames (phasor sums).
+/// Caller-owned scratch for multi-focus frames: the prepared foci and a
+/// fix-up flag byte per block of transducers. Holds up to
+/// [`MAX_FOCI`](crate::plan::trajectory::MAX_FOCI) foci without
+/// allocating.
 #[derive(Debug, Clone)]
 pub struct Scratch {
     re: Vec<f32>,
     im: Vec<f32>,
-}
-
-impl Scratch {
-    /// The first `n` phasor sums, zeroed.
-    fn zeroed(&mut self, n: usize) -> (&mut [f32], &mut [f32]) {
-        let (re, im) = (&mut self.re[..n], &mut self.im[..n]);
-        re.fill(0.0);
-        im.fill(0.0);
-        (re, im)
-    }
+    preps: Vec<Prep>,
+    terms: Vec<Term>,
+    flags: Vec<u8>,
 }
 
 impl SynthPlan {
@@ -189,6 +194,9 @@ impl SynthPlan {
         Scratch {
             re: vec![0.0; self.px.len()],
             im: vec![0.0; self.px.len()],
+            preps: Vec::with_capacity(SCRATCH_FOCI),
+            terms: Vec::with_capacity(SCRATCH_FOCI),
+            flags: vec![0; self.px.len() / L],
         }
     }
 
@@ -215,9 +223,14 @@ impl SynthPlan {
     }
 
     fn prep(&self, f: Vec3) -> Prep {
+        self.prep_weighted(f, Weight::ONE)
+    }
+
+    fn prep_weighted(&self, f: Vec3, w: Weight) -> Prep {
         let u = sub(f, self.centroid);
         let r0 = norm(u);
         let far = r0 > 2.0 * self.max_p && r0 > 0.0;
+        let (wr, wi) = (w.re as f32, w.im as f32);
         if far {
             Prep {
                 ux: (u[0] / r0) as f32,
@@ -226,6 +239,8 @@ impl SynthPlan {
                 inv_r0: (1.0 / r0) as f32,
                 t0: reference::propagation_turns(self.kappa, r0) as f32,
                 kappa: self.kappa as f32,
+                wr,
+                wi,
                 far,
             }
         } else {
@@ -236,6 +251,8 @@ impl SynthPlan {
                 inv_r0: 0.0,
                 t0: -(self.kappa * r0).round() as f32,
                 kappa: self.kappa as f32,
+                wr,
+                wi,
                 far,
             }
         }
@@ -246,7 +263,7 @@ impl SynthPlan {
     pub fn focus(&self, focus: Vec3, out: &mut [u8]) {
         self.check_frame(out, 1, None);
         let p = self.prep(focus);
-        let rows = self.rows(self.n);
+        let rows = self.rows(self.px.len());
         self.kernels.focus(rows, &p, self.q_offset, out);
     }
 
@@ -268,50 +285,61 @@ impl SynthPlan {
         if foci.len() == 1 && weights.is_none() {
             return self.focus(foci[0], out);
         }
-        let (re, im) = scratch.zeroed(self.n);
-        let rows = self.rows(self.n);
         let mut wsum = 0.0;
+        scratch.preps.clear();
         for (i, &f) in foci.iter().enumerate() {
             let w = weight(weights, i);
             wsum += w.re.hypot(w.im);
-            let p = self.prep(f);
-            self.kernels
-                .accumulate(rows, &p, (w.re as f32, w.im as f32), re, im);
+            scratch.preps.push(self.prep_weighted(f, w));
         }
-        self.angles(re, im, wsum, out, || {
+        let rows = self.rows(self.px.len());
+        let s = &mut *scratch;
+        (self.kernels.sums[usize::from(weights.is_some())])(rows, &s.preps, &mut s.re, &mut s.im);
+        self.angles(s, wsum, out, || {
             foci.iter()
                 .enumerate()
                 .map(|(i, &f)| (f, weight(weights, i)))
         });
     }
 
-    /// Quantised angles of the phasor sums into `out`, then the fix-up:
-    /// where a sum is small against the total weight `wsum` its angle is
-    /// ill-conditioned in f32, so that transducer is redone in f64 over
-    /// `foci()`'s `(focus, weight)` pairs.
+    /// Quantised angles of the phasor sums in `s` into `out`, then the
+    /// fix-up: where a sum is small against the total weight `wsum` its
+    /// f32 angle is ill-conditioned, so the angle kernel flagged it (a bit
+    /// per transducer) and that transducer is redone in f64 over
+    /// `foci()`'s `(focus, weight)` pairs. Only flagged blocks cost more
+    /// than a byte test.
     fn angles<I: Iterator<Item = (Vec3, Weight)>>(
         &self,
-        re: &[f32],
-        im: &[f32],
+        s: &mut Scratch,
         wsum: f64,
         out: &mut [u8],
         foci: impl Fn() -> I,
     ) {
-        (self.kernels.angles)(re, im, out);
-        let thr = 0.1 * wsum;
-        let thr2 = (thr * thr) as f32;
-        for (j, o) in out.iter_mut().enumerate() {
-            let m2 = re[j] * re[j] + im[j] * im[j];
-            // `== 0` also catches an all-zero weight set (thr2 = 0).
-            if m2 < thr2 || m2 == 0.0 || m2.is_nan() {
-                *o = super::quantise_turns(reference::phasor_sum_turns(
-                    self.positions[j],
-                    foci(),
-                    self.kappa,
-                ));
+        let thr2 = fix_up_threshold(wsum);
+        (self.kernels.angles)(&s.re, &s.im, thr2, out, &mut s.flags);
+        for (b, &f) in s.flags.iter().enumerate() {
+            let mut bits = f;
+            while bits != 0 {
+                let j = b * L + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if let Some(o) = out.get_mut(j) {
+                    *o = super::quantise_turns(reference::phasor_sum_turns(
+                        self.positions[j],
+                        foci(),
+                        self.kappa,
+                    ));
+                }
             }
         }
     }
+}
+
+/// The kernels' fix-up threshold on `|S|²` for a total weight `wsum`:
+/// `(0.1 wsum)²`, at least the smallest normal f32 so that a zero sum
+/// (an all-zero weight set too) is always redone.
+fn fix_up_threshold(wsum: f64) -> f32 {
+    let thr = 0.1 * wsum;
+    ((thr * thr) as f32).max(f32::MIN_POSITIVE)
 }
 
 /// Weight `i` of `weights`, 1 when there are none.
@@ -356,9 +384,8 @@ impl SynthPlan {
         let stride = self.px.len();
         let len = stride * points.len();
         table.stride = stride;
-        table.re.clear();
+        // Every value is written below: only the length changes here.
         table.re.resize(len, 0.0);
-        table.im.clear();
         table.im.resize(len, 0.0);
         table.points.clear();
         table.points.extend_from_slice(points);
@@ -368,8 +395,7 @@ impl SynthPlan {
             .zip(table.re.chunks_exact_mut(stride))
             .zip(table.im.chunks_exact_mut(stride))
         {
-            let p = self.prep(f);
-            self.kernels.accumulate(rows, &p, (1.0, 0.0), re, im);
+            (self.kernels.phasors)(rows, &self.prep(f), re, im);
         }
     }
 
@@ -386,17 +412,22 @@ impl SynthPlan {
     ) {
         self.check_frame(out, idx.len(), weights);
         assert_eq!(table.stride, self.px.len(), "table from another plan");
-        let n = self.n;
-        let (re, im) = scratch.zeroed(n);
         let mut wsum = 0.0;
+        scratch.terms.clear();
         for (i, &k) in idx.iter().enumerate() {
             let w = weight(weights, i);
             wsum += w.re.hypot(w.im);
-            let base = k * table.stride;
-            let (tr, ti) = (&table.re[base..base + n], &table.im[base..base + n]);
-            (self.kernels.combine)(tr, ti, w.re as f32, w.im as f32, re, im);
+            assert!(k < table.len(), "table row {k} of {}", table.len());
+            scratch.terms.push(Term {
+                base: k * table.stride,
+                wr: w.re as f32,
+                wi: w.im as f32,
+            });
         }
-        self.angles(re, im, wsum, out, || {
+        let s = &mut *scratch;
+        let sums = self.kernels.table_sums[usize::from(weights.is_some())];
+        sums(&table.re, &table.im, &s.terms, &mut s.re, &mut s.im);
+        self.angles(s, wsum, out, || {
             idx.iter()
                 .enumerate()
                 .map(|(i, &k)| (table.points[k], weight(weights, i)))

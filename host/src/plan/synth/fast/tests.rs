@@ -1,7 +1,8 @@
 //! Accuracy of the fast path against the f64 reference: seeded random
 //! foci, weights, named hard cases, both kernel builds.
 
-use super::kernels::{atan2_turns, cos_sin_turns};
+use super::kernels::{atan2_lsb, phasor};
+use super::lanes::{Arr, LANES, Lanes};
 use super::*;
 use crate::plan::scene::Scene;
 use crate::plan::synth::{error_lsb, reference};
@@ -112,51 +113,86 @@ fn weighted_random(plan: &SynthPlan) {
 
 #[test]
 fn coincident_foci_match_a_single_focus() {
-    let plan = plan();
-    let f = [5.0, -7.0, 180.0];
-    let (mut a, mut b) = (vec![0u8; plan.len()], vec![0u8; plan.len()]);
-    plan.focus(f, &mut a);
-    plan.foci(&[f, f, f, f], None, &mut plan.scratch(), &mut b);
-    let diff = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-    // Both are within 0.51 LSB of the same exact phase; they may only
-    // differ where that phase sits on a rounding tie.
-    assert!(diff < 5, "{diff} transducers differ");
-    assert!(max_err(&plan, &[f, f, f, f], None) <= 0.51);
+    for plan in plans() {
+        let f = [5.0, -7.0, 180.0];
+        let (mut a, mut b) = (vec![0u8; plan.len()], vec![0u8; plan.len()]);
+        plan.focus(f, &mut a);
+        plan.foci(&[f, f, f, f], None, &mut plan.scratch(), &mut b);
+        let diff = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        // Both are within 0.51 LSB of the same exact phase; they may only
+        // differ where that phase sits on a rounding tie.
+        assert!(diff < 5, "{:?}: {diff} transducers differ", plan.isa());
+        assert!(max_err(&plan, &[f, f, f, f], None) <= 0.51);
+        // Four foci at one far point (the far kernel in the sums).
+        let far = [2.0e5, -1.0e5, 3.0e5];
+        assert!(max_err(&plan, &[far, far, far, far], None) <= 0.51);
+    }
 }
 
 #[test]
 fn cancelling_foci_are_finite_and_exact() {
-    let plan = plan();
-    let f = [0.0, 0.0, 150.0];
-    let w = [Weight::ONE, Weight::real(-1.0)];
-    let mut out = vec![0u8; plan.len()];
-    plan.foci(&[f, f], Some(&w), &mut plan.scratch(), &mut out);
-    for (&q, &p) in out.iter().zip(plan.positions()) {
-        let want = crate::plan::synth::quantise_turns(reference::phase_turns(
-            p,
-            &[f, f],
-            Some(&w),
-            plan.kappa,
-        ));
-        assert_eq!(q, want);
+    for plan in plans() {
+        let f = [0.0, 0.0, 150.0];
+        let w = [Weight::ONE, Weight::real(-1.0)];
+        let mut out = vec![0u8; plan.len()];
+        plan.foci(&[f, f], Some(&w), &mut plan.scratch(), &mut out);
+        assert_eq!(out, exact(&plan, &[f, f], Some(&w)), "{:?}", plan.isa());
+        // Half a wavelength apart along the axis: many near-zero sums.
+        let e = max_err(&plan, &[[0.0, 0.0, 150.0], [0.0, 0.0, 154.25]], None);
+        assert!(e <= 0.51, "{:?}: {e}", plan.isa());
     }
-    // Half a wavelength apart along the axis: many near-zero sums.
-    let e = max_err(&plan, &[[0.0, 0.0, 150.0], [0.0, 0.0, 154.25]], None);
-    assert!(e <= 0.51, "{e}");
+}
+
+/// The reference frame, quantised: what the f64 fix-up writes.
+fn exact(plan: &SynthPlan, foci: &[Vec3], w: Option<&[Weight]>) -> Vec<u8> {
+    plan.positions()
+        .iter()
+        .map(|&p| {
+            crate::plan::synth::quantise_turns(reference::phase_turns(p, foci, w, plan.kappa))
+        })
+        .collect()
+}
+
+#[test]
+fn vanishing_weights_are_redone_in_f64_everywhere() {
+    // Weights below f32's normal range: the f32 sums lose their
+    // precision (or are exactly zero, their angle NaN) and `|S|²` and its
+    // threshold both underflow to zero. The threshold must still flag
+    // every transducer, so the frame is the f64 reference's.
+    for plan in plans() {
+        let foci = [[0.0, 0.0, 200.0], [10.0, 0.0, 200.0], [0.0, 0.0, 1.0e6]];
+        for w in [1.0e-41, 1.0e-44, 0.0] {
+            let w = [Weight::real(w), Weight { re: 0.0, im: w }, Weight::real(w)];
+            let mut out = vec![0x5a; plan.len()];
+            plan.foci(&foci, Some(&w), &mut plan.scratch(), &mut out);
+            let want = exact(&plan, &foci, Some(&w));
+            let wrong = out.iter().zip(&want).filter(|(a, b)| a != b).count();
+            assert_eq!(
+                wrong,
+                0,
+                "{:?} {w:?}: transducers off the reference",
+                plan.isa()
+            );
+        }
+    }
 }
 
 #[test]
 fn focus_on_a_transducer_and_behind_the_array() {
-    let plan = plan();
-    let on = plan.positions()[123];
-    assert!(max_err(&plan, &[on], None) <= 0.51);
-    assert!(max_err(&plan, &[on, [0.0, 0.0, 200.0]], None) <= 0.51);
-    let mut out = vec![0u8; plan.len()];
-    plan.focus(on, &mut out);
-    assert_eq!(out[123], 0);
-    assert!(max_err(&plan, &[[10.0, 20.0, -150.0]], None) <= 0.51);
-    // Focus exactly at the centroid (r0 = 0, the near kernel).
-    assert!(max_err(&plan, &[plan.centroid], None) <= 0.51);
+    for plan in plans() {
+        let on = plan.positions()[123];
+        assert!(max_err(&plan, &[on], None) <= 0.51);
+        assert!(max_err(&plan, &[on, [0.0, 0.0, 200.0]], None) <= 0.51);
+        // Four foci on the same transducer: a zero distance in every pass.
+        assert!(max_err(&plan, &[on, on, on, on], None) <= 0.51);
+        let mut out = vec![0u8; plan.len()];
+        plan.focus(on, &mut out);
+        assert_eq!(out[123], 0);
+        assert!(max_err(&plan, &[[10.0, 20.0, -150.0]], None) <= 0.51);
+        // Focus exactly at the centroid (r0 = 0, the near kernel).
+        assert!(max_err(&plan, &[plan.centroid], None) <= 0.51);
+        assert!(max_err(&plan, &[plan.centroid, on], None) <= 0.51);
+    }
 }
 
 #[test]
@@ -211,32 +247,54 @@ fn odd_transducer_counts_use_the_tail_path() {
     let s = Scene::default();
     let t = &s.transducers()[..13];
     let plan = SynthPlan::new(t, s.wavenumber_rad_per_mm());
-    assert_eq!(plan.len(), 13);
-    assert!(max_err(&plan, &[[0.0, 0.0, 100.0]], None) <= 0.51);
-    assert!(max_err(&plan, &[[0.0, 0.0, 100.0], [3.0, 0.0, 100.0]], None) <= 0.51);
+    for plan in [plan.clone(), plan.portable()] {
+        assert_eq!(plan.len(), 13);
+        assert!(max_err(&plan, &[[0.0, 0.0, 100.0]], None) <= 0.51);
+        assert!(max_err(&plan, &[[0.0, 0.0, 100.0], [3.0, 0.0, 100.0]], None) <= 0.51);
+        // A far focus through the tail block too.
+        assert!(max_err(&plan, &[[0.0, 0.0, 5.0e4]], None) <= 0.51);
+    }
 }
 
 #[test]
 fn kernels_are_accurate_alone() {
-    kernels_accurate::<false>();
-    kernels_accurate::<true>();
+    let mut runs = vec![("plain arrays", lanes_accuracy::<Arr>())];
+    #[cfg(target_arch = "x86_64")]
+    runs.push(("SSE2", lanes_accuracy::<super::sse2::Sse>()));
+    #[cfg(target_arch = "x86_64")]
+    runs.extend(super::avx2::lanes_accuracy().map(|e| ("AVX2 + FMA", e)));
+    for (lanes, (phasor_err, angle_err)) in runs {
+        eprintln!("{lanes}: phasor error {phasor_err:e}, angle error {angle_err:e} LSB");
+        assert!(phasor_err < 6e-7, "{lanes}: {phasor_err}");
+        assert!(angle_err < 2e-5, "{lanes}: {angle_err} LSB");
+    }
 }
 
-fn kernels_accurate<const F: bool>() {
-    let mut worst: f32 = 0.0;
-    for i in -2000..=2000 {
-        let t = i as f32 / 997.0;
-        let (c, s) = cos_sin_turns::<F>(t);
-        let a = 2.0 * std::f64::consts::PI * f64::from(t);
-        worst = worst.max((f64::from(c) - a.cos()).abs() as f32);
-        worst = worst.max((f64::from(s) - a.sin()).abs() as f32);
-        let (y, x) = (s * 0.7, c * 0.7);
-        let at = f64::from(atan2_turns::<F>(y, x));
-        let want = f64::from(y).atan2(f64::from(x)) / (2.0 * std::f64::consts::PI);
-        let d = (at - want).rem_euclid(1.0);
-        worst = worst.max(d.min(1.0 - d) as f32);
+/// Worst absolute error of [`phasor`] over `u` in `[−½, ½]` and of
+/// [`atan2_lsb`] (LSB) on those phasors scaled by 0.7 and 3.
+#[inline(always)]
+pub(super) fn lanes_accuracy<V: Lanes>() -> (f64, f64) {
+    const STEPS: i32 = 1 << 16;
+    let (mut worst_phasor, mut worst_angle) = (0.0f64, 0.0f64);
+    for block in (-STEPS / 2..=STEPS / 2).step_by(LANES) {
+        let ua: [f32; LANES] = std::array::from_fn(|l| (block + l as i32) as f32 / STEPS as f32);
+        let (c, s) = phasor(V::load(&ua));
+        for scale in [0.7, 3.0] {
+            let (x, y) = (c * V::splat(scale), s * V::splat(scale));
+            let a = atan2_lsb(y, x).to_array();
+            let (c, s, x, y) = (c.to_array(), s.to_array(), x.to_array(), y.to_array());
+            for l in 0..LANES {
+                let t = 2.0 * std::f64::consts::PI * f64::from(ua[l]);
+                worst_phasor = worst_phasor
+                    .max((f64::from(c[l]) - t.cos()).abs())
+                    .max((f64::from(s[l]) + t.sin()).abs());
+                let want = f64::from(y[l]).atan2(f64::from(x[l])) * 128.0 / std::f64::consts::PI;
+                let d = (f64::from(a[l]) - want).rem_euclid(256.0);
+                worst_angle = worst_angle.max(d.min(256.0 - d));
+            }
+        }
     }
-    assert!(worst < 1e-5, "{worst}");
+    (worst_phasor, worst_angle)
 }
 
 #[test]

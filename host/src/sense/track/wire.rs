@@ -1,0 +1,396 @@
+//! The live frame formats, read and written: `LMDEPTH1` (depth) and
+//! `LMCOLOR1` (depth with the colour stream beside it). All little-endian.
+//!
+//! `LMDEPTH1`:
+//! - header, 56 bytes: the 8 ASCII bytes `LMDEPTH1`, `u32` width, `u32`
+//!   height, then `f64` fx, fy, ppx, ppy, depth_scale (see [`Intrinsics`]);
+//! - then per frame: `f64` time stamp (s), width × height `u16` depth values,
+//!   row-major (Z16: 0 = no data).
+//!
+//! `LMCOLOR1` is `LMDEPTH1` with the colour stream beside it:
+//! - header, 236 bytes: the 8 ASCII bytes `LMCOLOR1`, the 48 bytes after
+//!   `LMDEPTH1`'s magic, then the colour camera ([`ColourCamera`]): `u32`
+//!   width, `u32` height, `f64` fx, fy, ppx, ppy, `u32` distortion model
+//!   (librealsense's `rs2_distortion` value: 0 none, 1 modified
+//!   Brown-Conrady, 2 inverse Brown-Conrady, 4 Brown-Conrady), `f64` ×
+//!   5 coefficients (k1, k2, p1, p2, k3), `f64` × 9 depth → colour
+//!   rotation (column-major, as librealsense's `rs2_extrinsics`), `f64` ×
+//!   3 depth → colour translation (metres);
+//! - then per frame: the `LMDEPTH1` frame, then one byte: 0 (no new colour
+//!   image with this depth frame) or 1, followed by the colour image's `f64`
+//!   time stamp (s, the depth stream's clock) and width × height × 3 bytes
+//!   of 8-bit RGB, row-major.
+//!
+//! A colour image rides with the depth frame it was captured with (the
+//! camera's frameset), so the two stay aligned in time whatever their rates
+//! (the bridge: depth at 90 fps, colour at 30). Either stream ends at a
+//! frame boundary; a partial frame is an error.
+
+use std::io::Read;
+
+use super::colour::{ColourCamera, ColourImage, Distortion};
+use super::frame::{Frame, FrameSource};
+use super::intrinsics::Intrinsics;
+use crate::InputError;
+
+/// `LMDEPTH1`'s magic.
+pub const MAGIC: &[u8; 8] = b"LMDEPTH1";
+/// `LMCOLOR1`'s magic.
+pub const MAGIC_COLOUR: &[u8; 8] = b"LMCOLOR1";
+/// Bytes of the colour camera in an `LMCOLOR1` header.
+const COLOUR_HEADER: usize = 180;
+
+/// An `LMDEPTH1` or `LMCOLOR1` stream.
+pub struct Stream<R: Read> {
+    reader: R,
+    intr: Intrinsics,
+    colour: Option<ColourCamera>,
+    what: String,
+    frames: u64,
+    last_t: f64,
+    last_colour_t: f64,
+    pub(super) child: Option<std::process::Child>,
+}
+
+fn read_full<R: Read>(r: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match r.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
+}
+
+/// Little-endian fields read in order from a header.
+struct Fields<'a>(&'a [u8]);
+
+impl Fields<'_> {
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let (a, rest) = self.0.split_at(N);
+        self.0 = rest;
+        a.try_into().expect("N bytes")
+    }
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+    fn f64(&mut self) -> f64 {
+        f64::from_le_bytes(self.take())
+    }
+}
+
+impl<R: Read> Stream<R> {
+    /// Read the header from `reader`; `what` names the stream in errors.
+    pub fn new(mut reader: R, what: &str) -> anyhow::Result<Self> {
+        let mut h = [0u8; 56];
+        let n = read_full(&mut reader, &mut h)?;
+        if n < h.len() {
+            return Err(InputError::new(format!(
+                "{what}: ended after {n} bytes, before its 56-byte LMDEPTH1 header"
+            ))
+            .into());
+        }
+        let with_colour = match &h[..8] {
+            m if m == MAGIC => false,
+            m if m == MAGIC_COLOUR => true,
+            _ => {
+                return Err(InputError::new(format!(
+                    "{what}: not an LMDEPTH1 or LMCOLOR1 stream (bad magic)"
+                ))
+                .into());
+            }
+        };
+        let mut f = Fields(&h[8..]);
+        let intr = Intrinsics {
+            width: f.u32(),
+            height: f.u32(),
+            fx: f.f64(),
+            fy: f.f64(),
+            ppx: f.f64(),
+            ppy: f.f64(),
+            depth_scale: f.f64(),
+        };
+        intr.check(what)?;
+        let colour = if with_colour {
+            let mut c = [0u8; COLOUR_HEADER];
+            if read_full(&mut reader, &mut c)? < c.len() {
+                return Err(InputError::new(format!(
+                    "{what}: ended inside its LMCOLOR1 header's colour camera"
+                ))
+                .into());
+            }
+            Some(colour_camera(&c, what)?)
+        } else {
+            None
+        };
+        Ok(Self {
+            reader,
+            intr,
+            colour,
+            what: what.to_owned(),
+            frames: 0,
+            last_t: f64::NEG_INFINITY,
+            last_colour_t: f64::NEG_INFINITY,
+            child: None,
+        })
+    }
+
+    fn ended_inside(&self) -> anyhow::Error {
+        InputError::new(format!("{}: ended inside frame {}", self.what, self.frames)).into()
+    }
+
+    /// The colour image after a depth frame, if the stream has colour and
+    /// one rides with it.
+    fn read_colour(&mut self) -> anyhow::Result<Option<ColourImage>> {
+        let Some(cam) = self.colour else {
+            return Ok(None);
+        };
+        let mut flag = [0u8; 9];
+        if read_full(&mut self.reader, &mut flag[..1])? < 1 {
+            return Err(self.ended_inside());
+        }
+        match flag[0] {
+            0 => return Ok(None),
+            1 => {}
+            v => {
+                return Err(InputError::new(format!(
+                    "{}: frame {} has colour flag {v}, not 0 or 1",
+                    self.what, self.frames
+                ))
+                .into());
+            }
+        }
+        let mut rgb = vec![0u8; cam.image_bytes()];
+        if read_full(&mut self.reader, &mut flag[1..])? < 8
+            || read_full(&mut self.reader, &mut rgb)? < rgb.len()
+        {
+            return Err(self.ended_inside());
+        }
+        let t_s = f64::from_le_bytes(flag[1..].try_into().expect("8 bytes"));
+        if !t_s.is_finite() || t_s < self.last_colour_t {
+            return Err(InputError::new(format!(
+                "{}: frame {}'s colour image has time stamp {t_s}, not finite and non-decreasing",
+                self.what, self.frames
+            ))
+            .into());
+        }
+        self.last_colour_t = t_s;
+        Ok(Some(ColourImage {
+            t_s,
+            width: cam.width,
+            height: cam.height,
+            rgb: std::sync::Arc::new(rgb),
+        }))
+    }
+}
+
+/// The colour camera in an `LMCOLOR1` header.
+fn colour_camera(c: &[u8; COLOUR_HEADER], what: &str) -> Result<ColourCamera, InputError> {
+    let mut f = Fields(c);
+    let (width, height) = (f.u32(), f.u32());
+    let (fx, fy, ppx, ppy) = (f.f64(), f.f64(), f.f64(), f.f64());
+    let model = Distortion::from_rs2(f.u32())
+        .map_err(|m| InputError::new(format!("{what}: colour camera: {m}")))?;
+    let coeffs = [(); 5].map(|_| f.f64());
+    let rotation = [(); 9].map(|_| f.f64());
+    let translation_m = [(); 3].map(|_| f.f64());
+    let cam = ColourCamera {
+        width,
+        height,
+        fx,
+        fy,
+        ppx,
+        ppy,
+        model,
+        coeffs,
+        rotation,
+        translation_m,
+    };
+    cam.check(what)?;
+    Ok(cam)
+}
+
+impl<R: Read> FrameSource for Stream<R> {
+    fn intrinsics(&self) -> Intrinsics {
+        self.intr
+    }
+    fn colour_camera(&self) -> Option<ColourCamera> {
+        self.colour
+    }
+    fn live(&self) -> bool {
+        true
+    }
+    fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
+        let mut t = [0u8; 8];
+        let n = read_full(&mut self.reader, &mut t)?;
+        if n == 0 {
+            if let Some(mut c) = self.child.take() {
+                let status = c.wait()?;
+                if !status.success() && self.frames == 0 {
+                    anyhow::bail!("the RealSense bridge exited ({status}) before sending a frame");
+                }
+            }
+            return Ok(None);
+        }
+        let px = self.intr.width as usize * self.intr.height as usize;
+        let mut bytes = vec![0u8; px * 2];
+        if n < 8 || read_full(&mut self.reader, &mut bytes)? < bytes.len() {
+            return Err(self.ended_inside());
+        }
+        let t_s = f64::from_le_bytes(t);
+        if !t_s.is_finite() || t_s < self.last_t {
+            return Err(InputError::new(format!(
+                "{}: frame {} has time stamp {t_s}, not finite and non-decreasing",
+                self.what, self.frames
+            ))
+            .into());
+        }
+        let colour = self.read_colour()?;
+        self.last_t = t_s;
+        self.frames += 1;
+        let depth = bytes
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+            .collect();
+        Ok(Some(Frame {
+            t_s,
+            depth,
+            truth: None,
+            colour,
+        }))
+    }
+}
+
+/// The header of an `LMDEPTH1` stream for `intr`, or of an `LMCOLOR1`
+/// stream with `colour`.
+pub fn stream_header(intr: &Intrinsics, colour: Option<&ColourCamera>) -> Vec<u8> {
+    let mut out = match colour {
+        None => MAGIC.to_vec(),
+        Some(_) => MAGIC_COLOUR.to_vec(),
+    };
+    out.extend_from_slice(&intr.width.to_le_bytes());
+    out.extend_from_slice(&intr.height.to_le_bytes());
+    for v in [intr.fx, intr.fy, intr.ppx, intr.ppy, intr.depth_scale] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    if let Some(c) = colour {
+        out.extend_from_slice(&c.width.to_le_bytes());
+        out.extend_from_slice(&c.height.to_le_bytes());
+        for v in [c.fx, c.fy, c.ppx, c.ppy] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out.extend_from_slice(&c.model.to_rs2().to_le_bytes());
+        for v in c.coeffs.iter().chain(&c.rotation).chain(&c.translation_m) {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// One frame of an `LMDEPTH1` stream.
+pub fn stream_frame(t_s: f64, depth: &[u16]) -> Vec<u8> {
+    let mut out = t_s.to_le_bytes().to_vec();
+    for v in depth {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// One frame of an `LMCOLOR1` stream: the depth frame and the colour image
+/// riding with it, if any.
+pub fn stream_frame_colour(t_s: f64, depth: &[u16], colour: Option<&ColourImage>) -> Vec<u8> {
+    let mut out = stream_frame(t_s, depth);
+    match colour {
+        None => out.push(0),
+        Some(c) => {
+            out.push(1);
+            out.extend_from_slice(&c.t_s.to_le_bytes());
+            out.extend_from_slice(&c.rgb);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(t_s: f64, cam: &ColourCamera, v: u8) -> ColourImage {
+        ColourImage {
+            t_s,
+            width: cam.width,
+            height: cam.height,
+            rgb: std::sync::Arc::new(vec![v; cam.image_bytes()]),
+        }
+    }
+
+    #[test]
+    fn colour_streams_round_trip_and_bad_ones_are_input_errors() {
+        let intr = Intrinsics {
+            width: 4,
+            height: 3,
+            ppx: 2.0,
+            ppy: 1.0,
+            ..Intrinsics::D435_848X480
+        };
+        let cam = ColourCamera {
+            width: 5,
+            height: 2,
+            ppx: 2.0,
+            ppy: 1.0,
+            ..ColourCamera::D435_848X480
+        };
+        let header = stream_header(&intr, Some(&cam));
+        assert_eq!(header.len(), 236);
+        let mut bytes = header.clone();
+        bytes.extend(stream_frame_colour(
+            0.0,
+            &[1; 12],
+            Some(&image(0.001, &cam, 7)),
+        ));
+        bytes.extend(stream_frame_colour(0.011, &[2; 12], None));
+        bytes.extend(stream_frame_colour(
+            0.022,
+            &[3; 12],
+            Some(&image(0.034, &cam, 9)),
+        ));
+        let mut s = Stream::new(&bytes[..], "t").unwrap();
+        assert_eq!(s.colour_camera(), Some(cam));
+        let f = s.next_frame().unwrap().unwrap();
+        assert_eq!(f.colour.as_ref().unwrap().rgb[0], 7);
+        assert_eq!(f.colour.unwrap().t_s, 0.001);
+        assert!(s.next_frame().unwrap().unwrap().colour.is_none());
+        let f = s.next_frame().unwrap().unwrap();
+        assert_eq!((f.depth[0], f.colour.unwrap().rgb[29]), (3, 9));
+        assert!(s.next_frame().unwrap().is_none());
+        // Cut inside a colour image: an input error naming the frame.
+        let e = Stream::new(&bytes[..bytes.len() - 1], "t")
+            .and_then(|mut s| {
+                while s.next_frame()?.is_some() {}
+                Ok(())
+            })
+            .unwrap_err();
+        assert!(e.downcast_ref::<InputError>().is_some(), "{e}");
+        assert!(e.to_string().contains("inside frame 2"), "{e}");
+        // A flag other than 0 or 1.
+        let mut b = header.clone();
+        b.extend(stream_frame(0.0, &[1; 12]));
+        b.push(2);
+        let e = Stream::new(&b[..], "t").unwrap().next_frame().unwrap_err();
+        assert!(e.to_string().contains("colour flag 2"), "{e}");
+        // A fisheye model in the header.
+        let mut b = header.clone();
+        b[56 + 40..56 + 44].copy_from_slice(&5u32.to_le_bytes());
+        let e = Stream::new(&b[..], "t").err().unwrap().to_string();
+        assert!(e.contains("fisheye"), "{e}");
+        // A depth-only stream has no colour.
+        let mut b = stream_header(&intr, None);
+        b.extend(stream_frame(0.0, &[1; 12]));
+        let mut s = Stream::new(&b[..], "t").unwrap();
+        assert!(s.colour_camera().is_none());
+        assert!(s.next_frame().unwrap().unwrap().colour.is_none());
+    }
+}
