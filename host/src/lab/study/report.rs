@@ -221,7 +221,9 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
             continue;
         };
         let holds = &cols.list()[c].holds;
-        let mut by: BTreeMap<(usize, String), (Vec<String>, Vec<f64>, usize)> = BTreeMap::new();
+        // (condition, stimulus) → (levels, values, "not perceived" count).
+        type Cell = (Vec<String>, Vec<f64>, usize);
+        let mut by: BTreeMap<(usize, String), Cell> = BTreeMap::new();
         for (condition, r) in &rows {
             let key = (*condition, r[stim].clone());
             let levels = factor_at.iter().map(|&i| r[i].clone()).collect();
