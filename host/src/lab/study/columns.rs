@@ -79,6 +79,37 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
 /// Longest label (factor level, option, adjustment answer), bytes.
 pub const MAX_LABEL_BYTES: usize = 200;
 
+/// Whether `s` is a time as `provenance::rfc3339_utc` writes it
+/// (`2026-11-26T08:41:59.123Z`), or empty (not known).
+pub fn is_rfc3339_utc(s: &str) -> bool {
+    if s.is_empty() {
+        return true;
+    }
+    let b = s.as_bytes();
+    let digits = |r: std::ops::Range<usize>| b[r].iter().all(u8::is_ascii_digit);
+    let num = |r: std::ops::Range<usize>| s[r].parse::<u32>().unwrap_or(u32::MAX);
+    b.len() == 24
+        && digits(0..4)
+        && b[4] == b'-'
+        && digits(5..7)
+        && b[7] == b'-'
+        && digits(8..10)
+        && b[10] == b'T'
+        && digits(11..13)
+        && b[13] == b':'
+        && digits(14..16)
+        && b[16] == b':'
+        && digits(17..19)
+        && b[19] == b'.'
+        && digits(20..23)
+        && b[23] == b'Z'
+        && (1..=12).contains(&num(5..7))
+        && (1..=31).contains(&num(8..10))
+        && num(11..13) < 24
+        && num(14..16) < 60
+        && num(17..19) < 61
+}
+
 /// What a column holds, and so which values it accepts.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Holds {
@@ -162,7 +193,7 @@ impl Holds {
             Self::Stimulus => crate::plan::library::check_id(value).is_ok(),
             Self::Level(levels) => levels.iter().any(|l| l == value),
             Self::Measured => value.is_empty() || number(value, f64::MIN, f64::MAX),
-            Self::Time => crate::lab::study::provenance::is_rfc3339_utc(value),
+            Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
             Self::Likert(points) => {
                 value.is_empty()

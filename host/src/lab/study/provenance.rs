@@ -5,9 +5,8 @@
 //! (RFC 3339 UTC, formatted here without a date library) and the device's
 //! health over it.
 
-use serde::{Deserialize, Serialize};
-
 use super::record::Run;
+pub use super::record::SceneRecord;
 use crate::error::InputError;
 use crate::lab::session::Session;
 use crate::plan::scene::Scene;
@@ -81,32 +80,6 @@ pub fn check_rig(runs: &[Run], now: &mut Run, anyway: bool) -> Result<(), InputE
     crate::errln!("warning: --resume-anyway: the rig differs: {what}");
     now.resumed_anyway = Some(what);
     Ok(())
-}
-
-/// The scene a run used.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SceneRecord {
-    /// The scene file as given (`None`: the built-in scene).
-    pub path: Option<String>,
-    /// CRC-32 of the file's text, 8 hex digits (`None`: built-in).
-    pub crc32: Option<String>,
-}
-
-impl SceneRecord {
-    /// The scene file `path` whose text is `text`, or the built-in scene.
-    pub fn of(path: Option<&std::path::Path>, text: Option<&str>) -> Self {
-        Self {
-            path: path.map(|p| p.display().to_string()),
-            crc32: text.map(|t| format!("{:08x}", lm_proto::crc32(t.as_bytes()))),
-        }
-    }
-
-    fn show(&self) -> String {
-        match (&self.path, &self.crc32) {
-            (Some(p), Some(c)) => format!("{p} (CRC {c})"),
-            _ => "the built-in scene".into(),
-        }
-    }
 }
 
 /// The library entries' CRCs of a run: (id, crc32), in its order.
@@ -197,37 +170,6 @@ pub fn now_utc() -> String {
     rfc3339_utc(std::time::SystemTime::now())
 }
 
-/// Whether `s` is a time as [`rfc3339_utc`] writes it, or empty (not
-/// known).
-pub fn is_rfc3339_utc(s: &str) -> bool {
-    if s.is_empty() {
-        return true;
-    }
-    let b = s.as_bytes();
-    let digits = |r: std::ops::Range<usize>| b[r].iter().all(u8::is_ascii_digit);
-    let num = |r: std::ops::Range<usize>| s[r].parse::<u32>().unwrap_or(u32::MAX);
-    b.len() == 24
-        && digits(0..4)
-        && b[4] == b'-'
-        && digits(5..7)
-        && b[7] == b'-'
-        && digits(8..10)
-        && b[10] == b'T'
-        && digits(11..13)
-        && b[13] == b':'
-        && digits(14..16)
-        && b[16] == b':'
-        && digits(17..19)
-        && b[19] == b'.'
-        && digits(20..23)
-        && b[23] == b'Z'
-        && (1..=12).contains(&num(5..7))
-        && (1..=31).contains(&num(8..10))
-        && num(11..13) < 24
-        && num(14..16) < 60
-        && num(17..19) < 61
-}
-
 /// (year, month, day) of `z` days since 1970-01-01 in the proleptic
 /// Gregorian calendar (H. Hinnant's `civil_from_days`).
 fn civil_from_days(z: i64) -> (i64, u32, u32) {
@@ -246,6 +188,7 @@ fn civil_from_days(z: i64) -> (i64, u32, u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lab::study::columns::is_rfc3339_utc;
     use std::time::{Duration, UNIX_EPOCH};
 
     fn run(scene: &str, backend: &str, crc: &str, scale: f64) -> Run {

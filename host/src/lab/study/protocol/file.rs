@@ -25,7 +25,7 @@ pub(super) struct File {
     #[serde(default)]
     pub question: Vec<QuestionFile>,
     pub adjustment: Option<Spanned<AdjustmentFile>>,
-    pub report: Option<super::report::ReportFile>,
+    pub report: Option<ReportFile>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -97,6 +97,33 @@ pub(super) struct AdjustmentFile {
     pub weaker: Spanned<AnswerLabel>,
     #[serde(default = "same")]
     pub same: Spanned<AnswerLabel>,
+}
+
+/// The `[report]` table (checked in `check::report`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ReportFile {
+    pub alpha: Option<Spanned<f64>>,
+    #[serde(default)]
+    pub repeats: RepeatsFile,
+    pub friedman: Option<Spanned<Vec<Name>>>,
+    #[serde(default)]
+    pub pairs: Vec<PairsFile>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RepeatsFile {
+    #[default]
+    Mean,
+    Median,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PairsFile {
+    pub factor: Spanned<Name>,
+    pub pairs: Option<Spanned<Vec<(Label, Label)>>>,
 }
 
 fn quarter() -> Step {
