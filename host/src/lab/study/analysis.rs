@@ -307,6 +307,18 @@ pub fn csv(all: &[QuestionStats]) -> String {
     out
 }
 
+/// A p-value to read: 4 decimals, or 3 significant digits below 0.001
+/// (the paper's marks go down to 0.0005).
+fn p_text(p: f64) -> String {
+    if p.is_nan() {
+        "-".into()
+    } else if p >= 1e-3 || p == 0.0 {
+        format!("{p:.4}")
+    } else {
+        format!("{p:.2e}")
+    }
+}
+
 /// `stats.txt`: the tests as a table to read.
 pub fn text(all: &[QuestionStats]) -> String {
     let mut s = String::new();
@@ -336,8 +348,11 @@ pub fn text(all: &[QuestionStats]) -> String {
             let _ = match &r.shapiro_wilk {
                 Outcome::Done(t) => writeln!(
                     s,
-                    "  {:<24} n={:<3} W={:.4} p={:.4}",
-                    r.condition, r.n, t.w, t.p
+                    "  {:<24} n={:<3} W={:.4} p={}",
+                    r.condition,
+                    r.n,
+                    t.w,
+                    p_text(t.p)
                 ),
                 Outcome::Skipped(w) => {
                     writeln!(s, "  {:<24} n={:<3} no test: {w}", r.condition, r.n)
@@ -351,13 +366,13 @@ pub fn text(all: &[QuestionStats]) -> String {
             let _ = match &r.friedman {
                 Outcome::Done(t) => writeln!(
                     s,
-                    "  {:<10} {:<40} n={:<3} chi2={:.3} p={:.4} p_bonf={:.4} W={:.3} {}",
+                    "  {:<10} {:<40} n={:<3} chi2={:.3} p={} p_bonf={} W={:.3} {}",
                     r.family,
                     r.conditions.join(" "),
                     r.n,
                     t.statistic,
-                    t.p,
-                    r.p_bonferroni.unwrap_or(f64::NAN),
+                    p_text(t.p),
+                    p_text(r.p_bonferroni.unwrap_or(f64::NAN)),
                     t.kendall_w,
                     r.stars
                 ),
@@ -384,15 +399,15 @@ pub fn text(all: &[QuestionStats]) -> String {
             let _ = match &r.wilcoxon {
                 Outcome::Done(t) => writeln!(
                     s,
-                    "  {:<24} {} vs {} n={:<3} W={} p={:.4} ({}) p_bonf={:.4} r={:.3} {power} {}{}",
+                    "  {:<24} {} vs {} n={:<3} W={} p={} ({}) p_bonf={} r={:.3} {power} {}{}",
                     r.family,
                     r.a,
                     r.b,
                     r.n,
                     t.statistic,
-                    t.p,
+                    p_text(t.p),
                     t.method.name(),
-                    r.p_bonferroni.unwrap_or(f64::NAN),
+                    p_text(r.p_bonferroni.unwrap_or(f64::NAN)),
                     t.r,
                     r.stars,
                     r.power_marks
