@@ -58,6 +58,41 @@ pub fn check() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Requests a stop when `input` ends (or fails to read): what `lmhost
+/// session --exit-with-stdin` does with its stdin, so a session started
+/// by another program ends with that program. The owner keeps the writing
+/// end of a pipe on our stdin and never writes; when it dies, however it
+/// dies (SIGKILL included), the kernel closes that end and the read here
+/// returns 0. Unlike `prctl(PR_SET_PDEATHSIG)` this needs no code between
+/// fork and exec, is not Linux-only, and is not fired by the exit of the
+/// owner's *thread* that happened to start us. Anything read is ignored;
+/// the reading thread is left to end with the process.
+pub fn when_ends(input: impl std::io::Read + Send + 'static) -> std::io::Result<()> {
+    watch(input, request)
+}
+
+/// Reads `input` to its end on a thread of its own, then calls `then`.
+fn watch(
+    mut input: impl std::io::Read + Send + 'static,
+    then: impl FnOnce() + Send + 'static,
+) -> std::io::Result<()> {
+    std::thread::Builder::new()
+        .name("lmhost-owner".into())
+        .spawn(move || {
+            let mut buf = [0u8; 512];
+            loop {
+                match input.read(&mut buf) {
+                    Ok(0) => break,
+                    Ok(_) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                    Err(_) => break,
+                }
+            }
+            then();
+        })
+        .map(drop)
+}
+
 extern "C" fn on_signal(sig: libc::c_int) {
     // Async-signal-safe only: atomics, unlink(2), _exit(2).
     STOP.store(true, Ordering::SeqCst);
@@ -132,6 +167,24 @@ impl Drop for TempGuard {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_end_of_the_owners_pipe_is_seen_and_nothing_before() {
+        // Through `watch`: the real stop flag is process-wide, and other
+        // tests poll it.
+        let (r, mut w) = std::io::pipe().expect("a pipe");
+        let (tx, rx) = std::sync::mpsc::channel();
+        watch(r, move || tx.send(()).expect("the test waits")).expect("the watcher starts");
+        std::io::Write::write_all(&mut w, b"anything the owner writes is ignored\n").unwrap();
+        assert!(
+            rx.recv_timeout(std::time::Duration::from_millis(50))
+                .is_err(),
+            "ended while the owner still held its end"
+        );
+        drop(w);
+        rx.recv_timeout(std::time::Duration::from_secs(10))
+            .expect("no end seen after the owner's end closed");
+    }
 
     #[test]
     fn a_temp_file_is_registered_until_dropped() {

@@ -12,8 +12,13 @@ The same library as the ``lmhost`` command line, called from Python:
   socket (the JSON-line protocol in ``host/src/lab/session/PROTOCOL.md``).
 
 Bad input raises :class:`ValueError` with the line the CLI prints; device
-and I/O faults raise :class:`DeviceError` (an :class:`OSError`).
-Units are in the names: ``_mm``, ``_us``, ``_hz``.
+and I/O faults raise :class:`DeviceError` (an :class:`OSError`). Every
+number is checked before anything is planned or sent: an integer
+parameter takes an int (not a float, not a bool) in range, a float
+parameter a finite number, else :class:`ValueError` naming it.
+Units are in the names: ``_mm``, ``_us``, ``_hz``. The keyword defaults
+are the library's (:data:`DEFAULTS`, the values ``lmhost plan`` and
+``lmhost simulate`` use without flags).
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ from . import _lmhost
 from ._lmhost import DeviceError, Scene
 
 __all__ = [
+    "DEFAULTS",
     "DeviceError",
     "Device",
     "Field",
@@ -51,18 +57,25 @@ Plan = _lmhost.Plan
 Field = _lmhost.Field
 PathLike = Union[str, "os.PathLike[str]"]
 
+#: The keyword API's defaults, read from the Rust library's constants.
+DEFAULTS: Dict[str, Any] = dict(_lmhost.DEFAULTS)
+_D = DEFAULTS
+
+# The widest integer the checks take where the receiver judges the range.
+_I64 = (-(2**63), 2**63 - 1)
+
 
 def plan(
-    radius: float = 3.0,
-    foci: int = 1,
-    spacing: float = 3.0,
-    freq: float = 5.0,
-    step: float = 0.23,
+    radius: float = _D["radius"],
+    foci: int = _D["foci"],
+    spacing: float = _D["spacing"],
+    freq: float = _D["freq"],
+    step: float = _D["step"],
     steps: Optional[int] = None,
     center: Optional[Sequence[float]] = None,
     scene: Optional[Scene] = None,
-    intensity: float = 1.0,
-    target: str = "lm",
+    intensity: float = _D["intensity"],
+    target: str = _D["target"],
 ) -> Plan:
     """Plan an LM stimulus, as ``lmhost plan`` does.
 
@@ -74,32 +87,22 @@ def plan(
     target: ``"lm"`` (the LM firmware's timing) or ``"autd3"`` (AUTD3's
     25 us dwell grid).
     """
+    # Passed as given: the extension checks every number (no int() here,
+    # which would make steps=3.7 a silent 3).
     return _lmhost.plan(
-        float(radius),
-        int(foci),
-        float(spacing),
-        float(freq),
-        float(step),
-        None if steps is None else int(steps),
-        None if center is None else [float(c) for c in center],
-        scene,
-        float(intensity),
-        str(target),
+        radius, foci, spacing, freq, step, steps, center, scene, intensity, str(target)
     )
-
-
-_PLANE_SIZE, _PLANE_STEP, _ALPHA, _DENSITY, _DISK = _lmhost.simulate_defaults()
 
 
 def simulate(
     plan: Plan,
-    plane_size: Union[float, Tuple[float, float]] = _PLANE_SIZE,
-    plane_step: float = _PLANE_STEP,
+    plane_size: Union[float, Tuple[float, float]] = _D["plane_size"],
+    plane_step: float = _D["plane_step"],
     plane_center: Optional[Sequence[float]] = None,
     plane_axes: Optional[Sequence[float]] = None,
-    alpha: float = _ALPHA,
-    density: float = _DENSITY,
-    disk: float = _DISK,
+    alpha: float = _D["alpha"],
+    density: float = _D["density"],
+    disk: float = _D["disk"],
     calibration: Optional[float] = None,
     reference: bool = False,
 ) -> Field:
@@ -112,21 +115,16 @@ def simulate(
     Defaults equal the CLI's. ``calibration=None`` applies the scene's
     ``[calibration]`` (if any); a number replaces it.
     """
-    if isinstance(plane_size, (int, float)):
-        size = (float(plane_size), float(plane_size))
-    else:
-        w, h = plane_size
-        size = (float(w), float(h))
     return _lmhost.simulate(
         plan,
-        size,
-        float(plane_step),
-        None if plane_center is None else [float(c) for c in plane_center],
-        None if plane_axes is None else [float(a) for a in plane_axes],
-        float(alpha),
-        float(density),
-        float(disk),
-        None if calibration is None else float(calibration),
+        plane_size,
+        plane_step,
+        plane_center,
+        plane_axes,
+        alpha,
+        density,
+        disk,
+        calibration,
         bool(reference),
     )
 
@@ -185,11 +183,11 @@ class Tracker:
         self,
         scene: Scene,
         intrinsics: Union[Dict[str, Any], PathLike],
-        enter_frames: int = 2,
-        leave_frames: int = 2,
+        enter_frames: int = _D["enter_frames"],
+        leave_frames: int = _D["leave_frames"],
     ) -> None:
         text, origin = _intrinsics_toml(intrinsics)
-        self._t = _lmhost.Tracker(scene, text, origin, int(enter_frames), int(leave_frames))
+        self._t = _lmhost.Tracker(scene, text, origin, enter_frames, leave_frames)
 
     @property
     def shape(self) -> Tuple[int, int]:
@@ -206,7 +204,9 @@ class Device:
     """A device by its ``--port`` name: a serial/pty path, ``tcp:HOST:PORT``,
     or an AUTD3 (``autd3:emulator``, ``autd3:soem[:IF]``, ...).
 
-    Use it as a context manager; closing an AUTD3 leaves it silent.
+    Use it as a context manager; closing an AUTD3 leaves it silent. Any
+    thread may call it (the device lives on a thread of its own; calls
+    from several threads run one at a time).
     """
 
     def __init__(self, port: str, scene: Optional[Scene] = None) -> None:
@@ -241,7 +241,7 @@ class Device:
 
     def play(self, slot: int, untracked: bool = False) -> None:
         """Play ``slot`` (tracked unless ``untracked``)."""
-        self._d.play(int(slot), bool(untracked))
+        self._d.play(slot, bool(untracked))
 
     def stop(self) -> None:
         """Stop: the array is silent."""
@@ -250,14 +250,14 @@ class Device:
     def centroid(self, x: float, y: float, z: float, present: bool = True) -> str:
         """Send a finger centroid (mm, finger space): ``"applied"`` or
         ``"out_of_range"``."""
-        return self._d.centroid(float(x), float(y), float(z), bool(present))
+        return self._d.centroid(x, y, z, bool(present))
 
     def tick(self) -> None:
         """Keep what plays going: an AUTD3's host-driven link (it falls
         silent one lease, 1 s, after the last renewal), the LM firmware's
         host lease (it stops by itself a lease after the last request it
-        heard; centroids renew it too). Call it at least every 10 ms while
-        playing."""
+        heard; centroids renew it too; ``DEFAULTS["lease_s"]``). Call it at
+        least every 10 ms while playing."""
         self._d.tick()
 
     def close(self) -> None:
@@ -293,7 +293,9 @@ class Session:
     ``tcp_port=`` for one started with ``--tcp``), or start one:
     ``Session(library="studies/paper-library.toml", port="autd3:emulator",
     synthetic=True)`` runs ``lmhost session`` (found by :func:`find_binary`)
-    with a private control socket and quits it on :meth:`close`.
+    with a private control socket and quits it on :meth:`close`; if this
+    process dies first, however (``kill -9`` too), that session ends with
+    it and leaves the array silent (``lmhost session --exit-with-stdin``).
     Over TCP the client first sends the session's token: ``token=``, or
     read from ``token_file=`` (default: ``SOCKET.token`` beside
     ``socket_path``, a file only the session's user can read).
@@ -317,13 +319,34 @@ class Session:
         self._tmp: Optional[tempfile.TemporaryDirectory] = None
         self._events: list = []
         self._buf = b""
+        self._sock: Optional[socket.socket] = None
         self.ready: Optional[Dict[str, Any]] = None
-        if socket_path is None:
-            if library is None:
-                raise ValueError("Session needs library= (to start one) or socket_path=")
+        timeout = _lmhost.float_arg("timeout", timeout)
+        if timeout <= 0:
+            raise ValueError(f"timeout {timeout} s is out of range: give a number above 0")
+        if tcp_port is not None:
+            tcp_port = _lmhost.int_arg("tcp_port", tcp_port, 1, 65535)
+        if socket_path is None and library is None and tcp_port is None:
+            raise ValueError("Session needs library= (to start one), socket_path= or tcp_port=")
+        if socket_path is None and library is not None:
             self._tmp = tempfile.TemporaryDirectory(prefix="lmhost-session-")
             socket_path = os.path.join(self._tmp.name, "control.sock")
-            cmd = [find_binary(), "session", "--library", str(library), "--control", str(socket_path)]
+            # --exit-with-stdin and a pipe on its stdin that only this
+            # process holds (non-inheritable, never written): when this
+            # process dies, however (kill -9 too), the kernel closes it,
+            # the session sees the end and stops, leaving the array silent.
+            # PR_SET_PDEATHSIG would need a pre-exec hook (unsafe beside
+            # threads), is Linux-only, and fires when the starting *thread*
+            # ends, which would end a Session made in a worker thread.
+            cmd = [
+                find_binary(),
+                "session",
+                "--library",
+                str(library),
+                "--control",
+                str(socket_path),
+                "--exit-with-stdin",
+            ]
             if port is not None:
                 cmd += ["--port", str(port)]
             if scene is not None:
@@ -331,12 +354,21 @@ class Session:
             if synthetic:
                 cmd.append("--synthetic")
             if tcp_port is not None:
-                cmd += ["--tcp", str(int(tcp_port))]
+                cmd += ["--tcp", str(tcp_port)]
             cmd += list(args)
             self._stderr = tempfile.TemporaryFile()
             self._proc = subprocess.Popen(
-                cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=self._stderr
+                cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self._stderr
             )
+        try:
+            self._open(socket_path, timeout, tcp_port, token, token_file)
+        except BaseException:
+            if self._sock is not None:
+                self._sock.close()
+            self._end_child()
+            raise
+
+    def _open(self, socket_path, timeout, tcp_port, token, token_file) -> None:
         if tcp_port is None:
             self._sock = self._connect(str(socket_path), timeout)
             self._sock.settimeout(timeout)
@@ -345,7 +377,7 @@ class Session:
                 if socket_path is None:
                     raise ValueError("Session over TCP needs token=, token_file= or socket_path=")
                 token_file = str(socket_path) + ".token"
-            self._sock = self._connect_tcp(int(tcp_port), timeout)
+            self._sock = self._connect_tcp(tcp_port, timeout)
             self._sock.settimeout(timeout)
             if token is None:
                 token = self._read_token(str(token_file), timeout)
@@ -416,9 +448,21 @@ class Session:
     def command(self, cmd: str, **fields: Any) -> Dict[str, Any]:
         """Send one command; events that arrive meanwhile are kept for
         :meth:`events`. Returns the reply; ``ok: false`` raises ValueError."""
-        msg = {"cmd": cmd}
-        msg.update({k: v for k, v in fields.items() if v is not None})
-        self._sock.sendall((json.dumps(msg) + "\n").encode())
+        msg: Dict[str, Any] = {"cmd": cmd}
+        for k, v in fields.items():
+            if v is None or isinstance(v, (bool, str)):
+                pass
+            elif isinstance(v, float):
+                v = _lmhost.float_arg(k, v)  # no NaN or infinity on the wire
+            elif isinstance(v, int):
+                v = _lmhost.int_arg(k, v, *_I64)
+            if v is not None:
+                msg[k] = v
+        try:
+            line = json.dumps(msg, allow_nan=False)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{cmd}: cannot send {e}") from None
+        self._sock.sendall((line + "\n").encode())
         while True:
             v = self._line()
             if "event" in v:
@@ -443,7 +487,12 @@ class Session:
     ) -> Dict[str, Any]:
         """Present a library entry (``gate``: "tracked" or "untracked")."""
         return self.command(
-            "present", stimulus=stimulus, gate=gate, on_s=on_s, off_s=off_s, repeat=repeat
+            "present",
+            stimulus=stimulus,
+            gate=gate,
+            on_s=None if on_s is None else _lmhost.float_arg("on_s", on_s),
+            off_s=None if off_s is None else _lmhost.float_arg("off_s", off_s),
+            repeat=None if repeat is None else _lmhost.int_arg("repeat", repeat, *_I64),
         )
 
     def prepare(self, stimulus: str) -> int:
@@ -503,16 +552,24 @@ class Session:
                     pass
         finally:
             self._sock.close()
-            if self._proc is not None:
-                try:
-                    self._proc.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    self._proc.terminate()
-                    self._proc.wait()
-                self._proc = None
-            if self._tmp is not None:
-                self._tmp.cleanup()
-                self._tmp = None
+            self._end_child()
+
+    def _end_child(self) -> None:
+        """Ends the session this object started, if any: its stdin closed
+        (it ends at that), then waited for; SIGTERM (it still ends silent)
+        if it does not."""
+        if self._proc is not None:
+            if self._proc.stdin is not None:
+                self._proc.stdin.close()
+            try:
+                self._proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self._proc.terminate()
+                self._proc.wait()
+            self._proc = None
+        if self._tmp is not None:
+            self._tmp.cleanup()
+            self._tmp = None
 
     def __enter__(self) -> "Session":
         return self

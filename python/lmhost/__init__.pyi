@@ -8,6 +8,11 @@ import numpy.typing as npt
 
 PathLike = Union[str, os.PathLike[str]]
 
+DEFAULTS: Dict[str, Any]
+"""The keyword defaults, from the Rust library: radius, foci, spacing,
+freq, step, intensity, target (plan); plane_size, plane_step, alpha,
+density, disk (simulate); enter_frames, leave_frames (Tracker); lease_s."""
+
 class DeviceError(OSError):
     """A device or I/O fault (the CLI's exit code 1)."""
 
@@ -71,27 +76,28 @@ class Field:
     force_n: float
     summary: Dict[str, Any]
 
+# Defaults marked `...` are DEFAULTS' (the Rust library's).
 def plan(
-    radius: float = 3.0,
-    foci: int = 1,
-    spacing: float = 3.0,
-    freq: float = 5.0,
-    step: float = 0.23,
+    radius: float = ...,
+    foci: int = ...,
+    spacing: float = ...,
+    freq: float = ...,
+    step: float = ...,
     steps: Optional[int] = None,
     center: Optional[Sequence[float]] = None,
     scene: Optional[Scene] = None,
-    intensity: float = 1.0,
-    target: str = "lm",
+    intensity: float = ...,
+    target: str = ...,
 ) -> Plan: ...
 def simulate(
     plan: Plan,
-    plane_size: Union[float, Tuple[float, float]] = 20.0,
-    plane_step: float = 0.2,
+    plane_size: Union[float, Tuple[float, float]] = ...,
+    plane_step: float = ...,
     plane_center: Optional[Sequence[float]] = None,
     plane_axes: Optional[Sequence[float]] = None,
     alpha: float = ...,
     density: float = ...,
-    disk: float = 15.0,
+    disk: float = ...,
     calibration: Optional[float] = None,
     reference: bool = False,
 ) -> Field: ...
@@ -108,8 +114,8 @@ class Tracker:
         self,
         scene: Scene,
         intrinsics: Union[Dict[str, Any], PathLike],
-        enter_frames: int = 2,
-        leave_frames: int = 2,
+        enter_frames: int = ...,
+        leave_frames: int = ...,
     ) -> None: ...
     @property
     def shape(self) -> Tuple[int, int]: ...
@@ -145,6 +151,9 @@ class Session:
         synthetic: bool = False,
         args: Sequence[str] = (),
         timeout: float = 30.0,
+        tcp_port: Optional[int] = None,
+        token: Optional[str] = None,
+        token_file: Optional[PathLike] = None,
     ) -> None: ...
     def command(self, cmd: str, **fields: Any) -> Dict[str, Any]: ...
     def present(

@@ -24,18 +24,19 @@ use pyo3::prelude::*;
 
 use lmhost::device::backend::{BackendError, ErrorKind};
 use lmhost::error::{InputError, one_line};
+use lmhost::field::Radiation;
 use lmhost::field::study::{View, simulate_plan};
-use lmhost::field::{self, Radiation};
 use lmhost::plan::scene::Scene;
 use lmhost::plan::stimulus::{Stimulus, TargetPlan};
 use lmhost::plan::target::Target;
-use lmhost::plan::trajectory::Steps;
+use lmhost::plan::trajectory::{MAX_FOCI, MAX_STEPS, Steps};
 use lmhost::sense::track::Pipeline;
 use lmhost::sense::track::camera::CameraSetup;
 use lmhost::sense::track::contact::Tracker as ContactTracker;
 use lmhost::sense::track::intrinsics::Intrinsics;
 use lmhost::sense::track::presence::Hysteresis;
 
+mod args;
 mod device;
 use device::Device_;
 
@@ -68,13 +69,16 @@ fn bad(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
 }
 
-fn panic_err(p: Box<dyn std::any::Any + Send>) -> PyErr {
-    let msg = p
-        .downcast_ref::<&str>()
+/// What a caught panic says.
+fn panic_msg(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<&str>()
         .map(|s| s.to_string())
         .or_else(|| p.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into());
-    PyRuntimeError::new_err(format!("lmhost internal error: {msg}"))
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+fn panic_err(p: Box<dyn std::any::Any + Send>) -> PyErr {
+    PyRuntimeError::new_err(format!("lmhost internal error: {}", panic_msg(&*p)))
 }
 
 /// Runs `f` without the GIL, a panic caught as `RuntimeError`.
@@ -283,21 +287,21 @@ impl Plan_ {
 }
 
 /// Plans a stimulus: `Stimulus::plan_for` the target in the scene, as
-/// `lmhost plan` does.
+/// `lmhost plan` does. Every number is checked by [`args`] first.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (radius, foci, spacing, freq, step, steps, center, scene, intensity, target))]
 fn plan(
     py: Python<'_>,
-    radius: f64,
-    foci: i64,
-    spacing: f64,
-    freq: f64,
-    step: f64,
-    steps: Option<i64>,
-    center: Option<Vec<f64>>,
+    radius: &Bound<'_, PyAny>,
+    foci: &Bound<'_, PyAny>,
+    spacing: &Bound<'_, PyAny>,
+    freq: &Bound<'_, PyAny>,
+    step: &Bound<'_, PyAny>,
+    steps: Option<&Bound<'_, PyAny>>,
+    center: Option<&Bound<'_, PyAny>>,
     scene: Option<&Scene_>,
-    intensity: f64,
+    intensity: &Bound<'_, PyAny>,
     target: &str,
 ) -> PyResult<Plan_> {
     let target_kind = match target {
@@ -309,19 +313,19 @@ fn plan(
             )));
         }
     };
-    let foci = usize::try_from(foci).map_err(|_| bad(format!("--foci {foci} must be 1..=32")))?;
-    let steps = match steps {
-        Some(n) => Steps::Count(
-            usize::try_from(n).map_err(|_| bad(format!("--steps {n} must be 1..=65535")))?,
-        ),
+    let radius = args::float("radius", radius)?;
+    let spacing = args::float("spacing", spacing)?;
+    let freq = args::float("freq", freq)?;
+    let step = args::float("step", step)?;
+    let intensity = args::float("intensity", intensity)?;
+    let foci: usize = args::int_in("foci", foci, 1, MAX_FOCI as i64)?;
+    let steps = match args::opt_int_in::<usize>("steps", steps, 1, MAX_STEPS as i64)? {
+        Some(n) => Steps::Count(n),
         None => Steps::Width(step),
     };
-    let center_mm = center.map(|c| vec3("center", c)).transpose()?;
-    if let Some(c) = center_mm
-        && !c.iter().all(|x| x.is_finite())
-    {
-        return Err(bad(format!("--center must be finite, got {c:?}")));
-    }
+    let center_mm = args::opt_floats("center", center, 3)?
+        .map(|c| vec3("center", c))
+        .transpose()?;
     let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
     let planned = run(py, || {
         let stimulus = Stimulus {
@@ -374,34 +378,41 @@ struct Field_ {
 fn simulate(
     py: Python<'_>,
     plan: &Plan_,
-    plane_size: (f64, f64),
-    plane_step: f64,
-    plane_center: Option<Vec<f64>>,
-    plane_axes: Option<Vec<f64>>,
-    alpha: f64,
-    density: f64,
-    disk: f64,
-    calibration: Option<f64>,
+    plane_size: &Bound<'_, PyAny>,
+    plane_step: &Bound<'_, PyAny>,
+    plane_center: Option<&Bound<'_, PyAny>>,
+    plane_axes: Option<&Bound<'_, PyAny>>,
+    alpha: &Bound<'_, PyAny>,
+    density: &Bound<'_, PyAny>,
+    disk: &Bound<'_, PyAny>,
+    calibration: Option<&Bound<'_, PyAny>>,
     reference: bool,
 ) -> PyResult<Field_> {
-    let axes = match plane_axes {
-        None => None,
-        Some(v) if v.len() == 6 => Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]])),
-        Some(_) => {
-            return Err(bad(
-                "--plane-axes takes six numbers UX,UY,UZ,VX,VY,VZ".to_string()
-            ));
-        }
+    // One number is a square plane; else (width, height).
+    let size_mm = if plane_size.is_instance_of::<pyo3::types::PyFloat>()
+        || plane_size.is_instance_of::<pyo3::types::PyInt>()
+    {
+        let s = args::float("plane_size", plane_size)?;
+        (s, s)
+    } else {
+        let v = args::floats("plane_size", plane_size, 2)?;
+        (v[0], v[1])
     };
+    let axes = args::opt_floats("plane_axes", plane_axes, 6)?
+        .map(|v| ([v[0], v[1], v[2]], [v[3], v[4], v[5]]));
     let view = View {
-        size_mm: plane_size,
-        step_mm: plane_step,
-        center_mm: plane_center.map(|c| vec3("plane_center", c)).transpose()?,
+        size_mm,
+        step_mm: args::float("plane_step", plane_step)?,
+        center_mm: args::opt_floats("plane_center", plane_center, 3)?
+            .map(|c| vec3("plane_center", c))
+            .transpose()?,
         axes,
-        rad: Radiation { alpha },
-        density,
-        disk_mm: disk,
-        calibration,
+        rad: Radiation {
+            alpha: args::float("alpha", alpha)?,
+        },
+        density: args::float("density", density)?,
+        disk_mm: args::float("disk", disk)?,
+        calibration: args::opt_float("calibration", calibration)?,
         reference,
     };
     let p = &plan.planned.plan;
@@ -433,18 +444,6 @@ fn simulate(
     })
 }
 
-/// The defaults `lmhost simulate` has, for the Python wrapper.
-#[pyfunction]
-fn simulate_defaults() -> (f64, f64, f64, f64, f64) {
-    (
-        field::study::PLANE_SIZE_MM,
-        field::study::PLANE_STEP_MM,
-        field::DEFAULT_RADIATION_ALPHA,
-        field::DEFAULT_DENSITY_KG_M3,
-        field::study::DISK_MM,
-    )
-}
-
 /// The paper's contact-area tracker with presence hysteresis, as
 /// `lmhost track` runs it on recorded frames (no filter).
 #[pyclass(name = "Tracker", module = "lmhost._lmhost", frozen)]
@@ -461,14 +460,22 @@ impl Tracker_ {
     /// `intrinsics_toml` is TOML text (`origin` names it in messages);
     /// the scene needs `[camera]` and `[tracking]`.
     #[new]
-    #[pyo3(signature = (scene, intrinsics_toml, origin, enter_frames=2, leave_frames=2))]
+    #[pyo3(signature = (scene, intrinsics_toml, origin, enter_frames=None, leave_frames=None))]
     fn new(
         scene: &Scene_,
         intrinsics_toml: &str,
         origin: &str,
-        enter_frames: u32,
-        leave_frames: u32,
+        enter_frames: Option<&Bound<'_, PyAny>>,
+        leave_frames: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        // At least one frame each: `Hysteresis::new` would raise a 0 to 1
+        // without a word.
+        let h = Hysteresis::default();
+        let frames = |name, v, default: u32| -> PyResult<u32> {
+            Ok(args::opt_int_in(name, v, 1, i64::from(u32::MAX))?.unwrap_or(default))
+        };
+        let enter_frames = frames("enter_frames", enter_frames, h.enter)?;
+        let leave_frames = frames("leave_frames", leave_frames, h.leave)?;
         let intr = Intrinsics::from_toml(intrinsics_toml, origin).map_err(|e| to_py(e.into()))?;
         let rig = CameraSetup::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
         let tracker = ContactTracker::new(intr, rig);
@@ -506,8 +513,9 @@ impl Tracker_ {
         &self,
         py: Python<'_>,
         depth: &Bound<'_, PyAny>,
-        t: Option<f64>,
+        t: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<(f64, u32, bool, Option<[f64; 3]>, bool)> {
+        let t = args::opt_float("t", t)?;
         let arr = depth.downcast::<PyArray2<u16>>().map_err(|_| {
             bad(format!(
                 "depth frame must be a numpy uint16 array of shape ({}, {})",
@@ -520,11 +528,6 @@ impl Tracker_ {
                 "depth frame has shape {shape:?} but the intrinsics say ({}, {})",
                 self.height, self.width
             )));
-        }
-        if let Some(t) = t
-            && !t.is_finite()
-        {
-            return Err(bad(format!("t must be finite seconds, got {t}")));
         }
         let ro = arr.readonly();
         let owned;
@@ -612,7 +615,9 @@ fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Device_>()?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
-    m.add_function(wrap_pyfunction!(simulate_defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(args::int_arg, m)?)?;
+    m.add_function(wrap_pyfunction!(args::float_arg, m)?)?;
+    m.add("DEFAULTS", args::defaults(m.py())?)?;
     m.add_function(wrap_pyfunction!(_bench_rust, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     Ok(())

@@ -218,12 +218,15 @@ fn a_port_held_by_a_killed_lmhost_is_free_at_once() {
     use std::time::{Duration, Instant};
     let sim = Sim::start(&[]);
     let p = sim.port.as_str();
-    let mut holder = Command::new(link_support::lmhost())
-        .args(["stream", "--port", p, "--synthetic", "--seconds", "600"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawning the holder");
+    let spawn = || {
+        Command::new(link_support::lmhost())
+            .args(["stream", "--port", p, "--synthetic", "--seconds", "600"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawning the holder")
+    };
+    let mut holder = spawn();
     // A guard against hanging, not a timing goal.
     let give_up = Instant::now() + Duration::from_secs(20);
     loop {
@@ -234,6 +237,11 @@ fn a_port_held_by_a_killed_lmhost_is_free_at_once() {
             break;
         }
         assert!(Instant::now() < give_up, "the holder never held {p}");
+        // A status of ours held the port just as the holder opened it (the
+        // holder was refused, as it should be): start it again.
+        if holder.try_wait().unwrap().is_some() {
+            holder = spawn();
+        }
         std::thread::sleep(Duration::from_millis(50));
     }
     holder.kill().expect("SIGKILL to the holder");

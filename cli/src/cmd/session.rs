@@ -88,6 +88,13 @@ pub struct Args {
     /// When the client that sent `present`, `prepare` or `stop` disconnects.
     #[arg(long, value_enum, default_value_t = Disconnect::Stop)]
     on_disconnect: Disconnect,
+    /// End the session (the array silent) when stdin reaches its end: for
+    /// a program that starts the session with a pipe on its stdin and
+    /// never writes to it, so the session ends with that program however
+    /// it ends, `kill -9` included (Python's `lmhost.Session` does this).
+    /// What arrives on stdin is ignored.
+    #[arg(long)]
+    exit_with_stdin: bool,
 }
 
 impl Args {
@@ -162,6 +169,17 @@ impl Args {
             .any(|s| s.as_ref().is_some_and(|p| p.as_os_str() == "-"));
         if control == Control::Stdio && stream_stdin {
             lmhost::bad_input!("--control - and a finger source on `-` cannot both read stdin");
+        }
+        if self.exit_with_stdin && (control == Control::Stdio || stream_stdin) {
+            lmhost::bad_input!(
+                "--exit-with-stdin watches stdin for its end: it cannot also carry --control - or a finger source on `-`"
+            );
+        }
+        // First of all: an owner that is already gone ends the session as
+        // soon as it serves (the flag waits for the loop to read it).
+        if self.exit_with_stdin {
+            lmhost::stop::when_ends(std::io::stdin())
+                .map_err(|e| anyhow::anyhow!("watching stdin: {e}"))?;
         }
         let library = Library::load(&self.library)?;
         let scene = Scene::load_or_default(self.scene.as_deref())?;

@@ -46,12 +46,12 @@ pub(crate) fn cases() -> Vec<Case> {
     // 3. TCP control needs the token from the 0600 file.
     add(
         SESSION_TCP,
-        "session --library {lib} --port {sess} --control {dir}/s/tcp.sock --tcp 47391",
+        "session --library {lib} --port {sess} --control {dir}/s/tcp.sock --tcp {tcp}",
         |c| c.ok().during(tcp_needs_the_token).check(token_file_removed),
     );
     add(
         SESSION_TCP,
-        "session --library {lib} --port autd3:emulator --control - --tcp 47392",
+        "session --library {lib} --port autd3:emulator --control - --tcp {tcp}",
         |c| c.err("--tcp needs a socket --control"),
     );
     // 4. A library of 32 large entries on a device that holds a fraction.
@@ -458,7 +458,7 @@ fn tcp_needs_the_token(ctx: &Ctx, _: u32) -> Result<(), String> {
     }
     let token = std::fs::read_to_string(&token_path).map_err(|e| e.to_string())?;
     let tcp = |first: &str| -> Result<(serde_json::Value, TcpStream), String> {
-        let s = TcpStream::connect(("127.0.0.1", 47391)).map_err(|e| e.to_string())?;
+        let s = TcpStream::connect(("127.0.0.1", ctx.tcp)).map_err(|e| e.to_string())?;
         s.set_read_timeout(Some(Duration::from_secs(10)))
             .map_err(|e| e.to_string())?;
         let mut w = s.try_clone().map_err(|e| e.to_string())?;

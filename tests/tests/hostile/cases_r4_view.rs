@@ -9,9 +9,6 @@ use std::net::TcpStream;
 
 use super::*;
 
-/// The view's port in these cases.
-const PORT: u16 = 47411;
-
 /// A study whose view the `during` client attacks; it ends the study with
 /// SIGTERM when done (the study waits for the participant's page).
 const STUDY: &str = "study run {scenes}/../studies/paper-exp2.toml --port autd3:emulator --finger synthetic --participant V1 --scene {scenes}/paper.toml --out {dir}/v";
@@ -19,10 +16,12 @@ const STUDY: &str = "study run {scenes}/../studies/paper-exp2.toml --port autd3:
 /// The view cases.
 pub(crate) fn view_cases() -> Vec<Case> {
     vec![
-        case(VIEW_HTTP, &format!("{STUDY}/http --view {PORT}"))
+        case(VIEW_HTTP, &format!("{STUDY}/http --view {{viewport}}"))
             .code(1)
             .stderr_file("{dir}/v-http.err")
-            .check(|ctx, _| stopped_silent(ctx, "v-http.err", "127.0.0.1:47411"))
+            .check(|ctx, _| {
+                stopped_silent(ctx, "v-http.err", &format!("127.0.0.1:{}", ctx.view_port))
+            })
             .during(hostile_requests_are_bounded),
         case(VIEW_ADDRESS, &format!("{STUDY}/a1 --view nope"))
             .err("`nope` is neither a port nor HOST:PORT"),
@@ -38,8 +37,8 @@ pub(crate) fn view_cases() -> Vec<Case> {
 
 /// The status line of one exchange: `head` (and `body`) sent, the answer
 /// read until the server closes.
-fn exchange(head: &[u8]) -> Result<String, String> {
-    let mut s = TcpStream::connect(("127.0.0.1", PORT)).map_err(|e| e.to_string())?;
+fn exchange(port: u16, head: &[u8]) -> Result<String, String> {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).map_err(|e| e.to_string())?;
     s.set_read_timeout(Some(Duration::from_secs(10)))
         .map_err(|e| e.to_string())?;
     s.set_write_timeout(Some(Duration::from_secs(10)))
@@ -52,8 +51,8 @@ fn exchange(head: &[u8]) -> Result<String, String> {
     Ok(text.lines().next().unwrap_or("").to_owned())
 }
 
-fn expect(what: &str, head: &[u8], status: &str) -> Result<(), String> {
-    let line = exchange(head)?;
+fn expect(port: u16, what: &str, head: &[u8], status: &str) -> Result<(), String> {
+    let line = exchange(port, head)?;
     if line.starts_with(&format!("HTTP/1.1 {status}")) {
         Ok(())
     } else {
@@ -61,9 +60,9 @@ fn expect(what: &str, head: &[u8], status: &str) -> Result<(), String> {
     }
 }
 
-fn wait_listening() -> Result<(), String> {
+fn wait_listening(port: u16) -> Result<(), String> {
     let t0 = Instant::now();
-    while TcpStream::connect(("127.0.0.1", PORT)).is_err() {
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
         if t0.elapsed() > Duration::from_secs(15) {
             return Err("the view never listened".into());
         }
@@ -80,8 +79,10 @@ fn terminate(pid: u32) -> Result<(), String> {
         .map(|_| ())
 }
 
-fn hostile_requests_are_bounded(_: &Ctx, pid: u32) -> Result<(), String> {
-    wait_listening()?;
+fn hostile_requests_are_bounded(ctx: &Ctx, pid: u32) -> Result<(), String> {
+    let port = ctx.view_port;
+    wait_listening(port)?;
+    let expect = |what: &str, head: &[u8], status: &str| expect(port, what, head, status);
     let r = (|| {
         let long_line = format!("GET /{} HTTP/1.1\r\n\r\n", "a".repeat(1 << 20));
         expect("a 1 MiB request line", long_line.as_bytes(), "414")?;
@@ -127,7 +128,7 @@ fn hostile_requests_are_bounded(_: &Ctx, pid: u32) -> Result<(), String> {
         // answered 503 at once; the idle ones are dropped after the read
         // timeout and the view serves again.
         let idle: Vec<TcpStream> = (0..40)
-            .filter_map(|_| TcpStream::connect(("127.0.0.1", PORT)).ok())
+            .filter_map(|_| TcpStream::connect(("127.0.0.1", port)).ok())
             .collect();
         std::thread::sleep(Duration::from_millis(300));
         let t0 = Instant::now();

@@ -175,6 +175,11 @@ struct Ctx {
     sess: String,
     /// A device whose holder was killed with SIGKILL (`{stale}`).
     stale: String,
+    /// Free local TCP ports for the session's `--tcp` (`{tcp}`) and the
+    /// view (`{viewport}`), found at the start (fixed numbers collide with
+    /// whatever else runs on the machine).
+    tcp: u16,
+    view_port: u16,
 }
 
 type Check = fn(&Ctx, &Run) -> Result<(), String>;
@@ -373,6 +378,8 @@ fn expand(s: &str, ctx: &Ctx) -> String {
         .replace("{busy}", &ctx.busy)
         .replace("{sess}", &ctx.sess)
         .replace("{stale}", &ctx.stale)
+        .replace("{tcp}", &ctx.tcp.to_string())
+        .replace("{viewport}", &ctx.view_port.to_string())
         .replace("{dir}", &ctx.dir.display().to_string())
         .replace("{scenes}", &ctx.scenes.display().to_string())
         .replace(
@@ -615,6 +622,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         full: full.as_ref().ok().map(|f| f.0.clone()),
         busy: busy.port.clone(),
         stale: stale.port.clone(),
+        tcp: free_port(),
+        view_port: free_port(),
         sess: sess.port.clone(),
     };
     let up = Command::new(lmhost())
@@ -687,4 +696,12 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         all.len(),
         failures.join("\n")
     );
+}
+
+/// A local TCP port nothing listens on now (the kernel's pick).
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free local TCP port")
 }

@@ -287,6 +287,11 @@ impl<T: Transport> Client<T> {
         &self.transport
     }
 
+    /// Numbers the next request `seq + 1` (replies are matched by seq).
+    pub fn start_seq(&mut self, seq: u16) {
+        self.seq = seq;
+    }
+
     /// The transport, mutably.
     pub fn transport_mut(&mut self) -> &mut T {
         &mut self.transport

@@ -73,6 +73,10 @@ impl PortSpec {
         let path = discover::resolve(self.port.as_deref())?;
         let transport = transport::open(&path, self.baud)?;
         let mut client = Client::new(transport);
+        // Requests are matched to replies by seq: a client that started
+        // where the last one did (a killed lmhost, its replies still in the
+        // port's buffer) would take those for its own.
+        client.start_seq(fresh_seq());
         let chunk_ms = (lm_proto::MAX_ENCODED_FRAME as u64 * 10 * 1000).div_ceil(self.baud as u64);
         client.timeout =
             std::time::Duration::from_millis(self.timeout_ms.unwrap_or(100 + 2 * chunk_ms));
@@ -80,4 +84,14 @@ impl PortSpec {
         client.lease_ms = self.lease_ms;
         Ok(client)
     }
+}
+
+/// A seq to start from that differs from one run to the next.
+fn fresh_seq() -> u16 {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let mixed =
+        u64::from(std::process::id()).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ u64::from(nanos);
+    (mixed >> 16) as u16
 }

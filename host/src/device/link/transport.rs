@@ -37,6 +37,29 @@ fn is_timeout(e: &std::io::Error) -> bool {
     )
 }
 
+/// A timed read, again for what is left of `timeout` when a signal
+/// interrupts it (`EINTR`: the ending signals' handler is installed
+/// without `SA_RESTART`, and poll-based reads are never restarted anyway),
+/// so a SIGUSR1 or SIGHUP mid-request does not fail the request: the
+/// caller sees the stop flag once the request is done.
+fn retry_interrupted(
+    timeout: Duration,
+    mut read: impl FnMut(Duration) -> std::io::Result<usize>,
+) -> std::io::Result<usize> {
+    let end = std::time::Instant::now() + timeout;
+    loop {
+        let left = end.saturating_duration_since(std::time::Instant::now());
+        match read(left) {
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {
+                if left.is_zero() {
+                    return Ok(0);
+                }
+            }
+            r => return r,
+        }
+    }
+}
+
 /// A serial port or pty, through `serialport` (no libudev).
 pub struct Serial {
     port: Box<dyn serialport::SerialPort>,
@@ -99,14 +122,16 @@ impl Transport for Serial {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
-        // serialport rejects a zero timeout on some platforms.
-        self.port
-            .set_timeout(timeout.max(Duration::from_micros(100)))?;
-        match self.port.read(buf) {
-            Ok(n) => Ok(n),
-            Err(e) if is_timeout(&e) => Ok(0),
-            Err(e) => Err(e),
-        }
+        retry_interrupted(timeout, |left| {
+            // serialport rejects a zero timeout on some platforms.
+            self.port
+                .set_timeout(left.max(Duration::from_micros(100)))?;
+            match self.port.read(buf) {
+                Ok(n) => Ok(n),
+                Err(e) if is_timeout(&e) => Ok(0),
+                Err(e) => Err(e),
+            }
+        })
     }
 
     fn describe(&self) -> String {
@@ -147,9 +172,11 @@ impl<S: StreamSocket> Transport for Socket<S> {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
-        self.stream
-            .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
-        stream_read(self.stream.read(buf), self.closed)
+        retry_interrupted(timeout, |left| {
+            self.stream
+                .set_read_timeout(Some(left.max(Duration::from_micros(100))))?;
+            stream_read(self.stream.read(buf), self.closed)
+        })
     }
 
     fn describe(&self) -> String {

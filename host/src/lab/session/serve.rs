@@ -135,7 +135,13 @@ fn spawn_acceptor<S: Send + 'static>(
     std::thread::Builder::new()
         .name(name.into())
         .spawn(move || {
-            while let Ok(s) = accept() {
+            loop {
+                let s = match accept() {
+                    Ok(s) => s,
+                    // A signal landed on this thread: accept again.
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                    Err(_) => break,
+                };
                 let Ok((r, mut w, shutdown)) = halves(s) else {
                     continue;
                 };
@@ -243,11 +249,14 @@ impl Loop {
                 conn::CLIENT_QUEUE
             );
         }
-        let authed = c.authed;
-        drop(c);
-        if !authed {
+        if !c.authed {
+            // Its refusal is queued: let the writer send that one short
+            // line (a fresh socket's buffer takes it at once) before the
+            // socket closes, else the client sees only the close.
+            c.finish(std::time::Instant::now() + std::time::Duration::from_millis(100));
             return Ok(None);
         }
+        drop(c);
         match self.on_disconnect {
             OnDisconnect::Stop => {
                 d.session().client_gone(id)?;

@@ -306,9 +306,16 @@ impl Terminal {
             .spawn(move || {
                 let mut b = [0u8; 1];
                 let mut i = std::io::stdin().lock();
-                while let Ok(1) = i.read(&mut b) {
-                    if tx.send(b[0]).is_err() {
-                        break;
+                loop {
+                    match i.read(&mut b) {
+                        Ok(1) => {
+                            if tx.send(b[0]).is_err() {
+                                break;
+                            }
+                        }
+                        // A signal landed on this thread: read on.
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                        _ => break,
                     }
                 }
             })?;

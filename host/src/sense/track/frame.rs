@@ -37,7 +37,7 @@ pub trait FrameSource {
         false
     }
     /// The next frame if one comes within `wait` (a source read on its own
-    /// thread, [`Live`], can idle; others block until it comes).
+    /// thread, [`Live`](super::source::Live), can idle; others block until it comes).
     fn next_frame_within(&mut self, _wait: std::time::Duration) -> anyhow::Result<Next<Frame>> {
         Ok(self.next_frame()?.map_or(Next::End, Next::Ready))
     }

@@ -1,0 +1,199 @@
+//! Arguments from Python, checked in one place: every integer and float
+//! any entry point takes goes through [`int_in`] or [`float`] (and the
+//! pure-Python `Session` reaches them as `_lmhost.int_arg` and
+//! `_lmhost.float_arg`), so bad input is always `ValueError` naming the
+//! parameter — never an `OverflowError` or `TypeError` from the
+//! conversion, never a float silently truncated to an int, never a NaN or
+//! infinity passed on towards the wire.
+//!
+//! Also the keyword API's defaults ([`defaults`], `_lmhost.DEFAULTS`),
+//! read from the library's constants so a change there changes Python.
+
+use pyo3::exceptions::{PyOverflowError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat};
+
+use lmhost::field;
+use lmhost::plan::stimulus::Stimulus;
+use lmhost::plan::trajectory::Steps;
+use lmhost::sense::track::presence::Hysteresis;
+
+/// A value for a message: its repr, cut short (a 4000-digit integer or a
+/// long string is not echoed whole).
+fn shown(v: &Bound<'_, PyAny>) -> String {
+    const MAX: usize = 40;
+    let r = v
+        .repr()
+        .map(|r| r.to_string())
+        .unwrap_or_else(|_| "?".into());
+    if r.chars().count() <= MAX {
+        r
+    } else {
+        format!(
+            "{}… ({} characters)",
+            r.chars().take(MAX).collect::<String>(),
+            r.len()
+        )
+    }
+}
+
+/// An integer parameter in `lo..=hi` (the caller's type holds that range).
+/// Python ints and anything with `__index__` (numpy integers) are taken;
+/// a bool, a float (even `4.0`: an int was meant) or anything else is
+/// `ValueError`, as is a value out of range, however large.
+pub(crate) fn int_in<T: TryFrom<i64>>(
+    name: &str,
+    v: &Bound<'_, PyAny>,
+    lo: i64,
+    hi: i64,
+) -> PyResult<T> {
+    // The library's form ("foci must be 1..=32, got 0"), so a value the
+    // library would refuse reads the same from either side.
+    let out_of_range =
+        || PyValueError::new_err(format!("{name} must be {lo}..={hi}, got {}", shown(v)));
+    if v.is_instance_of::<PyBool>() || v.is_instance_of::<PyFloat>() {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be an integer, got {}",
+            shown(v)
+        )));
+    }
+    let n: i64 = match v.extract() {
+        Ok(n) => n,
+        Err(e) if e.is_instance_of::<PyOverflowError>(v.py()) => return Err(out_of_range()),
+        Err(_) => {
+            return Err(PyValueError::new_err(format!(
+                "{name} must be an integer, got {}",
+                shown(v)
+            )));
+        }
+    };
+    if !(lo..=hi).contains(&n) {
+        return Err(out_of_range());
+    }
+    T::try_from(n).map_err(|_| out_of_range())
+}
+
+/// An optional [`int_in`].
+pub(crate) fn opt_int_in<T: TryFrom<i64>>(
+    name: &str,
+    v: Option<&Bound<'_, PyAny>>,
+    lo: i64,
+    hi: i64,
+) -> PyResult<Option<T>> {
+    v.filter(|v| !v.is_none())
+        .map(|v| int_in(name, v, lo, hi))
+        .transpose()
+}
+
+/// A finite float parameter (ints taken); its range is the library's to
+/// check, with the library's message.
+pub(crate) fn float(name: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
+    if v.is_instance_of::<PyBool>() {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be a number, got {}",
+            shown(v)
+        )));
+    }
+    let x: f64 = match v.extract() {
+        Ok(x) => x,
+        Err(e) if e.is_instance_of::<PyOverflowError>(v.py()) => {
+            return Err(PyValueError::new_err(format!(
+                "{name} {} is out of range: give a finite number",
+                shown(v)
+            )));
+        }
+        Err(_) => {
+            return Err(PyValueError::new_err(format!(
+                "{name} must be a number, got {}",
+                shown(v)
+            )));
+        }
+    };
+    if !x.is_finite() {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be a finite number, got {}",
+            lmhost::limits::show(x)
+        )));
+    }
+    Ok(x)
+}
+
+/// An optional [`float`].
+pub(crate) fn opt_float(name: &str, v: Option<&Bound<'_, PyAny>>) -> PyResult<Option<f64>> {
+    v.filter(|v| !v.is_none())
+        .map(|v| float(name, v))
+        .transpose()
+}
+
+/// `n` finite floats from any sequence (a tuple, a list, a numpy array).
+pub(crate) fn floats(name: &str, v: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<f64>> {
+    let wrong = || PyValueError::new_err(format!("{name} takes {n} numbers, got {}", shown(v)));
+    if v.is_instance_of::<pyo3::types::PyString>() {
+        return Err(wrong());
+    }
+    let len = v.len().map_err(|_| wrong())?;
+    if len != n {
+        return Err(wrong());
+    }
+    (0..n)
+        .map(|i| {
+            let x = v.get_item(i).map_err(|_| wrong())?;
+            float(&format!("{name}[{i}]"), &x)
+        })
+        .collect()
+}
+
+/// An optional [`floats`].
+pub(crate) fn opt_floats(
+    name: &str,
+    v: Option<&Bound<'_, PyAny>>,
+    n: usize,
+) -> PyResult<Option<Vec<f64>>> {
+    v.filter(|v| !v.is_none())
+        .map(|v| floats(name, v, n))
+        .transpose()
+}
+
+/// [`int_in`] for Python code (the `Session` client).
+#[pyfunction]
+pub(crate) fn int_arg(name: &str, value: &Bound<'_, PyAny>, lo: i64, hi: i64) -> PyResult<i64> {
+    int_in(name, value, lo, hi)
+}
+
+/// [`float`] for Python code (the `Session` client).
+#[pyfunction]
+pub(crate) fn float_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<f64> {
+    float(name, value)
+}
+
+/// The keyword API's defaults, from the library: the stimulus `lmhost
+/// plan` plans without flags, `lmhost simulate`'s view, the tracker's
+/// presence hysteresis and the device lease.
+pub(crate) fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let s = Stimulus::default();
+    let step = match s.steps {
+        Steps::Width(w) => w,
+        Steps::Count(_) => lmhost::plan::trajectory::paper::STEP_MM,
+    };
+    let h = Hysteresis::default();
+    let d = PyDict::new(py);
+    d.set_item("radius", s.radius_mm)?;
+    d.set_item("foci", s.foci)?;
+    d.set_item("spacing", s.spacing_mm)?;
+    d.set_item("freq", s.freq_hz)?;
+    d.set_item("step", step)?;
+    d.set_item("intensity", s.intensity)?;
+    d.set_item("target", "lm")?;
+    d.set_item("plane_size", field::study::PLANE_SIZE_MM)?;
+    d.set_item("plane_step", field::study::PLANE_STEP_MM)?;
+    d.set_item("alpha", field::DEFAULT_RADIATION_ALPHA)?;
+    d.set_item("density", field::DEFAULT_DENSITY_KG_M3)?;
+    d.set_item("disk", field::study::DISK_MM)?;
+    d.set_item("enter_frames", h.enter)?;
+    d.set_item("leave_frames", h.leave)?;
+    d.set_item(
+        "lease_s",
+        lmhost::device::backend::DEFAULT_LEASE.as_secs_f64(),
+    )?;
+    Ok(d)
+}
