@@ -29,10 +29,17 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 /// Experiment 1's answers: vibration, movement, then the three shape
-/// items in the order shown; a different number on every line.
+/// items in the order shown; a different number on every line, and now
+/// and then `na` ("could not perceive", which every question allows).
 fn exp1_answers(dir: &Path) -> (PathBuf, Vec<String>) {
     let a: Vec<String> = (0..150)
-        .map(|i| ((i * 5 + i / 7) % 7 + 1).to_string())
+        .map(|i| {
+            if i % 23 == 4 {
+                "na".to_owned()
+            } else {
+                ((i * 5 + i / 7) % 7 + 1).to_string()
+            }
+        })
         .collect();
     let p = dir.join("answers.txt");
     std::fs::write(&p, a.join("\n") + "\n").unwrap();
@@ -133,6 +140,19 @@ fn check_exp1(rows: &[BTreeMap<String, String>], answers: &[String]) {
         assert!((0.04..1.0).contains(&on), "presented {on} s");
         assert!(r["device_presented_s"].parse::<f64>().unwrap() > 0.0);
         assert_eq!(r["on_phases"], "1");
+        // Provenance: the trial's UTC time, the device's health over it,
+        // a response time per answer.
+        let t = &r["time_utc"];
+        assert!(
+            t.len() == 24 && t.starts_with("20") && t.ends_with('Z'),
+            "{t}"
+        );
+        assert!(r["missed_deadlines"].parse::<u32>().is_ok(), "{r:?}");
+        assert!(r["lease_expiries"].parse::<u32>().is_ok(), "{r:?}");
+        for q in ["vibration", "movement", "shape_flat"] {
+            let rt: f64 = r[&format!("{q}_rt_s")].parse().unwrap();
+            assert!((0.0..600.0).contains(&rt), "{q}_rt_s {rt}");
+        }
     }
     assert_eq!(count.len(), 15);
     assert!(count.values().all(|n| *n == 2), "{count:?}");
@@ -165,6 +185,10 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     assert_eq!(s["runs"][0]["time_scale"], 0.02);
     assert_eq!(s["runs"][0]["library"].as_array().unwrap().len(), 15);
     assert_eq!(s["runs"][0]["device"]["backend"], "autd3");
+    assert_eq!(s["runs"][0]["backend"], "autd3");
+    assert_eq!(s["runs"][0]["port"], "autd3:emulator");
+    assert_eq!(s["runs"][0]["scene"]["path"], serde_json::Value::Null);
+    assert!(s["runs"][0]["lmhost_version"].is_string());
     let events = std::fs::read_to_string(p.join("events.jsonl")).unwrap();
     let onsets = events
         .lines()
@@ -181,12 +205,37 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     let mut lines = summary.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "stimulus,type,radius,question,n,median,q1,q3,iqr"
+        "stimulus,type,radius,question,n,not_perceived,median,q1,q3,iqr"
     );
-    // 15 conditions × 5 answer columns, 2 answers each.
+    // 15 conditions × 5 answer columns, 2 answers each: numbers or `na`,
+    // which is counted and left out.
     let body: Vec<&str> = lines.collect();
     assert_eq!(body.len(), 75);
-    assert!(body.iter().all(|l| l.split(',').nth(4) == Some("2")));
+    let field = |l: &str, i: usize| l.split(',').nth(i).unwrap().parse::<usize>().unwrap();
+    assert!(body.iter().all(|l| field(l, 4) + field(l, 5) == 2));
+    let na = a.iter().filter(|x| *x == "na").count();
+    assert!(na > 0);
+    assert_eq!(body.iter().map(|l| field(l, 5)).sum::<usize>(), na);
+    // The statistics: a file each, `na` counted and left out.
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats.as_array().unwrap().len(), 5);
+    let left_out: u64 = stats
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|q| q["not_perceived"].as_u64().unwrap())
+        .sum();
+    assert_eq!(left_out as usize, na);
+    // One participant: Shapiro-Wilk has too few values, so every test
+    // says why it did not run instead of a number.
+    let txt = std::fs::read_to_string(out.join("stats.txt")).unwrap();
+    assert!(txt.contains("no test"), "{txt}");
+    let csv = std::fs::read_to_string(out.join("stats.csv")).unwrap();
+    assert!(
+        csv.starts_with("question,test,family,conditions,n,"),
+        "{csv}"
+    );
     for q in [
         "vibration",
         "movement",
@@ -256,9 +305,15 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
             refused += 1;
         }
         if !line.starts_with(' ') && line.ends_with(']') && line.contains("[1 = ") {
-            let k = b'1' + (typed.len() * 3 % 7) as u8;
-            keys.write_all(&[b'9', k]).unwrap();
-            typed.push((k as char).to_string());
+            // Every 17th answer is "not perceived", typed as `na`.
+            if typed.len() % 17 == 2 {
+                keys.write_all(b"9na").unwrap();
+                typed.push("na".to_owned());
+            } else {
+                let k = b'1' + (typed.len() * 3 % 7) as u8;
+                keys.write_all(&[b'9', k]).unwrap();
+                typed.push((k as char).to_string());
+            }
         }
         log.push(line);
     }
@@ -267,6 +322,13 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
     watchdog.join().unwrap();
     assert!(status.success(), "{status}: {}", log.join("\n"));
     assert_eq!(typed.len(), 150, "5 questions × 30 trials");
+    // The participant's screen names no stimulus (the event log does).
+    for l in log
+        .iter()
+        .filter(|l| l.starts_with("trial ") || l.ends_with(']'))
+    {
+        assert!(!l.contains("-a2") && !l.contains("hz-a"), "{l}");
+    }
     assert_eq!(refused, 150, "every `9` refused on a 7-point scale");
     check_exp1(&rows(&out.join("P01")), &typed);
     assert!(
@@ -341,7 +403,25 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
         &["--resume", "--seed", "8"],
     );
     assert_eq!(o.status.code(), Some(2));
+    // The killed run ran at a time scale of 0.1: resuming at 0.02 is
+    // another rig, refused with one line naming what differs, files as
+    // they were.
     let o = run_exp1("autd3:emulator", &out, &answers, &["--resume"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("the time scale (0.1 then, 0.02 now)")
+            && e.contains("--resume-anyway")
+            && e.trim().lines().count() == 1,
+        "{e}"
+    );
+    assert_eq!(rows(&out.join("P01")).len(), before);
+    let o = run_exp1(
+        "autd3:emulator",
+        &out,
+        &answers,
+        &["--resume", "--resume-anyway"],
+    );
     ok(&o);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -373,6 +453,9 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
             .unwrap();
     assert_eq!(s["runs"].as_array().unwrap().len(), 2);
     assert_eq!(s["runs"][1]["first_trial"], before + 1);
+    let anyway = s["runs"][1]["resumed_anyway"].as_str().unwrap();
+    assert!(anyway.contains("time scale"), "{anyway}");
+    assert!(s["runs"][0].get("resumed_anyway").is_none());
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -575,5 +658,126 @@ fn stdin_answers_are_bounded_lines() {
             && last.contains("--resume"),
         "{e}"
     );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `--responses -`: each answer is read as its question is asked (a GUI or
+/// a button box answering while trials run), `na` included; a run that
+/// read stdin to its end first would wait forever here (the watchdog ends
+/// it and the test fails).
+#[test]
+fn responses_from_stdin_are_read_one_at_a_time_as_asked() {
+    use std::io::{BufRead, BufReader, Write};
+    let d = scratch("live");
+    let out = d.join("out");
+    let mut child = exp1(
+        "autd3:emulator",
+        &out,
+        "0.02",
+        &["--responses", "-", "--seed", "3"],
+    )
+    .stdin(Stdio::piped())
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watchdog = {
+        let (done, pid) = (done.clone(), child.id().to_string());
+        std::thread::spawn(move || {
+            let t0 = Instant::now();
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                if t0.elapsed() > Duration::from_secs(120) {
+                    let _ = Command::new("kill").args(["-9", &pid]).status();
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let mut stdin = child.stdin.take().unwrap();
+    let mut given = Vec::new();
+    let mut log = Vec::new();
+    for line in BufReader::new(child.stderr.take().unwrap()).lines() {
+        let line = line.unwrap();
+        if !line.starts_with(' ') && line.ends_with(']') && line.contains("[1 = ") {
+            assert!(
+                line.contains("[na = could not perceive the stimulus]"),
+                "{line}"
+            );
+            let a = if given.len() % 11 == 3 {
+                "na".to_owned()
+            } else {
+                (given.len() % 7 + 1).to_string()
+            };
+            writeln!(stdin, "{a}").unwrap();
+            given.push(a);
+        }
+        log.push(line);
+    }
+    drop(stdin);
+    let status = child.wait().unwrap();
+    done.store(true, std::sync::atomic::Ordering::Relaxed);
+    watchdog.join().unwrap();
+    assert!(status.success(), "{status}: {}", log.join("\n"));
+    assert_eq!(given.len(), 150, "one line per question asked");
+    check_exp1(&rows(&out.join("P01")), &given);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `--responses -` lines are checked as they come: a bad one or stdin's
+/// end ends the run as bad input, the array silent and the session
+/// resumable.
+#[test]
+fn responses_from_stdin_are_checked_as_they_come() {
+    let d = scratch("live-bad");
+    for (id, input, want) in [
+        (
+            "B1",
+            "1\n9\n",
+            "--responses - line 2: `9` is not an answer to `movement`",
+        ),
+        (
+            "B2",
+            "na\n",
+            "--responses - ended: an answer to `movement` is needed",
+        ),
+    ] {
+        let o = study(&[
+            "run",
+            &studies("paper-exp1.toml"),
+            "--port",
+            "autd3:emulator",
+            "--participant",
+            id,
+            "--out",
+            d.to_str().unwrap(),
+            "--finger",
+            "synthetic",
+            "--time-scale",
+            "0.02",
+            "--responses",
+            "-",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .and_then(|mut c| {
+            use std::io::Write;
+            c.stdin.take().unwrap().write_all(input.as_bytes())?;
+            c.wait_with_output()
+        })
+        .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        let last = e.trim().lines().last().unwrap_or_default();
+        assert!(
+            last.contains(want)
+                && last.contains("the array is silent")
+                && last.contains("--resume"),
+            "{e}"
+        );
+    }
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -54,8 +54,9 @@ struct RunArgs {
     /// Seed of the trial order [default: from the clock; recorded].
     #[arg(long, value_name = "N")]
     seed: Option<u64>,
-    /// Answers, one per line in the order asked, or `-` for stdin
-    /// [default: keys at the terminal].
+    /// Answers, one per line in the order asked (`na`: not perceived,
+    /// where a question allows it), or `-`: stdin's lines, each read as
+    /// its question is asked [default: keys at the terminal].
     #[arg(long, value_name = "FILE")]
     responses: Option<PathBuf>,
     /// The finger source: a synthetic one, or none (then --stream or
@@ -75,9 +76,14 @@ struct RunArgs {
     /// Multiplies every duration of the timeline (recorded).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     time_scale: f64,
-    /// Continue OUT/ID's session at its first unfinished trial.
+    /// Continue OUT/ID's session at its first unfinished trial (on the
+    /// same rig: scene, backend, library CRCs, time scale).
     #[arg(long)]
     resume: bool,
+    /// With --resume: go on although the rig differs (what differs is
+    /// recorded in session.json).
+    #[arg(long, requires = "resume")]
+    resume_anyway: bool,
     /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
@@ -152,6 +158,7 @@ impl RunArgs {
             finger,
             time_scale: self.time_scale,
             resume: self.resume,
+            resume_anyway: self.resume_anyway,
             view: self.view,
         })?;
         let mean = |v: &[f64]| {

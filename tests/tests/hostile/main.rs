@@ -82,12 +82,17 @@ const SESSION_OUTPUTS: &str = "r4-s8 session inputs before outputs";
 const STALE_LOCK: &str = "r4-30.15 a port lock dies with its holder";
 const AUTD3_SLOTS: &str = "r4-31 AUTD3 slots, segments and the in-process emulator";
 
+/// Round 4, the paper's experiments (issue 28): `cases_r4_paper.rs`.
+const PAPER_ANSWERS: &str = "r4-28.1 not perceived and answers as asked";
+const PAPER_REPORT: &str = "r4-28.3 the report's tests declared";
+const PAPER_RIG: &str = "r4-28.5 resume on the same rig";
+
 /// The live view (issue 27): `cases_r4_view.rs`.
 const VIEW_HTTP: &str = "r4-v1 bounded view requests";
 const VIEW_ADDRESS: &str = "r4-v2 --view addresses";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 47] = [
+const CLASSES: [&str; 50] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -133,6 +138,9 @@ const CLASSES: [&str; 47] = [
     SESSION_OUTPUTS,
     STALE_LOCK,
     AUTD3_SLOTS,
+    PAPER_ANSWERS,
+    PAPER_REPORT,
+    PAPER_RIG,
     VIEW_HTTP,
     VIEW_ADDRESS,
 ];
@@ -346,6 +354,7 @@ mod cases_r1;
 mod cases_r3;
 mod cases_r4_device;
 mod cases_r4_files;
+mod cases_r4_paper;
 mod cases_r4_session;
 mod cases_r4_study;
 mod cases_r4_view;
@@ -356,6 +365,7 @@ use cases_r1::cases;
 use cases_r3::round3_cases;
 use cases_r4_device::round4_device_cases;
 use cases_r4_files::{round4_files_cases, round4_files_fixtures};
+use cases_r4_paper::{paper_cases, paper_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use checks::*;
 use fixtures::*;
@@ -606,6 +616,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     std::fs::create_dir_all(&dir).unwrap();
     fixtures(&dir);
     study_fixtures(&dir);
+    paper_fixtures(&dir);
     round4_files_fixtures(&dir);
     cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
@@ -635,6 +646,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
 
     let mut all = cases();
     all.extend(study_cases());
+    all.extend(paper_cases());
     all.extend(round4_files_cases());
     // Last: the session cases preload the shared device's library.
     all.extend(cases_r4_session::cases());

@@ -587,6 +587,16 @@ impl Session {
         }
     }
 
+    /// The device's missed deadlines and lease expiries so far (from its
+    /// status): a study records their change over each trial.
+    pub fn device_counters(&mut self) -> anyhow::Result<(u32, u32)> {
+        let s = self
+            .dev
+            .status()
+            .map_err(|e| e.context("reading the device status"))?;
+        Ok((s.missed_deadlines, s.lease_expiries))
+    }
+
     /// What the `status` command answers.
     pub fn status(&mut self) -> anyhow::Result<protocol::StatusReply> {
         let s = self

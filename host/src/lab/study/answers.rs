@@ -8,6 +8,7 @@ use std::sync::mpsc::{Receiver, TryRecvError, channel};
 
 use super::protocol::{Kind, Question};
 use crate::error::InputError;
+pub use crate::lab::study::columns::NOT_PERCEIVED;
 
 /// One thing asked: a question, a Likert item or an adjustment.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,6 +19,9 @@ pub struct Asked {
     pub prompt: String,
     /// What is accepted.
     pub accepts: Accepts,
+    /// The label of the "not perceived" answer, typed as
+    /// [`NOT_PERCEIVED`], when the question allows it.
+    pub not_perceived: Option<String>,
 }
 
 /// What an answer may be.
@@ -34,6 +38,17 @@ pub enum Accepts {
 impl Asked {
     /// The items asked for question `q` with its shown `order`.
     pub fn of(q: &Question, order: &[usize]) -> Vec<Asked> {
+        let mut v = Self::of_kind(q, order);
+        if let Some(label) = &q.not_perceived {
+            for a in &mut v {
+                a.prompt = format!("{} [{NOT_PERCEIVED} = {label}]", a.prompt);
+                a.not_perceived = Some(label.clone());
+            }
+        }
+        v
+    }
+
+    fn of_kind(q: &Question, order: &[usize]) -> Vec<Asked> {
         let text = if q.text.is_empty() { &q.id } else { &q.text };
         match &q.kind {
             Kind::Likert {
@@ -52,6 +67,7 @@ impl Asked {
                         column: q.id.clone(),
                         prompt: format!("{text} [{scale}]"),
                         accepts: Accepts::Likert(*points),
+                        not_perceived: None,
                     }];
                 }
                 order
@@ -60,6 +76,7 @@ impl Asked {
                         column: format!("{}_{}", q.id, items[i]),
                         prompt: format!("{text} ({}) [{scale}]", items[i]),
                         accepts: Accepts::Likert(*points),
+                        not_perceived: None,
                     })
                     .collect()
             }
@@ -75,6 +92,7 @@ impl Asked {
                     column: q.id.clone(),
                     prompt: format!("{text} [{list}]"),
                     accepts: Accepts::Choice(shown),
+                    not_perceived: None,
                 }]
             }
             Kind::Number { min, max } => vec![Asked {
@@ -85,12 +103,13 @@ impl Asked {
                     crate::limits::show(*max)
                 ),
                 accepts: Accepts::Number(*min, *max),
+                not_perceived: None,
             }],
         }
     }
 
     /// Checks `text` and returns the value recorded: a Likert point, a
-    /// choice's label, a number as given.
+    /// choice's label, a number as given, [`NOT_PERCEIVED`] where allowed.
     pub fn parse(&self, text: &str) -> Result<String, String> {
         let t = text.trim();
         if t.len() > MAX_ANSWER_BYTES {
@@ -100,6 +119,16 @@ impl Asked {
                 t.len()
             ));
         }
+        if self.not_perceived.is_some() && t.eq_ignore_ascii_case(NOT_PERCEIVED) {
+            return Ok(NOT_PERCEIVED.to_owned());
+        }
+        self.parse_kind(t).map_err(|m| match &self.not_perceived {
+            Some(l) => format!("{m}, or {NOT_PERCEIVED} ({l})"),
+            None => m,
+        })
+    }
+
+    fn parse_kind(&self, t: &str) -> Result<String, String> {
         match &self.accepts {
             Accepts::Likert(points) => match t.parse::<u32>() {
                 Ok(v) if (1..=*points).contains(&v) => Ok(v.to_string()),
@@ -171,32 +200,17 @@ pub struct Lines {
 pub const MAX_RESPONSES_BYTES: u64 = 16 << 20;
 
 impl Lines {
-    /// From a file (`-`: stdin, read to its end).
+    /// From a file, read whole (and dry-run before the device opens);
+    /// `--responses -` is not a file but answers as asked ([`Piped`]).
     pub fn open(path: &Path) -> anyhow::Result<Self> {
-        let (name, text) = if path.as_os_str() == "-" {
-            let mut s = String::new();
-            std::io::stdin()
-                .lock()
-                .take(MAX_RESPONSES_BYTES + 1)
-                .read_to_string(&mut s)
-                .map_err(|e| {
-                    InputError::new(format!("--responses -: {}", crate::files::reason(&e)))
-                })?;
-            if s.len() as u64 > MAX_RESPONSES_BYTES {
-                return Err(InputError::new(format!(
-                    "--responses -: more than {MAX_RESPONSES_BYTES} bytes, the most a responses file may be"
-                ))
-                .into());
-            }
-            ("--responses -".to_owned(), s)
-        } else {
-            let b = crate::files::read_input("--responses file", path, MAX_RESPONSES_BYTES)?;
-            let s = String::from_utf8(b).map_err(|_| {
-                InputError::new(format!("--responses {}: not UTF-8 text", path.display()))
-            })?;
-            (format!("--responses {}", path.display()), s)
-        };
-        Ok(Self::from_text(name, &text))
+        let b = crate::files::read_input("--responses file", path, MAX_RESPONSES_BYTES)?;
+        let text = String::from_utf8(b).map_err(|_| {
+            InputError::new(format!("--responses {}: not UTF-8 text", path.display()))
+        })?;
+        Ok(Self::from_text(
+            format!("--responses {}", path.display()),
+            &text,
+        ))
     }
 
     /// From text (`name` in errors).
@@ -349,7 +363,24 @@ impl Answers for Terminal {
                     .into());
                 }
             };
+            // Digits answer at once; letters build a word, and `na`
+            // answers as soon as it is whole where the question allows it.
+            if q.single_key() && k.is_ascii_alphabetic() && q.not_perceived.is_some() {
+                self.line.push(k as char);
+                if self.line.eq_ignore_ascii_case(NOT_PERCEIVED) {
+                    self.line.clear();
+                    crate::errln!("  -> {NOT_PERCEIVED}");
+                    self.asked = None;
+                    return Ok(Some(NOT_PERCEIVED.to_owned()));
+                }
+                if !NOT_PERCEIVED.starts_with(&self.line.to_ascii_lowercase()) {
+                    crate::errln!("  `{}` is not an answer", self.line);
+                    self.line.clear();
+                }
+                continue;
+            }
             if q.single_key() && k.is_ascii_alphanumeric() {
+                self.line.clear();
                 let s = (k as char).to_string();
                 match q.parse(&s) {
                     Ok(v) => {
@@ -420,37 +451,59 @@ pub fn stdin_lines() -> anyhow::Result<Receiver<Result<String, String>>> {
     Ok(rx)
 }
 
-/// Answers as stdin lines arrive.
+/// Answers as stdin lines arrive (no `--responses`, or `--responses -`):
+/// one line per question as it is asked, so a button box or a GUI can
+/// answer while trials run. Each question is printed to stderr when it is
+/// first asked (without the stimulus, as the participant sees it).
 pub struct Piped {
     rx: Receiver<Result<String, String>>,
     n: usize,
+    name: &'static str,
+    asked: Option<String>,
 }
 
 impl Piped {
     /// Starts reading stdin.
     pub fn open() -> anyhow::Result<Self> {
-        Ok(Self {
-            rx: stdin_lines()?,
+        Self::named("stdin")
+    }
+
+    /// Starts reading stdin, called `name` in errors (`--responses -`).
+    pub fn named(name: &'static str) -> anyhow::Result<Self> {
+        Ok(Self::from_lines(stdin_lines()?, name))
+    }
+
+    /// Answers from `rx`'s lines (what [`stdin_lines`] sends).
+    pub fn from_lines(rx: Receiver<Result<String, String>>, name: &'static str) -> Self {
+        Self {
+            rx,
             n: 0,
-        })
+            name,
+            asked: None,
+        }
     }
 }
 
 impl Answers for Piped {
     fn poll(&mut self, q: &Asked) -> anyhow::Result<Option<String>> {
+        if self.asked.as_deref() != Some(&q.prompt) {
+            crate::errln!("{}", q.prompt);
+            self.asked = Some(q.prompt.clone());
+        }
         match self.rx.try_recv() {
             Ok(l) => {
                 self.n += 1;
-                let n = self.n;
-                let bad = |m: String| InputError::new(format!("stdin line {n}: {m}"));
+                self.asked = None;
+                let (n, name) = (self.n, self.name);
+                let bad = |m: String| InputError::new(format!("{name} line {n}: {m}"));
                 q.parse(&l.map_err(bad)?)
                     .map(Some)
                     .map_err(|m| bad(m).into())
             }
             Err(TryRecvError::Empty) => Ok(None),
             Err(TryRecvError::Disconnected) => Err(InputError::new(format!(
-                "stdin ended: an answer to `{}` is needed",
-                q.column
+                "{} ended: an answer to `{}` is needed",
+                self.name, q.column
             ))
             .into()),
         }
@@ -466,6 +519,7 @@ mod tests {
             column: "vibration".into(),
             prompt: String::new(),
             accepts: Accepts::Likert(7),
+            not_perceived: None,
         }
     }
 
@@ -479,6 +533,7 @@ mod tests {
             column: "shape".into(),
             prompt: String::new(),
             accepts: Accepts::Choice(vec!["convex".into(), "flat".into()]),
+            not_perceived: None,
         };
         assert_eq!(c.parse("flat").unwrap(), "flat");
         assert_eq!(c.parse("FLAT").unwrap(), "flat");
@@ -488,6 +543,7 @@ mod tests {
             column: "depth".into(),
             prompt: String::new(),
             accepts: Accepts::Number(0.0, 10.0),
+            not_perceived: None,
         };
         assert_eq!(n.parse("2.5").unwrap(), "2.5");
         assert!(n.parse("11").is_err());
@@ -500,6 +556,7 @@ mod tests {
                 options: vec!["flat".into(), "convex".into(), "concave".into()],
             },
             shuffle: true,
+            not_perceived: None,
         };
         let asked = Asked::of(&q, &[2, 0, 1]);
         assert_eq!(asked.len(), 1);
@@ -520,6 +577,7 @@ mod tests {
                 items: vec!["flat".into(), "convex".into()],
             },
             shuffle: true,
+            not_perceived: None,
         };
         let cols: Vec<String> = Asked::of(&q, &[1, 0])
             .into_iter()
@@ -542,5 +600,53 @@ mod tests {
         assert!(l.skip(2).is_err(), "skipping past the end");
         let long = "7".repeat(MAX_ANSWER_BYTES + 1);
         assert!(likert().parse(&long).unwrap_err().contains("bytes"));
+    }
+
+    #[test]
+    fn not_perceived_is_its_own_answer_where_a_question_allows_it() {
+        let q = Question {
+            id: "vibration".into(),
+            text: "Q1".into(),
+            kind: Kind::Likert {
+                points: 7,
+                low: String::new(),
+                high: String::new(),
+                items: Vec::new(),
+            },
+            shuffle: false,
+            not_perceived: Some("could not perceive".into()),
+        };
+        let a = &Asked::of(&q, &[])[0];
+        assert!(
+            a.prompt.ends_with("[na = could not perceive]"),
+            "{}",
+            a.prompt
+        );
+        assert_eq!(a.parse("na").unwrap(), NOT_PERCEIVED);
+        assert_eq!(a.parse(" NA ").unwrap(), NOT_PERCEIVED);
+        assert_eq!(a.parse("4").unwrap(), "4");
+        let e = a.parse("8").unwrap_err();
+        assert!(e.contains("1 to 7, or na (could not perceive)"), "{e}");
+        // Where it is not allowed, `na` is no answer.
+        assert!(likert().parse("na").is_err());
+        let mut l = Lines::from_text("--responses r.txt".into(), "na\n");
+        assert_eq!(l.poll(a).unwrap().as_deref(), Some("na"));
+    }
+
+    #[test]
+    fn piped_answers_come_one_line_at_a_time_as_asked() {
+        let (tx, rx) = channel();
+        let mut p = Piped::from_lines(rx, "--responses -");
+        // Nothing yet: the caller keeps the device served and asks again.
+        assert_eq!(p.poll(&likert()).unwrap(), None);
+        tx.send(Ok("5".into())).unwrap();
+        assert_eq!(p.poll(&likert()).unwrap().as_deref(), Some("5"));
+        assert_eq!(p.poll(&likert()).unwrap(), None);
+        tx.send(Ok("9".into())).unwrap();
+        let e = p.poll(&likert()).unwrap_err().to_string();
+        assert!(e.starts_with("--responses - line 2: `9`"), "{e}");
+        drop(tx);
+        let e = p.poll(&likert()).unwrap_err().to_string();
+        assert!(e.contains("--responses - ended"), "{e}");
     }
 }

@@ -27,6 +27,22 @@ pub const TIMING: [&str; 12] = [
     "mutes",
     "switch_ms",
 ];
+/// Wall-clock time of the trial's start, RFC 3339 UTC (to the ms).
+pub const TIME_UTC: &str = "time_utc";
+/// The device's missed deadlines during the trial (its status before and
+/// after; empty when the device does not count them).
+pub const MISSED_DEADLINES: &str = "missed_deadlines";
+/// The device's lease expiries (mutes for want of the host) during the
+/// trial.
+pub const LEASE_EXPIRIES: &str = "lease_expiries";
+/// What a "not perceived" answer is typed as and recorded as, in a column
+/// whose question allows it: its own value, never a number.
+pub const NOT_PERCEIVED: &str = "na";
+/// The response-time column of answer column `column`: seconds from the
+/// question being asked to its answer.
+pub fn rt_column(column: &str) -> String {
+    format!("{column}_rt_s")
+}
 /// How many answers the trial took (questions and procedure), so a resumed
 /// run skips exactly those in a responses file.
 pub const ANSWERS: &str = "answers";
@@ -47,9 +63,10 @@ pub const LIST_SEPARATOR: char = '|';
 /// Every name the runner writes itself (factor and question names must
 /// differ from them).
 pub fn fixed() -> impl Iterator<Item = &'static str> {
-    [PARTICIPANT, TRIAL, SET, STIMULUS, ANSWERS]
+    [PARTICIPANT, TRIAL, SET, STIMULUS, TIME_UTC, ANSWERS]
         .into_iter()
         .chain(TIMING)
+        .chain([MISSED_DEADLINES, LEASE_EXPIRIES])
         .chain([
             START_DEPTH,
             ADJUSTMENTS,
@@ -61,6 +78,37 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
 
 /// Longest label (factor level, option, adjustment answer), bytes.
 pub const MAX_LABEL_BYTES: usize = 200;
+
+/// Whether `s` is a time as `provenance::rfc3339_utc` writes it
+/// (`2026-11-26T08:41:59.123Z`), or empty (not known).
+pub fn is_rfc3339_utc(s: &str) -> bool {
+    if s.is_empty() {
+        return true;
+    }
+    let b = s.as_bytes();
+    let digits = |r: std::ops::Range<usize>| b[r].iter().all(u8::is_ascii_digit);
+    let num = |r: std::ops::Range<usize>| s[r].parse::<u32>().unwrap_or(u32::MAX);
+    b.len() == 24
+        && digits(0..4)
+        && b[4] == b'-'
+        && digits(5..7)
+        && b[7] == b'-'
+        && digits(8..10)
+        && b[10] == b'T'
+        && digits(11..13)
+        && b[13] == b':'
+        && digits(14..16)
+        && b[16] == b':'
+        && digits(17..19)
+        && b[19] == b'.'
+        && digits(20..23)
+        && b[23] == b'Z'
+        && (1..=12).contains(&num(5..7))
+        && (1..=31).contains(&num(8..10))
+        && num(11..13) < 24
+        && num(14..16) < 60
+        && num(17..19) < 61
+}
 
 /// What a column holds, and so which values it accepts.
 #[derive(Debug, Clone, PartialEq)]
@@ -75,6 +123,8 @@ pub enum Holds {
     Level(Vec<String>),
     /// A measured number, or empty when not measured.
     Measured,
+    /// A wall-clock time, RFC 3339 UTC.
+    Time,
     /// A count of answers.
     Answers,
     /// A Likert point, 1..=points (empty: not asked).
@@ -143,6 +193,7 @@ impl Holds {
             Self::Stimulus => crate::plan::library::check_id(value).is_ok(),
             Self::Level(levels) => levels.iter().any(|l| l == value),
             Self::Measured => value.is_empty() || number(value, f64::MIN, f64::MAX),
+            Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
             Self::Likert(points) => {
                 value.is_empty()
@@ -175,6 +226,7 @@ impl Holds {
             Self::Stimulus => "give a library entry's id".into(),
             Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
             Self::Measured => "give a finite number or nothing".into(),
+            Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
             Self::Likert(p) => format!("give 1 to {p} or nothing"),
             Self::Choice(l) => format!("give one of {} or nothing", l.join(", ")),
@@ -198,7 +250,9 @@ impl Holds {
         const NUMBER: usize = 32;
         match self {
             Self::Participant | Self::Stimulus => crate::plan::library::MAX_ID_LEN,
-            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured => NUMBER,
+            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured | Self::Time => {
+                NUMBER
+            }
             Self::Level(l) | Self::Choice(l) => label(l),
             Self::Likert(_) => 1,
             // As the participant gave it.
@@ -218,6 +272,9 @@ pub struct Column {
     pub name: String,
     /// What it holds.
     pub holds: Holds,
+    /// Whether it may hold [`NOT_PERCEIVED`] (an answer column whose
+    /// question allows it).
+    pub not_perceived: bool,
 }
 
 impl Column {
@@ -226,6 +283,36 @@ impl Column {
         Self {
             name: name.into(),
             holds,
+            not_perceived: false,
+        }
+    }
+
+    /// The same column, allowing [`NOT_PERCEIVED`] too.
+    pub fn allowing_not_perceived(mut self) -> Self {
+        self.not_perceived = true;
+        self
+    }
+
+    /// Checks `value` against what the column holds.
+    pub fn check(&self, value: &str) -> Result<(), String> {
+        if self.not_perceived && value == NOT_PERCEIVED {
+            return Ok(());
+        }
+        self.holds.check(value).map_err(|m| {
+            if self.not_perceived {
+                format!("{m}, or `{NOT_PERCEIVED}`")
+            } else {
+                m
+            }
+        })
+    }
+
+    fn max_bytes(&self, items: usize) -> usize {
+        let b = self.holds.max_bytes(items);
+        if self.not_perceived {
+            b.max(NOT_PERCEIVED.len())
+        } else {
+            b
         }
     }
 }
@@ -267,7 +354,13 @@ impl Columns {
             Column::new(STIMULUS, Holds::Stimulus),
         ];
         list.extend(factors);
-        list.extend(TIMING.iter().map(|n| Column::new(*n, Holds::Measured)));
+        list.push(Column::new(TIME_UTC, Holds::Time));
+        list.extend(
+            TIMING
+                .iter()
+                .chain(&[MISSED_DEADLINES, LEASE_EXPIRIES])
+                .map(|n| Column::new(*n, Holds::Measured)),
+        );
         list.push(Column::new(ANSWERS, Holds::Answers));
         list.extend(questions);
         if let Some(a) = adjust {
@@ -319,7 +412,7 @@ impl Columns {
         let items = self.adjustments as usize + 1;
         self.list
             .iter()
-            .map(|c| c.holds.max_bytes(items) + 1)
+            .map(|c| c.max_bytes(items) + 1)
             .sum::<usize>()
             + 2
     }

@@ -22,12 +22,14 @@
 //! This module never parses flags or maps errors to exit codes; bad input
 //! is an [`InputError`] (exit 2 in `main`).
 
+pub mod analysis;
 pub mod answers;
 pub mod columns;
 pub mod design;
 pub mod live;
 pub mod procedure;
 pub mod protocol;
+pub mod provenance;
 pub mod record;
 pub mod report;
 pub mod start;
@@ -44,7 +46,6 @@ use crate::error::InputError;
 use crate::files::AppendLog;
 use crate::lab::session::driver::{Driver, Finger};
 use crate::lab::session::{Event, EventKind, OffsetReason, Present, Session};
-use crate::plan::scene::Scene;
 use crate::sense::stream::filter::Passthrough;
 
 use answers::{Answers, Asked};
@@ -52,7 +53,7 @@ use columns::Row;
 use design::Planned;
 use procedure::Step;
 use protocol::Protocol;
-use record::{Expect, Run};
+use record::Expect;
 use start::Start;
 
 /// The device is polled at least this often while a trial runs.
@@ -130,6 +131,8 @@ pub struct RunOptions {
     pub time_scale: f64,
     /// Continue an interrupted run.
     pub resume: bool,
+    /// Continue it on a rig that differs from the last run's (recorded).
+    pub resume_anyway: bool,
     /// Serve the live view here (its participant's page answers unless
     /// answers come from a file).
     pub view: Option<std::net::SocketAddr>,
@@ -175,12 +178,6 @@ pub fn check_participant(id: &str) -> Result<(), InputError> {
         )));
     }
     Ok(())
-}
-
-fn unix_s() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs())
 }
 
 fn resume_hint(o: &RunOptions) -> String {
@@ -243,7 +240,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     } else {
         start::fresh(&o, &p, &paths)?
     };
-    let scene = Scene::load_or_default(o.scene.as_deref())?;
+    let (scene, scene_record) = provenance::load_scene(o.scene.as_deref())?;
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
     let mut warned = std::collections::BTreeSet::new();
@@ -257,30 +254,24 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
         .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+    let mut this_run = provenance::run_record(&session, first, &o, scene_record)?;
+    // A resumed session continues on the rig it ran on, or says what
+    // differs (before any file changes; the array has not sounded).
+    if let Err(e) = provenance::check_rig(&st.file.runs, &mut this_run, o.resume_anyway) {
+        drop(session.close(OffsetReason::Quit));
+        return Err(e.into());
+    }
     let view = match o.view {
         Some(addr) => Some(live::start_view(addr, &session, &o.finger)?),
         None => None,
     };
-    let answers = live::answer_source(st.lines.take(), view.as_ref())?;
-    st.file.runs.push(Run {
-        started_unix_s: unix_s(),
-        first_trial: first,
-        lmhost_version: env!("CARGO_PKG_VERSION").into(),
-        device: serde_json::to_value(session.info())?,
-        library: session
-            .loaded()
-            .iter()
-            .map(|l| {
-                serde_json::json!({
-                    "id": l.id,
-                    "crc32": format!("{:08x}", l.crc32),
-                    "timing": l.planned.timing,
-                })
-            })
-            .collect(),
-        time_scale: o.time_scale,
-        finger: o.finger.name(),
-    });
+    // `--responses -` answers each question as it is asked, from stdin.
+    let answers: Box<dyn Answers> = if o.answers == AnswerSource::File("-".into()) {
+        Box::new(answers::Piped::named("--responses -")?)
+    } else {
+        live::answer_source(st.lines.take(), view.as_ref())?
+    };
+    st.file.runs.push(this_run);
     // session.json first: a run stopped before its trials.csv header is
     // still resumable.
     crate::files::output_dir("--out", &paths.dir)?;
@@ -539,11 +530,13 @@ impl Runner {
         }
     }
 
-    fn ask(&mut self, q: &Asked) -> anyhow::Result<String> {
+    /// The answer to `q` and its response time, s.
+    fn ask(&mut self, q: &Asked) -> anyhow::Result<(String, f64)> {
+        let asked = monotonic_us();
         loop {
             self.tick()?;
             if let Some(a) = self.answers.poll(q)? {
-                return Ok(a);
+                return Ok((a, monotonic_us().saturating_sub(asked) as f64 / 1e6));
             }
             self.pause();
         }
@@ -562,13 +555,11 @@ impl Runner {
         self.log(serde_json::json!({
             "event": "trial", "trial": t.trial, "set": t.set, "stimulus": t.stimulus,
         }))?;
-        crate::errln!(
-            "trial {}/{} (set {}): {}",
-            t.trial,
-            p.trials(),
-            t.set,
-            t.stimulus
-        );
+        // The participant may see this line: the stimulus is in the
+        // event log only.
+        crate::errln!("trial {}/{} (set {})", t.trial, p.trials(), t.set);
+        let time_utc = provenance::now_utc();
+        let before = self.session().device_counters().ok();
         if tl.wait_for_finger {
             self.touch(true)?;
             while self.finger_present != Some(true) {
@@ -621,7 +612,7 @@ impl Runner {
                     self.pause();
                     continue;
                 }
-                let ans = self.ask(&pr.asked())?;
+                let (ans, _) = self.ask(&pr.asked())?;
                 match pr.respond(&ans) {
                     Step::Done => {}
                     Step::Next(level) => {
@@ -652,6 +643,13 @@ impl Runner {
             }
         }
         self.drain()?;
+        // Over the presentation: the answers that follow play nothing.
+        let after = self.session().device_counters().ok();
+        let health = trial::Health {
+            time_utc,
+            missed_deadlines: before.zip(after).map(|(b, a)| a.0.wrapping_sub(b.0)),
+            lease_expiries: before.zip(after).map(|(b, a)| a.1.wrapping_sub(b.1)),
+        };
         self.touch(false)?;
         // The next stimulus loads while the participant answers.
         if let Some(n) = next {
@@ -673,6 +671,7 @@ impl Runner {
             t,
             &self.trial_events,
             timing.as_ref(),
+            &health,
             &given,
             procedure.as_deref(),
         ))

@@ -122,6 +122,7 @@ impl Procedure for Adjustment {
                 shown[2]
             ),
             accepts: Accepts::Choice(shown),
+            not_perceived: None,
         }
     }
 

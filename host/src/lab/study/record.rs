@@ -22,6 +22,32 @@ use crate::error::InputError;
 /// library of 2 entries, under 1 MB for 256).
 pub const MAX_SESSION_BYTES: u64 = 256 << 20;
 
+/// The scene a run used.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SceneRecord {
+    /// The scene file as given (`None`: the built-in scene).
+    pub path: Option<String>,
+    /// CRC-32 of the file's text, 8 hex digits (`None`: built-in).
+    pub crc32: Option<String>,
+}
+
+impl SceneRecord {
+    /// The scene file `path` whose text is `text`, or the built-in scene.
+    pub fn of(path: Option<&std::path::Path>, text: Option<&str>) -> Self {
+        Self {
+            path: path.map(|p| p.display().to_string()),
+            crc32: text.map(|t| format!("{:08x}", lm_proto::crc32(t.as_bytes()))),
+        }
+    }
+
+    pub(super) fn show(&self) -> String {
+        match (&self.path, &self.crc32) {
+            (Some(p), Some(c)) => format!("{p} (CRC {c})"),
+            _ => "the built-in scene".into(),
+        }
+    }
+}
+
 /// One run of the session (the first, and one per `--resume`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Run {
@@ -39,6 +65,20 @@ pub struct Run {
     pub time_scale: f64,
     /// `--finger`.
     pub finger: String,
+    /// The scene (file and CRC-32 of its text); absent in files written
+    /// before it was recorded.
+    #[serde(default)]
+    pub scene: Option<SceneRecord>,
+    /// The backend kind (`autd3`, `lm-firmware`, ...).
+    #[serde(default)]
+    pub backend: String,
+    /// The port as given.
+    #[serde(default)]
+    pub port: String,
+    /// What differed from the previous run's rig when `--resume-anyway`
+    /// went on regardless.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resumed_anyway: Option<String>,
 }
 
 /// `session.json`.
@@ -327,7 +367,7 @@ pub fn read_trials(
                     ),
                 ));
             }
-            c.holds.check(v).map_err(|m| {
+            c.check(v).map_err(|m| {
                 bad(
                     n,
                     format!("column `{}`: `{}`: {m}", c.name, v.escape_debug()),

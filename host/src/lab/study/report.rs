@@ -28,6 +28,8 @@ pub struct Stat {
     pub question: String,
     /// The values, sorted.
     pub values: Vec<f64>,
+    /// "Not perceived" answers (left out of `values`).
+    pub not_perceived: usize,
 }
 
 /// What the report read and wrote.
@@ -44,6 +46,8 @@ pub struct Report {
     /// Participants whose `trials.csv` ends in a torn row (a run killed
     /// and not resumed): its whole rows are reported.
     pub torn: Vec<PathBuf>,
+    /// "Not perceived" answers, left out of every statistic.
+    pub not_perceived: usize,
 }
 
 /// Folders skipped, each with the reason.
@@ -201,6 +205,15 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
     let stim = cols
         .index(super::columns::STIMULUS)
         .ok_or_else(|| InputError::new("trials.csv has no stimulus column"))?;
+    let who = cols
+        .index(super::columns::PARTICIPANT)
+        .ok_or_else(|| InputError::new("trials.csv has no participant column"))?;
+    let design = super::analysis::design(
+        &first.protocol.report,
+        &first.protocol.factors,
+        &first.protocol.conditions,
+    );
+    let mut tests = Vec::new();
     let mut stats: Vec<Stat> = Vec::new();
     let mut choices: BTreeMap<(usize, String, String, String), usize> = BTreeMap::new();
     for (name, kind) in record::columns(cols) {
@@ -208,12 +221,18 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
             continue;
         };
         let holds = &cols.list()[c].holds;
-        let mut by: BTreeMap<(usize, String), (Vec<String>, Vec<f64>)> = BTreeMap::new();
+        // (condition, stimulus) → (levels, values, "not perceived" count).
+        type Cell = (Vec<String>, Vec<f64>, usize);
+        let mut by: BTreeMap<(usize, String), Cell> = BTreeMap::new();
         for (condition, r) in &rows {
             let key = (*condition, r[stim].clone());
             let levels = factor_at.iter().map(|&i| r[i].clone()).collect();
-            let e = by.entry(key.clone()).or_insert((levels, Vec::new()));
+            let e = by.entry(key.clone()).or_insert((levels, Vec::new(), 0));
             if r[c].is_empty() {
+                continue;
+            }
+            if r[c] == super::columns::NOT_PERCEIVED {
+                e.2 += 1;
                 continue;
             }
             if kind == "choice" {
@@ -228,20 +247,42 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         if kind == "choice" {
             continue;
         }
-        for ((_, stimulus), (levels, mut values)) in by {
+        for ((_, stimulus), (levels, mut values, not_perceived)) in by {
             values.sort_by(f64::total_cmp);
             stats.push(Stat {
                 stimulus,
                 levels,
                 question: name.clone(),
                 values,
+                not_perceived,
             });
         }
+        let answers: Vec<(String, usize, String)> = rows
+            .iter()
+            .map(|(condition, r)| (r[who].clone(), *condition, r[c].clone()))
+            .collect();
+        tests.push(super::analysis::question(
+            &name,
+            &answers,
+            &first.protocol.conditions,
+            &design,
+        )?);
     }
     out.rows = rows.len();
     let mut head = vec!["stimulus".to_owned()];
     head.extend(factor_names.iter().cloned());
-    head.extend(["question", "n", "median", "q1", "q3", "iqr"].map(String::from));
+    head.extend(
+        [
+            "question",
+            "n",
+            "not_perceived",
+            "median",
+            "q1",
+            "q3",
+            "iqr",
+        ]
+        .map(String::from),
+    );
     let mut csv = record::line(&head) + "\n";
     let num = |x: f64| {
         if x.is_nan() {
@@ -257,6 +298,7 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         f.extend([
             st.question.clone(),
             st.values.len().to_string(),
+            st.not_perceived.to_string(),
             num(quantile(&st.values, 0.5)),
             num(q1),
             num(q3),
@@ -274,6 +316,16 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         }
         let p = dir.join("choices.csv");
         crate::files::write_whole(&p, csv.as_bytes())?;
+        out.files.push(p);
+    }
+    out.not_perceived = stats.iter().map(|s| s.not_perceived).sum();
+    for (file, text) in [
+        ("stats.csv", super::analysis::csv(&tests)),
+        ("stats.json", serde_json::to_string_pretty(&tests)? + "\n"),
+        ("stats.txt", super::analysis::text(&tests)),
+    ] {
+        let p = dir.join(file);
+        crate::files::write_whole(&p, text.as_bytes())?;
         out.files.push(p);
     }
     figures(dir, &stats, &mut out.files)?;

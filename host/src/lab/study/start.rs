@@ -159,9 +159,14 @@ fn answers(
     rest: &[Planned],
     skip: usize,
 ) -> anyhow::Result<Option<Lines>> {
+    // `--responses -` answers each question as it is asked: nothing to
+    // read ahead, dry-run or skip.
     let AnswerSource::File(path) = &o.answers else {
         return Ok(None);
     };
+    if path.as_os_str() == "-" {
+        return Ok(None);
+    }
     let mut l = Lines::open(path)?;
     l.skip(skip)?;
     trial::dry_run(p, rest, &mut l.clone())?;

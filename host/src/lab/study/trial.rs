@@ -11,23 +11,48 @@ use super::record::Expect;
 use crate::lab::session::{Event, EventKind};
 use crate::plan::stimulus::Timing;
 
-/// The answers of one trial: (column, value) in the order asked.
-pub type Given = Vec<(String, String)>;
+/// One answer: its column, the value recorded and the response time (s
+/// from the question being asked to its answer).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Answer {
+    /// The `trials.csv` column.
+    pub column: String,
+    /// The value recorded.
+    pub value: String,
+    /// Seconds from asked to answered.
+    pub rt_s: f64,
+}
+
+/// The answers of one trial, in the order asked.
+pub type Given = Vec<Answer>;
+
+/// What the row records of the trial's time and the device's health.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Health {
+    /// Wall-clock time of the trial's start, RFC 3339 UTC.
+    pub time_utc: String,
+    /// The device's missed deadlines during the trial (its status after
+    /// less before; `None`: not read).
+    pub missed_deadlines: Option<u32>,
+    /// Its lease expiries during the trial.
+    pub lease_expiries: Option<u32>,
+}
 
 /// Walks the answers `trials` will ask for, in order, through `answers`
 /// (a procedure's first, as they come while the stimulus repeats, then the
 /// questions'), and then refuses any left over: the first bad, missing or
 /// extra answer is the error, before the device opens.
 pub fn dry_run(p: &Protocol, trials: &[Planned], answers: &mut Lines) -> anyhow::Result<()> {
-    let mut now = |q: &Asked| -> anyhow::Result<String> {
-        answers
+    let mut now = |q: &Asked| -> anyhow::Result<(String, f64)> {
+        let a = answers
             .poll(q)?
-            .ok_or_else(|| anyhow::anyhow!("a responses file has every answer at once"))
+            .ok_or_else(|| anyhow::anyhow!("a responses file has every answer at once"))?;
+        Ok((a, 0.0))
     };
     for t in trials {
         if let Some(mut pr) = procedure::start(p, &t.stimulus) {
             while !pr.finished() {
-                let a = now(&pr.asked())?;
+                let (a, _) = now(&pr.asked())?;
                 pr.respond(&a);
             }
         }
@@ -38,17 +63,22 @@ pub fn dry_run(p: &Protocol, trials: &[Planned], answers: &mut Lines) -> anyhow:
 }
 
 /// Trial `t`'s questions in the order asked, each answered by `ask` (which
-/// keeps the device served while the participant thinks).
+/// keeps the device served while the participant thinks, and returns the
+/// answer and its response time, s).
 pub fn ask_each(
     p: &Protocol,
     t: &Planned,
-    mut ask: impl FnMut(&Asked) -> anyhow::Result<String>,
+    mut ask: impl FnMut(&Asked) -> anyhow::Result<(String, f64)>,
 ) -> anyhow::Result<Given> {
     let mut given = Given::new();
     for (q, order) in p.questions.iter().zip(&t.orders) {
         for asked in Asked::of(q, order) {
-            let a = ask(&asked)?;
-            given.push((asked.column, a));
+            let (value, rt_s) = ask(&asked)?;
+            given.push(Answer {
+                column: asked.column,
+                value,
+                rt_s,
+            });
         }
     }
     Ok(given)
@@ -56,14 +86,15 @@ pub fn ask_each(
 
 /// Trial `t`'s row: the values the plan fixes, timing as realised and
 /// played (from the trial's session `events` and the entry's `timing`),
-/// the answers `given` and the procedure's columns; and the host-timed
-/// on-time, s.
+/// its time and the device's `health`, the answers `given` and the
+/// procedure's columns; and the host-timed on-time, s.
 pub fn row(
     expect: &Expect,
     t: &Planned,
     events: &[Event],
     timing: Option<&Timing>,
-    given: &[(String, String)],
+    health: &Health,
+    given: &[Answer],
     procedure: Option<&dyn Procedure>,
 ) -> (Row, f64) {
     let mut onset = None;
@@ -118,8 +149,18 @@ pub fn row(
     set("on_phases", Some(phases.to_string()));
     set("mutes", Some(mutes.to_string()));
     set("switch_ms", switch.map(|v| format!("{v:.3}")));
-    for (column, value) in given {
-        r.set(column, value.as_str());
+    set(columns::TIME_UTC, Some(health.time_utc.clone()));
+    set(
+        columns::MISSED_DEADLINES,
+        health.missed_deadlines.map(|v| v.to_string()),
+    );
+    set(
+        columns::LEASE_EXPIRIES,
+        health.lease_expiries.map(|v| v.to_string()),
+    );
+    for a in given {
+        r.set(&a.column, a.value.as_str());
+        r.set(&columns::rt_column(&a.column), format!("{:.3}", a.rt_s));
     }
     let taken = given.len() + procedure.map_or(0, |p| p.answers());
     r.set(columns::ANSWERS, taken.to_string());

@@ -5,12 +5,13 @@ use std::ops::Range;
 
 use toml::Spanned;
 
-use super::file::{File, KindFile, QuestionFile, repeated};
+use super::file::{File, KindFile, QuestionFile, RepeatsFile, ReportFile, repeated};
 use super::{
     Adjustment, Condition, Factor, Kind, MAX_CONDITIONS, MAX_OPTIONS, MAX_QUESTIONS, MAX_TRIALS,
-    Question, Timeline, Unlinked,
+    PairSpec, Question, ReportSpec, Timeline, Unlinked,
 };
 use crate::error::InputError;
+use crate::lab::stats::table::Repeats;
 use crate::lab::study::columns::{AdjustColumns, Column, Columns, Holds};
 
 /// Errors that name the protocol file and, for a field, its line.
@@ -69,6 +70,7 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         }
         questions.push(question(q, e)?);
     }
+    let report = report(file.report, &factors, e)?;
     let adjustment = file
         .adjustment
         .map(|a| {
@@ -138,6 +140,7 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         questions,
         adjustment,
         columns,
+        report,
     })
 }
 
@@ -399,10 +402,152 @@ fn question(q: QuestionFile, e: &Errors) -> Result<Question, InputError> {
             Kind::Number { min, max }
         }
     };
+    // `na` is what the participant types for it, so an option may not
+    // be `na` too.
+    if q.not_perceived.is_some()
+        && let Kind::Choice { options } = &kind
+        && let Some(o) = options
+            .iter()
+            .find(|o| o.eq_ignore_ascii_case(crate::lab::study::columns::NOT_PERCEIVED))
+    {
+        let span = q.not_perceived.as_ref().map_or(q.id.span(), Spanned::span);
+        return Err(qbad(
+            span,
+            "not_perceived",
+            format!("option `{o}` is what \"not perceived\" is typed as: rename the option"),
+        ));
+    }
     Ok(Question {
         id,
         text: q.text,
         kind,
         shuffle,
+        not_perceived: q.not_perceived.map(|l| l.into_inner().0),
+    })
+}
+
+/// The `[report]` table's tests for `factors` (see [`super::report`]);
+/// `None`: the defaults.
+fn report(r: Option<ReportFile>, factors: &[Factor], e: &Errors) -> Result<ReportSpec, InputError> {
+    let wide = |f: &Factor| f.levels.len() >= 3;
+    let Some(r) = r else {
+        return Ok(ReportSpec {
+            alpha: 0.05,
+            repeats: Repeats::Mean,
+            pairs: Vec::new(),
+            friedman: factors
+                .iter()
+                .filter(|f| wide(f))
+                .map(|f| f.name.clone())
+                .collect(),
+        });
+    };
+    let alpha = match &r.alpha {
+        Some(a) if !(*a.get_ref() > 0.0 && *a.get_ref() < 1.0) => {
+            return Err(e.at(
+                a.span(),
+                "alpha",
+                format!(
+                    "{} is not a significance level: give a number between 0 and 1",
+                    crate::limits::show(*a.get_ref())
+                ),
+            ));
+        }
+        Some(a) => *a.get_ref(),
+        None => 0.05,
+    };
+    let factor = |n: &str, span: std::ops::Range<usize>, field: &str| {
+        factors.iter().find(|f| f.name == n).ok_or_else(|| {
+            e.at(
+                span,
+                field,
+                format!(
+                    "`{n}` is not a factor (the factors: {})",
+                    factors
+                        .iter()
+                        .map(|f| f.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })
+    };
+    let mut friedman = Vec::new();
+    match &r.friedman {
+        Some(list) => {
+            for n in list.get_ref() {
+                let f = factor(&n.0, list.span(), "friedman")?;
+                if !wide(f) {
+                    return Err(e.at(
+                        list.span(),
+                        "friedman",
+                        format!(
+                            "factor `{}` has {} levels; a Friedman test compares at least 3",
+                            f.name,
+                            f.levels.len()
+                        ),
+                    ));
+                }
+                friedman.push(f.name.clone());
+            }
+        }
+        None => friedman.extend(factors.iter().filter(|f| wide(f)).map(|f| f.name.clone())),
+    }
+    let mut pairs = Vec::new();
+    for p in &r.pairs {
+        let f = factor(&p.factor.get_ref().0, p.factor.span(), "factor")?;
+        let list = match &p.pairs {
+            None => crate::lab::stats::table::all_pairs(
+                &f.levels.iter().map(String::as_str).collect::<Vec<_>>(),
+            ),
+            Some(given) => {
+                let mut v = Vec::new();
+                for (a, b) in given.get_ref() {
+                    for l in [&a.0, &b.0] {
+                        if !f.levels.contains(l) {
+                            return Err(e.at(
+                                given.span(),
+                                "pairs",
+                                format!(
+                                    "`{}` is not a level of factor `{}` ({})",
+                                    l.escape_debug(),
+                                    f.name,
+                                    f.levels.join(", ")
+                                ),
+                            ));
+                        }
+                    }
+                    if a.0 == b.0 {
+                        return Err(e.at(
+                            given.span(),
+                            "pairs",
+                            format!("`{}` is paired with itself", a.0),
+                        ));
+                    }
+                    v.push((a.0.clone(), b.0.clone()));
+                }
+                v
+            }
+        };
+        if list.is_empty() {
+            return Err(e.at(
+                p.factor.span(),
+                "factor",
+                format!("factor `{}` has one level: nothing to pair", f.name),
+            ));
+        }
+        pairs.push(PairSpec {
+            factor: f.name.clone(),
+            pairs: list,
+        });
+    }
+    Ok(ReportSpec {
+        alpha,
+        repeats: match r.repeats {
+            RepeatsFile::Mean => Repeats::Mean,
+            RepeatsFile::Median => Repeats::Median,
+        },
+        pairs,
+        friedman,
     })
 }

@@ -25,6 +25,7 @@ pub(super) struct File {
     #[serde(default)]
     pub question: Vec<QuestionFile>,
     pub adjustment: Option<Spanned<AdjustmentFile>>,
+    pub report: Option<ReportFile>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -73,6 +74,7 @@ pub(super) struct QuestionFile {
     pub shuffle: Option<Spanned<bool>>,
     pub min: Option<Spanned<Number>>,
     pub max: Option<Spanned<Number>>,
+    pub not_perceived: Option<Spanned<Label>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -95,6 +97,33 @@ pub(super) struct AdjustmentFile {
     pub weaker: Spanned<AnswerLabel>,
     #[serde(default = "same")]
     pub same: Spanned<AnswerLabel>,
+}
+
+/// The `[report]` table (checked in `check::report`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ReportFile {
+    pub alpha: Option<Spanned<f64>>,
+    #[serde(default)]
+    pub repeats: RepeatsFile,
+    pub friedman: Option<Spanned<Vec<Name>>>,
+    #[serde(default)]
+    pub pairs: Vec<PairsFile>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum RepeatsFile {
+    #[default]
+    Mean,
+    Median,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PairsFile {
+    pub factor: Spanned<Name>,
+    pub pairs: Option<Spanned<Vec<(Label, Label)>>>,
 }
 
 fn quarter() -> Step {

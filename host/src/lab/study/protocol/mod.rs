@@ -5,6 +5,9 @@
 
 mod check;
 mod file;
+mod report;
+
+pub use report::{PairSpec, ReportSpec};
 
 use std::path::{Path, PathBuf};
 
@@ -103,6 +106,9 @@ pub struct Question {
     pub kind: Kind,
     /// Options or items in a fresh random order each trial (recorded).
     pub shuffle: bool,
+    /// The label of the "not perceived" answer, when the question allows
+    /// it (typed as `na`, recorded as `na`, left out of the statistics).
+    pub not_perceived: Option<String>,
 }
 
 impl Question {
@@ -147,11 +153,18 @@ impl Question {
             Kind::Choice { options } => Holds::Choice(options.clone()),
             Kind::Number { min, max } => Holds::Number(*min, *max),
         };
-        let mut v: Vec<Column> = self
-            .columns()
-            .into_iter()
-            .map(|c| Column::new(c, holds.clone()))
-            .collect();
+        // Each answer, then its response time.
+        let mut v: Vec<Column> = Vec::new();
+        for c in self.columns() {
+            let rt = crate::lab::study::columns::rt_column(&c);
+            let answer = Column::new(c, holds.clone());
+            v.push(if self.not_perceived.is_some() {
+                answer.allowing_not_perceived()
+            } else {
+                answer
+            });
+            v.push(Column::new(rt, Holds::Measured));
+        }
         if self.shuffle {
             v.push(Column::new(
                 format!("{}_order", self.id),
@@ -232,6 +245,8 @@ pub struct Protocol {
     pub adjustment: Option<Adjustment>,
     /// trials.csv's header.
     pub columns: Columns,
+    /// What `study report` tests.
+    pub report: ReportSpec,
 }
 
 /// A protocol checked but for its library: all `study report` needs of
@@ -258,6 +273,8 @@ pub struct Unlinked {
     pub adjustment: Option<Adjustment>,
     /// trials.csv's header.
     pub columns: Columns,
+    /// What `study report` tests.
+    pub report: ReportSpec,
 }
 
 impl Unlinked {
@@ -348,6 +365,7 @@ impl Protocol {
             questions: u.questions,
             adjustment: u.adjustment,
             columns: u.columns,
+            report: u.report,
         })
     }
 

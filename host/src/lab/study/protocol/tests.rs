@@ -21,7 +21,26 @@ fn the_paper_protocols_have_15_conditions_in_2_sets() {
             "shape_concave"
         ]
     );
+    // As the paper: "could not perceive" on every question; Wilcoxon
+    // between the types at each radius, Friedman over both factors.
+    assert!(p.questions.iter().all(|q| q.not_perceived.is_some()));
+    assert_eq!(p.report.friedman, ["type", "radius"]);
+    assert_eq!(p.report.pairs.len(), 1);
+    assert_eq!(p.report.pairs[0].pairs.len(), 3);
+    let d = crate::lab::study::analysis::design(&p.report, &p.factors, &p.conditions);
+    assert_eq!(d.pairs.len(), 5);
+    assert_eq!(d.pairs[0].name, "type at radius=2");
+    assert_eq!(
+        d.pairs[0].pairs[0],
+        ("lms-5hz/2".to_owned(), "lmm-5hz/2".to_owned())
+    );
+    assert_eq!(d.friedman[0].groups.len(), 5);
+    assert_eq!(d.friedman[1].groups[0].len(), 5);
     let p3 = Protocol::load(&studies("paper-exp3.toml")).unwrap();
+    // Without [report]: Friedman over every factor of 3 levels or more,
+    // no pairs.
+    assert_eq!(p3.report.friedman, ["type", "radius"]);
+    assert!(p3.report.pairs.is_empty());
     let a = p3.adjustment.as_ref().unwrap();
     assert_eq!((a.step_mm, a.max, a.start_mm), (0.25, 20, 4.0));
     assert_eq!(p3.timeline.on_s, Some(2.0));
@@ -54,7 +73,7 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
         (
             "id = \"movement\"\nkind = \"likert\"\npoints = 7",
             "id = \"movement\"\nkind = \"likert\"\npoints = 1",
-            "line 50, field `question[1].points`: question `movement`",
+            "line 51, field `question[1].points`: question `movement`",
         ),
         (
             "kind = \"likert\"\npoints = 7\nlow = \"does",
@@ -82,6 +101,31 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
             "gate = \"tracked\"",
             "gate = \"loose\"",
             "unknown variant `loose`",
+        ),
+        (
+            "not_perceived = \"could not perceive the stimulus\"",
+            "not_perceived = \"\"",
+            "field `question[0].not_perceived`",
+        ),
+        (
+            "alpha = 0.05",
+            "alpha = 1.5",
+            "field `report.alpha`: 1.5 is not a significance level",
+        ),
+        (
+            "friedman = [\"type\", \"radius\"]",
+            "friedman = [\"type\", \"colour\"]",
+            "`colour` is not a factor (the factors: type, radius)",
+        ),
+        (
+            "factor = \"type\"\n",
+            "factor = \"type\"\npairs = [[\"lms-5hz\", \"lm-x\"]]\n",
+            "`lm-x` is not a level of factor `type`",
+        ),
+        (
+            "repeats = \"mean\"",
+            "repeats = \"mode\"",
+            "unknown variant `mode`",
         ),
     ] {
         assert!(base.contains(from), "{from}");

@@ -23,9 +23,11 @@ fn row(p: &Protocol, t: &Planned, answer: &str) -> String {
     let mut r = expect(p).row(t);
     for q in &p.questions {
         for c in q.columns() {
+            r.set(&columns::rt_column(&c), "0.5");
             r.set(&c, answer);
         }
     }
+    r.set(columns::TIME_UTC, "2026-11-26T08:41:59.123Z");
     r.set("presented_s", "0.0600");
     r.set(columns::ANSWERS, "5");
     line(&p.columns.fields(&r).unwrap())
@@ -80,6 +82,39 @@ fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
     let d = scratch("refused");
     let path = d.join("trials.csv");
     let good = file(&p, &plan, 3);
+    // "Not perceived" is a value of its own where the question allows it
+    // (Experiment 1 allows it on every question), not where it does not.
+    let na = good.replacen(",3,0.5,3,0.5", ",na,0.5,3,0.5", 1);
+    std::fs::write(&path, &na).unwrap();
+    let t = read_trials(&path, &p.columns, &plan, &expect(&p)).unwrap();
+    assert_eq!(t.rows.len(), 3);
+    let vibration = p.columns.index("vibration").unwrap();
+    assert_eq!(t.rows[0][vibration], "na");
+    let mut strict = p.clone();
+    strict.questions[0].not_perceived = None;
+    strict.columns = crate::lab::study::columns::Columns::new(
+        strict
+            .factors
+            .iter()
+            .map(|f| {
+                crate::lab::study::columns::Column::new(
+                    &f.name,
+                    crate::lab::study::columns::Holds::Level(f.levels.clone()),
+                )
+            })
+            .collect(),
+        strict
+            .questions
+            .iter()
+            .flat_map(crate::lab::study::protocol::Question::column_list)
+            .collect(),
+        None,
+    )
+    .unwrap();
+    let e = read_trials(&path, &strict.columns, &plan, &expect(&strict))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("column `vibration`: `na`: give 1 to 7"), "{e}");
     let fourth = row(&p, &plan[3], "3");
     let fifth = row(&p, &plan[4], "3");
     let swapped = line(&p.columns.names()) + "\n" + &row(&p, &plan[1], "3") + "\n";
@@ -103,11 +138,17 @@ fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
         ),
         (swapped, "line 2: column `trial` is `2`, but trial 1"),
         (
-            good.replace(",3,3,3,3,3", ",3,99,3,3,3"),
+            good.replace(
+                ",3,0.5,3,0.5,3,0.5,3,0.5,3,0.5",
+                ",3,0.5,99,0.5,3,0.5,3,0.5,3,0.5",
+            ),
             "column `movement`: `99`: give 1 to 7",
         ),
         (
-            good.replace(",3,3,3,3,3", ",3,x,3,3,3"),
+            good.replace(
+                ",3,0.5,3,0.5,3,0.5,3,0.5,3,0.5",
+                ",3,0.5,x,0.5,3,0.5,3,0.5,3,0.5",
+            ),
             "column `movement`: `x`",
         ),
         (
@@ -115,7 +156,7 @@ fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
             "column `presented_s`: `inf`",
         ),
         (
-            good.replace(",5,3,3", ",4,3,3"),
+            good.replace(",5,3,0.5,3", ",4,3,0.5,3"),
             "column `answers` is `4`, but the row holds 5 answers",
         ),
         (
@@ -126,9 +167,9 @@ fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
             format!(
                 "{}\n{}\n",
                 rows[..3].join("\n"),
-                rows[3].replace(",3,3,3,3,3", ",3,3")
+                rows[3].replace(",3,0.5,3,0.5,3,0.5,3,0.5,3,0.5", ",3,0.5,3")
             ),
-            "line 4: 22 fields, the header has 25",
+            "line 4: 26 fields, the header has 33",
         ),
         (
             good.clone() + &fourth + "\n" + &fourth + "\n",

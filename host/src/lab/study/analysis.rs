@@ -1,0 +1,428 @@
+//! `study report`'s statistics: the protocol's `[report]` turned into the
+//! paper's tests ([`crate::lab::stats::table`]) over every numeric answer
+//! column, "not perceived" answers left out and counted. Written as
+//! `stats.csv` (a row per test), `stats.json` (every result with its
+//! method, n and what was left out) and `stats.txt` (a table to read).
+//!
+//! A condition is named by its levels joined with `/` (`lms-5hz/2`).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use super::columns::NOT_PERCEIVED;
+use super::protocol::{Condition, Factor, ReportSpec};
+use crate::lab::stats::table::{
+    Analysis, Design, FriedmanFamily, Observation, Outcome, PairFamily, analyse,
+};
+
+/// A condition's name in the statistics: its levels joined with `/`.
+pub fn condition_name(c: &Condition) -> String {
+    c.levels.join("/")
+}
+
+/// One answer column's tests.
+#[derive(Debug, Clone, Serialize)]
+pub struct QuestionStats {
+    /// The column.
+    pub question: String,
+    /// "Not perceived" answers left out, in all.
+    pub not_perceived: usize,
+    /// ... and per condition (those with any).
+    pub not_perceived_by_condition: BTreeMap<String, usize>,
+    /// The tests.
+    pub analysis: Analysis,
+}
+
+/// The conditions that differ from `c` only in factor `k`, in `k`'s level
+/// order: a group or a family, and the other factors' levels naming it.
+fn groups(factors: &[Factor], conditions: &[Condition], k: usize) -> Vec<(String, Vec<usize>)> {
+    let mut out: Vec<(Vec<&String>, String, Vec<usize>)> = Vec::new();
+    for (i, c) in conditions.iter().enumerate() {
+        let key: Vec<&String> = c
+            .levels
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != k)
+            .map(|(_, l)| l)
+            .collect();
+        match out.iter_mut().find(|g| g.0 == key) {
+            Some(g) => g.2.push(i),
+            None => {
+                let name = factors
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != k)
+                    .zip(&key)
+                    .map(|((_, f), l)| format!("{}={l}", f.name))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                out.push((key, name, vec![i]));
+            }
+        }
+    }
+    out.into_iter().map(|(_, n, v)| (n, v)).collect()
+}
+
+/// The tests the protocol's `[report]` names, over `conditions`.
+pub fn design(spec: &ReportSpec, factors: &[Factor], conditions: &[Condition]) -> Design {
+    let at = |name: &str| factors.iter().position(|f| f.name == name);
+    let mut pairs = Vec::new();
+    for p in &spec.pairs {
+        let Some(k) = at(&p.factor) else { continue };
+        for (within, members) in groups(factors, conditions, k) {
+            let find = |level: &str| {
+                members
+                    .iter()
+                    .map(|&i| &conditions[i])
+                    .find(|c| c.levels[k] == level)
+                    .map(condition_name)
+            };
+            let named: Vec<(String, String)> = p
+                .pairs
+                .iter()
+                .filter_map(|(a, b)| Some((find(a)?, find(b)?)))
+                .collect();
+            pairs.push(PairFamily {
+                name: if within.is_empty() {
+                    p.factor.clone()
+                } else {
+                    format!("{} at {within}", p.factor)
+                },
+                pairs: named,
+            });
+        }
+    }
+    let friedman = spec
+        .friedman
+        .iter()
+        .filter_map(|name| {
+            let k = at(name)?;
+            Some(FriedmanFamily {
+                name: name.clone(),
+                groups: groups(factors, conditions, k)
+                    .into_iter()
+                    .map(|(_, m)| m.iter().map(|&i| condition_name(&conditions[i])).collect())
+                    .collect(),
+            })
+        })
+        .collect();
+    Design {
+        alpha: spec.alpha,
+        repeats: spec.repeats,
+        pairs,
+        friedman,
+    }
+}
+
+/// The tests of answer column `question` over `rows` of (participant,
+/// condition index, value as recorded): `na` is left out and counted, an
+/// empty value (not asked) is no answer. Every condition is in the
+/// analysis, answered or not, so a design naming one never fails on it.
+pub fn question(
+    question: &str,
+    rows: &[(String, usize, String)],
+    conditions: &[Condition],
+    design: &Design,
+) -> anyhow::Result<QuestionStats> {
+    // Every condition first, in the protocol's order (a missing value
+    // changes no cell).
+    let who = rows.first().map_or("-", |r| r.0.as_str()).to_owned();
+    let mut obs: Vec<Observation> = conditions
+        .iter()
+        .map(|c| Observation::new(&who, &condition_name(c), None))
+        .collect();
+    let mut by: BTreeMap<String, usize> = BTreeMap::new();
+    for (who, c, v) in rows {
+        let name = condition_name(&conditions[*c]);
+        if v == NOT_PERCEIVED {
+            *by.entry(name.clone()).or_default() += 1;
+            obs.push(Observation::new(who, &name, None));
+        } else if let Ok(x) = v.parse::<f64>() {
+            obs.push(Observation::new(who, &name, Some(x)));
+        }
+    }
+    let analysis = analyse(&obs, design)?;
+    Ok(QuestionStats {
+        question: question.to_owned(),
+        not_perceived: by.values().sum(),
+        not_perceived_by_condition: by,
+        analysis,
+    })
+}
+
+fn num(x: f64) -> String {
+    format!("{x:.6}")
+}
+
+fn p_value(x: f64) -> String {
+    format!("{x:.6e}")
+}
+
+/// `stats.csv`: a row per test.
+pub fn csv(all: &[QuestionStats]) -> String {
+    let head = [
+        "question",
+        "test",
+        "family",
+        "conditions",
+        "n",
+        "excluded",
+        "m",
+        "statistic",
+        "p",
+        "p_bonferroni",
+        "method",
+        "effect",
+        "effect_size",
+        "d_z",
+        "power",
+        "marks",
+        "note",
+    ];
+    let mut out = super::record::line(&head) + "\n";
+    for q in all {
+        let a = &q.analysis;
+        let mut row = |f: Vec<String>| out += &(super::record::line(&f) + "\n");
+        for r in &a.normality {
+            let (stat, p, method, excl, note) = match &r.shapiro_wilk {
+                Outcome::Done(s) => (
+                    num(s.w),
+                    p_value(s.p),
+                    s.method.name(),
+                    s.excluded,
+                    String::new(),
+                ),
+                Outcome::Skipped(why) => (String::new(), String::new(), "", 0, why.clone()),
+            };
+            row(vec![
+                q.question.clone(),
+                "shapiro-wilk".into(),
+                String::new(),
+                r.condition.clone(),
+                r.n.to_string(),
+                excl.to_string(),
+                String::new(),
+                stat,
+                p,
+                String::new(),
+                method.into(),
+                String::new(),
+                String::new(),
+                String::new(),
+                String::new(),
+                String::new(),
+                note,
+            ]);
+        }
+        for r in &a.friedman {
+            let (stat, p, method, excl, w, note) = match &r.friedman {
+                Outcome::Done(f) => (
+                    num(f.statistic),
+                    p_value(f.p),
+                    f.method.name(),
+                    f.excluded,
+                    num(f.kendall_w),
+                    String::new(),
+                ),
+                Outcome::Skipped(why) => (
+                    String::new(),
+                    String::new(),
+                    "",
+                    0,
+                    String::new(),
+                    why.clone(),
+                ),
+            };
+            row(vec![
+                q.question.clone(),
+                "friedman".into(),
+                r.family.clone(),
+                r.conditions.join(" "),
+                r.n.to_string(),
+                excl.to_string(),
+                r.m.to_string(),
+                stat,
+                p,
+                r.p_bonferroni.map(p_value).unwrap_or_default(),
+                method.into(),
+                "kendall_w".into(),
+                w,
+                String::new(),
+                String::new(),
+                r.stars.into(),
+                note,
+            ]);
+        }
+        for r in &a.pairs {
+            let (stat, p, method, excl, eff, mut note) = match &r.wilcoxon {
+                Outcome::Done(w) => (
+                    num(w.statistic),
+                    p_value(w.p),
+                    w.method.name(),
+                    w.excluded,
+                    num(w.r),
+                    String::new(),
+                ),
+                Outcome::Skipped(why) => (
+                    String::new(),
+                    String::new(),
+                    "",
+                    0,
+                    String::new(),
+                    why.clone(),
+                ),
+            };
+            let (dz, power) = match &r.paired_t {
+                Outcome::Done(t) => (num(t.d_z), num(t.power)),
+                Outcome::Skipped(why) => {
+                    if note.is_empty() {
+                        note = format!("t-test power: {why}");
+                    }
+                    (String::new(), String::new())
+                }
+            };
+            row(vec![
+                q.question.clone(),
+                "wilcoxon".into(),
+                r.family.clone(),
+                format!("{} {}", r.a, r.b),
+                r.n.to_string(),
+                excl.to_string(),
+                r.m.to_string(),
+                stat,
+                p,
+                r.p_bonferroni.map(p_value).unwrap_or_default(),
+                method.into(),
+                "r".into(),
+                eff,
+                dz,
+                power,
+                format!("{}{}", r.stars, r.power_marks),
+                note,
+            ]);
+        }
+    }
+    out
+}
+
+/// A p-value to read: 4 decimals, or 3 significant digits below 0.001
+/// (the paper's marks go down to 0.0005).
+fn p_text(p: f64) -> String {
+    if p.is_nan() {
+        "-".into()
+    } else if p >= 1e-3 || p == 0.0 {
+        format!("{p:.4}")
+    } else {
+        format!("{p:.2e}")
+    }
+}
+
+/// `stats.txt`: the tests as a table to read.
+pub fn text(all: &[QuestionStats]) -> String {
+    let mut s = String::new();
+    for q in all {
+        let a = &q.analysis;
+        let _ = writeln!(
+            s,
+            "== {} ({} participants; {} \"not perceived\" left out{})",
+            q.question,
+            a.participants.len(),
+            q.not_perceived,
+            if q.not_perceived_by_condition.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ": {}",
+                    q.not_perceived_by_condition
+                        .iter()
+                        .map(|(c, n)| format!("{c} {n}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        );
+        let _ = writeln!(s, "Shapiro-Wilk per condition:");
+        for r in &a.normality {
+            let _ = match &r.shapiro_wilk {
+                Outcome::Done(t) => writeln!(
+                    s,
+                    "  {:<24} n={:<3} W={:.4} p={}",
+                    r.condition,
+                    r.n,
+                    t.w,
+                    p_text(t.p)
+                ),
+                Outcome::Skipped(w) => {
+                    writeln!(s, "  {:<24} n={:<3} no test: {w}", r.condition, r.n)
+                }
+            };
+        }
+        if !a.friedman.is_empty() {
+            let _ = writeln!(s, "Friedman (Bonferroni within each factor):");
+        }
+        for r in &a.friedman {
+            let _ = match &r.friedman {
+                Outcome::Done(t) => writeln!(
+                    s,
+                    "  {:<10} {:<40} n={:<3} chi2={:.3} p={} p_bonf={} W={:.3} {}",
+                    r.family,
+                    r.conditions.join(" "),
+                    r.n,
+                    t.statistic,
+                    p_text(t.p),
+                    p_text(r.p_bonferroni.unwrap_or(f64::NAN)),
+                    t.kendall_w,
+                    r.stars
+                ),
+                Outcome::Skipped(w) => writeln!(
+                    s,
+                    "  {:<10} {:<40} n={:<3} no test: {w}",
+                    r.family,
+                    r.conditions.join(" "),
+                    r.n
+                ),
+            };
+        }
+        if !a.pairs.is_empty() {
+            let _ = writeln!(
+                s,
+                "Wilcoxon signed-rank (Bonferroni within each family), d_z and paired t power at alpha {}:",
+                a.alpha
+            );
+        }
+        for r in &a.pairs {
+            let power = r.paired_t.done().map_or("-".into(), |t| {
+                format!("d_z={:.3} power={:.3}", t.d_z, t.power)
+            });
+            let _ = match &r.wilcoxon {
+                Outcome::Done(t) => writeln!(
+                    s,
+                    "  {:<24} {} vs {} n={:<3} W={} p={} ({}) p_bonf={} r={:.3} {power} {}{}",
+                    r.family,
+                    r.a,
+                    r.b,
+                    r.n,
+                    t.statistic,
+                    p_text(t.p),
+                    t.method.name(),
+                    p_text(r.p_bonferroni.unwrap_or(f64::NAN)),
+                    t.r,
+                    r.stars,
+                    r.power_marks
+                ),
+                Outcome::Skipped(w) => writeln!(
+                    s,
+                    "  {:<24} {} vs {} n={:<3} no test: {w}",
+                    r.family, r.a, r.b, r.n
+                ),
+            };
+        }
+        s.push('\n');
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests;
