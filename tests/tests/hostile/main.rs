@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use link_support::{Sim, lmhost};
+use link_support::{Sim, lmhost, ok};
 
 /// Longest any case may run before it counts as a hang.
 const TIME_LIMIT: Duration = Duration::from_secs(20);
@@ -519,34 +519,19 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let small = Sim::start(&["--slot-steps", "10"]);
     let busy = Sim::start(&[]);
     let sess = Sim::start(&[]);
-    let mut holder = Command::new(lmhost())
-        .args([
-            "stream",
-            "--port",
-            &busy.port,
-            "--synthetic",
-            "--seconds",
-            "600",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawning the port holder");
+    // A stream holding `port` for ten minutes, to find it busy.
+    let hold = |port: &str| {
+        Command::new(lmhost())
+            .args(["stream", "--port", port, "--synthetic", "--seconds", "600"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawning a port holder")
+    };
+    let mut holder = hold(&busy.port);
     // A device whose holder dies without a word: killed once it holds it.
     let stale = Sim::start(&[]);
-    let mut victim = Command::new(lmhost())
-        .args([
-            "stream",
-            "--port",
-            &stale.port,
-            "--synthetic",
-            "--seconds",
-            "600",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawning the holder to kill");
+    let mut victim = hold(&stale.port);
     let give_up = Instant::now() + Duration::from_secs(20);
     while Command::new(lmhost())
         .args(["status", "--port", &stale.port])
@@ -582,15 +567,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         stale: stale.port.clone(),
         sess: sess.port.clone(),
     };
-    let up = Command::new(lmhost())
-        .args(["upload", "--port", &ctx.port, "--hold", "0.05"])
-        .output()
-        .unwrap();
-    assert!(
-        up.status.success(),
-        "{}",
-        String::from_utf8_lossy(&up.stderr)
-    );
+    ok(&["upload", "--port", &ctx.port, "--hold", "0.05"]);
 
     let mut all = cases();
     all.extend(study_cases());
