@@ -28,9 +28,7 @@ use lm_proto::{
 
 mod link_support;
 mod qemu_support;
-use qemu_support::{
-    Qemu, firmware_elf, free_port, qemu_command, qemu_installed, wait_on_device, within_20_s,
-};
+use qemu_support::{Qemu, firmware_elf, serving, skip_without_qemu, wait_on_device, within_20_s};
 
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
 const SOUND_SPEED_MM_S: u32 = 340_000;
@@ -180,8 +178,7 @@ fn centroid(seq: u32, pos_um: [i32; 3], present: bool, t0: Instant) -> Message<'
 
 #[test]
 fn firmware_under_qemu_speaks_the_protocol() {
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    if skip_without_qemu() {
         return;
     }
     let elf = firmware_elf();
@@ -460,14 +457,11 @@ fn preload_frame_bytes(set: &[(String, lmhost::plan::sequence::Plan)]) -> (u64, 
 fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     use lmhost::device::backend::Transfer;
     use lmhost::device::connect::LmBackend;
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    if skip_without_qemu() {
         return;
     }
     let elf = firmware_elf();
-    let port = free_port();
-    let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = lmhost::device::link::PortSpec::new(Some(format!("tcp:127.0.0.1:{port}")));
+    let (_qemu, spec) = serving(&elf).expect("start qemu-system-arm");
     let client =
         within_20_s(|| spec.connect()).unwrap_or_else(|e| panic!("connecting to QEMU: {e}"));
     let mut dev = LmBackend::new(client, Encoding::Delta);
