@@ -57,6 +57,14 @@ fn upload_lm_s(b: &mut Autd3Backend, scene: &Scene) -> (Plan, u8) {
     (plan, slot)
 }
 
+/// Asserts the backend's status says `state` for `reason`; returns it.
+#[track_caller]
+fn assert_state(b: &mut Autd3Backend, state: DeviceState, reason: MuteReason) -> lm_proto::Status {
+    let st = b.status().unwrap();
+    assert_eq!((st.state, st.mute_reason), (state, reason), "{st:?}");
+    st
+}
+
 fn is_input_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.is::<InputError>())
 }
@@ -434,11 +442,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
         b.centroid(&at(1, 1000, true)).unwrap(),
         CentroidOutcome::Applied
     );
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Playing, MuteReason::None)
-    );
+    let st = assert_state(&mut b, DeviceState::Playing, MuteReason::None);
     assert_eq!(st.correction_um, [1000, 0, 0]);
     assert_eq!(st.last_centroid_seq, 1);
     assert_eq!(modulation(&h), safety::FULL);
@@ -459,11 +463,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
     b.centroid(&at(4, 0, false)).unwrap();
     assert_eq!(b.status().unwrap().mute_reason, MuteReason::FingerAbsent);
     b.stop().unwrap();
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Stopped, MuteReason::Stopped)
-    );
+    assert_state(&mut b, DeviceState::Stopped, MuteReason::Stopped);
 }
 
 /// Issue 10: a live source that goes silent without ending (a tracker

@@ -299,11 +299,7 @@ fn renewals_keep_the_output_level_without_a_gap() {
         clock.advance(Duration::from_millis(1));
     }
     // Five leases, renewed at each half: the segments swapped about ten times.
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Playing, MuteReason::None)
-    );
+    assert_state(&mut b, DeviceState::Playing, MuteReason::None);
 }
 
 /// A host that comes back after its lease ran out finds the play over,
@@ -315,11 +311,7 @@ fn a_lapsed_lease_ends_the_play() {
     b.play(slot, true).unwrap();
     clock.advance(Duration::from_millis(1500));
     assert_eq!(output(&h), 0);
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Stopped, MuteReason::Stopped)
-    );
+    assert_state(&mut b, DeviceState::Stopped, MuteReason::Stopped);
     assert_eq!(output(&h), 0);
     // A new play sounds again.
     b.play(slot, true).unwrap();
