@@ -18,8 +18,8 @@ mod common;
 
 use common::*;
 use embedded_hal::spi::{Operation, SpiDevice};
-use lm_fw_core::{OutputDriver, OutputFrame, SpiOutput};
 use lm_fw_core::output::{SPI_FRAME_MAGIC, SPI_HEADER_LEN};
+use lm_fw_core::{OutputDriver, OutputFrame, SpiOutput};
 use lm_proto::codec::Encoding;
 use lm_proto::{Message, PlayAt};
 
