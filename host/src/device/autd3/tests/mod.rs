@@ -57,6 +57,18 @@ fn upload_lm_s(b: &mut Autd3Backend, scene: &Scene) -> (Plan, u8) {
     (plan, slot)
 }
 
+/// The default stimulus at half intensity, planned for an AUTD3 rig of
+/// `scene`.
+fn half_intensity(scene: &Scene) -> Plan {
+    crate::plan::stimulus::Stimulus {
+        intensity: 0.5,
+        ..crate::plan::stimulus::Stimulus::default()
+    }
+    .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
+    .unwrap()
+    .plan
+}
+
 /// Asserts the backend's status says `state` for `reason`; returns it.
 #[track_caller]
 fn assert_state(b: &mut Autd3Backend, state: DeviceState, reason: MuteReason) -> lm_proto::Status {
@@ -544,13 +556,7 @@ fn streaming_mutes_when_a_live_source_goes_silent() {
 #[test]
 fn a_stimulus_intensity_is_the_output_level_while_it_sounds() {
     let (scene, mut b, h, _clock) = open_default();
-    let half = crate::plan::stimulus::Stimulus {
-        intensity: 0.5,
-        ..crate::plan::stimulus::Stimulus::default()
-    }
-    .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
-    .unwrap()
-    .plan;
+    let half = half_intensity(&scene);
     assert_eq!(half.sequence.header.intensity, 128);
     let slot = b.upload(&half, None).unwrap().slot;
     b.play(slot, true).unwrap();

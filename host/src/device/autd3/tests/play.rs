@@ -281,13 +281,7 @@ fn the_array_falls_silent_within_the_lease_once_the_host_is_gone() {
 #[test]
 fn renewals_keep_the_output_level_without_a_gap() {
     let (scene, mut b, h, clock) = open_default();
-    let half = crate::plan::stimulus::Stimulus {
-        intensity: 0.5,
-        ..crate::plan::stimulus::Stimulus::default()
-    }
-    .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
-    .unwrap()
-    .plan;
+    let half = half_intensity(&scene);
     let slot = b.upload(&half, None).unwrap().slot;
     b.play(slot, true).unwrap();
     let mods = |h: &EmulatorHandle| h.with_cpus(|c| c.iter().map(|c| c.fpga().modulation()).min());
