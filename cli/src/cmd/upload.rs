@@ -134,6 +134,24 @@ fn freq_given() -> bool {
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
      with no gating or correction, while lmhost holds it";
 
+/// Holds the link to `dev` (named `what`) for `d` or until Ctrl-C or
+/// SIGTERM, saying so on stderr first.
+pub fn hold_saying(
+    dev: &mut dyn lmhost::device::backend::Backend,
+    what: &str,
+    d: Option<std::time::Duration>,
+) -> anyhow::Result<()> {
+    lmhost::errln!(
+        "holding {what} {}; the array is left silent on exit",
+        match d {
+            Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
+            None => "until Ctrl-C or SIGTERM".into(),
+        }
+    );
+    lmhost::device::connect::hold(dev, d)?;
+    Ok(())
+}
+
 /// What a `Play` did, from the status right after it.
 pub fn play_outcome(slot: u8, status: &Status) -> String {
     if status.queued_slot == Some(slot) {
@@ -234,14 +252,7 @@ impl Args {
                  (`lmhost stream --port {port}` uploads, plays and streams)"
             ),
             Some(d) => {
-                lmhost::errln!(
-                    "holding {port} {}; the array is left silent on exit",
-                    match d {
-                        Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
-                        None => "until Ctrl-C or SIGTERM".into(),
-                    }
-                );
-                lmhost::device::connect::hold(dev.as_mut(), d)?;
+                hold_saying(dev.as_mut(), &port, d)?;
                 if self.json {
                     // What played, before the stop silences it: one line.
                     let status = dev.status()?;
