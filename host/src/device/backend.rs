@@ -399,10 +399,12 @@ pub fn check_slot(slot: u8, info: &Info) -> std::result::Result<(), InputError> 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn info(slots: u8) -> Info {
+    /// The `Info` of a simulated-device-like firmware with `slots` slots
+    /// (also for the link client's tests).
+    pub(crate) fn info(slots: u8) -> Info {
         Info {
             proto_version: lm_proto::PROTOCOL_VERSION,
             fw_version: [0, 1, 0],
