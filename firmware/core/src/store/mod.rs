@@ -143,6 +143,18 @@ struct Upload {
     failed: bool,
 }
 
+impl Upload {
+    /// The upload into `slot` (`NoUpload` if there is none, `BadStream` if
+    /// its stream failed).
+    fn live(upload: &mut Option<Upload>, slot: u8) -> Result<&mut Upload, NackCode> {
+        match upload.as_mut() {
+            Some(u) if u.slot == slot && u.failed => Err(NackCode::BadStream),
+            Some(u) if u.slot == slot => Ok(u),
+            _ => Err(NackCode::NoUpload),
+        }
+    }
+}
+
 /// The rig: the positions table's state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Rig {
@@ -469,13 +481,7 @@ impl<'m> Store<'m> {
     /// same bytes is acknowledged without effect (see the module docs).
     pub fn chunk(&mut self, slot: u8, offset: u32, data: &[u8]) -> Result<(), NackCode> {
         let e = self.entries[usize::from(slot).min(SLOTS - 1)];
-        let up = match self.upload.as_mut() {
-            Some(u) if u.slot == slot => u,
-            _ => return Err(NackCode::NoUpload),
-        };
-        if up.failed {
-            return Err(NackCode::BadStream);
-        }
+        let up = Upload::live(&mut self.upload, slot)?;
         let len = data.len() as u32;
         let end = u64::from(offset) + u64::from(len);
         if end > u64::from(up.encoded_len) {
@@ -545,13 +551,7 @@ impl<'m> Store<'m> {
             return Ok(());
         }
         let e = self.entries[usize::from(slot).min(SLOTS - 1)];
-        let up = match self.upload.as_mut() {
-            Some(u) if u.slot == slot => u,
-            _ => return Err(NackCode::NoUpload),
-        };
-        if up.failed {
-            return Err(NackCode::BadStream);
-        }
+        let up = Upload::live(&mut self.upload, slot)?;
         let (consumed, finished) = match e.form {
             Form::Raw => (up.decoder.consumed(), up.decoder.finish()),
             Form::Delta => (up.check.consumed(), up.check.finish()),
