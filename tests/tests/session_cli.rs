@@ -3,7 +3,7 @@
 
 use std::io::{BufRead as _, BufReader, Write as _};
 use std::os::unix::net::UnixStream;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -173,7 +173,7 @@ fn bad_session_flags_and_files_are_one_line_input_errors() {
     }
 }
 
-fn tempdir() -> std::path::PathBuf {
+fn tempdir() -> PathBuf {
     let d = std::env::temp_dir().join(format!(
         "lmhost-session-{}-{}",
         std::process::id(),
@@ -184,6 +184,12 @@ fn tempdir() -> std::path::PathBuf {
     ));
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// A control socket's path and an events log's, in a fresh folder.
+fn socket_and_log() -> (PathBuf, PathBuf) {
+    let dir = tempdir();
+    (dir.join("lm.sock"), dir.join("events.jsonl"))
 }
 
 fn connect(path: &Path) -> UnixStream {
@@ -260,9 +266,7 @@ fn logged(log: &Path) -> Vec<serde_json::Value> {
 #[test]
 fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
     let sim = Sim::start(&[]);
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
-    let log = dir.join("events.jsonl");
+    let (sock, log) = socket_and_log();
     let child = session(&[&sim.port], &sock, Some(&log)).spawn().unwrap();
     {
         let (mut s, mut r) = control(&sock);
@@ -314,9 +318,7 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
 
 #[test]
 fn sigterm_ends_the_session_silent_with_a_closed_event() {
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
-    let log = dir.join("events.jsonl");
+    let (sock, log) = socket_and_log();
     let child = session(&["autd3:emulator", "--synthetic"], &sock, Some(&log))
         .args(["--on-disconnect", "continue"])
         .spawn()
@@ -426,8 +428,7 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
 
 #[test]
 fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
+    let (sock, _) = socket_and_log();
     let child = session(&["autd3:emulator"], &sock, None).spawn().unwrap();
     let (mut s, mut r) = control(&sock);
     let mut reply = |s: &mut UnixStream, bytes: &[u8]| -> serde_json::Value {
@@ -479,9 +480,7 @@ fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
 /// the array is silent afterwards, as `lmhost status` shows.
 fn a_signal_leaves_the_array_silent(signal: &str) {
     let sim = Sim::start(&[]);
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
-    let log = dir.join("events.jsonl");
+    let (sock, log) = socket_and_log();
     let mut child = session(&[&sim.port], &sock, Some(&log))
         .stdout(Stdio::null())
         .spawn()
