@@ -81,19 +81,17 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
         (0.into(), serde_json::Value::Null)
     );
     // Stimulus flags: planned, uploaded into the free slot and played.
-    let v = stream_json(
-        &sim.port,
-        &[
-            "--synthetic",
-            "--fast",
-            "--seconds",
-            "0.2",
-            "--foci",
-            "4",
-            "--radius",
-            "3",
-        ],
-    );
+    let plan_flags = [
+        "--synthetic",
+        "--fast",
+        "--seconds",
+        "0.2",
+        "--foci",
+        "4",
+        "--radius",
+        "3",
+    ];
+    let v = stream_json(&sim.port, &plan_flags);
     let u = &v["upload"];
     assert_eq!(u["slot"], 1, "{v}");
     assert_eq!(u["steps"], 82, "{v}");
@@ -101,19 +99,7 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
     let st = json(&["status", "--port", &sim.port, "--json"]);
     assert!(st["slot"] == 1 || st["queued_slot"] == 1, "{st}");
     // On AUTD3 the same flags give the same report, on the grid.
-    let a = stream_json(
-        "autd3:emulator",
-        &[
-            "--synthetic",
-            "--fast",
-            "--seconds",
-            "0.2",
-            "--foci",
-            "4",
-            "--radius",
-            "3",
-        ],
-    );
+    let a = stream_json("autd3:emulator", &plan_flags);
     assert_eq!(keys(&a["upload"]), keys(u), "{a}");
     assert_eq!(a["upload"]["divide"], 98);
     // A flag that cannot apply is refused.

@@ -126,6 +126,32 @@ impl Link {
         assert_eq!(r, Reply::Ack, "{:?} was not acked", msg.msg_type());
     }
 
+    /// Begins an upload of `stream` (in `encoding`) into `slot` and sends
+    /// it in chunks, each acked; the commit is the caller's.
+    fn send_stream(
+        &mut self,
+        slot: u8,
+        header: UploadHeader,
+        encoding: Encoding,
+        stream: &[u8],
+        rig_crc32: u32,
+    ) {
+        self.ack(&Message::BeginUpload(BeginUpload {
+            slot,
+            header,
+            encoding,
+            encoded_len: stream.len() as u32,
+            rig_crc32,
+        }));
+        for (i, data) in stream.chunks(MAX_CHUNK).enumerate() {
+            self.ack(&Message::Chunk(Chunk {
+                slot,
+                offset: (i * MAX_CHUNK) as u32,
+                data,
+            }));
+        }
+    }
+
     fn status(&mut self) -> Status {
         match self.request(&Message::GetStatus) {
             Reply::Status(s) => s,
@@ -248,20 +274,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         max_offset_um: 20_000,
         intensity: 255,
     };
-    link.ack(&Message::BeginUpload(BeginUpload {
-        slot: 0,
-        header: header(steps as u16),
-        encoding: Encoding::Delta,
-        encoded_len: n as u32,
-        rig_crc32: rig,
-    }));
-    for (i, data) in enc.chunks(MAX_CHUNK).enumerate() {
-        link.ack(&Message::Chunk(Chunk {
-            slot: 0,
-            offset: (i * MAX_CHUNK) as u32,
-            data,
-        }));
-    }
+    link.send_stream(0, header(steps as u16), Encoding::Delta, &enc, rig);
     link.ack(&Message::Commit(Commit {
         slot: 0,
         crc32: crc32(&raw),
@@ -269,20 +282,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
 
     // A corrupt upload (wrong CRC) into the other slot is refused and never playable.
     let small: Vec<u8> = (0..2 * t).map(|i| (i * 7) as u8).collect();
-    link.ack(&Message::BeginUpload(BeginUpload {
-        slot: 1,
-        header: header(2),
-        encoding: Encoding::Raw,
-        encoded_len: small.len() as u32,
-        rig_crc32: rig,
-    }));
-    for (i, data) in small.chunks(MAX_CHUNK).enumerate() {
-        link.ack(&Message::Chunk(Chunk {
-            slot: 1,
-            offset: (i * MAX_CHUNK) as u32,
-            data,
-        }));
-    }
+    link.send_stream(1, header(2), Encoding::Raw, &small, rig);
     assert_eq!(
         link.request(&Message::Commit(Commit {
             slot: 1,
