@@ -1,5 +1,23 @@
 use super::*;
-use crate::device::backend::tests::info;
+
+/// The `Info` of a simulated-device-like firmware with `slots` slots
+/// (also for the backend's tests).
+pub(crate) fn info(slots: u8) -> Info {
+    Info {
+        proto_version: lm_proto::PROTOCOL_VERSION,
+        fw_version: [0, 1, 0],
+        max_transducers: 996,
+        slot_bytes: 200 * 996,
+        slots,
+        timer_hz: 1_000_000,
+        min_dwell_us: 1000,
+        max_chunk: 1024,
+        rig_transducers: 0,
+        rig_crc32: 0,
+        library_free: 200 * 996,
+        clock: lm_proto::ClockSource::Emulated,
+    }
+}
 
 #[test]
 fn spec_carries_the_bytes_sequence_encode_made_and_the_device_check() {
