@@ -360,24 +360,14 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lm_proto::MuteReason;
 
     fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
         Status {
             state,
             slot,
-            step: 0,
-            cycles: 0,
-            missed_deadlines: 0,
-            last_centroid_seq: 0,
-            bad_frames: 0,
-            crc_errors: 0,
-            nacks: 0,
-            correction_um: [0; 3],
             queued_slot: queued,
-            mute_reason: MuteReason::None,
             lease_ms: 1000,
-            lease_expiries: 0,
+            ..Status::default()
         }
     }
 
