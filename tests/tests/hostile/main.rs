@@ -519,19 +519,34 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let small = Sim::start(&["--slot-steps", "10"]);
     let busy = Sim::start(&[]);
     let sess = Sim::start(&[]);
-    // A stream holding `port` for ten minutes, to find it busy.
-    let hold = |port: &str| {
-        Command::new(lmhost())
-            .args(["stream", "--port", port, "--synthetic", "--seconds", "600"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawning a port holder")
-    };
-    let mut holder = hold(&busy.port);
+    let mut holder = Command::new(lmhost())
+        .args([
+            "stream",
+            "--port",
+            &busy.port,
+            "--synthetic",
+            "--seconds",
+            "600",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the port holder");
     // A device whose holder dies without a word: killed once it holds it.
     let stale = Sim::start(&[]);
-    let mut victim = hold(&stale.port);
+    let mut victim = Command::new(lmhost())
+        .args([
+            "stream",
+            "--port",
+            &stale.port,
+            "--synthetic",
+            "--seconds",
+            "600",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the holder to kill");
     let give_up = Instant::now() + Duration::from_secs(20);
     while Command::new(lmhost())
         .args(["status", "--port", &stale.port])
