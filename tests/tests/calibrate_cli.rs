@@ -4,7 +4,7 @@
 //! bad input refused with one line and exit 2.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use lmhost::geom::{Vec3, add, euler_xyz_deg, norm, sub};
 use lmhost::lab::calibrate::camera::render_ball;
@@ -14,7 +14,7 @@ use lmhost::plan::scene::camera::CameraPose;
 use lmhost::sense::track::intrinsics::Intrinsics;
 
 mod link_support;
-use link_support::lmhost;
+use link_support::{ok, run};
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lmhost-e2e-cal-{name}-{}", std::process::id()));
@@ -26,20 +26,6 @@ fn scratch(name: &str) -> PathBuf {
 fn paper_scene() -> String {
     std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml"))
         .unwrap()
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(lmhost()).args(args).output().unwrap()
-}
-
-fn ok(o: &Output) -> String {
-    assert!(
-        o.status.success(),
-        "exit {:?}: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 fn refused(o: &Output, needle: &str) {
@@ -61,7 +47,7 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
     let scene = d.join("rig.toml");
     std::fs::write(&scene, paper_scene()).unwrap();
     let s = scene.to_str().unwrap();
-    let j: serde_json::Value = serde_json::from_str(&ok(&run(&[
+    let j: serde_json::Value = serde_json::from_str(&ok(&[
         "calibrate",
         "force",
         "--measured",
@@ -70,7 +56,7 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
         s,
         "--write",
         "--json",
-    ])))
+    ]))
     .unwrap();
     let k = j["pressure_scale"].as_f64().unwrap();
     assert!((k * j["simulated_n"].as_f64().unwrap() - 0.022).abs() < 1e-12);
@@ -86,7 +72,7 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
         k
     );
     // Calibrating again replaces the table, it does not add one.
-    ok(&run(&[
+    ok(&[
         "calibrate",
         "force",
         "--measured",
@@ -94,7 +80,7 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
         "--scene",
         s,
         "--write",
-    ]));
+    ]);
     let text = std::fs::read_to_string(&scene).unwrap();
     assert_eq!(text.matches("[calibration]").count(), 1);
     let k3 = Scene::load(&scene)
@@ -118,7 +104,7 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
     let (a, b) = (d.join("cal"), d.join("flag"));
     let mut args = stat.to_vec();
     args.extend(["--scene", s, "--out", a.to_str().unwrap()]);
-    let text = ok(&run(&args));
+    let text = ok(&args);
     assert!(text.contains("calibrated: pressures and forces"), "{text}");
     assert!((force_n(&a) - 0.03).abs() < 1e-9, "{}", force_n(&a));
     let mut args = stat.to_vec();
@@ -130,7 +116,7 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
         "--out",
         b.to_str().unwrap(),
     ]);
-    ok(&run(&args));
+    ok(&args);
     assert!((force_n(&b) * k3 - 0.03).abs() < 1e-9);
 
     // Bad input: one line, exit 2, the scene untouched.
@@ -238,7 +224,7 @@ fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
         scene.to_str().unwrap().to_string(),
         d.join("cam.toml"),
     );
-    let j: serde_json::Value = serde_json::from_str(&ok(&run(&[
+    let j: serde_json::Value = serde_json::from_str(&ok(&[
         "calibrate",
         "camera",
         pts.to_str().unwrap(),
@@ -248,7 +234,7 @@ fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
         &s,
         "--write",
         "--json",
-    ])))
+    ]))
     .unwrap();
     assert_eq!(j["residuals_mm"].as_array().unwrap().len(), 5);
     let got = Scene::load(&scene).unwrap().camera.unwrap();

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 use std::path::PathBuf;
 
 mod link_support;
-use link_support::{BRIEF_HOLD, Sim, json, ok, run, upload_json};
+use link_support::{Sim, json, ok, run, stream_json, upload_json};
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lm-consistency-{}-{name}", std::process::id()));
@@ -71,19 +71,9 @@ fn upload_json_has_the_same_keys_on_both_backends() {
 
 #[test]
 fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
-    let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
+    let sim = Sim::uploaded(&[]);
     // No stimulus flag: the LM firmware plays again what it played (slot 0).
-    let v = json(&[
-        "stream",
-        "--port",
-        &sim.port,
-        "--synthetic",
-        "--fast",
-        "--seconds",
-        "0.2",
-        "--json",
-    ]);
+    let v = stream_json(&sim.port, &["--synthetic", "--fast", "--seconds", "0.2"]);
     assert!(v["upload"].is_null(), "{v}");
     let st = json(&["status", "--port", &sim.port, "--json"]);
     assert_eq!(
@@ -91,10 +81,7 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
         (0.into(), serde_json::Value::Null)
     );
     // Stimulus flags: planned, uploaded into the free slot and played.
-    let v = json(&[
-        "stream",
-        "--port",
-        &sim.port,
+    let plan_flags = [
         "--synthetic",
         "--fast",
         "--seconds",
@@ -103,8 +90,8 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
         "4",
         "--radius",
         "3",
-        "--json",
-    ]);
+    ];
+    let v = stream_json(&sim.port, &plan_flags);
     let u = &v["upload"];
     assert_eq!(u["slot"], 1, "{v}");
     assert_eq!(u["steps"], 82, "{v}");
@@ -112,20 +99,7 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
     let st = json(&["status", "--port", &sim.port, "--json"]);
     assert!(st["slot"] == 1 || st["queued_slot"] == 1, "{st}");
     // On AUTD3 the same flags give the same report, on the grid.
-    let a = json(&[
-        "stream",
-        "--port",
-        "autd3:emulator",
-        "--synthetic",
-        "--fast",
-        "--seconds",
-        "0.2",
-        "--foci",
-        "4",
-        "--radius",
-        "3",
-        "--json",
-    ]);
+    let a = stream_json("autd3:emulator", &plan_flags);
     assert_eq!(keys(&a["upload"]), keys(u), "{a}");
     assert_eq!(a["upload"]["divide"], 98);
     // A flag that cannot apply is refused.

@@ -5,26 +5,12 @@
 //! line and exit 2, a failed instrument one line and exit 1.
 
 use std::io::{Read, Write};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use lmhost::device::instruments::FingerPad;
 
 mod link_support;
-use link_support::lmhost;
-
-fn run(args: &[&str]) -> Output {
-    Command::new(lmhost()).args(args).output().unwrap()
-}
-
-fn ok(o: &Output) -> String {
-    assert!(
-        o.status.success(),
-        "exit {:?}: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use link_support::{ok, run};
 
 fn fails(o: &Output, code: i32, needle: &str) {
     let err = String::from_utf8_lossy(&o.stderr);
@@ -35,7 +21,7 @@ fn fails(o: &Output, code: i32, needle: &str) {
 
 #[test]
 fn the_gauge_twin_reads_the_finger_pad_at_its_depth() {
-    let out = ok(&run(&[
+    let out = ok(&[
         "gauge",
         "read",
         "--port",
@@ -45,81 +31,76 @@ fn the_gauge_twin_reads_the_finger_pad_at_its_depth() {
         "--for",
         "0.4",
         "--json",
-    ]));
+    ]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let want = FingerPad::TYPICAL.force_at_depth_n(2.0);
     let median = v["median_n"].as_f64().unwrap();
     assert!((median - want).abs() <= 0.011, "{median} vs {want}");
     assert_eq!(v["series"]["samples"].as_array().unwrap().len(), 20);
     // Off the finger: zero, within the noise.
-    let out = ok(&run(&["gauge", "read", "--port", "sim"]));
+    let out = ok(&["gauge", "read", "--port", "sim"]);
     let f: f64 = out.trim().trim_end_matches(" N").parse().unwrap();
     assert!(f.abs() <= 0.01, "{out}");
 }
 
 #[test]
 fn the_stage_twin_moves_at_its_speed() {
-    let out = ok(&run(&[
-        "stage", "move", "--port", "sim", "--to", "1", "--json",
-    ]));
+    let out = ok(&["stage", "move", "--port", "sim", "--to", "1", "--json"]);
     let m: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(m["at_mm"].as_f64(), Some(1.0));
     // 1 mm at 5 mm/s cannot take less than 0.2 s.
     assert!(m["took_s"].as_f64().unwrap() >= 0.19, "{out}");
     assert_eq!(
-        ok(&run(&["stage", "position", "--port", "sim"])).trim(),
+        ok(&["stage", "position", "--port", "sim"]).trim(),
         "at 0 mm"
     );
 }
 
 #[test]
 fn bad_input_is_one_line_and_exit_2() {
-    fails(
-        &run(&["stage", "move", "--port", "sim", "--to", "60"]),
-        2,
-        "outside the stage's soft limits 0..50 mm",
-    );
-    fails(
-        &run(&["stage", "move", "--port", "/dev/ttyUSB9", "--to", "1"]),
-        2,
-        "both --min and --max",
-    );
-    fails(
-        &run(&[
-            "stage", "move", "--port", "sim", "--min", "5", "--max", "1", "--to", "1",
-        ]),
-        2,
-        "min < max",
-    );
-    fails(
-        &run(&[
-            "stage", "move", "--port", "sim", "--to", "1", "--speed", "0",
-        ]),
-        2,
-        "stage speed 0 mm/s",
-    );
-    fails(
-        &run(&["gauge", "read", "--port", "sim", "--for", "-1"]),
-        2,
-        "sampling duration -1 s",
-    );
-    fails(
-        &run(&[
-            "gauge", "read", "--port", "sim", "--for", "1", "--rate", "5000",
-        ]),
-        2,
-        "sampling rate 5000 Hz",
-    );
-    fails(
-        &run(&["gauge", "read", "--port", "/dev/null", "--sim-depth", "1"]),
-        2,
-        "needs port sim",
-    );
-    fails(
-        &run(&["gauge", "read", "--port", "sim", "--model", "kistler"]),
-        2,
-        "kistler",
-    );
+    let table: [(&[&str], &str); 8] = [
+        (
+            &["stage", "move", "--port", "sim", "--to", "60"],
+            "outside the stage's soft limits 0..50 mm",
+        ),
+        (
+            &["stage", "move", "--port", "/dev/ttyUSB9", "--to", "1"],
+            "both --min and --max",
+        ),
+        (
+            &[
+                "stage", "move", "--port", "sim", "--min", "5", "--max", "1", "--to", "1",
+            ],
+            "min < max",
+        ),
+        (
+            &[
+                "stage", "move", "--port", "sim", "--to", "1", "--speed", "0",
+            ],
+            "stage speed 0 mm/s",
+        ),
+        (
+            &["gauge", "read", "--port", "sim", "--for", "-1"],
+            "sampling duration -1 s",
+        ),
+        (
+            &[
+                "gauge", "read", "--port", "sim", "--for", "1", "--rate", "5000",
+            ],
+            "sampling rate 5000 Hz",
+        ),
+        (
+            &["gauge", "read", "--port", "/dev/null", "--sim-depth", "1"],
+            "needs port sim",
+        ),
+        (
+            &["gauge", "read", "--port", "sim", "--model", "kistler"],
+            "kistler",
+        ),
+    ];
+    for (args, needle) in table {
+        fails(&run(args), 2, needle);
+    }
 }
 
 #[test]
@@ -187,9 +168,7 @@ fn an_imada_gauge_set_to_kgf_is_read_in_newtons() {
             String::new()
         }
     });
-    let out = ok(&run(&[
-        "gauge", "read", "--port", &path, "--model", "imada",
-    ]));
+    let out = ok(&["gauge", "read", "--port", &path, "--model", "imada"]);
     assert_eq!(out.trim(), "0.490 N (0.05 kgf as sent)");
 }
 
@@ -219,7 +198,7 @@ fn a_qt_controller_moves_the_stage() {
         };
         format!("{reply}\r\n")
     });
-    let out = ok(&run(&[
+    let out = ok(&[
         "stage",
         "move",
         "--port",
@@ -232,7 +211,7 @@ fn a_qt_controller_moves_the_stage() {
         "4",
         "--step-um",
         "0.5",
-    ]));
+    ]);
     assert!(out.starts_with("at 4 mm (from 0 mm"), "{out}");
     assert_eq!(*target.lock().unwrap(), 8000, "4 mm at 0.5 µm per pulse");
 }

@@ -28,10 +28,7 @@ use lm_proto::{
 
 mod link_support;
 mod qemu_support;
-use qemu_support::{
-    Qemu, firmware_elf, free_port, port_spec, qemu_command, qemu_installed, wait_on_device,
-    within_20_s,
-};
+use qemu_support::{Qemu, firmware_elf, serving, skip_without_qemu, wait_on_device, within_20_s};
 
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
 const SOUND_SPEED_MM_S: u32 = 340_000;
@@ -129,6 +126,32 @@ impl Link {
         assert_eq!(r, Reply::Ack, "{:?} was not acked", msg.msg_type());
     }
 
+    /// Begins an upload of `stream` (in `encoding`) into `slot` and sends
+    /// it in chunks, each acked; the commit is the caller's.
+    fn send_stream(
+        &mut self,
+        slot: u8,
+        header: UploadHeader,
+        encoding: Encoding,
+        stream: &[u8],
+        rig_crc32: u32,
+    ) {
+        self.ack(&Message::BeginUpload(BeginUpload {
+            slot,
+            header,
+            encoding,
+            encoded_len: stream.len() as u32,
+            rig_crc32,
+        }));
+        for (i, data) in stream.chunks(MAX_CHUNK).enumerate() {
+            self.ack(&Message::Chunk(Chunk {
+                slot,
+                offset: (i * MAX_CHUNK) as u32,
+                data,
+            }));
+        }
+    }
+
     fn status(&mut self) -> Status {
         match self.request(&Message::GetStatus) {
             Reply::Status(s) => s,
@@ -181,8 +204,7 @@ fn centroid(seq: u32, pos_um: [i32; 3], present: bool, t0: Instant) -> Message<'
 
 #[test]
 fn firmware_under_qemu_speaks_the_protocol() {
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    if skip_without_qemu() {
         return;
     }
     let elf = firmware_elf();
@@ -252,20 +274,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
         max_offset_um: 20_000,
         intensity: 255,
     };
-    link.ack(&Message::BeginUpload(BeginUpload {
-        slot: 0,
-        header: header(steps as u16),
-        encoding: Encoding::Delta,
-        encoded_len: n as u32,
-        rig_crc32: rig,
-    }));
-    for (i, data) in enc.chunks(MAX_CHUNK).enumerate() {
-        link.ack(&Message::Chunk(Chunk {
-            slot: 0,
-            offset: (i * MAX_CHUNK) as u32,
-            data,
-        }));
-    }
+    link.send_stream(0, header(steps as u16), Encoding::Delta, &enc, rig);
     link.ack(&Message::Commit(Commit {
         slot: 0,
         crc32: crc32(&raw),
@@ -273,20 +282,7 @@ fn firmware_under_qemu_speaks_the_protocol() {
 
     // A corrupt upload (wrong CRC) into the other slot is refused and never playable.
     let small: Vec<u8> = (0..2 * t).map(|i| (i * 7) as u8).collect();
-    link.ack(&Message::BeginUpload(BeginUpload {
-        slot: 1,
-        header: header(2),
-        encoding: Encoding::Raw,
-        encoded_len: small.len() as u32,
-        rig_crc32: rig,
-    }));
-    for (i, data) in small.chunks(MAX_CHUNK).enumerate() {
-        link.ack(&Message::Chunk(Chunk {
-            slot: 1,
-            offset: (i * MAX_CHUNK) as u32,
-            data,
-        }));
-    }
+    link.send_stream(1, header(2), Encoding::Raw, &small, rig);
     assert_eq!(
         link.request(&Message::Commit(Commit {
             slot: 1,
@@ -461,14 +457,11 @@ fn preload_frame_bytes(set: &[(String, lmhost::plan::sequence::Plan)]) -> (u64, 
 fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     use lmhost::device::backend::Transfer;
     use lmhost::device::connect::LmBackend;
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    if skip_without_qemu() {
         return;
     }
     let elf = firmware_elf();
-    let port = free_port();
-    let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = port_spec(port);
+    let (_qemu, spec) = serving(&elf).expect("start qemu-system-arm");
     let client =
         within_20_s(|| spec.connect()).unwrap_or_else(|e| panic!("connecting to QEMU: {e}"));
     let mut dev = LmBackend::new(client, Encoding::Delta);

@@ -15,8 +15,8 @@ use lm_proto::{DeviceState, Status};
 mod link_support;
 mod qemu_support;
 use qemu_support::{
-    Qemu, firmware_elf, free_port, port_spec, qemu_command, qemu_command_icount, qemu_installed,
-    wait_on_device, within_20_s,
+    Qemu, firmware_elf, free_port, qemu_command_icount, serving, skip_without_qemu, wait_on_device,
+    within_20_s,
 };
 
 /// The device policy's conformance table (`lmhost::device::conformance`), the
@@ -28,8 +28,7 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
     use lmhost::plan::scene::Scene;
     use lmhost::plan::stimulus::Stimulus;
     use lmhost::plan::target::Target;
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    if skip_without_qemu() {
         return;
     }
     let elf = firmware_elf();
@@ -45,9 +44,8 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
     let failures = run(
         &mut || {
             held.clear();
-            let port = free_port();
-            held.push(Qemu::spawn(qemu_command(&elf, port, false), port)?);
-            let spec = port_spec(port);
+            let (qemu, spec) = serving(&elf)?;
+            held.push(qemu);
             let dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))?;
             Ok(Dut {
                 dev,
@@ -67,8 +65,7 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
 /// timing is asserted: under `-icount` the guest's time is its own).
 #[test]
 fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    if skip_without_qemu() {
         return;
     }
     let elf = firmware_elf();
@@ -198,14 +195,11 @@ fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
     use lmhost::plan::scene::Scene;
     use lmhost::plan::stimulus::Stimulus;
     use lmhost::plan::target::Target;
-    if !qemu_installed() {
-        println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    if skip_without_qemu() {
         return;
     }
     let elf = firmware_elf();
-    let port = free_port();
-    let _qemu = Qemu::spawn(qemu_command(&elf, port, false), port).expect("start qemu-system-arm");
-    let spec = port_spec(port);
+    let (_qemu, spec) = serving(&elf).expect("start qemu-system-arm");
     let mut dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))
         .unwrap_or_else(|e| panic!("{e:#}"));
     let plan = Stimulus::default()

@@ -3,11 +3,12 @@
 
 use std::io::{BufRead as _, BufReader, Write as _};
 use std::os::unix::net::UnixStream;
-use std::process::{Command, Stdio};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod link_support;
-use link_support::{Sim, lmhost, run_stdin};
+use link_support::{Sim, lmhost, ok, run_stdin};
 
 /// The repository's paper library.
 fn library() -> String {
@@ -172,7 +173,7 @@ fn bad_session_flags_and_files_are_one_line_input_errors() {
     }
 }
 
-fn tempdir() -> std::path::PathBuf {
+fn tempdir() -> PathBuf {
     let d = std::env::temp_dir().join(format!(
         "lmhost-session-{}-{}",
         std::process::id(),
@@ -185,7 +186,13 @@ fn tempdir() -> std::path::PathBuf {
     d
 }
 
-fn connect(path: &std::path::Path) -> UnixStream {
+/// A control socket's path and an events log's, in a fresh folder.
+fn socket_and_log() -> (PathBuf, PathBuf) {
+    let dir = tempdir();
+    (dir.join("lm.sock"), dir.join("events.jsonl"))
+}
+
+fn connect(path: &Path) -> UnixStream {
     let end = Instant::now() + Duration::from_secs(30);
     loop {
         match UnixStream::connect(path) {
@@ -208,38 +215,70 @@ fn send(s: &mut UnixStream, r: &mut BufReader<UnixStream>, cmd: &str) -> serde_j
     }
 }
 
+/// Sends `cmd` and asserts the session accepted it.
+#[track_caller]
+fn accepted(s: &mut UnixStream, r: &mut BufReader<UnixStream>, cmd: &str) {
+    let rep = send(s, r, cmd);
+    assert_eq!(rep["ok"], true, "{cmd}: {rep}");
+}
+
+/// `lmhost session` with the paper library on `port`, controlled on the
+/// socket `sock`, logging events to `log` if given; stdout and stderr
+/// piped for [`exits_0`].
+fn session(port: &[&str], sock: &Path, log: Option<&Path>) -> Command {
+    let mut c = Command::new(lmhost());
+    c.args(["session", "--library", &library(), "--port"])
+        .args(port)
+        .args(["--control", sock.to_str().unwrap()]);
+    if let Some(log) = log {
+        c.args(["--events", log.to_str().unwrap()]);
+    }
+    c.stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    c
+}
+
+/// A connection to the control socket and a reader of its replies.
+fn control(sock: &Path) -> (UnixStream, BufReader<UnixStream>) {
+    let s = connect(sock);
+    let r = BufReader::new(s.try_clone().unwrap());
+    (s, r)
+}
+
+/// Asserts a session ended with exit code 0 (saying `what` and its
+/// stderr otherwise).
+#[track_caller]
+fn exited_0(out: &Output, what: &str) {
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{what}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The events a session logged to `log`.
+fn logged(log: &Path) -> Vec<serde_json::Value> {
+    lines(std::fs::read_to_string(log).unwrap().as_bytes())
+}
+
 #[test]
 fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
     let sim = Sim::start(&[]);
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
-    let log = dir.join("events.jsonl");
-    let child = Command::new(lmhost())
-        .args(["session", "--library", &library(), "--port", &sim.port])
-        .args([
-            "--control",
-            sock.to_str().unwrap(),
-            "--events",
-            log.to_str().unwrap(),
-        ])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let (sock, log) = socket_and_log();
+    let child = session(&[&sim.port], &sock, Some(&log)).spawn().unwrap();
     {
-        let mut s = connect(&sock);
-        let mut r = BufReader::new(s.try_clone().unwrap());
+        let (mut s, mut r) = control(&sock);
         use std::os::unix::fs::PermissionsExt as _;
         let mode = std::fs::metadata(&sock).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode, 0o600);
-        assert_eq!(send(&mut s, &mut r, r#"{"cmd":"subscribe"}"#)["ok"], true);
-        let rep = send(
+        accepted(&mut s, &mut r, r#"{"cmd":"subscribe"}"#);
+        accepted(
             &mut s,
             &mut r,
             r#"{"cmd":"present","stimulus":"lms-25hz-a4","gate":"untracked"}"#,
         );
-        assert_eq!(rep["ok"], true, "{rep}");
         // The onset arrives as an event on this connection.
         loop {
             let mut line = String::new();
@@ -252,8 +291,7 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
         assert_eq!(st["status"]["state"], "playing", "{st}");
         // Dropped here: the controlling client goes away.
     }
-    let mut s = connect(&sock);
-    let mut r = BufReader::new(s.try_clone().unwrap());
+    let (mut s, mut r) = control(&sock);
     let end = Instant::now() + Duration::from_secs(10);
     loop {
         let st = send(&mut s, &mut r, r#"{"cmd":"status"}"#);
@@ -266,14 +304,8 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
-    assert_eq!(send(&mut s, &mut r, r#"{"cmd":"quit"}"#)["ok"], true);
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    accepted(&mut s, &mut r, r#"{"cmd":"quit"}"#);
+    exited_0(&child.wait_with_output().unwrap(), "");
     assert!(!sock.exists(), "the socket is removed at the end");
     let text = std::fs::read_to_string(&log).unwrap();
     let v = lines(text.as_bytes());
@@ -286,39 +318,18 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
 
 #[test]
 fn sigterm_ends_the_session_silent_with_a_closed_event() {
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
-    let log = dir.join("events.jsonl");
-    let child = Command::new(lmhost())
-        .args([
-            "session",
-            "--library",
-            &library(),
-            "--port",
-            "autd3:emulator",
-            "--synthetic",
-        ])
-        .args([
-            "--control",
-            sock.to_str().unwrap(),
-            "--events",
-            log.to_str().unwrap(),
-        ])
+    let (sock, log) = socket_and_log();
+    let child = session(&["autd3:emulator", "--synthetic"], &sock, Some(&log))
         .args(["--on-disconnect", "continue"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     {
-        let mut s = connect(&sock);
-        let mut r = BufReader::new(s.try_clone().unwrap());
-        let rep = send(
+        let (mut s, mut r) = control(&sock);
+        accepted(
             &mut s,
             &mut r,
             r#"{"cmd":"present","stimulus":"lmm-5hz-a3"}"#,
         );
-        assert_eq!(rep["ok"], true, "{rep}");
         std::thread::sleep(Duration::from_millis(300));
     }
     // SAFETY-free: kill(1) sends SIGTERM.
@@ -327,14 +338,8 @@ fn sigterm_ends_the_session_silent_with_a_closed_event() {
         .status()
         .unwrap();
     assert!(st.success());
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v = lines(std::fs::read_to_string(&log).unwrap().as_bytes());
+    exited_0(&child.wait_with_output().unwrap(), "");
+    let v = logged(&log);
     assert!(
         !events(&v, "finger").is_empty(),
         "the synthetic finger was seen"
@@ -350,23 +355,17 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
     let dir = tempdir();
     let rec = dir.join("d.npy");
     let scene = format!("{}/../scenes/paper.toml", env!("CARGO_MANIFEST_DIR"));
-    let out = Command::new(lmhost())
-        .args([
-            "track",
-            "--synthetic",
-            "--scene",
-            &scene,
-            "--seconds",
-            "1.5",
-        ])
-        .args(["--record", rec.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let rec_arg = rec.to_str().unwrap();
+    ok(&[
+        "track",
+        "--synthetic",
+        "--scene",
+        &scene,
+        "--seconds",
+        "1.5",
+        "--record",
+        rec_arg,
+    ]);
     // An endless tracked presentation, stopped once the finger has
     // unmuted it: however slowly the replay runs on a loaded machine.
     let mut child = Command::new(lmhost())
@@ -409,12 +408,7 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
     seen.push_str(&rest);
     let out = child.wait_with_output().unwrap();
     done.store(true, std::sync::atomic::Ordering::SeqCst);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    exited_0(&out, "");
     let out = std::process::Output {
         stdout: seen.into_bytes(),
         ..out
@@ -434,24 +428,9 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
 
 #[test]
 fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
-    let child = Command::new(lmhost())
-        .args([
-            "session",
-            "--library",
-            &library(),
-            "--port",
-            "autd3:emulator",
-        ])
-        .args(["--control", sock.to_str().unwrap()])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut s = connect(&sock);
-    let mut r = BufReader::new(s.try_clone().unwrap());
+    let (sock, _) = socket_and_log();
+    let child = session(&["autd3:emulator"], &sock, None).spawn().unwrap();
+    let (mut s, mut r) = control(&sock);
     let mut reply = |s: &mut UnixStream, bytes: &[u8]| -> serde_json::Value {
         s.write_all(bytes).unwrap();
         let mut line = String::new();
@@ -493,13 +472,7 @@ fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
     assert_eq!(v["ok"], true, "{v}");
     let v = reply(&mut s, b"{\"cmd\":\"quit\"}\n");
     assert_eq!(v["ok"], true, "{v}");
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    exited_0(&child.wait_with_output().unwrap(), "");
 }
 
 /// Issue 26: a session playing an untracked presentation on the LM
@@ -507,27 +480,18 @@ fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
 /// the array is silent afterwards, as `lmhost status` shows.
 fn a_signal_leaves_the_array_silent(signal: &str) {
     let sim = Sim::start(&[]);
-    let dir = tempdir();
-    let sock = dir.join("lm.sock");
-    let log = dir.join("events.jsonl");
-    let mut child = Command::new(lmhost())
-        .args(["session", "--library", &library(), "--port", &sim.port])
-        .args(["--control", sock.to_str().unwrap()])
-        .args(["--events", log.to_str().unwrap()])
-        .stdin(Stdio::null())
+    let (sock, log) = socket_and_log();
+    let mut child = session(&[&sim.port], &sock, Some(&log))
         .stdout(Stdio::null())
-        .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     {
-        let mut s = connect(&sock);
-        let mut r = BufReader::new(s.try_clone().unwrap());
-        let rep = send(
+        let (mut s, mut r) = control(&sock);
+        accepted(
             &mut s,
             &mut r,
             r#"{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked"}"#,
         );
-        assert_eq!(rep["ok"], true, "{rep}");
         let st = send(&mut s, &mut r, r#"{"cmd":"status"}"#);
         assert_eq!(st["status"]["state"], "playing", "{st}");
         let st = Command::new("kill")
@@ -542,12 +506,9 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "SIG{signal}: {}",
-        String::from_utf8_lossy(&out.stderr)
+    exited_0(
+        &child.wait_with_output().unwrap(),
+        &format!("SIG{signal}: "),
     );
     let status = Command::new(lmhost())
         .args(["status", "--port", &sim.port, "--json"])
@@ -559,7 +520,7 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
         matches!(v["state"].as_str(), Some("Stopped" | "Idle")),
         "SIG{signal}: the array plays on: {v}"
     );
-    let ev = lines(std::fs::read_to_string(&log).unwrap().as_bytes());
+    let ev = logged(&log);
     assert_eq!(ev.last().unwrap()["event"], "closed", "SIG{signal}");
     assert_eq!(events(&ev, "offset")[0]["reason"], "quit", "SIG{signal}");
 }

@@ -4,12 +4,13 @@
 use std::process::{Command, Stdio};
 
 mod link_support;
-use link_support::{BRIEF_HOLD, Sim, json, lmhost, ok, run, stream_stdin, success_json};
+use link_support::{
+    BRIEF_HOLD, Sim, json, lmhost, ok, run, stream_json, stream_stdin, success_json,
+};
 
 #[test]
 fn stdin_csv_and_json_lines_all_reach_the_device() {
-    let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
+    let sim = Sim::uploaded(&[]);
     let mut input = String::from("t,x,y,z,present\n");
     for i in 0..50 {
         input.push_str(&format!("{},0.5,0,200,1\n", i as f64 / 90.0));
@@ -46,8 +47,7 @@ fn a_bad_line_is_a_one_line_input_error() {
 /// device's state at its end.
 #[test]
 fn finger_leaving_mutes_and_returning_resumes() {
-    let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
+    let sim = Sim::uploaded(&[]);
     let state = |input: &str| {
         success_json(&stream_stdin(&sim.port, &["--json"], input))["device_state"].clone()
     };
@@ -87,8 +87,7 @@ fn centroids_are_mirrored_through_the_scene_reflector() {
 
 #[test]
 fn udp_datagrams_are_streamed() {
-    let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
+    let sim = Sim::uploaded(&[]);
     let port = {
         let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
         probe.local_addr().unwrap().port()
@@ -122,18 +121,8 @@ fn udp_datagrams_are_streamed() {
 
 #[test]
 fn synthetic_finger_reports_every_filter() {
-    let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
-    let v = json(&[
-        "stream",
-        "--port",
-        &sim.port,
-        "--synthetic",
-        "--seconds",
-        "1",
-        "--fast",
-        "--json",
-    ]);
+    let sim = Sim::uploaded(&[]);
+    let v = stream_json(&sim.port, &["--synthetic", "--seconds", "1", "--fast"]);
     assert_eq!(v["acked"], 90, "{v}");
     let filters = v["filters"].as_array().unwrap();
     assert_eq!(filters.len(), 4);
@@ -147,21 +136,13 @@ fn synthetic_finger_reports_every_filter() {
 
 #[test]
 fn recorded_file_replays() {
-    let sim = Sim::start(&[]);
-    ok(&["upload", "--port", &sim.port, "--hold", BRIEF_HOLD]);
+    let sim = Sim::uploaded(&[]);
     let path = std::env::temp_dir().join(format!("lmhost-track-{}.csv", std::process::id()));
     let text: String = (0..30)
         .map(|i| format!("{},0,0,200,1\n", i as f64 / 90.0))
         .collect();
     std::fs::write(&path, text).unwrap();
-    let v = json(&[
-        "stream",
-        "--port",
-        &sim.port,
-        "--input",
-        path.to_str().unwrap(),
-        "--json",
-    ]);
+    let v = stream_json(&sim.port, &["--input", path.to_str().unwrap()]);
     assert_eq!(v["acked"], 30, "{v}");
     // Replayed at its time stamps: 29 frame intervals.
     assert!(v["seconds"].as_f64().unwrap() >= 29.0 / 90.0, "{v}");

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod link_support;
-use link_support::{BRIEF_HOLD, Sim, json, lmhost, ok, run, run_stdin};
+use link_support::{Sim, json, lmhost, ok, run, run_stdin, stream_json};
 
 fn paper() -> String {
     concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml").to_string()
@@ -243,16 +243,7 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
 /// the same scene.
 fn camera_and_device(name: &str) -> (String, Sim) {
     let cam = half_intrinsics(&dir(name));
-    let sim = Sim::start(&[]);
-    ok(&[
-        "upload",
-        "--port",
-        &sim.port,
-        "--scene",
-        &paper(),
-        "--hold",
-        BRIEF_HOLD,
-    ]);
+    let sim = Sim::uploaded(&["--scene", &paper()]);
     (cam, sim)
 }
 
@@ -542,27 +533,17 @@ fn track_json_lines_stream_to_the_device() {
     assert!(n > 30, "{lines_out}");
     let file = dir("track-to-stream-file").join("track.jsonl");
     std::fs::write(&file, &lines_out).unwrap();
-    let sim = Sim::start(&[]);
-    ok(&[
-        "upload",
-        "--port",
+    let sim = Sim::uploaded(&["--scene", &paper()]);
+    let v = stream_json(
         &sim.port,
-        "--scene",
-        &paper(),
-        "--hold",
-        BRIEF_HOLD,
-    ]);
-    let v = json(&[
-        "stream",
-        "--port",
-        &sim.port,
-        "--scene",
-        &paper(),
-        "--input",
-        file.to_str().unwrap(),
-        "--fast",
-        "--json",
-    ]);
+        &[
+            "--scene",
+            &paper(),
+            "--input",
+            file.to_str().unwrap(),
+            "--fast",
+        ],
+    );
     assert_eq!(v["samples"], n as u64, "{v}");
     assert_eq!(v["acked"], n as u64, "{v}");
     // The gated, filtered centre decides presence: as many as track said.

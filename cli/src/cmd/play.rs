@@ -6,7 +6,7 @@ use anyhow::Context as _;
 use lm_proto::{DeviceState, PlayAt};
 
 use super::args::DeviceArgs;
-use crate::cmd::upload::{UNTRACKED_WARNING, play_outcome};
+use crate::cmd::upload::{UNTRACKED_WARNING, hold_saying, play_outcome};
 
 /// Play a slot that holds a committed sequence.
 #[derive(Debug, clap::Args)]
@@ -83,14 +83,7 @@ impl Args {
                 return Ok(());
             }
             lmhost::out::flush_stdout()?;
-            lmhost::errln!(
-                "holding {where_} {}; the array is left silent on exit",
-                match hold {
-                    Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
-                    None => "until Ctrl-C or SIGTERM".into(),
-                }
-            );
-            lmhost::device::connect::hold(dev.as_mut(), hold)?;
+            hold_saying(dev.as_mut(), &where_, hold)?;
             return Ok(dev.stop()?);
         };
         // The LM firmware counts the steps and stops itself; an AUTD3 cannot

@@ -38,6 +38,19 @@ pub struct Args {
     /// `--port` is given; $LMHOST_PORT alone does not enable streaming).
     #[command(flatten)]
     port: PortArgs,
+    // Sources, tracking, output and gating (a group of their own so they
+    // become the library's options in one move).
+    #[command(flatten)]
+    track: TrackFlags,
+    /// With --port: the stimulus played while tracking (see below).
+    #[command(flatten)]
+    stimulus: StimulusFlags,
+}
+
+/// `lmhost track`'s own flags: the library's [`Options`] but for the
+/// device, which `--port` decides.
+#[derive(Debug, clap::Args)]
+struct TrackFlags {
     /// Recorded depth frames: `.npy`, uint16, (frames, height, width).
     #[arg(long, value_name = "FILE.npy")]
     depth: Option<PathBuf>,
@@ -118,9 +131,36 @@ pub struct Args {
     /// Consecutive frames without one that close it.
     #[arg(long, value_name = "N", default_value_t = 2)]
     leave_frames: u32,
-    /// With --port: the stimulus played while tracking (see below).
-    #[command(flatten)]
-    stimulus: StimulusFlags,
+}
+
+impl TrackFlags {
+    /// The library's options; `device`: a device is streamed to.
+    fn options(self, device: bool) -> Options {
+        Options {
+            scene: self.scene,
+            depth: self.depth,
+            timestamps: self.timestamps,
+            intrinsics: self.intrinsics,
+            synthetic: self.synthetic,
+            seconds: self.seconds,
+            noise_mm: self.noise_mm,
+            holes: self.holes,
+            camera: self.camera,
+            stream: self.stream,
+            record: self.record,
+            fast: self.fast,
+            json: self.json,
+            plot: self.plot,
+            plot_frame: self.plot_frame,
+            filter: self.filter,
+            z_profile: self.z_profile,
+            replan_mm: self.replan_mm,
+            replan: self.replan,
+            enter_frames: self.enter_frames,
+            leave_frames: self.leave_frames,
+            device,
+        }
+    }
 }
 
 impl Args {
@@ -128,29 +168,10 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let Args {
             port,
-            depth,
-            timestamps,
-            intrinsics,
-            scene,
-            synthetic,
-            seconds,
-            noise_mm,
-            holes,
-            camera,
-            stream,
-            record,
-            fast,
-            json,
-            plot,
-            plot_frame,
-            filter,
-            z_profile,
-            replan_mm,
-            replan,
-            enter_frames,
-            leave_frames,
+            track,
             stimulus,
         } = self;
+        let (replan, json) = (track.replan, track.json);
         let given = stimulus.given();
         if let (Some(f), None) = (given.first(), &port.port) {
             lmhost::bad_input!(
@@ -167,31 +188,8 @@ impl Args {
                 );
             }
         }
-        let plan_args = stimulus.plan_args(scene.clone())?;
-        let session = TrackRun::open(Options {
-            scene,
-            depth,
-            timestamps,
-            intrinsics,
-            synthetic,
-            seconds,
-            noise_mm,
-            holes,
-            camera,
-            stream,
-            record,
-            fast,
-            json,
-            plot,
-            plot_frame,
-            filter,
-            z_profile,
-            replan_mm,
-            replan,
-            enter_frames,
-            leave_frames,
-            device: port.port.is_some(),
-        })?;
+        let plan_args = stimulus.plan_args(track.scene.clone())?;
+        let session = TrackRun::open(track.options(port.port.is_some()))?;
         let mut print = |line: &str| lmhost::outln!("{line}");
         let report = if port.port.is_some() {
             let target = port.spec().device()?.target();

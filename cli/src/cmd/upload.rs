@@ -134,6 +134,24 @@ fn freq_given() -> bool {
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
      with no gating or correction, while lmhost holds it";
 
+/// Holds the link to `dev` (named `what`) for `d` or until Ctrl-C or
+/// SIGTERM, saying so on stderr first.
+pub fn hold_saying(
+    dev: &mut dyn lmhost::device::backend::Backend,
+    what: &str,
+    d: Option<std::time::Duration>,
+) -> anyhow::Result<()> {
+    lmhost::errln!(
+        "holding {what} {}; the array is left silent on exit",
+        match d {
+            Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
+            None => "until Ctrl-C or SIGTERM".into(),
+        }
+    );
+    lmhost::device::connect::hold(dev, d)?;
+    Ok(())
+}
+
 /// What a `Play` did, from the status right after it.
 pub fn play_outcome(slot: u8, status: &Status) -> String {
     if status.queued_slot == Some(slot) {
@@ -234,14 +252,7 @@ impl Args {
                  (`lmhost stream --port {port}` uploads, plays and streams)"
             ),
             Some(d) => {
-                lmhost::errln!(
-                    "holding {port} {}; the array is left silent on exit",
-                    match d {
-                        Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
-                        None => "until Ctrl-C or SIGTERM".into(),
-                    }
-                );
-                lmhost::device::connect::hold(dev.as_mut(), d)?;
+                hold_saying(dev.as_mut(), &port, d)?;
                 if self.json {
                     // What played, before the stop silences it: one line.
                     let status = dev.status()?;
@@ -349,24 +360,14 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lm_proto::MuteReason;
 
     fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
         Status {
             state,
             slot,
-            step: 0,
-            cycles: 0,
-            missed_deadlines: 0,
-            last_centroid_seq: 0,
-            bad_frames: 0,
-            crc_errors: 0,
-            nacks: 0,
-            correction_um: [0; 3],
             queued_slot: queued,
-            mute_reason: MuteReason::None,
             lease_ms: 1000,
-            lease_expiries: 0,
+            ..Status::default()
         }
     }
 

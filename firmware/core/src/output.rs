@@ -255,53 +255,7 @@ impl<const N: usize> OutputDriver for RecordingDriver<N> {
 
 #[cfg(test)]
 mod tests {
-    extern crate std;
     use super::*;
-    use std::vec::Vec;
-
-    /// An SPI device that records each transaction's written bytes.
-    #[derive(Default)]
-    struct FakeSpi {
-        transactions: Vec<Vec<u8>>,
-    }
-
-    impl embedded_hal::spi::ErrorType for FakeSpi {
-        type Error = core::convert::Infallible;
-    }
-
-    impl SpiDevice for FakeSpi {
-        fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), Self::Error> {
-            let mut bytes = Vec::new();
-            for op in ops.iter() {
-                if let Operation::Write(w) = op {
-                    bytes.extend_from_slice(w);
-                }
-            }
-            self.transactions.push(bytes);
-            Ok(())
-        }
-    }
-
-    #[test]
-    fn spi_frame_is_one_transaction_with_header_and_phases() {
-        let mut out = SpiOutput::new(FakeSpi::default());
-        let phases = [10u8, 20, 30];
-        let f = OutputFrame {
-            due: 5,
-            slot: 1,
-            step: 0x0102,
-            amplitude: 0,
-            intensity: 128,
-            phases: &phases,
-        };
-        out.write_frame(&f).unwrap();
-        let spi = out.release();
-        assert_eq!(spi.transactions.len(), 1);
-        assert_eq!(
-            spi.transactions[0],
-            [0xA5, 0, 128, 0x02, 0x01, 3, 0, 10, 20, 30]
-        );
-    }
 
     #[test]
     fn loopback_passes_through_a_jumper_and_names_the_first_bad_byte() {

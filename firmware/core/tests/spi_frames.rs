@@ -18,8 +18,8 @@ mod common;
 
 use common::*;
 use embedded_hal::spi::{Operation, SpiDevice};
-use lm_fw_core::SpiOutput;
 use lm_fw_core::output::{SPI_FRAME_MAGIC, SPI_HEADER_LEN};
+use lm_fw_core::{OutputDriver, OutputFrame, SpiOutput};
 use lm_proto::codec::Encoding;
 use lm_proto::{Message, PlayAt};
 
@@ -51,6 +51,29 @@ impl SpiDevice for Wire {
         self.transactions.push(bytes);
         Ok(())
     }
+}
+
+/// One frame is one transaction: magic, amplitude, intensity, step
+/// (LE), phase count (LE), phases.
+#[test]
+fn spi_frame_is_one_transaction_with_header_and_phases() {
+    let mut out = SpiOutput::new(Wire::default());
+    let phases = [10u8, 20, 30];
+    let f = OutputFrame {
+        due: 5,
+        slot: 1,
+        step: 0x0102,
+        amplitude: 0,
+        intensity: 128,
+        phases: &phases,
+    };
+    out.write_frame(&f).unwrap();
+    let spi = out.release();
+    assert_eq!(spi.transactions.len(), 1);
+    assert_eq!(
+        spi.transactions[0],
+        [0xA5, 0, 128, 0x02, 0x01, 3, 0, 10, 20, 30]
+    );
 }
 
 /// Uploads the fixture, plays it for `cycles` cycles through [`SpiOutput`]

@@ -402,22 +402,7 @@ pub fn check_slot(slot: u8, info: &Info) -> std::result::Result<(), InputError> 
 mod tests {
     use super::*;
 
-    fn info(slots: u8) -> Info {
-        Info {
-            proto_version: lm_proto::PROTOCOL_VERSION,
-            fw_version: [0, 1, 0],
-            max_transducers: 996,
-            slot_bytes: 200 * 996,
-            slots,
-            timer_hz: 1_000_000,
-            min_dwell_us: 1000,
-            max_chunk: 1024,
-            rig_transducers: 0,
-            rig_crc32: 0,
-            library_free: 200 * 996,
-            clock: lm_proto::ClockSource::Emulated,
-        }
-    }
+    use crate::device::link::client::tests::info;
 
     fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
         Status {

@@ -228,18 +228,17 @@ pub(crate) fn fixtures(dir: &Path) {
     );
     // A depth recording with its intrinsics and time stamps beside it.
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
-    let out = Command::new(lmhost())
-        .args(["track", "--synthetic", "--seconds", "0.3", "--scene"])
-        .arg(&scene)
-        .arg("--record")
-        .arg(d.join("rec.npy"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let rec = d.join("rec.npy");
+    ok(&[
+        "track",
+        "--synthetic",
+        "--seconds",
+        "0.3",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
     for f in [
         "rec.npy",
         "rec.intrinsics.toml",

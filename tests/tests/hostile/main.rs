@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use link_support::{Sim, lmhost};
+use link_support::{Sim, lmhost, ok};
 
 /// Longest any case may run before it counts as a hang.
 const TIME_LIMIT: Duration = Duration::from_secs(20);
@@ -634,15 +634,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         view_port: free_port(),
         sess: sess.port.clone(),
     };
-    let up = Command::new(lmhost())
-        .args(["upload", "--port", &ctx.port, "--hold", "0.05"])
-        .output()
-        .unwrap();
-    assert!(
-        up.status.success(),
-        "{}",
-        String::from_utf8_lossy(&up.stderr)
-    );
+    ok(&["upload", "--port", &ctx.port, "--hold", "0.05"]);
 
     let mut all = cases();
     all.extend(study_cases());

@@ -85,6 +85,14 @@ pub fn success_json(out: &Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("JSON on stdout")
 }
 
+/// `lmhost stream --port <port> <args…> --json`, its report parsed.
+pub fn stream_json(port: &str, args: &[&str]) -> serde_json::Value {
+    let mut all = vec!["stream", "--port", port];
+    all.extend_from_slice(args);
+    all.push("--json");
+    json(&all)
+}
+
 /// `lmhost upload --port <port> <extra…> --json`, its report parsed. What
 /// it plays lasts only while lmhost holds it: unless `extra` says
 /// `--no-play` or `--hold`, it holds for [`BRIEF_HOLD`] and stops (its
@@ -220,6 +228,17 @@ impl Sim {
         let port = line.trim().to_owned();
         assert!(port.starts_with("/dev/"), "sim printed {line:?}");
         Sim { child, port }
+    }
+
+    /// Start `lmhost sim` with the default upload (planned with
+    /// `upload_extra…`) played briefly into slot 0, for what plays it again.
+    pub fn uploaded(upload_extra: &[&str]) -> Sim {
+        let sim = Sim::start(&[]);
+        let mut args = vec!["upload", "--port", sim.port.as_str()];
+        args.extend_from_slice(upload_extra);
+        args.extend_from_slice(&["--hold", BRIEF_HOLD]);
+        ok(&args);
+        sim
     }
 }
 

@@ -26,6 +26,16 @@ pub fn qemu_installed() -> bool {
         .is_ok_and(|s| s.success())
 }
 
+/// True where `qemu-system-arm` is missing, saying so: the test is
+/// skipped.
+pub fn skip_without_qemu() -> bool {
+    if qemu_installed() {
+        return false;
+    }
+    println!("SKIPPED: qemu-system-arm is not installed (`cargo xtask ci` installs it)");
+    true
+}
+
 /// The firmware ELF: from xtask, or built here into our own target dir.
 pub fn firmware_elf() -> PathBuf {
     if let Some(p) = std::env::var_os("LM_FW_QEMU_ELF") {
@@ -156,6 +166,14 @@ impl Drop for Qemu {
             eprintln!("{}", self.output());
         }
     }
+}
+
+/// The firmware `elf` under QEMU on a free port (not waiting for a
+/// client), and the port that reaches it.
+pub fn serving(elf: &Path) -> std::io::Result<(Qemu, lmhost::device::link::PortSpec)> {
+    let port = free_port();
+    let q = Qemu::spawn(qemu_command(elf, port, false), port)?;
+    Ok((q, port_spec(port)))
 }
 
 /// `connect` retried for 20 s while QEMU starts listening.

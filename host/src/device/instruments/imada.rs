@@ -1,5 +1,5 @@
 //! IMADA digital force gauges (ZTS, ZTA; the DS2 and DST/DPS commands they
-//! share) over RS-232 or their USB virtual COM port, as a [`ForceGauge`].
+//! share) over RS-232 or their USB virtual COM port, as a [`ForceGauge`](super::ForceGauge).
 //!
 //! Request `D` CR ("transmit the displayed value"); the reply is one line
 //! ended by CR: a sign, the value with its decimal point, a unit letter
@@ -24,10 +24,8 @@
 use std::time::Duration;
 
 use super::error::{InstrumentError, quote};
-use super::gauge::{ForceGauge, Reading};
-use super::port::{LineIo, Port, open_serial};
+use super::serial_gauge::{Dialect, SerialGauge};
 use super::unit::ForceUnit;
-use crate::clock::Clock;
 
 /// The ZTS/ZTA factory baud rate.
 pub const IMADA_BAUD: u32 = 19_200;
@@ -92,52 +90,21 @@ pub fn parse_reply(line: &str) -> Option<ImadaReply> {
     })
 }
 
-/// An IMADA gauge.
-pub struct Imada<P> {
-    io: LineIo<P>,
-}
+/// An IMADA gauge over port `P` ([`SerialGauge::open`] it at [`IMADA_BAUD`]
+/// unless the gauge was set otherwise).
+pub type Imada<P> = SerialGauge<P, ImadaDialect>;
 
-impl Imada<Box<dyn serialport::SerialPort>> {
-    /// Open the gauge at serial port `path` (`baud`: [`IMADA_BAUD`] unless
-    /// the gauge was set otherwise) and take one reading to check it
-    /// answers.
-    pub fn open(path: &str, baud: u32) -> Result<Self, InstrumentError> {
-        let port = open_serial(path, baud)?;
-        Self::connect(port, path, Clock::real(), IMADA_REPLY_TIMEOUT)
-    }
-}
+/// IMADA's `D` request and its reply.
+pub struct ImadaDialect;
 
-impl<P: Port> Imada<P> {
-    /// The gauge over `port`, checked with one reading.
-    pub fn connect(
-        port: P,
-        name: &str,
-        clock: Clock,
-        reply_timeout: Duration,
-    ) -> Result<Self, InstrumentError> {
-        let mut g = Self {
-            io: LineIo::new(port, name, clock, reply_timeout),
-        };
-        g.read()?;
-        Ok(g)
-    }
-}
+impl Dialect for ImadaDialect {
+    const REQUEST: &'static str = "D";
+    const REPLY_TIMEOUT: Duration = IMADA_REPLY_TIMEOUT;
 
-impl<P: Port> ForceGauge for Imada<P> {
-    fn port(&self) -> &str {
-        self.io.name()
-    }
-
-    fn clock(&self) -> &Clock {
-        self.io.clock()
-    }
-
-    fn read(&mut self) -> Result<Reading, InstrumentError> {
-        let line = self.io.ask("D", "\r")?;
-        let at_us = self.io.clock().now_us();
-        let r = parse_reply(&line).ok_or_else(|| {
+    fn reading(port: &str, line: &str) -> Result<(f64, ForceUnit), InstrumentError> {
+        let r = parse_reply(line).ok_or_else(|| {
             InstrumentError::protocol(
-                self.io.name(),
+                port,
                 format!(
                     "reply to D is not sign, value, unit N/K/O (mode, judgement): {}",
                     quote(line.as_bytes())
@@ -146,22 +113,17 @@ impl<P: Port> ForceGauge for Imada<P> {
         })?;
         if r.judgement == Some(b'E') {
             return Err(InstrumentError::refused(
-                self.io.name(),
+                port,
                 format!("gauge reports an overload ({line}); unload it"),
             ));
         }
         if r.mode == Some(b'P') {
             return Err(InstrumentError::refused(
-                self.io.name(),
+                port,
                 format!("gauge is in peak mode ({line}); set it to real time (T)"),
             ));
         }
-        Ok(Reading {
-            at_us,
-            force_n: r.unit.to_newtons(r.value),
-            value: r.value,
-            unit: r.unit,
-        })
+        Ok((r.value, r.unit))
     }
 }
 

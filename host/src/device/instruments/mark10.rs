@@ -1,5 +1,5 @@
 //! Mark-10 digital force gauges (Series 5, Series 7; Series 4 answers the
-//! same request) over RS-232 or USB, as a [`ForceGauge`].
+//! same request) over RS-232 or USB, as a [`ForceGauge`](super::ForceGauge).
 //!
 //! Request `?` CR ("request the displayed reading", Gauge Control
 //! Language 2); the reply is the value, a space and the unit, ended by
@@ -20,10 +20,8 @@
 use std::time::Duration;
 
 use super::error::{InstrumentError, quote};
-use super::gauge::{ForceGauge, Reading};
-use super::port::{LineIo, Port, open_serial};
+use super::serial_gauge::{Dialect, SerialGauge};
 use super::unit::ForceUnit;
-use crate::clock::Clock;
 
 /// The Series 5 factory baud rate.
 pub const MARK10_BAUD: u32 = 115_200;
@@ -77,57 +75,20 @@ pub fn parse_reply(line: &str) -> Option<Mark10Reply> {
     })
 }
 
-/// A Mark-10 gauge.
-pub struct Mark10<P> {
-    io: LineIo<P>,
-}
+/// A Mark-10 gauge over port `P` ([`SerialGauge::open`] it at the baud set
+/// on the gauge, [`MARK10_BAUD`] from the factory).
+pub type Mark10<P> = SerialGauge<P, Mark10Dialect>;
 
-impl Mark10<Box<dyn serialport::SerialPort>> {
-    /// Open the gauge at serial port `path` (`baud` as set on the gauge,
-    /// [`MARK10_BAUD`] from the factory) and take one reading to check it
-    /// answers.
-    pub fn open(path: &str, baud: u32) -> Result<Self, InstrumentError> {
-        let port = open_serial(path, baud)?;
-        Self::connect(port, path, Clock::real(), MARK10_REPLY_TIMEOUT)
-    }
-}
+/// Mark-10's `?` request and its reply.
+pub struct Mark10Dialect;
 
-impl<P: Port> Mark10<P> {
-    /// The gauge over `port`, checked with one reading.
-    pub fn connect(
-        port: P,
-        name: &str,
-        clock: Clock,
-        reply_timeout: Duration,
-    ) -> Result<Self, InstrumentError> {
-        let mut g = Self {
-            io: LineIo::new(port, name, clock, reply_timeout),
-        };
-        g.read()?;
-        Ok(g)
-    }
-}
+impl Dialect for Mark10Dialect {
+    const REQUEST: &'static str = "?";
+    const REPLY_TIMEOUT: Duration = MARK10_REPLY_TIMEOUT;
 
-impl<P: Port> ForceGauge for Mark10<P> {
-    fn port(&self) -> &str {
-        self.io.name()
-    }
-
-    fn clock(&self) -> &Clock {
-        self.io.clock()
-    }
-
-    fn read(&mut self) -> Result<Reading, InstrumentError> {
-        let line = self.io.ask("?", "\r")?;
-        let at_us = self.io.clock().now_us();
-        let name = self.io.name();
-        match parse_reply(&line) {
-            Some(Mark10Reply::Value(value, unit)) => Ok(Reading {
-                at_us,
-                force_n: unit.to_newtons(value),
-                value,
-                unit,
-            }),
+    fn reading(name: &str, line: &str) -> Result<(f64, ForceUnit), InstrumentError> {
+        match parse_reply(line) {
+            Some(Mark10Reply::Value(value, unit)) => Ok((value, unit)),
             Some(Mark10Reply::NoUnit(_)) => Err(InstrumentError::protocol(
                 name,
                 format!(

@@ -32,6 +32,7 @@ pub mod mark10;
 pub mod open;
 pub mod port;
 pub mod press;
+pub mod serial_gauge;
 pub mod sim_gauge;
 pub mod sim_stage;
 pub mod stage;

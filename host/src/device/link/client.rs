@@ -654,4 +654,4 @@ impl<T: Transport> Client<T> {
 
 #[cfg(test)]
 #[path = "client_tests.rs"]
-mod tests;
+pub(crate) mod tests;

@@ -1,12 +1,14 @@
 use super::*;
 
-fn info() -> Info {
+/// The `Info` of a simulated-device-like firmware with `slots` slots
+/// (also for the backend's tests).
+pub(crate) fn info(slots: u8) -> Info {
     Info {
         proto_version: lm_proto::PROTOCOL_VERSION,
         fw_version: [0, 1, 0],
         max_transducers: 996,
         slot_bytes: 200 * 996,
-        slots: 2,
+        slots,
         timer_hz: 1_000_000,
         min_dwell_us: 1000,
         max_chunk: 1024,
@@ -26,14 +28,14 @@ fn spec_carries_the_bytes_sequence_encode_made_and_the_device_check() {
     assert_eq!(spec.header, plan.sequence.header);
     let b = spec.begin(1);
     assert_eq!((b.slot, b.encoded_len as usize), (1, spec.encoded.len()));
-    assert_eq!(spec.check_fits(&info(), 1), Ok(()));
+    assert_eq!(spec.check_fits(&info(2), 1), Ok(()));
     assert_eq!(
-        spec.check_fits(&info(), 2).map_err(|e| e.nack()),
+        spec.check_fits(&info(2), 2).map_err(|e| e.nack()),
         Err(NackCode::BadSlot)
     );
     let small = Info {
         slot_bytes: 10 * 996,
-        ..info()
+        ..info(2)
     };
     assert_eq!(
         spec.check_fits(&small, 0).map_err(|e| e.nack()),
@@ -41,7 +43,7 @@ fn spec_carries_the_bytes_sequence_encode_made_and_the_device_check() {
     );
     let slow = Info {
         min_dwell_us: 5000,
-        ..info()
+        ..info(2)
     };
     let e = spec.check_fits(&slow, 0).unwrap_err();
     assert_eq!(e.nack(), NackCode::DwellTooShort);

@@ -90,27 +90,32 @@ type Halves = (
     Box<dyn Fn() + Send>,
 );
 
-fn unix_halves(s: std::os::unix::net::UnixStream) -> std::io::Result<Halves> {
-    let (r, w) = (s.try_clone()?, s.try_clone()?);
+/// A stream's reader and writer (two clones of it) and what shuts it
+/// down: alike for both kinds of connection.
+fn halves<S: std::io::Read + std::io::Write + Send + 'static>(
+    s: S,
+    try_clone: fn(&S) -> std::io::Result<S>,
+    shutdown: fn(&S, std::net::Shutdown) -> std::io::Result<()>,
+) -> std::io::Result<Halves> {
+    let (r, w) = (try_clone(&s)?, try_clone(&s)?);
     Ok((
         Box::new(r),
         Box::new(w),
         Box::new(move || {
-            let _ = s.shutdown(std::net::Shutdown::Both);
+            let _ = shutdown(&s, std::net::Shutdown::Both);
         }),
     ))
 }
 
+fn unix_halves(s: std::os::unix::net::UnixStream) -> std::io::Result<Halves> {
+    use std::os::unix::net::UnixStream;
+    halves(s, UnixStream::try_clone, UnixStream::shutdown)
+}
+
 fn tcp_halves(s: std::net::TcpStream) -> std::io::Result<Halves> {
+    use std::net::TcpStream;
     s.set_nodelay(true)?;
-    let (r, w) = (s.try_clone()?, s.try_clone()?);
-    Ok((
-        Box::new(r),
-        Box::new(w),
-        Box::new(move || {
-            let _ = s.shutdown(std::net::Shutdown::Both);
-        }),
-    ))
+    halves(s, TcpStream::try_clone, TcpStream::shutdown)
 }
 
 /// What the acceptors share.

@@ -39,14 +39,7 @@ pub struct Friedman {
 /// with any missing (NaN) value is left out.
 pub fn friedman(samples: &[&[f64]]) -> Result<Friedman, StatsError> {
     let k = samples.len();
-    if k < 3 {
-        return Err(StatsError::TooFew {
-            test: "Friedman",
-            what: "conditions",
-            needed: 3,
-            got: k,
-        });
-    }
+    StatsError::at_least("Friedman", "conditions", 3, k)?;
     let blocks = samples[0].len();
     for s in samples {
         if s.len() != blocks {
@@ -63,14 +56,7 @@ pub fn friedman(samples: &[&[f64]]) -> Result<Friedman, StatsError> {
         .filter(|&i| samples.iter().all(|s| !s[i].is_nan()))
         .collect();
     let n = complete.len();
-    if n == 0 {
-        return Err(StatsError::TooFew {
-            test: "Friedman",
-            what: "complete blocks",
-            needed: 1,
-            got: 0,
-        });
-    }
+    StatsError::at_least("Friedman", "complete blocks", 1, n)?;
     let mut rank_sums = vec![0.0; k];
     let mut ties = 0.0;
     let mut row = vec![0.0; k];

@@ -147,6 +147,27 @@ pub enum StatsError {
     OutOfRange(&'static str),
 }
 
+impl StatsError {
+    /// [`StatsError::TooFew`] unless `test` has at least `needed` of
+    /// `what` (it has `got`).
+    pub(crate) fn at_least(
+        test: &'static str,
+        what: &'static str,
+        needed: usize,
+        got: usize,
+    ) -> Result<(), StatsError> {
+        if got < needed {
+            return Err(StatsError::TooFew {
+                test,
+                what,
+                needed,
+                got,
+            });
+        }
+        Ok(())
+    }
+}
+
 /// Bonferroni's correction of one of `m` p-values: p × m, at most 1.
 /// NaN stays NaN; `m` = 0 is taken as 1.
 pub fn bonferroni(p: f64, m: usize) -> f64 {

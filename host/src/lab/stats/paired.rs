@@ -46,14 +46,7 @@ pub fn paired_t(x: &[f64], y: &[f64], alpha: f64) -> Result<PairedT, StatsError>
     check_alpha(alpha)?;
     let pairs = present_pairs(x, y)?;
     let n = pairs.len();
-    if n < 2 {
-        return Err(StatsError::TooFew {
-            test: "the paired t-test",
-            what: "pairs",
-            needed: 2,
-            got: n,
-        });
-    }
+    StatsError::at_least("the paired t-test", "pairs", 2, n)?;
     let d: Vec<f64> = pairs.iter().map(|(a, b)| a - b).collect();
     let nf = n as f64;
     let mean = d.iter().sum::<f64>() / nf;
@@ -88,14 +81,7 @@ fn check_alpha(alpha: f64) -> Result<(), StatsError> {
 /// docs for the formula).
 pub fn paired_t_power(d_z: f64, n: usize, alpha: f64) -> Result<f64, StatsError> {
     check_alpha(alpha)?;
-    if n < 2 {
-        return Err(StatsError::TooFew {
-            test: "the paired t-test",
-            what: "pairs",
-            needed: 2,
-            got: n,
-        });
-    }
+    StatsError::at_least("the paired t-test", "pairs", 2, n)?;
     if !d_z.is_finite() {
         return Err(StatsError::NotFinite);
     }

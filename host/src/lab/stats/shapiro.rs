@@ -39,14 +39,7 @@ pub fn shapiro_wilk(x: &[f64]) -> Result<ShapiroWilk, StatsError> {
     let kept = present(x)?;
     let n = kept.len();
     let excluded = x.len() - n;
-    if n < 3 {
-        return Err(StatsError::TooFew {
-            test: "Shapiro-Wilk",
-            what: "values",
-            needed: 3,
-            got: n,
-        });
-    }
+    StatsError::at_least("Shapiro-Wilk", "values", 3, n)?;
     if n > MAX_N {
         return Err(StatsError::TooMany {
             test: "Shapiro-Wilk",

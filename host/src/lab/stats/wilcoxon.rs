@@ -68,14 +68,7 @@ pub fn wilcoxon(x: &[f64], y: &[f64]) -> Result<Wilcoxon, StatsError> {
     let pairs = present_pairs(x, y)?;
     let n = pairs.len();
     let excluded = x.len() - n;
-    if n == 0 {
-        return Err(StatsError::TooFew {
-            test: "Wilcoxon",
-            what: "pairs",
-            needed: 1,
-            got: 0,
-        });
-    }
+    StatsError::at_least("Wilcoxon", "pairs", 1, n)?;
     let d: Vec<f64> = pairs
         .iter()
         .map(|(a, b)| a - b)

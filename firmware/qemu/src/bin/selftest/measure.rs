@@ -82,6 +82,29 @@ pub fn timer_counts_instructions(c: &mut Ctx, _: &mut [u8]) -> TestResult {
     Ok(())
 }
 
+/// Polls `dev` from `t0` into `out` for `frames` more frames, each poll
+/// given exactly its step's deadline (one frame per call); the total and
+/// the worst timer counts one of those polls took.
+fn timed_polls(
+    c: &Ctx,
+    dev: &mut Device<'_>,
+    t0: u64,
+    frames: u32,
+    out: &mut impl OutputDriver,
+) -> (u32, u32) {
+    let mut deadline = dev.poll(t0, out);
+    let (mut total, mut worst) = (0u32, 0u32);
+    for _ in 0..frames {
+        let Some(d) = deadline else { break };
+        let a = c.timer.now();
+        deadline = dev.poll(d, out);
+        let took = c.timer.now().wrapping_sub(a);
+        total += took;
+        worst = worst.max(took);
+    }
+    (total, worst)
+}
+
 pub fn measure_step_cost(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
     // 200 steps × 996 transducers, 200 ms cycle (1 ms dwell), correction on.
     let mut dev = device(mem);
@@ -96,17 +119,8 @@ pub fn measure_step_cost(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
         "correction offsets are all zero"
     );
     let mut out = FrameCounter::default();
-    // Each poll is given exactly its step's deadline: one frame per call.
-    let mut deadline = dev.poll(t0, &mut out);
-    let (mut total, mut worst, frames) = (0u32, 0u32, 200u32);
-    for _ in 0..frames {
-        let Some(d) = deadline else { break };
-        let a = c.timer.now();
-        deadline = dev.poll(d, &mut out);
-        let b = c.timer.now();
-        total += b.wrapping_sub(a);
-        worst = worst.max(b.wrapping_sub(a));
-    }
+    let frames = 200u32;
+    let (total, worst) = timed_polls(c, &mut dev, t0, frames, &mut out);
     check!(
         out.frames == frames + 1,
         "{} frames for {} polls",
@@ -328,16 +342,8 @@ pub fn measure_raw_vs_delta_step(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
         let t0 = c.now();
         check!(dev.handle(&play, t0) == Message::Ack);
         let mut out = FrameCounter::default();
-        let mut deadline = dev.poll(t0, &mut out);
-        let (mut total, mut worst, frames) = (0u32, 0u32, 2 * STEPS as u32);
-        for _ in 0..frames {
-            let Some(d) = deadline else { break };
-            let a = c.timer.now();
-            deadline = dev.poll(d, &mut out);
-            let b = c.timer.now();
-            total += b.wrapping_sub(a);
-            worst = worst.max(b.wrapping_sub(a));
-        }
+        let frames = 2 * STEPS as u32;
+        let (total, worst) = timed_polls(c, &mut dev, t0, frames, &mut out);
         check!(out.frames == frames + 1, "{} frames", out.frames);
         check!(out.muted == 0 && out.last_intensity == 255);
         figures[usize::from(slot)] = (total * INSTR_PER_COUNT / frames, worst * INSTR_PER_COUNT);

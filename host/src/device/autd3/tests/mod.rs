@@ -57,6 +57,26 @@ fn upload_lm_s(b: &mut Autd3Backend, scene: &Scene) -> (Plan, u8) {
     (plan, slot)
 }
 
+/// The default stimulus at half intensity, planned for an AUTD3 rig of
+/// `scene`.
+fn half_intensity(scene: &Scene) -> Plan {
+    crate::plan::stimulus::Stimulus {
+        intensity: 0.5,
+        ..crate::plan::stimulus::Stimulus::default()
+    }
+    .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
+    .unwrap()
+    .plan
+}
+
+/// Asserts the backend's status says `state` for `reason`; returns it.
+#[track_caller]
+fn assert_state(b: &mut Autd3Backend, state: DeviceState, reason: MuteReason) -> lm_proto::Status {
+    let st = b.status().unwrap();
+    assert_eq!((st.state, st.mute_reason), (state, reason), "{st:?}");
+    st
+}
+
 fn is_input_error(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.is::<InputError>())
 }
@@ -434,11 +454,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
         b.centroid(&at(1, 1000, true)).unwrap(),
         CentroidOutcome::Applied
     );
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Playing, MuteReason::None)
-    );
+    let st = assert_state(&mut b, DeviceState::Playing, MuteReason::None);
     assert_eq!(st.correction_um, [1000, 0, 0]);
     assert_eq!(st.last_centroid_seq, 1);
     assert_eq!(modulation(&h), safety::FULL);
@@ -459,11 +475,7 @@ fn status_reports_the_firmwares_mute_reasons_and_refuses_out_of_range() {
     b.centroid(&at(4, 0, false)).unwrap();
     assert_eq!(b.status().unwrap().mute_reason, MuteReason::FingerAbsent);
     b.stop().unwrap();
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Stopped, MuteReason::Stopped)
-    );
+    assert_state(&mut b, DeviceState::Stopped, MuteReason::Stopped);
 }
 
 /// Issue 10: a live source that goes silent without ending (a tracker
@@ -544,13 +556,7 @@ fn streaming_mutes_when_a_live_source_goes_silent() {
 #[test]
 fn a_stimulus_intensity_is_the_output_level_while_it_sounds() {
     let (scene, mut b, h, _clock) = open_default();
-    let half = crate::plan::stimulus::Stimulus {
-        intensity: 0.5,
-        ..crate::plan::stimulus::Stimulus::default()
-    }
-    .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
-    .unwrap()
-    .plan;
+    let half = half_intensity(&scene);
     assert_eq!(half.sequence.header.intensity, 128);
     let slot = b.upload(&half, None).unwrap().slot;
     b.play(slot, true).unwrap();

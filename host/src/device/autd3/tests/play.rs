@@ -281,13 +281,7 @@ fn the_array_falls_silent_within_the_lease_once_the_host_is_gone() {
 #[test]
 fn renewals_keep_the_output_level_without_a_gap() {
     let (scene, mut b, h, clock) = open_default();
-    let half = crate::plan::stimulus::Stimulus {
-        intensity: 0.5,
-        ..crate::plan::stimulus::Stimulus::default()
-    }
-    .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
-    .unwrap()
-    .plan;
+    let half = half_intensity(&scene);
     let slot = b.upload(&half, None).unwrap().slot;
     b.play(slot, true).unwrap();
     let mods = |h: &EmulatorHandle| h.with_cpus(|c| c.iter().map(|c| c.fpga().modulation()).min());
@@ -299,11 +293,7 @@ fn renewals_keep_the_output_level_without_a_gap() {
         clock.advance(Duration::from_millis(1));
     }
     // Five leases, renewed at each half: the segments swapped about ten times.
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Playing, MuteReason::None)
-    );
+    assert_state(&mut b, DeviceState::Playing, MuteReason::None);
 }
 
 /// A host that comes back after its lease ran out finds the play over,
@@ -315,11 +305,7 @@ fn a_lapsed_lease_ends_the_play() {
     b.play(slot, true).unwrap();
     clock.advance(Duration::from_millis(1500));
     assert_eq!(output(&h), 0);
-    let st = b.status().unwrap();
-    assert_eq!(
-        (st.state, st.mute_reason),
-        (DeviceState::Stopped, MuteReason::Stopped)
-    );
+    assert_state(&mut b, DeviceState::Stopped, MuteReason::Stopped);
     assert_eq!(output(&h), 0);
     // A new play sounds again.
     b.play(slot, true).unwrap();

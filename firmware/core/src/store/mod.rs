@@ -52,6 +52,10 @@ use lm_proto::{
 
 use crate::MAX_TRANSDUCERS;
 
+mod cursor;
+
+use cursor::Cursor;
+
 /// Library entries (slot numbers `0..SLOTS`).
 pub const SLOTS: usize = 32;
 
@@ -139,6 +143,18 @@ struct Upload {
     failed: bool,
 }
 
+impl Upload {
+    /// The upload into `slot` (`NoUpload` if there is none, `BadStream` if
+    /// its stream failed).
+    fn live(upload: &mut Option<Upload>, slot: u8) -> Result<&mut Upload, NackCode> {
+        match upload.as_mut() {
+            Some(u) if u.slot == slot && u.failed => Err(NackCode::BadStream),
+            Some(u) if u.slot == slot => Ok(u),
+            _ => Err(NackCode::NoUpload),
+        }
+    }
+}
+
 /// The rig: the positions table's state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Rig {
@@ -152,14 +168,6 @@ enum Rig {
         transducers: u16,
         crc: u32,
     },
-}
-
-/// Where the playing Delta entry's decoding stands.
-#[derive(Debug, Clone)]
-struct Cursor {
-    slot: Option<u8>,
-    dec: StepDecoder,
-    ring: [u8; RING],
 }
 
 /// Why the store could not be built.
@@ -227,11 +235,7 @@ impl<'m> Store<'m> {
             upload: None,
             rig: Rig::None,
             ring: [0; RING],
-            cursor: Cursor {
-                slot: None,
-                dec: StepDecoder::new(Encoding::Delta, 0, 0),
-                ring: [0; RING],
-            },
+            cursor: Cursor::new(),
             max_transducers,
         })
     }
@@ -295,29 +299,7 @@ impl<'m> Store<'m> {
             let start = usize::from(step) * t;
             return data.get(start..start + t);
         }
-        let c = &mut self.cursor;
-        if c.slot != Some(slot) {
-            c.slot = Some(slot);
-            c.dec = StepDecoder::new(Encoding::Delta, h.steps, h.transducers);
-        }
-        let done = c.dec.steps_done();
-        if step + 1 != done {
-            if step < done {
-                c.dec.restart();
-            }
-            let more = step + 1 - c.dec.steps_done();
-            let at = c.dec.consumed();
-            // The stream was checked at commit; an error cannot happen, and
-            // would only silence this step.
-            c.dec
-                .feed(data.get(at..)?, &mut c.ring, more, |_, _| {})
-                .ok()?;
-            if c.dec.steps_done() != step + 1 {
-                c.slot = None;
-                return None;
-            }
-        }
-        Some(StepDecoder::row(&c.ring, t, step))
+        self.cursor.step(slot, &h, data, step)
     }
 
     /// The rig's positions (packed `[i32; 3]` µm LE) for a committed slot
@@ -367,9 +349,7 @@ impl<'m> Store<'m> {
     /// Drops `slot`'s entry (and the play cursor on it).
     fn drop_entry(&mut self, slot: usize) {
         self.entries[slot] = EMPTY;
-        if self.cursor.slot == Some(slot as u8) {
-            self.cursor.slot = None;
-        }
+        self.cursor.forget(slot as u8);
     }
 
     /// Starts an upload (the caller has checked the slot is not playing
@@ -501,13 +481,7 @@ impl<'m> Store<'m> {
     /// same bytes is acknowledged without effect (see the module docs).
     pub fn chunk(&mut self, slot: u8, offset: u32, data: &[u8]) -> Result<(), NackCode> {
         let e = self.entries[usize::from(slot).min(SLOTS - 1)];
-        let up = match self.upload.as_mut() {
-            Some(u) if u.slot == slot => u,
-            _ => return Err(NackCode::NoUpload),
-        };
-        if up.failed {
-            return Err(NackCode::BadStream);
-        }
+        let up = Upload::live(&mut self.upload, slot)?;
         let len = data.len() as u32;
         let end = u64::from(offset) + u64::from(len);
         if end > u64::from(up.encoded_len) {
@@ -577,13 +551,7 @@ impl<'m> Store<'m> {
             return Ok(());
         }
         let e = self.entries[usize::from(slot).min(SLOTS - 1)];
-        let up = match self.upload.as_mut() {
-            Some(u) if u.slot == slot => u,
-            _ => return Err(NackCode::NoUpload),
-        };
-        if up.failed {
-            return Err(NackCode::BadStream);
-        }
+        let up = Upload::live(&mut self.upload, slot)?;
         let (consumed, finished) = match e.form {
             Form::Raw => (up.decoder.consumed(), up.decoder.finish()),
             Form::Delta => (up.check.consumed(), up.check.finish()),
@@ -705,5 +673,4 @@ impl<'m> Store<'m> {
 }
 
 #[cfg(test)]
-#[path = "store_tests.rs"]
 mod tests;
