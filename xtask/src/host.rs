@@ -75,7 +75,11 @@ pub fn build(c: &Ctx, log: &Log) -> Result<(), String> {
     )?;
     run(log, c.cargo(&["build", "-p", "lmhost-cli"]))?;
     let bin = c.lmhost_for_tests();
-    std::fs::copy(c.lmhost(), &bin)
+    // Through a new file and a rename: a running test may still execute
+    // the old binary (writing over it is "text file busy").
+    let tmp = bin.with_extension("new");
+    std::fs::copy(c.lmhost(), &tmp)
+        .and_then(|_| std::fs::rename(&tmp, &bin))
         .map_err(|e| format!("cannot copy the lmhost binary to {}: {e}", bin.display()))?;
     let bins = test_bins(&list)?;
     log.line(format!("{} test executables", bins.len()));
