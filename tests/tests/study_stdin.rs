@@ -4,7 +4,6 @@
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-#[allow(dead_code)]
 mod link_support;
 #[allow(dead_code)]
 mod study_support;
