@@ -304,3 +304,11 @@ impl Drop for FullDisk {
         let _ = Command::new("umount").arg(&self.0).status();
     }
 }
+
+/// A local TCP port nothing listens on now (the kernel's pick).
+pub(crate) fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free local TCP port")
+}

@@ -697,11 +697,3 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         failures.join("\n")
     );
 }
-
-/// A local TCP port nothing listens on now (the kernel's pick).
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free local TCP port")
-}

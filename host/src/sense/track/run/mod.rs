@@ -18,13 +18,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 
-use super::camera::CameraSetup;
 use super::contact::Tracker;
 use super::intrinsics::Intrinsics;
 use super::presence::Hysteresis;
-use super::source::{self, Frame, FrameSource, Recorder};
+use super::source::{Frame, FrameSource, Recorder};
 use super::surface::Replanner;
-use super::synth::{FingerSim, background_of};
 use super::{FrameResult, Pipeline};
 use crate::clock::percentile;
 use crate::device::backend::Backend;
@@ -36,6 +34,12 @@ use crate::plan::sequence::Plan;
 use crate::sense::stream::Sample;
 use crate::sense::stream::filter::{FilterKind, Passthrough};
 use crate::sense::stream::run::{Feed, Next, Pace, StreamReport, stream};
+
+mod replan;
+mod source_open;
+
+use replan::{DeviceReplan, parse_z_profile};
+use source_open::open_source;
 
 /// What a session tracks and how: the `lmhost track` flags as plain
 /// values (the error messages name those flags).
@@ -433,127 +437,6 @@ fn device_lines(r: &StreamReport, where_: &str, t: &Tally, filter: FilterKind) -
     ]
 }
 
-/// Parses `--z-profile RADIUS_MM,STEPS` and checks `--replan-mm`.
-fn parse_z_profile(spec: &str, replan_mm: f64) -> anyhow::Result<(f64, usize, Replanner)> {
-    let bad = || {
-        InputError::new(format!(
-            "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
-        ))
-    };
-    let (r, n) = spec.split_once(',').ok_or_else(bad)?;
-    let r: f64 = r.trim().parse().map_err(|_| bad())?;
-    let n: usize = n.trim().parse().map_err(|_| bad())?;
-    if !(r > 0.0 && r <= 20.0 && (1..=1000).contains(&n)) {
-        return Err(bad().into());
-    }
-    if !(replan_mm.is_finite() && replan_mm >= 0.0) {
-        crate::bad_input!("--replan-mm {} must be ≥ 0", replan_mm);
-    }
-    Ok((r, n, Replanner::new(replan_mm)))
-}
-
-/// The source `opts` name (exactly one) and the setup it is seen with.
-fn open_source(
-    opts: &Options,
-    scene: &Scene,
-) -> anyhow::Result<(Box<dyn FrameSource>, CameraSetup)> {
-    let picked = [
-        opts.depth.is_some(),
-        opts.synthetic,
-        opts.camera,
-        opts.stream.is_some(),
-    ]
-    .iter()
-    .filter(|b| **b)
-    .count();
-    if picked != 1 {
-        crate::bad_input!(
-            "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
-        );
-    }
-    for (flag, given) in [
-        ("--seconds", opts.seconds.is_some()),
-        ("--noise-mm", opts.noise_mm.is_some()),
-        ("--holes", opts.holes.is_some()),
-    ] {
-        if given && !opts.synthetic {
-            crate::bad_input!(
-                "{flag} applies to --synthetic only (it renders the synthetic finger)"
-            );
-        }
-    }
-    if opts.synthetic {
-        let seconds = opts.seconds.unwrap_or(6.0);
-        let noise_mm = opts.noise_mm.unwrap_or(0.5);
-        let holes = opts.holes.unwrap_or(0.02);
-        if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
-            crate::bad_input!("--seconds {} must be in (0, 3600]", show(seconds));
-        }
-        if !(noise_mm.is_finite() && (0.0..=50.0).contains(&noise_mm)) {
-            crate::bad_input!("--noise-mm {} must be in [0, 50]", show(noise_mm));
-        }
-        if !(holes.is_finite() && (0.0..=1.0).contains(&holes)) {
-            crate::bad_input!("--holes {} must be in [0, 1]", show(holes));
-        }
-        let intr = match &opts.intrinsics {
-            Some(p) => Intrinsics::load(p)?,
-            None => Intrinsics::D435_848X480,
-        };
-        let setup = CameraSetup::of_scene_or_default(scene);
-        let mut sim = FingerSim::new(setup, intr, background_of(scene));
-        sim.noise_mm = noise_mm;
-        sim.holes = holes;
-        if (seconds * sim.rate_hz).round() < 1.0 {
-            crate::bad_input!(
-                "--seconds {} renders no frame at {} fps; give at least {} s",
-                show(seconds),
-                sim.rate_hz,
-                show(0.5 / sim.rate_hz)
-            );
-        }
-        return Ok((Box::new(source::Synthetic::new(sim, seconds)), setup));
-    }
-    let setup = CameraSetup::of_scene(scene)?;
-    if let Some(d) = &opts.depth {
-        let r = source::Replay::open_with_defaults(
-            d,
-            opts.intrinsics.as_deref(),
-            opts.timestamps.as_deref(),
-        )?;
-        return Ok((Box::new(r), setup));
-    }
-    // Live streams are read on their own thread (the device's
-    // housekeeping goes on while no frame arrives) and held to the
-    // live deadlines (source::HEADER_DEADLINE, source::FRAME_DEADLINE).
-    let src: Box<dyn FrameSource> = if opts.camera {
-        Box::new(source::camera()?)
-    } else {
-        match opts.stream.as_deref() {
-            Some(p) if p.as_os_str() == "-" => {
-                Box::new(source::Live::start("stdin", None, || {
-                    source::Stream::new(std::io::stdin(), "stdin")
-                })?)
-            }
-            Some(p) => {
-                let f = crate::files::open_input("--stream file", p)?;
-                let what = p.display().to_string();
-                Box::new(source::Live::start(&what.clone(), None, move || {
-                    source::Stream::new(std::io::BufReader::new(f), &what)
-                })?)
-            }
-            None => crate::bad_input!(
-                "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
-            ),
-        }
-    };
-    if let Some(ip) = &opts.intrinsics {
-        let given = Intrinsics::load(ip)?;
-        let got = src.intrinsics();
-        given.check_frames(got.width, got.height, "the stream")?;
-    }
-    Ok((src, setup))
-}
-
 /// Per-run counters.
 #[derive(Debug, Default)]
 struct Tally {
@@ -787,161 +670,5 @@ impl Run {
     }
 }
 
-/// Uploads re-planned depth profiles to the device (`replan`), planned by
-/// the caller ([`Replan`]: the session's stimulus on the device's grid).
-struct DeviceReplan {
-    /// Box c (mm) → LM plane c (mm): ±1, the axes being checked parallel.
-    sign: f64,
-    uploaded: u64,
-    skipped: u64,
-    failed: u64,
-    last_failure: Option<String>,
-    /// The last plan uploaded: steps, foci per step, dwell (µs).
-    last_plan: Option<(usize, usize, f64)>,
-}
-
-impl DeviceReplan {
-    /// The surface profile is sampled on the tracking box's a–b circle, so
-    /// the box must lie in the LM plane (axes parallel within 1°).
-    fn new(scene: &Scene, setup: &CameraSetup) -> anyhow::Result<Self> {
-        let b = &setup.track_box;
-        let pl = &scene.lm_plane;
-        let cos1 = 1f64.to_radians().cos();
-        let aligned =
-            |u: geom::Vec3, v: geom::Vec3| geom::dot(u, v) >= cos1 * geom::norm(u) * geom::norm(v);
-        if !(aligned(b.axes[0], pl.a) && aligned(b.axes[1], pl.b)) {
-            crate::bad_input!(
-                "--replan needs the tracking box's first two axes along the scene's lm_plane a and b (within 1°): the surface profile is sampled in the box and planned in the LM plane"
-            );
-        }
-        Ok(Self {
-            sign: geom::dot(b.axes[2], pl.c).signum(),
-            uploaded: 0,
-            skipped: 0,
-            failed: 0,
-            last_failure: None,
-            last_plan: None,
-        })
-    }
-
-    /// Upload and queue the pending profile, if any and a slot is free
-    /// (else it stays pending for the next sample).
-    fn maybe_upload(
-        &mut self,
-        client: &mut dyn Backend,
-        pending: &RefCell<Option<Vec<f64>>>,
-        plan_with: &mut dyn FnMut(&[f64]) -> anyhow::Result<Plan>,
-    ) -> anyhow::Result<()> {
-        let Some(profile) = pending.borrow().clone() else {
-            return Ok(());
-        };
-        let info = client.info().context("re-plan: reading the device info")?;
-        let st = client
-            .status()
-            .context("re-plan: reading the device status")?;
-        let Some(slot) = crate::device::backend::free_slot(info.slots, &st) else {
-            self.skipped += 1;
-            return Ok(());
-        };
-        let z: Vec<f64> = profile.iter().map(|z| z * self.sign).collect();
-        // A measured profile the planner refuses (out of range) is a
-        // re-plan failure, counted and reported; the session goes on.
-        let plan = match plan_with(&z) {
-            Ok(plan) => plan,
-            Err(e) => {
-                *pending.borrow_mut() = None;
-                self.failed += 1;
-                self.last_failure = Some(e.to_string());
-                return Ok(());
-            }
-        };
-        client
-            .upload(&plan, Some(slot))
-            .with_context(|| format!("re-plan: uploading to slot {slot}"))?;
-        client
-            .play(slot, false)
-            .with_context(|| format!("re-plan: playing slot {slot}"))?;
-        *pending.borrow_mut() = None;
-        self.uploaded += 1;
-        self.last_plan = Some((
-            plan.trajectory.steps,
-            plan.trajectory.foci,
-            plan.sequence.dwell_us(),
-        ));
-        Ok(())
-    }
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn synthetic(json: bool) -> Options {
-        Options {
-            scene: Some(PathBuf::from(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../scenes/paper.toml"
-            ))),
-            depth: None,
-            timestamps: None,
-            intrinsics: None,
-            synthetic: true,
-            seconds: Some(0.2),
-            noise_mm: None,
-            holes: None,
-            camera: false,
-            stream: None,
-            record: None,
-            fast: true,
-            json,
-            plot: None,
-            plot_frame: None,
-            filter: None,
-            z_profile: Some("3,8".into()),
-            replan_mm: 0.3,
-            replan: false,
-            enter_frames: 2,
-            leave_frames: 2,
-            device: false,
-        }
-    }
-
-    #[test]
-    fn a_synthetic_session_prints_a_line_per_frame_and_scores_the_truth() {
-        let mut lines = Vec::new();
-        let report = TrackRun::open(synthetic(true))
-            .unwrap()
-            .run(None, &mut |l: &str| {
-                lines.push(l.to_owned());
-                Ok(())
-            })
-            .unwrap();
-        let frames = (0.2f64 * 90.0).round() as usize;
-        assert_eq!(lines.len(), frames, "{lines:?}");
-        for l in &lines {
-            let v: serde_json::Value = serde_json::from_str(l).unwrap();
-            assert!(v["truth_present"].is_boolean() && v.get("z_profile_mm").is_some());
-            assert!(v.get("filtered_mm").is_none(), "no filter, no device: {v}");
-        }
-        assert!(report.summary[0].starts_with(&format!("{frames} frames of 848×480")));
-        assert!(report.summary[1].starts_with("vs ground truth: centroid error"));
-        assert!(report.summary[2].starts_with("surface depth profile:"));
-        assert_eq!(report.summary.len(), 3, "{report:?}");
-    }
-
-    #[test]
-    fn bad_options_are_input_errors_naming_the_flag() {
-        let mut o = synthetic(false);
-        o.enter_frames = 0;
-        let e = TrackRun::open(o).err().unwrap();
-        assert!(e.downcast_ref::<InputError>().is_some());
-        assert_eq!(e.to_string(), "--enter-frames 0 must be between 1 and 90");
-        let mut o = synthetic(false);
-        o.z_profile = Some("3".into());
-        let e = TrackRun::open(o).err().unwrap().to_string();
-        assert!(
-            e.starts_with("--z-profile `3` must be RADIUS_MM,STEPS"),
-            "{e}"
-        );
-    }
-}
+mod tests;

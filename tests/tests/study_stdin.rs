@@ -1,0 +1,169 @@
+//! `lmhost study run` answered on standard input: lines bounded, read one
+//! at a time as each question is asked, checked as they come.
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+mod link_support;
+#[allow(dead_code)]
+mod study_support;
+use study_support::*;
+
+/// Answers piped on stdin (no `--responses`, not a terminal) are lines of
+/// at most 4096 bytes: a longer one ends the run as bad input, read no
+/// further, the array silent and the session resumable.
+#[test]
+fn stdin_answers_are_bounded_lines() {
+    use std::io::Write;
+    let d = scratch("stdin");
+    let out = d.join("out");
+    let mut child = exp1("autd3:emulator", &out, "0.02", &["--seed", "1"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // 64 MiB without a line break: never held whole.
+    let mut stdin = child.stdin.take().unwrap();
+    let feeder = std::thread::spawn(move || {
+        let block = vec![b'7'; 1 << 20];
+        for _ in 0..64 {
+            if stdin.write_all(&block).is_err() {
+                return;
+            }
+        }
+    });
+    let o = child.wait_with_output().unwrap();
+    feeder.join().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    let last = e.trim().lines().last().unwrap_or_default();
+    assert!(
+        last.contains("stdin line 1: a line longer than 4096 bytes")
+            && last.contains("the array is silent")
+            && last.contains("--resume"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `--responses -`: each answer is read as its question is asked (a GUI or
+/// a button box answering while trials run), `na` included; a run that
+/// read stdin to its end first would wait forever here (the watchdog ends
+/// it and the test fails).
+#[test]
+fn responses_from_stdin_are_read_one_at_a_time_as_asked() {
+    use std::io::{BufRead, BufReader, Write};
+    let d = scratch("live");
+    let out = d.join("out");
+    let mut child = exp1(
+        "autd3:emulator",
+        &out,
+        "0.02",
+        &["--responses", "-", "--seed", "3"],
+    )
+    .stdin(Stdio::piped())
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watchdog = {
+        let (done, pid) = (done.clone(), child.id().to_string());
+        std::thread::spawn(move || {
+            let t0 = Instant::now();
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                if t0.elapsed() > Duration::from_secs(120) {
+                    let _ = Command::new("kill").args(["-9", &pid]).status();
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let mut stdin = child.stdin.take().unwrap();
+    let mut given = Vec::new();
+    let mut log = Vec::new();
+    for line in BufReader::new(child.stderr.take().unwrap()).lines() {
+        let line = line.unwrap();
+        if !line.starts_with(' ') && line.ends_with(']') && line.contains("[1 = ") {
+            assert!(
+                line.contains("[na = could not perceive the stimulus]"),
+                "{line}"
+            );
+            let a = if given.len() % 11 == 3 {
+                "na".to_owned()
+            } else {
+                (given.len() % 7 + 1).to_string()
+            };
+            writeln!(stdin, "{a}").unwrap();
+            given.push(a);
+        }
+        log.push(line);
+    }
+    drop(stdin);
+    let status = child.wait().unwrap();
+    done.store(true, std::sync::atomic::Ordering::Relaxed);
+    watchdog.join().unwrap();
+    assert!(status.success(), "{status}: {}", log.join("\n"));
+    assert_eq!(given.len(), 150, "one line per question asked");
+    check_exp1(&rows(&out.join("P01")), &given);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `--responses -` lines are checked as they come: a bad one or stdin's
+/// end ends the run as bad input, the array silent and the session
+/// resumable.
+#[test]
+fn responses_from_stdin_are_checked_as_they_come() {
+    let d = scratch("live-bad");
+    for (id, input, want) in [
+        (
+            "B1",
+            "1\n9\n",
+            "--responses - line 2: `9` is not an answer to `movement`",
+        ),
+        (
+            "B2",
+            "na\n",
+            "--responses - ended: an answer to `movement` is needed",
+        ),
+    ] {
+        let o = study(&[
+            "run",
+            &studies("paper-exp1.toml"),
+            "--port",
+            "autd3:emulator",
+            "--participant",
+            id,
+            "--out",
+            d.to_str().unwrap(),
+            "--finger",
+            "synthetic",
+            "--time-scale",
+            "0.02",
+            "--responses",
+            "-",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .and_then(|mut c| {
+            use std::io::Write;
+            c.stdin.take().unwrap().write_all(input.as_bytes())?;
+            c.wait_with_output()
+        })
+        .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        let last = e.trim().lines().last().unwrap_or_default();
+        assert!(
+            last.contains(want)
+                && last.contains("the array is silent")
+                && last.contains("--resume"),
+            "{e}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

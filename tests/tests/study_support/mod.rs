@@ -1,0 +1,159 @@
+//! What the study tests share: the protocols, scratch folders, the
+//! Experiment 1 answers, running `lmhost study` and reading its rows.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use crate::link_support::lmhost;
+
+pub fn studies(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../studies")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+pub fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lmhost-e2e-study-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Experiment 1's answers: vibration, movement, then the three shape
+/// items in the order shown; a different number on every line, and now
+/// and then `na` ("could not perceive", which every question allows).
+pub fn exp1_answers(dir: &Path) -> (PathBuf, Vec<String>) {
+    let a: Vec<String> = (0..150)
+        .map(|i| {
+            if i % 23 == 4 {
+                "na".to_owned()
+            } else {
+                ((i * 5 + i / 7) % 7 + 1).to_string()
+            }
+        })
+        .collect();
+    let p = dir.join("answers.txt");
+    std::fs::write(&p, a.join("\n") + "\n").unwrap();
+    (p, a)
+}
+
+pub fn study(args: &[&str]) -> Command {
+    let mut c = Command::new(lmhost());
+    c.arg("study").args(args).env_remove("LMHOST_PORT");
+    c
+}
+
+/// `lmhost study run` of Experiment 1 for participant P01 with a
+/// synthetic finger at `time_scale`, then `extra`.
+pub fn exp1(port: &str, out: &Path, time_scale: &str, extra: &[&str]) -> Command {
+    let mut args = vec![
+        "run",
+        studies("paper-exp1.toml").leak(),
+        "--port",
+        port,
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--time-scale",
+        time_scale,
+    ];
+    args.extend_from_slice(extra);
+    study(&args)
+}
+
+pub fn run_exp1(port: &str, out: &Path, answers: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["--responses", answers.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    exp1(port, out, "0.02", &args).output().unwrap()
+}
+
+pub fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "exit {:?}: {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// `trials.csv` as maps of column → value (no quoted fields are expected
+/// in these runs).
+pub fn rows(dir: &Path) -> Vec<BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(dir.join("trials.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), head.len(), "{l}");
+            head.iter()
+                .zip(f)
+                .map(|(h, v)| ((*h).to_owned(), v.to_owned()))
+                .collect()
+        })
+        .collect()
+}
+
+/// 30 rows, every condition twice, each set a permutation of the 15, the
+/// answers recorded in the order given, timing from the device.
+pub fn check_exp1(rows: &[BTreeMap<String, String>], answers: &[String]) {
+    assert_eq!(rows.len(), 30);
+    for set in ["1", "2"] {
+        let mut s: Vec<&str> = rows
+            .iter()
+            .filter(|r| r["set"] == set)
+            .map(|r| r["stimulus"].as_str())
+            .collect();
+        s.sort_unstable();
+        s.dedup();
+        assert_eq!(s.len(), 15, "set {set} is a permutation of 15");
+    }
+    let mut count: BTreeMap<&str, usize> = BTreeMap::new();
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r["trial"], (i + 1).to_string());
+        *count.entry(r["stimulus"].as_str()).or_default() += 1;
+        assert_eq!(r["stimulus"], format!("{}-a{}", r["type"], r["radius"]));
+        let a = &answers[i * 5..i * 5 + 5];
+        assert_eq!(r["vibration"], a[0]);
+        assert_eq!(r["movement"], a[1]);
+        let order: Vec<&str> = r["shape_order"].split('|').collect();
+        assert_eq!(order.len(), 3);
+        for (k, item) in order.iter().enumerate() {
+            assert_eq!(r[&format!("shape_{item}")], a[2 + k], "trial {}", i + 1);
+        }
+        assert!(r["steps"].parse::<u32>().unwrap() > 0);
+        assert!(r["onset_us"].parse::<u64>().unwrap() < r["offset_us"].parse::<u64>().unwrap());
+        let on: f64 = r["presented_s"].parse().unwrap();
+        // touch_s = 3 s at a time scale of 0.02: about 60 ms.
+        assert!((0.04..1.0).contains(&on), "presented {on} s");
+        assert!(r["device_presented_s"].parse::<f64>().unwrap() > 0.0);
+        assert_eq!(r["on_phases"], "1");
+        // Provenance: the trial's UTC time, the device's health over it,
+        // a response time per answer.
+        let t = &r["time_utc"];
+        assert!(
+            t.len() == 24 && t.starts_with("20") && t.ends_with('Z'),
+            "{t}"
+        );
+        assert!(r["missed_deadlines"].parse::<u32>().is_ok(), "{r:?}");
+        assert!(r["lease_expiries"].parse::<u32>().is_ok(), "{r:?}");
+        for q in ["vibration", "movement", "shape_flat"] {
+            let rt: f64 = r[&format!("{q}_rt_s")].parse().unwrap();
+            assert!((0.0..600.0).contains(&rt), "{q}_rt_s {rt}");
+        }
+    }
+    assert_eq!(count.len(), 15);
+    assert!(count.values().all(|n| *n == 2), "{count:?}");
+}
+
+pub fn order(rows: &[BTreeMap<String, String>]) -> Vec<(String, String)> {
+    rows.iter()
+        .map(|r| (r["stimulus"].clone(), r["shape_order"].clone()))
+        .collect()
+}
