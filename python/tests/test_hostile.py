@@ -64,8 +64,11 @@ def _device_state(lmhost_bin, port):
 
 
 OWNER = textwrap.dedent("""
-    import os, sys, threading, time
+    import os, signal, sys, threading, time
     import lmhost
+    # As an interactive script has it, whatever this test was started
+    # under (a shell's background job inherits SIGINT ignored).
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     lib, port, how = sys.argv[1:4]
     box = {}
     def start():

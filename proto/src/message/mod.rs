@@ -84,7 +84,7 @@ pub struct Info {
     pub timer_hz: u32,
     /// Shortest step dwell the device plays, µs.
     pub min_dwell_us: u32,
-    /// Largest chunk the device accepts (≤ [`MAX_CHUNK`]).
+    /// Largest chunk the device accepts (≤ [`MAX_CHUNK`](crate::MAX_CHUNK)).
     pub max_chunk: u16,
     /// Transducers of the rig the device holds; 0: none yet.
     pub rig_transducers: u16,
@@ -172,7 +172,7 @@ enum PosRepr<'a> {
 }
 
 impl<'a> Positions<'a> {
-    /// Positions to send. At most [`MAX_GEOMETRY_POSITIONS`] fit a frame
+    /// Positions to send. At most [`MAX_GEOMETRY_POSITIONS`](crate::MAX_GEOMETRY_POSITIONS) fit a frame
     /// ([`crate::encode_frame`] returns `TooLarge` otherwise).
     pub const fn from_points(points: &'a [[i32; 3]]) -> Self {
         Self(PosRepr::Points(points))
@@ -265,7 +265,7 @@ pub struct Chunk<'a> {
     pub slot: u8,
     /// Offset of `data` in the encoded stream.
     pub offset: u32,
-    /// Stream bytes (at most [`MAX_CHUNK`]).
+    /// Stream bytes (at most [`MAX_CHUNK`](crate::MAX_CHUNK)).
     pub data: &'a [u8],
 }
 
@@ -430,7 +430,7 @@ pub enum SelfTest {
 pub struct Status {
     /// Player state.
     pub state: DeviceState,
-    /// Slot playing or last played (`None` on the wire as [`NO_SLOT`]).
+    /// Slot playing or last played (`None` on the wire as [`NO_SLOT`](crate::NO_SLOT)).
     pub slot: Option<u8>,
     /// Current step within the cycle.
     pub step: u16,
@@ -451,7 +451,7 @@ pub struct Status {
     /// Correction offset currently applied (centroid − planned centre), µm.
     pub correction_um: [i32; 3],
     /// Slot queued to take over at the next cycle boundary (`None` on the
-    /// wire as [`NO_SLOT`]).
+    /// wire as [`NO_SLOT`](crate::NO_SLOT)).
     pub queued_slot: Option<u8>,
     /// Why the output is silent ([`MuteReason::None`] while it sounds).
     pub mute_reason: MuteReason,
