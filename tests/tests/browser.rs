@@ -526,7 +526,12 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
                 std::thread::sleep(Duration::from_millis(50));
             }
         }
-        d.until("return document.getElementById('status').textContent === 'Thank you.' || document.querySelectorAll('.choice.off').length > 0", Duration::from_secs(30));
+        // Taken: counted by the page when the view accepted it (the next
+        // question may replace the thanks before a poll sees them).
+        d.until(
+            &format!("return (window.lmAnswered || 0) >= {trial}"),
+            Duration::from_secs(30),
+        );
     }
     assert!(
         radius_px_seen.windows(2).all(|w| w[1] > w[0]),

@@ -64,7 +64,7 @@ pub(crate) fn round3_cases() -> Vec<Case> {
         PARTIAL       "plan --out {full}/p.bin --foci 4" .code(1).err("no space left")
                       .check(full_whole);
         PARTIAL       "plan --out {full}/keep.bin" .code(1).err("keep.bin").check(full_whole);
-        PARTIAL       "simulate --plane-size 30 --plane-step 0.5 --out {full}/sim" .code(1)
+        PARTIAL       "simulate --plane-size 20 --plane-step 1 --out {full}/sim" .code(1)
                       .err("no space left").check(full_whole);
         PARTIAL       "simulate --compare --plane-size 2 --plane-step 1 --out {full}/cmp" .code(1)
                       .err("no space left").check(full_whole);
