@@ -182,8 +182,8 @@ fn open(path: &Path) -> Result<(File, u64), InputError> {
     Ok((f, len))
 }
 
-/// Frames of a `uint16` (frames, height, width) `.npy`, read one at a time.
-pub struct DepthNpy {
+/// Frames of a recording (`K`: depth or colour), read one at a time.
+pub struct NpyFrames<K: FrameKind> {
     path: PathBuf,
     reader: BufReader<File>,
     /// Number of frames.
@@ -193,20 +193,32 @@ pub struct DepthNpy {
     /// Frame width (columns).
     pub width: u32,
     next: u64,
+    kind: std::marker::PhantomData<K>,
 }
 
-impl DepthNpy {
+/// Frames of a `uint16` (frames, height, width) `.npy`.
+pub type DepthNpy = NpyFrames<Depth>;
+/// Colour frames of a `uint8` (frames, height, width, 3) `.npy` (RGB).
+pub type ColourNpy = NpyFrames<Rgb>;
+
+impl<K: FrameKind> NpyFrames<K> {
     /// Open and check a recording.
     pub fn open(path: &Path) -> Result<Self, InputError> {
         let (f, len) = open(path)?;
         let mut reader = BufReader::new(f);
         let h = read_header(&mut reader, len, path)?;
-        check_descr(path, &h, "<u2", "uint16")?;
-        let [frames, height, width] = h.shape[..] else {
-            return Err(bad(
-                path,
-                format!("shape {:?} must be (frames, height, width)", h.shape),
-            ));
+        check_descr(path, &h, K::DESCR, K::TYPE_NAME)?;
+        let (frames, height, width) = match h.shape[..] {
+            [f, hh, w] if K::PER_PIXEL == 1 => (f, hh, w),
+            [f, hh, w, c] if K::PER_PIXEL > 1 && c == K::PER_PIXEL => (f, hh, w),
+            _ => {
+                let axes = if K::PER_PIXEL > 1 {
+                    format!("(frames, height, width, {})", K::PER_PIXEL)
+                } else {
+                    "(frames, height, width)".to_string()
+                };
+                return Err(bad(path, format!("shape {:?} must be {axes}", h.shape)));
+            }
         };
         if !(1..=MAX_SIDE).contains(&height) || !(1..=MAX_SIDE).contains(&width) {
             return Err(bad(
@@ -214,7 +226,7 @@ impl DepthNpy {
                 format!("frame size {width}×{height} must be 1..={MAX_SIDE} on each side"),
             ));
         }
-        check_len(path, &h, len, 2)?;
+        check_len(path, &h, len, K::ITEM_BYTES)?;
         Ok(Self {
             path: path.to_owned(),
             reader,
@@ -222,86 +234,33 @@ impl DepthNpy {
             height: height as u32,
             width: width as u32,
             next: 0,
+            kind: std::marker::PhantomData,
         })
     }
 
-    /// Read the next frame into `buf` (resized to width × height); `false`
-    /// after the last frame.
-    pub fn read_into(&mut self, buf: &mut Vec<u16>) -> Result<bool, InputError> {
+    /// Read the next frame into `buf` (resized to width × height pixels);
+    /// `false` after the last frame.
+    pub fn read_into(&mut self, buf: &mut Vec<K::Value>) -> Result<bool, InputError> {
         if self.next >= self.frames {
             return Ok(false);
         }
-        let n = self.width as usize * self.height as usize;
-        let mut bytes = vec![0u8; n * 2];
+        let n = self.width as usize * self.height as usize * K::PER_PIXEL as usize;
+        let mut bytes = vec![0u8; n * K::ITEM_BYTES as usize];
         self.reader
             .read_exact(&mut bytes)
             .map_err(|_| bad(&self.path, format!("frame {} is truncated", self.next)))?;
         buf.clear();
-        buf.extend(
-            bytes
-                .chunks_exact(2)
-                .map(|b| u16::from_le_bytes([b[0], b[1]])),
-        );
+        K::decode(&bytes, buf);
         self.next += 1;
         Ok(true)
     }
 }
 
-/// Colour frames of a `uint8` (frames, height, width, 3) `.npy` (RGB),
-/// read one at a time.
-pub struct ColourNpy {
-    path: PathBuf,
-    reader: BufReader<File>,
-    /// Number of frames.
-    pub frames: u64,
-    /// Frame height (rows).
-    pub height: u32,
-    /// Frame width (columns).
-    pub width: u32,
-    next: u64,
-}
-
-impl ColourNpy {
-    /// Open and check a colour recording.
-    pub fn open(path: &Path) -> Result<Self, InputError> {
-        let (f, len) = open(path)?;
-        let mut reader = BufReader::new(f);
-        let h = read_header(&mut reader, len, path)?;
-        check_descr(path, &h, "|u1", "uint8")?;
-        let [frames, height, width, 3] = h.shape[..] else {
-            return Err(bad(
-                path,
-                format!("shape {:?} must be (frames, height, width, 3)", h.shape),
-            ));
-        };
-        if !(1..=MAX_SIDE).contains(&height) || !(1..=MAX_SIDE).contains(&width) {
-            return Err(bad(
-                path,
-                format!("frame size {width}×{height} must be 1..={MAX_SIDE} on each side"),
-            ));
-        }
-        check_len(path, &h, len, 1)?;
-        Ok(Self {
-            path: path.to_owned(),
-            reader,
-            frames,
-            height: height as u32,
-            width: width as u32,
-            next: 0,
-        })
-    }
-
+impl NpyFrames<Rgb> {
     /// The next frame (width × height × 3 bytes), `None` after the last.
     pub fn read(&mut self) -> Result<Option<Vec<u8>>, InputError> {
-        if self.next >= self.frames {
-            return Ok(None);
-        }
-        let mut bytes = vec![0u8; self.width as usize * self.height as usize * 3];
-        self.reader
-            .read_exact(&mut bytes)
-            .map_err(|_| bad(&self.path, format!("frame {} is truncated", self.next)))?;
-        self.next += 1;
-        Ok(Some(bytes))
+        let mut frame = Vec::new();
+        Ok(self.read_into(&mut frame)?.then_some(frame))
     }
 }
 
@@ -390,18 +349,87 @@ pub fn write_f64(path: &Path, rows: usize, cols: usize, data: &[f64]) -> anyhow:
 /// Fixed header size of written recordings: room for any shape, 64-aligned.
 const WRITE_HEADER: usize = 128;
 
-/// Writes a `uint16` (frames, height, width) `.npy` frame by frame into a
-/// [`crate::files::Output`]: the header's frame count is written on
-/// [`DepthNpyWriter::finish`], which renames the file into place, so the
-/// named file is whole or absent (dropped unfinished, it never appears).
-pub struct DepthNpyWriter {
+/// What a recording's frame is made of: its `.npy` type, the trailing
+/// axes after (frames, height, width), and its little-endian bytes.
+pub trait FrameKind {
+    /// One value of a frame.
+    type Value: Copy;
+    /// The `.npy` type string.
+    const DESCR: &'static str;
+    /// Its name in errors.
+    const TYPE_NAME: &'static str;
+    /// Bytes per value.
+    const ITEM_BYTES: u64;
+    /// Values per pixel (a last axis when more than one).
+    const PER_PIXEL: u64;
+    /// What the size error calls a frame.
+    const NAME: &'static str;
+    /// The frame's bytes as the file holds them.
+    fn bytes(frame: &[Self::Value]) -> std::borrow::Cow<'_, [u8]>;
+    /// The values of a frame's bytes, appended to `out`.
+    fn decode(bytes: &[u8], out: &mut Vec<Self::Value>);
+}
+
+/// Depth frames: `uint16` (frames, height, width), millimetres.
+#[derive(Debug)]
+pub enum Depth {}
+
+impl FrameKind for Depth {
+    type Value = u16;
+    const DESCR: &'static str = "<u2";
+    const TYPE_NAME: &'static str = "uint16";
+    const ITEM_BYTES: u64 = 2;
+    const PER_PIXEL: u64 = 1;
+    const NAME: &'static str = "frame";
+    fn bytes(frame: &[u16]) -> std::borrow::Cow<'_, [u8]> {
+        frame.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+    fn decode(bytes: &[u8], out: &mut Vec<u16>) {
+        out.extend(
+            bytes
+                .chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]])),
+        );
+    }
+}
+
+/// Colour frames: `uint8` (frames, height, width, 3), RGB.
+#[derive(Debug)]
+pub enum Rgb {}
+
+impl FrameKind for Rgb {
+    type Value = u8;
+    const DESCR: &'static str = "|u1";
+    const TYPE_NAME: &'static str = "uint8";
+    const ITEM_BYTES: u64 = 1;
+    const PER_PIXEL: u64 = 3;
+    const NAME: &'static str = "colour frame";
+    fn bytes(frame: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+        std::borrow::Cow::Borrowed(frame)
+    }
+    fn decode(bytes: &[u8], out: &mut Vec<u8>) {
+        out.extend_from_slice(bytes);
+    }
+}
+
+/// Writes a recording frame by frame into a [`crate::files::Output`]: the
+/// header's frame count is written on [`NpyFrameWriter::finish`], which
+/// renames the file into place, so the named file is whole or absent
+/// (dropped unfinished, it never appears).
+pub struct NpyFrameWriter<K: FrameKind> {
     out: crate::files::Output,
     height: u32,
     width: u32,
     frames: u64,
+    kind: std::marker::PhantomData<K>,
 }
 
-impl DepthNpyWriter {
+/// A depth recording's writer.
+pub type DepthNpyWriter = NpyFrameWriter<Depth>;
+/// A colour recording's writer.
+pub type ColourNpyWriter = NpyFrameWriter<Rgb>;
+
+impl<K: FrameKind> NpyFrameWriter<K> {
     /// Start writing `path` for frames of `width` × `height`.
     pub fn create(path: &Path, width: u32, height: u32) -> anyhow::Result<Self> {
         let mut w = Self {
@@ -409,6 +437,7 @@ impl DepthNpyWriter {
             height,
             width,
             frames: 0,
+            kind: std::marker::PhantomData,
         };
         let h = w.header();
         w.out.write_bytes(&h)?;
@@ -416,85 +445,24 @@ impl DepthNpyWriter {
     }
 
     fn header(&self) -> Vec<u8> {
-        header(
-            "<u2",
-            &[self.frames, u64::from(self.height), u64::from(self.width)],
-            WRITE_HEADER,
-        )
+        let mut shape = vec![self.frames, u64::from(self.height), u64::from(self.width)];
+        if K::PER_PIXEL > 1 {
+            shape.push(K::PER_PIXEL);
+        }
+        header(K::DESCR, &shape, WRITE_HEADER)
     }
 
-    /// Append one frame (`width × height` values, row-major).
-    pub fn push(&mut self, data: &[u16]) -> anyhow::Result<()> {
-        if data.len() != self.width as usize * self.height as usize {
+    /// Append one frame (`width × height` pixels, row-major).
+    pub fn push(&mut self, frame: &[K::Value]) -> anyhow::Result<()> {
+        let want = u64::from(self.width) * u64::from(self.height) * K::PER_PIXEL;
+        if frame.len() as u64 != want {
             anyhow::bail!(
-                "{}: frame size changed while recording",
-                self.out.path().display()
+                "{}: {} size changed while recording",
+                self.out.path().display(),
+                K::NAME
             );
         }
-        let mut bytes = Vec::with_capacity(data.len() * 2);
-        for v in data {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        self.out.write_bytes(&bytes)?;
-        self.frames += 1;
-        Ok(())
-    }
-
-    /// Write the final header, sync and move the file into place; returns
-    /// the frame count.
-    pub fn finish(mut self) -> anyhow::Result<u64> {
-        let h = self.header();
-        self.out.write_at(0, &h)?;
-        self.out.commit()?;
-        Ok(self.frames)
-    }
-}
-
-/// Writes a `uint8` (frames, height, width, 3) `.npy` of RGB frames as
-/// [`DepthNpyWriter`] writes depth: whole or absent.
-pub struct ColourNpyWriter {
-    out: crate::files::Output,
-    height: u32,
-    width: u32,
-    frames: u64,
-}
-
-impl ColourNpyWriter {
-    /// Start writing `path` for RGB frames of `width` × `height`.
-    pub fn create(path: &Path, width: u32, height: u32) -> anyhow::Result<Self> {
-        let mut w = Self {
-            out: crate::files::Output::create(path)?,
-            height,
-            width,
-            frames: 0,
-        };
-        let h = w.header();
-        w.out.write_bytes(&h)?;
-        Ok(w)
-    }
-
-    fn header(&self) -> Vec<u8> {
-        header(
-            "|u1",
-            &[
-                self.frames,
-                u64::from(self.height),
-                u64::from(self.width),
-                3,
-            ],
-            WRITE_HEADER,
-        )
-    }
-
-    /// Append one frame (`width × height × 3` bytes, row-major RGB).
-    pub fn push(&mut self, rgb: &[u8]) -> anyhow::Result<()> {
-        if rgb.len() != self.width as usize * self.height as usize * 3 {
-            anyhow::bail!(
-                "{}: colour frame size changed while recording",
-                self.out.path().display()
-            );
-        }
-        self.out.write_bytes(rgb)?;
+        self.out.write_bytes(&K::bytes(frame))?;
         self.frames += 1;
         Ok(())
     }

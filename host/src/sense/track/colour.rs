@@ -299,20 +299,14 @@ impl ColourCamera {
 
     /// Parse and check TOML text.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
-        let c: ColourCamera = toml::from_str(text).map_err(|e| {
-            InputError::new(format!(
-                "colour camera {origin}: {}",
-                e.message().lines().next().unwrap_or("invalid TOML")
-            ))
-        })?;
+        let c: ColourCamera = super::settings_file::parse("colour camera", text, origin)?;
         c.check(origin)?;
         Ok(c)
     }
 
     /// Read and check a file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let text = crate::limits::read_text_file("colour camera", path)?;
-        Self::from_toml(&text, &path.display().to_string())
+        super::settings_file::load("colour camera", path, Self::from_toml)
     }
 
     /// The TOML text.

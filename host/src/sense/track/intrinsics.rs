@@ -121,20 +121,14 @@ impl Intrinsics {
 
     /// Parse and check TOML text.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
-        let i: Intrinsics = toml::from_str(text).map_err(|e| {
-            InputError::new(format!(
-                "intrinsics {origin}: {}",
-                e.message().lines().next().unwrap_or("invalid TOML")
-            ))
-        })?;
+        let i: Intrinsics = super::settings_file::parse("intrinsics", text, origin)?;
         i.check(origin)?;
         Ok(i)
     }
 
     /// Read and check a file.
     pub fn load(path: &Path) -> Result<Self, InputError> {
-        let text = crate::limits::read_text_file("intrinsics", path)?;
-        Self::from_toml(&text, &path.display().to_string())
+        super::settings_file::load("intrinsics", path, Self::from_toml)
     }
 
     /// The TOML text of these intrinsics.
