@@ -43,7 +43,7 @@ fn qemu_fw(c: &Ctx, log: &Log) -> Result<(), String> {
 /// Its own cargo invocation: built together with the QEMU board, the
 /// Nucleo's `rt` feature (embassy-stm32 → stm32-metapac) would switch on
 /// cortex-m-rt's `device` feature for the QEMU board too, and its defmt
-/// features would reach the QEMU board's lm-fw-core (see ARCHITECTURE.md,
+/// features would reach the QEMU board's lm-fw-core (see firmware/core/STORE.md,
 /// Memory maps).
 fn nucleo(c: &Ctx, log: &Log) -> Result<(), String> {
     thumb_build(c, log, &["-p", NUCLEO_PKG])
