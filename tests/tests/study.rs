@@ -474,3 +474,85 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     assert!(lines(&o).contains("another protocol"), "{}", lines(&o));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
+    let sim = Sim::start(&[]);
+    let d = scratch("staircase");
+    let out = d.join("out");
+    let run = |observer: &str| {
+        study(&[
+            "run",
+            &studies("staircase-detection.toml"),
+            "--port",
+            &sim.port,
+            "--participant",
+            "S01",
+            "--out",
+            out.to_str().unwrap(),
+            "--time-scale",
+            "0.01",
+            "--seed",
+            "1",
+            "--observer",
+            observer,
+        ])
+        .output()
+        .unwrap()
+    };
+    let o = run("logistic:threshold=0.4,slope=15,lapse=0.02,seed=5");
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("12 reversals: threshold"), "{err}");
+    let r = rows(&out.join("S01"));
+    assert_eq!(r.len(), 2);
+    for row in &r {
+        let levels: Vec<f64> = row["staircase_levels"]
+            .split('|')
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let answers: Vec<&str> = row["staircase_answers"].split('|').collect();
+        assert_eq!(levels.len(), answers.len());
+        assert_eq!(levels[0], 1.0, "it starts at the top");
+        // 1-up/2-down: two yes move down, one no moves up.
+        for i in 1..levels.len() {
+            if answers[i - 1] == "no" {
+                assert!(levels[i] > levels[i - 1] || levels[i] == 1.0, "{row:?}");
+            }
+        }
+        assert_eq!(row["staircase_reversals"].split('|').count(), 12);
+        // One presentation per answer, each of its level's entry.
+        assert_eq!(row["on_phases"], levels.len().to_string());
+        assert_eq!(row["answers"], levels.len().to_string());
+        // The observer's 70.7 % point is 0.46; the grid's step is 0.05.
+        let t: f64 = row["threshold"].parse().unwrap();
+        assert!((0.3..0.65).contains(&t), "threshold {t}");
+    }
+    let events = std::fs::read_to_string(out.join("S01/events.jsonl")).unwrap();
+    assert!(
+        events.contains("\"stimulus\":\"lms-5hz-i0.50\""),
+        "other levels played"
+    );
+    assert!(events.contains("\"level_intensity\":"));
+    // Not a staircase's question: the observer has no answer to it.
+    let o = study(&[
+        "run",
+        &studies("paper-exp1.toml"),
+        "--port",
+        &sim.port,
+        "--participant",
+        "S02",
+        "--out",
+        out.to_str().unwrap(),
+        "--observer",
+        "logistic:threshold=0.4,slope=15",
+    ])
+    .output()
+    .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("has no [staircase]"));
+    let o = run("probit:threshold=1");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("`probit` is not a shape"));
+    let _ = std::fs::remove_dir_all(&d);
+}

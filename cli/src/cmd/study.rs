@@ -59,6 +59,12 @@ struct RunArgs {
     /// its question is asked [default: keys at the terminal].
     #[arg(long, value_name = "FILE")]
     responses: Option<PathBuf>,
+    /// A simulated observer answers a [staircase]'s "perceived?" from a
+    /// psychometric function, e.g.
+    /// `logistic:threshold=0.5,slope=12,guess=0,lapse=0.02,seed=1`
+    /// (or `weibull:...`).
+    #[arg(long, value_name = "SPEC", conflicts_with_all = ["responses", "view"])]
+    observer: Option<String>,
     /// The finger source: a synthetic one, or none (then --stream or
     /// --udp may give tracked centroids).
     #[arg(long, value_enum, default_value_t = Finger::None)]
@@ -151,9 +157,10 @@ impl RunArgs {
             participant: self.participant,
             out: self.out,
             seed: self.seed,
-            answers: match self.responses {
-                Some(p) => AnswerSource::File(p),
-                None => AnswerSource::Interactive,
+            answers: match (self.responses, self.observer) {
+                (Some(p), _) => AnswerSource::File(p),
+                (None, Some(spec)) => AnswerSource::Observer(spec),
+                (None, None) => AnswerSource::Interactive,
             },
             finger,
             time_scale: self.time_scale,

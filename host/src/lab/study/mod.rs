@@ -27,6 +27,7 @@ pub mod answers;
 pub mod columns;
 pub mod design;
 pub mod live;
+pub mod observer;
 pub mod procedure;
 pub mod protocol;
 pub mod provenance;
@@ -106,6 +107,9 @@ pub enum AnswerSource {
     /// The terminal (single keys) when stdin is one, else stdin's lines as
     /// they arrive.
     Interactive,
+    /// A simulated observer ([`observer::Observer::parse`]'s text): answers
+    /// a procedure's "perceived?" questions only.
+    Observer(String),
 }
 
 /// What `lmhost study run` was asked to do.
@@ -204,6 +208,21 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         );
     }
     let p = Protocol::load(&o.protocol)?;
+    let observer = match &o.answers {
+        AnswerSource::Observer(spec) => Some(observer::Observer::parse(spec)?),
+        _ => None,
+    };
+    if observer.is_some() && (p.staircase.is_none() || !p.questions.is_empty()) {
+        crate::bad_input!(
+            "--observer: study protocol {} {}: a simulated observer answers only a staircase's \"perceived?\"",
+            o.protocol.display(),
+            if p.staircase.is_none() {
+                "has no [staircase]"
+            } else {
+                "asks questions"
+            }
+        );
+    }
     if p.timeline.wait_for_finger && matches!(o.finger, FingerSource::None) {
         crate::bad_input!(
             "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp)",
@@ -266,7 +285,9 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         None => None,
     };
     // `--responses -` answers each question as it is asked, from stdin.
-    let answers: Box<dyn Answers> = if o.answers == AnswerSource::File("-".into()) {
+    let answers: Box<dyn Answers> = if let Some(obs) = observer {
+        Box::new(obs)
+    } else if o.answers == AnswerSource::File("-".into()) {
         Box::new(answers::Piped::named("--responses -")?)
     } else {
         live::answer_source(st.lines.take(), view.as_ref())?
@@ -482,6 +503,14 @@ impl Runner {
         Ok(())
     }
 
+    /// On-phases that ended in this trial so far.
+    fn offsets(&self) -> usize {
+        self.trial_events
+            .iter()
+            .filter(|e| matches!(e.kind, EventKind::Offset { .. }))
+            .count()
+    }
+
     fn drain(&mut self) -> anyhow::Result<()> {
         let e = self.session().drain_events();
         self.log_events(e)
@@ -567,14 +596,14 @@ impl Runner {
                 self.pause();
             }
         }
-        let adjusting = p.adjustment.is_some();
+        let mut procedure = procedure::start(p, t);
         let on_s = tl.on_s.map(|s| s * self.scale);
-        let req = Present {
+        let mut req = Present {
             stimulus: t.stimulus.clone(),
             gate: tl.gate,
             on_s,
             off_s: Some(tl.off_s * self.scale),
-            repeat: Some(if adjusting {
+            repeat: Some(if procedure.is_some() {
                 crate::lab::session::MAX_REPEAT
             } else {
                 tl.repeat
@@ -585,7 +614,6 @@ impl Runner {
         self.driver().track_now()?;
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
-        let mut procedure = procedure::start(p, &t.stimulus);
         if let Some(pr) = procedure.as_deref_mut() {
             let (what, unit) = pr.level_unit();
             let level_event = |level: f64, answer: Option<&str>| {
@@ -597,14 +625,12 @@ impl Runner {
                 crate::errln!("  {what} {:.2} {unit}", first.level);
                 self.log(level_event(first.level, None))?;
             }
+            // On-phases and answers before the stimulus last changed:
+            // one answer per finished on-phase of what plays now.
+            let (mut phases_before, mut answers_before) = (0, 0);
             while !pr.finished() {
-                // One answer per finished on-phase.
-                let offsets = self
-                    .trial_events
-                    .iter()
-                    .filter(|e| matches!(e.kind, EventKind::Offset { .. }))
-                    .count();
-                if offsets <= pr.answers() {
+                let offsets = self.offsets();
+                if offsets - phases_before <= pr.answers() - answers_before {
                     self.tick()?;
                     if !self.session().presenting() {
                         break;
@@ -617,12 +643,21 @@ impl Runner {
                     Step::Done => {}
                     Step::Next(level) => {
                         self.log(level_event(level, Some(&ans)))?;
-                        crate::errln!("  next {what} {level:.2} {unit} ({ans})");
+                        crate::errln!("  next {what} {level:.4} {unit} ({ans})");
                     }
                     Step::Last { level, why } => {
                         self.log(level_event(level, Some(&ans)))?;
                         crate::errln!("  {why}");
                     }
+                }
+                // A staircase's next level is another library entry.
+                if let Some(next) = pr.next().filter(|n| n.stimulus != req.stimulus) {
+                    self.session().stop(OffsetReason::Stop)?;
+                    self.drain()?;
+                    req.stimulus = next.stimulus;
+                    self.session().present(&req)?;
+                    self.drain()?;
+                    (phases_before, answers_before) = (self.offsets(), pr.answers());
                 }
             }
             if self.session().presenting() {

@@ -4,10 +4,13 @@
 //! device opens: a bad field is one line naming the file, line and field.
 
 mod check;
+mod errors;
 mod file;
 mod report;
+mod staircase;
 
 pub use report::{PairSpec, ReportSpec};
+pub use staircase::{LEVEL, Staircase};
 
 use std::path::{Path, PathBuf};
 
@@ -31,6 +34,12 @@ pub const MAX_OPTIONS: usize = 9;
 pub const MAX_SECONDS: f64 = 3_600.0;
 /// Most adjustments per trial.
 pub const MAX_ADJUSTMENTS: u32 = 1_000;
+/// Most levels in a staircase's grid.
+pub const MAX_LEVELS: usize = 200;
+/// Most answers in a row a staircase waits for before it moves.
+pub const MAX_RUN: u32 = 10;
+/// Most reversals or presentations of a staircase.
+pub const MAX_STAIRCASE: u32 = 1_000;
 /// Largest adjustment depth either way, mm (a gauge's travel is a few).
 pub const MAX_DEPTH_MM: f64 = 1_000.0;
 /// Largest number a number question accepts either way (its default
@@ -243,6 +252,8 @@ pub struct Protocol {
     pub questions: Vec<Question>,
     /// The method of adjustment, if used.
     pub adjustment: Option<Adjustment>,
+    /// The staircase, if used.
+    pub staircase: Option<Staircase>,
     /// trials.csv's header.
     pub columns: Columns,
     /// What `study report` tests.
@@ -271,6 +282,8 @@ pub struct Unlinked {
     pub questions: Vec<Question>,
     /// The method of adjustment, if used.
     pub adjustment: Option<Adjustment>,
+    /// The staircase, if used.
+    pub staircase: Option<Staircase>,
     /// trials.csv's header.
     pub columns: Columns,
     /// What `study report` tests.
@@ -289,6 +302,16 @@ impl Unlinked {
 
 /// Fills `{factor}` placeholders of `template` with `levels`.
 pub fn expand(template: &str, factors: &[Factor], levels: &[String]) -> Result<String, String> {
+    expand_level(template, factors, levels, None)
+}
+
+/// [`expand`], and `{level}` with a staircase's `level` when given.
+pub fn expand_level(
+    template: &str,
+    factors: &[Factor],
+    levels: &[String],
+    level: Option<&str>,
+) -> Result<String, String> {
     let mut out = String::new();
     let mut rest = template;
     while let Some(i) = rest.find('{') {
@@ -299,6 +322,11 @@ pub fn expand(template: &str, factors: &[Factor], levels: &[String]) -> Result<S
             ));
         };
         let name = &rest[i + 1..i + j];
+        if let Some(l) = level.filter(|_| name == LEVEL) {
+            out.push_str(l);
+            rest = &rest[i + j + 1..];
+            continue;
+        }
         let k = factors.iter().position(|f| f.name == name).ok_or_else(|| {
             format!("stimulus template `{template}` names `{{{name}}}`, which is not a factor")
         })?;
@@ -352,6 +380,22 @@ impl Protocol {
                 ),
             ));
         }
+        if let Some(id) = u
+            .staircase
+            .iter()
+            .flat_map(|s| s.entries.iter().flatten())
+            .find(|id| library.find(id).is_none())
+        {
+            return Err(e.at(
+                u.stimulus.span(),
+                "stimulus",
+                format!(
+                    "the staircase names stimulus `{}`, which is not in {}",
+                    id.escape_debug(),
+                    library_path.display()
+                ),
+            ));
+        }
         Ok(Self {
             name: u.name,
             path: path.to_owned(),
@@ -364,6 +408,7 @@ impl Protocol {
             conditions: u.conditions,
             questions: u.questions,
             adjustment: u.adjustment,
+            staircase: u.staircase,
             columns: u.columns,
             report: u.report,
         })
