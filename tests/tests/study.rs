@@ -556,3 +556,96 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("`probit` is not a shape"));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Every place holds each condition equally often and each ordered pair
+/// is adjacent equally often over `rows`.
+fn balanced(rows: &[Vec<String>]) -> bool {
+    let mut place: BTreeMap<(usize, &str), usize> = BTreeMap::new();
+    let mut next: BTreeMap<(&str, &str), usize> = BTreeMap::new();
+    for r in rows {
+        for (i, c) in r.iter().enumerate() {
+            *place.entry((i, c)).or_default() += 1;
+        }
+        for w in r.windows(2) {
+            *next.entry((&w[0], &w[1])).or_default() += 1;
+        }
+    }
+    let n = rows[0].len();
+    let k = rows.len() / n;
+    place.len() == n * n
+        && place.values().all(|&x| x == k)
+        && next.len() == n * (n - 1)
+        && next.values().all(|&x| x == k)
+}
+
+#[test]
+fn study_check_prints_a_balanced_latin_square_and_run_needs_the_index() {
+    let d = scratch("latin");
+    std::fs::copy(studies("paper-library.toml"), d.join("paper-library.toml")).unwrap();
+    let exp1 = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
+    // 15 conditions (odd: 30 rows) and 4 (even: 4 rows).
+    let odd = exp1.replacen("sets = 2", "sets = 1\norder = \"latin-square\"", 1);
+    let even = odd[..odd.find("\n[report]").unwrap()]
+        .replacen(
+            "\"lms-5hz\", \"lmm-5hz\", \"lms-25hz\"",
+            "\"lms-5hz\", \"lmm-5hz\"",
+            1,
+        )
+        .replacen("\"2\", \"3\", \"4\", \"5\", \"6\"", "\"2\", \"3\"", 1);
+    for (name, text, n, rows) in [("odd", &odd, 15, 30), ("even", &even, 4, 4)] {
+        let p = d.join(format!("{name}.toml"));
+        std::fs::write(&p, text).unwrap();
+        let o = study(&["check", p.to_str().unwrap()]).output().unwrap();
+        ok(&o);
+        let out = String::from_utf8_lossy(&o.stdout);
+        let square: Vec<Vec<String>> = out
+            .lines()
+            .filter_map(|l| l.strip_prefix("participant "))
+            .map(|l| {
+                l.split_once(": ")
+                    .unwrap()
+                    .1
+                    .split(' ')
+                    .map(str::to_owned)
+                    .collect()
+            })
+            .collect();
+        assert_eq!(square.len(), rows, "{out}");
+        assert!(square.iter().all(|r| r.len() == n));
+        assert!(balanced(&square), "{name}: {out}");
+        // One participant's trials follow their row.
+        let o = study(&["check", p.to_str().unwrap(), "--participant", "2"])
+            .output()
+            .unwrap();
+        ok(&o);
+        let trials: Vec<String> = String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .skip_while(|l| !l.starts_with("trials of participant 2"))
+            .skip(1)
+            .map(|l| l.split(' ').nth(2).unwrap().to_owned())
+            .collect();
+        assert_eq!(trials, square[1]);
+    }
+    // A Latin-square run needs the participant's index.
+    let o = study(&[
+        "run",
+        d.join("even.toml").to_str().unwrap(),
+        "--port",
+        "autd3:emulator",
+        "--participant",
+        "P01",
+        "--out",
+        d.join("out").to_str().unwrap(),
+        "--finger",
+        "synthetic",
+    ])
+    .output()
+    .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("give --index N"));
+    let o = study(&["check", d.join("missing.toml").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&d);
+}

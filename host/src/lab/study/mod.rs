@@ -28,10 +28,12 @@ pub mod columns;
 pub mod design;
 pub mod live;
 pub mod observer;
+pub mod outline;
 pub mod procedure;
 pub mod protocol;
 pub mod provenance;
 pub mod record;
+mod repeat;
 pub mod report;
 pub mod start;
 #[cfg(test)]
@@ -52,7 +54,6 @@ use crate::sense::stream::filter::Passthrough;
 use answers::{Answers, Asked};
 use columns::Row;
 use design::Planned;
-use procedure::Step;
 use protocol::Protocol;
 use record::Expect;
 use start::Start;
@@ -127,6 +128,8 @@ pub struct RunOptions {
     pub out: PathBuf,
     /// The order's seed (default: from the clock; recorded).
     pub seed: Option<u64>,
+    /// The participant's 1-based index (a Latin square's row; recorded).
+    pub index: Option<usize>,
     /// Answers.
     pub answers: AnswerSource,
     /// The finger.
@@ -208,21 +211,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         );
     }
     let p = Protocol::load(&o.protocol)?;
-    let observer = match &o.answers {
-        AnswerSource::Observer(spec) => Some(observer::Observer::parse(spec)?),
-        _ => None,
-    };
-    if observer.is_some() && (p.staircase.is_none() || !p.questions.is_empty()) {
-        crate::bad_input!(
-            "--observer: study protocol {} {}: a simulated observer answers only a staircase's \"perceived?\"",
-            o.protocol.display(),
-            if p.staircase.is_none() {
-                "has no [staircase]"
-            } else {
-                "asks questions"
-            }
-        );
-    }
+    let observer = observer::for_run(&o.answers, &p)?;
     if p.timeline.wait_for_finger && matches!(o.finger, FingerSource::None) {
         crate::bad_input!(
             "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp)",
@@ -503,14 +492,6 @@ impl Runner {
         Ok(())
     }
 
-    /// On-phases that ended in this trial so far.
-    fn offsets(&self) -> usize {
-        self.trial_events
-            .iter()
-            .filter(|e| matches!(e.kind, EventKind::Offset { .. }))
-            .count()
-    }
-
     fn drain(&mut self) -> anyhow::Result<()> {
         let e = self.session().drain_events();
         self.log_events(e)
@@ -615,54 +596,7 @@ impl Runner {
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
         if let Some(pr) = procedure.as_deref_mut() {
-            let (what, unit) = pr.level_unit();
-            let level_event = |level: f64, answer: Option<&str>| {
-                let mut v = serde_json::json!({"event": what, "trial": t.trial, "answer": answer});
-                v[format!("{what}_{unit}")] = level.into();
-                v
-            };
-            if let Some(first) = pr.next() {
-                crate::errln!("  {what} {:.2} {unit}", first.level);
-                self.log(level_event(first.level, None))?;
-            }
-            // On-phases and answers before the stimulus last changed:
-            // one answer per finished on-phase of what plays now.
-            let (mut phases_before, mut answers_before) = (0, 0);
-            while !pr.finished() {
-                let offsets = self.offsets();
-                if offsets - phases_before <= pr.answers() - answers_before {
-                    self.tick()?;
-                    if !self.session().presenting() {
-                        break;
-                    }
-                    self.pause();
-                    continue;
-                }
-                let (ans, _) = self.ask(&pr.asked())?;
-                match pr.respond(&ans) {
-                    Step::Done => {}
-                    Step::Next(level) => {
-                        self.log(level_event(level, Some(&ans)))?;
-                        crate::errln!("  next {what} {level:.4} {unit} ({ans})");
-                    }
-                    Step::Last { level, why } => {
-                        self.log(level_event(level, Some(&ans)))?;
-                        crate::errln!("  {why}");
-                    }
-                }
-                // A staircase's next level is another library entry.
-                if let Some(next) = pr.next().filter(|n| n.stimulus != req.stimulus) {
-                    self.session().stop(OffsetReason::Stop)?;
-                    self.drain()?;
-                    req.stimulus = next.stimulus;
-                    self.session().present(&req)?;
-                    self.drain()?;
-                    (phases_before, answers_before) = (self.offsets(), pr.answers());
-                }
-            }
-            if self.session().presenting() {
-                self.session().stop(OffsetReason::Stop)?;
-            }
+            self.follow(pr, t, &mut req)?;
         } else {
             while self.session().presenting() {
                 self.tick()?;

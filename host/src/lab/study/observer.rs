@@ -172,6 +172,30 @@ impl Answers for Observer {
     }
 }
 
+/// The observer `--observer` asks for, if it does, for protocol `p`: a
+/// staircase's protocol without questions, else bad input.
+pub fn for_run(
+    answers: &super::AnswerSource,
+    p: &super::protocol::Protocol,
+) -> Result<Option<Observer>, InputError> {
+    let super::AnswerSource::Observer(spec) = answers else {
+        return Ok(None);
+    };
+    let o = Observer::parse(spec)?;
+    if p.staircase.is_none() || !p.questions.is_empty() {
+        return Err(InputError::new(format!(
+            "--observer: study protocol {} {}: a simulated observer answers only a staircase's \"perceived?\"",
+            p.path.display(),
+            if p.staircase.is_none() {
+                "has no [staircase]"
+            } else {
+                "asks questions"
+            }
+        )));
+    }
+    Ok(Some(o))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

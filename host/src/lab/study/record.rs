@@ -96,6 +96,14 @@ pub struct SessionFile {
     pub participant: String,
     /// The seed of the order.
     pub seed: u64,
+    /// The participant's index (`--index`: the row of a Latin square),
+    /// when given.
+    #[serde(default)]
+    pub index: Option<usize>,
+    /// The protocol's order (`random`, `sequential`, `full-random`,
+    /// `latin-square`).
+    #[serde(default)]
+    pub order: String,
     /// Questions in the order asked.
     pub question_order: Vec<String>,
     /// `trials.csv`'s condition and answer columns and their kinds

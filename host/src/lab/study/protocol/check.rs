@@ -5,10 +5,10 @@ use std::ops::Range;
 
 use toml::Spanned;
 
-use super::file::{File, KindFile, QuestionFile, RepeatsFile, ReportFile, repeated};
+use super::file::{File, KindFile, OrderFile, QuestionFile, RepeatsFile, ReportFile, repeated};
 use super::{
     Adjustment, Condition, Factor, Kind, MAX_CONDITIONS, MAX_OPTIONS, MAX_QUESTIONS, MAX_TRIALS,
-    PairSpec, Question, ReportSpec, Timeline, Unlinked,
+    Order, PairSpec, Question, ReportSpec, Timeline, Unlinked,
 };
 use crate::error::InputError;
 use crate::lab::stats::table::Repeats;
@@ -127,6 +127,12 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         library: file.library,
         stimulus: file.stimulus,
         sets,
+        order: match file.order {
+            OrderFile::Random => Order::Random,
+            OrderFile::Sequential => Order::Sequential,
+            OrderFile::FullRandom => Order::FullRandom,
+            OrderFile::LatinSquare => Order::LatinSquare,
+        },
         timeline,
         factors,
         conditions,

@@ -20,6 +20,8 @@ pub(super) struct File {
     pub library: Spanned<String>,
     #[serde(default)]
     pub sets: Sets,
+    #[serde(default)]
+    pub order: OrderFile,
     pub stimulus: Spanned<String>,
     pub timeline: Spanned<TimelineFile>,
     #[serde(default)]
@@ -138,6 +140,16 @@ pub(super) struct ReportFile {
     pub friedman: Option<Spanned<Vec<Name>>>,
     #[serde(default)]
     pub pairs: Vec<PairsFile>,
+}
+
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub(super) enum OrderFile {
+    #[default]
+    Random,
+    Sequential,
+    FullRandom,
+    LatinSquare,
 }
 
 #[derive(Debug, Default, Deserialize)]

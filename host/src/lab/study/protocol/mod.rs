@@ -67,6 +67,33 @@ pub struct Timeline {
     pub touch_s: f64,
 }
 
+/// How the conditions are ordered.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Order {
+    /// Each set a fresh random permutation.
+    #[default]
+    Random,
+    /// Each set in the protocol's order (the factors' product, first
+    /// factor slowest).
+    Sequential,
+    /// Every set's trials shuffled together.
+    FullRandom,
+    /// Each set in the participant's row of a balanced Latin square.
+    LatinSquare,
+}
+
+impl Order {
+    /// Its name in the protocol file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Random => "random",
+            Self::Sequential => "sequential",
+            Self::FullRandom => "full-random",
+            Self::LatinSquare => "latin-square",
+        }
+    }
+}
+
 /// A factor and its levels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Factor {
@@ -242,6 +269,8 @@ pub struct Protocol {
     pub library: Library,
     /// Sets; each a fresh permutation of every condition.
     pub sets: usize,
+    /// How the conditions are ordered.
+    pub order: Order,
     /// The trial's timeline.
     pub timeline: Timeline,
     /// The factors.
@@ -272,6 +301,8 @@ pub struct Unlinked {
     stimulus: toml::Spanned<String>,
     /// Sets.
     pub sets: usize,
+    /// How the conditions are ordered.
+    pub order: Order,
     /// The trial's timeline.
     pub timeline: Timeline,
     /// The factors.
@@ -403,6 +434,7 @@ impl Protocol {
             library_path,
             library,
             sets: u.sets,
+            order: u.order,
             timeline: u.timeline,
             factors: u.factors,
             conditions: u.conditions,
