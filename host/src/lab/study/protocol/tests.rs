@@ -348,8 +348,8 @@ fn the_staircase_protocol_names_an_entry_per_level_and_bad_tables_are_refused() 
             "[staircase] trial repeats",
         ),
         (
-            "[staircase]",
-            "[adjustment]\nstart_mm = 1.0\n\n[staircase]",
+            "\n[staircase]",
+            "\n[adjustment]\nstart_mm = 1.0\n\n[staircase]",
             "[adjustment] or [staircase], not both",
         ),
     ] {
@@ -362,4 +362,21 @@ fn the_staircase_protocol_names_an_entry_per_level_and_bad_tables_are_refused() 
         .replacen("name = \"type\"", "name = \"level\"", 1)
         .replacen("{type}-", "", 1);
     assert!(refused(&text).contains("rename the factor"));
+}
+
+#[test]
+fn every_shipped_protocol_and_its_library_load() {
+    // Each protocol in studies/ (a file with `[timeline]`) checks whole,
+    // its library included: a field the types no longer take fails here.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let path = e.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        if path.extension().is_some_and(|x| x == "toml") && text.contains("\n[timeline]") {
+            Protocol::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            n += 1;
+        }
+    }
+    assert!(n >= 4, "{n} protocols");
 }
