@@ -21,16 +21,24 @@ pub fn venv(c: &Ctx, log: &Log) -> Result<std::path::PathBuf, String> {
     setup::venv(c, log, "gw-venv", &["amaranth>=0.5,<0.6"])
 }
 
-pub fn step(c: &Ctx, log: &Log) -> Result<(), String> {
+/// How the step is run.
+#[derive(Debug, Clone, Copy)]
+pub struct Mode {
+    /// The CI's host build is done: run its `spi_frames` executable (a
+    /// cargo call of its own would select other packages, unify other
+    /// features and compile the core again).
+    pub host_built: bool,
+    /// The full-width chain under Verilator too.
+    pub full_width: bool,
+}
+
+pub fn step(c: &Ctx, log: &Log, mode: Mode) -> Result<(), String> {
     let out = c.target_dir.join("gateware");
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     let frames = out.join("frames.bin");
     let _ = std::fs::remove_file(&frames);
-    run(
-        log,
-        c.cargo(&["test", "-q", "-p", "lm-fw-core", "--test", "spi_frames"])
-            .env("LM_GW_FRAMES_OUT", &frames),
-    )?;
+    let mut frames_test = spi_frames(c, mode)?;
+    run(log, frames_test.env("LM_GW_FRAMES_OUT", &frames))?;
     let python = venv(c, log)?;
     run(
         log,
@@ -40,7 +48,32 @@ pub fn step(c: &Ctx, log: &Log) -> Result<(), String> {
             .env("PYTHONDONTWRITEBYTECODE", "1")
             .env("LM_GW_OUT", &out),
     )?;
-    full_width(c, log, &python, &out)
+    if mode.full_width {
+        full_width(c, log, &python, &out)
+    } else {
+        log.line(
+            "full width under Verilator: with `cargo xtask gateware` or `cargo xtask ci --full`",
+        );
+        Ok(())
+    }
+}
+
+/// The core's `spi_frames` test: the CI build's executable, or through
+/// cargo.
+fn spi_frames(c: &Ctx, mode: Mode) -> Result<Command, String> {
+    if mode.host_built {
+        crate::host::test_command(c, "lm-fw-core/spi_frames")
+    } else {
+        Ok(c.cargo(&[
+            "test",
+            "-q",
+            "-p",
+            "lm-fw-core",
+            "--test",
+            "spi_frames",
+            "--",
+        ]))
+    }
 }
 
 /// The whole chain at full width: `lmhost plan` (the paper's LM-M on the
@@ -84,17 +117,14 @@ fn full_width(c: &Ctx, log: &Log, python: &Path, out: &Path) -> Result<(), Strin
     let _ = std::fs::remove_file(&frames);
     run(
         log,
-        c.cargo(&[
-            "test",
-            "-q",
-            "-p",
-            "lm-fw-core",
-            "--test",
-            "spi_frames",
-            "--",
-            "--ignored",
-            "full_width",
-        ])
+        spi_frames(
+            c,
+            Mode {
+                host_built: false,
+                full_width: true,
+            },
+        )?
+        .args(["--ignored", "full_width"])
         .env("LM_GW_PHASES", &phases)
         .env("LM_GW_CHANNELS", FULL_WIDTH.0)
         .env("LM_GW_FRAMES_OUT", &frames),

@@ -55,10 +55,14 @@ pub enum Which {
 /// waiting on devices, pipes and child processes, not on a core.
 const JOBS: usize = 4;
 
-/// `cargo test --no-run --all-targets` for the default members (every test,
-/// bench and example, linted as it compiles) and the `lmhost` binary, and
-/// the list of test executables for [`test`]; the binary is copied where
-/// the tests find it (`LMHOST_BIN`).
+/// `cargo test --no-run --all-targets` for the default members: every
+/// test, bench and example, linted as it compiles, in one cargo call, so
+/// every artifact shares one feature set (a second call with other
+/// packages selected would unify other features and compile lmhost
+/// again). The same call leaves the `lmhost` binary (the CLI's own
+/// integration test needs it) and the Python extension (the e2e crate
+/// depends on the binding); the binary is copied where the tests find it
+/// (`LMHOST_BIN`), and the list of test executables kept for [`test`].
 pub fn build(c: &Ctx, log: &Log) -> Result<(), String> {
     let list = c.ci_dir().join("tests.json");
     let out = std::fs::File::create(&list)
@@ -73,7 +77,18 @@ pub fn build(c: &Ctx, log: &Log) -> Result<(), String> {
         ]),
         out,
     )?;
-    run(log, c.cargo(&["build", "-p", "lmhost-cli"]))?;
+    // The binary must be this build's (a file left by another build would
+    // test other code): cargo's messages name what it built or found fresh.
+    if !list_names(&list, &c.lmhost())? {
+        return Err(format!(
+            "the test build did not produce {}",
+            c.lmhost().display()
+        ));
+    }
+    log.line(format!(
+        "python extension: {}",
+        python_extension(c)?.display()
+    ));
     let bin = c.lmhost_for_tests();
     // Through a new file and a rename: a running test may still execute
     // the old binary (writing over it is "text file busy").
@@ -84,6 +99,62 @@ pub fn build(c: &Ctx, log: &Log) -> Result<(), String> {
     let bins = test_bins(&list)?;
     log.line(format!("{} test executables", bins.len()));
     Ok(())
+}
+
+/// Whether cargo's messages name `path` among the artifacts it built or
+/// found fresh in this build.
+fn list_names(list: &Path, path: &Path) -> Result<bool, String> {
+    let text = std::fs::read_to_string(list)
+        .map_err(|e| format!("cannot read {}: {e}", list.display()))?;
+    let want = path.to_string_lossy();
+    Ok(text.lines().any(|l| l.contains(want.as_ref())))
+}
+
+/// The Python extension (`lmhost._lmhost`, a cdylib) the host build left:
+/// built as the e2e crate's dependency, it stays in `deps/`, so its path
+/// comes from cargo's messages.
+pub fn python_extension(c: &Ctx) -> Result<PathBuf, String> {
+    let list = c.ci_dir().join("tests.json");
+    let text = std::fs::read_to_string(&list)
+        .map_err(|e| format!("cannot read {}: {e}", list.display()))?;
+    text.lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|m| m["reason"] == "compiler-artifact" && m["target"]["name"] == "_lmhost")
+        .flat_map(|m| {
+            m["filenames"]
+                .as_array()
+                .map(|f| {
+                    f.iter()
+                        .filter_map(|v| v.as_str().map(PathBuf::from))
+                        .collect()
+                })
+                .unwrap_or_else(Vec::new)
+        })
+        .find(|p| p.extension().is_some_and(|e| e == "so"))
+        .ok_or_else(|| {
+            format!(
+                "{} names no Python extension (lib_lmhost.so)",
+                list.display()
+            )
+        })
+}
+
+/// A test executable of the host build, set up as `cargo test` runs it
+/// (its package's directory and variables, the binary under test); for
+/// steps that run one on its own with arguments of their own.
+pub fn test_command(c: &Ctx, name: &str) -> Result<Command, String> {
+    let b = test_bins(&c.ci_dir().join("tests.json"))?
+        .into_iter()
+        .find(|b| b.name == name)
+        .ok_or_else(|| format!("no test executable {name} was built"))?;
+    let mut cmd = Command::new(&b.exe);
+    cmd.current_dir(&b.dir)
+        .env("CARGO_MANIFEST_DIR", &b.dir)
+        .env("CARGO_PKG_NAME", &b.package)
+        .env("LMHOST_BIN", c.lmhost_for_tests())
+        .env("CARGO_TARGET_DIR", &c.target_dir)
+        .stdin(Stdio::null());
+    Ok(cmd)
 }
 
 /// The test executables in cargo's JSON messages (benches are built for
@@ -137,15 +208,6 @@ fn package_name(id: &str) -> Option<String> {
         // No explicit name: the package is named as its directory.
         None => path.rsplit('/').next().map(str::to_string),
     }
-}
-
-/// (summary name, executable, package directory) of every test
-/// executable the host build listed.
-pub fn test_executables(c: &Ctx) -> Result<Vec<(String, PathBuf, PathBuf)>, String> {
-    Ok(test_bins(&c.ci_dir().join("tests.json"))?
-        .into_iter()
-        .map(|b| (b.name, b.exe, b.dir))
-        .collect())
 }
 
 /// What one test executable did.

@@ -48,8 +48,15 @@ fn main() -> ExitCode {
         Some("build-fw") if args.len() == 1 => firmware::build_fw(&c),
         Some("qemu") => firmware::qemu(&c, &args[1..]),
         Some("size") if args.len() == 1 => firmware::size(&c),
-        Some("python") if args.len() == 1 => python::step(&c, log),
-        Some("gateware") if args.len() == 1 => gateware::step(&c, log),
+        Some("python") if args.len() == 1 => python::step(&c, log, true),
+        Some("gateware") if args.len() == 1 => gateware::step(
+            &c,
+            log,
+            gateware::Mode {
+                host_built: false,
+                full_width: true,
+            },
+        ),
         Some("bitstream") => bitstream::bitstream(&c, &args[1..]),
         Some("ethercat") if args.len() == 1 => ethercat::step(&c, log, true),
         _ => Err(format!(
