@@ -22,6 +22,36 @@ enum Sub {
     Run(Box<RunArgs>),
     /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG, PDF).
     Report(ReportArgs),
+    /// Check a protocol and its library and print its trial plan (counts,
+    /// procedure, the order a participant gets) without a device.
+    Check(CheckArgs),
+}
+
+/// Arguments of `lmhost study check`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    lmhost study check studies/paper-exp1.toml\n  \
+    lmhost study check studies/paper-exp1.toml --participant 3 --seed 7")]
+struct CheckArgs {
+    /// The protocol (TOML).
+    #[arg(value_name = "PROTOCOL")]
+    protocol: PathBuf,
+    /// Print this participant's trials (their number, from 1, as `study
+    /// run --index` takes it) [default: a Latin square's every row].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    participant: Option<u64>,
+    /// The seed of a random order, as `study run --seed` takes it.
+    #[arg(long, value_name = "N")]
+    seed: Option<u64>,
+}
+
+impl CheckArgs {
+    fn run(self) -> anyhow::Result<()> {
+        let p = study::protocol::Protocol::load(&self.protocol)?;
+        let text = study::outline::outline(&p, self.participant.map(|i| i as usize), self.seed);
+        lmhost::out!("{text}")?;
+        Ok(())
+    }
 }
 
 /// Where the finger comes from.
@@ -54,11 +84,21 @@ struct RunArgs {
     /// Seed of the trial order [default: from the clock; recorded].
     #[arg(long, value_name = "N")]
     seed: Option<u64>,
+    /// The participant's number, from 1: picks the row of a
+    /// `latin-square` protocol's order (recorded).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    index: Option<u64>,
     /// Answers, one per line in the order asked (`na`: not perceived,
     /// where a question allows it), or `-`: stdin's lines, each read as
     /// its question is asked [default: keys at the terminal].
     #[arg(long, value_name = "FILE")]
     responses: Option<PathBuf>,
+    /// A simulated observer answers a [staircase]'s "perceived?" from a
+    /// psychometric function, e.g.
+    /// `logistic:threshold=0.5,slope=12,guess=0,lapse=0.02,seed=1`
+    /// (or `weibull:...`).
+    #[arg(long, value_name = "SPEC", conflicts_with_all = ["responses", "view"])]
+    observer: Option<String>,
     /// The finger source: a synthetic one, or none (then --stream or
     /// --udp may give tracked centroids).
     #[arg(long, value_enum, default_value_t = Finger::None)]
@@ -110,6 +150,7 @@ impl Args {
         match self.cmd {
             Sub::Run(a) => (*a).run(),
             Sub::Report(a) => a.run(),
+            Sub::Check(a) => a.run(),
         }
     }
 }
@@ -151,9 +192,11 @@ impl RunArgs {
             participant: self.participant,
             out: self.out,
             seed: self.seed,
-            answers: match self.responses {
-                Some(p) => AnswerSource::File(p),
-                None => AnswerSource::Interactive,
+            index: self.index.map(|i| i as usize),
+            answers: match (self.responses, self.observer) {
+                (Some(p), _) => AnswerSource::File(p),
+                (None, Some(spec)) => AnswerSource::Observer(spec),
+                (None, None) => AnswerSource::Interactive,
             },
             finger,
             time_scale: self.time_scale,

@@ -22,6 +22,10 @@ pub struct Asked {
     /// The label of the "not perceived" answer, typed as
     /// [`NOT_PERCEIVED`], when the question allows it.
     pub not_perceived: Option<String>,
+    /// Set when the question asks whether a stimulus at this level (in
+    /// the procedure's unit) was perceived: the first choice means yes,
+    /// the second no (what a simulated observer answers from).
+    pub perceived_at: Option<f64>,
 }
 
 /// What an answer may be.
@@ -68,6 +72,7 @@ impl Asked {
                         prompt: format!("{text} [{scale}]"),
                         accepts: Accepts::Likert(*points),
                         not_perceived: None,
+                        perceived_at: None,
                     }];
                 }
                 order
@@ -77,6 +82,7 @@ impl Asked {
                         prompt: format!("{text} ({}) [{scale}]", items[i]),
                         accepts: Accepts::Likert(*points),
                         not_perceived: None,
+                        perceived_at: None,
                     })
                     .collect()
             }
@@ -93,6 +99,7 @@ impl Asked {
                     prompt: format!("{text} [{list}]"),
                     accepts: Accepts::Choice(shown),
                     not_perceived: None,
+                    perceived_at: None,
                 }]
             }
             Kind::Number { min, max } => vec![Asked {
@@ -104,6 +111,7 @@ impl Asked {
                 ),
                 accepts: Accepts::Number(*min, *max),
                 not_perceived: None,
+                perceived_at: None,
             }],
         }
     }
@@ -520,6 +528,7 @@ mod tests {
             prompt: String::new(),
             accepts: Accepts::Likert(7),
             not_perceived: None,
+            perceived_at: None,
         }
     }
 
@@ -534,6 +543,7 @@ mod tests {
             prompt: String::new(),
             accepts: Accepts::Choice(vec!["convex".into(), "flat".into()]),
             not_perceived: None,
+            perceived_at: None,
         };
         assert_eq!(c.parse("flat").unwrap(), "flat");
         assert_eq!(c.parse("FLAT").unwrap(), "flat");
@@ -544,6 +554,7 @@ mod tests {
             prompt: String::new(),
             accepts: Accepts::Number(0.0, 10.0),
             not_perceived: None,
+            perceived_at: None,
         };
         assert_eq!(n.parse("2.5").unwrap(), "2.5");
         assert!(n.parse("11").is_err());

@@ -56,6 +56,17 @@ pub const ADJUST_ANSWERS: &str = "adjust_answers";
 pub const DEPTHS: &str = "depths_mm";
 /// The depth the trial ended at.
 pub const FINAL_DEPTH: &str = "final_depth_mm";
+/// The staircase's columns, where used: the level of each presentation
+/// (`|`-joined level labels).
+pub const STAIRCASE_LEVELS: &str = "staircase_levels";
+/// Its answers in order, `|`-joined.
+pub const STAIRCASE_ANSWERS: &str = "staircase_answers";
+/// The level at each reversal, `|`-joined.
+pub const STAIRCASE_REVERSALS: &str = "staircase_reversals";
+/// Moves the grid's ends cut short.
+pub const STAIRCASE_AT_LIMIT: &str = "staircase_at_limit";
+/// The mean level of the last reversals (empty without a reversal).
+pub const THRESHOLD: &str = "threshold";
 /// Joins the values of a list column (option orders, adjustment answers
 /// and depths); labels may not contain it.
 pub const LIST_SEPARATOR: char = '|';
@@ -73,6 +84,13 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
             ADJUST_ANSWERS,
             DEPTHS,
             FINAL_DEPTH,
+        ])
+        .chain([
+            STAIRCASE_LEVELS,
+            STAIRCASE_ANSWERS,
+            STAIRCASE_REVERSALS,
+            STAIRCASE_AT_LIMIT,
+            THRESHOLD,
         ])
 }
 
@@ -143,6 +161,9 @@ pub enum Holds {
     Adjustments(u32),
     /// The adjustment's answers, `|`-joined, each one of these labels.
     AdjustAnswers(Vec<String>),
+    /// A staircase's levels, `|`-joined, each one of these labels (empty:
+    /// none).
+    Levels(Vec<String>),
 }
 
 impl Holds {
@@ -213,7 +234,7 @@ impl Holds {
             Self::Depth(lo, hi) => number(value, *lo, *hi),
             Self::Depths(lo, hi) => list(value).iter().all(|v| number(v, *lo, *hi)),
             Self::Adjustments(max) => value.parse::<u32>().is_ok_and(|n| n <= *max),
-            Self::AdjustAnswers(labels) => {
+            Self::AdjustAnswers(labels) | Self::Levels(labels) => {
                 value.is_empty() || list(value).iter().all(|v| labels.contains(v))
             }
         };
@@ -236,6 +257,7 @@ impl Holds {
             Self::Depths(lo, hi) => format!("give `|`-joined millimetres {}", range(*lo, *hi)),
             Self::Adjustments(max) => format!("give a whole number from 0 to {max}"),
             Self::AdjustAnswers(l) => format!("give `|`-joined answers of {}", l.join(", ")),
+            Self::Levels(l) => format!("give `|`-joined levels of {}", l.join(", ")),
         })
     }
 
@@ -260,7 +282,7 @@ impl Holds {
             Self::Depth(..) => NUMBER,
             Self::Order(n) => label(n) * n.len().max(1),
             Self::Depths(..) => (NUMBER + 1) * items,
-            Self::AdjustAnswers(l) => (label(l) + 1) * items,
+            Self::AdjustAnswers(l) | Self::Levels(l) => (label(l) + 1) * items,
         }
     }
 }
@@ -334,7 +356,7 @@ pub struct AdjustColumns {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Columns {
     list: Vec<Column>,
-    /// Most adjustments (sizes the depth lists).
+    /// Most adjustments or staircase presentations (sizes the lists).
     adjustments: u32,
 }
 
@@ -384,6 +406,38 @@ impl Columns {
             list,
             adjustments: adjust.map_or(0, |a| a.max),
         })
+    }
+
+    /// The same header with a staircase's columns after the rest: its
+    /// `levels`, its two `answers` and the most presentations, `trials`.
+    pub fn with_staircase(
+        mut self,
+        levels: Vec<String>,
+        answers: Vec<String>,
+        trials: u32,
+    ) -> Result<Self, String> {
+        for name in [
+            STAIRCASE_LEVELS,
+            STAIRCASE_ANSWERS,
+            STAIRCASE_REVERSALS,
+            STAIRCASE_AT_LIMIT,
+            THRESHOLD,
+        ] {
+            if self.index(name).is_some() {
+                return Err(format!(
+                    "column `{name}` is used twice (factor and question names and trials.csv's own columns must differ)"
+                ));
+            }
+        }
+        self.list.extend([
+            Column::new(STAIRCASE_LEVELS, Holds::Levels(levels.clone())),
+            Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
+            Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
+            Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
+            Column::new(THRESHOLD, Holds::Measured),
+        ]);
+        self.adjustments = self.adjustments.max(trials);
+        Ok(self)
     }
 
     /// The columns in order.

@@ -1,8 +1,13 @@
-//! The trial order: each set a fresh seeded permutation of every condition,
-//! and each shuffled question's order per trial, all from one seed.
+//! The trial order, by the protocol's `order`: each set a fresh seeded
+//! permutation of every condition (`random`, the default), every set in
+//! the file's order (`sequential`), all sets' trials shuffled together
+//! (`full-random`), or each set in the participant's row of a balanced
+//! Latin square (`latin-square`, by the participant's index); and each
+//! shuffled question's order per trial, all from one seed.
 
 use serde::{Deserialize, Serialize};
 
+pub use super::protocol::Order;
 use super::protocol::{Condition, Protocol, Question};
 use crate::rng::SplitMix64;
 
@@ -32,42 +37,96 @@ pub fn permutation(rng: &mut SplitMix64, n: usize) -> Vec<usize> {
     v
 }
 
-/// The whole session's trials for `seed`.
-pub fn plan(p: &Protocol, seed: u64) -> Vec<Planned> {
-    plan_of(p.sets, &p.conditions, &p.questions, seed)
+/// Row `row` (0-based) of the balanced Latin square of `n` conditions
+/// (Williams 1949): every condition once in each place over `n` rows and
+/// every condition just before every other once; with an odd `n`, the
+/// odd rows are reversed and it takes `2n` rows to balance (each twice).
+pub fn latin_square_row(n: usize, row: usize) -> Vec<usize> {
+    // 0, 1, n-1, 2, n-2, …
+    let (mut lo, mut hi) = (0, 0);
+    let mut v: Vec<usize> = (0..n)
+        .map(|i| {
+            let x = if i < 2 || i % 2 == 1 {
+                lo += 1;
+                lo - 1
+            } else {
+                hi += 1;
+                n - hi
+            };
+            (x + row) % n
+        })
+        .collect();
+    if n % 2 == 1 && row % 2 == 1 {
+        v.reverse();
+    }
+    v
 }
 
-/// [`plan`] from a protocol's parts (the report has no library).
+/// Rows a balanced Latin square of `n` conditions needs.
+pub fn latin_square_rows(n: usize) -> usize {
+    if n % 2 == 1 { 2 * n } else { n }
+}
+
+/// The whole session's trials for `seed` (a `latin-square` protocol needs
+/// [`plan_for`] and the participant's index).
+pub fn plan(p: &Protocol, seed: u64) -> Vec<Planned> {
+    plan_for(p, seed, None)
+}
+
+/// The whole session's trials for `seed` and the participant's 1-based
+/// `index` (which row of the Latin square; `None` reads as 1).
+pub fn plan_for(p: &Protocol, seed: u64, index: Option<usize>) -> Vec<Planned> {
+    plan_of(p.sets, &p.conditions, &p.questions, p.order, seed, index)
+}
+
+/// [`plan_for`] from a protocol's parts (the report has no library).
 pub fn plan_of(
     sets: usize,
     conditions: &[Condition],
     questions: &[Question],
+    how: Order,
     seed: u64,
+    index: Option<usize>,
 ) -> Vec<Planned> {
     let mut order = SplitMix64::new(seed);
     // A second stream: option orders do not change the condition order.
     let mut options = SplitMix64::new(seed ^ 0x0F71_0A5E_ED00_0005_u64);
-    let mut out = Vec::with_capacity(sets.saturating_mul(conditions.len()));
+    let n = conditions.len();
+    let mut sequence: Vec<(usize, usize)> = Vec::with_capacity(sets.saturating_mul(n));
     for set in 1..=sets {
-        for c in permutation(&mut order, conditions.len()) {
-            let orders = questions
-                .iter()
-                .map(|q| {
-                    if q.shuffle {
-                        permutation(&mut options, q.shuffled_len())
-                    } else {
-                        (0..q.shuffled_len()).collect()
-                    }
-                })
-                .collect();
-            out.push(Planned {
-                trial: out.len() + 1,
-                set,
-                condition: c,
-                stimulus: conditions[c].stimulus.clone(),
-                orders,
-            });
-        }
+        let within = match how {
+            Order::Random => permutation(&mut order, n),
+            Order::Sequential | Order::FullRandom => (0..n).collect(),
+            Order::LatinSquare => {
+                let row = index.unwrap_or(1).saturating_sub(1) % latin_square_rows(n);
+                latin_square_row(n, row)
+            }
+        };
+        sequence.extend(within.into_iter().map(|c| (set, c)));
+    }
+    if how == Order::FullRandom {
+        let p = permutation(&mut order, sequence.len());
+        sequence = p.into_iter().map(|i| sequence[i]).collect();
+    }
+    let mut out = Vec::with_capacity(sequence.len());
+    for (set, c) in sequence {
+        let orders = questions
+            .iter()
+            .map(|q| {
+                if q.shuffle {
+                    permutation(&mut options, q.shuffled_len())
+                } else {
+                    (0..q.shuffled_len()).collect()
+                }
+            })
+            .collect();
+        out.push(Planned {
+            trial: out.len() + 1,
+            set,
+            condition: c,
+            stimulus: conditions[c].stimulus.clone(),
+            orders,
+        });
     }
     out
 }
@@ -128,5 +187,71 @@ mod tests {
             }
         }
         assert_eq!(seen.len(), 6);
+    }
+
+    /// Each place holds every condition equally often, and every ordered
+    /// pair of different conditions is adjacent equally often, over the
+    /// square's rows.
+    fn balanced(rows: &[Vec<usize>], n: usize) -> bool {
+        let k = rows.len() / n;
+        let mut place = vec![vec![0; n]; n];
+        let mut next = vec![vec![0; n]; n];
+        for r in rows {
+            for (i, &c) in r.iter().enumerate() {
+                place[i][c] += 1;
+            }
+            for w in r.windows(2) {
+                next[w[0]][w[1]] += 1;
+            }
+        }
+        place.iter().flatten().all(|&x| x == k)
+            && (0..n).all(|a| (0..n).all(|b| a == b || next[a][b] == k))
+    }
+
+    #[test]
+    fn latin_square_rows_are_balanced_for_even_and_odd_counts() {
+        for n in 2..=12 {
+            let rows: Vec<Vec<usize>> = (0..latin_square_rows(n))
+                .map(|r| latin_square_row(n, r))
+                .collect();
+            assert_eq!(rows.len(), if n % 2 == 0 { n } else { 2 * n });
+            assert!(balanced(&rows, n), "n = {n}: {rows:?}");
+        }
+        // The first n rows of an odd square alone are not balanced: the
+        // reversed rows are needed.
+        let odd: Vec<Vec<usize>> = (0..5).map(|r| latin_square_row(5, r)).collect();
+        assert!(!balanced(&odd, 5));
+        assert_eq!(latin_square_row(4, 0), [0, 1, 3, 2]);
+    }
+
+    #[test]
+    fn each_order_plans_as_named() {
+        let mut p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+        let conditions = |v: &[Planned]| v.iter().map(|t| t.condition).collect::<Vec<_>>();
+        p.order = Order::Sequential;
+        let s = plan(&p, 3);
+        assert_eq!(conditions(&s), (0..15).chain(0..15).collect::<Vec<_>>());
+        p.order = Order::LatinSquare;
+        let a = plan_for(&p, 3, Some(2));
+        let row = latin_square_row(15, 1);
+        assert_eq!(conditions(&a[..15]), row);
+        assert_eq!(conditions(&a[15..]), row);
+        // Participant 32 gets row 1 again (30 rows for 15 conditions).
+        assert_eq!(conditions(&plan_for(&p, 9, Some(32))), conditions(&a));
+        p.order = Order::FullRandom;
+        let f = plan(&p, 3);
+        let mut c = conditions(&f);
+        // The sets mix: some condition comes twice in the first half.
+        let first: std::collections::BTreeSet<usize> = c[..15].iter().copied().collect();
+        assert!(first.len() < 15, "{c:?}");
+        c.sort_unstable();
+        assert_eq!(c, (0..15).flat_map(|i| [i, i]).collect::<Vec<_>>());
+        assert!(f.iter().enumerate().all(|(i, t)| t.trial == i + 1));
+        // Random stays as it was: a permutation per set.
+        p.order = Order::Random;
+        assert_eq!(
+            plan(&p, 7),
+            plan_of(2, &p.conditions, &p.questions, Order::Random, 7, None)
+        );
     }
 }

@@ -27,10 +27,13 @@ pub mod answers;
 pub mod columns;
 pub mod design;
 pub mod live;
+pub mod observer;
+pub mod outline;
 pub mod procedure;
 pub mod protocol;
 pub mod provenance;
 pub mod record;
+mod repeat;
 pub mod report;
 pub mod start;
 #[cfg(test)]
@@ -51,7 +54,6 @@ use crate::sense::stream::filter::Passthrough;
 use answers::{Answers, Asked};
 use columns::Row;
 use design::Planned;
-use procedure::Step;
 use protocol::Protocol;
 use record::Expect;
 use start::Start;
@@ -106,6 +108,9 @@ pub enum AnswerSource {
     /// The terminal (single keys) when stdin is one, else stdin's lines as
     /// they arrive.
     Interactive,
+    /// A simulated observer ([`observer::Observer::parse`]'s text): answers
+    /// a procedure's "perceived?" questions only.
+    Observer(String),
 }
 
 /// What `lmhost study run` was asked to do.
@@ -123,6 +128,8 @@ pub struct RunOptions {
     pub out: PathBuf,
     /// The order's seed (default: from the clock; recorded).
     pub seed: Option<u64>,
+    /// The participant's 1-based index (a Latin square's row; recorded).
+    pub index: Option<usize>,
     /// Answers.
     pub answers: AnswerSource,
     /// The finger.
@@ -204,6 +211,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         );
     }
     let p = Protocol::load(&o.protocol)?;
+    let observer = observer::for_run(&o.answers, &p)?;
     if p.timeline.wait_for_finger && matches!(o.finger, FingerSource::None) {
         crate::bad_input!(
             "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp)",
@@ -266,7 +274,9 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         None => None,
     };
     // `--responses -` answers each question as it is asked, from stdin.
-    let answers: Box<dyn Answers> = if o.answers == AnswerSource::File("-".into()) {
+    let answers: Box<dyn Answers> = if let Some(obs) = observer {
+        Box::new(obs)
+    } else if o.answers == AnswerSource::File("-".into()) {
         Box::new(answers::Piped::named("--responses -")?)
     } else {
         live::answer_source(st.lines.take(), view.as_ref())?
@@ -567,14 +577,14 @@ impl Runner {
                 self.pause();
             }
         }
-        let adjusting = p.adjustment.is_some();
+        let mut procedure = procedure::start(p, t);
         let on_s = tl.on_s.map(|s| s * self.scale);
-        let req = Present {
+        let mut req = Present {
             stimulus: t.stimulus.clone(),
             gate: tl.gate,
             on_s,
             off_s: Some(tl.off_s * self.scale),
-            repeat: Some(if adjusting {
+            repeat: Some(if procedure.is_some() {
                 crate::lab::session::MAX_REPEAT
             } else {
                 tl.repeat
@@ -585,49 +595,8 @@ impl Runner {
         self.driver().track_now()?;
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
-        let mut procedure = procedure::start(p, &t.stimulus);
         if let Some(pr) = procedure.as_deref_mut() {
-            let (what, unit) = pr.level_unit();
-            let level_event = |level: f64, answer: Option<&str>| {
-                let mut v = serde_json::json!({"event": what, "trial": t.trial, "answer": answer});
-                v[format!("{what}_{unit}")] = level.into();
-                v
-            };
-            if let Some(first) = pr.next() {
-                crate::errln!("  {what} {:.2} {unit}", first.level);
-                self.log(level_event(first.level, None))?;
-            }
-            while !pr.finished() {
-                // One answer per finished on-phase.
-                let offsets = self
-                    .trial_events
-                    .iter()
-                    .filter(|e| matches!(e.kind, EventKind::Offset { .. }))
-                    .count();
-                if offsets <= pr.answers() {
-                    self.tick()?;
-                    if !self.session().presenting() {
-                        break;
-                    }
-                    self.pause();
-                    continue;
-                }
-                let (ans, _) = self.ask(&pr.asked())?;
-                match pr.respond(&ans) {
-                    Step::Done => {}
-                    Step::Next(level) => {
-                        self.log(level_event(level, Some(&ans)))?;
-                        crate::errln!("  next {what} {level:.2} {unit} ({ans})");
-                    }
-                    Step::Last { level, why } => {
-                        self.log(level_event(level, Some(&ans)))?;
-                        crate::errln!("  {why}");
-                    }
-                }
-            }
-            if self.session().presenting() {
-                self.session().stop(OffsetReason::Stop)?;
-            }
+            self.follow(pr, t, &mut req)?;
         } else {
             while self.session().presenting() {
                 self.tick()?;

@@ -96,6 +96,14 @@ pub struct SessionFile {
     pub participant: String,
     /// The seed of the order.
     pub seed: u64,
+    /// The participant's index (`--index`: the row of a Latin square),
+    /// when given.
+    #[serde(default)]
+    pub index: Option<usize>,
+    /// The protocol's order (`random`, `sequential`, `full-random`,
+    /// `latin-square`).
+    #[serde(default)]
+    pub order: String,
     /// Questions in the order asked.
     pub question_order: Vec<String>,
     /// `trials.csv`'s condition and answer columns and their kinds
@@ -311,7 +319,10 @@ pub fn read_trials(
             )
         })
         .count();
-    let adjust = cols.index(columns::ADJUST_ANSWERS);
+    // A procedure's answers, `|`-joined in one column.
+    let adjust = cols
+        .index(columns::ADJUST_ANSWERS)
+        .or_else(|| cols.index(columns::STAIRCASE_ANSWERS));
     let count = cols.index(columns::ANSWERS);
     for (k, rec) in reader.records().enumerate() {
         let rec = rec.map_err(|e| {

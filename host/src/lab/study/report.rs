@@ -130,7 +130,9 @@ fn read_participant(d: &Path) -> Result<Participant, InputError> {
         protocol.sets,
         &protocol.conditions,
         &protocol.questions,
+        protocol.order,
         session.seed,
+        session.index,
     );
     if plan != session.trials {
         crate::bad_input!(

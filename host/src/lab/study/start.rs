@@ -65,7 +65,13 @@ pub fn fresh(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Star
         );
     }
     let seed = o.seed.unwrap_or_else(design::clock_seed);
-    let plan = design::plan(p, seed);
+    if p.order == design::Order::LatinSquare && o.index.is_none() {
+        crate::bad_input!(
+            "study protocol {}: the order is a Latin square by participant: give --index N (the participant's number, from 1; `lmhost study check` prints each one's order)",
+            o.protocol.display()
+        );
+    }
+    let plan = design::plan_for(p, seed, o.index);
     let lines = answers(o, p, &plan, 0)?;
     let file = SessionFile {
         protocol_name: p.name.clone(),
@@ -74,6 +80,8 @@ pub fn fresh(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Star
         library_file: p.library_path.display().to_string(),
         participant: o.participant.clone(),
         seed,
+        index: o.index,
+        order: p.order.name().into(),
         question_order: p.questions.iter().map(|q| q.id.clone()).collect(),
         columns: record::columns(&p.columns),
         trials: plan.clone(),
@@ -126,7 +134,15 @@ pub fn resume(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Sta
             f.seed
         );
     }
-    let plan = design::plan(p, f.seed);
+    if let Some(i) = o.index
+        && Some(i) != f.index
+    {
+        crate::bad_input!(
+            "--resume: the session's participant index is {}, not --index {i} (leave --index out)",
+            f.index.map_or("not given".into(), |x| x.to_string())
+        );
+    }
+    let plan = design::plan_for(p, f.seed, f.index);
     if plan != f.trials {
         crate::bad_input!("--resume: {session}'s trial order does not follow from its seed");
     }

@@ -50,7 +50,7 @@ pub fn dry_run(p: &Protocol, trials: &[Planned], answers: &mut Lines) -> anyhow:
         Ok((a, 0.0))
     };
     for t in trials {
-        if let Some(mut pr) = procedure::start(p, &t.stimulus) {
+        if let Some(mut pr) = procedure::start(p, t) {
             while !pr.finished() {
                 let (a, _) = now(&pr.asked())?;
                 pr.respond(&a);
@@ -97,13 +97,15 @@ pub fn row(
     given: &[Answer],
     procedure: Option<&dyn Procedure>,
 ) -> (Row, f64) {
+    // A staircase presents other levels' entries within the trial.
+    let ours = |s: &str| s == t.stimulus || procedure.is_some_and(|p| p.presents(s));
     let mut onset = None;
     let mut offset = None;
     let (mut presented, mut muted, mut device, mut device_known) = (0.0, 0.0, 0.0, true);
     let (mut phases, mut mutes, mut switch) = (0usize, 0usize, None);
     for e in events {
         match &e.kind {
-            EventKind::Onset { stimulus, .. } if *stimulus == t.stimulus => {
+            EventKind::Onset { stimulus, .. } if ours(stimulus) => {
                 onset.get_or_insert(e.t_host_us);
             }
             EventKind::Offset {
@@ -112,7 +114,7 @@ pub fn row(
                 device_presented_s,
                 muted_s,
                 ..
-            } if *stimulus == t.stimulus => {
+            } if ours(stimulus) => {
                 offset = Some(e.t_host_us);
                 phases += 1;
                 presented += presented_s;
@@ -123,7 +125,7 @@ pub fn row(
                 }
             }
             EventKind::Mute { .. } => mutes += 1,
-            EventKind::Switch { to, latency_ms, .. } if *to == t.stimulus => {
+            EventKind::Switch { to, latency_ms, .. } if ours(to) => {
                 switch = Some(*latency_ms);
             }
             _ => {}

@@ -67,7 +67,7 @@ fn write_study(out: &std::path::Path) -> usize {
     who.dedup();
     for (k, id) in who.iter().enumerate() {
         let seed = 100 + k as u64;
-        let plan = design::plan_of(p.sets, &p.conditions, &p.questions, seed);
+        let plan = design::plan_of(p.sets, &p.conditions, &p.questions, p.order, seed, None);
         // Each cell's answers in the fixture's order, set by set.
         let mut cells: std::collections::HashMap<String, Vec<Option<f64>>> = Default::default();
         for r in rows.iter().filter(|r| r[0] == *id) {
@@ -107,6 +107,8 @@ fn write_study(out: &std::path::Path) -> usize {
             library_file: "paper-library.toml".into(),
             participant: (*id).into(),
             seed,
+            index: None,
+            order: "random".into(),
             question_order: vec!["vibration".into()],
             columns: record::columns(&p.columns),
             trials: plan,

@@ -5,49 +5,23 @@ use std::ops::Range;
 
 use toml::Spanned;
 
-use super::file::{File, KindFile, QuestionFile, RepeatsFile, ReportFile, repeated};
+use super::file::{File, KindFile, OrderFile, QuestionFile, RepeatsFile, ReportFile, repeated};
 use super::{
     Adjustment, Condition, Factor, Kind, MAX_CONDITIONS, MAX_OPTIONS, MAX_QUESTIONS, MAX_TRIALS,
-    PairSpec, Question, ReportSpec, Timeline, Unlinked,
+    Order, PairSpec, Question, ReportSpec, Timeline, Unlinked,
 };
 use crate::error::InputError;
 use crate::lab::stats::table::Repeats;
 use crate::lab::study::columns::{AdjustColumns, Column, Columns, Holds};
 
-/// Errors that name the protocol file and, for a field, its line.
-pub(super) struct Errors<'a> {
-    pub text: &'a str,
-    pub origin: &'a str,
-}
-
-impl Errors<'_> {
-    /// An error about the whole file.
-    pub fn bad(&self, msg: impl std::fmt::Display) -> InputError {
-        InputError::new(format!("study protocol {}: {msg}", self.origin))
-    }
-
-    /// An error about `field`, whose value starts at `span`: named by its
-    /// whole path in the file (`question[1].points`), as a parse error
-    /// names it, `field` where the path cannot be found.
-    pub fn at(&self, span: Range<usize>, field: &str, msg: impl std::fmt::Display) -> InputError {
-        let at = span.start.min(self.text.len());
-        let line = self.text[..at].matches('\n').count() + 1;
-        // The path of what sits at `span`, when that is `field` itself (a
-        // span may be its table's, for a field that is missing).
-        let path = crate::plan::scene::field_at(self.text, at).filter(|p| {
-            let last = p.rsplit('.').next().unwrap_or(p);
-            last.split('[').next() == Some(field)
-        });
-        let field = path.as_deref().unwrap_or(field);
-        self.bad(format!("line {line}, field `{field}`: {msg}"))
-    }
-}
+pub(super) use super::errors::Errors;
 
 /// Checks what parsing alone cannot.
 pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
     let timeline = timeline(&file, e)?;
     let factors = factors(&file, e)?;
-    let conditions = conditions(&file.stimulus, &factors, e)?;
+    let start = super::staircase::start_label(&file);
+    let conditions = conditions(&file.stimulus, &factors, start.as_deref(), e)?;
     let sets = file.sets.0;
     if conditions.len().saturating_mul(sets) > MAX_TRIALS {
         return Err(e.bad(format!(
@@ -71,6 +45,17 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         questions.push(question(q, e)?);
     }
     let report = report(file.report, &factors, e)?;
+    let staircase = super::staircase::check(
+        file.staircase,
+        file.adjustment.is_some(),
+        &file.stimulus,
+        &factors,
+        &conditions
+            .iter()
+            .map(|c| c.levels.clone())
+            .collect::<Vec<_>>(),
+        e,
+    )?;
     let adjustment = file
         .adjustment
         .map(|a| {
@@ -128,17 +113,32 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
             })
             .as_ref(),
     )
+    .and_then(|c| match &staircase {
+        Some(s) => c.with_staircase(
+            s.labels.clone(),
+            vec![s.yes.clone(), s.no.clone()],
+            s.trials,
+        ),
+        None => Ok(c),
+    })
     .map_err(|m| e.bad(m))?;
     Ok(Unlinked {
         name: file.name.0,
         library: file.library,
         stimulus: file.stimulus,
         sets,
+        order: match file.order {
+            OrderFile::Random => Order::Random,
+            OrderFile::Sequential => Order::Sequential,
+            OrderFile::FullRandom => Order::FullRandom,
+            OrderFile::LatinSquare => Order::LatinSquare,
+        },
         timeline,
         factors,
         conditions,
         questions,
         adjustment,
+        staircase,
         columns,
         report,
     })
@@ -147,6 +147,12 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
 fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
     let span = file.timeline.span();
     let t = file.timeline.get_ref();
+    // A procedure's trial repeats its on/off phases until answered.
+    let procedure = match (&file.adjustment, &file.staircase) {
+        (Some(_), _) => Some("[adjustment]"),
+        (None, Some(_)) => Some("[staircase]"),
+        (None, None) => None,
+    };
     let on_s = t.on_s.as_ref().map(|s| s.get_ref().0);
     let while_touching = t.while_touching.as_ref().is_some_and(|w| *w.get_ref());
     if on_s.is_none() && !while_touching {
@@ -175,11 +181,11 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
             if !(1..=max).contains(&n) {
                 return Err(e.at(r.span(), "repeat", format!("{n} is out of range 1..={max}")));
             }
-            if file.adjustment.is_some() {
+            if let Some(what) = procedure {
                 return Err(e.at(
                     r.span(),
                     "repeat",
-                    "an [adjustment] trial repeats its on/off phases until answered: give `on_s` and no `repeat`",
+                    format!("an {what} trial repeats its on/off phases until answered: give `on_s` and no `repeat`"),
                 ));
             }
             if on_s.is_none() {
@@ -188,11 +194,11 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
             n
         }
     };
-    if file.adjustment.is_some() && on_s.is_none() {
+    if let Some(what) = procedure.filter(|_| on_s.is_none()) {
         return Err(e.at(
             span,
             "on_s",
-            "an [adjustment] trial repeats its on/off phases until answered: give `on_s`",
+            format!("an {what} trial repeats its on/off phases until answered: give `on_s`"),
         ));
     }
     Ok(Timeline {
@@ -246,6 +252,7 @@ fn factors(file: &File, e: &Errors) -> Result<Vec<Factor>, InputError> {
 fn conditions(
     template: &Spanned<String>,
     factors: &[Factor],
+    level: Option<&str>,
     e: &Errors,
 ) -> Result<Vec<Condition>, InputError> {
     let n = factors
@@ -268,7 +275,7 @@ fn conditions(
             levels[i] = f.levels[rest % f.levels.len()].clone();
             rest /= f.levels.len();
         }
-        let stimulus = super::expand(template.get_ref(), factors, &levels)
+        let stimulus = super::expand_level(template.get_ref(), factors, &levels, level)
             .map_err(|m| e.at(template.span(), "stimulus", m))?;
         if let Err(m) = crate::plan::library::check_id(&stimulus) {
             return Err(e.at(

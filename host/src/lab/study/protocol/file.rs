@@ -6,7 +6,9 @@
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::{MAX_ADJUSTMENTS, MAX_DEPTH_MM, MAX_NUMBER, MAX_SECONDS, MAX_SETS};
+use super::{
+    MAX_ADJUSTMENTS, MAX_DEPTH_MM, MAX_NUMBER, MAX_RUN, MAX_SECONDS, MAX_SETS, MAX_STAIRCASE,
+};
 use crate::lab::session::Gate;
 use crate::lab::study::columns::{LIST_SEPARATOR, MAX_LABEL_BYTES};
 use crate::limits::show;
@@ -18,6 +20,8 @@ pub(super) struct File {
     pub library: Spanned<String>,
     #[serde(default)]
     pub sets: Sets,
+    #[serde(default)]
+    pub order: OrderFile,
     pub stimulus: Spanned<String>,
     pub timeline: Spanned<TimelineFile>,
     #[serde(default)]
@@ -25,6 +29,7 @@ pub(super) struct File {
     #[serde(default)]
     pub question: Vec<QuestionFile>,
     pub adjustment: Option<Spanned<AdjustmentFile>>,
+    pub staircase: Option<Spanned<StaircaseFile>>,
     pub report: Option<ReportFile>,
 }
 
@@ -99,6 +104,32 @@ pub(super) struct AdjustmentFile {
     pub same: Spanned<AnswerLabel>,
 }
 
+/// The `[staircase]` table (checked in `super::staircase`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct StaircaseFile {
+    #[serde(default = "perceived_text")]
+    pub text: Label,
+    #[serde(default = "level_unit")]
+    pub unit: Name,
+    pub levels: Spanned<Vec<Label>>,
+    pub start: Option<Spanned<Label>>,
+    #[serde(default)]
+    pub up: Run,
+    #[serde(default = "two")]
+    pub down: Run,
+    pub steps: Option<Spanned<Vec<u32>>>,
+    #[serde(default)]
+    pub reversals: Reversals,
+    #[serde(default)]
+    pub trials: Presentations,
+    pub threshold_reversals: Option<Spanned<u32>>,
+    #[serde(default = "yes")]
+    pub yes: Spanned<AnswerLabel>,
+    #[serde(default = "no")]
+    pub no: Spanned<AnswerLabel>,
+}
+
 /// The `[report]` table (checked in `check::report`).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -109,6 +140,16 @@ pub(super) struct ReportFile {
     pub friedman: Option<Spanned<Vec<Name>>>,
     #[serde(default)]
     pub pairs: Vec<PairsFile>,
+}
+
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub(super) enum OrderFile {
+    #[default]
+    Random,
+    Sequential,
+    FullRandom,
+    LatinSquare,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -126,6 +167,21 @@ pub(super) struct PairsFile {
     pub pairs: Option<Spanned<Vec<(Label, Label)>>>,
 }
 
+fn perceived_text() -> Label {
+    Label("Did you feel the stimulus?".into())
+}
+fn level_unit() -> Name {
+    Name("level".into())
+}
+fn two() -> Run {
+    Run(2)
+}
+fn yes() -> Spanned<AnswerLabel> {
+    Spanned::new(0..0, AnswerLabel("yes".into()))
+}
+fn no() -> Spanned<AnswerLabel> {
+    Spanned::new(0..0, AnswerLabel("no".into()))
+}
 fn quarter() -> Step {
     Step(0.25)
 }
@@ -187,6 +243,18 @@ checked!(
 checked!(
     /// Most adjustments per trial.
     Adjustments(u32 as "u32"), 20, |v| in_range(f64::from(v), 1.0, f64::from(MAX_ADJUSTMENTS))
+);
+checked!(
+    /// Answers in a row that move a staircase (its `up` and `down`).
+    Run(u32 as "u32"), 1, |v| in_range(f64::from(v), 1.0, f64::from(MAX_RUN))
+);
+checked!(
+    /// Reversals that end a staircase.
+    Reversals(u32 as "u32"), 8, |v| in_range(f64::from(v), 1.0, f64::from(MAX_STAIRCASE))
+);
+checked!(
+    /// Presentations that end a staircase.
+    Presentations(u32 as "u32"), 50, |v| in_range(f64::from(v), 1.0, f64::from(MAX_STAIRCASE))
 );
 checked!(
     /// A depth, mm.

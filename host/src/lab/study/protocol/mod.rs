@@ -4,10 +4,13 @@
 //! device opens: a bad field is one line naming the file, line and field.
 
 mod check;
+mod errors;
 mod file;
 mod report;
+mod staircase;
 
 pub use report::{PairSpec, ReportSpec};
+pub use staircase::{LEVEL, Staircase};
 
 use std::path::{Path, PathBuf};
 
@@ -31,6 +34,12 @@ pub const MAX_OPTIONS: usize = 9;
 pub const MAX_SECONDS: f64 = 3_600.0;
 /// Most adjustments per trial.
 pub const MAX_ADJUSTMENTS: u32 = 1_000;
+/// Most levels in a staircase's grid.
+pub const MAX_LEVELS: usize = 200;
+/// Most answers in a row a staircase waits for before it moves.
+pub const MAX_RUN: u32 = 10;
+/// Most reversals or presentations of a staircase.
+pub const MAX_STAIRCASE: u32 = 1_000;
 /// Largest adjustment depth either way, mm (a gauge's travel is a few).
 pub const MAX_DEPTH_MM: f64 = 1_000.0;
 /// Largest number a number question accepts either way (its default
@@ -56,6 +65,33 @@ pub struct Timeline {
     pub gate: Option<Gate>,
     /// How long the synthetic finger touches in a `while_touching` trial.
     pub touch_s: f64,
+}
+
+/// How the conditions are ordered.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Order {
+    /// Each set a fresh random permutation.
+    #[default]
+    Random,
+    /// Each set in the protocol's order (the factors' product, first
+    /// factor slowest).
+    Sequential,
+    /// Every set's trials shuffled together.
+    FullRandom,
+    /// Each set in the participant's row of a balanced Latin square.
+    LatinSquare,
+}
+
+impl Order {
+    /// Its name in the protocol file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Random => "random",
+            Self::Sequential => "sequential",
+            Self::FullRandom => "full-random",
+            Self::LatinSquare => "latin-square",
+        }
+    }
 }
 
 /// A factor and its levels.
@@ -233,6 +269,8 @@ pub struct Protocol {
     pub library: Library,
     /// Sets; each a fresh permutation of every condition.
     pub sets: usize,
+    /// How the conditions are ordered.
+    pub order: Order,
     /// The trial's timeline.
     pub timeline: Timeline,
     /// The factors.
@@ -243,6 +281,8 @@ pub struct Protocol {
     pub questions: Vec<Question>,
     /// The method of adjustment, if used.
     pub adjustment: Option<Adjustment>,
+    /// The staircase, if used.
+    pub staircase: Option<Staircase>,
     /// trials.csv's header.
     pub columns: Columns,
     /// What `study report` tests.
@@ -261,6 +301,8 @@ pub struct Unlinked {
     stimulus: toml::Spanned<String>,
     /// Sets.
     pub sets: usize,
+    /// How the conditions are ordered.
+    pub order: Order,
     /// The trial's timeline.
     pub timeline: Timeline,
     /// The factors.
@@ -271,6 +313,8 @@ pub struct Unlinked {
     pub questions: Vec<Question>,
     /// The method of adjustment, if used.
     pub adjustment: Option<Adjustment>,
+    /// The staircase, if used.
+    pub staircase: Option<Staircase>,
     /// trials.csv's header.
     pub columns: Columns,
     /// What `study report` tests.
@@ -289,6 +333,16 @@ impl Unlinked {
 
 /// Fills `{factor}` placeholders of `template` with `levels`.
 pub fn expand(template: &str, factors: &[Factor], levels: &[String]) -> Result<String, String> {
+    expand_level(template, factors, levels, None)
+}
+
+/// [`expand`], and `{level}` with a staircase's `level` when given.
+pub fn expand_level(
+    template: &str,
+    factors: &[Factor],
+    levels: &[String],
+    level: Option<&str>,
+) -> Result<String, String> {
     let mut out = String::new();
     let mut rest = template;
     while let Some(i) = rest.find('{') {
@@ -299,6 +353,11 @@ pub fn expand(template: &str, factors: &[Factor], levels: &[String]) -> Result<S
             ));
         };
         let name = &rest[i + 1..i + j];
+        if let Some(l) = level.filter(|_| name == LEVEL) {
+            out.push_str(l);
+            rest = &rest[i + j + 1..];
+            continue;
+        }
         let k = factors.iter().position(|f| f.name == name).ok_or_else(|| {
             format!("stimulus template `{template}` names `{{{name}}}`, which is not a factor")
         })?;
@@ -352,6 +411,22 @@ impl Protocol {
                 ),
             ));
         }
+        if let Some(id) = u
+            .staircase
+            .iter()
+            .flat_map(|s| s.entries.iter().flatten())
+            .find(|id| library.find(id).is_none())
+        {
+            return Err(e.at(
+                u.stimulus.span(),
+                "stimulus",
+                format!(
+                    "the staircase names stimulus `{}`, which is not in {}",
+                    id.escape_debug(),
+                    library_path.display()
+                ),
+            ));
+        }
         Ok(Self {
             name: u.name,
             path: path.to_owned(),
@@ -359,11 +434,13 @@ impl Protocol {
             library_path,
             library,
             sets: u.sets,
+            order: u.order,
             timeline: u.timeline,
             factors: u.factors,
             conditions: u.conditions,
             questions: u.questions,
             adjustment: u.adjustment,
+            staircase: u.staircase,
             columns: u.columns,
             report: u.report,
         })

@@ -297,3 +297,86 @@ fn counts_are_checked_not_wrapped() {
         }
     );
 }
+
+#[test]
+fn the_staircase_protocol_names_an_entry_per_level_and_bad_tables_are_refused() {
+    let p = Protocol::load(&studies("staircase-detection.toml")).unwrap();
+    let s = p.staircase.as_ref().unwrap();
+    assert_eq!(s.values.len(), 20);
+    assert_eq!(
+        (s.up, s.down, s.reversals, s.threshold_reversals),
+        (1, 2, 12, 8)
+    );
+    assert_eq!(s.steps, [4, 2, 1]);
+    assert_eq!(s.start, 19);
+    assert_eq!(s.entries[0][0], "lms-5hz-i0.05");
+    // The condition's own stimulus is the start level's entry.
+    assert_eq!(p.conditions[0].stimulus, "lms-5hz-i1.00");
+    assert!(
+        p.columns
+            .index(crate::lab::study::columns::THRESHOLD)
+            .is_some()
+    );
+    let base = std::fs::read_to_string(studies("staircase-detection.toml")).unwrap();
+    for (from, to, needle) in [
+        (
+            "start = \"1.00\"",
+            "start = \"1.10\"",
+            "field `staircase.start`",
+        ),
+        (
+            "steps = [4, 2, 1]",
+            "steps = [0]",
+            "field `staircase.steps`",
+        ),
+        ("steps = [4, 2, 1]", "steps = [20]", "1 to 19 grid places"),
+        ("down = 2", "down = 0", "field `staircase.down`"),
+        (
+            "threshold_reversals = 8",
+            "threshold_reversals = 13",
+            "1..=12",
+        ),
+        ("no = \"no\"", "no = \"YES\"", "must differ"),
+        ("[\"0.05\", \"0.10\"", "[\"0.10\", \"0.05\"", "ascending"),
+        ("[\"0.05\"", "[\"low\"", "not a finite number"),
+        ("-i{level}", "-i", "put `{level}`"),
+        ("[\"0.05\"", "[\"0.01\"", "`lms-5hz-i0.01`, which is not in"),
+        ("on_s = 1.0", "", "give `on_s`"),
+        (
+            "off_s = 0.5",
+            "off_s = 0.5\nrepeat = 2",
+            "[staircase] trial repeats",
+        ),
+        (
+            "\n[staircase]",
+            "\n[adjustment]\nstart_mm = 1.0\n\n[staircase]",
+            "[adjustment] or [staircase], not both",
+        ),
+    ] {
+        let text = base.replacen(from, to, 1);
+        assert_ne!(text, base, "{from}");
+        let e = refused(&text);
+        assert!(e.contains(needle), "{from} → {to}: {e}");
+    }
+    let text = base
+        .replacen("name = \"type\"", "name = \"level\"", 1)
+        .replacen("{type}-", "", 1);
+    assert!(refused(&text).contains("rename the factor"));
+}
+
+#[test]
+fn every_shipped_protocol_and_its_library_load() {
+    // Each protocol in studies/ (a file with `[timeline]`) checks whole,
+    // its library included: a field the types no longer take fails here.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let path = e.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        if path.extension().is_some_and(|x| x == "toml") && text.contains("\n[timeline]") {
+            Protocol::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            n += 1;
+        }
+    }
+    assert!(n >= 4, "{n} protocols");
+}

@@ -1,14 +1,19 @@
 //! Procedures that choose what a trial presents next from the answers so
 //! far. The runner asks a [`Procedure`] for the next stimulus and level,
 //! presents it, gives it the participant's answer and stops once it has
-//! finished; the dry run of a responses file walks it the same way. Today
-//! one procedure exists, Experiment 3's method of adjustment
-//! ([`Adjustment`]); adaptive ones (staircases, QUEST) go behind the same
-//! trait.
+//! finished; the dry run of a responses file walks it the same way:
+//! Experiment 3's method of adjustment ([`Adjustment`]) and the
+//! transformed up-down staircase ([`staircase::Staircase`]). A
+//! trial without either presents its stimulus as the timeline says (the
+//! fixed design).
 
 use super::answers::{Accepts, Asked};
 use super::columns::{self, Row};
+use super::design::Planned;
 use super::protocol;
+pub mod staircase;
+
+use staircase::Staircase;
 
 /// What to present next.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,19 +55,28 @@ pub trait Procedure {
     }
     /// What its level is and in which unit (`depth`, `mm`): names the log
     /// event (`depth`, field `depth_mm`) and the lines on stderr.
-    fn level_unit(&self) -> (&'static str, &'static str);
+    fn level_unit(&self) -> (String, String);
+    /// Whether it may present library entry `stimulus` besides the
+    /// trial's own (a staircase's other levels): the row's timing counts
+    /// their phases too.
+    fn presents(&self, stimulus: &str) -> bool {
+        let _ = stimulus;
+        false
+    }
     /// Answers taken so far.
     fn answers(&self) -> usize;
     /// Writes its columns into the trial's row.
     fn record(&self, row: &mut Row);
 }
 
-/// The procedure of protocol `p` for a trial presenting `stimulus`, if it
-/// has one.
-pub fn start(p: &protocol::Protocol, stimulus: &str) -> Option<Box<dyn Procedure>> {
+/// The procedure of protocol `p` for planned trial `t`, if it has one.
+pub fn start(p: &protocol::Protocol, t: &Planned) -> Option<Box<dyn Procedure>> {
+    if let Some(s) = &p.staircase {
+        return Some(Box::new(Staircase::new(s, t.condition)));
+    }
     p.adjustment
         .as_ref()
-        .map(|a| Box::new(Adjustment::new(a, stimulus)) as Box<dyn Procedure>)
+        .map(|a| Box::new(Adjustment::new(a, &t.stimulus)) as Box<dyn Procedure>)
 }
 
 /// The method of adjustment: the experimenter sets a force gauge's pushing
@@ -123,6 +137,7 @@ impl Procedure for Adjustment {
             ),
             accepts: Accepts::Choice(shown),
             not_perceived: None,
+            perceived_at: None,
         }
     }
 
@@ -150,8 +165,8 @@ impl Procedure for Adjustment {
         Step::Next(depth)
     }
 
-    fn level_unit(&self) -> (&'static str, &'static str) {
-        ("depth", "mm")
+    fn level_unit(&self) -> (String, String) {
+        ("depth".into(), "mm".into())
     }
 
     fn answers(&self) -> usize {

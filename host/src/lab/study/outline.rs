@@ -1,0 +1,122 @@
+//! `lmhost study check`: a protocol checked whole (its library included)
+//! and its trial plan in words, without a device: the counts, the
+//! procedure, and the order a participant gets (every participant's row
+//! of a Latin square, or one participant's trials).
+
+use std::fmt::Write as _;
+
+use super::design::{self, Order};
+use super::protocol::Protocol;
+
+/// The plan of `p` as lines of text: with `index`, participant `index`'s
+/// trials (for a random order, those of `seed`); without, for a Latin
+/// square, each participant's order until the square repeats.
+pub fn outline(p: &Protocol, index: Option<usize>, seed: Option<u64>) -> String {
+    let mut s = String::new();
+    let n = p.conditions.len();
+    let name = |c: usize| p.conditions[c].levels.join("/");
+    // Writing to a String cannot fail.
+    let _ = writeln!(s, "protocol `{}`: valid", p.name);
+    let _ = writeln!(
+        s,
+        "library: {} ({} entries)",
+        p.library_path.display(),
+        p.library.entries.len()
+    );
+    let factors: Vec<String> = p
+        .factors
+        .iter()
+        .map(|f| format!("{} ({})", f.name, f.levels.join(", ")))
+        .collect();
+    let _ = writeln!(s, "factors: {}", factors.join("; "));
+    let _ = writeln!(
+        s,
+        "conditions: {n}; sets: {}; trials: {}; order: {}",
+        p.sets,
+        p.trials(),
+        p.order.name()
+    );
+    if let Some(a) = &p.adjustment {
+        let _ = writeln!(
+            s,
+            "procedure: method of adjustment from {} mm in {} mm steps, at most {} adjustments",
+            a.start_mm, a.step_mm, a.max
+        );
+    }
+    if let Some(c) = &p.staircase {
+        let steps: Vec<String> = c.steps.iter().map(u32::to_string).collect();
+        let _ = writeln!(
+            s,
+            "procedure: {}-up/{}-down staircase over {} levels of {} ({} to {}), from {}, steps {} grid places, ending after {} reversals or {} presentations; threshold: mean of the last {} reversals",
+            c.up,
+            c.down,
+            c.values.len(),
+            c.unit,
+            c.labels[0],
+            c.labels[c.labels.len() - 1],
+            c.labels[c.start],
+            steps.join(", "),
+            c.reversals,
+            c.trials,
+            c.threshold_reversals
+        );
+    }
+    let questions: Vec<String> = p.questions.iter().map(|q| q.id.clone()).collect();
+    let _ = writeln!(
+        s,
+        "questions after each trial: {}",
+        if questions.is_empty() {
+            "none".to_owned()
+        } else {
+            questions.join(", ")
+        }
+    );
+    match (p.order, index, seed) {
+        (Order::LatinSquare, None, _) => {
+            let rows = design::latin_square_rows(n);
+            let _ = writeln!(
+                s,
+                "balanced Latin square: participant N gets row (N - 1) mod {rows} in every set:"
+            );
+            for r in 0..rows {
+                let row: Vec<String> = design::latin_square_row(n, r)
+                    .into_iter()
+                    .map(name)
+                    .collect();
+                let _ = writeln!(s, "participant {}: {}", r + 1, row.join(" "));
+            }
+        }
+        (Order::Random | Order::FullRandom, _, None) => {
+            let _ = writeln!(
+                s,
+                "the order is drawn from the run's seed (recorded): give --seed N to see one"
+            );
+        }
+        (_, _, _) => {
+            let plan = design::plan_for(p, seed.unwrap_or(0), index);
+            let who = match index {
+                Some(i) => format!("participant {i}"),
+                None => "every participant".into(),
+            };
+            let _ = writeln!(
+                s,
+                "trials of {who}{}: trial set condition stimulus",
+                match (p.order, seed) {
+                    (Order::Random | Order::FullRandom, Some(x)) => format!(" (seed {x})"),
+                    _ => String::new(),
+                }
+            );
+            for t in plan {
+                let _ = writeln!(
+                    s,
+                    "{} {} {} {}",
+                    t.trial,
+                    t.set,
+                    name(t.condition),
+                    t.stimulus
+                );
+            }
+        }
+    }
+    s
+}

@@ -1,0 +1,156 @@
+use super::*;
+use crate::lab::study::answers::Answers as _;
+use crate::lab::study::observer::{Observer, Psychometric};
+
+/// A staircase over `n` levels `0, 1/(n-1), …, 1`, starting at the top.
+fn spec(
+    n: usize,
+    up: u32,
+    down: u32,
+    steps: &[u32],
+    reversals: u32,
+    last: u32,
+) -> protocol::Staircase {
+    let values: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
+    let labels: Vec<String> = values.iter().map(|v| format!("{v:.4}")).collect();
+    protocol::Staircase {
+        text: "Did you feel it?".into(),
+        unit: "intensity".into(),
+        entries: vec![labels.iter().map(|l| format!("s-{l}")).collect()],
+        labels,
+        values,
+        start: n - 1,
+        up,
+        down,
+        steps: steps.to_vec(),
+        reversals,
+        trials: 400,
+        threshold_reversals: last,
+        yes: "yes".into(),
+        no: "no".into(),
+    }
+}
+
+#[test]
+fn one_up_two_down_moves_reverses_changes_step_and_ends() {
+    let s = spec(11, 1, 2, &[2, 1], 3, 2);
+    let mut l = Levitt::new(&s);
+    assert_eq!(l.place(), Some(10));
+    // Two yes: down by 2 (no reversal yet: the first move).
+    assert_eq!(l.answer(true), None);
+    assert_eq!(l.place(), Some(10));
+    assert_eq!(l.answer(true), None);
+    assert_eq!(l.place(), Some(8));
+    // One no: up, a reversal at 8; the step becomes 1.
+    assert_eq!(l.answer(false), None);
+    assert_eq!(l.place(), Some(9));
+    assert_eq!(l.reversals(), [8]);
+    // Yes, no: the yes run is broken, up again (no reversal: same way).
+    l.answer(true);
+    l.answer(false);
+    assert_eq!(l.place(), Some(10));
+    assert_eq!(l.reversals(), [8]);
+    // Up at the top is cut short by the grid's end, and counted.
+    l.answer(false);
+    assert_eq!((l.place(), l.at_limit()), (Some(10), 1));
+    // Two yes: down, a reversal at 10; two more reversals end it.
+    l.answer(true);
+    l.answer(true);
+    assert_eq!((l.place(), l.reversals()), (Some(9), &[8, 10][..]));
+    l.answer(false);
+    assert_eq!(l.reversals(), [8, 10, 9]);
+    assert_eq!(l.place(), None);
+    assert_eq!(l.answer(true), Some("3 reversals"));
+    assert_eq!(l.presented(), [10, 10, 8, 9, 9, 10, 10, 10, 9]);
+    // The last two reversals' mean.
+    assert_eq!(l.threshold(&s.values, 2), Some(0.95));
+    assert_eq!(l.threshold(&s.values, 9), Some(0.9));
+    // Or the presentation limit.
+    let mut s2 = s.clone();
+    s2.trials = 2;
+    let mut m = Levitt::new(&s2);
+    m.answer(false);
+    assert_eq!(m.answer(false), Some("2 presentations"));
+    assert_eq!(m.threshold(&s.values, 2), None);
+}
+
+#[test]
+fn the_procedure_presents_each_level_entry_and_records_its_state() {
+    let s = spec(5, 1, 1, &[1], 2, 2);
+    let mut st = Staircase::new(&s, 0);
+    let p = st.next().unwrap();
+    assert_eq!((p.stimulus.as_str(), p.level), ("s-1.0000", 1.0));
+    let q = st.asked();
+    assert_eq!(q.perceived_at, Some(1.0));
+    assert_eq!(q.parse("1").unwrap(), "yes");
+    assert_eq!(st.respond("yes"), Step::Next(0.75));
+    assert_eq!(st.next().unwrap().stimulus, "s-0.7500");
+    assert!(st.presents("s-0.2500") && !st.presents("other"));
+    assert_eq!(st.respond("yes"), Step::Next(0.5));
+    assert_eq!(st.respond("no"), Step::Next(0.75));
+    let Step::Last { level, why } = st.respond("yes") else {
+        panic!("two reversals end it");
+    };
+    assert_eq!(level, 0.75);
+    assert!(why.contains("threshold 0.6250 intensity"), "{why}");
+    assert!(st.finished());
+    let mut row = Row::default();
+    st.record(&mut row);
+    assert_eq!(
+        row.get(columns::STAIRCASE_LEVELS),
+        Some("1.0000|0.7500|0.5000|0.7500")
+    );
+    assert_eq!(row.get(columns::STAIRCASE_ANSWERS), Some("yes|yes|no|yes"));
+    assert_eq!(row.get(columns::STAIRCASE_REVERSALS), Some("0.5000|0.7500"));
+    assert_eq!(row.get(columns::THRESHOLD), Some("0.625000"));
+    assert_eq!(st.answers(), 4);
+}
+
+/// Runs the staircase of `s` to its end with `observer`, as the runner
+/// does: each answer through the answer-source interface.
+fn run(s: &protocol::Staircase, observer: &mut Observer) -> Option<f64> {
+    let mut st = Staircase::new(s, 0);
+    while !st.finished() {
+        let a = observer.poll(&st.asked()).unwrap().unwrap();
+        st.respond(&a);
+    }
+    st.rule()
+        .threshold(&s.values, s.threshold_reversals as usize)
+}
+
+/// Mean and standard deviation of the estimates over `seeds` runs.
+pub(crate) fn estimates(s: &protocol::Staircase, f: Psychometric, seeds: u64) -> (f64, f64) {
+    let t: Vec<f64> = (0..seeds)
+        .map(|seed| run(s, &mut Observer::new(f, seed)).expect("every run reverses"))
+        .collect();
+    let mean = t.iter().sum::<f64>() / t.len() as f64;
+    let sd = (t.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (t.len() - 1) as f64).sqrt();
+    (mean, sd)
+}
+
+#[test]
+fn over_200_seeds_the_estimates_centre_on_the_level_the_rule_converges_to() {
+    // A logistic observer, threshold 0.5 (50 %), slope 12, 2 % lapses, on
+    // a grid of 0.01 from 0 to 1; steps 0.08, 0.04, 0.02, then 0.01.
+    let (f, _) = Psychometric::parse("logistic:threshold=0.5,slope=12,guess=0,lapse=0.02").unwrap();
+    let steps = [8, 4, 2, 1];
+    // 1-up/2-down: p² = ½, p = 70.7 %; 1-up/3-down: p³ = ½, p = 79.4 %.
+    for (down, p) in [(2, 0.5f64.sqrt()), (3, 0.5f64.powf(1.0 / 3.0))] {
+        // 40 reversals, the last 30 averaged: with fewer, a staircase that
+        // starts above threshold is still biased towards its start (16
+        // reversals, the last 10: +0.009 here; see BENCHMARKS.md).
+        let s = spec(101, 1, down, &steps, 40, 30);
+        let target = f.level_at(p).unwrap();
+        let (mean, sd) = estimates(&s, f, 200);
+        eprintln!("{down}-down: mean {mean:.4}, sd {sd:.4}, target {target:.4}");
+        // The standard error of the mean is sd/√200 (under 0.002 here):
+        // the centre is within 0.01 of the target, and the 50 % point
+        // (0.5) is far outside that.
+        assert!(
+            (mean - target).abs() < 0.01,
+            "{down}-down: mean {mean:.4} (sd {sd:.4}), target {target:.4}"
+        );
+        assert!((mean - 0.5).abs() > 0.05, "{mean}");
+        assert!(sd > 0.0 && sd < 0.06, "sd {sd}");
+    }
+}
