@@ -95,7 +95,9 @@ impl Am {
 
     /// The envelope at phase `x` of its period (`x` in periods; any real).
     pub fn envelope_at_phase(&self, x: f64) -> f64 {
-        let x = x.rem_euclid(1.0);
+        // The nudge keeps a phase computed in floating point (`t·f`) that
+        // should be whole or half on its side of the square's edges.
+        let x = (x + 1e-9).rem_euclid(1.0);
         match self.shape {
             AmShape::Sine => {
                 1.0 - self.depth * (1.0 - (2.0 * std::f64::consts::PI * x).cos()) / 2.0
