@@ -18,6 +18,9 @@
 //! freq = 2.0             # Hz: one whole figure per cycle
 //! path = { shape = "lissajous", a = 5.0, b = 3.0, ratio = [3, 2], phase = 90.0 }
 //! am = { shape = "sine", freq = 200.0, depth = 1.0 }   # AUTD3 only
+//! z = [0.5]              # mm along the plane's c axis: one, or one per step
+//! method = "gspat"       # or "linear" (default)
+//! iterations = 20        # GS-PAT's
 //! ```
 //!
 //! Every field but `id` defaults to the plan flags' default
@@ -104,6 +107,22 @@ struct EntryFile {
     path: Option<PathFile>,
     /// Amplitude modulation; default none. AUTD3 only.
     am: Option<AmFile>,
+    /// Depth along the LM plane's c axis per step (mm, each ±100): one
+    /// value (constant) or one per step; default 0.
+    z: Option<Vec<f64>>,
+    /// Phase synthesis of several foci: `linear` (the paper's, default) or
+    /// `gspat`.
+    method: Option<MethodName>,
+    /// GS-PAT iterations, 1..=1000 (`method = "gspat"` only); default 20.
+    iterations: Option<usize>,
+}
+
+/// A synthesis method's name.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum MethodName {
+    Linear,
+    Gspat,
 }
 
 /// A path's shape name.
@@ -273,6 +292,14 @@ impl EntryFile {
             ));
         }
         let am = self.am.as_ref().map(AmFile::resolve).transpose()?;
+        let synthesis = match (self.method, self.iterations) {
+            (Some(MethodName::Gspat), n) => {
+                crate::plan::stimulus::gspat(n.unwrap_or(crate::plan::stimulus::GSPAT_ITERATIONS))
+                    .map_err(|e| e.to_string().replace("--iterations", "iterations"))?
+            }
+            (_, Some(_)) => return Err("`iterations` applies to `method = \"gspat\"` only".into()),
+            _ => d.synthesis.clone(),
+        };
         let center_mm = self
             .center
             .map(|c| crate::limits::position_mm("center", c).map_err(|e| e.to_string()))
@@ -289,7 +316,8 @@ impl EntryFile {
                 intensity: self.intensity.unwrap_or(d.intensity),
                 path,
                 am,
-                ..d
+                synthesis,
+                z_profile_mm: self.z.unwrap_or_default(),
             },
             untracked: self.untracked,
         })
