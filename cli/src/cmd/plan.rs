@@ -194,6 +194,8 @@ impl PlanArgs {
             z_profile_mm,
             synthesis,
             intensity: limits::in_range("--intensity", self.intensity, 0.0, 1.0, "")?,
+            path: lmhost::plan::path::Path::Circle,
+            am: None,
         })
     }
 

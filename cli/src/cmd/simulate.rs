@@ -20,7 +20,10 @@ use lmhost::field::{self, Radiation, compare, plot};
     embeds its font (a subset of DejaVu Sans).\n\nExamples:\n  \
     lmhost simulate --radius 3 --foci 4 --out lmm3\n  \
     lmhost simulate --scene scenes/paper.toml --radius 3 --width-mm 180 --out paper\n  \
-    lmhost simulate --compare --out compare       # the paper's 3 x 5 grid"
+    lmhost simulate --compare --out compare       # the paper's 3 x 5 grid\n  \
+    lmhost simulate --library lib.toml --stimulus liss --out liss\n\n\
+    A library entry with an amplitude modulation adds am_power (power at the AM frequency) \
+    and the summary's `am` (the force spectrum's peak among them)."
 )]
 pub struct Args {
     #[command(flatten)]
@@ -72,6 +75,16 @@ pub struct Args {
     /// Use the plain f64 loop instead of the fast path (slow; for checking).
     #[arg(long)]
     reference: bool,
+    /// Stimulus library (TOML) to take the stimulus from, with --stimulus
+    /// (in place of the plan flags; --scene still applies).
+    #[arg(long, value_name = "FILE", requires = "stimulus", conflicts_with_all = [
+        "compare", "radius", "foci", "spacing", "freq", "step", "steps", "center", "z",
+        "method", "iterations", "intensity", "weights",
+    ])]
+    library: Option<PathBuf>,
+    /// The library entry to simulate (its `id`).
+    #[arg(long, value_name = "ID", requires = "library")]
+    stimulus: Option<String>,
     /// Render the paper's 3 x 5 grid instead of a single stimulus: rows
     /// LM-S and LM-M (--foci, or 4 if --foci is 1) at --freq with --step,
     /// then LM-S at 25 Hz with 4 mm steps; columns A = 2-6 mm.
@@ -162,9 +175,24 @@ impl Args {
             ..plot::Figure::default()
         };
         fig.check()?;
+        // A library entry replaces the plan flags; read before any output.
+        let entry = match (&self.library, &self.stimulus) {
+            (Some(path), Some(id)) => {
+                let lib = lmhost::plan::library::Library::load(path)?;
+                let (_, e) = lib.find(id).ok_or_else(|| {
+                    InputError::new(format!(
+                        "stimulus library {} has no stimulus `{}`",
+                        path.display(),
+                        id.escape_debug()
+                    ))
+                })?;
+                Some(e.stimulus.clone())
+            }
+            _ => None,
+        };
         // Refused before any output directory is made.
         lmhost::field::study::check_full_output(lmhost::plan::stimulus::intensity_byte(
-            self.plan.intensity,
+            entry.as_ref().map_or(self.plan.intensity, |s| s.intensity),
         )?)?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
@@ -189,9 +217,11 @@ impl Args {
             };
             return compare::compare(&conditions, plan_for, &view, &fig, &self.out);
         }
-        let plan = self.plan.plan()?;
+        let (plan, r) = match &entry {
+            Some(s) => (s.plan(self.plan.load_scene()?)?.plan, s.radius_mm),
+            None => (self.plan.plan()?, self.plan.radius),
+        };
         let sim = simulate_plan(&plan, &view)?;
-        let r = self.plan.radius;
         write_outputs(&plan, &sim, &view, r, &fig, &self.out)?;
         lmhost::outln!("{}", sim.text_summary(&plan, r))?;
         lmhost::outln!("wrote {}", self.out.display())?;

@@ -191,6 +191,13 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
+        if plan.am.is_some() {
+            // Never played unmodulated: the wire (v5) has no modulation.
+            return Err(crate::error::InputError::new(
+                "amplitude modulation plays on AUTD3 only: the LM firmware (protocol v5) plays one intensity per stimulus",
+            )
+            .into());
+        }
         let spec = UploadSpec::from_plan(plan, self.encoding)?;
         let info = self.lm_info()?;
         let where_ = self.describe();

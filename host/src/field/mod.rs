@@ -35,6 +35,7 @@
 //! the drive matrix, 2 threads); [`simulate_reference`] is the plain f64
 //! loop it is checked against.
 
+pub mod am;
 pub mod compare;
 mod kernel;
 mod maps;
@@ -54,7 +55,7 @@ pub use model::{
     drive_from_u8, model_for_scene,
 };
 pub use plane::{MAX_GRID_POINTS, ObservationPlane};
-pub use post::{disk_force_n, peak};
+pub use post::{disk_force_n, half_peak_extent_mm, peak};
 pub use reference::simulate_reference;
 
 /// Invalid inputs to the field model.

@@ -45,3 +45,21 @@ pub fn disk_force_n(
     let clipped = center_uv_mm[0].abs() + r > half_w || center_uv_mm[1].abs() + r > half_h;
     (sum * area_m2, clipped)
 }
+
+/// The plane coordinates `([u_lo, u_hi], [v_lo, v_hi])` (mm) spanned by
+/// the points of `map` at or above half its peak: how far a figure reaches
+/// on the plane. `None` for an empty or all-zero map.
+pub fn half_peak_extent_mm(plane: &ObservationPlane, map: &[f64]) -> Option<([f64; 2], [f64; 2])> {
+    let (_, top) = peak(map)?;
+    if top <= 0.0 {
+        return None;
+    }
+    let nu = plane.nu();
+    let mut ext = ([f64::MAX, f64::MIN], [f64::MAX, f64::MIN]);
+    for (i, _) in map.iter().enumerate().filter(|(_, v)| **v >= top / 2.0) {
+        let (u, v) = (plane.u_mm(i % nu), plane.v_mm(i / nu));
+        ext.0 = [ext.0[0].min(u), ext.0[1].max(u)];
+        ext.1 = [ext.1[0].min(v), ext.1[1].max(v)];
+    }
+    Some(ext)
+}

@@ -154,6 +154,8 @@ pub struct Sim {
     pub path: &'static str,
     /// The factor the maps and forces carry, and where it came from.
     pub calibration: (f64, CalibrationSource),
+    /// What the plan's amplitude modulation adds (the maps above carry it).
+    pub am: Option<field::am::AmMaps>,
 }
 
 /// Where a simulation's calibration factor came from.
@@ -241,6 +243,7 @@ pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
     let calibration = calibration_for(&plan.scene, view);
     let mut maps = maps;
     maps.calibrate(calibration.0);
+    let am = plan.am.as_ref().map(|a| field::am::apply(&mut maps, a));
     let seconds = t0.elapsed().as_secs_f64();
     // The disk sits on the LM centre, projected into the plane.
     let c = plane.project(plan.trajectory.center_mm);
@@ -260,6 +263,7 @@ pub fn simulate_plan(plan: &Plan, view: &View) -> anyhow::Result<Sim> {
             field::fast_path_isa()
         },
         calibration,
+        am,
     })
 }
 
@@ -449,6 +453,8 @@ impl Sim {
             "scene": plan.scene.name,
             "transducers": plan.scene.transducer_count(),
             "stimulus": {
+                "path": t.path.map(|p| p.name()),
+                "half_extent_mm": t.path.map(|p| p.half_extent_mm(radius_mm)),
                 "radius_mm": radius_mm,
                 "foci": t.foci,
                 "steps": t.steps,
@@ -490,6 +496,9 @@ impl Sim {
             },
             "compute": { "seconds": self.seconds, "path": self.path },
             "radial": radial_json(p, &self.maps, t.center_mm, radius_mm),
+            "mean_pressure_half_peak_extent_mm": field::half_peak_extent_mm(p, &self.maps.mean_pressure_pa)
+                .map(|(u, v)| json!({ "u": u, "v": v })),
+            "am": self.am.as_ref().map(|a| a.summary_json(self.force_mean_n / a.mean_square)),
         })
     }
 
@@ -498,14 +507,20 @@ impl Sim {
         let t = &plan.trajectory;
         use crate::limits::Num as N;
         let pk = |m: &[f64]| field::peak(m).map_or(0.0, |p| p.1);
+        let shape = match t.path {
+            Some(p) if p != crate::plan::path::Path::Circle => {
+                let (a, b) = p.half_extent_mm(radius_mm);
+                format!("{} ±{} × ±{}", p.name(), N(a), N(b))
+            }
+            _ => format!("A = {}", N(radius_mm)),
+        };
         format!(
-            "{} {}, A = {} mm, N = {} steps, {} transducers; \
+            "{} {}, {shape} mm, N = {} steps, {} transducers; \
              grid {} × {} at {} mm in {:.3} s ({})\n\
              peak amplitude {:.0} Pa, radiation pressure {:.1} Pa (step 0), {:.1} Pa (cycle mean)\n\
              force on a {} mm disk: {:.4} N (step 0), {:.4} N (cycle mean){}{}",
             t.foci,
             if t.foci == 1 { "focus" } else { "foci" },
-            N(radius_mm),
             t.steps,
             plan.scene.transducer_count(),
             self.maps.nu,
@@ -532,7 +547,17 @@ impl Sim {
                     s.name()
                 ),
             },
-        )
+        ) + &self.am.as_ref().map_or(String::new(), |a| {
+            format!(
+                "\nAM {} at {} Hz (played at {:.2} Hz), depth {}: mean pressure × {:.3}, power at the AM frequency up to {:.1} Pa²",
+                a.am.shape.name(),
+                N(a.am.freq_hz),
+                a.am.realised_freq_hz(),
+                N(a.am.depth),
+                a.mean_square,
+                pk(&a.power_pa2)
+            )
+        })
     }
 }
 
@@ -559,6 +584,19 @@ pub fn write_outputs(
             ..labels(plan, &sim.plane, sim.disk_mm)
         };
         plot::heatmap(&out.join(stem), &sim.plane, &panel, &labels, fig)?;
+    }
+    if let Some(am) = &sim.am {
+        let npy_path = out.join("am_power.npy");
+        npy::write_f64(&npy_path, sim.maps.nv, sim.maps.nu, &am.power_pa2)?;
+        let panel = Panel {
+            map: &am.power_pa2,
+            overlay: ov.clone(),
+        };
+        let labels = Labels {
+            colorbar: "AM power (Pa²)".into(),
+            ..labels(plan, &sim.plane, sim.disk_mm)
+        };
+        plot::heatmap(&out.join("am_power"), &sim.plane, &panel, &labels, fig)?;
     }
     let summary = sim.summary_json(plan, view, radius_mm);
     let path = out.join("summary.json");

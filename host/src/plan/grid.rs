@@ -181,7 +181,11 @@ pub fn plan(
     scene: &crate::plan::scene::Scene,
     synthesis: &crate::plan::sequence::Synthesis,
 ) -> Result<(crate::plan::sequence::Plan, GridTiming), InputError> {
-    let g = grid_timing(p.radius_mm, p.freq_hz, p.steps, scene.min_dwell_s)?;
+    p.path.check()?;
+    // The grid search works on the cycle's length: a circle's radius is
+    // the length over 2π.
+    let length_radius = p.path.length_mm(p.radius_mm) / (2.0 * std::f64::consts::PI);
+    let g = grid_timing(length_radius, p.freq_hz, p.steps, scene.min_dwell_s)?;
     let trajectory = crate::plan::trajectory::Trajectory::plan(&g.apply(p), scene)?;
     let sequence = crate::plan::sequence::Sequence::synthesize(scene, &trajectory, synthesis)?;
     Ok((
@@ -189,6 +193,7 @@ pub fn plan(
             scene: scene.clone(),
             trajectory,
             sequence,
+            am: None,
         },
         g,
     ))

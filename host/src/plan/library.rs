@@ -12,18 +12,35 @@
 //! center = [0, 0, 200]   # mm, finger space; default: the scene's centre
 //! intensity = 1.0        # 0..=1 of full output
 //! untracked = false      # the default gate when a `present` names none
+//!
+//! [[stimulus]]
+//! id = "liss-am"
+//! freq = 2.0             # Hz: one whole figure per cycle
+//! path = { shape = "lissajous", a = 5.0, b = 3.0, ratio = [3, 2], phase = 90.0 }
+//! am = { shape = "sine", freq = 200.0, depth = 1.0 }   # AUTD3 only
+//! z = [0.5]              # mm along the plane's c axis: one, or one per step
+//! method = "gspat"       # or "linear" (default)
+//! iterations = 20        # GS-PAT's
 //! ```
 //!
 //! Every field but `id` defaults to the plan flags' default
-//! ([`Stimulus::default`]). [`Library::plan_for`] plans every entry for one
+//! ([`Stimulus::default`]). `path` is the shape the foci run along
+//! ([`Path`]): `circle` (the default, of `radius`), `line` (`length`),
+//! `ellipse` (semi-axes `a`, `b`) or `lissajous` (half-extents `a`, `b`,
+//! `ratio = [n_a, n_b]`, `phase` in degrees); `radius` belongs to the
+//! circle only. `am` is an amplitude modulation ([`Am`]): `sine` or
+//! `square`, `freq` in Hz, `depth` 0..=1; the LM firmware refuses it
+//! (one intensity per stimulus), an AUTD3 plays it as its modulation. [`Library::plan_for`] plans every entry for one
 //! device (AUTD3's 25 µs grid included) before anything is presented, so a
 //! bad entry is an error at start, not in the middle of a study.
 
-use std::path::Path;
+use std::path::Path as FsPath;
 
 use serde::Deserialize;
 
 use crate::error::InputError;
+use crate::plan::modulation::{Am, AmShape};
+use crate::plan::path::Path;
 use crate::plan::scene::Scene;
 use crate::plan::stimulus::{Stimulus, TargetPlan};
 use crate::plan::target::Target;
@@ -61,20 +78,170 @@ struct LibraryFile {
     stimulus: Vec<EntryFile>,
 }
 
+/// One `[[stimulus]]` table.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct EntryFile {
+    /// Name in `present` commands: 1..=64 letters, digits, `-`, `_`, `.`.
     id: String,
+    /// Circle radius A (mm), 0..=100; default 3. The circle's only.
     radius: Option<f64>,
+    /// Foci per step, 1..=32; default 1 (LM-S).
     foci: Option<usize>,
+    /// Spacing between neighbouring foci along the path (mm); default 3.
     spacing: Option<f64>,
+    /// LM frequency: cycles of the path per second (Hz); default 5.
     freq: Option<f64>,
+    /// Step width along the path (mm); default 0.23. Not with `steps`.
     step: Option<f64>,
+    /// Steps per cycle, 1..=65535. Not with `step`.
     steps: Option<usize>,
+    /// Path centre in finger space (mm, ±2000); default the scene's centre.
     center: Option<[f64; 3]>,
+    /// Output intensity, 0..=1 of full; default 1.
     intensity: Option<f64>,
+    /// Play without tracking unless a `present` says otherwise; default false.
     #[serde(default)]
     untracked: bool,
+    /// The path's shape; default the circle of `radius`.
+    path: Option<PathFile>,
+    /// Amplitude modulation; default none. AUTD3 only.
+    am: Option<AmFile>,
+    /// Depth along the LM plane's c axis per step (mm, each ±100): one
+    /// value (constant) or one per step; default 0.
+    z: Option<Vec<f64>>,
+    /// Phase synthesis of several foci: `linear` (the paper's, default) or
+    /// `gspat`.
+    method: Option<MethodName>,
+    /// GS-PAT iterations, 1..=1000 (`method = "gspat"` only); default 20.
+    iterations: Option<usize>,
+}
+
+/// A synthesis method's name.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum MethodName {
+    Linear,
+    Gspat,
+}
+
+/// A path's shape name.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum ShapeName {
+    Circle,
+    Line,
+    Ellipse,
+    Lissajous,
+}
+
+/// `path = { shape = ..., ... }`: only the shape's own fields.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PathFile {
+    /// `circle`, `line`, `ellipse` or `lissajous`.
+    shape: ShapeName,
+    /// Line length (mm), 0..=100; the line's only, required.
+    length: Option<f64>,
+    /// Ellipse semi-axis or Lissajous half-width along the plane's a (mm),
+    /// 0..=100; required for both.
+    a: Option<f64>,
+    /// Ellipse semi-axis or Lissajous half-height along b (mm), 0..=100;
+    /// required for both.
+    b: Option<f64>,
+    /// Lissajous frequency ratio `[n_a, n_b]`, each 1..=32; default [1, 2].
+    ratio: Option<[u32; 2]>,
+    /// Lissajous phase of the a term (degrees, ±360); default 90.
+    phase: Option<f64>,
+}
+
+/// An AM envelope's shape name.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum AmShapeName {
+    Sine,
+    Square,
+}
+
+/// `am = { shape = ..., freq = ..., depth = ... }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AmFile {
+    /// `sine` or `square`.
+    shape: AmShapeName,
+    /// Modulation frequency (Hz), 0.5..=250; on AUTD3 4000 / whole samples.
+    freq: f64,
+    /// Depth 0..=1 (1: down to silence); default 1.
+    depth: Option<f64>,
+}
+
+impl PathFile {
+    fn resolve(&self) -> Result<Path, String> {
+        let given: Vec<&str> = [
+            ("length", self.length.is_some()),
+            ("a", self.a.is_some()),
+            ("b", self.b.is_some()),
+            ("ratio", self.ratio.is_some()),
+            ("phase", self.phase.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(n, g)| g.then_some(n))
+        .collect();
+        let (name, own): (&str, &[&str]) = match self.shape {
+            ShapeName::Circle => ("circle", &[]),
+            ShapeName::Line => ("line", &["length"]),
+            ShapeName::Ellipse => ("ellipse", &["a", "b"]),
+            ShapeName::Lissajous => ("lissajous", &["a", "b", "ratio", "phase"]),
+        };
+        if let Some(f) = given.iter().find(|f| !own.contains(f)) {
+            return Err(format!(
+                "path `{name}` has no `{f}` (its fields: {})",
+                if own.is_empty() {
+                    "none; the circle's size is `radius`".to_string()
+                } else {
+                    own.join(", ")
+                }
+            ));
+        }
+        let need = |v: Option<f64>, f: &str| v.ok_or_else(|| format!("path `{name}` needs `{f}`"));
+        let path = match self.shape {
+            ShapeName::Circle => Path::Circle,
+            ShapeName::Line => Path::Line {
+                length_mm: need(self.length, "length")?,
+            },
+            ShapeName::Ellipse => Path::Ellipse {
+                a_mm: need(self.a, "a")?,
+                b_mm: need(self.b, "b")?,
+            },
+            ShapeName::Lissajous => {
+                let [n_a, n_b] = self.ratio.unwrap_or([1, 2]);
+                Path::Lissajous {
+                    a_mm: need(self.a, "a")?,
+                    b_mm: need(self.b, "b")?,
+                    n_a,
+                    n_b,
+                    phase_deg: self.phase.unwrap_or(90.0),
+                }
+            }
+        };
+        path.check().map_err(|e| e.to_string())?;
+        Ok(path)
+    }
+}
+
+impl AmFile {
+    fn resolve(&self) -> Result<Am, String> {
+        let am = Am {
+            shape: match self.shape {
+                AmShapeName::Sine => AmShape::Sine,
+                AmShapeName::Square => AmShape::Square,
+            },
+            freq_hz: self.freq,
+            depth: self.depth.unwrap_or(1.0),
+        };
+        am.check().map_err(|e| e.to_string())?;
+        Ok(am)
+    }
 }
 
 /// Checks a stimulus id: non-empty, at most [`MAX_ID_LEN`] bytes of
@@ -112,6 +279,27 @@ impl EntryFile {
         if let Some(i) = self.intensity {
             crate::limits::in_range("intensity", i, 0.0, 1.0, "").map_err(|e| e.to_string())?;
         }
+        let path = self
+            .path
+            .as_ref()
+            .map(PathFile::resolve)
+            .transpose()?
+            .unwrap_or_default();
+        if self.radius.is_some() && path != Path::Circle {
+            return Err(format!(
+                "`radius` is the circle's; a `{}` path has its size in `path`",
+                path.name()
+            ));
+        }
+        let am = self.am.as_ref().map(AmFile::resolve).transpose()?;
+        let synthesis = match (self.method, self.iterations) {
+            (Some(MethodName::Gspat), n) => {
+                crate::plan::stimulus::gspat(n.unwrap_or(crate::plan::stimulus::GSPAT_ITERATIONS))
+                    .map_err(|e| e.to_string().replace("--iterations", "iterations"))?
+            }
+            (_, Some(_)) => return Err("`iterations` applies to `method = \"gspat\"` only".into()),
+            _ => d.synthesis.clone(),
+        };
         let center_mm = self
             .center
             .map(|c| crate::limits::position_mm("center", c).map_err(|e| e.to_string()))
@@ -126,7 +314,10 @@ impl EntryFile {
                 steps,
                 center_mm,
                 intensity: self.intensity.unwrap_or(d.intensity),
-                ..d
+                path,
+                am,
+                synthesis,
+                z_profile_mm: self.z.unwrap_or_default(),
             },
             untracked: self.untracked,
         })
@@ -136,7 +327,7 @@ impl EntryFile {
 impl Library {
     /// Reads and checks a library file (one-line errors naming the file,
     /// the entry and the field).
-    pub fn load(path: &Path) -> Result<Self, InputError> {
+    pub fn load(path: &FsPath) -> Result<Self, InputError> {
         let text = crate::limits::read_text_file("stimulus library", path)?;
         Self::from_toml(&text, &path.display().to_string())
     }
@@ -264,5 +455,133 @@ mod tests {
         // A = 5 mm at 0.23 mm: 137 steps as asked, 136 on AUTD3's grid.
         assert_eq!(lm[0].timing.steps, 137);
         assert_eq!(autd[0].timing.steps, 136);
+    }
+
+    const KINDS: &str = "[[stimulus]]\nid = \"liss\"\nfreq = 2\nsteps = 400\n\
+        path = { shape = \"lissajous\", a = 5, b = 3, ratio = [3, 2] }\n\
+        [[stimulus]]\nid = \"am\"\nam = { shape = \"square\", freq = 200, depth = 0.5 }\n\
+        [[stimulus]]\nid = \"line\"\nfreq = 2\npath = { shape = \"line\", length = 8 }\n\
+        [[stimulus]]\nid = \"ell\"\nfreq = 2\npath = { shape = \"ellipse\", a = 4, b = 2 }\n";
+
+    #[test]
+    fn paths_and_modulations_are_read_with_their_defaults() {
+        let lib = Library::from_toml(KINDS, "t").unwrap();
+        let s = |i: usize| &lib.entries[i].stimulus;
+        assert_eq!(
+            s(0).path,
+            Path::Lissajous {
+                a_mm: 5.0,
+                b_mm: 3.0,
+                n_a: 3,
+                n_b: 2,
+                phase_deg: 90.0
+            }
+        );
+        assert_eq!(s(0).am, None);
+        assert_eq!(s(1).path, Path::Circle);
+        let am = s(1).am.unwrap();
+        assert_eq!(
+            (am.shape, am.freq_hz, am.depth),
+            (AmShape::Square, 200.0, 0.5)
+        );
+        assert_eq!(s(2).path, Path::Line { length_mm: 8.0 });
+        assert_eq!(
+            s(3).path,
+            Path::Ellipse {
+                a_mm: 4.0,
+                b_mm: 2.0
+            }
+        );
+    }
+
+    #[test]
+    fn every_kind_plans_for_autd3_and_the_lm_firmware_refuses_only_am() {
+        let lib = Library::from_toml(KINDS, "t").unwrap();
+        let scene = Scene::default();
+        let autd = lib.plan_for(&Target::Autd3, &scene).unwrap();
+        assert_eq!(autd[1].plan.am, lib.entries[1].stimulus.am);
+        // The Lissajous figure spans ±5 mm along a and ±3 mm along b.
+        let t = &autd[0].plan.trajectory;
+        let span = |k: usize| {
+            t.foci_mm
+                .iter()
+                .map(|f| f[k] - t.center_mm[k])
+                .fold((f64::MAX, f64::MIN), |(lo, hi), x| (lo.min(x), hi.max(x)))
+        };
+        let (u, v) = (span(0), span(1));
+        assert!(
+            u.0 < -4.9 && u.1 > 4.9 && v.0 < -2.9 && v.1 > 2.9,
+            "{u:?} {v:?}"
+        );
+        assert!(u.1 < 5.0 + 1e-9 && v.1 < 3.0 + 1e-9);
+        // The line keeps to the a axis.
+        assert!(
+            autd[2]
+                .plan
+                .trajectory
+                .foci_mm
+                .iter()
+                .all(|f| f[1] == t.center_mm[1])
+        );
+        let e = lib.plan_for(&Target::Lm, &scene).unwrap_err();
+        let e = format!("{e:#}");
+        assert!(
+            e.contains("stimulus `am`") && e.contains("AUTD3 only"),
+            "{e}"
+        );
+        assert!(!e.contains('\n'), "{e}");
+        let no_am = Library {
+            entries: lib
+                .entries
+                .iter()
+                .filter(|e| e.id != "am")
+                .cloned()
+                .collect(),
+        };
+        let lm = no_am.plan_for(&Target::Lm, &scene).unwrap();
+        assert_eq!(lm[0].timing.steps, 400);
+        assert!(lm.iter().all(|p| p.plan.am.is_none()));
+    }
+
+    #[test]
+    fn bad_paths_and_modulations_are_one_line_errors() {
+        for (body, needle) in [
+            ("path = { shape = \"line\" }", "needs `length`"),
+            (
+                "path = { shape = \"line\", length = 3, a = 1 }",
+                "has no `a`",
+            ),
+            ("path = { shape = \"circle\", a = 1 }", "`radius`"),
+            ("path = { shape = \"star\" }", "unknown variant"),
+            (
+                "path = { shape = \"ellipse\", a = 1, b = -1 }",
+                "semi-axis b",
+            ),
+            (
+                "path = { shape = \"lissajous\", a = 1, b = 1, ratio = [0, 1] }",
+                "1..=32",
+            ),
+            (
+                "radius = 2\npath = { shape = \"line\", length = 3 }",
+                "circle's",
+            ),
+            (
+                "am = { shape = \"sine\", freq = 1000 }",
+                "modulation frequency",
+            ),
+            ("am = { shape = \"sine\", freq = 100, depth = 2 }", "depth"),
+            ("am = { shape = \"sine\" }", "missing field `freq`"),
+            (
+                "am = { shape = \"sine\", freq = 100, offset = 2 }",
+                "unknown field",
+            ),
+        ] {
+            let text = format!("[[stimulus]]\nid = \"x\"\n{body}\n");
+            let e = Library::from_toml(&text, "lib.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(needle), "{body}: {e}");
+            assert!(!e.contains('\n'), "{e}");
+        }
     }
 }

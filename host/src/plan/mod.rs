@@ -11,6 +11,8 @@ pub mod array;
 pub mod directivity;
 pub mod grid;
 pub mod library;
+pub mod modulation;
+pub mod path;
 pub mod scene;
 pub mod sequence;
 pub mod stimulus;

@@ -264,6 +264,9 @@ pub struct Plan {
     pub trajectory: Trajectory,
     /// The phases.
     pub sequence: Sequence,
+    /// The amplitude modulation over the sequence, if any (an AUTD3 plays
+    /// it as its modulation; the LM firmware refuses it).
+    pub am: Option<crate::plan::modulation::Am>,
 }
 
 impl Plan {
@@ -276,6 +279,7 @@ impl Plan {
             scene,
             trajectory,
             sequence,
+            am: None,
         })
     }
 

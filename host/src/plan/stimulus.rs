@@ -12,6 +12,8 @@
 use crate::error::InputError;
 use crate::geom::Vec3;
 use crate::plan::grid::GridTiming;
+use crate::plan::modulation::Am;
+use crate::plan::path::Path;
 use crate::plan::scene::Scene;
 use crate::plan::sequence::{Plan, Synthesis};
 use crate::plan::target::Target;
@@ -46,6 +48,10 @@ pub struct Stimulus {
     /// Output intensity, 0..=1 (1 = full); the plan's header carries
     /// `round(intensity × 255)` (the device puts it in every output frame).
     pub intensity: f64,
+    /// The path's shape ([`Path::Circle`]: the circle of `radius_mm`).
+    pub path: Path,
+    /// Amplitude modulation of the output, if any.
+    pub am: Option<Am>,
 }
 
 impl Default for Stimulus {
@@ -61,6 +67,8 @@ impl Default for Stimulus {
             z_profile_mm: Vec::new(),
             synthesis: Synthesis::Linear,
             intensity: 1.0,
+            path: Path::Circle,
+            am: None,
         }
     }
 }
@@ -188,16 +196,42 @@ impl Stimulus {
             center_mm: self.center_mm.unwrap_or(scene.center_mm),
             z_profile_mm: self.z_profile_mm.clone(),
             plane: scene.lm_plane,
+            path: self.path,
         }
     }
 
     /// Plans the stimulus in `scene` for the device `target` names. A plan
-    /// that cannot be made is one error and no warning.
+    /// that cannot be made is one error and no warning; an amplitude
+    /// modulation is refused for the LM firmware, which plays one
+    /// intensity per entry.
     pub fn plan_for(&self, target: &Target, scene: Scene) -> anyhow::Result<TargetPlan> {
+        if let (Target::Lm, Some(am)) = (target, &self.am) {
+            return Err(InputError::new(format!(
+                "amplitude modulation ({} at {} Hz) plays on AUTD3 only: the LM firmware \
+                 (protocol v5) plays one intensity per stimulus",
+                am.shape.name(),
+                crate::limits::show(am.freq_hz)
+            ))
+            .into());
+        }
+        self.plan_unchecked(target, scene)
+    }
+
+    /// Plans the stimulus in `scene` as asked, an amplitude modulation
+    /// included, for a simulation or a plan file (no device plays it).
+    pub fn plan(&self, scene: Scene) -> anyhow::Result<TargetPlan> {
+        self.plan_unchecked(&Target::Lm, scene)
+    }
+
+    fn plan_unchecked(&self, target: &Target, scene: Scene) -> anyhow::Result<TargetPlan> {
         let intensity = intensity_byte(self.intensity)?;
+        if let Some(am) = &self.am {
+            am.check()?;
+        }
         let params = self.params(&scene);
         let (mut plan, grid) = target.plan_on_grid(&params, &scene, &self.synthesis)?;
         plan.sequence.header.intensity = intensity;
+        plan.am = self.am;
         let warnings = lm_plane_warning(&plan.scene, params.center_mm)
             .into_iter()
             .collect();
@@ -221,11 +255,6 @@ impl Stimulus {
             timing,
             warnings,
         })
-    }
-
-    /// Plans the stimulus in `scene` as asked (the LM firmware's timing).
-    pub fn plan(&self, scene: Scene) -> anyhow::Result<TargetPlan> {
-        self.plan_for(&Target::Lm, scene)
     }
 }
 

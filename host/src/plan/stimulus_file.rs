@@ -181,6 +181,7 @@ pub fn plan_for(
         center_mm,
         foci_mm,
         drive_mm,
+        path: None,
     };
     let header = Sequence::header_for(&scene, &trajectory, transducers)?;
     let phases = match loaded {
@@ -199,6 +200,7 @@ pub fn plan_for(
         scene,
         trajectory,
         sequence: Sequence { header, phases },
+        am: None,
     };
     let period_us = f64::from(plan.sequence.header.period_us);
     let dwell_us = plan.sequence.dwell_us();

@@ -7,7 +7,9 @@
 //!   d_LM = 0.23 mm gives 2π·3/0.23 = 81.95 → 82). The realised step is
 //!   `2πA / N`. A requested step wider than the circumference is an error.
 //! - **Points.** `r_j = c + A(cos θ_j a + sin θ_j b) + z_j c_axis`,
-//!   `θ_j = 2π j / N` for `j = 0..N` (the paper's `j − 1`).
+//!   `θ_j = 2π j / N` for `j = 0..N` (the paper's `j − 1`); another
+//!   [`Path`] (line, ellipse, Lissajous) puts its own `(u, v)` at `θ_j` in
+//!   place of the circle's, and its length in place of `2πA` below.
 //! - **Foci.** Focus `i` (0-based) at step `j` sits on point
 //!   `(j + i·l) mod N` with `l = floor(d / d_LM + 1e-9)` computed from the
 //!   realised step (the tiny guard keeps exact ratios such as 3/0.3 at 10).
@@ -19,6 +21,7 @@
 use crate::error::InputError;
 use crate::geom::{Vec3, add, scale};
 use crate::limits;
+use crate::plan::path::Path;
 use crate::plan::scene::{LmPlane, Scene};
 
 /// Most foci per step the planner accepts.
@@ -72,6 +75,9 @@ pub struct LmParams {
     pub z_profile_mm: Vec<f64>,
     /// Plane unit vectors.
     pub plane: LmPlane,
+    /// The shape along which the foci run (the circle of `radius_mm`, or
+    /// another [`Path`], which ignores `radius_mm`).
+    pub path: Path,
 }
 
 impl LmParams {
@@ -87,6 +93,7 @@ impl LmParams {
             center_mm,
             z_profile_mm: Vec::new(),
             plane: LmPlane::default(),
+            path: Path::Circle,
         }
     }
 }
@@ -113,6 +120,9 @@ pub struct Trajectory {
     /// Points the array focuses on (mirrored when the scene has a
     /// reflector), same layout as `foci_mm`.
     pub drive_mm: Vec<Vec3>,
+    /// The shape the foci run along (`None`: foci from a file).
+    #[serde(skip)]
+    pub path: Option<Path>,
 }
 
 fn finite_pos(v: f64, name: &str, unit: &str, allow_zero: bool) -> Result<(), InputError> {
@@ -167,7 +177,9 @@ impl Trajectory {
         // spacing is a typo, never silently ignored.
         finite_pos(p.spacing_mm, "spacing", "mm", false)?;
         limits::in_range("spacing", p.spacing_mm, 0.0, limits::MAX_SPACING_MM, "mm")?;
-        let circumference = 2.0 * std::f64::consts::PI * p.radius_mm;
+        p.path.check()?;
+        let circumference = p.path.length_mm(p.radius_mm);
+        let length_name = p.path.length_name();
         let n = match p.steps {
             Steps::Count(n) => {
                 if n == 0 || n > MAX_STEPS {
@@ -180,12 +192,12 @@ impl Trajectory {
             Steps::Width(w) => {
                 finite_pos(w, "step", "mm", false)?;
                 limits::in_range("step", w, 0.0, limits::MAX_SPACING_MM, "mm")?;
-                if p.radius_mm == 0.0 {
+                if circumference == 0.0 {
                     1
                 } else {
                     if w > circumference {
                         return Err(InputError::new(format!(
-                            "step {w} mm is wider than the circumference 2πA = {circumference:.3} mm; \
+                            "step {w} mm is wider than the {length_name} = {circumference:.3} mm; \
                              use a smaller --step or --steps 1"
                         )));
                     }
@@ -201,7 +213,7 @@ impl Trajectory {
         };
         let step_mm = circumference / n as f64;
         let index_offset = if p.foci > 1 {
-            if p.radius_mm == 0.0 {
+            if circumference == 0.0 {
                 return Err(InputError::new(
                     "several foci need a radius > 0 (with radius 0 they coincide)",
                 ));
@@ -216,7 +228,7 @@ impl Trajectory {
             }
             if l * p.foci as f64 > n as f64 {
                 return Err(InputError::new(format!(
-                    "{} foci {} mm apart need {:.3} mm of track but the circumference is {circumference:.3} mm; \
+                    "{} foci {} mm apart need {:.3} mm of track but the {length_name} is {circumference:.3} mm; \
                      use fewer foci or a smaller spacing",
                     p.foci,
                     p.spacing_mm,
@@ -263,8 +275,8 @@ impl Trajectory {
         let points: Vec<Vec3> = (0..n)
             .map(|j| {
                 let th = 2.0 * std::f64::consts::PI * j as f64 / n as f64;
-                let (s, c) = th.sin_cos();
-                let ring = add(scale(pl.a, p.radius_mm * c), scale(pl.b, p.radius_mm * s));
+                let (u, v) = p.path.at(th, p.radius_mm);
+                let ring = add(scale(pl.a, u), scale(pl.b, v));
                 add(add(p.center_mm, ring), scale(pl.c, z_at(j)))
             })
             .collect();
@@ -296,6 +308,7 @@ impl Trajectory {
             center_mm: p.center_mm,
             foci_mm,
             drive_mm,
+            path: Some(p.path),
         })
     }
 

@@ -63,6 +63,8 @@ pub(super) struct Slot {
     steps: usize,
     divide: u16,
     header: UploadHeader,
+    /// The plan's amplitude modulation, played through the output.
+    am: Option<crate::plan::modulation::Am>,
 }
 
 impl Slot {
@@ -279,14 +281,15 @@ impl Autd3Backend {
         }
         let offsets = self.player.slot() != self.offsets_for && self.recompute_offsets();
         self.switch_and_correct(switch, offsets)?;
-        let level = match self.playing_header() {
-            Some(h) if self.player.state() == PlayState::Playing && self.policy.sounding(now) => {
-                h.intensity
+        let playing = self.player.slot().and_then(|s| self.slots[usize::from(s)]);
+        let (level, am) = match playing {
+            Some(s) if self.player.state() == PlayState::Playing && self.policy.sounding(now) => {
+                (s.header.intensity, s.am)
             }
-            _ => 0,
+            _ => (0, None),
         };
         let dc = self.dc_clock();
-        self.output.set(&mut self.ctl, level, now, &dc)
+        self.output.set(&mut self.ctl, level, am, now, &dc)
     }
 
     fn add_late(&mut self, steps: u64) {
@@ -525,6 +528,7 @@ impl Backend for Autd3Backend {
             steps,
             divide,
             header: *h,
+            am: plan.am,
         });
         let dwell_us = f64::from(timing::dwell_us(u32::from(divide)));
         Ok(UploadReport {

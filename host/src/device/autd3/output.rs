@@ -22,6 +22,17 @@
 //! forever with an `Immediate` switch, and the first lease armed behind it
 //! (the frame arrives whole or not at all, so no endless level is ever
 //! left without a lease).
+//!
+//! **Amplitude modulation.** A stimulus with an [`Am`] sounds as the same
+//! kind of lease, its samples the envelope at the level
+//! ([`Am::sample`], at 4 kHz: divide 10, the silencer's strict minimum)
+//! for the lease, then 0. Such a buffer spans several frames, so it never
+//! rides with an endless operation: an AM stimulus starts through the
+//! `SysTime` switch alone, [`SWITCH_MARGIN_US`] after it is asked for
+//! (from a level whose switch is still pending it mutes first), and each
+//! renewal starts its buffer at the envelope's phase at its switch, so the
+//! envelope runs on across renewals (within a sample; a retried switch,
+//! later by its doubled margin, restarts it).
 
 use std::num::NonZeroU16;
 use std::time::Duration;
@@ -37,6 +48,7 @@ use autd3::prelude::{
 };
 
 use crate::error::InputError;
+use crate::plan::modulation::{Am, SAMPLE_DIVIDE};
 
 /// How far ahead a renewal's `SysTime` switch is set: autd3 firmware
 /// refuses one less than 10 ms ahead of its clock when the frame arrives,
@@ -64,6 +76,11 @@ pub struct Output {
     seg: Segment,
     /// What sounds: 0 = muted (forever).
     level: u8,
+    /// Its amplitude modulation, if any.
+    am: Option<Am>,
+    /// When the modulation's sample 0 played (host µs): the envelope's
+    /// phase at a renewal.
+    am_t0_us: u64,
     /// When the lease in force was armed (host µs).
     armed_us: u64,
     /// When its switch happens; no renewal goes out before (a write into a
@@ -95,6 +112,19 @@ fn lease_buffer(level: u8, lease_us: u64) -> (Custom<SamplingConfig>, u64) {
     )
 }
 
+/// An AM lease's modulation at `level`: the envelope's samples from
+/// sample `first` for at most `lease_us - SWITCH_MARGIN_US` (and within
+/// autd3's buffer), then 0; returns it with how long it sounds.
+fn am_lease_buffer(level: u8, am: &Am, first: u64, lease_us: u64) -> (Custom<SamplingConfig>, u64) {
+    let sample_us = u64::from(SAMPLE_DIVIDE) * 25;
+    let n = ((lease_us - SWITCH_MARGIN_US) / sample_us)
+        .min(autd3::core::firmware::MOD_BUF_SIZE_MAX as u64 - 1);
+    let mut buffer: Vec<u8> = (0..n).map(|k| am.sample(level, first + k)).collect();
+    buffer.push(0);
+    let config = SamplingConfig::new(NonZeroU16::new(SAMPLE_DIVIDE).unwrap_or(NonZeroU16::MIN));
+    (Custom::new(buffer, config), n * sample_us)
+}
+
 impl Output {
     /// An output whose sounding lasts `lease` past each renewal; muted
     /// once [`Output::mute`] has gone out.
@@ -104,6 +134,8 @@ impl Output {
             lease_us,
             seg: Segment::S0,
             level: 0,
+            am: None,
+            am_t0_us: 0,
             armed_us: 0,
             switch_us: 0,
         })
@@ -146,13 +178,19 @@ impl Output {
         Ok(())
     }
 
-    /// Brings the output to `level` at `now_us` (host clock; `dc_now` the
-    /// devices' clock at the same instant): mutes, sounds at once with a
-    /// fresh lease, or renews the lease when half of it has passed.
+    /// The amplitude modulation sounding (`None` while muted or unmodulated).
+    pub fn am(&self) -> Option<Am> {
+        self.am.filter(|_| self.level != 0)
+    }
+
+    /// Brings the output to `level` (modulated by `am`) at `now_us` (host
+    /// clock; `dc` the devices' clock): mutes, sounds with a fresh lease,
+    /// or renews the lease when half of it has passed.
     pub fn set(
         &mut self,
         ctl: &mut Controller<Box<dyn Link>>,
         level: u8,
+        am: Option<Am>,
         now_us: u64,
         dc: &dyn Fn() -> DcSysTime,
     ) -> anyhow::Result<()> {
@@ -162,8 +200,11 @@ impl Output {
             }
             return Ok(());
         }
-        if level != self.level || self.lapsed(now_us) {
-            return self.sound(ctl, level, now_us, dc);
+        if level != self.level || am != self.am || self.lapsed(now_us) {
+            return match am {
+                Some(am) => self.sound_am(ctl, level, am, now_us, dc),
+                None => self.sound(ctl, level, now_us, dc),
+            };
         }
         if now_us >= self.armed_us + self.lease_us / 2 && now_us >= self.switch_us {
             self.renew(ctl, now_us, dc)?;
@@ -210,6 +251,38 @@ impl Output {
             self.level = 0;
             return Err(anyhow::Error::from(e).context("setting the output level"));
         }
+        self.am = None;
+        self.arm(lease_seg, level, now_us);
+        Ok(())
+    }
+
+    /// An AM lease into the other segment, switched to a margin ahead
+    /// (after a mute when a switch is still pending: a write into the
+    /// segment the FPGA plays would make it loop forever).
+    fn sound_am(
+        &mut self,
+        ctl: &mut Controller<Box<dyn Link>>,
+        level: u8,
+        am: Am,
+        now_us: u64,
+        dc: &dyn Fn() -> DcSysTime,
+    ) -> anyhow::Result<()> {
+        if self.level != 0 && (now_us < self.switch_us || self.lapsed(now_us)) {
+            self.mute(ctl)?;
+        }
+        let (buffer, _) = am_lease_buffer(level, &am, 0, self.lease_us);
+        let lease_seg = other(self.seg);
+        switch_at(dc, |at| {
+            ctl.send(WithFiniteLoop::new(
+                buffer.clone(),
+                NonZeroU16::MIN,
+                lease_seg,
+                at,
+            ))
+        })
+        .context("setting the modulated output")?;
+        self.am = Some(am);
+        self.am_t0_us = now_us + SWITCH_MARGIN_US;
         self.arm(lease_seg, level, now_us);
         Ok(())
     }
@@ -222,7 +295,15 @@ impl Output {
         now_us: u64,
         dc: &dyn Fn() -> DcSysTime,
     ) -> anyhow::Result<()> {
-        let (buffer, _) = lease_buffer(self.level, self.lease_us);
+        let (buffer, _) = match &self.am {
+            Some(am) => {
+                // The envelope's sample at the switch, a margin from now.
+                let since = (now_us + SWITCH_MARGIN_US).saturating_sub(self.am_t0_us);
+                let first = since / (u64::from(SAMPLE_DIVIDE) * 25);
+                am_lease_buffer(self.level, am, first, self.lease_us)
+            }
+            None => lease_buffer(self.level, self.lease_us),
+        };
         let lease_seg = other(self.seg);
         switch_at(dc, |at| {
             ctl.send(WithFiniteLoop::new(
@@ -300,6 +381,29 @@ mod tests {
         // The default lease: 100 samples of 9.5 ms.
         let (m, us) = lease_buffer(255, 1_000_000);
         assert_eq!((m.buffer.len(), us), (101, 950_000));
+    }
+
+    #[test]
+    fn an_am_lease_is_the_envelope_until_its_end_then_zero() {
+        let am = Am {
+            shape: crate::plan::modulation::AmShape::Square,
+            freq_hz: 100.0,
+            depth: 0.5,
+        };
+        for lease_us in [*LEASE_US.start(), 1_000_000, *LEASE_US.end()] {
+            let (m, sounding_us) = am_lease_buffer(200, &am, 7, lease_us);
+            let k = m.buffer.len() - 1;
+            assert_eq!(m.buffer[k], 0, "the held last sample is silent");
+            assert!(SWITCH_MARGIN_US + sounding_us <= lease_us, "{lease_us}");
+            assert!(
+                SWITCH_MARGIN_US + sounding_us + 250 > lease_us,
+                "{lease_us}"
+            );
+            // 40 samples per period, from sample 7: 13 high, 20 low, 20 high.
+            assert!(m.buffer[..13].iter().all(|&v| v == 200));
+            assert!(m.buffer[13..33].iter().all(|&v| v == 100));
+            assert_eq!(m.buffer[33], 200);
+        }
     }
 
     #[test]

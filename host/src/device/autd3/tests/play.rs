@@ -315,3 +315,88 @@ fn a_lapsed_lease_ends_the_play() {
     let e = Backend::set_lease(&mut b, Duration::from_secs(60)).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Input);
 }
+
+/// An AM stimulus: its envelope on the array from one switch margin after
+/// the play, running on across renewals (every sample of each period seen
+/// at its level), muted at once by a stop, and silent by itself within
+/// the lease once the host is gone.
+#[test]
+fn an_am_stimulus_sounds_its_envelope_across_renewals_and_stops() {
+    use crate::plan::modulation::{Am, AmShape};
+    let (scene, mut b, h, clock) = open_default();
+    let am = Am {
+        shape: AmShape::Square,
+        freq_hz: 100.0,
+        depth: 0.5,
+    };
+    let plan = crate::plan::stimulus::Stimulus {
+        am: Some(am),
+        ..crate::plan::stimulus::Stimulus::default()
+    }
+    .plan_for(&crate::plan::target::Target::Autd3, scene.clone())
+    .unwrap()
+    .plan;
+    let up = b.upload(&plan, None).unwrap();
+    assert!(
+        matches!(
+            up.transfer,
+            crate::device::backend::Transfer::Autd3 {
+                readback_mismatches: Some(0),
+                ..
+            }
+        ),
+        "{:?}",
+        up.transfer
+    );
+    b.play(up.slot, true).unwrap();
+    let mods = |h: &EmulatorHandle| h.with_cpus(|c| c.iter().map(|c| c.fpga().modulation()).min());
+    // Silent until the switch a margin ahead.
+    assert_eq!(mods(&h), Some(0));
+    clock.advance(Duration::from_micros(
+        crate::device::autd3::output::SWITCH_MARGIN_US + 125,
+    ));
+    // Then 5 ms at 255 and 5 ms at 128, period after period, sampled at
+    // the middle of each 250 µs sample over three seconds (six renewals).
+    for k in 0..12_000u64 {
+        // Ticks 109.25 ms apart: renewals switch mid-period.
+        if k % 437 == 0 {
+            b.tick().unwrap();
+        }
+        let want = if k % 40 < 20 { 255 } else { 128 };
+        assert_eq!(mods(&h), Some(want), "sample {k}");
+        clock.advance(Duration::from_micros(250));
+    }
+    b.stop().unwrap();
+    assert_eq!(mods(&h), Some(0), "a stop mutes at once");
+    // Played again and left: silent within the lease, and for good.
+    b.play(up.slot, true).unwrap();
+    let gone = clock.now_us();
+    clock.advance(Duration::from_millis(100));
+    assert!(mods(&h).unwrap() > 0);
+    std::mem::forget(b);
+    clock.set_us(gone + 1_000_000);
+    assert_eq!(mods(&h), Some(0), "silent at the lease's end");
+    clock.advance(Duration::from_secs(5));
+    assert_eq!(mods(&h), Some(0));
+}
+
+/// The LM firmware refuses an AM plan rather than play it unmodulated.
+#[test]
+fn an_am_plan_is_refused_by_the_lm_planner() {
+    let s = crate::plan::stimulus::Stimulus {
+        am: Some(crate::plan::modulation::Am {
+            shape: crate::plan::modulation::AmShape::Sine,
+            freq_hz: 200.0,
+            depth: 1.0,
+        }),
+        ..crate::plan::stimulus::Stimulus::default()
+    };
+    let e = s
+        .plan_for(&crate::plan::target::Target::Lm, Scene::default())
+        .unwrap_err();
+    assert!(
+        e.downcast_ref::<crate::error::InputError>().is_some(),
+        "{e}"
+    );
+    assert!(e.to_string().contains("AUTD3 only"), "{e}");
+}

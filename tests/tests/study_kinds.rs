@@ -1,0 +1,189 @@
+//! Library entries beyond the circle end to end: a study with an AM entry
+//! and a Lissajous entry runs on autd3's emulator (every upload read back
+//! with 0 mismatches), the Lissajous one on the simulated LM device, which
+//! refuses the AM one with one line; `simulate` renders both from the
+//! library (the figure's extent on the map, the AM power at its frequency).
+
+use std::path::Path;
+
+mod link_support;
+use link_support::Sim;
+#[allow(dead_code)]
+mod study_support;
+use study_support::*;
+
+const LIBRARY: &str = r#"
+[[stimulus]]
+id = "liss"
+freq = 2.0
+steps = 200
+path = { shape = "lissajous", a = 5.0, b = 2.0, ratio = [3, 2] }
+
+[[stimulus]]
+id = "am"
+am = { shape = "sine", freq = 200.0, depth = 1.0 }
+"#;
+
+/// A one-factor protocol over `levels` of `library`, one set, one question.
+fn protocol(dir: &Path, library: &str, levels: &str) -> String {
+    std::fs::write(dir.join("kinds-library.toml"), library).unwrap();
+    let p = dir.join("kinds.toml");
+    std::fs::write(
+        &p,
+        format!(
+            r#"name = "kinds"
+library = "kinds-library.toml"
+sets = 1
+stimulus = "{{kind}}"
+
+[timeline]
+wait_for_finger = true
+while_touching = true
+touch_s = 1.0
+iti_s = 0.5
+gate = "tracked"
+
+[[factor]]
+name = "kind"
+levels = {levels}
+
+[[question]]
+id = "strength"
+kind = "likert"
+points = 7
+low = "none"
+high = "strong"
+text = "How strong was it?"
+"#
+        ),
+    )
+    .unwrap();
+    p.display().to_string()
+}
+
+fn run(proto: &str, port: &str, out: &Path, answers: &Path) -> std::process::Output {
+    study(&[
+        "run",
+        proto,
+        "--port",
+        port,
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--time-scale",
+        "0.05",
+        "--responses",
+        answers.to_str().unwrap(),
+        "--seed",
+        "1",
+    ])
+    .output()
+    .unwrap()
+}
+
+#[test]
+fn an_am_and_a_lissajous_entry_play_in_a_study_on_the_emulator() {
+    let d = scratch("kinds-emu");
+    let proto = protocol(&d, LIBRARY, r#"["liss", "am"]"#);
+    let answers = d.join("answers.txt");
+    std::fs::write(&answers, "3\n5\n").unwrap();
+    let out = d.join("out");
+    ok(&run(&proto, "autd3:emulator", &out, &answers));
+    let r = rows(&out.join("P01"));
+    assert_eq!(r.len(), 2);
+    let mut played: Vec<&str> = r.iter().map(|x| x["stimulus"].as_str()).collect();
+    played.sort();
+    assert_eq!(played, ["am", "liss"]);
+    let events = std::fs::read_to_string(out.join("P01/events.jsonl")).unwrap();
+    let uploads: Vec<serde_json::Value> = events
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|e| e["event"] == "preloaded")
+        .collect();
+    assert_eq!(uploads.len(), 2, "{events}");
+    for u in &uploads {
+        assert_eq!(u["readback_mismatches"], 0, "{u}");
+    }
+    let onsets = events
+        .lines()
+        .filter(|l| l.contains("\"event\":\"onset\""))
+        .count();
+    assert_eq!(onsets, 2, "{events}");
+}
+
+#[test]
+fn the_simulated_device_plays_the_lissajous_entry_and_refuses_am_in_one_line() {
+    let sim = Sim::start(&[]);
+    let d = scratch("kinds-sim");
+    let answers = d.join("answers.txt");
+    std::fs::write(&answers, "4\n").unwrap();
+    // The library without its AM entry (the whole library is planned for
+    // the device at start).
+    let liss_only = &LIBRARY[..LIBRARY.find("[[stimulus]]\nid = \"am\"").unwrap()];
+    let proto = protocol(&d, liss_only, r#"["liss"]"#);
+    let out = d.join("out");
+    ok(&run(&proto, &sim.port, &out, &answers));
+    assert_eq!(rows(&out.join("P01")).len(), 1);
+    // A library with an AM entry is refused for the LM firmware before
+    // anything is written.
+    let proto = protocol(&d, LIBRARY, r#"["liss", "am"]"#);
+    let refused = d.join("refused");
+    std::fs::write(&answers, "4\n5\n").unwrap();
+    let o = run(&proto, &sim.port, &refused, &answers);
+    assert_eq!(o.status.code(), Some(2), "{o:?}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("AUTD3 only") && err.contains("`am`"), "{err}");
+    assert!(!refused.join("P01/trials.csv").exists());
+}
+
+fn simulate(d: &Path, id: &str) -> serde_json::Value {
+    let lib = d.join("kinds-library.toml");
+    std::fs::write(&lib, LIBRARY).unwrap();
+    let out = d.join(id);
+    let o = std::process::Command::new(link_support::lmhost())
+        .args([
+            "simulate",
+            "--library",
+            lib.to_str().unwrap(),
+            "--stimulus",
+            id,
+            "--plane-size",
+            "16,10",
+            "--plane-step",
+            "0.5",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    ok(&o);
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn simulate_renders_the_lissajous_figure_and_the_am_power_at_its_frequency() {
+    let d = scratch("kinds-simulate");
+    let s = simulate(&d, "liss");
+    assert_eq!(s["stimulus"]["path"], "lissajous");
+    // The figure spans ±5 mm along a and ±2 mm along b (plus the focal
+    // spot): wider than high by about 2 × (5 − 2) mm, as a circle is not.
+    let ext = &s["mean_pressure_half_peak_extent_mm"];
+    let span = |k: &str| ext[k][1].as_f64().unwrap() - ext[k][0].as_f64().unwrap();
+    let (u, v) = (span("u"), span("v"));
+    assert!((10.0..=14.0).contains(&u), "{ext}");
+    assert!((4.0..=8.0).contains(&v), "{ext}");
+    assert!((u - v - 6.0).abs() <= 1.5, "{ext}");
+    assert!(s["am"].is_null());
+    let a = simulate(&d, "am");
+    let am = &a["am"];
+    assert_eq!(am["force_spectrum_peak_hz"], 200.0, "{am}");
+    assert_eq!(am["realised_freq_hz"], 200.0, "{am}");
+    // Full depth: the mean pressure keeps 3/8; the AM power is there.
+    assert!((am["mean_square_envelope"].as_f64().unwrap() - 0.375).abs() < 1e-9);
+    assert!(am["am_power_peak_pa2"].as_f64().unwrap() > 0.0, "{am}");
+    assert!(d.join("am/am_power.png").exists() && !d.join("liss/am_power.png").exists());
+}
