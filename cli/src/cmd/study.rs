@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use clap::{Subcommand, ValueEnum};
+use lmhost::lab::study::push::PushOptions;
 use lmhost::lab::study::{self, AnswerSource, FingerSource, RunOptions};
 use lmhost::sense::stream::filter::FilterKind;
 
@@ -93,6 +94,119 @@ struct RunArgs {
     /// addresses, with their token, are printed.
     #[arg(long, value_name = "ADDR", value_parser = super::args::view_addr)]
     view: Option<std::net::SocketAddr>,
+    #[command(flatten)]
+    instruments: InstrumentArgs,
+}
+
+/// Experiment 3's stage and gauge.
+#[derive(Debug, clap::Args)]
+#[command(
+    next_help_heading = "Instruments (Experiment 3: the stage pushes the gauge in step with each on-phase)"
+)]
+struct InstrumentArgs {
+    /// The stage's controller (Chuo Seiki QT) on a serial port, or `sim`
+    /// (`sim:fail-after=N`: the twin falls silent after N moves).
+    #[arg(long, value_name = "PORT", requires = "gauge")]
+    stage: Option<String>,
+    /// The force gauge on a serial port, or `sim` (the twin, on the
+    /// simulated stage's finger pad).
+    #[arg(long, value_name = "PORT", requires = "stage")]
+    gauge: Option<String>,
+    /// The gauge's protocol.
+    #[arg(long, value_enum, default_value_t = super::gauge::Model::Imada, requires = "gauge")]
+    gauge_model: super::gauge::Model,
+    /// The gauge's baud rate [default: the model's factory rate].
+    #[arg(long, value_name = "BAUD", requires = "gauge", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    gauge_baud: Option<u32>,
+    /// Stage position where the probe touches the finger pad, mm
+    /// (required with a serial stage) [default with sim: 5].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    contact: Option<f64>,
+    /// Stage position between pushes, mm, at most --contact [default: --contact].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    rest: Option<f64>,
+    /// The stage's lower soft limit, mm (required with a serial stage) [default with sim: 0].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    stage_min: Option<f64>,
+    /// The stage's upper soft limit, mm (required with a serial stage) [default with sim: 30].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    stage_max: Option<f64>,
+    /// The stage's speed, mm/s (the paper's 5).
+    #[arg(long, value_name = "MM/S", requires = "stage", default_value_t = lmhost::device::instruments::stage::PAPER_SPEED_MM_S, allow_negative_numbers = true)]
+    stage_speed: f64,
+    /// The controller's pushing axis: A, B or C.
+    #[arg(long, default_value = "A", requires = "stage", value_parser = super::stage::parse_axis)]
+    stage_axis: lmhost::device::instruments::Axis,
+    /// Micrometres per pulse of the stage.
+    #[arg(long, value_name = "UM", default_value_t = 1.0, requires = "stage")]
+    stage_step_um: f64,
+    /// The stage controller's baud rate [default: 9600].
+    #[arg(long, value_name = "BAUD", requires = "stage", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    stage_baud: Option<u32>,
+}
+
+impl InstrumentArgs {
+    fn options(&self) -> anyhow::Result<Option<PushOptions>> {
+        use lmhost::device::instruments::{GaugeOptions, StageLimits, StageOptions, StagePort};
+        let (Some(stage), Some(gauge)) = (&self.stage, &self.gauge) else {
+            return Ok(None);
+        };
+        let sim = matches!(StagePort::parse(stage)?, StagePort::Sim(_));
+        let limits = match (self.stage_min, self.stage_max) {
+            (Some(lo), Some(hi)) => StageLimits::new(lo, hi)?,
+            (None, None) if sim => StageLimits::new(0.0, 30.0)?,
+            _ => lmhost::bad_input!(
+                "give the stage's soft limits with both --stage-min and --stage-max (mm); they are the rig's, never guessed"
+            ),
+        };
+        let contact_mm = match self.contact {
+            Some(c) => c,
+            None if sim => 5.0,
+            None => lmhost::bad_input!(
+                "give --contact: the stage position (mm) where the probe touches the finger pad"
+            ),
+        };
+        lmhost::device::instruments::stage::check_speed("--stage-speed", self.stage_speed)?;
+        Ok(Some(PushOptions {
+            stage: StageOptions {
+                port: stage.clone(),
+                limits,
+                speed_mm_s: self.stage_speed,
+                axis: self.stage_axis,
+                step_um: self.stage_step_um,
+                baud: self.stage_baud,
+            },
+            gauge: GaugeOptions {
+                port: gauge.clone(),
+                model: self.gauge_model.model(),
+                baud: self.gauge_baud,
+                sim_depth_mm: None,
+                seed: 1,
+            },
+            contact_mm,
+            rest_mm: self.rest.unwrap_or(contact_mm),
+        }))
+    }
 }
 
 /// Arguments of `lmhost study report`.
@@ -144,6 +258,7 @@ impl RunArgs {
 
     fn run(self) -> anyhow::Result<()> {
         let finger = self.finger()?;
+        let instruments = self.instruments.options()?;
         let r = study::run(RunOptions {
             protocol: self.protocol,
             port: self.port.spec(),
@@ -160,6 +275,7 @@ impl RunArgs {
             resume: self.resume,
             resume_anyway: self.resume_anyway,
             view: self.view,
+            instruments,
         })?;
         let mean = |v: &[f64]| {
             if v.is_empty() {

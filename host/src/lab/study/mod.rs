@@ -31,6 +31,7 @@ pub mod options;
 pub mod procedure;
 pub mod protocol;
 pub mod provenance;
+pub mod push;
 pub mod record;
 pub mod report;
 pub mod start;
@@ -84,7 +85,7 @@ pub fn check_participant(id: &str) -> Result<(), InputError> {
 
 fn resume_hint(o: &RunOptions) -> String {
     format!(
-        "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger and --responses)",
+        "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger, --responses, --stage and --gauge)",
         o.protocol.display(),
         o.participant,
         o.out.display()
@@ -134,6 +135,21 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             c.stimulus
         );
     }
+    if let Some(i) = &o.instruments {
+        let Some(a) = &p.adjustment else {
+            crate::bad_input!(
+                "study protocol {}: --stage and --gauge run the method of adjustment ([adjustment]), which it has not",
+                o.protocol.display()
+            );
+        };
+        if tl_on_missing(&p) {
+            crate::bad_input!(
+                "study protocol {}: with --stage and --gauge every push lasts one on-phase: give the timeline's on_s",
+                o.protocol.display()
+            );
+        }
+        i.check(a.max_mm)?;
+    }
     let paths = start::Paths::new(&o.out, &o.participant);
     // Everything is checked (and a responses file dry-run) before the
     // device opens and before any file changes.
@@ -152,6 +168,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         }
     }
     let first = st.done + 1;
+    // The stage at rest before the array can sound.
+    let pusher = o.instruments.clone().map(push::Pusher::start).transpose()?;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
@@ -201,6 +219,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         trial_events: Vec::new(),
         all_events: Vec::new(),
         view,
+        pusher,
+        dir: paths.dir.clone(),
     };
     let mut report = RunReport {
         dir: paths.dir.clone(),
@@ -246,6 +266,18 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         .take()
         .map(|d| d.into_session().close(reason))
         .unwrap_or_default();
+    // The array is silent; now the stage goes back (or says where it is).
+    let stage_end = r.pusher.take().map(push::Pusher::finish);
+    let result = match (result, stage_end) {
+        (Err(e), Some(end)) if e.is::<push::InstrumentFailed>() => {
+            Err(anyhow::anyhow!("{} ({end})", crate::error::one_line(&e)))
+        }
+        (r, Some(end)) if !end.starts_with("stage back") => {
+            crate::errln!("warning: {end}");
+            r
+        }
+        (r, _) => r,
+    };
     let logged = r.log_events(last).and_then(|()| Ok(r.events.sync()?));
     for l in r.all_events.iter() {
         match &l.kind {
@@ -265,6 +297,10 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     }
     logged?;
     Ok(report)
+}
+
+fn tl_on_missing(p: &Protocol) -> bool {
+    p.timeline.on_s.is_none()
 }
 
 /// Runs trials `first..` of `plan`, each row on disk before the next.
@@ -340,6 +376,10 @@ struct Runner {
     trial_events: Vec<Event>,
     all_events: Vec<Event>,
     view: Option<crate::lab::view::View>,
+    /// The stage and gauge, when Experiment 3 runs with them.
+    pusher: Option<push::Pusher>,
+    /// The participant's folder (the gauge's series go there).
+    dir: std::path::PathBuf,
 }
 
 impl Runner {
@@ -395,6 +435,9 @@ impl Runner {
     fn tick(&mut self) -> anyhow::Result<()> {
         if crate::stop::requested() {
             return Err(Interrupted.into());
+        }
+        if let Some(p) = self.pusher.as_mut() {
+            p.check()?;
         }
         let events = self.driver().turn()?;
         // The finger as sent to the device, to the view.
@@ -470,34 +513,39 @@ impl Runner {
             }
         }
         let adjusting = p.adjustment.is_some();
+        // With the instruments, each push is one on-phase of its own.
+        let pushing = adjusting && self.pusher.is_some();
         let on_s = tl.on_s.map(|s| s * self.scale);
         let req = Present {
             stimulus: t.stimulus.clone(),
             gate: tl.gate,
             on_s,
             off_s: Some(tl.off_s * self.scale),
-            repeat: Some(if adjusting {
-                crate::lab::session::MAX_REPEAT
-            } else {
-                tl.repeat
+            repeat: Some(match (pushing, adjusting) {
+                (true, _) => 1,
+                (false, true) => crate::lab::session::MAX_REPEAT,
+                (false, false) => tl.repeat,
             }),
         };
-        self.session().present(&req)?;
-        // A new play forgets old centroids: track again at once.
-        self.driver().track_now()?;
+        if !pushing {
+            self.session().present(&req)?;
+            // A new play forgets old centroids: track again at once.
+            self.driver().track_now()?;
+        }
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
         let mut procedure = procedure::start(p, &t.stimulus);
+        let mut rts = Vec::new();
+        let mut measured = None;
         if let Some(pr) = procedure.as_deref_mut() {
-            let (what, unit) = pr.level_unit();
-            let level_event = |level: f64, answer: Option<&str>| {
-                let mut v = serde_json::json!({"event": what, "trial": t.trial, "answer": answer});
-                v[format!("{what}_{unit}")] = level.into();
-                v
-            };
             if let Some(first) = pr.next() {
+                let (what, unit) = pr.level_unit();
                 crate::errln!("  {what} {:.2} {unit}", first.level);
-                self.log(level_event(first.level, None))?;
+                self.level_event(pr, t.trial, first.level, None)?;
+            }
+            if pushing {
+                let off_s = tl.off_s * self.scale;
+                measured = Some(self.pushes(pr, &req, off_s, t.trial, &mut rts)?);
             }
             while !pr.finished() {
                 // One answer per finished on-phase.
@@ -514,18 +562,9 @@ impl Runner {
                     self.pause();
                     continue;
                 }
-                let (ans, _) = self.ask(&pr.asked())?;
-                match pr.respond(&ans) {
-                    Step::Done => {}
-                    Step::Next(level) => {
-                        self.log(level_event(level, Some(&ans)))?;
-                        crate::errln!("  next {what} {level:.2} {unit} ({ans})");
-                    }
-                    Step::Last { level, why } => {
-                        self.log(level_event(level, Some(&ans)))?;
-                        crate::errln!("  {why}");
-                    }
-                }
+                let (ans, rt) = self.ask(&pr.asked())?;
+                rts.push(rt);
+                self.answered(pr, t.trial, &ans)?;
             }
             if self.session().presenting() {
                 self.session().stop(OffsetReason::Stop)?;
@@ -568,7 +607,7 @@ impl Runner {
             .iter()
             .find(|l| l.id == t.stimulus)
             .map(|l| l.planned.timing.clone());
-        Ok(trial::row(
+        let (mut row, presented) = trial::row(
             expect,
             t,
             &self.trial_events,
@@ -576,7 +615,62 @@ impl Runner {
             &health,
             &given,
             procedure.as_deref(),
-        ))
+        );
+        if procedure.is_some() {
+            let rts: Vec<String> = rts.iter().map(|s| format!("{s:.4}")).collect();
+            row.set(
+                columns::ADJUST_RT,
+                rts.join(&columns::LIST_SEPARATOR.to_string()),
+            );
+        }
+        if let Some(m) = measured {
+            // The series first: a row never names a force whose series is
+            // missing.
+            let name = format!("force-trial-{:03}.csv", t.trial);
+            crate::files::write_whole(&self.dir.join(&name), m.csv().as_bytes())?;
+            let median = m.series.median_n().unwrap_or(0.0).max(0.0);
+            row.set(columns::FORCE, format!("{median:.3}"));
+            crate::errln!("  force {median:.3} N (series in {name})");
+        }
+        Ok((row, presented))
+    }
+
+    /// Logs the procedure's level (the `depth` event).
+    fn level_event(
+        &mut self,
+        pr: &dyn procedure::Procedure,
+        trial: usize,
+        level: f64,
+        answer: Option<&str>,
+    ) -> anyhow::Result<()> {
+        let (what, unit) = pr.level_unit();
+        let mut v = serde_json::json!({"event": what, "trial": trial, "answer": answer});
+        v[format!("{what}_{unit}")] = level.into();
+        self.log(v)
+    }
+
+    /// Gives the procedure an answer, logs and says what it did; the new
+    /// level, if it changed.
+    fn answered(
+        &mut self,
+        pr: &mut dyn procedure::Procedure,
+        trial: usize,
+        ans: &str,
+    ) -> anyhow::Result<Option<f64>> {
+        let (what, unit) = pr.level_unit();
+        Ok(match pr.respond(ans) {
+            Step::Done => None,
+            Step::Next(level) => {
+                self.level_event(pr, trial, level, Some(ans))?;
+                crate::errln!("  next {what} {level:.2} {unit} ({ans})");
+                Some(level)
+            }
+            Step::Last { level, why } => {
+                self.level_event(pr, trial, level, Some(ans))?;
+                crate::errln!("  {why}");
+                Some(level)
+            }
+        })
     }
 }
 

@@ -79,6 +79,9 @@ pub struct RunOptions {
     /// Serve the live view here (its participant's page answers unless
     /// answers come from a file).
     pub view: Option<std::net::SocketAddr>,
+    /// Experiment 3's stage and gauge (`--stage`, `--gauge`), pushing in
+    /// step with the on-phases.
+    pub instruments: Option<super::push::PushOptions>,
 }
 
 /// What a run did.
