@@ -6,9 +6,8 @@ use std::path::PathBuf;
 use clap::{Subcommand, ValueEnum};
 use lmhost::lab::study::push::PushOptions;
 use lmhost::lab::study::{self, AnswerSource, FingerSource, RunOptions};
-use lmhost::sense::stream::filter::FilterKind;
 
-use super::args::PortArgs;
+use super::args::{FingerArgs, FingerFeed, PortArgs};
 
 /// Arguments of `lmhost study`.
 #[derive(Debug, clap::Args)]
@@ -60,20 +59,12 @@ struct RunArgs {
     /// its question is asked [default: keys at the terminal].
     #[arg(long, value_name = "FILE")]
     responses: Option<PathBuf>,
-    /// The finger source: a synthetic one, or none (then --stream or
-    /// --udp may give tracked centroids).
+    /// The finger source: a synthetic one (as --synthetic), or none
+    /// (then one of the finger flags below may give a tracked one).
     #[arg(long, value_enum, default_value_t = Finger::None)]
     finger: Finger,
-    /// Tracked finger centroids as JSON or CSV lines from FILE, or `-` for
-    /// stdin (`lmhost track --json` lines included).
-    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
-    stream: Option<PathBuf>,
-    /// Tracked finger centroids as UDP datagrams on 127.0.0.1:PORT.
-    #[arg(long, value_name = "PORT")]
-    udp: Option<u16>,
-    /// Centroid filter for --stream / --udp.
-    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
-    filter: FilterKind,
+    #[command(flatten)]
+    source: FingerArgs,
     /// Multiplies every duration of the timeline (recorded).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     time_scale: f64,
@@ -230,30 +221,29 @@ impl Args {
 
 impl RunArgs {
     fn finger(&self) -> anyhow::Result<FingerSource> {
-        let tracked = self.stream.is_some() || self.udp.is_some();
-        if tracked && self.finger == Finger::Synthetic {
-            lmhost::bad_input!("--finger synthetic and --stream / --udp exclude each other");
+        let src = &self.source;
+        if self.finger == Finger::Synthetic && src.any() && !src.synthetic {
+            lmhost::bad_input!(
+                "--finger synthetic and a tracked finger source (--stream, --udp, --depth, --camera, --depth-stream) exclude each other"
+            );
         }
-        let stdin = self.stream.as_ref().is_some_and(|p| p.as_os_str() == "-");
         let responses_stdin = self.responses.as_ref().is_none_or(|p| p.as_os_str() == "-");
-        if stdin && responses_stdin {
-            lmhost::bad_input!("--stream - reads stdin, so the answers need --responses FILE");
-        }
-        let filter = self.filter.build();
-        let name = match (self.udp, &self.stream) {
-            (Some(port), _) => format!("udp:{port}"),
-            (None, Some(p)) => format!("stream:{}", p.display()),
-            (None, None) => String::new(),
-        };
-        Ok(
-            if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
-                FingerSource::Samples { feed, filter, name }
-            } else if self.finger == Finger::Synthetic {
-                FingerSource::Synthetic
+        if src.reads_stdin() && responses_stdin {
+            let flag = if src.stream.is_some() {
+                "--stream"
             } else {
-                FingerSource::None
-            },
-        )
+                "--depth-stream"
+            };
+            lmhost::bad_input!("{flag} - reads stdin, so the answers need --responses FILE");
+        }
+        src.check(self.scene.as_deref())?;
+        let filter = src.filter.build();
+        Ok(match src.start(self.scene.as_deref())? {
+            FingerFeed::Samples(feed, name) => FingerSource::Samples { feed, filter, name },
+            FingerFeed::Synthetic => FingerSource::Synthetic,
+            FingerFeed::None if self.finger == Finger::Synthetic => FingerSource::Synthetic,
+            FingerFeed::None => FingerSource::None,
+        })
     }
 
     fn run(self) -> anyhow::Result<()> {

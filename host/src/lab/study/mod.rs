@@ -109,7 +109,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let p = Protocol::load(&o.protocol)?;
     if p.timeline.wait_for_finger && matches!(o.finger, FingerSource::None) {
         crate::bad_input!(
-            "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp)",
+            "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp, --depth, --camera, --depth-stream)",
             o.protocol.display()
         );
     }
@@ -130,7 +130,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         })
     {
         crate::bad_input!(
-            "study protocol {}: stimulus `{}` plays tracked, but there is no finger source, so every trial would stay muted: give --finger synthetic or a tracked source (--stream, --udp), or set the timeline's gate = \"untracked\"",
+            "study protocol {}: stimulus `{}` plays tracked, but there is no finger source, so every trial would stay muted: give --finger synthetic or a tracked source (--stream, --udp, --depth, --camera, --depth-stream), or set the timeline's gate = \"untracked\"",
             o.protocol.display(),
             c.stimulus
         );
