@@ -6,7 +6,6 @@
 
 use std::path::Path;
 
-#[allow(dead_code)]
 mod link_support;
 #[allow(dead_code)]
 mod study_support;
