@@ -74,6 +74,8 @@ fn exp3_with_the_twins_records_a_force_that_rises_with_depth() {
     let p = out.join("P01");
     let r = rows(&p);
     assert_eq!(r.len(), 30);
+    let s = std::fs::read_to_string(p.join("session.json")).unwrap();
+    assert!(s.contains("simulated stage, gauge on sim"), "{s}");
     let mut by_depth: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for (i, row) in r.iter().enumerate() {
         let (depth, answers) = match i % 3 {
@@ -166,5 +168,61 @@ fn a_stage_that_falls_silent_mid_trial_leaves_the_device_silent() {
     let st = json(&["status", "--port", &sim.port, "--json"]);
     assert_eq!(st["state"], "Stopped", "{st}");
     assert_eq!(st["mute_reason"], "stopped", "{st}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn ctrl_c_mid_push_still_brings_the_stage_back() {
+    use std::io::{BufRead, BufReader};
+    let d = scratch("exp3-int");
+    let answers = answers(&d);
+    let out = d.join("out");
+    // At full time scale: a 2 s on-phase with the probe in the finger.
+    let mut child = study(&[
+        "run",
+        &studies("paper-exp3.toml"),
+        "--port",
+        "autd3:emulator",
+        "--participant",
+        "P01",
+        "--out",
+        out.to_str().unwrap(),
+        "--finger",
+        "synthetic",
+        "--responses",
+        answers.to_str().unwrap(),
+        "--stage",
+        "sim",
+        "--gauge",
+        "sim",
+    ])
+    .stderr(std::process::Stdio::piped())
+    .spawn()
+    .unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    while !seen.contains("depth 4.00 mm") {
+        let mut line = String::new();
+        assert!(err.read_line(&mut line).unwrap() > 0, "ended: {seen}");
+        seen.push_str(&line);
+    }
+    // The stage is on its way in (0.8 s) or pushing (2 s).
+    std::thread::sleep(std::time::Duration::from_millis(1200));
+    let pid = child.id().to_string();
+    assert!(
+        std::process::Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "{rest}");
+    assert!(
+        rest.contains("interrupted (stage back at rest at 5 mm); the array is silent"),
+        "{rest}"
+    );
     let _ = std::fs::remove_dir_all(&d);
 }

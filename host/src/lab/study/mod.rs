@@ -272,6 +272,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         (Err(e), Some(end)) if e.is::<push::InstrumentFailed>() => {
             Err(anyhow::anyhow!("{} ({end})", crate::error::one_line(&e)))
         }
+        (Err(e), Some(end)) if e.is::<Interrupted>() => Err(anyhow::anyhow!("interrupted ({end})")),
         (r, Some(end)) if !end.starts_with("stage back") => {
             crate::errln!("warning: {end}");
             r

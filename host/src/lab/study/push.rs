@@ -25,7 +25,7 @@ use super::Runner;
 use super::answers::Asked;
 use super::procedure::Procedure;
 use crate::clock::monotonic_us;
-use crate::device::instruments::stage::move_timeout;
+use crate::device::instruments::stage::{move_timeout, retreat};
 use crate::device::instruments::{
     FingerPad, GaugeOptions, Series, StageOptions, StagePort, open_rig,
 };
@@ -294,10 +294,13 @@ fn serve(o: PushOptions, cmds: Receiver<Cmd>, tx: Sender<Report>) {
         let _ = tx.send(Report::Failed(why.clone()));
     }
     // A stage that does not answer is not waited for twice.
+    // Back to rest also after Ctrl-C (`retreat` does not heed it).
     let back = if failed.is_some() {
-        stage.stop().and_then(|()| stage.move_to(o.rest_mm))
+        stage
+            .stop()
+            .and_then(|()| retreat(stage.as_mut(), o.rest_mm))
     } else {
-        stage.move_to(o.rest_mm)
+        retreat(stage.as_mut(), o.rest_mm)
     };
     let _ = tx.send(Report::Ended(match back {
         Ok(m) => format!("stage back at rest at {} mm", show(m.at_mm)),
