@@ -37,7 +37,8 @@ enum Finger {
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
     lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic\n  \
-    lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic --resume\n\n\
+    lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic --resume\n  \
+    lmhost study run studies/paper-exp3.toml --port autd3:emulator --participant P01 --out results --finger synthetic --stage sim --gauge sim\n\n\
     Writes OUT/ID/trials.csv, session.json and events.jsonl.")]
 struct RunArgs {
     /// The protocol (TOML; see studies/paper-exp1.toml).

@@ -3,11 +3,10 @@
 //! position flags refused with what is wrong before anything moves, the
 //! stage's `sim:fail-after=N` spec read strictly, a twin never paired with
 //! a real instrument; the finger flags `study run` shares with `session`
-//! checked as `session` checks them, and a recorded stream's time stamps
-//! bounded.
+//! checked as `session` checks them.
 //!
-//! Fixtures in `{dir}/exp3`: a stream with a day-long gap, answers that
-//! end every adjustment at once.
+//! Fixtures in `{dir}/exp3`: a small CSV file, answers that end every
+//! adjustment at once.
 
 use super::*;
 
@@ -130,15 +129,5 @@ pub(crate) fn exp3_cases() -> Vec<Case> {
                 .to_owned(),
         )
         .err("missing.csv"),
-        // A recorded stream plays at its time stamps: a day-long gap is
-        // refused naming its line, not waited for.
-        c(
-            EXP3_SOURCES,
-            "study run {dir}/paper/na.toml --port autd3:emulator --out {dir}/exp3/out \
-             --responses {dir}/paper/na_ok.txt --participant z --stream {dir}/exp3/gap.csv"
-                .to_owned(),
-        )
-        .err("line 2")
-        .err("at most 60 s"),
     ]
 }
