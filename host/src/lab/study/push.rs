@@ -437,3 +437,113 @@ impl Runner {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::instruments::{Axis, GaugeModel, SIM, StageLimits};
+
+    fn options(stage: &str) -> PushOptions {
+        PushOptions {
+            stage: StageOptions {
+                port: stage.into(),
+                limits: StageLimits::new(0.0, 20.0).unwrap(),
+                speed_mm_s: 50.0,
+                axis: Axis::A,
+                step_um: 1.0,
+                baud: None,
+            },
+            gauge: GaugeOptions {
+                port: SIM.into(),
+                model: GaugeModel::Imada,
+                baud: None,
+                sim_depth_mm: None,
+                seed: 1,
+            },
+            contact_mm: 5.0,
+            rest_mm: 4.0,
+        }
+    }
+
+    fn wait_for(p: &mut Pusher, want: fn(&Report) -> bool) -> Report {
+        let t0 = std::time::Instant::now();
+        loop {
+            p.check().unwrap();
+            if let Some(i) = p.inbox.iter().position(want) {
+                return p.inbox.remove(i).unwrap();
+            }
+            assert!(t0.elapsed() < Duration::from_secs(10), "no report");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+
+    #[test]
+    fn positions_are_checked_against_the_limits_and_depths() {
+        let o = options(SIM);
+        assert!(o.check(10.0).is_ok());
+        let e = o.check(16.0).unwrap_err().to_string();
+        assert!(e.contains("the deepest push") && e.contains("21 mm"), "{e}");
+        let e = PushOptions {
+            rest_mm: 6.0,
+            ..o.clone()
+        }
+        .check(1.0)
+        .unwrap_err();
+        assert!(e.to_string().contains("past --contact"), "{e}");
+        let e = PushOptions {
+            contact_mm: f64::NAN,
+            ..o
+        }
+        .check(1.0)
+        .unwrap_err();
+        assert!(e.to_string().contains("finite"), "{e}");
+    }
+
+    #[test]
+    fn the_thread_pushes_records_and_returns_to_rest() {
+        let mut p = Pusher::start(options(SIM)).unwrap();
+        p.send(Cmd::To(7.0)).unwrap();
+        wait_for(&mut p, |r| matches!(r, Report::At));
+        p.send(Cmd::Sample(0.1)).unwrap();
+        let Report::Series(s) = wait_for(&mut p, |r| matches!(r, Report::Series(_))) else {
+            unreachable!()
+        };
+        assert_eq!(s.samples.len(), 5);
+        let want = FingerPad::TYPICAL.force_at_depth_n(2.0);
+        let got = s.median_n().unwrap();
+        assert!((got - want).abs() < 0.03, "{got} vs {want}");
+        let m = Measured {
+            series: s,
+            onset_us: 0,
+        };
+        assert!(m.csv().starts_with("t_s,force_n\n"));
+        assert_eq!(m.csv().lines().count(), 6);
+        assert_eq!(p.finish(), "stage back at rest at 4 mm");
+    }
+
+    #[test]
+    fn a_silent_stage_is_a_failure_then_a_recovery_report() {
+        // The move to rest is the first; the push starts, then silence.
+        let mut p = Pusher::start(options("sim:fail-after=1")).unwrap();
+        p.send(Cmd::To(7.0)).unwrap();
+        let t0 = std::time::Instant::now();
+        let err = loop {
+            if let Err(e) = p.check() {
+                break e;
+            }
+            assert!(t0.elapsed() < Duration::from_secs(10), "no failure");
+            std::thread::sleep(Duration::from_millis(2));
+        };
+        assert!(err.is::<InstrumentFailed>());
+        let line = one_line(&err);
+        assert!(
+            line.starts_with("moving to 7 mm: sim-stage: no reply"),
+            "{line}"
+        );
+        let end = p.finish();
+        assert!(
+            end.starts_with("stage NOT back at rest: sim-stage"),
+            "{end}"
+        );
+    }
+}
