@@ -1,6 +1,8 @@
 //! Flag parsers the subcommands share: library enums offered as clap
 //! values without the library knowing clap.
 
+use std::path::{Path, PathBuf};
+
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 
 use lmhost::device::backend::Backend;
@@ -106,31 +108,199 @@ pub fn filter() -> impl TypedValueParser<Value = FilterKind> {
     })
 }
 
-/// Tracked finger centroids on a reader thread, for `session` and `study
-/// run`: UDP datagrams on 127.0.0.1:`udp`, else JSON or CSV lines from
-/// `stream` (`-`: stdin; `lmhost track --json` lines included); `None`
-/// when neither is given.
-pub fn centroid_feed(
-    udp: Option<u16>,
-    stream: Option<&std::path::Path>,
-) -> anyhow::Result<Option<lmhost::sense::stream::run::Threaded>> {
-    use lmhost::sense::stream::run::on_thread;
-    use lmhost::sense::stream::source;
-    if let Some(port) = udp {
-        let max = lmhost::limits::MAX_SECONDS;
-        let idle = lmhost::limits::duration_s("--udp idle time", max, max)?;
-        let udp = source::udp(port, idle, std::sync::Arc::default())?;
-        return Ok(Some(on_thread(move || udp)?));
+/// The finger source flags `session` and `study run` share: a synthetic
+/// finger, the finger tracked in depth frames (a recording, the camera, an
+/// LMDEPTH1 stream), or its centroids (a file, stdin, UDP).
+#[derive(Debug, Clone, clap::Args)]
+pub struct FingerArgs {
+    /// A synthetic finger resting at the scene's centre.
+    #[arg(long, conflicts_with_all = ["stream", "udp", "depth", "camera", "depth_stream"])]
+    pub synthetic: bool,
+    /// The finger tracked in recorded depth frames (`.npy`, uint16,
+    /// frames × height × width; intrinsics and time stamps beside it),
+    /// replayed at their recorded speed; needs --scene with [camera] and
+    /// [tracking].
+    #[arg(long, value_name = "FILE.npy", conflicts_with_all = ["stream", "udp", "camera", "depth_stream"])]
+    pub depth: Option<PathBuf>,
+    /// The finger tracked live from a RealSense camera (needs --scene).
+    #[arg(long, conflicts_with_all = ["stream", "udp", "depth_stream"])]
+    pub camera: bool,
+    /// The finger tracked in an LMDEPTH1 depth stream from FILE, `-` for
+    /// stdin (the camera bridge's output; needs --scene).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["stream", "udp"])]
+    pub depth_stream: Option<PathBuf>,
+    /// Camera intrinsics (TOML) for --depth [default: beside it].
+    #[arg(long, value_name = "FILE")]
+    pub intrinsics: Option<PathBuf>,
+    /// Time stamps for --depth [default: beside it, else 90 fps].
+    #[arg(long, value_name = "FILE")]
+    pub timestamps: Option<PathBuf>,
+    /// Finger centroids as JSON or CSV lines from FILE, replayed at their
+    /// time stamps, or `-` for stdin, as they come (the formats `lmhost
+    /// stream` reads, `lmhost track --json` lines included).
+    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
+    pub stream: Option<PathBuf>,
+    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT.
+    #[arg(long, value_name = "PORT")]
+    pub udp: Option<u16>,
+    /// Centroid filter.
+    #[arg(long, value_parser = filter(), default_value_t = FilterKind::Kalman)]
+    pub filter: FilterKind,
+}
+
+/// What the finger flags give.
+pub enum FingerFeed {
+    /// No finger source.
+    None,
+    /// The synthetic finger.
+    Synthetic,
+    /// Samples on a reader thread, and what they come from (for records).
+    Samples(lmhost::sense::stream::run::Threaded, String),
+}
+
+impl FingerArgs {
+    /// Whether a source reads stdin.
+    pub fn reads_stdin(&self) -> bool {
+        [&self.stream, &self.depth_stream]
+            .iter()
+            .any(|s| s.as_ref().is_some_and(|p| p.as_os_str() == "-"))
     }
-    let Some(p) = stream else {
-        return Ok(None);
-    };
-    Ok(Some(if p.as_os_str() == "-" {
-        on_thread(|| source::read_lines(std::io::stdin().lock()))?
-    } else {
-        let reader = std::io::BufReader::new(lmhost::files::open_input("--stream file", p)?);
-        on_thread(move || source::read_lines(reader))?
-    }))
+
+    /// Whether the finger is tracked in depth frames (needs a scene).
+    pub fn tracked(&self) -> bool {
+        self.depth.is_some() || self.camera || self.depth_stream.is_some()
+    }
+
+    /// Whether any source is given.
+    pub fn any(&self) -> bool {
+        self.synthetic || self.tracked() || self.stream.is_some() || self.udp.is_some()
+    }
+
+    /// Checks the flags against each other and `scene`, and opens (so
+    /// remembers as inputs) every file the source will read: the depth
+    /// recording and its intrinsics and time stamps, given or beside it,
+    /// and a centroid or depth stream file. Before any output is created.
+    pub fn check(&self, scene: Option<&Path>) -> anyhow::Result<()> {
+        use lmhost::files::open_input;
+        use lmhost::sense::track::source::{intrinsics_beside, timestamps_beside};
+        if (self.intrinsics.is_some() || self.timestamps.is_some()) && self.depth.is_none() {
+            lmhost::bad_input!("--intrinsics and --timestamps apply to --depth only");
+        }
+        if self.tracked() && scene.is_none() {
+            lmhost::bad_input!(
+                "--scene is needed with --depth, --camera and --depth-stream: its [camera] and [tracking] place the box"
+            );
+        }
+        if let Some(d) = &self.depth {
+            open_input("--depth recording", d)?;
+            match &self.intrinsics {
+                Some(i) => drop(open_input("--intrinsics", i)?),
+                None => {
+                    let i = intrinsics_beside(d);
+                    if !i.exists() {
+                        lmhost::bad_input!(
+                            "--intrinsics is needed (no {} beside the recording)",
+                            i.display()
+                        );
+                    }
+                    open_input("--depth recording's intrinsics", &i)?;
+                }
+            }
+            match &self.timestamps {
+                Some(t) => drop(open_input("--timestamps", t)?),
+                None => {
+                    let t = timestamps_beside(d);
+                    if t.exists() {
+                        open_input("--depth recording's time stamps", &t)?;
+                    }
+                }
+            }
+        }
+        for (what, p) in [
+            ("--stream file", &self.stream),
+            ("--depth-stream file", &self.depth_stream),
+        ] {
+            if let Some(p) = p.as_deref().filter(|p| p.as_os_str() != "-") {
+                open_input(what, p)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Starts the source (its reader thread) on `scene`.
+    pub fn start(&self, scene: Option<&Path>) -> anyhow::Result<FingerFeed> {
+        use lmhost::sense::stream::run::on_thread;
+        use lmhost::sense::stream::source;
+        if self.tracked() {
+            let opts = lmhost::sense::track::run::Options {
+                scene: scene.map(Path::to_path_buf),
+                depth: self.depth.clone(),
+                timestamps: self.timestamps.clone(),
+                intrinsics: self.intrinsics.clone(),
+                synthetic: false,
+                seconds: None,
+                noise_mm: None,
+                holes: None,
+                camera: self.camera,
+                stream: self.depth_stream.clone(),
+                record: None,
+                fast: false,
+                json: false,
+                plot: None,
+                plot_frame: None,
+                filter: Some(FilterKind::None),
+                z_profile: None,
+                replan_mm: 0.3,
+                replan: false,
+                enter_frames: 2,
+                leave_frames: 2,
+                device: false,
+            };
+            let name = match (&self.depth, &self.depth_stream) {
+                (Some(d), _) => format!("depth:{}", d.display()),
+                (None, Some(s)) => format!("depth-stream:{}", s.display()),
+                (None, None) => "camera".to_owned(),
+            };
+            let feed = on_thread(move || {
+                let it: Box<dyn Iterator<Item = anyhow::Result<lmhost::sense::stream::Sample>>> =
+                    match lmhost::sense::track::run::TrackRun::open(opts) {
+                        Ok(s) => Box::new(s.samples()),
+                        Err(e) => Box::new(std::iter::once(Err(e))),
+                    };
+                it
+            })?;
+            return Ok(FingerFeed::Samples(feed, name));
+        }
+        if self.synthetic {
+            return Ok(FingerFeed::Synthetic);
+        }
+        if let Some(port) = self.udp {
+            let max = lmhost::limits::MAX_SECONDS;
+            let idle = lmhost::limits::duration_s("--udp idle time", max, max)?;
+            let udp = source::udp(port, idle, std::sync::Arc::default())?;
+            return Ok(FingerFeed::Samples(
+                on_thread(move || udp)?,
+                format!("udp:{port}"),
+            ));
+        }
+        let Some(p) = &self.stream else {
+            return Ok(FingerFeed::None);
+        };
+        let name = format!("stream:{}", p.display());
+        Ok(FingerFeed::Samples(
+            if p.as_os_str() == "-" {
+                on_thread(|| source::read_lines(std::io::stdin().lock()))?
+            } else {
+                // A recording plays at its time stamps, as in `lmhost stream`.
+                let reader =
+                    std::io::BufReader::new(lmhost::files::open_input("--stream file", p)?);
+                on_thread(move || {
+                    source::paced(source::replay_lines(reader), lmhost::clock::Clock::real())
+                })?
+            },
+            name,
+        ))
+    }
 }
 
 /// `--view ADDR`: a port (on 127.0.0.1, local only) or HOST:PORT.

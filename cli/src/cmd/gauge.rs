@@ -25,7 +25,7 @@ enum What {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum Model {
+pub(super) enum Model {
     /// IMADA ZTS/ZTA (`D` request, 19200 baud from the factory).
     Imada,
     /// Mark-10 Series 4/5/7 (`?` request, 115200 baud from the factory).
@@ -65,6 +65,16 @@ struct ReadArgs {
     json: bool,
 }
 
+impl Model {
+    /// The library's name for it.
+    pub(super) fn model(self) -> GaugeModel {
+        match self {
+            Self::Imada => GaugeModel::Imada,
+            Self::Mark10 => GaugeModel::Mark10,
+        }
+    }
+}
+
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
@@ -78,10 +88,7 @@ impl ReadArgs {
     fn run(self) -> anyhow::Result<()> {
         let options = GaugeOptions {
             port: self.port.clone(),
-            model: match self.model {
-                Model::Imada => GaugeModel::Imada,
-                Model::Mark10 => GaugeModel::Mark10,
-            },
+            model: self.model.model(),
             baud: self.baud,
             sim_depth_mm: self.sim_depth,
             seed: self.seed,

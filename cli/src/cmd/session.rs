@@ -9,10 +9,8 @@ use lmhost::lab::session::Session;
 use lmhost::lab::session::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
 use lmhost::plan::library::Library;
 use lmhost::plan::scene::Scene;
-use lmhost::sense::stream::filter::FilterKind;
-use lmhost::sense::stream::run::on_thread;
 
-use super::args::PortArgs;
+use super::args::{FingerArgs, FingerFeed, PortArgs};
 
 /// What to do when the controlling client goes away.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -52,39 +50,8 @@ pub struct Args {
     /// Event log (JSON lines; every line whole).
     #[arg(long, value_name = "FILE")]
     events: Option<PathBuf>,
-    /// A synthetic finger resting at the scene's centre.
-    #[arg(long, conflicts_with_all = ["stream", "udp", "depth", "camera", "depth_stream"])]
-    synthetic: bool,
-    /// The finger tracked in recorded depth frames (`.npy`, uint16,
-    /// frames × height × width; intrinsics and time stamps beside it),
-    /// replayed at their recorded speed; needs --scene with [camera] and
-    /// [tracking].
-    #[arg(long, value_name = "FILE.npy", conflicts_with_all = ["stream", "udp", "camera", "depth_stream"])]
-    depth: Option<PathBuf>,
-    /// The finger tracked live from a RealSense camera (needs --scene).
-    #[arg(long, conflicts_with_all = ["stream", "udp", "depth_stream"])]
-    camera: bool,
-    /// The finger tracked in an LMDEPTH1 depth stream from FILE, `-` for
-    /// stdin (needs --scene).
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["stream", "udp"])]
-    depth_stream: Option<PathBuf>,
-    /// Camera intrinsics (TOML) for --depth [default: beside it].
-    #[arg(long, value_name = "FILE")]
-    intrinsics: Option<PathBuf>,
-    /// Time stamps for --depth [default: beside it, else 90 fps].
-    #[arg(long, value_name = "FILE")]
-    timestamps: Option<PathBuf>,
-    /// Finger centroids as JSON or CSV lines from FILE, or `-` for stdin
-    /// (the formats `lmhost stream` reads, `lmhost track --json` lines
-    /// included).
-    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
-    stream: Option<PathBuf>,
-    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT.
-    #[arg(long, value_name = "PORT")]
-    udp: Option<u16>,
-    /// Centroid filter.
-    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
-    filter: FilterKind,
+    #[command(flatten)]
+    finger: FingerArgs,
     /// When the client that sent `present`, `prepare` or `stop` disconnects.
     #[arg(long, value_enum, default_value_t = Disconnect::Stop)]
     on_disconnect: Disconnect,
@@ -95,50 +62,6 @@ pub struct Args {
     /// What arrives on stdin is ignored.
     #[arg(long)]
     exit_with_stdin: bool,
-}
-
-impl Args {
-    /// Opens (and so remembers as inputs) every file the finger source
-    /// will read: the depth recording and its intrinsics and time stamps,
-    /// given or beside it, and a centroid or depth stream file.
-    fn resolve_finger_inputs(&self) -> anyhow::Result<()> {
-        use lmhost::files::open_input;
-        use lmhost::sense::track::source::{intrinsics_beside, timestamps_beside};
-        if let Some(d) = &self.depth {
-            open_input("--depth recording", d)?;
-            match &self.intrinsics {
-                Some(i) => drop(open_input("--intrinsics", i)?),
-                None => {
-                    let i = intrinsics_beside(d);
-                    if !i.exists() {
-                        lmhost::bad_input!(
-                            "--intrinsics is needed (no {} beside the recording)",
-                            i.display()
-                        );
-                    }
-                    open_input("--depth recording's intrinsics", &i)?;
-                }
-            }
-            match &self.timestamps {
-                Some(t) => drop(open_input("--timestamps", t)?),
-                None => {
-                    let t = timestamps_beside(d);
-                    if t.exists() {
-                        open_input("--depth recording's time stamps", &t)?;
-                    }
-                }
-            }
-        }
-        for (what, p) in [
-            ("--stream file", &self.stream),
-            ("--depth-stream file", &self.depth_stream),
-        ] {
-            if let Some(p) = p.as_deref().filter(|p| p.as_os_str() != "-") {
-                open_input(what, p)?;
-            }
-        }
-        Ok(())
-    }
 }
 
 fn default_socket() -> PathBuf {
@@ -164,9 +87,7 @@ impl Args {
         if control == Control::Stdio && self.tcp.is_some() {
             lmhost::bad_input!("--tcp needs a socket --control, not `-`");
         }
-        let stream_stdin = [&self.stream, &self.depth_stream]
-            .iter()
-            .any(|s| s.as_ref().is_some_and(|p| p.as_os_str() == "-"));
+        let stream_stdin = self.finger.reads_stdin();
         if control == Control::Stdio && stream_stdin {
             lmhost::bad_input!("--control - and a finger source on `-` cannot both read stdin");
         }
@@ -183,18 +104,9 @@ impl Args {
         }
         let library = Library::load(&self.library)?;
         let scene = Scene::load_or_default(self.scene.as_deref())?;
-        let tracked = self.depth.is_some() || self.camera || self.depth_stream.is_some();
-        if (self.intrinsics.is_some() || self.timestamps.is_some()) && self.depth.is_none() {
-            lmhost::bad_input!("--intrinsics and --timestamps apply to --depth only");
-        }
-        if tracked && self.scene.is_none() {
-            lmhost::bad_input!(
-                "--scene is needed with --depth, --camera and --depth-stream: its [camera] and [tracking] place the box"
-            );
-        }
         // Every input, defaults and sidecars included, is known (and
         // remembered as an input) before any output is created.
-        self.resolve_finger_inputs()?;
+        self.finger.check(self.scene.as_deref())?;
         if let Some(e) = &self.events {
             lmhost::files::not_an_input("--events", e)?;
         }
@@ -214,45 +126,10 @@ impl Args {
             .map_err(|e| e.context(format!("starting the session on {where_}")))?;
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
-        let finger = if tracked {
-            let opts = lmhost::sense::track::run::Options {
-                scene: self.scene.clone(),
-                depth: self.depth.clone(),
-                timestamps: self.timestamps.clone(),
-                intrinsics: self.intrinsics.clone(),
-                synthetic: false,
-                seconds: None,
-                noise_mm: None,
-                holes: None,
-                camera: self.camera,
-                stream: self.depth_stream.clone(),
-                record: None,
-                fast: false,
-                json: false,
-                plot: None,
-                plot_frame: None,
-                filter: Some(FilterKind::None),
-                z_profile: None,
-                replan_mm: 0.3,
-                replan: false,
-                enter_frames: 2,
-                leave_frames: 2,
-                device: false,
-            };
-            Finger::Samples(Box::new(on_thread(move || {
-                let it: Box<dyn Iterator<Item = anyhow::Result<lmhost::sense::stream::Sample>>> =
-                    match lmhost::sense::track::run::TrackRun::open(opts) {
-                        Ok(s) => Box::new(s.samples()),
-                        Err(e) => Box::new(std::iter::once(Err(e))),
-                    };
-                it
-            })?))
-        } else if self.synthetic {
-            Finger::Synthetic
-        } else if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
-            Finger::Samples(Box::new(feed))
-        } else {
-            Finger::None
+        let finger = match self.finger.start(self.scene.as_deref())? {
+            FingerFeed::Samples(feed, _) => Finger::Samples(Box::new(feed)),
+            FingerFeed::Synthetic => Finger::Synthetic,
+            FingerFeed::None => Finger::None,
         };
         if let Control::Socket { unix, tcp } = &control {
             lmhost::errln!(
@@ -277,7 +154,7 @@ impl Args {
                 },
                 events: self.events.clone(),
                 finger,
-                filter: self.filter.build(),
+                filter: self.finger.filter.build(),
             },
         )?;
         if report.dropped_clients > 0 {

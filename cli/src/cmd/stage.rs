@@ -56,7 +56,7 @@ struct Common {
     json: bool,
 }
 
-fn parse_axis(s: &str) -> Result<Axis, String> {
+pub(super) fn parse_axis(s: &str) -> Result<Axis, String> {
     Axis::parse(s).ok_or_else(|| format!("'{s}' is not an axis (A, B or C)"))
 }
 

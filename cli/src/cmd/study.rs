@@ -4,10 +4,10 @@
 use std::path::PathBuf;
 
 use clap::{Subcommand, ValueEnum};
+use lmhost::lab::study::push::PushOptions;
 use lmhost::lab::study::{self, AnswerSource, FingerSource, RunOptions};
-use lmhost::sense::stream::filter::FilterKind;
 
-use super::args::PortArgs;
+use super::args::{FingerArgs, FingerFeed, PortArgs};
 
 /// Arguments of `lmhost study`.
 #[derive(Debug, clap::Args)]
@@ -67,7 +67,8 @@ enum Finger {
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
     lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic\n  \
-    lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic --resume\n\n\
+    lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic --resume\n  \
+    lmhost study run studies/paper-exp3.toml --port autd3:emulator --participant P01 --out results --finger synthetic --stage sim --gauge sim\n\n\
     Writes OUT/ID/trials.csv, session.json and events.jsonl.")]
 struct RunArgs {
     /// The protocol (TOML; see studies/paper-exp1.toml).
@@ -99,20 +100,12 @@ struct RunArgs {
     /// (or `weibull:...`).
     #[arg(long, value_name = "SPEC", conflicts_with_all = ["responses", "view"])]
     observer: Option<String>,
-    /// The finger source: a synthetic one, or none (then --stream or
-    /// --udp may give tracked centroids).
+    /// The finger source: a synthetic one (as --synthetic), or none
+    /// (then one of the finger flags below may give a tracked one).
     #[arg(long, value_enum, default_value_t = Finger::None)]
     finger: Finger,
-    /// Tracked finger centroids as JSON or CSV lines from FILE, or `-` for
-    /// stdin (`lmhost track --json` lines included).
-    #[arg(long, value_name = "FILE", conflicts_with = "udp")]
-    stream: Option<PathBuf>,
-    /// Tracked finger centroids as UDP datagrams on 127.0.0.1:PORT.
-    #[arg(long, value_name = "PORT")]
-    udp: Option<u16>,
-    /// Centroid filter for --stream / --udp.
-    #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
-    filter: FilterKind,
+    #[command(flatten)]
+    source: FingerArgs,
     /// Multiplies every duration of the timeline (recorded).
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     time_scale: f64,
@@ -133,6 +126,119 @@ struct RunArgs {
     /// addresses, with their token, are printed.
     #[arg(long, value_name = "ADDR", value_parser = super::args::view_addr)]
     view: Option<std::net::SocketAddr>,
+    #[command(flatten)]
+    instruments: InstrumentArgs,
+}
+
+/// Experiment 3's stage and gauge.
+#[derive(Debug, clap::Args)]
+#[command(
+    next_help_heading = "Instruments (Experiment 3: the stage pushes the gauge in step with each on-phase)"
+)]
+struct InstrumentArgs {
+    /// The stage's controller (Chuo Seiki QT) on a serial port, or `sim`
+    /// (`sim:fail-after=N`: the twin falls silent after N moves).
+    #[arg(long, value_name = "PORT", requires = "gauge")]
+    stage: Option<String>,
+    /// The force gauge on a serial port, or `sim` (the twin, on the
+    /// simulated stage's finger pad).
+    #[arg(long, value_name = "PORT", requires = "stage")]
+    gauge: Option<String>,
+    /// The gauge's protocol.
+    #[arg(long, value_enum, default_value_t = super::gauge::Model::Imada, requires = "gauge")]
+    gauge_model: super::gauge::Model,
+    /// The gauge's baud rate [default: the model's factory rate].
+    #[arg(long, value_name = "BAUD", requires = "gauge", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    gauge_baud: Option<u32>,
+    /// Stage position where the probe touches the finger pad, mm
+    /// (required with a serial stage) [default with sim: 5].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    contact: Option<f64>,
+    /// Stage position between pushes, mm, at most --contact [default: --contact].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    rest: Option<f64>,
+    /// The stage's lower soft limit, mm (required with a serial stage) [default with sim: 0].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    stage_min: Option<f64>,
+    /// The stage's upper soft limit, mm (required with a serial stage) [default with sim: 30].
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "stage",
+        allow_negative_numbers = true
+    )]
+    stage_max: Option<f64>,
+    /// The stage's speed, mm/s (the paper's 5).
+    #[arg(long, value_name = "MM/S", requires = "stage", default_value_t = lmhost::device::instruments::stage::PAPER_SPEED_MM_S, allow_negative_numbers = true)]
+    stage_speed: f64,
+    /// The controller's pushing axis: A, B or C.
+    #[arg(long, default_value = "A", requires = "stage", value_parser = super::stage::parse_axis)]
+    stage_axis: lmhost::device::instruments::Axis,
+    /// Micrometres per pulse of the stage.
+    #[arg(long, value_name = "UM", default_value_t = 1.0, requires = "stage")]
+    stage_step_um: f64,
+    /// The stage controller's baud rate [default: 9600].
+    #[arg(long, value_name = "BAUD", requires = "stage", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    stage_baud: Option<u32>,
+}
+
+impl InstrumentArgs {
+    fn options(&self) -> anyhow::Result<Option<PushOptions>> {
+        use lmhost::device::instruments::{GaugeOptions, StageLimits, StageOptions, StagePort};
+        let (Some(stage), Some(gauge)) = (&self.stage, &self.gauge) else {
+            return Ok(None);
+        };
+        let sim = matches!(StagePort::parse(stage)?, StagePort::Sim(_));
+        let limits = match (self.stage_min, self.stage_max) {
+            (Some(lo), Some(hi)) => StageLimits::new(lo, hi)?,
+            (None, None) if sim => StageLimits::new(0.0, 30.0)?,
+            _ => lmhost::bad_input!(
+                "give the stage's soft limits with both --stage-min and --stage-max (mm); they are the rig's, never guessed"
+            ),
+        };
+        let contact_mm = match self.contact {
+            Some(c) => c,
+            None if sim => 5.0,
+            None => lmhost::bad_input!(
+                "give --contact: the stage position (mm) where the probe touches the finger pad"
+            ),
+        };
+        lmhost::device::instruments::stage::check_speed("--stage-speed", self.stage_speed)?;
+        Ok(Some(PushOptions {
+            stage: StageOptions {
+                port: stage.clone(),
+                limits,
+                speed_mm_s: self.stage_speed,
+                axis: self.stage_axis,
+                step_um: self.stage_step_um,
+                baud: self.stage_baud,
+            },
+            gauge: GaugeOptions {
+                port: gauge.clone(),
+                model: self.gauge_model.model(),
+                baud: self.gauge_baud,
+                sim_depth_mm: None,
+                seed: 1,
+            },
+            contact_mm,
+            rest_mm: self.rest.unwrap_or(contact_mm),
+        }))
+    }
 }
 
 /// Arguments of `lmhost study report`.
@@ -157,34 +263,34 @@ impl Args {
 
 impl RunArgs {
     fn finger(&self) -> anyhow::Result<FingerSource> {
-        let tracked = self.stream.is_some() || self.udp.is_some();
-        if tracked && self.finger == Finger::Synthetic {
-            lmhost::bad_input!("--finger synthetic and --stream / --udp exclude each other");
+        let src = &self.source;
+        if self.finger == Finger::Synthetic && src.any() && !src.synthetic {
+            lmhost::bad_input!(
+                "--finger synthetic and a tracked finger source (--stream, --udp, --depth, --camera, --depth-stream) exclude each other"
+            );
         }
-        let stdin = self.stream.as_ref().is_some_and(|p| p.as_os_str() == "-");
         let responses_stdin = self.responses.as_ref().is_none_or(|p| p.as_os_str() == "-");
-        if stdin && responses_stdin {
-            lmhost::bad_input!("--stream - reads stdin, so the answers need --responses FILE");
-        }
-        let filter = self.filter.build();
-        let name = match (self.udp, &self.stream) {
-            (Some(port), _) => format!("udp:{port}"),
-            (None, Some(p)) => format!("stream:{}", p.display()),
-            (None, None) => String::new(),
-        };
-        Ok(
-            if let Some(feed) = super::args::centroid_feed(self.udp, self.stream.as_deref())? {
-                FingerSource::Samples { feed, filter, name }
-            } else if self.finger == Finger::Synthetic {
-                FingerSource::Synthetic
+        if src.reads_stdin() && responses_stdin {
+            let flag = if src.stream.is_some() {
+                "--stream"
             } else {
-                FingerSource::None
-            },
-        )
+                "--depth-stream"
+            };
+            lmhost::bad_input!("{flag} - reads stdin, so the answers need --responses FILE");
+        }
+        src.check(self.scene.as_deref())?;
+        let filter = src.filter.build();
+        Ok(match src.start(self.scene.as_deref())? {
+            FingerFeed::Samples(feed, name) => FingerSource::Samples { feed, filter, name },
+            FingerFeed::Synthetic => FingerSource::Synthetic,
+            FingerFeed::None if self.finger == Finger::Synthetic => FingerSource::Synthetic,
+            FingerFeed::None => FingerSource::None,
+        })
     }
 
     fn run(self) -> anyhow::Result<()> {
         let finger = self.finger()?;
+        let instruments = self.instruments.options()?;
         let r = study::run(RunOptions {
             protocol: self.protocol,
             port: self.port.spec(),
@@ -203,6 +309,7 @@ impl RunArgs {
             resume: self.resume,
             resume_anyway: self.resume_anyway,
             view: self.view,
+            instruments,
         })?;
         let mean = |v: &[f64]| {
             if v.is_empty() {

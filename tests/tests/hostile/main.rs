@@ -87,12 +87,17 @@ const PAPER_ANSWERS: &str = "r4-28.1 not perceived and answers as asked";
 const PAPER_REPORT: &str = "r4-28.3 the report's tests declared";
 const PAPER_RIG: &str = "r4-28.5 resume on the same rig";
 
+/// Round 5, Experiment 3's instruments and the study's finger sources
+/// (issue 28.2, 28.6): `cases_r5_exp3.rs`.
+const EXP3_INSTRUMENTS: &str = "r5-28.2 stage and gauge flags";
+const EXP3_SOURCES: &str = "r5-28.6 study finger sources";
+
 /// The live view (issue 27): `cases_r4_view.rs`.
 const VIEW_HTTP: &str = "r4-v1 bounded view requests";
 const VIEW_ADDRESS: &str = "r4-v2 --view addresses";
 
 /// Every class the suite must cover.
-const CLASSES: [&str; 50] = [
+const CLASSES: [&str; 52] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -143,6 +148,8 @@ const CLASSES: [&str; 50] = [
     PAPER_RIG,
     VIEW_HTTP,
     VIEW_ADDRESS,
+    EXP3_INSTRUMENTS,
+    EXP3_SOURCES,
 ];
 
 /// What a run produced, for custom checks.
@@ -358,6 +365,7 @@ mod cases_r4_paper;
 mod cases_r4_session;
 mod cases_r4_study;
 mod cases_r4_view;
+mod cases_r5_exp3;
 mod checks;
 mod fixtures;
 
@@ -367,6 +375,7 @@ use cases_r4_device::round4_device_cases;
 use cases_r4_files::{round4_files_cases, round4_files_fixtures};
 use cases_r4_paper::{paper_cases, paper_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
+use cases_r5_exp3::{exp3_cases, exp3_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -617,6 +626,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     fixtures(&dir);
     study_fixtures(&dir);
     paper_fixtures(&dir);
+    exp3_fixtures(&dir);
     round4_files_fixtures(&dir);
     cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
@@ -639,6 +649,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let mut all = cases();
     all.extend(study_cases());
     all.extend(paper_cases());
+    all.extend(exp3_cases());
     all.extend(round4_files_cases());
     // Last: the session cases preload the shared device's library.
     all.extend(cases_r4_session::cases());

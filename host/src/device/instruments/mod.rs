@@ -44,7 +44,9 @@ pub use error::InstrumentError;
 pub use gauge::{ForceGauge, Reading, Series};
 pub use imada::Imada;
 pub use mark10::Mark10;
-pub use open::{GaugeModel, GaugeOptions, SIM, StageOptions, open_gauge, open_stage};
+pub use open::{
+    GaugeModel, GaugeOptions, SIM, StageOptions, StagePort, open_gauge, open_rig, open_stage,
+};
 pub use port::Port;
 pub use press::{PressError, PressPlan, Pressed, press};
 pub use sim_gauge::{GaugeSpec, SimGauge};

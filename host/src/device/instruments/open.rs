@@ -85,6 +85,44 @@ pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
     })
 }
 
+/// What a stage's port names: `sim`, `sim:fail-after=N` (the twin, silent
+/// after N moves: a failure on cue for tests and rehearsals), or a serial
+/// path.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum StagePort {
+    /// The simulated twin; `Some(n)`: it stops answering after `n` moves.
+    Sim(Option<u32>),
+    /// A serial port path.
+    Serial(String),
+}
+
+impl StagePort {
+    /// Reads a `--stage` value.
+    pub fn parse(s: &str) -> Result<Self, InputError> {
+        if s == SIM {
+            return Ok(Self::Sim(None));
+        }
+        if let Some(rest) = s.strip_prefix("sim:") {
+            let n = rest
+                .strip_prefix("fail-after=")
+                .and_then(|n| n.parse::<u32>().ok().filter(|_| !n.starts_with('+')));
+            return match n {
+                Some(n) => Ok(Self::Sim(Some(n))),
+                None => Err(InputError::new(format!(
+                    "stage `{}`: give sim, sim:fail-after=N (N moves, then silent) or a serial port",
+                    s.escape_debug()
+                ))),
+            };
+        }
+        if s.is_empty() {
+            return Err(InputError::new(
+                "stage: give sim or a serial port, not an empty name",
+            ));
+        }
+        Ok(Self::Serial(s.to_owned()))
+    }
+}
+
 /// How to open a stage.
 #[derive(Debug, Clone)]
 pub struct StageOptions {
@@ -105,11 +143,8 @@ pub struct StageOptions {
 /// Open the stage `o` names; a twin starts at 0, or at the soft limit
 /// nearest to it.
 pub fn open_stage(o: &StageOptions) -> anyhow::Result<Box<dyn Stage>> {
-    if o.port == SIM {
-        let home = 0.0f64.clamp(o.limits.min_mm, o.limits.max_mm);
-        let mut stage = SimStage::new(Clock::real(), o.limits, home)?;
-        stage.set_speed(o.speed_mm_s)?;
-        return Ok(Box::new(stage));
+    if let StagePort::Sim(fail) = StagePort::parse(&o.port)? {
+        return Ok(Box::new(sim_stage(o, fail)?));
     }
     let cfg = QtConfig {
         axis: o.axis,
@@ -121,6 +156,46 @@ pub fn open_stage(o: &StageOptions) -> anyhow::Result<Box<dyn Stage>> {
         reply_timeout: QT_REPLY_TIMEOUT,
     };
     Ok(Box::new(ChuoQt::open(&o.port, cfg)?))
+}
+
+fn sim_stage(o: &StageOptions, fail_after: Option<u32>) -> anyhow::Result<SimStage> {
+    let home = 0.0f64.clamp(o.limits.min_mm, o.limits.max_mm);
+    let mut stage = SimStage::new(Clock::real(), o.limits, home)?;
+    stage.set_speed(o.speed_mm_s)?;
+    if let Some(n) = fail_after {
+        stage.fail_after_moves(n);
+    }
+    Ok(stage)
+}
+
+/// Opens the stage and gauge of one rig, so that a simulated gauge reads
+/// the stage it is pushed by: with `--stage sim` and `--gauge sim`, the
+/// gauge twin measures `pad` at the stage twin's position. A simulated
+/// gauge on a real stage (or the reverse of a real gauge on the twin)
+/// would measure nothing real: refused.
+pub fn open_rig(
+    stage: &StageOptions,
+    gauge: &GaugeOptions,
+    pad: FingerPad,
+) -> anyhow::Result<(Box<dyn Stage>, Box<dyn ForceGauge>)> {
+    let sim_stage_port = StagePort::parse(&stage.port)?;
+    match (sim_stage_port, gauge.port == SIM) {
+        (StagePort::Sim(fail), true) => {
+            let s = sim_stage(stage, fail)?;
+            let g = SimGauge::new(s.probe(), pad, gauge.seed);
+            Ok((Box::new(s), Box::new(g)))
+        }
+        (StagePort::Serial(_), false) => Ok((open_stage(stage)?, open_gauge(gauge)?)),
+        (StagePort::Sim(_), false) => Err(InputError::new(format!(
+            "a real gauge ({}) on the simulated stage measures nothing the stage does: give both as sim, or both as serial ports",
+            gauge.port
+        ))
+        .into()),
+        (StagePort::Serial(p), true) => Err(InputError::new(format!(
+            "the simulated gauge cannot see the real stage on {p}: give both as sim, or both as serial ports"
+        ))
+        .into()),
+    }
 }
 
 #[cfg(test)]
@@ -150,6 +225,60 @@ mod tests {
             assert!(err.chain().any(|c| c.is::<InputError>()), "{err}");
         }
         let err = gauge("/dev/null", Some(1.0)).err().unwrap();
+        assert!(err.chain().any(|c| c.is::<InputError>()), "{err}");
+    }
+
+    #[test]
+    fn stage_ports_name_the_twin_its_failure_or_a_path() {
+        assert_eq!(StagePort::parse("sim").unwrap(), StagePort::Sim(None));
+        assert_eq!(
+            StagePort::parse("sim:fail-after=3").unwrap(),
+            StagePort::Sim(Some(3))
+        );
+        assert_eq!(
+            StagePort::parse("/dev/ttyUSB0").unwrap(),
+            StagePort::Serial("/dev/ttyUSB0".into())
+        );
+        for bad in [
+            "",
+            "sim:",
+            "sim:fail-after=",
+            "sim:fail-after=-1",
+            "sim:fail-after=+1",
+            "sim:x=1",
+        ] {
+            assert!(StagePort::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn a_rig_of_twins_measures_the_pad_where_the_stage_pushes() {
+        let stage = StageOptions {
+            port: SIM.into(),
+            limits: StageLimits::new(0.0, 20.0).unwrap(),
+            speed_mm_s: 50.0,
+            axis: Axis::A,
+            step_um: 1.0,
+            baud: None,
+        };
+        let gauge_o = GaugeOptions {
+            port: SIM.into(),
+            model: GaugeModel::Imada,
+            baud: None,
+            sim_depth_mm: None,
+            seed: 1,
+        };
+        let pad = FingerPad::TYPICAL.at(5.0);
+        let (mut s, mut g) = open_rig(&stage, &gauge_o, pad).unwrap();
+        assert!(g.read().unwrap().force_n.abs() <= 0.02);
+        s.move_to(7.0).unwrap();
+        let f = g.read().unwrap().force_n;
+        assert!((f - pad.force_at_depth_n(2.0)).abs() <= 0.03, "{f}");
+        let mixed = GaugeOptions {
+            port: "/dev/null".into(),
+            ..gauge_o
+        };
+        let err = open_rig(&stage, &mixed, pad).err().unwrap();
         assert!(err.chain().any(|c| c.is::<InputError>()), "{err}");
     }
 

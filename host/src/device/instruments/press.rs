@@ -132,7 +132,11 @@ fn recover(
         Err(e) => format!("silencing the array failed: {}", crate::error::one_line(&e)),
     };
     // A stage that does not answer is not waited for twice.
-    let back = match stage.stop().and_then(|()| stage.move_to(plan.rest_mm)) {
+    // `retreat`: back to rest also after Ctrl-C.
+    let back = match stage
+        .stop()
+        .and_then(|()| super::stage::retreat(stage, plan.rest_mm))
+    {
         Ok(m) => format!("stage back at {} mm", show(m.at_mm)),
         Err(e) => format!("stage NOT back at rest: {e}"),
     };

@@ -71,6 +71,8 @@ pub struct SimStage {
     home_mm: f64,
     speed_mm_s: f64,
     silent_from_us: Option<u64>,
+    /// Moves it still answers before it falls silent ([`SimStage::fail_after_moves`]).
+    moves_left: Option<u32>,
     reply_timeout: Duration,
 }
 
@@ -92,6 +94,7 @@ impl SimStage {
             home_mm,
             speed_mm_s: PAPER_SPEED_MM_S,
             silent_from_us: None,
+            moves_left: None,
             reply_timeout: super::chuo::QT_REPLY_TIMEOUT,
         })
     }
@@ -109,6 +112,14 @@ impl SimStage {
     /// whose cable was pulled does).
     pub fn fail_at_us(&mut self, at_us: u64) {
         self.silent_from_us = Some(at_us);
+    }
+
+    /// After `n` more moves, the next one starts and then every request
+    /// times out (the stage keeps doing the last move it was told, as with
+    /// [`SimStage::fail_at_us`]): a failure on cue in a run whose clock is
+    /// real, where a time would be a guess (`--stage sim:fail-after=N`).
+    pub fn fail_after_moves(&mut self, n: u32) {
+        self.moves_left = Some(n);
     }
 
     fn motion(&self) -> Motion {
@@ -186,6 +197,11 @@ impl Stage for SimStage {
         self.limits.check(SIM_STAGE_PORT, to_mm)?;
         self.answer("move")?;
         self.go(to_mm);
+        match &mut self.moves_left {
+            Some(0) => self.silent_from_us = Some(self.clock.now_us()),
+            Some(n) => *n -= 1,
+            None => {}
+        }
         Ok(())
     }
 
@@ -261,6 +277,17 @@ mod tests {
             err.to_string().starts_with("sim-stage: no reply to state"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_stage_told_to_fail_after_moves_answers_that_many() {
+        let mut s = stage();
+        s.fail_after_moves(1);
+        s.move_to(1.0).unwrap();
+        // The second move starts, then nothing answers.
+        let err = s.move_to(2.0).unwrap_err();
+        assert!(matches!(err, InstrumentError::Timeout { .. }), "{err}");
+        assert!(s.stop().is_err());
     }
 
     #[test]

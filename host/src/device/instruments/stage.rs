@@ -173,11 +173,39 @@ pub trait Stage {
     }
 }
 
+/// Moves to `to_mm` (a rest position clear of the finger) and waits, as
+/// [`Stage::move_to`] does except that a stop request does not cut it
+/// short: after Ctrl-C the probe must still leave the finger. A stuck
+/// move still times out and is stopped.
+pub fn retreat<S: Stage + ?Sized>(stage: &mut S, to_mm: f64) -> Result<Move, InstrumentError> {
+    stage.limits().check(stage.port(), to_mm)?;
+    let from_mm = stage.position_mm()?;
+    let timeout = move_timeout(to_mm - from_mm, stage.speed_mm_s());
+    stage.start_move(to_mm)?;
+    let took = wait(stage, timeout, false, || {
+        format!("move back from {} to {} mm", show(from_mm), show(to_mm))
+    })?;
+    Ok(Move {
+        from_mm,
+        at_mm: stage.position_mm()?,
+        took_s: took.as_secs_f64(),
+    })
+}
+
 /// Poll until the stage is idle; past `timeout`, stop it and fail. Returns
 /// the time waited.
 pub fn wait_idle<S: Stage + ?Sized>(
     stage: &mut S,
     timeout: Duration,
+    what: impl Fn() -> String,
+) -> Result<Duration, InstrumentError> {
+    wait(stage, timeout, true, what)
+}
+
+fn wait<S: Stage + ?Sized>(
+    stage: &mut S,
+    timeout: Duration,
+    heed_stop: bool,
     what: impl Fn() -> String,
 ) -> Result<Duration, InstrumentError> {
     let clock = stage.clock().clone();
@@ -186,7 +214,7 @@ pub fn wait_idle<S: Stage + ?Sized>(
         if !stage.is_moving()? {
             return Ok(clock.now().saturating_sub(t0));
         }
-        if crate::stop::requested() {
+        if heed_stop && crate::stop::requested() {
             let stopped = match stage.stop() {
                 Ok(()) => "stopped".to_owned(),
                 Err(e) => format!("stop failed: {e}"),

@@ -67,6 +67,12 @@ pub const STAIRCASE_REVERSALS: &str = "staircase_reversals";
 pub const STAIRCASE_AT_LIMIT: &str = "staircase_at_limit";
 /// The mean level of the last reversals (empty without a reversal).
 pub const THRESHOLD: &str = "threshold";
+/// The response time of each adjustment answer, s, `|`-joined (as
+/// [`rt_column`] is for a question).
+pub const ADJUST_RT: &str = "adjust_rt_s";
+/// The median force of the gauge's 2 s series at the depth the trial
+/// ended at, N (Experiment 3 run with a stage and gauge; empty without).
+pub const FORCE: &str = "force_n";
 /// Joins the values of a list column (option orders, adjustment answers
 /// and depths); labels may not contain it.
 pub const LIST_SEPARATOR: char = '|';
@@ -84,6 +90,8 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
             ADJUST_ANSWERS,
             DEPTHS,
             FINAL_DEPTH,
+            ADJUST_RT,
+            FORCE,
         ])
         .chain([
             STAIRCASE_LEVELS,
@@ -164,7 +172,15 @@ pub enum Holds {
     /// A staircase's levels, `|`-joined, each one of these labels (empty:
     /// none).
     Levels(Vec<String>),
+    /// Seconds (response times), `|`-joined; empty when none.
+    Seconds,
+    /// A force in N, at least 0 (empty: not measured).
+    Force,
 }
+
+/// Largest force a column holds, N (a gauge's capacity is 50 to a few
+/// hundred newtons; a finger is never pushed harder).
+pub const MAX_FORCE_N: f64 = 1_000.0;
 
 impl Holds {
     /// The kind recorded in `session.json`'s `columns` (condition and
@@ -176,6 +192,7 @@ impl Holds {
             Self::Choice(_) => "choice",
             Self::Number(..) => "number",
             Self::Depth(..) => "depth",
+            Self::Force => "force",
             _ => return None,
         })
     }
@@ -183,7 +200,9 @@ impl Holds {
     /// The number an answer or depth value stands for, when it has one.
     pub fn number(&self, value: &str) -> Option<f64> {
         match self {
-            Self::Likert(_) | Self::Number(..) | Self::Depth(..) => value.parse().ok(),
+            Self::Likert(_) | Self::Number(..) | Self::Depth(..) | Self::Force => {
+                value.parse().ok()
+            }
             _ => None,
         }
     }
@@ -237,6 +256,10 @@ impl Holds {
             Self::AdjustAnswers(labels) | Self::Levels(labels) => {
                 value.is_empty() || list(value).iter().all(|v| labels.contains(v))
             }
+            Self::Seconds => {
+                value.is_empty() || list(value).iter().all(|v| number(v, 0.0, f64::MAX))
+            }
+            Self::Force => value.is_empty() || number(value, 0.0, MAX_FORCE_N),
         };
         if ok {
             return Ok(());
@@ -258,6 +281,8 @@ impl Holds {
             Self::Adjustments(max) => format!("give a whole number from 0 to {max}"),
             Self::AdjustAnswers(l) => format!("give `|`-joined answers of {}", l.join(", ")),
             Self::Levels(l) => format!("give `|`-joined levels of {}", l.join(", ")),
+            Self::Seconds => "give `|`-joined seconds from 0, or nothing".into(),
+            Self::Force => format!("give newtons {} or nothing", range(0.0, MAX_FORCE_N)),
         })
     }
 
@@ -281,7 +306,8 @@ impl Holds {
             Self::Number(..) => MAX_LABEL_BYTES,
             Self::Depth(..) => NUMBER,
             Self::Order(n) => label(n) * n.len().max(1),
-            Self::Depths(..) => (NUMBER + 1) * items,
+            Self::Depths(..) | Self::Seconds => (NUMBER + 1) * items,
+            Self::Force => NUMBER,
             Self::AdjustAnswers(l) | Self::Levels(l) => (label(l) + 1) * items,
         }
     }
@@ -392,6 +418,8 @@ impl Columns {
                 Column::new(ADJUST_ANSWERS, Holds::AdjustAnswers(a.labels.clone())),
                 Column::new(DEPTHS, Holds::Depths(a.min_mm, a.max_mm)),
                 Column::new(FINAL_DEPTH, Holds::Depth(a.min_mm, a.max_mm)),
+                Column::new(ADJUST_RT, Holds::Seconds),
+                Column::new(FORCE, Holds::Force),
             ]);
         }
         for (i, c) in list.iter().enumerate() {
@@ -584,6 +612,11 @@ mod tests {
             !ok(Holds::Measured, "inf") && ok(Holds::Measured, "") && ok(Holds::Measured, "1.5")
         );
         assert!(ok(Holds::Count, "3") && !ok(Holds::Count, "0") && !ok(Holds::Count, "+3"));
+        assert!(ok(Holds::Seconds, "") && ok(Holds::Seconds, "0.5|1.25"));
+        assert!(!ok(Holds::Seconds, "0.5|-1") && !ok(Holds::Seconds, "1|"));
+        assert!(ok(Holds::Force, "") && ok(Holds::Force, "0.42"));
+        assert!(!ok(Holds::Force, "-0.1") && !ok(Holds::Force, "inf") && !ok(Holds::Force, "2000"));
+        assert_eq!(Holds::Force.kind(), Some("force"));
         let o = Holds::Order(vec!["flat".into(), "convex".into()]);
         assert!(ok(o.clone(), "convex|flat") && !ok(o.clone(), "convex") && !ok(o, "flat|flat"));
         let d = Holds::Depths(0.0, 10.0);

@@ -101,6 +101,7 @@ pub fn question(q: &Asked, seq: u64) -> Question {
         prompt: q.prompt.clone(),
         options,
         radii_mm: radii,
+        not_perceived: q.not_perceived.clone(),
     }
 }
 
@@ -130,5 +131,35 @@ impl Answers for ViewAnswers {
             }
             None => Ok(None),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_page_offers_not_perceived_where_the_question_allows_it() {
+        // The page sends the study's own "not perceived" value.
+        assert_eq!(
+            crate::lab::view::NOT_PERCEIVED,
+            super::super::columns::NOT_PERCEIVED
+        );
+        let mut asked = Asked {
+            column: "size".into(),
+            prompt: "Which circle?".into(),
+            accepts: Accepts::Choice(vec!["2".into(), "3".into()]),
+            not_perceived: Some("could not perceive the stimulus".into()),
+        };
+        let q = question(&asked, 1);
+        assert_eq!(
+            q.not_perceived.as_deref(),
+            Some("could not perceive the stimulus")
+        );
+        assert!(q.offers("2") && q.offers("na") && !q.offers("4"));
+        assert_eq!(asked.parse("na").unwrap(), "na");
+        asked.not_perceived = None;
+        let q = question(&asked, 2);
+        assert!(q.not_perceived.is_none() && !q.offers("na"));
     }
 }

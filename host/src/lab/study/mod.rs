@@ -28,10 +28,12 @@ pub mod columns;
 pub mod design;
 pub mod live;
 pub mod observer;
+pub mod options;
 pub mod outline;
 pub mod procedure;
 pub mod protocol;
 pub mod provenance;
+pub mod push;
 pub mod record;
 mod repeat;
 pub mod report;
@@ -40,11 +42,10 @@ pub mod start;
 pub(crate) mod test_files;
 pub mod trial;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 use crate::clock::monotonic_us;
-use crate::device::link::PortSpec;
 use crate::error::InputError;
 use crate::files::AppendLog;
 use crate::lab::session::driver::{Driver, Finger};
@@ -58,117 +59,14 @@ use protocol::Protocol;
 use record::Expect;
 use start::Start;
 
+pub use options::{AnswerSource, FingerSource, RunOptions, RunReport};
+
 /// The device is polled at least this often while a trial runs.
 pub const POLL: Duration = Duration::from_millis(1);
 /// The synthetic finger's sample period (~90 Hz, a depth camera's rate).
 pub const FINGER_PERIOD_US: u64 = 11_111;
 /// Largest `--time-scale`.
 pub const MAX_TIME_SCALE: f64 = 100.0;
-
-/// Where the finger comes from.
-pub enum FingerSource {
-    /// None: the protocol may not wait for the finger.
-    None,
-    /// A finger at the scene's centre that touches for each trial and
-    /// leaves between trials.
-    Synthetic,
-    /// Tracked centroids (a file, stdin, UDP: `lmhost track --json`'s
-    /// lines) through a filter; the finger is present when they say so.
-    Samples {
-        /// The reader thread.
-        feed: crate::sense::stream::run::Threaded,
-        /// The centroid filter.
-        filter: Box<dyn crate::sense::stream::filter::Filter + Send>,
-        /// What it is, for `session.json`.
-        name: String,
-    },
-}
-
-impl FingerSource {
-    fn name(&self) -> String {
-        match self {
-            Self::None => "none".into(),
-            Self::Synthetic => "synthetic".into(),
-            Self::Samples { name, .. } => name.clone(),
-        }
-    }
-}
-
-impl std::fmt::Debug for FingerSource {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.name())
-    }
-}
-
-/// Where answers come from.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum AnswerSource {
-    /// A file of one answer per line in the order asked (`-`: stdin).
-    File(PathBuf),
-    /// The terminal (single keys) when stdin is one, else stdin's lines as
-    /// they arrive.
-    Interactive,
-    /// A simulated observer ([`observer::Observer::parse`]'s text): answers
-    /// a procedure's "perceived?" questions only.
-    Observer(String),
-}
-
-/// What `lmhost study run` was asked to do.
-#[derive(Debug)]
-pub struct RunOptions {
-    /// The protocol file.
-    pub protocol: PathBuf,
-    /// The device.
-    pub port: PortSpec,
-    /// The scene file (default: the built-in scene).
-    pub scene: Option<PathBuf>,
-    /// The participant's id (a folder name).
-    pub participant: String,
-    /// The study's output folder.
-    pub out: PathBuf,
-    /// The order's seed (default: from the clock; recorded).
-    pub seed: Option<u64>,
-    /// The participant's 1-based index (a Latin square's row; recorded).
-    pub index: Option<usize>,
-    /// Answers.
-    pub answers: AnswerSource,
-    /// The finger.
-    pub finger: FingerSource,
-    /// Multiplies every duration.
-    pub time_scale: f64,
-    /// Continue an interrupted run.
-    pub resume: bool,
-    /// Continue it on a rig that differs from the last run's (recorded).
-    pub resume_anyway: bool,
-    /// Serve the live view here (its participant's page answers unless
-    /// answers come from a file).
-    pub view: Option<std::net::SocketAddr>,
-}
-
-/// What a run did.
-#[derive(Debug, Clone, Default)]
-pub struct RunReport {
-    /// The participant's folder.
-    pub dir: PathBuf,
-    /// Trials in the session.
-    pub trials: usize,
-    /// The first trial this run presented (1-based).
-    pub first: usize,
-    /// Trials this run finished.
-    pub ran: usize,
-    /// The seed.
-    pub seed: u64,
-    /// Seconds each trial took from its start to its row on disk.
-    pub trial_s: Vec<f64>,
-    /// Host-timed on-time per trial, s.
-    pub presented_s: Vec<f64>,
-    /// Switch latencies seen, ms.
-    pub switch_ms: Vec<f64>,
-    /// Uploads during the run (`preloaded` events) and their mean time, s.
-    pub uploads: usize,
-    /// Mean upload time, s.
-    pub upload_mean_s: f64,
-}
 
 /// A participant id: 1 to 64 letters, digits, `-`, `_`, `.` (not only dots).
 pub fn check_participant(id: &str) -> Result<(), InputError> {
@@ -189,7 +87,7 @@ pub fn check_participant(id: &str) -> Result<(), InputError> {
 
 fn resume_hint(o: &RunOptions) -> String {
     format!(
-        "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger and --responses)",
+        "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger, --responses, --stage and --gauge)",
         o.protocol.display(),
         o.participant,
         o.out.display()
@@ -214,7 +112,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let observer = observer::for_run(&o.answers, &p)?;
     if p.timeline.wait_for_finger && matches!(o.finger, FingerSource::None) {
         crate::bad_input!(
-            "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp)",
+            "study protocol {}: the timeline waits for the finger: give --finger synthetic or a tracked source (--stream, --udp, --depth, --camera, --depth-stream)",
             o.protocol.display()
         );
     }
@@ -235,10 +133,25 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         })
     {
         crate::bad_input!(
-            "study protocol {}: stimulus `{}` plays tracked, but there is no finger source, so every trial would stay muted: give --finger synthetic or a tracked source (--stream, --udp), or set the timeline's gate = \"untracked\"",
+            "study protocol {}: stimulus `{}` plays tracked, but there is no finger source, so every trial would stay muted: give --finger synthetic or a tracked source (--stream, --udp, --depth, --camera, --depth-stream), or set the timeline's gate = \"untracked\"",
             o.protocol.display(),
             c.stimulus
         );
+    }
+    if let Some(i) = &o.instruments {
+        let Some(a) = &p.adjustment else {
+            crate::bad_input!(
+                "study protocol {}: --stage and --gauge run the method of adjustment ([adjustment]), which it has not",
+                o.protocol.display()
+            );
+        };
+        if tl_on_missing(&p) {
+            crate::bad_input!(
+                "study protocol {}: with --stage and --gauge every push lasts one on-phase: give the timeline's on_s",
+                o.protocol.display()
+            );
+        }
+        i.check(a.max_mm)?;
     }
     let paths = start::Paths::new(&o.out, &o.participant);
     // Everything is checked (and a responses file dry-run) before the
@@ -258,6 +171,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         }
     }
     let first = st.done + 1;
+    // The stage at rest before the array can sound.
+    let pusher = o.instruments.clone().map(push::Pusher::start).transpose()?;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
@@ -309,6 +224,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         trial_events: Vec::new(),
         all_events: Vec::new(),
         view,
+        pusher,
+        dir: paths.dir.clone(),
     };
     let mut report = RunReport {
         dir: paths.dir.clone(),
@@ -354,6 +271,19 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         .take()
         .map(|d| d.into_session().close(reason))
         .unwrap_or_default();
+    // The array is silent; now the stage goes back (or says where it is).
+    let stage_end = r.pusher.take().map(push::Pusher::finish);
+    let result = match (result, stage_end) {
+        (Err(e), Some(end)) if e.is::<push::InstrumentFailed>() => {
+            Err(anyhow::anyhow!("{} ({end})", crate::error::one_line(&e)))
+        }
+        (Err(e), Some(end)) if e.is::<Interrupted>() => Err(anyhow::anyhow!("interrupted ({end})")),
+        (r, Some(end)) if !end.starts_with("stage back") => {
+            crate::errln!("warning: {end}");
+            r
+        }
+        (r, _) => r,
+    };
     let logged = r.log_events(last).and_then(|()| Ok(r.events.sync()?));
     for l in r.all_events.iter() {
         match &l.kind {
@@ -373,6 +303,10 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     }
     logged?;
     Ok(report)
+}
+
+fn tl_on_missing(p: &Protocol) -> bool {
+    p.timeline.on_s.is_none()
 }
 
 /// Runs trials `first..` of `plan`, each row on disk before the next.
@@ -448,6 +382,10 @@ struct Runner {
     trial_events: Vec<Event>,
     all_events: Vec<Event>,
     view: Option<crate::lab::view::View>,
+    /// The stage and gauge, when Experiment 3 runs with them.
+    pusher: Option<push::Pusher>,
+    /// The participant's folder (the gauge's series go there).
+    dir: std::path::PathBuf,
 }
 
 impl Runner {
@@ -503,6 +441,9 @@ impl Runner {
     fn tick(&mut self) -> anyhow::Result<()> {
         if crate::stop::requested() {
             return Err(Interrupted.into());
+        }
+        if let Some(p) = self.pusher.as_mut() {
+            p.check()?;
         }
         let events = self.driver().turn()?;
         // The finger as sent to the device, to the view.
@@ -578,25 +519,45 @@ impl Runner {
             }
         }
         let mut procedure = procedure::start(p, t);
+        // With the instruments, each push of the adjustment is one
+        // on-phase of its own.
+        let pushing = p.adjustment.is_some() && self.pusher.is_some();
         let on_s = tl.on_s.map(|s| s * self.scale);
         let mut req = Present {
             stimulus: t.stimulus.clone(),
             gate: tl.gate,
             on_s,
             off_s: Some(tl.off_s * self.scale),
-            repeat: Some(if procedure.is_some() {
-                crate::lab::session::MAX_REPEAT
-            } else {
-                tl.repeat
+            repeat: Some(match (pushing, procedure.is_some()) {
+                (true, _) => 1,
+                (false, true) => crate::lab::session::MAX_REPEAT,
+                (false, false) => tl.repeat,
             }),
         };
-        self.session().present(&req)?;
-        // A new play forgets old centroids: track again at once.
-        self.driver().track_now()?;
+        if !pushing {
+            self.session().present(&req)?;
+            // A new play forgets old centroids: track again at once.
+            self.driver().track_now()?;
+        }
         let t_on = monotonic_us();
         let touch_until = t_on + (tl.touch_s * self.scale * 1e6) as u64;
+        let mut rts = Vec::new();
+        let mut measured = None;
         if let Some(pr) = procedure.as_deref_mut() {
-            self.follow(pr, t, &mut req)?;
+            if pushing {
+                if let Some(first) = pr.next() {
+                    let (what, unit) = pr.level_unit();
+                    crate::errln!("  {what} {:.2} {unit}", first.level);
+                    self.level_event(pr, t.trial, first.level, None)?;
+                }
+                let off_s = tl.off_s * self.scale;
+                measured = Some(self.pushes(pr, &req, off_s, t.trial, &mut rts)?);
+                if self.session().presenting() {
+                    self.session().stop(OffsetReason::Stop)?;
+                }
+            } else {
+                self.follow(pr, t, &mut req, &mut rts)?;
+            }
         } else {
             while self.session().presenting() {
                 self.tick()?;
@@ -635,7 +596,7 @@ impl Runner {
             .iter()
             .find(|l| l.id == t.stimulus)
             .map(|l| l.planned.timing.clone());
-        Ok(trial::row(
+        let (mut row, presented) = trial::row(
             expect,
             t,
             &self.trial_events,
@@ -643,7 +604,24 @@ impl Runner {
             &health,
             &given,
             procedure.as_deref(),
-        ))
+        );
+        if p.adjustment.is_some() {
+            let rts: Vec<String> = rts.iter().map(|s| format!("{s:.4}")).collect();
+            row.set(
+                columns::ADJUST_RT,
+                rts.join(&columns::LIST_SEPARATOR.to_string()),
+            );
+        }
+        if let Some(m) = measured {
+            // The series first: a row never names a force whose series is
+            // missing.
+            let name = format!("force-trial-{:03}.csv", t.trial);
+            crate::files::write_whole(&self.dir.join(&name), m.csv().as_bytes())?;
+            let median = m.series.median_n().unwrap_or(0.0).max(0.0);
+            row.set(columns::FORCE, format!("{median:.3}"));
+            crate::errln!("  force {median:.3} N (series in {name})");
+        }
+        Ok((row, presented))
     }
 }
 

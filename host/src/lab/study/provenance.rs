@@ -57,6 +57,7 @@ pub fn run_record(
         backend: info.backend.clone(),
         port: info.port.clone(),
         resumed_anyway: None,
+        instruments: o.instruments.as_ref().map(|i| i.describe()),
     })
 }
 
@@ -207,6 +208,7 @@ mod tests {
             backend: backend.into(),
             port: "sim".into(),
             resumed_anyway: None,
+            instruments: None,
         }
     }
 

@@ -79,6 +79,9 @@ pub struct Run {
     /// went on regardless.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resumed_anyway: Option<String>,
+    /// Experiment 3's stage and gauge, when the run had them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instruments: Option<String>,
 }
 
 /// `session.json`.

@@ -19,22 +19,19 @@ impl Runner {
 
     /// Runs procedure `pr` over trial `t`, presented as `req` (whose
     /// stimulus follows the procedure's), until it has finished or the
-    /// presentation ended; the array is stopped after.
+    /// presentation ended; each answer's response time goes to `rts`; the
+    /// array is stopped after.
     pub(super) fn follow(
         &mut self,
         pr: &mut dyn Procedure,
         t: &Planned,
         req: &mut Present,
+        rts: &mut Vec<f64>,
     ) -> anyhow::Result<()> {
-        let (what, unit) = pr.level_unit();
-        let level_event = |level: f64, answer: Option<&str>| {
-            let mut v = serde_json::json!({"event": what, "trial": t.trial, "answer": answer});
-            v[format!("{what}_{unit}")] = level.into();
-            v
-        };
         if let Some(first) = pr.next() {
+            let (what, unit) = pr.level_unit();
             crate::errln!("  {what} {:.2} {unit}", first.level);
-            self.log(level_event(first.level, None))?;
+            self.level_event(pr, t.trial, first.level, None)?;
         }
         // On-phases and answers before the stimulus last changed:
         // one answer per finished on-phase of what plays now.
@@ -49,18 +46,9 @@ impl Runner {
                 self.pause();
                 continue;
             }
-            let (ans, _) = self.ask(&pr.asked())?;
-            match pr.respond(&ans) {
-                Step::Done => {}
-                Step::Next(level) => {
-                    self.log(level_event(level, Some(&ans)))?;
-                    crate::errln!("  next {what} {level:.2} {unit} ({ans})");
-                }
-                Step::Last { level, why } => {
-                    self.log(level_event(level, Some(&ans)))?;
-                    crate::errln!("  {why}");
-                }
-            }
+            let (ans, rt) = self.ask(&pr.asked())?;
+            rts.push(rt);
+            self.answered(pr, t.trial, &ans)?;
             // A staircase's next level is another library entry.
             if let Some(next) = pr.next().filter(|n| n.stimulus != req.stimulus) {
                 self.session().stop(OffsetReason::Stop)?;
@@ -75,5 +63,43 @@ impl Runner {
             self.session().stop(OffsetReason::Stop)?;
         }
         Ok(())
+    }
+
+    /// Logs the procedure's level (the `depth` event).
+    pub(super) fn level_event(
+        &mut self,
+        pr: &dyn Procedure,
+        trial: usize,
+        level: f64,
+        answer: Option<&str>,
+    ) -> anyhow::Result<()> {
+        let (what, unit) = pr.level_unit();
+        let mut v = serde_json::json!({"event": what, "trial": trial, "answer": answer});
+        v[format!("{what}_{unit}")] = level.into();
+        self.log(v)
+    }
+
+    /// Gives the procedure an answer, logs and says what it did; the new
+    /// level, if it changed.
+    pub(super) fn answered(
+        &mut self,
+        pr: &mut dyn Procedure,
+        trial: usize,
+        ans: &str,
+    ) -> anyhow::Result<Option<f64>> {
+        let (what, unit) = pr.level_unit();
+        Ok(match pr.respond(ans) {
+            Step::Done => None,
+            Step::Next(level) => {
+                self.level_event(pr, trial, level, Some(ans))?;
+                crate::errln!("  next {what} {level:.2} {unit} ({ans})");
+                Some(level)
+            }
+            Step::Last { level, why } => {
+                self.level_event(pr, trial, level, Some(ans))?;
+                crate::errln!("  {why}");
+                Some(level)
+            }
+        })
     }
 }

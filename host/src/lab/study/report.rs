@@ -222,6 +222,11 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         let Some(c) = cols.index(&name).filter(|_| kind != "factor") else {
             continue;
         };
+        // A column no row fills (force_n of a run without instruments)
+        // has nothing to report.
+        if rows.iter().all(|(_, r)| r[c].is_empty()) {
+            continue;
+        }
         let holds = &cols.list()[c].holds;
         // (condition, stimulus) → (levels, values, "not perceived" count).
         type Cell = (Vec<String>, Vec<f64>, usize);

@@ -37,7 +37,7 @@ use crate::sense::track::overlay::ColourView;
 use crate::sense::track::synth::{FingerSim, background_of};
 use crate::sense::track::synth_colour::ColourSim;
 use state::Shared;
-pub use state::{EXPERIMENT2_RADII_MM, Figures, Question, Stimulus};
+pub use state::{EXPERIMENT2_RADII_MM, Figures, NOT_PERCEIVED, Question, Stimulus};
 
 /// The synthetic colour video's frame rate (Hz): the paper's view is a
 /// camera's RGB stream, 30 fps.

@@ -57,6 +57,22 @@ pub struct Question {
     pub options: Vec<String>,
     /// The circles' radii (mm) when every option is one (Experiment 2).
     pub radii_mm: Option<Vec<f64>>,
+    /// The "not perceived" button's label, where the protocol allows the
+    /// answer; the page sends it as [`NOT_PERCEIVED`].
+    pub not_perceived: Option<String>,
+}
+
+/// The choice a "not perceived" answer is sent as (the study records it
+/// as such: `columns::NOT_PERCEIVED`).
+pub const NOT_PERCEIVED: &str = "na";
+
+impl Question {
+    /// Whether `choice` is an answer the page offers: one of the options,
+    /// or "not perceived" where the question allows it.
+    pub fn offers(&self, choice: &str) -> bool {
+        self.options.iter().any(|o| o == choice)
+            || (self.not_perceived.is_some() && choice == NOT_PERCEIVED)
+    }
 }
 
 /// What the view measured: frames encoded, and from each frame reaching
@@ -245,7 +261,7 @@ impl Shared {
                 q.seq
             ));
         }
-        if !q.options.iter().any(|o| o == choice) {
+        if !q.offers(choice) {
             return Err("not one of the answers offered".into());
         }
         s.answer = Some((seq, choice.to_owned()));

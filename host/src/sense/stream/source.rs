@@ -283,6 +283,37 @@ pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Resul
     }
 }
 
+/// The samples of `items` released at their time stamps on `clock`: the
+/// first at once, each next one once as much time has passed since the
+/// first as their stamps differ, so a 20 s recording plays for 20 s in a
+/// session or study as in `lmhost stream`. Meant for a reader thread
+/// (it sleeps) over [`replay_lines`], which bounds every gap.
+pub fn paced<I>(
+    items: I,
+    clock: crate::clock::Clock,
+) -> impl Iterator<Item = anyhow::Result<Sample>>
+where
+    I: IntoIterator<Item = anyhow::Result<Sample>>,
+{
+    let mut first: Option<(std::time::Duration, f64)> = None;
+    items.into_iter().map(move |item| {
+        let s = item?;
+        let (t0, first_t_s) = *first.get_or_insert((clock.now(), s.t_s));
+        let after =
+            std::time::Duration::try_from_secs_f64((s.t_s - first_t_s).max(0.0)).map_err(|_| {
+                InputError::new(format!(
+                    "time stamp {} s is too far from the first one to replay",
+                    crate::limits::show(s.t_s)
+                ))
+            })?;
+        let now = clock.now();
+        if let Some(wait) = (t0 + after).checked_sub(now) {
+            clock.sleep(wait);
+        }
+        Ok(s)
+    })
+}
+
 /// Counters a UDP source keeps while it runs.
 #[derive(Debug, Default)]
 pub struct UdpCounts {
@@ -383,6 +414,31 @@ pub fn udp(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_paced_recording_takes_as_long_as_its_time_stamps_say() {
+        let clock = crate::clock::Clock::manual_at_us(5_000_000);
+        // 20 s of samples at 2 Hz, starting at t = 100 s.
+        let text: String = (0..=40)
+            .map(|i| format!("{},0,0,200,1\n", 100.0 + i as f64 * 0.5))
+            .collect();
+        let mut seen = Vec::new();
+        for s in paced(replay_lines(text.as_bytes()), clock.clone()) {
+            let s = s.unwrap();
+            seen.push((s.t_s, clock.now_us()));
+        }
+        assert_eq!(seen.len(), 41);
+        // Each sample out when its stamp is due, not before.
+        for (t_s, at_us) in &seen {
+            let due = 5_000_000 + ((t_s - 100.0) * 1e6) as u64;
+            assert_eq!(*at_us, due, "{t_s}");
+        }
+        assert_eq!(clock.now_us(), 25_000_000);
+        // An error passes through and waits for nothing.
+        let bad = "0,0,0,200,1\nx\n";
+        let v: Vec<_> = paced(replay_lines(bad.as_bytes()), clock.clone()).collect();
+        assert!(v[1].is_err());
+    }
 
     #[test]
     fn parses_track_json_lines() {

@@ -1,0 +1,115 @@
+//! What `lmhost study run` is asked to do and what a run did: the
+//! options the CLI fills (finger, answers, instruments) and the report it
+//! prints.
+
+use std::path::PathBuf;
+
+use crate::device::link::PortSpec;
+
+/// Where the finger comes from.
+pub enum FingerSource {
+    /// None: the protocol may not wait for the finger.
+    None,
+    /// A finger at the scene's centre that touches for each trial and
+    /// leaves between trials.
+    Synthetic,
+    /// Tracked centroids (a file, stdin, UDP: `lmhost track --json`'s
+    /// lines) through a filter; the finger is present when they say so.
+    Samples {
+        /// The reader thread.
+        feed: crate::sense::stream::run::Threaded,
+        /// The centroid filter.
+        filter: Box<dyn crate::sense::stream::filter::Filter + Send>,
+        /// What it is, for `session.json`.
+        name: String,
+    },
+}
+
+impl FingerSource {
+    fn name(&self) -> String {
+        match self {
+            Self::None => "none".into(),
+            Self::Synthetic => "synthetic".into(),
+            Self::Samples { name, .. } => name.clone(),
+        }
+    }
+}
+
+impl std::fmt::Debug for FingerSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+/// Where answers come from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum AnswerSource {
+    /// A file of one answer per line in the order asked (`-`: stdin).
+    File(PathBuf),
+    /// The terminal (single keys) when stdin is one, else stdin's lines as
+    /// they arrive.
+    Interactive,
+    /// A simulated observer ([`super::observer::Observer::parse`]'s text):
+    /// answers a procedure's "perceived?" questions only.
+    Observer(String),
+}
+
+/// What `lmhost study run` was asked to do.
+#[derive(Debug)]
+pub struct RunOptions {
+    /// The protocol file.
+    pub protocol: PathBuf,
+    /// The device.
+    pub port: PortSpec,
+    /// The scene file (default: the built-in scene).
+    pub scene: Option<PathBuf>,
+    /// The participant's id (a folder name).
+    pub participant: String,
+    /// The study's output folder.
+    pub out: PathBuf,
+    /// The order's seed (default: from the clock; recorded).
+    pub seed: Option<u64>,
+    /// The participant's 1-based index (a Latin square's row; recorded).
+    pub index: Option<usize>,
+    /// Answers.
+    pub answers: AnswerSource,
+    /// The finger.
+    pub finger: FingerSource,
+    /// Multiplies every duration.
+    pub time_scale: f64,
+    /// Continue an interrupted run.
+    pub resume: bool,
+    /// Continue it on a rig that differs from the last run's (recorded).
+    pub resume_anyway: bool,
+    /// Serve the live view here (its participant's page answers unless
+    /// answers come from a file).
+    pub view: Option<std::net::SocketAddr>,
+    /// Experiment 3's stage and gauge (`--stage`, `--gauge`), pushing in
+    /// step with the on-phases.
+    pub instruments: Option<super::push::PushOptions>,
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Default)]
+pub struct RunReport {
+    /// The participant's folder.
+    pub dir: PathBuf,
+    /// Trials in the session.
+    pub trials: usize,
+    /// The first trial this run presented (1-based).
+    pub first: usize,
+    /// Trials this run finished.
+    pub ran: usize,
+    /// The seed.
+    pub seed: u64,
+    /// Seconds each trial took from its start to its row on disk.
+    pub trial_s: Vec<f64>,
+    /// Host-timed on-time per trial, s.
+    pub presented_s: Vec<f64>,
+    /// Switch latencies seen, ms.
+    pub switch_ms: Vec<f64>,
+    /// Uploads during the run (`preloaded` events) and their mean time, s.
+    pub uploads: usize,
+    /// Mean upload time, s.
+    pub upload_mean_s: f64,
+}
