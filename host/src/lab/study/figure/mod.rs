@@ -117,9 +117,13 @@ fn nice_up(x: f64) -> f64 {
         .unwrap_or(10.0 * e)
 }
 
-/// About five ticks over `lo..=hi` at a nice step.
+/// About five ticks over `lo..=hi` at a nice step; the ends alone where
+/// no step divides the span (none, or too wide for an f64).
 fn ticks_over(lo: f64, hi: f64) -> Vec<f64> {
     let step = nice_up((hi - lo) / 5.0);
+    if !(step.is_finite() && step > 0.0 && (hi - lo) / step <= 20.0) {
+        return if hi > lo { vec![lo, hi] } else { vec![lo] };
+    }
     let first = (lo / step).ceil() as i64;
     let last = (hi / step + 1e-9).floor() as i64;
     (first..=last).map(|k| k as f64 * step).collect()

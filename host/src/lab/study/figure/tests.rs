@@ -424,4 +424,7 @@ fn lm_type_ids_read_as_the_paper_writes_them() {
     assert_eq!(level_label("4"), "4");
     assert_eq!(ticks_over(0.0, 10.0), [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
     assert_eq!(nice_up(0.56), 1.0);
+    // Degenerate and overflowing spans give their ends, not a loop.
+    assert_eq!(ticks_over(3.0, 3.0), [3.0]);
+    assert_eq!(ticks_over(-f64::MAX, f64::MAX), [-f64::MAX, f64::MAX]);
 }
