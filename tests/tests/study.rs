@@ -105,9 +105,39 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
         }
     }
     let svg = std::fs::read_to_string(out.join("box-vibration.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("lms-25hz-a6"));
+    // The paper's words for the conditions, not their ids.
+    assert!(svg.starts_with("<svg") && svg.contains("LM-S 25 Hz") && !svg.contains("lms-25hz"));
     let pdf = std::fs::read(out.join("box-vibration.pdf")).unwrap();
     assert!(pdf.starts_with(b"%PDF-1.4") && pdf.ends_with(b"%%EOF\n"));
+    // One column by default, two with --width-mm 180; a width no page
+    // takes is bad input, refused before anything is written.
+    let width_mm = |pdf: &[u8]| -> f64 {
+        let text = String::from_utf8_lossy(pdf);
+        let w: f64 = text
+            .split("/MediaBox [0 0 ")
+            .nth(1)
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        w / 72.0 * 25.4
+    };
+    assert!((width_mm(&pdf) - 88.0).abs() < 0.2);
+    let o = study(&["report", out.to_str().unwrap(), "--width-mm", "180"])
+        .output()
+        .unwrap();
+    ok(&o);
+    let pdf = std::fs::read(out.join("box-vibration.pdf")).unwrap();
+    assert!((width_mm(&pdf) - 180.0).abs() < 0.2);
+    let o = study(&["report", out.to_str().unwrap(), "--width-mm", "10"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("--width-mm"), "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

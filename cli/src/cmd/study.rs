@@ -248,6 +248,15 @@ struct ReportArgs {
     /// participant in it).
     #[arg(value_name = "DIR")]
     dir: PathBuf,
+    /// Printed width of the box plots in mm, 60..=500 (one column 88, two
+    /// columns 180); text is 7.5-8 pt at that width.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = lmhost::field::plot::ONE_COLUMN_MM,
+        allow_negative_numbers = true
+    )]
+    width_mm: f64,
 }
 
 impl Args {
@@ -343,7 +352,11 @@ impl RunArgs {
 
 impl ReportArgs {
     fn run(self) -> anyhow::Result<()> {
-        let r = study::report::report(&self.dir)?;
+        let fig = lmhost::field::plot::Figure {
+            width_mm: self.width_mm,
+            ..lmhost::field::plot::Figure::default()
+        };
+        let r = study::report::report_to(&self.dir, &fig)?;
         for (d, why) in &r.skipped {
             lmhost::errln!("warning: skipped {}: {why}", d.display());
         }

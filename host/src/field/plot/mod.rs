@@ -250,7 +250,7 @@ pub fn write_png(
 /// Gives the SVG its printed size in mm (the `viewBox` stays in units)
 /// and its embedded maps the MIME type viewers need (plotters writes
 /// `data:png`, which browsers and Inkscape do not show).
-fn finish_svg(svg: &str, (w, h): (u32, u32), width_mm: f64) -> String {
+pub(crate) fn finish_svg(svg: &str, (w, h): (u32, u32), width_mm: f64) -> String {
     let height_mm = width_mm * h as f64 / w as f64;
     svg.replacen(
         &format!("width=\"{w}\" height=\"{h}\""),

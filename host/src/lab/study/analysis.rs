@@ -17,6 +17,21 @@ use crate::lab::stats::table::{
     Analysis, Design, FriedmanFamily, Observation, Outcome, PairFamily, analyse,
 };
 
+/// One condition's numbers for one question.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stat {
+    /// The stimulus.
+    pub stimulus: String,
+    /// Factor levels.
+    pub levels: Vec<String>,
+    /// The question column.
+    pub question: String,
+    /// The values, sorted.
+    pub values: Vec<f64>,
+    /// "Not perceived" answers (left out of `values`).
+    pub not_perceived: usize,
+}
+
 /// A condition's name in the statistics: its levels joined with `/`.
 pub fn condition_name(c: &Condition) -> String {
     c.levels.join("/")

@@ -26,6 +26,7 @@ pub mod analysis;
 pub mod answers;
 pub mod columns;
 pub mod design;
+pub mod figure;
 pub mod live;
 pub mod observer;
 pub mod options;

@@ -1,36 +1,22 @@
 //! `lmhost study report`: per condition and question, n, median and
 //! quartiles over every participant's `trials.csv` (`summary.csv`), the
-//! choices' counts (`choices.csv`), and a box plot per numeric question
-//! (PNG and SVG). Every file is written whole.
+//! choices' counts (`choices.csv`), the tests (`stats.*`) and a box plot
+//! per numeric answer column in the paper's layout ([`super::figure`]: PNG,
+//! SVG and PDF at a printed width). Every file is written whole.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-use plotters::coord::Shift;
-use plotters::prelude::*;
 
 use super::design;
 use super::protocol::Unlinked;
 use super::record::{self, Expect, SessionFile, Tail};
 use crate::error::InputError;
+use crate::field::plot::Figure;
 
 /// Quantile `q` of sorted `v` (the one definition, [`crate::clock::quantile`]).
 pub use crate::clock::quantile;
 
-/// One condition's numbers for one question.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Stat {
-    /// The stimulus.
-    pub stimulus: String,
-    /// Factor levels.
-    pub levels: Vec<String>,
-    /// The question column.
-    pub question: String,
-    /// The values, sorted.
-    pub values: Vec<f64>,
-    /// "Not perceived" answers (left out of `values`).
-    pub not_perceived: usize,
-}
+pub use super::analysis::Stat;
 
 /// What the report read and wrote.
 #[derive(Debug, Clone, Default)]
@@ -155,10 +141,17 @@ fn read_participant(d: &Path) -> Result<Participant, InputError> {
     })
 }
 
-/// Reads every participant under `dir` and writes the summary and figures
-/// into `dir`. Every value summarised is one its column accepts (a Likert
-/// point on its scale, a number in its range, finite).
+/// [`report_to`] with one-column figures in every format.
 pub fn report(dir: &Path) -> anyhow::Result<Report> {
+    report_to(dir, &Figure::default())
+}
+
+/// Reads every participant under `dir` and writes the summary, the tests
+/// and the figures (`fig`'s width and formats) into `dir`. Every value
+/// summarised is one its column accepts (a Likert point on its scale, a
+/// number in its range, finite).
+pub fn report_to(dir: &Path, fig: &Figure) -> anyhow::Result<Report> {
+    fig.check()?;
     let (dirs, skipped) = participant_dirs(dir)?;
     let mut first: Option<Participant> = None;
     // (condition, stimulus, row) of every participant.
@@ -335,169 +328,11 @@ pub fn report(dir: &Path) -> anyhow::Result<Report> {
         crate::files::write_whole(&p, text.as_bytes())?;
         out.files.push(p);
     }
-    figures(dir, &stats, &mut out.files)?;
+    for b in super::figure::plan(&first.protocol, &stats, &tests) {
+        let stem = dir.join(format!("box-{}", b.column));
+        out.files.extend(super::figure::write(&stem, &b, fig)?);
+    }
     Ok(out)
-}
-
-/// A box plot per numeric question: PNG, SVG and PDF.
-fn figures(dir: &Path, stats: &[Stat], files: &mut Vec<PathBuf>) -> anyhow::Result<()> {
-    crate::field::plot::register_font();
-    let mut questions: Vec<&str> = Vec::new();
-    for st in stats {
-        if !questions.contains(&st.question.as_str()) {
-            questions.push(&st.question);
-        }
-    }
-    for q in questions {
-        let group: Vec<&Stat> = stats.iter().filter(|s| s.question == q).collect();
-        let size = ((90 * group.len() as u32).max(400) + 100, 520);
-        let png = dir.join(format!("box-{q}.png"));
-        let e = |x: String| anyhow::anyhow!("drawing {}: {x}", png.display());
-        crate::field::plot::write_png(&png, size, |root| {
-            draw(root, q, &group).map_err(e)?;
-            Ok(())
-        })?;
-        files.push(png);
-        let svg_path = dir.join(format!("box-{q}.svg"));
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-            draw(&root, q, &group)
-                .map_err(|x| anyhow::anyhow!("drawing {}: {x}", svg_path.display()))?;
-            root.present()
-                .map_err(|x| anyhow::anyhow!("drawing {}: {x}", svg_path.display()))?;
-        }
-        crate::files::write_whole(&svg_path, svg.as_bytes())?;
-        files.push(svg_path);
-        // The PDF at the SVG's 96 units per inch.
-        let pdf_path = dir.join(format!("box-{q}.pdf"));
-        let e = |x: String| anyhow::anyhow!("drawing {}: {x}", pdf_path.display());
-        let mut pdf = Vec::new();
-        {
-            let backend =
-                crate::pdf::PdfBackend::new(&mut pdf, size, 0.75, crate::field::plot::FONT)
-                    .map_err(|x| e(x.to_string()))?;
-            let root = backend.into_drawing_area();
-            draw(&root, q, &group).map_err(e)?;
-            root.present().map_err(|x| e(x.to_string()))?;
-        }
-        crate::files::write_whole(&pdf_path, &pdf)?;
-        files.push(pdf_path);
-    }
-    Ok(())
-}
-
-/// One box per condition: quartile box, median line, whiskers to the most
-/// extreme values within 1.5 IQR, points beyond.
-fn draw<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    question: &str,
-    group: &[&Stat],
-) -> Result<(), String> {
-    let s = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    root.fill(&WHITE).map_err(s)?;
-    let all = group.iter().flat_map(|g| g.values.iter().copied());
-    let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-        (a.min(v), b.max(v))
-    });
-    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
-    // The values are checked finite and in range; a span that overflows
-    // would have the axis' ticks loop forever, so it is refused too.
-    let pad = ((hi - lo) * 0.08).max(0.5);
-    if !(lo - pad).is_finite() || !(hi + pad).is_finite() {
-        return Err(format!(
-            "the values span {} to {}, too wide to draw",
-            crate::limits::show(lo),
-            crate::limits::show(hi)
-        ));
-    }
-    let n = group.len();
-    let names: Vec<String> = group.iter().map(|g| g.stimulus.clone()).collect();
-    let mut chart = ChartBuilder::on(root)
-        .caption(question, ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(60)
-        .y_label_area_size(50)
-        .build_cartesian_2d(0.0..n as f64, (lo - pad)..(hi + pad))
-        .map_err(s)?;
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(0)
-        .y_max_light_lines(1)
-        .y_desc(question)
-        .draw()
-        .map_err(s)?;
-    let blue = RGBColor(44, 113, 142);
-    for (i, g) in group.iter().enumerate() {
-        if g.values.is_empty() {
-            continue;
-        }
-        let x = i as f64 + 0.5;
-        let (q1, med, q3) = (
-            quantile(&g.values, 0.25),
-            quantile(&g.values, 0.5),
-            quantile(&g.values, 0.75),
-        );
-        let iqr = q3 - q1;
-        let wlo = g
-            .values
-            .iter()
-            .copied()
-            .find(|v| *v >= q1 - 1.5 * iqr)
-            .unwrap_or(q1);
-        let whi = g
-            .values
-            .iter()
-            .rev()
-            .copied()
-            .find(|v| *v <= q3 + 1.5 * iqr)
-            .unwrap_or(q3);
-        let w = 0.3;
-        chart
-            .draw_series([
-                Rectangle::new([(x - w, q1), (x + w, q3)], blue.mix(0.3).filled()),
-                Rectangle::new([(x - w, q1), (x + w, q3)], blue.stroke_width(1)),
-            ])
-            .map_err(s)?;
-        chart
-            .draw_series([
-                PathElement::new(vec![(x - w, med), (x + w, med)], BLACK.stroke_width(2)),
-                PathElement::new(vec![(x, q3), (x, whi)], blue.stroke_width(1)),
-                PathElement::new(vec![(x, q1), (x, wlo)], blue.stroke_width(1)),
-                PathElement::new(
-                    vec![(x - w / 2.0, whi), (x + w / 2.0, whi)],
-                    blue.stroke_width(1),
-                ),
-                PathElement::new(
-                    vec![(x - w / 2.0, wlo), (x + w / 2.0, wlo)],
-                    blue.stroke_width(1),
-                ),
-            ])
-            .map_err(s)?;
-        chart
-            .draw_series(
-                g.values
-                    .iter()
-                    .filter(|v| **v < wlo || **v > whi)
-                    .map(|v| Circle::new((x, *v), 3, RED.filled())),
-            )
-            .map_err(s)?;
-    }
-    // Condition names under their boxes (the axis' own ticks fall
-    // between them).
-    let style = TextStyle::from(("sans-serif", 12).into_font()).pos(
-        plotters::style::text_anchor::Pos::new(
-            plotters::style::text_anchor::HPos::Center,
-            plotters::style::text_anchor::VPos::Top,
-        ),
-    );
-    for (i, name) in names.iter().enumerate() {
-        let (px, py) = chart.backend_coord(&(i as f64 + 0.5, lo - pad));
-        root.draw(&Text::new(name.clone(), (px, py + 8), style.clone()))
-            .map_err(s)?;
-    }
-    Ok(())
 }
 
 #[cfg(test)]

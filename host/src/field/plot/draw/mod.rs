@@ -8,6 +8,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use super::{Figure, Format, LABEL_PT, Labels, Overlay, Panel, TICK_PT, UNITS_PER_PT, viridis};
 use crate::field::ObservationPlane;
 
+mod ticks;
+
 /// The layout in backend units.
 #[derive(Clone)]
 pub(super) struct Layout {
@@ -21,12 +23,14 @@ pub(super) struct Layout {
     pw: i32,
     ph: i32,
     gap: i32,
-    ytick_w: i32,
     xtick_h: i32,
     legend_h: i32,
     row_w: i32,
     bar_x: i32,
 }
+
+/// The width left of the grid for the y tick labels (pt).
+const YTICK_W_PT: f64 = TICK_PT * 2.6;
 
 fn pt(v: f64) -> i32 {
     (v * UNITS_PER_PT).round() as i32
@@ -53,7 +57,7 @@ impl Layout {
             pt(LABEL_PT * (1.25 * lines as f64 + 0.4))
         };
         let ytitle_w = pt(LABEL_PT * 1.6);
-        let ytick_w = pt(TICK_PT * 2.6);
+        let ytick_w = pt(YTICK_W_PT);
         let bar_w = pt(LABEL_PT * 0.8 + LABEL_PT * 1.0 + TICK_PT * 3.4 + LABEL_PT * 1.6);
         let gap = pt(LABEL_PT * 0.6);
         let legend_h = pt(LABEL_PT * 2.0);
@@ -81,7 +85,6 @@ impl Layout {
             pw,
             ph,
             gap,
-            ytick_w,
             xtick_h,
             legend_h,
             row_w,
@@ -129,9 +132,18 @@ fn map_image(plane: &ObservationPlane, map: &[f64], vmax: f64, w: u32, h: u32) -
     buf
 }
 
-/// Draws panel `i` of a `rows × cols` grid: the map, the overlays, a frame
-/// and tick labels where the panel is on the left column or the bottom row.
-#[allow(clippy::too_many_arguments)]
+/// The plane's extent in mm: cell edges, not centres.
+fn extent(plane: &ObservationPlane) -> ((f64, f64), (f64, f64)) {
+    let (nu, nv) = (plane.nu(), plane.nv());
+    let h = plane.step_mm / 2.0;
+    (
+        (plane.u_mm(0) - h, plane.u_mm(nu - 1) + h),
+        (plane.v_mm(0) - h, plane.v_mm(nv - 1) + h),
+    )
+}
+
+/// Draws the panel at (`row`, `col`): the map, the overlays and a frame
+/// (its ticks are [`Layout::tick_labels`]').
 fn draw_panel<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     lay: &Layout,
@@ -139,42 +151,13 @@ fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
     vmax: f64,
     (row, col): (usize, usize),
-    rows: usize,
 ) -> Result<(), String> {
-    let (nu, nv) = (plane.nu(), plane.nv());
-    let h = plane.step_mm / 2.0;
-    let (u0, u1) = (plane.u_mm(0) - h, plane.u_mm(nu - 1) + h);
-    let (v0, v1) = (plane.v_mm(0) - h, plane.v_mm(nv - 1) + h);
+    let ((u0, u1), (v0, v1)) = extent(plane);
     let x = lay.x0 + col as i32 * (lay.pw + lay.gap);
     let y = lay.y0 + row as i32 * (lay.ph + lay.gap);
-    let left = if col == 0 { lay.ytick_w } else { 0 };
-    let bottom = if row + 1 == rows { lay.xtick_h } else { 0 };
-    let area = root
-        .clone()
-        .shrink((x - left, y), (lay.pw + left, lay.ph + bottom));
+    let area = root.clone().shrink((x, y), (lay.pw, lay.ph));
     let mut chart = ChartBuilder::on(&area)
-        .set_label_area_size(LabelAreaPosition::Left, left)
-        .set_label_area_size(LabelAreaPosition::Bottom, bottom)
         .build_cartesian_2d(u0..u1, v0..v1)
-        .map_err(|e| e.to_string())?;
-    // Small panels: ticks keep clear of the panel edges, so neighbours'
-    // labels do not touch.
-    let small = lay.pw < pt(60.0);
-    let (hu, hv) = ((u1 - u0) / 2.0, (v1 - v0) / 2.0);
-    let (cu, cv) = ((u1 + u0) / 2.0, (v1 + v0) / 2.0);
-    let fx = move |v: &f64| tick_inside(*v, cu, hu, small, true);
-    let fy = move |v: &f64| tick_inside(*v, cv, hv, small, false);
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_labels(5)
-        .y_labels(5)
-        .x_label_formatter(&fx)
-        .y_label_formatter(&fy)
-        .label_style(lay.text(TICK_PT))
-        .set_all_tick_mark_size(pt(2.0))
-        .axis_style(BLACK.stroke_width(pt(0.25) as u32))
-        .draw()
         .map_err(|e| e.to_string())?;
     let img = map_image(plane, panel.map, vmax, lay.pw as u32, lay.ph as u32);
     let elem = BitMapElement::with_owned_buffer((u0, v1), (lay.pw as u32, lay.ph as u32), img)
@@ -350,7 +333,21 @@ pub(super) fn draw_figure<DB: DrawingBackend>(
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let top = vmax(&panels.iter().map(|p| p.map).collect::<Vec<_>>());
     for (i, panel) in panels.iter().enumerate() {
-        draw_panel(root, lay, plane, panel, top, (i / cols, i % cols), rows)?;
+        draw_panel(root, lay, plane, panel, top, (i / cols, i % cols))?;
+    }
+    for t in lay.tick_labels(plane, rows, cols) {
+        root.draw(&PathElement::new(
+            vec![t.tick.0, t.tick.1],
+            BLACK.stroke_width(pt(0.25).max(1) as u32),
+        ))
+        .map_err(|e| e.to_string())?;
+        let pos = if t.horizontal {
+            Pos::new(HPos::Center, VPos::Top)
+        } else {
+            Pos::new(HPos::Right, VPos::Center)
+        };
+        root.draw_text(&t.text, &lay.text(TICK_PT).pos(pos), t.anchor)
+            .map_err(|e| e.to_string())?;
     }
     draw_colorbar(root, lay, rows, top, &labels.colorbar)?;
     if let Some(p) = panels.iter().find(|p| !p.overlay.foci.is_empty()) {
@@ -399,18 +396,6 @@ pub(super) fn draw_figure<DB: DrawingBackend>(
         draw(&labels.cols_title, &label, (lay.x0 + grid_w / 2, y))?;
     }
     Ok(())
-}
-
-/// The label of tick `v` on an axis centred on `c` with half-width `h`:
-/// when `small`, none in the outer quarter, nor (`sparse`: on a horizontal
-/// axis, where labels sit side by side) in the inner quarter.
-fn tick_inside(v: f64, c: f64, h: f64, small: bool, sparse: bool) -> String {
-    let d = (v - c).abs();
-    if small && (d > 0.75 * h || (sparse && d < 0.25 * h)) {
-        String::new()
-    } else {
-        format_mm(v)
-    }
 }
 
 pub(super) fn format_mm(v: f64) -> String {
