@@ -150,6 +150,7 @@ mod tests {
             prompt: "Which circle?".into(),
             accepts: Accepts::Choice(vec!["2".into(), "3".into()]),
             not_perceived: Some("could not perceive the stimulus".into()),
+            perceived_at: None,
         };
         let q = question(&asked, 1);
         assert_eq!(
