@@ -31,30 +31,24 @@ fn answers(d: &Path) -> std::path::PathBuf {
 }
 
 fn exp3(port: &str, out: &Path, answers: &Path, stage: &str) -> Output {
-    study(&[
-        "run",
+    run_p01(
         &studies("paper-exp3.toml"),
-        "--port",
         port,
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--finger",
-        "synthetic",
-        "--time-scale",
+        out,
         "0.02",
-        "--responses",
-        answers.to_str().unwrap(),
-        "--seed",
-        "3",
-        "--stage",
-        stage,
-        "--gauge",
-        "sim",
-        "--stage-speed",
-        "50",
-    ])
+        &[
+            "--responses",
+            answers.to_str().unwrap(),
+            "--seed",
+            "3",
+            "--stage",
+            stage,
+            "--gauge",
+            "sim",
+            "--stage-speed",
+            "50",
+        ],
+    )
     .output()
     .unwrap()
 }

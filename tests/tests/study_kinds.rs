@@ -62,24 +62,13 @@ text = "How strong was it?"
 }
 
 fn run(proto: &str, port: &str, out: &Path, answers: &Path) -> std::process::Output {
-    study(&[
-        "run",
+    run_p01(
         proto,
-        "--port",
         port,
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--finger",
-        "synthetic",
-        "--time-scale",
+        out,
         "0.05",
-        "--responses",
-        answers.to_str().unwrap(),
-        "--seed",
-        "1",
-    ])
+        &["--responses", answers.to_str().unwrap(), "--seed", "1"],
+    )
     .output()
     .unwrap()
 }

@@ -46,12 +46,18 @@ pub fn study(args: &[&str]) -> Command {
     c
 }
 
-/// `lmhost study run` of Experiment 1 for participant P01 with a
-/// synthetic finger at `time_scale`, then `extra`.
-pub fn exp1(port: &str, out: &Path, time_scale: &str, extra: &[&str]) -> Command {
+/// `lmhost study run PROTOCOL` for participant P01 on `port` into `out`
+/// with a synthetic finger at `time_scale`, then `extra`.
+pub fn run_p01(
+    protocol: &str,
+    port: &str,
+    out: &Path,
+    time_scale: &str,
+    extra: &[&str],
+) -> Command {
     let mut args = vec![
         "run",
-        studies("paper-exp1.toml").leak(),
+        protocol,
         "--port",
         port,
         "--participant",
@@ -65,6 +71,12 @@ pub fn exp1(port: &str, out: &Path, time_scale: &str, extra: &[&str]) -> Command
     ];
     args.extend_from_slice(extra);
     study(&args)
+}
+
+/// `lmhost study run` of Experiment 1 for participant P01 with a
+/// synthetic finger at `time_scale`, then `extra`.
+pub fn exp1(port: &str, out: &Path, time_scale: &str, extra: &[&str]) -> Command {
+    run_p01(&studies("paper-exp1.toml"), port, out, time_scale, extra)
 }
 
 pub fn run_exp1(port: &str, out: &Path, answers: &Path, extra: &[&str]) -> Output {

@@ -1,0 +1,127 @@
+//! The defect classes every case belongs to, and their order in the
+//! summary.
+
+/// Classes (issue 9's numbered defects and the paper audit).
+pub const DURATION: &str = "1 float to duration";
+pub const PIPE: &str = "2 broken pipe";
+pub const MEMORY: &str = "3 unbounded memory";
+pub const WORK: &str = "4 unbounded work";
+pub const CENTROIDS: &str = "5 wild centroids";
+pub const PLANS: &str = "6 silently wrong plans";
+pub const EXIT: &str = "7 exit codes";
+pub const SESSIONS: &str = "8 streaming sessions";
+pub const PLAY: &str = "9 play semantics";
+pub const SPEC: &str = "10 spec and implementation agree";
+pub const VALIDATION: &str = "11 one header, one validation";
+pub const UNTRACKED: &str = "untracked play and mute reason";
+pub const PAPER: &str = "paper fidelity";
+/// Classes of issue 18 (hostile input, round 3).
+pub const OUTPUT_ERRORS: &str = "r3-1 output errors";
+pub const SAME_FILE: &str = "r3-3 an output that is an input";
+pub const PARTIAL: &str = "r3-4 no partial outputs";
+pub const ODD_PATHS: &str = "r3-5 odd input paths";
+pub const PATH_MESSAGES: &str = "r3-11 input-path messages";
+pub const NUMBERS: &str = "r3-7 numbers in messages";
+pub const PORTS: &str = "r3-10 port strings";
+pub const REC_SIGNAL: &str = "r3-2 recordings survive signals";
+pub const STALLS: &str = "r3-6 stalls";
+pub const RIG: &str = "r3-8 rig sanity";
+pub const REFUSALS: &str = "r3-9 device refusals said";
+/// One behaviour on every backend: stimulus flags and files.
+pub const STIMULI: &str = "r4 stimulus flags and files";
+/// The study's data (issues 31.5, 31.6, 30).
+pub const STUDY_RESUME: &str = "r4-study-1 resume validates first";
+pub const STUDY_LABELS: &str = "r4-study-2 labels and answers";
+pub const STUDY_REPORT: &str = "r4-study-3 study report";
+pub const STUDY_READS: &str = "r4-study-4 bounded regular study reads";
+pub const STUDY_COUNTS: &str = "r4-study-5 counts that wrap";
+pub const STUDY_NUMBERS: &str = "r4-study-6 numbers name the field";
+/// Round 4, files (issues 30.4, 30.12, 30.16).
+pub const OUT_DEST: &str = "r4-30.4 output destinations";
+pub const EVENT_LOGS: &str = "r4-30.4 event logs never block";
+pub const MESSAGES: &str = "r4-30.16 one reason, named fields, sane ranges";
+pub const SCENE_EDITS: &str = "r4-30.16 scenes calibrated in any form";
+
+/// The rig session (issues 30, 31.3): `cases_r4_session.rs`.
+pub const SESSION_STALLS: &str = "r4-s1 no client slows the session";
+pub const SESSION_LINES: &str = "r4-s2 bounded control lines";
+pub const SESSION_TCP: &str = "r4-s3 local TCP control authenticated";
+pub const SESSION_LIBRARY: &str = "r4-s4 library larger than the device";
+pub const SESSION_MEANINGLESS: &str = "r4-s5 meaningless session input refused";
+pub const SESSION_SEMANTICS: &str = "r4-s6 session semantics";
+pub const SESSION_MESSAGES: &str = "r4-s7 session messages";
+pub const SESSION_OUTPUTS: &str = "r4-s8 session inputs before outputs";
+
+/// Classes of round 4's device work (issues 26, 30, 31).
+pub const STALE_LOCK: &str = "r4-30.15 a port lock dies with its holder";
+pub const AUTD3_SLOTS: &str = "r4-31 AUTD3 slots, segments and the in-process emulator";
+
+/// Round 4, the paper's experiments (issue 28): `cases_r4_paper.rs`.
+pub const PAPER_ANSWERS: &str = "r4-28.1 not perceived and answers as asked";
+pub const PAPER_REPORT: &str = "r4-28.3 the report's tests declared";
+pub const PAPER_RIG: &str = "r4-28.5 resume on the same rig";
+
+/// Round 5, Experiment 3's instruments and the study's finger sources
+/// (issue 28.2, 28.6): `cases_r5_exp3.rs`.
+pub const EXP3_INSTRUMENTS: &str = "r5-28.2 stage and gauge flags";
+pub const EXP3_SOURCES: &str = "r5-28.6 study finger sources";
+
+/// The live view (issue 27): `cases_r4_view.rs`.
+pub const VIEW_HTTP: &str = "r4-v1 bounded view requests";
+pub const VIEW_ADDRESS: &str = "r4-v2 --view addresses";
+
+/// Every class the suite must cover.
+pub const CLASSES: [&str; 52] = [
+    DURATION,
+    PIPE,
+    MEMORY,
+    WORK,
+    CENTROIDS,
+    PLANS,
+    EXIT,
+    SESSIONS,
+    PLAY,
+    SPEC,
+    VALIDATION,
+    UNTRACKED,
+    PAPER,
+    OUTPUT_ERRORS,
+    SAME_FILE,
+    PARTIAL,
+    ODD_PATHS,
+    PATH_MESSAGES,
+    NUMBERS,
+    PORTS,
+    REC_SIGNAL,
+    STALLS,
+    RIG,
+    REFUSALS,
+    STIMULI,
+    STUDY_RESUME,
+    STUDY_LABELS,
+    STUDY_REPORT,
+    STUDY_READS,
+    STUDY_COUNTS,
+    STUDY_NUMBERS,
+    OUT_DEST,
+    EVENT_LOGS,
+    MESSAGES,
+    SCENE_EDITS,
+    SESSION_STALLS,
+    SESSION_LINES,
+    SESSION_TCP,
+    SESSION_LIBRARY,
+    SESSION_MEANINGLESS,
+    SESSION_SEMANTICS,
+    SESSION_MESSAGES,
+    SESSION_OUTPUTS,
+    STALE_LOCK,
+    AUTD3_SLOTS,
+    PAPER_ANSWERS,
+    PAPER_REPORT,
+    PAPER_RIG,
+    VIEW_HTTP,
+    VIEW_ADDRESS,
+    EXP3_INSTRUMENTS,
+    EXP3_SOURCES,
+];
