@@ -4,9 +4,6 @@
 //! `study run` needing the participant's index.
 
 use std::collections::BTreeMap;
-use std::path::Path;
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
 
 mod link_support;
 use link_support::Sim;
