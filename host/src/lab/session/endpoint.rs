@@ -80,7 +80,9 @@ impl Endpoint {
                 _socket: None,
             }),
             Control::Socket { unix, tcp } => {
-                let (listener, socket) = bind_unix(unix)?;
+                // The token file exists before the socket does: a client
+                // that can connect can read it.
+                free_unix(unix)?;
                 let tcp = tcp
                     .map(|port| -> anyhow::Result<_> {
                         let l = std::net::TcpListener::bind(("127.0.0.1", port)).map_err(|e| {
@@ -89,6 +91,7 @@ impl Endpoint {
                         Ok((l, write_token(&token_path(unix))?))
                     })
                     .transpose()?;
+                let (listener, socket) = bind_unix(unix)?;
                 Ok(Self {
                     unix: Some(listener),
                     tcp,
@@ -144,8 +147,10 @@ fn write_token(path: &Path) -> anyhow::Result<Token> {
     Ok(token)
 }
 
-fn bind_unix(path: &Path) -> anyhow::Result<(std::os::unix::net::UnixListener, UnixSocket)> {
-    use std::os::unix::net::{UnixListener, UnixStream};
+/// Errors unless `path` may be bound: short enough, and nothing there but
+/// the socket of a session that died (removed).
+fn free_unix(path: &Path) -> anyhow::Result<()> {
+    use std::os::unix::net::UnixStream;
     let len = path.as_os_str().len();
     if len > MAX_SOCKET_PATH_BYTES {
         return Err(InputError::new(format!(
@@ -177,6 +182,12 @@ fn bind_unix(path: &Path) -> anyhow::Result<(std::os::unix::net::UnixListener, U
         std::fs::remove_file(path)
             .map_err(|e| anyhow::anyhow!("removing the stale socket {}: {e}", path.display()))?;
     }
+    Ok(())
+}
+
+/// Binds the control socket at `path` ([`free_unix`] first), mode 0600.
+fn bind_unix(path: &Path) -> anyhow::Result<(std::os::unix::net::UnixListener, UnixSocket)> {
+    use std::os::unix::net::UnixListener;
     let l = UnixListener::bind(path).map_err(|e| {
         anyhow::anyhow!("--control {}: {}", path.display(), crate::files::reason(&e))
     })?;
