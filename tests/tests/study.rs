@@ -460,21 +460,18 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     assert_eq!(e.lines().count(), 1);
     // --resume with nothing to resume, then with another protocol.
     let resume3 = |out: &Path| {
-        study(&[
-            "run",
+        run_on(
             &studies("paper-exp3.toml"),
-            "--port",
             "autd3:emulator",
-            "--participant",
-            "P01",
-            "--out",
-            out.to_str().unwrap(),
-            "--finger",
-            "synthetic",
-            "--responses",
-            answers.to_str().unwrap(),
-            "--resume",
-        ])
+            out,
+            &[
+                "--finger",
+                "synthetic",
+                "--responses",
+                answers.to_str().unwrap(),
+                "--resume",
+            ],
+        )
         .output()
         .unwrap()
     };

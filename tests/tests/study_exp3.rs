@@ -172,24 +172,21 @@ fn ctrl_c_mid_push_still_brings_the_stage_back() {
     let answers = answers(&d);
     let out = d.join("out");
     // At full time scale: a 2 s on-phase with the probe in the finger.
-    let mut child = study(&[
-        "run",
+    let mut child = run_on(
         &studies("paper-exp3.toml"),
-        "--port",
         "autd3:emulator",
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--finger",
-        "synthetic",
-        "--responses",
-        answers.to_str().unwrap(),
-        "--stage",
-        "sim",
-        "--gauge",
-        "sim",
-    ])
+        &out,
+        &[
+            "--finger",
+            "synthetic",
+            "--responses",
+            answers.to_str().unwrap(),
+            "--stage",
+            "sim",
+            "--gauge",
+            "sim",
+        ],
+    )
     .stderr(std::process::Stdio::piped())
     .spawn()
     .unwrap();

@@ -58,24 +58,21 @@ fn a_recorded_stream_is_a_finger_source_played_at_its_time_stamps() {
     let answers = d.join("answers.txt");
     std::fs::write(&answers, "3\n5\n").unwrap();
     let out = d.join("out");
-    let o = study(&[
-        "run",
+    let o = run_on(
         protocol(&d).to_str().unwrap(),
-        "--port",
         "autd3:emulator",
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--responses",
-        answers.to_str().unwrap(),
-        "--stream",
-        rec.to_str().unwrap(),
-        "--filter",
-        "none",
-        "--seed",
-        "1",
-    ])
+        &out,
+        &[
+            "--responses",
+            answers.to_str().unwrap(),
+            "--stream",
+            rec.to_str().unwrap(),
+            "--filter",
+            "none",
+            "--seed",
+            "1",
+        ],
+    )
     .output()
     .unwrap();
     ok(&o);
@@ -91,20 +88,12 @@ fn the_session_flags_are_the_studys() {
     // Flags only `session` had: refused for what they are, not unknown.
     let d = scratch("sources-flags");
     let out = d.join("out");
-    let o = study(&[
-        "run",
+    let o = run_on(
         protocol(&d).to_str().unwrap(),
-        "--port",
         "autd3:emulator",
-        "--participant",
-        "P01",
-        "--out",
-        out.to_str().unwrap(),
-        "--responses",
-        "/dev/null",
-        "--depth-stream",
-        "-",
-    ])
+        &out,
+        &["--responses", "/dev/null", "--depth-stream", "-"],
+    )
     .output()
     .unwrap();
     assert_eq!(o.status.code(), Some(2));

@@ -46,15 +46,9 @@ pub fn study(args: &[&str]) -> Command {
     c
 }
 
-/// `lmhost study run PROTOCOL` for participant P01 on `port` into `out`
-/// with a synthetic finger at `time_scale`, then `extra`.
-pub fn run_p01(
-    protocol: &str,
-    port: &str,
-    out: &Path,
-    time_scale: &str,
-    extra: &[&str],
-) -> Command {
+/// `lmhost study run PROTOCOL` for participant P01 on `port` into `out`,
+/// then `extra`.
+pub fn run_on(protocol: &str, port: &str, out: &Path, extra: &[&str]) -> Command {
     let mut args = vec![
         "run",
         protocol,
@@ -64,13 +58,22 @@ pub fn run_p01(
         "P01",
         "--out",
         out.to_str().unwrap(),
-        "--finger",
-        "synthetic",
-        "--time-scale",
-        time_scale,
     ];
     args.extend_from_slice(extra);
     study(&args)
+}
+
+/// [`run_on`] with a synthetic finger at `time_scale`, then `extra`.
+pub fn run_p01(
+    protocol: &str,
+    port: &str,
+    out: &Path,
+    time_scale: &str,
+    extra: &[&str],
+) -> Command {
+    let mut args = vec!["--finger", "synthetic", "--time-scale", time_scale];
+    args.extend_from_slice(extra);
+    run_on(protocol, port, out, &args)
 }
 
 /// `lmhost study run` of Experiment 1 for participant P01 with a
