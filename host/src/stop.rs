@@ -44,6 +44,14 @@ pub fn request() {
     STOP.store(true, Ordering::SeqCst);
 }
 
+/// Clears a stop request once what it stopped has ended: for a program
+/// that runs commands in process one after another (the Python package's
+/// `Study` after a `KeyboardInterrupt`), so the next one is not stopped
+/// before it starts.
+pub fn clear() {
+    STOP.store(false, Ordering::SeqCst);
+}
+
 /// Declare that this command polls [`requested`] and ends cleanly: from
 /// now on a signal only sets the flag.
 pub fn graceful() {

@@ -9,7 +9,9 @@ The same library as the ``lmhost`` command line, called from Python:
 * :class:`Device` opens a device by any ``--port`` form and uploads
   (``lmhost upload``);
 * :class:`Session` drives a running ``lmhost session`` over its control
-  socket (the JSON-line protocol in ``host/src/lab/session/PROTOCOL.md``).
+  socket (the JSON-line protocol in ``host/src/lab/session/PROTOCOL.md``);
+* :class:`Study` runs a study protocol (``lmhost study run``) with answers
+  from a Python callable, yielding the rows as they are written.
 
 Bad input raises :class:`ValueError` with the line the CLI prints; device
 and I/O faults raise :class:`DeviceError` (an :class:`OSError`). Every
@@ -31,7 +33,7 @@ import subprocess
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Dict, Iterator, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -46,6 +48,7 @@ __all__ = [
     "Plan",
     "Scene",
     "Session",
+    "Study",
     "TrackResult",
     "Tracker",
     "find_binary",
@@ -576,3 +579,77 @@ class Session:
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
+
+
+class Study:
+    """A study protocol run in this process, as ``lmhost study run`` runs it
+    (``studies/*.toml``; see ``docs/`` for the format): the same order,
+    files (``OUT/PARTICIPANT/trials.csv``, ``session.json``,
+    ``events.jsonl``) and resume.
+
+    ``answer(question)`` is called for every question, on the thread that
+    iterates (so a PsychoPy window or a button box may answer), with a dict:
+    ``column``, ``prompt``, ``kind`` (``likert``, ``choice``, ``number``),
+    ``accepts`` (``points``; ``labels``; ``min``/``max``), ``not_perceived``
+    (its label, answered as ``"na"``, or None) and ``level`` (the level a
+    procedure asks about, or None). It returns the answer as typed at the
+    terminal (``3``, a label or its number, a number). Iterating yields each
+    trial's row as a dict (``trials.csv``'s columns, as strings) once it is
+    on disk. A callback that raises, or Ctrl-C, ends the run with the array
+    silent and its exception propagating; run again with ``resume=True``.
+
+    ``port``: any ``--port`` form (a serial/pty path such as ``lmhost sim``
+    prints, ``tcp:HOST:PORT``, ``autd3:emulator``, ``autd3:soem``).
+    ``finger``: None (the protocol must not wait for a finger) or
+    ``"synthetic"`` (a finger that touches for each trial).
+    """
+
+    def __init__(
+        self,
+        protocol: PathLike,
+        participant: str,
+        out: PathLike,
+        port: str,
+        answer: Any,
+        scene: Optional[PathLike] = None,
+        seed: Optional[int] = None,
+        index: Optional[int] = None,
+        finger: Optional[str] = None,
+        time_scale: float = 1.0,
+        resume: bool = False,
+    ) -> None:
+        if not callable(answer):
+            raise ValueError(f"answer must be callable, got {answer!r}")
+        if seed is not None:
+            seed = _lmhost.int_arg("seed", seed, 0, 2**63 - 1)
+        if index is not None:
+            index = _lmhost.int_arg("index", index, 1, 2**31 - 1)
+        self._s = _lmhost.Study(
+            os.fspath(protocol),
+            str(participant),
+            os.fspath(out),
+            str(port),
+            answer,
+            scene=None if scene is None else os.fspath(scene),
+            seed=seed,
+            index=index,
+            finger=finger,
+            time_scale=_lmhost.float_arg("time_scale", time_scale),
+            resume=bool(resume),
+        )
+
+    def __iter__(self) -> Iterator[Dict[str, str]]:
+        return self
+
+    def __next__(self) -> Dict[str, str]:
+        return next(self._s)
+
+    def run(self) -> List[Dict[str, str]]:
+        """Runs to the end; the rows this run wrote."""
+        return list(self)
+
+    @property
+    def report(self) -> Optional[Dict[str, Any]]:
+        """What the run did once it has ended (``dir``, ``trials``, ``first``,
+        ``ran``, ``seed``, ``uploads``), else None."""
+        return self._s.report

@@ -1,7 +1,7 @@
 """Type stubs of `lmhost` (the binding of the lmhost Rust library)."""
 
 import os
-from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -173,3 +173,24 @@ class Session:
     def close(self) -> None: ...
     def __enter__(self) -> Session: ...
     def __exit__(self, *exc: Any) -> None: ...
+
+class Study:
+    def __init__(
+        self,
+        protocol: PathLike,
+        participant: str,
+        out: PathLike,
+        port: str,
+        answer: Callable[[Dict[str, Any]], Any],
+        scene: Optional[PathLike] = None,
+        seed: Optional[int] = None,
+        index: Optional[int] = None,
+        finger: Optional[str] = None,
+        time_scale: float = 1.0,
+        resume: bool = False,
+    ) -> None: ...
+    def __iter__(self) -> Iterator[Dict[str, str]]: ...
+    def __next__(self) -> Dict[str, str]: ...
+    def run(self) -> List[Dict[str, str]]: ...
+    @property
+    def report(self) -> Optional[Dict[str, Any]]: ...

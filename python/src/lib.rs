@@ -38,6 +38,7 @@ use lmhost::sense::track::presence::Hysteresis;
 
 mod args;
 mod device;
+mod study;
 use device::Device_;
 
 create_exception!(
@@ -613,6 +614,7 @@ fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Field_>()?;
     m.add_class::<Tracker_>()?;
     m.add_class::<Device_>()?;
+    m.add_class::<study::Study_>()?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(args::int_arg, m)?)?;

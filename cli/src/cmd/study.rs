@@ -319,6 +319,7 @@ impl RunArgs {
             resume_anyway: self.resume_anyway,
             view: self.view,
             instruments,
+            hooks: Default::default(),
         })?;
         let mean = |v: &[f64]| {
             if v.is_empty() {

@@ -109,6 +109,11 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             crate::limits::show(o.time_scale)
         );
     }
+    if o.hooks.answers.is_some() && o.answers != AnswerSource::Interactive {
+        crate::bad_input!(
+            "answers come either from the program or from --responses/--observer, not both"
+        );
+    }
     let p = Protocol::load(&o.protocol)?;
     let observer = observer::for_run(&o.answers, &p)?;
     if p.timeline.wait_for_finger && matches!(o.finger, FingerSource::None) {
@@ -190,7 +195,9 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         None => None,
     };
     // `--responses -` answers each question as it is asked, from stdin.
-    let answers: Box<dyn Answers> = if let Some(obs) = observer {
+    let answers: Box<dyn Answers> = if let Some(own) = o.hooks.answers.take() {
+        own
+    } else if let Some(obs) = observer {
         Box::new(obs)
     } else if o.answers == AnswerSource::File("-".into()) {
         Box::new(answers::Piped::named("--responses -")?)
@@ -253,6 +260,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         conditions: &p.conditions,
         questions: &p.questions,
     };
+    let mut rows = o.hooks.rows.take();
     let result = run_trials(
         &mut r,
         &p,
@@ -261,6 +269,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         first,
         &mut trials_log,
         &mut report,
+        &mut rows,
     );
     let reason = match &result {
         Ok(()) => OffsetReason::Quit,
@@ -310,7 +319,9 @@ fn tl_on_missing(p: &Protocol) -> bool {
     p.timeline.on_s.is_none()
 }
 
-/// Runs trials `first..` of `plan`, each row on disk before the next.
+/// Runs trials `first..` of `plan`, each row on disk (and given to
+/// `rows`) before the next.
+#[allow(clippy::too_many_arguments)]
 fn run_trials(
     r: &mut Runner,
     p: &Protocol,
@@ -319,6 +330,7 @@ fn run_trials(
     first: usize,
     trials_log: &mut AppendLog,
     report: &mut RunReport,
+    rows: &mut Option<Box<dyn FnMut(options::RowFields) + Send>>,
 ) -> anyhow::Result<()> {
     r.drain()?;
     if let Some(t) = plan.get(first - 1) {
@@ -332,6 +344,10 @@ fn run_trials(
         trials_log.line(&record::line(&fields))?;
         trials_log.sync()?;
         r.events.sync()?;
+        if let Some(f) = rows {
+            let names = p.columns.names().into_iter().map(str::to_owned);
+            f(names.zip(fields).collect());
+        }
         report.ran += 1;
         report
             .trial_s

@@ -87,6 +87,34 @@ pub struct RunOptions {
     /// Experiment 3's stage and gauge (`--stage`, `--gauge`), pushing in
     /// step with the on-phases.
     pub instruments: Option<super::push::PushOptions>,
+    /// What a program that runs the study in process takes part in (the
+    /// Python package's `lmhost.Study`); the CLI leaves it empty.
+    pub hooks: Hooks,
+}
+
+/// A finished trial's row: `(column, value)` in `trials.csv`'s header
+/// order, as written.
+pub type RowFields = Vec<(String, String)>;
+
+/// A program's part in a run: its own answers, and each row as it is
+/// written.
+#[derive(Default)]
+pub struct Hooks {
+    /// Answers every question in place of [`RunOptions::answers`] (which
+    /// must then be [`AnswerSource::Interactive`]).
+    pub answers: Option<Box<dyn super::answers::Answers + Send>>,
+    /// Called with each trial's row once it is on disk (synced), before
+    /// the next trial starts.
+    pub rows: Option<Box<dyn FnMut(RowFields) + Send>>,
+}
+
+impl std::fmt::Debug for Hooks {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Hooks")
+            .field("answers", &self.answers.is_some())
+            .field("rows", &self.rows.is_some())
+            .finish()
+    }
 }
 
 /// What a run did.
