@@ -371,9 +371,14 @@ impl ReportArgs {
             lmhost::outln!("{}", f.display())?;
         }
         lmhost::errln!(
-            "lmhost: {} participants, {} trials summarised",
+            "lmhost: {} participants, {} trials summarised{}",
             r.participants,
-            r.rows
+            r.rows,
+            if r.practice > 0 {
+                format!(" ({} practice trials left out)", r.practice)
+            } else {
+                String::new()
+            }
         );
         Ok(())
     }

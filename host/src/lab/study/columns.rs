@@ -12,6 +12,11 @@ pub const TRIAL: &str = "trial";
 pub const SET: &str = "set";
 /// The library entry presented.
 pub const STIMULUS: &str = "stimulus";
+/// The block's name, where the protocol has blocks.
+pub const BLOCK: &str = "block";
+/// `1` in a practice block's rows, else `0` (where the protocol has
+/// blocks); `study report` leaves practice rows out.
+pub const PRACTICE: &str = "practice";
 /// The columns after the factors: timing as realised and played.
 pub const TIMING: [&str; 12] = [
     "steps",
@@ -80,26 +85,35 @@ pub const LIST_SEPARATOR: char = '|';
 /// Every name the runner writes itself (factor and question names must
 /// differ from them).
 pub fn fixed() -> impl Iterator<Item = &'static str> {
-    [PARTICIPANT, TRIAL, SET, STIMULUS, TIME_UTC, ANSWERS]
-        .into_iter()
-        .chain(TIMING)
-        .chain([MISSED_DEADLINES, LEASE_EXPIRIES])
-        .chain([
-            START_DEPTH,
-            ADJUSTMENTS,
-            ADJUST_ANSWERS,
-            DEPTHS,
-            FINAL_DEPTH,
-            ADJUST_RT,
-            FORCE,
-        ])
-        .chain([
-            STAIRCASE_LEVELS,
-            STAIRCASE_ANSWERS,
-            STAIRCASE_REVERSALS,
-            STAIRCASE_AT_LIMIT,
-            THRESHOLD,
-        ])
+    [
+        PARTICIPANT,
+        TRIAL,
+        SET,
+        BLOCK,
+        PRACTICE,
+        STIMULUS,
+        TIME_UTC,
+        ANSWERS,
+    ]
+    .into_iter()
+    .chain(TIMING)
+    .chain([MISSED_DEADLINES, LEASE_EXPIRIES])
+    .chain([
+        START_DEPTH,
+        ADJUSTMENTS,
+        ADJUST_ANSWERS,
+        DEPTHS,
+        FINAL_DEPTH,
+        ADJUST_RT,
+        FORCE,
+    ])
+    .chain([
+        STAIRCASE_LEVELS,
+        STAIRCASE_ANSWERS,
+        STAIRCASE_REVERSALS,
+        STAIRCASE_AT_LIMIT,
+        THRESHOLD,
+    ])
 }
 
 /// Longest label (factor level, option, adjustment answer), bytes.
@@ -434,6 +448,27 @@ impl Columns {
             list,
             adjustments: adjust.map_or(0, |a| a.max),
         })
+    }
+
+    /// The same header with the blocks' columns after `set`: the block's
+    /// name (one of `names`) and whether it is practice.
+    pub fn with_blocks(mut self, names: Vec<String>) -> Result<Self, String> {
+        for name in [BLOCK, PRACTICE] {
+            if self.index(name).is_some() {
+                return Err(format!(
+                    "column `{name}` is used twice (factor and question names and trials.csv's own columns must differ)"
+                ));
+            }
+        }
+        let at = self.index(SET).map_or(0, |i| i + 1);
+        self.list.splice(
+            at..at,
+            [
+                Column::new(BLOCK, Holds::Level(names)),
+                Column::new(PRACTICE, Holds::Level(vec!["0".into(), "1".into()])),
+            ],
+        );
+        Ok(self)
     }
 
     /// The same header with a staircase's columns after the rest: its

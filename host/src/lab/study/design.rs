@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 pub use super::protocol::Order;
-use super::protocol::{Condition, Protocol, Question};
+use super::protocol::{Block, Condition, Protocol, Question};
 use crate::rng::SplitMix64;
 
 /// One planned trial.
@@ -16,8 +16,14 @@ use crate::rng::SplitMix64;
 pub struct Planned {
     /// 1-based trial number.
     pub trial: usize,
-    /// 1-based set.
+    /// 1-based set (within its block).
     pub set: usize,
+    /// 1-based block (1 where the protocol has none).
+    #[serde(default = "first_block")]
+    pub block: usize,
+    /// Whether it is a practice trial (left out of the report).
+    #[serde(default)]
+    pub practice: bool,
     /// Index into the protocol's conditions.
     pub condition: usize,
     /// The library entry.
@@ -25,6 +31,10 @@ pub struct Planned {
     /// Per question (in protocol order): the order its items or options
     /// are shown in (indices; empty when not shuffled or not applicable).
     pub orders: Vec<Vec<usize>>,
+}
+
+fn first_block() -> usize {
+    1
 }
 
 /// A uniform random permutation of `0..n` (Fisher–Yates).
@@ -76,40 +86,78 @@ pub fn plan(p: &Protocol, seed: u64) -> Vec<Planned> {
 /// The whole session's trials for `seed` and the participant's 1-based
 /// `index` (which row of the Latin square; `None` reads as 1).
 pub fn plan_for(p: &Protocol, seed: u64, index: Option<usize>) -> Vec<Planned> {
-    plan_of(p.sets, &p.conditions, &p.questions, p.order, seed, index)
+    plan_of(
+        Sets {
+            sets: p.sets,
+            order: p.order,
+            blocks: &p.blocks,
+        },
+        &p.conditions,
+        &p.questions,
+        seed,
+        index,
+    )
+}
+
+/// How a protocol's trials are grouped: its `sets` and `order`, or its
+/// blocks (each with its own).
+#[derive(Debug, Clone, Copy)]
+pub struct Sets<'a> {
+    /// Sets (without blocks).
+    pub sets: usize,
+    /// The order (without blocks).
+    pub order: Order,
+    /// The blocks (empty: none).
+    pub blocks: &'a [Block],
 }
 
 /// [`plan_for`] from a protocol's parts (the report has no library).
 pub fn plan_of(
-    sets: usize,
+    grouping: Sets,
     conditions: &[Condition],
     questions: &[Question],
-    how: Order,
     seed: u64,
     index: Option<usize>,
 ) -> Vec<Planned> {
     let mut order = SplitMix64::new(seed);
     // A second stream: option orders do not change the condition order.
     let mut options = SplitMix64::new(seed ^ 0x0F71_0A5E_ED00_0005_u64);
-    let n = conditions.len();
-    let mut sequence: Vec<(usize, usize)> = Vec::with_capacity(sets.saturating_mul(n));
-    for set in 1..=sets {
-        let within = match how {
-            Order::Random => permutation(&mut order, n),
-            Order::Sequential | Order::FullRandom => (0..n).collect(),
-            Order::LatinSquare => {
-                let row = index.unwrap_or(1).saturating_sub(1) % latin_square_rows(n);
-                latin_square_row(n, row)
-            }
-        };
-        sequence.extend(within.into_iter().map(|c| (set, c)));
-    }
-    if how == Order::FullRandom {
-        let p = permutation(&mut order, sequence.len());
-        sequence = p.into_iter().map(|i| sequence[i]).collect();
+    let all: Vec<usize> = (0..conditions.len()).collect();
+    // (block, practice, sets, order, its conditions).
+    let runs: Vec<(usize, bool, usize, Order, &[usize])> = if grouping.blocks.is_empty() {
+        vec![(1, false, grouping.sets, grouping.order, &all)]
+    } else {
+        grouping
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (i + 1, b.practice, b.sets, b.order, b.conditions.as_slice()))
+            .collect()
+    };
+    // (block, practice, set, condition), in the order run.
+    let mut sequence: Vec<(usize, bool, usize, usize)> = Vec::new();
+    for (block, practice, sets, how, these) in runs {
+        let n = these.len();
+        let mut run: Vec<(usize, bool, usize, usize)> = Vec::with_capacity(sets.saturating_mul(n));
+        for set in 1..=sets {
+            let within = match how {
+                Order::Random => permutation(&mut order, n),
+                Order::Sequential | Order::FullRandom => (0..n).collect(),
+                Order::LatinSquare => {
+                    let row = index.unwrap_or(1).saturating_sub(1) % latin_square_rows(n);
+                    latin_square_row(n, row)
+                }
+            };
+            run.extend(within.into_iter().map(|c| (block, practice, set, these[c])));
+        }
+        if how == Order::FullRandom {
+            let p = permutation(&mut order, run.len());
+            run = p.into_iter().map(|i| run[i]).collect();
+        }
+        sequence.extend(run);
     }
     let mut out = Vec::with_capacity(sequence.len());
-    for (set, c) in sequence {
+    for (block, practice, set, c) in sequence {
         let orders = questions
             .iter()
             .map(|q| {
@@ -123,6 +171,8 @@ pub fn plan_of(
         out.push(Planned {
             trial: out.len() + 1,
             set,
+            block,
+            practice,
             condition: c,
             stimulus: conditions[c].stimulus.clone(),
             orders,
@@ -251,7 +301,17 @@ mod tests {
         p.order = Order::Random;
         assert_eq!(
             plan(&p, 7),
-            plan_of(2, &p.conditions, &p.questions, Order::Random, 7, None)
+            plan_of(
+                Sets {
+                    sets: 2,
+                    order: Order::Random,
+                    blocks: &[]
+                },
+                &p.conditions,
+                &p.questions,
+                7,
+                None
+            )
         );
     }
 }

@@ -259,6 +259,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         factors: &p.factors,
         conditions: &p.conditions,
         questions: &p.questions,
+        blocks: &p.blocks,
     };
     let mut rows = o.hooks.rows.take();
     let result = run_trials(
@@ -339,6 +340,25 @@ fn run_trials(
     }
     for (i, t) in plan.iter().enumerate().skip(first - 1) {
         let t0 = monotonic_us();
+        let block = t.block.checked_sub(1).and_then(|b| p.blocks.get(b));
+        if let Some(b) = block
+            && (i + 1 == first || plan[i - 1].block != t.block)
+        {
+            r.log(serde_json::json!({
+                "event": "block", "block": b.name, "practice": b.practice,
+                "trials": b.trials(),
+            }))?;
+            crate::errln!(
+                "block `{}`{}: {} trials{}",
+                b.name,
+                if b.practice { " (practice)" } else { "" },
+                b.trials(),
+                b.text
+                    .as_ref()
+                    .map(|x| format!(": {x}"))
+                    .unwrap_or_default()
+            );
+        }
         let (row, presented) = r.trial(p, expect, t, plan.get(i + 1))?;
         let fields = p.columns.fields(&row).map_err(|m| anyhow::anyhow!(m))?;
         trials_log.line(&record::line(&fields))?;
@@ -353,7 +373,15 @@ fn run_trials(
             .trial_s
             .push(monotonic_us().saturating_sub(t0) as f64 / 1e6);
         report.presented_s.push(presented);
-        if i + 1 < plan.len() {
+        if let Some(next) = plan.get(i + 1) {
+            // A block's break, the array silent, before the next block.
+            if let Some(b) = block.filter(|b| b.break_s > 0.0 && next.block != t.block) {
+                r.log(serde_json::json!({
+                    "event": "break", "block": b.name, "s": b.break_s * r.scale,
+                }))?;
+                crate::errln!("break: {} s", crate::limits::show(b.break_s * r.scale));
+                r.wait(b.break_s * r.scale)?;
+            }
             r.wait(p.timeline.iti_s * r.scale)?;
         }
     }

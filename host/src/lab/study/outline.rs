@@ -29,13 +29,49 @@ pub fn outline(p: &Protocol, index: Option<usize>, seed: Option<u64>) -> String 
         .map(|f| format!("{} ({})", f.name, f.levels.join(", ")))
         .collect();
     let _ = writeln!(s, "factors: {}", factors.join("; "));
-    let _ = writeln!(
-        s,
-        "conditions: {n}; sets: {}; trials: {}; order: {}",
-        p.sets,
-        p.trials(),
-        p.order.name()
-    );
+    if p.blocks.is_empty() {
+        let _ = writeln!(
+            s,
+            "conditions: {n}; sets: {}; trials: {}; order: {}",
+            p.sets,
+            p.trials(),
+            p.order.name()
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "conditions: {n}; blocks: {}; trials: {}",
+            p.blocks.len(),
+            p.trials()
+        );
+    }
+    for (i, b) in p.blocks.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "block {} `{}`{}: {} conditions ({}); sets: {}; trials: {}; order: {}{}",
+            i + 1,
+            b.name,
+            if b.practice {
+                " (practice: in trials.csv, not in the report)"
+            } else {
+                ""
+            },
+            b.conditions.len(),
+            b.conditions
+                .iter()
+                .map(|&c| name(c))
+                .collect::<Vec<_>>()
+                .join(" "),
+            b.sets,
+            b.trials(),
+            b.order.name(),
+            if b.break_s > 0.0 {
+                format!("; then a {} s break", crate::limits::show(b.break_s))
+            } else {
+                String::new()
+            }
+        );
+    }
     if let Some(a) = &p.adjustment {
         let _ = writeln!(
             s,
@@ -71,51 +107,78 @@ pub fn outline(p: &Protocol, index: Option<usize>, seed: Option<u64>) -> String 
             questions.join(", ")
         }
     );
-    match (p.order, index, seed) {
-        (Order::LatinSquare, None, _) => {
-            let rows = design::latin_square_rows(n);
+    // Each run of trials: the protocol's, or each block's.
+    let all: Vec<usize> = (0..n).collect();
+    let runs: Vec<(Option<&str>, Order, &[usize])> = if p.blocks.is_empty() {
+        vec![(None, p.order, &all)]
+    } else {
+        p.blocks
+            .iter()
+            .map(|b| (Some(b.name.as_str()), b.order, b.conditions.as_slice()))
+            .collect()
+    };
+    let latin = index.is_none() && runs.iter().any(|r| r.1 == Order::LatinSquare);
+    let random = seed.is_none()
+        && runs
+            .iter()
+            .any(|r| matches!(r.1, Order::Random | Order::FullRandom));
+    if latin {
+        for (block, _, these) in runs.iter().filter(|r| r.1 == Order::LatinSquare) {
+            let m = these.len();
+            let rows = design::latin_square_rows(m);
             let _ = writeln!(
                 s,
-                "balanced Latin square: participant N gets row (N - 1) mod {rows} in every set:"
+                "balanced Latin square{}: participant N gets row (N - 1) mod {rows} in every set:",
+                block
+                    .map(|b| format!(" of block `{b}`"))
+                    .unwrap_or_default()
             );
             for r in 0..rows {
-                let row: Vec<String> = design::latin_square_row(n, r)
+                let row: Vec<String> = design::latin_square_row(m, r)
                     .into_iter()
-                    .map(name)
+                    .map(|c| name(these[c]))
                     .collect();
                 let _ = writeln!(s, "participant {}: {}", r + 1, row.join(" "));
             }
         }
-        (Order::Random | Order::FullRandom, _, None) => {
-            let _ = writeln!(
-                s,
-                "the order is drawn from the run's seed (recorded): give --seed N to see one"
-            );
-        }
-        (_, _, _) => {
-            let plan = design::plan_for(p, seed.unwrap_or(0), index);
-            let who = match index {
-                Some(i) => format!("participant {i}"),
-                None => "every participant".into(),
+    }
+    if random {
+        let _ = writeln!(
+            s,
+            "the order is drawn from the run's seed (recorded): give --seed N to see one"
+        );
+    }
+    if !latin && !random {
+        let plan = design::plan_for(p, seed.unwrap_or(0), index);
+        let who = match index {
+            Some(i) => format!("participant {i}"),
+            None => "every participant".into(),
+        };
+        let _ = writeln!(
+            s,
+            "trials of {who}{}: trial {}set condition stimulus",
+            match seed.filter(|_| {
+                runs.iter()
+                    .any(|r| matches!(r.1, Order::Random | Order::FullRandom))
+            }) {
+                Some(x) => format!(" (seed {x})"),
+                None => String::new(),
+            },
+            if p.blocks.is_empty() { "" } else { "block " }
+        );
+        for t in plan {
+            let block = match p.blocks.get(t.block.wrapping_sub(1)) {
+                Some(b) => format!("{} ", b.name),
+                None => String::new(),
             };
             let _ = writeln!(
                 s,
-                "trials of {who}{}: trial set condition stimulus",
-                match (p.order, seed) {
-                    (Order::Random | Order::FullRandom, Some(x)) => format!(" (seed {x})"),
-                    _ => String::new(),
-                }
+                "{} {block}{} {} {}",
+                t.trial,
+                t.set,
+                name(t.condition),
+                t.stimulus
             );
-            for t in plan {
-                let _ = writeln!(
-                    s,
-                    "{} {} {} {}",
-                    t.trial,
-                    t.set,
-                    name(t.condition),
-                    t.stimulus
-                );
-            }
         }
     }
     s

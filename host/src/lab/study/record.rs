@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::columns::{self, Columns, Holds, Row};
 use super::design::Planned;
-use super::protocol::{Condition, Factor, Question};
+use super::protocol::{Block, Condition, Factor, Question};
 use crate::error::InputError;
 
 /// Largest `session.json`: the most trials a session has
@@ -204,6 +204,8 @@ pub struct Expect<'a> {
     pub conditions: &'a [Condition],
     /// Its questions.
     pub questions: &'a [Question],
+    /// Its blocks (empty: none, and no block columns).
+    pub blocks: &'a [Block],
 }
 
 impl Expect<'_> {
@@ -215,6 +217,10 @@ impl Expect<'_> {
         r.set(columns::TRIAL, t.trial.to_string());
         r.set(columns::SET, t.set.to_string());
         r.set(columns::STIMULUS, t.stimulus.as_str());
+        if let Some(b) = t.block.checked_sub(1).and_then(|i| self.blocks.get(i)) {
+            r.set(columns::BLOCK, b.name.as_str());
+            r.set(columns::PRACTICE, if t.practice { "1" } else { "0" });
+        }
         if let Some(c) = self.conditions.get(t.condition) {
             for (f, l) in self.factors.iter().zip(&c.levels) {
                 r.set(&f.name, l.as_str());

@@ -34,6 +34,8 @@ pub struct Report {
     pub torn: Vec<PathBuf>,
     /// "Not perceived" answers, left out of every statistic.
     pub not_perceived: usize,
+    /// Practice trials' rows, left out of everything reported.
+    pub practice: usize,
 }
 
 /// Folders skipped, each with the reason.
@@ -113,10 +115,13 @@ fn read_participant(d: &Path) -> Result<Participant, InputError> {
     let origin = format!("{} (its protocol)", sp.display());
     let protocol = Unlinked::from_toml(&session.protocol, &origin)?;
     let plan = design::plan_of(
-        protocol.sets,
+        design::Sets {
+            sets: protocol.sets,
+            order: protocol.order,
+            blocks: &protocol.blocks,
+        },
         &protocol.conditions,
         &protocol.questions,
-        protocol.order,
         session.seed,
         session.index,
     );
@@ -131,6 +136,7 @@ fn read_participant(d: &Path) -> Result<Participant, InputError> {
         factors: &protocol.factors,
         conditions: &protocol.conditions,
         questions: &protocol.questions,
+        blocks: &protocol.blocks,
     };
     let trials = record::read_trials(&d.join("trials.csv"), &protocol.columns, &plan, &expect)?;
     Ok(Participant {
@@ -177,13 +183,14 @@ pub fn report_to(dir: &Path, fig: &Figure) -> anyhow::Result<Report> {
         if p.trials.tail == Tail::TornRow {
             out.torn.push(d.join("trials.csv"));
         }
-        rows.extend(
-            p.trials
-                .rows
-                .iter()
-                .zip(&p.plan)
-                .map(|(r, t)| (t.condition, r.clone())),
-        );
+        let (practice, kept): (Vec<_>, Vec<_>) = p
+            .trials
+            .rows
+            .iter()
+            .zip(&p.plan)
+            .partition(|(_, t)| t.practice);
+        out.practice += practice.len();
+        rows.extend(kept.into_iter().map(|(r, t)| (t.condition, r.clone())));
         first.get_or_insert(p);
     }
     let Some(first) = first else {

@@ -151,6 +151,7 @@ pub fn resume(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Sta
         factors: &p.factors,
         conditions: &p.conditions,
         questions: &p.questions,
+        blocks: &p.blocks,
     };
     let trials = record::read_trials(&paths.trials, &p.columns, &plan, &expect).map_err(refused)?;
     // The event log is appended to: a FIFO or device there would block.

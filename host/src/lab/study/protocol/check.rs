@@ -97,6 +97,9 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
             })
         })
         .transpose()?;
+    let order = Order::from(file.order);
+    let blocks = super::blocks::check(file.block, &factors, &conditions, sets, order, e)?;
+    let block_names: Vec<String> = blocks.iter().map(|b| b.name.clone()).collect();
     let columns = Columns::new(
         factors
             .iter()
@@ -121,18 +124,21 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         ),
         None => Ok(c),
     })
+    .and_then(|c| {
+        if block_names.is_empty() {
+            Ok(c)
+        } else {
+            c.with_blocks(block_names)
+        }
+    })
     .map_err(|m| e.bad(m))?;
     Ok(Unlinked {
         name: file.name.0,
         library: file.library,
         stimulus: file.stimulus,
         sets,
-        order: match file.order {
-            OrderFile::Random => Order::Random,
-            OrderFile::Sequential => Order::Sequential,
-            OrderFile::FullRandom => Order::FullRandom,
-            OrderFile::LatinSquare => Order::LatinSquare,
-        },
+        order,
+        blocks,
         timeline,
         factors,
         conditions,
@@ -557,4 +563,15 @@ fn report(r: Option<ReportFile>, factors: &[Factor], e: &Errors) -> Result<Repor
         pairs,
         friedman,
     })
+}
+
+impl From<OrderFile> for Order {
+    fn from(o: OrderFile) -> Self {
+        match o {
+            OrderFile::Random => Order::Random,
+            OrderFile::Sequential => Order::Sequential,
+            OrderFile::FullRandom => Order::FullRandom,
+            OrderFile::LatinSquare => Order::LatinSquare,
+        }
+    }
 }

@@ -31,6 +31,39 @@ pub(super) struct File {
     pub adjustment: Option<Spanned<AdjustmentFile>>,
     pub staircase: Option<Spanned<StaircaseFile>>,
     pub report: Option<ReportFile>,
+    /// Blocks of trials run one after another (none: one block of every
+    /// condition with the protocol's `sets` and `order`).
+    #[serde(default)]
+    pub block: Vec<Spanned<BlockFile>>,
+}
+
+/// A block of trials (`[[block]]`, checked in `super::blocks`): the
+/// conditions whose levels it names, in sets of its own, then an optional
+/// break.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct BlockFile {
+    /// The block's name (the `block` column of trials.csv).
+    pub name: Spanned<Name>,
+    /// A practice block: its rows are written (`practice` = 1) and left
+    /// out of `study report`.
+    #[serde(default)]
+    pub practice: bool,
+    /// Sets in the block, each every one of its conditions once (default:
+    /// the protocol's `sets`).
+    pub sets: Option<Sets>,
+    /// How its conditions are ordered in each set (default: the
+    /// protocol's `order`).
+    pub order: Option<OrderFile>,
+    /// Per factor, the levels the block keeps, e.g. `{ radius = ["3"] }`
+    /// (a factor not named: all its levels).
+    #[serde(default)]
+    pub levels: std::collections::BTreeMap<String, Spanned<Vec<Label>>>,
+    /// Seconds of silence after the block, before the next one (0: none).
+    #[serde(default)]
+    pub break_s: Seconds<true>,
+    /// Shown to the participant as the block starts.
+    pub text: Option<Label>,
 }
 
 #[derive(Debug, Deserialize)]

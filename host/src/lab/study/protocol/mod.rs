@@ -3,12 +3,14 @@
 //! and an optional method-of-adjustment loop. Checked whole before the
 //! device opens: a bad field is one line naming the file, line and field.
 
+mod blocks;
 mod check;
 mod errors;
 mod file;
 mod report;
 mod staircase;
 
+pub use blocks::{Block, MAX_BLOCKS};
 pub use report::{PairSpec, ReportSpec};
 pub use staircase::{LEVEL, Staircase};
 
@@ -271,6 +273,9 @@ pub struct Protocol {
     pub sets: usize,
     /// How the conditions are ordered.
     pub order: Order,
+    /// The blocks in the order run (empty: one block of every condition,
+    /// `sets` and `order`).
+    pub blocks: Vec<Block>,
     /// The trial's timeline.
     pub timeline: Timeline,
     /// The factors.
@@ -303,6 +308,9 @@ pub struct Unlinked {
     pub sets: usize,
     /// How the conditions are ordered.
     pub order: Order,
+    /// The blocks in the order run (empty: one block of every condition,
+    /// `sets` and `order`).
+    pub blocks: Vec<Block>,
     /// The trial's timeline.
     pub timeline: Timeline,
     /// The factors.
@@ -435,6 +443,7 @@ impl Protocol {
             library,
             sets: u.sets,
             order: u.order,
+            blocks: u.blocks,
             timeline: u.timeline,
             factors: u.factors,
             conditions: u.conditions,
@@ -446,9 +455,13 @@ impl Protocol {
         })
     }
 
-    /// Trials in all: conditions × sets.
+    /// Trials in all: conditions × sets, or the blocks' sum.
     pub fn trials(&self) -> usize {
-        self.conditions.len() * self.sets
+        if self.blocks.is_empty() {
+            self.conditions.len() * self.sets
+        } else {
+            self.blocks.iter().map(Block::trials).sum()
+        }
     }
 }
 

@@ -15,6 +15,7 @@ fn expect(p: &Protocol) -> Expect<'_> {
         factors: &p.factors,
         conditions: &p.conditions,
         questions: &p.questions,
+        blocks: &p.blocks,
     }
 }
 
