@@ -7,41 +7,18 @@ import pytest
 
 import lmhost
 
-PROTOCOL = """name = "two"
-library = "{library}"
-sets = 2
-stimulus = "{{type}}-a3"
-
-[timeline]
-on_s = 0.3
-iti_s = 0.1
-gate = "untracked"
-
-[[factor]]
-name = "type"
-levels = ["lms-5hz", "lms-25hz"]
-
-[[question]]
-id = "vibration"
-kind = "likert"
-points = 7
-low = "not at all"
-high = "very"
-text = "How intense?"
-
-[[question]]
-id = "where"
-kind = "choice"
-options = ["left", "right"]
-text = "Where?"
-"""
-
-
 @pytest.fixture
-def protocol(tmp_path, root):
-    p = tmp_path / "two.toml"
-    p.write_text(PROTOCOL.format(library=(root / "studies" / "paper-library.toml").as_posix()))
-    return p
+def protocol(root):
+    """Experiment 1 (30 trials; vibration, movement and three shape items
+    after each), played with a synthetic finger."""
+    return root / "studies" / "paper-exp1.toml"
+
+
+def run(protocol, participant, out, answer, **kw):
+    kw.setdefault("time_scale", 0.02)
+    return lmhost.Study(
+        protocol, participant, out, "autd3:emulator", answer, finger="synthetic", **kw
+    )
 
 
 def test_rows_come_as_written_and_answers_from_the_callback(tmp_path, protocol):
@@ -49,12 +26,10 @@ def test_rows_come_as_written_and_answers_from_the_callback(tmp_path, protocol):
 
     def answer(q):
         asked.append(q)
-        if q["kind"] == "likert":
-            return len(asked) % 7 + 1
-        return q["accepts"]["labels"][1]
+        return "na" if len(asked) % 11 == 0 else len(asked) % 7 + 1
 
     out = tmp_path / "out"
-    study = lmhost.Study(protocol, "p01", out, "autd3:emulator", answer, seed=7, time_scale=0.5)
+    study = run(protocol, "p01", out, answer, seed=7)
     seen = []
     for row in study:
         # The row is on disk before it is yielded.
@@ -62,14 +37,19 @@ def test_rows_come_as_written_and_answers_from_the_callback(tmp_path, protocol):
             on_disk = list(csv.DictReader(f))
         assert on_disk[-1] == row
         seen.append(row)
-    assert len(seen) == 4
-    assert [q["column"] for q in asked] == ["vibration", "where"] * 4
-    assert asked[0]["accepts"] == {"points": 7}
-    assert asked[1]["kind"] == "choice" and asked[1]["accepts"]["labels"] == ["left", "right"]
-    assert [r["vibration"] for r in seen] == [str(i % 7 + 1) for i in (1, 3, 5, 7)]
-    assert {r["where"] for r in seen} == {"right"}
-    assert sorted(r["stimulus"] for r in seen) == ["lms-25hz-a3"] * 2 + ["lms-5hz-a3"] * 2
-    assert study.report["ran"] == 4 and study.report["seed"] == 7
+    assert len(seen) == 30
+    assert [q["column"] for q in asked[:2]] == ["vibration", "movement"]
+    assert sorted(q["column"] for q in asked[2:5]) == ["shape_concave", "shape_convex", "shape_flat"]
+    assert len(asked) == 150
+    assert asked[0]["kind"] == "likert" and asked[0]["accepts"] == {"points": 7}
+    assert asked[0]["not_perceived"] == "could not perceive the stimulus"
+    # The answers land in the rows in the order asked, `na` included.
+    for k, row in enumerate(seen):
+        n = 5 * k + 1
+        want = "na" if n % 11 == 0 else str(n % 7 + 1)
+        assert row["vibration"] == want, (k, row)
+    assert len({r["stimulus"] for r in seen}) == 15
+    assert study.report["ran"] == 30 and study.report["seed"] == 7
 
 
 def test_a_callback_that_raises_ends_the_run_resumable(tmp_path, protocol):
@@ -80,30 +60,27 @@ def test_a_callback_that_raises_ends_the_run_resumable(tmp_path, protocol):
 
     def answer(q):
         n.append(q)
-        if len(n) == 3:  # the second trial's first question
+        if len(n) == 6:  # the second trial's first question
             raise Quit("the participant left")
-        return 1 if q["kind"] == "likert" else "left"
+        return 1
 
     out = tmp_path / "out"
     rows = []
     with pytest.raises(Quit):
-        for row in lmhost.Study(protocol, "p02", out, "autd3:emulator", answer, seed=3):
+        for row in run(protocol, "p02", out, answer, seed=3):
             rows.append(row)
     assert len(rows) == 1
     # The rest, resumed: the first trial is not asked again.
-    n.clear()
-    again = lmhost.Study(
-        protocol, "p02", out, "autd3:emulator", lambda q: 2 if q["kind"] == "likert" else 1, resume=True
-    )
+    again = run(protocol, "p02", out, lambda q: 2, resume=True)
     rest = again.run()
-    assert len(rest) == 3 and again.report["first"] == 2
+    assert len(rest) == 29 and again.report["first"] == 2
     with open(out / "p02" / "trials.csv", newline="") as f:
-        assert len(list(csv.DictReader(f))) == 4
+        assert [r["vibration"] for r in csv.DictReader(f)] == ["1"] + ["2"] * 29
 
 
 def test_a_bad_answer_or_argument_is_one_value_error(tmp_path, protocol):
     with pytest.raises(ValueError, match="answer callback's answer to `vibration`"):
-        lmhost.Study(protocol, "p03", tmp_path / "o", "autd3:emulator", lambda q: "9").run()
+        run(protocol, "p03", tmp_path / "o", lambda q: "9").run()
     with pytest.raises(ValueError, match="answer must be callable"):
         lmhost.Study(protocol, "p04", tmp_path / "o", "autd3:emulator", "3")
     with pytest.raises(ValueError, match="finger"):
@@ -111,4 +88,7 @@ def test_a_bad_answer_or_argument_is_one_value_error(tmp_path, protocol):
     with pytest.raises(ValueError, match="time_scale"):
         lmhost.Study(protocol, "p06", tmp_path / "o", "autd3:emulator", print, time_scale=float("nan"))
     with pytest.raises(ValueError, match="participant"):
-        lmhost.Study(protocol, "../x", tmp_path / "o", "autd3:emulator", print).run()
+        run(protocol, "../x", tmp_path / "o", print).run()
+    # Experiment 1 waits for the finger: without one, refused before it starts.
+    with pytest.raises(ValueError, match="waits for the finger"):
+        lmhost.Study(protocol, "p07", tmp_path / "o", "autd3:emulator", print).run()

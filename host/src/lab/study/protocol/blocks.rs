@@ -149,32 +149,7 @@ pub(super) fn check(
 mod tests {
     use super::super::Unlinked;
     use crate::lab::study::design::{self, Sets};
-
-    const BASE: &str = r#"name = "blocks"
-library = "paper-library.toml"
-sets = 2
-stimulus = "{type}-a{radius}"
-
-[timeline]
-on_s = 1.0
-iti_s = 0.5
-gate = "untracked"
-
-[[factor]]
-name = "type"
-levels = ["lms-5hz", "lmm-5hz"]
-
-[[factor]]
-name = "radius"
-levels = ["2", "3", "4"]
-
-[[question]]
-id = "vibration"
-kind = "likert"
-points = 7
-low = "no"
-high = "very"
-"#;
+    use crate::lab::study::test_files::studies;
 
     const BLOCKS: &str = r#"
 [[block]]
@@ -184,14 +159,17 @@ sets = 1
 order = "sequential"
 levels = { radius = ["3"] }
 break_s = 20
-text = "Two practice trials first."
+text = "Three practice trials first."
 
 [[block]]
 name = "main"
 "#;
 
+    /// Experiment 1 (types lms-5hz, lmm-5hz, lms-25hz; radii 2 to 6; two
+    /// sets in random order) and `extra`.
     fn parse(extra: &str) -> Result<Unlinked, String> {
-        Unlinked::from_toml(&format!("{BASE}{extra}"), "blocks.toml").map_err(|e| e.to_string())
+        let base = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
+        Unlinked::from_toml(&format!("{base}{extra}"), "blocks.toml").map_err(|e| e.to_string())
     }
 
     fn plan(u: &Unlinked, seed: u64) -> Vec<design::Planned> {
@@ -213,12 +191,12 @@ name = "main"
         let u = parse(BLOCKS).unwrap();
         assert_eq!(u.blocks.len(), 2);
         let (practice, main) = (&u.blocks[0], &u.blocks[1]);
-        // radius 3 of both types: conditions 1 (lms-5hz/3) and 4 (lmm-5hz/3).
-        assert_eq!(practice.conditions, [1, 4]);
+        // Radius 3 of each type.
+        assert_eq!(practice.conditions, [1, 6, 11]);
         assert_eq!((practice.sets, practice.break_s), (1, 20.0));
         assert!(practice.practice && !main.practice);
         // The main block takes the protocol's sets, order and every condition.
-        assert_eq!((main.sets, main.conditions.len()), (2, 6));
+        assert_eq!((main.sets, main.conditions.len()), (2, 15));
         assert_eq!(main.order, super::Order::Random);
         let names = u.columns.names();
         assert_eq!(
@@ -234,23 +212,23 @@ name = "main"
         );
         for seed in [1, 2, 3] {
             let p = plan(&u, seed);
-            assert_eq!(p.len(), 2 + 12);
+            assert_eq!(p.len(), 3 + 30);
             assert!(p.iter().enumerate().all(|(i, t)| t.trial == i + 1));
             // Practice first, in the file's order, then the main block.
-            let first: Vec<(usize, bool, usize)> = p[..2]
+            let first: Vec<(usize, bool, usize)> = p[..3]
                 .iter()
                 .map(|t| (t.block, t.practice, t.condition))
                 .collect();
-            assert_eq!(first, [(1, true, 1), (1, true, 4)]);
+            assert_eq!(first, [(1, true, 1), (1, true, 6), (1, true, 11)]);
             for set in 1..=2 {
-                let mut c: Vec<usize> = p[2..]
+                let mut c: Vec<usize> = p[3..]
                     .iter()
                     .filter(|t| t.set == set)
                     .map(|t| t.condition)
                     .collect();
-                assert!(p[2..].iter().all(|t| t.block == 2 && !t.practice));
+                assert!(p[3..].iter().all(|t| t.block == 2 && !t.practice));
                 c.sort_unstable();
-                assert_eq!(c, (0..6).collect::<Vec<_>>());
+                assert_eq!(c, (0..15).collect::<Vec<_>>());
             }
         }
         // The seed still decides the main block's order.
@@ -272,7 +250,7 @@ name = "main"
             ),
             (
                 "[[block]]\nname = \"a\"\nlevels = { radius = [\"7\"] }\n",
-                "`7` is not a level of `radius` (2, 3, 4)",
+                "`7` is not a level of `radius` (2, 3, 4, 5, 6)",
             ),
             (
                 "[[block]]\nname = \"a\"\nlevels = { radius = [] }\n",

@@ -1,4 +1,8 @@
-"""Type stubs of `lmhost` (the binding of the lmhost Rust library)."""
+"""Type stubs of `lmhost._lmhost`, the extension module (Rust, pyo3).
+
+The package `lmhost` (`__init__.py`) wraps it with keyword defaults and
+checks; its own annotations are its types, so only the extension needs
+stubs here."""
 
 import os
 from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
@@ -76,50 +80,49 @@ class Field:
     force_n: float
     summary: Dict[str, Any]
 
-# Defaults marked `...` are DEFAULTS' (the Rust library's).
 def plan(
-    radius: float = ...,
-    foci: int = ...,
-    spacing: float = ...,
-    freq: float = ...,
-    step: float = ...,
-    steps: Optional[int] = None,
-    center: Optional[Sequence[float]] = None,
-    scene: Optional[Scene] = None,
-    intensity: float = ...,
-    target: str = ...,
+    radius: Any,
+    foci: Any,
+    spacing: Any,
+    freq: Any,
+    step: Any,
+    steps: Any,
+    center: Optional[Sequence[float]],
+    scene: Optional[Scene],
+    intensity: Any,
+    target: str,
 ) -> Plan: ...
 def simulate(
     plan: Plan,
-    plane_size: Union[float, Tuple[float, float]] = ...,
-    plane_step: float = ...,
-    plane_center: Optional[Sequence[float]] = None,
-    plane_axes: Optional[Sequence[float]] = None,
-    alpha: float = ...,
-    density: float = ...,
-    disk: float = ...,
-    calibration: Optional[float] = None,
-    reference: bool = False,
+    plane_size: Any,
+    plane_step: Any,
+    plane_center: Optional[Sequence[float]],
+    plane_axes: Optional[Sequence[float]],
+    alpha: Any,
+    density: Any,
+    disk: Any,
+    calibration: Optional[float],
+    reference: bool,
 ) -> Field: ...
-
-class TrackResult:
-    t_s: float
-    points: int
-    present: bool
-    centroid_mm: Optional[Tuple[float, float, float]]
-    gated: bool
+def int_arg(name: str, value: Any, lo: int, hi: int) -> int: ...
+def float_arg(name: str, value: Any) -> float: ...
 
 class Tracker:
     def __init__(
         self,
         scene: Scene,
-        intrinsics: Union[Dict[str, Any], PathLike],
-        enter_frames: int = ...,
-        leave_frames: int = ...,
+        intrinsics_toml: str,
+        origin: str,
+        enter_frames: Optional[int] = None,
+        leave_frames: Optional[int] = None,
     ) -> None: ...
     @property
     def shape(self) -> Tuple[int, int]: ...
-    def process(self, depth: npt.NDArray[np.uint16], t: Optional[float] = None) -> TrackResult: ...
+    @property
+    def min_points(self) -> int: ...
+    def process(
+        self, depth: npt.NDArray[np.uint16], t: Optional[float] = None
+    ) -> Tuple[float, int, bool, Optional[Tuple[float, float, float]], bool]: ...
 
 class Device:
     def __init__(self, port: str, scene: Optional[Scene] = None) -> None: ...
@@ -127,62 +130,23 @@ class Device:
     def port(self) -> str: ...
     def info(self) -> Dict[str, Any]: ...
     def status(self) -> Dict[str, Any]: ...
-    def upload(
-        self, plan: Plan, slot: Optional[int] = None, play: bool = True, untracked: bool = False
-    ) -> Dict[str, Any]: ...
+    def upload(self, plan: Plan, slot: Optional[int], play: bool, untracked: bool) -> str:
+        """The `lmhost upload --json` report, as JSON text."""
     def play(self, slot: int, untracked: bool = False) -> None: ...
     def stop(self) -> None: ...
     def centroid(self, x: float, y: float, z: float, present: bool = True) -> str: ...
     def tick(self) -> None: ...
     def close(self) -> None: ...
-    def __enter__(self) -> Device: ...
-    def __exit__(self, *exc: Any) -> None: ...
-
-def find_binary() -> str: ...
-
-class Session:
-    ready: Optional[Dict[str, Any]]
-    def __init__(
-        self,
-        library: Optional[PathLike] = None,
-        port: Optional[str] = None,
-        scene: Optional[PathLike] = None,
-        socket_path: Optional[PathLike] = None,
-        synthetic: bool = False,
-        args: Sequence[str] = (),
-        timeout: float = 30.0,
-        tcp_port: Optional[int] = None,
-        token: Optional[str] = None,
-        token_file: Optional[PathLike] = None,
-    ) -> None: ...
-    def command(self, cmd: str, **fields: Any) -> Dict[str, Any]: ...
-    def present(
-        self,
-        stimulus: str,
-        gate: Optional[str] = None,
-        on_s: Optional[float] = None,
-        off_s: Optional[float] = None,
-        repeat: Optional[int] = None,
-    ) -> Dict[str, Any]: ...
-    def prepare(self, stimulus: str) -> int: ...
-    def stop(self) -> None: ...
-    def status(self) -> Dict[str, Any]: ...
-    def library(self) -> List[Dict[str, Any]]: ...
-    def events(self, timeout: Optional[float] = None) -> Iterator[Dict[str, Any]]: ...
-    def wait_for(self, event: str, timeout: float = 30.0, **match: Any) -> Dict[str, Any]: ...
-    def close(self) -> None: ...
-    def __enter__(self) -> Session: ...
-    def __exit__(self, *exc: Any) -> None: ...
 
 class Study:
     def __init__(
         self,
-        protocol: PathLike,
+        protocol: str,
         participant: str,
-        out: PathLike,
+        out: str,
         port: str,
         answer: Callable[[Dict[str, Any]], Any],
-        scene: Optional[PathLike] = None,
+        scene: Optional[str] = None,
         seed: Optional[int] = None,
         index: Optional[int] = None,
         finger: Optional[str] = None,
@@ -191,6 +155,8 @@ class Study:
     ) -> None: ...
     def __iter__(self) -> Iterator[Dict[str, str]]: ...
     def __next__(self) -> Dict[str, str]: ...
-    def run(self) -> List[Dict[str, str]]: ...
     @property
     def report(self) -> Optional[Dict[str, Any]]: ...
+
+def _bench_rust(scene: Scene, intrinsics_toml: str, depth: npt.NDArray[np.uint16], repeats: int) -> Tuple[float, float]: ...
+def _panic_for_test() -> None: ...
