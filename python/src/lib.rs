@@ -12,6 +12,7 @@
 //! `lmhost.DeviceError` (an `OSError`); a panic raises `RuntimeError`,
 //! never unwinds into the interpreter. Long calls release the GIL.
 
+use lmhost::sense::track::settings_file::SettingsFile as _;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::sync::Mutex;

@@ -10,6 +10,7 @@ use lmhost::lab::calibrate::{self, Dest, camera, force};
 use lmhost::limits::Num as N;
 use lmhost::plan::scene::Scene;
 use lmhost::sense::track::intrinsics::Intrinsics;
+use lmhost::sense::track::settings_file::SettingsFile as _;
 use lmhost::sense::track::source::intrinsics_beside;
 
 use crate::cmd::plan::parse_vec3;

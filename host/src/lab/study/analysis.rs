@@ -175,6 +175,48 @@ fn p_value(x: f64) -> String {
     format!("{x:.6e}")
 }
 
+/// One test's cells in `stats.csv`: empty, and the reason in `note`,
+/// when it was skipped.
+struct Cells {
+    stat: String,
+    p: String,
+    method: &'static str,
+    excluded: usize,
+    effect: String,
+    note: String,
+}
+
+impl Cells {
+    /// `outcome`'s cells; `f` gives a result's statistic, p, method,
+    /// excluded count and effect size.
+    fn of<T>(
+        outcome: &Outcome<T>,
+        f: impl FnOnce(&T) -> (f64, f64, crate::lab::stats::Method, usize, Option<f64>),
+    ) -> Self {
+        match outcome {
+            Outcome::Done(x) => {
+                let (stat, p, method, excluded, effect) = f(x);
+                Self {
+                    stat: num(stat),
+                    p: p_value(p),
+                    method: method.name(),
+                    excluded,
+                    effect: effect.map(num).unwrap_or_default(),
+                    note: String::new(),
+                }
+            }
+            Outcome::Skipped(why) => Self {
+                stat: String::new(),
+                p: String::new(),
+                method: "",
+                excluded: 0,
+                effect: String::new(),
+                note: why.clone(),
+            },
+        }
+    }
+}
+
 /// `stats.csv`: a row per test.
 pub fn csv(all: &[QuestionStats]) -> String {
     let head = [
@@ -201,16 +243,14 @@ pub fn csv(all: &[QuestionStats]) -> String {
         let a = &q.analysis;
         let mut row = |f: Vec<String>| out += &(super::record::line(&f) + "\n");
         for r in &a.normality {
-            let (stat, p, method, excl, note) = match &r.shapiro_wilk {
-                Outcome::Done(s) => (
-                    num(s.w),
-                    p_value(s.p),
-                    s.method.name(),
-                    s.excluded,
-                    String::new(),
-                ),
-                Outcome::Skipped(why) => (String::new(), String::new(), "", 0, why.clone()),
-            };
+            let Cells {
+                stat,
+                p,
+                method,
+                excluded: excl,
+                note,
+                ..
+            } = Cells::of(&r.shapiro_wilk, |s| (s.w, s.p, s.method, s.excluded, None));
             row(vec![
                 q.question.clone(),
                 "shapiro-wilk".into(),
@@ -232,24 +272,16 @@ pub fn csv(all: &[QuestionStats]) -> String {
             ]);
         }
         for r in &a.friedman {
-            let (stat, p, method, excl, w, note) = match &r.friedman {
-                Outcome::Done(f) => (
-                    num(f.statistic),
-                    p_value(f.p),
-                    f.method.name(),
-                    f.excluded,
-                    num(f.kendall_w),
-                    String::new(),
-                ),
-                Outcome::Skipped(why) => (
-                    String::new(),
-                    String::new(),
-                    "",
-                    0,
-                    String::new(),
-                    why.clone(),
-                ),
-            };
+            let Cells {
+                stat,
+                p,
+                method,
+                excluded: excl,
+                effect: w,
+                note,
+            } = Cells::of(&r.friedman, |f| {
+                (f.statistic, f.p, f.method, f.excluded, Some(f.kendall_w))
+            });
             row(vec![
                 q.question.clone(),
                 "friedman".into(),
@@ -271,24 +303,16 @@ pub fn csv(all: &[QuestionStats]) -> String {
             ]);
         }
         for r in &a.pairs {
-            let (stat, p, method, excl, eff, mut note) = match &r.wilcoxon {
-                Outcome::Done(w) => (
-                    num(w.statistic),
-                    p_value(w.p),
-                    w.method.name(),
-                    w.excluded,
-                    num(w.r),
-                    String::new(),
-                ),
-                Outcome::Skipped(why) => (
-                    String::new(),
-                    String::new(),
-                    "",
-                    0,
-                    String::new(),
-                    why.clone(),
-                ),
-            };
+            let Cells {
+                stat,
+                p,
+                method,
+                excluded: excl,
+                effect: eff,
+                mut note,
+            } = Cells::of(&r.wilcoxon, |w| {
+                (w.statistic, w.p, w.method, w.excluded, Some(w.r))
+            });
             let (dz, power) = match &r.paired_t {
                 Outcome::Done(t) => (num(t.d_z), num(t.power)),
                 Outcome::Skipped(why) => {

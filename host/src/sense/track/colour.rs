@@ -33,8 +33,6 @@
 //! coefficients often all zero); the F-theta and Kannala-Brandt models
 //! (fisheye lenses, not on a D4xx colour sensor) are refused.
 
-use std::path::Path;
-
 use crate::InputError;
 use crate::geom::Vec3;
 
@@ -297,23 +295,6 @@ impl ColourCamera {
         Ok(())
     }
 
-    /// Parse and check TOML text.
-    pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
-        let c: ColourCamera = super::settings_file::parse("colour camera", text, origin)?;
-        c.check(origin)?;
-        Ok(c)
-    }
-
-    /// Read and check a file.
-    pub fn load(path: &Path) -> Result<Self, InputError> {
-        super::settings_file::load("colour camera", path, Self::from_toml)
-    }
-
-    /// The TOML text.
-    pub fn to_toml(&self) -> String {
-        toml::to_string(self).expect("colour camera serialises")
-    }
-
     /// Bytes of an RGB image of this camera's size.
     pub fn image_bytes(&self) -> usize {
         self.width as usize * self.height as usize * 3
@@ -337,6 +318,7 @@ pub struct ColourImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sense::track::settings_file::SettingsFile as _;
 
     fn rotated(deg: f64) -> ColourCamera {
         // A rotation about y by `deg`, written column-major.
@@ -438,5 +420,13 @@ mod tests {
             ..cam
         };
         assert!(far.check("x").is_err());
+    }
+}
+
+impl super::settings_file::SettingsFile for ColourCamera {
+    const WHAT: &'static str = "colour camera";
+
+    fn check_values(&self, origin: &str) -> Result<(), InputError> {
+        self.check(origin)
     }
 }

@@ -14,8 +14,6 @@
 //! (x right, y down, z forward), X = (c − ppx)/fx · Z, Y = (r − ppy)/fy · Z,
 //! Z: librealsense's deprojection of an integer pixel without distortion.
 
-use std::path::Path;
-
 use crate::InputError;
 
 /// Pinhole intrinsics of the depth stream.
@@ -119,23 +117,6 @@ impl Intrinsics {
         Ok(())
     }
 
-    /// Parse and check TOML text.
-    pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
-        let i: Intrinsics = super::settings_file::parse("intrinsics", text, origin)?;
-        i.check(origin)?;
-        Ok(i)
-    }
-
-    /// Read and check a file.
-    pub fn load(path: &Path) -> Result<Self, InputError> {
-        super::settings_file::load("intrinsics", path, Self::from_toml)
-    }
-
-    /// The TOML text of these intrinsics.
-    pub fn to_toml(&self) -> String {
-        toml::to_string(self).expect("intrinsics serialise")
-    }
-
     /// Error unless frames of `width` × `height` match these intrinsics.
     pub fn check_frames(&self, width: u32, height: u32, what: &str) -> Result<(), InputError> {
         if (width, height) != (self.width, self.height) {
@@ -151,6 +132,7 @@ impl Intrinsics {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sense::track::settings_file::SettingsFile as _;
 
     #[test]
     fn round_trips_and_rejects_bad_fields() {
@@ -176,5 +158,13 @@ mod tests {
         assert!((p[1] - (50.0 - 239.5) / 426.0 * 300.0).abs() < 1e-12);
         let q = i.project(p);
         assert!((q[0] - 100.0).abs() < 1e-9 && (q[1] - 50.0).abs() < 1e-9);
+    }
+}
+
+impl super::settings_file::SettingsFile for Intrinsics {
+    const WHAT: &'static str = "intrinsics";
+
+    fn check_values(&self, origin: &str) -> Result<(), InputError> {
+        self.check(origin)
     }
 }

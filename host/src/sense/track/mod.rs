@@ -22,7 +22,7 @@ pub mod plot;
 pub mod presence;
 pub mod report;
 pub mod run;
-mod settings_file;
+pub mod settings_file;
 pub mod source;
 pub mod surface;
 pub mod synth;

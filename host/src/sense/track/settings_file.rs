@@ -1,12 +1,13 @@
 //! The camera settings files (intrinsics, the colour camera): TOML read
-//! whole within the text-file limit, one line per error naming the file.
+//! whole within the text-file limit, one line per error naming the file,
+//! checked as a whole once parsed ([`SettingsFile`]).
 
 use std::path::Path;
 
 use crate::InputError;
 
 /// `text` as a `what` settings value; the first line of TOML's message.
-pub(crate) fn parse<T: serde::de::DeserializeOwned>(
+fn parse<T: serde::de::DeserializeOwned>(
     what: &str,
     text: &str,
     origin: &str,
@@ -20,11 +21,37 @@ pub(crate) fn parse<T: serde::de::DeserializeOwned>(
 }
 
 /// The file at `path`, through `from_toml` (which parses and checks it).
-pub(crate) fn load<T>(
+fn load<T>(
     what: &str,
     path: &Path,
     from_toml: impl FnOnce(&str, &str) -> Result<T, InputError>,
 ) -> Result<T, InputError> {
     let text = crate::limits::read_text_file(what, path)?;
     from_toml(&text, &path.display().to_string())
+}
+
+/// A camera settings file: parsed, then checked as a whole.
+pub trait SettingsFile: serde::Serialize + serde::de::DeserializeOwned {
+    /// What it is called in errors (`intrinsics`).
+    const WHAT: &'static str;
+
+    /// Checks the values together (`origin` names the file in errors).
+    fn check_values(&self, origin: &str) -> Result<(), InputError>;
+
+    /// Parse and check TOML text.
+    fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
+        let v: Self = parse(Self::WHAT, text, origin)?;
+        v.check_values(origin)?;
+        Ok(v)
+    }
+
+    /// Read and check a file.
+    fn load(path: &Path) -> Result<Self, InputError> {
+        load(Self::WHAT, path, Self::from_toml)
+    }
+
+    /// The TOML text.
+    fn to_toml(&self) -> String {
+        toml::to_string(self).expect("settings serialise: plain numbers and strings")
+    }
 }

@@ -41,6 +41,7 @@ use crate::npy::{
     ColourNpy, ColourNpyWriter, DepthNpy, DepthNpyWriter, read_timestamps, write_f64_1d,
 };
 use crate::sense::stream::run::Next;
+use crate::sense::track::settings_file::SettingsFile as _;
 
 /// Default frame rate when a recording has no time stamps (the paper's 90 fps).
 pub const DEFAULT_FPS: f64 = 90.0;

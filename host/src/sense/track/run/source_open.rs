@@ -7,6 +7,7 @@ use crate::limits::show;
 use crate::plan::scene::Scene;
 use crate::sense::track::camera::CameraSetup;
 use crate::sense::track::intrinsics::Intrinsics;
+use crate::sense::track::settings_file::SettingsFile as _;
 use crate::sense::track::source::{self, FrameSource};
 use crate::sense::track::synth::{FingerSim, background_of};
 
