@@ -148,7 +148,7 @@ struct EntryFile {
     am: Option<AmFile>,
     /// Depth along the LM plane's c axis per step: one value (constant) or
     /// one per step; default 0.
-    #[schemars(length(min = 1), inner(range(min = -MAX_Z_MM, max = MAX_Z_MM)), extend("x-unit" = "mm"))]
+    #[schemars(length(max = MAX_STEPS), inner(range(min = -MAX_Z_MM, max = MAX_Z_MM)), extend("x-unit" = "mm"))]
     z: Option<Vec<f64>>,
     /// Phase synthesis of several foci: `linear` (the paper's) or `gspat`.
     #[schemars(extend("default" = "linear"))]

@@ -14,8 +14,8 @@ use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use super::{
-    MAX_ADJUSTMENTS, MAX_DEPTH_MM, MAX_LEVELS, MAX_NUMBER, MAX_OPTIONS, MAX_RUN, MAX_SECONDS,
-    MAX_SETS, MAX_STAIRCASE,
+    MAX_ADJUSTMENTS, MAX_DEPTH_MM, MAX_LEVELS, MAX_NUMBER, MAX_OPTIONS, MAX_QUESTIONS, MAX_RUN,
+    MAX_SECONDS, MAX_SETS, MAX_STAIRCASE,
 };
 use crate::lab::session::{Gate, MAX_REPEAT};
 use crate::lab::study::columns::{LIST_SEPARATOR, MAX_LABEL_BYTES};
@@ -68,6 +68,7 @@ pub(super) struct File {
     pub factor: Vec<FactorFile>,
     /// The questions asked after each presentation, in order.
     #[serde(default)]
+    #[schemars(length(max = MAX_QUESTIONS))]
     pub question: Vec<QuestionFile>,
     /// A method-of-adjustment trial (Experiment 3): the participant moves a
     /// depth until the comparison feels the same. Not with `[staircase]`.
