@@ -33,6 +33,10 @@
 //! (one intensity per stimulus), an AUTD3 plays it as its modulation. [`Library::plan_for`] plans every entry for one
 //! device (AUTD3's 25 µs grid included) before anything is presented, so a
 //! bad entry is an error at start, not in the middle of a study.
+//!
+//! The file types below also derive the file's JSON Schema (doc comments,
+//! ranges from the limits the checks use, defaults): `lmhost study schema
+//! library` prints it, `docs/schema/` holds it and its reference page.
 
 use std::path::Path as FsPath;
 
@@ -116,19 +120,31 @@ struct EntryFile {
     #[schemars(length(min = 1, max = MAX_ID_LEN), pattern(r"^[A-Za-z0-9._-]+$"))]
     id: String,
     /// Circle radius A. The circle's only.
-    #[schemars(range(min = 0.0, max = MAX_RADIUS_MM), extend("x-unit" = "mm", "default" = paper::RADIUS_MM))]
+    #[schemars(
+        range(min = 0.0, max = MAX_RADIUS_MM),
+        extend("x-unit" = "mm", "default" = paper::RADIUS_MM),
+    )]
     radius: Option<f64>,
     /// Foci per step (1: LM-S).
     #[schemars(range(min = 1, max = MAX_FOCI), extend("default" = paper::FOCI))]
     foci: Option<usize>,
     /// Spacing between neighbouring foci along the path.
-    #[schemars(range(max = MAX_SPACING_MM), extend("x-unit" = "mm", "exclusiveMinimum" = 0.0, "default" = paper::SPACING_MM))]
+    #[schemars(
+        range(max = MAX_SPACING_MM),
+        extend("x-unit" = "mm", "exclusiveMinimum" = 0.0, "default" = paper::SPACING_MM),
+    )]
     spacing: Option<f64>,
     /// LM frequency: cycles of the path per second.
-    #[schemars(range(max = MAX_FREQ_HZ), extend("x-unit" = "Hz", "exclusiveMinimum" = 0.0, "default" = paper::FREQ_HZ))]
+    #[schemars(
+        range(max = MAX_FREQ_HZ),
+        extend("x-unit" = "Hz", "exclusiveMinimum" = 0.0, "default" = paper::FREQ_HZ),
+    )]
     freq: Option<f64>,
     /// Step width along the path. Not with `steps`.
-    #[schemars(range(max = MAX_SPACING_MM), extend("x-unit" = "mm", "exclusiveMinimum" = 0.0, "default" = paper::STEP_MM))]
+    #[schemars(
+        range(max = MAX_SPACING_MM),
+        extend("x-unit" = "mm", "exclusiveMinimum" = 0.0, "default" = paper::STEP_MM),
+    )]
     step: Option<f64>,
     /// Steps per cycle. Not with `step`.
     #[schemars(range(min = 1, max = MAX_STEPS))]
@@ -148,13 +164,20 @@ struct EntryFile {
     am: Option<AmFile>,
     /// Depth along the LM plane's c axis per step: one value (constant) or
     /// one per step; default 0.
-    #[schemars(length(max = MAX_STEPS), inner(range(min = -MAX_Z_MM, max = MAX_Z_MM)), extend("x-unit" = "mm"))]
+    #[schemars(
+        length(max = MAX_STEPS),
+        inner(range(min = -MAX_Z_MM, max = MAX_Z_MM)),
+        extend("x-unit" = "mm"),
+    )]
     z: Option<Vec<f64>>,
     /// Phase synthesis of several foci: `linear` (the paper's) or `gspat`.
     #[schemars(extend("default" = "linear"))]
     method: Option<MethodName>,
     /// GS-PAT iterations (`method = "gspat"` only).
-    #[schemars(range(min = 1, max = MAX_ITERATIONS), extend("default" = crate::plan::stimulus::GSPAT_ITERATIONS))]
+    #[schemars(
+        range(min = 1, max = MAX_ITERATIONS),
+        extend("default" = crate::plan::stimulus::GSPAT_ITERATIONS),
+    )]
     iterations: Option<usize>,
 }
 
@@ -216,7 +239,10 @@ struct AmFile {
     /// `sine` or `square`.
     shape: AmShapeName,
     /// Modulation frequency; on AUTD3 4000 Hz / a whole number of samples.
-    #[schemars(range(min = modulation::MIN_FREQ_HZ, max = modulation::MAX_FREQ_HZ), extend("x-unit" = "Hz"))]
+    #[schemars(
+        range(min = modulation::MIN_FREQ_HZ, max = modulation::MAX_FREQ_HZ),
+        extend("x-unit" = "Hz"),
+    )]
     freq: f64,
     /// Depth (1: down to silence).
     #[schemars(range(min = 0.0, max = 1.0), extend("default" = AM_DEPTH))]

@@ -169,7 +169,11 @@ pub(super) struct QuestionFile {
     #[serde(default)]
     pub text: String,
     /// Likert only: the scale's points.
-    #[schemars(with = "Option<u32>", range(min = 2, max = MAX_OPTIONS), extend("default" = DEFAULT_POINTS))]
+    #[schemars(
+        with = "Option<u32>",
+        range(min = 2, max = MAX_OPTIONS),
+        extend("default" = DEFAULT_POINTS),
+    )]
     pub points: Option<Spanned<u32>>,
     /// Likert only: the label of 1.
     #[schemars(with = "Option<Label>")]
@@ -264,7 +268,11 @@ pub(super) struct StaircaseFile {
     pub down: Run,
     /// Grid places per step, by reversals so far (the last repeats), each
     /// 1 to the levels less one; default `[1]`.
-    #[schemars(with = "Option<Vec<u32>>", length(min = 1), inner(range(min = 1, max = MAX_LEVELS - 1)))]
+    #[schemars(
+        with = "Option<Vec<u32>>",
+        length(min = 1),
+        inner(range(min = 1, max = MAX_LEVELS - 1)),
+    )]
     pub steps: Option<Spanned<Vec<u32>>>,
     /// Reversals that end it.
     #[serde(default)]
