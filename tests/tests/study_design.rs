@@ -1,7 +1,7 @@
 //! `lmhost study` beyond the paper's designs, end to end: a staircase on
 //! the simulated device answered by a simulated observer (then cut,
-//! resumed and reported), and `study check`'s balanced Latin square with
-//! `study run` needing the participant's index.
+//! resumed and reported), `study check`'s balanced Latin square with
+//! `study run` needing the participant's index, and `study schema`.
 
 use std::collections::BTreeMap;
 
@@ -217,4 +217,20 @@ fn study_check_prints_a_balanced_latin_square_and_run_needs_the_index() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn study_schema_prints_the_committed_schemas() {
+    // The copies in docs/schema/ are what the binary prints, byte for byte
+    // (a library test keeps them generated from the types).
+    let docs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/schema");
+    for format in ["protocol", "library"] {
+        let o = study(&["schema", format]).output().unwrap();
+        ok(&o);
+        let want = std::fs::read(docs.join(format!("{format}.schema.json"))).unwrap();
+        assert!(o.stdout == want, "{format}: differs from docs/schema");
+    }
+    let o = study(&["schema", "scene"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(o.stdout.is_empty());
 }

@@ -15,7 +15,15 @@ use crate::setup;
 /// What the Python step installs into its venv. scipy is pinned: it wrote
 /// `host/tests/stats/reference.json`, and a new one means regenerating it
 /// (`scipy_reference.py write`) and reading the diff.
-pub const PACKAGES: &[&str] = &["maturin>=1.5,<2", "numpy", "pytest", "scipy==1.17.1"];
+pub const PACKAGES: &[&str] = &[
+    "maturin>=1.5,<2",
+    "numpy",
+    "pytest",
+    "scipy==1.17.1",
+    // python/tests/test_schema.py: the committed JSON Schemas checked by an
+    // implementation that is not the one that generated them.
+    "jsonschema",
+];
 
 pub fn step(c: &Ctx, log: &Log, with_maturin: bool) -> Result<(), String> {
     let python = setup::venv(c, log, "py-venv", PACKAGES)?;

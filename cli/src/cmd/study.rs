@@ -1,5 +1,6 @@
-//! `lmhost study`: run a study protocol on the rig session (`run`) and
-//! summarise its answers (`report`).
+//! `lmhost study`: run a study protocol on the rig session (`run`),
+//! summarise its answers (`report`), check a protocol (`check`) and print
+//! the protocol and library files' JSON Schemas (`schema`).
 
 use std::path::PathBuf;
 
@@ -25,6 +26,45 @@ enum Sub {
     /// Check a protocol and its library and print its trial plan (counts,
     /// procedure, the order a participant gets) without a device.
     Check(CheckArgs),
+    /// Print the JSON Schema of the protocol or the library file, which
+    /// editors use to complete and check them.
+    Schema(SchemaArgs),
+}
+
+/// Arguments of `lmhost study schema`.
+#[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Editors complete and check a TOML file with its schema: Taplo and \
+    Even Better TOML (VS Code) read a first line `#:schema PATH-OR-URL`, as the files in \
+    studies/ have. The committed copies and their reference page are in docs/schema/.\n\n\
+    Examples:\n  \
+    lmhost study schema protocol > protocol.schema.json\n  \
+    lmhost study schema library"
+)]
+struct SchemaArgs {
+    /// Which file's schema.
+    #[arg(value_enum, value_name = "FORMAT")]
+    format: SchemaFormat,
+}
+
+/// A file format with a schema.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SchemaFormat {
+    /// A study protocol (`study check|run PROTOCOL`).
+    Protocol,
+    /// A stimulus library (a protocol's `library`, `session --library`).
+    Library,
+}
+
+impl SchemaArgs {
+    fn run(self) -> anyhow::Result<()> {
+        let format = match self.format {
+            SchemaFormat::Protocol => study::schema::Format::Protocol,
+            SchemaFormat::Library => study::schema::Format::Library,
+        };
+        lmhost::out!("{}", study::schema::to_text(&format.schema()))?;
+        Ok(())
+    }
 }
 
 /// Arguments of `lmhost study check`.
@@ -266,6 +306,7 @@ impl Args {
             Sub::Run(a) => (*a).run(),
             Sub::Report(a) => a.run(),
             Sub::Check(a) => a.run(),
+            Sub::Schema(a) => a.run(),
         }
     }
 }

@@ -33,24 +33,39 @@
 //! (one intensity per stimulus), an AUTD3 plays it as its modulation. [`Library::plan_for`] plans every entry for one
 //! device (AUTD3's 25 µs grid included) before anything is presented, so a
 //! bad entry is an error at start, not in the middle of a study.
+//!
+//! The file types below also derive the file's JSON Schema (doc comments,
+//! ranges from the limits the checks use, defaults): `lmhost study schema
+//! library` prints it, `docs/schema/` holds it and its reference page.
 
 use std::path::Path as FsPath;
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use crate::error::InputError;
-use crate::plan::modulation::{Am, AmShape};
-use crate::plan::path::Path;
+use crate::limits::{
+    MAX_COORD_MM, MAX_FREQ_HZ, MAX_ITERATIONS, MAX_RADIUS_MM, MAX_SPACING_MM, MAX_Z_MM,
+};
+use crate::plan::modulation::{self, Am, AmShape};
+use crate::plan::path::{MAX_LISSAJOUS_RATIO, Path};
 use crate::plan::scene::Scene;
 use crate::plan::stimulus::{Stimulus, TargetPlan};
 use crate::plan::target::Target;
-use crate::plan::trajectory::Steps;
+use crate::plan::trajectory::{MAX_FOCI, MAX_STEPS, Steps, paper};
 
 /// Most entries in one library.
 pub const MAX_ENTRIES: usize = 256;
 
 /// Longest stimulus id, bytes.
 pub const MAX_ID_LEN: usize = 64;
+
+/// A Lissajous path's frequency ratio when it gives none.
+const RATIO: [u32; 2] = [1, 2];
+/// A Lissajous path's phase when it gives none, degrees.
+const PHASE_DEG: f64 = 90.0;
+/// An amplitude modulation's depth when it gives none.
+const AM_DEPTH: f64 = 1.0;
 
 /// One named stimulus.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,54 +86,103 @@ pub struct Library {
     pub entries: Vec<Entry>,
 }
 
-#[derive(Debug, Deserialize)]
+/// A stimulus library: the named stimuli a session or a study presents,
+/// each `[[stimulus]]` table one entry; every field but `id` defaults to
+/// the plan flags' default.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-struct LibraryFile {
+#[schemars(title = "lmhost stimulus library", transform = stimulus_required)]
+pub(crate) struct LibraryFile {
+    /// The entries, in file order (a device's slot `i` holds entry `i`).
     #[serde(default)]
+    #[schemars(length(min = 1, max = MAX_ENTRIES))]
     stimulus: Vec<EntryFile>,
 }
 
+/// The schema of [`LibraryFile`]: serde takes a file without stimuli so
+/// that the loader can say what to add, but the file needs one.
+fn stimulus_required(schema: &mut schemars::Schema) {
+    schema.insert("required".into(), serde_json::json!(["stimulus"]));
+    if let Some(p) = schema
+        .get_mut("properties")
+        .and_then(|p| p.get_mut("stimulus"))
+        .and_then(|p| p.as_object_mut())
+    {
+        p.remove("default");
+    }
+}
+
 /// One `[[stimulus]]` table.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct EntryFile {
     /// Name in `present` commands: 1..=64 letters, digits, `-`, `_`, `.`.
+    #[schemars(length(min = 1, max = MAX_ID_LEN), pattern(r"^[A-Za-z0-9._-]+$"))]
     id: String,
-    /// Circle radius A (mm), 0..=100; default 3. The circle's only.
+    /// Circle radius A. The circle's only.
+    #[schemars(
+        range(min = 0.0, max = MAX_RADIUS_MM),
+        extend("x-unit" = "mm", "default" = paper::RADIUS_MM),
+    )]
     radius: Option<f64>,
-    /// Foci per step, 1..=32; default 1 (LM-S).
+    /// Foci per step (1: LM-S).
+    #[schemars(range(min = 1, max = MAX_FOCI), extend("default" = paper::FOCI))]
     foci: Option<usize>,
-    /// Spacing between neighbouring foci along the path (mm); default 3.
+    /// Spacing between neighbouring foci along the path.
+    #[schemars(
+        range(max = MAX_SPACING_MM),
+        extend("x-unit" = "mm", "exclusiveMinimum" = 0.0, "default" = paper::SPACING_MM),
+    )]
     spacing: Option<f64>,
-    /// LM frequency: cycles of the path per second (Hz); default 5.
+    /// LM frequency: cycles of the path per second.
+    #[schemars(
+        range(max = MAX_FREQ_HZ),
+        extend("x-unit" = "Hz", "exclusiveMinimum" = 0.0, "default" = paper::FREQ_HZ),
+    )]
     freq: Option<f64>,
-    /// Step width along the path (mm); default 0.23. Not with `steps`.
+    /// Step width along the path. Not with `steps`.
+    #[schemars(
+        range(max = MAX_SPACING_MM),
+        extend("x-unit" = "mm", "exclusiveMinimum" = 0.0, "default" = paper::STEP_MM),
+    )]
     step: Option<f64>,
-    /// Steps per cycle, 1..=65535. Not with `step`.
+    /// Steps per cycle. Not with `step`.
+    #[schemars(range(min = 1, max = MAX_STEPS))]
     steps: Option<usize>,
-    /// Path centre in finger space (mm, ±2000); default the scene's centre.
+    /// Path centre in finger space `[x, y, z]`; default the scene's centre.
+    #[schemars(inner(range(min = -MAX_COORD_MM, max = MAX_COORD_MM)), extend("x-unit" = "mm"))]
     center: Option<[f64; 3]>,
-    /// Output intensity, 0..=1 of full; default 1.
+    /// Output intensity, of full.
+    #[schemars(range(min = 0.0, max = 1.0), extend("default" = Stimulus::default().intensity))]
     intensity: Option<f64>,
-    /// Play without tracking unless a `present` says otherwise; default false.
+    /// Play without tracking unless a `present` says otherwise.
     #[serde(default)]
     untracked: bool,
     /// The path's shape; default the circle of `radius`.
     path: Option<PathFile>,
     /// Amplitude modulation; default none. AUTD3 only.
     am: Option<AmFile>,
-    /// Depth along the LM plane's c axis per step (mm, each ±100): one
-    /// value (constant) or one per step; default 0.
+    /// Depth along the LM plane's c axis per step: one value (constant) or
+    /// one per step; default 0.
+    #[schemars(
+        length(max = MAX_STEPS),
+        inner(range(min = -MAX_Z_MM, max = MAX_Z_MM)),
+        extend("x-unit" = "mm"),
+    )]
     z: Option<Vec<f64>>,
-    /// Phase synthesis of several foci: `linear` (the paper's, default) or
-    /// `gspat`.
+    /// Phase synthesis of several foci: `linear` (the paper's) or `gspat`.
+    #[schemars(extend("default" = "linear"))]
     method: Option<MethodName>,
-    /// GS-PAT iterations, 1..=1000 (`method = "gspat"` only); default 20.
+    /// GS-PAT iterations (`method = "gspat"` only).
+    #[schemars(
+        range(min = 1, max = MAX_ITERATIONS),
+        extend("default" = crate::plan::stimulus::GSPAT_ITERATIONS),
+    )]
     iterations: Option<usize>,
 }
 
 /// A synthesis method's name.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 enum MethodName {
     Linear,
@@ -126,7 +190,7 @@ enum MethodName {
 }
 
 /// A path's shape name.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 enum ShapeName {
     Circle,
@@ -136,27 +200,32 @@ enum ShapeName {
 }
 
 /// `path = { shape = ..., ... }`: only the shape's own fields.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct PathFile {
     /// `circle`, `line`, `ellipse` or `lissajous`.
     shape: ShapeName,
-    /// Line length (mm), 0..=100; the line's only, required.
+    /// Line length; the line's only, required.
+    #[schemars(range(min = 0.0, max = MAX_RADIUS_MM), extend("x-unit" = "mm"))]
     length: Option<f64>,
-    /// Ellipse semi-axis or Lissajous half-width along the plane's a (mm),
-    /// 0..=100; required for both.
-    a: Option<f64>,
-    /// Ellipse semi-axis or Lissajous half-height along b (mm), 0..=100;
+    /// Ellipse semi-axis or Lissajous half-width along the plane's a;
     /// required for both.
+    #[schemars(range(min = 0.0, max = MAX_RADIUS_MM), extend("x-unit" = "mm"))]
+    a: Option<f64>,
+    /// Ellipse semi-axis or Lissajous half-height along b; required for
+    /// both.
+    #[schemars(range(min = 0.0, max = MAX_RADIUS_MM), extend("x-unit" = "mm"))]
     b: Option<f64>,
-    /// Lissajous frequency ratio `[n_a, n_b]`, each 1..=32; default [1, 2].
+    /// Lissajous frequency ratio `[n_a, n_b]`.
+    #[schemars(inner(range(min = 1, max = MAX_LISSAJOUS_RATIO)), extend("default" = RATIO))]
     ratio: Option<[u32; 2]>,
-    /// Lissajous phase of the a term (degrees, ±360); default 90.
+    /// Lissajous phase of the a term.
+    #[schemars(range(min = -360.0, max = 360.0), extend("x-unit" = "°", "default" = PHASE_DEG))]
     phase: Option<f64>,
 }
 
 /// An AM envelope's shape name.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 enum AmShapeName {
     Sine,
@@ -164,14 +233,19 @@ enum AmShapeName {
 }
 
 /// `am = { shape = ..., freq = ..., depth = ... }`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct AmFile {
     /// `sine` or `square`.
     shape: AmShapeName,
-    /// Modulation frequency (Hz), 0.5..=250; on AUTD3 4000 / whole samples.
+    /// Modulation frequency; on AUTD3 4000 Hz / a whole number of samples.
+    #[schemars(
+        range(min = modulation::MIN_FREQ_HZ, max = modulation::MAX_FREQ_HZ),
+        extend("x-unit" = "Hz"),
+    )]
     freq: f64,
-    /// Depth 0..=1 (1: down to silence); default 1.
+    /// Depth (1: down to silence).
+    #[schemars(range(min = 0.0, max = 1.0), extend("default" = AM_DEPTH))]
     depth: Option<f64>,
 }
 
@@ -214,13 +288,13 @@ impl PathFile {
                 b_mm: need(self.b, "b")?,
             },
             ShapeName::Lissajous => {
-                let [n_a, n_b] = self.ratio.unwrap_or([1, 2]);
+                let [n_a, n_b] = self.ratio.unwrap_or(RATIO);
                 Path::Lissajous {
                     a_mm: need(self.a, "a")?,
                     b_mm: need(self.b, "b")?,
                     n_a,
                     n_b,
-                    phase_deg: self.phase.unwrap_or(90.0),
+                    phase_deg: self.phase.unwrap_or(PHASE_DEG),
                 }
             }
         };
@@ -237,7 +311,7 @@ impl AmFile {
                 AmShapeName::Square => AmShape::Square,
             },
             freq_hz: self.freq,
-            depth: self.depth.unwrap_or(1.0),
+            depth: self.depth.unwrap_or(AM_DEPTH),
         };
         am.check().map_err(|e| e.to_string())?;
         Ok(am)

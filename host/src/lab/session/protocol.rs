@@ -10,7 +10,7 @@ use crate::error::InputError;
 pub const MAX_COMMAND_BYTES: usize = crate::limits::MAX_LINE_BYTES;
 
 /// The safety gate a presentation plays under.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Gate {
     /// Muted until a finger is tracked, steered to it (the default).

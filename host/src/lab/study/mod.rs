@@ -38,6 +38,7 @@ pub mod push;
 pub mod record;
 mod repeat;
 pub mod report;
+pub mod schema;
 pub mod start;
 #[cfg(test)]
 pub(crate) mod test_files;

@@ -215,7 +215,7 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
         repeat,
         iti_s: t.iti_s.0,
         gate: t.gate,
-        touch_s: t.touch_s.map_or(3.0, |s| s.0),
+        touch_s: t.touch_s.map_or(super::file::DEFAULT_TOUCH_S, |s| s.0),
     })
 }
 
@@ -353,7 +353,10 @@ fn question(q: QuestionFile, e: &Errors) -> Result<Question, InputError> {
     };
     let kind = match q.kind {
         KindFile::Likert => {
-            let points = q.points.as_ref().map_or(7, |p| *p.get_ref());
+            let points = q
+                .points
+                .as_ref()
+                .map_or(super::file::DEFAULT_POINTS, |p| *p.get_ref());
             if !(2..=MAX_OPTIONS as u32).contains(&points) {
                 let span = q.points.as_ref().map_or(q.id.span(), Spanned::span);
                 return Err(qbad(
@@ -445,7 +448,7 @@ fn report(r: Option<ReportFile>, factors: &[Factor], e: &Errors) -> Result<Repor
     let wide = |f: &Factor| f.levels.len() >= 3;
     let Some(r) = r else {
         return Ok(ReportSpec {
-            alpha: 0.05,
+            alpha: super::file::DEFAULT_ALPHA,
             repeats: Repeats::Mean,
             pairs: Vec::new(),
             friedman: factors
@@ -467,7 +470,7 @@ fn report(r: Option<ReportFile>, factors: &[Factor], e: &Errors) -> Result<Repor
             ));
         }
         Some(a) => *a.get_ref(),
-        None => 0.05,
+        None => super::file::DEFAULT_ALPHA,
     };
     let factor = |n: &str, span: std::ops::Range<usize>, field: &str| {
         factors.iter().find(|f| f.name == n).ok_or_else(|| {

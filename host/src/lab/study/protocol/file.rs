@@ -2,48 +2,99 @@
 //! name, a label, seconds, a count out of range) is refused while parsing,
 //! so the TOML error carries its line and field; fields checked against
 //! others keep their place ([`Spanned`]) for [`super::check`]'s messages.
+//!
+//! The same types describe the file as a JSON Schema (`study::schema`):
+//! each field's doc comment is its description, its range comes from the
+//! constant the check uses, and a `Spanned<T>` field is described as `T`.
 
-use serde::Deserialize;
+use std::borrow::Cow;
+
+use schemars::{JsonSchema, Schema, SchemaGenerator, json_schema};
+use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use super::{
-    MAX_ADJUSTMENTS, MAX_DEPTH_MM, MAX_NUMBER, MAX_RUN, MAX_SECONDS, MAX_SETS, MAX_STAIRCASE,
+    MAX_ADJUSTMENTS, MAX_BLOCKS, MAX_DEPTH_MM, MAX_LEVELS, MAX_NUMBER, MAX_OPTIONS, MAX_QUESTIONS,
+    MAX_RUN, MAX_SECONDS, MAX_SETS, MAX_STAIRCASE,
 };
-use crate::lab::session::Gate;
+use crate::lab::session::{Gate, MAX_REPEAT};
 use crate::lab::study::columns::{LIST_SEPARATOR, MAX_LABEL_BYTES};
 use crate::limits::show;
 
-#[derive(Debug, Deserialize)]
+/// Longest name (a column, an item), bytes.
+pub(super) const MAX_NAME_BYTES: usize = 64;
+/// Largest adjustment step, mm.
+pub(super) const MAX_STEP_MM: f64 = 100.0;
+/// A Likert question's points when it gives none.
+pub(super) const DEFAULT_POINTS: u32 = 7;
+/// How long the synthetic finger touches when `touch_s` is not given, s.
+pub(super) const DEFAULT_TOUCH_S: f64 = 3.0;
+/// The report's significance level when `alpha` is not given.
+pub(super) const DEFAULT_ALPHA: f64 = 0.05;
+/// Most reversals a staircase's threshold averages when
+/// `threshold_reversals` is not given (fewer if it ends sooner).
+pub(super) const DEFAULT_THRESHOLD_REVERSALS: u32 = 6;
+
+/// A study protocol: which library, how many sets, the trial's timeline,
+/// the factors whose product names the conditions, the questions and an
+/// optional procedure (`[adjustment]` or `[staircase]`). `lmhost study
+/// check PROTOCOL` checks it and prints its trial plan.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(title = "lmhost study protocol", transform = factor_required)]
 pub(super) struct File {
+    /// The study's name (in `session.json` and the report).
     pub name: Name,
+    /// The stimulus library file, relative to this protocol's folder.
+    #[schemars(with = "String")]
     pub library: Spanned<String>,
+    /// Sets: each a fresh permutation of every condition.
     #[serde(default)]
     pub sets: Sets,
+    /// How the conditions are ordered in each set.
     #[serde(default)]
     pub order: OrderFile,
+    /// The library entry a condition presents: a template in which
+    /// `{factor}` is the factor's level (and `{level}` a staircase's level),
+    /// e.g. `"{type}-a{radius}"`.
+    #[schemars(with = "String")]
     pub stimulus: Spanned<String>,
+    /// How each trial plays.
+    #[schemars(with = "TimelineFile")]
     pub timeline: Spanned<TimelineFile>,
+    /// The factors: their product is the conditions, first factor slowest.
     #[serde(default)]
+    #[schemars(length(min = 1))]
     pub factor: Vec<FactorFile>,
+    /// The questions asked after each presentation, in order.
     #[serde(default)]
+    #[schemars(length(max = MAX_QUESTIONS))]
     pub question: Vec<QuestionFile>,
+    /// A method-of-adjustment trial (Experiment 3): the participant moves a
+    /// depth until the comparison feels the same. Not with `[staircase]`.
+    #[schemars(with = "Option<AdjustmentFile>")]
     pub adjustment: Option<Spanned<AdjustmentFile>>,
+    /// An adaptive staircase over a grid of levels per condition.
+    #[schemars(with = "Option<StaircaseFile>")]
     pub staircase: Option<Spanned<StaircaseFile>>,
+    /// What `lmhost study report` tests; default: α = 0.05, repeats
+    /// averaged, a Friedman test for each factor of 3 or more levels.
     pub report: Option<ReportFile>,
     /// Blocks of trials run one after another (none: one block of every
     /// condition with the protocol's `sets` and `order`).
     #[serde(default)]
+    #[schemars(with = "Vec<BlockFile>", length(max = MAX_BLOCKS))]
     pub block: Vec<Spanned<BlockFile>>,
 }
 
 /// A block of trials (`[[block]]`, checked in `super::blocks`): the
 /// conditions whose levels it names, in sets of its own, then an optional
 /// break.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct BlockFile {
     /// The block's name (the `block` column of trials.csv).
+    #[schemars(with = "Name")]
     pub name: Spanned<Name>,
     /// A practice block: its rows are written (`practice` = 1) and left
     /// out of `study report`.
@@ -58,145 +109,289 @@ pub(super) struct BlockFile {
     /// Per factor, the levels the block keeps, e.g. `{ radius = ["3"] }`
     /// (a factor not named: all its levels).
     #[serde(default)]
+    #[schemars(with = "std::collections::BTreeMap<String, Vec<Label>>")]
     pub levels: std::collections::BTreeMap<String, Spanned<Vec<Label>>>,
     /// Seconds of silence after the block, before the next one (0: none).
     #[serde(default)]
+    #[schemars(extend("x-unit" = "s"))]
     pub break_s: Seconds<true>,
     /// Shown to the participant as the block starts.
     pub text: Option<Label>,
 }
 
-#[derive(Debug, Deserialize)]
+/// The schema of [`File`]: serde takes a file without factors so that
+/// the check can say what to add, but the file needs one.
+fn factor_required(schema: &mut Schema) {
+    if let Some(serde_json::Value::Array(r)) = schema.get_mut("required") {
+        r.push("factor".into());
+    }
+    if let Some(p) = schema
+        .get_mut("properties")
+        .and_then(|p| p.get_mut("factor"))
+        .and_then(|p| p.as_object_mut())
+    {
+        p.remove("default");
+    }
+}
+
+/// The `[timeline]` table: how a trial plays.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct TimelineFile {
+    /// Wait until a finger is present before presenting.
     #[serde(default)]
     pub wait_for_finger: bool,
+    /// Seconds per on-phase; give it or `while_touching = true`.
+    #[schemars(with = "Option<Seconds<false>>", extend("x-unit" = "s"))]
     pub on_s: Option<Spanned<Seconds<false>>>,
+    /// Present until the finger leaves (ends an on-phase early too); needs
+    /// `wait_for_finger = true`.
+    #[schemars(with = "Option<bool>", extend("default" = false))]
     pub while_touching: Option<Spanned<bool>>,
+    /// Seconds of silence between on-phases.
     #[serde(default)]
+    #[schemars(extend("x-unit" = "s"))]
     pub off_s: Seconds<true>,
+    /// On-phases per trial; needs `on_s`, not with a procedure (whose
+    /// trial repeats until answered).
+    #[schemars(with = "Option<u32>", range(min = 1, max = MAX_REPEAT), extend("default" = 1))]
     pub repeat: Option<Spanned<u32>>,
+    /// Seconds between trials (the answering time comes on top).
     #[serde(default)]
+    #[schemars(extend("x-unit" = "s"))]
     pub iti_s: Seconds<true>,
+    /// `tracked` (muted until a finger is tracked, steered to it) or
+    /// `untracked`; default: each library entry's own.
     pub gate: Option<Gate>,
+    /// How long the synthetic finger (`--synthetic-finger`) touches in a
+    /// `while_touching` trial.
+    #[schemars(extend("x-unit" = "s", "default" = DEFAULT_TOUCH_S))]
     pub touch_s: Option<Seconds<false>>,
 }
 
-#[derive(Debug, Deserialize)]
+/// A `[[factor]]`: a name and its levels.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct FactorFile {
+    /// Its name: a column of `trials.csv`, `{name}` in the stimulus template.
+    #[schemars(with = "Name")]
     pub name: Spanned<Name>,
+    /// Its levels, each once.
+    #[schemars(with = "Vec<Label>", length(min = 1))]
     pub levels: Spanned<Vec<Label>>,
 }
 
-#[derive(Debug, Clone, Copy, Deserialize)]
+/// What a question asks for.
+#[derive(Debug, Clone, Copy, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub(super) enum KindFile {
+    /// A rating 1..=`points` between two end labels (one per item if `items`).
     Likert,
+    /// One of `options`.
     Choice,
+    /// A number within `min`..=`max`.
     Number,
 }
 
-#[derive(Debug, Deserialize)]
+/// A `[[question]]`, asked after each presentation.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct QuestionFile {
+    /// Its id: the answer's column in `trials.csv`.
+    #[schemars(with = "Name")]
     pub id: Spanned<Name>,
+    /// `likert`, `choice` or `number`.
     pub kind: KindFile,
+    /// What the participant is asked.
     #[serde(default)]
     pub text: String,
+    /// Likert only: the scale's points.
+    #[schemars(
+        with = "Option<u32>",
+        range(min = 2, max = MAX_OPTIONS),
+        extend("default" = DEFAULT_POINTS),
+    )]
     pub points: Option<Spanned<u32>>,
+    /// Likert only: the label of 1.
+    #[schemars(with = "Option<Label>")]
     pub low: Option<Spanned<Label>>,
+    /// Likert only: the label of `points`.
+    #[schemars(with = "Option<Label>")]
     pub high: Option<Spanned<Label>>,
+    /// Likert only: one rating per item (columns `id_item`), each once.
+    #[schemars(with = "Option<Vec<Name>>", length(min = 2, max = MAX_OPTIONS))]
     pub items: Option<Spanned<Vec<Name>>>,
+    /// Choice only: the options, told apart as answers are (ignoring case).
+    #[schemars(with = "Option<Vec<AnswerLabel>>", length(min = 2, max = MAX_OPTIONS))]
     pub options: Option<Spanned<Vec<AnswerLabel>>>,
+    /// Show a likert question's items or a choice's options in a random
+    /// order per trial (recorded in `id_order`).
+    #[schemars(with = "Option<bool>", extend("default" = false))]
     pub shuffle: Option<Spanned<bool>>,
+    /// Number only: the least answer.
+    #[schemars(with = "Option<Number>", extend("default" = -MAX_NUMBER))]
     pub min: Option<Spanned<Number>>,
+    /// Number only: the greatest answer (at least `min`).
+    #[schemars(with = "Option<Number>", extend("default" = MAX_NUMBER))]
     pub max: Option<Spanned<Number>>,
+    /// What "not perceived" is shown as; the participant types `na` for it.
+    /// Default: no such answer.
+    #[schemars(with = "Option<Label>")]
     pub not_perceived: Option<Spanned<Label>>,
 }
 
-#[derive(Debug, Deserialize)]
+/// The `[adjustment]` table: the method of adjustment.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct AdjustmentFile {
+    /// What the participant is asked.
     #[serde(default)]
     pub text: String,
+    /// The first depth.
+    #[schemars(with = "Depth", extend("x-unit" = "mm"))]
     pub start_mm: Spanned<Depth>,
+    /// The change per answer.
     #[serde(default = "quarter")]
+    #[schemars(extend("x-unit" = "mm"))]
     pub step_mm: Step,
+    /// Most adjustments per trial.
     #[serde(default)]
     pub max: Adjustments,
+    /// The least depth.
     #[serde(default)]
+    #[schemars(extend("x-unit" = "mm"))]
     pub min_mm: Depth,
+    /// The greatest depth.
     #[serde(default = "hundred")]
+    #[schemars(extend("x-unit" = "mm"))]
     pub max_mm: Depth,
+    /// The answer "the comparison felt stronger" (the depth decreases).
     #[serde(default = "stronger")]
+    #[schemars(with = "AnswerLabel")]
     pub stronger: Spanned<AnswerLabel>,
+    /// The answer "weaker" (the depth increases).
     #[serde(default = "weaker")]
+    #[schemars(with = "AnswerLabel")]
     pub weaker: Spanned<AnswerLabel>,
+    /// The answer that ends the trial.
     #[serde(default = "same")]
+    #[schemars(with = "AnswerLabel")]
     pub same: Spanned<AnswerLabel>,
 }
 
-/// The `[staircase]` table (checked in `super::staircase`).
-#[derive(Debug, Deserialize)]
+/// The `[staircase]` table (checked in `super::staircase`): a transformed
+/// up-down staircase over a grid of levels, one per condition.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct StaircaseFile {
+    /// The yes/no question asked after each presentation.
     #[serde(default = "perceived_text")]
     pub text: Label,
+    /// The levels' unit (a column name in the report).
     #[serde(default = "level_unit")]
     pub unit: Name,
+    /// The grid: numbers in increasing order, as text (`{level}` in the
+    /// stimulus template).
+    #[schemars(with = "Vec<Label>", length(min = 2, max = MAX_LEVELS))]
     pub levels: Spanned<Vec<Label>>,
+    /// The level it starts at; default the last (strongest).
+    #[schemars(with = "Option<Label>")]
     pub start: Option<Spanned<Label>>,
+    /// "No" answers in a row that move one step up.
     #[serde(default)]
     pub up: Run,
+    /// "Yes" answers in a row that move one step down.
     #[serde(default = "two")]
     pub down: Run,
+    /// Grid places per step, by reversals so far (the last repeats), each
+    /// 1 to the levels less one; default `[1]`.
+    #[schemars(
+        with = "Option<Vec<u32>>",
+        length(min = 1),
+        inner(range(min = 1, max = MAX_LEVELS - 1)),
+    )]
     pub steps: Option<Spanned<Vec<u32>>>,
+    /// Reversals that end it.
     #[serde(default)]
     pub reversals: Reversals,
+    /// Presentations that end it.
     #[serde(default)]
     pub trials: Presentations,
+    /// The last reversals whose levels average to the threshold, at most
+    /// `reversals`; default the least of `reversals` and 6.
+    #[schemars(with = "Option<u32>", range(min = 1, max = MAX_STAIRCASE))]
     pub threshold_reversals: Option<Spanned<u32>>,
+    /// The answer "perceived".
     #[serde(default = "yes")]
+    #[schemars(with = "AnswerLabel")]
     pub yes: Spanned<AnswerLabel>,
+    /// The answer "not perceived" (differs from `yes`, also in case).
     #[serde(default = "no")]
+    #[schemars(with = "AnswerLabel")]
     pub no: Spanned<AnswerLabel>,
 }
 
-/// The `[report]` table (checked in `check::report`).
-#[derive(Debug, Deserialize)]
+/// The `[report]` table (checked in `check::report`): what `lmhost study
+/// report` tests.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct ReportFile {
+    /// The significance level, between 0 and 1 (exclusive).
+    #[schemars(
+        with = "Option<f64>",
+        extend("exclusiveMinimum" = 0.0, "exclusiveMaximum" = 1.0, "default" = DEFAULT_ALPHA)
+    )]
     pub alpha: Option<Spanned<f64>>,
+    /// How a participant's repeats of a condition are combined.
     #[serde(default)]
     pub repeats: RepeatsFile,
+    /// The factors a Friedman test compares (each of 3 or more levels);
+    /// default: every such factor.
+    #[schemars(with = "Option<Vec<Name>>")]
     pub friedman: Option<Spanned<Vec<Name>>>,
+    /// Paired comparisons (Wilcoxon signed-rank, Holm-corrected) of a
+    /// factor's levels.
     #[serde(default)]
     pub pairs: Vec<PairsFile>,
 }
 
-#[derive(Debug, Clone, Copy, Default, Deserialize)]
+/// How the conditions are ordered in each set.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub(super) enum OrderFile {
+    /// Each set a fresh random permutation.
     #[default]
     Random,
+    /// Each set in the protocol's order (the factors' product, first
+    /// factor slowest).
     Sequential,
+    /// Every set's trials shuffled together.
     FullRandom,
+    /// Each set in the participant's row of a balanced Latin square.
     LatinSquare,
 }
 
-#[derive(Debug, Default, Deserialize)]
+/// How a participant's repeats of a condition are combined.
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub(super) enum RepeatsFile {
+    /// Their mean.
     #[default]
     Mean,
+    /// Their median.
     Median,
 }
 
-#[derive(Debug, Deserialize)]
+/// A `[[report.pairs]]`: paired comparisons of one factor's levels.
+#[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct PairsFile {
+    /// The factor.
+    #[schemars(with = "Name")]
     pub factor: Spanned<Name>,
+    /// The pairs of its levels, e.g. `[["2", "4"], ["4", "6"]]`; default
+    /// every pair.
+    #[schemars(with = "Option<Vec<(Label, Label)>>")]
     pub pairs: Option<Spanned<Vec<(Label, Label)>>>,
 }
 
@@ -232,11 +427,14 @@ fn same() -> Spanned<AnswerLabel> {
     Spanned::new(0..0, AnswerLabel("same".into()))
 }
 
-/// A value checked on its own as it is parsed: `check` says why not.
+/// A value checked on its own as it is parsed: `check` says why not, and
+/// `schema` is its JSON Schema, built from the same limits. Serialized
+/// only to show a default in the schema.
 macro_rules! checked {
-    ($(#[$m:meta])* $name:ident($t:ty as $ts:literal), $default:expr, |$v:ident| $check:expr) => {
+    ($(#[$m:meta])* $name:ident($t:ty as $ts:literal), $default:expr, |$v:ident| $check:expr,
+     schema $schema:tt) => {
         $(#[$m])*
-        #[derive(Debug, Clone, PartialEq, Deserialize)]
+        #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
         #[serde(try_from = $ts)]
         pub(super) struct $name(pub $t);
 
@@ -253,57 +451,97 @@ macro_rules! checked {
                 Self($default)
             }
         }
+
+        impl JsonSchema for $name {
+            fn inline_schema() -> bool {
+                true
+            }
+            fn schema_name() -> Cow<'static, str> {
+                stringify!($name).into()
+            }
+            fn json_schema(_: &mut SchemaGenerator) -> Schema {
+                json_schema!($schema)
+            }
+        }
+    };
+    // A whole number or a number in `$lo..=$hi`, `$unit` after the message.
+    ($(#[$m:meta])* $name:ident($t:ty as $ts:literal), $default:expr, $json:literal $lo:tt..=$hi:expr,
+     $unit:literal) => {
+        checked!(
+            $(#[$m])* $name($t as $ts), $default,
+            |v| in_range(v as f64, $lo as f64, $hi as f64).map_err(|m| format!("{m}{}", $unit)),
+            schema { "type": $json, "minimum": $lo, "maximum": $hi }
+        );
     };
 }
 
 checked!(
     /// A name: 1 to 64 letters, digits, `-`, `_` or `.` (a column, an item).
-    Name(String as "String"), String::new(), |v| check_name(&v)
+    Name(String as "String"), String::new(), |v| check_name(&v),
+    schema {
+        "type": "string",
+        "minLength": 1,
+        "maxLength": MAX_NAME_BYTES,
+        "pattern": "^[A-Za-z0-9._-]+$"
+    }
 );
 checked!(
     /// A label shown or recorded: 1 to 200 bytes on one line.
-    Label(String as "String"), String::new(), |v| check_label(&v)
+    Label(String as "String"), String::new(), |v| check_label(&v),
+    schema {
+        "type": "string",
+        "minLength": 1,
+        "maxLength": MAX_LABEL_BYTES,
+        "pattern": label_pattern(false)
+    }
 );
 checked!(
     /// An answer's label: a [`Label`] a participant can type back and that
     /// trials.csv's lists can hold.
-    AnswerLabel(String as "String"), String::new(), |v| check_answer_label(&v)
+    AnswerLabel(String as "String"), String::new(), |v| check_answer_label(&v),
+    schema {
+        "type": "string",
+        "minLength": 1,
+        "maxLength": MAX_LABEL_BYTES,
+        "pattern": label_pattern(true)
+    }
 );
 checked!(
     /// Sets: each a fresh permutation of every condition.
-    Sets(usize as "usize"), 1, |v| in_range(v as f64, 1.0, MAX_SETS as f64)
+    Sets(usize as "usize"), 1, "integer" 1..=MAX_SETS, ""
 );
 checked!(
     /// Most adjustments per trial.
-    Adjustments(u32 as "u32"), 20, |v| in_range(f64::from(v), 1.0, f64::from(MAX_ADJUSTMENTS))
+    Adjustments(u32 as "u32"), 20, "integer" 1..=MAX_ADJUSTMENTS, ""
 );
 checked!(
     /// Answers in a row that move a staircase (its `up` and `down`).
-    Run(u32 as "u32"), 1, |v| in_range(f64::from(v), 1.0, f64::from(MAX_RUN))
+    Run(u32 as "u32"), 1, "integer" 1..=MAX_RUN, ""
 );
 checked!(
     /// Reversals that end a staircase.
-    Reversals(u32 as "u32"), 8, |v| in_range(f64::from(v), 1.0, f64::from(MAX_STAIRCASE))
+    Reversals(u32 as "u32"), 8, "integer" 1..=MAX_STAIRCASE, ""
 );
 checked!(
     /// Presentations that end a staircase.
-    Presentations(u32 as "u32"), 50, |v| in_range(f64::from(v), 1.0, f64::from(MAX_STAIRCASE))
+    Presentations(u32 as "u32"), 50, "integer" 1..=MAX_STAIRCASE, ""
 );
 checked!(
     /// A depth, mm.
-    Depth(f64 as "f64"), 0.0, |v| millimetres(v, -MAX_DEPTH_MM, MAX_DEPTH_MM)
+    Depth(f64 as "f64"), 0.0, "number" (-MAX_DEPTH_MM)..=MAX_DEPTH_MM, " mm"
 );
 checked!(
     /// An adjustment step, mm.
-    Step(f64 as "f64"), 0.25, |v| step(v)
+    Step(f64 as "f64"), 0.25, |v| step(v),
+    schema { "type": "number", "exclusiveMinimum": 0.0, "maximum": MAX_STEP_MM }
 );
 checked!(
     /// A number question's limit.
-    Number(f64 as "f64"), 0.0, |v| in_range(v, -MAX_NUMBER, MAX_NUMBER)
+    Number(f64 as "f64"), 0.0, "number" (-MAX_NUMBER)..=MAX_NUMBER, ""
 );
 
 /// Seconds, from 0 when `ZERO_OK`, else above 0, at most [`MAX_SECONDS`].
-#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize, Serialize)]
 #[serde(try_from = "f64")]
 pub(super) struct Seconds<const ZERO_OK: bool>(pub f64);
 
@@ -321,6 +559,42 @@ impl<const ZERO_OK: bool> TryFrom<f64> for Seconds<ZERO_OK> {
     }
 }
 
+impl<const ZERO_OK: bool> JsonSchema for Seconds<ZERO_OK> {
+    fn inline_schema() -> bool {
+        true
+    }
+    fn schema_name() -> Cow<'static, str> {
+        if ZERO_OK {
+            "Seconds"
+        } else {
+            "PositiveSeconds"
+        }
+        .into()
+    }
+    fn json_schema(_: &mut SchemaGenerator) -> Schema {
+        let lower = if ZERO_OK {
+            "minimum"
+        } else {
+            "exclusiveMinimum"
+        };
+        json_schema!({ "type": "number", lower: 0.0, "maximum": MAX_SECONDS })
+    }
+}
+
+/// The `pattern` of a label: not blank, no control characters; an
+/// answer's label also has no spaces at its ends, is not a whole number
+/// and does not hold [`LIST_SEPARATOR`] (as [`check_answer_label`]).
+fn label_pattern(answer: bool) -> String {
+    // `char::is_control`: the C0 and C1 controls and DEL.
+    const CONTROL: &str = r"\x00-\x1f\x7f-\x9f";
+    if answer {
+        let sep = format!("\\{LIST_SEPARATOR}");
+        format!(r"^(?!\+?[0-9]+$)[^\s{sep}{CONTROL}](?:[^{sep}{CONTROL}]*[^\s{sep}{CONTROL}])?$")
+    } else {
+        format!(r"^[^{CONTROL}]*\S[^{CONTROL}]*$")
+    }
+}
+
 fn in_range(v: f64, lo: f64, hi: f64) -> Result<(), String> {
     if v.is_finite() && lo <= v && v <= hi {
         Ok(())
@@ -334,31 +608,28 @@ fn in_range(v: f64, lo: f64, hi: f64) -> Result<(), String> {
     }
 }
 
-fn millimetres(v: f64, lo: f64, hi: f64) -> Result<(), String> {
-    in_range(v, lo, hi).map_err(|m| format!("{m} mm"))
-}
-
 fn step(v: f64) -> Result<(), String> {
-    if v.is_finite() && v > 0.0 && v <= 100.0 {
+    if v.is_finite() && v > 0.0 && v <= MAX_STEP_MM {
         Ok(())
     } else {
         Err(format!(
-            "{} is out of range: give millimetres above 0 and at most 100",
-            show(v)
+            "{} is out of range: give millimetres above 0 and at most {}",
+            show(v),
+            show(MAX_STEP_MM)
         ))
     }
 }
 
-/// 1 to 64 letters, digits, `-`, `_` or `.`.
+/// 1 to [`MAX_NAME_BYTES`] letters, digits, `-`, `_` or `.`.
 pub(super) fn check_name(s: &str) -> Result<(), String> {
     if s.is_empty()
-        || s.len() > 64
+        || s.len() > MAX_NAME_BYTES
         || !s
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
     {
         return Err(format!(
-            "`{}` must be 1 to 64 letters, digits, `-`, `_` or `.`",
+            "`{}` must be 1 to {MAX_NAME_BYTES} letters, digits, `-`, `_` or `.`",
             s.escape_debug()
         ));
     }

@@ -14,6 +14,12 @@ pub use blocks::{Block, MAX_BLOCKS};
 pub use report::{PairSpec, ReportSpec};
 pub use staircase::{LEVEL, Staircase};
 
+/// The protocol file's JSON Schema, from the types it is read into (see
+/// [`crate::lab::study::schema`]).
+pub(crate) fn file_schema(generator: schemars::SchemaGenerator) -> schemars::Schema {
+    generator.into_root_schema_for::<file::File>()
+}
+
 use std::path::{Path, PathBuf};
 
 use crate::error::InputError;

@@ -153,7 +153,7 @@ pub(super) fn check(
     };
     let reversals = s.reversals.0;
     let threshold_reversals = match &s.threshold_reversals {
-        None => reversals.min(6),
+        None => reversals.min(super::file::DEFAULT_THRESHOLD_REVERSALS),
         Some(n) => {
             let v = *n.get_ref();
             if !(1..=reversals).contains(&v) {

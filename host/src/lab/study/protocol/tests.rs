@@ -53,7 +53,7 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
     let base = std::fs::read_to_string(studies("paper-exp1.toml")).unwrap();
     let path = studies("test.toml");
     for (from, to, needle) in [
-        ("sets = 2", "sets = 0", "line 21, field `sets`"),
+        ("sets = 2", "sets = 0", "line 22, field `sets`"),
         ("sets = 2", "sets = 2\ncolour = 1", "unknown field `colour`"),
         (
             "\"2\", \"3\"",
@@ -68,12 +68,12 @@ fn bad_protocols_are_one_line_errors_naming_file_line_and_field() {
         (
             "points = 7\nlow = \"not",
             "points = 12\nlow = \"not",
-            "line 42, field `question[0].points`",
+            "line 43, field `question[0].points`",
         ),
         (
             "id = \"movement\"\nkind = \"likert\"\npoints = 7",
             "id = \"movement\"\nkind = \"likert\"\npoints = 1",
-            "line 51, field `question[1].points`: question `movement`",
+            "line 52, field `question[1].points`: question `movement`",
         ),
         (
             "kind = \"likert\"\npoints = 7\nlow = \"does",
@@ -162,12 +162,12 @@ fn answer_labels_are_told_apart_as_answers_are_matched() {
         (
             "same = \"same\"",
             "same = \"Stronger\"",
-            "line 43, field `adjustment.same`: `Stronger` and `stronger`",
+            "line 44, field `adjustment.same`: `Stronger` and `stronger`",
         ),
         (
             "same = \"same\"",
             "same = \"3\"",
-            "line 43, field `adjustment.same`: `3` is a number",
+            "line 44, field `adjustment.same`: `3` is a number",
         ),
         (
             "weaker = \"weaker\"",
@@ -222,14 +222,14 @@ fn counts_are_checked_not_wrapped() {
         (
             "sets = 2",
             "sets = 1e3",
-            "line 21, field `sets`: invalid type: floating point",
+            "line 22, field `sets`: invalid type: floating point",
         ),
         (
             "sets = 2",
             "sets = 99999999999999999999",
-            "line 21, field `sets`",
+            "line 22, field `sets`",
         ),
-        ("sets = 2", "sets = -1", "line 21, field `sets`"),
+        ("sets = 2", "sets = -1", "line 22, field `sets`"),
         (
             "iti_s = 1.0",
             "iti_s = inf",
@@ -248,7 +248,7 @@ fn counts_are_checked_not_wrapped() {
         (
             "points = 7\nlow = \"not",
             "points = 4294967296\nlow = \"not",
-            "line 42, field `question[0].points`",
+            "line 43, field `question[0].points`",
         ),
     ] {
         assert!(exp1.contains(from), "{from}");
