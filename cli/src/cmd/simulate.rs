@@ -186,13 +186,15 @@ impl Args {
                         id.escape_debug()
                     ))
                 })?;
-                Some(e.stimulus.clone())
+                Some(e.clone())
             }
             _ => None,
         };
         // Refused before any output directory is made.
         lmhost::field::study::check_full_output(lmhost::plan::stimulus::intensity_byte(
-            entry.as_ref().map_or(self.plan.intensity, |s| s.intensity),
+            entry
+                .as_ref()
+                .map_or(self.plan.intensity, |e| e.stimulus.intensity),
         )?)?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
@@ -218,7 +220,16 @@ impl Args {
             return compare::compare(&conditions, plan_for, &view, &fig, &self.out);
         }
         let (plan, r) = match &entry {
-            Some(s) => (s.plan(self.plan.load_scene()?)?.plan, s.radius_mm),
+            // Phases or foci from a file plan as the LM firmware plays them.
+            Some(e) if e.file.is_some() => (
+                e.plan_for(&lmhost::plan::target::Target::Lm, self.plan.load_scene()?)?
+                    .plan,
+                0.0,
+            ),
+            Some(e) => (
+                e.stimulus.plan(self.plan.load_scene()?)?.plan,
+                e.stimulus.radius_mm,
+            ),
             None => (self.plan.plan()?, self.plan.radius),
         };
         let sim = simulate_plan(&plan, &view)?;

@@ -23,6 +23,11 @@
 //! iterations = 20        # GS-PAT's
 //! ```
 //!
+//! An entry may instead play phases or foci from a file, relative to the
+//! library's folder, as `lmhost upload --phases` / `--foci-file` read it:
+//! `phases_file = "circle.npy"` or `foci_file = "path.json"`, with only
+//! `freq` (when the file gives no dwell), `center` and `untracked` beside.
+//!
 //! Every field but `id` defaults to the plan flags' default
 //! ([`Stimulus::default`]). `path` is the shape the foci run along
 //! ([`Path`]): `circle` (the default, of `radius`), `line` (`length`),
@@ -38,7 +43,7 @@
 //! ranges from the limits the checks use, defaults): `lmhost study schema
 //! library` prints it, `docs/schema/` holds it and its reference page.
 
-use std::path::Path as FsPath;
+use std::path::{Path as FsPath, PathBuf};
 
 use schemars::JsonSchema;
 use serde::Deserialize;
@@ -51,6 +56,7 @@ use crate::plan::modulation::{self, Am, AmShape};
 use crate::plan::path::{MAX_LISSAJOUS_RATIO, Path};
 use crate::plan::scene::Scene;
 use crate::plan::stimulus::{Stimulus, TargetPlan};
+use crate::plan::stimulus_file::Content;
 use crate::plan::target::Target;
 use crate::plan::trajectory::{MAX_FOCI, MAX_STEPS, Steps, paper};
 
@@ -72,10 +78,33 @@ const AM_DEPTH: f64 = 1.0;
 pub struct Entry {
     /// Its name in `present` commands, protocols and logs.
     pub id: String,
-    /// What to play.
+    /// What to play (of an entry from a file: its `freq` and `center`).
     pub stimulus: Stimulus,
     /// Play without tracking unless a `present` says otherwise.
     pub untracked: bool,
+    /// Phases or foci from a file (`phases_file`, `foci_file`), as
+    /// `lmhost upload --phases` / `--foci-file` read them.
+    pub file: Option<(Content, PathBuf)>,
+    /// An entry from a file: its `freq`, if given (else the file's dwell).
+    pub file_freq_hz: Option<f64>,
+}
+
+impl Entry {
+    /// Plans the entry for `target` in `scene`: its stimulus, or its file
+    /// through the checks `upload --phases` / `--foci-file` make.
+    pub fn plan_for(&self, target: &Target, scene: Scene) -> anyhow::Result<TargetPlan> {
+        match &self.file {
+            None => self.stimulus.plan_for(target, scene),
+            Some((content, path)) => Ok(crate::plan::stimulus_file::plan_for(
+                *content,
+                path,
+                target,
+                scene,
+                self.file_freq_hz,
+                self.stimulus.center_mm,
+            )?),
+        }
+    }
 }
 
 /// The entries of a library file, in file order.
@@ -173,6 +202,17 @@ struct EntryFile {
     /// Phase synthesis of several foci: `linear` (the paper's) or `gspat`.
     #[schemars(extend("default" = "linear"))]
     method: Option<MethodName>,
+    /// Phases from a file, relative to the library's folder: `.npy` uint8
+    /// `(steps, transducers)` (what `lmhost plan --out F.npy` writes) or
+    /// JSON `{"phases": [[...]], "dwell_us": D}`, as `lmhost upload
+    /// --phases` reads it. Takes only `freq` (when the file gives no
+    /// dwell), `center` and `untracked` beside it.
+    phases_file: Option<String>,
+    /// Foci from a file, relative to the library's folder: `.npy` float64
+    /// `(steps, foci, 3)` in mm, finger space, or JSON `{"foci_mm":
+    /// [[[x, y, z]]], "dwell_us": D}`, as `lmhost upload --foci-file` reads
+    /// it (linear synthesis). Takes only `freq`, `center` and `untracked`.
+    foci_file: Option<String>,
     /// GS-PAT iterations (`method = "gspat"` only).
     #[schemars(
         range(min = 1, max = MAX_ITERATIONS),
@@ -341,8 +381,59 @@ pub fn check_id(id: &str) -> Result<(), String> {
 }
 
 impl EntryFile {
-    fn resolve(self) -> Result<Entry, String> {
+    /// An entry whose phases or foci come from a file: only the fields
+    /// that file plans take.
+    fn from_file(self, content: Content, path: String) -> Result<Entry, String> {
+        let given = [
+            ("radius", self.radius.is_some()),
+            ("foci", self.foci.is_some()),
+            ("spacing", self.spacing.is_some()),
+            ("step", self.step.is_some()),
+            ("steps", self.steps.is_some()),
+            ("intensity", self.intensity.is_some()),
+            ("path", self.path.is_some()),
+            ("am", self.am.is_some()),
+            ("z", self.z.is_some()),
+            ("method", self.method.is_some()),
+            ("iterations", self.iterations.is_some()),
+        ];
+        let key = match content {
+            Content::Phases => "phases_file",
+            Content::Foci => "foci_file",
+        };
+        if let Some((f, _)) = given.iter().find(|(_, g)| *g) {
+            return Err(format!(
+                "`{f}` does not apply to a stimulus from `{key}` (it takes `freq`, `center` and `untracked`)"
+            ));
+        }
+        if path.trim().is_empty() {
+            return Err(format!("`{key}` is empty: give a file"));
+        }
+        let center_mm = self
+            .center
+            .map(|c| crate::limits::position_mm("center", c).map_err(|e| e.to_string()))
+            .transpose()?;
+        Ok(Entry {
+            id: self.id,
+            stimulus: Stimulus {
+                center_mm,
+                freq_hz: self.freq.unwrap_or(Stimulus::default().freq_hz),
+                ..Stimulus::default()
+            },
+            untracked: self.untracked,
+            file: Some((content, PathBuf::from(path))),
+            file_freq_hz: self.freq,
+        })
+    }
+
+    fn resolve(mut self) -> Result<Entry, String> {
         check_id(&self.id)?;
+        match (self.phases_file.take(), self.foci_file.take()) {
+            (Some(_), Some(_)) => return Err("give `phases_file` or `foci_file`, not both".into()),
+            (Some(p), None) => return self.from_file(Content::Phases, p),
+            (None, Some(p)) => return self.from_file(Content::Foci, p),
+            (None, None) => {}
+        }
         let d = Stimulus::default();
         let steps = match (self.step, self.steps) {
             (Some(_), Some(_)) => return Err("give `step` or `steps`, not both".into()),
@@ -394,6 +485,8 @@ impl EntryFile {
                 z_profile_mm: self.z.unwrap_or_default(),
             },
             untracked: self.untracked,
+            file: None,
+            file_freq_hz: None,
         })
     }
 }
@@ -403,7 +496,15 @@ impl Library {
     /// the entry and the field).
     pub fn load(path: &FsPath) -> Result<Self, InputError> {
         let text = crate::limits::read_text_file("stimulus library", path)?;
-        Self::from_toml(&text, &path.display().to_string())
+        let mut lib = Self::from_toml(&text, &path.display().to_string())?;
+        // Files an entry names are relative to the library's folder.
+        let dir = path.parent().unwrap_or(FsPath::new(""));
+        for e in &mut lib.entries {
+            if let Some((_, f)) = &mut e.file {
+                *f = dir.join(&*f);
+            }
+        }
+        Ok(lib)
     }
 
     /// Parses a library from TOML text; `origin` names it in errors.
@@ -452,8 +553,7 @@ impl Library {
         self.entries
             .iter()
             .map(|e| {
-                e.stimulus
-                    .plan_for(target, scene.clone())
+                e.plan_for(target, scene.clone())
                     .map_err(|err| err.context(format!("stimulus `{}`", e.id)))
             })
             .collect()
@@ -656,6 +756,72 @@ mod tests {
                 .to_string();
             assert!(e.contains(needle), "{body}: {e}");
             assert!(!e.contains('\n'), "{e}");
+        }
+    }
+
+    #[test]
+    fn an_entry_plays_phases_or_foci_from_a_file_beside_the_library() {
+        let d = std::env::temp_dir().join(format!("lmhost-library-files-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let n = Scene::default().transducers().len();
+        // Four steps of phases, each step one value on every transducer.
+        let rows: Vec<Vec<u8>> = (0..4u8).map(|k| vec![k * 60; n]).collect();
+        let phases = serde_json::json!({ "phases": rows, "dwell_us": 1000.0 });
+        std::fs::write(d.join("p.json"), phases.to_string()).unwrap();
+        let foci = serde_json::json!({ "foci_mm": [[[0.0, 0.0, 200.0]], [[2.0, 0.0, 200.0]]] });
+        std::fs::write(d.join("f.json"), foci.to_string()).unwrap();
+        std::fs::write(
+            d.join("lib.toml"),
+            "[[stimulus]]\nid = \"from-phases\"\nphases_file = \"p.json\"\nuntracked = true\n\n\
+             [[stimulus]]\nid = \"from-foci\"\nfoci_file = \"f.json\"\nfreq = 5.0\n\n\
+             [[stimulus]]\nid = \"circle\"\n",
+        )
+        .unwrap();
+        let lib = Library::load(&d.join("lib.toml")).unwrap();
+        assert_eq!(
+            lib.entries[0].file,
+            Some((Content::Phases, d.join("p.json")))
+        );
+        assert!(lib.entries[0].untracked);
+        for target in [Target::Lm, Target::Autd3] {
+            let plans = lib.plan_for(&target, &Scene::default()).unwrap();
+            let (p, f) = (&plans[0].plan.sequence, &plans[1].plan.sequence);
+            assert_eq!(p.header.steps, 4, "{target:?}");
+            assert_eq!(p.step(2)[0], 120);
+            assert!((p.dwell_us() - 1000.0).abs() < 1e-9, "{}", p.dwell_us());
+            // Two foci at 5 Hz: 100 ms a step.
+            assert_eq!(f.header.steps, 2);
+            assert!((f.dwell_us() - 100_000.0).abs() < 1e-6, "{}", f.dwell_us());
+            assert_ne!(f.step(0), f.step(1));
+        }
+        // A file that is not there is the entry's error, named.
+        std::fs::remove_file(d.join("f.json")).unwrap();
+        let e = lib.plan_for(&Target::Lm, &Scene::default()).unwrap_err();
+        let e = crate::error::one_line(&e);
+        assert!(
+            e.contains("stimulus `from-foci`") && e.contains("f.json"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+        for (body, needle) in [
+            (
+                "phases_file = \"p.npy\"\nradius = 3.0",
+                "`radius` does not apply to a stimulus from `phases_file`",
+            ),
+            (
+                "foci_file = \"f.npy\"\nam = { shape = \"sine\", freq = 100.0 }",
+                "`am` does not apply to a stimulus from `foci_file`",
+            ),
+            (
+                "phases_file = \"p.npy\"\nfoci_file = \"f.npy\"",
+                "give `phases_file` or `foci_file`, not both",
+            ),
+            ("phases_file = \" \"", "`phases_file` is empty"),
+        ] {
+            let e = Library::from_toml(&format!("[[stimulus]]\nid = \"x\"\n{body}\n"), "lib.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(needle), "{body}: {e}");
         }
     }
 }
