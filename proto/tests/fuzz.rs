@@ -34,7 +34,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             rng.next_u64() as i32,
         ]
     };
-    let m = match rng.below(18) {
+    let m = match rng.below(19) {
         0 => Message::GetInfo,
         1 => Message::Stop,
         2 => Message::GetStatus,
@@ -152,7 +152,7 @@ fn random_message(rng: &mut Rng) -> Owned {
                 points: (0..n).map(|_| x(rng)).collect(),
             };
         }
-        11 => {
+        18 => {
             let mut data = vec![0u8; 1 + rng.below(MAX_CHUNK)];
             rng.fill(&mut data);
             return Owned::Intensity {

@@ -92,6 +92,7 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
                 Encoding::Delta
             },
             encoded_len: r.below(700) as u32,
+            intensity_table: false,
         }),
         3 => {
             let n = r.below(17) as usize;
