@@ -138,7 +138,10 @@ fn the_simulated_device_plays_the_am_and_lissajous_entries_in_a_study() {
         assert!(u["readback_mismatches"].is_null(), "{u}");
     }
     assert_eq!(
-        events.lines().filter(|l| l.contains("\"event\":\"onset\"")).count(),
+        events
+            .lines()
+            .filter(|l| l.contains("\"event\":\"onset\""))
+            .count(),
         2,
         "{events}"
     );
@@ -159,7 +162,10 @@ fn the_simulated_device_refuses_an_am_its_steps_cannot_carry_in_one_line() {
     assert_eq!(o.status.code(), Some(2), "{o:?}");
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(err.contains("`am`") && err.contains("does not fit"), "{err}");
+    assert!(
+        err.contains("`am`") && err.contains("does not fit"),
+        "{err}"
+    );
     assert!(err.contains("from 5 to 100 Hz"), "{err}");
     assert!(!refused.join("P01/trials.csv").exists());
 }
