@@ -185,3 +185,122 @@ fn a_partial_or_changed_table_never_plays_and_the_old_entry_keeps_playing() {
     let frames = play_cycles(&mut dev, 1, 1);
     assert!(frames.iter().all(|f| f[2] == 255), "{frames:?}");
 }
+
+/// A frame on the wire from raw parts: version, type, seq, payload, CRC.
+fn raw_frame(version: u8, msg_type: u8, seq: u16, payload: &[u8]) -> Vec<u8> {
+    let mut f = vec![version, msg_type];
+    f.extend(seq.to_le_bytes());
+    f.extend(payload);
+    f.extend(lm_proto::crc32(&f).to_le_bytes());
+    let mut enc = vec![0u8; lm_proto::cobs::max_encoded_len(f.len())];
+    let n = lm_proto::cobs::encode(&f, &mut enc).unwrap();
+    let mut wire = vec![0];
+    wire.extend(&enc[..n]);
+    wire.push(0);
+    wire
+}
+
+/// Hostile table bytes while an entry plays and another uploads: each
+/// frame gets exactly one answer (malformed ones `Malformed`, counted),
+/// the playing entry is never touched and the upload still commits.
+#[test]
+fn hostile_intensity_frames_get_one_answer_and_touch_nothing_else() {
+    use lm_proto::PROTOCOL_VERSION as V;
+    let seq = Seq::pattern(STEPS, T, PERIOD_US, 7);
+    let mut dev = device(config(T), 4 * seq.phases.len());
+    seq.upload(&mut dev, 1, Encoding::Raw, 0);
+    assert_eq!(
+        request(&mut dev, 50, &play(1, PlayAt::Immediate), 0),
+        Reply::Ack
+    );
+    begin_with_table(&mut dev, &seq, 0);
+    let level = |slot: u8, offset: u16, data: &[u8]| {
+        let mut p = vec![slot];
+        p.extend(offset.to_le_bytes());
+        p.extend(data);
+        p
+    };
+    let mut begin_v5 = Vec::new();
+    if let Message::BeginUpload(b) = seq.begin(2, Encoding::Raw) {
+        let mut buf = [0u8; 64];
+        let n = Message::BeginUpload(b).emit_payload(&mut buf).unwrap();
+        begin_v5.extend(&buf[..n - 1]);
+    }
+    let mut begin_flags = begin_v5.clone();
+    begin_flags.push(0x80);
+    let nack = |c| Reply::Nack(c);
+    // Type 0x0E: `Intensity`; 0x02: `BeginUpload`.
+    let cases: Vec<(&str, u8, Vec<u8>, Reply)> = vec![
+        (
+            "no levels",
+            0x0E,
+            level(0, 0, &[]),
+            nack(NackCode::Malformed),
+        ),
+        (
+            "1025 levels",
+            0x0E,
+            level(0, 0, &[1; 1025]),
+            nack(NackCode::Malformed),
+        ),
+        (
+            "2 payload bytes",
+            0x0E,
+            vec![0, 0],
+            nack(NackCode::Malformed),
+        ),
+        (
+            "offset 65535",
+            0x0E,
+            level(0, u16::MAX, &[1, 2]),
+            nack(NackCode::OutOfRange),
+        ),
+        (
+            "past the last step",
+            0x0E,
+            level(0, 7, &[1, 2]),
+            nack(NackCode::OutOfRange),
+        ),
+        ("a gap", 0x0E, level(0, 3, &[1]), nack(NackCode::OutOfOrder)),
+        (
+            "the playing slot",
+            0x0E,
+            level(1, 0, &[1]),
+            nack(NackCode::SlotPlaying),
+        ),
+        (
+            "slot 255",
+            0x0E,
+            level(255, 0, &[1]),
+            nack(NackCode::BadSlot),
+        ),
+        (
+            "no upload there",
+            0x0E,
+            level(2, 0, &[1]),
+            nack(NackCode::NoUpload),
+        ),
+        ("v5 BeginUpload", 0x02, begin_v5, nack(NackCode::Malformed)),
+        ("unknown flag", 0x02, begin_flags, nack(NackCode::Malformed)),
+    ];
+    let before = dev.counters().bad_frames;
+    for (i, (what, ty, payload, want)) in cases.iter().enumerate() {
+        let replies = feed(&mut dev, &raw_frame(V, *ty, 200 + i as u16, payload), 0);
+        assert_eq!(replies.len(), 1, "{what}: {replies:?}");
+        assert_eq!(&replies[0].1, want, "{what}");
+    }
+    assert_eq!(dev.counters().bad_frames - before, 5, "the malformed ones");
+    // The upload is intact: the whole table, then the commit.
+    assert_eq!(request(&mut dev, 300, &levels(0, 0, &TABLE), 0), Reply::Ack);
+    assert_eq!(
+        request(&mut dev, 301, &commit(&seq, 0, &TABLE), 0),
+        Reply::Ack
+    );
+    // Slot 1 played on untouched at its one intensity.
+    let mut wire = Wire::default();
+    let mut now = 0;
+    while wire.transactions.len() < usize::from(STEPS) {
+        now = dev.poll(now, &mut SpiOutput::new(&mut wire)).unwrap();
+    }
+    assert!(wire.transactions.iter().all(|f| f[2] == 255));
+}
