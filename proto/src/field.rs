@@ -47,6 +47,8 @@ layout! {
         RIG_CRC32 = 35..39,
         /// Output intensity, 0-255 (255 = full), u8.
         INTENSITY = 39..40,
+        /// Flag bits (`UPLOAD_FLAG_INTENSITY_TABLE`), u8.
+        FLAGS = 40..41,
     }
 }
 
@@ -75,6 +77,16 @@ layout! {
         SLOT = 0..1,
         /// Offset of the data in the encoded stream, u32.
         OFFSET = 1..5,
+    }
+}
+
+layout! {
+    /// `Intensity` before its table bytes (which run from `LEN` to the end).
+    pub mod intensity {
+        /// Slot of the upload, u8.
+        SLOT = 0..1,
+        /// Index of the first step the bytes are for, u16.
+        OFFSET = 1..3,
     }
 }
 

@@ -251,6 +251,7 @@ pub(crate) fn validate_begin(
     header: &UploadHeader,
     encoding: Encoding,
     encoded_len: u32,
+    intensity_table: bool,
     limits: &DeviceLimits,
 ) -> Result<(), HeaderError> {
     if slot >= limits.slots {
@@ -260,6 +261,19 @@ pub(crate) fn validate_begin(
         });
     }
     header.validate(limits)?;
+    // The table (one byte per step) lives with the phases: both must fit.
+    let with_table = header.raw_len()
+        + if intensity_table {
+            u64::from(header.steps)
+        } else {
+            0
+        };
+    if with_table > u64::from(limits.slot_bytes) {
+        return Err(HeaderError::TooLarge {
+            raw: with_table,
+            slot_bytes: limits.slot_bytes,
+        });
+    }
     if !encoded_len_range(encoding, header.steps, header.transducers)
         .contains(&u64::from(encoded_len))
     {
@@ -321,7 +335,9 @@ mod tests {
     #[test]
     fn begin_checks_slot_and_encoded_len() {
         let h = header();
-        let v = |slot, enc, len| validate_begin(slot, &h, enc, len, &LIMITS).map_err(|e| e.nack());
+        let v = |slot, enc, len| {
+            validate_begin(slot, &h, enc, len, false, &LIMITS).map_err(|e| e.nack())
+        };
         assert_eq!(v(0, Encoding::Raw, 82 * 996), Ok(()));
         assert_eq!(v(2, Encoding::Raw, 82 * 996), Err(NackCode::BadSlot));
         assert_eq!(v(0, Encoding::Raw, 82 * 996 - 1), Err(NackCode::OutOfRange));
@@ -333,6 +349,25 @@ mod tests {
         assert_eq!(v(0, Encoding::Delta, max), Ok(()));
         assert_eq!(v(0, Encoding::Delta, min - 1), Err(NackCode::OutOfRange));
         assert_eq!(v(0, Encoding::Delta, max + 1), Err(NackCode::OutOfRange));
+        // A table of one byte per step counts against the slot: 200 steps
+        // fill it, with a table 199 do not fit.
+        let full = UploadHeader {
+            steps: 200,
+            period_us: 200_000,
+            ..h
+        };
+        let t = |table| validate_begin(0, &full, Encoding::Raw, 200 * 996, table, &LIMITS);
+        assert_eq!(t(false), Ok(()));
+        assert_eq!(t(true).map_err(|e| e.nack()), Err(NackCode::TooLarge));
+        let fits = UploadHeader {
+            steps: 199,
+            period_us: 199_000,
+            ..h
+        };
+        assert_eq!(
+            validate_begin(0, &fits, Encoding::Raw, 199 * 996, true, &LIMITS),
+            Ok(())
+        );
     }
 
     #[test]

@@ -40,13 +40,13 @@ pub use frame::{
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
     BeginRig, BeginUpload, Centroid, Chunk, ClockSource, Commit, DeviceState, Geometry, Info,
-    Message, MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, SelfTest,
-    Status, rig_crc32,
+    Intensity, Message, MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions,
+    SelfTest, Status, UPLOAD_FLAG_INTENSITY_TABLE, rig_crc32,
 };
 pub use nack::NackCode;
 
 /// Protocol version carried in every frame header.
-pub const PROTOCOL_VERSION: u8 = 5;
+pub const PROTOCOL_VERSION: u8 = 6;
 /// Carrier frequency of the transducers, Hz (the wavenumber of a slot is
 /// 2π · `CARRIER_HZ` / its speed of sound).
 pub const CARRIER_HZ: u32 = 40_000;
@@ -106,6 +106,8 @@ pub mod len {
     pub const GEOMETRY_HEAD: usize = field::geometry::LEN;
     /// `Chunk` before its data (slot, offset).
     pub const CHUNK_HEAD: usize = field::chunk::LEN;
+    /// `Intensity` before its table bytes (slot, offset).
+    pub const INTENSITY_HEAD: usize = field::intensity::LEN;
     /// `Commit`.
     pub const COMMIT: usize = field::commit::LEN;
     /// `Play`.

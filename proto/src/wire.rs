@@ -243,6 +243,7 @@ mod tests {
             len::BEGIN_RIG,
             len::GEOMETRY_HEAD,
             len::CHUNK_HEAD,
+            len::INTENSITY_HEAD,
             len::COMMIT,
             len::PLAY,
             len::CENTROID,
@@ -251,6 +252,6 @@ mod tests {
             len::STATUS,
             len::SELF_TEST_RESULT,
         ];
-        assert_eq!(got, [4, 40, 6, 2, 5, 5, 9, 25, 1, 32, 48, 15]);
+        assert_eq!(got, [4, 41, 6, 2, 5, 3, 5, 9, 25, 1, 32, 48, 15]);
     }
 }

@@ -34,7 +34,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             rng.next_u64() as i32,
         ]
     };
-    let m = match rng.below(18) {
+    let m = match rng.below(19) {
         0 => Message::GetInfo,
         1 => Message::Stop,
         2 => Message::GetStatus,
@@ -94,6 +94,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             encoding: rng.encoding(),
             encoded_len: rng.next_u64() as u32,
             rig_crc32: rng.next_u64() as u32,
+            intensity_table: rng.below(2) == 1,
         }),
         13 => Message::BeginRig(BeginRig {
             transducers: rng.next_u64() as u16,
@@ -149,6 +150,15 @@ fn random_message(rng: &mut Rng) -> Owned {
             return Owned::Geometry {
                 first: rng.next_u64() as u16,
                 points: (0..n).map(|_| x(rng)).collect(),
+            };
+        }
+        18 => {
+            let mut data = vec![0u8; 1 + rng.below(MAX_CHUNK)];
+            rng.fill(&mut data);
+            return Owned::Intensity {
+                slot: rng.byte(),
+                offset: rng.next_u64() as u16,
+                data,
             };
         }
         _ => {

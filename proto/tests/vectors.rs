@@ -15,13 +15,22 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         }
         a
     };
+    static LEVELS: [u8; 1024] = {
+        let mut a = [0u8; 1024];
+        let mut i = 0;
+        while i < 1024 {
+            a[i] = i as u8;
+            i += 1;
+        }
+        a
+    };
     static POS: [[i32; 3]; 2] = [[-96520, -66040, 0], [-86360, -66040, 0]];
     let (seq, message) = match name {
         "get_info" => (0, Message::GetInfo),
         "info" => (
             0,
             Message::Info(Info {
-                proto_version: 5,
+                proto_version: 6,
                 fw_version: [0, 1, 0],
                 max_transducers: 996,
                 slot_bytes: 487_424,
@@ -38,7 +47,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "info_no_rig" => (
             0,
             Message::Info(Info {
-                proto_version: 5,
+                proto_version: 6,
                 fw_version: [1, 2, 3],
                 max_transducers: 249,
                 slot_bytes: 1000,
@@ -77,6 +86,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 encoding: Encoding::Delta,
                 encoded_len: 22_000,
                 rig_crc32: 0x89AB_CDEF,
+                intensity_table: false,
             }),
         ),
         "begin_upload_raw" => (
@@ -96,6 +106,43 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 encoding: Encoding::Raw,
                 encoded_len: 1,
                 rig_crc32: 1,
+                intensity_table: false,
+            }),
+        ),
+        "begin_upload_table" => (
+            31,
+            Message::BeginUpload(BeginUpload {
+                slot: 2,
+                header: UploadHeader {
+                    steps: 82,
+                    transducers: 996,
+                    period_us: 200_000,
+                    center_um: [0, 0, 200_000],
+                    foci_per_step: 1,
+                    sound_speed_mm_s: 340_000,
+                    max_offset_um: 20_000,
+                    intensity: 200,
+                },
+                encoding: Encoding::Raw,
+                encoded_len: 82 * 996,
+                rig_crc32: 0x89AB_CDEF,
+                intensity_table: true,
+            }),
+        ),
+        "intensity" => (
+            32,
+            Message::Intensity(Intensity {
+                slot: 2,
+                offset: 80,
+                data: &[0xFF, 0x80, 0x00],
+            }),
+        ),
+        "intensity_long" => (
+            33,
+            Message::Intensity(Intensity {
+                slot: 0,
+                offset: u16::MAX,
+                data: &LEVELS,
             }),
         ),
         "geometry" => (

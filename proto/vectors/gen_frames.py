@@ -4,7 +4,7 @@ spec with Python's own CRC (zlib) and a separate COBS, independent of the
 Rust code that the vectors check. Run: python3 gen_frames.py > frames.txt"""
 import struct, zlib
 
-VERSION = 5
+VERSION = 6
 
 def cobs(data):
     out, block = bytearray(), bytearray()
@@ -41,9 +41,15 @@ def raw(name, fields, wire, error):
 
 xyz = lambda v: struct.pack("<3i", *v)
 
-def begin(slot, steps, t, period, enc, enc_len, center, foci, speed, max_off, rig, intensity):
+def begin(slot, steps, t, period, enc, enc_len, center, foci, speed, max_off, rig, intensity,
+          flags=0):
+    """BeginUpload (41 bytes); flags bit 0: a per-step intensity table follows."""
     return (struct.pack("<BHHIBI", slot, steps, t, period, enc, enc_len) + xyz(center)
-            + bytes([foci]) + struct.pack("<III", speed, max_off, rig) + bytes([intensity]))
+            + bytes([foci]) + struct.pack("<III", speed, max_off, rig) + bytes([intensity, flags]))
+
+def intensity(slot, offset, data):
+    """Intensity: slot, offset (u16, the first step), one level per step."""
+    return struct.pack("<BH", slot, offset) + bytes(data)
 
 def rig_crc(points):
     """CRC-32 of a rig: its positions as 12-byte records, in order."""
@@ -52,12 +58,12 @@ def rig_crc(points):
 # The device records' rig: two transducers 10 mm apart.
 DEV_RIG = [(-5000, 0, 0), (5000, 0, 0)]
 
-def small_begin(slot, enc, enc_len, max_off=20000, rig=None, intensity=255):
+def small_begin(slot, enc, enc_len, max_off=20000, rig=None, level=255, flags=0):
     """The device records' upload: 2 steps x 2 transducers, 200 ms a step,
     one focus at (0, 0, 200) mm, 340 m/s, for DEV_RIG."""
     rig = rig_crc(DEV_RIG) if rig is None else rig
     return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), 1, 340000, max_off, rig,
-                 intensity)
+                 level, flags)
 
 # The host lease (SPEC section 2): Play.lease_ms within 100 ..= 60000.
 DEFAULT_LEASE_MS = 1000
@@ -77,26 +83,32 @@ def self_test(outcome, n=0, mismatches=0, first=0, sent=0, got=0):
 
 rec("get_info", 0x01, 0, "GetInfo", b"")
 rec("info", 0x82, 0,
-    "Info proto_version=5 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
+    "Info proto_version=6 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
     "slots=32 timer_hz=1000000 min_dwell_us=100 max_chunk=1024 rig_transducers=996 "
     "rig_crc32=0x89abcdef library_free=300000 clock=Crystal(2)",
-    struct.pack("<B3BHIBIIHHIIB", 5, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
+    struct.pack("<B3BHIBIIHHIIB", 6, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
                 0x89ABCDEF, 300000, 2))
 rec("info_no_rig", 0x82, 0,
-    "Info proto_version=5 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
+    "Info proto_version=6 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
     "slots=32 timer_hz=25000000 min_dwell_us=1000 max_chunk=512 rig_transducers=0 "
     "rig_crc32=0x00000000 library_free=1000 clock=InternalRc(1)",
-    struct.pack("<B3BHIBIIHHIIB", 5, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000, 1))
+    struct.pack("<B3BHIBIIHHIIB", 6, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000, 1))
 rec("begin_upload", 0x02, 1,
     "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
     "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200 "
-    "max_offset_um=20000 rig_crc32=0x89abcdef intensity=255",
+    "max_offset_um=20000 rig_crc32=0x89abcdef intensity=255 flags=0",
     begin(0, 82, 996, 200000, 1, 22000, (0, 30000, 30000), 4, 343200, 20000, 0x89ABCDEF, 255))
 rec("begin_upload_raw", 0x02, 2,
     "BeginUpload slot=1 steps=1 transducers=1 period_us=1000 encoding=Raw(0) "
     "encoded_len=1 center_um=[-1,-2,-3] foci_per_step=1 sound_speed_mm_s=100000 (lowest accepted) "
-    "max_offset_um=100000 (largest accepted) rig_crc32=0x00000001 intensity=128",
+    "max_offset_um=100000 (largest accepted) rig_crc32=0x00000001 intensity=128 flags=0",
     begin(1, 1, 1, 1000, 0, 1, (-1, -2, -3), 1, 100000, 100000, 1, 128))
+rec("begin_upload_table", 0x02, 31,
+    "BeginUpload slot=2 steps=82 transducers=996 period_us=200000 encoding=Raw(0) "
+    "encoded_len=81672 center_um=[0,0,200000] foci_per_step=1 sound_speed_mm_s=340000 "
+    "max_offset_um=20000 rig_crc32=0x89abcdef intensity=200 flags=intensity_table(1)",
+    begin(2, 82, 996, 200000, 0, 82 * 996, (0, 0, 200000), 1, 340000, 20000, 0x89ABCDEF, 200,
+          flags=1))
 rec("begin_rig", 0x0A, 26, "BeginRig transducers=996 crc32=0x89abcdef",
     struct.pack("<HI", 996, 0x89ABCDEF))
 rec("commit_rig", 0x0B, 27, "CommitRig", b"")
@@ -110,6 +122,11 @@ rec("chunk_long", 0x04, 6,
     "Chunk slot=1 offset=0 data=300 bytes, byte i = (i mod 255) + 1 (crosses a 254-byte COBS block)",
     struct.pack("<BI", 1, 0) + bytes((i % 255) + 1 for i in range(300)))
 rec("chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[]", struct.pack("<BI", 0, 0xFFFFFFFF))
+rec("intensity", 0x0E, 32, "Intensity slot=2 offset=80 data=[ff 80 00]",
+    intensity(2, 80, [0xFF, 0x80, 0x00]))
+rec("intensity_long", 0x0E, 33,
+    "Intensity slot=0 offset=65535 data=1024 bytes, byte i = i mod 256 (MAX_CHUNK levels)",
+    intensity(0, 65535, [i % 256 for i in range(1024)]))
 rec("commit", 0x05, 8, "Commit slot=0 crc32=0xcbf43926", struct.pack("<BI", 0, 0xCBF43926))
 rec("play_next_cycle", 0x06, 9, "Play slot=1 at=NextCycle(0) flags=0 steps=0 lease_ms=1000",
     play(1, 0, 0))
@@ -166,8 +183,8 @@ rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version do
 rec("err_crc", 0x80, 18, "Ack with the CRC's lowest bit flipped", b"", crc_xor=1, error="crc")
 rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC", b"",
     error="unknown_type")
-rec("err_bad_version", 0x01, 20, "GetInfo with version 4 (the previous one), valid CRC", b"",
-    version=4,
+rec("err_bad_version", 0x01, 20, "GetInfo with version 5 (the previous one), valid CRC", b"",
+    version=5,
     error="bad_version")
 rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", play(0, 2, 0),
     error="malformed")
@@ -189,8 +206,17 @@ rec("err_malformed_bool", 0x08, 23, "Centroid with present=2",
     struct.pack("<I", 1) + xyz((0, 0, 0)) + b"\x02" + struct.pack("<Q", 0), error="malformed")
 rec("err_malformed_begin_short", 0x02, 24,
     "BeginUpload with the 35-byte payload of version 2 that lacks rig_crc32 and intensity "
-    "(needs 40)",
+    "(needs 41)",
     begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1, 0, 255)[:35], error="malformed")
+rec("err_malformed_begin_v5", 0x02, 24,
+    "BeginUpload with the 40-byte payload of versions 3-5, without flags (needs 41)",
+    begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1, 0, 255)[:40], error="malformed")
+rec("err_malformed_begin_flags", 0x02, 24, "BeginUpload with flags=0x02 (unknown flag bit)",
+    begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1, 0, 255, flags=2), error="malformed")
+rec("err_malformed_intensity_empty", 0x0E, 24, "Intensity slot=0 offset=0 without levels",
+    intensity(0, 0, []), error="malformed")
+rec("err_malformed_intensity_long", 0x0E, 24, "Intensity slot=0 offset=0 with 1025 levels",
+    intensity(0, 0, [1] * 1025), error="malformed")
 rec("err_malformed_geometry_v2", 0x03, 24,
     "Geometry with the version 2 slot byte before first (2 + 12n bytes needed, got 3 + 12)",
     struct.pack("<BH", 0, 0) + xyz((1, 2, 3)), error="malformed")
@@ -238,7 +264,7 @@ rec("dev_begin", 0x02, 103,
     "BeginUpload slot=1 steps=2 transducers=2 period_us=200000 encoding=Raw(0) encoded_len=4 "
     "center_um=[0,0,200000] foci_per_step=1 sound_speed_mm_s=340000 max_offset_um=20000 "
     f"rig_crc32=0x{DEV_CRC:08x} intensity=200",
-    small_begin(1, 0, 4, intensity=200), expect="ack")
+    small_begin(1, 0, 4, level=200), expect="ack")
 rec("dev_chunk_a", 0x04, 202, "Chunk slot=1 offset=0 data=[01 02]",
     struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
 rec("dev_chunk_b", 0x04, 203, "Chunk slot=1 offset=2 data=[03 04]",
@@ -257,6 +283,42 @@ rec("dev_commit_again", 0x05, 108, "the same Commit repeated (idempotent: acked 
     struct.pack("<BI", 1, zlib.crc32(bytes(SMALL))), expect="ack")
 rec("dev_commit_other_crc", 0x05, 109, "Commit slot=1 crc32=0x00000000 (no upload in progress)",
     struct.pack("<BI", 1, 0), expect="nack NoUpload")
+# A per-step intensity table (version 6): slot 2, the same phases, levels
+# [ff 80]; the Commit CRC covers the phases, then the table.
+TABLE = [0xFF, 0x80]
+TABLE_CRC = zlib.crc32(bytes(SMALL) + bytes(TABLE))
+rec("dev_intensity_no_table", 0x0E, 160,
+    "Intensity slot=1 offset=0 data=[ff] (slot 1 is committed, no upload: NoUpload)",
+    intensity(1, 0, [0xFF]), expect="nack NoUpload")
+rec("dev_begin_table", 0x02, 161,
+    "BeginUpload slot=2 steps=2 transducers=2 Raw encoded_len=4 intensity=200 "
+    "flags=intensity_table(1)",
+    small_begin(2, 0, 4, level=200, flags=1), expect="ack")
+rec("dev_table_chunk", 0x04, 162, "Chunk slot=2 offset=0 data=[01 02 03 04]",
+    struct.pack("<BI", 2, 0) + bytes(SMALL), expect="ack")
+rec("dev_table_a", 0x0E, 163, "Intensity slot=2 offset=0 data=[ff]", intensity(2, 0, TABLE[:1]),
+    expect="ack")
+rec("dev_table_commit_early", 0x05, 164,
+    f"Commit slot=2 crc32=0x{TABLE_CRC:08x} (step 1's level has not arrived: Incomplete)",
+    struct.pack("<BI", 2, TABLE_CRC), expect="nack Incomplete")
+rec("dev_table_gap", 0x0E, 165, "Intensity slot=2 offset=2 data=[10] (past the 2 steps)",
+    intensity(2, 2, [0x10]), expect="nack OutOfRange")
+rec("dev_table_b", 0x0E, 166, "Intensity slot=2 offset=1 data=[80]", intensity(2, 1, TABLE[1:]),
+    expect="ack")
+rec("dev_table_again", 0x0E, 167,
+    "Intensity slot=2 offset=0 data=[ff 80] (identical to received levels: acked)",
+    intensity(2, 0, TABLE), expect="ack")
+rec("dev_table_conflict", 0x0E, 168, "Intensity slot=2 offset=1 data=[81] (differs: OutOfOrder)",
+    intensity(2, 1, [0x81]), expect="nack OutOfOrder")
+rec("dev_table_commit", 0x05, 169,
+    f"Commit slot=2 crc32=0x{TABLE_CRC:08x} (CRC-32 of the phases, then the table)",
+    struct.pack("<BI", 2, TABLE_CRC), expect="ack")
+rec("dev_begin_no_table", 0x02, 170,
+    "BeginUpload slot=3 steps=2 transducers=2 Raw encoded_len=4 flags=0",
+    small_begin(3, 0, 4), expect="ack")
+rec("dev_intensity_without_table", 0x0E, 171,
+    "Intensity slot=3 offset=0 data=[ff] (the upload has no table: OutOfRange)",
+    intensity(3, 0, [0xFF]), expect="nack OutOfRange")
 for name, seq, fields, enc, enc_len, max_off in [
     ("dev_begin_delta_empty", 110,
      "BeginUpload slot=0 steps=2 transducers=2 Delta encoded_len=0 (impossible: out of range)",

@@ -64,6 +64,7 @@ fn spec(rng: &mut SplitMix64) -> Sequence {
             intensity: 255,
         },
         phases,
+        intensity_table: None,
     }
 }
 

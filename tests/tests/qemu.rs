@@ -142,6 +142,7 @@ impl Link {
             encoding,
             encoded_len: stream.len() as u32,
             rig_crc32,
+            intensity_table: false,
         }));
         for (i, data) in stream.chunks(MAX_CHUNK).enumerate() {
             self.ack(&Message::Chunk(Chunk {

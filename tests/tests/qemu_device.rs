@@ -237,3 +237,59 @@ fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
         (DeviceState::Stopped, u64::from(steps))
     );
 }
+
+/// An amplitude-modulated stimulus on the firmware under QEMU (protocol
+/// v6): the plan's intensity table goes up with the phases, the firmware
+/// acknowledges the commit (its CRC over the phases and levels it stored)
+/// and plays it for its steps without a missed deadline; the same phases
+/// without the table are another entry (another CRC).
+#[test]
+fn an_am_stimulus_plays_on_the_firmware_under_qemu() {
+    use lmhost::plan::modulation::{Am, AmShape};
+    use lmhost::plan::scene::Scene;
+    use lmhost::plan::stimulus::Stimulus;
+    use lmhost::plan::target::Target;
+    if skip_without_qemu() {
+        return;
+    }
+    let elf = firmware_elf();
+    let (_qemu, spec) = serving(&elf).expect("start qemu-system-arm");
+    let mut dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let am = Stimulus {
+        am: Some(Am {
+            shape: AmShape::Sine,
+            freq_hz: 20.0,
+            depth: 1.0,
+        }),
+        ..Stimulus::default()
+    }
+    .plan_for(&Target::Lm, Scene::default())
+    .unwrap();
+    assert_eq!(am.timing.am_freq_hz, Some(20.0));
+    let plan = am.plan;
+    let flat = Stimulus::default()
+        .plan_for(&Target::Lm, Scene::default())
+        .unwrap()
+        .plan;
+    let up = dev.upload(&plan, Some(0)).unwrap();
+    assert_eq!(up.wire().unwrap().crc32, plan.sequence.crc32());
+    let up_flat = dev.upload(&flat, Some(1)).unwrap();
+    assert_ne!(up_flat.wire().unwrap().crc32, up.wire().unwrap().crc32);
+    let n = u32::from(plan.sequence.header.steps);
+    dev.play_for(0, true, n).unwrap();
+    let give_up = Instant::now() + Duration::from_secs(60);
+    let st = loop {
+        let st = dev.status().unwrap();
+        if st.state == DeviceState::Stopped {
+            break st;
+        }
+        assert!(Instant::now() < give_up, "never stopped: {st:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(
+        (st.slot, st.cycles, st.missed_deadlines),
+        (Some(0), 1, 0),
+        "{st:?}"
+    );
+}

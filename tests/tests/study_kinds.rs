@@ -1,8 +1,11 @@
 //! Library entries beyond the circle end to end: a study with an AM entry
 //! and a Lissajous entry runs on autd3's emulator (every upload read back
-//! with 0 mismatches), the Lissajous one on the simulated LM device, which
-//! refuses the AM one with one line; `simulate` renders both from the
-//! library (the figure's extent on the map, the AM power at its frequency).
+//! with 0 mismatches) and on the simulated LM device (the AM as the
+//! entry's intensity table, protocol v6, every commit's CRC over the
+//! stored phases and levels acknowledged), which refuses an AM its steps
+//! cannot carry with one line naming those that fit; `simulate` renders
+//! both from the library (the figure's extent on the map, the AM power at
+//! its frequency).
 
 use std::path::Path;
 
@@ -21,7 +24,7 @@ path = { shape = "lissajous", a = 5.0, b = 2.0, ratio = [3, 2] }
 
 [[stimulus]]
 id = "am"
-am = { shape = "sine", freq = 200.0, depth = 1.0 }
+am = { shape = "sine", freq = 100.0, depth = 1.0 }
 "#;
 
 /// A one-factor protocol over `levels` of `library`, one set, one question.
@@ -103,29 +106,67 @@ fn an_am_and_a_lissajous_entry_play_in_a_study_on_the_emulator() {
     assert_eq!(onsets, 2, "{events}");
 }
 
+/// The `preloaded` events of a study's `events.jsonl`.
+fn preloaded(out: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out.join("P01/events.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|e| e["event"] == "preloaded")
+        .collect()
+}
+
 #[test]
-fn the_simulated_device_plays_the_lissajous_entry_and_refuses_am_in_one_line() {
+fn the_simulated_device_plays_the_am_and_lissajous_entries_in_a_study() {
     let sim = Sim::start(&[]);
     let d = scratch("kinds-sim");
     let answers = d.join("answers.txt");
-    std::fs::write(&answers, "4\n").unwrap();
-    // The library without its AM entry (the whole library is planned for
-    // the device at start).
-    let liss_only = &LIBRARY[..LIBRARY.find("[[stimulus]]\nid = \"am\"").unwrap()];
-    let proto = protocol(&d, liss_only, r#"["liss"]"#);
+    std::fs::write(&answers, "4\n5\n").unwrap();
+    let proto = protocol(&d, LIBRARY, r#"["liss", "am"]"#);
     let out = d.join("out");
     ok(&run(&proto, &sim.port, &out, &answers));
-    assert_eq!(rows(&out.join("P01")).len(), 1);
-    // A library with an AM entry is refused for the LM firmware before
-    // anything is written.
-    let proto = protocol(&d, LIBRARY, r#"["liss", "am"]"#);
-    let refused = d.join("refused");
+    let r = rows(&out.join("P01"));
+    let mut played: Vec<&str> = r.iter().map(|x| x["stimulus"].as_str()).collect();
+    played.sort();
+    assert_eq!(played, ["am", "liss"]);
+    let events = std::fs::read_to_string(out.join("P01/events.jsonl")).unwrap();
+    let uploads = preloaded(&out);
+    assert_eq!(uploads.len(), 2, "{events}");
+    // The LM link reads nothing back byte by byte (null); its commit, acked
+    // for both, is the device's CRC over the phases and levels it stored.
+    for u in &uploads {
+        assert!(u["readback_mismatches"].is_null(), "{u}");
+    }
+    assert_eq!(
+        events
+            .lines()
+            .filter(|l| l.contains("\"event\":\"onset\""))
+            .count(),
+        2,
+        "{events}"
+    );
+}
+
+#[test]
+fn the_simulated_device_refuses_an_am_its_steps_cannot_carry_in_one_line() {
+    let sim = Sim::start(&[]);
+    let d = scratch("kinds-sim-refused");
+    let answers = d.join("answers.txt");
     std::fs::write(&answers, "4\n5\n").unwrap();
+    // 200 Hz on the default 82 steps of a 5 Hz cycle: 2 steps a period.
+    // The whole library is planned for the device at start, so nothing is
+    // written.
+    let proto = protocol(&d, &LIBRARY.replace("100.0", "200.0"), r#"["liss", "am"]"#);
+    let refused = d.join("refused");
     let o = run(&proto, &sim.port, &refused, &answers);
     assert_eq!(o.status.code(), Some(2), "{o:?}");
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(err.contains("AUTD3 only") && err.contains("`am`"), "{err}");
+    assert!(
+        err.contains("`am`") && err.contains("does not fit"),
+        "{err}"
+    );
+    assert!(err.contains("from 5 to 100 Hz"), "{err}");
     assert!(!refused.join("P01/trials.csv").exists());
 }
 
@@ -169,8 +210,8 @@ fn simulate_renders_the_lissajous_figure_and_the_am_power_at_its_frequency() {
     assert!(s["am"].is_null());
     let a = simulate(&d, "am");
     let am = &a["am"];
-    assert_eq!(am["force_spectrum_peak_hz"], 200.0, "{am}");
-    assert_eq!(am["realised_freq_hz"], 200.0, "{am}");
+    assert_eq!(am["force_spectrum_peak_hz"], 100.0, "{am}");
+    assert_eq!(am["realised_freq_hz"], 100.0, "{am}");
     // Full depth: the mean pressure keeps 3/8; the AM power is there.
     assert!((am["mean_square_envelope"].as_f64().unwrap() - 0.375).abs() < 1e-9);
     assert!(am["am_power_peak_pa2"].as_f64().unwrap() > 0.0, "{am}");

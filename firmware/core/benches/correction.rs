@@ -88,6 +88,7 @@ fn bench(c: &mut Criterion) {
         encoding: Encoding::Raw,
         encoded_len: raw.len() as u32,
         rig_crc32: rig,
+        intensity_table: false,
     });
     assert_eq!(dev.handle(&begin, 0), Message::Ack);
     for (i, d) in raw.chunks(MAX_CHUNK).enumerate() {

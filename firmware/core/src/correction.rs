@@ -112,10 +112,31 @@ pub fn compute_offsets(
 }
 
 /// Adds `offsets` to `phases` byte by byte (wrapping) into `out`.
-/// This is the per-step hot loop; it compiles to a plain byte-add loop.
+/// This is the per-step hot loop. Four bytes at a time in a `u32` (the
+/// low seven bits of each byte added, the top bit by XOR, so no carry
+/// crosses a byte): the byte loop's code depended on what the compiler
+/// inlined around it (4.5 to 5.9 instructions a byte on the M7 between
+/// two builds of the same source); this is the same on every build.
 #[inline]
 pub fn apply_offsets(phases: &[u8], offsets: &[u8], out: &mut [u8]) {
-    for ((o, p), d) in out.iter_mut().zip(phases).zip(offsets) {
+    const LOW: u32 = 0x7F7F_7F7F;
+    let n = out.len().min(phases.len()).min(offsets.len());
+    let (out, phases, offsets) = (&mut out[..n], &phases[..n], &offsets[..n]);
+    let mut o4 = out.chunks_exact_mut(4);
+    let mut p4 = phases.chunks_exact(4);
+    let mut d4 = offsets.chunks_exact(4);
+    for ((o, p), d) in (&mut o4).zip(&mut p4).zip(&mut d4) {
+        let a = u32::from_le_bytes([p[0], p[1], p[2], p[3]]);
+        let b = u32::from_le_bytes([d[0], d[1], d[2], d[3]]);
+        let sum = ((a & LOW) + (b & LOW)) ^ ((a ^ b) & !LOW);
+        o.copy_from_slice(&sum.to_le_bytes());
+    }
+    let rest = o4
+        .into_remainder()
+        .iter_mut()
+        .zip(p4.remainder())
+        .zip(d4.remainder());
+    for ((o, p), d) in rest {
         *o = p.wrapping_add(*d);
     }
 }
@@ -183,5 +204,21 @@ mod tests {
         let mut out = [0u8; 3];
         apply_offsets(&[250, 1, 128], &[10, 255, 128], &mut out);
         assert_eq!(out, [4, 0, 0]);
+    }
+
+    #[test]
+    fn the_word_at_a_time_sum_is_the_byte_sum_for_every_pair() {
+        // Every byte pair, in every lane of a word and in the tail.
+        let a: Vec<u8> = (0..=255u8).flat_map(|x| [x; 256]).collect();
+        let b: Vec<u8> = (0..256 * 256).map(|i| i as u8).collect();
+        for shift in 0..4 {
+            let n = a.len() - shift;
+            let mut out = std::vec![0u8; n + 3];
+            apply_offsets(&a[shift..], &b[..n], &mut out);
+            for i in 0..n {
+                assert_eq!(out[i], a[shift + i].wrapping_add(b[i]), "{shift} {i}");
+            }
+            assert_eq!(&out[n..], &[0, 0, 0], "nothing past the shortest");
+        }
     }
 }

@@ -48,7 +48,8 @@
 //!   [`Device::set_centroid_timeout_us`], [`Device::set_min_dwell_us`],
 //!   [`Device::set_require_tracking`].
 //! - Output: [`OutputDriver`] receives a [`OutputFrame`] (phases with correction
-//!   applied, amplitude 0 when muted, the entry's intensity); [`SpiOutput`]
+//!   applied, amplitude 0 when muted, the entry's intensity, scaled by the
+//!   step's level when the entry has an intensity table); [`SpiOutput`]
 //!   sends it over an embedded-hal 1.0 `SpiDevice` as one transaction
 //!   `[0xA5, amplitude, intensity, step u16 LE, transducers u16 LE, phases..]`;
 //!   [`RecordingDriver`] keeps the last frames for tests. A board with an

@@ -168,6 +168,7 @@ fn upload(
         encoding: enc,
         encoded_len: stream.len() as u32,
         rig_crc32: rig_crc32(&Positions::from_points(pos)),
+        intensity_table: false,
     });
     let mut reqs = vec![begin];
     for (i, c) in stream.chunks(1024).enumerate() {
@@ -420,6 +421,7 @@ fn an_uncommitted_entry_never_plays() {
             encoding: Encoding::Delta,
             encoded_len: stream.len() as u32,
             rig_crc32: rig_crc32(&Positions::from_points(&pos)),
+            intensity_table: false,
         })
     };
     // All data, no commit.

@@ -11,8 +11,9 @@ use common::*;
 use lm_fw_core::{Device, OutputDriver, OutputFrame};
 use lm_proto::codec::Encoding;
 use lm_proto::{
-    BeginRig, BeginUpload, Centroid, Chunk, Commit, Geometry, MAX_ENCODED_FRAME, MAX_FRAME,
-    Message, PROTOCOL_VERSION, Play, PlayAt, Positions, UploadHeader, cobs, encode_frame,
+    BeginRig, BeginUpload, Centroid, Chunk, Commit, Geometry, Intensity, MAX_ENCODED_FRAME,
+    MAX_FRAME, Message, PROTOCOL_VERSION, Play, PlayAt, Positions, UploadHeader, cobs,
+    encode_frame,
 };
 
 /// Fails the test if a sounding frame comes from a slot that is not
@@ -92,12 +93,26 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
                 Encoding::Delta
             },
             encoded_len: r.below(700) as u32,
+            intensity_table: r.below(2) == 0,
         }),
         3 => {
             let n = r.below(17) as usize;
             Message::Geometry(Geometry {
                 first: r.below(20) as u16,
                 positions: Positions::from_points(&POINTS[..n]),
+            })
+        }
+        4 if r.below(2) == 0 => {
+            // Intensity levels: mostly in range of a small table.
+            let n = 1 + r.below(data.len().min(48) as u64) as usize;
+            Message::Intensity(Intensity {
+                slot,
+                offset: if r.below(8) == 0 {
+                    r.next() as u16
+                } else {
+                    r.below(40) as u16
+                },
+                data: &data[..n],
             })
         }
         4 | 5 => {

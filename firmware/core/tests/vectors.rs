@@ -50,13 +50,15 @@ fn expected(name: &str) -> Option<Option<Reply>> {
     Some(match name {
         "get_info" => return Some(Some(Reply::Other)), // checked below
         // No rig yet: uploads are refused until one is committed.
-        "begin_upload" | "begin_upload_raw" => return nack(NoRig),
+        "begin_upload" | "begin_upload_raw" | "begin_upload_table" => return nack(NoRig),
         "begin_rig" | "geometry_empty" | "stop" | "centroid" | "renew" => Some(Reply::Ack),
         // Nothing plays, and the test device has no self-test.
         "self_test" => Some(Reply::SelfTest(lm_proto::SelfTest::Unsupported)),
         "commit_rig" => return nack(Incomplete), // no position has arrived
         "geometry" => return nack(OutOfRange),   // first = 996 of 996
-        "chunk" | "chunk_long" | "chunk_empty" | "commit" => return nack(NoUpload),
+        "chunk" | "chunk_long" | "chunk_empty" | "commit" | "intensity" | "intensity_long" => {
+            return nack(NoUpload);
+        }
         "play_next_cycle" | "play_immediate" | "play_steps" => return nack(NotCommitted),
         "centroid_absent" => return nack(OutOfOrder), // seq u32::MAX is older than 42 (wrapping)
         "get_status" => return Some(Some(Reply::Other)), // checked below

@@ -191,10 +191,12 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
-        if plan.am.is_some() {
-            // Never played unmodulated: the wire (v5) has no modulation.
+        if plan.am.is_some() && plan.sequence.intensity_table.is_none() {
+            // Never played unmodulated: the LM firmware plays AM only as
+            // the intensity table `Stimulus::plan_for` makes for it.
             return Err(crate::error::InputError::new(
-                "amplitude modulation plays on AUTD3 only: the LM firmware (protocol v5) plays one intensity per stimulus",
+                "this amplitude-modulated plan has no intensity table for the LM firmware: \
+                 plan it for the LM target (`--target lm`)",
             )
             .into());
         }
@@ -419,6 +421,56 @@ mod tests {
         let sounding = frames.iter().filter(|f| f.amplitude > 0).count();
         assert_eq!(sounding, steps as usize);
         assert_eq!(frames.last().map(|f| f.amplitude), Some(0));
+    }
+
+    /// An AM stimulus on the simulated firmware: the plan's intensity
+    /// table goes up with the phases and every step's frame carries the
+    /// entry's intensity times that step's level.
+    #[test]
+    fn an_am_plan_plays_its_intensity_table_frame_by_frame() {
+        use crate::plan::modulation::{Am, AmShape};
+        let (mut dev, core, clock) = sim();
+        let stimulus = Stimulus {
+            am: Some(Am {
+                shape: AmShape::Sine,
+                freq_hz: 20.0,
+                depth: 0.8,
+            }),
+            intensity: 0.8,
+            ..Stimulus::default()
+        };
+        let plan = stimulus
+            .plan_for(&Target::Lm, Scene::default())
+            .unwrap()
+            .plan;
+        let table = plan.sequence.intensity_table.clone().unwrap();
+        let n = plan.sequence.header.steps;
+        let report = dev.upload(&plan, None).unwrap();
+        let wire = report.wire().unwrap();
+        assert_eq!(wire.crc32, plan.sequence.crc32());
+        core.lock().unwrap().take_captured();
+        let t0 = clock.now_us();
+        dev.play_for(report.slot, true, u32::from(n)).unwrap();
+        to(&mut dev, boundary(&plan, t0, u64::from(n)));
+        let frames = core.lock().unwrap().take_captured();
+        let sounding: Vec<_> = frames.iter().filter(|f| f.amplitude > 0).collect();
+        assert_eq!(sounding.len(), usize::from(n));
+        for f in sounding {
+            let level = u32::from(table[usize::from(f.step)]);
+            // 0.8 → 204; 204 × level / 255, rounded to nearest.
+            assert_eq!(
+                u32::from(f.intensity),
+                (204 * level + 127) / 255,
+                "step {}",
+                f.step
+            );
+        }
+        let levels: std::collections::BTreeSet<u8> = frames.iter().map(|f| f.intensity).collect();
+        assert!(levels.len() > 10, "the envelope varies: {levels:?}");
+        // A plan for the simulation (no table) is refused, not played flat.
+        let flat = stimulus.plan(Scene::default()).unwrap().plan;
+        let e = dev.upload(&flat, None).unwrap_err();
+        assert!(e.to_string().contains("no intensity table"), "{e}");
     }
 
     #[test]

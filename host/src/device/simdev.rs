@@ -339,6 +339,8 @@ pub struct CapturedFrame {
     pub step: u16,
     /// Amplitude (0 = muted).
     pub amplitude: u8,
+    /// Intensity (the entry's, scaled by its table's level for this step).
+    pub intensity: u8,
     /// Phases as sent to the transducers.
     pub phases: Vec<u8>,
 }
@@ -367,6 +369,7 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
                 slot: frame.slot,
                 step: frame.step,
                 amplitude: frame.amplitude,
+                intensity: frame.intensity,
                 phases: frame.phases.to_vec(),
             });
         }

@@ -17,7 +17,7 @@
 //! id = "liss-am"
 //! freq = 2.0             # Hz: one whole figure per cycle
 //! path = { shape = "lissajous", a = 5.0, b = 3.0, ratio = [3, 2], phase = 90.0 }
-//! am = { shape = "sine", freq = 200.0, depth = 1.0 }   # AUTD3 only
+//! am = { shape = "sine", freq = 200.0, depth = 1.0 }   # AUTD3: 200 Hz; LM: see below
 //! z = [0.5]              # mm along the plane's c axis: one, or one per step
 //! method = "gspat"       # or "linear" (default)
 //! iterations = 20        # GS-PAT's
@@ -34,10 +34,14 @@
 //! `ellipse` (semi-axes `a`, `b`) or `lissajous` (half-extents `a`, `b`,
 //! `ratio = [n_a, n_b]`, `phase` in degrees); `radius` belongs to the
 //! circle only. `am` is an amplitude modulation ([`Am`]): `sine` or
-//! `square`, `freq` in Hz, `depth` 0..=1; the LM firmware refuses it
-//! (one intensity per stimulus), an AUTD3 plays it as its modulation. [`Library::plan_for`] plans every entry for one
-//! device (AUTD3's 25 µs grid included) before anything is presented, so a
-//! bad entry is an error at start, not in the middle of a study.
+//! `square`, `freq` in Hz, `depth` 0..=1; an AUTD3 plays it as its
+//! modulation (4 kHz samples), the LM firmware as a per-step intensity
+//! table (protocol v6), which needs a whole number of AM periods per LM
+//! cycle of at least 4 steps each: at the paper's 82 steps and 5 Hz, 5 to
+//! 100 Hz in 5 Hz steps; another frequency is refused naming those.
+//! [`Library::plan_for`] plans every entry for one device (AUTD3's 25 µs
+//! grid included) before anything is presented, so a bad entry is an
+//! error at start, not in the middle of a study.
 //!
 //! The file types below also derive the file's JSON Schema (doc comments,
 //! ranges from the limits the checks use, defaults): `lmhost study schema
@@ -189,7 +193,7 @@ struct EntryFile {
     untracked: bool,
     /// The path's shape; default the circle of `radius`.
     path: Option<PathFile>,
-    /// Amplitude modulation; default none. AUTD3 only.
+    /// Amplitude modulation; default none.
     am: Option<AmFile>,
     /// Depth along the LM plane's c axis per step: one value (constant) or
     /// one per step; default 0.
@@ -700,7 +704,7 @@ mod tests {
         let e = lib.plan_for(&Target::Lm, &scene).unwrap_err();
         let e = format!("{e:#}");
         assert!(
-            e.contains("stimulus `am`") && e.contains("AUTD3 only"),
+            e.contains("stimulus `am`") && e.contains("does not fit the LM firmware's steps"),
             "{e}"
         );
         assert!(!e.contains('\n'), "{e}");

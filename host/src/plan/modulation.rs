@@ -11,8 +11,15 @@
 //! (the silencer's strict mode refuses a modulation sampled faster than
 //! its 250 µs intensity completion time, so 4 kHz is the fastest): `f` is
 //! realised as `4000 / S` Hz with `S` whole samples per period
-//! ([`Am::samples_per_period`]). The LM firmware plays one intensity per
-//! entry (protocol v5), so an AM stimulus is refused for it.
+//! ([`Am::samples_per_period`]).
+//!
+//! On the LM firmware (protocol v6) it is the entry's intensity table, one
+//! level per step ([`Am::lm_table`]): the envelope sampled at each step's
+//! start, `round(255 · e)`, which the device multiplies into the entry's
+//! intensity. The loop restarts the table every cycle, so a cycle must
+//! hold a whole number of AM periods (or the envelope would jump at the
+//! loop) of at least [`MIN_LM_STEPS_PER_PERIOD`] steps each; another
+//! frequency is refused with the ones that fit, never moved to one.
 
 use crate::error::InputError;
 use crate::limits;
@@ -29,6 +36,22 @@ pub const SAMPLE_RATE_HZ: f64 = 4000.0;
 /// autd3's modulation sampling divide (of its 40 kHz clock) for AM: the
 /// silencer's intensity completion steps, the smallest strict mode takes.
 pub const SAMPLE_DIVIDE: u16 = 10;
+
+/// Fewest steps per AM period an LM intensity table carries: fewer cannot
+/// tell a sine's peak from its trough, nor keep a square's two halves.
+pub const MIN_LM_STEPS_PER_PERIOD: usize = 4;
+
+/// An AM realised on the LM firmware: the entry's intensity table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LmAm {
+    /// One level per step, `round(255 · e(t_j))`, 255 = the entry's intensity.
+    pub table: Vec<u8>,
+    /// Whole AM periods per LM cycle.
+    pub periods_per_cycle: usize,
+    /// The frequency the device plays (Hz): periods per cycle over the
+    /// cycle's whole-µs period.
+    pub freq_hz: f64,
+}
 
 /// The envelope's shape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -112,6 +135,66 @@ impl Am {
         }
     }
 
+    /// The intensity table of this AM on the LM firmware for a cycle of
+    /// `steps` steps lasting `period_us` µs, or a one-line [`InputError`]
+    /// naming the frequencies that fit when a cycle does not hold a whole
+    /// number of periods of at least [`MIN_LM_STEPS_PER_PERIOD`] steps.
+    /// "Whole" is as exact as the cycle itself: its period is whole µs, so
+    /// a multiple of the asked LM frequency may miss by that rounding.
+    pub fn lm_table(&self, steps: usize, period_us: u32) -> Result<LmAm, InputError> {
+        self.check()?;
+        let period_s = f64::from(period_us) * 1e-6;
+        let cycle_hz = 1.0 / period_s;
+        let periods = self.freq_hz * period_s;
+        let m = periods.round();
+        let tol = m.max(1.0) * 0.5 / f64::from(period_us);
+        let most =
+            (steps / MIN_LM_STEPS_PER_PERIOD).min((MAX_FREQ_HZ / cycle_hz + 1e-9).floor() as usize);
+        let least = ((MIN_FREQ_HZ / cycle_hz - 1e-9).ceil() as usize).max(1);
+        let whole = m >= 1.0 && (periods - m).abs() <= tol;
+        if whole && (least..=most).contains(&(m as usize)) {
+            let m = m as usize;
+            // Step j starts at phase j·m/N of the AM: exact in integers.
+            let table = (0..steps)
+                .map(|j| {
+                    let x = ((j * m) % steps) as f64 / steps as f64;
+                    (255.0 * self.envelope_at_phase(x)).round() as u8
+                })
+                .collect();
+            return Ok(LmAm {
+                table,
+                periods_per_cycle: m,
+                freq_hz: m as f64 * cycle_hz,
+            });
+        }
+        let show = |k: usize| limits::show(k as f64 * cycle_hz);
+        let fits = if least > most {
+            "none does: use more steps per cycle".to_string()
+        } else {
+            let lo = (periods.floor() as usize).clamp(least, most);
+            let hi = (periods.ceil() as usize).clamp(least, most);
+            let nearest = if lo == hi {
+                format!("{} Hz", show(lo))
+            } else {
+                format!("{} or {} Hz", show(lo), show(hi))
+            };
+            format!(
+                "those that fit are the multiples of {} Hz from {} to {} Hz (nearest: {nearest})",
+                limits::show(cycle_hz),
+                show(least),
+                show(most)
+            )
+        };
+        Err(InputError::new(format!(
+            "amplitude modulation at {} Hz does not fit the LM firmware's steps at this dwell \
+             ({steps} steps of {} µs, a {} Hz cycle): a cycle must hold a whole number of AM \
+             periods of at least {MIN_LM_STEPS_PER_PERIOD} steps each; {fits}",
+            limits::show(self.freq_hz),
+            limits::show(f64::from(period_us) / steps.max(1) as f64),
+            limits::show(cycle_hz),
+        )))
+    }
+
     /// The envelope at time `t_s` (s) at the realised frequency.
     pub fn envelope(&self, t_s: f64) -> f64 {
         self.envelope_at_phase(t_s * self.realised_freq_hz())
@@ -180,6 +263,66 @@ mod tests {
         assert_eq!(q.samples_per_period(), 27);
         assert!((q.realised_freq_hz() - 148.148).abs() < 1e-3);
         assert_eq!((q.sample(200, 13), q.sample(200, 14)), (200, 0));
+    }
+
+    #[test]
+    fn the_lm_table_samples_the_envelope_at_each_step() {
+        // The paper's 5 Hz cycle: 82 steps over 200 ms. 20 Hz is 4 periods.
+        let s = am(AmShape::Sine, 20.0, 1.0);
+        let t = s.lm_table(82, 200_000).unwrap();
+        assert_eq!(
+            (t.periods_per_cycle, t.freq_hz, t.table.len()),
+            (4, 20.0, 82)
+        );
+        // Step j at phase 4j/82: the peak at 0, the trough half a period on
+        // (step 10.25: none lands on it), periodic over the cycle.
+        assert_eq!(t.table[0], 255);
+        let want = |j: usize| {
+            let x = (4 * j % 82) as f64 / 82.0;
+            (255.0 * (1.0 + (2.0 * std::f64::consts::PI * x).cos()) / 2.0).round() as u8
+        };
+        assert!((0..82).all(|j| t.table[j] == want(j)), "{:?}", t.table);
+        assert_eq!(t.table.iter().min(), Some(&0), "depth 1 reaches silence");
+        // A square at depth 0.5, 4 steps a period on an 8-step cycle.
+        let q = am(AmShape::Square, 5.0, 0.5).lm_table(8, 400_000).unwrap();
+        assert_eq!(q.table, [255, 255, 128, 128, 255, 255, 128, 128]);
+        assert_eq!((q.periods_per_cycle, q.freq_hz), (2, 5.0));
+    }
+
+    #[test]
+    fn a_frequency_the_steps_cannot_carry_is_refused_naming_those_that_fit() {
+        // 200 Hz on the 5 Hz, 82-step cycle: 2.05 steps a period.
+        let e = am(AmShape::Sine, 200.0, 1.0)
+            .lm_table(82, 200_000)
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains('\n'), "{e}");
+        assert!(e.contains("200 Hz") && e.contains("82 steps"), "{e}");
+        assert!(e.contains("from 5 to 100 Hz (nearest: 100 Hz)"), "{e}");
+        // 12.5 Hz: 2.5 periods a cycle, the loop would jump.
+        let e = am(AmShape::Square, 12.5, 1.0)
+            .lm_table(82, 200_000)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("whole number") && e.contains("nearest: 10 or 15 Hz"),
+            "{e}"
+        );
+        // Three steps cannot carry any period.
+        let e = am(AmShape::Sine, 5.0, 1.0)
+            .lm_table(3, 200_000)
+            .unwrap_err();
+        assert!(e.to_string().contains("none does"), "{e}");
+        // A multiple of a whole-µs cycle's frequency fits as exactly as the
+        // cycle: 7 Hz is 142857 µs, 70 Hz is 10 periods of it.
+        let t = am(AmShape::Sine, 70.0, 0.5).lm_table(140, 142_857).unwrap();
+        assert_eq!(t.periods_per_cycle, 10);
+        assert!((t.freq_hz - 70.0).abs() < 1e-3, "{}", t.freq_hz);
+        assert!(
+            am(AmShape::Sine, 70.01, 0.5)
+                .lm_table(140, 142_857)
+                .is_err()
+        );
     }
 
     #[test]

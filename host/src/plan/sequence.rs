@@ -69,6 +69,10 @@ pub struct Sequence {
     pub header: UploadHeader,
     /// Phases, `phases[j * T + n]` for step `j`, transducer `n`.
     pub phases: Vec<u8>,
+    /// Per-step intensity levels (one per step, 255 = the header's
+    /// intensity), the LM firmware's amplitude modulation (protocol v6);
+    /// `None`: every step at the header's intensity.
+    pub intensity_table: Option<Vec<u8>>,
 }
 
 impl Sequence {
@@ -169,7 +173,11 @@ impl Sequence {
                 }
             }
         }
-        Ok(Self { header, phases })
+        Ok(Self {
+            header,
+            phases,
+            intensity_table: None,
+        })
     }
 
     /// The header for `traj` over `transducers` transducers in `scene`,
@@ -240,9 +248,15 @@ impl Sequence {
             .unwrap_or(0)
     }
 
-    /// CRC-32 of the raw sequence (the `Commit` check value).
+    /// CRC-32 of the raw sequence followed by its intensity table, if any
+    /// (the `Commit` check value).
     pub fn crc32(&self) -> u32 {
-        lm_proto::crc32(&self.phases)
+        let mut c = lm_proto::Crc32::new();
+        c.update(&self.phases);
+        if let Some(t) = &self.intensity_table {
+            c.update(t);
+        }
+        c.finish()
     }
 
     /// The phases as a NumPy `.npy` file (u8, shape `(steps, transducers)`).
@@ -265,7 +279,8 @@ pub struct Plan {
     /// The phases.
     pub sequence: Sequence,
     /// The amplitude modulation over the sequence, if any (an AUTD3 plays
-    /// it as its modulation; the LM firmware refuses it).
+    /// it as its modulation, the LM firmware as the sequence's
+    /// `intensity_table`).
     pub am: Option<crate::plan::modulation::Am>,
 }
 
@@ -316,6 +331,9 @@ impl Plan {
             "encoding": {"raw_bytes": raw, "delta_bytes": delta, "delta_ratio": delta as f64 / raw as f64},
             "crc32": s.crc32(),
         });
+        if let Some(levels) = &s.intensity_table {
+            v["intensity_table"] = serde_json::json!(levels);
+        }
         if self.scene.reflector.is_some() {
             let drive: Vec<_> = (0..t.steps).map(|j| t.drive_step(j).to_vec()).collect();
             v["drive_foci_mm"] = serde_json::json!(drive);

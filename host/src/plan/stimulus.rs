@@ -144,6 +144,10 @@ pub struct Timing {
     pub step_error_mm: f64,
     /// AUTD3: dwell = `divide` × 25 µs (`None`, JSON `null`, elsewhere).
     pub divide: Option<u16>,
+    /// Realised amplitude modulation frequency (Hz; `None`, JSON `null`,
+    /// without AM): on an AUTD3 4 kHz over whole samples per period, on
+    /// the LM firmware whole AM periods per cycle over the cycle's period.
+    pub am_freq_hz: Option<f64>,
 }
 
 impl Timing {
@@ -171,6 +175,7 @@ impl Timing {
             requested_step_mm,
             step_error_mm: t.step_mm - requested_step_mm,
             divide,
+            am_freq_hz: plan.am.map(|a| a.realised_freq_hz()),
         }
     }
 }
@@ -201,24 +206,24 @@ impl Stimulus {
     }
 
     /// Plans the stimulus in `scene` for the device `target` names. A plan
-    /// that cannot be made is one error and no warning; an amplitude
-    /// modulation is refused for the LM firmware, which plays one
-    /// intensity per entry.
+    /// that cannot be made is one error and no warning. An amplitude
+    /// modulation becomes, for the LM firmware, the sequence's intensity
+    /// table ([`Am::lm_table`]: refused, with the frequencies that fit,
+    /// when the cycle's steps cannot carry it), for an AUTD3 its
+    /// modulation; `timing.am_freq_hz` is what the device plays.
     pub fn plan_for(&self, target: &Target, scene: Scene) -> anyhow::Result<TargetPlan> {
+        let mut p = self.plan_unchecked(target, scene)?;
         if let (Target::Lm, Some(am)) = (target, &self.am) {
-            return Err(InputError::new(format!(
-                "amplitude modulation ({} at {} Hz) plays on AUTD3 only: the LM firmware \
-                 (protocol v5) plays one intensity per stimulus",
-                am.shape.name(),
-                crate::limits::show(am.freq_hz)
-            ))
-            .into());
+            let lm = am.lm_table(p.plan.trajectory.steps, p.plan.sequence.header.period_us)?;
+            p.plan.sequence.intensity_table = Some(lm.table);
+            p.timing.am_freq_hz = Some(lm.freq_hz);
         }
-        self.plan_unchecked(target, scene)
+        Ok(p)
     }
 
     /// Plans the stimulus in `scene` as asked, an amplitude modulation
-    /// included, for a simulation or a plan file (no device plays it).
+    /// included (at its AUTD3 realisation, no intensity table), for a
+    /// simulation or a plan file (no device plays it).
     pub fn plan(&self, scene: Scene) -> anyhow::Result<TargetPlan> {
         self.plan_unchecked(&Target::Lm, scene)
     }
@@ -231,6 +236,7 @@ impl Stimulus {
         let params = self.params(&scene);
         let (mut plan, grid) = target.plan_on_grid(&params, &scene, &self.synthesis)?;
         plan.sequence.header.intensity = intensity;
+        // Before the timing, which reports the modulation's frequency.
         plan.am = self.am;
         let warnings = lm_plane_warning(&plan.scene, params.center_mm)
             .into_iter()
@@ -334,6 +340,63 @@ mod tests {
             assert!(e.downcast_ref::<InputError>().is_some(), "{bad}: {e}");
             assert!(!e.to_string().contains('\n'), "one line: {e}");
         }
+    }
+
+    #[test]
+    fn an_lm_plan_carries_am_as_its_intensity_table_and_reports_its_frequency() {
+        use crate::plan::modulation::{Am, AmShape};
+        let am = |freq_hz| Stimulus {
+            am: Some(Am {
+                shape: AmShape::Square,
+                freq_hz,
+                depth: 1.0,
+            }),
+            intensity: 0.5,
+            ..Stimulus::default()
+        };
+        let plain = Stimulus::default()
+            .plan_for(&Target::Lm, Scene::default())
+            .unwrap();
+        assert_eq!(plain.plan.sequence.intensity_table, None);
+        assert_eq!(plain.timing.am_freq_hz, None);
+        let p = am(20.0).plan_for(&Target::Lm, Scene::default()).unwrap();
+        let table = p.plan.sequence.intensity_table.as_ref().unwrap();
+        // 82 steps, 4 periods: each half period is 10.25 steps.
+        assert_eq!(table.len(), 82);
+        assert_eq!(
+            &table[..12],
+            &[255, 255, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0]
+        );
+        assert_eq!(
+            p.plan.sequence.header.intensity, 128,
+            "the entry's level stays"
+        );
+        assert_eq!(p.timing.am_freq_hz, Some(20.0));
+        // The commit CRC covers the table: the same phases with and
+        // without AM are different entries.
+        assert_eq!(p.plan.sequence.phases, plain.plan.sequence.phases);
+        assert_ne!(p.plan.sequence.crc32(), plain.plan.sequence.crc32());
+        // A simulation's plan has no table; an AUTD3's reports its 4 kHz
+        // realisation (200 samples a period: 20 Hz).
+        assert_eq!(
+            am(20.0)
+                .plan(Scene::default())
+                .unwrap()
+                .plan
+                .sequence
+                .intensity_table,
+            None
+        );
+        let a = am(20.0).plan_for(&Target::Autd3, Scene::default()).unwrap();
+        assert_eq!(
+            (a.timing.am_freq_hz, a.plan.sequence.intensity_table),
+            (Some(20.0), None)
+        );
+        let e = am(30.5)
+            .plan_for(&Target::Lm, Scene::default())
+            .unwrap_err();
+        assert!(e.downcast_ref::<InputError>().is_some(), "{e}");
+        assert!(e.to_string().contains("nearest: 30 or 35 Hz"), "{e}");
     }
 
     #[test]

@@ -199,7 +199,11 @@ pub fn plan_for(
     let plan = Plan {
         scene,
         trajectory,
-        sequence: Sequence { header, phases },
+        sequence: Sequence {
+            header,
+            phases,
+            intensity_table: None,
+        },
         am: None,
     };
     let period_us = f64::from(plan.sequence.header.period_us);
@@ -218,6 +222,7 @@ pub fn plan_for(
         requested_step_mm: step_mm,
         step_error_mm: 0.0,
         divide,
+        am_freq_hz: None,
     };
     Ok(TargetPlan {
         plan,

@@ -1,6 +1,6 @@
 //! Writing a message's payload, field by field.
 
-use super::{Message, PLAY_FLAG_UNTRACKED, SelfTest, xyz_le};
+use super::{Message, PLAY_FLAG_UNTRACKED, SelfTest, UPLOAD_FLAG_INTENSITY_TABLE, xyz_le};
 use crate::error::EncodeError;
 use crate::field::{self, Field};
 use crate::nack::NackCode;
@@ -50,6 +50,8 @@ impl Message<'_> {
                 Err(EncodeError::TooLarge)
             }
             Self::Chunk(c) if c.data.len() > MAX_CHUNK => Err(EncodeError::TooLarge),
+            Self::Intensity(c) if c.data.len() > MAX_CHUNK => Err(EncodeError::TooLarge),
+            Self::Intensity(c) if c.data.is_empty() => Err(EncodeError::InvalidField),
             Self::Status(s) if s.slot == Some(NO_SLOT) || s.queued_slot == Some(NO_SLOT) => {
                 Err(EncodeError::InvalidField)
             }
@@ -101,6 +103,12 @@ impl Message<'_> {
                 set(&mut p, f::MAX_OFFSET_UM, &h.max_offset_um.to_le_bytes());
                 set(&mut p, f::RIG_CRC32, &b.rig_crc32.to_le_bytes());
                 set(&mut p, f::INTENSITY, &[h.intensity]);
+                let flags = if b.intensity_table {
+                    UPLOAD_FLAG_INTENSITY_TABLE
+                } else {
+                    0
+                };
+                set(&mut p, f::FLAGS, &[flags]);
                 s.put(&p)
             }
             Self::Geometry(g) => {
@@ -112,6 +120,14 @@ impl Message<'_> {
             }
             Self::Chunk(c) => {
                 use field::chunk as f;
+                let mut p = [0; f::LEN];
+                set(&mut p, f::SLOT, &[c.slot]);
+                set(&mut p, f::OFFSET, &c.offset.to_le_bytes());
+                s.put(&p)?;
+                s.put(c.data)
+            }
+            Self::Intensity(c) => {
+                use field::intensity as f;
                 let mut p = [0; f::LEN];
                 set(&mut p, f::SLOT, &[c.slot]);
                 set(&mut p, f::OFFSET, &c.offset.to_le_bytes());

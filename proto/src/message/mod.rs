@@ -45,6 +45,8 @@ wire_enum! {
         Renew = 0x0C,
         /// Run the output's self-test; answered by `SelfTestResult`.
         SelfTest = 0x0D,
+        /// A piece of the upload's per-step intensity table.
+        Intensity = 0x0E,
         /// Request done.
         Ack = 0x80,
         /// Request refused, with a code.
@@ -139,7 +141,14 @@ pub struct BeginUpload {
     /// CRC-32 of the rig the phases were planned for ([`rig_crc32`]); the
     /// device refuses the upload unless it holds that rig.
     pub rig_crc32: u32,
+    /// The upload carries a per-step intensity table (`steps` bytes, sent
+    /// in `Intensity` frames; flags bit 0, [`UPLOAD_FLAG_INTENSITY_TABLE`]):
+    /// step `j` plays at `intensity × table[j] / 255`.
+    pub intensity_table: bool,
 }
+
+/// `BeginUpload` flags bit: the upload carries a per-step intensity table.
+pub const UPLOAD_FLAG_INTENSITY_TABLE: u8 = 0x01;
 
 impl BeginUpload {
     /// The one check of an upload against a device (host before sending,
@@ -151,8 +160,19 @@ impl BeginUpload {
             &self.header,
             self.encoding,
             self.encoded_len,
+            self.intensity_table,
             limits,
         )
+    }
+
+    /// Bytes the entry takes besides its phases: its intensity table
+    /// (`steps` bytes), or nothing.
+    pub fn table_len(&self) -> u32 {
+        if self.intensity_table {
+            u32::from(self.header.steps)
+        } else {
+            0
+        }
     }
 }
 
@@ -269,6 +289,20 @@ pub struct Chunk<'a> {
     pub data: &'a [u8],
 }
 
+/// A piece of the upload's per-step intensity table: `data[i]` is step
+/// `offset + i`'s level, 0-255 (255 = the entry's `intensity`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct Intensity<'a> {
+    /// Slot of the upload in progress.
+    pub slot: u8,
+    /// The step `data[0]` is for.
+    pub offset: u16,
+    /// One level per step (1 ..= [`MAX_CHUNK`](crate::MAX_CHUNK) bytes).
+    pub data: &'a [u8],
+}
+
 /// End of an upload.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -277,7 +311,8 @@ pub struct Commit {
     /// Slot of the upload in progress.
     pub slot: u8,
     /// CRC-32 ([`crate::crc32`]) of the whole raw sequence
-    /// (steps × transducers phase bytes, step-major).
+    /// (steps × transducers phase bytes, step-major), followed by its
+    /// intensity table when it has one.
     pub crc32: u32,
 }
 
@@ -476,6 +511,8 @@ pub enum Message<'a> {
     Geometry(Geometry<'a>),
     /// Encoded sequence bytes.
     Chunk(Chunk<'a>),
+    /// Intensity table bytes.
+    Intensity(Intensity<'a>),
     /// Finish an upload.
     Commit(Commit),
     /// Play a slot.
@@ -530,6 +567,7 @@ impl<'a> Message<'a> {
             Self::BeginUpload(_) => MessageType::BeginUpload,
             Self::Geometry(_) => MessageType::Geometry,
             Self::Chunk(_) => MessageType::Chunk,
+            Self::Intensity(_) => MessageType::Intensity,
             Self::Commit(_) => MessageType::Commit,
             Self::Play(_) => MessageType::Play,
             Self::Stop => MessageType::Stop,
@@ -561,6 +599,7 @@ impl<'a> Message<'a> {
             Self::BeginUpload(_) => field::begin_upload::LEN,
             Self::Geometry(g) => field::geometry::LEN + POSITION_LEN * g.positions.len(),
             Self::Chunk(c) => field::chunk::LEN + c.data.len(),
+            Self::Intensity(c) => field::intensity::LEN + c.data.len(),
             Self::Commit(_) => field::commit::LEN,
             Self::Play(_) => field::play::LEN,
             Self::Centroid(_) => field::centroid::LEN,

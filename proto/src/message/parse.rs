@@ -2,8 +2,8 @@
 
 use super::{
     BeginRig, BeginUpload, Centroid, Chunk, ClockSource, Commit, DeviceState, Geometry, Info,
-    Message, MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions, SelfTest,
-    Status, xyz_from_le,
+    Intensity, Message, MessageType, MuteReason, PLAY_FLAG_UNTRACKED, Play, PlayAt, Positions,
+    SelfTest, Status, UPLOAD_FLAG_INTENSITY_TABLE, xyz_from_le,
 };
 use crate::codec::Encoding;
 use crate::field::{self, Field};
@@ -104,6 +104,11 @@ impl<'a> Message<'a> {
                     encoding: Encoding::from_u8(p.u8(f::ENCODING)?).ok_or("unknown encoding")?,
                     encoded_len: p.u32(f::ENCODED_LEN)?,
                     rig_crc32: p.u32(f::RIG_CRC32)?,
+                    intensity_table: match p.u8(f::FLAGS)? {
+                        0 => false,
+                        UPLOAD_FLAG_INTENSITY_TABLE => true,
+                        _ => return Err("unknown upload flag bits"),
+                    },
                     header: UploadHeader {
                         steps: p.u16(f::STEPS)?,
                         transducers: p.u16(f::TRANSDUCERS)?,
@@ -138,6 +143,21 @@ impl<'a> Message<'a> {
                 Self::Chunk(Chunk {
                     slot: p.u8(f::SLOT)?,
                     offset: p.u32(f::OFFSET)?,
+                    data,
+                })
+            }
+            MessageType::Intensity => {
+                use field::intensity as f;
+                let (p, data) = Fields::head(payload, f::LEN)?;
+                if data.is_empty() {
+                    return Err("intensity frame without table bytes");
+                }
+                if data.len() > MAX_CHUNK {
+                    return Err("intensity frame longer than MAX_CHUNK");
+                }
+                Self::Intensity(Intensity {
+                    slot: p.u8(f::SLOT)?,
+                    offset: p.u16(f::OFFSET)?,
                     data,
                 })
             }

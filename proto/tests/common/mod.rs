@@ -18,6 +18,11 @@ pub enum Owned {
         offset: u32,
         data: Vec<u8>,
     },
+    Intensity {
+        slot: u8,
+        offset: u16,
+        data: Vec<u8>,
+    },
 }
 
 impl Owned {
@@ -29,6 +34,11 @@ impl Owned {
                 positions: Positions::from_points(points),
             }),
             Owned::Chunk { slot, offset, data } => Message::Chunk(Chunk {
+                slot: *slot,
+                offset: *offset,
+                data,
+            }),
+            Owned::Intensity { slot, offset, data } => Message::Intensity(Intensity {
                 slot: *slot,
                 offset: *offset,
                 data,
@@ -143,10 +153,14 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                 any::<bool>()
             ),
             (any::<u32>(), xyz(), any::<u8>(), any::<u32>(), any::<u32>()),
-            (any::<u32>(), any::<u8>())
+            (any::<u32>(), any::<u8>(), any::<bool>())
         )
             .prop_map(
-                |((slot, steps, t, period, delta), (len, c, f, speed, off), (rig, intensity))| {
+                |(
+                    (slot, steps, t, period, delta),
+                    (len, c, f, speed, off),
+                    (rig, intensity, table),
+                )| {
                     Message::BeginUpload(BeginUpload {
                         slot,
                         header: UploadHeader {
@@ -166,6 +180,7 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
                         },
                         encoded_len: len,
                         rig_crc32: rig,
+                        intensity_table: table,
                     })
                 }
             ),
@@ -213,6 +228,8 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
             .prop_map(|(first, points)| Owned::Geometry { first, points }),
         1 => (any::<u8>(), any::<u32>(), proptest::collection::vec(any::<u8>(), 0..=MAX_CHUNK))
             .prop_map(|(slot, offset, data)| Owned::Chunk { slot, offset, data }),
+        1 => (any::<u8>(), any::<u16>(), proptest::collection::vec(any::<u8>(), 1..=MAX_CHUNK))
+            .prop_map(|(slot, offset, data)| Owned::Intensity { slot, offset, data }),
     ]
 }
 

@@ -60,6 +60,31 @@ pub(crate) fn cases() -> Vec<Case> {
         "session --library {dir}/s/lib32.toml --port {sess} --control -",
         |c| c.stdin(lib32_script()).ok().check(library_rotates),
     );
+    // An AM entry the LM steps cannot carry is refused at start, naming
+    // the frequencies that fit, never played at another; one that fits
+    // plays on the simulated firmware as its intensity table (protocol v6).
+    add(
+        PLANS,
+        "session --library {dir}/s/am200.toml --port {sess} --control -",
+        |c| c.err("does not fit").err("nearest: 100 Hz"),
+    );
+    add(
+        PLANS,
+        "session --library {dir}/s/am12.toml --port {sess} --control -",
+        |c| c.err("nearest: 10 or 15 Hz"),
+    );
+    add(
+        PLANS,
+        "session --library {dir}/s/am20.toml --port {sess} --control -",
+        |c| {
+            c.stdin(
+                "{\"cmd\":\"present\",\"stimulus\":\"am\",\"gate\":\"untracked\"}\n\
+                 {\"cmd\":\"stop\"}\n",
+            )
+            .ok()
+            .out("\"cmd\":\"present\",\"ok\":true")
+        },
+    );
     // 5. Meaningless input is refused, not ignored.
     for (line, want) in [
         (r#"{"cmd":"stop","stimulus":"x"}"#, "`stop` takes no fields"),
@@ -210,6 +235,18 @@ pub(crate) fn fixtures(dir: &Path) {
         );
     }
     w("lib32.toml", &lib);
+    for (name, freq) in [
+        ("am200.toml", 200.0),
+        ("am12.toml", 12.5),
+        ("am20.toml", 20.0),
+    ] {
+        w(
+            name,
+            &format!(
+                "[[stimulus]]\nid = \"am\"\nam = {{ shape = \"sine\", freq = {freq}, depth = 1.0 }}\n"
+            ),
+        );
+    }
     w("st.csv", "0,0,0,200,1\n");
     // A study whose entries play tracked, with no wait for the finger.
     let library = std::fs::read_to_string(

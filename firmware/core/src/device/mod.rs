@@ -370,6 +370,10 @@ impl Handler<'_> {
                 self.writable(c.slot)
                     .and_then(|()| self.store.chunk(c.slot, c.offset, c.data)),
             ),
+            Message::Intensity(c) => Self::result(
+                self.writable(c.slot)
+                    .and_then(|()| self.store.intensity_levels(c.slot, c.offset, c.data)),
+            ),
             // A repeated commit (same CRC) changes nothing, so it is acked
             // even while the slot plays.
             Message::Commit(c) if self.store.committed_crc(c.slot) == Some(c.crc32) => Message::Ack,
@@ -609,7 +613,8 @@ impl Handler<'_> {
         } else {
             0
         };
-        let intensity = self.store.header(slot).map_or(0, |h| h.intensity);
+        // The entry's intensity, or its table's level for this step.
+        let intensity = self.store.intensity(slot, step).unwrap_or(0);
         let phases: &[u8] = match self.store.step(slot, step) {
             Some(p) => {
                 let t = p.len();

@@ -53,8 +53,10 @@ use lm_proto::{
 use crate::MAX_TRANSDUCERS;
 
 mod cursor;
+mod table;
 
 use cursor::Cursor;
+pub use table::scale as scale_intensity;
 
 /// Library entries (slot numbers `0..SLOTS`).
 pub const SLOTS: usize = 32;
@@ -92,9 +94,12 @@ struct Entry {
     state: State,
     form: Form,
     header: UploadHeader,
-    /// Arena range `off..off + len` (len 0 while empty).
+    /// Arena range `off..off + len` (len 0 while empty): the stored form,
+    /// then the intensity table when it has one (`steps` bytes).
     off: usize,
     len: usize,
+    /// The entry has a per-step intensity table ([`table`] module).
+    table: bool,
     /// Raw CRC-32 of the committed sequence (repeated commits).
     crc: u32,
 }
@@ -114,6 +119,7 @@ const EMPTY: Entry = Entry {
     },
     off: 0,
     len: 0,
+    table: false,
     crc: 0,
 };
 
@@ -141,6 +147,8 @@ struct Upload {
     log: [LoggedChunk; CHUNK_LOG],
     logged: usize,
     failed: bool,
+    /// Intensity levels received (steps `0..levels`).
+    levels: u16,
 }
 
 impl Upload {
@@ -294,7 +302,7 @@ impl<'m> Store<'m> {
             return None;
         }
         let t = usize::from(h.transducers);
-        let data = &self.arena[e.off..e.off + e.len];
+        let data = &self.arena[e.off..e.off + e.phases_len()];
         if e.form == Form::Raw {
             let start = usize::from(step) * t;
             return data.get(start..start + t);
@@ -378,14 +386,21 @@ impl<'m> Store<'m> {
         let reclaim = self.entries[slot].len + abandoned.map_or(0, |s| self.entries[s].len);
         let free = u64::from(self.free_bytes()) + reclaim as u64;
         let raw = h.raw_len();
+        // The table goes with the phases in either form.
+        let table = u64::from(b.table_len());
         let form = match b.encoding {
-            Encoding::Delta if !self.raw_fits(raw, u64::from(b.encoded_len), free) => Form::Delta,
+            Encoding::Delta
+                if !self.raw_fits(raw, u64::from(b.encoded_len), free.saturating_sub(table)) =>
+            {
+                Form::Delta
+            }
             _ => Form::Raw,
         };
-        let need = match form {
-            Form::Raw => raw,
-            Form::Delta => u64::from(b.encoded_len),
-        };
+        let need = table
+            + match form {
+                Form::Raw => raw,
+                Form::Delta => u64::from(b.encoded_len),
+            };
         if need > free {
             return Err(NackCode::LibraryFull);
         }
@@ -407,6 +422,7 @@ impl<'m> Store<'m> {
             header: h,
             off,
             len: need,
+            table: b.intensity_table,
             crc: 0,
         };
         self.upload = Some(Upload {
@@ -419,6 +435,7 @@ impl<'m> Store<'m> {
             log: [LoggedChunk::default(); CHUNK_LOG],
             logged: 0,
             failed: false,
+            levels: 0,
         });
         Ok(())
     }
@@ -487,7 +504,7 @@ impl<'m> Store<'m> {
         if end > u64::from(up.encoded_len) {
             return Err(NackCode::OutOfRange);
         }
-        let mem = &mut self.arena[e.off..e.off + e.len];
+        let mem = &mut self.arena[e.off..e.off + e.phases_len()];
         let consumed = match e.form {
             Form::Raw => up.decoder.consumed(),
             Form::Delta => up.check.consumed(),
@@ -556,13 +573,16 @@ impl<'m> Store<'m> {
             Form::Raw => (up.decoder.consumed(), up.decoder.finish()),
             Form::Delta => (up.check.consumed(), up.check.finish()),
         };
-        if consumed as u64 != u64::from(up.encoded_len) {
+        if consumed as u64 != u64::from(up.encoded_len) || !table::complete(&e, up) {
             return Err(NackCode::Incomplete);
         }
         if finished.is_err() {
             return Err(NackCode::BadStream);
         }
-        let good = up.crc.finish() == crc32;
+        // The phases' CRC, then the table as stored: what plays is checked.
+        let mut crc = up.crc;
+        crc.update(&self.arena[e.off + e.phases_len()..e.off + e.len]);
+        let good = crc.finish() == crc32;
         self.upload = None;
         let s = usize::from(slot);
         if !good {

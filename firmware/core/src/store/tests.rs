@@ -28,6 +28,7 @@ fn begin(slot: u8, steps: u16, t: u16) -> BeginUpload {
         encoding: Encoding::Raw,
         encoded_len: u32::from(steps) * u32::from(t),
         rig_crc32: rig_crc(t),
+        intensity_table: false,
     }
 }
 

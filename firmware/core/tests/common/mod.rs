@@ -167,6 +167,7 @@ impl Seq {
             encoding: enc,
             encoded_len: self.encode(enc).len() as u32,
             rig_crc32: self.rig_crc32(),
+            intensity_table: false,
         })
     }
 

@@ -263,6 +263,7 @@ fn chunks_past_end_and_out_of_order_are_nacked() {
         encoding: Encoding::Raw,
         encoded_len: 8,
         rig_crc32: Seq::pattern(1, 4, 1000, 0).rig_crc32(),
+        intensity_table: false,
     });
     for m in Seq::pattern(1, 4, 1000, 0).rig_requests() {
         acks(&mut dev, 1, &m, 0);

@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use lm_proto::codec::CodecError;
 use lm_proto::{
     BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceLimits, Encoding, FeedResult,
-    FrameDecoder, Geometry, HeaderError, Info, MAX_CHUNK, MAX_ENCODED_FRAME,
+    FrameDecoder, Geometry, HeaderError, Info, Intensity, MAX_CHUNK, MAX_ENCODED_FRAME,
     MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play, PlayAt, Positions, SelfTest,
     Status, UploadHeader, encode_frame, rig_crc32,
 };
@@ -141,8 +141,12 @@ pub struct UploadSpec {
     pub encoding: Encoding,
     /// The encoded sequence stream.
     pub encoded: Vec<u8>,
-    /// CRC-32 of the raw sequence (the `Commit` value).
+    /// CRC-32 of the raw sequence, then the intensity table (the `Commit`
+    /// value).
     pub crc32: u32,
+    /// One intensity level per step (amplitude modulation), sent in
+    /// `Intensity` frames; `None`: every step at the header's intensity.
+    pub intensity_table: Option<Vec<u8>>,
     /// Transducer positions in drive coordinates (µm), one per transducer.
     pub positions_um: Vec<[i32; 3]>,
     /// CRC-32 of the positions table ([`lm_proto::rig_crc32`]).
@@ -159,7 +163,13 @@ impl UploadSpec {
         positions_um: Vec<[i32; 3]>,
         encoding: Encoding,
     ) -> Result<Self, LinkError> {
-        if positions_um.len() != usize::from(sequence.header.transducers) {
+        let steps = usize::from(sequence.header.steps);
+        if positions_um.len() != usize::from(sequence.header.transducers)
+            || sequence
+                .intensity_table
+                .as_ref()
+                .is_some_and(|t| t.len() != steps)
+        {
             return Err(LinkError::Codec(CodecError::BadShape));
         }
         let mut encoded = sequence.encode(encoding)?;
@@ -173,6 +183,7 @@ impl UploadSpec {
             encoding,
             encoded,
             crc32: sequence.crc32(),
+            intensity_table: sequence.intensity_table.clone(),
             rig_crc32: rig_crc32(&Positions::from_points(&positions_um)),
             positions_um,
         })
@@ -191,6 +202,7 @@ impl UploadSpec {
             encoding: self.encoding,
             encoded_len: self.encoded.len().min(u32::MAX as usize) as u32,
             rig_crc32: self.rig_crc32,
+            intensity_table: self.intensity_table.is_some(),
         }
     }
 
@@ -560,7 +572,10 @@ impl<T: Transport> Client<T> {
                         raw_bytes: spec.header.raw_len(),
                         sequence_bytes: spec.encoded.len() as u64,
                         rig_bytes,
-                        payload_bytes: spec.encoded.len() as u64 + rig_bytes,
+                        payload_bytes: (spec.encoded.len()
+                            + spec.intensity_table.as_ref().map_or(0, Vec::len))
+                            as u64
+                            + rig_bytes,
                         wire_bytes_sent: s.bytes_sent - before.bytes_sent,
                         wire_bytes_received: s.bytes_received - before.bytes_received,
                         seconds: start.elapsed().as_secs_f64(),
@@ -647,6 +662,15 @@ impl<T: Transport> Client<T> {
                 }
             }
             progress(offset as u64, total);
+        }
+        // The levels (a few hundred bytes at most per stimulus) in frames of
+        // the chunk size; a resend of one is idempotent like a chunk's.
+        let levels = spec.intensity_table.as_deref().unwrap_or_default();
+        for (i, data) in levels.chunks(chunk.clamp(1, MAX_CHUNK)).enumerate() {
+            let offset = u16::try_from(i * chunk.clamp(1, MAX_CHUNK))
+                .map_err(|_| LinkError::Codec(CodecError::BadShape))?;
+            let msg = Message::Intensity(Intensity { slot, offset, data });
+            self.expect_ack("intensity", &msg)?;
         }
         self.expect_ack("commit", &Message::Commit(Commit { slot, crc32 }))
     }

@@ -51,6 +51,7 @@ macro_rules! check {
 mod device;
 mod measure;
 mod support;
+mod table;
 mod wire;
 
 use device::{
@@ -61,6 +62,7 @@ use measure::{
     cpu_is_a_cortex_m_with_an_fpu, measure_centroid_cost, measure_raw_vs_delta_step,
     measure_step_cost, timer_counts_instructions,
 };
+use table::intensity_table_scales_each_frame;
 use wire::{frames_through_feed, proto_vectors_on_target};
 
 /// What every test gets: the timer and the player's time base.
@@ -101,6 +103,10 @@ const TESTS: &[(&str, Test)] = &[
     ),
     ("frames_through_feed", frames_through_feed),
     ("measure_step_cost", measure_step_cost),
+    (
+        "intensity_table_scales_each_frame",
+        intensity_table_scales_each_frame,
+    ),
     ("measure_centroid_cost", measure_centroid_cost),
     ("measure_raw_vs_delta_step", measure_raw_vs_delta_step),
 ];

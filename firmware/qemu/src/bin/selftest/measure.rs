@@ -85,7 +85,7 @@ pub fn timer_counts_instructions(c: &mut Ctx, _: &mut [u8]) -> TestResult {
 /// Polls `dev` from `t0` into `out` for `frames` more frames, each poll
 /// given exactly its step's deadline (one frame per call); the total and
 /// the worst timer counts one of those polls took.
-fn timed_polls(
+pub fn timed_polls(
     c: &Ctx,
     dev: &mut Device<'_>,
     t0: u64,

@@ -116,6 +116,7 @@ pub fn upload_stream(
         encoding,
         encoded_len: stream.len() as u32,
         rig_crc32: rig_crc32(usize::from(header.transducers)),
+        intensity_table: false,
     };
     let r = dev.handle(&Message::BeginUpload(begin), 0);
     if r != Message::Ack {
@@ -155,6 +156,7 @@ pub fn upload(
         encoding: Encoding::Raw,
         encoded_len: (steps * t) as u32,
         rig_crc32: rig_crc32(t),
+        intensity_table: false,
     };
     let r = dev.handle(&Message::BeginUpload(begin), 0);
     if r != Message::Ack {

@@ -380,9 +380,10 @@ fn an_am_stimulus_sounds_its_envelope_across_renewals_and_stops() {
     assert_eq!(mods(&h), Some(0));
 }
 
-/// The LM firmware refuses an AM plan rather than play it unmodulated.
+/// The LM planner refuses an AM its steps cannot carry (200 Hz on 82
+/// steps of a 5 Hz cycle) rather than play it at another frequency.
 #[test]
-fn an_am_plan_is_refused_by_the_lm_planner() {
+fn an_am_the_lm_steps_cannot_carry_is_refused_by_the_lm_planner() {
     let s = crate::plan::stimulus::Stimulus {
         am: Some(crate::plan::modulation::Am {
             shape: crate::plan::modulation::AmShape::Sine,
@@ -398,5 +399,5 @@ fn an_am_plan_is_refused_by_the_lm_planner() {
         e.downcast_ref::<crate::error::InputError>().is_some(),
         "{e}"
     );
-    assert!(e.to_string().contains("AUTD3 only"), "{e}");
+    assert!(e.to_string().contains("does not fit"), "{e}");
 }
