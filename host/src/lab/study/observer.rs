@@ -8,53 +8,9 @@ use super::answers::{Accepts, Answers, Asked};
 use crate::error::InputError;
 use crate::rng::SplitMix64;
 
-/// The shape of the psychometric function's core `F(x)` (0 → 1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Shape {
-    /// `1 / (1 + exp(-slope (x - threshold)))`.
-    Logistic,
-    /// `1 - exp(-(x / threshold)^slope)`, for levels above 0.
-    Weibull,
-}
-
-/// `p(x) = guess + (1 - guess - lapse) F(x)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Psychometric {
-    /// The core's shape.
-    pub shape: Shape,
-    /// Where `F` is ½ (logistic) or 1 - 1/e (Weibull), in level units.
-    pub threshold: f64,
-    /// Steepness (per level unit for the logistic; the exponent for Weibull).
-    pub slope: f64,
-    /// Probability of "perceived" far below threshold.
-    pub guess: f64,
-    /// Probability of a wrong answer far above threshold.
-    pub lapse: f64,
-}
+pub use crate::lab::stats::psychometric::{Psychometric, Shape};
 
 impl Psychometric {
-    /// The probability of "perceived" at level `x`.
-    pub fn p(&self, x: f64) -> f64 {
-        let f = match self.shape {
-            Shape::Logistic => 1.0 / (1.0 + (-self.slope * (x - self.threshold)).exp()),
-            Shape::Weibull if x <= 0.0 => 0.0,
-            Shape::Weibull => 1.0 - (-(x / self.threshold).powf(self.slope)).exp(),
-        };
-        self.guess + (1.0 - self.guess - self.lapse) * f
-    }
-
-    /// The level where [`Self::p`] is `p` (`None` outside its range).
-    pub fn level_at(&self, p: f64) -> Option<f64> {
-        let f = (p - self.guess) / (1.0 - self.guess - self.lapse);
-        if !(f > 0.0 && f < 1.0) {
-            return None;
-        }
-        Some(match self.shape {
-            Shape::Logistic => self.threshold + (f / (1.0 - f)).ln() / self.slope,
-            Shape::Weibull => self.threshold * (-(1.0 - f).ln()).powf(1.0 / self.slope),
-        })
-    }
-
     /// Parses `logistic:threshold=0.5,slope=12,guess=0,lapse=0.02` (or
     /// `weibull:...`); `guess` and `lapse` default to 0 and 0.02, and the
     /// optional `seed=N` is returned beside it (default 1).
