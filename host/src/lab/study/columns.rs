@@ -65,8 +65,15 @@ pub const STAIRCASE_ANSWERS: &str = "staircase_answers";
 pub const STAIRCASE_REVERSALS: &str = "staircase_reversals";
 /// Moves the grid's ends cut short.
 pub const STAIRCASE_AT_LIMIT: &str = "staircase_at_limit";
-/// The mean level of the last reversals (empty without a reversal).
+/// The threshold: a staircase's mean level of the last reversals (empty
+/// without a reversal), QUEST+'s posterior mean.
 pub const THRESHOLD: &str = "threshold";
+/// QUEST+'s columns, where used: the level of each presentation.
+pub const QUEST_LEVELS: &str = "quest_levels";
+/// Its answers in order, `|`-joined.
+pub const QUEST_ANSWERS: &str = "quest_answers";
+/// The threshold's posterior standard deviation.
+pub const THRESHOLD_SD: &str = "threshold_sd";
 /// The response time of each adjustment answer, s, `|`-joined (as
 /// [`rt_column`] is for a question).
 pub const ADJUST_RT: &str = "adjust_rt_s";
@@ -100,6 +107,7 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
             STAIRCASE_AT_LIMIT,
             THRESHOLD,
         ])
+        .chain([QUEST_LEVELS, QUEST_ANSWERS, THRESHOLD_SD])
 }
 
 /// Longest label (factor level, option, adjustment answer), bytes.
@@ -439,31 +447,52 @@ impl Columns {
     /// The same header with a staircase's columns after the rest: its
     /// `levels`, its two `answers` and the most presentations, `trials`.
     pub fn with_staircase(
-        mut self,
+        self,
         levels: Vec<String>,
         answers: Vec<String>,
         trials: u32,
     ) -> Result<Self, String> {
-        for name in [
-            STAIRCASE_LEVELS,
-            STAIRCASE_ANSWERS,
-            STAIRCASE_REVERSALS,
-            STAIRCASE_AT_LIMIT,
-            THRESHOLD,
-        ] {
-            if self.index(name).is_some() {
-                return Err(format!(
-                    "column `{name}` is used twice (factor and question names and trials.csv's own columns must differ)"
-                ));
-            }
+        self.with(
+            vec![
+                Column::new(STAIRCASE_LEVELS, Holds::Levels(levels.clone())),
+                Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
+                Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
+                Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
+                Column::new(THRESHOLD, Holds::Measured),
+            ],
+            trials,
+        )
+    }
+
+    /// The same header with QUEST+'s columns after the rest, as
+    /// [`Self::with_staircase`].
+    pub fn with_quest(
+        self,
+        levels: Vec<String>,
+        answers: Vec<String>,
+        trials: u32,
+    ) -> Result<Self, String> {
+        self.with(
+            vec![
+                Column::new(QUEST_LEVELS, Holds::Levels(levels)),
+                Column::new(QUEST_ANSWERS, Holds::AdjustAnswers(answers)),
+                Column::new(THRESHOLD, Holds::Measured),
+                Column::new(THRESHOLD_SD, Holds::Measured),
+            ],
+            trials,
+        )
+    }
+
+    /// A procedure's `columns` after the rest, its lists at most `trials`
+    /// long.
+    fn with(mut self, columns: Vec<Column>, trials: u32) -> Result<Self, String> {
+        if let Some(c) = columns.iter().find(|c| self.index(&c.name).is_some()) {
+            return Err(format!(
+                "column `{}` is used twice (factor and question names and trials.csv's own columns must differ)",
+                c.name
+            ));
         }
-        self.list.extend([
-            Column::new(STAIRCASE_LEVELS, Holds::Levels(levels.clone())),
-            Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
-            Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
-            Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
-            Column::new(THRESHOLD, Holds::Measured),
-        ]);
+        self.list.extend(columns);
         self.adjustments = self.adjustments.max(trials);
         Ok(self)
     }

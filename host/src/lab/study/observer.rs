@@ -1,7 +1,7 @@
 //! A simulated observer: answers "perceived?" from a psychometric function
 //! with a known threshold, slope, guess and lapse rate, through the same
 //! [`Answers`] interface the terminal and a responses file use. It lets a
-//! staircase protocol run end to end without a participant and lets the
+//! staircase or QUEST+ protocol run end to end without a participant and lets the
 //! tests check where an adaptive procedure converges.
 
 use super::answers::{Accepts, Answers, Asked};
@@ -129,7 +129,7 @@ impl Answers for Observer {
 }
 
 /// The observer `--observer` asks for, if it does, for protocol `p`: a
-/// staircase's protocol without questions, else bad input.
+/// staircase's or QUEST+'s protocol without questions, else bad input.
 pub fn for_run(
     answers: &super::AnswerSource,
     p: &super::protocol::Protocol,
@@ -138,12 +138,13 @@ pub fn for_run(
         return Ok(None);
     };
     let o = Observer::parse(spec)?;
-    if p.staircase.is_none() || !p.questions.is_empty() {
+    let adaptive = p.staircase.is_some() || p.quest.is_some();
+    if !adaptive || !p.questions.is_empty() {
         return Err(InputError::new(format!(
-            "--observer: study protocol {} {}: a simulated observer answers only a staircase's \"perceived?\"",
+            "--observer: study protocol {} {}: a simulated observer answers only a staircase's or QUEST+'s \"perceived?\"",
             p.path.display(),
-            if p.staircase.is_none() {
-                "has no [staircase]"
+            if !adaptive {
+                "has no [staircase] or [quest]"
             } else {
                 "asks questions"
             }

@@ -30,6 +30,7 @@ pub(super) struct File {
     pub question: Vec<QuestionFile>,
     pub adjustment: Option<Spanned<AdjustmentFile>>,
     pub staircase: Option<Spanned<StaircaseFile>>,
+    pub quest: Option<Spanned<QuestFile>>,
     pub report: Option<ReportFile>,
 }
 
@@ -128,6 +129,64 @@ pub(super) struct StaircaseFile {
     pub yes: Spanned<AnswerLabel>,
     #[serde(default = "no")]
     pub no: Spanned<AnswerLabel>,
+}
+
+/// The `[quest]` table (checked in `super::quest`): QUEST+ over a grid
+/// of levels, each a library entry. A level, a threshold and `stop_sd`
+/// are in `unit`; a logistic's slope is per `unit`, a Weibull's is its
+/// exponent.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct QuestFile {
+    /// What the participant is asked after each presentation [Did you
+    /// feel the stimulus?].
+    #[serde(default = "perceived_text")]
+    pub text: Label,
+    /// What a level is, a name [level].
+    #[serde(default = "level_unit")]
+    pub unit: Name,
+    /// The levels: 2 to 200 numbers as strings, ascending, each filling
+    /// `{level}` in the stimulus template to name a library entry
+    /// (required).
+    pub levels: Spanned<Vec<Label>>,
+    /// The psychometric function's core: `logistic` or `weibull`
+    /// [logistic].
+    #[serde(default)]
+    pub shape: ShapeFile,
+    /// Candidate thresholds, `unit`: 1 to 200 finite numbers, ascending
+    /// (above 0 for a Weibull) [the levels].
+    pub thresholds: Option<Spanned<Vec<f64>>>,
+    /// Candidate slopes: 1 to 20 numbers above 0 and at most 1e6
+    /// (required: a slope's size depends on the unit).
+    pub slopes: Spanned<Vec<f64>>,
+    /// Candidate lapse rates: 1 to 20 numbers from 0, below 0.5 [0.02].
+    pub lapses: Option<Spanned<Vec<f64>>>,
+    /// The guess rate, "perceived" far below threshold: from 0, below 1,
+    /// and with every lapse rate below 1 [0].
+    pub guess: Option<Spanned<f64>>,
+    /// Presentations that end it, 1 to 1000 [50].
+    #[serde(default)]
+    pub trials: Presentations,
+    /// Ends it earlier once the threshold's posterior standard deviation
+    /// is below this, `unit`, above 0 [none: `trials` presentations].
+    pub stop_sd: Option<Spanned<f64>>,
+    /// The answer "perceived" [yes].
+    #[serde(default = "yes")]
+    pub yes: Spanned<AnswerLabel>,
+    /// The answer "not perceived" [no].
+    #[serde(default = "no")]
+    pub no: Spanned<AnswerLabel>,
+}
+
+/// A psychometric function's core in a `[quest]` table.
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum ShapeFile {
+    /// `1 / (1 + exp(-slope (x - threshold)))`.
+    #[default]
+    Logistic,
+    /// `1 - exp(-(x / threshold)^slope)`.
+    Weibull,
 }
 
 /// The `[report]` table (checked in `check::report`).
