@@ -182,6 +182,9 @@ pub enum Holds {
     Levels(Vec<String>),
     /// Seconds (response times), `|`-joined; empty when none.
     Seconds,
+    /// A procedure's estimate (a threshold), a finite number in its
+    /// levels' unit; empty when it has none. Summarised by the report.
+    Estimate,
     /// A force in N, at least 0 (empty: not measured).
     Force,
 }
@@ -201,6 +204,7 @@ impl Holds {
             Self::Number(..) => "number",
             Self::Depth(..) => "depth",
             Self::Force => "force",
+            Self::Estimate => "estimate",
             _ => return None,
         })
     }
@@ -208,7 +212,7 @@ impl Holds {
     /// The number an answer or depth value stands for, when it has one.
     pub fn number(&self, value: &str) -> Option<f64> {
         match self {
-            Self::Likert(_) | Self::Number(..) | Self::Depth(..) | Self::Force => {
+            Self::Likert(_) | Self::Number(..) | Self::Depth(..) | Self::Force | Self::Estimate => {
                 value.parse().ok()
             }
             _ => None,
@@ -240,7 +244,9 @@ impl Holds {
             Self::Count => count(value, 1),
             Self::Stimulus => crate::plan::library::check_id(value).is_ok(),
             Self::Level(levels) => levels.iter().any(|l| l == value),
-            Self::Measured => value.is_empty() || number(value, f64::MIN, f64::MAX),
+            Self::Measured | Self::Estimate => {
+                value.is_empty() || number(value, f64::MIN, f64::MAX)
+            }
             Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
             Self::Likert(points) => {
@@ -277,7 +283,7 @@ impl Holds {
             Self::Count => "give a whole number from 1".into(),
             Self::Stimulus => "give a library entry's id".into(),
             Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
-            Self::Measured => "give a finite number or nothing".into(),
+            Self::Measured | Self::Estimate => "give a finite number or nothing".into(),
             Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
             Self::Likert(p) => format!("give 1 to {p} or nothing"),
@@ -305,9 +311,12 @@ impl Holds {
         const NUMBER: usize = 32;
         match self {
             Self::Participant | Self::Stimulus => crate::plan::library::MAX_ID_LEN,
-            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured | Self::Time => {
-                NUMBER
-            }
+            Self::Count
+            | Self::Answers
+            | Self::Adjustments(_)
+            | Self::Measured
+            | Self::Estimate
+            | Self::Time => NUMBER,
             Self::Level(l) | Self::Choice(l) => label(l),
             Self::Likert(_) => 1,
             // As the participant gave it.
@@ -458,7 +467,7 @@ impl Columns {
                 Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
                 Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
                 Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
-                Column::new(THRESHOLD, Holds::Measured),
+                Column::new(THRESHOLD, Holds::Estimate),
             ],
             trials,
         )
@@ -476,7 +485,7 @@ impl Columns {
             vec![
                 Column::new(QUEST_LEVELS, Holds::Levels(levels)),
                 Column::new(QUEST_ANSWERS, Holds::AdjustAnswers(answers)),
-                Column::new(THRESHOLD, Holds::Measured),
+                Column::new(THRESHOLD, Holds::Estimate),
                 Column::new(THRESHOLD_SD, Holds::Measured),
             ],
             trials,

@@ -28,6 +28,7 @@ pub mod columns;
 pub mod design;
 pub mod figure;
 pub mod live;
+pub mod midtrial;
 pub mod observer;
 pub mod options;
 pub mod outline;
@@ -204,7 +205,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     crate::files::write_whole(&paths.session, &serde_json::to_vec_pretty(&st.file)?)?;
     let mut trials_log = st.open_trials(&p, &paths.trials)?;
     let events_log = st.open_events(o.resume, &paths.events)?;
-    let (file, plan) = (st.file, st.plan);
+    let (file, plan, resumed) = (st.file, st.plan, st.resumed);
     crate::stop::graceful();
     let driver = match std::mem::replace(&mut o.finger, FingerSource::None) {
         FingerSource::Samples { feed, filter, .. } => {
@@ -259,6 +260,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         &expect,
         &plan,
         first,
+        &resumed,
         &mut trials_log,
         &mut report,
     );
@@ -310,13 +312,16 @@ fn tl_on_missing(p: &Protocol) -> bool {
     p.timeline.on_s.is_none()
 }
 
-/// Runs trials `first..` of `plan`, each row on disk before the next.
+/// Runs trials `first..` of `plan`, each row on disk before the next;
+/// trial `first`'s procedure continues after the `resumed` answers.
+#[allow(clippy::too_many_arguments)]
 fn run_trials(
     r: &mut Runner,
     p: &Protocol,
     expect: &Expect,
     plan: &[Planned],
     first: usize,
+    resumed: &[(String, f64)],
     trials_log: &mut AppendLog,
     report: &mut RunReport,
 ) -> anyhow::Result<()> {
@@ -327,7 +332,8 @@ fn run_trials(
     }
     for (i, t) in plan.iter().enumerate().skip(first - 1) {
         let t0 = monotonic_us();
-        let (row, presented) = r.trial(p, expect, t, plan.get(i + 1))?;
+        let cut = if i + 1 == first { resumed } else { &[] };
+        let (row, presented) = r.trial(p, expect, t, plan.get(i + 1), cut)?;
         let fields = p.columns.fields(&row).map_err(|m| anyhow::anyhow!(m))?;
         trials_log.line(&record::line(&fields))?;
         trials_log.sync()?;
@@ -494,19 +500,26 @@ impl Runner {
         }
     }
 
-    /// Runs trial `t` and returns its row and host-timed on-time.
+    /// Runs trial `t` (its procedure continuing after the `resumed`
+    /// answers of a run cut short) and returns its row and host-timed
+    /// on-time.
     fn trial(
         &mut self,
         p: &Protocol,
         expect: &Expect,
         t: &Planned,
         next: Option<&Planned>,
+        resumed: &[(String, f64)],
     ) -> anyhow::Result<(Row, f64)> {
         let tl = &p.timeline;
         self.trial_events.clear();
-        self.log(serde_json::json!({
+        let mut line = serde_json::json!({
             "event": "trial", "trial": t.trial, "set": t.set, "stimulus": t.stimulus,
-        }))?;
+        });
+        if !resumed.is_empty() {
+            line["resumed_presentations"] = resumed.len().into();
+        }
+        self.log(line)?;
         // The participant may see this line: the stimulus is in the
         // event log only.
         crate::errln!("trial {}/{} (set {})", t.trial, p.trials(), t.set);
@@ -520,12 +533,21 @@ impl Runner {
             }
         }
         let mut procedure = procedure::start(p, t);
+        if let Some(pr) = procedure.as_deref_mut().filter(|_| !resumed.is_empty()) {
+            // `start::resume` checked the same replay.
+            midtrial::replay(pr, resumed).map_err(anyhow::Error::msg)?;
+            crate::errln!("  resumed after {} presentations", resumed.len());
+        }
         // With the instruments, each push of the adjustment is one
         // on-phase of its own.
         let pushing = p.adjustment.is_some() && self.pusher.is_some();
         let on_s = tl.on_s.map(|s| s * self.scale);
         let mut req = Present {
-            stimulus: t.stimulus.clone(),
+            // A resumed procedure continues at its own level.
+            stimulus: procedure
+                .as_deref()
+                .and_then(|pr| pr.next())
+                .map_or_else(|| t.stimulus.clone(), |n| n.stimulus),
             gate: tl.gate,
             on_s,
             off_s: Some(tl.off_s * self.scale),

@@ -68,6 +68,11 @@ pub trait Procedure {
     }
     /// Answers taken so far.
     fn answers(&self) -> usize;
+    /// Whether a trial cut short may continue where it was: the procedure
+    /// follows from its answers alone, so `midtrial` can replay them.
+    fn resumable(&self) -> bool {
+        false
+    }
     /// Writes its columns into the trial's row.
     fn record(&self, row: &mut Row);
 }

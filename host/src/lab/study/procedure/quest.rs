@@ -122,6 +122,10 @@ impl Procedure for Quest {
         self.entries.iter().any(|e| e == stimulus)
     }
 
+    fn resumable(&self) -> bool {
+        true
+    }
+
     fn level_unit(&self) -> (String, String) {
         ("level".into(), self.spec.unit.clone())
     }
@@ -147,4 +151,4 @@ impl Procedure for Quest {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
