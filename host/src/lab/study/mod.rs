@@ -9,9 +9,11 @@
 //! finished trial, whole lines, synced), `session.json` (the protocol's
 //! text, seed, trial order with shown option orders, device, library
 //! CRCs; written whole) and `events.jsonl` (every session event and the
-//! runner's `trial` and `depth` lines). `--resume` continues at the first
-//! trial not on disk, in the order `session.json` holds, after [`start`]
-//! has checked every file and changed none.
+//! runner's `trial` and `depth` or `level` lines). `--resume` continues at
+//! the first trial not on disk, in the order `session.json` holds, after
+//! [`start`] has checked every file and changed none; a staircase or
+//! QUEST+ trial cut short continues after its logged answers
+//! ([`midtrial`]).
 //!
 //! By role: `protocol` (the file, checked), `design` (the seeded order),
 //! `columns` (trials.csv's header, once), `answers` (what is asked, where
