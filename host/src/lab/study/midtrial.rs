@@ -76,7 +76,19 @@ pub fn logged(
         }
         let v: serde_json::Value = serde_json::from_slice(&line)
             .map_err(|e| InputError::new(format!("{} line {n}: {e}", what())))?;
-        if v["event"] != event || v["trial"].as_u64() != Some(trial as u64) {
+        if v["trial"].as_u64() != Some(trial as u64) {
+            continue;
+        }
+        // Each run of the trial starts with a `trial` line saying how
+        // many answers it carried over: none when it started afresh (a
+        // run of a version that could not continue, or a procedure that
+        // cannot), so earlier answers no longer count.
+        if v["event"] == "trial" {
+            let kept = v["resumed_presentations"].as_u64().unwrap_or(0);
+            out.truncate(usize::try_from(kept).unwrap_or(usize::MAX));
+            continue;
+        }
+        if v["event"] != event {
             continue;
         }
         // The first level of each run of the trial has no answer.
@@ -142,6 +154,10 @@ mod tests {
         let mut text = String::from(
             "{\"event\":\"trial\",\"trial\":1}\n{\"event\":\"level\",\"trial\":1,\"answer\":\"yes\",\"level_intensity\":0.1}\n",
         );
+        // A first run of trial 2 that a run started afresh replaced.
+        text += "{\"event\":\"trial\",\"trial\":2}\n";
+        text += "{\"event\":\"level\",\"trial\":2,\"answer\":\"yes\",\"level_intensity\":0.7}\n";
+        text += "{\"event\":\"trial\",\"trial\":2}\n";
         text += "{\"event\":\"level\",\"trial\":2,\"answer\":null,\"level_intensity\":0.5}\n";
         let mut levels = Vec::new();
         for a in ["no", "yes", "no"] {
@@ -153,6 +169,17 @@ mod tests {
                 "{{\"t_host_us\":1,\"event\":\"level\",\"trial\":2,\"answer\":\"{a}\",\"level_intensity\":{l}}}\n"
             );
         }
+        // A run that continued after two answers, then cut mid-line.
+        let two = text
+            .match_indices("\"answer\":\"")
+            .nth(3)
+            .map(|(i, _)| i)
+            .unwrap();
+        let at = text[two..].find('\n').unwrap() + two + 1;
+        text.insert_str(
+            at,
+            "{\"event\":\"trial\",\"trial\":2,\"resumed_presentations\":2}\n",
+        );
         text += "{\"event\":\"level\",\"trial\":2,\"answer\":\"ye";
         std::fs::write(&events, &text).unwrap();
         let got = logged(&events, 2, "level", "level_intensity").unwrap();

@@ -230,6 +230,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         view,
         pusher,
         dir: paths.dir.clone(),
+        resumed,
     };
     let mut report = RunReport {
         dir: paths.dir.clone(),
@@ -262,7 +263,6 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         &expect,
         &plan,
         first,
-        &resumed,
         &mut trials_log,
         &mut report,
     );
@@ -314,16 +314,13 @@ fn tl_on_missing(p: &Protocol) -> bool {
     p.timeline.on_s.is_none()
 }
 
-/// Runs trials `first..` of `plan`, each row on disk before the next;
-/// trial `first`'s procedure continues after the `resumed` answers.
-#[allow(clippy::too_many_arguments)]
+/// Runs trials `first..` of `plan`, each row on disk before the next.
 fn run_trials(
     r: &mut Runner,
     p: &Protocol,
     expect: &Expect,
     plan: &[Planned],
     first: usize,
-    resumed: &[(String, f64)],
     trials_log: &mut AppendLog,
     report: &mut RunReport,
 ) -> anyhow::Result<()> {
@@ -334,8 +331,7 @@ fn run_trials(
     }
     for (i, t) in plan.iter().enumerate().skip(first - 1) {
         let t0 = monotonic_us();
-        let cut = if i + 1 == first { resumed } else { &[] };
-        let (row, presented) = r.trial(p, expect, t, plan.get(i + 1), cut)?;
+        let (row, presented) = r.trial(p, expect, t, plan.get(i + 1))?;
         let fields = p.columns.fields(&row).map_err(|m| anyhow::anyhow!(m))?;
         trials_log.line(&record::line(&fields))?;
         trials_log.sync()?;
@@ -395,6 +391,9 @@ struct Runner {
     pusher: Option<push::Pusher>,
     /// The participant's folder (the gauge's series go there).
     dir: std::path::PathBuf,
+    /// The answers the first trial run had taken when a run was cut
+    /// short (`start::Start::resumed`); taken by that trial.
+    resumed: Vec<(String, f64)>,
 }
 
 impl Runner {
@@ -502,18 +501,18 @@ impl Runner {
         }
     }
 
-    /// Runs trial `t` (its procedure continuing after the `resumed`
-    /// answers of a run cut short) and returns its row and host-timed
-    /// on-time.
+    /// Runs trial `t` (the first one's procedure continuing after the
+    /// answers of a run cut short, [`Runner::resumed`]) and returns its
+    /// row and host-timed on-time.
     fn trial(
         &mut self,
         p: &Protocol,
         expect: &Expect,
         t: &Planned,
         next: Option<&Planned>,
-        resumed: &[(String, f64)],
     ) -> anyhow::Result<(Row, f64)> {
         let tl = &p.timeline;
+        let resumed = std::mem::take(&mut self.resumed);
         self.trial_events.clear();
         let mut line = serde_json::json!({
             "event": "trial", "trial": t.trial, "set": t.set, "stimulus": t.stimulus,
@@ -537,7 +536,7 @@ impl Runner {
         let mut procedure = procedure::start(p, t);
         if let Some(pr) = procedure.as_deref_mut().filter(|_| !resumed.is_empty()) {
             // `start::resume` checked the same replay.
-            midtrial::replay(pr, resumed).map_err(anyhow::Error::msg)?;
+            midtrial::replay(pr, &resumed).map_err(anyhow::Error::msg)?;
             crate::errln!("  resumed after {} presentations", resumed.len());
         }
         // With the instruments, each push of the adjustment is one
