@@ -45,6 +45,8 @@
 
 pub mod friedman;
 pub mod paired;
+pub mod psychometric;
+pub mod quest;
 pub mod shapiro;
 pub mod special;
 pub mod table;

@@ -70,8 +70,15 @@ pub const STAIRCASE_ANSWERS: &str = "staircase_answers";
 pub const STAIRCASE_REVERSALS: &str = "staircase_reversals";
 /// Moves the grid's ends cut short.
 pub const STAIRCASE_AT_LIMIT: &str = "staircase_at_limit";
-/// The mean level of the last reversals (empty without a reversal).
+/// The threshold: a staircase's mean level of the last reversals (empty
+/// without a reversal), QUEST+'s posterior mean.
 pub const THRESHOLD: &str = "threshold";
+/// QUEST+'s columns, where used: the level of each presentation.
+pub const QUEST_LEVELS: &str = "quest_levels";
+/// Its answers in order, `|`-joined.
+pub const QUEST_ANSWERS: &str = "quest_answers";
+/// The threshold's posterior standard deviation.
+pub const THRESHOLD_SD: &str = "threshold_sd";
 /// The response time of each adjustment answer, s, `|`-joined (as
 /// [`rt_column`] is for a question).
 pub const ADJUST_RT: &str = "adjust_rt_s";
@@ -114,6 +121,7 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
         STAIRCASE_AT_LIMIT,
         THRESHOLD,
     ])
+    .chain([QUEST_LEVELS, QUEST_ANSWERS, THRESHOLD_SD])
 }
 
 /// Longest label (factor level, option, adjustment answer), bytes.
@@ -188,6 +196,9 @@ pub enum Holds {
     Levels(Vec<String>),
     /// Seconds (response times), `|`-joined; empty when none.
     Seconds,
+    /// A procedure's estimate (a threshold), a finite number in its
+    /// levels' unit; empty when it has none. Summarised by the report.
+    Estimate,
     /// A force in N, at least 0 (empty: not measured).
     Force,
 }
@@ -207,6 +218,7 @@ impl Holds {
             Self::Number(..) => "number",
             Self::Depth(..) => "depth",
             Self::Force => "force",
+            Self::Estimate => "estimate",
             _ => return None,
         })
     }
@@ -214,7 +226,7 @@ impl Holds {
     /// The number an answer or depth value stands for, when it has one.
     pub fn number(&self, value: &str) -> Option<f64> {
         match self {
-            Self::Likert(_) | Self::Number(..) | Self::Depth(..) | Self::Force => {
+            Self::Likert(_) | Self::Number(..) | Self::Depth(..) | Self::Force | Self::Estimate => {
                 value.parse().ok()
             }
             _ => None,
@@ -246,7 +258,9 @@ impl Holds {
             Self::Count => count(value, 1),
             Self::Stimulus => crate::plan::library::check_id(value).is_ok(),
             Self::Level(levels) => levels.iter().any(|l| l == value),
-            Self::Measured => value.is_empty() || number(value, f64::MIN, f64::MAX),
+            Self::Measured | Self::Estimate => {
+                value.is_empty() || number(value, f64::MIN, f64::MAX)
+            }
             Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
             Self::Likert(points) => {
@@ -283,7 +297,7 @@ impl Holds {
             Self::Count => "give a whole number from 1".into(),
             Self::Stimulus => "give a library entry's id".into(),
             Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
-            Self::Measured => "give a finite number or nothing".into(),
+            Self::Measured | Self::Estimate => "give a finite number or nothing".into(),
             Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
             Self::Likert(p) => format!("give 1 to {p} or nothing"),
@@ -311,9 +325,12 @@ impl Holds {
         const NUMBER: usize = 32;
         match self {
             Self::Participant | Self::Stimulus => crate::plan::library::MAX_ID_LEN,
-            Self::Count | Self::Answers | Self::Adjustments(_) | Self::Measured | Self::Time => {
-                NUMBER
-            }
+            Self::Count
+            | Self::Answers
+            | Self::Adjustments(_)
+            | Self::Measured
+            | Self::Estimate
+            | Self::Time => NUMBER,
             Self::Level(l) | Self::Choice(l) => label(l),
             Self::Likert(_) => 1,
             // As the participant gave it.
@@ -474,31 +491,52 @@ impl Columns {
     /// The same header with a staircase's columns after the rest: its
     /// `levels`, its two `answers` and the most presentations, `trials`.
     pub fn with_staircase(
-        mut self,
+        self,
         levels: Vec<String>,
         answers: Vec<String>,
         trials: u32,
     ) -> Result<Self, String> {
-        for name in [
-            STAIRCASE_LEVELS,
-            STAIRCASE_ANSWERS,
-            STAIRCASE_REVERSALS,
-            STAIRCASE_AT_LIMIT,
-            THRESHOLD,
-        ] {
-            if self.index(name).is_some() {
-                return Err(format!(
-                    "column `{name}` is used twice (factor and question names and trials.csv's own columns must differ)"
-                ));
-            }
+        self.with(
+            vec![
+                Column::new(STAIRCASE_LEVELS, Holds::Levels(levels.clone())),
+                Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
+                Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
+                Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
+                Column::new(THRESHOLD, Holds::Estimate),
+            ],
+            trials,
+        )
+    }
+
+    /// The same header with QUEST+'s columns after the rest, as
+    /// [`Self::with_staircase`].
+    pub fn with_quest(
+        self,
+        levels: Vec<String>,
+        answers: Vec<String>,
+        trials: u32,
+    ) -> Result<Self, String> {
+        self.with(
+            vec![
+                Column::new(QUEST_LEVELS, Holds::Levels(levels)),
+                Column::new(QUEST_ANSWERS, Holds::AdjustAnswers(answers)),
+                Column::new(THRESHOLD, Holds::Estimate),
+                Column::new(THRESHOLD_SD, Holds::Measured),
+            ],
+            trials,
+        )
+    }
+
+    /// A procedure's `columns` after the rest, its lists at most `trials`
+    /// long.
+    fn with(mut self, columns: Vec<Column>, trials: u32) -> Result<Self, String> {
+        if let Some(c) = columns.iter().find(|c| self.index(&c.name).is_some()) {
+            return Err(format!(
+                "column `{}` is used twice (factor and question names and trials.csv's own columns must differ)",
+                c.name
+            ));
         }
-        self.list.extend([
-            Column::new(STAIRCASE_LEVELS, Holds::Levels(levels.clone())),
-            Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
-            Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
-            Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
-            Column::new(THRESHOLD, Holds::Measured),
-        ]);
+        self.list.extend(columns);
         self.adjustments = self.adjustments.max(trials);
         Ok(self)
     }

@@ -9,9 +9,11 @@
 //! finished trial, whole lines, synced), `session.json` (the protocol's
 //! text, seed, trial order with shown option orders, device, library
 //! CRCs; written whole) and `events.jsonl` (every session event and the
-//! runner's `trial` and `depth` lines). `--resume` continues at the first
-//! trial not on disk, in the order `session.json` holds, after [`start`]
-//! has checked every file and changed none.
+//! runner's `trial` and `depth` or `level` lines). `--resume` continues at
+//! the first trial not on disk, in the order `session.json` holds, after
+//! [`start`] has checked every file and changed none; a staircase or
+//! QUEST+ trial cut short continues after its logged answers
+//! ([`midtrial`]).
 //!
 //! By role: `protocol` (the file, checked), `design` (the seeded order),
 //! `columns` (trials.csv's header, once), `answers` (what is asked, where
@@ -28,6 +30,7 @@ pub mod columns;
 pub mod design;
 pub mod figure;
 pub mod live;
+pub mod midtrial;
 pub mod observer;
 pub mod options;
 pub mod outline;
@@ -212,7 +215,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     crate::files::write_whole(&paths.session, &serde_json::to_vec_pretty(&st.file)?)?;
     let mut trials_log = st.open_trials(&p, &paths.trials)?;
     let events_log = st.open_events(o.resume, &paths.events)?;
-    let (file, plan) = (st.file, st.plan);
+    let (file, plan, resumed) = (st.file, st.plan, st.resumed);
     crate::stop::graceful();
     let driver = match std::mem::replace(&mut o.finger, FingerSource::None) {
         FingerSource::Samples { feed, filter, .. } => {
@@ -235,6 +238,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         view,
         pusher,
         dir: paths.dir.clone(),
+        resumed,
     };
     let mut report = RunReport {
         dir: paths.dir.clone(),
@@ -432,6 +436,9 @@ struct Runner {
     pusher: Option<push::Pusher>,
     /// The participant's folder (the gauge's series go there).
     dir: std::path::PathBuf,
+    /// The answers the first trial run had taken when a run was cut
+    /// short (`start::Start::resumed`); taken by that trial.
+    resumed: Vec<(String, f64)>,
 }
 
 impl Runner {
@@ -539,7 +546,9 @@ impl Runner {
         }
     }
 
-    /// Runs trial `t` and returns its row and host-timed on-time.
+    /// Runs trial `t` (the first one's procedure continuing after the
+    /// answers of a run cut short, [`Runner::resumed`]) and returns its
+    /// row and host-timed on-time.
     fn trial(
         &mut self,
         p: &Protocol,
@@ -548,10 +557,15 @@ impl Runner {
         next: Option<&Planned>,
     ) -> anyhow::Result<(Row, f64)> {
         let tl = &p.timeline;
+        let resumed = std::mem::take(&mut self.resumed);
         self.trial_events.clear();
-        self.log(serde_json::json!({
+        let mut line = serde_json::json!({
             "event": "trial", "trial": t.trial, "set": t.set, "stimulus": t.stimulus,
-        }))?;
+        });
+        if !resumed.is_empty() {
+            line["resumed_presentations"] = resumed.len().into();
+        }
+        self.log(line)?;
         // The participant may see this line: the stimulus is in the
         // event log only.
         crate::errln!("trial {}/{} (set {})", t.trial, p.trials(), t.set);
@@ -565,12 +579,21 @@ impl Runner {
             }
         }
         let mut procedure = procedure::start(p, t);
+        if let Some(pr) = procedure.as_deref_mut().filter(|_| !resumed.is_empty()) {
+            // `start::resume` checked the same replay.
+            midtrial::replay(pr, &resumed).map_err(anyhow::Error::msg)?;
+            crate::errln!("  resumed after {} presentations", resumed.len());
+        }
         // With the instruments, each push of the adjustment is one
         // on-phase of its own.
         let pushing = p.adjustment.is_some() && self.pusher.is_some();
         let on_s = tl.on_s.map(|s| s * self.scale);
         let mut req = Present {
-            stimulus: t.stimulus.clone(),
+            // A resumed procedure continues at its own level.
+            stimulus: procedure
+                .as_deref()
+                .and_then(|pr| pr.next())
+                .map_or_else(|| t.stimulus.clone(), |n| n.stimulus),
             gate: tl.gate,
             on_s,
             off_s: Some(tl.off_s * self.scale),

@@ -1,60 +1,16 @@
 //! A simulated observer: answers "perceived?" from a psychometric function
 //! with a known threshold, slope, guess and lapse rate, through the same
 //! [`Answers`] interface the terminal and a responses file use. It lets a
-//! staircase protocol run end to end without a participant and lets the
+//! staircase or QUEST+ protocol run end to end without a participant and lets the
 //! tests check where an adaptive procedure converges.
 
 use super::answers::{Accepts, Answers, Asked};
 use crate::error::InputError;
 use crate::rng::SplitMix64;
 
-/// The shape of the psychometric function's core `F(x)` (0 → 1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Shape {
-    /// `1 / (1 + exp(-slope (x - threshold)))`.
-    Logistic,
-    /// `1 - exp(-(x / threshold)^slope)`, for levels above 0.
-    Weibull,
-}
-
-/// `p(x) = guess + (1 - guess - lapse) F(x)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Psychometric {
-    /// The core's shape.
-    pub shape: Shape,
-    /// Where `F` is ½ (logistic) or 1 - 1/e (Weibull), in level units.
-    pub threshold: f64,
-    /// Steepness (per level unit for the logistic; the exponent for Weibull).
-    pub slope: f64,
-    /// Probability of "perceived" far below threshold.
-    pub guess: f64,
-    /// Probability of a wrong answer far above threshold.
-    pub lapse: f64,
-}
+pub use crate::lab::stats::psychometric::{Psychometric, Shape};
 
 impl Psychometric {
-    /// The probability of "perceived" at level `x`.
-    pub fn p(&self, x: f64) -> f64 {
-        let f = match self.shape {
-            Shape::Logistic => 1.0 / (1.0 + (-self.slope * (x - self.threshold)).exp()),
-            Shape::Weibull if x <= 0.0 => 0.0,
-            Shape::Weibull => 1.0 - (-(x / self.threshold).powf(self.slope)).exp(),
-        };
-        self.guess + (1.0 - self.guess - self.lapse) * f
-    }
-
-    /// The level where [`Self::p`] is `p` (`None` outside its range).
-    pub fn level_at(&self, p: f64) -> Option<f64> {
-        let f = (p - self.guess) / (1.0 - self.guess - self.lapse);
-        if !(f > 0.0 && f < 1.0) {
-            return None;
-        }
-        Some(match self.shape {
-            Shape::Logistic => self.threshold + (f / (1.0 - f)).ln() / self.slope,
-            Shape::Weibull => self.threshold * (-(1.0 - f).ln()).powf(1.0 / self.slope),
-        })
-    }
-
     /// Parses `logistic:threshold=0.5,slope=12,guess=0,lapse=0.02` (or
     /// `weibull:...`); `guess` and `lapse` default to 0 and 0.02, and the
     /// optional `seed=N` is returned beside it (default 1).
@@ -173,7 +129,7 @@ impl Answers for Observer {
 }
 
 /// The observer `--observer` asks for, if it does, for protocol `p`: a
-/// staircase's protocol without questions, else bad input.
+/// staircase's or QUEST+'s protocol without questions, else bad input.
 pub fn for_run(
     answers: &super::AnswerSource,
     p: &super::protocol::Protocol,
@@ -182,12 +138,13 @@ pub fn for_run(
         return Ok(None);
     };
     let o = Observer::parse(spec)?;
-    if p.staircase.is_none() || !p.questions.is_empty() {
+    let adaptive = p.staircase.is_some() || p.quest.is_some();
+    if !adaptive || !p.questions.is_empty() {
         return Err(InputError::new(format!(
-            "--observer: study protocol {} {}: a simulated observer answers only a staircase's \"perceived?\"",
+            "--observer: study protocol {} {}: a simulated observer answers only a staircase's or QUEST+'s \"perceived?\"",
             p.path.display(),
-            if p.staircase.is_none() {
-                "has no [staircase]"
+            if !adaptive {
+                "has no [staircase] or [quest]"
             } else {
                 "asks questions"
             }

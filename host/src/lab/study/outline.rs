@@ -97,6 +97,38 @@ pub fn outline(p: &Protocol, index: Option<usize>, seed: Option<u64>) -> String 
             c.threshold_reversals
         );
     }
+    if let Some(q) = &p.quest {
+        let m = q.model();
+        let list = |v: &[f64]| {
+            v.iter()
+                .map(|x| crate::limits::show(*x))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(
+            s,
+            "procedure: QUEST+ over {} levels of {} ({} to {}), from {} (the prior's best); {} functions weighed: {} thresholds from {} to {}, slopes {}, lapse rates {}, guess rate {}; ending after {} presentations{}; threshold: posterior mean and SD",
+            q.values.len(),
+            q.unit,
+            q.labels[0],
+            q.labels[q.labels.len() - 1],
+            q.labels[q.start],
+            m.shape.name(),
+            m.thresholds.len(),
+            crate::limits::show(m.thresholds[0]),
+            crate::limits::show(m.thresholds[m.thresholds.len() - 1]),
+            list(&m.slopes),
+            list(&m.lapses),
+            crate::limits::show(m.guess),
+            q.trials,
+            q.stop_sd
+                .map(|b| format!(
+                    " or once the threshold's posterior SD is below {b} {}",
+                    q.unit
+                ))
+                .unwrap_or_default()
+        );
+    }
     let questions: Vec<String> = p.questions.iter().map(|q| q.id.clone()).collect();
     let _ = writeln!(
         s,

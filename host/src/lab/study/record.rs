@@ -331,7 +331,8 @@ pub fn read_trials(
     // A procedure's answers, `|`-joined in one column.
     let adjust = cols
         .index(columns::ADJUST_ANSWERS)
-        .or_else(|| cols.index(columns::STAIRCASE_ANSWERS));
+        .or_else(|| cols.index(columns::STAIRCASE_ANSWERS))
+        .or_else(|| cols.index(columns::QUEST_ANSWERS));
     let count = cols.index(columns::ANSWERS);
     for (k, rec) in reader.records().enumerate() {
         let rec = rec.map_err(|e| {

@@ -92,11 +92,15 @@ impl Runner {
             Step::Done => None,
             Step::Next(level) => {
                 self.level_event(pr, trial, level, Some(ans))?;
+                // On disk before the next presentation: `--resume`
+                // continues the trial from these.
+                self.events.sync()?;
                 crate::errln!("  next {what} {level:.2} {unit} ({ans})");
                 Some(level)
             }
             Step::Last { level, why } => {
                 self.level_event(pr, trial, level, Some(ans))?;
+                self.events.sync()?;
                 crate::errln!("  {why}");
                 Some(level)
             }

@@ -54,6 +54,10 @@ pub struct Start {
     pub tail: Tail,
     /// A responses file, its used answers skipped and the rest dry-run.
     pub lines: Option<Lines>,
+    /// The answers (and the levels they led to) the first trial not on
+    /// disk had taken when the run was cut short, logged in
+    /// `events.jsonl`: its procedure continues after them.
+    pub resumed: Vec<(String, f64)>,
 }
 
 /// Checks a new session of `o` for protocol `p`.
@@ -72,7 +76,7 @@ pub fn fresh(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Star
         );
     }
     let plan = design::plan_for(p, seed, o.index);
-    let lines = answers(o, p, &plan, 0)?;
+    let lines = answers(o, p, &plan, 0, &[])?;
     let file = SessionFile {
         protocol_name: p.name.clone(),
         protocol_file: o.protocol.display().to_string(),
@@ -93,6 +97,7 @@ pub fn fresh(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Star
         done: 0,
         tail: Tail::NoHeader,
         lines,
+        resumed: Vec::new(),
     })
 }
 
@@ -159,14 +164,43 @@ pub fn resume(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Sta
         crate::files::check_input("event log", &paths.events).map_err(refused)?;
     }
     let done = trials.rows.len();
-    let lines = answers(o, p, &plan[done..], trials.answers_used(&p.columns))?;
+    let resumed = cut_short(p, plan.get(done), &paths.events).map_err(refused)?;
+    let skip = trials.answers_used(&p.columns) + resumed.len();
+    let lines = answers(o, p, &plan[done..], skip, &resumed)?;
     Ok(Start {
         file: f,
         plan,
         done,
         tail: trials.tail,
         lines,
+        resumed,
     })
+}
+
+/// What `events` logged of trial `t` (the first not on disk) before the
+/// run was cut short, checked by replaying it into the trial's procedure,
+/// when that procedure can continue (a staircase, QUEST+).
+fn cut_short(
+    p: &Protocol,
+    t: Option<&Planned>,
+    events: &Path,
+) -> Result<Vec<(String, f64)>, InputError> {
+    let Some(mut pr) = t
+        .and_then(|t| super::procedure::start(p, t))
+        .filter(|pr| pr.resumable())
+    else {
+        return Ok(Vec::new());
+    };
+    let trial = t.map_or(0, |t| t.trial);
+    let (what, unit) = pr.level_unit();
+    let logged = super::midtrial::logged(events, trial, &what, &format!("{what}_{unit}"))?;
+    super::midtrial::replay(pr.as_mut(), &logged).map_err(|m| {
+        InputError::new(format!(
+            "{}: trial {trial}'s logged levels do not follow from its answers: {m}",
+            events.display()
+        ))
+    })?;
+    Ok(logged)
 }
 
 /// The responses file of `o`, `skip` answers used, dry-run over `rest`.
@@ -175,6 +209,7 @@ fn answers(
     p: &Protocol,
     rest: &[Planned],
     skip: usize,
+    resumed: &[(String, f64)],
 ) -> anyhow::Result<Option<Lines>> {
     // `--responses -` answers each question as it is asked: nothing to
     // read ahead, dry-run or skip.
@@ -186,7 +221,7 @@ fn answers(
     }
     let mut l = Lines::open(path)?;
     l.skip(skip)?;
-    trial::dry_run(p, rest, &mut l.clone())?;
+    trial::dry_run(p, rest, &mut l.clone(), resumed)?;
     Ok(Some(l))
 }
 

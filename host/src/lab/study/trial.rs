@@ -41,16 +41,26 @@ pub struct Health {
 /// Walks the answers `trials` will ask for, in order, through `answers`
 /// (a procedure's first, as they come while the stimulus repeats, then the
 /// questions'), and then refuses any left over: the first bad, missing or
-/// extra answer is the error, before the device opens.
-pub fn dry_run(p: &Protocol, trials: &[Planned], answers: &mut Lines) -> anyhow::Result<()> {
+/// extra answer is the error, before the device opens. The first trial's
+/// procedure has taken the `resumed` answers already (a trial cut short).
+pub fn dry_run(
+    p: &Protocol,
+    trials: &[Planned],
+    answers: &mut Lines,
+    resumed: &[(String, f64)],
+) -> anyhow::Result<()> {
     let mut now = |q: &Asked| -> anyhow::Result<(String, f64)> {
         let a = answers
             .poll(q)?
             .ok_or_else(|| anyhow::anyhow!("a responses file has every answer at once"))?;
         Ok((a, 0.0))
     };
-    for t in trials {
+    for (i, t) in trials.iter().enumerate() {
         if let Some(mut pr) = procedure::start(p, t) {
+            if i == 0 {
+                // Checked by `start::resume` already.
+                super::midtrial::replay(pr.as_mut(), resumed).map_err(anyhow::Error::msg)?;
+            }
             while !pr.finished() {
                 let (a, _) = now(&pr.asked())?;
                 pr.respond(&a);

@@ -2,8 +2,9 @@
 //! far. The runner asks a [`Procedure`] for the next stimulus and level,
 //! presents it, gives it the participant's answer and stops once it has
 //! finished; the dry run of a responses file walks it the same way:
-//! Experiment 3's method of adjustment ([`Adjustment`]) and the
-//! transformed up-down staircase ([`staircase::Staircase`]). A
+//! Experiment 3's method of adjustment ([`Adjustment`]), the
+//! transformed up-down staircase ([`staircase::Staircase`]) and QUEST+
+//! ([`quest::Quest`]). A
 //! trial without either presents its stimulus as the timeline says (the
 //! fixed design).
 
@@ -11,8 +12,10 @@ use super::answers::{Accepts, Asked};
 use super::columns::{self, Row};
 use super::design::Planned;
 use super::protocol;
+pub mod quest;
 pub mod staircase;
 
+use quest::Quest;
 use staircase::Staircase;
 
 /// What to present next.
@@ -65,6 +68,11 @@ pub trait Procedure {
     }
     /// Answers taken so far.
     fn answers(&self) -> usize;
+    /// Whether a trial cut short may continue where it was: the procedure
+    /// follows from its answers alone, so `midtrial` can replay them.
+    fn resumable(&self) -> bool {
+        false
+    }
     /// Writes its columns into the trial's row.
     fn record(&self, row: &mut Row);
 }
@@ -73,6 +81,9 @@ pub trait Procedure {
 pub fn start(p: &protocol::Protocol, t: &Planned) -> Option<Box<dyn Procedure>> {
     if let Some(s) = &p.staircase {
         return Some(Box::new(Staircase::new(s, t.condition)));
+    }
+    if let Some(q) = &p.quest {
+        return Some(Box::new(Quest::new(q, t.condition)));
     }
     p.adjustment
         .as_ref()

@@ -226,6 +226,10 @@ impl Procedure for Staircase {
         self.entries.iter().any(|e| e == stimulus)
     }
 
+    fn resumable(&self) -> bool {
+        true
+    }
+
     fn level_unit(&self) -> (String, String) {
         ("level".into(), self.spec.unit.clone())
     }

@@ -17,10 +17,12 @@ use crate::lab::study::columns::{AdjustColumns, Column, Columns, Holds};
 pub(super) use super::errors::Errors;
 
 /// Checks what parsing alone cannot.
-pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
+pub(super) fn check(mut file: File, e: &Errors) -> Result<Unlinked, InputError> {
     let timeline = timeline(&file, e)?;
     let factors = factors(&file, e)?;
-    let start = super::staircase::start_label(&file);
+    let quest = super::quest::check(file.quest.take(), &file, &factors, e)?;
+    let start = super::staircase::start_label(&file)
+        .or_else(|| quest.as_ref().map(|q| q.start_label().to_owned()));
     let conditions = conditions(&file.stimulus, &factors, start.as_deref(), e)?;
     let sets = file.sets.0;
     if conditions.len().saturating_mul(sets) > MAX_TRIALS {
@@ -45,17 +47,18 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         questions.push(question(q, e)?);
     }
     let report = report(file.report, &factors, e)?;
+    let levels_of: Vec<Vec<String>> = conditions.iter().map(|c| c.levels.clone()).collect();
     let staircase = super::staircase::check(
         file.staircase,
         file.adjustment.is_some(),
         &file.stimulus,
         &factors,
-        &conditions
-            .iter()
-            .map(|c| c.levels.clone())
-            .collect::<Vec<_>>(),
+        &levels_of,
         e,
     )?;
+    let quest = quest
+        .map(|q| q.named(&file.stimulus, &factors, &levels_of, e))
+        .transpose()?;
     let adjustment = file
         .adjustment
         .map(|a| {
@@ -124,6 +127,14 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         ),
         None => Ok(c),
     })
+    .and_then(|c| match &quest {
+        Some(q) => c.with_quest(
+            q.labels.clone(),
+            vec![q.yes.clone(), q.no.clone()],
+            q.trials,
+        ),
+        None => Ok(c),
+    })
     .and_then(|c| {
         if block_names.is_empty() {
             Ok(c)
@@ -145,6 +156,7 @@ pub(super) fn check(file: File, e: &Errors) -> Result<Unlinked, InputError> {
         questions,
         adjustment,
         staircase,
+        quest,
         columns,
         report,
     })
@@ -154,10 +166,11 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
     let span = file.timeline.span();
     let t = file.timeline.get_ref();
     // A procedure's trial repeats its on/off phases until answered.
-    let procedure = match (&file.adjustment, &file.staircase) {
-        (Some(_), _) => Some("[adjustment]"),
-        (None, Some(_)) => Some("[staircase]"),
-        (None, None) => None,
+    let procedure = match (&file.adjustment, &file.staircase, &file.quest) {
+        (Some(_), _, _) => Some("[adjustment]"),
+        (None, Some(_), _) => Some("[staircase]"),
+        (None, None, Some(_)) => Some("[quest]"),
+        (None, None, None) => None,
     };
     let on_s = t.on_s.as_ref().map(|s| s.get_ref().0);
     let while_touching = t.while_touching.as_ref().is_some_and(|w| *w.get_ref());

@@ -14,8 +14,8 @@ use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use super::{
-    MAX_ADJUSTMENTS, MAX_BLOCKS, MAX_DEPTH_MM, MAX_LEVELS, MAX_NUMBER, MAX_OPTIONS, MAX_QUESTIONS,
-    MAX_RUN, MAX_SECONDS, MAX_SETS, MAX_STAIRCASE,
+    MAX_ADJUSTMENTS, MAX_BLOCKS, MAX_DEPTH_MM, MAX_LAPSE, MAX_LEVELS, MAX_NUMBER, MAX_OPTIONS,
+    MAX_QUEST_GRID, MAX_QUESTIONS, MAX_RUN, MAX_SECONDS, MAX_SETS, MAX_SLOPE, MAX_STAIRCASE,
 };
 use crate::lab::session::{Gate, MAX_REPEAT};
 use crate::lab::study::columns::{LIST_SEPARATOR, MAX_LABEL_BYTES};
@@ -77,6 +77,10 @@ pub(super) struct File {
     /// An adaptive staircase over a grid of levels per condition.
     #[schemars(with = "Option<StaircaseFile>")]
     pub staircase: Option<Spanned<StaircaseFile>>,
+    /// QUEST+ (Watson 2017) over a grid of levels per condition. Not with
+    /// `[adjustment]` or `[staircase]`.
+    #[schemars(with = "Option<QuestFile>")]
+    pub quest: Option<Spanned<QuestFile>>,
     /// What `lmhost study report` tests; default: α = 0.05, repeats
     /// averaged, a Friedman test for each factor of 3 or more levels.
     pub report: Option<ReportFile>,
@@ -329,6 +333,85 @@ pub(super) struct StaircaseFile {
     #[serde(default = "no")]
     #[schemars(with = "AnswerLabel")]
     pub no: Spanned<AnswerLabel>,
+}
+
+/// The `[quest]` table (checked in `super::quest`): QUEST+ over a grid
+/// of levels, each a library entry. A level, a threshold and `stop_sd`
+/// are in `unit`; a logistic's slope is per `unit`, a Weibull's is its
+/// exponent.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub(super) struct QuestFile {
+    /// What the participant is asked after each presentation [Did you
+    /// feel the stimulus?].
+    #[serde(default = "perceived_text")]
+    pub text: Label,
+    /// What a level is, a name [level].
+    #[serde(default = "level_unit")]
+    pub unit: Name,
+    /// The levels: 2 to 200 numbers as strings, ascending, each filling
+    /// `{level}` in the stimulus template to name a library entry
+    /// (required).
+    #[schemars(with = "Vec<Label>", length(min = 2, max = MAX_LEVELS))]
+    pub levels: Spanned<Vec<Label>>,
+    /// The psychometric function's core: `logistic` or `weibull`
+    /// [logistic].
+    #[serde(default)]
+    pub shape: ShapeFile,
+    /// Candidate thresholds, `unit`: 1 to 200 finite numbers, ascending
+    /// (above 0 for a Weibull) [the levels].
+    #[schemars(
+        with = "Option<Vec<f64>>",
+        length(min = 1, max = MAX_LEVELS),
+        inner(range(min = -MAX_NUMBER, max = MAX_NUMBER))
+    )]
+    pub thresholds: Option<Spanned<Vec<f64>>>,
+    /// Candidate slopes: 1 to 20 numbers above 0 and at most 1e6
+    /// (required: a slope's size depends on the unit).
+    #[schemars(
+        with = "Vec<f64>",
+        length(min = 1, max = MAX_QUEST_GRID),
+        inner(range(min = 0.0, max = MAX_SLOPE))
+    )]
+    pub slopes: Spanned<Vec<f64>>,
+    /// Candidate lapse rates: 1 to 20 numbers from 0, below 0.5 [0.02].
+    #[schemars(
+        with = "Option<Vec<f64>>",
+        length(min = 1, max = MAX_QUEST_GRID),
+        inner(range(min = 0.0, max = MAX_LAPSE)),
+        extend("default" = super::quest::DEFAULT_LAPSES)
+    )]
+    pub lapses: Option<Spanned<Vec<f64>>>,
+    /// The guess rate, "perceived" far below threshold: from 0, below 1,
+    /// and with every lapse rate below 1 [0].
+    #[schemars(with = "Option<f64>", range(min = 0.0, max = 1.0), extend("default" = 0.0))]
+    pub guess: Option<Spanned<f64>>,
+    /// Presentations that end it, 1 to 1000 [50].
+    #[serde(default)]
+    pub trials: Presentations,
+    /// Ends it earlier once the threshold's posterior standard deviation
+    /// is below this, `unit`, above 0 [none: `trials` presentations].
+    #[schemars(with = "Option<f64>", range(min = 0.0, max = MAX_NUMBER))]
+    pub stop_sd: Option<Spanned<f64>>,
+    /// The answer "perceived" [yes].
+    #[serde(default = "yes")]
+    #[schemars(with = "AnswerLabel")]
+    pub yes: Spanned<AnswerLabel>,
+    /// The answer "not perceived" [no].
+    #[serde(default = "no")]
+    #[schemars(with = "AnswerLabel")]
+    pub no: Spanned<AnswerLabel>,
+}
+
+/// A psychometric function's core in a `[quest]` table.
+#[derive(Debug, Clone, Copy, Default, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub(super) enum ShapeFile {
+    /// `1 / (1 + exp(-slope (x - threshold)))`.
+    #[default]
+    Logistic,
+    /// `1 - exp(-(x / threshold)^slope)`.
+    Weibull,
 }
 
 /// The `[report]` table (checked in `check::report`): what `lmhost study

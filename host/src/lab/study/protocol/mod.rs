@@ -7,10 +7,12 @@ mod blocks;
 mod check;
 mod errors;
 mod file;
+mod quest;
 mod report;
 mod staircase;
 
 pub use blocks::{Block, MAX_BLOCKS};
+pub use quest::{MAX_LAPSE, MAX_QUEST_GRID, MAX_QUEST_PARAMS, MAX_SLOPE, Quest};
 pub use report::{PairSpec, ReportSpec};
 pub use staircase::{LEVEL, Staircase};
 
@@ -294,6 +296,8 @@ pub struct Protocol {
     pub adjustment: Option<Adjustment>,
     /// The staircase, if used.
     pub staircase: Option<Staircase>,
+    /// QUEST+, if used.
+    pub quest: Option<Quest>,
     /// trials.csv's header.
     pub columns: Columns,
     /// What `study report` tests.
@@ -329,6 +333,8 @@ pub struct Unlinked {
     pub adjustment: Option<Adjustment>,
     /// The staircase, if used.
     pub staircase: Option<Staircase>,
+    /// QUEST+, if used.
+    pub quest: Option<Quest>,
     /// trials.csv's header.
     pub columns: Columns,
     /// What `study report` tests.
@@ -425,17 +431,17 @@ impl Protocol {
                 ),
             ));
         }
-        if let Some(id) = u
-            .staircase
-            .iter()
-            .flat_map(|s| s.entries.iter().flatten())
-            .find(|id| library.find(id).is_none())
-        {
+        let mut levels = (u.staircase.iter().flat_map(|s| s.entries.iter().flatten()))
+            .map(|id| ("staircase", id))
+            .chain(
+                (u.quest.iter().flat_map(|q| q.entries.iter().flatten())).map(|id| ("quest", id)),
+            );
+        if let Some((which, id)) = levels.find(|(_, id)| library.find(id).is_none()) {
             return Err(e.at(
                 u.stimulus.span(),
                 "stimulus",
                 format!(
-                    "the staircase names stimulus `{}`, which is not in {}",
+                    "the {which} names stimulus `{}`, which is not in {}",
                     id.escape_debug(),
                     library_path.display()
                 ),
@@ -456,6 +462,7 @@ impl Protocol {
             questions: u.questions,
             adjustment: u.adjustment,
             staircase: u.staircase,
+            quest: u.quest,
             columns: u.columns,
             report: u.report,
         })

@@ -5,7 +5,7 @@
 use toml::Spanned;
 
 use super::errors::Errors;
-use super::file::{File, StaircaseFile, repeated};
+use super::file::{AnswerLabel, File, Label, StaircaseFile, repeated};
 use super::{Factor, MAX_LEVELS};
 use crate::error::InputError;
 
@@ -77,53 +77,8 @@ pub(super) fn check(
             "a trial follows one procedure: give [adjustment] or [staircase], not both",
         ));
     }
-    if factors.iter().any(|f| f.name == LEVEL) {
-        return Err(e.at(
-            span,
-            "staircase",
-            "a factor is called `level`, which names the staircase's level in the stimulus template: rename the factor",
-        ));
-    }
-    if !template.get_ref().contains("{level}") {
-        return Err(e.at(
-            template.span(),
-            "stimulus",
-            "a [staircase] names each level's library entry: put `{level}` in the stimulus template",
-        ));
-    }
-    let levels = &s.levels;
-    let labels: Vec<String> = levels.get_ref().iter().map(|l| l.0.clone()).collect();
-    if !(2..=MAX_LEVELS).contains(&labels.len()) {
-        return Err(e.at(
-            levels.span(),
-            "levels",
-            format!("{} levels: give 2 to {MAX_LEVELS}", labels.len()),
-        ));
-    }
-    let mut values = Vec::with_capacity(labels.len());
-    for l in &labels {
-        match l.parse::<f64>() {
-            Ok(v) if v.is_finite() => values.push(v),
-            _ => {
-                return Err(e.at(
-                    levels.span(),
-                    "levels",
-                    format!("`{l}` is not a finite number (each level is its value, in `unit`)"),
-                ));
-            }
-        }
-    }
-    if let Some(i) = (1..values.len()).find(|&i| values[i] <= values[i - 1]) {
-        return Err(e.at(
-            levels.span(),
-            "levels",
-            format!(
-                "`{}` after `{}`: give the levels in ascending order, each once",
-                labels[i],
-                labels[i - 1]
-            ),
-        ));
-    }
+    template_names_level("staircase", span.clone(), template, factors, e)?;
+    let (labels, values) = levels(&s.levels, e)?;
     let start = match &s.start {
         None => labels.len() - 1,
         Some(l) => labels
@@ -166,32 +121,8 @@ pub(super) fn check(
             v
         }
     };
-    let answers = [s.yes.get_ref().0.as_str(), s.no.get_ref().0.as_str()];
-    if repeated(&answers).is_some() {
-        let at = Some(s.no.span()).filter(|x| !x.is_empty());
-        return Err(e.at(
-            at.unwrap_or(span),
-            "no",
-            "`yes` and `no` are the same answer: they must differ, also in case",
-        ));
-    }
-    let mut entries = Vec::with_capacity(conditions.len());
-    for levels_of in conditions {
-        let mut row = Vec::with_capacity(labels.len());
-        for l in &labels {
-            let id = super::expand_level(template.get_ref(), factors, levels_of, Some(l))
-                .map_err(|m| e.at(template.span(), "stimulus", m))?;
-            crate::plan::library::check_id(&id).map_err(|m| {
-                e.at(
-                    template.span(),
-                    "stimulus",
-                    format!("condition {}, level {l}: {m}", levels_of.join("/")),
-                )
-            })?;
-            row.push(id);
-        }
-        entries.push(row);
-    }
+    answers_differ(&s.yes, &s.no, span, e)?;
+    let entries = entries(&labels, template, factors, conditions, e)?;
     Ok(Some(Staircase {
         text: s.text.0,
         unit: s.unit.0,
@@ -208,4 +139,117 @@ pub(super) fn check(
         yes: s.yes.into_inner().0,
         no: s.no.into_inner().0,
     }))
+}
+
+/// Checks that the stimulus template names the level (`{level}`) and no
+/// factor takes its name; `table` names the procedure's table.
+pub(super) fn template_names_level(
+    table: &str,
+    span: std::ops::Range<usize>,
+    template: &Spanned<String>,
+    factors: &[Factor],
+    e: &Errors,
+) -> Result<(), InputError> {
+    if factors.iter().any(|f| f.name == LEVEL) {
+        return Err(e.at(
+            span,
+            table,
+            format!("a factor is called `level`, which names the {table}'s level in the stimulus template: rename the factor"),
+        ));
+    }
+    if !template.get_ref().contains("{level}") {
+        return Err(e.at(
+            template.span(),
+            "stimulus",
+            format!("a [{table}] names each level's library entry: put `{{level}}` in the stimulus template"),
+        ));
+    }
+    Ok(())
+}
+
+/// A grid of levels: 2 to [`MAX_LEVELS`] finite numbers as written, in
+/// ascending order, each once; their labels and values.
+pub(super) fn levels(
+    levels: &Spanned<Vec<Label>>,
+    e: &Errors,
+) -> Result<(Vec<String>, Vec<f64>), InputError> {
+    let labels: Vec<String> = levels.get_ref().iter().map(|l| l.0.clone()).collect();
+    if !(2..=MAX_LEVELS).contains(&labels.len()) {
+        return Err(e.at(
+            levels.span(),
+            "levels",
+            format!("{} levels: give 2 to {MAX_LEVELS}", labels.len()),
+        ));
+    }
+    let mut values = Vec::with_capacity(labels.len());
+    for l in &labels {
+        match l.parse::<f64>() {
+            Ok(v) if v.is_finite() => values.push(v),
+            _ => {
+                return Err(e.at(
+                    levels.span(),
+                    "levels",
+                    format!("`{l}` is not a finite number (each level is its value, in `unit`)"),
+                ));
+            }
+        }
+    }
+    if let Some(i) = (1..values.len()).find(|&i| values[i] <= values[i - 1]) {
+        return Err(e.at(
+            levels.span(),
+            "levels",
+            format!(
+                "`{}` after `{}`: give the levels in ascending order, each once",
+                labels[i],
+                labels[i - 1]
+            ),
+        ));
+    }
+    Ok((labels, values))
+}
+
+/// Refuses a `yes` and a `no` that are the same answer.
+pub(super) fn answers_differ(
+    yes: &Spanned<AnswerLabel>,
+    no: &Spanned<AnswerLabel>,
+    span: std::ops::Range<usize>,
+    e: &Errors,
+) -> Result<(), InputError> {
+    if repeated(&[yes.get_ref().0.as_str(), no.get_ref().0.as_str()]).is_some() {
+        let at = Some(no.span()).filter(|x| !x.is_empty());
+        return Err(e.at(
+            at.unwrap_or(span),
+            "no",
+            "`yes` and `no` are the same answer: they must differ, also in case",
+        ));
+    }
+    Ok(())
+}
+
+/// Per condition, the library entry of each level `labels`.
+pub(super) fn entries(
+    labels: &[String],
+    template: &Spanned<String>,
+    factors: &[Factor],
+    conditions: &[Vec<String>],
+    e: &Errors,
+) -> Result<Vec<Vec<String>>, InputError> {
+    let mut entries = Vec::with_capacity(conditions.len());
+    for levels_of in conditions {
+        let mut row = Vec::with_capacity(labels.len());
+        for l in labels {
+            let id = super::expand_level(template.get_ref(), factors, levels_of, Some(l))
+                .map_err(|m| e.at(template.span(), "stimulus", m))?;
+            crate::plan::library::check_id(&id).map_err(|m| {
+                e.at(
+                    template.span(),
+                    "stimulus",
+                    format!("condition {}, level {l}: {m}", levels_of.join("/")),
+                )
+            })?;
+            row.push(id);
+        }
+        entries.push(row);
+    }
+    Ok(entries)
 }

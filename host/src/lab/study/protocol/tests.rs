@@ -380,3 +380,108 @@ fn every_shipped_protocol_and_its_library_load() {
     }
     assert!(n >= 4, "{n} protocols");
 }
+
+#[test]
+fn the_quest_protocol_plans_its_table_once_and_bad_tables_are_refused() {
+    let p = Protocol::load(&studies("quest-detection.toml")).unwrap();
+    let q = p.quest.as_ref().unwrap();
+    assert_eq!(q.values.len(), 20);
+    let m = q.model();
+    assert_eq!(
+        (m.thresholds.len(), m.slopes.len(), m.lapses.len()),
+        (39, 3, 3)
+    );
+    assert_eq!(q.table.levels(), 20);
+    assert_eq!(q.trials, 40);
+    assert_eq!(q.stop_sd, None);
+    // The first level is the uniform prior's best, and the condition's
+    // own stimulus is its entry.
+    let best = crate::lab::stats::quest::Posterior::uniform(q.table.clone()).best();
+    assert_eq!(q.start, best);
+    assert_eq!(p.conditions[0].stimulus, q.entries[0][q.start]);
+    use crate::lab::study::columns::{QUEST_ANSWERS, QUEST_LEVELS, THRESHOLD, THRESHOLD_SD};
+    for c in [QUEST_LEVELS, QUEST_ANSWERS, THRESHOLD, THRESHOLD_SD] {
+        assert!(p.columns.index(c).is_some(), "{c}");
+    }
+    let base = std::fs::read_to_string(studies("quest-detection.toml")).unwrap();
+    for (from, to, needle) in [
+        ("slopes = [7.5, 15.0, 30.0]", "", "missing field `slopes`"),
+        (
+            "slopes = [7.5, 15.0, 30.0]",
+            "slopes = [0.0]",
+            "field `quest.slopes`: 0: give slopes above 0",
+        ),
+        (
+            "slopes = [7.5, 15.0, 30.0]",
+            "slopes = []",
+            "0 values: give 1 to 20",
+        ),
+        (
+            "lapses = [0.0, 0.02, 0.05]",
+            "lapses = [0.5]",
+            "field `quest.lapses`: 0.5: give lapse rates from 0, below 0.5",
+        ),
+        (
+            "guess = 0.0",
+            "guess = 0.96",
+            "field `quest.guess`: 0.96 is out of range",
+        ),
+        (
+            "thresholds = [0.05, 0.075",
+            "thresholds = [0.075, 0.05",
+            "ascending",
+        ),
+        (
+            "shape = \"logistic\"",
+            "shape = \"probit\"",
+            "unknown variant `probit`",
+        ),
+        ("trials = 40", "trials = 0", "field `quest.trials`"),
+        (
+            "trials = 40",
+            "trials = 40\nstop_sd = -1",
+            "field `quest.stop_sd`",
+        ),
+        (
+            "trials = 40",
+            "trials = 40\nstart = \"0.50\"",
+            "unknown field `start`",
+        ),
+        ("no = \"no\"", "no = \"YES\"", "must differ"),
+        ("-i{level}", "-i", "put `{level}`"),
+        (
+            "[\"0.05\"",
+            "[\"0.01\"",
+            "the quest names stimulus `lms-5hz-i0.01`",
+        ),
+        (
+            "off_s = 0.5",
+            "off_s = 0.5\nrepeat = 2",
+            "[quest] trial repeats",
+        ),
+        (
+            "\n[quest]",
+            "\n[staircase]\nlevels = [\"0.05\", \"0.10\"]\n\n[quest]",
+            "one of [adjustment], [staircase] and [quest]",
+        ),
+    ] {
+        let text = base.replacen(from, to, 1);
+        assert_ne!(text, base, "{from}");
+        let e = refused(&text);
+        assert!(e.contains(needle), "{from} → {to}: {e}");
+    }
+    // Too many functions to weigh: 39 thresholds × 20 slopes × 20 lapses.
+    let many = |n: usize, x: f64| {
+        let v: Vec<String> = (0..n).map(|i| format!("{}", x * (1 + i) as f64)).collect();
+        v.join(", ")
+    };
+    let text = base
+        .replacen("[7.5, 15.0, 30.0]", &format!("[{}]", many(20, 1.0)), 1)
+        .replacen("[0.0, 0.02, 0.05]", &format!("[{}]", many(20, 0.01)), 1);
+    assert!(refused(&text).contains("15600 functions to weigh: at most 5000"));
+    // A Weibull's thresholds are above 0.
+    let text = base
+        .replacen("shape = \"logistic\"", "shape = \"weibull\"", 1)
+        .replacen("thresholds = [0.05,", "thresholds = [0.0, 0.05,", 1);
+    assert!(refused(&text).contains("a Weibull's thresholds are above 0"));
+}

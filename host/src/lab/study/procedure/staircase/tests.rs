@@ -107,25 +107,33 @@ fn the_procedure_presents_each_level_entry_and_records_its_state() {
 }
 
 /// Runs the staircase of `s` to its end with `observer`, as the runner
-/// does: each answer through the answer-source interface.
-fn run(s: &protocol::Staircase, observer: &mut Observer) -> Option<f64> {
+/// does: each answer through the answer-source interface; the estimate
+/// and the presentations.
+fn run(s: &protocol::Staircase, observer: &mut Observer) -> (Option<f64>, usize) {
     let mut st = Staircase::new(s, 0);
     while !st.finished() {
         let a = observer.poll(&st.asked()).unwrap().unwrap();
         st.respond(&a);
     }
-    st.rule()
-        .threshold(&s.values, s.threshold_reversals as usize)
+    let t = st
+        .rule()
+        .threshold(&s.values, s.threshold_reversals as usize);
+    (t, st.answers())
 }
 
-/// Mean and standard deviation of the estimates over `seeds` runs.
-pub(crate) fn estimates(s: &protocol::Staircase, f: Psychometric, seeds: u64) -> (f64, f64) {
-    let t: Vec<f64> = (0..seeds)
-        .map(|seed| run(s, &mut Observer::new(f, seed)).expect("every run reverses"))
+/// Mean and standard deviation of the estimates over `seeds` runs, and
+/// the mean presentations (to compare with QUEST+'s).
+pub(crate) fn estimates(s: &protocol::Staircase, f: Psychometric, seeds: u64) -> (f64, f64, f64) {
+    let runs: Vec<(f64, usize)> = (0..seeds)
+        .map(|seed| {
+            let (t, n) = run(s, &mut Observer::new(f, seed));
+            (t.expect("every run reverses"), n)
+        })
         .collect();
-    let mean = t.iter().sum::<f64>() / t.len() as f64;
-    let sd = (t.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (t.len() - 1) as f64).sqrt();
-    (mean, sd)
+    let n = runs.len() as f64;
+    let mean = runs.iter().map(|r| r.0).sum::<f64>() / n;
+    let sd = (runs.iter().map(|r| (r.0 - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    (mean, sd, runs.iter().map(|r| r.1 as f64).sum::<f64>() / n)
 }
 
 #[test]
@@ -141,8 +149,10 @@ fn over_200_seeds_the_estimates_centre_on_the_level_the_rule_converges_to() {
         // reversals, the last 10: +0.009 here; see BENCHMARKS.md).
         let s = spec(101, 1, down, &steps, 40, 30);
         let target = f.level_at(p).unwrap();
-        let (mean, sd) = estimates(&s, f, 200);
-        eprintln!("{down}-down: mean {mean:.4}, sd {sd:.4}, target {target:.4}");
+        let (mean, sd, presented) = estimates(&s, f, 200);
+        eprintln!(
+            "{down}-down: mean {mean:.4}, sd {sd:.4}, target {target:.4} ({presented} presented)"
+        );
         // The standard error of the mean is sd/√200 (under 0.002 here):
         // the centre is within 0.01 of the target, and the 50 % point
         // (0.5) is far outside that.
