@@ -387,7 +387,7 @@ pub fn check_id(id: &str) -> Result<(), String> {
 impl EntryFile {
     /// An entry whose phases or foci come from a file: only the fields
     /// that file plans take.
-    fn from_file(self, content: Content, path: String) -> Result<Entry, String> {
+    fn into_file_entry(self, content: Content, path: String) -> Result<Entry, String> {
         let given = [
             ("radius", self.radius.is_some()),
             ("foci", self.foci.is_some()),
@@ -434,8 +434,8 @@ impl EntryFile {
         check_id(&self.id)?;
         match (self.phases_file.take(), self.foci_file.take()) {
             (Some(_), Some(_)) => return Err("give `phases_file` or `foci_file`, not both".into()),
-            (Some(p), None) => return self.from_file(Content::Phases, p),
-            (None, Some(p)) => return self.from_file(Content::Foci, p),
+            (Some(p), None) => return self.into_file_entry(Content::Phases, p),
+            (None, Some(p)) => return self.into_file_entry(Content::Foci, p),
             (None, None) => {}
         }
         let d = Stimulus::default();

@@ -315,6 +315,14 @@ pub struct ColourImage {
     pub rgb: std::sync::Arc<Vec<u8>>,
 }
 
+impl super::settings_file::SettingsFile for ColourCamera {
+    const WHAT: &'static str = "colour camera";
+
+    fn check_values(&self, origin: &str) -> Result<(), InputError> {
+        self.check(origin)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -420,13 +428,5 @@ mod tests {
             ..cam
         };
         assert!(far.check("x").is_err());
-    }
-}
-
-impl super::settings_file::SettingsFile for ColourCamera {
-    const WHAT: &'static str = "colour camera";
-
-    fn check_values(&self, origin: &str) -> Result<(), InputError> {
-        self.check(origin)
     }
 }

@@ -129,6 +129,14 @@ impl Intrinsics {
     }
 }
 
+impl super::settings_file::SettingsFile for Intrinsics {
+    const WHAT: &'static str = "intrinsics";
+
+    fn check_values(&self, origin: &str) -> Result<(), InputError> {
+        self.check(origin)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -158,13 +166,5 @@ mod tests {
         assert!((p[1] - (50.0 - 239.5) / 426.0 * 300.0).abs() < 1e-12);
         let q = i.project(p);
         assert!((q[0] - 100.0).abs() < 1e-9 && (q[1] - 50.0).abs() < 1e-9);
-    }
-}
-
-impl super::settings_file::SettingsFile for Intrinsics {
-    const WHAT: &'static str = "intrinsics";
-
-    fn check_values(&self, origin: &str) -> Result<(), InputError> {
-        self.check(origin)
     }
 }

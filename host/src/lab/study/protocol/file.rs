@@ -14,8 +14,9 @@ use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
 use super::{
-    MAX_ADJUSTMENTS, MAX_BLOCKS, MAX_DEPTH_MM, MAX_LAPSE, MAX_LEVELS, MAX_NUMBER, MAX_OPTIONS,
-    MAX_QUEST_GRID, MAX_QUESTIONS, MAX_RUN, MAX_SECONDS, MAX_SETS, MAX_SLOPE, MAX_STAIRCASE,
+    DEFAULT_LAPSES, MAX_ADJUSTMENTS, MAX_BLOCKS, MAX_DEPTH_MM, MAX_LAPSE, MAX_LEVELS, MAX_NUMBER,
+    MAX_OPTIONS, MAX_QUEST_GRID, MAX_QUESTIONS, MAX_RUN, MAX_SECONDS, MAX_SETS, MAX_SLOPE,
+    MAX_STAIRCASE,
 };
 use crate::lab::session::{Gate, MAX_REPEAT};
 use crate::lab::study::columns::{LIST_SEPARATOR, MAX_LABEL_BYTES};
@@ -379,7 +380,7 @@ pub(super) struct QuestFile {
         with = "Option<Vec<f64>>",
         length(min = 1, max = MAX_QUEST_GRID),
         inner(range(min = 0.0, max = MAX_LAPSE)),
-        extend("default" = super::quest::DEFAULT_LAPSES)
+        extend("default" = DEFAULT_LAPSES)
     )]
     pub lapses: Option<Spanned<Vec<f64>>>,
     /// The guess rate, "perceived" far below threshold: from 0, below 1,

@@ -12,7 +12,7 @@ mod report;
 mod staircase;
 
 pub use blocks::{Block, MAX_BLOCKS};
-pub use quest::{MAX_LAPSE, MAX_QUEST_GRID, MAX_QUEST_PARAMS, MAX_SLOPE, Quest};
+pub use quest::Quest;
 pub use report::{PairSpec, ReportSpec};
 pub use staircase::{LEVEL, Staircase};
 
@@ -50,6 +50,19 @@ pub const MAX_LEVELS: usize = 200;
 pub const MAX_RUN: u32 = 10;
 /// Most reversals or presentations of a staircase.
 pub const MAX_STAIRCASE: u32 = 1_000;
+/// Most candidate slopes or lapse rates of QUEST+.
+pub const MAX_QUEST_GRID: usize = 20;
+/// Most parameter triples (thresholds × slopes × lapses): with 200
+/// levels, a table of 1 M likelihoods (8 MB), and each choice of the next
+/// level 2 M multiplications and logarithms (milliseconds).
+pub const MAX_QUEST_PARAMS: usize = 5_000;
+/// Steepest slope.
+pub const MAX_SLOPE: f64 = 1e6;
+/// Highest lapse rate (a participant who misses half the time above
+/// threshold is not doing the task).
+pub const MAX_LAPSE: f64 = 0.5;
+/// The lapse rates a `[quest]` table without `lapses` weighs.
+pub const DEFAULT_LAPSES: [f64; 1] = [0.02];
 /// Largest adjustment depth either way, mm (a gauge's travel is a few).
 pub const MAX_DEPTH_MM: f64 = 1_000.0;
 /// Largest number a number question accepts either way (its default

@@ -10,25 +10,13 @@ use toml::Spanned;
 use super::errors::Errors;
 use super::file::{File, QuestFile, ShapeFile};
 use super::staircase::{answers_differ, levels, template_names_level};
-use super::{Factor, MAX_LEVELS};
+use super::{
+    DEFAULT_LAPSES, Factor, MAX_LAPSE, MAX_LEVELS, MAX_QUEST_GRID, MAX_QUEST_PARAMS, MAX_SLOPE,
+};
 use crate::error::InputError;
 use crate::lab::stats::psychometric::Shape;
 use crate::lab::stats::quest::{Model, Posterior, Table};
 use crate::limits::show;
-
-/// Most candidate slopes or lapse rates.
-pub const MAX_QUEST_GRID: usize = 20;
-/// Most parameter triples (thresholds × slopes × lapses): with 200
-/// levels, a table of 1 M likelihoods (8 MB), and each choice of the next
-/// level 2 M multiplications and logarithms (milliseconds).
-pub const MAX_QUEST_PARAMS: usize = 5_000;
-/// Steepest slope.
-pub const MAX_SLOPE: f64 = 1e6;
-/// Highest lapse rate (a participant who misses half the time above
-/// threshold is not doing the task).
-pub const MAX_LAPSE: f64 = 0.5;
-/// The lapse rates a `[quest]` table without `lapses` weighs.
-pub const DEFAULT_LAPSES: [f64; 1] = [0.02];
 
 /// QUEST+ over a grid of levels.
 #[derive(Debug, Clone, PartialEq)]
