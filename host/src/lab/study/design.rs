@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 pub use super::protocol::Order;
-use super::protocol::{Block, Condition, Protocol, Question};
+use super::protocol::{Protocol, Unlinked};
 use crate::rng::SplitMix64;
 
 /// One planned trial.
@@ -86,49 +86,21 @@ pub fn plan(p: &Protocol, seed: u64) -> Vec<Planned> {
 /// The whole session's trials for `seed` and the participant's 1-based
 /// `index` (which row of the Latin square; `None` reads as 1).
 pub fn plan_for(p: &Protocol, seed: u64, index: Option<usize>) -> Vec<Planned> {
-    plan_of(
-        Sets {
-            sets: p.sets,
-            order: p.order,
-            blocks: &p.blocks,
-        },
-        &p.conditions,
-        &p.questions,
-        seed,
-        index,
-    )
+    plan_of(p, seed, index)
 }
 
-/// How a protocol's trials are grouped: its `sets` and `order`, or its
-/// blocks (each with its own).
-#[derive(Debug, Clone, Copy)]
-pub struct Sets<'a> {
-    /// Sets (without blocks).
-    pub sets: usize,
-    /// The order (without blocks).
-    pub order: Order,
-    /// The blocks (empty: none).
-    pub blocks: &'a [Block],
-}
-
-/// [`plan_for`] from a protocol's parts (the report has no library).
-pub fn plan_of(
-    grouping: Sets,
-    conditions: &[Condition],
-    questions: &[Question],
-    seed: u64,
-    index: Option<usize>,
-) -> Vec<Planned> {
+/// [`plan_for`] from the protocol without its library (the report's).
+pub fn plan_of(p: &Unlinked, seed: u64, index: Option<usize>) -> Vec<Planned> {
+    let (conditions, questions) = (&p.conditions, &p.questions);
     let mut order = SplitMix64::new(seed);
     // A second stream: option orders do not change the condition order.
     let mut options = SplitMix64::new(seed ^ 0x0F71_0A5E_ED00_0005_u64);
     let all: Vec<usize> = (0..conditions.len()).collect();
     // (block, practice, sets, order, its conditions).
-    let runs: Vec<(usize, bool, usize, Order, &[usize])> = if grouping.blocks.is_empty() {
-        vec![(1, false, grouping.sets, grouping.order, &all)]
+    let runs: Vec<(usize, bool, usize, Order, &[usize])> = if p.blocks.is_empty() {
+        vec![(1, false, p.sets, p.order, &all)]
     } else {
-        grouping
-            .blocks
+        p.blocks
             .iter()
             .enumerate()
             .map(|(i, b)| (i + 1, b.practice, b.sets, b.order, b.conditions.as_slice()))
@@ -297,21 +269,9 @@ mod tests {
         c.sort_unstable();
         assert_eq!(c, (0..15).flat_map(|i| [i, i]).collect::<Vec<_>>());
         assert!(f.iter().enumerate().all(|(i, t)| t.trial == i + 1));
-        // Random stays as it was: a permutation per set.
+        // Random stays as it was: a permutation per set, whether planned
+        // with the library or from the protocol alone (as the report does).
         p.order = Order::Random;
-        assert_eq!(
-            plan(&p, 7),
-            plan_of(
-                Sets {
-                    sets: 2,
-                    order: Order::Random,
-                    blocks: &[]
-                },
-                &p.conditions,
-                &p.questions,
-                7,
-                None
-            )
-        );
+        assert_eq!(plan(&p, 7), plan_of(&p.checked, 7, None));
     }
 }

@@ -259,13 +259,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             String::new()
         }
     );
-    let expect = Expect {
-        participant: &o.participant,
-        factors: &p.factors,
-        conditions: &p.conditions,
-        questions: &p.questions,
-        blocks: &p.blocks,
-    };
+    let expect = p.expect(&o.participant);
     let mut rows = o.hooks.rows.take();
     let result = run_trials(
         &mut r,

@@ -114,30 +114,14 @@ fn read_participant(d: &Path) -> Result<Participant, InputError> {
     let session = record::read_session(&sp)?;
     let origin = format!("{} (its protocol)", sp.display());
     let protocol = Unlinked::from_toml(&session.protocol, &origin)?;
-    let plan = design::plan_of(
-        design::Sets {
-            sets: protocol.sets,
-            order: protocol.order,
-            blocks: &protocol.blocks,
-        },
-        &protocol.conditions,
-        &protocol.questions,
-        session.seed,
-        session.index,
-    );
+    let plan = design::plan_of(&protocol, session.seed, session.index);
     if plan != session.trials {
         crate::bad_input!(
             "{}: its trial order does not follow from its seed",
             sp.display()
         );
     }
-    let expect = Expect {
-        participant: &session.participant,
-        factors: &protocol.factors,
-        conditions: &protocol.conditions,
-        questions: &protocol.questions,
-        blocks: &protocol.blocks,
-    };
+    let expect = protocol.expect(&session.participant);
     let trials = record::read_trials(&d.join("trials.csv"), &protocol.columns, &plan, &expect)?;
     Ok(Participant {
         session,

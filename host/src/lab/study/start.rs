@@ -151,13 +151,7 @@ pub fn resume(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Sta
     if plan != f.trials {
         crate::bad_input!("--resume: {session}'s trial order does not follow from its seed");
     }
-    let expect = Expect {
-        participant: &o.participant,
-        factors: &p.factors,
-        conditions: &p.conditions,
-        questions: &p.questions,
-        blocks: &p.blocks,
-    };
+    let expect = p.expect(&o.participant);
     let trials = record::read_trials(&paths.trials, &p.columns, &plan, &expect).map_err(refused)?;
     // The event log is appended to: a FIFO or device there would block.
     if std::fs::symlink_metadata(&paths.events).is_ok() {

@@ -67,17 +67,7 @@ fn write_study(out: &std::path::Path) -> usize {
     who.dedup();
     for (k, id) in who.iter().enumerate() {
         let seed = 100 + k as u64;
-        let plan = design::plan_of(
-            design::Sets {
-                sets: p.sets,
-                order: p.order,
-                blocks: &p.blocks,
-            },
-            &p.conditions,
-            &p.questions,
-            seed,
-            None,
-        );
+        let plan = design::plan_of(&p, seed, None);
         // Each cell's answers in the fixture's order, set by set.
         let mut cells: std::collections::HashMap<String, Vec<Option<f64>>> = Default::default();
         for r in rows.iter().filter(|r| r[0] == *id) {
@@ -86,13 +76,7 @@ fn write_study(out: &std::path::Path) -> usize {
                 .or_default()
                 .push(r[2].as_f64());
         }
-        let expect = Expect {
-            participant: id,
-            factors: &p.factors,
-            conditions: &p.conditions,
-            questions: &p.questions,
-            blocks: &p.blocks,
-        };
+        let expect = p.expect(id);
         let mut text = record::line(&p.columns.names()) + "\n";
         for t in &plan {
             let name = super::condition_name(&p.conditions[t.condition]);

@@ -277,11 +277,10 @@ pub struct Condition {
     pub stimulus: String,
 }
 
-/// A checked protocol.
+/// A checked protocol and its library. Everything but the library is its
+/// [`Unlinked`] part, which it dereferences to (`p.factors`, `p.trials()`).
 #[derive(Debug, Clone)]
 pub struct Protocol {
-    /// Its name.
-    pub name: String,
     /// The file it came from.
     pub path: PathBuf,
     /// Its text (copied to `session.json`, compared on `--resume`).
@@ -290,31 +289,21 @@ pub struct Protocol {
     pub library_path: PathBuf,
     /// The library.
     pub library: Library,
-    /// Sets; each a fresh permutation of every condition.
-    pub sets: usize,
-    /// How the conditions are ordered.
-    pub order: Order,
-    /// The blocks in the order run (empty: one block of every condition,
-    /// `sets` and `order`).
-    pub blocks: Vec<Block>,
-    /// The trial's timeline.
-    pub timeline: Timeline,
-    /// The factors.
-    pub factors: Vec<Factor>,
-    /// The factors' product, first factor slowest.
-    pub conditions: Vec<Condition>,
-    /// The questions, in the order asked.
-    pub questions: Vec<Question>,
-    /// The method of adjustment, if used.
-    pub adjustment: Option<Adjustment>,
-    /// The staircase, if used.
-    pub staircase: Option<Staircase>,
-    /// QUEST+, if used.
-    pub quest: Option<Quest>,
-    /// trials.csv's header.
-    pub columns: Columns,
-    /// What `study report` tests.
-    pub report: ReportSpec,
+    /// The protocol itself, checked.
+    pub checked: Unlinked,
+}
+
+impl std::ops::Deref for Protocol {
+    type Target = Unlinked;
+    fn deref(&self) -> &Unlinked {
+        &self.checked
+    }
+}
+
+impl std::ops::DerefMut for Protocol {
+    fn deref_mut(&mut self) -> &mut Unlinked {
+        &mut self.checked
+    }
 }
 
 /// A protocol checked but for its library: all `study report` needs of
@@ -361,6 +350,27 @@ impl Unlinked {
         let file: file::File = toml::from_str(text)
             .map_err(|x| e.bad(crate::plan::scene::toml_error_line(text, &x)))?;
         check::check(file, &e)
+    }
+
+    /// Trials in all: conditions × sets, or the blocks' sum.
+    pub fn trials(&self) -> usize {
+        if self.blocks.is_empty() {
+            self.conditions.len() * self.sets
+        } else {
+            self.blocks.iter().map(Block::trials).sum()
+        }
+    }
+
+    /// What every row of participant `participant`'s session holds before
+    /// its trial runs.
+    pub fn expect<'a>(&'a self, participant: &'a str) -> crate::lab::study::record::Expect<'a> {
+        crate::lab::study::record::Expect {
+            participant,
+            factors: &self.factors,
+            conditions: &self.conditions,
+            questions: &self.questions,
+            blocks: &self.blocks,
+        }
     }
 }
 
@@ -461,33 +471,12 @@ impl Protocol {
             ));
         }
         Ok(Self {
-            name: u.name,
             path: path.to_owned(),
             text: text.to_owned(),
             library_path,
             library,
-            sets: u.sets,
-            order: u.order,
-            blocks: u.blocks,
-            timeline: u.timeline,
-            factors: u.factors,
-            conditions: u.conditions,
-            questions: u.questions,
-            adjustment: u.adjustment,
-            staircase: u.staircase,
-            quest: u.quest,
-            columns: u.columns,
-            report: u.report,
+            checked: u,
         })
-    }
-
-    /// Trials in all: conditions × sets, or the blocks' sum.
-    pub fn trials(&self) -> usize {
-        if self.blocks.is_empty() {
-            self.conditions.len() * self.sets
-        } else {
-            self.blocks.iter().map(Block::trials).sum()
-        }
     }
 }
 

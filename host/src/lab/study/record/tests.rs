@@ -10,13 +10,7 @@ fn exp1() -> (Protocol, Vec<Planned>) {
 }
 
 fn expect(p: &Protocol) -> Expect<'_> {
-    Expect {
-        participant: "P01",
-        factors: &p.factors,
-        conditions: &p.conditions,
-        questions: &p.questions,
-        blocks: &p.blocks,
-    }
+    p.expect("P01")
 }
 
 /// Trial `t`'s row as the runner writes it, every answer `answer`.
