@@ -385,6 +385,13 @@ pub fn check_id(id: &str) -> Result<(), String> {
 }
 
 impl EntryFile {
+    /// `center`, checked: the work volume's.
+    fn center_mm(&self) -> Result<Option<[f64; 3]>, String> {
+        self.center
+            .map(|c| crate::limits::position_mm("center", c).map_err(|e| e.to_string()))
+            .transpose()
+    }
+
     /// An entry whose phases or foci come from a file: only the fields
     /// that file plans take.
     fn into_file_entry(self, content: Content, path: String) -> Result<Entry, String> {
@@ -413,10 +420,7 @@ impl EntryFile {
         if path.trim().is_empty() {
             return Err(format!("`{key}` is empty: give a file"));
         }
-        let center_mm = self
-            .center
-            .map(|c| crate::limits::position_mm("center", c).map_err(|e| e.to_string()))
-            .transpose()?;
+        let center_mm = self.center_mm()?;
         Ok(Entry {
             id: self.id,
             stimulus: Stimulus {
@@ -469,10 +473,7 @@ impl EntryFile {
             (_, Some(_)) => return Err("`iterations` applies to `method = \"gspat\"` only".into()),
             _ => d.synthesis.clone(),
         };
-        let center_mm = self
-            .center
-            .map(|c| crate::limits::position_mm("center", c).map_err(|e| e.to_string()))
-            .transpose()?;
+        let center_mm = self.center_mm()?;
         Ok(Entry {
             id: self.id,
             stimulus: Stimulus {

@@ -470,22 +470,25 @@ impl Columns {
     /// The same header with the blocks' columns after `set`: the block's
     /// name (one of `names`) and whether it is practice.
     pub fn with_blocks(mut self, names: Vec<String>) -> Result<Self, String> {
-        for name in [BLOCK, PRACTICE] {
-            if self.index(name).is_some() {
-                return Err(format!(
-                    "column `{name}` is used twice (factor and question names and trials.csv's own columns must differ)"
-                ));
-            }
-        }
+        let columns = [
+            Column::new(BLOCK, Holds::Level(names)),
+            Column::new(PRACTICE, Holds::Level(vec!["0".into(), "1".into()])),
+        ];
+        self.unused(&columns)?;
         let at = self.index(SET).map_or(0, |i| i + 1);
-        self.list.splice(
-            at..at,
-            [
-                Column::new(BLOCK, Holds::Level(names)),
-                Column::new(PRACTICE, Holds::Level(vec!["0".into(), "1".into()])),
-            ],
-        );
+        self.list.splice(at..at, columns);
         Ok(self)
+    }
+
+    /// Refuses `columns` where one is already in the header.
+    fn unused(&self, columns: &[Column]) -> Result<(), String> {
+        match columns.iter().find(|c| self.index(&c.name).is_some()) {
+            Some(c) => Err(format!(
+                "column `{}` is used twice (factor and question names and trials.csv's own columns must differ)",
+                c.name
+            )),
+            None => Ok(()),
+        }
     }
 
     /// The same header with a staircase's columns after the rest: its
@@ -530,12 +533,7 @@ impl Columns {
     /// A procedure's `columns` after the rest, its lists at most `trials`
     /// long.
     fn with(mut self, columns: Vec<Column>, trials: u32) -> Result<Self, String> {
-        if let Some(c) = columns.iter().find(|c| self.index(&c.name).is_some()) {
-            return Err(format!(
-                "column `{}` is used twice (factor and question names and trials.csv's own columns must differ)",
-                c.name
-            ));
-        }
+        self.unused(&columns)?;
         self.list.extend(columns);
         self.adjustments = self.adjustments.max(trials);
         Ok(self)
