@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use super::design;
 use super::protocol::Unlinked;
-use super::record::{self, Expect, SessionFile, Tail};
+use super::record::{self, SessionFile, Tail};
 use crate::error::InputError;
 use crate::field::plot::Figure;
 

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use super::answers::Lines;
 use super::design::{self, Planned};
 use super::protocol::Protocol;
-use super::record::{self, Expect, SessionFile, Tail};
+use super::record::{self, SessionFile, Tail};
 use super::{AnswerSource, RunOptions, trial};
 use crate::error::InputError;
 use crate::files::AppendLog;

@@ -12,7 +12,7 @@ use serde_json::Value;
 use crate::lab::study::columns::{self, NOT_PERCEIVED};
 use crate::lab::study::design;
 use crate::lab::study::protocol::Unlinked;
-use crate::lab::study::record::{self, Expect, SessionFile};
+use crate::lab::study::record::{self, SessionFile};
 
 const PROTOCOL: &str = r#"name = "scipy-fixture"
 library = "paper-library.toml"

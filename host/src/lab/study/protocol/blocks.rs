@@ -148,7 +148,7 @@ pub(super) fn check(
 #[cfg(test)]
 mod tests {
     use super::super::Unlinked;
-    use crate::lab::study::design::{self, Sets};
+    use crate::lab::study::design;
     use crate::lab::study::test_files::studies;
 
     const BLOCKS: &str = r#"
@@ -173,17 +173,7 @@ name = "main"
     }
 
     fn plan(u: &Unlinked, seed: u64) -> Vec<design::Planned> {
-        design::plan_of(
-            Sets {
-                sets: u.sets,
-                order: u.order,
-                blocks: &u.blocks,
-            },
-            &u.conditions,
-            &u.questions,
-            seed,
-            None,
-        )
+        design::plan_of(u, seed, None)
     }
 
     #[test]
