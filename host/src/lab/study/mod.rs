@@ -259,7 +259,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             String::new()
         }
     );
-    let expect = p.expect(&o.participant);
+    let expect = Expect::of(&p, &o.participant);
     let mut rows = o.hooks.rows.take();
     let result = run_trials(
         &mut r,

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::columns::{self, Columns, Holds, Row};
 use super::design::Planned;
-use super::protocol::{Block, Condition, Factor, Question};
+use super::protocol::{Block, Condition, Factor, Question, Unlinked};
 use crate::error::InputError;
 
 /// Largest `session.json`: the most trials a session has
@@ -208,7 +208,18 @@ pub struct Expect<'a> {
     pub blocks: &'a [Block],
 }
 
-impl Expect<'_> {
+impl<'a> Expect<'a> {
+    /// What every row of `participant`'s session of protocol `p` holds.
+    pub fn of(p: &'a Unlinked, participant: &'a str) -> Self {
+        Self {
+            participant,
+            factors: &p.factors,
+            conditions: &p.conditions,
+            questions: &p.questions,
+            blocks: &p.blocks,
+        }
+    }
+
     /// Trial `t`'s values that follow from the plan: participant, trial,
     /// set, stimulus, the condition's levels and the orders shown.
     pub fn row(&self, t: &Planned) -> Row {

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use super::design;
 use super::protocol::Unlinked;
-use super::record::{self, SessionFile, Tail};
+use super::record::{self, Expect, SessionFile, Tail};
 use crate::error::InputError;
 use crate::field::plot::Figure;
 
@@ -121,7 +121,7 @@ fn read_participant(d: &Path) -> Result<Participant, InputError> {
             sp.display()
         );
     }
-    let expect = protocol.expect(&session.participant);
+    let expect = Expect::of(&protocol, &session.participant);
     let trials = record::read_trials(&d.join("trials.csv"), &protocol.columns, &plan, &expect)?;
     Ok(Participant {
         session,

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use super::answers::Lines;
 use super::design::{self, Planned};
 use super::protocol::Protocol;
-use super::record::{self, SessionFile, Tail};
+use super::record::{self, Expect, SessionFile, Tail};
 use super::{AnswerSource, RunOptions, trial};
 use crate::error::InputError;
 use crate::files::AppendLog;
@@ -151,7 +151,7 @@ pub fn resume(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Sta
     if plan != f.trials {
         crate::bad_input!("--resume: {session}'s trial order does not follow from its seed");
     }
-    let expect = p.expect(&o.participant);
+    let expect = Expect::of(p, &o.participant);
     let trials = record::read_trials(&paths.trials, &p.columns, &plan, &expect).map_err(refused)?;
     // The event log is appended to: a FIFO or device there would block.
     if std::fs::symlink_metadata(&paths.events).is_ok() {

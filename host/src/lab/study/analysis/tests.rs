@@ -12,7 +12,7 @@ use serde_json::Value;
 use crate::lab::study::columns::{self, NOT_PERCEIVED};
 use crate::lab::study::design;
 use crate::lab::study::protocol::Unlinked;
-use crate::lab::study::record::{self, SessionFile};
+use crate::lab::study::record::{self, Expect, SessionFile};
 
 const PROTOCOL: &str = r#"name = "scipy-fixture"
 library = "paper-library.toml"
@@ -76,7 +76,7 @@ fn write_study(out: &std::path::Path) -> usize {
                 .or_default()
                 .push(r[2].as_f64());
         }
-        let expect = p.expect(id);
+        let expect = Expect::of(&p, id);
         let mut text = record::line(&p.columns.names()) + "\n";
         for t in &plan {
             let name = super::condition_name(&p.conditions[t.condition]);

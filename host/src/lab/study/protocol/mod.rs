@@ -360,18 +360,6 @@ impl Unlinked {
             self.blocks.iter().map(Block::trials).sum()
         }
     }
-
-    /// What every row of participant `participant`'s session holds before
-    /// its trial runs.
-    pub fn expect<'a>(&'a self, participant: &'a str) -> crate::lab::study::record::Expect<'a> {
-        crate::lab::study::record::Expect {
-            participant,
-            factors: &self.factors,
-            conditions: &self.conditions,
-            questions: &self.questions,
-            blocks: &self.blocks,
-        }
-    }
 }
 
 /// Fills `{factor}` placeholders of `template` with `levels`.

@@ -10,7 +10,7 @@ fn exp1() -> (Protocol, Vec<Planned>) {
 }
 
 fn expect(p: &Protocol) -> Expect<'_> {
-    p.expect("P01")
+    Expect::of(p, "P01")
 }
 
 /// Trial `t`'s row as the runner writes it, every answer `answer`.
