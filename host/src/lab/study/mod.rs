@@ -64,7 +64,7 @@ use protocol::Protocol;
 use record::Expect;
 use start::Start;
 
-pub use options::{AnswerSource, FingerSource, RunOptions, RunReport};
+pub use options::{AnswerSource, FingerSource, RunOptions, RunReport, check_participant};
 
 /// The device is polled at least this often while a trial runs.
 pub const POLL: Duration = Duration::from_millis(1);
@@ -72,23 +72,6 @@ pub const POLL: Duration = Duration::from_millis(1);
 pub const FINGER_PERIOD_US: u64 = 11_111;
 /// Largest `--time-scale`.
 pub const MAX_TIME_SCALE: f64 = 100.0;
-
-/// A participant id: 1 to 64 letters, digits, `-`, `_`, `.` (not only dots).
-pub fn check_participant(id: &str) -> Result<(), InputError> {
-    if id.is_empty()
-        || id.len() > 64
-        || id.chars().all(|c| c == '.')
-        || !id
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
-    {
-        return Err(InputError::new(format!(
-            "--participant `{}`: give 1 to 64 letters, digits, `-`, `_` or `.` (it names a folder)",
-            id.escape_debug()
-        )));
-    }
-    Ok(())
-}
 
 fn resume_hint(o: &RunOptions) -> String {
     format!(
@@ -685,20 +668,5 @@ impl Runner {
             crate::errln!("  force {median:.3} N (series in {name})");
         }
         Ok((row, presented))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn participant_ids_name_a_folder() {
-        for ok in ["P01", "s-3_a.b"] {
-            assert!(check_participant(ok).is_ok());
-        }
-        for bad in ["", "..", "a/b", "a b", &"x".repeat(65)] {
-            assert!(check_participant(bad).is_err(), "{bad}");
-        }
     }
 }

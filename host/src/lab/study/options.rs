@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use crate::device::link::PortSpec;
+use crate::error::InputError;
 
 /// Where the finger comes from.
 pub enum FingerSource {
@@ -140,4 +141,36 @@ pub struct RunReport {
     pub uploads: usize,
     /// Mean upload time, s.
     pub upload_mean_s: f64,
+}
+
+/// A participant id: 1 to 64 letters, digits, `-`, `_`, `.` (not only dots).
+pub fn check_participant(id: &str) -> Result<(), InputError> {
+    if id.is_empty()
+        || id.len() > 64
+        || id.chars().all(|c| c == '.')
+        || !id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
+    {
+        return Err(InputError::new(format!(
+            "--participant `{}`: give 1 to 64 letters, digits, `-`, `_` or `.` (it names a folder)",
+            id.escape_debug()
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn participant_ids_name_a_folder() {
+        for ok in ["P01", "s-3_a.b"] {
+            assert!(check_participant(ok).is_ok());
+        }
+        for bad in ["", "..", "a/b", "a b", &"x".repeat(65)] {
+            assert!(check_participant(bad).is_err(), "{bad}");
+        }
+    }
 }

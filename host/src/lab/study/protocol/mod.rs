@@ -10,6 +10,7 @@ mod file;
 mod quest;
 mod report;
 mod staircase;
+mod values;
 
 pub use blocks::{Block, MAX_BLOCKS};
 pub use quest::Quest;
