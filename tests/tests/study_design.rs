@@ -16,10 +16,12 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
     let sim = Sim::start(&[]);
     let d = scratch("staircase");
     let out = d.join("out");
-    let run = |observer: &str| {
-        study(&[
+    let protocol = studies("staircase-detection.toml");
+    // Participant S01 at 1 % of the protocol's times, answered by `observer`.
+    let run = |observer: &str, extra: &[&str]| {
+        let mut args = vec![
             "run",
-            &studies("staircase-detection.toml"),
+            &protocol,
             "--port",
             &sim.port,
             "--participant",
@@ -28,15 +30,16 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
             out.to_str().unwrap(),
             "--time-scale",
             "0.01",
-            "--seed",
-            "1",
             "--observer",
             observer,
-        ])
-        .output()
-        .unwrap()
+        ];
+        args.extend_from_slice(extra);
+        study(&args).output().unwrap()
     };
-    let o = run("logistic:threshold=0.4,slope=15,lapse=0.02,seed=5");
+    let o = run(
+        "logistic:threshold=0.4,slope=15,lapse=0.02,seed=5",
+        &["--seed", "1"],
+    );
     ok(&o);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("12 reversals: threshold"), "{err}");
@@ -72,24 +75,10 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let kept: Vec<&str> = text.lines().take(2).collect();
     std::fs::write(&csv, kept.join("\n") + "\n").unwrap();
-    let protocol = studies("staircase-detection.toml");
-    let o = study(&[
-        "run",
-        &protocol,
-        "--port",
-        &sim.port,
-        "--participant",
-        "S01",
-        "--out",
-        out.to_str().unwrap(),
-        "--time-scale",
-        "0.01",
-        "--observer",
+    let o = run(
         "logistic:threshold=0.4,slope=15,lapse=0.02,seed=6",
-        "--resume",
-    ])
-    .output()
-    .unwrap();
+        &["--resume"],
+    );
     ok(&o);
     let again = rows(&out.join("S01"));
     assert_eq!(again.len(), 2);
@@ -120,7 +109,7 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
     .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("has no [staircase]"));
-    let o = run("probit:threshold=1");
+    let o = run("probit:threshold=1", &["--seed", "1"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("`probit` is not a shape"));
     let _ = std::fs::remove_dir_all(&d);

@@ -5,7 +5,6 @@
 mod common;
 
 use common::*;
-use embedded_hal::spi::{Operation, SpiDevice};
 use lm_fw_core::output::SPI_FRAME_MAGIC;
 use lm_fw_core::store::scale_intensity;
 use lm_fw_core::{Device, SpiOutput};
@@ -18,29 +17,6 @@ const PERIOD_US: u32 = 8_000;
 const LEVEL: u8 = 200;
 /// A square AM, two periods per cycle, at depth 0.75: 255 then 64.
 const TABLE: [u8; 8] = [255, 255, 64, 64, 255, 255, 64, 64];
-
-/// An SPI device keeping each transaction's written bytes.
-#[derive(Default)]
-struct Wire {
-    transactions: Vec<Vec<u8>>,
-}
-
-impl embedded_hal::spi::ErrorType for Wire {
-    type Error = core::convert::Infallible;
-}
-
-impl SpiDevice for Wire {
-    fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), Self::Error> {
-        let mut bytes = Vec::new();
-        for op in ops.iter() {
-            if let Operation::Write(w) = op {
-                bytes.extend_from_slice(w);
-            }
-        }
-        self.transactions.push(bytes);
-        Ok(())
-    }
-}
 
 fn levels(slot: u8, offset: u16, data: &[u8]) -> Message<'_> {
     Message::Intensity(Intensity { slot, offset, data })

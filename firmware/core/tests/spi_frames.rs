@@ -17,7 +17,6 @@
 mod common;
 
 use common::*;
-use embedded_hal::spi::{Operation, SpiDevice};
 use lm_fw_core::output::{SPI_FRAME_MAGIC, SPI_HEADER_LEN};
 use lm_fw_core::{OutputDriver, OutputFrame, SpiOutput};
 use lm_proto::codec::Encoding;
@@ -29,29 +28,6 @@ const CHANNELS: u16 = 16;
 const PERIOD_US: u32 = 200_000;
 /// `round(0.8 × 255)`.
 const INTENSITY: u8 = 204;
-
-/// An SPI device keeping each transaction's written bytes.
-#[derive(Default)]
-struct Wire {
-    transactions: Vec<Vec<u8>>,
-}
-
-impl embedded_hal::spi::ErrorType for Wire {
-    type Error = core::convert::Infallible;
-}
-
-impl SpiDevice for Wire {
-    fn transaction(&mut self, ops: &mut [Operation<'_, u8>]) -> Result<(), Self::Error> {
-        let mut bytes = Vec::new();
-        for op in ops.iter() {
-            if let Operation::Write(w) = op {
-                bytes.extend_from_slice(w);
-            }
-        }
-        self.transactions.push(bytes);
-        Ok(())
-    }
-}
 
 /// One frame is one transaction: magic, amplitude, intensity, step
 /// (LE), phase count (LE), phases.

@@ -271,3 +271,29 @@ pub fn config(max_t: u16) -> Config {
     c.require_tracking = false;
     c
 }
+
+/// An SPI device keeping each transaction's written bytes.
+#[derive(Default)]
+pub struct Wire {
+    pub transactions: Vec<Vec<u8>>,
+}
+
+impl embedded_hal::spi::ErrorType for Wire {
+    type Error = core::convert::Infallible;
+}
+
+impl embedded_hal::spi::SpiDevice for Wire {
+    fn transaction(
+        &mut self,
+        ops: &mut [embedded_hal::spi::Operation<'_, u8>],
+    ) -> Result<(), Self::Error> {
+        let mut bytes = Vec::new();
+        for op in ops.iter() {
+            if let embedded_hal::spi::Operation::Write(w) = op {
+                bytes.extend_from_slice(w);
+            }
+        }
+        self.transactions.push(bytes);
+        Ok(())
+    }
+}
