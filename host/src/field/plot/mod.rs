@@ -183,43 +183,121 @@ pub fn figure(
         .into());
     }
     fig.check()?;
-    let lay = Layout::new(plane, labels, rows, cols, fig);
+    let grid = Grid {
+        lay: Layout::new(plane, labels, rows, cols, fig),
+        plane,
+        panels,
+        shape: (rows, cols),
+        labels,
+    };
+    write_formats(stem, fig, &grid)
+}
+
+/// The panel grid [`figure`] draws.
+struct Grid<'a> {
+    lay: Layout,
+    plane: &'a ObservationPlane,
+    panels: &'a [Panel<'a>],
+    shape: (usize, usize),
+    labels: &'a Labels,
+}
+
+impl Drawing for Grid<'_> {
+    fn size(&self) -> (u32, u32) {
+        self.lay.size
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        font_k: f64,
+    ) -> Result<(), String> {
+        let lay = self.lay.with_font_k(font_k);
+        draw_figure(root, &lay, self.plane, self.panels, self.shape, self.labels)
+    }
+}
+
+/// A figure laid out once, drawn alike on each backend by
+/// [`write_formats`].
+pub trait Drawing {
+    /// The canvas, backend units ([`UNITS_PER_PT`] per point).
+    fn size(&self) -> (u32, u32);
+    /// Draws it on `root`, a point of font size being `font_k` backend
+    /// units ([`font_k`]).
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        font_k: f64,
+    ) -> Result<(), String>;
+}
+
+/// Backend units per point of font size in `format`: the SVG and PDF
+/// backends take a font's size / 1.24 as its em.
+pub fn font_k(format: Format) -> f64 {
+    UNITS_PER_PT
+        * match format {
+            Format::Png => 1.0,
+            Format::Svg | Format::Pdf => 1.24,
+        }
+}
+
+/// Black sans-serif text of `size_pt` points turned a quarter anticlockwise
+/// (a y-axis title), centred on where it is drawn.
+pub fn rotated_text(size_pt: f64, font_k: f64) -> TextStyle<'static> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    TextStyle::from(
+        ("sans-serif", size_pt * font_k)
+            .into_font()
+            .transform(FontTransform::Rotate270),
+    )
+    .color(&BLACK)
+    .pos(Pos::new(HPos::Center, VPos::Center))
+}
+
+/// Writes `drawing` to `stem` plus each of `fig.formats`' extensions at
+/// `fig.width_mm`, each file whole or absent ([`crate::files::write_whole`]);
+/// returns the paths written.
+pub fn write_formats(
+    stem: &Path,
+    fig: &Figure,
+    drawing: &impl Drawing,
+) -> anyhow::Result<Vec<PathBuf>> {
+    register_font();
+    let size = drawing.size();
     let mut written = Vec::new();
-    for format in &fig.formats {
+    for &format in &fig.formats {
         let mut name = stem.as_os_str().to_owned();
         name.push(".");
         name.push(format.ext());
         let path = PathBuf::from(name);
-        let lay = lay.for_format(*format);
+        let e = err(&path);
+        let k = font_k(format);
         match format {
-            Format::Png => write_png(&path, lay.size, |root| {
-                draw_figure(root, &lay, plane, panels, (rows, cols), labels).map_err(&e)?;
-                Ok(())
-            })?,
+            Format::Png => write_png(&path, size, |root| Ok(drawing.draw(root, k).map_err(&e)?))?,
             Format::Svg => {
                 let mut svg = String::new();
                 {
-                    let root = SVGBackend::with_string(&mut svg, lay.size).into_drawing_area();
-                    draw_figure(&root, &lay, plane, panels, (rows, cols), labels).map_err(&e)?;
+                    let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+                    drawing.draw(&root, k).map_err(&e)?;
                     root.present().map_err(|x| e(x.to_string()))?;
                 }
-                let svg = finish_svg(&svg, lay.size, fig.width_mm);
+                let svg = finish_svg(&svg, size, fig.width_mm);
                 crate::files::write_whole(&path, svg.as_bytes())?;
             }
             Format::Pdf => {
                 let mut pdf = Vec::new();
                 {
                     let backend =
-                        crate::pdf::PdfBackend::new(&mut pdf, lay.size, 1.0 / UNITS_PER_PT, FONT)
+                        crate::pdf::PdfBackend::new(&mut pdf, size, 1.0 / UNITS_PER_PT, FONT)
                             .map_err(|x| e(x.to_string()))?;
                     let root = backend.into_drawing_area();
-                    draw_figure(&root, &lay, plane, panels, (rows, cols), labels).map_err(&e)?;
+                    drawing.draw(&root, k).map_err(&e)?;
                     root.present().map_err(|x| e(x.to_string()))?;
                 }
                 crate::files::write_whole(&path, &pdf)?;
             }
         }
-        written.push(path);
+        written.push(path.clone());
     }
     Ok(written)
 }

@@ -133,24 +133,14 @@ pub fn is_rfc3339_utc(s: &str) -> bool {
     if s.is_empty() {
         return true;
     }
-    let b = s.as_bytes();
-    let digits = |r: std::ops::Range<usize>| b[r].iter().all(u8::is_ascii_digit);
+    // Digits where the pattern has `0`, the pattern's byte elsewhere.
+    const PATTERN: &[u8; 24] = b"0000-00-00T00:00:00.000Z";
     let num = |r: std::ops::Range<usize>| s[r].parse::<u32>().unwrap_or(u32::MAX);
-    b.len() == 24
-        && digits(0..4)
-        && b[4] == b'-'
-        && digits(5..7)
-        && b[7] == b'-'
-        && digits(8..10)
-        && b[10] == b'T'
-        && digits(11..13)
-        && b[13] == b':'
-        && digits(14..16)
-        && b[16] == b':'
-        && digits(17..19)
-        && b[19] == b'.'
-        && digits(20..23)
-        && b[23] == b'Z'
+    s.len() == PATTERN.len()
+        && s.bytes().zip(PATTERN).all(|(c, &p)| match p {
+            b'0' => c.is_ascii_digit(),
+            _ => c == p,
+        })
         && (1..=12).contains(&num(5..7))
         && (1..=31).contains(&num(8..10))
         && num(11..13) < 24

@@ -5,7 +5,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::{Figure, Format, LABEL_PT, Labels, Overlay, Panel, TICK_PT, UNITS_PER_PT, viridis};
+use super::{Figure, LABEL_PT, Labels, Overlay, Panel, TICK_PT, UNITS_PER_PT, viridis};
 use crate::field::ObservationPlane;
 
 mod ticks;
@@ -97,15 +97,11 @@ impl Layout {
         TextStyle::from(("sans-serif", size_pt * self.font_k).into_font()).color(&BLACK)
     }
 
-    /// For `format`: the SVG and PDF backends take a font's size / 1.24
-    /// as its em.
-    pub(super) fn for_format(&self, format: Format) -> Self {
-        let k = match format {
-            Format::Png => 1.0,
-            Format::Svg | Format::Pdf => 1.24,
-        };
+    /// The same layout with fonts of `font_k` backend units per point
+    /// ([`super::font_k`]).
+    pub(super) fn with_font_k(&self, font_k: f64) -> Self {
         Self {
-            font_k: UNITS_PER_PT * k,
+            font_k,
             ..self.clone()
         }
     }
@@ -355,13 +351,7 @@ pub(super) fn draw_figure<DB: DrawingBackend>(
     }
     let centre = Pos::new(HPos::Center, VPos::Center);
     let label = lay.text(LABEL_PT).pos(centre);
-    let rotated = TextStyle::from(
-        ("sans-serif", LABEL_PT * lay.font_k)
-            .into_font()
-            .transform(FontTransform::Rotate270),
-    )
-    .color(&BLACK)
-    .pos(centre);
+    let rotated = super::rotated_text(LABEL_PT, lay.font_k);
     let grid_w = cols as i32 * lay.pw + (cols as i32 - 1) * lay.gap;
     let grid_h = lay.grid_h(rows);
     let draw = |t: &str, s: &TextStyle, at: (i32, i32)| {

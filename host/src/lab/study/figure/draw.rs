@@ -9,7 +9,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::BoxFigure;
 use crate::clock::quantile;
-use crate::field::plot::{Format, LABEL_PT, TICK_PT, UNITS_PER_PT};
+use crate::field::plot::{LABEL_PT, TICK_PT, UNITS_PER_PT};
 
 fn pt(v: f64) -> i32 {
     (v * UNITS_PER_PT).round() as i32
@@ -195,15 +195,11 @@ impl Layout {
         })
     }
 
-    /// For `format`: the SVG and PDF backends take a font's size / 1.24 as
-    /// its em.
-    pub fn for_format(&self, format: Format) -> Self {
-        let k = match format {
-            Format::Png => 1.0,
-            Format::Svg | Format::Pdf => 1.24,
-        };
+    /// The same layout with fonts of `font_k` backend units per point
+    /// ([`crate::field::plot::font_k`]).
+    pub fn with_font_k(&self, font_k: f64) -> Self {
         Self {
-            font_k: UNITS_PER_PT * k,
+            font_k,
             ..self.clone()
         }
     }
@@ -295,13 +291,7 @@ pub(super) fn draw<DB: DrawingBackend>(
         )
         .map_err(s)?;
     }
-    let rotated = TextStyle::from(
-        ("sans-serif", LABEL_PT * lay.font_k)
-            .into_font()
-            .transform(FontTransform::Rotate270),
-    )
-    .color(&BLACK)
-    .pos(centre);
+    let rotated = crate::field::plot::rotated_text(LABEL_PT, lay.font_k);
     root.draw_text(
         &b.y_label,
         &rotated,

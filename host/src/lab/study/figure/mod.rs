@@ -16,11 +16,12 @@
 
 use std::path::{Path, PathBuf};
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::analysis::{QuestionStats, Stat, condition_name};
 use super::protocol::{Kind, Unlinked};
-use crate::field::plot::{Figure, Format, UNITS_PER_PT};
+use crate::field::plot::Figure;
 
 mod draw;
 #[cfg(test)]
@@ -348,46 +349,25 @@ pub fn write(stem: &Path, b: &BoxFigure, fig: &Figure) -> anyhow::Result<Vec<Pat
     fig.check()?;
     let lay = Layout::new(b, fig.width_mm)
         .map_err(|x| anyhow::anyhow!("laying out {}: {x}", stem.display()))?;
-    let mut written = Vec::new();
-    for format in &fig.formats {
-        let mut name = stem.as_os_str().to_owned();
-        name.push(".");
-        name.push(format.ext());
-        let path = PathBuf::from(name);
-        let e = |x: String| anyhow::anyhow!("drawing {}: {x}", path.display());
-        let lay = lay.for_format(*format);
-        match format {
-            Format::Png => crate::field::plot::write_png(&path, lay.size, |root| {
-                draw::draw(root, &lay, b).map_err(e)
-            })?,
-            Format::Svg => {
-                let mut svg = String::new();
-                {
-                    let root = SVGBackend::with_string(&mut svg, lay.size).into_drawing_area();
-                    draw::draw(&root, &lay, b).map_err(e)?;
-                    root.present().map_err(|x| e(x.to_string()))?;
-                }
-                let svg = crate::field::plot::finish_svg(&svg, lay.size, fig.width_mm);
-                crate::files::write_whole(&path, svg.as_bytes())?;
-            }
-            Format::Pdf => {
-                let mut pdf = Vec::new();
-                {
-                    let backend = crate::pdf::PdfBackend::new(
-                        &mut pdf,
-                        lay.size,
-                        1.0 / UNITS_PER_PT,
-                        crate::field::plot::FONT,
-                    )
-                    .map_err(|x| e(x.to_string()))?;
-                    let root = backend.into_drawing_area();
-                    draw::draw(&root, &lay, b).map_err(e)?;
-                    root.present().map_err(|x| e(x.to_string()))?;
-                }
-                crate::files::write_whole(&path, &pdf)?;
-            }
-        }
-        written.push(path);
+    crate::field::plot::write_formats(stem, fig, &Boxes { lay, b })
+}
+
+/// The box figure [`write`] draws.
+struct Boxes<'a> {
+    lay: Layout,
+    b: &'a BoxFigure,
+}
+
+impl crate::field::plot::Drawing for Boxes<'_> {
+    fn size(&self) -> (u32, u32) {
+        self.lay.size
     }
-    Ok(written)
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        font_k: f64,
+    ) -> Result<(), String> {
+        draw::draw(root, &self.lay.with_font_k(font_k), self.b)
+    }
 }

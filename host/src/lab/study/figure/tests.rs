@@ -5,7 +5,7 @@
 use std::io::Read as _;
 
 use super::*;
-use crate::field::plot::{ONE_COLUMN_MM, TWO_COLUMN_MM};
+use crate::field::plot::{Format, ONE_COLUMN_MM, TWO_COLUMN_MM};
 use crate::lab::study::analysis;
 use crate::lab::study::protocol::Unlinked;
 use crate::rng::SplitMix64;
