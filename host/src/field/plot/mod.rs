@@ -207,13 +207,9 @@ impl Drawing for Grid<'_> {
         self.lay.size
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        font_k: f64,
-    ) -> Result<(), String> {
+    fn draw<B: DrawingBackend>(&self, on: &Canvas<B>, font_k: f64) -> Result<(), String> {
         let lay = self.lay.with_font_k(font_k);
-        draw_figure(root, &lay, self.plane, self.panels, self.shape, self.labels)
+        draw_figure(on, &lay, self.plane, self.panels, self.shape, self.labels)
     }
 }
 
@@ -222,14 +218,13 @@ impl Drawing for Grid<'_> {
 pub trait Drawing {
     /// The canvas, backend units ([`UNITS_PER_PT`] per point).
     fn size(&self) -> (u32, u32);
-    /// Draws it on `root`, a point of font size being `font_k` backend
+    /// Draws it on `on`, a point of font size being `font_k` backend
     /// units ([`font_k`]).
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        font_k: f64,
-    ) -> Result<(), String>;
+    fn draw<B: DrawingBackend>(&self, on: &Canvas<B>, font_k: f64) -> Result<(), String>;
 }
+
+/// The whole drawing area of a backend.
+pub type Canvas<B> = DrawingArea<B, Shift>;
 
 /// Backend units per point of font size in `format`: the SVG and PDF
 /// backends take a font's size / 1.24 as its em.

@@ -399,6 +399,15 @@ pub struct AdjustColumns {
     pub labels: Vec<String>,
 }
 
+/// Which adaptive procedure's columns a header has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Adaptive {
+    /// A `[staircase]`'s.
+    Staircase,
+    /// A `[quest]`'s.
+    Quest,
+}
+
 /// The header: every column in order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Columns {
@@ -481,43 +490,32 @@ impl Columns {
         }
     }
 
-    /// The same header with a staircase's columns after the rest: its
-    /// `levels`, its two `answers` and the most presentations, `trials`.
-    pub fn with_staircase(
+    /// The same header with an adaptive procedure's columns after the
+    /// rest: its `levels`, its two `answers` and the most presentations,
+    /// `trials`.
+    pub fn with_adaptive(
         self,
+        kind: Adaptive,
         levels: Vec<String>,
         answers: Vec<String>,
         trials: u32,
     ) -> Result<Self, String> {
-        self.with(
-            vec![
+        let columns = match kind {
+            Adaptive::Staircase => vec![
                 Column::new(STAIRCASE_LEVELS, Holds::Levels(levels.clone())),
                 Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
                 Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
                 Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
                 Column::new(THRESHOLD, Holds::Estimate),
             ],
-            trials,
-        )
-    }
-
-    /// The same header with QUEST+'s columns after the rest, as
-    /// [`Self::with_staircase`].
-    pub fn with_quest(
-        self,
-        levels: Vec<String>,
-        answers: Vec<String>,
-        trials: u32,
-    ) -> Result<Self, String> {
-        self.with(
-            vec![
+            Adaptive::Quest => vec![
                 Column::new(QUEST_LEVELS, Holds::Levels(levels)),
                 Column::new(QUEST_ANSWERS, Holds::AdjustAnswers(answers)),
                 Column::new(THRESHOLD, Holds::Estimate),
                 Column::new(THRESHOLD_SD, Holds::Measured),
             ],
-            trials,
-        )
+        };
+        self.with(columns, trials)
     }
 
     /// A procedure's `columns` after the rest, its lists at most `trials`

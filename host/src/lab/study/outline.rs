@@ -86,14 +86,14 @@ pub fn outline(p: &Protocol, index: Option<usize>, seed: Option<u64>) -> String 
             "procedure: {}-up/{}-down staircase over {} levels of {} ({} to {}), from {}, steps {} grid places, ending after {} reversals or {} presentations; threshold: mean of the last {} reversals",
             c.up,
             c.down,
-            c.values.len(),
-            c.unit,
-            c.labels[0],
-            c.labels[c.labels.len() - 1],
-            c.labels[c.start],
+            c.grid.values.len(),
+            c.grid.unit,
+            c.grid.labels[0],
+            c.grid.labels[c.grid.labels.len() - 1],
+            c.grid.labels[c.grid.start],
             steps.join(", "),
             c.reversals,
-            c.trials,
+            c.grid.trials,
             c.threshold_reversals
         );
     }
@@ -108,11 +108,11 @@ pub fn outline(p: &Protocol, index: Option<usize>, seed: Option<u64>) -> String 
         let _ = writeln!(
             s,
             "procedure: QUEST+ over {} levels of {} ({} to {}), from {} (the prior's best); {} functions weighed: {} thresholds from {} to {}, slopes {}, lapse rates {}, guess rate {}; ending after {} presentations{}; threshold: posterior mean and SD",
-            q.values.len(),
-            q.unit,
-            q.labels[0],
-            q.labels[q.labels.len() - 1],
-            q.labels[q.start],
+            q.grid.values.len(),
+            q.grid.unit,
+            q.grid.labels[0],
+            q.grid.labels[q.grid.labels.len() - 1],
+            q.grid.labels[q.grid.start],
             m.shape.name(),
             m.thresholds.len(),
             crate::limits::show(m.thresholds[0]),
@@ -120,11 +120,11 @@ pub fn outline(p: &Protocol, index: Option<usize>, seed: Option<u64>) -> String 
             list(&m.slopes),
             list(&m.lapses),
             crate::limits::show(m.guess),
-            q.trials,
+            q.grid.trials,
             q.stop_sd
                 .map(|b| format!(
                     " or once the threshold's posterior SD is below {b} {}",
-                    q.unit
+                    q.grid.unit
                 ))
                 .unwrap_or_default()
         );

@@ -16,12 +16,11 @@
 
 use std::path::{Path, PathBuf};
 
-use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::analysis::{QuestionStats, Stat, condition_name};
 use super::protocol::{Kind, Unlinked};
-use crate::field::plot::Figure;
+use crate::field::plot::{Canvas, Drawing, Figure};
 
 mod draw;
 #[cfg(test)]
@@ -358,16 +357,12 @@ struct Boxes<'a> {
     b: &'a BoxFigure,
 }
 
-impl crate::field::plot::Drawing for Boxes<'_> {
+impl Drawing for Boxes<'_> {
     fn size(&self) -> (u32, u32) {
         self.lay.size
     }
 
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        font_k: f64,
-    ) -> Result<(), String> {
-        draw::draw(root, &self.lay.with_font_k(font_k), self.b)
+    fn draw<B: DrawingBackend>(&self, on: &Canvas<B>, font_k: f64) -> Result<(), String> {
+        draw::draw(on, &self.lay.with_font_k(font_k), self.b)
     }
 }

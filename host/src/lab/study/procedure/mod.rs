@@ -56,25 +56,56 @@ pub trait Procedure {
     fn finished(&self) -> bool {
         self.next().is_none()
     }
+    /// The grid of levels it moves over and the library entry of each
+    /// level for the trial's condition, if it moves over a grid (a
+    /// staircase, QUEST+).
+    fn grid(&self) -> Option<(&protocol::Grid, &[String])> {
+        None
+    }
     /// What its level is and in which unit (`depth`, `mm`): names the log
-    /// event (`depth`, field `depth_mm`) and the lines on stderr.
-    fn level_unit(&self) -> (String, String);
+    /// event (`depth`, field `depth_mm`) and the lines on stderr; a grid's
+    /// is `level`, in the grid's unit.
+    fn level_unit(&self) -> (String, String) {
+        let unit = self.grid().map(|(g, _)| g.unit.clone());
+        ("level".into(), unit.unwrap_or_default())
+    }
     /// Whether it may present library entry `stimulus` besides the
-    /// trial's own (a staircase's other levels): the row's timing counts
-    /// their phases too.
+    /// trial's own (a grid's other levels): the row's timing counts their
+    /// phases too.
     fn presents(&self, stimulus: &str) -> bool {
-        let _ = stimulus;
-        false
+        self.grid()
+            .is_some_and(|(_, entries)| entries.iter().any(|e| e == stimulus))
     }
     /// Answers taken so far.
     fn answers(&self) -> usize;
-    /// Whether a trial cut short may continue where it was: the procedure
-    /// follows from its answers alone, so `midtrial` can replay them.
+    /// Whether a trial cut short may continue where it was: a grid
+    /// procedure follows from its answers alone, so `midtrial` can replay
+    /// them.
     fn resumable(&self) -> bool {
-        false
+        self.grid().is_some()
     }
     /// Writes its columns into the trial's row.
     fn record(&self, row: &mut Row);
+}
+
+/// What a grid procedure presents at grid place `place`, if any.
+fn grid_probe(g: &protocol::Grid, entries: &[String], place: Option<usize>) -> Option<Probe> {
+    place.map(|i| Probe {
+        stimulus: entries[i].clone(),
+        level: g.values[i],
+    })
+}
+
+/// The yes/no question of a grid procedure, logged under `column`, asked
+/// of a presentation at grid place `place`.
+fn grid_asked(column: &str, g: &protocol::Grid, place: usize) -> Asked {
+    Asked {
+        column: column.into(),
+        prompt: format!("{} [1 = {}, 2 = {}]", g.text, g.yes, g.no),
+        accepts: Accepts::Choice(g.answers()),
+        not_perceived: None,
+        perceived_at: Some(g.values[place]),
+    }
 }
 
 /// The procedure of protocol `p` for planned trial `t`, if it has one.

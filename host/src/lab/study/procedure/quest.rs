@@ -10,7 +10,7 @@
 
 use super::{Probe, Procedure, Step};
 use crate::lab::stats::quest::Posterior;
-use crate::lab::study::answers::{Accepts, Asked};
+use crate::lab::study::answers::Asked;
 use crate::lab::study::columns::{self, Row};
 use crate::lab::study::protocol;
 
@@ -33,9 +33,9 @@ impl Quest {
     /// QUEST+ of `spec` for condition `condition`, from the uniform prior.
     pub fn new(spec: &protocol::Quest, condition: usize) -> Self {
         Self {
-            entries: spec.entries[condition].clone(),
+            entries: spec.grid.entries[condition].clone(),
             posterior: Posterior::uniform(spec.table.clone()),
-            place: spec.start,
+            place: spec.grid.start,
             presented: Vec::new(),
             answers: Vec::new(),
             ended: None,
@@ -64,41 +64,35 @@ impl Quest {
     }
 
     fn label(&self, yes: bool) -> &str {
-        if yes { &self.spec.yes } else { &self.spec.no }
+        if yes {
+            &self.spec.grid.yes
+        } else {
+            &self.spec.grid.no
+        }
     }
 }
 
 impl Procedure for Quest {
     fn next(&self) -> Option<Probe> {
-        self.place().map(|i| Probe {
-            stimulus: self.entries[i].clone(),
-            level: self.spec.values[i],
-        })
+        super::grid_probe(&self.spec.grid, &self.entries, self.place())
     }
 
     fn asked(&self) -> Asked {
-        let s = &self.spec;
-        Asked {
-            column: "quest".into(),
-            prompt: format!("{} [1 = {}, 2 = {}]", s.text, s.yes, s.no),
-            accepts: Accepts::Choice(vec![s.yes.clone(), s.no.clone()]),
-            not_perceived: None,
-            perceived_at: Some(s.values[self.place]),
-        }
+        super::grid_asked("quest", &self.spec.grid, self.place)
     }
 
     fn respond(&mut self, answer: &str) -> Step {
         if self.ended.is_some() {
             return Step::Done;
         }
-        let perceived = answer == self.spec.yes;
+        let perceived = answer == self.spec.grid.yes;
         let at = self.place;
         self.posterior.update(at, perceived);
         self.presented.push(at);
         self.answers.push(perceived);
         let (mean, sd) = self.threshold();
-        let unit = &self.spec.unit;
-        if self.presented.len() >= self.spec.trials as usize {
+        let unit = &self.spec.grid.unit;
+        if self.presented.len() >= self.spec.grid.trials as usize {
             self.ended = Some(format!("{} presentations", self.presented.len()));
         } else if let Some(bound) = self.spec.stop_sd.filter(|&b| sd < b) {
             self.ended = Some(format!(
@@ -109,25 +103,17 @@ impl Procedure for Quest {
         match &self.ended {
             None => {
                 self.place = self.posterior.best();
-                Step::Next(self.spec.values[self.place])
+                Step::Next(self.spec.grid.values[self.place])
             }
             Some(why) => Step::Last {
-                level: self.spec.values[at],
+                level: self.spec.grid.values[at],
                 why: format!("{why}: threshold {mean:.4} {unit} (posterior SD {sd:.4})"),
             },
         }
     }
 
-    fn presents(&self, stimulus: &str) -> bool {
-        self.entries.iter().any(|e| e == stimulus)
-    }
-
-    fn resumable(&self) -> bool {
-        true
-    }
-
-    fn level_unit(&self) -> (String, String) {
-        ("level".into(), self.spec.unit.clone())
+    fn grid(&self) -> Option<(&protocol::Grid, &[String])> {
+        Some((&self.spec.grid, &self.entries))
     }
 
     fn answers(&self) -> usize {
@@ -139,7 +125,7 @@ impl Procedure for Quest {
         let levels: Vec<&str> = self
             .presented
             .iter()
-            .map(|&i| self.spec.labels[i].as_str())
+            .map(|&i| self.spec.grid.labels[i].as_str())
             .collect();
         let answers: Vec<&str> = self.answers.iter().map(|&y| self.label(y)).collect();
         row.set(columns::QUEST_LEVELS, levels.join(&sep));

@@ -21,7 +21,7 @@
 //! (`staircase_at_limit`), never silently clamped.
 
 use super::{Probe, Procedure, Step};
-use crate::lab::study::answers::{Accepts, Asked};
+use crate::lab::study::answers::Asked;
 use crate::lab::study::columns::{self, Row};
 use crate::lab::study::protocol;
 
@@ -58,9 +58,9 @@ impl Levitt {
             down: spec.down,
             steps: spec.steps.clone(),
             max_reversals: spec.reversals,
-            max_trials: spec.trials,
-            levels: spec.values.len(),
-            place: spec.start,
+            max_trials: spec.grid.trials,
+            levels: spec.grid.values.len(),
+            place: spec.grid.start,
             run: 0,
             run_yes: false,
             last_up: None,
@@ -163,7 +163,7 @@ impl Staircase {
     /// The staircase of `spec` for condition `condition`.
     pub fn new(spec: &protocol::Staircase, condition: usize) -> Self {
         Self {
-            entries: spec.entries[condition].clone(),
+            entries: spec.grid.entries[condition].clone(),
             rule: Levitt::new(spec),
             spec: spec.clone(),
         }
@@ -178,7 +178,7 @@ impl Staircase {
         let sep = columns::LIST_SEPARATOR.to_string();
         places
             .iter()
-            .map(|&i| self.spec.labels[i].as_str())
+            .map(|&i| self.spec.grid.labels[i].as_str())
             .collect::<Vec<_>>()
             .join(&sep)
     }
@@ -186,52 +186,33 @@ impl Staircase {
 
 impl Procedure for Staircase {
     fn next(&self) -> Option<Probe> {
-        self.rule.place().map(|i| Probe {
-            stimulus: self.entries[i].clone(),
-            level: self.spec.values[i],
-        })
+        super::grid_probe(&self.spec.grid, &self.entries, self.rule.place())
     }
 
     fn asked(&self) -> Asked {
-        let s = &self.spec;
-        let level = self.rule.place().unwrap_or(0);
-        Asked {
-            column: "staircase".into(),
-            prompt: format!("{} [1 = {}, 2 = {}]", s.text, s.yes, s.no),
-            accepts: Accepts::Choice(vec![s.yes.clone(), s.no.clone()]),
-            not_perceived: None,
-            perceived_at: Some(s.values[level]),
-        }
+        super::grid_asked("staircase", &self.spec.grid, self.rule.place().unwrap_or(0))
     }
 
     fn respond(&mut self, answer: &str) -> Step {
-        let perceived = answer == self.spec.yes;
-        let presented = self.spec.values[self.rule.place().unwrap_or(0)];
+        let perceived = answer == self.spec.grid.yes;
+        let presented = self.spec.grid.values[self.rule.place().unwrap_or(0)];
         match self.rule.answer(perceived).map(str::to_owned) {
             None => Step::Next(self.next().map_or(presented, |p| p.level)),
             Some(why) => Step::Last {
                 level: presented,
-                why: match self
-                    .rule
-                    .threshold(&self.spec.values, self.spec.threshold_reversals as usize)
-                {
-                    Some(t) => format!("{why}: threshold {t:.4} {}", self.spec.unit),
+                why: match self.rule.threshold(
+                    &self.spec.grid.values,
+                    self.spec.threshold_reversals as usize,
+                ) {
+                    Some(t) => format!("{why}: threshold {t:.4} {}", self.spec.grid.unit),
                     None => format!("{why}: no reversal, no threshold"),
                 },
             },
         }
     }
 
-    fn presents(&self, stimulus: &str) -> bool {
-        self.entries.iter().any(|e| e == stimulus)
-    }
-
-    fn resumable(&self) -> bool {
-        true
-    }
-
-    fn level_unit(&self) -> (String, String) {
-        ("level".into(), self.spec.unit.clone())
+    fn grid(&self) -> Option<(&protocol::Grid, &[String])> {
+        Some((&self.spec.grid, &self.entries))
     }
 
     fn answers(&self) -> usize {
@@ -246,7 +227,14 @@ impl Procedure for Staircase {
             columns::STAIRCASE_ANSWERS,
             r.answers()
                 .iter()
-                .map(|&y| if y { &self.spec.yes } else { &self.spec.no }.as_str())
+                .map(|&y| {
+                    if y {
+                        &self.spec.grid.yes
+                    } else {
+                        &self.spec.grid.no
+                    }
+                    .as_str()
+                })
                 .collect::<Vec<_>>()
                 .join(&sep),
         );
@@ -254,9 +242,12 @@ impl Procedure for Staircase {
         row.set(columns::STAIRCASE_AT_LIMIT, r.at_limit().to_string());
         row.set(
             columns::THRESHOLD,
-            r.threshold(&self.spec.values, self.spec.threshold_reversals as usize)
-                .map(|t| format!("{t:.6}"))
-                .unwrap_or_default(),
+            r.threshold(
+                &self.spec.grid.values,
+                self.spec.threshold_reversals as usize,
+            )
+            .map(|t| format!("{t:.6}"))
+            .unwrap_or_default(),
         );
     }
 }

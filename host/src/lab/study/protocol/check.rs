@@ -12,7 +12,7 @@ use super::{
 };
 use crate::error::InputError;
 use crate::lab::stats::table::Repeats;
-use crate::lab::study::columns::{AdjustColumns, Column, Columns, Holds};
+use crate::lab::study::columns::{Adaptive, AdjustColumns, Column, Columns, Holds};
 
 pub(super) use super::errors::Errors;
 
@@ -119,21 +119,16 @@ pub(super) fn check(mut file: File, e: &Errors) -> Result<Unlinked, InputError> 
             })
             .as_ref(),
     )
-    .and_then(|c| match &staircase {
-        Some(s) => c.with_staircase(
-            s.labels.clone(),
-            vec![s.yes.clone(), s.no.clone()],
-            s.trials,
-        ),
-        None => Ok(c),
-    })
-    .and_then(|c| match &quest {
-        Some(q) => c.with_quest(
-            q.labels.clone(),
-            vec![q.yes.clone(), q.no.clone()],
-            q.trials,
-        ),
-        None => Ok(c),
+    .and_then(|c| {
+        let adaptive = match (&staircase, &quest) {
+            (Some(s), _) => Some((Adaptive::Staircase, &s.grid)),
+            (_, Some(q)) => Some((Adaptive::Quest, &q.grid)),
+            (None, None) => None,
+        };
+        match adaptive {
+            Some((kind, g)) => c.with_adaptive(kind, g.labels.clone(), g.answers(), g.trials),
+            None => Ok(c),
+        }
     })
     .and_then(|c| {
         if block_names.is_empty() {

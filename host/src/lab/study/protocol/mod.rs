@@ -7,15 +7,17 @@ mod blocks;
 mod check;
 mod errors;
 mod file;
+mod grid;
 mod quest;
 mod report;
 mod staircase;
 mod values;
 
 pub use blocks::{Block, MAX_BLOCKS};
+pub use grid::{Grid, LEVEL};
 pub use quest::Quest;
 pub use report::{PairSpec, ReportSpec};
-pub use staircase::{LEVEL, Staircase};
+pub use staircase::Staircase;
 
 /// The protocol file's JSON Schema, from the types it is read into (see
 /// [`crate::lab::study::schema`]).
@@ -443,11 +445,14 @@ impl Protocol {
                 ),
             ));
         }
-        let mut levels = (u.staircase.iter().flat_map(|s| s.entries.iter().flatten()))
-            .map(|id| ("staircase", id))
-            .chain(
-                (u.quest.iter().flat_map(|q| q.entries.iter().flatten())).map(|id| ("quest", id)),
-            );
+        let mut levels = (u
+            .staircase
+            .iter()
+            .flat_map(|s| s.grid.entries.iter().flatten()))
+        .map(|id| ("staircase", id))
+        .chain(
+            (u.quest.iter().flat_map(|q| q.grid.entries.iter().flatten())).map(|id| ("quest", id)),
+        );
         if let Some((which, id)) = levels.find(|(_, id)| library.find(id).is_none()) {
             return Err(e.at(
                 u.stimulus.span(),

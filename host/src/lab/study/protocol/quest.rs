@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::errors::Errors;
 use super::file::{File, QuestFile, ShapeFile};
-use super::staircase::{answers_differ, levels, template_names_level};
+use super::grid::{self, Fields, Grid};
 use super::{
     DEFAULT_LAPSES, Factor, MAX_LAPSE, MAX_LEVELS, MAX_QUEST_GRID, MAX_QUEST_PARAMS, MAX_SLOPE,
 };
@@ -21,28 +21,13 @@ use crate::limits::show;
 /// QUEST+ over a grid of levels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Quest {
-    /// What the participant is asked after each presentation.
-    pub text: String,
-    /// What a level is (`intensity`, `mm`).
-    pub unit: String,
-    /// The levels as written (they fill `{level}`), ascending.
-    pub labels: Vec<String>,
-    /// The levels as numbers, in `unit`.
-    pub values: Vec<f64>,
-    /// Per condition, the library entry of each level.
-    pub entries: Vec<Vec<String>>,
+    /// The levels, the question and its answers; `grid.start` is the
+    /// uniform prior's best.
+    pub grid: Grid,
     /// The likelihoods of the model at every level, computed once.
     pub table: Arc<Table>,
-    /// The grid place presented first: the uniform prior's best.
-    pub start: usize,
-    /// Presentations that end it.
-    pub trials: u32,
     /// The threshold's posterior SD that ends it earlier, in `unit`.
     pub stop_sd: Option<f64>,
-    /// The answer "perceived".
-    pub yes: String,
-    /// The answer "not perceived".
-    pub no: String,
 }
 
 impl Quest {
@@ -61,7 +46,7 @@ pub(super) struct Unnamed {
 impl Unnamed {
     /// The label of the level presented first.
     pub fn start_label(&self) -> &str {
-        &self.quest.labels[self.quest.start]
+        &self.quest.grid.labels[self.quest.grid.start]
     }
 
     /// Names each condition's entries.
@@ -72,8 +57,8 @@ impl Unnamed {
         conditions: &[Vec<String>],
         e: &Errors,
     ) -> Result<Quest, InputError> {
-        self.quest.entries =
-            super::staircase::entries(&self.quest.labels, template, factors, conditions, e)?;
+        let grid = &mut self.quest.grid;
+        grid.entries = grid::entries(&grid.labels, template, factors, conditions, e)?;
         Ok(self.quest)
     }
 }
@@ -119,8 +104,23 @@ pub(super) fn check(
             "a trial follows one procedure: give one of [adjustment], [staircase] and [quest]",
         ));
     }
-    template_names_level("quest", span.clone(), &others.stimulus, factors, e)?;
-    let (labels, values) = levels(&q.levels, e)?;
+    let levels_span = q.levels.span();
+    let mut grid = grid::check(
+        "quest",
+        span.clone(),
+        Fields {
+            text: q.text,
+            unit: q.unit,
+            levels: q.levels,
+            trials: q.trials.0,
+            yes: q.yes,
+            no: q.no,
+        },
+        &others.stimulus,
+        factors,
+        e,
+    )?;
+    let values = &grid.values;
     let shape = match q.shape {
         ShapeFile::Logistic => Shape::Logistic,
         ShapeFile::Weibull => Shape::Weibull,
@@ -128,7 +128,7 @@ pub(super) fn check(
     let thresholds = match &q.thresholds {
         None if shape == Shape::Weibull && values[0] <= 0.0 => {
             return Err(e.at(
-                q.levels.span(),
+                levels_span,
                 "levels",
                 "a Weibull's thresholds are above 0, and they default to the levels: give `thresholds`",
             ));
@@ -227,9 +227,8 @@ pub(super) fn check(
             Some(x)
         }
     };
-    answers_differ(&q.yes, &q.no, span, e)?;
     let table = Arc::new(Table::new(
-        &values,
+        values,
         Model {
             shape,
             guess,
@@ -239,20 +238,12 @@ pub(super) fn check(
         },
     ));
     // Every trial starts from the same prior, so at the same level.
-    let start = Posterior::uniform(table.clone()).best();
+    grid.start = Posterior::uniform(table.clone()).best();
     Ok(Some(Unnamed {
         quest: Quest {
-            text: q.text.0,
-            unit: q.unit.0,
-            labels,
-            values,
-            entries: Vec::new(),
+            grid,
             table,
-            start,
-            trials: q.trials.0,
             stop_sd,
-            yes: q.yes.into_inner().0,
-            no: q.no.into_inner().0,
         },
     }))
 }

@@ -302,14 +302,14 @@ fn counts_are_checked_not_wrapped() {
 fn the_staircase_protocol_names_an_entry_per_level_and_bad_tables_are_refused() {
     let p = Protocol::load(&studies("staircase-detection.toml")).unwrap();
     let s = p.staircase.as_ref().unwrap();
-    assert_eq!(s.values.len(), 20);
+    assert_eq!(s.grid.values.len(), 20);
     assert_eq!(
         (s.up, s.down, s.reversals, s.threshold_reversals),
         (1, 2, 12, 8)
     );
     assert_eq!(s.steps, [4, 2, 1]);
-    assert_eq!(s.start, 19);
-    assert_eq!(s.entries[0][0], "lms-5hz-i0.05");
+    assert_eq!(s.grid.start, 19);
+    assert_eq!(s.grid.entries[0][0], "lms-5hz-i0.05");
     // The condition's own stimulus is the start level's entry.
     assert_eq!(p.conditions[0].stimulus, "lms-5hz-i1.00");
     assert!(
@@ -385,20 +385,20 @@ fn every_shipped_protocol_and_its_library_load() {
 fn the_quest_protocol_plans_its_table_once_and_bad_tables_are_refused() {
     let p = Protocol::load(&studies("quest-detection.toml")).unwrap();
     let q = p.quest.as_ref().unwrap();
-    assert_eq!(q.values.len(), 20);
+    assert_eq!(q.grid.values.len(), 20);
     let m = q.model();
     assert_eq!(
         (m.thresholds.len(), m.slopes.len(), m.lapses.len()),
         (39, 3, 3)
     );
     assert_eq!(q.table.levels(), 20);
-    assert_eq!(q.trials, 40);
+    assert_eq!(q.grid.trials, 40);
     assert_eq!(q.stop_sd, None);
     // The first level is the uniform prior's best, and the condition's
     // own stimulus is its entry.
     let best = crate::lab::stats::quest::Posterior::uniform(q.table.clone()).best();
-    assert_eq!(q.start, best);
-    assert_eq!(p.conditions[0].stimulus, q.entries[0][q.start]);
+    assert_eq!(q.grid.start, best);
+    assert_eq!(p.conditions[0].stimulus, q.grid.entries[0][q.grid.start]);
     use crate::lab::study::columns::{QUEST_ANSWERS, QUEST_LEVELS, THRESHOLD, THRESHOLD_SD};
     for c in [QUEST_LEVELS, QUEST_ANSWERS, THRESHOLD, THRESHOLD_SD] {
         assert!(p.columns.index(c).is_some(), "{c}");

@@ -9,30 +9,22 @@ use crate::lab::study::observer::{Observer, Psychometric};
 /// QUEST+ over `n` levels `0, 1/(n-1), …, 1`, weighing logistic
 /// thresholds at the same places, `slopes` and a lapse rate of 0.02.
 pub(crate) fn spec(n: usize, slopes: &[f64], trials: u32, stop_sd: Option<f64>) -> protocol::Quest {
-    let values: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
-    let labels: Vec<String> = values.iter().map(|v| format!("{v:.4}")).collect();
+    let mut grid = protocol::Grid::even(n, trials);
     let table = Arc::new(Table::new(
-        &values,
+        &grid.values,
         Model {
             shape: Shape::Logistic,
             guess: 0.0,
-            thresholds: values.clone(),
+            thresholds: grid.values.clone(),
             slopes: slopes.to_vec(),
             lapses: vec![0.02],
         },
     ));
+    grid.start = Posterior::uniform(table.clone()).best();
     protocol::Quest {
-        text: "Did you feel it?".into(),
-        unit: "intensity".into(),
-        entries: vec![labels.iter().map(|l| format!("s-{l}")).collect()],
-        labels,
-        values,
-        start: Posterior::uniform(table.clone()).best(),
+        grid,
         table,
-        trials,
         stop_sd,
-        yes: "yes".into(),
-        no: "no".into(),
     }
 }
 
@@ -41,7 +33,7 @@ fn it_presents_the_least_entropy_level_updates_and_records_every_presentation() 
     let s = spec(11, &[12.0], 4, None);
     let mut q = Quest::new(&s, 0);
     // The uniform prior's best over symmetric thresholds is the middle.
-    assert_eq!(s.start, 5);
+    assert_eq!(s.grid.start, 5);
     let p = q.next().unwrap();
     assert_eq!((p.stimulus.as_str(), p.level), ("s-0.5000", 0.5));
     assert_eq!(q.asked().perceived_at, Some(0.5));
@@ -55,7 +47,7 @@ fn it_presents_the_least_entropy_level_updates_and_records_every_presentation() 
     let mut by_hand = Posterior::uniform(s.table.clone());
     by_hand.update(5, false);
     assert_eq!(q.posterior(), &by_hand);
-    assert_eq!(up, s.values[by_hand.best()]);
+    assert_eq!(up, s.grid.values[by_hand.best()]);
     assert!(q.threshold().0 > 0.5);
     assert!(q.presents("s-0.9000") && !q.presents("other"));
     q.respond("yes");
@@ -63,7 +55,7 @@ fn it_presents_the_least_entropy_level_updates_and_records_every_presentation() 
     let Step::Last { level, why } = q.respond("no") else {
         panic!("the fourth presentation is the last")
     };
-    assert_eq!(level, s.values[q.presented()[3]]);
+    assert_eq!(level, s.grid.values[q.presented()[3]]);
     assert!(why.starts_with("4 presentations: threshold 0."), "{why}");
     assert!(q.finished() && q.next().is_none());
     assert_eq!(
@@ -74,7 +66,11 @@ fn it_presents_the_least_entropy_level_updates_and_records_every_presentation() 
     assert_eq!(q.answers(), 4);
     let mut row = Row::default();
     q.record(&mut row);
-    let levels: Vec<String> = q.presented().iter().map(|&i| s.labels[i].clone()).collect();
+    let levels: Vec<String> = q
+        .presented()
+        .iter()
+        .map(|&i| s.grid.labels[i].clone())
+        .collect();
     assert_eq!(
         row.get(columns::QUEST_LEVELS),
         Some(levels.join("|").as_str())

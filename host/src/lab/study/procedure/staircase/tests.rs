@@ -11,23 +11,13 @@ fn spec(
     reversals: u32,
     last: u32,
 ) -> protocol::Staircase {
-    let values: Vec<f64> = (0..n).map(|i| i as f64 / (n - 1) as f64).collect();
-    let labels: Vec<String> = values.iter().map(|v| format!("{v:.4}")).collect();
     protocol::Staircase {
-        text: "Did you feel it?".into(),
-        unit: "intensity".into(),
-        entries: vec![labels.iter().map(|l| format!("s-{l}")).collect()],
-        labels,
-        values,
-        start: n - 1,
+        grid: protocol::Grid::even(n, 400),
         up,
         down,
         steps: steps.to_vec(),
         reversals,
-        trials: 400,
         threshold_reversals: last,
-        yes: "yes".into(),
-        no: "no".into(),
     }
 }
 
@@ -63,15 +53,15 @@ fn one_up_two_down_moves_reverses_changes_step_and_ends() {
     assert_eq!(l.answer(true), Some("3 reversals"));
     assert_eq!(l.presented(), [10, 10, 8, 9, 9, 10, 10, 10, 9]);
     // The last two reversals' mean.
-    assert_eq!(l.threshold(&s.values, 2), Some(0.95));
-    assert_eq!(l.threshold(&s.values, 9), Some(0.9));
+    assert_eq!(l.threshold(&s.grid.values, 2), Some(0.95));
+    assert_eq!(l.threshold(&s.grid.values, 9), Some(0.9));
     // Or the presentation limit.
     let mut s2 = s.clone();
-    s2.trials = 2;
+    s2.grid.trials = 2;
     let mut m = Levitt::new(&s2);
     m.answer(false);
     assert_eq!(m.answer(false), Some("2 presentations"));
-    assert_eq!(m.threshold(&s.values, 2), None);
+    assert_eq!(m.threshold(&s.grid.values, 2), None);
 }
 
 #[test]
@@ -117,7 +107,7 @@ fn run(s: &protocol::Staircase, observer: &mut Observer) -> (Option<f64>, usize)
     }
     let t = st
         .rule()
-        .threshold(&s.values, s.threshold_reversals as usize);
+        .threshold(&s.grid.values, s.threshold_reversals as usize);
     (t, st.answers())
 }
 
