@@ -175,20 +175,54 @@ fn p_value(x: f64) -> String {
     format!("{x:.6e}")
 }
 
-/// One test's cells in `stats.csv`: empty, and the reason in `note`,
-/// when it was skipped.
-struct Cells {
-    stat: String,
+/// `stats.csv`'s columns, in order.
+const STATS_COLUMNS: [&str; 17] = [
+    "question",
+    "test",
+    "family",
+    "conditions",
+    "n",
+    "excluded",
+    "m",
+    "statistic",
+    "p",
+    "p_bonferroni",
+    "method",
+    "effect",
+    "effect_size",
+    "d_z",
+    "power",
+    "marks",
+    "note",
+];
+
+/// One line of `stats.csv` by column ([`STATS_COLUMNS`]); a cell a test
+/// does not have stays empty.
+#[derive(Default)]
+struct Line {
+    question: String,
+    test: &'static str,
+    family: String,
+    conditions: String,
+    n: String,
+    excluded: String,
+    m: String,
+    statistic: String,
     p: String,
+    p_bonferroni: String,
     method: &'static str,
-    excluded: usize,
-    effect: String,
+    effect: &'static str,
+    effect_size: String,
+    d_z: String,
+    power: String,
+    marks: String,
     note: String,
 }
 
-impl Cells {
-    /// `outcome`'s cells; `f` gives a result's statistic, p, method,
-    /// excluded count and effect size.
+impl Line {
+    /// `outcome`'s cells (statistic, p, method, excluded count, effect
+    /// size), the rest empty; a skipped test's reason in `note`. `f` gives
+    /// a result's statistic, p, method, excluded count and effect size.
     fn of<T>(
         outcome: &Outcome<T>,
         f: impl FnOnce(&T) -> (f64, f64, crate::lab::stats::Method, usize, Option<f64>),
@@ -197,150 +231,100 @@ impl Cells {
             Outcome::Done(x) => {
                 let (stat, p, method, excluded, effect) = f(x);
                 Self {
-                    stat: num(stat),
+                    statistic: num(stat),
                     p: p_value(p),
                     method: method.name(),
-                    excluded,
-                    effect: effect.map(num).unwrap_or_default(),
-                    note: String::new(),
+                    excluded: excluded.to_string(),
+                    effect_size: effect.map(num).unwrap_or_default(),
+                    ..Self::default()
                 }
             }
             Outcome::Skipped(why) => Self {
-                stat: String::new(),
-                p: String::new(),
-                method: "",
-                excluded: 0,
-                effect: String::new(),
+                excluded: "0".into(),
                 note: why.clone(),
+                ..Self::default()
             },
         }
+    }
+
+    /// Its cells in [`STATS_COLUMNS`]' order.
+    fn cells(self) -> [String; 17] {
+        [
+            self.question,
+            self.test.into(),
+            self.family,
+            self.conditions,
+            self.n,
+            self.excluded,
+            self.m,
+            self.statistic,
+            self.p,
+            self.p_bonferroni,
+            self.method.into(),
+            self.effect.into(),
+            self.effect_size,
+            self.d_z,
+            self.power,
+            self.marks,
+            self.note,
+        ]
     }
 }
 
 /// `stats.csv`: a row per test.
 pub fn csv(all: &[QuestionStats]) -> String {
-    let head = [
-        "question",
-        "test",
-        "family",
-        "conditions",
-        "n",
-        "excluded",
-        "m",
-        "statistic",
-        "p",
-        "p_bonferroni",
-        "method",
-        "effect",
-        "effect_size",
-        "d_z",
-        "power",
-        "marks",
-        "note",
-    ];
-    let mut out = super::record::line(&head) + "\n";
+    let mut out = super::record::line(&STATS_COLUMNS) + "\n";
     for q in all {
         let a = &q.analysis;
-        let mut row = |f: Vec<String>| out += &(super::record::line(&f) + "\n");
+        let mut row = |l: Line| out += &(super::record::line(&l.cells()) + "\n");
         for r in &a.normality {
-            let Cells {
-                stat,
-                p,
-                method,
-                excluded: excl,
-                note,
-                ..
-            } = Cells::of(&r.shapiro_wilk, |s| (s.w, s.p, s.method, s.excluded, None));
-            row(vec![
-                q.question.clone(),
-                "shapiro-wilk".into(),
-                String::new(),
-                r.condition.clone(),
-                r.n.to_string(),
-                excl.to_string(),
-                String::new(),
-                stat,
-                p,
-                String::new(),
-                method.into(),
-                String::new(),
-                String::new(),
-                String::new(),
-                String::new(),
-                String::new(),
-                note,
-            ]);
+            row(Line {
+                question: q.question.clone(),
+                test: "shapiro-wilk",
+                conditions: r.condition.clone(),
+                n: r.n.to_string(),
+                ..Line::of(&r.shapiro_wilk, |s| (s.w, s.p, s.method, s.excluded, None))
+            });
         }
         for r in &a.friedman {
-            let Cells {
-                stat,
-                p,
-                method,
-                excluded: excl,
-                effect: w,
-                note,
-            } = Cells::of(&r.friedman, |f| {
-                (f.statistic, f.p, f.method, f.excluded, Some(f.kendall_w))
+            row(Line {
+                question: q.question.clone(),
+                test: "friedman",
+                family: r.family.clone(),
+                conditions: r.conditions.join(" "),
+                n: r.n.to_string(),
+                m: r.m.to_string(),
+                p_bonferroni: r.p_bonferroni.map(p_value).unwrap_or_default(),
+                effect: "kendall_w",
+                marks: r.stars.into(),
+                ..Line::of(&r.friedman, |f| {
+                    (f.statistic, f.p, f.method, f.excluded, Some(f.kendall_w))
+                })
             });
-            row(vec![
-                q.question.clone(),
-                "friedman".into(),
-                r.family.clone(),
-                r.conditions.join(" "),
-                r.n.to_string(),
-                excl.to_string(),
-                r.m.to_string(),
-                stat,
-                p,
-                r.p_bonferroni.map(p_value).unwrap_or_default(),
-                method.into(),
-                "kendall_w".into(),
-                w,
-                String::new(),
-                String::new(),
-                r.stars.into(),
-                note,
-            ]);
         }
         for r in &a.pairs {
-            let Cells {
-                stat,
-                p,
-                method,
-                excluded: excl,
-                effect: eff,
-                mut note,
-            } = Cells::of(&r.wilcoxon, |w| {
-                (w.statistic, w.p, w.method, w.excluded, Some(w.r))
-            });
-            let (dz, power) = match &r.paired_t {
-                Outcome::Done(t) => (num(t.d_z), num(t.power)),
-                Outcome::Skipped(why) => {
-                    if note.is_empty() {
-                        note = format!("t-test power: {why}");
-                    }
-                    (String::new(), String::new())
-                }
+            let mut line = Line {
+                question: q.question.clone(),
+                test: "wilcoxon",
+                family: r.family.clone(),
+                conditions: format!("{} {}", r.a, r.b),
+                n: r.n.to_string(),
+                m: r.m.to_string(),
+                p_bonferroni: r.p_bonferroni.map(p_value).unwrap_or_default(),
+                effect: "r",
+                marks: format!("{}{}", r.stars, r.power_marks),
+                ..Line::of(&r.wilcoxon, |w| {
+                    (w.statistic, w.p, w.method, w.excluded, Some(w.r))
+                })
             };
-            row(vec![
-                q.question.clone(),
-                "wilcoxon".into(),
-                r.family.clone(),
-                format!("{} {}", r.a, r.b),
-                r.n.to_string(),
-                excl.to_string(),
-                r.m.to_string(),
-                stat,
-                p,
-                r.p_bonferroni.map(p_value).unwrap_or_default(),
-                method.into(),
-                "r".into(),
-                eff,
-                dz,
-                power,
-                format!("{}{}", r.stars, r.power_marks),
-                note,
-            ]);
+            match &r.paired_t {
+                Outcome::Done(t) => (line.d_z, line.power) = (num(t.d_z), num(t.power)),
+                Outcome::Skipped(why) if line.note.is_empty() => {
+                    line.note = format!("t-test power: {why}");
+                }
+                Outcome::Skipped(_) => {}
+            }
+            row(line);
         }
     }
     out
