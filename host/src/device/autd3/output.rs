@@ -271,19 +271,10 @@ impl Output {
             self.mute(ctl)?;
         }
         let (buffer, _) = am_lease_buffer(level, &am, 0, self.lease_us);
-        let lease_seg = other(self.seg);
-        switch_at(dc, |at| {
-            ctl.send(WithFiniteLoop::new(
-                buffer.clone(),
-                NonZeroU16::MIN,
-                lease_seg,
-                at,
-            ))
-        })
-        .context("setting the modulated output")?;
+        self.send_lease(ctl, buffer, level, now_us, dc)
+            .context("setting the modulated output")?;
         self.am = Some(am);
         self.am_t0_us = now_us + SWITCH_MARGIN_US;
-        self.arm(lease_seg, level, now_us);
         Ok(())
     }
 
@@ -304,6 +295,20 @@ impl Output {
             }
             None => lease_buffer(self.level, self.lease_us),
         };
+        self.send_lease(ctl, buffer, self.level, now_us, dc)
+            .context("renewing the output's lease")
+    }
+
+    /// `buffer` once into the other segment, switched to a margin ahead,
+    /// then armed as playing `level`.
+    fn send_lease(
+        &mut self,
+        ctl: &mut Controller<Box<dyn Link>>,
+        buffer: Custom<SamplingConfig>,
+        level: u8,
+        now_us: u64,
+        dc: &dyn Fn() -> DcSysTime,
+    ) -> Result<(), AUTDDriverError> {
         let lease_seg = other(self.seg);
         switch_at(dc, |at| {
             ctl.send(WithFiniteLoop::new(
@@ -312,9 +317,8 @@ impl Output {
                 lease_seg,
                 at,
             ))
-        })
-        .context("renewing the output's lease")?;
-        self.arm(lease_seg, self.level, now_us);
+        })?;
+        self.arm(lease_seg, level, now_us);
         Ok(())
     }
 
