@@ -321,11 +321,17 @@ impl Default for SimConfig {
 /// Output driver of the simulator: counts frames, notes muting and when
 /// each accepted centroid first reached an output frame.
 struct Probe<'a> {
-    stats: &'a mut SimStats,
+    out: &'a mut Watched,
     now_us: u64,
+}
+
+/// What the simulator keeps of the device's output between calls.
+#[derive(Default)]
+struct Watched {
+    stats: SimStats,
     /// Accepted centroids waiting for their first frame: host stamp (µs).
-    waiting: &'a mut Vec<u64>,
-    capture: Option<&'a mut Vec<CapturedFrame>>,
+    waiting: Vec<u64>,
+    capture: Option<Vec<CapturedFrame>>,
     loopback: Option<Loopback>,
 }
 
@@ -348,23 +354,23 @@ pub struct CapturedFrame {
 impl lm_fw_core::OutputDriver for Probe<'_> {
     type Error = core::convert::Infallible;
     fn write_frame(&mut self, frame: &lm_fw_core::OutputFrame<'_>) -> Result<(), Self::Error> {
-        self.stats.frames += 1;
+        self.out.stats.frames += 1;
         let muted = frame.amplitude == 0;
-        if muted != self.stats.muted_now || self.stats.frames == 1 {
-            if self.stats.mute_changes.len() == STATS_RING {
-                self.stats.mute_changes.pop_front();
+        if muted != self.out.stats.muted_now || self.out.stats.frames == 1 {
+            if self.out.stats.mute_changes.len() == STATS_RING {
+                self.out.stats.mute_changes.pop_front();
             }
-            self.stats.mute_changes.push_back((frame.due, muted));
+            self.out.stats.mute_changes.push_back((frame.due, muted));
         }
-        self.stats.muted_now = muted;
+        self.out.stats.muted_now = muted;
         if muted {
-            self.stats.muted_frames += 1;
+            self.out.stats.muted_frames += 1;
         }
         push_ring(
-            &mut self.stats.step_late_us,
+            &mut self.out.stats.step_late_us,
             self.now_us.saturating_sub(frame.due),
         );
-        if let Some(c) = self.capture.as_mut() {
+        if let Some(c) = self.out.capture.as_mut() {
             c.push(CapturedFrame {
                 slot: frame.slot,
                 step: frame.step,
@@ -373,10 +379,10 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
                 phases: frame.phases.to_vec(),
             });
         }
-        for host_us in self.waiting.drain(..) {
-            self.stats.centroids_applied += 1;
+        for host_us in self.out.waiting.drain(..) {
+            self.out.stats.centroids_applied += 1;
             push_ring(
-                &mut self.stats.latencies_us,
+                &mut self.out.stats.latencies_us,
                 frame.due.saturating_sub(host_us),
             );
         }
@@ -385,7 +391,7 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
 
     /// The firmware core's loopback test over the simulated jumper.
     fn self_test(&mut self) -> lm_proto::SelfTest {
-        let Some(lb) = self.loopback else {
+        let Some(lb) = self.out.loopback else {
             return lm_proto::SelfTest::Unsupported;
         };
         lm_fw_core::output::loopback_test(|sent: &[u8], got: &mut [u8]| {
@@ -402,10 +408,7 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
 pub struct FwCore {
     device: lm_fw_core::Device<'static>,
     watch: lm_proto::FrameDecoder,
-    stats: SimStats,
-    waiting: Vec<u64>,
-    capture: Option<Vec<CapturedFrame>>,
-    loopback: Option<Loopback>,
+    out: Watched,
 }
 
 impl FwCore {
@@ -425,21 +428,22 @@ impl FwCore {
         Ok(Self {
             device,
             watch: lm_proto::FrameDecoder::new(),
-            stats: SimStats::default(),
-            waiting: Vec::new(),
-            capture: None,
-            loopback: cfg.loopback,
+            out: Watched {
+                loopback: cfg.loopback,
+                ..Watched::default()
+            },
         })
     }
 
     /// Keep every output frame from now on (or stop keeping them).
     pub fn set_capture(&mut self, on: bool) {
-        self.capture = on.then(Vec::new);
+        self.out.capture = on.then(Vec::new);
     }
 
     /// The frames kept since the last call.
     pub fn take_captured(&mut self) -> Vec<CapturedFrame> {
-        self.capture
+        self.out
+            .capture
             .as_mut()
             .map(std::mem::take)
             .unwrap_or_default()
@@ -471,11 +475,8 @@ impl Core for FwCore {
         }
         let before = self.device.status(now_us).last_centroid_seq;
         let mut probe = Probe {
-            stats: &mut self.stats,
+            out: &mut self.out,
             now_us,
-            waiting: &mut self.waiting,
-            capture: self.capture.as_mut(),
-            loopback: self.loopback,
         };
         self.device
             .feed(bytes, now_us, &mut probe, &mut |reply: &[u8]| {
@@ -485,29 +486,26 @@ impl Core for FwCore {
         if after != before
             && let Some(c) = centroids.iter().find(|c| c.seq == after && c.present)
         {
-            self.waiting.push(c.host_time_us);
+            self.out.waiting.push(c.host_time_us);
         }
         self.poll(now_us);
     }
 
     fn poll(&mut self, now_us: u64) -> Option<u64> {
         let mut probe = Probe {
-            stats: &mut self.stats,
+            out: &mut self.out,
             now_us,
-            waiting: &mut self.waiting,
-            capture: self.capture.as_mut(),
-            loopback: self.loopback,
         };
         // Nothing plays: centroids are not waiting for a frame.
         let next = self.device.poll(now_us, &mut probe);
         if next.is_none() {
-            self.waiting.clear();
+            self.out.waiting.clear();
         }
         next
     }
 
     fn stats(&self) -> SimStats {
-        self.stats.clone()
+        self.out.stats.clone()
     }
 }
 
