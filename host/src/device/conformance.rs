@@ -182,6 +182,11 @@ const UPLOAD_0: Step = Step::Upload {
     slot: 0,
     narrow: false,
 };
+/// The narrow plan (a smaller work volume) into slot 0.
+const NARROW_0: Step = Step::Upload {
+    slot: 0,
+    narrow: true,
+};
 /// A timed play's steps: 73 ms of the 5 Hz stimulus, fewer than a cycle.
 const TIMED: u32 = 30;
 
@@ -252,13 +257,7 @@ pub const SCENARIOS: &[Scenario] = &[
         name: "playing another slot while one plays keeps the gate open and accepts a restarted count",
         steps: &[
             (UPLOAD, ex(Idle, M::None, 0)),
-            (
-                Step::Upload {
-                    slot: 0,
-                    narrow: false,
-                },
-                ex(Idle, M::None, 0),
-            ),
+            (UPLOAD_0, ex(Idle, M::None, 0)),
             (play(1, false), ex(Muted, M::WaitingForTracking, 0)),
             (at(7, 1000), after(Applied, ex(Playing, M::None, 1000))),
             (play(0, false), ex(Playing, M::None, 1000)),
@@ -270,13 +269,7 @@ pub const SCENARIOS: &[Scenario] = &[
         name: "a slot taking over re-checks the last centroid against its own work volume",
         steps: &[
             (UPLOAD, ex(Idle, M::None, 0)),
-            (
-                Step::Upload {
-                    slot: 0,
-                    narrow: true,
-                },
-                ex(Idle, M::None, 0),
-            ),
+            (NARROW_0, ex(Idle, M::None, 0)),
             (play(1, false), ex(Muted, M::WaitingForTracking, 0)),
             (at(1, 5000), after(Applied, ex(Playing, M::None, 5000))),
             (play(0, false), ex(Playing, M::None, 5000)),
