@@ -194,6 +194,14 @@ use DeviceState::{Idle, Muted, Playing, Stopped};
 use MuteReason as M;
 use Outcome::{Applied, OutOfRange, Stale};
 
+/// Stopped by itself after a timed play of `slot`, [`TIMED`] steps
+/// counted.
+const fn timed_out(slot: u8) -> Expect {
+    ex(Stopped, M::Stopped, 0)
+        .slots(Some(slot), None)
+        .played(TIMED as u64)
+}
+
 const fn play_for(slot: u8) -> Step {
     Step::PlayFor {
         slot,
@@ -289,18 +297,8 @@ pub const SCENARIOS: &[Scenario] = &[
         steps: &[
             (UPLOAD, ex(Idle, M::None, 0)),
             (play_for(1), ex(Playing, M::None, 0).slots(Some(1), None)),
-            (
-                Step::Wait(300),
-                ex(Stopped, M::Stopped, 0)
-                    .slots(Some(1), None)
-                    .played(TIMED as u64),
-            ),
-            (
-                Step::Wait(100),
-                ex(Stopped, M::Stopped, 0)
-                    .slots(Some(1), None)
-                    .played(TIMED as u64),
-            ),
+            (Step::Wait(300), timed_out(1)),
+            (Step::Wait(100), timed_out(1)),
         ],
     },
     Scenario {
@@ -311,12 +309,7 @@ pub const SCENARIOS: &[Scenario] = &[
             (play(1, true), ex(Playing, M::None, 0).slots(Some(1), None)),
             (play_for(0), ex(Playing, M::None, 0).slots(Some(1), Some(0))),
             // Past the cycle end (≤ 201 ms) and the 30 steps after it.
-            (
-                Step::Wait(500),
-                ex(Stopped, M::Stopped, 0)
-                    .slots(Some(0), None)
-                    .played(TIMED as u64),
-            ),
+            (Step::Wait(500), timed_out(0)),
         ],
     },
     Scenario {
