@@ -83,28 +83,14 @@ pub fn press(
     let reach = stage
         .move_to(plan.press_mm)
         .map_err(|e| recover(stage, stimulus, plan, "moving in", e.into()))?;
-    if let Err(e) = stimulus(true) {
-        return Err(recover(
-            stage,
-            stimulus,
-            plan,
-            "starting the stimulus",
-            e.into(),
-        ));
-    }
+    stimulus(true)
+        .map_err(|e| recover(stage, stimulus, plan, "starting the stimulus", e.into()))?;
     let series = match gauge.sample(plan.hold_s, plan.rate_hz) {
         Ok(s) => s,
         Err(e) => return Err(recover(stage, stimulus, plan, "sampling", e.into())),
     };
-    if let Err(e) = stimulus(false) {
-        return Err(recover(
-            stage,
-            stimulus,
-            plan,
-            "stopping the stimulus",
-            e.into(),
-        ));
-    }
+    stimulus(false)
+        .map_err(|e| recover(stage, stimulus, plan, "stopping the stimulus", e.into()))?;
     let back = stage
         .move_to(plan.rest_mm)
         .map_err(|e| recover(stage, stimulus, plan, "moving back", e.into()))?;

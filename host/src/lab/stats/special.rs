@@ -207,16 +207,10 @@ pub fn nct_cdf(t: f64, df: f64, nc: f64) -> f64 {
     }
 }
 
-/// The non-central t survival function P(T > t) (see [`nct_cdf`]).
+/// The non-central t survival function P(T > t) = P(−T < −t), −T ~
+/// t'(ν, −δ) (see [`nct_cdf`]).
 pub fn nct_sf(t: f64, df: f64, nc: f64) -> f64 {
-    if t.is_nan() || !is_positive(df) || !nc.is_finite() {
-        return f64::NAN;
-    }
-    if t >= 0.0 {
-        nct_above(t, df, nc)
-    } else {
-        nct_below(-t, df, -nc)
-    }
+    nct_cdf(-t, df, -nc)
 }
 
 /// F(s; ν, δ) for s ≥ 0.
