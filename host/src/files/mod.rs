@@ -268,5 +268,15 @@ impl WriteError {
     }
 }
 
+/// For tests: a fresh, empty folder `lmhost-<name>-<pid>` in the
+/// system's temporary folder (`name` unique within the crate's tests).
+#[cfg(test)]
+pub(crate) fn scratch(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("lmhost-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 #[cfg(test)]
 mod tests;

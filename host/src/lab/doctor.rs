@@ -497,10 +497,7 @@ mod tests {
     use super::*;
 
     fn tree(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("lmhost-doctor-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+        crate::files::scratch(&format!("doctor-{name}"))
     }
 
     fn usb(root: &Path, name: &str, vid: u16, pid: u16, bus: u32, dev: u32) {

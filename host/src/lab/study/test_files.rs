@@ -11,8 +11,5 @@ pub(crate) fn studies(name: &str) -> PathBuf {
 
 /// A fresh scratch folder.
 pub(crate) fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lmhost-study-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::files::scratch(&format!("study-{name}"))
 }
