@@ -274,18 +274,14 @@ mod tests {
 
     #[test]
     fn marks_follow_the_papers_thresholds() {
-        assert_eq!(stars(0.0004), "***");
-        assert_eq!(stars(0.0005), "**");
-        assert_eq!(stars(0.004), "**");
-        assert_eq!(stars(0.049), "*");
-        assert_eq!(stars(0.05), "");
-        assert_eq!(stars(f64::NAN), "");
-        assert_eq!(power_marks(0.9981), "+++");
-        assert_eq!(power_marks(0.998), "++");
-        assert_eq!(power_marks(0.981), "++");
-        assert_eq!(power_marks(0.81), "+");
-        assert_eq!(power_marks(0.8), "");
-        assert_eq!(power_marks(f64::NAN), "");
+        let p = [0.0004, 0.0005, 0.004, 0.049, 0.05, f64::NAN];
+        let stars_of = ["***", "**", "**", "*", "", ""];
+        let power = [0.9981, 0.998, 0.981, 0.81, 0.8, f64::NAN];
+        let plus_of = ["+++", "++", "++", "+", "", ""];
+        for i in 0..p.len() {
+            assert_eq!(stars(p[i]), stars_of[i], "p = {}", p[i]);
+            assert_eq!(power_marks(power[i]), plus_of[i], "power = {}", power[i]);
+        }
     }
 
     #[test]

@@ -58,14 +58,7 @@ pub(super) fn check(
     for b in blocks {
         let span = b.span();
         let b = b.into_inner();
-        let name = b.name.get_ref().0.clone();
-        if out.iter().any(|x| x.name == name) {
-            return Err(e.at(
-                b.name.span(),
-                "name",
-                format!("block `{name}` is given twice"),
-            ));
-        }
+        let name = e.unique("block", &b.name, out.iter().map(|x| x.name.as_str()))?;
         // Per factor, the levels the block keeps (all when not named).
         let mut keep: Vec<Option<Vec<String>>> = vec![None; factors.len()];
         for (factor, levels) in &b.levels {

@@ -20,7 +20,9 @@ pub(super) use super::errors::Errors;
 pub(super) fn check(mut file: File, e: &Errors) -> Result<Unlinked, InputError> {
     let timeline = timeline(&file, e)?;
     let factors = factors(&file, e)?;
-    let quest = super::quest::check(file.quest.take(), &file, &factors, e)?;
+    let quest = (file.quest.take())
+        .map(|q| super::quest::check(q, &file, &factors, e))
+        .transpose()?;
     let start = super::staircase::start_label(&file)
         .or_else(|| quest.as_ref().map(|q| q.start_label().to_owned()));
     let conditions = conditions(&file.stimulus, &factors, start.as_deref(), e)?;
@@ -48,14 +50,12 @@ pub(super) fn check(mut file: File, e: &Errors) -> Result<Unlinked, InputError> 
     }
     let report = report(file.report, &factors, e)?;
     let levels_of: Vec<Vec<String>> = conditions.iter().map(|c| c.levels.clone()).collect();
-    let staircase = super::staircase::check(
-        file.staircase,
-        file.adjustment.is_some(),
-        &file.stimulus,
-        &factors,
-        &levels_of,
-        e,
-    )?;
+    let has_adjustment = file.adjustment.is_some();
+    let staircase = (file.staircase)
+        .map(|s| {
+            super::staircase::check(s, has_adjustment, &file.stimulus, &factors, &levels_of, e)
+        })
+        .transpose()?;
     let quest = quest
         .map(|q| q.named(&file.stimulus, &factors, &levels_of, e))
         .transpose()?;
@@ -233,14 +233,7 @@ fn factors(file: &File, e: &Errors) -> Result<Vec<Factor>, InputError> {
     }
     let mut out: Vec<Factor> = Vec::new();
     for f in &file.factor {
-        let name = f.name.get_ref().0.clone();
-        if out.iter().any(|x| x.name == name) {
-            return Err(e.at(
-                f.name.span(),
-                "name",
-                format!("factor `{name}` is given twice"),
-            ));
-        }
+        let name = e.unique("factor", &f.name, out.iter().map(|x| x.name.as_str()))?;
         let levels: Vec<String> = f.levels.get_ref().iter().map(|l| l.0.clone()).collect();
         if levels.is_empty() {
             return Err(e.at(

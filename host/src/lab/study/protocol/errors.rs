@@ -31,4 +31,19 @@ impl Errors<'_> {
         let field = path.as_deref().unwrap_or(field);
         self.bad(format!("line {line}, field `{field}`: {msg}"))
     }
+
+    /// The `name` of a `what` (a factor, a block), refused when one of
+    /// `taken` already has it.
+    pub fn unique<'n>(
+        &self,
+        what: &str,
+        name: &toml::Spanned<super::file::Name>,
+        mut taken: impl Iterator<Item = &'n str>,
+    ) -> Result<String, InputError> {
+        let n = &name.get_ref().0;
+        if taken.any(|x| x == n) {
+            return Err(self.at(name.span(), "name", format!("{what} `{n}` is given twice")));
+        }
+        Ok(n.clone())
+    }
 }

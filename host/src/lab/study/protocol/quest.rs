@@ -85,16 +85,14 @@ fn numbers(
     Ok(x.clone())
 }
 
-/// Checks the file's `[quest]` (taken out of it) against the rest.
+/// Checks the file's `[quest]` (taken out of it) against the rest of
+/// `others`.
 pub(super) fn check(
-    file: Option<Spanned<QuestFile>>,
+    file: Spanned<QuestFile>,
     others: &File,
     factors: &[Factor],
     e: &Errors,
-) -> Result<Option<Unnamed>, InputError> {
-    let Some(file) = file else {
-        return Ok(None);
-    };
+) -> Result<Unnamed, InputError> {
     let span = file.span();
     let q = file.into_inner();
     if others.adjustment.is_some() || others.staircase.is_some() {
@@ -239,11 +237,11 @@ pub(super) fn check(
     ));
     // Every trial starts from the same prior, so at the same level.
     grid.start = Posterior::uniform(table.clone()).best();
-    Ok(Some(Unnamed {
+    Ok(Unnamed {
         quest: Quest {
             grid,
             table,
             stop_sd,
         },
-    }))
+    })
 }

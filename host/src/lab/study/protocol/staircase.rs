@@ -41,16 +41,13 @@ pub(super) fn start_label(file: &File) -> Option<String> {
 
 /// Checks the file's `[staircase]` and names each condition's entries.
 pub(super) fn check(
-    file: Option<Spanned<StaircaseFile>>,
+    file: Spanned<StaircaseFile>,
     has_adjustment: bool,
     template: &Spanned<String>,
     factors: &[Factor],
     conditions: &[Vec<String>],
     e: &Errors,
-) -> Result<Option<Staircase>, InputError> {
-    let Some(file) = file else {
-        return Ok(None);
-    };
+) -> Result<Staircase, InputError> {
     let span = file.span();
     let s = file.into_inner();
     if has_adjustment {
@@ -120,12 +117,12 @@ pub(super) fn check(
     };
     grid.entries = grid::entries(labels, template, factors, conditions, e)?;
     grid.start = start;
-    Ok(Some(Staircase {
+    Ok(Staircase {
         grid,
         up: s.up.0,
         down: s.down.0,
         steps,
         reversals,
         threshold_reversals,
-    }))
+    })
 }
