@@ -327,6 +327,19 @@ mod tests {
         }
     }
 
+    /// Every table of both schemas: its format's name, its path, its
+    /// schema.
+    fn all_tables() -> Vec<(&'static str, String, Value)> {
+        let mut out = Vec::new();
+        for f in Format::ALL {
+            let s = f.schema();
+            let mut all = Vec::new();
+            tables(&s, f.name(), &mut all);
+            out.extend(all.into_iter().map(|(path, t)| (f.name(), path, t.clone())));
+        }
+        out
+    }
+
     #[test]
     fn the_committed_schemas_and_reference_are_generated_from_the_types() {
         let mut files: Vec<(String, String)> = Format::ALL
@@ -352,27 +365,25 @@ mod tests {
 
     #[test]
     fn every_field_has_a_description_and_every_number_a_range() {
+        let all = all_tables();
         for f in Format::ALL {
-            let s = f.schema();
-            let mut all = Vec::new();
-            tables(&s, f.name(), &mut all);
-            assert!(all.len() >= 2, "{}: {} tables", f.name(), all.len());
-            for (path, t) in all {
-                for (k, p) in t["properties"].as_object().unwrap() {
+            let n = all.iter().filter(|t| t.0 == f.name()).count();
+            assert!(n >= 2, "{}: {n} tables", f.name());
+        }
+        for (_, path, t) in &all {
+            for (k, p) in t["properties"].as_object().unwrap() {
+                assert!(
+                    p["description"].as_str().is_some_and(|d| !d.is_empty()),
+                    "{path}.{k} has no description"
+                );
+                let number = |x: &Value| matches!(x["type"].as_str(), Some("number" | "integer"));
+                for n in [p, &p["items"]].into_iter().filter(|x| number(x)) {
+                    let bounded = |a: &str, b: &str| n.get(a).or(n.get(b)).is_some();
                     assert!(
-                        p["description"].as_str().is_some_and(|d| !d.is_empty()),
-                        "{path}.{k} has no description"
+                        bounded("minimum", "exclusiveMinimum")
+                            && bounded("maximum", "exclusiveMaximum"),
+                        "{path}.{k} has no range: {n}"
                     );
-                    let number =
-                        |x: &Value| matches!(x["type"].as_str(), Some("number" | "integer"));
-                    for n in [p, &p["items"]].into_iter().filter(|x| number(x)) {
-                        let bounded = |a: &str, b: &str| n.get(a).or(n.get(b)).is_some();
-                        assert!(
-                            bounded("minimum", "exclusiveMinimum")
-                                && bounded("maximum", "exclusiveMaximum"),
-                            "{path}.{k} has no range: {n}"
-                        );
-                    }
                 }
             }
         }
@@ -380,13 +391,8 @@ mod tests {
 
     #[test]
     fn the_schemas_refuse_unknown_keys_and_require_what_serde_requires() {
-        for f in Format::ALL {
-            let s = f.schema();
-            let mut all = Vec::new();
-            tables(&s, f.name(), &mut all);
-            for (path, t) in &all {
-                assert_eq!(t["additionalProperties"], false, "{path}");
-            }
+        for (_, path, t) in all_tables() {
+            assert_eq!(t["additionalProperties"], false, "{path}");
         }
         let p = protocol();
         assert_eq!(
