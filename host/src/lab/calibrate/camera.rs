@@ -623,40 +623,28 @@ mod tests {
                 )
             })
             .collect();
-        std::fs::write(
-            dir.join("line.toml"),
-            format!("ball_diameter_mm = 40.0\n{line}"),
-        )
-        .unwrap();
-        let e = calibrate(&Target::load(&dir.join("line.toml")).unwrap(), &intr, 3.0)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("one line") && !e.contains('\n'), "{e}");
+        // A targets file's error, refused as one line.
+        let refused = |name: &str, body: String| {
+            std::fs::write(dir.join(name), body).unwrap();
+            let e = calibrate(&Target::load(&dir.join(name)).unwrap(), &intr, 3.0)
+                .unwrap_err()
+                .to_string();
+            assert!(!e.contains('\n'), "{e}");
+            e
+        };
+        let e = refused("line.toml", format!("ball_diameter_mm = 40.0\n{line}"));
+        assert!(e.contains("one line"), "{e}");
         // A wrong ball size does not fit.
         let wrong = text.replace("ball_diameter_mm = 40.0", "ball_diameter_mm = 20.0");
-        std::fs::write(dir.join("wrong.toml"), wrong).unwrap();
-        let e = calibrate(&Target::load(&dir.join("wrong.toml")).unwrap(), &intr, 3.0)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("point[0]") && !e.contains('\n'), "{e}");
+        let e = refused("wrong.toml", wrong);
+        assert!(e.contains("point[0]"), "{e}");
         // A swapped position: its residual is named.
         let swapped = text.replacen("depth = \"p0.npy\"", "depth = \"p1.npy\"", 1);
-        std::fs::write(dir.join("swapped.toml"), swapped).unwrap();
-        let e = calibrate(
-            &Target::load(&dir.join("swapped.toml")).unwrap(),
-            &intr,
-            3.0,
-        )
-        .unwrap_err()
-        .to_string();
+        let e = refused("swapped.toml", swapped);
         assert!(e.contains("from its known position"), "{e}");
         // An empty view (the background only) has no ball.
-        let only_bg = text.replace("p3.npy", "bg.npy");
-        std::fs::write(dir.join("empty.toml"), only_bg).unwrap();
-        let e = calibrate(&Target::load(&dir.join("empty.toml")).unwrap(), &intr, 3.0)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("point[3]") && !e.contains('\n'), "{e}");
+        let e = refused("empty.toml", text.replace("p3.npy", "bg.npy"));
+        assert!(e.contains("point[3]"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
