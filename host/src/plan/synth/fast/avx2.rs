@@ -66,13 +66,6 @@ impl Lanes for Avx {
     }
 
     #[inline(always)]
-    fn to_array(self) -> [f32; LANES] {
-        let mut a = [0.0; LANES];
-        self.store(&mut a);
-        a
-    }
-
-    #[inline(always)]
     fn mul_add(self, b: Self, c: Self) -> Self {
         Self(avx!(_mm256_fmadd_ps(self.0, b.0, c.0)))
     }

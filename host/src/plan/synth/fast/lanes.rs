@@ -33,7 +33,12 @@ pub(super) trait Lanes:
     fn store(self, s: &mut [f32]);
     /// The lanes as an array (for the tests).
     #[cfg_attr(not(test), allow(dead_code))]
-    fn to_array(self) -> [f32; LANES];
+    #[inline(always)]
+    fn to_array(self) -> [f32; LANES] {
+        let mut a = [0.0; LANES];
+        self.store(&mut a);
+        a
+    }
     /// `self · b + c`, fused where the instruction set has FMA.
     fn mul_add(self, b: Self, c: Self) -> Self;
     /// Square root.
@@ -103,11 +108,6 @@ impl Lanes for Arr {
     #[inline(always)]
     fn store(self, s: &mut [f32]) {
         s[..LANES].copy_from_slice(&self.0);
-    }
-
-    #[inline(always)]
-    fn to_array(self) -> [f32; LANES] {
-        self.0
     }
 
     #[inline(always)]

@@ -68,13 +68,6 @@ impl Lanes for Sse {
     }
 
     #[inline(always)]
-    fn to_array(self) -> [f32; LANES] {
-        let mut a = [0.0; LANES];
-        self.store(&mut a);
-        a
-    }
-
-    #[inline(always)]
     fn mul_add(self, b: Self, c: Self) -> Self {
         self * b + c
     }
