@@ -342,6 +342,14 @@ fn p_text(p: f64) -> String {
     }
 }
 
+/// A test's figures as `done` writes them, or why there is no test.
+fn result<T>(outcome: &Outcome<T>, done: impl FnOnce(&T) -> String) -> String {
+    match outcome {
+        Outcome::Done(t) => done(t),
+        Outcome::Skipped(why) => format!("no test: {why}"),
+    }
+}
+
 /// `stats.txt`: the tests as a table to read.
 pub fn text(all: &[QuestionStats]) -> String {
     let mut s = String::new();
@@ -368,45 +376,33 @@ pub fn text(all: &[QuestionStats]) -> String {
         );
         let _ = writeln!(s, "Shapiro-Wilk per condition:");
         for r in &a.normality {
-            let _ = match &r.shapiro_wilk {
-                Outcome::Done(t) => writeln!(
-                    s,
-                    "  {:<24} n={:<3} W={:.4} p={}",
-                    r.condition,
-                    r.n,
-                    t.w,
-                    p_text(t.p)
-                ),
-                Outcome::Skipped(w) => {
-                    writeln!(s, "  {:<24} n={:<3} no test: {w}", r.condition, r.n)
-                }
-            };
+            let head = format!("{:<24} n={:<3}", r.condition, r.n);
+            let tail = result(&r.shapiro_wilk, |t| {
+                format!("W={:.4} p={}", t.w, p_text(t.p))
+            });
+            let _ = writeln!(s, "  {head} {tail}");
         }
         if !a.friedman.is_empty() {
             let _ = writeln!(s, "Friedman (Bonferroni within each factor):");
         }
         for r in &a.friedman {
-            let _ = match &r.friedman {
-                Outcome::Done(t) => writeln!(
-                    s,
-                    "  {:<10} {:<40} n={:<3} chi2={:.3} p={} p_bonf={} W={:.3} {}",
-                    r.family,
-                    r.conditions.join(" "),
-                    r.n,
+            let head = format!(
+                "{:<10} {:<40} n={:<3}",
+                r.family,
+                r.conditions.join(" "),
+                r.n
+            );
+            let tail = result(&r.friedman, |t| {
+                format!(
+                    "chi2={:.3} p={} p_bonf={} W={:.3} {}",
                     t.statistic,
                     p_text(t.p),
                     p_text(r.p_bonferroni.unwrap_or(f64::NAN)),
                     t.kendall_w,
                     r.stars
-                ),
-                Outcome::Skipped(w) => writeln!(
-                    s,
-                    "  {:<10} {:<40} n={:<3} no test: {w}",
-                    r.family,
-                    r.conditions.join(" "),
-                    r.n
-                ),
-            };
+                )
+            });
+            let _ = writeln!(s, "  {head} {tail}");
         }
         if !a.pairs.is_empty() {
             let _ = writeln!(
@@ -419,14 +415,10 @@ pub fn text(all: &[QuestionStats]) -> String {
             let power = r.paired_t.done().map_or("-".into(), |t| {
                 format!("d_z={:.3} power={:.3}", t.d_z, t.power)
             });
-            let _ = match &r.wilcoxon {
-                Outcome::Done(t) => writeln!(
-                    s,
-                    "  {:<24} {} vs {} n={:<3} W={} p={} ({}) p_bonf={} r={:.3} {power} {}{}",
-                    r.family,
-                    r.a,
-                    r.b,
-                    r.n,
+            let head = format!("{:<24} {} vs {} n={:<3}", r.family, r.a, r.b, r.n);
+            let tail = result(&r.wilcoxon, |t| {
+                format!(
+                    "W={} p={} ({}) p_bonf={} r={:.3} {power} {}{}",
                     t.statistic,
                     p_text(t.p),
                     t.method.name(),
@@ -434,13 +426,9 @@ pub fn text(all: &[QuestionStats]) -> String {
                     t.r,
                     r.stars,
                     r.power_marks
-                ),
-                Outcome::Skipped(w) => writeln!(
-                    s,
-                    "  {:<24} {} vs {} n={:<3} no test: {w}",
-                    r.family, r.a, r.b, r.n
-                ),
-            };
+                )
+            });
+            let _ = writeln!(s, "  {head} {tail}");
         }
         s.push('\n');
     }
