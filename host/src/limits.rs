@@ -246,6 +246,24 @@ pub fn read_text_file_up_to(
     })
 }
 
+/// Makes `property` required in a file's JSON Schema and drops the default
+/// serde gives it: the loader takes a file without it only to say what to
+/// add, so the file needs it.
+pub fn require_in_schema(schema: &mut schemars::Schema, property: &str) {
+    match schema.get_mut("required") {
+        Some(serde_json::Value::Array(r)) => r.push(property.into()),
+        _ => {
+            schema.insert("required".into(), serde_json::json!([property]));
+        }
+    }
+    if let Some(p) = schema
+        .get_mut("properties")
+        .and_then(|p| p.get_mut(property))
+        .and_then(|p| p.as_object_mut())
+    {
+        p.remove("default");
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;

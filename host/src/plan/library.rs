@@ -135,14 +135,7 @@ pub(crate) struct LibraryFile {
 /// The schema of [`LibraryFile`]: serde takes a file without stimuli so
 /// that the loader can say what to add, but the file needs one.
 fn stimulus_required(schema: &mut schemars::Schema) {
-    schema.insert("required".into(), serde_json::json!(["stimulus"]));
-    if let Some(p) = schema
-        .get_mut("properties")
-        .and_then(|p| p.get_mut("stimulus"))
-        .and_then(|p| p.as_object_mut())
-    {
-        p.remove("default");
-    }
+    crate::limits::require_in_schema(schema, "stimulus");
 }
 
 /// One `[[stimulus]]` table.

@@ -71,25 +71,21 @@ impl Series {
 
 /// `Ok(count)` when a series of `duration_s` at `rate_hz` may be taken.
 pub fn check_series(port: &str, duration_s: f64, rate_hz: f64) -> Result<usize, InstrumentError> {
-    if !(rate_hz.is_finite() && rate_hz > 0.0 && rate_hz <= MAX_RATE_HZ) {
-        return Err(InstrumentError::limit(
-            port,
-            format!(
-                "sampling rate {} Hz is outside (0, {}] Hz",
-                show(rate_hz),
-                show(MAX_RATE_HZ)
-            ),
-        ));
-    }
-    if !(duration_s.is_finite() && duration_s > 0.0 && duration_s <= MAX_SERIES_S) {
-        return Err(InstrumentError::limit(
-            port,
-            format!(
-                "sampling duration {} s is outside (0, {}] s",
-                show(duration_s),
-                show(MAX_SERIES_S)
-            ),
-        ));
+    // Each within (0, max].
+    for (what, v, max, unit) in [
+        ("rate", rate_hz, MAX_RATE_HZ, "Hz"),
+        ("duration", duration_s, MAX_SERIES_S, "s"),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v <= max) {
+            return Err(InstrumentError::limit(
+                port,
+                format!(
+                    "sampling {what} {} {unit} is outside (0, {}] {unit}",
+                    show(v),
+                    show(max)
+                ),
+            ));
+        }
     }
     let n = (duration_s * rate_hz).round().max(1.0);
     if n > MAX_SERIES_SAMPLES as f64 {

@@ -334,6 +334,21 @@ impl Terminal {
             asked: None,
         })
     }
+
+    /// `text` as an answer to `q`, echoed; or why not, on stderr.
+    fn take(&mut self, q: &Asked, text: &str) -> Option<String> {
+        match q.parse(text) {
+            Ok(v) => {
+                crate::errln!("  -> {v}");
+                self.asked = None;
+                Some(v)
+            }
+            Err(m) => {
+                crate::errln!("  {m}");
+                None
+            }
+        }
+    }
 }
 
 impl Drop for Terminal {
@@ -390,26 +405,16 @@ impl Answers for Terminal {
             if q.single_key() && k.is_ascii_alphanumeric() {
                 self.line.clear();
                 let s = (k as char).to_string();
-                match q.parse(&s) {
-                    Ok(v) => {
-                        crate::errln!("  -> {v}");
-                        self.asked = None;
-                        return Ok(Some(v));
-                    }
-                    Err(m) => crate::errln!("  {m}"),
+                if let Some(v) = self.take(q, &s) {
+                    return Ok(Some(v));
                 }
                 continue;
             }
             match k {
                 b'\n' | b'\r' => {
                     let l = std::mem::take(&mut self.line);
-                    match q.parse(&l) {
-                        Ok(v) => {
-                            crate::errln!("  -> {v}");
-                            self.asked = None;
-                            return Ok(Some(v));
-                        }
-                        Err(m) => crate::errln!("  {m}"),
+                    if let Some(v) = self.take(q, &l) {
+                        return Ok(Some(v));
                     }
                 }
                 0x7f | 0x08 => {

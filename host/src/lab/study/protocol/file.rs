@@ -123,16 +123,7 @@ pub(super) struct BlockFile {
 /// The schema of [`File`]: serde takes a file without factors so that
 /// the check can say what to add, but the file needs one.
 fn factor_required(schema: &mut Schema) {
-    if let Some(serde_json::Value::Array(r)) = schema.get_mut("required") {
-        r.push("factor".into());
-    }
-    if let Some(p) = schema
-        .get_mut("properties")
-        .and_then(|p| p.get_mut("factor"))
-        .and_then(|p| p.as_object_mut())
-    {
-        p.remove("default");
-    }
+    crate::limits::require_in_schema(schema, "factor");
 }
 
 /// The `[timeline]` table: how a trial plays.
