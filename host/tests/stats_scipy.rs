@@ -5,6 +5,7 @@
 //! the reference is below 1e-10. A case scipy answers with no meaningful
 //! number ("degenerate") must be refused here.
 
+use std::fmt::Debug;
 use std::path::Path;
 
 use lmhost::lab::stats::special;
@@ -62,6 +63,77 @@ impl Check {
         }
     }
 
+    /// Each `(key, got)` against the case's value under `key`.
+    fn fields(&mut self, what: &str, case: &Value, got: &[(&str, f64)]) {
+        for (key, g) in got {
+            self.close(&format!("{what} {key}"), *g, num(&case[*key]));
+        }
+    }
+
+    /// What a scipy case asks of `got`: refused where scipy found the
+    /// case degenerate, else a value to compare (returned).
+    fn outcome<T: Debug, E: Debug>(
+        &mut self,
+        what: &str,
+        case: &Value,
+        got: Result<T, E>,
+    ) -> Option<T> {
+        if degenerate(case) {
+            self.truth(&format!("{what}: refused, got {got:?}"), got.is_err());
+            return None;
+        }
+        match got {
+            Ok(r) => Some(r),
+            Err(e) => {
+                self.truth(&format!("{what}: Err({e:?})"), false);
+                None
+            }
+        }
+    }
+
+    /// Each `(key, got)` count equals the row's value under `key`: one
+    /// check.
+    fn counts(&mut self, what: &str, want: &Value, got: &[(&str, usize)]) {
+        let differ: Vec<String> = got
+            .iter()
+            .filter(|(key, g)| want[*key].as_u64() != Some(*g as u64))
+            .map(|(key, g)| format!("{key} {g} vs scipy {}", want[*key]))
+            .collect();
+        self.truth(&format!("{what}: {}", differ.join(", ")), differ.is_empty());
+    }
+
+    /// A test of a corrected family: its statistic and p, and its
+    /// Bonferroni-corrected p, against the row's.
+    fn corrected(&mut self, what: &str, want: &Value, test: (f64, f64), p_bonferroni: Option<f64>) {
+        let (statistic, p) = test;
+        let p_bonferroni = p_bonferroni.unwrap_or(f64::NAN);
+        let got = [
+            ("statistic", statistic),
+            ("p", p),
+            ("p_bonferroni", p_bonferroni),
+        ];
+        self.fields(what, want, &got);
+    }
+
+    /// A study-table test: done where the fixture has its value
+    /// (`expected`), left undone where it does not; the result if done.
+    fn done<T: Debug>(
+        &mut self,
+        what: &str,
+        got: Option<T>,
+        expected: bool,
+        want: &Value,
+    ) -> Option<T> {
+        match (got, expected) {
+            (Some(r), true) => Some(r),
+            (None, false) => None,
+            (g, _) => {
+                self.truth(&format!("{what}: {g:?} vs {want}"), false);
+                None
+            }
+        }
+    }
+
     fn finish(self, section: &str, at_least: usize) {
         assert!(
             self.failures.is_empty(),
@@ -80,6 +152,11 @@ impl Check {
             self.compared, self.worst.0, self.worst.1
         );
     }
+}
+
+/// Whether scipy found the case degenerate (no meaningful number).
+fn degenerate(case: &Value) -> bool {
+    case.get("degenerate").is_some()
 }
 
 /// The fixture's exact encoding of a dataset: value = num / den · 2^exp2.
@@ -107,90 +184,67 @@ fn num(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
 
-fn name(case: &Value) -> &str {
-    case["name"].as_str().unwrap()
+/// Checks each case of the fixture's `section` with `check`, given the
+/// case's name for messages (`{section} {name}`); the fixture and the
+/// checks made, to finish.
+fn each_case(section: &str, mut check: impl FnMut(&mut Check, &str, &Value)) -> (Value, Check) {
+    let f = fixture();
+    let mut c = Check::default();
+    for case in f[section].as_array().unwrap() {
+        let what = format!("{section} {}", case["name"].as_str().unwrap());
+        check(&mut c, &what, case);
+    }
+    (f, c)
 }
 
 #[test]
 fn shapiro_wilk_matches_scipy() {
-    let f = fixture();
-    let mut c = Check::default();
-    for case in f["shapiro"].as_array().unwrap() {
+    let (_, c) = each_case("shapiro", |c, what, case| {
         let x = values(&case["x"]);
-        let got = shapiro_wilk(&x);
-        let n = name(case);
-        if case.get("degenerate").is_some() {
-            c.truth(&format!("shapiro {n}: refused, got {got:?}"), got.is_err());
-            continue;
+        if let Some(r) = c.outcome(what, case, shapiro_wilk(&x)) {
+            c.fields(what, case, &[("w", r.w), ("p", r.p)]);
         }
-        let Ok(r) = got else {
-            c.truth(&format!("shapiro {n}: {got:?}"), false);
-            continue;
-        };
-        c.close(&format!("shapiro {n} W"), r.w, num(&case["w"]));
-        c.close(&format!("shapiro {n} p"), r.p, num(&case["p"]));
-    }
+    });
     c.finish("Shapiro-Wilk", 80);
 }
 
 #[test]
 fn wilcoxon_matches_scipy() {
-    let f = fixture();
-    let mut c = Check::default();
-    for case in f["wilcoxon"].as_array().unwrap() {
+    let (_, c) = each_case("wilcoxon", |c, what, case| {
         let x = values(&case["x"]);
         let y = values(&case["y"]);
-        let got = wilcoxon(&x, &y);
-        let n = name(case);
-        if case.get("degenerate").is_some() {
-            c.truth(&format!("wilcoxon {n}: refused, got {got:?}"), got.is_err());
-            continue;
-        }
-        let Ok(r) = got else {
-            c.truth(&format!("wilcoxon {n}: {got:?}"), false);
-            continue;
+        let Some(r) = c.outcome(what, case, wilcoxon(&x, &y)) else {
+            return;
         };
         c.truth(
             &format!(
-                "wilcoxon {n}: method {} vs scipy {}",
+                "{what}: method {} vs scipy {}",
                 r.method.name(),
                 case["method"]
             ),
             r.method.name() == case["method"].as_str().unwrap(),
         );
-        c.truth(
-            &format!("wilcoxon {n}: n {} / {}", r.n, r.n_nonzero),
-            r.n as u64 == case["n"].as_u64().unwrap()
-                && r.n_nonzero as u64 == case["n_nonzero"].as_u64().unwrap(),
+        c.counts(what, case, &[("n", r.n), ("n_nonzero", r.n_nonzero)]);
+        c.fields(
+            what,
+            case,
+            &[
+                ("statistic", r.statistic),
+                ("p", r.p),
+                ("r_plus", r.r_plus),
+                ("r_minus", r.r_minus),
+                ("z", r.z),
+                ("r", r.r),
+                ("rank_biserial", r.rank_biserial),
+            ],
         );
-        c.close(
-            &format!("wilcoxon {n} statistic"),
-            r.statistic,
-            num(&case["statistic"]),
-        );
-        c.close(&format!("wilcoxon {n} p"), r.p, num(&case["p"]));
-        c.close(&format!("wilcoxon {n} R+"), r.r_plus, num(&case["r_plus"]));
-        c.close(
-            &format!("wilcoxon {n} R-"),
-            r.r_minus,
-            num(&case["r_minus"]),
-        );
-        c.close(&format!("wilcoxon {n} z"), r.z, num(&case["z"]));
-        c.close(&format!("wilcoxon {n} r"), r.r, num(&case["r"]));
-        c.close(
-            &format!("wilcoxon {n} rank-biserial"),
-            r.rank_biserial,
-            num(&case["rank_biserial"]),
-        );
-    }
+    });
     c.finish("Wilcoxon", 300);
 }
 
 #[test]
 fn friedman_matches_scipy() {
-    let f = fixture();
-    let mut c = Check::default();
-    for case in f["friedman"].as_array().unwrap() {
+    let (_, c) = each_case("friedman", |c, what, case| {
         let samples: Vec<Vec<f64>> = case["samples"]
             .as_array()
             .unwrap()
@@ -198,57 +252,37 @@ fn friedman_matches_scipy() {
             .map(values)
             .collect();
         let slices: Vec<&[f64]> = samples.iter().map(Vec::as_slice).collect();
-        let got = friedman(&slices);
-        let n = name(case);
-        if case.get("degenerate").is_some() {
-            c.truth(&format!("friedman {n}: refused, got {got:?}"), got.is_err());
-            continue;
-        }
-        let Ok(r) = got else {
-            c.truth(&format!("friedman {n}: {got:?}"), false);
-            continue;
+        let Some(r) = c.outcome(what, case, friedman(&slices)) else {
+            return;
         };
-        c.truth(
-            &format!("friedman {n}: n {}", r.n),
-            r.n as u64 == case["n"].as_u64().unwrap(),
+        c.counts(what, case, &[("n", r.n)]);
+        c.fields(
+            what,
+            case,
+            &[
+                ("statistic", r.statistic),
+                ("p", r.p),
+                ("kendall_w", r.kendall_w),
+            ],
         );
-        c.close(
-            &format!("friedman {n} statistic"),
-            r.statistic,
-            num(&case["statistic"]),
-        );
-        c.close(&format!("friedman {n} p"), r.p, num(&case["p"]));
-        c.close(
-            &format!("friedman {n} Kendall's W"),
-            r.kendall_w,
-            num(&case["kendall_w"]),
-        );
-    }
+    });
     c.finish("Friedman", 50);
 }
 
 #[test]
 fn paired_t_power_matches_statsmodels() {
-    let f = fixture();
-    let mut c = Check::default();
-    for case in f["paired"].as_array().unwrap() {
+    let (f, mut c) = each_case("paired", |c, what, case| {
         let x = values(&case["x"]);
         let y = values(&case["y"]);
         let alpha = num(&case["alpha"]);
-        let got = paired_t(&x, &y, alpha);
-        let n = name(case);
-        if case.get("degenerate").is_some() {
-            c.truth(&format!("paired {n}: refused, got {got:?}"), got.is_err());
-            continue;
+        if let Some(r) = c.outcome(what, case, paired_t(&x, &y, alpha)) {
+            c.fields(
+                what,
+                case,
+                &[("d_z", r.d_z), ("t", r.t), ("power", r.power)],
+            );
         }
-        let Ok(r) = got else {
-            c.truth(&format!("paired {n}: {got:?}"), false);
-            continue;
-        };
-        c.close(&format!("paired {n} d_z"), r.d_z, num(&case["d_z"]));
-        c.close(&format!("paired {n} t"), r.t, num(&case["t"]));
-        c.close(&format!("paired {n} power"), r.power, num(&case["power"]));
-    }
+    });
     for row in f["power_grid"].as_array().unwrap() {
         let (d, n, alpha) = (
             num(&row["d"]),
@@ -264,6 +298,9 @@ fn paired_t_power_matches_statsmodels() {
     c.finish("paired t", 280);
 }
 
+/// A special function of its arguments.
+type Special = fn(&[f64]) -> f64;
+
 #[test]
 fn special_functions_match_scipy() {
     let f = fixture();
@@ -276,36 +313,21 @@ fn special_functions_match_scipy() {
             .map(|r| r.as_array().unwrap().iter().map(num).collect::<Vec<f64>>())
             .collect::<Vec<_>>()
     };
-    for r in rows("norm_sf") {
-        c.close(&format!("norm_sf({})", r[0]), special::norm_sf(r[0]), r[1]);
-    }
-    for r in rows("norm_ppf") {
-        c.close(
-            &format!("norm_ppf({})", r[0]),
-            special::norm_ppf(r[0]),
-            r[1],
-        );
-    }
-    for r in rows("chi2_sf") {
-        c.close(
-            &format!("chi2_sf({}, {})", r[0], r[1]),
-            special::chi2_sf(r[0], r[1]),
-            r[2],
-        );
-    }
-    for r in rows("t_sf") {
-        c.close(
-            &format!("t_sf({}, {})", r[0], r[1]),
-            special::t_sf(r[0], r[1]),
-            r[2],
-        );
-    }
-    for r in rows("t_isf") {
-        c.close(
-            &format!("t_isf({}, {})", r[0], r[1]),
-            special::t_isf(r[0], r[1]),
-            r[2],
-        );
+    // Each function's rows: its arguments, then scipy's value.
+    let functions: [(&str, Special); 6] = [
+        ("norm_sf", |a| special::norm_sf(a[0])),
+        ("norm_ppf", |a| special::norm_ppf(a[0])),
+        ("chi2_sf", |a| special::chi2_sf(a[0], a[1])),
+        ("t_sf", |a| special::t_sf(a[0], a[1])),
+        ("t_isf", |a| special::t_isf(a[0], a[1])),
+        ("ln_gamma", |a| special::ln_gamma(a[0])),
+    ];
+    for (key, f) in functions {
+        for r in rows(key) {
+            let (args, want) = r.split_at(r.len() - 1);
+            let shown: Vec<String> = args.iter().map(f64::to_string).collect();
+            c.close(&format!("{key}({})", shown.join(", ")), f(args), want[0]);
+        }
     }
     for r in rows("nct_cdf") {
         let (t, df, nc) = (r[0], r[1], r[2]);
@@ -327,13 +349,6 @@ fn special_functions_match_scipy() {
         } else {
             c.close(&what, got, r[3]);
         }
-    }
-    for r in rows("ln_gamma") {
-        c.close(
-            &format!("ln_gamma({})", r[0]),
-            special::ln_gamma(r[0]),
-            r[1],
-        );
     }
     c.finish("special functions", 400);
 }
@@ -411,17 +426,9 @@ fn study_table_matches_scipy_pipeline() {
             &format!("{what}: condition"),
             got.condition == want["condition"].as_str().unwrap(),
         );
-        c.truth(
-            &format!("{what}: n"),
-            got.n as u64 == want["n"].as_u64().unwrap(),
-        );
-        match (got.shapiro_wilk.done(), want.get("degenerate").is_some()) {
-            (Some(r), false) => {
-                c.close(&format!("{what} W"), r.w, num(&want["w"]));
-                c.close(&format!("{what} p"), r.p, num(&want["p"]));
-            }
-            (None, true) => {}
-            (g, _) => c.truth(&format!("{what}: {g:?} vs {want}"), false),
+        c.counts(&what, want, &[("n", got.n)]);
+        if let Some(r) = c.done(&what, got.shapiro_wilk.done(), !degenerate(want), want) {
+            c.fields(&what, want, &[("w", r.w), ("p", r.p)]);
         }
     }
 
@@ -430,40 +437,19 @@ fn study_table_matches_scipy_pipeline() {
     for (got, want) in out.pairs.iter().zip(pairs) {
         let what = format!("pair {} − {}", got.a, got.b);
         c.truth(
-            &format!("{what}: names, n, m"),
-            got.a == want["a"].as_str().unwrap()
-                && got.b == want["b"].as_str().unwrap()
-                && got.n as u64 == want["n"].as_u64().unwrap()
-                && got.m as u64 == want["m"].as_u64().unwrap(),
+            &format!("{what}: names"),
+            got.a == want["a"].as_str().unwrap() && got.b == want["b"].as_str().unwrap(),
         );
-        match (got.wilcoxon.done(), want.get("degenerate").is_some()) {
-            (Some(w), false) => {
-                c.close(
-                    &format!("{what} statistic"),
-                    w.statistic,
-                    num(&want["statistic"]),
-                );
-                c.close(&format!("{what} p"), w.p, num(&want["p"]));
-                c.close(
-                    &format!("{what} p Bonferroni"),
-                    got.p_bonferroni.unwrap(),
-                    num(&want["p_bonferroni"]),
-                );
-                c.truth(
-                    &format!("{what}: method"),
-                    w.method.name() == want["method"].as_str().unwrap(),
-                );
-            }
-            (None, true) => {}
-            (g, _) => c.truth(&format!("{what}: {g:?} vs {want}"), false),
+        c.counts(&what, want, &[("n", got.n), ("m", got.m)]);
+        if let Some(w) = c.done(&what, got.wilcoxon.done(), !degenerate(want), want) {
+            c.corrected(&what, want, (w.statistic, w.p), got.p_bonferroni);
+            c.truth(
+                &format!("{what}: method"),
+                w.method.name() == want["method"].as_str().unwrap(),
+            );
         }
-        match (got.paired_t.done(), want.get("d_z")) {
-            (Some(t), Some(dz)) => {
-                c.close(&format!("{what} d_z"), t.d_z, num(dz));
-                c.close(&format!("{what} power"), t.power, num(&want["power"]));
-            }
-            (None, None) => {}
-            (g, _) => c.truth(&format!("{what}: {g:?} vs {want}"), false),
+        if let Some(t) = c.done(&what, got.paired_t.done(), want.get("d_z").is_some(), want) {
+            c.fields(&what, want, &[("d_z", t.d_z), ("power", t.power)]);
         }
     }
 
@@ -474,27 +460,9 @@ fn study_table_matches_scipy_pipeline() {
     );
     for (got, want) in out.friedman.iter().zip(friedman_rows) {
         let what = format!("friedman {} {:?}", got.family, got.conditions);
-        c.truth(
-            &format!("{what}: n, m"),
-            got.n as u64 == want["n"].as_u64().unwrap()
-                && got.m as u64 == want["m"].as_u64().unwrap(),
-        );
-        match (got.friedman.done(), want.get("degenerate").is_some()) {
-            (Some(r), false) => {
-                c.close(
-                    &format!("{what} statistic"),
-                    r.statistic,
-                    num(&want["statistic"]),
-                );
-                c.close(&format!("{what} p"), r.p, num(&want["p"]));
-                c.close(
-                    &format!("{what} p Bonferroni"),
-                    got.p_bonferroni.unwrap(),
-                    num(&want["p_bonferroni"]),
-                );
-            }
-            (None, true) => {}
-            (g, _) => c.truth(&format!("{what}: {g:?} vs {want}"), false),
+        c.counts(&what, want, &[("n", got.n), ("m", got.m)]);
+        if let Some(r) = c.done(&what, got.friedman.done(), !degenerate(want), want) {
+            c.corrected(&what, want, (r.statistic, r.p), got.p_bonferroni);
         }
     }
     c.finish("study table", 150);

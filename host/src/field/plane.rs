@@ -112,3 +112,19 @@ impl ObservationPlane {
         [dot(d, self.u), dot(d, self.v)]
     }
 }
+
+#[cfg(test)]
+impl ObservationPlane {
+    /// A plane parallel to the array (`u` = x, `v` = y) around
+    /// `center_mm`: the tests' usual plane.
+    pub(crate) fn xy(center_mm: [f64; 3], width_mm: f64, height_mm: f64, step_mm: f64) -> Self {
+        Self {
+            center_mm,
+            u: [1.0, 0.0, 0.0],
+            v: [0.0, 1.0, 0.0],
+            width_mm,
+            height_mm,
+            step_mm,
+        }
+    }
+}

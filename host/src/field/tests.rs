@@ -49,14 +49,7 @@ fn quantise(rad: &[f64]) -> Vec<u8> {
 }
 
 fn plane_around(c: [f64; 3], half: f64, step: f64) -> ObservationPlane {
-    ObservationPlane {
-        center_mm: c,
-        u: X,
-        v: Y,
-        width_mm: 2.0 * half,
-        height_mm: 2.0 * half,
-        step_mm: step,
-    }
+    ObservationPlane::xy(c, 2.0 * half, 2.0 * half, step)
 }
 
 fn rel_err_at_peak(fast: &[f64], reference: &[f64]) -> f64 {

@@ -577,4 +577,6 @@ impl PdfBackend<'_> {
 }
 
 #[cfg(test)]
+pub(crate) mod read;
+#[cfg(test)]
 mod tests;

@@ -1,44 +1,18 @@
 //! The PDF a figure gives: sized, repeatable, text as Unicode glyphs of a
 //! named font subset.
 
-use std::io::Read as _;
-
 use plotters::prelude::*;
 
+use super::read::{object, streams};
 use super::*;
 use crate::field::ObservationPlane;
 use crate::field::plot::{self, Figure, Format, Labels, Overlay, Panel};
 
-/// Object `n`'s bytes, between `n 0 obj` and `endobj`.
-fn object(pdf: &[u8], n: usize) -> &[u8] {
-    let head = format!("\n{n} 0 obj\n");
-    let at = pdf
-        .windows(head.len())
-        .position(|w| w == head.as_bytes())
-        .unwrap_or_else(|| panic!("object {n}"))
-        + head.len();
-    let end = pdf[at..].windows(6).position(|w| w == b"endobj").unwrap();
-    &pdf[at..at + end]
-}
-
-/// The inflated data of a stream object (`/Length` bytes after `stream`).
-fn stream_data(obj: &[u8]) -> Vec<u8> {
-    let text = String::from_utf8_lossy(obj);
-    let len: usize = text
-        .split("/Length ")
-        .nth(1)
-        .unwrap()
-        .split(|c: char| !c.is_ascii_digit())
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
-    let s = obj.windows(7).position(|w| w == b"stream\n").unwrap() + 7;
-    let mut out = Vec::new();
-    flate2::read::ZlibDecoder::new(&obj[s..s + len])
-        .read_to_end(&mut out)
-        .unwrap();
-    out
+/// The data of stream object `n`, inflated.
+fn stream_data(pdf: &[u8], n: usize) -> Vec<u8> {
+    let mut s = streams(object(pdf, n));
+    assert_eq!(s.len(), 1, "object {n}");
+    s.remove(0)
 }
 
 fn text(obj: &[u8]) -> String {
@@ -49,14 +23,7 @@ fn text(obj: &[u8]) -> String {
 fn figure_pdf_is_sized_repeatable_and_embeds_a_font_subset() {
     let dir = std::env::temp_dir().join(format!("lmhost-pdf-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let plane = ObservationPlane {
-        center_mm: [0.0, 0.0, 200.0],
-        u: [1.0, 0.0, 0.0],
-        v: [0.0, 1.0, 0.0],
-        width_mm: 10.0,
-        height_mm: 8.0,
-        step_mm: 1.0,
-    };
+    let plane = ObservationPlane::xy([0.0, 0.0, 200.0], 10.0, 8.0, 1.0);
     let map: Vec<f64> = (0..plane.nu() * plane.nv()).map(|i| i as f64).collect();
     let panel = Panel {
         map: &map,
@@ -111,7 +78,7 @@ fn figure_pdf_is_sized_repeatable_and_embeds_a_font_subset() {
     assert!(name.starts_with("DejaVuSans"), "{name}");
     assert!(font.contains("/Identity-H") && font.contains("/ToUnicode 9 0 R"));
     // Cut to the glyphs drawn: a few dozen, not DejaVu's 6000.
-    let file = stream_data(object(&pdf, 8));
+    let file = stream_data(&pdf, 8);
     let sub = ttf_parser::Face::parse(&file, 0).unwrap();
     let full = ttf_parser::Face::parse(plot::FONT, 0).unwrap();
     assert!(
@@ -121,7 +88,7 @@ fn figure_pdf_is_sized_repeatable_and_embeds_a_font_subset() {
     );
     assert!(file.len() * 20 < plot::FONT.len(), "{} bytes", file.len());
     // Every character drawn is in the ToUnicode map, the ∥ included.
-    let cmap = text(&stream_data(object(&pdf, 9)));
+    let cmap = text(&stream_data(&pdf, 9));
     for c in ['a', 'm', 'P', '∥', '(', '6'] {
         let hex = format!("<{:04X}>", u32::from(c));
         assert!(cmap.contains(&hex), "{c} {hex}");
@@ -139,7 +106,10 @@ fn figure_pdf_is_sized_repeatable_and_embeds_a_font_subset() {
             .parse()
             .unwrap()
     };
-    assert_eq!(stream_data(img).len(), num("/Width") * num("/Height") * 3);
+    assert_eq!(
+        stream_data(&pdf, 12).len(),
+        num("/Width") * num("/Height") * 3
+    );
 }
 
 #[test]

@@ -411,14 +411,7 @@ mod tests {
 
     #[test]
     fn heatmap_writes_png_svg_and_pdf_at_the_printed_width() {
-        let plane = ObservationPlane {
-            center_mm: [0.0; 3],
-            u: [1.0, 0.0, 0.0],
-            v: [0.0, 1.0, 0.0],
-            width_mm: 4.0,
-            height_mm: 4.0,
-            step_mm: 0.5,
-        };
+        let plane = ObservationPlane::xy([0.0; 3], 4.0, 4.0, 0.5);
         let map: Vec<f64> = (0..plane.nu() * plane.nv()).map(|i| i as f64).collect();
         let dir = std::env::temp_dir().join(format!("lmhost-plot-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

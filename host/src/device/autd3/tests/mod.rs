@@ -49,6 +49,18 @@ fn open_default() -> (Scene, Autd3Backend, EmulatorHandle, Clock) {
     (scene, b, h, clock)
 }
 
+/// The built-in scene and a backend on it playing a 3 mm LM-S (`x`) from
+/// slot 1, and a 4-focus LM-M of `radius_mm` (`y`) to upload into slot 0
+/// while it plays.
+fn playing_beside(radius_mm: f64) -> (Scene, Autd3Backend, EmulatorHandle, Clock, Plan, Plan) {
+    let (scene, mut b, h, clock) = open_default();
+    let (x, _) = lm(&scene, 3.0, 1);
+    let (y, _) = lm(&scene, radius_mm, 4);
+    b.upload(&x, Some(1)).unwrap();
+    b.play(1, true).unwrap();
+    (scene, b, h, clock, x, y)
+}
+
 /// Uploads a 3 mm, one-focus LM on `scene` into a free slot; returns the
 /// plan and the slot.
 fn upload_lm_s(b: &mut Autd3Backend, scene: &Scene) -> (Plan, u8) {
@@ -216,11 +228,7 @@ fn paper_timing_lands_on_the_fpga_divide() {
 /// left empty, so nothing can play what was not planned.
 #[test]
 fn a_damaged_upload_fails_and_leaves_its_slot_empty() {
-    let (scene, mut b, h, _c) = open_default();
-    let (x, _) = lm(&scene, 3.0, 1);
-    let (y, _) = lm(&scene, 5.0, 4);
-    b.upload(&x, Some(1)).unwrap();
-    b.play(1, true).unwrap();
+    let (scene, mut b, h, _c, _, y) = playing_beside(5.0);
     h.damage_next_stm_upload();
     let e = b.upload(&y, Some(0)).unwrap_err();
     assert_eq!(e.kind(), crate::device::backend::ErrorKind::Failed, "{e:#}");
@@ -365,11 +373,7 @@ fn drop_leaves_the_array_silent() {
 
 #[test]
 fn link_broken_mid_upload_keeps_the_playing_segment() {
-    let (scene, mut b, h, _c) = open_default();
-    let (x, _) = lm(&scene, 3.0, 1);
-    let (y, _) = lm(&scene, 6.0, 4);
-    b.upload(&x, Some(1)).unwrap();
-    b.play(1, true).unwrap();
+    let (_, mut b, h, _c, x, y) = playing_beside(6.0);
     h.break_after(Some(5));
     let e = b.upload(&y, Some(0)).unwrap_err();
     assert_eq!(

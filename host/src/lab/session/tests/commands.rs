@@ -89,9 +89,7 @@ fn bad_commands_are_refused_and_leave_the_device_as_it_was() {
 #[test]
 fn a_third_present_replaces_the_one_waiting_for_its_switch() {
     for (name, mut d, clock) in both(no_finger) {
-        d.session().present(&untracked("a")).unwrap();
-        run_for(&mut d, &clock, Duration::from_millis(45));
-        d.session().present(&untracked("b")).unwrap();
+        a_then_b(&mut d, &clock, Duration::from_millis(45));
         let r = d.session().handle(&Command::Present(untracked("m")), 1);
         if name == "autd3" {
             // An AUTD3 cannot take a queued switch back (yet): refused
@@ -139,9 +137,7 @@ fn a_third_present_replaces_the_one_waiting_for_its_switch() {
         );
         // The same again while `a` → `b` waits: `a` plays on through its
         // cycle end.
-        d.session().present(&untracked("a")).unwrap();
-        run_for(&mut d, &clock, Duration::from_millis(10));
-        d.session().present(&untracked("b")).unwrap();
+        a_then_b(&mut d, &clock, Duration::from_millis(10));
         d.session().present(&untracked("m")).unwrap();
         let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
             has(e, |k| matches!(k, EventKind::Onset { .. }))

@@ -26,57 +26,33 @@ fn small_lm(clock: &Clock, steps: u32) -> Box<dyn Backend> {
     Box::new(dev)
 }
 
-/// Six 10 Hz LM-S entries of 19 to 50 steps (207 in all).
-const BIG: &str = r#"
-[[stimulus]]
-id = "r3"
-radius = 3
-freq = 10
-step = 1.0
-untracked = true
-[[stimulus]]
-id = "r4"
-radius = 4
-freq = 10
-step = 1.0
-untracked = true
-[[stimulus]]
-id = "r5"
-radius = 5
-freq = 10
-step = 1.0
-untracked = true
-[[stimulus]]
-id = "r6"
-radius = 6
-freq = 10
-step = 1.0
-untracked = true
-[[stimulus]]
-id = "r7"
-radius = 7
-freq = 10
-step = 1.0
-untracked = true
-[[stimulus]]
-id = "r8"
-radius = 8
-freq = 10
-step = 1.0
-untracked = true
-"#;
+/// Six untracked 10 Hz LM-S entries `r3` to `r8` at radii 3 to 8 mm, of
+/// 19 to 50 steps (207 in all).
+fn big() -> String {
+    (3..=8)
+        .map(|r| {
+            format!("[[stimulus]]\nid = \"r{r}\"\nradius = {r}\nfreq = 10\nstep = 1.0\nuntracked = true\n")
+        })
+        .collect()
+}
+
+/// A session over [`big`] on the simulated firmware with room for `steps`
+/// raw steps, no finger.
+fn big_on(clock: &Clock, steps: u32) -> Driver {
+    driver(
+        &big(),
+        &Target::Lm,
+        small_lm(clock, steps),
+        clock,
+        Finger::None,
+    )
+}
 
 #[test]
 fn a_library_larger_than_the_devices_memory_loads_on_demand_in_place_of_idle_entries() {
     let clock = Clock::manual_at_us(1_000_000);
     // Room for 120 steps: the first four entries (113 steps), not all six.
-    let mut d = driver(
-        BIG,
-        &Target::Lm,
-        small_lm(&clock, 120),
-        &clock,
-        Finger::None,
-    );
+    let mut d = big_on(&clock, 120);
     let ev = d.session().drain_events();
     let resident = ev.iter().find_map(|e| match e.kind {
         EventKind::Ready { resident, .. } => Some(resident),
@@ -133,7 +109,7 @@ fn a_library_larger_than_the_devices_memory_loads_on_demand_in_place_of_idle_ent
     assert!(resident < 6, "{resident}");
     // An entry that cannot fit beside the playing one, even alone, is
     // refused with the reason and nothing changes.
-    let mut tiny = driver(BIG, &Target::Lm, small_lm(&clock, 60), &clock, Finger::None);
+    let mut tiny = big_on(&clock, 60);
     tiny.session().present(&untracked("r5")).unwrap();
     let r = tiny.session().handle(&Command::Present(untracked("r8")), 1);
     let msg = r.0["error"].as_str().unwrap_or_default();

@@ -112,6 +112,14 @@ fn run_for(d: &mut Driver, clock: &Clock, t: Duration) -> Vec<Event> {
     run_until(d, clock, t, |_| false)
 }
 
+/// `a` plays for `t`, then `b` is asked for: a switch that waits for
+/// `a`'s cycle end.
+fn a_then_b(d: &mut Driver, clock: &Clock, t: Duration) {
+    d.session().present(&untracked("a")).unwrap();
+    run_for(d, clock, t);
+    d.session().present(&untracked("b")).unwrap();
+}
+
 fn present(
     id: &str,
     gate: Option<Gate>,
@@ -235,9 +243,7 @@ fn timed_on_phases_last_on_s_by_the_devices_counters_and_repeat() {
 #[test]
 fn a_stimulus_presented_over_another_takes_over_at_the_cycle_end() {
     for (name, mut d, clock) in both(no_finger) {
-        d.session().present(&untracked("a")).unwrap();
-        run_for(&mut d, &clock, Duration::from_millis(57));
-        d.session().present(&untracked("b")).unwrap();
+        a_then_b(&mut d, &clock, Duration::from_millis(57));
         let ev = run_until(&mut d, &clock, Duration::from_secs(2), |e| {
             has(e, |k| matches!(k, EventKind::Onset { .. }))
         });

@@ -13,35 +13,7 @@ use crate::lab::study::columns::{self, NOT_PERCEIVED};
 use crate::lab::study::design;
 use crate::lab::study::protocol::Unlinked;
 use crate::lab::study::record::{self, Expect, SessionFile};
-
-const PROTOCOL: &str = r#"name = "scipy-fixture"
-library = "paper-library.toml"
-sets = 2
-stimulus = "{type}-a{radius}"
-
-[timeline]
-on_s = 1.0
-
-[[factor]]
-name = "type"
-levels = ["lms-5hz", "lmm-5hz", "lms-25hz"]
-
-[[factor]]
-name = "radius"
-levels = ["2", "3", "4", "5", "6"]
-
-[[question]]
-id = "vibration"
-kind = "likert"
-points = 7
-not_perceived = "could not perceive"
-
-[report]
-friedman = ["type", "radius"]
-
-[[report.pairs]]
-factor = "type"
-"#;
+use crate::lab::study::test_files::exp1_vibration;
 
 fn fixture() -> Value {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/stats/reference.json");
@@ -61,7 +33,8 @@ fn close(what: &str, got: &Value, want: &Value) {
 fn write_study(out: &std::path::Path) -> usize {
     let f = fixture();
     let rows = f["design"]["rows"].as_array().unwrap();
-    let p = Unlinked::from_toml(PROTOCOL, "fixture").unwrap();
+    let protocol = exp1_vibration();
+    let p = Unlinked::from_toml(&protocol, "fixture").unwrap();
     let mut na = 0;
     let mut who: Vec<&str> = rows.iter().map(|r| r[0].as_str().unwrap()).collect();
     who.dedup();
@@ -98,7 +71,7 @@ fn write_study(out: &std::path::Path) -> usize {
         let s = SessionFile {
             protocol_name: p.name.clone(),
             protocol_file: "fixture.toml".into(),
-            protocol: PROTOCOL.into(),
+            protocol: protocol.clone(),
             library_file: "paper-library.toml".into(),
             participant: (*id).into(),
             seed,
@@ -133,51 +106,67 @@ fn the_reports_statistics_match_scipy_on_the_fixtures_study() {
     assert_eq!(q["not_perceived"], 14);
     let a = &q["analysis"];
     let want = &fixture()["design"]["expect"];
-    // Shapiro-Wilk per condition.
-    let normality = a["normality"].as_array().unwrap();
-    assert_eq!(normality.len(), 15);
-    for w in want["normality"].as_array().unwrap() {
-        let g = normality
-            .iter()
-            .find(|g| g["condition"] == w["condition"])
-            .unwrap();
-        let what = format!("shapiro {}", w["condition"]);
-        assert_eq!(g["n"], w["n"], "{what}");
-        close(&what, &g["shapiro_wilk"]["done"]["w"], &w["w"]);
-        close(&what, &g["shapiro_wilk"]["done"]["p"], &w["p"]);
-    }
-    // Wilcoxon for the named pairs, Bonferroni within each radius, d_z
-    // and the paired t-test's power.
-    let pairs = a["pairs"].as_array().unwrap();
-    assert_eq!(pairs.len(), 15);
-    for w in want["pairs"].as_array().unwrap() {
-        let g = pairs
-            .iter()
-            .find(|g| g["a"] == w["a"] && g["b"] == w["b"])
-            .unwrap_or_else(|| panic!("pair {} {}", w["a"], w["b"]));
-        let what = format!("wilcoxon {} {}", w["a"], w["b"]);
-        assert_eq!((&g["n"], &g["m"]), (&w["n"], &w["m"]), "{what}");
-        let t = &g["wilcoxon"]["done"];
-        assert_eq!(t["method"], w["method"], "{what}");
-        close(&what, &t["statistic"], &w["statistic"]);
-        close(&what, &t["p"], &w["p"]);
-        close(&what, &g["p_bonferroni"], &w["p_bonferroni"]);
-        close(&what, &g["paired_t"]["done"]["d_z"], &w["d_z"]);
-        close(&what, &g["paired_t"]["done"]["power"], &w["power"]);
-    }
-    // Friedman over each factor, Bonferroni within it.
-    let friedman = a["friedman"].as_array().unwrap();
-    assert_eq!(friedman.len(), 8);
-    for w in want["friedman"].as_array().unwrap() {
-        let g = friedman
-            .iter()
-            .find(|g| g["conditions"] == w["conditions"])
-            .unwrap();
-        let what = format!("friedman {}", w["conditions"]);
-        assert_eq!((&g["n"], &g["m"]), (&w["n"], &w["m"]), "{what}");
-        close(&what, &g["friedman"]["done"]["statistic"], &w["statistic"]);
-        close(&what, &g["friedman"]["done"]["p"], &w["p"]);
-        close(&what, &g["p_bonferroni"], &w["p_bonferroni"]);
+    // Each section's rows: the keys that name a row, its fields that
+    // equal scipy's exactly and the numbers within 1e-6 of them (a path
+    // into the report's row, the fixture's key).
+    for (section, len, keys, exact, numbers) in [
+        // Shapiro-Wilk per condition.
+        (
+            "normality",
+            15,
+            &["condition"][..],
+            &[("/n", "n")][..],
+            &[("/shapiro_wilk/done/w", "w"), ("/shapiro_wilk/done/p", "p")][..],
+        ),
+        // Wilcoxon for the named pairs, Bonferroni within each radius, d_z
+        // and the paired t-test's power.
+        (
+            "pairs",
+            15,
+            &["a", "b"],
+            &[
+                ("/n", "n"),
+                ("/m", "m"),
+                ("/wilcoxon/done/method", "method"),
+            ],
+            &[
+                ("/wilcoxon/done/statistic", "statistic"),
+                ("/wilcoxon/done/p", "p"),
+                ("/p_bonferroni", "p_bonferroni"),
+                ("/paired_t/done/d_z", "d_z"),
+                ("/paired_t/done/power", "power"),
+            ],
+        ),
+        // Friedman over each factor, Bonferroni within it.
+        (
+            "friedman",
+            8,
+            &["conditions"],
+            &[("/n", "n"), ("/m", "m")],
+            &[
+                ("/friedman/done/statistic", "statistic"),
+                ("/friedman/done/p", "p"),
+                ("/p_bonferroni", "p_bonferroni"),
+            ],
+        ),
+    ] {
+        let rows = a[section].as_array().unwrap();
+        assert_eq!(rows.len(), len, "{section}");
+        for w in want[section].as_array().unwrap() {
+            let named: Vec<&Value> = keys.iter().map(|k| &w[k]).collect();
+            let what = format!("{section} {named:?}");
+            let g = rows
+                .iter()
+                .find(|g| keys.iter().all(|k| g[k] == w[k]))
+                .unwrap_or_else(|| panic!("no row {what}"));
+            let at = |path: &str| g.pointer(path).unwrap_or_else(|| panic!("{what}: {path}"));
+            for (path, k) in exact {
+                assert_eq!(at(path), &w[k], "{what}: {k}");
+            }
+            for (path, k) in numbers {
+                close(&format!("{what}: {k}"), at(path), &w[k]);
+            }
+        }
     }
     // The same tests in stats.csv and stats.txt; the summary counts them.
     let csv = std::fs::read_to_string(out.join("stats.csv")).unwrap();

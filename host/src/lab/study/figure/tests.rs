@@ -2,73 +2,13 @@
 //! words, the fixed range and the marks, read back from the PDF's text
 //! (through its ToUnicode map) and the PNG's header.
 
-use std::io::Read as _;
-
 use super::*;
 use crate::field::plot::{Format, ONE_COLUMN_MM, TWO_COLUMN_MM};
 use crate::lab::study::analysis;
 use crate::lab::study::protocol::Unlinked;
+use crate::lab::study::test_files::{exp1_vibration, studies};
+use crate::pdf::read::texts as pdf_texts;
 use crate::rng::SplitMix64;
-
-const PROTOCOL: &str = r#"name = "figures"
-library = "paper-library.toml"
-sets = 1
-stimulus = "{type}-a{radius}"
-
-[timeline]
-on_s = 1.0
-
-[[factor]]
-name = "type"
-levels = ["lms-5hz", "lmm-5hz", "lms-25hz"]
-
-[[factor]]
-name = "radius"
-levels = ["2", "3", "4", "5", "6"]
-
-[[question]]
-id = "vibration"
-kind = "likert"
-points = 7
-low = "not at all"
-high = "very intensely"
-text = "Q1. How intensely did you perceive a vibratory sensation in the presented stimulus?"
-
-[report]
-friedman = ["type", "radius"]
-
-[[report.pairs]]
-factor = "type"
-"#;
-
-const EXP3: &str = r#"name = "exp3"
-library = "paper-library.toml"
-sets = 1
-stimulus = "{type}-a{radius}"
-
-[timeline]
-on_s = 2.0
-off_s = 2.0
-
-[[factor]]
-name = "type"
-levels = ["lms-5hz", "lmm-5hz", "lms-25hz"]
-
-[[factor]]
-name = "radius"
-levels = ["2", "3", "4", "5", "6"]
-
-[adjustment]
-text = "Compared with the ultrasound stimulus, the pushing force felt"
-start_mm = 4.0
-step_mm = 0.25
-max = 20
-min_mm = 0.0
-max_mm = 10.0
-stronger = "stronger"
-weaker = "weaker"
-same = "same"
-"#;
 
 /// Ten participants' answers to `vibration`, one per condition, from
 /// `value(participant, condition)`; the stats and tests the report makes
@@ -96,133 +36,6 @@ fn study(
     let design = analysis::design(&p.report, &p.factors, &p.conditions);
     let tests = vec![analysis::question("vibration", &rows, &p.conditions, &design).unwrap()];
     (stats, tests)
-}
-
-/// Every stream of `pdf`, inflated where it is Flate.
-fn streams(pdf: &[u8]) -> Vec<Vec<u8>> {
-    let mut out = Vec::new();
-    let mut from = 0;
-    // `stream` after a dictionary, not the `endstream` before the next.
-    while let Some(at) = pdf[from..]
-        .windows(8)
-        .position(|w| w == b">>stream" || w == b"\nstream\n")
-    {
-        let start = from + at + 8 + usize::from(pdf[from + at] == b'>');
-        let head = String::from_utf8_lossy(&pdf[from..from + at]);
-        let len: usize = head
-            .rsplit("/Length ")
-            .next()
-            .unwrap()
-            .split(|c: char| !c.is_ascii_digit())
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        let raw = &pdf[start..start + len];
-        let mut data = Vec::new();
-        if flate2::read::ZlibDecoder::new(raw)
-            .read_to_end(&mut data)
-            .is_err()
-        {
-            data = raw.to_vec();
-        }
-        out.push(data);
-        from = start + len;
-    }
-    out
-}
-
-/// The PDF literal string opening at `s[0]` (`(`): its bytes, and the
-/// index after its closing `)`. Parentheses nest; `\` escapes.
-fn literal(s: &[u8]) -> (Vec<u8>, usize) {
-    let mut out = Vec::new();
-    let (mut i, mut depth) = (1, 1);
-    while i < s.len() {
-        match s[i] {
-            b'\\' => {
-                i += 1;
-                let digits = s[i..]
-                    .iter()
-                    .take(3)
-                    .take_while(|c| (b'0'..=b'7').contains(c))
-                    .count();
-                if digits > 0 {
-                    let oct = std::str::from_utf8(&s[i..i + digits]).unwrap();
-                    out.push(u8::from_str_radix(oct, 8).unwrap());
-                    i += digits;
-                    continue;
-                }
-                out.push(match s[i] {
-                    b'n' => b'\n',
-                    b'r' => b'\r',
-                    b't' => b'\t',
-                    b'b' => 8,
-                    b'f' => 12,
-                    c => c,
-                });
-            }
-            b'(' => {
-                depth += 1;
-                out.push(b'(');
-            }
-            b')' => {
-                depth -= 1;
-                if depth == 0 {
-                    return (out, i + 1);
-                }
-                out.push(b')');
-            }
-            c => out.push(c),
-        }
-        i += 1;
-    }
-    panic!("an unterminated string");
-}
-
-/// Each text the PDF shows, as Unicode through its ToUnicode map, in
-/// drawing order.
-fn pdf_texts(pdf: &[u8]) -> Vec<String> {
-    let all = streams(pdf);
-    let cmap = all
-        .iter()
-        .map(|s| String::from_utf8_lossy(s).into_owned())
-        .find(|s| s.contains("beginbfchar"))
-        .expect("a ToUnicode map");
-    let mut map = std::collections::HashMap::new();
-    for line in cmap.lines() {
-        let hex: Vec<&str> = line
-            .split(['<', '>'])
-            .filter(|t| !t.trim().is_empty())
-            .collect();
-        if let [g, u] = hex[..]
-            && let (Ok(g), Ok(u)) = (u16::from_str_radix(g, 16), u32::from_str_radix(u, 16))
-        {
-            map.insert(g, char::from_u32(u).unwrap());
-        }
-    }
-    let content = all
-        .iter()
-        .find(|s| s.windows(3).any(|w| w == b"BT\n") && s.windows(3).any(|w| w == b"Tj\n"))
-        .expect("a content stream");
-    let mut texts = Vec::new();
-    let mut i = 0;
-    while i < content.len() {
-        if content[i] != b'(' {
-            i += 1;
-            continue;
-        }
-        let (bytes, end) = literal(&content[i..]);
-        i += end;
-        if content[i..].trim_ascii_start().starts_with(b"Tj") {
-            texts.push(
-                bytes
-                    .chunks(2)
-                    .map(|g| map[&u16::from_be_bytes([g[0], g[1]])])
-                    .collect(),
-            );
-        }
-    }
-    texts
 }
 
 fn write_pdf_png(b: &BoxFigure, width_mm: f64, name: &str) -> (Vec<u8>, Vec<u8>) {
@@ -265,7 +78,7 @@ fn png_size(png: &[u8]) -> (u32, u32) {
 
 #[test]
 fn a_likert_figure_is_printed_at_a_column_width_with_the_protocols_words_and_scale() {
-    let p = Unlinked::from_toml(PROTOCOL, "test").unwrap();
+    let p = Unlinked::from_toml(&exp1_vibration(), "test").unwrap();
     // Answers between 3 and 5 only: an auto-ranged axis would span them.
     let (stats, tests) = study(&p, |who, c| 3.0 + ((who + c) % 3) as f64);
     let figs = plan(&p, &stats, &tests);
@@ -315,7 +128,7 @@ fn a_likert_figure_is_printed_at_a_column_width_with_the_protocols_words_and_sca
 
 #[test]
 fn a_significant_pair_is_starred_and_a_flat_one_is_not() {
-    let p = Unlinked::from_toml(PROTOCOL, "test").unwrap();
+    let p = Unlinked::from_toml(&exp1_vibration(), "test").unwrap();
     // LM-S 25 Hz far above the others at A = 2 mm; the rest noise.
     let fast = p
         .conditions
@@ -390,7 +203,8 @@ use crate::lab::study::columns;
 
 #[test]
 fn experiment_3_is_drawn_in_newtons_when_the_rows_hold_the_force() {
-    let p = Unlinked::from_toml(EXP3, "test").unwrap();
+    let exp3 = std::fs::read_to_string(studies("paper-exp3.toml")).unwrap();
+    let p = Unlinked::from_toml(&exp3, "test").unwrap();
     let figs = plan(&p, &exp3_stats(&p, true), &[]);
     assert_eq!(figs.len(), 1, "the force replaces the depth");
     let b = &figs[0];

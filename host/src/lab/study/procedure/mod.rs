@@ -236,6 +236,16 @@ impl Procedure for Adjustment {
 mod tests {
     use super::*;
 
+    /// `answer` ends `p` at a last level (`why_last` says why it must):
+    /// that level and why, with `p` finished.
+    pub(super) fn ends_at(p: &mut impl Procedure, answer: &str, why_last: &str) -> (f64, String) {
+        let Step::Last { level, why } = p.respond(answer) else {
+            panic!("{why_last}");
+        };
+        assert!(p.finished() && p.next().is_none(), "{why_last}");
+        (level, why)
+    }
+
     fn spec(max: u32) -> protocol::Adjustment {
         protocol::Adjustment {
             text: String::new(),
@@ -274,12 +284,9 @@ mod tests {
         );
         let mut b = Adjustment::new(&spec(2), "lms");
         assert_eq!(b.respond("stronger"), Step::Next(3.75));
-        let Step::Last { level, why } = b.respond("stronger") else {
-            panic!("the second adjustment is the last");
-        };
+        let (level, why) = ends_at(&mut b, "stronger", "the second adjustment is the last");
         assert_eq!(level, 3.5);
         assert!(why.contains("2 adjustments"), "{why}");
-        assert!(b.finished());
         assert_eq!(b.answers(), 2);
         let q = b.asked();
         assert!(q.prompt.contains("depth 3.50 mm"), "{}", q.prompt);

@@ -1,3 +1,5 @@
+use std::path::PathBuf;
+
 use super::*;
 use crate::lab::study::design;
 use crate::lab::study::protocol::Protocol;
@@ -7,6 +9,13 @@ fn exp1() -> (Protocol, Vec<Planned>) {
     let p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
     let plan = design::plan(&p, 7);
     (p, plan)
+}
+
+/// Experiment 1 as [`exp1`], and its `trials.csv` in a fresh scratch
+/// folder `name`.
+fn exp1_trials(name: &str) -> (Protocol, Vec<Planned>, PathBuf) {
+    let (p, plan) = exp1();
+    (p, plan, scratch(name).join("trials.csv"))
 }
 
 fn expect(p: &Protocol) -> Expect<'_> {
@@ -38,9 +47,7 @@ fn file(p: &Protocol, plan: &[Planned], n: usize) -> String {
 
 #[test]
 fn a_torn_last_row_is_found_and_the_file_left_as_it_is() {
-    let (p, plan) = exp1();
-    let d = scratch("torn");
-    let path = d.join("trials.csv");
+    let (p, plan, path) = exp1_trials("torn");
     let fourth = row(&p, &plan[3], "3");
     // kill -9 anywhere in the fourth row's one write.
     for cut in [1, 3, 20, fourth.len() - 1, fourth.len()] {
@@ -68,14 +75,12 @@ fn a_torn_last_row_is_found_and_the_file_left_as_it_is() {
     std::fs::remove_file(&path).unwrap();
     let t = read_trials(&path, &p.columns, &plan, &expect(&p)).unwrap();
     assert_eq!(t.tail, Tail::NoHeader);
-    let _ = std::fs::remove_dir_all(&d);
+    let _ = std::fs::remove_dir_all(path.parent().unwrap());
 }
 
 #[test]
 fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
-    let (p, plan) = exp1();
-    let d = scratch("refused");
-    let path = d.join("trials.csv");
+    let (p, plan, path) = exp1_trials("refused");
     let good = file(&p, &plan, 3);
     // "Not perceived" is a value of its own where the question allows it
     // (Experiment 1 allows it on every question), not where it does not.
@@ -201,14 +206,12 @@ fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
     .unwrap();
     let e = read_trials(&path, &p.columns, &one, &expect(&p)).unwrap_err();
     assert!(e.to_string().contains("larger than"), "{e}");
-    let _ = std::fs::remove_dir_all(&d);
+    let _ = std::fs::remove_dir_all(path.parent().unwrap());
 }
 
 #[test]
 fn a_fifo_or_device_is_refused_at_once() {
-    let (p, plan) = exp1();
-    let d = scratch("fifo");
-    let fifo = d.join("trials.csv");
+    let (p, plan, fifo) = exp1_trials("fifo");
     nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
     let e = read_trials(&fifo, &p.columns, &plan, &expect(&p)).unwrap_err();
     assert!(e.to_string().contains("FIFO"), "{e}");
@@ -216,7 +219,7 @@ fn a_fifo_or_device_is_refused_at_once() {
     assert!(e.to_string().contains("FIFO"), "{e}");
     let e = read_trials(Path::new("/dev/zero"), &p.columns, &plan, &expect(&p)).unwrap_err();
     assert!(e.to_string().contains("device node"), "{e}");
-    let _ = std::fs::remove_dir_all(&d);
+    let _ = std::fs::remove_dir_all(fifo.parent().unwrap());
 }
 
 #[test]

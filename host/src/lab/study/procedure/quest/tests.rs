@@ -5,6 +5,7 @@ use crate::lab::stats::psychometric::Shape;
 use crate::lab::stats::quest::{Model, Table};
 use crate::lab::study::answers::Answers as _;
 use crate::lab::study::observer::{Observer, Psychometric};
+use crate::lab::study::procedure::tests::ends_at;
 
 /// QUEST+ over `n` levels `0, 1/(n-1), …, 1`, weighing logistic
 /// thresholds at the same places, `slopes` and a lapse rate of 0.02.
@@ -52,12 +53,9 @@ fn it_presents_the_least_entropy_level_updates_and_records_every_presentation() 
     assert!(q.presents("s-0.9000") && !q.presents("other"));
     q.respond("yes");
     q.respond("yes");
-    let Step::Last { level, why } = q.respond("no") else {
-        panic!("the fourth presentation is the last")
-    };
+    let (level, why) = ends_at(&mut q, "no", "the fourth presentation is the last");
     assert_eq!(level, s.grid.values[q.presented()[3]]);
     assert!(why.starts_with("4 presentations: threshold 0."), "{why}");
-    assert!(q.finished() && q.next().is_none());
     assert_eq!(
         q.respond("yes"),
         Step::Done,

@@ -1,6 +1,7 @@
 use super::*;
 use crate::lab::study::answers::Answers as _;
 use crate::lab::study::observer::{Observer, Psychometric};
+use crate::lab::study::procedure::tests::ends_at;
 
 /// A staircase over `n` levels `0, 1/(n-1), …, 1`, starting at the top.
 fn spec(
@@ -78,12 +79,9 @@ fn the_procedure_presents_each_level_entry_and_records_its_state() {
     assert!(st.presents("s-0.2500") && !st.presents("other"));
     assert_eq!(st.respond("yes"), Step::Next(0.5));
     assert_eq!(st.respond("no"), Step::Next(0.75));
-    let Step::Last { level, why } = st.respond("yes") else {
-        panic!("two reversals end it");
-    };
+    let (level, why) = ends_at(&mut st, "yes", "two reversals end it");
     assert_eq!(level, 0.75);
     assert!(why.contains("threshold 0.6250 intensity"), "{why}");
-    assert!(st.finished());
     let mut row = Row::default();
     st.record(&mut row);
     assert_eq!(
