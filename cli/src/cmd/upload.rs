@@ -43,8 +43,6 @@ impl From<EncodingArg> for Encoding {
     the array; an .npy exactly as long as its shape, JSON at most 64 MiB."
 )]
 pub struct Args {
-    #[command(flatten)]
-    plan: PlanArgs,
     /// Upload these phases instead of planning: .npy uint8 (steps,
     /// transducers) or JSON (see below).
     #[arg(
@@ -101,6 +99,9 @@ pub struct Args {
     /// Print a JSON report instead of text.
     #[arg(long)]
     json: bool,
+    /// The scene and the stimulus (last, under their help heading).
+    #[command(flatten)]
+    plan: PlanArgs,
 }
 
 /// The plan flags a stimulus file leaves no room for.
@@ -115,20 +116,6 @@ const FILE_CONFLICTS: [&str; 9] = [
     "iterations",
     "weights",
 ];
-
-/// Whether `--freq` was given on the command line (not its default): a
-/// stimulus file takes its timing from exactly one place.
-fn freq_given() -> bool {
-    use clap::CommandFactory as _;
-    crate::Cli::command()
-        .try_get_matches_from(std::env::args_os())
-        .ok()
-        .and_then(|m| {
-            m.subcommand_matches("upload")
-                .map(|u| u.value_source("freq") == Some(clap::parser::ValueSource::CommandLine))
-        })
-        .unwrap_or(false)
-}
 
 /// The one-line warning printed when playing untracked.
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
@@ -180,11 +167,14 @@ impl Args {
             Some((content, path)) => {
                 let center = self
                     .plan
+                    .flags
                     .center
                     .as_deref()
                     .map(|c| crate::cmd::plan::parse_vec3("center", c))
                     .transpose()?;
-                let freq = freq_given().then_some(self.plan.freq);
+                // A stimulus file takes its timing from exactly one place:
+                // the file's dwell or a --freq given.
+                let freq = self.plan.flags.freq;
                 lmhost::plan::stimulus_file::plan_for(
                     content,
                     path,
