@@ -11,14 +11,8 @@ use lmhost::lab::study::{self, AnswerSource, FingerSource, RunOptions};
 use super::args::{FingerArgs, FingerFeed, PortArgs};
 
 /// Arguments of `lmhost study`.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    cmd: Sub,
-}
-
 #[derive(Debug, Subcommand)]
-enum Sub {
+pub enum Args {
     /// Run (or resume) one participant's session of a protocol.
     Run(Box<RunArgs>),
     /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG, PDF).
@@ -41,7 +35,7 @@ enum Sub {
     lmhost study schema protocol > protocol.schema.json\n  \
     lmhost study schema library"
 )]
-struct SchemaArgs {
+pub struct SchemaArgs {
     /// Which file's schema.
     #[arg(value_enum, value_name = "FORMAT")]
     format: SchemaFormat,
@@ -72,7 +66,7 @@ impl SchemaArgs {
 #[command(after_help = "Examples:\n  \
     lmhost study check studies/paper-exp1.toml\n  \
     lmhost study check studies/paper-exp1.toml --participant 3 --seed 7")]
-struct CheckArgs {
+pub struct CheckArgs {
     /// The protocol (TOML).
     #[arg(value_name = "PROTOCOL")]
     protocol: PathBuf,
@@ -110,7 +104,7 @@ enum Finger {
     lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic --resume\n  \
     lmhost study run studies/paper-exp3.toml --port autd3:emulator --participant P01 --out results --finger synthetic --stage sim --gauge sim\n\n\
     Writes OUT/ID/trials.csv, session.json and events.jsonl.")]
-struct RunArgs {
+pub struct RunArgs {
     /// The protocol (TOML; see studies/paper-exp1.toml).
     #[arg(value_name = "PROTOCOL")]
     protocol: PathBuf,
@@ -283,7 +277,7 @@ impl InstrumentArgs {
 
 /// Arguments of `lmhost study report`.
 #[derive(Debug, clap::Args)]
-struct ReportArgs {
+pub struct ReportArgs {
     /// A participant's folder, or the study's --out folder (every
     /// participant in it).
     #[arg(value_name = "DIR")]
@@ -302,11 +296,11 @@ struct ReportArgs {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        match self.cmd {
-            Sub::Run(a) => (*a).run(),
-            Sub::Report(a) => a.run(),
-            Sub::Check(a) => a.run(),
-            Sub::Schema(a) => a.run(),
+        match self {
+            Self::Run(a) => (*a).run(),
+            Self::Report(a) => a.run(),
+            Self::Check(a) => a.run(),
+            Self::Schema(a) => a.run(),
         }
     }
 }
