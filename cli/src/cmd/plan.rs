@@ -349,10 +349,11 @@ pub fn summary_text(plan: &Plan) -> String {
     out
 }
 
-/// The text line of an AUTD3 plan: the grid and the timing errors.
-fn autd3_line(t: &Timing) -> String {
+/// An AUTD3 plan's timing on its 25 µs grid and how far each value is
+/// from the one asked, as `plan --target autd3` and `upload` print it.
+pub fn grid_timing(t: &Timing) -> String {
     format!(
-        "on AUTD3's 25 µs grid: dwell {:.0} µs = {} × 25 µs ({:+.1} µs from {:.1} µs), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm ({:+.4} mm from {:.4} mm)",
+        "dwell {:.0} µs = {} × 25 µs ({:+.1} µs from {:.1} µs), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm ({:+.4} mm from {:.4} mm)",
         t.dwell_us,
         t.divide.unwrap_or(0),
         t.dwell_error_us,
@@ -381,7 +382,7 @@ impl Args {
         } else {
             lmhost::out!("{}", summary_text(plan))?;
             if self.target == TargetArg::Autd3 {
-                lmhost::outln!("{}", autd3_line(&planned.timing))?;
+                lmhost::outln!("on AUTD3's 25 µs grid: {}", grid_timing(&planned.timing))?;
             }
             if let Some(out) = &self.out {
                 lmhost::outln!("wrote {}", out.display())?;
@@ -491,6 +492,18 @@ mod tests {
         // The GS-PAT default is the one `--method gspat` alone plans.
         let g = args(&["--method", "gspat"]).flags.stimulus().unwrap();
         assert_eq!(g.synthesis, gspat);
+    }
+
+    #[test]
+    fn grid_timing_says_the_autd3_grid_and_what_was_asked() {
+        let t = args(&["--radius", "5"])
+            .plan_for(&Target::Autd3)
+            .unwrap()
+            .timing;
+        let line = grid_timing(&t);
+        assert!(line.starts_with("dwell 1475 µs = 59 × 25 µs ("), "{line}");
+        assert!(line.contains("Hz from 5 Hz), step "), "{line}");
+        assert!(!line.contains('\n'), "{line}");
     }
 
     #[test]

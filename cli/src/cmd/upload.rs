@@ -141,7 +141,12 @@ pub fn hold_saying(
 
 /// What a `Play` did, from the status right after it.
 pub fn play_outcome(slot: u8, status: &Status) -> String {
-    if status.queued_slot == Some(slot) {
+    played(slot, status.queued_slot == Some(slot))
+}
+
+/// What playing `slot` did: it plays, or waits `queued` for the cycle's end.
+fn played(slot: u8, queued: bool) -> String {
+    if queued {
         format!("slot {slot} queued for the next cycle boundary")
     } else {
         format!("playing slot {slot}")
@@ -285,21 +290,13 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
         }
         None => {
             lmhost::outln!(
-                "uploaded {} steps × {} transducers to {} slot {}: dwell {} µs on the 25 µs grid \
-                 ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
-                 ({:+.4} mm), {} frames, {} phase bytes in {:.3} s, CRC {:08x}",
+                "uploaded {} steps × {} transducers to {} slot {} on its 25 µs grid: {}, \
+                 {} frames, {} phase bytes in {:.3} s, CRC {:08x}",
                 t.steps,
                 o.transducers,
                 o.port,
                 o.slot,
-                t.dwell_us,
-                t.dwell_error_us,
-                t.requested_dwell_us,
-                t.freq_hz,
-                t.freq_error_hz,
-                t.requested_freq_hz,
-                t.step_mm,
-                t.step_error_mm,
+                crate::cmd::plan::grid_timing(t),
                 o.frames.map_or("uncounted".into(), |f| f.to_string()),
                 o.payload_bytes,
                 o.seconds,
@@ -321,11 +318,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
     } else {
         "stream centroids with `lmhost stream`".to_owned()
     };
-    let played = if o.queued {
-        format!("slot {} queued for the next cycle boundary", o.slot)
-    } else {
-        format!("playing slot {}", o.slot)
-    };
+    let played = played(o.slot, o.queued);
     match (o.playing, o.untracked, o.state) {
         (false, ..) => lmhost::outln!(
             "not playing (--no-play): `lmhost play --slot {}` plays it \
@@ -351,19 +344,14 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
-        Status {
-            state,
-            slot,
-            queued_slot: queued,
-            lease_ms: 1000,
-            ..Status::default()
-        }
-    }
-
     #[test]
     fn play_outcome_says_queued_when_it_is() {
-        let st = status(DeviceState::Playing, Some(1), Some(0));
+        let st = Status {
+            state: DeviceState::Playing,
+            slot: Some(1),
+            queued_slot: Some(0),
+            ..Status::default()
+        };
         assert_eq!(
             play_outcome(0, &st),
             "slot 0 queued for the next cycle boundary"
