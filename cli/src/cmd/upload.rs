@@ -66,7 +66,7 @@ pub struct Args {
     #[arg(long)]
     slot: Option<u8>,
     /// Upload and commit, but do not play.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "hold")]
     no_play: bool,
     /// Play without tracking: the device sounds without a finger (no
     /// gating, no correction) while lmhost holds it.
@@ -84,18 +84,8 @@ pub struct Args {
     /// Wire encoding.
     #[arg(long, value_enum, default_value_t = EncodingArg::Delta)]
     encoding: EncodingArg,
-    /// Keep the link and play this many seconds, then stop (what lmhost
-    /// plays lasts only while it holds the link: the LM firmware stops by
-    /// itself one host lease, --lease, after lmhost exits or dies; an
-    /// AUTD3 at once) [default: until Ctrl-C / SIGTERM; on the AUTD3
-    /// emulator, exit after the read-back].
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        conflicts_with = "no_play",
-        allow_negative_numbers = true
-    )]
-    hold: Option<f64>,
+    #[command(flatten)]
+    hold: HoldArgs,
     /// Print a JSON report instead of text.
     #[arg(long)]
     json: bool,
@@ -120,6 +110,27 @@ const FILE_CONFLICTS: [&str; 9] = [
 /// The one-line warning printed when playing untracked.
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
      with no gating or correction, while lmhost holds it";
+
+/// `--hold`, shared by `upload` and `play`.
+#[derive(Debug, clap::Args)]
+pub struct HoldArgs {
+    /// Keep the link and play this many seconds, then stop (what lmhost
+    /// plays lasts only while it holds the link: the LM firmware stops by
+    /// itself one host lease, --lease, after lmhost exits or dies; an
+    /// AUTD3 at once) [default: until Ctrl-C / SIGTERM; `upload` on the
+    /// AUTD3 emulator: exit after the read-back].
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    hold: Option<f64>,
+}
+
+impl HoldArgs {
+    /// How long to hold, checked; `None`: until a signal.
+    pub fn duration(&self) -> Result<Option<std::time::Duration>, lmhost::InputError> {
+        self.hold
+            .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
+            .transpose()
+    }
+}
 
 /// Holds the link to `dev` (named `what`) for `d` or until Ctrl-C or
 /// SIGTERM, saying so on stderr first.
@@ -158,10 +169,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let kind = self.port.spec().device()?;
         let target = kind.target();
-        let hold = self
-            .hold
-            .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
-            .transpose()?;
+        let hold = self.hold.duration()?;
         let file = match (&self.phases, &self.foci_file) {
             (Some(p), _) => Some((lmhost::plan::stimulus_file::Content::Phases, p)),
             (None, Some(p)) => Some((lmhost::plan::stimulus_file::Content::Foci, p)),
