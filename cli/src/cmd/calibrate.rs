@@ -16,14 +16,8 @@ use lmhost::sense::track::source::intrinsics_beside;
 use crate::cmd::plan::parse_vec3;
 
 /// Calibrate the rig and write the result into its scene file.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    what: What,
-}
-
 #[derive(Debug, Subcommand)]
-enum What {
+pub enum Args {
     /// The depth camera's pose ([camera]) from recordings of a ball held at
     /// known scene points.
     #[command(
@@ -70,7 +64,7 @@ struct Output {
 }
 
 #[derive(Debug, clap::Args)]
-struct CameraArgs {
+pub struct CameraArgs {
     /// The points file: ball size, background, positions and recordings.
     #[arg(value_name = "POINTS")]
     points: PathBuf,
@@ -86,7 +80,7 @@ struct CameraArgs {
 }
 
 #[derive(Debug, clap::Args)]
-struct ForceArgs {
+pub struct ForceArgs {
     /// The measured force of the static focus (N), 0.0001..=100: a reading
     /// below a gauge's 0.1 mN resolution is refused.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
@@ -170,9 +164,9 @@ impl Output {
 impl Args {
     /// Run the subcommand.
     pub fn run(self) -> anyhow::Result<()> {
-        match self.what {
-            What::Force(a) => a.run(),
-            What::Camera(a) => a.run(),
+        match self {
+            Self::Force(a) => a.run(),
+            Self::Camera(a) => a.run(),
         }
     }
 }

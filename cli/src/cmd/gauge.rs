@@ -8,14 +8,8 @@ use lmhost::device::instruments::{ForceUnit, GaugeModel, GaugeOptions, open_gaug
 use lmhost::limits::Num as N;
 
 /// Read a force gauge (IMADA ZTS/ZTA, Mark-10) or its simulated twin.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    what: What,
-}
-
 #[derive(Debug, Subcommand)]
-enum What {
+pub enum Args {
     /// One reading in newtons, or with --for the median of a series.
     #[command(after_help = "Examples:\n  \
         lmhost gauge read --port /dev/ttyUSB0 --model imada\n  \
@@ -33,7 +27,7 @@ pub(super) enum Model {
 }
 
 #[derive(Debug, clap::Args)]
-struct ReadArgs {
+pub struct ReadArgs {
     /// Serial port of the gauge, or `sim` for the simulated ZTS-50N.
     #[arg(long, value_name = "PORT")]
     port: String,
@@ -78,8 +72,8 @@ impl Model {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        match self.what {
-            What::Read(a) => a.run(),
+        match self {
+            Self::Read(a) => a.run(),
         }
     }
 }

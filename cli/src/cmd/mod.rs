@@ -70,19 +70,19 @@ pub enum Command {
     /// command (a control socket), log what played.
     Session(session::Args),
     /// Run a study protocol on the rig session, or summarise its answers.
-    #[command(subcommand_required = true)]
+    #[command(subcommand)]
     Study(study::Args),
     /// Track the finger in depth frames (contact-area centroid), optionally
     /// streaming it to the device.
     Track(track::Args),
     /// Calibrate the rig (camera pose, force) into its scene file.
-    #[command(subcommand_required = true)]
+    #[command(subcommand)]
     Calibrate(calibrate::Args),
     /// Read a force gauge (IMADA, Mark-10) or its simulated twin.
-    #[command(subcommand_required = true)]
+    #[command(subcommand)]
     Gauge(gauge::Args),
     /// Drive a motorised stage (Chuo Seiki QT) or its simulated twin.
-    #[command(subcommand_required = true)]
+    #[command(subcommand)]
     Stage(stage::Args),
 }
 

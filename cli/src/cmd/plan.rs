@@ -1,7 +1,8 @@
 //! `lmhost plan`: plan an LM stimulus and print or write its phase sequence.
 //!
-//! The planning flags live in [`PlanArgs`] so `upload` and `simulate` can
-//! `#[command(flatten)]` them and call [`PlanArgs::plan`].
+//! The stimulus flags live in [`StimulusFlags`] (with the scene, in
+//! [`PlanArgs`]) so `upload`, `simulate`, `stream` and `track` can
+//! `#[command(flatten)]` them.
 
 use std::path::PathBuf;
 
@@ -27,37 +28,32 @@ pub enum Method {
     Gspat,
 }
 
-/// The stimulus flags shared by `plan`, `upload` and `simulate`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct PlanArgs {
-    /// LM circle radius A in mm, 0..=100 (0 = a static focus).
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = paper::RADIUS_MM,
-        allow_negative_numbers = true
-    )]
-    pub radius: f64,
-    /// Foci per step, 1..=32: 1 = LM-S, more = LM-M (foci rotate together).
-    #[arg(long, value_name = "N", default_value_t = paper::FOCI)]
-    pub foci: usize,
+/// The stimulus flags of `plan`, `upload`, `simulate`, `stream` and `track
+/// --port`. None has a clap default, so a streaming session knows which
+/// were given (any one given plans that stimulus for the device, uploads
+/// it into a free slot and plays it on every backend; none given keeps
+/// what the LM firmware plays, and an AUTD3, which holds nothing, plays
+/// the default stimulus); [`Self::stimulus`] fills in the paper's values.
+/// The `[default: ...]` in each help line is checked against them by a
+/// test.
+#[derive(Debug, Clone, Default, clap::Args)]
+#[command(next_help_heading = "Stimulus")]
+pub struct StimulusFlags {
+    /// LM circle radius A in mm, 0..=100 (0 = a static focus) [default: 3].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    pub radius: Option<f64>,
+    /// Foci per step, 1..=32: 1 = LM-S, more = LM-M (foci rotate together)
+    /// [default: 1].
+    #[arg(long, value_name = "N")]
+    pub foci: Option<usize>,
     /// Spacing d between neighbouring foci along the circle in mm (LM-M),
-    /// above 0 and at most 1000.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = paper::SPACING_MM,
-        allow_negative_numbers = true
-    )]
-    pub spacing: f64,
-    /// LM frequency f in Hz (cycles per second), above 0 and at most 1000.
-    #[arg(
-        long,
-        value_name = "HZ",
-        default_value_t = paper::FREQ_HZ,
-        allow_negative_numbers = true
-    )]
-    pub freq: f64,
+    /// above 0 and at most 1000 [default: 3].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    pub spacing: Option<f64>,
+    /// LM frequency f in Hz (cycles per second), above 0 and at most 1000
+    /// [default: 5].
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
+    pub freq: Option<f64>,
     /// Step width d_LM in mm, above 0 and at most 1000;
     /// N = round(2πA / d_LM) [default: 0.23].
     #[arg(
@@ -79,30 +75,25 @@ pub struct PlanArgs {
     /// one value, or one per step, comma-separated [default: 0].
     #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
     pub z: Option<String>,
-    /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
-    #[arg(long, value_name = "FILE")]
-    pub scene: Option<PathBuf>,
-    /// Multi-focus synthesis.
-    #[arg(long, value_enum, default_value_t = Method::Linear)]
-    pub method: Method,
-    /// GS-PAT iterations (with --method gspat), 1..=1000.
-    #[arg(long, value_name = "N", default_value_t = lmhost::plan::stimulus::GSPAT_ITERATIONS)]
-    pub iterations: usize,
-    /// Output intensity, 0..=1 of full: the device scales its drive (the LM
-    /// firmware's output frames carry it, an AUTD3 plays it as its
-    /// modulation level). `simulate` models full output only.
-    #[arg(
-        long,
-        value_name = "0..1",
-        default_value_t = 1.0,
-        allow_negative_numbers = true
-    )]
-    pub intensity: f64,
+    /// Multi-focus synthesis [default: linear].
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
+    /// GS-PAT iterations, 1..=1000 (with --method gspat) [default: 20].
+    #[arg(long, value_name = "N")]
+    pub iterations: Option<usize>,
     /// Real weight per focus, comma-separated, each within ±1e6 and not
     /// all zero (linear synthesis only).
     #[arg(long, value_name = "W,W,...")]
     pub weights: Option<String>,
+    /// Output intensity, 0..=1 of full: the device scales its drive (the LM
+    /// firmware's output frames carry it, an AUTD3 plays it as its
+    /// modulation level). `simulate` models full output only [default: 1].
+    #[arg(long, value_name = "0..1", allow_negative_numbers = true)]
+    pub intensity: Option<f64>,
 }
+
+/// Output intensity when `--intensity` is not given: full.
+const FULL_INTENSITY: f64 = 1.0;
 
 fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
     s.split(',')
@@ -154,129 +145,6 @@ pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
     Ok(v)
 }
 
-impl PlanArgs {
-    /// The scene named by `--scene`, or the built-in one.
-    pub fn load_scene(&self) -> Result<Scene, InputError> {
-        Scene::load_or_default(self.scene.as_deref())
-    }
-
-    /// The stimulus the flags describe (strings parsed, nothing planned).
-    pub fn stimulus(&self) -> Result<Stimulus, InputError> {
-        let center_mm = self
-            .center
-            .as_deref()
-            .map(|c| parse_vec3("center", c))
-            .transpose()?;
-        let steps = match (self.step, self.steps) {
-            (_, Some(n)) => Steps::Count(n),
-            (Some(w), None) => Steps::Width(w),
-            (None, None) => Steps::Width(paper::STEP_MM),
-        };
-        let z_profile_mm = match &self.z {
-            Some(z) => parse_list("z", z)?,
-            None => Vec::new(),
-        };
-        let synthesis = match (self.method, &self.weights) {
-            (Method::Gspat, Some(_)) => {
-                return Err(InputError::new("--weights applies to --method linear only"));
-            }
-            (Method::Gspat, None) => lmhost::plan::stimulus::gspat(self.iterations)?,
-            (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
-            (Method::Linear, None) => Synthesis::Linear,
-        };
-        Ok(Stimulus {
-            radius_mm: self.radius,
-            foci: self.foci,
-            spacing_mm: self.spacing,
-            freq_hz: self.freq,
-            steps,
-            center_mm,
-            z_profile_mm,
-            synthesis,
-            intensity: limits::in_range("--intensity", self.intensity, 0.0, 1.0, "")?,
-            path: lmhost::plan::path::Path::Circle,
-            am: None,
-        })
-    }
-
-    /// Loads the scene and plans the stimulus for `target`, printing its
-    /// warnings (once per run, even when a command plans many stimuli).
-    /// Bad flags or scene files are [`InputError`]s (exit code 2).
-    pub fn plan_for(&self, target: &Target) -> anyhow::Result<TargetPlan> {
-        let scene = self.load_scene()?;
-        let planned = self.stimulus()?.plan_for(target, scene)?;
-        static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-        if !planned.warnings.is_empty() && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
-        {
-            for w in &planned.warnings {
-                lmhost::errln!("warning: {w}");
-            }
-        }
-        Ok(planned)
-    }
-
-    /// [`Self::plan_for`] the LM firmware (the stimulus as asked).
-    pub fn plan(&self) -> anyhow::Result<Plan> {
-        Ok(self.plan_for(&Target::Lm)?.plan)
-    }
-}
-
-/// The stimulus flags of a streaming session (`stream`, `track --port`):
-/// the plan flags of [`PlanArgs`] without defaults, so a session knows
-/// which were given. Any one given plans that stimulus for the device,
-/// uploads it into a free slot and plays it (every backend); none given
-/// keeps what the LM firmware plays (an AUTD3, which holds nothing, plays
-/// the default stimulus).
-#[derive(Debug, Clone, Default, clap::Args)]
-pub struct StimulusFlags {
-    /// Stimulus: LM circle radius A in mm, 0..=100 [default: 3].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    pub radius: Option<f64>,
-    /// Stimulus: foci per step, 1..=32 (more than 1 = LM-M) [default: 1].
-    #[arg(long, value_name = "N")]
-    pub foci: Option<usize>,
-    /// Stimulus: spacing d between neighbouring foci in mm (LM-M)
-    /// [default: 3].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    pub spacing: Option<f64>,
-    /// Stimulus: LM frequency f in Hz, above 0 and at most 1000 [default: 5].
-    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
-    pub freq: Option<f64>,
-    /// Stimulus: step width d_LM in mm; N = round(2πA / d_LM)
-    /// [default: 0.23].
-    #[arg(
-        long,
-        value_name = "MM",
-        conflicts_with = "steps",
-        allow_negative_numbers = true
-    )]
-    pub step: Option<f64>,
-    /// Stimulus: steps per cycle N, 1..=65535 (instead of --step).
-    #[arg(long, value_name = "N")]
-    pub steps: Option<usize>,
-    /// Stimulus: LM centre X,Y,Z in mm, finger space [default: the
-    /// scene's centre].
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
-    pub center: Option<String>,
-    /// Stimulus: per-step depth along the LM plane's c axis in mm, one
-    /// value or one per step [default: 0].
-    #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
-    pub z: Option<String>,
-    /// Stimulus: multi-focus synthesis [default: linear].
-    #[arg(long, value_enum)]
-    pub method: Option<Method>,
-    /// Stimulus: GS-PAT iterations, 1..=1000 (with --method gspat)
-    /// [default: 20].
-    #[arg(long, value_name = "N")]
-    pub iterations: Option<usize>,
-    /// Stimulus: real weight per focus, comma-separated (linear synthesis).
-    #[arg(long, value_name = "W,W,...")]
-    pub weights: Option<String>,
-    /// Stimulus: output intensity, 0..=1 of full [default: 1].
-    #[arg(long, value_name = "0..1", allow_negative_numbers = true)]
-    pub intensity: Option<f64>,
-}
-
 impl StimulusFlags {
     /// The flags given, by name (`--radius`, ...), in the order of `--help`.
     pub fn given(&self) -> Vec<&'static str> {
@@ -300,33 +168,95 @@ impl StimulusFlags {
         .collect()
     }
 
-    /// The plan flags these stand for in `scene` (defaults filled in, as
-    /// `lmhost upload` would take them); `--iterations` without
-    /// `--method gspat` cannot apply and is refused.
-    pub fn plan_args(&self, scene: Option<PathBuf>) -> Result<PlanArgs, InputError> {
-        let method = self.method.unwrap_or_default();
-        if self.iterations.is_some() && method != Method::Gspat {
-            return Err(InputError::new(
-                "--iterations applies to --method gspat only",
-            ));
-        }
-        Ok(PlanArgs {
-            radius: self.radius.unwrap_or(paper::RADIUS_MM),
+    /// The stimulus the flags describe, the paper's values where none is
+    /// given (strings parsed, nothing planned). A flag that cannot apply
+    /// (`--weights` with GS-PAT, `--iterations` without it) is refused.
+    pub fn stimulus(&self) -> Result<Stimulus, InputError> {
+        let center_mm = self
+            .center
+            .as_deref()
+            .map(|c| parse_vec3("center", c))
+            .transpose()?;
+        let steps = match (self.step, self.steps) {
+            (_, Some(n)) => Steps::Count(n),
+            (Some(w), None) => Steps::Width(w),
+            (None, None) => Steps::Width(paper::STEP_MM),
+        };
+        let z_profile_mm = match &self.z {
+            Some(z) => parse_list("z", z)?,
+            None => Vec::new(),
+        };
+        let synthesis = match (self.method.unwrap_or_default(), &self.weights) {
+            (Method::Gspat, Some(_)) => {
+                return Err(InputError::new("--weights applies to --method linear only"));
+            }
+            (Method::Gspat, None) => lmhost::plan::stimulus::gspat(
+                self.iterations
+                    .unwrap_or(lmhost::plan::stimulus::GSPAT_ITERATIONS),
+            )?,
+            (Method::Linear, _) if self.iterations.is_some() => {
+                return Err(InputError::new(
+                    "--iterations applies to --method gspat only",
+                ));
+            }
+            (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
+            (Method::Linear, None) => Synthesis::Linear,
+        };
+        let intensity = self.intensity.unwrap_or(FULL_INTENSITY);
+        Ok(Stimulus {
+            radius_mm: self.radius.unwrap_or(paper::RADIUS_MM),
             foci: self.foci.unwrap_or(paper::FOCI),
-            spacing: self.spacing.unwrap_or(paper::SPACING_MM),
-            freq: self.freq.unwrap_or(paper::FREQ_HZ),
-            step: self.step,
-            steps: self.steps,
-            center: self.center.clone(),
-            z: self.z.clone(),
-            scene,
-            method,
-            iterations: self
-                .iterations
-                .unwrap_or(lmhost::plan::stimulus::GSPAT_ITERATIONS),
-            weights: self.weights.clone(),
-            intensity: self.intensity.unwrap_or(1.0),
+            spacing_mm: self.spacing.unwrap_or(paper::SPACING_MM),
+            freq_hz: self.freq.unwrap_or(paper::FREQ_HZ),
+            steps,
+            center_mm,
+            z_profile_mm,
+            synthesis,
+            intensity: limits::in_range("--intensity", intensity, 0.0, 1.0, "")?,
+            path: lmhost::plan::path::Path::Circle,
+            am: None,
         })
+    }
+}
+
+/// What `plan`, `upload` and `simulate` plan from: the scene and the
+/// stimulus flags (flattened last in each command: the flags' help
+/// heading holds for every flag after them).
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// Scene file (TOML) [default: four AUTD3 in a flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// The stimulus (last: its help heading holds for what follows).
+    #[command(flatten)]
+    pub flags: StimulusFlags,
+}
+
+impl PlanArgs {
+    /// The scene named by `--scene`, or the built-in one.
+    pub fn load_scene(&self) -> Result<Scene, InputError> {
+        Scene::load_or_default(self.scene.as_deref())
+    }
+
+    /// Loads the scene and plans the stimulus for `target`, printing its
+    /// warnings (once per run, even when a command plans many stimuli).
+    /// Bad flags or scene files are [`InputError`]s (exit code 2).
+    pub fn plan_for(&self, target: &Target) -> anyhow::Result<TargetPlan> {
+        let scene = self.load_scene()?;
+        let planned = self.flags.stimulus()?.plan_for(target, scene)?;
+        static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+        if !planned.warnings.is_empty() && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            for w in &planned.warnings {
+                lmhost::errln!("warning: {w}");
+            }
+        }
+        Ok(planned)
+    }
+
+    /// [`Self::plan_for`] the LM firmware (the stimulus as asked).
+    pub fn plan(&self) -> anyhow::Result<Plan> {
+        Ok(self.plan_for(&Target::Lm)?.plan)
     }
 }
 
@@ -358,9 +288,6 @@ impl TargetArg {
     lmhost plan --target autd3 --radius 5 --out autd3.npy  # what an AUTD3 plays (25 µs grid)\n  \
     lmhost plan --json --phases > plan.json")]
 pub struct Args {
-    /// The stimulus.
-    #[command(flatten)]
-    pub plan: PlanArgs,
     /// The device the phases are for: `lm` plans the timing as asked (what
     /// the LM firmware plays), `autd3` on AUTD3's 25 µs dwell grid (N and
     /// the dwell an AUTD3 realises: exactly what `upload --port autd3:...`
@@ -378,6 +305,9 @@ pub struct Args {
     /// (step-major).
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// The scene and the stimulus (last, under their help heading).
+    #[command(flatten)]
+    pub plan: PlanArgs,
 }
 
 /// A short human summary.
@@ -419,10 +349,11 @@ pub fn summary_text(plan: &Plan) -> String {
     out
 }
 
-/// The text line of an AUTD3 plan: the grid and the timing errors.
-fn autd3_line(t: &Timing) -> String {
+/// An AUTD3 plan's timing on its 25 µs grid and how far each value is
+/// from the one asked, as `plan --target autd3` and `upload` print it.
+pub fn grid_timing(t: &Timing) -> String {
     format!(
-        "on AUTD3's 25 µs grid: dwell {:.0} µs = {} × 25 µs ({:+.1} µs from {:.1} µs), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm ({:+.4} mm from {:.4} mm)",
+        "dwell {:.0} µs = {} × 25 µs ({:+.1} µs from {:.1} µs), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm ({:+.4} mm from {:.4} mm)",
         t.dwell_us,
         t.divide.unwrap_or(0),
         t.dwell_error_us,
@@ -451,7 +382,7 @@ impl Args {
         } else {
             lmhost::out!("{}", summary_text(plan))?;
             if self.target == TargetArg::Autd3 {
-                lmhost::outln!("{}", autd3_line(&planned.timing))?;
+                lmhost::outln!("on AUTD3's 25 µs grid: {}", grid_timing(&planned.timing))?;
             }
             if let Some(out) = &self.out {
                 lmhost::outln!("wrote {}", out.display())?;
@@ -511,11 +442,68 @@ mod tests {
             &["--z", "1,2,3"],
             &["--foci", "2", "--weights", "1"],
             &["--scene", "/nonexistent.toml"],
+            &["--iterations", "5"],
+            &["--method", "linear", "--iterations", "5"],
         ] {
             let e = args(a).plan().unwrap_err();
             assert!(e.chain().any(|c| c.is::<InputError>()), "{a:?}: {e}");
             assert!(!e.to_string().contains('\n'));
         }
+    }
+
+    /// The flags have no clap defaults (a session must see which were
+    /// given), so their help states the defaults by hand: each must be
+    /// the value [`StimulusFlags::stimulus`] fills in.
+    #[test]
+    fn help_states_the_defaults_the_stimulus_takes() {
+        use clap::CommandFactory as _;
+        let s = StimulusFlags::default().stimulus().unwrap();
+        assert_eq!(s.steps, Steps::Width(paper::STEP_MM));
+        assert_eq!(s.synthesis, Synthesis::Linear);
+        assert!(s.center_mm.is_none() && s.z_profile_mm.is_empty());
+        let gspat =
+            lmhost::plan::stimulus::gspat(lmhost::plan::stimulus::GSPAT_ITERATIONS).unwrap();
+        let mut cmd = Cli::command();
+        let help = cmd.render_long_help().to_string();
+        for (flag, default) in [
+            ("radius", s.radius_mm.to_string()),
+            ("foci", s.foci.to_string()),
+            ("spacing", s.spacing_mm.to_string()),
+            ("freq", s.freq_hz.to_string()),
+            ("step", paper::STEP_MM.to_string()),
+            ("method", "linear".to_string()),
+            (
+                "iterations",
+                lmhost::plan::stimulus::GSPAT_ITERATIONS.to_string(),
+            ),
+            ("intensity", s.intensity.to_string()),
+        ] {
+            let arg = cmd
+                .get_arguments()
+                .find(|a| a.get_id() == flag)
+                .unwrap_or_else(|| panic!("no --{flag}"));
+            let doc = arg.get_long_help().or(arg.get_help()).unwrap().to_string();
+            assert!(
+                doc.ends_with(&format!("[default: {default}]")),
+                "--{flag}: {doc}"
+            );
+        }
+        assert!(help.contains("Stimulus:"), "{help}");
+        // The GS-PAT default is the one `--method gspat` alone plans.
+        let g = args(&["--method", "gspat"]).flags.stimulus().unwrap();
+        assert_eq!(g.synthesis, gspat);
+    }
+
+    #[test]
+    fn grid_timing_says_the_autd3_grid_and_what_was_asked() {
+        let t = args(&["--radius", "5"])
+            .plan_for(&Target::Autd3)
+            .unwrap()
+            .timing;
+        let line = grid_timing(&t);
+        assert!(line.starts_with("dwell 1475 µs = 59 × 25 µs ("), "{line}");
+        assert!(line.contains("Hz from 5 Hz), step "), "{line}");
+        assert!(!line.contains('\n'), "{line}");
     }
 
     #[test]

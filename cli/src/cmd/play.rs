@@ -6,7 +6,7 @@ use anyhow::Context as _;
 use lm_proto::{DeviceState, PlayAt};
 
 use super::args::DeviceArgs;
-use crate::cmd::upload::{UNTRACKED_WARNING, hold_saying, play_outcome};
+use crate::cmd::upload::{HoldArgs, UNTRACKED_WARNING, hold_saying, play_outcome};
 
 /// Play a slot that holds a committed sequence.
 #[derive(Debug, clap::Args)]
@@ -23,17 +23,8 @@ pub struct Args {
     /// gating, no correction) while lmhost holds it.
     #[arg(long)]
     untracked: bool,
-    /// Keep playing this many seconds, then stop [default: until Ctrl-C /
-    /// SIGTERM]. What lmhost plays lasts only while it holds the port:
-    /// the LM firmware stops by itself one host lease (--lease) after
-    /// lmhost exits or dies, an AUTD3 at once.
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        conflicts_with = "steps",
-        allow_negative_numbers = true
-    )]
-    hold: Option<f64>,
+    #[command(flatten)]
+    hold: HoldArgs,
     /// Play this many steps (1 to 4294967295), then stop: a presentation
     /// of N dwells timed by the device's own clock, not the link's. The LM
     /// firmware stops itself (lmhost holds the link, renewing its lease,
@@ -44,6 +35,7 @@ pub struct Args {
     #[arg(
         long,
         value_name = "N",
+        conflicts_with = "hold",
         allow_negative_numbers = true,
         value_parser = clap::value_parser!(u32).range(1..)
     )]
@@ -53,10 +45,7 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        let hold = self
-            .hold
-            .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
-            .transpose()?;
+        let hold = self.hold.duration()?;
         let mut dev = self.device.open()?;
         let at = if self.immediate {
             PlayAt::Immediate

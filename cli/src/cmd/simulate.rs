@@ -26,8 +26,6 @@ use lmhost::field::{self, Radiation, compare, plot};
     and the summary's `am` (the force spectrum's peak among them)."
 )]
 pub struct Args {
-    #[command(flatten)]
-    plan: PlanArgs,
     /// Output directory (created if missing).
     #[arg(long, value_name = "DIR", default_value = "simulate-out")]
     out: PathBuf,
@@ -99,6 +97,9 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     width_mm: f64,
+    /// The scene and the stimulus (last, under their help heading).
+    #[command(flatten)]
+    plan: PlanArgs,
 }
 
 fn positive(flag: &str, v: f64) -> Result<f64, InputError> {
@@ -190,30 +191,29 @@ impl Args {
             }
             _ => None,
         };
-        // Refused before any output directory is made.
+        // The flags' stimulus (the default one beside a library entry:
+        // the flags conflict with it); refused before any output directory
+        // is made, as is an intensity below full.
+        let flags = self.plan.flags.stimulus()?;
         lmhost::field::study::check_full_output(lmhost::plan::stimulus::intensity_byte(
             entry
                 .as_ref()
-                .map_or(self.plan.intensity, |e| e.stimulus.intensity),
+                .map_or(flags.intensity, |e| e.stimulus.intensity),
         )?)?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
         lmhost::files::output_dir("--out", &self.out)?;
         if self.compare {
-            let multi = if self.plan.foci > 1 {
-                self.plan.foci
-            } else {
-                4
-            };
-            let conditions = compare::paper_conditions(multi, self.plan.freq);
+            let multi = if flags.foci > 1 { flags.foci } else { 4 };
+            let conditions = compare::paper_conditions(multi, flags.freq_hz);
             let plan_for = |c: &compare::Condition, radius| {
                 let mut a = self.plan.clone();
-                a.radius = radius;
-                a.foci = c.foci;
-                a.freq = c.freq_hz;
+                a.flags.radius = Some(radius);
+                a.flags.foci = Some(c.foci);
+                a.flags.freq = Some(c.freq_hz);
                 if let Some(step) = c.step_mm {
-                    a.step = Some(step);
-                    a.steps = None;
+                    a.flags.step = Some(step);
+                    a.flags.steps = None;
                 }
                 a.plan()
             };
@@ -230,7 +230,7 @@ impl Args {
                 e.stimulus.plan(self.plan.load_scene()?)?.plan,
                 e.stimulus.radius_mm,
             ),
-            None => (self.plan.plan()?, self.plan.radius),
+            None => (self.plan.plan()?, flags.radius_mm),
         };
         let sim = simulate_plan(&plan, &view)?;
         write_outputs(&plan, &sim, &view, r, &fig, &self.out)?;

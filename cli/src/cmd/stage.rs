@@ -9,14 +9,8 @@ use lmhost::device::instruments::{Axis, SIM, StageLimits, StageOptions, open_sta
 use lmhost::limits::Num as N;
 
 /// Drive the push axis of a Chuo Seiki QT stage controller, or its twin.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    what: What,
-}
-
 #[derive(Debug, Subcommand)]
-enum What {
+pub enum Args {
     /// Move to an absolute position (mm) and wait until there.
     #[command(after_help = "Examples:\n  \
         lmhost stage move --port /dev/ttyUSB0 --min 0 --max 20 --to 4\n  \
@@ -29,7 +23,7 @@ enum What {
 }
 
 #[derive(Debug, clap::Args)]
-struct Common {
+pub struct Common {
     /// Serial port of the controller, or `sim` for the simulated stage.
     #[arg(long, value_name = "PORT")]
     port: String,
@@ -61,7 +55,7 @@ pub(super) fn parse_axis(s: &str) -> Result<Axis, String> {
 }
 
 #[derive(Debug, clap::Args)]
-struct MoveArgs {
+pub struct MoveArgs {
     #[command(flatten)]
     common: Common,
     /// Target position, mm.
@@ -75,8 +69,8 @@ impl Args {
         // Ctrl-C stops a running move (the stage is told to stop), then
         // the command ends with an error saying so.
         lmhost::stop::graceful();
-        match self.what {
-            What::Move(a) => {
+        match self {
+            Self::Move(a) => {
                 let mut stage = a.common.open()?;
                 let m = stage.move_to(a.to)?;
                 if a.common.json {
@@ -89,7 +83,7 @@ impl Args {
                     N(m.took_s)
                 )
             }
-            What::Position(c) => {
+            Self::Position(c) => {
                 let mut stage = c.open()?;
                 let at = stage.position_mm()?;
                 if c.json {
@@ -97,7 +91,7 @@ impl Args {
                 }
                 lmhost::outln!("at {} mm", N(at))
             }
-            What::Home(c) => {
+            Self::Home(c) => {
                 let mut stage = c.open()?;
                 let m = stage.home()?;
                 if c.json {

@@ -80,16 +80,16 @@ pub struct Args {
     /// in a flat 2×2 facing +z].
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
-    /// The stimulus played while streaming (see below: given, it is
-    /// uploaded and played on every backend).
-    #[command(flatten)]
-    stimulus: StimulusFlags,
     /// Replay files and the synthetic finger as fast as the link allows.
     #[arg(long)]
     fast: bool,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
+    /// The stimulus played while streaming (see below: given, it is
+    /// uploaded and played on every backend); last, under its help heading.
+    #[command(flatten)]
+    stimulus: StimulusFlags,
 }
 
 fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
@@ -128,7 +128,7 @@ impl Args {
         let scene = lmhost::plan::scene::Scene::load_or_default(self.scene.as_deref())?;
         let stimulus = match self.stimulus.given().is_empty() {
             true => None,
-            false => Some(self.stimulus.plan_args(self.scene.clone())?.stimulus()?),
+            false => Some(self.stimulus.stimulus()?),
         };
         let track = FingerTrack {
             center_mm: scene.center_mm,

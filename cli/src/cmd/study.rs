@@ -11,14 +11,8 @@ use lmhost::lab::study::{self, AnswerSource, FingerSource, RunOptions};
 use super::args::{FingerArgs, FingerFeed, PortArgs};
 
 /// Arguments of `lmhost study`.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    cmd: Sub,
-}
-
 #[derive(Debug, Subcommand)]
-enum Sub {
+pub enum Args {
     /// Run (or resume) one participant's session of a protocol.
     Run(Box<RunArgs>),
     /// Summarise trials.csv files: summary.csv and box plots (PNG, SVG, PDF).
@@ -41,7 +35,7 @@ enum Sub {
     lmhost study schema protocol > protocol.schema.json\n  \
     lmhost study schema library"
 )]
-struct SchemaArgs {
+pub struct SchemaArgs {
     /// Which file's schema.
     #[arg(value_enum, value_name = "FORMAT")]
     format: SchemaFormat,
@@ -72,7 +66,7 @@ impl SchemaArgs {
 #[command(after_help = "Examples:\n  \
     lmhost study check studies/paper-exp1.toml\n  \
     lmhost study check studies/paper-exp1.toml --participant 3 --seed 7")]
-struct CheckArgs {
+pub struct CheckArgs {
     /// The protocol (TOML).
     #[arg(value_name = "PROTOCOL")]
     protocol: PathBuf,
@@ -110,7 +104,7 @@ enum Finger {
     lmhost study run studies/paper-exp1.toml --port autd3:emulator --participant P01 --out results --finger synthetic --resume\n  \
     lmhost study run studies/paper-exp3.toml --port autd3:emulator --participant P01 --out results --finger synthetic --stage sim --gauge sim\n\n\
     Writes OUT/ID/trials.csv, session.json and events.jsonl.")]
-struct RunArgs {
+pub struct RunArgs {
     /// The protocol (TOML; see studies/paper-exp1.toml).
     #[arg(value_name = "PROTOCOL")]
     protocol: PathBuf,
@@ -170,70 +164,52 @@ struct RunArgs {
     instruments: InstrumentArgs,
 }
 
-/// Experiment 3's stage and gauge.
+/// Experiment 3's stage and gauge: they go together, and every flag here
+/// needs both (one group's rule, so no flag states it again).
 #[derive(Debug, clap::Args)]
+#[group(multiple = true, requires_all = ["stage", "gauge"])]
 #[command(
     next_help_heading = "Instruments (Experiment 3: the stage pushes the gauge in step with each on-phase)"
 )]
 struct InstrumentArgs {
     /// The stage's controller (Chuo Seiki QT) on a serial port, or `sim`
     /// (`sim:fail-after=N`: the twin falls silent after N moves).
-    #[arg(long, value_name = "PORT", requires = "gauge")]
+    #[arg(long, value_name = "PORT")]
     stage: Option<String>,
     /// The force gauge on a serial port, or `sim` (the twin, on the
     /// simulated stage's finger pad).
-    #[arg(long, value_name = "PORT", requires = "stage")]
+    #[arg(long, value_name = "PORT")]
     gauge: Option<String>,
     /// The gauge's protocol.
-    #[arg(long, value_enum, default_value_t = super::gauge::Model::Imada, requires = "gauge")]
+    #[arg(long, value_enum, default_value_t = super::gauge::Model::Imada)]
     gauge_model: super::gauge::Model,
     /// The gauge's baud rate [default: the model's factory rate].
-    #[arg(long, value_name = "BAUD", requires = "gauge", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
     gauge_baud: Option<u32>,
     /// Stage position where the probe touches the finger pad, mm
     /// (required with a serial stage) [default with sim: 5].
-    #[arg(
-        long,
-        value_name = "MM",
-        requires = "stage",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     contact: Option<f64>,
     /// Stage position between pushes, mm, at most --contact [default: --contact].
-    #[arg(
-        long,
-        value_name = "MM",
-        requires = "stage",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     rest: Option<f64>,
     /// The stage's lower soft limit, mm (required with a serial stage) [default with sim: 0].
-    #[arg(
-        long,
-        value_name = "MM",
-        requires = "stage",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     stage_min: Option<f64>,
     /// The stage's upper soft limit, mm (required with a serial stage) [default with sim: 30].
-    #[arg(
-        long,
-        value_name = "MM",
-        requires = "stage",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     stage_max: Option<f64>,
     /// The stage's speed, mm/s (the paper's 5).
-    #[arg(long, value_name = "MM/S", requires = "stage", default_value_t = lmhost::device::instruments::stage::PAPER_SPEED_MM_S, allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM/S", default_value_t = lmhost::device::instruments::stage::PAPER_SPEED_MM_S, allow_negative_numbers = true)]
     stage_speed: f64,
     /// The controller's pushing axis: A, B or C.
-    #[arg(long, default_value = "A", requires = "stage", value_parser = super::stage::parse_axis)]
+    #[arg(long, default_value = "A", value_parser = super::stage::parse_axis)]
     stage_axis: lmhost::device::instruments::Axis,
     /// Micrometres per pulse of the stage.
-    #[arg(long, value_name = "UM", default_value_t = 1.0, requires = "stage")]
+    #[arg(long, value_name = "UM", default_value_t = 1.0)]
     stage_step_um: f64,
     /// The stage controller's baud rate [default: 9600].
-    #[arg(long, value_name = "BAUD", requires = "stage", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
     stage_baud: Option<u32>,
 }
 
@@ -283,7 +259,7 @@ impl InstrumentArgs {
 
 /// Arguments of `lmhost study report`.
 #[derive(Debug, clap::Args)]
-struct ReportArgs {
+pub struct ReportArgs {
     /// A participant's folder, or the study's --out folder (every
     /// participant in it).
     #[arg(value_name = "DIR")]
@@ -302,11 +278,11 @@ struct ReportArgs {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
-        match self.cmd {
-            Sub::Run(a) => (*a).run(),
-            Sub::Report(a) => a.run(),
-            Sub::Check(a) => a.run(),
-            Sub::Schema(a) => a.run(),
+        match self {
+            Self::Run(a) => (*a).run(),
+            Self::Report(a) => a.run(),
+            Self::Check(a) => a.run(),
+            Self::Schema(a) => a.run(),
         }
     }
 }
@@ -422,5 +398,51 @@ impl ReportArgs {
             }
         );
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+    use clap::error::ErrorKind;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        instruments: super::InstrumentArgs,
+    }
+
+    #[test]
+    fn every_instrument_flag_needs_the_stage_and_the_gauge() {
+        assert!(Cli::try_parse_from(["x"]).is_ok());
+        for flag in [
+            ["--stage", "sim"],
+            ["--gauge", "sim"],
+            ["--gauge-model", "mark10"],
+            ["--gauge-baud", "9600"],
+            ["--contact", "3"],
+            ["--rest", "-1"],
+            ["--stage-min", "0"],
+            ["--stage-max", "9"],
+            ["--stage-speed", "3"],
+            ["--stage-axis", "B"],
+            ["--stage-step-um", "2"],
+            ["--stage-baud", "9600"],
+        ] {
+            let e = Cli::try_parse_from(["x", flag[0], flag[1]]).unwrap_err();
+            assert_eq!(
+                e.kind(),
+                ErrorKind::MissingRequiredArgument,
+                "{flag:?}: {e}"
+            );
+            let mut both = vec!["x", flag[0], flag[1]];
+            for pair in [["--stage", "sim"], ["--gauge", "sim"]] {
+                if pair[0] != flag[0] {
+                    both.extend(pair);
+                }
+            }
+            let ok = Cli::try_parse_from(&both);
+            assert!(ok.is_ok(), "{both:?}: {}", ok.err().unwrap());
+        }
     }
 }

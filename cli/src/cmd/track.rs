@@ -188,19 +188,19 @@ impl Args {
                 );
             }
         }
-        let plan_args = stimulus.plan_args(track.scene.clone())?;
+        // The flags' stimulus (the default one when none is given), refused
+        // before the tracking opens.
+        let base = stimulus.stimulus()?;
         let session = TrackRun::open(track.options(port.port.is_some()))?;
         let mut print = |line: &str| lmhost::outln!("{line}");
         let report = if port.port.is_some() {
             let target = port.spec().device()?.target();
-            let mut stim = (!given.is_empty())
-                .then(|| plan_args.stimulus())
-                .transpose()?;
+            let mut stim = (!given.is_empty()).then(|| base.clone());
             // --replan: the stimulus on --z-profile's circle, checked once.
             let replan_stim = match session.z_profile_circle().filter(|_| replan) {
                 None => None,
                 Some((r, n)) => {
-                    let s = replan_stimulus(plan_args.stimulus()?, &stimulus, r, n)?;
+                    let s = replan_stimulus(base, &stimulus, r, n)?;
                     s.plan_for(&target, session.scene().clone()).map_err(|e| {
                         lmhost::InputError::new(format!(
                             "--replan: the stimulus on the --z-profile circle cannot be planned for this device: {e}"

@@ -43,8 +43,6 @@ impl From<EncodingArg> for Encoding {
     the array; an .npy exactly as long as its shape, JSON at most 64 MiB."
 )]
 pub struct Args {
-    #[command(flatten)]
-    plan: PlanArgs,
     /// Upload these phases instead of planning: .npy uint8 (steps,
     /// transducers) or JSON (see below).
     #[arg(
@@ -68,7 +66,7 @@ pub struct Args {
     #[arg(long)]
     slot: Option<u8>,
     /// Upload and commit, but do not play.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "hold")]
     no_play: bool,
     /// Play without tracking: the device sounds without a finger (no
     /// gating, no correction) while lmhost holds it.
@@ -86,21 +84,14 @@ pub struct Args {
     /// Wire encoding.
     #[arg(long, value_enum, default_value_t = EncodingArg::Delta)]
     encoding: EncodingArg,
-    /// Keep the link and play this many seconds, then stop (what lmhost
-    /// plays lasts only while it holds the link: the LM firmware stops by
-    /// itself one host lease, --lease, after lmhost exits or dies; an
-    /// AUTD3 at once) [default: until Ctrl-C / SIGTERM; on the AUTD3
-    /// emulator, exit after the read-back].
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        conflicts_with = "no_play",
-        allow_negative_numbers = true
-    )]
-    hold: Option<f64>,
+    #[command(flatten)]
+    hold: HoldArgs,
     /// Print a JSON report instead of text.
     #[arg(long)]
     json: bool,
+    /// The scene and the stimulus (last, under their help heading).
+    #[command(flatten)]
+    plan: PlanArgs,
 }
 
 /// The plan flags a stimulus file leaves no room for.
@@ -116,23 +107,30 @@ const FILE_CONFLICTS: [&str; 9] = [
     "weights",
 ];
 
-/// Whether `--freq` was given on the command line (not its default): a
-/// stimulus file takes its timing from exactly one place.
-fn freq_given() -> bool {
-    use clap::CommandFactory as _;
-    crate::Cli::command()
-        .try_get_matches_from(std::env::args_os())
-        .ok()
-        .and_then(|m| {
-            m.subcommand_matches("upload")
-                .map(|u| u.value_source("freq") == Some(clap::parser::ValueSource::CommandLine))
-        })
-        .unwrap_or(false)
-}
-
 /// The one-line warning printed when playing untracked.
 pub const UNTRACKED_WARNING: &str = "warning: playing untracked: the device sounds without a finger, \
      with no gating or correction, while lmhost holds it";
+
+/// `--hold`, shared by `upload` and `play`.
+#[derive(Debug, clap::Args)]
+pub struct HoldArgs {
+    /// Keep the link and play this many seconds, then stop (what lmhost
+    /// plays lasts only while it holds the link: the LM firmware stops by
+    /// itself one host lease, --lease, after lmhost exits or dies; an
+    /// AUTD3 at once) [default: until Ctrl-C / SIGTERM; `upload` on the
+    /// AUTD3 emulator: exit after the read-back].
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    hold: Option<f64>,
+}
+
+impl HoldArgs {
+    /// How long to hold, checked; `None`: until a signal.
+    pub fn duration(&self) -> Result<Option<std::time::Duration>, lmhost::InputError> {
+        self.hold
+            .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
+            .transpose()
+    }
+}
 
 /// Holds the link to `dev` (named `what`) for `d` or until Ctrl-C or
 /// SIGTERM, saying so on stderr first.
@@ -154,7 +152,12 @@ pub fn hold_saying(
 
 /// What a `Play` did, from the status right after it.
 pub fn play_outcome(slot: u8, status: &Status) -> String {
-    if status.queued_slot == Some(slot) {
+    played(slot, status.queued_slot == Some(slot))
+}
+
+/// What playing `slot` did: it plays, or waits `queued` for the cycle's end.
+fn played(slot: u8, queued: bool) -> String {
+    if queued {
         format!("slot {slot} queued for the next cycle boundary")
     } else {
         format!("playing slot {slot}")
@@ -166,10 +169,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let kind = self.port.spec().device()?;
         let target = kind.target();
-        let hold = self
-            .hold
-            .map(|h| lmhost::limits::duration_s("--hold", h, lmhost::limits::MAX_SECONDS))
-            .transpose()?;
+        let hold = self.hold.duration()?;
         let file = match (&self.phases, &self.foci_file) {
             (Some(p), _) => Some((lmhost::plan::stimulus_file::Content::Phases, p)),
             (None, Some(p)) => Some((lmhost::plan::stimulus_file::Content::Foci, p)),
@@ -180,11 +180,14 @@ impl Args {
             Some((content, path)) => {
                 let center = self
                     .plan
+                    .flags
                     .center
                     .as_deref()
                     .map(|c| crate::cmd::plan::parse_vec3("center", c))
                     .transpose()?;
-                let freq = freq_given().then_some(self.plan.freq);
+                // A stimulus file takes its timing from exactly one place:
+                // the file's dwell or a --freq given.
+                let freq = self.plan.flags.freq;
                 lmhost::plan::stimulus_file::plan_for(
                     content,
                     path,
@@ -295,21 +298,13 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
         }
         None => {
             lmhost::outln!(
-                "uploaded {} steps × {} transducers to {} slot {}: dwell {} µs on the 25 µs grid \
-                 ({:+.1} µs from the {:.1} µs asked), {:.3} Hz ({:+.3} Hz from {} Hz), step {:.4} mm \
-                 ({:+.4} mm), {} frames, {} phase bytes in {:.3} s, CRC {:08x}",
+                "uploaded {} steps × {} transducers to {} slot {} on its 25 µs grid: {}, \
+                 {} frames, {} phase bytes in {:.3} s, CRC {:08x}",
                 t.steps,
                 o.transducers,
                 o.port,
                 o.slot,
-                t.dwell_us,
-                t.dwell_error_us,
-                t.requested_dwell_us,
-                t.freq_hz,
-                t.freq_error_hz,
-                t.requested_freq_hz,
-                t.step_mm,
-                t.step_error_mm,
+                crate::cmd::plan::grid_timing(t),
                 o.frames.map_or("uncounted".into(), |f| f.to_string()),
                 o.payload_bytes,
                 o.seconds,
@@ -331,11 +326,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
     } else {
         "stream centroids with `lmhost stream`".to_owned()
     };
-    let played = if o.queued {
-        format!("slot {} queued for the next cycle boundary", o.slot)
-    } else {
-        format!("playing slot {}", o.slot)
-    };
+    let played = played(o.slot, o.queued);
     match (o.playing, o.untracked, o.state) {
         (false, ..) => lmhost::outln!(
             "not playing (--no-play): `lmhost play --slot {}` plays it \
@@ -361,19 +352,14 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    fn status(state: DeviceState, slot: Option<u8>, queued: Option<u8>) -> Status {
-        Status {
-            state,
-            slot,
-            queued_slot: queued,
-            lease_ms: 1000,
-            ..Status::default()
-        }
-    }
-
     #[test]
     fn play_outcome_says_queued_when_it_is() {
-        let st = status(DeviceState::Playing, Some(1), Some(0));
+        let st = Status {
+            state: DeviceState::Playing,
+            slot: Some(1),
+            queued_slot: Some(0),
+            ..Status::default()
+        };
         assert_eq!(
             play_outcome(0, &st),
             "slot 0 queued for the next cycle boundary"
