@@ -227,35 +227,9 @@ impl ColourCamera {
     /// Check every field; `origin` names the source in the message.
     pub fn check(&self, origin: &str) -> Result<(), InputError> {
         let bad = |m: String| InputError::new(format!("colour camera {origin}: {m}"));
-        let side = 1..=crate::npy::MAX_SIDE as u32;
-        if !side.contains(&self.width) || !side.contains(&self.height) {
-            return Err(bad(format!(
-                "width {} and height {} must be 1..={}",
-                self.width,
-                self.height,
-                side.end()
-            )));
-        }
-        for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
-            if !(v.is_finite() && v > 0.0 && v <= super::intrinsics::MAX_FOCAL_PX) {
-                return Err(bad(format!(
-                    "`{name}` must be a positive number of pixels up to {}, got {}",
-                    super::intrinsics::MAX_FOCAL_PX,
-                    crate::limits::show(v)
-                )));
-            }
-        }
-        for (name, v, side) in [
-            ("ppx", self.ppx, self.width),
-            ("ppy", self.ppy, self.height),
-        ] {
-            if !(v.is_finite() && (0.0..=f64::from(side)).contains(&v)) {
-                return Err(bad(format!(
-                    "`{name}` must lie in the image, 0..={side} pixels, got {}",
-                    crate::limits::show(v)
-                )));
-            }
-        }
+        let [w, h] = [self.width, self.height];
+        super::intrinsics::check_pinhole([w, h], [self.fx, self.fy], [self.ppx, self.ppy])
+            .map_err(bad)?;
         if let Some(v) = self
             .coeffs
             .iter()

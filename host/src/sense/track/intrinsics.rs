@@ -78,36 +78,9 @@ impl Intrinsics {
 
     /// Check every field; `origin` names the file in the message.
     pub fn check(&self, origin: &str) -> Result<(), InputError> {
-        let side = 1..=crate::npy::MAX_SIDE as u32;
-        if !side.contains(&self.width) || !side.contains(&self.height) {
-            return Err(InputError::new(format!(
-                "intrinsics {origin}: width {} and height {} must be 1..={}",
-                self.width,
-                self.height,
-                side.end()
-            )));
-        }
-        for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
-            if !(v.is_finite() && v > 0.0 && v <= MAX_FOCAL_PX) {
-                return Err(InputError::new(format!(
-                    "intrinsics {origin}: `{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {}",
-                    crate::limits::show(v)
-                )));
-            }
-        }
-        // The principal point lies in the image (a camera's optical axis
-        // meets its sensor); elsewhere is a typo, never a real camera.
-        for (name, v, side) in [
-            ("ppx", self.ppx, self.width),
-            ("ppy", self.ppy, self.height),
-        ] {
-            if !(v.is_finite() && (0.0..=f64::from(side)).contains(&v)) {
-                return Err(InputError::new(format!(
-                    "intrinsics {origin}: `{name}` must lie in the image, 0..={side} pixels, got {}",
-                    crate::limits::show(v)
-                )));
-            }
-        }
+        let [w, h] = [self.width, self.height];
+        check_pinhole([w, h], [self.fx, self.fy], [self.ppx, self.ppy])
+            .map_err(|m| InputError::new(format!("intrinsics {origin}: {m}")))?;
         if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 1.0) {
             return Err(InputError::new(format!(
                 "intrinsics {origin}: `depth_scale` must be in (0, 1] metres per unit, got {}",
@@ -127,6 +100,41 @@ impl Intrinsics {
         }
         Ok(())
     }
+}
+
+/// Checks a pinhole camera's image size, focal lengths and principal
+/// point (the depth stream's and the colour stream's): why not, in words.
+pub(super) fn check_pinhole(
+    [width, height]: [u32; 2],
+    focal: [f64; 2],
+    principal: [f64; 2],
+) -> Result<(), String> {
+    let side = 1..=crate::npy::MAX_SIDE as u32;
+    if !side.contains(&width) || !side.contains(&height) {
+        return Err(format!(
+            "width {width} and height {height} must be 1..={}",
+            side.end()
+        ));
+    }
+    for (name, v) in [("fx", focal[0]), ("fy", focal[1])] {
+        if !(v.is_finite() && v > 0.0 && v <= MAX_FOCAL_PX) {
+            return Err(format!(
+                "`{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {}",
+                crate::limits::show(v)
+            ));
+        }
+    }
+    // The principal point lies in the image (a camera's optical axis
+    // meets its sensor); elsewhere is a typo, never a real camera.
+    for (name, v, side) in [("ppx", principal[0], width), ("ppy", principal[1], height)] {
+        if !(v.is_finite() && (0.0..=f64::from(side)).contains(&v)) {
+            return Err(format!(
+                "`{name}` must lie in the image, 0..={side} pixels, got {}",
+                crate::limits::show(v)
+            ));
+        }
+    }
+    Ok(())
 }
 
 impl super::settings_file::SettingsFile for Intrinsics {
