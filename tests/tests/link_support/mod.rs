@@ -183,6 +183,47 @@ impl Drop for Holder {
     }
 }
 
+/// Another lmhost holding `port`: a synthetic stream for 10 minutes, its
+/// output discarded.
+pub fn spawn_port_holder(port: &str) -> Child {
+    Command::new(lmhost())
+        .args(["stream", "--port", port, "--synthetic", "--seconds", "600"])
+        .env_remove("LMHOST_PORT")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the port holder")
+}
+
+/// Starts a [`spawn_port_holder`] on `port`, waits until it holds the port
+/// (a status there is refused as in use, exit 1), then kills it with
+/// SIGKILL, as a crash would: no destructor of it runs.
+pub fn kill_a_holder_of(port: &str) {
+    let mut holder = spawn_port_holder(port);
+    // A guard against hanging, not a timing goal.
+    let give_up = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    loop {
+        let o = run(&["status", "--port", port]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        if !o.status.success() && err.contains("in use by another process") {
+            assert_eq!(o.status.code(), Some(1), "{err}");
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < give_up,
+            "the holder never held {port}: {err}"
+        );
+        // A status of ours held the port just as the holder opened it (the
+        // holder was refused, as it should be): start it again.
+        if holder.try_wait().unwrap().is_some() {
+            holder = spawn_port_holder(port);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    holder.kill().expect("SIGKILL to the holder");
+    holder.wait().unwrap();
+}
+
 /// Run `lmhost stream --port <port> <extra…>` with `input` on stdin, to
 /// completion (stdout and stderr captured).
 pub fn stream_stdin(port: &str, extra: &[&str], input: &str) -> Output {
