@@ -48,6 +48,14 @@ pub fn lmhost() -> PathBuf {
     .clone()
 }
 
+/// A fresh, empty scratch folder `name` (unique to this test process).
+pub fn scratch_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lmhost-e2e-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 /// Run `lmhost args…` to completion (no `LMHOST_PORT` from outside).
 pub fn run(args: &[&str]) -> Output {
     Command::new(lmhost())
