@@ -101,6 +101,22 @@ pub fn stream_json(port: &str, args: &[&str]) -> serde_json::Value {
     json(&all)
 }
 
+/// Asserts the fields `keys` of the JSON report `v` are `want` (an array,
+/// in the same order); the failure names them and shows the whole report.
+#[track_caller]
+pub fn assert_fields(v: &serde_json::Value, keys: &[&str], want: serde_json::Value) {
+    let got: Vec<serde_json::Value> = keys.iter().map(|k| v[*k].clone()).collect();
+    assert_eq!(serde_json::Value::Array(got), want, "{keys:?} of {v}");
+}
+
+/// `lmhost CMD --port autd3:emulator ARGS… --json`, its report parsed.
+pub fn emulator_json(cmd: &str, args: &[&str]) -> serde_json::Value {
+    let mut all = vec![cmd, "--port", "autd3:emulator"];
+    all.extend_from_slice(args);
+    all.push("--json");
+    json(&all)
+}
+
 /// `lmhost upload --port <port> <extra…> --json`, its report parsed. What
 /// it plays lasts only while lmhost holds it: unless `extra` says
 /// `--no-play` or `--hold`, it holds for [`BRIEF_HOLD`] and stops (its
