@@ -6,15 +6,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 mod link_support;
-use link_support::lmhost;
-
-fn run(args: &[&str]) -> Output {
-    Command::new(lmhost())
-        .args(args)
-        .env_remove("LMHOST_PORT")
-        .output()
-        .expect("lmhost runs")
-}
+use link_support::{emulator_json, lmhost, run, scratch_dir, success_json};
 
 fn one_line_error(o: &Output) -> String {
     let e = String::from_utf8_lossy(&o.stderr).to_string();
@@ -37,19 +29,7 @@ fn fails(args: &[&str], code: i32) -> String {
 
 #[test]
 fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
-    let o = run(&[
-        "upload",
-        "--port",
-        "autd3:emulator",
-        "--scene",
-        scene.to_str().unwrap(),
-        "--foci",
-        "4",
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let v = emulator_json("upload", &["--scene", &scene("paper.toml"), "--foci", "4"]);
     assert_eq!(v["steps"], 82);
     assert_eq!(v["dwell_us"], 2450.0);
     assert!(
@@ -79,21 +59,6 @@ fn bad_autd3_ports_and_limits_exit_2_missing_links_exit_1() {
         .contains("25 µs")
     );
     assert!(fails(&["upload", "--port", "autd3:ethercrab:eth0"], 1).contains("autd3-ethercrab"));
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    serde_json::from_slice(&o.stdout).expect("one JSON object")
-}
-
-/// Runs `lmhost CMD --port autd3:emulator ARGS --json` and parses its report.
-fn emulator_json(cmd: &str, args: &[&str]) -> serde_json::Value {
-    let all: Vec<&str> = [cmd, "--port", "autd3:emulator"]
-        .into_iter()
-        .chain(args.iter().copied())
-        .chain(["--json"])
-        .collect();
-    json(&run(&all))
 }
 
 fn scene(name: &str) -> String {
@@ -254,7 +219,7 @@ fn info_status_and_stop_on_the_emulator() {
         &scene("paper.toml"),
         "--json",
     ]);
-    let v = json(&o);
+    let v = success_json(&o);
     assert_eq!(v["backend"], "autd3");
     assert_eq!(v["transducers"], 996);
     assert_eq!(v["slots"], 2);
@@ -284,7 +249,7 @@ fn a_scene_the_rig_cannot_match_is_exit_2() {
         )
         .contains("has 4 devices but the AUTD3 rig has 3")
     );
-    let v = json(&run(&[
+    let v = success_json(&run(&[
         "upload",
         "--port",
         "autd3:emulator:4",
@@ -294,8 +259,7 @@ fn a_scene_the_rig_cannot_match_is_exit_2() {
     ]));
     assert_eq!(v["readback_mismatches"], 0);
     // Two devices at the same place: the rig cannot be built.
-    let dir = std::env::temp_dir().join(format!("lmhost-autd3-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("autd3");
     let paper = std::fs::read_to_string(scene("paper.toml")).unwrap();
     let first = paper.find("[[device]]").expect("paper.toml lists devices");
     let end = paper[first + 1..]

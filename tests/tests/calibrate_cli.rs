@@ -3,7 +3,7 @@
 //! `simulate`, a camera pose recovered from synthetic ball recordings, and
 //! bad input refused with one line and exit 2.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 use lmhost::geom::{Vec3, add, euler_xyz_deg, norm, sub};
@@ -14,14 +14,7 @@ use lmhost::plan::scene::camera::CameraPose;
 use lmhost::sense::track::intrinsics::Intrinsics;
 
 mod link_support;
-use link_support::{ok, run};
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lmhost-e2e-cal-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use link_support::{ok, run, scratch_dir};
 
 fn paper_scene() -> String {
     std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml"))
@@ -43,7 +36,7 @@ fn force_n(out: &Path) -> f64 {
 
 #[test]
 fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
-    let d = scratch("force");
+    let d = scratch_dir("cal-force");
     let scene = d.join("rig.toml");
     std::fs::write(&scene, paper_scene()).unwrap();
     let s = scene.to_str().unwrap();
@@ -150,9 +143,22 @@ fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// `calibrate camera POINTS --intrinsics INTRINSICS EXTRA…`.
+fn calibrate_camera<'a>(points: &'a Path, intrinsics: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "calibrate",
+        "camera",
+        points.to_str().unwrap(),
+        "--intrinsics",
+        intrinsics.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
 #[test]
 fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
-    let d = scratch("camera");
+    let d = scratch_dir("cal-camera");
     let intr = Intrinsics::D435_848X480;
     std::fs::write(
         d.join("cam.toml"),
@@ -224,17 +230,11 @@ fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
         scene.to_str().unwrap().to_string(),
         d.join("cam.toml"),
     );
-    let j: serde_json::Value = serde_json::from_str(&ok(&[
-        "calibrate",
-        "camera",
-        pts.to_str().unwrap(),
-        "--intrinsics",
-        cam.to_str().unwrap(),
-        "--scene",
-        &s,
-        "--write",
-        "--json",
-    ]))
+    let j: serde_json::Value = serde_json::from_str(&ok(&calibrate_camera(
+        &pts,
+        &cam,
+        &["--scene", &s, "--write", "--json"],
+    )))
     .unwrap();
     assert_eq!(j["residuals_mm"].as_array().unwrap().len(), 5);
     let got = Scene::load(&scene).unwrap().camera.unwrap();
@@ -261,13 +261,7 @@ fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
     )
     .unwrap();
     refused(
-        &run(&[
-            "calibrate",
-            "camera",
-            d.join("few.toml").to_str().unwrap(),
-            "--intrinsics",
-            cam.to_str().unwrap(),
-        ]),
+        &run(&calibrate_camera(&d.join("few.toml"), &cam, &[])),
         "needs 3",
     );
     refused(
@@ -275,15 +269,7 @@ fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
         "--intrinsics",
     );
     refused(
-        &run(&[
-            "calibrate",
-            "camera",
-            pts.to_str().unwrap(),
-            "--intrinsics",
-            cam.to_str().unwrap(),
-            "--max-residual",
-            "0",
-        ]),
+        &run(&calibrate_camera(&pts, &cam, &["--max-residual", "0"])),
         "--max-residual",
     );
     let _ = std::fs::remove_dir_all(&d);

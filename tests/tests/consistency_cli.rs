@@ -4,17 +4,11 @@
 //! plays; stimulus files go through the planned stimulus's checks.
 
 use std::collections::BTreeSet;
-use std::path::PathBuf;
 
 mod link_support;
-use link_support::{Sim, json, ok, run, stream_json, upload_json};
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lm-consistency-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use link_support::{
+    Sim, assert_fields, emulator_json, json, ok, run, scratch_dir, stream_json, upload_json,
+};
 
 fn keys(v: &serde_json::Value) -> BTreeSet<String> {
     v.as_object().unwrap().keys().cloned().collect()
@@ -33,7 +27,7 @@ fn refused(args: &[&str]) -> String {
 fn upload_json_has_the_same_keys_on_both_backends() {
     let sim = Sim::start(&[]);
     let lm = upload_json(&sim.port, &[]);
-    let a = json(&["upload", "--port", "autd3:emulator", "--json"]);
+    let a = emulator_json("upload", &[]);
     assert_eq!(keys(&lm), keys(&a), "\nLM {lm}\nAUTD3 {a}");
     for k in [
         "crc32",
@@ -76,10 +70,7 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
     let v = stream_json(&sim.port, &["--synthetic", "--fast", "--seconds", "0.2"]);
     assert!(v["upload"].is_null(), "{v}");
     let st = json(&["status", "--port", &sim.port, "--json"]);
-    assert_eq!(
-        (st["slot"].clone(), st["queued_slot"].clone()),
-        (0.into(), serde_json::Value::Null)
-    );
+    assert_fields(&st, &["slot", "queued_slot"], serde_json::json!([0, null]));
     // Stimulus flags: planned, uploaded into the free slot and played.
     let plan_flags = [
         "--synthetic",
@@ -119,7 +110,7 @@ fn stream_plan_flags_upload_and_play_on_the_lm_firmware() {
 
 #[test]
 fn plan_target_autd3_is_what_the_autd3_plays() {
-    let d = dir("target");
+    let d = scratch_dir("consistency-target");
     let npy = d.join("a5.npy");
     let v = json(&[
         "plan",
@@ -143,44 +134,29 @@ fn plan_target_autd3_is_what_the_autd3_plays() {
     );
     // The AUTD3 backend uploads the same phases (its read-back is clean
     // against its plan, and the CRCs agree) ...
-    let a = json(&[
-        "upload",
-        "--port",
-        "autd3:emulator",
-        "--radius",
-        "5",
-        "--json",
-    ]);
-    assert_eq!(
-        (a["steps"].clone(), a["readback_mismatches"].clone()),
-        (136.into(), 0.into())
+    let a = emulator_json("upload", &["--radius", "5"]);
+    assert_fields(
+        &a,
+        &["steps", "readback_mismatches"],
+        serde_json::json!([136, 0]),
     );
     assert_eq!(a["crc32"], v["crc32"], "{a}");
     // ... and the exported file, uploaded as phases at 5 Hz, reads back
     // byte for byte with the same timing.
-    let f = json(&[
+    let f = emulator_json(
         "upload",
-        "--port",
-        "autd3:emulator",
-        "--phases",
-        npy.to_str().unwrap(),
-        "--freq",
-        "5",
-        "--json",
-    ]);
+        &["--phases", npy.to_str().unwrap(), "--freq", "5"],
+    );
     assert_eq!(f["crc32"], v["crc32"], "{f}");
     assert_eq!(f["readback_mismatches"], 0, "{f}");
-    assert_eq!(
-        (f["steps"].clone(), f["divide"].clone()),
-        (136.into(), 59.into())
-    );
+    assert_fields(&f, &["steps", "divide"], serde_json::json!([136, 59]));
     let bytes = std::fs::read(&npy).unwrap();
     assert_eq!(bytes.len(), 128 + 136 * 996);
 }
 
 #[test]
 fn stimulus_files_upload_through_the_same_checks() {
-    let d = dir("files");
+    let d = scratch_dir("consistency-files");
     let sim = Sim::start(&[]);
     // Foci as JSON: the paper's LM-S circle at 8 steps, dwell in the file.
     let foci: Vec<Vec<[f64; 3]>> = (0..8)
@@ -197,26 +173,16 @@ fn stimulus_files_upload_through_the_same_checks() {
     .unwrap();
     let fj = fj.to_str().unwrap();
     let v = upload_json(&sim.port, &["--foci-file", fj]);
-    assert_eq!(
-        (v["steps"].clone(), v["freq_hz"].clone()),
-        (8.into(), 5.0.into()),
-        "{v}"
-    );
+    assert_fields(&v, &["steps", "freq_hz"], serde_json::json!([8, 5.0]));
     // The same circle planned: the same phases.
     let p = json(&["plan", "--steps", "8", "--json"]);
     assert_eq!(v["crc32"], p["crc32"], "{v}");
     // On AUTD3 too (25 ms is on the grid), read back clean.
-    let a = json(&[
-        "upload",
-        "--port",
-        "autd3:emulator",
-        "--foci-file",
-        fj,
-        "--json",
-    ]);
-    assert_eq!(
-        (a["divide"].clone(), a["readback_mismatches"].clone()),
-        (1000.into(), 0.into())
+    let a = emulator_json("upload", &["--foci-file", fj]);
+    assert_fields(
+        &a,
+        &["divide", "readback_mismatches"],
+        serde_json::json!([1000, 0]),
     );
     // Phases as JSON, and the refusals.
     let pj = d.join("phases.json");

@@ -2,7 +2,7 @@
 //! one line, and every check is one line.
 
 mod link_support;
-use link_support::{Sim, run};
+use link_support::{Sim, run, scratch_dir};
 
 #[test]
 fn doctor_passes_the_simulated_device_and_the_autd3_emulator() {
@@ -40,8 +40,7 @@ fn doctor_passes_the_simulated_device_and_the_autd3_emulator() {
 
 #[test]
 fn a_device_that_does_not_answer_fails_the_doctor_in_one_line() {
-    let dir = std::env::temp_dir().join(format!("lmhost-doctor-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("doctor");
     // A regular file is not a board: opening it as a port fails.
     let not_a_port = dir.join("ttyNONE");
     let o = run(&[

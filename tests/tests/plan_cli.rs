@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 mod link_support;
-use link_support::lmhost;
+use link_support::{lmhost, scratch_dir};
 
 fn run(args: &[&str]) -> Output {
     Command::new(lmhost())
@@ -118,8 +118,7 @@ fn bad_scene_file_names_file_and_field() {
 
 #[test]
 fn wiring_maps_every_transducer_of_a_scene_to_a_board_pin() {
-    let dir = std::env::temp_dir().join(format!("lmhost-wiring-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("wiring");
     let out = dir.join("wiring.csv");
     let o = run(&[
         "wiring",

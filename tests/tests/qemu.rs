@@ -28,7 +28,7 @@ use lm_proto::{
 
 mod link_support;
 mod qemu_support;
-use qemu_support::{Qemu, firmware_elf, serving, skip_without_qemu, wait_on_device, within_20_s};
+use qemu_support::{Qemu, firmware_or_skip, serving_or_skip, wait_on_device, within_20_s};
 
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
 const SOUND_SPEED_MM_S: u32 = 340_000;
@@ -205,10 +205,9 @@ fn centroid(seq: u32, pos_um: [i32; 3], present: bool, t0: Instant) -> Message<'
 
 #[test]
 fn firmware_under_qemu_speaks_the_protocol() {
-    if skip_without_qemu() {
+    let Some(elf) = firmware_or_skip() else {
         return;
-    }
-    let elf = firmware_elf();
+    };
     let (_qemu, sock) = Qemu::start(&elf);
     let mut link = Link::new(sock);
     let t0 = Instant::now();
@@ -458,11 +457,9 @@ fn preload_frame_bytes(set: &[(String, lmhost::plan::sequence::Plan)]) -> (u64, 
 fn firmware_under_qemu_holds_the_papers_stimulus_library() {
     use lmhost::device::backend::Transfer;
     use lmhost::device::connect::LmBackend;
-    if skip_without_qemu() {
+    let Some((_qemu, spec)) = serving_or_skip() else {
         return;
-    }
-    let elf = firmware_elf();
-    let (_qemu, spec) = serving(&elf).expect("start qemu-system-arm");
+    };
     let client =
         within_20_s(|| spec.connect()).unwrap_or_else(|e| panic!("connecting to QEMU: {e}"));
     let mut dev = LmBackend::new(client, Encoding::Delta);

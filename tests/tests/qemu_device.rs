@@ -15,9 +15,20 @@ use lm_proto::{DeviceState, Status};
 mod link_support;
 mod qemu_support;
 use qemu_support::{
-    Qemu, firmware_elf, free_port, qemu_command_icount, serving, skip_without_qemu, wait_on_device,
-    within_20_s,
+    Qemu, device_or_skip, firmware_or_skip, free_port, qemu_command_icount, serving, until_stopped,
+    wait_on_device, within_20_s,
 };
+
+/// The default stimulus (LM-S, 5 Hz) planned for the paper's scene.
+fn default_plan() -> lmhost::plan::sequence::Plan {
+    use lmhost::plan::scene::Scene;
+    use lmhost::plan::stimulus::Stimulus;
+    use lmhost::plan::target::Target;
+    Stimulus::default()
+        .plan_for(&Target::Lm, Scene::default())
+        .unwrap()
+        .plan
+}
 
 /// The device policy's conformance table (`lmhost::device::conformance`), the
 /// same one the simulated device and the AUTD3 emulator pass, against the
@@ -26,16 +37,10 @@ use qemu_support::{
 fn firmware_under_qemu_conforms_to_the_device_policy() {
     use lmhost::device::conformance::{Dut, run};
     use lmhost::plan::scene::Scene;
-    use lmhost::plan::stimulus::Stimulus;
-    use lmhost::plan::target::Target;
-    if skip_without_qemu() {
+    let Some(elf) = firmware_or_skip() else {
         return;
-    }
-    let elf = firmware_elf();
-    let wide = Stimulus::default()
-        .plan_for(&Target::Lm, Scene::default())
-        .unwrap()
-        .plan;
+    };
+    let wide = default_plan();
     let mut narrow = wide.clone();
     narrow.sequence.set_max_offset_mm(2.0).unwrap();
     let steps = u64::from(wide.sequence.header.steps);
@@ -65,10 +70,9 @@ fn firmware_under_qemu_conforms_to_the_device_policy() {
 /// timing is asserted: under `-icount` the guest's time is its own).
 #[test]
 fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
-    if skip_without_qemu() {
+    let Some(elf) = firmware_or_skip() else {
         return;
-    }
-    let elf = firmware_elf();
+    };
     let port = free_port();
     // `-icount shift=auto`: the guest's clock follows the host's, so what
     // the device counts and what the host times can be compared (with
@@ -192,20 +196,10 @@ fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
 /// no deadline missed; its status shows the count at the limit, frozen.
 #[test]
 fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
-    use lmhost::plan::scene::Scene;
-    use lmhost::plan::stimulus::Stimulus;
-    use lmhost::plan::target::Target;
-    if skip_without_qemu() {
+    let Some((_qemu, mut dev)) = device_or_skip() else {
         return;
-    }
-    let elf = firmware_elf();
-    let (_qemu, spec) = serving(&elf).expect("start qemu-system-arm");
-    let mut dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))
-        .unwrap_or_else(|e| panic!("{e:#}"));
-    let plan = Stimulus::default()
-        .plan_for(&Target::Lm, Scene::default())
-        .unwrap()
-        .plan;
+    };
+    let plan = default_plan();
     let h = plan.sequence.header;
     assert_eq!(h.period_us, 200_000, "a 5 Hz stimulus");
     let n = u64::from(h.steps);
@@ -213,17 +207,10 @@ fn a_timed_play_on_the_firmware_under_qemu_stops_itself_after_its_steps() {
     let slot = dev.upload(&plan, None).unwrap().slot;
     dev.play_for(slot, true, steps).unwrap();
     let count = |st: &Status| u64::from(st.cycles) * n + u64::from(st.step);
-    let give_up = Instant::now() + Duration::from_secs(60);
-    let st = loop {
-        let st = dev.status().unwrap();
-        if st.state == DeviceState::Stopped {
-            break st;
-        }
+    let st = until_stopped(dev.as_mut(), |st| {
         assert_eq!(st.state, DeviceState::Playing, "{st:?}");
-        assert!(count(&st) < u64::from(steps), "{st:?}");
-        assert!(Instant::now() < give_up, "never stopped: {st:?}");
-        std::thread::sleep(Duration::from_millis(20));
-    };
+        assert!(count(st) < u64::from(steps), "{st:?}");
+    });
     assert_eq!(count(&st), u64::from(steps), "{st:?}");
     assert_eq!(
         (st.slot, st.queued_slot, st.mute_reason),
@@ -249,13 +236,9 @@ fn an_am_stimulus_plays_on_the_firmware_under_qemu() {
     use lmhost::plan::scene::Scene;
     use lmhost::plan::stimulus::Stimulus;
     use lmhost::plan::target::Target;
-    if skip_without_qemu() {
+    let Some((_qemu, mut dev)) = device_or_skip() else {
         return;
-    }
-    let elf = firmware_elf();
-    let (_qemu, spec) = serving(&elf).expect("start qemu-system-arm");
-    let mut dev = within_20_s(|| lmhost::device::connect::open(&spec, &Scene::default()))
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    };
     let am = Stimulus {
         am: Some(Am {
             shape: AmShape::Sine,
@@ -268,25 +251,14 @@ fn an_am_stimulus_plays_on_the_firmware_under_qemu() {
     .unwrap();
     assert_eq!(am.timing.am_freq_hz, Some(20.0));
     let plan = am.plan;
-    let flat = Stimulus::default()
-        .plan_for(&Target::Lm, Scene::default())
-        .unwrap()
-        .plan;
+    let flat = default_plan();
     let up = dev.upload(&plan, Some(0)).unwrap();
     assert_eq!(up.wire().unwrap().crc32, plan.sequence.crc32());
     let up_flat = dev.upload(&flat, Some(1)).unwrap();
     assert_ne!(up_flat.wire().unwrap().crc32, up.wire().unwrap().crc32);
     let n = u32::from(plan.sequence.header.steps);
     dev.play_for(0, true, n).unwrap();
-    let give_up = Instant::now() + Duration::from_secs(60);
-    let st = loop {
-        let st = dev.status().unwrap();
-        if st.state == DeviceState::Stopped {
-            break st;
-        }
-        assert!(Instant::now() < give_up, "never stopped: {st:?}");
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let st = until_stopped(dev.as_mut(), |_| {});
     assert_eq!(
         (st.slot, st.cycles, st.missed_deadlines),
         (Some(0), 1, 0),

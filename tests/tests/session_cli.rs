@@ -99,72 +99,18 @@ fn bad_session_flags_and_files_are_one_line_input_errors() {
     let not_socket = dir.join("plain");
     std::fs::write(&not_socket, "").unwrap();
     let lib = library();
-    for (args, needle) in [
-        (
-            vec![
-                "session",
-                "--library",
-                "/nonexistent.toml",
-                "--control",
-                "-",
-                "--port",
-                "autd3:emulator",
-            ],
-            "nonexistent",
-        ),
-        (
-            vec![
-                "session",
-                "--library",
-                bad_lib.to_str().unwrap(),
-                "--control",
-                "-",
-                "--port",
-                "autd3:emulator",
-            ],
-            "stimulus `x`",
-        ),
-        (
-            vec![
-                "session",
-                "--library",
-                &lib,
-                "--control",
-                not_socket.to_str().unwrap(),
-                "--port",
-                "autd3:emulator",
-            ],
-            "not a socket",
-        ),
-        (
-            vec![
-                "session",
-                "--library",
-                &lib,
-                "--control",
-                "-",
-                "--tcp",
-                "5000",
-                "--port",
-                "autd3:emulator",
-            ],
-            "--tcp",
-        ),
-        (
-            vec![
-                "session",
-                "--library",
-                &lib,
-                "--control",
-                "-",
-                "--stream",
-                "-",
-                "--port",
-                "autd3:emulator",
-            ],
-            "stdin",
-        ),
-    ] {
+    // `session --library L --control C EXTRA… --port autd3:emulator`.
+    let cases: [(&str, &str, &[&str], &str); 5] = [
+        ("/nonexistent.toml", "-", &[], "nonexistent"),
+        (bad_lib.to_str().unwrap(), "-", &[], "stimulus `x`"),
+        (&lib, not_socket.to_str().unwrap(), &[], "not a socket"),
+        (&lib, "-", &["--tcp", "5000"], "--tcp"),
+        (&lib, "-", &["--stream", "-"], "stdin"),
+    ];
+    for (library, control, extra, needle) in cases {
+        let mut args = vec!["session", "--library", library, "--control", control];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--port", "autd3:emulator"]);
         let out = run_stdin(&args, b"");
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
@@ -246,6 +192,23 @@ fn control(sock: &Path) -> (UnixStream, BufReader<UnixStream>) {
     (s, r)
 }
 
+/// A connection to the control socket on which `present` was accepted.
+fn presenting(sock: &Path, present: &str) -> (UnixStream, BufReader<UnixStream>) {
+    let (mut s, mut r) = control(sock);
+    accepted(&mut s, &mut r, present);
+    (s, r)
+}
+
+/// Sends the session `child` the signal named `sig` (`TERM`, `HUP`, …)
+/// with kill(1).
+fn send_signal(child: &std::process::Child, sig: &str) {
+    let st = Command::new("kill")
+        .args([&format!("-{sig}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success(), "kill -{sig}");
+}
+
 /// Asserts a session ended with exit code 0 (saying `what` and its
 /// stderr otherwise).
 #[track_caller]
@@ -324,20 +287,10 @@ fn sigterm_ends_the_session_silent_with_a_closed_event() {
         .spawn()
         .unwrap();
     {
-        let (mut s, mut r) = control(&sock);
-        accepted(
-            &mut s,
-            &mut r,
-            r#"{"cmd":"present","stimulus":"lmm-5hz-a3"}"#,
-        );
+        let _control = presenting(&sock, r#"{"cmd":"present","stimulus":"lmm-5hz-a3"}"#);
         std::thread::sleep(Duration::from_millis(300));
     }
-    // SAFETY-free: kill(1) sends SIGTERM.
-    let st = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(st.success());
+    send_signal(&child, "TERM");
     exited_0(&child.wait_with_output().unwrap(), "");
     let v = logged(&log);
     assert!(
@@ -486,19 +439,13 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
         .spawn()
         .unwrap();
     {
-        let (mut s, mut r) = control(&sock);
-        accepted(
-            &mut s,
-            &mut r,
+        let (mut s, mut r) = presenting(
+            &sock,
             r#"{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked"}"#,
         );
         let st = send(&mut s, &mut r, r#"{"cmd":"status"}"#);
         assert_eq!(st["status"]["state"], "playing", "{st}");
-        let st = Command::new("kill")
-            .args([&format!("-{signal}"), &child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(st.success());
+        send_signal(&child, signal);
         // The connection stays open until the session is gone.
         let end = Instant::now() + Duration::from_secs(20);
         while child.try_wait().unwrap().is_none() {

@@ -6,7 +6,7 @@
 //! single keys at a (pseudo-)terminal, and bad input refused with exit 2.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -16,20 +16,34 @@ use link_support::Sim;
 mod study_support;
 use study_support::*;
 
+/// A scratch folder `name` holding Experiment 1's answers: the folder,
+/// the answers' file and the answers.
+fn exp1_scratch(name: &str) -> (Scratch, PathBuf, Vec<String>) {
+    let d = scratch(name);
+    let (answers, a) = exp1_answers(&d);
+    (d, answers, a)
+}
+
+/// Experiment 1 run whole on `port` into `out` with seed 7 (every run of
+/// it here presents the same order), the answers `a`: its rows, checked.
+fn exp1_seed_7(
+    port: &str,
+    out: &Path,
+    answers: &Path,
+    a: &[String],
+) -> Vec<BTreeMap<String, String>> {
+    ok(&run_exp1(port, out, answers, &["--seed", "7"]));
+    let r = rows(&out.join("P01"));
+    check_exp1(&r, a);
+    r
+}
+
 #[test]
 fn exp1_on_the_emulator_records_every_trial_and_reports() {
-    let d = scratch("emu");
-    let (answers, a) = exp1_answers(&d);
+    let (d, answers, a) = exp1_scratch("emu");
     let out = d.join("out");
-    ok(&run_exp1(
-        "autd3:emulator",
-        &out,
-        &answers,
-        &["--seed", "7"],
-    ));
+    exp1_seed_7("autd3:emulator", &out, &answers, &a);
     let p = out.join("P01");
-    let r = rows(&p);
-    check_exp1(&r, &a);
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(p.join("session.json")).unwrap()).unwrap();
     assert_eq!(s["seed"], 7);
@@ -134,11 +148,9 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     let o = study(&["report", out.to_str().unwrap(), "--width-mm", "10"])
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = refused(&o);
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("--width-mm"), "{err}");
-    let _ = std::fs::remove_dir_all(&d);
+    says(&err, &["--width-mm"]);
 }
 
 /// Single keys at a terminal: a pseudo-terminal as stdin, each question
@@ -217,38 +229,25 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
         tcgetattr(&pty.slave).unwrap().local_flags.contains(cooked),
         "the terminal is left in raw mode"
     );
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
 fn exp1_on_the_simulated_lm_device_gives_the_same_order() {
     let sim = Sim::start(&[]);
-    let d = scratch("sim");
-    let (answers, a) = exp1_answers(&d);
+    let (d, answers, a) = exp1_scratch("sim");
     let out = d.join("out");
-    ok(&run_exp1(&sim.port, &out, &answers, &["--seed", "7"]));
-    let r = rows(&out.join("P01"));
-    check_exp1(&r, &a);
+    let r = exp1_seed_7(&sim.port, &out, &answers, &a);
     // The same seed on another device: the same order.
-    let e = d.join("emu");
-    ok(&run_exp1("autd3:emulator", &e, &answers, &["--seed", "7"]));
-    assert_eq!(order(&r), order(&rows(&e.join("P01"))));
+    let e = exp1_seed_7("autd3:emulator", &d.join("emu"), &answers, &a);
+    assert_eq!(order(&r), order(&e));
     let s = std::fs::read_to_string(out.join("P01/session.json")).unwrap();
     assert!(s.contains("\"backend\": \"lm-firmware\""), "{s}");
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
 fn kill_9_then_resume_gives_the_uninterrupted_trials() {
-    let d = scratch("resume");
-    let (answers, a) = exp1_answers(&d);
-    let whole = d.join("whole");
-    ok(&run_exp1(
-        "autd3:emulator",
-        &whole,
-        &answers,
-        &["--seed", "7"],
-    ));
+    let (d, answers, a) = exp1_scratch("resume");
+    let w = exp1_seed_7("autd3:emulator", &d.join("whole"), &answers, &a);
     let out = d.join("out");
     let mut child = exp1(
         "autd3:emulator",
@@ -270,9 +269,7 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
     let before = rows(&out.join("P01")).len();
     assert!((5..30).contains(&before), "{before} rows before the kill");
     // Without --resume the participant's folder is refused.
-    let o = run_exp1("autd3:emulator", &out, &answers, &[]);
-    assert_eq!(o.status.code(), Some(2));
-    let e = String::from_utf8_lossy(&o.stderr);
+    let e = refused(&run_exp1("autd3:emulator", &out, &answers, &[]));
     assert!(
         e.contains("--resume") && e.trim().lines().count() == 1,
         "{e}"
@@ -288,9 +285,7 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
     // The killed run ran at a time scale of 0.1: resuming at 0.02 is
     // another rig, refused with one line naming what differs, files as
     // they were.
-    let o = run_exp1("autd3:emulator", &out, &answers, &["--resume"]);
-    assert_eq!(o.status.code(), Some(2));
-    let e = String::from_utf8_lossy(&o.stderr);
+    let e = refused(&run_exp1("autd3:emulator", &out, &answers, &["--resume"]));
     assert!(
         e.contains("the time scale (0.1 then, 0.02 now)")
             && e.contains("--resume-anyway")
@@ -304,15 +299,12 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
         &answers,
         &["--resume", "--resume-anyway"],
     );
-    ok(&o);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        e.contains(&format!("resuming at trial {}", before + 1)),
-        "{e}"
+    says(
+        &ok_stderr(&o),
+        &[&format!("resuming at trial {}", before + 1)],
     );
     let r = rows(&out.join("P01"));
     check_exp1(&r, &a);
-    let w = rows(&whole.join("P01"));
     let keep = |rows: &[BTreeMap<String, String>]| -> Vec<Vec<String>> {
         let cols = [
             "trial",
@@ -338,23 +330,17 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
     let anyway = s["runs"][1]["resumed_anyway"].as_str().unwrap();
     assert!(anyway.contains("time scale"), "{anyway}");
     assert!(s["runs"][0].get("resumed_anyway").is_none());
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
 fn exp3_runs_its_adjustment_loop_and_logs_every_depth() {
     let d = scratch("exp3");
     // Per trial: same | stronger, same | weaker, weaker, same.
-    let mut a: Vec<&str> = Vec::new();
-    for t in 0..30 {
-        a.extend_from_slice(match t % 3 {
-            0 => &["same"][..],
-            1 => &["stronger", "same"][..],
-            _ => &["2", "weaker", "3"][..],
-        });
-    }
-    let answers = d.join("answers.txt");
-    std::fs::write(&answers, a.join("\n")).unwrap();
+    let answers = cycled_answers(
+        &d,
+        30,
+        &[&["same"], &["stronger", "same"], &["2", "weaker", "3"]],
+    );
     let out = d.join("out");
     let o = run_p01(
         &studies("paper-exp3.toml"),
@@ -365,12 +351,14 @@ fn exp3_runs_its_adjustment_loop_and_logs_every_depth() {
     )
     .output()
     .unwrap();
-    ok(&o);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("next depth 3.75 mm (stronger)"), "{err}");
-    assert!(err.contains("next depth 4.50 mm (weaker)"), "{err}");
-    let r = rows(&out.join("P01"));
-    assert_eq!(r.len(), 30);
+    says(
+        &ok_stderr(&o),
+        &[
+            "next depth 3.75 mm (stronger)",
+            "next depth 4.50 mm (weaker)",
+        ],
+    );
+    let r = n_rows(&out.join("P01"), 30);
     for (i, row) in r.iter().enumerate() {
         let (n, depths, last, answers) = match i % 3 {
             0 => ("0", "4.00", "4.00", "same"),
@@ -402,7 +390,6 @@ fn exp3_runs_its_adjustment_loop_and_logs_every_depth() {
     assert_eq!(summary.lines().count(), 16);
     assert!(summary.contains(",final_depth_mm,2,"), "{summary}");
     assert!(out.join("P01/box-final_depth_mm.svg").exists());
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -411,8 +398,7 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     let out = d.join("out");
     let lines = |o: &Output| String::from_utf8_lossy(&o.stderr).trim().to_owned();
     // A bad answer names its line.
-    let answers = d.join("answers.txt");
-    std::fs::write(&answers, "3\n4\n5\n9\n").unwrap();
+    let answers = answers_file(&d, "3\n4\n5\n9\n");
     let o = run_exp1("autd3:emulator", &out, &answers, &["--seed", "1"]);
     assert_eq!(o.status.code(), Some(2), "{}", lines(&o));
     let e = lines(&o);
@@ -488,5 +474,4 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     let o = resume3(&out);
     assert_eq!(o.status.code(), Some(2));
     assert!(lines(&o).contains("another protocol"), "{}", lines(&o));
-    let _ = std::fs::remove_dir_all(&d);
 }

@@ -15,24 +15,23 @@ fn a_practice_block_and_a_break_run_before_the_main_block_and_stay_out_of_the_re
     let o = study(&["check", &protocol, "--participant", "2", "--seed", "4"])
         .output()
         .unwrap();
-    ok(&o);
-    let plan = String::from_utf8_lossy(&o.stdout);
-    assert!(plan.contains("blocks: 2; trials: 33"), "{plan}");
-    assert!(plan.contains("block 1 `practice` (practice"), "{plan}");
-    assert!(plan.contains("then a 60 s break"), "{plan}");
-    assert!(
-        plan.contains("\n1 practice 1 lms-5hz/4 lms-5hz-a4\n"),
-        "{plan}"
+    says(
+        &ok_stdout(&o),
+        &[
+            "blocks: 2; trials: 33",
+            "block 1 `practice` (practice",
+            "then a 60 s break",
+            "\n1 practice 1 lms-5hz/4 lms-5hz-a4\n",
+            "\n33 main 2 ",
+        ],
     );
-    assert!(plan.contains("\n33 main 2 "), "{plan}");
 
     let sim = Sim::start(&[]);
     let d = scratch("blocks");
     let out = d.join("out");
     // Five answers a trial (vibration, movement, three shape items).
-    let answers = d.join("answers.txt");
     let a: Vec<String> = (0..33 * 5).map(|i| ((i * 3) % 7 + 1).to_string()).collect();
-    std::fs::write(&answers, a.join("\n") + "\n").unwrap();
+    let answers = answers_file(&d, &(a.join("\n") + "\n"));
     let o = run_p01(
         &protocol,
         &sim.port,
@@ -42,15 +41,14 @@ fn a_practice_block_and_a_break_run_before_the_main_block_and_stay_out_of_the_re
     )
     .output()
     .unwrap();
-    ok(&o);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("block `practice` (practice): 3 trials: Practice:"),
-        "{err}"
+    says(
+        &ok_stderr(&o),
+        &[
+            "block `practice` (practice): 3 trials: Practice:",
+            "break: 1.2 s",
+        ],
     );
-    assert!(err.contains("break: 1.2 s"), "{err}");
-    let r = rows(&out.join("P01"));
-    assert_eq!(r.len(), 33);
+    let r = n_rows(&out.join("P01"), 33);
     for (i, row) in r.iter().enumerate() {
         let (block, practice) = if i < 3 {
             ("practice", "1")
@@ -91,11 +89,9 @@ fn a_practice_block_and_a_break_run_before_the_main_block_and_stay_out_of_the_re
     );
     // The report: 30 trials, the practice left out and said so.
     let o = study(&["report", out.to_str().unwrap()]).output().unwrap();
-    ok(&o);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("1 participants, 30 trials summarised (3 practice trials left out)"),
-        "{err}"
+    says(
+        &ok_stderr(&o),
+        &["1 participants, 30 trials summarised (3 practice trials left out)"],
     );
     let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     // lms-5hz at 4 mm was presented three times (once in practice); its

@@ -40,11 +40,8 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
         "logistic:threshold=0.4,slope=15,lapse=0.02,seed=5",
         &["--seed", "1"],
     );
-    ok(&o);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("12 reversals: threshold"), "{err}");
-    let r = rows(&out.join("S01"));
-    assert_eq!(r.len(), 2);
+    says(&ok_stderr(&o), &["12 reversals: threshold"]);
+    let r = n_rows(&out.join("S01"), 2);
     for row in &r {
         let levels: Vec<f64> = row["staircase_levels"]
             .split('|')
@@ -80,8 +77,7 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
         &["--resume"],
     );
     ok(&o);
-    let again = rows(&out.join("S01"));
-    assert_eq!(again.len(), 2);
+    let again = n_rows(&out.join("S01"), 2);
     assert_eq!(again[0], r[0]);
     ok(&study(&["report", out.join("S01").to_str().unwrap()])
         .output()
@@ -107,12 +103,9 @@ fn a_staircase_runs_on_the_simulated_device_with_a_simulated_observer() {
     ])
     .output()
     .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("has no [staircase]"));
+    says(&refused(&o), &["has no [staircase]"]);
     let o = run("probit:threshold=1", &["--seed", "1"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("`probit` is not a shape"));
-    let _ = std::fs::remove_dir_all(&d);
+    says(&refused(&o), &["`probit` is not a shape"]);
 }
 
 /// Every place holds each condition equally often and each ordered pair
@@ -199,13 +192,11 @@ fn study_check_prints_a_balanced_latin_square_and_run_needs_the_index() {
     ])
     .output()
     .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("give --index N"));
+    says(&refused(&o), &["give --index N"]);
     let o = study(&["check", d.join("missing.toml").to_str().unwrap()])
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let _ = std::fs::remove_dir_all(&d);
+    refused(&o);
 }
 
 #[test]

@@ -17,17 +17,15 @@ use study_support::*;
 
 /// Per trial: same | weaker, same | stronger, stronger, same.
 fn answers(d: &Path) -> std::path::PathBuf {
-    let mut a: Vec<&str> = Vec::new();
-    for t in 0..30 {
-        a.extend_from_slice(match t % 3 {
-            0 => &["same"][..],
-            1 => &["weaker", "same"][..],
-            _ => &["stronger", "stronger", "same"][..],
-        });
-    }
-    let p = d.join("answers.txt");
-    std::fs::write(&p, a.join("\n")).unwrap();
-    p
+    cycled_answers(
+        d,
+        30,
+        &[
+            &["same"],
+            &["weaker", "same"],
+            &["stronger", "stronger", "same"],
+        ],
+    )
 }
 
 fn exp3(port: &str, out: &Path, answers: &Path, stage: &str) -> Output {
@@ -132,7 +130,6 @@ fn exp3_with_the_twins_records_a_force_that_rises_with_depth() {
         .collect();
     assert_eq!(forces.len(), 15, "{summary}");
     assert!(p.join("box-force_n.svg").exists());
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -149,20 +146,20 @@ fn a_stage_that_falls_silent_mid_trial_leaves_the_device_silent() {
     let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
     assert_eq!(errors.len(), 1, "{err}");
     let e = errors[0];
-    for want in [
-        "moving to 9 mm: sim-stage: no reply",
-        "stage NOT back at rest",
-        "the array is silent",
-        "trials 1..=1 of 30",
-    ] {
-        assert!(e.contains(want), "{want}: {e}");
-    }
+    says(
+        e,
+        &[
+            "moving to 9 mm: sim-stage: no reply",
+            "stage NOT back at rest",
+            "the array is silent",
+            "trials 1..=1 of 30",
+        ],
+    );
     assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(rows(&out.join("P01")).len(), 1);
+    n_rows(&out.join("P01"), 1);
     let st = json(&["status", "--port", &sim.port, "--json"]);
     assert_eq!(st["state"], "Stopped", "{st}");
     assert_eq!(st["mute_reason"], "stopped", "{st}");
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -215,5 +212,4 @@ fn ctrl_c_mid_push_still_brings_the_stage_back() {
         rest.contains("interrupted (stage back at rest at 5 mm); the array is silent"),
         "{rest}"
     );
-    let _ = std::fs::remove_dir_all(&d);
 }

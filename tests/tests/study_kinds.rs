@@ -15,53 +15,18 @@ use link_support::Sim;
 mod study_support;
 use study_support::*;
 
-const LIBRARY: &str = r#"
-[[stimulus]]
-id = "liss"
-freq = 2.0
-steps = 200
-path = { shape = "lissajous", a = 5.0, b = 2.0, ratio = [3, 2] }
+/// A Lissajous entry and an AM entry.
+const LIBRARY: &str = include_str!("study_support/kinds-library.toml");
 
-[[stimulus]]
-id = "am"
-am = { shape = "sine", freq = 100.0, depth = 1.0 }
-"#;
-
-/// A one-factor protocol over `levels` of `library`, one set, one question.
-fn protocol(dir: &Path, library: &str, levels: &str) -> String {
-    std::fs::write(dir.join("kinds-library.toml"), library).unwrap();
-    let p = dir.join("kinds.toml");
-    std::fs::write(
-        &p,
-        format!(
-            r#"name = "kinds"
-library = "kinds-library.toml"
-sets = 1
-stimulus = "{{kind}}"
-
-[timeline]
-wait_for_finger = true
-while_touching = true
-touch_s = 1.0
-iti_s = 0.5
-gate = "tracked"
-
-[[factor]]
-name = "kind"
-levels = {levels}
-
-[[question]]
-id = "strength"
-kind = "likert"
-points = 7
-low = "none"
-high = "strong"
-text = "How strong was it?"
-"#
-        ),
-    )
-    .unwrap();
-    p.display().to_string()
+/// A scratch folder `name` holding `library` and the one-factor protocol
+/// over its two entries, one set, one question
+/// (`study_support/kinds.toml`): the folder and the protocol's path.
+fn kinds_study(name: &str, library: &str) -> (Scratch, String) {
+    let d = scratch(name);
+    std::fs::write(d.join("kinds-library.toml"), library).unwrap();
+    let p = d.join("kinds.toml");
+    std::fs::write(&p, include_str!("study_support/kinds.toml")).unwrap();
+    (d, p.display().to_string())
 }
 
 fn run(proto: &str, port: &str, out: &Path, answers: &Path) -> std::process::Output {
@@ -76,87 +41,58 @@ fn run(proto: &str, port: &str, out: &Path, answers: &Path) -> std::process::Out
     .unwrap()
 }
 
-#[test]
-fn an_am_and_a_lissajous_entry_play_in_a_study_on_the_emulator() {
-    let d = scratch("kinds-emu");
-    let proto = protocol(&d, LIBRARY, r#"["liss", "am"]"#);
-    let answers = d.join("answers.txt");
-    std::fs::write(&answers, "3\n5\n").unwrap();
+/// Runs the study over both entries on `port` with `answers` (in a
+/// scratch folder `name`): each entry preloaded, presented and recorded
+/// once. Their `preloaded` events.
+fn plays_both_entries(name: &str, port: &str, answers: &str) -> Vec<serde_json::Value> {
+    let (d, proto) = kinds_study(name, LIBRARY);
+    let answers = answers_file(&d, answers);
     let out = d.join("out");
-    ok(&run(&proto, "autd3:emulator", &out, &answers));
-    let r = rows(&out.join("P01"));
-    assert_eq!(r.len(), 2);
+    ok(&run(&proto, port, &out, &answers));
+    let r = n_rows(&out.join("P01"), 2);
     let mut played: Vec<&str> = r.iter().map(|x| x["stimulus"].as_str()).collect();
     played.sort();
     assert_eq!(played, ["am", "liss"]);
     let events = std::fs::read_to_string(out.join("P01/events.jsonl")).unwrap();
+    let onsets = events
+        .lines()
+        .filter(|l| l.contains("\"event\":\"onset\""))
+        .count();
+    assert_eq!(onsets, 2, "{events}");
     let uploads: Vec<serde_json::Value> = events
         .lines()
         .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
         .filter(|e| e["event"] == "preloaded")
         .collect();
     assert_eq!(uploads.len(), 2, "{events}");
-    for u in &uploads {
-        assert_eq!(u["readback_mismatches"], 0, "{u}");
-    }
-    let onsets = events
-        .lines()
-        .filter(|l| l.contains("\"event\":\"onset\""))
-        .count();
-    assert_eq!(onsets, 2, "{events}");
+    uploads
 }
 
-/// The `preloaded` events of a study's `events.jsonl`.
-fn preloaded(out: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(out.join("P01/events.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-        .filter(|e| e["event"] == "preloaded")
-        .collect()
+#[test]
+fn an_am_and_a_lissajous_entry_play_in_a_study_on_the_emulator() {
+    for u in &plays_both_entries("kinds-emu", "autd3:emulator", "3\n5\n") {
+        assert_eq!(u["readback_mismatches"], 0, "{u}");
+    }
 }
 
 #[test]
 fn the_simulated_device_plays_the_am_and_lissajous_entries_in_a_study() {
     let sim = Sim::start(&[]);
-    let d = scratch("kinds-sim");
-    let answers = d.join("answers.txt");
-    std::fs::write(&answers, "4\n5\n").unwrap();
-    let proto = protocol(&d, LIBRARY, r#"["liss", "am"]"#);
-    let out = d.join("out");
-    ok(&run(&proto, &sim.port, &out, &answers));
-    let r = rows(&out.join("P01"));
-    let mut played: Vec<&str> = r.iter().map(|x| x["stimulus"].as_str()).collect();
-    played.sort();
-    assert_eq!(played, ["am", "liss"]);
-    let events = std::fs::read_to_string(out.join("P01/events.jsonl")).unwrap();
-    let uploads = preloaded(&out);
-    assert_eq!(uploads.len(), 2, "{events}");
     // The LM link reads nothing back byte by byte (null); its commit, acked
     // for both, is the device's CRC over the phases and levels it stored.
-    for u in &uploads {
+    for u in &plays_both_entries("kinds-sim", &sim.port, "4\n5\n") {
         assert!(u["readback_mismatches"].is_null(), "{u}");
     }
-    assert_eq!(
-        events
-            .lines()
-            .filter(|l| l.contains("\"event\":\"onset\""))
-            .count(),
-        2,
-        "{events}"
-    );
 }
 
 #[test]
 fn the_simulated_device_refuses_an_am_its_steps_cannot_carry_in_one_line() {
     let sim = Sim::start(&[]);
-    let d = scratch("kinds-sim-refused");
-    let answers = d.join("answers.txt");
-    std::fs::write(&answers, "4\n5\n").unwrap();
     // 200 Hz on the default 82 steps of a 5 Hz cycle: 2 steps a period.
     // The whole library is planned for the device at start, so nothing is
     // written.
-    let proto = protocol(&d, &LIBRARY.replace("100.0", "200.0"), r#"["liss", "am"]"#);
+    let (d, proto) = kinds_study("kinds-sim-refused", &LIBRARY.replace("100.0", "200.0"));
+    let answers = answers_file(&d, "4\n5\n");
     let refused = d.join("refused");
     let o = run(&proto, &sim.port, &refused, &answers);
     assert_eq!(o.status.code(), Some(2), "{o:?}");

@@ -45,13 +45,13 @@ fn quest_plus_runs_on_the_simulated_device_and_check_and_report_show_it() {
     let o = study(&["check", &studies("quest-detection.toml")])
         .output()
         .unwrap();
-    ok(&o);
-    let text = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        text.contains("procedure: QUEST+ over 20 levels of intensity"),
-        "{text}"
+    says(
+        &ok_stdout(&o),
+        &[
+            "procedure: QUEST+ over 20 levels of intensity",
+            "39 thresholds",
+        ],
     );
-    assert!(text.contains("39 thresholds"), "{text}");
     let o = observer_run(
         "quest-detection.toml",
         &sim.port,
@@ -59,11 +59,8 @@ fn quest_plus_runs_on_the_simulated_device_and_check_and_report_show_it() {
         "logistic:threshold=0.4,slope=15,lapse=0.02,seed=5",
         &[],
     );
-    ok(&o);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("40 presentations: threshold"), "{err}");
-    let r = rows(&out.join("P01"));
-    assert_eq!(r.len(), 2);
+    says(&ok_stderr(&o), &["40 presentations: threshold"]);
+    let r = n_rows(&out.join("P01"), 2);
     for row in &r {
         let levels = list(row, "quest_levels");
         let answers = list(row, "quest_answers");
@@ -91,7 +88,6 @@ fn quest_plus_runs_on_the_simulated_device_and_check_and_report_show_it() {
         .unwrap_or_else(|| panic!("{summary}"));
     assert!(line.starts_with("lms-5hz-i"), "{line}");
     assert!(line.contains(",threshold,2,0,"), "{line}");
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 /// Cuts participant folder `dir` back to what a kill in trial `trial`
@@ -204,5 +200,4 @@ fn an_adaptive_trial_cut_short_continues_at_its_logged_state_on_resume() {
             flipped
         );
     }
-    let _ = std::fs::remove_dir_all(&d);
 }

@@ -11,39 +11,28 @@ mod link_support;
 mod study_support;
 use study_support::*;
 
+/// Two of the paper's stimuli, one set, one question, untracked
+/// (`study_support/two.toml`).
 fn protocol(d: &Path) -> std::path::PathBuf {
     let p = d.join("two.toml");
-    std::fs::write(
-        &p,
-        format!(
-            r#"name = "two"
-library = "{}"
-sets = 1
-stimulus = "{{type}}-a3"
-
-[timeline]
-wait_for_finger = true
-on_s = 0.3
-iti_s = 0.1
-gate = "untracked"
-
-[[factor]]
-name = "type"
-levels = ["lms-5hz", "lms-25hz"]
-
-[[question]]
-id = "vibration"
-kind = "likert"
-points = 7
-low = "not at all"
-high = "very"
-text = "How intense?"
-"#,
-            studies("paper-library.toml")
-        ),
-    )
-    .unwrap();
+    let text =
+        include_str!("study_support/two.toml").replace("{library}", &studies("paper-library.toml"));
+    std::fs::write(&p, text).unwrap();
     p
+}
+
+/// `study run` of [`protocol`] on autd3's emulator for P01 into `d/out`,
+/// then `extra`.
+fn run_two(d: &Path, extra: &[&str]) -> std::process::Output {
+    let proto = protocol(d);
+    run_on(
+        proto.to_str().unwrap(),
+        "autd3:emulator",
+        &d.join("out"),
+        extra,
+    )
+    .output()
+    .unwrap()
 }
 
 #[test]
@@ -55,13 +44,9 @@ fn a_recorded_stream_is_a_finger_source_played_at_its_time_stamps() {
         .map(|i| format!("{:.2},0,0,200,1\n", i as f64 * 0.05))
         .collect();
     std::fs::write(&rec, lines).unwrap();
-    let answers = d.join("answers.txt");
-    std::fs::write(&answers, "3\n5\n").unwrap();
-    let out = d.join("out");
-    let o = run_on(
-        protocol(&d).to_str().unwrap(),
-        "autd3:emulator",
-        &out,
+    let answers = answers_file(&d, "3\n5\n");
+    ok(&run_two(
+        &d,
         &[
             "--responses",
             answers.to_str().unwrap(),
@@ -72,35 +57,20 @@ fn a_recorded_stream_is_a_finger_source_played_at_its_time_stamps() {
             "--seed",
             "1",
         ],
-    )
-    .output()
-    .unwrap();
-    ok(&o);
-    let r = rows(&out.join("P01"));
-    assert_eq!(r.len(), 2);
+    ));
+    let out = d.join("out");
+    n_rows(&out.join("P01"), 2);
     let s = std::fs::read_to_string(out.join("P01/session.json")).unwrap();
     assert!(s.contains("stream:"), "{s}");
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
 fn the_session_flags_are_the_studys() {
     // Flags only `session` had: refused for what they are, not unknown.
     let d = scratch("sources-flags");
-    let out = d.join("out");
-    let o = run_on(
-        protocol(&d).to_str().unwrap(),
-        "autd3:emulator",
-        &out,
-        &["--responses", "/dev/null", "--depth-stream", "-"],
-    )
-    .output()
-    .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("--scene is needed with --depth, --camera and --depth-stream"),
-        "{err}"
+    let o = run_two(&d, &["--responses", "/dev/null", "--depth-stream", "-"]);
+    says(
+        &refused(&o),
+        &["--scene is needed with --depth, --camera and --depth-stream"],
     );
-    let _ = std::fs::remove_dir_all(&d);
 }

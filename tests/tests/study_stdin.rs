@@ -44,7 +44,6 @@ fn stdin_answers_are_bounded_lines() {
             && last.contains("--resume"),
         "{e}"
     );
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 /// `--responses -`: each answer is read as its question is asked (a GUI or
@@ -108,7 +107,6 @@ fn responses_from_stdin_are_read_one_at_a_time_as_asked() {
     assert!(status.success(), "{status}: {}", log.join("\n"));
     assert_eq!(given.len(), 150, "one line per question asked");
     check_exp1(&rows(&out.join("P01")), &given);
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 /// `--responses -` lines are checked as they come: a bad one or stdin's
@@ -165,5 +163,4 @@ fn responses_from_stdin_are_checked_as_they_come() {
             "{e}"
         );
     }
-    let _ = std::fs::remove_dir_all(&d);
 }

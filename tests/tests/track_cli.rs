@@ -5,17 +5,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod link_support;
-use link_support::{Sim, json, lmhost, ok, run, run_stdin, stream_json};
+use link_support::{
+    Sim, assert_fields, json, lmhost, ok, run, run_stdin, scratch_dir, stream_json,
+};
 
 fn paper() -> String {
     concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml").to_string()
-}
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lm-track-e2e-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// Half-size D435 intrinsics (424 × 240): the finger still covers ≈ 40
@@ -64,7 +59,7 @@ fn recorded(
     seconds: &str,
     extra: &[&str],
 ) -> (PathBuf, String, String, String) {
-    let d = dir(name);
+    let d = scratch_dir(name);
     let cam = half_intrinsics(&d);
     let rec = d.join(file).display().to_string();
     let mut args = vec!["--record", rec.as_str()];
@@ -101,7 +96,7 @@ fn one_line_error(out: &std::process::Output, code: i32) -> String {
 
 #[test]
 fn synthetic_frames_give_one_json_object_per_frame() {
-    let d = dir("json");
+    let d = scratch_dir("track-json");
     let cam = half_intrinsics(&d);
     let out = synthetic(&cam, "1.5", &["--json", "--z-profile", "3,8"]);
     let v = lines(&out);
@@ -171,7 +166,7 @@ fn a_synthetic_recording_replays_to_the_same_results() {
 fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
     use lmhost::sense::track::intrinsics::Intrinsics;
     use lmhost::sense::track::source::{stream_frame, stream_header};
-    let d = dir("stream");
+    let d = scratch_dir("track-stream");
     let intr = Intrinsics {
         width: 424,
         height: 240,
@@ -242,7 +237,7 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
 /// `name`) and a simulated device playing the default upload planned on
 /// the same scene.
 fn camera_and_device(name: &str) -> (String, Sim) {
-    let cam = half_intrinsics(&dir(name));
+    let cam = half_intrinsics(&scratch_dir(name));
     let sim = Sim::uploaded(&["--scene", &paper()]);
     (cam, sim)
 }
@@ -274,16 +269,16 @@ fn tracking_streams_the_gated_centre_to_the_device() {
         "{status}"
     );
     // Tracking ended and left the array silent itself (no lease ran out).
-    assert_eq!(
-        (status["state"].clone(), status["mute_reason"].clone()),
-        ("Stopped".into(), "stopped".into()),
-        "{status}"
+    assert_fields(
+        &status,
+        &["state", "mute_reason"],
+        serde_json::json!(["Stopped", "stopped"]),
     );
 }
 
 #[test]
 fn plot_writes_a_png_of_a_frame_with_the_contact_area() {
-    let d = dir("plot");
+    let d = scratch_dir("track-plot");
     let cam = half_intrinsics(&d);
     let pd = d.join("plots");
     let out = synthetic(&cam, "1", &["--plot", &pd.display().to_string()]);
@@ -407,10 +402,10 @@ fn replan_uploads_the_surface_profile_into_the_idle_slot() {
     // while the previous one is still queued takes the next free entry.)
     let st = json(&["status", "--port", &sim.port, "--json"]);
     assert_eq!(st["nacks"], 0, "{st}");
-    assert_eq!(
-        (st["mute_reason"].clone(), st["queued_slot"].clone()),
-        ("stopped".into(), serde_json::Value::Null),
-        "{st}"
+    assert_fields(
+        &st,
+        &["mute_reason", "queued_slot"],
+        serde_json::json!(["stopped", null]),
     );
 
     // Without a port there is nothing to upload to: bad input.
@@ -444,7 +439,7 @@ fn replans(out: &str) -> (u64, String) {
 
 #[test]
 fn replan_on_the_autd3_emulator_plans_lm_m_on_the_25_us_grid() {
-    let cam = half_intrinsics(&dir("replan-autd3"));
+    let cam = half_intrinsics(&scratch_dir("track-replan-autd3"));
     let out = synthetic(
         &cam,
         "1.5",
@@ -527,11 +522,11 @@ fn track_plan_flags_upload_and_play_on_the_lm_firmware_too() {
 
 #[test]
 fn track_json_lines_stream_to_the_device() {
-    let cam = half_intrinsics(&dir("track-to-stream"));
+    let cam = half_intrinsics(&scratch_dir("track-to-stream"));
     let lines_out = synthetic(&cam, "1.5", &["--json", "--filter", "gaussian"]);
     let n = lines_out.lines().count();
     assert!(n > 30, "{lines_out}");
-    let file = dir("track-to-stream-file").join("track.jsonl");
+    let file = scratch_dir("track-to-stream-file").join("track.jsonl");
     std::fs::write(&file, &lines_out).unwrap();
     let sim = Sim::uploaded(&["--scene", &paper()]);
     let v = stream_json(

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 mod link_support;
 mod qemu_support;
-use link_support::{json, stream_stdin, upload_json};
+use link_support::{assert_fields, json, stream_stdin, upload_json};
 use qemu_support::{firmware_elf, free_port, qemu_command, qemu_installed};
 
 /// QEMU with UART0 on a TCP server that accepts one lmhost after another.
@@ -81,10 +81,10 @@ fn lmhost_drives_the_firmware_under_qemu() {
     assert_eq!(v["device_state"], "Playing", "{v}");
     assert_eq!(v["device_last_seq"], 1, "{v}");
     let st = json(&["status", "--port", p, "--json"]);
-    assert_eq!(
-        (st["state"].clone(), st["mute_reason"].clone()),
-        ("Stopped".into(), "stopped".into()),
-        "{st}"
+    assert_fields(
+        &st,
+        &["state", "mute_reason"],
+        serde_json::json!(["Stopped", "stopped"]),
     );
     assert_eq!(st["last_centroid_seq"], 1);
     assert_eq!(st["crc_errors"], 0);

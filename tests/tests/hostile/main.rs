@@ -24,7 +24,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use classes::*;
-use link_support::{Sim, lmhost, ok};
+use link_support::{Sim, kill_a_holder_of, lmhost, ok, spawn_port_holder};
 
 /// Longest any case may run before it counts as a hang.
 const TIME_LIMIT: Duration = Duration::from_secs(20);
@@ -446,55 +446,10 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     let small = Sim::start(&["--slot-steps", "10"]);
     let busy = Sim::start(&[]);
     let sess = Sim::start(&[]);
-    let mut holder = Command::new(lmhost())
-        .args([
-            "stream",
-            "--port",
-            &busy.port,
-            "--synthetic",
-            "--seconds",
-            "600",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawning the port holder");
+    let mut holder = spawn_port_holder(&busy.port);
     // A device whose holder dies without a word: killed once it holds it.
     let stale = Sim::start(&[]);
-    let start_victim = || {
-        Command::new(lmhost())
-            .args([
-                "stream",
-                "--port",
-                &stale.port,
-                "--synthetic",
-                "--seconds",
-                "600",
-            ])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawning the holder to kill")
-    };
-    let mut victim = start_victim();
-    let give_up = Instant::now() + Duration::from_secs(20);
-    while Command::new(lmhost())
-        .args(["status", "--port", &stale.port])
-        .output()
-        .unwrap()
-        .status
-        .success()
-    {
-        assert!(Instant::now() < give_up, "the holder never held its port");
-        // Its open can meet a status call's brief hold of the port: then
-        // it exits at once, refused, and is started again.
-        if victim.try_wait().unwrap().is_some() {
-            victim = start_victim();
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    victim.kill().expect("SIGKILL to the holder");
-    victim.wait().unwrap();
+    kill_a_holder_of(&stale.port);
     std::thread::sleep(Duration::from_millis(500));
     let dir =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));

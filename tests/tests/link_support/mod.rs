@@ -48,6 +48,14 @@ pub fn lmhost() -> PathBuf {
     .clone()
 }
 
+/// A fresh, empty scratch folder `name` (unique to this test process).
+pub fn scratch_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lmhost-e2e-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 /// Run `lmhost args…` to completion (no `LMHOST_PORT` from outside).
 pub fn run(args: &[&str]) -> Output {
     Command::new(lmhost())
@@ -88,6 +96,22 @@ pub fn success_json(out: &Output) -> serde_json::Value {
 /// `lmhost stream --port <port> <args…> --json`, its report parsed.
 pub fn stream_json(port: &str, args: &[&str]) -> serde_json::Value {
     let mut all = vec!["stream", "--port", port];
+    all.extend_from_slice(args);
+    all.push("--json");
+    json(&all)
+}
+
+/// Asserts the fields `keys` of the JSON report `v` are `want` (an array,
+/// in the same order); the failure names them and shows the whole report.
+#[track_caller]
+pub fn assert_fields(v: &serde_json::Value, keys: &[&str], want: serde_json::Value) {
+    let got: Vec<serde_json::Value> = keys.iter().map(|k| v[*k].clone()).collect();
+    assert_eq!(serde_json::Value::Array(got), want, "{keys:?} of {v}");
+}
+
+/// `lmhost CMD --port autd3:emulator ARGS… --json`, its report parsed.
+pub fn emulator_json(cmd: &str, args: &[&str]) -> serde_json::Value {
+    let mut all = vec![cmd, "--port", "autd3:emulator"];
     all.extend_from_slice(args);
     all.push("--json");
     json(&all)
@@ -181,6 +205,47 @@ impl Drop for Holder {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
+}
+
+/// Another lmhost holding `port`: a synthetic stream for 10 minutes, its
+/// output discarded.
+pub fn spawn_port_holder(port: &str) -> Child {
+    Command::new(lmhost())
+        .args(["stream", "--port", port, "--synthetic", "--seconds", "600"])
+        .env_remove("LMHOST_PORT")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawning the port holder")
+}
+
+/// Starts a [`spawn_port_holder`] on `port`, waits until it holds the port
+/// (a status there is refused as in use, exit 1), then kills it with
+/// SIGKILL, as a crash would: no destructor of it runs.
+pub fn kill_a_holder_of(port: &str) {
+    let mut holder = spawn_port_holder(port);
+    // A guard against hanging, not a timing goal.
+    let give_up = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    loop {
+        let o = run(&["status", "--port", port]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        if !o.status.success() && err.contains("in use by another process") {
+            assert_eq!(o.status.code(), Some(1), "{err}");
+            break;
+        }
+        assert!(
+            std::time::Instant::now() < give_up,
+            "the holder never held {port}: {err}"
+        );
+        // A status of ours held the port just as the holder opened it (the
+        // holder was refused, as it should be): start it again.
+        if holder.try_wait().unwrap().is_some() {
+            holder = spawn_port_holder(port);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    holder.kill().expect("SIGKILL to the holder");
+    holder.wait().unwrap();
 }
 
 /// Run `lmhost stream --port <port> <extra…>` with `input` on stdin, to

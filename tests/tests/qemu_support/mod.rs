@@ -176,6 +176,49 @@ pub fn serving(elf: &Path) -> std::io::Result<(Qemu, lmhost::device::link::PortS
     Ok((q, port_spec(port)))
 }
 
+/// The firmware ELF; `None` where `qemu-system-arm` is missing (the test
+/// is skipped, saying so).
+pub fn firmware_or_skip() -> Option<PathBuf> {
+    (!skip_without_qemu()).then(firmware_elf)
+}
+
+/// The firmware under QEMU and the port that reaches it; `None` where
+/// `qemu-system-arm` is missing.
+pub fn serving_or_skip() -> Option<(Qemu, lmhost::device::link::PortSpec)> {
+    let elf = firmware_or_skip()?;
+    Some(serving(&elf).expect("start qemu-system-arm"))
+}
+
+/// lmhost's device layer opened on the firmware under QEMU (the paper's
+/// default scene); `None` where `qemu-system-arm` is missing.
+pub fn device_or_skip() -> Option<(Qemu, Box<dyn lmhost::device::backend::Backend>)> {
+    let (qemu, spec) = serving_or_skip()?;
+    let scene = lmhost::plan::scene::Scene::default();
+    let dev = within_20_s(|| lmhost::device::connect::open(&spec, &scene))
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    Some((qemu, dev))
+}
+
+/// Polls `dev` every 20 ms until its player has stopped (a timed play
+/// ending on the device's own count) and returns that status; each status
+/// before it goes to `running` first. Fails after 60 s: a guard against
+/// hanging, not a timing goal.
+pub fn until_stopped(
+    dev: &mut dyn lmhost::device::backend::Backend,
+    mut running: impl FnMut(&lm_proto::Status),
+) -> lm_proto::Status {
+    let give_up = Instant::now() + Duration::from_secs(60);
+    loop {
+        let st = dev.status().unwrap();
+        if st.state == lm_proto::DeviceState::Stopped {
+            return st;
+        }
+        running(&st);
+        assert!(Instant::now() < give_up, "never stopped: {st:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// `connect` retried for 20 s while QEMU starts listening.
 pub fn within_20_s<T>(mut connect: impl FnMut() -> anyhow::Result<T>) -> anyhow::Result<T> {
     let deadline = Instant::now() + Duration::from_secs(20);

@@ -15,11 +15,28 @@ pub fn studies(name: &str) -> String {
         .to_string()
 }
 
-pub fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lmhost-e2e-study-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh scratch folder `name`, removed when the test passes (kept
+/// for a look when it fails).
+pub fn scratch(name: &str) -> Scratch {
+    Scratch(crate::link_support::scratch_dir(&format!("study-{name}")))
+}
+
+/// See [`scratch`].
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// Experiment 1's answers: vibration, movement, then the three shape
@@ -38,6 +55,22 @@ pub fn exp1_answers(dir: &Path) -> (PathBuf, Vec<String>) {
     let p = dir.join("answers.txt");
     std::fs::write(&p, a.join("\n") + "\n").unwrap();
     (p, a)
+}
+
+/// Writes `text` as `dir/answers.txt`, a `--responses` file; its path.
+pub fn answers_file(dir: &Path, text: &str) -> PathBuf {
+    let p = dir.join("answers.txt");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// [`answers_file`] for `trials` trials, trial `t` answered with
+/// `per_trial[t % per_trial.len()]`, one answer a line.
+pub fn cycled_answers(dir: &Path, trials: usize, per_trial: &[&[&str]]) -> PathBuf {
+    let a: Vec<&str> = (0..trials)
+        .flat_map(|t| per_trial[t % per_trial.len()].iter().copied())
+        .collect();
+    answers_file(dir, &a.join("\n"))
 }
 
 pub fn study(args: &[&str]) -> Command {
@@ -88,6 +121,7 @@ pub fn run_exp1(port: &str, out: &Path, answers: &Path, extra: &[&str]) -> Outpu
     exp1(port, out, "0.02", &args).output().unwrap()
 }
 
+#[track_caller]
 pub fn ok(o: &Output) {
     assert!(
         o.status.success(),
@@ -95,6 +129,36 @@ pub fn ok(o: &Output) {
         o.status.code(),
         String::from_utf8_lossy(&o.stderr)
     );
+}
+
+/// The stderr of a run that must have succeeded.
+#[track_caller]
+pub fn ok_stderr(o: &Output) -> String {
+    ok(o);
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The stdout of a run that must have succeeded.
+#[track_caller]
+pub fn ok_stdout(o: &Output) -> String {
+    ok(o);
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The stderr of a run refused as bad input (exit 2).
+#[track_caller]
+pub fn refused(o: &Output) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    err
+}
+
+/// Asserts `text` says each of `wants`.
+#[track_caller]
+pub fn says(text: &str, wants: &[&str]) {
+    for want in wants {
+        assert!(text.contains(want), "no `{want}` in: {text}");
+    }
 }
 
 /// `trials.csv` as maps of column → value (no quoted fields are expected
@@ -113,6 +177,14 @@ pub fn rows(dir: &Path) -> Vec<BTreeMap<String, String>> {
                 .collect()
         })
         .collect()
+}
+
+/// [`rows`], asserting there are `n`.
+#[track_caller]
+pub fn n_rows(dir: &Path, n: usize) -> Vec<BTreeMap<String, String>> {
+    let r = rows(dir);
+    assert_eq!(r.len(), n, "rows in {}", dir.display());
+    r
 }
 
 /// 30 rows, every condition twice, each set a permutation of the 15, the
