@@ -130,15 +130,8 @@ fn a_missing_port_is_a_failed_operation_naming_it() {
 /// hang-up between the binary's open and close; the peer thread ends with
 /// the test process.
 fn peer(answer: impl Fn(&str) -> String + Send + 'static) -> (String, std::os::fd::OwnedFd) {
-    let pair = nix::pty::openpty(None, None).unwrap();
-    let mut t = nix::sys::termios::tcgetattr(&pair.slave).unwrap();
-    nix::sys::termios::cfmakeraw(&mut t);
-    nix::sys::termios::tcsetattr(&pair.slave, nix::sys::termios::SetArg::TCSANOW, &t).unwrap();
-    let path = nix::unistd::ttyname(&pair.slave)
-        .unwrap()
-        .to_string_lossy()
-        .into_owned();
-    let mut master = std::fs::File::from(pair.master);
+    let (master, slave, path) = lmhost::device::simdev::raw_pty().unwrap();
+    let mut master = std::fs::File::from(master);
     std::thread::spawn(move || {
         let mut line = Vec::new();
         let mut b = [0u8; 64];
@@ -156,7 +149,7 @@ fn peer(answer: impl Fn(&str) -> String + Send + 'static) -> (String, std::os::f
             }
         }
     });
-    (path, pair.slave)
+    (path, slave)
 }
 
 #[test]

@@ -146,27 +146,34 @@ pub struct Pty {
 impl Pty {
     /// Open a raw-mode pty.
     pub fn open() -> anyhow::Result<Self> {
-        use nix::sys::termios;
-        let pair = nix::pty::openpty(None, None).context("opening a pseudo-terminal")?;
-        let mut t = termios::tcgetattr(&pair.slave).context("reading pty settings")?;
-        termios::cfmakeraw(&mut t);
-        termios::tcsetattr(&pair.slave, termios::SetArg::TCSANOW, &t)
-            .context("setting the pty to raw mode")?;
-        let path = nix::unistd::ttyname(&pair.slave)
-            .context("naming the pty")?
-            .to_string_lossy()
-            .into_owned();
-        let flags = nix::fcntl::fcntl(&pair.master, nix::fcntl::FcntlArg::F_GETFL)
+        let (master, slave, path) = raw_pty()?;
+        let flags = nix::fcntl::fcntl(&master, nix::fcntl::FcntlArg::F_GETFL)
             .context("reading pty flags")?;
         let flags = nix::fcntl::OFlag::from_bits_truncate(flags) | nix::fcntl::OFlag::O_NONBLOCK;
-        nix::fcntl::fcntl(&pair.master, nix::fcntl::FcntlArg::F_SETFL(flags))
+        nix::fcntl::fcntl(&master, nix::fcntl::FcntlArg::F_SETFL(flags))
             .context("making the pty non-blocking")?;
         Ok(Self {
-            master: pair.master,
-            _slave: pair.slave,
+            master,
+            _slave: slave,
             path,
         })
     }
+}
+
+/// A raw-mode pty, blocking both ends: its master, its slave and the
+/// slave's path (for a `--port`; an instrument's peer in the tests).
+pub fn raw_pty() -> anyhow::Result<(OwnedFd, OwnedFd, String)> {
+    use nix::sys::termios;
+    let pair = nix::pty::openpty(None, None).context("opening a pseudo-terminal")?;
+    let mut t = termios::tcgetattr(&pair.slave).context("reading pty settings")?;
+    termios::cfmakeraw(&mut t);
+    termios::tcsetattr(&pair.slave, termios::SetArg::TCSANOW, &t)
+        .context("setting the pty to raw mode")?;
+    let path = nix::unistd::ttyname(&pair.slave)
+        .context("naming the pty")?
+        .to_string_lossy()
+        .into_owned();
+    Ok((pair.master, pair.slave, path))
 }
 
 /// Options of a served simulated device.

@@ -290,17 +290,9 @@ fn the_driver_runs_over_a_real_pty() {
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
 
-    let pair = nix::pty::openpty(None, None).unwrap();
-    let mut t = nix::sys::termios::tcgetattr(&pair.slave).unwrap();
-    nix::sys::termios::cfmakeraw(&mut t);
-    nix::sys::termios::tcsetattr(&pair.slave, nix::sys::termios::SetArg::TCSANOW, &t).unwrap();
-    let path = nix::unistd::ttyname(&pair.slave)
-        .unwrap()
-        .to_string_lossy()
-        .into_owned();
+    let (master, slave, path) = crate::device::simdev::raw_pty().unwrap();
     let done = Arc::new(AtomicBool::new(false));
     let stop = done.clone();
-    let master = pair.master;
     let peer = std::thread::spawn(move || {
         let mut ctl = QtController::new(Clock::real());
         let mut file = std::fs::File::from(master);
@@ -340,7 +332,7 @@ fn the_driver_runs_over_a_real_pty() {
     })();
     done.store(true, Ordering::SeqCst);
     peer.join().unwrap();
-    drop(pair.slave);
+    drop(slave);
     let (m, waited, at) = result.unwrap();
     assert_eq!((m.at_mm, at), (0.2, 0.2));
     assert!(waited.as_secs_f64() >= 0.04, "{waited:?}");
