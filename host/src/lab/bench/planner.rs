@@ -246,30 +246,36 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
     ));
     let mut text = String::from("planner (built-in 2x2 AUTD3, 996 transducers, one thread)\n");
     for f in &frames {
+        let FrameFigures {
+            foci,
+            fast_us,
+            isa,
+            portable_us,
+            reference_us,
+            max_err_lsb,
+            mean_err_lsb,
+            frames_checked,
+            ..
+        } = f;
+        let speedup = reference_us / fast_us;
         text += &format!(
-            "  frame, {} foci: fast {:.2} µs ({:?}; portable {:.2} µs), f64 reference {:.2} µs ({:.1}x); error max {:.3} LSB, mean {:.3} LSB over {} frames\n",
-            f.foci,
-            f.fast_us,
-            f.isa,
-            f.portable_us,
-            f.reference_us,
-            f.reference_us / f.fast_us,
-            f.max_err_lsb,
-            f.mean_err_lsb,
-            f.frames_checked
+            "  frame, {foci} foci: fast {fast_us:.2} µs ({isa:?}; portable {portable_us:.2} µs), f64 reference {reference_us:.2} µs ({speedup:.1}x); error max {max_err_lsb:.3} LSB, mean {mean_err_lsb:.3} LSB over {frames_checked} frames\n"
         );
     }
     for s in &sequences {
+        let SequenceFigures {
+            case,
+            steps,
+            total_us,
+            synth_us,
+            encode_us,
+            raw_bytes,
+            delta_bytes,
+            delta_ratio,
+        } = s;
+        let percent = 100.0 * delta_ratio;
         text += &format!(
-            "  sequence {} (N = {}): plan+synth+quantise+delta {:.1} µs (synth {:.1} µs, delta encode {:.1} µs); raw {} B, delta {} B ({:.1} %)\n",
-            s.case,
-            s.steps,
-            s.total_us,
-            s.synth_us,
-            s.encode_us,
-            s.raw_bytes,
-            s.delta_bytes,
-            100.0 * s.delta_ratio
+            "  sequence {case} (N = {steps}): plan+synth+quantise+delta {total_us:.1} µs (synth {synth_us:.1} µs, delta encode {encode_us:.1} µs); raw {raw_bytes} B, delta {delta_bytes} B ({percent:.1} %)\n"
         );
     }
     for s in &solvers {
