@@ -22,13 +22,28 @@ pub struct Frame {
     pub colour: Option<ColourImage>,
 }
 
+/// The cameras a source's frames come from: the depth stream's
+/// intrinsics and the colour camera, if frames carry colour images (what
+/// an `LMDEPTH1` header says).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cameras {
+    /// The depth stream's intrinsics.
+    pub depth: Intrinsics,
+    /// The colour camera, if any.
+    pub colour: Option<ColourCamera>,
+}
+
 /// A source of frames.
 pub trait FrameSource {
+    /// The cameras its frames come from.
+    fn cameras(&self) -> Cameras;
     /// The frames' intrinsics.
-    fn intrinsics(&self) -> Intrinsics;
+    fn intrinsics(&self) -> Intrinsics {
+        self.cameras().depth
+    }
     /// The colour camera, if frames carry colour images.
     fn colour_camera(&self) -> Option<ColourCamera> {
-        None
+        self.cameras().colour
     }
     /// The next frame, `None` at the end.
     fn next_frame(&mut self) -> anyhow::Result<Option<Frame>>;

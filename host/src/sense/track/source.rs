@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 
 use super::colour::{ColourCamera, ColourImage};
 use super::contact::Tracker;
-pub use super::frame::{Frame, FrameSource};
+pub use super::frame::{Cameras, Frame, FrameSource};
 use super::intrinsics::Intrinsics;
 use super::synth::FingerSim;
 use super::synth_colour::ColourSim;
@@ -65,8 +65,7 @@ pub const FRAME_DEADLINE: std::time::Duration = std::time::Duration::from_secs(5
 /// the middle of a frame, ends the run with a clear error in bounded time.
 pub struct Live {
     frames: crate::sense::reader::Reader<Frame>,
-    intr: Intrinsics,
-    colour: Option<ColourCamera>,
+    cameras: Cameras,
     what: String,
     last: std::time::Instant,
     /// The bridge process, killed on a stall and when the source is dropped.
@@ -86,7 +85,7 @@ impl Live {
         let frames = crate::sense::reader::spawn("lmhost-frames", FRAMES_AHEAD, move || {
             let stream = open();
             let (header, stream) = match stream {
-                Ok(s) => (Ok((s.intrinsics(), s.colour_camera())), Some(s)),
+                Ok(s) => (Ok(s.cameras()), Some(s)),
                 Err(e) => (Err(e), None),
             };
             let _ = htx.send(header);
@@ -95,14 +94,16 @@ impl Live {
         })?;
         let mut live = Live {
             frames,
-            intr: Intrinsics::D435_848X480,
-            colour: None,
+            cameras: Cameras {
+                depth: Intrinsics::D435_848X480,
+                colour: None,
+            },
             what: what.to_owned(),
             last: std::time::Instant::now(),
             child,
         };
         match hrx.recv_timeout(HEADER_DEADLINE) {
-            Ok(Ok((intr, colour))) => (live.intr, live.colour) = (intr, colour),
+            Ok(Ok(cameras)) => live.cameras = cameras,
             Ok(Err(e)) => return Err(e),
             Err(_) => {
                 live.kill();
@@ -145,11 +146,8 @@ impl Drop for Live {
 }
 
 impl FrameSource for Live {
-    fn intrinsics(&self) -> Intrinsics {
-        self.intr
-    }
-    fn colour_camera(&self) -> Option<ColourCamera> {
-        self.colour
+    fn cameras(&self) -> Cameras {
+        self.cameras
     }
     fn live(&self) -> bool {
         true
@@ -336,11 +334,11 @@ impl Replay {
 }
 
 impl FrameSource for Replay {
-    fn intrinsics(&self) -> Intrinsics {
-        self.intr
-    }
-    fn colour_camera(&self) -> Option<ColourCamera> {
-        self.colour.as_ref().map(|c| c.cam)
+    fn cameras(&self) -> Cameras {
+        Cameras {
+            depth: self.intr,
+            colour: self.colour.as_ref().map(|c| c.cam),
+        }
     }
     fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
         let mut depth = Vec::new();
@@ -396,11 +394,11 @@ impl Synthetic {
 }
 
 impl FrameSource for Synthetic {
-    fn intrinsics(&self) -> Intrinsics {
-        self.sim.intr
-    }
-    fn colour_camera(&self) -> Option<ColourCamera> {
-        self.colour.as_ref().map(|(c, _)| c.cam)
+    fn cameras(&self) -> Cameras {
+        Cameras {
+            depth: self.sim.intr,
+            colour: self.colour.as_ref().map(|(c, _)| c.cam),
+        }
     }
     fn next_frame(&mut self) -> anyhow::Result<Option<Frame>> {
         if self.index >= self.frames {

@@ -29,7 +29,7 @@
 use std::io::Read;
 
 use super::colour::{ColourCamera, ColourImage, Distortion};
-use super::frame::{Frame, FrameSource};
+use super::frame::{Cameras, Frame, FrameSource};
 use super::intrinsics::Intrinsics;
 use crate::InputError;
 
@@ -43,8 +43,7 @@ const COLOUR_HEADER: usize = 180;
 /// An `LMDEPTH1` or `LMCOLOR1` stream.
 pub struct Stream<R: Read> {
     reader: R,
-    intr: Intrinsics,
-    colour: Option<ColourCamera>,
+    cameras: Cameras,
     what: String,
     frames: u64,
     last_t: f64,
@@ -128,8 +127,10 @@ impl<R: Read> Stream<R> {
         };
         Ok(Self {
             reader,
-            intr,
-            colour,
+            cameras: Cameras {
+                depth: intr,
+                colour,
+            },
             what: what.to_owned(),
             frames: 0,
             last_t: f64::NEG_INFINITY,
@@ -145,7 +146,7 @@ impl<R: Read> Stream<R> {
     /// The colour image after a depth frame, if the stream has colour and
     /// one rides with it.
     fn read_colour(&mut self) -> anyhow::Result<Option<ColourImage>> {
-        let Some(cam) = self.colour else {
+        let Some(cam) = self.cameras.colour else {
             return Ok(None);
         };
         let mut flag = [0u8; 9];
@@ -214,11 +215,8 @@ fn colour_camera(c: &[u8; COLOUR_HEADER], what: &str) -> Result<ColourCamera, In
 }
 
 impl<R: Read> FrameSource for Stream<R> {
-    fn intrinsics(&self) -> Intrinsics {
-        self.intr
-    }
-    fn colour_camera(&self) -> Option<ColourCamera> {
-        self.colour
+    fn cameras(&self) -> Cameras {
+        self.cameras
     }
     fn live(&self) -> bool {
         true
@@ -235,7 +233,7 @@ impl<R: Read> FrameSource for Stream<R> {
             }
             return Ok(None);
         }
-        let px = self.intr.width as usize * self.intr.height as usize;
+        let px = self.cameras.depth.width as usize * self.cameras.depth.height as usize;
         let mut bytes = vec![0u8; px * 2];
         if n < 8 || read_full(&mut self.reader, &mut bytes)? < bytes.len() {
             return Err(self.ended_inside());
