@@ -86,12 +86,7 @@ pub struct ForceArgs {
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     measured: f64,
     /// Diameter of the gauge's disk (mm).
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 15.0,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", default_value_t = lmhost::field::study::DISK_MM, allow_negative_numbers = true)]
     disk: f64,
     /// Where the focus was, X,Y,Z (mm) [default: the scene's LM centre].
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]

@@ -58,12 +58,7 @@ pub struct Args {
     density: f64,
     /// Diameter in mm of the disk the force is integrated over, above 0 and
     /// at most 1000 (the paper's gauge disk is 15 mm).
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 15.0,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", default_value_t = field::study::DISK_MM, allow_negative_numbers = true)]
     disk: f64,
     /// Factor on the simulated radiation pressure (measured / simulated
     /// force), in place of the scene's [calibration] (see `lmhost calibrate
