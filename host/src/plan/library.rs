@@ -57,7 +57,7 @@ use crate::limits::{
     MAX_COORD_MM, MAX_FREQ_HZ, MAX_ITERATIONS, MAX_RADIUS_MM, MAX_SPACING_MM, MAX_Z_MM,
 };
 use crate::plan::modulation::{self, Am, AmShape};
-use crate::plan::path::{MAX_LISSAJOUS_RATIO, Path};
+use crate::plan::path::{Lissajous, MAX_LISSAJOUS_RATIO, Path};
 use crate::plan::scene::Scene;
 use crate::plan::stimulus::{Stimulus, TargetPlan};
 use crate::plan::stimulus_file::Content;
@@ -326,13 +326,13 @@ impl PathFile {
             },
             ShapeName::Lissajous => {
                 let [n_a, n_b] = self.ratio.unwrap_or(RATIO);
-                Path::Lissajous {
+                Path::Lissajous(Lissajous {
                     a_mm: need(self.a, "a")?,
                     b_mm: need(self.b, "b")?,
                     n_a,
                     n_b,
                     phase_deg: self.phase.unwrap_or(PHASE_DEG),
-                }
+                })
             }
         };
         path.check().map_err(|e| e.to_string())?;

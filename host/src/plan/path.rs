@@ -37,19 +37,52 @@ pub enum Path {
         /// Semi-axis along b (mm).
         b_mm: f64,
     },
-    /// `(a sin(n_a θ + φ), b sin(n_b θ))`: one cycle is the whole figure.
-    Lissajous {
-        /// Half-width along a (mm).
-        a_mm: f64,
-        /// Half-height along b (mm).
-        b_mm: f64,
-        /// Frequency ratio term along a.
-        n_a: u32,
-        /// Frequency ratio term along b.
-        n_b: u32,
-        /// Phase φ of the a term (degrees).
-        phase_deg: f64,
-    },
+    /// A Lissajous figure.
+    Lissajous(Lissajous),
+}
+
+/// `(a sin(n_a θ + φ), b sin(n_b θ))`: one cycle is the whole figure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lissajous {
+    /// Half-width along a (mm).
+    pub a_mm: f64,
+    /// Half-height along b (mm).
+    pub b_mm: f64,
+    /// Frequency ratio term along a.
+    pub n_a: u32,
+    /// Frequency ratio term along b.
+    pub n_b: u32,
+    /// Phase φ of the a term (degrees).
+    pub phase_deg: f64,
+}
+
+impl Lissajous {
+    /// Checks its numbers, `size` its half-extents.
+    fn check(&self, size: impl Fn(&str, f64) -> Result<(), InputError>) -> Result<(), InputError> {
+        size("lissajous half-width a", self.a_mm)?;
+        size("lissajous half-height b", self.b_mm)?;
+        for (what, n) in [("a", self.n_a), ("b", self.n_b)] {
+            if !(1..=MAX_LISSAJOUS_RATIO).contains(&n) {
+                return Err(InputError::new(format!(
+                    "lissajous ratio term {what} must be 1..={MAX_LISSAJOUS_RATIO}, got {n}"
+                )));
+            }
+        }
+        let phase = self.phase_deg;
+        if !phase.is_finite() {
+            return Err(InputError::new(format!(
+                "lissajous phase must be finite, got {phase}"
+            )));
+        }
+        limits::in_range("lissajous phase", phase, -360.0, 360.0, "°").map(|_| ())
+    }
+
+    /// The offset `(u, v)` at `θ`.
+    fn at(&self, theta: f64) -> (f64, f64) {
+        let a = f64::from(self.n_a) * theta + self.phase_deg.to_radians();
+        let b = f64::from(self.n_b) * theta;
+        (self.a_mm * a.sin(), self.b_mm * b.sin())
+    }
 }
 
 impl Path {
@@ -59,7 +92,7 @@ impl Path {
             Path::Circle => "circle",
             Path::Line { .. } => "line",
             Path::Ellipse { .. } => "ellipse",
-            Path::Lissajous { .. } => "lissajous",
+            Path::Lissajous(_) => "lissajous",
         }
     }
 
@@ -81,29 +114,7 @@ impl Path {
                 size("ellipse semi-axis a", a_mm)?;
                 size("ellipse semi-axis b", b_mm)
             }
-            Path::Lissajous {
-                a_mm,
-                b_mm,
-                n_a,
-                n_b,
-                phase_deg,
-            } => {
-                size("lissajous half-width a", a_mm)?;
-                size("lissajous half-height b", b_mm)?;
-                for (what, n) in [("a", n_a), ("b", n_b)] {
-                    if !(1..=MAX_LISSAJOUS_RATIO).contains(&n) {
-                        return Err(InputError::new(format!(
-                            "lissajous ratio term {what} must be 1..={MAX_LISSAJOUS_RATIO}, got {n}"
-                        )));
-                    }
-                }
-                if !phase_deg.is_finite() {
-                    return Err(InputError::new(format!(
-                        "lissajous phase must be finite, got {phase_deg}"
-                    )));
-                }
-                limits::in_range("lissajous phase", phase_deg, -360.0, 360.0, "°").map(|_| ())
-            }
+            Path::Lissajous(l) => l.check(size),
         }
     }
 
@@ -119,16 +130,7 @@ impl Path {
                 (length_mm / 2.0 * (2.0 * (x - 1.0).abs() - 1.0), 0.0)
             }
             Path::Ellipse { a_mm, b_mm } => (a_mm * theta.cos(), b_mm * theta.sin()),
-            Path::Lissajous {
-                a_mm,
-                b_mm,
-                n_a,
-                n_b,
-                phase_deg,
-            } => (
-                a_mm * (f64::from(n_a) * theta + phase_deg.to_radians()).sin(),
-                b_mm * (f64::from(n_b) * theta).sin(),
-            ),
+            Path::Lissajous(l) => l.at(theta),
         }
     }
 
@@ -164,7 +166,9 @@ impl Path {
         match *self {
             Path::Circle => (radius_mm, radius_mm),
             Path::Line { length_mm } => (length_mm / 2.0, 0.0),
-            Path::Ellipse { a_mm, b_mm } | Path::Lissajous { a_mm, b_mm, .. } => (a_mm, b_mm),
+            Path::Ellipse { a_mm, b_mm } | Path::Lissajous(Lissajous { a_mm, b_mm, .. }) => {
+                (a_mm, b_mm)
+            }
         }
     }
 }
@@ -193,13 +197,13 @@ mod tests {
         .length_mm(0.0);
         assert!((e - 19.3769).abs() < 1e-3, "{e}");
         // A 1:1 Lissajous at 90° is the circle.
-        let l = Path::Lissajous {
+        let l = Path::Lissajous(Lissajous {
             a_mm: 3.0,
             b_mm: 3.0,
             n_a: 1,
             n_b: 1,
             phase_deg: 90.0,
-        };
+        });
         assert!((l.length_mm(0.0) - 6.0 * PI).abs() < 1e-6);
     }
 
@@ -217,13 +221,13 @@ mod tests {
 
     #[test]
     fn lissajous_spans_its_half_extents() {
-        let p = Path::Lissajous {
+        let p = Path::Lissajous(Lissajous {
             a_mm: 5.0,
             b_mm: 2.0,
             n_a: 3,
             n_b: 2,
             phase_deg: 90.0,
-        };
+        });
         let pts: Vec<(f64, f64)> = (0..1000)
             .map(|j| p.at(2.0 * PI * j as f64 / 1000.0, 0.0))
             .collect();
@@ -252,23 +256,23 @@ mod tests {
                 "range",
             ),
             (
-                Path::Lissajous {
+                Path::Lissajous(Lissajous {
                     a_mm: 1.0,
                     b_mm: 1.0,
                     n_a: 0,
                     n_b: 1,
                     phase_deg: 0.0,
-                },
+                }),
                 "1..=32",
             ),
             (
-                Path::Lissajous {
+                Path::Lissajous(Lissajous {
                     a_mm: 1.0,
                     b_mm: 1.0,
                     n_a: 1,
                     n_b: 1,
                     phase_deg: f64::INFINITY,
-                },
+                }),
                 "phase",
             ),
         ] {

@@ -434,12 +434,12 @@ mod tests {
             entry["am"]["properties"]["depth"]["default"]
         );
         let path = &entry["path"]["properties"];
-        let crate::plan::path::Path::Lissajous {
+        let crate::plan::path::Path::Lissajous(crate::plan::path::Lissajous {
             n_a,
             n_b,
             phase_deg,
             ..
-        } = s.path
+        }) = s.path
         else {
             panic!("{:?}", s.path)
         };

@@ -79,13 +79,13 @@ fn paths_and_modulations_are_read_with_their_defaults() {
     let s = |i: usize| &lib.entries[i].stimulus;
     assert_eq!(
         s(0).path,
-        Path::Lissajous {
+        Path::Lissajous(Lissajous {
             a_mm: 5.0,
             b_mm: 3.0,
             n_a: 3,
             n_b: 2,
             phase_deg: 90.0
-        }
+        })
     );
     assert_eq!(s(0).am, None);
     assert_eq!(s(1).path, Path::Circle);
