@@ -4,7 +4,7 @@
 use clap::Subcommand;
 use serde_json::json;
 
-use lmhost::device::instruments::{ForceUnit, GaugeModel, GaugeOptions, open_gauge};
+use lmhost::device::instruments::{ForceUnit, GaugeModel, GaugeOptions, gauge, open_gauge};
 use lmhost::limits::Num as N;
 
 /// Read a force gauge (IMADA ZTS/ZTA, Mark-10) or its simulated twin.
@@ -41,12 +41,7 @@ pub struct ReadArgs {
     #[arg(long = "for", value_name = "S", allow_negative_numbers = true)]
     for_s: Option<f64>,
     /// Sampling rate with --for, Hz.
-    #[arg(
-        long,
-        value_name = "HZ",
-        default_value_t = 50.0,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "HZ", default_value_t = gauge::DEFAULT_RATE_HZ, allow_negative_numbers = true)]
     rate: f64,
     /// With `--port sim`: how deep the probe sits in the finger pad, mm.
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]

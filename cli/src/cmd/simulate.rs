@@ -35,12 +35,7 @@ pub struct Args {
     plane_size: Option<String>,
     /// Observation grid step in mm. The whole run is limited to 5e10
     /// points × transducers × steps (5e9 with --reference), ~10 s.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 0.2,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "MM", default_value_t = field::study::PLANE_STEP_MM, allow_negative_numbers = true)]
     plane_step: f64,
     /// Observation plane centre X,Y,Z in mm [default: the LM centre].
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]

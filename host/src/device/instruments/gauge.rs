@@ -9,6 +9,10 @@ use super::unit::ForceUnit;
 use crate::clock::Clock;
 use crate::limits::show;
 
+/// The sampling rate asked of a gauge unless told otherwise, Hz: 100
+/// readings in the paper's 2 s, well within what a request/response gauge
+/// answers at 19200 baud (about 10 ms a reading).
+pub const DEFAULT_RATE_HZ: f64 = 50.0;
 /// Highest sampling rate asked of a gauge, Hz. A request/response reading
 /// over RS-232 takes milliseconds (about 10 characters each way at
 /// 19200 baud is 10 ms); asking faster only stacks requests.

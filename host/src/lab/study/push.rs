@@ -33,10 +33,8 @@ use crate::error::{InputError, one_line};
 use crate::lab::session::{EventKind, Present};
 use crate::limits::show;
 
-/// The gauge's sampling rate while it records, Hz: 100 readings in the
-/// paper's 2 s, well within what a request/response gauge answers at
-/// 19200 baud (about 10 ms a reading).
-pub const RATE_HZ: f64 = 50.0;
+/// The gauge's sampling rate while it records, Hz.
+pub const RATE_HZ: f64 = crate::device::instruments::gauge::DEFAULT_RATE_HZ;
 /// Added to a move's own timeout when the runner waits for the thread
 /// (the thread times the move; this only guards a thread that hangs).
 const SLACK: Duration = Duration::from_secs(5);
