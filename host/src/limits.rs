@@ -246,6 +246,16 @@ pub fn read_text_file_up_to(
     })
 }
 
+/// The names of the options given, in order: `(name, given)` pairs (for
+/// "give only …" and "has no …" messages).
+pub fn given<'a>(options: &[(&'a str, bool)]) -> Vec<&'a str> {
+    options
+        .iter()
+        .filter(|(_, g)| *g)
+        .map(|(n, _)| *n)
+        .collect()
+}
+
 /// Makes `property` required in a file's JSON Schema and drops the default
 /// serde gives it: the loader takes a file without it only to say what to
 /// add, so the file needs it.

@@ -149,7 +149,7 @@ impl StimulusFlags {
     /// The flags given, by name (`--radius`, ...), in the order of `--help`.
     pub fn given(&self) -> Vec<&'static str> {
         let s = self;
-        [
+        lmhost::limits::given(&[
             ("--radius", s.radius.is_some()),
             ("--foci", s.foci.is_some()),
             ("--spacing", s.spacing.is_some()),
@@ -162,10 +162,7 @@ impl StimulusFlags {
             ("--iterations", s.iterations.is_some()),
             ("--weights", s.weights.is_some()),
             ("--intensity", s.intensity.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(n, g)| g.then_some(n))
-        .collect()
+        ])
     }
 
     /// The stimulus the flags describe, the paper's values where none is

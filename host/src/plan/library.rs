@@ -288,16 +288,13 @@ struct AmFile {
 
 impl PathFile {
     fn resolve(&self) -> Result<Path, String> {
-        let given: Vec<&str> = [
+        let given = crate::limits::given(&[
             ("length", self.length.is_some()),
             ("a", self.a.is_some()),
             ("b", self.b.is_some()),
             ("ratio", self.ratio.is_some()),
             ("phase", self.phase.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(n, g)| g.then_some(n))
-        .collect();
+        ]);
         let (name, own): (&str, &[&str]) = match self.shape {
             ShapeName::Circle => ("circle", &[]),
             ShapeName::Line => ("line", &["length"]),
