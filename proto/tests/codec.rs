@@ -4,6 +4,7 @@
 mod common;
 
 use common::Rng;
+use common::paper::{autd3_2x2_um, lm_phases};
 use lm_proto::codec::{self, CodecError, Decoder, StepDecoder};
 use lm_proto::{Encoding, crc32};
 use proptest::prelude::*;
@@ -271,75 +272,14 @@ fn random_streams_never_panic_and_never_overrun() {
     );
 }
 
-/// AUTD3: 18 × 14 grid minus three screw holes, 10.16 mm pitch; four
-/// boards 2 × 2 (192 × 151.4 mm apart), centred on the origin, z = 0.
-fn autd3_2x2_mm() -> Vec<[f64; 3]> {
-    let mut pos = Vec::new();
-    for by in 0..2 {
-        for bx in 0..2 {
-            for iy in 0..14 {
-                for ix in 0..18 {
-                    if iy == 1 && [1, 2, 16].contains(&ix) {
-                        continue;
-                    }
-                    pos.push([
-                        bx as f64 * 192.0 + ix as f64 * 10.16,
-                        by as f64 * 151.4 + iy as f64 * 10.16,
-                        0.0,
-                    ]);
-                }
-            }
-        }
-    }
-    let n = pos.len() as f64;
-    let (mx, my) = (
-        pos.iter().map(|p| p[0]).sum::<f64>() / n,
-        pos.iter().map(|p| p[1]).sum::<f64>() / n,
-    );
-    pos.iter().map(|p| [p[0] - mx, p[1] - my, 0.0]).collect()
-}
-
-/// The paper's LM-S (`foci` = 1) or LM-M (`foci` = 4, 3 mm apart on the
-/// circle) at 0.23 mm steps, radius `r_mm`, focus plane at `z_mm`;
-/// phases by φ = arg Σ exp(−j k d), quantised to u8 (host/src/units.rs).
-fn lm_sequence(pos: &[[f64; 3]], r_mm: f64, z_mm: f64, foci: usize) -> (Vec<u8>, usize) {
-    let k = 2.0 * std::f64::consts::PI / (340e3 / 40e3);
-    let steps = (2.0 * std::f64::consts::PI * r_mm / 0.23).round() as usize;
-    let mut out = Vec::with_capacity(steps * pos.len());
-    for s in 0..steps {
-        let foci_pos: Vec<[f64; 3]> = (0..foci)
-            .map(|f| {
-                let a =
-                    2.0 * std::f64::consts::PI * s as f64 / steps as f64 + f as f64 * 3.0 / r_mm;
-                [r_mm * a.cos(), r_mm * a.sin(), z_mm]
-            })
-            .collect();
-        for t in pos {
-            let (mut re, mut im) = (0.0, 0.0);
-            for p in &foci_pos {
-                let d =
-                    ((t[0] - p[0]).powi(2) + (t[1] - p[1]).powi(2) + (t[2] - p[2]).powi(2)).sqrt();
-                re += (k * d).cos();
-                im -= (k * d).sin();
-            }
-            let phi = im.atan2(re);
-            out.push(
-                (phi / (2.0 * std::f64::consts::PI) * 256.0)
-                    .round()
-                    .rem_euclid(256.0) as u8,
-            );
-        }
-    }
-    (out, steps)
-}
-
 #[test]
 fn delta_compresses_paper_stimuli() {
-    let pos = autd3_2x2_mm();
+    let pos = autd3_2x2_um();
     assert_eq!(pos.len(), 996);
     for foci in [1, 4] {
         for r in [2.0, 3.0, 4.0, 5.0, 6.0] {
-            let (phases, steps) = lm_sequence(&pos, r, 220.0, foci);
+            // The paper's 0.23 mm steps, focus plane at 220 mm.
+            let (phases, steps) = lm_phases(&pos, foci, r, 0.23, 220.0);
             let n = codec::encoded_len(Encoding::Delta, &phases, pos.len()).unwrap();
             let ratio = n as f64 / phases.len() as f64;
             // The alternative Delta was measured against: first differences

@@ -2,6 +2,8 @@
 //! helpers that run a decoder over a byte stream.
 #![allow(dead_code)]
 
+pub mod paper;
+
 use lm_proto::*;
 use proptest::prelude::*;
 
