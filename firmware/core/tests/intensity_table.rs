@@ -56,14 +56,7 @@ fn play_cycles(dev: &mut Device<'_>, slot: u8, cycles: usize) -> Vec<Vec<u8>> {
         Reply::Ack
     );
     let mut wire = Wire::default();
-    let total = cycles * usize::from(STEPS);
-    let mut now = 0;
-    while wire.transactions.len() < total {
-        now = dev
-            .poll(now, &mut SpiOutput::new(&mut wire))
-            .expect("a playing device has a deadline");
-    }
-    wire.transactions.truncate(total);
+    wire.play(dev, cycles * usize::from(STEPS));
     wire.transactions
 }
 
