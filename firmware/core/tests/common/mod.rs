@@ -28,6 +28,15 @@ impl Rng {
     pub fn byte(&mut self) -> u8 {
         self.next() as u8
     }
+    /// Below `n` seven times in eight, else any value: mostly what a
+    /// device accepts, sometimes far out of range.
+    pub fn mostly_below(&mut self, n: u64) -> u64 {
+        if self.below(8) == 0 {
+            self.next()
+        } else {
+            self.below(n)
+        }
+    }
 }
 
 /// Leaks sequence memory for a device (tests only): a library of twice
