@@ -186,9 +186,7 @@ fn named_hard_cases() {
 fn step_decoder_agrees_with_the_decoder_on_random_streams() {
     let mut rng = Rng(7);
     for case in 0..3000 {
-        let steps = rng.below(12) as u16;
-        let t = rng.below(9) as u16 + 1;
-        let enc = rng.encoding();
+        let (steps, t, enc) = rng.shape(12, 9);
         // Half valid streams (maybe cut or extended), half noise.
         let mut stream = if case % 2 == 0 {
             let mut phases = vec![0u8; usize::from(steps) * usize::from(t)];
@@ -213,20 +211,17 @@ fn step_decoder_agrees_with_the_decoder_on_random_streams() {
         let mut s = StepDecoder::new(enc, steps, t);
         let mut ring = vec![0u8; StepDecoder::ring_len(usize::from(t))];
         let mut rows = Vec::new();
-        let mut i = 0;
         let mut r2 = Ok(());
-        while i < stream.len() {
-            let j = (i + 1 + rng.below(16)).min(stream.len());
-            match s.feed(&stream[i..j], &mut ring, u16::MAX, |_, row| {
+        for piece in rng.pieces(&stream, 16) {
+            match s.feed(piece, &mut ring, u16::MAX, |_, row| {
                 rows.extend_from_slice(row)
             }) {
-                Ok(used) => assert_eq!(used, j - i, "case {case}"),
+                Ok(used) => assert_eq!(used, piece.len(), "case {case}"),
                 Err(e) => {
                     r2 = Err(e);
                     break;
                 }
             }
-            i = j;
         }
         let r2 = r2.and_then(|()| s.finish());
         assert_eq!(r1.is_ok(), r2.is_ok(), "case {case}: {r1:?} vs {r2:?}");
@@ -240,22 +235,17 @@ fn step_decoder_agrees_with_the_decoder_on_random_streams() {
 fn random_streams_never_panic_and_never_overrun() {
     let mut rng = Rng(42);
     for _ in 0..2000 {
-        let steps = rng.below(20) as u16;
-        let t = rng.below(30) as u16 + 1;
-        let enc = rng.encoding();
+        let (steps, t, enc) = rng.shape(20, 30);
         let mut stream = vec![0u8; rng.below(400)];
         rng.fill(&mut stream);
         let mut out = vec![0u8; steps as usize * t as usize + 8];
         let guard = out.len() - 8;
         out[guard..].fill(0xA5);
         let mut d = Decoder::new(enc, steps, t);
-        let mut i = 0;
-        while i < stream.len() {
-            let j = (i + 1 + rng.below(64)).min(stream.len());
-            if d.feed(&stream[i..j], &mut out).is_err() {
+        for piece in rng.pieces(&stream, 64) {
+            if d.feed(piece, &mut out).is_err() {
                 break;
             }
-            i = j;
         }
         assert!(
             out[guard..].iter().all(|&b| b == 0xA5),

@@ -271,19 +271,17 @@ fn stream_case(rng: &mut Rng, dec: &mut FrameDecoder, input: &[u8], c: &mut Coun
             last = Some(Err(e));
         }
     };
-    let mut i = 0;
-    while i < all.len() {
-        let j = (i + 1 + rng.below(300)).min(all.len());
+    for piece in rng.pieces(&all, 300) {
         if rng.below(8) == 0 {
-            for &b in &all[i..j] {
+            for &b in piece {
                 if let Some(r) = dec.push(b) {
                     check(r, c);
                 }
             }
         } else {
-            let mut piece = &all[i..j];
+            let mut rest = piece;
             loop {
-                piece = match dec.feed(piece) {
+                rest = match dec.feed(rest) {
                     FeedResult::Consumed => break,
                     FeedResult::Frame { frame, remaining } => {
                         check(Ok(frame), c);
@@ -296,7 +294,6 @@ fn stream_case(rng: &mut Rng, dec: &mut FrameDecoder, input: &[u8], c: &mut Coun
                 };
             }
         }
-        i = j;
     }
     assert_eq!(
         last,
@@ -331,9 +328,7 @@ fn parse_case(rng: &mut Rng, c: &mut Counts) {
 }
 
 fn codec_case(rng: &mut Rng, c: &mut Counts) {
-    let steps = rng.below(40) as u16;
-    let t = rng.below(64) as u16 + 1;
-    let enc = rng.encoding();
+    let (steps, t, enc) = rng.shape(40, 64);
     let raw_len = steps as usize * t as usize;
     let stream = if rng.below(2) == 0 {
         let mut s = vec![0u8; rng.below(2 * raw_len + 4)];
@@ -349,12 +344,10 @@ fn codec_case(rng: &mut Rng, c: &mut Counts) {
     let mut out = vec![0u8; raw_len + 16];
     out[raw_len..].fill(0x5A);
     let mut d = Decoder::new(enc, steps, t);
-    let mut i = 0;
-    let mut ok = true;
-    while i < stream.len() && ok {
-        let j = (i + 1 + rng.below(128)).min(stream.len());
-        ok = d.feed(&stream[i..j], &mut out).is_ok();
-        i = j;
+    for piece in rng.pieces(&stream, 128) {
+        if d.feed(piece, &mut out).is_err() {
+            break;
+        }
     }
     assert!(
         out[raw_len..].iter().all(|&b| b == 0x5A),

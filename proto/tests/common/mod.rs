@@ -303,6 +303,25 @@ impl Rng {
             lm_proto::Encoding::Delta
         }
     }
+    /// A random sequence shape: steps in `0..steps_below`, transducers in
+    /// `1..=max_t`, and an encoding (drawn in that order).
+    pub fn shape(&mut self, steps_below: usize, max_t: usize) -> (u16, u16, lm_proto::Encoding) {
+        let steps = self.below(steps_below) as u16;
+        let t = self.below(max_t) as u16 + 1;
+        (steps, t, self.encoding())
+    }
+    /// `bytes` cut at random into consecutive pieces of 1..=`max` bytes, as
+    /// a reader may get them.
+    pub fn pieces<'a>(&mut self, bytes: &'a [u8], max: usize) -> Vec<&'a [u8]> {
+        let mut v = Vec::new();
+        let mut i = 0;
+        while i < bytes.len() {
+            let j = (i + 1 + self.below(max)).min(bytes.len());
+            v.push(&bytes[i..j]);
+            i = j;
+        }
+        v
+    }
     pub fn byte(&mut self) -> u8 {
         self.next_u64() as u8
     }
