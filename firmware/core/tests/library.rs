@@ -177,6 +177,18 @@ fn frames(dev: &mut Device<'_>, now: &mut u64, n: usize) -> Capture {
     cap
 }
 
+/// A board holding the paper's rig and its 15 stimuli in slots 0-14
+/// (Delta); returns the rig and the set too.
+fn board_with_paper_set() -> (Vec<[i32; 3]>, Vec<Stim>, Device<'static>) {
+    let pos = autd3_2x2_um();
+    let set = paper_set(&pos);
+    let mut dev = board(&pos);
+    for (i, s) in set.iter().enumerate() {
+        upload(&mut dev, &pos, i as u8, s, Encoding::Delta, 0).unwrap();
+    }
+    (pos, set, dev)
+}
+
 #[test]
 fn the_paper_set_fits_and_every_entry_plays_its_phases_across_the_wrap() {
     let pos = autd3_2x2_um();
@@ -286,12 +298,7 @@ fn a_queued_entry_takes_over_at_the_cycle_boundary() {
 
 #[test]
 fn what_does_not_fit_is_refused_as_library_full_and_nothing_changes() {
-    let pos = autd3_2x2_um();
-    let set = paper_set(&pos);
-    let mut dev = board(&pos);
-    for (i, s) in set.iter().enumerate() {
-        upload(&mut dev, &pos, i as u8, s, Encoding::Delta, 0).unwrap();
-    }
+    let (pos, set, mut dev) = board_with_paper_set();
     let mut now = 0;
     assert_eq!(
         request(&mut dev, 1, &play(0, PlayAt::Immediate), now),
@@ -329,12 +336,7 @@ fn what_does_not_fit_is_refused_as_library_full_and_nothing_changes() {
 
 #[test]
 fn overwriting_frees_space_and_compaction_keeps_the_playing_entry() {
-    let pos = autd3_2x2_um();
-    let set = paper_set(&pos);
-    let mut dev = board(&pos);
-    for (i, s) in set.iter().enumerate() {
-        upload(&mut dev, &pos, i as u8, s, Encoding::Delta, 0).unwrap();
-    }
+    let (pos, set, mut dev) = board_with_paper_set();
     let full = info(&mut dev).library_free;
     // Overwrite the largest LM-M with a 25 Hz one: its space comes back.
     let small = &set[10];
