@@ -280,6 +280,34 @@ pub fn wire(seq: u16, m: &Message<'_>) -> Vec<u8> {
     buf
 }
 
+/// Decodes `stream` as `enc`, `steps` × `t`, fed in random pieces of up to
+/// `max` bytes and stopping at the first error, into a buffer with guard
+/// bytes past the sequence; asserts the decoder never wrote into them.
+/// Returns the decoder (for its verdict) and the sequence.
+pub fn decode_in_pieces(
+    rng: &mut Rng,
+    (steps, t, enc): (u16, u16, Encoding),
+    stream: &[u8],
+    max: usize,
+) -> (codec::Decoder, Vec<u8>) {
+    const GUARD: usize = 16;
+    let raw_len = usize::from(steps) * usize::from(t);
+    let mut out = vec![0u8; raw_len + GUARD];
+    out[raw_len..].fill(0xA5);
+    let mut d = codec::Decoder::new(enc, steps, t);
+    for piece in rng.pieces(stream, max) {
+        if d.feed(piece, &mut out).is_err() {
+            break;
+        }
+    }
+    assert!(
+        out[raw_len..].iter().all(|&b| b == 0xA5),
+        "decoder wrote past the sequence"
+    );
+    out.truncate(raw_len);
+    (d, out)
+}
+
 /// SplitMix64: small, seeded, good enough to drive tests.
 pub struct Rng(pub u64);
 
