@@ -55,6 +55,25 @@ def duty_counts(amplitude, intensity):
     return (amplitude * intensity * 129 + 32768) >> 16
 
 
+def driver_ports(n):
+    """The ports of an `n`-channel driver: the SPI bus in, the outputs and
+    the frame counters out (a board shows the same, and `ready`)."""
+    return {
+        "sck": In(1),
+        "mosi": In(1),
+        "cs_n": In(1, init=1),
+        "out": Out(n),
+        # One clock, aligned with `out`, at each carrier period start.
+        "period_start": Out(1),
+        # High while a latched pattern drives the outputs.
+        "active": Out(1),
+        # Frames dropped (short, long, corrupt, overrun), wrapping.
+        "bad_frames": Out(16),
+        # Frames latched, wrapping.
+        "good_frames": Out(16),
+    }
+
+
 class LmDriver(wiring.Component):
     """`n` channels, the frame's channels `first`..`first + n` of `total`
     (default: all, `total` = `n`); `clocks_per_count` clocks per 1/256
@@ -78,20 +97,7 @@ class LmDriver(wiring.Component):
         period = COUNTS * clocks_per_count
         # Default: 100 ms (DRIVER.md, "MCU silent").
         self.timeout_cycles = timeout_cycles or (CARRIER_HZ // 10) * period
-        ports = {
-            "sck": In(1),
-            "mosi": In(1),
-            "cs_n": In(1, init=1),
-            "out": Out(n),
-            # One clock, aligned with `out`, at each carrier period start.
-            "period_start": Out(1),
-            # High while a latched pattern drives the outputs.
-            "active": Out(1),
-            # Frames dropped (short, long, corrupt, overrun), wrapping.
-            "bad_frames": Out(16),
-            # Frames latched, wrapping.
-            "good_frames": Out(16),
-        }
+        ports = driver_ports(n)
         if slice_ports:
             ports["first"] = In(16)
             ports["total"] = In(16)
@@ -354,17 +360,7 @@ class Board(wiring.Component):
         self.rom_init = rom_init
         self.k = clocks_per_count
         self.timeout_cycles = timeout_cycles
-        super().__init__({
-            "sck": In(1),
-            "mosi": In(1),
-            "cs_n": In(1, init=1),
-            "out": Out(n),
-            "period_start": Out(1),
-            "active": Out(1),
-            "ready": Out(1),
-            "bad_frames": Out(16),
-            "good_frames": Out(16),
-        })
+        super().__init__({**driver_ports(n), "ready": Out(1)})
 
     def elaborate(self, platform):
         m = Module()

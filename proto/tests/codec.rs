@@ -3,7 +3,8 @@
 
 mod common;
 
-use common::Rng;
+use common::paper::{autd3_2x2_um, lm_phases};
+use common::{Rng, decode_in_pieces};
 use lm_proto::codec::{self, CodecError, Decoder, StepDecoder};
 use lm_proto::{Encoding, crc32};
 use proptest::prelude::*;
@@ -185,9 +186,7 @@ fn named_hard_cases() {
 fn step_decoder_agrees_with_the_decoder_on_random_streams() {
     let mut rng = Rng(7);
     for case in 0..3000 {
-        let steps = rng.below(12) as u16;
-        let t = rng.below(9) as u16 + 1;
-        let enc = rng.encoding();
+        let (steps, t, enc) = rng.shape(12, 9);
         // Half valid streams (maybe cut or extended), half noise.
         let mut stream = if case % 2 == 0 {
             let mut phases = vec![0u8; usize::from(steps) * usize::from(t)];
@@ -212,20 +211,17 @@ fn step_decoder_agrees_with_the_decoder_on_random_streams() {
         let mut s = StepDecoder::new(enc, steps, t);
         let mut ring = vec![0u8; StepDecoder::ring_len(usize::from(t))];
         let mut rows = Vec::new();
-        let mut i = 0;
         let mut r2 = Ok(());
-        while i < stream.len() {
-            let j = (i + 1 + rng.below(16)).min(stream.len());
-            match s.feed(&stream[i..j], &mut ring, u16::MAX, |_, row| {
+        for piece in rng.pieces(&stream, 16) {
+            match s.feed(piece, &mut ring, u16::MAX, |_, row| {
                 rows.extend_from_slice(row)
             }) {
-                Ok(used) => assert_eq!(used, j - i, "case {case}"),
+                Ok(used) => assert_eq!(used, piece.len(), "case {case}"),
                 Err(e) => {
                     r2 = Err(e);
                     break;
                 }
             }
-            i = j;
         }
         let r2 = r2.and_then(|()| s.finish());
         assert_eq!(r1.is_ok(), r2.is_ok(), "case {case}: {r1:?} vs {r2:?}");
@@ -239,27 +235,10 @@ fn step_decoder_agrees_with_the_decoder_on_random_streams() {
 fn random_streams_never_panic_and_never_overrun() {
     let mut rng = Rng(42);
     for _ in 0..2000 {
-        let steps = rng.below(20) as u16;
-        let t = rng.below(30) as u16 + 1;
-        let enc = rng.encoding();
+        let shape = rng.shape(20, 30);
         let mut stream = vec![0u8; rng.below(400)];
         rng.fill(&mut stream);
-        let mut out = vec![0u8; steps as usize * t as usize + 8];
-        let guard = out.len() - 8;
-        out[guard..].fill(0xA5);
-        let mut d = Decoder::new(enc, steps, t);
-        let mut i = 0;
-        while i < stream.len() {
-            let j = (i + 1 + rng.below(64)).min(stream.len());
-            if d.feed(&stream[i..j], &mut out).is_err() {
-                break;
-            }
-            i = j;
-        }
-        assert!(
-            out[guard..].iter().all(|&b| b == 0xA5),
-            "decoder wrote past the sequence"
-        );
+        let (d, _) = decode_in_pieces(&mut rng, shape, &stream, 64);
         assert!(d.decoded() <= d.raw_len());
         let _ = d.finish();
     }
@@ -271,75 +250,14 @@ fn random_streams_never_panic_and_never_overrun() {
     );
 }
 
-/// AUTD3: 18 × 14 grid minus three screw holes, 10.16 mm pitch; four
-/// boards 2 × 2 (192 × 151.4 mm apart), centred on the origin, z = 0.
-fn autd3_2x2_mm() -> Vec<[f64; 3]> {
-    let mut pos = Vec::new();
-    for by in 0..2 {
-        for bx in 0..2 {
-            for iy in 0..14 {
-                for ix in 0..18 {
-                    if iy == 1 && [1, 2, 16].contains(&ix) {
-                        continue;
-                    }
-                    pos.push([
-                        bx as f64 * 192.0 + ix as f64 * 10.16,
-                        by as f64 * 151.4 + iy as f64 * 10.16,
-                        0.0,
-                    ]);
-                }
-            }
-        }
-    }
-    let n = pos.len() as f64;
-    let (mx, my) = (
-        pos.iter().map(|p| p[0]).sum::<f64>() / n,
-        pos.iter().map(|p| p[1]).sum::<f64>() / n,
-    );
-    pos.iter().map(|p| [p[0] - mx, p[1] - my, 0.0]).collect()
-}
-
-/// The paper's LM-S (`foci` = 1) or LM-M (`foci` = 4, 3 mm apart on the
-/// circle) at 0.23 mm steps, radius `r_mm`, focus plane at `z_mm`;
-/// phases by φ = arg Σ exp(−j k d), quantised to u8 (host/src/units.rs).
-fn lm_sequence(pos: &[[f64; 3]], r_mm: f64, z_mm: f64, foci: usize) -> (Vec<u8>, usize) {
-    let k = 2.0 * std::f64::consts::PI / (340e3 / 40e3);
-    let steps = (2.0 * std::f64::consts::PI * r_mm / 0.23).round() as usize;
-    let mut out = Vec::with_capacity(steps * pos.len());
-    for s in 0..steps {
-        let foci_pos: Vec<[f64; 3]> = (0..foci)
-            .map(|f| {
-                let a =
-                    2.0 * std::f64::consts::PI * s as f64 / steps as f64 + f as f64 * 3.0 / r_mm;
-                [r_mm * a.cos(), r_mm * a.sin(), z_mm]
-            })
-            .collect();
-        for t in pos {
-            let (mut re, mut im) = (0.0, 0.0);
-            for p in &foci_pos {
-                let d =
-                    ((t[0] - p[0]).powi(2) + (t[1] - p[1]).powi(2) + (t[2] - p[2]).powi(2)).sqrt();
-                re += (k * d).cos();
-                im -= (k * d).sin();
-            }
-            let phi = im.atan2(re);
-            out.push(
-                (phi / (2.0 * std::f64::consts::PI) * 256.0)
-                    .round()
-                    .rem_euclid(256.0) as u8,
-            );
-        }
-    }
-    (out, steps)
-}
-
 #[test]
 fn delta_compresses_paper_stimuli() {
-    let pos = autd3_2x2_mm();
+    let pos = autd3_2x2_um();
     assert_eq!(pos.len(), 996);
     for foci in [1, 4] {
         for r in [2.0, 3.0, 4.0, 5.0, 6.0] {
-            let (phases, steps) = lm_sequence(&pos, r, 220.0, foci);
+            // The paper's 0.23 mm steps, focus plane at 220 mm.
+            let (phases, steps) = lm_phases(&pos, foci, r, 0.23, 220.0);
             let n = codec::encoded_len(Encoding::Delta, &phases, pos.len()).unwrap();
             let ratio = n as f64 / phases.len() as f64;
             // The alternative Delta was measured against: first differences

@@ -15,8 +15,8 @@
 
 mod common;
 
-use common::{Owned, Rng, unframed};
-use lm_proto::codec::{self, Decoder};
+use common::{Owned, Rng, decode_in_pieces, unframed};
+use lm_proto::codec;
 use lm_proto::*;
 
 fn env(name: &str, default: u64) -> u64 {
@@ -271,19 +271,17 @@ fn stream_case(rng: &mut Rng, dec: &mut FrameDecoder, input: &[u8], c: &mut Coun
             last = Some(Err(e));
         }
     };
-    let mut i = 0;
-    while i < all.len() {
-        let j = (i + 1 + rng.below(300)).min(all.len());
+    for piece in rng.pieces(&all, 300) {
         if rng.below(8) == 0 {
-            for &b in &all[i..j] {
+            for &b in piece {
                 if let Some(r) = dec.push(b) {
                     check(r, c);
                 }
             }
         } else {
-            let mut piece = &all[i..j];
+            let mut rest = piece;
             loop {
-                piece = match dec.feed(piece) {
+                rest = match dec.feed(rest) {
                     FeedResult::Consumed => break,
                     FeedResult::Frame { frame, remaining } => {
                         check(Ok(frame), c);
@@ -296,7 +294,6 @@ fn stream_case(rng: &mut Rng, dec: &mut FrameDecoder, input: &[u8], c: &mut Coun
                 };
             }
         }
-        i = j;
     }
     assert_eq!(
         last,
@@ -331,9 +328,7 @@ fn parse_case(rng: &mut Rng, c: &mut Counts) {
 }
 
 fn codec_case(rng: &mut Rng, c: &mut Counts) {
-    let steps = rng.below(40) as u16;
-    let t = rng.below(64) as u16 + 1;
-    let enc = rng.encoding();
+    let (steps, t, enc) = rng.shape(40, 64);
     let raw_len = steps as usize * t as usize;
     let stream = if rng.below(2) == 0 {
         let mut s = vec![0u8; rng.below(2 * raw_len + 4)];
@@ -346,26 +341,13 @@ fn codec_case(rng: &mut Rng, c: &mut Counts) {
         codec::encode(enc, &phases, t as usize, &mut s).unwrap();
         if rng.below(4) == 0 { s } else { mutate(rng, s) }
     };
-    let mut out = vec![0u8; raw_len + 16];
-    out[raw_len..].fill(0x5A);
-    let mut d = Decoder::new(enc, steps, t);
-    let mut i = 0;
-    let mut ok = true;
-    while i < stream.len() && ok {
-        let j = (i + 1 + rng.below(128)).min(stream.len());
-        ok = d.feed(&stream[i..j], &mut out).is_ok();
-        i = j;
-    }
-    assert!(
-        out[raw_len..].iter().all(|&b| b == 0x5A),
-        "codec wrote past the sequence"
-    );
+    let (d, out) = decode_in_pieces(rng, (steps, t, enc), &stream, 128);
     c.codec_inputs += 1;
     if d.finish().is_ok() {
         c.codec_ok += 1;
         // Whatever decoded must re-encode to a stream of the same length
         // at most (encoders use the shortest codes).
-        let n = codec::encoded_len(enc, &out[..raw_len], t as usize).unwrap();
+        let n = codec::encoded_len(enc, &out, t as usize).unwrap();
         assert!(n <= stream.len());
     }
 }

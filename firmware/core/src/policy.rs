@@ -294,6 +294,16 @@ mod tests {
         }
     }
 
+    /// A tracked play (5 mm work volume) whose first centroid, `seq` at the
+    /// planned centre, was accepted at 0.
+    fn tracked(seq: u32) -> (Policy, UploadHeader) {
+        let mut p = Policy::new(100, true);
+        let h = header(5000);
+        p.play(false);
+        p.centroid(&at(seq, 0, true), Some(&h), 0).unwrap();
+        (p, h)
+    }
+
     fn at(seq: u32, x: i32, present: bool) -> Centroid {
         Centroid {
             host_time_us: 0,
@@ -335,10 +345,7 @@ mod tests {
 
     #[test]
     fn play_while_playing_keeps_the_gate_and_accepts_a_restarted_count() {
-        let mut p = Policy::new(100, true);
-        let h = header(5000);
-        p.play(false);
-        p.centroid(&at(50, 0, true), Some(&h), 0).unwrap();
+        let (mut p, h) = tracked(50);
         p.play(false);
         assert!(p.sounding(1), "no glitch on a switch");
         assert_eq!(
@@ -353,10 +360,7 @@ mod tests {
 
     #[test]
     fn out_of_volume_refuses_mutes_and_never_steers() {
-        let mut p = Policy::new(100, true);
-        let h = header(5000);
-        p.play(false);
-        p.centroid(&at(1, 0, true), Some(&h), 0).unwrap();
+        let (mut p, h) = tracked(1);
         assert_eq!(
             p.centroid(&at(2, 6000, true), Some(&h), 1),
             Err(NackCode::OutOfRange)

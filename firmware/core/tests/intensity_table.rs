@@ -5,11 +5,12 @@
 mod common;
 
 use common::*;
+use lm_fw_core::Device;
 use lm_fw_core::output::SPI_FRAME_MAGIC;
 use lm_fw_core::store::scale_intensity;
-use lm_fw_core::{Device, SpiOutput};
+use lm_proto::NackCode::{self, *};
 use lm_proto::codec::Encoding;
-use lm_proto::{Commit, Intensity, Message, NackCode, PlayAt};
+use lm_proto::{Commit, Intensity, Message, PlayAt};
 
 const STEPS: u16 = 8;
 const T: u16 = 4;
@@ -49,6 +50,14 @@ fn begin_with_table(dev: &mut Device<'_>, seq: &Seq, slot: u8) {
     }
 }
 
+/// Sends each request of `script` in turn (seq numbers from `first`) and
+/// checks its reply; a failure names the request.
+fn exchange(dev: &mut Device<'_>, first: u16, script: &[(Message<'_>, Reply)]) {
+    for (i, (m, want)) in script.iter().enumerate() {
+        assert_eq!(&request(dev, first + i as u16, m, 0), want, "{i}: {m:?}");
+    }
+}
+
 /// Plays `slot` for `cycles` cycles through [`SpiOutput`]; every transaction.
 fn play_cycles(dev: &mut Device<'_>, slot: u8, cycles: usize) -> Vec<Vec<u8>> {
     assert_eq!(
@@ -56,14 +65,7 @@ fn play_cycles(dev: &mut Device<'_>, slot: u8, cycles: usize) -> Vec<Vec<u8>> {
         Reply::Ack
     );
     let mut wire = Wire::default();
-    let total = cycles * usize::from(STEPS);
-    let mut now = 0;
-    while wire.transactions.len() < total {
-        now = dev
-            .poll(now, &mut SpiOutput::new(&mut wire))
-            .expect("a playing device has a deadline");
-    }
-    wire.transactions.truncate(total);
+    wire.play(dev, cycles * usize::from(STEPS));
     wire.transactions
 }
 
@@ -73,21 +75,15 @@ fn each_steps_frame_carries_the_entrys_intensity_times_its_level() {
     let mut dev = device(config(T), seq.phases.len() + usize::from(STEPS));
     begin_with_table(&mut dev, &seq, 0);
     // Levels in two frames, the second re-sent (an identical repeat).
-    assert_eq!(
-        request(&mut dev, 100, &levels(0, 0, &TABLE[..3]), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 101, &levels(0, 3, &TABLE[3..]), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 102, &levels(0, 3, &TABLE[3..]), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 103, &commit(&seq, 0, &TABLE), 0),
-        Reply::Ack
+    exchange(
+        &mut dev,
+        100,
+        &[
+            (levels(0, 0, &TABLE[..3]), Reply::Ack),
+            (levels(0, 3, &TABLE[3..]), Reply::Ack),
+            (levels(0, 3, &TABLE[3..]), Reply::Ack),
+            (commit(&seq, 0, &TABLE), Reply::Ack),
+        ],
     );
     let frames = play_cycles(&mut dev, 0, 2);
     for (g, f) in frames.iter().enumerate() {
@@ -108,54 +104,38 @@ fn a_partial_or_changed_table_never_plays_and_the_old_entry_keeps_playing() {
     // Slot 1: the same phases without a table, at full intensity.
     seq.upload(&mut dev, 1, Encoding::Raw, 0);
     begin_with_table(&mut dev, &seq, 0);
-    assert_eq!(
-        request(&mut dev, 100, &levels(0, 0, &TABLE[..5]), 0),
-        Reply::Ack
-    );
-    // Levels with a gap, past the last step, or different from received.
-    assert_eq!(
-        request(&mut dev, 101, &levels(0, 6, &TABLE[6..]), 0),
-        Reply::Nack(NackCode::OutOfOrder)
-    );
-    assert_eq!(
-        request(&mut dev, 102, &levels(0, 5, &[1, 2, 3, 4]), 0),
-        Reply::Nack(NackCode::OutOfRange)
-    );
-    assert_eq!(
-        request(&mut dev, 103, &levels(0, 1, &[9]), 0),
-        Reply::Nack(NackCode::OutOfOrder)
-    );
-    // Three levels missing: no commit, no play.
-    assert_eq!(
-        request(&mut dev, 104, &commit(&seq, 0, &TABLE), 0),
-        Reply::Nack(NackCode::Incomplete)
-    );
-    assert_eq!(
-        request(&mut dev, 105, &play(0, PlayAt::Immediate), 0),
-        Reply::Nack(NackCode::NotCommitted)
-    );
-    // The rest arrives, but one level differs from what the host planned:
-    // the commit's CRC (phases, then the stored levels) catches it.
+    let nack = Reply::Nack;
     let mut changed = TABLE;
     changed[6] = 63;
-    assert_eq!(
-        request(&mut dev, 106, &levels(0, 5, &changed[5..]), 0),
-        Reply::Ack
-    );
-    assert_eq!(
-        request(&mut dev, 107, &commit(&seq, 0, &TABLE), 0),
-        Reply::Nack(NackCode::CrcMismatch)
-    );
-    assert_eq!(
-        request(&mut dev, 108, &play(0, PlayAt::Immediate), 0),
-        Reply::Nack(NackCode::NotCommitted)
+    exchange(
+        &mut dev,
+        100,
+        &[
+            (levels(0, 0, &TABLE[..5]), Reply::Ack),
+            // Levels with a gap, past the last step, or different from received.
+            (levels(0, 6, &TABLE[6..]), nack(OutOfOrder)),
+            (levels(0, 5, &[1, 2, 3, 4]), nack(OutOfRange)),
+            (levels(0, 1, &[9]), nack(OutOfOrder)),
+            // Three levels missing: no commit, no play.
+            (commit(&seq, 0, &TABLE), nack(Incomplete)),
+            (play(0, PlayAt::Immediate), nack(NotCommitted)),
+            // The rest arrives, but one level differs from what the host
+            // planned: the commit's CRC (phases, then the stored levels)
+            // catches it.
+            (levels(0, 5, &changed[5..]), Reply::Ack),
+            (commit(&seq, 0, &TABLE), nack(CrcMismatch)),
+            (play(0, PlayAt::Immediate), nack(NotCommitted)),
+        ],
     );
     // A commit of phases only (a host that forgot the table) fails too.
     begin_with_table(&mut dev, &seq, 0);
-    assert_eq!(request(&mut dev, 109, &levels(0, 0, &TABLE), 0), Reply::Ack);
-    assert_eq!(
-        request(&mut dev, 110, &seq.commit(0), 0),
-        Reply::Nack(NackCode::CrcMismatch)
+    exchange(
+        &mut dev,
+        109,
+        &[
+            (levels(0, 0, &TABLE), Reply::Ack),
+            (seq.commit(0), nack(CrcMismatch)),
+        ],
     );
     // Slot 1 plays on at its one intensity in every frame.
     let frames = play_cycles(&mut dev, 1, 1);
@@ -267,16 +247,16 @@ fn hostile_intensity_frames_get_one_answer_and_touch_nothing_else() {
     }
     assert_eq!(dev.counters().bad_frames - before, 5, "the malformed ones");
     // The upload is intact: the whole table, then the commit.
-    assert_eq!(request(&mut dev, 300, &levels(0, 0, &TABLE), 0), Reply::Ack);
-    assert_eq!(
-        request(&mut dev, 301, &commit(&seq, 0, &TABLE), 0),
-        Reply::Ack
+    exchange(
+        &mut dev,
+        300,
+        &[
+            (levels(0, 0, &TABLE), Reply::Ack),
+            (commit(&seq, 0, &TABLE), Reply::Ack),
+        ],
     );
     // Slot 1 played on untouched at its one intensity.
     let mut wire = Wire::default();
-    let mut now = 0;
-    while wire.transactions.len() < usize::from(STEPS) {
-        now = dev.poll(now, &mut SpiOutput::new(&mut wire)).unwrap();
-    }
+    wire.play(&mut dev, usize::from(STEPS));
     assert!(wire.transactions.iter().all(|f| f[2] == 255));
 }

@@ -6,6 +6,9 @@
 //! for another rig is refused.
 
 mod common;
+// The paper's rig and LM phases, shared with the protocol's codec tests.
+#[path = "../../../proto/tests/common/paper.rs"]
+mod paper;
 
 use common::*;
 use lm_fw_core::{BOARD_LIBRARY_BYTES, Config, Device, SLOTS, memory_bytes};
@@ -14,39 +17,7 @@ use lm_proto::{
     BeginRig, BeginUpload, Chunk, Commit, DeviceState, Geometry, MAX_GEOMETRY_POSITIONS, Message,
     NackCode, PlayAt, Positions, UploadHeader, rig_crc32,
 };
-
-/// AUTD3: 18 × 14 grid minus three screw holes, 10.16 mm pitch; four
-/// boards 2 × 2 (192 × 151.4 mm apart), centred on the origin, z = 0 (µm).
-fn autd3_2x2_um() -> Vec<[i32; 3]> {
-    let mut pos = Vec::new();
-    for by in 0..2 {
-        for bx in 0..2 {
-            for iy in 0..14 {
-                for ix in 0..18 {
-                    if iy == 1 && [1, 2, 16].contains(&ix) {
-                        continue;
-                    }
-                    pos.push([
-                        bx as f64 * 192.0 + ix as f64 * 10.16,
-                        by as f64 * 151.4 + iy as f64 * 10.16,
-                    ]);
-                }
-            }
-        }
-    }
-    let n = pos.len() as f64;
-    let mx = pos.iter().map(|p| p[0]).sum::<f64>() / n;
-    let my = pos.iter().map(|p| p[1]).sum::<f64>() / n;
-    pos.iter()
-        .map(|p| {
-            [
-                ((p[0] - mx) * 1000.0).round() as i32,
-                ((p[1] - my) * 1000.0).round() as i32,
-                0,
-            ]
-        })
-        .collect()
-}
+use paper::{autd3_2x2_um, lm_phases};
 
 /// One stimulus of the paper's set, planned on `pos`.
 #[derive(Clone)]
@@ -56,34 +27,10 @@ struct Stim {
     phases: Vec<u8>,
 }
 
-/// LM with `foci` foci (3 mm apart on the circle) of radius `r_mm` at
-/// `freq_hz`, steps of about `step_mm`, focus 200 mm above the array;
-/// φ = arg Σ exp(−j k d), quantised to u8 (host/src/units.rs).
+/// LM with `foci` foci of radius `r_mm` at `freq_hz`, steps of about
+/// `step_mm`, focus 200 mm above the array.
 fn stim(pos: &[[i32; 3]], foci: usize, r_mm: f64, freq_hz: f64, step_mm: f64) -> Stim {
-    let tau = std::f64::consts::TAU;
-    let k = tau / (340.0 / 40.0);
-    let steps = (tau * r_mm / step_mm).round() as usize;
-    let z_mm = 200.0;
-    let mut phases = Vec::with_capacity(steps * pos.len());
-    for s in 0..steps {
-        let fp: Vec<[f64; 3]> = (0..foci)
-            .map(|f| {
-                let a = tau * s as f64 / steps as f64 + f as f64 * 3.0 / r_mm;
-                [r_mm * a.cos(), r_mm * a.sin(), z_mm]
-            })
-            .collect();
-        for t in pos {
-            let t = [t[0] as f64 / 1000.0, t[1] as f64 / 1000.0, 0.0];
-            let (mut re, mut im) = (0.0, 0.0);
-            for p in &fp {
-                let d =
-                    ((t[0] - p[0]).powi(2) + (t[1] - p[1]).powi(2) + (t[2] - p[2]).powi(2)).sqrt();
-                re += (k * d).cos();
-                im -= (k * d).sin();
-            }
-            phases.push((im.atan2(re) / tau * 256.0).round().rem_euclid(256.0) as u8);
-        }
-    }
+    let (phases, steps) = lm_phases(pos, foci, r_mm, step_mm, 200.0);
     Stim {
         name: format!(
             "LM-{} {freq_hz} Hz r={r_mm} mm",
@@ -152,6 +99,53 @@ fn board(pos: &[[i32; 3]]) -> Device<'static> {
     dev
 }
 
+/// `BeginUpload` of `s` into `slot` as `enc`, then `stream`'s chunks: an
+/// upload short of its commit.
+fn upload_requests<'a>(
+    pos: &[[i32; 3]],
+    slot: u8,
+    s: &Stim,
+    enc: Encoding,
+    stream: &'a [u8],
+) -> Vec<Message<'a>> {
+    let mut reqs = vec![Message::BeginUpload(BeginUpload {
+        slot,
+        header: s.header,
+        encoding: enc,
+        encoded_len: stream.len() as u32,
+        rig_crc32: rig_crc32(&Positions::from_points(pos)),
+        intensity_table: false,
+    })];
+    for (i, c) in stream.chunks(1024).enumerate() {
+        reqs.push(Message::Chunk(Chunk {
+            slot,
+            offset: (i * 1024) as u32,
+            data: c,
+        }));
+    }
+    reqs
+}
+
+/// The commit of an upload of `phases` into `slot`.
+fn commit(slot: u8, phases: &[u8]) -> Message<'static> {
+    Message::Commit(Commit {
+        slot,
+        crc32: lm_proto::crc32(phases),
+    })
+}
+
+/// Sends `reqs` in order; returns the first nack.
+fn send(dev: &mut Device<'_>, reqs: &[Message<'_>], now: u64) -> Result<(), NackCode> {
+    for m in reqs {
+        match request(dev, 7, m, now) {
+            Reply::Ack => {}
+            Reply::Nack(c) => return Err(c),
+            r => panic!("{r:?}"),
+        }
+    }
+    Ok(())
+}
+
 /// Uploads `s` into `slot` as `enc` and commits; returns the first nack.
 fn upload(
     dev: &mut Device<'_>,
@@ -162,34 +156,9 @@ fn upload(
     now: u64,
 ) -> Result<(), NackCode> {
     let stream = s.encode(enc);
-    let begin = Message::BeginUpload(BeginUpload {
-        slot,
-        header: s.header,
-        encoding: enc,
-        encoded_len: stream.len() as u32,
-        rig_crc32: rig_crc32(&Positions::from_points(pos)),
-        intensity_table: false,
-    });
-    let mut reqs = vec![begin];
-    for (i, c) in stream.chunks(1024).enumerate() {
-        reqs.push(Message::Chunk(Chunk {
-            slot,
-            offset: (i * 1024) as u32,
-            data: c,
-        }));
-    }
-    reqs.push(Message::Commit(Commit {
-        slot,
-        crc32: lm_proto::crc32(&s.phases),
-    }));
-    for m in &reqs {
-        match request(dev, 7, m, now) {
-            Reply::Ack => {}
-            Reply::Nack(c) => return Err(c),
-            r => panic!("{r:?}"),
-        }
-    }
-    Ok(())
+    let mut reqs = upload_requests(pos, slot, s, enc, &stream);
+    reqs.push(commit(slot, &s.phases));
+    send(dev, &reqs, now)
 }
 
 fn info(dev: &mut Device<'_>) -> lm_proto::Info {
@@ -206,6 +175,18 @@ fn frames(dev: &mut Device<'_>, now: &mut u64, n: usize) -> Capture {
         *now = dev.poll(*now, &mut cap).expect("playing");
     }
     cap
+}
+
+/// A board holding the paper's rig and its 15 stimuli in slots 0-14
+/// (Delta); returns the rig and the set too.
+fn board_with_paper_set() -> (Vec<[i32; 3]>, Vec<Stim>, Device<'static>) {
+    let pos = autd3_2x2_um();
+    let set = paper_set(&pos);
+    let mut dev = board(&pos);
+    for (i, s) in set.iter().enumerate() {
+        upload(&mut dev, &pos, i as u8, s, Encoding::Delta, 0).unwrap();
+    }
+    (pos, set, dev)
 }
 
 #[test]
@@ -317,12 +298,7 @@ fn a_queued_entry_takes_over_at_the_cycle_boundary() {
 
 #[test]
 fn what_does_not_fit_is_refused_as_library_full_and_nothing_changes() {
-    let pos = autd3_2x2_um();
-    let set = paper_set(&pos);
-    let mut dev = board(&pos);
-    for (i, s) in set.iter().enumerate() {
-        upload(&mut dev, &pos, i as u8, s, Encoding::Delta, 0).unwrap();
-    }
+    let (pos, set, mut dev) = board_with_paper_set();
     let mut now = 0;
     assert_eq!(
         request(&mut dev, 1, &play(0, PlayAt::Immediate), now),
@@ -360,12 +336,7 @@ fn what_does_not_fit_is_refused_as_library_full_and_nothing_changes() {
 
 #[test]
 fn overwriting_frees_space_and_compaction_keeps_the_playing_entry() {
-    let pos = autd3_2x2_um();
-    let set = paper_set(&pos);
-    let mut dev = board(&pos);
-    for (i, s) in set.iter().enumerate() {
-        upload(&mut dev, &pos, i as u8, s, Encoding::Delta, 0).unwrap();
-    }
+    let (pos, set, mut dev) = board_with_paper_set();
     let full = info(&mut dev).library_free;
     // Overwrite the largest LM-M with a 25 Hz one: its space comes back.
     let small = &set[10];
@@ -414,59 +385,27 @@ fn an_uncommitted_entry_never_plays() {
     let s = stim(&pos, 1, 2.0, 5.0, 0.23);
     let mut dev = board(&pos);
     let stream = s.encode(Encoding::Delta);
-    let begin = |slot| {
-        Message::BeginUpload(BeginUpload {
-            slot,
-            header: s.header,
-            encoding: Encoding::Delta,
-            encoded_len: stream.len() as u32,
-            rig_crc32: rig_crc32(&Positions::from_points(&pos)),
-            intensity_table: false,
-        })
-    };
+    let requests = |slot| upload_requests(&pos, slot, &s, Encoding::Delta, &stream);
     // All data, no commit.
-    assert_eq!(request(&mut dev, 1, &begin(4), 0), Reply::Ack);
-    for (i, c) in stream.chunks(1024).enumerate() {
-        let m = Message::Chunk(Chunk {
-            slot: 4,
-            offset: (i * 1024) as u32,
-            data: c,
-        });
-        assert_eq!(request(&mut dev, 2, &m, 0), Reply::Ack);
-    }
+    assert_eq!(send(&mut dev, &requests(4), 0), Ok(()));
     let nc = Reply::Nack(NackCode::NotCommitted);
     assert_eq!(request(&mut dev, 3, &play(4, PlayAt::Immediate), 0), nc);
-    // Another upload abandons it: slot 4 stays unplayable, its space is back.
-    assert_eq!(request(&mut dev, 4, &begin(5), 0), Reply::Ack);
-    let c = Message::Commit(Commit {
-        slot: 4,
-        crc32: lm_proto::crc32(&s.phases),
-    });
-    assert_eq!(request(&mut dev, 5, &c, 0), Reply::Nack(NackCode::NoUpload));
+    // Another upload (its `BeginUpload`) abandons it: slot 4 stays
+    // unplayable, its space is back.
+    assert_eq!(send(&mut dev, &requests(5)[..1], 0), Ok(()));
+    assert_eq!(
+        request(&mut dev, 5, &commit(4, &s.phases), 0),
+        Reply::Nack(NackCode::NoUpload)
+    );
     assert_eq!(request(&mut dev, 6, &play(4, PlayAt::Immediate), 0), nc);
     // A wrong CRC never commits.
     let mut bad = s.clone();
     bad.phases[500] ^= 1;
     let r = upload(&mut dev, &pos, 6, &bad, Encoding::Delta, 0);
     assert_eq!(r, Ok(()), "its own CRC: commits");
-    let mut wrong = s.clone();
-    wrong.phases = bad.phases.clone();
-    let stream = s.encode(Encoding::Delta);
-    assert_eq!(request(&mut dev, 7, &begin(7), 0), Reply::Ack);
-    for (i, c) in stream.chunks(1024).enumerate() {
-        let m = Message::Chunk(Chunk {
-            slot: 7,
-            offset: (i * 1024) as u32,
-            data: c,
-        });
-        assert_eq!(request(&mut dev, 8, &m, 0), Reply::Ack);
-    }
-    let c = Message::Commit(Commit {
-        slot: 7,
-        crc32: lm_proto::crc32(&wrong.phases),
-    });
+    assert_eq!(send(&mut dev, &requests(7), 0), Ok(()));
     assert_eq!(
-        request(&mut dev, 9, &c, 0),
+        request(&mut dev, 9, &commit(7, &bad.phases), 0),
         Reply::Nack(NackCode::CrcMismatch)
     );
     assert_eq!(request(&mut dev, 10, &play(7, PlayAt::Immediate), 0), nc);

@@ -107,11 +107,7 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             let n = 1 + r.below(data.len().min(48) as u64) as usize;
             Message::Intensity(Intensity {
                 slot,
-                offset: if r.below(8) == 0 {
-                    r.next() as u16
-                } else {
-                    r.below(40) as u16
-                },
+                offset: r.mostly_below(40) as u16,
                 data: &data[..n],
             })
         }
@@ -119,11 +115,7 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             let n = r.below(data.len() as u64 + 1) as usize;
             Message::Chunk(Chunk {
                 slot,
-                offset: if r.below(8) == 0 {
-                    r.next() as u32
-                } else {
-                    r.below(700) as u32
-                },
+                offset: r.mostly_below(700) as u32,
                 data: &data[..n],
             })
         }

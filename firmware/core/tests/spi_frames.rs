@@ -89,13 +89,7 @@ fn play_phases(
     );
     let mut wire = Wire::default();
     let total = cycles as usize * usize::from(steps);
-    let mut now = 0;
-    while wire.transactions.len() < total {
-        now = dev
-            .poll(now, &mut SpiOutput::new(&mut wire))
-            .expect("a playing device has a deadline");
-    }
-    wire.transactions.truncate(total);
+    let now = wire.play(&mut dev, total);
     // Stop: the core sends one muted frame (amplitude 0) at once.
     assert_eq!(request(&mut dev, 902, &Message::Stop, now), Reply::Ack);
     dev.poll(now, &mut SpiOutput::new(&mut wire));

@@ -2,6 +2,8 @@
 //! helpers that run a decoder over a byte stream.
 #![allow(dead_code)]
 
+pub mod paper;
+
 use lm_proto::*;
 use proptest::prelude::*;
 
@@ -278,6 +280,34 @@ pub fn wire(seq: u16, m: &Message<'_>) -> Vec<u8> {
     buf
 }
 
+/// Decodes `stream` as `enc`, `steps` × `t`, fed in random pieces of up to
+/// `max` bytes and stopping at the first error, into a buffer with guard
+/// bytes past the sequence; asserts the decoder never wrote into them.
+/// Returns the decoder (for its verdict) and the sequence.
+pub fn decode_in_pieces(
+    rng: &mut Rng,
+    (steps, t, enc): (u16, u16, Encoding),
+    stream: &[u8],
+    max: usize,
+) -> (codec::Decoder, Vec<u8>) {
+    const GUARD: usize = 16;
+    let raw_len = usize::from(steps) * usize::from(t);
+    let mut out = vec![0u8; raw_len + GUARD];
+    out[raw_len..].fill(0xA5);
+    let mut d = codec::Decoder::new(enc, steps, t);
+    for piece in rng.pieces(stream, max) {
+        if d.feed(piece, &mut out).is_err() {
+            break;
+        }
+    }
+    assert!(
+        out[raw_len..].iter().all(|&b| b == 0xA5),
+        "decoder wrote past the sequence"
+    );
+    out.truncate(raw_len);
+    (d, out)
+}
+
 /// SplitMix64: small, seeded, good enough to drive tests.
 pub struct Rng(pub u64);
 
@@ -300,6 +330,25 @@ impl Rng {
         } else {
             lm_proto::Encoding::Delta
         }
+    }
+    /// A random sequence shape: steps in `0..steps_below`, transducers in
+    /// `1..=max_t`, and an encoding (drawn in that order).
+    pub fn shape(&mut self, steps_below: usize, max_t: usize) -> (u16, u16, lm_proto::Encoding) {
+        let steps = self.below(steps_below) as u16;
+        let t = self.below(max_t) as u16 + 1;
+        (steps, t, self.encoding())
+    }
+    /// `bytes` cut at random into consecutive pieces of 1..=`max` bytes, as
+    /// a reader may get them.
+    pub fn pieces<'a>(&mut self, bytes: &'a [u8], max: usize) -> Vec<&'a [u8]> {
+        let mut v = Vec::new();
+        let mut i = 0;
+        while i < bytes.len() {
+            let j = (i + 1 + self.below(max)).min(bytes.len());
+            v.push(&bytes[i..j]);
+            i = j;
+        }
+        v
     }
     pub fn byte(&mut self) -> u8 {
         self.next_u64() as u8

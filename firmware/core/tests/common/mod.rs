@@ -2,7 +2,7 @@
 //! decodes the device's responses, and sequence builders.
 #![allow(dead_code)]
 
-use lm_fw_core::{Config, Device, OutputDriver, OutputFrame, memory_bytes};
+use lm_fw_core::{Config, Device, OutputDriver, OutputFrame, SpiOutput, memory_bytes};
 use lm_proto::codec::Encoding;
 use lm_proto::{
     BeginRig, BeginUpload, Chunk, Commit, FeedResult, FrameDecoder, Geometry, MAX_CHUNK,
@@ -27,6 +27,15 @@ impl Rng {
     }
     pub fn byte(&mut self) -> u8 {
         self.next() as u8
+    }
+    /// Below `n` seven times in eight, else any value: mostly what a
+    /// device accepts, sometimes far out of range.
+    pub fn mostly_below(&mut self, n: u64) -> u64 {
+        if self.below(8) == 0 {
+            self.next()
+        } else {
+            self.below(n)
+        }
     }
 }
 
@@ -295,5 +304,21 @@ impl embedded_hal::spi::SpiDevice for Wire {
         }
         self.transactions.push(bytes);
         Ok(())
+    }
+}
+
+impl Wire {
+    /// Polls a playing `dev` through [`SpiOutput`] from time 0 until the
+    /// wire holds `n` transactions (those the last poll sent beyond are
+    /// dropped); returns the deadline it reached.
+    pub fn play(&mut self, dev: &mut Device<'_>, n: usize) -> u64 {
+        let mut now = 0;
+        while self.transactions.len() < n {
+            now = dev
+                .poll(now, &mut SpiOutput::new(&mut *self))
+                .expect("a playing device has a deadline");
+        }
+        self.transactions.truncate(n);
+        now
     }
 }

@@ -5,9 +5,7 @@ use super::*;
 /// An untracked play of a 10-step, 1 ms-a-step slot, started at `t0` with
 /// a `lease_ms` lease (1 MHz timer: counts are µs).
 fn leased_device(lease_ms: u16, t0: u64) -> lm_fw_core::Device<'static> {
-    let mut dev = device(config(8), 10 * 8);
-    let a = Seq::pattern(10, 8, 10_000, 5);
-    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    let (mut dev, _) = device_with_a();
     acks(&mut dev, 1, &leased(play_untracked(0), lease_ms), t0);
     dev
 }
@@ -144,8 +142,7 @@ fn every_play_has_the_lease_and_stop_is_not_an_expiry() {
     );
 
     // Timed: 100 000 steps of 1 ms would take 100 s.
-    let mut dev = device(config(8), 10 * 8);
-    Seq::pattern(10, 8, 10_000, 5).upload(&mut dev, 0, Encoding::Raw, 0);
+    let (mut dev, _) = device_with_a();
     acks(
         &mut dev,
         1,
@@ -183,8 +180,7 @@ fn every_play_has_the_lease_and_stop_is_not_an_expiry() {
 /// entry; a refused play changes nothing.
 #[test]
 fn a_lease_outside_its_bounds_is_refused() {
-    let mut dev = device(config(8), 10 * 8);
-    Seq::pattern(10, 8, 10_000, 5).upload(&mut dev, 0, Encoding::Raw, 0);
+    let (mut dev, _) = device_with_a();
     for bad in [0, 1, 99, 60_001, u16::MAX] {
         nacks(
             &mut dev,

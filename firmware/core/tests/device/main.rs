@@ -56,6 +56,24 @@ fn tracked_device(seq: &Seq) -> lm_fw_core::Device<'static> {
     dev
 }
 
+/// A device for 8 transducers with sequence A (10 steps of 1 ms) uploaded
+/// (raw) into slot 0; returns A too.
+fn device_with_a() -> (lm_fw_core::Device<'static>, Seq) {
+    let mut dev = device(config(8), 10 * 8);
+    let a = Seq::pattern(10, 8, 10_000, 5);
+    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    (dev, a)
+}
+
+/// [`device_with_a`], and sequence B (5 steps of 2 ms) uploaded as Delta
+/// into slot 1.
+fn device_with_a_and_b() -> (lm_fw_core::Device<'static>, Seq, Seq) {
+    let (mut dev, a) = device_with_a();
+    let b = Seq::pattern(5, 8, 10_000, 6);
+    b.upload(&mut dev, 1, Encoding::Delta, 0);
+    (dev, a, b)
+}
+
 fn status(dev: &mut lm_fw_core::Device<'_>, now: u64) -> lm_proto::Status {
     match request(dev, 77, &Message::GetStatus, now) {
         Reply::Status(s) => s,

@@ -25,8 +25,7 @@ impl lm_fw_core::OutputDriver for Loopback {
 /// has none, `Busy` while a slot plays or is queued.
 #[test]
 fn self_test_reports_the_boards_loopback_and_waits_for_silence() {
-    let mut dev = device(config(8), 10 * 8);
-    Seq::pattern(10, 8, 10_000, 5).upload(&mut dev, 0, Encoding::Raw, 0);
+    let (mut dev, _) = device_with_a();
     let mut wire = [0u8; lm_proto::MAX_ENCODED_FRAME];
     let n = lm_proto::encode_frame(9, &Message::SelfTest, &mut wire).unwrap();
     let run = |dev: &mut lm_fw_core::Device<'_>, out: &mut Loopback| {

@@ -5,9 +5,7 @@ use super::*;
 #[test]
 fn timed_play_outputs_exactly_its_steps_then_mutes_at_the_boundary() {
     // 10 steps of 1 ms.
-    let mut dev = device(config(8), 10 * 8);
-    let a = Seq::pattern(10, 8, 10_000, 5);
-    a.upload(&mut dev, 0, Encoding::Raw, 0);
+    let (mut dev, a) = device_with_a();
     acks(&mut dev, 1, &play_steps(0, PlayAt::Immediate, 23), 100);
     let mut out = Capture::default();
     let end = poll_out(&mut dev, 100, &mut out, 1000);
@@ -47,11 +45,7 @@ fn timed_play_outputs_exactly_its_steps_then_mutes_at_the_boundary() {
 
 #[test]
 fn queued_timed_play_counts_from_the_takeover() {
-    let mut dev = device(config(8), 10 * 8);
-    let a = Seq::pattern(10, 8, 10_000, 5);
-    let b = Seq::pattern(5, 8, 10_000, 6);
-    a.upload(&mut dev, 0, Encoding::Raw, 0);
-    b.upload(&mut dev, 1, Encoding::Delta, 0);
+    let (mut dev, _, _) = device_with_a_and_b();
     let mut out = Capture::default();
     acks(&mut dev, 1, &play_steps(0, PlayAt::Immediate, 0), 100);
     let mut now = 100;
@@ -76,8 +70,7 @@ fn queued_timed_play_counts_from_the_takeover() {
 
 #[test]
 fn timed_play_missed_deadlines_around_the_limit_still_stop_at_the_limit() {
-    let mut dev = device(config(8), 10 * 8);
-    Seq::pattern(10, 8, 10_000, 5).upload(&mut dev, 0, Encoding::Raw, 0);
+    let (mut dev, _) = device_with_a();
     acks(&mut dev, 1, &play_steps(0, PlayAt::Immediate, 12), 0);
     let mut out = Capture::default();
     for now in [0, 1000, 2000] {
@@ -97,8 +90,7 @@ fn timed_play_missed_deadlines_around_the_limit_still_stop_at_the_limit() {
 
 #[test]
 fn stop_or_a_new_play_replaces_the_limit() {
-    let mut dev = device(config(8), 10 * 8);
-    Seq::pattern(10, 8, 10_000, 5).upload(&mut dev, 0, Encoding::Raw, 0);
+    let (mut dev, _) = device_with_a();
     let mut out = Capture::default();
     // Limit 3, replaced at 1.5 ms by a play without one (same slot).
     acks(&mut dev, 1, &play_steps(0, PlayAt::Immediate, 3), 0);

@@ -199,11 +199,7 @@ fn interrupted_upload_never_touches_the_playing_slot() {
 
 #[test]
 fn next_cycle_swap_happens_at_the_cycle_boundary() {
-    let mut dev = device(config(8), 10 * 8);
-    let a = Seq::pattern(10, 8, 10_000, 5);
-    let b = Seq::pattern(5, 8, 10_000, 6);
-    a.upload(&mut dev, 0, Encoding::Raw, 0);
-    b.upload(&mut dev, 1, Encoding::Delta, 0);
+    let (mut dev, _, b) = device_with_a_and_b();
     let mut cap = Capture::default();
     acks(&mut dev, 1, &play(0, PlayAt::Immediate), 100);
     let mut now = 100;

@@ -96,6 +96,84 @@ pub fn header(steps: usize, t: usize, period_us: u32) -> UploadHeader {
     }
 }
 
+/// `Ok` for an ack, else the reply: requests sent in a row stop at the
+/// first refusal with `?`.
+pub fn acked(reply: Message<'static>) -> Result<(), Message<'static>> {
+    if reply == Message::Ack {
+        Ok(())
+    } else {
+        Err(reply)
+    }
+}
+
+/// Sends the test rig for `header`'s transducers, then `BeginUpload` into
+/// `slot` of `encoded_len` bytes; `Err` holds the first reply that is not
+/// an ack.
+pub fn begin_upload(
+    dev: &mut Device<'_>,
+    slot: u8,
+    header: UploadHeader,
+    encoding: Encoding,
+    encoded_len: usize,
+    intensity_table: bool,
+) -> Result<(), Message<'static>> {
+    let t = usize::from(header.transducers);
+    acked(rig(dev, t))?;
+    let begin = BeginUpload {
+        slot,
+        header,
+        encoding,
+        encoded_len: encoded_len as u32,
+        rig_crc32: rig_crc32(t),
+        intensity_table,
+    };
+    acked(dev.handle(&Message::BeginUpload(begin), 0))
+}
+
+/// Sends `data` at `offset` of `slot`'s encoded stream.
+fn chunk(
+    dev: &mut Device<'_>,
+    slot: u8,
+    offset: usize,
+    data: &[u8],
+) -> Result<(), Message<'static>> {
+    let c = Chunk {
+        slot,
+        offset: offset as u32,
+        data,
+    };
+    acked(dev.handle(&Message::Chunk(c), 0))
+}
+
+/// Sends the test sequence's phases (Raw, `steps` × `t`, built chunk by
+/// chunk: no buffer of the whole) into `slot`; returns their CRC-32 so
+/// far, for the commit.
+pub fn send_raw_phases(
+    dev: &mut Device<'_>,
+    slot: u8,
+    steps: usize,
+    t: usize,
+) -> Result<Crc32, Message<'static>> {
+    let mut crc = Crc32::new();
+    let mut buf = [0u8; MAX_CHUNK];
+    let total = steps * t;
+    for offset in (0..total).step_by(MAX_CHUNK) {
+        let n = (total - offset).min(MAX_CHUNK);
+        for (j, b) in buf[..n].iter_mut().enumerate() {
+            let k = offset + j;
+            *b = phase(k / t, k % t);
+        }
+        crc.update(&buf[..n]);
+        chunk(dev, slot, offset, &buf[..n])?;
+    }
+    Ok(crc)
+}
+
+/// Commits the upload into `slot`; returns the reply.
+pub fn commit(dev: &mut Device<'_>, slot: u8, crc32: u32) -> Message<'static> {
+    dev.handle(&Message::Commit(Commit { slot, crc32 }), 0)
+}
+
 /// Uploads an encoded `stream` into `slot` after the rig; returns the
 /// first reply that is not an ack (or the commit's).
 pub fn upload_stream(
@@ -106,34 +184,13 @@ pub fn upload_stream(
     stream: &[u8],
     crc32: u32,
 ) -> Message<'static> {
-    let r = rig(dev, usize::from(header.transducers));
-    if r != Message::Ack {
-        return r;
-    }
-    let begin = BeginUpload {
-        slot,
-        header,
-        encoding,
-        encoded_len: stream.len() as u32,
-        rig_crc32: rig_crc32(usize::from(header.transducers)),
-        intensity_table: false,
-    };
-    let r = dev.handle(&Message::BeginUpload(begin), 0);
-    if r != Message::Ack {
-        return r;
-    }
-    for (i, data) in stream.chunks(MAX_CHUNK).enumerate() {
-        let c = Chunk {
-            slot,
-            offset: (i * MAX_CHUNK) as u32,
-            data,
-        };
-        let r = dev.handle(&Message::Chunk(c), 0);
-        if r != Message::Ack {
-            return r;
-        }
-    }
-    dev.handle(&Message::Commit(Commit { slot, crc32 }), 0)
+    let sent = begin_upload(dev, slot, header, encoding, stream.len(), false).and_then(|()| {
+        stream
+            .chunks(MAX_CHUNK)
+            .enumerate()
+            .try_for_each(|(i, data)| chunk(dev, slot, i * MAX_CHUNK, data))
+    });
+    sent.map_or_else(|r| r, |()| commit(dev, slot, crc32))
 }
 
 /// Uploads the test sequence (Raw, `steps` × `t`) into `slot` after the
@@ -146,44 +203,13 @@ pub fn upload(
     period_us: u32,
     corrupt: bool,
 ) -> Message<'static> {
-    let r = rig(dev, t);
-    if r != Message::Ack {
-        return r;
-    }
-    let begin = BeginUpload {
-        slot,
-        header: header(steps, t, period_us),
-        encoding: Encoding::Raw,
-        encoded_len: (steps * t) as u32,
-        rig_crc32: rig_crc32(t),
-        intensity_table: false,
-    };
-    let r = dev.handle(&Message::BeginUpload(begin), 0);
-    if r != Message::Ack {
-        return r;
-    }
-    let mut crc = Crc32::new();
-    let mut buf = [0u8; MAX_CHUNK];
-    let total = steps * t;
-    for offset in (0..total).step_by(MAX_CHUNK) {
-        let n = (total - offset).min(MAX_CHUNK);
-        for (j, b) in buf[..n].iter_mut().enumerate() {
-            let k = offset + j;
-            *b = phase(k / t, k % t);
-        }
-        crc.update(&buf[..n]);
-        let c = Chunk {
-            slot,
-            offset: offset as u32,
-            data: &buf[..n],
-        };
-        let r = dev.handle(&Message::Chunk(c), 0);
-        if r != Message::Ack {
-            return r;
-        }
-    }
-    let crc32 = crc.finish() ^ u32::from(corrupt);
-    dev.handle(&Message::Commit(Commit { slot, crc32 }), 0)
+    let h = header(steps, t, period_us);
+    let sent = begin_upload(dev, slot, h, Encoding::Raw, steps * t, false)
+        .and_then(|()| send_raw_phases(dev, slot, steps, t));
+    sent.map_or_else(
+        |r| r,
+        |crc| commit(dev, slot, crc.finish() ^ u32::from(corrupt)),
+    )
 }
 
 pub fn play_now(slot: u8) -> Message<'static> {

@@ -5,9 +5,7 @@
 use lm_fw_core::store::scale_intensity;
 use lm_fw_core::{OutputDriver, OutputFrame};
 use lm_fw_qemu::hprintln;
-use lm_proto::{
-    BeginUpload, Chunk, Commit, Crc32, Encoding, Intensity, MAX_CHUNK, Message, NackCode,
-};
+use lm_proto::{Encoding, Intensity, Message, NackCode};
 
 use crate::measure::timed_polls;
 use crate::support::*;
@@ -44,62 +42,24 @@ impl OutputDriver for Check {
 /// Uploads the test sequence with the table into slot 0; `levels_sent`
 /// of them, the commit CRC over phases then all levels.
 fn upload_with_table(dev: &mut lm_fw_core::Device<'_>, levels_sent: usize) -> Message<'static> {
-    let r = rig(dev, T);
-    if r != Message::Ack {
-        return r;
-    }
     let mut header = header(STEPS, T, 200_000);
     header.intensity = LEVEL;
-    let begin = BeginUpload {
-        slot: 0,
-        header,
-        encoding: Encoding::Raw,
-        encoded_len: (STEPS * T) as u32,
-        rig_crc32: rig_crc32(T),
-        intensity_table: true,
-    };
-    let r = dev.handle(&Message::BeginUpload(begin), 0);
-    if r != Message::Ack {
-        return r;
-    }
-    let mut crc = Crc32::new();
-    let mut buf = [0u8; MAX_CHUNK];
-    for offset in (0..STEPS * T).step_by(MAX_CHUNK) {
-        let n = (STEPS * T - offset).min(MAX_CHUNK);
-        for (j, b) in buf[..n].iter_mut().enumerate() {
-            *b = phase((offset + j) / T, (offset + j) % T);
-        }
-        crc.update(&buf[..n]);
-        let c = Chunk {
-            slot: 0,
-            offset: offset as u32,
-            data: &buf[..n],
-        };
-        let r = dev.handle(&Message::Chunk(c), 0);
-        if r != Message::Ack {
-            return r;
-        }
-    }
     let levels: [u8; STEPS] = core::array::from_fn(level);
-    crc.update(&levels);
-    if levels_sent > 0 {
-        let m = Message::Intensity(Intensity {
-            slot: 0,
-            offset: 0,
-            data: &levels[..levels_sent],
+    let sent = begin_upload(dev, 0, header, Encoding::Raw, STEPS * T, true)
+        .and_then(|()| send_raw_phases(dev, 0, STEPS, T))
+        .and_then(|mut crc| {
+            crc.update(&levels);
+            if levels_sent > 0 {
+                let m = Message::Intensity(Intensity {
+                    slot: 0,
+                    offset: 0,
+                    data: &levels[..levels_sent],
+                });
+                acked(dev.handle(&m, 0))?;
+            }
+            Ok(crc)
         });
-        let r = dev.handle(&m, 0);
-        if r != Message::Ack {
-            return r;
-        }
-    }
-    dev.handle(
-        &Message::Commit(Commit {
-            slot: 0,
-            crc32: crc.finish(),
-        }),
-        0,
-    )
+    sent.map_or_else(|r| r, |crc| commit(dev, 0, crc.finish()))
 }
 
 pub fn intensity_table_scales_each_frame(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
