@@ -180,7 +180,7 @@ fn single_bit_flip_anywhere_is_rejected_and_the_next_frame_survives() {
 
 #[test]
 fn one_megabyte_of_garbage_then_a_frame_yields_that_frame() {
-    let mut rng = Rng(0x5EED);
+    let mut rng = Rng::new(0x5EED);
     let mut garbage = vec![0u8; 1 << 20];
     rng.fill(&mut garbage);
     let frame_msg = Message::Commit(Commit {

@@ -357,7 +357,7 @@ fn codec_case(rng: &mut Rng, c: &mut Counts) {
 fn decoder_parser_and_codec_never_panic() {
     let cases = env("LM_PROTO_FUZZ_CASES", 1_000_000);
     let seed = env("LM_PROTO_FUZZ_SEED", 0x1A2B_3C4D);
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut c = Counts::default();
     let mut dec = FrameDecoder::new();
     let start = std::time::Instant::now();
@@ -411,7 +411,7 @@ fn decoder_parser_and_codec_never_panic() {
 /// The same run, small, so plain `cargo test` exercises the harness.
 #[test]
 fn short_fuzz_run() {
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let mut c = Counts::default();
     let mut dec = FrameDecoder::new();
     for _ in 0..300 {

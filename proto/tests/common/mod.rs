@@ -3,6 +3,9 @@
 #![allow(dead_code)]
 
 pub mod paper;
+/// One SplitMix64 for the host and these tests.
+#[path = "../../../host/src/rng.rs"]
+mod splitmix;
 
 use lm_proto::*;
 use proptest::prelude::*;
@@ -308,16 +311,16 @@ pub fn decode_in_pieces(
     (d, out)
 }
 
-/// SplitMix64: small, seeded, good enough to drive tests.
-pub struct Rng(pub u64);
+/// The host's SplitMix64 (seeded, the same numbers on every machine),
+/// with the draws the wire tests want.
+pub struct Rng(splitmix::SplitMix64);
 
 impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(splitmix::SplitMix64::new(seed))
+    }
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
     /// Uniform in `0..n` (n > 0).
     pub fn below(&mut self, n: usize) -> usize {
