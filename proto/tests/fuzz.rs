@@ -42,7 +42,7 @@ fn random_message(rng: &mut Rng) -> Owned {
         4 => Message::Nack(NackCode::from_u8(rng.byte())),
         5 => Message::Commit(Commit {
             slot: rng.byte(),
-            crc32: rng.next_u64() as u32,
+            crc32: rng.u32(),
         }),
         6 => Message::Play(Play {
             slot: rng.byte(),
@@ -52,15 +52,11 @@ fn random_message(rng: &mut Rng) -> Owned {
                 PlayAt::Immediate
             },
             untracked: rng.below(2) == 1,
-            steps: if rng.below(2) == 0 {
-                0
-            } else {
-                rng.next_u64() as u32
-            },
-            lease_ms: rng.next_u64() as u16,
+            steps: if rng.below(2) == 0 { 0 } else { rng.u32() },
+            lease_ms: rng.u16(),
         }),
         7 => Message::Centroid(Centroid {
-            seq: rng.next_u64() as u32,
+            seq: rng.u32(),
             pos_um: x(rng),
             present: rng.below(2) == 1,
             host_time_us: rng.next_u64(),
@@ -68,50 +64,48 @@ fn random_message(rng: &mut Rng) -> Owned {
         8 => Message::Info(Info {
             proto_version: rng.byte(),
             fw_version: [rng.byte(), rng.byte(), rng.byte()],
-            max_transducers: rng.next_u64() as u16,
-            slot_bytes: rng.next_u64() as u32,
+            max_transducers: rng.u16(),
+            slot_bytes: rng.u32(),
             slots: rng.byte(),
-            timer_hz: rng.next_u64() as u32,
-            min_dwell_us: rng.next_u64() as u32,
-            max_chunk: rng.next_u64() as u16,
-            rig_transducers: rng.next_u64() as u16,
-            rig_crc32: rng.next_u64() as u32,
-            library_free: rng.next_u64() as u32,
+            timer_hz: rng.u32(),
+            min_dwell_us: rng.u32(),
+            max_chunk: rng.u16(),
+            rig_transducers: rng.u16(),
+            rig_crc32: rng.u32(),
+            library_free: rng.u32(),
             clock: ClockSource::from_u8(rng.byte() % 4).unwrap(),
         }),
         9 => Message::BeginUpload(BeginUpload {
             slot: rng.byte(),
             header: UploadHeader {
-                steps: rng.next_u64() as u16,
-                transducers: rng.next_u64() as u16,
-                period_us: rng.next_u64() as u32,
+                steps: rng.u16(),
+                transducers: rng.u16(),
+                period_us: rng.u32(),
                 center_um: x(rng),
                 foci_per_step: rng.byte(),
-                sound_speed_mm_s: rng.next_u64() as u32,
-                max_offset_um: rng.next_u64() as u32,
+                sound_speed_mm_s: rng.u32(),
+                max_offset_um: rng.u32(),
                 intensity: rng.byte(),
             },
             encoding: rng.encoding(),
-            encoded_len: rng.next_u64() as u32,
-            rig_crc32: rng.next_u64() as u32,
+            encoded_len: rng.u32(),
+            rig_crc32: rng.u32(),
             intensity_table: rng.below(2) == 1,
         }),
         13 => Message::BeginRig(BeginRig {
-            transducers: rng.next_u64() as u16,
-            crc32: rng.next_u64() as u32,
+            transducers: rng.u16(),
+            crc32: rng.u32(),
         }),
         14 => Message::CommitRig,
         15 => Message::Renew,
         16 => Message::SelfTest,
         17 => Message::SelfTestResult(match rng.below(3) {
             0 => SelfTest::Unsupported,
-            1 => SelfTest::Passed {
-                bytes: rng.next_u64() as u32,
-            },
+            1 => SelfTest::Passed { bytes: rng.u32() },
             _ => SelfTest::Failed {
-                bytes: rng.next_u64() as u32,
-                mismatches: rng.next_u64() as u32,
-                first_mismatch: rng.next_u64() as u32,
+                bytes: rng.u32(),
+                mismatches: rng.u32(),
+                first_mismatch: rng.u32(),
                 sent: rng.byte(),
                 got: rng.byte(),
             },
@@ -128,13 +122,13 @@ fn random_message(rng: &mut Rng) -> Owned {
             } else {
                 Some(rng.below(255) as u8)
             },
-            step: rng.next_u64() as u16,
-            cycles: rng.next_u64() as u32,
-            missed_deadlines: rng.next_u64() as u32,
-            last_centroid_seq: rng.next_u64() as u32,
-            bad_frames: rng.next_u64() as u32,
-            crc_errors: rng.next_u64() as u32,
-            nacks: rng.next_u64() as u32,
+            step: rng.u16(),
+            cycles: rng.u32(),
+            missed_deadlines: rng.u32(),
+            last_centroid_seq: rng.u32(),
+            bad_frames: rng.u32(),
+            crc_errors: rng.u32(),
+            nacks: rng.u32(),
             correction_um: x(rng),
             queued_slot: if rng.below(2) == 0 {
                 None
@@ -142,13 +136,13 @@ fn random_message(rng: &mut Rng) -> Owned {
                 Some(rng.below(255) as u8)
             },
             mute_reason: MuteReason::from_u8(rng.below(7) as u8).unwrap(),
-            lease_ms: rng.next_u64() as u16,
-            lease_expiries: rng.next_u64() as u32,
+            lease_ms: rng.u16(),
+            lease_expiries: rng.u32(),
         }),
         11 => {
             let n = rng.below(MAX_GEOMETRY_POSITIONS + 1);
             return Owned::Geometry {
-                first: rng.next_u64() as u16,
+                first: rng.u16(),
                 points: (0..n).map(|_| x(rng)).collect(),
             };
         }
@@ -157,7 +151,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             rng.fill(&mut data);
             return Owned::Intensity {
                 slot: rng.byte(),
-                offset: rng.next_u64() as u16,
+                offset: rng.u16(),
                 data,
             };
         }
@@ -173,7 +167,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             }
             return Owned::Chunk {
                 slot: rng.byte(),
-                offset: rng.next_u64() as u32,
+                offset: rng.u32(),
                 data,
             };
         }
@@ -183,7 +177,7 @@ fn random_message(rng: &mut Rng) -> Owned {
 
 fn wire_of(rng: &mut Rng) -> Vec<u8> {
     let m = random_message(rng);
-    common::wire(rng.next_u64() as u16, &m.msg())
+    common::wire(rng.u16(), &m.msg())
 }
 
 /// Applies 1-4 random mutations.
@@ -249,7 +243,7 @@ struct Counts {
 /// Feeds `input` then a sentinel frame in random pieces; checks every
 /// accepted frame and that the sentinel arrives last.
 fn stream_case(rng: &mut Rng, dec: &mut FrameDecoder, input: &[u8], c: &mut Counts) {
-    let sentinel_seq = rng.next_u64() as u16;
+    let sentinel_seq = rng.u16();
     let sentinel = common::wire(sentinel_seq, &Message::GetStatus);
     let mut all = input.to_vec();
     all.extend_from_slice(&sentinel);
@@ -308,7 +302,7 @@ fn parse_case(rng: &mut Rng, c: &mut Counts) {
     // the time so the payload parser sees the damage.
     let m = random_message(rng);
     let mut f = unframed(&Frame {
-        seq: rng.next_u64() as u16,
+        seq: rng.u16(),
         message: m.msg(),
     });
     f = mutate(rng, f);

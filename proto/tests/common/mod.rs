@@ -322,6 +322,14 @@ impl Rng {
     pub fn next_u64(&mut self) -> u64 {
         self.0.next_u64()
     }
+    /// The low 16 bits of a draw.
+    pub fn u16(&mut self) -> u16 {
+        self.next_u64() as u16
+    }
+    /// The low 32 bits of a draw.
+    pub fn u32(&mut self) -> u32 {
+        self.next_u64() as u32
+    }
     /// Uniform in `0..n` (n > 0).
     pub fn below(&mut self, n: usize) -> usize {
         (self.next_u64() % n as u64) as usize
