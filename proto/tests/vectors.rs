@@ -1,6 +1,9 @@
 //! The exact-byte vectors in `vectors/frames.txt` (generated from the spec
 //! by an independent Python encoder) against the Rust encoder and decoder.
 
+mod common;
+
+use common::paper;
 use lm_proto::vectors::{self, Vector, error_kind, hex_decode};
 use lm_proto::*;
 
@@ -113,16 +116,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
             31,
             Message::BeginUpload(BeginUpload {
                 slot: 2,
-                header: UploadHeader {
-                    steps: 82,
-                    transducers: 996,
-                    period_us: 200_000,
-                    center_um: [0, 0, 200_000],
-                    foci_per_step: 1,
-                    sound_speed_mm_s: 340_000,
-                    max_offset_um: 20_000,
-                    intensity: 200,
-                },
+                header: paper::lm_s_header(200),
                 encoding: Encoding::Raw,
                 encoded_len: 82 * 996,
                 rig_crc32: 0x89AB_CDEF,

@@ -6,7 +6,9 @@
 //! for another rig is refused.
 
 mod common;
-// The paper's rig and LM phases, shared with the protocol's codec tests.
+// The paper's rig and LM phases, shared with the protocol's codec tests
+// (not every piece of it is used here).
+#[allow(dead_code)]
 #[path = "../../../proto/tests/common/paper.rs"]
 mod paper;
 
