@@ -45,10 +45,27 @@ pub fn config() -> Config {
 /// Peripheral clock of the MPS2 images: the APB timers and UART count this.
 pub const PCLK_HZ: u32 = 25_000_000;
 
-/// CMSDK APB UART (QEMU `cmsdk-apb-uart`).
-pub struct Uart {
+/// A block of 32-bit memory-mapped registers at `base`.
+#[derive(Clone, Copy)]
+struct Registers {
     base: usize,
 }
+
+impl Registers {
+    fn read(self, off: usize) -> u32 {
+        // SAFETY: the owner's `new` contract: `base` is a valid register
+        // block of the peripheral, and nothing else drives it.
+        unsafe { read_volatile((self.base + off) as *const u32) }
+    }
+
+    fn write(self, off: usize, v: u32) {
+        // SAFETY: as in `read`.
+        unsafe { write_volatile((self.base + off) as *mut u32, v) }
+    }
+}
+
+/// CMSDK APB UART (QEMU `cmsdk-apb-uart`).
+pub struct Uart(Registers);
 
 /// UART0 of the MPS2 images, wired to QEMU's `serial0`.
 pub const UART0_BASE: usize = 0x4000_4000;
@@ -69,26 +86,16 @@ impl Uart {
     /// # Safety
     /// `base` must be a CMSDK APB UART that nothing else drives.
     pub unsafe fn new(base: usize, baud: u32) -> Self {
-        let u = Self { base };
-        u.write(UART_BAUDDIV, (PCLK_HZ / baud).max(16));
-        u.write(UART_CTRL, CTRL_TX_EN | CTRL_RX_EN);
-        u
-    }
-
-    fn read(&self, off: usize) -> u32 {
-        // SAFETY: `new`'s contract: a valid, exclusively owned UART block.
-        unsafe { read_volatile((self.base + off) as *const u32) }
-    }
-
-    fn write(&self, off: usize, v: u32) {
-        // SAFETY: as in `read`.
-        unsafe { write_volatile((self.base + off) as *mut u32, v) }
+        let r = Registers { base };
+        r.write(UART_BAUDDIV, (PCLK_HZ / baud).max(16));
+        r.write(UART_CTRL, CTRL_TX_EN | CTRL_RX_EN);
+        Self(r)
     }
 
     /// One received byte, if any (the UART holds only one).
     pub fn try_read(&mut self) -> Option<u8> {
-        if self.read(UART_STATE) & STATE_RX_FULL != 0 {
-            Some(self.read(UART_DATA) as u8)
+        if self.0.read(UART_STATE) & STATE_RX_FULL != 0 {
+            Some(self.0.read(UART_DATA) as u8)
         } else {
             None
         }
@@ -97,16 +104,14 @@ impl Uart {
     /// Sends `bytes`, waiting for room in the transmit register.
     pub fn write_all(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            while self.read(UART_STATE) & STATE_TX_FULL != 0 {}
-            self.write(UART_DATA, u32::from(b));
+            while self.0.read(UART_STATE) & STATE_TX_FULL != 0 {}
+            self.0.write(UART_DATA, u32::from(b));
         }
     }
 }
 
 /// CMSDK APB timer run as a free-running 32-bit up-counter at [`PCLK_HZ`].
-pub struct Timer {
-    base: usize,
-}
+pub struct Timer(Registers);
 
 /// TIMER0 of the MPS2 images.
 pub const TIMER0_BASE: usize = 0x4000_0000;
@@ -122,26 +127,22 @@ impl Timer {
     /// # Safety
     /// `base` must be a CMSDK APB timer that nothing else drives.
     pub unsafe fn new(base: usize) -> Self {
-        let t = Self { base };
-        // SAFETY: `new`'s contract.
-        unsafe {
-            write_volatile((base + TIMER_CTRL) as *mut u32, 0);
-            write_volatile((base + TIMER_RELOAD) as *mut u32, u32::MAX);
-            write_volatile((base + TIMER_VALUE) as *mut u32, u32::MAX);
-            write_volatile((base + TIMER_CTRL) as *mut u32, 1);
-        }
-        t
+        let r = Registers { base };
+        r.write(TIMER_CTRL, 0);
+        r.write(TIMER_RELOAD, u32::MAX);
+        r.write(TIMER_VALUE, u32::MAX);
+        r.write(TIMER_CTRL, 1);
+        Self(r)
     }
 
     /// A second reader of the same running timer (reading has no side effects).
     pub fn clone_of(other: &Timer) -> Timer {
-        Timer { base: other.base }
+        Timer(other.0)
     }
 
     /// Counts since start, wrapping every 2^32 (172 s at 25 MHz).
     pub fn now(&self) -> u32 {
-        // SAFETY: `new`'s contract.
-        !unsafe { read_volatile((self.base + TIMER_VALUE) as *const u32) }
+        !self.0.read(TIMER_VALUE)
     }
 }
 
