@@ -285,21 +285,17 @@ pub(crate) fn validate_begin(
     Ok(())
 }
 
+/// The paper's LM-S header, which the integration tests use too.
+#[cfg(test)]
+#[path = "../tests/common/lm_s_header.rs"]
+mod paper;
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn header() -> UploadHeader {
-        UploadHeader {
-            steps: 82,
-            transducers: 996,
-            period_us: 200_000,
-            center_um: [0, 0, 200_000],
-            foci_per_step: 1,
-            sound_speed_mm_s: 340_000,
-            max_offset_um: 20_000,
-            intensity: 255,
-        }
+        super::paper::lm_s_header(255)
     }
 
     const LIMITS: DeviceLimits = DeviceLimits {

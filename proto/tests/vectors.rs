@@ -116,7 +116,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
             31,
             Message::BeginUpload(BeginUpload {
                 slot: 2,
-                header: paper::lm_s_header(200),
+                header: paper::lm_s::lm_s_header(200),
                 encoding: Encoding::Raw,
                 encoded_len: 82 * 996,
                 rig_crc32: 0x89AB_CDEF,

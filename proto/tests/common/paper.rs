@@ -3,21 +3,11 @@
 //! and the firmware core's library tests (which include this file by path)
 //! share it, so both measure the same sequences.
 
-/// The upload header of the paper's LM-S (one focus, 5 Hz, 82 steps of
-/// about 0.23 mm round A = 3 mm) on the four boards, 200 mm up, within a
-/// 20 mm work volume, at `intensity`.
-pub fn lm_s_header(intensity: u8) -> lm_proto::UploadHeader {
-    lm_proto::UploadHeader {
-        steps: 82,
-        transducers: 996,
-        period_us: 200_000,
-        center_um: [0, 0, 200_000],
-        foci_per_step: 1,
-        sound_speed_mm_s: 340_000,
-        max_offset_um: 20_000,
-        intensity,
-    }
-}
+use lm_proto::UploadHeader;
+
+/// The paper's LM-S upload header, shared with the protocol's unit tests.
+#[path = "lm_s_header.rs"]
+pub mod lm_s;
 
 /// AUTD3: 18 × 14 grid minus three screw holes, 10.16 mm pitch; four
 /// boards 2 × 2 (192 × 151.4 mm apart), centred on the origin, z = 0 (µm).
