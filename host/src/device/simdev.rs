@@ -55,8 +55,10 @@ pub struct SimStats {
     pub step_late_us: VecDeque<u64>,
     /// Whether the last frame was muted.
     pub muted_now: bool,
-    /// Mute transitions: (due time µs, muted), the most recent
-    /// [`STATS_RING`].
+    /// Mute transitions: (µs the first frame of the new state went out:
+    /// its due time, or later when it was written late, muted), the most
+    /// recent [`STATS_RING`]. A late frame counts when it went out, so a
+    /// mute caused by a centroid is never stamped before that centroid.
     pub mute_changes: VecDeque<(u64, bool)>,
 }
 
@@ -367,7 +369,8 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
             if self.out.stats.mute_changes.len() == STATS_RING {
                 self.out.stats.mute_changes.pop_front();
             }
-            self.out.stats.mute_changes.push_back((frame.due, muted));
+            let out_us = self.now_us.max(frame.due);
+            self.out.stats.mute_changes.push_back((out_us, muted));
         }
         self.out.stats.muted_now = muted;
         if muted {
