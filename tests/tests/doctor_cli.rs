@@ -41,24 +41,26 @@ fn doctor_passes_the_simulated_device_and_the_autd3_emulator() {
 #[test]
 fn a_device_that_does_not_answer_fails_the_doctor_in_one_line() {
     let dir = scratch_dir("doctor");
-    // A regular file is not a board: opening it as a port fails.
-    let not_a_port = dir.join("ttyNONE");
-    let o = run(&[
-        "doctor",
-        "--port",
-        not_a_port.to_str().unwrap(),
-        "--timeout-ms",
-        "50",
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    let out = String::from_utf8_lossy(&o.stdout);
-    let fail: Vec<&str> = out.lines().filter(|l| l.starts_with("FAIL")).collect();
-    assert_eq!(fail.len(), 1, "{out}");
-    assert!(
-        fail[0].contains("ttyNONE") && fail[0].contains(" — "),
-        "{out}"
-    );
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(err.lines().count(), 1, "{err}");
+    // Neither a missing path nor a regular file is a board: opening either
+    // as a port fails, in one FAIL line naming it.
+    let regular = dir.join("ttyFILE");
+    std::fs::write(&regular, b"not a serial port").unwrap();
+    for not_a_port in [dir.join("ttyNONE"), regular] {
+        let name = not_a_port.file_name().unwrap().to_str().unwrap();
+        let o = run(&[
+            "doctor",
+            "--port",
+            not_a_port.to_str().unwrap(),
+            "--timeout-ms",
+            "50",
+        ]);
+        assert_eq!(o.status.code(), Some(1), "{name}");
+        let out = String::from_utf8_lossy(&o.stdout);
+        let fail: Vec<&str> = out.lines().filter(|l| l.starts_with("FAIL")).collect();
+        assert_eq!(fail.len(), 1, "{out}");
+        assert!(fail[0].contains(name) && fail[0].contains(" — "), "{out}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.lines().count(), 1, "{err}");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

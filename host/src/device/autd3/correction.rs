@@ -1,10 +1,11 @@
 //! Centroid correction through autd3's per-transducer `PhaseCorrection`.
 //!
 //! The offsets are computed by the firmware's own function,
-//! [`lm_fw_core::correction::compute_offsets`], on the same packed µm
-//! positions the LM firmware receives, so both backends steer identically.
+//! [`lm_fw_core::correction::compute_offsets`], on the packed µm positions
+//! built here, the same the LM firmware receives, so both backends steer
+//! identically.
 
-use lm_fw_core::correction::{POSITION_BYTES, compute_offsets, sound_speed_m_s};
+use lm_fw_core::correction::POSITION_BYTES;
 
 use crate::error::InputError;
 use crate::plan::scene::Scene;
@@ -20,22 +21,4 @@ pub fn packed_positions_um(scene: &Scene) -> Result<Vec<u8>, InputError> {
         }
     }
     Ok(out)
-}
-
-/// Per-transducer offsets (u8 phase LSB) moving a sequence planned at
-/// `center_um` to `centroid_um`, written into `out`.
-pub fn offsets_into(
-    positions: &[u8],
-    center_um: [i32; 3],
-    centroid_um: [i32; 3],
-    sound_speed_mm_s: u32,
-    out: &mut [u8],
-) {
-    compute_offsets(
-        positions,
-        center_um,
-        centroid_um,
-        sound_speed_m_s(sound_speed_mm_s),
-        out,
-    );
 }

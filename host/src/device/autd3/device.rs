@@ -33,13 +33,13 @@ use autd3::prelude::{
     Drive, GainSTM, GainSTMMode, GainSTMOption, Intensity, Null, Phase, PhaseCorrection,
     SamplingConfig, Segment, SwapSegmentGainSTM, WithSegment,
 };
+use lm_fw_core::correction::{compute_offsets, sound_speed_m_s};
 use lm_fw_core::player::{PlayState, Player, Timing};
 use lm_fw_core::policy::Policy;
 use lm_fw_core::status::Mechanics;
 use std::num::NonZeroU16;
 use std::time::Duration;
 
-use super::correction;
 use super::emulator::EmulatorHandle;
 use super::output::Output;
 use super::port::Autd3Port;
@@ -214,11 +214,11 @@ impl Autd3Backend {
         if let Some(h) = self.playing_header()
             && let Some(c) = self.policy.steer_for(&h)
         {
-            correction::offsets_into(
+            compute_offsets(
                 &self.positions,
                 h.center_um,
                 c,
-                h.sound_speed_mm_s,
+                sound_speed_m_s(h.sound_speed_mm_s),
                 &mut next,
             );
         }
