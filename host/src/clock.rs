@@ -128,6 +128,75 @@ pub fn percentile(values: impl IntoIterator<Item = u64>, p: f64) -> Option<u64> 
     Some(quantile(&v, p / 100.0).round() as u64)
 }
 
+/// The summary every latency figure in lmhost gives: median, 99th
+/// percentile ([`quantile`]) and maximum, from one sort of the samples.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Spread<T> {
+    /// Median.
+    pub p50: T,
+    /// 99th percentile.
+    pub p99: T,
+    /// Largest.
+    pub max: T,
+}
+
+impl Spread<f64> {
+    /// Of `values`; `None` when there are none (NaN sorts last and is
+    /// then the maximum).
+    pub fn of_f64(values: impl IntoIterator<Item = f64>) -> Option<Self> {
+        let mut v: Vec<f64> = values.into_iter().collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        Some(Spread {
+            p50: quantile(&v, 0.50),
+            p99: quantile(&v, 0.99),
+            max: v[v.len() - 1],
+        })
+    }
+}
+
+impl Spread<u64> {
+    /// Of integer samples (µs), each figure rounded to the nearest
+    /// integer as [`percentile`] does; `None` when there are none.
+    pub fn of(values: impl IntoIterator<Item = u64>) -> Option<Self> {
+        Spread::of_f64(values.into_iter().map(|x| x as f64)).map(|s| s.map(|x| x.round() as u64))
+    }
+
+    /// µs → ms.
+    pub fn ms(self) -> Spread<f64> {
+        self.map(|us| us as f64 / 1e3)
+    }
+}
+
+impl<T> Spread<T> {
+    /// `p50 …, p99 …, max …`, each figure written by `f`: how a spread
+    /// reads in a summary line.
+    pub fn describe(&self, f: impl Fn(&T) -> String) -> String {
+        format!(
+            "p50 {}, p99 {}, max {}",
+            f(&self.p50),
+            f(&self.p99),
+            f(&self.max)
+        )
+    }
+
+    /// [`Self::describe`], or `n/a` where there were no samples.
+    pub fn describe_or(spread: Option<&Self>, f: impl Fn(&T) -> String) -> String {
+        spread.map_or_else(|| "n/a".to_owned(), |s| s.describe(f))
+    }
+
+    /// Each figure through `f` (a change of unit).
+    pub fn map<U>(self, f: impl Fn(T) -> U) -> Spread<U> {
+        Spread {
+            p50: f(self.p50),
+            p99: f(self.p99),
+            max: f(self.max),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,6 +213,33 @@ mod tests {
         assert_eq!(percentile([10, 20], 50.0), Some(15));
         assert_eq!(percentile([], 99.0), None);
         assert!(quantile(&[], 0.5).is_nan());
+    }
+
+    #[test]
+    fn a_spread_is_the_one_percentile_at_50_99_and_100() {
+        assert_eq!(Spread::of([]), None);
+        assert_eq!(
+            Spread::of([7]),
+            Some(Spread {
+                p50: 7,
+                p99: 7,
+                max: 7
+            })
+        );
+        // A plain reference: sort, then the percentile of each figure on
+        // its own.
+        let mut r = crate::rng::SplitMix64::new(11);
+        for n in [2usize, 3, 10, 101, 1000] {
+            let v: Vec<u64> = (0..n).map(|_| r.next_u64() % 100_000).collect();
+            let s = Spread::of(v.iter().copied()).unwrap();
+            assert_eq!(s.p50, percentile(v.iter().copied(), 50.0).unwrap());
+            assert_eq!(s.p99, percentile(v.iter().copied(), 99.0).unwrap());
+            assert_eq!(s.max, *v.iter().max().unwrap());
+            assert_eq!(s.ms().max, s.max as f64 / 1e3);
+        }
+        let f = Spread::of_f64([3.0, 1.0, 2.0]).unwrap();
+        assert_eq!((f.p50, f.max), (2.0, 3.0));
+        assert!((f.p99 - 2.98).abs() < 1e-12);
     }
 
     #[test]

@@ -18,6 +18,12 @@ fn demo_uploads_plays_streams_and_mutes() {
     assert_eq!(c["sent"], 180, "{v}");
     let applied = c["applied"].as_u64().unwrap();
     assert!((140..=146).contains(&applied), "{v}");
+    // Centroid → the step that used it, and → the ack: each a spread.
+    for key in ["latency_us", "correction_latency_us"] {
+        let l = &c[key];
+        let f = |k: &str| l[k].as_u64().unwrap_or_else(|| panic!("{key}.{k}: {v}"));
+        assert!(f("p50") <= f("p99") && f("p99") <= f("max"), "{v}");
+    }
     let m = &v["muting"];
     assert_eq!(m["muted_in_every_status_while_away"], true, "{v}");
     assert!(m["mute_after_leave_ms"].is_number(), "{v}");

@@ -3,6 +3,7 @@
 
 use anyhow::Context as _;
 
+use lmhost::clock::Spread;
 use lmhost::lab::demo::{Finger, Options, Report, SimDevice, SimLink};
 use lmhost::plan::target::Target;
 use lmhost::sense::stream::filter::FilterKind;
@@ -185,30 +186,28 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
     )?;
     if let Some(p) = &r.playback {
         lmhost::outln!(
-            "steps      {} played: mean dwell {:.1} µs (planned {:.1}), {} missed deadlines, p99 lateness {} µs",
+            "steps      {} played: mean dwell {:.1} µs (planned {:.1}), {} missed deadlines, p99 lateness {}",
             p.steps_played,
             p.mean_dwell_us,
             t.dwell_us,
             p.missed_deadlines,
-            p.step_late_p99_us
+            p.step_late_us
+                .map_or("n/a".into(), |s| format!("{} µs", s.p99))
         )?;
     }
     let c = &r.centroids;
-    let us = |x: Option<u64>| x.map_or("n/a".to_owned(), |v| format!("{v} µs"));
+    let us = |v: &u64| format!("{v} µs");
     lmhost::outln!(
-        "centroids  {} sent at 90 fps ({} filter), {} applied; acked p50 {}, p99 {}, max {}",
+        "centroids  {} sent at 90 fps ({} filter), {} applied; acked {}",
         c.sent,
         c.filter,
         c.applied,
-        us(c.correction_latency_p50_us),
-        us(c.correction_latency_p99_us),
-        us(c.correction_latency_max_us)
+        Spread::describe_or(c.correction_latency_us.as_ref(), us)
     )?;
-    if let (Some(t), Some(p50)) = (c.target_us, c.latency_p50_us) {
+    if let (Some(t), Some(l)) = (c.target_us, &c.latency_us) {
         lmhost::outln!(
-            "           to the applying step p50 {p50} µs, p99 {}, max {} (target ≤ dwell + 1 ms = {t:.0} µs)",
-            us(c.latency_p99_us),
-            us(c.latency_max_us)
+            "           to the applying step {} (target ≤ dwell + 1 ms = {t:.0} µs)",
+            l.describe(us)
         )?;
     }
     let m = &r.muting;
@@ -226,11 +225,10 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
     )?;
     if let Some(t) = &r.tracking {
         lmhost::outln!(
-            "tracking   depth frames 848×480 → contact-area centroid: error {:.3} mm RMS vs truth, presence wrong on {} steady frames; track p50 {:.0} µs, p99 {:.0} µs per frame; the {} filter's lag {:.1} ms",
+            "tracking   depth frames 848×480 → contact-area centroid: error {:.3} mm RMS vs truth, presence wrong on {} steady frames; track {} per frame; the {} filter's lag {:.1} ms",
             t.centroid_error_rms_mm,
             t.presence_wrong_frames,
-            t.track_p50_us,
-            t.track_p99_us,
+            Spread::describe_or(t.track_us.as_ref(), |v| format!("{v:.0} µs")),
             c.filter,
             t.filter_lag_ms
         )?;

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
-use lmhost::clock::Clock;
+use lmhost::clock::{Clock, Spread};
 use lmhost::lab::session::Session;
 use lmhost::lab::session::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
 use lmhost::plan::library::Library;
@@ -178,11 +178,9 @@ impl Args {
         let ms = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1} ms"));
         if f.switches > 0 || f.timed_on_phases > 0 {
             lmhost::errln!(
-                "lmhost: {} switches (latency p50 {}, p99 {}, max {}); {} timed on-phases (|device − on_s| max {})",
+                "lmhost: {} switches (latency {}); {} timed on-phases (|device − on_s| max {})",
                 f.switches,
-                ms(f.switch_p50_ms),
-                ms(f.switch_p99_ms),
-                ms(f.switch_max_ms),
+                Spread::describe_or(f.switch_ms.as_ref(), |v| format!("{v:.1} ms")),
                 f.timed_on_phases,
                 ms(f.on_error_max_abs_ms)
             );

@@ -4,6 +4,7 @@
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
+use lmhost::clock::Spread;
 use lmhost::device::link::proxy::Faults;
 use lmhost::device::simdev::{Core as _, FwCore, Loopback, Pty, ServeOptions, SimConfig, serve};
 
@@ -105,15 +106,15 @@ impl Args {
         serve(core.clone(), pty, ServeOptions { faults }, stop)?;
         // Only reached with --seconds: what the device measured.
         let st = core.lock().unwrap_or_else(|e| e.into_inner()).stats();
-        let p = |q| lmhost::clock::percentile(st.latencies_us.iter().copied(), q).unwrap_or(0);
         lmhost::errln!(
-            "lmhost sim: {} frames ({} muted), {} centroid updates applied; host receipt → applying step p50 {} µs, p99 {} µs, max {} µs",
+            "lmhost sim: {} frames ({} muted), {} centroid updates applied; host receipt → applying step {}",
             st.frames,
             st.muted_frames,
             st.centroids_applied,
-            p(50.0),
-            p(99.0),
-            p(100.0)
+            Spread::describe_or(
+                Spread::of(st.latencies_us.iter().copied()).as_ref(),
+                |us| format!("{us} µs")
+            )
         );
         Ok(())
     }

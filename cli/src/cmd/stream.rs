@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use super::args::PortArgs;
 use crate::cmd::plan::StimulusFlags;
+use lmhost::clock::Spread;
 use lmhost::sense::stream::filter::{FilterKind, Kalman};
 use lmhost::sense::stream::metrics::score;
 use lmhost::sense::stream::run::{Pace, Threaded, on_thread, stream};
@@ -221,13 +222,13 @@ impl Args {
         } else {
             Vec::new()
         };
-        let p = |q| report.ack_percentile_us(q).unwrap_or(0);
+        let ack = report.ack_us();
         if self.json {
             let v = serde_json::json!({
                 "samples": report.samples, "acked": report.acked, "present": report.present,
                 "last_seq": report.last_seq, "device_last_seq": status.last_centroid_seq,
                 "seconds": report.seconds, "filter": self.filter.name(),
-                "ack_p50_us": p(50.0), "ack_p99_us": p(99.0), "ack_max_us": p(100.0),
+                "ack_us": ack,
                 "device_state": status.state, "device_correction_um": status.correction_um,
                 "filters": scores,
                 "rejected": report.rejected, "bad_datagrams": bad_datagrams,
@@ -257,10 +258,8 @@ impl Args {
             status.state
         )?;
         lmhost::outln!(
-            "latency host receipt → device ack: p50 {} µs, p99 {} µs, max {} µs; applied at the next step boundary (≤ one dwell later)",
-            p(50.0),
-            p(99.0),
-            p(100.0)
+            "latency host receipt → device ack: {}; applied at the next step boundary (≤ one dwell later)",
+            Spread::describe_or(ack.as_ref(), |us| format!("{us} µs"))
         )?;
         if let Some(s) = session.as_ref().filter(|_| needs_host) {
             lmhost::outln!(

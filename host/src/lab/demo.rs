@@ -12,7 +12,7 @@ use anyhow::Context as _;
 use lm_proto::{DeviceState, Encoding, MuteReason, Status};
 use serde::Serialize;
 
-use crate::clock::{monotonic_us, percentile};
+use crate::clock::{Spread, monotonic_us};
 use crate::device::backend::Backend;
 use crate::device::connect::LmBackend;
 use crate::device::link::Client;
@@ -107,22 +107,16 @@ pub struct UploadFigures {
     /// Seconds from upload to play (with the open, on AUTD3).
     pub seconds: f64,
     /// Link frames (AUTD3 emulator).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub frames: Option<u64>,
     /// Raw sequence bytes (LM firmware).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub raw_bytes: Option<u64>,
     /// Encoded (Delta) bytes (LM firmware).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub encoded_bytes: Option<u64>,
     /// Bytes both ways on the wire (LM firmware).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub wire_bytes: Option<u64>,
     /// Payload share of the wire bytes (LM firmware).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub wire_efficiency: Option<f64>,
     /// CRC-32 of the raw sequence (LM firmware).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub crc32: Option<u32>,
 }
 
@@ -135,8 +129,8 @@ pub struct Playback {
     pub mean_dwell_us: f64,
     /// Deadlines the player missed.
     pub missed_deadlines: u32,
-    /// 99th percentile of step lateness (µs).
-    pub step_late_p99_us: u64,
+    /// Step lateness (µs).
+    pub step_late_us: Option<Spread<u64>>,
 }
 
 /// Centroid figures.
@@ -150,22 +144,10 @@ pub struct Centroids {
     pub filter: &'static str,
     /// Centroid → acknowledged by the device (AUTD3: the correction
     /// written to the FPGA), µs.
-    pub correction_latency_p50_us: Option<u64>,
-    /// Its 99th percentile, µs.
-    pub correction_latency_p99_us: Option<u64>,
-    /// Its maximum, µs.
-    pub correction_latency_max_us: Option<u64>,
+    pub correction_latency_us: Option<Spread<u64>>,
     /// Centroid → the first step that used it (simulated device), µs.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub latency_p50_us: Option<u64>,
-    /// Its 99th percentile, µs.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub latency_p99_us: Option<u64>,
-    /// Its maximum, µs.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub latency_max_us: Option<u64>,
+    pub latency_us: Option<Spread<u64>>,
     /// The target for it: one dwell + 1 ms, µs.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub target_us: Option<f64>,
 }
 
@@ -173,10 +155,8 @@ pub struct Centroids {
 #[derive(Debug, Clone, Serialize)]
 pub struct Muting {
     /// Finger left → output muted (simulated device), ms.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub mute_after_leave_ms: Option<f64>,
     /// Finger back → output sounding again (simulated device), ms.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub resume_after_return_ms: Option<f64>,
     /// Every status sampled while the finger was away said Muted.
     pub muted_in_every_status_while_away: bool,
@@ -198,9 +178,7 @@ pub struct Tracking {
     /// Frames whose presence was wrong away from transitions.
     pub presence_wrong_frames: u64,
     /// Tracking time per frame, µs.
-    pub track_p50_us: f64,
-    /// Its 99th percentile, µs.
-    pub track_p99_us: f64,
+    pub track_us: Option<Spread<f64>>,
     /// The filter's lag at 90 fps, ms.
     pub filter_lag_ms: f64,
 }
@@ -211,10 +189,8 @@ pub struct Report {
     /// The device, as it describes itself.
     pub device: String,
     /// The simulated device's link (`pty`, `socket`).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub link: Option<SimLink>,
     /// Whether the simulated device's loop got real-time priority.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub realtime_priority: Option<bool>,
     /// [`STIMULUS`].
     pub stimulus: &'static str,
@@ -311,13 +287,7 @@ pub fn run(
     dev.stop().context("silencing the array")?;
 
     let wire = up.wire();
-    let ack = |p| report.ack_percentile_us(p);
     let away = || states.iter().filter(|(p, _)| !p);
-    let sim_lat = |p| {
-        stats
-            .as_ref()
-            .map(|s| percentile(s.latencies_us.iter().copied(), p).unwrap_or(0))
-    };
     let dwell_us = planned.timing.dwell_us;
     Ok(Report {
         device: dev.describe(),
@@ -344,12 +314,10 @@ pub fn run(
             sent: report.acked + report.outside_work_volume,
             applied: stats.as_ref().map_or(report.acked, |s| s.centroids_applied),
             filter: opts.filter.name(),
-            correction_latency_p50_us: ack(50.0),
-            correction_latency_p99_us: ack(99.0),
-            correction_latency_max_us: ack(100.0),
-            latency_p50_us: sim_lat(50.0),
-            latency_p99_us: sim_lat(99.0),
-            latency_max_us: sim_lat(100.0),
+            correction_latency_us: report.ack_us(),
+            latency_us: stats
+                .as_ref()
+                .and_then(|s| Spread::of(s.latencies_us.iter().copied())),
             target_us: sim.map(|_| dwell_us + 1000.0),
         },
         muting: Muting {
@@ -367,8 +335,7 @@ pub fn run(
             source: "synthetic 848x480 depth frames",
             centroid_error_rms_mm: d.rms_error_mm(),
             presence_wrong_frames: d.presence_wrong,
-            track_p50_us: d.track_percentile_us(50.0),
-            track_p99_us: d.track_percentile_us(99.0),
+            track_us: d.track_us(),
             filter_lag_ms: d.filter_lag_ms(),
         }),
         left_silent: true,
@@ -383,7 +350,7 @@ fn playback(s0: &Status, s1: &Status, steps: usize, elapsed_us: u64, st: &SimSta
         steps_played: played,
         mean_dwell_us: elapsed_us as f64 / played.max(1) as f64,
         missed_deadlines: s1.missed_deadlines.saturating_sub(s0.missed_deadlines),
-        step_late_p99_us: percentile(st.step_late_us.iter().copied(), 99.0).unwrap_or(0),
+        step_late_us: Spread::of(st.step_late_us.iter().copied()),
     }
 }
 

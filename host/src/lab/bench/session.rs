@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use super::{Options, Section};
-use crate::clock::Clock;
+use crate::clock::{Clock, Spread};
 use crate::device::autd3::Autd3Backend;
 use crate::device::backend::Backend;
 use crate::lab::session::driver::{Driver, Finger};
@@ -36,25 +36,17 @@ pub struct SessionFigures {
     /// Onsets from silence measured (alternating between the two
     /// stimuli, so between slots).
     pub onsets: usize,
-    /// Onset latency percentiles and maximum (ms): from the `present` to
-    /// the device playing, by its own counters.
-    pub onset_p50_ms: f64,
-    /// 99th percentile (nearest rank).
-    pub onset_p99_ms: f64,
-    /// Maximum.
-    pub onset_max_ms: f64,
+    /// Onset latency (ms): from the `present` to the device playing, by
+    /// its own counters.
+    pub onset_latency_ms: Option<Spread<f64>>,
     /// The target: one dwell + 1 ms (ms).
     pub onset_limit_ms: f64,
     /// Each onset's offset from the ideal (the `present`), ms, in order.
     pub onset_ms: Vec<f64>,
     /// Switches measured.
     pub switches: usize,
-    /// Switch latency percentiles and maximum (ms).
-    pub switch_p50_ms: f64,
-    /// 99th percentile (nearest rank).
-    pub switch_p99_ms: f64,
-    /// Maximum.
-    pub switch_max_ms: f64,
+    /// Switch latency (ms).
+    pub switch_latency_ms: Option<Spread<f64>>,
     /// The target: one LM cycle + 10 ms (ms).
     pub switch_limit_ms: f64,
     /// Timed untracked on-phases measured.
@@ -166,10 +158,6 @@ fn measure(
     let s = d.into_session();
     let f = s.figures();
     let onset_ms = s.onset_latencies_ms()[..n.min(f.onsets)].to_vec();
-    let pct = |p: f64| {
-        let us: Vec<u64> = onset_ms.iter().map(|m| (m * 1e3).round() as u64).collect();
-        crate::clock::percentile(us, p).map_or(f64::NAN, |u| u as f64 / 1e3)
-    };
     let timing = &s.loaded()[0].planned.timing;
     let period_ms = 1e3 / timing.freq_hz.min(s.loaded()[1].planned.timing.freq_hz);
     let dwell_ms = timing.dwell_us.max(s.loaded()[1].planned.timing.dwell_us) / 1e3;
@@ -177,15 +165,11 @@ fn measure(
     Ok(SessionFigures {
         backend: name.into(),
         onsets: onset_ms.len(),
-        onset_p50_ms: pct(50.0),
-        onset_p99_ms: pct(99.0),
-        onset_max_ms: onset_ms.iter().copied().fold(f64::NAN, f64::max),
+        onset_latency_ms: Spread::of_f64(onset_ms.iter().copied()),
         onset_limit_ms: dwell_ms + 1.0,
         onset_ms,
         switches: switches.switches,
-        switch_p50_ms: switches.switch_p50_ms.unwrap_or(f64::NAN),
-        switch_p99_ms: switches.switch_p99_ms.unwrap_or(f64::NAN),
-        switch_max_ms: switches.switch_max_ms.unwrap_or(f64::NAN),
+        switch_latency_ms: switches.switch_ms,
         switch_limit_ms: period_ms + 10.0,
         on_phases: f.timed_on_phases,
         on_s,
@@ -223,13 +207,15 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
         "session (paper LM-S <-> LM-M at 5 Hz, A = 3 mm; the session's figures under its driver)\n",
     );
     for f in &figures {
+        let onset = Spread::describe_or(f.onset_latency_ms.as_ref(), |v| format!("{v:.2} ms"));
+        let switch = Spread::describe_or(f.switch_latency_ms.as_ref(), |v| format!("{v:.1} ms"));
         text.push_str(&format!(
-            "  {:<22} onset  p50 {:6.2} ms  p99 {:6.2} ms  max {:6.2} ms (limit {:.2}, {} onsets)\n",
-            f.backend, f.onset_p50_ms, f.onset_p99_ms, f.onset_max_ms, f.onset_limit_ms, f.onsets
+            "  {:<22} onset  {onset} (limit {:.2}, {} onsets)\n",
+            f.backend, f.onset_limit_ms, f.onsets
         ));
         text.push_str(&format!(
-            "  {:<22} switch p50 {:6.1} ms  p99 {:6.1} ms  max {:6.1} ms (limit {:.1}, {} switches)\n",
-            "", f.switch_p50_ms, f.switch_p99_ms, f.switch_max_ms, f.switch_limit_ms, f.switches
+            "  {:<22} switch {switch} (limit {:.1}, {} switches)\n",
+            "", f.switch_limit_ms, f.switches
         ));
         text.push_str(&format!(
             "  {:<22} {} x {} s on: |device - on_s| max {:.2} ms (dwell {:.2})\n",

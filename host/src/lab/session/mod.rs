@@ -40,7 +40,7 @@ use std::time::Duration;
 
 use lm_proto::{DeviceState, MuteReason};
 
-use crate::clock::Clock;
+use crate::clock::{Clock, Spread};
 use crate::device::backend::{Backend, BackendInfo, CentroidOutcome, ErrorKind};
 use crate::device::centroids::CentroidSender;
 use crate::error::InputError;
@@ -67,21 +67,13 @@ pub struct Figures {
     /// On-phases begun from silence whose start the device's counters
     /// showed.
     pub onsets: usize,
-    /// Median onset latency: from the ideal start (the `present`, or the
-    /// end of the off-phase before) to the device playing (ms).
-    pub onset_p50_ms: Option<f64>,
-    /// 99th percentile onset latency (ms).
-    pub onset_p99_ms: Option<f64>,
-    /// Largest onset latency (ms).
-    pub onset_max_ms: Option<f64>,
+    /// Onset latency: from the ideal start (the `present`, or the end of
+    /// the off-phase before) to the device playing (ms).
+    pub onset_ms: Option<Spread<f64>>,
     /// Switches between stimuli at a cycle end.
     pub switches: usize,
-    /// Median switch latency, request to the device playing the new one (ms).
-    pub switch_p50_ms: Option<f64>,
-    /// 99th percentile switch latency (ms).
-    pub switch_p99_ms: Option<f64>,
-    /// Largest switch latency (ms).
-    pub switch_max_ms: Option<f64>,
+    /// Switch latency, request to the device playing the new one (ms).
+    pub switch_ms: Option<Spread<f64>>,
     /// Timed on-phases ended by their timer.
     pub timed_on_phases: usize,
     /// Largest |device-played time − on_s| over them (ms).
@@ -230,17 +222,12 @@ impl Session {
     /// What the session measured so far: onset and switch latencies and
     /// the timed on-phases' error by the device's counters.
     pub fn figures(&self) -> Figures {
-        let ms = |us: Option<u64>| us.map(|u| u as f64 / 1e3);
-        let pct = |v: &[u64], p| ms(crate::clock::percentile(v.iter().copied(), p));
+        let ms = |us: &[u64]| Spread::of(us.iter().copied()).map(Spread::ms);
         Figures {
             onsets: self.onset_us.len(),
-            onset_p50_ms: pct(&self.onset_us, 50.0),
-            onset_p99_ms: pct(&self.onset_us, 99.0),
-            onset_max_ms: ms(self.onset_us.iter().copied().max()),
+            onset_ms: ms(&self.onset_us),
             switches: self.switch_us.len(),
-            switch_p50_ms: pct(&self.switch_us, 50.0),
-            switch_p99_ms: pct(&self.switch_us, 99.0),
-            switch_max_ms: ms(self.switch_us.iter().copied().max()),
+            switch_ms: ms(&self.switch_us),
             timed_on_phases: self.on_error_us.len(),
             on_error_max_abs_ms: self
                 .on_error_us

@@ -7,7 +7,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::Duration;
 
 use super::draw::{self, Overlay};
-use crate::clock::monotonic_us;
+use crate::clock::{Spread, monotonic_us};
 use crate::geom::{Vec3, add, scale};
 use crate::lab::session::{Event, EventKind, Gate};
 use crate::plan::sequence::Plan;
@@ -86,12 +86,8 @@ pub struct Figures {
     pub encode_p50_ms: Option<f64>,
     /// Frames drawn by browsers (acknowledged).
     pub drawn: u64,
-    /// Median latency, frame in → drawn (ms).
-    pub latency_p50_ms: Option<f64>,
-    /// 95th percentile (ms).
-    pub latency_p95_ms: Option<f64>,
-    /// Largest (ms).
-    pub latency_max_ms: Option<f64>,
+    /// Latency, frame in → drawn (ms).
+    pub latency_ms: Option<Spread<f64>>,
     /// Frames drawn per second, per browser page, over the last seconds.
     pub fps: Vec<f64>,
     /// Browser WebSocket connections now.
@@ -367,16 +363,11 @@ impl Shared {
 
     pub(super) fn figures(&self) -> Figures {
         let s = self.lock();
-        let ms = |v: &VecDeque<u64>, p: f64| {
-            crate::clock::percentile(v.iter().copied(), p).map(|us| us as f64 / 1e3)
-        };
         Figures {
             frames: s.encoded.as_ref().map_or(0, |e| e.seq),
-            encode_p50_ms: ms(&s.encode_us, 50.0),
+            encode_p50_ms: Spread::of(s.encode_us.iter().copied()).map(|e| e.ms().p50),
             drawn: s.drawn,
-            latency_p50_ms: ms(&s.latency_us, 50.0),
-            latency_p95_ms: ms(&s.latency_us, 95.0),
-            latency_max_ms: s.latency_us.iter().max().map(|&v| v as f64 / 1e3),
+            latency_ms: Spread::of(s.latency_us.iter().copied()).map(Spread::ms),
             fps: s
                 .drawn_at
                 .values()

@@ -68,9 +68,9 @@ pub struct StreamReport {
 }
 
 impl StreamReport {
-    /// Percentile (0–100) of the ack latency, µs.
-    pub fn ack_percentile_us(&self, p: f64) -> Option<u64> {
-        crate::clock::percentile(self.ack_us.iter().copied(), p)
+    /// The ack latency, µs; `None` before the first ack.
+    pub fn ack_us(&self) -> Option<crate::clock::Spread<u64>> {
+        crate::clock::Spread::of(self.ack_us.iter().copied())
     }
 }
 

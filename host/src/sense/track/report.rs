@@ -124,14 +124,9 @@ impl DepthFeed {
         (self.err.0 / self.err.1.max(1) as f64).sqrt()
     }
 
-    /// Percentile (0–100) of the time to track one frame (µs).
-    pub fn track_percentile_us(&self, p: f64) -> f64 {
-        let mut v = self.track_s.clone();
-        if v.is_empty() {
-            return 0.0;
-        }
-        v.sort_by(f64::total_cmp);
-        crate::clock::quantile(&v, p / 100.0) * 1e6
+    /// The time to track one frame (µs); `None` before the first frame.
+    pub fn track_us(&self) -> Option<crate::clock::Spread<f64>> {
+        crate::clock::Spread::of_f64(self.track_s.iter().map(|s| s * 1e6))
     }
 
     /// The filter's lag (ms): [`filter_lag_ms`] at the feed's frame rate.

@@ -313,7 +313,7 @@ fn from_silence_a_resident_stimulus_starts_within_one_dwell() {
     let f = s.figures();
     assert_eq!(f.onsets, 5);
     assert!(
-        f.onset_max_ms.unwrap() <= dwell_ms + 1.0,
+        f.onset_ms.unwrap().max <= dwell_ms + 1.0,
         "{f:?}, dwell {dwell_ms} ms"
     );
 }

@@ -24,7 +24,7 @@ use super::presence::Hysteresis;
 use super::source::{Frame, FrameSource, Recorder};
 use super::surface::Replanner;
 use super::{FrameResult, Pipeline};
-use crate::clock::percentile;
+use crate::clock::{Spread, percentile};
 use crate::device::backend::Backend;
 use crate::error::InputError;
 use crate::geom;
@@ -414,7 +414,7 @@ impl TrackRun {
 
 /// The closing lines about the centroids streamed to the device.
 fn device_lines(r: &StreamReport, where_: &str, t: &Tally, filter: FilterKind) -> [String; 2] {
-    let p = |q| r.ack_percentile_us(q).unwrap_or(0);
+    let ack = r.ack_us();
     [
         format!(
             "device refusals: {} centroids outside the work volume (muted until one is inside), {} dropped by the plausibility gate ({} out of range, {} jumps, {} out of order)",
@@ -425,12 +425,11 @@ fn device_lines(r: &StreamReport, where_: &str, t: &Tally, filter: FilterKind) -
             r.rejected.out_of_order
         ),
         format!(
-            "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {:.0} µs + device ack p50 {} µs, p99 {} µs, plus the {} filter's lag {:.1} ms (90 fps)",
+            "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {:.0} µs + device ack {}, plus the {} filter's lag {:.1} ms (90 fps)",
             r.acked,
             r.present,
             t.track_p_us(50.0),
-            p(50.0),
-            p(99.0),
+            Spread::describe_or(ack.as_ref(), |us| format!("{us} µs")),
             filter.name(),
             super::report::filter_lag_ms(filter, 90.0)
         ),
