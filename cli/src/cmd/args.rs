@@ -231,30 +231,25 @@ impl FingerArgs {
     pub fn start(&self, scene: Option<&Path>) -> anyhow::Result<FingerFeed> {
         use lmhost::sense::stream::run::on_thread;
         use lmhost::sense::stream::source;
+        use lmhost::sense::track::run::{Options, Source};
         if self.tracked() {
-            let opts = lmhost::sense::track::run::Options {
+            let source = match (&self.depth, &self.depth_stream) {
+                (Some(depth), _) => Source::Recorded {
+                    depth: depth.clone(),
+                    timestamps: self.timestamps.clone(),
+                    intrinsics: self.intrinsics.clone(),
+                },
+                (None, Some(path)) => Source::Stream {
+                    path: path.clone(),
+                    intrinsics: None,
+                },
+                (None, None) => Source::Camera { intrinsics: None },
+            };
+            // The session filters the samples itself.
+            let opts = Options {
                 scene: scene.map(Path::to_path_buf),
-                depth: self.depth.clone(),
-                timestamps: self.timestamps.clone(),
-                intrinsics: self.intrinsics.clone(),
-                synthetic: false,
-                seconds: None,
-                noise_mm: None,
-                holes: None,
-                camera: self.camera,
-                stream: self.depth_stream.clone(),
-                record: None,
-                fast: false,
-                json: false,
-                plot: None,
-                plot_frame: None,
                 filter: Some(FilterKind::None),
-                z_profile: None,
-                replan_mm: 0.3,
-                replan: false,
-                enter_frames: 2,
-                leave_frames: 2,
-                device: false,
+                ..Options::new(source)
             };
             let name = match (&self.depth, &self.depth_stream) {
                 (Some(d), _) => format!("depth:{}", d.display()),

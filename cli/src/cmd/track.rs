@@ -10,7 +10,10 @@ use lmhost::plan::sequence::Plan;
 use lmhost::plan::stimulus::Stimulus;
 use lmhost::plan::trajectory::Steps;
 use lmhost::sense::stream::filter::FilterKind;
-use lmhost::sense::track::run::{Device, Options, TrackRun};
+use lmhost::sense::track::presence::{self, Hysteresis};
+use lmhost::sense::track::run::{
+    Device, Options, Plot, Source, SyntheticFinger, TrackRun, ZProfile,
+};
 
 /// Track the finger in depth frames: the contact area inside the scene's
 /// detection box and its centroid, one result per frame.
@@ -48,7 +51,9 @@ pub struct Args {
 }
 
 /// `lmhost track`'s own flags: the library's [`Options`] but for the
-/// device, which `--port` decides.
+/// device, which `--port` decides. A synthetic finger's flag given with
+/// another source is clap's conflict; the rest of the combinations are
+/// what [`TrackFlags::options`] maps.
 #[derive(Debug, clap::Args)]
 struct TrackFlags {
     /// Recorded depth frames: `.npy`, uint16, (frames, height, width).
@@ -71,14 +76,14 @@ struct TrackFlags {
     #[arg(long)]
     synthetic: bool,
     /// Synthetic finger: seconds to render, in (0, 3600] [default: 6].
-    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    #[arg(long, value_name = "S", allow_negative_numbers = true, conflicts_with_all = NOT_SYNTHETIC)]
     seconds: Option<f64>,
     /// Synthetic finger: depth noise (mm, 1 σ), in [0, 50] [default: 0.5].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, conflicts_with_all = NOT_SYNTHETIC)]
     noise_mm: Option<f64>,
     /// Synthetic finger: fraction of pixels with no data, in [0, 1]
     /// [default: 0.02].
-    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true)]
+    #[arg(long, value_name = "FRACTION", allow_negative_numbers = true, conflicts_with_all = NOT_SYNTHETIC)]
     holes: Option<f64>,
     /// Live RealSense camera (needs python3 with pyrealsense2).
     #[arg(long)]
@@ -112,7 +117,7 @@ struct TrackFlags {
     #[arg(long, value_name = "RADIUS_MM,STEPS")]
     z_profile: Option<String>,
     /// Re-plan threshold for --z-profile (mm).
-    #[arg(long, value_name = "MM", default_value_t = 0.3, requires = "z_profile")]
+    #[arg(long, value_name = "MM", default_value_t = ZProfile::DEFAULT_REPLAN_MM, requires = "z_profile")]
     replan_mm: f64,
     /// With --port and --z-profile: when the surface profile moves more
     /// than --replan-mm, plan the stimulus of the stimulus flags (the
@@ -126,40 +131,56 @@ struct TrackFlags {
     #[arg(long, requires_all = ["z_profile", "port"])]
     replan: bool,
     /// Consecutive frames with a contact area that open the device gate.
-    #[arg(long, value_name = "N", default_value_t = 2)]
+    #[arg(long, value_name = "N", default_value_t = presence::DEFAULT_FRAMES)]
     enter_frames: u32,
     /// Consecutive frames without one that close it.
-    #[arg(long, value_name = "N", default_value_t = 2)]
+    #[arg(long, value_name = "N", default_value_t = presence::DEFAULT_FRAMES)]
     leave_frames: u32,
 }
 
+/// The sources the synthetic finger's own flags cannot go with.
+const NOT_SYNTHETIC: [&str; 3] = ["depth", "camera", "stream"];
+
 impl TrackFlags {
-    /// The library's options; `device`: a device is streamed to.
-    fn options(self, device: bool) -> Options {
-        Options {
+    /// The library's options, each value checked as it is read; `device`:
+    /// a device is streamed to.
+    fn options(self, device: bool) -> Result<Options, lmhost::InputError> {
+        let intrinsics = self.intrinsics;
+        let source = match (self.depth, self.synthetic, self.camera, self.stream) {
+            (Some(depth), false, false, None) => Source::Recorded {
+                depth,
+                timestamps: self.timestamps,
+                intrinsics,
+            },
+            (None, true, false, None) => Source::Synthetic {
+                finger: SyntheticFinger::new(self.seconds, self.noise_mm, self.holes)?,
+                intrinsics,
+            },
+            (None, false, true, None) => Source::Camera { intrinsics },
+            (None, false, false, Some(path)) => Source::Stream { path, intrinsics },
+            _ => lmhost::bad_input!(
+                "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
+            ),
+        };
+        let z_profile = self
+            .z_profile
+            .map(|spec| ZProfile::parse(&spec, self.replan_mm, self.replan))
+            .transpose()?;
+        Ok(Options {
             scene: self.scene,
-            depth: self.depth,
-            timestamps: self.timestamps,
-            intrinsics: self.intrinsics,
-            synthetic: self.synthetic,
-            seconds: self.seconds,
-            noise_mm: self.noise_mm,
-            holes: self.holes,
-            camera: self.camera,
-            stream: self.stream,
+            source,
             record: self.record,
+            plot: self.plot.map(|dir| Plot {
+                dir,
+                frame: self.plot_frame,
+            }),
             fast: self.fast,
             json: self.json,
-            plot: self.plot,
-            plot_frame: self.plot_frame,
+            gate: Hysteresis::checked(self.enter_frames, self.leave_frames)?,
             filter: self.filter,
-            z_profile: self.z_profile,
-            replan_mm: self.replan_mm,
-            replan: self.replan,
-            enter_frames: self.enter_frames,
-            leave_frames: self.leave_frames,
+            z_profile,
             device,
-        }
+        })
     }
 }
 
@@ -171,7 +192,8 @@ impl Args {
             track,
             stimulus,
         } = self;
-        let (replan, json) = (track.replan, track.json);
+        let opts = track.options(port.port.is_some())?;
+        let (replan, json) = (opts.z_profile.is_some_and(|z| z.replan()), opts.json);
         let given = stimulus.given();
         if let (Some(f), None) = (given.first(), &port.port) {
             lmhost::bad_input!(
@@ -191,16 +213,16 @@ impl Args {
         // The flags' stimulus (the default one when none is given), refused
         // before the tracking opens.
         let base = stimulus.stimulus()?;
-        let session = TrackRun::open(track.options(port.port.is_some()))?;
+        let session = TrackRun::open(opts)?;
         let mut print = |line: &str| lmhost::outln!("{line}");
         let report = if port.port.is_some() {
             let target = port.spec().device()?.target();
             let mut stim = (!given.is_empty()).then(|| base.clone());
             // --replan: the stimulus on --z-profile's circle, checked once.
-            let replan_stim = match session.z_profile_circle().filter(|_| replan) {
+            let replan_stim = match session.z_profile().filter(|z| z.replan()) {
                 None => None,
-                Some((r, n)) => {
-                    let s = replan_stimulus(base, &stimulus, r, n)?;
+                Some(z) => {
+                    let s = replan_stimulus(base, &stimulus, z.radius_mm(), z.steps())?;
                     s.plan_for(&target, session.scene().clone()).map_err(|e| {
                         lmhost::InputError::new(format!(
                             "--replan: the stimulus on the --z-profile circle cannot be planned for this device: {e}"

@@ -202,9 +202,13 @@ pub(crate) fn round3_cases() -> Vec<Case> {
         RIG        "track --synthetic --fast --seconds 0.5 --intrinsics {dir}/cam_tiny_scale.toml"
                    .ok().err("depth_scale");
         RIG        "track --synthetic --seconds 1e-300" .err("no frame");
-        RIG        "track" .depth("ok.npy", "cam.toml").args("--seconds 3") .err("--synthetic only");
-        RIG        "track" .depth("ok.npy", "cam.toml").args("--noise-mm 1") .err("--synthetic only");
-        RIG        "track --camera --holes 0.5 --scene {scenes}/paper.toml" .err("--synthetic only");
+        // The synthetic finger's own flags with another source: a conflict.
+        RIG        "track" .depth("ok.npy", "cam.toml").args("--seconds 3")
+                   .err("'--depth <FILE.npy>' cannot be used with '--seconds <S>'");
+        RIG        "track" .depth("ok.npy", "cam.toml").args("--noise-mm 1")
+                   .err("'--depth <FILE.npy>' cannot be used with '--noise-mm <MM>'");
+        RIG        "track --camera --holes 0.5 --scene {scenes}/paper.toml"
+                   .err("'--camera' cannot be used with '--holes <FRACTION>'");
         // 11. A --plot that writes nothing says so.
         PATH_MESSAGES "track" .depth("empty.npy", "cam.toml").args("--plot {dir}/noplot") .ok()
                    .err("--plot wrote nothing");

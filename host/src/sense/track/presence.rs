@@ -6,6 +6,16 @@
 //! without. The default is 2 and 2: a single dropout or a single speck is
 //! ignored, and the gate is at most one frame late at a real transition.
 
+use crate::error::InputError;
+
+/// The default count of each side (`--enter-frames`, `--leave-frames`).
+pub const DEFAULT_FRAMES: u32 = 2;
+
+/// The most frames `lmhost track` lets either count be: one second at the
+/// camera's 90 fps (a longer gate would mute or unmute a finger that has
+/// long moved).
+pub const MAX_FRAMES: u32 = 90;
+
 /// Presence hysteresis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Hysteresis {
@@ -19,7 +29,7 @@ pub struct Hysteresis {
 
 impl Default for Hysteresis {
     fn default() -> Self {
-        Self::new(2, 2)
+        Self::new(DEFAULT_FRAMES, DEFAULT_FRAMES)
     }
 }
 
@@ -32,6 +42,18 @@ impl Hysteresis {
             open: false,
             run: 0,
         }
+    }
+
+    /// `lmhost track`'s gate: `enter` (`--enter-frames`) and `leave`
+    /// (`--leave-frames`) each in 1..=[`MAX_FRAMES`], refused naming the
+    /// flag otherwise.
+    pub fn checked(enter: u32, leave: u32) -> Result<Self, InputError> {
+        for (name, v) in [("--enter-frames", enter), ("--leave-frames", leave)] {
+            if !(1..=MAX_FRAMES).contains(&v) {
+                crate::bad_input!("{name} {v} must be between 1 and {MAX_FRAMES}");
+            }
+        }
+        Ok(Self::new(enter, leave))
     }
 
     /// Feed one frame's raw presence; returns the gated presence.
@@ -78,5 +100,26 @@ mod tests {
             .map(|&r| h.update(r))
             .collect();
         assert_eq!(out, [false, true, true, true, false]);
+    }
+
+    #[test]
+    fn the_track_gate_takes_1_to_90_frames_each_and_names_the_flag() {
+        assert_eq!(Hysteresis::checked(1, 90).unwrap(), Hysteresis::new(1, 90));
+        assert_eq!(Hysteresis::checked(2, 2).unwrap(), Hysteresis::default());
+        for (enter, leave, e) in [
+            (0, 2, "--enter-frames 0 must be between 1 and 90"),
+            (91, 2, "--enter-frames 91 must be between 1 and 90"),
+            (2, 0, "--leave-frames 0 must be between 1 and 90"),
+            (
+                2,
+                u32::MAX,
+                "--leave-frames 4294967295 must be between 1 and 90",
+            ),
+        ] {
+            assert_eq!(
+                Hysteresis::checked(enter, leave).unwrap_err().to_string(),
+                e
+            );
+        }
     }
 }

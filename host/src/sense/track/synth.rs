@@ -24,6 +24,15 @@ use crate::rng::SplitMix64;
 /// Length of one approach–rest–slide–leave cycle (s).
 pub const PERIOD_S: f64 = 6.0;
 
+/// Frames per second, the D435's depth rate the paper tracks at.
+pub const RATE_HZ: f64 = 90.0;
+
+/// Default depth noise (mm, 1 σ).
+pub const NOISE_MM: f64 = 0.5;
+
+/// Default fraction of pixels with no data.
+pub const HOLES: f64 = 0.02;
+
 /// The synthetic finger's settings.
 #[derive(Debug, Clone, Copy)]
 pub struct FingerSim {
@@ -73,9 +82,9 @@ impl FingerSim {
         Self {
             setup,
             intr,
-            rate_hz: 90.0,
-            noise_mm: 0.5,
-            holes: 0.02,
+            rate_hz: RATE_HZ,
+            noise_mm: NOISE_MM,
+            holes: HOLES,
             semi_axes_mm: [8.0, 12.0, 7.0],
             rest_depth_mm: 4.0,
             second_object: None,

@@ -4,15 +4,16 @@
 //! for the finger surface's depth profile and streamed to a device, which
 //! re-plans its circle when that profile moves.
 //!
-//! [`TrackRun::open`] checks the [`Options`] and opens the source (a bad
-//! option is an [`InputError`] naming its flag); [`TrackRun::run`] tracks
-//! until the source ends or a stop is requested ([`crate::stop`]), hands
-//! every output line to the caller as it comes and returns the [`Report`].
+//! The [`Options`] are typed: one [`Source`] of four, each value checked
+//! when made (an [`InputError`] naming its flag). [`TrackRun::open`]
+//! checks what spans them (a scene but for the synthetic finger, a device
+//! for `--replan`) and opens the source; [`TrackRun::run`] tracks until
+//! the source ends or a stop is requested ([`crate::stop`]), hands every
+//! output line to the caller as it comes and returns the [`Report`].
 //! The session prints nothing itself: the caller prints the lines, the
 //! warnings and the closing summary.
 
 use std::cell::RefCell;
-use std::path::PathBuf;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
@@ -20,7 +21,6 @@ use anyhow::Context as _;
 
 use super::contact::Tracker;
 use super::intrinsics::Intrinsics;
-use super::presence::Hysteresis;
 use super::source::{Frame, FrameSource, Recorder};
 use super::surface::Replanner;
 use super::{FrameResult, Pipeline};
@@ -35,68 +35,13 @@ use crate::sense::stream::Sample;
 use crate::sense::stream::filter::{FilterKind, Passthrough};
 use crate::sense::stream::run::{Feed, Next, Pace, StreamReport, stream};
 
+mod options;
 mod replan;
 mod source_open;
 
-use replan::{DeviceReplan, parse_z_profile};
+pub use options::{Options, Plot, Source, SyntheticFinger, ZProfile};
+use replan::DeviceReplan;
 use source_open::open_source;
-
-/// What a session tracks and how: the `lmhost track` flags as plain
-/// values (the error messages name those flags).
-#[derive(Debug, Clone)]
-pub struct Options {
-    /// Scene with `[camera]` and `[tracking]` (needed but for the
-    /// synthetic finger, which falls back to a setup about its centre).
-    pub scene: Option<PathBuf>,
-    /// Source: recorded depth frames (`.npy`, uint16, frames × height ×
-    /// width).
-    pub depth: Option<PathBuf>,
-    /// Time stamps of `depth` [default: beside it, else 90 fps].
-    pub timestamps: Option<PathBuf>,
-    /// Camera intrinsics TOML [default: beside `depth`; the synthetic
-    /// finger: a D435 at 848 × 480; a stream: checked against its own].
-    pub intrinsics: Option<PathBuf>,
-    /// Source: the synthetic finger, with ground truth.
-    pub synthetic: bool,
-    /// Synthetic finger: seconds to render, in (0, 3600] [default: 6].
-    pub seconds: Option<f64>,
-    /// Synthetic finger: depth noise (mm, 1 σ), in [0, 50] [default: 0.5].
-    pub noise_mm: Option<f64>,
-    /// Synthetic finger: fraction of pixels with no data, in [0, 1]
-    /// [default: 0.02].
-    pub holes: Option<f64>,
-    /// Source: a live RealSense camera.
-    pub camera: bool,
-    /// Source: an LMDEPTH1 stream from this file (`-` = stdin).
-    pub stream: Option<PathBuf>,
-    /// Save the frames as this `.npy`, intrinsics and time stamps beside.
-    pub record: Option<PathBuf>,
-    /// Replay as fast as possible instead of at the recorded speed.
-    pub fast: bool,
-    /// One JSON object per frame instead of a summary line per second.
-    pub json: bool,
-    /// Write a PNG of one frame into this directory.
-    pub plot: Option<PathBuf>,
-    /// The frame to plot [default: the first with a contact area].
-    pub plot_frame: Option<u64>,
-    /// Centroid filter [default: gaussian with `device`, else none].
-    pub filter: Option<FilterKind>,
-    /// `RADIUS_MM,STEPS`: measure the finger surface's depth along that
-    /// circle about the centroid.
-    pub z_profile: Option<String>,
-    /// Re-plan threshold for `z_profile` (mm).
-    pub replan_mm: f64,
-    /// Upload and play the re-planned circle on the device.
-    pub replan: bool,
-    /// Consecutive frames with a contact area that open the gate, 1..=90.
-    pub enter_frames: u32,
-    /// Consecutive frames without one that close it, 1..=90.
-    pub leave_frames: u32,
-    /// The centres go to a device given to [`TrackRun::run`]: the default
-    /// filter is gaussian, frames are not paced and every line shows the
-    /// gated, filtered centre.
-    pub device: bool,
-}
 
 /// Plans the device's stimulus with a measured depth profile (mm along
 /// the LM plane's c axis, one value per step): the caller's stimulus, on
@@ -109,7 +54,7 @@ pub struct Device<'a> {
     pub backend: &'a mut dyn Backend,
     /// Stop it at the end (an AUTD3, which lmhost started playing).
     pub silence_at_end: bool,
-    /// With [`Options::replan`]: how to plan a measured profile (its
+    /// With [`ZProfile::replan`]: how to plan a measured profile (its
     /// length is the `--z-profile` step count).
     pub replan: Option<Replan<'a>>,
 }
@@ -146,22 +91,21 @@ impl TrackRun {
     /// session cleanly ([`crate::stop::graceful`]), and the run's time
     /// counts (opening the device included).
     pub fn open(opts: Options) -> anyhow::Result<Self> {
-        for (name, v) in [
-            ("--enter-frames", opts.enter_frames),
-            ("--leave-frames", opts.leave_frames),
-        ] {
-            if !(1..=90).contains(&v) {
-                crate::bad_input!("{name} {v} must be between 1 and 90");
-            }
-        }
         let scene = Scene::load_or_default(opts.scene.as_deref())?;
-        if opts.scene.is_none() && !opts.synthetic {
+        let synthetic = matches!(opts.source, Source::Synthetic { .. });
+        if opts.scene.is_none() && !synthetic {
             crate::bad_input!("--scene is needed: its [camera] and [tracking] place the box");
+        }
+        let replan = opts.z_profile.is_some_and(|z| z.replan());
+        if replan && !opts.device {
+            crate::bad_input!(
+                "--replan needs --port: the re-planned stimulus is uploaded to the device"
+            );
         }
         // Every source ends on Ctrl-C / SIGTERM: the recording is finished,
         // the device muted and the report printed.
         crate::stop::graceful();
-        let (src, setup) = open_source(&opts, &scene)?;
+        let (src, setup) = open_source(&opts.source, &scene)?;
         let intr = src.intrinsics();
         let filter = opts.filter.unwrap_or(if opts.device {
             FilterKind::Gaussian
@@ -170,29 +114,21 @@ impl TrackRun {
         });
         let tracker = Tracker::new(intr, setup);
         let hopeless = super::check_rig(&tracker).err();
-        let pipe = Pipeline::new(
-            tracker,
-            Hysteresis::new(opts.enter_frames, opts.leave_frames),
-            filter.build(),
-        );
+        let pipe = Pipeline::new(tracker, opts.gate, filter.build());
         let rec = match &opts.record {
             Some(p) => Some(Recorder::create(p, intr, src.colour_camera())?),
             None => None,
         };
-        if let Some(d) = &opts.plot {
-            crate::files::output_dir("--plot", d)?;
+        if let Some(p) = &opts.plot {
+            crate::files::output_dir("--plot", &p.dir)?;
         }
-        let z_profile = match &opts.z_profile {
-            None => None,
-            Some(spec) => Some(parse_z_profile(spec, opts.replan_mm)?),
-        };
         let live = src.live();
-        let replanner = match (&z_profile, opts.replan) {
-            (Some(_), true) => Some(DeviceReplan::new(&scene, &setup)?),
-            _ => None,
+        let replanner = match replan {
+            true => Some(DeviceReplan::new(&scene, &setup)?),
+            false => None,
         };
         let run = Run {
-            z_profile,
+            z_profile: opts.z_profile.map(|z| (z, Replanner::new(z.replan_mm()))),
             replans: 0,
             pending: replanner.as_ref().map(|_| Rc::new(RefCell::new(None))),
             src,
@@ -202,7 +138,7 @@ impl TrackRun {
             show_filtered: opts.device || opts.filter.is_some(),
             paced: !opts.fast && !live && !opts.device,
             start: None,
-            plot_at: opts.plot_frame,
+            plot_at: opts.plot.as_ref().and_then(|p| p.frame),
             plot_frame: None,
             want_plot: opts.plot.is_some(),
             tally: Tally::default(),
@@ -252,10 +188,10 @@ impl TrackRun {
         &self.scene
     }
 
-    /// The circle `--z-profile` samples the surface on: radius (mm) and
-    /// steps (a re-plan's stimulus has that radius and step count).
-    pub fn z_profile_circle(&self) -> Option<(f64, usize)> {
-        self.run.z_profile.as_ref().map(|(r, n, _)| (*r, *n))
+    /// The surface's depth profile, if measured: its circle is a
+    /// re-plan's radius and step count.
+    pub fn z_profile(&self) -> Option<&ZProfile> {
+        self.run.z_profile.as_ref().map(|(z, _)| z)
     }
 
     /// Tracks every frame until the source ends or a stop is requested,
@@ -318,28 +254,26 @@ impl TrackRun {
         let seconds = self.started.elapsed().as_secs_f64();
         let opts = &self.opts;
         let run = &mut self.run;
-        if let Some(r) = run.rec.take() {
+        if let (Some(r), Some(path)) = (run.rec.take(), &opts.record) {
             let n = r.finish()?;
             if !opts.json {
-                print(&format!(
-                    "recorded {n} frames to {}",
-                    opts.record.as_ref().expect("recording").display()
-                ))?;
+                print(&format!("recorded {n} frames to {}", path.display()))?;
             }
         }
-        if let (Some(dir), Some((i, depth))) = (&opts.plot, &run.plot_frame) {
-            let path = dir.join(format!("track_frame_{i}.png"));
+        let plot = opts.plot.as_ref();
+        if let (Some(p), Some((i, depth))) = (plot, &run.plot_frame) {
+            let path = p.dir.join(format!("track_frame_{i}.png"));
             super::plot::frame_png(&run.pipe.tracker, depth, &path)?;
             if !opts.json {
                 print(&format!("plot {}", path.display()))?;
             }
-        } else if let (Some(_), Some(n)) = (&opts.plot, opts.plot_frame) {
+        } else if let Some(n) = plot.and_then(|p| p.frame) {
             crate::bad_input!("--plot-frame {n} is beyond the {} frames", run.tally.frames);
         }
         let stopped = crate::stop::requested();
         let t = &run.tally;
         let mut warnings = Vec::new();
-        if opts.plot.is_some() && run.plot_frame.is_none() && opts.plot_frame.is_none() {
+        if plot.is_some_and(|p| p.frame.is_none()) && run.plot_frame.is_none() {
             warnings.push(format!(
                 "--plot wrote nothing: the run had no frame ({} frames)",
                 t.frames
@@ -366,7 +300,7 @@ impl TrackRun {
             t.track_p_us(99.0),
             self.filter.name()
         )];
-        if opts.synthetic {
+        if matches!(opts.source, Source::Synthetic { .. }) {
             summary.push(format!(
                 "vs ground truth: centroid error {:.3} mm RMS over {} frames, presence wrong on {} frames away from transitions",
                 (t.err2 / t.err_n.max(1) as f64).sqrt(),
@@ -374,10 +308,12 @@ impl TrackRun {
                 t.presence_wrong
             ));
         }
-        if run.z_profile.is_some() {
+        if let Some((z, _)) = &run.z_profile {
             summary.push(format!(
                 "surface depth profile: {} re-plans above {} mm in {} frames",
-                run.replans, opts.replan_mm, t.frames
+                run.replans,
+                z.replan_mm(),
+                t.frames
             ));
         }
         if let Some(r) = &self.replanner {
@@ -459,7 +395,7 @@ impl Tally {
 
 /// The frame loop's state.
 struct Run {
-    z_profile: Option<(f64, usize, Replanner)>,
+    z_profile: Option<(ZProfile, Replanner)>,
     replans: u64,
     /// The latest re-planned profile not yet uploaded (with `replan`).
     pending: Option<Rc<RefCell<Option<Vec<f64>>>>>,
@@ -579,12 +515,18 @@ impl Run {
     /// The relative depth profile about the raw centroid, and whether a
     /// re-plan is due.
     fn z_profile(&mut self, frame: &Frame, r: &FrameResult) -> Option<(Vec<f64>, bool)> {
-        let (radius, steps, replan) = self.z_profile.as_mut()?;
+        let (z, replan) = self.z_profile.as_mut()?;
         let c = r.centroid_mm()?;
         let tb = &self.pipe.tracker.setup().track_box;
         let rel = geom::sub(c, tb.center_mm);
         let ab = [geom::dot(tb.axes[0], rel), geom::dot(tb.axes[1], rel)];
-        let prof = super::surface::profile(&self.pipe.tracker, &frame.depth, ab, *radius, *steps);
+        let prof = super::surface::profile(
+            &self.pipe.tracker,
+            &frame.depth,
+            ab,
+            z.radius_mm(),
+            z.steps(),
+        );
         let rel = super::surface::relative(&prof)?;
         let due = replan.update(&rel);
         self.replans += due as u64;

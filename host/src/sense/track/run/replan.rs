@@ -1,39 +1,14 @@
-//! `--replan`: the depth profile's parse and the uploads of re-planned
-//! stimuli to the device.
+//! `--replan`: the uploads of re-planned stimuli to the device.
 
 use std::cell::RefCell;
 
 use anyhow::Context as _;
 
 use crate::device::backend::Backend;
-use crate::error::InputError;
 use crate::geom;
 use crate::plan::scene::Scene;
 use crate::plan::sequence::Plan;
 use crate::sense::track::camera::CameraSetup;
-use crate::sense::track::surface::Replanner;
-
-/// Parses `--z-profile RADIUS_MM,STEPS` and checks `--replan-mm`.
-pub(super) fn parse_z_profile(
-    spec: &str,
-    replan_mm: f64,
-) -> anyhow::Result<(f64, usize, Replanner)> {
-    let bad = || {
-        InputError::new(format!(
-            "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
-        ))
-    };
-    let (r, n) = spec.split_once(',').ok_or_else(bad)?;
-    let r: f64 = r.trim().parse().map_err(|_| bad())?;
-    let n: usize = n.trim().parse().map_err(|_| bad())?;
-    if !(r > 0.0 && r <= 20.0 && (1..=1000).contains(&n)) {
-        return Err(bad().into());
-    }
-    if !(replan_mm.is_finite() && replan_mm >= 0.0) {
-        crate::bad_input!("--replan-mm {} must be ≥ 0", replan_mm);
-    }
-    Ok((r, n, Replanner::new(replan_mm)))
-}
 
 /// Uploads re-planned depth profiles to the device (`replan`), planned by
 /// the caller ([`Replan`](super::Replan): the session's stimulus on the device's grid).

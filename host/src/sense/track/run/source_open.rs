@@ -1,9 +1,10 @@
-//! Opening `lmhost track`'s frame source: exactly one of a recording, the
-//! synthetic finger, the camera or a frame stream, and the camera setup it
-//! is seen with.
+//! Opening `lmhost track`'s frame source: a recording, the synthetic
+//! finger, the camera or a frame stream, and the camera setup it is seen
+//! with.
 
-use super::Options;
-use crate::limits::show;
+use std::path::Path;
+
+use super::options::{Source, SyntheticFinger};
 use crate::plan::scene::Scene;
 use crate::sense::track::camera::CameraSetup;
 use crate::sense::track::intrinsics::Intrinsics;
@@ -11,104 +12,86 @@ use crate::sense::track::settings_file::SettingsFile as _;
 use crate::sense::track::source::{self, FrameSource};
 use crate::sense::track::synth::{FingerSim, background_of};
 
-/// The source `opts` name (exactly one) and the setup it is seen with.
+/// The frame source `src` names and the setup it is seen with.
 pub(super) fn open_source(
-    opts: &Options,
+    src: &Source,
     scene: &Scene,
 ) -> anyhow::Result<(Box<dyn FrameSource>, CameraSetup)> {
-    let picked = [
-        opts.depth.is_some(),
-        opts.synthetic,
-        opts.camera,
-        opts.stream.is_some(),
-    ]
-    .iter()
-    .filter(|b| **b)
-    .count();
-    if picked != 1 {
-        crate::bad_input!(
-            "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
-        );
+    match src {
+        Source::Synthetic { finger, intrinsics } => synthetic(finger, intrinsics.as_deref(), scene),
+        Source::Recorded {
+            depth,
+            timestamps,
+            intrinsics,
+        } => {
+            let setup = CameraSetup::of_scene(scene)?;
+            let r = source::Replay::open_with_defaults(
+                depth,
+                intrinsics.as_deref(),
+                timestamps.as_deref(),
+            )?;
+            Ok((Box::new(r), setup))
+        }
+        Source::Camera { intrinsics } => live(scene, intrinsics.as_deref(), || {
+            Ok(Box::new(source::camera()?))
+        }),
+        Source::Stream { path, intrinsics } => live(scene, intrinsics.as_deref(), || stream(path)),
     }
-    for (flag, given) in [
-        ("--seconds", opts.seconds.is_some()),
-        ("--noise-mm", opts.noise_mm.is_some()),
-        ("--holes", opts.holes.is_some()),
-    ] {
-        if given && !opts.synthetic {
-            crate::bad_input!(
-                "{flag} applies to --synthetic only (it renders the synthetic finger)"
-            );
-        }
-    }
-    if opts.synthetic {
-        let seconds = opts.seconds.unwrap_or(6.0);
-        let noise_mm = opts.noise_mm.unwrap_or(0.5);
-        let holes = opts.holes.unwrap_or(0.02);
-        if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
-            crate::bad_input!("--seconds {} must be in (0, 3600]", show(seconds));
-        }
-        if !(noise_mm.is_finite() && (0.0..=50.0).contains(&noise_mm)) {
-            crate::bad_input!("--noise-mm {} must be in [0, 50]", show(noise_mm));
-        }
-        if !(holes.is_finite() && (0.0..=1.0).contains(&holes)) {
-            crate::bad_input!("--holes {} must be in [0, 1]", show(holes));
-        }
-        let intr = match &opts.intrinsics {
-            Some(p) => Intrinsics::load(p)?,
-            None => Intrinsics::D435_848X480,
-        };
-        let setup = CameraSetup::of_scene_or_default(scene);
-        let mut sim = FingerSim::new(setup, intr, background_of(scene));
-        sim.noise_mm = noise_mm;
-        sim.holes = holes;
-        if (seconds * sim.rate_hz).round() < 1.0 {
-            crate::bad_input!(
-                "--seconds {} renders no frame at {} fps; give at least {} s",
-                show(seconds),
-                sim.rate_hz,
-                show(0.5 / sim.rate_hz)
-            );
-        }
-        return Ok((Box::new(source::Synthetic::new(sim, seconds)), setup));
-    }
-    let setup = CameraSetup::of_scene(scene)?;
-    if let Some(d) = &opts.depth {
-        let r = source::Replay::open_with_defaults(
-            d,
-            opts.intrinsics.as_deref(),
-            opts.timestamps.as_deref(),
-        )?;
-        return Ok((Box::new(r), setup));
-    }
-    // Live streams are read on their own thread (the device's
-    // housekeeping goes on while no frame arrives) and held to the
-    // live deadlines (source::HEADER_DEADLINE, source::FRAME_DEADLINE).
-    let src: Box<dyn FrameSource> = if opts.camera {
-        Box::new(source::camera()?)
-    } else {
-        match opts.stream.as_deref() {
-            Some(p) if p.as_os_str() == "-" => {
-                Box::new(source::Live::start("stdin", None, || {
-                    source::Stream::new(std::io::stdin(), "stdin")
-                })?)
-            }
-            Some(p) => {
-                let f = crate::files::open_input("--stream file", p)?;
-                let what = p.display().to_string();
-                Box::new(source::Live::start(&what.clone(), None, move || {
-                    source::Stream::new(std::io::BufReader::new(f), &what)
-                })?)
-            }
-            None => crate::bad_input!(
-                "give exactly one source: --depth FILE.npy, --synthetic, --camera or --stream FILE"
-            ),
-        }
+}
+
+/// The synthetic finger, rendered for `intrinsics` [default: a D435 at
+/// 848 × 480] in `scene`'s setup or one about its centre.
+fn synthetic(
+    finger: &SyntheticFinger,
+    intrinsics: Option<&Path>,
+    scene: &Scene,
+) -> anyhow::Result<(Box<dyn FrameSource>, CameraSetup)> {
+    let intr = match intrinsics {
+        Some(p) => Intrinsics::load(p)?,
+        None => Intrinsics::D435_848X480,
     };
-    if let Some(ip) = &opts.intrinsics {
+    let setup = CameraSetup::of_scene_or_default(scene);
+    let mut sim = FingerSim::new(setup, intr, background_of(scene));
+    sim.noise_mm = finger.noise_mm();
+    sim.holes = finger.holes();
+    Ok((
+        Box::new(source::Synthetic::new(sim, finger.seconds())),
+        setup,
+    ))
+}
+
+/// A live source (`open`), once the scene's setup is known to be good;
+/// given `intrinsics` are checked against the stream's own.
+fn live(
+    scene: &Scene,
+    intrinsics: Option<&Path>,
+    open: impl FnOnce() -> anyhow::Result<Box<dyn FrameSource>>,
+) -> anyhow::Result<(Box<dyn FrameSource>, CameraSetup)> {
+    let setup = CameraSetup::of_scene(scene)?;
+    let src = open()?;
+    if let Some(ip) = intrinsics {
         let given = Intrinsics::load(ip)?;
         let got = src.intrinsics();
         given.check_frames(got.width, got.height, "the stream")?;
     }
     Ok((src, setup))
+}
+
+/// An LMDEPTH1 stream from `path` (`-` = stdin), read on its own thread
+/// (the device's housekeeping goes on while no frame arrives) and held to
+/// the live deadlines (source::HEADER_DEADLINE, source::FRAME_DEADLINE),
+/// as the camera is.
+fn stream(path: &Path) -> anyhow::Result<Box<dyn FrameSource>> {
+    if path.as_os_str() == "-" {
+        return Ok(Box::new(source::Live::start("stdin", None, || {
+            source::Stream::new(std::io::stdin(), "stdin")
+        })?));
+    }
+    let f = crate::files::open_input("--stream file", path)?;
+    let what = path.display().to_string();
+    Ok(Box::new(source::Live::start(
+        &what.clone(),
+        None,
+        move || source::Stream::new(std::io::BufReader::new(f), &what),
+    )?))
 }

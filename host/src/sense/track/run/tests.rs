@@ -1,3 +1,5 @@
+use std::path::PathBuf;
+
 use super::*;
 
 fn synthetic(json: bool) -> Options {
@@ -6,27 +8,13 @@ fn synthetic(json: bool) -> Options {
             env!("CARGO_MANIFEST_DIR"),
             "/../scenes/paper.toml"
         ))),
-        depth: None,
-        timestamps: None,
-        intrinsics: None,
-        synthetic: true,
-        seconds: Some(0.2),
-        noise_mm: None,
-        holes: None,
-        camera: false,
-        stream: None,
-        record: None,
         fast: true,
         json,
-        plot: None,
-        plot_frame: None,
-        filter: None,
-        z_profile: Some("3,8".into()),
-        replan_mm: 0.3,
-        replan: false,
-        enter_frames: 2,
-        leave_frames: 2,
-        device: false,
+        z_profile: Some(ZProfile::parse("3,8", 0.3, false).unwrap()),
+        ..Options::new(Source::Synthetic {
+            finger: SyntheticFinger::new(Some(0.2), None, None).unwrap(),
+            intrinsics: None,
+        })
     }
 }
 
@@ -54,17 +42,52 @@ fn a_synthetic_session_prints_a_line_per_frame_and_scores_the_truth() {
 }
 
 #[test]
-fn bad_options_are_input_errors_naming_the_flag() {
-    let mut o = synthetic(false);
-    o.enter_frames = 0;
-    let e = TrackRun::open(o).err().unwrap();
+fn a_scene_is_needed_but_for_the_synthetic_finger() {
+    let mut o = Options::new(Source::Camera { intrinsics: None });
+    let e = TrackRun::open(o.clone()).err().unwrap();
     assert!(e.downcast_ref::<InputError>().is_some());
-    assert_eq!(e.to_string(), "--enter-frames 0 must be between 1 and 90");
-    let mut o = synthetic(false);
-    o.z_profile = Some("3".into());
-    let e = TrackRun::open(o).err().unwrap().to_string();
-    assert!(
-        e.starts_with("--z-profile `3` must be RADIUS_MM,STEPS"),
-        "{e}"
+    assert_eq!(
+        e.to_string(),
+        "--scene is needed: its [camera] and [tracking] place the box"
     );
+    o.source = Source::Synthetic {
+        finger: SyntheticFinger::new(Some(0.1), None, None).unwrap(),
+        intrinsics: None,
+    };
+    assert!(TrackRun::open(o).is_ok());
+}
+
+#[test]
+fn a_replan_without_a_device_is_refused() {
+    let mut o = synthetic(false);
+    o.z_profile = Some(ZProfile::parse("3,8", 0.3, true).unwrap());
+    let e = TrackRun::open(o.clone()).err().unwrap();
+    assert!(e.downcast_ref::<InputError>().is_some());
+    assert_eq!(
+        e.to_string(),
+        "--replan needs --port: the re-planned stimulus is uploaded to the device"
+    );
+    o.device = true;
+    let run = TrackRun::open(o).unwrap();
+    assert!(run.z_profile().is_some_and(|z| z.replan()));
+}
+
+#[test]
+fn a_plot_frame_beyond_the_run_names_the_flag() {
+    // Not made beforehand: a fresh folder may reuse the inode of an input
+    // another test read and deleted, which `--plot` would then refuse.
+    let dir = crate::files::scratch("track-run-plot-frame").join("plots");
+    let mut o = synthetic(false);
+    o.plot = Some(Plot {
+        dir: dir.clone(),
+        frame: Some(1000),
+    });
+    let e = TrackRun::open(o)
+        .unwrap()
+        .run(None, &mut |_| Ok(()))
+        .unwrap_err();
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no plot");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(e.downcast_ref::<InputError>().is_some());
+    assert_eq!(e.to_string(), "--plot-frame 1000 is beyond the 18 frames");
 }
