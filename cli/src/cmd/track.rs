@@ -1,6 +1,6 @@
 //! `lmhost track`: depth frames in, the paper's contact-area centroid out,
 //! optionally filtered, gated and streamed to the device
-//! ([`lmhost::sense::track::session`] does the work).
+//! ([`lmhost::sense::track::run`] does the work).
 
 use std::path::PathBuf;
 

@@ -145,10 +145,12 @@ pub fn open_input(what: &str, path: &Path) -> Result<File, InputError> {
     if let Some(k) = kind(&m) {
         return Err(cannot(k));
     }
-    INPUTS
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .push((id(&m), path.to_owned()));
+    // Once per file, however often it is read (a session reloading its
+    // library): the list stays as long as the distinct inputs.
+    let mut inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
+    if !inputs.iter().any(|(i, _)| *i == id(&m)) {
+        inputs.push((id(&m), path.to_owned()));
+    }
     Ok(f)
 }
 
@@ -174,9 +176,11 @@ pub fn read_input(what: &str, path: &Path, max: u64) -> Result<Vec<u8>, InputErr
     Ok(bytes)
 }
 
-/// The input `path` is, if it exists and was opened as one.
+/// The input `path` is, if it exists and was opened as one. Inputs are
+/// regular files, so anything else at `path` (a fresh output folder that
+/// the file system gave a deleted input's identity) is not one.
 fn input_named_by(path: &Path) -> Option<PathBuf> {
-    let m = std::fs::metadata(path).ok()?;
+    let m = std::fs::metadata(path).ok().filter(Metadata::is_file)?;
     let inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
     inputs
         .iter()

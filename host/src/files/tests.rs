@@ -103,6 +103,28 @@ fn an_output_onto_an_input_is_refused_also_through_a_link() {
     assert!(e.unwrap_err().to_string().contains("same file"));
 }
 
+#[test]
+fn a_folder_given_a_deleted_inputs_identity_is_not_that_input() {
+    // The file system reuses a deleted file's identity (device, inode):
+    // a fresh output folder can get the one an input read and deleted
+    // earlier in the process had. Inputs are regular files, so only a
+    // regular file can be one.
+    let d = scratch("reused");
+    let out = d.join("out");
+    std::fs::create_dir(&out).unwrap();
+    let file = d.join("still.toml");
+    std::fs::write(&file, b"x = 1\n").unwrap();
+    {
+        let mut inputs = INPUTS.lock().unwrap();
+        for p in [&out, &file] {
+            inputs.push((id(&std::fs::metadata(p).unwrap()), d.join("gone.toml")));
+        }
+    }
+    output_dir("--out", &out).unwrap();
+    let e = not_an_input("--out", &file).unwrap_err();
+    assert!(e.to_string().contains("gone.toml"), "{e}");
+}
+
 fn mode(p: &Path) -> u32 {
     use std::os::unix::fs::PermissionsExt as _;
     std::fs::metadata(p).unwrap().permissions().mode() & 0o7777
