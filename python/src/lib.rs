@@ -35,7 +35,7 @@ use lmhost::sense::track::Pipeline;
 use lmhost::sense::track::camera::CameraSetup;
 use lmhost::sense::track::contact::Tracker as ContactTracker;
 use lmhost::sense::track::intrinsics::Intrinsics;
-use lmhost::sense::track::presence::Hysteresis;
+use lmhost::sense::track::presence::{Hysteresis, MAX_FRAMES};
 
 mod args;
 mod device;
@@ -470,11 +470,11 @@ impl Tracker_ {
         enter_frames: Option<&Bound<'_, PyAny>>,
         leave_frames: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        // At least one frame each: `Hysteresis::new` would raise a 0 to 1
-        // without a word.
+        // The range `lmhost track` allows (`Hysteresis::new` would raise a
+        // 0 to 1 without a word).
         let h = Hysteresis::default();
         let frames = |name, v, default: u32| -> PyResult<u32> {
-            Ok(args::opt_int_in(name, v, 1, i64::from(u32::MAX))?.unwrap_or(default))
+            Ok(args::opt_int_in(name, v, 1, i64::from(MAX_FRAMES))?.unwrap_or(default))
         };
         let enter_frames = frames("enter_frames", enter_frames, h.enter)?;
         let leave_frames = frames("leave_frames", leave_frames, h.leave)?;

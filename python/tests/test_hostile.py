@@ -248,7 +248,7 @@ def test_steps_3_7_is_refused_not_truncated():
 
 
 @pytest.mark.parametrize("name", ["enter_frames", "leave_frames"])
-@pytest.mark.parametrize("v", [0, -1, 2**32, 2**70, 1.5, 2.0, [2], "2"], ids=repr)
+@pytest.mark.parametrize("v", [0, -1, 91, 2**32, 2**70, 1.5, 2.0, [2], "2"], ids=repr)
 def test_bad_tracker_frames_are_value_errors(root, name, v):
     with pytest.raises(ValueError, match=name):
         lmhost.Tracker(lmhost.Scene.load(root / "scenes/paper.toml"), TRACKER_INTR, **{name: v})
