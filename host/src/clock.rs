@@ -215,31 +215,60 @@ mod tests {
         assert!(quantile(&[], 0.5).is_nan());
     }
 
+    /// A plain reference for the spread's figures, written apart from
+    /// [`quantile`]: sort, then interpolate between the two ranks around
+    /// `p`% of the way from the first to the last sample.
+    fn sort_and_index(v: &[f64], p: f64) -> f64 {
+        let mut v = v.to_vec();
+        v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        let rank = p / 100.0 * (v.len() - 1) as f64;
+        let (lo, hi) = (rank.floor() as usize, rank.ceil() as usize);
+        v[lo] + (rank - lo as f64) * (v[hi] - v[lo])
+    }
+
     #[test]
     fn a_spread_is_the_one_percentile_at_50_99_and_100() {
         assert_eq!(Spread::of([]), None);
-        assert_eq!(
-            Spread::of([7]),
-            Some(Spread {
-                p50: 7,
-                p99: 7,
-                max: 7
-            })
-        );
-        // A plain reference: sort, then the percentile of each figure on
-        // its own.
+        assert_eq!(Spread::of_f64([]), None);
+        let one = Spread {
+            p50: 7,
+            p99: 7,
+            max: 7,
+        };
+        assert_eq!(Spread::of([7]), Some(one));
+        // Against the reference on random data, of several sizes and
+        // spreads, in the order drawn (the summary sorts for itself).
         let mut r = crate::rng::SplitMix64::new(11);
-        for n in [2usize, 3, 10, 101, 1000] {
-            let v: Vec<u64> = (0..n).map(|_| r.next_u64() % 100_000).collect();
+        for n in [2usize, 3, 10, 101, 1000, 4096] {
+            let range = [10u64, 100_000, u64::from(u32::MAX)][n % 3];
+            let v: Vec<u64> = (0..n).map(|_| r.below(range)).collect();
+            let f: Vec<f64> = v.iter().map(|&x| x as f64).collect();
             let s = Spread::of(v.iter().copied()).unwrap();
-            assert_eq!(s.p50, percentile(v.iter().copied(), 50.0).unwrap());
-            assert_eq!(s.p99, percentile(v.iter().copied(), 99.0).unwrap());
+            let want = |p| sort_and_index(&f, p).round() as u64;
+            assert_eq!(
+                (s.p50, s.p99, s.max),
+                (want(50.0), want(99.0), want(100.0)),
+                "n {n}"
+            );
             assert_eq!(s.max, *v.iter().max().unwrap());
-            assert_eq!(s.ms().max, s.max as f64 / 1e3);
+            assert!(s.p50 <= s.p99 && s.p99 <= s.max);
+            assert_eq!(s.ms(), s.map(|us| us as f64 / 1e3));
+
+            let x: Vec<f64> = (0..n).map(|_| r.uniform(-5.0, 50.0)).collect();
+            let s = Spread::of_f64(x.iter().copied()).unwrap();
+            for (got, p) in [(s.p50, 50.0), (s.p99, 99.0), (s.max, 100.0)] {
+                assert!((got - sort_and_index(&x, p)).abs() < 1e-9, "n {n}, p{p}");
+            }
         }
+        // Interpolated, not the nearest rank: p99 of 1, 2, 3 is 2.98.
         let f = Spread::of_f64([3.0, 1.0, 2.0]).unwrap();
         assert_eq!((f.p50, f.max), (2.0, 3.0));
         assert!((f.p99 - 2.98).abs() < 1e-12);
+        assert_eq!(
+            f.describe(|v| format!("{v:.1} ms")),
+            "p50 2.0 ms, p99 3.0 ms, max 3.0 ms"
+        );
+        assert_eq!(Spread::<u64>::describe_or(None, |v| v.to_string()), "n/a");
     }
 
     #[test]
