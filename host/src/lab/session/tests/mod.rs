@@ -319,6 +319,24 @@ fn from_silence_a_resident_stimulus_starts_within_one_dwell() {
 }
 
 #[test]
+fn the_figures_summarise_onsets_and_switches_each_on_their_own() {
+    let clock = Clock::manual_at_us(1_000_000);
+    let mut d = driver(LIB, &Target::Lm, lm(&clock), &clock, Finger::None);
+    let s = d.session();
+    let f = s.figures();
+    assert_eq!((f.onset_ms, f.switch_ms), (None, None));
+    // Onsets of 1..=100 ms in a shuffled order (37 steps round 101), and
+    // three switches: known samples on the manual clock's own terms.
+    s.onset_us = (1..=100).map(|i| i * 37 % 101 * 1000).collect();
+    s.switch_us = vec![4_000, 1_000, 2_500];
+    let f = s.figures();
+    let spread = |p50, p99, max| Some(Spread { p50, p99, max });
+    assert_eq!((f.onsets, f.switches), (100, 3));
+    assert_eq!(f.onset_ms, spread(50.5, 99.01, 100.0), "{f:?}");
+    assert_eq!(f.switch_ms, spread(2.5, 3.97, 4.0), "{f:?}");
+}
+
+#[test]
 fn a_tracked_presentation_mutes_without_a_finger_and_sounds_with_one() {
     for (name, mut d, clock) in both(synthetic) {
         d.touch(false).unwrap();
