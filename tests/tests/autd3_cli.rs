@@ -168,6 +168,11 @@ fn demo_runs_on_the_emulator() {
         c.contains_key("latency_us") && c["latency_us"].is_null(),
         "{v}"
     );
+    let top = v.as_object().unwrap();
+    for key in ["playback", "link", "realtime_priority", "tracking"] {
+        assert!(top.contains_key(key) && top[key].is_null(), "{key}: {v}");
+    }
+    assert!(v["muting"]["mute_after_leave_ms"].is_null(), "{v}");
     assert_eq!(v["muting"]["muted_in_every_status_while_away"], true, "{v}");
     assert_eq!(
         v["muting"]["mute_reason_while_away"], "finger_absent",

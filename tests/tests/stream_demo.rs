@@ -11,7 +11,17 @@ fn demo_uploads_plays_streams_and_mutes() {
     let up = &v["upload"];
     assert!(up["wire_efficiency"].as_f64().unwrap() >= 0.95, "{v}");
     assert!(up["encoded_bytes"].as_u64().unwrap() < up["raw_bytes"].as_u64().unwrap());
-    assert!(v["steps_played"].as_u64().unwrap() > 0, "{v}");
+    let p = &v["playback"];
+    assert!(p["steps_played"].as_u64().unwrap() > 0, "{v}");
+    let late = |k: &str| {
+        p["step_late_us"][k]
+            .as_u64()
+            .unwrap_or_else(|| panic!("{k}: {v}"))
+    };
+    assert!(
+        late("p50") <= late("p99") && late("p99") <= late("max"),
+        "{v}"
+    );
     let c = &v["centroids"];
     // 2 s at 90 fps, the finger away for 20 % of it: every update with the
     // finger present reaches an output frame.

@@ -203,8 +203,8 @@ pub struct Report {
     pub readback_mismatches: Option<u64>,
     /// The upload.
     pub upload: UploadFigures,
-    /// The simulated device's playback.
-    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    /// The simulated device's playback (`null` on other devices: an
+    /// object of its own, so every backend's report has the same keys).
     pub playback: Option<Playback>,
     /// Centroids.
     pub centroids: Centroids,
