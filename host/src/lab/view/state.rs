@@ -82,8 +82,8 @@ impl Question {
 pub struct Figures {
     /// Frames encoded.
     pub frames: u64,
-    /// Median JPEG encode time (ms).
-    pub encode_p50_ms: Option<f64>,
+    /// JPEG encode time (ms).
+    pub encode_ms: Option<Spread<f64>>,
     /// Frames drawn by browsers (acknowledged).
     pub drawn: u64,
     /// Latency, frame in → drawn (ms).
@@ -365,7 +365,7 @@ impl Shared {
         let s = self.lock();
         Figures {
             frames: s.encoded.as_ref().map_or(0, |e| e.seq),
-            encode_p50_ms: Spread::of(s.encode_us.iter().copied()).map(|e| e.ms().p50),
+            encode_ms: Spread::of(s.encode_us.iter().copied()).map(Spread::ms),
             drawn: s.drawn,
             latency_ms: Spread::of(s.latency_us.iter().copied()).map(Spread::ms),
             fps: s
