@@ -76,10 +76,12 @@ pub struct Run {
     #[serde(default)]
     pub port: String,
     /// What differed from the previous run's rig when `--resume-anyway`
-    /// went on regardless.
+    /// went on regardless; the key is absent from a run that needed no
+    /// override (the record holds what happened, and files written before
+    /// either key existed read back the same way).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resumed_anyway: Option<String>,
-    /// Experiment 3's stage and gauge, when the run had them.
+    /// Experiment 3's stage and gauge; absent from a run without them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub instruments: Option<String>,
 }
