@@ -21,6 +21,16 @@ fn stdin_csv_and_json_lines_all_reach_the_device() {
     let v = success_json(&out);
     assert_eq!(v["samples"], 51, "{v}");
     assert_eq!(v["acked"], 51);
+    // Each ack's latency, summarised: host receipt → device ack.
+    let ack = |k: &str| {
+        v["ack_us"][k]
+            .as_u64()
+            .unwrap_or_else(|| panic!("{k}: {v}"))
+    };
+    assert!(
+        0 < ack("p50") && ack("p50") <= ack("p99") && ack("p99") <= ack("max"),
+        "{v}"
+    );
     assert_eq!(v["device_last_seq"], v["last_seq"], "{v}");
     assert_eq!(v["device_state"], "Playing", "{v}");
 }
