@@ -6,7 +6,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 mod link_support;
-use link_support::{emulator_json, lmhost, run, scratch_dir, success_json};
+use link_support::{emulator_json, lmhost, run, scratch_dir, spread, success_json};
 
 fn one_line_error(o: &Output) -> String {
     let e = String::from_utf8_lossy(&o.stderr).to_string();
@@ -155,13 +155,7 @@ fn demo_runs_on_the_emulator() {
     );
     let applied = v["centroids"]["applied"].as_u64().unwrap();
     assert!(applied > 100, "90 fps for 2 s: {v}");
-    let ack = &v["centroids"]["correction_latency_us"];
-    let (p50, p99, max) = (
-        ack["p50"].as_u64().unwrap(),
-        ack["p99"].as_u64().unwrap(),
-        ack["max"].as_u64().unwrap(),
-    );
-    assert!(0 < p50 && p50 <= p99 && p99 <= max, "{v}");
+    assert!(spread(&v, &v["centroids"], "correction_latency_us")[0] > 0.0);
     // A figure the AUTD3 cannot give is null, not missing.
     let c = v["centroids"].as_object().unwrap();
     assert!(

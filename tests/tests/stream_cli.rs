@@ -5,7 +5,8 @@ use std::process::{Command, Stdio};
 
 mod link_support;
 use link_support::{
-    BRIEF_HOLD, Sim, assert_fields, json, lmhost, ok, run, stream_json, stream_stdin, success_json,
+    BRIEF_HOLD, Sim, assert_fields, json, lmhost, ok, run, spread, stream_json, stream_stdin,
+    success_json,
 };
 
 #[test]
@@ -22,15 +23,7 @@ fn stdin_csv_and_json_lines_all_reach_the_device() {
     assert_eq!(v["samples"], 51, "{v}");
     assert_eq!(v["acked"], 51);
     // Each ack's latency, summarised: host receipt → device ack.
-    let ack = |k: &str| {
-        v["ack_us"][k]
-            .as_u64()
-            .unwrap_or_else(|| panic!("{k}: {v}"))
-    };
-    assert!(
-        0 < ack("p50") && ack("p50") <= ack("p99") && ack("p99") <= ack("max"),
-        "{v}"
-    );
+    assert!(spread(&v, &v, "ack_us")[0] > 0.0, "{v}");
     assert_eq!(v["device_last_seq"], v["last_seq"], "{v}");
     assert_eq!(v["device_state"], "Playing", "{v}");
 }

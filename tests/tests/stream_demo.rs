@@ -1,7 +1,7 @@
 //! `lmhost demo`: the README's main job, run as a user would.
 
 mod link_support;
-use link_support::json;
+use link_support::{json, spread};
 
 #[test]
 fn demo_uploads_plays_streams_and_mutes() {
@@ -13,15 +13,7 @@ fn demo_uploads_plays_streams_and_mutes() {
     assert!(up["encoded_bytes"].as_u64().unwrap() < up["raw_bytes"].as_u64().unwrap());
     let p = &v["playback"];
     assert!(p["steps_played"].as_u64().unwrap() > 0, "{v}");
-    let late = |k: &str| {
-        p["step_late_us"][k]
-            .as_u64()
-            .unwrap_or_else(|| panic!("{k}: {v}"))
-    };
-    assert!(
-        late("p50") <= late("p99") && late("p99") <= late("max"),
-        "{v}"
-    );
+    spread(&v, p, "step_late_us");
     let c = &v["centroids"];
     // 2 s at 90 fps, the finger away for 20 % of it: every update with the
     // finger present reaches an output frame.
@@ -30,9 +22,7 @@ fn demo_uploads_plays_streams_and_mutes() {
     assert!((140..=146).contains(&applied), "{v}");
     // Centroid → the step that used it, and → the ack: each a spread.
     for key in ["latency_us", "correction_latency_us"] {
-        let l = &c[key];
-        let f = |k: &str| l[k].as_u64().unwrap_or_else(|| panic!("{key}.{k}: {v}"));
-        assert!(f("p50") <= f("p99") && f("p99") <= f("max"), "{v}");
+        assert!(spread(&v, c, key)[0] > 0.0, "{v}");
     }
     let m = &v["muting"];
     assert_eq!(m["muted_in_every_status_while_away"], true, "{v}");

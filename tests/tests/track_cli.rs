@@ -6,7 +6,7 @@ use std::process::Command;
 
 mod link_support;
 use link_support::{
-    Sim, assert_fields, json, lmhost, ok, run, run_stdin, scratch_dir, stream_json,
+    Sim, assert_fields, json, lmhost, ok, run, run_stdin, scratch_dir, spread, stream_json,
 };
 
 fn paper() -> String {
@@ -358,15 +358,7 @@ fn demo_tracks_synthetic_depth_frames() {
     let v = json(&["demo", "--tracking", "depth", "--seconds", "2", "--json"]);
     let t = &v["tracking"];
     assert!(t["centroid_error_rms_mm"].as_f64().unwrap() < 0.5, "{v}");
-    let us = |k: &str| {
-        t["track_us"][k]
-            .as_f64()
-            .unwrap_or_else(|| panic!("{k}: {v}"))
-    };
-    assert!(
-        0.0 < us("p50") && us("p50") <= us("p99") && us("p99") <= us("max"),
-        "{v}"
-    );
+    assert!(spread(&v, t, "track_us")[0] > 0.0, "{v}");
     assert_eq!(v["muting"]["muted_in_every_status_while_away"], true, "{v}");
     assert!(v["centroids"]["sent"].as_u64().unwrap() >= 170, "{v}");
 }

@@ -109,6 +109,24 @@ pub fn assert_fields(v: &serde_json::Value, keys: &[&str], want: serde_json::Val
     assert_eq!(serde_json::Value::Array(got), want, "{keys:?} of {v}");
 }
 
+/// The latency summary `key` of the JSON object `at` in the report `v`:
+/// `[p50, p99, max]`, asserted to be numbers in that order (a summary
+/// with its figures swapped or missing fails here, naming `key`).
+#[track_caller]
+pub fn spread(v: &serde_json::Value, at: &serde_json::Value, key: &str) -> [f64; 3] {
+    let f = |k: &str| {
+        at[key][k]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{key}.{k} is not a number: {v}"))
+    };
+    let s = [f("p50"), f("p99"), f("max")];
+    assert!(
+        s[0] <= s[1] && s[1] <= s[2],
+        "{key} {s:?} out of order: {v}"
+    );
+    s
+}
+
 /// `lmhost CMD --port autd3:emulator ARGS… --json`, its report parsed.
 pub fn emulator_json(cmd: &str, args: &[&str]) -> serde_json::Value {
     let mut all = vec![cmd, "--port", "autd3:emulator"];
