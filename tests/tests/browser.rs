@@ -177,7 +177,11 @@ impl Driver {
     fn until(&self, script: &str, max: Duration) {
         let t0 = Instant::now();
         while self.js(script) != serde_json::Value::Bool(true) {
-            assert!(t0.elapsed() < max, "waited {max:?} for `{script}`");
+            assert!(
+                t0.elapsed() < max,
+                "waited {max:?} for `{script}`; the page says {}",
+                self.js("return [document.getElementById('status').textContent, window.lmSent, window.lmAnswered]")
+            );
             std::thread::sleep(Duration::from_millis(50));
         }
     }
@@ -514,7 +518,19 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
             // ends the study and its view.
             figures = http(port, "GET", &format!("/state.json?token={token}"), None).1;
         }
-        d.click(&format!("#choice{pick}"));
+        if trial == 2 {
+            // A double click (both before the page hears back) sends one
+            // answer: the question goes off the page at the first.
+            let sent = d.js(&format!(
+                "const c = document.querySelector('#choice{pick}'); c.click(); c.click(); return window.lmSent;"
+            ));
+            assert_eq!(
+                sent, 2,
+                "answers sent by trial 2's double click and trial 1"
+            );
+        } else {
+            d.click(&format!("#choice{pick}"));
+        }
         if trial == 1 {
             // ... and frames change: the finger comes back for trial 2.
             let t0 = Instant::now();
@@ -527,12 +543,18 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
             }
         }
         // Taken: counted by the page when the view accepted it (the next
-        // question may replace the thanks before a poll sees them).
+        // question may replace the thanks before a poll sees them). The
+        // next trial waits for its question: the page took this one off
+        // when it was clicked, so a click never lands on an answered
+        // question (the view would refuse it, and the answer be lost).
         d.until(
-            &format!("return (window.lmAnswered || 0) >= {trial}"),
+            &format!("return window.lmAnswered >= {trial}"),
             Duration::from_secs(30),
         );
     }
+    // One answer sent and taken per trial, none refused.
+    let counts = d.js("return [window.lmSent, window.lmAnswered]");
+    assert_eq!(counts, serde_json::json!([30, 30]));
     assert!(
         radius_px_seen.windows(2).all(|w| w[1] > w[0]),
         "{radius_px_seen:?}"

@@ -26,8 +26,11 @@ fn demo_uploads_plays_streams_and_mutes() {
     }
     let m = &v["muting"];
     assert_eq!(m["muted_in_every_status_while_away"], true, "{v}");
-    assert!(m["mute_after_leave_ms"].is_number(), "{v}");
-    assert!(m["resume_after_return_ms"].is_number(), "{v}");
+    // Always there: 0 when stale tracking had muted the output before
+    // the finger was seen to leave (a loaded machine's late samples).
+    for k in ["mute_after_leave_ms", "resume_after_return_ms"] {
+        assert!(m[k].as_f64().is_some_and(|ms| ms >= 0.0), "{k}: {v}");
+    }
     assert!(
         m["playing_statuses_while_present"].as_u64().unwrap() > 0,
         "{v}"

@@ -354,9 +354,17 @@ fn playback(s0: &Status, s1: &Status, steps: usize, elapsed_us: u64, st: &SimSta
     }
 }
 
-/// ms from `after` to the first mute change to `muted` the device made.
+/// ms from `after` until the device's output was `muted` (or sounding):
+/// 0 when it already was at `after` (its last change before then was to
+/// that state: tracking that went stale first, under load, mutes the
+/// output before the finger is seen to leave), else to its first change
+/// to that state after. `None` when it never got there.
 fn first_change(st: &SimStats, after: Option<u64>, muted: bool) -> Option<f64> {
     let a = after?;
+    let before = st.mute_changes.iter().rev().find(|(t, _)| *t <= a);
+    if before.is_some_and(|(_, m)| *m == muted) {
+        return Some(0.0);
+    }
     st.mute_changes
         .iter()
         .find(|(t, m)| *t >= a && *m == muted)
@@ -388,4 +396,45 @@ pub fn write_field(dir: &std::path::Path) -> anyhow::Result<String> {
         dir,
     )?;
     Ok(sim.text_summary(&plan, crate::plan::trajectory::paper::RADIUS_MM))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn changes(c: &[(u64, bool)]) -> SimStats {
+        SimStats {
+            mute_changes: c.iter().copied().collect(),
+            ..SimStats::default()
+        }
+    }
+
+    #[test]
+    fn mute_after_leave_is_zero_when_stale_tracking_muted_first() {
+        // Muted at the play, sounding once tracked, then muted by stale
+        // tracking at 900 µs, before the finger was seen to leave at 1000.
+        let st = changes(&[(0, true), (100, false), (900, true), (5000, false)]);
+        assert_eq!(first_change(&st, Some(1000), true), Some(0.0));
+        // Back at 4000: sounding again 1 ms later.
+        assert_eq!(first_change(&st, Some(4000), false), Some(1.0));
+    }
+
+    #[test]
+    fn mute_after_leave_counts_from_the_leave_to_the_mute_it_caused() {
+        let st = changes(&[(0, true), (100, false), (1500, true)]);
+        assert_eq!(first_change(&st, Some(1000), true), Some(0.5));
+        // A stale mute that ended before the leave does not count.
+        let st = changes(&[
+            (0, true),
+            (100, false),
+            (800, true),
+            (900, false),
+            (1200, true),
+        ]);
+        assert_eq!(first_change(&st, Some(1000), true), Some(0.2));
+        // Never muted after: no figure; no leave: none either.
+        let st = changes(&[(0, true), (100, false)]);
+        assert_eq!(first_change(&st, Some(1000), true), None);
+        assert_eq!(first_change(&st, None, true), None);
+    }
 }

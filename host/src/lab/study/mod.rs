@@ -511,14 +511,18 @@ impl Runner {
         }
     }
 
-    /// The answer to `q` and its response time, s.
+    /// The answer to `q` and its response time, s. An answer already
+    /// there (a responses file's, a click made) is taken before the
+    /// session turns again: a turn may pass the end of an off-phase, and a
+    /// process running late would otherwise play another on-phase before
+    /// an answer that came in time.
     fn ask(&mut self, q: &Asked) -> anyhow::Result<(String, f64)> {
         let asked = monotonic_us();
         loop {
-            self.tick()?;
             if let Some(a) = self.answers.poll(q)? {
                 return Ok((a, monotonic_us().saturating_sub(asked) as f64 / 1e6));
             }
+            self.tick()?;
             self.pause();
         }
     }

@@ -228,3 +228,48 @@ pub fn stimuli(loaded: &[Loaded]) -> Vec<Stimulus> {
 pub fn default_colour() -> ColourCamera {
     ColourCamera::D435_848X480
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn question(seq: u64) -> Question {
+        Question {
+            seq,
+            prompt: "Which circle?".into(),
+            options: vec!["2".into(), "4".into()],
+            radii_mm: Some(vec![2.0, 4.0]),
+            not_perceived: None,
+        }
+    }
+
+    #[test]
+    fn the_first_answer_to_a_question_stands() {
+        let v = View::start(Options {
+            addr: "127.0.0.1:0".parse().unwrap(),
+            scene: Scene::default(),
+            colour: default_colour(),
+            frames: Frames::Pushed,
+            stimuli: Vec::new(),
+        })
+        .unwrap();
+        let p = v.participant();
+        let sh = &v.shared;
+        assert!(sh.answer(1, "2").is_err(), "nothing asked yet");
+        p.ask(Some(question(1)));
+        assert!(sh.answer(1, "3").is_err(), "not offered");
+        assert!(sh.answer(2, "2").is_err(), "not asked");
+        sh.answer(1, "2").unwrap();
+        // A second click, before or after the study took the first.
+        let e = sh.answer(1, "4").unwrap_err();
+        assert!(e.contains("answered already"), "{e}");
+        assert_eq!(p.take_answer(1).as_deref(), Some("2"));
+        assert!(sh.answer(1, "4").is_err());
+        assert_eq!(p.take_answer(1), None);
+        // The next question takes its own answer.
+        p.ask(Some(question(2)));
+        assert!(sh.answer(1, "4").is_err());
+        sh.answer(2, "4").unwrap();
+        assert_eq!(p.take_answer(2).as_deref(), Some("4"));
+    }
+}

@@ -114,6 +114,8 @@ pub(super) struct State {
     pub(super) log_total: u64,
     pub(super) question: Option<Question>,
     answer: Option<(u64, String)>,
+    /// The question last answered (0: none yet; questions count from 1).
+    answered: u64,
     encode_us: VecDeque<u64>,
     latency_us: VecDeque<u64>,
     /// Per page: acknowledgement times (host µs) of the last seconds.
@@ -245,7 +247,9 @@ impl Shared {
     }
 
     /// The participant's choice for question `seq`: refused unless it is
-    /// the question asked now and one of its options.
+    /// the question asked now, not answered yet, and one of its options.
+    /// The first answer stands: a second click (or one from a page that
+    /// has not yet heard the question is gone) never replaces it.
     pub(super) fn answer(&self, seq: u64, choice: &str) -> Result<(), String> {
         let mut s = self.lock();
         let Some(q) = &s.question else {
@@ -260,6 +264,10 @@ impl Shared {
         if !q.offers(choice) {
             return Err("not one of the answers offered".into());
         }
+        if s.answered == seq {
+            return Err(format!("question {seq} is answered already"));
+        }
+        s.answered = seq;
         s.answer = Some((seq, choice.to_owned()));
         Ok(())
     }
