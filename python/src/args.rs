@@ -189,8 +189,8 @@ pub(crate) fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("alpha", field::DEFAULT_RADIATION_ALPHA)?;
     d.set_item("density", field::DEFAULT_DENSITY_KG_M3)?;
     d.set_item("disk", field::study::DISK_MM)?;
-    d.set_item("enter_frames", h.enter)?;
-    d.set_item("leave_frames", h.leave)?;
+    d.set_item("enter_frames", h.enter())?;
+    d.set_item("leave_frames", h.leave())?;
     d.set_item(
         "lease_s",
         lmhost::device::backend::DEFAULT_LEASE.as_secs_f64(),

@@ -470,21 +470,21 @@ impl Tracker_ {
         enter_frames: Option<&Bound<'_, PyAny>>,
         leave_frames: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        // The range `lmhost track` allows (`Hysteresis::new` would raise a
-        // 0 to 1 without a word).
+        // The range `lmhost track` allows, refused under the Python names
+        // (`Hysteresis::new` names the CLI's flags).
         let h = Hysteresis::default();
         let frames = |name, v, default: u32| -> PyResult<u32> {
             Ok(args::opt_int_in(name, v, 1, i64::from(MAX_FRAMES))?.unwrap_or(default))
         };
-        let enter_frames = frames("enter_frames", enter_frames, h.enter)?;
-        let leave_frames = frames("leave_frames", leave_frames, h.leave)?;
+        let enter_frames = frames("enter_frames", enter_frames, h.enter())?;
+        let leave_frames = frames("leave_frames", leave_frames, h.leave())?;
         let intr = Intrinsics::from_toml(intrinsics_toml, origin).map_err(|e| to_py(e.into()))?;
         let rig = CameraSetup::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
         let tracker = ContactTracker::new(intr, rig);
         let min_points = tracker.setup().track_box.min_points;
         let pipe = Pipeline::new(
             tracker,
-            Hysteresis::new(enter_frames, leave_frames),
+            Hysteresis::new(enter_frames, leave_frames).map_err(|e| to_py(e.into()))?,
             lmhost::sense::stream::filter::FilterKind::None.build(),
         );
         Ok(Self {
@@ -584,7 +584,7 @@ fn _bench_rust(
         })?;
         let mut pipe = Pipeline::new(
             ContactTracker::new(intr, rig),
-            Hysteresis::new(2, 2),
+            Hysteresis::default(),
             lmhost::sense::stream::filter::FilterKind::None.build(),
         );
         let mut t = 0.0;

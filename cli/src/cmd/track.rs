@@ -176,7 +176,7 @@ impl TrackFlags {
             }),
             fast: self.fast,
             json: self.json,
-            gate: Hysteresis::checked(self.enter_frames, self.leave_frames)?,
+            gate: Hysteresis::new(self.enter_frames, self.leave_frames)?,
             filter: self.filter,
             z_profile,
             device,

@@ -19,41 +19,51 @@ pub const MAX_FRAMES: u32 = 90;
 /// Presence hysteresis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Hysteresis {
-    /// Consecutive present frames that open the gate.
-    pub enter: u32,
-    /// Consecutive absent frames that close it.
-    pub leave: u32,
+    /// Consecutive present frames that open the gate (1..=[`MAX_FRAMES`]).
+    enter: u32,
+    /// Consecutive absent frames that close it (1..=[`MAX_FRAMES`]).
+    leave: u32,
     open: bool,
     run: u32,
 }
 
 impl Default for Hysteresis {
     fn default() -> Self {
-        Self::new(DEFAULT_FRAMES, DEFAULT_FRAMES)
-    }
-}
-
-impl Hysteresis {
-    /// A closed gate with the given counts (each at least 1).
-    pub fn new(enter: u32, leave: u32) -> Self {
         Self {
-            enter: enter.max(1),
-            leave: leave.max(1),
+            enter: DEFAULT_FRAMES,
+            leave: DEFAULT_FRAMES,
             open: false,
             run: 0,
         }
     }
+}
 
-    /// `lmhost track`'s gate: `enter` (`--enter-frames`) and `leave`
-    /// (`--leave-frames`) each in 1..=[`MAX_FRAMES`], refused naming the
-    /// flag otherwise.
-    pub fn checked(enter: u32, leave: u32) -> Result<Self, InputError> {
+impl Hysteresis {
+    /// A closed gate opening after `enter` present frames
+    /// (`--enter-frames`) and closing after `leave` absent ones
+    /// (`--leave-frames`), each in 1..=[`MAX_FRAMES`]; anything else is
+    /// refused naming the flag (a count of 0 is not raised to 1).
+    pub fn new(enter: u32, leave: u32) -> Result<Self, InputError> {
         for (name, v) in [("--enter-frames", enter), ("--leave-frames", leave)] {
             if !(1..=MAX_FRAMES).contains(&v) {
                 crate::bad_input!("{name} {v} must be between 1 and {MAX_FRAMES}");
             }
         }
-        Ok(Self::new(enter, leave))
+        Ok(Self {
+            enter,
+            leave,
+            ..Self::default()
+        })
+    }
+
+    /// Consecutive present frames that open the gate.
+    pub fn enter(&self) -> u32 {
+        self.enter
+    }
+
+    /// Consecutive absent frames that close it.
+    pub fn leave(&self) -> u32 {
+        self.leave
     }
 
     /// Feed one frame's raw presence; returns the gated presence.
@@ -94,7 +104,7 @@ mod tests {
                 false, false, false, false, true, true, true, true, true, true, false, false
             ]
         );
-        let mut h = Hysteresis::new(2, 3);
+        let mut h = Hysteresis::new(2, 3).unwrap();
         let out: Vec<bool> = [true, true, false, false, false]
             .iter()
             .map(|&r| h.update(r))
@@ -104,8 +114,9 @@ mod tests {
 
     #[test]
     fn the_track_gate_takes_1_to_90_frames_each_and_names_the_flag() {
-        assert_eq!(Hysteresis::checked(1, 90).unwrap(), Hysteresis::new(1, 90));
-        assert_eq!(Hysteresis::checked(2, 2).unwrap(), Hysteresis::default());
+        let h = Hysteresis::new(1, 90).unwrap();
+        assert_eq!((h.enter(), h.leave()), (1, 90));
+        assert_eq!(Hysteresis::new(2, 2).unwrap(), Hysteresis::default());
         for (enter, leave, e) in [
             (0, 2, "--enter-frames 0 must be between 1 and 90"),
             (91, 2, "--enter-frames 91 must be between 1 and 90"),
@@ -116,10 +127,7 @@ mod tests {
                 "--leave-frames 4294967295 must be between 1 and 90",
             ),
         ] {
-            assert_eq!(
-                Hysteresis::checked(enter, leave).unwrap_err().to_string(),
-                e
-            );
+            assert_eq!(Hysteresis::new(enter, leave).unwrap_err().to_string(), e);
         }
     }
 }

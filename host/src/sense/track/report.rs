@@ -70,7 +70,7 @@ impl DepthFeed {
         // gate on frame 0 seen just before.
         let mut buf = Vec::new();
         sim.render(0, &pipe.tracker, &mut buf);
-        for k in (1..=pipe.gate.enter).rev() {
+        for k in (1..=pipe.gate.enter()).rev() {
             pipe.step(-(k as f64) / sim.rate_hz, &buf);
         }
         Self {

@@ -24,7 +24,7 @@ use super::intrinsics::Intrinsics;
 use super::source::{Frame, FrameSource, Recorder};
 use super::surface::Replanner;
 use super::{FrameResult, Pipeline};
-use crate::clock::{Spread, percentile};
+use crate::clock::Spread;
 use crate::device::backend::Backend;
 use crate::error::InputError;
 use crate::geom;
@@ -288,7 +288,7 @@ impl TrackRun {
             None => {}
         }
         let mut summary = vec![format!(
-            "{} frames of {}×{} in {:.2} s: {} with a contact area, {} gated present; box rectangle {} px; track p50 {:.1} µs, p99 {:.1} µs per frame (budget 11.1 ms at 90 fps); filter {}",
+            "{} frames of {}×{} in {:.2} s: {} with a contact area, {} gated present; box rectangle {} px; track {} per frame (budget 11.1 ms at 90 fps); filter {}",
             t.frames,
             self.intr.width,
             self.intr.height,
@@ -296,8 +296,10 @@ impl TrackRun {
             t.present,
             t.gated,
             run.pipe.tracker.roi().pixels(),
-            t.track_p_us(50.0),
-            t.track_p_us(99.0),
+            t.track_us().map_or("n/a".to_owned(), |s| format!(
+                "p50 {:.1} µs, p99 {:.1} µs",
+                s.p50, s.p99
+            )),
             self.filter.name()
         )];
         if matches!(opts.source, Source::Synthetic { .. }) {
@@ -361,10 +363,10 @@ fn device_lines(r: &StreamReport, where_: &str, t: &Tally, filter: FilterKind) -
             r.rejected.out_of_order
         ),
         format!(
-            "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {:.0} µs + device ack {}, plus the {} filter's lag {:.1} ms (90 fps)",
+            "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {} + device ack {}, plus the {} filter's lag {:.1} ms (90 fps)",
             r.acked,
             r.present,
-            t.track_p_us(50.0),
+            t.track_p50(),
             Spread::describe_or(ack.as_ref(), |us| format!("{us} µs")),
             filter.name(),
             super::report::filter_lag_ms(filter, 90.0)
@@ -386,10 +388,16 @@ struct Tally {
 }
 
 impl Tally {
-    /// The `p`-th percentile of the tracking time per frame (µs; 0 with
-    /// no frame).
-    fn track_p_us(&self, p: f64) -> f64 {
-        percentile(self.track_ns.iter().copied(), p).unwrap_or(0) as f64 / 1000.0
+    /// The tracking time per frame (µs); `None` with no frame.
+    fn track_us(&self) -> Option<Spread<f64>> {
+        Spread::of_f64(self.track_ns.iter().map(|&ns| ns as f64 / 1e3))
+    }
+
+    /// The median tracking time per frame, as the per-second and device
+    /// lines print it.
+    fn track_p50(&self) -> String {
+        self.track_us()
+            .map_or("n/a".to_owned(), |s| format!("{:.0} µs", s.p50))
     }
 }
 
@@ -597,13 +605,13 @@ impl Run {
                 format!("({:.2}, {:.2}, {:.2}) mm", c[0], c[1], c[2])
             });
             print(&format!(
-                "t {:>7.2} s  frames {:>3}  present {:>3}  gated {:>3}  points {:>4}  centroid {c}  track p50 {:.0} µs",
+                "t {:>7.2} s  frames {:>3}  present {:>3}  gated {:>3}  points {:>4}  centroid {c}  track p50 {}",
                 r.t_s,
                 s.frames,
                 s.present,
                 s.gated,
                 r.contact.points,
-                s.track_p_us(50.0)
+                s.track_p50()
             ))?;
             self.next_summary = (r.t_s + 1.0).floor();
         }

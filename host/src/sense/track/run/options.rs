@@ -30,7 +30,7 @@ pub struct Options {
     pub fast: bool,
     /// One JSON object per frame instead of a summary line per second.
     pub json: bool,
-    /// The presence gate ([`Hysteresis::checked`] for the flags' range).
+    /// The presence gate ([`Hysteresis::new`] for the flags' range).
     pub gate: Hysteresis,
     /// Centroid filter [default: gaussian with `device`, else none].
     pub filter: Option<FilterKind>,
