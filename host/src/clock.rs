@@ -117,17 +117,6 @@ pub fn quantile(v: &[f64], q: f64) -> f64 {
     }
 }
 
-/// The `p`-th percentile (0–100) of `values` ([`quantile`]), rounded to
-/// the nearest integer; `None` when there are none.
-pub fn percentile(values: impl IntoIterator<Item = u64>, p: f64) -> Option<u64> {
-    let mut v: Vec<f64> = values.into_iter().map(|x| x as f64).collect();
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    Some(quantile(&v, p / 100.0).round() as u64)
-}
-
 /// The summary every latency figure in lmhost gives: median, 99th
 /// percentile ([`quantile`]) and maximum, from one sort of the samples.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -159,7 +148,7 @@ impl Spread<f64> {
 
 impl Spread<u64> {
     /// Of integer samples (µs), each figure rounded to the nearest
-    /// integer as [`percentile`] does; `None` when there are none.
+    /// integer; `None` when there are none.
     pub fn of(values: impl IntoIterator<Item = u64>) -> Option<Self> {
         Spread::of_f64(values.into_iter().map(|x| x as f64)).map(|s| s.map(|x| x.round() as u64))
     }
@@ -204,14 +193,14 @@ mod tests {
     #[test]
     fn one_percentile_interpolates_like_numpy() {
         // numpy.percentile([1, 2, 3, 4, 5], [50, 100, 25, 90]).
-        assert_eq!(percentile([5, 1, 4, 2, 3], 50.0), Some(3));
-        assert_eq!(percentile([5, 1, 4, 2, 3], 100.0), Some(5));
+        let s = Spread::of([5, 1, 4, 2, 3]).unwrap();
+        assert_eq!((s.p50, s.max), (3, 5));
         assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.25), 2.0);
         assert_eq!(quantile(&[1.0, 2.0, 3.0, 4.0], 0.5), 2.5);
         assert!((quantile(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.9) - 4.6).abs() < 1e-12);
-        assert_eq!(percentile((1..=100).rev(), 99.0), Some(99));
-        assert_eq!(percentile([10, 20], 50.0), Some(15));
-        assert_eq!(percentile([], 99.0), None);
+        assert_eq!(Spread::of((1..=100).rev()).unwrap().p99, 99);
+        assert_eq!(Spread::of([10, 20]).unwrap().p50, 15);
+        assert_eq!(Spread::of([]), None);
         assert!(quantile(&[], 0.5).is_nan());
     }
 
