@@ -24,8 +24,8 @@ fn emulator(c: &mut Criterion) {
     g.sample_size(20);
     for a in [3.0, 6.0] {
         let mut p = LmParams::paper(scene.center_mm);
-        p.radius_mm = a;
-        p.foci = 4;
+        p.cycle.radius_mm = a;
+        p.cycle.foci = 4;
         let (plan, t) = timing::plan(&p, &scene, &Synthesis::Linear).expect("plan");
         let r = b.upload(&plan, Some(0)).expect("upload");
         eprintln!(
@@ -42,7 +42,7 @@ fn emulator(c: &mut Criterion) {
         );
     }
     let mut p = LmParams::paper(scene.center_mm);
-    p.foci = 4;
+    p.cycle.foci = 4;
     let (plan, _) = timing::plan(&p, &scene, &Synthesis::Linear).expect("plan");
     b.upload(&plan, Some(1)).expect("upload");
     b.play(1, false).expect("play");

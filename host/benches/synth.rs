@@ -21,7 +21,7 @@ use lmhost::plan::trajectory::{LmParams, Trajectory};
 fn lm(foci: usize) -> (Scene, Trajectory) {
     let scene = Scene::default();
     let mut p = LmParams::paper(scene.center_mm);
-    p.foci = foci;
+    p.cycle.foci = foci;
     let t = Trajectory::plan(&p, &scene).expect("paper parameters plan");
     (scene, t)
 }
@@ -75,7 +75,7 @@ fn sequence(c: &mut Criterion) {
     let scene = Scene::default();
     let plan = SynthPlan::new(&scene.transducers(), scene.wavenumber_rad_per_mm());
     let mut p = LmParams::paper(scene.center_mm);
-    p.foci = 4;
+    p.cycle.foci = 4;
     let mut g = c.benchmark_group("sequence_lm_m_a3_n82_4foci");
     let mut enc = vec![0u8; 82 * 996];
     let mut ws = SynthWorkspace::new(&plan);

@@ -171,16 +171,16 @@ pub(crate) fn float_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<f64> {
 /// presence hysteresis and the device lease.
 pub(crate) fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     let s = Stimulus::default();
-    let step = match s.steps {
+    let step = match s.cycle.steps {
         Steps::Width(w) => w,
         Steps::Count(_) => lmhost::plan::trajectory::paper::STEP_MM,
     };
     let h = Hysteresis::default();
     let d = PyDict::new(py);
-    d.set_item("radius", s.radius_mm)?;
-    d.set_item("foci", s.foci)?;
-    d.set_item("spacing", s.spacing_mm)?;
-    d.set_item("freq", s.freq_hz)?;
+    d.set_item("radius", s.cycle.radius_mm)?;
+    d.set_item("foci", s.cycle.foci)?;
+    d.set_item("spacing", s.cycle.spacing_mm)?;
+    d.set_item("freq", s.cycle.freq_hz)?;
     d.set_item("step", step)?;
     d.set_item("intensity", s.intensity)?;
     d.set_item("target", "lm")?;

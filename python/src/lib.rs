@@ -30,7 +30,7 @@ use lmhost::field::study::{View, simulate_plan};
 use lmhost::plan::scene::Scene;
 use lmhost::plan::stimulus::{Stimulus, TargetPlan};
 use lmhost::plan::target::Target;
-use lmhost::plan::trajectory::{MAX_FOCI, MAX_STEPS, Steps};
+use lmhost::plan::trajectory::{Cycle, MAX_FOCI, MAX_STEPS, Steps};
 use lmhost::sense::track::Pipeline;
 use lmhost::sense::track::camera::CameraSetup;
 use lmhost::sense::track::contact::Tracker as ContactTracker;
@@ -331,11 +331,14 @@ fn plan(
     let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
     let planned = run(py, || {
         let stimulus = Stimulus {
-            radius_mm: radius,
-            foci,
-            spacing_mm: spacing,
-            freq_hz: freq,
-            steps,
+            cycle: Cycle {
+                radius_mm: radius,
+                foci,
+                spacing_mm: spacing,
+                freq_hz: freq,
+                steps,
+                ..Cycle::default()
+            },
             center_mm,
             intensity: lmhost::limits::in_range("--intensity", intensity, 0.0, 1.0, "")?,
             ..Stimulus::default()

@@ -381,17 +381,17 @@ fn paper_set() -> Vec<(String, lmhost::plan::sequence::Plan)> {
     use lmhost::plan::scene::Scene;
     use lmhost::plan::stimulus::Stimulus;
     use lmhost::plan::target::Target;
-    use lmhost::plan::trajectory::Steps;
+    use lmhost::plan::trajectory::{Cycle, Steps};
     let mut v = Vec::new();
     for (foci, freq_hz, step_mm) in [(1, 5.0, 0.23), (4, 5.0, 0.23), (1, 25.0, 4.0)] {
         for radius_mm in [2.0, 3.0, 4.0, 5.0, 6.0] {
-            let s = Stimulus {
+            let s = Stimulus::of(Cycle {
                 radius_mm,
                 foci,
                 freq_hz,
                 steps: Steps::Width(step_mm),
-                ..Stimulus::default()
-            };
+                ..Cycle::default()
+            });
             let plan = s.plan_for(&Target::Lm, Scene::default()).unwrap().plan;
             let name = format!(
                 "LM-{} {freq_hz} Hz A={radius_mm} mm",

@@ -16,7 +16,7 @@ use lmhost::plan::scene::Scene;
 use lmhost::plan::sequence::{Plan, Synthesis};
 use lmhost::plan::stimulus::{Stimulus, TargetPlan, Timing};
 use lmhost::plan::target::Target;
-use lmhost::plan::trajectory::{Steps, paper};
+use lmhost::plan::trajectory::{Cycle, Steps};
 
 /// Multi-focus synthesis method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
@@ -92,9 +92,6 @@ pub struct StimulusFlags {
     pub intensity: Option<f64>,
 }
 
-/// Output intensity when `--intensity` is not given: full.
-const FULL_INTENSITY: f64 = 1.0;
-
 fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
     s.split(',')
         .map(|x| {
@@ -169,6 +166,7 @@ impl StimulusFlags {
     /// given (strings parsed, nothing planned). A flag that cannot apply
     /// (`--weights` with GS-PAT, `--iterations` without it) is refused.
     pub fn stimulus(&self) -> Result<Stimulus, InputError> {
+        let d = Stimulus::default();
         let center_mm = self
             .center
             .as_deref()
@@ -177,11 +175,11 @@ impl StimulusFlags {
         let steps = match (self.step, self.steps) {
             (_, Some(n)) => Steps::Count(n),
             (Some(w), None) => Steps::Width(w),
-            (None, None) => Steps::Width(paper::STEP_MM),
+            (None, None) => d.cycle.steps,
         };
         let z_profile_mm = match &self.z {
             Some(z) => parse_list("z", z)?,
-            None => Vec::new(),
+            None => d.cycle.z_profile_mm,
         };
         let synthesis = match (self.method.unwrap_or_default(), &self.weights) {
             (Method::Gspat, Some(_)) => {
@@ -199,18 +197,20 @@ impl StimulusFlags {
             (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
             (Method::Linear, None) => Synthesis::Linear,
         };
-        let intensity = self.intensity.unwrap_or(FULL_INTENSITY);
+        let intensity = self.intensity.unwrap_or(d.intensity);
         Ok(Stimulus {
-            radius_mm: self.radius.unwrap_or(paper::RADIUS_MM),
-            foci: self.foci.unwrap_or(paper::FOCI),
-            spacing_mm: self.spacing.unwrap_or(paper::SPACING_MM),
-            freq_hz: self.freq.unwrap_or(paper::FREQ_HZ),
-            steps,
+            cycle: Cycle {
+                radius_mm: self.radius.unwrap_or(d.cycle.radius_mm),
+                foci: self.foci.unwrap_or(d.cycle.foci),
+                spacing_mm: self.spacing.unwrap_or(d.cycle.spacing_mm),
+                freq_hz: self.freq.unwrap_or(d.cycle.freq_hz),
+                steps,
+                z_profile_mm,
+                path: lmhost::plan::path::Path::Circle,
+            },
             center_mm,
-            z_profile_mm,
             synthesis,
             intensity: limits::in_range("--intensity", intensity, 0.0, 1.0, "")?,
-            path: lmhost::plan::path::Path::Circle,
             am: None,
         })
     }
@@ -393,6 +393,7 @@ impl Args {
 mod tests {
     use super::*;
     use clap::Parser;
+    use lmhost::plan::trajectory::paper;
 
     #[derive(Parser)]
     struct Cli {
@@ -455,18 +456,18 @@ mod tests {
     fn help_states_the_defaults_the_stimulus_takes() {
         use clap::CommandFactory as _;
         let s = StimulusFlags::default().stimulus().unwrap();
-        assert_eq!(s.steps, Steps::Width(paper::STEP_MM));
+        assert_eq!(s.cycle.steps, Steps::Width(paper::STEP_MM));
         assert_eq!(s.synthesis, Synthesis::Linear);
-        assert!(s.center_mm.is_none() && s.z_profile_mm.is_empty());
+        assert!(s.center_mm.is_none() && s.cycle.z_profile_mm.is_empty());
         let gspat =
             lmhost::plan::stimulus::gspat(lmhost::plan::stimulus::GSPAT_ITERATIONS).unwrap();
         let mut cmd = Cli::command();
         let help = cmd.render_long_help().to_string();
         for (flag, default) in [
-            ("radius", s.radius_mm.to_string()),
-            ("foci", s.foci.to_string()),
-            ("spacing", s.spacing_mm.to_string()),
-            ("freq", s.freq_hz.to_string()),
+            ("radius", s.cycle.radius_mm.to_string()),
+            ("foci", s.cycle.foci.to_string()),
+            ("spacing", s.cycle.spacing_mm.to_string()),
+            ("freq", s.cycle.freq_hz.to_string()),
             ("step", paper::STEP_MM.to_string()),
             ("method", "linear".to_string()),
             (

@@ -194,8 +194,12 @@ impl Args {
         self.plan.load_scene()?;
         lmhost::files::output_dir("--out", &self.out)?;
         if self.compare {
-            let multi = if flags.foci > 1 { flags.foci } else { 4 };
-            let conditions = compare::paper_conditions(multi, flags.freq_hz);
+            let multi = if flags.cycle.foci > 1 {
+                flags.cycle.foci
+            } else {
+                lmhost::plan::trajectory::paper::LM_M_FOCI
+            };
+            let conditions = compare::paper_conditions(multi, flags.cycle.freq_hz);
             let plan_for = |c: &compare::Condition, radius| {
                 let mut a = self.plan.clone();
                 a.flags.radius = Some(radius);
@@ -218,9 +222,9 @@ impl Args {
             ),
             Some(e) => (
                 e.stimulus.plan(self.plan.load_scene()?)?.plan,
-                e.stimulus.radius_mm,
+                e.stimulus.cycle.radius_mm,
             ),
-            None => (self.plan.plan()?, flags.radius_mm),
+            None => (self.plan.plan()?, flags.cycle.radius_mm),
         };
         let sim = simulate_plan(&plan, &view)?;
         write_outputs(&plan, &sim, &view, r, &fig, &self.out)?;

@@ -243,7 +243,7 @@ impl Args {
             let mut plan_with = replan_stim.map(|s| {
                 move |z: &[f64]| -> anyhow::Result<Plan> {
                     let mut s = s.clone();
-                    s.z_profile_mm = z.to_vec();
+                    s.cycle.z_profile_mm = z.to_vec();
                     Ok(s.plan_for(&target, scene.clone())?.plan)
                 }
             });
@@ -292,7 +292,7 @@ fn replan_stimulus(
             "--steps {k} differs from --z-profile's {n} steps: the re-plan plays one step per measured depth (leave --steps out)"
         );
     }
-    s.radius_mm = r;
-    s.steps = Steps::Count(n);
+    s.cycle.radius_mm = r;
+    s.cycle.steps = Steps::Count(n);
     Ok(s)
 }

@@ -285,11 +285,11 @@ mod tests {
         let plan_for = |c: &Condition, r: f64| {
             let scene = Scene::default();
             let mut p = LmParams::paper(scene.center_mm);
-            p.radius_mm = r;
-            p.foci = c.foci;
-            p.freq_hz = c.freq_hz;
+            p.cycle.radius_mm = r;
+            p.cycle.foci = c.foci;
+            p.cycle.freq_hz = c.freq_hz;
             if let Some(s) = c.step_mm {
-                p.steps = Steps::Width(s);
+                p.cycle.steps = Steps::Width(s);
             }
             Ok(Plan::new(scene, &p, &Synthesis::Linear)?)
         };

@@ -49,11 +49,10 @@ impl GridTiming {
     /// `p` with the realised `N` and frequency, ready for
     /// [`Trajectory::plan`](crate::plan::trajectory::Trajectory::plan).
     pub fn apply(&self, p: &LmParams) -> LmParams {
-        LmParams {
-            steps: Steps::Count(self.steps),
-            freq_hz: self.freq_hz,
-            ..p.clone()
-        }
+        let mut p = p.clone();
+        p.cycle.steps = Steps::Count(self.steps);
+        p.cycle.freq_hz = self.freq_hz;
+        p
     }
 }
 
@@ -181,11 +180,12 @@ pub fn plan(
     scene: &crate::plan::scene::Scene,
     synthesis: &crate::plan::sequence::Synthesis,
 ) -> Result<(crate::plan::sequence::Plan, GridTiming), InputError> {
-    p.path.check()?;
+    let c = &p.cycle;
+    c.path.check()?;
     // The grid search works on the cycle's length: a circle's radius is
     // the length over 2π.
-    let length_radius = p.path.length_mm(p.radius_mm) / (2.0 * std::f64::consts::PI);
-    let g = grid_timing(length_radius, p.freq_hz, p.steps, scene.min_dwell_s)?;
+    let length_radius = c.path.length_mm(c.radius_mm) / (2.0 * std::f64::consts::PI);
+    let g = grid_timing(length_radius, c.freq_hz, c.steps, scene.min_dwell_s)?;
     let trajectory = crate::plan::trajectory::Trajectory::plan(&g.apply(p), scene)?;
     let sequence = crate::plan::sequence::Sequence::synthesize(scene, &trajectory, synthesis)?;
     Ok((

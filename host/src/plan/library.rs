@@ -62,7 +62,7 @@ use crate::plan::scene::Scene;
 use crate::plan::stimulus::{Stimulus, TargetPlan};
 use crate::plan::stimulus_file::Content;
 use crate::plan::target::Target;
-use crate::plan::trajectory::{MAX_FOCI, MAX_STEPS, Steps, paper};
+use crate::plan::trajectory::{Cycle, MAX_FOCI, MAX_STEPS, Steps, paper};
 
 /// Most entries in one library.
 pub const MAX_ENTRIES: usize = 256;
@@ -410,14 +410,16 @@ impl EntryFile {
         if path.trim().is_empty() {
             return Err(format!("`{key}` is empty: give a file"));
         }
-        let center_mm = self.center_mm()?;
+        let mut stimulus = Stimulus {
+            center_mm: self.center_mm()?,
+            ..Stimulus::default()
+        };
+        if let Some(f) = self.freq {
+            stimulus.cycle.freq_hz = f;
+        }
         Ok(Entry {
             id: self.id,
-            stimulus: Stimulus {
-                center_mm,
-                freq_hz: self.freq.unwrap_or(Stimulus::default().freq_hz),
-                ..Stimulus::default()
-            },
+            stimulus,
             untracked: self.untracked,
             file: Some((content, PathBuf::from(path))),
             file_freq_hz: self.freq,
@@ -437,7 +439,7 @@ impl EntryFile {
             (Some(_), Some(_)) => return Err("give `step` or `steps`, not both".into()),
             (_, Some(n)) => Steps::Count(n),
             (Some(w), None) => Steps::Width(w),
-            (None, None) => d.steps,
+            (None, None) => d.cycle.steps,
         };
         if let Some(i) = self.intensity {
             crate::limits::in_range("intensity", i, 0.0, 1.0, "").map_err(|e| e.to_string())?;
@@ -467,17 +469,19 @@ impl EntryFile {
         Ok(Entry {
             id: self.id,
             stimulus: Stimulus {
-                radius_mm: self.radius.unwrap_or(d.radius_mm),
-                foci: self.foci.unwrap_or(d.foci),
-                spacing_mm: self.spacing.unwrap_or(d.spacing_mm),
-                freq_hz: self.freq.unwrap_or(d.freq_hz),
-                steps,
+                cycle: Cycle {
+                    radius_mm: self.radius.unwrap_or(d.cycle.radius_mm),
+                    foci: self.foci.unwrap_or(d.cycle.foci),
+                    spacing_mm: self.spacing.unwrap_or(d.cycle.spacing_mm),
+                    freq_hz: self.freq.unwrap_or(d.cycle.freq_hz),
+                    steps,
+                    path,
+                    z_profile_mm: self.z.unwrap_or_default(),
+                },
                 center_mm,
                 intensity: self.intensity.unwrap_or(d.intensity),
-                path,
                 am,
                 synthesis,
-                z_profile_mm: self.z.unwrap_or_default(),
             },
             untracked: self.untracked,
             file: None,

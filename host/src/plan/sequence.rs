@@ -12,7 +12,7 @@ use crate::geom::Vec3;
 use crate::plan::scene::Scene;
 use crate::plan::synth::fast::{PhasorTable, Scratch, SynthPlan};
 use crate::plan::synth::{Weight, quantise_turns, solver};
-use crate::plan::trajectory::{LmParams, Trajectory};
+use crate::plan::trajectory::{Cycle, LmParams, Trajectory};
 use crate::units;
 
 /// Default work volume (mm): the largest distance from the planned centre
@@ -302,8 +302,7 @@ impl Plan {
     /// 3 mm apart, 5 Hz, 0.23 mm steps, linear synthesis.
     pub fn paper_lm_m() -> Result<Self, InputError> {
         let scene = Scene::default();
-        let mut params = LmParams::paper(scene.center_mm);
-        params.foci = crate::plan::trajectory::paper::LM_M_FOCI;
+        let params = Cycle::paper_lm_m().at(scene.center_mm, scene.lm_plane);
         Self::new(scene, &params, &Synthesis::Linear)
     }
 
@@ -363,7 +362,7 @@ mod tests {
     fn paper(foci: usize) -> Sequence {
         let scene = Scene::default();
         let mut p = LmParams::paper(scene.center_mm);
-        p.foci = foci;
+        p.cycle.foci = foci;
         let t = Trajectory::plan(&p, &scene).unwrap();
         Sequence::synthesize(&scene, &t, &Synthesis::Linear).unwrap()
     }
@@ -453,8 +452,8 @@ mod tests {
     fn every_step_matches_the_reference_within_0_51_lsb() {
         let scene = Scene::default();
         let mut p = LmParams::paper(scene.center_mm);
-        p.foci = 4;
-        p.steps = Steps::Width(0.23);
+        p.cycle.foci = 4;
+        p.cycle.steps = Steps::Width(0.23);
         let t = Trajectory::plan(&p, &scene).unwrap();
         let s = Sequence::synthesize(&scene, &t, &Synthesis::Linear).unwrap();
         let tr = scene.transducers();
@@ -488,7 +487,7 @@ mod tests {
     fn weights_must_match_the_foci() {
         let scene = Scene::default();
         let mut p = LmParams::paper(scene.center_mm);
-        p.foci = 2;
+        p.cycle.foci = 2;
         let t = Trajectory::plan(&p, &scene).unwrap();
         let e = Sequence::synthesize(&scene, &t, &Synthesis::Weighted(vec![1.0])).unwrap_err();
         assert!(e.0.contains("1 weights given for 2 foci"));

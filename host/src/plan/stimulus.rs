@@ -1,11 +1,12 @@
 //! A stimulus as a study names it, its defaults, and its plan for a device.
 //!
 //! [`Stimulus`] holds what the plan flags (`--radius`, `--foci`, ...), the
-//! demo and (later) a stimulus library entry say: everything about the
-//! stimulus and nothing about the rig. Its [`Default`] is the paper's 5 Hz
-//! condition (LM-S, A = 3 mm, 0.23 mm steps) from [`paper`], the one place
-//! the defaults are written; the CLI's flag defaults read the same
-//! constants. [`Stimulus::plan_for`] is the one
+//! demo and a stimulus library entry say: everything about the stimulus
+//! and nothing about the rig, its LM cycle a [`Cycle`]. Its [`Default`] is
+//! the paper's 5 Hz condition (LM-S, A = 3 mm, 0.23 mm steps) from
+//! [`Cycle::default`], which reads [`paper`](crate::plan::trajectory::paper),
+//! the one place the defaults are written; the CLI's flag defaults read
+//! the same. [`Stimulus::plan_for`] is the one
 //! entry point from a stimulus to the phases a given device plays: on an
 //! AUTD3 on its 25 µs dwell grid, on the LM firmware as asked.
 
@@ -13,11 +14,10 @@ use crate::error::InputError;
 use crate::geom::Vec3;
 use crate::plan::grid::GridTiming;
 use crate::plan::modulation::Am;
-use crate::plan::path::Path;
 use crate::plan::scene::Scene;
 use crate::plan::sequence::{Plan, Synthesis};
 use crate::plan::target::Target;
-use crate::plan::trajectory::{LmParams, Steps, paper};
+use crate::plan::trajectory::{Cycle, LmParams, Steps};
 
 /// Default GS-PAT iterations.
 pub const GSPAT_ITERATIONS: usize = 20;
@@ -26,50 +26,28 @@ pub const GSPAT_ITERATIONS: usize = 20;
 /// along the beam instead of across the finger pad.
 pub const MIN_LM_PLANE_BEAM_ANGLE_DEG: f64 = 30.0;
 
-/// One stimulus, independent of the rig.
+/// One stimulus, independent of the rig: an LM cycle, where it plays if
+/// not at the scene's centre, and how the output makes it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stimulus {
-    /// Circle radius A (mm).
-    pub radius_mm: f64,
-    /// Foci per step.
-    pub foci: usize,
-    /// Spacing d between neighbouring foci along the circle (mm).
-    pub spacing_mm: f64,
-    /// LM frequency f (Hz).
-    pub freq_hz: f64,
-    /// Step width or count.
-    pub steps: Steps,
+    /// The LM cycle.
+    pub cycle: Cycle,
     /// Circle centre in finger space (mm); `None`: the scene's centre.
     pub center_mm: Option<Vec3>,
-    /// Per-step depth along the LM plane's c axis (mm).
-    pub z_profile_mm: Vec<f64>,
     /// Multi-focus synthesis.
     pub synthesis: Synthesis,
     /// Output intensity, 0..=1 (1 = full); the plan's header carries
     /// `round(intensity × 255)` (the device puts it in every output frame).
     pub intensity: f64,
-    /// The path's shape ([`Path::Circle`]: the circle of `radius_mm`).
-    pub path: Path,
     /// Amplitude modulation of the output, if any.
     pub am: Option<Am>,
 }
 
 impl Default for Stimulus {
-    /// The paper's LM-S at 5 Hz: A = 3 mm, d_LM = 0.23 mm.
+    /// The paper's LM-S at 5 Hz ([`Cycle::default`]) at the scene's
+    /// centre, linear synthesis, full output, no AM.
     fn default() -> Self {
-        Self {
-            radius_mm: paper::RADIUS_MM,
-            foci: paper::FOCI,
-            spacing_mm: paper::SPACING_MM,
-            freq_hz: paper::FREQ_HZ,
-            steps: Steps::Width(paper::STEP_MM),
-            center_mm: None,
-            z_profile_mm: Vec::new(),
-            synthesis: Synthesis::Linear,
-            intensity: 1.0,
-            path: Path::Circle,
-            am: None,
-        }
+        Self::of(Cycle::default())
     }
 }
 
@@ -181,28 +159,27 @@ impl Timing {
 }
 
 impl Stimulus {
+    /// `cycle` at the scene's centre, linear synthesis, full output, no AM.
+    pub fn of(cycle: Cycle) -> Self {
+        Self {
+            cycle,
+            center_mm: None,
+            synthesis: Synthesis::Linear,
+            intensity: 1.0,
+            am: None,
+        }
+    }
+
     /// The paper's LM-M: the default with four foci 3 mm apart.
     pub fn paper_lm_m() -> Self {
-        Self {
-            foci: paper::LM_M_FOCI,
-            ..Self::default()
-        }
+        Self::of(Cycle::paper_lm_m())
     }
 
     /// The trajectory parameters in `scene` (its centre and LM plane unless
     /// the stimulus names a centre).
     pub fn params(&self, scene: &Scene) -> LmParams {
-        LmParams {
-            radius_mm: self.radius_mm,
-            freq_hz: self.freq_hz,
-            steps: self.steps,
-            foci: self.foci,
-            spacing_mm: self.spacing_mm,
-            center_mm: self.center_mm.unwrap_or(scene.center_mm),
-            z_profile_mm: self.z_profile_mm.clone(),
-            plane: scene.lm_plane,
-            path: self.path,
-        }
+        self.cycle
+            .at(self.center_mm.unwrap_or(scene.center_mm), scene.lm_plane)
     }
 
     /// Plans the stimulus in `scene` for the device `target` names. A plan
@@ -249,11 +226,11 @@ impl Stimulus {
                 ..
             }) => Timing::new(&plan, requested_freq_hz, requested_step_mm, Some(divide)),
             None => {
-                let requested_step_mm = match self.steps {
+                let requested_step_mm = match self.cycle.steps {
                     Steps::Width(w) => w,
                     Steps::Count(_) => plan.trajectory.step_mm,
                 };
-                Timing::new(&plan, self.freq_hz, requested_step_mm, None)
+                Timing::new(&plan, self.cycle.freq_hz, requested_step_mm, None)
             }
         };
         Ok(TargetPlan {
@@ -302,6 +279,7 @@ pub fn gspat(iterations: usize) -> Result<Synthesis, InputError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::trajectory::paper;
 
     #[test]
     fn the_default_is_the_papers_5_hz_lm_s_and_lm_m_adds_foci() {
@@ -318,6 +296,27 @@ mod tests {
             (m.timing.step_error_mm - (2.0 * std::f64::consts::PI * 3.0 / 82.0 - 0.23)).abs()
                 < 1e-12
         );
+    }
+
+    #[test]
+    fn params_put_the_cycle_in_the_scenes_plane_at_its_centre_or_the_stimulus_own() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml");
+        let scene = Scene::load(std::path::Path::new(path)).unwrap();
+        assert_ne!(scene.lm_plane, Scene::default().lm_plane, "a tilted plane");
+        let s = Stimulus::paper_lm_m();
+        let p = s.params(&scene);
+        assert_eq!(
+            (&p.cycle, p.center_mm, p.plane),
+            (&s.cycle, scene.center_mm, scene.lm_plane)
+        );
+        let own = [1.0, 2.0, 150.0];
+        let p = Stimulus {
+            center_mm: Some(own),
+            ..s.clone()
+        }
+        .params(&scene);
+        assert_eq!((p.center_mm, p.plane), (own, scene.lm_plane));
+        assert_eq!(p.cycle.foci, paper::LM_M_FOCI);
     }
 
     #[test]

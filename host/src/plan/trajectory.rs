@@ -30,7 +30,8 @@ pub const MAX_FOCI: usize = 32;
 pub const MAX_STEPS: usize = u16::MAX as usize;
 
 /// The paper's 5 Hz stimulus: the one definition of every default
-/// (`LmParams::paper`, `stimulus::Stimulus::default`, the CLI's flags).
+/// ([`Cycle::default`], and through it `LmParams::paper` and
+/// `stimulus::Stimulus::default`; the CLI's flags).
 pub mod paper {
     /// LM circle radius A (mm).
     pub const RADIUS_MM: f64 = 3.0;
@@ -55,9 +56,14 @@ pub enum Steps {
     Count(usize),
 }
 
-/// Stimulus parameters for one LM cycle.
+/// What one LM cycle is: the path its foci run along, how many foci, how
+/// far apart, in how many steps, how fast, at what depth per step. Where
+/// it is (centre, plane) and on which rig it plays are not part of it:
+/// [`LmParams`] adds the place, [`crate::plan::stimulus::Stimulus`] the
+/// output (synthesis, intensity, AM). Its [`Default`] is the paper's 5 Hz
+/// LM-S from [`paper`].
 #[derive(Debug, Clone, PartialEq)]
-pub struct LmParams {
+pub struct Cycle {
     /// Circle radius `A` (mm); 0 gives a static focus.
     pub radius_mm: f64,
     /// LM frequency `f` (Hz): cycles per second.
@@ -68,33 +74,65 @@ pub struct LmParams {
     pub foci: usize,
     /// Spacing `d` between neighbouring foci along the circle (mm).
     pub spacing_mm: f64,
-    /// Circle centre in finger space (mm).
-    pub center_mm: Vec3,
     /// Per-step depth `z_j` along the plane's c axis (mm): empty = 0,
     /// one value = constant, or exactly `N` values.
     pub z_profile_mm: Vec<f64>,
-    /// Plane unit vectors.
-    pub plane: LmPlane,
     /// The shape along which the foci run (the circle of `radius_mm`, or
     /// another [`Path`], which ignores `radius_mm`).
     pub path: Path,
 }
 
-impl LmParams {
-    /// The paper's LM-S/LM-M defaults around `center_mm`: A = 3 mm,
-    /// f = 5 Hz, d_LM = 0.23 mm, d = 3 mm, one focus.
-    pub fn paper(center_mm: Vec3) -> Self {
+impl Default for Cycle {
+    /// The paper's LM-S at 5 Hz: A = 3 mm, d_LM = 0.23 mm, d = 3 mm, one
+    /// focus, flat, on the circle.
+    fn default() -> Self {
         Self {
             radius_mm: paper::RADIUS_MM,
             freq_hz: paper::FREQ_HZ,
             steps: Steps::Width(paper::STEP_MM),
             foci: paper::FOCI,
             spacing_mm: paper::SPACING_MM,
-            center_mm,
             z_profile_mm: Vec::new(),
-            plane: LmPlane::default(),
             path: Path::Circle,
         }
+    }
+}
+
+impl Cycle {
+    /// The paper's LM-M: the default with [`paper::LM_M_FOCI`] foci.
+    pub fn paper_lm_m() -> Self {
+        Self {
+            foci: paper::LM_M_FOCI,
+            ..Self::default()
+        }
+    }
+
+    /// This cycle around `center_mm` in `plane`.
+    pub fn at(&self, center_mm: Vec3, plane: LmPlane) -> LmParams {
+        LmParams {
+            cycle: self.clone(),
+            center_mm,
+            plane,
+        }
+    }
+}
+
+/// One LM cycle in place: what [`Trajectory::plan`] plans.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LmParams {
+    /// The cycle.
+    pub cycle: Cycle,
+    /// Circle centre in finger space (mm).
+    pub center_mm: Vec3,
+    /// Plane unit vectors.
+    pub plane: LmPlane,
+}
+
+impl LmParams {
+    /// The paper's LM-S ([`Cycle::default`]) around `center_mm` in the
+    /// default plane.
+    pub fn paper(center_mm: Vec3) -> Self {
+        Cycle::default().at(center_mm, LmPlane::default())
     }
 }
 
@@ -153,20 +191,21 @@ fn check_wire_range(v: Vec3, what: &str) -> Result<(), InputError> {
 }
 
 impl Trajectory {
-    /// Plans the trajectory for `p` in `scene` (its reflector and minimum
+    /// Plans the trajectory for `at` in `scene` (its reflector and minimum
     /// dwell). Every rejection is an [`InputError`] naming the parameter.
-    pub fn plan(p: &LmParams, scene: &Scene) -> Result<Self, InputError> {
+    pub fn plan(at: &LmParams, scene: &Scene) -> Result<Self, InputError> {
+        let p = &at.cycle;
         finite_pos(p.radius_mm, "radius", "mm", true)?;
         finite_pos(p.freq_hz, "freq", "Hz", false)?;
         limits::in_range("radius", p.radius_mm, 0.0, limits::MAX_RADIUS_MM, "mm")?;
         limits::in_range("frequency", p.freq_hz, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
-        if !p.center_mm.iter().all(|x| x.is_finite()) {
+        if !at.center_mm.iter().all(|x| x.is_finite()) {
             return Err(InputError::new(format!(
                 "center must be finite, got {:?}",
-                p.center_mm
+                at.center_mm
             )));
         }
-        limits::position_mm("center", p.center_mm)?;
+        limits::position_mm("center", at.center_mm)?;
         if p.foci == 0 || p.foci > MAX_FOCI {
             return Err(InputError::new(format!(
                 "foci must be 1..={MAX_FOCI}, got {}",
@@ -271,13 +310,13 @@ impl Trajectory {
                 p.freq_hz
             )));
         }
-        let pl = &p.plane;
+        let pl = &at.plane;
         let points: Vec<Vec3> = (0..n)
             .map(|j| {
                 let th = 2.0 * std::f64::consts::PI * j as f64 / n as f64;
                 let (u, v) = p.path.at(th, p.radius_mm);
                 let ring = add(scale(pl.a, u), scale(pl.b, v));
-                add(add(p.center_mm, ring), scale(pl.c, z_at(j)))
+                add(add(at.center_mm, ring), scale(pl.c, z_at(j)))
             })
             .collect();
         let mut foci_mm = Vec::with_capacity(n * p.foci);
@@ -305,7 +344,7 @@ impl Trajectory {
             step_mm,
             dwell_s,
             period_s,
-            center_mm: p.center_mm,
+            center_mm: at.center_mm,
             foci_mm,
             drive_mm,
             path: Some(p.path),
@@ -365,17 +404,15 @@ mod tests {
     #[test]
     fn paper_lm_m_index_offset_is_13_at_0_22_mm() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.steps = Steps::Width(0.22);
-        p.foci = 4;
+        p.cycle.steps = Steps::Width(0.22);
+        p.cycle.foci = 4;
         let t = plan(&p).unwrap();
         assert_eq!(t.steps, 86);
         assert_eq!(t.index_offset, 13);
         // Focus i at step j is point (j + 13 i) mod N; step 80 wraps.
-        let pts = plan(&LmParams {
-            foci: 1,
-            ..p.clone()
-        })
-        .unwrap();
+        let mut one = p.clone();
+        one.cycle.foci = 1;
+        let pts = plan(&one).unwrap();
         for (i, want) in [80usize, 7, 20, 33].iter().enumerate() {
             assert_eq!(t.foci_step(80)[i], pts.foci_mm[*want]);
         }
@@ -388,29 +425,29 @@ mod tests {
     fn exact_spacing_ratio_is_not_floored_down() {
         // 2π·A/N = 0.3 exactly when A = 0.3·N/2π; d = 3 → l = 10, not 9.
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.radius_mm = 0.3 * 100.0 / (2.0 * std::f64::consts::PI);
-        p.steps = Steps::Count(100);
-        p.freq_hz = 1.0;
-        p.foci = 2;
+        p.cycle.radius_mm = 0.3 * 100.0 / (2.0 * std::f64::consts::PI);
+        p.cycle.steps = Steps::Count(100);
+        p.cycle.freq_hz = 1.0;
+        p.cycle.foci = 2;
         assert_eq!(plan(&p).unwrap().index_offset, 10);
     }
 
     #[test]
     fn radius_zero_is_a_static_focus() {
         let mut p = LmParams::paper([1.0, 2.0, 150.0]);
-        p.radius_mm = 0.0;
+        p.cycle.radius_mm = 0.0;
         let t = plan(&p).unwrap();
         assert_eq!(t.steps, 1);
         assert_eq!(t.foci_mm, vec![[1.0, 2.0, 150.0]]);
-        p.foci = 2;
+        p.cycle.foci = 2;
         assert!(plan(&p).unwrap_err().0.contains("radius > 0"));
     }
 
     #[test]
     fn n_equals_one() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.steps = Steps::Count(1);
-        p.freq_hz = 1.0;
+        p.cycle.steps = Steps::Count(1);
+        p.cycle.freq_hz = 1.0;
         let t = plan(&p).unwrap();
         assert_eq!((t.steps, t.dwell_s), (1, 1.0));
         assert_eq!(t.foci_mm, vec![[3.0, 0.0, 200.0]]);
@@ -419,48 +456,48 @@ mod tests {
     #[test]
     fn step_wider_than_circumference_is_an_error() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.steps = Steps::Width(19.0);
+        p.cycle.steps = Steps::Width(19.0);
         refused(&p, "wider than the circumference");
         // Just inside the circumference it rounds to one step.
-        p.steps = Steps::Width(18.8);
-        p.freq_hz = 1.0;
+        p.cycle.steps = Steps::Width(18.8);
+        p.cycle.freq_hz = 1.0;
         assert_eq!(plan(&p).unwrap().steps, 1);
     }
 
     #[test]
     fn spacing_below_one_step_is_l_zero_error() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.foci = 4;
-        p.spacing_mm = 0.1;
+        p.cycle.foci = 4;
+        p.cycle.spacing_mm = 0.1;
         refused(&p, "l = floor(d/d_LM) = 0");
     }
 
     #[test]
     fn foci_times_spacing_longer_than_circumference_is_an_error() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.radius_mm = 2.0;
-        p.foci = 5;
-        p.spacing_mm = 3.0;
+        p.cycle.radius_mm = 2.0;
+        p.cycle.foci = 5;
+        p.cycle.spacing_mm = 3.0;
         refused(&p, "circumference");
         // Four foci at 3 mm fit on a 2 mm circle (12.57 mm).
-        p.foci = 4;
+        p.cycle.foci = 4;
         assert_eq!(plan(&p).unwrap().foci, 4);
     }
 
     #[test]
     fn nan_inf_and_negative_inputs_are_rejected() {
         let bad = [
-            tweaked(|p| p.radius_mm = f64::NAN),
-            tweaked(|p| p.radius_mm = -1.0),
-            tweaked(|p| p.freq_hz = f64::INFINITY),
-            tweaked(|p| p.freq_hz = 0.0),
-            tweaked(|p| p.steps = Steps::Width(-0.2)),
+            tweaked(|p| p.cycle.radius_mm = f64::NAN),
+            tweaked(|p| p.cycle.radius_mm = -1.0),
+            tweaked(|p| p.cycle.freq_hz = f64::INFINITY),
+            tweaked(|p| p.cycle.freq_hz = 0.0),
+            tweaked(|p| p.cycle.steps = Steps::Width(-0.2)),
             tweaked(|p| p.center_mm = [0.0, f64::NAN, 0.0]),
             tweaked(|p| {
-                p.foci = 2;
-                p.spacing_mm = f64::NEG_INFINITY;
+                p.cycle.foci = 2;
+                p.cycle.spacing_mm = f64::NEG_INFINITY;
             }),
-            tweaked(|p| p.z_profile_mm = vec![f64::NAN]),
+            tweaked(|p| p.cycle.z_profile_mm = vec![f64::NAN]),
         ];
         for p in bad {
             let e = plan(&p).unwrap_err().0;
@@ -471,10 +508,10 @@ mod tests {
     #[test]
     fn dwell_below_device_minimum_is_rejected() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.freq_hz = 25.0; // 82 steps at 25 Hz: 0.49 ms
+        p.cycle.freq_hz = 25.0; // 82 steps at 25 Hz: 0.49 ms
         refused(&p, "below the device minimum");
         // The paper's 25 Hz condition uses 4 mm steps: N = 5, 8 ms.
-        p.steps = Steps::Width(4.0);
+        p.cycle.steps = Steps::Width(4.0);
         let t = plan(&p).unwrap();
         assert_eq!(t.steps, 5);
         assert!((t.dwell_s - 0.008).abs() < 1e-12);
@@ -483,13 +520,13 @@ mod tests {
     #[test]
     fn z_profile_constant_or_per_step() {
         let mut p = LmParams::paper([0.0, 0.0, 200.0]);
-        p.steps = Steps::Count(4);
-        p.freq_hz = 1.0;
-        p.z_profile_mm = vec![1.0, 2.0, 3.0, 4.0];
+        p.cycle.steps = Steps::Count(4);
+        p.cycle.freq_hz = 1.0;
+        p.cycle.z_profile_mm = vec![1.0, 2.0, 3.0, 4.0];
         let t = plan(&p).unwrap();
         let z: Vec<f64> = t.foci_mm.iter().map(|f| f[2]).collect();
         assert_eq!(z, vec![201.0, 202.0, 203.0, 204.0]);
-        p.z_profile_mm = vec![1.0, 2.0];
+        p.cycle.z_profile_mm = vec![1.0, 2.0];
         assert!(plan(&p).unwrap_err().0.contains("z profile"));
     }
 
@@ -513,11 +550,11 @@ mod tests {
     #[test]
     fn plan_numbers_outside_their_ranges_are_refused() {
         let cases = [
-            ("radius", tweaked(|p| p.radius_mm = 1e30)),
-            ("frequency", tweaked(|p| p.freq_hz = 1e9)),
+            ("radius", tweaked(|p| p.cycle.radius_mm = 1e30)),
+            ("frequency", tweaked(|p| p.cycle.freq_hz = 1e9)),
             ("center", tweaked(|p| p.center_mm = [0.0, 0.0, 1e12])),
-            ("z", tweaked(|p| p.z_profile_mm = vec![1e12])),
-            ("step", tweaked(|p| p.steps = Steps::Width(1e30))),
+            ("z", tweaked(|p| p.cycle.z_profile_mm = vec![1e12])),
+            ("step", tweaked(|p| p.cycle.steps = Steps::Width(1e30))),
         ];
         for (what, p) in cases {
             let e = plan(&p).unwrap_err();

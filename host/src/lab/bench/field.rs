@@ -75,7 +75,7 @@ fn max_over_peak(fast: &FieldMaps, reference: &FieldMaps) -> f64 {
 pub fn section(opts: &Options) -> anyhow::Result<Section> {
     let scene = Scene::default();
     let mut p = LmParams::paper(scene.center_mm);
-    p.foci = 4;
+    p.cycle.foci = 4;
     let traj = Trajectory::plan(&p, &scene)?;
     let seq = Sequence::synthesize(&scene, &traj, &Synthesis::Linear)?;
     let model = model_for_scene(&scene, DEFAULT_DENSITY_KG_M3)?;

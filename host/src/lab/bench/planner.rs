@@ -188,7 +188,7 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
     let mut sequences = Vec::new();
     for foci in [1, 4] {
         let mut p = LmParams::paper(scene.center_mm);
-        p.foci = foci;
+        p.cycle.foci = foci;
         let traj = Trajectory::plan(&p, &scene)?;
         frames.push(frame_case(&scene, &plan, &traj, opts));
         let (b, r) = if opts.quick { (3, 2) } else { (11, 20) };
@@ -226,8 +226,8 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
         });
     }
     let mut p = LmParams::paper([0.0, 0.0, 220.0]);
-    p.radius_mm = 6.0;
-    p.foci = 4;
+    p.cycle.radius_mm = 6.0;
+    p.cycle.foci = 4;
     let lmm = Trajectory::plan(&p, &scene)?;
     let mut solvers = solver_cases(
         &scene,

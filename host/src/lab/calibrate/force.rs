@@ -93,9 +93,9 @@ pub fn calibrate(
     }
     let center_mm = center_mm.unwrap_or(scene.center_mm);
     let mut p = LmParams::paper(center_mm);
-    p.radius_mm = 0.0;
-    p.foci = 1;
-    p.steps = Steps::Count(1);
+    p.cycle.radius_mm = 0.0;
+    p.cycle.foci = 1;
+    p.cycle.steps = Steps::Count(1);
     let plan = Plan::new(scene.clone(), &p, &Synthesis::Linear)?;
     let side = disk_mm + 2.0;
     let view = View {
@@ -171,9 +171,9 @@ mod tests {
             "the derivation ignores the calibration"
         );
         let mut p = LmParams::paper(scene.center_mm);
-        p.radius_mm = 0.0;
-        p.foci = 1;
-        p.steps = Steps::Count(1);
+        p.cycle.radius_mm = 0.0;
+        p.cycle.foci = 1;
+        p.cycle.steps = Steps::Count(1);
         let view = View {
             size_mm: (17.0, 17.0),
             step_mm: STEP_MM,

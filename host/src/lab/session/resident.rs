@@ -216,7 +216,7 @@ impl LibraryItem {
             },
             timing: l.planned.timing.clone(),
             foci: l.planned.plan.trajectory.foci,
-            radius_mm: l.stimulus.radius_mm,
+            radius_mm: l.stimulus.cycle.radius_mm,
             crc32: l.crc32,
         }
     }

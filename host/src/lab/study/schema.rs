@@ -415,11 +415,14 @@ mod tests {
         let d = |k: &str| entry[k]["default"].as_f64().unwrap_or(f64::NAN);
         let lib = Library::from_toml("[[stimulus]]\nid = \"x\"\n", "t").unwrap();
         let s = &lib.entries[0].stimulus;
-        assert_eq!(d("radius"), s.radius_mm);
-        assert_eq!(d("foci"), s.foci as f64);
-        assert_eq!(d("spacing"), s.spacing_mm);
-        assert_eq!(d("freq"), s.freq_hz);
-        assert_eq!(s.steps, crate::plan::trajectory::Steps::Width(d("step")));
+        assert_eq!(d("radius"), s.cycle.radius_mm);
+        assert_eq!(d("foci"), s.cycle.foci as f64);
+        assert_eq!(d("spacing"), s.cycle.spacing_mm);
+        assert_eq!(d("freq"), s.cycle.freq_hz);
+        assert_eq!(
+            s.cycle.steps,
+            crate::plan::trajectory::Steps::Width(d("step"))
+        );
         assert_eq!(d("intensity"), s.intensity);
         assert_eq!(entry["untracked"]["default"], lib.entries[0].untracked);
         let lib = Library::from_toml(
@@ -439,9 +442,9 @@ mod tests {
             n_b,
             phase_deg,
             ..
-        }) = s.path
+        }) = s.cycle.path
         else {
-            panic!("{:?}", s.path)
+            panic!("{:?}", s.cycle.path)
         };
         assert_eq!(path["ratio"]["default"], serde_json::json!([n_a, n_b]));
         assert_eq!(path["phase"]["default"], phase_deg);

@@ -213,7 +213,7 @@ pub fn stimuli(loaded: &[Loaded]) -> Vec<Stimulus> {
             let t = &l.planned.plan.trajectory;
             Stimulus {
                 id: l.id.clone(),
-                radius_mm: l.stimulus.radius_mm,
+                radius_mm: l.stimulus.cycle.radius_mm,
                 planned_mm: t.center_mm,
                 foci_mm: (0..t.steps).map(|j| t.foci_step(j).to_vec()).collect(),
                 dwell_s: t.dwell_s,

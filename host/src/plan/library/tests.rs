@@ -9,13 +9,13 @@ fn entries_default_to_the_plan_flags_and_keep_file_order() {
     .unwrap();
     assert_eq!(lib.entries.len(), 2);
     assert_eq!(lib.entries[0].id, "b");
-    assert_eq!(lib.entries[0].stimulus.foci, 4);
-    assert_eq!(lib.entries[0].stimulus.radius_mm, 3.0);
+    assert_eq!(lib.entries[0].stimulus.cycle.foci, 4);
+    assert_eq!(lib.entries[0].stimulus.cycle.radius_mm, 3.0);
     assert_eq!(lib.entries[0].stimulus.intensity, 0.5);
     assert_eq!(lib.entries[1].stimulus.intensity, 1.0);
     assert!(!lib.entries[0].untracked);
-    assert_eq!(lib.entries[1].stimulus.steps, Steps::Count(64));
-    assert_eq!(lib.entries[1].stimulus.freq_hz, 25.0);
+    assert_eq!(lib.entries[1].stimulus.cycle.steps, Steps::Count(64));
+    assert_eq!(lib.entries[1].stimulus.cycle.freq_hz, 25.0);
     assert!(lib.entries[1].untracked);
     assert_eq!(lib.find("a").map(|(i, _)| i), Some(1));
     assert!(lib.find("c").is_none());
@@ -78,7 +78,7 @@ fn paths_and_modulations_are_read_with_their_defaults() {
     let lib = Library::from_toml(KINDS, "t").unwrap();
     let s = |i: usize| &lib.entries[i].stimulus;
     assert_eq!(
-        s(0).path,
+        s(0).cycle.path,
         Path::Lissajous(Lissajous {
             a_mm: 5.0,
             b_mm: 3.0,
@@ -88,15 +88,15 @@ fn paths_and_modulations_are_read_with_their_defaults() {
         })
     );
     assert_eq!(s(0).am, None);
-    assert_eq!(s(1).path, Path::Circle);
+    assert_eq!(s(1).cycle.path, Path::Circle);
     let am = s(1).am.unwrap();
     assert_eq!(
         (am.shape, am.freq_hz, am.depth),
         (AmShape::Square, 200.0, 0.5)
     );
-    assert_eq!(s(2).path, Path::Line { length_mm: 8.0 });
+    assert_eq!(s(2).cycle.path, Path::Line { length_mm: 8.0 });
     assert_eq!(
-        s(3).path,
+        s(3).cycle.path,
         Path::Ellipse {
             a_mm: 4.0,
             b_mm: 2.0

@@ -31,8 +31,8 @@ fn scenes() -> [Scene; 2] {
 
 fn lm(scene: &Scene, radius_mm: f64, foci: usize) -> (Plan, GridTiming) {
     let mut p = LmParams::paper(scene.center_mm);
-    p.radius_mm = radius_mm;
-    p.foci = foci;
+    p.cycle.radius_mm = radius_mm;
+    p.cycle.foci = foci;
     timing::plan(&p, scene, &Synthesis::Linear).unwrap()
 }
 
@@ -401,8 +401,8 @@ fn planned_phases_equal_autd3s_focus_gain() {
     for scene in scenes() {
         let (b, _h, _c) = open(&scene);
         let mut p = LmParams::paper(scene.center_mm);
-        p.radius_mm = 0.0;
-        p.steps = Steps::Count(2);
+        p.cycle.radius_mm = 0.0;
+        p.cycle.steps = Steps::Count(2);
         let (plan, _) = timing::plan(&p, &scene, &Synthesis::Linear).unwrap();
         let f = plan.trajectory.drive_step(0)[0];
         let geo = b.geometry();

@@ -11,8 +11,8 @@ use lm_proto::PlayAt;
 fn two_slots(scene: &Scene, b: &mut Autd3Backend) -> (Plan, Plan, GridTiming) {
     let (x, g) = lm(scene, 3.0, 1);
     let mut p = LmParams::paper(scene.center_mm);
-    p.radius_mm = 5.0;
-    p.steps = Steps::Count(g.steps);
+    p.cycle.radius_mm = 5.0;
+    p.cycle.steps = Steps::Count(g.steps);
     let (y, gy) = timing::plan(&p, scene, &Synthesis::Linear).unwrap();
     assert_eq!((gy.steps, gy.divide), (g.steps, g.divide));
     assert_eq!(b.upload(&x, Some(1)).unwrap().slot, 1);
