@@ -489,8 +489,8 @@ impl Tracker_ {
         );
         Ok(Self {
             pipe: Mutex::new(pipe),
-            width: intr.width as usize,
-            height: intr.height as usize,
+            width: intr.pinhole.width as usize,
+            height: intr.pinhole.height as usize,
             min_points,
             started: Instant::now(),
         })
