@@ -478,11 +478,8 @@ pub fn render_ball(
     for row in 0..intr.pinhole.height {
         for col in 0..intr.pinhole.width {
             // Ray (x, y, 1) · z: the first hit of |z d − c| = r.
-            let d = [
-                (f64::from(col) - intr.pinhole.ppx) / intr.pinhole.fx,
-                (f64::from(row) - intr.pinhole.ppy) / intr.pinhole.fy,
-                1.0,
-            ];
+            let [x, y] = intr.pinhole.normalised(f64::from(col), f64::from(row));
+            let d = [x, y, 1.0];
             let (a, b, cc) = (dot(d, d), -2.0 * dot(d, c), dot(c, c) - r * r);
             let disc = b * b - 4.0 * a * cc;
             let z = if disc >= 0.0 {
