@@ -22,7 +22,6 @@ use lmhost::device::connect::DeviceKind;
 use lmhost::device::link::PortSpec;
 use lmhost::device::upload::Play;
 use lmhost::plan::scene::Scene;
-use lmhost::plan::target::Target;
 
 use super::{DeviceError, Plan_, Scene_, args, bad, panic_err, panic_msg, to_py, to_python};
 
@@ -173,14 +172,12 @@ impl Device_ {
         untracked: bool,
     ) -> PyResult<String> {
         let slot = args::opt_int_in::<u8>("slot", slot, 0, u8::MAX.into())?;
-        let kind = match self.kind.target() {
-            Target::Lm => "lm",
-            Target::Autd3 => "autd3",
-        };
-        if plan.target_kind() != self.kind.target() {
+        let kind = self.kind.target().name();
+        if plan.target != self.kind.target() {
             return Err(bad(format!(
                 "the plan is for target={:?} but {} is an {kind} device: plan with target={kind:?}",
-                plan.target, self.port
+                plan.target.name(),
+                self.port
             )));
         }
         let planned = plan.planned.clone();

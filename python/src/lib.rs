@@ -166,16 +166,7 @@ impl Scene_ {
 struct Plan_ {
     planned: TargetPlan,
     radius_mm: f64,
-    target: String,
-}
-
-impl Plan_ {
-    fn target_kind(&self) -> Target {
-        match self.target.as_str() {
-            "autd3" => Target::Autd3,
-            _ => Target::Lm,
-        }
-    }
+    target: Target,
 }
 
 #[pymethods]
@@ -233,7 +224,7 @@ impl Plan_ {
     /// `"lm"` or `"autd3"`: the device kind planned for.
     #[getter]
     fn target(&self) -> String {
-        self.target.clone()
+        self.target.name().to_owned()
     }
 
     /// Transducers in the plan's scene.
@@ -276,7 +267,7 @@ impl Plan_ {
     /// as raw step-major bytes; whole or absent.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         run(py, || {
-            let bytes = self.planned.out_bytes(&path, &self.target_kind())?;
+            let bytes = self.planned.out_bytes(&path, &self.target)?;
             lmhost::files::write_whole(&path, &bytes)
         })
     }
@@ -284,7 +275,7 @@ impl Plan_ {
     /// The summary `lmhost plan --json` prints (`phases=True` adds them).
     #[pyo3(signature = (phases=false))]
     fn summary(&self, py: Python<'_>, phases: bool) -> PyResult<PyObject> {
-        to_python(py, &self.planned.summary_json(&self.target_kind(), phases))
+        to_python(py, &self.planned.summary_json(&self.target, phases))
     }
 }
 
@@ -306,15 +297,8 @@ fn plan(
     intensity: &Bound<'_, PyAny>,
     target: &str,
 ) -> PyResult<Plan_> {
-    let target_kind = match target {
-        "lm" => Target::Lm,
-        "autd3" => Target::Autd3,
-        t => {
-            return Err(bad(format!(
-                "target must be \"lm\" or \"autd3\", got {t:?}"
-            )));
-        }
-    };
+    let target = lmhost::error::choose("a target", target, &Target::ALL.map(|t| (t.name(), t)))
+        .map_err(bad)?;
     let radius = args::float("radius", radius)?;
     let spacing = args::float("spacing", spacing)?;
     let freq = args::float("freq", freq)?;
@@ -343,12 +327,12 @@ fn plan(
             intensity: lmhost::limits::in_range("--intensity", intensity, 0.0, 1.0, "")?,
             ..Stimulus::default()
         };
-        stimulus.plan_for(&target_kind, scene)
+        stimulus.plan_for(&target, scene)
     })?;
     Ok(Plan_ {
         planned,
         radius_mm: radius,
-        target: target.to_owned(),
+        target,
     })
 }
 
@@ -492,8 +476,8 @@ impl Tracker_ {
         );
         Ok(Self {
             pipe: Mutex::new(pipe),
-            width: intr.width as usize,
-            height: intr.height as usize,
+            width: intr.pinhole.width as usize,
+            height: intr.pinhole.height as usize,
             min_points,
             started: Instant::now(),
         })

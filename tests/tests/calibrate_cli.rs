@@ -160,11 +160,12 @@ fn calibrate_camera<'a>(points: &'a Path, intrinsics: &'a Path, extra: &[&'a str
 fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
     let d = scratch_dir("cal-camera");
     let intr = Intrinsics::D435_848X480;
+    let p = &intr.pinhole;
     std::fs::write(
         d.join("cam.toml"),
         format!(
             "width = {}\nheight = {}\nfx = {:?}\nfy = {:?}\nppx = {:?}\nppy = {:?}\ndepth_scale = {:?}\n",
-            intr.width, intr.height, intr.fx, intr.fy, intr.ppx, intr.ppy, intr.depth_scale
+            p.width, p.height, p.fx, p.fy, p.ppx, p.ppy, intr.depth_scale
         ),
     )
     .unwrap();
@@ -176,7 +177,8 @@ fn camera_pose_from_synthetic_ball_recordings_is_written_into_the_scene() {
     };
     let mut rng = lmhost::rng::SplitMix64::new(11);
     let write = |name: &str, frames: Vec<Vec<u16>>| {
-        let mut w = DepthNpyWriter::create(&d.join(name), intr.width, intr.height).unwrap();
+        let mut w =
+            DepthNpyWriter::create(&d.join(name), intr.pinhole.width, intr.pinhole.height).unwrap();
         for f in &frames {
             w.push(f).unwrap();
         }

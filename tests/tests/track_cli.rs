@@ -164,16 +164,18 @@ fn a_synthetic_recording_replays_to_the_same_results() {
 
 #[test]
 fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
-    use lmhost::sense::track::intrinsics::Intrinsics;
+    use lmhost::sense::track::intrinsics::{Intrinsics, Pinhole};
     use lmhost::sense::track::source::{stream_frame, stream_header};
     let d = scratch_dir("track-stream");
     let intr = Intrinsics {
-        width: 424,
-        height: 240,
-        fx: 213.0,
-        fy: 213.0,
-        ppx: 211.5,
-        ppy: 119.5,
+        pinhole: Pinhole {
+            width: 424,
+            height: 240,
+            fx: 213.0,
+            fy: 213.0,
+            ppx: 211.5,
+            ppy: 119.5,
+        },
         depth_scale: 0.0001,
     };
     // Frames from a recording made by --synthetic, re-sent as a stream.

@@ -162,18 +162,17 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
         t.step_error_mm
     )?;
     let u = &r.upload;
-    let bytes = match (
-        u.raw_bytes,
-        u.encoded_bytes,
-        u.wire_bytes,
-        u.wire_efficiency,
-    ) {
-        (Some(raw), Some(enc), Some(wire), Some(eff)) => format!(
-            "{raw} B raw → {enc} B delta, {wire} B on the wire ({:.1} % efficient), ",
-            eff * 100.0
+    let bytes = match u.transfer.wire() {
+        Some(w) => format!(
+            "{} B raw → {} B delta, {} B on the wire ({:.1} % efficient), ",
+            w.raw_bytes,
+            w.sequence_bytes,
+            w.wire_bytes_sent + w.wire_bytes_received,
+            w.wire_efficiency() * 100.0
         ),
-        _ => u
-            .frames
+        None => u
+            .transfer
+            .frames()
             .map_or(String::new(), |f| format!("GainSTM in {f} frames, ")),
     };
     let readback = r

@@ -67,7 +67,8 @@ pub fn summary(o: &UploadOutcome, needs_host: bool) -> String {
         t.requested_freq_hz,
         t.step_mm,
         o.crc32,
-        o.readback_mismatches
+        o.transfer
+            .readback_mismatches()
             .map_or("not available".into(), |n| format!("{n} mismatches")),
         if o.queued { "queued" } else { "playing" },
         o.slot,

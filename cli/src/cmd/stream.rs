@@ -267,7 +267,8 @@ impl Args {
                 report.acked,
                 s.timing.dwell_us,
                 s.timing.freq_hz,
-                s.readback_mismatches
+                s.transfer
+                    .readback_mismatches()
                     .map_or("n/a".into(), |n| n.to_string()),
                 status.mute_reason.describe()
             )?;

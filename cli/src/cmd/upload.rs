@@ -274,9 +274,8 @@ impl Args {
 /// The text report of an upload (`--json` prints [`UploadOutcome`]).
 fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
     let t = &o.timing;
-    match &o.wire {
-        Some(w) => {
-            let r = &w.report;
+    match o.transfer.wire() {
+        Some(r) => {
             lmhost::outln!(
                 "uploaded {} steps × {} transducers to slot {}: {} bytes raw, {} encoded, {} with positions, {} on the wire",
                 t.steps,
@@ -291,7 +290,7 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
                 "{:.3} s, {:.1} kB/s payload, wire efficiency {:.1} %, CRC {:08x}, {} retries",
                 r.seconds,
                 r.payload_bytes as f64 / r.seconds.max(1e-9) / 1e3,
-                w.wire_efficiency * 100.0,
+                r.wire_efficiency() * 100.0,
                 r.crc32,
                 r.retries
             )?;
@@ -305,12 +304,14 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
                 o.port,
                 o.slot,
                 crate::cmd::plan::grid_timing(t),
-                o.frames.map_or("uncounted".into(), |f| f.to_string()),
+                o.transfer
+                    .frames()
+                    .map_or("uncounted".into(), |f| f.to_string()),
                 o.payload_bytes,
                 o.seconds,
                 o.crc32
             )?;
-            match o.readback_mismatches {
+            match o.transfer.readback_mismatches() {
                 Some(n) => {
                     lmhost::outln!("read back from the FPGA: {n} phases differ from the plan")?
                 }

@@ -227,9 +227,27 @@ impl UploadReport {
     /// Phases read back from the device that differ from the plan (`None`
     /// when the device cannot be read back).
     pub fn readback_mismatches(&self) -> Option<u64> {
-        match self.transfer {
-            Transfer::Wire(_) => None,
-            Transfer::Autd3 {
+        self.transfer.readback_mismatches()
+    }
+
+    /// Link frames the upload took, where counted.
+    pub fn frames(&self) -> Option<u64> {
+        self.transfer.frames()
+    }
+
+    /// The framed link's transfer report (the LM firmware).
+    pub fn wire(&self) -> Option<&crate::device::link::UploadReport> {
+        self.transfer.wire()
+    }
+}
+
+impl Transfer {
+    /// Phases read back from the device that differ from the plan (`None`
+    /// when the device cannot be read back).
+    pub fn readback_mismatches(&self) -> Option<u64> {
+        match *self {
+            Self::Wire(_) => None,
+            Self::Autd3 {
                 readback_mismatches,
                 ..
             } => readback_mismatches,
@@ -238,17 +256,17 @@ impl UploadReport {
 
     /// Link frames the upload took, where counted.
     pub fn frames(&self) -> Option<u64> {
-        match self.transfer {
-            Transfer::Autd3 { frames, .. } if frames > 0 => Some(frames),
+        match *self {
+            Self::Autd3 { frames, .. } if frames > 0 => Some(frames),
             _ => None,
         }
     }
 
     /// The framed link's transfer report (the LM firmware).
     pub fn wire(&self) -> Option<&crate::device::link::UploadReport> {
-        match &self.transfer {
-            Transfer::Wire(w) => Some(w),
-            Transfer::Autd3 { .. } => None,
+        match self {
+            Self::Wire(w) => Some(w),
+            Self::Autd3 { .. } => None,
         }
     }
 }

@@ -5,7 +5,7 @@
 use lm_proto::{DeviceState, MuteReason, Status};
 use serde::Serialize;
 
-use crate::device::backend::Backend;
+use crate::device::backend::{Backend, Transfer};
 use crate::plan::stimulus::{TargetPlan, Timing};
 
 /// How to play what was uploaded.
@@ -20,13 +20,33 @@ pub enum Play {
 }
 
 /// The serial link's transfer figures (LM firmware), the JSON's `wire`.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub struct WireFigures {
+#[derive(Serialize)]
+struct WireFigures {
     /// The link's report.
     #[serde(flatten)]
-    pub report: crate::device::link::UploadReport,
+    report: crate::device::link::UploadReport,
     /// Payload bytes over all wire bytes.
-    pub wire_efficiency: f64,
+    wire_efficiency: f64,
+}
+
+/// `UploadOutcome::transfer` as the keys it always had: `wire_bytes_sent`,
+/// `frames`, `readback_mismatches` and `wire`, each `null` where the link
+/// has no such figure.
+fn outcome_keys<S: serde::Serializer>(t: &Transfer, s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeStruct as _;
+    let wire = t.wire();
+    let mut st = s.serialize_struct("Transfer", 4)?;
+    st.serialize_field("wire_bytes_sent", &wire.map(|w| w.wire_bytes_sent))?;
+    st.serialize_field("frames", &t.frames())?;
+    st.serialize_field("readback_mismatches", &t.readback_mismatches())?;
+    st.serialize_field(
+        "wire",
+        &wire.map(|&report| WireFigures {
+            report,
+            wire_efficiency: report.wire_efficiency(),
+        }),
+    )?;
+    st.end()
 }
 
 /// What an upload and the play after it did: the same keys on every
@@ -53,16 +73,14 @@ pub struct UploadOutcome {
     /// Phase bytes sent: the encoded sequence on the LM firmware, the raw
     /// steps × transducers on an AUTD3.
     pub payload_bytes: u64,
-    /// Bytes the link sent, framing included (`None` where not known: an
-    /// AUTD3).
-    pub wire_bytes_sent: Option<u64>,
-    /// Link frames the upload took (`None` where not counted: the LM
-    /// firmware, a real AUTD3 link).
-    pub frames: Option<u64>,
-    /// Phases read back that differ from the plan (`None`: no read-back).
-    pub readback_mismatches: Option<u64>,
-    /// The serial link's full report (LM firmware; `None` on an AUTD3).
-    pub wire: Option<WireFigures>,
+    /// How it travelled: the LM serial link's report, or the autd3
+    /// crates' frames and read-back, one or the other whole. In the JSON
+    /// the keys `wire_bytes_sent` (bytes the link sent, framing included),
+    /// `frames` (counted on autd3's emulator), `readback_mismatches`
+    /// (phases read back that differ from the plan) and `wire` (the serial
+    /// link's full report), each `null` where this link has no such figure.
+    #[serde(flatten, serialize_with = "outcome_keys")]
+    pub transfer: Transfer,
     /// Whether it was played.
     pub playing: bool,
     /// Whether the play waits for the playing slot's cycle boundary.
@@ -108,13 +126,7 @@ pub fn upload(
         payload_bytes: r
             .wire()
             .map_or(plan.sequence.phases.len() as u64, |w| w.sequence_bytes),
-        wire_bytes_sent: r.wire().map(|w| w.wire_bytes_sent),
-        frames: r.frames(),
-        readback_mismatches: r.readback_mismatches(),
-        wire: r.wire().map(|&report| WireFigures {
-            report,
-            wire_efficiency: report.wire_efficiency(),
-        }),
+        transfer: r.transfer,
         playing: status.is_some(),
         queued: status.is_some_and(|s| s.queued_slot == Some(r.slot)),
         untracked: play == Play::Untracked,

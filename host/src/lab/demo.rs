@@ -13,7 +13,7 @@ use lm_proto::{DeviceState, Encoding, MuteReason, Status};
 use serde::Serialize;
 
 use crate::clock::{Spread, monotonic_us};
-use crate::device::backend::Backend;
+use crate::device::backend::{Backend, Transfer};
 use crate::device::connect::LmBackend;
 use crate::device::link::Client;
 use crate::device::simdev::{SimConfig, SimStats, SimThread};
@@ -106,18 +106,30 @@ pub struct UploadFigures {
     pub slot: u8,
     /// Seconds from upload to play (with the open, on AUTD3).
     pub seconds: f64,
-    /// Link frames (AUTD3 emulator).
-    pub frames: Option<u64>,
-    /// Raw sequence bytes (LM firmware).
-    pub raw_bytes: Option<u64>,
-    /// Encoded (Delta) bytes (LM firmware).
-    pub encoded_bytes: Option<u64>,
-    /// Bytes both ways on the wire (LM firmware).
-    pub wire_bytes: Option<u64>,
-    /// Payload share of the wire bytes (LM firmware).
-    pub wire_efficiency: Option<f64>,
-    /// CRC-32 of the raw sequence (LM firmware).
-    pub crc32: Option<u32>,
+    /// How it travelled: the LM serial link's report or the autd3 crates'
+    /// counts. In the JSON the keys `frames` (autd3's emulator), and from
+    /// the LM link `raw_bytes`, `encoded_bytes` (Delta), `wire_bytes` (both
+    /// ways), `wire_efficiency` (payload share) and `crc32` (of the raw
+    /// sequence), each `null` where this link has no such figure.
+    #[serde(flatten, serialize_with = "demo_keys")]
+    pub transfer: Transfer,
+}
+
+/// `UploadFigures::transfer` as the keys the demo's report always had.
+fn demo_keys<S: serde::Serializer>(t: &Transfer, s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeStruct as _;
+    let w = t.wire();
+    let mut st = s.serialize_struct("Transfer", 6)?;
+    st.serialize_field("frames", &t.frames())?;
+    st.serialize_field("raw_bytes", &w.map(|w| w.raw_bytes))?;
+    st.serialize_field("encoded_bytes", &w.map(|w| w.sequence_bytes))?;
+    st.serialize_field(
+        "wire_bytes",
+        &w.map(|w| w.wire_bytes_sent + w.wire_bytes_received),
+    )?;
+    st.serialize_field("wire_efficiency", &w.map(|w| w.wire_efficiency()))?;
+    st.serialize_field("crc32", &w.map(|w| w.crc32))?;
+    st.end()
 }
 
 /// The simulated device's own clockwork (LM simulated device only).
@@ -286,7 +298,6 @@ pub fn run(
     let stats = sim.map(|s| s.sim.stats());
     dev.stop().context("silencing the array")?;
 
-    let wire = up.wire();
     let away = || states.iter().filter(|(p, _)| !p);
     let dwell_us = planned.timing.dwell_us;
     Ok(Report {
@@ -299,13 +310,8 @@ pub fn run(
         readback_mismatches: up.readback_mismatches(),
         upload: UploadFigures {
             slot: up.slot,
-            seconds: wire.map_or(up_s, |w| w.seconds),
-            frames: up.frames(),
-            raw_bytes: wire.map(|w| w.raw_bytes),
-            encoded_bytes: wire.map(|w| w.sequence_bytes),
-            wire_bytes: wire.map(|w| w.wire_bytes_sent + w.wire_bytes_received),
-            wire_efficiency: wire.map(|w| w.wire_efficiency()),
-            crc32: wire.map(|w| w.crc32),
+            seconds: up.wire().map_or(up_s, |w| w.seconds),
+            transfer: up.transfer,
         },
         playback: stats
             .as_ref()

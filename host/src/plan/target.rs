@@ -17,6 +17,17 @@ pub enum Target {
 }
 
 impl Target {
+    /// Every target.
+    pub const ALL: [Target; 2] = [Self::Lm, Self::Autd3];
+
+    /// Its name (`--target`, a plan's JSON summary, Python's `target=`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Lm => "lm",
+            Self::Autd3 => "autd3",
+        }
+    }
+
     /// `params` planned for this device: on AUTD3 on its 25 µs dwell grid
     /// (with the realised timing), else as asked.
     pub fn plan_on_grid(

@@ -35,6 +35,22 @@ fn set(p: &mut [u8], f: Field, bytes: &[u8]) {
     p[f].copy_from_slice(bytes);
 }
 
+/// Writes a bulk message (`Chunk`, `Intensity`): a head of its slot and
+/// the offset of its bytes (whose width is the layout's), then the bytes.
+fn put_bulk<const LEN: usize>(
+    s: &mut impl Sink,
+    [slot_f, offset_f]: [Field; 2],
+    slot: u8,
+    offset: &[u8],
+    data: &[u8],
+) -> Result<(), EncodeError> {
+    let mut p = [0; LEN];
+    set(&mut p, slot_f, &[slot]);
+    set(&mut p, offset_f, offset);
+    s.put(&p)?;
+    s.put(data)
+}
+
 impl Message<'_> {
     /// Writes the payload (no header, no CRC) into `buf`; returns its length.
     pub fn emit_payload(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
@@ -69,13 +85,7 @@ impl Message<'_> {
     pub(crate) fn emit(&self, s: &mut impl Sink) -> Result<(), EncodeError> {
         self.check()?;
         match self {
-            Self::GetInfo
-            | Self::Stop
-            | Self::GetStatus
-            | Self::Ack
-            | Self::CommitRig
-            | Self::Renew
-            | Self::SelfTest => Ok(()),
+            payload_less!(Self) => Ok(()),
             Self::BeginRig(r) => {
                 use field::begin_rig as f;
                 let mut p = [0; f::LEN];
@@ -120,19 +130,13 @@ impl Message<'_> {
             }
             Self::Chunk(c) => {
                 use field::chunk as f;
-                let mut p = [0; f::LEN];
-                set(&mut p, f::SLOT, &[c.slot]);
-                set(&mut p, f::OFFSET, &c.offset.to_le_bytes());
-                s.put(&p)?;
-                s.put(c.data)
+                let offset = c.offset.to_le_bytes();
+                put_bulk::<{ f::LEN }>(s, [f::SLOT, f::OFFSET], c.slot, &offset, c.data)
             }
             Self::Intensity(c) => {
                 use field::intensity as f;
-                let mut p = [0; f::LEN];
-                set(&mut p, f::SLOT, &[c.slot]);
-                set(&mut p, f::OFFSET, &c.offset.to_le_bytes());
-                s.put(&p)?;
-                s.put(c.data)
+                let offset = c.offset.to_le_bytes();
+                put_bulk::<{ f::LEN }>(s, [f::SLOT, f::OFFSET], c.slot, &offset, c.data)
             }
             Self::Commit(c) => {
                 use field::commit as f;

@@ -9,6 +9,15 @@ use crate::header::{DeviceLimits, HeaderError, UploadHeader};
 use crate::nack::NackCode;
 use crate::wire::wire_enum;
 
+/// The messages without a payload, as a pattern: the one list that
+/// `payload_len`, `emit` and `parse` match on. Over `Message` or
+/// `MessageType`, whose variants share these names.
+macro_rules! payload_less {
+    ($e:ident) => {
+        $e::GetInfo | $e::Stop | $e::GetStatus | $e::Ack | $e::CommitRig | $e::Renew | $e::SelfTest
+    };
+}
+
 mod emit;
 mod parse;
 
@@ -588,13 +597,7 @@ impl<'a> Message<'a> {
     /// Payload length on the wire (before framing).
     pub fn payload_len(&self) -> usize {
         match self {
-            Self::GetInfo
-            | Self::Stop
-            | Self::GetStatus
-            | Self::Ack
-            | Self::CommitRig
-            | Self::Renew
-            | Self::SelfTest => 0,
+            payload_less!(Self) => 0,
             Self::BeginRig(_) => field::begin_rig::LEN,
             Self::BeginUpload(_) => field::begin_upload::LEN,
             Self::Geometry(g) => field::geometry::LEN + POSITION_LEN * g.positions.len(),

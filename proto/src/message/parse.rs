@@ -33,6 +33,19 @@ impl<'a> Fields<'a> {
         let (head, rest) = payload.split_at(len);
         Ok((Self(head), rest))
     }
+    /// A head of `len` bytes and the bulk bytes after it (`Chunk`,
+    /// `Intensity`), at most [`MAX_CHUNK`] of them.
+    fn bulk(
+        payload: &'a [u8],
+        len: usize,
+        too_long: &'static str,
+    ) -> Result<(Self, &'a [u8]), &'static str> {
+        let (head, data) = Self::head(payload, len)?;
+        if data.len() > MAX_CHUNK {
+            return Err(too_long);
+        }
+        Ok((head, data))
+    }
     fn array<const N: usize>(&self, f: Field) -> Result<[u8; N], &'static str> {
         let b = self.0.get(f).ok_or("payload too short")?;
         b.try_into()
@@ -136,10 +149,7 @@ impl<'a> Message<'a> {
             }
             MessageType::Chunk => {
                 use field::chunk as f;
-                let (p, data) = Fields::head(payload, f::LEN)?;
-                if data.len() > MAX_CHUNK {
-                    return Err("chunk longer than MAX_CHUNK");
-                }
+                let (p, data) = Fields::bulk(payload, f::LEN, "chunk longer than MAX_CHUNK")?;
                 Self::Chunk(Chunk {
                     slot: p.u8(f::SLOT)?,
                     offset: p.u32(f::OFFSET)?,
@@ -148,12 +158,10 @@ impl<'a> Message<'a> {
             }
             MessageType::Intensity => {
                 use field::intensity as f;
-                let (p, data) = Fields::head(payload, f::LEN)?;
+                let (p, data) =
+                    Fields::bulk(payload, f::LEN, "intensity frame longer than MAX_CHUNK")?;
                 if data.is_empty() {
                     return Err("intensity frame without table bytes");
-                }
-                if data.len() > MAX_CHUNK {
-                    return Err("intensity frame longer than MAX_CHUNK");
                 }
                 Self::Intensity(Intensity {
                     slot: p.u8(f::SLOT)?,

@@ -64,8 +64,8 @@ pub fn section(opts: &Options) -> anyhow::Result<Section> {
     quick_sim.window = Some(tracker.roi());
     let surface = compare(&quick_sim, if opts.quick { 3.0 } else { 6.0 }, 3.0, 16, 0.3);
     let f = TrackFigures {
-        width: intr.width,
-        height: intr.height,
+        width: intr.pinhole.width,
+        height: intr.pinhole.height,
         roi_pixels: tracker.roi().pixels(),
         points: fast.points,
         track_us: track_s * 1e6,

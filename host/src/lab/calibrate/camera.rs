@@ -474,15 +474,12 @@ pub fn render_ball(
     let c = pose.to_camera(center);
     let r = diameter / 2.0;
     let mm = intr.mm_per_unit();
-    let mut out = Vec::with_capacity((intr.width * intr.height) as usize);
-    for row in 0..intr.height {
-        for col in 0..intr.width {
+    let mut out = Vec::with_capacity((intr.pinhole.width * intr.pinhole.height) as usize);
+    for row in 0..intr.pinhole.height {
+        for col in 0..intr.pinhole.width {
             // Ray (x, y, 1) · z: the first hit of |z d − c| = r.
-            let d = [
-                (f64::from(col) - intr.ppx) / intr.fx,
-                (f64::from(row) - intr.ppy) / intr.fy,
-                1.0,
-            ];
+            let [x, y] = intr.pinhole.normalised(f64::from(col), f64::from(row));
+            let d = [x, y, 1.0];
             let (a, b, cc) = (dot(d, d), -2.0 * dot(d, c), dot(c, c) - r * r);
             let disc = b * b - 4.0 * a * cc;
             let z = if disc >= 0.0 {
@@ -569,9 +566,12 @@ mod tests {
         let mut rng = crate::rng::SplitMix64::new(7);
         let mut text = String::from("ball_diameter_mm = 40.0\nbackground = \"bg.npy\"\n");
         let write = |name: &str, frames: &[Vec<u16>]| {
-            let mut w =
-                crate::npy::DepthNpyWriter::create(&dir.join(name), intr.width, intr.height)
-                    .unwrap();
+            let mut w = crate::npy::DepthNpyWriter::create(
+                &dir.join(name),
+                intr.pinhole.width,
+                intr.pinhole.height,
+            )
+            .unwrap();
             for f in frames {
                 w.push(f).unwrap();
             }

@@ -13,6 +13,9 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// Every shape.
+    pub const ALL: [Shape; 2] = [Self::Logistic, Self::Weibull];
+
     /// Its name in a protocol or `--observer`.
     pub fn name(self) -> &'static str {
         match self {

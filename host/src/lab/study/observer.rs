@@ -22,15 +22,8 @@ impl Psychometric {
             ))
         };
         let (shape, rest) = spec.split_once(':').unwrap_or((spec, ""));
-        let shape = match shape {
-            "logistic" => Shape::Logistic,
-            "weibull" => Shape::Weibull,
-            s => {
-                return Err(bad(format!(
-                    "`{s}` is not a shape: give logistic or weibull"
-                )));
-            }
-        };
+        let shape = crate::error::choose("a shape", shape, &Shape::ALL.map(|s| (s.name(), s)))
+            .map_err(bad)?;
         let (mut threshold, mut slope, mut guess, mut lapse, mut seed) =
             (None, None, 0.0, 0.02, 1u64);
         for kv in rest.split(',').filter(|s| !s.is_empty()) {

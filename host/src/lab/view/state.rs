@@ -474,8 +474,8 @@ pub(super) fn spawn_synthetic(
                 let now = monotonic_us();
                 sh.push(ColourImage {
                     t_s: now.saturating_sub(t0) as f64 / 1e6,
-                    width: sim.cam.width,
-                    height: sim.cam.height,
+                    width: sim.cam.pinhole.width,
+                    height: sim.cam.pinhole.height,
                     rgb: Arc::new(rgb),
                 });
                 next += period_us;

@@ -67,13 +67,7 @@ impl FilterKind {
 impl FromStr for FilterKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL
-            .into_iter()
-            .find(|k| k.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| {
-                let names: Vec<_> = Self::ALL.iter().map(|k| k.name()).collect();
-                format!("unknown filter `{s}`: one of {}", names.join(", "))
-            })
+        crate::error::choose_any_case("a filter", s, &Self::ALL.map(|k| (k.name(), k)))
     }
 }
 

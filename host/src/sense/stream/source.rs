@@ -134,15 +134,12 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
                 ))
             })
         };
-        let present = match fields[4].to_ascii_lowercase().as_str() {
-            "1" | "true" => true,
-            "0" | "false" => false,
-            other => {
-                return Err(InputError::new(format!(
-                    "line {line_no}: present `{other}` must be 1, 0, true or false"
-                )));
-            }
-        };
+        let present = crate::error::choose_any_case(
+            "a `present` value",
+            fields[4],
+            &[("1", true), ("0", false), ("true", true), ("false", false)],
+        )
+        .map_err(|m| InputError::new(format!("line {line_no}: {m}")))?;
         Sample {
             t_s: num(0, "t")?,
             pos_mm: [num(1, "x")?, num(2, "y")?, num(3, "z")?],

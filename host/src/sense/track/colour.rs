@@ -33,6 +33,7 @@
 //! coefficients often all zero); the F-theta and Kannala-Brandt models
 //! (fisheye lenses, not on a D4xx colour sensor) are refused.
 
+use super::intrinsics::Pinhole;
 use crate::InputError;
 use crate::geom::Vec3;
 
@@ -82,18 +83,9 @@ impl Distortion {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ColourCamera {
-    /// Image width (pixels).
-    pub width: u32,
-    /// Image height (pixels).
-    pub height: u32,
-    /// Focal length along x (pixels).
-    pub fx: f64,
-    /// Focal length along y (pixels).
-    pub fy: f64,
-    /// Principal point, column (pixels).
-    pub ppx: f64,
-    /// Principal point, row (pixels).
-    pub ppy: f64,
+    /// Image size, focal lengths, principal point.
+    #[serde(flatten)]
+    pub pinhole: Pinhole,
     /// Distortion model.
     pub model: Distortion,
     /// k1, k2, p1, p2, k3.
@@ -113,12 +105,14 @@ impl ColourCamera {
     /// view), 15 mm beside the depth camera's origin, without distortion
     /// (what a D435 reports for it).
     pub const D435_848X480: ColourCamera = ColourCamera {
-        width: 848,
-        height: 480,
-        fx: 613.0,
-        fy: 613.0,
-        ppx: 423.5,
-        ppy: 239.5,
+        pinhole: Pinhole {
+            width: 848,
+            height: 480,
+            fx: 613.0,
+            fy: 613.0,
+            ppx: 423.5,
+            ppy: 239.5,
+        },
         model: Distortion::InverseBrownConrady,
         coeffs: [0.0; 5],
         rotation: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
@@ -179,8 +173,8 @@ impl ColourCamera {
         if p[2].is_nan() || p[2] <= 0.0 {
             return None;
         }
-        let [x, y] = self.distort(p[0] / p[2], p[1] / p[2]);
-        Some([x * self.fx + self.ppx, y * self.fy + self.ppy])
+        let xy = self.distort(p[0] / p[2], p[1] / p[2]);
+        Some(self.pinhole.to_pixel(xy))
     }
 
     /// Pixel of a depth-camera point (mm): through the extrinsics, then
@@ -197,8 +191,7 @@ impl ColourCamera {
     /// only an approximate inverse of its projection; for the zero
     /// coefficients a D435 reports both are the pinhole.)
     pub fn ray(&self, u: f64, v: f64) -> Vec3 {
-        let xd = (u - self.ppx) / self.fx;
-        let yd = (v - self.ppy) / self.fy;
+        let [xd, yd] = self.pinhole.normalised(u, v);
         let (mut x, mut y) = (xd, yd);
         if self.model != Distortion::None {
             for _ in 0..20 {
@@ -227,9 +220,7 @@ impl ColourCamera {
     /// Check every field; `origin` names the source in the message.
     pub fn check(&self, origin: &str) -> Result<(), InputError> {
         let bad = |m: String| InputError::new(format!("colour camera {origin}: {m}"));
-        let [w, h] = [self.width, self.height];
-        super::intrinsics::check_pinhole([w, h], [self.fx, self.fy], [self.ppx, self.ppy])
-            .map_err(bad)?;
+        self.pinhole.check().map_err(bad)?;
         if let Some(v) = self
             .coeffs
             .iter()
@@ -271,7 +262,7 @@ impl ColourCamera {
 
     /// Bytes of an RGB image of this camera's size.
     pub fn image_bytes(&self) -> usize {
-        self.width as usize * self.height as usize * 3
+        self.pinhole.width as usize * self.pinhole.height as usize * 3
     }
 }
 

@@ -108,10 +108,14 @@ fn projected_circle_is_within_a_pixel_of_the_rendered_one() {
         let c = view.pixel(scene.center_mm).unwrap();
         let is_marker = |x: f64, y: f64| {
             let (u, v) = (x.round() as i64, y.round() as i64);
-            if u < 0 || v < 0 || u >= i64::from(cam.width) || v >= i64::from(cam.height) {
+            if u < 0
+                || v < 0
+                || u >= i64::from(cam.pinhole.width)
+                || v >= i64::from(cam.pinhole.height)
+            {
                 return false;
             }
-            let i = (v as usize * cam.width as usize + u as usize) * 3;
+            let i = (v as usize * cam.pinhole.width as usize + u as usize) * 3;
             rgb[i..i + 3] == [205, 228, 200]
         };
         let mut worst: f64 = 0.0;

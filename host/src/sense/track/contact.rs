@@ -76,9 +76,13 @@ impl Tracker {
             let d = crate::geom::sub(cam.position_mm, b.center_mm);
             b.axes.map(|ax| dot(ax, d))
         };
-        let ray0 = to_box([-intr.ppx / intr.fx, -intr.ppy / intr.fy, 1.0]);
-        let step_col = to_box([1.0 / intr.fx, 0.0, 0.0]);
-        let step_row = to_box([0.0, 1.0 / intr.fy, 0.0]);
+        let ray0 = to_box([
+            -intr.pinhole.ppx / intr.pinhole.fx,
+            -intr.pinhole.ppy / intr.pinhole.fy,
+            1.0,
+        ]);
+        let step_col = to_box([1.0 / intr.pinhole.fx, 0.0, 0.0]);
+        let step_row = to_box([0.0, 1.0 / intr.pinhole.fy, 0.0]);
         Self {
             intr,
             setup,
@@ -111,8 +115,12 @@ impl Tracker {
     /// in box coordinates (mm). `depth` is one row-major frame.
     #[inline]
     pub fn for_each_inside(&self, depth: &[u16], mut f: impl FnMut(u32, u32, Vec3)) {
-        let w = self.intr.width as usize;
-        assert_eq!(depth.len(), w * self.intr.height as usize, "frame size");
+        let w = self.intr.pinhole.width as usize;
+        assert_eq!(
+            depth.len(),
+            w * self.intr.pinhole.height as usize,
+            "frame size"
+        );
         let [h0, h1, h2] = self.half;
         for r in self.roi.r0..self.roi.r1 {
             let row = &depth[r as usize * w..(r as usize + 1) * w];
@@ -166,9 +174,9 @@ impl Tracker {
 pub fn box_roi(intr: &Intrinsics, setup: &CameraSetup) -> Roi {
     let full = Roi {
         c0: 0,
-        c1: intr.width,
+        c1: intr.pinhole.width,
         r0: 0,
-        r1: intr.height,
+        r1: intr.pinhole.height,
     };
     let (mut umin, mut umax, mut vmin, mut vmax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for corner in setup.track_box.corners() {
@@ -187,8 +195,8 @@ pub fn box_roi(intr: &Intrinsics, setup: &CameraSetup) -> Roi {
         let b = (hi.ceil() + 1.0).min(n as f64);
         if b <= a { (0, 0) } else { (a as u32, b as u32) }
     };
-    let (c0, c1) = clip(umin, umax, intr.width);
-    let (r0, r1) = clip(vmin, vmax, intr.height);
+    let (c0, c1) = clip(umin, umax, intr.pinhole.width);
+    let (r0, r1) = clip(vmin, vmax, intr.pinhole.height);
     if c0 == c1 || r0 == r1 {
         return Roi {
             c0: 0,
@@ -205,9 +213,9 @@ pub fn box_roi(intr: &Intrinsics, setup: &CameraSetup) -> Roi {
 pub fn reference(intr: &Intrinsics, setup: &CameraSetup, depth: &[u16]) -> Contact {
     let mut n = 0u32;
     let mut sum = [0.0; 3];
-    for r in 0..intr.height {
-        for c in 0..intr.width {
-            let v = depth[(r * intr.width + c) as usize];
+    for r in 0..intr.pinhole.height {
+        for c in 0..intr.pinhole.width {
+            let v = depth[(r * intr.pinhole.width + c) as usize];
             if v == 0 {
                 continue;
             }

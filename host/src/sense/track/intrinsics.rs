@@ -16,10 +16,11 @@
 
 use crate::InputError;
 
-/// Pinhole intrinsics of the depth stream.
+/// A pinhole camera's image size, focal lengths and principal point: the
+/// part the depth stream and the colour stream share (in their TOML files,
+/// these keys at the top level).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Intrinsics {
+pub struct Pinhole {
     /// Frame width (pixels).
     pub width: u32,
     /// Frame height (pixels).
@@ -32,6 +33,60 @@ pub struct Intrinsics {
     pub ppx: f64,
     /// Principal point, row (pixels).
     pub ppy: f64,
+}
+
+impl Pinhole {
+    /// Pixel (column, row) of the normalised image point (x, y) = (X/Z, Y/Z).
+    pub fn to_pixel(&self, [x, y]: [f64; 2]) -> [f64; 2] {
+        [x * self.fx + self.ppx, y * self.fy + self.ppy]
+    }
+
+    /// The normalised image point (X/Z, Y/Z) of pixel (`u`, `v`): the
+    /// inverse of [`to_pixel`](Self::to_pixel).
+    pub fn normalised(&self, u: f64, v: f64) -> [f64; 2] {
+        [(u - self.ppx) / self.fx, (v - self.ppy) / self.fy]
+    }
+
+    /// Checks the image size, focal lengths and principal point: why not,
+    /// in words.
+    pub fn check(&self) -> Result<(), String> {
+        let [width, height] = [self.width, self.height];
+        let side = 1..=crate::npy::MAX_SIDE as u32;
+        if !side.contains(&width) || !side.contains(&height) {
+            return Err(format!(
+                "width {width} and height {height} must be 1..={}",
+                side.end()
+            ));
+        }
+        for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
+            if !(v.is_finite() && v > 0.0 && v <= MAX_FOCAL_PX) {
+                return Err(format!(
+                    "`{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {}",
+                    crate::limits::show(v)
+                ));
+            }
+        }
+        // The principal point lies in the image (a camera's optical axis
+        // meets its sensor); elsewhere is a typo, never a real camera.
+        for (name, v, side) in [("ppx", self.ppx, width), ("ppy", self.ppy, height)] {
+            if !(v.is_finite() && (0.0..=f64::from(side)).contains(&v)) {
+                return Err(format!(
+                    "`{name}` must lie in the image, 0..={side} pixels, got {}",
+                    crate::limits::show(v)
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Intrinsics of the depth stream: a pinhole and its depth units.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Intrinsics {
+    /// Image size, focal lengths, principal point.
+    #[serde(flatten)]
+    pub pinhole: Pinhole,
     /// Metres per depth unit (the D4xx default is 0.001).
     pub depth_scale: f64,
 }
@@ -45,12 +100,14 @@ impl Intrinsics {
     /// 100 µm depth units (the D4xx's depth units are settable; the
     /// synthetic finger uses these so quantisation stays below the noise).
     pub const D435_848X480: Intrinsics = Intrinsics {
-        width: 848,
-        height: 480,
-        fx: 426.0,
-        fy: 426.0,
-        ppx: 423.5,
-        ppy: 239.5,
+        pinhole: Pinhole {
+            width: 848,
+            height: 480,
+            fx: 426.0,
+            fy: 426.0,
+            ppx: 423.5,
+            ppy: 239.5,
+        },
         depth_scale: 0.0001,
     };
 
@@ -61,25 +118,19 @@ impl Intrinsics {
 
     /// Camera coordinates (mm) of pixel (`col`, `row`) at depth `z_mm`.
     pub fn deproject(&self, col: u32, row: u32, z_mm: f64) -> [f64; 3] {
-        [
-            (col as f64 - self.ppx) / self.fx * z_mm,
-            (row as f64 - self.ppy) / self.fy * z_mm,
-            z_mm,
-        ]
+        let [x, y] = self.pinhole.normalised(col as f64, row as f64);
+        [x * z_mm, y * z_mm, z_mm]
     }
 
     /// Pixel coordinates (column, row) of a camera point with z > 0.
     pub fn project(&self, p: [f64; 3]) -> [f64; 2] {
-        [
-            p[0] / p[2] * self.fx + self.ppx,
-            p[1] / p[2] * self.fy + self.ppy,
-        ]
+        self.pinhole.to_pixel([p[0] / p[2], p[1] / p[2]])
     }
 
     /// Check every field; `origin` names the file in the message.
     pub fn check(&self, origin: &str) -> Result<(), InputError> {
-        let [w, h] = [self.width, self.height];
-        check_pinhole([w, h], [self.fx, self.fy], [self.ppx, self.ppy])
+        self.pinhole
+            .check()
             .map_err(|m| InputError::new(format!("intrinsics {origin}: {m}")))?;
         if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 1.0) {
             return Err(InputError::new(format!(
@@ -92,49 +143,15 @@ impl Intrinsics {
 
     /// Error unless frames of `width` × `height` match these intrinsics.
     pub fn check_frames(&self, width: u32, height: u32, what: &str) -> Result<(), InputError> {
-        if (width, height) != (self.width, self.height) {
+        let p = &self.pinhole;
+        if (width, height) != (p.width, p.height) {
             return Err(InputError::new(format!(
                 "{what} has {width}×{height} frames but the intrinsics say {}×{}",
-                self.width, self.height
+                p.width, p.height
             )));
         }
         Ok(())
     }
-}
-
-/// Checks a pinhole camera's image size, focal lengths and principal
-/// point (the depth stream's and the colour stream's): why not, in words.
-pub(super) fn check_pinhole(
-    [width, height]: [u32; 2],
-    focal: [f64; 2],
-    principal: [f64; 2],
-) -> Result<(), String> {
-    let side = 1..=crate::npy::MAX_SIDE as u32;
-    if !side.contains(&width) || !side.contains(&height) {
-        return Err(format!(
-            "width {width} and height {height} must be 1..={}",
-            side.end()
-        ));
-    }
-    for (name, v) in [("fx", focal[0]), ("fy", focal[1])] {
-        if !(v.is_finite() && v > 0.0 && v <= MAX_FOCAL_PX) {
-            return Err(format!(
-                "`{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {}",
-                crate::limits::show(v)
-            ));
-        }
-    }
-    // The principal point lies in the image (a camera's optical axis
-    // meets its sensor); elsewhere is a typo, never a real camera.
-    for (name, v, side) in [("ppx", principal[0], width), ("ppy", principal[1], height)] {
-        if !(v.is_finite() && (0.0..=f64::from(side)).contains(&v)) {
-            return Err(format!(
-                "`{name}` must lie in the image, 0..={side} pixels, got {}",
-                crate::limits::show(v)
-            ));
-        }
-    }
-    Ok(())
 }
 
 impl super::settings_file::SettingsFile for Intrinsics {
@@ -148,6 +165,7 @@ impl super::settings_file::SettingsFile for Intrinsics {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sense::track::colour::ColourCamera;
     use crate::sense::track::settings_file::SettingsFile as _;
 
     #[test]
@@ -164,6 +182,31 @@ mod tests {
             .to_string();
         assert!(e.contains("missing"), "{e}");
         assert!(i.check_frames(640, 480, "x").is_err());
+    }
+
+    #[test]
+    fn the_file_keeps_its_flat_keys_and_refuses_unknown_ones() {
+        // The pinhole's keys stand at the top level beside `depth_scale`,
+        // as the files written before the pinhole was shared.
+        let text = Intrinsics::D435_848X480.to_toml();
+        assert_eq!(
+            text,
+            "width = 848\nheight = 480\nfx = 426.0\nfy = 426.0\nppx = 423.5\nppy = 239.5\ndepth_scale = 0.0001\n"
+        );
+        let e = Intrinsics::from_toml(&format!("{text}fz = 1.0\n"), "i.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("fz") && e.contains("i.toml"), "{e}");
+        let e = ColourCamera::from_toml(
+            &format!(
+                "{}depth_scale = 0.001\n",
+                ColourCamera::D435_848X480.to_toml()
+            ),
+            "c.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("depth_scale"), "{e}");
     }
 
     #[test]

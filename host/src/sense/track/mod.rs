@@ -147,7 +147,7 @@ pub fn check_rig(tracker: &contact::Tracker) -> Result<(), crate::InputError> {
     if pixels == 0 {
         return Err(crate::InputError::new(format!(
             "the camera cannot see the tracking box: it covers no pixel of the {}×{} frame (box off-screen, behind the camera or too far); check the scene's [camera] and [tracking]",
-            intr.width, intr.height
+            intr.pinhole.width, intr.pinhole.height
         )));
     }
     let min_points = setup.track_box.min_points as usize;

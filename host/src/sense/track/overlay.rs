@@ -55,7 +55,10 @@ impl ColourView {
     /// kept inside the image where it fits (the participant's crop).
     pub fn crop(&self, centre_mm: Vec3, plane: &LmPlane, half_mm: f64) -> [f64; 3] {
         let pts = self.circle(centre_mm, plane, half_mm * std::f64::consts::SQRT_2, 16);
-        let (w, h) = (f64::from(self.cam.width), f64::from(self.cam.height));
+        let (w, h) = (
+            f64::from(self.cam.pinhole.width),
+            f64::from(self.cam.pinhole.height),
+        );
         let Some(c) = self.pixel(centre_mm) else {
             return [0.0, 0.0, w.min(h)];
         };

@@ -22,9 +22,9 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
     let half_w = (cw * 3 / 4).max(16);
     let half_h = (rh * 3 / 4).max(16);
     let c0 = cx.saturating_sub(half_w);
-    let c1 = (cx + half_w).min(intr.width);
+    let c1 = (cx + half_w).min(intr.pinhole.width);
     let r0 = cy.saturating_sub(half_h);
-    let r1 = (cy + half_h).min(intr.height);
+    let r1 = (cy + half_h).min(intr.pinhole.height);
     let (nw, nh) = ((c1 - c0).max(1), (r1 - r0).max(1));
     let px = (OUT_PX / nw.max(nh)).max(1);
     let size = (nw * px, nh * px);
@@ -38,7 +38,7 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
     let window = (r0..r1).flat_map(|r| (c0..c1).map(move |c| (c, r)));
     let vals: Vec<u16> = window
         .clone()
-        .map(|(c, r)| depth[(r * intr.width + c) as usize])
+        .map(|(c, r)| depth[(r * intr.pinhole.width + c) as usize])
         .filter(|v| *v > 0)
         .collect();
     let (lo, hi) = (
@@ -51,7 +51,7 @@ pub fn frame_png(tracker: &Tracker, depth: &[u16], path: &Path) -> anyhow::Resul
     crate::field::plot::write_png(path, size, |root| {
         root.fill(&BLACK).map_err(|e| err(e.to_string()))?;
         for (i, (c, r)) in window.enumerate() {
-            let v = depth[(r * intr.width + c) as usize];
+            let v = depth[(r * intr.pinhole.width + c) as usize];
             let colour = if inside[i] {
                 RGBColor(230, 40, 40)
             } else if v == 0 {

@@ -217,10 +217,10 @@ impl ColourReplay {
         let times = read_timestamps(&times)?;
         let npy = ColourNpy::open(&npy)?;
         let what = npy_name(depth);
-        if (npy.width, npy.height) != (cam.width, cam.height) {
+        if (npy.width, npy.height) != (cam.pinhole.width, cam.pinhole.height) {
             return Err(InputError::new(format!(
                 "{what}'s colour frames are {}×{} but its colour camera says {}×{}",
-                npy.width, npy.height, cam.width, cam.height
+                npy.width, npy.height, cam.pinhole.width, cam.pinhole.height
             )));
         }
         if times.len() as u64 != npy.frames {
@@ -247,8 +247,8 @@ impl ColourReplay {
             })?;
             last = Some(ColourImage {
                 t_s: self.times[self.next],
-                width: self.cam.width,
-                height: self.cam.height,
+                width: self.cam.pinhole.width,
+                height: self.cam.pinhole.height,
                 rgb: std::sync::Arc::new(rgb),
             });
             self.next += 1;
@@ -412,8 +412,8 @@ impl FrameSource for Synthetic {
                 c.render(truth.tip_mm, &mut rgb);
                 Some(ColourImage {
                     t_s,
-                    width: c.cam.width,
-                    height: c.cam.height,
+                    width: c.cam.pinhole.width,
+                    height: c.cam.pinhole.height,
                     rgb: std::sync::Arc::new(rgb),
                 })
             }
@@ -526,10 +526,10 @@ impl Recorder {
             ]);
         }
         crate::files::distinct_outputs(&outs)?;
-        let writer = DepthNpyWriter::create(path, intr.width, intr.height)?;
+        let writer = DepthNpyWriter::create(path, intr.pinhole.width, intr.pinhole.height)?;
         let colour = match colour {
             Some(c) => Some((
-                ColourNpyWriter::create(&cnpy, c.width, c.height)?,
+                ColourNpyWriter::create(&cnpy, c.pinhole.width, c.pinhole.height)?,
                 c,
                 Vec::new(),
             )),

@@ -247,12 +247,12 @@ mod tests {
         let setup = super::super::camera::CameraSetup::of_scene(&scene).unwrap();
         let mut intr = super::super::intrinsics::Intrinsics::D435_848X480;
         // A half-size frame keeps the debug-build test quick.
-        intr.width = 424;
-        intr.height = 240;
-        intr.fx /= 2.0;
-        intr.fy /= 2.0;
-        intr.ppx = 211.5;
-        intr.ppy = 119.5;
+        intr.pinhole.width = 424;
+        intr.pinhole.height = 240;
+        intr.pinhole.fx /= 2.0;
+        intr.pinhole.fy /= 2.0;
+        intr.pinhole.ppx = 211.5;
+        intr.pinhole.ppy = 119.5;
         let sim = FingerSim::new(setup, intr, super::super::synth::background_of(&scene));
         let c = compare(&sim, 2.5, 3.0, 16, 0.3);
         eprintln!("{c:?}");

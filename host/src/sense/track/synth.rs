@@ -177,13 +177,20 @@ impl FingerSim {
         let cam = &self.setup.camera;
         let b = &self.setup.track_box;
         out.clear();
-        out.resize(intr.width as usize * intr.height as usize, 0);
+        out.resize(
+            intr.pinhole.width as usize * intr.pinhole.height as usize,
+            0,
+        );
         let mpu = intr.mm_per_unit();
         // Camera-frame ray (depth 1) of pixel (c, r) = d0 + c·dc + r·dr.
-        let d0 = cam.to_scene([-intr.ppx / intr.fx, -intr.ppy / intr.fy, 1.0]);
+        let d0 = cam.to_scene([
+            -intr.pinhole.ppx / intr.pinhole.fx,
+            -intr.pinhole.ppy / intr.pinhole.fy,
+            1.0,
+        ]);
         let d0 = sub(d0, cam.position_mm);
-        let dc = scale(cam.axes[0], 1.0 / intr.fx);
-        let dr = scale(cam.axes[1], 1.0 / intr.fy);
+        let dc = scale(cam.axes[0], 1.0 / intr.pinhole.fx);
+        let dr = scale(cam.axes[1], 1.0 / intr.pinhole.fy);
         let o = cam.position_mm;
         // Shapes as (origin, d0, dc, dr) in a frame where they are unit spheres.
         let mut spheres: Vec<[Vec3; 4]> = Vec::new();
@@ -199,19 +206,23 @@ impl FingerSim {
         }
         let win = self.window.unwrap_or(Roi {
             c0: 0,
-            c1: intr.width,
+            c1: intr.pinhole.width,
             r0: 0,
-            r1: intr.height,
+            r1: intr.pinhole.height,
         });
-        let (c0, c1) = (win.c0.min(intr.width), win.c1.min(intr.width));
-        for r in win.r0..win.r1.min(intr.height) {
+        let (c0, c1) = (
+            win.c0.min(intr.pinhole.width),
+            win.c1.min(intr.pinhole.width),
+        );
+        for r in win.r0..win.r1.min(intr.pinhole.height) {
             let rf = r as f64;
             let row_d = add(d0, scale(dr, rf));
             let row_s: Vec<(Vec3, Vec3, Vec3)> = spheres
                 .iter()
                 .map(|[so, sd0, sdc, sdr]| (*so, add(*sd0, scale(*sdr, rf)), *sdc))
                 .collect();
-            let line = &mut out[(r * intr.width + c0) as usize..(r * intr.width + c1) as usize];
+            let line = &mut out
+                [(r * intr.pinhole.width + c0) as usize..(r * intr.pinhole.width + c1) as usize];
             for (c, px) in (c0..).zip(line.iter_mut()) {
                 let cf = c as f64;
                 let mut z = f64::INFINITY;

@@ -51,9 +51,9 @@ impl ColourSim {
     pub fn new(cam: ColourCamera, finger: FingerSim, marker_mm: Vec3, plane: LmPlane) -> Self {
         let pose = finger.setup.camera;
         let origin = pose.to_scene(cam.to_depth([0.0; 3]));
-        let mut rays = Vec::with_capacity(cam.width as usize * cam.height as usize);
-        for v in 0..cam.height {
-            for u in 0..cam.width {
+        let mut rays = Vec::with_capacity(cam.pinhole.width as usize * cam.pinhole.height as usize);
+        for v in 0..cam.pinhole.height {
+            for u in 0..cam.pinhole.width {
                 let r = cam.ray(f64::from(u), f64::from(v));
                 let d = sub(pose.to_scene(cam.to_depth(r)), origin);
                 rays.push(d.map(|x| x as f32));
@@ -135,15 +135,15 @@ impl ColourSim {
             };
             (c0, c1, r0, r1) = (c0.min(u), c1.max(u), r0.min(v), r1.max(v));
         }
-        let w = self.cam.width as usize;
+        let w = self.cam.pinhole.width as usize;
         let clamp = |x: f64, n: u32| (x.max(0.0) as usize).min(n as usize);
         let (c0, c1) = (
-            clamp(c0 - 2.0, self.cam.width),
-            clamp(c1 + 3.0, self.cam.width),
+            clamp(c0 - 2.0, self.cam.pinhole.width),
+            clamp(c1 + 3.0, self.cam.pinhole.width),
         );
         let (r0, r1) = (
-            clamp(r0 - 2.0, self.cam.height),
-            clamp(r1 + 3.0, self.cam.height),
+            clamp(r0 - 2.0, self.cam.pinhole.height),
+            clamp(r1 + 3.0, self.cam.pinhole.height),
         );
         // The ellipsoid as a unit sphere: coordinates along the box axes
         // divided by the semi-axes.

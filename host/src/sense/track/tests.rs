@@ -77,7 +77,7 @@ fn fast_path_matches_the_full_frame_reference() {
         assert!(fast.points > 0 || t == 0.5);
     }
     // The rectangle is a small part of the frame.
-    assert!(tr.roi().pixels() * 100 < (intr.width * intr.height) as usize);
+    assert!(tr.roi().pixels() * 100 < (intr.pinhole.width * intr.pinhole.height) as usize);
 }
 
 #[test]
@@ -93,7 +93,7 @@ fn empty_box() {
 /// both must find nothing in the box.
 fn uniform_frame_is_empty(depth: u16) {
     let (_, setup, intr, tr) = setup();
-    let f = vec![depth; (intr.width * intr.height) as usize];
+    let f = vec![depth; (intr.pinhole.width * intr.pinhole.height) as usize];
     let c = tr.track(&f);
     assert_eq!((c.points, c.centroid_mm), (0, None), "depth {depth}");
     assert_eq!(reference(&intr, &setup, &f).points, 0, "depth {depth}");
@@ -219,8 +219,8 @@ fn truncated_npy() {
     let b = std::fs::read(&p).unwrap();
     std::fs::write(&p, &b[..b.len() - 64]).unwrap();
     let mut i = Intrinsics::D435_848X480;
-    i.width = 8;
-    i.height = 8;
+    i.pinhole.width = 8;
+    i.pinhole.height = 8;
     let e = open_err(&p, i, None);
     assert!(e.contains("truncated") && !e.contains('\n'), "{e}");
 }
@@ -232,7 +232,7 @@ fn intrinsics_not_matching_the_frames() {
     assert!(e.contains("intrinsics say 848×480"), "{e}");
     // Time stamps that do not match the frame count.
     let mut i = Intrinsics::D435_848X480;
-    i.width = 640;
+    i.pinhole.width = 640;
     let e = open_err(&p, i, Some(vec![0.0, 0.1]));
     assert!(e.contains("2 time stamps for 1 frames"), "{e}");
 }

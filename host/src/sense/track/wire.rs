@@ -30,7 +30,7 @@ use std::io::Read;
 
 use super::colour::{ColourCamera, ColourImage, Distortion};
 use super::frame::{Cameras, Frame, FrameSource};
-use super::intrinsics::Intrinsics;
+use super::intrinsics::{Intrinsics, Pinhole};
 use crate::InputError;
 
 /// `LMDEPTH1`'s magic.
@@ -79,6 +79,17 @@ impl Fields<'_> {
     fn f64(&mut self) -> f64 {
         f64::from_le_bytes(self.take())
     }
+    /// A pinhole as [`put_pinhole`] writes it.
+    fn pinhole(&mut self) -> Pinhole {
+        Pinhole {
+            width: self.u32(),
+            height: self.u32(),
+            fx: self.f64(),
+            fy: self.f64(),
+            ppx: self.f64(),
+            ppy: self.f64(),
+        }
+    }
 }
 
 impl<R: Read> Stream<R> {
@@ -104,12 +115,7 @@ impl<R: Read> Stream<R> {
         };
         let mut f = Fields(&h[8..]);
         let intr = Intrinsics {
-            width: f.u32(),
-            height: f.u32(),
-            fx: f.f64(),
-            fy: f.f64(),
-            ppx: f.f64(),
-            ppy: f.f64(),
+            pinhole: f.pinhole(),
             depth_scale: f.f64(),
         };
         intr.check(what)?;
@@ -181,8 +187,8 @@ impl<R: Read> Stream<R> {
         self.last_colour_t = t_s;
         Ok(Some(ColourImage {
             t_s,
-            width: cam.width,
-            height: cam.height,
+            width: cam.pinhole.width,
+            height: cam.pinhole.height,
             rgb: std::sync::Arc::new(rgb),
         }))
     }
@@ -191,20 +197,14 @@ impl<R: Read> Stream<R> {
 /// The colour camera in an `LMCOLOR1` header.
 fn colour_camera(c: &[u8; COLOUR_HEADER], what: &str) -> Result<ColourCamera, InputError> {
     let mut f = Fields(c);
-    let (width, height) = (f.u32(), f.u32());
-    let (fx, fy, ppx, ppy) = (f.f64(), f.f64(), f.f64(), f.f64());
+    let pinhole = f.pinhole();
     let model = Distortion::from_rs2(f.u32())
         .map_err(|m| InputError::new(format!("{what}: colour camera: {m}")))?;
     let coeffs = [(); 5].map(|_| f.f64());
     let rotation = [(); 9].map(|_| f.f64());
     let translation_m = [(); 3].map(|_| f.f64());
     let cam = ColourCamera {
-        width,
-        height,
-        fx,
-        fy,
-        ppx,
-        ppy,
+        pinhole,
         model,
         coeffs,
         rotation,
@@ -233,7 +233,8 @@ impl<R: Read> FrameSource for Stream<R> {
             }
             return Ok(None);
         }
-        let px = self.cameras.depth.width as usize * self.cameras.depth.height as usize;
+        let px =
+            self.cameras.depth.pinhole.width as usize * self.cameras.depth.pinhole.height as usize;
         let mut bytes = vec![0u8; px * 2];
         if n < 8 || read_full(&mut self.reader, &mut bytes)? < bytes.len() {
             return Err(self.ended_inside());
@@ -269,23 +270,26 @@ pub fn stream_header(intr: &Intrinsics, colour: Option<&ColourCamera>) -> Vec<u8
         None => MAGIC.to_vec(),
         Some(_) => MAGIC_COLOUR.to_vec(),
     };
-    out.extend_from_slice(&intr.width.to_le_bytes());
-    out.extend_from_slice(&intr.height.to_le_bytes());
-    for v in [intr.fx, intr.fy, intr.ppx, intr.ppy, intr.depth_scale] {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
+    put_pinhole(&mut out, &intr.pinhole);
+    out.extend_from_slice(&intr.depth_scale.to_le_bytes());
     if let Some(c) = colour {
-        out.extend_from_slice(&c.width.to_le_bytes());
-        out.extend_from_slice(&c.height.to_le_bytes());
-        for v in [c.fx, c.fy, c.ppx, c.ppy] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
+        put_pinhole(&mut out, &c.pinhole);
         out.extend_from_slice(&c.model.to_rs2().to_le_bytes());
         for v in c.coeffs.iter().chain(&c.rotation).chain(&c.translation_m) {
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
     out
+}
+
+/// A pinhole as both headers hold it: width, height (u32), then fx, fy,
+/// ppx, ppy (f64).
+fn put_pinhole(out: &mut Vec<u8>, p: &Pinhole) {
+    out.extend_from_slice(&p.width.to_le_bytes());
+    out.extend_from_slice(&p.height.to_le_bytes());
+    for v in [p.fx, p.fy, p.ppx, p.ppy] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
 }
 
 /// One frame of an `LMDEPTH1` stream.
@@ -319,8 +323,8 @@ mod tests {
     fn image(t_s: f64, cam: &ColourCamera, v: u8) -> ColourImage {
         ColourImage {
             t_s,
-            width: cam.width,
-            height: cam.height,
+            width: cam.pinhole.width,
+            height: cam.pinhole.height,
             rgb: std::sync::Arc::new(vec![v; cam.image_bytes()]),
         }
     }
@@ -328,17 +332,23 @@ mod tests {
     #[test]
     fn colour_streams_round_trip_and_bad_ones_are_input_errors() {
         let intr = Intrinsics {
-            width: 4,
-            height: 3,
-            ppx: 2.0,
-            ppy: 1.0,
+            pinhole: Pinhole {
+                width: 4,
+                height: 3,
+                ppx: 2.0,
+                ppy: 1.0,
+                ..Intrinsics::D435_848X480.pinhole
+            },
             ..Intrinsics::D435_848X480
         };
         let cam = ColourCamera {
-            width: 5,
-            height: 2,
-            ppx: 2.0,
-            ppy: 1.0,
+            pinhole: Pinhole {
+                width: 5,
+                height: 2,
+                ppx: 2.0,
+                ppy: 1.0,
+                ..ColourCamera::D435_848X480.pinhole
+            },
             ..ColourCamera::D435_848X480
         };
         let header = stream_header(&intr, Some(&cam));

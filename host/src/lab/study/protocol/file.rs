@@ -475,11 +475,16 @@ fn level_unit() -> Name {
 fn two() -> Run {
     Run(2)
 }
+/// An answer label's default (`#[serde(default = …)]` takes a function
+/// per label): it has no place in the file, so an empty span.
+fn default_answer(label: &str) -> Spanned<AnswerLabel> {
+    Spanned::new(0..0, AnswerLabel(label.into()))
+}
 fn yes() -> Spanned<AnswerLabel> {
-    Spanned::new(0..0, AnswerLabel("yes".into()))
+    default_answer("yes")
 }
 fn no() -> Spanned<AnswerLabel> {
-    Spanned::new(0..0, AnswerLabel("no".into()))
+    default_answer("no")
 }
 fn quarter() -> Step {
     Step(0.25)
@@ -487,13 +492,12 @@ fn quarter() -> Step {
 fn hundred() -> Depth {
     Depth(100.0)
 }
-// A default has no place in the file: an empty span.
 fn stronger() -> Spanned<AnswerLabel> {
-    Spanned::new(0..0, AnswerLabel("stronger".into()))
+    default_answer("stronger")
 }
 fn weaker() -> Spanned<AnswerLabel> {
-    Spanned::new(0..0, AnswerLabel("weaker".into()))
+    default_answer("weaker")
 }
 fn same() -> Spanned<AnswerLabel> {
-    Spanned::new(0..0, AnswerLabel("same".into()))
+    default_answer("same")
 }

@@ -290,8 +290,8 @@ impl TrackRun {
         let mut summary = vec![format!(
             "{} frames of {}×{} in {:.2} s: {} with a contact area, {} gated present; box rectangle {} px; track {} per frame (budget 11.1 ms at 90 fps); filter {}",
             t.frames,
-            self.intr.width,
-            self.intr.height,
+            self.intr.pinhole.width,
+            self.intr.pinhole.height,
             seconds,
             t.present,
             t.gated,

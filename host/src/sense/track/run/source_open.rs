@@ -72,7 +72,7 @@ fn live(
     if let Some(ip) = intrinsics {
         let given = Intrinsics::load(ip)?;
         let got = src.intrinsics();
-        given.check_frames(got.width, got.height, "the stream")?;
+        given.check_frames(got.pinhole.width, got.pinhole.height, "the stream")?;
     }
     Ok((src, setup))
 }
