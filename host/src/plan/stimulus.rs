@@ -67,10 +67,7 @@ impl TargetPlan {
     /// plan's [`Plan::summary_json`] with the target and its realised timing.
     pub fn summary_json(&self, target: &Target, phases: bool) -> serde_json::Value {
         let mut v = self.plan.summary_json(phases);
-        v["target"] = serde_json::json!(match target {
-            Target::Lm => "lm",
-            Target::Autd3 => "autd3",
-        });
+        v["target"] = serde_json::json!(target.name());
         v["timing"] = serde_json::json!(self.timing);
         v
     }

@@ -107,6 +107,17 @@ impl Cycle {
         }
     }
 
+    /// A static focus: radius 0, one focus, one step (the force
+    /// calibration's stimulus).
+    pub fn static_focus() -> Self {
+        Self {
+            radius_mm: 0.0,
+            foci: 1,
+            steps: Steps::Count(1),
+            ..Self::default()
+        }
+    }
+
     /// This cycle around `center_mm` in `plane`.
     pub fn at(&self, center_mm: Vec3, plane: LmPlane) -> LmParams {
         LmParams {

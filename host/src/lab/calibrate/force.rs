@@ -15,9 +15,10 @@ use crate::error::InputError;
 use crate::field::study::{View, simulate_plan};
 use crate::geom::Vec3;
 use crate::limits::show;
+use crate::plan::scene::LmPlane;
 use crate::plan::scene::{MAX_PRESSURE_SCALE, MIN_PRESSURE_SCALE, Scene};
 use crate::plan::sequence::{Plan, Synthesis};
-use crate::plan::trajectory::{LmParams, Steps};
+use crate::plan::trajectory::Cycle;
 
 /// Smallest force `--measured` takes (N): 0.1 mN, a force gauge's
 /// resolution and 1/200 of the paper's 0.022 N. Below it the reading is
@@ -92,10 +93,7 @@ pub fn calibrate(
         .into());
     }
     let center_mm = center_mm.unwrap_or(scene.center_mm);
-    let mut p = LmParams::paper(center_mm);
-    p.cycle.radius_mm = 0.0;
-    p.cycle.foci = 1;
-    p.cycle.steps = Steps::Count(1);
+    let p = Cycle::static_focus().at(center_mm, LmPlane::default());
     let plan = Plan::new(scene.clone(), &p, &Synthesis::Linear)?;
     let side = disk_mm + 2.0;
     let view = View {
@@ -170,10 +168,7 @@ mod tests {
             (again.simulated_n - cal.simulated_n).abs() < 1e-12,
             "the derivation ignores the calibration"
         );
-        let mut p = LmParams::paper(scene.center_mm);
-        p.cycle.radius_mm = 0.0;
-        p.cycle.foci = 1;
-        p.cycle.steps = Steps::Count(1);
+        let p = Cycle::static_focus().at(scene.center_mm, LmPlane::default());
         let view = View {
             size_mm: (17.0, 17.0),
             step_mm: STEP_MM,
