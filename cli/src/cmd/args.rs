@@ -140,8 +140,8 @@ pub struct FingerArgs {
     /// stream` reads, `lmhost track --json` lines included).
     #[arg(long, value_name = "FILE", conflicts_with = "udp")]
     pub stream: Option<PathBuf>,
-    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT.
-    #[arg(long, value_name = "PORT")]
+    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT (1..=65535).
+    #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
     pub udp: Option<u16>,
     /// Centroid filter.
     #[arg(long, value_parser = filter(), default_value_t = FilterKind::Kalman)]

@@ -323,7 +323,7 @@ pub struct UdpCounts {
     pub bad_datagrams: std::sync::atomic::AtomicU64,
 }
 
-/// Samples from UDP datagrams on 127.0.0.1:`port`, one line (or several,
+/// Samples from UDP datagrams on 127.0.0.1:`port` (1..=65535), one line (or several,
 /// newline-separated) per datagram. Ends after `idle` without a datagram,
 /// or when a stop was requested ([`crate::stop::requested`]).
 ///
@@ -338,6 +338,10 @@ pub fn udp(
 ) -> anyhow::Result<impl Iterator<Item = anyhow::Result<Sample>>> {
     use anyhow::Context as _;
     use std::sync::atomic::Ordering::Relaxed;
+    // Port 0 binds a port the system picks, which no tracker is told.
+    if port == 0 {
+        crate::bad_input!("--udp 0: give a port in 1..=65535 for the tracker to send to");
+    }
     let sock = std::net::UdpSocket::bind(("127.0.0.1", port))
         .with_context(|| format!("binding UDP port 127.0.0.1:{port}"))?;
     // Wake often enough to notice Ctrl-C; idle is measured separately.
@@ -565,5 +569,13 @@ mod tests {
         let bytes: &[u8] = b"0,0,0,200,1\n\xff\xfe\n";
         let v: Vec<_> = read_lines(bytes).collect();
         assert!(v[1].as_ref().unwrap_err().to_string().contains("not UTF-8"));
+    }
+
+    #[test]
+    fn udp_port_zero_is_refused_as_input() {
+        let idle = std::time::Duration::from_millis(10);
+        let err = udp(0, idle, Default::default()).err().expect("port 0 refused");
+        assert!(err.is::<crate::InputError>(), "{err}");
+        assert!(err.to_string().contains("--udp 0"), "{err}");
     }
 }
