@@ -17,6 +17,8 @@ pub mod info;
 pub mod opening;
 pub mod plan;
 pub mod play;
+#[cfg(test)]
+mod requires;
 pub mod scene;
 pub mod selftest;
 pub mod session;
