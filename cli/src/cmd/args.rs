@@ -19,8 +19,8 @@ pub struct PortArgs {
     /// board found by USB id].
     #[arg(long, value_name = "PATH")]
     pub port: Option<String>,
-    /// Baud rate for real serial ports (ptys ignore it).
-    #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
+    /// Baud rate for real serial ports (ptys ignore it), above 0.
+    #[arg(long, value_name = "BAUD", default_value_t = 115_200, value_parser = clap::value_parser!(u32).range(1..))]
     pub baud: u32,
     /// Response timeout per attempt, ms, 1..=60000 [default:
     /// $LMHOST_TIMEOUT_MS, else 100 + twice the time a full chunk takes at
