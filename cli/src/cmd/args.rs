@@ -287,11 +287,8 @@ impl FingerArgs {
                 on_thread(|| source::read_lines(std::io::stdin().lock()))?
             } else {
                 // A recording plays at its time stamps, as in `lmhost stream`.
-                let reader =
-                    std::io::BufReader::new(lmhost::files::open_input("--stream file", p)?);
-                on_thread(move || {
-                    source::paced(source::replay_lines(reader), lmhost::clock::Clock::real())
-                })?
+                let samples = source::replay_file("--stream file", p)?;
+                on_thread(move || source::paced(samples, lmhost::clock::Clock::real()))?
             },
             name,
         ))

@@ -283,6 +283,20 @@ pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Resul
     }
 }
 
+/// [`replay_lines`] over the file at `path`, opened as an input
+/// ([`crate::files::open_input`]); every error it yields names the file as
+/// `what` (`--stream file`, `--input file`) and its path, for a bad line
+/// is read long after the command started, its other output between.
+pub fn replay_file(
+    what: &str,
+    path: &std::path::Path,
+) -> anyhow::Result<impl Iterator<Item = anyhow::Result<Sample>> + Send + use<>> {
+    use anyhow::Context as _;
+    let reader = std::io::BufReader::new(crate::files::open_input(what, path)?);
+    let name = format!("{what} {}", path.display());
+    Ok(replay_lines(reader).map(move |r| r.with_context(|| name.clone())))
+}
+
 /// The samples of `items` released at their time stamps on `clock`: the
 /// first at once, each next one once as much time has passed since the
 /// first as their stamps differ, so a 20 s recording plays for 20 s in a
@@ -574,8 +588,26 @@ mod tests {
     #[test]
     fn udp_port_zero_is_refused_as_input() {
         let idle = std::time::Duration::from_millis(10);
-        let err = udp(0, idle, Default::default()).err().expect("port 0 refused");
+        let err = udp(0, idle, Default::default())
+            .err()
+            .expect("port 0 refused");
         assert!(err.is::<crate::InputError>(), "{err}");
         assert!(err.to_string().contains("--udp 0"), "{err}");
+    }
+
+    #[test]
+    fn a_replayed_file_names_itself_in_its_errors() {
+        let path = std::env::temp_dir().join(format!("lmhost-replay-{}.csv", std::process::id()));
+        std::fs::write(&path, "0,0,0,200,1\n\u{1}garbage\n").unwrap();
+        let v: Vec<_> = replay_file("--stream file", &path).unwrap().collect();
+        let _ = std::fs::remove_file(&path);
+        let err = v
+            .into_iter()
+            .find_map(Result::err)
+            .expect("the garbage line refused");
+        let msg = crate::error::one_line(&err);
+        assert!(err.chain().any(|c| c.is::<InputError>()), "{msg}");
+        let want = format!("--stream file {}: line 2: ", path.display());
+        assert!(msg.starts_with(&want), "{msg}");
     }
 }
