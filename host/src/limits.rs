@@ -41,7 +41,8 @@ pub const MAX_Z_MM: f64 = 100.0;
 pub const MAX_SPACING_MM: f64 = 1_000.0;
 /// Highest LM frequency (`--freq`), Hz.
 pub const MAX_FREQ_HZ: f64 = 1_000.0;
-/// Largest |weight| (`--weights`).
+/// Largest weight (`--weights`, each within 0..=this: the synthesis
+/// refuses a negative one).
 pub const MAX_WEIGHT: f64 = 1.0e6;
 /// Closest two transducers of different devices may be (mm): the T4010A1's
 /// diameter. Closer means the devices overlap.
