@@ -118,6 +118,11 @@ impl std::fmt::Display for Num {
     }
 }
 
+/// Longest word (a run without white space) a message on stderr keeps
+/// whole: longer than any path a user types, far shorter than a pasted
+/// 100 000-character value ([`crate::out::shorten_long_words`]).
+pub const MAX_MESSAGE_WORD_CHARS: usize = 512;
+
 /// Every number in a message through [`show`]: a numeric token with more
 /// than 15 digits (a huge or tiny value printed in full, or a saturated
 /// integer) is rewritten in scientific form, so no message carries a
