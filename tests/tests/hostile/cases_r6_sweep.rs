@@ -14,6 +14,8 @@
 //!   range the synthesis does.
 //! - A replayed centroid file names itself in its errors, which come long
 //!   after the command started.
+//! - A 100 000-character value is cut in its message (its start, its
+//!   length, its end), on every command: one readable line.
 //!
 //! Fixtures in `{dir}/r6`: a centroid file whose second line is garbage.
 
@@ -106,12 +108,13 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
                        .err("--weights value -1 is out of range: allowed 0..=1000000");
         SWEEP_NEGATIVE "upload --port {port} --foci 2 --weights -1,1"
                        .err("--weights value -1 is out of range");
-        // 4. A replayed centroid file names itself.
+        // 4. A replayed centroid file names itself (the session's control
+        //    held open, so it is the stream that ends it).
         PATH_MESSAGES "stream --port {port} --input {dir}/r6/garbage.csv"
                       .err("--input file {dir}/r6/garbage.csv: line 2 ");
         PATH_MESSAGES "session --library {scenes}/../studies/paper-library.toml \
                        --port autd3:emulator --control - --stream {dir}/r6/garbage.csv"
-                      .err("--stream file {dir}/r6/garbage.csv: line 2 ");
+                      .hold_stdin().err("--stream file {dir}/r6/garbage.csv: line 2 ");
     };
     cases.push(
         case(
@@ -123,4 +126,78 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         .check(study_names_the_stream_file),
     );
     cases
+}
+
+/// The one error line holds the 100 000-character value cut around its
+/// length, not whole.
+fn long_value_cut(_: &Ctx, r: &Run) -> Result<(), String> {
+    if r.stderr.len() < 1000 && r.stderr.contains(" characters)…") {
+        Ok(())
+    } else {
+        Err(format!(
+            "stderr is {} bytes, want the value cut: {}",
+            r.stderr.len(),
+            r.stderr.chars().take(300).collect::<String>()
+        ))
+    }
+}
+
+/// Every command given a 100 000-character value (`{long}`), with the
+/// exit code its message goes with.
+pub(crate) fn long_value_cases() -> Vec<Case> {
+    let long = "x".repeat(100_000);
+    let lib = "--library {scenes}/../studies/paper-library.toml";
+    let study = "{dir}/study/mini.toml --port autd3:emulator --out {dir}/r6/out \
+                 --responses {dir}/study/ans.txt --participant long";
+    let rows: Vec<(String, i32)> = [
+        ("plan --scene {long}", 2),
+        ("scene --scene {long}", 2),
+        ("wiring --scene {long}", 2),
+        ("doctor --port {port} --timeout-ms {long}", 2),
+        ("simulate --out {dir}/r6/sim --scene {long}", 2),
+        ("bench --quick --section {long}", 2),
+        ("sim --seconds {long}", 2),
+        ("info --port {port} --scene {long}", 2),
+        ("status --port {port} --scene {long}", 2),
+        ("upload --port {port} --scene {long}", 2),
+        ("play --port {port} --scene {long}", 2),
+        ("stop --port {port} --scene {long}", 2),
+        ("selftest --port {port} --scene {long}", 2),
+        ("demo --seconds {long}", 2),
+        (
+            "stream --port {port} --synthetic --seconds 0.3 --scene {long}",
+            2,
+        ),
+        ("flash --board {long}", 2),
+        ("track --synthetic --seconds 0.3 --fast --scene {long}", 2),
+        ("study report {dir}/study/out --width-mm {long}", 2),
+        ("study check {dir}/study/mini.toml --participant {long}", 2),
+        ("calibrate force --measured 0.01 --scene {long}", 2),
+        (
+            "calibrate camera {dir}/r6/garbage.csv --max-residual {long}",
+            2,
+        ),
+        ("gauge read --port {long}", 1),
+        ("stage move --port sim --to 1 --min {long}", 2),
+        ("stage position --port sim --min {long}", 2),
+        ("stage home --port sim --min {long}", 2),
+    ]
+    .into_iter()
+    .map(|(a, c)| (a.to_owned(), c))
+    .chain([
+        (
+            format!("session {lib} --port autd3:emulator --control - --scene {{long}}"),
+            2,
+        ),
+        (format!("study run {study} --scene {{long}}"), 2),
+        ("upload --port {long}".to_owned(), 1),
+    ])
+    .collect();
+    rows.into_iter()
+        .map(|(a, code)| {
+            case(SWEEP_LONG, &a.replace("{long}", &long))
+                .code(code)
+                .check(long_value_cut)
+        })
+        .collect()
 }

@@ -74,9 +74,10 @@ pub const VIEW_ADDRESS: &str = "r4-v2 --view addresses";
 pub const SWEEP_IGNORED: &str = "r6-1 no flag silently ignored";
 pub const SWEEP_EVERY_PATH: &str = "r6-2 one check on every path";
 pub const SWEEP_NEGATIVE: &str = "r6-3 a negative number is a value";
+pub const SWEEP_LONG: &str = "r6-4 a long value cut in its message";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 55] = [
+pub const CLASSES: [&str; 56] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -132,4 +133,5 @@ pub const CLASSES: [&str; 55] = [
     SWEEP_IGNORED,
     SWEEP_EVERY_PATH,
     SWEEP_NEGATIVE,
+    SWEEP_LONG,
 ];

@@ -254,7 +254,7 @@ use cases_r4_files::{round4_files_cases, round4_files_fixtures};
 use cases_r4_paper::{paper_cases, paper_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use cases_r5_exp3::{exp3_cases, exp3_fixtures};
-use cases_r6_sweep::{sweep_cases, sweep_fixtures};
+use cases_r6_sweep::{long_value_cases, sweep_cases, sweep_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -486,6 +486,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(paper_cases());
     all.extend(exp3_cases());
     all.extend(sweep_cases());
+    all.extend(long_value_cases());
     all.extend(round4_files_cases());
     // Last: the session cases preload the shared device's library.
     all.extend(cases_r4_session::cases());
