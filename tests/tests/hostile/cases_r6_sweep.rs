@@ -64,6 +64,9 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         SWEEP_IGNORED "track --synthetic --seconds 0.3 --fast --baud 0" .err("--baud");
         SWEEP_IGNORED "study run {dir}/study/mini.toml --port autd3:emulator --out {dir}/r6/out \
                        --responses {dir}/study/ans.txt --participant baud0 --baud 0" .err("--baud");
+        // What the output says it used is what was given (0.05 s was said
+        // as 0.1 s).
+        SWEEP_IGNORED "upload --port {port} --hold 0.05" .ok().err("for 0.05 s");
         // 2. One check on every path: the stage twin, a port that does not
         //    open (the step said before the I/O error), the controller.
         SWEEP_EVERY_PATH "stage move --port sim --to 1 --step-um nan" .err("µm/pulse is outside");
