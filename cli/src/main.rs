@@ -13,7 +13,7 @@
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches, Parser};
 use lmhost::{InputError, errln, out::StdoutClosed};
 
 mod cmd;
@@ -77,7 +77,10 @@ fn finish(result: anyhow::Result<()>) -> ExitCode {
 
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
-    let cli = match Cli::try_parse() {
+    let cli = match cmd::negative_numbers_are_values(Cli::command())
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
         Ok(cli) => cli,
         // --help, --version: printed to stdout through the one path.
         Err(e) if !e.use_stderr() => {

@@ -41,7 +41,8 @@ pub const MAX_Z_MM: f64 = 100.0;
 pub const MAX_SPACING_MM: f64 = 1_000.0;
 /// Highest LM frequency (`--freq`), Hz.
 pub const MAX_FREQ_HZ: f64 = 1_000.0;
-/// Largest |weight| (`--weights`).
+/// Largest weight (`--weights`, each within 0..=this: the synthesis
+/// refuses a negative one).
 pub const MAX_WEIGHT: f64 = 1.0e6;
 /// Closest two transducers of different devices may be (mm): the T4010A1's
 /// diameter. Closer means the devices overlap.
@@ -116,6 +117,11 @@ impl std::fmt::Display for Num {
         }
     }
 }
+
+/// Longest word (a run without white space) a message on stderr keeps
+/// whole: longer than any path a user types, far shorter than a pasted
+/// 100 000-character value ([`crate::out::shorten_long_words`]).
+pub const MAX_MESSAGE_WORD_CHARS: usize = 512;
 
 /// Every number in a message through [`show`]: a numeric token with more
 /// than 15 digits (a huge or tiny value printed in full, or a saturated

@@ -43,10 +43,45 @@ pub fn flush_stdout() -> anyhow::Result<()> {
 }
 
 /// Writes `args` to stderr, every number through
-/// [`crate::limits::tidy_numbers`]; a failure is ignored, never a panic.
+/// [`crate::limits::tidy_numbers`] and every overlong word through
+/// [`shorten_long_words`]; a failure is ignored, never a panic.
 pub fn stderr_fmt(args: std::fmt::Arguments<'_>) {
-    let text = crate::limits::tidy_numbers(&args.to_string());
+    let text = crate::limits::tidy_numbers(&shorten_long_words(&args.to_string()));
     let _ = std::io::stderr().lock().write_all(text.as_bytes());
+}
+
+/// `msg` with every word (a run without white space) longer than
+/// [`crate::limits::MAX_MESSAGE_WORD_CHARS`] cut to its start and end
+/// around its length: a flag value or path of 100 000 characters is
+/// echoed by many messages (clap's, the OS's `File name too long`), and
+/// an error is one readable line.
+pub fn shorten_long_words(msg: &str) -> String {
+    const HEAD: usize = 200;
+    const TAIL: usize = 100;
+    let max = crate::limits::MAX_MESSAGE_WORD_CHARS;
+    let mut out = String::with_capacity(msg.len().min(4 * max));
+    let mut word = String::new();
+    let flush = |word: &mut String, out: &mut String| {
+        let n = word.chars().count();
+        if n > max {
+            out.extend(word.chars().take(HEAD));
+            out.push_str(&format!("…({n} characters)…"));
+            out.extend(word.chars().skip(n - TAIL));
+        } else {
+            out.push_str(word);
+        }
+        word.clear();
+    };
+    for c in msg.chars() {
+        if c.is_whitespace() {
+            flush(&mut word, &mut out);
+            out.push(c);
+        } else {
+            word.push(c);
+        }
+    }
+    flush(&mut word, &mut out);
+    out
 }
 
 /// `println!` that returns `anyhow::Result<()>` instead of panicking.
@@ -94,5 +129,26 @@ mod tests {
             "cannot write to standard output: no space left on device"
         );
         assert!(stdout_result(Ok(())).is_ok());
+    }
+
+    #[test]
+    fn an_overlong_word_is_cut_around_its_length() {
+        let long = "x".repeat(100_000);
+        let msg = format!("error: cannot read scene file /tmp/{long}: File name too long\n");
+        let short = shorten_long_words(&msg);
+        assert!(short.len() < 500, "{}", short.len());
+        assert!(
+            short.starts_with("error: cannot read scene file /tmp/xxx"),
+            "{short}"
+        );
+        assert!(short.contains("…(100006 characters)…"), "{short}");
+        assert!(short.ends_with("xx: File name too long\n"), "{short}");
+        // Words up to the limit, and every other character, are kept.
+        let path = format!(
+            "/tmp/{}",
+            "é".repeat(crate::limits::MAX_MESSAGE_WORD_CHARS - 6)
+        );
+        let msg = format!("cannot write {path}:\tno\n");
+        assert_eq!(shorten_long_words(&msg), msg);
     }
 }

@@ -19,8 +19,8 @@ pub struct PortArgs {
     /// board found by USB id].
     #[arg(long, value_name = "PATH")]
     pub port: Option<String>,
-    /// Baud rate for real serial ports (ptys ignore it).
-    #[arg(long, value_name = "BAUD", default_value_t = 115_200)]
+    /// Baud rate for real serial ports (ptys ignore it), above 0.
+    #[arg(long, value_name = "BAUD", default_value_t = 115_200, value_parser = clap::value_parser!(u32).range(1..))]
     pub baud: u32,
     /// Response timeout per attempt, ms, 1..=60000 [default:
     /// $LMHOST_TIMEOUT_MS, else 100 + twice the time a full chunk takes at
@@ -140,8 +140,8 @@ pub struct FingerArgs {
     /// stream` reads, `lmhost track --json` lines included).
     #[arg(long, value_name = "FILE", conflicts_with = "udp")]
     pub stream: Option<PathBuf>,
-    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT.
-    #[arg(long, value_name = "PORT")]
+    /// Finger centroids as UDP datagrams on 127.0.0.1:PORT (1..=65535).
+    #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
     pub udp: Option<u16>,
     /// Centroid filter.
     #[arg(long, value_parser = filter(), default_value_t = FilterKind::Kalman)]
@@ -287,11 +287,8 @@ impl FingerArgs {
                 on_thread(|| source::read_lines(std::io::stdin().lock()))?
             } else {
                 // A recording plays at its time stamps, as in `lmhost stream`.
-                let reader =
-                    std::io::BufReader::new(lmhost::files::open_input("--stream file", p)?);
-                on_thread(move || {
-                    source::paced(source::replay_lines(reader), lmhost::clock::Clock::real())
-                })?
+                let samples = source::replay_file("--stream file", p)?;
+                on_thread(move || source::paced(samples, lmhost::clock::Clock::real()))?
             },
             name,
         ))

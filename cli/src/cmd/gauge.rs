@@ -40,9 +40,15 @@ pub struct ReadArgs {
     /// Sample for S seconds and print the median (the paper's 2 s).
     #[arg(long = "for", value_name = "S", allow_negative_numbers = true)]
     for_s: Option<f64>,
-    /// Sampling rate with --for, Hz.
-    #[arg(long, value_name = "HZ", default_value_t = gauge::DEFAULT_RATE_HZ, allow_negative_numbers = true)]
-    rate: f64,
+    /// Sampling rate with --for, Hz [default: 50]. Without --for there is
+    /// no series to sample: refused rather than ignored.
+    #[arg(
+        long,
+        value_name = "HZ",
+        requires = "for_s",
+        allow_negative_numbers = true
+    )]
+    rate: Option<f64>,
     /// With `--port sim`: how deep the probe sits in the finger pad, mm.
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     sim_depth: Option<f64>,
@@ -95,7 +101,8 @@ impl ReadArgs {
         };
         // Ctrl-C ends the series (an error saying so), not the process.
         lmhost::stop::graceful();
-        let series = gauge.sample(for_s, self.rate)?;
+        let rate = self.rate.unwrap_or(gauge::DEFAULT_RATE_HZ);
+        let series = gauge.sample(for_s, rate)?;
         let median = series.median_n().unwrap_or(f64::NAN);
         if self.json {
             return lmhost::outln!("{}", json!({ "median_n": median, "series": series }));
@@ -108,7 +115,7 @@ impl ReadArgs {
             N(median),
             series.samples.len(),
             N(for_s),
-            N(self.rate),
+            N(rate),
             N(min),
             N(max)
         )

@@ -17,6 +17,8 @@ pub mod info;
 pub mod opening;
 pub mod plan;
 pub mod play;
+#[cfg(test)]
+mod requires;
 pub mod scene;
 pub mod selftest;
 pub mod session;
@@ -30,6 +32,26 @@ pub mod study;
 pub mod track;
 pub mod upload;
 pub mod wiring;
+
+/// `cmd` with every flag's value allowed to be a negative number, in
+/// every subcommand: `--hold -1` is then refused as the value it is
+/// (the flag's range, named), not as an unknown flag `-1`.
+pub fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
+    let cmd = cmd.mut_args(|a| {
+        if a.get_action().takes_values() && !a.is_positional() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    });
+    let subs: Vec<String> = cmd
+        .get_subcommands()
+        .map(|s| s.get_name().to_owned())
+        .collect();
+    subs.iter().fold(cmd, |c, name| {
+        c.mut_subcommand(name, negative_numbers_are_values)
+    })
+}
 
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]

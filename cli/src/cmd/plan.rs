@@ -81,9 +81,9 @@ pub struct StimulusFlags {
     /// GS-PAT iterations, 1..=1000 (with --method gspat) [default: 20].
     #[arg(long, value_name = "N")]
     pub iterations: Option<usize>,
-    /// Real weight per focus, comma-separated, each within ±1e6 and not
-    /// all zero (linear synthesis only).
-    #[arg(long, value_name = "W,W,...")]
+    /// Real weight per focus, comma-separated, each within 0..=1e6 and
+    /// not all zero (linear synthesis only).
+    #[arg(long, value_name = "W,W,...", allow_hyphen_values = true)]
     pub weights: Option<String>,
     /// Output intensity, 0..=1 of full: the device scales its drive (the LM
     /// firmware's output frames carry it, an AUTD3 plays it as its
@@ -105,18 +105,13 @@ fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
         .collect()
 }
 
-/// Parses `--weights`: finite, each within ±[`limits::MAX_WEIGHT`], not
-/// all zero (all-zero weights would play silence as if it were a plan).
+/// Parses `--weights`: finite, each within 0..=[`limits::MAX_WEIGHT`]
+/// (the synthesis refuses a negative weight), not all zero (all-zero
+/// weights would play silence as if it were a plan).
 fn parse_weights(s: &str) -> Result<Vec<f64>, InputError> {
     let w = parse_list("weights", s)?;
     for &x in &w {
-        limits::in_range(
-            "--weights value",
-            x,
-            -limits::MAX_WEIGHT,
-            limits::MAX_WEIGHT,
-            "",
-        )?;
+        limits::in_range("--weights value", x, 0.0, limits::MAX_WEIGHT, "")?;
     }
     if w.iter().all(|&x| x == 0.0) {
         return Err(InputError::new(format!(
@@ -521,6 +516,11 @@ mod tests {
             (&["--weights", "0"][..], "all zero"),
             (&["--foci", "2", "--weights", "0,0"], "all zero"),
             (&["--weights", "1e300"], "1e300 is out of range"),
+            // Refused as the flag's value, in the range the synthesis takes.
+            (
+                &["--foci", "2", "--weights", "-1,1"],
+                "-1 is out of range: allowed 0..=",
+            ),
             (
                 &["--method", "gspat", "--iterations", "100000000"],
                 "1..=1000",

@@ -10,6 +10,23 @@ use lmhost::field::study::{View, simulate_plan, write_outputs};
 use lmhost::field::{self, Radiation, compare, plot};
 
 /// Simulate the acoustic field of an LM stimulus and plot it.
+/// The flags a stimulus from a library stands in for.
+const FROM_LIBRARY: [&str; 13] = [
+    "compare",
+    "radius",
+    "foci",
+    "spacing",
+    "freq",
+    "step",
+    "steps",
+    "center",
+    "z",
+    "method",
+    "iterations",
+    "intensity",
+    "weights",
+];
+
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Writes into --out one figure per map as PNG (288 dpi), SVG and PDF, \
@@ -65,13 +82,13 @@ pub struct Args {
     reference: bool,
     /// Stimulus library (TOML) to take the stimulus from, with --stimulus
     /// (in place of the plan flags; --scene still applies).
-    #[arg(long, value_name = "FILE", requires = "stimulus", conflicts_with_all = [
-        "compare", "radius", "foci", "spacing", "freq", "step", "steps", "center", "z",
-        "method", "iterations", "intensity", "weights",
-    ])]
+    #[arg(long, value_name = "FILE", requires = "stimulus", conflicts_with_all = FROM_LIBRARY)]
     library: Option<PathBuf>,
     /// The library entry to simulate (its `id`).
-    #[arg(long, value_name = "ID", requires = "library")]
+    // Its conflicts are stated too: clap waives `requires` when the flag
+    // required conflicts with one given, so a plan flag would have let
+    // --stimulus be ignored.
+    #[arg(long, value_name = "ID", requires = "library", conflicts_with_all = FROM_LIBRARY)]
     stimulus: Option<String>,
     /// Render the paper's 3 x 5 grid instead of a single stimulus: rows
     /// LM-S and LM-M (--foci, or 4 if --foci is 1) at --freq with --step,

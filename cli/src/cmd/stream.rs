@@ -163,9 +163,8 @@ impl Args {
                 None => (stdin_samples()?, Pace::Arrival),
                 Some(p) if p.as_os_str() == "-" => (stdin_samples()?, Pace::Arrival),
                 Some(p) => {
-                    let f = lmhost::files::open_input("--input file", p)?;
-                    let reader = std::io::BufReader::new(f);
-                    (on_thread(move || source::replay_lines(reader))?, pace)
+                    let samples = source::replay_file("--input file", p)?;
+                    (on_thread(move || samples)?, pace)
                 }
             }
         };

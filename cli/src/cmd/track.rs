@@ -61,7 +61,9 @@ struct TrackFlags {
     depth: Option<PathBuf>,
     /// Frame time stamps: `.npy`, float64 seconds, one per frame
     /// [default: FILE.timestamps.npy beside --depth, else 90 fps].
-    #[arg(long, value_name = "T.npy", requires = "depth")]
+    // The other sources are stated as conflicts: clap waives `requires`
+    // when --depth conflicts with a flag given, e.g. --seconds.
+    #[arg(long, value_name = "T.npy", requires = "depth", conflicts_with_all = ["synthetic", "camera", "stream", "seconds", "noise_mm", "holes"])]
     timestamps: Option<PathBuf>,
     /// Camera intrinsics TOML [default: FILE.intrinsics.toml beside
     /// --depth; the synthetic finger: a D435 at 848 × 480].

@@ -142,7 +142,10 @@ pub fn hold_saying(
     lmhost::errln!(
         "holding {what} {}; the array is left silent on exit",
         match d {
-            Some(d) => format!("for {:.1} s (Ctrl-C ends it early)", d.as_secs_f64()),
+            Some(d) => format!(
+                "for {} s (Ctrl-C ends it early)",
+                lmhost::limits::show(d.as_secs_f64())
+            ),
             None => "until Ctrl-C or SIGTERM".into(),
         }
     );

@@ -70,8 +70,14 @@ pub const EXP3_SOURCES: &str = "r5-28.6 study finger sources";
 pub const VIEW_HTTP: &str = "r4-v1 bounded view requests";
 pub const VIEW_ADDRESS: &str = "r4-v2 --view addresses";
 
+/// Round 6, the sweep of every value flag (`cases_r6_sweep.rs`).
+pub const SWEEP_IGNORED: &str = "r6-1 no flag silently ignored";
+pub const SWEEP_EVERY_PATH: &str = "r6-2 one check on every path";
+pub const SWEEP_NEGATIVE: &str = "r6-3 a negative number is a value";
+pub const SWEEP_LONG: &str = "r6-4 a long value cut in its message";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 52] = [
+pub const CLASSES: [&str; 56] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -124,4 +130,8 @@ pub const CLASSES: [&str; 52] = [
     VIEW_ADDRESS,
     EXP3_INSTRUMENTS,
     EXP3_SOURCES,
+    SWEEP_IGNORED,
+    SWEEP_EVERY_PATH,
+    SWEEP_NEGATIVE,
+    SWEEP_LONG,
 ];

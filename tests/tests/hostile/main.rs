@@ -5,7 +5,7 @@
 //! stderr, that nothing `panicked`, and that the run ends within
 //! [`TIME_LIMIT`] (killed and failed otherwise). To add a case, append a
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
-//! round: `cases_r1.rs`, `cases_r3.rs`, …); `{port}` is
+//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r6_sweep.rs`); `{port}` is
 //! the shared simulated device, `{dir}` a scratch directory with the
 //! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`. A
 //! case may run a client of the command beside it (`.during(f)`).
@@ -243,6 +243,7 @@ mod cases_r4_session;
 mod cases_r4_study;
 mod cases_r4_view;
 mod cases_r5_exp3;
+mod cases_r6_sweep;
 mod checks;
 mod fixtures;
 
@@ -253,6 +254,7 @@ use cases_r4_files::{round4_files_cases, round4_files_fixtures};
 use cases_r4_paper::{paper_cases, paper_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use cases_r5_exp3::{exp3_cases, exp3_fixtures};
+use cases_r6_sweep::{long_value_cases, sweep_cases, sweep_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -459,6 +461,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     study_fixtures(&dir);
     paper_fixtures(&dir);
     exp3_fixtures(&dir);
+    sweep_fixtures(&dir);
     round4_files_fixtures(&dir);
     cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
@@ -482,6 +485,8 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(study_cases());
     all.extend(paper_cases());
     all.extend(exp3_cases());
+    all.extend(sweep_cases());
+    all.extend(long_value_cases());
     all.extend(round4_files_cases());
     // Last: the session cases preload the shared device's library.
     all.extend(cases_r4_session::cases());

@@ -117,6 +117,35 @@ impl QtConfig {
             reply_timeout: QT_REPLY_TIMEOUT,
         }
     }
+
+    /// Checks what the configuration says of the stage: a step the
+    /// controller can be set to, soft limits within its pulse counter.
+    /// `name` is the port, for the message. The simulated twin is checked
+    /// the same way, so a rehearsal refuses what the rig would.
+    pub fn check(&self, name: &str) -> Result<(), InstrumentError> {
+        if !(self.step_um.is_finite() && (0.001..=1000.0).contains(&self.step_um)) {
+            return Err(InstrumentError::limit(
+                name,
+                format!(
+                    "stage step {} µm/pulse is outside 0.001..1000",
+                    show(self.step_um)
+                ),
+            ));
+        }
+        for edge in [self.limits.min_mm, self.limits.max_mm] {
+            if (edge * 1000.0 / self.step_um).abs() > QT_MAX_PULSES as f64 {
+                return Err(InstrumentError::limit(
+                    name,
+                    format!(
+                        "soft limit {} mm is beyond what the controller can count ({QT_MAX_PULSES} pulses of {} µm)",
+                        show(edge),
+                        show(self.step_um)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// One axis of a QT controller.
@@ -129,6 +158,8 @@ impl ChuoQt<Box<dyn serialport::SerialPort>> {
     /// Open the controller at serial port `path`, identify it, switch its
     /// replies on and set the speed.
     pub fn open(path: &str, cfg: QtConfig) -> Result<Self, InstrumentError> {
+        // A bad step is the user's, whatever the port does: said first.
+        cfg.check(path)?;
         let port = open_serial(path, cfg.baud)?;
         Self::connect(port, path, cfg, Clock::real())
     }
@@ -143,27 +174,7 @@ impl<P: Port> ChuoQt<P> {
         cfg: QtConfig,
         clock: Clock,
     ) -> Result<Self, InstrumentError> {
-        if !(cfg.step_um.is_finite() && (0.001..=1000.0).contains(&cfg.step_um)) {
-            return Err(InstrumentError::limit(
-                name,
-                format!(
-                    "stage step {} µm/pulse is outside 0.001..1000",
-                    show(cfg.step_um)
-                ),
-            ));
-        }
-        for edge in [cfg.limits.min_mm, cfg.limits.max_mm] {
-            if (edge * 1000.0 / cfg.step_um).abs() > QT_MAX_PULSES as f64 {
-                return Err(InstrumentError::limit(
-                    name,
-                    format!(
-                        "soft limit {} mm is beyond what the controller can count ({QT_MAX_PULSES} pulses of {} µm)",
-                        show(edge),
-                        show(cfg.step_um)
-                    ),
-                ));
-            }
-        }
+        cfg.check(name)?;
         let mut qt = Self {
             io: LineIo::new(port, name, clock, cfg.reply_timeout),
             cfg,

@@ -146,7 +146,12 @@ pub fn open_stage(o: &StageOptions) -> anyhow::Result<Box<dyn Stage>> {
     if let StagePort::Sim(fail) = StagePort::parse(&o.port)? {
         return Ok(Box::new(sim_stage(o, fail)?));
     }
-    let cfg = QtConfig {
+    Ok(Box::new(ChuoQt::open(&o.port, qt_config(o))?))
+}
+
+/// The controller's configuration `o` gives.
+fn qt_config(o: &StageOptions) -> QtConfig {
+    QtConfig {
         axis: o.axis,
         step_um: o.step_um,
         limits: o.limits,
@@ -154,11 +159,14 @@ pub fn open_stage(o: &StageOptions) -> anyhow::Result<Box<dyn Stage>> {
         accel_ms: 100,
         baud: o.baud.unwrap_or(QT_BAUD),
         reply_timeout: QT_REPLY_TIMEOUT,
-    };
-    Ok(Box::new(ChuoQt::open(&o.port, cfg)?))
+    }
 }
 
+/// The twin of the stage `o` names; its options are checked as the
+/// controller's are (a step the twin does not use is still refused when
+/// the rig would refuse it).
 fn sim_stage(o: &StageOptions, fail_after: Option<u32>) -> anyhow::Result<SimStage> {
+    qt_config(o).check(&o.port)?;
     let home = 0.0f64.clamp(o.limits.min_mm, o.limits.max_mm);
     let mut stage = SimStage::new(Clock::real(), o.limits, home)?;
     stage.set_speed(o.speed_mm_s)?;
@@ -288,5 +296,25 @@ mod tests {
         let msg = crate::error::one_line(&err);
         assert!(msg.starts_with("/dev/lmhost-no-such-gauge: "), "{msg}");
         assert!(!err.chain().any(|c| c.is::<InputError>()), "{msg}");
+    }
+
+    #[test]
+    fn the_twin_refuses_the_step_the_controller_would() {
+        for step_um in [f64::NAN, f64::INFINITY, 0.0, -1.0, 1e300] {
+            for port in [SIM, "sim:fail-after=3", "/dev/lmhost-no-such-stage"] {
+                let o = StageOptions {
+                    port: port.into(),
+                    limits: StageLimits::new(0.0, 20.0).unwrap(),
+                    speed_mm_s: 5.0,
+                    axis: Axis::A,
+                    step_um,
+                    baud: None,
+                };
+                let err = open_stage(&o).err().expect("a bad step is refused");
+                let msg = crate::error::one_line(&err);
+                assert!(err.chain().any(|c| c.is::<InputError>()), "{msg}");
+                assert!(msg.contains("µm/pulse is outside"), "{msg}");
+            }
+        }
     }
 }

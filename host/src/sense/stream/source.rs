@@ -280,6 +280,20 @@ pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Resul
     }
 }
 
+/// [`replay_lines`] over the file at `path`, opened as an input
+/// ([`crate::files::open_input`]); every error it yields names the file as
+/// `what` (`--stream file`, `--input file`) and its path, for a bad line
+/// is read long after the command started, its other output between.
+pub fn replay_file(
+    what: &str,
+    path: &std::path::Path,
+) -> anyhow::Result<impl Iterator<Item = anyhow::Result<Sample>> + Send + use<>> {
+    use anyhow::Context as _;
+    let reader = std::io::BufReader::new(crate::files::open_input(what, path)?);
+    let name = format!("{what} {}", path.display());
+    Ok(replay_lines(reader).map(move |r| r.with_context(|| name.clone())))
+}
+
 /// The samples of `items` released at their time stamps on `clock`: the
 /// first at once, each next one once as much time has passed since the
 /// first as their stamps differ, so a 20 s recording plays for 20 s in a
@@ -320,7 +334,7 @@ pub struct UdpCounts {
     pub bad_datagrams: std::sync::atomic::AtomicU64,
 }
 
-/// Samples from UDP datagrams on 127.0.0.1:`port`, one line (or several,
+/// Samples from UDP datagrams on 127.0.0.1:`port` (1..=65535), one line (or several,
 /// newline-separated) per datagram. Ends after `idle` without a datagram,
 /// or when a stop was requested ([`crate::stop::requested`]).
 ///
@@ -335,6 +349,10 @@ pub fn udp(
 ) -> anyhow::Result<impl Iterator<Item = anyhow::Result<Sample>>> {
     use anyhow::Context as _;
     use std::sync::atomic::Ordering::Relaxed;
+    // Port 0 binds a port the system picks, which no tracker is told.
+    if port == 0 {
+        crate::bad_input!("--udp 0: give a port in 1..=65535 for the tracker to send to");
+    }
     let sock = std::net::UdpSocket::bind(("127.0.0.1", port))
         .with_context(|| format!("binding UDP port 127.0.0.1:{port}"))?;
     // Wake often enough to notice Ctrl-C; idle is measured separately.
@@ -562,5 +580,31 @@ mod tests {
         let bytes: &[u8] = b"0,0,0,200,1\n\xff\xfe\n";
         let v: Vec<_> = read_lines(bytes).collect();
         assert!(v[1].as_ref().unwrap_err().to_string().contains("not UTF-8"));
+    }
+
+    #[test]
+    fn udp_port_zero_is_refused_as_input() {
+        let idle = std::time::Duration::from_millis(10);
+        let err = udp(0, idle, Default::default())
+            .err()
+            .expect("port 0 refused");
+        assert!(err.is::<crate::InputError>(), "{err}");
+        assert!(err.to_string().contains("--udp 0"), "{err}");
+    }
+
+    #[test]
+    fn a_replayed_file_names_itself_in_its_errors() {
+        let path = std::env::temp_dir().join(format!("lmhost-replay-{}.csv", std::process::id()));
+        std::fs::write(&path, "0,0,0,200,1\n\u{1}garbage\n").unwrap();
+        let v: Vec<_> = replay_file("--stream file", &path).unwrap().collect();
+        let _ = std::fs::remove_file(&path);
+        let err = v
+            .into_iter()
+            .find_map(Result::err)
+            .expect("the garbage line refused");
+        let msg = crate::error::one_line(&err);
+        assert!(err.chain().any(|c| c.is::<InputError>()), "{msg}");
+        let want = format!("--stream file {}: line 2: ", path.display());
+        assert!(msg.starts_with(&want), "{msg}");
     }
 }
