@@ -69,6 +69,11 @@ impl Args {
                 lmhost::limits::show(self.seconds)
             );
         }
+        // The plots' folder is made first: a path that cannot be one is
+        // refused before the demo runs, not after it.
+        if let Some(dir) = &self.plots {
+            lmhost::files::output_dir("--plots", dir)?;
+        }
         let opts = Options {
             seconds: self.seconds,
             filter: self.filter,

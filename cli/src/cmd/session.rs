@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use clap::ValueEnum;
 use lmhost::clock::{Clock, Spread};
-use lmhost::lab::session::Session;
 use lmhost::lab::session::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
+use lmhost::lab::session::{EventLog, Session};
 use lmhost::plan::library::Library;
 use lmhost::plan::scene::Scene;
 
@@ -110,6 +110,9 @@ impl Args {
         if let Some(e) = &self.events {
             lmhost::files::not_an_input("--events", e)?;
         }
+        // The log is opened before the device: a path it cannot be written
+        // at fails here, before the session says it started.
+        let events = self.events.as_deref().map(EventLog::create).transpose()?;
         let spec = self.port.spec();
         let target = spec.device()?.target();
         let plans = library.plan_for(&target, &scene)?;
@@ -152,7 +155,7 @@ impl Args {
                     Disconnect::Continue => OnDisconnect::Continue,
                     Disconnect::Quit => OnDisconnect::Quit,
                 },
-                events: self.events.clone(),
+                events,
                 finger,
                 filter: self.finger.filter.build(),
             },

@@ -16,6 +16,9 @@
 //!   after the command started.
 //! - A 100 000-character value is cut in its message (its start, its
 //!   length, its end), on every command: one readable line.
+//! - An output that cannot be written is refused before the work: the
+//!   demo's `--plots` folder was made after the demo had run, the
+//!   session's `--events` log opened after it said it had started.
 //!
 //! Fixtures in `{dir}/r6`: a centroid file whose second line is garbage.
 
@@ -119,6 +122,21 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
                        --port autd3:emulator --control - --stream {dir}/r6/garbage.csv"
                       .hold_stdin().err("--stream file {dir}/r6/garbage.csv: line 2 ");
     };
+    cases.extend(table! {
+        // 5. Outputs first (exit 1 as every unwritable output): nothing
+        //    ran, so nothing was printed before the one error line.
+        SWEEP_OUTPUT_FIRST "demo --plots {dir}/a_file" .code(1).err("a_file")
+                           .check(nothing_on_stdout);
+        SWEEP_OUTPUT_FIRST "demo --plots {dir}/a_file/maps" .code(1).err("a_file")
+                           .check(nothing_on_stdout);
+        SWEEP_OUTPUT_FIRST "session --library {scenes}/../studies/paper-library.toml \
+                            --port autd3:emulator --control {dir}/r6/events.sock \
+                            --events {dir}/a_directory" .code(1).err("a_directory");
+        SWEEP_OUTPUT_FIRST "session --library {scenes}/../studies/paper-library.toml \
+                            --port autd3:emulator --control {dir}/r6/events.sock \
+                            --events {dir}/r6/no_such_dir/events.jsonl" .code(1)
+                           .err("no_such_dir");
+    });
     cases.push(
         case(
             PATH_MESSAGES,
@@ -129,6 +147,15 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         .check(study_names_the_stream_file),
     );
     cases
+}
+
+/// The command stopped before its work: it printed nothing.
+fn nothing_on_stdout(_: &Ctx, r: &Run) -> Result<(), String> {
+    if r.stdout.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("it printed before failing: {}", r.stdout.trim()))
+    }
 }
 
 /// The one error line holds the 100 000-character value cut around its

@@ -75,9 +75,10 @@ pub const SWEEP_IGNORED: &str = "r6-1 no flag silently ignored";
 pub const SWEEP_EVERY_PATH: &str = "r6-2 one check on every path";
 pub const SWEEP_NEGATIVE: &str = "r6-3 a negative number is a value";
 pub const SWEEP_LONG: &str = "r6-4 a long value cut in its message";
+pub const SWEEP_OUTPUT_FIRST: &str = "r6-5 an output is refused before the work";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 56] = [
+pub const CLASSES: [&str; 57] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -134,4 +135,5 @@ pub const CLASSES: [&str; 56] = [
     SWEEP_EVERY_PATH,
     SWEEP_NEGATIVE,
     SWEEP_LONG,
+    SWEEP_OUTPUT_FIRST,
 ];

@@ -11,7 +11,6 @@
 
 use std::collections::HashMap;
 use std::io::Write as _;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, sync_channel};
@@ -48,8 +47,9 @@ pub struct Options {
     pub control: Endpoint,
     /// When the controlling client goes away.
     pub on_disconnect: OnDisconnect,
-    /// The event log.
-    pub events: Option<PathBuf>,
+    /// The event log, opened before the session starts ([`EventLog::create`])
+    /// so a bad path is refused before the device is touched.
+    pub events: Option<EventLog>,
     /// The finger source.
     pub finger: Finger,
     /// The centroid filter.
@@ -371,7 +371,7 @@ pub fn serve(session: Session, opts: Options) -> anyhow::Result<Report> {
         finger,
         filter,
     } = opts;
-    let log = events.as_deref().map(EventLog::create).transpose()?;
+    let log = events;
     let clock = session.clock().clone();
     let (tx, rx) = sync_channel::<Inbound>(INBOUND_QUEUE);
     // The TCP listener goes to its acceptor; the token to the loop (its
