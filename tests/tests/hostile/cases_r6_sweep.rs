@@ -118,6 +118,10 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         //    held open, so it is the stream that ends it).
         PATH_MESSAGES "stream --port {port} --input {dir}/r6/garbage.csv"
                       .err("--input file {dir}/r6/garbage.csv: line 2 ");
+        // A path that opens but is no serial port, in words (not the OS's
+        // "Not a typewriter").
+        PATH_MESSAGES "status --port /dev/null" .code(1).err("/dev/null: not a serial port");
+        PATH_MESSAGES "gauge read --port {dir}/a_file" .code(1).err("not a serial port");
         PATH_MESSAGES "session --library {scenes}/../studies/paper-library.toml \
                        --port autd3:emulator --control - --stream {dir}/r6/garbage.csv"
                       .hold_stdin().err("--stream file {dir}/r6/garbage.csv: line 2 ");

@@ -51,15 +51,16 @@ pub fn open_serial(
         .flow_control(serialport::FlowControl::None)
         .timeout(READ_SLICE)
         .open()
-        .map_err(|e| match e.kind {
-            serialport::ErrorKind::Io(kind) => InstrumentError::Io {
+        .map_err(|e| {
+            let words = crate::device::link::transport::serial_open_reason(&e);
+            let error = match e.kind {
+                serialport::ErrorKind::Io(kind) => std::io::Error::new(kind, words),
+                _ => std::io::Error::other(words),
+            };
+            InstrumentError::Io {
                 port: path.to_owned(),
-                error: std::io::Error::new(kind, e.description),
-            },
-            _ => InstrumentError::Io {
-                port: path.to_owned(),
-                error: std::io::Error::other(e.description),
-            },
+                error,
+            }
         })
 }
 

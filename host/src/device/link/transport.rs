@@ -66,6 +66,27 @@ pub struct Serial {
     path: String,
 }
 
+/// Why a serial port did not open, in words: the path's own failure
+/// (missing, a directory, not permitted) as files say it, and a path that
+/// opened but takes no serial settings (ENOTTY: a regular file,
+/// `/dev/null`) as not a serial port rather than the OS's "Not a
+/// typewriter".
+pub fn serial_open_reason(e: &serialport::Error) -> String {
+    let not_a_tty =
+        e.description.contains("Not a typewriter") || e.description.contains("Inappropriate ioctl");
+    match e.kind {
+        _ if not_a_tty => "not a serial port (it takes no serial line settings)".to_owned(),
+        serialport::ErrorKind::Io(k) => match k {
+            std::io::ErrorKind::NotFound
+            | std::io::ErrorKind::PermissionDenied
+            | std::io::ErrorKind::IsADirectory
+            | std::io::ErrorKind::NotADirectory => crate::files::reason(&k.into()),
+            _ => e.description.clone(),
+        },
+        _ => e.description.clone(),
+    }
+}
+
 impl Serial {
     /// Open `path` at `baud` (8N1, no flow control, raw), for this process
     /// alone.
@@ -93,7 +114,7 @@ impl Serial {
                 if busy {
                     in_use()
                 } else {
-                    anyhow::anyhow!("opening serial port {path}: {}", e.description)
+                    anyhow::anyhow!("opening serial port {path}: {}", serial_open_reason(&e))
                 }
             })?;
         // The shared lock serialport took becomes exclusive, or the port is
@@ -286,6 +307,23 @@ pub fn open(spec: &str, baud: u32) -> anyhow::Result<Box<dyn Transport>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_port_that_did_not_open_says_why_in_words() {
+        use serialport::{Error, ErrorKind};
+        let enotty = Error::new(ErrorKind::Unknown, "Not a typewriter");
+        assert_eq!(
+            serial_open_reason(&enotty),
+            "not a serial port (it takes no serial line settings)"
+        );
+        let missing = Error::new(
+            ErrorKind::Io(std::io::ErrorKind::NotFound),
+            "No such file or directory",
+        );
+        assert_eq!(serial_open_reason(&missing), "no such file or directory");
+        let other = Error::new(ErrorKind::NoDevice, "the adapter went away");
+        assert_eq!(serial_open_reason(&other), "the adapter went away");
+    }
 
     #[test]
     fn bad_tcp_addresses_are_input_errors() {
