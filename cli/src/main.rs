@@ -75,6 +75,31 @@ fn finish(result: anyhow::Result<()>) -> ExitCode {
     }
 }
 
+/// The environment variable a refused value came from, when it did: clap
+/// names the flag (`--timeout-ms`), which a user who set
+/// `LMHOST_TIMEOUT_MS` in a shell profile never typed.
+fn value_from_env(e: &clap::Error) -> Option<String> {
+    use clap::error::{ContextKind, ContextValue};
+    let Some(ContextValue::String(arg)) = e.get(ContextKind::InvalidArg) else {
+        return None;
+    };
+    let flag = arg.split_whitespace().next()?;
+    let long = flag.strip_prefix("--")?;
+    let typed = std::env::args_os().skip(1).any(|a| {
+        a.to_str()
+            .is_some_and(|a| a == flag || a.starts_with(&format!("{flag}=")))
+    });
+    fn env_of(c: &clap::Command, long: &str) -> Option<String> {
+        c.get_arguments()
+            .find(|a| a.get_long() == Some(long))
+            .and_then(|a| a.get_env())
+            .map(|v| v.to_string_lossy().into_owned())
+            .or_else(|| c.get_subcommands().find_map(|s| env_of(s, long)))
+    }
+    let var = env_of(&Cli::command(), long)?;
+    (!typed && std::env::var_os(&var).is_some()).then_some(var)
+}
+
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
     let cli = match cmd::negative_numbers_are_values(Cli::command())
@@ -104,7 +129,10 @@ fn main() -> ExitCode {
                 .collect();
             let line = para.join(" ");
             let line = line.strip_prefix("error: ").unwrap_or(&line);
-            errln!("error: {line} (see --help)");
+            match value_from_env(&e) {
+                Some(var) => errln!("error: {line} (the value of ${var}; see --help)"),
+                None => errln!("error: {line} (see --help)"),
+            }
             return ExitCode::from(2);
         }
     };

@@ -13,7 +13,9 @@
 //!   flag `-1`), refused by the flag's range, and `--weights` takes the
 //!   range the synthesis does.
 //! - A replayed centroid file names itself in its errors, which come long
-//!   after the command started.
+//!   after the command started; a port or a timeout from the environment
+//!   (`LMHOST_PORT`, `LMHOST_TIMEOUT_MS`) is named as the variable, not as
+//!   a flag the user never typed; a path that is no serial port says so.
 //! - A 100 000-character value is cut in its message (its start, its
 //!   length, its end), on every command: one readable line.
 //! - An output that cannot be written is refused before the work: the
@@ -118,6 +120,16 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         //    held open, so it is the stream that ends it).
         PATH_MESSAGES "stream --port {port} --input {dir}/r6/garbage.csv"
                       .err("--input file {dir}/r6/garbage.csv: line 2 ");
+        // A value from the environment is named as such (the user may not
+        // remember a shell profile's variable); the flag typed wins.
+        PATH_MESSAGES "status" .env("LMHOST_PORT", "{dir}/no_such_port").code(1)
+                      .err("$LMHOST_PORT: opening serial port {dir}/no_such_port");
+        PATH_MESSAGES "status --port {dir}/no_such_port" .env("LMHOST_PORT", "{port}").code(1)
+                      .err("error: opening serial port {dir}/no_such_port");
+        PATH_MESSAGES "status --port {port}" .env("LMHOST_TIMEOUT_MS", "0")
+                      .err("(the value of $LMHOST_TIMEOUT_MS; see --help)");
+        PATH_MESSAGES "status --port {port} --timeout-ms 0" .env("LMHOST_TIMEOUT_MS", "50")
+                      .err("0 is not in 1..=60000 (see --help)");
         // A path that opens but is no serial port, in words (not the OS's
         // "Not a typewriter").
         PATH_MESSAGES "status --port /dev/null" .code(1).err("/dev/null: not a serial port");

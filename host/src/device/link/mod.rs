@@ -71,7 +71,16 @@ impl PortSpec {
             .into());
         }
         let path = discover::resolve(self.port.as_deref())?;
-        let transport = transport::open(&path, self.baud)?;
+        // A port from the environment is named as such: the user may not
+        // remember a `LMHOST_PORT` a shell profile set.
+        let from_env = self.port.is_none() && std::env::var_os(discover::PORT_ENV).is_some();
+        let transport = transport::open(&path, self.baud).map_err(|e| {
+            if from_env {
+                e.context(format!("${}", discover::PORT_ENV))
+            } else {
+                e
+            }
+        })?;
         let mut client = Client::new(transport);
         // Requests are matched to replies by seq: a client that started
         // where the last one did (a killed lmhost, its replies still in the
