@@ -16,7 +16,7 @@ use lmhost::plan::scene::Scene;
 use lmhost::plan::sequence::{Plan, Synthesis};
 use lmhost::plan::stimulus::{Stimulus, TargetPlan, Timing};
 use lmhost::plan::target::Target;
-use lmhost::plan::trajectory::{Cycle, Steps};
+use lmhost::plan::trajectory::Cycle;
 
 /// Multi-focus synthesis method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
@@ -167,11 +167,6 @@ impl StimulusFlags {
             .as_deref()
             .map(|c| parse_vec3("center", c))
             .transpose()?;
-        let steps = match (self.step, self.steps) {
-            (_, Some(n)) => Steps::Count(n),
-            (Some(w), None) => Steps::Width(w),
-            (None, None) => d.cycle.steps,
-        };
         let z_profile_mm = match &self.z {
             Some(z) => parse_list("z", z)?,
             None => d.cycle.z_profile_mm,
@@ -195,13 +190,15 @@ impl StimulusFlags {
         let intensity = self.intensity.unwrap_or(d.intensity);
         Ok(Stimulus {
             cycle: Cycle {
-                radius_mm: self.radius.unwrap_or(d.cycle.radius_mm),
-                foci: self.foci.unwrap_or(d.cycle.foci),
-                spacing_mm: self.spacing.unwrap_or(d.cycle.spacing_mm),
-                freq_hz: self.freq.unwrap_or(d.cycle.freq_hz),
-                steps,
                 z_profile_mm,
-                path: lmhost::plan::path::Path::Circle,
+                ..Cycle::given(
+                    self.radius,
+                    self.foci,
+                    self.spacing,
+                    self.freq,
+                    self.step,
+                    self.steps,
+                )
             },
             center_mm,
             synthesis,
@@ -388,7 +385,7 @@ impl Args {
 mod tests {
     use super::*;
     use clap::Parser;
-    use lmhost::plan::trajectory::paper;
+    use lmhost::plan::trajectory::{Steps, paper};
 
     #[derive(Parser)]
     struct Cli {

@@ -62,7 +62,7 @@ use crate::plan::scene::Scene;
 use crate::plan::stimulus::{Stimulus, TargetPlan};
 use crate::plan::stimulus_file::Content;
 use crate::plan::target::Target;
-use crate::plan::trajectory::{Cycle, MAX_FOCI, MAX_STEPS, Steps, paper};
+use crate::plan::trajectory::{Cycle, MAX_FOCI, MAX_STEPS, paper};
 
 /// Most entries in one library.
 pub const MAX_ENTRIES: usize = 256;
@@ -435,12 +435,9 @@ impl EntryFile {
             (None, None) => {}
         }
         let d = Stimulus::default();
-        let steps = match (self.step, self.steps) {
-            (Some(_), Some(_)) => return Err("give `step` or `steps`, not both".into()),
-            (_, Some(n)) => Steps::Count(n),
-            (Some(w), None) => Steps::Width(w),
-            (None, None) => d.cycle.steps,
-        };
+        if self.step.is_some() && self.steps.is_some() {
+            return Err("give `step` or `steps`, not both".into());
+        }
         if let Some(i) = self.intensity {
             crate::limits::in_range("intensity", i, 0.0, 1.0, "").map_err(|e| e.to_string())?;
         }
@@ -470,13 +467,16 @@ impl EntryFile {
             id: self.id,
             stimulus: Stimulus {
                 cycle: Cycle {
-                    radius_mm: self.radius.unwrap_or(d.cycle.radius_mm),
-                    foci: self.foci.unwrap_or(d.cycle.foci),
-                    spacing_mm: self.spacing.unwrap_or(d.cycle.spacing_mm),
-                    freq_hz: self.freq.unwrap_or(d.cycle.freq_hz),
-                    steps,
                     path,
                     z_profile_mm: self.z.unwrap_or_default(),
+                    ..Cycle::given(
+                        self.radius,
+                        self.foci,
+                        self.spacing,
+                        self.freq,
+                        self.step,
+                        self.steps,
+                    )
                 },
                 center_mm,
                 intensity: self.intensity.unwrap_or(d.intensity),

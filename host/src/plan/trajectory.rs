@@ -107,6 +107,32 @@ impl Cycle {
         }
     }
 
+    /// The numbers a stimulus's flags or library entry give, each one not
+    /// given the default cycle's; a step count wins over a step width
+    /// (both callers refuse the two together first). Flat, on the circle.
+    pub fn given(
+        radius_mm: Option<f64>,
+        foci: Option<usize>,
+        spacing_mm: Option<f64>,
+        freq_hz: Option<f64>,
+        step_mm: Option<f64>,
+        steps: Option<usize>,
+    ) -> Self {
+        let d = Self::default();
+        Self {
+            radius_mm: radius_mm.unwrap_or(d.radius_mm),
+            foci: foci.unwrap_or(d.foci),
+            spacing_mm: spacing_mm.unwrap_or(d.spacing_mm),
+            freq_hz: freq_hz.unwrap_or(d.freq_hz),
+            steps: match (step_mm, steps) {
+                (_, Some(n)) => Steps::Count(n),
+                (Some(w), None) => Steps::Width(w),
+                (None, None) => d.steps,
+            },
+            ..d
+        }
+    }
+
     /// A static focus: radius 0, one focus, one step (the force
     /// calibration's stimulus).
     pub fn static_focus() -> Self {

@@ -1,4 +1,5 @@
 use super::*;
+use crate::plan::trajectory::Steps;
 
 #[test]
 fn entries_default_to_the_plan_flags_and_keep_file_order() {
