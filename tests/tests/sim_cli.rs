@@ -62,6 +62,22 @@ fn upload_commits_plays_and_switches_slots() {
     assert_eq!(st["lease_expiries"], 0, "every host stopped what it played");
 }
 
+/// The intensity an upload plays at is in its report, text and JSON: a
+/// researcher sees the level the wire carries, not just the flag typed.
+#[test]
+fn upload_reports_the_intensity_it_plays_at() {
+    let sim = Sim::start(&[]);
+    let full = upload_json(&sim.port, &["--no-play"]);
+    assert_eq!(full["intensity_level"], 255, "{full}");
+    let half = upload_json(&sim.port, &["--no-play", "--intensity", "0.5"]);
+    assert_eq!(half["intensity_level"], 128, "{half}");
+    let text = ok(&["upload", "--port", &sim.port, "--no-play", "--intensity", "0.5"]);
+    assert!(text.contains("at intensity 0.501961 (128/255) of full output"), "{text}");
+    let plan = ok(&["plan", "--intensity", "0.25"]);
+    assert!(plan.contains("intensity 0.25098 (64/255) of full output"), "{plan}");
+    assert!(!ok(&["plan"]).contains("intensity"));
+}
+
 #[test]
 fn upload_wire_efficiency_is_at_least_95_percent() {
     let sim = Sim::start(&[]);

@@ -159,7 +159,8 @@ impl StimulusFlags {
 
     /// The stimulus the flags describe, the paper's values where none is
     /// given (strings parsed, nothing planned). A flag that cannot apply
-    /// (`--weights` with GS-PAT, `--iterations` without it) is refused.
+    /// (`--weights` with GS-PAT, `--iterations` without it, `--spacing`
+    /// with one focus) is refused.
     pub fn stimulus(&self) -> Result<Stimulus, InputError> {
         let d = Stimulus::default();
         let center_mm = self
@@ -187,6 +188,13 @@ impl StimulusFlags {
             (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
             (Method::Linear, None) => Synthesis::Linear,
         };
+        // One focus has no neighbour to be spaced from: a spacing given for
+        // LM-S would change nothing, so it is refused, not dropped.
+        if self.spacing.is_some() && self.foci.unwrap_or(d.cycle.foci) < 2 {
+            return Err(InputError::new(
+                "--spacing applies to LM-M only: give --foci 2 or more",
+            ));
+        }
         let intensity = self.intensity.unwrap_or(d.intensity);
         Ok(Stimulus {
             cycle: Cycle {
@@ -334,6 +342,12 @@ pub fn summary_text(plan: &Plan) -> String {
         100.0 * delta as f64 / raw as f64,
         s.crc32(),
     );
+    if s.header.intensity < u8::MAX {
+        out += &format!(
+            "\n{} of full output",
+            lmhost::plan::stimulus::intensity_words(s.header.intensity)
+        );
+    }
     out.push('\n');
     out
 }

@@ -322,6 +322,12 @@ fn print_text(o: &UploadOutcome, needs_host: bool) -> anyhow::Result<()> {
             }
         }
     }
+    if o.intensity_level < u8::MAX {
+        lmhost::outln!(
+            "at {} of full output",
+            lmhost::plan::stimulus::intensity_words(o.intensity_level)
+        )?;
+    }
     let how_to_stream = if needs_host {
         format!(
             "`lmhost stream --port {}` uploads, plays and streams in one go",

@@ -68,6 +68,8 @@ pub struct UploadOutcome {
     pub timing: Timing,
     /// CRC-32 of the phases uploaded (the raw sequence, step-major).
     pub crc32: u32,
+    /// The output intensity it plays at, the wire level (255 = full).
+    pub intensity_level: u8,
     /// Seconds the upload took (wall clock, the call to the backend).
     pub seconds: f64,
     /// Phase bytes sent: the encoded sequence on the LM firmware, the raw
@@ -122,6 +124,7 @@ pub fn upload(
         max_offset_um: plan.sequence.header.max_offset_um,
         timing: planned.timing.clone(),
         crc32: plan.sequence.crc32(),
+        intensity_level: plan.sequence.header.intensity,
         seconds,
         payload_bytes: r
             .wire()

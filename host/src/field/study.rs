@@ -199,9 +199,9 @@ pub fn check_full_output(intensity: u8) -> Result<(), crate::InputError> {
         return Ok(());
     }
     Err(crate::InputError::new(format!(
-        "intensity {} ({intensity}/255) applies to devices: simulate models full output \
+        "{} applies to devices: simulate models full output \
          (its maps scale with the drive amplitude the driver makes of it)",
-        crate::limits::show(f64::from(intensity) / 255.0)
+        crate::plan::stimulus::intensity_words(intensity)
     )))
 }
 

@@ -249,6 +249,15 @@ pub fn intensity_byte(intensity: f64) -> Result<u8, InputError> {
     Ok((intensity * 255.0).round() as u8)
 }
 
+/// A wire intensity in words, as reports print it: `intensity 0.501961
+/// (128/255)`, the fraction of full output the level stands for.
+pub fn intensity_words(level: u8) -> String {
+    format!(
+        "intensity {} ({level}/255)",
+        crate::limits::show(f64::from(level) / 255.0)
+    )
+}
+
 /// A one-line warning when the scene's LM plane is within
 /// [`MIN_LM_PLANE_BEAM_ANGLE_DEG`] of containing the beam axis.
 pub fn lm_plane_warning(scene: &Scene, center_mm: Vec3) -> Option<String> {

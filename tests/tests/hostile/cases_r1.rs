@@ -376,7 +376,7 @@ pub(crate) fn cases() -> Vec<Case> {
     for flag in ["--radius", "--spacing", "--freq", "--step"] {
         v.push(case(PLANS, "plan --foci 2").args(flag).args("NaN"));
     }
-    // ... and with one focus, where --spacing is unused but still checked.
+    // ... and with one focus, where --spacing cannot apply: refused.
     for bad in ["NaN", "inf", "-1", "1e308", "0"] {
         v.push(case(PLANS, "plan --spacing").args(bad).err("spacing"));
     }

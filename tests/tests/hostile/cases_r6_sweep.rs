@@ -55,6 +55,10 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
                       .err("cannot be used with");
         SWEEP_IGNORED "track --synthetic --holes 0.1 --fast --timestamps {dir}/r6/ts.npy"
                       .err("cannot be used with");
+        // One focus has no neighbour: `--spacing` changed nothing in LM-S.
+        SWEEP_IGNORED "plan --spacing 4" .err("--spacing applies to LM-M only");
+        SWEEP_IGNORED "upload --port {port} --foci 1 --spacing 4" .err("--spacing applies to LM-M only");
+        SWEEP_IGNORED "plan --foci 2 --spacing 4" .ok();
         // `--stimulus` needs `--library`, which conflicts with the plan flags.
         SWEEP_IGNORED "simulate --stimulus lms-5hz-a2 --radius 3 --out {dir}/r6/sim"
                       .err("'--stimulus <ID>' cannot be used with '--radius <MM>'");

@@ -585,9 +585,11 @@ impl Run {
                 "points": r.contact.points,
                 "present": r.present,
                 "centroid_mm": r.centroid_mm(),
+                // The presence gate always runs: its verdict is what
+                // `--enter-frames` / `--leave-frames` change.
+                "gated_present": r.gated,
             });
             if self.show_filtered {
-                v["gated_present"] = r.gated.into();
                 v["filtered_mm"] = serde_json::json!(r.filtered_mm);
             }
             if self.z_profile.is_some() {

@@ -1,6 +1,7 @@
 use std::path::PathBuf;
 
 use super::*;
+use crate::sense::track::presence::Hysteresis;
 
 fn synthetic(json: bool) -> Options {
     Options {
@@ -39,6 +40,34 @@ fn a_synthetic_session_prints_a_line_per_frame_and_scores_the_truth() {
     assert!(report.summary[1].starts_with("vs ground truth: centroid error"));
     assert!(report.summary[2].starts_with("surface depth profile:"));
     assert_eq!(report.summary.len(), 3, "{report:?}");
+}
+
+/// Every JSON line carries the gate's verdict, so `--enter-frames` shows
+/// in the output even without a filter or a device.
+#[test]
+fn the_json_lines_carry_the_gated_presence_the_gate_flags_change() {
+    let gated = |gate: Hysteresis| {
+        let mut o = synthetic(true);
+        o.source = Source::Synthetic {
+            finger: SyntheticFinger::new(Some(1.0), None, None).unwrap(),
+            intrinsics: None,
+        };
+        o.gate = gate;
+        o.z_profile = None;
+        let mut n = 0;
+        TrackRun::open(o)
+            .unwrap()
+            .run(None, &mut |l: &str| {
+                let v: serde_json::Value = serde_json::from_str(l).unwrap();
+                n += usize::from(v["gated_present"].as_bool().expect("gated_present"));
+                Ok(())
+            })
+            .unwrap();
+        n
+    };
+    let quick = gated(Hysteresis::default());
+    let slow = gated(Hysteresis::new(20, 2).unwrap());
+    assert!(quick > slow && slow > 0, "{quick} vs {slow}");
 }
 
 #[test]
