@@ -71,10 +71,23 @@ fn upload_reports_the_intensity_it_plays_at() {
     assert_eq!(full["intensity_level"], 255, "{full}");
     let half = upload_json(&sim.port, &["--no-play", "--intensity", "0.5"]);
     assert_eq!(half["intensity_level"], 128, "{half}");
-    let text = ok(&["upload", "--port", &sim.port, "--no-play", "--intensity", "0.5"]);
-    assert!(text.contains("at intensity 0.501961 (128/255) of full output"), "{text}");
+    let text = ok(&[
+        "upload",
+        "--port",
+        &sim.port,
+        "--no-play",
+        "--intensity",
+        "0.5",
+    ]);
+    assert!(
+        text.contains("at intensity 0.501961 (128/255) of full output"),
+        "{text}"
+    );
     let plan = ok(&["plan", "--intensity", "0.25"]);
-    assert!(plan.contains("intensity 0.25098 (64/255) of full output"), "{plan}");
+    assert!(
+        plan.contains("intensity 0.25098 (64/255) of full output"),
+        "{plan}"
+    );
     assert!(!ok(&["plan"]).contains("intensity"));
 }
 

@@ -19,24 +19,26 @@ pub struct PortArgs {
     /// board found by USB id].
     #[arg(long, value_name = "PATH")]
     pub port: Option<String>,
-    /// Baud rate for real serial ports (ptys ignore it), above 0.
-    #[arg(long, value_name = "BAUD", default_value_t = 115_200, value_parser = clap::value_parser!(u32).range(1..))]
-    pub baud: u32,
+    /// LM firmware: baud rate for real serial ports (ptys ignore it), above
+    /// 0 [default: 115200].
+    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(1..))]
+    pub baud: Option<u32>,
     /// Response timeout per attempt, ms, 1..=60000 [default:
     /// $LMHOST_TIMEOUT_MS, else 100 + twice the time a full chunk takes at
     /// --baud; a slow link or an emulated board on a busy machine wants
     /// more].
     #[arg(long, value_name = "MS", env = "LMHOST_TIMEOUT_MS", value_parser = clap::value_parser!(u64).range(1..=lmhost::limits::MAX_TIMEOUT_MS))]
     pub timeout_ms: Option<u64>,
-    /// Attempts per request before giving up, 1..=100.
-    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=i64::from(lmhost::limits::MAX_TRIES)))]
-    pub tries: u32,
+    /// LM firmware: attempts per request before giving up, 1..=100
+    /// [default: 8].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(lmhost::limits::MAX_TRIES)))]
+    pub tries: Option<u32>,
     /// LM firmware: the host lease, 0.1 to 60 s. What lmhost plays stops
     /// by itself this long after the device last heard from it (lmhost
     /// renews it every quarter lease while it holds the port), so the
-    /// array falls silent when lmhost dies.
-    #[arg(long, value_name = "S", default_value = "1", value_parser = lease_ms, allow_negative_numbers = true)]
-    pub lease: u16,
+    /// array falls silent when lmhost dies [default: 1].
+    #[arg(long, value_name = "S", value_parser = lease_ms, allow_negative_numbers = true)]
+    pub lease: Option<u16>,
 }
 
 /// `--lease S` as milliseconds, within the device's bounds.
@@ -85,7 +87,7 @@ pub struct DeviceArgs {
 impl DeviceArgs {
     /// The host lease `--lease` asks for, ms.
     pub fn lease_ms(&self) -> u16 {
-        self.port.lease
+        self.port.lease.unwrap_or(lm_proto::DEFAULT_LEASE_MS)
     }
 
     /// Loads the scene and opens the device ([`lmhost::device::connect::open`]).
@@ -143,9 +145,10 @@ pub struct FingerArgs {
     /// Finger centroids as UDP datagrams on 127.0.0.1:PORT (1..=65535).
     #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
     pub udp: Option<u16>,
-    /// Centroid filter.
-    #[arg(long, value_parser = filter(), default_value_t = FilterKind::Kalman)]
-    pub filter: FilterKind,
+    /// Centroid filter for the tracked finger or its centroids (not the
+    /// synthetic finger, which rests still) [default: kalman].
+    #[arg(long, value_parser = filter())]
+    pub filter: Option<FilterKind>,
 }
 
 /// What the finger flags give.
@@ -173,7 +176,17 @@ impl FingerArgs {
 
     /// Whether any source is given.
     pub fn any(&self) -> bool {
-        self.synthetic || self.tracked() || self.stream.is_some() || self.udp.is_some()
+        self.synthetic || self.samples()
+    }
+
+    /// Whether a source gives finger samples, which the filter smooths.
+    fn samples(&self) -> bool {
+        self.tracked() || self.stream.is_some() || self.udp.is_some()
+    }
+
+    /// The centroid filter: `--filter`, else the Kalman filter.
+    pub fn filter(&self) -> FilterKind {
+        self.filter.unwrap_or(FilterKind::Kalman)
     }
 
     /// Checks the flags against each other and `scene`, and opens (so
@@ -185,6 +198,11 @@ impl FingerArgs {
         use lmhost::sense::track::source::{intrinsics_beside, timestamps_beside};
         if (self.intrinsics.is_some() || self.timestamps.is_some()) && self.depth.is_none() {
             lmhost::bad_input!("--intrinsics and --timestamps apply to --depth only");
+        }
+        if self.filter.is_some() && !self.samples() {
+            lmhost::bad_input!(
+                "--filter applies to a finger tracked or streamed (--depth, --camera, --depth-stream, --stream, --udp)"
+            );
         }
         if self.tracked() && scene.is_none() {
             lmhost::bad_input!(

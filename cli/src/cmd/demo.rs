@@ -92,10 +92,7 @@ impl Args {
                 }
                 lmhost::device::autd3::Autd3Port::parse(p)?;
                 let target = Target::Autd3;
-                let port = lmhost::device::link::PortSpec {
-                    tries: 1,
-                    ..lmhost::device::link::PortSpec::new(Some(p.clone()))
-                };
+                let port = lmhost::device::link::PortSpec::new(Some(p.clone()));
                 lmhost::stop::graceful();
                 let mut dev =
                     lmhost::device::connect::open(&port, &lmhost::plan::scene::Scene::default())?;

@@ -52,9 +52,10 @@ pub struct Args {
     events: Option<PathBuf>,
     #[command(flatten)]
     finger: FingerArgs,
-    /// When the client that sent `present`, `prepare` or `stop` disconnects.
-    #[arg(long, value_enum, default_value_t = Disconnect::Stop)]
-    on_disconnect: Disconnect,
+    /// When the client that sent `present`, `prepare` or `stop` disconnects
+    /// from the control socket [default: stop].
+    #[arg(long, value_enum)]
+    on_disconnect: Option<Disconnect>,
     /// End the session (the array silent) when stdin reaches its end: for
     /// a program that starts the session with a pipe on its stdin and
     /// never writes to it, so the session ends with that program however
@@ -86,6 +87,11 @@ impl Args {
         };
         if control == Control::Stdio && self.tcp.is_some() {
             lmhost::bad_input!("--tcp needs a socket --control, not `-`");
+        }
+        // With commands on stdin no client connects, so none disconnects:
+        // the end of stdin is the session's own rule (see --control).
+        if control == Control::Stdio && self.on_disconnect.is_some() {
+            lmhost::bad_input!("--on-disconnect needs a socket --control, not `-`");
         }
         let stream_stdin = self.finger.reads_stdin();
         if control == Control::Stdio && stream_stdin {
@@ -150,14 +156,14 @@ impl Args {
             session,
             Options {
                 control: endpoint,
-                on_disconnect: match self.on_disconnect {
+                on_disconnect: match self.on_disconnect.unwrap_or(Disconnect::Stop) {
                     Disconnect::Stop => OnDisconnect::Stop,
                     Disconnect::Continue => OnDisconnect::Continue,
                     Disconnect::Quit => OnDisconnect::Quit,
                 },
                 events,
                 finger,
-                filter: self.finger.filter.build(),
+                filter: self.finger.filter().build(),
             },
         )?;
         if report.dropped_clients > 0 {

@@ -73,9 +73,10 @@ pub struct Args {
     /// Centroid filter.
     #[arg(long, value_parser = super::args::filter(), default_value_t = FilterKind::Kalman)]
     filter: FilterKind,
-    /// Kalman filter: predict this far ahead (ms), e.g. the link latency.
-    #[arg(long, value_name = "MS", default_value_t = 0.0)]
-    lead_ms: f64,
+    /// Kalman filter: predict this far ahead (ms), e.g. the link latency
+    /// [default: 0].
+    #[arg(long, value_name = "MS")]
+    lead_ms: Option<f64>,
     /// Scene file (TOML): its reflector mirrors centroids into drive
     /// coordinates, and a stimulus is planned in it [default: four AUTD3
     /// in a flat 2×2 facing +z].
@@ -119,8 +120,12 @@ impl Args {
             lmhost::limits::MAX_SECONDS
         };
         let seconds = lmhost::limits::duration_s("--seconds", self.seconds, max_s)?;
-        if !self.lead_ms.is_finite() || self.lead_ms.abs() > 1000.0 {
-            lmhost::bad_input!("--lead-ms {} must be within ±1000", self.lead_ms);
+        let lead_ms = self.lead_ms.unwrap_or(0.0);
+        if !lead_ms.is_finite() || lead_ms.abs() > 1000.0 {
+            lmhost::bad_input!("--lead-ms {lead_ms} must be within ±1000");
+        }
+        if self.lead_ms.is_some() && self.filter != FilterKind::Kalman {
+            lmhost::bad_input!("--lead-ms applies to --filter kalman only");
         }
         let away = self.away.as_deref().map(parse_away).transpose()?;
         if away.is_some() && !self.synthetic {
@@ -137,7 +142,7 @@ impl Args {
             ..FingerTrack::default()
         };
         let mut filter: Box<dyn lmhost::sense::stream::filter::Filter + Send> = match self.filter {
-            FilterKind::Kalman => Box::new(Kalman::with_lead(self.lead_ms / 1e3)),
+            FilterKind::Kalman => Box::new(Kalman::with_lead(lead_ms / 1e3)),
             other => other.build(),
         };
         let pace = if self.fast {

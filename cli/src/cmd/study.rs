@@ -305,7 +305,7 @@ impl RunArgs {
             lmhost::bad_input!("{flag} - reads stdin, so the answers need --responses FILE");
         }
         src.check(self.scene.as_deref())?;
-        let filter = src.filter.build();
+        let filter = src.filter().build();
         Ok(match src.start(self.scene.as_deref())? {
             FingerFeed::Samples(feed, name) => FingerSource::Samples { feed, filter, name },
             FingerFeed::Synthetic => FingerSource::Synthetic,

@@ -4,6 +4,7 @@ use lm_proto::{DeviceState, Encoding, Status};
 
 use super::args::PortArgs;
 use crate::cmd::plan::PlanArgs;
+use lmhost::device::connect::DeviceKind;
 use lmhost::device::upload::{Play, UploadOutcome};
 use lmhost::plan::sequence::DEFAULT_MAX_OFFSET_MM;
 
@@ -81,9 +82,10 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     max_offset: f64,
-    /// Wire encoding.
-    #[arg(long, value_enum, default_value_t = EncodingArg::Delta)]
-    encoding: EncodingArg,
+    /// LM firmware: the sequence's encoding on the serial link [default:
+    /// delta].
+    #[arg(long, value_enum)]
+    encoding: Option<EncodingArg>,
     #[command(flatten)]
     hold: HoldArgs,
     /// Print a JSON report instead of text.
@@ -171,6 +173,11 @@ impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
         let kind = self.port.spec().device()?;
+        if let (Some(_), DeviceKind::Autd3(p)) = (self.encoding, &kind) {
+            lmhost::bad_input!(
+                "--encoding applies to the LM firmware's serial link; {p} is an AUTD3, which has none"
+            );
+        }
         let target = kind.target();
         let hold = self.hold.duration()?;
         let file = match (&self.phases, &self.foci_file) {
@@ -205,7 +212,7 @@ impl Args {
         let mut dev = lmhost::device::connect::open_with(
             &self.port.spec(),
             &planned.plan.scene,
-            self.encoding.into(),
+            self.encoding.unwrap_or(EncodingArg::Delta).into(),
             !self.json,
         )?;
         if !self.no_play {

@@ -21,7 +21,9 @@ use std::sync::{Arc, Mutex};
 
 impl PortSpec {
     /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
-    /// `autd3:` port is an [`InputError`](crate::InputError) (exit 2).
+    /// `autd3:` port, or an AUTD3 port given a serial link's setting
+    /// (`--baud`, `--tries`, `--lease`), is an
+    /// [`InputError`](crate::InputError) (exit 2).
     pub fn device(&self) -> Result<DeviceKind, crate::InputError> {
         let env = std::env::var(discover::PORT_ENV).ok();
         let port = self.port.as_deref().or(env.as_deref());
@@ -37,7 +39,17 @@ impl PortSpec {
             )));
         }
         match port {
-            Some(p) if Autd3Port::is_autd3(p) => Ok(DeviceKind::Autd3(Autd3Port::parse(p)?)),
+            Some(p) if Autd3Port::is_autd3(p) => {
+                let kind = Autd3Port::parse(p)?;
+                // An AUTD3 has no serial link: a setting of one would be
+                // dropped without a word.
+                if let Some(first) = self.link_settings_given().first() {
+                    return Err(crate::InputError::new(format!(
+                        "{first} applies to the LM firmware's serial link; {p} is an AUTD3, which has none"
+                    )));
+                }
+                Ok(DeviceKind::Autd3(kind))
+            }
             _ => Ok(DeviceKind::Lm),
         }
     }
@@ -389,6 +401,58 @@ mod tests {
         }
         assert_eq!(kind("autd3:emulator").target(), Target::Autd3);
         assert_eq!(kind("/dev/ttyACM0").target(), Target::Lm);
+    }
+
+    /// An AUTD3 has no serial link: a setting of one is refused, naming
+    /// the flag, where the LM firmware's link takes it.
+    #[test]
+    fn serial_link_settings_are_refused_for_an_autd3() {
+        for (spec, flag) in [
+            (
+                PortSpec {
+                    baud: Some(9600),
+                    ..PortSpec::new(None)
+                },
+                "--baud",
+            ),
+            (
+                PortSpec {
+                    tries: Some(2),
+                    ..PortSpec::new(None)
+                },
+                "--tries",
+            ),
+            (
+                PortSpec {
+                    lease_ms: Some(500),
+                    ..PortSpec::new(None)
+                },
+                "--lease",
+            ),
+        ] {
+            let lm = PortSpec {
+                port: Some("/dev/ttyACM0".into()),
+                ..spec.clone()
+            };
+            assert_eq!(lm.device().unwrap(), DeviceKind::Lm);
+            let autd3 = PortSpec {
+                port: Some("autd3:emulator".into()),
+                ..spec
+            };
+            let e = autd3.device().unwrap_err().to_string();
+            assert!(
+                e.starts_with(&format!("{flag} applies to the LM firmware's serial link")),
+                "{e}"
+            );
+        }
+        let timeout = PortSpec {
+            timeout_ms: Some(300),
+            ..PortSpec::new(Some("autd3:emulator".into()))
+        };
+        assert!(
+            timeout.device().is_ok(),
+            "the timeout may come from $LMHOST_TIMEOUT_MS"
+        );
     }
 
     #[test]

@@ -259,7 +259,7 @@ fn lm_board(port: &str, board: Option<&str>, opts: &Options) -> Check {
     };
     let spec = PortSpec {
         timeout_ms: Some(opts.timeout_ms.max(1)),
-        tries: 2,
+        tries: Some(2),
         ..PortSpec::new(Some(port.to_owned()))
     };
     let mut dev = match connect::open(&spec, &Scene::default()) {

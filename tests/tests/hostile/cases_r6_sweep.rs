@@ -59,6 +59,23 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         SWEEP_IGNORED "plan --spacing 4" .err("--spacing applies to LM-M only");
         SWEEP_IGNORED "upload --port {port} --foci 1 --spacing 4" .err("--spacing applies to LM-M only");
         SWEEP_IGNORED "plan --foci 2 --spacing 4" .ok();
+        // An AUTD3 has no serial link: its settings were dropped.
+        SWEEP_IGNORED "upload --port autd3:emulator --baud 9600" .err("--baud applies to the LM firmware's serial link");
+        SWEEP_IGNORED "status --port autd3:emulator --tries 3" .err("--tries applies to the LM firmware's serial link");
+        SWEEP_IGNORED "upload --port autd3:emulator --encoding raw" .err("--encoding applies to the LM firmware's serial link");
+        SWEEP_IGNORED "stream --port autd3:emulator --synthetic --seconds 0.3 --fast --lease 5"
+                      .err("--lease applies to the LM firmware's serial link");
+        SWEEP_IGNORED "upload --port {port} --baud 9600 --tries 3 --lease 5 --encoding raw --no-play" .ok();
+        // A filter smooths samples: the synthetic finger and no finger
+        // have none; its lead is the Kalman filter's.
+        SWEEP_IGNORED "session --port autd3:emulator --library {scenes}/../studies/paper-library.toml --control - --filter none"
+                      .err("--filter applies to a finger tracked or streamed");
+        SWEEP_IGNORED "stream --port {port} --synthetic --seconds 0.3 --fast --filter none --lead-ms 20"
+                      .err("--lead-ms applies to --filter kalman only");
+        SWEEP_IGNORED "stream --port {port} --synthetic --seconds 0.3 --fast --lead-ms 20" .ok();
+        // With commands on stdin no client disconnects.
+        SWEEP_IGNORED "session --port autd3:emulator --library {scenes}/../studies/paper-library.toml --control - --on-disconnect quit"
+                      .err("--on-disconnect needs a socket --control");
         // `--stimulus` needs `--library`, which conflicts with the plan flags.
         SWEEP_IGNORED "simulate --stimulus lms-5hz-a2 --radius 3 --out {dir}/r6/sim"
                       .err("'--stimulus <ID>' cannot be used with '--radius <MM>'");
