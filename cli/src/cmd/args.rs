@@ -91,9 +91,17 @@ impl DeviceArgs {
     }
 
     /// Loads the scene and opens the device ([`lmhost::device::connect::open`]).
+    /// A scene is refused for the LM firmware, which holds the array it
+    /// was given with its upload and would not read it.
     pub fn open(&self) -> anyhow::Result<Box<dyn Backend>> {
+        let spec = self.port.spec();
+        if self.scene.is_some() && spec.device()? == lmhost::device::connect::DeviceKind::Lm {
+            lmhost::bad_input!(
+                "--scene applies to an AUTD3 port, whose devices it names; the LM firmware takes its array with each upload"
+            );
+        }
         let scene = Scene::load_or_default(self.scene.as_deref())?;
-        lmhost::device::connect::open(&self.port.spec(), &scene)
+        lmhost::device::connect::open(&spec, &scene)
     }
 }
 

@@ -66,6 +66,10 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         SWEEP_IGNORED "stream --port autd3:emulator --synthetic --seconds 0.3 --fast --lease 5"
                       .err("--lease applies to the LM firmware's serial link");
         SWEEP_IGNORED "upload --port {port} --baud 9600 --tries 3 --lease 5 --encoding raw --no-play" .ok();
+        // A rig's scene names an AUTD3's devices; the LM firmware has its
+        // array from the upload.
+        SWEEP_IGNORED "status --port {port} --scene {scenes}/paper.toml" .err("--scene applies to an AUTD3 port");
+        SWEEP_IGNORED "status --port autd3:emulator --scene {scenes}/paper.toml" .ok();
         // A filter smooths samples: the synthetic finger and no finger
         // have none; its lead is the Kalman filter's.
         SWEEP_IGNORED "session --port autd3:emulator --library {scenes}/../studies/paper-library.toml --control - --filter none"
