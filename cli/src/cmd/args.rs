@@ -95,12 +95,12 @@ impl DeviceArgs {
     /// was given with its upload and would not read it.
     pub fn open(&self) -> anyhow::Result<Box<dyn Backend>> {
         let spec = self.port.spec();
+        let scene = Scene::load_or_default(self.scene.as_deref())?;
         if self.scene.is_some() && spec.device()? == lmhost::device::connect::DeviceKind::Lm {
             lmhost::bad_input!(
                 "--scene applies to an AUTD3 port, whose devices it names; the LM firmware takes its array with each upload"
             );
         }
-        let scene = Scene::load_or_default(self.scene.as_deref())?;
         lmhost::device::connect::open(&spec, &scene)
     }
 }
