@@ -52,9 +52,9 @@ pub struct ReadArgs {
     /// With `--port sim`: how deep the probe sits in the finger pad, mm.
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     sim_depth: Option<f64>,
-    /// With `--port sim`: the noise seed.
-    #[arg(long, value_name = "N", default_value_t = 1)]
-    seed: u64,
+    /// With `--port sim`: the noise seed [default: 1].
+    #[arg(long, value_name = "N")]
+    seed: Option<u64>,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,

@@ -249,7 +249,7 @@ impl InstrumentArgs {
                 model: self.gauge_model.model(),
                 baud: self.gauge_baud,
                 sim_depth_mm: None,
-                seed: 1,
+                seed: None,
             },
             contact_mm,
             rest_mm: self.rest.unwrap_or(contact_mm),

@@ -70,6 +70,8 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         // array from the upload.
         SWEEP_IGNORED "status --port {port} --scene {scenes}/paper.toml" .err("--scene applies to an AUTD3 port");
         SWEEP_IGNORED "status --port autd3:emulator --scene {scenes}/paper.toml" .ok();
+        // The gauge twin's noise seed means nothing to a real gauge.
+        SWEEP_IGNORED "gauge read --port /dev/null --seed 3" .err("a noise seed (--seed) needs port sim");
         // A filter smooths samples: the synthetic finger and no finger
         // have none; its lead is the Kalman filter's.
         SWEEP_IGNORED "session --port autd3:emulator --library {scenes}/../studies/paper-library.toml --control - --filter none"

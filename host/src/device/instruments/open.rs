@@ -47,8 +47,8 @@ pub struct GaugeOptions {
     pub baud: Option<u32>,
     /// For the twin: how deep its probe sits in the finger pad, mm.
     pub sim_depth_mm: Option<f64>,
-    /// For the twin: the noise seed.
-    pub seed: u64,
+    /// For the twin: the noise seed [default: 1]; a real gauge refuses one.
+    pub seed: Option<u64>,
 }
 
 /// Open the gauge `o` names.
@@ -68,15 +68,16 @@ pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
         return Ok(Box::new(SimGauge::new(
             stage.probe(),
             FingerPad::TYPICAL,
-            o.seed,
+            o.seed.unwrap_or(1),
         )));
     }
-    if o.sim_depth_mm.is_some() {
-        return Err(InputError::new(format!(
-            "a simulated depth (--sim-depth) needs port {SIM}, not {}",
-            o.port
-        ))
-        .into());
+    for (given, what) in [
+        (o.sim_depth_mm.is_some(), "a simulated depth (--sim-depth)"),
+        (o.seed.is_some(), "a noise seed (--seed)"),
+    ] {
+        if given {
+            return Err(InputError::new(format!("{what} needs port {SIM}, not {}", o.port)).into());
+        }
     }
     let baud = o.baud.unwrap_or(o.model.default_baud());
     Ok(match o.model {
@@ -190,7 +191,7 @@ pub fn open_rig(
     match (sim_stage_port, gauge.port == SIM) {
         (StagePort::Sim(fail), true) => {
             let s = sim_stage(stage, fail)?;
-            let g = SimGauge::new(s.probe(), pad, gauge.seed);
+            let g = SimGauge::new(s.probe(), pad, gauge.seed.unwrap_or(1));
             Ok((Box::new(s), Box::new(g)))
         }
         (StagePort::Serial(_), false) => Ok((open_stage(stage)?, open_gauge(gauge)?)),
@@ -216,7 +217,7 @@ mod tests {
             model: GaugeModel::Imada,
             baud: None,
             sim_depth_mm: depth,
-            seed: 1,
+            seed: None,
         })
     }
 
@@ -274,7 +275,7 @@ mod tests {
             model: GaugeModel::Imada,
             baud: None,
             sim_depth_mm: None,
-            seed: 1,
+            seed: None,
         };
         let pad = FingerPad::TYPICAL.at(5.0);
         let (mut s, mut g) = open_rig(&stage, &gauge_o, pad).unwrap();

@@ -456,7 +456,7 @@ mod tests {
                 model: GaugeModel::Imada,
                 baud: None,
                 sim_depth_mm: None,
-                seed: 1,
+                seed: None,
             },
             contact_mm: 5.0,
             rest_mm: 4.0,
