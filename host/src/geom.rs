@@ -112,3 +112,42 @@ mod tests {
         }
     }
 }
+
+/// Serde readers of fixed-size vectors in input files: exactly as many
+/// numbers as the vector has. serde reads `[f64; 3]` as a tuple and the
+/// TOML reader drops whatever follows the third element without a word, so
+/// `center_mm = [0, 30, 30, 99]` would be taken as `[0, 30, 30]`.
+pub mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    use super::Vec3;
+
+    /// A `[f64; N]` field: `#[serde(deserialize_with = "geom::exact::array")]`.
+    pub fn array<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+        let v = Vec::<f64>::deserialize(d)?;
+        <[f64; N]>::try_from(v.as_slice())
+            .map_err(|_| D::Error::invalid_length(v.len(), &format!("{N} numbers").as_str()))
+    }
+
+    /// A [`Vec3`] field: `#[serde(deserialize_with = "geom::exact::vec3")]`.
+    pub fn vec3<'de, D: Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+        array(d)
+    }
+
+    /// An optional [`Vec3`] field (with `#[serde(default)]`).
+    pub fn opt_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec3>, D::Error> {
+        vec3(d).map(Some)
+    }
+
+    /// Three [`Vec3`] (a frame's axes), each exactly three numbers.
+    pub fn axes<'de, D: Deserializer<'de>>(d: D) -> Result<[Vec3; 3], D::Error> {
+        #[derive(serde::Deserialize)]
+        #[serde(transparent)]
+        struct Exact(#[serde(deserialize_with = "vec3")] Vec3);
+        let v = Vec::<Exact>::deserialize(d)?;
+        match v.as_slice() {
+            [a, b, c] => Ok([a.0, b.0, c.0]),
+            _ => Err(D::Error::invalid_length(v.len(), &"3 axes")),
+        }
+    }
+}

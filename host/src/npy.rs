@@ -78,9 +78,36 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
             return Err(bad(path, format!(".npy header gives '{key}' twice")));
         }
     }
-    let descr = dict_value(text, "descr")
-        .and_then(|v| v.strip_prefix('\'').and_then(|v| v.split('\'').next()))
-        .ok_or_else(|| bad(path, ".npy header has no 'descr'"))?
+    // numpy writes these three keys and refuses a header with others; a
+    // key we would not read is never ignored.
+    if let Some(k) = dict_keys(text)
+        .into_iter()
+        .find(|k| !["descr", "fortran_order", "shape"].contains(k))
+    {
+        return Err(bad(
+            path,
+            format!(
+                ".npy header has key '{}': only 'descr', 'fortran_order' and 'shape' belong there",
+                excerpt(k)
+            ),
+        ));
+    }
+    // A key present with a value of the wrong kind is said so, not that
+    // the key is missing.
+    let wrong = |key: &str, want: &str, v: &str| {
+        bad(
+            path,
+            format!(
+                ".npy header's '{key}' must be {want}, got `{}`",
+                excerpt(value_text(v))
+            ),
+        )
+    };
+    let v = dict_value(text, "descr").ok_or_else(|| bad(path, ".npy header has no 'descr'"))?;
+    let descr = v
+        .strip_prefix('\'')
+        .and_then(|v| v.split('\'').next())
+        .ok_or_else(|| wrong("descr", "a quoted type such as '<u2'", v))?
         .to_string();
     match dict_value(text, "fortran_order") {
         Some(v) if v.starts_with("False") => {}
@@ -90,12 +117,14 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
                 "Fortran-order arrays are not supported; save in C order",
             ));
         }
-        _ => return Err(bad(path, ".npy header has no 'fortran_order'")),
+        Some(v) => return Err(wrong("fortran_order", "False or True", v)),
+        None => return Err(bad(path, ".npy header has no 'fortran_order'")),
     }
-    let shape_txt = dict_value(text, "shape")
-        .and_then(|v| v.strip_prefix('('))
+    let v = dict_value(text, "shape").ok_or_else(|| bad(path, ".npy header has no 'shape'"))?;
+    let shape_txt = v
+        .strip_prefix('(')
         .and_then(|v| v.split(')').next())
-        .ok_or_else(|| bad(path, ".npy header has no 'shape'"))?;
+        .ok_or_else(|| wrong("shape", "a tuple of sizes", v))?;
     let shape = shape_txt
         .split(',')
         .map(str::trim)
@@ -105,14 +134,56 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
         .map_err(|_| {
             bad(
                 path,
-                format!(".npy shape `({shape_txt})` is not a tuple of sizes"),
+                format!(
+                    ".npy shape `({})` is not a tuple of sizes",
+                    excerpt(shape_txt)
+                ),
             )
         })?;
+    if shape.len() > MAX_DIMS {
+        return Err(bad(
+            path,
+            format!(
+                ".npy shape has {} dimensions; numpy writes at most {MAX_DIMS}",
+                shape.len()
+            ),
+        ));
+    }
     Ok(Header {
         descr,
         shape,
         data_offset: (prefix + len) as u64,
     })
+}
+
+/// Most dimensions a shape may have (numpy's `NPY_MAXDIMS`): a longer
+/// one is no recording, and would be echoed whole by the messages after.
+const MAX_DIMS: usize = 64;
+
+/// The keys of the header's dict literal: each quoted word followed by
+/// `:` (splitting at `'`, the odd parts are the quoted ones).
+fn dict_keys(text: &str) -> Vec<&str> {
+    let parts: Vec<&str> = text.split('\'').collect();
+    parts
+        .windows(2)
+        .enumerate()
+        .filter(|(i, w)| i % 2 == 1 && w[1].trim_start().starts_with(':'))
+        .map(|(_, w)| w[0])
+        .collect()
+}
+
+/// A value's text up to the next `,` or `}` (what a message quotes).
+fn value_text(v: &str) -> &str {
+    v.split([',', '}']).next().unwrap_or(v).trim()
+}
+
+/// `s` cut to a readable length for a message.
+fn excerpt(s: &str) -> String {
+    const MAX: usize = 40;
+    match s.char_indices().nth(MAX) {
+        Some((at, _)) => format!("{}…({} characters)", &s[..at], s.chars().count()),
+        None => s.to_string(),
+    }
 }
 
 /// The text after `'key':` in a Python dict literal.

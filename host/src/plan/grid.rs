@@ -181,7 +181,9 @@ pub fn plan(
     synthesis: &crate::plan::sequence::Synthesis,
 ) -> Result<(crate::plan::sequence::Plan, GridTiming), InputError> {
     let c = &p.cycle;
-    c.path.check()?;
+    // The flags' and the firmware's rule first: the grid search below
+    // would clamp a step wider than the path to its fewest patterns.
+    c.check()?;
     // The grid search works on the cycle's length: a circle's radius is
     // the length over 2π.
     let length_radius = c.path.length_mm(c.radius_mm) / (2.0 * std::f64::consts::PI);

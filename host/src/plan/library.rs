@@ -463,21 +463,31 @@ impl EntryFile {
             _ => d.synthesis.clone(),
         };
         let center_mm = self.center_mm()?;
+        let cycle = Cycle {
+            path,
+            z_profile_mm: self.z.unwrap_or_default(),
+            ..Cycle::given(
+                self.radius,
+                self.foci,
+                self.spacing,
+                self.freq,
+                self.step,
+                self.steps,
+            )
+        };
+        // The plan flags' rule, here where the file is named (`study
+        // check` plans nothing); its words name the flags, whose names
+        // are the fields'.
+        cycle.check().map_err(|e| {
+            ["radius", "freq", "spacing", "step"]
+                .iter()
+                .fold(e.to_string(), |m, f| m.replace(&format!(" (--{f})"), ""))
+                .replace("--", "")
+        })?;
         Ok(Entry {
             id: self.id,
             stimulus: Stimulus {
-                cycle: Cycle {
-                    path,
-                    z_profile_mm: self.z.unwrap_or_default(),
-                    ..Cycle::given(
-                        self.radius,
-                        self.foci,
-                        self.spacing,
-                        self.freq,
-                        self.step,
-                        self.steps,
-                    )
-                },
+                cycle,
                 center_mm,
                 intensity: self.intensity.unwrap_or(d.intensity),
                 am,

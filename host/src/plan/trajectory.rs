@@ -133,6 +133,66 @@ impl Cycle {
         }
     }
 
+    /// Checks every number of the cycle (the one rule for the plan flags,
+    /// a library entry and every planner: the firmware's trajectory and the
+    /// AUTD3's dwell grid) and gives its step count `N`.
+    pub fn check(&self) -> Result<usize, InputError> {
+        finite_pos(self.radius_mm, "radius", "mm", true)?;
+        finite_pos(self.freq_hz, "freq", "Hz", false)?;
+        limits::in_range("radius", self.radius_mm, 0.0, limits::MAX_RADIUS_MM, "mm")?;
+        limits::in_range("frequency", self.freq_hz, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
+        if self.foci == 0 || self.foci > MAX_FOCI {
+            return Err(InputError::new(format!(
+                "foci must be 1..={MAX_FOCI}, got {}",
+                self.foci
+            )));
+        }
+        // Checked even for one focus, where it is unused: a NaN or negative
+        // spacing is a typo, never silently ignored.
+        finite_pos(self.spacing_mm, "spacing", "mm", false)?;
+        limits::in_range(
+            "spacing",
+            self.spacing_mm,
+            0.0,
+            limits::MAX_SPACING_MM,
+            "mm",
+        )?;
+        self.path.check()?;
+        let circumference = self.path.length_mm(self.radius_mm);
+        let length_name = self.path.length_name();
+        Ok(match self.steps {
+            Steps::Count(n) => {
+                if n == 0 || n > MAX_STEPS {
+                    return Err(InputError::new(format!(
+                        "steps must be 1..={MAX_STEPS}, got {n}"
+                    )));
+                }
+                n
+            }
+            Steps::Width(w) => {
+                finite_pos(w, "step", "mm", false)?;
+                limits::in_range("step", w, 0.0, limits::MAX_SPACING_MM, "mm")?;
+                if circumference == 0.0 {
+                    1
+                } else {
+                    if w > circumference {
+                        return Err(InputError::new(format!(
+                            "step {w} mm is wider than the {length_name} = {circumference:.3} mm; \
+                             use a smaller --step or --steps 1"
+                        )));
+                    }
+                    let n = (circumference / w).round().max(1.0);
+                    if n > MAX_STEPS as f64 {
+                        return Err(InputError::new(format!(
+                            "step {w} mm gives {n} steps, more than {MAX_STEPS}"
+                        )));
+                    }
+                    n as usize
+                }
+            }
+        })
+    }
+
     /// A static focus: radius 0, one focus, one step (the force
     /// calibration's stimulus).
     pub fn static_focus() -> Self {
@@ -232,10 +292,7 @@ impl Trajectory {
     /// dwell). Every rejection is an [`InputError`] naming the parameter.
     pub fn plan(at: &LmParams, scene: &Scene) -> Result<Self, InputError> {
         let p = &at.cycle;
-        finite_pos(p.radius_mm, "radius", "mm", true)?;
-        finite_pos(p.freq_hz, "freq", "Hz", false)?;
-        limits::in_range("radius", p.radius_mm, 0.0, limits::MAX_RADIUS_MM, "mm")?;
-        limits::in_range("frequency", p.freq_hz, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
+        let n = p.check()?;
         if !at.center_mm.iter().all(|x| x.is_finite()) {
             return Err(InputError::new(format!(
                 "center must be finite, got {:?}",
@@ -243,50 +300,8 @@ impl Trajectory {
             )));
         }
         limits::position_mm("center", at.center_mm)?;
-        if p.foci == 0 || p.foci > MAX_FOCI {
-            return Err(InputError::new(format!(
-                "foci must be 1..={MAX_FOCI}, got {}",
-                p.foci
-            )));
-        }
-        // Checked even for one focus, where it is unused: a NaN or negative
-        // spacing is a typo, never silently ignored.
-        finite_pos(p.spacing_mm, "spacing", "mm", false)?;
-        limits::in_range("spacing", p.spacing_mm, 0.0, limits::MAX_SPACING_MM, "mm")?;
-        p.path.check()?;
         let circumference = p.path.length_mm(p.radius_mm);
         let length_name = p.path.length_name();
-        let n = match p.steps {
-            Steps::Count(n) => {
-                if n == 0 || n > MAX_STEPS {
-                    return Err(InputError::new(format!(
-                        "steps must be 1..={MAX_STEPS}, got {n}"
-                    )));
-                }
-                n
-            }
-            Steps::Width(w) => {
-                finite_pos(w, "step", "mm", false)?;
-                limits::in_range("step", w, 0.0, limits::MAX_SPACING_MM, "mm")?;
-                if circumference == 0.0 {
-                    1
-                } else {
-                    if w > circumference {
-                        return Err(InputError::new(format!(
-                            "step {w} mm is wider than the {length_name} = {circumference:.3} mm; \
-                             use a smaller --step or --steps 1"
-                        )));
-                    }
-                    let n = (circumference / w).round().max(1.0);
-                    if n > MAX_STEPS as f64 {
-                        return Err(InputError::new(format!(
-                            "step {w} mm gives {n} steps, more than {MAX_STEPS}"
-                        )));
-                    }
-                    n as usize
-                }
-            }
-        };
         let step_mm = circumference / n as f64;
         let index_offset = if p.foci > 1 {
             if circumference == 0.0 {

@@ -77,8 +77,16 @@ pub const SWEEP_NEGATIVE: &str = "r6-3 a negative number is a value";
 pub const SWEEP_LONG: &str = "r6-4 a long value cut in its message";
 pub const SWEEP_OUTPUT_FIRST: &str = "r6-5 an output is refused before the work";
 
+/// Round 7a, the sweep of every field of every input file
+/// (`cases_r7_files.rs`).
+pub const FILES_EXACT: &str = "r7-f1 a file's vector is exactly its length";
+pub const FILES_ONE_RULE: &str = "r7-f2 a file's value meets its flag's and device's rule";
+pub const FILES_PLACE: &str = "r7-f3 a file's error names its line, key and trouble";
+pub const FILES_IGNORED: &str = "r7-f4 no key of a file silently ignored";
+pub const FILES_RESUME: &str = "r7-f5 --resume keeps only rows a run can write";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 57] = [
+pub const CLASSES: [&str; 62] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -136,4 +144,9 @@ pub const CLASSES: [&str; 57] = [
     SWEEP_NEGATIVE,
     SWEEP_LONG,
     SWEEP_OUTPUT_FIRST,
+    FILES_EXACT,
+    FILES_ONE_RULE,
+    FILES_PLACE,
+    FILES_IGNORED,
+    FILES_RESUME,
 ];

@@ -244,6 +244,7 @@ mod cases_r4_study;
 mod cases_r4_view;
 mod cases_r5_exp3;
 mod cases_r6_sweep;
+mod cases_r7_files;
 mod checks;
 mod fixtures;
 
@@ -255,6 +256,7 @@ use cases_r4_paper::{paper_cases, paper_fixtures};
 use cases_r4_study::{study_cases, study_fixtures};
 use cases_r5_exp3::{exp3_cases, exp3_fixtures};
 use cases_r6_sweep::{long_value_cases, sweep_cases, sweep_fixtures};
+use cases_r7_files::{files_cases, files_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -462,6 +464,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     paper_fixtures(&dir);
     exp3_fixtures(&dir);
     sweep_fixtures(&dir);
+    files_fixtures(&dir);
     round4_files_fixtures(&dir);
     cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
@@ -487,6 +490,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(exp3_cases());
     all.extend(sweep_cases());
     all.extend(long_value_cases());
+    all.extend(files_cases());
     all.extend(round4_files_cases());
     // Last: the session cases preload the shared device's library.
     all.extend(cases_r4_session::cases());

@@ -58,6 +58,7 @@ struct PointsFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct PointFile {
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     at_mm: Vec3,
     depth: PathBuf,
 }

@@ -32,6 +32,15 @@ pub const TIMING: [&str; 12] = [
     "mutes",
     "switch_ms",
 ];
+/// What a timing or health column holds (counts are whole).
+fn measured(name: &str) -> Holds {
+    match name {
+        "steps" | "onset_us" | "offset_us" | "on_phases" | "mutes" => Holds::Tally,
+        MISSED_DEADLINES | LEASE_EXPIRIES => Holds::Tally,
+        _ => Holds::Measured,
+    }
+}
+
 /// Wall-clock time of the trial's start, RFC 3339 UTC (to the ms).
 pub const TIME_UTC: &str = "time_utc";
 /// The device's missed deadlines during the trial (its status before and
@@ -159,8 +168,10 @@ pub enum Holds {
     Stimulus,
     /// One of a factor's levels.
     Level(Vec<String>),
-    /// A measured number, or empty when not measured.
+    /// A measured quantity, from 0 (empty when not measured).
     Measured,
+    /// A measured count, a whole number from 0 (empty when not measured).
+    Tally,
     /// A wall-clock time, RFC 3339 UTC.
     Time,
     /// A count of answers.
@@ -248,9 +259,9 @@ impl Holds {
             Self::Count => count(value, 1),
             Self::Stimulus => crate::plan::library::check_id(value).is_ok(),
             Self::Level(levels) => levels.iter().any(|l| l == value),
-            Self::Measured | Self::Estimate => {
-                value.is_empty() || number(value, f64::MIN, f64::MAX)
-            }
+            Self::Measured => value.is_empty() || number(value, 0.0, f64::MAX),
+            Self::Tally => value.is_empty() || count(value, 0),
+            Self::Estimate => value.is_empty() || number(value, f64::MIN, f64::MAX),
             Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
             Self::Likert(points) => {
@@ -287,7 +298,9 @@ impl Holds {
             Self::Count => "give a whole number from 1".into(),
             Self::Stimulus => "give a library entry's id".into(),
             Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
-            Self::Measured | Self::Estimate => "give a finite number or nothing".into(),
+            Self::Measured => "give a number from 0 or nothing".into(),
+            Self::Tally => "give a whole number from 0 or nothing".into(),
+            Self::Estimate => "give a finite number or nothing".into(),
             Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
             Self::Likert(p) => format!("give 1 to {p} or nothing"),
@@ -325,7 +338,7 @@ impl Holds {
             Self::Likert(_) => 1,
             // As the participant gave it.
             Self::Number(..) => MAX_LABEL_BYTES,
-            Self::Depth(..) => NUMBER,
+            Self::Depth(..) | Self::Tally => NUMBER,
             Self::Order(n) => label(n) * n.len().max(1),
             Self::Depths(..) | Self::Seconds => (NUMBER + 1) * items,
             Self::Force => NUMBER,
@@ -437,7 +450,7 @@ impl Columns {
             TIMING
                 .iter()
                 .chain(&[MISSED_DEADLINES, LEASE_EXPIRIES])
-                .map(|n| Column::new(*n, Holds::Measured)),
+                .map(|n| Column::new(*n, measured(n))),
         );
         list.push(Column::new(ANSWERS, Holds::Answers));
         list.extend(questions);
@@ -667,9 +680,6 @@ mod tests {
         for bad in ["inf", "NaN", "1e308", "-1", "x"] {
             assert!(!ok(Holds::Number(0.0, 10.0), bad), "{bad}");
         }
-        assert!(
-            !ok(Holds::Measured, "inf") && ok(Holds::Measured, "") && ok(Holds::Measured, "1.5")
-        );
         assert!(ok(Holds::Count, "3") && !ok(Holds::Count, "0") && !ok(Holds::Count, "+3"));
         assert!(ok(Holds::Seconds, "") && ok(Holds::Seconds, "0.5|1.25"));
         assert!(!ok(Holds::Seconds, "0.5|-1") && !ok(Holds::Seconds, "1|"));

@@ -331,16 +331,18 @@ pub fn read_trials(
         .flexible(true)
         .from_reader(whole.as_bytes());
     let mut rows: Vec<Vec<String>> = Vec::new();
-    let answer_columns = cols
+    let answer_columns: Vec<usize> = cols
         .list()
         .iter()
-        .filter(|c| {
+        .enumerate()
+        .filter(|(_, c)| {
             matches!(
                 c.holds,
                 Holds::Likert(_) | Holds::Choice(_) | Holds::Number(..)
             )
         })
-        .count();
+        .map(|(i, _)| i)
+        .collect();
     // A procedure's answers, `|`-joined in one column.
     let adjust = cols
         .index(columns::ADJUST_ANSWERS)
@@ -412,7 +414,10 @@ pub fn read_trials(
             let adjusted = adjust
                 .filter(|&i| !f[i].is_empty())
                 .map_or(0, |i| f[i].split(columns::LIST_SEPARATOR).count());
-            let given = answer_columns + adjusted;
+            // The answers given, as the runner counts them: an answer
+            // emptied after the run no longer matches the count.
+            let answered = answer_columns.iter().filter(|&&i| !f[i].is_empty()).count();
+            let given = answered + adjusted;
             if f[ci] != given.to_string() {
                 return Err(bad(
                     n,

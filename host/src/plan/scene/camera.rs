@@ -30,9 +30,13 @@ pub const AXIS_TOL: f64 = 1e-6;
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct CameraFile {
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     position_mm: Vec3,
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     x_axis: Vec3,
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     y_axis: Vec3,
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     z_axis: Vec3,
 }
 
@@ -40,8 +44,11 @@ pub(super) struct CameraFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct TrackingFile {
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     box_center_mm: Vec3,
+    #[serde(deserialize_with = "crate::geom::exact::axes")]
     box_axes: [Vec3; 3],
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     box_size_mm: Vec3,
     min_points: u32,
 }
@@ -146,7 +153,11 @@ pub(super) fn resolve(
     let camera = camera
         .map(|c| -> Result<CameraPose, String> {
             Ok(CameraPose {
-                position_mm: finite3(c.position_mm, "camera.position_mm")?,
+                position_mm: crate::limits::position_mm(
+                    "field `camera.position_mm`",
+                    finite3(c.position_mm, "camera.position_mm")?,
+                )
+                .map_err(|e| e.0)?,
                 axes: frame(
                     [c.x_axis, c.y_axis, c.z_axis],
                     "camera.x_axis/y_axis/z_axis",
@@ -166,7 +177,11 @@ pub(super) fn resolve(
                 return Err("field `tracking.min_points` must be at least 1".into());
             }
             Ok(TrackBox {
-                center_mm: finite3(t.box_center_mm, "tracking.box_center_mm")?,
+                center_mm: crate::limits::position_mm(
+                    "field `tracking.box_center_mm`",
+                    finite3(t.box_center_mm, "tracking.box_center_mm")?,
+                )
+                .map_err(|e| e.0)?,
                 axes: frame(t.box_axes, "tracking.box_axes")?,
                 size_mm: size,
                 min_points: t.min_points,
@@ -198,5 +213,50 @@ mod tests {
         );
         let e = Scene::from_toml(&bad, "p").unwrap_err().to_string();
         assert!(e.contains("box_size_mm"), "{e}");
+    }
+
+    #[test]
+    fn vectors_are_exactly_three_numbers_and_positions_in_range() {
+        let base =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/paper.toml"))
+                .unwrap();
+        for (from, to, want) in [
+            // The TOML reader would keep [1, 0, 0] of these without a word.
+            (
+                "x_axis = [-1.0, 0.0, 0.0]",
+                "x_axis = [-1.0, 0.0, 0.0, 5.0]",
+                "invalid length 4",
+            ),
+            (
+                "box_axes = [[1.0, 0.0, 0.0],",
+                "box_axes = [[1.0, 0.0, 0.0, 0.0],",
+                "length 4",
+            ),
+            (
+                "center_mm = [0.0, 30.0, 30.0]",
+                "center_mm = [0.0, 30.0, 30.0, 9.0]",
+                "center_mm",
+            ),
+            (
+                "position_mm = [0.0, 276",
+                "position_mm = [1e300, 276",
+                "camera.position_mm",
+            ),
+            (
+                "box_center_mm = [0.0,",
+                "box_center_mm = [-1e9,",
+                "tracking.box_center_mm",
+            ),
+            (
+                "sound_speed_m_s = 340.0",
+                "sound_speed_m_s = 1e300",
+                "100-2000 m/s",
+            ),
+        ] {
+            let bad = base.replacen(from, to, 1);
+            assert_ne!(bad, base, "{from}");
+            let e = Scene::from_toml(&bad, "p").unwrap_err().to_string();
+            assert!(e.contains(want), "{to}: {e}");
+        }
     }
 }

@@ -56,11 +56,10 @@ impl SceneFile {
                     );
                 }
                 (Some(c), None) => {
-                    if !(c.is_finite() && c > 0.0) {
-                        return Err(format!(
-                            "field `medium.sound_speed_m_s` must be > 0, got {c}"
-                        ));
-                    }
+                    // The range a device takes, here where the file is
+                    // named, not first when a plan is uploaded.
+                    units::sound_speed_mm_s(c)
+                        .map_err(|e| format!("field `medium.sound_speed_m_s`: {}", e.0))?;
                     c_m_s = c;
                 }
                 (None, Some(t)) => {
@@ -70,6 +69,13 @@ impl SceneFile {
                         ));
                     }
                     c_m_s = units::sound_speed_from_celsius(t);
+                    units::sound_speed_mm_s(c_m_s).map_err(|e| {
+                        format!(
+                            "field `medium.temperature_c` {}: {}",
+                            crate::limits::show(t),
+                            e.0
+                        )
+                    })?;
                 }
                 (None, None) => {}
             }

@@ -129,6 +129,7 @@ fn walk_value(v: &toml_edit::Value, at: usize, path: &mut Vec<String>) -> bool {
 pub(super) struct SceneFile {
     pub(super) name: Option<String>,
     pub(super) directivity: Option<Directivity>,
+    #[serde(default, deserialize_with = "crate::geom::exact::opt_vec3")]
     pub(super) center_mm: Option<Vec3>,
     pub(super) min_dwell_ms: Option<f64>,
     pub(super) medium: Option<MediumFile>,
@@ -163,31 +164,37 @@ pub(super) struct MediumFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct ReflectorFile {
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     pub(super) point_mm: Vec3,
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     pub(super) normal: Vec3,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct PlaneFile {
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     pub(super) a: Vec3,
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     pub(super) b: Vec3,
+    #[serde(default, deserialize_with = "crate::geom::exact::opt_vec3")]
     pub(super) c: Option<Vec3>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct PoseFile {
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::geom::exact::vec3")]
     pub(super) position_mm: Vec3,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::geom::exact::vec3")]
     pub(super) rotation_deg: Vec3,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct DeviceFile {
+    #[serde(deserialize_with = "crate::geom::exact::vec3")]
     pub(super) center_mm: Vec3,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::geom::exact::vec3")]
     pub(super) rotation_deg: Vec3,
 }

@@ -81,7 +81,7 @@ impl Distortion {
 /// The colour stream's intrinsics and where it sits relative to the depth
 /// camera.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "ColourFile")]
 pub struct ColourCamera {
     /// Image size, focal lengths, principal point.
     #[serde(flatten)]
@@ -94,6 +94,46 @@ pub struct ColourCamera {
     pub rotation: [f64; 9],
     /// Depth → colour translation (metres, librealsense's unit).
     pub translation_m: [f64; 3],
+}
+
+/// [`ColourCamera`] as the file spells it, flat (as `IntrinsicsFile`:
+/// errors keep their line and key) and with arrays of exactly their length.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ColourFile {
+    width: u32,
+    height: u32,
+    fx: f64,
+    fy: f64,
+    ppx: f64,
+    ppy: f64,
+    model: Distortion,
+    #[serde(deserialize_with = "crate::geom::exact::array")]
+    coeffs: [f64; 5],
+    #[serde(deserialize_with = "crate::geom::exact::array")]
+    rotation: [f64; 9],
+    #[serde(deserialize_with = "crate::geom::exact::array")]
+    translation_m: [f64; 3],
+}
+
+impl From<ColourFile> for ColourCamera {
+    fn from(f: ColourFile) -> Self {
+        let (width, height, fx, fy, ppx, ppy) = (f.width, f.height, f.fx, f.fy, f.ppx, f.ppy);
+        ColourCamera {
+            pinhole: Pinhole {
+                width,
+                height,
+                fx,
+                fy,
+                ppx,
+                ppy,
+            },
+            model: f.model,
+            coeffs: f.coeffs,
+            rotation: f.rotation,
+            translation_m: f.translation_m,
+        }
+    }
 }
 
 /// Largest accepted |coefficient|: real lenses stay well below 1; larger

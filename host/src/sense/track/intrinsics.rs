@@ -82,13 +82,44 @@ impl Pinhole {
 
 /// Intrinsics of the depth stream: a pinhole and its depth units.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "IntrinsicsFile")]
 pub struct Intrinsics {
     /// Image size, focal lengths, principal point.
     #[serde(flatten)]
     pub pinhole: Pinhole,
     /// Metres per depth unit (the D4xx default is 0.001).
     pub depth_scale: f64,
+}
+
+/// [`Intrinsics`] as the file spells it, flat: read without
+/// `serde(flatten)`, whose errors lose the line and the key of a bad value.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct IntrinsicsFile {
+    width: u32,
+    height: u32,
+    fx: f64,
+    fy: f64,
+    ppx: f64,
+    ppy: f64,
+    depth_scale: f64,
+}
+
+impl From<IntrinsicsFile> for Intrinsics {
+    fn from(f: IntrinsicsFile) -> Self {
+        let (width, height, fx, fy, ppx, ppy) = (f.width, f.height, f.fx, f.fy, f.ppx, f.ppy);
+        Intrinsics {
+            pinhole: Pinhole {
+                width,
+                height,
+                fx,
+                fy,
+                ppx,
+                ppy,
+            },
+            depth_scale: f.depth_scale,
+        }
+    }
 }
 
 /// Largest accepted focal length (pixels): a 8192-pixel-wide sensor

@@ -6,7 +6,8 @@ use std::path::Path;
 
 use crate::InputError;
 
-/// `text` as a `what` settings value; the first line of TOML's message.
+/// `text` as a `what` settings value; TOML's message with its line and
+/// field, as every TOML file lmhost reads says it.
 fn parse<T: serde::de::DeserializeOwned>(
     what: &str,
     text: &str,
@@ -15,7 +16,7 @@ fn parse<T: serde::de::DeserializeOwned>(
     toml::from_str(text).map_err(|e| {
         InputError::new(format!(
             "{what} {origin}: {}",
-            e.message().lines().next().unwrap_or("invalid TOML")
+            crate::plan::scene::toml_error_line(text, &e)
         ))
     })
 }

@@ -423,11 +423,13 @@ impl Protocol {
             .unwrap_or(Path::new("."))
             .join(u.library.get_ref());
         let library = Library::load(&library_path).map_err(|x| {
-            e.at(
-                u.library.span(),
-                "library",
-                format!("{x} (the path is relative to the protocol file)"),
-            )
+            // The hint where the path is the trouble, not after a value
+            // inside the library.
+            let hint = match library_path.exists() {
+                true => "",
+                false => " (the path is relative to the protocol file)",
+            };
+            e.at(u.library.span(), "library", format!("{x}{hint}"))
         })?;
         if let Some(c) = u
             .conditions

@@ -345,3 +345,13 @@ fn the_largest_session_fits_the_bounds() {
     .unwrap_err();
     assert!(e.to_string().contains("11000 trials; at most 10000"), "{e}");
 }
+
+#[test]
+fn measured_columns_are_never_below_zero_and_counts_whole() {
+    let ok = |h: Holds, v: &str| h.check(v).is_ok();
+    assert!(!ok(Holds::Measured, "inf") && ok(Holds::Measured, "") && ok(Holds::Measured, "1.5"));
+    assert!(!ok(Holds::Measured, "-1") && ok(Holds::Measured, "0"));
+    assert!(ok(Holds::Tally, "") && ok(Holds::Tally, "70527447322"));
+    assert!(!ok(Holds::Tally, "-1") && !ok(Holds::Tally, "1.5"));
+    assert!(!ok(Holds::Tally, "18446744073709551616"));
+}
