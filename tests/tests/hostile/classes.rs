@@ -77,8 +77,18 @@ pub const SWEEP_NEGATIVE: &str = "r6-3 a negative number is a value";
 pub const SWEEP_LONG: &str = "r6-4 a long value cut in its message";
 pub const SWEEP_OUTPUT_FIRST: &str = "r6-5 an output is refused before the work";
 
+/// Round 7b, the sweep of what lmhost takes at run time (`cases_r7_wire.rs`).
+pub const WIRE_DUPLICATE_KEYS: &str = "r7-w1 a key given twice is refused";
+pub const WIRE_ECHO: &str = "r7-w2 a wrong-typed value cut at 64 characters";
+pub const WIRE_ROUNDED: &str = "r7-w3 an on_s the device would round up is refused";
+pub const WIRE_UTF8: &str = "r7-w4 a line not UTF-8 is refused as such";
+pub const WIRE_NAMED: &str = "r7-w5 a refusal names its command";
+pub const WIRE_BESIDE_BOUND: &str = "r7-w6 a value beside its bound is not shown as it";
+pub const WIRE_TCP_REPLY: &str = "r7-w7 every closed TCP client gets its reply";
+pub const WIRE_VIEW: &str = "r7-w8 a view request has one deadline and numbers";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 57] = [
+pub const CLASSES: [&str; 65] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -136,4 +146,12 @@ pub const CLASSES: [&str; 57] = [
     SWEEP_NEGATIVE,
     SWEEP_LONG,
     SWEEP_OUTPUT_FIRST,
+    WIRE_DUPLICATE_KEYS,
+    WIRE_ECHO,
+    WIRE_ROUNDED,
+    WIRE_UTF8,
+    WIRE_NAMED,
+    WIRE_BESIDE_BOUND,
+    WIRE_TCP_REPLY,
+    WIRE_VIEW,
 ];
