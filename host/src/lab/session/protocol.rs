@@ -209,6 +209,17 @@ impl Command {
         })
     }
 
+    /// The known command a line names, `""` when none: the `cmd` of its
+    /// refusal, so a `present` with a bad field is answered as a `present`.
+    pub fn named_in(line: &str) -> &'static str {
+        let v = crate::json::from_str(line).ok();
+        let cmd = v.as_ref().and_then(|v| v.get("cmd")?.as_str());
+        FIELDS
+            .iter()
+            .find(|(n, _)| Some(*n) == cmd)
+            .map_or("", |(n, _)| n)
+    }
+
     /// Its `cmd` name.
     pub fn name(&self) -> &'static str {
         match self {
@@ -544,6 +555,17 @@ mod tests {
             let e = Command::parse(line).unwrap_err().to_string();
             assert!(e.contains(needle), "{line}: {e}");
             assert!(e.starts_with("bad command: ") && !e.contains('\n'), "{e}");
+        }
+        // A refusal names the command it refuses, where the line names one.
+        for (line, name) in [
+            (r#"{"cmd":"present","stimulus":"a","on_s":"x"}"#, "present"),
+            (r#"{"cmd":"stop","now":1}"#, "stop"),
+            (r#"{"cmd":"dance"}"#, ""),
+            (r#"{"cmd":"stop","cmd":"quit"}"#, ""),
+            ("[1]", ""),
+        ] {
+            assert!(Command::parse(line).is_err(), "{line}");
+            assert_eq!(Command::named_in(line), name, "{line}");
         }
         let long = format!(r#"{{"cmd":"present","stimulus":"{}"}}"#, "a".repeat(5000));
         assert!(

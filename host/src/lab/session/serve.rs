@@ -319,8 +319,9 @@ impl Loop {
         let cmd = match Command::parse(line) {
             Ok(cmd) => cmd,
             Err(e) => {
-                d.session().refused("", &e.to_string());
-                return self.reply(d, id, Reply::error("", e.to_string()));
+                let name = Command::named_in(line);
+                d.session().refused(name, &e.to_string());
+                return self.reply(d, id, Reply::error(name, e.to_string()));
             }
         };
         match &cmd {
