@@ -32,6 +32,7 @@ pub mod clock;
 pub mod error;
 pub mod files;
 pub mod geom;
+pub mod json;
 pub mod limits;
 pub mod npy;
 pub mod out;

@@ -100,6 +100,18 @@ pub fn show(v: f64) -> String {
     }
 }
 
+/// `v` for the message refusing it against the bounds `lo` and `hi`:
+/// [`show`], or every digit where six would read as a bound
+/// (`3600.0000001` is not "3600 s ... at most 3600 s").
+pub fn show_beside(v: f64, lo: f64, hi: f64) -> String {
+    let shown = show(v);
+    if v != lo && v != hi && (shown == show(lo) || shown == show(hi)) {
+        format!("{v}")
+    } else {
+        shown
+    }
+}
+
 /// A number for a message with an optional precision (`{:.3}`): fixed
 /// point when moderate, scientific when huge or tiny, like [`show`].
 #[derive(Debug, Clone, Copy)]
@@ -186,7 +198,7 @@ pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError
     if !(s.is_finite() && s > 0.0 && s <= max_s) {
         return Err(InputError::new(format!(
             "{what} {} s is out of range: give a number above 0 and at most {max_s} s",
-            show(s)
+            show_beside(s, 0.0, max_s)
         )));
     }
     Duration::try_from_secs_f64(s)
@@ -206,7 +218,7 @@ pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64,
         };
         Err(InputError::new(format!(
             "{what} {}{unit} is out of range: allowed {}..={}{unit}",
-            show(v),
+            show_beside(v, lo, hi),
             show(lo),
             show(hi)
         )))
@@ -295,6 +307,15 @@ mod tests {
             assert!(e.0.contains("--seconds") && e.0.contains("at most"), "{e}");
         }
         assert!(duration_s("x", MAX_SECONDS, MAX_SECONDS).is_ok());
+        // Refused beside a bound, it is not shown as the bound.
+        let e = duration_s("on_s", 3600.0000001, 3600.0).unwrap_err();
+        assert!(
+            e.0.starts_with("on_s 3600.0000001 s is out of range"),
+            "{e}"
+        );
+        let e = in_range("x", 1.0000000001, 0.0, 1.0, "").unwrap_err();
+        assert!(e.0.starts_with("x 1.0000000001 is out of range"), "{e}");
+        assert_eq!(show_beside(1e300, 0.0, 1.0), "1e300");
     }
 
     #[test]

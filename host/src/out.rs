@@ -46,8 +46,15 @@ pub fn flush_stdout() -> anyhow::Result<()> {
 /// [`crate::limits::tidy_numbers`] and every overlong word through
 /// [`shorten_long_words`]; a failure is ignored, never a panic.
 pub fn stderr_fmt(args: std::fmt::Arguments<'_>) {
-    let text = crate::limits::tidy_numbers(&shorten_long_words(&args.to_string()));
+    let text = tidy(&args.to_string());
     let _ = std::io::stderr().lock().write_all(text.as_bytes());
+}
+
+/// `msg` as every message leaves lmhost (stderr, Python's exceptions):
+/// numbers through [`crate::limits::tidy_numbers`], overlong words through
+/// [`shorten_long_words`].
+pub fn tidy(msg: &str) -> String {
+    crate::limits::tidy_numbers(&shorten_long_words(msg))
 }
 
 /// `msg` with every word (a run without white space) longer than

@@ -67,6 +67,20 @@ _D = DEFAULTS
 # The widest integer the checks take where the receiver judges the range.
 _I64 = (-(2**63), 2**63 - 1)
 
+#: The longest wait a timeout may ask for (s): longer is a hang, and the
+#: socket's own conversion overflows (OverflowError) near 1e10 s.
+_MAX_TIMEOUT_S = 86_400.0
+
+
+def _timeout_s(name: str, value: Any) -> float:
+    """A timeout in seconds: a finite number above 0 and at most a day."""
+    t = _lmhost.float_arg(name, value)
+    if not 0 < t <= _MAX_TIMEOUT_S:
+        raise ValueError(
+            f"{name} {t} s is out of range: give a number above 0 and at most {_MAX_TIMEOUT_S:g} s"
+        )
+    return t
+
 
 def plan(
     radius: float = _D["radius"],
@@ -92,9 +106,10 @@ def plan(
     """
     # Passed as given: the extension checks every number (no int() here,
     # which would make steps=3.7 a silent 3).
-    return _lmhost.plan(
-        radius, foci, spacing, freq, step, steps, center, scene, intensity, str(target)
-    )
+    if not isinstance(target, str):
+        # str() would make any object a "target" named by its repr.
+        raise ValueError(f"target must be 'lm' or 'autd3', got {type(target).__name__}")
+    return _lmhost.plan(radius, foci, spacing, freq, step, steps, center, scene, intensity, target)
 
 
 def simulate(
@@ -128,7 +143,7 @@ def simulate(
         density,
         disk,
         calibration,
-        bool(reference),
+        _lmhost.bool_arg("reference", reference),
     )
 
 
@@ -238,13 +253,18 @@ class Device:
         (default: a free one), play it unless ``play=False``; returns the
         report ``lmhost upload --json`` prints, the same keys (``hold_s`` is
         None: what plays lasts while this object holds it, see :meth:`tick`)."""
-        report = json.loads(self._d.upload(plan, slot, bool(play), bool(untracked)))
+        report = json.loads(self._d.upload(
+                plan,
+                slot,
+                _lmhost.bool_arg("play", play),
+                _lmhost.bool_arg("untracked", untracked),
+            ))
         report["hold_s"] = None
         return report
 
     def play(self, slot: int, untracked: bool = False) -> None:
         """Play ``slot`` (tracked unless ``untracked``)."""
-        self._d.play(slot, bool(untracked))
+        self._d.play(slot, _lmhost.bool_arg("untracked", untracked))
 
     def stop(self) -> None:
         """Stop: the array is silent."""
@@ -253,7 +273,7 @@ class Device:
     def centroid(self, x: float, y: float, z: float, present: bool = True) -> str:
         """Send a finger centroid (mm, finger space): ``"applied"`` or
         ``"out_of_range"``."""
-        return self._d.centroid(x, y, z, bool(present))
+        return self._d.centroid(x, y, z, _lmhost.bool_arg("present", present))
 
     def tick(self) -> None:
         """Keep what plays going: an AUTD3's host-driven link (it falls
@@ -324,11 +344,14 @@ class Session:
         self._buf = b""
         self._sock: Optional[socket.socket] = None
         self.ready: Optional[Dict[str, Any]] = None
-        timeout = _lmhost.float_arg("timeout", timeout)
-        if timeout <= 0:
-            raise ValueError(f"timeout {timeout} s is out of range: give a number above 0")
+        timeout = _timeout_s("timeout", timeout)
         if tcp_port is not None:
             tcp_port = _lmhost.int_arg("tcp_port", tcp_port, 1, 65535)
+        elif token is not None or token_file is not None:
+            # Only a TCP client sends a token: not a value to drop unseen.
+            raise ValueError("token= and token_file= are for a TCP session: give tcp_port= too")
+        if token is not None and not isinstance(token, str):
+            raise ValueError(f"token must be a string, got {type(token).__name__}")
         if socket_path is None and library is None and tcp_port is None:
             raise ValueError("Session needs library= (to start one), socket_path= or tcp_port=")
         if socket_path is None and library is not None:
@@ -354,7 +377,7 @@ class Session:
                 cmd += ["--port", str(port)]
             if scene is not None:
                 cmd += ["--scene", str(scene)]
-            if synthetic:
+            if _lmhost.bool_arg("synthetic", synthetic):
                 cmd.append("--synthetic")
             if tcp_port is not None:
                 cmd += ["--tcp", str(tcp_port)]
@@ -451,6 +474,8 @@ class Session:
     def command(self, cmd: str, **fields: Any) -> Dict[str, Any]:
         """Send one command; events that arrive meanwhile are kept for
         :meth:`events`. Returns the reply; ``ok: false`` raises ValueError."""
+        if not isinstance(cmd, str):
+            raise ValueError(f"cmd must be a command's name (a string), got {type(cmd).__name__}")
         msg: Dict[str, Any] = {"cmd": cmd}
         for k, v in fields.items():
             if v is None or isinstance(v, (bool, str)):
@@ -517,6 +542,8 @@ class Session:
     def events(self, timeout: Optional[float] = None) -> Iterator[Dict[str, Any]]:
         """Events as they come (the ones already received first); ends after
         ``timeout`` seconds without one, or at ``closed``."""
+        if timeout is not None:
+            timeout = _timeout_s("timeout", timeout)
         while True:
             while self._events:
                 ev = self._events.pop(0)
@@ -536,6 +563,7 @@ class Session:
 
     def wait_for(self, event: str, timeout: float = 30.0, **match: Any) -> Dict[str, Any]:
         """The next event named ``event`` (with fields equal to ``match``)."""
+        timeout = _timeout_s("timeout", timeout)
         deadline = time.monotonic() + timeout
         for ev in self.events(timeout=timeout):
             if ev.get("event") == event and all(ev.get(k) == v for k, v in match.items()):
@@ -635,7 +663,7 @@ class Study:
             index=index,
             finger=finger,
             time_scale=_lmhost.float_arg("time_scale", time_scale),
-            resume=bool(resume),
+            resume=_lmhost.bool_arg("resume", resume),
         )
 
     def __iter__(self) -> Iterator[Dict[str, str]]:

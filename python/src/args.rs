@@ -22,9 +22,16 @@ use lmhost::sense::track::presence::Hysteresis;
 /// long string is not echoed whole).
 fn shown(v: &Bound<'_, PyAny>) -> String {
     const MAX: usize = 40;
+    // One line: a numpy array's repr spans several.
     let r = v
         .repr()
-        .map(|r| r.to_string())
+        .map(|r| {
+            r.to_string()
+                .lines()
+                .map(str::trim)
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
         .unwrap_or_else(|_| "?".into());
     if r.chars().count() <= MAX {
         r
@@ -158,6 +165,23 @@ pub(crate) fn opt_floats(
 #[pyfunction]
 pub(crate) fn int_arg(name: &str, value: &Bound<'_, PyAny>, lo: i64, hi: i64) -> PyResult<i64> {
     int_in(name, value, lo, hi)
+}
+
+/// A yes-or-no parameter: `True` or `False` (a numpy bool too), never the
+/// truth of another value (`present="no"` or `None` is not a choice).
+#[pyfunction]
+pub(crate) fn bool_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
+    let numpy_bool = matches!(
+        value.get_type().name()?.to_string().as_str(),
+        "bool" | "bool_"
+    );
+    if value.is_instance_of::<PyBool>() || numpy_bool {
+        return value.is_truthy();
+    }
+    Err(PyValueError::new_err(format!(
+        "{name} must be True or False, got {}",
+        shown(value)
+    )))
 }
 
 /// [`float`] for Python code (the `Session` client).

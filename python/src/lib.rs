@@ -59,7 +59,8 @@ fn is_input(e: &anyhow::Error) -> bool {
 }
 
 fn to_py(e: anyhow::Error) -> PyErr {
-    let line = one_line(&e);
+    // The CLI's message rules: numbers tidied, overlong words cut.
+    let line = lmhost::out::tidy(&one_line(&e));
     if is_input(&e) {
         PyValueError::new_err(line)
     } else {
@@ -68,7 +69,7 @@ fn to_py(e: anyhow::Error) -> PyErr {
 }
 
 fn bad(msg: impl Into<String>) -> PyErr {
-    PyValueError::new_err(msg.into())
+    PyValueError::new_err(lmhost::out::tidy(&msg.into()))
 }
 
 /// What a caught panic says.
@@ -607,6 +608,7 @@ fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(args::int_arg, m)?)?;
     m.add_function(wrap_pyfunction!(args::float_arg, m)?)?;
+    m.add_function(wrap_pyfunction!(args::bool_arg, m)?)?;
     m.add("DEFAULTS", args::defaults(m.py())?)?;
     m.add_function(wrap_pyfunction!(_bench_rust, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;

@@ -85,8 +85,18 @@ pub const FILES_PLACE: &str = "r7-f3 a file's error names its line, key and trou
 pub const FILES_IGNORED: &str = "r7-f4 no key of a file silently ignored";
 pub const FILES_RESUME: &str = "r7-f5 --resume keeps only rows a run can write";
 
+/// Round 7b, the sweep of what lmhost takes at run time (`cases_r7_wire.rs`).
+pub const WIRE_DUPLICATE_KEYS: &str = "r7-w1 a key given twice is refused";
+pub const WIRE_ECHO: &str = "r7-w2 a wrong-typed value cut at 64 characters";
+pub const WIRE_ROUNDED: &str = "r7-w3 an on_s the device would round up is refused";
+pub const WIRE_UTF8: &str = "r7-w4 a line not UTF-8 is refused as such";
+pub const WIRE_NAMED: &str = "r7-w5 a refusal names its command";
+pub const WIRE_BESIDE_BOUND: &str = "r7-w6 a value beside its bound is not shown as it";
+pub const WIRE_TCP_REPLY: &str = "r7-w7 every closed TCP client gets its reply";
+pub const WIRE_VIEW: &str = "r7-w8 a view request has one deadline and numbers";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 62] = [
+pub const CLASSES: [&str; 70] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -149,4 +159,12 @@ pub const CLASSES: [&str; 62] = [
     FILES_PLACE,
     FILES_IGNORED,
     FILES_RESUME,
+    WIRE_DUPLICATE_KEYS,
+    WIRE_ECHO,
+    WIRE_ROUNDED,
+    WIRE_UTF8,
+    WIRE_NAMED,
+    WIRE_BESIDE_BOUND,
+    WIRE_TCP_REPLY,
+    WIRE_VIEW,
 ];

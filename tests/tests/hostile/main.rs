@@ -245,6 +245,7 @@ mod cases_r4_view;
 mod cases_r5_exp3;
 mod cases_r6_sweep;
 mod cases_r7_files;
+mod cases_r7_wire;
 mod checks;
 mod fixtures;
 
@@ -257,6 +258,7 @@ use cases_r4_study::{study_cases, study_fixtures};
 use cases_r5_exp3::{exp3_cases, exp3_fixtures};
 use cases_r6_sweep::{long_value_cases, sweep_cases, sweep_fixtures};
 use cases_r7_files::{files_cases, files_fixtures};
+use cases_r7_wire::{wire_cases, wire_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -465,6 +467,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     exp3_fixtures(&dir);
     sweep_fixtures(&dir);
     files_fixtures(&dir);
+    wire_fixtures(&dir);
     round4_files_fixtures(&dir);
     cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
@@ -496,6 +499,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(cases_r4_session::cases());
     all.extend(round4_device_cases());
     all.extend(cases_r4_view::view_cases());
+    all.extend(wire_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();

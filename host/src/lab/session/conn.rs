@@ -33,8 +33,9 @@ pub enum Inbound {
     Joined(u64, Conn),
     /// A whole line (without its newline).
     Line(u64, String),
-    /// A line longer than [`MAX_COMMAND_BYTES`] (skipped).
-    TooLong(u64),
+    /// A line that is no command whatever it says (longer than
+    /// [`MAX_COMMAND_BYTES`], skipped; not UTF-8): the refusal.
+    Unreadable(u64, String),
     /// The client went away (its input ended or a write to it failed).
     Gone(u64),
     /// Writing standard output failed: `None` when its reader closed it.
@@ -120,19 +121,28 @@ impl Drop for Conn {
 }
 
 /// Reads lines from `r`, calling `deliver` with each whole line (its
-/// newline and a `\r` cut) or `None` for one longer than
-/// [`MAX_COMMAND_BYTES`]; memory stays bounded by that whatever the input.
-/// Stops at the end of input, a read error, or when `deliver` says so.
-pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Option<String>) -> bool) {
+/// newline and a `\r` cut; blank ones skipped) or the refusal of one longer
+/// than [`MAX_COMMAND_BYTES`] or not UTF-8; memory stays bounded by that
+/// whatever the input. Stops at the end of input, a read error, or when
+/// `deliver` says so.
+pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Result<String, String>) -> bool) {
     /// Hands over the line gathered (none when it was skipped).
     fn hand(
         line: &mut Vec<u8>,
         skipping: bool,
-        deliver: &mut impl FnMut(Option<String>) -> bool,
+        deliver: &mut impl FnMut(Result<String, String>) -> bool,
     ) -> bool {
-        let text = String::from_utf8_lossy(line).trim().to_owned();
+        // Not read lossily: a replaced byte would make another command.
+        let text = match std::str::from_utf8(line) {
+            Ok(t) => Ok(t.trim().to_owned()),
+            Err(e) => Err(format!(
+                "bad command: the line is not UTF-8 (byte {} of {})",
+                e.valid_up_to() + 1,
+                line.len()
+            )),
+        };
         line.clear();
-        skipping || text.is_empty() || deliver(Some(text))
+        skipping || text.as_ref().is_ok_and(String::is_empty) || deliver(text)
     }
     let mut r = BufReader::with_capacity(8192, r);
     let mut line: Vec<u8> = Vec::with_capacity(MAX_COMMAND_BYTES);
@@ -154,7 +164,9 @@ pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Option<String>) -> bool)
                 // Refused at once; the rest of the line is read past.
                 line.clear();
                 skipping = true;
-                go = deliver(None);
+                go = deliver(Err(format!(
+                    "bad command: longer than {MAX_COMMAND_BYTES} bytes"
+                )));
             } else {
                 line.extend_from_slice(part);
             }
@@ -183,8 +195,8 @@ pub fn spawn_reader(
         .spawn(move || {
             read_lines(r, |l| {
                 tx.send(match l {
-                    Some(l) => Inbound::Line(id, l),
-                    None => Inbound::TooLong(id),
+                    Ok(l) => Inbound::Line(id, l),
+                    Err(why) => Inbound::Unreadable(id, why),
                 })
                 .is_ok()
             });
@@ -285,7 +297,7 @@ mod tests {
     fn lines(input: &[u8]) -> Vec<Option<String>> {
         let mut out = Vec::new();
         read_lines(input, |l| {
-            out.push(l);
+            out.push(l.ok());
             true
         });
         out
@@ -313,6 +325,22 @@ mod tests {
         );
     }
 
+    #[test]
+    fn a_line_not_utf8_is_refused_not_read_lossily() {
+        let mut got = Vec::new();
+        read_lines(&b"{\"cmd\":\"st\xffop\"}\nok\n"[..], |l| {
+            got.push(l);
+            true
+        });
+        assert_eq!(
+            got,
+            [
+                Err("bad command: the line is not UTF-8 (byte 11 of 15)".into()),
+                Ok("ok".into())
+            ]
+        );
+    }
+
     /// A reader that yields `n` bytes without a newline, in 8 KiB reads.
     struct Endless(u64);
 
@@ -331,7 +359,7 @@ mod tests {
         // the bound (the line buffer never grows past its capacity).
         let mut seen = Vec::new();
         read_lines(Endless(64 << 20), |l| {
-            seen.push(l.map(|s| s.len()));
+            seen.push(l.map(|s| s.len()).ok());
             true
         });
         assert_eq!(seen, [None]);

@@ -295,6 +295,21 @@ impl Session {
             .on_s
             .map(|s| crate::limits::duration_s("on_s", s, MAX_PHASE_S))
             .transpose()?;
+        // The device plays whole steps: an on-phase that rounds to none
+        // would be played as one step longer than asked, without a word.
+        if let (Some(s), Some(_)) = (req.on_s, on) {
+            let dwell_us = self.loaded[i].planned.plan.sequence.dwell_us();
+            if (s * 1e6 / dwell_us).round() < 1.0 {
+                return Err(InputError::new(format!(
+                    "on_s {} s is shorter than half a step of `{}` ({} µs): the device plays whole steps; give at least {} s",
+                    crate::limits::show(s),
+                    protocol::clip(&self.loaded[i].id),
+                    crate::limits::show(dwell_us),
+                    crate::limits::show(dwell_us / 2e6)
+                ))
+                .into());
+            }
+        }
         let off = match req.off_s {
             None => Duration::ZERO,
             Some(0.0) => Duration::ZERO,

@@ -94,22 +94,42 @@ pub fn clip(s: &str) -> String {
     format!("{}... ({} bytes)", head.escape_debug(), s.len())
 }
 
-/// Cuts every `quoted` fragment of `msg` (serde quotes the values it
-/// names) with [`clip`].
+/// Cuts every quoted fragment of `msg` with [`clip`]: serde names a
+/// value in backquotes (`` `x` ``) or, for a string of the wrong type, in
+/// escaped double quotes (`string "x"`), whose own `\"` and `\\` do not
+/// end it.
 fn clip_quoted(msg: &str) -> String {
     let mut out = String::new();
-    let mut parts = msg.split('`');
-    if let Some(first) = parts.next() {
-        out.push_str(first);
-    }
-    for (i, part) in parts.enumerate() {
-        out.push('`');
-        // Odd fragments are inside quotes.
-        out.push_str(&if i % 2 == 0 {
-            clip(part)
+    let mut chars = msg.chars();
+    while let Some(c) = chars.next() {
+        out.push(c);
+        if c != '`' && c != '"' {
+            continue;
+        }
+        let mut inner = String::new();
+        let mut closed = false;
+        while let Some(d) = chars.next() {
+            if d == c {
+                closed = true;
+                break;
+            }
+            inner.push(d);
+            if c == '"' && d == '\\' {
+                inner.extend(chars.next());
+            }
+        }
+        out.push_str(&if c == '`' {
+            clip(&inner)
+        } else if inner.chars().count() <= MAX_ECHO_CHARS {
+            // Escaped already (serde's `{:?}`): kept as it is.
+            inner
         } else {
-            part.to_owned()
+            let head: String = inner.chars().take(MAX_ECHO_CHARS - 16).collect();
+            format!("{head}... ({} bytes)", inner.len())
         });
+        if closed {
+            out.push(c);
+        }
     }
     out
 }
@@ -130,7 +150,7 @@ impl Command {
                 line.len()
             )));
         }
-        let v: serde_json::Value = serde_json::from_str(line).map_err(|e| {
+        let v: serde_json::Value = crate::json::from_str(line).map_err(|e| {
             let msg = e.to_string();
             bad(format!(
                 "{}{HINT}",
@@ -187,6 +207,17 @@ impl Command {
             // The last name of `FIELDS`.
             _ => Self::Quit,
         })
+    }
+
+    /// The known command a line names, `""` when none: the `cmd` of its
+    /// refusal, so a `present` with a bad field is answered as a `present`.
+    pub fn named_in(line: &str) -> &'static str {
+        let v = crate::json::from_str(line).ok();
+        let cmd = v.as_ref().and_then(|v| v.get("cmd")?.as_str());
+        FIELDS
+            .iter()
+            .find(|(n, _)| Some(*n) == cmd)
+            .map_or("", |(n, _)| n)
     }
 
     /// Its `cmd` name.
@@ -502,6 +533,11 @@ mod tests {
                 "`stimulus` is not a string",
             ),
             (r#"{"cmd":"auth"}"#, "missing field `token`"),
+            (r#"{"cmd":"stop","cmd":"quit"}"#, "duplicate key `cmd`"),
+            (
+                r#"{"cmd":"present","stimulus":"a","on_s":1,"on_s":1000}"#,
+                "duplicate key `on_s`",
+            ),
             (r#"{"cmd":"present"}"#, "missing field `stimulus`"),
             (
                 r#"{"cmd":"present","stimulus":"a","gate":"loose"}"#,
@@ -520,6 +556,17 @@ mod tests {
             assert!(e.contains(needle), "{line}: {e}");
             assert!(e.starts_with("bad command: ") && !e.contains('\n'), "{e}");
         }
+        // A refusal names the command it refuses, where the line names one.
+        for (line, name) in [
+            (r#"{"cmd":"present","stimulus":"a","on_s":"x"}"#, "present"),
+            (r#"{"cmd":"stop","now":1}"#, "stop"),
+            (r#"{"cmd":"dance"}"#, ""),
+            (r#"{"cmd":"stop","cmd":"quit"}"#, ""),
+            ("[1]", ""),
+        ] {
+            assert!(Command::parse(line).is_err(), "{line}");
+            assert_eq!(Command::named_in(line), name, "{line}");
+        }
         let long = format!(r#"{{"cmd":"present","stimulus":"{}"}}"#, "a".repeat(5000));
         assert!(
             Command::parse(&long)
@@ -536,6 +583,9 @@ mod tests {
             format!(r#"{{"cmd":"{long}"}}"#),
             format!(r#"{{"cmd":"stop","{long}":1}}"#),
             format!(r#"{{"cmd":"present","stimulus":"a","gate":"{long}"}}"#),
+            // serde names a string of the wrong type in double quotes.
+            format!(r#"{{"cmd":"present","stimulus":"a","on_s":"{long}"}}"#),
+            format!(r#"{{"cmd":"present","stimulus":"a","repeat":"{long}"}}"#),
         ] {
             let e = Command::parse(&line).unwrap_err().to_string();
             assert!(e.len() < 400, "{} bytes: {e}", e.len());

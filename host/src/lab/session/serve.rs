@@ -20,7 +20,7 @@ use super::conn::{self, Conn, INBOUND_QUEUE, Inbound, STDIO};
 use super::driver::Driver;
 use super::endpoint::Token;
 use super::eventlog::EventLog;
-use super::protocol::{Command, Event, MAX_COMMAND_BYTES, OffsetReason, Reply};
+use super::protocol::{Command, Event, OffsetReason, Reply};
 use super::{Owner, Session};
 use crate::clock::Clock;
 use crate::sense::stream::filter::Filter;
@@ -281,8 +281,7 @@ impl Loop {
                 Ok(None)
             }
             Inbound::Line(id, line) => self.line(d, id, &line),
-            Inbound::TooLong(id) => {
-                let msg = format!("bad command: longer than {MAX_COMMAND_BYTES} bytes");
+            Inbound::Unreadable(id, msg) => {
                 if !self.conns.get(&id).is_some_and(|c| c.authed) {
                     self.reply(d, id, Reply::error("", msg))?;
                     return self.drop_client(d, id);
@@ -313,20 +312,16 @@ impl Loop {
                 c.authed = true;
                 return self.reply(d, id, Reply::ok("auth"));
             }
-            let file = self.token.as_ref().map(|t| t.path.display().to_string());
-            let msg = format!(
-                "authentication needed: the first line on TCP is {{\"cmd\":\"auth\",\"token\":TOKEN}} with the token in {}; closing",
-                file.unwrap_or_default()
-            );
-            self.reply(d, id, Reply::error("auth", msg))?;
+            self.reply(d, id, Reply::error("auth", self.auth_needed("")))?;
             return self.drop_client(d, id);
         }
         self.report.commands += 1;
         let cmd = match Command::parse(line) {
             Ok(cmd) => cmd,
             Err(e) => {
-                d.session().refused("", &e.to_string());
-                return self.reply(d, id, Reply::error("", e.to_string()));
+                let name = Command::named_in(line);
+                d.session().refused(name, &e.to_string());
+                return self.reply(d, id, Reply::error(name, e.to_string()));
             }
         };
         match &cmd {
@@ -344,7 +339,18 @@ impl Loop {
         Ok(end)
     }
 
-    /// Drops TCP clients that did not send their token in time.
+    /// The refusal a TCP client gets before it is closed, unauthenticated
+    /// (`late`: why, when it sent nothing in time).
+    fn auth_needed(&self, late: &str) -> String {
+        let file = self.token.as_ref().map(|t| t.path.display().to_string());
+        format!(
+            "authentication needed{late}: the first line on TCP is {{\"cmd\":\"auth\",\"token\":TOKEN}} with the token in {}; closing",
+            file.unwrap_or_default()
+        )
+    }
+
+    /// Drops TCP clients that did not send their token in time, each with
+    /// its one reply (PROTOCOL.md), not a bare close.
     fn expire(&mut self, d: &mut Driver, now_us: u64) -> anyhow::Result<()> {
         let late: Vec<Owner> = self
             .conns
@@ -353,6 +359,8 @@ impl Loop {
             .map(|(id, _)| *id)
             .collect();
         for id in late {
+            let late = format!(" (no line within {} s)", AUTH_WITHIN.as_secs());
+            self.reply(d, id, Reply::error("auth", self.auth_needed(&late)))?;
             self.drop_client(d, id)?;
         }
         Ok(())

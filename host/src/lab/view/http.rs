@@ -6,14 +6,15 @@
 //! scanned by anything on the host: a request line over [`MAX_LINE`]
 //! bytes is answered 414, a head over [`MAX_HEAD`] bytes or
 //! [`MAX_HEADERS`] headers 431, a body over [`MAX_BODY`] 413, a client
-//! that sends nothing for [`IO_TIMEOUT`] is dropped, and a page that stops
+//! that has not sent its whole request within [`IO_TIMEOUT`] (nothing, or
+//! a byte now and then) is answered 408 and dropped, and a page that stops
 //! reading its frames is dropped after the same time.
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// The longest request line (method, path and query, version).
 pub const MAX_LINE: usize = 8 * 1024;
@@ -26,7 +27,8 @@ pub const MAX_BODY: u64 = 4 * 1024;
 /// Most connections served at once (pages, WebSockets, snapshots); the
 /// rest are answered 503 at once.
 pub const MAX_CONNECTIONS: usize = 32;
-/// How long a client may keep a read or a write waiting.
+/// How long a client may keep a read or a write waiting, and take to send
+/// its whole request.
 pub const IO_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// One request, its connection still open for the answer.
@@ -76,6 +78,7 @@ fn reason(code: u16) -> &'static str {
         403 => "Forbidden",
         404 => "Not Found",
         405 => "Method Not Allowed",
+        408 => "Request Timeout",
         409 => "Conflict",
         413 => "Content Too Large",
         414 => "URI Too Long",
@@ -137,6 +140,11 @@ fn respond(mut s: TcpStream, r: &Response) {
 pub fn read_request(mut s: TcpStream) -> Result<Request, (TcpStream, Response)> {
     let mut buf = Vec::with_capacity(1024);
     let mut chunk = [0u8; 2048];
+    // One deadline for the whole request: a read timeout alone restarts
+    // with every byte, so a client sending one every few seconds would
+    // hold its place among MAX_CONNECTIONS for hours.
+    let deadline = Instant::now() + IO_TIMEOUT;
+    let late = || Response::text(408, "the request took too long to arrive");
     let end = loop {
         if let Some(i) = find(&buf, b"\r\n\r\n") {
             break i + 4;
@@ -148,8 +156,13 @@ pub fn read_request(mut s: TcpStream) -> Result<Request, (TcpStream, Response)> 
         if buf.len() > MAX_HEAD {
             return Err((s, Response::text(431, "the request head is too long")));
         }
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() || s.set_read_timeout(Some(left)).is_err() {
+            return Err((s, late()));
+        }
         // Never more than the bounds past what is there.
         let n = match s.read(&mut chunk) {
+            Err(_) if Instant::now() >= deadline => return Err((s, late())),
             Ok(0) | Err(_) => return Err((s, Response::text(400, "the request ended early"))),
             Ok(n) => n,
         };
@@ -199,8 +212,18 @@ pub fn read_request(mut s: TcpStream) -> Result<Request, (TcpStream, Response)> 
     };
     let have = (buf.len() - end) as u64;
     if len > have {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() || s.set_read_timeout(Some(left)).is_err() {
+            return Err((s, late()));
+        }
         let _ = std::io::copy(&mut (&mut s).take(len - have), &mut std::io::sink());
+        if Instant::now() >= deadline {
+            return Err((s, late()));
+        }
     }
+    // What follows (the answer's writes, a WebSocket's reads) has its own
+    // timeouts again.
+    let _ = s.set_read_timeout(Some(IO_TIMEOUT));
     Ok(Request {
         method,
         path,

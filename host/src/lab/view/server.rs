@@ -136,15 +136,17 @@ fn handle(req: Request, sh: &Arc<Shared>) {
                 _ => text(400, "give seq and choice"),
             }
         }
-        ("/drawn", _, true) => {
-            if let (Some(p), Some(s)) = (
-                param(query, "page").and_then(|s| s.parse().ok()),
-                param(query, "seq").and_then(|s| s.parse().ok()),
-            ) {
+        ("/drawn", _, true) => match (
+            param(query, "page").and_then(|s| s.parse().ok()),
+            param(query, "seq").and_then(|s| s.parse().ok()),
+        ) {
+            (Some(p), Some(s)) => {
                 sh.drawn(p, s);
+                text(200, "ok")
             }
-            text(200, "ok")
-        }
+            // Counted in the view's figures: not dropped with an "ok".
+            _ => text(400, "give page and seq as whole numbers"),
+        },
         (
             "/" | "/participant" | "/ws" | "/frame.png" | "/frame.jpg" | "/state.json"
             | "/pressure.png",

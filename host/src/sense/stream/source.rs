@@ -103,7 +103,7 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         let bad = |e: serde_json::Error| {
             InputError::new(format!("line {line_no}: not a centroid JSON object ({e})"))
         };
-        let v: serde_json::Value = serde_json::from_str(line).map_err(bad)?;
+        let v = crate::json::from_str(line).map_err(bad)?;
         // `lmhost track --json` lines carry `t_s`; plain centroids `t`.
         if v.get("t_s").is_some() {
             TrackLine::deserialize(v).map_err(bad)?.sample(line_no)?
