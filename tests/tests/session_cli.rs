@@ -102,7 +102,12 @@ fn bad_session_flags_and_files_are_one_line_input_errors() {
     // `session --library L --control C EXTRA… --port autd3:emulator`.
     let cases: [(&str, &str, &[&str], &str); 5] = [
         ("/nonexistent.toml", "-", &[], "nonexistent"),
-        (bad_lib.to_str().unwrap(), "-", &[], "stimulus 1 (`x`): radius"),
+        (
+            bad_lib.to_str().unwrap(),
+            "-",
+            &[],
+            "stimulus 1 (`x`): radius",
+        ),
         (&lib, not_socket.to_str().unwrap(), &[], "not a socket"),
         (&lib, "-", &["--tcp", "5000"], "--tcp"),
         (&lib, "-", &["--stream", "-"], "stdin"),

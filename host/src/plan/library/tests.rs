@@ -53,13 +53,22 @@ fn bad_libraries_are_one_line_errors_naming_the_entry() {
 
 #[test]
 fn every_entry_is_planned_for_the_target_and_a_bad_one_is_named() {
-    let lib = Library::from_toml(
+    // A number out of its range is refused where the library is read ...
+    let e = Library::from_toml(
         "[[stimulus]]\nid = \"ok\"\n[[stimulus]]\nid = \"huge\"\nradius = 1000\n",
+        "t",
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("stimulus 2 (`huge`): radius"), "{e}");
+    // ... and one the device cannot play (a dwell under its minimum) where
+    // it is planned for it.
+    let lib = Library::from_toml(
+        "[[stimulus]]\nid = \"ok\"\n[[stimulus]]\nid = \"fast\"\nfreq = 1000\nsteps = 1000\n",
         "t",
     )
     .unwrap();
     let e = lib.plan_for(&Target::Lm, &Scene::default()).unwrap_err();
-    assert!(format!("{e:#}").contains("stimulus `huge`"), "{e:#}");
+    assert!(format!("{e:#}").contains("stimulus `fast`"), "{e:#}");
     let lib = Library::from_toml("[[stimulus]]\nid = \"x\"\nradius = 5\n", "t").unwrap();
     let lm = lib.plan_for(&Target::Lm, &Scene::default()).unwrap();
     let autd = lib.plan_for(&Target::Autd3, &Scene::default()).unwrap();
