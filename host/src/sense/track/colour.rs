@@ -118,16 +118,8 @@ struct ColourFile {
 
 impl From<ColourFile> for ColourCamera {
     fn from(f: ColourFile) -> Self {
-        let (width, height, fx, fy, ppx, ppy) = (f.width, f.height, f.fx, f.fy, f.ppx, f.ppy);
         ColourCamera {
-            pinhole: Pinhole {
-                width,
-                height,
-                fx,
-                fy,
-                ppx,
-                ppy,
-            },
+            pinhole: Pinhole::new(f.width, f.height, f.fx, f.fy, f.ppx, f.ppy),
             model: f.model,
             coeffs: f.coeffs,
             rotation: f.rotation,

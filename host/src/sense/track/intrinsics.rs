@@ -36,6 +36,18 @@ pub struct Pinhole {
 }
 
 impl Pinhole {
+    /// From a file's flat fields, in the order the files list them.
+    pub const fn new(width: u32, height: u32, fx: f64, fy: f64, ppx: f64, ppy: f64) -> Self {
+        Self {
+            width,
+            height,
+            fx,
+            fy,
+            ppx,
+            ppy,
+        }
+    }
+
     /// Pixel (column, row) of the normalised image point (x, y) = (X/Z, Y/Z).
     pub fn to_pixel(&self, [x, y]: [f64; 2]) -> [f64; 2] {
         [x * self.fx + self.ppx, y * self.fy + self.ppy]
@@ -107,16 +119,8 @@ struct IntrinsicsFile {
 
 impl From<IntrinsicsFile> for Intrinsics {
     fn from(f: IntrinsicsFile) -> Self {
-        let (width, height, fx, fy, ppx, ppy) = (f.width, f.height, f.fx, f.fy, f.ppx, f.ppy);
         Intrinsics {
-            pinhole: Pinhole {
-                width,
-                height,
-                fx,
-                fy,
-                ppx,
-                ppy,
-            },
+            pinhole: Pinhole::new(f.width, f.height, f.fx, f.fy, f.ppx, f.ppy),
             depth_scale: f.depth_scale,
         }
     }
