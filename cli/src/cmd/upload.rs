@@ -174,9 +174,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let kind = self.port.spec().device()?;
         if let (Some(_), DeviceKind::Autd3(p)) = (self.encoding, &kind) {
-            lmhost::bad_input!(
-                "--encoding applies to the LM firmware's serial link; {p} is an AUTD3, which has none"
-            );
+            return Err(lmhost::device::connect::serial_link_only("--encoding", p).into());
         }
         let target = kind.target();
         let hold = self.hold.duration()?;

@@ -44,15 +44,21 @@ impl PortSpec {
                 // An AUTD3 has no serial link: a setting of one would be
                 // dropped without a word.
                 if let Some(first) = self.link_settings_given().first() {
-                    return Err(crate::InputError::new(format!(
-                        "{first} applies to the LM firmware's serial link; {p} is an AUTD3, which has none"
-                    )));
+                    return Err(serial_link_only(first, p));
                 }
                 Ok(DeviceKind::Autd3(kind))
             }
             _ => Ok(DeviceKind::Lm),
         }
     }
+}
+
+/// The refusal of a serial-link setting (`flag`) for the AUTD3 at `port`,
+/// which has no serial link: the one wording for every such flag.
+pub fn serial_link_only(flag: &str, port: impl std::fmt::Display) -> crate::InputError {
+    crate::InputError::new(format!(
+        "{flag} applies to the LM firmware's serial link; {port} is an AUTD3, which has none"
+    ))
 }
 
 /// The device `--port` names, before it is opened.
