@@ -245,51 +245,64 @@ pub struct Ground {
 
 use Connector::{Cn7, Cn8, Cn11, Cn12, Cn13};
 
+// Where the signals are reached: the same header and connector positions on
+// both boards (UM1974 Table 20, UM2407 Tables 16, 18, 19), so both tables
+// take them from here; what differs between the revisions (the morpho
+// pins' solder bridges, the virtual COM port, the manuals' tables) stays
+// in each row.
+const SCK_AT: Place = Place::Header {
+    pin: pin(Cn7, 10),
+    name: "D13",
+};
+const MOSI_AT: Place = Place::Header {
+    pin: pin(Cn7, 13),
+    name: "D22",
+};
+const MISO_AT: Place = Place::Header {
+    pin: pin(Cn7, 12),
+    name: "D12",
+};
+const CHIP_SELECT_AT: Place = Place::Header {
+    pin: pin(Cn7, 16),
+    name: "D10",
+};
+const REFERENCE_AT: Place = Place::Header {
+    pin: pin(Cn8, 4),
+    name: "D44",
+};
+const USB_DM_AT: Place = Place::Connector(pin(Cn13, 2));
+const USB_DP_AT: Place = Place::Connector(pin(Cn13, 3));
+
 /// NUCLEO-H743ZI (MB1137): UM1974 Rev 11, Table 20 (ST Zio connectors,
 /// NUCLEO-H743ZI pin assignments) and Table 21 (ST morpho connector).
 const ZI: [Row; 9] = [
     Row {
         signal: Signal::Sck,
-        place: Place::Header {
-            pin: pin(Cn7, 10),
-            name: "D13",
-        },
+        place: SCK_AT,
         morpho: Morpho::Pin(pin(Cn12, 11)),
         note: "UM1974 Tables 20, 21; LD1 stays on PB0 (SB120 ON, SB119 OFF, UM1974 \"LEDs\")",
     },
     Row {
         signal: Signal::Mosi,
-        place: Place::Header {
-            pin: pin(Cn7, 13),
-            name: "D22",
-        },
+        place: MOSI_AT,
         morpho: Morpho::Pin(pin(Cn12, 29)),
         note: "UM1974 Tables 20, 21; not D11 (CN7 pin 14 is PA7 on this board, shared with the Ethernet PHY's RMII CRS_DV while JP6 is fitted)",
     },
     Row {
         signal: Signal::Miso,
-        place: Place::Header {
-            pin: pin(Cn7, 12),
-            name: "D12",
-        },
+        place: MISO_AT,
         morpho: Morpho::Pin(pin(Cn12, 13)),
         note: "UM1974 Tables 20, 21",
     },
     Row {
         signal: Signal::ChipSelect,
-        place: Place::Header {
-            pin: pin(Cn7, 16),
-            name: "D10",
-        },
+        place: CHIP_SELECT_AT,
         morpho: Morpho::Pin(pin(Cn12, 46)),
         note: "UM1974 Tables 20, 21",
     },
     Row {
         signal: Signal::Reference,
-        place: Place::Header {
-            pin: pin(Cn8, 4),
-            name: "D44",
-        },
+        place: REFERENCE_AT,
         morpho: Morpho::Pin(pin(Cn12, 1)),
         note: "UM1974 Tables 20, 21 (SDMMC_D1 position)",
     },
@@ -307,13 +320,13 @@ const ZI: [Row; 9] = [
     },
     Row {
         signal: Signal::UsbDm,
-        place: Place::Connector(pin(Cn13, 2)),
+        place: USB_DM_AT,
         morpho: Morpho::Pin(pin(Cn12, 14)),
         note: "UM1974 Table 21 (USB OTG FS micro-AB connector)",
     },
     Row {
         signal: Signal::UsbDp,
-        place: Place::Connector(pin(Cn13, 3)),
+        place: USB_DP_AT,
         morpho: Morpho::Pin(pin(Cn12, 12)),
         note: "UM1974 Table 21 (USB OTG FS micro-AB connector)",
     },
@@ -325,46 +338,31 @@ const ZI: [Row; 9] = [
 const ZI2: [Row; 9] = [
     Row {
         signal: Signal::Sck,
-        place: Place::Header {
-            pin: pin(Cn7, 10),
-            name: "D13",
-        },
+        place: SCK_AT,
         morpho: Morpho::Pin(pin(Cn12, 11)),
         note: "UM2407 Tables 18, 22; LD1 stays on PB0 (SB39 ON, SB47 OFF, Table 14)",
     },
     Row {
         signal: Signal::Mosi,
-        place: Place::Header {
-            pin: pin(Cn7, 13),
-            name: "D22",
-        },
+        place: MOSI_AT,
         morpho: Morpho::Pin(pin(Cn12, 29)),
         note: "UM2407 Tables 18, 22; also on D11 (CN7 pin 14, SB33 OFF, SB35 ON, Table 14): use one of the two",
     },
     Row {
         signal: Signal::Miso,
-        place: Place::Header {
-            pin: pin(Cn7, 12),
-            name: "D12",
-        },
+        place: MISO_AT,
         morpho: Morpho::Pin(pin(Cn12, 13)),
         note: "UM2407 Tables 18, 22",
     },
     Row {
         signal: Signal::ChipSelect,
-        place: Place::Header {
-            pin: pin(Cn7, 16),
-            name: "D10",
-        },
+        place: CHIP_SELECT_AT,
         morpho: Morpho::Pin(pin(Cn12, 46)),
         note: "UM2407 Tables 18, 22",
     },
     Row {
         signal: Signal::Reference,
-        place: Place::Header {
-            pin: pin(Cn8, 4),
-            name: "D44",
-        },
+        place: REFERENCE_AT,
         morpho: Morpho::NotFitted(pin(Cn12, 1), "SB15"),
         note: "UM2407 Tables 19, 22; CN12 pin 1 needs SB15 (Table 14), which the MB1364 schematic marks not fitted: use CN8 pin 4",
     },
@@ -382,13 +380,13 @@ const ZI2: [Row; 9] = [
     },
     Row {
         signal: Signal::UsbDm,
-        place: Place::Connector(pin(Cn13, 2)),
+        place: USB_DM_AT,
         morpho: Morpho::NotFitted(pin(Cn12, 14), "SB16"),
         note: "UM2407 Tables 12, 16, 22 (SB21 ON)",
     },
     Row {
         signal: Signal::UsbDp,
-        place: Place::Connector(pin(Cn13, 3)),
+        place: USB_DP_AT,
         morpho: Morpho::NotFitted(pin(Cn12, 12), "SB17"),
         note: "UM2407 Tables 12, 16, 22 (SB22 ON)",
     },
