@@ -137,14 +137,7 @@ impl ColourCamera {
     /// view), 15 mm beside the depth camera's origin, without distortion
     /// (what a D435 reports for it).
     pub const D435_848X480: ColourCamera = ColourCamera {
-        pinhole: Pinhole {
-            width: 848,
-            height: 480,
-            fx: 613.0,
-            fy: 613.0,
-            ppx: 423.5,
-            ppy: 239.5,
-        },
+        pinhole: Pinhole::d435_848x480(613.0),
         model: Distortion::InverseBrownConrady,
         coeffs: [0.0; 5],
         rotation: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],

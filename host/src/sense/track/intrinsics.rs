@@ -48,6 +48,14 @@ impl Pinhole {
         }
     }
 
+    /// A D435 stream at 848 × 480 with focal length `f` (pixels) in both
+    /// axes and the principal point at the frame's centre: the frame both
+    /// the depth and the colour stream's defaults share; only their field
+    /// of view (`f`) differs.
+    pub const fn d435_848x480(f: f64) -> Self {
+        Self::new(848, 480, f, f, 423.5, 239.5)
+    }
+
     /// Pixel (column, row) of the normalised image point (x, y) = (X/Z, Y/Z).
     pub fn to_pixel(&self, [x, y]: [f64; 2]) -> [f64; 2] {
         [x * self.fx + self.ppx, y * self.fy + self.ppy]
@@ -135,14 +143,7 @@ impl Intrinsics {
     /// 100 µm depth units (the D4xx's depth units are settable; the
     /// synthetic finger uses these so quantisation stays below the noise).
     pub const D435_848X480: Intrinsics = Intrinsics {
-        pinhole: Pinhole {
-            width: 848,
-            height: 480,
-            fx: 426.0,
-            fy: 426.0,
-            ppx: 423.5,
-            ppy: 239.5,
-        },
+        pinhole: Pinhole::d435_848x480(426.0),
         depth_scale: 0.0001,
     };
 
