@@ -130,6 +130,14 @@ fn a_unit_change_mid_series_keeps_the_series_in_newtons() {
     assert_eq!(second.samples[1].at_us - second.samples[0].at_us, 10_000);
 }
 
+/// Each reply line, sent by the gauge, is refused with its message.
+fn refuses_each(g: &mut impl ForceGauge, e: &Shared, cases: &[(&'static str, &str)]) {
+    for &(line, msg) in cases {
+        e.lock().unwrap().mode = Mode::Line(line);
+        assert_eq!(g.read().unwrap_err().to_string(), msg, "{line}");
+    }
+}
+
 #[test]
 fn imada_peak_mode_overload_and_garbage_are_refused() {
     let (mut g, e) = imada();
@@ -147,10 +155,7 @@ fn imada_peak_mode_overload_and_garbage_are_refused() {
             "/dev/ttyUSB1: reply to D is not sign, value, unit N/K/O (mode, judgement): '12.34 N'",
         ),
     ];
-    for (line, msg) in cases {
-        e.lock().unwrap().mode = Mode::Line(line);
-        assert_eq!(g.read().unwrap_err().to_string(), msg);
-    }
+    refuses_each(&mut g, &e, &cases);
     e.lock().unwrap().mode = Mode::Silent;
     let err = g.read().unwrap_err();
     assert!(matches!(err, InstrumentError::Timeout { .. }), "{err}");
@@ -180,10 +185,7 @@ fn mark10_missing_or_unknown_units_and_error_codes_are_refused() {
             "/dev/ttyACM0: reply to ? is not a value and a unit: 'N 12'",
         ),
     ];
-    for (line, msg) in cases {
-        e.lock().unwrap().mode = Mode::Line(line);
-        assert_eq!(g.read().unwrap_err().to_string(), msg);
-    }
+    refuses_each(&mut g, &e, &cases);
 }
 
 #[test]
