@@ -388,19 +388,9 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         fill: bool,
     ) -> R<'a> {
         let (w, h) = ((br.0 - ul.0) as f32, (br.1 - ul.1) as f32);
-        let on = if fill {
-            self.paint(style.color(), false)
-        } else {
-            self.stroke_setup(style)
-        };
-        if on.is_some() {
+        if self.shape_setup(style, fill).is_some() {
             self.content.rect(ul.0 as f32, ul.1 as f32, w, h);
-            if fill {
-                self.content.fill_nonzero();
-            } else {
-                self.content.stroke();
-            }
-            self.content.restore_state();
+            self.shape_end(fill);
         }
         Ok(())
     }
@@ -426,12 +416,7 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         style: &S,
         fill: bool,
     ) -> R<'a> {
-        let on = if fill {
-            self.paint(style.color(), false)
-        } else {
-            self.stroke_setup(style)
-        };
-        if on.is_none() {
+        if self.shape_setup(style, fill).is_none() {
             return Ok(());
         }
         // Four cubic Béziers, the usual 0.5523 handle.
@@ -443,12 +428,7 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
             .cubic_to(x - k, y + r, x - r, y + k, x - r, y)
             .cubic_to(x - r, y - k, x - k, y - r, x, y - r)
             .cubic_to(x + k, y - r, x + r, y - k, x + r, y);
-        if fill {
-            c.fill_nonzero();
-        } else {
-            c.stroke();
-        }
-        c.restore_state();
+        self.shape_end(fill);
         Ok(())
     }
 
@@ -564,6 +544,27 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
 }
 
 impl PdfBackend<'_> {
+    /// [`paint`](Self::paint) for a filled shape, [`stroke_setup`](Self::stroke_setup)
+    /// for an outline: plotters' `fill` flag on rectangles and circles.
+    fn shape_setup<S: BackendStyle>(&mut self, style: &S, fill: bool) -> Option<()> {
+        if fill {
+            self.paint(style.color(), false)
+        } else {
+            self.stroke_setup(style)
+        }
+    }
+
+    /// Fills or strokes the shape just drawn, and restores the state its
+    /// [`shape_setup`](Self::shape_setup) saved.
+    fn shape_end(&mut self, fill: bool) {
+        if fill {
+            self.content.fill_nonzero();
+        } else {
+            self.content.stroke();
+        }
+        self.content.restore_state();
+    }
+
     /// `m` to the first point, `l` to the others.
     fn path(&mut self, pts: &[BackendCoord]) {
         for (i, &(x, y)) in pts.iter().enumerate() {

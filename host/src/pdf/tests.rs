@@ -155,3 +155,47 @@ fn a_short_bitmap_is_an_error_and_transparency_draws_nothing() {
     b.present().unwrap();
     assert!(out.starts_with(b"%PDF"));
 }
+
+#[test]
+fn rectangles_and_circles_are_filled_or_outlined_as_asked() {
+    let mut out = Vec::new();
+    let mut b = PdfBackend::new(&mut out, (10, 10), 1.0, plot::FONT).unwrap();
+    // Each shape in its own saved state, closed by fill (`f`) or stroke (`S`).
+    let ops = |b: &mut PdfBackend<'_>, draw: &dyn Fn(&mut PdfBackend<'_>)| {
+        let at = b.content.as_bytes().len();
+        draw(b);
+        let text = String::from_utf8(b.content.as_bytes()[at..].to_vec()).unwrap();
+        text.trim().to_owned()
+    };
+    let filled = ops(&mut b, &|b| {
+        b.draw_rect((1, 1), (4, 5), &RED, true).unwrap()
+    });
+    assert!(
+        filled.starts_with("q\n") && filled.ends_with(" re\nf\nQ"),
+        "{filled}"
+    );
+    let outline = ops(&mut b, &|b| {
+        b.draw_rect((1, 1), (4, 5), &RED, false).unwrap()
+    });
+    assert!(
+        outline.contains(" w\n") && outline.ends_with(" re\nS\nQ"),
+        "{outline}"
+    );
+    let disc = ops(&mut b, &|b| b.draw_circle((5, 5), 3, &RED, true).unwrap());
+    assert!(
+        disc.starts_with("q\n") && disc.ends_with(" c\nf\nQ"),
+        "{disc}"
+    );
+    let ring = ops(&mut b, &|b| b.draw_circle((5, 5), 3, &RED, false).unwrap());
+    assert!(
+        ring.contains(" w\n") && ring.ends_with(" c\nS\nQ"),
+        "{ring}"
+    );
+    for fill in [true, false] {
+        let none = ops(&mut b, &|b| {
+            b.draw_rect((1, 1), (4, 5), &TRANSPARENT, fill).unwrap();
+            b.draw_circle((5, 5), 3, &TRANSPARENT, fill).unwrap();
+        });
+        assert_eq!(none, "");
+    }
+}
