@@ -392,59 +392,40 @@ const ZI2: [Row; 9] = [
     },
 ];
 
-const ZI_GROUNDS: [Ground; 6] = [
-    Ground {
-        pin: pin(Cn7, 8),
-        source: "UM1974 Table 20",
-    },
-    Ground {
-        pin: pin(Cn8, 11),
-        source: "UM1974 Table 20",
-    },
-    Ground {
-        pin: pin(Cn8, 13),
-        source: "UM1974 Table 20",
-    },
-    Ground {
-        pin: pin(Cn12, 9),
-        source: "UM1974 Table 21",
-    },
-    Ground {
-        pin: pin(Cn12, 20),
-        source: "UM1974 Table 21",
-    },
-    Ground {
-        pin: pin(Cn12, 39),
-        source: "UM1974 Table 21",
-    },
-];
+/// The ground pins near the signals: the same six on both boards, each
+/// cited from the manual table of its connector (`cn7`, `cn8`, `cn12`).
+const fn grounds(cn7: &'static str, cn8: &'static str, cn12: &'static str) -> [Ground; 6] {
+    [
+        Ground {
+            pin: pin(Cn7, 8),
+            source: cn7,
+        },
+        Ground {
+            pin: pin(Cn8, 11),
+            source: cn8,
+        },
+        Ground {
+            pin: pin(Cn8, 13),
+            source: cn8,
+        },
+        Ground {
+            pin: pin(Cn12, 9),
+            source: cn12,
+        },
+        Ground {
+            pin: pin(Cn12, 20),
+            source: cn12,
+        },
+        Ground {
+            pin: pin(Cn12, 39),
+            source: cn12,
+        },
+    ]
+}
 
-const ZI2_GROUNDS: [Ground; 6] = [
-    Ground {
-        pin: pin(Cn7, 8),
-        source: "UM2407 Table 18",
-    },
-    Ground {
-        pin: pin(Cn8, 11),
-        source: "UM2407 Table 19",
-    },
-    Ground {
-        pin: pin(Cn8, 13),
-        source: "UM2407 Table 19",
-    },
-    Ground {
-        pin: pin(Cn12, 9),
-        source: "UM2407 Table 22",
-    },
-    Ground {
-        pin: pin(Cn12, 20),
-        source: "UM2407 Table 22",
-    },
-    Ground {
-        pin: pin(Cn12, 39),
-        source: "UM2407 Table 22",
-    },
-];
+const ZI_GROUNDS: [Ground; 6] = grounds("UM1974 Table 20", "UM1974 Table 20", "UM1974 Table 21");
+
+const ZI2_GROUNDS: [Ground; 6] = grounds("UM2407 Table 18", "UM2407 Table 19", "UM2407 Table 22");
 
 /// The loopback self-test's wire, the same on both boards: MOSI (CN7 pin
 /// 13, D22, PB5) to MISO (CN7 pin 12, D12, PA6).
