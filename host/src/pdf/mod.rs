@@ -400,12 +400,7 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         path: I,
         style: &S,
     ) -> R<'a> {
-        let pts: Vec<BackendCoord> = path.into_iter().collect();
-        if pts.is_empty() || self.stroke_setup(style).is_none() {
-            return Ok(());
-        }
-        self.path(&pts);
-        self.content.stroke().restore_state();
+        self.polyline(path, style, false);
         Ok(())
     }
 
@@ -437,12 +432,7 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
         vert: I,
         style: &S,
     ) -> R<'a> {
-        let pts: Vec<BackendCoord> = vert.into_iter().collect();
-        if pts.is_empty() || self.paint(style.color(), false).is_none() {
-            return Ok(());
-        }
-        self.path(&pts);
-        self.content.close_path().fill_nonzero().restore_state();
+        self.polyline(vert, style, true);
         Ok(())
     }
 
@@ -545,7 +535,8 @@ impl<'a> DrawingBackend for PdfBackend<'a> {
 
 impl PdfBackend<'_> {
     /// [`paint`](Self::paint) for a filled shape, [`stroke_setup`](Self::stroke_setup)
-    /// for an outline: plotters' `fill` flag on rectangles and circles.
+    /// for an outline (plotters' `fill` flag on rectangles and circles; a
+    /// polygon is filled, a path outlined).
     fn shape_setup<S: BackendStyle>(&mut self, style: &S, fill: bool) -> Option<()> {
         if fill {
             self.paint(style.color(), false)
@@ -565,15 +556,30 @@ impl PdfBackend<'_> {
         self.content.restore_state();
     }
 
-    /// `m` to the first point, `l` to the others.
-    fn path(&mut self, pts: &[BackendCoord]) {
-        for (i, &(x, y)) in pts.iter().enumerate() {
+    /// The points joined by lines (`m` to the first, `l` to the others):
+    /// stroked as an open path, or closed and filled as a polygon. No
+    /// points, nothing drawn.
+    fn polyline<S: BackendStyle>(
+        &mut self,
+        pts: impl IntoIterator<Item = BackendCoord>,
+        style: &S,
+        fill: bool,
+    ) {
+        let mut pts = pts.into_iter().peekable();
+        if pts.peek().is_none() || self.shape_setup(style, fill).is_none() {
+            return;
+        }
+        for (i, (x, y)) in pts.enumerate() {
             if i == 0 {
                 self.content.move_to(x as f32, y as f32);
             } else {
                 self.content.line_to(x as f32, y as f32);
             }
         }
+        if fill {
+            self.content.close_path();
+        }
+        self.shape_end(fill);
     }
 }
 

@@ -157,7 +157,7 @@ fn a_short_bitmap_is_an_error_and_transparency_draws_nothing() {
 }
 
 #[test]
-fn rectangles_and_circles_are_filled_or_outlined_as_asked() {
+fn shapes_are_filled_or_outlined_as_asked() {
     let mut out = Vec::new();
     let mut b = PdfBackend::new(&mut out, (10, 10), 1.0, plot::FONT).unwrap();
     // Each shape in its own saved state, closed by fill (`f`) or stroke (`S`).
@@ -191,6 +191,14 @@ fn rectangles_and_circles_are_filled_or_outlined_as_asked() {
         ring.contains(" w\n") && ring.ends_with(" c\nS\nQ"),
         "{ring}"
     );
+    let pts = [(1, 1), (8, 2), (4, 7)];
+    let path = ops(&mut b, &|b| b.draw_path(pts, &RED).unwrap());
+    assert!(path.contains(" w\n1 1 m\n8 2 l\n4 7 l\nS\nQ"), "{path}");
+    let polygon = ops(&mut b, &|b| b.fill_polygon(pts, &RED).unwrap());
+    assert!(
+        polygon.ends_with(" rg\n1 1 m\n8 2 l\n4 7 l\nh\nf\nQ"),
+        "{polygon}"
+    );
     for fill in [true, false] {
         let none = ops(&mut b, &|b| {
             b.draw_rect((1, 1), (4, 5), &TRANSPARENT, fill).unwrap();
@@ -198,4 +206,12 @@ fn rectangles_and_circles_are_filled_or_outlined_as_asked() {
         });
         assert_eq!(none, "");
     }
+    // No points, or nothing to paint with: nothing drawn, nothing saved.
+    let none = ops(&mut b, &|b| {
+        b.draw_path([], &RED).unwrap();
+        b.fill_polygon([], &RED).unwrap();
+        b.draw_path(pts, &TRANSPARENT).unwrap();
+        b.fill_polygon(pts, &TRANSPARENT).unwrap();
+    });
+    assert_eq!(none, "");
 }
