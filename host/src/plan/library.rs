@@ -474,6 +474,8 @@ impl EntryFile {
                 self.step,
                 self.steps,
             )
+            // The flags' words, in the file's names.
+            .map_err(|e| e.to_string().replace("--", ""))?
         };
         // The plan flags' rule, here where the file is named (`study
         // check` plans nothing); its words name the flags, whose names
