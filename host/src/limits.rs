@@ -15,6 +15,16 @@ pub const MAX_LINE_BYTES: usize = 4096;
 /// Largest time-stamp gap between two consecutive samples of a replayed
 /// file (s). A larger gap is an error naming the line, not a long sleep.
 pub const MAX_REPLAY_GAP_S: f64 = 60.0;
+/// Latest time stamp (s) a centroid sample may carry (stream lines, files,
+/// datagrams); the earliest is 0. Room for a tracker's Unix-epoch seconds
+/// (`time.time()`, 1.8e9 in 2027) until the year 2286: a larger or negative
+/// one is a broken tracker, refused where it is parsed (a file's line, a
+/// datagram counted bad), never let past the gate to drop what follows.
+pub const MAX_TIME_STAMP_S: f64 = 1.0e10;
+/// A live sample this far (s) after the last accepted one is a clock that
+/// jumped and is dropped as out of order, unless [`JUMPS_TO_ACCEPT`] in a
+/// row agree (the tracker really paused that long).
+pub const MAX_TIME_AHEAD_S: f64 = 3_600.0;
 /// Longest `--seconds` (s) for `stream` and `sim`: one day.
 pub const MAX_SECONDS: f64 = 86_400.0;
 /// Longest `--seconds` for `stream --synthetic --fast` (s): one hour of

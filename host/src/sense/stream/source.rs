@@ -12,7 +12,8 @@
 //! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; an
 //!   optional header line starting with `t` is skipped; `#` starts a comment.
 //!
-//! Units: seconds and millimetres.
+//! Units: seconds and millimetres. A time stamp lies in 0 to
+//! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
 
 use std::io::BufRead;
 
@@ -20,7 +21,9 @@ use serde::Deserialize as _;
 
 use super::Sample;
 use crate::InputError;
-use crate::limits::{MAX_BAD_DATAGRAMS_IN_A_ROW, MAX_LINE_BYTES, MAX_REPLAY_GAP_S};
+use crate::limits::{
+    MAX_BAD_DATAGRAMS_IN_A_ROW, MAX_LINE_BYTES, MAX_REPLAY_GAP_S, MAX_TIME_STAMP_S,
+};
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -149,6 +152,13 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
     if !sample.t_s.is_finite() || sample.pos_mm.iter().any(|v| !v.is_finite()) {
         return Err(InputError::new(format!(
             "line {line_no}: values must be finite"
+        )));
+    }
+    if !(0.0..=MAX_TIME_STAMP_S).contains(&sample.t_s) {
+        return Err(InputError::new(format!(
+            "line {line_no}: time stamp {} s is out of range: give 0 to {} s",
+            crate::limits::show_beside(sample.t_s, 0.0, MAX_TIME_STAMP_S),
+            crate::limits::show(MAX_TIME_STAMP_S)
         )));
     }
     Ok(Some(sample))
@@ -456,6 +466,24 @@ mod tests {
     }
 
     #[test]
+    fn a_time_stamp_outside_0_to_1e10_s_is_refused_in_every_form() {
+        for t in ["1e300", "-1", "-1e-9", "10000000001"] {
+            for line in [
+                format!("{t},0,0,200,1"),
+                format!(r#"{{"t":{t},"x":0,"y":0,"z":200}}"#),
+                format!(r#"{{"t_s":{t},"present":false,"centroid_mm":null}}"#),
+            ] {
+                let e = parse_line(&line, 3).unwrap_err().to_string();
+                assert!(e.starts_with("line 3: time stamp"), "{line}: {e}");
+                assert!(e.contains("give 0 to 1e10 s") && e.len() < 100, "{e}");
+            }
+        }
+        // Unix-epoch seconds, as a tracker's `time.time()` gives them.
+        assert!(parse_line("1800000000.5,0,0,200,1", 1).unwrap().is_some());
+        assert!(parse_line("0,0,0,200,1", 1).unwrap().is_some());
+    }
+
+    #[test]
     fn parses_track_json_lines() {
         // Raw centroid (no filter): `present` and `centroid_mm`.
         let raw = r#"{"t_s":0.25,"points":310,"present":true,"centroid_mm":[1.5,2,200],"truth_present":true,"truth_mm":[1,2,3],"z_profile_mm":null,"replan":false}"#;
@@ -571,7 +599,7 @@ mod tests {
 
     #[test]
     fn replay_gaps_and_bad_bytes_are_errors_naming_the_line() {
-        let text = "0,0,0,200,1\n1e300,0,0,200,1\n";
+        let text = "0,0,0,200,1\n1000,0,0,200,1\n";
         let v: Vec<_> = replay_lines(text.as_bytes()).collect();
         let e = v[1].as_ref().unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("at most 60 s"), "{e}");
