@@ -263,6 +263,12 @@ fn an_entry_plays_phases_or_foci_from_a_file_beside_the_library() {
             "give `phases_file` or `foci_file`, not both",
         ),
         ("phases_file = \" \"", "`phases_file` is empty"),
+        // The plan flags' rule: a spacing with one focus changes nothing.
+        (
+            "foci = 1\nspacing = 3.0",
+            "stimulus 1 (`x`): spacing applies to LM-M only: give foci 2 or more",
+        ),
+        ("spacing = 3.0", "spacing applies to LM-M only"),
     ] {
         let e = Library::from_toml(&format!("[[stimulus]]\nid = \"x\"\n{body}\n"), "lib.toml")
             .unwrap_err()
