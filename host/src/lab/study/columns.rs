@@ -36,6 +36,7 @@ pub const TIMING: [&str; 12] = [
 fn measured(name: &str) -> Holds {
     match name {
         "steps" | "onset_us" | "offset_us" | "on_phases" | "mutes" => Holds::Tally,
+        "present_fraction" => Holds::Fraction,
         MISSED_DEADLINES | LEASE_EXPIRIES => Holds::Tally,
         _ => Holds::Measured,
     }
@@ -137,11 +138,8 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
 pub const MAX_LABEL_BYTES: usize = 200;
 
 /// Whether `s` is a time as `provenance::rfc3339_utc` writes it
-/// (`2026-11-26T08:41:59.123Z`), or empty (not known).
+/// (`2026-11-26T08:41:59.123Z`); never empty, for a run always writes one.
 pub fn is_rfc3339_utc(s: &str) -> bool {
-    if s.is_empty() {
-        return true;
-    }
     // Digits where the pattern has `0`, the pattern's byte elsewhere.
     const PATTERN: &[u8; 24] = b"0000-00-00T00:00:00.000Z";
     let num = |r: std::ops::Range<usize>| s[r].parse::<u32>().unwrap_or(u32::MAX);
@@ -172,6 +170,8 @@ pub enum Holds {
     Measured,
     /// A measured count, a whole number from 0 (empty when not measured).
     Tally,
+    /// A measured share, 0 to 1 (empty when not measured).
+    Fraction,
     /// A wall-clock time, RFC 3339 UTC.
     Time,
     /// A count of answers.
@@ -261,6 +261,7 @@ impl Holds {
             Self::Level(levels) => levels.iter().any(|l| l == value),
             Self::Measured => value.is_empty() || number(value, 0.0, f64::MAX),
             Self::Tally => value.is_empty() || count(value, 0),
+            Self::Fraction => value.is_empty() || number(value, 0.0, 1.0),
             Self::Estimate => value.is_empty() || number(value, f64::MIN, f64::MAX),
             Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
@@ -300,6 +301,7 @@ impl Holds {
             Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
             Self::Measured => "give a number from 0 or nothing".into(),
             Self::Tally => "give a whole number from 0 or nothing".into(),
+            Self::Fraction => "give a fraction from 0 to 1 or nothing".into(),
             Self::Estimate => "give a finite number or nothing".into(),
             Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
@@ -332,6 +334,7 @@ impl Holds {
             | Self::Answers
             | Self::Adjustments(_)
             | Self::Measured
+            | Self::Fraction
             | Self::Estimate
             | Self::Time => NUMBER,
             Self::Level(l) | Self::Choice(l) => label(l),
