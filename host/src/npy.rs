@@ -106,12 +106,15 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
     let v = dict_value(text, "descr").ok_or_else(|| bad(path, ".npy header has no 'descr'"))?;
     let descr = v
         .strip_prefix('\'')
-        .and_then(|v| v.split('\'').next())
+        .and_then(|v| v.split_once('\''))
+        .filter(|(_, rest)| ends_value(rest))
         .ok_or_else(|| wrong("descr", "a quoted type such as '<u2'", v))?
+        .0
         .to_string();
+    let is = |v: &str, word: &str| v.strip_prefix(word).is_some_and(ends_value);
     match dict_value(text, "fortran_order") {
-        Some(v) if v.starts_with("False") => {}
-        Some(v) if v.starts_with("True") => {
+        Some(v) if is(v, "False") => {}
+        Some(v) if is(v, "True") => {
             return Err(bad(
                 path,
                 "Fortran-order arrays are not supported; save in C order",
@@ -123,8 +126,10 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
     let v = dict_value(text, "shape").ok_or_else(|| bad(path, ".npy header has no 'shape'"))?;
     let shape_txt = v
         .strip_prefix('(')
-        .and_then(|v| v.split(')').next())
-        .ok_or_else(|| wrong("shape", "a tuple of sizes", v))?;
+        .and_then(|v| v.split_once(')'))
+        .filter(|(_, rest)| ends_value(rest))
+        .ok_or_else(|| wrong("shape", "a tuple of sizes", v))?
+        .0;
     let shape = shape_txt
         .split(',')
         .map(str::trim)
@@ -170,6 +175,12 @@ fn dict_keys(text: &str) -> Vec<&str> {
         .filter(|(i, w)| i % 2 == 1 && w[1].trim_start().starts_with(':'))
         .map(|(_, w)| w[0])
         .collect()
+}
+
+/// Whether `rest`, what follows a value, ends it: a value with anything
+/// after it (`'<u2'*2`, `Falsey`) is not the value it starts with.
+fn ends_value(rest: &str) -> bool {
+    rest.trim_start().starts_with([',', '}'])
 }
 
 /// A value's text up to the next `,` or `}` (what a message quotes).
@@ -335,7 +346,9 @@ impl NpyFrames<Rgb> {
     }
 }
 
-/// Read a `float64` (n,) `.npy` of time stamps (s): finite, non-decreasing.
+/// Read a `float64` (n,) `.npy` of time stamps (s): finite, non-decreasing,
+/// 0 to [`crate::limits::MAX_TIME_STAMP_S`], at most
+/// [`crate::limits::MAX_REPLAY_GAP_S`] apart.
 pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
     let (f, len) = open(path)?;
     let mut reader = BufReader::new(f);
@@ -358,6 +371,31 @@ pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
     }
     if let Some(i) = t.windows(2).position(|w| w[1] < w[0]) {
         return Err(bad(path, format!("time stamp {} goes backwards", i + 1)));
+    }
+    // A stream's bounds (`lmhost stream` reads what `track --json` prints),
+    // here where the file is named: no negative or absurd stamp, no gap a
+    // replay would sleep through.
+    use crate::limits::{MAX_REPLAY_GAP_S, MAX_TIME_STAMP_S, show, show_beside};
+    if let Some(i) = t.windows(2).position(|w| w[1] - w[0] > MAX_REPLAY_GAP_S) {
+        return Err(bad(
+            path,
+            format!(
+                "frame {}: time stamp {} s is {} s after the previous frame's; at most {MAX_REPLAY_GAP_S} s between frames",
+                i + 1,
+                show(t[i + 1]),
+                show(t[i + 1] - t[i])
+            ),
+        ));
+    }
+    if let Some(i) = t.iter().position(|v| !(0.0..=MAX_TIME_STAMP_S).contains(v)) {
+        return Err(bad(
+            path,
+            format!(
+                "frame {i}: time stamp {} s is out of range: give 0 to {} s",
+                show_beside(t[i], 0.0, MAX_TIME_STAMP_S),
+                show(MAX_TIME_STAMP_S)
+            ),
+        ));
     }
     Ok(t)
 }
@@ -666,6 +704,66 @@ mod tests {
         h.extend_from_slice(&u32::MAX.to_le_bytes());
         let e = open_error(&p, &h);
         assert!(e.contains("header"), "{e}");
+    }
+
+    #[test]
+    fn a_header_value_with_a_tail_is_not_the_value_it_starts_with() {
+        let p = tmp("tail.npy");
+        for (dict, needle) in [
+            (
+                "{'descr': '<u2'*2, 'fortran_order': False, 'shape': (1, 2, 2), }",
+                "'descr' must be a quoted type such as '<u2', got `'<u2'*2`",
+            ),
+            (
+                "{'descr': '<u2', 'fortran_order': Falsey, 'shape': (1, 2, 2), }",
+                "'fortran_order' must be False or True, got `Falsey`",
+            ),
+            (
+                "{'descr': '<u2', 'fortran_order': False, 'shape': (1, 2, 2)*2, }",
+                "'shape' must be a tuple of sizes",
+            ),
+        ] {
+            let mut text = dict.to_owned();
+            text.push_str(&" ".repeat(128 - 10 - text.len() - 1));
+            text.push('\n');
+            let mut h = b"\x93NUMPY\x01\x00".to_vec();
+            h.extend_from_slice(&(text.len() as u16).to_le_bytes());
+            h.extend_from_slice(text.as_bytes());
+            h.extend_from_slice(&[0; 8]);
+            let e = open_error(&p, &h);
+            assert!(e.contains(needle), "{dict}: {e}");
+        }
+        // What numpy writes still reads, a trailing comma in the shape too.
+        let ok = npy("<u2", "(1, 2, 2,)", 8);
+        std::fs::write(&p, ok).unwrap();
+        assert!(DepthNpy::open(&p).is_ok());
+    }
+
+    #[test]
+    fn time_stamps_meet_a_streams_bounds_naming_the_file() {
+        for (i, (t, needle)) in [
+            (
+                vec![-1.0, 0.0],
+                "frame 0: time stamp -1 s is out of range: give 0 to 1e10 s",
+            ),
+            (vec![1e300], "frame 0: time stamp 1e300 s is out of range"),
+            (
+                vec![0.0, 61.0],
+                "frame 1: time stamp 61 s is 61 s after the previous frame's; at most 60 s",
+            ),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            // One file each: a file read is never written over.
+            let p = tmp(&format!("stamps{i}.npy"));
+            write_f64_1d(&p, &t).unwrap();
+            let e = read_timestamps(&p).unwrap_err().to_string();
+            assert!(e.contains(needle) && e.contains("stamps"), "{e}");
+        }
+        let p = tmp("stamps_ok.npy");
+        write_f64_1d(&p, &[1.8e9, 1.8e9 + 0.01]).unwrap();
+        assert_eq!(read_timestamps(&p).unwrap().len(), 2);
     }
 
     #[test]
