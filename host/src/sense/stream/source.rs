@@ -9,8 +9,8 @@
 //!   gated centre (`filtered_mm`, `gated_present`) when the line has one,
 //!   else its raw centroid; its other known keys are ignored, an unknown
 //!   key is refused as in the plain form;
-//! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; an
-//!   optional header line starting with `t` is skipped; `#` starts a comment.
+//! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; the
+//!   header line `t,x,y,z,present` is skipped; `#` starts a comment.
 //!
 //! Units: seconds and millimetres. A time stamp lies in 0 to
 //! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
@@ -102,6 +102,17 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
     if line.is_empty() || line.starts_with('#') {
         return Ok(None);
     }
+    // Said as what it is, not read as CSV and refused for a field it cut.
+    if line.starts_with('\u{feff}') {
+        return Err(InputError::new(format!(
+            "line {line_no} starts with a byte-order mark (U+FEFF), which only the first line may"
+        )));
+    }
+    if line.starts_with('[') {
+        return Err(InputError::new(format!(
+            "line {line_no}: not a centroid JSON object (a JSON array; give {{\"t\":..,\"x\":..,\"y\":..,\"z\":..}})"
+        )));
+    }
     let sample = if line.starts_with('{') {
         let bad = |e: serde_json::Error| {
             InputError::new(format!("line {line_no}: not a centroid JSON object ({e})"))
@@ -120,7 +131,15 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         }
     } else {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields[0].eq_ignore_ascii_case("t") {
+        // The header, exactly (also where files were joined): any other
+        // line starting `t` is a sample line to check, never skipped.
+        const HEADER: [&str; 5] = ["t", "x", "y", "z", "present"];
+        if fields.len() == HEADER.len()
+            && fields
+                .iter()
+                .zip(HEADER)
+                .all(|(f, h)| f.eq_ignore_ascii_case(h))
+        {
             return Ok(None);
         }
         if fields.len() != 5 {
@@ -481,6 +500,27 @@ mod tests {
         // Unix-epoch seconds, as a tracker's `time.time()` gives them.
         assert!(parse_line("1800000000.5,0,0,200,1", 1).unwrap().is_some());
         assert!(parse_line("0,0,0,200,1", 1).unwrap().is_some());
+    }
+
+    #[test]
+    fn a_line_is_refused_for_what_it_is() {
+        // Only the exact header is skipped.
+        assert!(parse_line("T, X,y,z,Present", 4).unwrap().is_none());
+        for (line, needle) in [
+            ("t,whatever", "line 2: expected 5 CSV fields"),
+            ("t,0,0,200,1", "line 2: t `t` is not a number"),
+            (
+                "\u{feff}{\"t\":0,\"x\":0,\"y\":0,\"z\":200}",
+                "line 2 starts with a byte-order mark",
+            ),
+            (
+                "[0,0,0,200,1]",
+                "line 2: not a centroid JSON object (a JSON array",
+            ),
+        ] {
+            let e = parse_line(line, 2).unwrap_err().to_string();
+            assert!(e.contains(needle), "{line}: {e}");
+        }
     }
 
     #[test]
