@@ -15,6 +15,16 @@ pub const MAX_LINE_BYTES: usize = 4096;
 /// Largest time-stamp gap between two consecutive samples of a replayed
 /// file (s). A larger gap is an error naming the line, not a long sleep.
 pub const MAX_REPLAY_GAP_S: f64 = 60.0;
+/// Latest time stamp (s) a centroid sample may carry (stream lines, files,
+/// datagrams); the earliest is 0. Room for a tracker's Unix-epoch seconds
+/// (`time.time()`, 1.8e9 in 2027) until the year 2286: a larger or negative
+/// one is a broken tracker, refused where it is parsed (a file's line, a
+/// datagram counted bad), never let past the gate to drop what follows.
+pub const MAX_TIME_STAMP_S: f64 = 1.0e10;
+/// A live sample this far (s) after the last accepted one is a clock that
+/// jumped and is dropped as out of order, unless [`JUMPS_TO_ACCEPT`] in a
+/// row agree (the tracker really paused that long).
+pub const MAX_TIME_AHEAD_S: f64 = 3_600.0;
 /// Longest `--seconds` (s) for `stream` and `sim`: one day.
 pub const MAX_SECONDS: f64 = 86_400.0;
 /// Longest `--seconds` for `stream --synthetic --fast` (s): one hour of
@@ -138,7 +148,10 @@ pub const MAX_MESSAGE_WORD_CHARS: usize = 512;
 /// Every number in a message through [`show`]: a numeric token with more
 /// than 15 digits (a huge or tiny value printed in full, or a saturated
 /// integer) is rewritten in scientific form, so no message carries a
-/// 300-digit number whatever formatted it. Paths and words are left alone.
+/// 300-digit number whatever formatted it, quoted (`` `1000…0.0` ``, as
+/// serde and the toml crate quote a value) or not; one beyond `f64` keeps
+/// its first digits and says how many it had. Paths and words are left
+/// alone.
 pub fn tidy_numbers(msg: &str) -> String {
     let b = msg.as_bytes();
     let mut out = String::with_capacity(msg.len());
@@ -147,7 +160,7 @@ pub fn tidy_numbers(msg: &str) -> String {
         i == 0
             || matches!(
                 b[i - 1],
-                b' ' | b'(' | b'[' | b'=' | b',' | b':' | b'-' | b'+' | b'\t'
+                b' ' | b'(' | b'[' | b'=' | b',' | b':' | b'-' | b'+' | b'\t' | b'`' | b'"' | b'\''
             )
     };
     while i < b.len() {
@@ -173,7 +186,12 @@ pub fn tidy_numbers(msg: &str) -> String {
             let next_ok =
                 i == b.len() || !(b[i].is_ascii_alphanumeric() || b[i] == b'/' || b[i] == b'_');
             match tok.parse::<f64>() {
-                Ok(v) if digits > 15 && next_ok => out.push_str(&show(v)),
+                Ok(v) if digits > 15 && next_ok && v.is_finite() => out.push_str(&show(v)),
+                // Beyond f64 (400 nines): not `inf`, which it does not say.
+                Ok(_) if digits > 15 && next_ok => {
+                    out.push_str(&tok[..6]);
+                    out.push_str(&format!("…({digits} digits)"));
+                }
                 _ => out.push_str(tok),
             }
         } else {
@@ -336,6 +354,18 @@ mod tests {
         assert_eq!(show(f64::NAN), "NaN");
         assert_eq!(show(-5e-324), "-5e-324");
         assert_eq!(tidy_numbers("µs ±1e-300 é"), "µs ±1e-300 é");
+        // Quoted as serde and the toml crate quote a value.
+        let quoted = format!("invalid type: floating point `{:.1}`, expected u32", 1e300);
+        assert_eq!(
+            tidy_numbers(&quoted),
+            "invalid type: floating point `1e300`, expected u32"
+        );
+        let nines = format!("`{}` is not a `present` value", "9".repeat(400));
+        assert_eq!(
+            tidy_numbers(&nines),
+            "`999999…(400 digits)` is not a `present` value"
+        );
+        assert_eq!(tidy_numbers("\"18446744073709551616\""), "\"1.84467e19\"");
         assert_eq!(format!("{:.3}", Num(1e-300)), "1.000e-300");
         assert_eq!(format!("{:.3}", Num(2.5)), "2.500");
         assert_eq!(format!("{}", Num(1e300)), "1e300");

@@ -106,12 +106,15 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
     let v = dict_value(text, "descr").ok_or_else(|| bad(path, ".npy header has no 'descr'"))?;
     let descr = v
         .strip_prefix('\'')
-        .and_then(|v| v.split('\'').next())
+        .and_then(|v| v.split_once('\''))
+        .filter(|(_, rest)| ends_value(rest))
         .ok_or_else(|| wrong("descr", "a quoted type such as '<u2'", v))?
+        .0
         .to_string();
+    let is = |v: &str, word: &str| v.strip_prefix(word).is_some_and(ends_value);
     match dict_value(text, "fortran_order") {
-        Some(v) if v.starts_with("False") => {}
-        Some(v) if v.starts_with("True") => {
+        Some(v) if is(v, "False") => {}
+        Some(v) if is(v, "True") => {
             return Err(bad(
                 path,
                 "Fortran-order arrays are not supported; save in C order",
@@ -123,8 +126,10 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
     let v = dict_value(text, "shape").ok_or_else(|| bad(path, ".npy header has no 'shape'"))?;
     let shape_txt = v
         .strip_prefix('(')
-        .and_then(|v| v.split(')').next())
-        .ok_or_else(|| wrong("shape", "a tuple of sizes", v))?;
+        .and_then(|v| v.split_once(')'))
+        .filter(|(_, rest)| ends_value(rest))
+        .ok_or_else(|| wrong("shape", "a tuple of sizes", v))?
+        .0;
     let shape = shape_txt
         .split(',')
         .map(str::trim)
@@ -170,6 +175,12 @@ fn dict_keys(text: &str) -> Vec<&str> {
         .filter(|(i, w)| i % 2 == 1 && w[1].trim_start().starts_with(':'))
         .map(|(_, w)| w[0])
         .collect()
+}
+
+/// Whether `rest`, what follows a value, ends it: a value with anything
+/// after it (`'<u2'*2`, `Falsey`) is not the value it starts with.
+fn ends_value(rest: &str) -> bool {
+    rest.trim_start().starts_with([',', '}'])
 }
 
 /// A value's text up to the next `,` or `}` (what a message quotes).
@@ -335,7 +346,9 @@ impl NpyFrames<Rgb> {
     }
 }
 
-/// Read a `float64` (n,) `.npy` of time stamps (s): finite, non-decreasing.
+/// Read a `float64` (n,) `.npy` of time stamps (s): finite, non-decreasing,
+/// 0 to [`crate::limits::MAX_TIME_STAMP_S`], at most
+/// [`crate::limits::MAX_REPLAY_GAP_S`] apart.
 pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
     let (f, len) = open(path)?;
     let mut reader = BufReader::new(f);
@@ -358,6 +371,31 @@ pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
     }
     if let Some(i) = t.windows(2).position(|w| w[1] < w[0]) {
         return Err(bad(path, format!("time stamp {} goes backwards", i + 1)));
+    }
+    // A stream's bounds (`lmhost stream` reads what `track --json` prints),
+    // here where the file is named: no negative or absurd stamp, no gap a
+    // replay would sleep through.
+    use crate::limits::{MAX_REPLAY_GAP_S, MAX_TIME_STAMP_S, show, show_beside};
+    if let Some(i) = t.windows(2).position(|w| w[1] - w[0] > MAX_REPLAY_GAP_S) {
+        return Err(bad(
+            path,
+            format!(
+                "frame {}: time stamp {} s is {} s after the previous frame's; at most {MAX_REPLAY_GAP_S} s between frames",
+                i + 1,
+                show(t[i + 1]),
+                show(t[i + 1] - t[i])
+            ),
+        ));
+    }
+    if let Some(i) = t.iter().position(|v| !(0.0..=MAX_TIME_STAMP_S).contains(v)) {
+        return Err(bad(
+            path,
+            format!(
+                "frame {i}: time stamp {} s is out of range: give 0 to {} s",
+                show_beside(t[i], 0.0, MAX_TIME_STAMP_S),
+                show(MAX_TIME_STAMP_S)
+            ),
+        ));
     }
     Ok(t)
 }
@@ -558,130 +596,4 @@ pub fn write_f64_1d(path: &Path, data: &[f64]) -> anyhow::Result<()> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn tmp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("lmhost-npy-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
-    }
-
-    #[test]
-    fn written_recordings_read_back() {
-        let p = tmp("rt.npy");
-        let mut w = DepthNpyWriter::create(&p, 3, 2).unwrap();
-        w.push(&[1, 2, 3, 4, 5, 65535]).unwrap();
-        w.push(&[0; 6]).unwrap();
-        assert_eq!(w.finish().unwrap(), 2);
-        let mut r = DepthNpy::open(&p).unwrap();
-        assert_eq!((r.frames, r.height, r.width), (2, 2, 3));
-        let mut b = Vec::new();
-        assert!(r.read_into(&mut b).unwrap());
-        assert_eq!(b, [1, 2, 3, 4, 5, 65535]);
-        assert!(r.read_into(&mut b).unwrap());
-        assert!(!r.read_into(&mut b).unwrap());
-        let t = tmp("t.npy");
-        write_f64_1d(&t, &[0.0, 0.011]).unwrap();
-        assert_eq!(read_timestamps(&t).unwrap(), [0.0, 0.011]);
-    }
-
-    #[test]
-    fn colour_recordings_read_back_and_check_their_shape() {
-        let p = tmp("rgb.npy");
-        let mut w = ColourNpyWriter::create(&p, 2, 1).unwrap();
-        w.push(&[1, 2, 3, 4, 5, 6]).unwrap();
-        assert!(w.push(&[0; 5]).is_err());
-        assert_eq!(w.finish().unwrap(), 1);
-        let mut r = ColourNpy::open(&p).unwrap();
-        assert_eq!((r.frames, r.height, r.width), (1, 1, 2));
-        assert_eq!(r.read().unwrap().unwrap(), [1, 2, 3, 4, 5, 6]);
-        assert!(r.read().unwrap().is_none());
-        let e = ColourNpy::open(&tmp("rt.npy").with_file_name("missing.npy"))
-            .err()
-            .unwrap();
-        assert!(!e.to_string().is_empty());
-        std::fs::write(&p, header("|u1", &[1, 1, 2, 4], 128)).unwrap();
-        let e = ColourNpy::open(&p).err().unwrap().to_string();
-        assert!(e.contains("(frames, height, width, 3)"), "{e}");
-    }
-
-    #[test]
-    fn truncated_npy_is_an_input_error() {
-        let p = tmp("trunc.npy");
-        let mut w = DepthNpyWriter::create(&p, 4, 4).unwrap();
-        w.push(&[7; 16]).unwrap();
-        w.finish().unwrap();
-        let bytes = std::fs::read(&p).unwrap();
-        std::fs::write(&p, &bytes[..bytes.len() - 3]).unwrap();
-        let e = DepthNpy::open(&p).err().unwrap().to_string();
-        assert!(e.contains("truncated"), "{e}");
-        std::fs::write(&p, &bytes[..20]).unwrap();
-        assert!(DepthNpy::open(&p).is_err());
-        std::fs::write(&p, b"").unwrap();
-        assert!(DepthNpy::open(&p).is_err());
-    }
-
-    /// `bytes` written to `p`, then opened: the error's text.
-    fn open_error(p: &std::path::Path, bytes: &[u8]) -> String {
-        std::fs::write(p, bytes).unwrap();
-        DepthNpy::open(p).err().unwrap().to_string()
-    }
-
-    /// A header for `descr` and `shape`, then `data` zero bytes.
-    fn npy(descr: &str, shape: &str, data: usize) -> Vec<u8> {
-        // Written by hand, so a malformed shape can be tested.
-        let mut text =
-            format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
-        text.push_str(&" ".repeat(128 - 10 - text.len() - 1));
-        text.push('\n');
-        let mut h = b"\x93NUMPY\x01\x00".to_vec();
-        h.extend_from_slice(&(text.len() as u16).to_le_bytes());
-        h.extend_from_slice(text.as_bytes());
-        h.extend_from_slice(&vec![0; data]);
-        h
-    }
-
-    #[test]
-    fn wrong_dtype_shape_and_order_are_input_errors() {
-        let p = tmp("dtype.npy");
-        crate::npy::write_f64(&p, 2, 2, &[0.0; 4]).unwrap();
-        let e = DepthNpy::open(&p).err().unwrap().to_string();
-        assert!(e.contains("dtype `<f8`") && e.contains("uint16"), "{e}");
-        let e = open_error(&p, &npy("<u2", "(4, 4)", 32));
-        assert!(e.contains("(frames, height, width)"), "{e}");
-        let mut h = header("<u2", &[1, 2, 2], 128);
-        let at = h.windows(5).position(|w| w == b"False").unwrap();
-        h[at..at + 5].copy_from_slice(b"True ");
-        h.extend_from_slice(&[0; 8]);
-        let e = open_error(&p, &h);
-        assert!(e.contains("Fortran"), "{e}");
-        let e = open_error(&p, &npy(">u2", "(1, 2, 2)", 8));
-        assert!(e.contains("big-endian"), "{e}");
-        // A huge shape in a tiny file: refused before any allocation.
-        let e = open_error(&p, &npy("<u2", "(100000000, 8000, 8000)", 8));
-        assert!(e.contains("truncated"), "{e}");
-        // A header length beyond the file.
-        let mut h = b"\x93NUMPY\x02\x00".to_vec();
-        h.extend_from_slice(&u32::MAX.to_le_bytes());
-        let e = open_error(&p, &h);
-        assert!(e.contains("header"), "{e}");
-    }
-
-    #[test]
-    fn header_is_aligned_and_data_follows() {
-        let b = encode_f64(2, 3, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).unwrap();
-        assert_eq!(&b[..8], b"\x93NUMPY\x01\x00");
-        let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
-        assert_eq!((10 + hl) % 64, 0);
-        let h = std::str::from_utf8(&b[10..10 + hl]).unwrap();
-        assert!(h.contains("'shape': (2, 3)"), "{h}");
-        assert!(h.ends_with('\n'));
-        assert_eq!(b.len(), 10 + hl + 48);
-        assert_eq!(
-            f64::from_le_bytes(b[10 + hl + 40..].try_into().unwrap()),
-            6.0
-        );
-        assert!(encode_f64(2, 2, &[1.0]).is_err());
-    }
-}
+mod tests;

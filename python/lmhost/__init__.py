@@ -83,26 +83,28 @@ def _timeout_s(name: str, value: Any) -> float:
 
 
 def plan(
-    radius: float = _D["radius"],
-    foci: int = _D["foci"],
-    spacing: float = _D["spacing"],
-    freq: float = _D["freq"],
-    step: float = _D["step"],
+    radius: Optional[float] = None,
+    foci: Optional[int] = None,
+    spacing: Optional[float] = None,
+    freq: Optional[float] = None,
+    step: Optional[float] = None,
     steps: Optional[int] = None,
     center: Optional[Sequence[float]] = None,
     scene: Optional[Scene] = None,
-    intensity: float = _D["intensity"],
+    intensity: Optional[float] = None,
     target: str = _D["target"],
 ) -> Plan:
     """Plan an LM stimulus, as ``lmhost plan`` does.
 
     radius: circle radius A in mm (0 = a static focus). foci: foci per step
     (1 = LM-S, more = LM-M). spacing: distance between neighbouring foci
-    (mm). freq: LM frequency (Hz). step: step width d_LM (mm), or give
-    ``steps`` (N) instead. center: LM centre (x, y, z) in mm, default the
-    scene's. scene: default the flat 2 x 2 AUTD3. intensity: 0..1 of full.
-    target: ``"lm"`` (the LM firmware's timing) or ``"autd3"`` (AUTD3's
-    25 us dwell grid).
+    (mm, LM-M only). freq: LM frequency (Hz). step: step width d_LM (mm),
+    or give ``steps`` (N) instead. center: LM centre (x, y, z) in mm,
+    default the scene's. scene: default the flat 2 x 2 AUTD3. intensity:
+    0..1 of full. target: ``"lm"`` (the LM firmware's timing) or
+    ``"autd3"`` (AUTD3's 25 us dwell grid). A value left None is the
+    library's default (:data:`DEFAULTS`), as a flag not given is: one that
+    cannot apply (spacing with one focus, step beside steps) is refused.
     """
     # Passed as given: the extension checks every number (no int() here,
     # which would make steps=3.7 a silent 3).
@@ -345,6 +347,20 @@ class Session:
         self._sock: Optional[socket.socket] = None
         self.ready: Optional[Dict[str, Any]] = None
         timeout = _timeout_s("timeout", timeout)
+        # What starts a session applies only when one is started (library=
+        # without socket_path=): never dropped unseen on a session joined.
+        starts = library is not None and socket_path is None
+        if library is not None and socket_path is not None:
+            raise ValueError(
+                "library= starts a session on a socket of its own: give library= or socket_path=, not both"
+            )
+        given = [n for n, v in (("port", port), ("scene", scene)) if v is not None]
+        given += ["synthetic"] if _lmhost.bool_arg("synthetic", synthetic) else []
+        given += ["args"] if len(args) else []
+        if given and not starts:
+            raise ValueError(
+                f"{'= and '.join(given)}= apply to a session started here: give library= too"
+            )
         if tcp_port is not None:
             tcp_port = _lmhost.int_arg("tcp_port", tcp_port, 1, 65535)
         elif token is not None or token_file is not None:

@@ -182,7 +182,12 @@ impl Device_ {
         }
         let planned = plan.planned.clone();
         let play = match (play, untracked) {
-            (false, _) => Play::No,
+            // As `--untracked` with `--no-play`: a choice of how to play,
+            // refused when nothing plays rather than dropped.
+            (false, true) => {
+                return Err(bad("untracked=True applies to a play: not with play=False"));
+            }
+            (false, false) => Play::No,
             (true, false) => Play::Tracked,
             (true, true) => Play::Untracked,
         };

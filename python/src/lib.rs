@@ -30,7 +30,7 @@ use lmhost::field::study::{View, simulate_plan};
 use lmhost::plan::scene::Scene;
 use lmhost::plan::stimulus::{Stimulus, TargetPlan};
 use lmhost::plan::target::Target;
-use lmhost::plan::trajectory::{Cycle, MAX_FOCI, MAX_STEPS, Steps};
+use lmhost::plan::trajectory::{Cycle, MAX_FOCI, MAX_STEPS};
 use lmhost::sense::track::Pipeline;
 use lmhost::sense::track::camera::CameraSetup;
 use lmhost::sense::track::contact::Tracker as ContactTracker;
@@ -281,52 +281,50 @@ impl Plan_ {
 }
 
 /// Plans a stimulus: `Stimulus::plan_for` the target in the scene, as
-/// `lmhost plan` does. Every number is checked by [`args`] first.
+/// `lmhost plan` does. Every number is checked by [`args`] first; one not
+/// given (`None`) is the library's default, as a flag not given is, so
+/// `Cycle::given` refuses what cannot apply (a spacing with one focus, a
+/// step width beside a step count) as it does for the flags.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (radius, foci, spacing, freq, step, steps, center, scene, intensity, target))]
 fn plan(
     py: Python<'_>,
-    radius: &Bound<'_, PyAny>,
-    foci: &Bound<'_, PyAny>,
-    spacing: &Bound<'_, PyAny>,
-    freq: &Bound<'_, PyAny>,
-    step: &Bound<'_, PyAny>,
+    radius: Option<&Bound<'_, PyAny>>,
+    foci: Option<&Bound<'_, PyAny>>,
+    spacing: Option<&Bound<'_, PyAny>>,
+    freq: Option<&Bound<'_, PyAny>>,
+    step: Option<&Bound<'_, PyAny>>,
     steps: Option<&Bound<'_, PyAny>>,
     center: Option<&Bound<'_, PyAny>>,
     scene: Option<&Scene_>,
-    intensity: &Bound<'_, PyAny>,
+    intensity: Option<&Bound<'_, PyAny>>,
     target: &str,
 ) -> PyResult<Plan_> {
     let target = lmhost::error::choose("a target", target, &Target::ALL.map(|t| (t.name(), t)))
         .map_err(bad)?;
-    let radius = args::float("radius", radius)?;
-    let spacing = args::float("spacing", spacing)?;
-    let freq = args::float("freq", freq)?;
-    let step = args::float("step", step)?;
-    let intensity = args::float("intensity", intensity)?;
-    let foci: usize = args::int_in("foci", foci, 1, MAX_FOCI as i64)?;
-    let steps = match args::opt_int_in::<usize>("steps", steps, 1, MAX_STEPS as i64)? {
-        Some(n) => Steps::Count(n),
-        None => Steps::Width(step),
-    };
+    let radius = args::opt_float("radius", radius)?;
+    let spacing = args::opt_float("spacing", spacing)?;
+    let freq = args::opt_float("freq", freq)?;
+    let step = args::opt_float("step", step)?;
+    let intensity = args::opt_float("intensity", intensity)?;
+    let foci = args::opt_int_in::<usize>("foci", foci, 1, MAX_FOCI as i64)?;
+    let steps = args::opt_int_in::<usize>("steps", steps, 1, MAX_STEPS as i64)?;
     let center_mm = args::opt_floats("center", center, 3)?
         .map(|c| vec3("center", c))
         .transpose()?;
     let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
+    let cycle =
+        Cycle::given(radius, foci, spacing, freq, step, steps).map_err(|e| bad(e.to_string()))?;
+    let radius = cycle.radius_mm;
     let planned = run(py, || {
+        let d = Stimulus::default();
+        let intensity = intensity.unwrap_or(d.intensity);
         let stimulus = Stimulus {
-            cycle: Cycle {
-                radius_mm: radius,
-                foci,
-                spacing_mm: spacing,
-                freq_hz: freq,
-                steps,
-                ..Cycle::default()
-            },
+            cycle,
             center_mm,
             intensity: lmhost::limits::in_range("--intensity", intensity, 0.0, 1.0, "")?,
-            ..Stimulus::default()
+            ..d
         };
         stimulus.plan_for(&target, scene)
     })?;

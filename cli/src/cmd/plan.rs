@@ -188,13 +188,6 @@ impl StimulusFlags {
             (Method::Linear, Some(w)) => Synthesis::Weighted(parse_weights(w)?),
             (Method::Linear, None) => Synthesis::Linear,
         };
-        // One focus has no neighbour to be spaced from: a spacing given for
-        // LM-S would change nothing, so it is refused, not dropped.
-        if self.spacing.is_some() && self.foci.unwrap_or(d.cycle.foci) < 2 {
-            return Err(InputError::new(
-                "--spacing applies to LM-M only: give --foci 2 or more",
-            ));
-        }
         let intensity = self.intensity.unwrap_or(d.intensity);
         Ok(Stimulus {
             cycle: Cycle {
@@ -206,7 +199,7 @@ impl StimulusFlags {
                     self.freq,
                     self.step,
                     self.steps,
-                )
+                )?
             },
             center_mm,
             synthesis,

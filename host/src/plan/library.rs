@@ -117,6 +117,8 @@ pub struct Library {
     /// Entries in file order (a device's slot `i` holds entry `i` when the
     /// whole library is resident).
     pub entries: Vec<Entry>,
+    /// The file it was read from, as its errors name it (its path).
+    pub origin: String,
 }
 
 /// A stimulus library: the named stimuli a session or a study presents,
@@ -474,6 +476,8 @@ impl EntryFile {
                 self.step,
                 self.steps,
             )
+            // The flags' words, in the file's names.
+            .map_err(|e| e.to_string().replace("--", ""))?
         };
         // The plan flags' rule, here where the file is named (`study
         // check` plans nothing); its words name the flags, whose names
@@ -547,7 +551,10 @@ impl Library {
             }
             entries.push(entry);
         }
-        Ok(Self { entries })
+        Ok(Self {
+            entries,
+            origin: origin.to_owned(),
+        })
     }
 
     /// The entry named `id`, with its index.
@@ -557,13 +564,20 @@ impl Library {
 
     /// Plans every entry for `target` in `scene` (AUTD3's dwell grid
     /// included); the first entry that cannot be planned is the error,
-    /// named.
+    /// named as the loader names it: the file, the entry's place and id.
     pub fn plan_for(&self, target: &Target, scene: &Scene) -> anyhow::Result<Vec<TargetPlan>> {
         self.entries
             .iter()
-            .map(|e| {
-                e.plan_for(target, scene.clone())
-                    .map_err(|err| err.context(format!("stimulus `{}`", e.id)))
+            .enumerate()
+            .map(|(i, e)| {
+                e.plan_for(target, scene.clone()).map_err(|err| {
+                    err.context(format!(
+                        "stimulus library {}: stimulus {} (`{}`)",
+                        self.origin,
+                        i + 1,
+                        e.id.escape_debug()
+                    ))
+                })
             })
             .collect()
     }

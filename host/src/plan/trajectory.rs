@@ -107,9 +107,11 @@ impl Cycle {
         }
     }
 
-    /// The numbers a stimulus's flags or library entry give, each one not
-    /// given the default cycle's; a step count wins over a step width
-    /// (both callers refuse the two together first). Flat, on the circle.
+    /// The numbers a stimulus's flags, library entry or Python arguments
+    /// give, each one not given the default cycle's. Flat, on the circle.
+    /// A number that cannot apply is refused, never dropped (the one rule
+    /// for every caller, worded with the flags' names): a step width with
+    /// a step count, a spacing with one focus (no neighbour to space).
     pub fn given(
         radius_mm: Option<f64>,
         foci: Option<usize>,
@@ -117,9 +119,17 @@ impl Cycle {
         freq_hz: Option<f64>,
         step_mm: Option<f64>,
         steps: Option<usize>,
-    ) -> Self {
+    ) -> Result<Self, InputError> {
         let d = Self::default();
-        Self {
+        if step_mm.is_some() && steps.is_some() {
+            return Err(InputError::new("give --step or --steps, not both"));
+        }
+        if spacing_mm.is_some() && foci.unwrap_or(d.foci) < 2 {
+            return Err(InputError::new(
+                "--spacing applies to LM-M only: give --foci 2 or more",
+            ));
+        }
+        Ok(Self {
             radius_mm: radius_mm.unwrap_or(d.radius_mm),
             foci: foci.unwrap_or(d.foci),
             spacing_mm: spacing_mm.unwrap_or(d.spacing_mm),
@@ -130,7 +140,7 @@ impl Cycle {
                 (None, None) => d.steps,
             },
             ..d
-        }
+        })
     }
 
     /// Checks every number of the cycle (the one rule for the plan flags,

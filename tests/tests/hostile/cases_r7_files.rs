@@ -37,7 +37,7 @@ fn edit(text: &str, from: &str, to: &str) -> String {
 
 /// An `.npy` of two 4 × 4 uint16 frames under header dict `dict` (the
 /// broken ones named `.depth`: the suite checks every `.npy` is whole).
-fn npy(dict: &str) -> Vec<u8> {
+pub(super) fn npy(dict: &str) -> Vec<u8> {
     let mut h = dict.as_bytes().to_vec();
     while !(10 + h.len() + 1).is_multiple_of(64) {
         h.push(b' ');
@@ -52,7 +52,7 @@ fn npy(dict: &str) -> Vec<u8> {
 
 /// Participant `P1` of the study fixtures as participant `id`, its
 /// `trials.csv` cell (data line `line`, column `column`) set to `to`.
-fn resumed_copy(dir: &Path, id: &str, line: usize, column: &str, to: &str) {
+pub(super) fn resumed_copy(dir: &Path, id: &str, line: usize, column: &str, to: &str) {
     let out = dir.join("study/out");
     let d = out.join(id);
     std::fs::create_dir_all(&d).unwrap();

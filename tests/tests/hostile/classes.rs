@@ -95,8 +95,20 @@ pub const WIRE_BESIDE_BOUND: &str = "r7-w6 a value beside its bound is not shown
 pub const WIRE_TCP_REPLY: &str = "r7-w7 every closed TCP client gets its reply";
 pub const WIRE_VIEW: &str = "r7-w8 a view request has one deadline and numbers";
 
+/// Round 8, what rounds 6 and 7 noticed, fixed as classes, and a sweep of
+/// run-time streams, control lines and depth frames (`cases_r8.rs`).
+pub const NOTICED_CANNOT_APPLY: &str = "r8-1 a spacing for one focus is refused on every path";
+pub const STREAM_TIME: &str = "r8-2 a centroid time stamp lies in 0 to 1e10 s";
+pub const NOTICED_RESUME: &str =
+    "r8-4 --resume refuses a row without its time or beyond a fraction";
+pub const NOTICED_FILE_NAMED: &str = "r8-5 an error about a file's content names the file";
+pub const NOTICED_TIDY: &str = "r8-6 a quoted number in a message is short";
+pub const NOTICED_CHANGES_NOTHING: &str = "r8-7 a value that changes nothing is refused";
+pub const STREAM_TROUBLE: &str = "r8-8 a stream line is refused for what it is";
+pub const STREAM_NPY_TAIL: &str = "r8-9 an .npy header value with a tail is refused";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 70] = [
+pub const CLASSES: [&str; 78] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -167,4 +179,12 @@ pub const CLASSES: [&str; 70] = [
     WIRE_BESIDE_BOUND,
     WIRE_TCP_REPLY,
     WIRE_VIEW,
+    NOTICED_CANNOT_APPLY,
+    STREAM_TIME,
+    NOTICED_RESUME,
+    NOTICED_FILE_NAMED,
+    NOTICED_TIDY,
+    NOTICED_CHANGES_NOTHING,
+    STREAM_TROUBLE,
+    STREAM_NPY_TAIL,
 ];

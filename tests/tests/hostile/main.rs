@@ -6,7 +6,7 @@
 //! [`TIME_LIMIT`] (one with a client beside it: [`TIME_LIMIT_WITH_CLIENT`]),
 //! killed and failed otherwise. To add a case, append a
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
-//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r6_sweep.rs`); `{port}` is
+//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r8.rs`); `{port}` is
 //! the shared simulated device, `{dir}` a scratch directory with the
 //! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`. A
 //! case may run a client of the command beside it (`.during(f)`).
@@ -261,6 +261,7 @@ mod cases_r5_exp3;
 mod cases_r6_sweep;
 mod cases_r7_files;
 mod cases_r7_wire;
+mod cases_r8;
 mod checks;
 mod fixtures;
 
@@ -274,6 +275,7 @@ use cases_r5_exp3::{exp3_cases, exp3_fixtures};
 use cases_r6_sweep::{long_value_cases, sweep_cases, sweep_fixtures};
 use cases_r7_files::{files_cases, files_fixtures};
 use cases_r7_wire::{wire_cases, wire_fixtures};
+use cases_r8::{round8_cases, round8_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -483,6 +485,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     sweep_fixtures(&dir);
     files_fixtures(&dir);
     wire_fixtures(&dir);
+    round8_fixtures(&dir);
     round4_files_fixtures(&dir);
     cases_r4_session::fixtures(&dir);
     let full = FullDisk::mount(&dir);
@@ -515,6 +518,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(round4_device_cases());
     all.extend(cases_r4_view::view_cases());
     all.extend(wire_cases());
+    all.extend(round8_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();

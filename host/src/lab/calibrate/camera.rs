@@ -66,6 +66,8 @@ struct PointFile {
 /// The calibration target: a ball recorded at known points.
 #[derive(Debug, Clone)]
 pub struct Target {
+    /// The points file it was read from (named in every error about it).
+    pub file: PathBuf,
     /// Ball diameter (mm).
     pub ball_diameter_mm: f64,
     /// Recording of the view without the ball, if any.
@@ -106,7 +108,12 @@ impl Target {
             )?;
             points.push((p.at_mm, dir.join(p.depth)));
         }
+        // The positions' geometry is the file's: refused, naming it,
+        // before a recording is read.
+        let known: Vec<Vec3> = points.iter().map(|p| p.0).collect();
+        check_spread(&known).map_err(|e| InputError::new(format!("points file {origin}: {e}")))?;
         Ok(Self {
+            file: path.to_path_buf(),
             ball_diameter_mm: d,
             background: f.background.map(|b| dir.join(b)),
             points,
@@ -417,7 +424,8 @@ pub fn calibrate(
     max_residual_mm: f64,
 ) -> anyhow::Result<CameraCalibration> {
     let known: Vec<Vec3> = target.points.iter().map(|p| p.0).collect();
-    check_spread(&known)?;
+    let origin = target.file.display();
+    check_spread(&known).map_err(|e| InputError::new(format!("points file {origin}: {e}")))?;
     let bg = target
         .background
         .as_deref()
@@ -426,7 +434,7 @@ pub fn calibrate(
     let mut balls = Vec::with_capacity(known.len());
     for (i, (_, rec)) in target.points.iter().enumerate() {
         let pts = foreground(rec, intr, bg.as_deref())?;
-        let what = format!("point[{i}] ({})", rec.display());
+        let what = format!("points file {origin}: point[{i}] ({})", rec.display());
         balls.push(find_ball(&pts, target.ball_diameter_mm, &what)?);
     }
     let seen: Vec<Vec3> = balls.iter().map(|b| b.center_mm).collect();
@@ -448,7 +456,7 @@ pub fn calibrate(
         .find(|(_, e)| **e > max_residual_mm)
     {
         return Err(InputError::new(format!(
-            "the ball at point[{i}] lands {e:.2} mm from its known position (limit {max_residual_mm} mm): check at_mm and the recording"
+            "points file {origin}: the ball at point[{i}] lands {e:.2} mm from its known position (limit {max_residual_mm} mm): check at_mm and the recording"
         ))
         .into());
     }
@@ -627,9 +635,14 @@ mod tests {
         // A targets file's error, refused as one line.
         let refused = |name: &str, body: String| {
             std::fs::write(dir.join(name), body).unwrap();
-            let e = calibrate(&Target::load(&dir.join(name)).unwrap(), &intr, 3.0)
-                .unwrap_err()
-                .to_string();
+            let e = match Target::load(&dir.join(name)) {
+                Err(e) => e.to_string(),
+                Ok(t) => calibrate(&t, &intr, 3.0).unwrap_err().to_string(),
+            };
+            assert!(
+                e.contains(&format!("points file {}", dir.join(name).display())),
+                "{e}"
+            );
             assert!(!e.contains('\n'), "{e}");
             e
         };
@@ -661,10 +674,22 @@ mod tests {
                 "line",
             ),
             ("ball_diameter_mm = 40.0\nfoo = 1\n", "foo"),
+            // Three positions on one line: the file's geometry, named
+            // as the file's other errors are.
+            (
+                "ball_diameter_mm = 40.0\n[[point]]\nat_mm = [0, 0, 100]\ndepth = \"a.npy\"\n\
+                 [[point]]\nat_mm = [10, 0, 100]\ndepth = \"b.npy\"\n\
+                 [[point]]\nat_mm = [20, 0, 100]\ndepth = \"c.npy\"\n",
+                "on one line",
+            ),
         ] {
             std::fs::write(dir.join("p.toml"), body).unwrap();
             let e = Target::load(&dir.join("p.toml")).unwrap_err().0;
             assert!(e.contains(needle) && !e.contains('\n'), "{body}: {e}");
+            assert!(
+                e.starts_with("points file ") && e.contains("p.toml: "),
+                "{e}"
+            );
         }
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -193,7 +193,17 @@ impl Command {
             }
         };
         Ok(match *name {
-            "present" => Self::Present(serde_json::from_value(rest).map_err(bad)?),
+            "present" => {
+                let p: Present = serde_json::from_value(rest).map_err(bad)?;
+                // Silence between on-phases needs two of them: with one,
+                // an `off_s` would change nothing (refused, not dropped).
+                if p.off_s.is_some() && p.repeat.unwrap_or(1) < 2 {
+                    return Err(bad(
+                        "`off_s` is the silence between on-phases: give `repeat` 2 or more",
+                    ));
+                }
+                Self::Present(p)
+            }
             "prepare" => Self::Prepare {
                 stimulus: field("stimulus")?,
             },
@@ -512,6 +522,14 @@ mod tests {
         for (line, needle) in [
             ("", "bad command"),
             ("{}", "missing field `cmd`"),
+            (
+                r#"{"cmd":"present","stimulus":"a","on_s":1,"off_s":2}"#,
+                "`off_s` is the silence between on-phases: give `repeat` 2 or more",
+            ),
+            (
+                r#"{"cmd":"present","stimulus":"a","on_s":1,"off_s":0,"repeat":1}"#,
+                "give `repeat` 2 or more",
+            ),
             (r#"{"cmd":"dance"}"#, "unknown command `dance`"),
             (r#"{"cmd":7}"#, "`cmd` is not a string"),
             ("[1,2]", "not a JSON object"),

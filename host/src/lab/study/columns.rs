@@ -36,6 +36,7 @@ pub const TIMING: [&str; 12] = [
 fn measured(name: &str) -> Holds {
     match name {
         "steps" | "onset_us" | "offset_us" | "on_phases" | "mutes" => Holds::Tally,
+        "present_fraction" => Holds::Fraction,
         MISSED_DEADLINES | LEASE_EXPIRIES => Holds::Tally,
         _ => Holds::Measured,
     }
@@ -137,11 +138,8 @@ pub fn fixed() -> impl Iterator<Item = &'static str> {
 pub const MAX_LABEL_BYTES: usize = 200;
 
 /// Whether `s` is a time as `provenance::rfc3339_utc` writes it
-/// (`2026-11-26T08:41:59.123Z`), or empty (not known).
+/// (`2026-11-26T08:41:59.123Z`); never empty, for a run always writes one.
 pub fn is_rfc3339_utc(s: &str) -> bool {
-    if s.is_empty() {
-        return true;
-    }
     // Digits where the pattern has `0`, the pattern's byte elsewhere.
     const PATTERN: &[u8; 24] = b"0000-00-00T00:00:00.000Z";
     let num = |r: std::ops::Range<usize>| s[r].parse::<u32>().unwrap_or(u32::MAX);
@@ -172,6 +170,8 @@ pub enum Holds {
     Measured,
     /// A measured count, a whole number from 0 (empty when not measured).
     Tally,
+    /// A measured share, 0 to 1 (empty when not measured).
+    Fraction,
     /// A wall-clock time, RFC 3339 UTC.
     Time,
     /// A count of answers.
@@ -261,6 +261,7 @@ impl Holds {
             Self::Level(levels) => levels.iter().any(|l| l == value),
             Self::Measured => value.is_empty() || number(value, 0.0, f64::MAX),
             Self::Tally => value.is_empty() || count(value, 0),
+            Self::Fraction => value.is_empty() || number(value, 0.0, 1.0),
             Self::Estimate => value.is_empty() || number(value, f64::MIN, f64::MAX),
             Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
@@ -300,6 +301,7 @@ impl Holds {
             Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
             Self::Measured => "give a number from 0 or nothing".into(),
             Self::Tally => "give a whole number from 0 or nothing".into(),
+            Self::Fraction => "give a fraction from 0 to 1 or nothing".into(),
             Self::Estimate => "give a finite number or nothing".into(),
             Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
@@ -332,6 +334,7 @@ impl Holds {
             | Self::Answers
             | Self::Adjustments(_)
             | Self::Measured
+            | Self::Fraction
             | Self::Estimate
             | Self::Time => NUMBER,
             Self::Level(l) | Self::Choice(l) => label(l),
@@ -619,80 +622,4 @@ impl Row {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn cols() -> Columns {
-        Columns::new(
-            vec![Column::new(
-                "type",
-                Holds::Level(vec!["a".into(), "b".into()]),
-            )],
-            vec![Column::new("vibration", Holds::Likert(7))],
-            None,
-        )
-        .unwrap()
-    }
-
-    #[test]
-    fn rows_are_keyed_by_name_and_come_out_in_header_order() {
-        let c = cols();
-        assert_eq!(
-            c.names()[..5],
-            ["participant", "trial", "set", "stimulus", "type"]
-        );
-        assert_eq!(c.names().last(), Some(&"vibration"));
-        let mut r = Row::default();
-        r.set("vibration", "3");
-        r.set(TRIAL, "2");
-        r.set(TRIAL, "4");
-        let f = c.fields(&r).unwrap();
-        assert_eq!(f[1], "4");
-        assert_eq!(f[c.index("vibration").unwrap()], "3");
-        assert_eq!(f[0], "");
-        // A column the header lacks is an error, not a silent drop.
-        r.set("colour", "red");
-        assert!(c.fields(&r).unwrap_err().contains("no column `colour`"));
-        let mut r = Row::default();
-        r.set("vibration", "3\n4");
-        assert!(c.fields(&r).is_err());
-    }
-
-    #[test]
-    fn a_name_given_twice_is_refused() {
-        let e = Columns::new(
-            vec![Column::new("trial", Holds::Level(vec!["a".into()]))],
-            Vec::new(),
-            None,
-        )
-        .unwrap_err();
-        assert!(e.contains("column `trial` is used twice"), "{e}");
-        assert!(fixed().any(|n| n == FINAL_DEPTH));
-    }
-
-    #[test]
-    fn values_are_checked_by_what_the_column_holds() {
-        let ok = |h: Holds, v: &str| h.check(v).is_ok();
-        assert!(ok(Holds::Likert(7), "7") && ok(Holds::Likert(7), ""));
-        assert!(!ok(Holds::Likert(7), "99") && !ok(Holds::Likert(7), "x"));
-        assert!(Holds::Likert(7).check("0").unwrap_err().contains("1 to 7"));
-        assert!(ok(Holds::Number(0.0, 10.0), "2.5"));
-        for bad in ["inf", "NaN", "1e308", "-1", "x"] {
-            assert!(!ok(Holds::Number(0.0, 10.0), bad), "{bad}");
-        }
-        assert!(ok(Holds::Count, "3") && !ok(Holds::Count, "0") && !ok(Holds::Count, "+3"));
-        assert!(ok(Holds::Seconds, "") && ok(Holds::Seconds, "0.5|1.25"));
-        assert!(!ok(Holds::Seconds, "0.5|-1") && !ok(Holds::Seconds, "1|"));
-        assert!(ok(Holds::Force, "") && ok(Holds::Force, "0.42"));
-        assert!(!ok(Holds::Force, "-0.1") && !ok(Holds::Force, "inf") && !ok(Holds::Force, "2000"));
-        assert_eq!(Holds::Force.kind(), Some("force"));
-        let o = Holds::Order(vec!["flat".into(), "convex".into()]);
-        assert!(ok(o.clone(), "convex|flat") && !ok(o.clone(), "convex") && !ok(o, "flat|flat"));
-        let d = Holds::Depths(0.0, 10.0);
-        assert!(ok(d.clone(), "4.00|4.25") && !ok(d, "4.00|11"));
-        let a = Holds::AdjustAnswers(vec!["same".into(), "weaker".into()]);
-        assert!(ok(a.clone(), "weaker|same") && !ok(a, "weaker|Same"));
-        assert_eq!(Holds::Likert(7).kind(), Some("likert"));
-        assert_eq!(Holds::Measured.kind(), None);
-    }
-}
+mod tests;

@@ -89,6 +89,16 @@ pub fn plan_for(p: &Protocol, seed: u64, index: Option<usize>) -> Vec<Planned> {
     plan_of(p, seed, index)
 }
 
+/// Whether the participant's index changes `p`'s trials: a `latin-square`
+/// order, of the protocol or (with blocks, which replace it) of a block.
+pub fn orders_by_index(p: &Unlinked) -> bool {
+    if p.blocks.is_empty() {
+        p.order == Order::LatinSquare
+    } else {
+        p.blocks.iter().any(|b| b.order == Order::LatinSquare)
+    }
+}
+
 /// [`plan_for`] from the protocol without its library (the report's).
 pub fn plan_of(p: &Unlinked, seed: u64, index: Option<usize>) -> Vec<Planned> {
     let (conditions, questions) = (&p.conditions, &p.questions);
@@ -273,5 +283,23 @@ mod tests {
         // with the library or from the protocol alone (as the report does).
         p.order = Order::Random;
         assert_eq!(plan(&p, 7), plan_of(&p.checked, 7, None));
+    }
+
+    #[test]
+    fn only_a_latin_square_is_ordered_by_the_participants_index() {
+        let mut p = Protocol::load(&studies("paper-exp1.toml")).unwrap();
+        for (order, by_index) in [
+            (Order::LatinSquare, true),
+            (Order::Random, false),
+            (Order::Sequential, false),
+            (Order::FullRandom, false),
+        ] {
+            p.order = order;
+            assert_eq!(orders_by_index(&p.checked), by_index, "{order:?}");
+            // Where it is not, the index changes no trial.
+            if !by_index {
+                assert_eq!(plan_for(&p, 5, Some(3)), plan_for(&p, 5, None));
+            }
+        }
     }
 }

@@ -69,11 +69,18 @@ pub fn fresh(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Star
         );
     }
     let seed = o.seed.unwrap_or_else(design::clock_seed);
-    if p.order == design::Order::LatinSquare && o.index.is_none() {
-        crate::bad_input!(
+    match (design::orders_by_index(p), o.index) {
+        (true, None) => crate::bad_input!(
             "study protocol {}: the order is a Latin square by participant: give --index N (the participant's number, from 1; `lmhost study check` prints each one's order)",
             o.protocol.display()
-        );
+        ),
+        // A number that would change nothing is refused, not recorded as
+        // though it had chosen the order.
+        (false, Some(i)) => crate::bad_input!(
+            "study protocol {}: --index {i} picks a row of a latin-square order, and this protocol has none: leave --index out (--participant names the participant)",
+            o.protocol.display()
+        ),
+        _ => {}
     }
     let plan = design::plan_for(p, seed, o.index);
     let lines = answers(o, p, &plan, 0, &[])?;

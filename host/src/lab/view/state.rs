@@ -359,14 +359,7 @@ impl Shared {
         };
         push_bounded(&mut s.latency_us, now.saturating_sub(at));
         s.drawn += 1;
-        let times = s.drawn_at.entry(page).or_default();
-        times.push_back(now);
-        while times.front().is_some_and(|&t| now - t > 3_000_000) {
-            times.pop_front();
-        }
-        // Pages silent for a while are gone.
-        s.drawn_at
-            .retain(|_, t| t.back().is_some_and(|&b| now - b < 3_000_000));
+        note_drawn(&mut s.drawn_at, page, now);
     }
 
     pub(super) fn figures(&self) -> Figures {
@@ -384,6 +377,45 @@ impl Shared {
                 .collect(),
             clients: s.clients,
         }
+    }
+}
+
+/// Most pages whose frame rate the view keeps: page ids come from the
+/// clients (with the token), so a client naming a new one per request
+/// would otherwise grow the map for as long as it asks.
+const MAX_PAGES: usize = 64;
+/// Most acknowledgements kept per page: three seconds of a 240 Hz screen,
+/// with room; a client acknowledging faster is counted on the newest ones.
+const MAX_DRAWS_PER_PAGE: usize = 1024;
+/// How long (µs) a page's acknowledgements count for its frame rate.
+const DRAWN_WINDOW_US: u64 = 3_000_000;
+
+/// Notes that `page` drew a frame at `now` (µs): its times of the last
+/// [`DRAWN_WINDOW_US`], at most [`MAX_DRAWS_PER_PAGE`], and at most
+/// [`MAX_PAGES`] pages (the one silent longest gives way to a new one).
+fn note_drawn(pages: &mut std::collections::BTreeMap<u64, VecDeque<u64>>, page: u64, now: u64) {
+    // Pages silent for a while are gone.
+    pages.retain(|_, t| {
+        t.back()
+            .is_some_and(|&b| now.saturating_sub(b) < DRAWN_WINDOW_US)
+    });
+    if !pages.contains_key(&page) && pages.len() >= MAX_PAGES {
+        let quietest = pages
+            .iter()
+            .min_by_key(|(_, t)| t.back().copied())
+            .map(|(k, _)| *k);
+        if let Some(k) = quietest {
+            pages.remove(&k);
+        }
+    }
+    let times = pages.entry(page).or_default();
+    times.push_back(now);
+    while times.len() > MAX_DRAWS_PER_PAGE
+        || times
+            .front()
+            .is_some_and(|&t| now.saturating_sub(t) > DRAWN_WINDOW_US)
+    {
+        times.pop_front();
     }
 }
 
@@ -487,4 +519,32 @@ pub(super) fn spawn_synthetic(
                 }
             }
         })?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn drawn_pages_and_their_times_are_bounded() {
+        let mut pages = std::collections::BTreeMap::new();
+        // A client naming a new page per acknowledgement, 1 µs apart:
+        // all within the window, so only the caps hold the map.
+        for i in 0..100_000u64 {
+            note_drawn(&mut pages, i, 1_000 + i);
+        }
+        assert_eq!(pages.len(), MAX_PAGES);
+        // The newest pages are kept.
+        assert!(pages.contains_key(&99_999) && !pages.contains_key(&0));
+        // One page acknowledging a million times in the window.
+        let mut one = std::collections::BTreeMap::new();
+        for i in 0..1_000_000u64 {
+            note_drawn(&mut one, 7, i);
+        }
+        assert_eq!(one[&7].len(), MAX_DRAWS_PER_PAGE);
+        assert_eq!(one[&7].back(), Some(&999_999));
+        // A page silent for the window is gone.
+        note_drawn(&mut one, 8, 999_999 + DRAWN_WINDOW_US + 1);
+        assert_eq!(one.keys().copied().collect::<Vec<_>>(), [8]);
+    }
 }

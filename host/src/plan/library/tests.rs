@@ -68,7 +68,11 @@ fn every_entry_is_planned_for_the_target_and_a_bad_one_is_named() {
     )
     .unwrap();
     let e = lib.plan_for(&Target::Lm, &Scene::default()).unwrap_err();
-    assert!(format!("{e:#}").contains("stimulus `fast`"), "{e:#}");
+    // Named as the loader names an entry: the file, the place, the id.
+    assert!(
+        format!("{e:#}").contains("stimulus library t: stimulus 2 (`fast`)"),
+        "{e:#}"
+    );
     let lib = Library::from_toml("[[stimulus]]\nid = \"x\"\nradius = 5\n", "t").unwrap();
     let lm = lib.plan_for(&Target::Lm, &Scene::default()).unwrap();
     let autd = lib.plan_for(&Target::Autd3, &Scene::default()).unwrap();
@@ -146,7 +150,7 @@ fn every_kind_plans_for_autd3_and_the_lm_firmware_refuses_only_am() {
     let e = lib.plan_for(&Target::Lm, &scene).unwrap_err();
     let e = format!("{e:#}");
     assert!(
-        e.contains("stimulus `am`") && e.contains("does not fit the LM firmware's steps"),
+        e.contains("stimulus 2 (`am`)") && e.contains("does not fit the LM firmware's steps"),
         "{e}"
     );
     assert!(!e.contains('\n'), "{e}");
@@ -157,6 +161,7 @@ fn every_kind_plans_for_autd3_and_the_lm_firmware_refuses_only_am() {
             .filter(|e| e.id != "am")
             .cloned()
             .collect(),
+        origin: lib.origin.clone(),
     };
     let lm = no_am.plan_for(&Target::Lm, &scene).unwrap();
     assert_eq!(lm[0].timing.steps, 400);
@@ -244,10 +249,7 @@ fn an_entry_plays_phases_or_foci_from_a_file_beside_the_library() {
     std::fs::remove_file(d.join("f.json")).unwrap();
     let e = lib.plan_for(&Target::Lm, &Scene::default()).unwrap_err();
     let e = crate::error::one_line(&e);
-    assert!(
-        e.contains("stimulus `from-foci`") && e.contains("f.json"),
-        "{e}"
-    );
+    assert!(e.contains("(`from-foci`)") && e.contains("f.json"), "{e}");
     std::fs::remove_dir_all(&d).unwrap();
     for (body, needle) in [
         (
@@ -263,6 +265,12 @@ fn an_entry_plays_phases_or_foci_from_a_file_beside_the_library() {
             "give `phases_file` or `foci_file`, not both",
         ),
         ("phases_file = \" \"", "`phases_file` is empty"),
+        // The plan flags' rule: a spacing with one focus changes nothing.
+        (
+            "foci = 1\nspacing = 3.0",
+            "stimulus 1 (`x`): spacing applies to LM-M only: give foci 2 or more",
+        ),
+        ("spacing = 3.0", "spacing applies to LM-M only"),
     ] {
         let e = Library::from_toml(&format!("[[stimulus]]\nid = \"x\"\n{body}\n"), "lib.toml")
             .unwrap_err()

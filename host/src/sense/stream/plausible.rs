@@ -2,7 +2,11 @@
 //! be a finger is dropped and counted, never filtered or sent.
 //!
 //! Rules (the paper drops outliers too), limits in [`crate::limits`]:
-//! - a time stamp older than the last accepted one is **out of order**;
+//! - a time stamp older than the last accepted one is **out of order**, and
+//!   so is one more than [`MAX_TIME_AHEAD_S`] after it (a clock that
+//!   jumped), unless [`JUMPS_TO_ACCEPT`] such samples in a row agree (each
+//!   within [`MAX_TIME_AHEAD_S`] after the one before): then the tracker
+//!   really paused. One wild time stamp so never drops what follows it;
 //! - a present centroid with a coordinate beyond ±[`MAX_CENTROID_MM`] is
 //!   **out of range**;
 //! - a present centroid more than [`MAX_JUMP_MM`] from the last accepted
@@ -14,7 +18,7 @@
 //! A sample without a finger (`present = false`) only needs its time stamp.
 
 use super::Sample;
-use crate::limits::{JUMPS_TO_ACCEPT, MAX_CENTROID_MM, MAX_JUMP_MM};
+use crate::limits::{JUMPS_TO_ACCEPT, MAX_CENTROID_MM, MAX_JUMP_MM, MAX_TIME_AHEAD_S};
 
 /// Why a sample was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -30,7 +34,7 @@ pub enum Reject {
 /// Counts of dropped samples, by reason.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct PlausibilityCounts {
-    /// Time stamps going backwards.
+    /// Time stamps going backwards or jumping ahead.
     pub out_of_order: u64,
     /// Coordinates beyond ±`MAX_CENTROID_MM`.
     pub out_of_range: u64,
@@ -51,6 +55,8 @@ pub struct Plausibility {
     last_t_s: Option<f64>,
     last_pos_mm: Option<[f64; 3]>,
     jump_run: Vec<[f64; 3]>,
+    /// The run of time stamps far ahead: the last one and how many.
+    time_run: Option<(f64, u32)>,
     /// What was dropped so far.
     pub counts: PlausibilityCounts,
 }
@@ -79,6 +85,17 @@ impl Plausibility {
         if !s.t_s.is_finite() || self.last_t_s.is_some_and(|t| s.t_s < t) {
             return Err(Reject::OutOfOrder);
         }
+        if self.last_t_s.is_some_and(|t| s.t_s - t > MAX_TIME_AHEAD_S) {
+            let n = match self.time_run {
+                Some((p, n)) if s.t_s >= p && s.t_s - p <= MAX_TIME_AHEAD_S => n + 1,
+                _ => 1,
+            };
+            if n < JUMPS_TO_ACCEPT {
+                self.time_run = Some((s.t_s, n));
+                return Err(Reject::OutOfOrder);
+            }
+        }
+        self.time_run = None;
         if !s.present {
             self.jump_run.clear();
             return Ok(());
@@ -158,6 +175,29 @@ mod tests {
         for (i, x) in [300.0, -300.0, 300.0, -300.0].iter().enumerate() {
             assert_eq!(g.check(&at(0.5 + i as f64, *x)), Err(Reject::Jump));
         }
+    }
+
+    #[test]
+    fn one_time_stamp_far_ahead_is_dropped_and_drops_nothing_after_it() {
+        let mut g = Plausibility::default();
+        assert_eq!(g.check(&at(1.0, 0.0)), Ok(()));
+        // A year ahead: were it accepted, every later sample would be
+        // older than it and dropped as out of order.
+        assert_eq!(g.check(&at(3.2e7, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check(&at(1.1, 0.0)), Ok(()));
+        assert_eq!(g.check(&at(1.2, 0.0)), Ok(()));
+        assert_eq!(g.counts.out_of_order, 1);
+    }
+
+    #[test]
+    fn a_real_pause_is_followed_after_three_agreeing_time_stamps() {
+        let mut g = Plausibility::default();
+        assert_eq!(g.check(&at(1.0, 0.0)), Ok(()));
+        let later = 1.0 + 2.0 * MAX_TIME_AHEAD_S;
+        assert_eq!(g.check(&at(later, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check(&at(later + 0.1, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check(&at(later + 0.2, 0.0)), Ok(()));
+        assert_eq!(g.check(&at(later + 0.3, 0.0)), Ok(()));
     }
 
     #[test]

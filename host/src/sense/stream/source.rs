@@ -9,10 +9,11 @@
 //!   gated centre (`filtered_mm`, `gated_present`) when the line has one,
 //!   else its raw centroid; its other known keys are ignored, an unknown
 //!   key is refused as in the plain form;
-//! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; an
-//!   optional header line starting with `t` is skipped; `#` starts a comment.
+//! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; the
+//!   header line `t,x,y,z,present` is skipped; `#` starts a comment.
 //!
-//! Units: seconds and millimetres.
+//! Units: seconds and millimetres. A time stamp lies in 0 to
+//! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
 
 use std::io::BufRead;
 
@@ -20,7 +21,9 @@ use serde::Deserialize as _;
 
 use super::Sample;
 use crate::InputError;
-use crate::limits::{MAX_BAD_DATAGRAMS_IN_A_ROW, MAX_LINE_BYTES, MAX_REPLAY_GAP_S};
+use crate::limits::{
+    MAX_BAD_DATAGRAMS_IN_A_ROW, MAX_LINE_BYTES, MAX_REPLAY_GAP_S, MAX_TIME_STAMP_S,
+};
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -99,6 +102,17 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
     if line.is_empty() || line.starts_with('#') {
         return Ok(None);
     }
+    // Said as what it is, not read as CSV and refused for a field it cut.
+    if line.starts_with('\u{feff}') {
+        return Err(InputError::new(format!(
+            "line {line_no} starts with a byte-order mark (U+FEFF), which only the first line may"
+        )));
+    }
+    if line.starts_with('[') {
+        return Err(InputError::new(format!(
+            "line {line_no}: not a centroid JSON object (a JSON array; give {{\"t\":..,\"x\":..,\"y\":..,\"z\":..}})"
+        )));
+    }
     let sample = if line.starts_with('{') {
         let bad = |e: serde_json::Error| {
             InputError::new(format!("line {line_no}: not a centroid JSON object ({e})"))
@@ -117,7 +131,15 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         }
     } else {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields[0].eq_ignore_ascii_case("t") {
+        // The header, exactly (also where files were joined): any other
+        // line starting `t` is a sample line to check, never skipped.
+        const HEADER: [&str; 5] = ["t", "x", "y", "z", "present"];
+        if fields.len() == HEADER.len()
+            && fields
+                .iter()
+                .zip(HEADER)
+                .all(|(f, h)| f.eq_ignore_ascii_case(h))
+        {
             return Ok(None);
         }
         if fields.len() != 5 {
@@ -149,6 +171,13 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
     if !sample.t_s.is_finite() || sample.pos_mm.iter().any(|v| !v.is_finite()) {
         return Err(InputError::new(format!(
             "line {line_no}: values must be finite"
+        )));
+    }
+    if !(0.0..=MAX_TIME_STAMP_S).contains(&sample.t_s) {
+        return Err(InputError::new(format!(
+            "line {line_no}: time stamp {} s is out of range: give 0 to {} s",
+            crate::limits::show_beside(sample.t_s, 0.0, MAX_TIME_STAMP_S),
+            crate::limits::show(MAX_TIME_STAMP_S)
         )));
     }
     Ok(Some(sample))
@@ -456,6 +485,45 @@ mod tests {
     }
 
     #[test]
+    fn a_time_stamp_outside_0_to_1e10_s_is_refused_in_every_form() {
+        for t in ["1e300", "-1", "-1e-9", "10000000001"] {
+            for line in [
+                format!("{t},0,0,200,1"),
+                format!(r#"{{"t":{t},"x":0,"y":0,"z":200}}"#),
+                format!(r#"{{"t_s":{t},"present":false,"centroid_mm":null}}"#),
+            ] {
+                let e = parse_line(&line, 3).unwrap_err().to_string();
+                assert!(e.starts_with("line 3: time stamp"), "{line}: {e}");
+                assert!(e.contains("give 0 to 1e10 s") && e.len() < 100, "{e}");
+            }
+        }
+        // Unix-epoch seconds, as a tracker's `time.time()` gives them.
+        assert!(parse_line("1800000000.5,0,0,200,1", 1).unwrap().is_some());
+        assert!(parse_line("0,0,0,200,1", 1).unwrap().is_some());
+    }
+
+    #[test]
+    fn a_line_is_refused_for_what_it_is() {
+        // Only the exact header is skipped.
+        assert!(parse_line("T, X,y,z,Present", 4).unwrap().is_none());
+        for (line, needle) in [
+            ("t,whatever", "line 2: expected 5 CSV fields"),
+            ("t,0,0,200,1", "line 2: t `t` is not a number"),
+            (
+                "\u{feff}{\"t\":0,\"x\":0,\"y\":0,\"z\":200}",
+                "line 2 starts with a byte-order mark",
+            ),
+            (
+                "[0,0,0,200,1]",
+                "line 2: not a centroid JSON object (a JSON array",
+            ),
+        ] {
+            let e = parse_line(line, 2).unwrap_err().to_string();
+            assert!(e.contains(needle), "{line}: {e}");
+        }
+    }
+
+    #[test]
     fn parses_track_json_lines() {
         // Raw centroid (no filter): `present` and `centroid_mm`.
         let raw = r#"{"t_s":0.25,"points":310,"present":true,"centroid_mm":[1.5,2,200],"truth_present":true,"truth_mm":[1,2,3],"z_profile_mm":null,"replan":false}"#;
@@ -571,7 +639,7 @@ mod tests {
 
     #[test]
     fn replay_gaps_and_bad_bytes_are_errors_naming_the_line() {
-        let text = "0,0,0,200,1\n1e300,0,0,200,1\n";
+        let text = "0,0,0,200,1\n1000,0,0,200,1\n";
         let v: Vec<_> = replay_lines(text.as_bytes()).collect();
         let e = v[1].as_ref().unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("at most 60 s"), "{e}");

@@ -271,25 +271,28 @@ pub struct Replay {
 }
 
 impl Replay {
-    /// Open `depth` with `intr`; `times` (s) must have one entry per frame.
-    /// A colour stream recorded beside it comes along.
+    /// Open `depth` with `intr`; `times` (s, and the file they were read
+    /// from, named with the recording when they do not fit it) must have
+    /// one entry per frame. A colour stream recorded beside it comes along.
     pub fn open(
         depth: &Path,
         intr: Intrinsics,
-        times: Option<Vec<f64>>,
+        times: Option<(Vec<f64>, &Path)>,
     ) -> Result<Self, InputError> {
         let npy = DepthNpy::open(depth)?;
         intr.check_frames(npy.width, npy.height, &depth.display().to_string())?;
-        if let Some(t) = &times
+        if let Some((t, from)) = &times
             && t.len() as u64 != npy.frames
         {
             return Err(InputError::new(format!(
-                "{} time stamps for {} frames in {}",
+                "{}: {} time stamps for {} frames in {}",
+                from.display(),
                 t.len(),
                 npy.frames,
                 depth.display()
             )));
         }
+        let times = times.map(|(t, _)| t);
         Ok(Self {
             npy,
             intr,
@@ -323,7 +326,10 @@ impl Replay {
             let p = timestamps_beside(depth);
             p.exists().then_some(p)
         });
-        let times = tpath.as_deref().map(read_timestamps).transpose()?;
+        let times = match tpath.as_deref() {
+            Some(p) => Some((read_timestamps(p)?, p)),
+            None => None,
+        };
         Self::open(depth, intr, times)
     }
 

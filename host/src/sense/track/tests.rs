@@ -199,7 +199,11 @@ fn depth_npy(name: &str, width: u32, height: u32, frames: &[&[u16]]) -> std::pat
 
 /// The error `Replay::open` gives for these arguments.
 fn open_err(path: &std::path::Path, intr: Intrinsics, stamps: Option<Vec<f64>>) -> String {
-    Replay::open(path, intr, stamps).err().unwrap().to_string()
+    let from = std::path::Path::new("t.npy");
+    Replay::open(path, intr, stamps.map(|t| (t, from)))
+        .err()
+        .unwrap()
+        .to_string()
 }
 
 #[test]
@@ -234,7 +238,7 @@ fn intrinsics_not_matching_the_frames() {
     let mut i = Intrinsics::D435_848X480;
     i.pinhole.width = 640;
     let e = open_err(&p, i, Some(vec![0.0, 0.1]));
-    assert!(e.contains("2 time stamps for 1 frames"), "{e}");
+    assert!(e.contains("t.npy: 2 time stamps for 1 frames"), "{e}");
 }
 
 #[test]

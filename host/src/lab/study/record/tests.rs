@@ -33,6 +33,7 @@ fn row(p: &Protocol, t: &Planned, answer: &str) -> String {
     }
     r.set(columns::TIME_UTC, "2026-11-26T08:41:59.123Z");
     r.set("presented_s", "0.0600");
+    r.set("present_fraction", "1.0000");
     r.set(columns::ANSWERS, "5");
     line(&p.columns.fields(&r).unwrap())
 }
@@ -154,6 +155,16 @@ fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
         (
             good.replace(",0.0600,", ",inf,"),
             "column `presented_s`: `inf`",
+        ),
+        // Rows a run cannot write: it always stamps the time, and a share
+        // of the presentation lies in 0..=1.
+        (
+            good.replace("2026-11-26T08:41:59.123Z", ""),
+            "line 2: column `time_utc`: ``: give a time",
+        ),
+        (
+            good.replace(",0.0600,1.0000,", ",0.0600,1.5,"),
+            "line 2: column `present_fraction`: `1.5`: give a fraction from 0 to 1",
         ),
         (
             good.replace(",5,3,0.5,3", ",4,3,0.5,3"),
