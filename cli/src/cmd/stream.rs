@@ -215,6 +215,9 @@ impl Args {
         let bad_datagrams = udp_counts
             .bad_datagrams
             .load(std::sync::atomic::Ordering::Relaxed);
+        // Datagrams the kernel dropped (its buffer full): only a UDP stream
+        // has any, and `None` where the system does not count them.
+        let lost = udp_counts.lost().filter(|_| self.udp.is_some());
         // The filters are scored offline on the first 20 s of the same
         // synthetic track (a property of the track, so a long session does
         // not make the report slow); not after Ctrl-C, which asks to end now.
@@ -236,6 +239,7 @@ impl Args {
                 "device_state": status.state, "device_correction_um": status.correction_um,
                 "filters": scores,
                 "rejected": report.rejected, "bad_datagrams": bad_datagrams,
+                "lost_datagrams": lost,
                 "outside_work_volume": report.outside_work_volume,
                 "stopped": report.stopped, "muted_at_end": report.muted_at_end,
             });
@@ -275,6 +279,11 @@ impl Args {
                     .readback_mismatches()
                     .map_or("n/a".into(), |n| n.to_string()),
                 status.mute_reason.describe()
+            )?;
+        }
+        if let Some(n) = lost.filter(|n| *n > 0) {
+            lmhost::outln!(
+                "lost {n} datagrams in the kernel's receive buffer (the tracker sent faster than the stream read; samples in them never arrived)"
             )?;
         }
         let dropped = report.rejected.total();

@@ -361,6 +361,50 @@ pub struct UdpCounts {
     pub datagrams: std::sync::atomic::AtomicU64,
     /// Datagrams with at least one unusable line (skipped lines).
     pub bad_datagrams: std::sync::atomic::AtomicU64,
+    /// Datagrams the kernel dropped because the socket's buffer was full
+    /// (a tracker sending faster than the stream reads), as the kernel
+    /// counts them (`SO_RXQ_OVFL`). It tells with the next datagram that
+    /// arrives, so drops after the last one are not in it.
+    pub lost: std::sync::atomic::AtomicU64,
+    /// Whether the kernel counts `lost` at all (Linux does); where it does
+    /// not, a report says the loss was not counted rather than 0.
+    pub lost_counted: std::sync::atomic::AtomicBool,
+}
+
+impl UdpCounts {
+    /// Datagrams the kernel dropped, or `None` where it does not count them.
+    pub fn lost(&self) -> Option<u64> {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.lost_counted
+            .load(Relaxed)
+            .then(|| self.lost.load(Relaxed))
+    }
+}
+
+/// One datagram into `buf`: its length, and the kernel's count of the
+/// socket's dropped datagrams when it sent one along.
+fn recv_counting_drops(
+    sock: &std::net::UdpSocket,
+    buf: &mut [u8],
+) -> std::io::Result<(usize, Option<u32>)> {
+    use nix::sys::socket::{ControlMessageOwned, MsgFlags, SockaddrStorage, recvmsg};
+    use std::os::fd::AsRawFd as _;
+    let mut cmsg = nix::cmsg_space!(u32);
+    let mut iov = [std::io::IoSliceMut::new(buf)];
+    let msg = recvmsg::<SockaddrStorage>(
+        sock.as_raw_fd(),
+        &mut iov,
+        Some(&mut cmsg),
+        MsgFlags::empty(),
+    )
+    .map_err(std::io::Error::from)?;
+    let dropped = msg.cmsgs().ok().and_then(|mut c| {
+        c.find_map(|m| match m {
+            ControlMessageOwned::RxqOvfl(n) => Some(n),
+            _ => None,
+        })
+    });
+    Ok((msg.bytes, dropped))
 }
 
 /// Samples from UDP datagrams on 127.0.0.1:`port` (1..=65535), one line (or several,
@@ -388,6 +432,11 @@ pub fn udp(
     let tick = idle.min(std::time::Duration::from_millis(100));
     sock.set_read_timeout(Some(tick))
         .context("setting UDP timeout")?;
+    // Ask the kernel to count what it drops; a system that cannot leaves
+    // the loss uncounted (and said to be) rather than the stream refused.
+    if nix::sys::socket::setsockopt(&sock, nix::sys::socket::sockopt::RxqOvfl, &1).is_ok() {
+        counts.lost_counted.store(true, Relaxed);
+    }
     let mut pending: std::collections::VecDeque<Sample> = Default::default();
     let mut bad_in_a_row = 0u64;
     let mut last_datagram = std::time::Instant::now();
@@ -401,8 +450,13 @@ pub fn udp(
             if let Some(s) = pending.pop_front() {
                 return Some(Ok(s));
             }
-            let n = match sock.recv(&mut buf) {
-                Ok(n) => n,
+            let n = match recv_counting_drops(&sock, &mut buf) {
+                Ok((n, dropped)) => {
+                    if let Some(d) = dropped {
+                        counts.lost.fetch_max(u64::from(d), Relaxed);
+                    }
+                    n
+                }
                 Err(e)
                     if matches!(
                         e.kind(),
@@ -456,223 +510,4 @@ pub fn udp(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_paced_recording_takes_as_long_as_its_time_stamps_say() {
-        let clock = crate::clock::Clock::manual_at_us(5_000_000);
-        // 20 s of samples at 2 Hz, starting at t = 100 s.
-        let text: String = (0..=40)
-            .map(|i| format!("{},0,0,200,1\n", 100.0 + i as f64 * 0.5))
-            .collect();
-        let mut seen = Vec::new();
-        for s in paced(replay_lines(text.as_bytes()), clock.clone()) {
-            let s = s.unwrap();
-            seen.push((s.t_s, clock.now_us()));
-        }
-        assert_eq!(seen.len(), 41);
-        // Each sample out when its stamp is due, not before.
-        for (t_s, at_us) in &seen {
-            let due = 5_000_000 + ((t_s - 100.0) * 1e6) as u64;
-            assert_eq!(*at_us, due, "{t_s}");
-        }
-        assert_eq!(clock.now_us(), 25_000_000);
-        // An error passes through and waits for nothing.
-        let bad = "0,0,0,200,1\nx\n";
-        let v: Vec<_> = paced(replay_lines(bad.as_bytes()), clock.clone()).collect();
-        assert!(v[1].is_err());
-    }
-
-    #[test]
-    fn a_time_stamp_outside_0_to_1e10_s_is_refused_in_every_form() {
-        for t in ["1e300", "-1", "-1e-9", "10000000001"] {
-            for line in [
-                format!("{t},0,0,200,1"),
-                format!(r#"{{"t":{t},"x":0,"y":0,"z":200}}"#),
-                format!(r#"{{"t_s":{t},"present":false,"centroid_mm":null}}"#),
-            ] {
-                let e = parse_line(&line, 3).unwrap_err().to_string();
-                assert!(e.starts_with("line 3: time stamp"), "{line}: {e}");
-                assert!(e.contains("give 0 to 1e10 s") && e.len() < 100, "{e}");
-            }
-        }
-        // Unix-epoch seconds, as a tracker's `time.time()` gives them.
-        assert!(parse_line("1800000000.5,0,0,200,1", 1).unwrap().is_some());
-        assert!(parse_line("0,0,0,200,1", 1).unwrap().is_some());
-    }
-
-    #[test]
-    fn a_line_is_refused_for_what_it_is() {
-        // Only the exact header is skipped.
-        assert!(parse_line("T, X,y,z,Present", 4).unwrap().is_none());
-        for (line, needle) in [
-            ("t,whatever", "line 2: expected 5 CSV fields"),
-            ("t,0,0,200,1", "line 2: t `t` is not a number"),
-            (
-                "\u{feff}{\"t\":0,\"x\":0,\"y\":0,\"z\":200}",
-                "line 2 starts with a byte-order mark",
-            ),
-            (
-                "[0,0,0,200,1]",
-                "line 2: not a centroid JSON object (a JSON array",
-            ),
-        ] {
-            let e = parse_line(line, 2).unwrap_err().to_string();
-            assert!(e.contains(needle), "{line}: {e}");
-        }
-    }
-
-    #[test]
-    fn parses_track_json_lines() {
-        // Raw centroid (no filter): `present` and `centroid_mm`.
-        let raw = r#"{"t_s":0.25,"points":310,"present":true,"centroid_mm":[1.5,2,200],"truth_present":true,"truth_mm":[1,2,3],"z_profile_mm":null,"replan":false}"#;
-        assert_eq!(
-            parse_line(raw, 1).unwrap().unwrap(),
-            Sample {
-                t_s: 0.25,
-                pos_mm: [1.5, 2.0, 200.0],
-                present: true
-            }
-        );
-        // The filtered, gated centre wins when the line has one.
-        let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":false,"filtered_mm":null}"#;
-        assert_eq!(
-            parse_line(f, 1).unwrap().unwrap(),
-            Sample {
-                t_s: 0.5,
-                pos_mm: [0.0; 3],
-                present: false
-            }
-        );
-        let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":true,"filtered_mm":[4,5,6]}"#;
-        assert_eq!(parse_line(f, 1).unwrap().unwrap().pos_mm, [4.0, 5.0, 6.0]);
-        let absent = r#"{"t_s":0.5,"points":0,"present":false,"centroid_mm":null}"#;
-        assert!(!parse_line(absent, 1).unwrap().unwrap().present);
-        for (bad, says) in [
-            (
-                r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2,3],"colour":1}"#,
-                "unknown field `colour`",
-            ),
-            (
-                r#"{"t_s":0.5,"present":true,"centroid_mm":null}"#,
-                "needs its centre",
-            ),
-            (
-                r#"{"t_s":0.5,"centroid_mm":[1,2,3]}"#,
-                "missing field `present`",
-            ),
-            (
-                r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2]}"#,
-                "line 3",
-            ),
-        ] {
-            let e = parse_line(bad, 3).unwrap_err().to_string();
-            assert!(e.contains(says) && e.starts_with("line 3"), "{bad}: {e}");
-        }
-    }
-
-    #[test]
-    fn parses_json_and_csv() {
-        let j = parse_line(r#"{"t":0.5,"x":1,"y":2,"z":3}"#, 1)
-            .unwrap()
-            .unwrap();
-        assert_eq!(
-            j,
-            Sample {
-                t_s: 0.5,
-                pos_mm: [1.0, 2.0, 3.0],
-                present: true
-            }
-        );
-        let c = parse_line("0.5, 1, 2, 3, 0", 1).unwrap().unwrap();
-        assert_eq!(
-            c,
-            Sample {
-                t_s: 0.5,
-                pos_mm: [1.0, 2.0, 3.0],
-                present: false
-            }
-        );
-        assert_eq!(parse_line("t,x,y,z,present", 1).unwrap(), None);
-        assert_eq!(
-            parse_line("\u{feff}0.5,1,2,3,0", 1).unwrap(),
-            parse_line("0.5,1,2,3,0", 1).unwrap()
-        );
-        assert!(parse_line("\u{feff}0.5,1,2,3,0", 2).is_err());
-        assert_eq!(parse_line("  # note", 1).unwrap(), None);
-    }
-
-    #[test]
-    fn bad_lines_say_what_is_wrong() {
-        let e = parse_line("0.5,1,2", 7).unwrap_err().to_string();
-        assert!(e.contains("line 7") && e.contains("5 CSV fields"), "{e}");
-        let e = parse_line("0.5,1,2,x,1", 3).unwrap_err().to_string();
-        assert!(e.contains("z `x`"), "{e}");
-        let e = parse_line(r#"{"t":1,"x":1}"#, 2).unwrap_err().to_string();
-        assert!(e.starts_with("line 2: not a centroid JSON"), "{e}");
-        assert!(parse_line("0,1,2,nan,1", 1).is_err());
-        assert!(!e.contains('\n'));
-    }
-
-    #[test]
-    fn reads_lines_with_errors_in_place() {
-        let text = "t,x,y,z,present\n0,1,2,3,1\nbad\n";
-        let v: Vec<_> = read_lines(text.as_bytes()).collect();
-        assert_eq!(v.len(), 2);
-        assert!(v[0].is_ok() && v[1].is_err());
-    }
-
-    #[test]
-    fn long_lines_are_refused_without_reading_them_whole() {
-        let mut text = "0,0,0,200,1\n".to_string();
-        text.push_str(&"9".repeat(MAX_LINE_BYTES + 1));
-        let v: Vec<_> = read_lines(text.as_bytes()).collect();
-        assert!(v[0].is_ok());
-        let e = v[1].as_ref().unwrap_err().to_string();
-        assert!(e.contains("line 2") && e.contains("4096 bytes"), "{e}");
-        // An endless stream of zero bytes ends with the same error.
-        let zeros = std::io::BufReader::new(std::io::repeat(0));
-        let e = read_lines(zeros).next().unwrap().unwrap_err();
-        assert!(e.downcast_ref::<InputError>().is_some(), "{e}");
-    }
-
-    #[test]
-    fn replay_gaps_and_bad_bytes_are_errors_naming_the_line() {
-        let text = "0,0,0,200,1\n1000,0,0,200,1\n";
-        let v: Vec<_> = replay_lines(text.as_bytes()).collect();
-        let e = v[1].as_ref().unwrap_err().to_string();
-        assert!(e.contains("line 2") && e.contains("at most 60 s"), "{e}");
-        // Live streams do not pace, so a gap is fine there.
-        assert!(read_lines(text.as_bytes()).all(|r| r.is_ok()));
-        let bytes: &[u8] = b"0,0,0,200,1\n\xff\xfe\n";
-        let v: Vec<_> = read_lines(bytes).collect();
-        assert!(v[1].as_ref().unwrap_err().to_string().contains("not UTF-8"));
-    }
-
-    #[test]
-    fn udp_port_zero_is_refused_as_input() {
-        let idle = std::time::Duration::from_millis(10);
-        let err = udp(0, idle, Default::default())
-            .err()
-            .expect("port 0 refused");
-        assert!(err.is::<crate::InputError>(), "{err}");
-        assert!(err.to_string().contains("--udp 0"), "{err}");
-    }
-
-    #[test]
-    fn a_replayed_file_names_itself_in_its_errors() {
-        let path = std::env::temp_dir().join(format!("lmhost-replay-{}.csv", std::process::id()));
-        std::fs::write(&path, "0,0,0,200,1\n\u{1}garbage\n").unwrap();
-        let v: Vec<_> = replay_file("--stream file", &path).unwrap().collect();
-        let _ = std::fs::remove_file(&path);
-        let err = v
-            .into_iter()
-            .find_map(Result::err)
-            .expect("the garbage line refused");
-        let msg = crate::error::one_line(&err);
-        assert!(err.chain().any(|c| c.is::<InputError>()), "{msg}");
-        let want = format!("--stream file {}: line 2: ", path.display());
-        assert!(msg.starts_with(&want), "{msg}");
-    }
-}
+mod tests;
