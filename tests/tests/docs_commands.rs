@@ -556,3 +556,37 @@ fn extraction_finds_commands_and_cuts_comments() {
         ]
     );
 }
+
+/// The way to a flashing lmhost that a build without probe-rs names must
+/// work: its `cargo install --path DIR --features flash` is the crate
+/// with the lmhost binary and that feature.
+#[test]
+fn flash_refusal_names_the_crate_that_builds_it() {
+    let elf = scratch_dir("docs-flash").join("fw.elf");
+    std::fs::write(&elf, b"not flashed").unwrap();
+    let out = Command::new(lmhost())
+        .args(["flash", "--board", "nucleo-h743", "--elf"])
+        .arg(&elf)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    if !err.contains("built without probe-rs") {
+        // A build with the `flash` feature tries a probe instead.
+        return;
+    }
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let dir = err
+        .split("cargo install --path ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no `cargo install --path DIR`: {err}"));
+    let manifest = std::fs::read_to_string(repo_root().join(dir).join("Cargo.toml")).unwrap();
+    assert!(
+        manifest.contains("name = \"lmhost\""),
+        "{dir} builds no lmhost binary"
+    );
+    assert!(
+        manifest.contains("\nflash = "),
+        "{dir} has no `flash` feature"
+    );
+}
