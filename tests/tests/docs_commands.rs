@@ -1,5 +1,6 @@
 //! The documents' commands, typed as a user types them: every `lmhost ...`
-//! line in a fenced `sh` block of the user documents runs here, in `sh`,
+//! line (and `cargo run --release -p lmhost-cli -- ...`, as `lmhost ...`)
+//! in a fenced `sh` block of the user documents runs here, in `sh`,
 //! with `lmhost` on `PATH`, against `lmhost sim` (its pty stands in for
 //! `/dev/pts/7`, and `LMHOST_PORT` for a board found by USB id), in a
 //! scratch folder holding the repository's `scenes/` and `studies/` and the
@@ -271,6 +272,13 @@ const RULES: &[Rule] = &[
         expect: Exit(1, "autd3-soem"),
         why: "this build has no EtherCAT link: one line naming the feature",
     },
+    Rule {
+        doc: "README.md",
+        has: "lmhost flash",
+        replace: &[],
+        expect: Skip,
+        why: "needs the built ELF, an ST-LINK and a build with the flash feature",
+    },
     // firmware/nucleo-h743/README.md
     Rule {
         doc: "firmware/nucleo-h743/README.md",
@@ -306,7 +314,16 @@ fn command_lines(text: &str) -> Vec<(usize, String)> {
                 None => break,
             }
         }
-        let cmd = cmd.split_whitespace().collect::<Vec<_>>().join(" ");
+        let mut cmd = cmd.split_whitespace().collect::<Vec<_>>().join(" ");
+        // `cargo run ... -p lmhost-cli [--features F] -- ARGS` is `lmhost ARGS`
+        // built another way: the built binary stands in for it.
+        if let Some(args) = cmd
+            .strip_prefix("cargo run --release -p lmhost-cli ")
+            .and_then(|rest| rest.split_once("-- "))
+            .map(|(_, args)| args.to_owned())
+        {
+            cmd = format!("lmhost {args}");
+        }
         let runs_lmhost = cmd
             .split(['|', '&', ';'])
             .any(|part| part.trim_start().starts_with("lmhost "));
@@ -545,14 +562,15 @@ fn every_document_command_runs_as_written() {
 #[test]
 fn extraction_finds_commands_and_cuts_comments() {
     let doc = "text `lmhost nope`\n```sh\nlmhost plan --radius 3   # a comment\n\
-               cargo xtask ci\nmy-tracker | lmhost stream \\\n    --filter gaussian\n\
+               cargo xtask ci\ncargo run --release -p lmhost-cli -- demo\nmy-tracker | lmhost stream \\\n    --filter gaussian\n\
                # lmhost in a comment\n```\n```toml\nlmhost = 1\n```\n";
     let got = command_lines(doc);
     assert_eq!(
         got,
         vec![
             (3, "lmhost plan --radius 3".to_owned()),
-            (5, "my-tracker | lmhost stream --filter gaussian".to_owned()),
+            (5, "lmhost demo".to_owned()),
+            (6, "my-tracker | lmhost stream --filter gaussian".to_owned()),
         ]
     );
 }
