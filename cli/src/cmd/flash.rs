@@ -3,7 +3,7 @@
 //! loader).
 //!
 //! probe-rs is heavy to build, so it sits behind the `flash` cargo feature
-//! (`cargo install --path host --features flash`); without it this command
+//! (`cargo install --path cli --features flash`); without it this command
 //! explains how to get it. probe-rs is built without its HID (libudev)
 //! backend, so no system libraries are needed either way.
 
@@ -106,7 +106,7 @@ fn flash(board: &Board, elf: &std::path::Path) -> anyhow::Result<()> {
 #[cfg(not(feature = "flash"))]
 fn flash(board: &Board, _elf: &std::path::Path) -> anyhow::Result<()> {
     anyhow::bail!(
-        "this lmhost was built without probe-rs; to flash {} rebuild with `cargo install --path host --features flash` \
+        "this lmhost was built without probe-rs; to flash {} rebuild with `cargo install --path cli --features flash` \
          (or use probe-rs's own `probe-rs download --chip {}`)",
         board.name,
         board.chip
