@@ -108,7 +108,16 @@ fn synthetic_frames_give_one_json_object_per_frame() {
         assert_eq!(o["present"].as_bool().unwrap(), points >= 20, "{o}");
         assert_eq!(o["centroid_mm"].is_null(), points < 20, "{o}");
         assert!((o["t_s"].as_f64().unwrap() - i as f64 / 90.0).abs() < 1e-9);
-        assert!(o.get("filtered_mm").is_none(), "no filter, no device: {o}");
+        // No filter: the gate's centre is the raw one, held through a
+        // dropout, and there is one exactly while the gate is open.
+        assert_eq!(
+            o["filtered_mm"].is_null(),
+            o["gated_present"] == false,
+            "{o}"
+        );
+        if o["present"] == true && o["gated_present"] == true {
+            assert_eq!(o["filtered_mm"], o["centroid_mm"], "{o}");
+        }
         if o["present"] == true {
             present += 1;
             // The pad curves away from its centre: z_j mostly above it.

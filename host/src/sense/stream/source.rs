@@ -64,13 +64,13 @@ struct TrackLine {
 }
 
 impl TrackLine {
-    /// Its sample: the filtered, gated centre when the line has one, else
-    /// the raw centroid; a finger needs a position.
+    /// Its sample: the filtered centre when the line has one, else the
+    /// raw centroid; present as the presence gate said when the line has
+    /// it (every `track --json` line does, filtered or not), else as the
+    /// frame did; a finger needs a position.
     fn sample(self, line_no: usize) -> Result<Sample, InputError> {
-        let (pos, present) = match self.gated_present {
-            Some(g) => (self.filtered_mm, g),
-            None => (self.centroid_mm, self.present),
-        };
+        let pos = self.filtered_mm.or(self.centroid_mm);
+        let present = self.gated_present.unwrap_or(self.present);
         match (pos, present) {
             (Some(p), present) => Ok(Sample {
                 t_s: self.t_s,

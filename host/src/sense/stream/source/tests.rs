@@ -78,14 +78,26 @@ fn parses_track_json_lines() {
             present: true
         }
     );
-    // The filtered, gated centre wins when the line has one.
+    // The presence gate wins over the frame's presence when the line has
+    // one; the filtered centre over the raw one.
     let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":false,"filtered_mm":null}"#;
     assert_eq!(
         parse_line(f, 1).unwrap().unwrap(),
         Sample {
             t_s: 0.5,
-            pos_mm: [0.0; 3],
+            pos_mm: [1.0, 2.0, 3.0],
             present: false
+        }
+    );
+    // An unfiltered `track --json` line (every line carries the gate):
+    // gated present, at its raw centroid.
+    let g = r#"{"t_s":0.75,"points":40,"present":true,"centroid_mm":[1,2,3],"gated_present":true}"#;
+    assert_eq!(
+        parse_line(g, 1).unwrap().unwrap(),
+        Sample {
+            t_s: 0.75,
+            pos_mm: [1.0, 2.0, 3.0],
+            present: true
         }
     );
     let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":true,"filtered_mm":[4,5,6]}"#;

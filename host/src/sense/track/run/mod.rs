@@ -135,7 +135,6 @@ impl TrackRun {
             pipe,
             rec,
             json: opts.json,
-            show_filtered: opts.device || opts.filter.is_some(),
             paced: !opts.fast && !live && !opts.device,
             start: None,
             plot_at: opts.plot.as_ref().and_then(|p| p.frame),
@@ -411,7 +410,6 @@ struct Run {
     pipe: Pipeline,
     rec: Option<Recorder>,
     json: bool,
-    show_filtered: bool,
     paced: bool,
     start: Option<(Instant, f64)>,
     plot_at: Option<u64>,
@@ -588,10 +586,11 @@ impl Run {
                 // The presence gate always runs: its verdict is what
                 // `--enter-frames` / `--leave-frames` change.
                 "gated_present": r.gated,
+                // What a device is sent: the gate's centre (held through a
+                // dropout), through the filter if one is given; so a
+                // replay of these lines streams what the live run did.
+                "filtered_mm": r.filtered_mm,
             });
-            if self.show_filtered {
-                v["filtered_mm"] = serde_json::json!(r.filtered_mm);
-            }
             if self.z_profile.is_some() {
                 v["z_profile_mm"] = serde_json::json!(profile.as_ref().map(|p| &p.0));
                 v["replan"] = profile.as_ref().is_some_and(|p| p.1).into();
