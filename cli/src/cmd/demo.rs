@@ -213,8 +213,15 @@ fn print_text(r: &Report) -> anyhow::Result<()> {
     }
     let m = &r.muting;
     let ms = |x: Option<f64>| x.map_or("n/a".to_owned(), |v| format!("{v:.1} ms"));
+    // Only the built-in simulated device keeps the times of its mute
+    // changes; elsewhere say so rather than print a bare n/a.
+    let untimed = if r.playback.is_none() {
+        " (only the simulated device times these)"
+    } else {
+        ""
+    };
     lmhost::outln!(
-        "muting     finger left → muted after {}; back → sounding after {}; every status while away: {} ({}); left silent",
+        "muting     finger left → muted after {}; back → sounding after {}{untimed}; every status while away: {} ({}); left silent",
         ms(m.mute_after_leave_ms),
         ms(m.resume_after_return_ms),
         if m.muted_in_every_status_while_away {
