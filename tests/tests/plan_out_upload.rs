@@ -82,6 +82,9 @@ fn every_plan_out_form_uploads_what_plan_made_on_the_lm_firmware() {
     );
 }
 
+/// A change to a plan report.
+type Edit = dyn Fn(&mut serde_json::Value);
+
 #[test]
 fn a_plan_report_changed_after_plan_wrote_it_is_refused() {
     let d = scratch_dir("plan-out-edited");
@@ -89,14 +92,14 @@ fn a_plan_report_changed_after_plan_wrote_it_is_refused() {
     let (f, _) = planned(&d, "p", &["--steps", "8", "--freq", "20"]);
     let good: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&f[0]).unwrap()).unwrap();
-    let edited = |name: &str, edit: &dyn Fn(&mut serde_json::Value)| {
+    let edited = |name: &str, edit: &Edit| {
         let mut v = good.clone();
         edit(&mut v);
         let p = d.join(name);
         std::fs::write(&p, v.to_string()).unwrap();
         p.to_str().unwrap().to_owned()
     };
-    let cases: [(&str, &dyn Fn(&mut serde_json::Value), &str); 5] = [
+    let cases: [(&str, &Edit, &str); 5] = [
         ("phase.json", &|v| v["phases"][3][7] = 1.into(), "crc32"),
         (
             "row.json",

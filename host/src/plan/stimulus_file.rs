@@ -393,7 +393,12 @@ fn read(
     if ext.as_deref() != Some("npy") {
         let text = limits::read_text_file_up_to(what, path, MAX_JSON_BYTES)?;
         // Duplicate keys are refused, at any depth.
-        let v = crate::json::from_str(&text).map_err(|e| bad(format!("not JSON ({e})")))?;
+        let kind = match content {
+            Content::Phases => "phases",
+            Content::Foci => "foci",
+        };
+        let v = crate::json::from_str(&text)
+            .map_err(|e| bad(format!("not a {kind} JSON object ({e})")))?;
         return match content {
             Content::Phases if report::KEYS.iter().any(|k| v.get(k).is_some()) => {
                 let mut r: report::PlanReport = serde_json::from_value(v)
