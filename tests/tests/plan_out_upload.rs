@@ -125,11 +125,17 @@ fn a_plan_report_changed_after_plan_wrote_it_is_refused() {
     }
     // A key given twice is refused, not the last one taken.
     let text = std::fs::read_to_string(&f[0]).unwrap();
-    let twice = d.join("twice.json");
-    std::fs::write(&twice, text.replacen("{", "{\"crc32\":1,", 1)).unwrap();
-    let twice = twice.to_str().unwrap();
-    let e = fails(&["upload", "--port", &sim.port, "--phases", twice], 2);
-    assert!(e.contains("duplicate key `crc32`"), "{e}");
+    for key in ["crc32", "phases"] {
+        let twice = d.join(format!("twice_{key}.json"));
+        std::fs::write(
+            &twice,
+            text.replacen("{", &format!("{{\"{key}\":[[1]],"), 1),
+        )
+        .unwrap();
+        let twice = twice.to_str().unwrap();
+        let e = fails(&["upload", "--port", &sim.port, "--phases", twice], 2);
+        assert!(e.contains(&format!("duplicate field `{key}`")), "{e}");
+    }
     // Untouched, it uploads.
     let p = edited("same.json", &|_| {});
     assert_eq!(

@@ -393,15 +393,15 @@ fn read(
     if ext.as_deref() != Some("npy") {
         let text = limits::read_text_file_up_to(what, path, MAX_JSON_BYTES)?;
         // Duplicate keys are refused, at any depth.
-        let kind = match content {
-            Content::Phases => "phases",
-            Content::Foci => "foci",
-        };
-        let v = crate::json::from_str(&text)
-            .map_err(|e| bad(format!("not a {kind} JSON object ({e})")))?;
+        // Typed straight from the text (a byte a phase, not a tree of
+        // values); serde refuses a field given twice.
+        let is_report = content == Content::Phases
+            && serde_json::from_str::<report::Keys>(&text)
+                .map_err(|e| bad(format!("not a phases JSON object ({e})")))?
+                .is_report();
         return match content {
-            Content::Phases if report::KEYS.iter().any(|k| v.get(k).is_some()) => {
-                let mut r: report::PlanReport = serde_json::from_value(v)
+            Content::Phases if is_report => {
+                let mut r: report::PlanReport = serde_json::from_str(&text)
                     .map_err(|e| bad(format!("not a `lmhost plan --out` JSON report ({e})")))?;
                 r.check().map_err(|e| bad(e.to_string()))?;
                 if let Some((i, row)) = r
@@ -427,7 +427,7 @@ fn read(
                 ))
             }
             Content::Phases => {
-                let j: PhasesJson = serde_json::from_value(v)
+                let j: PhasesJson = serde_json::from_str(&text)
                     .map_err(|e| bad(format!("not a phases JSON object ({e})")))?;
                 let steps = j.phases.len();
                 if steps == 0 {
@@ -453,7 +453,7 @@ fn read(
                 ))
             }
             Content::Foci => {
-                let j: FociJson = serde_json::from_value(v)
+                let j: FociJson = serde_json::from_str(&text)
                     .map_err(|e| bad(format!("not a foci JSON object ({e})")))?;
                 let steps = j.foci_mm.len();
                 let foci = j.foci_mm.first().map_or(0, Vec::len);

@@ -7,8 +7,26 @@ use serde::de::IgnoredAny;
 
 use crate::error::InputError;
 
-/// Keys only a plan report has: a JSON object naming one is read as one.
-pub(super) const KEYS: [&str; 3] = ["crc32", "target", "header"];
+/// A first look at a phases JSON object: whether it names a key only a
+/// plan report has (then it is read as one). Named as the phases object,
+/// so a file that is no JSON object is refused in the same words.
+#[derive(serde::Deserialize)]
+#[serde(rename = "PhasesJson")]
+pub(super) struct Keys {
+    #[serde(default)]
+    crc32: Option<IgnoredAny>,
+    #[serde(default)]
+    target: Option<IgnoredAny>,
+    #[serde(default)]
+    header: Option<IgnoredAny>,
+}
+
+impl Keys {
+    /// It names `crc32`, `target` or `header`.
+    pub fn is_report(&self) -> bool {
+        self.crc32.is_some() || self.target.is_some() || self.header.is_some()
+    }
+}
 
 /// `plan --out F.json`, as [`TargetPlan::summary_json`](crate::plan::stimulus::TargetPlan::summary_json)
 /// writes it with its phases. Keys upload does not use are still required
