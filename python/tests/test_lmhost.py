@@ -48,6 +48,19 @@ def test_plan_save_writes_what_plan_out_writes(lmhost_bin, root, tmp_path, targe
     assert mine.read_bytes() == out.read_bytes()
 
 
+@pytest.mark.parametrize("ext", ["json", "npy", "bin"])
+def test_a_saved_plan_uploads_as_planned(lmhost_bin, tmp_path, ext):
+    p = lmhost.plan(foci=4, radius=3, target="autd3")
+    f = tmp_path / f"py.{ext}"
+    p.save(f)
+    # The JSON report carries its timing; .npy and .bin take --freq.
+    timing = [] if ext == "json" else ["--freq", p.summary()["timing"]["freq_hz"]]
+    r = cli(lmhost_bin, "upload", "--port", "autd3:emulator", "--phases", f, *timing, "--json")
+    v = json.loads(r.stdout.splitlines()[0])
+    assert (v["crc32"], v["readback_mismatches"]) == (p.crc32, 0)
+    assert v["dwell_us"] == p.summary()["timing"]["dwell_us"]
+
+
 def test_plan_summary_matches_cli_json(lmhost_bin, root):
     j = json.loads(cli(lmhost_bin, "plan", "--foci", 4, "--radius", 5, "--json").stdout)
     p = lmhost.plan(foci=4, radius=5)

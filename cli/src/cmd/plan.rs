@@ -292,7 +292,7 @@ pub struct Args {
     pub phases: bool,
     /// Write the sequence to FILE: .json (summary with phases), .npy
     /// (u8, shape steps × transducers) or anything else as raw bytes
-    /// (step-major).
+    /// (step-major); `upload --phases` reads .json, .npy and .bin.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// The scene and the stimulus (last, under their help heading).

@@ -31,7 +31,10 @@ impl From<EncodingArg> for Encoding {
 #[command(
     after_help = "Stimulus files (instead of planning one): --phases FILE takes \
     the phases themselves, a .npy of uint8 with shape (steps, transducers) (what \
-    `lmhost plan --out F.npy` writes) or JSON {\"phases\": [[p, ...], ...], \"dwell_us\": D}; \
+    `lmhost plan --out F.npy` writes), raw bytes as .bin (steps = length / transducers), \
+    JSON {\"phases\": [[p, ...], ...], \"dwell_us\": D}, or the JSON report `lmhost plan --out \
+    F.json` writes (its phases at its dwell; refused if its crc32 no longer matches its \
+    phases, or it was planned for another --target or scene); \
     --foci-file FILE takes foci in mm (finger space, mirrored like a planned stimulus), a \
     .npy of float64 with shape (steps, foci, 3) or JSON {\"foci_mm\": [[[x, y, z], ...], \
     ...], \"dwell_us\": D}, and synthesises the phases with the planner (linear). Give the \
@@ -45,7 +48,7 @@ impl From<EncodingArg> for Encoding {
 )]
 pub struct Args {
     /// Upload these phases instead of planning: .npy uint8 (steps,
-    /// transducers) or JSON (see below).
+    /// transducers), raw .bin, or JSON, plan --out's report too (see below).
     #[arg(
         long,
         value_name = "FILE",

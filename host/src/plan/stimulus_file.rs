@@ -3,8 +3,12 @@
 //!
 //! Formats:
 //! - phases: `.npy` `uint8` of shape `(steps, transducers)` (what `lmhost
-//!   plan --out F.npy` writes), or JSON `{"phases": [[u8, ...], ...],
-//!   "dwell_us": D}` (`dwell_us` optional);
+//!   plan --out F.npy` writes), `.bin` raw bytes, step-major (`plan --out
+//!   F.bin`; steps = length / transducers), JSON `{"phases": [[u8, ...],
+//!   ...], "dwell_us": D}` (`dwell_us` optional), or the JSON report `plan
+//!   --out F.json` writes ([`report`]: its phases, its dwell, its centre,
+//!   foci and intensity; checked against its `crc32` and its header, and
+//!   refused for another target or scene);
 //! - foci: `.npy` `float64` of shape `(steps, foci, 3)` in mm, finger space
 //!   (mirrored through the scene's reflector like a planned stimulus), or
 //!   JSON `{"foci_mm": [[[x, y, z], ...], ...], "dwell_us": D}`; the phases
@@ -19,6 +23,8 @@
 //! limits of the device, finite values, the dwell limits and, for foci, the
 //! work volume (±2000 mm, in front of the array). A bad file is one
 //! [`InputError`] naming the file.
+
+mod report;
 
 use std::io::Read as _;
 use std::path::Path;
@@ -66,6 +72,13 @@ enum Loaded {
         foci: usize,
         mm: Vec<f64>,
     },
+    /// A `plan --out F.json` report, checked against itself; its phases
+    /// moved out into `phases`.
+    Planned {
+        steps: usize,
+        phases: Vec<u8>,
+        report: Box<report::PlanReport>,
+    },
 }
 
 #[derive(serde::Deserialize)]
@@ -107,8 +120,27 @@ pub fn plan_for(
         }
     })?;
     let steps = match &loaded {
-        Loaded::Phases { steps, .. } | Loaded::Foci { steps, .. } => *steps,
+        Loaded::Phases { steps, .. }
+        | Loaded::Foci { steps, .. }
+        | Loaded::Planned { steps, .. } => *steps,
     };
+    if let Loaded::Planned { report: r, .. } = &loaded {
+        if r.target != target.name() {
+            return Err(bad(format!(
+                "was planned for target {} (its timing and step limits); this port is {}: \
+                 plan it with --target {}",
+                r.target,
+                target.name(),
+                target.name()
+            )));
+        }
+        if r.scene != scene.name {
+            return Err(bad(format!(
+                "was planned for scene '{}', this upload's scene is '{}': give the plan's --scene",
+                r.scene, scene.name
+            )));
+        }
+    }
     let (lo, hi) = match target {
         Target::Lm => (1, MAX_STEPS),
         Target::Autd3 => (MIN_PATTERNS, MAX_PATTERNS),
@@ -126,6 +158,10 @@ pub fn plan_for(
             mm.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
             *foci,
         ),
+        Loaded::Planned { report: r, .. } => (
+            r.foci_mm.iter().flatten().copied().collect(),
+            r.foci_mm[0].len(),
+        ),
     };
     for (i, f) in foci_mm.iter().enumerate() {
         let (j, k) = (i / foci, i % foci);
@@ -137,7 +173,11 @@ pub fn plan_for(
             )));
         }
     }
-    let center_mm = match (center_mm, foci_mm.is_empty()) {
+    let planned_center = match &loaded {
+        Loaded::Planned { report: r, .. } => Some(r.center_mm),
+        _ => None,
+    };
+    let center_mm = match (center_mm.or(planned_center), foci_mm.is_empty()) {
         (Some(c), _) => c,
         (None, true) => scene.center_mm,
         (None, false) => {
@@ -183,9 +223,36 @@ pub fn plan_for(
         drive_mm,
         path: None,
     };
-    let header = Sequence::header_for(&scene, &trajectory, transducers)?;
+    let mut header = Sequence::header_for(&scene, &trajectory, transducers)?;
     let phases = match loaded {
         Loaded::Phases { phases, .. } => phases,
+        Loaded::Planned {
+            phases, report: r, ..
+        } => {
+            // What plan made, made again here: the same header but for the
+            // work volume (--max-offset) and, given --center, the centre.
+            header.intensity = r.header.intensity;
+            let h = &r.header;
+            let differs = [
+                ("period_us", header.period_us != h.period_us),
+                (
+                    "center_um",
+                    center_mm == r.center_mm && header.center_um != h.center_um,
+                ),
+                ("foci_per_step", header.foci_per_step != h.foci_per_step),
+                (
+                    "sound_speed_mm_s",
+                    header.sound_speed_mm_s != h.sound_speed_mm_s,
+                ),
+            ];
+            if let Some((k, _)) = differs.iter().find(|(_, d)| *d) {
+                return Err(bad(format!(
+                    "its header's {k} is not what its timing, centre and this scene make: \
+                     the file changed after plan wrote it, or give the plan's --scene"
+                )));
+            }
+            phases
+        }
         Loaded::Foci { .. } => {
             let synth = SynthPlan::new(&scene.transducers(), scene.wavenumber_rad_per_mm());
             let mut scratch = synth.scratch();
@@ -307,8 +374,8 @@ fn timing(
     Ok((dwell_s, asked_us, divide))
 }
 
-/// Reads the file by its extension (`.npy`, else JSON), checked against
-/// `transducers` before the data is read.
+/// Reads the file by its extension (`.npy`, `.bin` for phases, else JSON),
+/// checked against `transducers` before the data is read.
 fn read(
     content: Content,
     path: &Path,
@@ -316,13 +383,49 @@ fn read(
 ) -> Result<(Loaded, Option<f64>), InputError> {
     let what = content.what();
     let bad = |msg: String| InputError::new(format!("{what} {}: {msg}", path.display()));
-    let is_npy = path
+    let ext = path
         .extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("npy"));
-    if !is_npy {
+        .map(str::to_ascii_lowercase);
+    if content == Content::Phases && ext.as_deref() == Some("bin") {
+        return read_bin(path, transducers);
+    }
+    if ext.as_deref() != Some("npy") {
         let text = limits::read_text_file_up_to(what, path, MAX_JSON_BYTES)?;
+        // Duplicate keys are refused, at any depth.
+        // Typed straight from the text (a byte a phase, not a tree of
+        // values); serde refuses a field given twice.
+        let is_report = content == Content::Phases
+            && serde_json::from_str::<report::Keys>(&text)
+                .map_err(|e| bad(format!("not a phases JSON object ({e})")))?
+                .is_report();
         return match content {
+            Content::Phases if is_report => {
+                let mut r: report::PlanReport = serde_json::from_str(&text)
+                    .map_err(|e| bad(format!("not a `lmhost plan --out` JSON report ({e})")))?;
+                r.check().map_err(|e| bad(e.to_string()))?;
+                if let Some((i, row)) = r
+                    .phases
+                    .iter()
+                    .enumerate()
+                    .find(|(_, row)| row.len() != transducers)
+                {
+                    return Err(bad(format!(
+                        "step {i} has {} phases; the scene has {transducers} transducers",
+                        row.len()
+                    )));
+                }
+                let phases = std::mem::take(&mut r.phases).concat();
+                let dwell_us = r.timing.dwell_us;
+                Ok((
+                    Loaded::Planned {
+                        steps: phases.len() / transducers,
+                        phases,
+                        report: Box::new(r),
+                    },
+                    Some(dwell_us),
+                ))
+            }
             Content::Phases => {
                 let j: PhasesJson = serde_json::from_str(&text)
                     .map_err(|e| bad(format!("not a phases JSON object ({e})")))?;
@@ -461,127 +564,35 @@ fn read(
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn tmp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("lmhost-stimfile-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join(name);
-        std::fs::write(&p, bytes).unwrap();
-        p
+/// Reads a `.bin` of raw phases, step-major (what `plan --out F.bin`
+/// writes): `transducers` bytes a step, its length checked before it is
+/// read; no timing (`--freq` gives it).
+fn read_bin(path: &Path, transducers: usize) -> Result<(Loaded, Option<f64>), InputError> {
+    let what = Content::Phases.what();
+    let bad = |msg: String| InputError::new(format!("{what} {}: {msg}", path.display()));
+    let mut f = crate::files::open_input(what, path)?;
+    let len = f
+        .metadata()
+        .map_err(|e| bad(crate::files::reason(&e)))?
+        .len();
+    let per_step = transducers as u64;
+    if len == 0 || len % per_step != 0 || len / per_step > MAX_STEPS as u64 {
+        return Err(bad(format!(
+            "{len} bytes is not 1..={MAX_STEPS} steps of {transducers} phases (raw .bin, \
+             a byte per transducer, step-major)"
+        )));
     }
-
-    fn npy_f64(shape: &[usize], data: &[f64]) -> Vec<u8> {
-        let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
-        let header = format!(
-            "{{'descr': '<f8', 'fortran_order': False, 'shape': ({},), }}",
-            dims.join(", ")
-        );
-        let mut out = b"\x93NUMPY\x01\x00".to_vec();
-        let pad = (64 - (10 + header.len() + 1) % 64) % 64;
-        out.extend_from_slice(&((header.len() + pad + 1) as u16).to_le_bytes());
-        out.extend_from_slice(header.as_bytes());
-        out.extend(std::iter::repeat_n(b' ', pad));
-        out.push(b'\n');
-        for v in data {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        out
+    let mut phases = Vec::with_capacity(len as usize);
+    (&mut f)
+        .take(len + 1)
+        .read_to_end(&mut phases)
+        .map_err(|e| bad(crate::files::reason(&e)))?;
+    if phases.len() as u64 != len {
+        return Err(bad("changed while it was read".into()));
     }
-
-    #[test]
-    fn a_planned_sequence_round_trips_through_a_phases_file() {
-        let scene = Scene::default();
-        let planned = crate::plan::stimulus::Stimulus::default()
-            .plan(scene.clone())
-            .unwrap();
-        let p = tmp("rt.npy", &planned.plan.sequence.to_npy());
-        let got = plan_for(
-            Content::Phases,
-            &p,
-            &Target::Lm,
-            scene.clone(),
-            Some(5.0),
-            None,
-        )
-        .unwrap();
-        assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
-        assert_eq!(
-            got.plan.sequence.header.period_us,
-            planned.plan.sequence.header.period_us
-        );
-        assert_eq!(got.timing.steps, 82);
-        // On AUTD3 the same file at 5 Hz lands on the grid: 2450 µs.
-        let a = Target::Autd3;
-        let g = plan_for(Content::Phases, &p, &a, scene, Some(5.0), None).unwrap();
-        assert_eq!((g.timing.divide, g.timing.dwell_us), (Some(98), 2450.0));
-    }
-
-    #[test]
-    fn foci_files_synthesise_like_the_planner() {
-        let scene = Scene::default();
-        let planned = crate::plan::stimulus::Stimulus::paper_lm_m()
-            .plan(scene.clone())
-            .unwrap();
-        let t = &planned.plan.trajectory;
-        let mm: Vec<f64> = t.foci_mm.iter().flatten().copied().collect();
-        let p = tmp("foci.npy", &npy_f64(&[t.steps, t.foci, 3], &mm));
-        let got = plan_for(
-            Content::Foci,
-            &p,
-            &Target::Lm,
-            scene.clone(),
-            Some(5.0),
-            Some(t.center_mm),
-        )
-        .unwrap();
-        assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
-        assert_eq!(got.plan.sequence.header, planned.plan.sequence.header);
-        // JSON, with a dwell on the grid for AUTD3.
-        let rows: Vec<Vec<[f64; 3]>> = (0..t.steps).map(|j| t.foci_step(j).to_vec()).collect();
-        let j = serde_json::json!({"foci_mm": rows, "dwell_us": 2450.0}).to_string();
-        let p = tmp("foci.json", j.as_bytes());
-        let a = Target::Autd3;
-        let g = plan_for(Content::Foci, &p, &a, scene, None, None).unwrap();
-        assert_eq!(g.timing.divide, Some(98));
-    }
-
-    /// A bad file: name, bytes, content, target, --freq, what the error says.
-    type Bad<'a> = (&'a str, Vec<u8>, Content, &'a Target, Option<f64>, &'a str);
-
-    #[test]
-    fn bad_files_are_one_line_naming_the_file() {
-        let scene = Scene::default();
-        let a = Target::Autd3;
-        let row = vec![0u8; 996];
-        let ok_rows = serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 2000.0});
-        let cases: Vec<Bad<'_>> = vec![
-            ("short.json", serde_json::json!({"phases": [[1, 2, 3]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "996 transducers"),
-            ("notime.json", serde_json::json!({"phases": vec![row.clone(); 4]}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "no timing"),
-            ("twice.json", ok_rows.to_string().into_bytes(), Content::Phases, &Target::Lm, Some(5.0), "give one"),
-            ("offgrid.json", serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 2010.0}).to_string().into_bytes(), Content::Phases, &a, None, "25 µs grid"),
-            ("fast.json", serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 10.0}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "above 1000 Hz"),
-            ("extra.json", serde_json::json!({"phases": [row.clone()], "dwell_us": 2000.0, "x": 1}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "unknown field"),
-            ("few.json", serde_json::json!({"phases": [row.clone()], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Phases, &a, None, "2..=1024 steps"),
-            ("behind.json", serde_json::json!({"foci_mm": [[[0, 0, -50]]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Foci, &Target::Lm, None, "behind"),
-            ("far.json", serde_json::json!({"foci_mm": [[[0, 0, 1e9]]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Foci, &Target::Lm, None, "±2000"),
-            ("ragged.json", serde_json::json!({"foci_mm": [[[0, 0, 200]], [[0, 0, 200], [1, 0, 200]]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Foci, &Target::Lm, None, "as many"),
-            ("nan.npy", npy_f64(&[1, 1, 3], &[0.0, f64::NAN, 200.0]), Content::Foci, &Target::Lm, Some(5.0), "out of range"),
-            ("shape.npy", npy_f64(&[1, 3], &[0.0, 0.0, 200.0]), Content::Foci, &Target::Lm, Some(5.0), "(steps, foci, 3)"),
-            ("dtype.npy", npy_f64(&[1, 1, 3], &[0.0, 0.0, 200.0]), Content::Phases, &Target::Lm, Some(5.0), "uint8"),
-            ("trunc.npy", npy_f64(&[2, 1, 3], &[0.0, 0.0, 200.0]), Content::Foci, &Target::Lm, Some(5.0), "needs"),
-        ];
-        for (name, bytes, content, target, freq, says) in cases {
-            let p = tmp(name, &bytes);
-            let e = plan_for(content, &p, target, scene.clone(), freq, None)
-                .err()
-                .unwrap_or_else(|| panic!("{name} was accepted"))
-                .to_string();
-            assert!(e.contains(says), "{name}: {e}");
-            assert!(e.contains(name), "{name}: {e}");
-            assert!(!e.contains('\n'), "{name}: {e}");
-        }
-    }
+    let steps = phases.len() / transducers;
+    Ok((Loaded::Phases { steps, phases }, None))
 }
+
+#[cfg(test)]
+mod tests;

@@ -84,6 +84,28 @@ pub(crate) fn round8_fixtures(dir: &Path) {
         "tail.depth",
         &npy("{'descr': '<u2'*2, 'fortran_order': False, 'shape': (2, 4, 4), }"),
     );
+    // Plan reports (`plan --out F.json`): one for an AUTD3, one with a
+    // phase changed after plan wrote it; raw phases short of a step.
+    for (name, target) in [("plan_autd3.json", "autd3"), ("plan_edit.json", "lm")] {
+        let out = r8.join(name);
+        ok(&[
+            "plan",
+            "--target",
+            target,
+            "--steps",
+            "4",
+            "--freq",
+            "20",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+    }
+    let text = std::fs::read_to_string(r8.join("plan_edit.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let p = v["phases"][0][0].as_u64().unwrap();
+    v["phases"][0][0] = ((p + 1) % 256).into();
+    w("plan_edit.json", v.to_string().as_bytes());
+    w("short.bin", &[0u8; 997]);
     resumed_copy(dir, "r8_time", 1, "time_utc", "");
     resumed_copy(dir, "r8_fraction", 1, "present_fraction", "1.5");
 }
@@ -153,6 +175,14 @@ pub(crate) fn round8_cases() -> Vec<Case> {
             .err("line 2: not a centroid JSON object (a JSON array");
         STREAM_TROUBLE "stream --port {port}" .stdin("0,0,0,200,1\nT,whatever\n")
             .err("line 2: expected 5 CSV fields t,x,y,z,present, found 2");
+        // 10. What plan --out writes, upload --phases reads: whole, for
+        //     its target, unchanged.
+        FILES_EXACT "upload --port {port} --phases {dir}/r8/short.bin --freq 5"
+            .err("--phases file {dir}/r8/short.bin: 997 bytes is not 1..=65535 steps of 996 phases");
+        FILES_ONE_RULE "upload --port {port} --phases {dir}/r8/plan_autd3.json"
+            .err("--phases file {dir}/r8/plan_autd3.json: was planned for target autd3");
+        FILES_ONE_RULE "upload --port {port} --phases {dir}/r8/plan_edit.json"
+            .err("--phases file {dir}/r8/plan_edit.json: its crc32").err("the file changed after plan wrote it");
         // 9. A header value with a tail.
         STREAM_NPY_TAIL "track" .depth("r8/tail.depth", "cam.toml")
             .err(".npy header's 'descr' must be a quoted type such as '<u2', got `'<u2'*2`");
