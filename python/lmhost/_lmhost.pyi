@@ -65,7 +65,7 @@ class Plan:
     def foci_mm(self) -> npt.NDArray[np.float64]:
         """Shape (steps, foci, 3), mm."""
     def save(self, path: PathLike) -> None:
-        """The files `lmhost plan --out PATH` writes (.json, .npy, .bin; another extension is refused)."""
+        """The files `lmhost plan --out PATH` writes (.json, .npy, raw)."""
     def summary(self, phases: bool = False) -> Dict[str, Any]:
         """What `lmhost plan --json` prints."""
 

@@ -264,8 +264,8 @@ impl Plan_ {
     }
 
     /// Writes the files `lmhost plan --out PATH` writes: `.json` (summary
-    /// with phases), `.npy` (uint8, steps × transducers) or `.bin` (raw
-    /// step-major bytes); whole or absent. Another extension is refused.
+    /// with phases), `.npy` (uint8, steps × transducers) or anything else
+    /// as raw step-major bytes; whole or absent.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         run(py, || {
             let bytes = self.planned.out_bytes(&path, &self.target)?;

@@ -290,9 +290,9 @@ pub struct Args {
     /// Include the phases (steps × transducers) in the JSON summary.
     #[arg(long, requires = "json")]
     pub phases: bool,
-    /// Write the sequence to FILE, by its extension: .json (summary with
-    /// phases), .npy (u8, shape steps × transducers) or .bin (raw bytes,
-    /// step-major); `upload --phases` reads each back.
+    /// Write the sequence to FILE: .json (summary with phases), .npy
+    /// (u8, shape steps × transducers) or anything else as raw bytes
+    /// (step-major); `upload --phases` reads .json, .npy and .bin.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// The scene and the stimulus (last, under their help heading).
@@ -366,10 +366,6 @@ pub fn grid_timing(t: &Timing) -> String {
 impl Args {
     /// Plans, prints and writes.
     pub fn run(self) -> anyhow::Result<()> {
-        // Its form is known from the path: refused before any planning.
-        if let Some(out) = &self.out {
-            lmhost::plan::stimulus::OutForm::of(out).map_err(|e| e.context("--out"))?;
-        }
         let planned = self.plan.plan_for(&self.target.target())?;
         let plan = &planned.plan;
         let target = self.target.target();

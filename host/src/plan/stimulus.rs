@@ -72,51 +72,22 @@ impl TargetPlan {
         v
     }
 
-    /// What `lmhost plan --out PATH` writes, by `PATH`'s extension (see
-    /// [`OutForm::of`]): `.json` (the summary with the phases), `.npy` (u8,
-    /// steps × transducers), `.bin` the raw phase bytes (step-major).
+    /// What `lmhost plan --out PATH` writes, by `PATH`'s extension: `.json`
+    /// (the summary with the phases), `.npy` (u8, steps × transducers),
+    /// anything else the raw phase bytes (step-major).
     pub fn out_bytes(&self, path: &std::path::Path, target: &Target) -> anyhow::Result<Vec<u8>> {
-        Ok(match OutForm::of(path)? {
-            OutForm::Json => {
-                let mut b = serde_json::to_vec(&self.summary_json(target, true))?;
-                b.push(b'\n');
-                b
-            }
-            OutForm::Npy => self.plan.sequence.to_npy(),
-            OutForm::Bin => self.plan.sequence.phases.clone(),
-        })
-    }
-}
-
-/// The forms `lmhost plan --out` writes, each of which `upload --phases`
-/// reads back.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OutForm {
-    /// `.json`: the summary with the phases.
-    Json,
-    /// `.npy`: u8, steps × transducers.
-    Npy,
-    /// `.bin`: the raw phase bytes, step-major.
-    Bin,
-}
-
-impl OutForm {
-    /// The form `path`'s extension names (any case). Any other extension,
-    /// or none, is refused: written as raw bytes it would be a file that
-    /// `upload --phases` reads as JSON.
-    pub fn of(path: &std::path::Path) -> anyhow::Result<OutForm> {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
         Ok(match ext.as_deref() {
-            Some("json") => OutForm::Json,
-            Some("npy") => OutForm::Npy,
-            Some("bin") => OutForm::Bin,
-            _ => crate::bad_input!(
-                "{}: give a .npy, .json or .bin path (its extension chooses what is written)",
-                path.display()
-            ),
+            Some("json") => {
+                let mut b = serde_json::to_vec(&self.summary_json(target, true))?;
+                b.push(b'\n');
+                b
+            }
+            Some("npy") => self.plan.sequence.to_npy(),
+            _ => self.plan.sequence.phases.clone(),
         })
     }
 }
