@@ -15,6 +15,7 @@ use crate::{MAX_OFFSET_UM, SOUND_SPEED_MM_S};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct UploadHeader {
     /// Steps per cycle (≥ 1).
     pub steps: u16,

@@ -99,7 +99,7 @@ fn a_plan_report_changed_after_plan_wrote_it_is_refused() {
         std::fs::write(&p, v.to_string()).unwrap();
         p.to_str().unwrap().to_owned()
     };
-    let cases: [(&str, &Edit, &str); 5] = [
+    let cases: [(&str, &Edit, &str); 6] = [
         ("phase.json", &|v| v["phases"][3][7] = 1.into(), "crc32"),
         (
             "row.json",
@@ -110,6 +110,11 @@ fn a_plan_report_changed_after_plan_wrote_it_is_refused() {
         (
             "extra.json",
             &|v| v["note"] = "mine".into(),
+            "unknown field `note`",
+        ),
+        (
+            "header_extra.json",
+            &|v| v["header"]["note"] = "mine".into(),
             "unknown field `note`",
         ),
         (

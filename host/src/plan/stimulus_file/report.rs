@@ -46,7 +46,9 @@ pub(super) struct PlanReport {
     _dwell_s: IgnoredAny,
     #[serde(rename = "period_s")]
     _period_s: IgnoredAny,
-    pub header: HeaderReport,
+    /// The header plan made, read as the protocol declares it (unknown
+    /// keys refused).
+    pub header: lm_proto::UploadHeader,
     pub center_mm: [f64; 3],
     #[serde(rename = "mirrored")]
     _mirrored: IgnoredAny,
@@ -61,20 +63,6 @@ pub(super) struct PlanReport {
     pub phases: Vec<Vec<u8>>,
     pub target: String,
     pub timing: TimingReport,
-}
-
-/// The report's `header`, the [`lm_proto::UploadHeader`] plan made.
-#[derive(serde::Deserialize, PartialEq, Eq, Debug)]
-#[serde(deny_unknown_fields)]
-pub(super) struct HeaderReport {
-    pub steps: u16,
-    pub transducers: u16,
-    pub period_us: u32,
-    pub center_um: [i32; 3],
-    pub foci_per_step: u8,
-    pub sound_speed_mm_s: u32,
-    pub max_offset_um: u32,
-    pub intensity: u8,
 }
 
 /// The report's `timing`: the realised dwell is what upload plays.

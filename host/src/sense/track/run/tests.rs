@@ -34,7 +34,13 @@ fn a_synthetic_session_prints_a_line_per_frame_and_scores_the_truth() {
     for l in &lines {
         let v: serde_json::Value = serde_json::from_str(l).unwrap();
         assert!(v["truth_present"].is_boolean() && v.get("z_profile_mm").is_some());
-        assert!(v.get("filtered_mm").is_none(), "no filter, no device: {v}");
+        // No filter, no device: still the gate's centre, there exactly
+        // while the gate is open.
+        assert_eq!(
+            v["filtered_mm"].is_null(),
+            v["gated_present"] == false,
+            "{v}"
+        );
     }
     assert!(report.summary[0].starts_with(&format!("{frames} frames of 848×480")));
     assert!(report.summary[1].starts_with("vs ground truth: centroid error"));
