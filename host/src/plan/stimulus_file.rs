@@ -6,7 +6,7 @@
 //!   plan --out F.npy` writes), `.bin` raw bytes, step-major (`plan --out
 //!   F.bin`; steps = length / transducers), JSON `{"phases": [[u8, ...],
 //!   ...], "dwell_us": D}` (`dwell_us` optional), or the JSON report `plan
-//!   --out F.json` writes ([`report`]: its phases, its dwell, its centre,
+//!   --out F.json` writes (`report.rs`: its phases, its dwell, its centre,
 //!   foci and intensity; checked against its `crc32` and its header, and
 //!   refused for another target or scene);
 //! - foci: `.npy` `float64` of shape `(steps, foci, 3)` in mm, finger space

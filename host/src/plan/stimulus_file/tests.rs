@@ -29,6 +29,18 @@ fn npy_f64(shape: &[usize], data: &[f64]) -> Vec<u8> {
     out
 }
 
+/// `upload --phases P --freq 5` on an LM port, planned in `scene`.
+fn lm_phases_at_5_hz(p: &Path, scene: &Scene) -> Result<TargetPlan, InputError> {
+    plan_for(
+        Content::Phases,
+        p,
+        &Target::Lm,
+        scene.clone(),
+        Some(5.0),
+        None,
+    )
+}
+
 #[test]
 fn a_planned_sequence_round_trips_through_a_phases_file() {
     let scene = Scene::default();
@@ -36,15 +48,7 @@ fn a_planned_sequence_round_trips_through_a_phases_file() {
         .plan(scene.clone())
         .unwrap();
     let p = tmp("rt.npy", &planned.plan.sequence.to_npy());
-    let got = plan_for(
-        Content::Phases,
-        &p,
-        &Target::Lm,
-        scene.clone(),
-        Some(5.0),
-        None,
-    )
-    .unwrap();
+    let got = lm_phases_at_5_hz(&p, &scene).unwrap();
     assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
     assert_eq!(
         got.plan.sequence.header.period_us,
@@ -185,30 +189,12 @@ fn raw_bin_phases_are_whole_steps_of_the_device() {
         .plan(scene.clone())
         .unwrap();
     let p = tmp("rt.bin", &planned.plan.sequence.phases);
-    let got = plan_for(
-        Content::Phases,
-        &p,
-        &Target::Lm,
-        scene.clone(),
-        Some(5.0),
-        None,
-    )
-    .unwrap();
+    let got = lm_phases_at_5_hz(&p, &scene).unwrap();
     assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
     assert_eq!(got.plan.sequence.header, planned.plan.sequence.header);
     for (name, len, says) in [("odd.bin", 997, "997 bytes"), ("empty.bin", 0, "0 bytes")] {
         let p = tmp(name, &vec![0u8; len]);
-        let e = plan_for(
-            Content::Phases,
-            &p,
-            &Target::Lm,
-            scene.clone(),
-            Some(5.0),
-            None,
-        )
-        .err()
-        .unwrap()
-        .to_string();
+        let e = lm_phases_at_5_hz(&p, &scene).err().unwrap().to_string();
         assert!(
             e.contains(says) && e.contains(name) && !e.contains('\n'),
             "{e}"
