@@ -391,13 +391,25 @@ fn read(
         return read_bin(path, transducers);
     }
     if ext.as_deref() != Some("npy") {
-        let text = limits::read_text_file_up_to(what, path, MAX_JSON_BYTES)?;
+        // `plan --out` writes raw bytes for any extension but .json and
+        // .npy; read back, such a file is taken for JSON: say how to name it.
+        let unnamed = |e: InputError| match (content, ext.as_deref()) {
+            (Content::Phases, Some("json")) => e,
+            (Content::Phases, _) => InputError::new(format!(
+                "{e} (read as JSON by its extension; name raw phase bytes .bin, as plan --out F.bin writes them)"
+            )),
+            _ => e,
+        };
+        // (A missing file or a folder is named right; only a file's
+        // content gets the hint.)
+        let text = limits::read_text_file_up_to(what, path, MAX_JSON_BYTES)
+            .map_err(|e| if path.is_file() { unnamed(e) } else { e })?;
         // Duplicate keys are refused, at any depth.
         // Typed straight from the text (a byte a phase, not a tree of
         // values); serde refuses a field given twice.
         let is_report = content == Content::Phases
             && serde_json::from_str::<report::Keys>(&text)
-                .map_err(|e| bad(format!("not a phases JSON object ({e})")))?
+                .map_err(|e| unnamed(bad(format!("not a phases JSON object ({e})"))))?
                 .is_report();
         return match content {
             Content::Phases if is_report => {

@@ -201,3 +201,23 @@ fn raw_bin_phases_are_whole_steps_of_the_device() {
         );
     }
 }
+
+#[test]
+fn raw_phases_under_another_extension_are_told_to_be_named_bin() {
+    let scene = Scene::default();
+    let planned = crate::plan::stimulus::Stimulus::default()
+        .plan(scene.clone())
+        .unwrap();
+    // What `plan --out F.raw` writes: the raw bytes.
+    let p = tmp("rt.raw", &planned.plan.sequence.phases);
+    let e = lm_phases_at_5_hz(&p, &scene).err().unwrap().to_string();
+    assert!(
+        e.contains("rt.raw") && e.contains("name raw phase bytes .bin"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'), "{e}");
+    // A .json file that is not JSON gets no such hint: it is named right.
+    let j = tmp("bad.json", b"[1,2");
+    let e = lm_phases_at_5_hz(&j, &scene).err().unwrap().to_string();
+    assert!(e.contains("bad.json") && !e.contains(".bin"), "{e}");
+}
