@@ -498,3 +498,43 @@ fn sigusr1_leaves_the_array_silent() {
 fn sigterm_leaves_the_array_silent() {
     a_signal_leaves_the_array_silent("TERM");
 }
+
+#[test]
+fn a_udp_finger_source_says_what_it_counted_at_the_end() {
+    let port = {
+        let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        probe.local_addr().unwrap().port()
+    };
+    let mut child = Command::new(lmhost())
+        .args(["session", "--library", &library()])
+        .args(["--port", "autd3:emulator", "--control", "-"])
+        .args(["--udp", &port.to_string()])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The source has bound its port once ours cannot.
+    let t0 = Instant::now();
+    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+        assert!(t0.elapsed() < Duration::from_secs(60), "never bound");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    for i in 0..5 {
+        let line = format!("{},0,0,200,1", i as f64 / 90.0);
+        tx.send_to(line.as_bytes(), ("127.0.0.1", port)).unwrap();
+    }
+    tx.send_to(b"not a centroid", ("127.0.0.1", port)).unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    drop(child.stdin.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains(&format!(
+            "UDP 127.0.0.1:{port}: 6 datagrams, 1 skipped as bad, 0 lost in the kernel's receive buffer"
+        )),
+        "{err}"
+    );
+}

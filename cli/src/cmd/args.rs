@@ -153,6 +153,10 @@ pub struct FingerArgs {
     /// Finger centroids as UDP datagrams on 127.0.0.1:PORT (1..=65535).
     #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
     pub udp: Option<u16>,
+    /// What the UDP source counted (datagrams, bad ones, ones the kernel
+    /// dropped), for the line at the end.
+    #[arg(skip)]
+    pub udp_counts: std::sync::Arc<lmhost::sense::stream::source::UdpCounts>,
     /// Centroid filter for the tracked finger or its centroids (not the
     /// synthetic finger, which rests still) [default: kalman].
     #[arg(long, value_parser = filter())]
@@ -170,6 +174,21 @@ pub enum FingerFeed {
 }
 
 impl FingerArgs {
+    /// With `--udp`, what its source counted, as a line for the end of a
+    /// session or study: skipped and lost datagrams are samples the
+    /// finger never gave.
+    pub fn udp_summary(&self) -> Option<String> {
+        use std::sync::atomic::Ordering::Relaxed;
+        let port = self.udp?;
+        let c = &self.udp_counts;
+        Some(format!(
+            "lmhost: UDP 127.0.0.1:{port}: {} datagrams, {} skipped as bad, {} lost in the kernel's receive buffer",
+            c.datagrams.load(Relaxed),
+            c.bad_datagrams.load(Relaxed),
+            c.lost().map_or("uncounted".to_owned(), |n| n.to_string())
+        ))
+    }
+
     /// Whether a source reads stdin.
     pub fn reads_stdin(&self) -> bool {
         [&self.stream, &self.depth_stream]
@@ -298,7 +317,7 @@ impl FingerArgs {
         if let Some(port) = self.udp {
             let max = lmhost::limits::MAX_SECONDS;
             let idle = lmhost::limits::duration_s("--udp idle time", max, max)?;
-            let udp = source::udp(port, idle, std::sync::Arc::default())?;
+            let udp = source::udp(port, idle, self.udp_counts.clone())?;
             return Ok(FingerFeed::Samples(
                 on_thread(move || udp)?,
                 format!("udp:{port}"),

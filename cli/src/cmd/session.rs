@@ -172,6 +172,9 @@ impl Args {
                 report.dropped_clients
             );
         }
+        if let Some(line) = self.finger.udp_summary() {
+            lmhost::errln!("{line}");
+        }
         lmhost::errln!(
             "lmhost: session ended ({}); {} commands, {} events; the array is silent",
             report

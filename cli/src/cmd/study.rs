@@ -316,6 +316,8 @@ impl RunArgs {
 
     fn run(self) -> anyhow::Result<()> {
         let finger = self.finger()?;
+        // The source's counts are shared with its thread: read at the end.
+        let udp_source = self.source.clone();
         let instruments = self.instruments.options()?;
         let r = study::run(RunOptions {
             protocol: self.protocol,
@@ -338,6 +340,7 @@ impl RunArgs {
             instruments,
             hooks: Default::default(),
         })?;
+        let udp = udp_source.udp_summary();
         let mean = |v: &[f64]| {
             if v.is_empty() {
                 0.0
@@ -364,6 +367,9 @@ impl RunArgs {
             },
             r.dir.display()
         );
+        if let Some(line) = udp {
+            lmhost::errln!("{line}");
+        }
         Ok(())
     }
 }
