@@ -416,17 +416,7 @@ fn read(
                 let mut r: report::PlanReport = serde_json::from_str(&text)
                     .map_err(|e| bad(format!("not a `lmhost plan --out` JSON report ({e})")))?;
                 r.check().map_err(|e| bad(e.to_string()))?;
-                if let Some((i, row)) = r
-                    .phases
-                    .iter()
-                    .enumerate()
-                    .find(|(_, row)| row.len() != transducers)
-                {
-                    return Err(bad(format!(
-                        "step {i} has {} phases; the scene has {transducers} transducers",
-                        row.len()
-                    )));
-                }
+                whole_steps(&r.phases, transducers).map_err(bad)?;
                 let phases = std::mem::take(&mut r.phases).concat();
                 let dwell_us = r.timing.dwell_us;
                 Ok((
@@ -445,17 +435,7 @@ fn read(
                 if steps == 0 {
                     return Err(bad("has no steps".into()));
                 }
-                if let Some((i, r)) = j
-                    .phases
-                    .iter()
-                    .enumerate()
-                    .find(|(_, r)| r.len() != transducers)
-                {
-                    return Err(bad(format!(
-                        "step {i} has {} phases; the scene has {transducers} transducers",
-                        r.len()
-                    )));
-                }
+                whole_steps(&j.phases, transducers).map_err(bad)?;
                 Ok((
                     Loaded::Phases {
                         steps,
@@ -574,6 +554,21 @@ fn read(
             (Loaded::Foci { steps, foci, mm }, None)
         }
     })
+}
+
+/// Every step of a JSON file's `phases` has one phase per transducer.
+fn whole_steps(phases: &[Vec<u8>], transducers: usize) -> Result<(), String> {
+    match phases
+        .iter()
+        .enumerate()
+        .find(|(_, row)| row.len() != transducers)
+    {
+        Some((i, row)) => Err(format!(
+            "step {i} has {} phases; the scene has {transducers} transducers",
+            row.len()
+        )),
+        None => Ok(()),
+    }
 }
 
 /// Reads a `.bin` of raw phases, step-major (what `plan --out F.bin`
