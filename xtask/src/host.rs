@@ -29,6 +29,7 @@ const SLOW_FIRST: &[&str] = &[
     "lm-e2e/qemu",
     "lm-e2e/qemu_device",
     "lm-e2e/hostile",
+    "lm-e2e/docs_commands",
     "lm-e2e/session_cli",
     "lm-e2e/study",
     "lm-e2e/browser",
