@@ -10,7 +10,8 @@
 //!   file beside it, synced and renamed over it on [`Output::commit`], so a
 //!   file lmhost writes is whole or absent after a full disk, an error,
 //!   Ctrl-C ([`crate::stop`] removes the temporary file) or `kill -9` (a
-//!   leftover `.NAME.lmhost-PID.tmp.EXT`, never the named file); a failed
+//!   leftover `.NAME.lmhost-PID.tmp.EXT`, never the named file, removed
+//!   by the next write to that name once PID is gone); a failed
 //!   overwrite leaves the previous file as it was. A symlink is followed
 //!   and its target replaced (the link stays a link); the replaced file
 //!   keeps its permission bits and owner; a file with other names (hard

@@ -71,6 +71,7 @@ impl Output {
             tmp_name.push(ext);
         }
         let tmp = target.with_file_name(tmp_name);
+        remove_stale_temporaries(&target);
         // Registered before it exists, so a signal never leaves it behind.
         let guard = crate::stop::TempGuard::register(&tmp);
         // A file that replaces another is private until it has the old
@@ -186,6 +187,65 @@ impl Drop for Output {
             let _ = std::fs::remove_file(tmp);
         }
     }
+}
+
+/// Removes the temporary files an lmhost killed with `kill -9` (or by a
+/// power cut) left beside `target`: `.NAME.lmhost-PID.tmp[.EXT]` whose
+/// process is gone. Without this a recording killed that way leaves its
+/// whole size on the disk under a hidden name for good; with it, at most
+/// until the next write to the same name. A temporary file of a process
+/// still running (another lmhost writing the same name) is left alone, as
+/// is anything not exactly of that form or not a regular file. Best
+/// effort: a folder that cannot be listed is the next step's error.
+fn remove_stale_temporaries(target: &Path) {
+    let (Some(dir), Some(name)) = (target.parent(), target.file_name()) else {
+        return;
+    };
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let Some(name) = name.to_str() else {
+        return;
+    };
+    let prefix = format!(".{name}.lmhost-");
+    let ext = target
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| format!(".tmp.{e}"));
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let pid = match &ext {
+            Some(ext) => rest.strip_suffix(ext.as_str()),
+            None => rest.strip_suffix(".tmp"),
+        };
+        let Some(pid) = pid
+            .filter(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit()))
+            .and_then(|p| p.parse::<i32>().ok())
+            .filter(|p| *p > 0)
+        else {
+            continue;
+        };
+        if process_is_gone(pid) && entry.file_type().is_ok_and(|t| t.is_file()) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// Whether no process `pid` exists (`kill(pid, 0)` says `ESRCH`). A
+/// process of another user (`EPERM`) exists.
+fn process_is_gone(pid: i32) -> bool {
+    matches!(
+        nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), None),
+        Err(nix::errno::Errno::ESRCH)
+    )
 }
 
 /// Replaces `path`, one of this process's inputs, deliberately (a command

@@ -280,3 +280,26 @@ fn a_write_error_says_its_reason_once() {
         "cannot write /nonexistent-dir/x.npy: no such file or directory"
     );
 }
+
+#[test]
+fn a_killed_writers_temporary_file_goes_at_the_next_write_to_that_name() {
+    let d = scratch("stale");
+    // A process that has ended: its pid names no process now (reuse within
+    // this test is not a concern: pids are handed out in order).
+    let mut child = std::process::Command::new("true").spawn().unwrap();
+    let dead = child.id();
+    child.wait().unwrap();
+    let stale = format!(".rec.npy.lmhost-{dead}.tmp.npy");
+    // pid 1 is alive: another writer's file is left alone, as are names
+    // that only look alike and another destination's temporary file.
+    let alive = ".rec.npy.lmhost-1.tmp.npy".to_owned();
+    let other = format!(".other.npy.lmhost-{dead}.tmp.npy");
+    let odd = format!(".rec.npy.lmhost-{dead}x.tmp.npy");
+    for n in [&stale, &alive, &other, &odd] {
+        std::fs::write(d.join(n), b"half a recording").unwrap();
+    }
+    write_whole(&d.join("rec.npy"), b"whole").unwrap();
+    let mut want = vec![alive, other, odd, "rec.npy".to_owned()];
+    want.sort();
+    assert_eq!(names(&d), want);
+}
