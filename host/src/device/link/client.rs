@@ -32,41 +32,63 @@ use crate::plan::sequence::{Plan, Sequence};
 
 use super::transport::Transport;
 
-/// Link failures (the operation failed; exit 1).
+/// Link failures (the operation failed; exit 1). Each names the port
+/// (the device's fault may be that it is not our device at all).
 #[derive(Debug, thiserror::Error)]
 pub enum LinkError {
     /// No valid response after all retries.
     #[error(
-        "no response from the device to {what} after {tries} tries ({timeout_ms} ms each); \
+        "no response from {port} to {what} after {tries} tries ({timeout_ms} ms each){heard}; \
          check the port, cable and that the firmware runs"
     )]
     Timeout {
+        /// The port.
+        port: String,
         /// The request.
         what: &'static str,
         /// Attempts made.
         tries: u32,
         /// Per-attempt timeout.
         timeout_ms: u64,
+        /// What came back instead.
+        heard: Heard,
     },
     /// The device refused a request.
-    #[error("the device refused {what}: {code}")]
+    #[error("{port} refused {what}: {code}")]
     Nack {
+        /// The port.
+        port: String,
         /// The request.
         what: &'static str,
         /// Its reason.
         code: NackCode,
     },
     /// A response of the wrong kind.
-    #[error("unexpected response to {what}: {got}")]
+    #[error("{port} answered {what} with {got}")]
     Unexpected {
+        /// The port.
+        port: String,
         /// The request.
         what: &'static str,
         /// What came back.
         got: &'static str,
     },
+    /// A response of the right kind that the LM firmware never sends
+    /// ([`super::reply`]).
+    #[error("the {reply} from {port} is not one this lmhost's LM firmware sends: {why}")]
+    BadReply {
+        /// The port.
+        port: String,
+        /// The reply's kind.
+        reply: &'static str,
+        /// What is impossible about it.
+        why: String,
+    },
     /// The transport failed.
-    #[error("link I/O failed during {what}: {source}")]
+    #[error("link I/O with {port} failed during {what}: {source}")]
     Io {
+        /// The port.
+        port: String,
         /// The request.
         what: &'static str,
         /// The cause.
@@ -86,6 +108,54 @@ pub enum LinkError {
     },
 }
 
+/// What the port sent while a request went unanswered: a timeout says
+/// whether nothing came, or what came instead of the reply.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Heard {
+    /// Bytes read.
+    pub bytes: u64,
+    /// Frames that decoded.
+    pub frames: u64,
+    /// Of those, requests (lmhost's own frames, echoed).
+    pub echoes: u64,
+    /// Of those, replies carrying another request's seq.
+    pub other_seq: u64,
+    /// Frames that failed to decode (COBS, length, CRC, version, type).
+    pub bad_frames: u64,
+}
+
+impl std::fmt::Display for Heard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.bytes == 0 {
+            Ok(())
+        } else if self.echoes > 0 && self.echoes == self.frames {
+            f.write_str(
+                ": the port echoed lmhost's own frames back (a loopback, or a serial adapter \
+                 with no device behind it)",
+            )
+        } else if self.other_seq > 0 {
+            write!(
+                f,
+                ": {} replies came with another request's seq",
+                self.other_seq
+            )
+        } else if self.bad_frames > 0 {
+            write!(
+                f,
+                ": {} frames failed their checks (COBS, length, CRC, protocol version)",
+                self.bad_frames
+            )
+        } else {
+            write!(
+                f,
+                ": {} bytes came, none an LM protocol frame (another program on the port, or \
+                 another baud rate)",
+                self.bytes
+            )
+        }
+    }
+}
+
 /// A response, owned.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Reply {
@@ -102,13 +172,14 @@ pub enum Reply {
 }
 
 impl Reply {
+    /// The reply's kind, with its article.
     fn name(&self) -> &'static str {
         match self {
-            Reply::Ack => "ack",
-            Reply::Nack(_) => "nack",
-            Reply::Info(_) => "info",
-            Reply::Status(_) => "status",
-            Reply::SelfTest(_) => "self-test result",
+            Reply::Ack => "an ack",
+            Reply::Nack(_) => "a nack",
+            Reply::Info(_) => "an info",
+            Reply::Status(_) => "a status",
+            Reply::SelfTest(_) => "a self-test result",
         }
     }
 }
@@ -273,6 +344,12 @@ pub struct Client<T> {
     /// When the request the device last accepted was sent (the device
     /// renewed the lease no earlier).
     last_accepted: Option<Instant>,
+    /// The device's `Info`, checked ([`super::reply::check_info`]), once
+    /// asked.
+    info: Option<Info>,
+    /// Steps per cycle of the slots this client committed (a `Status`
+    /// step beyond them is impossible).
+    committed: std::collections::HashMap<u8, u16>,
 }
 
 impl<T: Transport> Client<T> {
@@ -291,7 +368,14 @@ impl<T: Transport> Client<T> {
             rig: None,
             lease_ms: lm_proto::DEFAULT_LEASE_MS,
             last_accepted: None,
+            info: None,
+            committed: std::collections::HashMap::new(),
         }
+    }
+
+    /// What the transport says it is (errors name it).
+    fn port(&self) -> String {
+        self.transport.describe()
     }
 
     /// The transport.
@@ -315,20 +399,26 @@ impl<T: Transport> Client<T> {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
         let n = encode_frame(seq, msg, &mut self.tx).map_err(|e| LinkError::Io {
+            port: self.port(),
             what,
             source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string()),
         })?;
         self.stats.requests += 1;
+        let mut heard = Heard::default();
         for attempt in 0..self.tries {
             if attempt > 0 {
                 self.stats.retries += 1;
             }
             let sent = Instant::now();
-            self.transport
-                .send(&self.tx[..n])
-                .map_err(|source| LinkError::Io { what, source })?;
+            if let Err(source) = self.transport.send(&self.tx[..n]) {
+                return Err(LinkError::Io {
+                    port: self.port(),
+                    what,
+                    source,
+                });
+            }
             self.stats.bytes_sent += n as u64;
-            if let Some(r) = self.wait_for(seq, what)? {
+            if let Some(r) = self.wait_for(seq, what, &mut heard)? {
                 if !matches!(r, Reply::Nack(_)) {
                     self.last_accepted = Some(sent);
                 }
@@ -336,51 +426,76 @@ impl<T: Transport> Client<T> {
             }
         }
         Err(LinkError::Timeout {
+            port: self.port(),
             what,
             tries: self.tries,
             timeout_ms: self.timeout.as_millis() as u64,
+            heard,
         })
     }
 
-    /// Read until a response with `seq` arrives or the timeout passes.
-    fn wait_for(&mut self, seq: u16, what: &'static str) -> Result<Option<Reply>, LinkError> {
+    /// Read until a response with `seq` arrives or the timeout passes,
+    /// counting in `heard` what came instead.
+    fn wait_for(
+        &mut self,
+        seq: u16,
+        what: &'static str,
+        heard: &mut Heard,
+    ) -> Result<Option<Reply>, LinkError> {
         let deadline = Instant::now() + self.timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
                 return Ok(None);
             }
-            let got = self
-                .transport
-                .recv(&mut self.rx, left)
-                .map_err(|source| LinkError::Io { what, source })?;
+            let got = match self.transport.recv(&mut self.rx, left) {
+                Ok(n) => n,
+                Err(source) => {
+                    return Err(LinkError::Io {
+                        port: self.port(),
+                        what,
+                        source,
+                    });
+                }
+            };
             if got == 0 {
                 // Transports return 0 only once the timeout has passed (on
                 // their own clock, which may be virtual).
                 return Ok(None);
             }
             self.stats.bytes_received += got as u64;
+            heard.bytes += got as u64;
             let mut input: &[u8] = &self.rx[..got];
             let mut found = None;
             loop {
                 input = match self.decoder.feed(input) {
                     FeedResult::Consumed => break,
                     FeedResult::Frame { frame, remaining } => {
-                        if frame.seq == seq && found.is_none() {
-                            found = match frame.message {
-                                Message::Ack => Some(Reply::Ack),
-                                Message::Nack(c) => Some(Reply::Nack(c)),
-                                Message::Info(i) => Some(Reply::Info(i)),
-                                Message::Status(s) => Some(Reply::Status(s)),
-                                Message::SelfTestResult(t) => Some(Reply::SelfTest(t)),
-                                // Not a response: an echo or noise that decoded; ignore.
-                                _ => None,
-                            };
+                        heard.frames += 1;
+                        let reply = match frame.message {
+                            Message::Ack => Some(Reply::Ack),
+                            Message::Nack(c) => Some(Reply::Nack(c)),
+                            Message::Info(i) => Some(Reply::Info(i)),
+                            Message::Status(s) => Some(Reply::Status(s)),
+                            Message::SelfTestResult(t) => Some(Reply::SelfTest(t)),
+                            // A request: our own frame echoed back (or
+                            // noise that decoded); never an answer.
+                            _ => None,
+                        };
+                        match reply {
+                            None => heard.echoes += 1,
+                            Some(_) if frame.seq != seq => heard.other_seq += 1,
+                            Some(r) => {
+                                // The first answer counts; a repeat of it
+                                // in the same read is dropped.
+                                found = found.or(Some(r));
+                            }
                         }
                         remaining
                     }
                     FeedResult::Error { remaining, .. } => {
                         self.stats.bad_frames += 1;
+                        heard.bad_frames += 1;
                         remaining
                     }
                 };
@@ -394,39 +509,63 @@ impl<T: Transport> Client<T> {
     fn expect_ack(&mut self, what: &'static str, msg: &Message<'_>) -> Result<(), LinkError> {
         match self.request(what, msg)? {
             Reply::Ack => Ok(()),
-            Reply::Nack(code) => Err(LinkError::Nack { what, code }),
-            other => Err(LinkError::Unexpected {
+            other => Err(self.refused(what, other)),
+        }
+    }
+
+    /// The error for `reply`, which is not what `what` asked for.
+    fn refused(&self, what: &'static str, reply: Reply) -> LinkError {
+        match reply {
+            Reply::Nack(code) => LinkError::Nack {
+                port: self.port(),
+                what,
+                code,
+            },
+            other => LinkError::Unexpected {
+                port: self.port(),
                 what,
                 got: other.name(),
-            }),
+            },
         }
     }
 
-    /// Device info.
+    /// A reply of the right kind that no LM firmware sends.
+    fn bad_reply(&self, reply: &'static str, why: String) -> LinkError {
+        LinkError::BadReply {
+            port: self.port(),
+            reply,
+            why,
+        }
+    }
+
+    /// Device info, checked ([`super::reply::check_info`]): a device
+    /// whose `Info` no LM firmware of this lmhost sends is refused here,
+    /// before any number of it is used.
     pub fn info(&mut self) -> Result<Info, LinkError> {
-        match self.request("info", &Message::GetInfo)? {
-            Reply::Info(i) => Ok(i),
-            Reply::Nack(code) => Err(LinkError::Nack { what: "info", code }),
-            other => Err(LinkError::Unexpected {
-                what: "info",
-                got: other.name(),
-            }),
-        }
+        let i = match self.request("info", &Message::GetInfo)? {
+            Reply::Info(i) => i,
+            other => return Err(self.refused("info", other)),
+        };
+        super::reply::check_info(&i).map_err(|why| self.bad_reply("info", why))?;
+        self.info = Some(i);
+        Ok(i)
     }
 
-    /// Device status.
+    /// Device status, checked against the device's `Info` (asked first
+    /// when not yet known) and the slots this client committed
+    /// ([`super::reply::check_status`]).
     pub fn status(&mut self) -> Result<Status, LinkError> {
-        match self.request("status", &Message::GetStatus)? {
-            Reply::Status(s) => Ok(s),
-            Reply::Nack(code) => Err(LinkError::Nack {
-                what: "status",
-                code,
-            }),
-            other => Err(LinkError::Unexpected {
-                what: "status",
-                got: other.name(),
-            }),
-        }
+        let info = match self.info {
+            Some(i) => i,
+            None => self.info()?,
+        };
+        let s = match self.request("status", &Message::GetStatus)? {
+            Reply::Status(s) => s,
+            other => return Err(self.refused("status", other)),
+        };
+        super::reply::check_status(&s, &info, |slot| self.committed.get(&slot).copied())
+            .map_err(|why| self.bad_reply("status", why))?;
+        Ok(s)
     }
 
     /// Play a committed slot until `Stop` (or until the host lease runs
@@ -476,11 +615,7 @@ impl<T: Transport> Client<T> {
         let what = "self test";
         match self.request(what, &Message::SelfTest)? {
             Reply::SelfTest(t) => Ok(t),
-            Reply::Nack(code) => Err(LinkError::Nack { what, code }),
-            other => Err(LinkError::Unexpected {
-                what,
-                got: other.name(),
-            }),
+            other => Err(self.refused(what, other)),
         }
     }
 
@@ -510,6 +645,8 @@ impl<T: Transport> Client<T> {
             return Ok(0);
         }
         self.rig = None;
+        // Another rig drops every library entry.
+        self.committed.clear();
         let begin = Message::BeginRig(BeginRig {
             transducers: t,
             crc32: crc,
@@ -556,6 +693,8 @@ impl<T: Transport> Client<T> {
         let crc32 = spec.crc32;
         let chunk = chunk.clamp(1, MAX_CHUNK);
         let mut rig_bytes = self.ensure_rig(&spec.positions_um, spec.rig_crc32)?;
+        // A begun upload drops the slot's old entry.
+        self.committed.remove(&slot);
         let mut last = None;
         for attempt in 0..self.upload_attempts {
             if attempt > 0 {
@@ -566,6 +705,7 @@ impl<T: Transport> Client<T> {
             let size = (chunk >> (2 * attempt.min(8))).max(MIN_ADAPTIVE_CHUNK.min(chunk));
             match self.upload_once(spec, slot, size, &mut rig_bytes, &mut progress) {
                 Ok(()) => {
+                    self.committed.insert(slot, spec.header.steps);
                     let s = self.stats;
                     return Ok(UploadReport {
                         slot,
