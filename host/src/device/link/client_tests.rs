@@ -61,3 +61,54 @@ fn inconsistent_sequences_are_a_typed_codec_error() {
     let e = UploadSpec::new(&seq, pos, Encoding::Delta).unwrap_err();
     assert!(matches!(e, LinkError::Codec(CodecError::BadShape)), "{e}");
 }
+
+/// A port that sends back what it is sent (a loopback, an adapter with
+/// nothing behind it), or `junk` in its place.
+struct Mirror {
+    pending: Vec<u8>,
+    junk: Option<&'static [u8]>,
+}
+
+impl Transport for Mirror {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.pending.extend_from_slice(self.junk.unwrap_or(bytes));
+        Ok(())
+    }
+    fn recv(&mut self, buf: &mut [u8], _timeout: Duration) -> std::io::Result<usize> {
+        let n = self.pending.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+    fn describe(&self) -> String {
+        "mirror".into()
+    }
+}
+
+/// A request nothing answers says what came instead: its own frames, or
+/// bytes that are no frame; and it names the port.
+#[test]
+fn a_timeout_says_what_came_instead_of_the_reply() {
+    for (junk, want) in [
+        (None, "the port echoed lmhost's own frames back"),
+        (
+            Some(&b"AT\r\nOK\r\n"[..]),
+            "24 bytes came, none an LM protocol frame",
+        ),
+    ] {
+        let mut c = Client::new(Mirror {
+            pending: Vec::new(),
+            junk,
+        });
+        c.timeout = Duration::from_millis(5);
+        c.tries = 3;
+        let e = c.info().unwrap_err();
+        assert!(matches!(e, LinkError::Timeout { .. }), "{e}");
+        let e = e.to_string();
+        assert!(
+            e.starts_with("no response from mirror to info after 3 tries"),
+            "{e}"
+        );
+        assert!(e.contains(want), "{e}");
+    }
+}

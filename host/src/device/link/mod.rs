@@ -1,8 +1,8 @@
 //! The host side of the link: byte transports ([`transport`]), which port
 //! to open ([`discover`]), the request/response client with retries and
-//! chunked upload ([`client`]), the checks every device `Info` and
-//! `Status` passes before use ([`reply`]), and a fault-injecting wrapper
-//! for tests ([`proxy`]).
+//! chunked upload ([`client`]) and how its requests fail ([`error`]), the
+//! checks every device `Info` and `Status` passes before use
+//! ([`reply`]), and a fault-injecting wrapper for tests ([`proxy`]).
 //!
 //! The link carries what it is given: wire values (micrometres,
 //! microseconds) are built from the library's millimetres and seconds by
@@ -11,6 +11,7 @@
 
 pub mod client;
 pub mod discover;
+pub mod error;
 pub mod proxy;
 pub mod reply;
 pub mod transport;
