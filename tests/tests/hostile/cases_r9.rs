@@ -19,6 +19,11 @@
 //! - A request that went unanswered says what came instead: the port's
 //!   own frames echoed, bytes that are no frame, replies with another
 //!   request's seq.
+//! - A link that loses replies: a centroid resent after its ack was lost
+//!   is the one the device took (its `OutOfOrder` for the copy ended
+//!   `stream`), and Ctrl-C ends an upload between two of its frames (it
+//!   was held up for as long as the rest of the upload took, 90 s on a
+//!   device answering every other request).
 
 use std::collections::BTreeMap;
 use std::io::{Read as _, Write as _};
@@ -26,7 +31,9 @@ use std::net::{TcpListener, TcpStream};
 use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
 
-use lm_proto::{DeviceState, FeedResult, FrameDecoder, Info, Message, MuteReason, Status};
+use lm_proto::{
+    DeviceState, FeedResult, FrameDecoder, Info, Message, MessageType, MuteReason, Status,
+};
 use lmhost::device::simdev::{Core as _, FwCore, SimConfig};
 
 use super::*;
@@ -47,6 +54,8 @@ pub(crate) enum Mutation {
     Echo,
     /// Another program: text lines, never a frame delimiter.
     Text,
+    /// Loses the reply of every other request (of this type, or of any).
+    LoseEveryOther(Option<MessageType>),
 }
 
 /// The fakes by name, for `{fake:NAME}`.
@@ -83,6 +92,8 @@ fn mutation(name: &str) -> Mutation {
         "prev_seq" => Mutation::PreviousSeq,
         "echo" => Mutation::Echo,
         "text" => Mutation::Text,
+        "lossy" => Mutation::LoseEveryOther(None),
+        "lossy_centroids" => Mutation::LoseEveryOther(Some(MessageType::Centroid)),
         _ => panic!("no fake device `{name}`"),
     }
 }
@@ -113,6 +124,9 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
     let t0 = std::time::Instant::now();
     let (mut buf, mut out) = (vec![0u8; 4096], Vec::new());
     let mut decoder = FrameDecoder::new();
+    // The host's requests by seq, and how many replies the loss counts.
+    let (mut requests, mut seen) = (FrameDecoder::new(), BTreeMap::<u16, MessageType>::new());
+    let mut answered = 0u64;
     loop {
         let now = t0.elapsed().as_micros() as u64;
         core.poll(now);
@@ -140,6 +154,17 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
             }
             _ => {}
         }
+        let mut input = &buf[..n];
+        loop {
+            input = match requests.feed(input) {
+                FeedResult::Consumed => break,
+                FeedResult::Frame { frame, remaining } => {
+                    seen.insert(frame.seq, frame.message.msg_type());
+                    remaining
+                }
+                FeedResult::Error { remaining, .. } => remaining,
+            };
+        }
         out.clear();
         core.receive(now, &buf[..n], &mut out);
         let mut input = &out[..];
@@ -148,7 +173,18 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
             input = match decoder.feed(input) {
                 FeedResult::Consumed => break,
                 FeedResult::Frame { frame, remaining } => {
-                    frames.push(mutate(frame.seq, &frame.message, m));
+                    let lost = match m {
+                        Mutation::LoseEveryOther(only)
+                            if only.is_none() || only == seen.get(&frame.seq).copied() =>
+                        {
+                            answered += 1;
+                            answered.is_multiple_of(2)
+                        }
+                        _ => false,
+                    };
+                    if !lost {
+                        frames.push(mutate(frame.seq, &frame.message, m));
+                    }
                     remaining
                 }
                 FeedResult::Error { remaining, .. } => remaining,
@@ -234,5 +270,8 @@ pub(crate) fn round9_cases() -> Vec<Case> {
         DEVICE_HEARD "info --timeout-ms 100 --tries 3 --port {fake:echo}" .code(1).err("echoed lmhost's own frames back");
         DEVICE_HEARD "status --timeout-ms 100 --tries 3 --port {fake:text}" .code(1).err("none an LM protocol frame");
         DEVICE_HEARD "info --timeout-ms 100 --tries 3 --port {fake:prev_seq}" .code(1).err("replies came with another request's seq");
+        // 5. A link that loses replies.
+        DEVICE_LOSSY "stream --synthetic --seconds 0.5 --timeout-ms 50 --port {fake:lossy_centroids}" .ok().out("streamed");
+        DEVICE_LOSSY "upload --radius 3 --untracked --timeout-ms 100 --port {fake:lossy}" .signal("TERM", 1500).code(1).err("stopped by a signal before it was committed");
     }
 }

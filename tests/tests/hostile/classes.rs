@@ -110,9 +110,11 @@ pub const DEVICE_INFO: &str = "r9-1 a device's impossible Info is refused at con
 pub const DEVICE_STATUS: &str = "r9-2 a device's impossible Status is refused";
 pub const DEVICE_NAMED: &str = "r9-3 a link error names the port and the reply";
 pub const DEVICE_HEARD: &str = "r9-4 an unanswered request says what came instead";
+pub const DEVICE_LOSSY: &str =
+    "r9-5 a link that loses replies: resent centroids, Ctrl-C mid-upload";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 82] = [
+pub const CLASSES: [&str; 83] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -195,4 +197,5 @@ pub const CLASSES: [&str; 82] = [
     DEVICE_STATUS,
     DEVICE_NAMED,
     DEVICE_HEARD,
+    DEVICE_LOSSY,
 ];

@@ -1,4 +1,7 @@
 use super::*;
+use crate::plan::sequence::Plan;
+use lm_proto::Encoding;
+use lm_proto::codec::CodecError;
 
 /// The `Info` of a simulated-device-like firmware with `slots` slots
 /// (also for the backend's tests).
@@ -111,4 +114,63 @@ fn a_timeout_says_what_came_instead_of_the_reply() {
         );
         assert!(e.contains(want), "{e}");
     }
+}
+
+/// The simulated device behind a link that loses the reply of every
+/// other request.
+struct LosesEveryOther {
+    inner: crate::device::simdev::InProcess<crate::device::simdev::FwCore>,
+    sent: u64,
+}
+
+impl Transport for LosesEveryOther {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.inner.send(bytes)?;
+        self.sent += 1;
+        if self.sent.is_multiple_of(2) {
+            let mut lost = [0u8; 64];
+            while self.inner.recv(&mut lost, Duration::ZERO)? > 0 {}
+        }
+        Ok(())
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        self.inner.recv(buf, timeout)
+    }
+    fn describe(&self) -> String {
+        "lossy".into()
+    }
+}
+
+/// A centroid resent after its ack was lost is the one the device took:
+/// its `OutOfOrder` for the copy is not a refusal.
+#[test]
+fn a_centroid_resent_after_a_lost_ack_is_accepted() {
+    use crate::device::simdev::{FwCore, InProcess, SimConfig};
+    let core = std::sync::Arc::new(std::sync::Mutex::new(
+        FwCore::new(SimConfig::default()).unwrap(),
+    ));
+    let mut c = Client::new(LosesEveryOther {
+        inner: InProcess::new(core, crate::clock::Clock::manual()),
+        sent: 0,
+    });
+    c.timeout = Duration::from_millis(5);
+    let plan = Plan::paper_lm_m().unwrap();
+    let spec = UploadSpec::from_plan(&plan, Encoding::Delta).unwrap();
+    c.upload(&spec, 0, 1024, |_, _| {}).unwrap();
+    c.play(0, PlayAt::Immediate, false).unwrap();
+    let centre = plan.sequence.header.center_um;
+    for seq in 1..=6 {
+        let retries = c.stats.retries;
+        c.centroid(Centroid {
+            seq,
+            pos_um: centre,
+            present: true,
+            host_time_us: u64::from(seq),
+        })
+        .unwrap();
+        if seq > 1 {
+            assert!(c.stats.retries > retries, "every other reply is lost");
+        }
+    }
+    assert_eq!(c.status().unwrap().last_centroid_seq, 6);
 }

@@ -67,6 +67,15 @@ pub enum LinkError {
         /// The cause.
         source: std::io::Error,
     },
+    /// A stop was requested (Ctrl-C, SIGTERM, ...) in the middle of a
+    /// transfer of many requests; what it sent is not committed.
+    #[error("{what} to {port} stopped by a signal before it was committed")]
+    Stopped {
+        /// The port.
+        port: String,
+        /// The transfer.
+        what: &'static str,
+    },
     /// The sequence could not be encoded (its phases are not steps ×
     /// transducers, or the positions do not match the transducers).
     #[error("the sequence cannot be encoded: {0}")]

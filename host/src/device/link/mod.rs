@@ -1,6 +1,7 @@
 //! The host side of the link: byte transports ([`transport`]), which port
 //! to open ([`discover`]), the request/response client with retries and
-//! chunked upload ([`client`]) and how its requests fail ([`error`]), the
+//! chunked upload ([`client`]) of a sequence in wire form ([`spec`]) and
+//! how its requests fail ([`error`]), the
 //! checks every device `Info` and `Status` passes before use
 //! ([`reply`]), and a fault-injecting wrapper for tests ([`proxy`]).
 //!
@@ -14,6 +15,7 @@ pub mod discover;
 pub mod error;
 pub mod proxy;
 pub mod reply;
+pub mod spec;
 pub mod transport;
 
 pub use client::{Client, Heard, LinkError, LinkStats, Reply, UploadReport, UploadSpec};
