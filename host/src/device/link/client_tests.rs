@@ -116,25 +116,37 @@ fn a_timeout_says_what_came_instead_of_the_reply() {
     }
 }
 
-/// The simulated device behind a link that loses the reply of every
-/// other request.
-struct LosesEveryOther {
-    inner: crate::device::simdev::InProcess<crate::device::simdev::FwCore>,
-    sent: u64,
+/// A device that took each centroid, but whose ack of its first copy was
+/// lost (`lose_first`), so it answers the resent copy as firmware does:
+/// `OutOfOrder`, it holds that update already.
+struct LostAck {
+    lose_first: bool,
+    last_seq: Option<u16>,
+    pending: Vec<u8>,
 }
 
-impl Transport for LosesEveryOther {
+impl Transport for LostAck {
     fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        self.inner.send(bytes)?;
-        self.sent += 1;
-        if self.sent.is_multiple_of(2) {
-            let mut lost = [0u8; 64];
-            while self.inner.recv(&mut lost, Duration::ZERO)? > 0 {}
+        let mut d = FrameDecoder::new();
+        let FeedResult::Frame { frame, .. } = d.feed(bytes) else {
+            panic!("the client sends whole frames");
+        };
+        let resend = self.last_seq == Some(frame.seq);
+        self.last_seq = Some(frame.seq);
+        if self.lose_first && !resend {
+            return Ok(());
         }
+        let mut buf = [0u8; MAX_ENCODED_FRAME];
+        let reply = Message::Nack(NackCode::OutOfOrder);
+        let n = encode_frame(frame.seq, &reply, &mut buf).unwrap();
+        self.pending.extend_from_slice(&buf[..n]);
         Ok(())
     }
-    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
-        self.inner.recv(buf, timeout)
+    fn recv(&mut self, buf: &mut [u8], _timeout: Duration) -> std::io::Result<usize> {
+        let n = self.pending.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
     }
     fn describe(&self) -> String {
         "lossy".into()
@@ -142,35 +154,38 @@ impl Transport for LosesEveryOther {
 }
 
 /// A centroid resent after its ack was lost is the one the device took:
-/// its `OutOfOrder` for the copy is not a refusal.
+/// its `OutOfOrder` for the copy is not a refusal; for a first copy it is.
 #[test]
 fn a_centroid_resent_after_a_lost_ack_is_accepted() {
-    use crate::device::simdev::{FwCore, InProcess, SimConfig};
-    let core = std::sync::Arc::new(std::sync::Mutex::new(
-        FwCore::new(SimConfig::default()).unwrap(),
-    ));
-    let mut c = Client::new(LosesEveryOther {
-        inner: InProcess::new(core, crate::clock::Clock::manual()),
-        sent: 0,
-    });
-    c.timeout = Duration::from_millis(5);
-    let plan = Plan::paper_lm_m().unwrap();
-    let spec = UploadSpec::from_plan(&plan, Encoding::Delta).unwrap();
-    c.upload(&spec, 0, 1024, |_, _| {}).unwrap();
-    c.play(0, PlayAt::Immediate, false).unwrap();
-    let centre = plan.sequence.header.center_um;
-    for seq in 1..=6 {
-        let retries = c.stats.retries;
-        c.centroid(Centroid {
-            seq,
-            pos_um: centre,
-            present: true,
-            host_time_us: u64::from(seq),
-        })
-        .unwrap();
-        if seq > 1 {
-            assert!(c.stats.retries > retries, "every other reply is lost");
+    let centroid = Centroid {
+        seq: 7,
+        pos_um: [0, 0, 200_000],
+        present: true,
+        host_time_us: 1,
+    };
+    for lose_first in [true, false] {
+        let mut c = Client::new(LostAck {
+            lose_first,
+            last_seq: None,
+            pending: Vec::new(),
+        });
+        c.timeout = Duration::from_millis(5);
+        let r = c.centroid(centroid);
+        if lose_first {
+            r.unwrap();
+            assert_eq!(c.stats.retries, 1);
+        } else {
+            let e = r.unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    LinkError::Nack {
+                        code: NackCode::OutOfOrder,
+                        ..
+                    }
+                ),
+                "{e}"
+            );
         }
     }
-    assert_eq!(c.status().unwrap().last_centroid_seq, 6);
 }
