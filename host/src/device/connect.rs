@@ -139,11 +139,8 @@ impl<T: Transport> LmBackend<T> {
         if let Some(i) = self.info {
             return Ok(i);
         }
-        let where_ = self.describe();
-        let i = self
-            .client
-            .info()
-            .with_context(|| format!("asking {where_} for its info"))?;
+        // Checked by the client (it names the port).
+        let i = self.client.info()?;
         self.info = Some(i);
         Ok(i)
     }
@@ -221,14 +218,15 @@ impl<T: Transport> Backend for LmBackend<T> {
         let spec = UploadSpec::from_plan(plan, self.encoding)?;
         let info = self.lm_info()?;
         let where_ = self.describe();
-        let chunk = (info.max_chunk as usize).clamp(1, lm_proto::MAX_CHUNK);
+        // Within 1..=MAX_CHUNK: the client checked the Info.
+        let chunk = usize::from(info.max_chunk);
         let slot = match slot {
             Some(s) => {
                 check_slot(s, &info)?;
                 s
             }
             None => {
-                let st = self.client.status().context("reading the device status")?;
+                let st = self.client.status()?;
                 free_slot(info.slots, &st).ok_or_else(|| {
                     anyhow::anyhow!(
                         "no free slot on {where_}: every slot is playing or queued; \
@@ -256,7 +254,7 @@ impl<T: Transport> Backend for LmBackend<T> {
                     }
                 }
             })
-            .with_context(|| format!("uploading to slot {slot} of {where_}"))?;
+            .with_context(|| format!("uploading to slot {slot}"))?;
         let h = &spec.header;
         Ok(UploadReport {
             slot,
@@ -291,7 +289,7 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 
     fn stop(&mut self) -> BResult<()> {
-        self.client.stop().context("stopping the device")?;
+        self.client.stop().context("stopping")?;
         self.playing = false;
         Ok(())
     }
@@ -313,10 +311,7 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 
     fn self_test(&mut self) -> BResult<SelfTest> {
-        Ok(self
-            .client
-            .self_test()
-            .context("running the device's self-test")?)
+        Ok(self.client.self_test().context("running the self-test")?)
     }
 
     /// The firmware's player keeps one queued slot: a later play replaces

@@ -280,7 +280,9 @@ fn lm_board(port: &str, board: Option<&str>, opts: &Options) -> Check {
             return Check::new(
                 "lm board",
                 Outcome::Fail,
-                format!("{name}: no answer to Info ({e})"),
+                // The link's errors name the port, and say whether nothing
+                // answered or what did (another protocol version, ...).
+                e.to_string(),
             )
             .fix(
                 "flash the LM firmware (`lmhost flash --board nucleo-h743`), and give --baud if it \

@@ -106,9 +106,15 @@ pub const NOTICED_TIDY: &str = "r8-6 a quoted number in a message is short";
 pub const NOTICED_CHANGES_NOTHING: &str = "r8-7 a value that changes nothing is refused";
 pub const STREAM_TROUBLE: &str = "r8-8 a stream line is refused for what it is";
 pub const STREAM_NPY_TAIL: &str = "r8-9 an .npy header value with a tail is refused";
+pub const DEVICE_INFO: &str = "r9-1 a device's impossible Info is refused at connect";
+pub const DEVICE_STATUS: &str = "r9-2 a device's impossible Status is refused";
+pub const DEVICE_NAMED: &str = "r9-3 a link error names the port and the reply";
+pub const DEVICE_HEARD: &str = "r9-4 an unanswered request says what came instead";
+pub const DEVICE_LOSSY: &str =
+    "r9-5 a link that loses replies: resent centroids, Ctrl-C mid-upload";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 78] = [
+pub const CLASSES: [&str; 83] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -187,4 +193,9 @@ pub const CLASSES: [&str; 78] = [
     NOTICED_CHANGES_NOTHING,
     STREAM_TROUBLE,
     STREAM_NPY_TAIL,
+    DEVICE_INFO,
+    DEVICE_STATUS,
+    DEVICE_NAMED,
+    DEVICE_HEARD,
+    DEVICE_LOSSY,
 ];

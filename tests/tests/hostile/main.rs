@@ -6,10 +6,11 @@
 //! [`TIME_LIMIT`] (one with a client beside it: [`TIME_LIMIT_WITH_CLIENT`]),
 //! killed and failed otherwise. To add a case, append a
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
-//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r8.rs`); `{port}` is
-//! the shared simulated device, `{dir}` a scratch directory with the
-//! fixtures of [`fixtures`], `{scenes}` the repository's `scenes/`. A
-//! case may run a client of the command beside it (`.during(f)`).
+//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r9.rs`); `{port}` is
+//! the shared simulated device, `{fake:NAME}` a device that lies (round
+//! 9), `{dir}` a scratch directory with the fixtures of [`fixtures`],
+//! `{scenes}` the repository's `scenes/`. A case may run a client of the
+//! command beside it (`.during(f)`).
 //!
 //! Run with `--nocapture` to see the summary line
 //! `hostile inputs: N cases, K classes, 0 panics, 0 hangs`.
@@ -262,6 +263,7 @@ mod cases_r6_sweep;
 mod cases_r7_files;
 mod cases_r7_wire;
 mod cases_r8;
+mod cases_r9;
 mod checks;
 mod fixtures;
 
@@ -276,11 +278,13 @@ use cases_r6_sweep::{long_value_cases, sweep_cases, sweep_fixtures};
 use cases_r7_files::{files_cases, files_fixtures};
 use cases_r7_wire::{wire_cases, wire_fixtures};
 use cases_r8::{round8_cases, round8_fixtures};
+use cases_r9::round9_cases;
 use checks::*;
 use fixtures::*;
 
 fn expand(s: &str, ctx: &Ctx) -> String {
-    s.replace("{port}", &ctx.port)
+    cases_r9::expand_fakes(s)
+        .replace("{port}", &ctx.port)
         .replace("{dev}", &ctx.dev)
         .replace("{wv}", &ctx.wv)
         .replace("{small}", &ctx.small)
@@ -519,6 +523,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(cases_r4_view::view_cases());
     all.extend(wire_cases());
     all.extend(round8_cases());
+    all.extend(round9_cases());
     let classes: BTreeSet<&str> = all.iter().map(|c| c.class).collect();
     if let Err(why) = &full {
         let before = all.len();

@@ -22,69 +22,14 @@ use std::time::{Duration, Instant};
 
 use lm_proto::codec::CodecError;
 use lm_proto::{
-    BeginRig, BeginUpload, Centroid, Chunk, Commit, DeviceLimits, Encoding, FeedResult,
-    FrameDecoder, Geometry, HeaderError, Info, Intensity, MAX_CHUNK, MAX_ENCODED_FRAME,
-    MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play, PlayAt, Positions, SelfTest,
-    Status, UploadHeader, encode_frame, rig_crc32,
+    BeginRig, Centroid, Chunk, Commit, FeedResult, FrameDecoder, Geometry, Info, Intensity,
+    MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play,
+    PlayAt, Positions, SelfTest, Status, encode_frame,
 };
 
-use crate::plan::sequence::{Plan, Sequence};
-
+pub use super::error::{Heard, LinkError};
+pub use super::spec::{UploadReport, UploadSpec};
 use super::transport::Transport;
-
-/// Link failures (the operation failed; exit 1).
-#[derive(Debug, thiserror::Error)]
-pub enum LinkError {
-    /// No valid response after all retries.
-    #[error(
-        "no response from the device to {what} after {tries} tries ({timeout_ms} ms each); \
-         check the port, cable and that the firmware runs"
-    )]
-    Timeout {
-        /// The request.
-        what: &'static str,
-        /// Attempts made.
-        tries: u32,
-        /// Per-attempt timeout.
-        timeout_ms: u64,
-    },
-    /// The device refused a request.
-    #[error("the device refused {what}: {code}")]
-    Nack {
-        /// The request.
-        what: &'static str,
-        /// Its reason.
-        code: NackCode,
-    },
-    /// A response of the wrong kind.
-    #[error("unexpected response to {what}: {got}")]
-    Unexpected {
-        /// The request.
-        what: &'static str,
-        /// What came back.
-        got: &'static str,
-    },
-    /// The transport failed.
-    #[error("link I/O failed during {what}: {source}")]
-    Io {
-        /// The request.
-        what: &'static str,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// The sequence could not be encoded (its phases are not steps ×
-    /// transducers, or the positions do not match the transducers).
-    #[error("the sequence cannot be encoded: {0}")]
-    Codec(#[from] CodecError),
-    /// The upload could not be completed within its restart budget.
-    #[error("upload failed after {attempts} attempts; last error: {last}")]
-    UploadGaveUp {
-        /// Whole-upload attempts made.
-        attempts: u32,
-        /// Why the last one failed.
-        last: Box<LinkError>,
-    },
-}
 
 /// A response, owned.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -102,13 +47,14 @@ pub enum Reply {
 }
 
 impl Reply {
+    /// The reply's kind, with its article.
     fn name(&self) -> &'static str {
         match self {
-            Reply::Ack => "ack",
-            Reply::Nack(_) => "nack",
-            Reply::Info(_) => "info",
-            Reply::Status(_) => "status",
-            Reply::SelfTest(_) => "self-test result",
+            Reply::Ack => "an ack",
+            Reply::Nack(_) => "a nack",
+            Reply::Info(_) => "an info",
+            Reply::Status(_) => "a status",
+            Reply::SelfTest(_) => "a self-test result",
         }
     }
 }
@@ -128,124 +74,6 @@ pub struct LinkStats {
     pub bad_frames: u64,
     /// Whole-upload restarts.
     pub upload_restarts: u64,
-}
-
-/// A sequence ready to upload, in wire units: the header, the bytes
-/// [`Sequence::encode`] produced (sent as they are) and the positions of
-/// the rig it was planned for.
-#[derive(Debug, Clone, PartialEq)]
-pub struct UploadSpec {
-    /// What the slot will play (checked by [`UploadSpec::check_fits`]).
-    pub header: UploadHeader,
-    /// Encoding of `encoded`.
-    pub encoding: Encoding,
-    /// The encoded sequence stream.
-    pub encoded: Vec<u8>,
-    /// CRC-32 of the raw sequence, then the intensity table (the `Commit`
-    /// value).
-    pub crc32: u32,
-    /// One intensity level per step (amplitude modulation), sent in
-    /// `Intensity` frames; `None`: every step at the header's intensity.
-    pub intensity_table: Option<Vec<u8>>,
-    /// Transducer positions in drive coordinates (µm), one per transducer.
-    pub positions_um: Vec<[i32; 3]>,
-    /// CRC-32 of the positions table ([`lm_proto::rig_crc32`]).
-    pub rig_crc32: u32,
-}
-
-impl UploadSpec {
-    /// `sequence` encoded as `encoding`, with its transducers' positions.
-    /// Delta falls back to Raw for a sequence it would not shrink (a few
-    /// large steps, e.g. 4 mm at 25 Hz): fewer bytes on the wire, and the
-    /// device keeps such an entry raw anyway.
-    pub fn new(
-        sequence: &Sequence,
-        positions_um: Vec<[i32; 3]>,
-        encoding: Encoding,
-    ) -> Result<Self, LinkError> {
-        let steps = usize::from(sequence.header.steps);
-        if positions_um.len() != usize::from(sequence.header.transducers)
-            || sequence
-                .intensity_table
-                .as_ref()
-                .is_some_and(|t| t.len() != steps)
-        {
-            return Err(LinkError::Codec(CodecError::BadShape));
-        }
-        let mut encoded = sequence.encode(encoding)?;
-        let mut encoding = encoding;
-        if encoding == Encoding::Delta && encoded.len() as u64 > sequence.header.raw_len() {
-            encoded = sequence.encode(Encoding::Raw)?;
-            encoding = Encoding::Raw;
-        }
-        Ok(Self {
-            header: sequence.header,
-            encoding,
-            encoded,
-            crc32: sequence.crc32(),
-            intensity_table: sequence.intensity_table.clone(),
-            rig_crc32: rig_crc32(&Positions::from_points(&positions_um)),
-            positions_um,
-        })
-    }
-
-    /// A plan's sequence and scene positions, encoded as `encoding`.
-    pub fn from_plan(plan: &Plan, encoding: Encoding) -> anyhow::Result<Self> {
-        Ok(Self::new(&plan.sequence, plan.positions_um()?, encoding)?)
-    }
-
-    /// The `BeginUpload` of this sequence into `slot`.
-    pub fn begin(&self, slot: u8) -> BeginUpload {
-        BeginUpload {
-            slot,
-            header: self.header,
-            encoding: self.encoding,
-            encoded_len: self.encoded.len().min(u32::MAX as usize) as u32,
-            rig_crc32: self.rig_crc32,
-            intensity_table: self.intensity_table.is_some(),
-        }
-    }
-
-    /// Whether it fits `info`'s device in `slot`: the device's own check
-    /// ([`BeginUpload::validate`]), run before sending anything.
-    pub fn check_fits(&self, info: &Info, slot: u8) -> Result<(), HeaderError> {
-        self.begin(slot).validate(&DeviceLimits::from_info(info))
-    }
-}
-
-/// What an upload did.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct UploadReport {
-    /// Slot written.
-    pub slot: u8,
-    /// Raw sequence bytes.
-    pub raw_bytes: u64,
-    /// Encoded sequence bytes (the chunks' data).
-    pub sequence_bytes: u64,
-    /// Rig positions sent with this upload (12 bytes each); 0 when the
-    /// device already held the rig.
-    pub rig_bytes: u64,
-    /// Useful bytes sent: the encoded sequence plus any rig positions.
-    pub payload_bytes: u64,
-    /// All bytes written to the wire during the upload (frames, resends).
-    pub wire_bytes_sent: u64,
-    /// All bytes read from the wire during the upload.
-    pub wire_bytes_received: u64,
-    /// Wall time (s).
-    pub seconds: f64,
-    /// CRC-32 of the raw sequence, as the device confirmed.
-    pub crc32: u32,
-    /// Resends during the upload.
-    pub retries: u64,
-    /// Whole-upload restarts.
-    pub restarts: u64,
-}
-
-impl UploadReport {
-    /// Payload bytes over all wire bytes in both directions.
-    pub fn wire_efficiency(&self) -> f64 {
-        self.payload_bytes as f64 / (self.wire_bytes_sent + self.wire_bytes_received).max(1) as f64
-    }
 }
 
 /// Smallest chunk the adaptive upload shrinks to on a noisy link (bytes).
@@ -273,6 +101,12 @@ pub struct Client<T> {
     /// When the request the device last accepted was sent (the device
     /// renewed the lease no earlier).
     last_accepted: Option<Instant>,
+    /// The device's `Info`, checked ([`super::reply::check_info`]), once
+    /// asked.
+    info: Option<Info>,
+    /// Steps per cycle of the slots this client committed (a `Status`
+    /// step beyond them is impossible).
+    committed: std::collections::HashMap<u8, u16>,
 }
 
 impl<T: Transport> Client<T> {
@@ -291,7 +125,14 @@ impl<T: Transport> Client<T> {
             rig: None,
             lease_ms: lm_proto::DEFAULT_LEASE_MS,
             last_accepted: None,
+            info: None,
+            committed: std::collections::HashMap::new(),
         }
+    }
+
+    /// What the transport says it is (errors name it).
+    fn port(&self) -> String {
+        self.transport.describe()
     }
 
     /// The transport.
@@ -315,20 +156,26 @@ impl<T: Transport> Client<T> {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
         let n = encode_frame(seq, msg, &mut self.tx).map_err(|e| LinkError::Io {
+            port: self.port(),
             what,
             source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string()),
         })?;
         self.stats.requests += 1;
+        let mut heard = Heard::default();
         for attempt in 0..self.tries {
             if attempt > 0 {
                 self.stats.retries += 1;
             }
             let sent = Instant::now();
-            self.transport
-                .send(&self.tx[..n])
-                .map_err(|source| LinkError::Io { what, source })?;
+            if let Err(source) = self.transport.send(&self.tx[..n]) {
+                return Err(LinkError::Io {
+                    port: self.port(),
+                    what,
+                    source,
+                });
+            }
             self.stats.bytes_sent += n as u64;
-            if let Some(r) = self.wait_for(seq, what)? {
+            if let Some(r) = self.wait_for(seq, what, &mut heard)? {
                 if !matches!(r, Reply::Nack(_)) {
                     self.last_accepted = Some(sent);
                 }
@@ -336,51 +183,76 @@ impl<T: Transport> Client<T> {
             }
         }
         Err(LinkError::Timeout {
+            port: self.port(),
             what,
             tries: self.tries,
             timeout_ms: self.timeout.as_millis() as u64,
+            heard,
         })
     }
 
-    /// Read until a response with `seq` arrives or the timeout passes.
-    fn wait_for(&mut self, seq: u16, what: &'static str) -> Result<Option<Reply>, LinkError> {
+    /// Read until a response with `seq` arrives or the timeout passes,
+    /// counting in `heard` what came instead.
+    fn wait_for(
+        &mut self,
+        seq: u16,
+        what: &'static str,
+        heard: &mut Heard,
+    ) -> Result<Option<Reply>, LinkError> {
         let deadline = Instant::now() + self.timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
                 return Ok(None);
             }
-            let got = self
-                .transport
-                .recv(&mut self.rx, left)
-                .map_err(|source| LinkError::Io { what, source })?;
+            let got = match self.transport.recv(&mut self.rx, left) {
+                Ok(n) => n,
+                Err(source) => {
+                    return Err(LinkError::Io {
+                        port: self.port(),
+                        what,
+                        source,
+                    });
+                }
+            };
             if got == 0 {
                 // Transports return 0 only once the timeout has passed (on
                 // their own clock, which may be virtual).
                 return Ok(None);
             }
             self.stats.bytes_received += got as u64;
+            heard.bytes += got as u64;
             let mut input: &[u8] = &self.rx[..got];
             let mut found = None;
             loop {
                 input = match self.decoder.feed(input) {
                     FeedResult::Consumed => break,
                     FeedResult::Frame { frame, remaining } => {
-                        if frame.seq == seq && found.is_none() {
-                            found = match frame.message {
-                                Message::Ack => Some(Reply::Ack),
-                                Message::Nack(c) => Some(Reply::Nack(c)),
-                                Message::Info(i) => Some(Reply::Info(i)),
-                                Message::Status(s) => Some(Reply::Status(s)),
-                                Message::SelfTestResult(t) => Some(Reply::SelfTest(t)),
-                                // Not a response: an echo or noise that decoded; ignore.
-                                _ => None,
-                            };
+                        heard.frames += 1;
+                        let reply = match frame.message {
+                            Message::Ack => Some(Reply::Ack),
+                            Message::Nack(c) => Some(Reply::Nack(c)),
+                            Message::Info(i) => Some(Reply::Info(i)),
+                            Message::Status(s) => Some(Reply::Status(s)),
+                            Message::SelfTestResult(t) => Some(Reply::SelfTest(t)),
+                            // A request: our own frame echoed back (or
+                            // noise that decoded); never an answer.
+                            _ => None,
+                        };
+                        match reply {
+                            None => heard.echoes += 1,
+                            Some(_) if frame.seq != seq => heard.other_seq += 1,
+                            Some(r) => {
+                                // The first answer counts; a repeat of it
+                                // in the same read is dropped.
+                                found = found.or(Some(r));
+                            }
                         }
                         remaining
                     }
                     FeedResult::Error { remaining, .. } => {
                         self.stats.bad_frames += 1;
+                        heard.bad_frames += 1;
                         remaining
                     }
                 };
@@ -394,39 +266,63 @@ impl<T: Transport> Client<T> {
     fn expect_ack(&mut self, what: &'static str, msg: &Message<'_>) -> Result<(), LinkError> {
         match self.request(what, msg)? {
             Reply::Ack => Ok(()),
-            Reply::Nack(code) => Err(LinkError::Nack { what, code }),
-            other => Err(LinkError::Unexpected {
+            other => Err(self.refused(what, other)),
+        }
+    }
+
+    /// The error for `reply`, which is not what `what` asked for.
+    fn refused(&self, what: &'static str, reply: Reply) -> LinkError {
+        match reply {
+            Reply::Nack(code) => LinkError::Nack {
+                port: self.port(),
+                what,
+                code,
+            },
+            other => LinkError::Unexpected {
+                port: self.port(),
                 what,
                 got: other.name(),
-            }),
+            },
         }
     }
 
-    /// Device info.
+    /// A reply of the right kind that no LM firmware sends.
+    fn bad_reply(&self, reply: &'static str, why: String) -> LinkError {
+        LinkError::BadReply {
+            port: self.port(),
+            reply,
+            why,
+        }
+    }
+
+    /// Device info, checked ([`super::reply::check_info`]): a device
+    /// whose `Info` no LM firmware of this lmhost sends is refused here,
+    /// before any number of it is used.
     pub fn info(&mut self) -> Result<Info, LinkError> {
-        match self.request("info", &Message::GetInfo)? {
-            Reply::Info(i) => Ok(i),
-            Reply::Nack(code) => Err(LinkError::Nack { what: "info", code }),
-            other => Err(LinkError::Unexpected {
-                what: "info",
-                got: other.name(),
-            }),
-        }
+        let i = match self.request("info", &Message::GetInfo)? {
+            Reply::Info(i) => i,
+            other => return Err(self.refused("info", other)),
+        };
+        super::reply::check_info(&i).map_err(|why| self.bad_reply("info", why))?;
+        self.info = Some(i);
+        Ok(i)
     }
 
-    /// Device status.
+    /// Device status, checked against the device's `Info` (asked first
+    /// when not yet known) and the slots this client committed
+    /// ([`super::reply::check_status`]).
     pub fn status(&mut self) -> Result<Status, LinkError> {
-        match self.request("status", &Message::GetStatus)? {
-            Reply::Status(s) => Ok(s),
-            Reply::Nack(code) => Err(LinkError::Nack {
-                what: "status",
-                code,
-            }),
-            other => Err(LinkError::Unexpected {
-                what: "status",
-                got: other.name(),
-            }),
-        }
+        let info = match self.info {
+            Some(i) => i,
+            None => self.info()?,
+        };
+        let s = match self.request("status", &Message::GetStatus)? {
+            Reply::Status(s) => s,
+            other => return Err(self.refused("status", other)),
+        };
+        super::reply::check_status(&s, &info, |slot| self.committed.get(&slot).copied())
+            .map_err(|why| self.bad_reply("status", why))?;
+        Ok(s)
     }
 
     /// Play a committed slot until `Stop` (or until the host lease runs
@@ -476,11 +372,7 @@ impl<T: Transport> Client<T> {
         let what = "self test";
         match self.request(what, &Message::SelfTest)? {
             Reply::SelfTest(t) => Ok(t),
-            Reply::Nack(code) => Err(LinkError::Nack { what, code }),
-            other => Err(LinkError::Unexpected {
-                what,
-                got: other.name(),
-            }),
+            other => Err(self.refused(what, other)),
         }
     }
 
@@ -491,7 +383,31 @@ impl<T: Transport> Client<T> {
 
     /// Send one centroid update and wait for its ack.
     pub fn centroid(&mut self, c: Centroid) -> Result<(), LinkError> {
-        self.expect_ack("centroid", &Message::Centroid(c))
+        let retries = self.stats.retries;
+        match self.expect_ack("centroid", &Message::Centroid(c)) {
+            // A resend whose first copy the device took (its ack was lost):
+            // the device keeps only newer updates, so it refuses the copy
+            // of the one it holds. One update is in flight at a time, so
+            // it holds this one.
+            Err(LinkError::Nack {
+                code: NackCode::OutOfOrder,
+                ..
+            }) if self.stats.retries > retries => Ok(()),
+            r => r,
+        }
+    }
+
+    /// Ends a transfer of many requests (an upload, a rig) once a stop
+    /// was requested: a device that answers slowly would otherwise hold
+    /// Ctrl-C up for as long as the rest takes.
+    fn check_stop(&self, what: &'static str) -> Result<(), LinkError> {
+        if crate::stop::requested() {
+            return Err(LinkError::Stopped {
+                port: self.port(),
+                what,
+            });
+        }
+        Ok(())
     }
 
     /// Makes sure the device holds the rig of `positions_um` (CRC `crc`):
@@ -510,6 +426,8 @@ impl<T: Transport> Client<T> {
             return Ok(0);
         }
         self.rig = None;
+        // Another rig drops every library entry.
+        self.committed.clear();
         let begin = Message::BeginRig(BeginRig {
             transducers: t,
             crc32: crc,
@@ -527,6 +445,7 @@ impl<T: Transport> Client<T> {
                 positions: Positions::from_points(pts),
             };
             let retries_before = self.stats.retries;
+            self.check_stop("the rig")?;
             self.expect_ack("geometry", &Message::Geometry(g))?;
             first += pts.len();
             group = if self.stats.retries > retries_before {
@@ -556,6 +475,8 @@ impl<T: Transport> Client<T> {
         let crc32 = spec.crc32;
         let chunk = chunk.clamp(1, MAX_CHUNK);
         let mut rig_bytes = self.ensure_rig(&spec.positions_um, spec.rig_crc32)?;
+        // A begun upload drops the slot's old entry.
+        self.committed.remove(&slot);
         let mut last = None;
         for attempt in 0..self.upload_attempts {
             if attempt > 0 {
@@ -566,6 +487,7 @@ impl<T: Transport> Client<T> {
             let size = (chunk >> (2 * attempt.min(8))).max(MIN_ADAPTIVE_CHUNK.min(chunk));
             match self.upload_once(spec, slot, size, &mut rig_bytes, &mut progress) {
                 Ok(()) => {
+                    self.committed.insert(slot, spec.header.steps);
                     let s = self.stats;
                     return Ok(UploadReport {
                         slot,
@@ -600,7 +522,7 @@ impl<T: Transport> Client<T> {
                         ..
                     },
                 ) => return Err(e),
-                Err(e @ LinkError::Io { .. }) => return Err(e),
+                Err(e @ (LinkError::Io { .. } | LinkError::Stopped { .. })) => return Err(e),
                 Err(e) => last = Some(e),
             }
         }
@@ -644,6 +566,7 @@ impl<T: Transport> Client<T> {
         while offset < encoded.len() {
             let data = &encoded[offset..(offset + size).min(encoded.len())];
             let retries_before = self.stats.retries;
+            self.check_stop("the upload")?;
             let msg = Message::Chunk(Chunk {
                 slot,
                 offset: offset as u32,

@@ -1,4 +1,7 @@
 use super::*;
+use crate::plan::sequence::Plan;
+use lm_proto::Encoding;
+use lm_proto::codec::CodecError;
 
 /// The `Info` of a simulated-device-like firmware with `slots` slots
 /// (also for the backend's tests).
@@ -60,4 +63,129 @@ fn inconsistent_sequences_are_a_typed_codec_error() {
     let pos = plan.positions_um().unwrap();
     let e = UploadSpec::new(&seq, pos, Encoding::Delta).unwrap_err();
     assert!(matches!(e, LinkError::Codec(CodecError::BadShape)), "{e}");
+}
+
+/// A port that sends back what it is sent (a loopback, an adapter with
+/// nothing behind it), or `junk` in its place.
+struct Mirror {
+    pending: Vec<u8>,
+    junk: Option<&'static [u8]>,
+}
+
+impl Transport for Mirror {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.pending.extend_from_slice(self.junk.unwrap_or(bytes));
+        Ok(())
+    }
+    fn recv(&mut self, buf: &mut [u8], _timeout: Duration) -> std::io::Result<usize> {
+        let n = self.pending.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+    fn describe(&self) -> String {
+        "mirror".into()
+    }
+}
+
+/// A request nothing answers says what came instead: its own frames, or
+/// bytes that are no frame; and it names the port.
+#[test]
+fn a_timeout_says_what_came_instead_of_the_reply() {
+    for (junk, want) in [
+        (None, "the port echoed lmhost's own frames back"),
+        (
+            Some(&b"AT\r\nOK\r\n"[..]),
+            "24 bytes came, none an LM protocol frame",
+        ),
+    ] {
+        let mut c = Client::new(Mirror {
+            pending: Vec::new(),
+            junk,
+        });
+        c.timeout = Duration::from_millis(5);
+        c.tries = 3;
+        let e = c.info().unwrap_err();
+        assert!(matches!(e, LinkError::Timeout { .. }), "{e}");
+        let e = e.to_string();
+        assert!(
+            e.starts_with("no response from mirror to info after 3 tries"),
+            "{e}"
+        );
+        assert!(e.contains(want), "{e}");
+    }
+}
+
+/// A device that took each centroid, but whose ack of its first copy was
+/// lost (`lose_first`), so it answers the resent copy as firmware does:
+/// `OutOfOrder`, it holds that update already.
+struct LostAck {
+    lose_first: bool,
+    last_seq: Option<u16>,
+    pending: Vec<u8>,
+}
+
+impl Transport for LostAck {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        let mut d = FrameDecoder::new();
+        let FeedResult::Frame { frame, .. } = d.feed(bytes) else {
+            panic!("the client sends whole frames");
+        };
+        let resend = self.last_seq == Some(frame.seq);
+        self.last_seq = Some(frame.seq);
+        if self.lose_first && !resend {
+            return Ok(());
+        }
+        let mut buf = [0u8; MAX_ENCODED_FRAME];
+        let reply = Message::Nack(NackCode::OutOfOrder);
+        let n = encode_frame(frame.seq, &reply, &mut buf).unwrap();
+        self.pending.extend_from_slice(&buf[..n]);
+        Ok(())
+    }
+    fn recv(&mut self, buf: &mut [u8], _timeout: Duration) -> std::io::Result<usize> {
+        let n = self.pending.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+    fn describe(&self) -> String {
+        "lossy".into()
+    }
+}
+
+/// A centroid resent after its ack was lost is the one the device took:
+/// its `OutOfOrder` for the copy is not a refusal; for a first copy it is.
+#[test]
+fn a_centroid_resent_after_a_lost_ack_is_accepted() {
+    let centroid = Centroid {
+        seq: 7,
+        pos_um: [0, 0, 200_000],
+        present: true,
+        host_time_us: 1,
+    };
+    for lose_first in [true, false] {
+        let mut c = Client::new(LostAck {
+            lose_first,
+            last_seq: None,
+            pending: Vec::new(),
+        });
+        c.timeout = Duration::from_millis(5);
+        let r = c.centroid(centroid);
+        if lose_first {
+            r.unwrap();
+            assert_eq!(c.stats.retries, 1);
+        } else {
+            let e = r.unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    LinkError::Nack {
+                        code: NackCode::OutOfOrder,
+                        ..
+                    }
+                ),
+                "{e}"
+            );
+        }
+    }
 }

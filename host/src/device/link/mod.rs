@@ -1,7 +1,9 @@
 //! The host side of the link: byte transports ([`transport`]), which port
 //! to open ([`discover`]), the request/response client with retries and
-//! chunked upload ([`client`]), and a fault-injecting wrapper for tests
-//! ([`proxy`]).
+//! chunked upload ([`client`]) of a sequence in wire form ([`spec`]) and
+//! how its requests fail ([`error`]), the
+//! checks every device `Info` and `Status` passes before use
+//! ([`reply`]), and a fault-injecting wrapper for tests ([`proxy`]).
 //!
 //! The link carries what it is given: wire values (micrometres,
 //! microseconds) are built from the library's millimetres and seconds by
@@ -10,10 +12,13 @@
 
 pub mod client;
 pub mod discover;
+pub mod error;
 pub mod proxy;
+pub mod reply;
+pub mod spec;
 pub mod transport;
 
-pub use client::{Client, LinkError, LinkStats, Reply, UploadReport, UploadSpec};
+pub use client::{Client, Heard, LinkError, LinkStats, Reply, UploadReport, UploadSpec};
 pub use transport::Transport;
 
 /// Which device port to open and how (the CLI's `--port`, `--baud`,

@@ -1,0 +1,271 @@
+//! What a device's `Info` and `Status` may say: the one check each reply
+//! passes before the host uses a number of it (a slot count in a loop, a
+//! chunk size in an upload, a state it prints).
+//!
+//! Whatever answers on the port may not be the LM firmware of this
+//! lmhost: a board flashed with another protocol version, a half-flashed
+//! one, another program. A field outside what SPEC.md allows, or a
+//! combination the firmware's player and policy never produce, is the
+//! device's fault: the request fails naming the field (exit 1), rather
+//! than the host clamping it, looping on it, or blaming the user's
+//! flags for it.
+
+use lm_proto::{DeviceState, Info, MAX_CHUNK, MuteReason, PROTOCOL_VERSION, Status};
+
+/// Why `info` cannot come from the LM firmware this host speaks to, if
+/// it cannot.
+pub fn check_info(info: &Info) -> Result<(), String> {
+    if info.proto_version != PROTOCOL_VERSION {
+        return Err(format!(
+            "protocol version {}, and this lmhost speaks {PROTOCOL_VERSION}: flash the firmware \
+             of this lmhost's release (`lmhost flash`)",
+            info.proto_version
+        ));
+    }
+    let zero = [
+        ("slots", info.slots == 0),
+        ("max_transducers", info.max_transducers == 0),
+        ("slot_bytes", info.slot_bytes == 0),
+        ("timer_hz", info.timer_hz == 0),
+        ("max_chunk", info.max_chunk == 0),
+    ];
+    if let Some((name, _)) = zero.iter().find(|(_, z)| *z) {
+        return Err(format!("{name} 0"));
+    }
+    if usize::from(info.max_chunk) > MAX_CHUNK {
+        return Err(format!(
+            "max_chunk {} above the protocol's {MAX_CHUNK}",
+            info.max_chunk
+        ));
+    }
+    if info.library_free > info.slot_bytes {
+        return Err(format!(
+            "library_free {} above its library's slot_bytes {}",
+            info.library_free, info.slot_bytes
+        ));
+    }
+    if info.rig_transducers > info.max_transducers {
+        return Err(format!(
+            "a rig of {} transducers, above its max_transducers {}",
+            info.rig_transducers, info.max_transducers
+        ));
+    }
+    Ok(())
+}
+
+/// Why `st` cannot be the status of the device whose (checked) `Info` is
+/// `info`, if it cannot. `steps(slot)` is the steps per cycle of a slot
+/// this host uploaded, when it knows them.
+pub fn check_status(
+    st: &Status,
+    info: &Info,
+    steps: impl Fn(u8) -> Option<u16>,
+) -> Result<(), String> {
+    for (name, slot) in [("slot", st.slot), ("queued_slot", st.queued_slot)] {
+        if let Some(s) = slot
+            && s >= info.slots
+        {
+            return Err(format!(
+                "{name} {s}, and the device has {} slots (0-{})",
+                info.slots,
+                info.slots - 1
+            ));
+        }
+    }
+    let playing = matches!(st.state, DeviceState::Playing | DeviceState::Muted);
+    let state = format!("{:?}", st.state).to_lowercase();
+    if playing && st.slot.is_none() {
+        return Err(format!("state {state} without a slot"));
+    }
+    if st.state == DeviceState::Idle && st.slot.is_some() {
+        return Err("state idle (nothing played since reset) with a slot".into());
+    }
+    if !playing && st.queued_slot.is_some() {
+        return Err(format!("state {state} with a queued slot"));
+    }
+    // The policy's pairs (`lm_fw_core::policy::Policy::mute_reason`):
+    // Muted may say None for the instant its lease ran out.
+    let mute_fits = match st.state {
+        DeviceState::Idle | DeviceState::Playing => st.mute_reason == MuteReason::None,
+        DeviceState::Stopped => {
+            matches!(
+                st.mute_reason,
+                MuteReason::Stopped | MuteReason::LeaseExpired
+            )
+        }
+        DeviceState::Muted => !matches!(
+            st.mute_reason,
+            MuteReason::Stopped | MuteReason::LeaseExpired
+        ),
+        // The parser lists every state this protocol version has.
+        _ => false,
+    };
+    if !mute_fits {
+        return Err(format!(
+            "state {state} with mute reason `{}`",
+            st.mute_reason
+        ));
+    }
+    let lease_ok = lm_proto::LEASE_MS.contains(&st.lease_ms) || (st.lease_ms == 0 && !playing);
+    if !lease_ok {
+        return Err(format!(
+            "a host lease of {} ms in state {state} (a play's lease is {}..={} ms)",
+            st.lease_ms,
+            lm_proto::LEASE_MS.start(),
+            lm_proto::LEASE_MS.end()
+        ));
+    }
+    if let Some(slot) = st.slot
+        && let Some(n) = steps(slot)
+        && st.step >= n
+    {
+        return Err(format!(
+            "step {} of slot {slot}, which has {n} steps per cycle",
+            st.step
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::link::client::tests::info;
+
+    fn playing(slot: u8) -> Status {
+        Status {
+            state: DeviceState::Playing,
+            slot: Some(slot),
+            lease_ms: 1000,
+            ..Status::default()
+        }
+    }
+
+    #[test]
+    fn an_info_outside_the_spec_is_refused_naming_its_field() {
+        assert_eq!(check_info(&info(32)), Ok(()));
+        assert_eq!(check_info(&info(255)), Ok(()), "slots 0-254");
+        let bad = [
+            (
+                Info {
+                    proto_version: 5,
+                    ..info(32)
+                },
+                "protocol version 5",
+            ),
+            (info(0), "slots 0"),
+            (
+                Info {
+                    max_chunk: 0,
+                    ..info(32)
+                },
+                "max_chunk 0",
+            ),
+            (
+                Info {
+                    max_chunk: 1025,
+                    ..info(32)
+                },
+                "max_chunk 1025 above",
+            ),
+            (
+                Info {
+                    max_transducers: 0,
+                    ..info(32)
+                },
+                "max_transducers 0",
+            ),
+            (
+                Info {
+                    timer_hz: 0,
+                    ..info(32)
+                },
+                "timer_hz 0",
+            ),
+            (
+                Info {
+                    library_free: u32::MAX,
+                    ..info(32)
+                },
+                "library_free 4294967295",
+            ),
+            (
+                Info {
+                    rig_transducers: 997,
+                    ..info(32)
+                },
+                "a rig of 997 transducers",
+            ),
+        ];
+        for (i, want) in bad {
+            let e = check_info(&i).unwrap_err();
+            assert!(e.contains(want), "{e}");
+        }
+    }
+
+    #[test]
+    fn a_status_no_firmware_reports_is_refused() {
+        let none = |_| None;
+        assert_eq!(check_status(&Status::default(), &info(32), none), Ok(()));
+        assert_eq!(check_status(&playing(31), &info(32), none), Ok(()));
+        let muted_at_expiry = Status {
+            state: DeviceState::Muted,
+            ..playing(0)
+        };
+        assert_eq!(check_status(&muted_at_expiry, &info(32), none), Ok(()));
+        let bad = [
+            (playing(32), "slot 32, and the device has 32 slots"),
+            (
+                Status {
+                    slot: None,
+                    ..playing(0)
+                },
+                "state playing without a slot",
+            ),
+            (
+                Status {
+                    queued_slot: Some(1),
+                    state: DeviceState::Stopped,
+                    mute_reason: MuteReason::Stopped,
+                    ..playing(0)
+                },
+                "state stopped with a queued slot",
+            ),
+            (
+                Status {
+                    mute_reason: MuteReason::Stopped,
+                    ..playing(0)
+                },
+                "state playing with mute reason `stopped`",
+            ),
+            (
+                Status {
+                    lease_ms: 0,
+                    ..playing(0)
+                },
+                "a host lease of 0 ms in state playing",
+            ),
+            (
+                Status {
+                    slot: Some(0),
+                    ..Status::default()
+                },
+                "state idle",
+            ),
+        ];
+        for (st, want) in bad {
+            let e = check_status(&st, &info(32), none).unwrap_err();
+            assert!(e.contains(want), "{e}");
+        }
+        let step = Status {
+            step: 40,
+            ..playing(3)
+        };
+        let e = check_status(&step, &info(32), |s| (s == 3).then_some(40)).unwrap_err();
+        assert!(e.contains("step 40 of slot 3, which has 40 steps"), "{e}");
+        assert_eq!(
+            check_status(&step, &info(32), |s| (s == 3).then_some(41)),
+            Ok(())
+        );
+    }
+}

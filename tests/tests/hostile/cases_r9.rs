@@ -1,0 +1,277 @@
+//! Round 9: the device's replies as hostile input. What answers on the
+//! port may be a board of another protocol version, a half-flashed one, a
+//! USB-serial adapter echoing bytes, or another program: a fake device
+//! ([`Fake`], the simulated firmware core behind a local TCP port, each of
+//! its replies passed through one [`Mutation`]) stands in for each, and
+//! `{fake:NAME}` in a row is its `--port`.
+//!
+//! - An `Info` no LM firmware of this lmhost sends (another protocol
+//!   version, 0 slots, a `max_chunk` of 0, 0 transducers, more library
+//!   free than it holds) is refused where the client reads it, naming the
+//!   port and the field: it was driven (an upload reported done on a v5
+//!   board), looped on (1-byte chunks, a session past any deadline) or
+//!   blamed on the user's flags (exit 2, "--slot 0 does not exist").
+//! - A `Status` no firmware reports (a slot beyond the device's count,
+//!   playing with mute reason "stopped", playing without a slot) is
+//!   refused, not printed or taken as the user's `--slot`.
+//! - Every link error names the port, and a wrong kind of reply says what
+//!   came (`stream` said "unexpected response to status: ack").
+//! - A request that went unanswered says what came instead: the port's
+//!   own frames echoed, bytes that are no frame, replies with another
+//!   request's seq.
+//! - A link that loses replies: a centroid resent after its ack was lost
+//!   is the one the device took (its `OutOfOrder` for the copy ended
+//!   `stream`), and Ctrl-C ends an upload between two of its frames (it
+//!   was held up for as long as the rest of the upload took, 90 s on a
+//!   device answering every other request).
+
+use std::collections::BTreeMap;
+use std::io::{Read as _, Write as _};
+use std::net::{TcpListener, TcpStream};
+use std::sync::{Mutex, OnceLock};
+use std::time::Duration;
+
+use lm_proto::{
+    DeviceState, FeedResult, FrameDecoder, Info, Message, MessageType, MuteReason, Status,
+};
+use lmhost::device::simdev::{Core as _, FwCore, SimConfig};
+
+use super::*;
+
+/// What a fake device does to the simulated firmware's replies.
+#[derive(Clone, Copy)]
+pub(crate) enum Mutation {
+    /// Changes every `Info`.
+    Info(fn(&mut Info)),
+    /// Changes every `Status`.
+    Status(fn(&mut Status)),
+    /// Answers every request with this message instead.
+    Every(Message<'static>),
+    /// Answers with the seq of the request before.
+    PreviousSeq,
+    /// Sends the host's bytes back (a loopback, an adapter with nothing
+    /// behind it).
+    Echo,
+    /// Another program: text lines, never a frame delimiter.
+    Text,
+    /// Loses the reply of every other request (of this type, or of any).
+    LoseEveryOther(Option<MessageType>),
+}
+
+/// The fakes by name, for `{fake:NAME}`.
+fn mutation(name: &str) -> Mutation {
+    match name {
+        "proto5" => Mutation::Info(|i| i.proto_version = 5),
+        "slots0" => Mutation::Info(|i| i.slots = 0),
+        "chunk0" => Mutation::Info(|i| i.max_chunk = 0),
+        "transducers0" => Mutation::Info(|i| i.max_transducers = 0),
+        "free" => Mutation::Info(|i| i.library_free = u32::MAX),
+        "slot200" => Mutation::Status(|s| s.slot = Some(200)),
+        "playing_stopped" => Mutation::Status(|s| {
+            s.state = DeviceState::Playing;
+            s.slot = Some(0);
+            s.mute_reason = MuteReason::Stopped;
+        }),
+        "ack" => Mutation::Every(Message::Ack),
+        "status" => Mutation::Every(Message::Status(Status {
+            state: DeviceState::Idle,
+            slot: None,
+            step: 0,
+            cycles: 0,
+            missed_deadlines: 0,
+            last_centroid_seq: 0,
+            bad_frames: 0,
+            crc_errors: 0,
+            nacks: 0,
+            correction_um: [0; 3],
+            queued_slot: None,
+            mute_reason: MuteReason::None,
+            lease_ms: 0,
+            lease_expiries: 0,
+        })),
+        "prev_seq" => Mutation::PreviousSeq,
+        "echo" => Mutation::Echo,
+        "text" => Mutation::Text,
+        "lossy" => Mutation::LoseEveryOther(None),
+        "lossy_centroids" => Mutation::LoseEveryOther(Some(MessageType::Centroid)),
+        _ => panic!("no fake device `{name}`"),
+    }
+}
+
+/// A fake device listening on a local TCP port, one connection at a time,
+/// each a freshly reset device.
+struct Fake;
+
+impl Fake {
+    /// Starts a fake applying `m`; returns its `--port`.
+    fn start(m: Mutation) -> String {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("a local TCP port");
+        let port = listener.local_addr().unwrap().port();
+        std::thread::spawn(move || {
+            for conn in listener.incoming().flatten() {
+                let _ = serve(conn, m);
+            }
+        });
+        format!("tcp:127.0.0.1:{port}")
+    }
+}
+
+/// One connection: the bytes read go to a fresh simulated firmware, its
+/// replies out through `m`.
+fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
+    conn.set_read_timeout(Some(Duration::from_millis(1)))?;
+    let mut core = FwCore::new(SimConfig::default()).expect("the simulated firmware");
+    let t0 = std::time::Instant::now();
+    let (mut buf, mut out) = (vec![0u8; 4096], Vec::new());
+    let mut decoder = FrameDecoder::new();
+    // The host's requests by seq, and how many replies the loss counts.
+    let (mut requests, mut seen) = (FrameDecoder::new(), BTreeMap::<u16, MessageType>::new());
+    let mut answered = 0u64;
+    loop {
+        let now = t0.elapsed().as_micros() as u64;
+        core.poll(now);
+        let n = match conn.read(&mut buf) {
+            Ok(0) => return Ok(()),
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        match m {
+            Mutation::Echo => {
+                conn.write_all(&buf[..n])?;
+                continue;
+            }
+            Mutation::Text => {
+                conn.write_all(b"AT\r\nOK\r\nready> ")?;
+                continue;
+            }
+            _ => {}
+        }
+        let mut input = &buf[..n];
+        loop {
+            input = match requests.feed(input) {
+                FeedResult::Consumed => break,
+                FeedResult::Frame { frame, remaining } => {
+                    seen.insert(frame.seq, frame.message.msg_type());
+                    remaining
+                }
+                FeedResult::Error { remaining, .. } => remaining,
+            };
+        }
+        out.clear();
+        core.receive(now, &buf[..n], &mut out);
+        let mut input = &out[..];
+        let mut frames = Vec::new();
+        loop {
+            input = match decoder.feed(input) {
+                FeedResult::Consumed => break,
+                FeedResult::Frame { frame, remaining } => {
+                    let lost = match m {
+                        Mutation::LoseEveryOther(only)
+                            if only.is_none() || only == seen.get(&frame.seq).copied() =>
+                        {
+                            answered += 1;
+                            answered.is_multiple_of(2)
+                        }
+                        _ => false,
+                    };
+                    if !lost {
+                        frames.push(mutate(frame.seq, &frame.message, m));
+                    }
+                    remaining
+                }
+                FeedResult::Error { remaining, .. } => remaining,
+            };
+        }
+        for f in frames {
+            conn.write_all(&f)?;
+        }
+    }
+}
+
+/// One reply (`seq`, `msg`) as the fake sends it.
+fn mutate(seq: u16, msg: &Message<'_>, m: Mutation) -> Vec<u8> {
+    let (seq, msg) = match (m, msg) {
+        (Mutation::Info(f), Message::Info(i)) => {
+            let mut i = *i;
+            f(&mut i);
+            (seq, Message::Info(i))
+        }
+        (Mutation::Status(f), Message::Status(s)) => {
+            let mut s = *s;
+            f(&mut s);
+            (seq, Message::Status(s))
+        }
+        (Mutation::Every(reply), _) => (seq, reply),
+        (Mutation::PreviousSeq, _) => (seq.wrapping_sub(1), copy(msg)),
+        _ => (seq, copy(msg)),
+    };
+    let mut buf = vec![0u8; lm_proto::MAX_ENCODED_FRAME];
+    let n = lm_proto::encode_frame(seq, &msg, &mut buf).expect("a reply encodes");
+    buf.truncate(n);
+    buf
+}
+
+/// A reply, owned (replies borrow nothing).
+fn copy(msg: &Message<'_>) -> Message<'static> {
+    match msg {
+        Message::Ack => Message::Ack,
+        Message::Nack(c) => Message::Nack(*c),
+        Message::Info(i) => Message::Info(*i),
+        Message::Status(s) => Message::Status(*s),
+        Message::SelfTestResult(t) => Message::SelfTestResult(*t),
+        _ => panic!("the device sent a request"),
+    }
+}
+
+/// `s` with every `{fake:NAME}` replaced by that fake's port, started on
+/// first use and kept for the suite.
+pub(crate) fn expand_fakes(s: &str) -> String {
+    static FAKES: OnceLock<Mutex<BTreeMap<String, String>>> = OnceLock::new();
+    let Some((before, rest)) = s.split_once("{fake:") else {
+        return s.to_owned();
+    };
+    let (name, after) = rest.split_once('}').expect("`{fake:NAME}`");
+    let port = FAKES
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap()
+        .entry(name.to_owned())
+        .or_insert_with(|| Fake::start(mutation(name)))
+        .clone();
+    format!("{before}{port}{}", expand_fakes(after))
+}
+
+pub(crate) fn round9_cases() -> Vec<Case> {
+    table! {
+        // 1. An Info no LM firmware of this lmhost sends.
+        DEVICE_INFO "info --port {fake:proto5}" .code(1).err("protocol version 5, and this lmhost speaks 6").err("tcp:127.0.0.1:");
+        DEVICE_INFO "upload --radius 3 --foci 4 --no-play --port {fake:proto5}" .code(1).err("protocol version 5");
+        DEVICE_INFO "doctor --port {fake:proto5}" .code(1).out("protocol version 5");
+        DEVICE_INFO "upload --radius 3 --no-play --port {fake:chunk0}" .code(1).err("max_chunk 0");
+        DEVICE_INFO "play --untracked --port {fake:slots0}" .code(1).err("slots 0");
+        DEVICE_INFO "upload --radius 3 --no-play --port {fake:transducers0}" .code(1).err("max_transducers 0");
+        DEVICE_INFO "stream --synthetic --seconds 0.3 --port {fake:free}" .code(1).err("library_free 4294967295");
+        // 2. A Status no firmware reports.
+        DEVICE_STATUS "status --port {fake:slot200}" .code(1).err("slot 200, and the device has 32 slots");
+        DEVICE_STATUS "stream --synthetic --seconds 0.3 --port {fake:slot200}" .code(1).err("the status from tcp:127.0.0.1:");
+        DEVICE_STATUS "status --port {fake:playing_stopped}" .code(1).err("state playing with mute reason `stopped`");
+        // 3. Link errors name the port and the reply.
+        DEVICE_NAMED "stream --synthetic --seconds 0.3 --port {fake:ack}" .code(1).err("127.0.0.1:").err("with an ack");
+        DEVICE_NAMED "stop --port {fake:status}" .code(1).err("127.0.0.1:").err("answered stop with a status");
+        // 4. An unanswered request says what came instead.
+        DEVICE_HEARD "info --timeout-ms 100 --tries 3 --port {fake:echo}" .code(1).err("echoed lmhost's own frames back");
+        DEVICE_HEARD "status --timeout-ms 100 --tries 3 --port {fake:text}" .code(1).err("none an LM protocol frame");
+        DEVICE_HEARD "info --timeout-ms 100 --tries 3 --port {fake:prev_seq}" .code(1).err("replies came with another request's seq");
+        // 5. A link that loses replies.
+        DEVICE_LOSSY "stream --synthetic --seconds 0.5 --timeout-ms 50 --port {fake:lossy_centroids}" .ok().out("streamed");
+        DEVICE_LOSSY "upload --radius 3 --untracked --timeout-ms 100 --port {fake:lossy}" .signal("TERM", 1500).code(1).err("stopped by a signal before it was committed");
+    }
+}
