@@ -359,7 +359,8 @@ where
 pub struct UdpCounts {
     /// Datagrams received.
     pub datagrams: std::sync::atomic::AtomicU64,
-    /// Datagrams with at least one unusable line (skipped lines).
+    /// Datagrams with at least one unusable line (skipped lines), or
+    /// none at all (empty or blank).
     pub bad_datagrams: std::sync::atomic::AtomicU64,
     /// Datagrams the kernel dropped because the socket's buffer was full
     /// (a tracker sending faster than the stream reads), as the kernel
@@ -412,7 +413,8 @@ fn recv_counting_drops(
 /// or when a stop was requested ([`crate::stop::requested`]).
 ///
 /// A bad line (garbage, not UTF-8, non-finite, longer than
-/// [`MAX_LINE_BYTES`]) is skipped and its datagram counted in `counts`;
+/// [`MAX_LINE_BYTES`]) is skipped and its datagram counted in `counts`, as
+/// is a datagram with no line at all (empty or blank);
 /// only a flood of [`MAX_BAD_DATAGRAMS_IN_A_ROW`] bad datagrams in a row
 /// ends the session (with an input error).
 pub fn udp(
@@ -474,9 +476,14 @@ pub fn udp(
             };
             last_datagram = std::time::Instant::now();
             let number = counts.datagrams.fetch_add(1, Relaxed) as usize + 1;
+            // A datagram is one message, not a text file: one with no line
+            // in it (empty, or only blanks) carries nothing and is bad like
+            // any other unparsable one. A comment or the CSV header is a
+            // line, kept as in a file.
             let mut bad = false;
             match std::str::from_utf8(&buf[..n]) {
                 Err(_) => bad = true,
+                Ok(text) if text.trim().is_empty() => bad = true,
                 Ok(text) => {
                     for line in text.lines() {
                         if line.len() > MAX_LINE_BYTES {

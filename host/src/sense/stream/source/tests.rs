@@ -269,3 +269,27 @@ fn datagrams_the_kernel_dropped_are_counted() {
     assert_eq!(counts.datagrams.load(Relaxed), got);
     assert_eq!(got + lost, BURST as u64 + 1, "received {got}, lost {lost}");
 }
+
+#[test]
+fn an_empty_or_blank_datagram_is_counted_bad_and_a_comment_is_not() {
+    use std::sync::atomic::Ordering::Relaxed;
+    let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = probe.local_addr().unwrap().port();
+    drop(probe);
+    let counts = std::sync::Arc::new(UdpCounts::default());
+    let samples = udp(port, std::time::Duration::from_millis(300), counts.clone()).unwrap();
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    for d in [
+        &b""[..],
+        b"0.0,0,0,200,1",
+        b"\n \n",
+        b"# a comment\nt,x,y,z,present",
+        b"0.1,0,0,200,1",
+    ] {
+        tx.send_to(d, ("127.0.0.1", port)).unwrap();
+    }
+    let got: Vec<_> = samples.map(|s| s.unwrap().t_s).collect();
+    assert_eq!(got, [0.0, 0.1]);
+    assert_eq!(counts.datagrams.load(Relaxed), 5);
+    assert_eq!(counts.bad_datagrams.load(Relaxed), 2, "the empty and the blank one");
+}
