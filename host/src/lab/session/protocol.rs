@@ -195,13 +195,7 @@ impl Command {
         Ok(match *name {
             "present" => {
                 let p: Present = serde_json::from_value(rest).map_err(bad)?;
-                // Silence between on-phases needs two of them: with one,
-                // an `off_s` would change nothing (refused, not dropped).
-                if p.off_s.is_some() && p.repeat.unwrap_or(1) < 2 {
-                    return Err(bad(
-                        "`off_s` is the silence between on-phases: give `repeat` 2 or more",
-                    ));
-                }
+                super::check_off_s(p.off_s.is_some(), p.repeat.unwrap_or(1), false).map_err(bad)?;
                 Self::Present(p)
             }
             "prepare" => Self::Prepare {

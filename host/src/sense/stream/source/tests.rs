@@ -291,5 +291,9 @@ fn an_empty_or_blank_datagram_is_counted_bad_and_a_comment_is_not() {
     let got: Vec<_> = samples.map(|s| s.unwrap().t_s).collect();
     assert_eq!(got, [0.0, 0.1]);
     assert_eq!(counts.datagrams.load(Relaxed), 5);
-    assert_eq!(counts.bad_datagrams.load(Relaxed), 2, "the empty and the blank one");
+    assert_eq!(
+        counts.bad_datagrams.load(Relaxed),
+        2,
+        "the empty and the blank one"
+    );
 }
