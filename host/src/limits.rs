@@ -210,6 +210,25 @@ pub const MAX_SIM_WORK: f64 = 5.0e10;
 /// The same for `simulate --reference` (the f64 loop is ~10× slower).
 pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 
+/// Checks that the decimal `literal` was read as itself: one whose digits
+/// are not all zero but which parses to 0 or to a subnormal (`1e-400`,
+/// `1e-310`) underflowed and would be taken as another value without a
+/// word, as `1e400` overflows and is refused. `Err` is the message, for
+/// the caller to prefix with the field. Every number read from text (a
+/// centroid or control line, a JSON value, a TOML file) passes here.
+pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
+    let mantissa = literal.split(['e', 'E']).next().unwrap_or(literal);
+    let nonzero = mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b));
+    if nonzero && (v == 0.0 || v.is_subnormal()) {
+        return Err(format!(
+            "{literal} is too small to represent (it would be read as {}): give 0 or a magnitude of at least {}",
+            show(v),
+            show(f64::MIN_POSITIVE)
+        ));
+    }
+    Ok(())
+}
+
 /// Seconds to a [`Duration`], checked: finite, `0 < s ≤ max_s`. `what`
 /// names the flag or field in the error.
 pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {

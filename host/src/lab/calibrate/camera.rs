@@ -81,12 +81,8 @@ impl Target {
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let text = crate::limits::read_text_file("points file", path)?;
         let origin = path.display();
-        let f: PointsFile = toml::from_str(&text).map_err(|e| {
-            InputError::new(format!(
-                "points file {origin}: {}",
-                crate::plan::scene::toml_error_line(&text, &e)
-            ))
-        })?;
+        let f: PointsFile = crate::plan::scene::from_toml(&text)
+            .map_err(|m| InputError::new(format!("points file {origin}: {m}")))?;
         let d = f.ball_diameter_mm;
         if !(d.is_finite() && (5.0..=500.0).contains(&d)) {
             return Err(InputError::new(format!(

@@ -149,12 +149,15 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
             )));
         }
         let num = |i: usize, name: &str| {
-            fields[i].parse::<f64>().map_err(|_| {
+            let v = fields[i].parse::<f64>().map_err(|_| {
                 InputError::new(format!(
                     "line {line_no}: {name} `{}` is not a number",
                     fields[i]
                 ))
-            })
+            })?;
+            crate::limits::exact_literal(fields[i], v)
+                .map_err(|m| InputError::new(format!("line {line_no}: {name} {m}")))?;
+            Ok::<_, InputError>(v)
         };
         let present = crate::error::choose_any_case(
             "a `present` value",

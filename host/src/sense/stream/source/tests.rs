@@ -46,6 +46,23 @@ fn a_time_stamp_outside_0_to_1e10_s_is_refused_in_every_form() {
 }
 
 #[test]
+fn a_number_that_underflows_is_refused_in_every_form() {
+    for line in [
+        "1e-400,0,0,200,1",
+        "0,0,5e-320,200,1",
+        r#"{"t":1e-400,"x":0,"y":0,"z":200}"#,
+        r#"{"t_s":0,"present":true,"centroid_mm":[1e-400,0,200]}"#,
+    ] {
+        let e = parse_line(line, 3).unwrap_err().to_string();
+        assert!(
+            e.starts_with("line 3: ") && e.contains("too small to represent"),
+            "{line}: {e}"
+        );
+    }
+    assert!(parse_line("0.0e-400,0,0,200,1", 1).unwrap().is_some());
+}
+
+#[test]
 fn a_line_is_refused_for_what_it_is() {
     // Only the exact header is skipped.
     assert!(parse_line("T, X,y,z,Present", 4).unwrap().is_none());
