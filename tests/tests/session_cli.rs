@@ -86,7 +86,10 @@ fn stdio_control_presents_timed_on_phases_and_ends_silent() {
                 "{port}: {d} s (dwell {dwell_s})"
             );
         }
+        // Ended by the end of its input, and said so.
         assert_eq!(v.last().unwrap()["event"], "closed", "{port}");
+        assert_eq!(v.last().unwrap()["reason"], "end_of_input", "{port}");
+        assert!(err.contains("session ended (end_of_input)"), "{err}");
         assert!(err.contains("the array is silent"), "{err}");
     }
 }
@@ -273,7 +276,10 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
         std::thread::sleep(Duration::from_millis(20));
     }
     accepted(&mut s, &mut r, r#"{"cmd":"quit"}"#);
-    exited_0(&child.wait_with_output().unwrap(), "");
+    let out = child.wait_with_output().unwrap();
+    exited_0(&out, "");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("session ended (quit)"), "{err}");
     assert!(!sock.exists(), "the socket is removed at the end");
     let text = std::fs::read_to_string(&log).unwrap();
     let v = lines(text.as_bytes());
@@ -281,6 +287,7 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
     assert_eq!(off.len(), 1, "{text}");
     assert_eq!(off[0]["reason"], "disconnect");
     assert_eq!(v.last().unwrap()["event"], "closed");
+    assert_eq!(v.last().unwrap()["reason"], "quit");
     assert!(text.ends_with('\n'));
 }
 
@@ -304,8 +311,9 @@ fn sigterm_ends_the_session_silent_with_a_closed_event() {
     );
     let off = events(&v, "offset");
     assert_eq!(off.len(), 1);
-    assert_eq!(off[0]["reason"], "quit");
+    assert_eq!(off[0]["reason"], "sigterm");
     assert_eq!(v.last().unwrap()["event"], "closed");
+    assert_eq!(v.last().unwrap()["reason"], "sigterm");
 }
 
 #[test]
@@ -460,9 +468,14 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
-    exited_0(
-        &child.wait_with_output().unwrap(),
-        &format!("SIG{signal}: "),
+    let out = child.wait_with_output().unwrap();
+    exited_0(&out, &format!("SIG{signal}: "));
+    // What ended it, by name: in the end line and in the log.
+    let why = format!("sig{}", signal.to_lowercase());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!("session ended ({why})")),
+        "SIG{signal}: {err}"
     );
     let status = Command::new(lmhost())
         .args(["status", "--port", &sim.port, "--json"])
@@ -476,7 +489,17 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
     );
     let ev = logged(&log);
     assert_eq!(ev.last().unwrap()["event"], "closed", "SIG{signal}");
-    assert_eq!(events(&ev, "offset")[0]["reason"], "quit", "SIG{signal}");
+    assert_eq!(ev.last().unwrap()["reason"], why.as_str(), "SIG{signal}");
+    assert_eq!(
+        events(&ev, "offset")[0]["reason"],
+        why.as_str(),
+        "SIG{signal}"
+    );
+}
+
+#[test]
+fn sigint_leaves_the_array_silent() {
+    a_signal_leaves_the_array_silent("INT");
 }
 
 #[test]

@@ -162,14 +162,14 @@ pub(crate) fn round3_cases() -> Vec<Case> {
     v.extend(table! {
         // 2. A recording stopped by a signal is finished and replays.
         REC_SIGNAL "track --synthetic --seconds 60 --record {dir}/sig_int.npy" .signal("INT", 1500)
-                   .ok().out("recorded").out("stopped by signal").check(sig_int_replays);
+                   .ok().out("recorded").out("stopped by SIGINT").check(sig_int_replays);
         REC_SIGNAL "track --synthetic --seconds 60 --json --record {dir}/sig_term.npy"
                    .signal("TERM", 1500).ok().check(sig_term_replays);
         REC_SIGNAL "track --synthetic --seconds 60 --port {port} --record {dir}/sig_dev.npy"
-                   .signal("INT", 1500).ok().out("stopped by signal; device muted")
+                   .signal("INT", 1500).ok().out("stopped by SIGINT; device muted")
                    .then("status --port {port} --json", "\"state\":\"Stopped\"");
         REC_SIGNAL "track --synthetic --seconds 60" .signal("TERM", 1000).ok()
-                   .out("stopped by signal");
+                   .out("stopped by SIGTERM");
         // 3. An output that is an input, refused before anything is written.
         SAME_FILE  "track --depth {dir}/in.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --record {dir}/in.npy"
                    .err("in.npy").check(in_npy_intact);

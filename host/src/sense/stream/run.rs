@@ -61,8 +61,10 @@ pub struct StreamReport {
     /// Updates the device refused as outside the slot's work volume (it
     /// mutes until the finger is back in range; the session goes on).
     pub outside_work_volume: u64,
-    /// Whether Ctrl-C / SIGTERM ended the session.
+    /// Whether a stop (Ctrl-C, SIGTERM, ...) ended the session.
     pub stopped: bool,
+    /// What stopped it (`SIGTERM`), when something did.
+    pub stopped_by: Option<String>,
     /// Whether the device was muted at the end (after a stop or an error).
     pub muted_at_end: bool,
 }
@@ -155,6 +157,7 @@ pub fn stream(
         start,
     );
     report.stopped = stop_requested();
+    report.stopped_by = crate::stop::cause().map(|c| c.to_string());
     if result.is_err() || report.stopped {
         // The session ends early: leave the device muted, not steering to
         // the last centroid. Best effort when the link itself failed.
