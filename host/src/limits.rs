@@ -219,11 +219,16 @@ pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
     let mantissa = literal.split(['e', 'E']).next().unwrap_or(literal);
     let nonzero = mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b));
-    if nonzero && (v == 0.0 || v.is_subnormal()) {
+    let least = show(f64::MIN_POSITIVE);
+    if nonzero && v == 0.0 {
         return Err(format!(
-            "{literal} is too small to represent (it would be read as {}): give 0 or a magnitude of at least {}",
-            show(v),
-            show(f64::MIN_POSITIVE)
+            "{literal} is too small to represent (it would be read as 0): give 0 or a magnitude of at least {least}"
+        ));
+    }
+    if nonzero && v.is_subnormal() {
+        return Err(format!(
+            "{literal} is too small to represent: below {least} it cannot be held exactly (it would be read as {}); give 0 or a magnitude of at least {least}",
+            show(v)
         ));
     }
     Ok(())

@@ -107,7 +107,9 @@ pub(crate) fn round3_cases() -> Vec<Case> {
         NUMBERS "plan --spacing 1e-300 --foci 2" .err("1e-300").check(short_numbers);
         NUMBERS "plan --radius -1e300" .check(short_numbers);
         NUMBERS "plan --center 0,0,1e300" .check(short_numbers);
-        NUMBERS "simulate --plane-step 1e-308 --out {dir}/n1" .err("points").check(short_numbers);
+        NUMBERS "simulate --plane-step 1e-300 --out {dir}/n1" .err("points").check(short_numbers);
+        NUMBERS "simulate --plane-step 1e-308 --out {dir}/n1" .err("cannot be held exactly")
+                .check(short_numbers);
         NUMBERS "simulate --plane-step 5e-324 --out {dir}/n2" .check(short_numbers);
         NUMBERS "simulate --alpha -1e300 --out {dir}/n3" .check(short_numbers);
         NUMBERS "simulate --density 1e300 --out {dir}/n4" .check(short_numbers);
