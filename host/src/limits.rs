@@ -21,10 +21,12 @@ pub const MAX_REPLAY_GAP_S: f64 = 60.0;
 /// one is a broken tracker, refused where it is parsed (a file's line, a
 /// datagram counted bad), never let past the gate to drop what follows.
 pub const MAX_TIME_STAMP_S: f64 = 1.0e10;
-/// A live sample this far (s) after the last accepted one is a clock that
-/// jumped and is dropped as out of order, unless [`JUMPS_TO_ACCEPT`] in a
-/// row agree (the tracker really paused that long).
-pub const MAX_TIME_AHEAD_S: f64 = 3_600.0;
+/// How much further (s) a centroid's time stamp may run ahead of the last
+/// accepted one than their arrivals are apart: beyond, it is a wild stamp,
+/// dropped as out of order unless [`JUMPS_TO_ACCEPT`] in a row agree (the
+/// rule: `sense::stream::plausible`). Room for a tracker's output held up
+/// in a pipe or a socket and delivered at once.
+pub const MAX_TIME_SKEW_S: f64 = 1.0;
 /// Longest `--seconds` (s) for `stream` and `sim`: one day.
 pub const MAX_SECONDS: f64 = 86_400.0;
 /// Longest `--seconds` for `stream --synthetic --fast` (s): one hour of

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use super::Sample;
 use super::filter::Filter;
-use super::plausible::{Plausibility, PlausibilityCounts};
+use super::plausible::{Arrival, Plausibility, PlausibilityCounts};
 use crate::clock::monotonic_us;
 use crate::device::backend::{Backend, CentroidOutcome};
 use crate::device::centroids::CentroidSender;
@@ -203,7 +203,14 @@ fn pump(
             Next::End => break,
         };
         report.samples += 1;
-        let verdict = gate.check(&s);
+        // A live sample arrived now (taken off the reader's queue, which
+        // the loop keeps empty); a replayed one when the one before it
+        // was due.
+        let at = match pace {
+            Pace::Arrival => Arrival::Live(start.elapsed().as_secs_f64()),
+            Pace::Timestamps => Arrival::Replay,
+        };
+        let verdict = gate.check(&s, at);
         report.rejected = gate.counts;
         if verdict.is_err() {
             continue;

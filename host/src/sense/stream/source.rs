@@ -330,7 +330,10 @@ pub fn replay_file(
 /// first at once, each next one once as much time has passed since the
 /// first as their stamps differ, so a 20 s recording plays for 20 s in a
 /// session or study as in `lmhost stream`. Meant for a reader thread
-/// (it sleeps) over [`replay_lines`], which bounds every gap.
+/// (it sleeps) over [`replay_lines`], which bounds every gap. A stamp the
+/// replay's time-stamp rule drops ([`super::plausible::Stamps`], as the
+/// stream's gate does) is dropped here, before any wait: one wild stamp
+/// is never slept for, nor taken as the time the rest must catch up with.
 pub fn paced<I>(
     items: I,
     clock: crate::clock::Clock,
@@ -339,22 +342,42 @@ where
     I: IntoIterator<Item = anyhow::Result<Sample>>,
 {
     let mut first: Option<(std::time::Duration, f64)> = None;
-    items.into_iter().map(move |item| {
-        let s = item?;
-        let (t0, first_t_s) = *first.get_or_insert((clock.now(), s.t_s));
-        let after =
-            std::time::Duration::try_from_secs_f64((s.t_s - first_t_s).max(0.0)).map_err(|_| {
-                InputError::new(format!(
-                    "time stamp {} s is too far from the first one to replay",
-                    crate::limits::show(s.t_s)
-                ))
-            })?;
-        let now = clock.now();
-        if let Some(wait) = (t0 + after).checked_sub(now) {
-            clock.sleep(wait);
+    let mut stamps = super::plausible::Stamps::default();
+    items.into_iter().filter_map(move |item| {
+        let s = match item {
+            Ok(s) => s,
+            Err(e) => return Some(Err(e)),
+        };
+        if stamps
+            .check(s.t_s, super::plausible::Arrival::Replay)
+            .is_err()
+        {
+            return None;
         }
-        Ok(s)
+        Some(pace_one(s, &mut first, &clock))
     })
+}
+
+/// Waits on `clock` until `s` is due after the first sample (`first`: its
+/// time on the clock and its stamp, set by the first call).
+fn pace_one(
+    s: Sample,
+    first: &mut Option<(std::time::Duration, f64)>,
+    clock: &crate::clock::Clock,
+) -> anyhow::Result<Sample> {
+    let (t0, first_t_s) = *first.get_or_insert((clock.now(), s.t_s));
+    let after =
+        std::time::Duration::try_from_secs_f64((s.t_s - first_t_s).max(0.0)).map_err(|_| {
+            InputError::new(format!(
+                "time stamp {} s is too far from the first one to replay",
+                crate::limits::show(s.t_s)
+            ))
+        })?;
+    let now = clock.now();
+    if let Some(wait) = (t0 + after).checked_sub(now) {
+        clock.sleep(wait);
+    }
+    Ok(s)
 }
 
 /// Counters a UDP source keeps while it runs.

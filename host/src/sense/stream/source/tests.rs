@@ -28,6 +28,24 @@ fn a_paced_recording_takes_as_long_as_its_time_stamps_say() {
 }
 
 #[test]
+fn a_wild_stamp_in_a_paced_recording_is_dropped_not_slept_for() {
+    let clock = crate::clock::Clock::manual();
+    // 2 s at 10 Hz with one stamp 50 s ahead (within the replay's gap
+    // bound) in the middle.
+    let text: String = (0..=20)
+        .map(|i| if i == 10 { 51.0 } else { i as f64 * 0.1 })
+        .map(|t| format!("{t},0,0,200,1\n"))
+        .collect();
+    let seen: Vec<f64> = paced(replay_lines(text.as_bytes()), clock.clone())
+        .map(|s| s.unwrap().t_s)
+        .collect();
+    assert_eq!(seen.len(), 20, "{seen:?}");
+    assert!(!seen.contains(&51.0));
+    // It took as long as the recording, not 51 s.
+    assert_eq!(clock.now_us(), 2_000_000);
+}
+
+#[test]
 fn a_time_stamp_outside_0_to_1e10_s_is_refused_in_every_form() {
     for t in ["1e300", "-1", "-1e-9", "10000000001"] {
         for line in [
