@@ -555,8 +555,7 @@ mod tests {
     /// comes back within 0.5 mm and 0.2°.
     #[test]
     fn a_synthetic_pose_is_recovered_within_half_a_millimetre_and_a_fifth_of_a_degree() {
-        let dir = std::env::temp_dir().join(format!("lmhost-calcam-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::files::scratch("calcam");
         let intr = Intrinsics::D435_848X480;
         let truth = pose_from([-100.0, 3.0, 177.0], [4.0, 276.0, 73.0]);
         let marker = [0.0, 30.0, 30.0];
@@ -660,8 +659,7 @@ mod tests {
 
     #[test]
     fn bad_points_files_are_one_line_errors() {
-        let dir = std::env::temp_dir().join(format!("lmhost-calpts-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::files::scratch("calpts");
         for (body, needle) in [
             ("ball_diameter_mm = 40.0\n", "needs 3"),
             ("ball_diameter_mm = 0.0\n", "ball_diameter_mm"),
