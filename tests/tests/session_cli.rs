@@ -127,23 +127,24 @@ fn bad_session_flags_and_files_are_one_line_input_errors() {
     }
 }
 
-fn tempdir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "lmhost-session-{}-{}",
-        std::process::id(),
+/// A fresh scratch folder, named by the time too: this file's tests run
+/// side by side.
+fn tempdir() -> link_support::Scratch {
+    link_support::scratch_dir(&format!(
+        "session-{}",
         std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .unwrap()
             .as_nanos()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    ))
 }
 
-/// A control socket's path and an events log's, in a fresh folder.
-fn socket_and_log() -> (PathBuf, PathBuf) {
+/// A control socket's path and an events log's, in a fresh folder (kept
+/// while its guard lives).
+fn socket_and_log() -> (link_support::Scratch, PathBuf, PathBuf) {
     let dir = tempdir();
-    (dir.join("lm.sock"), dir.join("events.jsonl"))
+    let (sock, log) = (dir.join("lm.sock"), dir.join("events.jsonl"));
+    (dir, sock, log)
 }
 
 fn connect(path: &Path) -> UnixStream {
@@ -237,7 +238,7 @@ fn logged(log: &Path) -> Vec<serde_json::Value> {
 #[test]
 fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
     let sim = Sim::start(&[]);
-    let (sock, log) = socket_and_log();
+    let (_dir, sock, log) = socket_and_log();
     let child = session(&[&sim.port], &sock, Some(&log)).spawn().unwrap();
     {
         let (mut s, mut r) = control(&sock);
@@ -293,7 +294,7 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
 
 #[test]
 fn sigterm_ends_the_session_silent_with_a_closed_event() {
-    let (sock, log) = socket_and_log();
+    let (_dir, sock, log) = socket_and_log();
     let child = session(&["autd3:emulator", "--synthetic"], &sock, Some(&log))
         .args(["--on-disconnect", "continue"])
         .spawn()
@@ -396,7 +397,7 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
 
 #[test]
 fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
-    let (sock, _) = socket_and_log();
+    let (_dir, sock, _) = socket_and_log();
     let child = session(&["autd3:emulator"], &sock, None).spawn().unwrap();
     let (mut s, mut r) = control(&sock);
     let mut reply = |s: &mut UnixStream, bytes: &[u8]| -> serde_json::Value {
@@ -448,7 +449,7 @@ fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
 /// the array is silent afterwards, as `lmhost status` shows.
 fn a_signal_leaves_the_array_silent(signal: &str) {
     let sim = Sim::start(&[]);
-    let (sock, log) = socket_and_log();
+    let (_dir, sock, log) = socket_and_log();
     let mut child = session(&[&sim.port], &sock, Some(&log))
         .stdout(Stdio::null())
         .spawn()
