@@ -43,7 +43,8 @@ pub enum Arrival {
 /// Why a sample was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reject {
-    /// Its time stamp is older than the last accepted sample's.
+    /// Its time stamp is older than the last accepted sample's, or wild
+    /// (further ahead of it than the time since, see the module).
     OutOfOrder,
     /// A coordinate is beyond the plausible range.
     OutOfRange,
