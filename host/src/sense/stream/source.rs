@@ -331,9 +331,10 @@ pub fn replay_file(
 /// first as their stamps differ, so a 20 s recording plays for 20 s in a
 /// session or study as in `lmhost stream`. Meant for a reader thread
 /// (it sleeps) over [`replay_lines`], which bounds every gap. A stamp the
-/// replay's time-stamp rule drops ([`super::plausible::Stamps`], as the
-/// stream's gate does) is dropped here, before any wait: one wild stamp
-/// is never slept for, nor taken as the time the rest must catch up with.
+/// replay's time-stamp rule distrusts ([`super::plausible::Stamps`], what
+/// the stream's gate drops) is passed on at once, never waited for nor
+/// taken as the time the rest must catch up with: what is done with the
+/// sample is the reader's to decide, as for a live source.
 pub fn paced<I>(
     items: I,
     clock: crate::clock::Clock,
@@ -343,18 +344,15 @@ where
 {
     let mut first: Option<(std::time::Duration, f64)> = None;
     let mut stamps = super::plausible::Stamps::default();
-    items.into_iter().filter_map(move |item| {
-        let s = match item {
-            Ok(s) => s,
-            Err(e) => return Some(Err(e)),
-        };
+    items.into_iter().map(move |item| {
+        let s = item?;
         if stamps
             .check(s.t_s, super::plausible::Arrival::Replay)
             .is_err()
         {
-            return None;
+            return Ok(s);
         }
-        Some(pace_one(s, &mut first, &clock))
+        pace_one(s, &mut first, &clock)
     })
 }
 

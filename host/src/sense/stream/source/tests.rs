@@ -28,7 +28,7 @@ fn a_paced_recording_takes_as_long_as_its_time_stamps_say() {
 }
 
 #[test]
-fn a_wild_stamp_in_a_paced_recording_is_dropped_not_slept_for() {
+fn a_wild_stamp_in_a_paced_recording_is_passed_on_not_slept_for() {
     let clock = crate::clock::Clock::manual();
     // 2 s at 10 Hz with one stamp 50 s ahead (within the replay's gap
     // bound) in the middle.
@@ -36,11 +36,13 @@ fn a_wild_stamp_in_a_paced_recording_is_dropped_not_slept_for() {
         .map(|i| if i == 10 { 51.0 } else { i as f64 * 0.1 })
         .map(|t| format!("{t},0,0,200,1\n"))
         .collect();
-    let seen: Vec<f64> = paced(replay_lines(text.as_bytes()), clock.clone())
-        .map(|s| s.unwrap().t_s)
+    let seen: Vec<(f64, u64)> = paced(replay_lines(text.as_bytes()), clock.clone())
+        .map(|s| (s.unwrap().t_s, clock.now_us()))
         .collect();
-    assert_eq!(seen.len(), 20, "{seen:?}");
-    assert!(!seen.contains(&51.0));
+    assert_eq!(seen.len(), 21, "{seen:?}");
+    // Passed on when the one before it was due; the rest on time after it.
+    assert_eq!(seen[10], (51.0, 900_000));
+    assert_eq!(seen[11], (1.1, 1_100_000));
     // It took as long as the recording, not 51 s.
     assert_eq!(clock.now_us(), 2_000_000);
 }
