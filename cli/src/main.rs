@@ -102,7 +102,7 @@ fn value_from_env(e: &clap::Error) -> Option<String> {
 
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
-    let cli = match cmd::negative_numbers_are_values(Cli::command())
+    let cli = match cmd::exact_floats(cmd::negative_numbers_are_values(Cli::command()))
         .try_get_matches()
         .and_then(|m| Cli::from_arg_matches(&m))
     {

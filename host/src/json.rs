@@ -2,7 +2,9 @@
 //! and datagrams): parsed as `serde_json` does, except that an object that
 //! names a key twice is refused. `serde_json` keeps the last one without a
 //! word, so `{"cmd":"stop","cmd":"quit"}` would quit and
-//! `{"x":0,"x":500}` would be a centroid at 500 mm.
+//! `{"x":0,"x":500}` would be a centroid at 500 mm. A number that
+//! underflows (`1e-400`, read as 0 by `serde_json`) is refused too,
+//! naming its key ([`crate::limits::exact_literal`]).
 
 use std::fmt;
 
@@ -16,7 +18,52 @@ pub fn from_str(s: &str) -> Result<Value, serde_json::Error> {
     let mut de = serde_json::Deserializer::from_str(s);
     let Strict(v) = Strict::deserialize(&mut de)?;
     de.end()?;
+    exact_numbers(s).map_err(<serde_json::Error as de::Error>::custom)?;
     Ok(v)
+}
+
+/// Checks every number literal of the valid JSON text `s` with
+/// [`crate::limits::exact_literal`]; the error names the key the number
+/// belongs to (the innermost one before it). The parsed value has lost the
+/// literal, so this reads the text: one pass, no allocation but the error.
+/// Also for JSON files typed straight from their text; on text that is
+/// not JSON it finds nothing to refuse, and the parse says what is wrong.
+pub(crate) fn exact_numbers(s: &str) -> Result<(), String> {
+    let b = s.as_bytes();
+    let (mut i, mut key) = (0, None);
+    while i < b.len() {
+        match b[i] {
+            b'"' => {
+                let start = i + 1;
+                i += 1;
+                while i < b.len() && b[i] != b'"' {
+                    i += if b[i] == b'\\' { 2 } else { 1 };
+                }
+                let end = i.min(b.len());
+                i += 1;
+                // A string followed by `:` is a key.
+                let rest = s[i.min(s.len())..].trim_start();
+                if rest.starts_with(':') {
+                    key = Some(&s[start..end]);
+                }
+            }
+            b'-' | b'0'..=b'9' => {
+                let start = i;
+                while i < b.len() && matches!(b[i], b'0'..=b'9' | b'-' | b'+' | b'.' | b'e' | b'E')
+                {
+                    i += 1;
+                }
+                let lit = &s[start..i];
+                let v: f64 = lit.parse().unwrap_or(f64::NAN);
+                crate::limits::exact_literal(lit, v).map_err(|m| match key {
+                    Some(k) => format!("`{k}`: {m}"),
+                    None => m,
+                })?;
+            }
+            _ => i += 1,
+        }
+    }
+    Ok(())
 }
 
 /// A [`Value`] built by [`StrictVisitor`].
@@ -131,6 +178,36 @@ mod tests {
         }
         for s in ["", "{", r#"{"a":1} x"#, &"[".repeat(200)] {
             assert!(from_str(s).is_err(), "{s}");
+        }
+    }
+
+    #[test]
+    fn a_number_that_underflows_is_refused_naming_its_key() {
+        for (s, key) in [
+            (r#"{"t":1e-400,"x":0,"y":0,"z":200}"#, "`t`"),
+            (
+                r#"{"cmd":"present","stimulus":"a\"b","on_s":-2.5e-320}"#,
+                "`on_s`",
+            ),
+            (r#"{"centroid_mm":[0, 1e-330, 0]}"#, "`centroid_mm`"),
+        ] {
+            let e = from_str(s).unwrap_err().to_string();
+            assert!(
+                e.starts_with(key) && e.contains("too small to represent"),
+                "{s}: {e}"
+            );
+            // serde_json alone reads it as 0 (or a subnormal).
+            assert!(serde_json::from_str::<Value>(s).is_ok());
+        }
+        // Zero in any spelling, and the smallest normal number, are exact.
+        for s in [
+            "0.0e-400",
+            "-0",
+            "0e5",
+            "2.2250738585072014e-308",
+            "[1e-300]",
+        ] {
+            assert!(from_str(s).is_ok(), "{s}");
         }
     }
 }

@@ -21,10 +21,12 @@ pub const MAX_REPLAY_GAP_S: f64 = 60.0;
 /// one is a broken tracker, refused where it is parsed (a file's line, a
 /// datagram counted bad), never let past the gate to drop what follows.
 pub const MAX_TIME_STAMP_S: f64 = 1.0e10;
-/// A live sample this far (s) after the last accepted one is a clock that
-/// jumped and is dropped as out of order, unless [`JUMPS_TO_ACCEPT`] in a
-/// row agree (the tracker really paused that long).
-pub const MAX_TIME_AHEAD_S: f64 = 3_600.0;
+/// How much further (s) a centroid's time stamp may run ahead of the last
+/// accepted one than their arrivals are apart: beyond, it is a wild stamp,
+/// dropped as out of order unless [`JUMPS_TO_ACCEPT`] in a row agree (the
+/// rule: `sense::stream::plausible`). Room for a tracker's output held up
+/// in a pipe or a socket and delivered at once.
+pub const MAX_TIME_SKEW_S: f64 = 1.0;
 /// Longest `--seconds` (s) for `stream` and `sim`: one day.
 pub const MAX_SECONDS: f64 = 86_400.0;
 /// Longest `--seconds` for `stream --synthetic --fast` (s): one hour of
@@ -209,6 +211,30 @@ pub fn tidy_numbers(msg: &str) -> String {
 pub const MAX_SIM_WORK: f64 = 5.0e10;
 /// The same for `simulate --reference` (the f64 loop is ~10× slower).
 pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
+
+/// Checks that the decimal `literal` was read as itself: one whose digits
+/// are not all zero but which parses to 0 or to a subnormal (`1e-400`,
+/// `1e-310`) underflowed and would be taken as another value without a
+/// word, as `1e400` overflows and is refused. `Err` is the message, for
+/// the caller to prefix with the field. Every number read from text (a
+/// centroid or control line, a JSON value, a TOML file) passes here.
+pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
+    let mantissa = literal.split(['e', 'E']).next().unwrap_or(literal);
+    let nonzero = mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b));
+    let least = show(f64::MIN_POSITIVE);
+    if nonzero && v == 0.0 {
+        return Err(format!(
+            "{literal} is too small to represent (it would be read as 0): give 0 or a magnitude of at least {least}"
+        ));
+    }
+    if nonzero && v.is_subnormal() {
+        return Err(format!(
+            "{literal} is too small to represent: below {least} it cannot be held exactly (it would be read as {}); give 0 or a magnitude of at least {least}",
+            show(v)
+        ));
+    }
+    Ok(())
+}
 
 /// Seconds to a [`Duration`], checked: finite, `0 < s ≤ max_s`. `what`
 /// names the flag or field in the error.

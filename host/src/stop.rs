@@ -15,9 +15,15 @@
 //!   half-written file is left behind under any name.
 
 use std::ffi::{CString, c_char};
-use std::sync::atomic::{AtomicBool, AtomicPtr, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, AtomicPtr, Ordering};
 
 static STOP: AtomicBool = AtomicBool::new(false);
+/// What asked first ([`Cause`]): 0 nothing yet, a signal's number, or one
+/// of the negative codes below. Set once by the first asker, so a second
+/// signal during the shutdown does not rename what ended the command.
+static CAUSE: AtomicI32 = AtomicI32::new(0);
+const OWNER_GONE: i32 = -1;
+const REQUESTED: i32 = -2;
 static GRACEFUL: AtomicBool = AtomicBool::new(false);
 
 /// Temporary files to remove when a signal ends the process. Slots hold
@@ -34,13 +40,63 @@ pub const SIGNALS: [nix::sys::signal::Signal; 5] = {
     [SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGUSR1]
 };
 
+/// What asked the running command to stop, for its end line and its
+/// event log: the first asker when several did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cause {
+    /// One of [`SIGNALS`].
+    Signal(nix::sys::signal::Signal),
+    /// The owner's end of stdin closed ([`when_ends`]: the program that
+    /// started `lmhost session --exit-with-stdin` is gone).
+    OwnerGone,
+    /// The program asked ([`request`]: the Python package after a
+    /// `KeyboardInterrupt`).
+    Requested,
+}
+
+impl std::fmt::Display for Cause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Signal(s) => f.write_str(s.as_str()),
+            Self::OwnerGone => f.write_str("the owner's end of stdin closed"),
+            Self::Requested => f.write_str("a stop request"),
+        }
+    }
+}
+
 /// Whether a stop (one of [`SIGNALS`]) was requested.
 pub fn requested() -> bool {
     STOP.load(Ordering::SeqCst)
 }
 
-/// Ask the running command to stop (what the signal handler does).
+/// What asked for the stop, once one was requested.
+pub fn cause() -> Option<Cause> {
+    if !requested() {
+        return None;
+    }
+    Some(match CAUSE.load(Ordering::SeqCst) {
+        OWNER_GONE => Cause::OwnerGone,
+        n => nix::sys::signal::Signal::try_from(n).map_or(Cause::Requested, Cause::Signal),
+    })
+}
+
+/// `interrupted by SIGTERM` (by what [`cause`] says), for an end line.
+pub fn interrupted() -> String {
+    match cause() {
+        Some(c) => format!("interrupted by {c}"),
+        None => "interrupted".to_owned(),
+    }
+}
+
+/// Ask the running command to stop.
 pub fn request() {
+    ask(REQUESTED);
+}
+
+/// Records `cause` if nothing asked before, then sets the flag (what the
+/// signal handler does too: atomics only).
+fn ask(cause: i32) {
+    let _ = CAUSE.compare_exchange(0, cause, Ordering::SeqCst, Ordering::SeqCst);
     STOP.store(true, Ordering::SeqCst);
 }
 
@@ -50,6 +106,7 @@ pub fn request() {
 /// before it starts.
 pub fn clear() {
     STOP.store(false, Ordering::SeqCst);
+    CAUSE.store(0, Ordering::SeqCst);
 }
 
 /// Declare that this command polls [`requested`] and ends cleanly: from
@@ -61,7 +118,7 @@ pub fn graceful() {
 /// Errors once a stop was requested, for `?` in a loop that holds a device.
 pub fn check() -> anyhow::Result<()> {
     if requested() {
-        anyhow::bail!("interrupted; the array was left silent");
+        anyhow::bail!("{}; the array was left silent", interrupted());
     }
     Ok(())
 }
@@ -76,7 +133,7 @@ pub fn check() -> anyhow::Result<()> {
 /// owner's *thread* that happened to start us. Anything read is ignored;
 /// the reading thread is left to end with the process.
 pub fn when_ends(input: impl std::io::Read + Send + 'static) -> std::io::Result<()> {
-    watch(input, request)
+    watch(input, || ask(OWNER_GONE))
 }
 
 /// Reads `input` to its end on a thread of its own, then calls `then`.
@@ -103,7 +160,7 @@ fn watch(
 
 extern "C" fn on_signal(sig: libc::c_int) {
     // Async-signal-safe only: atomics, unlink(2), _exit(2).
-    STOP.store(true, Ordering::SeqCst);
+    ask(sig);
     if GRACEFUL.load(Ordering::SeqCst) {
         return;
     }

@@ -108,6 +108,9 @@ struct Driver {
     child: Child,
     port: u16,
     session: String,
+    /// Chromium's profile, removed after the session (one per driver:
+    /// a test may drive two pages at once).
+    _profile: link_support::Scratch,
 }
 
 impl Driver {
@@ -131,9 +134,9 @@ impl Driver {
             );
             std::thread::sleep(Duration::from_millis(50));
         }
-        let profile =
-            std::env::temp_dir().join(format!("lmhost-e2e-chromium-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&profile);
+        static DRIVERS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let n = DRIVERS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        let profile = link_support::scratch_dir(&format!("chromium-{n}"));
         let caps = serde_json::json!({"capabilities": {"alwaysMatch": {"goog:chromeOptions": {
             "binary": chromium(),
             "args": ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
@@ -146,6 +149,7 @@ impl Driver {
             child,
             port,
             session: String::new(),
+            _profile: profile,
         };
         let v = d.call("POST", "/session", Some(caps));
         d.session = v["sessionId"].as_str().unwrap().to_owned();
@@ -395,7 +399,8 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
     if !browser_present() {
         return;
     }
-    let out = std::env::temp_dir().join(format!("lmhost-e2e-browser-{}", std::process::id()));
+    let scratch = link_support::scratch_dir("browser");
+    let out = scratch.join("out");
     let scene_file = root().join("scenes/paper.toml");
     let Study {
         mut child,
@@ -595,8 +600,8 @@ fn measure_two_pages() {
     if !browser_present() {
         return;
     }
-    let out =
-        std::env::temp_dir().join(format!("lmhost-e2e-browser-measure-{}", std::process::id()));
+    let scratch = link_support::scratch_dir("browser-measure");
+    let out = scratch.join("out");
     let mut s = Study::start(&out, &root().join("scenes/paper.toml"));
     let pages = [&s.experimenter, &s.participant].map(|url| {
         let d = Driver::start();

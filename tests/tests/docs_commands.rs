@@ -580,7 +580,8 @@ fn extraction_finds_commands_and_cuts_comments() {
 /// with the lmhost binary and that feature.
 #[test]
 fn flash_refusal_names_the_crate_that_builds_it() {
-    let elf = scratch_dir("docs-flash").join("fw.elf");
+    let elf_dir = scratch_dir("docs-flash");
+    let elf = elf_dir.join("fw.elf");
     std::fs::write(&elf, b"not flashed").unwrap();
     let out = Command::new(lmhost())
         .args(["flash", "--board", "nucleo-h743", "--elf"])

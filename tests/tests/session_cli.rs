@@ -86,7 +86,10 @@ fn stdio_control_presents_timed_on_phases_and_ends_silent() {
                 "{port}: {d} s (dwell {dwell_s})"
             );
         }
+        // Ended by the end of its input, and said so.
         assert_eq!(v.last().unwrap()["event"], "closed", "{port}");
+        assert_eq!(v.last().unwrap()["reason"], "end_of_input", "{port}");
+        assert!(err.contains("session ended (end_of_input)"), "{err}");
         assert!(err.contains("the array is silent"), "{err}");
     }
 }
@@ -124,23 +127,24 @@ fn bad_session_flags_and_files_are_one_line_input_errors() {
     }
 }
 
-fn tempdir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "lmhost-session-{}-{}",
-        std::process::id(),
+/// A fresh scratch folder, named by the time too: this file's tests run
+/// side by side.
+fn tempdir() -> link_support::Scratch {
+    link_support::scratch_dir(&format!(
+        "session-{}",
         std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .unwrap()
             .as_nanos()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    ))
 }
 
-/// A control socket's path and an events log's, in a fresh folder.
-fn socket_and_log() -> (PathBuf, PathBuf) {
+/// A control socket's path and an events log's, in a fresh folder (kept
+/// while its guard lives).
+fn socket_and_log() -> (link_support::Scratch, PathBuf, PathBuf) {
     let dir = tempdir();
-    (dir.join("lm.sock"), dir.join("events.jsonl"))
+    let (sock, log) = (dir.join("lm.sock"), dir.join("events.jsonl"));
+    (dir, sock, log)
 }
 
 fn connect(path: &Path) -> UnixStream {
@@ -234,7 +238,7 @@ fn logged(log: &Path) -> Vec<serde_json::Value> {
 #[test]
 fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
     let sim = Sim::start(&[]);
-    let (sock, log) = socket_and_log();
+    let (_dir, sock, log) = socket_and_log();
     let child = session(&[&sim.port], &sock, Some(&log)).spawn().unwrap();
     {
         let (mut s, mut r) = control(&sock);
@@ -273,7 +277,10 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
         std::thread::sleep(Duration::from_millis(20));
     }
     accepted(&mut s, &mut r, r#"{"cmd":"quit"}"#);
-    exited_0(&child.wait_with_output().unwrap(), "");
+    let out = child.wait_with_output().unwrap();
+    exited_0(&out, "");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("session ended (quit)"), "{err}");
     assert!(!sock.exists(), "the socket is removed at the end");
     let text = std::fs::read_to_string(&log).unwrap();
     let v = lines(text.as_bytes());
@@ -281,12 +288,13 @@ fn a_socket_client_going_away_stops_the_stimulus_and_quit_ends_the_session() {
     assert_eq!(off.len(), 1, "{text}");
     assert_eq!(off[0]["reason"], "disconnect");
     assert_eq!(v.last().unwrap()["event"], "closed");
+    assert_eq!(v.last().unwrap()["reason"], "quit");
     assert!(text.ends_with('\n'));
 }
 
 #[test]
 fn sigterm_ends_the_session_silent_with_a_closed_event() {
-    let (sock, log) = socket_and_log();
+    let (_dir, sock, log) = socket_and_log();
     let child = session(&["autd3:emulator", "--synthetic"], &sock, Some(&log))
         .args(["--on-disconnect", "continue"])
         .spawn()
@@ -304,8 +312,9 @@ fn sigterm_ends_the_session_silent_with_a_closed_event() {
     );
     let off = events(&v, "offset");
     assert_eq!(off.len(), 1);
-    assert_eq!(off[0]["reason"], "quit");
+    assert_eq!(off[0]["reason"], "sigterm");
     assert_eq!(v.last().unwrap()["event"], "closed");
+    assert_eq!(v.last().unwrap()["reason"], "sigterm");
 }
 
 #[test]
@@ -388,7 +397,7 @@ fn the_finger_tracked_in_recorded_depth_frames_gates_a_tracked_presentation() {
 
 #[test]
 fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
-    let (sock, _) = socket_and_log();
+    let (_dir, sock, _) = socket_and_log();
     let child = session(&["autd3:emulator"], &sock, None).spawn().unwrap();
     let (mut s, mut r) = control(&sock);
     let mut reply = |s: &mut UnixStream, bytes: &[u8]| -> serde_json::Value {
@@ -440,7 +449,7 @@ fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
 /// the array is silent afterwards, as `lmhost status` shows.
 fn a_signal_leaves_the_array_silent(signal: &str) {
     let sim = Sim::start(&[]);
-    let (sock, log) = socket_and_log();
+    let (_dir, sock, log) = socket_and_log();
     let mut child = session(&[&sim.port], &sock, Some(&log))
         .stdout(Stdio::null())
         .spawn()
@@ -460,9 +469,14 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
-    exited_0(
-        &child.wait_with_output().unwrap(),
-        &format!("SIG{signal}: "),
+    let out = child.wait_with_output().unwrap();
+    exited_0(&out, &format!("SIG{signal}: "));
+    // What ended it, by name: in the end line and in the log.
+    let why = format!("sig{}", signal.to_lowercase());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!("session ended ({why})")),
+        "SIG{signal}: {err}"
     );
     let status = Command::new(lmhost())
         .args(["status", "--port", &sim.port, "--json"])
@@ -476,7 +490,17 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
     );
     let ev = logged(&log);
     assert_eq!(ev.last().unwrap()["event"], "closed", "SIG{signal}");
-    assert_eq!(events(&ev, "offset")[0]["reason"], "quit", "SIG{signal}");
+    assert_eq!(ev.last().unwrap()["reason"], why.as_str(), "SIG{signal}");
+    assert_eq!(
+        events(&ev, "offset")[0]["reason"],
+        why.as_str(),
+        "SIG{signal}"
+    );
+}
+
+#[test]
+fn sigint_leaves_the_array_silent() {
+    a_signal_leaves_the_array_silent("INT");
 }
 
 #[test]

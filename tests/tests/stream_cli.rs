@@ -5,8 +5,8 @@ use std::process::{Command, Stdio};
 
 mod link_support;
 use link_support::{
-    BRIEF_HOLD, Sim, assert_fields, json, lmhost, ok, run, spread, stream_json, stream_stdin,
-    success_json,
+    BRIEF_HOLD, Sim, assert_fields, json, lmhost, ok, run, scratch_dir, spread, stream_json,
+    stream_stdin, success_json,
 };
 
 #[test]
@@ -136,7 +136,8 @@ fn synthetic_finger_reports_every_filter() {
 #[test]
 fn recorded_file_replays() {
     let sim = Sim::uploaded(&[]);
-    let path = std::env::temp_dir().join(format!("lmhost-track-{}.csv", std::process::id()));
+    let dir = scratch_dir("recorded-file-replays");
+    let path = dir.join("track.csv");
     let text: String = (0..30)
         .map(|i| format!("{},0,0,200,1\n", i as f64 / 90.0))
         .collect();
@@ -145,7 +146,6 @@ fn recorded_file_replays() {
     assert_eq!(v["acked"], 30, "{v}");
     // Replayed at its time stamps: 29 frame intervals.
     assert!(v["seconds"].as_f64().unwrap() >= 29.0 / 90.0, "{v}");
-    let _ = std::fs::remove_file(path);
     let out = run(&[
         "stream",
         "--port",

@@ -209,7 +209,7 @@ fn ctrl_c_mid_push_still_brings_the_stage_back() {
     let status = child.wait().unwrap();
     assert!(!status.success(), "{rest}");
     assert!(
-        rest.contains("interrupted (stage back at rest at 5 mm); the array is silent"),
+        rest.contains("interrupted by SIGINT (stage back at rest at 5 mm); the array is silent"),
         "{rest}"
     );
 }

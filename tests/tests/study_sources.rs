@@ -74,3 +74,88 @@ fn the_session_flags_are_the_studys() {
         &["--scene is needed with --depth, --camera and --depth-stream"],
     );
 }
+
+#[test]
+fn a_udp_finger_source_says_what_it_counted_at_the_end_of_a_study() {
+    let d = scratch("sources-udp");
+    let port = {
+        let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        probe.local_addr().unwrap().port()
+    };
+    let answers = answers_file(&d, "3\n5\n");
+    let proto = protocol(&d);
+    let port_arg = port.to_string();
+    let mut child = run_on(
+        proto.to_str().unwrap(),
+        "autd3:emulator",
+        &d.join("out"),
+        &[
+            "--responses",
+            answers.to_str().unwrap(),
+            "--udp",
+            &port_arg,
+            "--filter",
+            "none",
+            "--seed",
+            "1",
+        ],
+    )
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::piped())
+    .spawn()
+    .unwrap();
+    // The source has bound its port once ours cannot.
+    let t0 = std::time::Instant::now();
+    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+        assert!(t0.elapsed().as_secs() < 60, "never bound");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    // Two bad datagrams (garbage, and an empty one), then a finger resting
+    // at the centre until the run ends: each trial waits for it.
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    tx.send_to(b"not a centroid", ("127.0.0.1", port)).unwrap();
+    tx.send_to(b"", ("127.0.0.1", port)).unwrap();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let sender = {
+        let done = done.clone();
+        std::thread::spawn(move || {
+            let mut sent = 0u32;
+            while !done.load(std::sync::atomic::Ordering::SeqCst) {
+                let line = format!("{},0,0,200,1", f64::from(sent) / 50.0);
+                tx.send_to(line.as_bytes(), ("127.0.0.1", port)).unwrap();
+                sent += 1;
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+        })
+    };
+    let t0 = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(t0.elapsed().as_secs() < 120, "the study did not end");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
+    sender.join().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(status.success(), "{err}");
+    n_rows(&d.join("out/P01"), 2);
+    // `lmhost: UDP 127.0.0.1:PORT: N datagrams, 2 skipped as bad, 0 lost ...`
+    let head = format!("lmhost: UDP 127.0.0.1:{port}: ");
+    let line = err
+        .lines()
+        .find_map(|l| l.strip_prefix(&head))
+        .unwrap_or_else(|| panic!("no UDP line: {err}"));
+    let n: u64 = line
+        .split(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(n >= 3, "{line}");
+    assert!(
+        line.ends_with("datagrams, 2 skipped as bad, 0 lost in the kernel's receive buffer"),
+        "{line}"
+    );
+}

@@ -1,7 +1,7 @@
 //! `lmhost track`: the synthetic finger, recording and replay, the LMDEPTH1
 //! stream, streaming to `lmhost sim`, the plot, and bad input.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 mod link_support;
@@ -58,7 +58,7 @@ fn recorded(
     file: &str,
     seconds: &str,
     extra: &[&str],
-) -> (PathBuf, String, String, String) {
+) -> (link_support::Scratch, String, String, String) {
     let d = scratch_dir(name);
     let cam = half_intrinsics(&d);
     let rec = d.join(file).display().to_string();
@@ -246,18 +246,19 @@ fn an_lmdepth1_stream_on_stdin_is_tracked_and_recorded() {
 
 /// The half-size camera's intrinsics file (in a fresh folder named for
 /// `name`) and a simulated device playing the default upload planned on
-/// the same scene.
-fn camera_and_device(name: &str) -> (String, Sim) {
-    let cam = half_intrinsics(&scratch_dir(name));
+/// the same scene; the folder goes when its guard drops.
+fn camera_and_device(name: &str) -> (String, Sim, link_support::Scratch) {
+    let scratch = scratch_dir(name);
+    let cam = half_intrinsics(&scratch);
     let sim = Sim::uploaded(&["--scene", &paper()]);
-    (cam, sim)
+    (cam, sim, scratch)
 }
 
 #[test]
 fn tracking_streams_the_gated_centre_to_the_device() {
     // Planned on the same scene, so the tracked finger is inside the
     // device's work volume around the planned centre.
-    let (cam, sim) = camera_and_device("port");
+    let (cam, sim, _dir) = camera_and_device("port");
     let out = synthetic(&cam, "1.5", &["--json", "--port", &sim.port]);
     let v = lines(&out);
     assert_eq!(v.len(), 135);
@@ -376,7 +377,7 @@ fn demo_tracks_synthetic_depth_frames() {
 
 #[test]
 fn replan_uploads_the_surface_profile_into_the_idle_slot() {
-    let (cam, sim) = camera_and_device("replan");
+    let (cam, sim, _dir) = camera_and_device("replan");
     assert_eq!(json(&["status", "--port", &sim.port, "--json"])["slot"], 0);
     let out = ok(&[
         "track",
@@ -451,7 +452,8 @@ fn replans(out: &str) -> (u64, String) {
 
 #[test]
 fn replan_on_the_autd3_emulator_plans_lm_m_on_the_25_us_grid() {
-    let cam = half_intrinsics(&scratch_dir("track-replan-autd3"));
+    let scratch = scratch_dir("track-replan-autd3");
+    let cam = half_intrinsics(&scratch);
     let out = synthetic(
         &cam,
         "1.5",
@@ -481,7 +483,7 @@ fn replan_on_the_autd3_emulator_plans_lm_m_on_the_25_us_grid() {
 
 #[test]
 fn track_plan_flags_upload_and_play_on_the_lm_firmware_too() {
-    let (cam, sim) = camera_and_device("track-flags");
+    let (cam, sim, _dir) = camera_and_device("track-flags");
     let before = json(&["status", "--port", &sim.port, "--json"]);
     assert_eq!(before["slot"], 0);
     let scene = paper();
@@ -534,11 +536,13 @@ fn track_plan_flags_upload_and_play_on_the_lm_firmware_too() {
 
 #[test]
 fn track_json_lines_stream_to_the_device() {
-    let cam = half_intrinsics(&scratch_dir("track-to-stream"));
+    let scratch = scratch_dir("track-to-stream");
+    let cam = half_intrinsics(&scratch);
     let lines_out = synthetic(&cam, "1.5", &["--json", "--filter", "gaussian"]);
     let n = lines_out.lines().count();
     assert!(n > 30, "{lines_out}");
-    let file = scratch_dir("track-to-stream-file").join("track.jsonl");
+    let file_dir = scratch_dir("track-to-stream-file");
+    let file = file_dir.join("track.jsonl");
     std::fs::write(&file, &lines_out).unwrap();
     let sim = Sim::uploaded(&["--scene", &paper()]);
     let v = stream_json(

@@ -53,6 +53,36 @@ pub fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
     })
 }
 
+/// Every number flag (an `f64`) read exactly: a literal that underflows
+/// (`--radius 1e-400` reads as 0) is refused as `1e400` is
+/// ([`lmhost::limits::exact_literal`]), not handed on as another value.
+/// Set on every subcommand's `f64` flags at once, as
+/// [`negative_numbers_are_values`] does; none has a parser of its own.
+pub fn exact_floats(cmd: clap::Command) -> clap::Command {
+    let cmd = cmd.mut_args(|a| {
+        if a.get_value_parser().type_id() == std::any::TypeId::of::<f64>() {
+            a.value_parser(exact_f64)
+        } else {
+            a
+        }
+    });
+    let subs: Vec<String> = cmd
+        .get_subcommands()
+        .map(|s| s.get_name().to_owned())
+        .collect();
+    subs.iter()
+        .fold(cmd, |c, name| c.mut_subcommand(name, exact_floats))
+}
+
+/// clap's own `f64` parse, and [`lmhost::limits::exact_literal`].
+fn exact_f64(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|e: std::num::ParseFloatError| e.to_string())?;
+    lmhost::limits::exact_literal(s, v)?;
+    Ok(v)
+}
+
 /// Every `lmhost` subcommand.
 #[derive(Debug, Subcommand)]
 pub enum Command {

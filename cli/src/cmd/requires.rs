@@ -7,6 +7,8 @@
 //! stamps were silently ignored). Such a pair needs the conflict stated on
 //! the requiring flag too; this test finds every pair, so a new flag
 //! cannot bring the hole back.
+//!
+//! And a check that every number flag refuses a value that underflows.
 
 use clap::{Arg, CommandFactory, Parser, error::ErrorKind};
 
@@ -39,7 +41,7 @@ fn leaves(cmd: &clap::Command, path: Vec<String>, out: &mut Vec<(Vec<String>, cl
 /// Parses `args` as `main` does.
 fn parse(args: &[String]) -> Result<(), clap::Error> {
     let argv = std::iter::once("lmhost".to_owned()).chain(args.iter().cloned());
-    super::negative_numbers_are_values(Cli::command())
+    super::exact_floats(super::negative_numbers_are_values(Cli::command()))
         .try_get_matches_from(argv)
         .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m))
         .map(drop)
@@ -143,4 +145,31 @@ fn no_requirement_is_waived_by_a_conflict() {
         waived.is_empty(),
         "a flag's requirement is waived by another flag (it would be ignored): {waived:#?}"
     );
+}
+
+#[test]
+fn every_number_flag_refuses_a_value_that_underflows() {
+    let mut all = Vec::new();
+    leaves(&Cli::command(), Vec::new(), &mut all);
+    let mut checked = 0;
+    for (path, cmd) in &all {
+        for a in cmd.get_arguments().filter(|a| {
+            !a.is_positional() && a.get_value_parser().type_id() == std::any::TypeId::of::<f64>()
+        }) {
+            let mut args = path.clone();
+            args.extend([
+                format!("--{}", a.get_long().unwrap_or_default()),
+                "1e-400".into(),
+            ]);
+            let e = parse(&args).expect_err(&args.join(" "));
+            assert!(
+                e.kind() == ErrorKind::ValueValidation
+                    && e.to_string().contains("too small to represent"),
+                "{}: {e}",
+                args.join(" ")
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 50, "only {checked} number flags found");
 }

@@ -241,7 +241,8 @@ impl Args {
                 "rejected": report.rejected, "bad_datagrams": bad_datagrams,
                 "lost_datagrams": lost,
                 "outside_work_volume": report.outside_work_volume,
-                "stopped": report.stopped, "muted_at_end": report.muted_at_end,
+                "stopped": report.stopped, "stopped_by": report.stopped_by,
+                "muted_at_end": report.muted_at_end,
             });
             let mut v = v;
             // What was uploaded before streaming, on every backend (null:
@@ -303,7 +304,8 @@ impl Args {
         }
         if report.stopped {
             lmhost::outln!(
-                "stopped by signal; device {}",
+                "stopped by {}; device {}",
+                report.stopped_by.as_deref().unwrap_or("a signal"),
                 if report.muted_at_end {
                     "muted"
                 } else {

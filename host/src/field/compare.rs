@@ -270,8 +270,7 @@ mod tests {
 
     #[test]
     fn compare_grid_svg_names_its_axes_has_a_legend_and_legible_text() {
-        let dir = std::env::temp_dir().join(format!("lmhost-compare-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::files::scratch("compare");
         let view = View {
             size_mm: (12.0, 12.0),
             step_mm: 2.0,

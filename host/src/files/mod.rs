@@ -147,10 +147,13 @@ pub fn open_input(what: &str, path: &Path) -> Result<File, InputError> {
         return Err(cannot(k));
     }
     // Once per file, however often it is read (a session reloading its
-    // library): the list stays as long as the distinct inputs.
+    // library): the list stays as long as the distinct inputs. The name
+    // is the latest one read, for an identity seen before may have been a
+    // deleted input's, given to this file.
     let mut inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
-    if !inputs.iter().any(|(i, _)| *i == id(&m)) {
-        inputs.push((id(&m), path.to_owned()));
+    match inputs.iter_mut().find(|(i, _)| *i == id(&m)) {
+        Some(known) => known.1 = path.to_owned(),
+        None => inputs.push((id(&m), path.to_owned())),
     }
     Ok(f)
 }
@@ -179,13 +182,16 @@ pub fn read_input(what: &str, path: &Path, max: u64) -> Result<Vec<u8>, InputErr
 
 /// The input `path` is, if it exists and was opened as one. Inputs are
 /// regular files, so anything else at `path` (a fresh output folder that
-/// the file system gave a deleted input's identity) is not one.
+/// the file system gave a deleted input's identity) is not one; nor is a
+/// file whose identity an input had but no longer has under its name (the
+/// input was deleted or replaced, and the file system gave its identity
+/// to a new file).
 fn input_named_by(path: &Path) -> Option<PathBuf> {
     let m = std::fs::metadata(path).ok().filter(Metadata::is_file)?;
     let inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
     inputs
         .iter()
-        .find(|(i, _)| *i == id(&m))
+        .find(|(i, p)| *i == id(&m) && std::fs::metadata(p).is_ok_and(|n| id(&n) == *i))
         .map(|(_, p)| p.clone())
 }
 
@@ -274,13 +280,65 @@ impl WriteError {
 }
 
 /// For tests: a fresh, empty folder `lmhost-<name>-<pid>` in the
-/// system's temporary folder (`name` unique within the crate's tests).
+/// system's temporary folder (`name` unique within the crate's tests),
+/// removed when the guard drops; kept, and its path said on stderr, when
+/// the test failed, for a look.
 #[cfg(test)]
-pub(crate) fn scratch(name: &str) -> std::path::PathBuf {
+pub(crate) fn scratch(name: &str) -> Scratch {
     let d = std::env::temp_dir().join(format!("lmhost-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    Scratch {
+        path: d.clone(),
+        dir: d,
+    }
+}
+
+/// For tests: the path of `file` in a fresh [`scratch`] folder of its
+/// own (`<name>-<file>`), the folder removed as [`scratch`]'s is.
+#[cfg(test)]
+pub(crate) fn scratch_file(name: &str, file: &str) -> Scratch {
+    let mut s = scratch(&format!("{name}-{file}"));
+    s.path = s.dir.join(file);
+    s
+}
+
+/// A test's scratch folder ([`scratch`]), or a file in one
+/// ([`scratch_file`]); derefs to its path.
+#[cfg(test)]
+#[derive(Debug)]
+pub(crate) struct Scratch {
+    dir: std::path::PathBuf,
+    path: std::path::PathBuf,
+}
+
+#[cfg(test)]
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.path
+    }
+}
+
+#[cfg(test)]
+impl AsRef<std::path::Path> for Scratch {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.path
+    }
+}
+
+#[cfg(test)]
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!(
+                "scratch folder kept for the failed test: {}",
+                self.dir.display()
+            );
+        } else {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
+    }
 }
 
 #[cfg(test)]

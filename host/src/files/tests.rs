@@ -1,15 +1,12 @@
 //! The rules of [`super`]: whole or absent, destinations looked at first,
 //! inputs never overwritten.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::*;
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lmhost-files-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> super::Scratch {
+    super::scratch(&format!("files-{name}"))
 }
 
 fn names(dir: &Path) -> Vec<String> {
@@ -108,21 +105,29 @@ fn a_folder_given_a_deleted_inputs_identity_is_not_that_input() {
     // The file system reuses a deleted file's identity (device, inode):
     // a fresh output folder can get the one an input read and deleted
     // earlier in the process had. Inputs are regular files, so only a
-    // regular file can be one.
+    // regular file can be one, and only while the input's name still
+    // names it (a test's scratch folder removed, its inodes reused).
     let d = scratch("reused");
     let out = d.join("out");
     std::fs::create_dir(&out).unwrap();
     let file = d.join("still.toml");
     std::fs::write(&file, b"x = 1\n").unwrap();
+    let fresh = d.join("fresh.toml");
+    std::fs::write(&fresh, b"x = 2\n").unwrap();
     {
         let mut inputs = INPUTS.lock().unwrap();
-        for p in [&out, &file] {
-            inputs.push((id(&std::fs::metadata(p).unwrap()), d.join("gone.toml")));
+        for (p, named) in [
+            (&out, d.join("gone.toml")),
+            (&file, file.clone()),
+            (&fresh, d.join("gone.toml")),
+        ] {
+            inputs.push((id(&std::fs::metadata(p).unwrap()), named));
         }
     }
     output_dir("--out", &out).unwrap();
     let e = not_an_input("--out", &file).unwrap_err();
-    assert!(e.to_string().contains("gone.toml"), "{e}");
+    assert!(e.to_string().contains("still.toml"), "{e}");
+    not_an_input("--out", &fresh).unwrap();
 }
 
 fn mode(p: &Path) -> u32 {

@@ -498,7 +498,7 @@ fn python_has_realsense(python: &str) -> Result<(), String> {
 mod tests {
     use super::*;
 
-    fn tree(name: &str) -> PathBuf {
+    fn tree(name: &str) -> crate::files::Scratch {
         crate::files::scratch(&format!("doctor-{name}"))
     }
 

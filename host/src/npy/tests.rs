@@ -2,10 +2,8 @@
 
 use super::*;
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lmhost-npy-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> crate::files::Scratch {
+    crate::files::scratch_file("npy", name)
 }
 
 #[test]

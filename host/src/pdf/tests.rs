@@ -21,8 +21,7 @@ fn text(obj: &[u8]) -> String {
 
 #[test]
 fn figure_pdf_is_sized_repeatable_and_embeds_a_font_subset() {
-    let dir = std::env::temp_dir().join(format!("lmhost-pdf-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::files::scratch("pdf");
     let plane = ObservationPlane::xy([0.0, 0.0, 200.0], 10.0, 8.0, 1.0);
     let map: Vec<f64> = (0..plane.nu() * plane.nv()).map(|i| i as f64).collect();
     let panel = Panel {

@@ -523,8 +523,7 @@ impl Library {
     /// Parses a library from TOML text; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
         let bad = |msg: String| InputError::new(format!("stimulus library {origin}: {msg}"));
-        let file: LibraryFile =
-            toml::from_str(text).map_err(|e| bad(crate::plan::scene::toml_error_line(text, &e)))?;
+        let file: LibraryFile = crate::plan::scene::from_toml(text).map_err(bad)?;
         if file.stimulus.is_empty() {
             return Err(bad(
                 "no stimuli: add at least one [[stimulus]] table with an `id`".into(),

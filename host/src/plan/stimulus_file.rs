@@ -404,6 +404,8 @@ fn read(
         // content gets the hint.)
         let text = limits::read_text_file_up_to(what, path, MAX_JSON_BYTES)
             .map_err(|e| if path.is_file() { unnamed(e) } else { e })?;
+        // A number that underflows is refused, as in every JSON we read.
+        crate::json::exact_numbers(&text).map_err(bad)?;
         // Duplicate keys are refused, at any depth.
         // Typed straight from the text (a byte a phase, not a tree of
         // values); serde refuses a field given twice.

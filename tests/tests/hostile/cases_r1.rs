@@ -281,16 +281,16 @@ pub(crate) fn cases() -> Vec<Case> {
         SESSIONS   "stream --port {port} --udp 47006 --seconds 5" .udp(47006, garbage(1000))
                    .err("flood");
         SESSIONS   "stream --port {port}" .stdin(csv(&["0,0,0,200,1"])).hold_stdin()
-                   .signal("INT", 700).ok().out("stopped by signal; device muted")
+                   .signal("INT", 700).ok().out("stopped by SIGINT; device muted")
                    .then("status --port {port} --json", "\"state\":\"Stopped\"");
         SESSIONS   "stream --port {port} --json" .stdin(csv(&["0,0,0,200,1"])).hold_stdin()
                    .signal("TERM", 700).ok().out("\"stopped\":true").out("\"muted_at_end\":true");
         SESSIONS   "stream --port {port} --udp 47007 --seconds 60" .signal("INT", 700).ok()
-                   .out("stopped by signal");
+                   .out("stopped by SIGINT");
         SESSIONS   "stream --port {port} --input {dir}/pause50.csv" .signal("INT", 700).ok()
                    .out("device muted");
         SESSIONS   "stream --port {port} --synthetic --seconds 60" .signal("INT", 700).ok()
-                   .out("stopped by signal");
+                   .out("stopped by SIGINT");
         SESSIONS   "stream --port {port} --away 1,2" .err("--synthetic");
         SESSIONS   "stream --port {port} --input {dir}/ok.csv" .ok()
                    .then("status --port {port} --json", "\"last_centroid_seq\"");

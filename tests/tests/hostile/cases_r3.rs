@@ -107,7 +107,9 @@ pub(crate) fn round3_cases() -> Vec<Case> {
         NUMBERS "plan --spacing 1e-300 --foci 2" .err("1e-300").check(short_numbers);
         NUMBERS "plan --radius -1e300" .check(short_numbers);
         NUMBERS "plan --center 0,0,1e300" .check(short_numbers);
-        NUMBERS "simulate --plane-step 1e-308 --out {dir}/n1" .err("points").check(short_numbers);
+        NUMBERS "simulate --plane-step 1e-300 --out {dir}/n1" .err("points").check(short_numbers);
+        NUMBERS "simulate --plane-step 1e-308 --out {dir}/n1" .err("cannot be held exactly")
+                .check(short_numbers);
         NUMBERS "simulate --plane-step 5e-324 --out {dir}/n2" .check(short_numbers);
         NUMBERS "simulate --alpha -1e300 --out {dir}/n3" .check(short_numbers);
         NUMBERS "simulate --density 1e300 --out {dir}/n4" .check(short_numbers);
@@ -162,14 +164,14 @@ pub(crate) fn round3_cases() -> Vec<Case> {
     v.extend(table! {
         // 2. A recording stopped by a signal is finished and replays.
         REC_SIGNAL "track --synthetic --seconds 60 --record {dir}/sig_int.npy" .signal("INT", 1500)
-                   .ok().out("recorded").out("stopped by signal").check(sig_int_replays);
+                   .ok().out("recorded").out("stopped by SIGINT").check(sig_int_replays);
         REC_SIGNAL "track --synthetic --seconds 60 --json --record {dir}/sig_term.npy"
                    .signal("TERM", 1500).ok().check(sig_term_replays);
         REC_SIGNAL "track --synthetic --seconds 60 --port {port} --record {dir}/sig_dev.npy"
-                   .signal("INT", 1500).ok().out("stopped by signal; device muted")
+                   .signal("INT", 1500).ok().out("stopped by SIGINT; device muted")
                    .then("status --port {port} --json", "\"state\":\"Stopped\"");
         REC_SIGNAL "track --synthetic --seconds 60" .signal("TERM", 1000).ok()
-                   .out("stopped by signal");
+                   .out("stopped by SIGTERM");
         // 3. An output that is an input, refused before anything is written.
         SAME_FILE  "track --depth {dir}/in.npy --intrinsics {dir}/cam.toml --scene {scenes}/paper.toml --record {dir}/in.npy"
                    .err("in.npy").check(in_npy_intact);

@@ -160,7 +160,7 @@ fn stopped_silent(ctx: &Ctx, file: &str, want: &str) -> Result<(), String> {
     let errors = err.lines().filter(|l| l.starts_with("error")).count();
     if !err.contains(want)
         || errors != 1
-        || !err.contains("error: interrupted; the array is silent")
+        || !err.contains("error: interrupted by SIGTERM; the array is silent")
         || err.contains("panicked")
     {
         return Err(format!("stderr: {err}"));

@@ -9,11 +9,22 @@ pub(crate) fn fixtures(dir: &Path) {
         ("gap.csv", ["0,0,0,200,1", "1000,0,0,200,1"]),
         ("gap100k.csv", ["0,0,0,200,1", "100000,0,0,200,1"]),
         ("backwards.csv", ["0,0,0,200,1", "-1e300,0,0,200,1"]),
-        ("pause50.csv", ["0,0,0,200,1", "50,0,0,200,1"]),
         ("ok.csv", ["0,0,0,200,1", "0.011,0,0,200,1"]),
     ] {
         w(name, csv(&rows).as_bytes());
     }
+    // A real pause in a replay: the samples after it agree (one alone
+    // would be dropped as a wild time stamp), so the replay waits 50 s.
+    w(
+        "pause50.csv",
+        csv(&[
+            "0,0,0,200,1",
+            "50,0,0,200,1",
+            "50.01,0,0,200,1",
+            "50.02,0,0,200,1",
+        ])
+        .as_bytes(),
+    );
     w("bin.csv", b"\xff\xfe\xfd\n0,0,0,200,1\n");
     let mut long = b"0,0,0,200,1\n".to_vec();
     long.extend(std::iter::repeat_n(b'7', 10_000));

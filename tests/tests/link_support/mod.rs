@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader, Write as _};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::OnceLock;
 
@@ -48,12 +48,43 @@ pub fn lmhost() -> PathBuf {
     .clone()
 }
 
-/// A fresh, empty scratch folder `name` (unique to this test process).
-pub fn scratch_dir(name: &str) -> PathBuf {
+/// A fresh, empty scratch folder `name` (unique to this test process),
+/// removed when the guard drops; kept, and its path said on stderr, when
+/// the test failed, for a look.
+pub fn scratch_dir(name: &str) -> Scratch {
     let d = std::env::temp_dir().join(format!("lmhost-e2e-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    Scratch(d)
+}
+
+/// See [`scratch_dir`]; derefs to its path.
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!(
+                "scratch folder kept for the failed test: {}",
+                self.0.display()
+            );
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// Run `lmhost args…` to completion (no `LMHOST_PORT` from outside).

@@ -18,26 +18,10 @@ pub fn studies(name: &str) -> String {
 /// A fresh scratch folder `name`, removed when the test passes (kept
 /// for a look when it fails).
 pub fn scratch(name: &str) -> Scratch {
-    Scratch(crate::link_support::scratch_dir(&format!("study-{name}")))
+    crate::link_support::scratch_dir(&format!("study-{name}"))
 }
 
-/// See [`scratch`].
-pub struct Scratch(PathBuf);
-
-impl std::ops::Deref for Scratch {
-    type Target = Path;
-    fn deref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
+pub use crate::link_support::Scratch;
 
 /// Experiment 1's answers: vibration, movement, then the three shape
 /// items in the order shown; a different number on every line, and now

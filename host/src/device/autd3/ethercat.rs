@@ -146,7 +146,7 @@ mod tests {
 
     #[test]
     fn a_missing_interface_is_named_with_the_ones_there_are() {
-        let d = std::env::temp_dir().join(format!("lmhost-sysnet-{}", std::process::id()));
+        let d = crate::files::scratch("sysnet");
         for i in ["lo", "eth0", "enp3s0"] {
             std::fs::create_dir_all(d.join(i)).unwrap();
         }

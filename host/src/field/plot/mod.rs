@@ -413,8 +413,7 @@ mod tests {
     fn heatmap_writes_png_svg_and_pdf_at_the_printed_width() {
         let plane = ObservationPlane::xy([0.0; 3], 4.0, 4.0, 0.5);
         let map: Vec<f64> = (0..plane.nu() * plane.nv()).map(|i| i as f64).collect();
-        let dir = std::env::temp_dir().join(format!("lmhost-plot-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::files::scratch("plot");
         let panel = Panel {
             map: &map,
             overlay: Overlay {

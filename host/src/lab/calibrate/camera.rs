@@ -81,12 +81,8 @@ impl Target {
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let text = crate::limits::read_text_file("points file", path)?;
         let origin = path.display();
-        let f: PointsFile = toml::from_str(&text).map_err(|e| {
-            InputError::new(format!(
-                "points file {origin}: {}",
-                crate::plan::scene::toml_error_line(&text, &e)
-            ))
-        })?;
+        let f: PointsFile = crate::plan::scene::from_toml(&text)
+            .map_err(|m| InputError::new(format!("points file {origin}: {m}")))?;
         let d = f.ball_diameter_mm;
         if !(d.is_finite() && (5.0..=500.0).contains(&d)) {
             return Err(InputError::new(format!(
@@ -559,8 +555,7 @@ mod tests {
     /// comes back within 0.5 mm and 0.2°.
     #[test]
     fn a_synthetic_pose_is_recovered_within_half_a_millimetre_and_a_fifth_of_a_degree() {
-        let dir = std::env::temp_dir().join(format!("lmhost-calcam-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::files::scratch("calcam");
         let intr = Intrinsics::D435_848X480;
         let truth = pose_from([-100.0, 3.0, 177.0], [4.0, 276.0, 73.0]);
         let marker = [0.0, 30.0, 30.0];
@@ -664,8 +659,7 @@ mod tests {
 
     #[test]
     fn bad_points_files_are_one_line_errors() {
-        let dir = std::env::temp_dir().join(format!("lmhost-calpts-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::files::scratch("calpts");
         for (body, needle) in [
             ("ball_diameter_mm = 40.0\n", "needs 3"),
             ("ball_diameter_mm = 0.0\n", "ball_diameter_mm"),

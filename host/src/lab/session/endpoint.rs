@@ -204,7 +204,7 @@ fn bind_unix(path: &Path) -> anyhow::Result<(std::os::unix::net::UnixListener, U
 mod tests {
     use super::*;
 
-    fn scratch(name: &str) -> PathBuf {
+    fn scratch(name: &str) -> crate::files::Scratch {
         crate::files::scratch(&format!("endpoint-{name}"))
     }
 

@@ -62,6 +62,22 @@ pub const MAX_PHASE_S: f64 = 3_600.0;
 /// Most on-phases one `present` asks for.
 pub const MAX_REPEAT: u32 = 10_000;
 
+/// The one rule for an `off_s` beside its on-phases, for a control line's
+/// `present` and a protocol's `[timeline]` alike: the silence between
+/// on-phases needs two of them (`repeat` 2 or more, or a procedure's trial,
+/// which repeats until answered); with one, an `off_s` would change
+/// nothing, so it is refused rather than dropped. `Err` says what to give.
+pub fn check_off_s(
+    off_given: bool,
+    on_phases: u32,
+    repeats_until_answered: bool,
+) -> Result<(), &'static str> {
+    if off_given && on_phases < 2 && !repeats_until_answered {
+        return Err("`off_s` is the silence between on-phases: give `repeat` 2 or more");
+    }
+    Ok(())
+}
+
 /// What a session measured (from its events).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct Figures {

@@ -195,13 +195,7 @@ impl Command {
         Ok(match *name {
             "present" => {
                 let p: Present = serde_json::from_value(rest).map_err(bad)?;
-                // Silence between on-phases needs two of them: with one,
-                // an `off_s` would change nothing (refused, not dropped).
-                if p.off_s.is_some() && p.repeat.unwrap_or(1) < 2 {
-                    return Err(bad(
-                        "`off_s` is the silence between on-phases: give `repeat` 2 or more",
-                    ));
-                }
+                super::check_off_s(p.off_s.is_some(), p.repeat.unwrap_or(1), false).map_err(bad)?;
                 Self::Present(p)
             }
             "prepare" => Self::Prepare {
@@ -257,12 +251,50 @@ pub enum OffsetReason {
     Switch,
     /// The same stimulus was presented again.
     Replaced,
-    /// `quit`, or the session ended (Ctrl-C, SIGTERM, end of input).
+    /// The `quit` command.
     Quit,
-    /// The controlling client went away (`--on-disconnect stop`).
+    /// The control input ended (`--control -`: stdin closed).
+    EndOfInput,
+    /// A study ran its last trial.
+    Finished,
+    /// SIGINT (Ctrl-C).
+    Sigint,
+    /// SIGTERM.
+    Sigterm,
+    /// SIGHUP (the terminal closed).
+    Sighup,
+    /// SIGQUIT (Ctrl-\\).
+    Sigquit,
+    /// SIGUSR1.
+    Sigusr1,
+    /// The owner's end of stdin closed (`--exit-with-stdin`).
+    OwnerGone,
+    /// The program asked to stop (the Python package, after a
+    /// `KeyboardInterrupt`).
+    Interrupted,
+    /// The controlling client went away (`--on-disconnect stop`), or
+    /// standard output was closed by its reader.
     Disconnect,
-    /// The session failed.
+    /// The session failed (a device error, say).
     Error,
+}
+
+impl OffsetReason {
+    /// What asked the command to stop ([`crate::stop::cause`]), as an end
+    /// reason; [`Self::Interrupted`] when nothing did.
+    pub fn stopped() -> Self {
+        use crate::stop::Cause;
+        use nix::sys::signal::Signal;
+        match crate::stop::cause() {
+            Some(Cause::Signal(Signal::SIGINT)) => Self::Sigint,
+            Some(Cause::Signal(Signal::SIGTERM)) => Self::Sigterm,
+            Some(Cause::Signal(Signal::SIGHUP)) => Self::Sighup,
+            Some(Cause::Signal(Signal::SIGQUIT)) => Self::Sigquit,
+            Some(Cause::Signal(Signal::SIGUSR1)) => Self::Sigusr1,
+            Some(Cause::OwnerGone) => Self::OwnerGone,
+            Some(Cause::Signal(_) | Cause::Requested) | None => Self::Interrupted,
+        }
+    }
 }
 
 /// One event: what happened and when (host monotonic µs).

@@ -430,7 +430,7 @@ pub fn serve(session: Session, opts: Options) -> anyhow::Result<Report> {
     let result = (|| -> anyhow::Result<Ended> {
         loop {
             if crate::stop::requested() {
-                return Ok(Ended::Reason(OffsetReason::Quit));
+                return Ok(Ended::Reason(OffsetReason::stopped()));
             }
             let ev = d.turn()?;
             if let Some(end) = lp.events(&mut d, ev)? {
@@ -440,7 +440,7 @@ pub fn serve(session: Session, opts: Options) -> anyhow::Result<Report> {
             if lp.stdin_done
                 && (!d.session_ref().presenting() || d.session_ref().presenting_endless())
             {
-                return Ok(Ended::Reason(OffsetReason::Quit));
+                return Ok(Ended::Reason(OffsetReason::EndOfInput));
             }
             let mut msg = match rx.recv_timeout(d.wait_time(MAX_WAIT)) {
                 Ok(m) => Some(m),

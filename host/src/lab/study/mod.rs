@@ -82,7 +82,7 @@ fn resume_hint(o: &RunOptions) -> String {
     )
 }
 
-/// The run was stopped by Ctrl-C / SIGTERM.
+/// The run was stopped by a signal ([`crate::stop::cause`] says which).
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted")]
 struct Interrupted;
@@ -255,8 +255,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         &mut rows,
     );
     let reason = match &result {
-        Ok(()) => OffsetReason::Quit,
-        Err(e) if e.is::<Interrupted>() => OffsetReason::Quit,
+        Ok(()) => OffsetReason::Finished,
+        Err(e) if e.is::<Interrupted>() => OffsetReason::stopped(),
         Err(_) => OffsetReason::Error,
     };
     let last = r
@@ -270,7 +270,9 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         (Err(e), Some(end)) if e.is::<push::InstrumentFailed>() => {
             Err(anyhow::anyhow!("{} ({end})", crate::error::one_line(&e)))
         }
-        (Err(e), Some(end)) if e.is::<Interrupted>() => Err(anyhow::anyhow!("interrupted ({end})")),
+        (Err(e), Some(end)) if e.is::<Interrupted>() => {
+            Err(anyhow::anyhow!("{} ({end})", crate::stop::interrupted()))
+        }
         (r, Some(end)) if !end.starts_with("stage back") => {
             crate::errln!("warning: {end}");
             r
@@ -375,7 +377,7 @@ fn run_trials(
 fn stopped(e: anyhow::Error, o: &RunOptions, report: &RunReport, trials: &Path) -> anyhow::Error {
     let done = report.first - 1 + report.ran;
     let what = if e.is::<Interrupted>() {
-        "interrupted".to_owned()
+        crate::stop::interrupted()
     } else {
         crate::error::one_line(&e)
     };

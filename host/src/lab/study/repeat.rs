@@ -178,8 +178,9 @@ mod tests {
     const LIB: &str = "[[stimulus]]\nid = \"a\"\nradius = 3\nfreq = 25\nstep = 1.0\n";
 
     /// A runner over the simulated device behind a link slow by `lag`,
-    /// with the synthetic finger on the array and `answers` scripted.
-    fn runner(name: &str, lag: Duration, answers: &str) -> Runner {
+    /// with the synthetic finger on the array and `answers` scripted; its
+    /// folder goes when the guard beside it drops.
+    fn runner(name: &str, lag: Duration, answers: &str) -> (Runner, crate::files::Scratch) {
         let clock = Clock::manual_at_us(1_000_000);
         let (sim, _) = crate::device::connect::simulated(clock.clone()).unwrap();
         let dev = Box::new(Slow {
@@ -190,9 +191,9 @@ mod tests {
         let lib = Library::from_toml(LIB, "test").unwrap();
         let plans = lib.plan_for(&Target::Lm, &Scene::default()).unwrap();
         let s = Session::new(dev, &lib, plans, Scene::default(), clock).unwrap();
-        let dir = crate::lab::study::test_files::scratch(name);
-        std::fs::create_dir_all(&dir).unwrap();
-        Runner {
+        let scratch = crate::lab::study::test_files::scratch(name);
+        let dir = scratch.to_path_buf();
+        let r = Runner {
             driver: Some(Driver::new(s, Finger::Synthetic, Box::new(Passthrough))),
             events: crate::files::AppendLog::create(&dir.join("events.jsonl")).unwrap(),
             answers: Box::new(Lines::from_text("answers".into(), answers)),
@@ -204,7 +205,8 @@ mod tests {
             pusher: None,
             dir,
             resumed: Vec::new(),
-        }
+        };
+        (r, scratch)
     }
 
     fn adjustment() -> Adjustment {
@@ -237,7 +239,7 @@ mod tests {
             ("stronger\nsame", 2),
             ("weaker\nweaker\nsame", 3),
         ] {
-            let mut r = runner("late-loop", Duration::from_millis(30), answers);
+            let (mut r, _dir) = runner("late-loop", Duration::from_millis(30), answers);
             let mut req = Present {
                 stimulus: "a".into(),
                 gate: Some(Gate::Untracked),

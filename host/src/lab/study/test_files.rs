@@ -21,6 +21,6 @@ pub(crate) fn exp1_vibration() -> String {
 }
 
 /// A fresh scratch folder.
-pub(crate) fn scratch(name: &str) -> PathBuf {
+pub(crate) fn scratch(name: &str) -> crate::files::Scratch {
     crate::files::scratch(&format!("study-{name}"))
 }

@@ -212,8 +212,7 @@ fn bad_paths_and_modulations_are_one_line_errors() {
 
 #[test]
 fn an_entry_plays_phases_or_foci_from_a_file_beside_the_library() {
-    let d = std::env::temp_dir().join(format!("lmhost-library-files-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = crate::files::scratch("library-files");
     let n = Scene::default().transducers().len();
     // Four steps of phases, each step one value on every transducer.
     let rows: Vec<Vec<u8>> = (0..4u8).map(|k| vec![k * 60; n]).collect();

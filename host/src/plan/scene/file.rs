@@ -9,7 +9,7 @@ use crate::plan::directivity::Directivity;
 /// and the field found from the error's byte span (the field is the
 /// innermost key whose key or value holds it: `device[1].center_mm`, also
 /// for dotted keys, inline tables and arrays over several lines).
-pub(crate) fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     let msg = e.message().lines().next().unwrap_or("invalid TOML").trim();
     let Some(span) = e.span() else {
         return msg.to_string();
@@ -23,6 +23,57 @@ pub(crate) fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     match field_at(text, at) {
         Some(field) => format!("line {line_no}, field `{field}`: {msg}"),
         None => format!("line {line_no}: {msg}"),
+    }
+}
+
+/// Every TOML file lmhost reads goes through here: `T` from `text`, or
+/// one line naming the line and field ([`toml_error_line`]). A float
+/// literal that underflows (`1e-400` reads as 0) is refused as well
+/// ([`crate::limits::exact_literal`]): the parse has lost the literal, so
+/// its spans are read back from the text.
+pub(crate) fn from_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, String> {
+    let v = toml::from_str(text).map_err(|e| toml_error_line(text, &e))?;
+    let Ok(doc) = toml_edit::Document::parse(text) else {
+        return Ok(v);
+    };
+    let mut floats = Vec::new();
+    floats_in_table(doc.as_table(), &mut floats);
+    for (span, v) in floats {
+        let Some(lit) = text.get(span.clone()) else {
+            continue;
+        };
+        if let Err(m) = crate::limits::exact_literal(lit.trim().replace('_', "").as_str(), v) {
+            let line_no = text.as_bytes()[..span.start]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1;
+            return Err(match field_at(text, span.start) {
+                Some(f) => format!("line {line_no}, field `{f}`: {m}"),
+                None => format!("line {line_no}: {m}"),
+            });
+        }
+    }
+    Ok(v)
+}
+
+fn floats_in_table(t: &toml_edit::Table, out: &mut Vec<(std::ops::Range<usize>, f64)>) {
+    for (_, item) in t.iter() {
+        match item {
+            toml_edit::Item::Table(t) => floats_in_table(t, out),
+            toml_edit::Item::ArrayOfTables(a) => a.iter().for_each(|t| floats_in_table(t, out)),
+            toml_edit::Item::Value(v) => floats_in_value(v, out),
+            toml_edit::Item::None => {}
+        }
+    }
+}
+
+fn floats_in_value(v: &toml_edit::Value, out: &mut Vec<(std::ops::Range<usize>, f64)>) {
+    match v {
+        toml_edit::Value::Float(f) => out.extend(f.span().map(|s| (s, *f.value()))),
+        toml_edit::Value::Array(a) => a.iter().for_each(|v| floats_in_value(v, out)),
+        toml_edit::Value::InlineTable(t) => t.iter().for_each(|(_, v)| floats_in_value(v, out)),
+        _ => {}
     }
 }
 

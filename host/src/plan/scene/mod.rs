@@ -56,7 +56,7 @@
 
 mod check;
 mod file;
-pub(crate) use file::{field_at, toml_error_line};
+pub(crate) use file::{field_at, from_toml};
 pub mod camera;
 mod parts;
 pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
@@ -192,12 +192,8 @@ impl Scene {
 
     /// Parses a scene from TOML text; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
-        let file: file::SceneFile = toml::from_str(text).map_err(|e| {
-            InputError::new(format!(
-                "scene file {origin}: {}",
-                file::toml_error_line(text, &e)
-            ))
-        })?;
+        let file: file::SceneFile = file::from_toml(text)
+            .map_err(|m| InputError::new(format!("scene file {origin}: {m}")))?;
         file.resolve(origin)
             .map_err(|msg| InputError::new(format!("scene file {origin}: {msg}")))
     }

@@ -221,3 +221,25 @@ fn parse_errors_name_the_line_and_the_field_by_span() {
         assert!(e.contains(want) && !e.contains('\n'), "{text:?}: {e}");
     }
 }
+
+#[test]
+fn a_float_that_underflows_is_refused_naming_line_and_field() {
+    for (text, want) in [
+        (
+            "[[device]]\ncenter_mm = [0.0, 1e-400, 0.0]\n",
+            "line 2, field `device[0].center_mm`: 1e-400 is too small",
+        ),
+        (
+            "[[device]]\ncenter_mm = [0.0, 0.0, 0.0]\nrotation_deg = [0.0, 0.0, 4.9e-324]\n",
+            "line 3, field `device[0].rotation_deg`: 4.9e-324 is too small",
+        ),
+    ] {
+        let e = Scene::from_toml(text, "s.toml").unwrap_err().to_string();
+        assert!(
+            e.starts_with("scene file s.toml: ") && e.contains(want),
+            "{e}"
+        );
+    }
+    // Without the check the first reads as a device at y = 0.
+    assert!(toml::from_str::<toml::Value>("y = 1e-400").is_ok());
+}

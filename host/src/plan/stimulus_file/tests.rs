@@ -3,10 +3,8 @@
 
 use super::*;
 
-fn tmp(name: &str, bytes: &[u8]) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("lmhost-stimfile-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
+fn tmp(name: &str, bytes: &[u8]) -> crate::files::Scratch {
+    let p = crate::files::scratch_file("stimfile", name);
     std::fs::write(&p, bytes).unwrap();
     p
 }

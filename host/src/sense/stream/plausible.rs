@@ -2,11 +2,20 @@
 //! be a finger is dropped and counted, never filtered or sent.
 //!
 //! Rules (the paper drops outliers too), limits in [`crate::limits`]:
-//! - a time stamp older than the last accepted one is **out of order**, and
-//!   so is one more than [`MAX_TIME_AHEAD_S`] after it (a clock that
-//!   jumped), unless [`JUMPS_TO_ACCEPT`] such samples in a row agree (each
-//!   within [`MAX_TIME_AHEAD_S`] after the one before): then the tracker
-//!   really paused. One wild time stamp so never drops what follows it;
+//! - a time stamp older than the last accepted one is **out of order**;
+//! - so is one further ahead of the last accepted one than the time that
+//!   passed between their arrivals plus [`MAX_TIME_SKEW_S`] (a wild stamp:
+//!   were it taken as the reference, every later, correct sample would be
+//!   older and dropped until the stream caught up with it), unless
+//!   [`JUMPS_TO_ACCEPT`] such samples in a row agree (each no further ahead
+//!   of the one before than their arrivals are apart plus the skew): then
+//!   the tracker's clock really stepped. One wild time stamp so costs one
+//!   sample. A tracker that pauses sends nothing meanwhile, so its first
+//!   stamp after the pause is as far ahead as it arrived later: kept.
+//!   A replay (`--input`, `--stream FILE`) reads each line the moment the
+//!   one before it is due, so no arrival time passes between them
+//!   ([`Arrival::Replay`]): a step of more than the skew in a recording
+//!   needs the agreeing samples (a real pause in it costs two);
 //! - a present centroid with a coordinate beyond ±[`MAX_CENTROID_MM`] is
 //!   **out of range**;
 //! - a present centroid more than [`MAX_JUMP_MM`] from the last accepted
@@ -18,12 +27,24 @@
 //! A sample without a finger (`present = false`) only needs its time stamp.
 
 use super::Sample;
-use crate::limits::{JUMPS_TO_ACCEPT, MAX_CENTROID_MM, MAX_JUMP_MM, MAX_TIME_AHEAD_S};
+use crate::limits::{JUMPS_TO_ACCEPT, MAX_CENTROID_MM, MAX_JUMP_MM, MAX_TIME_SKEW_S};
+
+/// When a sample arrived, for the time-stamp rule.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Arrival {
+    /// A live source (stdin, UDP): the host's monotonic time (s) it was
+    /// received at (any origin, the same for every sample).
+    Live(f64),
+    /// A replayed recording: read as soon as the sample before it was due,
+    /// so no time passed between them.
+    Replay,
+}
 
 /// Why a sample was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reject {
-    /// Its time stamp is older than the last accepted sample's.
+    /// Its time stamp is older than the last accepted sample's, or wild
+    /// (further ahead of it than the time since, see the module).
     OutOfOrder,
     /// A coordinate is beyond the plausible range.
     OutOfRange,
@@ -49,14 +70,56 @@ impl PlausibilityCounts {
     }
 }
 
+/// The time-stamp rule alone (the module's first two rules): what the
+/// gate checks first, and what a replay's pacing checks before it waits
+/// for a stamp ([`super::source::paced`]), so a wild one is not slept for.
+#[derive(Debug, Clone, Default)]
+pub struct Stamps {
+    /// The last accepted stamp and its arrival (s; 0 in a replay).
+    last: Option<(f64, f64)>,
+    /// The run of stamps too far ahead: the last one, its arrival, how many.
+    run: Option<(f64, f64, u32)>,
+}
+
+impl Stamps {
+    /// Whether `t_s`, arrived at `at`, may be taken; if so it is the new
+    /// reference.
+    pub fn check(&mut self, t_s: f64, at: Arrival) -> Result<(), Reject> {
+        let at_s = match at {
+            Arrival::Live(s) => s,
+            Arrival::Replay => 0.0,
+        };
+        let Some((last_t, last_at)) = self.last else {
+            self.last = Some((t_s, at_s));
+            return Ok(());
+        };
+        if !t_s.is_finite() || t_s < last_t {
+            return Err(Reject::OutOfOrder);
+        }
+        let within =
+            |t: f64, a: f64, t0: f64, a0: f64| t - t0 <= (a - a0).max(0.0) + MAX_TIME_SKEW_S;
+        if !within(t_s, at_s, last_t, last_at) {
+            let n = match self.run {
+                Some((p, pa, n)) if t_s >= p && within(t_s, at_s, p, pa) => n + 1,
+                _ => 1,
+            };
+            if n < JUMPS_TO_ACCEPT {
+                self.run = Some((t_s, at_s, n));
+                return Err(Reject::OutOfOrder);
+            }
+        }
+        self.run = None;
+        self.last = Some((t_s, at_s));
+        Ok(())
+    }
+}
+
 /// The gate's state: the last accepted sample and the current run of jumps.
 #[derive(Debug, Clone, Default)]
 pub struct Plausibility {
-    last_t_s: Option<f64>,
+    stamps: Stamps,
     last_pos_mm: Option<[f64; 3]>,
     jump_run: Vec<[f64; 3]>,
-    /// The run of time stamps far ahead: the last one and how many.
-    time_run: Option<(f64, u32)>,
     /// What was dropped so far.
     pub counts: PlausibilityCounts,
 }
@@ -66,14 +129,11 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 impl Plausibility {
-    /// Checks `s`; `Ok` means it may go to the filter.
-    pub fn check(&mut self, s: &Sample) -> Result<(), Reject> {
-        let r = self.judge(s);
+    /// Checks `s`, arrived `at`; `Ok` means it may go to the filter.
+    pub fn check(&mut self, s: &Sample, at: Arrival) -> Result<(), Reject> {
+        let r = self.judge(s, at);
         match r {
-            Ok(()) => {
-                self.last_t_s = Some(s.t_s);
-                self.last_pos_mm = s.present.then_some(s.pos_mm);
-            }
+            Ok(()) => self.last_pos_mm = s.present.then_some(s.pos_mm),
             Err(Reject::OutOfOrder) => self.counts.out_of_order += 1,
             Err(Reject::OutOfRange) => self.counts.out_of_range += 1,
             Err(Reject::Jump) => self.counts.jumps += 1,
@@ -81,21 +141,10 @@ impl Plausibility {
         r
     }
 
-    fn judge(&mut self, s: &Sample) -> Result<(), Reject> {
-        if !s.t_s.is_finite() || self.last_t_s.is_some_and(|t| s.t_s < t) {
-            return Err(Reject::OutOfOrder);
-        }
-        if self.last_t_s.is_some_and(|t| s.t_s - t > MAX_TIME_AHEAD_S) {
-            let n = match self.time_run {
-                Some((p, n)) if s.t_s >= p && s.t_s - p <= MAX_TIME_AHEAD_S => n + 1,
-                _ => 1,
-            };
-            if n < JUMPS_TO_ACCEPT {
-                self.time_run = Some((s.t_s, n));
-                return Err(Reject::OutOfOrder);
-            }
-        }
-        self.time_run = None;
+    fn judge(&mut self, s: &Sample, at: Arrival) -> Result<(), Reject> {
+        // The stamp first: a sample dropped for its place below still
+        // moved the clock on (it came from the tracker when it says).
+        self.stamps.check(s.t_s, at)?;
         if !s.present {
             self.jump_run.clear();
             return Ok(());
@@ -136,6 +185,12 @@ impl Plausibility {
 mod tests {
     use super::*;
 
+    impl Plausibility {
+        fn check_replay(&mut self, s: &Sample) -> Result<(), Reject> {
+            self.check(s, Arrival::Replay)
+        }
+    }
+
     fn at(t_s: f64, x: f64) -> Sample {
         Sample {
             t_s,
@@ -147,11 +202,11 @@ mod tests {
     #[test]
     fn drops_out_of_order_out_of_range_and_single_jumps() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check(&at(1.0, 0.0)), Ok(()));
-        assert_eq!(g.check(&at(-1e300, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check(&at(1.1, 1e30)), Err(Reject::OutOfRange));
-        assert_eq!(g.check(&at(1.2, 500.0)), Err(Reject::Jump));
-        assert_eq!(g.check(&at(1.3, 1.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(1.0, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(-1e300, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check_replay(&at(1.1, 1e30)), Err(Reject::OutOfRange));
+        assert_eq!(g.check_replay(&at(1.2, 500.0)), Err(Reject::Jump));
+        assert_eq!(g.check_replay(&at(1.3, 1.0)), Ok(()));
         assert_eq!(
             g.counts,
             PlausibilityCounts {
@@ -166,38 +221,107 @@ mod tests {
     #[test]
     fn a_real_move_is_followed_after_three_agreeing_jumps() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check(&at(0.0, 0.0)), Ok(()));
-        assert_eq!(g.check(&at(0.1, 100.0)), Err(Reject::Jump));
-        assert_eq!(g.check(&at(0.2, 101.0)), Err(Reject::Jump));
-        assert_eq!(g.check(&at(0.3, 102.0)), Ok(()));
-        assert_eq!(g.check(&at(0.4, 103.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(0.0, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(0.1, 100.0)), Err(Reject::Jump));
+        assert_eq!(g.check_replay(&at(0.2, 101.0)), Err(Reject::Jump));
+        assert_eq!(g.check_replay(&at(0.3, 102.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(0.4, 103.0)), Ok(()));
         // Scattered outliers never agree.
         for (i, x) in [300.0, -300.0, 300.0, -300.0].iter().enumerate() {
-            assert_eq!(g.check(&at(0.5 + i as f64, *x)), Err(Reject::Jump));
+            assert_eq!(g.check_replay(&at(0.5 + i as f64, *x)), Err(Reject::Jump));
         }
     }
 
     #[test]
     fn one_time_stamp_far_ahead_is_dropped_and_drops_nothing_after_it() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check(&at(1.0, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(1.0, 0.0)), Ok(()));
         // A year ahead: were it accepted, every later sample would be
         // older than it and dropped as out of order.
-        assert_eq!(g.check(&at(3.2e7, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check(&at(1.1, 0.0)), Ok(()));
-        assert_eq!(g.check(&at(1.2, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(3.2e7, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check_replay(&at(1.1, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(1.2, 0.0)), Ok(()));
         assert_eq!(g.counts.out_of_order, 1);
     }
 
+    /// A live tracker at 90 Hz on a manual clock: `g` sees sample `i`
+    /// stamped `t_s` as it arrives.
+    struct Live {
+        g: Plausibility,
+        clock: crate::clock::Clock,
+    }
+
+    impl Live {
+        fn new() -> Self {
+            Live {
+                g: Plausibility::default(),
+                clock: crate::clock::Clock::manual(),
+            }
+        }
+
+        fn next(&mut self, t_s: f64) -> Result<(), Reject> {
+            self.clock.advance(std::time::Duration::from_micros(11_111));
+            let now = self.clock.now().as_secs_f64();
+            self.g.check(&at(t_s, 0.0), Arrival::Live(now))
+        }
+    }
+
     #[test]
-    fn a_real_pause_is_followed_after_three_agreeing_time_stamps() {
+    fn a_wild_stamp_minutes_ahead_costs_one_live_sample_not_minutes() {
+        let mut l = Live::new();
+        for i in 0..10 {
+            assert_eq!(l.next(100.0 + f64::from(i) / 90.0), Ok(()));
+        }
+        // Ten minutes ahead, arrived 11 ms after the last: were it taken
+        // as the reference, the next ten minutes of samples would be
+        // dropped as going back.
+        assert_eq!(l.next(700.0), Err(Reject::OutOfOrder));
+        for i in 11..100 {
+            assert_eq!(l.next(100.0 + f64::from(i) / 90.0), Ok(()), "sample {i}");
+        }
+        assert_eq!(l.g.counts.out_of_order, 1);
+    }
+
+    #[test]
+    fn a_live_tracker_that_paused_is_followed_at_once() {
+        let mut l = Live::new();
+        assert_eq!(l.next(100.0), Ok(()));
+        // Nothing for ten minutes, then stamps ten minutes on.
+        l.clock.advance(std::time::Duration::from_secs(600));
+        assert_eq!(l.next(700.0), Ok(()));
+        assert_eq!(l.next(700.011), Ok(()));
+        assert_eq!(l.g.counts.out_of_order, 0);
+    }
+
+    #[test]
+    fn a_tracker_clock_that_stepped_is_followed_after_three_agreeing_stamps() {
+        let mut l = Live::new();
+        assert_eq!(l.next(100.0), Ok(()));
+        // The tracker's clock steps an hour on while it keeps sending.
+        assert_eq!(l.next(3700.0), Err(Reject::OutOfOrder));
+        assert_eq!(l.next(3700.011), Err(Reject::OutOfOrder));
+        assert_eq!(l.next(3700.022), Ok(()));
+        assert_eq!(l.next(3700.033), Ok(()));
+        // Scattered wild stamps never agree.
+        for t in [9000.0, 5000.0, 9000.0, 5000.0] {
+            assert_eq!(l.next(t), Err(Reject::OutOfOrder));
+        }
+        assert_eq!(l.next(3700.1), Ok(()));
+    }
+
+    #[test]
+    fn in_a_replay_a_wild_stamp_costs_one_sample_and_a_real_pause_two() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check(&at(1.0, 0.0)), Ok(()));
-        let later = 1.0 + 2.0 * MAX_TIME_AHEAD_S;
-        assert_eq!(g.check(&at(later, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check(&at(later + 0.1, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check(&at(later + 0.2, 0.0)), Ok(()));
-        assert_eq!(g.check(&at(later + 0.3, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(1.0, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(31.0, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check_replay(&at(1.1, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&at(1.1 + MAX_TIME_SKEW_S, 0.0)), Ok(()));
+        // The recording paused 5 s: no arrival time tells it apart from a
+        // wild stamp until the samples after it agree.
+        assert_eq!(g.check_replay(&at(10.0, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check_replay(&at(10.1, 0.0)), Err(Reject::OutOfOrder));
+        assert_eq!(g.check_replay(&at(10.2, 0.0)), Ok(()));
+        assert_eq!(g.counts.out_of_order, 3);
     }
 
     #[test]
@@ -208,7 +332,7 @@ mod tests {
             pos_mm: [1e300, 0.0, 0.0],
             present: false,
         };
-        assert_eq!(g.check(&gone), Ok(()));
-        assert_eq!(g.check(&at(0.1, 500.0)), Ok(()));
+        assert_eq!(g.check_replay(&gone), Ok(()));
+        assert_eq!(g.check_replay(&at(0.1, 500.0)), Ok(()));
     }
 }

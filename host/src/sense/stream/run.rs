@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use super::Sample;
 use super::filter::Filter;
-use super::plausible::{Plausibility, PlausibilityCounts};
+use super::plausible::{Arrival, Plausibility, PlausibilityCounts};
 use crate::clock::monotonic_us;
 use crate::device::backend::{Backend, CentroidOutcome};
 use crate::device::centroids::CentroidSender;
@@ -61,8 +61,10 @@ pub struct StreamReport {
     /// Updates the device refused as outside the slot's work volume (it
     /// mutes until the finger is back in range; the session goes on).
     pub outside_work_volume: u64,
-    /// Whether Ctrl-C / SIGTERM ended the session.
+    /// Whether a stop (Ctrl-C, SIGTERM, ...) ended the session.
     pub stopped: bool,
+    /// What stopped it (`SIGTERM`), when something did.
+    pub stopped_by: Option<String>,
     /// Whether the device was muted at the end (after a stop or an error).
     pub muted_at_end: bool,
 }
@@ -155,6 +157,7 @@ pub fn stream(
         start,
     );
     report.stopped = stop_requested();
+    report.stopped_by = crate::stop::cause().map(|c| c.to_string());
     if result.is_err() || report.stopped {
         // The session ends early: leave the device muted, not steering to
         // the last centroid. Best effort when the link itself failed.
@@ -200,7 +203,14 @@ fn pump(
             Next::End => break,
         };
         report.samples += 1;
-        let verdict = gate.check(&s);
+        // A live sample arrived now (taken off the reader's queue, which
+        // the loop keeps empty); a replayed one when the one before it
+        // was due.
+        let at = match pace {
+            Pace::Arrival => Arrival::Live(start.elapsed().as_secs_f64()),
+            Pace::Timestamps => Arrival::Replay,
+        };
+        let verdict = gate.check(&s, at);
         report.rejected = gate.counts;
         if verdict.is_err() {
             continue;

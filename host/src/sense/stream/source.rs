@@ -149,12 +149,15 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
             )));
         }
         let num = |i: usize, name: &str| {
-            fields[i].parse::<f64>().map_err(|_| {
+            let v = fields[i].parse::<f64>().map_err(|_| {
                 InputError::new(format!(
                     "line {line_no}: {name} `{}` is not a number",
                     fields[i]
                 ))
-            })
+            })?;
+            crate::limits::exact_literal(fields[i], v)
+                .map_err(|m| InputError::new(format!("line {line_no}: {name} {m}")))?;
+            Ok::<_, InputError>(v)
         };
         let present = crate::error::choose_any_case(
             "a `present` value",
@@ -327,7 +330,11 @@ pub fn replay_file(
 /// first at once, each next one once as much time has passed since the
 /// first as their stamps differ, so a 20 s recording plays for 20 s in a
 /// session or study as in `lmhost stream`. Meant for a reader thread
-/// (it sleeps) over [`replay_lines`], which bounds every gap.
+/// (it sleeps) over [`replay_lines`], which bounds every gap. A stamp the
+/// replay's time-stamp rule distrusts ([`super::plausible::Stamps`], what
+/// the stream's gate drops) is passed on at once, never waited for nor
+/// taken as the time the rest must catch up with: what is done with the
+/// sample is the reader's to decide, as for a live source.
 pub fn paced<I>(
     items: I,
     clock: crate::clock::Clock,
@@ -336,22 +343,39 @@ where
     I: IntoIterator<Item = anyhow::Result<Sample>>,
 {
     let mut first: Option<(std::time::Duration, f64)> = None;
+    let mut stamps = super::plausible::Stamps::default();
     items.into_iter().map(move |item| {
         let s = item?;
-        let (t0, first_t_s) = *first.get_or_insert((clock.now(), s.t_s));
-        let after =
-            std::time::Duration::try_from_secs_f64((s.t_s - first_t_s).max(0.0)).map_err(|_| {
-                InputError::new(format!(
-                    "time stamp {} s is too far from the first one to replay",
-                    crate::limits::show(s.t_s)
-                ))
-            })?;
-        let now = clock.now();
-        if let Some(wait) = (t0 + after).checked_sub(now) {
-            clock.sleep(wait);
+        if stamps
+            .check(s.t_s, super::plausible::Arrival::Replay)
+            .is_err()
+        {
+            return Ok(s);
         }
-        Ok(s)
+        pace_one(s, &mut first, &clock)
     })
+}
+
+/// Waits on `clock` until `s` is due after the first sample (`first`: its
+/// time on the clock and its stamp, set by the first call).
+fn pace_one(
+    s: Sample,
+    first: &mut Option<(std::time::Duration, f64)>,
+    clock: &crate::clock::Clock,
+) -> anyhow::Result<Sample> {
+    let (t0, first_t_s) = *first.get_or_insert((clock.now(), s.t_s));
+    let after =
+        std::time::Duration::try_from_secs_f64((s.t_s - first_t_s).max(0.0)).map_err(|_| {
+            InputError::new(format!(
+                "time stamp {} s is too far from the first one to replay",
+                crate::limits::show(s.t_s)
+            ))
+        })?;
+    let now = clock.now();
+    if let Some(wait) = (t0 + after).checked_sub(now) {
+        clock.sleep(wait);
+    }
+    Ok(s)
 }
 
 /// Counters a UDP source keeps while it runs.
@@ -359,7 +383,8 @@ where
 pub struct UdpCounts {
     /// Datagrams received.
     pub datagrams: std::sync::atomic::AtomicU64,
-    /// Datagrams with at least one unusable line (skipped lines).
+    /// Datagrams with at least one unusable line (skipped lines), or
+    /// none at all (empty or blank).
     pub bad_datagrams: std::sync::atomic::AtomicU64,
     /// Datagrams the kernel dropped because the socket's buffer was full
     /// (a tracker sending faster than the stream reads), as the kernel
@@ -412,7 +437,8 @@ fn recv_counting_drops(
 /// or when a stop was requested ([`crate::stop::requested`]).
 ///
 /// A bad line (garbage, not UTF-8, non-finite, longer than
-/// [`MAX_LINE_BYTES`]) is skipped and its datagram counted in `counts`;
+/// [`MAX_LINE_BYTES`]) is skipped and its datagram counted in `counts`, as
+/// is a datagram with no line at all (empty or blank);
 /// only a flood of [`MAX_BAD_DATAGRAMS_IN_A_ROW`] bad datagrams in a row
 /// ends the session (with an input error).
 pub fn udp(
@@ -474,9 +500,14 @@ pub fn udp(
             };
             last_datagram = std::time::Instant::now();
             let number = counts.datagrams.fetch_add(1, Relaxed) as usize + 1;
+            // A datagram is one message, not a text file: one with no line
+            // in it (empty, or only blanks) carries nothing and is bad like
+            // any other unparsable one. A comment or the CSV header is a
+            // line, kept as in a file.
             let mut bad = false;
             match std::str::from_utf8(&buf[..n]) {
                 Err(_) => bad = true,
+                Ok(text) if text.trim().is_empty() => bad = true,
                 Ok(text) => {
                     for line in text.lines() {
                         if line.len() > MAX_LINE_BYTES {

@@ -51,10 +51,8 @@ fn sim(scene: &Scene, cam: ColourCamera) -> (FingerSim, ColourSim) {
     (finger, colour)
 }
 
-fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("lmhost-colour-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> crate::files::Scratch {
+    crate::files::scratch_file("colour", name)
 }
 
 #[test]

@@ -13,12 +13,8 @@ fn parse<T: serde::de::DeserializeOwned>(
     text: &str,
     origin: &str,
 ) -> Result<T, InputError> {
-    toml::from_str(text).map_err(|e| {
-        InputError::new(format!(
-            "{what} {origin}: {}",
-            crate::plan::scene::toml_error_line(text, &e)
-        ))
-    })
+    crate::plan::scene::from_toml(text)
+        .map_err(|m| InputError::new(format!("{what} {origin}: {m}")))
 }
 
 /// The file at `path`, through `from_toml` (which parses and checks it).

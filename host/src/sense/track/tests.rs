@@ -45,10 +45,8 @@ fn frame_at(sim: &FingerSim, t_s: f64) -> Vec<u16> {
     f
 }
 
-fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("lmhost-track-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> crate::files::Scratch {
+    crate::files::scratch_file("track", name)
 }
 
 fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
@@ -187,7 +185,7 @@ fn a_second_object_in_the_box() {
 }
 
 /// A depth recording `name` of `frames`, each `width × height`.
-fn depth_npy(name: &str, width: u32, height: u32, frames: &[&[u16]]) -> std::path::PathBuf {
+fn depth_npy(name: &str, width: u32, height: u32, frames: &[&[u16]]) -> crate::files::Scratch {
     let p = tmp(name);
     let mut w = crate::npy::DepthNpyWriter::create(&p, width, height).unwrap();
     for f in frames {

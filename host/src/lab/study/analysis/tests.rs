@@ -93,8 +93,7 @@ fn write_study(out: &std::path::Path) -> usize {
 
 #[test]
 fn the_reports_statistics_match_scipy_on_the_fixtures_study() {
-    let out = std::env::temp_dir().join(format!("lmhost-report-scipy-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
+    let out = crate::files::scratch("report-scipy");
     let na = write_study(&out);
     assert_eq!(na, 14, "the fixture's \"not perceived\" answers");
     let r = crate::lab::study::report::report(&out).unwrap();

@@ -39,8 +39,7 @@ fn study(
 }
 
 fn write_pdf_png(b: &BoxFigure, width_mm: f64, name: &str) -> (Vec<u8>, Vec<u8>) {
-    let dir = std::env::temp_dir().join(format!("lmhost-boxfig-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::files::scratch(&format!("boxfig-{name}"));
     let fig = Figure {
         width_mm,
         formats: vec![Format::Png, Format::Pdf],

@@ -208,6 +208,10 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
             n
         }
     };
+    if let Some(off) = &t.off_s {
+        crate::lab::session::check_off_s(true, repeat, procedure.is_some())
+            .map_err(|m| e.at(off.span(), "off_s", m))?;
+    }
     if let Some(what) = procedure.filter(|_| on_s.is_none()) {
         return Err(e.at(
             span,
@@ -219,7 +223,7 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
         wait_for_finger: t.wait_for_finger,
         on_s,
         while_touching,
-        off_s: t.off_s.0,
+        off_s: t.off_s.as_ref().map_or(0.0, |s| s.get_ref().0),
         repeat,
         iti_s: t.iti_s.0,
         gate: t.gate,

@@ -140,10 +140,11 @@ pub(super) struct TimelineFile {
     /// `wait_for_finger = true`.
     #[schemars(with = "Option<bool>", extend("default" = false))]
     pub while_touching: Option<Spanned<bool>>,
-    /// Seconds of silence between on-phases.
+    /// Seconds of silence between on-phases; needs `repeat` 2 or more, or
+    /// a procedure (whose trial repeats until answered).
     #[serde(default)]
-    #[schemars(extend("x-unit" = "s"))]
-    pub off_s: Seconds<true>,
+    #[schemars(with = "Seconds<true>", extend("x-unit" = "s", "default" = 0.0))]
+    pub off_s: Option<Spanned<Seconds<true>>>,
     /// On-phases per trial; needs `on_s`, not with a procedure (whose
     /// trial repeats until answered).
     #[schemars(with = "Option<u32>", range(min = 1, max = MAX_REPEAT), extend("default" = 1))]

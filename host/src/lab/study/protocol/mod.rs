@@ -350,8 +350,7 @@ impl Unlinked {
     /// Parses and checks protocol `text` (`origin` names it in errors).
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
         let e = check::Errors { text, origin };
-        let file: file::File = toml::from_str(text)
-            .map_err(|x| e.bad(crate::plan::scene::toml_error_line(text, &x)))?;
+        let file: file::File = crate::plan::scene::from_toml(text).map_err(|m| e.bad(m))?;
         check::check(file, &e)
     }
 

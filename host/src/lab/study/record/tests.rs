@@ -1,5 +1,3 @@
-use std::path::PathBuf;
-
 use super::*;
 use crate::lab::study::design;
 use crate::lab::study::protocol::Protocol;
@@ -12,10 +10,14 @@ fn exp1() -> (Protocol, Vec<Planned>) {
 }
 
 /// Experiment 1 as [`exp1`], and its `trials.csv` in a fresh scratch
-/// folder `name`.
-fn exp1_trials(name: &str) -> (Protocol, Vec<Planned>, PathBuf) {
+/// folder `name` (removed when the guard drops).
+fn exp1_trials(name: &str) -> (Protocol, Vec<Planned>, crate::files::Scratch) {
     let (p, plan) = exp1();
-    (p, plan, scratch(name).join("trials.csv"))
+    (
+        p,
+        plan,
+        crate::files::scratch_file(&format!("study-{name}"), "trials.csv"),
+    )
 }
 
 fn expect(p: &Protocol) -> Expect<'_> {
@@ -223,7 +225,7 @@ fn anything_but_whole_rows_and_a_provably_torn_tail_is_refused_unchanged() {
 #[test]
 fn a_fifo_or_device_is_refused_at_once() {
     let (p, plan, fifo) = exp1_trials("fifo");
-    nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
+    nix::unistd::mkfifo(&*fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
     let e = read_trials(&fifo, &p.columns, &plan, &expect(&p)).unwrap_err();
     assert!(e.to_string().contains("FIFO"), "{e}");
     let e = read_session(&fifo).unwrap_err();

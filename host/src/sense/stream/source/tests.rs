@@ -28,6 +28,26 @@ fn a_paced_recording_takes_as_long_as_its_time_stamps_say() {
 }
 
 #[test]
+fn a_wild_stamp_in_a_paced_recording_is_passed_on_not_slept_for() {
+    let clock = crate::clock::Clock::manual();
+    // 2 s at 10 Hz with one stamp 50 s ahead (within the replay's gap
+    // bound) in the middle.
+    let text: String = (0..=20)
+        .map(|i| if i == 10 { 51.0 } else { i as f64 * 0.1 })
+        .map(|t| format!("{t},0,0,200,1\n"))
+        .collect();
+    let seen: Vec<(f64, u64)> = paced(replay_lines(text.as_bytes()), clock.clone())
+        .map(|s| (s.unwrap().t_s, clock.now_us()))
+        .collect();
+    assert_eq!(seen.len(), 21, "{seen:?}");
+    // Passed on when the one before it was due; the rest on time after it.
+    assert_eq!(seen[10], (51.0, 900_000));
+    assert_eq!(seen[11], (1.1, 1_100_000));
+    // It took as long as the recording, not 51 s.
+    assert_eq!(clock.now_us(), 2_000_000);
+}
+
+#[test]
 fn a_time_stamp_outside_0_to_1e10_s_is_refused_in_every_form() {
     for t in ["1e300", "-1", "-1e-9", "10000000001"] {
         for line in [
@@ -43,6 +63,23 @@ fn a_time_stamp_outside_0_to_1e10_s_is_refused_in_every_form() {
     // Unix-epoch seconds, as a tracker's `time.time()` gives them.
     assert!(parse_line("1800000000.5,0,0,200,1", 1).unwrap().is_some());
     assert!(parse_line("0,0,0,200,1", 1).unwrap().is_some());
+}
+
+#[test]
+fn a_number_that_underflows_is_refused_in_every_form() {
+    for line in [
+        "1e-400,0,0,200,1",
+        "0,0,5e-320,200,1",
+        r#"{"t":1e-400,"x":0,"y":0,"z":200}"#,
+        r#"{"t_s":0,"present":true,"centroid_mm":[1e-400,0,200]}"#,
+    ] {
+        let e = parse_line(line, 3).unwrap_err().to_string();
+        assert!(
+            e.starts_with("line 3: ") && e.contains("too small to represent"),
+            "{line}: {e}"
+        );
+    }
+    assert!(parse_line("0.0e-400,0,0,200,1", 1).unwrap().is_some());
 }
 
 #[test]
@@ -268,4 +305,32 @@ fn datagrams_the_kernel_dropped_are_counted() {
     );
     assert_eq!(counts.datagrams.load(Relaxed), got);
     assert_eq!(got + lost, BURST as u64 + 1, "received {got}, lost {lost}");
+}
+
+#[test]
+fn an_empty_or_blank_datagram_is_counted_bad_and_a_comment_is_not() {
+    use std::sync::atomic::Ordering::Relaxed;
+    let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = probe.local_addr().unwrap().port();
+    drop(probe);
+    let counts = std::sync::Arc::new(UdpCounts::default());
+    let samples = udp(port, std::time::Duration::from_millis(300), counts.clone()).unwrap();
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    for d in [
+        &b""[..],
+        b"0.0,0,0,200,1",
+        b"\n \n",
+        b"# a comment\nt,x,y,z,present",
+        b"0.1,0,0,200,1",
+    ] {
+        tx.send_to(d, ("127.0.0.1", port)).unwrap();
+    }
+    let got: Vec<_> = samples.map(|s| s.unwrap().t_s).collect();
+    assert_eq!(got, [0.0, 0.1]);
+    assert_eq!(counts.datagrams.load(Relaxed), 5);
+    assert_eq!(
+        counts.bad_datagrams.load(Relaxed),
+        2,
+        "the empty and the blank one"
+    );
 }

@@ -334,7 +334,8 @@ impl TrackRun {
         }
         if stopped {
             summary.push(format!(
-                "stopped by signal{}",
+                "stopped by {}{}",
+                crate::stop::cause().map_or("a signal".into(), |c| c.to_string()),
                 if streamed.as_ref().is_some_and(|(r, _)| r.muted_at_end) {
                     "; device muted"
                 } else {

@@ -111,7 +111,8 @@ fn a_replan_without_a_device_is_refused() {
 fn a_plot_frame_beyond_the_run_names_the_flag() {
     // Not made beforehand: a fresh folder may reuse the inode of an input
     // another test read and deleted, which `--plot` would then refuse.
-    let dir = crate::files::scratch("track-run-plot-frame").join("plots");
+    let scratch = crate::files::scratch("track-run-plot-frame");
+    let dir = scratch.join("plots");
     let mut o = synthetic(false);
     o.plot = Some(Plot {
         dir: dir.clone(),
@@ -122,7 +123,6 @@ fn a_plot_frame_beyond_the_run_names_the_flag() {
         .run(None, &mut |_| Ok(()))
         .unwrap_err();
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no plot");
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(e.downcast_ref::<InputError>().is_some());
     assert_eq!(e.to_string(), "--plot-frame 1000 is beyond the 18 frames");
 }
