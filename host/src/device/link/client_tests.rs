@@ -65,16 +65,27 @@ fn inconsistent_sequences_are_a_typed_codec_error() {
     assert!(matches!(e, LinkError::Codec(CodecError::BadShape)), "{e}");
 }
 
-/// A port that sends back what it is sent (a loopback, an adapter with
-/// nothing behind it), or `junk` in its place.
-struct Mirror {
+/// A scripted port: `reply` turns each frame the client sends into the
+/// bytes that come back, there to read at once.
+struct Scripted<F> {
+    name: &'static str,
+    reply: F,
     pending: Vec<u8>,
-    junk: Option<&'static [u8]>,
 }
 
-impl Transport for Mirror {
+impl<F: FnMut(&[u8], &mut Vec<u8>) + Send> Scripted<F> {
+    fn new(name: &'static str, reply: F) -> Self {
+        Scripted {
+            name,
+            reply,
+            pending: Vec::new(),
+        }
+    }
+}
+
+impl<F: FnMut(&[u8], &mut Vec<u8>) + Send> Transport for Scripted<F> {
     fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        self.pending.extend_from_slice(self.junk.unwrap_or(bytes));
+        (self.reply)(bytes, &mut self.pending);
         Ok(())
     }
     fn recv(&mut self, buf: &mut [u8], _timeout: Duration) -> std::io::Result<usize> {
@@ -84,7 +95,7 @@ impl Transport for Mirror {
         Ok(n)
     }
     fn describe(&self) -> String {
-        "mirror".into()
+        self.name.into()
     }
 }
 
@@ -99,10 +110,12 @@ fn a_timeout_says_what_came_instead_of_the_reply() {
             "24 bytes came, none an LM protocol frame",
         ),
     ] {
-        let mut c = Client::new(Mirror {
-            pending: Vec::new(),
-            junk,
-        });
+        // A port that sends back what it is sent (a loopback, an adapter
+        // with nothing behind it), or `junk` in its place.
+        let mut c = Client::new(Scripted::new(
+            "mirror",
+            move |sent: &[u8], out: &mut Vec<u8>| out.extend_from_slice(junk.unwrap_or(sent)),
+        ));
         c.timeout = Duration::from_millis(5);
         c.tries = 3;
         let e = c.info().unwrap_err();
@@ -113,43 +126,6 @@ fn a_timeout_says_what_came_instead_of_the_reply() {
             "{e}"
         );
         assert!(e.contains(want), "{e}");
-    }
-}
-
-/// A device that took each centroid, but whose ack of its first copy was
-/// lost (`lose_first`), so it answers the resent copy as firmware does:
-/// `OutOfOrder`, it holds that update already.
-struct LostAck {
-    lose_first: bool,
-    last_seq: Option<u16>,
-    pending: Vec<u8>,
-}
-
-impl Transport for LostAck {
-    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        let mut d = FrameDecoder::new();
-        let FeedResult::Frame { frame, .. } = d.feed(bytes) else {
-            panic!("the client sends whole frames");
-        };
-        let resend = self.last_seq == Some(frame.seq);
-        self.last_seq = Some(frame.seq);
-        if self.lose_first && !resend {
-            return Ok(());
-        }
-        let mut buf = [0u8; MAX_ENCODED_FRAME];
-        let reply = Message::Nack(NackCode::OutOfOrder);
-        let n = encode_frame(frame.seq, &reply, &mut buf).unwrap();
-        self.pending.extend_from_slice(&buf[..n]);
-        Ok(())
-    }
-    fn recv(&mut self, buf: &mut [u8], _timeout: Duration) -> std::io::Result<usize> {
-        let n = self.pending.len().min(buf.len());
-        buf[..n].copy_from_slice(&self.pending[..n]);
-        self.pending.drain(..n);
-        Ok(n)
-    }
-    fn describe(&self) -> String {
-        "lossy".into()
     }
 }
 
@@ -164,11 +140,28 @@ fn a_centroid_resent_after_a_lost_ack_is_accepted() {
         host_time_us: 1,
     };
     for lose_first in [true, false] {
-        let mut c = Client::new(LostAck {
-            lose_first,
-            last_seq: None,
-            pending: Vec::new(),
-        });
+        // A device that took each centroid, but whose ack of its first copy
+        // was lost (`lose_first`), so it answers the resent copy as firmware
+        // does: `OutOfOrder`, it holds that update already.
+        let mut last_seq = None;
+        let mut c = Client::new(Scripted::new(
+            "lossy",
+            move |sent: &[u8], out: &mut Vec<u8>| {
+                let mut d = FrameDecoder::new();
+                let FeedResult::Frame { frame, .. } = d.feed(sent) else {
+                    panic!("the client sends whole frames");
+                };
+                let resend = last_seq == Some(frame.seq);
+                last_seq = Some(frame.seq);
+                if lose_first && !resend {
+                    return;
+                }
+                let mut buf = [0u8; MAX_ENCODED_FRAME];
+                let reply = Message::Nack(NackCode::OutOfOrder);
+                let n = encode_frame(frame.seq, &reply, &mut buf).unwrap();
+                out.extend_from_slice(&buf[..n]);
+            },
+        ));
         c.timeout = Duration::from_millis(5);
         let r = c.centroid(centroid);
         if lose_first {
