@@ -136,7 +136,7 @@ impl Args {
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
         let finger = match self.finger.start(self.scene.as_deref())? {
-            FingerFeed::Samples(feed, _) => Finger::Samples(Box::new(feed)),
+            FingerFeed::Samples(feed, intake, _) => Finger::Samples(Box::new(feed), intake),
             FingerFeed::Synthetic => Finger::Synthetic,
             FingerFeed::None => Finger::None,
         };
@@ -165,15 +165,15 @@ impl Args {
                 finger,
                 filter: self.finger.filter().build(),
             },
-        )?;
+        );
+        // The source's counts are end lines whatever ended the session.
+        self.finger.print_end_lines(&report);
+        let report = report?;
         if report.dropped_clients > 0 {
             lmhost::errln!(
                 "lmhost: {} clients were disconnected for not reading their replies and events",
                 report.dropped_clients
             );
-        }
-        if let Some(line) = self.finger.udp_summary() {
-            lmhost::errln!("{line}");
         }
         lmhost::errln!(
             "lmhost: session ended ({}); {} commands, {} events; the array is silent",

@@ -201,9 +201,12 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let (file, plan, resumed) = (st.file, st.plan, st.resumed);
     crate::stop::graceful();
     let driver = match std::mem::replace(&mut o.finger, FingerSource::None) {
-        FingerSource::Samples { feed, filter, .. } => {
-            Driver::new(session, Finger::Samples(Box::new(feed)), filter)
-        }
+        FingerSource::Samples {
+            feed,
+            intake,
+            filter,
+            ..
+        } => Driver::new(session, Finger::Samples(Box::new(feed), *intake), filter),
         // Off the array until a trial waits for it.
         FingerSource::Synthetic => {
             Driver::new(session, Finger::Synthetic, Box::new(Passthrough)).lifted()
