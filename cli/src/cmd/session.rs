@@ -131,8 +131,11 @@ impl Args {
         let endpoint = Endpoint::bind(&control)?;
         let dev = lmhost::device::connect::open(&spec, &scene)?;
         let where_ = dev.describe();
-        let session = Session::new(dev, &library, plans, scene, Clock::real())
-            .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+        let session = Session::new(dev, &library, plans, scene, Clock::real()).map_err(|e| {
+            lmhost::device::backend::port_context(e, &where_, "starting the session", || {
+                format!("starting the session on {where_}")
+            })
+        })?;
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
         let finger = match self.finger.start(self.scene.as_deref())? {
