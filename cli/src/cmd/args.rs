@@ -312,10 +312,11 @@ impl FingerArgs {
         use lmhost::sense::stream::intake::{Intake, Timing};
         use lmhost::sense::stream::run::on_thread;
         use lmhost::sense::stream::source;
-        // A recording (of depth frames or centroids) is replayed at its
-        // time stamps, as `lmhost track` and `lmhost stream` replay it.
-        let intake = |timing| Intake::new(timing, self.gate_counts.clone());
         use lmhost::sense::track::run::{Options, Source};
+        // Every source of samples passes the one gate, counted for the end
+        // line; a recording (depth frames, centroids) by its time stamps
+        // alone, as `lmhost track` and `lmhost stream` replay it.
+        let intake = |timing| Intake::new(timing, self.gate_counts.clone());
         if self.tracked() {
             let source = match (&self.depth, &self.depth_stream) {
                 (Some(depth), _) => Source::Recorded {
