@@ -616,7 +616,6 @@ fn a_streamed_finger_passes_the_plausibility_gate_and_its_counts_end_the_session
     // The lifted finger is the last sample: every one was read once the
     // session says the finger left.
     read_until(&[r#""event":"finger""#, r#""present":false"#], &mut seen);
-    drop(read_until);
     writeln!(stdin, r#"{{"cmd":"stop"}}"#).unwrap();
     drop(stdin);
     std::io::Read::read_to_string(&mut stdout, &mut seen).unwrap();

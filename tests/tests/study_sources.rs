@@ -171,7 +171,7 @@ fn a_study_stopped_by_a_signal_still_says_what_its_finger_source_counted() {
     let proto = protocol(&d);
     let port_arg = port.to_string();
     // No finger ever comes: the first trial waits for it until SIGTERM.
-    let mut child = run_on(
+    let child = run_on(
         proto.to_str().unwrap(),
         "autd3:emulator",
         &d.join("out"),
