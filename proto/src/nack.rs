@@ -22,9 +22,10 @@ wire_enum! {
         /// 7: a field is outside its allowed range (zero steps, offset past
         /// `encoded_len`, geometry index past `transducers`, ...).
         OutOfRange = 7 => "field out of range",
-        /// 8: chunk offset is not the next expected one (gap, or an overlap
-        /// with different data).
-        OutOfOrder = 8 => "chunk out of order",
+        /// 8: out of sequence: a chunk or intensity levels not at the next
+        /// expected offset (gap, or an overlap with different data), or a
+        /// centroid whose `seq` is not newer than the last accepted one.
+        OutOfOrder = 8 => "out of order: not the next chunk offset, or a stale centroid",
         /// 9: commit CRC differs from the CRC of the decoded raw sequence.
         CrcMismatch = 9 => "sequence CRC mismatch",
         /// 10: play of a slot that holds no committed sequence.

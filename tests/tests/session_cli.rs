@@ -562,3 +562,78 @@ fn a_udp_finger_source_says_what_it_counted_at_the_end() {
         "{err}"
     );
 }
+
+#[test]
+fn a_streamed_finger_passes_the_plausibility_gate_and_its_counts_end_the_session() {
+    let port = {
+        let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        probe.local_addr().unwrap().port()
+    };
+    let mut child = Command::new(lmhost())
+        .args(["session", "--library", &library()])
+        .args(["--port", "autd3:emulator", "--control", "-"])
+        .args(["--udp", &port.to_string(), "--filter", "none"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+        assert!(t0.elapsed() < Duration::from_secs(60), "never bound");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let mut stdin = child.stdin.take().unwrap();
+    writeln!(stdin, r#"{{"cmd":"present","stimulus":"lms-25hz-a3"}}"#).unwrap();
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let mut seen = String::new();
+    let mut read_until = |what: &[&str], seen: &mut String| loop {
+        let mut line = String::new();
+        if stdout.read_line(&mut line).unwrap() == 0 {
+            panic!("the session ended before {what:?}: {seen}");
+        }
+        seen.push_str(&line);
+        if what.iter().all(|w| line.contains(w)) {
+            break;
+        }
+    };
+    read_until(&[r#""event":"onset""#], &mut seen);
+    // A finger at rest at 90 Hz, then lifted: sample 3 is stamped 30
+    // years ahead, sample 6 lies 5 m away.
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    for i in 0..90 {
+        let t = if i == 3 {
+            1e9
+        } else {
+            100.0 + f64::from(i) / 90.0
+        };
+        let x = if i == 6 { 5000.0 } else { 0.0 };
+        let line = format!("{t},{x},0,200,1");
+        tx.send_to(line.as_bytes(), ("127.0.0.1", port)).unwrap();
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    tx.send_to(b"101.0,0,0,200,0", ("127.0.0.1", port)).unwrap();
+    // The lifted finger is the last sample: every one was read once the
+    // session says the finger left.
+    read_until(&[r#""event":"finger""#, r#""present":false"#], &mut seen);
+    writeln!(stdin, r#"{{"cmd":"stop"}}"#).unwrap();
+    drop(stdin);
+    std::io::Read::read_to_string(&mut stdout, &mut seen).unwrap();
+    let out = child.wait_with_output().unwrap();
+    exited_0(&out, "");
+    let v = lines(seen.as_bytes());
+    // The good samples after the wild ones steered it, never out of range.
+    assert!(
+        events(&v, "mute")
+            .iter()
+            .all(|e| e["reason"] != "centroid_out_of_range"),
+        "{v:?}"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(
+            "lmhost: finger: 91 samples, 2 dropped as implausible (1 out of order, 1 out of range, 0 jumps)"
+        ),
+        "{err}"
+    );
+}

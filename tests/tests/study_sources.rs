@@ -159,3 +159,56 @@ fn a_udp_finger_source_says_what_it_counted_at_the_end_of_a_study() {
         "{line}"
     );
 }
+
+#[test]
+fn a_study_stopped_by_a_signal_still_says_what_its_finger_source_counted() {
+    let d = scratch("sources-udp-stop");
+    let port = {
+        let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        probe.local_addr().unwrap().port()
+    };
+    let answers = answers_file(&d, "3\n5\n");
+    let proto = protocol(&d);
+    let port_arg = port.to_string();
+    // No finger ever comes: the first trial waits for it until SIGTERM.
+    let child = run_on(
+        proto.to_str().unwrap(),
+        "autd3:emulator",
+        &d.join("out"),
+        &["--responses", answers.to_str().unwrap(), "--udp", &port_arg],
+    )
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::piped())
+    .spawn()
+    .unwrap();
+    let t0 = std::time::Instant::now();
+    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+        assert!(t0.elapsed().as_secs() < 60, "never bound");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    // One garbage datagram and one centroid 5 m away, which the gate drops.
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    tx.send_to(b"not a centroid", ("127.0.0.1", port)).unwrap();
+    tx.send_to(b"1.0,5000,0,200,1", ("127.0.0.1", port))
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let st = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!(
+            "lmhost: UDP 127.0.0.1:{port}: 2 datagrams, 1 skipped as bad, 0 lost in the kernel's receive buffer"
+        )),
+        "{err}"
+    );
+    assert!(
+        err.contains(
+            "lmhost: finger: 1 samples, 1 dropped as implausible (0 out of order, 1 out of range, 0 jumps)"
+        ),
+        "{err}"
+    );
+}

@@ -157,6 +157,10 @@ pub struct FingerArgs {
     /// dropped), for the line at the end.
     #[arg(skip)]
     pub udp_counts: std::sync::Arc<lmhost::sense::stream::source::UdpCounts>,
+    /// What the plausibility gate read and dropped of a tracked or
+    /// streamed finger, for the line at the end.
+    #[arg(skip)]
+    pub gate_counts: std::sync::Arc<lmhost::sense::stream::intake::SharedCounts>,
     /// Centroid filter for the tracked finger or its centroids (not the
     /// synthetic finger, which rests still) [default: kalman].
     #[arg(long, value_parser = filter())]
@@ -169,8 +173,13 @@ pub enum FingerFeed {
     None,
     /// The synthetic finger.
     Synthetic,
-    /// Samples on a reader thread, and what they come from (for records).
-    Samples(lmhost::sense::stream::run::Threaded, String),
+    /// Samples on a reader thread, the plausibility gate they pass, and
+    /// what they come from (for records).
+    Samples(
+        lmhost::sense::stream::run::Threaded,
+        lmhost::sense::stream::intake::Intake,
+        String,
+    ),
 }
 
 impl FingerArgs {
@@ -187,6 +196,32 @@ impl FingerArgs {
             c.bad_datagrams.load(Relaxed),
             c.lost().map_or("uncounted".to_owned(), |n| n.to_string())
         ))
+    }
+
+    /// With a tracked or streamed finger, what the plausibility gate read
+    /// and dropped, as a line for the end of a session or study.
+    pub fn gate_summary(&self) -> Option<String> {
+        self.samples()
+            .then(|| format!("lmhost: {}", self.gate_counts.summary()))
+    }
+
+    /// The source's end lines (UDP, plausibility gate) for a session or
+    /// study that ended with `result`: whatever ended it (success, a
+    /// failure, an interrupt), except bad input, which is one line alone.
+    pub fn print_end_lines<T>(&self, result: &anyhow::Result<T>) {
+        let bad_input = result
+            .as_ref()
+            .err()
+            .is_some_and(|e| e.chain().any(|c| c.is::<lmhost::InputError>()));
+        if bad_input {
+            return;
+        }
+        for line in [self.udp_summary(), self.gate_summary()]
+            .into_iter()
+            .flatten()
+        {
+            lmhost::errln!("{line}");
+        }
     }
 
     /// Whether a source reads stdin.
@@ -274,9 +309,14 @@ impl FingerArgs {
 
     /// Starts the source (its reader thread) on `scene`.
     pub fn start(&self, scene: Option<&Path>) -> anyhow::Result<FingerFeed> {
+        use lmhost::sense::stream::intake::{Intake, Timing};
         use lmhost::sense::stream::run::on_thread;
         use lmhost::sense::stream::source;
         use lmhost::sense::track::run::{Options, Source};
+        // Every source of samples passes the one gate, counted for the end
+        // line; a recording (depth frames, centroids) by its time stamps
+        // alone, as `lmhost track` and `lmhost stream` replay it.
+        let intake = |timing| Intake::new(timing, self.gate_counts.clone());
         if self.tracked() {
             let source = match (&self.depth, &self.depth_stream) {
                 (Some(depth), _) => Source::Recorded {
@@ -309,7 +349,12 @@ impl FingerArgs {
                     };
                 it
             })?;
-            return Ok(FingerFeed::Samples(feed, name));
+            let timing = if self.depth.is_some() {
+                Timing::Replay
+            } else {
+                Timing::Live
+            };
+            return Ok(FingerFeed::Samples(feed, intake(timing), name));
         }
         if self.synthetic {
             return Ok(FingerFeed::Synthetic);
@@ -320,6 +365,7 @@ impl FingerArgs {
             let udp = source::udp(port, idle, self.udp_counts.clone())?;
             return Ok(FingerFeed::Samples(
                 on_thread(move || udp)?,
+                intake(Timing::Live),
                 format!("udp:{port}"),
             ));
         }
@@ -327,16 +373,21 @@ impl FingerArgs {
             return Ok(FingerFeed::None);
         };
         let name = format!("stream:{}", p.display());
-        Ok(FingerFeed::Samples(
-            if p.as_os_str() == "-" {
-                on_thread(|| source::read_lines(std::io::stdin().lock()))?
-            } else {
-                // A recording plays at its time stamps, as in `lmhost stream`.
-                let samples = source::replay_file("--stream file", p)?;
-                on_thread(move || source::paced(samples, lmhost::clock::Clock::real()))?
-            },
-            name,
-        ))
+        Ok(if p.as_os_str() == "-" {
+            FingerFeed::Samples(
+                on_thread(|| source::read_lines(std::io::stdin().lock()))?,
+                intake(Timing::Live),
+                name,
+            )
+        } else {
+            // A recording plays at its time stamps, as in `lmhost stream`.
+            let samples = source::replay_file("--stream file", p)?;
+            FingerFeed::Samples(
+                on_thread(move || source::paced(samples, lmhost::clock::Clock::real()))?,
+                intake(Timing::Replay),
+                name,
+            )
+        })
     }
 }
 

@@ -131,12 +131,15 @@ impl Args {
         let endpoint = Endpoint::bind(&control)?;
         let dev = lmhost::device::connect::open(&spec, &scene)?;
         let where_ = dev.describe();
-        let session = Session::new(dev, &library, plans, scene, Clock::real())
-            .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+        let session = Session::new(dev, &library, plans, scene, Clock::real()).map_err(|e| {
+            lmhost::device::backend::port_context(e, &where_, "starting the session", || {
+                format!("starting the session on {where_}")
+            })
+        })?;
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
         let finger = match self.finger.start(self.scene.as_deref())? {
-            FingerFeed::Samples(feed, _) => Finger::Samples(Box::new(feed)),
+            FingerFeed::Samples(feed, intake, _) => Finger::Samples(Box::new(feed), intake),
             FingerFeed::Synthetic => Finger::Synthetic,
             FingerFeed::None => Finger::None,
         };
@@ -165,15 +168,15 @@ impl Args {
                 finger,
                 filter: self.finger.filter().build(),
             },
-        )?;
+        );
+        // The source's counts are end lines whatever ended the session.
+        self.finger.print_end_lines(&report);
+        let report = report?;
         if report.dropped_clients > 0 {
             lmhost::errln!(
                 "lmhost: {} clients were disconnected for not reading their replies and events",
                 report.dropped_clients
             );
-        }
-        if let Some(line) = self.finger.udp_summary() {
-            lmhost::errln!("{line}");
         }
         lmhost::errln!(
             "lmhost: session ended ({}); {} commands, {} events; the array is silent",

@@ -1,15 +1,17 @@
 //! `lmhost status`: what the device is doing, and its error counters.
 
-use anyhow::Context as _;
+use lmhost::device::backend::port_context;
 
 use super::QueryArgs;
 
 /// Prints the device's status.
 pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
     let (mut dev, where_) = q.open()?;
-    let s = dev
-        .status()
-        .with_context(|| format!("asking {where_} for its status"))?;
+    let s = dev.status().map_err(|e| {
+        port_context(e, &where_, "asking the device for its status", || {
+            format!("asking {where_} for its status")
+        })
+    })?;
     q.print(&s, print_status)
 }
 

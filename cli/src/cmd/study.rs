@@ -307,7 +307,12 @@ impl RunArgs {
         src.check(self.scene.as_deref())?;
         let filter = src.filter().build();
         Ok(match src.start(self.scene.as_deref())? {
-            FingerFeed::Samples(feed, name) => FingerSource::Samples { feed, filter, name },
+            FingerFeed::Samples(feed, intake, name) => FingerSource::Samples {
+                feed,
+                intake: Box::new(intake),
+                filter,
+                name,
+            },
             FingerFeed::Synthetic => FingerSource::Synthetic,
             FingerFeed::None if self.finger == Finger::Synthetic => FingerSource::Synthetic,
             FingerFeed::None => FingerSource::None,
@@ -317,7 +322,7 @@ impl RunArgs {
     fn run(self) -> anyhow::Result<()> {
         let finger = self.finger()?;
         // The source's counts are shared with its thread: read at the end.
-        let udp_source = self.source.clone();
+        let source = self.source.clone();
         let instruments = self.instruments.options()?;
         let r = study::run(RunOptions {
             protocol: self.protocol,
@@ -339,8 +344,10 @@ impl RunArgs {
             view: self.view,
             instruments,
             hooks: Default::default(),
-        })?;
-        let udp = udp_source.udp_summary();
+        });
+        // The source's counts are end lines whatever ended the run.
+        source.print_end_lines(&r);
+        let r = r?;
         let mean = |v: &[f64]| {
             if v.is_empty() {
                 0.0
@@ -367,9 +374,6 @@ impl RunArgs {
             },
             r.dir.display()
         );
-        if let Some(line) = udp {
-            lmhost::errln!("{line}");
-        }
         Ok(())
     }
 }

@@ -87,6 +87,23 @@ impl BackendError {
     }
 }
 
+/// `error` with the context of what was done on the device at `port`:
+/// `plain` when the error names the port already (every link error does),
+/// else `naming()`, which names it, so a line never says the port twice.
+pub fn port_context(
+    error: impl Into<anyhow::Error>,
+    port: &str,
+    plain: &str,
+    naming: impl FnOnce() -> String,
+) -> anyhow::Error {
+    let error = error.into();
+    if format!("{error:#}").contains(port) {
+        error.context(plain.to_owned())
+    } else {
+        error.context(naming())
+    }
+}
+
 impl std::fmt::Display for BackendError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         // The head only: the causes follow through `source`.
@@ -460,5 +477,26 @@ mod tests {
         assert!(check_slot(1, &info(2)).is_ok());
         let e = check_slot(7, &info(2)).unwrap_err();
         assert!(e.to_string().contains("2 slots (0-1)"), "{e}");
+    }
+
+    #[test]
+    fn the_port_is_named_once_in_an_error_line() {
+        let port = "tcp:127.0.0.1:9";
+        let link = anyhow::anyhow!("no response from {port} to info");
+        let e = port_context(link, port, "starting the session", || {
+            format!("starting the session on {port}")
+        });
+        assert_eq!(
+            format!("{e:#}"),
+            "starting the session: no response from tcp:127.0.0.1:9 to info"
+        );
+        let other = anyhow::anyhow!("the emulator failed");
+        let e = port_context(other, port, "starting the session", || {
+            format!("starting the session on {port}")
+        });
+        assert_eq!(
+            format!("{e:#}"),
+            "starting the session on tcp:127.0.0.1:9: the emulator failed"
+        );
     }
 }

@@ -14,6 +14,7 @@ use crate::clock::Clock;
 use crate::sense::reader::Next;
 use crate::sense::stream::Sample;
 use crate::sense::stream::filter::Filter;
+use crate::sense::stream::intake::Intake;
 use crate::sense::stream::run::Feed;
 use crate::sense::stream::synthetic::FingerTrack;
 
@@ -25,8 +26,9 @@ pub enum Finger {
     /// noise and drift), sampled at 90 Hz on the session's clock.
     Synthetic,
     /// Samples from a feed (a reader thread over a file, stdin, UDP, a
-    /// depth camera's tracker).
-    Samples(Box<dyn Feed>),
+    /// depth camera's tracker), through the plausibility gate of `Intake`
+    /// (its live arrivals read on the session's clock).
+    Samples(Box<dyn Feed>, Intake),
 }
 
 enum Source {
@@ -38,6 +40,7 @@ enum Source {
     },
     Samples {
         feed: Box<dyn Feed>,
+        intake: Intake,
         ended: bool,
     },
 }
@@ -82,7 +85,11 @@ impl Driver {
                     next: None,
                 }
             }
-            Finger::Samples(feed) => Source::Samples { feed, ended: false },
+            Finger::Samples(feed, intake) => Source::Samples {
+                feed,
+                intake: intake.on_clock(clock.clone()),
+                ended: false,
+            },
         };
         Self {
             session,
@@ -218,9 +225,14 @@ impl Driver {
                     }
                 }
             }
-            Source::Samples { feed, ended } => {
+            Source::Samples {
+                feed,
+                intake,
+                ended,
+            } => {
+                // Only what the gate lets through reaches the filter.
                 while !*ended {
-                    match feed.next_within(Duration::ZERO) {
+                    match intake.next(&mut **feed, Duration::ZERO) {
                         Next::Ready(s) => last = Some(self.filter.update(&s?)),
                         Next::Idle => break,
                         Next::End => *ended = true,

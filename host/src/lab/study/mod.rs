@@ -169,7 +169,11 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
     let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
-        .map_err(|e| e.context(format!("starting the session on {where_}")))?;
+        .map_err(|e| {
+            crate::device::backend::port_context(e, &where_, "starting the session", || {
+                format!("starting the session on {where_}")
+            })
+        })?;
     let mut this_run = provenance::run_record(&session, first, &o, scene_record)?;
     // A resumed session continues on the rig it ran on, or says what
     // differs (before any file changes; the array has not sounded).
@@ -201,9 +205,12 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let (file, plan, resumed) = (st.file, st.plan, st.resumed);
     crate::stop::graceful();
     let driver = match std::mem::replace(&mut o.finger, FingerSource::None) {
-        FingerSource::Samples { feed, filter, .. } => {
-            Driver::new(session, Finger::Samples(Box::new(feed)), filter)
-        }
+        FingerSource::Samples {
+            feed,
+            intake,
+            filter,
+            ..
+        } => Driver::new(session, Finger::Samples(Box::new(feed), *intake), filter),
         // Off the array until a trial waits for it.
         FingerSource::Synthetic => {
             Driver::new(session, Finger::Synthetic, Box::new(Passthrough)).lifted()

@@ -19,6 +19,9 @@ pub enum FingerSource {
     Samples {
         /// The reader thread.
         feed: crate::sense::stream::run::Threaded,
+        /// The plausibility gate its samples pass before the filter
+        /// (boxed: the other sources carry nothing).
+        intake: Box<crate::sense::stream::intake::Intake>,
         /// The centroid filter.
         filter: Box<dyn crate::sense::stream::filter::Filter + Send>,
         /// What it is, for `session.json`.

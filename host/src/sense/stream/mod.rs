@@ -7,6 +7,7 @@
 //! link boundary, like every other unit conversion.
 
 pub mod filter;
+pub mod intake;
 pub mod metrics;
 pub mod plausible;
 pub mod run;

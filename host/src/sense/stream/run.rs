@@ -6,7 +6,8 @@ use std::time::{Duration, Instant};
 
 use super::Sample;
 use super::filter::Filter;
-use super::plausible::{Arrival, Plausibility, PlausibilityCounts};
+use super::intake::{Intake, SharedCounts, Timing};
+use super::plausible::PlausibilityCounts;
 use crate::clock::monotonic_us;
 use crate::device::backend::{Backend, CentroidOutcome};
 use crate::device::centroids::CentroidSender;
@@ -84,24 +85,8 @@ pub const TICK: Duration = Duration::from_millis(10);
 /// Samples buffered between a reader thread and the loop ([`on_thread`]).
 const READ_AHEAD: usize = 64;
 
+pub use super::intake::Feed;
 pub use crate::sense::reader::Next;
-
-/// Where the streaming loop gets samples: waits at most `wait` so the loop
-/// can run [`Backend::tick`] and notice a stop while a live source is
-/// silent.
-pub trait Feed {
-    /// The next sample if one comes within `wait`.
-    fn next_within(&mut self, wait: Duration) -> Next<anyhow::Result<Sample>>;
-}
-
-/// A plain iterator is a feed that never idles: fine for sources that do
-/// not block (files, the synthetic finger); live sources go through
-/// [`on_thread`].
-impl<I: Iterator<Item = anyhow::Result<Sample>>> Feed for I {
-    fn next_within(&mut self, _wait: Duration) -> Next<anyhow::Result<Sample>> {
-        self.next().map_or(Next::End, Next::Ready)
-    }
-}
 
 /// Samples read on their own thread ([`crate::sense::reader`]), so a source
 /// blocked on input (stdin, a socket, a camera) does not hold up the
@@ -184,7 +169,15 @@ fn pump(
     start: Instant,
 ) -> anyhow::Result<()> {
     let mut first_t: Option<f64> = None;
-    let mut gate = Plausibility::default();
+    // A live sample arrives when taken off the reader's queue (which the
+    // loop keeps empty); a replayed one when the one before it was due.
+    let mut intake = Intake::new(
+        match pace {
+            Pace::Arrival => Timing::Live,
+            Pace::Timestamps => Timing::Replay,
+        },
+        std::sync::Arc::new(SharedCounts::default()),
+    );
     let mut next_tick = Instant::now() + TICK;
     loop {
         if stop_requested() {
@@ -197,24 +190,14 @@ fn pump(
             client.tick()?;
             next_tick = now + TICK;
         }
-        let s = match feed.next_within(next_tick.saturating_duration_since(now)) {
+        let next = intake.next(feed, next_tick.saturating_duration_since(now));
+        report.samples = intake.counts().read();
+        report.rejected = intake.counts().dropped();
+        let s = match next {
             Next::Ready(s) => s?,
             Next::Idle => continue,
             Next::End => break,
         };
-        report.samples += 1;
-        // A live sample arrived now (taken off the reader's queue, which
-        // the loop keeps empty); a replayed one when the one before it
-        // was due.
-        let at = match pace {
-            Pace::Arrival => Arrival::Live(start.elapsed().as_secs_f64()),
-            Pace::Timestamps => Arrival::Replay,
-        };
-        let verdict = gate.check(&s, at);
-        report.rejected = gate.counts;
-        if verdict.is_err() {
-            continue;
-        }
         if pace == Pace::Timestamps {
             let t0 = *first_t.get_or_insert(s.t_s);
             let due = Duration::try_from_secs_f64((s.t_s - t0).max(0.0)).map_err(|_| {

@@ -441,4 +441,5 @@ fn the_driver_ticks_the_device_while_nothing_else_is_due() {
 }
 
 mod commands;
+mod finger_gate;
 mod library;
