@@ -50,6 +50,16 @@ pub fn stderr_fmt(args: std::fmt::Arguments<'_>) {
     let _ = std::io::stderr().lock().write_all(text.as_bytes());
 }
 
+/// `n` and the noun, plural unless `n` is 1 (`1 sample`, `2 samples`):
+/// for nouns whose plural adds an `s`.
+pub fn count(n: u64, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// `msg` as every message leaves lmhost (stderr, Python's exceptions):
 /// numbers through [`crate::limits::tidy_numbers`], overlong words through
 /// [`shorten_long_words`].

@@ -207,7 +207,7 @@ fn a_study_stopped_by_a_signal_still_says_what_its_finger_source_counted() {
     );
     assert!(
         err.contains(
-            "lmhost: finger: 1 samples, 1 dropped as implausible (0 out of order, 1 out of range, 0 jumps)"
+            "lmhost: finger: 1 sample, 1 dropped as implausible (0 out of order, 1 out of range, 0 jumps)"
         ),
         "{err}"
     );

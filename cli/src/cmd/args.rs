@@ -191,8 +191,8 @@ impl FingerArgs {
         let port = self.udp?;
         let c = &self.udp_counts;
         Some(format!(
-            "lmhost: UDP 127.0.0.1:{port}: {} datagrams, {} skipped as bad, {} lost in the kernel's receive buffer",
-            c.datagrams.load(Relaxed),
+            "lmhost: UDP 127.0.0.1:{port}: {}, {} skipped as bad, {} lost in the kernel's receive buffer",
+            lmhost::out::count(c.datagrams.load(Relaxed), "datagram"),
             c.bad_datagrams.load(Relaxed),
             c.lost().map_or("uncounted".to_owned(), |n| n.to_string())
         ))

@@ -258,8 +258,8 @@ impl Args {
             return Ok(());
         }
         lmhost::outln!(
-            "streamed {} samples ({} with a finger) to {where_} in {:.2} s with the {} filter; device at #{} ({:?})",
-            report.samples,
+            "streamed {} ({} with a finger) to {where_} in {:.2} s with the {} filter; device at #{} ({:?})",
+            lmhost::out::count(report.samples, "sample"),
             report.present,
             report.seconds,
             self.filter.name(),

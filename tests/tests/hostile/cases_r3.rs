@@ -85,7 +85,7 @@ pub(crate) fn round3_cases() -> Vec<Case> {
         ODD_PATHS     "stream --port {port} --input {dir}/stream_copy.csv" .ok()
                       .out("streamed 2 samples");
         ODD_PATHS     "stream --port {port} --input -" .stdin(csv(&["0,0,0,200,1"])).ok()
-                      .out("streamed 1 samples");
+                      .out("streamed 1 sample ");
         // 11. Input-path messages keep the path and the reason.
         PATH_MESSAGES "stream --port {port} --input {dir}/a_directory" .err("a_directory")
                       .err("directory");

@@ -73,12 +73,12 @@ impl SharedCounts {
     pub fn summary(&self) -> String {
         let d = self.dropped();
         format!(
-            "finger: {} samples, {} dropped as implausible ({} out of order, {} out of range, {} jumps)",
-            self.read(),
+            "finger: {}, {} dropped as implausible ({} out of order, {} out of range, {})",
+            crate::out::count(self.read(), "sample"),
             d.total(),
             d.out_of_order,
             d.out_of_range,
-            d.jumps
+            crate::out::count(d.jumps, "jump")
         )
     }
 }
