@@ -75,41 +75,41 @@ fn the_session_flags_are_the_studys() {
     );
 }
 
-#[test]
-fn a_udp_finger_source_says_what_it_counted_at_the_end_of_a_study() {
-    let d = scratch("sources-udp");
+/// The two-trial study (answers 3 and 5) on the emulator with its finger
+/// on `--udp`, `extra` beside it; returned once the source has bound its
+/// port (ours cannot), with that port.
+fn study_on_udp(d: &std::path::Path, extra: &[&str]) -> (std::process::Child, u16) {
     let port = {
         let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
         probe.local_addr().unwrap().port()
     };
-    let answers = answers_file(&d, "3\n5\n");
-    let proto = protocol(&d);
+    let answers = answers_file(d, "3\n5\n");
+    let proto = protocol(d);
     let port_arg = port.to_string();
-    let mut child = run_on(
+    let mut args = vec!["--responses", answers.to_str().unwrap(), "--udp", &port_arg];
+    args.extend_from_slice(extra);
+    let child = run_on(
         proto.to_str().unwrap(),
         "autd3:emulator",
         &d.join("out"),
-        &[
-            "--responses",
-            answers.to_str().unwrap(),
-            "--udp",
-            &port_arg,
-            "--filter",
-            "none",
-            "--seed",
-            "1",
-        ],
+        &args,
     )
     .stdout(std::process::Stdio::null())
     .stderr(std::process::Stdio::piped())
     .spawn()
     .unwrap();
-    // The source has bound its port once ours cannot.
     let t0 = std::time::Instant::now();
     while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
         assert!(t0.elapsed().as_secs() < 60, "never bound");
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
+    (child, port)
+}
+
+#[test]
+fn a_udp_finger_source_says_what_it_counted_at_the_end_of_a_study() {
+    let d = scratch("sources-udp");
+    let (mut child, port) = study_on_udp(&d, &["--filter", "none", "--seed", "1"]);
     // Two bad datagrams (garbage, and an empty one), then a finger resting
     // at the centre until the run ends: each trial waits for it.
     let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -163,29 +163,8 @@ fn a_udp_finger_source_says_what_it_counted_at_the_end_of_a_study() {
 #[test]
 fn a_study_stopped_by_a_signal_still_says_what_its_finger_source_counted() {
     let d = scratch("sources-udp-stop");
-    let port = {
-        let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-        probe.local_addr().unwrap().port()
-    };
-    let answers = answers_file(&d, "3\n5\n");
-    let proto = protocol(&d);
-    let port_arg = port.to_string();
     // No finger ever comes: the first trial waits for it until SIGTERM.
-    let child = run_on(
-        proto.to_str().unwrap(),
-        "autd3:emulator",
-        &d.join("out"),
-        &["--responses", answers.to_str().unwrap(), "--udp", &port_arg],
-    )
-    .stdout(std::process::Stdio::null())
-    .stderr(std::process::Stdio::piped())
-    .spawn()
-    .unwrap();
-    let t0 = std::time::Instant::now();
-    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
-        assert!(t0.elapsed().as_secs() < 60, "never bound");
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
+    let (child, port) = study_on_udp(&d, &[]);
     // One garbage datagram and one centroid 5 m away, which the gate drops.
     let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     tx.send_to(b"not a centroid", ("127.0.0.1", port)).unwrap();
