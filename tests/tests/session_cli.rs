@@ -523,27 +523,36 @@ fn sigterm_leaves_the_array_silent() {
     a_signal_leaves_the_array_silent("TERM");
 }
 
-#[test]
-fn a_udp_finger_source_says_what_it_counted_at_the_end() {
+/// `lmhost session` on the emulator with its finger on `--udp`, `extra`
+/// beside it, commands on stdin and stderr piped (stdout as `stdout`
+/// says); returned once the source has bound its port (ours cannot),
+/// with that port.
+fn session_on_udp(extra: &[&str], stdout: Stdio) -> (std::process::Child, u16) {
     let port = {
         let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
         probe.local_addr().unwrap().port()
     };
-    let mut child = Command::new(lmhost())
+    let child = Command::new(lmhost())
         .args(["session", "--library", &library()])
         .args(["--port", "autd3:emulator", "--control", "-"])
         .args(["--udp", &port.to_string()])
+        .args(extra)
         .stdin(Stdio::piped())
-        .stdout(Stdio::null())
+        .stdout(stdout)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // The source has bound its port once ours cannot.
     let t0 = Instant::now();
     while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
         assert!(t0.elapsed() < Duration::from_secs(60), "never bound");
         std::thread::sleep(Duration::from_millis(50));
     }
+    (child, port)
+}
+
+#[test]
+fn a_udp_finger_source_says_what_it_counted_at_the_end() {
+    let (mut child, port) = session_on_udp(&[], Stdio::null());
     let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     for i in 0..5 {
         let line = format!("{},0,0,200,1", i as f64 / 90.0);
@@ -565,24 +574,7 @@ fn a_udp_finger_source_says_what_it_counted_at_the_end() {
 
 #[test]
 fn a_streamed_finger_passes_the_plausibility_gate_and_its_counts_end_the_session() {
-    let port = {
-        let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-        probe.local_addr().unwrap().port()
-    };
-    let mut child = Command::new(lmhost())
-        .args(["session", "--library", &library()])
-        .args(["--port", "autd3:emulator", "--control", "-"])
-        .args(["--udp", &port.to_string(), "--filter", "none"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t0 = Instant::now();
-    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
-        assert!(t0.elapsed() < Duration::from_secs(60), "never bound");
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let (mut child, port) = session_on_udp(&["--filter", "none"], Stdio::piped());
     let mut stdin = child.stdin.take().unwrap();
     writeln!(stdin, r#"{{"cmd":"present","stimulus":"lms-25hz-a3"}}"#).unwrap();
     let mut stdout = BufReader::new(child.stdout.take().unwrap());
