@@ -164,20 +164,42 @@ fn a_udp_finger_source_says_what_it_counted_at_the_end_of_a_study() {
 fn a_study_stopped_by_a_signal_still_says_what_its_finger_source_counted() {
     let d = scratch("sources-udp-stop");
     // No finger ever comes: the first trial waits for it until SIGTERM.
-    let (child, port) = study_on_udp(&d, &[]);
+    let (mut child, port) = study_on_udp(&d, &[]);
+    // Stderr line by line: the signal goes once the first trial has begun
+    // (a signal during the set-up ends the run before it has counts).
+    let (lines, rx) = std::sync::mpsc::channel::<String>();
+    let reader = {
+        let stderr = child.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            for l in std::io::BufRead::lines(std::io::BufReader::new(stderr)) {
+                let _ = lines.send(l.unwrap());
+            }
+        })
+    };
+    let mut err = String::new();
+    while !err.contains("trial 1/2") {
+        let l = rx
+            .recv_timeout(std::time::Duration::from_secs(60))
+            .unwrap_or_else(|e| panic!("no first trial ({e}): {err}"));
+        err.push_str(&l);
+        err.push('\n');
+    }
     // One garbage datagram and one centroid 5 m away, which the gate drops.
     let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     tx.send_to(b"not a centroid", ("127.0.0.1", port)).unwrap();
     tx.send_to(b"1.0,5000,0,200,1", ("127.0.0.1", port))
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(500));
+    // Time for the trial's wait to take both (it polls its feed every few
+    // milliseconds).
+    std::thread::sleep(std::time::Duration::from_millis(1000));
     let st = std::process::Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
         .status()
         .unwrap();
     assert!(st.success());
-    let out = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    child.wait().unwrap();
+    reader.join().unwrap();
+    err.extend(rx.try_iter().map(|l| l + "\n"));
     assert!(
         err.contains(&format!(
             "lmhost: UDP 127.0.0.1:{port}: 2 datagrams, 1 skipped as bad, 0 lost in the kernel's receive buffer"
