@@ -150,14 +150,6 @@ impl Intake {
 mod tests {
     use super::*;
 
-    fn at(t_s: f64, x: f64) -> Sample {
-        Sample {
-            t_s,
-            pos_mm: [x, 0.0, 200.0],
-            present: true,
-        }
-    }
-
     fn drain(intake: &mut Intake, feed: &mut dyn Feed) -> Vec<Sample> {
         let mut out = Vec::new();
         loop {
@@ -174,11 +166,11 @@ mod tests {
         let counts = Arc::new(SharedCounts::default());
         let mut intake = Intake::new(Timing::Replay, counts.clone());
         let samples = [
-            at(1.0, 0.0),
-            at(3.2e7, 0.0), // a stamp a year ahead
-            at(1.1, 1e4),   // far outside any work volume
-            at(1.2, 1.0),
-            at(1.3, 2.0),
+            Sample::at(1.0, 0.0),
+            Sample::at(3.2e7, 0.0), // a stamp a year ahead
+            Sample::at(1.1, 1e4),   // far outside any work volume
+            Sample::at(1.2, 1.0),
+            Sample::at(1.3, 2.0),
         ];
         let mut feed = samples.into_iter().map(Ok);
         let out = drain(&mut intake, &mut feed);
@@ -196,7 +188,11 @@ mod tests {
     #[test]
     fn an_error_or_the_end_of_the_feed_is_passed_on() {
         let mut intake = Intake::new(Timing::Replay, Arc::default());
-        let mut feed = [Ok(at(1.0, 0.0)), Err(anyhow::anyhow!("line 2: bad"))].into_iter();
+        let mut feed = [
+            Ok(Sample::at(1.0, 0.0)),
+            Err(anyhow::anyhow!("line 2: bad")),
+        ]
+        .into_iter();
         assert!(matches!(
             intake.next(&mut feed, Duration::ZERO),
             Next::Ready(Ok(_))

@@ -24,3 +24,16 @@ pub struct Sample {
     /// Whether a finger is in the detection area at all.
     pub present: bool,
 }
+
+#[cfg(test)]
+impl Sample {
+    /// A present finger at `x` mm on the x axis, 200 mm above the array,
+    /// stamped `t_s`: the tests' plain sample.
+    pub(crate) fn at(t_s: f64, x: f64) -> Self {
+        Self {
+            t_s,
+            pos_mm: [x, 0.0, 200.0],
+            present: true,
+        }
+    }
+}

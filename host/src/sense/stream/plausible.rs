@@ -191,22 +191,20 @@ mod tests {
         }
     }
 
-    fn at(t_s: f64, x: f64) -> Sample {
-        Sample {
-            t_s,
-            pos_mm: [x, 0.0, 200.0],
-            present: true,
-        }
-    }
-
     #[test]
     fn drops_out_of_order_out_of_range_and_single_jumps() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&at(1.0, 0.0)), Ok(()));
-        assert_eq!(g.check_replay(&at(-1e300, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check_replay(&at(1.1, 1e30)), Err(Reject::OutOfRange));
-        assert_eq!(g.check_replay(&at(1.2, 500.0)), Err(Reject::Jump));
-        assert_eq!(g.check_replay(&at(1.3, 1.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(1.0, 0.0)), Ok(()));
+        assert_eq!(
+            g.check_replay(&Sample::at(-1e300, 0.0)),
+            Err(Reject::OutOfOrder)
+        );
+        assert_eq!(
+            g.check_replay(&Sample::at(1.1, 1e30)),
+            Err(Reject::OutOfRange)
+        );
+        assert_eq!(g.check_replay(&Sample::at(1.2, 500.0)), Err(Reject::Jump));
+        assert_eq!(g.check_replay(&Sample::at(1.3, 1.0)), Ok(()));
         assert_eq!(
             g.counts,
             PlausibilityCounts {
@@ -221,26 +219,32 @@ mod tests {
     #[test]
     fn a_real_move_is_followed_after_three_agreeing_jumps() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&at(0.0, 0.0)), Ok(()));
-        assert_eq!(g.check_replay(&at(0.1, 100.0)), Err(Reject::Jump));
-        assert_eq!(g.check_replay(&at(0.2, 101.0)), Err(Reject::Jump));
-        assert_eq!(g.check_replay(&at(0.3, 102.0)), Ok(()));
-        assert_eq!(g.check_replay(&at(0.4, 103.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(0.0, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(0.1, 100.0)), Err(Reject::Jump));
+        assert_eq!(g.check_replay(&Sample::at(0.2, 101.0)), Err(Reject::Jump));
+        assert_eq!(g.check_replay(&Sample::at(0.3, 102.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(0.4, 103.0)), Ok(()));
         // Scattered outliers never agree.
         for (i, x) in [300.0, -300.0, 300.0, -300.0].iter().enumerate() {
-            assert_eq!(g.check_replay(&at(0.5 + i as f64, *x)), Err(Reject::Jump));
+            assert_eq!(
+                g.check_replay(&Sample::at(0.5 + i as f64, *x)),
+                Err(Reject::Jump)
+            );
         }
     }
 
     #[test]
     fn one_time_stamp_far_ahead_is_dropped_and_drops_nothing_after_it() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&at(1.0, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(1.0, 0.0)), Ok(()));
         // A year ahead: were it accepted, every later sample would be
         // older than it and dropped as out of order.
-        assert_eq!(g.check_replay(&at(3.2e7, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check_replay(&at(1.1, 0.0)), Ok(()));
-        assert_eq!(g.check_replay(&at(1.2, 0.0)), Ok(()));
+        assert_eq!(
+            g.check_replay(&Sample::at(3.2e7, 0.0)),
+            Err(Reject::OutOfOrder)
+        );
+        assert_eq!(g.check_replay(&Sample::at(1.1, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(1.2, 0.0)), Ok(()));
         assert_eq!(g.counts.out_of_order, 1);
     }
 
@@ -262,7 +266,7 @@ mod tests {
         fn next(&mut self, t_s: f64) -> Result<(), Reject> {
             self.clock.advance(std::time::Duration::from_micros(11_111));
             let now = self.clock.now().as_secs_f64();
-            self.g.check(&at(t_s, 0.0), Arrival::Live(now))
+            self.g.check(&Sample::at(t_s, 0.0), Arrival::Live(now))
         }
     }
 
@@ -312,15 +316,27 @@ mod tests {
     #[test]
     fn in_a_replay_a_wild_stamp_costs_one_sample_and_a_real_pause_two() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&at(1.0, 0.0)), Ok(()));
-        assert_eq!(g.check_replay(&at(31.0, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check_replay(&at(1.1, 0.0)), Ok(()));
-        assert_eq!(g.check_replay(&at(1.1 + MAX_TIME_SKEW_S, 0.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(1.0, 0.0)), Ok(()));
+        assert_eq!(
+            g.check_replay(&Sample::at(31.0, 0.0)),
+            Err(Reject::OutOfOrder)
+        );
+        assert_eq!(g.check_replay(&Sample::at(1.1, 0.0)), Ok(()));
+        assert_eq!(
+            g.check_replay(&Sample::at(1.1 + MAX_TIME_SKEW_S, 0.0)),
+            Ok(())
+        );
         // The recording paused 5 s: no arrival time tells it apart from a
         // wild stamp until the samples after it agree.
-        assert_eq!(g.check_replay(&at(10.0, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check_replay(&at(10.1, 0.0)), Err(Reject::OutOfOrder));
-        assert_eq!(g.check_replay(&at(10.2, 0.0)), Ok(()));
+        assert_eq!(
+            g.check_replay(&Sample::at(10.0, 0.0)),
+            Err(Reject::OutOfOrder)
+        );
+        assert_eq!(
+            g.check_replay(&Sample::at(10.1, 0.0)),
+            Err(Reject::OutOfOrder)
+        );
+        assert_eq!(g.check_replay(&Sample::at(10.2, 0.0)), Ok(()));
         assert_eq!(g.counts.out_of_order, 3);
     }
 
@@ -333,6 +349,6 @@ mod tests {
             present: false,
         };
         assert_eq!(g.check_replay(&gone), Ok(()));
-        assert_eq!(g.check_replay(&at(0.1, 500.0)), Ok(()));
+        assert_eq!(g.check_replay(&Sample::at(0.1, 500.0)), Ok(()));
     }
 }

@@ -31,21 +31,13 @@ impl Feed for Tracker {
     }
 }
 
-fn finger(t_s: f64, x: f64) -> Sample {
-    Sample {
-        t_s,
-        pos_mm: [x, 0.0, 200.0],
-        present: true,
-    }
-}
-
 #[test]
 fn a_wild_stamp_and_a_far_centroid_never_reach_the_session() {
     let clock = Clock::manual_at_us(1_000_000);
     // A finger resting at the centre, moving 0.01 mm a sample; sample 3
     // is stamped years ahead, sample 6 lies metres away.
     let mut samples: VecDeque<Sample> = (0..90)
-        .map(|i| finger(100.0 + f64::from(i) / 90.0, f64::from(i) * 0.01))
+        .map(|i| Sample::at(100.0 + f64::from(i) / 90.0, f64::from(i) * 0.01))
         .collect();
     samples[3].t_s = 1e9;
     samples[6].pos_mm[0] = 5000.0;
