@@ -14,7 +14,13 @@ fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     let Some(span) = e.span() else {
         return msg.to_string();
     };
-    let at = span.start.min(text.len());
+    placed(text, span.start, msg)
+}
+
+/// `line N, field `path`: msg` for byte `at` of `text` (without the field
+/// where no key holds it).
+fn placed(text: &str, at: usize, msg: &str) -> String {
+    let at = at.min(text.len());
     let line_no = text.as_bytes()[..at]
         .iter()
         .filter(|&&b| b == b'\n')
@@ -43,15 +49,7 @@ pub(crate) fn from_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T,
             continue;
         };
         if let Err(m) = crate::limits::exact_literal(lit.trim().replace('_', "").as_str(), v) {
-            let line_no = text.as_bytes()[..span.start]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count()
-                + 1;
-            return Err(match field_at(text, span.start) {
-                Some(f) => format!("line {line_no}, field `{f}`: {m}"),
-                None => format!("line {line_no}: {m}"),
-            });
+            return Err(placed(text, span.start, &m));
         }
     }
     Ok(v)
