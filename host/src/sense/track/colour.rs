@@ -242,8 +242,31 @@ impl ColourCamera {
         [x, y, 1.0]
     }
 
-    /// Check every field; `origin` names the source in the message.
-    pub fn check(&self, origin: &str) -> Result<(), InputError> {
+    /// Bytes of an RGB image of this camera's size.
+    pub fn image_bytes(&self) -> usize {
+        self.pinhole.width as usize * self.pinhole.height as usize * 3
+    }
+}
+
+/// One colour image: 8-bit RGB, row-major, shared between its readers
+/// (the recorder, the view's encoder) without copying.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColourImage {
+    /// Time stamp (s, the depth frames' clock).
+    pub t_s: f64,
+    /// Width (pixels).
+    pub width: u32,
+    /// Height (pixels).
+    pub height: u32,
+    /// width × height × 3 bytes.
+    pub rgb: std::sync::Arc<Vec<u8>>,
+}
+
+impl super::settings_file::SettingsFile for ColourCamera {
+    const WHAT: &'static str = "colour camera";
+
+    /// Every field; `origin` names the source in the message.
+    fn check(&self, origin: &str) -> Result<(), InputError> {
         let bad = |m: String| InputError::new(format!("colour camera {origin}: {m}"));
         self.pinhole.check().map_err(bad)?;
         if let Some(v) = self
@@ -283,33 +306,6 @@ impl ColourCamera {
             ));
         }
         Ok(())
-    }
-
-    /// Bytes of an RGB image of this camera's size.
-    pub fn image_bytes(&self) -> usize {
-        self.pinhole.width as usize * self.pinhole.height as usize * 3
-    }
-}
-
-/// One colour image: 8-bit RGB, row-major, shared between its readers
-/// (the recorder, the view's encoder) without copying.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ColourImage {
-    /// Time stamp (s, the depth frames' clock).
-    pub t_s: f64,
-    /// Width (pixels).
-    pub width: u32,
-    /// Height (pixels).
-    pub height: u32,
-    /// width × height × 3 bytes.
-    pub rgb: std::sync::Arc<Vec<u8>>,
-}
-
-impl super::settings_file::SettingsFile for ColourCamera {
-    const WHAT: &'static str = "colour camera";
-
-    fn check_values(&self, origin: &str) -> Result<(), InputError> {
-        self.check(origin)
     }
 }
 

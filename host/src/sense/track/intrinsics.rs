@@ -163,20 +163,6 @@ impl Intrinsics {
         self.pinhole.to_pixel([p[0] / p[2], p[1] / p[2]])
     }
 
-    /// Check every field; `origin` names the file in the message.
-    pub fn check(&self, origin: &str) -> Result<(), InputError> {
-        self.pinhole
-            .check()
-            .map_err(|m| InputError::new(format!("intrinsics {origin}: {m}")))?;
-        if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 1.0) {
-            return Err(InputError::new(format!(
-                "intrinsics {origin}: `depth_scale` must be in (0, 1] metres per unit, got {}",
-                self.depth_scale
-            )));
-        }
-        Ok(())
-    }
-
     /// Error unless frames of `width` × `height` match these intrinsics.
     pub fn check_frames(&self, width: u32, height: u32, what: &str) -> Result<(), InputError> {
         let p = &self.pinhole;
@@ -193,8 +179,18 @@ impl Intrinsics {
 impl super::settings_file::SettingsFile for Intrinsics {
     const WHAT: &'static str = "intrinsics";
 
-    fn check_values(&self, origin: &str) -> Result<(), InputError> {
-        self.check(origin)
+    /// Every field; `origin` names the file in the message.
+    fn check(&self, origin: &str) -> Result<(), InputError> {
+        self.pinhole
+            .check()
+            .map_err(|m| InputError::new(format!("intrinsics {origin}: {m}")))?;
+        if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 1.0) {
+            return Err(InputError::new(format!(
+                "intrinsics {origin}: `depth_scale` must be in (0, 1] metres per unit, got {}",
+                self.depth_scale
+            )));
+        }
+        Ok(())
     }
 }
 

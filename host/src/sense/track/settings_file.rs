@@ -32,13 +32,14 @@ pub trait SettingsFile: serde::Serialize + serde::de::DeserializeOwned {
     /// What it is called in errors (`intrinsics`).
     const WHAT: &'static str;
 
-    /// Checks the values together (`origin` names the file in errors).
-    fn check_values(&self, origin: &str) -> Result<(), InputError>;
+    /// Checks every value, and the values together (`origin` names the
+    /// file or source in errors).
+    fn check(&self, origin: &str) -> Result<(), InputError>;
 
     /// Parse and check TOML text.
     fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
         let v: Self = parse(Self::WHAT, text, origin)?;
-        v.check_values(origin)?;
+        v.check(origin)?;
         Ok(v)
     }
 

@@ -31,6 +31,7 @@ use std::io::Read;
 use super::colour::{ColourCamera, ColourImage, Distortion};
 use super::frame::{Cameras, Frame, FrameSource};
 use super::intrinsics::{Intrinsics, Pinhole};
+use super::settings_file::SettingsFile as _;
 use crate::InputError;
 
 /// `LMDEPTH1`'s magic.
