@@ -10,7 +10,7 @@
 use std::path::Path;
 
 mod link_support;
-use link_support::Sim;
+use link_support::{Sim, json_file};
 #[allow(dead_code)]
 mod study_support;
 use study_support::*;
@@ -127,7 +127,7 @@ fn simulate(d: &Path, id: &str) -> serde_json::Value {
         .output()
         .unwrap();
     ok(&o);
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    json_file(out.join("summary.json"))
 }
 
 #[test]
