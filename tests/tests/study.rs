@@ -338,15 +338,14 @@ fn exp3_runs_its_adjustment_loop_and_logs_every_depth() {
         &[&["same"], &["stronger", "same"], &["2", "weaker", "3"]],
     );
     let out = d.join("out");
-    let o = run_p01(
+    let o = answered_p01(
         &studies("paper-exp3.toml"),
         "autd3:emulator",
         &out,
         "0.01",
-        &["--responses", answers.to_str().unwrap(), "--seed", "3"],
-    )
-    .output()
-    .unwrap();
+        &answers,
+        "3",
+    );
     says(
         &ok_stderr(&o),
         &[

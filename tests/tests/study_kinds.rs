@@ -30,15 +30,7 @@ fn kinds_study(name: &str, library: &str) -> (Scratch, String) {
 }
 
 fn run(proto: &str, port: &str, out: &Path, answers: &Path) -> std::process::Output {
-    run_p01(
-        proto,
-        port,
-        out,
-        "0.05",
-        &["--responses", answers.to_str().unwrap(), "--seed", "1"],
-    )
-    .output()
-    .unwrap()
+    answered_p01(proto, port, out, "0.05", answers, "1")
 }
 
 /// Runs the study over both entries on `port` with `answers` (in a
