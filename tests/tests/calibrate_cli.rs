@@ -14,7 +14,7 @@ use lmhost::plan::scene::camera::CameraPose;
 use lmhost::sense::track::intrinsics::Intrinsics;
 
 mod link_support;
-use link_support::{ok, run, scratch_dir};
+use link_support::{json_file, ok, run, scratch_dir};
 
 fn paper_scene() -> String {
     std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml"))
@@ -29,8 +29,7 @@ fn refused(o: &Output, needle: &str) {
 }
 
 fn force_n(out: &Path) -> f64 {
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s = json_file(out.join("summary.json"));
     s["force"]["step0_n"].as_f64().unwrap()
 }
 

@@ -5,7 +5,9 @@
 //! refused with one line naming the file.
 
 mod link_support;
-use link_support::{Sim, assert_fields, emulator_json, json, ok, run, scratch_dir, upload_json};
+use link_support::{
+    Sim, assert_fields, emulator_json, json, json_file, ok, run, scratch_dir, upload_json,
+};
 
 /// A run that must fail with exit `code` and one line on stderr; that line.
 fn fails(args: &[&str], code: i32) -> String {
@@ -38,8 +40,7 @@ fn every_plan_out_form_uploads_what_plan_made_on_the_lm_firmware() {
     let d = scratch_dir("plan-out-lm");
     let sim = Sim::start(&[]);
     let (f, p) = planned(&d, "lmm", &["--radius", "3", "--foci", "4"]);
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&f[0]).unwrap()).unwrap();
+    let report = json_file(&f[0]);
     assert_eq!(report["crc32"], p["crc32"]);
     // The report alone: its phases and its timing (no --freq).
     let v = upload_json(&sim.port, &["--phases", &f[0]]);
@@ -90,8 +91,7 @@ fn a_plan_report_changed_after_plan_wrote_it_is_refused() {
     let d = scratch_dir("plan-out-edited");
     let sim = Sim::start(&[]);
     let (f, _) = planned(&d, "p", &["--steps", "8", "--freq", "20"]);
-    let good: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&f[0]).unwrap()).unwrap();
+    let good = json_file(&f[0]);
     let edited = |name: &str, edit: &Edit| {
         let mut v = good.clone();
         edit(&mut v);

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 mod link_support;
-use link_support::lmhost;
+use link_support::{json_file, lmhost};
 
 fn run(args: &[&str]) -> Output {
     Command::new(lmhost())
@@ -38,7 +38,7 @@ fn simulate_ok(name: &str, args: &[&str]) -> (PathBuf, Output) {
 
 /// The run's `summary.json` in `out`.
 fn summary(out: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    json_file(out.join("summary.json"))
 }
 
 /// Shape `(rows, cols)` from an NPY header, and the f64 data.

@@ -11,7 +11,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod link_support;
-use link_support::Sim;
+use link_support::{Sim, json_file};
 #[allow(dead_code)]
 mod study_support;
 use study_support::*;
@@ -44,8 +44,7 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     let out = d.join("out");
     exp1_seed_7("autd3:emulator", &out, &answers, &a);
     let p = out.join("P01");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(p.join("session.json")).unwrap()).unwrap();
+    let s = json_file(p.join("session.json"));
     assert_eq!(s["seed"], 7);
     assert_eq!(s["trials"].as_array().unwrap().len(), 30);
     assert_eq!(s["runs"][0]["time_scale"], 0.02);
@@ -83,8 +82,7 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     assert!(na > 0);
     assert_eq!(body.iter().map(|l| field(l, 5)).sum::<usize>(), na);
     // The statistics: a file each, `na` counted and left out.
-    let stats: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    let stats = json_file(out.join("stats.json"));
     assert_eq!(stats.as_array().unwrap().len(), 5);
     let left_out: u64 = stats
         .as_array()
@@ -322,9 +320,7 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
             .collect()
     };
     assert_eq!(keep(&r), keep(&w));
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("P01/session.json")).unwrap())
-            .unwrap();
+    let s = json_file(out.join("P01/session.json"));
     assert_eq!(s["runs"].as_array().unwrap().len(), 2);
     assert_eq!(s["runs"][1]["first_trial"], before + 1);
     let anyway = s["runs"][1]["resumed_anyway"].as_str().unwrap();
@@ -342,15 +338,14 @@ fn exp3_runs_its_adjustment_loop_and_logs_every_depth() {
         &[&["same"], &["stronger", "same"], &["2", "weaker", "3"]],
     );
     let out = d.join("out");
-    let o = run_p01(
+    let o = answered_p01(
         &studies("paper-exp3.toml"),
         "autd3:emulator",
         &out,
         "0.01",
-        &["--responses", answers.to_str().unwrap(), "--seed", "3"],
-    )
-    .output()
-    .unwrap();
+        &answers,
+        "3",
+    );
     says(
         &ok_stderr(&o),
         &[

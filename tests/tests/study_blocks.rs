@@ -32,15 +32,7 @@ fn a_practice_block_and_a_break_run_before_the_main_block_and_stay_out_of_the_re
     // Five answers a trial (vibration, movement, three shape items).
     let a: Vec<String> = (0..33 * 5).map(|i| ((i * 3) % 7 + 1).to_string()).collect();
     let answers = answers_file(&d, &(a.join("\n") + "\n"));
-    let o = run_p01(
-        &protocol,
-        &sim.port,
-        &out,
-        "0.02",
-        &["--seed", "4", "--responses", answers.to_str().unwrap()],
-    )
-    .output()
-    .unwrap();
+    let o = answered_p01(&protocol, &sim.port, &out, "0.02", &answers, "4");
     says(
         &ok_stderr(&o),
         &[

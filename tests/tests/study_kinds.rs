@@ -10,7 +10,7 @@
 use std::path::Path;
 
 mod link_support;
-use link_support::Sim;
+use link_support::{Sim, json_file};
 #[allow(dead_code)]
 mod study_support;
 use study_support::*;
@@ -30,15 +30,7 @@ fn kinds_study(name: &str, library: &str) -> (Scratch, String) {
 }
 
 fn run(proto: &str, port: &str, out: &Path, answers: &Path) -> std::process::Output {
-    run_p01(
-        proto,
-        port,
-        out,
-        "0.05",
-        &["--responses", answers.to_str().unwrap(), "--seed", "1"],
-    )
-    .output()
-    .unwrap()
+    answered_p01(proto, port, out, "0.05", answers, "1")
 }
 
 /// Runs the study over both entries on `port` with `answers` (in a
@@ -127,7 +119,7 @@ fn simulate(d: &Path, id: &str) -> serde_json::Value {
         .output()
         .unwrap();
     ok(&o);
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    json_file(out.join("summary.json"))
 }
 
 #[test]

@@ -114,6 +114,14 @@ pub fn json(args: &[&str]) -> serde_json::Value {
     serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("{args:?}: bad JSON {e}: {text}"))
 }
 
+/// The JSON file a run wrote at `path`, parsed.
+pub fn json_file(path: impl AsRef<Path>) -> serde_json::Value {
+    let path = path.as_ref();
+    let text =
+        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: bad JSON {e}", path.display()))
+}
+
 /// The JSON stdout of a run that must have succeeded.
 pub fn success_json(out: &Output) -> serde_json::Value {
     assert!(

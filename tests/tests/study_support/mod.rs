@@ -93,6 +93,28 @@ pub fn run_p01(
     run_on(protocol, port, out, &args)
 }
 
+/// [`run_p01`] answered from the file `answers`, the trial order drawn
+/// from `seed`, run to its end.
+pub fn answered_p01(
+    protocol: &str,
+    port: &str,
+    out: &Path,
+    time_scale: &str,
+    answers: &Path,
+    seed: &str,
+) -> Output {
+    let answers = answers.to_str().unwrap();
+    run_p01(
+        protocol,
+        port,
+        out,
+        time_scale,
+        &["--responses", answers, "--seed", seed],
+    )
+    .output()
+    .unwrap()
+}
+
 /// `lmhost study run` of Experiment 1 for participant P01 with a
 /// synthetic finger at `time_scale`, then `extra`.
 pub fn exp1(port: &str, out: &Path, time_scale: &str, extra: &[&str]) -> Command {

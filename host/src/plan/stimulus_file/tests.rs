@@ -39,12 +39,18 @@ fn lm_phases_at_5_hz(p: &Path, scene: &Scene) -> Result<TargetPlan, InputError> 
     )
 }
 
-#[test]
-fn a_planned_sequence_round_trips_through_a_phases_file() {
+/// The default stimulus planned in the default scene, and that scene.
+fn default_planned() -> (Scene, TargetPlan) {
     let scene = Scene::default();
     let planned = crate::plan::stimulus::Stimulus::default()
         .plan(scene.clone())
         .unwrap();
+    (scene, planned)
+}
+
+#[test]
+fn a_planned_sequence_round_trips_through_a_phases_file() {
+    let (scene, planned) = default_planned();
     let p = tmp("rt.npy", &planned.plan.sequence.to_npy());
     let got = lm_phases_at_5_hz(&p, &scene).unwrap();
     assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
@@ -182,10 +188,7 @@ fn a_plan_report_uploads_what_plan_made_on_both_targets() {
 
 #[test]
 fn raw_bin_phases_are_whole_steps_of_the_device() {
-    let scene = Scene::default();
-    let planned = crate::plan::stimulus::Stimulus::default()
-        .plan(scene.clone())
-        .unwrap();
+    let (scene, planned) = default_planned();
     let p = tmp("rt.bin", &planned.plan.sequence.phases);
     let got = lm_phases_at_5_hz(&p, &scene).unwrap();
     assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
@@ -202,10 +205,7 @@ fn raw_bin_phases_are_whole_steps_of_the_device() {
 
 #[test]
 fn raw_phases_under_another_extension_are_told_to_be_named_bin() {
-    let scene = Scene::default();
-    let planned = crate::plan::stimulus::Stimulus::default()
-        .plan(scene.clone())
-        .unwrap();
+    let (scene, planned) = default_planned();
     // What `plan --out F.raw` writes: the raw bytes.
     let p = tmp("rt.raw", &planned.plan.sequence.phases);
     let e = lm_phases_at_5_hz(&p, &scene).err().unwrap().to_string();

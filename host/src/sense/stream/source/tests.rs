@@ -2,6 +2,20 @@
 
 use super::*;
 
+/// `line`, as line 1 of a stream, parsed to a sample.
+fn parsed(line: &str) -> Sample {
+    parse_line(line, 1).unwrap().unwrap()
+}
+
+/// The sample stamped `t_s` at `pos_mm`, with a finger `present` or not.
+fn sample(t_s: f64, pos_mm: [f64; 3], present: bool) -> Sample {
+    Sample {
+        t_s,
+        pos_mm,
+        present,
+    }
+}
+
 #[test]
 fn a_paced_recording_takes_as_long_as_its_time_stamps_say() {
     let clock = crate::clock::Clock::manual_at_us(5_000_000);
@@ -107,40 +121,19 @@ fn a_line_is_refused_for_what_it_is() {
 fn parses_track_json_lines() {
     // Raw centroid (no filter): `present` and `centroid_mm`.
     let raw = r#"{"t_s":0.25,"points":310,"present":true,"centroid_mm":[1.5,2,200],"truth_present":true,"truth_mm":[1,2,3],"z_profile_mm":null,"replan":false}"#;
-    assert_eq!(
-        parse_line(raw, 1).unwrap().unwrap(),
-        Sample {
-            t_s: 0.25,
-            pos_mm: [1.5, 2.0, 200.0],
-            present: true
-        }
-    );
+    assert_eq!(parsed(raw), sample(0.25, [1.5, 2.0, 200.0], true));
     // The presence gate wins over the frame's presence when the line has
     // one; the filtered centre over the raw one.
     let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":false,"filtered_mm":null}"#;
-    assert_eq!(
-        parse_line(f, 1).unwrap().unwrap(),
-        Sample {
-            t_s: 0.5,
-            pos_mm: [1.0, 2.0, 3.0],
-            present: false
-        }
-    );
+    assert_eq!(parsed(f), sample(0.5, [1.0, 2.0, 3.0], false));
     // An unfiltered `track --json` line (every line carries the gate):
     // gated present, at its raw centroid.
     let g = r#"{"t_s":0.75,"points":40,"present":true,"centroid_mm":[1,2,3],"gated_present":true}"#;
-    assert_eq!(
-        parse_line(g, 1).unwrap().unwrap(),
-        Sample {
-            t_s: 0.75,
-            pos_mm: [1.0, 2.0, 3.0],
-            present: true
-        }
-    );
+    assert_eq!(parsed(g), sample(0.75, [1.0, 2.0, 3.0], true));
     let f = r#"{"t_s":0.5,"points":3,"present":true,"centroid_mm":[1,2,3],"gated_present":true,"filtered_mm":[4,5,6]}"#;
-    assert_eq!(parse_line(f, 1).unwrap().unwrap().pos_mm, [4.0, 5.0, 6.0]);
+    assert_eq!(parsed(f).pos_mm, [4.0, 5.0, 6.0]);
     let absent = r#"{"t_s":0.5,"points":0,"present":false,"centroid_mm":null}"#;
-    assert!(!parse_line(absent, 1).unwrap().unwrap().present);
+    assert!(!parsed(absent).present);
     for (bad, says) in [
         (
             r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2,3],"colour":1}"#,
@@ -166,25 +159,13 @@ fn parses_track_json_lines() {
 
 #[test]
 fn parses_json_and_csv() {
-    let j = parse_line(r#"{"t":0.5,"x":1,"y":2,"z":3}"#, 1)
-        .unwrap()
-        .unwrap();
     assert_eq!(
-        j,
-        Sample {
-            t_s: 0.5,
-            pos_mm: [1.0, 2.0, 3.0],
-            present: true
-        }
+        parsed(r#"{"t":0.5,"x":1,"y":2,"z":3}"#),
+        sample(0.5, [1.0, 2.0, 3.0], true)
     );
-    let c = parse_line("0.5, 1, 2, 3, 0", 1).unwrap().unwrap();
     assert_eq!(
-        c,
-        Sample {
-            t_s: 0.5,
-            pos_mm: [1.0, 2.0, 3.0],
-            present: false
-        }
+        parsed("0.5, 1, 2, 3, 0"),
+        sample(0.5, [1.0, 2.0, 3.0], false)
     );
     assert_eq!(parse_line("t,x,y,z,present", 1).unwrap(), None);
     assert_eq!(
