@@ -100,9 +100,33 @@ fn value_from_env(e: &clap::Error) -> Option<String> {
     (!typed && std::env::var_os(&var).is_some()).then_some(var)
 }
 
+/// `text` (clap's rendering of `e`) with each value the user gave that
+/// holds a line end written with `\n`, so that taking its first paragraph
+/// does not cut a value (`--radius $'3\n\nx'`) short.
+fn values_on_one_line(e: &clap::Error, mut text: String) -> String {
+    use clap::error::{ContextKind, ContextValue};
+    for kind in [
+        ContextKind::InvalidValue,
+        ContextKind::InvalidArg,
+        ContextKind::InvalidSubcommand,
+    ] {
+        if let Some(ContextValue::String(v)) = e.get(kind)
+            && v.contains(['\n', '\r'])
+        {
+            text = text.replace(v.as_str(), &v.replace('\n', "\\n").replace('\r', "\\r"));
+        }
+    }
+    text
+}
+
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
-    let cli = match cmd::exact_floats(cmd::negative_numbers_are_values(Cli::command()))
+    // Plain styles: clap's rendered errors then carry no escape codes of
+    // clap's own, and one in a value the user gave stays to be shown
+    // escaped (`ansi()` below); `to_string()` would drop it silently and
+    // show `--radius 3\e[2J` as '3'.
+    let command = Cli::command().styles(clap::builder::Styles::plain());
+    let cli = match cmd::exact_floats(cmd::negative_numbers_are_values(command))
         .try_get_matches()
         .and_then(|m| Cli::from_arg_matches(&m))
     {
@@ -120,7 +144,7 @@ fn main() -> ExitCode {
             // Bad flags are bad input: one line, exit 2.
             // The first paragraph, its indented lines (e.g. the missing
             // arguments' names) joined onto the first.
-            let text = e.render().to_string();
+            let text = values_on_one_line(&e, e.render().ansi().to_string());
             let para: Vec<&str> = text
                 .lines()
                 .skip_while(|l| l.trim().is_empty())

@@ -62,9 +62,44 @@ pub fn count(n: u64, noun: &str) -> String {
 
 /// `msg` as every message leaves lmhost (stderr, Python's exceptions):
 /// numbers through [`crate::limits::tidy_numbers`], overlong words through
-/// [`shorten_long_words`].
+/// [`shorten_long_words`], hidden characters through [`visible`].
 pub fn tidy(msg: &str) -> String {
-    crate::limits::tidy_numbers(&shorten_long_words(msg))
+    visible(&crate::limits::tidy_numbers(&shorten_long_words(msg)))
+}
+
+/// `msg` with every character a terminal acts on instead of showing
+/// written as its escape: control characters but the line end (`\r`,
+/// `\t`, `\u{1b}`), and the ones that reorder or hide text
+/// (bidirectional overrides and isolates, zero-width marks, line and
+/// paragraph separators, the byte-order mark) as `\u{…}`. A message
+/// echoes paths, ports and values as they were given; an escape sequence
+/// in one would recolour the line, move the cursor or overwrite what the
+/// message says.
+pub fn visible(msg: &str) -> String {
+    let hidden = |c: char| {
+        (c.is_control() && c != '\n')
+            || matches!(
+                c,
+                '\u{061c}'
+                    | '\u{200b}'..='\u{200f}'
+                    | '\u{2028}'..='\u{202e}'
+                    | '\u{2060}'..='\u{2069}'
+                    | '\u{feff}'
+            )
+    };
+    if !msg.chars().any(hidden) {
+        return msg.to_owned();
+    }
+    let mut out = String::with_capacity(msg.len() + 16);
+    for c in msg.chars() {
+        match c {
+            '\t' => out.push_str("\\t"),
+            '\r' => out.push_str("\\r"),
+            c if hidden(c) => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// `msg` with every word (a run without white space) longer than
@@ -167,5 +202,22 @@ mod tests {
         );
         let msg = format!("cannot write {path}:\tno\n");
         assert_eq!(shorten_long_words(&msg), msg);
+    }
+
+    #[test]
+    fn what_a_terminal_would_act_on_is_shown_escaped() {
+        assert_eq!(
+            tidy("cannot read scene file a\u{1b}[31mred\rb\tc: gone\n"),
+            "cannot read scene file a\\u{1b}[31mred\\rb\\tc: gone\n"
+        );
+        // Right-to-left override, zero-width space, line separator, BOM,
+        // C1 control, DEL.
+        assert_eq!(
+            visible("x\u{202e}y\u{200b}z\u{2028}w\u{feff}v\u{85}u\u{7f}"),
+            "x\\u{202e}y\\u{200b}z\\u{2028}w\\u{feff}v\\u{85}u\\u{7f}"
+        );
+        // Text, accents, symbols and the line end are kept as they are.
+        let plain = "spacing 3 mm ≥ d_LM: étape 0.23 mm, 5 µs → 2πA\n";
+        assert_eq!(visible(plain), plain);
     }
 }

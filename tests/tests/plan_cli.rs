@@ -101,6 +101,40 @@ fn bad_inputs_exit_2_with_one_line() {
     }
 }
 
+/// A message echoes what it was given (a path, a port, a flag's value);
+/// what a terminal would act on in it (an escape sequence, a carriage
+/// return, a right-to-left override) is shown escaped, in lmhost's own
+/// errors and in clap's alike.
+#[test]
+fn what_a_terminal_would_act_on_is_shown_escaped_in_errors() {
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["plan", "--scene", "/nonexistent/a\u{1b}[31mred"],
+            "a\\u{1b}[31mred",
+        ),
+        (&["status", "--port", "/nonexistent/a\rb"], "a\\rb"),
+        (
+            &["plan", "--scene", "/nonexistent/\u{202e}lmth.toml"],
+            "\\u{202e}lmth.toml",
+        ),
+        (&["plan", "--radius", "3\u{1b}[2J"], "3\\u{1b}[2J"),
+        (&["plan", "--radius", "3\n\nx"], "'3\\n\\nx' for '--radius"),
+        (&["plan", "--bogus\u{9b}2J"], "--bogus\\u{9b}2J"),
+    ];
+    for (args, shown) in cases {
+        let o = run(args);
+        assert!(matches!(o.status.code(), Some(1 | 2)), "{args:?}");
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert!(err.contains(shown), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            !err.chars()
+                .any(|c| (c.is_control() && c != '\n') || c == '\u{202e}'),
+            "{args:?}: {err:?}"
+        );
+    }
+}
+
 #[test]
 fn bad_scene_file_names_file_and_field() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("plan_cli_scene");
