@@ -10,9 +10,11 @@
 //!   flag; the command's loop ends, the device is muted, recordings are
 //!   finished and the report is printed;
 //! - in any other command, it removes the temporary files of the outputs
-//!   still being written ([`crate::files::Output`]) and exits at once with
-//!   128 + the signal number, as the default action would have, so no
-//!   half-written file is left behind under any name.
+//!   still being written ([`crate::files::Output`]), says so in one line
+//!   on stderr (`lmhost: interrupted by SIGINT; unfinished outputs
+//!   removed`) and exits at once with 128 + the signal number, as the
+//!   default action would have, so no half-written file is left behind
+//!   under any name.
 
 use std::ffi::{CString, c_char};
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicPtr, Ordering};
@@ -158,8 +160,21 @@ fn watch(
         .map(drop)
 }
 
+/// The line a non-graceful command's end says, one static string per
+/// signal of [`SIGNALS`] (the handler may not format).
+fn ending_line(sig: libc::c_int) -> &'static [u8] {
+    match sig {
+        libc::SIGINT => b"lmhost: interrupted by SIGINT; unfinished outputs removed\n",
+        libc::SIGTERM => b"lmhost: interrupted by SIGTERM; unfinished outputs removed\n",
+        libc::SIGHUP => b"lmhost: interrupted by SIGHUP; unfinished outputs removed\n",
+        libc::SIGQUIT => b"lmhost: interrupted by SIGQUIT; unfinished outputs removed\n",
+        libc::SIGUSR1 => b"lmhost: interrupted by SIGUSR1; unfinished outputs removed\n",
+        _ => b"lmhost: interrupted by a signal; unfinished outputs removed\n",
+    }
+}
+
 extern "C" fn on_signal(sig: libc::c_int) {
-    // Async-signal-safe only: atomics, unlink(2), _exit(2).
+    // Async-signal-safe only: atomics, unlink(2), write(2), _exit(2).
     ask(sig);
     if GRACEFUL.load(Ordering::SeqCst) {
         return;
@@ -171,6 +186,10 @@ extern "C" fn on_signal(sig: libc::c_int) {
             unsafe { libc::unlink(p) };
         }
     }
+    let line = ending_line(sig);
+    // SAFETY: write(2) is async-signal-safe; `line` is a static string. A
+    // lost stderr changes nothing but what can be said.
+    let _ = unsafe { libc::write(libc::STDERR_FILENO, line.as_ptr().cast(), line.len()) };
     // SAFETY: _exit is async-signal-safe; no destructors run, which is
     // what the default action of the signal would have done too.
     unsafe { libc::_exit(128 + sig) };
@@ -186,7 +205,7 @@ pub fn install() -> anyhow::Result<()> {
     );
     for sig in SIGNALS {
         // SAFETY: the handler does only async-signal-safe work (atomics,
-        // unlink, _exit); no other handler for these signals exists.
+        // unlink, write, _exit); no other handler for these signals exists.
         unsafe { sigaction(sig, &act) }
             .map_err(|e| anyhow::anyhow!("installing the {sig} handler: {e}"))?;
     }
@@ -249,6 +268,17 @@ mod tests {
         drop(w);
         rx.recv_timeout(std::time::Duration::from_secs(10))
             .expect("no end seen after the owner's end closed");
+    }
+
+    #[test]
+    fn every_ending_signal_has_its_own_line() {
+        for sig in SIGNALS {
+            let line = std::str::from_utf8(ending_line(sig as libc::c_int)).unwrap();
+            assert_eq!(
+                line,
+                format!("lmhost: interrupted by {sig}; unfinished outputs removed\n")
+            );
+        }
     }
 
     #[test]
