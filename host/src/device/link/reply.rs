@@ -10,7 +10,7 @@
 //! than the host clamping it, looping on it, or blaming the user's
 //! flags for it.
 
-use lm_proto::{DeviceState, Info, MAX_CHUNK, MuteReason, PROTOCOL_VERSION, Status};
+use lm_proto::{DeviceState, Info, MAX_CHUNK, MIN_DWELL_US, MuteReason, PROTOCOL_VERSION, Status};
 
 /// Why `info` cannot come from the LM firmware this host speaks to, if
 /// it cannot.
@@ -36,6 +36,13 @@ pub fn check_info(info: &Info) -> Result<(), String> {
         return Err(format!(
             "max_chunk {} above the protocol's {MAX_CHUNK}",
             info.max_chunk
+        ));
+    }
+    if !MIN_DWELL_US.contains(&info.min_dwell_us) {
+        return Err(format!(
+            "min_dwell_us {} above the protocol's {} (1 s)",
+            info.min_dwell_us,
+            MIN_DWELL_US.end()
         ));
     }
     if info.library_free > info.slot_bytes {
@@ -196,7 +203,27 @@ mod tests {
                 },
                 "a rig of 997 transducers",
             ),
+            (
+                Info {
+                    min_dwell_us: u32::MAX,
+                    ..info(32)
+                },
+                "min_dwell_us 4294967295 above",
+            ),
+            (
+                Info {
+                    min_dwell_us: 1_000_001,
+                    ..info(32)
+                },
+                "min_dwell_us 1000001 above",
+            ),
         ];
+        // A second's dwell is the longest a device may ask for.
+        let slow = Info {
+            min_dwell_us: 1_000_000,
+            ..info(32)
+        };
+        assert_eq!(check_info(&slow), Ok(()));
         for (i, want) in bad {
             let e = check_info(&i).unwrap_err();
             assert!(e.contains(want), "{e}");
