@@ -8,7 +8,10 @@
 //! - in a command that polls the flag (it called [`graceful`]: `stream`,
 //!   `track`, `demo`, `upload --hold`, `session`, `study`), it sets the
 //!   flag; the command's loop ends, the device is muted, recordings are
-//!   finished and the report is printed;
+//!   finished and the report is printed. `session` and `study run` are
+//!   graceful from their start: a signal during their set-up (connecting,
+//!   uploading the library, which checks the flag between entries) ends
+//!   it with [`SetUpInterrupted`] and their end lines;
 //! - in any other command, it removes the temporary files of the outputs
 //!   still being written ([`crate::files::Output`]), says so in one line
 //!   on stderr (`lmhost: interrupted by SIGINT; unfinished outputs
@@ -115,6 +118,38 @@ pub fn clear() {
 /// now on a signal only sets the flag.
 pub fn graceful() {
     GRACEFUL.store(true, Ordering::SeqCst);
+}
+
+/// A command stopped during its set-up (connecting, uploading the
+/// stimulus library), before its run began: `interrupted by SIGTERM
+/// during set-up (uploading stimulus `x`, 3 of 15)`. A command that polls
+/// the flag declares [`graceful`] first thing, so a signal in its set-up
+/// ends it through its own end lines, not at once.
+#[derive(Debug, thiserror::Error)]
+#[error("{cause} during set-up ({doing})")]
+pub struct SetUpInterrupted {
+    /// `interrupted by SIGTERM` ([`interrupted`]).
+    cause: String,
+    /// What the set-up was doing.
+    pub doing: String,
+}
+
+impl SetUpInterrupted {
+    /// The stop of a set-up that was `doing` (by what [`cause`] says).
+    pub fn new(doing: impl Into<String>) -> Self {
+        Self {
+            cause: interrupted(),
+            doing: doing.into(),
+        }
+    }
+}
+
+/// Ends a set-up that was `doing` once a stop was requested.
+pub fn check_set_up(doing: &str) -> Result<(), SetUpInterrupted> {
+    if requested() {
+        return Err(SetUpInterrupted::new(doing));
+    }
+    Ok(())
 }
 
 /// Errors once a stop was requested, for `?` in a loop that holds a device.

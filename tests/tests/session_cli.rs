@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+#[allow(dead_code)]
+mod gated_device;
 mod link_support;
 use link_support::{Sim, lmhost, ok, run_stdin};
 
@@ -498,6 +500,51 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
     );
 }
 
+/// The state `lmhost status` reads from `port`.
+fn device_state(port: &str) -> serde_json::Value {
+    let status = Command::new(lmhost())
+        .args(["status", "--port", port, "--json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&status.stdout)
+        .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&status.stderr)));
+    v["state"].clone()
+}
+
+#[test]
+fn a_signal_during_the_set_up_ends_the_session_with_its_end_lines_and_the_array_silent() {
+    // The device holds the library's third upload: the signal comes while
+    // the session uploads it, two entries resident.
+    let dev = gated_device::Gated::start(3);
+    let (_dir, sock, log) = socket_and_log();
+    let child = session(&[&dev.port, "--timeout-ms", "60000"], &sock, Some(&log))
+        .spawn()
+        .unwrap();
+    dev.wait_held(Duration::from_secs(120));
+    send_signal(&child, "TERM");
+    dev.release();
+    let out = child.wait_with_output().unwrap();
+    exited_0(&out, "SIGTERM in the set-up: ");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("lmhost: session interrupted by SIGTERM during set-up (uploading stimulus `")
+            && err.contains(", 3 of 15); the array is silent\n"),
+        "{err}"
+    );
+    assert!(!err.contains("error"), "{err}");
+    // The log ends as at any end.
+    let ev = logged(&log);
+    assert_eq!(ev.len(), 1, "{ev:?}");
+    assert_eq!(ev[0]["event"], "closed");
+    assert_eq!(ev[0]["reason"], "sigterm");
+    assert!(!sock.exists(), "the socket is removed at the end");
+    let state = device_state(&dev.port);
+    assert!(
+        matches!(state.as_str(), Some("Stopped" | "Idle")),
+        "the device plays: {state}"
+    );
+}
+
 #[test]
 fn sigint_leaves_the_array_silent() {
     a_signal_leaves_the_array_silent("INT");
@@ -627,5 +674,15 @@ fn a_streamed_finger_passes_the_plausibility_gate_and_its_counts_end_the_session
             "lmhost: finger: 91 samples, 2 dropped as implausible (1 out of order, 1 out of range, 0 jumps)"
         ),
         "{err}"
+    );
+    // The `closed` event carries the same counts by the same classes.
+    let closed = v.last().unwrap();
+    assert_eq!(closed["event"], "closed", "{closed}");
+    assert_eq!(
+        closed["finger"],
+        serde_json::json!({
+            "samples": 91, "dropped": 2, "out_of_order": 1, "out_of_range": 1, "jumps": 0
+        }),
+        "{closed}"
     );
 }

@@ -13,7 +13,9 @@
 //! the first trial not on disk, in the order `session.json` holds, after
 //! [`start`] has checked every file and changed none; a staircase or
 //! QUEST+ trial cut short continues after its logged answers
-//! ([`midtrial`]).
+//! ([`midtrial`]). A signal during the set-up (planning, connecting,
+//! uploading the library) ends the run before any file changed: nothing
+//! to resume when it was new, the same point to resume from otherwise.
 //!
 //! By role: `protocol` (the file, checked), `design` (the seeded order),
 //! `columns` (trials.csv's header, once), `answers` (what is asked, where
@@ -89,6 +91,10 @@ struct Interrupted;
 
 /// Runs (or resumes) one participant's session.
 pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
+    // Graceful from the start: a signal during the set-up (planning,
+    // connecting, uploading the library) ends it with its end lines, the
+    // array silent and the folder as it was.
+    crate::stop::graceful();
     check_participant(&o.participant)?;
     if !(o.time_scale.is_finite() && o.time_scale > 0.0 && o.time_scale <= MAX_TIME_SCALE) {
         crate::bad_input!(
@@ -157,6 +163,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let (scene, scene_record) = provenance::load_scene(o.scene.as_deref())?;
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
+    crate::stop::check_set_up("planning the stimulus library")
+        .map_err(|e| set_up_stopped(&e, &o, "the device was not opened"))?;
     let mut warned = std::collections::BTreeSet::new();
     for w in plans.iter().flat_map(|x| &x.warnings) {
         if warned.insert(w.clone()) {
@@ -168,12 +176,26 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let pusher = o.instruments.clone().map(push::Pusher::start).transpose()?;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
-    let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
-        .map_err(|e| {
-            crate::device::backend::port_context(e, &where_, "starting the session", || {
-                format!("starting the session on {where_}")
-            })
-        })?;
+    let session = match Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real()) {
+        Ok(s) => s,
+        Err(e) => {
+            // The stage goes back to rest, whatever ended the set-up.
+            let stage_end = pusher.map(push::Pusher::finish);
+            if let Some(i) = e.downcast_ref::<crate::stop::SetUpInterrupted>() {
+                let then = match stage_end {
+                    Some(end) => format!("the array is silent ({end})"),
+                    None => "the array is silent".to_owned(),
+                };
+                return Err(set_up_stopped(i, &o, &then));
+            }
+            return Err(crate::device::backend::port_context(
+                e,
+                &where_,
+                "starting the session",
+                || format!("starting the session on {where_}"),
+            ));
+        }
+    };
     let mut this_run = provenance::run_record(&session, first, &o, scene_record)?;
     // A resumed session continues on the rig it ran on, or says what
     // differs (before any file changes; the array has not sounded).
@@ -203,7 +225,6 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let mut trials_log = st.open_trials(&p, &paths.trials)?;
     let events_log = st.open_events(o.resume, &paths.events)?;
     let (file, plan, resumed) = (st.file, st.plan, st.resumed);
-    crate::stop::graceful();
     let driver = match std::mem::replace(&mut o.finger, FingerSource::None) {
         FingerSource::Samples {
             feed,
@@ -266,11 +287,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         Err(e) if e.is::<Interrupted>() => OffsetReason::stopped(),
         Err(_) => OffsetReason::Error,
     };
-    let last = r
-        .driver
-        .take()
-        .map(|d| d.into_session().close(reason))
-        .unwrap_or_default();
+    let last = r.driver.take().map(|d| d.close(reason)).unwrap_or_default();
     // The array is silent; now the stage goes back (or says where it is).
     let stage_end = r.pusher.take().map(push::Pusher::finish);
     let result = match (result, stage_end) {
@@ -377,6 +394,18 @@ fn run_trials(
         }
     }
     Ok(())
+}
+
+/// The error of a run stopped during its set-up (before any of its files
+/// changed): what it was doing, `then` (what holds of the device), and
+/// what is kept.
+fn set_up_stopped(e: &crate::stop::SetUpInterrupted, o: &RunOptions, then: &str) -> anyhow::Error {
+    let kept = if o.resume {
+        format!("no file changed; continue with: {}", resume_hint(o))
+    } else {
+        "nothing was written; run it again (without --resume)".to_owned()
+    };
+    anyhow::anyhow!("{e}; {then}; {kept}")
 }
 
 /// The error of a run that stopped early: what happened, that the array is
