@@ -30,6 +30,7 @@ pub mod analysis;
 pub mod answers;
 pub mod columns;
 pub mod design;
+mod ending;
 pub mod figure;
 pub mod live;
 pub mod midtrial;
@@ -49,7 +50,6 @@ pub mod start;
 pub(crate) mod test_files;
 pub mod trial;
 
-use std::path::Path;
 use std::time::Duration;
 
 use crate::clock::monotonic_us;
@@ -74,15 +74,6 @@ pub const POLL: Duration = Duration::from_millis(1);
 pub const FINGER_PERIOD_US: u64 = 11_111;
 /// Largest `--time-scale`.
 pub const MAX_TIME_SCALE: f64 = 100.0;
-
-fn resume_hint(o: &RunOptions) -> String {
-    format!(
-        "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger, --responses, --stage and --gauge)",
-        o.protocol.display(),
-        o.participant,
-        o.out.display()
-    )
-}
 
 /// The run was stopped by a signal ([`crate::stop::cause`] says which).
 #[derive(Debug, thiserror::Error)]
@@ -164,7 +155,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
     crate::stop::check_set_up("planning the stimulus library")
-        .map_err(|e| set_up_stopped(&e, &o, "the device was not opened"))?;
+        .map_err(|e| ending::set_up_stopped(&e, &o, "the device was not opened"))?;
     let mut warned = std::collections::BTreeSet::new();
     for w in plans.iter().flat_map(|x| &x.warnings) {
         if warned.insert(w.clone()) {
@@ -186,7 +177,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
                     Some(end) => format!("the array is silent ({end})"),
                     None => "the array is silent".to_owned(),
                 };
-                return Err(set_up_stopped(i, &o, &then));
+                return Err(ending::set_up_stopped(i, &o, &then));
             }
             return Err(crate::device::backend::port_context(
                 e,
@@ -318,7 +309,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         report.upload_mean_s /= report.uploads as f64;
     }
     if let Err(e) = result {
-        return Err(stopped(e, &o, &report, &paths.trials));
+        let interrupted = e.is::<Interrupted>();
+        return Err(ending::stopped(e, interrupted, &o, &report, &paths.trials));
     }
     logged?;
     Ok(report)
@@ -394,47 +386,6 @@ fn run_trials(
         }
     }
     Ok(())
-}
-
-/// The error of a run stopped during its set-up (before any of its files
-/// changed): what it was doing, `then` (what holds of the device), and
-/// what is kept.
-fn set_up_stopped(e: &crate::stop::SetUpInterrupted, o: &RunOptions, then: &str) -> anyhow::Error {
-    let kept = if o.resume {
-        format!("no file changed; continue with: {}", resume_hint(o))
-    } else {
-        "nothing was written; run it again (without --resume)".to_owned()
-    };
-    anyhow::anyhow!("{e}; {then}; {kept}")
-}
-
-/// The error of a run that stopped early: what happened, that the array is
-/// silent, what is kept and how to continue.
-fn stopped(e: anyhow::Error, o: &RunOptions, report: &RunReport, trials: &Path) -> anyhow::Error {
-    let done = report.first - 1 + report.ran;
-    let what = if e.is::<Interrupted>() {
-        crate::stop::interrupted()
-    } else {
-        crate::error::one_line(&e)
-    };
-    let kept = if done == 0 {
-        "no trial is finished".to_owned()
-    } else {
-        format!(
-            "trials 1..={done} of {} are in {}",
-            report.trials,
-            trials.display()
-        )
-    };
-    let msg = format!(
-        "{what}; the array is silent; {kept}; continue with: {}",
-        resume_hint(o)
-    );
-    if e.chain().any(|c| c.is::<InputError>()) {
-        InputError::new(msg).into()
-    } else {
-        anyhow::anyhow!(msg)
-    }
 }
 
 struct Runner {
