@@ -106,8 +106,8 @@ impl Args {
                 "--exit-with-stdin watches stdin for its end: it cannot also carry --control - or a finger source on `-`"
             );
         }
-        // First of all: an owner that is already gone ends the session as
-        // soon as it serves (the flag waits for the loop to read it).
+        // First of all: an owner that is already gone ends the session at
+        // the first look at the flag (the set-up's, or the loop's).
         if self.exit_with_stdin {
             lmhost::stop::when_ends(std::io::stdin())
                 .map_err(|e| anyhow::anyhow!("watching stdin: {e}"))?;
