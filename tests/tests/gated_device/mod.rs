@@ -3,7 +3,8 @@
 //! afterwards reads what the command before left), which keeps the
 //! host's `nth` `BeginUpload` unanswered until the test releases it. A
 //! test signals a command while it waits there: during its set-up, for
-//! sure, with no timing.
+//! sure, with no timing. [`Gated::restart`] resets the device mid-run, as
+//! a power glitch or a watchdog would.
 
 use std::io::{Read as _, Write as _};
 use std::net::{TcpListener, TcpStream};
@@ -25,6 +26,7 @@ pub struct Gated {
     pub port: String,
     reached: Receiver<()>,
     release: SyncSender<()>,
+    shared: Arc<Shared>,
 }
 
 /// What the connections share.
@@ -39,7 +41,7 @@ struct Shared {
 
 impl Gated {
     /// Starts a fake holding the `nth` `BeginUpload` (from 1, over all
-    /// connections).
+    /// connections; 0: none).
     pub fn start(nth: usize) -> Gated {
         let listener = TcpListener::bind("127.0.0.1:0").expect("a local TCP port");
         let port = listener.local_addr().unwrap().port();
@@ -53,16 +55,25 @@ impl Gated {
             reached: reached_tx,
             release: Mutex::new(release_rx),
         });
+        let served = shared.clone();
         std::thread::spawn(move || {
             for conn in listener.incoming().flatten() {
-                let _ = serve(conn, &shared);
+                let _ = serve(conn, &served);
             }
         });
         Gated {
             port: format!("tcp:127.0.0.1:{port}"),
             reached,
             release,
+            shared,
         }
+    }
+
+    /// Resets the device: a fresh firmware, its library empty and its
+    /// counters at 0, on the same connection.
+    pub fn restart(&self) {
+        *self.shared.core.lock().unwrap() =
+            FwCore::new(SimConfig::default()).expect("the simulated firmware");
     }
 
     /// Waits until the host sent the held upload (panics after `within`).

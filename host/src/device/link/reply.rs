@@ -134,6 +134,33 @@ pub fn check_status(
     Ok(())
 }
 
+/// Why `now` says the device restarted since `before` (a `Status` of the
+/// same link), if it does: a counter kept since reset went back, or the
+/// state is Idle ("nothing played since reset") after it played.
+pub fn restarted(before: &Status, now: &Status) -> Option<String> {
+    let since_reset = [
+        (
+            "missed_deadlines",
+            before.missed_deadlines,
+            now.missed_deadlines,
+        ),
+        ("bad_frames", before.bad_frames, now.bad_frames),
+        ("crc_errors", before.crc_errors, now.crc_errors),
+        ("nacks", before.nacks, now.nacks),
+        ("lease_expiries", before.lease_expiries, now.lease_expiries),
+    ];
+    if let Some((name, b, n)) = since_reset.iter().find(|(_, b, n)| n < b) {
+        return Some(format!("its {name} went back from {b} to {n}"));
+    }
+    if before.state != DeviceState::Idle && now.state == DeviceState::Idle {
+        let state = format!("{:?}", before.state).to_lowercase();
+        return Some(format!(
+            "state idle (nothing played since reset) after {state}"
+        ));
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -228,6 +255,34 @@ mod tests {
             let e = check_info(&i).unwrap_err();
             assert!(e.contains(want), "{e}");
         }
+    }
+
+    #[test]
+    fn counters_going_back_or_idle_after_a_play_is_a_restart() {
+        let before = Status {
+            nacks: 3,
+            lease_expiries: 1,
+            ..playing(0)
+        };
+        assert_eq!(restarted(&before, &before), None);
+        let more = Status {
+            nacks: 4,
+            state: DeviceState::Stopped,
+            mute_reason: MuteReason::Stopped,
+            ..before
+        };
+        assert_eq!(restarted(&before, &more), None, "counters only grow");
+        let reset = Status::default();
+        assert_eq!(
+            restarted(&before, &reset).as_deref(),
+            Some("its nacks went back from 3 to 0")
+        );
+        // Nothing counted yet: the state tells.
+        assert_eq!(
+            restarted(&playing(0), &reset).as_deref(),
+            Some("state idle (nothing played since reset) after playing")
+        );
+        assert_eq!(restarted(&reset, &reset), None, "idle before");
     }
 
     #[test]
