@@ -6,7 +6,7 @@
 //! sure, with no timing. [`Gated::restart`] resets the device mid-run, as
 //! a power glitch or a watchdog would.
 
-use std::io::{Read as _, Write as _};
+use std::io::Write as _;
 use std::net::{TcpListener, TcpStream};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
@@ -96,18 +96,10 @@ fn serve(mut conn: TcpStream, s: &Shared) -> std::io::Result<()> {
     loop {
         let now = || s.t0.elapsed().as_micros() as u64;
         s.core.lock().unwrap().poll(now());
-        let n = match conn.read(&mut buf) {
-            Ok(0) => return Ok(()),
-            Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) =>
-            {
-                continue;
-            }
-            Err(e) => return Err(e),
+        let n = match crate::link_support::read_within(&mut conn, &mut buf)? {
+            Some(0) => return Ok(()),
+            Some(n) => n,
+            None => continue,
         };
         for &b in &buf[..n] {
             frame.push(b);

@@ -26,7 +26,7 @@
 //!   device answering every other request).
 
 use std::collections::BTreeMap;
-use std::io::{Read as _, Write as _};
+use std::io::Write as _;
 use std::net::{TcpListener, TcpStream};
 use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
@@ -131,18 +131,10 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
     loop {
         let now = t0.elapsed().as_micros() as u64;
         core.poll(now);
-        let n = match conn.read(&mut buf) {
-            Ok(0) => return Ok(()),
-            Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) =>
-            {
-                continue;
-            }
-            Err(e) => return Err(e),
+        let n = match crate::link_support::read_within(&mut conn, &mut buf)? {
+            Some(0) => return Ok(()),
+            Some(n) => n,
+            None => continue,
         };
         match m {
             Mutation::Echo => {
