@@ -158,6 +158,9 @@ impl Session {
         let status = dev
             .status()
             .map_err(|e| e.context("reading the device status"))?;
+        // A stop asked while the device was being opened ends the set-up
+        // here, the device silent.
+        crate::stop::check_set_up(&format!("connecting to {}", info.port))?;
         let mut me = Self {
             dev,
             info,
