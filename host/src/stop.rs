@@ -8,11 +8,16 @@
 //! - in a command that polls the flag (it called [`graceful`]: `stream`,
 //!   `track`, `demo`, `upload --hold`, `session`, `study`), it sets the
 //!   flag; the command's loop ends, the device is muted, recordings are
-//!   finished and the report is printed;
+//!   finished and the report is printed. `session` and `study run` are
+//!   graceful from their start: a signal during their set-up (connecting,
+//!   uploading the library, which checks the flag between entries) ends
+//!   it with [`SetUpInterrupted`] and their end lines;
 //! - in any other command, it removes the temporary files of the outputs
-//!   still being written ([`crate::files::Output`]) and exits at once with
-//!   128 + the signal number, as the default action would have, so no
-//!   half-written file is left behind under any name.
+//!   still being written ([`crate::files::Output`]), says so in one line
+//!   on stderr (`lmhost: interrupted by SIGINT; unfinished outputs
+//!   removed`) and exits at once with 128 + the signal number, as the
+//!   default action would have, so no half-written file is left behind
+//!   under any name.
 
 use std::ffi::{CString, c_char};
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicPtr, Ordering};
@@ -115,6 +120,38 @@ pub fn graceful() {
     GRACEFUL.store(true, Ordering::SeqCst);
 }
 
+/// A command stopped during its set-up (connecting, uploading the
+/// stimulus library), before its run began: `interrupted by SIGTERM
+/// during set-up (uploading stimulus `x`, 3 of 15)`. A command that polls
+/// the flag declares [`graceful`] first thing, so a signal in its set-up
+/// ends it through its own end lines, not at once.
+#[derive(Debug, thiserror::Error)]
+#[error("{cause} during set-up ({doing})")]
+pub struct SetUpInterrupted {
+    /// `interrupted by SIGTERM` ([`interrupted`]).
+    cause: String,
+    /// What the set-up was doing.
+    pub doing: String,
+}
+
+impl SetUpInterrupted {
+    /// The stop of a set-up that was `doing` (by what [`cause`] says).
+    pub fn new(doing: impl Into<String>) -> Self {
+        Self {
+            cause: interrupted(),
+            doing: doing.into(),
+        }
+    }
+}
+
+/// Ends a set-up that was `doing` once a stop was requested.
+pub fn check_set_up(doing: &str) -> Result<(), SetUpInterrupted> {
+    if requested() {
+        return Err(SetUpInterrupted::new(doing));
+    }
+    Ok(())
+}
+
 /// Errors once a stop was requested, for `?` in a loop that holds a device.
 pub fn check() -> anyhow::Result<()> {
     if requested() {
@@ -158,8 +195,21 @@ fn watch(
         .map(drop)
 }
 
+/// The line a non-graceful command's end says, one static string per
+/// signal of [`SIGNALS`] (the handler may not format).
+fn ending_line(sig: libc::c_int) -> &'static [u8] {
+    match sig {
+        libc::SIGINT => b"lmhost: interrupted by SIGINT; unfinished outputs removed\n",
+        libc::SIGTERM => b"lmhost: interrupted by SIGTERM; unfinished outputs removed\n",
+        libc::SIGHUP => b"lmhost: interrupted by SIGHUP; unfinished outputs removed\n",
+        libc::SIGQUIT => b"lmhost: interrupted by SIGQUIT; unfinished outputs removed\n",
+        libc::SIGUSR1 => b"lmhost: interrupted by SIGUSR1; unfinished outputs removed\n",
+        _ => b"lmhost: interrupted by a signal; unfinished outputs removed\n",
+    }
+}
+
 extern "C" fn on_signal(sig: libc::c_int) {
-    // Async-signal-safe only: atomics, unlink(2), _exit(2).
+    // Async-signal-safe only: atomics, unlink(2), write(2), _exit(2).
     ask(sig);
     if GRACEFUL.load(Ordering::SeqCst) {
         return;
@@ -171,6 +221,10 @@ extern "C" fn on_signal(sig: libc::c_int) {
             unsafe { libc::unlink(p) };
         }
     }
+    let line = ending_line(sig);
+    // SAFETY: write(2) is async-signal-safe; `line` is a static string. A
+    // lost stderr changes nothing but what can be said.
+    let _ = unsafe { libc::write(libc::STDERR_FILENO, line.as_ptr().cast(), line.len()) };
     // SAFETY: _exit is async-signal-safe; no destructors run, which is
     // what the default action of the signal would have done too.
     unsafe { libc::_exit(128 + sig) };
@@ -186,7 +240,7 @@ pub fn install() -> anyhow::Result<()> {
     );
     for sig in SIGNALS {
         // SAFETY: the handler does only async-signal-safe work (atomics,
-        // unlink, _exit); no other handler for these signals exists.
+        // unlink, write, _exit); no other handler for these signals exists.
         unsafe { sigaction(sig, &act) }
             .map_err(|e| anyhow::anyhow!("installing the {sig} handler: {e}"))?;
     }
@@ -249,6 +303,17 @@ mod tests {
         drop(w);
         rx.recv_timeout(std::time::Duration::from_secs(10))
             .expect("no end seen after the owner's end closed");
+    }
+
+    #[test]
+    fn every_ending_signal_has_its_own_line() {
+        for sig in SIGNALS {
+            let line = std::str::from_utf8(ending_line(sig as libc::c_int)).unwrap();
+            assert_eq!(
+                line,
+                format!("lmhost: interrupted by {sig}; unfinished outputs removed\n")
+            );
+        }
     }
 
     #[test]

@@ -90,6 +90,13 @@ pub const MAX_OFFSET_UM: core::ops::RangeInclusive<u32> = 1..=100_000;
 /// section 3, the host lease).
 pub const LEASE_MS: core::ops::RangeInclusive<u16> = 100..=60_000;
 
+/// `Info::min_dwell_us` a host accepts: 0 ..= 1 s. The slowest LM cycle
+/// (5 Hz, 200 ms) of even one step needs no longer step than that; the
+/// firmware's 1 kHz update limit gives 1000 µs. A device saying more
+/// (`u32::MAX`) is not LM firmware of this protocol, not a limit the
+/// user's sequence failed to meet.
+pub const MIN_DWELL_US: core::ops::RangeInclusive<u32> = 0..=1_000_000;
+
 /// The lease hosts ask for unless told otherwise, ms (1 s).
 pub const DEFAULT_LEASE_MS: u16 = 1000;
 

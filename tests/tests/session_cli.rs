@@ -3,31 +3,15 @@
 
 use std::io::{BufRead as _, BufReader, Write as _};
 use std::os::unix::net::UnixStream;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+#[allow(dead_code)]
+mod gated_device;
 mod link_support;
+mod session_support;
 use link_support::{Sim, lmhost, ok, run_stdin};
-
-/// The repository's paper library.
-fn library() -> String {
-    format!(
-        "{}/../studies/paper-library.toml",
-        env!("CARGO_MANIFEST_DIR")
-    )
-}
-
-fn lines(out: &[u8]) -> Vec<serde_json::Value> {
-    String::from_utf8_lossy(out)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
-        .collect()
-}
-
-fn events<'a>(v: &'a [serde_json::Value], name: &str) -> Vec<&'a serde_json::Value> {
-    v.iter().filter(|e| e["event"] == name).collect()
-}
+use session_support::*;
 
 #[test]
 fn stdio_control_presents_timed_on_phases_and_ends_silent() {
@@ -125,114 +109,6 @@ fn bad_session_flags_and_files_are_one_line_input_errors() {
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(err.contains(needle), "{args:?}: {err}");
     }
-}
-
-/// A fresh scratch folder, named by the time too: this file's tests run
-/// side by side.
-fn tempdir() -> link_support::Scratch {
-    link_support::scratch_dir(&format!(
-        "session-{}",
-        std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap()
-            .as_nanos()
-    ))
-}
-
-/// A control socket's path and an events log's, in a fresh folder (kept
-/// while its guard lives).
-fn socket_and_log() -> (link_support::Scratch, PathBuf, PathBuf) {
-    let dir = tempdir();
-    let (sock, log) = (dir.join("lm.sock"), dir.join("events.jsonl"));
-    (dir, sock, log)
-}
-
-fn connect(path: &Path) -> UnixStream {
-    let end = Instant::now() + Duration::from_secs(30);
-    loop {
-        match UnixStream::connect(path) {
-            Ok(s) => return s,
-            Err(e) if Instant::now() > end => panic!("{}: {e}", path.display()),
-            Err(_) => std::thread::sleep(Duration::from_millis(50)),
-        }
-    }
-}
-
-fn send(s: &mut UnixStream, r: &mut BufReader<UnixStream>, cmd: &str) -> serde_json::Value {
-    writeln!(s, "{cmd}").unwrap();
-    loop {
-        let mut line = String::new();
-        r.read_line(&mut line).unwrap();
-        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
-        if v.get("cmd").is_some() {
-            return v;
-        }
-    }
-}
-
-/// Sends `cmd` and asserts the session accepted it.
-#[track_caller]
-fn accepted(s: &mut UnixStream, r: &mut BufReader<UnixStream>, cmd: &str) {
-    let rep = send(s, r, cmd);
-    assert_eq!(rep["ok"], true, "{cmd}: {rep}");
-}
-
-/// `lmhost session` with the paper library on `port`, controlled on the
-/// socket `sock`, logging events to `log` if given; stdout and stderr
-/// piped for [`exits_0`].
-fn session(port: &[&str], sock: &Path, log: Option<&Path>) -> Command {
-    let mut c = Command::new(lmhost());
-    c.args(["session", "--library", &library(), "--port"])
-        .args(port)
-        .args(["--control", sock.to_str().unwrap()]);
-    if let Some(log) = log {
-        c.args(["--events", log.to_str().unwrap()]);
-    }
-    c.stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    c
-}
-
-/// A connection to the control socket and a reader of its replies.
-fn control(sock: &Path) -> (UnixStream, BufReader<UnixStream>) {
-    let s = connect(sock);
-    let r = BufReader::new(s.try_clone().unwrap());
-    (s, r)
-}
-
-/// A connection to the control socket on which `present` was accepted.
-fn presenting(sock: &Path, present: &str) -> (UnixStream, BufReader<UnixStream>) {
-    let (mut s, mut r) = control(sock);
-    accepted(&mut s, &mut r, present);
-    (s, r)
-}
-
-/// Sends the session `child` the signal named `sig` (`TERM`, `HUP`, …)
-/// with kill(1).
-fn send_signal(child: &std::process::Child, sig: &str) {
-    let st = Command::new("kill")
-        .args([&format!("-{sig}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(st.success(), "kill -{sig}");
-}
-
-/// Asserts a session ended with exit code 0 (saying `what` and its
-/// stderr otherwise).
-#[track_caller]
-fn exited_0(out: &Output, what: &str) {
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{what}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// The events a session logged to `log`.
-fn logged(log: &Path) -> Vec<serde_json::Value> {
-    lines(std::fs::read_to_string(log).unwrap().as_bytes())
 }
 
 #[test]
@@ -498,6 +374,113 @@ fn a_signal_leaves_the_array_silent(signal: &str) {
     );
 }
 
+/// The state `lmhost status` reads from `port`.
+fn device_state(port: &str) -> serde_json::Value {
+    let status = Command::new(lmhost())
+        .args(["status", "--port", port, "--json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&status.stdout)
+        .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&status.stderr)));
+    v["state"].clone()
+}
+
+#[test]
+fn a_signal_during_the_set_up_ends_the_session_with_its_end_lines_and_the_array_silent() {
+    // The device holds the library's third upload: the signal comes while
+    // the session uploads it, two entries resident.
+    let dev = gated_device::Gated::start(3);
+    let (_dir, sock, log) = socket_and_log();
+    let child = session(&[&dev.port, "--timeout-ms", "60000"], &sock, Some(&log))
+        .spawn()
+        .unwrap();
+    dev.wait_held(Duration::from_secs(120));
+    send_signal(&child, "TERM");
+    dev.release();
+    let out = child.wait_with_output().unwrap();
+    exited_0(&out, "SIGTERM in the set-up: ");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("lmhost: session interrupted by SIGTERM during set-up (uploading stimulus `")
+            && err.contains(", 3 of 15); the array is silent\n"),
+        "{err}"
+    );
+    assert!(!err.contains("error"), "{err}");
+    // The log ends as at any end.
+    let ev = logged(&log);
+    assert_eq!(ev.len(), 1, "{ev:?}");
+    assert_eq!(ev[0]["event"], "closed");
+    assert_eq!(ev[0]["reason"], "sigterm");
+    assert!(!sock.exists(), "the socket is removed at the end");
+    let state = device_state(&dev.port);
+    assert!(
+        matches!(state.as_str(), Some("Stopped" | "Idle")),
+        "the device plays: {state}"
+    );
+}
+
+#[test]
+fn a_device_that_restarts_mid_session_ends_it_naming_the_port() {
+    let dev = gated_device::Gated::start(0);
+    let mut child = Command::new(lmhost())
+        .args(["session", "--library", &library(), "--port", &dev.port])
+        .args(["--control", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    writeln!(
+        stdin,
+        r#"{{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked"}}"#
+    )
+    .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    let stdout = child.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for l in BufReader::new(stdout).lines() {
+            let _ = tx.send(l.unwrap());
+        }
+    });
+    let mut seen = String::new();
+    let next = |seen: &mut String| match rx.recv_timeout(Duration::from_secs(60)) {
+        Ok(l) => {
+            seen.push_str(&l);
+            seen.push('\n');
+            Some(l)
+        }
+        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => None,
+        Err(e) => {
+            let _ = Command::new("kill")
+                .args(["-9", &child.id().to_string()])
+                .status();
+            panic!("the session went on ({e}): {seen}");
+        }
+    };
+    while !next(&mut seen)
+        .unwrap_or_else(|| panic!("the session ended before its onset"))
+        .contains(r#""event":"onset""#)
+    {}
+    // The device resets while it plays: its library is gone. The session
+    // ends by itself (stdin stays open).
+    dev.restart();
+    while next(&mut seen).is_some() {}
+    let out = child.wait_with_output().unwrap();
+    drop(stdin);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!("the device on {} restarted", dev.port)),
+        "{err}"
+    );
+    assert!(
+        err.contains("the sequences lmhost uploaded are gone"),
+        "{err}"
+    );
+    assert!(seen.contains(r#""event":"closed""#), "{seen}");
+}
+
 #[test]
 fn sigint_leaves_the_array_silent() {
     a_signal_leaves_the_array_silent("INT");
@@ -628,4 +611,6 @@ fn a_streamed_finger_passes_the_plausibility_gate_and_its_counts_end_the_session
         ),
         "{err}"
     );
+    // The `closed` event carries the same counts by the same classes.
+    link_support::assert_closed_counts(v.last().unwrap(), 91, [1, 1, 0]);
 }

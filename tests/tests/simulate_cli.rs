@@ -222,3 +222,47 @@ fn simulate_refuses_bad_planes_with_exit_code_2() {
         assert!(!err.contains("panicked"), "{bad:?}: {err}");
     }
 }
+
+#[test]
+fn a_signal_while_simulate_writes_says_so_and_leaves_no_unfinished_file() {
+    use std::process::Stdio;
+    let out = out_dir("signal");
+    let mut child = Command::new(lmhost())
+        .args(["simulate", "--radius", "0", "--plane-size", "16"])
+        .args(["--plane-step", "0.1", "--out", out.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The signal goes once the first output is being written (the
+    // figures of the five maps take a while after that).
+    let mut writing = false;
+    while child.try_wait().unwrap().is_none() {
+        if std::fs::read_dir(&out).is_ok_and(|mut d| d.next().is_some()) {
+            writing = true;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert!(writing, "simulate ended before it wrote anything");
+    let st = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(
+        err.ends_with("lmhost: interrupted by SIGINT; unfinished outputs removed\n"),
+        "{err}"
+    );
+    let left: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    // The summary is written last: a run cut short has none.
+    assert!(!left.iter().any(|n| n == "summary.json"), "{left:?}");
+    assert!(!left.iter().any(|n| n.contains(".tmp")), "{left:?}");
+    std::fs::remove_dir_all(&out).unwrap();
+}

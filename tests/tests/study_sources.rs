@@ -6,6 +6,8 @@
 
 use std::path::Path;
 
+#[allow(dead_code)]
+mod gated_device;
 mod link_support;
 #[allow(dead_code)]
 mod study_support;
@@ -79,6 +81,15 @@ fn the_session_flags_are_the_studys() {
 /// on `--udp`, `extra` beside it; returned once the source has bound its
 /// port (ours cannot), with that port.
 fn study_on_udp(d: &std::path::Path, extra: &[&str]) -> (std::process::Child, u16) {
+    study_on_udp_at(d, "autd3:emulator", extra)
+}
+
+/// [`study_on_udp`] on the device at `device`.
+fn study_on_udp_at(
+    d: &std::path::Path,
+    device: &str,
+    extra: &[&str],
+) -> (std::process::Child, u16) {
     let port = {
         let probe = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
         probe.local_addr().unwrap().port()
@@ -88,16 +99,11 @@ fn study_on_udp(d: &std::path::Path, extra: &[&str]) -> (std::process::Child, u1
     let port_arg = port.to_string();
     let mut args = vec!["--responses", answers.to_str().unwrap(), "--udp", &port_arg];
     args.extend_from_slice(extra);
-    let child = run_on(
-        proto.to_str().unwrap(),
-        "autd3:emulator",
-        &d.join("out"),
-        &args,
-    )
-    .stdout(std::process::Stdio::null())
-    .stderr(std::process::Stdio::piped())
-    .spawn()
-    .unwrap();
+    let child = run_on(proto.to_str().unwrap(), device, &d.join("out"), &args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
     let t0 = std::time::Instant::now();
     while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
         assert!(t0.elapsed().as_secs() < 60, "never bound");
@@ -211,5 +217,67 @@ fn a_study_stopped_by_a_signal_still_says_what_its_finger_source_counted() {
             "lmhost: finger: 1 sample, 1 dropped as implausible (0 out of order, 1 out of range, 0 jumps)"
         ),
         "{err}"
+    );
+    // The event log's `closed` carries the same counts by the same classes.
+    let log = std::fs::read_to_string(d.join("out/P01/events.jsonl")).unwrap();
+    let closed: serde_json::Value = serde_json::from_str(log.lines().last().unwrap()).unwrap();
+    assert_eq!(closed["reason"], "sigterm", "{log}");
+    link_support::assert_closed_counts(&closed, 1, [0, 1, 0]);
+}
+
+#[test]
+fn a_study_stopped_during_its_set_up_says_so_and_leaves_nothing_to_resume() {
+    let d = scratch("sources-udp-set-up");
+    // The device holds the library's third upload: the signal comes while
+    // the study's set-up uploads it.
+    let dev = gated_device::Gated::start(3);
+    let (child, port) = study_on_udp_at(&d, &dev.port, &["--timeout-ms", "60000"]);
+    dev.wait_held(std::time::Duration::from_secs(120));
+    let st = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    dev.release();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    // As a study stopped mid-run: exit 1, the source's counts, what was
+    // kept.
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!(
+            "lmhost: UDP 127.0.0.1:{port}: 0 datagrams, 0 skipped as bad, 0 lost in the kernel's receive buffer"
+        )),
+        "{err}"
+    );
+    assert!(err.contains("lmhost: finger: 0 samples"), "{err}");
+    assert!(
+        err.contains("error: interrupted by SIGTERM during set-up (uploading stimulus `")
+            && err.contains(
+                ", 3 of 15); the array is silent; nothing was written; run it again (without --resume)"
+            ),
+        "{err}"
+    );
+    assert!(!d.join("out/P01").exists(), "a folder was left");
+    // `--resume` agrees.
+    let resumed = run_on(
+        protocol(&d).to_str().unwrap(),
+        &dev.port,
+        &d.join("out"),
+        &["--resume", "--finger", "synthetic"],
+    )
+    .output()
+    .unwrap();
+    let again = String::from_utf8_lossy(&resumed.stderr);
+    assert_eq!(resumed.status.code(), Some(2), "{again}");
+    assert!(again.contains("nothing to resume"), "{again}");
+    let status = std::process::Command::new(link_support::lmhost())
+        .args(["status", "--port", &dev.port, "--json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&status.stdout).unwrap();
+    assert!(
+        matches!(v["state"].as_str(), Some("Stopped" | "Idle")),
+        "the device plays: {v}"
     );
 }

@@ -78,6 +78,10 @@ fn default_socket() -> PathBuf {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
+        // Graceful from the start: a signal during the set-up (planning,
+        // connecting, uploading the library) ends it with its end lines
+        // and the array silent, as one during the run does.
+        lmhost::stop::graceful();
         let control = match &self.control {
             Some(p) if p.as_os_str() == "-" => Control::Stdio,
             other => Control::Socket {
@@ -102,8 +106,8 @@ impl Args {
                 "--exit-with-stdin watches stdin for its end: it cannot also carry --control - or a finger source on `-`"
             );
         }
-        // First of all: an owner that is already gone ends the session as
-        // soon as it serves (the flag waits for the loop to read it).
+        // First of all: an owner that is already gone ends the session at
+        // the first look at the flag (the set-up's, or the loop's).
         if self.exit_with_stdin {
             lmhost::stop::when_ends(std::io::stdin())
                 .map_err(|e| anyhow::anyhow!("watching stdin: {e}"))?;
@@ -122,6 +126,9 @@ impl Args {
         let spec = self.port.spec();
         let target = spec.device()?.target();
         let plans = library.plan_for(&target, &scene)?;
+        if let Err(e) = lmhost::stop::check_set_up("planning the stimulus library") {
+            return set_up_interrupted(&e, events, "the device was not opened");
+        }
         let mut warned = std::collections::BTreeSet::new();
         for w in plans.iter().flat_map(|p| &p.warnings) {
             if warned.insert(w.clone()) {
@@ -131,11 +138,20 @@ impl Args {
         let endpoint = Endpoint::bind(&control)?;
         let dev = lmhost::device::connect::open(&spec, &scene)?;
         let where_ = dev.describe();
-        let session = Session::new(dev, &library, plans, scene, Clock::real()).map_err(|e| {
-            lmhost::device::backend::port_context(e, &where_, "starting the session", || {
-                format!("starting the session on {where_}")
-            })
-        })?;
+        let session = match Session::new(dev, &library, plans, scene, Clock::real()) {
+            Ok(s) => s,
+            Err(e) => {
+                if let Some(i) = e.downcast_ref::<lmhost::stop::SetUpInterrupted>() {
+                    return set_up_interrupted(i, events, "the array is silent");
+                }
+                return Err(lmhost::device::backend::port_context(
+                    e,
+                    &where_,
+                    "starting the session",
+                    || format!("starting the session on {where_}"),
+                ));
+            }
+        };
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
         let finger = match self.finger.start(self.scene.as_deref())? {
@@ -202,4 +218,29 @@ impl Args {
         }
         Ok(())
     }
+}
+
+/// The end of a session stopped during its set-up: the `closed` event
+/// (the log's last line, as at any end), then the end line saying what the
+/// set-up was doing and `then` (what holds of the device). Exit 0, as a
+/// session a signal ends mid-run.
+fn set_up_interrupted(
+    e: &lmhost::stop::SetUpInterrupted,
+    events: Option<EventLog>,
+    then: &str,
+) -> anyhow::Result<()> {
+    use lmhost::lab::session::{Event, EventKind, OffsetReason};
+    if let Some(mut log) = events {
+        let closed = Event {
+            t_host_us: lmhost::clock::monotonic_us(),
+            kind: EventKind::Closed {
+                reason: OffsetReason::stopped(),
+                finger: None,
+            },
+        };
+        log.line(serde_json::to_string(&closed)?.into())?;
+        log.finish()?;
+    }
+    lmhost::errln!("lmhost: session {e}; {then}");
+    Ok(())
 }

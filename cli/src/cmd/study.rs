@@ -320,6 +320,9 @@ impl RunArgs {
     }
 
     fn run(self) -> anyhow::Result<()> {
+        // Graceful from the start (the finger source starts here, before
+        // the study's set-up): a signal ends the run with its end lines.
+        lmhost::stop::graceful();
         let finger = self.finger()?;
         // The source's counts are shared with its thread: read at the end.
         let source = self.source.clone();

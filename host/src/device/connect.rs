@@ -332,20 +332,31 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 }
 
+/// How often [`hold`] reads the device's status.
+pub const HOLD_STATUS_EVERY: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// Holds the link, ticking every 10 ms (an AUTD3's safety gate, the LM
 /// firmware's host lease), until Ctrl-C / SIGTERM
-/// ([`crate::stop::requested`]) or `max` elapses.
-/// Returns whether a stop was requested.
+/// ([`crate::stop::requested`]) or `max` elapses. The status is read
+/// every [`HOLD_STATUS_EVERY`]: a device that restarted (its library gone,
+/// `link::reply::restarted`) ends the hold with an error rather than
+/// holding nothing. Returns whether a stop was requested.
 pub fn hold(dev: &mut dyn Backend, max: Option<std::time::Duration>) -> anyhow::Result<bool> {
     let end = max.map(|d| std::time::Instant::now() + d);
+    let mut next_status = std::time::Instant::now();
     loop {
         if crate::stop::requested() {
             return Ok(true);
         }
-        if end.is_some_and(|e| std::time::Instant::now() >= e) {
+        let now = std::time::Instant::now();
+        if end.is_some_and(|e| now >= e) {
             return Ok(false);
         }
         dev.tick()?;
+        if now >= next_status {
+            dev.status().context("reading the device status")?;
+            next_status = now + HOLD_STATUS_EVERY;
+        }
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
 }

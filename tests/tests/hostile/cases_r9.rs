@@ -7,7 +7,7 @@
 //!
 //! - An `Info` no LM firmware of this lmhost sends (another protocol
 //!   version, 0 slots, a `max_chunk` of 0, 0 transducers, more library
-//!   free than it holds) is refused where the client reads it, naming the
+//!   free than it holds, a minimum dwell above a second) is refused where the client reads it, naming the
 //!   port and the field: it was driven (an upload reported done on a v5
 //!   board), looped on (1-byte chunks, a session past any deadline) or
 //!   blamed on the user's flags (exit 2, "--slot 0 does not exist").
@@ -26,7 +26,7 @@
 //!   device answering every other request).
 
 use std::collections::BTreeMap;
-use std::io::{Read as _, Write as _};
+use std::io::Write as _;
 use std::net::{TcpListener, TcpStream};
 use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
@@ -66,6 +66,7 @@ fn mutation(name: &str) -> Mutation {
         "chunk0" => Mutation::Info(|i| i.max_chunk = 0),
         "transducers0" => Mutation::Info(|i| i.max_transducers = 0),
         "free" => Mutation::Info(|i| i.library_free = u32::MAX),
+        "dwell_max" => Mutation::Info(|i| i.min_dwell_us = u32::MAX),
         "slot200" => Mutation::Status(|s| s.slot = Some(200)),
         "playing_stopped" => Mutation::Status(|s| {
             s.state = DeviceState::Playing;
@@ -130,18 +131,10 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
     loop {
         let now = t0.elapsed().as_micros() as u64;
         core.poll(now);
-        let n = match conn.read(&mut buf) {
-            Ok(0) => return Ok(()),
-            Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) =>
-            {
-                continue;
-            }
-            Err(e) => return Err(e),
+        let n = match crate::link_support::read_within(&mut conn, &mut buf)? {
+            Some(0) => return Ok(()),
+            Some(n) => n,
+            None => continue,
         };
         match m {
             Mutation::Echo => {
@@ -259,6 +252,9 @@ pub(crate) fn round9_cases() -> Vec<Case> {
         DEVICE_INFO "play --untracked --port {fake:slots0}" .code(1).err("slots 0");
         DEVICE_INFO "upload --radius 3 --no-play --port {fake:transducers0}" .code(1).err("max_transducers 0");
         DEVICE_INFO "stream --synthetic --seconds 0.3 --port {fake:free}" .code(1).err("library_free 4294967295");
+        // A minimum dwell no device has is its fault, not the sequence's.
+        DEVICE_INFO "info --port {fake:dwell_max}" .code(1).err("min_dwell_us 4294967295").err("tcp:127.0.0.1:");
+        DEVICE_INFO "upload --radius 3 --foci 4 --no-play --port {fake:dwell_max}" .code(1).err("min_dwell_us 4294967295");
         // 2. A Status no firmware reports.
         DEVICE_STATUS "status --port {fake:slot200}" .code(1).err("slot 200, and the device has 32 slots");
         DEVICE_STATUS "stream --synthetic --seconds 0.3 --port {fake:slot200}" .code(1).err("the status from tcp:127.0.0.1:");

@@ -370,3 +370,38 @@ impl Drop for Sim {
         let _ = self.child.wait();
     }
 }
+
+/// Reads what `conn` (its read timeout set) has: `Ok(None)` when nothing
+/// came within the timeout, `Ok(Some(0))` at its end (a fake device's
+/// loop polls its firmware between reads).
+pub fn read_within(
+    conn: &mut impl std::io::Read,
+    buf: &mut [u8],
+) -> std::io::Result<Option<usize>> {
+    match conn.read(buf) {
+        Ok(n) => Ok(Some(n)),
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+            ) =>
+        {
+            Ok(None)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Asserts `closed` is a session's `closed` event whose `finger` says
+/// `samples` read and `[out_of_order, out_of_range, jumps]` dropped: the
+/// classes of the `lmhost: finger:` end line.
+#[track_caller]
+pub fn assert_closed_counts(closed: &serde_json::Value, samples: u64, dropped: [u64; 3]) {
+    assert_eq!(closed["event"], "closed", "{closed}");
+    let [out_of_order, out_of_range, jumps] = dropped;
+    let want = serde_json::json!({
+        "samples": samples, "dropped": out_of_order + out_of_range + jumps,
+        "out_of_order": out_of_order, "out_of_range": out_of_range, "jumps": jumps,
+    });
+    assert_eq!(closed["finger"], want, "{closed}");
+}

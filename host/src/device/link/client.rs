@@ -107,6 +107,9 @@ pub struct Client<T> {
     /// Steps per cycle of the slots this client committed (a `Status`
     /// step beyond them is impossible).
     committed: std::collections::HashMap<u8, u16>,
+    /// The last `Status` read: the next one is held to it
+    /// ([`super::reply::restarted`]).
+    last_status: Option<Status>,
 }
 
 impl<T: Transport> Client<T> {
@@ -127,6 +130,7 @@ impl<T: Transport> Client<T> {
             last_accepted: None,
             info: None,
             committed: std::collections::HashMap::new(),
+            last_status: None,
         }
     }
 
@@ -322,6 +326,21 @@ impl<T: Transport> Client<T> {
         };
         super::reply::check_status(&s, &info, |slot| self.committed.get(&slot).copied())
             .map_err(|why| self.bad_reply("status", why))?;
+        // A device that restarted lost what this client uploaded: a loop
+        // that went on would play nothing, or fail later on a slot it
+        // takes for resident.
+        if let Some(why) = self
+            .last_status
+            .as_ref()
+            .and_then(|before| super::reply::restarted(before, &s))
+        {
+            self.last_status = None;
+            return Err(LinkError::Restarted {
+                port: self.port(),
+                why,
+            });
+        }
+        self.last_status = Some(s);
         Ok(s)
     }
 

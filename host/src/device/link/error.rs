@@ -57,6 +57,19 @@ pub enum LinkError {
         /// What is impossible about it.
         why: String,
     },
+    /// The device restarted since the last `Status` this client read
+    /// ([`super::reply::restarted`]): the sequences uploaded before are
+    /// gone, so nothing that counts on them can go on.
+    #[error(
+        "the device on {port} restarted ({why}): the sequences lmhost uploaded are gone; \
+         run the command again"
+    )]
+    Restarted {
+        /// The port.
+        port: String,
+        /// What said so.
+        why: String,
+    },
     /// The transport failed.
     #[error("link I/O with {port} failed during {what}: {source}")]
     Io {

@@ -10,7 +10,7 @@
 //! than the host clamping it, looping on it, or blaming the user's
 //! flags for it.
 
-use lm_proto::{DeviceState, Info, MAX_CHUNK, MuteReason, PROTOCOL_VERSION, Status};
+use lm_proto::{DeviceState, Info, MAX_CHUNK, MIN_DWELL_US, MuteReason, PROTOCOL_VERSION, Status};
 
 /// Why `info` cannot come from the LM firmware this host speaks to, if
 /// it cannot.
@@ -36,6 +36,13 @@ pub fn check_info(info: &Info) -> Result<(), String> {
         return Err(format!(
             "max_chunk {} above the protocol's {MAX_CHUNK}",
             info.max_chunk
+        ));
+    }
+    if !MIN_DWELL_US.contains(&info.min_dwell_us) {
+        return Err(format!(
+            "min_dwell_us {} above the protocol's {} (1 s)",
+            info.min_dwell_us,
+            MIN_DWELL_US.end()
         ));
     }
     if info.library_free > info.slot_bytes {
@@ -127,6 +134,33 @@ pub fn check_status(
     Ok(())
 }
 
+/// Why `now` says the device restarted since `before` (a `Status` of the
+/// same link), if it does: a counter kept since reset went back, or the
+/// state is Idle ("nothing played since reset") after it played.
+pub fn restarted(before: &Status, now: &Status) -> Option<String> {
+    let since_reset = [
+        (
+            "missed_deadlines",
+            before.missed_deadlines,
+            now.missed_deadlines,
+        ),
+        ("bad_frames", before.bad_frames, now.bad_frames),
+        ("crc_errors", before.crc_errors, now.crc_errors),
+        ("nacks", before.nacks, now.nacks),
+        ("lease_expiries", before.lease_expiries, now.lease_expiries),
+    ];
+    if let Some((name, b, n)) = since_reset.iter().find(|(_, b, n)| n < b) {
+        return Some(format!("its {name} went back from {b} to {n}"));
+    }
+    if before.state != DeviceState::Idle && now.state == DeviceState::Idle {
+        let state = format!("{:?}", before.state).to_lowercase();
+        return Some(format!(
+            "state idle (nothing played since reset) after {state}"
+        ));
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,11 +230,59 @@ mod tests {
                 },
                 "a rig of 997 transducers",
             ),
+            (
+                Info {
+                    min_dwell_us: u32::MAX,
+                    ..info(32)
+                },
+                "min_dwell_us 4294967295 above",
+            ),
+            (
+                Info {
+                    min_dwell_us: 1_000_001,
+                    ..info(32)
+                },
+                "min_dwell_us 1000001 above",
+            ),
         ];
+        // A second's dwell is the longest a device may ask for.
+        let slow = Info {
+            min_dwell_us: 1_000_000,
+            ..info(32)
+        };
+        assert_eq!(check_info(&slow), Ok(()));
         for (i, want) in bad {
             let e = check_info(&i).unwrap_err();
             assert!(e.contains(want), "{e}");
         }
+    }
+
+    #[test]
+    fn counters_going_back_or_idle_after_a_play_is_a_restart() {
+        let before = Status {
+            nacks: 3,
+            lease_expiries: 1,
+            ..playing(0)
+        };
+        assert_eq!(restarted(&before, &before), None);
+        let more = Status {
+            nacks: 4,
+            state: DeviceState::Stopped,
+            mute_reason: MuteReason::Stopped,
+            ..before
+        };
+        assert_eq!(restarted(&before, &more), None, "counters only grow");
+        let reset = Status::default();
+        assert_eq!(
+            restarted(&before, &reset).as_deref(),
+            Some("its nacks went back from 3 to 0")
+        );
+        // Nothing counted yet: the state tells.
+        assert_eq!(
+            restarted(&playing(0), &reset).as_deref(),
+            Some("state idle (nothing played since reset) after playing")
+        );
+        assert_eq!(restarted(&reset, &reset), None, "idle before");
     }
 
     #[test]

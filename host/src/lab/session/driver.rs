@@ -9,7 +9,7 @@
 
 use std::time::Duration;
 
-use super::{Event, Session};
+use super::{Event, OffsetReason, Session};
 use crate::clock::Clock;
 use crate::sense::reader::Next;
 use crate::sense::stream::Sample;
@@ -121,6 +121,16 @@ impl Driver {
     /// Gives the session back (to close it).
     pub fn into_session(self) -> Session {
         self.session
+    }
+
+    /// Closes the session ([`Session::close`]), its `closed` event with
+    /// what the finger source's gate read and dropped.
+    pub fn close(self, reason: OffsetReason) -> Vec<Event> {
+        let finger = match &self.source {
+            Source::Samples { intake, .. } => Some(intake.counts().snapshot()),
+            _ => None,
+        };
+        self.session.close_counted(reason, finger)
     }
 
     /// Whether the samples feed has ended (no more finger samples come).

@@ -158,6 +158,9 @@ impl Session {
         let status = dev
             .status()
             .map_err(|e| e.context("reading the device status"))?;
+        // A stop asked while the device was being opened ends the set-up
+        // here, the device silent.
+        crate::stop::check_set_up(&format!("connecting to {}", info.port))?;
         let mut me = Self {
             dev,
             info,
@@ -670,11 +673,21 @@ impl Session {
 
     /// Ends the session: stops what plays (offset `reason`) and leaves the
     /// array silent (the backend's drop); returns the last events.
-    pub fn close(mut self, reason: OffsetReason) -> Vec<Event> {
+    pub fn close(self, reason: OffsetReason) -> Vec<Event> {
+        self.close_counted(reason, None)
+    }
+
+    /// [`close`](Self::close), its `closed` event with what the finger
+    /// source's gate counted.
+    pub fn close_counted(
+        mut self,
+        reason: OffsetReason,
+        finger: Option<crate::sense::stream::intake::GateCounts>,
+    ) -> Vec<Event> {
         if let Err(e) = self.stop(reason) {
             self.refused("stop", &crate::error::one_line(&e));
         }
-        self.emit(EventKind::Closed { reason });
+        self.emit(EventKind::Closed { reason, finger });
         let events = self.drain_events();
         drop(self.dev);
         events

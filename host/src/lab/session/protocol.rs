@@ -422,6 +422,10 @@ pub enum EventKind {
     Closed {
         /// Why.
         reason: OffsetReason,
+        /// What the finger source's plausibility gate read and dropped
+        /// (the end line's counts); absent without a source of samples.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        finger: Option<crate::sense::stream::intake::GateCounts>,
     },
 }
 

@@ -55,11 +55,23 @@ impl Session {
     /// presented or prepared.
     pub(super) fn preload(&mut self) -> anyhow::Result<()> {
         let n = self.loaded.len().min(usize::from(self.info.slots));
+        // A stop is looked at between entries (an upload stops between
+        // its frames by itself): nothing half-uploaded is committed, and
+        // the device was stopped before the first.
+        let doing = |i: usize, id: &str| format!("uploading stimulus `{id}`, {} of {n}", i + 1);
         for i in 0..n {
+            if crate::stop::requested() {
+                let id = self.loaded[i].id.clone();
+                return Err(crate::stop::SetUpInterrupted::new(doing(i, &id)).into());
+            }
             match self.load_into(i, i as u8) {
                 Ok(()) => {}
                 // What fits is resident; the others load on demand.
                 Err(LoadError::Full) => break,
+                Err(LoadError::Other(_)) if crate::stop::requested() => {
+                    let id = self.loaded[i].id.clone();
+                    return Err(crate::stop::SetUpInterrupted::new(doing(i, &id)).into());
+                }
                 Err(LoadError::Other(e)) => return Err(e),
             }
         }

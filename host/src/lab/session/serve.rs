@@ -472,7 +472,7 @@ pub fn serve(session: Session, opts: Options) -> anyhow::Result<Report> {
         Err(_) => OffsetReason::Error,
     };
     lp.report.figures = d.session_ref().figures();
-    let last = d.into_session().close(reason);
+    let last = d.close(reason);
     // The last events go out however the loop ended.
     let written = lp.last_events(last);
     let logged = lp.log.as_mut().map_or(Ok(()), EventLog::finish);

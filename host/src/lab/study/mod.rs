@@ -13,7 +13,9 @@
 //! the first trial not on disk, in the order `session.json` holds, after
 //! [`start`] has checked every file and changed none; a staircase or
 //! QUEST+ trial cut short continues after its logged answers
-//! ([`midtrial`]).
+//! ([`midtrial`]). A signal during the set-up (planning, connecting,
+//! uploading the library) ends the run before any file changed: nothing
+//! to resume when it was new, the same point to resume from otherwise.
 //!
 //! By role: `protocol` (the file, checked), `design` (the seeded order),
 //! `columns` (trials.csv's header, once), `answers` (what is asked, where
@@ -28,6 +30,7 @@ pub mod analysis;
 pub mod answers;
 pub mod columns;
 pub mod design;
+mod ending;
 pub mod figure;
 pub mod live;
 pub mod midtrial;
@@ -47,7 +50,6 @@ pub mod start;
 pub(crate) mod test_files;
 pub mod trial;
 
-use std::path::Path;
 use std::time::Duration;
 
 use crate::clock::monotonic_us;
@@ -73,15 +75,6 @@ pub const FINGER_PERIOD_US: u64 = 11_111;
 /// Largest `--time-scale`.
 pub const MAX_TIME_SCALE: f64 = 100.0;
 
-fn resume_hint(o: &RunOptions) -> String {
-    format!(
-        "lmhost study run {} --participant {} --out {} --resume (and the same --port, --finger, --responses, --stage and --gauge)",
-        o.protocol.display(),
-        o.participant,
-        o.out.display()
-    )
-}
-
 /// The run was stopped by a signal ([`crate::stop::cause`] says which).
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted")]
@@ -89,6 +82,10 @@ struct Interrupted;
 
 /// Runs (or resumes) one participant's session.
 pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
+    // Graceful from the start: a signal during the set-up (planning,
+    // connecting, uploading the library) ends it with its end lines, the
+    // array silent and the folder as it was.
+    crate::stop::graceful();
     check_participant(&o.participant)?;
     if !(o.time_scale.is_finite() && o.time_scale > 0.0 && o.time_scale <= MAX_TIME_SCALE) {
         crate::bad_input!(
@@ -157,6 +154,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let (scene, scene_record) = provenance::load_scene(o.scene.as_deref())?;
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
+    crate::stop::check_set_up("planning the stimulus library")
+        .map_err(|e| ending::set_up_stopped(&e, &o, "the device was not opened"))?;
     let mut warned = std::collections::BTreeSet::new();
     for w in plans.iter().flat_map(|x| &x.warnings) {
         if warned.insert(w.clone()) {
@@ -168,12 +167,26 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let pusher = o.instruments.clone().map(push::Pusher::start).transpose()?;
     let dev = crate::device::connect::open(&o.port, &scene)?;
     let where_ = dev.describe();
-    let session = Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real())
-        .map_err(|e| {
-            crate::device::backend::port_context(e, &where_, "starting the session", || {
-                format!("starting the session on {where_}")
-            })
-        })?;
+    let session = match Session::new(dev, &p.library, plans, scene, crate::clock::Clock::real()) {
+        Ok(s) => s,
+        Err(e) => {
+            // The stage goes back to rest, whatever ended the set-up.
+            let stage_end = pusher.map(push::Pusher::finish);
+            if let Some(i) = e.downcast_ref::<crate::stop::SetUpInterrupted>() {
+                let then = match stage_end {
+                    Some(end) => format!("the array is silent ({end})"),
+                    None => "the array is silent".to_owned(),
+                };
+                return Err(ending::set_up_stopped(i, &o, &then));
+            }
+            return Err(crate::device::backend::port_context(
+                e,
+                &where_,
+                "starting the session",
+                || format!("starting the session on {where_}"),
+            ));
+        }
+    };
     let mut this_run = provenance::run_record(&session, first, &o, scene_record)?;
     // A resumed session continues on the rig it ran on, or says what
     // differs (before any file changes; the array has not sounded).
@@ -203,7 +216,6 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let mut trials_log = st.open_trials(&p, &paths.trials)?;
     let events_log = st.open_events(o.resume, &paths.events)?;
     let (file, plan, resumed) = (st.file, st.plan, st.resumed);
-    crate::stop::graceful();
     let driver = match std::mem::replace(&mut o.finger, FingerSource::None) {
         FingerSource::Samples {
             feed,
@@ -266,11 +278,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         Err(e) if e.is::<Interrupted>() => OffsetReason::stopped(),
         Err(_) => OffsetReason::Error,
     };
-    let last = r
-        .driver
-        .take()
-        .map(|d| d.into_session().close(reason))
-        .unwrap_or_default();
+    let last = r.driver.take().map(|d| d.close(reason)).unwrap_or_default();
     // The array is silent; now the stage goes back (or says where it is).
     let stage_end = r.pusher.take().map(push::Pusher::finish);
     let result = match (result, stage_end) {
@@ -301,7 +309,8 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         report.upload_mean_s /= report.uploads as f64;
     }
     if let Err(e) = result {
-        return Err(stopped(e, &o, &report, &paths.trials));
+        let interrupted = e.is::<Interrupted>();
+        return Err(ending::stopped(e, interrupted, &o, &report, &paths.trials));
     }
     logged?;
     Ok(report)
@@ -377,35 +386,6 @@ fn run_trials(
         }
     }
     Ok(())
-}
-
-/// The error of a run that stopped early: what happened, that the array is
-/// silent, what is kept and how to continue.
-fn stopped(e: anyhow::Error, o: &RunOptions, report: &RunReport, trials: &Path) -> anyhow::Error {
-    let done = report.first - 1 + report.ran;
-    let what = if e.is::<Interrupted>() {
-        crate::stop::interrupted()
-    } else {
-        crate::error::one_line(&e)
-    };
-    let kept = if done == 0 {
-        "no trial is finished".to_owned()
-    } else {
-        format!(
-            "trials 1..={done} of {} are in {}",
-            report.trials,
-            trials.display()
-        )
-    };
-    let msg = format!(
-        "{what}; the array is silent; {kept}; continue with: {}",
-        resume_hint(o)
-    );
-    if e.chain().any(|c| c.is::<InputError>()) {
-        InputError::new(msg).into()
-    } else {
-        anyhow::anyhow!(msg)
-    }
 }
 
 struct Runner {

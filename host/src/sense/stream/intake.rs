@@ -68,6 +68,18 @@ impl SharedCounts {
         }
     }
 
+    /// What was read and dropped so far, for the `closed` event.
+    pub fn snapshot(&self) -> GateCounts {
+        let d = self.dropped();
+        GateCounts {
+            samples: self.read(),
+            dropped: d.total(),
+            out_of_order: d.out_of_order,
+            out_of_range: d.out_of_range,
+            jumps: d.jumps,
+        }
+    }
+
     /// The end line of a session or study with a finger source: how many
     /// samples came and what the gate dropped.
     pub fn summary(&self) -> String {
@@ -81,6 +93,23 @@ impl SharedCounts {
             crate::out::count(d.jumps, "jump")
         )
     }
+}
+
+/// What a gate read and dropped, by the classes of its end line
+/// ([`SharedCounts::summary`]): the `finger` of a session's `closed`
+/// event.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct GateCounts {
+    /// Samples read from the source, dropped ones included.
+    pub samples: u64,
+    /// Samples dropped as implausible: the three below together.
+    pub dropped: u64,
+    /// Dropped: time stamps going backwards or jumping ahead.
+    pub out_of_order: u64,
+    /// Dropped: coordinates beyond the work volume.
+    pub out_of_range: u64,
+    /// Dropped: jumps too large for a finger.
+    pub jumps: u64,
 }
 
 /// The gate in front of one source: its state, its clock (for a live
@@ -182,6 +211,13 @@ mod tests {
         assert_eq!(
             counts.summary(),
             "finger: 5 samples, 2 dropped as implausible (1 out of order, 1 out of range, 0 jumps)"
+        );
+        // The `closed` event's counts, by the end line's classes.
+        assert_eq!(
+            serde_json::to_value(counts.snapshot()).unwrap(),
+            serde_json::json!({
+                "samples": 5, "dropped": 2, "out_of_order": 1, "out_of_range": 1, "jumps": 0
+            })
         );
     }
 

@@ -87,7 +87,22 @@ fn a_wild_stamp_and_a_far_centroid_never_reach_the_session() {
         "{events:?}"
     );
     assert_eq!(counts.read(), 90);
-    let d = counts.dropped();
+    let dropped = counts.dropped();
     // Out of order, out of range, jumps.
-    assert_eq!((d.out_of_order, d.out_of_range, d.jumps), (1, 1, 0));
+    assert_eq!(
+        (dropped.out_of_order, dropped.out_of_range, dropped.jumps),
+        (1, 1, 0)
+    );
+    // The `closed` event carries the same counts, by the end line's
+    // classes.
+    let last = d.close(OffsetReason::Quit);
+    let closed = serde_json::to_value(last.last().unwrap()).unwrap();
+    assert_eq!(closed["event"], "closed", "{closed}");
+    assert_eq!(
+        closed["finger"],
+        serde_json::json!({
+            "samples": 90, "dropped": 2, "out_of_order": 1, "out_of_range": 1, "jumps": 0
+        }),
+        "{closed}"
+    );
 }

@@ -407,7 +407,8 @@ fn closing_leaves_the_array_silent_and_says_so() {
             matches!(
                 k.last(),
                 Some(EventKind::Closed {
-                    reason: OffsetReason::Quit
+                    reason: OffsetReason::Quit,
+                    finger: None,
                 })
             ),
             "{name}: {k:?}"

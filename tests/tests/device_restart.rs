@@ -1,0 +1,49 @@
+//! A device that restarts while a command holds it (a power glitch, a
+//! watchdog) has lost the sequences lmhost uploaded: the command ends
+//! naming the port (exit 1) rather than holding nothing.
+
+use std::io::BufRead as _;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+#[allow(dead_code)]
+mod gated_device;
+mod link_support;
+use link_support::lmhost;
+
+#[test]
+fn a_device_that_restarts_during_an_upload_hold_ends_it_naming_the_port() {
+    let dev = gated_device::Gated::start(0);
+    let mut child = Command::new(lmhost())
+        .args(["upload", "--radius", "3", "--untracked", "--hold", "30"])
+        .args(["--port", &dev.port])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    let stderr = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        for l in std::io::BufReader::new(stderr).lines() {
+            let _ = tx.send(l.unwrap());
+        }
+    });
+    let mut err = String::new();
+    while !err.contains("holding ") {
+        let l = rx
+            .recv_timeout(Duration::from_secs(60))
+            .unwrap_or_else(|e| panic!("no hold ({e}): {err}"));
+        err.push_str(&l);
+        err.push('\n');
+    }
+    // The device resets while it plays: its library is gone.
+    dev.restart();
+    let st = child.wait().unwrap();
+    reader.join().unwrap();
+    err.extend(rx.try_iter().map(|l| l + "\n"));
+    assert_eq!(st.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!("the device on {} restarted", dev.port)),
+        "{err}"
+    );
+}
