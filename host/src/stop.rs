@@ -14,8 +14,8 @@
 //!   it with [`SetUpInterrupted`] and their end lines;
 //! - in any other command, it removes the temporary files of the outputs
 //!   still being written ([`crate::files::Output`]), says so in one line
-//!   on stderr (`lmhost: interrupted by SIGINT; unfinished outputs
-//!   removed`) and exits at once with 128 + the signal number, as the
+//!   on stderr (`lmhost: interrupted by SIGINT`, and `; unfinished
+//!   outputs removed` when it removed one) and exits at once with 128 + the signal number, as the
 //!   default action would have, so no half-written file is left behind
 //!   under any name.
 
@@ -196,17 +196,21 @@ fn watch(
 }
 
 /// The line a non-graceful command's end says, one static string per
-/// signal of [`SIGNALS`] (the handler may not format).
+/// signal of [`SIGNALS`] (the handler may not format); it adds
+/// [`REMOVED`] when it removed an unfinished output.
 fn ending_line(sig: libc::c_int) -> &'static [u8] {
     match sig {
-        libc::SIGINT => b"lmhost: interrupted by SIGINT; unfinished outputs removed\n",
-        libc::SIGTERM => b"lmhost: interrupted by SIGTERM; unfinished outputs removed\n",
-        libc::SIGHUP => b"lmhost: interrupted by SIGHUP; unfinished outputs removed\n",
-        libc::SIGQUIT => b"lmhost: interrupted by SIGQUIT; unfinished outputs removed\n",
-        libc::SIGUSR1 => b"lmhost: interrupted by SIGUSR1; unfinished outputs removed\n",
-        _ => b"lmhost: interrupted by a signal; unfinished outputs removed\n",
+        libc::SIGINT => b"lmhost: interrupted by SIGINT",
+        libc::SIGTERM => b"lmhost: interrupted by SIGTERM",
+        libc::SIGHUP => b"lmhost: interrupted by SIGHUP",
+        libc::SIGQUIT => b"lmhost: interrupted by SIGQUIT",
+        libc::SIGUSR1 => b"lmhost: interrupted by SIGUSR1",
+        _ => b"lmhost: interrupted by a signal",
     }
 }
+
+/// What the end line adds when unfinished outputs were removed.
+const REMOVED: &[u8] = b"; unfinished outputs removed";
 
 extern "C" fn on_signal(sig: libc::c_int) {
     // Async-signal-safe only: atomics, unlink(2), write(2), _exit(2).
@@ -214,17 +218,20 @@ extern "C" fn on_signal(sig: libc::c_int) {
     if GRACEFUL.load(Ordering::SeqCst) {
         return;
     }
+    let mut removed = false;
     for slot in &TEMPS {
         let p = slot.load(Ordering::SeqCst);
         if !p.is_null() {
             // SAFETY: `p` is a leaked, NUL-terminated C string (never freed).
-            unsafe { libc::unlink(p) };
+            removed |= unsafe { libc::unlink(p) } == 0;
         }
     }
-    let line = ending_line(sig);
-    // SAFETY: write(2) is async-signal-safe; `line` is a static string. A
-    // lost stderr changes nothing but what can be said.
-    let _ = unsafe { libc::write(libc::STDERR_FILENO, line.as_ptr().cast(), line.len()) };
+    let parts: [&[u8]; 3] = [ending_line(sig), if removed { REMOVED } else { b"" }, b"\n"];
+    for part in parts {
+        // SAFETY: write(2) is async-signal-safe; `part` is a static
+        // string. A lost stderr changes nothing but what can be said.
+        let _ = unsafe { libc::write(libc::STDERR_FILENO, part.as_ptr().cast(), part.len()) };
+    }
     // SAFETY: _exit is async-signal-safe; no destructors run, which is
     // what the default action of the signal would have done too.
     unsafe { libc::_exit(128 + sig) };
@@ -309,10 +316,7 @@ mod tests {
     fn every_ending_signal_has_its_own_line() {
         for sig in SIGNALS {
             let line = std::str::from_utf8(ending_line(sig as libc::c_int)).unwrap();
-            assert_eq!(
-                line,
-                format!("lmhost: interrupted by {sig}; unfinished outputs removed\n")
-            );
+            assert_eq!(line, format!("lmhost: interrupted by {sig}"));
         }
     }
 
