@@ -409,10 +409,23 @@ fn read(
         // Duplicate keys are refused, at any depth.
         // Typed straight from the text (a byte a phase, not a tree of
         // values); serde refuses a field given twice.
-        let is_report = content == Content::Phases
-            && serde_json::from_str::<report::Keys>(&text)
-                .map_err(|e| unnamed(bad(format!("not a phases JSON object ({e})"))))?
-                .is_report();
+        let keys = match content {
+            Content::Phases => Some(
+                serde_json::from_str::<report::Keys>(&text)
+                    .map_err(|e| unnamed(bad(format!("not a phases JSON object ({e})"))))?,
+            ),
+            // A file that is no object is refused below, as a foci file.
+            Content::Foci => serde_json::from_str::<report::Keys>(&text).ok(),
+        };
+        let is_report = keys.as_ref().is_some_and(report::Keys::is_report);
+        if keys.as_ref().is_some_and(report::Keys::is_summary) {
+            return Err(bad(
+                "is a plan summary without its phases (`lmhost plan --json`): a plan replays \
+                 from the report `lmhost plan --out F.json` writes (or `plan --json --phases`), \
+                 given as --phases"
+                    .into(),
+            ));
+        }
         return match content {
             Content::Phases if is_report => {
                 let mut r: report::PlanReport = serde_json::from_str(&text)
@@ -446,6 +459,14 @@ fn read(
                     j.dwell_us,
                 ))
             }
+            // A plan report's foci alone would not replay it: its
+            // synthesis, weights and intensity are not in them.
+            Content::Foci if is_report => Err(bad(format!(
+                "is a `lmhost plan --out` report, not a foci file: replay the plan with --phases {} \
+                 (its phases as planned); --foci-file takes {{\"foci_mm\": [[[x, y, z], ...], ...], \
+                 \"dwell_us\": D}} and synthesises them anew",
+                path.display()
+            ))),
             Content::Foci => {
                 let j: FociJson = serde_json::from_str(&text)
                     .map_err(|e| bad(format!("not a foci JSON object ({e})")))?;

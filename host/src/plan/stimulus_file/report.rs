@@ -19,12 +19,19 @@ pub(super) struct Keys {
     target: Option<IgnoredAny>,
     #[serde(default)]
     header: Option<IgnoredAny>,
+    #[serde(default)]
+    phases: Option<IgnoredAny>,
 }
 
 impl Keys {
     /// It names `crc32`, `target` or `header`.
     pub fn is_report(&self) -> bool {
         self.crc32.is_some() || self.target.is_some() || self.header.is_some()
+    }
+
+    /// It is a report without its phases (`lmhost plan --json`'s summary).
+    pub fn is_summary(&self) -> bool {
+        self.is_report() && self.phases.is_none()
     }
 }
 

@@ -186,6 +186,60 @@ fn a_plan_report_uploads_what_plan_made_on_both_targets() {
     }
 }
 
+/// A plan's report or summary given where it does not replay the plan
+/// says what it is and what does (it was "unknown field `center_mm`" as
+/// a foci file, "missing field `phases` at line 1 column 4734" as phases).
+#[test]
+fn a_plan_report_where_it_cannot_replay_says_what_does() {
+    let (scene, planned) = default_planned();
+    let report = planned
+        .out_bytes(Path::new("report.json"), &Target::Lm)
+        .unwrap();
+    let with_phases = tmp("report-foci.json", &report);
+    let e = plan_for(
+        Content::Foci,
+        &with_phases,
+        &Target::Lm,
+        scene.clone(),
+        None,
+        None,
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(
+        e.contains("is a `lmhost plan --out` report, not a foci file"),
+        "{e}"
+    );
+    assert!(
+        e.contains("--phases") && e.contains("report-foci.json"),
+        "{e}"
+    );
+    // The summary `plan --json` prints, without its phases, either way.
+    let mut summary: serde_json::Value = serde_json::from_slice(&report).unwrap();
+    summary.as_object_mut().unwrap().remove("phases");
+    let summary = tmp("summary.json", summary.to_string().as_bytes());
+    for content in [Content::Phases, Content::Foci] {
+        let e = plan_for(content, &summary, &Target::Lm, scene.clone(), None, None)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("is a plan summary without its phases"), "{e}");
+        assert!(e.contains("plan --out F.json"), "{e}");
+    }
+    // The report itself still replays as phases.
+    let got = plan_for(
+        Content::Phases,
+        &with_phases,
+        &Target::Lm,
+        scene,
+        None,
+        None,
+    )
+    .unwrap();
+    assert_eq!(got.plan.sequence.phases, planned.plan.sequence.phases);
+}
+
 #[test]
 fn raw_bin_phases_are_whole_steps_of_the_device() {
     let (scene, planned) = default_planned();
