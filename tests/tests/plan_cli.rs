@@ -150,6 +150,51 @@ fn bad_scene_file_names_file_and_field() {
     );
 }
 
+/// A file of another kind than the flag takes says what it is and what
+/// it is for (a library given as `--scene` failed on "unknown field
+/// `stimulus`, expected one of `name`, `directivity`, ...").
+#[test]
+fn a_file_of_another_kind_says_what_it_is() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let path = |f: &str| repo.join(f).display().to_string();
+    let out = scratch_dir("kinds");
+    let out = out.join("x").display().to_string();
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["plan", "--scene", &path("studies/paper-library.toml")],
+            "it is a stimulus library, not a scene file (for --library)",
+        ),
+        (
+            &["plan", "--scene", &path("studies/paper-exp1.toml")],
+            "it is a study protocol, not a scene file (for `lmhost study run`",
+        ),
+        (
+            &[
+                "simulate",
+                "--library",
+                &path("scenes/paper.toml"),
+                "--stimulus",
+                "a",
+                "--out",
+                &out,
+            ],
+            "it is a scene file, not a stimulus library (for --scene)",
+        ),
+        (
+            &["study", "check", &path("studies/paper-library.toml")],
+            "it is a stimulus library, not a study protocol (for --library)",
+        ),
+    ];
+    for (args, says) in cases {
+        let o = run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    }
+    assert!(!Path::new(&out).exists());
+}
+
 #[test]
 fn wiring_maps_every_transducer_of_a_scene_to_a_board_pin() {
     let dir = scratch_dir("wiring");

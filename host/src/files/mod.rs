@@ -27,6 +27,7 @@
 //!   ([`distinct_outputs`]).
 
 mod dest;
+pub mod kind;
 mod log;
 mod output;
 

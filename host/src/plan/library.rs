@@ -523,7 +523,8 @@ impl Library {
     /// Parses a library from TOML text; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
         let bad = |msg: String| InputError::new(format!("stimulus library {origin}: {msg}"));
-        let file: LibraryFile = crate::plan::scene::from_toml(text).map_err(bad)?;
+        let file: LibraryFile =
+            crate::plan::scene::from_toml(text, &crate::files::kind::LIBRARY).map_err(bad)?;
         if file.stimulus.is_empty() {
             return Err(bad(
                 "no stimuli: add at least one [[stimulus]] table with an `id`".into(),

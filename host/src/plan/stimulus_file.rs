@@ -30,6 +30,7 @@ use std::io::Read as _;
 use std::path::Path;
 
 use crate::error::InputError;
+use crate::files::kind;
 use crate::geom::Vec3;
 use crate::limits;
 use crate::plan::grid::{self as grid, MAX_PATTERNS, MIN_PATTERNS};
@@ -95,6 +96,12 @@ struct FociJson {
     foci_mm: Vec<Vec<[f64; 3]>>,
     #[serde(default)]
     dwell_us: Option<f64>,
+}
+
+/// What a JSON stimulus file that is not `expected` is, when it is
+/// another kind lmhost reads (foci given as phases), else `otherwise`.
+fn another_kind(expected: &kind::Kind, text: &str, otherwise: impl FnOnce() -> String) -> String {
+    kind::other_kind(expected, &kind::JSON, &kind::json_keys(text)).unwrap_or_else(otherwise)
 }
 
 /// Loads `path` and makes the plan `target` plays, in `scene`: `freq_hz`
@@ -444,8 +451,11 @@ fn read(
                 ))
             }
             Content::Phases => {
-                let j: PhasesJson = serde_json::from_str(&text)
-                    .map_err(|e| bad(format!("not a phases JSON object ({e})")))?;
+                let j: PhasesJson = serde_json::from_str(&text).map_err(|e| {
+                    bad(another_kind(&kind::PHASES, &text, || {
+                        format!("not a phases JSON object ({e})")
+                    }))
+                })?;
                 let steps = j.phases.len();
                 if steps == 0 {
                     return Err(bad("has no steps".into()));
@@ -468,8 +478,11 @@ fn read(
                 path.display()
             ))),
             Content::Foci => {
-                let j: FociJson = serde_json::from_str(&text)
-                    .map_err(|e| bad(format!("not a foci JSON object ({e})")))?;
+                let j: FociJson = serde_json::from_str(&text).map_err(|e| {
+                    bad(another_kind(&kind::FOCI, &text, || {
+                        format!("not a foci JSON object ({e})")
+                    }))
+                })?;
                 let steps = j.foci_mm.len();
                 let foci = j.foci_mm.first().map_or(0, Vec::len);
                 if steps == 0 || foci == 0 {

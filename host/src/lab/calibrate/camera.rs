@@ -81,7 +81,7 @@ impl Target {
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let text = crate::limits::read_text_file("points file", path)?;
         let origin = path.display();
-        let f: PointsFile = crate::plan::scene::from_toml(&text)
+        let f: PointsFile = crate::plan::scene::from_toml(&text, &crate::files::kind::POINTS)
             .map_err(|m| InputError::new(format!("points file {origin}: {m}")))?;
         let d = f.ball_diameter_mm;
         if !(d.is_finite() && (5.0..=500.0).contains(&d)) {

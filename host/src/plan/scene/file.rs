@@ -37,8 +37,18 @@ fn placed(text: &str, at: usize, msg: &str) -> String {
 /// literal that underflows (`1e-400` reads as 0) is refused as well
 /// ([`crate::limits::exact_literal`]): the parse has lost the literal, so
 /// its spans are read back from the text.
-pub(crate) fn from_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, String> {
-    let v = toml::from_str(text).map_err(|e| toml_error_line(text, &e))?;
+///
+/// A file of another kind than `expected` (a library given as a scene)
+/// says what it is and what takes it instead ([`crate::files::kind`]).
+pub(crate) fn from_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    expected: &crate::files::kind::Kind,
+) -> Result<T, String> {
+    use crate::files::kind;
+    let v = toml::from_str(text).map_err(|e| {
+        kind::other_kind(expected, &kind::TOML, &kind::toml_keys(text))
+            .unwrap_or_else(|| toml_error_line(text, &e))
+    })?;
     let Ok(doc) = toml_edit::Document::parse(text) else {
         return Ok(v);
     };

@@ -192,7 +192,7 @@ impl Scene {
 
     /// Parses a scene from TOML text; `origin` names it in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
-        let file: file::SceneFile = file::from_toml(text)
+        let file: file::SceneFile = file::from_toml(text, &crate::files::kind::SCENE)
             .map_err(|m| InputError::new(format!("scene file {origin}: {m}")))?;
         file.resolve(origin)
             .map_err(|msg| InputError::new(format!("scene file {origin}: {msg}")))

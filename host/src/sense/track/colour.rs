@@ -264,6 +264,7 @@ pub struct ColourImage {
 
 impl super::settings_file::SettingsFile for ColourCamera {
     const WHAT: &'static str = "colour camera";
+    const KIND: &'static crate::files::kind::Kind = &crate::files::kind::COLOUR_CAMERA;
 
     /// Every field; `origin` names the source in the message.
     fn check(&self, origin: &str) -> Result<(), InputError> {

@@ -178,6 +178,7 @@ impl Intrinsics {
 
 impl super::settings_file::SettingsFile for Intrinsics {
     const WHAT: &'static str = "intrinsics";
+    const KIND: &'static crate::files::kind::Kind = &crate::files::kind::INTRINSICS;
 
     /// Every field; `origin` names the file in the message.
     fn check(&self, origin: &str) -> Result<(), InputError> {

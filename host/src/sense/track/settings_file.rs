@@ -10,10 +10,11 @@ use crate::InputError;
 /// field, as every TOML file lmhost reads says it.
 fn parse<T: serde::de::DeserializeOwned>(
     what: &str,
+    kind: &crate::files::kind::Kind,
     text: &str,
     origin: &str,
 ) -> Result<T, InputError> {
-    crate::plan::scene::from_toml(text)
+    crate::plan::scene::from_toml(text, kind)
         .map_err(|m| InputError::new(format!("{what} {origin}: {m}")))
 }
 
@@ -32,13 +33,16 @@ pub trait SettingsFile: serde::Serialize + serde::de::DeserializeOwned {
     /// What it is called in errors (`intrinsics`).
     const WHAT: &'static str;
 
+    /// Its kind among the files lmhost reads.
+    const KIND: &'static crate::files::kind::Kind;
+
     /// Checks every value, and the values together (`origin` names the
     /// file or source in errors).
     fn check(&self, origin: &str) -> Result<(), InputError>;
 
     /// Parse and check TOML text.
     fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
-        let v: Self = parse(Self::WHAT, text, origin)?;
+        let v: Self = parse(Self::WHAT, Self::KIND, text, origin)?;
         v.check(origin)?;
         Ok(v)
     }

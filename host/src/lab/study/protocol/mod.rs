@@ -350,7 +350,8 @@ impl Unlinked {
     /// Parses and checks protocol `text` (`origin` names it in errors).
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, InputError> {
         let e = check::Errors { text, origin };
-        let file: file::File = crate::plan::scene::from_toml(text).map_err(|m| e.bad(m))?;
+        let file: file::File = crate::plan::scene::from_toml(text, &crate::files::kind::PROTOCOL)
+            .map_err(|m| e.bad(m))?;
         check::check(file, &e)
     }
 
