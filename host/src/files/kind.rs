@@ -13,74 +13,49 @@ pub struct Kind {
     pub name: &'static str,
     /// What it is for (`--library`).
     pub taken_by: &'static str,
-    /// Top-level keys only this kind has; `[[name]]` is an array of tables.
-    keys: &'static [&'static str],
+    /// Top-level keys only this kind has, separated by spaces; `[[name]]`
+    /// is an array of tables.
+    keys: &'static str,
+}
+
+impl Kind {
+    const fn new(name: &'static str, taken_by: &'static str, keys: &'static str) -> Self {
+        Self {
+            name,
+            taken_by,
+            keys,
+        }
+    }
 }
 
 /// A scene (`--scene`).
-pub const SCENE: Kind = Kind {
-    name: "scene file",
-    taken_by: "--scene",
-    keys: &[
-        "[[device]]",
-        "rig",
-        "lm_plane",
-        "medium",
-        "reflector",
-        "directivity",
-        "camera",
-        "tracking",
-        "calibration",
-        "min_dwell_ms",
-    ],
-};
-
+pub const SCENE: Kind = Kind::new(
+    "scene file",
+    "--scene",
+    "[[device]] rig lm_plane medium reflector directivity camera tracking calibration min_dwell_ms",
+);
 /// A stimulus library (`--library`).
-pub const LIBRARY: Kind = Kind {
-    name: "stimulus library",
-    taken_by: "--library",
-    keys: &["[[stimulus]]"],
-};
-
+pub const LIBRARY: Kind = Kind::new("stimulus library", "--library", "[[stimulus]]");
 /// A study protocol (`lmhost study run` and `study check`).
-pub const PROTOCOL: Kind = Kind {
-    name: "study protocol",
-    taken_by: "`lmhost study run` and `study check`",
-    keys: &[
-        "library",
-        "sets",
-        "order",
-        "timeline",
-        "[[factor]]",
-        "[[question]]",
-        "adjustment",
-        "staircase",
-        "quest",
-        "report",
-        "[[block]]",
-    ],
-};
-
+pub const PROTOCOL: Kind = Kind::new(
+    "study protocol",
+    "`lmhost study run` and `study check`",
+    "library sets order timeline [[factor]] [[question]] adjustment staircase quest report [[block]]",
+);
 /// A depth camera's intrinsics (`--intrinsics`).
-pub const INTRINSICS: Kind = Kind {
-    name: "camera intrinsics file",
-    taken_by: "--intrinsics",
-    keys: &["depth_scale"],
-};
-
+pub const INTRINSICS: Kind = Kind::new("camera intrinsics file", "--intrinsics", "depth_scale");
 /// A colour camera's settings, read beside a colour recording.
-pub const COLOUR_CAMERA: Kind = Kind {
-    name: "colour camera file",
-    taken_by: "a colour recording, beside it as `REC.colour.toml`",
-    keys: &["model", "coeffs", "rotation", "translation_m"],
-};
-
+pub const COLOUR_CAMERA: Kind = Kind::new(
+    "colour camera file",
+    "a colour recording, beside it as `REC.colour.toml`",
+    "model coeffs rotation translation_m",
+);
 /// The points of a camera calibration (`lmhost calibrate camera`).
-pub const POINTS: Kind = Kind {
-    name: "calibration points file",
-    taken_by: "`lmhost calibrate camera`",
-    keys: &["ball_diameter_mm", "background", "[[point]]"],
-};
+pub const POINTS: Kind = Kind::new(
+    "calibration points file",
+    "`lmhost calibrate camera`",
+    "ball_diameter_mm background [[point]]",
+);
 
 /// The TOML files lmhost reads.
 pub const TOML: [&Kind; 6] = [
@@ -93,25 +68,15 @@ pub const TOML: [&Kind; 6] = [
 ];
 
 /// Phases as JSON (`--phases`).
-pub const PHASES: Kind = Kind {
-    name: "phases file",
-    taken_by: "--phases",
-    keys: &["phases"],
-};
-
+pub const PHASES: Kind = Kind::new("phases file", "--phases", "phases");
 /// Foci as JSON (`--foci-file`).
-pub const FOCI: Kind = Kind {
-    name: "foci file",
-    taken_by: "--foci-file",
-    keys: &["foci_mm"],
-};
-
+pub const FOCI: Kind = Kind::new("foci file", "--foci-file", "foci_mm");
 /// The report `lmhost plan --out F.json` writes (`--phases` replays it).
-pub const PLAN_REPORT: Kind = Kind {
-    name: "`lmhost plan` report",
-    taken_by: "--phases",
-    keys: &["crc32", "header", "target", "transducers", "index_offset"],
-};
+pub const PLAN_REPORT: Kind = Kind::new(
+    "`lmhost plan` report",
+    "--phases",
+    "crc32 header target transducers index_offset",
+);
 
 /// The JSON files a stimulus is read from.
 pub const JSON: [&Kind; 3] = [&PHASES, &FOCI, &PLAN_REPORT];
@@ -122,8 +87,8 @@ pub const JSON: [&Kind; 3] = [&PHASES, &FOCI, &PLAN_REPORT];
 pub fn recognise<'k, S: AsRef<str>>(kinds: &[&'k Kind], top: &[S]) -> Option<&'k Kind> {
     let score = |k: &Kind| {
         k.keys
-            .iter()
-            .filter(|key| top.iter().any(|t| t.as_ref() == **key))
+            .split(' ')
+            .filter(|key| top.iter().any(|t| t.as_ref() == *key))
             .count()
     };
     let mut ranked: Vec<(usize, &'k Kind)> = kinds.iter().map(|k| (score(k), *k)).collect();
