@@ -104,9 +104,7 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
     }
     // Said as what it is, not read as CSV and refused for a field it cut.
     if line.starts_with('\u{feff}') {
-        return Err(InputError::new(format!(
-            "line {line_no} starts with a byte-order mark (U+FEFF), which only the first line may"
-        )));
+        return Err(InputError::new(crate::files::text::bom_inside(line_no)));
     }
     if line.starts_with('[') {
         return Err(InputError::new(format!(
@@ -142,6 +140,9 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         {
             return Ok(None);
         }
+        if let Some(why) = crate::files::text::foreign_csv(line, "5 fields t,x,y,z,present") {
+            return Err(InputError::new(format!("line {line_no}: {why}")));
+        }
         if fields.len() != 5 {
             return Err(InputError::new(format!(
                 "line {line_no}: expected 5 CSV fields t,x,y,z,present, found {}",
@@ -151,8 +152,9 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         let num = |i: usize, name: &str| {
             let v = fields[i].parse::<f64>().map_err(|_| {
                 InputError::new(format!(
-                    "line {line_no}: {name} `{}` is not a number",
-                    fields[i]
+                    "line {line_no}: {name} `{}` is not a number{}",
+                    fields[i],
+                    crate::files::text::decimal_comma_hint(fields[i])
                 ))
             })?;
             crate::limits::exact_literal(fields[i], v)
@@ -247,12 +249,12 @@ impl<R: BufRead> Iterator for LineSource<R> {
                     return Some(Err(e));
                 }
                 Ok(Some(())) => {
-                    let Ok(text) = std::str::from_utf8(&self.buf) else {
-                        self.done = true;
-                        return Some(Err(InputError::new(format!(
-                            "line {line_no} is not UTF-8 text"
-                        ))
-                        .into()));
+                    let text = match crate::files::text::stream_line(&self.buf, line_no) {
+                        Ok(t) => t,
+                        Err(e) => {
+                            self.done = true;
+                            return Some(Err(InputError::new(e).into()));
+                        }
                     };
                     match parse_line(text, line_no) {
                         Ok(None) => {}
