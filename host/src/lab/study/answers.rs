@@ -458,7 +458,8 @@ pub fn stdin_lines() -> anyhow::Result<Receiver<Result<String, String>>> {
                         .map(str::to_owned)
                         .map_err(|e| {
                             let head = format!("line {n} ");
-                            e.strip_prefix(&head).map_or(e.clone(), str::to_owned)
+                            e.strip_prefix(&head)
+                                .map_or(e.clone(), |r| format!("the line {r}"))
                         })
                 };
                 let stop = item.is_err();

@@ -195,17 +195,22 @@ struct LineSource<R> {
     reader: R,
     line_no: usize,
     buf: Vec<u8>,
+    /// The last line ended at a CR ([`next_line`]).
+    after_cr: bool,
     max_gap_s: Option<f64>,
     last_t_s: Option<f64>,
     done: bool,
 }
 
 /// One line, or `None` at the end; a line longer than [`MAX_LINE_BYTES`]
-/// is an error without reading the rest of it into memory.
+/// is an error without reading the rest of it into memory. A line ends at
+/// LF, CRLF or a lone CR (a classic Mac file, Excel for Mac's CSV):
+/// `after_cr` says the last one ended at a CR, whose LF is then skipped.
 fn next_line<R: BufRead>(
     reader: &mut R,
     buf: &mut Vec<u8>,
     line_no: usize,
+    after_cr: &mut bool,
 ) -> anyhow::Result<Option<()>> {
     buf.clear();
     loop {
@@ -217,8 +222,15 @@ fn next_line<R: BufRead>(
         if avail.is_empty() {
             return Ok((!buf.is_empty()).then_some(()));
         }
-        let (take, end) = match avail.iter().position(|&b| b == b'\n') {
-            Some(i) => (i, true),
+        if std::mem::take(after_cr) && avail[0] == b'\n' {
+            reader.consume(1);
+            continue;
+        }
+        let (take, end) = match avail.iter().position(|&b| b == b'\n' || b == b'\r') {
+            Some(i) => {
+                *after_cr = avail[i] == b'\r';
+                (i, true)
+            }
             None => (avail.len(), false),
         };
         if buf.len() + take > MAX_LINE_BYTES {
@@ -242,7 +254,7 @@ impl<R: BufRead> Iterator for LineSource<R> {
         while !self.done {
             self.line_no += 1;
             let line_no = self.line_no;
-            match next_line(&mut self.reader, &mut self.buf, line_no) {
+            match next_line(&mut self.reader, &mut self.buf, line_no, &mut self.after_cr) {
                 Ok(None) => self.done = true,
                 Err(e) => {
                     self.done = true;
@@ -294,6 +306,7 @@ pub fn read_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<
         reader,
         line_no: 0,
         buf: Vec::new(),
+        after_cr: false,
         max_gap_s: None,
         last_t_s: None,
         done: false,
@@ -308,6 +321,7 @@ pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Resul
         reader,
         line_no: 0,
         buf: Vec::new(),
+        after_cr: false,
         max_gap_s: Some(MAX_REPLAY_GAP_S),
         last_t_s: None,
         done: false,
