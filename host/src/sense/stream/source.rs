@@ -10,7 +10,13 @@
 //!   else its raw centroid; its other known keys are ignored, an unknown
 //!   key is refused as in the plain form;
 //! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; the
-//!   header line `t,x,y,z,present` is skipped; `#` starts a comment.
+//!   header line `t,x,y,z,present` is skipped; `#` starts a comment. A
+//!   line separated by `;` or tabs (a European-locale spreadsheet, its
+//!   `3,5` meaning 3.5) is refused as such.
+//!
+//! Lines are read as every text input is ([`crate::files::text`]): they
+//! end at LF, CRLF or a lone CR; a byte-order mark opening the first is
+//! skipped; UTF-16 and a NUL byte are refused naming the line.
 //!
 //! Units: seconds and millimetres. A time stamp lies in 0 to
 //! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
