@@ -166,7 +166,7 @@ pub(crate) fn round10_cases() -> Vec<Case> {
             .ok()
             .err("4 of 4 trials done"),
         c(TEXT_BOM, format!("{STUDY} - --participant r10_stdin_bom"))
-            .stdin(bom(&"1\r\n2\r\n3\r\n4\r\n5\r\n6\r\n7\r\n1\r\n"))
+            .stdin(bom("1\r\n2\r\n3\r\n4\r\n5\r\n6\r\n7\r\n1\r\n"))
             .ok()
             .err("4 of 4 trials done"),
         c(TEXT_LINE_ENDS, study("ans_cr.txt", "r10_cr"))
