@@ -163,14 +163,15 @@ mod tests {
     #[test]
     fn one_reading_whatever_wrote_it() {
         let want = "a = 1\nb = 2\n";
-        for bytes in [
-            &b"a = 1\nb = 2\n"[..],
-            b"\xef\xbb\xbfa = 1\nb = 2\n",
-            b"a = 1\r\nb = 2\r\n",
-            b"\xef\xbb\xbfa = 1\r\nb = 2\r\n",
-            b"a = 1\rb = 2\r",
+        let crlf = want.replace('\n', "\r\n");
+        for text in [
+            want.to_owned(),
+            format!("\u{feff}{want}"),
+            crlf.clone(),
+            format!("\u{feff}{crlf}"),
+            want.replace('\n', "\r"),
         ] {
-            assert_eq!(decode(bytes.to_vec()).unwrap(), want, "{bytes:?}");
+            assert_eq!(decode(text.clone().into_bytes()).unwrap(), want, "{text:?}");
         }
         // No final newline, blank lines after: as they were.
         assert_eq!(decode(b"a\r\n\r\n\r\n".to_vec()).unwrap(), "a\n\n\n");

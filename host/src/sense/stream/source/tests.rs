@@ -325,20 +325,18 @@ fn lines_read_the_same_whatever_wrote_them() {
             .collect()
     };
     let want = ["0", "0.5", "1"];
-    for bytes in [
-        &b"0,0,0,200,1\n0.5,0,0,200,1\n1,0,0,200,1\n"[..],
-        b"\xef\xbb\xbf0,0,0,200,1\r\n0.5,0,0,200,1\r\n1,0,0,200,1\r\n",
-        b"0,0,0,200,1\r0.5,0,0,200,1\r1,0,0,200,1\r",
-        b"0,0,0,200,1\r0.5,0,0,200,1\r1,0,0,200,1",
-        b"0,0,0,200,1\n0.5,0,0,200,1\n1,0,0,200,1\n\n\r\n\n",
+    let lf = "0,0,0,200,1\n0.5,0,0,200,1\n1,0,0,200,1\n";
+    for text in [
+        lf.to_owned(),
+        format!("\u{feff}{}", lf.replace('\n', "\r\n")),
+        lf.replace('\n', "\r"),
+        lf.trim_end().replace('\n', "\r"),
+        format!("{lf}\n\r\n\n"),
     ] {
         // A CRLF split between two reads is one line end.
         for buffer in [1, 12, 13, 8192] {
-            assert_eq!(
-                times(bytes, buffer),
-                want,
-                "{bytes:?} in {buffer}-byte reads"
-            );
+            let got = times(text.as_bytes(), buffer);
+            assert_eq!(got, want, "{text:?} in {buffer}-byte reads");
         }
     }
     // Line numbers count CR-ended lines as an editor does.
