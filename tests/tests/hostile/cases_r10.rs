@@ -49,6 +49,19 @@ fn utf16(text: &str, little: bool, mark: bool) -> Vec<u8> {
         .collect()
 }
 
+/// The `.json` fixtures serde cannot read as they are (a byte-order mark,
+/// UTF-16, a NUL byte, errors on purpose).
+pub(crate) const FIXTURE_JSON: [&str; 8] = [
+    "foci_bom.json",
+    "foci_bad_bom.json",
+    "foci_bad_cr.json",
+    "foci_joined.json",
+    "foci_u16.json",
+    "foci_u16be.json",
+    "foci_nul.json",
+    "phases_bom.json",
+];
+
 pub(crate) fn round10_fixtures(dir: &Path) {
     let r10 = dir.join("r10");
     std::fs::create_dir_all(&r10).unwrap();
