@@ -288,7 +288,8 @@ pub const MAX_TEXT_FILE_BYTES: u64 = 1 << 20;
 /// Reads the UTF-8 text file `path` (`what` names it in errors), refusing
 /// one longer than [`MAX_TEXT_FILE_BYTES`] before reading it whole, and
 /// anything but a regular file before opening it
-/// ([`crate::files::read_input`]).
+/// ([`crate::files::read_input`]); read as [`crate::files::text::decode`]
+/// reads text (a byte-order mark skipped, CRLF as LF, UTF-16 refused).
 pub fn read_text_file(what: &str, path: &std::path::Path) -> Result<String, InputError> {
     read_text_file_up_to(what, path, MAX_TEXT_FILE_BYTES)
 }
@@ -300,12 +301,8 @@ pub fn read_text_file_up_to(
     max: u64,
 ) -> Result<String, InputError> {
     let bytes = crate::files::read_input(what, path, max)?;
-    String::from_utf8(bytes).map_err(|_| {
-        InputError::new(format!(
-            "cannot read {what} {}: it is not UTF-8 text",
-            path.display()
-        ))
-    })
+    crate::files::text::decode(bytes)
+        .map_err(|why| InputError::new(format!("cannot read {what} {}: {why}", path.display())))
 }
 
 /// The names of the options given, in order: `(name, given)` pairs (for

@@ -174,7 +174,10 @@ class TrackResult:
         )
 
 
-def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[str, str]:
+def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optional[str], str]:
+    """TOML text of a dict, or (None, the path): a file is read by the Rust
+    core as ``lmhost track --intrinsics`` reads it (a byte-order mark and
+    CRLF skipped, UTF-16 refused), never in the platform's encoding."""
     if isinstance(intrinsics, dict):
         lines = []
         for k, v in intrinsics.items():
@@ -182,12 +185,7 @@ def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[str, 
                 raise ValueError(f"intrinsics dict: `{k}` must be a number, got {v!r}")
             lines.append(f"{k} = {v}")
         return "\n".join(lines) + "\n", "dict"
-    path = Path(intrinsics)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise ValueError(f"intrinsics {path}: cannot read it: {e.strerror}") from None
-    return text, str(path)
+    return None, str(Path(intrinsics))
 
 
 class Tracker:
@@ -207,7 +205,8 @@ class Tracker:
         leave_frames: int = _D["leave_frames"],
     ) -> None:
         text, origin = _intrinsics_toml(intrinsics)
-        self._t = _lmhost.Tracker(scene, text, origin, enter_frames, leave_frames)
+        path = origin if text is None else None
+        self._t = _lmhost.Tracker(scene, text, origin, enter_frames, leave_frames, path)
 
     @property
     def shape(self) -> Tuple[int, int]:

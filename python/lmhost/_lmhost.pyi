@@ -112,10 +112,11 @@ class Tracker:
     def __init__(
         self,
         scene: Scene,
-        intrinsics_toml: str,
+        intrinsics_toml: Optional[str],
         origin: str,
         enter_frames: Optional[int] = None,
         leave_frames: Optional[int] = None,
+        intrinsics_path: Optional[str] = None,
     ) -> None: ...
     @property
     def shape(self) -> Tuple[int, int]: ...

@@ -445,16 +445,19 @@ struct Tracker_ {
 
 #[pymethods]
 impl Tracker_ {
-    /// `intrinsics_toml` is TOML text (`origin` names it in messages);
-    /// the scene needs `[camera]` and `[tracking]`.
+    /// `intrinsics_toml` is TOML text (`origin` names it in messages), or
+    /// `intrinsics_path` a file read as `lmhost track --intrinsics` reads
+    /// it (a byte-order mark, CRLF, UTF-16 as every text file); the scene
+    /// needs `[camera]` and `[tracking]`.
     #[new]
-    #[pyo3(signature = (scene, intrinsics_toml, origin, enter_frames=None, leave_frames=None))]
+    #[pyo3(signature = (scene, intrinsics_toml, origin, enter_frames=None, leave_frames=None, intrinsics_path=None))]
     fn new(
         scene: &Scene_,
-        intrinsics_toml: &str,
+        intrinsics_toml: Option<&str>,
         origin: &str,
         enter_frames: Option<&Bound<'_, PyAny>>,
         leave_frames: Option<&Bound<'_, PyAny>>,
+        intrinsics_path: Option<PathBuf>,
     ) -> PyResult<Self> {
         // The range `lmhost track` allows, refused under the Python names
         // (`Hysteresis::new` names the CLI's flags).
@@ -464,7 +467,14 @@ impl Tracker_ {
         };
         let enter_frames = frames("enter_frames", enter_frames, h.enter())?;
         let leave_frames = frames("leave_frames", leave_frames, h.leave())?;
-        let intr = Intrinsics::from_toml(intrinsics_toml, origin).map_err(|e| to_py(e.into()))?;
+        let intr = match (&intrinsics_path, intrinsics_toml) {
+            (Some(path), _) => Intrinsics::load(path),
+            (None, Some(text)) => Intrinsics::from_toml(text, origin),
+            (None, None) => Err(InputError::new(
+                "intrinsics: give their TOML text or their file's path",
+            )),
+        }
+        .map_err(|e| to_py(e.into()))?;
         let rig = CameraSetup::of_scene(&scene.scene).map_err(|e| to_py(e.into()))?;
         let tracker = ContactTracker::new(intr, rig);
         let min_points = tracker.setup().track_box.min_points;

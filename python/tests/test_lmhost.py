@@ -152,6 +152,22 @@ def test_tracker_intrinsics_from_a_dict(root):
     assert (r.points, r.present, r.centroid_mm) == (0, False, None)
 
 
+def test_tracker_intrinsics_file_read_as_the_cli_reads_it(root, tmp_path):
+    # Windows tools write a byte-order mark and CRLF, PowerShell 5 UTF-16:
+    # the file is read by the Rust core, as `lmhost track --intrinsics`.
+    text = "width = 64\nheight = 48\nfx = 40.0\nfy = 40.0\nppx = 32.0\nppy = 24.0\ndepth_scale = 0.001\n"
+    bom = tmp_path / "bom.toml"
+    bom.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())
+    tr = lmhost.Tracker(lmhost.Scene.load(root / PAPER), bom)
+    assert tr.shape == (48, 64)
+    wide = tmp_path / "wide.toml"
+    wide.write_bytes(text.encode("utf-16"))
+    with pytest.raises(ValueError, match=r"wide.toml: it is UTF-16 \(little-endian\) text, not UTF-8"):
+        lmhost.Tracker(lmhost.Scene.load(root / PAPER), wide)
+    with pytest.raises(ValueError, match="cannot read intrinsics .*missing.toml"):
+        lmhost.Tracker(lmhost.Scene.load(root / PAPER), tmp_path / "missing.toml")
+
+
 def test_device_emulator_upload_reads_back_clean():
     with lmhost.Device("autd3:emulator") as dev:
         assert dev.info()["backend"] == "autd3"

@@ -164,3 +164,40 @@ fn responses_from_stdin_are_checked_as_they_come() {
         );
     }
 }
+
+/// Answers on stdin are text as every file is: a byte-order mark opening
+/// them (PowerShell piping UTF-8 with one) is skipped, UTF-16 (PowerShell
+/// 5) is named with what to do, not "a line that is not UTF-8 text".
+#[test]
+fn stdin_answers_are_read_whatever_wrote_them() {
+    use std::io::Write;
+    let d = scratch("stdin_text");
+    let wide: Vec<u8> = "\u{feff}1\n2\n"
+        .encode_utf16()
+        .flat_map(u16::to_le_bytes)
+        .collect();
+    for (input, want) in [
+        (
+            wide,
+            "stdin line 1: the line is UTF-16 (little-endian) text, not UTF-8",
+        ),
+        (
+            b"\xef\xbb\xbfx\r\n".to_vec(),
+            "stdin line 1: `x` is not an answer",
+        ),
+    ] {
+        let mut child = exp1("autd3:emulator", &d.join("out"), "0.02", &["--seed", "1"])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        child.stdin.take().unwrap().write_all(&input).unwrap();
+        let o = child.wait_with_output().unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        let last = e.trim().lines().last().unwrap_or_default();
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(last.contains(want) && last.contains("--resume"), "{e}");
+        std::fs::remove_dir_all(d.join("out")).unwrap();
+    }
+}

@@ -21,11 +21,13 @@ const FILTER_SCORE_S: f64 = 20.0;
 /// Stream finger centroids (mm, scene frame) to the device.
 ///
 /// Input lines are JSON (`{"t":0.011,"x":1.2,"y":-0.4,"z":201,"present":true}`)
-/// or CSV (`t,x,y,z,present`), from stdin, a file, or UDP datagrams.
+/// or CSV (`t,x,y,z,present`, `,`-separated with `.` decimals), from stdin,
+/// a file, or UDP datagrams.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Limits: a line may be at most 4096 bytes; a replayed file may \
-    pause at most 60 s between time stamps. Samples that cannot be a finger (time stamp \
+    pause at most 60 s between time stamps. Lines may end in LF, CRLF or CR and the first \
+    may open with a UTF-8 byte-order mark; UTF-16 and `;`- or tab-separated CSV are refused. Samples that cannot be a finger (time stamp \
     going backwards, a coordinate beyond ±2000 mm, a jump of more than 50 mm that 3 \
     samples in a row do not confirm) are dropped and counted in the report. With --udp, \
     a bad datagram is skipped and counted; 1000 bad datagrams in a row end the session.\n\n\

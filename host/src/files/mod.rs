@@ -21,6 +21,9 @@
 //!   is refused.
 //! - **Logs** ([`AppendLog`]): lines appended whole to a file written in
 //!   place, opened without blocking (a FIFO with no reader is refused).
+//! - **Text** ([`text`]): every text input, a whole file or a line
+//!   stream, read one way whatever wrote it (a byte-order mark, CRLF or
+//!   CR line ends; UTF-16 and a foreign CSV refused saying what they are).
 //! - **Output = input**: an output that is one of this process's inputs
 //!   (the same file, also through a link or another name) is refused
 //!   before anything is written, as is an output given twice
@@ -30,6 +33,7 @@ mod dest;
 pub mod kind;
 mod log;
 mod output;
+pub mod text;
 
 pub use log::AppendLog;
 pub use output::{Output, replace_input, write_whole};

@@ -121,7 +121,9 @@ pub(crate) fn every_file_whole(dir: &Path) -> Result<(), String> {
                 }
             }
         } else if name.ends_with(".json") {
-            if serde_json::from_slice::<serde_json::Value>(&bytes).is_err() {
+            // Round 10's are written as other tools write JSON on purpose.
+            let fixture = super::cases_r10::FIXTURE_JSON.contains(&name.as_str());
+            if !fixture && serde_json::from_slice::<serde_json::Value>(&bytes).is_err() {
                 return bad("not JSON");
             }
         } else if name.ends_with(".png") && !bytes.ends_with(&[0xAE, 0x42, 0x60, 0x82]) {

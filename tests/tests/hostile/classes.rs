@@ -112,9 +112,15 @@ pub const DEVICE_NAMED: &str = "r9-3 a link error names the port and the reply";
 pub const DEVICE_HEARD: &str = "r9-4 an unanswered request says what came instead";
 pub const DEVICE_LOSSY: &str =
     "r9-5 a link that loses replies: resent centroids, Ctrl-C mid-upload";
+/// Round 10: text as other tools and platforms write it.
+pub const TEXT_BOM: &str = "r10-1 a leading byte-order mark is skipped, a later one named";
+pub const TEXT_LINE_ENDS: &str = "r10-2 CRLF and a lone CR end a line";
+pub const TEXT_WIDE: &str = "r10-3 UTF-16 and UTF-32 are named, with what to do";
+pub const TEXT_NUL: &str = "r10-4 a NUL byte is named with its line";
+pub const TEXT_CSV: &str = "r10-5 a CSV not ours is named, never misread";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 83] = [
+pub const CLASSES: [&str; 88] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -198,4 +204,9 @@ pub const CLASSES: [&str; 83] = [
     DEVICE_NAMED,
     DEVICE_HEARD,
     DEVICE_LOSSY,
+    TEXT_BOM,
+    TEXT_LINE_ENDS,
+    TEXT_WIDE,
+    TEXT_NUL,
+    TEXT_CSV,
 ];

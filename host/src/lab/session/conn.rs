@@ -121,25 +121,31 @@ impl Drop for Conn {
 }
 
 /// Reads lines from `r`, calling `deliver` with each whole line (its
-/// newline and a `\r` cut; blank ones skipped) or the refusal of one longer
-/// than [`MAX_COMMAND_BYTES`] or not UTF-8; memory stays bounded by that
+/// newline and a `\r` cut, the first line's byte-order mark skipped; blank
+/// ones skipped) or the refusal of one longer than [`MAX_COMMAND_BYTES`],
+/// not UTF-8 or not text ([`crate::files::text::stream_line`]: UTF-16, a
+/// NUL byte, a later byte-order mark); memory stays bounded by that
 /// whatever the input. Stops at the end of input, a read error, or when
 /// `deliver` says so.
 pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Result<String, String>) -> bool) {
     /// Hands over the line gathered (none when it was skipped).
     fn hand(
         line: &mut Vec<u8>,
+        line_no: &mut usize,
         skipping: bool,
         deliver: &mut impl FnMut(Result<String, String>) -> bool,
     ) -> bool {
+        *line_no += 1;
         // Not read lossily: a replaced byte would make another command.
-        let text = match std::str::from_utf8(line) {
+        let wide = *line_no == 1 && crate::files::text::wide_encoding(line).is_some();
+        let text = match crate::files::text::stream_line(line, *line_no) {
             Ok(t) => Ok(t.trim().to_owned()),
-            Err(e) => Err(format!(
+            Err(_) if let (false, Err(e)) = (wide, std::str::from_utf8(line)) => Err(format!(
                 "bad command: the line is not UTF-8 (byte {} of {})",
                 e.valid_up_to() + 1,
                 line.len()
             )),
+            Err(e) => Err(format!("bad command: {e}")),
         };
         line.clear();
         skipping || text.as_ref().is_ok_and(String::is_empty) || deliver(text)
@@ -147,6 +153,7 @@ pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Result<String, String>) 
     let mut r = BufReader::with_capacity(8192, r);
     let mut line: Vec<u8> = Vec::with_capacity(MAX_COMMAND_BYTES);
     let mut skipping = false;
+    let mut line_no = 0;
     loop {
         let chunk = match r.fill_buf() {
             Ok([]) => break,
@@ -174,14 +181,14 @@ pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Result<String, String>) 
         let used = end.unwrap_or(chunk.len());
         r.consume(used);
         if end.is_some() {
-            go = go && hand(&mut line, skipping, &mut deliver);
+            go = go && hand(&mut line, &mut line_no, skipping, &mut deliver);
             skipping = false;
         }
         if !go {
             return;
         }
     }
-    hand(&mut line, skipping, &mut deliver);
+    hand(&mut line, &mut line_no, skipping, &mut deliver);
 }
 
 /// Starts `id`'s reader on a thread of its own.

@@ -164,11 +164,12 @@ impl Asked {
             Accepts::Number(min, max) => match t.parse::<f64>() {
                 Ok(v) if v.is_finite() && *min <= v && v <= *max => Ok(t.to_owned()),
                 _ => Err(format!(
-                    "`{}` is not an answer to `{}`: give a number from {} to {}",
+                    "`{}` is not an answer to `{}`: give a number from {} to {}{}",
                     t.escape_debug(),
                     self.column,
                     crate::limits::show(*min),
-                    crate::limits::show(*max)
+                    crate::limits::show(*max),
+                    crate::files::text::decimal_comma_hint(t)
                 )),
             },
         }
@@ -211,10 +212,8 @@ impl Lines {
     /// From a file, read whole (and dry-run before the device opens);
     /// `--responses -` is not a file but answers as asked ([`Piped`]).
     pub fn open(path: &Path) -> anyhow::Result<Self> {
-        let b = crate::files::read_input("--responses file", path, MAX_RESPONSES_BYTES)?;
-        let text = String::from_utf8(b).map_err(|_| {
-            InputError::new(format!("--responses {}: not UTF-8 text", path.display()))
-        })?;
+        let text =
+            crate::limits::read_text_file_up_to("--responses file", path, MAX_RESPONSES_BYTES)?;
         Ok(Self::from_text(
             format!("--responses {}", path.display()),
             &text,
@@ -440,7 +439,7 @@ pub fn stdin_lines() -> anyhow::Result<Receiver<Result<String, String>>> {
         .name("lmhost-answers".into())
         .spawn(move || {
             let mut stdin = std::io::stdin().lock();
-            loop {
+            for n in 1.. {
                 let mut line = Vec::new();
                 let max = crate::limits::MAX_LINE_BYTES as u64;
                 match (&mut stdin).take(max + 1).read_until(b'\n', &mut line) {
@@ -451,9 +450,17 @@ pub fn stdin_lines() -> anyhow::Result<Receiver<Result<String, String>>> {
                 let item = if !ended && line.len() as u64 > max {
                     Err(format!("a line longer than {max} bytes"))
                 } else {
-                    String::from_utf8(line)
-                        .map(|l| l.trim_end_matches(['\n', '\r']).to_owned())
-                        .map_err(|_| "a line that is not UTF-8 text".to_owned())
+                    // Read as every text line is (its first line's
+                    // byte-order mark skipped, UTF-16 named); said after
+                    // "stdin line N:".
+                    let bytes = line.strip_suffix(b"\n").unwrap_or(&line);
+                    crate::files::text::stream_line(bytes, n)
+                        .map(str::to_owned)
+                        .map_err(|e| {
+                            let head = format!("line {n} ");
+                            e.strip_prefix(&head)
+                                .map_or(e.clone(), |r| format!("the line {r}"))
+                        })
                 };
                 let stop = item.is_err();
                 if tx.send(item).is_err() || stop {

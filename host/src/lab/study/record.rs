@@ -311,6 +311,14 @@ pub fn read_trials(
         (header.len() + 1) as u64 + (plan.len() as u64).saturating_mul(cols.max_row_bytes() as u64);
     let bytes = read_own("trials file", path, max)?;
     let file = path.display();
+    // Saved by a spreadsheet since: its byte-order mark is skipped (CRLF
+    // the CSV reader takes), UTF-16 is said as such.
+    if let Some(enc) = crate::files::text::wide_encoding(&bytes) {
+        return Err(InputError::new(format!(
+            "cannot read trials file {file}: it is {enc} text, not UTF-8 (saved by another program?): save it as UTF-8"
+        )));
+    }
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&bytes);
     let split = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
     let (whole, tail) = bytes.split_at(split);
     let bad = |line: usize, msg: String| InputError::new(format!("{file} line {line}: {msg}"));
@@ -358,6 +366,12 @@ pub fn read_trials(
         let f: Vec<String> = rec.iter().map(str::to_owned).collect();
         if k == 0 {
             if f != cols.names() {
+                if let Some(why) = crate::files::text::foreign_csv(
+                    whole.lines().next().unwrap_or(""),
+                    "this protocol's columns",
+                ) {
+                    return Err(bad(1, why));
+                }
                 let at = cols.names().iter().zip(&f).position(|(a, b)| a != b);
                 return Err(bad(
                     1,

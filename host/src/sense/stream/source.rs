@@ -10,7 +10,13 @@
 //!   else its raw centroid; its other known keys are ignored, an unknown
 //!   key is refused as in the plain form;
 //! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; the
-//!   header line `t,x,y,z,present` is skipped; `#` starts a comment.
+//!   header line `t,x,y,z,present` is skipped; `#` starts a comment. A
+//!   line separated by `;` or tabs (a European-locale spreadsheet, its
+//!   `3,5` meaning 3.5) is refused as such.
+//!
+//! Lines are read as every text input is ([`crate::files::text`]): they
+//! end at LF, CRLF or a lone CR; a byte-order mark opening the first is
+//! skipped; UTF-16 and a NUL byte are refused naming the line.
 //!
 //! Units: seconds and millimetres. A time stamp lies in 0 to
 //! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
@@ -104,9 +110,7 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
     }
     // Said as what it is, not read as CSV and refused for a field it cut.
     if line.starts_with('\u{feff}') {
-        return Err(InputError::new(format!(
-            "line {line_no} starts with a byte-order mark (U+FEFF), which only the first line may"
-        )));
+        return Err(InputError::new(crate::files::text::bom_inside(line_no)));
     }
     if line.starts_with('[') {
         return Err(InputError::new(format!(
@@ -142,6 +146,9 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         {
             return Ok(None);
         }
+        if let Some(why) = crate::files::text::foreign_csv(line, "5 fields t,x,y,z,present") {
+            return Err(InputError::new(format!("line {line_no}: {why}")));
+        }
         if fields.len() != 5 {
             return Err(InputError::new(format!(
                 "line {line_no}: expected 5 CSV fields t,x,y,z,present, found {}",
@@ -151,8 +158,9 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         let num = |i: usize, name: &str| {
             let v = fields[i].parse::<f64>().map_err(|_| {
                 InputError::new(format!(
-                    "line {line_no}: {name} `{}` is not a number",
-                    fields[i]
+                    "line {line_no}: {name} `{}` is not a number{}",
+                    fields[i],
+                    crate::files::text::decimal_comma_hint(fields[i])
                 ))
             })?;
             crate::limits::exact_literal(fields[i], v)
@@ -193,17 +201,22 @@ struct LineSource<R> {
     reader: R,
     line_no: usize,
     buf: Vec<u8>,
+    /// The last line ended at a CR ([`next_line`]).
+    after_cr: bool,
     max_gap_s: Option<f64>,
     last_t_s: Option<f64>,
     done: bool,
 }
 
 /// One line, or `None` at the end; a line longer than [`MAX_LINE_BYTES`]
-/// is an error without reading the rest of it into memory.
+/// is an error without reading the rest of it into memory. A line ends at
+/// LF, CRLF or a lone CR (a classic Mac file, Excel for Mac's CSV):
+/// `after_cr` says the last one ended at a CR, whose LF is then skipped.
 fn next_line<R: BufRead>(
     reader: &mut R,
     buf: &mut Vec<u8>,
     line_no: usize,
+    after_cr: &mut bool,
 ) -> anyhow::Result<Option<()>> {
     buf.clear();
     loop {
@@ -215,8 +228,15 @@ fn next_line<R: BufRead>(
         if avail.is_empty() {
             return Ok((!buf.is_empty()).then_some(()));
         }
-        let (take, end) = match avail.iter().position(|&b| b == b'\n') {
-            Some(i) => (i, true),
+        if std::mem::take(after_cr) && avail[0] == b'\n' {
+            reader.consume(1);
+            continue;
+        }
+        let (take, end) = match avail.iter().position(|&b| b == b'\n' || b == b'\r') {
+            Some(i) => {
+                *after_cr = avail[i] == b'\r';
+                (i, true)
+            }
             None => (avail.len(), false),
         };
         if buf.len() + take > MAX_LINE_BYTES {
@@ -240,19 +260,19 @@ impl<R: BufRead> Iterator for LineSource<R> {
         while !self.done {
             self.line_no += 1;
             let line_no = self.line_no;
-            match next_line(&mut self.reader, &mut self.buf, line_no) {
+            match next_line(&mut self.reader, &mut self.buf, line_no, &mut self.after_cr) {
                 Ok(None) => self.done = true,
                 Err(e) => {
                     self.done = true;
                     return Some(Err(e));
                 }
                 Ok(Some(())) => {
-                    let Ok(text) = std::str::from_utf8(&self.buf) else {
-                        self.done = true;
-                        return Some(Err(InputError::new(format!(
-                            "line {line_no} is not UTF-8 text"
-                        ))
-                        .into()));
+                    let text = match crate::files::text::stream_line(&self.buf, line_no) {
+                        Ok(t) => t,
+                        Err(e) => {
+                            self.done = true;
+                            return Some(Err(InputError::new(e).into()));
+                        }
                     };
                     match parse_line(text, line_no) {
                         Ok(None) => {}
@@ -292,6 +312,7 @@ pub fn read_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<
         reader,
         line_no: 0,
         buf: Vec::new(),
+        after_cr: false,
         max_gap_s: None,
         last_t_s: None,
         done: false,
@@ -306,6 +327,7 @@ pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Resul
         reader,
         line_no: 0,
         buf: Vec::new(),
+        after_cr: false,
         max_gap_s: Some(MAX_REPLAY_GAP_S),
         last_t_s: None,
         done: false,

@@ -315,3 +315,55 @@ fn an_empty_or_blank_datagram_is_counted_bad_and_a_comment_is_not() {
         "the empty and the blank one"
     );
 }
+
+#[test]
+fn lines_read_the_same_whatever_wrote_them() {
+    let times = |bytes: &[u8], buffer: usize| -> Vec<String> {
+        let r = std::io::BufReader::with_capacity(buffer, bytes);
+        read_lines(r)
+            .map(|s| s.map_or_else(|e| format!("{e:#}"), |s| s.t_s.to_string()))
+            .collect()
+    };
+    let want = ["0", "0.5", "1"];
+    let lf = "0,0,0,200,1\n0.5,0,0,200,1\n1,0,0,200,1\n";
+    for text in [
+        lf.to_owned(),
+        format!("\u{feff}{}", lf.replace('\n', "\r\n")),
+        lf.replace('\n', "\r"),
+        lf.trim_end().replace('\n', "\r"),
+        format!("{lf}\n\r\n\n"),
+    ] {
+        // A CRLF split between two reads is one line end.
+        for buffer in [1, 12, 13, 8192] {
+            let got = times(text.as_bytes(), buffer);
+            assert_eq!(got, want, "{text:?} in {buffer}-byte reads");
+        }
+    }
+    // Line numbers count CR-ended lines as an editor does.
+    let v = times(b"0,0,0,200,1\r0.5,0,0,200,1\rx\r", 8192);
+    assert_eq!(
+        v[2],
+        "line 3: expected 5 CSV fields t,x,y,z,present, found 1"
+    );
+    let utf16: Vec<u8> = "0,0,0,200,1\n"
+        .encode_utf16()
+        .flat_map(u16::to_le_bytes)
+        .collect();
+    let v = times(&[&b"\xff\xfe"[..], &utf16].concat(), 8192);
+    assert_eq!(
+        v,
+        ["line 1 is UTF-16 (little-endian) text, not UTF-8: send or save it as UTF-8"]
+    );
+    let v = times(b"0;3,5;0;200;1\n", 8192);
+    assert!(
+        v[0].starts_with("line 1: fields separated by `;` and decimal commas (`3,5`)"),
+        "{v:?}"
+    );
+    let v = times(b"0,3,5,0,200,1\n0,x,0,200,1\n", 8192);
+    assert_eq!(
+        v[0],
+        "line 1: expected 5 CSV fields t,x,y,z,present, found 6"
+    );
+    let v = times(b"0,3;5,0,200,1\n", 8192);
+    assert!(v[0].starts_with("line 1: fields separated by `;`"), "{v:?}");
+}
