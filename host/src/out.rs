@@ -33,8 +33,20 @@ pub fn stdout_result(r: std::io::Result<()>) -> anyhow::Result<()> {
 }
 
 /// Writes `args` to stdout (line-buffered: a full line is written at once).
+/// On a terminal, what a terminal would act on (a scene's name, a path
+/// or a prompt holding an escape sequence) is shown escaped ([`visible`]),
+/// as `ls` shows such file names; into a pipe or a file the text is kept
+/// byte for byte.
 pub fn stdout_fmt(args: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
-    stdout_result(std::io::stdout().lock().write_fmt(args))
+    use std::io::IsTerminal as _;
+    static TERMINAL: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let terminal = *TERMINAL.get_or_init(|| std::io::stdout().is_terminal());
+    let mut out = std::io::stdout().lock();
+    if terminal {
+        stdout_result(out.write_all(visible(&args.to_string()).as_bytes()))
+    } else {
+        stdout_result(out.write_fmt(args))
+    }
 }
 
 /// Flushes stdout (what `main` does last).

@@ -150,6 +150,42 @@ fn bad_scene_file_names_file_and_field() {
     );
 }
 
+/// What stdout echoes from a file (a scene's name) is shown escaped on a
+/// terminal, as `ls` shows such names, and kept byte for byte in a pipe.
+#[test]
+fn a_name_is_shown_escaped_on_a_terminal_and_kept_in_a_pipe() {
+    use std::io::Read as _;
+    use std::process::Stdio;
+    let d = scratch_dir("tty-name");
+    let scene = d.join("s.toml");
+    let text = std::fs::read_to_string(scene_path()).unwrap();
+    let text = text.replacen("name = \"", "name = \"\\u001b[2J\\u202e", 1);
+    std::fs::write(&scene, text).unwrap();
+    let args = ["plan", "--scene", scene.to_str().unwrap()];
+    let piped = run(&args);
+    assert!(
+        piped.status.success(),
+        "{}",
+        String::from_utf8_lossy(&piped.stderr)
+    );
+    let piped = String::from_utf8(piped.stdout).unwrap();
+    assert!(piped.contains("\u{1b}[2J\u{202e}paper"), "{piped:?}");
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let status = Command::new(lmhost())
+        .args(args)
+        .stdout(Stdio::from(pty.slave))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    // The child is gone: what it wrote is in the terminal's buffer, and
+    // the read after it ends with EIO.
+    let mut shown = Vec::new();
+    let _ = std::fs::File::from(pty.master).read_to_end(&mut shown);
+    let shown = String::from_utf8(shown).unwrap();
+    assert!(shown.contains("\\u{1b}[2J\\u{202e}paper"), "{shown:?}");
+    assert!(!shown.contains(['\u{1b}', '\u{202e}']), "{shown:?}");
+}
+
 /// A file of another kind than the flag takes says what it is and what
 /// it is for (a library given as `--scene` failed on "unknown field
 /// `stimulus`, expected one of `name`, `directivity`, ...").
