@@ -33,6 +33,36 @@ fn force_n(out: &Path) -> f64 {
     s["force"]["step0_n"].as_f64().unwrap()
 }
 
+/// A scene saved on Windows (a byte-order mark, CRLF) is written back so:
+/// every line it had stays byte for byte, the new table ends its lines
+/// as the file does.
+#[test]
+fn a_scene_is_written_back_as_its_editor_saved_it() {
+    let d = scratch_dir("cal-crlf");
+    let scene = d.join("rig.toml");
+    let windows = format!("\u{feff}{}", paper_scene().replace('\n', "\r\n"));
+    std::fs::write(&scene, &windows).unwrap();
+    let s = scene.to_str().unwrap();
+    let out = d.join("out.toml");
+    for dest in [["--out", out.to_str().unwrap()], ["--write", "--json"]] {
+        let mut args = vec!["calibrate", "force", "--measured", "0.022", "--scene", s];
+        args.extend(dest);
+        ok(&args);
+    }
+    for written in [&out, &scene] {
+        let text = std::fs::read_to_string(written).unwrap();
+        assert!(text.starts_with(&windows), "{}", written.display());
+        assert!(text.contains("[calibration]\r\n"), "{}", written.display());
+        assert!(
+            !text.replace("\r\n", "").contains('\n'),
+            "{}",
+            written.display()
+        );
+        assert_eq!(text.matches('\u{feff}').count(), 1);
+        assert!(Scene::load(written).unwrap().calibration.is_some());
+    }
+}
+
 #[test]
 fn force_calibration_goes_into_the_scene_and_simulate_carries_it() {
     let d = scratch_dir("cal-force");

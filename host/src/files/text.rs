@@ -146,6 +146,46 @@ pub fn foreign_csv(line: &str, want: &str) -> Option<String> {
     ))
 }
 
+/// How a text file is laid out on disk beyond its text: a byte-order
+/// mark, its line ends. What [`decode`] reads away, so a file lmhost
+/// rewrites (`calibrate --write`: every other line kept) is written back
+/// as its editor saved it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Layout {
+    /// It opens with a UTF-8 byte-order mark.
+    pub bom: bool,
+    /// Its line end: its first one (`\n`, `\r\n` or `\r`).
+    pub line_end: &'static str,
+}
+
+impl Layout {
+    /// The layout of `bytes` (a whole file).
+    pub fn of(bytes: &[u8]) -> Self {
+        let line_end = match bytes.iter().position(|&b| b == b'\n' || b == b'\r') {
+            Some(i) if bytes[i] == b'\r' && bytes.get(i + 1) == Some(&b'\n') => "\r\n",
+            Some(i) if bytes[i] == b'\r' => "\r",
+            _ => "\n",
+        };
+        Self {
+            bom: bytes.starts_with(b"\xef\xbb\xbf"),
+            line_end,
+        }
+    }
+
+    /// `text` (as [`decode`] gives it: LF line ends) laid out so.
+    pub fn encode(&self, text: &str) -> Vec<u8> {
+        let mut out = Vec::with_capacity(text.len() + 3);
+        if self.bom {
+            out.extend_from_slice("\u{feff}".as_bytes());
+        }
+        match self.line_end {
+            "\n" | "" => out.extend_from_slice(text.as_bytes()),
+            end => out.extend_from_slice(text.replace('\n', end).as_bytes()),
+        }
+        out
+    }
+}
+
 /// A hint for a number refused in `field` that reads as one with a
 /// decimal comma (`3,5`): how to write it, or nothing.
 pub fn decimal_comma_hint(field: &str) -> String {
@@ -176,6 +216,20 @@ mod tests {
         // No final newline, blank lines after: as they were.
         assert_eq!(decode(b"a\r\n\r\n\r\n".to_vec()).unwrap(), "a\n\n\n");
         assert_eq!(decode(b"a".to_vec()).unwrap(), "a");
+    }
+
+    #[test]
+    fn a_layout_read_away_is_written_back() {
+        for bytes in [
+            &b"a = 1\nb = 2\n"[..],
+            b"\xef\xbb\xbfa = 1\r\nb = 2\r\n",
+            b"a = 1\r\nb = 2",
+            b"a = 1\rb = 2\r",
+            b"\xef\xbb\xbfa = 1",
+        ] {
+            let text = decode(bytes.to_vec()).unwrap();
+            assert_eq!(Layout::of(bytes).encode(&text), bytes, "{bytes:?}");
+        }
     }
 
     #[test]

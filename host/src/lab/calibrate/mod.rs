@@ -110,14 +110,22 @@ pub fn write_scene(
             e.0
         ))
     })?;
+    if *dest == Dest::Print {
+        return Ok(None);
+    }
+    // Written as the scene's editor saved it (a byte-order mark, CRLF),
+    // which reading it read away: the other lines stay byte for byte.
+    let raw =
+        crate::files::read_input("scene file", scene_path, crate::limits::MAX_TEXT_FILE_BYTES)?;
+    let bytes = crate::files::text::Layout::of(&raw).encode(&updated);
     match dest {
         Dest::Print => Ok(None),
         Dest::Out(p) => {
-            crate::files::write_whole(p, updated.as_bytes())?;
+            crate::files::write_whole(p, &bytes)?;
             Ok(Some(p.clone()))
         }
         Dest::Write => {
-            crate::files::replace_input(scene_path, updated.as_bytes())?;
+            crate::files::replace_input(scene_path, &bytes)?;
             Ok(Some(scene_path.to_path_buf()))
         }
     }
