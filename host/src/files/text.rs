@@ -220,15 +220,15 @@ mod tests {
 
     #[test]
     fn a_layout_read_away_is_written_back() {
-        for bytes in [
-            &b"a = 1\nb = 2\n"[..],
-            b"\xef\xbb\xbfa = 1\r\nb = 2\r\n",
-            b"a = 1\r\nb = 2",
-            b"a = 1\rb = 2\r",
-            b"\xef\xbb\xbfa = 1",
-        ] {
-            let text = decode(bytes.to_vec()).unwrap();
-            assert_eq!(Layout::of(bytes).encode(&text), bytes, "{bytes:?}");
+        // Each mark and line end, with a final line end and without.
+        for bom in ["", "\u{feff}"] {
+            for end in ["\n", "\r\n", "\r"] {
+                for last in [end, ""] {
+                    let bytes = format!("{bom}a = 1{end}b = 2{last}").into_bytes();
+                    let text = decode(bytes.clone()).unwrap();
+                    assert_eq!(Layout::of(&bytes).encode(&text), bytes, "{bytes:?}");
+                }
+            }
         }
     }
 
