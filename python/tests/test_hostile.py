@@ -100,9 +100,11 @@ ENDINGS = [
 
 @pytest.mark.parametrize("name,sig", ENDINGS, ids=[e[0] for e in ENDINGS])
 def test_the_session_child_ends_with_its_owner_and_leaves_the_array_silent(
-        lmhost_bin, root, sim, name, sig):
+        lmhost_bin, root, sim, name, sig, tmp_path):
     how = "thread" if name.startswith("thread") else ("exit" if sig is None else "sleep")
-    env = dict(os.environ, LMHOST_BIN=str(lmhost_bin))
+    # An owner that dies runs no finalisers: the folder its Session made
+    # for the control socket stays, here in the test's own folder.
+    env = dict(os.environ, LMHOST_BIN=str(lmhost_bin), TMPDIR=str(tmp_path))
     orphans = []
     owner = subprocess.Popen(
         [sys.executable, "-c", OWNER, str(root / LIBRARY), sim, how],
