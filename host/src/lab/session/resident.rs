@@ -58,21 +58,20 @@ impl Session {
         // A stop is looked at between entries (an upload stops between
         // its frames by itself): nothing half-uploaded is committed, and
         // the device was stopped before the first.
-        let doing = |i: usize, id: &str| format!("uploading stimulus `{id}`, {} of {n}", i + 1);
         for i in 0..n {
-            if crate::stop::requested() {
-                let id = self.loaded[i].id.clone();
-                return Err(crate::stop::SetUpInterrupted::new(doing(i, &id)).into());
-            }
-            match self.load_into(i, i as u8) {
-                Ok(()) => {}
+            let loaded = (!crate::stop::requested()).then(|| self.load_into(i, i as u8));
+            match loaded {
+                Some(Ok(())) => {}
                 // What fits is resident; the others load on demand.
-                Err(LoadError::Full) => break,
-                Err(LoadError::Other(_)) if crate::stop::requested() => {
-                    let id = self.loaded[i].id.clone();
-                    return Err(crate::stop::SetUpInterrupted::new(doing(i, &id)).into());
+                Some(Err(LoadError::Full)) => break,
+                Some(Err(LoadError::Other(e))) if !crate::stop::requested() => return Err(e),
+                // A stop asked before this entry, or one that cut its
+                // upload short.
+                _ => {
+                    let id = &self.loaded[i].id;
+                    let doing = format!("uploading stimulus `{id}`, {} of {n}", i + 1);
+                    return Err(crate::stop::SetUpInterrupted::new(doing).into());
                 }
-                Err(LoadError::Other(e)) => return Err(e),
             }
         }
         Ok(())
