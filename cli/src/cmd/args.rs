@@ -90,6 +90,17 @@ impl DeviceArgs {
         self.port.lease.unwrap_or(lm_proto::DEFAULT_LEASE_MS)
     }
 
+    /// Refuses `--lease` for `command`, which plays nothing: the lease is
+    /// what a play carries, so it would be dropped without a word.
+    pub fn plays_nothing(&self, command: &str) -> Result<(), lmhost::InputError> {
+        match self.port.lease {
+            Some(_) => Err(lmhost::InputError::new(format!(
+                "--lease applies to what lmhost plays; `lmhost {command}` plays nothing"
+            ))),
+            None => Ok(()),
+        }
+    }
+
     /// Loads the scene and opens the device ([`lmhost::device::connect::open`]).
     /// A scene is refused for the LM firmware, which holds the array it
     /// was given with its upload and would not read it.

@@ -31,10 +31,11 @@ pub struct ReadArgs {
     /// Serial port of the gauge, or `sim` for the simulated ZTS-50N.
     #[arg(long, value_name = "PORT")]
     port: String,
-    /// The gauge's protocol.
-    #[arg(long, value_enum, default_value_t = Model::Imada)]
-    model: Model,
-    /// Baud rate [default: the model's factory setting].
+    /// The gauge's protocol [default: imada]; not with `--port sim`.
+    #[arg(long, value_enum)]
+    model: Option<Model>,
+    /// Baud rate [default: the model's factory setting]; not with `--port
+    /// sim`, which has no serial link.
     #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
     baud: Option<u32>,
     /// Sample for S seconds and print the median (the paper's 2 s).
@@ -83,10 +84,11 @@ impl ReadArgs {
     fn run(self) -> anyhow::Result<()> {
         let options = GaugeOptions {
             port: self.port.clone(),
-            model: self.model.model(),
+            model: self.model.map(Model::model),
             baud: self.baud,
             sim_depth_mm: self.sim_depth,
             seed: self.seed,
+            flags: "--",
         };
         let mut gauge = open_gauge(&options)?;
         let Some(for_s) = self.for_s else {

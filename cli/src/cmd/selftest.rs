@@ -43,6 +43,7 @@ pub fn describe(t: &SelfTest) -> String {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
+        self.device.plays_nothing("selftest")?;
         let mut dev = self.device.open()?;
         let t = dev.self_test()?;
         if self.json {

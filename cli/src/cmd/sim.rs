@@ -36,9 +36,9 @@ pub struct Args {
     /// (rates: ber, drop, dup, truncate; `cut=BYTES` kills the link).
     #[arg(long, value_name = "SPEC")]
     faults: Option<String>,
-    /// Seed of the fault generator.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    /// Seed of the fault generator (with --faults) [default: 1].
+    #[arg(long)]
+    seed: Option<u64>,
     /// Simulate an SPI loopback jumper for `lmhost selftest` [default:
     /// none: the self-test is not supported, as on QEMU].
     #[arg(long, value_enum, value_name = "JUMPER")]
@@ -52,11 +52,14 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
+        if self.seed.is_some() && self.faults.is_none() {
+            lmhost::bad_input!("--seed seeds the fault generator: it applies with --faults only");
+        }
         let faults = match &self.faults {
             Some(spec) => Some((
                 spec.parse::<Faults>()
                     .map_err(|e| lmhost::InputError::new(format!("--faults: {e}")))?,
-                self.seed,
+                self.seed.unwrap_or(1),
             )),
             None => None,
         };

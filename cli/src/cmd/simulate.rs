@@ -92,8 +92,9 @@ pub struct Args {
     stimulus: Option<String>,
     /// Render the paper's 3 x 5 grid instead of a single stimulus: rows
     /// LM-S and LM-M (--foci, or 4 if --foci is 1) at --freq with --step,
-    /// then LM-S at 25 Hz with 4 mm steps; columns A = 2-6 mm.
-    #[arg(long)]
+    /// then LM-S at 25 Hz with 4 mm steps; columns A = 2-6 mm (so
+    /// --radius, which the columns replace, is refused).
+    #[arg(long, conflicts_with = "radius")]
     compare: bool,
     /// Printed figure width in mm, 60..=500 (one column 88, two columns
     /// 180); tick labels are 7.5 pt at that width.

@@ -36,12 +36,15 @@ pub struct Common {
     /// Speed, mm/s (the paper's 5).
     #[arg(long, value_name = "MM/S", default_value_t = PAPER_SPEED_MM_S, allow_negative_numbers = true)]
     speed: f64,
-    /// The controller's pushing axis: A, B or C.
-    #[arg(long, default_value = "A", value_parser = parse_axis)]
-    axis: Axis,
-    /// Micrometres per pulse of the stage (its lead and micro-stepping).
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
-    step_um: f64,
+    /// The controller's pushing axis: A, B or C [default: A]. The
+    /// controller's settings (--axis, --step-um, --baud) do not apply to
+    /// `--port sim` and are refused with it.
+    #[arg(long, value_parser = parse_axis)]
+    axis: Option<Axis>,
+    /// Micrometres per pulse of the stage (its lead and micro-stepping)
+    /// [default: 1].
+    #[arg(long, value_name = "UM")]
+    step_um: Option<f64>,
     /// Baud rate [default: 9600].
     #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
     baud: Option<u32>,
@@ -124,6 +127,7 @@ impl Common {
             axis: self.axis,
             step_um: self.step_um,
             baud: self.baud,
+            flags: "--",
         })
     }
 }

@@ -6,6 +6,7 @@ use super::QueryArgs;
 
 /// Prints the device's status.
 pub fn run(q: &QueryArgs) -> anyhow::Result<()> {
+    q.device.plays_nothing("status")?;
     let (mut dev, where_) = q.open()?;
     let s = dev.status().map_err(|e| {
         port_context(e, &where_, "asking the device for its status", || {

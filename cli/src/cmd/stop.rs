@@ -12,6 +12,7 @@ pub struct Args {
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
+        self.device.plays_nothing("stop")?;
         let mut dev = self.device.open()?;
         dev.stop()?;
         lmhost::outln!("stopped")?;

@@ -18,6 +18,10 @@ use lmhost::sense::stream::synthetic::FingerTrack;
 /// does not wait on it).
 const FILTER_SCORE_S: f64 = 20.0;
 
+/// `--seconds` when none is given: the synthetic finger's length, UDP's
+/// idle time.
+const DEFAULT_SECONDS: f64 = 10.0;
+
 /// Stream finger centroids (mm, scene frame) to the device.
 ///
 /// Input lines are JSON (`{"t":0.011,"x":1.2,"y":-0.4,"z":201,"present":true}`)
@@ -61,14 +65,10 @@ pub struct Args {
     #[arg(long)]
     synthetic: bool,
     /// Synthetic finger: seconds to stream; UDP: stop after this long idle.
-    /// At most 86400 (3600 with --synthetic --fast).
-    #[arg(
-        long,
-        value_name = "S",
-        default_value_t = 10.0,
-        allow_negative_numbers = true
-    )]
-    seconds: f64,
+    /// At most 86400 (3600 with --synthetic --fast) [default: 10]. Lines
+    /// (stdin, --input) end with their input: refused there.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    seconds: Option<f64>,
     /// Synthetic finger: away from START to END seconds, e.g. `4,5`.
     #[arg(long, value_name = "START,END")]
     away: Option<String>,
@@ -84,7 +84,8 @@ pub struct Args {
     /// in a flat 2×2 facing +z].
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
-    /// Replay files and the synthetic finger as fast as the link allows.
+    /// Replay files and the synthetic finger as fast as the link allows
+    /// (stdin and UDP are streamed as they arrive: refused there).
     #[arg(long)]
     fast: bool,
     /// Print the report as JSON.
@@ -121,7 +122,22 @@ impl Args {
         } else {
             lmhost::limits::MAX_SECONDS
         };
-        let seconds = lmhost::limits::duration_s("--seconds", self.seconds, max_s)?;
+        // A source that ends by itself (lines on stdin or in a file) has
+        // no length to give, and only a recording has a pace to skip.
+        let lines = !self.synthetic && self.udp.is_none();
+        if self.seconds.is_some() && lines {
+            lmhost::bad_input!(
+                "--seconds applies to --synthetic (its length) and --udp (its idle time): lines from stdin or --input end with their input"
+            );
+        }
+        let from_file = self.input.as_ref().is_some_and(|p| p.as_os_str() != "-");
+        if self.fast && !(self.synthetic || from_file) {
+            lmhost::bad_input!(
+                "--fast applies to --synthetic and --input FILE: stdin and --udp are streamed as they arrive"
+            );
+        }
+        let asked_s = self.seconds.unwrap_or(DEFAULT_SECONDS);
+        let seconds = lmhost::limits::duration_s("--seconds", asked_s, max_s)?;
         let lead_ms = self.lead_ms.unwrap_or(0.0);
         if !lead_ms.is_finite() || lead_ms.abs() > 1000.0 {
             lmhost::bad_input!("--lead-ms {lead_ms} must be within ±1000");
@@ -157,7 +173,7 @@ impl Args {
         // device's housekeeping (the AUTD3 staleness mute) running while a
         // live source is silent.
         let (samples, pace) = if self.synthetic {
-            let secs = self.seconds;
+            let secs = asked_s;
             (
                 on_thread(move || track.samples().take_while(move |s| s.t_s < secs).map(Ok))?,
                 pace,

@@ -180,9 +180,10 @@ struct InstrumentArgs {
     /// simulated stage's finger pad).
     #[arg(long, value_name = "PORT")]
     gauge: Option<String>,
-    /// The gauge's protocol.
-    #[arg(long, value_enum, default_value_t = super::gauge::Model::Imada)]
-    gauge_model: super::gauge::Model,
+    /// The gauge's protocol [default: imada]. The real gauge's settings
+    /// (--gauge-model, --gauge-baud) do not apply to `--gauge sim`.
+    #[arg(long, value_enum)]
+    gauge_model: Option<super::gauge::Model>,
     /// The gauge's baud rate [default: the model's factory rate].
     #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
     gauge_baud: Option<u32>,
@@ -202,12 +203,14 @@ struct InstrumentArgs {
     /// The stage's speed, mm/s (the paper's 5).
     #[arg(long, value_name = "MM/S", default_value_t = lmhost::device::instruments::stage::PAPER_SPEED_MM_S, allow_negative_numbers = true)]
     stage_speed: f64,
-    /// The controller's pushing axis: A, B or C.
-    #[arg(long, default_value = "A", value_parser = super::stage::parse_axis)]
-    stage_axis: lmhost::device::instruments::Axis,
-    /// Micrometres per pulse of the stage.
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
-    stage_step_um: f64,
+    /// The controller's pushing axis: A, B or C [default: A]. The
+    /// controller's settings (--stage-axis, --stage-step-um, --stage-baud)
+    /// do not apply to `--stage sim`.
+    #[arg(long, value_parser = super::stage::parse_axis)]
+    stage_axis: Option<lmhost::device::instruments::Axis>,
+    /// Micrometres per pulse of the stage [default: 1].
+    #[arg(long, value_name = "UM")]
+    stage_step_um: Option<f64>,
     /// The stage controller's baud rate [default: 9600].
     #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
     stage_baud: Option<u32>,
@@ -243,13 +246,15 @@ impl InstrumentArgs {
                 axis: self.stage_axis,
                 step_um: self.stage_step_um,
                 baud: self.stage_baud,
+                flags: "--stage-",
             },
             gauge: GaugeOptions {
                 port: gauge.clone(),
-                model: self.gauge_model.model(),
+                model: self.gauge_model.map(super::gauge::Model::model),
                 baud: self.gauge_baud,
                 sim_depth_mm: None,
                 seed: None,
+                flags: "--gauge-",
             },
             contact_mm,
             rest_mm: self.rest.unwrap_or(contact_mm),

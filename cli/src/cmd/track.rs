@@ -97,8 +97,10 @@ struct TrackFlags {
     /// FILE.timestamps.npy beside it.
     #[arg(long, value_name = "FILE.npy")]
     record: Option<PathBuf>,
-    /// Replay as fast as possible instead of at the recorded speed.
-    #[arg(long)]
+    /// Replay as fast as possible instead of at the recorded speed (a
+    /// recording or the synthetic finger: the camera and a stream come as
+    /// they come).
+    #[arg(long, conflicts_with_all = ["camera", "stream"])]
     fast: bool,
     /// One JSON object per frame per line.
     #[arg(long)]
@@ -197,6 +199,11 @@ impl Args {
         let opts = track.options(port.port.is_some())?;
         let (replan, json) = (opts.z_profile.is_some_and(|z| z.replan()), opts.json);
         let given = stimulus.given();
+        if let (Some(f), None) = (port.spec().link_settings_given().first(), &port.port) {
+            lmhost::bad_input!(
+                "{f} applies with --port only: without it nothing is streamed to a device"
+            );
+        }
         if let (Some(f), None) = (given.first(), &port.port) {
             lmhost::bad_input!(
                 "{f} applies with --port only: the stimulus is planned for and played on the device"

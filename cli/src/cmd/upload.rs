@@ -69,8 +69,9 @@ pub struct Args {
     /// Slot to write [default: one that is neither playing nor queued].
     #[arg(long)]
     slot: Option<u8>,
-    /// Upload and commit, but do not play.
-    #[arg(long, conflicts_with = "hold")]
+    /// Upload and commit, but do not play (so --hold and --lease, which
+    /// apply to a play, are refused).
+    #[arg(long, conflicts_with_all = ["hold", "lease"])]
     no_play: bool,
     /// Play without tracking: the device sounds without a finger (no
     /// gating, no correction) while lmhost holds it.

@@ -65,7 +65,8 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         SWEEP_IGNORED "upload --port autd3:emulator --encoding raw" .err("--encoding applies to the LM firmware's serial link");
         SWEEP_IGNORED "stream --port autd3:emulator --synthetic --seconds 0.3 --fast --lease 5"
                       .err("--lease applies to the LM firmware's serial link");
-        SWEEP_IGNORED "upload --port {port} --baud 9600 --tries 3 --lease 5 --encoding raw --no-play" .ok();
+        SWEEP_IGNORED "upload --port {port} --baud 9600 --tries 3 --encoding raw --no-play" .ok();
+        SWEEP_IGNORED "upload --port {port} --lease 5 --no-play" .err("cannot be used with");
         // A rig's scene names an AUTD3's devices; the LM firmware has its
         // array from the upload.
         SWEEP_IGNORED "status --port {port} --scene {scenes}/paper.toml" .err("--scene applies to an AUTD3 port");
@@ -109,8 +110,10 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
                          .err("µm/pulse is outside");
         SWEEP_EVERY_PATH "stage move --port {dir}/r6/no-stage --min 0 --max 10 --to 1 --step-um nan"
                          .err("µm/pulse is outside");
-        // A step in range still drives the twin.
-        SWEEP_EVERY_PATH "stage move --port sim --to 1 --step-um 0.5" .ok().out("at 1 mm");
+        // A step in range is still refused by the twin, which has no
+        // pulses: it would be ignored.
+        SWEEP_EVERY_PATH "stage move --port sim --to 1 --step-um 0.5"
+                         .err("--step-um does not apply to the simulated stage");
         SWEEP_EVERY_PATH "study run {scenes}/../studies/paper-exp3.toml --port autd3:emulator \
                           --out {dir}/r6/out --time-scale 0.02 --responses {dir}/exp3/same.txt \
                           --participant step --finger synthetic --stage sim --gauge sim \

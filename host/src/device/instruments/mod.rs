@@ -45,7 +45,8 @@ pub use gauge::{ForceGauge, Reading, Series};
 pub use imada::Imada;
 pub use mark10::Mark10;
 pub use open::{
-    GaugeModel, GaugeOptions, SIM, StageOptions, StagePort, open_gauge, open_rig, open_stage,
+    GaugeModel, GaugeOptions, SIM, StageOptions, StagePort, check_rig, open_gauge, open_rig,
+    open_stage,
 };
 pub use port::Port;
 pub use press::{PressError, PressPlan, Pressed, press};

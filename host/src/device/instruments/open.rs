@@ -41,19 +41,59 @@ impl GaugeModel {
 pub struct GaugeOptions {
     /// A serial port path, or [`SIM`].
     pub port: String,
-    /// Its protocol.
-    pub model: GaugeModel,
-    /// Baud rate; the model's factory rate when `None`.
+    /// Its protocol [default: [`GaugeModel::Imada`]]; the twin has none
+    /// and refuses one given.
+    pub model: Option<GaugeModel>,
+    /// Baud rate; the model's factory rate when `None`. The twin has no
+    /// serial link and refuses one given.
     pub baud: Option<u32>,
     /// For the twin: how deep its probe sits in the finger pad, mm.
     pub sim_depth_mm: Option<f64>,
     /// For the twin: the noise seed [default: 1]; a real gauge refuses one.
     pub seed: Option<u64>,
+    /// How the command line names `model` and `baud`: `--` + `model`
+    /// (`lmhost gauge read`), or with a prefix (`--gauge-` in `study run`).
+    pub flags: &'static str,
+}
+
+impl GaugeOptions {
+    /// The settings of a gauge on a serial port given, by flag name: the
+    /// twin has no protocol and no serial link.
+    fn serial_settings_given(&self) -> Vec<String> {
+        given_flags(
+            self.flags,
+            &[
+                ("model", self.model.is_some()),
+                ("baud", self.baud.is_some()),
+            ],
+        )
+    }
+}
+
+/// `prefix` + the name of each setting given, in order.
+fn given_flags(prefix: &str, settings: &[(&str, bool)]) -> Vec<String> {
+    settings
+        .iter()
+        .filter(|(_, given)| *given)
+        .map(|(name, _)| format!("{prefix}{name}"))
+        .collect()
+}
+
+/// The one refusal of a real instrument's setting (`given`, by flag
+/// name) given to its simulated twin (`twin`), which would ignore it.
+fn twin_refuses(given: &[String], twin: &str, has_not: &str) -> Result<(), InputError> {
+    match given.first() {
+        None => Ok(()),
+        Some(flag) => Err(InputError::new(format!(
+            "{flag} does not apply to the simulated {twin} (port {SIM}), which has no {has_not}: leave it out, or give the real one's serial port"
+        ))),
+    }
 }
 
 /// Open the gauge `o` names.
 pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
     if o.port == SIM {
+        sim_gauge_check(o)?;
         let depth = o.sim_depth_mm.unwrap_or(0.0);
         if !(depth.is_finite() && (0.0..=20.0).contains(&depth)) {
             return Err(InputError::new(format!(
@@ -79,11 +119,21 @@ pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
             return Err(InputError::new(format!("{what} needs port {SIM}, not {}", o.port)).into());
         }
     }
-    let baud = o.baud.unwrap_or(o.model.default_baud());
-    Ok(match o.model {
+    let model = o.model.unwrap_or(GaugeModel::Imada);
+    let baud = o.baud.unwrap_or(model.default_baud());
+    Ok(match model {
         GaugeModel::Imada => Box::new(Imada::open(&o.port, baud)?),
         GaugeModel::Mark10 => Box::new(Mark10::open(&o.port, baud)?),
     })
+}
+
+/// Refuses what the gauge twin would ignore: a protocol, a baud rate.
+fn sim_gauge_check(o: &GaugeOptions) -> Result<(), InputError> {
+    twin_refuses(
+        &o.serial_settings_given(),
+        "gauge",
+        "protocol or serial link",
+    )
 }
 
 /// What a stage's port names: `sim`, `sim:fail-after=N` (the twin, silent
@@ -133,12 +183,31 @@ pub struct StageOptions {
     pub limits: StageLimits,
     /// Speed, mm/s.
     pub speed_mm_s: f64,
-    /// The controller's pushing axis.
-    pub axis: Axis,
-    /// Micrometres per pulse.
-    pub step_um: f64,
+    /// The controller's pushing axis [default: A].
+    pub axis: Option<Axis>,
+    /// Micrometres per pulse [default: 1].
+    pub step_um: Option<f64>,
     /// Baud rate ([`QT_BAUD`] when `None`).
     pub baud: Option<u32>,
+    /// How the command line names `axis`, `step_um` and `baud`: `--` +
+    /// `axis`, `step-um`, `baud` (`lmhost stage`), or with a prefix
+    /// (`--stage-` in `study run`).
+    pub flags: &'static str,
+}
+
+impl StageOptions {
+    /// The controller's settings given, by flag name: the twin has one
+    /// axis, no pulses and no serial link.
+    fn controller_settings_given(&self) -> Vec<String> {
+        given_flags(
+            self.flags,
+            &[
+                ("axis", self.axis.is_some()),
+                ("step-um", self.step_um.is_some()),
+                ("baud", self.baud.is_some()),
+            ],
+        )
+    }
 }
 
 /// Open the stage `o` names; a twin starts at 0, or at the soft limit
@@ -153,8 +222,8 @@ pub fn open_stage(o: &StageOptions) -> anyhow::Result<Box<dyn Stage>> {
 /// The controller's configuration `o` gives.
 fn qt_config(o: &StageOptions) -> QtConfig {
     QtConfig {
-        axis: o.axis,
-        step_um: o.step_um,
+        axis: o.axis.unwrap_or(Axis::A),
+        step_um: o.step_um.unwrap_or(1.0),
         limits: o.limits,
         speed_mm_s: o.speed_mm_s,
         accel_ms: 100,
@@ -164,10 +233,10 @@ fn qt_config(o: &StageOptions) -> QtConfig {
 }
 
 /// The twin of the stage `o` names; its options are checked as the
-/// controller's are (a step the twin does not use is still refused when
-/// the rig would refuse it).
+/// controller's are (a step the rig would refuse is refused as such), then
+/// a setting of the controller's the twin would ignore is refused.
 fn sim_stage(o: &StageOptions, fail_after: Option<u32>) -> anyhow::Result<SimStage> {
-    qt_config(o).check(&o.port)?;
+    sim_stage_check(o)?;
     let home = 0.0f64.clamp(o.limits.min_mm, o.limits.max_mm);
     let mut stage = SimStage::new(Clock::real(), o.limits, home)?;
     stage.set_speed(o.speed_mm_s)?;
@@ -175,6 +244,31 @@ fn sim_stage(o: &StageOptions, fail_after: Option<u32>) -> anyhow::Result<SimSta
         stage.fail_after_moves(n);
     }
     Ok(stage)
+}
+
+/// The stage twin's checks: `o` as the controller would check it, then
+/// the controller's settings the twin would ignore.
+fn sim_stage_check(o: &StageOptions) -> anyhow::Result<()> {
+    qt_config(o).check(&o.port)?;
+    twin_refuses(
+        &o.controller_settings_given(),
+        "stage",
+        "axes, pulses or serial link",
+    )?;
+    Ok(())
+}
+
+/// Refuses, before anything opens or is written, a setting of a real
+/// stage or gauge given to its twin (which would ignore it): what
+/// [`open_rig`] checks first.
+pub fn check_rig(stage: &StageOptions, gauge: &GaugeOptions) -> anyhow::Result<()> {
+    if let StagePort::Sim(_) = StagePort::parse(&stage.port)? {
+        sim_stage_check(stage)?;
+    }
+    if gauge.port == SIM {
+        sim_gauge_check(gauge)?;
+    }
+    Ok(())
 }
 
 /// Opens the stage and gauge of one rig, so that a simulated gauge reads
@@ -187,6 +281,7 @@ pub fn open_rig(
     gauge: &GaugeOptions,
     pad: FingerPad,
 ) -> anyhow::Result<(Box<dyn Stage>, Box<dyn ForceGauge>)> {
+    check_rig(stage, gauge)?;
     let sim_stage_port = StagePort::parse(&stage.port)?;
     match (sim_stage_port, gauge.port == SIM) {
         (StagePort::Sim(fail), true) => {
@@ -214,10 +309,11 @@ mod tests {
     fn gauge(port: &str, depth: Option<f64>) -> anyhow::Result<Box<dyn ForceGauge>> {
         open_gauge(&GaugeOptions {
             port: port.into(),
-            model: GaugeModel::Imada,
+            model: None,
             baud: None,
             sim_depth_mm: depth,
             seed: None,
+            flags: "--",
         })
     }
 
@@ -266,16 +362,18 @@ mod tests {
             port: SIM.into(),
             limits: StageLimits::new(0.0, 20.0).unwrap(),
             speed_mm_s: 50.0,
-            axis: Axis::A,
-            step_um: 1.0,
+            axis: None,
+            step_um: None,
             baud: None,
+            flags: "--stage-",
         };
         let gauge_o = GaugeOptions {
             port: SIM.into(),
-            model: GaugeModel::Imada,
+            model: None,
             baud: None,
             sim_depth_mm: None,
             seed: None,
+            flags: "--gauge-",
         };
         let pad = FingerPad::TYPICAL.at(5.0);
         let (mut s, mut g) = open_rig(&stage, &gauge_o, pad).unwrap();
@@ -307,9 +405,10 @@ mod tests {
                     port: port.into(),
                     limits: StageLimits::new(0.0, 20.0).unwrap(),
                     speed_mm_s: 5.0,
-                    axis: Axis::A,
-                    step_um,
+                    axis: None,
+                    step_um: Some(step_um),
                     baud: None,
+                    flags: "--",
                 };
                 let err = open_stage(&o).err().expect("a bad step is refused");
                 let msg = crate::error::one_line(&err);
@@ -317,5 +416,91 @@ mod tests {
                 assert!(msg.contains("µm/pulse is outside"), "{msg}");
             }
         }
+    }
+
+    /// Sets one setting of an instrument's options.
+    type Set<T> = fn(&mut T);
+
+    #[test]
+    fn a_twin_refuses_each_setting_of_the_real_one_by_its_flag() {
+        let stage = |f: fn(&mut StageOptions)| {
+            let mut o = StageOptions {
+                port: SIM.into(),
+                limits: StageLimits::new(0.0, 20.0).unwrap(),
+                speed_mm_s: 5.0,
+                axis: None,
+                step_um: None,
+                baud: None,
+                flags: "--stage-",
+            };
+            f(&mut o);
+            o
+        };
+        let gauge = |f: fn(&mut GaugeOptions)| {
+            let mut o = GaugeOptions {
+                port: SIM.into(),
+                model: None,
+                baud: None,
+                sim_depth_mm: None,
+                seed: None,
+                flags: "--gauge-",
+            };
+            f(&mut o);
+            o
+        };
+        let refused = |e: anyhow::Error, flag: &str, twin: &str| {
+            let msg = crate::error::one_line(&e);
+            assert!(e.chain().any(|c| c.is::<InputError>()), "{msg}");
+            assert!(
+                msg.starts_with(&format!(
+                    "{flag} does not apply to the simulated {twin} (port sim)"
+                )),
+                "{msg}"
+            );
+        };
+        let pad = FingerPad::TYPICAL;
+        let stages: [(Set<StageOptions>, &str); 3] = [
+            (|o| o.axis = Some(Axis::B), "axis"),
+            (|o| o.step_um = Some(0.5), "step-um"),
+            (|o| o.baud = Some(9600), "baud"),
+        ];
+        for (set, name) in stages {
+            refused(
+                open_rig(&stage(set), &gauge(|_| {}), pad).err().unwrap(),
+                &format!("--stage-{name}"),
+                "stage",
+            );
+            let alone = StageOptions {
+                flags: "--",
+                ..stage(set)
+            };
+            refused(
+                open_stage(&alone).err().unwrap(),
+                &format!("--{name}"),
+                "stage",
+            );
+        }
+        let gauges: [(Set<GaugeOptions>, &str); 2] = [
+            (|o| o.model = Some(GaugeModel::Mark10), "model"),
+            (|o| o.baud = Some(19200), "baud"),
+        ];
+        for (set, name) in gauges {
+            refused(
+                open_rig(&stage(|_| {}), &gauge(set), pad).err().unwrap(),
+                &format!("--gauge-{name}"),
+                "gauge",
+            );
+            let alone = GaugeOptions {
+                flags: "--",
+                ..gauge(set)
+            };
+            refused(
+                open_gauge(&alone).err().unwrap(),
+                &format!("--{name}"),
+                "gauge",
+            );
+        }
+        // None given: the twins open.
+        assert!(open_rig(&stage(|_| {}), &gauge(|_| {}), pad).is_ok());
     }
 }

@@ -142,6 +142,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
             );
         }
         i.check(a.max_mm)?;
+        crate::device::instruments::check_rig(&i.stage, &i.gauge)?;
     }
     let paths = start::Paths::new(&o.out, &o.participant);
     // Everything is checked (and a responses file dry-run) before the

@@ -439,7 +439,7 @@ impl Runner {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::instruments::{Axis, GaugeModel, SIM, StageLimits};
+    use crate::device::instruments::{SIM, StageLimits};
 
     fn options(stage: &str) -> PushOptions {
         PushOptions {
@@ -447,16 +447,18 @@ mod tests {
                 port: stage.into(),
                 limits: StageLimits::new(0.0, 20.0).unwrap(),
                 speed_mm_s: 50.0,
-                axis: Axis::A,
-                step_um: 1.0,
+                axis: None,
+                step_um: None,
                 baud: None,
+                flags: "--stage-",
             },
             gauge: GaugeOptions {
                 port: SIM.into(),
-                model: GaugeModel::Imada,
+                model: None,
                 baud: None,
                 sim_depth_mm: None,
                 seed: None,
+                flags: "--gauge-",
             },
             contact_mm: 5.0,
             rest_mm: 4.0,
