@@ -34,19 +34,76 @@ pub fn stdout_result(r: std::io::Result<()>) -> anyhow::Result<()> {
 
 /// Writes `args` to stdout (line-buffered: a full line is written at once).
 /// On a terminal, what a terminal would act on (a scene's name, a path
-/// or a prompt holding an escape sequence) is shown escaped ([`visible`]),
-/// as `ls` shows such file names; into a pipe or a file the text is kept
-/// byte for byte.
+/// or a prompt holding an escape sequence) is shown escaped
+/// ([`for_stdout`]), as `ls` shows such file names; into a pipe or a file
+/// the text is kept byte for byte.
 pub fn stdout_fmt(args: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
     use std::io::IsTerminal as _;
     static TERMINAL: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let terminal = *TERMINAL.get_or_init(|| std::io::stdout().is_terminal());
     let mut out = std::io::stdout().lock();
     if terminal {
-        stdout_result(out.write_all(visible(&args.to_string()).as_bytes()))
+        stdout_result(out.write_all(for_stdout(&args.to_string(), true).as_bytes()))
     } else {
         stdout_result(out.write_fmt(args))
     }
+}
+
+/// `text` as stdout shows it: kept as it is unless `terminal`; on a
+/// terminal, JSON (the whole text, else each line that is JSON) with its
+/// hidden characters as JSON escapes ([`json_visible`]), so it stays JSON
+/// a program can read, and other text through [`visible`].
+pub fn for_stdout(text: &str, terminal: bool) -> std::borrow::Cow<'_, str> {
+    use std::borrow::Cow;
+    if !terminal || !text.chars().any(hidden) {
+        return Cow::Borrowed(text);
+    }
+    if is_json(text) {
+        return Cow::Owned(json_visible(text));
+    }
+    Cow::Owned(
+        text.split_inclusive('\n')
+            .map(|line| {
+                if is_json(line) {
+                    json_visible(line)
+                } else {
+                    visible(line)
+                }
+            })
+            .collect(),
+    )
+}
+
+/// Whether `text` is one JSON value (white space around it allowed).
+fn is_json(text: &str) -> bool {
+    serde_json::from_str::<serde::de::IgnoredAny>(text).is_ok()
+}
+
+/// JSON text `json` with every hidden character ([`visible`]'s) written
+/// as a JSON escape, `\u202e` (a surrogate pair beyond the BMP): in JSON
+/// they stand only inside strings, where the escape means the same
+/// character. Tab, CR and LF are left as they are: in JSON text they can
+/// only be the white space between values (serde_json escapes them in
+/// strings).
+pub fn json_visible(json: &str) -> String {
+    let mut out = String::with_capacity(json.len() + 16);
+    for c in json.chars() {
+        if hidden(c) && !matches!(c, '\t' | '\r' | '\n') {
+            out.push_str(&json_escape(c));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// `c` as a JSON escape: `\u` and four hex digits per UTF-16 unit (a
+/// surrogate pair beyond the BMP).
+fn json_escape(c: char) -> String {
+    c.encode_utf16(&mut [0; 2])
+        .iter()
+        .map(|unit| format!("\\u{unit:04x}"))
+        .collect()
 }
 
 /// Flushes stdout (what `main` does last).
@@ -88,17 +145,6 @@ pub fn tidy(msg: &str) -> String {
 /// in one would recolour the line, move the cursor or overwrite what the
 /// message says.
 pub fn visible(msg: &str) -> String {
-    let hidden = |c: char| {
-        (c.is_control() && c != '\n')
-            || matches!(
-                c,
-                '\u{061c}'
-                    | '\u{200b}'..='\u{200f}'
-                    | '\u{2028}'..='\u{202e}'
-                    | '\u{2060}'..='\u{2069}'
-                    | '\u{feff}'
-            )
-    };
     if !msg.chars().any(hidden) {
         return msg.to_owned();
     }
@@ -112,6 +158,19 @@ pub fn visible(msg: &str) -> String {
         }
     }
     out
+}
+
+/// Whether a terminal acts on `c` instead of showing it (see [`visible`]).
+fn hidden(c: char) -> bool {
+    (c.is_control() && c != '\n')
+        || matches!(
+            c,
+            '\u{061c}'
+                | '\u{200b}'..='\u{200f}'
+                | '\u{2028}'..='\u{202e}'
+                | '\u{2060}'..='\u{2069}'
+                | '\u{feff}'
+        )
 }
 
 /// `msg` with every word (a run without white space) longer than
@@ -231,5 +290,71 @@ mod tests {
         // Text, accents, symbols and the line end are kept as they are.
         let plain = "spacing 3 mm ≥ d_LM: étape 0.23 mm, 5 µs → 2πA\n";
         assert_eq!(visible(plain), plain);
+    }
+
+    #[test]
+    fn json_on_a_terminal_stays_json_with_its_hidden_characters_escaped() {
+        let obj = serde_json::json!({
+            "name": "x\u{202e}y\u{200b}z\u{2028}w\u{feff}v\u{85}u\u{7f}",
+            "ok": "µs → 2πA",
+        });
+        let line = format!("{obj}\n");
+        let cases: [(&str, String, String); 6] = [
+            (
+                "a JSON line: JSON escapes, the line end kept",
+                line.clone(),
+                "{\"name\":\"x\\u202ey\\u200bz\\u2028w\\ufeffv\\u0085u\\u007f\",\"ok\":\"µs → 2πA\"}\n".into(),
+            ),
+            (
+                "JSON lines (JSONL), each escaped",
+                format!("{line}{line}"),
+                format!(
+                    "{0}{0}",
+                    "{\"name\":\"x\\u202ey\\u200bz\\u2028w\\ufeffv\\u0085u\\u007f\",\"ok\":\"µs → 2πA\"}\n"
+                ),
+            ),
+            (
+                "text then a JSON line: each in its own form",
+                "scene a\u{202e}b\n[\"a\u{202e}b\"]\n".into(),
+                "scene a\\u{202e}b\n[\"a\\u202eb\"]\n".into(),
+            ),
+            (
+                "pretty JSON over many lines, one value",
+                "{\n  \"a\": \"\u{2066}x\u{9b}\"\n}\n".into(),
+                "{\n  \"a\": \"\\u2066x\\u009b\"\n}\n".into(),
+            ),
+            (
+                "plain text keeps the visible form",
+                "cannot read x\u{202e}y\tz\n".into(),
+                "cannot read x\\u{202e}y\\tz\n".into(),
+            ),
+            (
+                "text that only looks like JSON",
+                "{\"a\": \u{202e}}\n".into(),
+                "{\"a\": \\u{202e}}\n".into(),
+            ),
+        ];
+        for (name, text, want) in cases {
+            assert_eq!(for_stdout(&text, true), want, "{name}");
+            // Into a pipe or a file: byte for byte.
+            assert_eq!(for_stdout(&text, false), text, "{name}");
+        }
+        // What a program reads back is the value printed.
+        let shown = for_stdout(&line, true);
+        let back: serde_json::Value = serde_json::from_str(&shown).unwrap();
+        assert_eq!(back, obj);
+        assert!(!shown.trim_end().chars().any(hidden), "{shown}");
+        // Beyond the BMP an escape is a surrogate pair.
+        assert_eq!(json_escape('\u{1f600}'), "\\ud83d\\ude00");
+        assert_eq!(
+            serde_json::from_str::<String>(&format!("\"{}\"", json_escape('\u{1f600}'))).unwrap(),
+            "\u{1f600}"
+        );
+        // Nothing hidden: nothing changes, nothing copied.
+        let plain = "{\"a\":1}\n";
+        assert!(matches!(
+            for_stdout(plain, true),
+            std::borrow::Cow::Borrowed(_)
+        ));
     }
 }

@@ -170,20 +170,31 @@ fn a_name_is_shown_escaped_on_a_terminal_and_kept_in_a_pipe() {
     );
     let piped = String::from_utf8(piped.stdout).unwrap();
     assert!(piped.contains("\u{1b}[2J\u{202e}paper"), "{piped:?}");
-    let pty = nix::pty::openpty(None, None).unwrap();
-    let status = Command::new(lmhost())
-        .args(args)
-        .stdout(Stdio::from(pty.slave))
-        .status()
-        .unwrap();
-    assert!(status.success());
-    // The child is gone: what it wrote is in the terminal's buffer, and
-    // the read after it ends with EIO.
-    let mut shown = Vec::new();
-    let _ = std::fs::File::from(pty.master).read_to_end(&mut shown);
-    let shown = String::from_utf8(shown).unwrap();
+    let on_a_terminal = |args: &[&str]| {
+        let pty = nix::pty::openpty(None, None).unwrap();
+        let status = Command::new(lmhost())
+            .args(args)
+            .stdout(Stdio::from(pty.slave))
+            .status()
+            .unwrap();
+        assert!(status.success());
+        // The child is gone: what it wrote is in the terminal's buffer, and
+        // the read after it ends with EIO.
+        let mut shown = Vec::new();
+        let _ = std::fs::File::from(pty.master).read_to_end(&mut shown);
+        let shown = String::from_utf8(shown).unwrap();
+        assert!(!shown.contains(['\u{1b}', '\u{202e}']), "{shown:?}");
+        shown
+    };
+    let shown = on_a_terminal(&args);
     assert!(shown.contains("\\u{1b}[2J\\u{202e}paper"), "{shown:?}");
-    assert!(!shown.contains(['\u{1b}', '\u{202e}']), "{shown:?}");
+    // JSON stays JSON: the same characters as JSON escapes, read back as
+    // the name they are.
+    let shown = on_a_terminal(&[args[0], args[1], args[2], "--json"]);
+    assert!(shown.contains("\\u001b[2J\\u202epaper"), "{shown:?}");
+    let v: serde_json::Value = serde_json::from_str(&shown).expect("JSON on a terminal");
+    let name = v["scene"].as_str().unwrap_or_default();
+    assert!(name.starts_with("\u{1b}[2J\u{202e}paper"), "{v}");
 }
 
 /// A file of another kind than the flag takes says what it is and what
