@@ -315,6 +315,16 @@ fn hostile_control_lines_get_one_line_refusals_and_the_session_stays_up() {
     // Still serving.
     let v = reply(&mut s, b"{\"cmd\":\"status\"}\n");
     assert_eq!(v["ok"], true, "{v}");
+    // A lone CR ends a command as LF and CRLF do: two commands, two
+    // replies (the pair was one line, refused for its CR).
+    let v = reply(&mut s, b"{\"cmd\":\"status\"}\r{\"cmd\":\"status\"}\n");
+    assert_eq!(v["ok"], true, "{v}");
+    let v = reply(&mut s, b"");
+    assert_eq!(
+        (&v["cmd"], &v["ok"]),
+        (&"status".into(), &true.into()),
+        "{v}"
+    );
     let v = reply(&mut s, b"{\"cmd\":\"quit\"}\n");
     assert_eq!(v["ok"], true, "{v}");
     exited_0(&child.wait_with_output().unwrap(), "");

@@ -126,6 +126,18 @@ fn responses_from_stdin_are_checked_as_they_come() {
             "na\n",
             "--responses - ended: an answer to `movement` is needed",
         ),
+        // A lone CR ends an answer as LF does (it was refused as a
+        // carriage return inside line 1).
+        (
+            "B3",
+            "1\r9\r",
+            "--responses - line 2: `9` is not an answer to `movement`",
+        ),
+        (
+            "B4",
+            "na\r\n",
+            "--responses - ended: an answer to `movement` is needed",
+        ),
     ] {
         let o = study(&[
             "run",

@@ -23,7 +23,10 @@
 //!   place, opened without blocking (a FIFO with no reader is refused).
 //! - **Text** ([`text`]): every text input, a whole file or a line
 //!   stream, read one way whatever wrote it (a byte-order mark, CRLF or
-//!   CR line ends; UTF-16 and a foreign CSV refused saying what they are).
+//!   CR line ends; UTF-16 and a foreign CSV refused saying what they are);
+//!   every line stream (centroids, session commands, study answers) split
+//!   by one [`lines::LineReader`]: LF, CRLF and a lone CR end a line, an
+//!   over-long one is refused at its limit.
 //! - **Output = input**: an output that is one of this process's inputs
 //!   (the same file, also through a link or another name) is refused
 //!   before anything is written, as is an output given twice
@@ -31,6 +34,7 @@
 
 mod dest;
 pub mod kind;
+pub mod lines;
 mod log;
 mod output;
 pub mod text;

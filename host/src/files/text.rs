@@ -90,8 +90,9 @@ pub fn bom_inside(line_no: usize) -> String {
     )
 }
 
-/// One line of a line stream (stdin, a pipe, a file read line by line),
-/// its LF already cut: as [`decode`] reads a file, its CR cut, the first
+/// One line of a line stream (stdin, a pipe, a socket, a file read line
+/// by line), as [`super::lines::LineReader`] splits it (its line end, LF,
+/// CRLF or a lone CR, already cut): as [`decode`] reads a file, the first
 /// line's byte-order mark skipped, and the first line refused when it is
 /// UTF-16 or UTF-32. The error completes "line N …" messages: it starts
 /// with `line {line_no}`.
@@ -103,17 +104,11 @@ pub fn stream_line(bytes: &[u8], line_no: usize) -> Result<&str, String> {
             "line 1 is {enc} text, not UTF-8: send or save it as UTF-8"
         ));
     }
-    let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
     let text =
         std::str::from_utf8(bytes).map_err(|_| format!("line {line_no} is not UTF-8 text"))?;
     if text.contains('\0') {
         return Err(format!(
             "line {line_no} holds a NUL byte, which no text line has"
-        ));
-    }
-    if text.contains('\r') {
-        return Err(format!(
-            "line {line_no} holds a carriage return inside it: end lines with LF or CRLF, not CR alone"
         ));
     }
     match (line_no, text.strip_prefix('\u{feff}')) {
@@ -285,8 +280,8 @@ mod tests {
 
     #[test]
     fn stream_lines() {
-        assert_eq!(stream_line(b"\xef\xbb\xbfa,b\r", 1).unwrap(), "a,b");
-        assert_eq!(stream_line(b"a,b\r", 2).unwrap(), "a,b");
+        assert_eq!(stream_line(b"\xef\xbb\xbfa,b", 1).unwrap(), "a,b");
+        assert_eq!(stream_line(b"a,b", 2).unwrap(), "a,b");
         for (bytes, n, says) in [
             (
                 &b"\xef\xbb\xbfa"[..],
@@ -294,7 +289,6 @@ mod tests {
                 "line 2 starts with a byte-order mark",
             ),
             (b"a\0b", 3, "line 3 holds a NUL byte"),
-            (b"a\rb", 1, "line 1 holds a carriage return inside it"),
             (b"a\xff", 4, "line 4 is not UTF-8 text"),
         ] {
             let e = stream_line(bytes, n).unwrap_err();

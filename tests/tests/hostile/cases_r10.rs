@@ -146,6 +146,10 @@ pub(crate) fn round10_cases() -> Vec<Case> {
             .out("{\"cmd\":\"status\",\"ok\":true");
         // 2. CRLF and a lone CR end a line.
         TEXT_LINE_ENDS "study check {dir}/r10/mini_cr.toml" .ok();
+        // Control lines on stdin: a lone CR ends each command.
+        TEXT_LINE_ENDS "session --port autd3:emulator --control - --library {dir}/r10/lib.toml"
+            .stdin(b"{\"cmd\":\"status\"}\r{\"cmd\":\"quit\"}\r").ok()
+            .out("{\"cmd\":\"quit\",\"ok\":true");
         TEXT_LINE_ENDS "stream --port {port} --input {dir}/r10/cr.csv" .ok()
             .out("streamed 3 samples (3 with a finger)");
         TEXT_LINE_ENDS "upload --port autd3:emulator --foci-file {dir}/r10/foci_bad_cr.json"

@@ -6,7 +6,7 @@
 //! is dropped, so no client can hold the loop, the finger feed or the
 //! device's tick up.
 
-use std::io::{BufRead as _, BufReader, Read, Write};
+use std::io::{BufReader, Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
@@ -120,75 +120,53 @@ impl Drop for Conn {
     }
 }
 
-/// Reads lines from `r`, calling `deliver` with each whole line (its
-/// newline and a `\r` cut, the first line's byte-order mark skipped; blank
-/// ones skipped) or the refusal of one longer than [`MAX_COMMAND_BYTES`],
-/// not UTF-8 or not text ([`crate::files::text::stream_line`]: UTF-16, a
-/// NUL byte, a later byte-order mark); memory stays bounded by that
-/// whatever the input. Stops at the end of input, a read error, or when
-/// `deliver` says so.
+/// Reads lines from `r`, calling `deliver` with each whole line (split
+/// by [`crate::files::lines::LineReader`]: LF, CRLF or a lone CR ends
+/// one; the first line's byte-order mark skipped; blank ones skipped) or
+/// the refusal of one longer than [`MAX_COMMAND_BYTES`] (its rest read
+/// past), not UTF-8 or not text ([`crate::files::text::stream_line`]:
+/// UTF-16, a NUL byte, a later byte-order mark); memory stays bounded by
+/// that whatever the input. Stops at the end of input, a read error, or
+/// when `deliver` says so.
 pub fn read_lines(r: impl Read, mut deliver: impl FnMut(Result<String, String>) -> bool) {
-    /// Hands over the line gathered (none when it was skipped).
-    fn hand(
-        line: &mut Vec<u8>,
-        line_no: &mut usize,
-        skipping: bool,
-        deliver: &mut impl FnMut(Result<String, String>) -> bool,
-    ) -> bool {
-        *line_no += 1;
-        // Not read lossily: a replaced byte would make another command.
-        let wide = *line_no == 1 && crate::files::text::wide_encoding(line).is_some();
-        let text = match crate::files::text::stream_line(line, *line_no) {
-            Ok(t) => Ok(t.trim().to_owned()),
-            Err(_) if let (false, Err(e)) = (wide, std::str::from_utf8(line)) => Err(format!(
-                "bad command: the line is not UTF-8 (byte {} of {})",
-                e.valid_up_to() + 1,
-                line.len()
-            )),
-            Err(e) => Err(format!("bad command: {e}")),
-        };
-        line.clear();
-        skipping || text.as_ref().is_ok_and(String::is_empty) || deliver(text)
-    }
-    let mut r = BufReader::with_capacity(8192, r);
-    let mut line: Vec<u8> = Vec::with_capacity(MAX_COMMAND_BYTES);
-    let mut skipping = false;
-    let mut line_no = 0;
+    use crate::files::lines::{Line, LineReader};
+    let mut lines = LineReader::new(BufReader::with_capacity(8192, r), MAX_COMMAND_BYTES);
     loop {
-        let chunk = match r.fill_buf() {
-            Ok([]) => break,
-            Ok(c) => c,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-            Err(_) => return,
-        };
-        let (part, end) = match chunk.iter().position(|&b| b == b'\n') {
-            Some(i) => (&chunk[..i], Some(i + 1)),
-            None => (chunk, None),
-        };
-        let mut go = true;
-        if !skipping {
-            if line.len() + part.len() > MAX_COMMAND_BYTES {
-                // Refused at once; the rest of the line is read past.
-                line.clear();
-                skipping = true;
-                go = deliver(Err(format!(
+        let line_no = lines.line_no() + 1;
+        let text = match lines.next_line() {
+            Ok(None) | Err(_) => return,
+            Ok(Some(Line::TooLong)) => {
+                if !deliver(Err(format!(
                     "bad command: longer than {MAX_COMMAND_BYTES} bytes"
-                )));
-            } else {
-                line.extend_from_slice(part);
+                ))) || lines.skip_rest().is_err()
+                {
+                    return;
+                }
+                continue;
             }
+            // Not read lossily: a replaced byte would make another command.
+            Ok(Some(Line::Text(line))) => {
+                let wide = line_no == 1 && crate::files::text::wide_encoding(line).is_some();
+                match crate::files::text::stream_line(line, line_no) {
+                    Ok(t) => Ok(t.trim().to_owned()),
+                    Err(_) if let (false, Err(e)) = (wide, std::str::from_utf8(line)) => {
+                        Err(format!(
+                            "bad command: the line is not UTF-8 (byte {} of {})",
+                            e.valid_up_to() + 1,
+                            line.len()
+                        ))
+                    }
+                    Err(e) => Err(format!("bad command: {e}")),
+                }
+            }
+        };
+        if text.as_ref().is_ok_and(String::is_empty) {
+            continue;
         }
-        let used = end.unwrap_or(chunk.len());
-        r.consume(used);
-        if end.is_some() {
-            go = go && hand(&mut line, &mut line_no, skipping, &mut deliver);
-            skipping = false;
-        }
-        if !go {
+        if !deliver(text) {
             return;
         }
     }
-    hand(&mut line, &mut line_no, skipping, &mut deliver);
 }
 
 /// Starts `id`'s reader on a thread of its own.
@@ -330,6 +308,20 @@ mod tests {
                 Some("last".into()),
             ]
         );
+    }
+
+    #[test]
+    fn a_lone_cr_ends_a_command_line_as_lf_and_crlf_do() {
+        let got = lines(b"{\"cmd\":\"status\"}\r{\"cmd\":\"stop\"}\r\nx\ry\n\rz");
+        assert_eq!(
+            got,
+            ["{\"cmd\":\"status\"}", "{\"cmd\":\"stop\"}", "x", "y", "z"].map(|s| Some(s.into()))
+        );
+        // An over-long line ended by a CR is refused at its limit, and the
+        // next line read.
+        let mut input = vec![b'x'; MAX_COMMAND_BYTES + 1];
+        input.extend(b"\rok\r");
+        assert_eq!(lines(&input), [None, Some("ok".into())]);
     }
 
     #[test]

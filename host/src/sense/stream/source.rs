@@ -198,76 +198,37 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
 /// with `max_gap_s`, a forward jump of the time stamps larger than that is
 /// an error naming the line (replayed files: never a silent long sleep).
 struct LineSource<R> {
-    reader: R,
-    line_no: usize,
-    buf: Vec<u8>,
-    /// The last line ended at a CR ([`next_line`]).
-    after_cr: bool,
+    /// Lines of at most [`MAX_LINE_BYTES`], split on LF, CRLF or a lone
+    /// CR (a classic Mac file, Excel for Mac's CSV).
+    lines: crate::files::lines::LineReader<R>,
     max_gap_s: Option<f64>,
     last_t_s: Option<f64>,
     done: bool,
-}
-
-/// One line, or `None` at the end; a line longer than [`MAX_LINE_BYTES`]
-/// is an error without reading the rest of it into memory. A line ends at
-/// LF, CRLF or a lone CR (a classic Mac file, Excel for Mac's CSV):
-/// `after_cr` says the last one ended at a CR, whose LF is then skipped.
-fn next_line<R: BufRead>(
-    reader: &mut R,
-    buf: &mut Vec<u8>,
-    line_no: usize,
-    after_cr: &mut bool,
-) -> anyhow::Result<Option<()>> {
-    buf.clear();
-    loop {
-        let avail = match reader.fill_buf() {
-            Ok(b) => b,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(anyhow::Error::new(e).context("reading centroid stream")),
-        };
-        if avail.is_empty() {
-            return Ok((!buf.is_empty()).then_some(()));
-        }
-        if std::mem::take(after_cr) && avail[0] == b'\n' {
-            reader.consume(1);
-            continue;
-        }
-        let (take, end) = match avail.iter().position(|&b| b == b'\n' || b == b'\r') {
-            Some(i) => {
-                *after_cr = avail[i] == b'\r';
-                (i, true)
-            }
-            None => (avail.len(), false),
-        };
-        if buf.len() + take > MAX_LINE_BYTES {
-            return Err(InputError::new(format!(
-                "line {line_no} is longer than {MAX_LINE_BYTES} bytes (the limit per sample line)"
-            ))
-            .into());
-        }
-        buf.extend_from_slice(&avail[..take]);
-        reader.consume(take + usize::from(end));
-        if end {
-            return Ok(Some(()));
-        }
-    }
 }
 
 impl<R: BufRead> Iterator for LineSource<R> {
     type Item = anyhow::Result<Sample>;
 
     fn next(&mut self) -> Option<Self::Item> {
+        use crate::files::lines::Line;
         while !self.done {
-            self.line_no += 1;
-            let line_no = self.line_no;
-            match next_line(&mut self.reader, &mut self.buf, line_no, &mut self.after_cr) {
+            // The number of the line about to be read.
+            let line_no = self.lines.line_no() + 1;
+            match self.lines.next_line() {
                 Ok(None) => self.done = true,
                 Err(e) => {
                     self.done = true;
-                    return Some(Err(e));
+                    return Some(Err(anyhow::Error::new(e).context("reading centroid stream")));
                 }
-                Ok(Some(())) => {
-                    let text = match crate::files::text::stream_line(&self.buf, line_no) {
+                Ok(Some(Line::TooLong)) => {
+                    self.done = true;
+                    return Some(Err(InputError::new(format!(
+                        "line {line_no} is longer than {MAX_LINE_BYTES} bytes (the limit per sample line)"
+                    ))
+                    .into()));
+                }
+                Ok(Some(Line::Text(bytes))) => {
+                    let text = match crate::files::text::stream_line(bytes, line_no) {
                         Ok(t) => t,
                         Err(e) => {
                             self.done = true;
@@ -309,10 +270,7 @@ impl<R: BufRead> Iterator for LineSource<R> {
 /// naming it.
 pub fn read_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<Sample>> {
     LineSource {
-        reader,
-        line_no: 0,
-        buf: Vec::new(),
-        after_cr: false,
+        lines: crate::files::lines::LineReader::new(reader, MAX_LINE_BYTES),
         max_gap_s: None,
         last_t_s: None,
         done: false,
@@ -324,10 +282,7 @@ pub fn read_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<
 /// time stamps is an error naming the line.
 pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Result<Sample>> {
     LineSource {
-        reader,
-        line_no: 0,
-        buf: Vec::new(),
-        after_cr: false,
+        lines: crate::files::lines::LineReader::new(reader, MAX_LINE_BYTES),
         max_gap_s: Some(MAX_REPLAY_GAP_S),
         last_t_s: None,
         done: false,
