@@ -59,6 +59,8 @@ impl Reply {
     }
 }
 
+mod adapt;
+
 /// Byte and event counts of one client.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct LinkStats {
@@ -452,13 +454,13 @@ impl<T: Transport> Client<T> {
             crc32: crc,
         });
         self.expect_ack("begin rig", &begin)?;
-        // Groups adapt like chunks: writes at fixed indices are idempotent,
-        // so only the group size changes.
+        // Groups adapt like chunks ([`adapt`]): writes at fixed indices are
+        // idempotent, so only the group size changes.
         let min_group = MIN_ADAPTIVE_CHUNK / POSITION_LEN;
-        let mut group = MAX_GEOMETRY_POSITIONS;
+        let mut group = adapt::Sizer::new(MAX_GEOMETRY_POSITIONS, min_group, 1);
         let mut first = 0usize;
         while first < positions_um.len() {
-            let pts = &positions_um[first..(first + group).min(positions_um.len())];
+            let pts = &positions_um[first..(first + group.size()).min(positions_um.len())];
             let g = Geometry {
                 first: first as u16,
                 positions: Positions::from_points(pts),
@@ -467,11 +469,7 @@ impl<T: Transport> Client<T> {
             self.check_stop("the rig")?;
             self.expect_ack("geometry", &Message::Geometry(g))?;
             first += pts.len();
-            group = if self.stats.retries > retries_before {
-                (group / 2).max(min_group)
-            } else {
-                (group * 2).min(MAX_GEOMETRY_POSITIONS)
-            };
+            group.record(self.stats.retries - retries_before);
         }
         self.expect_ack("commit rig", &Message::CommitRig)?;
         self.rig = Some((t, crc));
@@ -575,15 +573,16 @@ impl<T: Transport> Client<T> {
             r => r?,
         }
         let total = encoded.len() as u64;
-        // Adaptive chunk size: a chunk that needed a resend halves the size
-        // of the next ones (a noisy link loses fewer short frames); a run of
-        // clean chunks doubles it back. A frame is never changed while it
-        // may have landed, so resends stay idempotent.
-        let mut size = chunk;
-        let mut clean_run = 0;
+        // Adaptive chunk size ([`adapt`]): shorter chunks after a resend
+        // while they lose less (a noisy link loses fewer short frames),
+        // longer again when they do not (a lost reply costs a resend at any
+        // length) or after a run of clean ones, never below the floor. A
+        // frame is never changed while it may have landed, so resends stay
+        // idempotent.
+        let mut size = adapt::Sizer::new(chunk, MIN_ADAPTIVE_CHUNK, 16);
         let mut offset = 0usize;
         while offset < encoded.len() {
-            let data = &encoded[offset..(offset + size).min(encoded.len())];
+            let data = &encoded[offset..(offset + size.size()).min(encoded.len())];
             let retries_before = self.stats.retries;
             self.check_stop("the upload")?;
             let msg = Message::Chunk(Chunk {
@@ -593,16 +592,7 @@ impl<T: Transport> Client<T> {
             });
             self.expect_ack("chunk", &msg)?;
             offset += data.len();
-            if self.stats.retries > retries_before {
-                size = (size / 2).max(MIN_ADAPTIVE_CHUNK.min(chunk));
-                clean_run = 0;
-            } else {
-                clean_run += 1;
-                if clean_run >= 16 {
-                    size = (size * 2).min(chunk);
-                    clean_run = 0;
-                }
-            }
+            size.record(self.stats.retries - retries_before);
             progress(offset as u64, total);
         }
         // The levels (a few hundred bytes at most per stimulus) in frames of
