@@ -12,7 +12,16 @@ use study_support::*;
 #[test]
 fn a_practice_block_and_a_break_run_before_the_main_block_and_stay_out_of_the_report() {
     let protocol = studies("exp1-with-practice.toml");
-    let o = study(&["check", &protocol, "--participant", "2", "--seed", "4"])
+    // No latin-square order: a participant's number changes nothing, and
+    // is refused; the seed draws the main block's random order.
+    let o = study(&["check", &protocol, "--participant", "2"])
+        .output()
+        .unwrap();
+    says(
+        &refused(&o),
+        &["--participant 2 picks a row of a latin-square order"],
+    );
+    let o = study(&["check", &protocol, "--seed", "4"])
         .output()
         .unwrap();
     says(

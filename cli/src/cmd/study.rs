@@ -71,7 +71,8 @@ pub struct CheckArgs {
     #[arg(value_name = "PROTOCOL")]
     protocol: PathBuf,
     /// Print this participant's trials (their number, from 1, as `study
-    /// run --index` takes it) [default: a Latin square's every row].
+    /// run --index` takes it; a protocol with a latin-square order only)
+    /// [default: a Latin square's every row].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     participant: Option<u64>,
     /// The seed of a random order, as `study run --seed` takes it.
@@ -82,7 +83,9 @@ pub struct CheckArgs {
 impl CheckArgs {
     fn run(self) -> anyhow::Result<()> {
         let p = study::protocol::Protocol::load(&self.protocol)?;
-        let text = study::outline::outline(&p, self.participant.map(|i| i as usize), self.seed);
+        let participant = self.participant.map(|i| i as usize);
+        study::outline::check_participant(&p, participant)?;
+        let text = study::outline::outline(&p, participant, self.seed);
         lmhost::out!("{text}")?;
         Ok(())
     }

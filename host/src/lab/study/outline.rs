@@ -7,6 +7,20 @@ use std::fmt::Write as _;
 
 use super::design::{self, Order};
 use super::protocol::Protocol;
+use crate::error::InputError;
+
+/// Refuses a participant's number (`study check --participant`) for a
+/// protocol with no latin-square order, whose trials it would not change,
+/// as `study run --index` is refused.
+pub fn check_participant(p: &Protocol, index: Option<usize>) -> Result<(), InputError> {
+    match index {
+        Some(i) if !design::orders_by_index(p) => Err(InputError::new(format!(
+            "--participant {i} picks a row of a latin-square order, and study protocol {} has none: every participant gets the same trials (leave --participant out)",
+            p.path.display()
+        ))),
+        _ => Ok(()),
+    }
+}
 
 /// The plan of `p` as lines of text: with `index`, participant `index`'s
 /// trials (for a random order, those of `seed`); without, for a Latin
