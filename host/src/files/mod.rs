@@ -24,7 +24,8 @@
 //! - **Text** ([`text`]): every text input, a whole file or a line
 //!   stream, read one way whatever wrote it (a byte-order mark, CRLF or
 //!   CR line ends; UTF-16 and a foreign CSV refused saying what they are);
-//!   every line stream (centroids, session commands, study answers) split
+//!   every line stream (centroids, a UDP datagram's, session commands,
+//!   study answers) split
 //!   by one [`lines::LineReader`]: LF, CRLF and a lone CR end a line, an
 //!   over-long one is refused at its limit.
 //! - **Output = input**: an output that is one of this process's inputs

@@ -486,15 +486,25 @@ pub fn udp(
                 Err(_) => bad = true,
                 Ok(text) if text.trim().is_empty() => bad = true,
                 Ok(text) => {
-                    for line in text.lines() {
-                        if line.len() > MAX_LINE_BYTES {
-                            bad = true;
-                            continue;
-                        }
-                        match parse_line(line, number) {
-                            Ok(Some(s)) => pending.push_back(s),
-                            Ok(None) => {}
-                            Err(_) => bad = true,
+                    // Its lines split as a stream's are (LF, CRLF or a
+                    // lone CR).
+                    use crate::files::lines::{Line, LineReader};
+                    let mut lines = LineReader::new(text.as_bytes(), MAX_LINE_BYTES);
+                    while let Ok(Some(line)) = lines.next_line() {
+                        let parsed = match line {
+                            Line::Text(l) => std::str::from_utf8(l)
+                                .ok()
+                                .and_then(|l| parse_line(l, number).ok()),
+                            Line::TooLong => {
+                                bad = true;
+                                let _ = lines.skip_rest();
+                                continue;
+                            }
+                        };
+                        match parsed {
+                            Some(Some(s)) => pending.push_back(s),
+                            Some(None) => {}
+                            None => bad = true,
                         }
                     }
                 }

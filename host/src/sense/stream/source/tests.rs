@@ -303,16 +303,20 @@ fn an_empty_or_blank_datagram_is_counted_bad_and_a_comment_is_not() {
         b"\n \n",
         b"# a comment\nt,x,y,z,present",
         b"0.1,0,0,200,1",
+        // Lines in a datagram end as a stream's do: LF, CRLF, a lone CR.
+        b"0.2,0,0,200,1\r0.3,0,0,200,1\r\n0.4,0,0,200,1\r",
+        // A bad line makes the datagram bad; the lines after it are read.
+        b"bad\r0.5,0,0,200,1",
     ] {
         tx.send_to(d, ("127.0.0.1", port)).unwrap();
     }
     let got: Vec<_> = samples.map(|s| s.unwrap().t_s).collect();
-    assert_eq!(got, [0.0, 0.1]);
-    assert_eq!(counts.datagrams.load(Relaxed), 5);
+    assert_eq!(got, [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]);
+    assert_eq!(counts.datagrams.load(Relaxed), 7);
     assert_eq!(
         counts.bad_datagrams.load(Relaxed),
-        2,
-        "the empty and the blank one"
+        3,
+        "the empty, the blank and the bad one"
     );
 }
 
