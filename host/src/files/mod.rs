@@ -25,9 +25,8 @@
 //!   stream, read one way whatever wrote it (a byte-order mark, CRLF or
 //!   CR line ends; UTF-16 and a foreign CSV refused saying what they are);
 //!   every line stream (centroids, a UDP datagram's, session commands,
-//!   study answers) split
-//!   by one [`lines::LineReader`]: LF, CRLF and a lone CR end a line, an
-//!   over-long one is refused at its limit.
+//!   study answers) split by one [`lines::LineReader`]: LF, CRLF and a
+//!   lone CR end a line, an over-long one is refused at its limit.
 //! - **Output = input**: an output that is one of this process's inputs
 //!   (the same file, also through a link or another name) is refused
 //!   before anything is written, as is an output given twice
