@@ -206,3 +206,20 @@ fn a_lease_is_refused_where_nothing_plays() {
         "cannot be used with",
     );
 }
+
+#[test]
+fn an_autd3_refuses_a_timeout_given_for_it_not_one_set_for_every_device() {
+    refused(
+        &["status", "--port", "autd3:emulator", "--timeout-ms", "500"],
+        "--timeout-ms",
+        "applies to the LM firmware's serial link",
+    );
+    // $LMHOST_TIMEOUT_MS, set once for every device, is not a setting of
+    // this one.
+    let o = std::process::Command::new(link_support::lmhost())
+        .args(["status", "--port", "autd3:emulator"])
+        .env("LMHOST_TIMEOUT_MS", "500")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -23,10 +23,11 @@ pub struct PortArgs {
     /// 0 [default: 115200].
     #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(1..))]
     pub baud: Option<u32>,
-    /// Response timeout per attempt, ms, 1..=60000 [default:
-    /// $LMHOST_TIMEOUT_MS, else 100 + twice the time a full chunk takes at
-    /// --baud; a slow link or an emulated board on a busy machine wants
-    /// more].
+    /// LM firmware: response timeout per attempt, ms, 1..=60000 [default:
+    /// $LMHOST_TIMEOUT_MS (set for every device, so an AUTD3 port, which
+    /// refuses the flag, leaves it be), else 100 + twice the time a full
+    /// chunk takes at --baud; a slow link or an emulated board on a busy
+    /// machine wants more].
     #[arg(long, value_name = "MS", env = "LMHOST_TIMEOUT_MS", value_parser = clap::value_parser!(u64).range(1..=lmhost::limits::MAX_TIMEOUT_MS))]
     pub timeout_ms: Option<u64>,
     /// LM firmware: attempts per request before giving up, 1..=100

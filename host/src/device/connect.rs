@@ -22,7 +22,8 @@ use std::sync::{Arc, Mutex};
 impl PortSpec {
     /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
     /// `autd3:` port, or an AUTD3 port given a serial link's setting
-    /// (`--baud`, `--tries`, `--lease`), is an
+    /// (`--baud`, `--tries`, `--lease`, a `--timeout-ms` other than
+    /// `$LMHOST_TIMEOUT_MS`'s), is an
     /// [`InputError`](crate::InputError) (exit 2).
     pub fn device(&self) -> Result<DeviceKind, crate::InputError> {
         let env = std::env::var(discover::PORT_ENV).ok();
@@ -46,11 +47,26 @@ impl PortSpec {
                 if let Some(first) = self.link_settings_given().first() {
                     return Err(serial_link_only(first, p));
                 }
+                // A timeout set for every device ($LMHOST_TIMEOUT_MS) is
+                // no setting of this one; one given for it (another value)
+                // would be dropped as the others would.
+                if self.timeout_ms.is_some() && self.timeout_ms != timeout_from_env() {
+                    return Err(serial_link_only("--timeout-ms", p));
+                }
                 Ok(DeviceKind::Autd3(kind))
             }
             _ => Ok(DeviceKind::Lm),
         }
     }
+}
+
+/// The response timeout `$LMHOST_TIMEOUT_MS` sets, if it is a number.
+fn timeout_from_env() -> Option<u64> {
+    std::env::var(discover::TIMEOUT_ENV)
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
 }
 
 /// The refusal of a serial-link setting (`flag`) for the AUTD3 at `port`,
@@ -457,14 +473,21 @@ mod tests {
                 "{e}"
             );
         }
+        // A timeout given for the AUTD3 is refused; one that is
+        // $LMHOST_TIMEOUT_MS's, set for every device, is not.
         let timeout = PortSpec {
             timeout_ms: Some(300),
             ..PortSpec::new(Some("autd3:emulator".into()))
         };
-        assert!(
-            timeout.device().is_ok(),
-            "the timeout may come from $LMHOST_TIMEOUT_MS"
-        );
+        if timeout_from_env() == Some(300) {
+            assert!(timeout.device().is_ok());
+        } else {
+            let e = timeout.device().unwrap_err().to_string();
+            assert!(
+                e.starts_with("--timeout-ms applies to the LM firmware's serial link"),
+                "{e}"
+            );
+        }
     }
 
     #[test]

@@ -8,6 +8,9 @@ use crate::InputError;
 
 /// The environment variable naming the default port.
 pub const PORT_ENV: &str = "LMHOST_PORT";
+/// The environment variable holding a response timeout for every LM
+/// device (ms), which `--timeout-ms` overrides.
+pub const TIMEOUT_ENV: &str = "LMHOST_TIMEOUT_MS";
 
 /// USB ids of boards the firmware runs on, with a name for messages.
 pub const KNOWN_BOARDS: &[(u16, u16, &str)] = &[
