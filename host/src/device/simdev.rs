@@ -478,6 +478,14 @@ impl FwCore {
         self.device.status(now_us)
     }
 
+    /// Sets the time the device was reset, from which its `uptime_ms`
+    /// counts (a test's device that has been on for a while); without it
+    /// the device counts from the first moment it sees the clock.
+    pub fn set_epoch(&mut self, epoch_us: u64) {
+        self.device.set_epoch(epoch_us);
+        self.started = true;
+    }
+
     /// The device's reset is the first moment it sees the clock.
     fn start(&mut self, now_us: u64) {
         if !self.started {
