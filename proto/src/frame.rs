@@ -531,7 +531,11 @@ mod tests {
         let d = cobs::decode(&wire[1..n - 1], &mut dec).unwrap();
         let req = decode_frame(&dec[..d]).unwrap();
         assert_eq!(req.echo, None);
-        assert_eq!(req.reply_head(), Head::reply(7, echo), "the echo a reply needs");
+        assert_eq!(
+            req.reply_head(),
+            Head::reply(7, echo),
+            "the echo a reply needs"
+        );
         assert_eq!(echo.request_type, 0x09);
         assert_eq!(
             encode_frame(7, &Message::Ack, &mut wire),

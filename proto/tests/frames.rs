@@ -128,10 +128,7 @@ proptest! {
 fn split_at_every_byte_boundary_decodes_the_same() {
     for (seq, m) in samples() {
         let w = wire(seq, &m.msg());
-        let want = vec![Out::Frame(
-            seq,
-            unframed(&frame_of(seq, m.msg())),
-        )];
+        let want = vec![Out::Frame(seq, unframed(&frame_of(seq, m.msg())))];
         for i in 0..=w.len() {
             let got = run(&mut FrameDecoder::new(), [&w[..i], &w[i..]]);
             assert_eq!(got, want, "split at {i} of {}", w.len());
@@ -144,10 +141,7 @@ fn split_at_every_byte_boundary_decodes_the_same() {
 #[test]
 fn single_bit_flip_anywhere_is_rejected_and_the_next_frame_survives() {
     let next = wire(0xAAAA, &Message::Ack);
-    let next_out = Out::Frame(
-        0xAAAA,
-        unframed(&frame_of(0xAAAA, Message::Ack)),
-    );
+    let next_out = Out::Frame(0xAAAA, unframed(&frame_of(0xAAAA, Message::Ack)));
     let mut flips = 0;
     for (seq, m) in samples() {
         let w = wire(seq, &m.msg());
@@ -199,13 +193,7 @@ fn one_megabyte_of_garbage_then_a_frame_yields_that_frame() {
     pieces.push(&w[..]);
     let outs = run(&mut dec, pieces);
     let (last, rest) = outs.split_last().unwrap();
-    assert_eq!(
-        *last,
-        Out::Frame(
-            77,
-            unframed(&frame_of(77, frame_msg))
-        )
-    );
+    assert_eq!(*last, Out::Frame(77, unframed(&frame_of(77, frame_msg))));
     assert!(
         rest.iter().all(|o| matches!(o, Out::Error(_))),
         "garbage produced a frame"

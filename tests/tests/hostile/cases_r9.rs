@@ -194,9 +194,13 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
                     let reply = (head, copy(&frame.message));
                     if !lost {
                         frames.push(match (m, previous) {
-                            (Mutation::Replay, Some((before, msg))) => {
-                                encode(Head { seq: head.seq, ..before }, &msg)
-                            }
+                            (Mutation::Replay, Some((before, msg))) => encode(
+                                Head {
+                                    seq: head.seq,
+                                    ..before
+                                },
+                                &msg,
+                            ),
                             _ => mutate(head, &frame.message, m),
                         });
                     }

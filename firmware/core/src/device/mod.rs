@@ -2,9 +2,8 @@
 //! wired together. Boards and the host simulator drive only this.
 
 use lm_proto::{
-    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Head, Info, LEASE_MS,
-    MAX_CHUNK, MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status,
-    encode_frame,
+    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Head, Info, LEASE_MS, MAX_CHUNK,
+    MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status, encode_frame,
 };
 
 use crate::MAX_TRANSDUCERS;

@@ -365,7 +365,7 @@ impl<T: Transport> Client<T> {
         // takes for resident.
         if let Some(why) = self.last_status.as_ref().and_then(|(before, at)| {
             let elapsed = self.first_sent.saturating_sub(*at);
-            super::reply::restarted(before, &s, elapsed, self.timeout)
+            super::reply::restarted(before, &s, elapsed, self.timeout, info.clock)
         }) {
             self.last_status = None;
             return Err(LinkError::Restarted {

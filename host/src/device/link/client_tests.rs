@@ -223,7 +223,10 @@ fn a_reply_that_echoes_another_request_is_refused() {
         let e = e.to_string();
         assert!(e.starts_with(&format!("the {kind} from forger")), "{e}");
         assert!(e.contains("answers a request of type 0x0c"), "{e}");
-        assert!(e.contains("the stop request lmhost wrote has type 0x07"), "{e}");
+        assert!(
+            e.contains("the stop request lmhost wrote has type 0x07"),
+            "{e}"
+        );
         assert!(!e.contains('\n'), "one line: {e}");
         // The same forger's Renew ack echoes the Renew written: taken.
         c.renew().unwrap();

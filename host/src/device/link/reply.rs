@@ -12,7 +12,9 @@
 
 use std::time::Duration;
 
-use lm_proto::{DeviceState, Info, MAX_CHUNK, MIN_DWELL_US, MuteReason, PROTOCOL_VERSION, Status};
+use lm_proto::{
+    ClockSource, DeviceState, Info, MAX_CHUNK, MIN_DWELL_US, MuteReason, PROTOCOL_VERSION, Status,
+};
 
 /// Why `info` cannot come from the LM firmware this host speaks to, if
 /// it cannot.
@@ -136,12 +138,24 @@ pub fn check_status(
     Ok(())
 }
 
-/// How much less than the host's time the device's `uptime_ms` may
-/// advance between two `Status` replies without a restart: twice the
-/// reply timeout (the link's latency, either way) plus 1 % of the time
-/// (an RC oscillator's error; a crystal's is 50 ppm) (SPEC section 3).
-pub fn uptime_slack(host_elapsed: Duration, reply_timeout: Duration) -> Duration {
-    reply_timeout.saturating_mul(2) + host_elapsed / 100
+/// How much less than the host's time the uptime of a device whose clock
+/// is `clock` may advance between two `Status` replies without a restart:
+/// twice the reply timeout (the link's latency, either way) plus 1 % of
+/// the time for a crystal (which errs by 50 ppm), 2 % for an RC
+/// oscillator (~1 %) (SPEC section 3). `None` for a clock that need not
+/// keep the host's pace: emulated (QEMU under `-icount` counts
+/// instructions) or unknown; only its uptime going back tells.
+pub fn uptime_slack(
+    host_elapsed: Duration,
+    reply_timeout: Duration,
+    clock: ClockSource,
+) -> Option<Duration> {
+    let percent = match clock {
+        ClockSource::Crystal => 1,
+        ClockSource::InternalRc => 2,
+        _ => return None,
+    };
+    Some(reply_timeout.saturating_mul(2) + host_elapsed * percent / 100)
 }
 
 /// Why `now` says the device restarted since `before` (a `Status` of the
@@ -149,14 +163,16 @@ pub fn uptime_slack(host_elapsed: Duration, reply_timeout: Duration) -> Duration
 /// is Idle ("nothing played since reset") after it played, or its
 /// `uptime_ms` went back or advanced less than `host_elapsed` (the host's
 /// time between the two replies, which the caller measures on its own
-/// clock) less [`uptime_slack`]. The uptime wraps at `u32::MAX` ms (49.7
-/// days) and is compared wrapping; over more than half that (24.8 days)
-/// between two replies only the counters and the state can tell.
+/// clock) less [`uptime_slack`] for the device's `clock` (`Info::clock`).
+/// The uptime wraps at `u32::MAX` ms (49.7 days) and is compared wrapping;
+/// over more than half that (24.8 days) between two replies only the
+/// counters and the state can tell.
 pub fn restarted(
     before: &Status,
     now: &Status,
     host_elapsed: Duration,
     reply_timeout: Duration,
+    clock: ClockSource,
 ) -> Option<String> {
     let since_reset = [
         (
@@ -188,8 +204,8 @@ pub fn restarted(
     if u128::from(advanced) > half {
         return Some(format!("its uptime went back from {b} ms to {n} ms"));
     }
-    let slack = uptime_slack(host_elapsed, reply_timeout).as_millis();
-    if u128::from(advanced) + slack < elapsed_ms {
+    let slack = uptime_slack(host_elapsed, reply_timeout, clock)?;
+    if u128::from(advanced) + slack.as_millis() < elapsed_ms {
         return Some(format!(
             "its uptime advanced {advanced} ms (from {b} to {n}) while {elapsed_ms} ms passed \
              on the host"
@@ -294,13 +310,25 @@ mod tests {
         }
     }
 
-    /// Status replies `elapsed` apart on a link with the default timeout.
+    /// Status replies `elapsed` apart on a link with the default timeout,
+    /// from a device on a crystal.
     fn restart(before: &Status, now: &Status, elapsed_ms: u64) -> Option<String> {
+        restart_on(ClockSource::Crystal, before, now, elapsed_ms)
+    }
+
+    /// [`restart`] from a device whose clock is `clock`.
+    fn restart_on(
+        clock: ClockSource,
+        before: &Status,
+        now: &Status,
+        elapsed_ms: u64,
+    ) -> Option<String> {
         restarted(
             before,
             now,
             Duration::from_millis(elapsed_ms),
             Duration::from_millis(300),
+            clock,
         )
     }
 
@@ -373,9 +401,14 @@ mod tests {
     fn a_slow_link_within_the_tolerance_is_no_restart() {
         let fresh = Status::default();
         // 2 × 300 ms + 1 % of 10 s = 700 ms of slack.
+        let t = Duration::from_millis(300);
         assert_eq!(
-            uptime_slack(Duration::from_secs(10), Duration::from_millis(300)),
-            Duration::from_millis(700)
+            uptime_slack(Duration::from_secs(10), t, ClockSource::Crystal),
+            Some(Duration::from_millis(700))
+        );
+        assert_eq!(
+            uptime_slack(Duration::from_secs(10), t, ClockSource::InternalRc),
+            Some(Duration::from_millis(800))
         );
         assert_eq!(restart(&at(fresh, 1_000), &at(fresh, 10_300), 10_000), None);
         assert!(restart(&at(fresh, 1_000), &at(fresh, 10_299), 10_000).is_some());
@@ -389,6 +422,25 @@ mod tests {
         assert!(restart(&at(fresh, 1_000), &at(fresh, 999), 0).is_some());
         assert!(restart(&at(fresh, 1_000), &at(fresh, 999), 600).is_some());
         assert_eq!(restart(&at(fresh, 1_000), &at(fresh, 1_000), 0), None);
+    }
+
+    /// An emulated clock (QEMU under `-icount`: a second of the guest is
+    /// 10^9 instructions, however long they take) or an unknown one need
+    /// not keep the host's pace: only going back tells.
+    #[test]
+    fn an_emulated_clock_is_held_only_to_going_forward() {
+        let fresh = Status::default();
+        for clock in [ClockSource::Emulated, ClockSource::Unknown] {
+            let slow = restart_on(clock, &at(fresh, 6), &at(fresh, 648), 4_184);
+            assert_eq!(slow, None, "{clock:?}");
+            let back = restart_on(clock, &at(fresh, 5_000), &at(fresh, 20), 100);
+            assert_eq!(
+                back.as_deref(),
+                Some("its uptime went back from 5000 ms to 20 ms")
+            );
+        }
+        // The same pace from a crystal is a restart.
+        assert!(restart(&at(fresh, 6), &at(fresh, 648), 4_184).is_some());
     }
 
     #[test]
