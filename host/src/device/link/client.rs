@@ -354,9 +354,9 @@ impl<T: Transport> Client<T> {
             Reply::Status(s) => s,
             other => return Err(self.refused("status", other)),
         };
-        // No later than the device's stamp of the reply; and the request
-        // was first written no earlier than its stamp of this one: the
-        // time between the two is at most what passed on the device.
+        // The device stamped this reply before now, and stamps the next
+        // one after that request's first write: the host's time from here
+        // to that write is at most what passes on the device.
         let arrived = self.transport.now();
         super::reply::check_status(&s, &info, |slot| self.committed.get(&slot).copied())
             .map_err(|why| self.bad_reply("status", why))?;
