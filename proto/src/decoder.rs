@@ -60,7 +60,8 @@ enum Event {
 /// # use lm_proto::*;
 /// # let mut wire = [0u8; 2 * MAX_ENCODED_FRAME];
 /// # let n = encode_frame(1, &Message::Stop, &mut wire).unwrap();
-/// # let n = n + encode_frame(2, &Message::Ack, &mut wire[n..]).unwrap();
+/// # let echo = Echo { request_type: 0x07, request_crc32: 0 };
+/// # let n = n + encode_frame(Head::reply(2, echo), &Message::Ack, &mut wire[n..]).unwrap();
 /// let mut dec = FrameDecoder::new();
 /// # let mut seqs = [0u16; 2]; let mut k = 0;
 /// let mut input: &[u8] = &wire[..n]; // one read() worth of bytes

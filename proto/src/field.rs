@@ -21,6 +21,17 @@ layout! {
 }
 
 layout! {
+    /// What every response echoes of the request it answers, between the
+    /// header and the payload (SPEC section 2, "Binding").
+    pub mod echo {
+        /// The request's type byte, u8.
+        REQUEST_TYPE = 0..1,
+        /// The request frame's CRC-32 (its last four bytes), u32.
+        REQUEST_CRC32 = 1..5,
+    }
+}
+
+layout! {
     /// `BeginUpload`.
     pub mod begin_upload {
         /// Target slot, u8.
@@ -199,6 +210,8 @@ layout! {
         LEASE_MS = 42..44,
         /// Plays stopped because their host lease expired, u32.
         LEASE_EXPIRIES = 44..48,
+        /// Milliseconds since reset, wrapping, u32.
+        UPTIME_MS = 48..52,
     }
 }
 

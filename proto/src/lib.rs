@@ -35,7 +35,8 @@ pub use crc::{Crc32, crc32};
 pub use decoder::{FeedResult, FrameDecoder};
 pub use error::EncodeError;
 pub use frame::{
-    Frame, FrameError, decode_frame, encode_frame, encode_frame_unframed, encoded_frame_len,
+    Echo, Frame, FrameError, Head, decode_frame, encode_frame, encode_frame_unframed,
+    encoded_frame_len,
 };
 pub use header::{DeviceLimits, HeaderError, UploadHeader};
 pub use message::{
@@ -46,7 +47,7 @@ pub use message::{
 pub use nack::NackCode;
 
 /// Protocol version carried in every frame header.
-pub const PROTOCOL_VERSION: u8 = 6;
+pub const PROTOCOL_VERSION: u8 = 7;
 /// Carrier frequency of the transducers, Hz (the wavenumber of a slot is
 /// 2π · `CARRIER_HZ` / its speed of sound).
 pub const CARRIER_HZ: u32 = 40_000;
@@ -105,6 +106,8 @@ pub const DEFAULT_LEASE_MS: u16 = 1000;
 pub mod len {
     use crate::field;
 
+    /// The echo every response carries before its payload.
+    pub const ECHO: usize = field::echo::LEN;
     /// `BeginUpload`.
     pub const BEGIN_UPLOAD: usize = field::begin_upload::LEN;
     /// `BeginRig`.

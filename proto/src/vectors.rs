@@ -151,7 +151,7 @@ pub fn replay(
                 outcomes += 1;
                 if outcomes == 1 {
                     on_frame(&frame);
-                    let same = crate::encode_frame(frame.seq, &frame.message, again)
+                    let same = crate::encode_frame(frame.head(), &frame.message, again)
                         .is_ok_and(|m| again[..m] == *wire);
                     first = match v.error {
                         Some(_) => Err(Mismatch::Decoded),

@@ -251,7 +251,8 @@ mod tests {
             len::INFO,
             len::STATUS,
             len::SELF_TEST_RESULT,
+            len::ECHO,
         ];
-        assert_eq!(got, [4, 41, 6, 2, 5, 3, 5, 9, 25, 1, 32, 48, 15]);
+        assert_eq!(got, [4, 41, 6, 2, 5, 3, 5, 9, 25, 1, 32, 52, 15, 5]);
     }
 }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{Out, Owned, Rng, any_message, run, unframed, wire};
+use common::{Out, Owned, Rng, any_message, frame_of, head, run, unframed, wire};
 use lm_proto::*;
 use proptest::prelude::*;
 
@@ -38,6 +38,7 @@ fn samples() -> Vec<(u16, Owned)> {
                 mute_reason: MuteReason::TrackingStale,
                 lease_ms: 1000,
                 lease_expiries: 3,
+                uptime_ms: 4_000_000_000,
             })),
         ),
         (
@@ -74,7 +75,8 @@ proptest! {
         let msg = m.msg();
         let w = wire(seq, &msg);
         prop_assert!(w.len() <= MAX_ENCODED_FRAME);
-        prop_assert_eq!(encoded_frame_len(seq, &msg), Ok(w.len()));
+        let h = head(seq, &msg);
+        prop_assert_eq!(encoded_frame_len(h, &msg), Ok(w.len()));
         prop_assert_eq!(w[0], 0);
         prop_assert_eq!(w[w.len() - 1], 0);
         prop_assert!(!w[1..w.len() - 1].contains(&0));
@@ -84,19 +86,22 @@ proptest! {
         for &b in &w {
             if let Some(r) = dec.push(b) {
                 let f = r.unwrap();
-                prop_assert_eq!(f, Frame { seq, message: msg });
+                prop_assert_eq!((f.head(), f.message), (h, msg));
                 got = Some(f.seq);
             }
         }
         prop_assert_eq!(got, Some(seq));
         // Through the unframed form and decode_frame.
         let mut buf = vec![0u8; MAX_FRAME];
-        let n = encode_frame_unframed(seq, &msg, &mut buf).unwrap();
-        prop_assert_eq!(n, HEADER_LEN + msg.payload_len() + CRC_LEN);
-        prop_assert_eq!(decode_frame(&buf[..n]), Ok(Frame { seq, message: msg }));
+        let n = encode_frame_unframed(h, &msg, &mut buf).unwrap();
+        let echo = if h.echo.is_some() { len::ECHO } else { 0 };
+        prop_assert_eq!(n, HEADER_LEN + echo + msg.payload_len() + CRC_LEN);
+        let f = decode_frame(&buf[..n]).unwrap();
+        prop_assert_eq!((f.head(), f.message), (h, msg));
+        prop_assert_eq!(f.crc32, crc32(&buf[..n - CRC_LEN]));
         let mut payload = vec![0u8; MAX_PAYLOAD];
         let p = msg.emit_payload(&mut payload).unwrap();
-        prop_assert_eq!(&payload[..p], &buf[HEADER_LEN..n - CRC_LEN]);
+        prop_assert_eq!(&payload[..p], &buf[HEADER_LEN + echo..n - CRC_LEN]);
     }
 
     #[test]
@@ -108,7 +113,7 @@ proptest! {
         let mut want = Vec::new();
         for (seq, m) in &msgs {
             stream.extend(wire(*seq, &m.msg()));
-            want.push(Out::Frame(*seq, unframed(&Frame { seq: *seq, message: m.msg() })));
+            want.push(Out::Frame(*seq, unframed(&frame_of(*seq, m.msg()))));
         }
         let mut cuts: Vec<usize> = cuts.iter().map(|c| c % (stream.len() + 1)).collect();
         cuts.push(0);
@@ -123,13 +128,7 @@ proptest! {
 fn split_at_every_byte_boundary_decodes_the_same() {
     for (seq, m) in samples() {
         let w = wire(seq, &m.msg());
-        let want = vec![Out::Frame(
-            seq,
-            unframed(&Frame {
-                seq,
-                message: m.msg(),
-            }),
-        )];
+        let want = vec![Out::Frame(seq, unframed(&frame_of(seq, m.msg())))];
         for i in 0..=w.len() {
             let got = run(&mut FrameDecoder::new(), [&w[..i], &w[i..]]);
             assert_eq!(got, want, "split at {i} of {}", w.len());
@@ -142,13 +141,7 @@ fn split_at_every_byte_boundary_decodes_the_same() {
 #[test]
 fn single_bit_flip_anywhere_is_rejected_and_the_next_frame_survives() {
     let next = wire(0xAAAA, &Message::Ack);
-    let next_out = Out::Frame(
-        0xAAAA,
-        unframed(&Frame {
-            seq: 0xAAAA,
-            message: Message::Ack,
-        }),
-    );
+    let next_out = Out::Frame(0xAAAA, unframed(&frame_of(0xAAAA, Message::Ack)));
     let mut flips = 0;
     for (seq, m) in samples() {
         let w = wire(seq, &m.msg());
@@ -200,16 +193,7 @@ fn one_megabyte_of_garbage_then_a_frame_yields_that_frame() {
     pieces.push(&w[..]);
     let outs = run(&mut dec, pieces);
     let (last, rest) = outs.split_last().unwrap();
-    assert_eq!(
-        *last,
-        Out::Frame(
-            77,
-            unframed(&Frame {
-                seq: 77,
-                message: frame_msg
-            })
-        )
-    );
+    assert_eq!(*last, Out::Frame(77, unframed(&frame_of(77, frame_msg))));
     assert!(
         rest.iter().all(|o| matches!(o, Out::Error(_))),
         "garbage produced a frame"
@@ -290,7 +274,7 @@ fn wrong_payload_lengths_are_malformed_with_seq() {
         .chain([(9, Owned::Plain(Message::Nack(NackCode::Busy)))])
     {
         let msg = m.msg();
-        let good = unframed(&Frame { seq, message: msg });
+        let good = unframed(&frame_of(seq, msg));
         let t = msg.msg_type() as u8;
         let mut longer = good.clone();
         longer.insert(good.len() - CRC_LEN, 0);
@@ -363,10 +347,18 @@ fn unknown_types_carry_seq_and_type_for_the_nack() {
             e,
             FrameError::UnknownType {
                 seq: 0x1234,
-                msg_type: t
+                msg_type: t,
+                crc32: crc32(&f[..f.len() - CRC_LEN]),
             }
         );
-        assert_eq!(e.nack(), Some((0x1234, NackCode::UnknownType)));
+        let echo = Echo {
+            request_type: t,
+            request_crc32: crc32(&f[..f.len() - CRC_LEN]),
+        };
+        assert_eq!(
+            e.nack(),
+            Some((Head::reply(0x1234, echo), NackCode::UnknownType))
+        );
     }
 }
 
@@ -411,14 +403,17 @@ fn display_messages_are_one_line() {
             version: 2,
             seq: 1,
             msg_type: 1,
+            crc32: 3,
         },
         FrameError::UnknownType {
             seq: 1,
             msg_type: 0x42,
+            crc32: 3,
         },
         FrameError::Malformed {
             seq: 1,
             msg_type: 6,
+            crc32: 3,
             reason: "unknown play timing",
         },
     ];

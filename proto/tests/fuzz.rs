@@ -15,7 +15,7 @@
 
 mod common;
 
-use common::{Owned, Rng, decode_in_pieces, unframed};
+use common::{Owned, Rng, decode_in_pieces, frame_of, unframed};
 use lm_proto::codec;
 use lm_proto::*;
 
@@ -138,6 +138,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             mute_reason: MuteReason::from_u8(rng.below(7) as u8).unwrap(),
             lease_ms: rng.u16(),
             lease_expiries: rng.u32(),
+            uptime_ms: rng.u32(),
         }),
         11 => {
             let n = rng.below(MAX_GEOMETRY_POSITIONS + 1);
@@ -301,10 +302,7 @@ fn parse_case(rng: &mut Rng, c: &mut Counts) {
     // A decoded frame (header, payload, CRC), mutated, CRC fixed up half
     // the time so the payload parser sees the damage.
     let m = random_message(rng);
-    let mut f = unframed(&Frame {
-        seq: rng.u16(),
-        message: m.msg(),
-    });
+    let mut f = unframed(&frame_of(rng.u16(), m.msg()));
     f = mutate(rng, f);
     if rng.below(2) == 0 && f.len() >= 4 {
         if rng.below(2) == 0 {

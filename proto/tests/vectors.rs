@@ -7,8 +7,35 @@ use common::paper;
 use lm_proto::vectors::{self, Vector, error_kind, hex_decode};
 use lm_proto::*;
 
+/// The echo of request `msg` sent with `seq`.
+fn echo(seq: u16, msg: &Message<'_>) -> Echo {
+    Echo::of_request(seq, msg).unwrap()
+}
+
+/// The head and message each good vector encodes, by name.
+fn expected(name: &str) -> Option<(Head, Message<'static>)> {
+    let (seq, message) = expected_message(name)?;
+    let commit = Message::Commit(Commit {
+        slot: 0,
+        crc32: 0xCBF4_3926,
+    });
+    let request = match name {
+        "info" | "info_no_rig" => Some(echo(0, &Message::GetInfo)),
+        n if n.starts_with("status") => Some(echo(seq, &Message::GetStatus)),
+        n if n.starts_with("self_test_") => Some(echo(seq, &Message::SelfTest)),
+        "ack" => Some(echo(seq, &Message::Renew)),
+        "nack_unknown_code" => Some(Echo {
+            request_type: 0x42,
+            request_crc32: crc32(&[PROTOCOL_VERSION, 0x42, 17, 0]),
+        }),
+        n if n.starts_with("nack") => Some(echo(seq, &commit)),
+        _ => None,
+    };
+    Some((Head { seq, echo: request }, message))
+}
+
 /// The message each good vector encodes, by name.
-fn expected(name: &str) -> Option<Frame<'static>> {
+fn expected_message(name: &str) -> Option<(u16, Message<'static>)> {
     static LONG: [u8; 300] = {
         let mut a = [0u8; 300];
         let mut i = 0;
@@ -33,7 +60,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "info" => (
             0,
             Message::Info(Info {
-                proto_version: 6,
+                proto_version: 7,
                 fw_version: [0, 1, 0],
                 max_transducers: 996,
                 slot_bytes: 487_424,
@@ -50,7 +77,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "info_no_rig" => (
             0,
             Message::Info(Info {
-                proto_version: 6,
+                proto_version: 7,
                 fw_version: [1, 2, 3],
                 max_transducers: 249,
                 slot_bytes: 1000,
@@ -253,6 +280,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 mute_reason: MuteReason::None,
                 lease_ms: 1000,
                 lease_expiries: 2,
+                uptime_ms: 123_456,
             }),
         ),
         // A device fresh from reset.
@@ -274,6 +302,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 mute_reason: MuteReason::CentroidOutOfRange,
                 lease_ms: 60_000,
                 lease_expiries: 0,
+                uptime_ms: u32::MAX,
             }),
         ),
         "status_lease_expired" => (
@@ -286,6 +315,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
                 mute_reason: MuteReason::LeaseExpired,
                 lease_ms: 1000,
                 lease_expiries: u32::MAX,
+                uptime_ms: 60_000,
                 ..Status::default()
             }),
         ),
@@ -312,7 +342,7 @@ fn expected(name: &str) -> Option<Frame<'static>> {
         "nack_unknown_code" => (17, Message::Nack(NackCode::Other(200))),
         _ => return None,
     };
-    Some(Frame { seq, message })
+    Some((seq, message))
 }
 
 fn bytes(hex: &str) -> Vec<u8> {
@@ -365,26 +395,28 @@ fn encoder_produces_the_vector_bytes() {
             let d = bytes(v.decoded.unwrap());
             let f = decode_frame(&d).unwrap_or_else(|e| panic!("{}: {e}", v.name));
             let mut wire = [0u8; MAX_ENCODED_FRAME];
-            let n = encode_frame(f.seq, &f.message, &mut wire).unwrap();
+            let n = encode_frame(f.head(), &f.message, &mut wire).unwrap();
             assert_eq!(&wire[..n], &bytes(v.wire)[..], "wire bytes of {}", v.name);
             continue;
         }
-        let f = expected(v.name).unwrap_or_else(|| panic!("no expected message for {}", v.name));
-        assert_eq!(v.seq, Some(f.seq), "{}", v.name);
-        assert_eq!(v.msg_type, Some(f.message.msg_type() as u8), "{}", v.name);
+        let (head, message) =
+            expected(v.name).unwrap_or_else(|| panic!("no expected message for {}", v.name));
+        assert_eq!(v.seq, Some(head.seq), "{}", v.name);
+        assert_eq!(v.msg_type, Some(message.msg_type() as u8), "{}", v.name);
         let mut wire = [0u8; MAX_ENCODED_FRAME];
-        let n = encode_frame(f.seq, &f.message, &mut wire).unwrap();
+        let n = encode_frame(head, &message, &mut wire).unwrap();
         assert_eq!(&wire[..n], &bytes(v.wire)[..], "wire bytes of {}", v.name);
-        assert_eq!(encoded_frame_len(f.seq, &f.message), Ok(n), "{}", v.name);
+        assert_eq!(encoded_frame_len(head, &message), Ok(n), "{}", v.name);
         let mut dec = [0u8; MAX_FRAME];
-        let m = encode_frame_unframed(f.seq, &f.message, &mut dec).unwrap();
+        let m = encode_frame_unframed(head, &message, &mut dec).unwrap();
         assert_eq!(
             &dec[..m],
             &bytes(v.decoded.unwrap())[..],
             "decoded bytes of {}",
             v.name
         );
-        assert_eq!(f.message.payload_len(), m - HEADER_LEN - CRC_LEN);
+        let echo = if head.echo.is_some() { len::ECHO } else { 0 };
+        assert_eq!(message.payload_len(), m - HEADER_LEN - echo - CRC_LEN);
     }
 }
 
@@ -395,7 +427,12 @@ fn decoder_reads_the_vector_bytes() {
     for v in all() {
         let replayed = vectors::replay(&v, &mut wire, &mut again, |frame| {
             if v.expect.is_none() {
-                assert_eq!(Some(*frame), expected(v.name), "{}", v.name);
+                assert_eq!(
+                    Some((frame.head(), frame.message)),
+                    expected(v.name),
+                    "{}",
+                    v.name
+                );
             }
         });
         assert_eq!(replayed, Ok(()), "{}", v.name);
@@ -403,7 +440,7 @@ fn decoder_reads_the_vector_bytes() {
             let d = bytes(d);
             match decode_frame(&d) {
                 Ok(_) if v.expect.is_some() => {}
-                Ok(f) => assert_eq!(Some(f), expected(v.name)),
+                Ok(f) => assert_eq!(Some((f.head(), f.message)), expected(v.name)),
                 Err(e) => assert_eq!(Some(error_kind(&e)), v.error, "{}", v.name),
             }
         }
@@ -471,10 +508,18 @@ fn unknown_type_vector_maps_to_an_unknown_type_nack() {
         e,
         FrameError::UnknownType {
             seq: 19,
-            msg_type: 0x42
+            msg_type: 0x42,
+            crc32: u32::from_le_bytes(d[d.len() - 4..].try_into().unwrap()),
         }
     );
-    assert_eq!(e.nack(), Some((19, NackCode::UnknownType)));
+    let echo = Echo {
+        request_type: 0x42,
+        request_crc32: crc32(&d[..d.len() - 4]),
+    };
+    assert_eq!(
+        e.nack(),
+        Some((Head::reply(19, echo), NackCode::UnknownType))
+    );
 }
 
 /// `frames.txt` is exactly what the independent generator writes from the

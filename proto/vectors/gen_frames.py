@@ -4,7 +4,7 @@ spec with Python's own CRC (zlib) and a separate COBS, independent of the
 Rust code that the vectors check. Run: python3 gen_frames.py > frames.txt"""
 import struct, zlib
 
-VERSION = 6
+VERSION = 7
 
 def cobs(data):
     out, block = bytearray(), bytearray()
@@ -24,6 +24,12 @@ def frame(msg_type, seq, payload, version=VERSION, crc_xor=0):
     body = struct.pack("<BBH", version, msg_type, seq) + payload
     decoded = body + struct.pack("<I", zlib.crc32(body) ^ crc_xor)
     return decoded, b"\x00" + cobs(decoded) + b"\x00"
+
+def echo(req_type, seq, payload=b"", version=VERSION):
+    """What a response carries before its payload (SPEC section 2,
+    Binding): the request's type byte and its decoded frame's CRC-32."""
+    decoded, _ = frame(req_type, seq, payload, version)
+    return bytes([req_type]) + decoded[-4:]
 
 def hexs(b):
     return " ".join(f"{x:02x}" for x in b)
@@ -72,9 +78,9 @@ def play(slot, at, flags, steps=0, lease_ms=DEFAULT_LEASE_MS):
     """Play: slot, at, flags, steps (u32, 0 = until Stop), lease_ms (u16)."""
     return bytes([slot, at, flags]) + struct.pack("<IH", steps, lease_ms)
 
-def status(state, slot, step, counters, corr, queued, reason, lease_ms=0, expiries=0):
+def status(state, slot, step, counters, corr, queued, reason, lease_ms=0, expiries=0, uptime=0):
     return (bytes([state, slot]) + struct.pack("<H6I", step, *counters) + xyz(corr)
-            + bytes([queued, reason]) + struct.pack("<HI", lease_ms, expiries))
+            + bytes([queued, reason]) + struct.pack("<HII", lease_ms, expiries, uptime))
 
 def self_test(outcome, n=0, mismatches=0, first=0, sent=0, got=0):
     """SelfTestResult: outcome (0 unsupported, 1 passed, 2 failed), bytes,
@@ -83,16 +89,16 @@ def self_test(outcome, n=0, mismatches=0, first=0, sent=0, got=0):
 
 rec("get_info", 0x01, 0, "GetInfo", b"")
 rec("info", 0x82, 0,
-    "Info proto_version=6 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
+    "Info (echo: GetInfo seq 0) proto_version=7 fw_version=0.1.0 max_transducers=996 slot_bytes=487424 "
     "slots=32 timer_hz=1000000 min_dwell_us=100 max_chunk=1024 rig_transducers=996 "
     "rig_crc32=0x89abcdef library_free=300000 clock=Crystal(2)",
-    struct.pack("<B3BHIBIIHHIIB", 6, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
+    echo(0x01, 0) + struct.pack("<B3BHIBIIHHIIB", 7, 0, 1, 0, 996, 487424, 32, 1000000, 100, 1024, 996,
                 0x89ABCDEF, 300000, 2))
 rec("info_no_rig", 0x82, 0,
-    "Info proto_version=6 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
+    "Info (echo: GetInfo seq 0) proto_version=7 fw_version=1.2.3 max_transducers=249 slot_bytes=1000 "
     "slots=32 timer_hz=25000000 min_dwell_us=1000 max_chunk=512 rig_transducers=0 "
     "rig_crc32=0x00000000 library_free=1000 clock=InternalRc(1)",
-    struct.pack("<B3BHIBIIHHIIB", 6, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000, 1))
+    echo(0x01, 0) + struct.pack("<B3BHIBIIHHIIB", 7, 1, 2, 3, 249, 1000, 32, 25000000, 1000, 512, 0, 0, 1000, 1))
 rec("begin_upload", 0x02, 1,
     "BeginUpload slot=0 steps=82 transducers=996 period_us=200000 encoding=Delta(1) "
     "encoded_len=22000 center_um=[0,30000,30000] foci_per_step=4 sound_speed_mm_s=343200 "
@@ -147,44 +153,65 @@ rec("centroid_absent", 0x08, 13,
     struct.pack("<I", 0xFFFFFFFF) + xyz((0, 0, 0)) + b"\x00" + struct.pack("<Q", 2**64 - 1))
 rec("get_status", 0x09, 14, "GetStatus", b"")
 rec("status", 0x83, 14,
-    "Status state=Playing(1) slot=1 step=17 cycles=300 missed_deadlines=0 last_centroid_seq=42 "
-    "bad_frames=2 crc_errors=1 nacks=3 correction_um=[-1500,250,-200] queued_slot=0 "
-    "mute_reason=None(0) lease_ms=1000 lease_expiries=2",
-    status(1, 1, 17, (300, 0, 42, 2, 1, 3), (-1500, 250, -200), 0, 0, 1000, 2))
+    "Status (echo: GetStatus seq 14) state=Playing(1) slot=1 step=17 cycles=300 "
+    "missed_deadlines=0 last_centroid_seq=42 bad_frames=2 crc_errors=1 nacks=3 "
+    "correction_um=[-1500,250,-200] queued_slot=0 mute_reason=None(0) lease_ms=1000 "
+    "lease_expiries=2 uptime_ms=123456",
+    echo(0x09, 14)
+    + status(1, 1, 17, (300, 0, 42, 2, 1, 3), (-1500, 250, -200), 0, 0, 1000, 2, 123456))
 rec("status_idle", 0x83, 15,
-    "Status state=Idle(0) slot=none(0xff) step=0 cycles=0 missed_deadlines=0 last_centroid_seq=0 "
-    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0] queued_slot=none(0xff) "
-    "mute_reason=None(0) lease_ms=0 lease_expiries=0",
-    status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0))
+    "Status (echo: GetStatus seq 15) state=Idle(0) slot=none(0xff) step=0 cycles=0 "
+    "missed_deadlines=0 last_centroid_seq=0 bad_frames=0 crc_errors=0 nacks=0 "
+    "correction_um=[0,0,0] queued_slot=none(0xff) mute_reason=None(0) lease_ms=0 "
+    "lease_expiries=0 uptime_ms=0",
+    echo(0x09, 15) + status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0))
 rec("status_muted", 0x83, 15,
-    "Status state=Muted(2) slot=0 step=3 cycles=1 missed_deadlines=0 last_centroid_seq=7 "
-    "bad_frames=0 crc_errors=0 nacks=1 correction_um=[0,0,0] queued_slot=none(0xff) "
-    "mute_reason=CentroidOutOfRange(4) lease_ms=60000 lease_expiries=0",
-    status(2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4, 60000, 0))
+    "Status (echo: GetStatus seq 15) state=Muted(2) slot=0 step=3 cycles=1 missed_deadlines=0 "
+    "last_centroid_seq=7 bad_frames=0 crc_errors=0 nacks=1 correction_um=[0,0,0] "
+    "queued_slot=none(0xff) mute_reason=CentroidOutOfRange(4) lease_ms=60000 lease_expiries=0 "
+    "uptime_ms=4294967295 (the last before it wraps)",
+    echo(0x09, 15)
+    + status(2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4, 60000, 0, 0xFFFFFFFF))
 rec("status_lease_expired", 0x83, 16,
-    "Status state=Stopped(3) slot=4 step=9 cycles=12 missed_deadlines=0 last_centroid_seq=0 "
-    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0] queued_slot=none(0xff) "
-    "mute_reason=LeaseExpired(6) lease_ms=1000 lease_expiries=4294967295",
-    status(3, 4, 9, (12, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6, 1000, 0xFFFFFFFF))
-rec("self_test_unsupported", 0x84, 30, "SelfTestResult outcome=Unsupported(0) (other fields 0)",
-    self_test(0))
-rec("self_test_passed", 0x84, 30, "SelfTestResult outcome=Passed(1) bytes=1024", self_test(1, 1024))
+    "Status (echo: GetStatus seq 16) state=Stopped(3) slot=4 step=9 cycles=12 "
+    "missed_deadlines=0 last_centroid_seq=0 bad_frames=0 crc_errors=0 nacks=0 "
+    "correction_um=[0,0,0] queued_slot=none(0xff) mute_reason=LeaseExpired(6) lease_ms=1000 "
+    "lease_expiries=4294967295 uptime_ms=60000",
+    echo(0x09, 16)
+    + status(3, 4, 9, (12, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6, 1000, 0xFFFFFFFF, 60000))
+rec("self_test_unsupported", 0x84, 30,
+    "SelfTestResult (echo: SelfTest seq 30) outcome=Unsupported(0) (other fields 0)",
+    echo(0x0D, 30) + self_test(0))
+rec("self_test_passed", 0x84, 30, "SelfTestResult (echo: SelfTest seq 30) outcome=Passed(1) bytes=1024",
+    echo(0x0D, 30) + self_test(1, 1024))
 rec("self_test_failed", 0x84, 30,
-    "SelfTestResult outcome=Failed(2) bytes=1024 mismatches=1020 first_mismatch=3 sent=0x03 got=0xff",
-    self_test(2, 1024, 1020, 3, 0x03, 0xFF))
-rec("ack", 0x80, 0xBEEF, "Ack", b"")
-rec("nack", 0x81, 16, "Nack code=OutOfOrder(8)", bytes([8]))
-rec("nack_library_full", 0x81, 16, "Nack code=LibraryFull(16)", bytes([16]))
-rec("nack_no_rig", 0x81, 16, "Nack code=NoRig(17)", bytes([17]))
-rec("nack_rig_mismatch", 0x81, 16, "Nack code=RigMismatch(18)", bytes([18]))
-rec("nack_unknown_code", 0x81, 17, "Nack code=Other(200) (a code this version does not know)", bytes([200]))
+    "SelfTestResult (echo: SelfTest seq 30) outcome=Failed(2) bytes=1024 mismatches=1020 "
+    "first_mismatch=3 sent=0x03 got=0xff",
+    echo(0x0D, 30) + self_test(2, 1024, 1020, 3, 0x03, 0xFF))
+rec("ack", 0x80, 0xBEEF, "Ack (echo: Renew seq 48879)", echo(0x0C, 0xBEEF))
+COMMIT = struct.pack("<BI", 0, 0xCBF43926)
+rec("nack", 0x81, 16, "Nack (echo: Commit seq 16 slot=0 crc32=0xcbf43926) code=OutOfOrder(8)",
+    echo(0x05, 16, COMMIT) + bytes([8]))
+rec("nack_library_full", 0x81, 16,
+    "Nack (echo: Commit seq 16 slot=0 crc32=0xcbf43926) code=LibraryFull(16)",
+    echo(0x05, 16, COMMIT) + bytes([16]))
+rec("nack_no_rig", 0x81, 16, "Nack (echo: Commit seq 16 slot=0 crc32=0xcbf43926) code=NoRig(17)",
+    echo(0x05, 16, COMMIT) + bytes([17]))
+rec("nack_rig_mismatch", 0x81, 16,
+    "Nack (echo: Commit seq 16 slot=0 crc32=0xcbf43926) code=RigMismatch(18)",
+    echo(0x05, 16, COMMIT) + bytes([18]))
+rec("nack_unknown_code", 0x81, 17,
+    "Nack (echo: type 0x42, unknown, seq 17, empty) code=Other(200) (a code this version does "
+    "not know)",
+    echo(0x42, 17) + bytes([200]))
 
 # Bad frames: what a decoder must report.
-rec("err_crc", 0x80, 18, "Ack with the CRC's lowest bit flipped", b"", crc_xor=1, error="crc")
+rec("err_crc", 0x80, 18, "Ack (echo: Stop seq 18) with the CRC's lowest bit flipped",
+    echo(0x07, 18), crc_xor=1, error="crc")
 rec("err_unknown_type", 0x42, 19, "type 0x42 (unknown), empty payload, valid CRC", b"",
     error="unknown_type")
-rec("err_bad_version", 0x01, 20, "GetInfo with version 5 (the previous one), valid CRC", b"",
-    version=5,
+rec("err_bad_version", 0x01, 20, "GetInfo with version 6 (the previous one), valid CRC", b"",
+    version=6,
     error="bad_version")
 rec("err_malformed_play", 0x06, 21, "Play slot=0 at=2 (no such timing)", play(0, 2, 0),
     error="malformed")
@@ -223,15 +250,28 @@ rec("err_malformed_geometry_v2", 0x03, 24,
 rec("err_malformed_commit_rig", 0x0B, 24, "CommitRig with a 1-byte payload (needs 0)", b"\x00",
     error="malformed")
 rec("err_malformed_status_reason", 0x83, 25, "Status with mute_reason=7 (no such reason)",
-    status(2, 0, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 7), error="malformed")
+    echo(0x09, 25) + status(2, 0, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 7), error="malformed")
 rec("err_malformed_status_v4", 0x83, 25,
-    "Status with the 42-byte payload of version 4, without the lease fields (needs 48)",
-    status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0)[:42], error="malformed")
+    "Status with the 42-byte payload of version 4, without the lease fields (needs 52)",
+    echo(0x09, 25) + status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0)[:42],
+    error="malformed")
+rec("err_malformed_status_v6", 0x83, 25,
+    "Status with the 48-byte payload of version 6, without uptime_ms (needs 52)",
+    echo(0x09, 25) + status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0)[:48],
+    error="malformed")
+rec("err_malformed_status_no_echo", 0x83, 25,
+    "Status without the echo of its request (a whole status, but 5 bytes short of 57)",
+    status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0), error="malformed")
+rec("err_malformed_ack_v6", 0x80, 25, "Ack without the echo of its request (version 6's empty Ack)",
+    b"", error="malformed")
+rec("err_malformed_nack_short_echo", 0x81, 25,
+    "Nack with 4 bytes, shorter than the echo of its request (5) and its code",
+    echo(0x07, 25)[:4], error="malformed")
 rec("err_malformed_self_test_outcome", 0x84, 25, "SelfTestResult with outcome=3 (no such outcome)",
-    self_test(3), error="malformed")
+    echo(0x0D, 25) + self_test(3), error="malformed")
 rec("err_malformed_self_test_fields", 0x84, 25,
     "SelfTestResult outcome=Passed(1) bytes=1024 with mismatches=1 (passed has none)",
-    self_test(1, 1024, 1), error="malformed")
+    echo(0x0D, 25) + self_test(1, 1024, 1), error="malformed")
 raw("err_cobs", "block code 5 but the delimiter comes after 2 data bytes", bytes([0, 5, 1, 2, 0]),
     "cobs")
 raw("err_too_short", "3 decoded bytes", b"\x00" + cobs(bytes([1, 1, 0])) + b"\x00", "too_short")
@@ -406,7 +446,8 @@ print("""# lm-proto exact-byte test vectors (generated by gen_frames.py from SPE
 #   type     message type byte (hex), absent for framing errors
 #   seq      sequence number (decimal), absent for framing errors
 #   fields   the message's fields, for humans
-#   decoded  hex of the frame after COBS decoding (header, payload, CRC)
+#   decoded  hex of the frame after COBS decoding (header, a response's
+#            echo of its request, payload, CRC)
 #   wire     hex of the on-wire bytes: 00, COBS(decoded), 00
 #   error    absent for good frames; else what the decoder must report:
 #            crc | unknown_type | bad_version | malformed | cobs | too_short

@@ -47,3 +47,32 @@ fn a_device_that_restarts_during_an_upload_hold_ends_it_naming_the_port() {
         "{err}"
     );
 }
+
+/// A restart that leaves nothing to tell but the clock: the device reset
+/// before it ever played and before it counted anything (every since-reset
+/// counter 0, Idle before and after). Held at the `BeginUpload`, it loses
+/// the rig lmhost sent; lmhost sends it again on `NoRig` and plays, and
+/// its next `Status` says the device's uptime went back.
+#[test]
+fn a_restart_with_every_counter_at_0_before_any_play_is_seen() {
+    let dev = gated_device::Gated::start(1);
+    let child = Command::new(lmhost())
+        .args(["upload", "--radius", "3", "--untracked", "--hold", "30"])
+        .args(["--port", &dev.port])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    dev.wait_held(Duration::from_secs(60));
+    dev.restart();
+    dev.release();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!("the device on {} restarted", dev.port)),
+        "{err}"
+    );
+    assert!(err.contains("its uptime went back from 36"), "{err}");
+    assert_eq!(err.lines().count(), 1, "one line: {err}");
+}

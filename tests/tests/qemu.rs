@@ -33,12 +33,15 @@ use qemu_support::{Qemu, firmware_or_skip, serving_or_skip, wait_on_device, with
 /// Speed of sound the test sequences are planned and uploaded with, mm/s.
 const SOUND_SPEED_MM_S: u32 = 340_000;
 
-/// Request/response over the socket, matched by sequence number.
+/// Request/response over the socket, matched by sequence number and the
+/// reply's echo of the request.
 struct Link {
     sock: TcpStream,
     dec: FrameDecoder,
     pending: Vec<u8>,
     seq: u16,
+    /// What the reply to the request in flight must echo.
+    echo: Option<lm_proto::Echo>,
 }
 
 /// A response, owned (chunk-free messages only come back).
@@ -59,6 +62,7 @@ impl Link {
             dec: FrameDecoder::new(),
             pending: Vec::new(),
             seq: 0,
+            echo: None,
         }
     }
 
@@ -66,6 +70,7 @@ impl Link {
         self.seq = self.seq.wrapping_add(1);
         let mut buf = [0u8; MAX_ENCODED_FRAME];
         let n = encode_frame(self.seq, msg, &mut buf).unwrap();
+        self.echo = Some(lm_proto::Echo::of_request(self.seq, msg).unwrap());
         self.sock.write_all(&buf[..n]).unwrap();
         let deadline = Instant::now() + Duration::from_secs(10);
         loop {
@@ -105,6 +110,7 @@ impl Link {
                 }
                 FeedResult::Frame { frame, remaining } => {
                     assert_eq!(frame.seq, self.seq, "reply to another request: {frame:?}");
+                    assert_eq!(frame.echo, self.echo, "reply echoes another request");
                     found = Some(match frame.message {
                         Message::Ack => Reply::Ack,
                         Message::Nack(c) => Reply::Nack(c),
@@ -411,7 +417,13 @@ fn preload_frame_bytes(set: &[(String, lmhost::plan::sequence::Plan)]) -> (u64, 
     use lm_proto::encoded_frame_len;
     use lmhost::device::link::UploadSpec;
     let len = |m: &Message<'_>| encoded_frame_len(1, m).unwrap() as u64;
-    let ack = len(&Message::Ack);
+    // An ack's echo: a request's type and a CRC (without zero bytes, as
+    // most are: COBS adds nothing for them).
+    let echo = lm_proto::Echo {
+        request_type: 0x04,
+        request_crc32: 0x9E37_79B9,
+    };
+    let ack = encoded_frame_len(lm_proto::Head::reply(1, echo), &Message::Ack).unwrap() as u64;
     let (mut sent, mut acks) = (0, 0);
     for (slot, (_, plan)) in set.iter().enumerate() {
         let spec = UploadSpec::from_plan(plan, Encoding::Delta).unwrap();

@@ -42,6 +42,7 @@ pub fn print_status(s: &lm_proto::Status) -> anyhow::Result<()> {
     lmhost::outln!("bad frames:       {}", s.bad_frames)?;
     lmhost::outln!("CRC errors:       {}", s.crc_errors)?;
     lmhost::outln!("nacks sent:       {}", s.nacks)?;
+    lmhost::outln!("uptime:           {:.3} s", f64::from(s.uptime_ms) / 1000.0)?;
     match s.lease_ms {
         0 => lmhost::outln!(
             "host lease:       none ({} plays ended by one)",

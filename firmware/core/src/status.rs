@@ -25,6 +25,18 @@ pub struct Mechanics {
     /// The host lease in force, ms (the LM firmware: the last play's; an
     /// AUTD3: the host-side lease its output is renewed by).
     pub lease_ms: u16,
+    /// Milliseconds since reset, wrapping ([`uptime_ms`]; an AUTD3: since
+    /// the backend opened it).
+    pub uptime_ms: u32,
+}
+
+/// `ticks` of a `timer_hz` clock as `Status::uptime_ms`: whole
+/// milliseconds, wrapping at `u32::MAX` (49.7 days), without overflow
+/// however long the device runs.
+pub fn uptime_ms(ticks: u64, timer_hz: u32) -> u32 {
+    let hz = u64::from(timer_hz.max(1));
+    let ms = ticks / hz * 1000 + ticks % hz * 1000 / hz;
+    ms as u32
 }
 
 /// The status at `now` of a device whose player is `player`, policy
@@ -51,6 +63,7 @@ pub fn status(
         mute_reason: policy.mute_reason(now),
         lease_ms: m.lease_ms,
         lease_expiries: policy.lease_expiries(),
+        uptime_ms: m.uptime_ms,
     }
 }
 
@@ -99,6 +112,7 @@ mod tests {
             crc_errors: 5,
             nacks: 6,
             lease_ms: 1500,
+            uptime_ms: 7,
         };
         let st = status(&player, &policy, Some(&header), m, 700);
         assert_eq!(
@@ -107,11 +121,18 @@ mod tests {
         );
         assert_eq!((st.last_centroid_seq, st.correction_um), (7, [1000, 0, 0]));
         assert_eq!(st.mute_reason, MuteReason::None);
-        assert_eq!((st.lease_ms, st.lease_expiries), (1500, 0));
+        assert_eq!((st.lease_ms, st.lease_expiries, st.uptime_ms), (1500, 0, 7));
         assert_eq!(
             (st.missed_deadlines, st.bad_frames, st.crc_errors, st.nacks),
             (3, 4, 5, 6)
         );
+        // Whole milliseconds of any timer, wrapping after 2^32 of them.
+        assert_eq!(uptime_ms(25_000_000 * 3 + 24_999, 25_000_000), 3000);
+        assert_eq!(uptime_ms(1_000_000 * 2, 1_000_000), 2000);
+        let wrap_us = (1u64 << 32) * 1000;
+        assert_eq!(uptime_ms(wrap_us + 5_000, 1_000_000), 5);
+        assert_eq!(uptime_ms(wrap_us - 1000, 1_000_000), u32::MAX);
+        assert_eq!(uptime_ms(u64::MAX, 1_000_000), (u64::MAX / 1000) as u32);
         // Nothing playing: no correction whatever the policy holds.
         let st = status(&player, &policy, None, Mechanics::default(), 700);
         assert_eq!(st.correction_um, [0; 3]);

@@ -99,7 +99,17 @@ fn every_vector_gets_the_right_response() {
     let mut behaviours = 0;
     let mut nacks = 0;
     for v in &vs {
-        let replies = feed(&mut dev, &v.wire, 0);
+        let replies = feed_heads(&mut dev, &v.wire, 0);
+        // A reply answers this frame: its seq, type byte and CRC.
+        if let Some((head, _)) = replies.first() {
+            let want = match lm_proto::FrameDecoder::new().feed(&v.wire) {
+                lm_proto::FeedResult::Frame { frame, .. } => Some(frame.reply_head()),
+                lm_proto::FeedResult::Error { error, .. } => error.nack().map(|(h, _)| h),
+                lm_proto::FeedResult::Consumed => None,
+            };
+            assert_eq!(Some(*head), want, "{}: the reply's echo", v.name);
+        }
+        let replies: Vec<_> = replies.into_iter().map(|(h, r)| (h.seq, r)).collect();
         if let Some(want) = &v.expect {
             assert_eq!(replies.len(), 1, "{}", v.name);
             assert_eq!(&words(&replies[0].1), want, "{}", v.name);

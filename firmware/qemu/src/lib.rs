@@ -37,7 +37,8 @@ pub const STORE_BYTES: usize = lm_fw_core::memory_bytes(LIBRARY_BYTES, ARRAY_TRA
 pub fn config() -> Config {
     let mut c = Config::new(PCLK_HZ);
     c.max_transducers = ARRAY_TRANSDUCERS;
-    // QEMU's timer follows the host machine's clock.
+    // QEMU's timer: the host machine's clock, or under `-icount` the
+    // guest's instruction count (a host holds it to neither).
     c.clock = lm_proto::ClockSource::Emulated;
     c
 }

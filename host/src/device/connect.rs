@@ -515,7 +515,15 @@ mod tests {
         assert_eq!(st.missed_deadlines, 0);
         // Frozen afterwards.
         to(&mut dev, end + 10_000_000);
-        assert_eq!(dev.status().unwrap(), st);
+        let later = dev.status().unwrap();
+        assert_eq!(
+            lm_proto::Status {
+                uptime_ms: st.uptime_ms,
+                ..later
+            },
+            st
+        );
+        assert_eq!(later.uptime_ms, st.uptime_ms + 10_000, "its uptime goes on");
         let frames = core.lock().unwrap().take_captured();
         let sounding = frames.iter().filter(|f| f.amplitude > 0).count();
         assert_eq!(sounding, steps as usize);

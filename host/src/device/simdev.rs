@@ -133,6 +133,15 @@ impl<C: Core> Transport for InProcess<C> {
     fn describe(&self) -> String {
         "in-process simulated device".into()
     }
+
+    fn discard_input(&mut self) -> std::io::Result<()> {
+        self.pending.clear();
+        Ok(())
+    }
+
+    fn now(&self) -> Duration {
+        self.clock.now()
+    }
 }
 
 /// A pseudo-terminal pair: the device holds the master, clients open the
@@ -417,6 +426,10 @@ impl lm_fw_core::OutputDriver for Probe<'_> {
 /// [`lm_fw_core::Device`] with a 1 MHz timer (counts = µs) as a [`Core`].
 pub struct FwCore {
     device: lm_fw_core::Device<'static>,
+    /// Whether the device has seen the clock: it counts `uptime_ms` from
+    /// the first time it does (its reset, on a clock it shares with the
+    /// host).
+    started: bool,
     watch: lm_proto::FrameDecoder,
     out: Watched,
 }
@@ -437,6 +450,7 @@ impl FwCore {
             .map_err(|e| anyhow::anyhow!("building the simulated device: {e}"))?;
         Ok(Self {
             device,
+            started: false,
             watch: lm_proto::FrameDecoder::new(),
             out: Watched {
                 loopback: cfg.loopback,
@@ -463,10 +477,27 @@ impl FwCore {
     pub fn status(&self, now_us: u64) -> lm_proto::Status {
         self.device.status(now_us)
     }
+
+    /// Sets the time the device was reset, from which its `uptime_ms`
+    /// counts (a test's device that has been on for a while); without it
+    /// the device counts from the first moment it sees the clock.
+    pub fn set_epoch(&mut self, epoch_us: u64) {
+        self.device.set_epoch(epoch_us);
+        self.started = true;
+    }
+
+    /// The device's reset is the first moment it sees the clock.
+    fn start(&mut self, now_us: u64) {
+        if !self.started {
+            self.device.set_epoch(now_us);
+            self.started = true;
+        }
+    }
 }
 
 impl Core for FwCore {
     fn receive(&mut self, now_us: u64, bytes: &[u8], out: &mut Vec<u8>) {
+        self.start(now_us);
         // Watch for centroids so their latency can be measured; the device
         // decodes the same bytes itself.
         let mut centroids = Vec::new();
@@ -502,6 +533,7 @@ impl Core for FwCore {
     }
 
     fn poll(&mut self, now_us: u64) -> Option<u64> {
+        self.start(now_us);
         let mut probe = Probe {
             out: &mut self.out,
             now_us,

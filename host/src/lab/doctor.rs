@@ -114,14 +114,6 @@ const CAP_NET_RAW: u32 = 13;
 /// CAP_SYS_NICE's bit.
 const CAP_SYS_NICE: u32 = 23;
 
-/// USB ids of ST-LINK debug probes (the Nucleo's on-board probe).
-const ST_LINKS: &[(u16, u16)] = &[
-    (0x0483, 0x374e),
-    (0x0483, 0x374f),
-    (0x0483, 0x3753),
-    (0x0483, 0x3754),
-    (0x0483, 0x374b),
-];
 /// Intel's USB vendor id; RealSense D4xx cameras use product ids 0x0ad0 to
 /// 0x0b6f.
 const INTEL: u16 = 0x8086;
@@ -333,7 +325,11 @@ fn lm_board(port: &str, board: Option<&str>, opts: &Options) -> Check {
 
 fn probe(env: &Env) -> Check {
     let usb = usb_devices(&env.sys_usb);
-    let Some(st) = usb.iter().find(|d| ST_LINKS.contains(&(d.vid, d.pid))) else {
+    let Some(st) = usb.iter().find(|d| {
+        discover::ST_LINKS
+            .iter()
+            .any(|s| (s.0, s.1) == (d.vid, d.pid))
+    }) else {
         return Check::new("debug probe", Outcome::Missing, "no ST-LINK on USB")
             .fix("only needed to flash the Nucleo: plug its ST-LINK USB connector (CN1)");
     };

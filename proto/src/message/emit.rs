@@ -213,6 +213,7 @@ impl Message<'_> {
                 set(&mut p, f::MUTE_REASON, &[st.mute_reason.to_u8()]);
                 set(&mut p, f::LEASE_MS, &st.lease_ms.to_le_bytes());
                 set(&mut p, f::LEASE_EXPIRIES, &st.lease_expiries.to_le_bytes());
+                set(&mut p, f::UPTIME_MS, &st.uptime_ms.to_le_bytes());
                 s.put(&p)
             }
             Self::SelfTestResult(t) => {

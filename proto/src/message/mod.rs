@@ -21,7 +21,7 @@ macro_rules! payload_less {
 mod emit;
 mod parse;
 
-pub(crate) use emit::Sink;
+pub(crate) use emit::{Sink, SliceSink};
 pub(crate) use parse::PayloadError;
 
 wire_enum! {
@@ -503,6 +503,10 @@ pub struct Status {
     pub lease_ms: u16,
     /// Plays the device stopped because their lease expired, since reset.
     pub lease_expiries: u32,
+    /// Milliseconds since reset, wrapping at `u32::MAX` (49.7 days): with
+    /// the host's own clock it tells a restart that left every counter at
+    /// 0 (SPEC section 3, `Status`).
+    pub uptime_ms: u32,
 }
 
 /// One protocol message, borrowing bulk bytes (chunk data, positions) from

@@ -244,6 +244,7 @@ impl<'a> Message<'a> {
                         .ok_or("unknown mute reason")?,
                     lease_ms: p.u16(f::LEASE_MS)?,
                     lease_expiries: p.u32(f::LEASE_EXPIRIES)?,
+                    uptime_ms: p.u32(f::UPTIME_MS)?,
                 })
             }
             MessageType::SelfTestResult => {

@@ -4,7 +4,9 @@
 //! host's `nth` `BeginUpload` unanswered until the test releases it. A
 //! test signals a command while it waits there: during its set-up, for
 //! sure, with no timing. [`Gated::restart`] resets the device mid-run, as
-//! a power glitch or a watchdog would.
+//! a power glitch or a watchdog would. The device has been on for an hour
+//! when the fake starts ([`UP_BEFORE`]), so a restart sets its uptime
+//! back whenever it comes.
 
 use std::io::Write as _;
 use std::net::{TcpListener, TcpStream};
@@ -19,6 +21,9 @@ use lmhost::device::simdev::{Core as _, FwCore, SimConfig};
 /// How long the fake holds an upload at most (a test that failed before
 /// releasing it must not hang the device thread forever).
 const HOLD_AT_MOST: Duration = Duration::from_secs(120);
+
+/// How long the device has been on when the fake starts, µs.
+const UP_BEFORE: u64 = 3_600_000_000;
 
 /// The running fake.
 pub struct Gated {
@@ -47,8 +52,10 @@ impl Gated {
         let port = listener.local_addr().unwrap().port();
         let (reached_tx, reached) = sync_channel(1);
         let (release, release_rx) = sync_channel(1);
+        let mut core = FwCore::new(SimConfig::default()).expect("the simulated firmware");
+        core.set_epoch(0);
         let shared = Arc::new(Shared {
-            core: Mutex::new(FwCore::new(SimConfig::default()).expect("the simulated firmware")),
+            core: Mutex::new(core),
             t0: Instant::now(),
             uploads: AtomicUsize::new(0),
             nth,
@@ -94,7 +101,7 @@ fn serve(mut conn: TcpStream, s: &Shared) -> std::io::Result<()> {
     conn.set_read_timeout(Some(Duration::from_millis(1)))?;
     let (mut buf, mut out, mut frame) = (vec![0u8; 4096], Vec::new(), Vec::new());
     loop {
-        let now = || s.t0.elapsed().as_micros() as u64;
+        let now = || UP_BEFORE + s.t0.elapsed().as_micros() as u64;
         s.core.lock().unwrap().poll(now());
         let n = match crate::link_support::read_within(&mut conn, &mut buf)? {
             Some(0) => return Ok(()),

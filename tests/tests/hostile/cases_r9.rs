@@ -24,6 +24,9 @@
 //!   `stream`), and Ctrl-C ends an upload between two of its frames (it
 //!   was held up for as long as the rest of the upload took, 90 s on a
 //!   device answering every other request).
+//! - A reply with the request's seq that echoes another request: a line
+//!   replaying the previous reply, a device making up acks (for version 6,
+//!   matched by seq alone, a forged ack of a chunk counted as landed).
 
 use std::collections::BTreeMap;
 use std::io::Write as _;
@@ -32,7 +35,8 @@ use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
 
 use lm_proto::{
-    DeviceState, FeedResult, FrameDecoder, Info, Message, MessageType, MuteReason, Status,
+    DeviceState, Echo, FeedResult, FrameDecoder, Head, Info, Message, MessageType, MuteReason,
+    Status,
 };
 use lmhost::device::simdev::{Core as _, FwCore, SimConfig};
 
@@ -56,6 +60,12 @@ pub(crate) enum Mutation {
     Text,
     /// Loses the reply of every other request (of this type, or of any).
     LoseEveryOther(Option<MessageType>),
+    /// Answers with the request's seq but an echo it made up: a reply
+    /// written before the request was (its CRC guessed wrong).
+    ForgedEcho,
+    /// Answers each request after the first with the reply to the one
+    /// before, given the new seq (a line replaying what it carried).
+    Replay,
 }
 
 /// The fakes by name, for `{fake:NAME}`.
@@ -89,12 +99,15 @@ fn mutation(name: &str) -> Mutation {
             mute_reason: MuteReason::None,
             lease_ms: 0,
             lease_expiries: 0,
+            uptime_ms: 0,
         })),
         "prev_seq" => Mutation::PreviousSeq,
         "echo" => Mutation::Echo,
         "text" => Mutation::Text,
         "lossy" => Mutation::LoseEveryOther(None),
         "lossy_centroids" => Mutation::LoseEveryOther(Some(MessageType::Centroid)),
+        "forged_echo" => Mutation::ForgedEcho,
+        "replay" => Mutation::Replay,
         _ => panic!("no fake device `{name}`"),
     }
 }
@@ -128,6 +141,8 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
     // The host's requests by seq, and how many replies the loss counts.
     let (mut requests, mut seen) = (FrameDecoder::new(), BTreeMap::<u16, MessageType>::new());
     let mut answered = 0u64;
+    // The reply before, for `Replay`.
+    let mut previous: Option<(Head, Message<'static>)> = None;
     loop {
         let now = t0.elapsed().as_micros() as u64;
         core.poll(now);
@@ -175,9 +190,21 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
                         }
                         _ => false,
                     };
+                    let head = frame.head();
+                    let reply = (head, copy(&frame.message));
                     if !lost {
-                        frames.push(mutate(frame.seq, &frame.message, m));
+                        frames.push(match (m, previous) {
+                            (Mutation::Replay, Some((before, msg))) => encode(
+                                Head {
+                                    seq: head.seq,
+                                    ..before
+                                },
+                                &msg,
+                            ),
+                            _ => mutate(head, &frame.message, m),
+                        });
                     }
+                    previous = Some(reply);
                     remaining
                 }
                 FeedResult::Error { remaining, .. } => remaining,
@@ -189,8 +216,9 @@ fn serve(mut conn: TcpStream, m: Mutation) -> std::io::Result<()> {
     }
 }
 
-/// One reply (`seq`, `msg`) as the fake sends it.
-fn mutate(seq: u16, msg: &Message<'_>, m: Mutation) -> Vec<u8> {
+/// One reply (`head`, `msg`) as the fake sends it.
+fn mutate(head: Head, msg: &Message<'_>, m: Mutation) -> Vec<u8> {
+    let seq = head.seq;
     let (seq, msg) = match (m, msg) {
         (Mutation::Info(f), Message::Info(i)) => {
             let mut i = *i;
@@ -206,8 +234,21 @@ fn mutate(seq: u16, msg: &Message<'_>, m: Mutation) -> Vec<u8> {
         (Mutation::PreviousSeq, _) => (seq.wrapping_sub(1), copy(msg)),
         _ => (seq, copy(msg)),
     };
+    let echo = match (m, head.echo) {
+        (Mutation::ForgedEcho, Some(e)) => Echo {
+            request_crc32: e.request_crc32 ^ 0x5A5A_5A5A,
+            ..e
+        },
+        (_, Some(e)) => e,
+        (_, None) => panic!("the device sent a reply without an echo"),
+    };
+    encode(Head::reply(seq, echo), &msg)
+}
+
+/// `msg` framed with `head`.
+fn encode(head: Head, msg: &Message<'_>) -> Vec<u8> {
     let mut buf = vec![0u8; lm_proto::MAX_ENCODED_FRAME];
-    let n = lm_proto::encode_frame(seq, &msg, &mut buf).expect("a reply encodes");
+    let n = lm_proto::encode_frame(head, msg, &mut buf).expect("a reply encodes");
     buf.truncate(n);
     buf
 }
@@ -245,7 +286,7 @@ pub(crate) fn expand_fakes(s: &str) -> String {
 pub(crate) fn round9_cases() -> Vec<Case> {
     table! {
         // 1. An Info no LM firmware of this lmhost sends.
-        DEVICE_INFO "info --port {fake:proto5}" .code(1).err("protocol version 5, and this lmhost speaks 6").err("tcp:127.0.0.1:");
+        DEVICE_INFO "info --port {fake:proto5}" .code(1).err("protocol version 5, and this lmhost speaks 7").err("tcp:127.0.0.1:");
         DEVICE_INFO "upload --radius 3 --foci 4 --no-play --port {fake:proto5}" .code(1).err("protocol version 5");
         DEVICE_INFO "doctor --port {fake:proto5}" .code(1).out("protocol version 5");
         DEVICE_INFO "upload --radius 3 --no-play --port {fake:chunk0}" .code(1).err("max_chunk 0");
@@ -269,5 +310,10 @@ pub(crate) fn round9_cases() -> Vec<Case> {
         // 5. A link that loses replies.
         DEVICE_LOSSY "stream --synthetic --seconds 0.5 --timeout-ms 50 --port {fake:lossy_centroids}" .ok().out("streamed");
         DEVICE_LOSSY "upload --radius 3 --untracked --timeout-ms 100 --port {fake:lossy}" .signal("TERM", 1500).code(1).err("stopped by a signal before it was committed");
+        // 6. A reply that echoes another request than the one written.
+        DEVICE_UNBOUND "info --port {fake:forged_echo}" .code(1).err("the info from tcp:127.0.0.1:").err("the info request lmhost wrote has type 0x01");
+        DEVICE_UNBOUND "stop --port {fake:forged_echo}" .code(1).err("the ack from tcp:127.0.0.1:").err("answers a request of type 0x07");
+        DEVICE_UNBOUND "upload --radius 3 --no-play --port {fake:forged_echo}" .code(1).err("127.0.0.1:").err("made up before the request");
+        DEVICE_UNBOUND "status --port {fake:replay}" .code(1).err("the info from tcp:127.0.0.1:").err("answers a request of type 0x01").err("the status request lmhost wrote has type 0x09");
     }
 }

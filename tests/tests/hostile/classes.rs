@@ -112,6 +112,8 @@ pub const DEVICE_NAMED: &str = "r9-3 a link error names the port and the reply";
 pub const DEVICE_HEARD: &str = "r9-4 an unanswered request says what came instead";
 pub const DEVICE_LOSSY: &str =
     "r9-5 a link that loses replies: resent centroids, Ctrl-C mid-upload";
+pub const DEVICE_UNBOUND: &str =
+    "r9-6 a reply that echoes another request (replayed, made up) is refused";
 /// Round 10: text as other tools and platforms write it.
 pub const TEXT_BOM: &str = "r10-1 a leading byte-order mark is skipped, a later one named";
 pub const TEXT_LINE_ENDS: &str = "r10-2 CRLF and a lone CR end a line";
@@ -120,7 +122,7 @@ pub const TEXT_NUL: &str = "r10-4 a NUL byte is named with its line";
 pub const TEXT_CSV: &str = "r10-5 a CSV not ours is named, never misread";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 88] = [
+pub const CLASSES: [&str; 89] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -204,6 +206,7 @@ pub const CLASSES: [&str; 88] = [
     DEVICE_NAMED,
     DEVICE_HEARD,
     DEVICE_LOSSY,
+    DEVICE_UNBOUND,
     TEXT_BOM,
     TEXT_LINE_ENDS,
     TEXT_WIDE,

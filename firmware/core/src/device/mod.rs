@@ -2,7 +2,7 @@
 //! wired together. Boards and the host simulator drive only this.
 
 use lm_proto::{
-    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Info, LEASE_MS, MAX_CHUNK,
+    BeginUpload, Centroid, DeviceLimits, FeedResult, FrameDecoder, Head, Info, LEASE_MS, MAX_CHUNK,
     MAX_ENCODED_FRAME, Message, NackCode, PROTOCOL_VERSION, Play, PlayAt, Status, encode_frame,
 };
 
@@ -42,6 +42,8 @@ struct Handler<'m> {
     repeat_every: u64,
     /// The play session's host lease as its `Play` gave it, ms (0: none yet).
     lease_ms: u16,
+    /// The timer count at reset, from which `Status::uptime_ms` counts.
+    epoch: u64,
 }
 
 /// The output of [`Device::handle`]: writes nothing and has no self-test.
@@ -99,6 +101,7 @@ impl<'m> Device<'m> {
                 last_frame: None,
                 repeat_every,
                 lease_ms: 0,
+                epoch: 0,
             },
         })
     }
@@ -124,8 +127,13 @@ impl<'m> Device<'m> {
                     // logged): the board's link traffic at `debug`.
                     #[cfg(feature = "defmt")]
                     defmt::debug!("request {}", frame.message.msg_type());
+                    // The reply echoes this frame's type and CRC: it
+                    // answers this request and no other.
                     (
-                        Some((frame.seq, self.handler.handle(&frame.message, now, out))),
+                        Some((
+                            frame.reply_head(),
+                            self.handler.handle(&frame.message, now, out),
+                        )),
                         remaining,
                     )
                 }
@@ -140,19 +148,19 @@ impl<'m> Device<'m> {
                     #[cfg(feature = "defmt")]
                     defmt::debug!("bad frame: {}", error);
                     (
-                        error.nack().map(|(seq, code)| (seq, Message::Nack(code))),
+                        error.nack().map(|(head, code)| (head, Message::Nack(code))),
                         remaining,
                     )
                 }
             };
-            if let Some((seq, msg)) = reply {
-                self.send(seq, &msg, send);
+            if let Some((head, msg)) = reply {
+                self.send(head, &msg, send);
             }
             input = rest;
         }
     }
 
-    fn send(&mut self, seq: u16, msg: &Message<'_>, send: &mut impl FnMut(&[u8])) {
+    fn send(&mut self, head: Head, msg: &Message<'_>, send: &mut impl FnMut(&[u8])) {
         let c = &mut self.handler.counters;
         c.responses = c.responses.wrapping_add(1);
         if matches!(msg, Message::Nack(_)) {
@@ -160,7 +168,7 @@ impl<'m> Device<'m> {
         }
         // Responses are small and well-formed; encoding cannot fail with a
         // MAX_ENCODED_FRAME buffer.
-        if let Ok(n) = encode_frame(seq, msg, &mut self.tx) {
+        if let Ok(n) = encode_frame(head, msg, &mut self.tx) {
             send(&self.tx[..n]);
         }
     }
@@ -208,6 +216,14 @@ impl<'m> Device<'m> {
     /// The `Status` response at `now`.
     pub fn status(&self, now: u64) -> Status {
         self.handler.status(now)
+    }
+
+    /// Sets the timer count the device was reset at, from which
+    /// `Status::uptime_ms` counts: 0 on the boards (their timer starts
+    /// with them, the default); a device on a shared clock (the host's
+    /// simulated device) gives the time it started.
+    pub fn set_epoch(&mut self, now: u64) {
+        self.handler.epoch = now;
     }
 
     /// Counters.
@@ -304,6 +320,7 @@ impl Handler<'_> {
             crc_errors: self.counters.crc_errors,
             nacks: self.counters.nacks,
             lease_ms: self.lease_ms,
+            uptime_ms: crate::status::uptime_ms(now.saturating_sub(self.epoch), self.cfg.timer_hz),
         };
         crate::status::status(&self.player, &self.policy, playing, m, now)
     }

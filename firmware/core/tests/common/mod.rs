@@ -62,22 +62,45 @@ pub enum Reply {
     Other,
 }
 
-/// Sends one request and returns the single response.
+/// Sends one request and returns the single response, which must carry
+/// the request's seq and echo its type and CRC. A response sent to the
+/// device (which it refuses) goes with a made-up echo of its own.
 pub fn request(dev: &mut Device<'_>, seq: u16, msg: &Message<'_>, now: u64) -> Reply {
     let mut wire = [0u8; MAX_ENCODED_FRAME];
-    let n = encode_frame(seq, msg, &mut wire).unwrap();
-    let replies = feed(dev, &wire[..n], now);
+    let head = if msg.msg_type().is_response() {
+        let made_up = lm_proto::Echo {
+            request_type: 0x09,
+            request_crc32: 1,
+        };
+        lm_proto::Head::reply(seq, made_up)
+    } else {
+        lm_proto::Head::from(seq)
+    };
+    let n = encode_frame(head, msg, &mut wire).unwrap();
+    let want = match FrameDecoder::new().feed(&wire[..n]) {
+        FeedResult::Frame { frame, .. } => frame.reply_head(),
+        other => panic!("our own frame does not decode: {other:?}"),
+    };
+    let replies = feed_heads(dev, &wire[..n], now);
     assert_eq!(
         replies.len(),
         1,
         "one response per request, got {replies:?}"
     );
-    assert_eq!(replies[0].0, seq, "response echoes seq");
+    assert_eq!(replies[0].0, want, "response echoes seq, type and CRC");
     replies.into_iter().next().unwrap().1
 }
 
 /// Feeds raw bytes; returns every (seq, reply) the device sent.
 pub fn feed(dev: &mut Device<'_>, bytes: &[u8], now: u64) -> Vec<(u16, Reply)> {
+    feed_heads(dev, bytes, now)
+        .into_iter()
+        .map(|(h, r)| (h.seq, r))
+        .collect()
+}
+
+/// Feeds raw bytes; returns every (head, reply) the device sent.
+pub fn feed_heads(dev: &mut Device<'_>, bytes: &[u8], now: u64) -> Vec<(lm_proto::Head, Reply)> {
     let mut out = Vec::new();
     let mut driver = lm_fw_core::RecordingDriver::<1>::new();
     dev.feed(bytes, now, &mut driver, &mut |b: &[u8]| {
@@ -98,7 +121,7 @@ pub fn feed(dev: &mut Device<'_>, bytes: &[u8], now: u64) -> Vec<(u16, Reply)> {
                     Message::SelfTestResult(t) => Reply::SelfTest(t),
                     _ => Reply::Other,
                 };
-                replies.push((frame.seq, r));
+                replies.push((frame.head(), r));
                 remaining
             }
             FeedResult::Error { error, .. } => panic!("device sent a bad frame: {error}"),

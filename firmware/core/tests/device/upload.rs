@@ -308,3 +308,17 @@ fn config_defaults_are_documented_values() {
     // Half the transducer driver's 100 ms silence timeout.
     assert_eq!(c.frame_repeat_us, 50_000);
 }
+
+/// `Status::uptime_ms` counts whole milliseconds of the timer from reset
+/// (from the epoch a shared-clock device sets), whatever it plays.
+#[test]
+fn status_counts_milliseconds_since_reset() {
+    let mut dev = device(config(8), 64);
+    assert_eq!(status(&mut dev, 0).uptime_ms, 0);
+    assert_eq!(status(&mut dev, 1_999).uptime_ms, 1);
+    assert_eq!(status(&mut dev, 2_500_000).uptime_ms, 2_500);
+    let mut late = device(config(8), 64);
+    late.set_epoch(7_000_000);
+    assert_eq!(status(&mut late, 7_000_000).uptime_ms, 0);
+    assert_eq!(status(&mut late, 7_250_000).uptime_ms, 250);
+}

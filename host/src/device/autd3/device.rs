@@ -88,6 +88,9 @@ pub struct Autd3Backend {
     pub(super) port: Autd3Port,
     pub(super) emulator: Option<EmulatorHandle>,
     pub(super) clock: Clock,
+    /// When the backend opened the rig (µs of `clock`): its `Status`
+    /// counts `uptime_ms` from here, as a board counts from reset.
+    pub(super) opened_us: u64,
     pub(super) positions: Vec<u8>,
     pub(super) slots: [Option<Slot>; 2],
     /// The STM segment the devices play, as last switched to (`None`: none
@@ -384,6 +387,10 @@ impl Autd3Backend {
         let m = Mechanics {
             missed_deadlines: self.late_steps,
             lease_ms: u16::try_from(self.lease().as_millis()).unwrap_or(u16::MAX),
+            uptime_ms: lm_fw_core::status::uptime_ms(
+                self.now_us().saturating_sub(self.opened_us),
+                TIMER_HZ,
+            ),
             ..Mechanics::default()
         };
         let h = self.playing_header();

@@ -179,11 +179,13 @@ impl Autd3Backend {
         ctl.environment.sound_speed = scene.sound_speed_m_s as f32 * 1000.0;
         geometry::check_positions(scene, ctl.geometry())?;
         let n = ctl.num_transducers();
+        let opened_us = clock.now_us();
         let mut me = Self {
             ctl,
             port,
             emulator,
             clock,
+            opened_us,
             positions,
             slots: [None; 2],
             stm_segment: None,

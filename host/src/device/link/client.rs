@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use lm_proto::codec::CodecError;
 use lm_proto::{
-    BeginRig, Centroid, Chunk, Commit, FeedResult, FrameDecoder, Geometry, Info, Intensity,
+    BeginRig, Centroid, Chunk, Commit, Echo, FeedResult, FrameDecoder, Geometry, Info, Intensity,
     MAX_CHUNK, MAX_ENCODED_FRAME, MAX_GEOMETRY_POSITIONS, Message, NackCode, POSITION_LEN, Play,
     PlayAt, Positions, SelfTest, Status, encode_frame,
 };
@@ -56,6 +56,12 @@ impl Reply {
             Reply::Status(_) => "a status",
             Reply::SelfTest(_) => "a self-test result",
         }
+    }
+
+    /// The reply's kind, without its article.
+    fn kind(&self) -> &'static str {
+        let name = self.name();
+        name.split_once(' ').map_or(name, |(_, kind)| kind)
     }
 }
 
@@ -109,9 +115,11 @@ pub struct Client<T> {
     /// Steps per cycle of the slots this client committed (a `Status`
     /// step beyond them is impossible).
     committed: std::collections::HashMap<u8, u16>,
-    /// The last `Status` read: the next one is held to it
-    /// ([`super::reply::restarted`]).
-    last_status: Option<Status>,
+    /// The last `Status` read and when it had arrived (the transport's
+    /// clock): the next one is held to it ([`super::reply::restarted`]).
+    last_status: Option<(Status, Duration)>,
+    /// When the last request was first written (the transport's clock).
+    first_sent: Duration,
 }
 
 impl<T: Transport> Client<T> {
@@ -133,6 +141,7 @@ impl<T: Transport> Client<T> {
             info: None,
             committed: std::collections::HashMap::new(),
             last_status: None,
+            first_sent: Duration::ZERO,
         }
     }
 
@@ -156,21 +165,35 @@ impl<T: Transport> Client<T> {
         &mut self.transport
     }
 
-    /// Send `msg` and wait for the response with the same seq, resending
-    /// on timeout.
+    /// Send `msg` and wait for the response with the same seq that echoes
+    /// it (SPEC section 2, Binding), resending on timeout.
     pub fn request(&mut self, what: &'static str, msg: &Message<'_>) -> Result<Reply, LinkError> {
         self.seq = self.seq.wrapping_add(1);
         let seq = self.seq;
-        let n = encode_frame(seq, msg, &mut self.tx).map_err(|e| LinkError::Io {
-            port: self.port(),
+        let unencodable = |port, e: lm_proto::EncodeError| LinkError::Io {
+            port,
             what,
             source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string()),
-        })?;
+        };
+        let n = encode_frame(seq, msg, &mut self.tx).map_err(|e| unencodable(self.port(), e))?;
+        let echo = Echo::of_request(seq, msg).map_err(|e| unencodable(self.port(), e))?;
+        // What came before this request cannot be its reply: a late
+        // answer to an earlier one, or a frame made up ahead of it.
+        self.decoder.reset();
+        if let Err(source) = self.transport.discard_input() {
+            return Err(LinkError::Io {
+                port: self.port(),
+                what,
+                source,
+            });
+        }
         self.stats.requests += 1;
         let mut heard = Heard::default();
         for attempt in 0..self.tries {
             if attempt > 0 {
                 self.stats.retries += 1;
+            } else {
+                self.first_sent = self.transport.now();
             }
             let sent = Instant::now();
             if let Err(source) = self.transport.send(&self.tx[..n]) {
@@ -181,7 +204,7 @@ impl<T: Transport> Client<T> {
                 });
             }
             self.stats.bytes_sent += n as u64;
-            if let Some(r) = self.wait_for(seq, what, &mut heard)? {
+            if let Some(r) = self.wait_for(seq, echo, what, &mut heard)? {
                 if !matches!(r, Reply::Nack(_)) {
                     self.last_accepted = Some(sent);
                 }
@@ -198,10 +221,13 @@ impl<T: Transport> Client<T> {
     }
 
     /// Read until a response with `seq` arrives or the timeout passes,
-    /// counting in `heard` what came instead.
+    /// counting in `heard` what came instead. A response with `seq` that
+    /// does not carry `echo` answers another request than the one written
+    /// (replayed, or made up before it): refused.
     fn wait_for(
         &mut self,
         seq: u16,
+        echo: Echo,
         what: &'static str,
         heard: &mut Heard,
     ) -> Result<Option<Reply>, LinkError> {
@@ -248,6 +274,10 @@ impl<T: Transport> Client<T> {
                         match reply {
                             None => heard.echoes += 1,
                             Some(_) if frame.seq != seq => heard.other_seq += 1,
+                            Some(r) if frame.echo != Some(echo) => {
+                                let why = unbound(frame.echo, echo, what);
+                                return Err(self.bad_reply(r.kind(), why));
+                            }
                             Some(r) => {
                                 // The first answer counts; a repeat of it
                                 // in the same read is dropped.
@@ -326,23 +356,26 @@ impl<T: Transport> Client<T> {
             Reply::Status(s) => s,
             other => return Err(self.refused("status", other)),
         };
+        // The device stamped this reply before now, and stamps the next
+        // one after that request's first write: the host's time from here
+        // to that write is at most what passes on the device.
+        let arrived = self.transport.now();
         super::reply::check_status(&s, &info, |slot| self.committed.get(&slot).copied())
             .map_err(|why| self.bad_reply("status", why))?;
         // A device that restarted lost what this client uploaded: a loop
         // that went on would play nothing, or fail later on a slot it
         // takes for resident.
-        if let Some(why) = self
-            .last_status
-            .as_ref()
-            .and_then(|before| super::reply::restarted(before, &s))
-        {
+        if let Some(why) = self.last_status.as_ref().and_then(|(before, at)| {
+            let elapsed = self.first_sent.saturating_sub(*at);
+            super::reply::restarted(before, &s, elapsed, self.timeout, info.clock)
+        }) {
             self.last_status = None;
             return Err(LinkError::Restarted {
                 port: self.port(),
                 why,
             });
         }
-        self.last_status = Some(s);
+        self.last_status = Some((s, arrived));
         Ok(s)
     }
 
@@ -605,6 +638,20 @@ impl<T: Transport> Client<T> {
             self.expect_ack("intensity", &msg)?;
         }
         self.expect_ack("commit", &Message::Commit(Commit { slot, crc32 }))
+    }
+}
+
+/// Why a reply echoing `got` does not answer the request `what` (whose
+/// echo is `want`).
+fn unbound(got: Option<Echo>, want: Echo, what: &str) -> String {
+    match got {
+        None => "it carries no echo of a request".into(),
+        Some(got) => format!(
+            "it answers a request of type {:#04x} with CRC {:#010x}, and the {what} request \
+             lmhost wrote has type {:#04x}, CRC {:#010x} (a reply replayed, or made up before \
+             the request)",
+            got.request_type, got.request_crc32, want.request_type, want.request_crc32
+        ),
     }
 }
 

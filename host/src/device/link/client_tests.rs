@@ -158,7 +158,7 @@ fn a_centroid_resent_after_a_lost_ack_is_accepted() {
                 }
                 let mut buf = [0u8; MAX_ENCODED_FRAME];
                 let reply = Message::Nack(NackCode::OutOfOrder);
-                let n = encode_frame(frame.seq, &reply, &mut buf).unwrap();
+                let n = encode_frame(frame.reply_head(), &reply, &mut buf).unwrap();
                 out.extend_from_slice(&buf[..n]);
             },
         ));
@@ -180,5 +180,55 @@ fn a_centroid_resent_after_a_lost_ack_is_accepted() {
                 "{e}"
             );
         }
+    }
+}
+
+/// A reply with the request's seq that echoes another request (replayed,
+/// or made up before the request was written) is refused in one line
+/// naming the port and what was wrong; the echo of the request written is
+/// taken.
+#[test]
+fn a_reply_that_echoes_another_request_is_refused() {
+    for (forge, kind) in [(true, "ack"), (false, "")] {
+        let mut c = Client::new(Scripted::new(
+            "forger",
+            move |sent: &[u8], out: &mut Vec<u8>| {
+                let mut d = FrameDecoder::new();
+                let FeedResult::Frame { frame, .. } = d.feed(sent) else {
+                    panic!("the client sends whole frames");
+                };
+                // The seq is right; the echo is a Renew's with that seq,
+                // which the forger guessed came next.
+                let head = if forge {
+                    lm_proto::Head::reply(
+                        frame.seq,
+                        lm_proto::Echo::of_request(frame.seq, &Message::Renew).unwrap(),
+                    )
+                } else {
+                    frame.reply_head()
+                };
+                let mut buf = [0u8; MAX_ENCODED_FRAME];
+                let n = encode_frame(head, &Message::Ack, &mut buf).unwrap();
+                out.extend_from_slice(&buf[..n]);
+            },
+        ));
+        c.timeout = Duration::from_millis(5);
+        let r = c.stop();
+        if !forge {
+            r.unwrap();
+            continue;
+        }
+        let e = r.unwrap_err();
+        assert!(matches!(e, LinkError::BadReply { .. }), "{e}");
+        let e = e.to_string();
+        assert!(e.starts_with(&format!("the {kind} from forger")), "{e}");
+        assert!(e.contains("answers a request of type 0x0c"), "{e}");
+        assert!(
+            e.contains("the stop request lmhost wrote has type 0x07"),
+            "{e}"
+        );
+        assert!(!e.contains('\n'), "one line: {e}");
+        // The same forger's Renew ack echoes the Renew written: taken.
+        c.renew().unwrap();
     }
 }

@@ -12,18 +12,33 @@ pub const PORT_ENV: &str = "LMHOST_PORT";
 /// device (ms), which `--timeout-ms` overrides.
 pub const TIMEOUT_ENV: &str = "LMHOST_TIMEOUT_MS";
 
-/// USB ids of boards the firmware runs on, with a name for messages.
-pub const KNOWN_BOARDS: &[(u16, u16, &str)] = &[
-    // The firmware's own CDC-ACM port on the Nucleo's user USB connector
-    // (firmware/nucleo-h743/src/usb.rs: ST's VCP id); preferred when the
-    // board's ST-LINK port shows up too (it is the faster link).
-    (0x0483, 0x5740, "Nucleo-H743 user USB (LM firmware)"),
-    // ST-LINK/V3 and V2-1 virtual COM ports (Nucleo boards).
-    (0x0483, 0x374e, "ST-LINK/V3 (Nucleo-H743ZI)"),
-    (0x0483, 0x374f, "ST-LINK/V3"),
-    (0x0483, 0x3753, "ST-LINK/V3"),
-    (0x0483, 0x374b, "ST-LINK/V2-1"),
+/// USB ids of the Nucleo's on-board ST-LINK probes, each with a name for
+/// messages: the one list `lmhost doctor` looks for a probe in and port
+/// discovery names a virtual COM port by (BRINGUP.md's udev rules list
+/// the same ids). UM1974/UM2407 name 374b (NUCLEO-H743ZI) and 374e/374f
+/// (NUCLEO-H743ZI2); an ST-LINK firmware update can change the setup
+/// the probe shows (without mass storage: 3752 on a V2-1, 3754 on a V3;
+/// 3753: a V3 with two virtual COM ports).
+pub const ST_LINKS: &[(u16, u16, &str)] = &[
+    (0x0483, 0x374b, "ST-LINK/V2-1 (Nucleo-H743ZI)"),
+    (0x0483, 0x3752, "ST-LINK/V2-1 (Nucleo-H743ZI)"),
+    (0x0483, 0x374e, "STLINK-V3E (Nucleo-H743ZI2)"),
+    (0x0483, 0x374f, "STLINK-V3E (Nucleo-H743ZI2)"),
+    (0x0483, 0x3753, "STLINK-V3"),
+    (0x0483, 0x3754, "STLINK-V3"),
 ];
+
+/// The name of the USB device `(vid, pid)` among the boards the firmware
+/// runs on: the firmware's own CDC-ACM port on the Nucleo's user USB
+/// connector (firmware/nucleo-h743/src/usb.rs: ST's VCP id; preferred when
+/// the board's ST-LINK port shows up too, it is the faster link) or an
+/// ST-LINK's virtual COM port.
+pub fn known_board(usb: (u16, u16)) -> Option<&'static str> {
+    if usb == FIRMWARE_USB {
+        return Some("Nucleo-H743 user USB (LM firmware)");
+    }
+    ST_LINKS.iter().find(|b| (b.0, b.1) == usb).map(|b| b.2)
+}
 
 /// The USB id of the firmware's own CDC-ACM port.
 pub const FIRMWARE_USB: (u16, u16) = (0x0483, 0x5740);
@@ -40,11 +55,7 @@ pub struct PortInfo {
 impl PortInfo {
     /// The known board this port belongs to, if any.
     pub fn board(&self) -> Option<&'static str> {
-        let (v, p) = self.usb?;
-        KNOWN_BOARDS
-            .iter()
-            .find(|b| b.0 == v && b.1 == p)
-            .map(|b| b.2)
+        known_board(self.usb?)
     }
 }
 
@@ -251,5 +262,31 @@ mod tests {
         );
         let e = choose(None, None, &[]).unwrap_err().to_string();
         assert!(e.contains("serial ports: none"), "{e}");
+    }
+
+    /// The udev rules BRINGUP.md tells a rig builder to install grant
+    /// exactly the probes doctor and discovery know, and the firmware's
+    /// own port.
+    #[test]
+    fn bringup_udev_rules_list_every_st_link_we_know() {
+        let doc = include_str!("../../../../BRINGUP.md");
+        let mut ruled: Vec<u16> = doc
+            .lines()
+            .filter(|l| l.starts_with("ATTRS{idVendor}==\"0483\""))
+            .filter_map(|l| l.split("idProduct}==\"").nth(1))
+            .map(|r| u16::from_str_radix(&r[..4], 16).unwrap())
+            .collect();
+        ruled.sort_unstable();
+        let firmware = ruled.iter().position(|&p| p == FIRMWARE_USB.1);
+        ruled.remove(firmware.expect("the firmware's own port is ruled too"));
+        let mut known: Vec<u16> = ST_LINKS.iter().map(|s| s.1).collect();
+        known.sort_unstable();
+        assert_eq!(ruled, known);
+        assert!(ST_LINKS.iter().all(|s| s.0 == 0x0483));
+        assert_eq!(
+            known_board((0x0483, 0x3752)),
+            Some("ST-LINK/V2-1 (Nucleo-H743ZI)")
+        );
+        assert_eq!(known_board((0x0483, 0x5741)), None);
     }
 }

@@ -254,6 +254,15 @@ impl<T: Transport> Transport for Faulty<T> {
     fn describe(&self) -> String {
         format!("{} (with injected faults)", self.inner.describe())
     }
+
+    fn discard_input(&mut self) -> std::io::Result<()> {
+        self.rx_buf.clear();
+        self.inner.discard_input()
+    }
+
+    fn now(&self) -> Duration {
+        self.inner.now()
+    }
 }
 
 #[cfg(test)]

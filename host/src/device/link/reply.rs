@@ -10,7 +10,11 @@
 //! than the host clamping it, looping on it, or blaming the user's
 //! flags for it.
 
-use lm_proto::{DeviceState, Info, MAX_CHUNK, MIN_DWELL_US, MuteReason, PROTOCOL_VERSION, Status};
+use std::time::Duration;
+
+use lm_proto::{
+    ClockSource, DeviceState, Info, MAX_CHUNK, MIN_DWELL_US, MuteReason, PROTOCOL_VERSION, Status,
+};
 
 /// Why `info` cannot come from the LM firmware this host speaks to, if
 /// it cannot.
@@ -134,10 +138,42 @@ pub fn check_status(
     Ok(())
 }
 
+/// How much less than the host's time the uptime of a device whose clock
+/// is `clock` may advance between two `Status` replies without a restart:
+/// twice the reply timeout (the link's latency, either way) plus 1 % of
+/// the time for a crystal (which errs by 50 ppm), 2 % for an RC
+/// oscillator (~1 %) (SPEC section 3). `None` for a clock that need not
+/// keep the host's pace: emulated (QEMU under `-icount` counts
+/// instructions) or unknown; only its uptime going back tells.
+pub fn uptime_slack(
+    host_elapsed: Duration,
+    reply_timeout: Duration,
+    clock: ClockSource,
+) -> Option<Duration> {
+    let percent = match clock {
+        ClockSource::Crystal => 1,
+        ClockSource::InternalRc => 2,
+        _ => return None,
+    };
+    Some(reply_timeout.saturating_mul(2) + host_elapsed * percent / 100)
+}
+
 /// Why `now` says the device restarted since `before` (a `Status` of the
-/// same link), if it does: a counter kept since reset went back, or the
-/// state is Idle ("nothing played since reset") after it played.
-pub fn restarted(before: &Status, now: &Status) -> Option<String> {
+/// same link), if it does: a counter kept since reset went back, the state
+/// is Idle ("nothing played since reset") after it played, or its
+/// `uptime_ms` went back or advanced less than `host_elapsed` (the host's
+/// time between the two replies, which the caller measures on its own
+/// clock) less [`uptime_slack`] for the device's `clock` (`Info::clock`).
+/// The uptime wraps at `u32::MAX` ms (49.7 days) and is compared wrapping;
+/// over more than half that (24.8 days) between two replies only the
+/// counters and the state can tell.
+pub fn restarted(
+    before: &Status,
+    now: &Status,
+    host_elapsed: Duration,
+    reply_timeout: Duration,
+    clock: ClockSource,
+) -> Option<String> {
     let since_reset = [
         (
             "missed_deadlines",
@@ -156,6 +192,23 @@ pub fn restarted(before: &Status, now: &Status) -> Option<String> {
         let state = format!("{:?}", before.state).to_lowercase();
         return Some(format!(
             "state idle (nothing played since reset) after {state}"
+        ));
+    }
+    let half = u128::from(u32::MAX / 2);
+    let elapsed_ms = host_elapsed.as_millis();
+    if elapsed_ms > half {
+        return None;
+    }
+    let (b, n) = (before.uptime_ms, now.uptime_ms);
+    let advanced = n.wrapping_sub(b);
+    if u128::from(advanced) > half {
+        return Some(format!("its uptime went back from {b} ms to {n} ms"));
+    }
+    let slack = uptime_slack(host_elapsed, reply_timeout, clock)?;
+    if u128::from(advanced) + slack.as_millis() < elapsed_ms {
+        return Some(format!(
+            "its uptime advanced {advanced} ms (from {b} to {n}) while {elapsed_ms} ms passed \
+             on the host"
         ));
     }
     None
@@ -257,6 +310,33 @@ mod tests {
         }
     }
 
+    /// Status replies `elapsed` apart on a link with the default timeout,
+    /// from a device on a crystal.
+    fn restart(before: &Status, now: &Status, elapsed_ms: u64) -> Option<String> {
+        restart_on(ClockSource::Crystal, before, now, elapsed_ms)
+    }
+
+    /// [`restart`] from a device whose clock is `clock`.
+    fn restart_on(
+        clock: ClockSource,
+        before: &Status,
+        now: &Status,
+        elapsed_ms: u64,
+    ) -> Option<String> {
+        restarted(
+            before,
+            now,
+            Duration::from_millis(elapsed_ms),
+            Duration::from_millis(300),
+            clock,
+        )
+    }
+
+    /// `st` at `uptime_ms`.
+    fn at(st: Status, uptime_ms: u32) -> Status {
+        Status { uptime_ms, ..st }
+    }
+
     #[test]
     fn counters_going_back_or_idle_after_a_play_is_a_restart() {
         let before = Status {
@@ -264,25 +344,103 @@ mod tests {
             lease_expiries: 1,
             ..playing(0)
         };
-        assert_eq!(restarted(&before, &before), None);
+        assert_eq!(restart(&before, &before, 0), None);
         let more = Status {
             nacks: 4,
             state: DeviceState::Stopped,
             mute_reason: MuteReason::Stopped,
             ..before
         };
-        assert_eq!(restarted(&before, &more), None, "counters only grow");
+        assert_eq!(restart(&before, &more, 0), None, "counters only grow");
         let reset = Status::default();
         assert_eq!(
-            restarted(&before, &reset).as_deref(),
+            restart(&before, &reset, 0).as_deref(),
             Some("its nacks went back from 3 to 0")
         );
         // Nothing counted yet: the state tells.
         assert_eq!(
-            restarted(&playing(0), &reset).as_deref(),
+            restart(&playing(0), &reset, 0).as_deref(),
             Some("state idle (nothing played since reset) after playing")
         );
-        assert_eq!(restarted(&reset, &reset), None, "idle before");
+        assert_eq!(restart(&reset, &reset, 0), None, "idle before");
+    }
+
+    #[test]
+    fn a_restart_with_every_counter_at_0_and_nothing_played_is_seen_by_the_uptime() {
+        let fresh = Status::default();
+        // The uptime went back: restarted after the first reply.
+        assert_eq!(
+            restart(&at(fresh, 5_000), &at(fresh, 1_200), 1_300).as_deref(),
+            Some("its uptime went back from 5000 ms to 1200 ms")
+        );
+        // Restarted right after a reply at 200 ms, read 10 s later: up
+        // 9 s, which it was not 10 s ago.
+        let e = restart(&at(fresh, 200), &at(fresh, 9_000), 10_000).unwrap();
+        assert_eq!(
+            e,
+            "its uptime advanced 8800 ms (from 200 to 9000) while 10000 ms passed on the host"
+        );
+        // Not restarted: the uptime kept pace.
+        assert_eq!(restart(&at(fresh, 200), &at(fresh, 10_200), 10_000), None);
+    }
+
+    #[test]
+    fn the_uptime_wraps_at_u32_max_without_a_restart() {
+        let fresh = Status::default();
+        let before = at(fresh, u32::MAX - 100);
+        assert_eq!(restart(&before, &at(fresh, 400), 500), None);
+        assert_eq!(restart(&before, &at(fresh, 0), 101), None);
+        // Wrapped, but 5 s short of the host's 10 s.
+        assert!(restart(&before, &at(fresh, 4_899), 10_000).is_some());
+        // Over half the range apart, the uptime cannot tell.
+        let long = u64::from(u32::MAX / 2) + 1;
+        assert_eq!(restart(&at(fresh, 9), &at(fresh, 3), long), None);
+    }
+
+    #[test]
+    fn a_slow_link_within_the_tolerance_is_no_restart() {
+        let fresh = Status::default();
+        // 2 × 300 ms + 1 % of 10 s = 700 ms of slack.
+        let t = Duration::from_millis(300);
+        assert_eq!(
+            uptime_slack(Duration::from_secs(10), t, ClockSource::Crystal),
+            Some(Duration::from_millis(700))
+        );
+        assert_eq!(
+            uptime_slack(Duration::from_secs(10), t, ClockSource::InternalRc),
+            Some(Duration::from_millis(800))
+        );
+        assert_eq!(restart(&at(fresh, 1_000), &at(fresh, 10_300), 10_000), None);
+        assert!(restart(&at(fresh, 1_000), &at(fresh, 10_299), 10_000).is_some());
+        // A clock 1 % slow over a minute, replies at once.
+        assert_eq!(restart(&at(fresh, 0), &at(fresh, 59_400), 60_000), None);
+    }
+
+    #[test]
+    fn the_uptime_going_back_is_a_restart_whatever_the_time() {
+        let fresh = Status::default();
+        assert!(restart(&at(fresh, 1_000), &at(fresh, 999), 0).is_some());
+        assert!(restart(&at(fresh, 1_000), &at(fresh, 999), 600).is_some());
+        assert_eq!(restart(&at(fresh, 1_000), &at(fresh, 1_000), 0), None);
+    }
+
+    /// An emulated clock (QEMU under `-icount`: a second of the guest is
+    /// 10^9 instructions, however long they take) or an unknown one need
+    /// not keep the host's pace: only going back tells.
+    #[test]
+    fn an_emulated_clock_is_held_only_to_going_forward() {
+        let fresh = Status::default();
+        for clock in [ClockSource::Emulated, ClockSource::Unknown] {
+            let slow = restart_on(clock, &at(fresh, 6), &at(fresh, 648), 4_184);
+            assert_eq!(slow, None, "{clock:?}");
+            let back = restart_on(clock, &at(fresh, 5_000), &at(fresh, 20), 100);
+            assert_eq!(
+                back.as_deref(),
+                Some("its uptime went back from 5000 ms to 20 ms")
+            );
+        }
+        // The same pace from a crystal is a restart.
+        assert!(restart(&at(fresh, 6), &at(fresh, 648), 4_184).is_some());
     }
 
     #[test]

@@ -16,6 +16,17 @@ pub trait Transport: Send {
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize>;
     /// A short human-readable name (port path, address).
     fn describe(&self) -> String;
+    /// Drops the bytes that arrived and were not read yet, without
+    /// waiting: before a new request they cannot be its reply. The
+    /// default keeps them (the reply's echo still refuses a stale one).
+    fn discard_input(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+    /// Now, on the clock the device's replies are timed by: the host's
+    /// monotonic clock, or the virtual clock of an in-process device.
+    fn now(&self) -> Duration {
+        crate::clock::Clock::real().now()
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -27,6 +38,12 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn describe(&self) -> String {
         (**self).describe()
+    }
+    fn discard_input(&mut self) -> std::io::Result<()> {
+        (**self).discard_input()
+    }
+    fn now(&self) -> Duration {
+        (**self).now()
     }
 }
 
@@ -158,6 +175,13 @@ impl Transport for Serial {
     fn describe(&self) -> String {
         self.path.clone()
     }
+
+    fn discard_input(&mut self) -> std::io::Result<()> {
+        // tcflush(TCIFLUSH): the kernel drops what it holds, no wait.
+        self.port
+            .clear(serialport::ClearBuffer::Input)
+            .map_err(std::io::Error::from)
+    }
 }
 
 /// A connected stream socket with timed reads: [`Tcp`] or [`Unix`].
@@ -173,11 +197,16 @@ pub struct Socket<S> {
 pub trait StreamSocket: Read + Write + Send {
     /// Set (or clear) the read timeout.
     fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()>;
+    /// Make reads return at once when nothing is there (or block again).
+    fn set_nonblocking(&self, on: bool) -> std::io::Result<()>;
 }
 
 impl StreamSocket for TcpStream {
     fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()> {
         TcpStream::set_read_timeout(self, timeout)
+    }
+    fn set_nonblocking(&self, on: bool) -> std::io::Result<()> {
+        TcpStream::set_nonblocking(self, on)
     }
 }
 
@@ -185,6 +214,26 @@ impl StreamSocket for std::os::unix::net::UnixStream {
     fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()> {
         std::os::unix::net::UnixStream::set_read_timeout(self, timeout)
     }
+    fn set_nonblocking(&self, on: bool) -> std::io::Result<()> {
+        std::os::unix::net::UnixStream::set_nonblocking(self, on)
+    }
+}
+
+/// Reads a non-blocking `stream` until nothing is left, the peer closed
+/// it (the next timed read says so) or 64 KiB went: a peer that never
+/// stops talking cannot hold the host here.
+fn drain(stream: &mut impl Read) -> std::io::Result<()> {
+    let mut junk = [0u8; 512];
+    for _ in 0..128 {
+        match stream.read(&mut junk) {
+            Ok(0) => return Ok(()),
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return Ok(()),
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
 }
 
 impl<S: StreamSocket> Transport for Socket<S> {
@@ -198,6 +247,13 @@ impl<S: StreamSocket> Transport for Socket<S> {
                 .set_read_timeout(Some(left.max(Duration::from_micros(100))))?;
             stream_read(self.stream.read(buf), self.closed)
         })
+    }
+
+    fn discard_input(&mut self) -> std::io::Result<()> {
+        self.stream.set_nonblocking(true)?;
+        let r = drain(&mut self.stream);
+        self.stream.set_nonblocking(false)?;
+        r
     }
 
     fn describe(&self) -> String {
