@@ -172,17 +172,21 @@ fn a_name_is_shown_escaped_on_a_terminal_and_kept_in_a_pipe() {
     assert!(piped.contains("\u{1b}[2J\u{202e}paper"), "{piped:?}");
     let on_a_terminal = |args: &[&str]| {
         let pty = nix::pty::openpty(None, None).unwrap();
-        let status = Command::new(lmhost())
+        let mut child = Command::new(lmhost())
             .args(args)
             .stdout(Stdio::from(pty.slave))
-            .status()
+            .spawn()
             .unwrap();
-        assert!(status.success());
-        // The child is gone: what it wrote is in the terminal's buffer, and
-        // the read after it ends with EIO.
-        let mut shown = Vec::new();
-        let _ = std::fs::File::from(pty.master).read_to_end(&mut shown);
-        let shown = String::from_utf8(shown).unwrap();
+        // Read as it writes (more than the terminal's buffer holds would
+        // block it); the read ends with EIO once the child is gone.
+        let mut master = std::fs::File::from(pty.master);
+        let reader = std::thread::spawn(move || {
+            let mut shown = Vec::new();
+            let _ = master.read_to_end(&mut shown);
+            shown
+        });
+        assert!(child.wait().unwrap().success());
+        let shown = String::from_utf8(reader.join().unwrap()).unwrap();
         assert!(!shown.contains(['\u{1b}', '\u{202e}']), "{shown:?}");
         shown
     };
