@@ -209,8 +209,11 @@ struct LeaseWatch<'t> {
     timer: &'t Timer,
     sounding: u32,
     muted: u32,
-    /// Written time of the last sounding frame and of the first muted one.
+    /// The last sounding frame's step: when it was due and when it was
+    /// written.
+    last_sounding_due: u64,
     last_sounding_at: u32,
+    /// Written time of the first muted frame.
     first_muted_at: Option<u32>,
 }
 
@@ -223,6 +226,7 @@ impl lm_fw_core::OutputDriver for LeaseWatch<'_> {
             self.first_muted_at.get_or_insert(t);
         } else {
             self.sounding += 1;
+            self.last_sounding_due = f.due;
             self.last_sounding_at = t;
         }
         Ok(())
@@ -232,7 +236,7 @@ impl lm_fw_core::OutputDriver for LeaseWatch<'_> {
 /// The host lease on the firmware: renewed, an untracked play keeps
 /// sounding; once the host goes quiet it ends one lease after the last
 /// renewal, within a poll of the expiry (the serve loop's timing), muted,
-/// with no frame after it, and `Status` says why.
+/// with no step due after it sounding, and `Status` says why.
 pub fn lease_silences_a_quiet_host(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
     const LEASE_MS: u16 = 100;
     let lease = u64::from(LEASE_MS) * u64::from(PCLK_HZ) / 1000;
@@ -245,6 +249,7 @@ pub fn lease_silences_a_quiet_host(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
         timer: &timer,
         sounding: 0,
         muted: 0,
+        last_sounding_due: 0,
         last_sounding_at: 0,
         first_muted_at: None,
     };
@@ -287,9 +292,18 @@ pub fn lease_silences_a_quiet_host(c: &mut Ctx, mem: &mut [u8]) -> TestResult {
         late,
         step
     );
+    // No step due at or after the expiry sounds. A step due just before
+    // it is written a poll's latency later, which may be past it (where
+    // the renewals put the expiry against the 1 ms step grid decides).
     check!(
-        w.last_sounding_at.wrapping_sub(expiry as u32) as i32 <= 0,
-        "a sounding frame went out after the expiry"
+        w.last_sounding_due < expiry,
+        "a step due {} counts after the expiry sounded",
+        w.last_sounding_due - expiry
+    );
+    check!(
+        u64::from(w.last_sounding_at.wrapping_sub(w.last_sounding_due as u32)) < step,
+        "the last sounding frame went out {} counts after its step was due",
+        w.last_sounding_at.wrapping_sub(w.last_sounding_due as u32)
     );
     check!(w.muted == 1, "{} muted frames", w.muted);
     let st = dev.status(c.now());

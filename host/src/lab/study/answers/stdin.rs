@@ -4,7 +4,7 @@
 use std::sync::mpsc::{Receiver, Sender, channel};
 
 /// Reads stdin lines lazily (a pipe that is not a terminal, no
-/// `--responses`): answers as they arrive ([`send_lines`]).
+/// `--responses`): answers as they arrive, each line sent on once it has ended.
 pub fn stdin_lines() -> anyhow::Result<Receiver<Result<String, String>>> {
     let (tx, rx) = channel();
     std::thread::Builder::new()
