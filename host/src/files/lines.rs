@@ -56,18 +56,14 @@ impl<R: BufRead> LineReader<R> {
         self.buf.clear();
         let mut started = false;
         loop {
-            let avail = match self.reader.fill_buf() {
-                Ok(b) => b,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(e),
-            };
-            if avail.is_empty() {
+            if !more(&mut self.reader)? {
                 if !started {
                     return Ok(None);
                 }
                 self.line_no += 1;
                 return Ok(Some(Line::Text(&self.buf)));
             }
+            let avail = self.reader.fill_buf()?;
             if std::mem::take(&mut self.after_cr) && avail[0] == b'\n' {
                 self.reader.consume(1);
                 continue;
@@ -98,14 +94,10 @@ impl<R: BufRead> LineReader<R> {
     /// end (or the input's), holding none of it.
     pub fn skip_rest(&mut self) -> std::io::Result<()> {
         loop {
-            let avail = match self.reader.fill_buf() {
-                Ok(b) => b,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(e),
-            };
-            if avail.is_empty() {
+            if !more(&mut self.reader)? {
                 return Ok(());
             }
+            let avail = self.reader.fill_buf()?;
             match avail.iter().position(|&b| b == b'\n' || b == b'\r') {
                 Some(i) => {
                     self.after_cr = avail[i] == b'\r';
@@ -117,6 +109,20 @@ impl<R: BufRead> LineReader<R> {
                     self.reader.consume(n);
                 }
             }
+        }
+    }
+}
+
+/// Whether `reader` has bytes to read (false at the end of the input),
+/// reading again where a signal interrupted the read; any other error is
+/// returned. Then `fill_buf` hands them over without reading: it reads
+/// only into an empty buffer.
+fn more<R: BufRead>(reader: &mut R) -> std::io::Result<bool> {
+    loop {
+        match reader.fill_buf() {
+            Ok(b) => return Ok(!b.is_empty()),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
         }
     }
 }
