@@ -57,35 +57,33 @@ pub struct GaugeOptions {
 }
 
 impl GaugeOptions {
-    /// The settings of a gauge on a serial port given, by flag name: the
-    /// twin has no protocol and no serial link.
-    fn serial_settings_given(&self) -> Vec<String> {
-        given_flags(
-            self.flags,
-            &[
-                ("model", self.model.is_some()),
-                ("baud", self.baud.is_some()),
-            ],
-        )
+    /// The simulated twin (port [`SIM`]), every setting its default, its
+    /// flags named as `flags` says.
+    pub fn twin(flags: &'static str) -> Self {
+        Self {
+            port: SIM.into(),
+            model: None,
+            baud: None,
+            sim_depth_mm: None,
+            seed: None,
+            flags,
+        }
     }
 }
 
-/// `prefix` + the name of each setting given, in order.
-fn given_flags(prefix: &str, settings: &[(&str, bool)]) -> Vec<String> {
-    settings
-        .iter()
-        .filter(|(_, given)| *given)
-        .map(|(name, _)| format!("{prefix}{name}"))
-        .collect()
-}
-
-/// The one refusal of a real instrument's setting (`given`, by flag
-/// name) given to its simulated twin (`twin`), which would ignore it.
-fn twin_refuses(given: &[String], twin: &str, has_not: &str) -> Result<(), InputError> {
-    match given.first() {
+/// The one refusal of a real instrument's setting given to its simulated
+/// twin (`twin`), which would ignore it: the first of `settings` (its
+/// flag's name after `prefix`, whether it was given) given.
+fn twin_refuses(
+    prefix: &str,
+    settings: &[(&str, bool)],
+    twin: &str,
+    has_not: &str,
+) -> Result<(), InputError> {
+    match settings.iter().find(|(_, given)| *given) {
         None => Ok(()),
-        Some(flag) => Err(InputError::new(format!(
-            "{flag} does not apply to the simulated {twin} (port {SIM}), which has no {has_not}: leave it out, or give the real one's serial port"
+        Some((name, _)) => Err(InputError::new(format!(
+            "{prefix}{name} does not apply to the simulated {twin} (port {SIM}), which has no {has_not}: leave it out, or give the real one's serial port"
         ))),
     }
 }
@@ -130,7 +128,8 @@ pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
 /// Refuses what the gauge twin would ignore: a protocol, a baud rate.
 fn sim_gauge_check(o: &GaugeOptions) -> Result<(), InputError> {
     twin_refuses(
-        &o.serial_settings_given(),
+        o.flags,
+        &[("model", o.model.is_some()), ("baud", o.baud.is_some())],
         "gauge",
         "protocol or serial link",
     )
@@ -196,17 +195,19 @@ pub struct StageOptions {
 }
 
 impl StageOptions {
-    /// The controller's settings given, by flag name: the twin has one
-    /// axis, no pulses and no serial link.
-    fn controller_settings_given(&self) -> Vec<String> {
-        given_flags(
-            self.flags,
-            &[
-                ("axis", self.axis.is_some()),
-                ("step-um", self.step_um.is_some()),
-                ("baud", self.baud.is_some()),
-            ],
-        )
+    /// The simulated twin (port [`SIM`]) between `limits` at `speed_mm_s`,
+    /// every controller setting its default, its flags named as `flags`
+    /// says.
+    pub fn twin(limits: StageLimits, speed_mm_s: f64, flags: &'static str) -> Self {
+        Self {
+            port: SIM.into(),
+            limits,
+            speed_mm_s,
+            axis: None,
+            step_um: None,
+            baud: None,
+            flags,
+        }
     }
 }
 
@@ -251,7 +252,12 @@ fn sim_stage(o: &StageOptions, fail_after: Option<u32>) -> anyhow::Result<SimSta
 fn sim_stage_check(o: &StageOptions) -> anyhow::Result<()> {
     qt_config(o).check(&o.port)?;
     twin_refuses(
-        &o.controller_settings_given(),
+        o.flags,
+        &[
+            ("axis", o.axis.is_some()),
+            ("step-um", o.step_um.is_some()),
+            ("baud", o.baud.is_some()),
+        ],
         "stage",
         "axes, pulses or serial link",
     )?;
@@ -309,11 +315,8 @@ mod tests {
     fn gauge(port: &str, depth: Option<f64>) -> anyhow::Result<Box<dyn ForceGauge>> {
         open_gauge(&GaugeOptions {
             port: port.into(),
-            model: None,
-            baud: None,
             sim_depth_mm: depth,
-            seed: None,
-            flags: "--",
+            ..GaugeOptions::twin("--")
         })
     }
 
@@ -358,23 +361,8 @@ mod tests {
 
     #[test]
     fn a_rig_of_twins_measures_the_pad_where_the_stage_pushes() {
-        let stage = StageOptions {
-            port: SIM.into(),
-            limits: StageLimits::new(0.0, 20.0).unwrap(),
-            speed_mm_s: 50.0,
-            axis: None,
-            step_um: None,
-            baud: None,
-            flags: "--stage-",
-        };
-        let gauge_o = GaugeOptions {
-            port: SIM.into(),
-            model: None,
-            baud: None,
-            sim_depth_mm: None,
-            seed: None,
-            flags: "--gauge-",
-        };
+        let stage = StageOptions::twin(StageLimits::new(0.0, 20.0).unwrap(), 50.0, "--stage-");
+        let gauge_o = GaugeOptions::twin("--gauge-");
         let pad = FingerPad::TYPICAL.at(5.0);
         let (mut s, mut g) = open_rig(&stage, &gauge_o, pad).unwrap();
         assert!(g.read().unwrap().force_n.abs() <= 0.02);
@@ -403,12 +391,8 @@ mod tests {
             for port in [SIM, "sim:fail-after=3", "/dev/lmhost-no-such-stage"] {
                 let o = StageOptions {
                     port: port.into(),
-                    limits: StageLimits::new(0.0, 20.0).unwrap(),
-                    speed_mm_s: 5.0,
-                    axis: None,
                     step_um: Some(step_um),
-                    baud: None,
-                    flags: "--",
+                    ..StageOptions::twin(StageLimits::new(0.0, 20.0).unwrap(), 5.0, "--")
                 };
                 let err = open_stage(&o).err().expect("a bad step is refused");
                 let msg = crate::error::one_line(&err);
@@ -424,27 +408,12 @@ mod tests {
     #[test]
     fn a_twin_refuses_each_setting_of_the_real_one_by_its_flag() {
         let stage = |f: fn(&mut StageOptions)| {
-            let mut o = StageOptions {
-                port: SIM.into(),
-                limits: StageLimits::new(0.0, 20.0).unwrap(),
-                speed_mm_s: 5.0,
-                axis: None,
-                step_um: None,
-                baud: None,
-                flags: "--stage-",
-            };
+            let mut o = StageOptions::twin(StageLimits::new(0.0, 20.0).unwrap(), 5.0, "--stage-");
             f(&mut o);
             o
         };
         let gauge = |f: fn(&mut GaugeOptions)| {
-            let mut o = GaugeOptions {
-                port: SIM.into(),
-                model: None,
-                baud: None,
-                sim_depth_mm: None,
-                seed: None,
-                flags: "--gauge-",
-            };
+            let mut o = GaugeOptions::twin("--gauge-");
             f(&mut o);
             o
         };

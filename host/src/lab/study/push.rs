@@ -445,21 +445,9 @@ mod tests {
         PushOptions {
             stage: StageOptions {
                 port: stage.into(),
-                limits: StageLimits::new(0.0, 20.0).unwrap(),
-                speed_mm_s: 50.0,
-                axis: None,
-                step_um: None,
-                baud: None,
-                flags: "--stage-",
+                ..StageOptions::twin(StageLimits::new(0.0, 20.0).unwrap(), 50.0, "--stage-")
             },
-            gauge: GaugeOptions {
-                port: SIM.into(),
-                model: None,
-                baud: None,
-                sim_depth_mm: None,
-                seed: None,
-                flags: "--gauge-",
-            },
+            gauge: GaugeOptions::twin("--gauge-"),
             contact_mm: 5.0,
             rest_mm: 4.0,
         }
