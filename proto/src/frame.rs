@@ -360,8 +360,10 @@ fn header(seq: u16, msg: &Message<'_>) -> [u8; HEADER_LEN] {
     h
 }
 
-/// The header and, for a response, its echo (checked by [`Head::check`]).
+/// The header and, for a response, its echo, once [`Head::check`] has
+/// found them right for `msg`.
 fn put_head(s: &mut impl Sink, head: &Head, msg: &Message<'_>) -> Result<(), EncodeError> {
+    head.check(msg)?;
     s.put(&header(head.seq, msg))?;
     if let Some(e) = head.echo {
         let mut b = [0; crate::len::ECHO];
@@ -384,7 +386,6 @@ pub fn encode_frame(
     buf: &mut [u8],
 ) -> Result<usize, EncodeError> {
     let head = head.into();
-    head.check(msg)?;
     let (first, rest) = buf.split_first_mut().ok_or(EncodeError::BufferTooSmall)?;
     *first = crate::DELIMITER;
     // Leave room for the trailing delimiter.
@@ -414,7 +415,6 @@ pub fn encode_frame_unframed(
     buf: &mut [u8],
 ) -> Result<usize, EncodeError> {
     let head = head.into();
-    head.check(msg)?;
     let echo_len = if head.echo.is_some() {
         crate::len::ECHO
     } else {
