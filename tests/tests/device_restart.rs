@@ -3,7 +3,7 @@
 //! naming the port (exit 1) rather than holding nothing.
 
 use std::io::BufRead as _;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
 #[allow(dead_code)]
@@ -11,16 +11,21 @@ mod gated_device;
 mod link_support;
 use link_support::lmhost;
 
-#[test]
-fn a_device_that_restarts_during_an_upload_hold_ends_it_naming_the_port() {
-    let dev = gated_device::Gated::start(0);
-    let mut child = Command::new(lmhost())
+/// `lmhost upload --hold 30` on `dev`, its stderr piped.
+fn holding(dev: &gated_device::Gated) -> Child {
+    Command::new(lmhost())
         .args(["upload", "--radius", "3", "--untracked", "--hold", "30"])
         .args(["--port", &dev.port])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap();
+        .unwrap()
+}
+
+#[test]
+fn a_device_that_restarts_during_an_upload_hold_ends_it_naming_the_port() {
+    let dev = gated_device::Gated::start(0);
+    let mut child = holding(&dev);
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     let stderr = child.stderr.take().unwrap();
     let reader = std::thread::spawn(move || {
@@ -56,13 +61,7 @@ fn a_device_that_restarts_during_an_upload_hold_ends_it_naming_the_port() {
 #[test]
 fn a_restart_with_every_counter_at_0_before_any_play_is_seen() {
     let dev = gated_device::Gated::start(1);
-    let child = Command::new(lmhost())
-        .args(["upload", "--radius", "3", "--untracked", "--hold", "30"])
-        .args(["--port", &dev.port])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = holding(&dev);
     dev.wait_held(Duration::from_secs(60));
     dev.restart();
     dev.release();
