@@ -152,33 +152,32 @@ rec("centroid_absent", 0x08, 13,
     "Centroid seq=4294967295 pos_um=[0,0,0] present=false host_time_us=18446744073709551615",
     struct.pack("<I", 0xFFFFFFFF) + xyz((0, 0, 0)) + b"\x00" + struct.pack("<Q", 2**64 - 1))
 rec("get_status", 0x09, 14, "GetStatus", b"")
-rec("status", 0x83, 14,
-    "Status (echo: GetStatus seq 14) state=Playing(1) slot=1 step=17 cycles=300 "
-    "missed_deadlines=0 last_centroid_seq=42 bad_frames=2 crc_errors=1 nacks=3 "
-    "correction_um=[-1500,250,-200] queued_slot=0 mute_reason=None(0) lease_ms=1000 "
-    "lease_expiries=2 uptime_ms=123456",
-    echo(0x09, 14)
-    + status(1, 1, 17, (300, 0, 42, 2, 1, 3), (-1500, 250, -200), 0, 0, 1000, 2, 123456))
-rec("status_idle", 0x83, 15,
-    "Status (echo: GetStatus seq 15) state=Idle(0) slot=none(0xff) step=0 cycles=0 "
-    "missed_deadlines=0 last_centroid_seq=0 bad_frames=0 crc_errors=0 nacks=0 "
-    "correction_um=[0,0,0] queued_slot=none(0xff) mute_reason=None(0) lease_ms=0 "
-    "lease_expiries=0 uptime_ms=0",
-    echo(0x09, 15) + status(0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0))
-rec("status_muted", 0x83, 15,
-    "Status (echo: GetStatus seq 15) state=Muted(2) slot=0 step=3 cycles=1 missed_deadlines=0 "
-    "last_centroid_seq=7 bad_frames=0 crc_errors=0 nacks=1 correction_um=[0,0,0] "
-    "queued_slot=none(0xff) mute_reason=CentroidOutOfRange(4) lease_ms=60000 lease_expiries=0 "
+def status_rec(name, seq, fields, *values):
+    """A Status answering GetStatus `seq`: its echo, then `status(*values)`."""
+    rec(name, 0x83, seq, f"Status (echo: GetStatus seq {seq}) {fields}",
+        echo(0x09, seq) + status(*values))
+
+status_rec("status", 14,
+    "state=Playing(1) slot=1 step=17 cycles=300 missed_deadlines=0 last_centroid_seq=42 "
+    "bad_frames=2 crc_errors=1 nacks=3 correction_um=[-1500,250,-200] queued_slot=0 "
+    "mute_reason=None(0) lease_ms=1000 lease_expiries=2 uptime_ms=123456",
+    1, 1, 17, (300, 0, 42, 2, 1, 3), (-1500, 250, -200), 0, 0, 1000, 2, 123456)
+status_rec("status_idle", 15,
+    "state=Idle(0) slot=none(0xff) step=0 cycles=0 missed_deadlines=0 last_centroid_seq=0 "
+    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0] queued_slot=none(0xff) "
+    "mute_reason=None(0) lease_ms=0 lease_expiries=0 uptime_ms=0",
+    0, 0xFF, 0, (0, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 0)
+status_rec("status_muted", 15,
+    "state=Muted(2) slot=0 step=3 cycles=1 missed_deadlines=0 last_centroid_seq=7 "
+    "bad_frames=0 crc_errors=0 nacks=1 correction_um=[0,0,0] queued_slot=none(0xff) "
+    "mute_reason=CentroidOutOfRange(4) lease_ms=60000 lease_expiries=0 "
     "uptime_ms=4294967295 (the last before it wraps)",
-    echo(0x09, 15)
-    + status(2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4, 60000, 0, 0xFFFFFFFF))
-rec("status_lease_expired", 0x83, 16,
-    "Status (echo: GetStatus seq 16) state=Stopped(3) slot=4 step=9 cycles=12 "
-    "missed_deadlines=0 last_centroid_seq=0 bad_frames=0 crc_errors=0 nacks=0 "
-    "correction_um=[0,0,0] queued_slot=none(0xff) mute_reason=LeaseExpired(6) lease_ms=1000 "
-    "lease_expiries=4294967295 uptime_ms=60000",
-    echo(0x09, 16)
-    + status(3, 4, 9, (12, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6, 1000, 0xFFFFFFFF, 60000))
+    2, 0, 3, (1, 0, 7, 0, 0, 1), (0, 0, 0), 0xFF, 4, 60000, 0, 0xFFFFFFFF)
+status_rec("status_lease_expired", 16,
+    "state=Stopped(3) slot=4 step=9 cycles=12 missed_deadlines=0 last_centroid_seq=0 "
+    "bad_frames=0 crc_errors=0 nacks=0 correction_um=[0,0,0] queued_slot=none(0xff) "
+    "mute_reason=LeaseExpired(6) lease_ms=1000 lease_expiries=4294967295 uptime_ms=60000",
+    3, 4, 9, (12, 0, 0, 0, 0, 0), (0, 0, 0), 0xFF, 6, 1000, 0xFFFFFFFF, 60000)
 rec("self_test_unsupported", 0x84, 30,
     "SelfTestResult (echo: SelfTest seq 30) outcome=Unsupported(0) (other fields 0)",
     echo(0x0D, 30) + self_test(0))
