@@ -12,10 +12,74 @@
 pub struct InputError(pub String);
 
 impl InputError {
-    /// An input error with the given one-line message.
+    /// An input error with the given message, made one line of bounded
+    /// length whatever values it repeats ([`one_line_echo`]).
     pub fn new(msg: impl Into<String>) -> Self {
-        Self(msg.into())
+        Self(one_line_echo(msg.into()))
     }
+}
+
+/// Longest value (characters) an [`InputError`] repeats in quotes: a
+/// key, a name or a number as the input gave it, whole when it is one a
+/// person typed.
+pub const MAX_ECHO_CHARS: usize = 100;
+/// Characters of a cut echo kept before and after its length.
+const ECHO_HEAD: usize = 60;
+const ECHO_TAIL: usize = 20;
+
+/// `msg` as one line, its echoes bounded: a line break inside it (a value
+/// holding one, as a JSON or TOML escape gives it: an id, a key, a level)
+/// written as its escape (`\n`, `\r`), not a second line or a blank the
+/// value does not have; and a quoted value (in backquotes, as serde, the
+/// toml crate and lmhost quote one, or in double quotes, serde's wrong
+/// string) longer than [`MAX_ECHO_CHARS`] cut around its length, so a
+/// pasted or generated value of thousands of characters (with spaces,
+/// which no cut of long words catches) is not repeated whole.
+pub fn one_line_echo(msg: String) -> String {
+    let msg = if msg.contains(['\n', '\r']) {
+        msg.replace('\r', "\\r").replace('\n', "\\n")
+    } else {
+        msg
+    };
+    if msg.chars().count() <= MAX_ECHO_CHARS {
+        return msg;
+    }
+    let mut out = String::with_capacity(msg.len().min(4 * MAX_ECHO_CHARS));
+    let mut rest = msg.as_str();
+    while let Some(i) = rest.find(['`', '"']) {
+        let q = rest.as_bytes()[i];
+        out.push_str(&rest[..=i]);
+        rest = &rest[i + 1..];
+        // The closing quote (a double-quoted value's own `\"` does not
+        // close it); an unclosed quote is left as it is.
+        let mut end = None;
+        let mut escaped = false;
+        for (j, c) in rest.char_indices() {
+            match c {
+                '\\' if q == b'"' && !escaped => escaped = true,
+                c if c as u32 == u32::from(q) && !escaped => {
+                    end = Some(j);
+                    break;
+                }
+                _ => escaped = false,
+            }
+        }
+        let Some(j) = end else { break };
+        let inner = &rest[..j];
+        let n = inner.chars().count();
+        if n > MAX_ECHO_CHARS {
+            // Cut around its length, as a long word on stderr is.
+            out.extend(inner.chars().take(ECHO_HEAD));
+            out.push_str(&format!("…({n} characters)…"));
+            out.extend(inner.chars().skip(n - ECHO_TAIL));
+        } else {
+            out.push_str(inner);
+        }
+        out.push(char::from(q));
+        rest = &rest[j + 1..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// The value `name` stands for among `choices` (name, value), or one line
@@ -87,6 +151,40 @@ pub struct StdoutClosed;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_input_error_is_one_line_whatever_value_it_repeats() {
+        // A value holding a line break (a JSON or TOML escape) is shown
+        // escaped, on the line.
+        let e = InputError::new("stimulus 2 (`a\nb\r\n`): bad").to_string();
+        assert_eq!(e, "stimulus 2 (`a\\nb\\r\\n`): bad");
+        // A long quoted value is cut, saying its length; the rest of the
+        // message stays whole.
+        let long = "a b ".repeat(300);
+        let e = InputError::new(format!(
+            "field `model`: unknown variant `{long}`, expected `none` or `brown_conrady`"
+        ))
+        .to_string();
+        assert!(
+            e.contains(
+                "a b …(1200 characters)…a b a b a b a b a b `, expected `none` or `brown_conrady`"
+            ),
+            "{e}"
+        );
+        assert!(e.len() < 200, "{e}");
+        // Double quotes (serde's wrong string), their own escaped quotes
+        // inside.
+        let s = format!("\\\"{}", "y".repeat(150));
+        let e = InputError::new(format!("invalid type: string \"{s}\", expected f64")).to_string();
+        let tail = format!("…(152 characters)…{}\", expected f64", "y".repeat(20));
+        assert!(
+            e.starts_with("invalid type: string \"\\\"yyy") && e.ends_with(&tail),
+            "{e}"
+        );
+        // Short values, and an unclosed quote, kept as given.
+        let m = format!("`{}` and `{}", "x".repeat(100), "z".repeat(300));
+        assert_eq!(InputError::new(m.clone()).to_string(), m);
+    }
 
     #[test]
     fn a_name_gives_its_value_and_anything_else_names_every_choice() {
