@@ -32,9 +32,10 @@ const ECHO_TAIL: usize = 20;
 /// written as its escape (`\n`, `\r`), not a second line or a blank the
 /// value does not have; and a quoted value (in backquotes, as serde, the
 /// toml crate and lmhost quote one, or in double quotes, serde's wrong
-/// string) longer than [`MAX_ECHO_CHARS`] cut around its length, so a
-/// pasted or generated value of thousands of characters (with spaces,
-/// which no cut of long words catches) is not repeated whole.
+/// string; a backquote left open runs to the end) longer than
+/// [`MAX_ECHO_CHARS`] cut around its length, so a pasted or generated
+/// value of thousands of characters (with spaces, which no cut of long
+/// words catches) is not repeated whole.
 pub fn one_line_echo(msg: String) -> String {
     let msg = if msg.contains(['\n', '\r']) {
         msg.replace('\r', "\\r").replace('\n', "\\n")
@@ -64,16 +65,32 @@ pub fn one_line_echo(msg: String) -> String {
                 _ => escaped = false,
             }
         }
-        let Some(j) = end else { break };
+        // An unclosed backquote runs to the end: the value, cut short
+        // before it closed (a first line of several), is the rest. A lone
+        // double quote is a character of the text (a path's).
+        let j = match end {
+            Some(j) => j,
+            None if q == b'`' => rest.len(),
+            None => break,
+        };
         let inner = &rest[..j];
         let n = inner.chars().count();
-        if n > MAX_ECHO_CHARS {
+        // A number is left whole for the one shortening of numbers
+        // (`limits::tidy_numbers`, as every message is shown), which a cut
+        // through its digits would defeat.
+        let number = inner
+            .bytes()
+            .all(|b| b.is_ascii_digit() || b"+-.eE".contains(&b));
+        if n > MAX_ECHO_CHARS && !number {
             // Cut around its length, as a long word on stderr is.
             out.extend(inner.chars().take(ECHO_HEAD));
             out.push_str(&format!("…({n} characters)…"));
             out.extend(inner.chars().skip(n - ECHO_TAIL));
         } else {
             out.push_str(inner);
+        }
+        if end.is_none() {
+            return out;
         }
         out.push(char::from(q));
         rest = &rest[j + 1..];
@@ -181,8 +198,27 @@ mod tests {
             e.starts_with("invalid type: string \"\\\"yyy") && e.ends_with(&tail),
             "{e}"
         );
-        // Short values, and an unclosed quote, kept as given.
+        // A number, for `limits::tidy_numbers` to shorten as it is shown.
+        let m = format!("invalid type: floating point `{}`, expected u32", 5e-324);
+        assert_eq!(InputError::new(m.clone()).to_string(), m);
+        assert_eq!(
+            crate::out::tidy(&InputError::new(m).to_string()),
+            "invalid type: floating point `5e-324`, expected u32"
+        );
+        // Short values kept as given; an unclosed quote runs to the end.
         let m = format!("`{}` and `{}", "x".repeat(100), "z".repeat(300));
+        let e = InputError::new(m).to_string();
+        assert!(
+            e.starts_with(&format!("`{}` and `zzz", "x".repeat(100))),
+            "{e}"
+        );
+        assert!(
+            e.contains("z…(300 characters)…z") && !e.ends_with('`'),
+            "{e}"
+        );
+        let m = format!("`{}` and `{}", "x".repeat(100), "z".repeat(99));
+        assert_eq!(InputError::new(m.clone()).to_string(), m);
+        let m = format!("scene file /tmp/a\"b.toml: {}", "w ".repeat(100));
         assert_eq!(InputError::new(m.clone()).to_string(), m);
     }
 
