@@ -35,8 +35,9 @@ pub struct Reader {
     pub read: Read,
 }
 
-/// Longest refusal (characters, after [`crate::out::shorten_long_words`]
-/// as stderr cuts a long word): a line a reader can take in, long enough
+/// Longest refusal as shown (characters, after [`crate::out::tidy`]): a
+/// line a reader can take in (a session's reply line is held to 600 bytes
+/// by the hostile suite), long enough
 /// for a path, a value cut to [`crate::error::MAX_ECHO_CHARS`] and serde's
 /// list of the keys a file may have (a plan report's 19 take ~250).
 pub const MAX_SHOWN_CHARS: usize = 600;
@@ -110,17 +111,30 @@ fn quiet_panics() {
     });
 }
 
-/// Why a refusal's message is not one readable line, if it is not.
-pub fn bad_message(msg: &str) -> Option<String> {
+/// Why a refusal's message is not one readable line, if it is not: as
+/// the library makes it, one line, not empty; as a person sees it
+/// ([`crate::out::tidy`], what stderr and Python's exceptions show), no
+/// number of 20 digits it did not take from the input (the hostile
+/// suite's rule) and at most
+/// [`MAX_SHOWN_CHARS`] characters.
+pub fn bad_message(msg: &str, input: &[u8]) -> Option<String> {
     if msg.trim().is_empty() {
         return Some("empty refusal".into());
     }
     if msg.contains(['\n', '\r']) {
         return Some("refusal of more than one line".into());
     }
-    let shown = crate::out::shorten_long_words(msg).chars().count();
-    (shown > MAX_SHOWN_CHARS)
-        .then(|| format!("refusal of {shown} characters (over {MAX_SHOWN_CHARS})"))
+    let shown = crate::out::tidy(msg);
+    // Digits the input holds as they are are its own, echoed.
+    let made = shown
+        .split(|c: char| !c.is_ascii_digit())
+        .find(|run| run.len() >= 20 && !input.windows(run.len()).any(|w| w == run.as_bytes()));
+    if let Some(run) = made {
+        return Some(format!("a number of {} digits shown", run.len()));
+    }
+    let n = shown.chars().count();
+    (n > MAX_SHOWN_CHARS)
+        .then(|| format!("refusal of {n} characters shown (over {MAX_SHOWN_CHARS})"))
 }
 
 /// One input through `read`: the failure, if any (a panic, a bad
@@ -139,7 +153,7 @@ fn one_case(read: &dyn Fn(&[u8]) -> Outcome, input: &[u8]) -> (Option<String>, b
     let failure = match got {
         Err(_) => Some(panic.unwrap_or_else(|| "panic".into())),
         Ok(Err(broken)) => Some(format!("accepted, but {broken}")),
-        Ok(Ok(Verdict::Refused(m))) => bad_message(&m).map(|why| format!("{why}: {m}")),
+        Ok(Ok(Verdict::Refused(m))) => bad_message(&m, input).map(|why| format!("{why}: {m}")),
         Ok(Ok(Verdict::Accepted)) => None,
     };
     let failure = failure.or_else(|| {
@@ -191,7 +205,7 @@ impl std::fmt::Display for Failure {
             self.reader,
             self.case,
             self.count,
-            self.what.chars().take(600).collect::<String>(),
+            self.what.chars().take(1000).collect::<String>(),
             self.input.len(),
             shown.escape_debug(),
             if shown.len() < text.len() { " …" } else { "" }

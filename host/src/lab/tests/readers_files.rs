@@ -345,10 +345,71 @@ fn stream_seeds() -> Vec<Vec<u8>> {
     vec![plain, colour]
 }
 
+/// The files a study or a calibration reads beside its own: the camera
+/// calibration's points file and a study's event log, read back on
+/// `--resume` for a trial cut short.
+fn lab_readers() -> Vec<Reader> {
+    let points = b"ball_diameter_mm = 40.0\nbackground = \"empty.npy\"\n\
+        [[point]]\nat_mm = [0, 30, 30]\ndepth = \"p1.npy\"\n\
+        [[point]]\nat_mm = [60, 30, 30]\ndepth = \"p2.npy\"\n\
+        [[point]]\nat_mm = [0, 90, 70.5]\ndepth = \"sub/p3.npy\"\n"
+        .to_vec();
+    let mut events = String::from("{\"event\":\"trial\",\"trial\":2}\n");
+    events += "{\"event\":\"level\",\"trial\":2,\"answer\":null,\"level_intensity\":0.5}\n";
+    for (a, l) in [("no", 0.55), ("yes", 0.5), ("no", 0.55)] {
+        events += &format!(
+            "{{\"t_host_us\":1,\"event\":\"level\",\"trial\":2,\"answer\":\"{a}\",\"level_intensity\":{l}}}\n"
+        );
+    }
+    events += "{\"event\":\"trial\",\"trial\":2,\"resumed_presentations\":2}\n";
+    events += "{\"event\":\"level\",\"trial\":2,\"answer\":\"ye";
+    vec![
+        file_reader(
+            "calibration points TOML",
+            "points.toml",
+            vec![points],
+            10_000,
+            |p| {
+                let t = match crate::lab::calibrate::camera::Target::load(p) {
+                    Ok(t) => t,
+                    Err(e) => return refused(e),
+                };
+                if !(3..=crate::lab::calibrate::camera::MAX_POINTS).contains(&t.points.len())
+                    || !(5.0..=500.0).contains(&t.ball_diameter_mm)
+                {
+                    return Err(format!(
+                        "{} points, a {} mm ball",
+                        t.points.len(),
+                        t.ball_diameter_mm
+                    ));
+                }
+                for (at, _) in &t.points {
+                    finite("a point", at)?;
+                }
+                Ok(Verdict::Accepted)
+            },
+        ),
+        file_reader(
+            "study event log",
+            "events.jsonl",
+            vec![events.into_bytes()],
+            10_000,
+            |p| match crate::lab::study::midtrial::logged(p, 2, "level", "level_intensity") {
+                Ok(got) => {
+                    let levels: Vec<f64> = got.iter().map(|(_, l)| *l).collect();
+                    finite("a level", &levels).map(|()| Verdict::Accepted)
+                }
+                Err(e) => refused(e),
+            },
+        ),
+    ]
+}
+
 /// The binary and file readers with their seeds.
 pub fn readers() -> Vec<Reader> {
     let mut v = stimulus_readers();
     v.extend(npy_readers());
+    v.extend(lab_readers());
     v.push(Reader {
         name: "LMDEPTH1/LMCOLOR1 stream",
         seeds: stream_seeds(),
