@@ -291,3 +291,66 @@ pub fn run(
     }
     tally
 }
+
+/// The run's own checks: each kind of failure is caught and reported with
+/// its input, a good reader passes.
+#[test]
+fn the_run_catches_a_panic_a_bad_refusal_a_broken_invariant_and_a_huge_allocation() {
+    let read: Read = Box::new(|b: &[u8]| match b.first() {
+        Some(b'p') => panic!("index out of bounds"),
+        Some(b'l') => Ok(Verdict::Refused("line 1\nline 2".into())),
+        // A number the tidying of numbers does not see (after a brace),
+        // not in the input.
+        Some(b'n') => Ok(Verdict::Refused("got {12345678901234567890123}".into())),
+        Some(b'w') => Ok(Verdict::Refused("w ".repeat(400))),
+        Some(b'i') => Err("a NaN accepted".into()),
+        Some(b'a') => {
+            let v: Vec<u8> = Vec::with_capacity(MAX_ALLOC + 1);
+            Ok(Verdict::Refused(format!("reserved {}", v.capacity())))
+        }
+        Some(_) => Ok(Verdict::Refused("a short refusal".into())),
+        None => Ok(Verdict::Accepted),
+    });
+    let failure = |input: &[u8]| one_case(&read, input).0.unwrap_or_default();
+    assert!(failure(b"p").starts_with("panic at "), "{}", failure(b"p"));
+    assert!(failure(b"p").ends_with("index out of bounds"));
+    assert!(failure(b"l").starts_with("refusal of more than one line"));
+    assert!(
+        failure(b"n").starts_with("a number of "),
+        "{}",
+        failure(b"n")
+    );
+    // The input's own digits, echoed, are its own.
+    assert_eq!(
+        bad_message(
+            "got {12345678901234567890123}",
+            b"n{12345678901234567890123}"
+        ),
+        None
+    );
+    assert!(failure(b"w").starts_with("refusal of 800 characters"));
+    assert_eq!(failure(b"i"), "accepted, but a NaN accepted");
+    assert!(
+        failure(b"a").starts_with("one allocation of "),
+        "{}",
+        failure(b"a")
+    );
+    assert_eq!(one_case(&read, b"x"), (None, false));
+    assert_eq!(one_case(&read, b""), (None, true));
+    // A run reports each class once, with the input that showed it.
+    let r = Reader {
+        name: "test",
+        seeds: vec![Vec::new()],
+        cases: 0,
+        read,
+    };
+    let mut failures = Vec::new();
+    let t = run(&r, 1, 200, 1, None, &mut failures);
+    assert_eq!(t.cases, 200);
+    assert!(failures.iter().all(|f| f.count >= 1 && !f.input.is_empty()));
+    let panics: Vec<&Failure> = failures
+        .iter()
+        .filter(|f| f.what.starts_with("panic"))
+        .collect();
+    assert!(panics.len() <= 1);
+}
