@@ -204,6 +204,32 @@ fn protocol(t: &str) -> Outcome {
     Ok(Verdict::Accepted)
 }
 
+/// A protocol in `studies/`, linked to its library there: every
+/// condition's stimulus and every grid's level is an entry of it.
+fn linked(t: &str) -> Outcome {
+    let at = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies/fuzz.toml");
+    let p = match crate::lab::study::protocol::Protocol::from_toml(t, &at) {
+        Ok(p) => p,
+        Err(e) => return refused(e),
+    };
+    let grids = p
+        .staircase
+        .iter()
+        .map(|s| &s.grid)
+        .chain(p.quest.iter().map(|q| &q.grid));
+    let ids = p
+        .conditions
+        .iter()
+        .map(|c| &c.stimulus)
+        .chain(grids.flat_map(|g| g.entries.iter().flatten()));
+    for id in ids {
+        if p.library.find(id).is_none() {
+            return Err(format!("stimulus `{id}` is not in the library"));
+        }
+    }
+    Ok(Verdict::Accepted)
+}
+
 fn intrinsics(t: &str) -> Outcome {
     let i = match Intrinsics::from_toml(t, "fuzz.toml") {
         Ok(i) => i,
@@ -413,6 +439,12 @@ pub fn readers() -> Vec<Reader> {
         ),
         toml_reader("stimulus library TOML", libs, 20_000, library),
         toml_reader("study protocol TOML", files(&studies), 20_000, protocol),
+        toml_reader(
+            "study protocol + library",
+            files(&studies[..6]),
+            10_000,
+            linked,
+        ),
         toml_reader(
             "intrinsics TOML",
             vec![Intrinsics::D435_848X480.to_toml().into_bytes()],
