@@ -35,7 +35,10 @@ const ECHO_TAIL: usize = 20;
 /// string; a backquote left open runs to the end) longer than
 /// [`MAX_ECHO_CHARS`] cut around its length, so a pasted or generated
 /// value of thousands of characters (with spaces, which no cut of long
-/// words catches) is not repeated whole.
+/// words catches) is not repeated whole; a message still over 400
+/// characters whose backquotes do not pair (a value holding one, which
+/// closed its quote early) has every stretch between two backquotes cut
+/// so.
 pub fn one_line_echo(msg: String) -> String {
     let msg = if msg.contains(['\n', '\r']) {
         msg.replace('\r', "\\r").replace('\n', "\\n")
@@ -78,25 +81,56 @@ pub fn one_line_echo(msg: String) -> String {
         // A number is left whole for the one shortening of numbers
         // (`limits::tidy_numbers`, as every message is shown), which a cut
         // through its digits would defeat.
-        let number = inner
-            .bytes()
-            .all(|b| b.is_ascii_digit() || b"+-.eE".contains(&b));
-        if n > MAX_ECHO_CHARS && !number {
-            // Cut around its length, as a long word on stderr is.
-            out.extend(inner.chars().take(ECHO_HEAD));
-            out.push_str(&format!("…({n} characters)…"));
-            out.extend(inner.chars().skip(n - ECHO_TAIL));
-        } else {
-            out.push_str(inner);
+        match n > MAX_ECHO_CHARS && !is_number(inner) {
+            true => cut(inner, n, &mut out),
+            false => out.push_str(inner),
         }
         if end.is_none() {
-            return out;
+            rest = "";
+            break;
         }
         out.push(char::from(q));
         rest = &rest[j + 1..];
     }
     out.push_str(rest);
-    out
+    let odd = out.matches('`').count() % 2 == 1;
+    if !odd || out.chars().count() <= MAX_MESSAGE_CHARS {
+        return out;
+    }
+    // Still long, its backquotes unpaired: a value holding a backquote of
+    // its own closed its quote early, its rest read as the message's
+    // text. Every stretch between two backquotes is then cut like a value
+    // (the message's own words between its quotes are short).
+    let mut cut_out = String::with_capacity(out.len().min(4 * MAX_MESSAGE_CHARS));
+    for (k, part) in out.split('`').enumerate() {
+        if k > 0 {
+            cut_out.push('`');
+        }
+        let n = part.chars().count();
+        match n > MAX_ECHO_CHARS && !is_number(part) {
+            true => cut(part, n, &mut cut_out),
+            false => cut_out.push_str(part),
+        }
+    }
+    cut_out
+}
+
+/// Longest message [`one_line_echo`] leaves as it is once its quoted
+/// values are cut (characters).
+const MAX_MESSAGE_CHARS: usize = 400;
+
+/// Whether `s` is a number as a message writes one.
+fn is_number(s: &str) -> bool {
+    s.bytes()
+        .all(|b| b.is_ascii_digit() || b"+-.eE".contains(&b))
+}
+
+/// `s` (of `n` characters) cut around its length, as a long word on
+/// stderr is.
+fn cut(s: &str, n: usize, out: &mut String) {
+    out.extend(s.chars().take(ECHO_HEAD));
+    out.push_str(&format!("…({n} characters)…"));
+    out.extend(s.chars().skip(n - ECHO_TAIL));
 }
 
 /// The value `name` stands for among `choices` (name, value), or one line
@@ -205,6 +239,16 @@ mod tests {
             crate::out::tidy(&InputError::new(m).to_string()),
             "invalid type: floating point `5e-324`, expected u32"
         );
+        // A value holding a backquote of its own, its rest then read as
+        // text between two quotes: cut as well.
+        let v = format!("{} ` {}", "a b ".repeat(30), "c d ".repeat(200));
+        let e = InputError::new(format!("field `name`: `{v}` must be 1 to 64 letters, `-`"))
+            .to_string();
+        assert!(
+            e.len() < 400 && e.ends_with("` must be 1 to 64 letters, `-`"),
+            "{e}"
+        );
+        assert!(e.starts_with("field `name`: `a b a b"), "{e}");
         // Short values kept as given; an unclosed quote runs to the end.
         let m = format!("`{}` and `{}", "x".repeat(100), "z".repeat(300));
         let e = InputError::new(m).to_string();
