@@ -20,8 +20,8 @@ impl InputError {
 }
 
 /// Longest value (characters) an [`InputError`] repeats in quotes: a
-/// key, a name or a number as the input gave it, whole when it is one a
-/// person typed.
+/// key, a name or a label as the input gave it, whole when it is one a
+/// person typed (a number is left to `limits::tidy_numbers`).
 pub const MAX_ECHO_CHARS: usize = 100;
 /// Characters of a cut echo kept before and after its length.
 const ECHO_HEAD: usize = 60;
@@ -55,7 +55,7 @@ pub fn one_line_echo(msg: String) -> String {
         out.push_str(&rest[..=i]);
         rest = &rest[i + 1..];
         // The closing quote (a double-quoted value's own `\"` does not
-        // close it); an unclosed quote is left as it is.
+        // close it).
         let mut end = None;
         let mut escaped = false;
         for (j, c) in rest.char_indices() {
