@@ -12,10 +12,125 @@
 pub struct InputError(pub String);
 
 impl InputError {
-    /// An input error with the given one-line message.
+    /// An input error with the given message, made one line of bounded
+    /// length whatever values it repeats ([`one_line_echo`]).
     pub fn new(msg: impl Into<String>) -> Self {
-        Self(msg.into())
+        Self(one_line_echo(msg.into()))
     }
+}
+
+/// Longest value (characters) an [`InputError`] repeats in quotes: a
+/// key, a name or a label as the input gave it, whole when it is one a
+/// person typed (a number is left to `limits::tidy_numbers`).
+pub const MAX_ECHO_CHARS: usize = 100;
+/// Characters of a cut echo kept before and after its length.
+const ECHO_HEAD: usize = 60;
+const ECHO_TAIL: usize = 20;
+
+/// `msg` as one line, its echoes bounded: a line break inside it (a value
+/// holding one, as a JSON or TOML escape gives it: an id, a key, a level)
+/// written as its escape (`\n`, `\r`), not a second line or a blank the
+/// value does not have; and a quoted value (in backquotes, as serde, the
+/// toml crate and lmhost quote one, or in double quotes, serde's wrong
+/// string; a backquote left open runs to the end) longer than
+/// [`MAX_ECHO_CHARS`] cut around its length, so a pasted or generated
+/// value of thousands of characters (with spaces, which no cut of long
+/// words catches) is not repeated whole; a message still over 400
+/// characters whose backquotes do not pair (a value holding one, which
+/// closed its quote early) has every stretch between two backquotes cut
+/// so.
+pub fn one_line_echo(msg: String) -> String {
+    let msg = if msg.contains(['\n', '\r']) {
+        msg.replace('\r', "\\r").replace('\n', "\\n")
+    } else {
+        msg
+    };
+    if msg.chars().count() <= MAX_ECHO_CHARS {
+        return msg;
+    }
+    let mut out = String::with_capacity(msg.len().min(4 * MAX_ECHO_CHARS));
+    let mut rest = msg.as_str();
+    while let Some(i) = rest.find(['`', '"']) {
+        let q = rest.as_bytes()[i];
+        out.push_str(&rest[..=i]);
+        rest = &rest[i + 1..];
+        // The closing quote (a double-quoted value's own `\"` does not
+        // close it).
+        let mut end = None;
+        let mut escaped = false;
+        for (j, c) in rest.char_indices() {
+            match c {
+                '\\' if q == b'"' && !escaped => escaped = true,
+                c if c as u32 == u32::from(q) && !escaped => {
+                    end = Some(j);
+                    break;
+                }
+                _ => escaped = false,
+            }
+        }
+        // An unclosed backquote runs to the end: the value, cut short
+        // before it closed (a first line of several), is the rest. A lone
+        // double quote is a character of the text (a path's).
+        let j = match end {
+            Some(j) => j,
+            None if q == b'`' => rest.len(),
+            None => break,
+        };
+        let inner = &rest[..j];
+        let n = inner.chars().count();
+        // A number is left whole for the one shortening of numbers
+        // (`limits::tidy_numbers`, as every message is shown), which a cut
+        // through its digits would defeat.
+        match n > MAX_ECHO_CHARS && !is_number(inner) {
+            true => cut(inner, n, &mut out),
+            false => out.push_str(inner),
+        }
+        if end.is_none() {
+            rest = "";
+            break;
+        }
+        out.push(char::from(q));
+        rest = &rest[j + 1..];
+    }
+    out.push_str(rest);
+    let odd = out.matches('`').count() % 2 == 1;
+    if !odd || out.chars().count() <= MAX_MESSAGE_CHARS {
+        return out;
+    }
+    // Still long, its backquotes unpaired: a value holding a backquote of
+    // its own closed its quote early, its rest read as the message's
+    // text. Every stretch between two backquotes is then cut like a value
+    // (the message's own words between its quotes are short).
+    let mut cut_out = String::with_capacity(out.len().min(4 * MAX_MESSAGE_CHARS));
+    for (k, part) in out.split('`').enumerate() {
+        if k > 0 {
+            cut_out.push('`');
+        }
+        let n = part.chars().count();
+        match n > MAX_ECHO_CHARS && !is_number(part) {
+            true => cut(part, n, &mut cut_out),
+            false => cut_out.push_str(part),
+        }
+    }
+    cut_out
+}
+
+/// Longest message [`one_line_echo`] leaves as it is once its quoted
+/// values are cut (characters).
+const MAX_MESSAGE_CHARS: usize = 400;
+
+/// Whether `s` is a number as a message writes one.
+fn is_number(s: &str) -> bool {
+    s.bytes()
+        .all(|b| b.is_ascii_digit() || b"+-.eE".contains(&b))
+}
+
+/// `s` (of `n` characters) cut around its length, as a long word on
+/// stderr is.
+fn cut(s: &str, n: usize, out: &mut String) {
+    out.extend(s.chars().take(ECHO_HEAD));
+    out.push_str(&format!("…({n} characters)…"));
+    out.extend(s.chars().skip(n - ECHO_TAIL));
 }
 
 /// The value `name` stands for among `choices` (name, value), or one line
@@ -87,6 +202,69 @@ pub struct StdoutClosed;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_input_error_is_one_line_whatever_value_it_repeats() {
+        // A value holding a line break (a JSON or TOML escape) is shown
+        // escaped, on the line.
+        let e = InputError::new("stimulus 2 (`a\nb\r\n`): bad").to_string();
+        assert_eq!(e, "stimulus 2 (`a\\nb\\r\\n`): bad");
+        // A long quoted value is cut, saying its length; the rest of the
+        // message stays whole.
+        let long = "a b ".repeat(300);
+        let e = InputError::new(format!(
+            "field `model`: unknown variant `{long}`, expected `none` or `brown_conrady`"
+        ))
+        .to_string();
+        assert!(
+            e.contains(
+                "a b …(1200 characters)…a b a b a b a b a b `, expected `none` or `brown_conrady`"
+            ),
+            "{e}"
+        );
+        assert!(e.len() < 200, "{e}");
+        // Double quotes (serde's wrong string), their own escaped quotes
+        // inside.
+        let s = format!("\\\"{}", "y".repeat(150));
+        let e = InputError::new(format!("invalid type: string \"{s}\", expected f64")).to_string();
+        let tail = format!("…(152 characters)…{}\", expected f64", "y".repeat(20));
+        assert!(
+            e.starts_with("invalid type: string \"\\\"yyy") && e.ends_with(&tail),
+            "{e}"
+        );
+        // A number, for `limits::tidy_numbers` to shorten as it is shown.
+        let m = format!("invalid type: floating point `{}`, expected u32", 5e-324);
+        assert_eq!(InputError::new(m.clone()).to_string(), m);
+        assert_eq!(
+            crate::out::tidy(&InputError::new(m).to_string()),
+            "invalid type: floating point `5e-324`, expected u32"
+        );
+        // A value holding a backquote of its own, its rest then read as
+        // text between two quotes: cut as well.
+        let v = format!("{} ` {}", "a b ".repeat(30), "c d ".repeat(200));
+        let e = InputError::new(format!("field `name`: `{v}` must be 1 to 64 letters, `-`"))
+            .to_string();
+        assert!(
+            e.len() < 400 && e.ends_with("` must be 1 to 64 letters, `-`"),
+            "{e}"
+        );
+        assert!(e.starts_with("field `name`: `a b a b"), "{e}");
+        // Short values kept as given; an unclosed quote runs to the end.
+        let m = format!("`{}` and `{}", "x".repeat(100), "z".repeat(300));
+        let e = InputError::new(m).to_string();
+        assert!(
+            e.starts_with(&format!("`{}` and `zzz", "x".repeat(100))),
+            "{e}"
+        );
+        assert!(
+            e.contains("z…(300 characters)…z") && !e.ends_with('`'),
+            "{e}"
+        );
+        let m = format!("`{}` and `{}", "x".repeat(100), "z".repeat(99));
+        assert_eq!(InputError::new(m.clone()).to_string(), m);
+        let m = format!("scene file /tmp/a\"b.toml: {}", "w ".repeat(100));
+        assert_eq!(InputError::new(m.clone()).to_string(), m);
+    }
 
     #[test]
     fn a_name_gives_its_value_and_anything_else_names_every_choice() {

@@ -114,11 +114,17 @@ pub fn show(v: f64) -> String {
 
 /// `v` for the message refusing it against the bounds `lo` and `hi`:
 /// [`show`], or every digit where six would read as a bound
-/// (`3600.0000001` is not "3600 s ... at most 3600 s").
+/// (`3600.0000001` is not "3600 s ... at most 3600 s"), in scientific
+/// form when huge or tiny as [`show`] writes it (`1.0000000000000002e-310`,
+/// not three hundred zeros before it).
 pub fn show_beside(v: f64, lo: f64, hi: f64) -> String {
     let shown = show(v);
     if v != lo && v != hi && (shown == show(lo) || shown == show(hi)) {
-        format!("{v}")
+        let moderate = v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&v.abs());
+        match moderate {
+            true => format!("{v}"),
+            false => format!("{v:e}"),
+        }
     } else {
         shown
     }
@@ -357,6 +363,27 @@ mod tests {
         let e = in_range("x", 1.0000000001, 0.0, 1.0, "").unwrap_err();
         assert!(e.0.starts_with("x 1.0000000001 is out of range"), "{e}");
         assert_eq!(show_beside(1e300, 0.0, 1.0), "1e300");
+    }
+
+    #[test]
+    fn a_tiny_or_huge_number_beside_its_bound_keeps_every_digit_in_scientific_form() {
+        // Two neighbouring subnormals (a stream's time stamps): six digits
+        // read alike, every digit tells them apart, no zeros spelt out.
+        let t = 1.0e-310f64;
+        let next = f64::from_bits(t.to_bits() + 1);
+        assert_eq!(show_beside(t, next, next), "1e-310");
+        let shown = show_beside(next, t, t);
+        assert!(shown.len() < 30 && shown.ends_with("e-310"), "{shown}");
+        assert_ne!(shown, show(t));
+        assert_eq!(shown.parse::<f64>().unwrap(), next);
+        let big = f64::from_bits(1e300f64.to_bits() + 1);
+        let shown = show_beside(big, 1e300, 1e300);
+        assert!(
+            shown.len() < 30 && shown.parse::<f64>().unwrap() == big,
+            "{shown}"
+        );
+        // A moderate one as before.
+        assert_eq!(show_beside(3600.0000001, 0.0, 3600.0), "3600.0000001");
     }
 
     #[test]

@@ -8,6 +8,8 @@ use crate::proc::{Log, run};
 
 /// (package, cargo test target args, test filter, name of the executable
 /// in `tests.json`, the share of its full size the everyday CI runs).
+/// `lmhost`'s `long_random` tests are the planner's accuracy run and the
+/// fuzz run over every reader of user input (`host/src/lab/tests/`).
 /// The planner's accuracy run is the slowest per case in a debug build
 /// (the f64 reference beside every fast frame): a smaller share of it
 /// keeps the step about as long as the others.

@@ -131,11 +131,34 @@ fn kind(m: &Metadata) -> Option<&'static str> {
 pub fn check_input(what: &str, path: &Path) -> Result<Metadata, InputError> {
     let cannot =
         |why: &str| InputError::new(format!("cannot read {what} {}: {why}", path.display()));
-    let m = std::fs::metadata(path).map_err(|e| cannot(&reason(&e)))?;
+    let m = std::fs::metadata(path).map_err(|e| match e.kind() {
+        // No file has that name: shown cut, however long it was given.
+        std::io::ErrorKind::InvalidFilename => InputError::new(format!(
+            "cannot read {what} {}: {}",
+            too_long(path),
+            reason(&e)
+        )),
+        _ => cannot(&reason(&e)),
+    })?;
     if let Some(k) = kind(&m) {
         return Err(cannot(k));
     }
     Ok(m)
+}
+
+/// A path the file system refused as too long, for a message: whole up to
+/// [`crate::error::MAX_ECHO_CHARS`] characters, else cut around its
+/// length (a pasted or generated name of thousands of characters with
+/// spaces in it, which no cut of long words on stderr catches).
+fn too_long(path: &Path) -> String {
+    let shown = path.display().to_string();
+    let n = shown.chars().count();
+    if n <= crate::error::MAX_ECHO_CHARS {
+        return shown;
+    }
+    let head: String = shown.chars().take(60).collect();
+    let tail: String = shown.chars().skip(n - 20).collect();
+    format!("{head}…({n} characters)…{tail}")
 }
 
 /// Opens the regular file `path` for reading (checked first, see

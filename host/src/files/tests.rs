@@ -308,3 +308,25 @@ fn a_killed_writers_temporary_file_goes_at_the_next_write_to_that_name() {
     want.sort();
     assert_eq!(names(&d), want);
 }
+
+#[test]
+fn a_name_too_long_for_the_file_system_is_shown_cut_around_its_length() {
+    // A name with spaces (from a file's value: a protocol's `library`),
+    // past the 255 bytes a name may have: no cut of long words catches it.
+    let d = scratch("too-long");
+    let long = d.join("a b ".repeat(300));
+    let e = super::read_input("stimulus library", &long, 1 << 20)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("cannot read stimulus library /"), "{e}");
+    let n = long.display().to_string().chars().count();
+    assert!(
+        e.contains(&format!("…({n} characters)…")) && e.len() < 200,
+        "{e}"
+    );
+    // A missing file of an ordinary name is named whole.
+    let e = super::read_input("scene file", &d.join("none.toml"), 1 << 20)
+        .unwrap_err()
+        .to_string();
+    assert!(e.ends_with("none.toml: no such file or directory"), "{e}");
+}

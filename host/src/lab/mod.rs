@@ -12,3 +12,6 @@ pub mod session;
 pub mod stats;
 pub mod study;
 pub mod view;
+
+#[cfg(test)]
+mod tests;

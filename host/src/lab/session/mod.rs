@@ -27,7 +27,7 @@
 //! played is read from its own step and cycle counters at the offset
 //! (`device_presented_s`).
 
-mod conn;
+pub(crate) mod conn;
 pub mod driver;
 mod endpoint;
 mod eventlog;

@@ -277,3 +277,28 @@ fn an_entry_plays_phases_or_foci_from_a_file_beside_the_library() {
         assert!(e.contains(needle), "{body}: {e}");
     }
 }
+
+#[test]
+fn an_id_with_a_line_break_or_a_pasted_value_is_refused_on_one_short_line() {
+    // TOML's escapes put a line break inside an id; a key of thousands of
+    // characters (with spaces, which no cut of long words catches).
+    let cases = [
+        "[[stimulus]]\nid = \"a\\nb\\r\\nc\"\n".to_owned(),
+        format!(
+            "[[stimulus]]\nid = \"x\"\npath = {{ shape = \"{}\" }}\n",
+            "a b ".repeat(400)
+        ),
+        format!("[[stimulus]]\nid = \"{}\"\n", "\\n".repeat(300)),
+    ];
+    for text in &cases {
+        let e = Library::from_toml(text, "lib.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains(['\n', '\r']) && e.len() < 400, "{e}");
+        assert!(e.starts_with("stimulus library lib.toml: "), "{e}");
+    }
+    let e = Library::from_toml(&cases[0], "lib.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`a\\nb\\r\\nc`"), "{e}");
+}

@@ -10,11 +10,37 @@ use crate::plan::directivity::Directivity;
 /// innermost key whose key or value holds it: `device[1].center_mm`, also
 /// for dotted keys, inline tables and arrays over several lines).
 fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
-    let msg = e.message().lines().next().unwrap_or("invalid TOML").trim();
+    let msg = first_line(e.message());
+    let msg = if msg.is_empty() { "invalid TOML" } else { msg };
     let Some(span) = e.span() else {
         return msg.to_string();
     };
     placed(text, span.start, msg)
+}
+
+/// The first line of a TOML error's message (the lines after it list
+/// what was expected), but through to the end of a value it quotes that
+/// holds a line break (an unknown variant written with `\n`), which the
+/// one line of an [`crate::InputError`] shows escaped; cut at the break,
+/// the value would be repeated to its break, its quote left open.
+fn first_line(msg: &str) -> &str {
+    let mut end = 0;
+    let mut open = false;
+    for (i, c) in msg.char_indices() {
+        match c {
+            '`' => open = !open,
+            '\n' if !open => break,
+            _ => {}
+        }
+        end = i + c.len_utf8();
+    }
+    // An unclosed quote: the first line only.
+    let whole = if open {
+        msg.lines().next().unwrap_or("")
+    } else {
+        &msg[..end]
+    };
+    whole.trim()
 }
 
 /// `line N, field `path`: msg` for byte `at` of `text` (without the field

@@ -243,3 +243,24 @@ fn a_float_that_underflows_is_refused_naming_line_and_field() {
     // Without the check the first reads as a device at y = 0.
     assert!(toml::from_str::<toml::Value>("y = 1e-400").is_ok());
 }
+
+#[test]
+fn an_unknown_value_holding_a_line_break_is_said_whole_on_one_line() {
+    // toml quotes the value in its message; cut at the value's line
+    // break, the message repeated it up to there, its quote left open.
+    let long = format!("{}\\n{}", "a b ".repeat(200), "c d ".repeat(200));
+    let text = format!("directivity = \"{long}\"\n[[device]]\ncenter_mm = [0.0, 0.0, 0.0]\n");
+    let e = Scene::from_toml(&text, "s.toml").unwrap_err().to_string();
+    assert!(
+        e.starts_with("scene file s.toml: line 1, field `directivity`: unknown variant `a b"),
+        "{e}"
+    );
+    assert!(
+        e.contains("…(1602 characters)…") && e.contains("c d `, expected"),
+        "{e}"
+    );
+    assert!(!e.contains('\n') && e.len() < 400, "{e}");
+    let short = "directivity = \"x\\ny\"\n[[device]]\ncenter_mm = [0.0, 0.0, 0.0]\n";
+    let e = Scene::from_toml(short, "s.toml").unwrap_err().to_string();
+    assert!(e.contains("unknown variant `x\\ny`, expected"), "{e}");
+}

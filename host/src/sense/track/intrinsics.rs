@@ -188,7 +188,7 @@ impl super::settings_file::SettingsFile for Intrinsics {
         if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 1.0) {
             return Err(InputError::new(format!(
                 "intrinsics {origin}: `depth_scale` must be in (0, 1] metres per unit, got {}",
-                self.depth_scale
+                crate::limits::show(self.depth_scale)
             )));
         }
         Ok(())
@@ -199,7 +199,7 @@ impl super::settings_file::SettingsFile for Intrinsics {
 mod tests {
     use super::*;
     use crate::sense::track::colour::ColourCamera;
-    use crate::sense::track::settings_file::SettingsFile as _;
+    use crate::sense::track::settings_file::SettingsFile;
 
     #[test]
     fn round_trips_and_rejects_bad_fields() {
@@ -215,6 +215,19 @@ mod tests {
             .to_string();
         assert!(e.contains("missing"), "{e}");
         assert!(i.check_frames(640, 480, "x").is_err());
+    }
+
+    #[test]
+    fn a_depth_scale_refused_is_shown_in_a_few_digits() {
+        // From a stream's header: no literal check before this one.
+        for (v, shown) in [(-5e-324, "got -5e-324"), (1e300, "got 1e300")] {
+            let i = Intrinsics {
+                depth_scale: v,
+                ..Intrinsics::D435_848X480
+            };
+            let e = SettingsFile::check(&i, "cam").unwrap_err().to_string();
+            assert!(e.ends_with(shown) && e.len() < 100, "{e}");
+        }
     }
 
     #[test]

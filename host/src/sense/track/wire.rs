@@ -146,6 +146,30 @@ impl<R: Read> Stream<R> {
         })
     }
 
+    /// Refuses time stamp `t_s` of frame `self.frames` (`whose` its
+    /// colour image's) unless it is finite, in 0 to
+    /// [`MAX_TIME_STAMP_S`](crate::limits::MAX_TIME_STAMP_S) as every
+    /// finger source's, and not before `last`.
+    fn stamp(&self, t_s: f64, last: f64, whose: &str) -> Result<(), InputError> {
+        use crate::limits::{MAX_TIME_STAMP_S, show, show_beside};
+        let (what, n) = (&self.what, self.frames);
+        if !(0.0..=MAX_TIME_STAMP_S).contains(&t_s) {
+            return Err(InputError::new(format!(
+                "{what}: frame {n}{whose} has time stamp {} s, out of range: give 0 to {} s",
+                show_beside(t_s, 0.0, MAX_TIME_STAMP_S),
+                show(MAX_TIME_STAMP_S)
+            )));
+        }
+        if t_s < last {
+            return Err(InputError::new(format!(
+                "{what}: frame {n}{whose} has time stamp {} s, before the previous one's {} s",
+                show_beside(t_s, last, last),
+                show_beside(last, t_s, t_s)
+            )));
+        }
+        Ok(())
+    }
+
     fn ended_inside(&self) -> anyhow::Error {
         InputError::new(format!("{}: ended inside frame {}", self.what, self.frames)).into()
     }
@@ -178,13 +202,7 @@ impl<R: Read> Stream<R> {
             return Err(self.ended_inside());
         }
         let t_s = f64::from_le_bytes(flag[1..].try_into().expect("8 bytes"));
-        if !t_s.is_finite() || t_s < self.last_colour_t {
-            return Err(InputError::new(format!(
-                "{}: frame {}'s colour image has time stamp {t_s}, not finite and non-decreasing",
-                self.what, self.frames
-            ))
-            .into());
-        }
+        self.stamp(t_s, self.last_colour_t, "'s colour image")?;
         self.last_colour_t = t_s;
         Ok(Some(ColourImage {
             t_s,
@@ -241,13 +259,7 @@ impl<R: Read> FrameSource for Stream<R> {
             return Err(self.ended_inside());
         }
         let t_s = f64::from_le_bytes(t);
-        if !t_s.is_finite() || t_s < self.last_t {
-            return Err(InputError::new(format!(
-                "{}: frame {} has time stamp {t_s}, not finite and non-decreasing",
-                self.what, self.frames
-            ))
-            .into());
-        }
+        self.stamp(t_s, self.last_t, "")?;
         let colour = self.read_colour()?;
         self.last_t = t_s;
         self.frames += 1;
@@ -401,5 +413,75 @@ mod tests {
         let mut s = Stream::new(&b[..], "t").unwrap();
         assert!(s.colour_camera().is_none());
         assert!(s.next_frame().unwrap().unwrap().colour.is_none());
+    }
+
+    fn cameras() -> (Intrinsics, ColourCamera) {
+        let intr = Intrinsics {
+            pinhole: Pinhole::new(4, 2, 3.0, 3.0, 2.0, 1.0),
+            depth_scale: 0.001,
+        };
+        let cam = ColourCamera {
+            pinhole: Pinhole::new(2, 2, 2.0, 2.0, 1.0, 1.0),
+            ..ColourCamera::D435_848X480
+        };
+        (intr, cam)
+    }
+
+    /// Every frame of `bytes`, or the refusal.
+    fn read_all(bytes: &[u8]) -> Result<Vec<Frame>, String> {
+        let mut s = Stream::new(bytes, "cam").map_err(|e| format!("{e:#}"))?;
+        let mut out = Vec::new();
+        while let Some(f) = s.next_frame().map_err(|e| format!("{e:#}"))? {
+            out.push(f);
+        }
+        Ok(out)
+    }
+
+    #[test]
+    fn a_frame_stamped_outside_0_to_1e10_s_is_refused_as_every_finger_source_refuses_it() {
+        let (intr, cam) = cameras();
+        let depth = [500u16; 8];
+        for t in [-1.0, -5e-324, 1.0e10 + 1.0, 1e300, f64::NAN, f64::INFINITY] {
+            let mut b = stream_header(&intr, None);
+            b.extend(stream_frame(0.5, &depth));
+            b.extend(stream_frame(t, &depth));
+            let e = read_all(&b).unwrap_err();
+            assert!(
+                e.starts_with("cam: frame 1 has time stamp") && e.contains("give 0 to 1e10 s"),
+                "{t}: {e}"
+            );
+            assert!(e.len() < 120 && !e.contains("000000000000"), "{e}");
+        }
+        // The colour image riding on a frame, the same.
+        let img = |t_s| ColourImage {
+            t_s,
+            width: 2,
+            height: 2,
+            rgb: std::sync::Arc::new(vec![7; 12]),
+        };
+        let mut b = stream_header(&intr, Some(&cam));
+        b.extend(stream_frame_colour(0.5, &depth, Some(&img(0.5))));
+        b.extend(stream_frame_colour(0.6, &depth, Some(&img(-2.0))));
+        let e = read_all(&b).unwrap_err();
+        assert!(
+            e.starts_with("cam: frame 1's colour image has time stamp -2 s"),
+            "{e}"
+        );
+        // Back in time, by less than six digits show.
+        let mut b = stream_header(&intr, None);
+        b.extend(stream_frame(1000.0000001, &depth));
+        b.extend(stream_frame(1000.0, &depth));
+        let e = read_all(&b).unwrap_err();
+        assert!(
+            e.contains("1000 s, before the previous one's 1000.0000001 s"),
+            "{e}"
+        );
+        // At the bounds, read.
+        let mut b = stream_header(&intr, Some(&cam));
+        b.extend(stream_frame_colour(0.0, &depth, Some(&img(0.0))));
+        b.extend(stream_frame_colour(1.0e10, &depth, None));
+        let frames = read_all(&b).unwrap();
+        assert_eq!(frames.len(), 2);
+        assert_eq!(frames[1].t_s, 1.0e10);
     }
 }

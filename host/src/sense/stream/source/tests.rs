@@ -371,3 +371,21 @@ fn lines_read_the_same_whatever_wrote_them() {
     let v = times(b"0,3;5,0,200,1\n", 8192);
     assert!(v[0].starts_with("line 1: fields separated by `;`"), "{v:?}");
 }
+
+#[test]
+fn a_json_key_with_a_line_break_is_refused_on_one_line() {
+    for line in [
+        r#"{"t": 1, "x": 0, "y": 0, "z": 0, "a\nb": 1}"#.to_owned(),
+        format!(
+            r#"{{"t": 1, "x": 0, "y": 0, "z": 0, "{}": 1}}"#,
+            "k ".repeat(500)
+        ),
+    ] {
+        let e = parse_line(&line, 3).unwrap_err().to_string();
+        assert!(
+            e.starts_with("line 3: not a centroid JSON object (unknown field `"),
+            "{e}"
+        );
+        assert!(!e.contains(['\n', '\r']) && e.len() < 400, "{e}");
+    }
+}
