@@ -70,17 +70,21 @@ fn note(size: usize) {
 unsafe impl std::alloc::GlobalAlloc for Watch {
     unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
         note(layout.size());
+        // SAFETY: the caller's layout, as `GlobalAlloc::alloc` was given it.
         unsafe { std::alloc::System.alloc(layout) }
     }
     unsafe fn alloc_zeroed(&self, layout: std::alloc::Layout) -> *mut u8 {
         note(layout.size());
+        // SAFETY: the caller's layout, as given.
         unsafe { std::alloc::System.alloc_zeroed(layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, new: usize) -> *mut u8 {
         note(new);
+        // SAFETY: `ptr` came from `System` through this allocator with `layout`.
         unsafe { std::alloc::System.realloc(ptr, layout, new) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        // SAFETY: `ptr` came from `System` through this allocator with `layout`.
         unsafe { std::alloc::System.dealloc(ptr, layout) }
     }
 }
@@ -353,4 +357,17 @@ fn the_run_catches_a_panic_a_bad_refusal_a_broken_invariant_and_a_huge_allocatio
         .filter(|f| f.what.starts_with("panic"))
         .collect();
     assert!(panics.len() <= 1);
+}
+
+/// A refusal, as the reader worded it.
+pub fn refused(e: impl std::fmt::Display) -> Outcome {
+    Ok(Verdict::Refused(e.to_string()))
+}
+
+/// `Ok` when every value of `v` is finite, else what is not.
+pub fn finite(what: &str, v: &[f64]) -> Result<(), String> {
+    match v.iter().all(|x| x.is_finite()) {
+        true => Ok(()),
+        false => Err(format!("{what} {v:?} is not finite")),
+    }
 }

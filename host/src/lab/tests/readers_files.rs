@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::harness::{Outcome, Reader, Verdict};
+use super::harness::{Outcome, Reader, Verdict, finite, refused};
 use crate::files::{Scratch, scratch};
 use crate::limits::{MAX_REPLAY_GAP_S, MAX_TIME_STAMP_S};
 use crate::npy::{self, ColourNpy, DepthNpy};
@@ -20,17 +20,6 @@ use crate::sense::track::colour::{ColourCamera, ColourImage};
 use crate::sense::track::frame::FrameSource as _;
 use crate::sense::track::intrinsics::{Intrinsics, Pinhole};
 use crate::sense::track::wire;
-
-fn refused(e: impl std::fmt::Display) -> Outcome {
-    Ok(Verdict::Refused(e.to_string()))
-}
-
-fn finite(what: &str, v: &[f64]) -> Result<(), String> {
-    match v.iter().all(|x| x.is_finite()) {
-        true => Ok(()),
-        false => Err(format!("{what} {v:?} is not finite")),
-    }
-}
 
 /// A reader of files named `file` in a scratch folder of its own (kept
 /// alive by the reader): each input written there, then `read`.

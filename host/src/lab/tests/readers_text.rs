@@ -4,7 +4,7 @@
 //! responses file. Each reads bytes as its file or stream would be read
 //! (through [`crate::files::text`]) and checks what it accepts.
 
-use super::harness::{Outcome, Reader, Verdict};
+use super::harness::{Outcome, Reader, Verdict, finite, refused};
 use crate::files::text;
 use crate::lab::session::Command;
 use crate::lab::study::answers::{Accepts, Answers as _, Asked, Lines};
@@ -30,17 +30,6 @@ pub fn repo_file(rel: &str) -> Vec<u8> {
 fn decoded(what: &str, bytes: &[u8]) -> Result<String, Verdict> {
     text::decode(bytes.to_vec())
         .map_err(|why| Verdict::Refused(format!("cannot read {what} fuzz.toml: {why}")))
-}
-
-fn refused(e: impl std::fmt::Display) -> Outcome {
-    Ok(Verdict::Refused(e.to_string()))
-}
-
-fn finite(what: &str, v: &[f64]) -> Result<(), String> {
-    match v.iter().all(|x| x.is_finite()) {
-        true => Ok(()),
-        false => Err(format!("{what} {v:?} is not finite")),
-    }
 }
 
 /// A TOML reader: decoded, then `read`, whose `Ok` is checked by itself.
