@@ -20,6 +20,7 @@
 mod harness;
 mod mutate;
 mod readers_files;
+mod readers_study;
 mod readers_text;
 
 #[global_allocator]
@@ -53,6 +54,7 @@ fn long_random_readers_refuse_in_one_line_and_accept_only_valid_values() {
     println!("readers fuzz: LM_HOST_FUZZ_SEED={seed:#x}, scale {scale}");
     let mut readers = readers_text::readers();
     readers.extend(readers_files::readers());
+    readers.extend(readers_study::readers());
     let mut failures = Vec::new();
     for r in &readers {
         if only.as_deref().is_some_and(|o| o != r.name) {

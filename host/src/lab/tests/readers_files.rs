@@ -381,7 +381,14 @@ fn lab_readers() -> Vec<Reader> {
         file_reader(
             "study event log",
             "events.jsonl",
-            vec![events.into_bytes()],
+            // Beside a hand-made log, a staircase run's own.
+            vec![
+                events.into_bytes(),
+                super::readers_study::studies()[1].participants[0]
+                    .2
+                    .events
+                    .clone(),
+            ],
             10_000,
             |p| match crate::lab::study::midtrial::logged(p, 2, "level", "level_intensity") {
                 Ok(got) => {
