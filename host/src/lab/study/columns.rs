@@ -197,12 +197,18 @@ pub enum Holds {
     Levels(Vec<String>),
     /// Seconds (response times), `|`-joined; empty when none.
     Seconds,
-    /// A procedure's estimate (a threshold), a finite number in its
-    /// levels' unit; empty when it has none. Summarised by the report.
-    Estimate,
+    /// A procedure's estimate (a threshold) in its levels' unit, within
+    /// `min..=max`: a staircase's levels (it averages some), QUEST+'s
+    /// candidate thresholds (it is their posterior mean); empty when it
+    /// has none. Summarised by the report.
+    Estimate(f64, f64),
     /// A force in N, at least 0 (empty: not measured).
     Force,
 }
+
+/// How far a written estimate may lie outside its range: it is written to
+/// 6 decimals (`{:.6}`), rounded by at most half the last.
+pub const ESTIMATE_ROUNDING: f64 = 0.5e-6;
 
 /// Largest force a column holds, N (a gauge's capacity is 50 to a few
 /// hundred newtons; a finger is never pushed harder).
@@ -219,7 +225,7 @@ impl Holds {
             Self::Number(..) => "number",
             Self::Depth(..) => "depth",
             Self::Force => "force",
-            Self::Estimate => "estimate",
+            Self::Estimate(..) => "estimate",
             _ => return None,
         })
     }
@@ -227,9 +233,11 @@ impl Holds {
     /// The number an answer or depth value stands for, when it has one.
     pub fn number(&self, value: &str) -> Option<f64> {
         match self {
-            Self::Likert(_) | Self::Number(..) | Self::Depth(..) | Self::Force | Self::Estimate => {
-                value.parse().ok()
-            }
+            Self::Likert(_)
+            | Self::Number(..)
+            | Self::Depth(..)
+            | Self::Force
+            | Self::Estimate(..) => value.parse().ok(),
             _ => None,
         }
     }
@@ -262,7 +270,10 @@ impl Holds {
             Self::Measured => value.is_empty() || number(value, 0.0, f64::MAX),
             Self::Tally => value.is_empty() || count(value, 0),
             Self::Fraction => value.is_empty() || number(value, 0.0, 1.0),
-            Self::Estimate => value.is_empty() || number(value, f64::MIN, f64::MAX),
+            // Written to 6 decimals: rounded by at most half the last.
+            Self::Estimate(lo, hi) => {
+                value.is_empty() || number(value, lo - ESTIMATE_ROUNDING, hi + ESTIMATE_ROUNDING)
+            }
             Self::Time => is_rfc3339_utc(value),
             Self::Answers => count(value, 0),
             Self::Likert(points) => {
@@ -302,7 +313,7 @@ impl Holds {
             Self::Measured => "give a number from 0 or nothing".into(),
             Self::Tally => "give a whole number from 0 or nothing".into(),
             Self::Fraction => "give a fraction from 0 to 1 or nothing".into(),
-            Self::Estimate => "give a finite number or nothing".into(),
+            Self::Estimate(lo, hi) => format!("give a number {} or nothing", range(*lo, *hi)),
             Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
             Self::Likert(p) => format!("give 1 to {p} or nothing"),
@@ -335,7 +346,7 @@ impl Holds {
             | Self::Adjustments(_)
             | Self::Measured
             | Self::Fraction
-            | Self::Estimate
+            | Self::Estimate(..)
             | Self::Time => NUMBER,
             Self::Level(l) | Self::Choice(l) => label(l),
             Self::Likert(_) => 1,
@@ -507,27 +518,29 @@ impl Columns {
     }
 
     /// The same header with an adaptive procedure's columns after the
-    /// rest: its `levels`, its two `answers` and the most presentations,
-    /// `trials`.
+    /// rest: its `levels`, its two `answers`, the most presentations,
+    /// `trials`, and the range its threshold lies in, `estimate`.
     pub fn with_adaptive(
         self,
         kind: Adaptive,
         levels: Vec<String>,
         answers: Vec<String>,
         trials: u32,
+        estimate: (f64, f64),
     ) -> Result<Self, String> {
+        let (lo, hi) = estimate;
         let columns = match kind {
             Adaptive::Staircase => vec![
                 Column::new(STAIRCASE_LEVELS, Holds::Levels(levels.clone())),
                 Column::new(STAIRCASE_ANSWERS, Holds::AdjustAnswers(answers)),
                 Column::new(STAIRCASE_REVERSALS, Holds::Levels(levels)),
                 Column::new(STAIRCASE_AT_LIMIT, Holds::Adjustments(trials)),
-                Column::new(THRESHOLD, Holds::Estimate),
+                Column::new(THRESHOLD, Holds::Estimate(lo, hi)),
             ],
             Adaptive::Quest => vec![
                 Column::new(QUEST_LEVELS, Holds::Levels(levels)),
                 Column::new(QUEST_ANSWERS, Holds::AdjustAnswers(answers)),
-                Column::new(THRESHOLD, Holds::Estimate),
+                Column::new(THRESHOLD, Holds::Estimate(lo, hi)),
                 Column::new(THRESHOLD_SD, Holds::Measured),
             ],
         };

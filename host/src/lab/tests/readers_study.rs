@@ -264,19 +264,12 @@ impl Folder {
 
 /// What every value of an accepted row holds as a run writes it: its
 /// trial's number, a finite number in range where the column holds one,
-/// a staircase's threshold among its levels.
+/// a procedure's threshold within its levels.
 fn row_ok(p: &Protocol, k: usize, row: &[String]) -> Result<(), String> {
     let cols = p.columns.list();
     if row.len() != cols.len() {
         return Err(format!("row {} has {} fields", k + 1, row.len()));
     }
-    let levels: Vec<f64> = p
-        .staircase
-        .iter()
-        .map(|s| &s.grid)
-        .chain(p.quest.iter().map(|q| &q.grid))
-        .flat_map(|g| g.values.iter().copied())
-        .collect();
     for (c, v) in cols.iter().zip(row) {
         let bad = || format!("row {}: column `{}` holds `{v}`", k + 1, c.name);
         if c.name == crate::lab::study::columns::TRIAL && *v != (k + 1).to_string() {
@@ -288,10 +281,15 @@ fn row_ok(p: &Protocol, k: usize, row: &[String]) -> Result<(), String> {
             Holds::Likert(points) => x.fract() == 0.0 && (1.0..=f64::from(points)).contains(&x),
             Holds::Number(lo, hi) | Holds::Depth(lo, hi) => (lo..=hi).contains(&x),
             Holds::Force => (0.0..=crate::lab::study::columns::MAX_FORCE_N).contains(&x),
-            Holds::Estimate if !levels.is_empty() => {
-                let lo = levels.iter().copied().fold(f64::INFINITY, f64::min);
-                let hi = levels.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                (lo..=hi).contains(&x)
+            Holds::Estimate(..) => {
+                // Among the procedure's levels or candidate thresholds.
+                let v: &[f64] = match (&p.staircase, &p.quest) {
+                    (Some(s), _) => &s.grid.values,
+                    (_, Some(q)) => &q.model().thresholds,
+                    _ => &[],
+                };
+                let tol = crate::lab::study::columns::ESTIMATE_ROUNDING;
+                v.iter().any(|l| *l <= x + tol) && v.iter().any(|h| x - tol <= *h)
             }
             _ => true,
         };

@@ -75,3 +75,33 @@ fn values_are_checked_by_what_the_column_holds() {
     assert_eq!(Holds::Likert(7).kind(), Some("likert"));
     assert_eq!(Holds::Measured.kind(), None);
 }
+
+#[test]
+fn a_threshold_lies_within_its_procedures_range() {
+    for (file, lo, hi) in [
+        ("staircase-detection.toml", 0.05, 1.0),
+        ("quest-detection.toml", f64::NAN, f64::NAN),
+    ] {
+        let path = crate::lab::study::test_files::studies(file);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let p = crate::lab::study::protocol::Unlinked::from_toml(&text, file).unwrap();
+        let c = &p.columns.list()[p.columns.index(THRESHOLD).unwrap()];
+        let Holds::Estimate(a, b) = c.holds else {
+            panic!("{file}: {:?}", c.holds)
+        };
+        if lo.is_finite() {
+            assert_eq!((a, b), (lo, hi), "{file}");
+        }
+        // The levels' (or candidate thresholds') ends, as written to 6
+        // decimals, and nothing: a run writes them.
+        for ok in [format!("{a:.6}"), format!("{b:.6}"), String::new()] {
+            c.check(&ok)
+                .unwrap_or_else(|e| panic!("{file}: `{ok}`: {e}"));
+        }
+        // Beyond them, however finite: an edit, not a run's estimate.
+        let past = format!("{:.6}", b + (b - a).max(1.0));
+        for bad in [past.as_str(), "-1e308", "4294967296", "1e308", "NaN"] {
+            assert!(c.check(bad).is_err(), "{file}: `{bad}` accepted");
+        }
+    }
+}

@@ -120,13 +120,21 @@ pub(super) fn check(mut file: File, e: &Errors) -> Result<Unlinked, InputError> 
             .as_ref(),
     )
     .and_then(|c| {
+        // Where its threshold lies: a staircase averages its levels,
+        // QUEST+ takes its candidate thresholds' posterior mean.
+        let range = |v: &[f64]| {
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            (lo, v.iter().copied().fold(lo, f64::max))
+        };
         let adaptive = match (&staircase, &quest) {
-            (Some(s), _) => Some((Adaptive::Staircase, &s.grid)),
-            (_, Some(q)) => Some((Adaptive::Quest, &q.grid)),
+            (Some(s), _) => Some((Adaptive::Staircase, &s.grid, range(&s.grid.values))),
+            (_, Some(q)) => Some((Adaptive::Quest, &q.grid, range(&q.model().thresholds))),
             (None, None) => None,
         };
         match adaptive {
-            Some((kind, g)) => c.with_adaptive(kind, g.labels.clone(), g.answers(), g.trials),
+            Some((kind, g, at)) => {
+                c.with_adaptive(kind, g.labels.clone(), g.answers(), g.trials, at)
+            }
             None => Ok(c),
         }
     })
