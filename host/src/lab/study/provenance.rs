@@ -120,7 +120,7 @@ pub fn rig_differences(before: &Run, now: &Run) -> Vec<String> {
     };
     if kind(before) != kind(now) {
         d.push(format!(
-            "the backend ({} then, {} now)",
+            "the backend (`{}` then, `{}` now)",
             kind(before),
             kind(now)
         ));
@@ -133,7 +133,7 @@ pub fn rig_differences(before: &Run, now: &Run) -> Vec<String> {
             .find(|(x, y)| x != y)
             .map(|(x, y)| {
                 if x.0 == y.0 {
-                    format!("`{}` {} then, {} now", x.0, x.1, y.1)
+                    format!("`{}` `{}` then, `{}` now", x.0, x.1, y.1)
                 } else {
                     format!("`{}` then, `{}` now", x.0, y.0)
                 }
@@ -243,13 +243,44 @@ mod tests {
         assert!(rig_differences(&a, &a.clone()).is_empty());
         let d = rig_differences(&a, &run("scene2", "lm-firmware", "0000000b", 2.0));
         assert_eq!(d.len(), 4, "{d:?}");
-        assert!(d[0].starts_with("the scene (s.toml (CRC "), "{d:?}");
-        assert_eq!(d[1], "the backend (autd3 then, lm-firmware now)");
-        assert_eq!(d[2], "the library's CRCs (`a` 0000000a then, 0000000b now)");
+        assert!(d[0].starts_with("the scene (`s.toml` (CRC `"), "{d:?}");
+        assert_eq!(d[1], "the backend (`autd3` then, `lm-firmware` now)");
+        assert_eq!(
+            d[2],
+            "the library's CRCs (`a` `0000000a` then, `0000000b` now)"
+        );
         assert_eq!(d[3], "the time scale (1 then, 2 now)");
         // A session.json from before the scene was recorded.
         let mut old = a.clone();
         old.scene = None;
         assert!(rig_differences(&old, &a).is_empty());
+    }
+
+    #[test]
+    fn a_long_value_read_back_is_cut_in_the_rig_refusal() {
+        // Every value read back from session.json is quoted, so a long one
+        // (an edit, a paste) is cut to its echo: the refusal stays a line.
+        let long = "a b ".repeat(300);
+        let a = run("scene", "autd3", "0000000a", 1.0);
+        type Edit = fn(&mut Run, String);
+        let edits: [Edit; 4] = [
+            |r, v| r.library[0]["crc32"] = v.into(),
+            |r, v| r.backend = v,
+            // The path is named when the CRC differs.
+            |r, v| {
+                let s = r.scene.as_mut().unwrap();
+                s.path = Some(v);
+                s.crc32 = Some("0".into());
+            },
+            |r, v| r.scene.as_mut().unwrap().crc32 = Some(v),
+        ];
+        for edit in edits {
+            let mut edited = a.clone();
+            edit(&mut edited, long.clone());
+            let e = check_rig(&[edited], &mut a.clone(), false)
+                .unwrap_err()
+                .to_string();
+            assert!(e.len() < 600 && !e.contains(&"a b ".repeat(30)), "{e}");
+        }
     }
 }

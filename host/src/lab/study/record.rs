@@ -42,7 +42,9 @@ impl SceneRecord {
 
     pub(super) fn show(&self) -> String {
         match (&self.path, &self.crc32) {
-            (Some(p), Some(c)) => format!("{p} (CRC {c})"),
+            // Quoted: a value read back from session.json is cut to its
+            // bounded echo when long.
+            (Some(p), Some(c)) => format!("`{p}` (CRC `{c}`)"),
             _ => "the built-in scene".into(),
         }
     }
