@@ -122,6 +122,99 @@ pub struct SessionFile {
     pub runs: Vec<Run>,
 }
 
+/// Largest participant index (`--index`, from 1).
+pub const MAX_INDEX: usize = 1_000_000;
+
+impl SessionFile {
+    /// Checks what `session.json` records beside its trials against its
+    /// protocol `p` (the one its `protocol` text is): the name, the order,
+    /// the questions and columns, the participant's index (given exactly
+    /// when the order is a Latin square's, 1..=[`MAX_INDEX`]) and every
+    /// run's first trial and time scale, as a run writes them. A value no
+    /// run can write (an edit, a copy from another study) is refused
+    /// rather than carried on by a resume or passed over by a report.
+    pub fn check(&self, p: &Unlinked, path: &Path) -> Result<(), InputError> {
+        let bad = |field: &str, what: String| {
+            InputError::new(format!("{}: field `{field}`: {what}", path.display()))
+        };
+        if self.protocol_name != p.name {
+            return Err(bad(
+                "protocol_name",
+                format!(
+                    "`{}`, but its protocol is named `{}`",
+                    self.protocol_name.escape_debug(),
+                    p.name
+                ),
+            ));
+        }
+        // Files written before the order was recorded have none.
+        if !self.order.is_empty() && self.order != p.order.name() {
+            return Err(bad(
+                "order",
+                format!(
+                    "`{}`, but its protocol's order is `{}`",
+                    self.order.escape_debug(),
+                    p.order.name()
+                ),
+            ));
+        }
+        let questions: Vec<&str> = p.questions.iter().map(|q| q.id.as_str()).collect();
+        if self.question_order != questions {
+            return Err(bad(
+                "question_order",
+                format!("not its protocol's questions ({})", questions.join(", ")),
+            ));
+        }
+        if self.columns != columns(&p.columns) {
+            return Err(bad(
+                "columns",
+                "not its protocol's columns and their kinds".into(),
+            ));
+        }
+        match (super::design::orders_by_index(p), self.index) {
+            (true, Some(1..=MAX_INDEX)) | (false, None) => {}
+            (true, Some(i)) => {
+                return Err(bad(
+                    "index",
+                    format!("{i}: give the participant's number, 1 to {MAX_INDEX}"),
+                ));
+            }
+            (true, None) => {
+                return Err(bad(
+                    "index",
+                    "missing: its protocol's order is a Latin square by participant".into(),
+                ));
+            }
+            (false, Some(i)) => {
+                return Err(bad(
+                    "index",
+                    format!("{i}, but its protocol's order is not a Latin square: null"),
+                ));
+            }
+        }
+        let last = self.trials.len() + 1;
+        for (k, r) in self.runs.iter().enumerate() {
+            if !(1..=last).contains(&r.first_trial) {
+                return Err(bad(
+                    &format!("runs[{k}].first_trial"),
+                    format!("{}: give 1 to {last}", r.first_trial),
+                ));
+            }
+            let max = super::MAX_TIME_SCALE;
+            if !(r.time_scale > 0.0 && r.time_scale <= max) {
+                return Err(bad(
+                    &format!("runs[{k}].time_scale"),
+                    format!(
+                        "{}: give a factor above 0 and at most {max}",
+                        crate::limits::show(r.time_scale)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The condition and answer columns of a header with their kinds (the
 /// depth the trial ended at, not the one it started from).
 pub fn columns(cols: &Columns) -> Vec<(String, String)> {

@@ -121,6 +121,7 @@ fn read_participant(d: &Path) -> Result<Participant, InputError> {
             sp.display()
         );
     }
+    session.check(&protocol, &sp)?;
     let expect = Expect::of(&protocol, &session.participant);
     let trials = record::read_trials(&d.join("trials.csv"), &protocol.columns, &plan, &expect)?;
     Ok(Participant {

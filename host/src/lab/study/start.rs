@@ -76,6 +76,10 @@ pub fn fresh(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Star
         ),
         // A number that would change nothing is refused, not recorded as
         // though it had chosen the order.
+        (true, Some(i)) if !(1..=record::MAX_INDEX).contains(&i) => crate::bad_input!(
+            "--index {i}: give the participant's number, 1 to {}",
+            record::MAX_INDEX
+        ),
         (false, Some(i)) => crate::bad_input!(
             "study protocol {}: --index {i} picks a row of a latin-square order, and this protocol has none: leave --index out (--participant names the participant)",
             o.protocol.display()
@@ -158,6 +162,7 @@ pub fn resume(o: &RunOptions, p: &Protocol, paths: &Paths) -> anyhow::Result<Sta
     if plan != f.trials {
         crate::bad_input!("--resume: {session}'s trial order does not follow from its seed");
     }
+    f.check(p, &paths.session).map_err(refused)?;
     let expect = Expect::of(p, &o.participant);
     let trials = record::read_trials(&paths.trials, &p.columns, &plan, &expect).map_err(refused)?;
     // The event log is appended to: a FIFO or device there would block.

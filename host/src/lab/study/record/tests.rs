@@ -368,3 +368,119 @@ fn measured_columns_are_never_below_zero_and_counts_whole() {
     assert!(!ok(Holds::Tally, "-1") && !ok(Holds::Tally, "1.5"));
     assert!(!ok(Holds::Tally, "18446744073709551616"));
 }
+
+#[test]
+fn session_json_values_no_run_writes_are_refused_naming_the_field() {
+    let (p, plan) = exp1();
+    let good = SessionFile {
+        protocol_name: p.name.clone(),
+        protocol_file: "x".into(),
+        protocol: p.text.clone(),
+        library_file: "y".into(),
+        participant: "P01".into(),
+        seed: 7,
+        index: None,
+        order: "random".into(),
+        question_order: p.questions.iter().map(|q| q.id.clone()).collect(),
+        columns: columns(&p.columns),
+        trials: plan,
+        runs: Vec::new(),
+    };
+    let at = Path::new("P01/session.json");
+    good.check(&p, at).unwrap();
+    // A file written before the order was recorded has none.
+    let mut old = good.clone();
+    old.order.clear();
+    old.check(&p, at).unwrap();
+    let run = |first_trial: usize, time_scale: f64| Run {
+        started_unix_s: 0,
+        first_trial,
+        lmhost_version: "0".into(),
+        device: serde_json::Value::Null,
+        library: Vec::new(),
+        time_scale,
+        finger: "none".into(),
+        scene: None,
+        backend: String::new(),
+        port: String::new(),
+        resumed_anyway: None,
+        instruments: None,
+    };
+    let trials = good.trials.len();
+    let mut ok = good.clone();
+    ok.runs = vec![run(1, 0.02), run(trials + 1, 100.0)];
+    ok.check(&p, at).unwrap();
+    type Edit<'a> = Box<dyn Fn(&mut SessionFile) + 'a>;
+    let edits: Vec<(&str, Edit<'_>)> = vec![
+        ("protocol_name", Box::new(|s| s.protocol_name += "x")),
+        ("order", Box::new(|s| s.order = "sequential".into())),
+        ("question_order", Box::new(|s| s.question_order.reverse())),
+        ("question_order", Box::new(|s| s.question_order.clear())),
+        ("columns", Box::new(|s| s.columns[0].1 = "likert".into())),
+        ("columns", Box::new(|s| s.columns.pop().map_or((), drop))),
+        // Exp. 1's order is random: no index picks its row.
+        ("index", Box::new(|s| s.index = Some(3))),
+        (
+            "runs[0].first_trial",
+            Box::new(move |s| s.runs = vec![run(0, 1.0)]),
+        ),
+        (
+            "runs[1].first_trial",
+            Box::new(move |s| s.runs = vec![run(1, 1.0), run(trials + 2, 1.0)]),
+        ),
+        (
+            "runs[0].time_scale",
+            Box::new(move |s| s.runs = vec![run(1, 0.0)]),
+        ),
+        (
+            "runs[0].time_scale",
+            Box::new(move |s| s.runs = vec![run(1, -1.0)]),
+        ),
+        (
+            "runs[0].time_scale",
+            Box::new(move |s| s.runs = vec![run(1, 1e308)]),
+        ),
+    ];
+    for (field, edit) in edits {
+        let mut s = good.clone();
+        edit(&mut s);
+        let e = s.check(&p, at).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("P01/session.json: field `{field}`: ")),
+            "{field}: {e}"
+        );
+        assert!(!e.contains('\n') && e.len() < 300, "{e}");
+    }
+}
+
+#[test]
+fn a_latin_square_session_records_an_index_from_1() {
+    let text = std::fs::read_to_string(studies("paper-exp1.toml"))
+        .unwrap()
+        .replace("sets = 2\n", "sets = 2\norder = \"latin-square\"\n");
+    let p = Unlinked::from_toml(&text, "latin.toml").unwrap();
+    let plan = design::plan_of(&p, 7, Some(2));
+    let mut s = SessionFile {
+        protocol_name: p.name.clone(),
+        protocol_file: "x".into(),
+        protocol: text.clone(),
+        library_file: "y".into(),
+        participant: "P01".into(),
+        seed: 7,
+        index: Some(2),
+        order: "latin-square".into(),
+        question_order: p.questions.iter().map(|q| q.id.clone()).collect(),
+        columns: columns(&p.columns),
+        trials: plan,
+        runs: Vec::new(),
+    };
+    let at = Path::new("session.json");
+    s.check(&p, at).unwrap();
+    // Index 0 and index rows + 1 plan as rows 1 and 2 would: refused,
+    // not read as them.
+    for bad in [None, Some(0), Some(MAX_INDEX + 1)] {
+        s.index = bad;
+        let e = s.check(&p, at).unwrap_err().to_string();
+        assert!(e.contains("field `index`"), "{bad:?}: {e}");
+    }
+}
