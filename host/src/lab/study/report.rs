@@ -152,8 +152,19 @@ pub fn report_to(dir: &Path, fig: &Figure) -> anyhow::Result<Report> {
         skipped,
         ..Report::default()
     };
+    // A participant counted once: a folder copied (a backup beside the
+    // original) would weigh them twice in every statistic.
+    let mut seen: BTreeMap<String, &Path> = BTreeMap::new();
     for d in &dirs {
         let p = read_participant(d)?;
+        if let Some(other) = seen.insert(p.session.participant.clone(), d) {
+            crate::bad_input!(
+                "{}: participant `{}` again (also in {}): a folder copied? report each participant once",
+                d.display(),
+                p.session.participant,
+                other.display()
+            );
+        }
         if let Some(f) = &first
             && f.session.protocol != p.session.protocol
         {

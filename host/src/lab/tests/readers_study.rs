@@ -463,3 +463,29 @@ pub fn readers() -> Vec<Reader> {
         report_reader("report: staircase trials", staircase, Which::Trials, 2_000),
     ]
 }
+
+/// A report counts each participant once: a folder copied beside its
+/// original (same session, same rows) is refused, naming both.
+#[test]
+fn a_participant_folder_copied_is_refused_by_the_report() {
+    let study = &studies()[0];
+    let folder = Folder::new("report-copy", study);
+    let fig = crate::field::plot::Figure {
+        formats: Vec::new(),
+        ..Default::default()
+    };
+    let r = crate::lab::study::report::report_to(&folder.out, &fig).unwrap();
+    assert_eq!(r.participants, 2);
+    let (id, _, f) = &study.participants[1];
+    let copy = Paths::new(&folder.out, &format!("{id}-backup"));
+    std::fs::create_dir_all(&copy.dir).unwrap();
+    std::fs::write(&copy.session, &f.session).unwrap();
+    std::fs::write(&copy.trials, &f.trials).unwrap();
+    let e = crate::lab::study::report::report_to(&folder.out, &fig)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(&format!("participant `{id}` again")) && e.contains(&format!("out/{id}")),
+        "{e}"
+    );
+}
