@@ -13,6 +13,7 @@ use crate::rng::SplitMix64;
 
 /// One planned trial.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Planned {
     /// 1-based trial number.
     pub trial: usize,

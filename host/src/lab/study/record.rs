@@ -24,6 +24,7 @@ pub const MAX_SESSION_BYTES: u64 = 256 << 20;
 
 /// The scene a run used.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SceneRecord {
     /// The scene file as given (`None`: the built-in scene).
     pub path: Option<String>,
@@ -52,6 +53,7 @@ impl SceneRecord {
 
 /// One run of the session (the first, and one per `--resume`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Run {
     /// Wall clock at its start (s since 1970).
     pub started_unix_s: u64,
@@ -88,8 +90,11 @@ pub struct Run {
     pub instruments: Option<String>,
 }
 
-/// `session.json`.
+/// `session.json`. A key it does not know (misspelt, or of another
+/// program) is refused, not passed over; `device` and `library` hold what
+/// the device and the planner said, as they said it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SessionFile {
     /// The protocol's name.
     pub protocol_name: String,

@@ -335,7 +335,8 @@ fn resume(study: &Study, p: &Protocol, paths: &Paths) -> Outcome {
     if f.trials != s.plan
         || f.participant != *id
         || f.protocol_name != p.name
-        || f.order != p.order.name()
+        // Files written before the order was recorded have none.
+        || !(f.order.is_empty() || f.order == p.order.name())
         || f.question_order != questions
         || f.columns != record::columns(&p.columns)
     {

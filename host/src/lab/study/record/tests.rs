@@ -265,6 +265,14 @@ fn session_json_errors_name_the_field() {
             "\"condition\": -",
             "field `trials[0].condition`",
         ),
+        // A key misspelt, or renamed by an edit: refused, not ignored
+        // for its default.
+        ("\"order\": ", "\"ordr\": ", "unknown field `ordr`"),
+        (
+            "\"runs\": []",
+            "\"runs\": [], \"note\": 1",
+            "unknown field `note`",
+        ),
     ] {
         std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
         let e = read_session(&path).unwrap_err().to_string();
