@@ -270,7 +270,18 @@ pub fn read_session(path: &Path) -> Result<SessionFile, InputError> {
     let bytes = read_own("session file", path, MAX_SESSION_BYTES)?;
     let mut de = serde_json::Deserializer::from_slice(&bytes);
     serde_path_to_error::deserialize(&mut de).map_err(|e| {
-        let field = e.path().to_string();
+        let mut field = e.path().to_string();
+        // An unknown key is the path's last part, and serde's message names
+        // it already: the path shown is where it is, not it again.
+        if let Some(serde_path_to_error::Segment::Map { key }) = e.path().iter().last()
+            && e.inner().to_string().starts_with("unknown field")
+        {
+            field = field.strip_suffix(key.as_str()).unwrap_or(&field).into();
+            field = field.strip_suffix('.').unwrap_or(&field).into();
+            if field.is_empty() {
+                field = ".".into();
+            }
+        }
         let inner = e.into_inner();
         InputError::new(if field == "." {
             format!("{}: {inner}", path.display())

@@ -267,7 +267,7 @@ fn session_json_errors_name_the_field() {
         ),
         // A key misspelt, or renamed by an edit: refused, not ignored
         // for its default.
-        ("\"order\": ", "\"ordr\": ", "unknown field `ordr`"),
+        ("\"order\": ", "\"ordr\": ", ": unknown field `ordr`"),
         (
             "\"runs\": []",
             "\"runs\": [], \"note\": 1",
@@ -277,8 +277,17 @@ fn session_json_errors_name_the_field() {
         std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
         let e = read_session(&path).unwrap_err().to_string();
         assert!(e.contains(needle), "{to}: {e}");
+        // An unknown key is named once, in serde's words.
+        assert_eq!(e.matches("ordr").count(), usize::from(to.contains("ordr")));
         assert!(e.contains("session.json"), "{e}");
     }
+    // A long unknown key (a paste) is cut, and said once: one line.
+    let long = "k".repeat(2000);
+    let edited = good.replacen("\"runs\": []", &format!("\"runs\": [], \"{long}\": 1"), 1);
+    std::fs::write(&path, edited).unwrap();
+    let e = read_session(&path).unwrap_err().to_string();
+    assert!(e.chars().count() < 600, "{} characters: {e}", e.len());
+    assert_eq!(e.matches("(2000 characters)").count(), 1, "{e}");
     // The kinds session.json records: factors, answers, the final depth.
     let kinds: Vec<&str> = s.columns.iter().map(|(_, k)| k.as_str()).collect();
     assert_eq!(
