@@ -125,6 +125,19 @@ fn is_number(s: &str) -> bool {
         .all(|b| b.is_ascii_digit() || b"+-.eE".contains(&b))
 }
 
+/// `s` as an [`InputError`] echoes a quoted value: cut around its length
+/// when longer than [`MAX_ECHO_CHARS`]. For a value whose own backquotes
+/// would split its echo into pieces each short enough to stay whole.
+pub fn short_echo(s: &str) -> String {
+    let n = s.chars().count();
+    let mut out = String::new();
+    match n > MAX_ECHO_CHARS {
+        true => cut(s, n, &mut out),
+        false => out.push_str(s),
+    }
+    out
+}
+
 /// `s` (of `n` characters) cut around its length, as a long word on
 /// stderr is.
 fn cut(s: &str, n: usize, out: &mut String) {

@@ -271,18 +271,20 @@ pub fn read_session(path: &Path) -> Result<SessionFile, InputError> {
     let mut de = serde_json::Deserializer::from_slice(&bytes);
     serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let mut field = e.path().to_string();
+        let mut inner = e.inner().to_string();
         // An unknown key is the path's last part, and serde's message names
-        // it already: the path shown is where it is, not it again.
+        // it already: the path shown is where it is, not it again; the key
+        // shown is cut before its own backquotes could split its echo.
         if let Some(serde_path_to_error::Segment::Map { key }) = e.path().iter().last()
-            && e.inner().to_string().starts_with("unknown field")
+            && let Some(rest) = inner.strip_prefix(&format!("unknown field `{key}`"))
         {
+            inner = format!("unknown field `{}`{rest}", crate::error::short_echo(key));
             field = field.strip_suffix(key.as_str()).unwrap_or(&field).into();
             field = field.strip_suffix('.').unwrap_or(&field).into();
             if field.is_empty() {
                 field = ".".into();
             }
         }
-        let inner = e.into_inner();
         InputError::new(if field == "." {
             format!("{}: {inner}", path.display())
         } else {

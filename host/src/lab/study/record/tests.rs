@@ -288,6 +288,13 @@ fn session_json_errors_name_the_field() {
     let e = read_session(&path).unwrap_err().to_string();
     assert!(e.chars().count() < 600, "{} characters: {e}", e.len());
     assert_eq!(e.matches("(2000 characters)").count(), 1, "{e}");
+    // So is one holding backquotes of its own, which would split its echo
+    // into pieces each short enough to stay whole.
+    let long = "a `b` c ".repeat(200);
+    let edited = good.replacen("\"runs\": []", &format!("\"runs\": [], \"{long}\": 1"), 1);
+    std::fs::write(&path, edited).unwrap();
+    let e = read_session(&path).unwrap_err().to_string();
+    assert!(e.chars().count() < 600, "{} characters: {e}", e.len());
     // The kinds session.json records: factors, answers, the final depth.
     let kinds: Vec<&str> = s.columns.iter().map(|(_, k)| k.as_str()).collect();
     assert_eq!(
