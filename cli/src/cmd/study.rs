@@ -73,7 +73,7 @@ pub struct CheckArgs {
     /// Print this participant's trials (their number, from 1, as `study
     /// run --index` takes it; a protocol with a latin-square order only)
     /// [default: a Latin square's every row].
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=study::record::MAX_INDEX as i64))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=study::record::MAX_INDEX as u64))]
     participant: Option<u64>,
     /// The seed of a random order, as `study run --seed` takes it.
     #[arg(long, value_name = "N")]
@@ -124,7 +124,7 @@ pub struct RunArgs {
     seed: Option<u64>,
     /// The participant's number, from 1: picks the row of a
     /// `latin-square` protocol's order (recorded).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=study::record::MAX_INDEX as i64))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=study::record::MAX_INDEX as u64))]
     index: Option<u64>,
     /// Answers, one per line in the order asked (`na`: not perceived,
     /// where a question allows it), or `-`: stdin's lines, each read as

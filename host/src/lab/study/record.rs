@@ -275,7 +275,7 @@ pub fn read_session(path: &Path) -> Result<SessionFile, InputError> {
         // An unknown key is the path's last part, and serde's message names
         // it already: the path shown is where it is, not it again; the key
         // shown is cut before its own backquotes could split its echo.
-        if let Some(serde_path_to_error::Segment::Map { key }) = e.path().iter().last()
+        if let Some(serde_path_to_error::Segment::Map { key }) = e.path().iter().next_back()
             && let Some(rest) = inner.strip_prefix(&format!("unknown field `{key}`"))
         {
             inner = format!("unknown field `{}`{rest}", crate::error::short_echo(key));

@@ -349,9 +349,8 @@ fn resume(study: &Study, p: &Protocol, paths: &Paths) -> Outcome {
     }
     let mut first = 1;
     for r in &f.runs {
-        if !(first..=s.plan.len() + 1).contains(&r.first_trial)
-            || !(r.time_scale > 0.0 && r.time_scale <= crate::lab::study::MAX_TIME_SCALE)
-        {
+        let scale = r.time_scale > 0.0 && r.time_scale <= crate::lab::study::MAX_TIME_SCALE;
+        if !scale || !(first..=s.plan.len() + 1).contains(&r.first_trial) {
             return Err(format!(
                 "a run from trial {} at time scale {}",
                 r.first_trial, r.time_scale
