@@ -21,57 +21,7 @@ use crate::lab::study::start::{self, Paths};
 use crate::lab::study::{AnswerSource, FingerSource, RunOptions};
 
 /// The blocked study: 5 trials (1 practice), three kinds of answer.
-const MIXED: &str = r#"name = "fuzz-mixed"
-library = "{library}"
-sets = 2
-stimulus = "{type}-a3"
-
-[timeline]
-on_s = 0.3
-iti_s = 0.1
-gate = "untracked"
-
-[[factor]]
-name = "type"
-levels = ["lms-5hz", "lms-25hz"]
-
-[[question]]
-id = "vibration"
-kind = "likert"
-points = 7
-low = "none"
-high = "very"
-not_perceived = "could not perceive it"
-text = "How intense?"
-
-[[question]]
-id = "size"
-kind = "choice"
-options = ["2.0", "3.0", "4.0"]
-shuffle = true
-text = "Which size?"
-
-[[question]]
-id = "force"
-kind = "number"
-min = -1.5
-max = 10
-text = "How strong, in N?"
-
-[[block]]
-name = "practice"
-practice = true
-sets = 1
-order = "sequential"
-levels = { type = ["lms-5hz"] }
-
-[[block]]
-name = "main"
-
-[report]
-[[report.pairs]]
-factor = "type"
-"#;
+const MIXED: &str = include_str!("fuzz-mixed.toml");
 
 /// A participant's three files as a run left them.
 #[derive(Clone)]
@@ -374,25 +324,6 @@ fn resume(study: &Study, p: &Protocol, paths: &Paths) -> Outcome {
     Ok(Verdict::Accepted)
 }
 
-fn resume_reader(name: &'static str, study: &'static Study, which: Which, cases: usize) -> Reader {
-    let p = Protocol::load(&study.protocol).unwrap();
-    let folder = Folder::new(name, study);
-    let f = &study.participants[0].2;
-    let seed = match which {
-        Which::Session => f.session.clone(),
-        Which::Trials => f.trials.clone(),
-    };
-    Reader {
-        name,
-        seeds: vec![seed],
-        cases,
-        read: Box::new(move |b| {
-            let paths = folder.put(study, which, b)?;
-            resume(study, &p, &paths)
-        }),
-    }
-}
-
 /// `study report` over `study`'s folder: what it read and what it wrote
 /// hold rows of the design and finite numbers.
 fn report(study: &Study, p: &Protocol, out: &Path) -> Outcome {
@@ -424,7 +355,22 @@ fn report(study: &Study, p: &Protocol, out: &Path) -> Outcome {
     Ok(Verdict::Accepted)
 }
 
-fn report_reader(name: &'static str, study: &'static Study, which: Which, cases: usize) -> Reader {
+/// What reads a mutated file back: `study run --resume` or `study report`.
+#[derive(Clone, Copy)]
+enum Reads {
+    Resume,
+    Report,
+}
+
+/// `reads` over `study`'s first participant with its `which` file the
+/// mutant, seeded by that file as the run wrote it.
+fn study_reader(
+    name: &'static str,
+    reads: Reads,
+    study: &'static Study,
+    which: Which,
+    cases: usize,
+) -> Reader {
     let p = Protocol::load(&study.protocol).unwrap();
     let folder = Folder::new(name, study);
     let f = &study.participants[0].2;
@@ -437,8 +383,11 @@ fn report_reader(name: &'static str, study: &'static Study, which: Which, cases:
         seeds: vec![seed],
         cases,
         read: Box::new(move |b| {
-            folder.put(study, which, b)?;
-            report(study, &p, &folder.out)
+            let paths = folder.put(study, which, b)?;
+            match reads {
+                Reads::Resume => resume(study, &p, &paths),
+                Reads::Report => report(study, &p, &folder.out),
+            }
         }),
     }
 }
@@ -448,19 +397,22 @@ pub fn readers() -> Vec<Reader> {
     let [mixed, staircase] = studies() else {
         unreachable!("two seed studies")
     };
+    use Reads::{Report, Resume};
+    use Which::{Session, Trials};
     vec![
-        resume_reader("resume: trials.csv", mixed, Which::Trials, 5_000),
-        resume_reader("resume: session.json", mixed, Which::Session, 5_000),
-        resume_reader("resume: staircase trials", staircase, Which::Trials, 5_000),
-        resume_reader(
+        study_reader("resume: trials.csv", Resume, mixed, Trials, 5_000),
+        study_reader("resume: session.json", Resume, mixed, Session, 5_000),
+        study_reader("resume: staircase trials", Resume, staircase, Trials, 5_000),
+        study_reader(
             "resume: staircase session",
+            Resume,
             staircase,
-            Which::Session,
+            Session,
             2_000,
         ),
-        report_reader("report: trials.csv", mixed, Which::Trials, 3_000),
-        report_reader("report: session.json", mixed, Which::Session, 2_000),
-        report_reader("report: staircase trials", staircase, Which::Trials, 2_000),
+        study_reader("report: trials.csv", Report, mixed, Trials, 3_000),
+        study_reader("report: session.json", Report, mixed, Session, 2_000),
+        study_reader("report: staircase trials", Report, staircase, Trials, 2_000),
     ]
 }
 
