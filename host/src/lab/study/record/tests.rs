@@ -20,6 +20,27 @@ fn exp1_trials(name: &str) -> (Protocol, Vec<Planned>, crate::files::Scratch) {
     )
 }
 
+/// Experiment 1's `session.json` for P01 as its first run writes it
+/// (seed 7, no run recorded yet).
+fn exp1_session() -> (Protocol, SessionFile) {
+    let (p, plan) = exp1();
+    let s = SessionFile {
+        protocol_name: p.name.clone(),
+        protocol_file: "x".into(),
+        protocol: p.text.clone(),
+        library_file: "y".into(),
+        participant: "P01".into(),
+        seed: 7,
+        index: None,
+        order: "random".into(),
+        question_order: p.questions.iter().map(|q| q.id.clone()).collect(),
+        columns: columns(&p.columns),
+        trials: plan,
+        runs: Vec::new(),
+    };
+    (p, s)
+}
+
 fn expect(p: &Protocol) -> Expect<'_> {
     Expect::of(p, "P01")
 }
@@ -239,21 +260,7 @@ fn a_fifo_or_device_is_refused_at_once() {
 fn session_json_errors_name_the_field() {
     let d = scratch("session");
     let path = d.join("session.json");
-    let (p, plan) = exp1();
-    let s = SessionFile {
-        protocol_name: p.name.clone(),
-        protocol_file: "x".into(),
-        protocol: p.text.clone(),
-        library_file: "y".into(),
-        participant: "P01".into(),
-        seed: 7,
-        index: None,
-        order: "random".into(),
-        question_order: Vec::new(),
-        columns: columns(&p.columns),
-        trials: plan,
-        runs: Vec::new(),
-    };
+    let (_, s) = exp1_session();
     let good = serde_json::to_string_pretty(&s).unwrap();
     std::fs::write(&path, &good).unwrap();
     assert_eq!(read_session(&path).unwrap().seed, 7);
@@ -395,21 +402,7 @@ fn measured_columns_are_never_below_zero_and_counts_whole() {
 
 #[test]
 fn session_json_values_no_run_writes_are_refused_naming_the_field() {
-    let (p, plan) = exp1();
-    let good = SessionFile {
-        protocol_name: p.name.clone(),
-        protocol_file: "x".into(),
-        protocol: p.text.clone(),
-        library_file: "y".into(),
-        participant: "P01".into(),
-        seed: 7,
-        index: None,
-        order: "random".into(),
-        question_order: p.questions.iter().map(|q| q.id.clone()).collect(),
-        columns: columns(&p.columns),
-        trials: plan,
-        runs: Vec::new(),
-    };
+    let (p, good) = exp1_session();
     let at = Path::new("P01/session.json");
     good.check(&p, at).unwrap();
     // A file written before the order was recorded has none.
