@@ -16,9 +16,8 @@ use crate::plan::stimulus::{Stimulus, TargetPlan};
 use crate::plan::stimulus_file::{Content, plan_for};
 use crate::plan::target::Target;
 use crate::plan::trajectory::{MAX_STEPS, Steps};
-use crate::sense::track::colour::{ColourCamera, ColourImage};
+use crate::sense::track::colour::ColourImage;
 use crate::sense::track::frame::FrameSource as _;
-use crate::sense::track::intrinsics::{Intrinsics, Pinhole};
 use crate::sense::track::wire;
 
 /// A reader of files named `file` in a scratch folder of its own (kept
@@ -308,15 +307,8 @@ fn stream(b: &[u8]) -> Outcome {
 }
 
 fn stream_seeds() -> Vec<Vec<u8>> {
-    let intr = Intrinsics {
-        pinhole: Pinhole::new(8, 6, 5.0, 5.0, 4.0, 3.0),
-        depth_scale: 0.001,
-    };
-    let cam = ColourCamera {
-        pinhole: Pinhole::new(4, 3, 3.0, 3.0, 2.0, 1.5),
-        ..ColourCamera::D435_848X480
-    };
-    let depth: Vec<u16> = (0..48).map(|v| 300 + v).collect();
+    let (intr, cam) = crate::sense::track::wire::tests::cameras();
+    let depth: Vec<u16> = (0..8).map(|v| 300 + v).collect();
     let mut plain = wire::stream_header(&intr, None);
     let mut colour = wire::stream_header(&intr, Some(&cam));
     for i in 0..3 {
@@ -324,9 +316,9 @@ fn stream_seeds() -> Vec<Vec<u8>> {
         plain.extend(wire::stream_frame(t, &depth));
         let img = ColourImage {
             t_s: t,
-            width: 4,
-            height: 3,
-            rgb: Arc::new((0..36).collect()),
+            width: 2,
+            height: 2,
+            rgb: Arc::new((0..12).collect()),
         };
         let img = (i != 1).then_some(&img);
         colour.extend(wire::stream_frame_colour(t, &depth, img));

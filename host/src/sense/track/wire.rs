@@ -330,7 +330,7 @@ pub fn stream_frame_colour(t_s: f64, depth: &[u16], colour: Option<&ColourImage>
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn image(t_s: f64, cam: &ColourCamera, v: u8) -> ColourImage {
@@ -415,7 +415,9 @@ mod tests {
         assert!(s.next_frame().unwrap().unwrap().colour.is_none());
     }
 
-    fn cameras() -> (Intrinsics, ColourCamera) {
+    /// A 4 × 2 depth stream and a 2 × 2 colour camera: the smallest
+    /// streams (also the readers fuzz's seeds).
+    pub(crate) fn cameras() -> (Intrinsics, ColourCamera) {
         let intr = Intrinsics {
             pinhole: Pinhole::new(4, 2, 3.0, 3.0, 2.0, 1.0),
             depth_scale: 0.001,
