@@ -375,9 +375,17 @@ impl Study {
                 break (e.to_owned(), p.to_owned());
             }
         };
+        // Each line also goes to this test's captured output, so a failed
+        // test shows what the study said (why it ended, say).
         let log = std::thread::spawn(move || {
             let mut s = String::new();
-            let _ = err.read_to_string(&mut s);
+            let mut line = Vec::new();
+            while err.read_until(b'\n', &mut line).is_ok_and(|n| n > 0) {
+                let l = String::from_utf8_lossy(&line);
+                eprint!("study: {l}");
+                s.push_str(&l);
+                line.clear();
+            }
             s
         });
         let hostport = participant["http://".len()..].split('/').next().unwrap();
