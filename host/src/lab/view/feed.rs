@@ -203,7 +203,11 @@ pub(super) fn feed<S: Read + Write>(
     participant: bool,
     heard: &Heard,
 ) -> Result<(), String> {
-    let (mut frame, mut log, mut question) = (0u64, 0u64, None::<u64>);
+    let (mut frame, mut log) = (0u64, 0u64);
+    // The question the page was last told of (`None`: not told yet; the
+    // first says so even when none is asked, a page that reconnects may
+    // show one since gone).
+    let mut question: Option<Option<u64>> = None;
     // Frames sent and not taken yet, oldest first.
     let mut sent: VecDeque<u64> = VecDeque::with_capacity(FRAMES_IN_FLIGHT);
     let mut pinged = Instant::now();
@@ -218,7 +222,7 @@ pub(super) fn feed<S: Read + Write>(
                 || heard.gone.lock().is_ok_and(|g| g.is_some())
                 || (ready && s.encoded.as_ref().is_some_and(|e| e.seq != frame))
                 || (!participant && s.log_total != log)
-                || s.question.as_ref().map(|q| q.seq) != question
+                || Some(s.question.as_ref().map(|q| q.seq)) != question
                 || pinged.elapsed() >= PING_EVERY
         };
         if !first && !fresh(&s) {
@@ -259,7 +263,7 @@ pub(super) fn feed<S: Read + Write>(
             log = s.log_total;
         }
         let q = s.question.as_ref().map(|q| q.seq);
-        if q != question {
+        if Some(q) != question {
             out.push(Message::text(
                 serde_json::json!({
                     "type": "question",
@@ -270,7 +274,7 @@ pub(super) fn feed<S: Read + Write>(
                 })
                 .to_string(),
             ));
-            question = q;
+            question = Some(q);
         }
         if sent.len() < FRAMES_IN_FLIGHT
             && let Some(e) = s.encoded.clone()
