@@ -53,6 +53,9 @@ function connect(role, onFrame, onLog, onQuestion) {
         drawn = true;
         window.lmFrames += 1;
         window.lmLastSeq = m.seq;
+      } catch (e) {
+        // Not drawn (a JPEG the browser could not decode): taken all the
+        // same, the next one comes.
       } finally {
         if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "took", seq: m.seq, drawn }));
       }
