@@ -6,7 +6,9 @@
 //! (pixels of a screenshot against the library's projection), that the
 //! frame endpoint draws the circle where it projects (± 2 px), and that
 //! clicks answer the trials: a click on the third video records 4 mm; all
-//! 30 trials are answered from the page.
+//! 30 trials are answered from the page, three of them with the page's
+//! CPU slowed 20 times (a loaded machine) and one across a dropped
+//! connection (the page reconnects).
 //!
 //! The WebDriver client is a few blocking HTTP requests over std's
 //! TcpStream: the WebDriver crates (fantoccini, thirtyfour) need tokio.
@@ -188,6 +190,20 @@ impl Driver {
             );
             std::thread::sleep(Duration::from_millis(50));
         }
+    }
+
+    /// Slows the page's CPU `rate` times (1: its own speed), as a loaded
+    /// machine or a throttled tab would (Chrome DevTools over
+    /// chromedriver).
+    fn throttle(&self, rate: f64) {
+        self.call(
+            "POST",
+            &format!("/session/{}/goog/cdp/execute", self.session),
+            Some(serde_json::json!({
+                "cmd": "Emulation.setCPUThrottlingRate",
+                "params": {"rate": rate}
+            })),
+        );
     }
 
     /// The page as RGBA pixels.
@@ -440,11 +456,34 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
     let mut radius_px_seen = Vec::new();
     let mut figures = Vec::new();
     for trial in 1..=30 {
+        // Trials 10-12 on a page 20 times slower than this machine: it
+        // cannot draw the video's 30 frames a second, and still hears of
+        // each question at once (the view sends it a frame only when it
+        // took the last; once they queued at the video's rate, the
+        // question behind them, and the view dropped the page).
+        match trial {
+            10 => d.throttle(20.0),
+            13 => d.throttle(1.0),
+            _ => {}
+        }
         // The question is up when the videos are live.
         d.until(
             "return document.querySelectorAll('.choice.off').length === 0",
             Duration::from_secs(60),
         );
+        if trial == 15 {
+            // The connection drops with the question up (a network's
+            // hiccup, or the view taking the page for gone): the page
+            // reconnects and is asked again.
+            assert_eq!(
+                d.js("window.lmSocket.close(4000); return window.lmConnects"),
+                1
+            );
+            d.until(
+                "return window.lmConnects === 2 && document.querySelectorAll('.choice.off').length === 0",
+                Duration::from_secs(60),
+            );
+        }
         if trial == 1 {
             // Let a frame be drawn with the question's circles.
             d.until(
@@ -565,9 +604,10 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
             Duration::from_secs(30),
         );
     }
-    // One answer sent and taken per trial, none refused.
-    let counts = d.js("return [window.lmSent, window.lmAnswered]");
-    assert_eq!(counts, serde_json::json!([30, 30]));
+    // One answer sent and taken per trial, none refused; one connection
+    // made again (trial 15's), none lost otherwise.
+    let counts = d.js("return [window.lmSent, window.lmAnswered, window.lmConnects]");
+    assert_eq!(counts, serde_json::json!([30, 30, 2]));
     assert!(
         radius_px_seen.windows(2).all(|w| w[1] > w[0]),
         "{radius_px_seen:?}"
@@ -575,6 +615,11 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
     let status = child.wait().unwrap();
     let log = log.join().unwrap();
     assert!(status.success(), "{log}");
+    // The view said the session ended: the page does not reconnect.
+    d.until(
+        "return document.getElementById('status').textContent.includes('the session has ended')",
+        Duration::from_secs(10),
+    );
     let v: serde_json::Value = serde_json::from_slice(&figures).unwrap();
     eprintln!("view figures (debug build, one page): {}", v["figures"]);
     let csv = std::fs::read_to_string(out.join("P01/trials.csv")).unwrap();

@@ -7,8 +7,9 @@
 //! bytes is answered 414, a head over [`MAX_HEAD`] bytes or
 //! [`MAX_HEADERS`] headers 431, a body over [`MAX_BODY`] 413, a client
 //! that has not sent its whole request within [`IO_TIMEOUT`] (nothing, or
-//! a byte now and then) is answered 408 and dropped, and a page that stops
-//! reading its frames is dropped after the same time.
+//! a byte now and then) is answered 408 and dropped, and so is a client
+//! that takes nothing of an answer for as long (a page's WebSocket has
+//! timeouts of its own: `view/feed.rs`).
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
@@ -28,7 +29,7 @@ pub const MAX_BODY: u64 = 4 * 1024;
 /// rest are answered 503 at once.
 pub const MAX_CONNECTIONS: usize = 32;
 /// How long a client may keep a read or a write waiting, and take to send
-/// its whole request.
+/// its whole request (a WebSocket then has [`super::feed::SILENT_LIMIT`]).
 pub const IO_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// One request, its connection still open for the answer.

@@ -10,8 +10,9 @@
 //! [`Participant`] handle (the study's answer source over it lives in
 //! the study, `lab/study/live.rs`). The view never holds the caller up: frames
 //! are encoded on a thread of their own (the newest wins), each browser
-//! gets the newest frame when it is ready for one, and a client that
-//! stops reading is dropped. Endpoints and pages: `lab/view/VIEW.md`.
+//! gets the newest frame when it has taken the ones before ([`feed`]: a
+//! slow page draws fewer frames and is not dropped; a gone one is, and
+//! the pages reconnect). Endpoints and pages: `lab/view/VIEW.md`.
 //!
 //! Where the circle goes: its centre is the corrected centre the device
 //! plays (the finger's centroid while a tracked presentation plays, else
@@ -21,6 +22,7 @@
 //! ([`crate::sense::track::overlay`]).
 
 pub mod draw;
+pub mod feed;
 pub mod http;
 pub mod server;
 mod state;

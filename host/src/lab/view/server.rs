@@ -6,7 +6,6 @@
 //! documented in `lab/view/VIEW.md`.
 
 use std::sync::Arc;
-use std::time::Duration;
 
 use super::draw;
 use super::http::{Request, Response};
@@ -242,86 +241,27 @@ fn websocket(req: Request, sh: &Arc<Shared>, role: Option<&str>) {
         ("Connection", "Upgrade"),
         ("Sec-WebSocket-Accept", &accept),
     ]);
-    // On this connection's thread; a page that stops reading its frames
-    // fails a write within the connection's timeout and is dropped.
+    // On this connection's thread (and one that reads the page); a page
+    // is dropped only when it is gone (`feed.rs`).
     if let Ok(stream) = upgraded {
-        let ws = tungstenite::WebSocket::from_raw_socket(
-            stream,
-            tungstenite::protocol::Role::Server,
-            None,
-        );
-        let _ = feed(ws, sh, participant);
+        let page = {
+            let mut s = sh.lock();
+            s.pages += 1;
+            // Not the ids pages give `/drawn` (below 2^53, from JavaScript).
+            (1 << 60) + s.pages
+        };
+        if let Some(why) = super::feed::serve(stream, sh, participant, page) {
+            let role = if participant {
+                "participant"
+            } else {
+                "experimenter"
+            };
+            crate::errln!(
+                "lmhost: view: the {role}'s page was dropped: {why}; it reconnects when it can"
+            );
+        }
     }
     sh.lock().clients -= 1;
-}
-
-/// Sends the page every new frame (its overlay as JSON, then the JPEG),
-/// the event log's new lines and the question, until the view closes or
-/// the page goes.
-fn feed<S: std::io::Read + std::io::Write>(
-    mut ws: tungstenite::WebSocket<S>,
-    sh: &Shared,
-    participant: bool,
-) -> Result<(), tungstenite::Error> {
-    use tungstenite::Message;
-    let (mut frame, mut log, mut question) = (0u64, 0u64, None::<u64>);
-    let mut first = true;
-    loop {
-        let mut s = sh.lock();
-        let fresh = |s: &super::state::State| {
-            s.closed
-                || s.encoded.as_ref().is_some_and(|e| e.seq != frame)
-                || (!participant && s.log_total != log)
-                || s.question.as_ref().map(|q| q.seq) != question
-        };
-        if !fresh(&s) && !first {
-            s = sh.wait(s, Duration::from_millis(250));
-        }
-        first = false;
-        if s.closed {
-            drop(s);
-            let _ = ws.send(Message::Close(None));
-            return Ok(());
-        }
-        let mut out: Vec<Message> = Vec::new();
-        if !participant && s.log_total != log {
-            let new = (s.log_total - log).min(s.log.len() as u64) as usize;
-            let lines: Vec<&String> = s.log.iter().skip(s.log.len() - new).collect();
-            out.push(Message::text(
-                serde_json::json!({"type": "log", "lines": lines}).to_string(),
-            ));
-            log = s.log_total;
-        }
-        let q = s.question.as_ref().map(|q| q.seq);
-        if q != question {
-            out.push(Message::text(
-                serde_json::json!({"type": "question", "question": s.question}).to_string(),
-            ));
-            question = q;
-        }
-        if let Some(e) = s.encoded.clone()
-            && e.seq != frame
-        {
-            let mut meta = serde_json::json!({
-                "type": "frame",
-                "seq": e.seq,
-                "w": e.width,
-                "h": e.height,
-                "overlay": sh.overlay(&s, participant),
-            });
-            if !participant {
-                meta["state"] = s.state.into();
-                meta["mute"] = s.mute.clone().into();
-            }
-            out.push(Message::text(meta.to_string()));
-            out.push(Message::binary(e.jpeg.clone()));
-            frame = e.seq;
-        }
-        drop(s);
-        for m in out {
-            ws.send(m)?;
-        }
-    }
 }
 
 #[cfg(test)]

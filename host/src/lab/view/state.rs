@@ -115,13 +115,15 @@ pub(super) struct State {
     pub(super) question: Option<Question>,
     answer: Option<(u64, String)>,
     /// The question last answered (0: none yet; questions count from 1).
-    answered: u64,
+    pub(super) answered: u64,
     encode_us: VecDeque<u64>,
     latency_us: VecDeque<u64>,
     /// Per page: acknowledgement times (host µs) of the last seconds.
     drawn_at: std::collections::BTreeMap<u64, VecDeque<u64>>,
     drawn: u64,
     pub(super) clients: usize,
+    /// WebSocket connections made so far (each page's id for its figures).
+    pub(super) pages: u64,
     pub(super) closed: bool,
 }
 
