@@ -41,6 +41,9 @@ pub const MAX_TRIES: u32 = 100;
 /// Most steps per slot of the simulated device (`sim --slot-steps`): the
 /// wire's u16 step count.
 pub const MAX_SLOT_STEPS: u32 = u16::MAX as u32;
+/// Longest centroid timeout of the simulated device (`sim
+/// --centroid-timeout-ms`), ms: it travels as µs in a u32.
+pub const MAX_CENTROID_TIMEOUT_MS: u32 = 3_600_000;
 /// Largest |coordinate| of any position the planner accepts (scene
 /// devices, reflector, LM centre, foci), mm: inside the wire's i32 µm
 /// (±2147 mm) with room for the LM circle.

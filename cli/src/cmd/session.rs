@@ -45,7 +45,7 @@ pub struct Args {
     #[arg(long, value_name = "PATH")]
     control: Option<PathBuf>,
     /// Also listen on 127.0.0.1:PORT (TCP, local only).
-    #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(long, value_name = "PORT", value_parser = super::whole::whole::<u16>(1, u16::MAX.into()))]
     tcp: Option<u16>,
     /// Event log (JSON lines; every line whole).
     #[arg(long, value_name = "FILE")]

@@ -58,7 +58,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE", conflicts_with_all = ["udp", "synthetic"])]
     input: Option<PathBuf>,
     /// Receive samples as UDP datagrams on 127.0.0.1:PORT (1..=65535).
-    #[arg(long, value_name = "PORT", conflicts_with = "synthetic", value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(long, value_name = "PORT", conflicts_with = "synthetic", value_parser = super::whole::whole::<u16>(1, u16::MAX.into()))]
     udp: Option<u16>,
     /// Stream a synthetic finger (90 fps, depth-camera-like noise) and
     /// report every filter's lag and jitter on it.
