@@ -120,9 +120,12 @@ pub const TEXT_LINE_ENDS: &str = "r10-2 CRLF and a lone CR end a line";
 pub const TEXT_WIDE: &str = "r10-3 UTF-16 and UTF-32 are named, with what to do";
 pub const TEXT_NUL: &str = "r10-4 a NUL byte is named with its line";
 pub const TEXT_CSV: &str = "r10-5 a CSV not ours is named, never misread";
+/// Round 11: a fresh look by class (`cases_r11.rs`).
+pub const R11_WHOLE: &str = "r11-1 a whole-number flag names its own range";
+pub const R11_LISTS: &str = "r11-2 a message lists a few of many";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 89] = [
+pub const CLASSES: [&str; 91] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -212,4 +215,6 @@ pub const CLASSES: [&str; 89] = [
     TEXT_WIDE,
     TEXT_NUL,
     TEXT_CSV,
+    R11_WHOLE,
+    R11_LISTS,
 ];

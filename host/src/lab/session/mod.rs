@@ -274,17 +274,10 @@ impl Session {
 
     fn entry(&self, id: &str) -> Result<usize, InputError> {
         self.loaded.iter().position(|l| l.id == id).ok_or_else(|| {
-            let ids: Vec<String> = self
-                .loaded
-                .iter()
-                .take(8)
-                .map(|l| protocol::clip(&l.id))
-                .collect();
             InputError::new(format!(
-                "no stimulus `{}` in the library (it has {}{})",
+                "no stimulus `{}` in the library (it has {})",
                 protocol::clip(id),
-                ids.join(", "),
-                if self.loaded.len() > 8 { ", ..." } else { "" }
+                crate::error::some_of(self.loaded.iter().map(|l| protocol::clip(&l.id)), ", ")
             ))
         })
     }

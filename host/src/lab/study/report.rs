@@ -82,17 +82,22 @@ fn participant_dirs(dir: &Path) -> Result<(Vec<PathBuf>, Skipped), InputError> {
         }
     }
     if ok.is_empty() {
-        let why: Vec<String> = skipped
-            .iter()
-            .map(|(d, w)| format!("{}: {w}", d.display()))
-            .collect();
         return Err(InputError::new(format!(
             "{}: no participant folder in it (one holds session.json and trials.csv; give a participant folder or the study's --out){}",
             dir.display(),
-            if why.is_empty() {
-                String::new()
-            } else {
-                format!("; skipped {}", why.join("; "))
+            match skipped.first() {
+                None => String::new(),
+                // Each folder by its name in `dir`, the first one's reason
+                // (a folder of hundreds made one line of kilobytes).
+                Some((_, why)) => format!(
+                    "; skipped {} (the first: {why})",
+                    crate::error::some_of(
+                        skipped
+                            .iter()
+                            .map(|(d, _)| d.file_name().unwrap_or(d.as_os_str()).display()),
+                        ", "
+                    )
+                ),
             }
         )));
     }
