@@ -290,9 +290,9 @@ impl Args {
         )?;
         if let Some(s) = session.as_ref().filter(|_| needs_host) {
             lmhost::outln!(
-                "{} corrections applied on {where_} (dwell {} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
+                "{} corrections applied on {where_} (dwell {:.1} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
                 report.acked,
-                s.timing.dwell_us,
+                lmhost::limits::Num(s.timing.dwell_us),
                 s.timing.freq_hz,
                 s.transfer
                     .readback_mismatches()

@@ -9,6 +9,8 @@
 //!   a folder of 300 folders without a participant named every one with
 //!   its reason (26 kB on one line); a level not of a 200-level factor
 //!   listed all 200.
+//! - A report line prints a number as a person reads it: `stream`'s last
+//!   line said `dwell 2439.0243902439024 µs`.
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -42,6 +44,24 @@ fn short_line(_: &Ctx, r: &Run) -> Result<(), String> {
     }
 }
 
+/// No number on a text line of stdout or stderr carries more than 10
+/// significant digits (a float printed with `{}` has up to 17). JSON
+/// keeps every digit, for a program to read.
+pub(crate) fn readable_numbers(_: &Ctx, r: &Run) -> Result<(), String> {
+    let text = r.stdout.lines().chain(r.stderr.lines());
+    for line in text.filter(|l| serde_json::from_str::<serde_json::Value>(l).is_err()) {
+        let words = line.split(|c: char| !(c.is_ascii_digit() || c == '.'));
+        for w in words.filter(|w| w.contains('.')) {
+            let digits = w.trim_start_matches(['0', '.']).chars();
+            let n = digits.filter(char::is_ascii_digit).count();
+            if n > 10 {
+                return Err(format!("{w} has {n} digits: {line}"));
+            }
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn round11_cases() -> Vec<Case> {
     table![
         // 1. A whole-number flag names its own range.
@@ -66,5 +86,14 @@ pub(crate) fn round11_cases() -> Vec<Case> {
             .check(short_line);
         R11_LISTS "study check {dir}/r11/levels.toml"
             .err("`zz` is not a level of factor `x` (l1, l2, l3, l4, l5, l6, l7, l8, … and 192 more)");
+        // 3. A report line prints a number as a person reads it.
+        R11_DIGITS "stream --port {port} --synthetic --seconds 0.3 --fast --freq 7" .ok()
+            .out("corrections applied").out("dwell 1742.2 µs").check(readable_numbers);
+        R11_DIGITS "stream --port {port} --synthetic --seconds 0.3 --fast --freq 3 --json" .ok()
+            .err("dwell 4065.0 µs").check(readable_numbers);
+        R11_DIGITS "upload --port {port} --freq 7 --no-play" .ok().check(readable_numbers);
+        R11_DIGITS "demo --seconds 1" .ok().check(readable_numbers);
+        R11_DIGITS "track --synthetic --seconds 0.3 --fast --port {port} --freq 7" .ok()
+            .check(readable_numbers);
     ]
 }

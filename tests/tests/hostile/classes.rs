@@ -123,9 +123,10 @@ pub const TEXT_CSV: &str = "r10-5 a CSV not ours is named, never misread";
 /// Round 11: a fresh look by class (`cases_r11.rs`).
 pub const R11_WHOLE: &str = "r11-1 a whole-number flag names its own range";
 pub const R11_LISTS: &str = "r11-2 a message lists a few of many";
+pub const R11_DIGITS: &str = "r11-3 a report line's number has at most 10 digits";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 91] = [
+pub const CLASSES: [&str; 92] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -217,4 +218,5 @@ pub const CLASSES: [&str; 91] = [
     TEXT_CSV,
     R11_WHOLE,
     R11_LISTS,
+    R11_DIGITS,
 ];
