@@ -143,7 +143,9 @@ pub struct RunArgs {
     finger: Finger,
     #[command(flatten)]
     source: FingerArgs,
-    /// Multiplies every duration of the timeline (recorded).
+    /// Multiplies every duration of the timeline (recorded), above 0 and at
+    /// most 100; checked before the run, so that the on-phase still plays
+    /// a step of every stimulus and no phase exceeds 3600 s.
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     time_scale: f64,
     /// Continue OUT/ID's session at its first unfinished trial (on the

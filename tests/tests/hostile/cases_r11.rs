@@ -11,6 +11,12 @@
 //!   listed all 200.
 //! - A report line prints a number as a person reads it: `stream`'s last
 //!   line said `dwell 2439.0243902439024 µs`.
+//! - A study's timeline is checked, as the run plays it, against every
+//!   stimulus it presents before the device opens: an on-phase that rounds
+//!   to no step of one stimulus (by the protocol or by `--time-scale`) ran
+//!   the trials before it, then ended the run naming `on_s` with the
+//!   folder half written; one that `--time-scale` makes longer than a
+//!   presentation plays was refused at the first trial.
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -21,9 +27,8 @@ pub(crate) fn round11_fixtures(dir: &Path) {
     for i in 1..=300 {
         std::fs::create_dir_all(r11.join(format!("many/d{i}"))).unwrap();
     }
-    let mini = std::fs::read_to_string(dir.join("study/mini.toml"))
-        .unwrap()
-        .replace("sets = 2", "sets = 1");
+    let full = std::fs::read_to_string(dir.join("study/mini.toml")).unwrap();
+    let mini = full.replace("sets = 2", "sets = 1");
     let levels: Vec<String> = (1..=200).map(|i| format!("\"l{i}\"")).collect();
     std::fs::write(
         r11.join("levels.toml"),
@@ -34,6 +39,34 @@ pub(crate) fn round11_fixtures(dir: &Path) {
         ),
     )
     .unwrap();
+    for (name, on_s) in [("short", "0.0015"), ("long", "3600")] {
+        let text = full.replace("on_s = 0.5", &format!("on_s = {on_s}"));
+        std::fs::write(r11.join(format!("{name}.toml")), text).unwrap();
+    }
+}
+
+/// `study run` of protocol `{dir}/PROTOCOL` as participant `ID` into
+/// `{dir}/r11/out`.
+fn study(protocol: &str, id: &str) -> String {
+    format!(
+        "study run {{dir}}/{protocol} --port autd3:emulator --out {{dir}}/r11/out \
+         --responses {{dir}}/study/ans.txt --participant {id}"
+    )
+}
+
+/// No participant's folder was made: the run was refused before it
+/// started.
+fn no_participant_folder(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    match std::fs::read_dir(ctx.dir.join("r11/out")) {
+        Ok(mut d) => match d.next() {
+            Some(e) => Err(format!(
+                "{} was written",
+                e.map_err(|e| e.to_string())?.path().display()
+            )),
+            None => Ok(()),
+        },
+        Err(_) => Ok(()),
+    }
 }
 
 /// The one error line is short, whatever the input held.
@@ -63,7 +96,25 @@ pub(crate) fn readable_numbers(_: &Ctx, r: &Run) -> Result<(), String> {
 }
 
 pub(crate) fn round11_cases() -> Vec<Case> {
-    table![
+    let c = |class: &'static str, args: String| case(class, &args);
+    let mut v = vec![
+        // 4. A study's timeline is checked as played before the device opens.
+        c(R11_TIMING, study("study/mini.toml", "r11_scale") + " --time-scale 0.003")
+            .err("study protocol {dir}/study/mini.toml: the timeline's on_s 0.5 s × --time-scale 0.003 = 0.0015 s is shorter than half a step of `lms-5hz-a2`")
+            .err("give a --time-scale of at least 0.003625")
+            .check(no_participant_folder),
+        c(R11_TIMING, study("r11/short.toml", "r11_short"))
+            .err("the timeline's on_s 0.0015 s is shorter than half a step of `lms-5hz-a2`")
+            .err("give an on_s of at least 0.0018125 s")
+            .check(no_participant_folder),
+        c(R11_TIMING, study("r11/long.toml", "r11_long") + " --time-scale 2")
+            .err("the timeline's on_s 3600 s × --time-scale 2 = 7200 s is longer than a presentation plays (at most 3600 s): give a --time-scale of at most 1")
+            .check(no_participant_folder),
+        c(R11_TIMING, study("study/mini.toml", "r11_ok") + " --time-scale 0.004")
+            .ok()
+            .err("4 of 4 trials done"),
+    ];
+    v.extend(table![
         // 1. A whole-number flag names its own range.
         R11_WHOLE "track --synthetic --fast --enter-frames -1" .err("-1 is not in 1..=90");
         R11_WHOLE "track --synthetic --fast --leave-frames 4294967296"
@@ -95,5 +146,6 @@ pub(crate) fn round11_cases() -> Vec<Case> {
         R11_DIGITS "demo --seconds 1" .ok().check(readable_numbers);
         R11_DIGITS "track --synthetic --seconds 0.3 --fast --port {port} --freq 7" .ok()
             .check(readable_numbers);
-    ]
+    ]);
+    v
 }

@@ -124,9 +124,10 @@ pub const TEXT_CSV: &str = "r10-5 a CSV not ours is named, never misread";
 pub const R11_WHOLE: &str = "r11-1 a whole-number flag names its own range";
 pub const R11_LISTS: &str = "r11-2 a message lists a few of many";
 pub const R11_DIGITS: &str = "r11-3 a report line's number has at most 10 digits";
+pub const R11_TIMING: &str = "r11-4 a study's timeline is checked as played before it starts";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 92] = [
+pub const CLASSES: [&str; 93] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -219,4 +220,5 @@ pub const CLASSES: [&str; 92] = [
     R11_WHOLE,
     R11_LISTS,
     R11_DIGITS,
+    R11_TIMING,
 ];
