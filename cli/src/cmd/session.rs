@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::ValueEnum;
 use lmhost::clock::{Clock, Spread};
 use lmhost::lab::session::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
-use lmhost::lab::session::{EventLog, Session};
+use lmhost::lab::session::{EventLog, PendingEventLog, Session};
 use lmhost::plan::library::Library;
 use lmhost::plan::scene::Scene;
 
@@ -47,7 +47,8 @@ pub struct Args {
     /// Also listen on 127.0.0.1:PORT (TCP, local only).
     #[arg(long, value_name = "PORT", value_parser = super::whole::whole::<u16>(1, u16::MAX.into()))]
     tcp: Option<u16>,
-    /// Event log (JSON lines; every line whole).
+    /// Event log (JSON lines; every line whole), started afresh once the
+    /// session has (one refused in its set-up leaves it as it was).
     #[arg(long, value_name = "FILE")]
     events: Option<PathBuf>,
     #[command(flatten)]
@@ -121,8 +122,10 @@ impl Args {
             lmhost::files::not_an_input("--events", e)?;
         }
         // The log is opened before the device: a path it cannot be written
-        // at fails here, before the session says it started.
-        let events = self.events.as_deref().map(EventLog::create).transpose()?;
+        // at fails here, before the session says it started. It is started
+        // (an earlier session's log emptied) once the session has: a
+        // session refused or failed in its set-up leaves it as it was.
+        let events = self.events.as_deref().map(EventLog::prepare).transpose()?;
         let spec = self.port.spec();
         let target = spec.device()?.target();
         let plans = library.plan_for(&target, &scene)?;
@@ -159,6 +162,7 @@ impl Args {
             FingerFeed::Synthetic => Finger::Synthetic,
             FingerFeed::None => Finger::None,
         };
+        let events = events.map(PendingEventLog::start).transpose()?;
         if let Control::Socket { unix, tcp } = &control {
             lmhost::errln!(
                 "lmhost: session on {where_}: {} stimuli; control socket {}{}",
@@ -226,11 +230,11 @@ impl Args {
 /// session a signal ends mid-run.
 fn set_up_interrupted(
     e: &lmhost::stop::SetUpInterrupted,
-    events: Option<EventLog>,
+    events: Option<PendingEventLog>,
     then: &str,
 ) -> anyhow::Result<()> {
     use lmhost::lab::session::{Event, EventKind, OffsetReason};
-    if let Some(mut log) = events {
+    if let Some(mut log) = events.map(PendingEventLog::start).transpose()? {
         let closed = Event {
             t_host_us: lmhost::clock::monotonic_us(),
             kind: EventKind::Closed {

@@ -39,7 +39,7 @@ mod log;
 mod output;
 pub mod text;
 
-pub use log::AppendLog;
+pub use log::{AppendLog, PendingLog};
 pub use output::{Output, replace_input, write_whole};
 
 use std::fs::{File, Metadata};

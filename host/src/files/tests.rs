@@ -34,6 +34,32 @@ fn an_uncommitted_output_leaves_nothing_and_keeps_the_old_file() {
 }
 
 #[test]
+fn a_log_not_started_leaves_the_old_file_and_makes_no_new_one() {
+    let d = scratch("pending");
+    let old = d.join("old.jsonl");
+    std::fs::write(&old, b"{\"event\":\"closed\"}\n").unwrap();
+    drop(AppendLog::prepare(&old).unwrap());
+    assert_eq!(std::fs::read(&old).unwrap(), b"{\"event\":\"closed\"}\n");
+    drop(AppendLog::prepare(&d.join("new.jsonl")).unwrap());
+    assert_eq!(names(&d), ["old.jsonl"]);
+    // Started, it is a log afresh; an existing file emptied only now.
+    let mut log = AppendLog::prepare(&old).unwrap().start().unwrap();
+    log.line("a").unwrap();
+    drop(log);
+    assert_eq!(std::fs::read(&old).unwrap(), b"a\n");
+    let mut log = AppendLog::prepare(&d.join("new.jsonl"))
+        .unwrap()
+        .start()
+        .unwrap();
+    log.line("b").unwrap();
+    drop(log);
+    assert_eq!(std::fs::read(d.join("new.jsonl")).unwrap(), b"b\n");
+    // A path it cannot write fails at once.
+    assert!(AppendLog::prepare(&d.join("no/such.jsonl")).is_err());
+    assert!(AppendLog::prepare(&d).is_err());
+}
+
+#[test]
 fn a_header_rewritten_at_the_end_lands_at_its_offset() {
     let d = scratch("write_at");
     let p = d.join("h.bin");

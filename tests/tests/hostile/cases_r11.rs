@@ -17,6 +17,10 @@
 //!   the trials before it, then ended the run naming `on_s` with the
 //!   folder half written; one that `--time-scale` makes longer than a
 //!   presentation plays was refused at the first trial.
+//! - A session refused or failed in its set-up leaves its `--events` log
+//!   as it was: an earlier session's log was emptied at once, before the
+//!   port, the control socket or the device was tried, and a new one was
+//!   left empty behind.
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -39,10 +43,28 @@ pub(crate) fn round11_fixtures(dir: &Path) {
         ),
     )
     .unwrap();
+    std::fs::write(r11.join("prev.jsonl"), PREV_LOG).unwrap();
     for (name, on_s) in [("short", "0.0015"), ("long", "3600")] {
         let text = full.replace("on_s = 0.5", &format!("on_s = {on_s}"));
         std::fs::write(r11.join(format!("{name}.toml")), text).unwrap();
     }
+}
+
+/// The earlier session's log a refused session must leave as it was.
+const PREV_LOG: &str = "{\"t_host_us\":1,\"event\":\"closed\",\"reason\":\"quit\"}\n";
+
+/// `{dir}/r11/prev.jsonl` is the earlier session's log still, and no
+/// `{dir}/r11/new.jsonl` was left.
+fn logs_as_they_were(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let prev =
+        std::fs::read_to_string(ctx.dir.join("r11/prev.jsonl")).map_err(|e| e.to_string())?;
+    if prev != PREV_LOG {
+        return Err(format!("prev.jsonl was changed: {prev:?}"));
+    }
+    if ctx.dir.join("r11/new.jsonl").exists() {
+        return Err("new.jsonl was left behind".into());
+    }
+    Ok(())
 }
 
 /// `study run` of protocol `{dir}/PROTOCOL` as participant `ID` into
@@ -114,6 +136,23 @@ pub(crate) fn round11_cases() -> Vec<Case> {
             .ok()
             .err("4 of 4 trials done"),
     ];
+    let session = "session --library {scenes}/../studies/paper-library.toml";
+    v.extend([
+        // 5. A session refused or failed in its set-up leaves its log.
+        c(R11_SETUP, format!("{session} --port {{dir}}/r11/no-port --control - --events {{dir}}/r11/prev.jsonl"))
+            .code(1)
+            .err("opening serial port {dir}/r11/no-port: no such file or directory")
+            .check(logs_as_they_were),
+        c(R11_SETUP, format!("{session} --port autd3:emulator --control {{dir}}/r11/levels.toml --events {{dir}}/r11/prev.jsonl"))
+            .err("exists and is not a socket")
+            .check(logs_as_they_were),
+        c(R11_SETUP, format!("{session} --port tcp:127.0.0.1:0 --control - --events {{dir}}/r11/new.jsonl"))
+            .err("--port tcp:127.0.0.1:0: port `0` is not a number in 1..=65535")
+            .check(logs_as_they_were),
+        c(R11_SETUP, format!("{session} --port {{dir}}/r11/no-port --control - --events {{dir}}/r11/new.jsonl"))
+            .code(1)
+            .check(logs_as_they_were),
+    ]);
     v.extend(table![
         // 1. A whole-number flag names its own range.
         R11_WHOLE "track --synthetic --fast --enter-frames -1" .err("-1 is not in 1..=90");

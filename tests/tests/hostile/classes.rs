@@ -125,9 +125,10 @@ pub const R11_WHOLE: &str = "r11-1 a whole-number flag names its own range";
 pub const R11_LISTS: &str = "r11-2 a message lists a few of many";
 pub const R11_DIGITS: &str = "r11-3 a report line's number has at most 10 digits";
 pub const R11_TIMING: &str = "r11-4 a study's timeline is checked as played before it starts";
+pub const R11_SETUP: &str = "r11-5 a session failed in its set-up leaves its event log";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 93] = [
+pub const CLASSES: [&str; 94] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -221,4 +222,5 @@ pub const CLASSES: [&str; 93] = [
     R11_LISTS,
     R11_DIGITS,
     R11_TIMING,
+    R11_SETUP,
 ];

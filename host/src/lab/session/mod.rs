@@ -49,7 +49,7 @@ use crate::plan::scene::Scene;
 use crate::plan::stimulus::TargetPlan;
 use crate::units::mm_to_um;
 
-pub use eventlog::EventLog;
+pub use eventlog::{EventLog, PendingEventLog};
 pub use protocol::{Command, Event, EventKind, Gate, LibraryItem, OffsetReason, Present, Reply};
 pub use resident::Loaded;
 pub use stage::{IN_PROCESS, LATE_STOP, Owner, STATUS_EVERY, TICK_EVERY};

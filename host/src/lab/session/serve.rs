@@ -47,8 +47,9 @@ pub struct Options {
     pub control: Endpoint,
     /// When the controlling client goes away.
     pub on_disconnect: OnDisconnect,
-    /// The event log, opened before the session starts ([`EventLog::create`])
-    /// so a bad path is refused before the device is touched.
+    /// The event log, opened before the device is touched
+    /// ([`EventLog::prepare`]: a bad path is refused then) and started
+    /// once the session has.
     pub events: Option<EventLog>,
     /// The finger source.
     pub finger: Finger,
