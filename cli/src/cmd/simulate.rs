@@ -210,7 +210,8 @@ impl Args {
         )?)?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
-        lmhost::files::output_dir("--out", &self.out)?;
+        // Removed again, while empty, when the run is refused or stopped.
+        let _made = lmhost::files::output_dir("--out", &self.out)?;
         if self.compare {
             let multi = if flags.cycle.foci > 1 {
                 flags.cycle.foci

@@ -275,15 +275,50 @@ pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
 
 /// Makes the output directory `dir` (and its parents) that `flag` names,
 /// refusing (exit 2) one that is an input; a failure names it (exit 1).
-pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<()> {
+/// Hold what it returns while the directory is written: the directories
+/// it made that are still empty when it drops (a run refused, failed or
+/// stopped after making them, or one that wrote nothing) are removed.
+pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
     not_an_input(flag, dir)?;
+    // The ones to make, deepest first.
+    let made: Vec<PathBuf> = dir
+        .ancestors()
+        .filter(|p| !p.as_os_str().is_empty())
+        .take_while(|p| std::fs::symlink_metadata(p).is_err())
+        .map(Path::to_path_buf)
+        .collect();
     std::fs::create_dir_all(dir).map_err(|e| {
         anyhow::anyhow!(
             "cannot create the {flag} directory {}: {}",
             dir.display(),
             reason(&e)
         )
-    })
+    })?;
+    // A signal that ends the command at once removes them too.
+    let guards = made
+        .iter()
+        .map(|d| crate::stop::TempGuard::register_dir(d))
+        .collect();
+    Ok(MadeDirs(made, guards))
+}
+
+/// The directories [`output_dir`] made, deepest first: removed when it
+/// drops while still empty.
+#[derive(Debug)]
+#[must_use = "the directories made are removed, when still empty, as this drops"]
+pub struct MadeDirs(Vec<PathBuf>, Vec<crate::stop::TempGuard>);
+
+impl Drop for MadeDirs {
+    fn drop(&mut self) {
+        self.1.clear();
+        // `remove_dir` removes an empty directory only: the first that
+        // holds something (a file written, a folder kept) ends it.
+        for d in &self.0 {
+            if std::fs::remove_dir(d).is_err() {
+                break;
+            }
+        }
+    }
 }
 
 /// A write to `path` failed: exit 1, naming the file and the reason in

@@ -60,6 +60,25 @@ fn a_log_not_started_leaves_the_old_file_and_makes_no_new_one() {
 }
 
 #[test]
+fn an_output_folder_made_and_left_empty_is_removed() {
+    let d = scratch("made");
+    // Refused or stopped before writing: every folder made goes again.
+    drop(output_dir("--out", &d.join("a/b/c")).unwrap());
+    assert!(names(&d).is_empty(), "{:?}", names(&d));
+    // One written into stays, with the folders above it.
+    let made = output_dir("--out", &d.join("a/b")).unwrap();
+    std::fs::write(d.join("a/b/x.json"), b"{}").unwrap();
+    drop(made);
+    assert!(d.join("a/b/x.json").exists());
+    // A folder that was there is never removed, empty or not.
+    std::fs::create_dir(d.join("was")).unwrap();
+    drop(output_dir("--out", &d.join("was")).unwrap());
+    drop(output_dir("--out", &d.join("was/new")).unwrap());
+    assert_eq!(names(&d), ["a", "was"]);
+    assert!(names(&d.join("was")).is_empty());
+}
+
+#[test]
 fn a_header_rewritten_at_the_end_lands_at_its_offset() {
     let d = scratch("write_at");
     let p = d.join("h.bin");
@@ -150,7 +169,7 @@ fn a_folder_given_a_deleted_inputs_identity_is_not_that_input() {
             inputs.push((id(&std::fs::metadata(p).unwrap()), named));
         }
     }
-    output_dir("--out", &out).unwrap();
+    let _made = output_dir("--out", &out).unwrap();
     let e = not_an_input("--out", &file).unwrap_err();
     assert!(e.to_string().contains("still.toml"), "{e}");
     not_an_input("--out", &fresh).unwrap();

@@ -21,6 +21,10 @@
 //!   as it was: an earlier session's log was emptied at once, before the
 //!   port, the control socket or the device was tried, and a new one was
 //!   left empty behind.
+//! - An output folder a run made is removed again while empty when the
+//!   run is refused, fails or is stopped (`simulate --out DIR --radius
+//!   1e9`, `track --plot DIR --plot-frame 9999`, Ctrl-C in `simulate`):
+//!   an empty folder stayed behind.
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -65,6 +69,17 @@ fn logs_as_they_were(ctx: &Ctx, _: &Run) -> Result<(), String> {
         return Err("new.jsonl was left behind".into());
     }
     Ok(())
+}
+
+/// No `{dir}/r11/made` was left: the folders a refused run made are gone.
+fn no_folder_made(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    match ctx.dir.join("r11/made").exists() {
+        true => Err(format!(
+            "{} was left behind",
+            ctx.dir.join("r11/made").display()
+        )),
+        false => Ok(()),
+    }
 }
 
 /// `study run` of protocol `{dir}/PROTOCOL` as participant `ID` into
@@ -152,6 +167,17 @@ pub(crate) fn round11_cases() -> Vec<Case> {
         c(R11_SETUP, format!("{session} --port {{dir}}/r11/no-port --control - --events {{dir}}/r11/new.jsonl"))
             .code(1)
             .check(logs_as_they_were),
+    ]);
+    v.extend(table![
+        // 6. An output folder a run made and left empty is removed.
+        R11_DIRS "simulate --out {dir}/r11/made/sim --radius 1e9" .err("radius 1e9 mm is out of range")
+            .check(no_folder_made);
+        R11_DIRS "track --synthetic --fast --seconds 0.2 --plot {dir}/r11/made --plot-frame 9999"
+            .err("--plot-frame 9999 is beyond the 18 frames").check(no_folder_made);
+        R11_DIRS "demo --seconds 1 --plots {dir}/r11/made/p --port /dev/null"
+            .err("demo --port takes an AUTD3 port").check(no_folder_made);
+        R11_DIRS "simulate --out {dir}/r11/made/a/b" .signal("INT", 1500).code(130)
+            .err("lmhost: interrupted by SIGINT").check(no_folder_made);
     ]);
     v.extend(table![
         // 1. A whole-number flag names its own range.

@@ -126,9 +126,10 @@ pub const R11_LISTS: &str = "r11-2 a message lists a few of many";
 pub const R11_DIGITS: &str = "r11-3 a report line's number has at most 10 digits";
 pub const R11_TIMING: &str = "r11-4 a study's timeline is checked as played before it starts";
 pub const R11_SETUP: &str = "r11-5 a session failed in its set-up leaves its event log";
+pub const R11_DIRS: &str = "r11-6 an output folder made and left empty is removed";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 94] = [
+pub const CLASSES: [&str; 95] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -223,4 +224,5 @@ pub const CLASSES: [&str; 94] = [
     R11_DIGITS,
     R11_TIMING,
     R11_SETUP,
+    R11_DIRS,
 ];

@@ -214,7 +214,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     st.file.runs.push(this_run);
     // session.json first: a run stopped before its trials.csv header is
     // still resumable.
-    crate::files::output_dir("--out", &paths.dir)?;
+    let _made = crate::files::output_dir("--out", &paths.dir)?;
     crate::files::write_whole(&paths.session, &serde_json::to_vec_pretty(&st.file)?)?;
     let mut trials_log = st.open_trials(&p, &paths.trials)?;
     let events_log = st.open_events(o.resume, &paths.events)?;
