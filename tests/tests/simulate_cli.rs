@@ -269,7 +269,11 @@ fn a_signal_while_simulate_writes_says_so_and_leaves_no_unfinished_file() {
         .flatten()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert!(!out.exists() || !left.is_empty(), "{} left empty", out.display());
+    assert!(
+        !out.exists() || !left.is_empty(),
+        "{} left empty",
+        out.display()
+    );
     // The summary is written last: a run cut short has none.
     assert!(!left.iter().any(|n| n == "summary.json"), "{left:?}");
     assert!(!left.iter().any(|n| n.contains(".tmp")), "{left:?}");

@@ -41,7 +41,8 @@ pub struct Args {
     scene: Option<PathBuf>,
     /// Control socket: a Unix socket path (created mode 0600), or `-` for
     /// commands on stdin and replies and events on stdout
-    /// [default: $XDG_RUNTIME_DIR/lmhost.sock, else /tmp/lmhost-$USER.sock].
+    /// [default: $XDG_RUNTIME_DIR/lmhost.sock (an absolute path), else
+    /// /tmp/lmhost-$USER.sock ($USER a file name), else /tmp/lmhost-UID.sock].
     #[arg(long, value_name = "PATH")]
     control: Option<PathBuf>,
     /// Also listen on 127.0.0.1:PORT (TCP, local only).
@@ -66,16 +67,6 @@ pub struct Args {
     exit_with_stdin: bool,
 }
 
-fn default_socket() -> PathBuf {
-    match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
-        Some(d) => PathBuf::from(d).join("lmhost.sock"),
-        None => {
-            let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
-            PathBuf::from(format!("/tmp/lmhost-{user}.sock"))
-        }
-    }
-}
-
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
@@ -85,10 +76,19 @@ impl Args {
         lmhost::stop::graceful();
         let control = match &self.control {
             Some(p) if p.as_os_str() == "-" => Control::Stdio,
-            other => Control::Socket {
-                unix: other.clone().unwrap_or_else(default_socket),
+            Some(p) => Control::Socket {
+                unix: p.clone(),
                 tcp: self.tcp,
+                named: "--control".into(),
             },
+            None => {
+                let (unix, named) = serve::default_socket()?;
+                Control::Socket {
+                    unix,
+                    tcp: self.tcp,
+                    named,
+                }
+            }
         };
         if control == Control::Stdio && self.tcp.is_some() {
             lmhost::bad_input!("--tcp needs a socket --control, not `-`");
@@ -163,7 +163,7 @@ impl Args {
             FingerFeed::None => Finger::None,
         };
         let events = events.map(PendingEventLog::start).transpose()?;
-        if let Control::Socket { unix, tcp } = &control {
+        if let Control::Socket { unix, tcp, .. } = &control {
             lmhost::errln!(
                 "lmhost: session on {where_}: {} stimuli; control socket {}{}",
                 library.entries.len(),

@@ -25,6 +25,11 @@
 //!   run is refused, fails or is stopped (`simulate --out DIR --radius
 //!   1e9`, `track --plot DIR --plot-frame 9999`, Ctrl-C in `simulate`):
 //!   an empty folder stayed behind.
+//! - The session's default control socket is named by what gave it: an
+//!   unusable `$XDG_RUNTIME_DIR` was refused as `--control PATH`, a flag
+//!   never typed; a relative one was taken as a folder of the working
+//!   directory, and a `$USER` holding `/` or `..` placed the socket
+//!   outside `/tmp` (the uid names it then).
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -169,6 +174,16 @@ pub(crate) fn round11_cases() -> Vec<Case> {
             .check(logs_as_they_were),
     ]);
     v.extend(table![
+        // 7. The default control socket is named by what gave it.
+        R11_ENV "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator"
+            .env("XDG_RUNTIME_DIR", "{dir}/r11/no-such-dir").code(1)
+            .err("error: the default control socket ($XDG_RUNTIME_DIR/lmhost.sock; give --control PATH) {dir}/r11/no-such-dir/lmhost.sock: no such file or directory");
+        R11_ENV "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator"
+            .env("XDG_RUNTIME_DIR", "run/user")
+            .err("error: $XDG_RUNTIME_DIR `run/user` is not an absolute path, so it holds no default control socket: give --control PATH");
+        R11_ENV "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator --control {dir}/r11/levels.toml"
+            .env("XDG_RUNTIME_DIR", "run/user")
+            .err("error: --control {dir}/r11/levels.toml: exists and is not a socket");
         // 6. An output folder a run made and left empty is removed.
         R11_DIRS "simulate --out {dir}/r11/made/sim --radius 1e9" .err("radius 1e9 mm is out of range")
             .check(no_folder_made);

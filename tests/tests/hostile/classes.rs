@@ -127,9 +127,10 @@ pub const R11_DIGITS: &str = "r11-3 a report line's number has at most 10 digits
 pub const R11_TIMING: &str = "r11-4 a study's timeline is checked as played before it starts";
 pub const R11_SETUP: &str = "r11-5 a session failed in its set-up leaves its event log";
 pub const R11_DIRS: &str = "r11-6 an output folder made and left empty is removed";
+pub const R11_ENV: &str = "r11-7 a default from the environment is named as it";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 95] = [
+pub const CLASSES: [&str; 96] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -225,4 +226,5 @@ pub const CLASSES: [&str; 95] = [
     R11_TIMING,
     R11_SETUP,
     R11_DIRS,
+    R11_ENV,
 ];
