@@ -215,6 +215,10 @@ pub(crate) fn round11_cases() -> Vec<Case> {
         R11_LISTS "study report {dir}/r11/many" .err("no participant folder")
             .err("skipped d1, d10, d100, d101, d102, d103, d104, d105, … and 292 more (the first: ")
             .check(short_line);
+        // A file given for the folder is named as one.
+        PATH_MESSAGES "study report {dir}/r11/levels.toml"
+            .err("error: {dir}/r11/levels.toml is not a folder: give a participant folder");
+        PATH_MESSAGES "study report /dev/null" .err("error: /dev/null is not a folder");
         R11_LISTS "study check {dir}/r11/levels.toml"
             .err("`zz` is not a level of factor `x` (l1, l2, l3, l4, l5, l6, l7, l8, … and 192 more)");
         // 3. A report line prints a number as a person reads it.

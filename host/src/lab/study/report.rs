@@ -61,6 +61,16 @@ fn participant_dirs(dir: &Path) -> Result<(Vec<PathBuf>, Skipped), InputError> {
             Some(why) => Err(InputError::new(why)),
         };
     }
+    // A file given for the folder (a trials.csv, a FIFO) is named as
+    // such, not as a path one of whose parts is no folder.
+    if let Ok(m) = std::fs::metadata(dir)
+        && !m.is_dir()
+    {
+        return Err(InputError::new(format!(
+            "{} is not a folder: give a participant folder (it holds session.json and trials.csv) or the study's --out",
+            dir.display()
+        )));
+    }
     let rd = std::fs::read_dir(dir).map_err(|e| {
         InputError::new(format!(
             "cannot read {}: {}",
