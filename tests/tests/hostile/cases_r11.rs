@@ -30,6 +30,9 @@
 //!   never typed; a relative one was taken as a folder of the working
 //!   directory, and a `$USER` holding `/` or `..` placed the socket
 //!   outside `/tmp` (the uid names it then).
+//! - A session whose standard output (`--control -`) is closed ends
+//!   quietly: a reply queued after its writer had failed was taken for a
+//!   reader that fell 1024 lines behind (exit 1, "nothing reads it").
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -157,6 +160,11 @@ pub(crate) fn round11_cases() -> Vec<Case> {
             .err("4 of 4 trials done"),
     ];
     let session = "session --library {scenes}/../studies/paper-library.toml";
+    v.push(
+        c(PIPE, format!("{session} --port autd3:emulator --control -"))
+            .stdin("{\"cmd\":\"status\"}\n".repeat(200))
+            .closed_stdout(),
+    );
     v.extend([
         // 5. A session refused or failed in its set-up leaves its log.
         c(R11_SETUP, format!("{session} --port {{dir}}/r11/no-port --control - --events {{dir}}/r11/prev.jsonl"))

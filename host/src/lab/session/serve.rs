@@ -249,6 +249,12 @@ impl Loop {
             return Ok(None);
         };
         if id == STDIO {
+            // Its writer failed (the reader closed it, a full disk): the
+            // failure it sent ends the session as such, a closed pipe
+            // quietly, whichever of the two the loop saw first.
+            if c.writer_ended() {
+                return Ok(None);
+            }
             // Nothing reads the session's output any more.
             anyhow::bail!(
                 "standard output fell {} lines behind (nothing reads it); the session ended",
