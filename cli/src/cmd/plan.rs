@@ -370,6 +370,7 @@ impl Args {
         let plan = &planned.plan;
         let target = self.target.target();
         if let Some(out) = &self.out {
+            lmhost::files::not_an_input("--out", out)?;
             lmhost::files::write_whole(out, &planned.out_bytes(out, &target)?)?;
         }
         if self.json {

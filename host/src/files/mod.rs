@@ -227,8 +227,16 @@ fn input_named_by(path: &Path) -> Option<PathBuf> {
         .map(|(_, p)| p.clone())
 }
 
-/// Refuses to write `path` when it is one of this process's inputs.
+/// Refuses to write `path` when it is one of this process's inputs, or
+/// when it is `-`: standard output for a person who types it (as `-` is
+/// standard input for `--stream -`), which an output file is not; it made
+/// a file named `-` in the working directory.
 pub fn not_an_input(flag: &str, path: &Path) -> Result<(), InputError> {
+    if path.as_os_str() == "-" {
+        return Err(InputError::new(format!(
+            "{flag} -: this output is a file, not standard output; give its path (./- for a file named -)"
+        )));
+    }
     match input_named_by(path) {
         Some(input) => Err(InputError::new(format!(
             "{flag} {} is the input {}: refusing to overwrite it; choose another output path",
@@ -237,6 +245,32 @@ pub fn not_an_input(flag: &str, path: &Path) -> Result<(), InputError> {
         ))),
         None => Ok(()),
     }
+}
+
+/// Refuses output `path` of `flag` when files are written beside it under
+/// its name (a recording's `REC.timestamps.npy` and
+/// `REC.intrinsics.toml`) and it is not a regular file or a free name:
+/// `--record /dev/null` wrote `/dev/null.timestamps.npy` into `/dev`.
+pub fn with_files_beside(flag: &str, path: &Path) -> Result<(), InputError> {
+    let Ok(m) = std::fs::metadata(path) else {
+        return Ok(());
+    };
+    let t = m.file_type();
+    let what = if t.is_file() {
+        return Ok(());
+    } else if t.is_dir() {
+        "a directory"
+    } else if t.is_fifo() {
+        "a FIFO"
+    } else if t.is_char_device() || t.is_block_device() {
+        "a device node"
+    } else {
+        "not a regular file"
+    };
+    Err(InputError::new(format!(
+        "{flag} {}: it is {what}, and files are written beside it under its name: give a file path",
+        path.display()
+    )))
 }
 
 /// Refuses outputs that are the same file as each other (by name after

@@ -33,6 +33,10 @@
 //! - A session whose standard output (`--control -`) is closed ends
 //!   quietly: a reply queued after its writer had failed was taken for a
 //!   reader that fell 1024 lines behind (exit 1, "nothing reads it").
+//! - An output is a file where a file is meant: `--out -` (standard
+//!   output, as `-` is standard input for `--stream -`) made a file named
+//!   `-`, and `--record /dev/null` wrote its time stamps and intrinsics
+//!   beside it, as `/dev/null.timestamps.npy`, into `/dev`.
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -75,6 +79,25 @@ fn logs_as_they_were(ctx: &Ctx, _: &Run) -> Result<(), String> {
     }
     if ctx.dir.join("r11/new.jsonl").exists() {
         return Err("new.jsonl was left behind".into());
+    }
+    Ok(())
+}
+
+/// No file named `-` was made in the working directory.
+fn no_dash_file(_: &Ctx, _: &Run) -> Result<(), String> {
+    match Path::new("-").exists() {
+        true => Err("a file named - was made".into()),
+        false => Ok(()),
+    }
+}
+
+/// Nothing was written beside `/dev/null`.
+fn nothing_beside_dev_null(_: &Ctx, _: &Run) -> Result<(), String> {
+    for f in ["/dev/null.timestamps.npy", "/dev/null.intrinsics.toml"] {
+        if Path::new(f).exists() {
+            let _ = std::fs::remove_file(f);
+            return Err(format!("{f} was written"));
+        }
     }
     Ok(())
 }
@@ -182,6 +205,22 @@ pub(crate) fn round11_cases() -> Vec<Case> {
             .check(logs_as_they_were),
     ]);
     v.extend(table![
+        // 8. An output is a file where a file is meant.
+        R11_OUTPUTS "wiring --out -" .err("error: --out -: this output is a file, not standard output; give its path (./- for a file named -)")
+            .check(no_dash_file);
+        R11_OUTPUTS "plan --out -" .err("error: --out -: this output is a file").check(no_dash_file);
+        R11_OUTPUTS "simulate --out -" .err("error: --out -: this output is a file").check(no_dash_file);
+        R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record -" .err("error: --record -: this output is a file")
+            .check(no_dash_file);
+        R11_OUTPUTS "study run {dir}/study/mini.toml --port autd3:emulator --out - --responses {dir}/study/ans.txt --participant r11_dash"
+            .err("error: --out -: this output is a file").check(no_dash_file);
+        R11_OUTPUTS "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator --control - --events -"
+            .err("error: --events -: this output is a file").check(no_dash_file);
+        R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record /dev/null"
+            .err("error: --record /dev/null: it is a device node, and files are written beside it under its name: give a file path")
+            .check(nothing_beside_dev_null);
+        R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record {dir}/r11"
+            .err("--record {dir}/r11: it is a directory");
         // 7. The default control socket is named by what gave it.
         R11_ENV "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator"
             .env("XDG_RUNTIME_DIR", "{dir}/r11/no-such-dir").code(1)

@@ -128,9 +128,10 @@ pub const R11_TIMING: &str = "r11-4 a study's timeline is checked as played befo
 pub const R11_SETUP: &str = "r11-5 a session failed in its set-up leaves its event log";
 pub const R11_DIRS: &str = "r11-6 an output folder made and left empty is removed";
 pub const R11_ENV: &str = "r11-7 a default from the environment is named as it";
+pub const R11_OUTPUTS: &str = "r11-8 an output is a file where a file is meant";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 96] = [
+pub const CLASSES: [&str; 97] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -227,4 +228,5 @@ pub const CLASSES: [&str; 96] = [
     R11_SETUP,
     R11_DIRS,
     R11_ENV,
+    R11_OUTPUTS,
 ];

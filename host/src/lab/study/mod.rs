@@ -145,6 +145,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         i.check(a.max_mm)?;
         crate::device::instruments::check_rig(&i.stage, &i.gauge)?;
     }
+    crate::files::not_an_input("--out", &o.out)?;
     let paths = start::Paths::new(&o.out, &o.participant);
     // Everything is checked (and a responses file dry-run) before the
     // device opens and before any file changes.
