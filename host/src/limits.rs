@@ -221,6 +221,17 @@ pub const MAX_SIM_WORK: f64 = 5.0e10;
 /// The same for `simulate --reference` (the f64 loop is ~10× slower).
 pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 
+/// `literal` read as a number, exactly ([`exact_literal`]): for a number
+/// inside a flag's value (`--center X,Y,Z`, `--away START,END`,
+/// `--faults ber=P`), which a lone number flag's parser never sees. `Err`:
+/// the message, for the caller to prefix with the flag (`None` when it is
+/// not a number at all, for the caller's own wording).
+pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
+    let v: f64 = literal.parse().map_err(|_| None)?;
+    exact_literal(literal, v).map_err(Some)?;
+    Ok(v)
+}
+
 /// Checks that the decimal `literal` was read as itself: one whose digits
 /// are not all zero but which parses to 0 or to a subnormal (`1e-400`,
 /// `1e-310`) underflowed and would be taken as another value without a
@@ -345,6 +356,22 @@ pub fn require_in_schema(schema: &mut schemars::Schema, property: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_number_inside_a_value_is_read_exactly() {
+        assert_eq!(exact_number("2.5"), Ok(2.5));
+        assert_eq!(exact_number("-0"), Ok(-0.0));
+        assert_eq!(exact_number("0e-400"), Ok(0.0));
+        assert_eq!(exact_number("x"), Err(None));
+        assert_eq!(exact_number(" 1"), Err(None));
+        for tiny in ["1e-400", "-5e-330"] {
+            let m = exact_number(tiny).unwrap_err().unwrap();
+            assert!(
+                m.starts_with(&format!("{tiny} is too small to represent")),
+                "{m}"
+            );
+        }
+    }
 
     #[test]
     fn durations_are_checked_not_panicking() {

@@ -95,11 +95,12 @@ pub struct StimulusFlags {
 fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
     s.split(',')
         .map(|x| {
-            x.trim().parse::<f64>().map_err(|_| {
-                InputError::new(format!(
+            limits::exact_number(x.trim()).map_err(|e| match e {
+                Some(m) => InputError::new(format!("--{flag}: {m}")),
+                None => InputError::new(format!(
                     "--{flag}: `{}` is not a number (got `{s}`)",
                     x.trim()
-                ))
+                )),
             })
         })
         .collect()

@@ -104,10 +104,13 @@ fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
         ))
     };
     let (a, b) = s.split_once(',').ok_or_else(bad)?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| bad())?,
-        b.trim().parse().map_err(|_| bad())?,
-    );
+    let number = |x: &str| {
+        lmhost::limits::exact_number(x.trim()).map_err(|e| match e {
+            Some(m) => lmhost::InputError::new(format!("--away `{s}`: {m}")),
+            None => bad(),
+        })
+    };
+    let (a, b) = (number(a)?, number(b)?);
     if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
         return Err(bad());
     }

@@ -37,6 +37,10 @@
 //!   output, as `-` is standard input for `--stream -`) made a file named
 //!   `-`, and `--record /dev/null` wrote its time stamps and intrinsics
 //!   beside it, as `/dev/null.timestamps.npy`, into `/dev`.
+//! - A number inside a flag's list is read as exactly as a lone number
+//!   flag: `--center 1e-400,0,200`, `--z`, `--weights`, `--away`,
+//!   `--plane-size`, `--z-profile`, `--faults ber=` and `--observer`
+//!   took a literal that underflows as 0 without a word.
 //!
 //! Fixtures in `{dir}/r11`.
 
@@ -205,6 +209,24 @@ pub(crate) fn round11_cases() -> Vec<Case> {
             .check(logs_as_they_were),
     ]);
     v.extend(table![
+        // 9. A number inside a flag's list is read exactly.
+        R11_LIST_NUMBERS "plan --center 1e-400,0,200"
+            .err("error: --center: 1e-400 is too small to represent (it would be read as 0)");
+        R11_LIST_NUMBERS "plan --z 0,1e-400" .err("error: --z: 1e-400 is too small to represent");
+        R11_LIST_NUMBERS "plan --foci 2 --weights 1,1e-400"
+            .err("error: --weights: 1e-400 is too small to represent");
+        R11_LIST_NUMBERS "simulate --plane-size 1e-400 --out {dir}/r11/made"
+            .err("error: --plane-size: 1e-400 is too small to represent").check(no_folder_made);
+        R11_LIST_NUMBERS "simulate --plane-axes 1,0,0,0,1e-320,0 --out {dir}/r11/made"
+            .err("error: --plane-axes: 1e-320 is too small to represent: below").check(no_folder_made);
+        R11_LIST_NUMBERS "stream --port autd3:emulator --synthetic --fast --seconds 0.3 --away 1e-400,1"
+            .err("error: --away `1e-400,1`: 1e-400 is too small to represent");
+        R11_LIST_NUMBERS "track --synthetic --fast --z-profile 1e-400,5"
+            .err("error: --z-profile `1e-400,5`: 1e-400 is too small to represent");
+        R11_LIST_NUMBERS "sim --faults ber=1e-400 --seconds 0.1"
+            .err("error: --faults: ber: 1e-400 is too small to represent");
+        R11_LIST_NUMBERS "calibrate force --measured 0.02 --center 1e-400,30,30"
+            .err("error: --center: 1e-400 is too small to represent");
         // 8. An output is a file where a file is meant.
         R11_OUTPUTS "wiring --out -" .err("error: --out -: this output is a file, not standard output; give its path (./- for a file named -)")
             .check(no_dash_file);

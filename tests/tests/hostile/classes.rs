@@ -129,9 +129,10 @@ pub const R11_SETUP: &str = "r11-5 a session failed in its set-up leaves its eve
 pub const R11_DIRS: &str = "r11-6 an output folder made and left empty is removed";
 pub const R11_ENV: &str = "r11-7 a default from the environment is named as it";
 pub const R11_OUTPUTS: &str = "r11-8 an output is a file where a file is meant";
+pub const R11_LIST_NUMBERS: &str = "r11-9 a number inside a flag's list is read exactly";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 97] = [
+pub const CLASSES: [&str; 98] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -229,4 +230,5 @@ pub const CLASSES: [&str; 97] = [
     R11_DIRS,
     R11_ENV,
     R11_OUTPUTS,
+    R11_LIST_NUMBERS,
 ];
