@@ -256,10 +256,10 @@ pub fn with_files_beside(flag: &str, path: &Path) -> Result<(), InputError> {
         return Ok(());
     };
     let t = m.file_type();
-    let what = if t.is_file() {
+    // A directory fails as any output's does (exit 1), before anything
+    // is written beside it.
+    let what = if t.is_file() || t.is_dir() {
         return Ok(());
-    } else if t.is_dir() {
-        "a directory"
     } else if t.is_fifo() {
         "a FIFO"
     } else if t.is_char_device() || t.is_block_device() {

@@ -241,8 +241,8 @@ pub(crate) fn round11_cases() -> Vec<Case> {
         R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record /dev/null"
             .err("error: --record /dev/null: it is a device node, and files are written beside it under its name: give a file path")
             .check(nothing_beside_dev_null);
-        R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record {dir}/r11"
-            .err("--record {dir}/r11: it is a directory");
+        R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record /dev/full"
+            .err("error: --record /dev/full: it is a device node");
         // 7. The default control socket is named by what gave it.
         R11_ENV "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator"
             .env("XDG_RUNTIME_DIR", "{dir}/r11/no-such-dir").code(1)
