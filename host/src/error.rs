@@ -180,6 +180,33 @@ fn find<T: Copy>(
     Err(format!("`{name}` is not {what}: give {list}"))
 }
 
+/// Most items a message lists ([`some_of`]).
+pub const MAX_LISTED: usize = 8;
+
+/// `items` for a message, joined with `sep`: the first [`MAX_LISTED`],
+/// then how many more there are (`a, b, c, … and 192 more`). A message
+/// naming what a file, a folder or a system holds (every level of a
+/// factor, every folder skipped, every serial port) stays one readable
+/// line however much it holds.
+pub fn some_of<S: std::fmt::Display>(items: impl IntoIterator<Item = S>, sep: &str) -> String {
+    let mut out = String::new();
+    let mut more = 0usize;
+    for (i, item) in items.into_iter().enumerate() {
+        if i >= MAX_LISTED {
+            more += 1;
+            continue;
+        }
+        if i > 0 {
+            out.push_str(sep);
+        }
+        out.push_str(&item.to_string());
+    }
+    if more > 0 {
+        out.push_str(&format!("{sep}… and {more} more"));
+    }
+    out
+}
+
 /// An error chain as one line: the messages joined with ": ", a cause
 /// said once even when its parent's text already includes it.
 pub fn one_line(err: &anyhow::Error) -> String {
@@ -215,6 +242,21 @@ pub struct StdoutClosed;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_list_in_a_message_names_a_few_and_counts_the_rest() {
+        assert_eq!(some_of(["a", "b"], ", "), "a, b");
+        assert_eq!(some_of(Vec::<String>::new(), ", "), "");
+        let many: Vec<String> = (1..=200).map(|i| format!("l{i}")).collect();
+        assert_eq!(
+            some_of(&many, ", "),
+            "l1, l2, l3, l4, l5, l6, l7, l8, … and 192 more"
+        );
+        assert_eq!(
+            some_of(&many[..9], "; "),
+            "l1; l2; l3; l4; l5; l6; l7; l8; … and 1 more"
+        );
+    }
 
     #[test]
     fn an_input_error_is_one_line_whatever_value_it_repeats() {

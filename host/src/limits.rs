@@ -41,6 +41,9 @@ pub const MAX_TRIES: u32 = 100;
 /// Most steps per slot of the simulated device (`sim --slot-steps`): the
 /// wire's u16 step count.
 pub const MAX_SLOT_STEPS: u32 = u16::MAX as u32;
+/// Longest centroid timeout of the simulated device (`sim
+/// --centroid-timeout-ms`), ms: it travels as µs in a u32.
+pub const MAX_CENTROID_TIMEOUT_MS: u32 = 3_600_000;
 /// Largest |coordinate| of any position the planner accepts (scene
 /// devices, reflector, LM centre, foci), mm: inside the wire's i32 µm
 /// (±2147 mm) with room for the LM circle.
@@ -218,6 +221,17 @@ pub const MAX_SIM_WORK: f64 = 5.0e10;
 /// The same for `simulate --reference` (the f64 loop is ~10× slower).
 pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 
+/// `literal` read as a number, exactly ([`exact_literal`]): for a number
+/// inside a flag's value (`--center X,Y,Z`, `--away START,END`,
+/// `--faults ber=P`), which a lone number flag's parser never sees. `Err`:
+/// the message, for the caller to prefix with the flag (`None` when it is
+/// not a number at all, for the caller's own wording).
+pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
+    let v: f64 = literal.parse().map_err(|_| None)?;
+    exact_literal(literal, v).map_err(Some)?;
+    Ok(v)
+}
+
 /// Checks that the decimal `literal` was read as itself: one whose digits
 /// are not all zero but which parses to 0 or to a subnormal (`1e-400`,
 /// `1e-310`) underflowed and would be taken as another value without a
@@ -342,6 +356,22 @@ pub fn require_in_schema(schema: &mut schemars::Schema, property: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_number_inside_a_value_is_read_exactly() {
+        assert_eq!(exact_number("2.5"), Ok(2.5));
+        assert_eq!(exact_number("-0"), Ok(-0.0));
+        assert_eq!(exact_number("0e-400"), Ok(0.0));
+        assert_eq!(exact_number("x"), Err(None));
+        assert_eq!(exact_number(" 1"), Err(None));
+        for tiny in ["1e-400", "-5e-330"] {
+            let m = exact_number(tiny).unwrap_err().unwrap();
+            assert!(
+                m.starts_with(&format!("{tiny} is too small to represent")),
+                "{m}"
+            );
+        }
+    }
 
     #[test]
     fn durations_are_checked_not_panicking() {

@@ -15,9 +15,10 @@
 //! - in any other command, it removes the temporary files of the outputs
 //!   still being written ([`crate::files::Output`]), says so in one line
 //!   on stderr (`lmhost: interrupted by SIGINT`, and `; unfinished
-//!   outputs removed` when it removed one) and exits at once with 128 + the signal number, as the
-//!   default action would have, so no half-written file is left behind
-//!   under any name.
+//!   outputs removed` when it removed one), removes the output directories
+//!   it made that are still empty ([`crate::files::output_dir`]) and exits
+//!   at once with 128 + the signal number, as the default action would
+//!   have, so no half-written file is left behind under any name.
 
 use std::ffi::{CString, c_char};
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicPtr, Ordering};
@@ -36,6 +37,12 @@ static GRACEFUL: AtomicBool = AtomicBool::new(false);
 const MAX_TEMPS: usize = 256;
 static TEMPS: [AtomicPtr<c_char>; MAX_TEMPS] =
     [const { AtomicPtr::new(std::ptr::null_mut()) }; MAX_TEMPS];
+/// Output directories made for the running command, deepest first, that
+/// the handler removes (while empty, after the temporary files) when a
+/// signal ends the process ([`crate::files::output_dir`]).
+const MAX_DIRS: usize = 64;
+static DIRS: [AtomicPtr<c_char>; MAX_DIRS] =
+    [const { AtomicPtr::new(std::ptr::null_mut()) }; MAX_DIRS];
 
 /// The signals that end a command. Each one's default action would end the
 /// process at once (SIGQUIT with a core dump), leaving an array that a
@@ -226,6 +233,20 @@ extern "C" fn on_signal(sig: libc::c_int) {
             removed |= unsafe { libc::unlink(p) } == 0;
         }
     }
+    // Until a pass removes none: a parent may sit in a slot before its
+    // child's (a slot freed and taken again).
+    let mut more = true;
+    while more {
+        more = false;
+        for slot in &DIRS {
+            let p = slot.load(Ordering::SeqCst);
+            // SAFETY: as above; rmdir(2) is async-signal-safe and removes
+            // an empty directory only (one removed fails the next pass).
+            if !p.is_null() && unsafe { libc::rmdir(p) } == 0 {
+                more = true;
+            }
+        }
+    }
     let parts: [&[u8]; 3] = [ending_line(sig), if removed { REMOVED } else { b"" }, b"\n"];
     for part in parts {
         // SAFETY: write(2) is async-signal-safe; `part` is a static
@@ -254,30 +275,41 @@ pub fn install() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A temporary file the handler removes if a signal ends the process.
+/// A temporary file (or an output directory) the handler removes if a
+/// signal ends the process.
 #[derive(Debug)]
-pub(crate) struct TempGuard(Option<usize>);
+pub(crate) struct TempGuard(Option<usize>, &'static [AtomicPtr<c_char>]);
 
 impl TempGuard {
     /// Register `path`; `None` inside when all slots are taken (the file is
     /// then only removed by `Drop`).
     pub(crate) fn register(path: &std::path::Path) -> TempGuard {
+        Self::register_in(&TEMPS, path)
+    }
+
+    /// Register the output directory `path`, removed (when empty) after
+    /// the temporary files.
+    pub(crate) fn register_dir(path: &std::path::Path) -> TempGuard {
+        Self::register_in(&DIRS, path)
+    }
+
+    fn register_in(slots: &'static [AtomicPtr<c_char>], path: &std::path::Path) -> TempGuard {
         use std::os::unix::ffi::OsStrExt as _;
         let Ok(c) = CString::new(path.as_os_str().as_bytes()) else {
-            return TempGuard(None);
+            return TempGuard(None, slots);
         };
         let p = c.into_raw();
-        for (i, slot) in TEMPS.iter().enumerate() {
+        for (i, slot) in slots.iter().enumerate() {
             if slot
                 .compare_exchange(std::ptr::null_mut(), p, Ordering::SeqCst, Ordering::SeqCst)
                 .is_ok()
             {
-                return TempGuard(Some(i));
+                return TempGuard(Some(i), slots);
             }
         }
         // SAFETY: `p` came from `into_raw` above and was not shared.
         drop(unsafe { CString::from_raw(p) });
-        TempGuard(None)
+        TempGuard(None, slots)
     }
 }
 
@@ -285,7 +317,7 @@ impl Drop for TempGuard {
     fn drop(&mut self) {
         if let Some(i) = self.0 {
             // Leaked on purpose: the handler may be reading it right now.
-            TEMPS[i].store(std::ptr::null_mut(), Ordering::SeqCst);
+            self.1[i].store(std::ptr::null_mut(), Ordering::SeqCst);
         }
     }
 }

@@ -21,18 +21,18 @@ pub struct PortArgs {
     pub port: Option<String>,
     /// LM firmware: baud rate for real serial ports (ptys ignore it), above
     /// 0 [default: 115200].
-    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "BAUD", value_parser = super::whole::whole::<u32>(1, u32::MAX.into()))]
     pub baud: Option<u32>,
     /// LM firmware: response timeout per attempt, ms, 1..=60000 [default:
     /// $LMHOST_TIMEOUT_MS (set for every device, so an AUTD3 port, which
     /// refuses the flag, leaves it be), else 100 + twice the time a full
     /// chunk takes at --baud; a slow link or an emulated board on a busy
     /// machine wants more].
-    #[arg(long, value_name = "MS", env = "LMHOST_TIMEOUT_MS", value_parser = clap::value_parser!(u64).range(1..=lmhost::limits::MAX_TIMEOUT_MS))]
+    #[arg(long, value_name = "MS", env = "LMHOST_TIMEOUT_MS", value_parser = super::whole::whole::<u64>(1, lmhost::limits::MAX_TIMEOUT_MS))]
     pub timeout_ms: Option<u64>,
     /// LM firmware: attempts per request before giving up, 1..=100
     /// [default: 8].
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(lmhost::limits::MAX_TRIES)))]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<u32>(1, lmhost::limits::MAX_TRIES.into()))]
     pub tries: Option<u32>,
     /// LM firmware: the host lease, 0.1 to 60 s. What lmhost plays stops
     /// by itself this long after the device last heard from it (lmhost
@@ -163,7 +163,7 @@ pub struct FingerArgs {
     #[arg(long, value_name = "FILE", conflicts_with = "udp")]
     pub stream: Option<PathBuf>,
     /// Finger centroids as UDP datagrams on 127.0.0.1:PORT (1..=65535).
-    #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(long, value_name = "PORT", value_parser = super::whole::whole::<u16>(1, u16::MAX.into()))]
     pub udp: Option<u16>,
     /// What the UDP source counted (datagrams, bad ones, ones the kernel
     /// dropped), for the line at the end.

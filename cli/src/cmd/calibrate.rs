@@ -103,7 +103,10 @@ impl Output {
             ));
         }
         Ok(match (&self.out, self.write) {
-            (Some(p), _) => Dest::Out(p.clone()),
+            (Some(p), _) => {
+                lmhost::files::not_an_input("--out", p)?;
+                Dest::Out(p.clone())
+            }
             (None, true) => Dest::Write,
             (None, false) => Dest::Print,
         })

@@ -71,9 +71,10 @@ impl Args {
         }
         // The plots' folder is made first: a path that cannot be one is
         // refused before the demo runs, not after it.
-        if let Some(dir) = &self.plots {
-            lmhost::files::output_dir("--plots", dir)?;
-        }
+        let _made = match &self.plots {
+            Some(dir) => Some(lmhost::files::output_dir("--plots", dir)?),
+            None => None,
+        };
         let opts = Options {
             seconds: self.seconds,
             filter: self.filter,

@@ -14,7 +14,7 @@ pub struct Args {
     pub port: Vec<String>,
     /// Response timeout per request to an LM board (ms).
     #[arg(long, value_name = "MS", default_value_t = 300,
-          value_parser = clap::value_parser!(u64).range(1..=60_000))]
+          value_parser = super::whole::whole::<u64>(1, lmhost::limits::MAX_TIMEOUT_MS))]
     pub timeout_ms: u64,
     /// Print JSON (one array of checks) instead of lines.
     #[arg(long)]

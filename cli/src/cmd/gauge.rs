@@ -36,7 +36,7 @@ pub struct ReadArgs {
     model: Option<Model>,
     /// Baud rate [default: the model's factory setting]; not with `--port
     /// sim`, which has no serial link.
-    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    #[arg(long, value_name = "BAUD", value_parser = super::whole::whole::<u32>(300, 921_600))]
     baud: Option<u32>,
     /// Sample for S seconds and print the median (the paper's 2 s).
     #[arg(long = "for", value_name = "S", allow_negative_numbers = true)]
@@ -54,7 +54,7 @@ pub struct ReadArgs {
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     sim_depth: Option<f64>,
     /// With `--port sim`: the noise seed [default: 1].
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<u64>(0, u64::MAX))]
     seed: Option<u64>,
     /// Print JSON instead of text.
     #[arg(long)]

@@ -31,6 +31,7 @@ pub mod stream;
 pub mod study;
 pub mod track;
 pub mod upload;
+pub mod whole;
 pub mod wiring;
 
 /// `cmd` with every flag's value allowed to be a negative number, in

@@ -44,7 +44,7 @@ pub struct StimulusFlags {
     pub radius: Option<f64>,
     /// Foci per step, 1..=32: 1 = LM-S, more = LM-M (foci rotate together)
     /// [default: 1].
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<usize>(1, lmhost::plan::trajectory::MAX_FOCI as u64))]
     pub foci: Option<usize>,
     /// Spacing d between neighbouring foci along the circle in mm (LM-M),
     /// above 0 and at most 1000 [default: 3].
@@ -64,7 +64,7 @@ pub struct StimulusFlags {
     )]
     pub step: Option<f64>,
     /// Steps per cycle N, 1..=65535 (instead of --step).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<usize>(1, lmhost::plan::trajectory::MAX_STEPS as u64))]
     pub steps: Option<usize>,
     /// LM centre X,Y,Z in mm, finger space, each within ±2000 and in front
     /// of the array [default: the scene's centre, (0,0,200) for the
@@ -79,7 +79,7 @@ pub struct StimulusFlags {
     #[arg(long, value_enum)]
     pub method: Option<Method>,
     /// GS-PAT iterations, 1..=1000 (with --method gspat) [default: 20].
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<usize>(1, limits::MAX_ITERATIONS as u64))]
     pub iterations: Option<usize>,
     /// Real weight per focus, comma-separated, each within 0..=1e6 and
     /// not all zero (linear synthesis only).
@@ -95,11 +95,12 @@ pub struct StimulusFlags {
 fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
     s.split(',')
         .map(|x| {
-            x.trim().parse::<f64>().map_err(|_| {
-                InputError::new(format!(
+            limits::exact_number(x.trim()).map_err(|e| match e {
+                Some(m) => InputError::new(format!("--{flag}: {m}")),
+                None => InputError::new(format!(
                     "--{flag}: `{}` is not a number (got `{s}`)",
                     x.trim()
-                ))
+                )),
             })
         })
         .collect()
@@ -370,6 +371,7 @@ impl Args {
         let plan = &planned.plan;
         let target = self.target.target();
         if let Some(out) = &self.out {
+            lmhost::files::not_an_input("--out", out)?;
             lmhost::files::write_whole(out, &planned.out_bytes(out, &target)?)?;
         }
         if self.json {
@@ -525,10 +527,6 @@ mod tests {
                 &["--foci", "2", "--weights", "-1,1"],
                 "-1 is out of range: allowed 0..=",
             ),
-            (
-                &["--method", "gspat", "--iterations", "100000000"],
-                "1..=1000",
-            ),
             (&["--z", "1e12"], "-100..=100"),
             (&["--radius", "1e30", "--steps", "4"], "0..=100"),
             (&["--center", "0,0,1e30"], "±2000"),
@@ -538,5 +536,14 @@ mod tests {
             assert!(e.chain().any(|c| c.is::<InputError>()), "{a:?}: {e}");
             assert!(e.to_string().contains(want), "{a:?}: {e}");
         }
+        // A whole number out of its range is refused as the flag's value.
+        let Err(e) = Cli::try_parse_from(["x", "--method", "gspat", "--iterations", "100000000"])
+        else {
+            panic!("--iterations 100000000 parsed");
+        };
+        assert!(
+            e.to_string().contains("100000000 is not in 1..=1000"),
+            "{e}"
+        );
     }
 }

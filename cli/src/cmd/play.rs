@@ -14,7 +14,7 @@ pub struct Args {
     #[command(flatten)]
     device: DeviceArgs,
     /// Slot to play (checked against the device's slot count).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::whole::whole::<u8>(0, u8::MAX.into()))]
     slot: u8,
     /// Switch at once instead of at the end of the current cycle.
     #[arg(long, conflicts_with = "steps")]
@@ -37,7 +37,7 @@ pub struct Args {
         value_name = "N",
         conflicts_with = "hold",
         allow_negative_numbers = true,
-        value_parser = clap::value_parser!(u32).range(1..)
+        value_parser = super::whole::whole::<u32>(1, u32::MAX.into())
     )]
     steps: Option<u32>,
 }

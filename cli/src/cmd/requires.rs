@@ -173,3 +173,76 @@ fn every_number_flag_refuses_a_value_that_underflows() {
     }
     assert!(checked > 50, "only {checked} number flags found");
 }
+
+/// The largest value of `arg`'s type when it takes a whole number.
+fn whole_number_type_max(arg: &Arg) -> Option<u64> {
+    use std::any::TypeId;
+    let t = arg.get_value_parser().type_id();
+    [
+        (TypeId::of::<u8>(), u64::from(u8::MAX)),
+        (TypeId::of::<u16>(), u64::from(u16::MAX)),
+        (TypeId::of::<u32>(), u64::from(u32::MAX)),
+        (TypeId::of::<u64>(), u64::MAX),
+        (TypeId::of::<usize>(), usize::MAX as u64),
+        (TypeId::of::<i32>(), i32::MAX as u64),
+        (TypeId::of::<i64>(), i64::MAX as u64),
+    ]
+    .into_iter()
+    .find_map(|(id, max)| (t == id).then_some(max))
+}
+
+/// Every whole-number flag refuses a sign, a fraction or more digits than
+/// its type holds naming its own range ([`super::whole`]): never "invalid
+/// digit found in string", "number too large to fit in target type", or
+/// a type's range in place of the flag's (`-1 is not in 0..=4294967295`
+/// for `--enter-frames`, which takes 1 to 90).
+#[test]
+fn every_whole_number_flag_names_its_own_range() {
+    let mut all = Vec::new();
+    leaves(&Cli::command(), Vec::new(), &mut all);
+    let mut checked = 0;
+    let mut bad = Vec::new();
+    for (path, cmd) in &all {
+        for a in cmd.get_arguments().filter(|a| !a.is_positional()) {
+            let Some(type_max) = whole_number_type_max(a) else {
+                continue;
+            };
+            let flag = format!("--{}", a.get_long().unwrap_or_default());
+            // `--lease` takes seconds, its parser names them.
+            if flag == "--lease" {
+                continue;
+            }
+            for v in ["-1", "99999999999999999999999", "1.5", "x"] {
+                let mut args = path.clone();
+                args.extend([flag.clone(), v.into()]);
+                let e = parse(&args).expect_err(&args.join(" ")).to_string();
+                let named = e.contains(&format!("{v} is not in "))
+                    || e.contains(&format!("{v} is not a whole number in "));
+                let type_range = (e.contains(&format!("..={type_max}"))
+                    || (type_max == u64::MAX && e.contains("..=2^64-1")))
+                    && !own_range_is_the_types(&flag);
+                if !named || type_range {
+                    bad.push(format!("lmhost {}: {e}", args.join(" ")));
+                }
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 25, "only {checked} whole-number flags found");
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// The flags whose range is their type's: a slot byte, a port, a baud
+/// rate or a step count above 0, a seed, a frame number.
+fn own_range_is_the_types(flag: &str) -> bool {
+    [
+        "--slot",
+        "--udp",
+        "--tcp",
+        "--baud",
+        "--steps",
+        "--seed",
+        "--plot-frame",
+    ]
+    .contains(&flag)
+}

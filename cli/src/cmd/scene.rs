@@ -52,7 +52,7 @@ impl Args {
                 "medium {:.2} m/s (λ = {:.3} mm), attenuation {} Np/m, directivity {:?}",
                 s.sound_speed_m_s,
                 2.0 * std::f64::consts::PI / s.wavenumber_rad_per_mm(),
-                s.attenuation_np_per_m,
+                lmhost::limits::Num(s.attenuation_np_per_m),
                 s.directivity
             )?;
             for (i, d) in s.devices.iter().enumerate() {

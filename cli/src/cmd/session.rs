@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::ValueEnum;
 use lmhost::clock::{Clock, Spread};
 use lmhost::lab::session::serve::{self, Control, Endpoint, Finger, OnDisconnect, Options};
-use lmhost::lab::session::{EventLog, Session};
+use lmhost::lab::session::{EventLog, PendingEventLog, Session};
 use lmhost::plan::library::Library;
 use lmhost::plan::scene::Scene;
 
@@ -41,13 +41,15 @@ pub struct Args {
     scene: Option<PathBuf>,
     /// Control socket: a Unix socket path (created mode 0600), or `-` for
     /// commands on stdin and replies and events on stdout
-    /// [default: $XDG_RUNTIME_DIR/lmhost.sock, else /tmp/lmhost-$USER.sock].
+    /// [default: $XDG_RUNTIME_DIR/lmhost.sock (an absolute path), else
+    /// /tmp/lmhost-$USER.sock ($USER a file name), else /tmp/lmhost-UID.sock].
     #[arg(long, value_name = "PATH")]
     control: Option<PathBuf>,
     /// Also listen on 127.0.0.1:PORT (TCP, local only).
-    #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(long, value_name = "PORT", value_parser = super::whole::whole::<u16>(1, u16::MAX.into()))]
     tcp: Option<u16>,
-    /// Event log (JSON lines; every line whole).
+    /// Event log (JSON lines; every line whole), started afresh once the
+    /// session has (one refused in its set-up leaves it as it was).
     #[arg(long, value_name = "FILE")]
     events: Option<PathBuf>,
     #[command(flatten)]
@@ -65,16 +67,6 @@ pub struct Args {
     exit_with_stdin: bool,
 }
 
-fn default_socket() -> PathBuf {
-    match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
-        Some(d) => PathBuf::from(d).join("lmhost.sock"),
-        None => {
-            let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
-            PathBuf::from(format!("/tmp/lmhost-{user}.sock"))
-        }
-    }
-}
-
 impl Args {
     /// Run it.
     pub fn run(self) -> anyhow::Result<()> {
@@ -84,10 +76,19 @@ impl Args {
         lmhost::stop::graceful();
         let control = match &self.control {
             Some(p) if p.as_os_str() == "-" => Control::Stdio,
-            other => Control::Socket {
-                unix: other.clone().unwrap_or_else(default_socket),
+            Some(p) => Control::Socket {
+                unix: p.clone(),
                 tcp: self.tcp,
+                named: "--control".into(),
             },
+            None => {
+                let (unix, named) = serve::default_socket()?;
+                Control::Socket {
+                    unix,
+                    tcp: self.tcp,
+                    named,
+                }
+            }
         };
         if control == Control::Stdio && self.tcp.is_some() {
             lmhost::bad_input!("--tcp needs a socket --control, not `-`");
@@ -121,8 +122,10 @@ impl Args {
             lmhost::files::not_an_input("--events", e)?;
         }
         // The log is opened before the device: a path it cannot be written
-        // at fails here, before the session says it started.
-        let events = self.events.as_deref().map(EventLog::create).transpose()?;
+        // at fails here, before the session says it started. It is started
+        // (an earlier session's log emptied) once the session has: a
+        // session refused or failed in its set-up leaves it as it was.
+        let events = self.events.as_deref().map(EventLog::prepare).transpose()?;
         let spec = self.port.spec();
         let target = spec.device()?.target();
         let plans = library.plan_for(&target, &scene)?;
@@ -159,7 +162,8 @@ impl Args {
             FingerFeed::Synthetic => Finger::Synthetic,
             FingerFeed::None => Finger::None,
         };
-        if let Control::Socket { unix, tcp } = &control {
+        let events = events.map(PendingEventLog::start).transpose()?;
+        if let Control::Socket { unix, tcp, .. } = &control {
             lmhost::errln!(
                 "lmhost: session on {where_}: {} stimuli; control socket {}{}",
                 library.entries.len(),
@@ -226,11 +230,11 @@ impl Args {
 /// session a signal ends mid-run.
 fn set_up_interrupted(
     e: &lmhost::stop::SetUpInterrupted,
-    events: Option<EventLog>,
+    events: Option<PendingEventLog>,
     then: &str,
 ) -> anyhow::Result<()> {
     use lmhost::lab::session::{Event, EventKind, OffsetReason};
-    if let Some(mut log) = events {
+    if let Some(mut log) = events.map(PendingEventLog::start).transpose()? {
         let closed = Event {
             t_host_us: lmhost::clock::monotonic_us(),
             kind: EventKind::Closed {

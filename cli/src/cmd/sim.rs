@@ -22,7 +22,7 @@ pub enum LoopbackArg {
 pub struct Args {
     /// Mute when no centroid update came for this long (ms, at most
     /// 3600000: it travels as µs in a u32).
-    #[arg(long, value_name = "MS", default_value_t = 100)]
+    #[arg(long, value_name = "MS", default_value_t = 100, value_parser = super::whole::whole::<u32>(0, lmhost::limits::MAX_CENTROID_TIMEOUT_MS.into()))]
     centroid_timeout_ms: u32,
     /// Play even before the first centroid update (the firmware's default
     /// is to stay muted until a finger is tracked).
@@ -30,14 +30,14 @@ pub struct Args {
     no_tracking: bool,
     /// Steps per slot at 996 transducers (1..=65535, the wire's u16 step
     /// count).
-    #[arg(long, value_name = "N", default_value_t = 400)]
+    #[arg(long, value_name = "N", default_value_t = 400, value_parser = super::whole::whole::<u32>(1, lmhost::limits::MAX_SLOT_STEPS.into()))]
     slot_steps: u32,
     /// Damage the link on the device's side, e.g. `ber=1e-4,drop=1e-5`
     /// (rates: ber, drop, dup, truncate; `cut=BYTES` kills the link).
     #[arg(long, value_name = "SPEC")]
     faults: Option<String>,
     /// Seed of the fault generator (with --faults) [default: 1].
-    #[arg(long)]
+    #[arg(long, value_parser = super::whole::whole::<u64>(0, u64::MAX))]
     seed: Option<u64>,
     /// Simulate an SPI loopback jumper for `lmhost selftest` [default:
     /// none: the self-test is not supported, as on QEMU].
@@ -63,19 +63,6 @@ impl Args {
             )),
             None => None,
         };
-        if !(1..=lmhost::limits::MAX_SLOT_STEPS).contains(&self.slot_steps) {
-            lmhost::bad_input!(
-                "--slot-steps {} is out of range: allowed 1..={}",
-                self.slot_steps,
-                lmhost::limits::MAX_SLOT_STEPS
-            );
-        }
-        if self.centroid_timeout_ms > 3_600_000 {
-            lmhost::bad_input!(
-                "--centroid-timeout-ms {} is out of range: allowed 0..=3600000",
-                self.centroid_timeout_ms
-            );
-        }
         let stop_after = self
             .seconds
             .map(|s| lmhost::limits::duration_s("--seconds", s, lmhost::limits::MAX_SECONDS))

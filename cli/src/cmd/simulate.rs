@@ -125,7 +125,13 @@ impl Args {
         let size_mm = match &self.plane_size {
             None => (20.0, 20.0),
             Some(s) => {
-                let v: Result<Vec<f64>, _> = s.split(',').map(|x| x.trim().parse()).collect();
+                let v: Result<Vec<f64>, _> = s
+                    .split(',')
+                    .map(|x| lmhost::limits::exact_number(x.trim()))
+                    .collect();
+                if let Err(Some(m)) = &v {
+                    return Err(InputError::new(format!("--plane-size: {m}")));
+                }
                 match v.as_deref() {
                     Ok([a]) => (positive("plane-size", *a)?, *a),
                     Ok([a, b]) => (positive("plane-size", *a)?, positive("plane-size", *b)?),
@@ -142,12 +148,13 @@ impl Args {
             Some(s) => {
                 let v: Vec<f64> = s
                     .split([',', ';'])
-                    .map(|x| x.trim().parse::<f64>())
+                    .map(|x| lmhost::limits::exact_number(x.trim()))
                     .collect::<Result<_, _>>()
-                    .map_err(|_| {
-                        InputError::new(format!(
+                    .map_err(|e| match e {
+                        Some(m) => InputError::new(format!("--plane-axes: {m}")),
+                        None => InputError::new(format!(
                             "--plane-axes takes six numbers UX,UY,UZ,VX,VY,VZ, got `{s}`"
-                        ))
+                        )),
                     })?;
                 if v.len() != 6 {
                     return Err(InputError::new(format!(
@@ -210,7 +217,8 @@ impl Args {
         )?)?;
         // The scene is an input: refuse an --out that is it, before writing.
         self.plan.load_scene()?;
-        lmhost::files::output_dir("--out", &self.out)?;
+        // Removed again, while empty, when the run is refused or stopped.
+        let _made = lmhost::files::output_dir("--out", &self.out)?;
         if self.compare {
             let multi = if flags.cycle.foci > 1 {
                 flags.cycle.foci

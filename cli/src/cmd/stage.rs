@@ -46,7 +46,7 @@ pub struct Common {
     #[arg(long, value_name = "UM")]
     step_um: Option<f64>,
     /// Baud rate [default: 9600].
-    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    #[arg(long, value_name = "BAUD", value_parser = super::whole::whole::<u32>(300, 921_600))]
     baud: Option<u32>,
     /// Print JSON instead of text.
     #[arg(long)]

@@ -58,7 +58,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE", conflicts_with_all = ["udp", "synthetic"])]
     input: Option<PathBuf>,
     /// Receive samples as UDP datagrams on 127.0.0.1:PORT (1..=65535).
-    #[arg(long, value_name = "PORT", conflicts_with = "synthetic", value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(long, value_name = "PORT", conflicts_with = "synthetic", value_parser = super::whole::whole::<u16>(1, u16::MAX.into()))]
     udp: Option<u16>,
     /// Stream a synthetic finger (90 fps, depth-camera-like noise) and
     /// report every filter's lag and jitter on it.
@@ -104,10 +104,13 @@ fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
         ))
     };
     let (a, b) = s.split_once(',').ok_or_else(bad)?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| bad())?,
-        b.trim().parse().map_err(|_| bad())?,
-    );
+    let number = |x: &str| {
+        lmhost::limits::exact_number(x.trim()).map_err(|e| match e {
+            Some(m) => lmhost::InputError::new(format!("--away `{s}`: {m}")),
+            None => bad(),
+        })
+    };
+    let (a, b) = (number(a)?, number(b)?);
     if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
         return Err(bad());
     }
@@ -290,9 +293,9 @@ impl Args {
         )?;
         if let Some(s) = session.as_ref().filter(|_| needs_host) {
             lmhost::outln!(
-                "{} corrections applied on {where_} (dwell {} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
+                "{} corrections applied on {where_} (dwell {:.1} µs, {:.3} Hz, read-back {}); muted on {muted_absent} of {absent} updates without a finger; at the end: {}; left silent",
                 report.acked,
-                s.timing.dwell_us,
+                lmhost::limits::Num(s.timing.dwell_us),
                 s.timing.freq_hz,
                 s.transfer
                     .readback_mismatches()

@@ -73,10 +73,10 @@ pub struct CheckArgs {
     /// Print this participant's trials (their number, from 1, as `study
     /// run --index` takes it; a protocol with a latin-square order only)
     /// [default: a Latin square's every row].
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=study::record::MAX_INDEX as u64))]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<u64>(1, study::record::MAX_INDEX as u64))]
     participant: Option<u64>,
     /// The seed of a random order, as `study run --seed` takes it.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<u64>(0, u64::MAX))]
     seed: Option<u64>,
 }
 
@@ -120,11 +120,11 @@ pub struct RunArgs {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Seed of the trial order [default: from the clock; recorded].
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<u64>(0, u64::MAX))]
     seed: Option<u64>,
     /// The participant's number, from 1: picks the row of a
     /// `latin-square` protocol's order (recorded).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=study::record::MAX_INDEX as u64))]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole::<u64>(1, study::record::MAX_INDEX as u64))]
     index: Option<u64>,
     /// Answers, one per line in the order asked (`na`: not perceived,
     /// where a question allows it), or `-`: stdin's lines, each read as
@@ -143,7 +143,9 @@ pub struct RunArgs {
     finger: Finger,
     #[command(flatten)]
     source: FingerArgs,
-    /// Multiplies every duration of the timeline (recorded).
+    /// Multiplies every duration of the timeline (recorded), above 0 and at
+    /// most 100; checked before the run, so that the on-phase still plays
+    /// a step of every stimulus and no phase exceeds 3600 s.
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     time_scale: f64,
     /// Continue OUT/ID's session at its first unfinished trial (on the
@@ -188,7 +190,7 @@ struct InstrumentArgs {
     #[arg(long, value_enum)]
     gauge_model: Option<super::gauge::Model>,
     /// The gauge's baud rate [default: the model's factory rate].
-    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    #[arg(long, value_name = "BAUD", value_parser = super::whole::whole::<u32>(300, 921_600))]
     gauge_baud: Option<u32>,
     /// Stage position where the probe touches the finger pad, mm
     /// (required with a serial stage) [default with sim: 5].
@@ -215,7 +217,7 @@ struct InstrumentArgs {
     #[arg(long, value_name = "UM")]
     stage_step_um: Option<f64>,
     /// The stage controller's baud rate [default: 9600].
-    #[arg(long, value_name = "BAUD", value_parser = clap::value_parser!(u32).range(300..=921_600))]
+    #[arg(long, value_name = "BAUD", value_parser = super::whole::whole::<u32>(300, 921_600))]
     stage_baud: Option<u32>,
 }
 

@@ -109,7 +109,7 @@ struct TrackFlags {
     #[arg(long, value_name = "DIR")]
     plot: Option<PathBuf>,
     /// The frame to plot [default: the first with a contact area].
-    #[arg(long, value_name = "N", requires = "plot")]
+    #[arg(long, value_name = "N", requires = "plot", value_parser = super::whole::whole::<u64>(0, u64::MAX))]
     plot_frame: Option<u64>,
     /// Centroid filter [default: gaussian (the paper's) with --port, else none].
     #[arg(long, value_parser = super::args::filter())]
@@ -135,10 +135,10 @@ struct TrackFlags {
     #[arg(long, requires_all = ["z_profile", "port"])]
     replan: bool,
     /// Consecutive frames with a contact area that open the device gate.
-    #[arg(long, value_name = "N", default_value_t = presence::DEFAULT_FRAMES)]
+    #[arg(long, value_name = "N", default_value_t = presence::DEFAULT_FRAMES, value_parser = super::whole::whole::<u32>(1, presence::MAX_FRAMES.into()))]
     enter_frames: u32,
     /// Consecutive frames without one that close it.
-    #[arg(long, value_name = "N", default_value_t = presence::DEFAULT_FRAMES)]
+    #[arg(long, value_name = "N", default_value_t = presence::DEFAULT_FRAMES, value_parser = super::whole::whole::<u32>(1, presence::MAX_FRAMES.into()))]
     leave_frames: u32,
 }
 

@@ -67,7 +67,7 @@ pub struct Args {
     #[command(flatten)]
     port: PortArgs,
     /// Slot to write [default: one that is neither playing nor queued].
-    #[arg(long)]
+    #[arg(long, value_parser = super::whole::whole::<u8>(0, u8::MAX.into()))]
     slot: Option<u8>,
     /// Upload and commit, but do not play (so --hold and --lease, which
     /// apply to a play, are refused).

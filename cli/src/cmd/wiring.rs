@@ -15,7 +15,7 @@ pub struct Args {
     pub scene: Option<PathBuf>,
     /// Channels per iCE40-HX8K driver board; the last board takes the
     /// remainder, as `cargo xtask bitstream --all` builds them.
-    #[arg(long, value_name = "N", default_value_t = MAX_CHANNELS_PER_BOARD)]
+    #[arg(long, value_name = "N", default_value_t = MAX_CHANNELS_PER_BOARD, value_parser = super::whole::whole::<usize>(1, MAX_CHANNELS_PER_BOARD as u64))]
     pub channels_per_board: usize,
     /// Print JSON (one object per channel) instead of CSV.
     #[arg(long)]

@@ -126,16 +126,16 @@ pub(super) fn open_in_place(path: &Path) -> anyhow::Result<File> {
 }
 
 /// Opens the log `path` for writing without blocking (created when free,
-/// truncated when `truncate`): a regular file, or for a fresh log a
+/// truncated when `truncate`): a regular file, or for a `fresh` log a
 /// character device or a FIFO with a reader. Returns the file and whether
 /// it is a regular one.
-pub(super) fn open_log(path: &Path, truncate: bool) -> anyhow::Result<(File, bool)> {
+pub(super) fn open_log(path: &Path, fresh: bool, truncate: bool) -> anyhow::Result<(File, bool)> {
     match std::fs::metadata(path) {
         Ok(m) if !m.is_file() => {
             if m.is_dir() {
                 return Err(WriteError::new(path, std::io::ErrorKind::IsADirectory.into()).into());
             }
-            if !truncate {
+            if !fresh {
                 return Err(refusal(path, &m, "a log to resume must be a regular file").into());
             }
             if !(m.file_type().is_char_device() || m.file_type().is_fifo()) {

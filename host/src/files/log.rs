@@ -28,7 +28,7 @@ impl AppendLog {
     /// Starts `path` afresh (an existing file is emptied).
     pub fn create(path: &Path) -> anyhow::Result<Self> {
         not_an_input("output", path)?;
-        let (file, regular) = open_log(path, true)?;
+        let (file, regular) = open_log(path, true, true)?;
         Ok(Self {
             path: path.to_owned(),
             file,
@@ -37,12 +37,31 @@ impl AppendLog {
         })
     }
 
+    /// Opens `path` to start afresh later ([`PendingLog::start`]), changing
+    /// nothing yet: a path that cannot be written fails now, before the
+    /// work, and a run refused or failed before it starts leaves a file
+    /// that was there as it was and makes none that was not.
+    pub fn prepare(path: &Path) -> anyhow::Result<PendingLog> {
+        not_an_input("output", path)?;
+        let existed = std::fs::symlink_metadata(path).is_ok();
+        let (file, regular) = open_log(path, true, false)?;
+        Ok(PendingLog {
+            log: Some(Self {
+                path: path.to_owned(),
+                file,
+                len: 0,
+                regular,
+            }),
+            made: !existed && regular,
+        })
+    }
+
     /// Opens `path` to append (creating it), first cutting off a torn last
     /// line (one without its newline). Returns the log and its whole lines.
     pub fn open(path: &Path) -> anyhow::Result<(Self, Vec<String>)> {
         use std::io::Read as _;
         not_an_input("output", path)?;
-        let (mut file, regular) = open_log(path, false)?;
+        let (mut file, regular) = open_log(path, false, false)?;
         let mut text = Vec::new();
         file.read_to_end(&mut text)
             .map_err(|e| WriteError::new(path, e))?;
@@ -97,5 +116,36 @@ impl AppendLog {
     /// Where it is.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+}
+
+/// A log opened by [`AppendLog::prepare`], not started: dropped so, it
+/// leaves its file as it was, and removes it when it made it.
+#[derive(Debug)]
+pub struct PendingLog {
+    log: Option<AppendLog>,
+    /// The file did not exist: opening it made it.
+    made: bool,
+}
+
+impl PendingLog {
+    /// Starts the log afresh: a regular file is emptied now.
+    pub fn start(mut self) -> Result<AppendLog, WriteError> {
+        let mut log = self.log.take().expect("a pending log holds its log");
+        if log.regular {
+            log.file
+                .set_len(0)
+                .and_then(|()| log.file.seek(SeekFrom::Start(0)).map(|_| ()))
+                .map_err(|e| WriteError::new(&log.path, e))?;
+        }
+        Ok(log)
+    }
+}
+
+impl Drop for PendingLog {
+    fn drop(&mut self) {
+        if let Some(log) = self.log.take().filter(|_| self.made) {
+            let _ = std::fs::remove_file(&log.path);
+        }
     }
 }

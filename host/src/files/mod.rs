@@ -39,7 +39,7 @@ mod log;
 mod output;
 pub mod text;
 
-pub use log::AppendLog;
+pub use log::{AppendLog, PendingLog};
 pub use output::{Output, replace_input, write_whole};
 
 use std::fs::{File, Metadata};
@@ -227,8 +227,16 @@ fn input_named_by(path: &Path) -> Option<PathBuf> {
         .map(|(_, p)| p.clone())
 }
 
-/// Refuses to write `path` when it is one of this process's inputs.
+/// Refuses to write `path` when it is one of this process's inputs, or
+/// when it is `-`: standard output for a person who types it (as `-` is
+/// standard input for `--stream -`), which an output file is not; it made
+/// a file named `-` in the working directory.
 pub fn not_an_input(flag: &str, path: &Path) -> Result<(), InputError> {
+    if path.as_os_str() == "-" {
+        return Err(InputError::new(format!(
+            "{flag} -: this output is a file, not standard output; give its path (./- for a file named -)"
+        )));
+    }
     match input_named_by(path) {
         Some(input) => Err(InputError::new(format!(
             "{flag} {} is the input {}: refusing to overwrite it; choose another output path",
@@ -237,6 +245,32 @@ pub fn not_an_input(flag: &str, path: &Path) -> Result<(), InputError> {
         ))),
         None => Ok(()),
     }
+}
+
+/// Refuses output `path` of `flag` when files are written beside it under
+/// its name (a recording's `REC.timestamps.npy` and
+/// `REC.intrinsics.toml`) and it is not a regular file or a free name:
+/// `--record /dev/null` wrote `/dev/null.timestamps.npy` into `/dev`.
+pub fn with_files_beside(flag: &str, path: &Path) -> Result<(), InputError> {
+    let Ok(m) = std::fs::metadata(path) else {
+        return Ok(());
+    };
+    let t = m.file_type();
+    // A directory fails as any output's does (exit 1), before anything
+    // is written beside it.
+    let what = if t.is_file() || t.is_dir() {
+        return Ok(());
+    } else if t.is_fifo() {
+        "a FIFO"
+    } else if t.is_char_device() || t.is_block_device() {
+        "a device node"
+    } else {
+        "not a regular file"
+    };
+    Err(InputError::new(format!(
+        "{flag} {}: it is {what}, and files are written beside it under its name: give a file path",
+        path.display()
+    )))
 }
 
 /// Refuses outputs that are the same file as each other (by name after
@@ -275,15 +309,50 @@ pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
 
 /// Makes the output directory `dir` (and its parents) that `flag` names,
 /// refusing (exit 2) one that is an input; a failure names it (exit 1).
-pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<()> {
+/// Hold what it returns while the directory is written: the directories
+/// it made that are still empty when it drops (a run refused, failed or
+/// stopped after making them, or one that wrote nothing) are removed.
+pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
     not_an_input(flag, dir)?;
+    // The ones to make, deepest first.
+    let made: Vec<PathBuf> = dir
+        .ancestors()
+        .filter(|p| !p.as_os_str().is_empty())
+        .take_while(|p| std::fs::symlink_metadata(p).is_err())
+        .map(Path::to_path_buf)
+        .collect();
     std::fs::create_dir_all(dir).map_err(|e| {
         anyhow::anyhow!(
             "cannot create the {flag} directory {}: {}",
             dir.display(),
             reason(&e)
         )
-    })
+    })?;
+    // A signal that ends the command at once removes them too.
+    let guards = made
+        .iter()
+        .map(|d| crate::stop::TempGuard::register_dir(d))
+        .collect();
+    Ok(MadeDirs(made, guards))
+}
+
+/// The directories [`output_dir`] made, deepest first: removed when it
+/// drops while still empty.
+#[derive(Debug)]
+#[must_use = "the directories made are removed, when still empty, as this drops"]
+pub struct MadeDirs(Vec<PathBuf>, Vec<crate::stop::TempGuard>);
+
+impl Drop for MadeDirs {
+    fn drop(&mut self) {
+        self.1.clear();
+        // `remove_dir` removes an empty directory only: the first that
+        // holds something (a file written, a folder kept) ends it.
+        for d in &self.0 {
+            if std::fs::remove_dir(d).is_err() {
+                break;
+            }
+        }
+    }
 }
 
 /// A write to `path` failed: exit 1, naming the file and the reason in

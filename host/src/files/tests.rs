@@ -34,6 +34,51 @@ fn an_uncommitted_output_leaves_nothing_and_keeps_the_old_file() {
 }
 
 #[test]
+fn a_log_not_started_leaves_the_old_file_and_makes_no_new_one() {
+    let d = scratch("pending");
+    let old = d.join("old.jsonl");
+    std::fs::write(&old, b"{\"event\":\"closed\"}\n").unwrap();
+    drop(AppendLog::prepare(&old).unwrap());
+    assert_eq!(std::fs::read(&old).unwrap(), b"{\"event\":\"closed\"}\n");
+    drop(AppendLog::prepare(&d.join("new.jsonl")).unwrap());
+    assert_eq!(names(&d), ["old.jsonl"]);
+    // Started, it is a log afresh; an existing file emptied only now.
+    let mut log = AppendLog::prepare(&old).unwrap().start().unwrap();
+    log.line("a").unwrap();
+    drop(log);
+    assert_eq!(std::fs::read(&old).unwrap(), b"a\n");
+    let mut log = AppendLog::prepare(&d.join("new.jsonl"))
+        .unwrap()
+        .start()
+        .unwrap();
+    log.line("b").unwrap();
+    drop(log);
+    assert_eq!(std::fs::read(d.join("new.jsonl")).unwrap(), b"b\n");
+    // A path it cannot write fails at once.
+    assert!(AppendLog::prepare(&d.join("no/such.jsonl")).is_err());
+    assert!(AppendLog::prepare(&d).is_err());
+}
+
+#[test]
+fn an_output_folder_made_and_left_empty_is_removed() {
+    let d = scratch("made");
+    // Refused or stopped before writing: every folder made goes again.
+    drop(output_dir("--out", &d.join("a/b/c")).unwrap());
+    assert!(names(&d).is_empty(), "{:?}", names(&d));
+    // One written into stays, with the folders above it.
+    let made = output_dir("--out", &d.join("a/b")).unwrap();
+    std::fs::write(d.join("a/b/x.json"), b"{}").unwrap();
+    drop(made);
+    assert!(d.join("a/b/x.json").exists());
+    // A folder that was there is never removed, empty or not.
+    std::fs::create_dir(d.join("was")).unwrap();
+    drop(output_dir("--out", &d.join("was")).unwrap());
+    drop(output_dir("--out", &d.join("was/new")).unwrap());
+    assert_eq!(names(&d), ["a", "was"]);
+    assert!(names(&d.join("was")).is_empty());
+}
+
+#[test]
 fn a_header_rewritten_at_the_end_lands_at_its_offset() {
     let d = scratch("write_at");
     let p = d.join("h.bin");
@@ -124,7 +169,7 @@ fn a_folder_given_a_deleted_inputs_identity_is_not_that_input() {
             inputs.push((id(&std::fs::metadata(p).unwrap()), named));
         }
     }
-    output_dir("--out", &out).unwrap();
+    let _made = output_dir("--out", &out).unwrap();
     let e = not_an_input("--out", &file).unwrap_err();
     assert!(e.to_string().contains("still.toml"), "{e}");
     not_an_input("--out", &fresh).unwrap();

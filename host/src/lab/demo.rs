@@ -392,7 +392,7 @@ pub fn write_field(dir: &std::path::Path) -> anyhow::Result<String> {
     let plan = Stimulus::paper_lm_m().plan(Scene::default())?.plan;
     let view = View::default();
     let sim = simulate_plan(&plan, &view)?;
-    crate::files::output_dir("--plots", dir)?;
+    let _made = crate::files::output_dir("--plots", dir)?;
     write_outputs(
         &plan,
         &sim,

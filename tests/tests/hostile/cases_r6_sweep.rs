@@ -128,7 +128,7 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         SWEEP_EVERY_PATH "stream --port {port} --udp 0" .err("0 is not in 1..=65535");
         // 3. A negative value is the flag's value, refused by its range (it
         //    was an unknown flag `-1`) or taken where the range allows it.
-        SWEEP_NEGATIVE "sim --slot-steps -1" .err("-1 is not in 0..=4294967295");
+        SWEEP_NEGATIVE "sim --slot-steps -1" .err("-1 is not in 1..=65535");
         SWEEP_NEGATIVE "doctor --timeout-ms -1" .err("invalid value '-1' for '--timeout-ms <MS>'");
         SWEEP_NEGATIVE "upload --port {port} --tries -1" .err("-1 is not in 1..=100");
         SWEEP_NEGATIVE "track --synthetic --seconds 0.3 --fast --plot {dir}/r6/plot --plot-frame -1"

@@ -120,9 +120,19 @@ pub const TEXT_LINE_ENDS: &str = "r10-2 CRLF and a lone CR end a line";
 pub const TEXT_WIDE: &str = "r10-3 UTF-16 and UTF-32 are named, with what to do";
 pub const TEXT_NUL: &str = "r10-4 a NUL byte is named with its line";
 pub const TEXT_CSV: &str = "r10-5 a CSV not ours is named, never misread";
+/// Round 11: a fresh look by class (`cases_r11.rs`).
+pub const R11_WHOLE: &str = "r11-1 a whole-number flag names its own range";
+pub const R11_LISTS: &str = "r11-2 a message lists a few of many";
+pub const R11_DIGITS: &str = "r11-3 a report line's number has at most 10 digits";
+pub const R11_TIMING: &str = "r11-4 a study's timeline is checked as played before it starts";
+pub const R11_SETUP: &str = "r11-5 a session failed in its set-up leaves its event log";
+pub const R11_DIRS: &str = "r11-6 an output folder made and left empty is removed";
+pub const R11_ENV: &str = "r11-7 a default from the environment is named as it";
+pub const R11_OUTPUTS: &str = "r11-8 an output is a file where a file is meant";
+pub const R11_LIST_NUMBERS: &str = "r11-9 a number inside a flag's list is read exactly";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 89] = [
+pub const CLASSES: [&str; 98] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -212,4 +222,13 @@ pub const CLASSES: [&str; 89] = [
     TEXT_WIDE,
     TEXT_NUL,
     TEXT_CSV,
+    R11_WHOLE,
+    R11_LISTS,
+    R11_DIGITS,
+    R11_TIMING,
+    R11_SETUP,
+    R11_DIRS,
+    R11_ENV,
+    R11_OUTPUTS,
+    R11_LIST_NUMBERS,
 ];

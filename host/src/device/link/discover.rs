@@ -133,14 +133,13 @@ pub fn choose(
             let list = if found.is_empty() {
                 "none".to_owned()
             } else {
-                found
-                    .iter()
-                    .map(|p| match p.usb {
+                crate::error::some_of(
+                    found.iter().map(|p| match p.usb {
                         Some((v, d)) => format!("{} ({v:04x}:{d:04x})", p.path),
                         None => p.path.clone(),
-                    })
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                    }),
+                    ", ",
+                )
             };
             Err(InputError::new(format!(
                 "no LM board found (serial ports: {list}); pass --port PATH or set {PORT_ENV} \
@@ -149,10 +148,7 @@ pub fn choose(
         }
         many => Err(InputError::new(format!(
             "several LM boards found ({}); choose one with --port PATH or {PORT_ENV}",
-            many.iter()
-                .map(|p| p.path.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
+            crate::error::some_of(many.iter().map(|p| p.path.as_str()), ", ")
         ))),
     }
 }

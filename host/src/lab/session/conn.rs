@@ -69,6 +69,15 @@ impl Conn {
         })
     }
 
+    /// Whether its writer has ended (a write failed; for standard output
+    /// its [`Inbound::StdoutFailed`] is then already sent).
+    pub fn writer_ended(&self) -> bool {
+        use std::sync::mpsc::TryRecvError;
+        self.done
+            .as_ref()
+            .is_some_and(|d| !matches!(d.try_recv(), Err(TryRecvError::Empty)))
+    }
+
     /// Lets the writer write what is queued, waiting for it until
     /// `until` at most, then closes the connection (the session's end).
     pub fn finish(mut self, until: std::time::Instant) {

@@ -22,7 +22,51 @@ pub enum Control {
         unix: PathBuf,
         /// A local TCP port as well.
         tcp: Option<u16>,
+        /// What gave the path, as messages name it: `--control`, or the
+        /// default's environment variable ([`default_socket`]).
+        named: String,
     },
+}
+
+/// The control socket when `--control` is not given, and what gave it
+/// (for messages): `$XDG_RUNTIME_DIR/lmhost.sock` (an absolute
+/// `$XDG_RUNTIME_DIR`, as the XDG spec has it), else
+/// `/tmp/lmhost-$USER.sock` when `$USER` is a file name (no `/`, not `.`
+/// or `..`), else `/tmp/lmhost-UID.sock`: a value of the environment
+/// never places the socket outside those folders.
+pub fn default_socket() -> Result<(PathBuf, String), InputError> {
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
+    if let Some(d) = var("XDG_RUNTIME_DIR") {
+        let d = PathBuf::from(d);
+        if !d.is_absolute() {
+            return Err(InputError::new(format!(
+                "$XDG_RUNTIME_DIR `{}` is not an absolute path, so it holds no default control socket: give --control PATH (or an absolute $XDG_RUNTIME_DIR)",
+                d.display()
+            )));
+        }
+        let named =
+            "the default control socket ($XDG_RUNTIME_DIR/lmhost.sock; give --control PATH)";
+        return Ok((d.join("lmhost.sock"), named.into()));
+    }
+    let user = var("USER").and_then(|u| u.into_string().ok());
+    // SAFETY: getuid has no preconditions and cannot fail.
+    let uid = unsafe { libc::getuid() };
+    Ok(user_socket(user.as_deref(), uid))
+}
+
+/// `/tmp/lmhost-USER.sock` for a `user` that is a file name, else
+/// `/tmp/lmhost-UID.sock`, and what gave it.
+fn user_socket(user: Option<&str>, uid: u32) -> (PathBuf, String) {
+    match user.filter(|u| !u.contains(['/', '\0']) && *u != "." && *u != "..") {
+        Some(u) => (
+            PathBuf::from(format!("/tmp/lmhost-{u}.sock")),
+            "the default control socket (/tmp/lmhost-$USER.sock; give --control PATH)".into(),
+        ),
+        None => (
+            PathBuf::from(format!("/tmp/lmhost-{uid}.sock")),
+            "the default control socket (/tmp/lmhost-UID.sock; give --control PATH)".into(),
+        ),
+    }
 }
 
 /// Longest Unix socket path, bytes: `sockaddr_un`'s `sun_path` holds 108
@@ -79,10 +123,10 @@ impl Endpoint {
                 stdio: true,
                 _socket: None,
             }),
-            Control::Socket { unix, tcp } => {
+            Control::Socket { unix, tcp, named } => {
                 // The token file exists before the socket does: a client
                 // that can connect can read it.
-                free_unix(unix)?;
+                free_unix(unix, named)?;
                 let tcp = tcp
                     .map(|port| -> anyhow::Result<_> {
                         let l = std::net::TcpListener::bind(("127.0.0.1", port)).map_err(|e| {
@@ -91,7 +135,7 @@ impl Endpoint {
                         Ok((l, write_token(&token_path(unix))?))
                     })
                     .transpose()?;
-                let (listener, socket) = bind_unix(unix)?;
+                let (listener, socket) = bind_unix(unix, named)?;
                 Ok(Self {
                     unix: Some(listener),
                     tcp,
@@ -149,12 +193,12 @@ fn write_token(path: &Path) -> anyhow::Result<Token> {
 
 /// Errors unless `path` may be bound: short enough, and nothing there but
 /// the socket of a session that died (removed).
-fn free_unix(path: &Path) -> anyhow::Result<()> {
+fn free_unix(path: &Path, named: &str) -> anyhow::Result<()> {
     use std::os::unix::net::UnixStream;
     let len = path.as_os_str().len();
     if len > MAX_SOCKET_PATH_BYTES {
         return Err(InputError::new(format!(
-            "--control {}: a socket path is at most {MAX_SOCKET_PATH_BYTES} bytes, this one is {len}; give a shorter path",
+            "{named} {}: a socket path is at most {MAX_SOCKET_PATH_BYTES} bytes, this one is {len}; give a shorter path",
             path.display()
         ))
         .into());
@@ -162,7 +206,7 @@ fn free_unix(path: &Path) -> anyhow::Result<()> {
     if std::fs::symlink_metadata(path).is_ok() {
         if UnixStream::connect(path).is_ok() {
             return Err(InputError::new(format!(
-                "--control {}: another session listens there",
+                "{named} {}: another session listens there",
                 path.display()
             ))
             .into());
@@ -173,7 +217,7 @@ fn free_unix(path: &Path) -> anyhow::Result<()> {
         });
         if !is_socket {
             return Err(InputError::new(format!(
-                "--control {}: exists and is not a socket; give a new path",
+                "{named} {}: exists and is not a socket; give a new path",
                 path.display()
             ))
             .into());
@@ -186,17 +230,18 @@ fn free_unix(path: &Path) -> anyhow::Result<()> {
 }
 
 /// Binds the control socket at `path` ([`free_unix`] first), mode 0600.
-fn bind_unix(path: &Path) -> anyhow::Result<(std::os::unix::net::UnixListener, UnixSocket)> {
+fn bind_unix(
+    path: &Path,
+    named: &str,
+) -> anyhow::Result<(std::os::unix::net::UnixListener, UnixSocket)> {
     use std::os::unix::net::UnixListener;
-    let l = UnixListener::bind(path).map_err(|e| {
-        anyhow::anyhow!("--control {}: {}", path.display(), crate::files::reason(&e))
-    })?;
+    let l = UnixListener::bind(path)
+        .map_err(|e| anyhow::anyhow!("{named} {}: {}", path.display(), crate::files::reason(&e)))?;
     let guard = UnixSocket {
         path: path.to_owned(),
     };
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600)).map_err(|e| {
-        anyhow::anyhow!("--control {}: {}", path.display(), crate::files::reason(&e))
-    })?;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o600))
+        .map_err(|e| anyhow::anyhow!("{named} {}: {}", path.display(), crate::files::reason(&e)))?;
     Ok((l, guard))
 }
 
@@ -209,11 +254,31 @@ mod tests {
     }
 
     #[test]
+    fn the_default_socket_stays_in_tmp_whatever_user_says() {
+        let path = |u: Option<&str>| user_socket(u, 1000).0;
+        assert_eq!(path(Some("ana")), Path::new("/tmp/lmhost-ana.sock"));
+        for odd in [
+            None,
+            Some("../../etc/x"),
+            Some("a/b"),
+            Some(".."),
+            Some("."),
+            Some("a\0b"),
+        ] {
+            assert_eq!(path(odd), Path::new("/tmp/lmhost-1000.sock"), "{odd:?}");
+        }
+    }
+
+    #[test]
     fn a_socket_path_too_long_is_bad_input_in_plain_words() {
         let p = PathBuf::from(format!("/tmp/{}", "s".repeat(200)));
-        let e = Endpoint::bind(&Control::Socket { unix: p, tcp: None })
-            .err()
-            .unwrap();
+        let e = Endpoint::bind(&Control::Socket {
+            unix: p,
+            tcp: None,
+            named: "--control".into(),
+        })
+        .err()
+        .unwrap();
         assert!(e.is::<InputError>(), "{e}");
         let m = e.to_string();
         assert!(m.contains("at most 107 bytes, this one is 205"), "{m}");
@@ -230,6 +295,7 @@ mod tests {
         let e = Endpoint::bind(&Control::Socket {
             unix: sock.clone(),
             tcp: Some(port),
+            named: "--control".into(),
         })
         .unwrap();
         let tp = e.token_path().unwrap().to_owned();

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{SyncSender, TrySendError, sync_channel};
 use std::thread::JoinHandle;
 
-use crate::files::AppendLog;
+use crate::files::{AppendLog, PendingLog};
 
 /// Lines the log may fall behind the loop.
 pub const LOG_QUEUE: usize = 65_536;
@@ -20,10 +20,28 @@ pub struct EventLog {
     writer: Option<JoinHandle<anyhow::Result<()>>>,
 }
 
+/// An event log opened, not started ([`EventLog::prepare`]).
+pub struct PendingEventLog(PendingLog);
+
+impl PendingEventLog {
+    /// Starts the log afresh (an existing file is emptied now).
+    pub fn start(self) -> anyhow::Result<EventLog> {
+        EventLog::begin(self.0.start()?)
+    }
+}
+
 impl EventLog {
-    /// Starts `path` afresh.
-    pub fn create(path: &Path) -> anyhow::Result<Self> {
-        let mut log = AppendLog::create(path)?;
+    /// Opens `path` to start afresh once the session has started
+    /// ([`PendingEventLog::start`]): a path that cannot be written fails
+    /// now, and a session refused or failed in its set-up leaves an
+    /// earlier session's log as it was ([`AppendLog::prepare`]).
+    pub fn prepare(path: &Path) -> anyhow::Result<PendingEventLog> {
+        Ok(PendingEventLog(AppendLog::prepare(path)?))
+    }
+
+    /// The log writing into `log`.
+    fn begin(mut log: AppendLog) -> anyhow::Result<Self> {
+        let path = log.path().to_owned();
         let (queue, rx) = sync_channel::<Arc<str>>(LOG_QUEUE);
         let writer = std::thread::Builder::new()
             .name("lmhost-events".into())
@@ -38,7 +56,7 @@ impl EventLog {
                 Ok(())
             })?;
         Ok(Self {
-            path: path.to_owned(),
+            path,
             queue: Some(queue),
             writer: Some(writer),
         })

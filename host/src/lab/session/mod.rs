@@ -49,7 +49,7 @@ use crate::plan::scene::Scene;
 use crate::plan::stimulus::TargetPlan;
 use crate::units::mm_to_um;
 
-pub use eventlog::EventLog;
+pub use eventlog::{EventLog, PendingEventLog};
 pub use protocol::{Command, Event, EventKind, Gate, LibraryItem, OffsetReason, Present, Reply};
 pub use resident::Loaded;
 pub use stage::{IN_PROCESS, LATE_STOP, Owner, STATUS_EVERY, TICK_EVERY};
@@ -58,6 +58,14 @@ use stage::{OnPhase, Presentation, Stage};
 
 /// Longest `on_s` / `off_s`, seconds.
 pub const MAX_PHASE_S: f64 = 3_600.0;
+
+/// Whether an on-phase of `on_s` plays at least one step of a stimulus
+/// whose steps last `dwell_us`: the device plays the whole number of steps
+/// nearest to it, so one under half a step would play none (and is played
+/// as one, longer than asked).
+pub fn plays_a_step(on_s: f64, dwell_us: f64) -> bool {
+    (on_s * 1e6 / dwell_us).round() >= 1.0
+}
 
 /// Most on-phases one `present` asks for.
 pub const MAX_REPEAT: u32 = 10_000;
@@ -274,17 +282,10 @@ impl Session {
 
     fn entry(&self, id: &str) -> Result<usize, InputError> {
         self.loaded.iter().position(|l| l.id == id).ok_or_else(|| {
-            let ids: Vec<String> = self
-                .loaded
-                .iter()
-                .take(8)
-                .map(|l| protocol::clip(&l.id))
-                .collect();
             InputError::new(format!(
-                "no stimulus `{}` in the library (it has {}{})",
+                "no stimulus `{}` in the library (it has {})",
                 protocol::clip(id),
-                ids.join(", "),
-                if self.loaded.len() > 8 { ", ..." } else { "" }
+                crate::error::some_of(self.loaded.iter().map(|l| protocol::clip(&l.id)), ", ")
             ))
         })
     }
@@ -318,7 +319,7 @@ impl Session {
         // would be played as one step longer than asked, without a word.
         if let (Some(s), Some(_)) = (req.on_s, on) {
             let dwell_us = self.loaded[i].planned.plan.sequence.dwell_us();
-            if (s * 1e6 / dwell_us).round() < 1.0 {
+            if !plays_a_step(s, dwell_us) {
                 return Err(InputError::new(format!(
                     "on_s {} s is shorter than half a step of `{}` ({} µs): the device plays whole steps; give at least {} s",
                     crate::limits::show(s),

@@ -27,7 +27,7 @@ use crate::sense::stream::filter::Filter;
 
 pub use super::conn::{CLIENT_QUEUE, MAX_CLIENTS};
 pub use super::driver::Finger;
-pub use super::endpoint::{Control, Endpoint, MAX_SOCKET_PATH_BYTES, token_path};
+pub use super::endpoint::{Control, Endpoint, MAX_SOCKET_PATH_BYTES, default_socket, token_path};
 
 /// What the session does when the client controlling it goes away.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -47,8 +47,9 @@ pub struct Options {
     pub control: Endpoint,
     /// When the controlling client goes away.
     pub on_disconnect: OnDisconnect,
-    /// The event log, opened before the session starts ([`EventLog::create`])
-    /// so a bad path is refused before the device is touched.
+    /// The event log, opened before the device is touched
+    /// ([`EventLog::prepare`]: a bad path is refused then) and started
+    /// once the session has.
     pub events: Option<EventLog>,
     /// The finger source.
     pub finger: Finger,
@@ -248,6 +249,12 @@ impl Loop {
             return Ok(None);
         };
         if id == STDIO {
+            // Its writer failed (the reader closed it, a full disk): the
+            // failure it sent ends the session as such, a closed pipe
+            // quietly, whichever of the two the loop saw first.
+            if c.writer_ended() {
+                return Ok(None);
+            }
             // Nothing reads the session's output any more.
             anyhow::bail!(
                 "standard output fell {} lines behind (nothing reads it); the session ended",

@@ -305,11 +305,12 @@ impl Holds {
         if ok {
             return Ok(());
         }
+        use crate::error::some_of;
         Err(match self {
             Self::Participant => "give the participant's id".into(),
             Self::Count => "give a whole number from 1".into(),
             Self::Stimulus => "give a library entry's id".into(),
-            Self::Level(l) => format!("give one of the levels {}", l.join(", ")),
+            Self::Level(l) => format!("give one of the levels {}", some_of(l, ", ")),
             Self::Measured => "give a number from 0 or nothing".into(),
             Self::Tally => "give a whole number from 0 or nothing".into(),
             Self::Fraction => "give a fraction from 0 to 1 or nothing".into(),
@@ -317,14 +318,14 @@ impl Holds {
             Self::Time => "give a time as 2026-01-31T12:00:00.000Z".into(),
             Self::Answers => "give a whole number from 0".into(),
             Self::Likert(p) => format!("give 1 to {p} or nothing"),
-            Self::Choice(l) => format!("give one of {} or nothing", l.join(", ")),
+            Self::Choice(l) => format!("give one of {} or nothing", some_of(l, ", ")),
             Self::Number(lo, hi) => format!("give a number {} or nothing", range(*lo, *hi)),
-            Self::Order(n) => format!("give {} in some order, `|`-joined", n.join(", ")),
+            Self::Order(n) => format!("give {} in some order, `|`-joined", some_of(n, ", ")),
             Self::Depth(lo, hi) => format!("give millimetres {}", range(*lo, *hi)),
             Self::Depths(lo, hi) => format!("give `|`-joined millimetres {}", range(*lo, *hi)),
             Self::Adjustments(max) => format!("give a whole number from 0 to {max}"),
-            Self::AdjustAnswers(l) => format!("give `|`-joined answers of {}", l.join(", ")),
-            Self::Levels(l) => format!("give `|`-joined levels of {}", l.join(", ")),
+            Self::AdjustAnswers(l) => format!("give `|`-joined answers of {}", some_of(l, ", ")),
+            Self::Levels(l) => format!("give `|`-joined levels of {}", some_of(l, ", ")),
             Self::Seconds => "give `|`-joined seconds from 0, or nothing".into(),
             Self::Force => format!("give newtons {} or nothing", range(0.0, MAX_FORCE_N)),
         })

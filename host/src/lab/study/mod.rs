@@ -48,6 +48,7 @@ pub mod schema;
 pub mod start;
 #[cfg(test)]
 pub(crate) mod test_files;
+mod timing;
 pub mod trial;
 
 use std::time::Duration;
@@ -144,6 +145,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
         i.check(a.max_mm)?;
         crate::device::instruments::check_rig(&i.stage, &i.gauge)?;
     }
+    crate::files::not_an_input("--out", &o.out)?;
     let paths = start::Paths::new(&o.out, &o.participant);
     // Everything is checked (and a responses file dry-run) before the
     // device opens and before any file changes.
@@ -155,6 +157,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let (scene, scene_record) = provenance::load_scene(o.scene.as_deref())?;
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
+    timing::check(&p, &plans, o.time_scale)?;
     crate::stop::check_set_up("planning the stimulus library")
         .map_err(|e| ending::set_up_stopped(&e, &o, "the device was not opened"))?;
     let mut warned = std::collections::BTreeSet::new();
@@ -212,7 +215,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     st.file.runs.push(this_run);
     // session.json first: a run stopped before its trials.csv header is
     // still resumable.
-    crate::files::output_dir("--out", &paths.dir)?;
+    let _made = crate::files::output_dir("--out", &paths.dir)?;
     crate::files::write_whole(&paths.session, &serde_json::to_vec_pretty(&st.file)?)?;
     let mut trials_log = st.open_trials(&p, &paths.trials)?;
     let events_log = st.open_events(o.resume, &paths.events)?;

@@ -36,11 +36,11 @@ impl Psychometric {
                     .map_err(|_| bad(format!("seed `{v}` is not a whole number")))?;
                 continue;
             }
-            let x: f64 = v
-                .parse()
-                .ok()
-                .filter(|x: &f64| x.is_finite())
-                .ok_or_else(|| bad(format!("{k} `{v}` is not a finite number")))?;
+            let x = match crate::limits::exact_number(v) {
+                Ok(x) if x.is_finite() => x,
+                Err(Some(m)) => return Err(bad(format!("{k}: {m}"))),
+                _ => return Err(bad(format!("{k} `{v}` is not a finite number"))),
+            };
             match k {
                 "threshold" => threshold = Some(x),
                 "slope" => slope = Some(x),

@@ -61,6 +61,16 @@ fn participant_dirs(dir: &Path) -> Result<(Vec<PathBuf>, Skipped), InputError> {
             Some(why) => Err(InputError::new(why)),
         };
     }
+    // A file given for the folder (a trials.csv, a FIFO) is named as
+    // such, not as a path one of whose parts is no folder.
+    if let Ok(m) = std::fs::metadata(dir)
+        && !m.is_dir()
+    {
+        return Err(InputError::new(format!(
+            "{} is not a folder: give a participant folder (it holds session.json and trials.csv) or the study's --out",
+            dir.display()
+        )));
+    }
     let rd = std::fs::read_dir(dir).map_err(|e| {
         InputError::new(format!(
             "cannot read {}: {}",
@@ -82,17 +92,22 @@ fn participant_dirs(dir: &Path) -> Result<(Vec<PathBuf>, Skipped), InputError> {
         }
     }
     if ok.is_empty() {
-        let why: Vec<String> = skipped
-            .iter()
-            .map(|(d, w)| format!("{}: {w}", d.display()))
-            .collect();
         return Err(InputError::new(format!(
             "{}: no participant folder in it (one holds session.json and trials.csv; give a participant folder or the study's --out){}",
             dir.display(),
-            if why.is_empty() {
-                String::new()
-            } else {
-                format!("; skipped {}", why.join("; "))
+            match skipped.first() {
+                None => String::new(),
+                // Each folder by its name in `dir`, the first one's reason
+                // (a folder of hundreds made one line of kilobytes).
+                Some((_, why)) => format!(
+                    "; skipped {} (the first: {why})",
+                    crate::error::some_of(
+                        skipped
+                            .iter()
+                            .map(|(d, _)| d.file_name().unwrap_or(d.as_os_str()).display()),
+                        ", "
+                    )
+                ),
             }
         )));
     }

@@ -531,6 +531,7 @@ impl Recorder {
                 ("--record's colour time stamps", ctimes.as_path()),
             ]);
         }
+        crate::files::with_files_beside("--record", path)?;
         crate::files::distinct_outputs(&outs)?;
         let writer = DepthNpyWriter::create(path, intr.pinhole.width, intr.pinhole.height)?;
         let colour = match colour {

@@ -69,11 +69,7 @@ pub(super) fn check(
                     format!(
                         "block `{name}`: `{}` is not a factor (factors: {})",
                         factor.escape_debug(),
-                        factors
-                            .iter()
-                            .map(|f| f.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
+                        crate::error::some_of(factors.iter().map(|f| f.name.as_str()), ", ")
                     ),
                 ));
             };
@@ -95,7 +91,7 @@ pub(super) fn check(
                     factor,
                     format!(
                         "block `{name}`: `{l}` is not a level of `{factor}` ({})",
-                        factors[k].levels.join(", ")
+                        crate::error::some_of(&factors[k].levels, ", ")
                     ),
                 ));
             }

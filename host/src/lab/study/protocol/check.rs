@@ -492,11 +492,7 @@ fn report(r: Option<ReportFile>, factors: &[Factor], e: &Errors) -> Result<Repor
                 field,
                 format!(
                     "`{n}` is not a factor (the factors: {})",
-                    factors
-                        .iter()
-                        .map(|f| f.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    crate::error::some_of(factors.iter().map(|f| f.name.as_str()), ", ")
                 ),
             )
         })
@@ -541,7 +537,7 @@ fn report(r: Option<ReportFile>, factors: &[Factor], e: &Errors) -> Result<Repor
                                     "`{}` is not a level of factor `{}` ({})",
                                     l.escape_debug(),
                                     f.name,
-                                    f.levels.join(", ")
+                                    crate::error::some_of(&f.levels, ", ")
                                 ),
                             ));
                         }

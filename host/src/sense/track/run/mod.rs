@@ -119,9 +119,10 @@ impl TrackRun {
             Some(p) => Some(Recorder::create(p, intr, src.colour_camera())?),
             None => None,
         };
-        if let Some(p) = &opts.plot {
-            crate::files::output_dir("--plot", &p.dir)?;
-        }
+        let plot_dir = match &opts.plot {
+            Some(p) => Some(crate::files::output_dir("--plot", &p.dir)?),
+            None => None,
+        };
         let live = src.live();
         let replanner = match replan {
             true => Some(DeviceReplan::new(&scene, &setup)?),
@@ -140,6 +141,7 @@ impl TrackRun {
             plot_at: opts.plot.as_ref().and_then(|p| p.frame),
             plot_frame: None,
             want_plot: opts.plot.is_some(),
+            _plot_dir: plot_dir,
             tally: Tally::default(),
             second: Tally::default(),
             next_summary: f64::NEG_INFINITY,
@@ -416,6 +418,8 @@ struct Run {
     plot_at: Option<u64>,
     plot_frame: Option<(u64, Vec<u16>)>,
     want_plot: bool,
+    /// The `--plot` folder made: removed, while empty, with the run.
+    _plot_dir: Option<crate::files::MadeDirs>,
     tally: Tally,
     second: Tally,
     next_summary: f64,

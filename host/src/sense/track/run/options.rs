@@ -207,7 +207,10 @@ impl ZProfile {
             ))
         };
         let (r, n) = spec.split_once(',').ok_or_else(bad)?;
-        let radius_mm: f64 = r.trim().parse().map_err(|_| bad())?;
+        let radius_mm = crate::limits::exact_number(r.trim()).map_err(|e| match e {
+            Some(m) => InputError::new(format!("--z-profile `{spec}`: {m}")),
+            None => bad(),
+        })?;
         let steps: usize = n.trim().parse().map_err(|_| bad())?;
         if !(radius_mm > 0.0 && radius_mm <= 20.0 && (1..=1000).contains(&steps)) {
             return Err(bad());
