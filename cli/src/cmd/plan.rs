@@ -44,7 +44,7 @@ pub struct StimulusFlags {
     pub radius: Option<f64>,
     /// Foci per step, 1..=32: 1 = LM-S, more = LM-M (foci rotate together)
     /// [default: 1].
-    #[arg(long, value_name = "N", value_parser = super::whole::whole::<usize>(1, lmhost::plan::trajectory::MAX_FOCI as u64))]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole_for_library::<usize>(1, lmhost::plan::trajectory::MAX_FOCI as u64))]
     pub foci: Option<usize>,
     /// Spacing d between neighbouring foci along the circle in mm (LM-M),
     /// above 0 and at most 1000 [default: 3].
@@ -64,7 +64,7 @@ pub struct StimulusFlags {
     )]
     pub step: Option<f64>,
     /// Steps per cycle N, 1..=65535 (instead of --step).
-    #[arg(long, value_name = "N", value_parser = super::whole::whole::<usize>(1, lmhost::plan::trajectory::MAX_STEPS as u64))]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole_for_library::<usize>(1, lmhost::plan::trajectory::MAX_STEPS as u64))]
     pub steps: Option<usize>,
     /// LM centre X,Y,Z in mm, finger space, each within ±2000 and in front
     /// of the array [default: the scene's centre, (0,0,200) for the
@@ -79,7 +79,7 @@ pub struct StimulusFlags {
     #[arg(long, value_enum)]
     pub method: Option<Method>,
     /// GS-PAT iterations, 1..=1000 (with --method gspat) [default: 20].
-    #[arg(long, value_name = "N", value_parser = super::whole::whole::<usize>(1, limits::MAX_ITERATIONS as u64))]
+    #[arg(long, value_name = "N", value_parser = super::whole::whole_for_library::<usize>(1, limits::MAX_ITERATIONS as u64))]
     pub iterations: Option<usize>,
     /// Real weight per focus, comma-separated, each within 0..=1e6 and
     /// not all zero (linear synthesis only).
@@ -536,13 +536,25 @@ mod tests {
             assert!(e.chain().any(|c| c.is::<InputError>()), "{a:?}: {e}");
             assert!(e.to_string().contains(want), "{a:?}: {e}");
         }
-        // A whole number out of its range is refused as the flag's value.
-        let Err(e) = Cli::try_parse_from(["x", "--method", "gspat", "--iterations", "100000000"])
+        // A whole number out of its range: by the library's rule (the
+        // words Python's `plan()` says too) where its type holds it, as
+        // the flag's value where not.
+        let e = args(&["--method", "gspat", "--iterations", "100000000"])
+            .plan()
+            .unwrap_err();
+        assert!(e.chain().any(|c| c.is::<InputError>()), "{e}");
+        assert_eq!(
+            e.to_string(),
+            "--iterations 100000000 is out of range: allowed 1..=1000"
+        );
+        let too_many = "99999999999999999999999";
+        let Err(e) = Cli::try_parse_from(["x", "--method", "gspat", "--iterations", too_many])
         else {
-            panic!("--iterations 100000000 parsed");
+            panic!("--iterations {too_many} parsed");
         };
         assert!(
-            e.to_string().contains("100000000 is not in 1..=1000"),
+            e.to_string()
+                .contains(&format!("{too_many} is not in 1..=1000")),
             "{e}"
         );
     }

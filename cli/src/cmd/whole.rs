@@ -36,6 +36,34 @@ where
     }
 }
 
+/// For a flag whose range the library checks in its own words, the words
+/// Python's `plan()` says too (`--foci`, `--steps`, `--iterations`): a
+/// value that is not a whole number or that `T` cannot hold is refused as
+/// [`whole`] refuses it, naming `lo..=hi`; any other whole number is the
+/// library's to take or refuse (`foci must be 1..=32, got 0`).
+pub fn whole_for_library<T>(
+    lo: u64,
+    hi: u64,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
+where
+    T: TryFrom<u64> + Clone + Send + Sync + 'static,
+{
+    let own = whole::<T>(lo, hi);
+    move |s: &str| {
+        let digits = s.strip_prefix('+').unwrap_or(s);
+        let held = digits
+            .bytes()
+            .all(|b| b.is_ascii_digit())
+            .then(|| digits.parse::<u64>().ok())
+            .flatten()
+            .and_then(|v| T::try_from(v).ok());
+        match held {
+            Some(v) => Ok(v),
+            None => own(s),
+        }
+    }
+}
+
 /// `lo..=hi`, the largest `u64` written as what it is.
 fn range(lo: u64, hi: u64) -> String {
     match hi {
@@ -81,5 +109,28 @@ mod tests {
             whole::<u8>(0, 255)("256"),
             Err("256 is not in 0..=255".into())
         );
+    }
+
+    #[test]
+    fn a_value_the_library_rules_on_passes_to_it() {
+        let p = whole_for_library::<u8>(1, 32);
+        // The library's rule says these.
+        assert_eq!(p("0"), Ok(0));
+        assert_eq!(p("+33"), Ok(33));
+        assert_eq!(p("255"), Ok(255));
+        // What no rule of the library sees: named by the flag's range.
+        for (v, want) in [
+            ("-1", "-1 is not in 1..=32"),
+            ("256", "256 is not in 1..=32"),
+            (
+                "99999999999999999999999",
+                "99999999999999999999999 is not in 1..=32",
+            ),
+            ("1.5", "1.5 is not a whole number in 1..=32"),
+            ("", " is not a whole number in 1..=32"),
+            ("+", "+ is not a whole number in 1..=32"),
+        ] {
+            assert_eq!(p(v), Err(want.to_owned()), "{v}");
+        }
     }
 }
