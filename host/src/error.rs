@@ -224,6 +224,76 @@ pub fn one_line(err: &anyhow::Error) -> String {
     line
 }
 
+/// Rust's type names, as serde and the toml crate end a message with
+/// them (`expected u32`), in the words of someone who writes the file:
+/// what each type holds.
+const TYPE_WORDS: [(&str, &str); 15] = [
+    ("u8", "a whole number from 0 to 255"),
+    ("u16", "a whole number from 0 to 65535"),
+    ("u32", "a whole number from 0 to 4294967295"),
+    ("u64", "a whole number ≥ 0"),
+    ("u128", "a whole number ≥ 0"),
+    ("usize", "a whole number ≥ 0"),
+    ("i8", "a whole number from -128 to 127"),
+    ("i16", "a whole number from -32768 to 32767"),
+    ("i32", "a whole number"),
+    ("i64", "a whole number"),
+    ("i128", "a whole number"),
+    ("isize", "a whole number"),
+    ("f32", "a number"),
+    ("f64", "a number"),
+    ("bool", "true or false"),
+];
+
+/// `msg` with serde's words for a value of the wrong type in plain ones:
+/// `expected usize` says `expected a whole number ≥ 0`, `expected f64`
+/// `expected a number`, and the toml crate's `` `1e20` as i128 `` drops
+/// its ` as i128`. A scene, a library, a protocol or a control line is
+/// written by a researcher, who should not need Rust's names for
+/// numbers. Only a whole word after `expected ` (or `as `) is replaced;
+/// the rest of the message is left as it is.
+pub fn plain_types(msg: &str) -> std::borrow::Cow<'_, str> {
+    if !msg.contains("expected ") && !msg.contains("` as ") {
+        return msg.into();
+    }
+    let mut out = String::with_capacity(msg.len() + 32);
+    let mut rest = msg;
+    while let Some(i) = rest.find(['e', '`']) {
+        out.push_str(&rest[..i]);
+        rest = &rest[i..];
+        let word_start = out
+            .chars()
+            .next_back()
+            .is_none_or(|c| !c.is_alphanumeric() && c != '_');
+        let (lead, replace) = if word_start && rest.starts_with("expected ") {
+            ("expected ", true)
+        } else if rest.starts_with("` as ") {
+            ("` as ", false)
+        } else {
+            let c = rest.chars().next().unwrap_or_default();
+            out.push(c);
+            rest = &rest[c.len_utf8()..];
+            continue;
+        };
+        let after = &rest[lead.len()..];
+        let end = after
+            .find(|c: char| !c.is_alphanumeric() && c != '_')
+            .unwrap_or(after.len());
+        match TYPE_WORDS.iter().find(|(t, _)| *t == &after[..end]) {
+            Some((_, words)) if replace => {
+                out.push_str(lead);
+                out.push_str(words);
+            }
+            // `1e20` as i128: the quoted value alone.
+            Some(_) => out.push('`'),
+            None => out.push_str(&rest[..lead.len() + end]),
+        }
+        rest = &after[end..];
+    }
+    out.push_str(rest);
+    out.into()
+}
+
 /// Return early with an [`InputError`] built from a format string.
 #[macro_export]
 macro_rules! bad_input {
@@ -292,7 +362,7 @@ mod tests {
         assert_eq!(InputError::new(m.clone()).to_string(), m);
         assert_eq!(
             crate::out::tidy(&InputError::new(m).to_string()),
-            "invalid type: floating point `5e-324`, expected u32"
+            "invalid type: floating point `5e-324`, expected a whole number from 0 to 4294967295"
         );
         // A value holding a backquote of its own, its rest then read as
         // text between two quotes: cut as well.
@@ -338,5 +408,46 @@ mod tests {
             choose("a mode", "x", &[("only", ())]).unwrap_err(),
             "`x` is not a mode: give only"
         );
+    }
+
+    #[test]
+    fn serdes_type_names_are_said_in_words() {
+        for (msg, said) in [
+            (
+                "line 10, field `stimulus[0].foci`: invalid value: integer `-1`, expected usize",
+                "line 10, field `stimulus[0].foci`: invalid value: integer `-1`, expected a whole number ≥ 0",
+            ),
+            (
+                "field `foci`: invalid type: integer `1e20` as i128, expected usize",
+                "field `foci`: invalid type: integer `1e20`, expected a whole number ≥ 0",
+            ),
+            (
+                "invalid type: string \"a\", expected f64",
+                "invalid type: string \"a\", expected a number",
+            ),
+            (
+                "invalid type: floating point `1.5`, expected u8 at line 1 column 9",
+                "invalid type: floating point `1.5`, expected a whole number from 0 to 255 at line 1 column 9",
+            ),
+            (
+                "invalid type: integer `2`, expected bool",
+                "invalid type: integer `2`, expected true or false",
+            ),
+        ] {
+            assert_eq!(plain_types(msg), said);
+            assert_eq!(crate::out::tidy(msg), said);
+        }
+        // Other words after `expected`, a type name inside a word or a
+        // quoted value, and a value's own ` as ` are left as they are.
+        for msg in [
+            "unknown variant `x`, expected `none` or `brown_conrady`",
+            "invalid length 2, expected an array of length 3",
+            "unexpected u8 in `expected u32x`",
+            "`usize` as written",
+            "field `unexpected`: 1 as i8",
+            "",
+        ] {
+            assert_eq!(plain_types(msg), msg);
+        }
     }
 }

@@ -131,9 +131,11 @@ pub fn count(n: u64, noun: &str) -> String {
 
 /// `msg` as every message leaves lmhost (stderr, Python's exceptions):
 /// numbers through [`crate::limits::tidy_numbers`], overlong words through
-/// [`shorten_long_words`], hidden characters through [`visible`].
+/// [`shorten_long_words`], Rust's type names through
+/// [`crate::error::plain_types`], hidden characters through [`visible`].
 pub fn tidy(msg: &str) -> String {
-    visible(&crate::limits::tidy_numbers(&shorten_long_words(msg)))
+    let msg = crate::error::plain_types(msg);
+    visible(&crate::limits::tidy_numbers(&shorten_long_words(&msg)))
 }
 
 /// `msg` with every character a terminal acts on instead of showing

@@ -509,12 +509,14 @@ impl Reply {
         Self(m)
     }
 
-    /// Failure for `cmd` (`""` when the line was not a command).
+    /// Failure for `cmd` (`""` when the line was not a command), Rust's
+    /// type names in words ([`crate::error::plain_types`]).
     pub fn error(cmd: &str, msg: impl Into<String>) -> Self {
+        let msg: String = msg.into();
         let mut m = serde_json::Map::new();
         m.insert("ok".into(), false.into());
         m.insert("cmd".into(), cmd.into());
-        m.insert("error".into(), msg.into().into());
+        m.insert("error".into(), crate::error::plain_types(&msg).into());
         Self(m)
     }
 
@@ -610,6 +612,14 @@ mod tests {
             assert!(e.contains(needle), "{line}: {e}");
             assert!(e.starts_with("bad command: ") && !e.contains('\n'), "{e}");
         }
+        // The reply says what a field holds, not its Rust type.
+        let e = Command::parse(r#"{"cmd":"present","stimulus":"a","repeat":-1}"#).unwrap_err();
+        let r = Reply::error("present", e.to_string());
+        let said = r.0["error"].as_str().unwrap();
+        assert!(
+            said.contains("expected a whole number from 0 to 4294967295") && !said.contains("u32"),
+            "{said}"
+        );
         // A refusal names the command it refuses, where the line names one.
         for (line, name) in [
             (r#"{"cmd":"present","stimulus":"a","on_s":"x"}"#, "present"),
