@@ -383,15 +383,46 @@ impl WriteError {
 /// For tests: a fresh, empty folder `lmhost-<name>-<pid>` in the
 /// system's temporary folder (`name` unique within the crate's tests),
 /// removed when the guard drops; kept, and its path said on stderr, when
-/// the test failed, for a look.
+/// the test failed, for a look. Folders of the same name whose process
+/// has ended go first ([`sweep_ended`]).
 #[cfg(test)]
 pub(crate) fn scratch(name: &str) -> Scratch {
-    let d = std::env::temp_dir().join(format!("lmhost-{name}-{}", std::process::id()));
+    let stem = format!("lmhost-{name}-");
+    sweep_ended(&stem);
+    let d = std::env::temp_dir().join(format!("{stem}{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     Scratch {
         path: d.clone(),
         dir: d,
+    }
+}
+
+/// Removes the folders `<stem><pid>` in the temporary folder whose
+/// process is no longer running (Linux's `/proc`; elsewhere nothing): a
+/// guard that never dropped left them, one held by a `static` (the fuzz
+/// harness's seed studies, run once per process) or a test process
+/// killed.
+#[cfg(test)]
+fn sweep_ended(stem: &str) {
+    let proc_fs = Path::new("/proc/self");
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return;
+    };
+    if !proc_fs.exists() {
+        return;
+    }
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let pid = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(stem))
+            .filter(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit()));
+        if let Some(pid) = pid
+            && !Path::new("/proc").join(pid).exists()
+        {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
     }
 }
 

@@ -375,3 +375,22 @@ fn a_name_too_long_for_the_file_system_is_shown_cut_around_its_length() {
         .to_string();
     assert!(e.ends_with("none.toml: no such file or directory"), "{e}");
 }
+
+#[test]
+fn a_scratch_folder_left_by_an_ended_process_is_swept() {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let tmp = std::env::temp_dir();
+    // No process has this id (above Linux's largest, 2^22).
+    let ended = tmp.join("lmhost-files-sweep-999999999");
+    let other = tmp.join("lmhost-files-sweep-x1");
+    for d in [&ended, &other] {
+        std::fs::create_dir_all(d.join("inner")).unwrap();
+    }
+    let d = scratch("sweep");
+    assert!(!ended.exists(), "{} left", ended.display());
+    assert!(other.exists(), "not a process's folder: kept");
+    assert!(d.exists());
+    std::fs::remove_dir_all(&other).unwrap();
+}
