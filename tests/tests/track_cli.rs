@@ -396,6 +396,12 @@ fn replan_uploads_the_surface_profile_into_the_idle_slot() {
         "--replan",
         "--replan-mm",
         "0.2",
+        // Replies waited for as long as a loaded machine may take: a
+        // centroid sent again after a late ack is refused as stale by the
+        // device (and taken as delivered by lmhost), a NACK this test's
+        // count of refusals would take for a refused upload.
+        "--timeout-ms",
+        "5000",
     ]);
     let line = out
         .lines()
