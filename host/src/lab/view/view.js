@@ -5,13 +5,16 @@
 // so a slow page draws fewer frames and hears of a question at once. A
 // connection that drops (the view took the page for gone, the network
 // failed) is made again, the view sending the question again; only the
-// view's word that the session has ended stops it.
+// view's word that the session has ended, or a view refusing the page's
+// token (another session's), stops it.
 const TOKEN = new URLSearchParams(location.search).get("token") || "";
 window.lmFrames = 0;
 // Connections opened (for scripts and tests).
 window.lmConnects = 0;
 // The view's close code and reason when the session has ended (feed.rs).
 const ENDED = "the session has ended";
+// What a page of an earlier session says once the view refuses it.
+const REFUSED = "disconnected: this page is of an earlier session; open the address lmhost printed";
 
 function connect(role, onFrame, onLog, onQuestion) {
   const status = (t) => {
@@ -25,7 +28,9 @@ function connect(role, onFrame, onLog, onQuestion) {
     window.lmSocket = ws;
     ws.binaryType = "blob";
     let meta = null;
+    let opened = false;
     ws.onopen = () => {
+      opened = true;
       delay = 250;
       window.lmConnects += 1;
       const s = document.getElementById("status");
@@ -60,10 +65,22 @@ function connect(role, onFrame, onLog, onQuestion) {
         if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify({ type: "took", seq: m.seq, drawn }));
       }
     };
-    ws.onclose = (ev) => {
+    ws.onclose = async (ev) => {
       if (ev.code === 1000 && ev.reason === ENDED) {
         status("disconnected: the session has ended");
         return;
+      }
+      // Refused before it opened: lmhost may have started again on this
+      // address, a new session with a new token, which refuses this
+      // page's (403). Said once, and no more attempts; a view that is
+      // not there (yet) is tried again.
+      if (!opened) {
+        const r = await fetch(`/state.json?token=${encodeURIComponent(TOKEN)}`, { cache: "no-store" }).catch(() => null);
+        if (r && r.status === 403) {
+          status(REFUSED);
+          window.lmRefused = true;
+          return;
+        }
       }
       status(RECONNECTING);
       setTimeout(open, delay);
