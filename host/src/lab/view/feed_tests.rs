@@ -2,7 +2,8 @@
 //! connections (no sockets, no clocks).
 
 use super::*;
-use crate::lab::view::{Frames, Options, Question, View, default_colour};
+use crate::lab::view::tests::question;
+use crate::lab::view::{Frames, Options, View, default_colour};
 use crate::plan::scene::Scene;
 use crate::sense::track::colour::ColourImage;
 use std::sync::Arc;
@@ -101,16 +102,6 @@ fn frame(v: &View) -> u64 {
         v.shared.lock().encoded.as_ref().map(|e| e.seq) == Some(n)
     });
     n
-}
-
-fn question(seq: u64) -> Question {
-    Question {
-        seq,
-        prompt: "Which circle?".into(),
-        options: vec!["2".into(), "4".into()],
-        radii_mm: Some(vec![2.0, 4.0]),
-        not_perceived: None,
-    }
 }
 
 /// Closes the view when dropped.

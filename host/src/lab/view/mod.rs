@@ -232,10 +232,11 @@ pub fn default_colour() -> ColourCamera {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn question(seq: u64) -> Question {
+    /// A question of two circles (also the feed's tests').
+    pub(crate) fn question(seq: u64) -> Question {
         Question {
             seq,
             prompt: "Which circle?".into(),
