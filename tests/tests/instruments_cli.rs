@@ -37,6 +37,24 @@ fn the_gauge_twin_reads_the_finger_pad_at_its_depth() {
     let median = v["median_n"].as_f64().unwrap();
     assert!((median - want).abs() <= 0.011, "{median} vs {want}");
     assert_eq!(v["series"]["samples"].as_array().unwrap().len(), 20);
+    // As text: the readings counted as read (a series shorter than one
+    // period takes one).
+    for (secs, said) in [
+        ("0.4", "of 20 readings over 0.4 s"),
+        ("0.001", "of 1 reading over 0.001 s"),
+    ] {
+        let out = ok(&[
+            "gauge",
+            "read",
+            "--port",
+            "sim",
+            "--sim-depth",
+            "2",
+            "--for",
+            secs,
+        ]);
+        assert!(out.contains(said), "{out}");
+    }
     // Off the finger: zero, within the noise.
     let out = ok(&["gauge", "read", "--port", "sim"]);
     let f: f64 = out.trim().trim_end_matches(" N").parse().unwrap();

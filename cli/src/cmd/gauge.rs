@@ -113,9 +113,9 @@ impl ReadArgs {
         let min = forces.clone().fold(f64::INFINITY, f64::min);
         let max = forces.fold(f64::NEG_INFINITY, f64::max);
         lmhost::outln!(
-            "median {:.3} N of {} readings over {} s at {} Hz (min {:.3}, max {:.3} N)",
+            "median {:.3} N of {} over {} s at {} Hz (min {:.3}, max {:.3} N)",
             N(median),
-            series.samples.len(),
+            lmhost::out::count(series.samples.len() as u64, "reading"),
             N(for_s),
             N(rate),
             N(min),
