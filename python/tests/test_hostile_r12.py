@@ -1,0 +1,87 @@
+"""Round 12 of hostile input to the Python package: an argument that must
+be text or a path is refused by name when it is anything else, never
+turned into text with ``str()`` and so taken as something it never was
+(``participant=None`` ran a study for the participant "None" and wrote
+its folder; ``Device(None)`` tried to open the serial port ``None``;
+``args="--view"`` passed its characters as flags)."""
+
+import pathlib
+
+import pytest
+
+import lmhost
+
+PROTOCOL = "studies/paper-exp1.toml"
+LIBRARY = "studies/paper-library.toml"
+
+# -- r12-1. Text and paths are taken as given, never stringified ------------
+
+
+@pytest.mark.parametrize("port", [None, 3, b"autd3:emulator", True], ids=repr)
+def test_a_port_that_is_not_text_is_refused_by_name(port):
+    with pytest.raises(ValueError, match=r"^port must be a --port name \(a string\), got \w+$"):
+        lmhost.Device(port)
+
+
+@pytest.mark.parametrize(
+    "kw, needle",
+    [
+        (dict(participant=None), "participant must be a participant's name (a string), got None"),
+        (dict(participant=3), "participant must be a participant's name (a string), got int"),
+        (dict(participant=True), "participant must be a participant's name (a string), got bool"),
+        (dict(port=None), "port must be a --port name (a string), got None"),
+        (dict(protocol=3), "protocol must be a path (a str or pathlib.Path), got int"),
+        (dict(protocol=PROTOCOL.encode()), "protocol must be a path (a str or pathlib.Path), got bytes"),
+        (dict(out=None), "out must be a path (a str or pathlib.Path), got None"),
+        (dict(scene=3), "scene must be a path (a str or pathlib.Path), got int"),
+        (dict(finger=True), "finger must be None or \"synthetic\" (a string), got bool"),
+    ],
+    ids=repr,
+)
+def test_a_study_argument_that_is_not_text_is_refused_before_anything_is_written(tmp_path, root, kw, needle):
+    args = dict(
+        protocol=root / PROTOCOL, participant="p01", out=tmp_path / "o", port="autd3:emulator",
+        answer=lambda q: 3, finger="synthetic", time_scale=0.02,
+    )
+    args.update(kw)
+    with pytest.raises(ValueError) as e:
+        next(iter(lmhost.Study(**args)))
+    assert str(e.value) == needle
+    # Nothing ran: no participant folder (before, "None" and "3" were made).
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_a_study_still_takes_a_pathlib_path(tmp_path, root):
+    s = lmhost.Study(
+        pathlib.Path(root / PROTOCOL), "p01", pathlib.Path(tmp_path / "o"), "autd3:emulator",
+        lambda q: 3, finger="synthetic", time_scale=0.02,
+    )
+    row = next(iter(s))
+    assert row and (tmp_path / "o" / "p01" / "trials.csv").exists()
+
+
+@pytest.mark.parametrize(
+    "kw, needle",
+    [
+        (dict(library=3), "library must be a path (a str or pathlib.Path), got int"),
+        (dict(library=LIBRARY, port=3), "port must be a --port name (a string), got int"),
+        (dict(library=LIBRARY, scene=b"scenes/paper.toml"), "scene must be a path (a str or pathlib.Path), got bytes"),
+        # A string alone was split into its characters: `-`, `-`, `v`, ...
+        (dict(library=LIBRARY, args="--view"), "args must be a list of strings, got str"),
+        (dict(library=LIBRARY, args=["--view", 0]), "args[1] must be a string, got int"),
+        (dict(socket_path=3), "socket_path must be a path (a str or pathlib.Path), got int"),
+        (dict(tcp_port=9, token_file=3), "token_file must be a path (a str or pathlib.Path), got int"),
+    ],
+    ids=repr,
+)
+def test_a_session_argument_that_is_not_text_is_refused_before_a_session_starts(kw, needle):
+    with pytest.raises(ValueError) as e:
+        lmhost.Session(**kw)
+    assert str(e.value) == needle
+
+
+@pytest.mark.parametrize("path", [3, None, b"x.toml"], ids=repr)
+def test_an_intrinsics_path_that_is_not_text_is_refused_by_name(root, path):
+    scene = lmhost.Scene.load(root / "scenes" / "paper.toml")
+    with pytest.raises(ValueError, match=r"^intrinsics must be a path \(a str or pathlib.Path\), got \w+$"):
+        lmhost.Tracker(scene, path)
