@@ -50,7 +50,8 @@ def opt_text(name: str, value: Any, what: str) -> Optional[str]:
 
 def path(name: str, value: Any) -> str:
     """A path: a ``str`` or an ``os.PathLike`` naming a ``str`` (a
-    ``pathlib.Path``); bytes and every other kind refused by name."""
+    ``pathlib.Path``), not empty; bytes and every other kind refused by
+    name."""
     if isinstance(value, os.PathLike) and not isinstance(value, (bytes, bytearray)):
         try:
             value = os.fspath(value)
@@ -58,6 +59,10 @@ def path(name: str, value: Any) -> str:
             pass
     if not isinstance(value, str):
         raise ValueError(f"{name} must be a path (a str or pathlib.Path), got {_kind(value)}")
+    if not value:
+        # The CLI refuses an empty path flag; "" is no file, and a folder
+        # "" is the working directory (a study wrote there).
+        raise ValueError(f"{name} must be a path, got an empty string")
     return value
 
 

@@ -221,3 +221,16 @@ pub(crate) fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     )?;
     Ok(d)
 }
+
+/// A path parameter: an empty one is refused naming `name`, as the CLI
+/// refuses an empty path flag (`--out ""`), never taken as the working
+/// directory (a study's `out=""` wrote its folder there) or handed to the
+/// OS (`save("")` was a `DeviceError`, "invalid input parameter").
+pub(crate) fn path(name: &str, p: std::path::PathBuf) -> PyResult<std::path::PathBuf> {
+    if p.as_os_str().is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be a path, got an empty string"
+        )));
+    }
+    Ok(p)
+}

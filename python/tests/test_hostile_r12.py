@@ -85,3 +85,51 @@ def test_an_intrinsics_path_that_is_not_text_is_refused_by_name(root, path):
     scene = lmhost.Scene.load(root / "scenes" / "paper.toml")
     with pytest.raises(ValueError, match=r"^intrinsics must be a path \(a str or pathlib.Path\), got \w+$"):
         lmhost.Tracker(scene, path)
+
+
+# -- r12-2. An empty path is refused as the CLI refuses an empty path flag ---
+
+
+def test_a_study_with_an_empty_out_writes_nothing_in_the_working_directory(tmp_path, root, monkeypatch):
+    # `lmhost study run --out ""` is refused; Python ran the study and
+    # wrote ./p01/trials.csv wherever it was started.
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError) as e:
+        s = lmhost.Study(
+            root / PROTOCOL, "p01", "", "autd3:emulator", lambda q: 3, finger="synthetic", time_scale=0.02
+        )
+        next(iter(s))
+    assert str(e.value) == "out must be a path, got an empty string"
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "call, needle",
+    [
+        (lambda root: lmhost.Scene.load(""), "path must be a path, got an empty string"),
+        # A DeviceError ("cannot write : invalid input parameter") before.
+        (lambda root: lmhost.plan().save(""), "path must be a path, got an empty string"),
+        # Read as the folder "." before ("cannot read intrinsics .").
+        (
+            lambda root: lmhost.Tracker(lmhost.Scene.load(root / "scenes" / "paper.toml"), ""),
+            "intrinsics must be a path, got an empty string",
+        ),
+        (lambda root: lmhost.Study("", "p01", "o", "autd3:emulator", lambda q: 3), "protocol must be a path, got an empty string"),
+        (lambda root: lmhost.Session(library=""), "library must be a path, got an empty string"),
+        # Waited the whole timeout for a session on "" before.
+        (lambda root: lmhost.Session(socket_path=""), "socket_path must be a path, got an empty string"),
+    ],
+    ids=["Scene.load", "Plan.save", "Tracker", "Study.protocol", "Session.library", "Session.socket_path"],
+)
+def test_an_empty_path_is_refused_by_name(root, call, needle):
+    with pytest.raises(ValueError) as e:
+        call(root)
+    assert str(e.value) == needle
+
+
+def test_the_extension_refuses_an_empty_path_itself(tmp_path, root):
+    # The private constructor as well as the wrapper: the rule is Rust's.
+    from lmhost import _lmhost
+
+    with pytest.raises(ValueError, match="^out must be a path, got an empty string$"):
+        _lmhost.Study(str(root / PROTOCOL), "p01", "", "autd3:emulator", lambda q: 3)
