@@ -226,10 +226,11 @@ class Session:
         for k, v in fields.items():
             if v is None or isinstance(v, (bool, str)):
                 pass
-            elif isinstance(v, float):
+            elif hasattr(type(v), "__index__"):
+                # An int (numpy's too) as it is: the session judges it.
+                v = _args.whole(k, v)
+            elif isinstance(v, float) or hasattr(type(v), "__float__"):
                 v = _lmhost.float_arg(k, v)  # no NaN or infinity on the wire
-            elif isinstance(v, int):
-                v = _lmhost.int_arg(k, v, *_args.I64)
             if v is not None:
                 msg[k] = v
         try:
@@ -266,7 +267,7 @@ class Session:
             gate=gate,
             on_s=None if on_s is None else _lmhost.float_arg("on_s", on_s),
             off_s=None if off_s is None else _lmhost.float_arg("off_s", off_s),
-            repeat=None if repeat is None else _lmhost.int_arg("repeat", repeat, *_args.I64),
+            repeat=None if repeat is None else _args.whole("repeat", repeat),
         )
 
     def prepare(self, stimulus: str) -> int:

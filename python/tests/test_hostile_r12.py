@@ -133,3 +133,51 @@ def test_the_extension_refuses_an_empty_path_itself(tmp_path, root):
 
     with pytest.raises(ValueError, match="^out must be a path, got an empty string$"):
         _lmhost.Study(str(root / PROTOCOL), "p01", "", "autd3:emulator", lambda q: 3)
+
+
+# -- r12-3. A session's whole number is judged by the session's rule ---------
+
+
+@pytest.fixture(scope="module")
+def session(lmhost_bin, root):
+    with lmhost.Session(library=root / LIBRARY, port="autd3:emulator", synthetic=True) as s:
+        yield s
+
+
+@pytest.mark.parametrize(
+    "repeat, needle",
+    [
+        # Named the range of an i64 it was checked against on the way.
+        (2**70, "bad command: repeat 1.18059e21 is out of range: allowed 1..=10000"),
+        # Named the range of the session's u32.
+        (-1, "bad command: repeat -1 is out of range: allowed 1..=10000"),
+        (2**32, "bad command: repeat 4294967296 is out of range: allowed 1..=10000"),
+        (0, "bad command: repeat 0 is out of range: allowed 1..=10000"),
+    ],
+    ids=repr,
+)
+def test_a_repeat_out_of_range_names_the_sessions_range(session, repeat, needle):
+    sid = session.library()[0]["id"]
+    with pytest.raises(ValueError) as e:
+        session.present(sid, on_s=0.5, repeat=repeat, gate="untracked")
+    assert str(e.value) == needle
+
+
+@pytest.mark.parametrize("repeat", [2.5, True, "3", None.__class__], ids=repr)
+def test_a_repeat_that_is_no_integer_is_refused_by_name(session, repeat):
+    sid = session.library()[0]["id"]
+    with pytest.raises(ValueError, match=r"^repeat must be an integer, got "):
+        session.present(sid, on_s=0.5, repeat=repeat)
+
+
+def test_numpy_numbers_reach_the_session_as_numbers(session):
+    np = pytest.importorskip("numpy")
+    sid = session.library()[0]["id"]
+    # A numpy int was "cannot send Object of type int64" through command().
+    r = session.command(
+        "present", stimulus=sid, on_s=np.float32(0.5), off_s=0.1, repeat=np.int64(2), gate="untracked"
+    )
+    assert r["ok"] is True
+    session.stop()
+    with pytest.raises(ValueError, match=r"^bad command: repeat 2.5 is not a whole number: allowed 1..=10000$"):
+        session.command("present", stimulus=sid, on_s=0.5, repeat=2.5)
