@@ -237,7 +237,7 @@ class Session:
             line = json.dumps(msg, allow_nan=False)
         except (TypeError, ValueError) as e:
             raise ValueError(f"{cmd}: cannot send {e}") from None
-        self._sock.sendall((line + "\n").encode())
+        self._open_sock().sendall((line + "\n").encode())
         while True:
             v = self._line()
             if "event" in v:
@@ -297,7 +297,7 @@ class Session:
                 yield ev
                 if ev.get("event") == "closed":
                     return
-            old = self._sock.gettimeout()
+            old = self._open_sock().gettimeout()
             self._sock.settimeout(timeout)
             try:
                 v = self._line()
@@ -318,6 +318,14 @@ class Session:
             if time.monotonic() > deadline:
                 break
         raise DeviceError(f"no `{event}` event within {timeout} s")
+
+    def _open_sock(self) -> socket.socket:
+        """The connection, or DeviceError once closed (as a closed
+        :class:`Device` says), never the socket's own "Bad file
+        descriptor"."""
+        if self._sock is None or self._sock.fileno() < 0:
+            raise DeviceError("this Session is closed")
+        return self._sock
 
     def close(self) -> None:
         """Quit a session this object started (the array is left silent);

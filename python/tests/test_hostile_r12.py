@@ -181,3 +181,17 @@ def test_numpy_numbers_reach_the_session_as_numbers(session):
     session.stop()
     with pytest.raises(ValueError, match=r"^bad command: repeat 2.5 is not a whole number: allowed 1..=10000$"):
         session.command("present", stimulus=sid, on_s=0.5, repeat=2.5)
+
+
+# -- r12-4. A closed Session says so, as a closed Device does ----------------
+
+
+def test_a_closed_session_says_it_is_closed(lmhost_bin, root):
+    s = lmhost.Session(library=root / LIBRARY, port="autd3:emulator", synthetic=True)
+    s.close()
+    # "[Errno 9] Bad file descriptor" (a bare OSError) before.
+    for call in (s.status, lambda: s.present("lms-5hz-a2"), lambda: list(s.events(timeout=0.1))):
+        with pytest.raises(lmhost.DeviceError) as e:
+            call()
+        assert str(e.value) == "this Session is closed"
+    s.close()  # closing twice is quiet
