@@ -7,6 +7,11 @@
 //!   `1e21` "invalid type: floating point", while `0` and `10001` named
 //!   the rule. Python's `Session.present(repeat=2**70)` named the range of
 //!   an i64 it was checked against on the way.
+//! - A port name longer than any (a device path's `PATH_MAX`) is refused
+//!   when the port is read, naming its length: a `--port` (or
+//!   `$LMHOST_PORT`) of 40 000 characters with spaces in it was echoed
+//!   whole by "opening serial port …" and "connecting to …" (40 kB on one
+//!   line; no cut of long words catches a value with spaces).
 //!
 //! The Python classes (a name or path of the wrong kind made text with
 //! `str()`, an empty path taken as the working directory) are in
@@ -60,7 +65,32 @@ pub(crate) fn round12_cases() -> Vec<Case> {
         )
         .out("{\"cmd\":\"present\",\"ok\":true}"),
     );
+    let long = "a b ".repeat(10_000);
+    let tcp = format!("tcp:{}:80", "h".repeat(5000));
+    for (args, env) in [
+        (vec!["status", "--port", long.as_str()], None),
+        (vec!["upload", "--port", tcp.as_str()], None),
+        (vec!["status"], Some(long.as_str())),
+    ] {
+        let mut c = case(R12_PORT_LONG, "");
+        c.args = args.into_iter().map(str::to_owned).collect();
+        if let Some(e) = env {
+            c = c.env("LMHOST_PORT", e);
+        }
+        v.push(
+            c.err("bytes is longer than any port name (at most 4095)")
+                .check(short_stderr),
+        );
+    }
     v
+}
+
+/// The error is short: the port was not echoed whole.
+fn short_stderr(_: &Ctx, r: &Run) -> Result<(), String> {
+    match r.stderr.len() {
+        n if n < 400 => Ok(()),
+        n => Err(format!("stderr has {n} bytes")),
+    }
 }
 
 /// No `present` was accepted.

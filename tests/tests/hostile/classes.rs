@@ -132,9 +132,10 @@ pub const R11_OUTPUTS: &str = "r11-8 an output is a file where a file is meant";
 pub const R11_LIST_NUMBERS: &str = "r11-9 a number inside a flag's list is read exactly";
 /// Round 12: Python, streams and device replies (`cases_r12.rs`).
 pub const R12_CONTROL_WHOLE: &str = "r12-1 a control line's whole number names its rule's range";
+pub const R12_PORT_LONG: &str = "r12-2 a port name longer than any is refused, not echoed whole";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 99] = [
+pub const CLASSES: [&str; 100] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -234,4 +235,5 @@ pub const CLASSES: [&str; 99] = [
     R11_OUTPUTS,
     R11_LIST_NUMBERS,
     R12_CONTROL_WHOLE,
+    R12_PORT_LONG,
 ];
