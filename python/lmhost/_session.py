@@ -267,7 +267,7 @@ class Session:
             gate=gate,
             on_s=None if on_s is None else _lmhost.float_arg("on_s", on_s),
             off_s=None if off_s is None else _lmhost.float_arg("off_s", off_s),
-            repeat=None if repeat is None else _args.whole("repeat", repeat),
+            repeat=None if repeat is None else _lmhost.repeat_arg(repeat),
         )
 
     def prepare(self, stimulus: str) -> int:

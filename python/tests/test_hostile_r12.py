@@ -148,19 +148,26 @@ def session(lmhost_bin, root):
     "repeat, needle",
     [
         # Named the range of an i64 it was checked against on the way.
-        (2**70, "bad command: repeat 1.18059e21 is out of range: allowed 1..=10000"),
-        # Named the range of the session's u32.
-        (-1, "bad command: repeat -1 is out of range: allowed 1..=10000"),
-        (2**32, "bad command: repeat 4294967296 is out of range: allowed 1..=10000"),
-        (0, "bad command: repeat 0 is out of range: allowed 1..=10000"),
+        (2**70, "repeat 1.18059e21 is out of range: allowed 1..=10000"),
+        (10**400, "repeat 1000000000000000000000000000000000000000… (401 characters) is out of range: allowed 1..=10000"),
+        # The session named the range of its u32.
+        (-1, "repeat -1 is out of range: allowed 1..=10000"),
+        (2**32, "repeat 4294967296 is out of range: allowed 1..=10000"),
+        (0, "repeat 0 is out of range: allowed 1..=10000"),
     ],
-    ids=repr,
+    ids=lambda v: repr(v)[:20],
 )
 def test_a_repeat_out_of_range_names_the_sessions_range(session, repeat, needle):
+    # present() refuses it before sending, by the session's own rule and
+    # in its words (the same Rust check); a line sent says the same.
     sid = session.library()[0]["id"]
     with pytest.raises(ValueError) as e:
         session.present(sid, on_s=0.5, repeat=repeat, gate="untracked")
     assert str(e.value) == needle
+    if repeat < 2**64:
+        with pytest.raises(ValueError) as e:
+            session.command("present", stimulus=sid, on_s=0.5, repeat=repeat, gate="untracked")
+        assert str(e.value) == "bad command: " + needle
 
 
 @pytest.mark.parametrize("repeat", [2.5, True, "3", None.__class__], ids=repr)
@@ -195,3 +202,14 @@ def test_a_closed_session_says_it_is_closed(lmhost_bin, root):
             call()
         assert str(e.value) == "this Session is closed"
     s.close()  # closing twice is quiet
+
+
+# -- r12-5. A port name longer than any is refused, not echoed whole ---------
+
+
+def test_a_port_longer_than_any_is_refused_with_its_length():
+    # "opening serial port a b a b …" repeated all 40 000 characters.
+    with pytest.raises(ValueError) as e:
+        lmhost.Device("a b " * 10_000)
+    msg = str(e.value)
+    assert msg.endswith("40000 bytes is longer than any port name (at most 4095)") and len(msg) < 400, msg

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::InputError;
 
-mod repeat;
+pub mod repeat;
 
 /// Longest command line, bytes (longer lines are refused, not buffered).
 pub const MAX_COMMAND_BYTES: usize = crate::limits::MAX_LINE_BYTES;
