@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -154,6 +155,9 @@ class TrackResult:
         )
 
 
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
 def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optional[str], str]:
     """TOML text of a dict, or (None, the path): a file is read by the Rust
     core as ``lmhost track --intrinsics`` reads it (a byte-order mark and
@@ -161,6 +165,14 @@ def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optio
     if isinstance(intrinsics, dict):
         lines = []
         for k, v in intrinsics.items():
+            # A key is written into the TOML as it is: one that is not a
+            # bare name ("#fx" made the line a comment, dropped unseen;
+            # "fx = 5 #" set fx) is refused, a bare unknown one by Rust.
+            if not isinstance(k, str) or not _BARE_KEY.fullmatch(k):
+                raise ValueError(
+                    f"intrinsics dict: key {k!r} is not a field name "
+                    "(width, height, fx, fy, ppx, ppy, depth_scale)"
+                )
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise ValueError(f"intrinsics dict: `{k}` must be a number, got {v!r}")
             lines.append(f"{k} = {v}")

@@ -213,3 +213,26 @@ def test_a_port_longer_than_any_is_refused_with_its_length():
         lmhost.Device("a b " * 10_000)
     msg = str(e.value)
     assert msg.endswith("40000 bytes is longer than any port name (at most 4095)") and len(msg) < 400, msg
+
+
+# -- r12-6. An intrinsics dict's key is a field name, never TOML text --------
+
+
+@pytest.mark.parametrize("key", ["#fx", "fx = 5 #", "fx\n#", '"fx"', 3, "a.b", ""], ids=repr)
+def test_an_intrinsics_key_that_is_no_field_name_is_refused(root, key):
+    # "#fx" became a TOML comment and was dropped without a word.
+    intr = dict(width=64, height=48, fx=50.0, fy=50.0, ppx=32.0, ppy=24.0, depth_scale=0.001)
+    intr[key] = 5
+    scene = lmhost.Scene.load(root / "scenes" / "paper.toml")
+    with pytest.raises(ValueError) as e:
+        lmhost.Tracker(scene, intr)
+    assert str(e.value) == (
+        f"intrinsics dict: key {key!r} is not a field name (width, height, fx, fy, ppx, ppy, depth_scale)"
+    )
+
+
+def test_an_unknown_bare_key_is_refused_by_the_library(root):
+    intr = dict(width=64, height=48, fx=50.0, fy=50.0, ppx=32.0, ppy=24.0, depth_scale=0.001, fxx=1)
+    scene = lmhost.Scene.load(root / "scenes" / "paper.toml")
+    with pytest.raises(ValueError, match="unknown field `fxx`, expected one of `width`"):
+        lmhost.Tracker(scene, intr)
