@@ -184,6 +184,43 @@ pub(crate) fn bool_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
     )))
 }
 
+/// A session command's `repeat`, judged before it is sent by the rule the
+/// session applies ([`lmhost::lab::session::protocol::repeat::check`]), in
+/// its words ("repeat 1e30 is out of range: allowed 1..=10000"), not by
+/// the width of a type on the way: an integer of any size (numpy's too);
+/// a bool, a float or anything else refused by name, as [`int_in`] does.
+#[pyfunction]
+pub(crate) fn repeat_arg(value: &Bound<'_, PyAny>) -> PyResult<u32> {
+    let not_int =
+        || PyValueError::new_err(format!("repeat must be an integer, got {}", shown(value)));
+    if value.is_instance_of::<PyBool>() || value.is_instance_of::<PyFloat>() {
+        return Err(not_int());
+    }
+    let n: serde_json::Value = match value.extract::<i64>() {
+        Ok(n) => n.into(),
+        // Beyond an i64: a float, as the session reads such a number.
+        Err(e) if e.is_instance_of::<PyOverflowError>(value.py()) => {
+            let f = value
+                .call_method0("__float__")
+                .and_then(|f| f.extract::<f64>())
+                .ok()
+                .and_then(serde_json::Number::from_f64);
+            match f {
+                Some(f) => f.into(),
+                None => {
+                    return Err(PyValueError::new_err(format!(
+                        "repeat {} is out of range: allowed 1..={}",
+                        shown(value),
+                        lmhost::lab::session::MAX_REPEAT
+                    )));
+                }
+            }
+        }
+        Err(_) => return Err(not_int()),
+    };
+    lmhost::lab::session::protocol::repeat::check(&n).map_err(PyValueError::new_err)
+}
+
 /// [`float`] for Python code (the `Session` client).
 #[pyfunction]
 pub(crate) fn float_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<f64> {
@@ -220,4 +257,17 @@ pub(crate) fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         lmhost::device::backend::DEFAULT_LEASE.as_secs_f64(),
     )?;
     Ok(d)
+}
+
+/// A path parameter: an empty one is refused naming `name`, as the CLI
+/// refuses an empty path flag (`--out ""`), never taken as the working
+/// directory (a study's `out=""` wrote its folder there) or handed to the
+/// OS (`save("")` was a `DeviceError`, "invalid input parameter").
+pub(crate) fn path(name: &str, p: std::path::PathBuf) -> PyResult<std::path::PathBuf> {
+    if p.as_os_str().is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be a path, got an empty string"
+        )));
+    }
+    Ok(p)
 }

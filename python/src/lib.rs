@@ -117,6 +117,7 @@ impl Scene_ {
     /// Load and check a TOML scene file (`ValueError` when it is bad).
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let path = args::path("path", path)?;
         let scene = run(py, || Ok(Scene::load(&path)?))?;
         Ok(Self { scene })
     }
@@ -267,6 +268,7 @@ impl Plan_ {
     /// with phases), `.npy` (uint8, steps × transducers) or anything else
     /// as raw step-major bytes; whole or absent.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let path = args::path("path", path)?;
         run(py, || {
             let bytes = self.planned.out_bytes(&path, &self.target)?;
             lmhost::files::write_whole(&path, &bytes)
@@ -465,6 +467,9 @@ impl Tracker_ {
         let frames = |name, v, default: u32| -> PyResult<u32> {
             Ok(args::opt_int_in(name, v, 1, i64::from(MAX_FRAMES))?.unwrap_or(default))
         };
+        let intrinsics_path = intrinsics_path
+            .map(|p| args::path("intrinsics", p))
+            .transpose()?;
         let enter_frames = frames("enter_frames", enter_frames, h.enter())?;
         let leave_frames = frames("leave_frames", leave_frames, h.leave())?;
         let intr = match (&intrinsics_path, intrinsics_toml) {
@@ -617,6 +622,7 @@ fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(args::int_arg, m)?)?;
     m.add_function(wrap_pyfunction!(args::float_arg, m)?)?;
     m.add_function(wrap_pyfunction!(args::bool_arg, m)?)?;
+    m.add_function(wrap_pyfunction!(args::repeat_arg, m)?)?;
     m.add("DEFAULTS", args::defaults(m.py())?)?;
     m.add_function(wrap_pyfunction!(_bench_rust, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;

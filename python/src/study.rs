@@ -29,7 +29,7 @@ use lmhost::lab::study::answers::{Accepts, Answers, Asked};
 use lmhost::lab::study::options::{Hooks, RowFields};
 use lmhost::lab::study::{AnswerSource, FingerSource, RunOptions, RunReport};
 
-use super::{bad, panic_err, to_py, to_python};
+use super::{args, bad, panic_err, to_py, to_python};
 
 /// What the runner sends the iterating thread.
 enum Msg {
@@ -135,6 +135,9 @@ impl Study_ {
         time_scale: f64,
         resume: bool,
     ) -> PyResult<Self> {
+        let protocol = args::path("protocol", protocol)?;
+        let out = args::path("out", out)?;
+        let scene = scene.map(|p| args::path("scene", p)).transpose()?;
         let finger = match finger.as_deref() {
             None => FingerSource::None,
             Some("synthetic") => FingerSource::Synthetic,

@@ -19,6 +19,10 @@ use crate::plan::sequence::Plan;
 use crate::plan::target::Target;
 use std::sync::{Arc, Mutex};
 
+/// Longest port name (bytes): a device path's limit (`PATH_MAX` less its
+/// NUL), far above any `tcp:HOST:PORT` or `autd3:` form.
+pub const MAX_PORT_BYTES: usize = 4095;
+
 impl PortSpec {
     /// Which kind of device the port (or `$LMHOST_PORT`) names; a malformed
     /// `autd3:` port, or an AUTD3 port given a serial link's setting
@@ -28,6 +32,20 @@ impl PortSpec {
     pub fn device(&self) -> Result<DeviceKind, crate::InputError> {
         let env = std::env::var(discover::PORT_ENV).ok();
         let port = self.port.as_deref().or(env.as_deref());
+        // Longer than any device path (PATH_MAX) or `tcp:HOST:PORT` (a
+        // host name is at most 253 bytes): refused here, never echoed
+        // whole by every message that names the port (40 kB on one line).
+        if let Some(p) = port.filter(|p| p.len() > MAX_PORT_BYTES) {
+            let named = match self.port {
+                Some(_) => "--port".to_owned(),
+                None => format!("${}", discover::PORT_ENV),
+            };
+            return Err(crate::InputError::new(format!(
+                "{named} `{}`: {} bytes is longer than any port name (at most {MAX_PORT_BYTES})",
+                crate::error::short_echo(p),
+                p.len()
+            )));
+        }
         if let Some((prefix, _)) = port.and_then(|p| p.split_once(':'))
             && ["tcp", "autd3"]
                 .iter()

@@ -130,9 +130,12 @@ pub const R11_DIRS: &str = "r11-6 an output folder made and left empty is remove
 pub const R11_ENV: &str = "r11-7 a default from the environment is named as it";
 pub const R11_OUTPUTS: &str = "r11-8 an output is a file where a file is meant";
 pub const R11_LIST_NUMBERS: &str = "r11-9 a number inside a flag's list is read exactly";
+/// Round 12: Python, streams and device replies (`cases_r12.rs`).
+pub const R12_CONTROL_WHOLE: &str = "r12-1 a control line's whole number names its rule's range";
+pub const R12_PORT_LONG: &str = "r12-2 a port name longer than any is refused, not echoed whole";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 98] = [
+pub const CLASSES: [&str; 100] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -231,4 +234,6 @@ pub const CLASSES: [&str; 98] = [
     R11_ENV,
     R11_OUTPUTS,
     R11_LIST_NUMBERS,
+    R12_CONTROL_WHOLE,
+    R12_PORT_LONG,
 ];

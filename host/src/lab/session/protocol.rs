@@ -6,6 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::InputError;
 
+pub mod repeat;
+
 /// Longest command line, bytes (longer lines are refused, not buffered).
 pub const MAX_COMMAND_BYTES: usize = crate::limits::MAX_LINE_BYTES;
 
@@ -34,8 +36,8 @@ pub struct Present {
     /// Seconds of silence between on-phases (default 0).
     #[serde(default)]
     pub off_s: Option<f64>,
-    /// On-phases (default 1; more need `on_s`).
-    #[serde(default)]
+    /// On-phases (default 1; more need `on_s`), 1..=`MAX_REPEAT`.
+    #[serde(default, deserialize_with = "repeat::opt")]
     pub repeat: Option<u32>,
 }
 
@@ -605,19 +607,19 @@ mod tests {
             ),
             (
                 r#"{"cmd":"present","stimulus":"a","repeat":-1}"#,
-                "invalid value",
+                "repeat -1 is out of range: allowed 1..=10000",
             ),
         ] {
             let e = Command::parse(line).unwrap_err().to_string();
             assert!(e.contains(needle), "{line}: {e}");
             assert!(e.starts_with("bad command: ") && !e.contains('\n'), "{e}");
         }
-        // The reply says what a field holds, not its Rust type.
+        // The reply says the field's rule, not its Rust type's range.
         let e = Command::parse(r#"{"cmd":"present","stimulus":"a","repeat":-1}"#).unwrap_err();
         let r = Reply::error("present", e.to_string());
         let said = r.0["error"].as_str().unwrap();
         assert!(
-            said.contains("expected a whole number from 0 to 4294967295") && !said.contains("u32"),
+            said.ends_with("repeat -1 is out of range: allowed 1..=10000") && !said.contains("u32"),
             "{said}"
         );
         // A refusal names the command it refuses, where the line names one.
@@ -649,12 +651,21 @@ mod tests {
             format!(r#"{{"cmd":"present","stimulus":"a","gate":"{long}"}}"#),
             // serde names a string of the wrong type in double quotes.
             format!(r#"{{"cmd":"present","stimulus":"a","on_s":"{long}"}}"#),
-            format!(r#"{{"cmd":"present","stimulus":"a","repeat":"{long}"}}"#),
         ] {
             let e = Command::parse(&line).unwrap_err().to_string();
             assert!(e.len() < 400, "{} bytes: {e}", e.len());
             assert!(e.contains("(4000 bytes)"), "{e}");
         }
+        // A `repeat` is judged by its rule, its value not repeated.
+        let e = Command::parse(&format!(
+            r#"{{"cmd":"present","stimulus":"a","repeat":"{long}"}}"#
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.ends_with("`repeat` is a string, not a number: allowed 1..=10000"),
+            "{e}"
+        );
         assert_eq!(clip("short"), "short");
         assert_eq!(clip("a\nb"), "a\\nb");
         let c = clip(&"é".repeat(100));

@@ -1,0 +1,96 @@
+"""The package's checks of arguments the extension does not take itself:
+strings, paths, lists of strings and timeouts. Each refuses a value of the
+wrong kind with one line naming the argument (ValueError, as every other
+bad argument), never turns it into text with ``str()``: ``str(None)`` is
+the participant ``"None"``, ``str(3)`` the serial port ``3``, and a
+``bytes`` path its ``repr``, each then taken or refused as something it
+never was."""
+
+from __future__ import annotations
+
+import operator
+import os
+from typing import Any, List, Optional
+
+from . import _lmhost
+
+#: The longest wait a timeout may ask for (s): longer is a hang, and the
+#: socket's own conversion overflows (OverflowError) near 1e10 s.
+MAX_TIMEOUT_S = 86_400.0
+
+
+def timeout_s(name: str, value: Any) -> float:
+    """A timeout in seconds: a finite number above 0 and at most a day."""
+    t = _lmhost.float_arg(name, value)
+    if not 0 < t <= MAX_TIMEOUT_S:
+        raise ValueError(
+            f"{name} {t} s is out of range: give a number above 0 and at most {MAX_TIMEOUT_S:g} s"
+        )
+    return t
+
+
+def whole(name: str, value: Any) -> int:
+    """An integer sent for its receiver to judge (a session command's
+    ``repeat``): a Python or numpy integer as it is, however large, so the
+    refusal names the receiver's range (``allowed 1..=10000``), not the
+    width of a type in between; a bool, a float or anything else refused
+    here by name."""
+    if not isinstance(value, bool):
+        try:
+            return operator.index(value)
+        except TypeError:
+            pass
+    shown = repr(value)
+    shown = shown if len(shown) <= 40 else shown[:40] + "…"
+    raise ValueError(f"{name} must be an integer, got {shown}")
+
+
+def _kind(value: Any) -> str:
+    return "None" if value is None else type(value).__name__
+
+
+def text(name: str, value: Any, what: str) -> str:
+    """``value`` if it is a ``str``; else ValueError naming ``name`` and
+    saying it must be ``what`` (a string)."""
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be {what} (a string), got {_kind(value)}")
+    return value
+
+
+def opt_text(name: str, value: Any, what: str) -> Optional[str]:
+    """As :func:`text`, None passed on (the argument left alone)."""
+    return None if value is None else text(name, value, what)
+
+
+def path(name: str, value: Any) -> str:
+    """A path: a ``str`` or an ``os.PathLike`` naming a ``str`` (a
+    ``pathlib.Path``), not empty; bytes and every other kind refused by
+    name."""
+    if isinstance(value, os.PathLike) and not isinstance(value, (bytes, bytearray)):
+        try:
+            value = os.fspath(value)
+        except TypeError:
+            pass
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be a path (a str or pathlib.Path), got {_kind(value)}")
+    if not value:
+        # The CLI refuses an empty path flag; "" is no file, and a folder
+        # "" is the working directory (a study wrote there).
+        raise ValueError(f"{name} must be a path, got an empty string")
+    return value
+
+
+def opt_path(name: str, value: Any) -> Optional[str]:
+    """As :func:`path`, None passed on."""
+    return None if value is None else path(name, value)
+
+
+def texts(name: str, value: Any) -> List[str]:
+    """A list or tuple of strings (a string alone is refused: it would be
+    taken as its characters)."""
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"{name} must be a list of strings, got {_kind(value)}")
+    for i, v in enumerate(value):
+        if not isinstance(v, str):
+            raise ValueError(f"{name}[{i}] must be a string, got {_kind(v)}")
+    return list(value)
