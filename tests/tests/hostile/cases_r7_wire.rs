@@ -95,7 +95,8 @@ pub(crate) fn wire_cases() -> Vec<Case> {
             WIRE_ECHO,
             format!(r#"{{"cmd":"present","stimulus":"lms-5hz-a3","repeat":"{long}"}}"#)
                 .as_bytes(),
-            "(1000 bytes)",
+            // Refused by its rule, the string not repeated at all.
+            "`repeat` is a string, not a number: allowed 1..=10000\"",
         ),
         // 3. An on-phase the device would round up to a step.
         session(
