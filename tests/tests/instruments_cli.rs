@@ -21,17 +21,14 @@ fn fails(o: &Output, code: i32, needle: &str) {
 
 #[test]
 fn the_gauge_twin_reads_the_finger_pad_at_its_depth() {
-    let out = ok(&[
-        "gauge",
-        "read",
-        "--port",
-        "sim",
-        "--sim-depth",
-        "2",
-        "--for",
-        "0.4",
-        "--json",
-    ]);
+    // `gauge read` of the twin 2 mm into the pad for `secs`, and `more`.
+    let read = |secs: &str, more: &[&str]| {
+        let mut args = vec!["gauge", "read", "--port", "sim", "--sim-depth", "2"];
+        args.extend(["--for", secs]);
+        args.extend_from_slice(more);
+        ok(&args)
+    };
+    let out = read("0.4", &["--json"]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let want = FingerPad::TYPICAL.force_at_depth_n(2.0);
     let median = v["median_n"].as_f64().unwrap();
@@ -43,16 +40,7 @@ fn the_gauge_twin_reads_the_finger_pad_at_its_depth() {
         ("0.4", "of 20 readings over 0.4 s"),
         ("0.001", "of 1 reading over 0.001 s"),
     ] {
-        let out = ok(&[
-            "gauge",
-            "read",
-            "--port",
-            "sim",
-            "--sim-depth",
-            "2",
-            "--for",
-            secs,
-        ]);
+        let out = read(secs, &[]);
         assert!(out.contains(said), "{out}");
     }
     // Off the finger: zero, within the noise.
