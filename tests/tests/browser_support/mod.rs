@@ -261,7 +261,7 @@ pub fn browser_present() -> bool {
 /// `lmhost study run studies/paper-exp2.toml --view 0` on autd3's
 /// emulator with the synthetic finger, its view's pages read from stderr.
 pub struct Study {
-    pub child: Child,
+    pub child: Killed,
     pub participant: String,
     pub experimenter: String,
     pub port: u16,
@@ -279,27 +279,30 @@ impl Study {
     /// As [`Study::start`], for `participant` in `out` as it is, its view
     /// on `view` (`--view`: a port, 0 for any).
     pub fn start_as(out: &Path, scene_file: &Path, participant: &str, view: &str) -> Study {
-        let mut child = Command::new(lmhost())
-            .args(["study", "run"])
-            .arg(root().join("studies/paper-exp2.toml"))
-            .args(["--port", "autd3:emulator", "--finger", "synthetic"])
-            .args([
-                "--participant",
-                participant,
-                "--seed",
-                "5",
-                "--time-scale",
-                "0.2",
-            ])
-            .args(["--view", view, "--out"])
-            .arg(out)
-            .arg("--scene")
-            .arg(scene_file)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        // Killed if this test fails before the study ends.
+        let mut child = Killed(
+            Command::new(lmhost())
+                .args(["study", "run"])
+                .arg(root().join("studies/paper-exp2.toml"))
+                .args(["--port", "autd3:emulator", "--finger", "synthetic"])
+                .args([
+                    "--participant",
+                    participant,
+                    "--seed",
+                    "5",
+                    "--time-scale",
+                    "0.2",
+                ])
+                .args(["--view", view, "--out"])
+                .arg(out)
+                .arg("--scene")
+                .arg(scene_file)
+                .stdin(Stdio::null())
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap(),
+        );
         let mut err = BufReader::new(child.stderr.take().unwrap());
         let mut line = String::new();
         let (experimenter, participant) = loop {
@@ -359,4 +362,28 @@ pub fn decode_png(png: &[u8]) -> (Vec<u8>, u32, u32) {
         c => panic!("screenshot colour type {c:?}"),
     };
     (px, info.width, info.height)
+}
+
+/// A child process killed (and reaped) when dropped: a test that fails
+/// while its study runs leaves no study running behind it.
+pub struct Killed(pub Child);
+
+impl std::ops::Deref for Killed {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Killed {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
 }
