@@ -468,7 +468,7 @@ pub trait FrameKind {
     /// Its name in errors.
     const TYPE_NAME: &'static str;
     /// Bytes per value.
-    const ITEM_BYTES: u64;
+    const ITEM_BYTES: u64 = std::mem::size_of::<Self::Value>() as u64;
     /// Values per pixel (a last axis when more than one).
     const PER_PIXEL: u64;
     /// What the size error calls a frame.
@@ -487,7 +487,6 @@ impl FrameKind for Depth {
     type Value = u16;
     const DESCR: &'static str = "<u2";
     const TYPE_NAME: &'static str = "uint16";
-    const ITEM_BYTES: u64 = 2;
     const PER_PIXEL: u64 = 1;
     const NAME: &'static str = "frame";
     fn bytes(frame: &[u16]) -> std::borrow::Cow<'_, [u8]> {
@@ -510,7 +509,6 @@ impl FrameKind for Rgb {
     type Value = u8;
     const DESCR: &'static str = "|u1";
     const TYPE_NAME: &'static str = "uint8";
-    const ITEM_BYTES: u64 = 1;
     const PER_PIXEL: u64 = 3;
     const NAME: &'static str = "colour frame";
     fn bytes(frame: &[u8]) -> std::borrow::Cow<'_, [u8]> {

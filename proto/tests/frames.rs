@@ -303,6 +303,34 @@ fn wrong_payload_lengths_are_malformed_with_seq() {
 }
 
 #[test]
+fn a_flags_byte_is_its_one_known_bit_or_malformed() {
+    let play = Play {
+        slot: 1,
+        at: PlayAt::Immediate,
+        untracked: true,
+        steps: 0,
+        lease_ms: 500,
+    };
+    let mut f = unframed(&frame_of(4, Message::Play(play)));
+    let at = field::frame::LEN + field::play::FLAGS.start;
+    assert_eq!(f[at], PLAY_FLAG_UNTRACKED);
+    assert_eq!(decode_frame(&f).map(|p| p.message), Ok(Message::Play(play)));
+    for (flags, want) in [(0, Some(false)), (0x02, None), (0x03, None)] {
+        f[at] = flags;
+        fix_crc(&mut f);
+        match (decode_frame(&f), want) {
+            (Ok(p), Some(untracked)) => {
+                assert_eq!(p.message, Message::Play(Play { untracked, ..play }))
+            }
+            (Err(FrameError::Malformed { reason, .. }), None) => {
+                assert_eq!(reason, "unknown play flag bits", "flags {flags:#04x}")
+            }
+            (got, _) => panic!("flags {flags:#04x}: {got:?}"),
+        }
+    }
+}
+
+#[test]
 fn invalid_field_values_are_rejected_on_both_sides() {
     let m = Message::Status(Status {
         slot: Some(NO_SLOT),

@@ -14,35 +14,20 @@ use study_support::*;
 /// further, the array silent and the session resumable.
 #[test]
 fn stdin_answers_are_bounded_lines() {
-    use std::io::Write;
+    use std::io::Read;
     let d = scratch("stdin");
-    let out = d.join("out");
-    let mut child = exp1("autd3:emulator", &out, "0.02", &["--seed", "1"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
     // 64 MiB without a line break: never held whole.
-    let mut stdin = child.stdin.take().unwrap();
-    let feeder = std::thread::spawn(move || {
-        let block = vec![b'7'; 1 << 20];
-        for _ in 0..64 {
-            if stdin.write_all(&block).is_err() {
-                return;
-            }
-        }
-    });
-    let o = child.wait_with_output().unwrap();
-    feeder.join().unwrap();
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{e}");
-    let last = e.trim().lines().last().unwrap_or_default();
-    assert!(
-        last.contains("stdin line 1: a line longer than 4096 bytes")
-            && last.contains("the array is silent")
-            && last.contains("--resume"),
-        "{e}"
+    let o = with_stdin(
+        &mut exp1("autd3:emulator", &d.join("out"), "0.02", &["--seed", "1"]),
+        std::io::repeat(b'7').take(64 << 20),
+    );
+    ended_as_bad_input(
+        &o,
+        &[
+            "stdin line 1: a line longer than 4096 bytes",
+            "the array is silent",
+            "--resume",
+        ],
     );
 }
 
@@ -139,41 +124,11 @@ fn responses_from_stdin_are_checked_as_they_come() {
             "--responses - ended: an answer to `movement` is needed",
         ),
     ] {
-        let o = study(&[
-            "run",
-            &studies("paper-exp1.toml"),
-            "--port",
-            "autd3:emulator",
-            "--participant",
-            id,
-            "--out",
-            d.to_str().unwrap(),
-            "--finger",
-            "synthetic",
-            "--time-scale",
-            "0.02",
-            "--responses",
-            "-",
-        ])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .and_then(|mut c| {
-            use std::io::Write;
-            c.stdin.take().unwrap().write_all(input.as_bytes())?;
-            c.wait_with_output()
-        })
-        .unwrap();
-        let e = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{e}");
-        let last = e.trim().lines().last().unwrap_or_default();
-        assert!(
-            last.contains(want)
-                && last.contains("the array is silent")
-                && last.contains("--resume"),
-            "{e}"
+        let o = with_stdin(
+            &mut exp1("autd3:emulator", &d.join(id), "0.02", &["--responses", "-"]),
+            std::io::Cursor::new(input),
         );
+        ended_as_bad_input(&o, &[want, "the array is silent", "--resume"]);
     }
 }
 
@@ -182,7 +137,6 @@ fn responses_from_stdin_are_checked_as_they_come() {
 /// 5) is named with what to do, not "a line that is not UTF-8 text".
 #[test]
 fn stdin_answers_are_read_whatever_wrote_them() {
-    use std::io::Write;
     let d = scratch("stdin_text");
     let wide: Vec<u8> = "\u{feff}1\n2\n"
         .encode_utf16()
@@ -198,18 +152,11 @@ fn stdin_answers_are_read_whatever_wrote_them() {
             "stdin line 1: `x` is not an answer",
         ),
     ] {
-        let mut child = exp1("autd3:emulator", &d.join("out"), "0.02", &["--seed", "1"])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        child.stdin.take().unwrap().write_all(&input).unwrap();
-        let o = child.wait_with_output().unwrap();
-        let e = String::from_utf8_lossy(&o.stderr);
-        let last = e.trim().lines().last().unwrap_or_default();
-        assert_eq!(o.status.code(), Some(2), "{e}");
-        assert!(last.contains(want) && last.contains("--resume"), "{e}");
+        let o = with_stdin(
+            &mut exp1("autd3:emulator", &d.join("out"), "0.02", &["--seed", "1"]),
+            std::io::Cursor::new(input),
+        );
+        ended_as_bad_input(&o, &[want, "--resume"]);
         std::fs::remove_dir_all(d.join("out")).unwrap();
     }
 }

@@ -482,21 +482,21 @@ mod tests {
     #[test]
     fn the_port_is_named_once_in_an_error_line() {
         let port = "tcp:127.0.0.1:9";
-        let link = anyhow::anyhow!("no response from {port} to info");
-        let e = port_context(link, port, "starting the session", || {
-            format!("starting the session on {port}")
-        });
-        assert_eq!(
-            format!("{e:#}"),
-            "starting the session: no response from tcp:127.0.0.1:9 to info"
-        );
-        let other = anyhow::anyhow!("the emulator failed");
-        let e = port_context(other, port, "starting the session", || {
-            format!("starting the session on {port}")
-        });
-        assert_eq!(
-            format!("{e:#}"),
-            "starting the session on tcp:127.0.0.1:9: the emulator failed"
-        );
+        for (cause, want) in [
+            // The cause names the port: the context does not again.
+            (
+                format!("no response from {port} to info"),
+                "starting the session: no response from tcp:127.0.0.1:9 to info",
+            ),
+            (
+                "the emulator failed".to_owned(),
+                "starting the session on tcp:127.0.0.1:9: the emulator failed",
+            ),
+        ] {
+            let e = port_context(anyhow::anyhow!(cause), port, "starting the session", || {
+                format!("starting the session on {port}")
+            });
+            assert_eq!(format!("{e:#}"), want);
+        }
     }
 }

@@ -98,10 +98,18 @@ struct FociJson {
     dwell_us: Option<f64>,
 }
 
-/// What a JSON stimulus file that is not `expected` is, when it is
-/// another kind lmhost reads (foci given as phases), else `otherwise`.
-fn another_kind(expected: &kind::Kind, text: &str, otherwise: impl FnOnce() -> String) -> String {
-    kind::other_kind(expected, &kind::JSON, &kind::json_keys(text)).unwrap_or_else(otherwise)
+/// `text` read as the JSON object of `expected` (`what` in errors). When it
+/// does not read, the error names the other kind lmhost reads that it is
+/// (foci given as phases), if any.
+fn json_object<T: serde::de::DeserializeOwned>(
+    expected: &kind::Kind,
+    what: &str,
+    text: &str,
+) -> Result<T, String> {
+    serde_json::from_str(text).map_err(|e| {
+        kind::other_kind(expected, &kind::JSON, &kind::json_keys(text))
+            .unwrap_or_else(|| format!("not a {what} JSON object ({e})"))
+    })
 }
 
 /// Loads `path` and makes the plan `target` plays, in `scene`: `freq_hz`
@@ -451,11 +459,7 @@ fn read(
                 ))
             }
             Content::Phases => {
-                let j: PhasesJson = serde_json::from_str(&text).map_err(|e| {
-                    bad(another_kind(&kind::PHASES, &text, || {
-                        format!("not a phases JSON object ({e})")
-                    }))
-                })?;
+                let j: PhasesJson = json_object(&kind::PHASES, "phases", &text).map_err(bad)?;
                 let steps = j.phases.len();
                 if steps == 0 {
                     return Err(bad("has no steps".into()));
@@ -478,11 +482,7 @@ fn read(
                 path.display()
             ))),
             Content::Foci => {
-                let j: FociJson = serde_json::from_str(&text).map_err(|e| {
-                    bad(another_kind(&kind::FOCI, &text, || {
-                        format!("not a foci JSON object ({e})")
-                    }))
-                })?;
+                let j: FociJson = json_object(&kind::FOCI, "foci", &text).map_err(bad)?;
                 let steps = j.foci_mm.len();
                 let foci = j.foci_mm.first().map_or(0, Vec::len);
                 if steps == 0 || foci == 0 {

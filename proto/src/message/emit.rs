@@ -35,6 +35,11 @@ fn set(p: &mut [u8], f: Field, bytes: &[u8]) {
     p[f].copy_from_slice(bytes);
 }
 
+/// A flags byte with one known bit `bit`, set when `on`.
+fn flag(on: bool, bit: u8) -> u8 {
+    if on { bit } else { 0 }
+}
+
 /// Writes a bulk message (`Chunk`, `Intensity`): a head of its slot and
 /// the offset of its bytes (whose width is the layout's), then the bytes.
 fn put_bulk<const LEN: usize>(
@@ -113,12 +118,11 @@ impl Message<'_> {
                 set(&mut p, f::MAX_OFFSET_UM, &h.max_offset_um.to_le_bytes());
                 set(&mut p, f::RIG_CRC32, &b.rig_crc32.to_le_bytes());
                 set(&mut p, f::INTENSITY, &[h.intensity]);
-                let flags = if b.intensity_table {
-                    UPLOAD_FLAG_INTENSITY_TABLE
-                } else {
-                    0
-                };
-                set(&mut p, f::FLAGS, &[flags]);
+                set(
+                    &mut p,
+                    f::FLAGS,
+                    &[flag(b.intensity_table, UPLOAD_FLAG_INTENSITY_TABLE)],
+                );
                 s.put(&p)
             }
             Self::Geometry(g) => {
@@ -150,8 +154,7 @@ impl Message<'_> {
                 let mut p = [0; f::LEN];
                 set(&mut p, f::SLOT, &[q.slot]);
                 set(&mut p, f::AT, &[q.at.to_u8()]);
-                let flags = if q.untracked { PLAY_FLAG_UNTRACKED } else { 0 };
-                set(&mut p, f::FLAGS, &[flags]);
+                set(&mut p, f::FLAGS, &[flag(q.untracked, PLAY_FLAG_UNTRACKED)]);
                 set(&mut p, f::STEPS, &q.steps.to_le_bytes());
                 set(&mut p, f::LEASE_MS, &q.lease_ms.to_le_bytes());
                 s.put(&p)

@@ -67,10 +67,15 @@ impl<'a> Fields<'a> {
         Ok(xyz_from_le(self.array(f)?))
     }
     fn bool(&self, f: Field) -> Result<bool, &'static str> {
+        self.flag(f, 1, "bool field not 0 or 1")
+    }
+    /// A flags byte with one known bit `bit`: set or not; any other bit
+    /// is `unknown`.
+    fn flag(&self, f: Field, bit: u8, unknown: &'static str) -> Result<bool, &'static str> {
         match self.u8(f)? {
             0 => Ok(false),
-            1 => Ok(true),
-            _ => Err("bool field not 0 or 1"),
+            b if b == bit => Ok(true),
+            _ => Err(unknown),
         }
     }
     /// A slot byte, [`NO_SLOT`] meaning none.
@@ -117,11 +122,11 @@ impl<'a> Message<'a> {
                     encoding: Encoding::from_u8(p.u8(f::ENCODING)?).ok_or("unknown encoding")?,
                     encoded_len: p.u32(f::ENCODED_LEN)?,
                     rig_crc32: p.u32(f::RIG_CRC32)?,
-                    intensity_table: match p.u8(f::FLAGS)? {
-                        0 => false,
-                        UPLOAD_FLAG_INTENSITY_TABLE => true,
-                        _ => return Err("unknown upload flag bits"),
-                    },
+                    intensity_table: p.flag(
+                        f::FLAGS,
+                        UPLOAD_FLAG_INTENSITY_TABLE,
+                        "unknown upload flag bits",
+                    )?,
                     header: UploadHeader {
                         steps: p.u16(f::STEPS)?,
                         transducers: p.u16(f::TRANSDUCERS)?,
@@ -183,11 +188,7 @@ impl<'a> Message<'a> {
                 Self::Play(Play {
                     slot: p.u8(f::SLOT)?,
                     at: PlayAt::from_u8(p.u8(f::AT)?).ok_or("unknown play timing")?,
-                    untracked: match p.u8(f::FLAGS)? {
-                        0 => false,
-                        PLAY_FLAG_UNTRACKED => true,
-                        _ => return Err("unknown play flag bits"),
-                    },
+                    untracked: p.flag(f::FLAGS, PLAY_FLAG_UNTRACKED, "unknown play flag bits")?,
                     steps: p.u32(f::STEPS)?,
                     lease_ms: p.u16(f::LEASE_MS)?,
                 })

@@ -208,6 +208,33 @@ pub(crate) fn round11_cases() -> Vec<Case> {
             .code(1)
             .check(logs_as_they_were),
     ]);
+    // 8. An output given as `-` is a file, never standard output: refused
+    //    naming the flag, and no file `-` is written.
+    for (args, flag) in [
+        ("wiring --out -", "--out"),
+        ("plan --out -", "--out"),
+        ("simulate --out -", "--out"),
+        (
+            "track --synthetic --fast --seconds 0.2 --record -",
+            "--record",
+        ),
+        (
+            "study run {dir}/study/mini.toml --port autd3:emulator --out - \
+             --responses {dir}/study/ans.txt --participant r11_dash",
+            "--out",
+        ),
+        (
+            "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator \
+             --control - --events -",
+            "--events",
+        ),
+    ] {
+        let said = format!(
+            "error: {flag} -: this output is a file, not standard output; give its path \
+             (./- for a file named -)"
+        );
+        v.push(case(R11_OUTPUTS, args).err(&said).check(no_dash_file));
+    }
     // 9. A number inside a flag's list is read exactly: refused naming the
     //    flag (and its list, where the message quotes it) and the literal.
     let tiny = "is too small to represent";
@@ -253,17 +280,7 @@ pub(crate) fn round11_cases() -> Vec<Case> {
         });
     }
     v.extend(table![
-        // 8. An output is a file where a file is meant.
-        R11_OUTPUTS "wiring --out -" .err("error: --out -: this output is a file, not standard output; give its path (./- for a file named -)")
-            .check(no_dash_file);
-        R11_OUTPUTS "plan --out -" .err("error: --out -: this output is a file").check(no_dash_file);
-        R11_OUTPUTS "simulate --out -" .err("error: --out -: this output is a file").check(no_dash_file);
-        R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record -" .err("error: --record -: this output is a file")
-            .check(no_dash_file);
-        R11_OUTPUTS "study run {dir}/study/mini.toml --port autd3:emulator --out - --responses {dir}/study/ans.txt --participant r11_dash"
-            .err("error: --out -: this output is a file").check(no_dash_file);
-        R11_OUTPUTS "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator --control - --events -"
-            .err("error: --events -: this output is a file").check(no_dash_file);
+        // 8. An output is a file where a file is meant (`-` below).
         R11_OUTPUTS "track --synthetic --fast --seconds 0.2 --record /dev/null"
             .err("error: --record /dev/null: it is a device node, and files are written beside it under its name: give a file path")
             .check(nothing_beside_dev_null);

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 use crate::link_support::lmhost;
 
@@ -113,6 +113,37 @@ pub fn answered_p01(
     )
     .output()
     .unwrap()
+}
+
+/// Runs `c` with `input` on its standard input, written from a thread of
+/// its own (a write cut short by the run's end is no error here), stdout
+/// discarded; its output.
+pub fn with_stdin(c: &mut Command, mut input: impl std::io::Read + Send + 'static) -> Output {
+    let mut child = c
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let feeder = std::thread::spawn(move || {
+        let _ = std::io::copy(&mut input, &mut stdin);
+    });
+    let o = child.wait_with_output().unwrap();
+    feeder.join().unwrap();
+    o
+}
+
+/// Checks that a run ended as bad input (exit 2) with a last line of
+/// stderr that holds each of `wants`.
+#[track_caller]
+pub fn ended_as_bad_input(o: &Output, wants: &[&str]) {
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    let last = e.trim().lines().last().unwrap_or_default();
+    for want in wants {
+        assert!(last.contains(want), "want {want:?} in the last line:\n{e}");
+    }
 }
 
 /// `lmhost study run` of Experiment 1 for participant P01 with a

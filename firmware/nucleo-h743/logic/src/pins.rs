@@ -245,31 +245,24 @@ pub struct Ground {
 
 use Connector::{Cn7, Cn8, Cn11, Cn12, Cn13};
 
+/// Zio header pin `number` of `connector`, called `name`.
+const fn header(connector: Connector, number: u8, name: &'static str) -> Place {
+    Place::Header {
+        pin: pin(connector, number),
+        name,
+    }
+}
+
 // Where the signals are reached: the same header and connector positions on
 // both boards (UM1974 Table 20, UM2407 Tables 16, 18, 19), so both tables
 // take them from here; what differs between the revisions (the morpho
 // pins' solder bridges, the virtual COM port, the manuals' tables) stays
 // in each row.
-const SCK_AT: Place = Place::Header {
-    pin: pin(Cn7, 10),
-    name: "D13",
-};
-const MOSI_AT: Place = Place::Header {
-    pin: pin(Cn7, 13),
-    name: "D22",
-};
-const MISO_AT: Place = Place::Header {
-    pin: pin(Cn7, 12),
-    name: "D12",
-};
-const CHIP_SELECT_AT: Place = Place::Header {
-    pin: pin(Cn7, 16),
-    name: "D10",
-};
-const REFERENCE_AT: Place = Place::Header {
-    pin: pin(Cn8, 4),
-    name: "D44",
-};
+const SCK_AT: Place = header(Cn7, 10, "D13");
+const MOSI_AT: Place = header(Cn7, 13, "D22");
+const MISO_AT: Place = header(Cn7, 12, "D12");
+const CHIP_SELECT_AT: Place = header(Cn7, 16, "D10");
+const REFERENCE_AT: Place = header(Cn8, 4, "D44");
 const USB_DM_AT: Place = Place::Connector(pin(Cn13, 2));
 const USB_DP_AT: Place = Place::Connector(pin(Cn13, 3));
 
@@ -395,31 +388,19 @@ const ZI2: [Row; 9] = [
 /// The ground pins near the signals: the same six on both boards, each
 /// cited from the manual table of its connector (`cn7`, `cn8`, `cn12`).
 const fn grounds(cn7: &'static str, cn8: &'static str, cn12: &'static str) -> [Ground; 6] {
+    const fn at(connector: Connector, number: u8, source: &'static str) -> Ground {
+        Ground {
+            pin: pin(connector, number),
+            source,
+        }
+    }
     [
-        Ground {
-            pin: pin(Cn7, 8),
-            source: cn7,
-        },
-        Ground {
-            pin: pin(Cn8, 11),
-            source: cn8,
-        },
-        Ground {
-            pin: pin(Cn8, 13),
-            source: cn8,
-        },
-        Ground {
-            pin: pin(Cn12, 9),
-            source: cn12,
-        },
-        Ground {
-            pin: pin(Cn12, 20),
-            source: cn12,
-        },
-        Ground {
-            pin: pin(Cn12, 39),
-            source: cn12,
-        },
+        at(Cn7, 8, cn7),
+        at(Cn8, 11, cn8),
+        at(Cn8, 13, cn8),
+        at(Cn12, 9, cn12),
+        at(Cn12, 20, cn12),
+        at(Cn12, 39, cn12),
     ]
 }
 

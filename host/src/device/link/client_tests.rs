@@ -99,6 +99,25 @@ impl<F: FnMut(&[u8], &mut Vec<u8>) + Send> Transport for Scripted<F> {
     }
 }
 
+/// A scripted device: `answer` sees each frame the client sends and gives
+/// the head and message of its reply (`None`: no reply).
+fn device(
+    name: &'static str,
+    mut answer: impl FnMut(&lm_proto::Frame<'_>) -> Option<(lm_proto::Head, Message<'static>)> + Send,
+) -> Scripted<impl FnMut(&[u8], &mut Vec<u8>) + Send> {
+    Scripted::new(name, move |sent: &[u8], out: &mut Vec<u8>| {
+        let mut d = FrameDecoder::new();
+        let FeedResult::Frame { frame, .. } = d.feed(sent) else {
+            panic!("the client sends whole frames");
+        };
+        if let Some((head, reply)) = answer(&frame) {
+            let mut buf = [0u8; MAX_ENCODED_FRAME];
+            let n = encode_frame(head, &reply, &mut buf).unwrap();
+            out.extend_from_slice(&buf[..n]);
+        }
+    })
+}
+
 /// A request nothing answers says what came instead: its own frames, or
 /// bytes that are no frame; and it names the port.
 #[test]
@@ -144,24 +163,12 @@ fn a_centroid_resent_after_a_lost_ack_is_accepted() {
         // was lost (`lose_first`), so it answers the resent copy as firmware
         // does: `OutOfOrder`, it holds that update already.
         let mut last_seq = None;
-        let mut c = Client::new(Scripted::new(
-            "lossy",
-            move |sent: &[u8], out: &mut Vec<u8>| {
-                let mut d = FrameDecoder::new();
-                let FeedResult::Frame { frame, .. } = d.feed(sent) else {
-                    panic!("the client sends whole frames");
-                };
-                let resend = last_seq == Some(frame.seq);
-                last_seq = Some(frame.seq);
-                if lose_first && !resend {
-                    return;
-                }
-                let mut buf = [0u8; MAX_ENCODED_FRAME];
-                let reply = Message::Nack(NackCode::OutOfOrder);
-                let n = encode_frame(frame.reply_head(), &reply, &mut buf).unwrap();
-                out.extend_from_slice(&buf[..n]);
-            },
-        ));
+        let mut c = Client::new(device("lossy", move |frame| {
+            let resend = last_seq == Some(frame.seq);
+            last_seq = Some(frame.seq);
+            (!lose_first || resend)
+                .then(|| (frame.reply_head(), Message::Nack(NackCode::OutOfOrder)))
+        }));
         c.timeout = Duration::from_millis(5);
         let r = c.centroid(centroid);
         if lose_first {
@@ -190,28 +197,19 @@ fn a_centroid_resent_after_a_lost_ack_is_accepted() {
 #[test]
 fn a_reply_that_echoes_another_request_is_refused() {
     for (forge, kind) in [(true, "ack"), (false, "")] {
-        let mut c = Client::new(Scripted::new(
-            "forger",
-            move |sent: &[u8], out: &mut Vec<u8>| {
-                let mut d = FrameDecoder::new();
-                let FeedResult::Frame { frame, .. } = d.feed(sent) else {
-                    panic!("the client sends whole frames");
-                };
-                // The seq is right; the echo is a Renew's with that seq,
-                // which the forger guessed came next.
-                let head = if forge {
-                    lm_proto::Head::reply(
-                        frame.seq,
-                        lm_proto::Echo::of_request(frame.seq, &Message::Renew).unwrap(),
-                    )
-                } else {
-                    frame.reply_head()
-                };
-                let mut buf = [0u8; MAX_ENCODED_FRAME];
-                let n = encode_frame(head, &Message::Ack, &mut buf).unwrap();
-                out.extend_from_slice(&buf[..n]);
-            },
-        ));
+        let mut c = Client::new(device("forger", move |frame| {
+            // The seq is right; the echo is a Renew's with that seq,
+            // which the forger guessed came next.
+            let head = if forge {
+                lm_proto::Head::reply(
+                    frame.seq,
+                    lm_proto::Echo::of_request(frame.seq, &Message::Renew).unwrap(),
+                )
+            } else {
+                frame.reply_head()
+            };
+            Some((head, Message::Ack))
+        }));
         c.timeout = Duration::from_millis(5);
         let r = c.stop();
         if !forge {

@@ -5,10 +5,11 @@
 //! (through [`crate::files::text`]) and checks what it accepts.
 
 use super::harness::{Outcome, Reader, Verdict, finite, refused};
+use crate::error::InputError;
 use crate::files::text;
 use crate::lab::session::Command;
 use crate::lab::study::answers::{Accepts, Answers as _, Asked, Lines};
-use crate::lab::study::protocol::Unlinked;
+use crate::lab::study::protocol::{Protocol, Unlinked};
 use crate::limits::MAX_TIME_STAMP_S;
 use crate::plan::library::{Library, MAX_ENTRIES, MAX_ID_LEN};
 use crate::plan::scene::Scene;
@@ -32,19 +33,24 @@ fn decoded(what: &str, bytes: &[u8]) -> Result<String, Verdict> {
         .map_err(|why| Verdict::Refused(format!("cannot read {what} fuzz.toml: {why}")))
 }
 
-/// A TOML reader: decoded, then `read`, whose `Ok` is checked by itself.
-fn toml_reader(
+/// A TOML reader: decoded, then `parse`d (its error is the refusal), and
+/// what it accepts checked by `check`.
+fn toml_reader<T: 'static, E: std::fmt::Display + 'static>(
     name: &'static str,
     seeds: Vec<Vec<u8>>,
     cases: usize,
-    read: fn(&str) -> Outcome,
+    parse: fn(&str) -> Result<T, E>,
+    check: fn(&T) -> Result<(), String>,
 ) -> Reader {
     Reader {
         name,
         seeds,
         cases,
         read: Box::new(move |b| match decoded(name, b) {
-            Ok(t) => read(&t),
+            Ok(t) => match parse(&t) {
+                Ok(v) => check(&v).map(|()| Verdict::Accepted),
+                Err(e) => refused(e),
+            },
             Err(v) => Ok(v),
         }),
     }
@@ -89,11 +95,7 @@ simulated_n = 0.0125
 disk_mm = 10.0
 "#;
 
-fn scene(t: &str) -> Outcome {
-    let s = match Scene::from_toml(t, "fuzz.toml") {
-        Ok(s) => s,
-        Err(e) => return refused(e),
-    };
+fn scene(s: &Scene) -> Result<(), String> {
     if s.devices.is_empty() {
         return Err("no devices".into());
     }
@@ -115,7 +117,7 @@ fn scene(t: &str) -> Outcome {
     for t in s.transducers() {
         finite("a transducer", &t.pos_mm)?;
     }
-    Ok(Verdict::Accepted)
+    Ok(())
 }
 
 const LIBRARY_EXTRAS: &str = r#"[[stimulus]]
@@ -151,11 +153,7 @@ phases_file = "circle.npy"
 freq = 5.0
 "#;
 
-fn library(t: &str) -> Outcome {
-    let lib = match Library::from_toml(t, "fuzz.toml") {
-        Ok(l) => l,
-        Err(e) => return refused(e),
-    };
+fn library(lib: &Library) -> Result<(), String> {
     if !(1..=MAX_ENTRIES).contains(&lib.entries.len()) {
         return Err(format!("{} entries", lib.entries.len()));
     }
@@ -175,14 +173,10 @@ fn library(t: &str) -> Outcome {
             return Err(format!("`{}`'s cycle fails its own check: {why}", e.id));
         }
     }
-    Ok(Verdict::Accepted)
+    Ok(())
 }
 
-fn protocol(t: &str) -> Outcome {
-    let p = match Unlinked::from_toml(t, "fuzz.toml") {
-        Ok(p) => p,
-        Err(e) => return refused(e),
-    };
+fn protocol(p: &Unlinked) -> Result<(), String> {
     if p.conditions.is_empty() || p.trials() == 0 {
         return Err(format!(
             "{} conditions, {} trials",
@@ -190,17 +184,18 @@ fn protocol(t: &str) -> Outcome {
             p.trials()
         ));
     }
-    Ok(Verdict::Accepted)
+    Ok(())
 }
 
-/// A protocol in `studies/`, linked to its library there: every
-/// condition's stimulus and every grid's level is an entry of it.
-fn linked(t: &str) -> Outcome {
+/// A protocol in `studies/`, linked to its library there.
+fn read_linked(t: &str) -> Result<Protocol, InputError> {
     let at = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies/fuzz.toml");
-    let p = match crate::lab::study::protocol::Protocol::from_toml(t, &at) {
-        Ok(p) => p,
-        Err(e) => return refused(e),
-    };
+    Protocol::from_toml(t, &at)
+}
+
+/// Every condition's stimulus and every grid's level is an entry of the
+/// linked library.
+fn linked(p: &Protocol) -> Result<(), String> {
     let grids = p
         .staircase
         .iter()
@@ -216,27 +211,19 @@ fn linked(t: &str) -> Outcome {
             return Err(format!("stimulus `{id}` is not in the library"));
         }
     }
-    Ok(Verdict::Accepted)
+    Ok(())
 }
 
-fn intrinsics(t: &str) -> Outcome {
-    let i = match Intrinsics::from_toml(t, "fuzz.toml") {
-        Ok(i) => i,
-        Err(e) => return refused(e),
-    };
+fn intrinsics(i: &Intrinsics) -> Result<(), String> {
     let p = &i.pinhole;
     finite("a number", &[p.fx, p.fy, p.ppx, p.ppy, i.depth_scale])?;
     if !(1..=8192).contains(&p.width) || !(1..=8192).contains(&p.height) {
         return Err(format!("{}×{} pixels", p.width, p.height));
     }
-    Ok(Verdict::Accepted)
+    Ok(())
 }
 
-fn colour(t: &str) -> Outcome {
-    let c = match ColourCamera::from_toml(t, "fuzz.toml") {
-        Ok(c) => c,
-        Err(e) => return refused(e),
-    };
+fn colour(c: &ColourCamera) -> Result<(), String> {
     let p = &c.pinhole;
     finite("a number", &[p.fx, p.fy, p.ppx, p.ppy])?;
     finite("a coefficient", &c.coeffs)?;
@@ -245,7 +232,7 @@ fn colour(t: &str) -> Outcome {
     if c.image_bytes() > 3 * 8192 * 8192 {
         return Err(format!("{} bytes an image", c.image_bytes()));
     }
-    Ok(Verdict::Accepted)
+    Ok(())
 }
 
 /// Lines as a stream reads them: cut at LF, then [`text::stream_line`].
@@ -424,26 +411,42 @@ pub fn readers() -> Vec<Reader> {
             "scene TOML",
             vec![repo_file("scenes/paper.toml"), SCENE_EXTRAS.into()],
             20_000,
+            |t| Scene::from_toml(t, "fuzz.toml"),
             scene,
         ),
-        toml_reader("stimulus library TOML", libs, 20_000, library),
-        toml_reader("study protocol TOML", files(&studies), 20_000, protocol),
+        toml_reader(
+            "stimulus library TOML",
+            libs,
+            20_000,
+            |t| Library::from_toml(t, "fuzz.toml"),
+            library,
+        ),
+        toml_reader(
+            "study protocol TOML",
+            files(&studies),
+            20_000,
+            |t| Unlinked::from_toml(t, "fuzz.toml"),
+            protocol,
+        ),
         toml_reader(
             "study protocol + library",
             files(&studies[..6]),
             10_000,
+            read_linked,
             linked,
         ),
         toml_reader(
             "intrinsics TOML",
             vec![Intrinsics::D435_848X480.to_toml().into_bytes()],
             20_000,
+            |t| Intrinsics::from_toml(t, "fuzz.toml"),
             intrinsics,
         ),
         toml_reader(
             "colour camera TOML",
             vec![ColourCamera::D435_848X480.to_toml().into_bytes()],
             20_000,
+            |t| ColourCamera::from_toml(t, "fuzz.toml"),
             colour,
         ),
         Reader {

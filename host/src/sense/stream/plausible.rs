@@ -184,27 +184,33 @@ impl Plausibility {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use Reject::{Jump, OutOfOrder, OutOfRange};
 
-    impl Plausibility {
-        fn check_replay(&mut self, s: &Sample) -> Result<(), Reject> {
-            self.check(s, Arrival::Replay)
+    const OK: Result<(), Reject> = Ok(());
+
+    /// Replays `(t_s, x_mm, verdict)` samples in turn: each is checked
+    /// with no arrival time, as a recording is.
+    #[track_caller]
+    fn replay(g: &mut Plausibility, samples: &[(f64, f64, Result<(), Reject>)]) {
+        for (i, &(t_s, x, want)) in samples.iter().enumerate() {
+            let got = g.check(&Sample::at(t_s, x), Arrival::Replay);
+            assert_eq!(got, want, "sample {i}: {t_s} s at {x} mm");
         }
     }
 
     #[test]
     fn drops_out_of_order_out_of_range_and_single_jumps() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&Sample::at(1.0, 0.0)), Ok(()));
-        assert_eq!(
-            g.check_replay(&Sample::at(-1e300, 0.0)),
-            Err(Reject::OutOfOrder)
+        replay(
+            &mut g,
+            &[
+                (1.0, 0.0, OK),
+                (-1e300, 0.0, Err(OutOfOrder)),
+                (1.1, 1e30, Err(OutOfRange)),
+                (1.2, 500.0, Err(Jump)),
+                (1.3, 1.0, OK),
+            ],
         );
-        assert_eq!(
-            g.check_replay(&Sample::at(1.1, 1e30)),
-            Err(Reject::OutOfRange)
-        );
-        assert_eq!(g.check_replay(&Sample::at(1.2, 500.0)), Err(Reject::Jump));
-        assert_eq!(g.check_replay(&Sample::at(1.3, 1.0)), Ok(()));
         assert_eq!(
             g.counts,
             PlausibilityCounts {
@@ -219,32 +225,37 @@ mod tests {
     #[test]
     fn a_real_move_is_followed_after_three_agreeing_jumps() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&Sample::at(0.0, 0.0)), Ok(()));
-        assert_eq!(g.check_replay(&Sample::at(0.1, 100.0)), Err(Reject::Jump));
-        assert_eq!(g.check_replay(&Sample::at(0.2, 101.0)), Err(Reject::Jump));
-        assert_eq!(g.check_replay(&Sample::at(0.3, 102.0)), Ok(()));
-        assert_eq!(g.check_replay(&Sample::at(0.4, 103.0)), Ok(()));
-        // Scattered outliers never agree.
-        for (i, x) in [300.0, -300.0, 300.0, -300.0].iter().enumerate() {
-            assert_eq!(
-                g.check_replay(&Sample::at(0.5 + i as f64, *x)),
-                Err(Reject::Jump)
-            );
-        }
+        replay(
+            &mut g,
+            &[
+                (0.0, 0.0, OK),
+                (0.1, 100.0, Err(Jump)),
+                (0.2, 101.0, Err(Jump)),
+                (0.3, 102.0, OK),
+                (0.4, 103.0, OK),
+                // Scattered outliers never agree.
+                (0.5, 300.0, Err(Jump)),
+                (1.5, -300.0, Err(Jump)),
+                (2.5, 300.0, Err(Jump)),
+                (3.5, -300.0, Err(Jump)),
+            ],
+        );
     }
 
     #[test]
     fn one_time_stamp_far_ahead_is_dropped_and_drops_nothing_after_it() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&Sample::at(1.0, 0.0)), Ok(()));
-        // A year ahead: were it accepted, every later sample would be
-        // older than it and dropped as out of order.
-        assert_eq!(
-            g.check_replay(&Sample::at(3.2e7, 0.0)),
-            Err(Reject::OutOfOrder)
+        replay(
+            &mut g,
+            &[
+                (1.0, 0.0, OK),
+                // A year ahead: were it accepted, every later sample would
+                // be older than it and dropped as out of order.
+                (3.2e7, 0.0, Err(OutOfOrder)),
+                (1.1, 0.0, OK),
+                (1.2, 0.0, OK),
+            ],
         );
-        assert_eq!(g.check_replay(&Sample::at(1.1, 0.0)), Ok(()));
-        assert_eq!(g.check_replay(&Sample::at(1.2, 0.0)), Ok(()));
         assert_eq!(g.counts.out_of_order, 1);
     }
 
@@ -316,27 +327,20 @@ mod tests {
     #[test]
     fn in_a_replay_a_wild_stamp_costs_one_sample_and_a_real_pause_two() {
         let mut g = Plausibility::default();
-        assert_eq!(g.check_replay(&Sample::at(1.0, 0.0)), Ok(()));
-        assert_eq!(
-            g.check_replay(&Sample::at(31.0, 0.0)),
-            Err(Reject::OutOfOrder)
+        replay(
+            &mut g,
+            &[
+                (1.0, 0.0, OK),
+                (31.0, 0.0, Err(OutOfOrder)),
+                (1.1, 0.0, OK),
+                (1.1 + MAX_TIME_SKEW_S, 0.0, OK),
+                // The recording paused 5 s: no arrival time tells it apart
+                // from a wild stamp until the samples after it agree.
+                (10.0, 0.0, Err(OutOfOrder)),
+                (10.1, 0.0, Err(OutOfOrder)),
+                (10.2, 0.0, OK),
+            ],
         );
-        assert_eq!(g.check_replay(&Sample::at(1.1, 0.0)), Ok(()));
-        assert_eq!(
-            g.check_replay(&Sample::at(1.1 + MAX_TIME_SKEW_S, 0.0)),
-            Ok(())
-        );
-        // The recording paused 5 s: no arrival time tells it apart from a
-        // wild stamp until the samples after it agree.
-        assert_eq!(
-            g.check_replay(&Sample::at(10.0, 0.0)),
-            Err(Reject::OutOfOrder)
-        );
-        assert_eq!(
-            g.check_replay(&Sample::at(10.1, 0.0)),
-            Err(Reject::OutOfOrder)
-        );
-        assert_eq!(g.check_replay(&Sample::at(10.2, 0.0)), Ok(()));
         assert_eq!(g.counts.out_of_order, 3);
     }
 
@@ -348,7 +352,7 @@ mod tests {
             pos_mm: [1e300, 0.0, 0.0],
             present: false,
         };
-        assert_eq!(g.check_replay(&gone), Ok(()));
-        assert_eq!(g.check_replay(&Sample::at(0.1, 500.0)), Ok(()));
+        assert_eq!(g.check(&gone, Arrival::Replay), OK);
+        replay(&mut g, &[(0.1, 500.0, OK)]);
     }
 }
