@@ -133,9 +133,12 @@ pub const R11_LIST_NUMBERS: &str = "r11-9 a number inside a flag's list is read 
 /// Round 12: Python, streams and device replies (`cases_r12.rs`).
 pub const R12_CONTROL_WHOLE: &str = "r12-1 a control line's whole number names its rule's range";
 pub const R12_PORT_LONG: &str = "r12-2 a port name longer than any is refused, not echoed whole";
+/// Round 13: what earlier rounds knew of and left (`cases_r13.rs`).
+pub const R13_FILE_WHOLE: &str = "r13-1 a file's whole number names its field's range";
+pub const R13_MISSING: &str = "r13-2 a missing field is named with where it was wanted";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 100] = [
+pub const CLASSES: [&str; 102] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -236,4 +239,6 @@ pub const CLASSES: [&str; 100] = [
     R11_LIST_NUMBERS,
     R12_CONTROL_WHOLE,
     R12_PORT_LONG,
+    R13_FILE_WHOLE,
+    R13_MISSING,
 ];

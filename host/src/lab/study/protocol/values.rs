@@ -98,25 +98,63 @@ checked!(
         "pattern": label_pattern(true)
     }
 );
-checked!(
+/// A whole number in `$lo..=$hi` read as any number the file wrote
+/// ([`crate::whole`]): `-1`, `2.5` or `1e30` are refused naming the
+/// field's range, not the range of `$t`.
+macro_rules! whole {
+    ($(#[$m:meta])* $name:ident($t:ty), $default:expr, $lo:literal..=$hi:expr) => {
+        $(#[$m])*
+        #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+        #[serde(try_from = "crate::whole::FileNumber")]
+        pub(super) struct $name(pub $t);
+
+        impl TryFrom<crate::whole::FileNumber> for $name {
+            type Error = String;
+            fn try_from(n: crate::whole::FileNumber) -> Result<Self, String> {
+                let v = n.whole_in($lo, $hi as u64)?;
+                <$t>::try_from(v).map(Self).map_err(|_| format!("{v} is out of range"))
+            }
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                Self($default)
+            }
+        }
+
+        impl JsonSchema for $name {
+            fn inline_schema() -> bool {
+                true
+            }
+            fn schema_name() -> Cow<'static, str> {
+                stringify!($name).into()
+            }
+            fn json_schema(_: &mut SchemaGenerator) -> Schema {
+                json_schema!({ "type": "integer", "minimum": $lo, "maximum": $hi })
+            }
+        }
+    };
+}
+
+whole!(
     /// Sets: each a fresh permutation of every condition.
-    Sets(usize as "usize"), 1, "integer" 1..=MAX_SETS, ""
+    Sets(usize), 1, 1..=MAX_SETS
 );
-checked!(
+whole!(
     /// Most adjustments per trial.
-    Adjustments(u32 as "u32"), 20, "integer" 1..=MAX_ADJUSTMENTS, ""
+    Adjustments(u32), 20, 1..=MAX_ADJUSTMENTS
 );
-checked!(
+whole!(
     /// Answers in a row that move a staircase (its `up` and `down`).
-    Run(u32 as "u32"), 1, "integer" 1..=MAX_RUN, ""
+    Run(u32), 1, 1..=MAX_RUN
 );
-checked!(
+whole!(
     /// Reversals that end a staircase.
-    Reversals(u32 as "u32"), 8, "integer" 1..=MAX_STAIRCASE, ""
+    Reversals(u32), 8, 1..=MAX_STAIRCASE
 );
-checked!(
+whole!(
     /// Presentations that end a staircase.
-    Presentations(u32 as "u32"), 50, "integer" 1..=MAX_STAIRCASE, ""
+    Presentations(u32), 50, 1..=MAX_STAIRCASE
 );
 checked!(
     /// A depth, mm.

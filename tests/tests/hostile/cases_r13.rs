@@ -1,0 +1,178 @@
+//! Round 13: what earlier rounds knew of and left, each as a class.
+//!
+//! - A whole-number field of a file names the field's own range whatever
+//!   number came: `width = -1` in intrinsics, `sets = 2.5` or `repeat =
+//!   -1` in a protocol, `foci = -1` or `ratio = [-1, 2]` in a library,
+//!   `min_points = -5` in a scene said "expected a whole number from 0 to
+//!   4294967295" (or "≥ 0", or "invalid type: floating point"): the Rust
+//!   type's range, the field's own rule named only for a value the type
+//!   held.
+//! - A missing field is named plainly, with where it was wanted:
+//!   intrinsics without `fx` said "line 1, field `width`: missing field
+//!   `fx`", the file's first key taken for the place.
+//!
+//! Fixtures in `{dir}/r13`.
+
+use super::*;
+
+/// The repository's `studies/NAME` with its library named by its whole
+/// path, so a copy in `{dir}/r13` finds it.
+fn study(name: &str) -> String {
+    let studies = Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies");
+    let text = std::fs::read_to_string(studies.join(name)).unwrap();
+    let mut out = String::new();
+    for line in text.lines() {
+        match line.strip_prefix("library = \"") {
+            Some(rest) => out.push_str(&format!(
+                "library = \"{}\"",
+                studies.join(rest.trim_end_matches('"')).display()
+            )),
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
+}
+
+const CAM: &str =
+    "width = 4\nheight = 4\nfx = 2.0\nfy = 2.0\nppx = 1.5\nppy = 1.5\ndepth_scale = 0.001\n";
+
+/// Whole numbers no field takes, as a file may write them.
+const NOT_WHOLE: [(&str, &str); 5] = [
+    ("neg", "-1"),
+    ("frac", "2.5"),
+    ("float", "3.0"),
+    ("huge", "1e30"),
+    ("big", "99999999999"),
+];
+
+pub(crate) fn round13_fixtures(dir: &Path) {
+    let r13 = dir.join("r13");
+    std::fs::create_dir_all(&r13).unwrap();
+    let w = |name: &str, body: &str| std::fs::write(r13.join(name), body).unwrap();
+    let exp1 = study("exp1-with-practice.toml");
+    let stair = study("staircase-detection.toml");
+    let scene =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml"))
+            .unwrap();
+    for (tag, v) in NOT_WHOLE {
+        w(
+            &format!("cam_w_{tag}.toml"),
+            &CAM.replace("width = 4", &format!("width = {v}")),
+        );
+        w(
+            &format!("sets_{tag}.toml"),
+            &exp1.replacen("sets = 2", &format!("sets = {v}"), 1),
+        );
+        w(
+            &format!("points_{tag}.toml"),
+            &exp1.replacen("points = 7", &format!("points = {v}"), 1),
+        );
+        w(
+            &format!("stair_{tag}.toml"),
+            &stair.replacen(
+                "threshold_reversals = 8",
+                &format!("threshold_reversals = {v}"),
+                1,
+            ),
+        );
+        w(
+            &format!("steps_{tag}.toml"),
+            &stair.replacen("steps = [4, 2, 1]", &format!("steps = [4, {v}, 1]"), 1),
+        );
+        w(
+            &format!("repeat_{tag}.toml"),
+            &exp1.replacen("iti_s = 1.0", &format!("iti_s = 1.0\nrepeat = {v}"), 1),
+        );
+        w(
+            &format!("lib_foci_{tag}.toml"),
+            &format!("[[stimulus]]\nid = \"a\"\nradius = 2.0\nfoci = {v}\n"),
+        );
+        w(
+            &format!("lib_ratio_{tag}.toml"),
+            &format!(
+                "[[stimulus]]\nid = \"a\"\n\
+                 path = {{ shape = \"lissajous\", a = 2.0, b = 2.0, ratio = [{v}, 2] }}\n"
+            ),
+        );
+        w(
+            &format!("scene_pts_{tag}.toml"),
+            &scene.replacen("min_points = 20", &format!("min_points = {v}"), 1),
+        );
+    }
+    w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
+    w(
+        "cam_no_width.toml",
+        &format!("# a D435\n{}", CAM.replace("width = 4\n", "")),
+    );
+}
+
+/// What `v` (a [`NOT_WHOLE`] value) is said to be, against `range`.
+fn said(v: &str, range: &str) -> String {
+    match v {
+        "2.5" | "3.0" => format!("{v} is not a whole number in {range}"),
+        _ => format!("{v} is out of range {range}"),
+    }
+}
+
+pub(crate) fn round13_cases() -> Vec<Case> {
+    let mut v = Vec::new();
+    let session = "session --port autd3:emulator --control - --library";
+    for (tag, n) in NOT_WHOLE {
+        let c = |args: String| case(R13_FILE_WHOLE, &args);
+        v.push(
+            c("track".into())
+                .depth("ok.npy", &format!("r13/cam_w_{tag}.toml"))
+                .err(&format!("line 1, field `width`: {}", said(n, "1..=8192"))),
+        );
+        for (file, field, range) in [
+            ("sets", "line 14, field `sets`", "1..=100"),
+            (
+                "points",
+                "field `question[0].points`: question `vibration`",
+                "2..=9",
+            ),
+            ("repeat", "field `timeline.repeat`", "1..=10000"),
+            ("stair", "field `staircase.threshold_reversals`", "1..=12"),
+        ] {
+            v.push(
+                c(format!("study check {{dir}}/r13/{file}_{tag}.toml"))
+                    .err(&format!("{field}: {}", said(n, range))),
+            );
+        }
+        v.push(
+            c(format!("study check {{dir}}/r13/steps_{tag}.toml"))
+                .err("field `staircase.steps`: give 1 or more steps, each 1 to 19 grid places"),
+        );
+        v.push(
+            c(format!("{session} {{dir}}/r13/lib_foci_{tag}.toml")).err(&format!(
+                "line 4, field `stimulus[0].foci`: {}",
+                said(n, "1..=32")
+            )),
+        );
+        v.push(
+            c(format!("{session} {{dir}}/r13/lib_ratio_{tag}.toml")).err(&format!(
+                "field `stimulus[0].path.ratio`: {}",
+                said(n, "1..=32")
+            )),
+        );
+        v.push(
+            c(format!("plan --scene {{dir}}/r13/scene_pts_{tag}.toml")).err(&format!(
+                "field `tracking.min_points`: {}",
+                said(n, "1..=67108864")
+            )),
+        );
+    }
+    v.push(
+        case(R13_MISSING, "track")
+            .depth("ok.npy", "r13/cam_no_fx.toml")
+            .err("intrinsics")
+            .err(": missing field `fx` at the top level"),
+    );
+    v.push(
+        case(R13_MISSING, "track")
+            .depth("ok.npy", "r13/cam_no_width.toml")
+            .err(": missing field `width` at the top level"),
+    );
+    v
+}
