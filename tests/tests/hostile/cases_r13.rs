@@ -10,6 +10,11 @@
 //! - A missing field is named plainly, with where it was wanted:
 //!   intrinsics without `fx` said "line 1, field `width`: missing field
 //!   `fx`", the file's first key taken for the place.
+//! - A recording of nothing is refused, naming it: `track --depth` of a
+//!   0-frame `.npy`, `track --stream` of a stream that ends after its
+//!   header, `stream` of empty input (or of comments only) and a
+//!   session's `--stream` file of no samples exited 0 reporting 0 frames
+//!   or samples, as if a finger had been tracked and nothing seen.
 //!
 //! Fixtures in `{dir}/r13`.
 
@@ -100,11 +105,25 @@ pub(crate) fn round13_fixtures(dir: &Path) {
             &scene.replacen("min_points = 20", &format!("min_points = {v}"), 1),
         );
     }
+    std::fs::write(r13.join("header_only.lmdepth"), header_only()).unwrap();
+    w("no_samples.csv", "# t,x,y,z,present\n\n");
+    w("empty.csv", "");
     w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
     w(
         "cam_no_width.toml",
         &format!("# a D435\n{}", CAM.replace("width = 4\n", "")),
     );
+}
+
+/// An LMDEPTH1 header of a 4 × 4 stream, and no frame after it.
+fn header_only() -> Vec<u8> {
+    let mut hdr = b"LMDEPTH1".to_vec();
+    hdr.extend(4u32.to_le_bytes());
+    hdr.extend(4u32.to_le_bytes());
+    for v in [2.0f64, 2.0, 1.5, 1.5, 0.001] {
+        hdr.extend(v.to_le_bytes());
+    }
+    hdr
 }
 
 /// What `v` (a [`NOT_WHOLE`] value) is said to be, against `range`.
@@ -174,5 +193,63 @@ pub(crate) fn round13_cases() -> Vec<Case> {
             .depth("ok.npy", "r13/cam_no_width.toml")
             .err(": missing field `width` at the top level"),
     );
+    v.extend(empty_recordings());
     v
+}
+
+/// `R13_EMPTY`: every reader of a recording refuses one of nothing.
+fn empty_recordings() -> Vec<Case> {
+    let scene = "--scene {scenes}/paper.toml";
+    let lib = "--library {scenes}/../studies/paper-library.toml";
+    vec![
+        case(R13_EMPTY, "track")
+            .depth("empty.npy", "cam.toml")
+            .err("empty.npy: the recording holds no frames (shape (0, 4, 4))"),
+        case(R13_EMPTY, "track")
+            .depth("empty.npy", "cam.toml")
+            .args("--record {dir}/r13/rec_of_none.npy")
+            .err("the recording holds no frames")
+            .check(no_recording_of_none),
+        case(
+            R13_EMPTY,
+            &format!("track --stream {{dir}}/r13/header_only.lmdepth {scene}"),
+        )
+        .err("header_only.lmdepth: the stream holds no frames (it ended after its header)"),
+        case(R13_EMPTY, &format!("track --stream - {scene}"))
+            .stdin(header_only())
+            .err("stdin: the stream holds no frames"),
+        case(R13_EMPTY, "stream --port {port}")
+            .err("no centroids on input: standard input ended before its first sample line"),
+        case(R13_EMPTY, "stream --port {port}")
+            .stdin("# t,x,y,z,present\n")
+            .err("no centroids on input: standard input ended"),
+        case(
+            R13_EMPTY,
+            "stream --port {port} --json --input {dir}/r13/no_samples.csv",
+        )
+        .err("no centroids on input: --input file {dir}/r13/no_samples.csv ended"),
+        case(
+            R13_EMPTY,
+            "stream --port {port} --input {dir}/r13/empty.csv",
+        )
+        .err("no centroids on input: --input file {dir}/r13/empty.csv ended"),
+        case(
+            R13_EMPTY,
+            &format!(
+                "session {lib} --port autd3:emulator --control - --stream {{dir}}/r13/empty.csv"
+            ),
+        )
+        .stdin("")
+        .hold_stdin()
+        .err("no centroids on input: --stream file {dir}/r13/empty.csv ended"),
+    ]
+}
+
+/// The refused run left no recording behind.
+fn no_recording_of_none(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let p = ctx.dir.join("r13/rec_of_none.npy");
+    match p.exists() {
+        true => Err(format!("{} was left", p.display())),
+        false => Ok(()),
+    }
 }

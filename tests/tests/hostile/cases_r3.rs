@@ -211,9 +211,10 @@ pub(crate) fn round3_cases() -> Vec<Case> {
                    .err("'--depth <FILE.npy>' cannot be used with '--noise-mm <MM>'");
         RIG        "track --camera --holes 0.5 --scene {scenes}/paper.toml"
                    .err("'--camera' cannot be used with '--holes <FRACTION>'");
-        // 11. A --plot that writes nothing says so.
-        PATH_MESSAGES "track" .depth("empty.npy", "cam.toml").args("--plot {dir}/noplot") .ok()
-                   .err("--plot wrote nothing");
+        // 11. A --plot that would write nothing says so (a recording of
+        //     no frames is refused before it is made: round 13).
+        PATH_MESSAGES "track" .depth("empty.npy", "cam.toml").args("--plot {dir}/noplot")
+                   .err("the recording holds no frames");
         // 9. What the device refused is said.
         REFUSALS   "track --synthetic --fast --seconds 1 --port {port}" .ok()
                    .out("device refusals:").out("outside the work volume");

@@ -136,9 +136,10 @@ pub const R12_PORT_LONG: &str = "r12-2 a port name longer than any is refused, n
 /// Round 13: what earlier rounds knew of and left (`cases_r13.rs`).
 pub const R13_FILE_WHOLE: &str = "r13-1 a file's whole number names its field's range";
 pub const R13_MISSING: &str = "r13-2 a missing field is named with where it was wanted";
+pub const R13_EMPTY: &str = "r13-3 a recording of nothing is refused, naming it";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 102] = [
+pub const CLASSES: [&str; 103] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -241,4 +242,5 @@ pub const CLASSES: [&str; 102] = [
     R12_PORT_LONG,
     R13_FILE_WHOLE,
     R13_MISSING,
+    R13_EMPTY,
 ];
