@@ -56,6 +56,11 @@ pub const MAX_Z_MM: f64 = 100.0;
 pub const MAX_SPACING_MM: f64 = 1_000.0;
 /// Highest LM frequency (`--freq`), Hz.
 pub const MAX_FREQ_HZ: f64 = 1_000.0;
+/// Lowest LM frequency (`--freq`), Hz: its period, 1 / f, fills the
+/// wire's u32 microseconds. Checked as the frequency given, so a lower
+/// one is refused by its own value, never by a period derived from it
+/// (`1e-320` Hz said "period inf s").
+pub const MIN_FREQ_HZ: f64 = 1e6 / u32::MAX as f64;
 /// Largest weight (`--weights`, each within 0..=this: the synthesis
 /// refuses a negative one).
 pub const MAX_WEIGHT: f64 = 1.0e6;

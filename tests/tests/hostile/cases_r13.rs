@@ -15,6 +15,20 @@
 //!   header, `stream` of empty input (or of comments only) and a
 //!   session's `--stream` file of no samples exited 0 reporting 0 frames
 //!   or samples, as if a finger had been tracked and nothing seen.
+//! - A number whose derived quantity overflows is refused by its own
+//!   value and range: `plan --freq 1e-300` said "period 1e300 s exceeds
+//!   the wire's u32 microseconds" (Python's `freq=1e-320` "period inf s"),
+//!   `--step 1e-300` "gives 1.9e301 steps", `simulate --plane-step 1e-300`
+//!   "inf × inf = inf points", a phases file's `dwell_us = 1e-300` "is inf
+//!   Hz"; `--radius 1e-300` named a circumference of "0.000 mm", a dwell
+//!   below the device's "0.0000 ms", and `simulate --density 1e-300`
+//!   computed a force near 1e300 N without a word. An AUTD3 dwell too long
+//!   was told to "lower the frequency" (which lengthens it).
+//!
+//! The Python classes (the same numbers through `plan()` and
+//! `simulate()`, and every argument of the wrong kind said as what it
+//! must be, not pyo3's `TypeError`) are in
+//! `python/tests/test_hostile_r13.py`.
 //!
 //! Fixtures in `{dir}/r13`.
 
@@ -108,6 +122,11 @@ pub(crate) fn round13_fixtures(dir: &Path) {
     std::fs::write(r13.join("header_only.lmdepth"), header_only()).unwrap();
     w("no_samples.csv", "# t,x,y,z,present\n\n");
     w("empty.csv", "");
+    let rows = vec![vec![0u8; 996]; 4];
+    for (name, dwell) in [("dwell_tiny.json", 1e-300), ("dwell_huge.json", 1e300)] {
+        let body = serde_json::json!({"phases": rows, "dwell_us": dwell});
+        w(name, &body.to_string());
+    }
     w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
     w(
         "cam_no_width.toml",
@@ -194,6 +213,27 @@ pub(crate) fn round13_cases() -> Vec<Case> {
             .err(": missing field `width` at the top level"),
     );
     v.extend(empty_recordings());
+    v.extend(table! {
+        R13_DERIVED "plan --freq 1e-300"
+            .err("frequency 1e-300 Hz is out of range: allowed 0.000232831..=1000 Hz");
+        R13_DERIVED "plan --freq 0.0002328 --steps 1"
+            .err("frequency 0.0002328 Hz is out of range: allowed 0.000232831..=1000 Hz");
+        R13_DERIVED "plan --step 1e-300"
+            .err("step 1e-300 mm is out of range: allowed 0.000287626..=18.8496 mm, 1..=65535 steps");
+        R13_DERIVED "plan --radius 1e-300" .err("the circumference 2πA = 6.283e-300 mm");
+        R13_DERIVED "plan --steps 65535 --freq 1000" .err("dwell 1/(N·f) = 1.5259e-5 ms is below");
+        R13_DERIVED "plan --target autd3 --freq 0.00024"
+            .err("needs a 50813008.1 µs dwell").err("raise the frequency or the step count");
+        R13_DERIVED "simulate --plane-step 1e-300 --out {dir}/r13/sim_fine"
+            .err("a step of 1e-300 mm over 20 × 20 mm gives too many points to count")
+            .err("give a step of at least 0.010005 mm");
+        R13_DERIVED "simulate --density 1e-300 --plane-size 2 --plane-step 1 --out {dir}/r13/sim_thin"
+            .err("--density 1e-300 kg/m³ is out of range: allowed 0.001..=100 kg/m³");
+        R13_DERIVED "upload --port {port} --phases {dir}/r13/dwell_tiny.json"
+            .err("dwell_us 1e-300 over 4 steps is out of range: allowed 250..=1.07374e9 µs");
+        R13_DERIVED "upload --port {port} --phases {dir}/r13/dwell_huge.json"
+            .err("dwell_us 1e300 over 4 steps is out of range: allowed 250..=1.07374e9 µs");
+    });
     v
 }
 

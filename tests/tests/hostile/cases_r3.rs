@@ -256,7 +256,7 @@ pub(crate) fn round3_cases() -> Vec<Case> {
         STIMULI    "upload --port {port} --foci-file {dir}/fo_behind.json" .err("fo_behind.json").err("behind");
         STIMULI    "upload --port {port} --foci-file {dir}/fo_far.json" .err("fo_far.json").err("±2000");
         STIMULI    "upload --port {port} --foci-file {dir}/fo_many.json" .err("at most 32");
-        STIMULI    "upload --port {port} --foci-file {dir}/fo_short.json" .err("above 1000 Hz");
+        STIMULI    "upload --port {port} --foci-file {dir}/fo_short.json" .err("dwell_us 10 over 1 step is out of range: allowed 1000..=");
         STIMULI    "upload --port {port} --foci-file {dir}/fo_far.json --method gspat" .err("--method");
         STIMULI    "stream --port {port} --input {dir}/track_extra.jsonl" .err("line 1").err("unknown field `colour`");
         STIMULI    "stream --port {port} --input {dir}/track_nopos.jsonl" .err("line 1").err("needs its centre");

@@ -137,9 +137,10 @@ pub const R12_PORT_LONG: &str = "r12-2 a port name longer than any is refused, n
 pub const R13_FILE_WHOLE: &str = "r13-1 a file's whole number names its field's range";
 pub const R13_MISSING: &str = "r13-2 a missing field is named with where it was wanted";
 pub const R13_EMPTY: &str = "r13-3 a recording of nothing is refused, naming it";
+pub const R13_DERIVED: &str = "r13-4 a number is refused by its own range, not a derived overflow";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 103] = [
+pub const CLASSES: [&str; 104] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -243,4 +244,5 @@ pub const CLASSES: [&str; 103] = [
     R13_FILE_WHOLE,
     R13_MISSING,
     R13_EMPTY,
+    R13_DERIVED,
 ];
