@@ -24,6 +24,11 @@
 //!   below the device's "0.0000 ms", and `simulate --density 1e-300`
 //!   computed a force near 1e300 N without a word. An AUTD3 dwell too long
 //!   was told to "lower the frequency" (which lengthens it).
+//! - `study check` applies the timeline rule `study run` applies before
+//!   the device opens: it planned no library, so it called "valid" a
+//!   protocol whose on-phase `run` then refused as shorter than half a
+//!   step of a stimulus (as written or by `--time-scale`, which `check`
+//!   now takes with `--scene`, as `run` does).
 //!
 //! The Python classes (the same numbers through `plan()` and
 //! `simulate()`, and every argument of the wrong kind said as what it
@@ -127,6 +132,19 @@ pub(crate) fn round13_fixtures(dir: &Path) {
         let body = serde_json::json!({"phases": rows, "dwell_us": dwell});
         w(name, &body.to_string());
     }
+    let library = Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies/paper-library.toml");
+    let short = |on_s: &str| {
+        format!(
+            "name = \"short\"\nlibrary = \"{}\"\nsets = 1\nstimulus = \"lms-5hz-a{{radius}}\"\n\n\
+             [timeline]\non_s = {on_s}\niti_s = 0.0\ngate = \"untracked\"\n\n\
+             [[factor]]\nname = \"radius\"\nlevels = [\"2\", \"3\"]\n\n\
+             [[question]]\nid = \"guess\"\nkind = \"number\"\n",
+            library.display()
+        )
+    };
+    w("short_on.toml", &short("0.001"));
+    w("long_on.toml", &short("0.5"));
+    w("answers.txt", "1\n2\n");
     w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
     w(
         "cam_no_width.toml",
@@ -213,6 +231,46 @@ pub(crate) fn round13_cases() -> Vec<Case> {
             .err(": missing field `width` at the top level"),
     );
     v.extend(empty_recordings());
+    let half = "is shorter than half a step of `lms-5hz-a2`";
+    let run = "study run --port autd3:emulator --out {dir}/r13/out --participant P1 \
+               --responses {dir}/r13/answers.txt";
+    v.extend(vec![
+        case(R13_CHECK_RUN, "study check {dir}/r13/short_on.toml")
+            .err("the timeline's on_s 0.001 s")
+            .err(half),
+        case(R13_CHECK_RUN, &format!("{run} {{dir}}/r13/short_on.toml"))
+            .err("the timeline's on_s 0.001 s")
+            .err(half),
+        case(
+            R13_CHECK_RUN,
+            "study check {dir}/r13/long_on.toml --time-scale 0.003",
+        )
+        .err("on_s 0.5 s × --time-scale 0.003 = 0.0015 s")
+        .err(half),
+        case(
+            R13_CHECK_RUN,
+            &format!("{run} {{dir}}/r13/long_on.toml --time-scale 0.003"),
+        )
+        .err("on_s 0.5 s × --time-scale 0.003 = 0.0015 s")
+        .err(half),
+        // The flags `run` takes, taken: what plays is valid.
+        case(
+            R13_CHECK_RUN,
+            "study check {dir}/r13/long_on.toml --time-scale 1",
+        )
+        .ok()
+        .out("protocol `short`: valid"),
+        case(
+            R13_CHECK_RUN,
+            "study check {dir}/r13/long_on.toml --time-scale 1e-300",
+        )
+        .err("on_s 0.5 s × --time-scale 1e-300 = 5e-301 s"),
+        case(
+            R13_CHECK_RUN,
+            "study check {dir}/r13/long_on.toml --time-scale 101",
+        )
+        .err("--time-scale 101: give a factor above 0 and at most 100"),
+    ]);
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"
             .err("frequency 1e-300 Hz is out of range: allowed 0.000232831..=1000 Hz");

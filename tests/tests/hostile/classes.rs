@@ -138,9 +138,10 @@ pub const R13_FILE_WHOLE: &str = "r13-1 a file's whole number names its field's 
 pub const R13_MISSING: &str = "r13-2 a missing field is named with where it was wanted";
 pub const R13_EMPTY: &str = "r13-3 a recording of nothing is refused, naming it";
 pub const R13_DERIVED: &str = "r13-4 a number is refused by its own range, not a derived overflow";
+pub const R13_CHECK_RUN: &str = "r13-5 study check refuses the timeline study run refuses";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 104] = [
+pub const CLASSES: [&str; 105] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -245,4 +246,5 @@ pub const CLASSES: [&str; 104] = [
     R13_MISSING,
     R13_EMPTY,
     R13_DERIVED,
+    R13_CHECK_RUN,
 ];
