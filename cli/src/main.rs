@@ -102,7 +102,11 @@ fn value_from_env(e: &clap::Error) -> Option<String> {
 
 /// `text` (clap's rendering of `e`) with each value the user gave that
 /// holds a line end written with `\n`, so that taking its first paragraph
-/// does not cut a value (`--radius $'3\n\nx'`) short.
+/// does not cut a value (`--radius $'3\n\nx'`) short; and one longer than
+/// an error repeats cut around its length wherever it is echoed (clap's
+/// `invalid value '…'` and the parser's own words): a value of 20 000
+/// characters with spaces in it was repeated whole, twice, as no cut of
+/// long words catches it.
 fn values_on_one_line(e: &clap::Error, mut text: String) -> String {
     use clap::error::{ContextKind, ContextValue};
     for kind in [
@@ -110,10 +114,14 @@ fn values_on_one_line(e: &clap::Error, mut text: String) -> String {
         ContextKind::InvalidArg,
         ContextKind::InvalidSubcommand,
     ] {
-        if let Some(ContextValue::String(v)) = e.get(kind)
-            && v.contains(['\n', '\r'])
-        {
-            text = text.replace(v.as_str(), &v.replace('\n', "\\n").replace('\r', "\\r"));
+        if let Some(ContextValue::String(v)) = e.get(kind) {
+            let one_line = v.replace('\n', "\\n").replace('\r', "\\r");
+            if one_line != *v {
+                text = text.replace(v.as_str(), &one_line);
+            }
+            if one_line.chars().count() > lmhost::error::MAX_ECHO_CHARS {
+                text = text.replace(&one_line, &lmhost::error::short_echo(&one_line));
+            }
         }
     }
     text

@@ -29,6 +29,12 @@
 //!   protocol whose on-phase `run` then refused as shorter than half a
 //!   step of a stimulus (as written or by `--time-scale`, which `check`
 //!   now takes with `--scene`, as `run` does).
+//! - A number flag's value that is no number says so and what to give:
+//!   `--radius x` said "invalid float literal", `--radius ""` "cannot
+//!   parse float from empty string", `--steps ""` " is not a whole
+//!   number" (an empty echo), and `--steps " 5"` "5 is not a whole
+//!   number", naming a value that would have been taken; a value of
+//!   20 000 characters with spaces was echoed whole, twice.
 //!
 //! The Python classes (the same numbers through `plan()` and
 //! `simulate()`, and every argument of the wrong kind said as what it
@@ -271,6 +277,7 @@ pub(crate) fn round13_cases() -> Vec<Case> {
         )
         .err("--time-scale 101: give a factor above 0 and at most 100"),
     ]);
+    v.extend(flag_values());
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"
             .err("frequency 1e-300 Hz is out of range: allowed 0.000232831..=1000 Hz");
@@ -341,6 +348,46 @@ fn empty_recordings() -> Vec<Case> {
         .hold_stdin()
         .err("no centroids on input: --stream file {dir}/r13/empty.csv ended"),
     ]
+}
+
+/// `R13_NOT_A_NUMBER`: `lmhost args FLAG VALUE`, the value whole.
+fn flag_values() -> Vec<Case> {
+    let with = |args: &str, value: String| {
+        let mut c = case(R13_NOT_A_NUMBER, args);
+        c.args.push(value);
+        c
+    };
+    let give = "is not a number: give one such as 2.5, -1 or 1e-3";
+    let long = "a b ".repeat(5000);
+    vec![
+        with("plan --radius", "x".into()).err(&format!("x {give}")),
+        with("plan --radius", String::new()).err(&format!("an empty value {give}")),
+        with("simulate --out {dir}/r13/nan --plane-step", "1,5".into()).err(&format!("1,5 {give}")),
+        with("plan --freq", " 5".into())
+            .err("` 5` is not a number (spaces around it): give one such as"),
+        with("plan --steps", String::new())
+            .err("an empty value is not a whole number in 1..=65535"),
+        with("plan --steps", " 5".into()).err("` 5` is not a whole number in 1..=65535"),
+        with("plan --radius", long.clone())
+            .err("…(20000 characters)…")
+            .check(short_refusal),
+        with("plan --steps", long)
+            .err("…(20000 characters)…")
+            .err("is not a whole number in 1..=65535")
+            .check(short_refusal),
+        with("plan --radius", "1\n".repeat(500))
+            .err("1\\n1\\n")
+            .err(give)
+            .check(short_refusal),
+    ]
+}
+
+/// The refusal is a line of a few hundred characters: the value was cut.
+fn short_refusal(_: &Ctx, r: &Run) -> Result<(), String> {
+    match r.stderr.chars().count() {
+        n if n < 600 => Ok(()),
+        n => Err(format!("stderr has {n} characters")),
+    }
 }
 
 /// The refused run left no recording behind.

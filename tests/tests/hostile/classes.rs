@@ -139,9 +139,10 @@ pub const R13_MISSING: &str = "r13-2 a missing field is named with where it was 
 pub const R13_EMPTY: &str = "r13-3 a recording of nothing is refused, naming it";
 pub const R13_DERIVED: &str = "r13-4 a number is refused by its own range, not a derived overflow";
 pub const R13_CHECK_RUN: &str = "r13-5 study check refuses the timeline study run refuses";
+pub const R13_NOT_A_NUMBER: &str = "r13-6 a flag's value that is no number says what to give";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 105] = [
+pub const CLASSES: [&str; 106] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -247,4 +248,5 @@ pub const CLASSES: [&str; 105] = [
     R13_EMPTY,
     R13_DERIVED,
     R13_CHECK_RUN,
+    R13_NOT_A_NUMBER,
 ];
