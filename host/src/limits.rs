@@ -240,7 +240,7 @@ pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
 /// Checks that the decimal `literal` was read as itself: one whose digits
 /// are not all zero but which parses to 0 or to a subnormal (`1e-400`,
 /// `1e-310`) underflowed and would be taken as another value without a
-/// word, as `1e400` overflows and is refused. `Err` is the message, for
+/// word; one past the largest number (`1e400`) overflowed to infinity. `Err` is the message, for
 /// the caller to prefix with the field. Every number read from text (a
 /// centroid or control line, a JSON value, a TOML file) passes here.
 pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
@@ -250,6 +250,19 @@ pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
     if nonzero && v == 0.0 {
         return Err(format!(
             "{literal} is too small to represent (it would be read as 0): give 0 or a magnitude of at least {least}"
+        ));
+    }
+    // A literal past the largest number reads as infinity: refused as
+    // itself (a flag's `1e309` was "got inf", a value never typed).
+    let spelled_inf = literal
+        .trim_start_matches(['+', '-'])
+        .get(..3)
+        .is_some_and(|h| h.eq_ignore_ascii_case("inf"));
+    if v.is_infinite() && !spelled_inf {
+        return Err(format!(
+            "{literal} is too large to represent (it would be read as {}): give a magnitude of at most {}",
+            show(v),
+            show(f64::MAX)
         ));
     }
     if nonzero && v.is_subnormal() {

@@ -90,7 +90,7 @@ fn not_a_number(s: &str) -> String {
     if s.is_empty() {
         format!("an empty value is not a number: {GIVE}")
     } else if s.trim() != s {
-        format!("`{s}` is not a number (spaces around it): {GIVE}")
+        format!("`{s}` is not a number (white space around it): {GIVE}")
     } else {
         format!("{s} is not a number: {GIVE}")
     }

@@ -35,6 +35,10 @@
 //!   number" (an empty echo), and `--steps " 5"` "5 is not a whole
 //!   number", naming a value that would have been taken; a value of
 //!   20 000 characters with spaces was echoed whole, twice.
+//! - A number literal past the largest is refused as itself: `--freq
+//!   1e309` said "must be a finite number > 0 Hz, got inf", a value
+//!   never typed (a file's or a line's literal was refused, a flag's
+//!   read as infinity).
 //!
 //! The Python classes (the same numbers through `plan()` and
 //! `simulate()`, and every argument of the wrong kind said as what it
@@ -278,6 +282,15 @@ pub(crate) fn round13_cases() -> Vec<Case> {
         .err("--time-scale 101: give a factor above 0 and at most 100"),
     ]);
     v.extend(flag_values());
+    let too_large = "is too large to represent (it would be read as";
+    v.extend(table! {
+        R13_TOO_LARGE "plan --freq 1e309" .err(&format!("1e309 {too_large} inf)"));
+        R13_TOO_LARGE "plan --radius=-1e400" .err(&format!("-1e400 {too_large} -inf)"));
+        R13_TOO_LARGE "plan --center 1e309,0,200" .err(&format!("--center: 1e309 {too_large}"));
+        R13_TOO_LARGE "simulate --plane-size 1e999 --out {dir}/r13/sim_huge"
+            .err(&format!("1e999 {too_large} inf): give a magnitude of at most 1.79769e308"));
+        R13_TOO_LARGE "upload --port {port} --hold 1e400" .err(&format!("1e400 {too_large}"));
+    });
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"
             .err("frequency 1e-300 Hz is out of range: allowed 0.000232831..=1000 Hz");
@@ -364,7 +377,7 @@ fn flag_values() -> Vec<Case> {
         with("plan --radius", String::new()).err(&format!("an empty value {give}")),
         with("simulate --out {dir}/r13/nan --plane-step", "1,5".into()).err(&format!("1,5 {give}")),
         with("plan --freq", " 5".into())
-            .err("` 5` is not a number (spaces around it): give one such as"),
+            .err("` 5` is not a number (white space around it): give one such as"),
         with("plan --steps", String::new())
             .err("an empty value is not a whole number in 1..=65535"),
         with("plan --steps", " 5".into()).err("` 5` is not a whole number in 1..=65535"),
@@ -377,7 +390,7 @@ fn flag_values() -> Vec<Case> {
             .check(short_refusal),
         with("plan --radius", "1\n".repeat(500))
             .err("1\\n1\\n")
-            .err(give)
+            .err("is not a number (white space around it): give one such as 2.5, -1 or 1e-3")
             .check(short_refusal),
     ]
 }
