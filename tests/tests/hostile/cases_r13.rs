@@ -14,7 +14,9 @@
 //!   0-frame `.npy`, `track --stream` of a stream that ends after its
 //!   header, `stream` of empty input (or of comments only) and a
 //!   session's `--stream` file of no samples exited 0 reporting 0 frames
-//!   or samples, as if a finger had been tracked and nothing seen.
+//!   or samples, as if a finger had been tracked and nothing seen; `study
+//!   report` of participants whose trials.csv holds no row wrote a
+//!   summary of nothing and said "0 trials summarised".
 //! - A number whose derived quantity overflows is refused by its own
 //!   value and range: `plan --freq 1e-300` said "period 1e300 s exceeds
 //!   the wire's u32 microseconds" (Python's `freq=1e-320` "period inf s"),
@@ -155,6 +157,16 @@ pub(crate) fn round13_fixtures(dir: &Path) {
     w("short_on.toml", &short("0.001"));
     w("long_on.toml", &short("0.5"));
     w("answers.txt", "1\n2\n");
+    // A participant whose trials.csv holds its header alone.
+    let p1 = dir.join("study/out/P1");
+    let none = r13.join("no_trials/P1");
+    std::fs::create_dir_all(&none).unwrap();
+    for f in ["session.json", "events.jsonl"] {
+        std::fs::copy(p1.join(f), none.join(f)).unwrap();
+    }
+    let trials = std::fs::read_to_string(p1.join("trials.csv")).unwrap();
+    let header = trials.lines().next().unwrap();
+    std::fs::write(none.join("trials.csv"), format!("{header}\n")).unwrap();
     w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
     w(
         "cam_no_width.toml",
@@ -360,6 +372,10 @@ fn empty_recordings() -> Vec<Case> {
         .stdin("")
         .hold_stdin()
         .err("no centroids on input: --stream file {dir}/r13/empty.csv ended"),
+        case(R13_EMPTY, "study report {dir}/r13/no_trials")
+            .err("no_trials: no trial to report: every trials.csv holds no row")
+            .check(no_summary),
+        case(R13_EMPTY, "study report {dir}/r13/no_trials/P1").err("no trial to report"),
     ]
 }
 
@@ -400,6 +416,15 @@ fn short_refusal(_: &Ctx, r: &Run) -> Result<(), String> {
     match r.stderr.chars().count() {
         n if n < 600 => Ok(()),
         n => Err(format!("stderr has {n} characters")),
+    }
+}
+
+/// The refused report wrote nothing.
+fn no_summary(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let p = ctx.dir.join("r13/no_trials/summary.csv");
+    match p.exists() {
+        true => Err(format!("{} was written", p.display())),
+        false => Ok(()),
     }
 }
 
