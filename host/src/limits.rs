@@ -268,10 +268,25 @@ pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
     if nonzero && v.is_subnormal() {
         return Err(format!(
             "{literal} is too small to represent: below {least} it cannot be held exactly (it would be read as {}); give 0 or a magnitude of at least {least}",
-            show(v)
+            // Its digits as held: the shortest form that reads back
+            // (`1e-320`) is the literal itself, and said nothing.
+            held_digits(v)
         ));
     }
     Ok(())
+}
+
+/// A subnormal `v` in 8 significant digits (few enough that
+/// [`tidy_numbers`] leaves them), trailing zeros dropped: `1e-320` is held
+/// as `9.9998867e-321`.
+fn held_digits(v: f64) -> String {
+    let s = format!("{v:.7e}");
+    match s.split_once('e') {
+        Some((m, e)) if m.contains('.') => {
+            format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+        }
+        _ => s,
+    }
 }
 
 /// Seconds to a [`Duration`], checked: finite, `0 < s ≤ max_s`. `what`

@@ -37,10 +37,11 @@
 //!   number" (an empty echo), and `--steps " 5"` "5 is not a whole
 //!   number", naming a value that would have been taken; a value of
 //!   20 000 characters with spaces was echoed whole, twice.
-//! - A number literal past the largest is refused as itself: `--freq
-//!   1e309` said "must be a finite number > 0 Hz, got inf", a value
-//!   never typed (a file's or a line's literal was refused, a flag's
-//!   read as infinity).
+//! - A number literal beyond what a float holds is refused as itself:
+//!   `--freq 1e309` said "must be a finite number > 0 Hz, got inf", a
+//!   value never typed (a file's or a line's literal was refused, a
+//!   flag's read as infinity); `--radius 1e-320` "would be read as
+//!   1e-320", the literal itself, for the value held.
 //!
 //! The Python classes (the same numbers through `plan()` and
 //! `simulate()`, and every argument of the wrong kind said as what it
@@ -302,6 +303,8 @@ pub(crate) fn round13_cases() -> Vec<Case> {
         R13_TOO_LARGE "simulate --plane-size 1e999 --out {dir}/r13/sim_huge"
             .err(&format!("1e999 {too_large} inf): give a magnitude of at most 1.79769e308"));
         R13_TOO_LARGE "upload --port {port} --hold 1e400" .err(&format!("1e400 {too_large}"));
+        R13_TOO_LARGE "plan --radius 1e-320" .err("(it would be read as 9.9998887e-321)");
+        R13_TOO_LARGE "plan --center 5e-324,0,200" .err("(it would be read as 4.9406565e-324)");
     });
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"

@@ -140,7 +140,7 @@ pub const R13_EMPTY: &str = "r13-3 a recording of nothing is refused, naming it"
 pub const R13_DERIVED: &str = "r13-4 a number is refused by its own range, not a derived overflow";
 pub const R13_CHECK_RUN: &str = "r13-5 study check refuses the timeline study run refuses";
 pub const R13_NOT_A_NUMBER: &str = "r13-6 a flag's value that is no number says what to give";
-pub const R13_TOO_LARGE: &str = "r13-7 a number literal past the largest is refused as itself";
+pub const R13_TOO_LARGE: &str = "r13-7 a number literal beyond a float is refused as itself";
 
 /// Every class the suite must cover.
 pub const CLASSES: [&str; 107] = [
