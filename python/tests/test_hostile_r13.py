@@ -5,7 +5,9 @@
   1e-320)`` "gives inf steps", ``simulate(plane_step=1e-320)`` "inf × inf =
   inf points", ``plan(radius=1e-300)`` named a circumference of "0.000 mm",
   and ``simulate(density=1e-320)`` returned a force of inf N.
-- r13-6: every argument of the package's own classes (a ``Scene``, a
+- r13-8: an intensity above 0 that rounds to level 0 of 255 is refused,
+  not planned as silence (``plan(intensity=0.001)``).
+- r13-9 (Python's own): every argument of the package's own classes (a ``Scene``, a
   ``Plan``), a path or a yes-or-no given as another kind of value is a
   ``ValueError`` saying what the argument must be; pyo3's conversion
   raised ``TypeError`` "'bytes' object cannot be converted to 'PyString'"
@@ -73,7 +75,16 @@ def test_the_lowest_density_still_gives_a_finite_force():
     assert math.isfinite(f.force_n) and f.force_n > 0
 
 
-# -- r13-6. Every argument error says what the argument must be -------------
+@pytest.mark.parametrize("intensity", [0.001, 1e-300, 0.0019], ids=repr)
+def test_an_intensity_that_rounds_to_silence_is_refused(intensity):
+    # r13-8: level 0 of 255 was planned and played, a stimulus nobody feels.
+    with pytest.raises(ValueError, match=r"rounds to level 0 of 255, silence: give 0 for silence or at least 0\.00197"):
+        lmhost.plan(intensity=intensity)
+    assert lmhost.plan(intensity=0.00197).summary()["header"]["intensity"] == 1
+    assert lmhost.plan(intensity=0).summary()["header"]["intensity"] == 0
+
+
+# -- r13-9. Every argument error says what the argument must be -------------
 
 SCENE = "a Scene (lmhost.Scene.load(path) or lmhost.Scene.flat())"
 PLAN = "a Plan (from lmhost.plan())"

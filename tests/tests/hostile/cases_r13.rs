@@ -42,10 +42,14 @@
 //!   value never typed (a file's or a line's literal was refused, a
 //!   flag's read as infinity); `--radius 1e-320` "would be read as
 //!   1e-320", the literal itself, for the value held.
+//! - An intensity above 0 that rounds to level 0 of 255 is refused, not
+//!   played as silence: `--intensity 0.001` (or a library entry's, or
+//!   Python's) planned and uploaded level 0, a stimulus nobody feels,
+//!   said only in a report line.
 //!
-//! The Python classes (the same numbers through `plan()` and
-//! `simulate()`, and every argument of the wrong kind said as what it
-//! must be, not pyo3's `TypeError`) are in
+//! The Python cases (r13-4 and r13-8 through `plan()` and `simulate()`,
+//! and r13-9, Python's own: every argument of the wrong kind said as what
+//! it must be, not pyo3's `TypeError`) are in
 //! `python/tests/test_hostile_r13.py`.
 //!
 //! Fixtures in `{dir}/r13`.
@@ -168,6 +172,10 @@ pub(crate) fn round13_fixtures(dir: &Path) {
     let trials = std::fs::read_to_string(p1.join("trials.csv")).unwrap();
     let header = trials.lines().next().unwrap();
     std::fs::write(none.join("trials.csv"), format!("{header}\n")).unwrap();
+    w(
+        "lib_faint.toml",
+        "[[stimulus]]\nid = \"faint\"\nintensity = 0.0015\n",
+    );
     w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
     w(
         "cam_no_width.toml",
@@ -305,6 +313,17 @@ pub(crate) fn round13_cases() -> Vec<Case> {
         R13_TOO_LARGE "upload --port {port} --hold 1e400" .err(&format!("1e400 {too_large}"));
         R13_TOO_LARGE "plan --radius 1e-320" .err("(it would be read as 9.9998887e-321)");
         R13_TOO_LARGE "plan --center 5e-324,0,200" .err("(it would be read as 4.9406565e-324)");
+    });
+    let silence = "rounds to level 0 of 255, silence: give 0 for silence or at least 0.00197";
+    v.extend(table! {
+        R13_SILENCE "plan --intensity 0.001" .err(&format!("intensity 0.001 {silence}"));
+        R13_SILENCE "plan --intensity 1e-300" .err(&format!("intensity 1e-300 {silence}"));
+        R13_SILENCE "upload --port {port} --intensity 0.0019"
+            .err(&format!("intensity 0.0019 {silence}"));
+        R13_SILENCE "session --port autd3:emulator --control - --library {dir}/r13/lib_faint.toml"
+            .err(&format!("stimulus 1 (`faint`): intensity 0.0015 {silence}"));
+        R13_SILENCE "simulate --intensity 0.001 --plane-size 2 --plane-step 1 --out {dir}/r13/sim_faint"
+            .err(&format!("intensity 0.001 {silence}"));
     });
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"

@@ -141,9 +141,10 @@ pub const R13_DERIVED: &str = "r13-4 a number is refused by its own range, not a
 pub const R13_CHECK_RUN: &str = "r13-5 study check refuses the timeline study run refuses";
 pub const R13_NOT_A_NUMBER: &str = "r13-6 a flag's value that is no number says what to give";
 pub const R13_TOO_LARGE: &str = "r13-7 a number literal beyond a float is refused as itself";
+pub const R13_SILENCE: &str = "r13-8 an intensity that rounds to silence is refused";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 107] = [
+pub const CLASSES: [&str; 108] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -251,4 +252,5 @@ pub const CLASSES: [&str; 107] = [
     R13_CHECK_RUN,
     R13_NOT_A_NUMBER,
     R13_TOO_LARGE,
+    R13_SILENCE,
 ];
