@@ -7,9 +7,9 @@
   and ``simulate(density=1e-320)`` returned a force of inf N.
 - r13-8: an intensity above 0 that rounds to level 0 of 255 is refused,
   not planned as silence (``plan(intensity=0.001)``).
-- r13-9 (Python's own): every argument of the package's own classes (a ``Scene``, a
-  ``Plan``), a path or a yes-or-no given as another kind of value is a
-  ``ValueError`` saying what the argument must be; pyo3's conversion
+- r13-9 (Python's own): every argument of the package's own classes (a
+  ``Scene``, a ``Plan``), a path or a yes-or-no given as another kind of
+  value is a ``ValueError`` saying what the argument must be; pyo3's conversion
   raised ``TypeError`` "'bytes' object cannot be converted to 'PyString'"
   or "... to 'PyBool'", naming a Rust type, not what to give.
 """
