@@ -46,9 +46,13 @@
 //!   played as silence: `--intensity 0.001` (or a library entry's, or
 //!   Python's) planned and uploaded level 0, a stimulus nobody feels,
 //!   said only in a report line.
+//! - A scene's `name` is one line of at most 200 characters: one of
+//!   200 000 was printed whole at the head of every report, one holding
+//!   `\n` or an escape sequence broke the report's line or drove the
+//!   terminal.
 //!
 //! The Python cases (r13-4 and r13-8 through `plan()` and `simulate()`,
-//! and r13-9, Python's own: every argument of the wrong kind said as what
+//! and r13-10, Python's own: every argument of the wrong kind said as what
 //! it must be, not pyo3's `TypeError`) are in
 //! `python/tests/test_hostile_r13.py`.
 //!
@@ -176,6 +180,19 @@ pub(crate) fn round13_fixtures(dir: &Path) {
         "lib_faint.toml",
         "[[stimulus]]\nid = \"faint\"\nintensity = 0.0015\n",
     );
+    for (file, name) in [
+        ("scene_long_name.toml", "a b ".repeat(50_000)),
+        ("scene_nl_name.toml", "paper\\nrig".to_owned()),
+        ("scene_esc_name.toml", "paper\\u001b[2J".to_owned()),
+    ] {
+        let named = scene.replacen(
+            "name = \"paper: four AUTD3 over a reflective display\"",
+            &format!("name = \"{name}\""),
+            1,
+        );
+        assert_ne!(named, scene, "the paper scene's name line moved");
+        w(file, &named);
+    }
     w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
     w(
         "cam_no_width.toml",
@@ -324,6 +341,14 @@ pub(crate) fn round13_cases() -> Vec<Case> {
             .err(&format!("stimulus 1 (`faint`): intensity 0.0015 {silence}"));
         R13_SILENCE "simulate --intensity 0.001 --plane-size 2 --plane-step 1 --out {dir}/r13/sim_faint"
             .err(&format!("intensity 0.001 {silence}"));
+    });
+    v.extend(table! {
+        R13_SCENE_NAME "plan --scene {dir}/r13/scene_long_name.toml"
+            .err("field `name` has 200000 characters, more than 200").check(short_refusal);
+        R13_SCENE_NAME "plan --scene {dir}/r13/scene_nl_name.toml"
+            .err("field `name` `paper\\nrig` holds a line break or control character");
+        R13_SCENE_NAME "scene --scene {dir}/r13/scene_esc_name.toml"
+            .err("field `name` `paper\\u{1b}[2J` holds a line break or control character");
     });
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"
