@@ -46,10 +46,12 @@
 //!   played as silence: `--intensity 0.001` (or a library entry's, or
 //!   Python's) planned and uploaded level 0, a stimulus nobody feels,
 //!   said only in a report line.
-//! - A scene's `name` is one line of at most 200 characters: one of
-//!   200 000 was printed whole at the head of every report, one holding
-//!   `\n` or an escape sequence broke the report's line or drove the
-//!   terminal.
+//! - A file's text is bounded and free of control characters: a scene's
+//!   `name` of 200 000 characters was printed whole at the head of every
+//!   report, one holding `\n` or an escape sequence broke the report's
+//!   line or drove the terminal; a protocol's question or adjustment
+//!   `text` (what the participant reads) took any length and `\u001b[2J`,
+//!   which cleared the participant's screen.
 //!
 //! The Python cases (r13-4 and r13-8 through `plan()` and `simulate()`,
 //! and r13-10, Python's own: every argument of the wrong kind said as what
@@ -193,6 +195,22 @@ pub(crate) fn round13_fixtures(dir: &Path) {
         assert_ne!(named, scene, "the paper scene's name line moved");
         w(file, &named);
     }
+    let exp3 = study("paper-exp3.toml");
+    let q1 = "text = \"Q1.";
+    for (file, text) in [
+        ("q_escape.toml", "\\u001b[2J".to_owned()),
+        ("q_bell.toml", "\\u0007".to_owned()),
+        ("q_long.toml", "x".repeat(3000)),
+    ] {
+        w(file, &exp1.replacen(q1, &format!("text = \"{text}Q1."), 1));
+    }
+    let adjust = exp3.replacen(
+        "text = \"Compared with",
+        "text = \"\\u009b2JCompared with",
+        1,
+    );
+    assert_ne!(adjust, exp3, "paper-exp3.toml's [adjustment] text moved");
+    w("adjust_escape.toml", &adjust);
     w("cam_no_fx.toml", &CAM.replace("fx = 2.0\n", ""));
     w(
         "cam_no_width.toml",
@@ -343,12 +361,20 @@ pub(crate) fn round13_cases() -> Vec<Case> {
             .err(&format!("intensity 0.001 {silence}"));
     });
     v.extend(table! {
-        R13_SCENE_NAME "plan --scene {dir}/r13/scene_long_name.toml"
+        R13_FILE_TEXT "plan --scene {dir}/r13/scene_long_name.toml"
             .err("field `name` has 200000 characters, more than 200").check(short_refusal);
-        R13_SCENE_NAME "plan --scene {dir}/r13/scene_nl_name.toml"
+        R13_FILE_TEXT "plan --scene {dir}/r13/scene_nl_name.toml"
             .err("field `name` `paper\\nrig` holds a line break or control character");
-        R13_SCENE_NAME "scene --scene {dir}/r13/scene_esc_name.toml"
+        R13_FILE_TEXT "scene --scene {dir}/r13/scene_esc_name.toml"
             .err("field `name` `paper\\u{1b}[2J` holds a line break or control character");
+        R13_FILE_TEXT "study check {dir}/r13/q_escape.toml"
+            .err("field `question[0].text`: holds the control character \\u{1b}");
+        R13_FILE_TEXT "study check {dir}/r13/q_bell.toml"
+            .err("field `question[0].text`: holds the control character \\u{7}");
+        R13_FILE_TEXT "study check {dir}/r13/q_long.toml"
+            .err("field `question[0].text`: 3083 characters, more than 2000");
+        R13_FILE_TEXT "study check {dir}/r13/adjust_escape.toml"
+            .err("field `adjustment.text`: holds the control character \\u{9b}");
     });
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"

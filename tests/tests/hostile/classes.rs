@@ -142,7 +142,7 @@ pub const R13_CHECK_RUN: &str = "r13-5 study check refuses the timeline study ru
 pub const R13_NOT_A_NUMBER: &str = "r13-6 a flag's value that is no number says what to give";
 pub const R13_TOO_LARGE: &str = "r13-7 a number literal beyond a float is refused as itself";
 pub const R13_SILENCE: &str = "r13-8 an intensity that rounds to silence is refused";
-pub const R13_SCENE_NAME: &str = "r13-9 a scene's name is one line of a few words";
+pub const R13_FILE_TEXT: &str = "r13-9 a file's text is bounded and free of control characters";
 
 /// Every class the suite must cover.
 pub const CLASSES: [&str; 109] = [
@@ -254,5 +254,5 @@ pub const CLASSES: [&str; 109] = [
     R13_NOT_A_NUMBER,
     R13_TOO_LARGE,
     R13_SILENCE,
-    R13_SCENE_NAME,
+    R13_FILE_TEXT,
 ];

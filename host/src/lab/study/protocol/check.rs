@@ -88,7 +88,7 @@ pub(super) fn check(mut file: File, e: &Errors) -> Result<Unlinked, InputError> 
                 ));
             }
             Ok(Adjustment {
-                text: a.text,
+                text: a.text.0,
                 start_mm: start,
                 step_mm: a.step_mm.0,
                 max: a.max.0,
@@ -444,7 +444,7 @@ fn question(q: QuestionFile, e: &Errors) -> Result<Question, InputError> {
     }
     Ok(Question {
         id,
-        text: q.text,
+        text: q.text.0,
         kind,
         shuffle,
         not_perceived: q.not_perceived.map(|l| l.into_inner().0),

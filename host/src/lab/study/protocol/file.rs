@@ -20,7 +20,7 @@ use crate::whole::{FileNumber, Whole};
 
 pub(super) use super::values::{
     Adjustments, AnswerLabel, Depth, Label, Name, Number, Presentations, Reversals, Run, Seconds,
-    Sets, Step, repeated,
+    Sets, Step, Text, repeated,
 };
 
 /// A Likert question's points when it gives none.
@@ -198,7 +198,7 @@ pub(super) struct QuestionFile {
     pub kind: KindFile,
     /// What the participant is asked.
     #[serde(default)]
-    pub text: String,
+    pub text: Text,
     /// Likert only: the scale's points.
     #[schemars(
         with = "Option<u32>",
@@ -240,7 +240,7 @@ pub(super) struct QuestionFile {
 pub(super) struct AdjustmentFile {
     /// What the participant is asked.
     #[serde(default)]
-    pub text: String,
+    pub text: Text,
     /// The first depth.
     #[schemars(with = "Depth", extend("x-unit" = "mm"))]
     pub start_mm: Spanned<Depth>,

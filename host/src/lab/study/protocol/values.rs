@@ -14,6 +14,9 @@ use super::{
 use crate::lab::study::columns::{LIST_SEPARATOR, MAX_LABEL_BYTES};
 use crate::limits::show;
 
+/// Longest text a participant reads (characters).
+pub(super) const MAX_TEXT_CHARS: usize = 2000;
+
 /// Longest name (a column, an item), bytes.
 pub(super) const MAX_NAME_BYTES: usize = 64;
 /// Largest adjustment step, mm.
@@ -135,6 +138,19 @@ macro_rules! whole {
         }
     };
 }
+
+checked!(
+    /// Text the participant reads (a question's, an adjustment's): at most
+    /// [`MAX_TEXT_CHARS`], its lines broken with line breaks and tabs and
+    /// no other control character (an escape sequence in it drove the
+    /// participant's terminal: `\u001b[2J` cleared the screen).
+    Text(String as "String"), String::new(), |v| check_text(&v),
+    schema {
+        "type": "string",
+        "maxLength": MAX_TEXT_CHARS,
+        "pattern": r"^[^\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]*$"
+    }
+);
 
 whole!(
     /// Sets: each a fresh permutation of every condition.
@@ -267,6 +283,25 @@ pub(super) fn check_name(s: &str) -> Result<(), String> {
 }
 
 /// 1 to [`MAX_LABEL_BYTES`] bytes on one line, not blank.
+fn check_text(s: &str) -> Result<(), String> {
+    let n = s.chars().count();
+    if n > MAX_TEXT_CHARS {
+        return Err(format!(
+            "{n} characters, more than {MAX_TEXT_CHARS}: a participant reads it"
+        ));
+    }
+    if let Some(c) = s
+        .chars()
+        .find(|c| c.is_control() && !matches!(c, '\n' | '\r' | '\t'))
+    {
+        return Err(format!(
+            "holds the control character {}: give text, line breaks and tabs only",
+            c.escape_unicode()
+        ));
+    }
+    Ok(())
+}
+
 pub(super) fn check_label(s: &str) -> Result<(), String> {
     if s.trim().is_empty() || s.len() > MAX_LABEL_BYTES || s.chars().any(char::is_control) {
         return Err(format!(
