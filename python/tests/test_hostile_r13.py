@@ -7,7 +7,7 @@
   and ``simulate(density=1e-320)`` returned a force of inf N.
 - r13-8: an intensity above 0 that rounds to level 0 of 255 is refused,
   not planned as silence (``plan(intensity=0.001)``).
-- r13-10 (Python's own): every argument of the package's own classes (a
+- r13-11 (Python's own): every argument of the package's own classes (a
   ``Scene``, a ``Plan``), a path or a yes-or-no given as another kind of
   value is a ``ValueError`` saying what the argument must be; pyo3's conversion
   raised ``TypeError`` "'bytes' object cannot be converted to 'PyString'"
@@ -84,7 +84,7 @@ def test_an_intensity_that_rounds_to_silence_is_refused(intensity):
     assert lmhost.plan(intensity=0).summary()["header"]["intensity"] == 0
 
 
-# -- r13-10. Every argument error says what the argument must be -------------
+# -- r13-11. Every argument error says what the argument must be -------------
 
 SCENE = "a Scene (lmhost.Scene.load(path) or lmhost.Scene.flat())"
 PLAN = "a Plan (from lmhost.plan())"

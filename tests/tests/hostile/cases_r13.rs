@@ -52,9 +52,12 @@
 //!   line or drove the terminal; a protocol's question or adjustment
 //!   `text` (what the participant reads) took any length and `\u001b[2J`,
 //!   which cleared the participant's screen.
+//! - An empty `--port` is refused, not taken for no `--port`: `--port
+//!   "$PORT"` with PORT unset used `$LMHOST_PORT` or whatever board
+//!   discovery found.
 //!
 //! The Python cases (r13-4 and r13-8 through `plan()` and `simulate()`,
-//! and r13-10, Python's own: every argument of the wrong kind said as what
+//! and r13-11, Python's own: every argument of the wrong kind said as what
 //! it must be, not pyo3's `TypeError`) are in
 //! `python/tests/test_hostile_r13.py`.
 //!
@@ -376,6 +379,17 @@ pub(crate) fn round13_cases() -> Vec<Case> {
         R13_FILE_TEXT "study check {dir}/r13/adjust_escape.toml"
             .err("field `adjustment.text`: holds the control character \\u{9b}");
     });
+    let empty = "--port is empty: give a serial port path, tcp:HOST:PORT or autd3:…";
+    for args in [
+        "status",
+        "upload --hold 0.1",
+        "track --synthetic --seconds 0.2 --fast",
+    ] {
+        let mut c = case(R13_EMPTY_PORT, args).err(empty);
+        c.args.extend(["--port".to_owned(), String::new()]);
+        // Not the device `$LMHOST_PORT` names.
+        v.push(c.env("LMHOST_PORT", "{port}"));
+    }
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"
             .err("frequency 1e-300 Hz is out of range: allowed 0.000232831..=1000 Hz");

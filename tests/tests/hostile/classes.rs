@@ -143,9 +143,10 @@ pub const R13_NOT_A_NUMBER: &str = "r13-6 a flag's value that is no number says 
 pub const R13_TOO_LARGE: &str = "r13-7 a number literal beyond a float is refused as itself";
 pub const R13_SILENCE: &str = "r13-8 an intensity that rounds to silence is refused";
 pub const R13_FILE_TEXT: &str = "r13-9 a file's text is bounded and free of control characters";
+pub const R13_EMPTY_PORT: &str = "r13-10 an empty --port is refused, not taken for none";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 109] = [
+pub const CLASSES: [&str; 110] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -255,4 +256,5 @@ pub const CLASSES: [&str; 109] = [
     R13_TOO_LARGE,
     R13_SILENCE,
     R13_FILE_TEXT,
+    R13_EMPTY_PORT,
 ];
