@@ -205,7 +205,7 @@ impl Cycle {
                         // The step's own range, not a step count derived
                         // from it (`1e-320` gave "inf steps").
                         return Err(InputError::new(format!(
-                            "step {} mm is out of range: allowed {}..={} mm, 1..={MAX_STEPS} steps along the {length_name} = {length:.3} mm",
+                            "step {} mm is out of range: allowed {}..={} mm (a finer one takes more than {MAX_STEPS} steps along the {length_name} = {length:.3} mm)",
                             limits::show(w),
                             limits::Num(circumference / MAX_STEPS as f64),
                             limits::Num(circumference),

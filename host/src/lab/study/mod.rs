@@ -93,7 +93,7 @@ pub fn check_time_scale(scale: f64) -> Result<(), InputError> {
 }
 
 /// `lmhost study check`'s test of the timeline, the one `run` applies
-/// before the device opens ([`timing`]), for every device the protocol
+/// before the device opens (its `timing` module), for every device the protocol
 /// may run on: `check` has no port, and called "valid" a protocol whose
 /// on-phase `run` then refused as shorter than half a step of a stimulus.
 pub fn check_timeline(
