@@ -127,6 +127,40 @@ fn values_on_one_line(e: &clap::Error, mut text: String) -> String {
     text
 }
 
+/// `args` with a flag's value spelled `-inf`, `-infinity` or `-nan` (any
+/// case) joined to its flag (`--radius=-inf`): clap takes a negative
+/// number for a value, but these words for a cluster of short flags, so
+/// `--radius -inf` said "unexpected argument '-i' found" instead of the
+/// flag's own refusal of an infinite radius.
+fn negative_words_as_values(
+    args: impl IntoIterator<Item = std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::new();
+    // After a bare `--` every word is a positional value, left as it is.
+    let mut positional = false;
+    for a in args {
+        let word = a.to_str().map(str::to_ascii_lowercase);
+        let negative_word =
+            !positional && matches!(word.as_deref(), Some("-inf" | "-infinity" | "-nan"));
+        positional |= a == "--";
+        let flag = out
+            .last()
+            .and_then(|f| f.to_str())
+            .filter(|f| f.starts_with("--") && f.len() > 2 && !f.contains('='))
+            .map(str::to_owned);
+        match (negative_word, flag) {
+            (true, Some(f)) => {
+                out.pop();
+                let mut joined = std::ffi::OsString::from(format!("{f}="));
+                joined.push(&a);
+                out.push(joined);
+            }
+            _ => out.push(a),
+        }
+    }
+    out
+}
+
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
     // Plain styles: clap's rendered errors then carry no escape codes of
@@ -135,7 +169,7 @@ fn main() -> ExitCode {
     // show `--radius 3\e[2J` as '3'.
     let command = Cli::command().styles(clap::builder::Styles::plain());
     let cli = match cmd::exact_floats(cmd::negative_numbers_are_values(command))
-        .try_get_matches()
+        .try_get_matches_from(negative_words_as_values(std::env::args_os()))
         .and_then(|m| Cli::from_arg_matches(&m))
     {
         Ok(cli) => cli,

@@ -55,6 +55,9 @@
 //! - An empty `--port` is refused, not taken for no `--port`: `--port
 //!   "$PORT"` with PORT unset used `$LMHOST_PORT` or whatever board
 //!   discovery found.
+//! - A flag's value `-inf` or `-nan` is its value: clap took it for a
+//!   cluster of short flags (`--radius -inf` said "unexpected argument
+//!   '-i' found") where `-1` was a value.
 //!
 //! The Python cases (r13-4 and r13-8 through `plan()` and `simulate()`,
 //! and r13-11, Python's own: every argument of the wrong kind said as what
@@ -390,6 +393,15 @@ pub(crate) fn round13_cases() -> Vec<Case> {
         // Not the device `$LMHOST_PORT` names.
         v.push(c.env("LMHOST_PORT", "{port}"));
     }
+    v.extend(table! {
+        R13_NEGATIVE_WORDS "plan --radius -inf"
+            .err("radius (--radius) must be a finite number ≥ 0 mm, got -inf");
+        R13_NEGATIVE_WORDS "plan --freq -NaN"
+            .err("frequency (--freq) must be a finite number > 0 Hz, got NaN");
+        R13_NEGATIVE_WORDS "upload --port {port} --hold -Infinity"
+            .err("--hold -inf s is out of range: give a number above 0");
+        R13_NEGATIVE_WORDS "track --synthetic --seconds -nan" .err("--seconds NaN must be in (0, 3600]");
+    });
     v.extend(table! {
         R13_DERIVED "plan --freq 1e-300"
             .err("frequency 1e-300 Hz is out of range: allowed 0.000232831..=1000 Hz");

@@ -144,9 +144,10 @@ pub const R13_TOO_LARGE: &str = "r13-7 a number literal beyond a float is refuse
 pub const R13_SILENCE: &str = "r13-8 an intensity that rounds to silence is refused";
 pub const R13_FILE_TEXT: &str = "r13-9 a file's text is bounded and free of control characters";
 pub const R13_EMPTY_PORT: &str = "r13-10 an empty --port is refused, not taken for none";
+pub const R13_NEGATIVE_WORDS: &str = "r13-12 a flag's value -inf or -nan is read as its value";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 110] = [
+pub const CLASSES: [&str; 111] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -257,4 +258,5 @@ pub const CLASSES: [&str; 110] = [
     R13_SILENCE,
     R13_FILE_TEXT,
     R13_EMPTY_PORT,
+    R13_NEGATIVE_WORDS,
 ];
