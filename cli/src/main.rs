@@ -102,7 +102,11 @@ fn value_from_env(e: &clap::Error) -> Option<String> {
 
 /// `text` (clap's rendering of `e`) with each value the user gave that
 /// holds a line end written with `\n`, so that taking its first paragraph
-/// does not cut a value (`--radius $'3\n\nx'`) short.
+/// does not cut a value (`--radius $'3\n\nx'`) short; and one longer than
+/// an error repeats cut around its length wherever it is echoed (clap's
+/// `invalid value '…'` and the parser's own words): a value of 20 000
+/// characters with spaces in it was repeated whole, twice, as no cut of
+/// long words catches it.
 fn values_on_one_line(e: &clap::Error, mut text: String) -> String {
     use clap::error::{ContextKind, ContextValue};
     for kind in [
@@ -110,13 +114,51 @@ fn values_on_one_line(e: &clap::Error, mut text: String) -> String {
         ContextKind::InvalidArg,
         ContextKind::InvalidSubcommand,
     ] {
-        if let Some(ContextValue::String(v)) = e.get(kind)
-            && v.contains(['\n', '\r'])
-        {
-            text = text.replace(v.as_str(), &v.replace('\n', "\\n").replace('\r', "\\r"));
+        if let Some(ContextValue::String(v)) = e.get(kind) {
+            let one_line = v.replace('\n', "\\n").replace('\r', "\\r");
+            if one_line != *v {
+                text = text.replace(v.as_str(), &one_line);
+            }
+            if one_line.chars().count() > lmhost::error::MAX_ECHO_CHARS {
+                text = text.replace(&one_line, &lmhost::error::short_echo(&one_line));
+            }
         }
     }
     text
+}
+
+/// `args` with a flag's value spelled `-inf`, `-infinity` or `-nan` (any
+/// case) joined to its flag (`--radius=-inf`): clap takes a negative
+/// number for a value, but these words for a cluster of short flags, so
+/// `--radius -inf` said "unexpected argument '-i' found" instead of the
+/// flag's own refusal of an infinite radius.
+fn negative_words_as_values(
+    args: impl IntoIterator<Item = std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::new();
+    // After a bare `--` every word is a positional value, left as it is.
+    let mut positional = false;
+    for a in args {
+        let word = a.to_str().map(str::to_ascii_lowercase);
+        let negative_word =
+            !positional && matches!(word.as_deref(), Some("-inf" | "-infinity" | "-nan"));
+        positional |= a == "--";
+        let flag = out
+            .last()
+            .and_then(|f| f.to_str())
+            .filter(|f| f.starts_with("--") && f.len() > 2 && !f.contains('='))
+            .map(str::to_owned);
+        match (negative_word, flag) {
+            (true, Some(f)) => {
+                out.pop();
+                let mut joined = std::ffi::OsString::from(format!("{f}="));
+                joined.push(&a);
+                out.push(joined);
+            }
+            _ => out.push(a),
+        }
+    }
+    out
 }
 
 fn main() -> ExitCode {
@@ -127,7 +169,7 @@ fn main() -> ExitCode {
     // show `--radius 3\e[2J` as '3'.
     let command = Cli::command().styles(clap::builder::Styles::plain());
     let cli = match cmd::exact_floats(cmd::negative_numbers_are_values(command))
-        .try_get_matches()
+        .try_get_matches_from(negative_words_as_values(std::env::args_os()))
         .and_then(|m| Cli::from_arg_matches(&m))
     {
         Ok(cli) => cli,

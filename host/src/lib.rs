@@ -40,5 +40,6 @@ pub mod pdf;
 pub mod rng;
 pub mod stop;
 pub mod units;
+pub mod whole;
 
 pub use error::InputError;

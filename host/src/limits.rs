@@ -56,6 +56,11 @@ pub const MAX_Z_MM: f64 = 100.0;
 pub const MAX_SPACING_MM: f64 = 1_000.0;
 /// Highest LM frequency (`--freq`), Hz.
 pub const MAX_FREQ_HZ: f64 = 1_000.0;
+/// Lowest LM frequency (`--freq`), Hz: its period, 1 / f, fills the
+/// wire's u32 microseconds. Checked as the frequency given, so a lower
+/// one is refused by its own value, never by a period derived from it
+/// (`1e-320` Hz said "period inf s").
+pub const MIN_FREQ_HZ: f64 = 1e6 / u32::MAX as f64;
 /// Largest weight (`--weights`, each within 0..=this: the synthesis
 /// refuses a negative one).
 pub const MAX_WEIGHT: f64 = 1.0e6;
@@ -235,7 +240,7 @@ pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
 /// Checks that the decimal `literal` was read as itself: one whose digits
 /// are not all zero but which parses to 0 or to a subnormal (`1e-400`,
 /// `1e-310`) underflowed and would be taken as another value without a
-/// word, as `1e400` overflows and is refused. `Err` is the message, for
+/// word; one past the largest number (`1e400`) overflowed to infinity. `Err` is the message, for
 /// the caller to prefix with the field. Every number read from text (a
 /// centroid or control line, a JSON value, a TOML file) passes here.
 pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
@@ -247,13 +252,41 @@ pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
             "{literal} is too small to represent (it would be read as 0): give 0 or a magnitude of at least {least}"
         ));
     }
+    // A literal past the largest number reads as infinity: refused as
+    // itself (a flag's `1e309` was "got inf", a value never typed).
+    let spelled_inf = literal
+        .trim_start_matches(['+', '-'])
+        .get(..3)
+        .is_some_and(|h| h.eq_ignore_ascii_case("inf"));
+    if v.is_infinite() && !spelled_inf {
+        return Err(format!(
+            "{literal} is too large to represent (it would be read as {}): give a magnitude of at most {}",
+            show(v),
+            show(f64::MAX)
+        ));
+    }
     if nonzero && v.is_subnormal() {
         return Err(format!(
             "{literal} is too small to represent: below {least} it cannot be held exactly (it would be read as {}); give 0 or a magnitude of at least {least}",
-            show(v)
+            // Its digits as held: the shortest form that reads back
+            // (`1e-320`) is the literal itself, and said nothing.
+            held_digits(v)
         ));
     }
     Ok(())
+}
+
+/// A subnormal `v` in 8 significant digits (few enough that
+/// [`tidy_numbers`] leaves them), trailing zeros dropped: `1e-320` is held
+/// as `9.9998867e-321`.
+fn held_digits(v: f64) -> String {
+    let s = format!("{v:.7e}");
+    match s.split_once('e') {
+        Some((m, e)) if m.contains('.') => {
+            format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+        }
+        _ => s,
+    }
 }
 
 /// Seconds to a [`Duration`], checked: finite, `0 < s ≤ max_s`. `what`

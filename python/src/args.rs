@@ -259,6 +259,61 @@ pub(crate) fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
+/// What kind of Python value `v` is, for a message (`int`, `None`).
+pub(crate) fn kind(v: &Bound<'_, PyAny>) -> String {
+    match v.is_none() {
+        true => "None".into(),
+        false => v
+            .get_type()
+            .name()
+            .map_or_else(|_| "?".into(), |n| n.to_string()),
+    }
+}
+
+/// What a [`Scene`](crate::Scene_) parameter takes, for its message.
+pub(crate) const A_SCENE: &str = "a Scene (lmhost.Scene.load(path) or lmhost.Scene.flat())";
+/// What a [`Plan`](crate::Plan_) parameter takes, for its message.
+pub(crate) const A_PLAN: &str = "a Plan (from lmhost.plan())";
+
+/// A parameter of one of the package's classes: another kind of value is
+/// `ValueError` naming the parameter and what it must be (`what`), as
+/// every other bad argument; pyo3's own conversion raised `TypeError`
+/// "argument 'scene': 'int' object cannot be converted to 'Scene'".
+pub(crate) fn class<'a, 'py, T: pyo3::PyClass>(
+    name: &str,
+    v: &'a Bound<'py, PyAny>,
+    what: &str,
+) -> PyResult<&'a Bound<'py, T>> {
+    v.downcast::<T>()
+        .map_err(|_| PyValueError::new_err(format!("{name} must be {what}, got {}", kind(v))))
+}
+
+/// A path parameter given as any Python value: a `str` or an
+/// `os.PathLike` naming one (a `pathlib.Path`), then as [`path`]; bytes
+/// and every other kind refused naming the parameter and what it takes
+/// (pyo3's conversion said "'bytes' object cannot be converted to
+/// 'PyString'").
+pub(crate) fn path_of(name: &str, v: &Bound<'_, PyAny>) -> PyResult<std::path::PathBuf> {
+    let not_path = || {
+        PyValueError::new_err(format!(
+            "{name} must be a path (a str or pathlib.Path), got {}",
+            kind(v)
+        ))
+    };
+    let text = match v.downcast::<pyo3::types::PyString>() {
+        Ok(s) => s.extract::<String>()?,
+        Err(_) if !v.is_instance_of::<pyo3::types::PyBytes>() && v.hasattr("__fspath__")? => {
+            let p = v.call_method0("__fspath__").map_err(|_| not_path())?;
+            let s = p
+                .downcast::<pyo3::types::PyString>()
+                .map_err(|_| not_path())?;
+            s.extract::<String>()?
+        }
+        Err(_) => return Err(not_path()),
+    };
+    path(name, text.into())
+}
+
 /// A path parameter: an empty one is refused naming `name`, as the CLI
 /// refuses an empty path flag (`--out ""`), never taken as the working
 /// directory (a study's `out=""` wrote its folder there) or handed to the

@@ -134,8 +134,27 @@ impl Device_ {
     /// Opens `port` (any `--port` form) for `scene`.
     #[new]
     #[pyo3(signature = (port, scene=None))]
-    fn new(py: Python<'_>, port: String, scene: Option<&Scene_>) -> PyResult<Self> {
-        let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
+    fn new(
+        py: Python<'_>,
+        port: &Bound<'_, PyAny>,
+        scene: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let port: String = port
+            .downcast::<pyo3::types::PyString>()
+            .map_err(|_| {
+                bad(format!(
+                    "port must be a --port name (a string), got {}",
+                    args::kind(port)
+                ))
+            })?
+            .extract()?;
+        let scene = match scene.filter(|s| !s.is_none()) {
+            Some(s) => crate::args::class::<Scene_>("scene", s, crate::args::A_SCENE)?
+                .get()
+                .scene
+                .clone(),
+            None => Scene::default(),
+        };
         let spec = PortSpec::new(Some(port.clone()));
         let kind = spec.device().map_err(|e| to_py(e.into()))?;
         let s = scene.clone();
@@ -162,15 +181,21 @@ impl Device_ {
 
     /// Uploads through `lmhost::device::upload::upload` (the `lmhost upload --json`
     /// report, as a JSON string). The plan must be for this device kind.
-    #[pyo3(signature = (plan, slot=None, play=true, untracked=false))]
+    #[pyo3(signature = (plan, slot=None, play=None, untracked=None))]
     fn upload(
         &self,
         py: Python<'_>,
-        plan: &Plan_,
+        plan: &Bound<'_, PyAny>,
         slot: Option<&Bound<'_, PyAny>>,
-        play: bool,
-        untracked: bool,
+        play: Option<&Bound<'_, PyAny>>,
+        untracked: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<String> {
+        let plan = crate::args::class::<Plan_>("plan", plan, crate::args::A_PLAN)?.get();
+        let yes_no = |name, v: Option<&Bound<'_, PyAny>>, default| {
+            v.map_or(Ok(default), |v| crate::args::bool_arg(name, v))
+        };
+        let play = yes_no("play", play, true)?;
+        let untracked = yes_no("untracked", untracked, false)?;
         let slot = args::opt_int_in::<u8>("slot", slot, 0, u8::MAX.into())?;
         let kind = self.kind.target().name();
         if plan.target != self.kind.target() {

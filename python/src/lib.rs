@@ -116,8 +116,8 @@ struct Scene_ {
 impl Scene_ {
     /// Load and check a TOML scene file (`ValueError` when it is bad).
     #[staticmethod]
-    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let path = args::path("path", path)?;
+    fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let path = args::path_of("path", path)?;
         let scene = run(py, || Ok(Scene::load(&path)?))?;
         Ok(Self { scene })
     }
@@ -267,8 +267,8 @@ impl Plan_ {
     /// Writes the files `lmhost plan --out PATH` writes: `.json` (summary
     /// with phases), `.npy` (uint8, steps × transducers) or anything else
     /// as raw step-major bytes; whole or absent.
-    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let path = args::path("path", path)?;
+    fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        let path = args::path_of("path", path)?;
         run(py, || {
             let bytes = self.planned.out_bytes(&path, &self.target)?;
             lmhost::files::write_whole(&path, &bytes)
@@ -276,8 +276,12 @@ impl Plan_ {
     }
 
     /// The summary `lmhost plan --json` prints (`phases=True` adds them).
-    #[pyo3(signature = (phases=false))]
-    fn summary(&self, py: Python<'_>, phases: bool) -> PyResult<PyObject> {
+    #[pyo3(signature = (phases=None))]
+    fn summary(&self, py: Python<'_>, phases: Option<&Bound<'_, PyAny>>) -> PyResult<PyObject> {
+        let phases = phases
+            .map(|p| args::bool_arg("phases", p))
+            .transpose()?
+            .unwrap_or(false);
         to_python(py, &self.planned.summary_json(&self.target, phases))
     }
 }
@@ -299,11 +303,20 @@ fn plan(
     step: Option<&Bound<'_, PyAny>>,
     steps: Option<&Bound<'_, PyAny>>,
     center: Option<&Bound<'_, PyAny>>,
-    scene: Option<&Scene_>,
+    scene: Option<&Bound<'_, PyAny>>,
     intensity: Option<&Bound<'_, PyAny>>,
-    target: &str,
+    target: &Bound<'_, PyAny>,
 ) -> PyResult<Plan_> {
-    let target = lmhost::error::choose("a target", target, &Target::ALL.map(|t| (t.name(), t)))
+    let target = target
+        .downcast::<pyo3::types::PyString>()
+        .map_err(|_| {
+            bad(format!(
+                "target must be 'lm' or 'autd3', got {}",
+                args::kind(target)
+            ))
+        })?
+        .extract::<String>()?;
+    let target = lmhost::error::choose("a target", &target, &Target::ALL.map(|t| (t.name(), t)))
         .map_err(bad)?;
     let radius = args::opt_float("radius", radius)?;
     let spacing = args::opt_float("spacing", spacing)?;
@@ -315,7 +328,13 @@ fn plan(
     let center_mm = args::opt_floats("center", center, 3)?
         .map(|c| vec3("center", c))
         .transpose()?;
-    let scene = scene.map_or_else(Scene::default, |s| s.scene.clone());
+    let scene = match scene.filter(|s| !s.is_none()) {
+        Some(s) => args::class::<Scene_>("scene", s, args::A_SCENE)?
+            .get()
+            .scene
+            .clone(),
+        None => Scene::default(),
+    };
     let cycle =
         Cycle::given(radius, foci, spacing, freq, step, steps).map_err(|e| bad(e.to_string()))?;
     let radius = cycle.radius_mm;
@@ -367,7 +386,7 @@ struct Field_ {
 #[pyo3(signature = (plan, plane_size, plane_step, plane_center, plane_axes, alpha, density, disk, calibration, reference))]
 fn simulate(
     py: Python<'_>,
-    plan: &Plan_,
+    plan: &Bound<'_, PyAny>,
     plane_size: &Bound<'_, PyAny>,
     plane_step: &Bound<'_, PyAny>,
     plane_center: Option<&Bound<'_, PyAny>>,
@@ -376,8 +395,10 @@ fn simulate(
     density: &Bound<'_, PyAny>,
     disk: &Bound<'_, PyAny>,
     calibration: Option<&Bound<'_, PyAny>>,
-    reference: bool,
+    reference: &Bound<'_, PyAny>,
 ) -> PyResult<Field_> {
+    let plan = args::class::<Plan_>("plan", plan, args::A_PLAN)?.get();
+    let reference = args::bool_arg("reference", reference)?;
     // One number is a square plane; else (width, height).
     let size_mm = if plane_size.is_instance_of::<pyo3::types::PyFloat>()
         || plane_size.is_instance_of::<pyo3::types::PyInt>()
@@ -454,7 +475,7 @@ impl Tracker_ {
     #[new]
     #[pyo3(signature = (scene, intrinsics_toml, origin, enter_frames=None, leave_frames=None, intrinsics_path=None))]
     fn new(
-        scene: &Scene_,
+        scene: &Bound<'_, PyAny>,
         intrinsics_toml: Option<&str>,
         origin: &str,
         enter_frames: Option<&Bound<'_, PyAny>>,
@@ -463,6 +484,7 @@ impl Tracker_ {
     ) -> PyResult<Self> {
         // The range `lmhost track` allows, refused under the Python names
         // (`Hysteresis::new` names the CLI's flags).
+        let scene = args::class::<Scene_>("scene", scene, args::A_SCENE)?.get();
         let h = Hysteresis::default();
         let frames = |name, v, default: u32| -> PyResult<u32> {
             Ok(args::opt_int_in(name, v, 1, i64::from(MAX_FRAMES))?.unwrap_or(default))

@@ -193,6 +193,13 @@ const RULES: &[Rule] = &[
     },
     Rule {
         doc: "README.md",
+        has: "lmhost study report results",
+        replace: &[],
+        expect: Exit(2, "no trial to report"),
+        why: "the runs into results stop at their first question (stdin empty): no trial to summarise",
+    },
+    Rule {
+        doc: "README.md",
         has: "lmhost study run",
         replace: &[],
         expect: Exit(2, "stdin ended: an answer"),

@@ -354,5 +354,8 @@ impl Args {
 /// housekeeping go on while no line arrives (a blocking read cannot be
 /// interrupted; the thread is left to end with the process).
 fn stdin_samples() -> anyhow::Result<Threaded> {
-    on_thread(|| source::read_lines(std::io::stdin().lock()))
+    on_thread(|| {
+        let lines = source::read_lines(std::io::stdin().lock());
+        source::not_empty(lines, "standard input".to_owned())
+    })
 }

@@ -78,6 +78,15 @@ pub struct CheckArgs {
     /// The seed of a random order, as `study run --seed` takes it.
     #[arg(long, value_name = "N", value_parser = super::whole::whole::<u64>(0, u64::MAX))]
     seed: Option<u64>,
+    /// The scene, as `study run --scene` takes it: the timeline is checked
+    /// against every stimulus as planned in it [default: four AUTD3 in a
+    /// flat 2×2 facing +z].
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
+    /// The time scale, as `study run --time-scale` takes it: the
+    /// timeline is checked as the run would play it.
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    time_scale: f64,
 }
 
 impl CheckArgs {
@@ -85,6 +94,9 @@ impl CheckArgs {
         let p = study::protocol::Protocol::load(&self.protocol)?;
         let participant = self.participant.map(|i| i as usize);
         study::outline::check_participant(&p, participant)?;
+        // The rule `run` applies before the device opens, on every device
+        // it may open: a protocol called valid here plays there.
+        study::check_timeline(&p, self.scene.as_deref(), self.time_scale)?;
         let text = study::outline::outline(&p, participant, self.seed);
         lmhost::out!("{text}")?;
         Ok(())

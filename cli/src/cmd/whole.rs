@@ -25,7 +25,13 @@ where
         // number may carry): out of range, however many there are.
         let digits = s.strip_prefix(['-', '+']).unwrap_or(s);
         if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
-            return Err(format!("{s} is not a whole number in {range}"));
+            // An empty value or one with spaces shown as one (` 5` read
+            // as "5 is not" named a value that would have been taken).
+            return Err(match s {
+                "" => format!("an empty value is not a whole number in {range}"),
+                _ if s.trim() != s => format!("`{s}` is not a whole number in {range}"),
+                _ => format!("{s} is not a whole number in {range}"),
+            });
         }
         match s.parse::<u64>() {
             Ok(v) if (lo..=hi).contains(&v) => {
@@ -92,8 +98,8 @@ mod tests {
             ),
             ("1.5", "1.5 is not a whole number in 1..=90"),
             ("1e3", "1e3 is not a whole number in 1..=90"),
-            ("", " is not a whole number in 1..=90"),
-            (" 5", " 5 is not a whole number in 1..=90"),
+            ("", "an empty value is not a whole number in 1..=90"),
+            (" 5", "` 5` is not a whole number in 1..=90"),
             ("-", "- is not a whole number in 1..=90"),
             ("٣", "٣ is not a whole number in 1..=90"),
         ] {
@@ -127,7 +133,7 @@ mod tests {
                 "99999999999999999999999 is not in 1..=32",
             ),
             ("1.5", "1.5 is not a whole number in 1..=32"),
-            ("", " is not a whole number in 1..=32"),
+            ("", "an empty value is not a whole number in 1..=32"),
             ("+", "+ is not a whole number in 1..=32"),
         ] {
             assert_eq!(p(v), Err(want.to_owned()), "{v}");

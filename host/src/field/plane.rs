@@ -71,11 +71,23 @@ impl ObservationPlane {
         let (nu, nv) = (count(self.width_mm), count(self.height_mm));
         let points = nu * nv;
         if points.is_nan() || points > MAX_GRID_POINTS as f64 {
+            // The step's own bound, and the counts only where they are
+            // numbers (a step of 1e-320 mm said "inf × inf = inf points").
+            let counts = match points.is_finite() {
+                true => format!(
+                    "{} × {} = {} points",
+                    crate::limits::show(nu),
+                    crate::limits::show(nv),
+                    crate::limits::show(points)
+                ),
+                false => "too many points to count".to_owned(),
+            };
             return Err(FieldError::BadPlane(format!(
-                "{} × {} = {} points is more than {MAX_GRID_POINTS}; use a coarser step",
-                crate::limits::show(nu),
-                crate::limits::show(nv),
-                crate::limits::show(points)
+                "a step of {} mm over {} × {} mm gives {counts}, more than {MAX_GRID_POINTS}; give a step of at least {} mm",
+                crate::limits::show(self.step_mm),
+                crate::limits::show(self.width_mm),
+                crate::limits::show(self.height_mm),
+                crate::limits::Num(finest_step(self.width_mm, self.height_mm)),
             )));
         }
         Ok(self)
@@ -127,4 +139,20 @@ impl ObservationPlane {
             step_mm,
         }
     }
+}
+
+/// The finest step (mm) whose grid over `w` × `h` mm holds at most
+/// [`MAX_GRID_POINTS`]: `(w/s + 1)(h/s + 1) = M` solved for `1/s`,
+/// nudged up so it rounds onto the safe side.
+fn finest_step(w: f64, h: f64) -> f64 {
+    let m = MAX_GRID_POINTS as f64;
+    let t = if w * h > 0.0 {
+        let (a, b, c) = (w * h, w + h, 1.0 - m);
+        (-b + (b * b - 4.0 * a * c).sqrt()) / (2.0 * a)
+    } else if w + h > 0.0 {
+        (m - 1.0) / (w + h)
+    } else {
+        return 0.0;
+    };
+    (1.0 / t) * (1.0 + 1e-9)
 }

@@ -15,6 +15,9 @@ use crate::limits;
 use crate::npy;
 use crate::plan::sequence::Plan;
 
+/// Lowest medium density (`--density`), kg/m³: air at about 50 km.
+pub const MIN_DENSITY_KG_M3: f64 = 1e-3;
+
 /// Observation settings: the plane, the radiation model and the force disk.
 pub struct View {
     /// Plane width and height (mm).
@@ -76,7 +79,9 @@ impl View {
         positive("density", self.density)?;
         positive("disk", self.disk_mm)?;
         in_range("--alpha", self.rad.alpha, 0.0, 2.0, "")?;
-        in_range("--density", self.density, 0.0, 100.0, "kg/m³")?;
+        // From a thin gas up: the force divides by it, and a density of
+        // 1e-320 gave a force of inf N without a word.
+        in_range("--density", self.density, MIN_DENSITY_KG_M3, 100.0, "kg/m³")?;
         in_range("--disk", self.disk_mm, 0.0, 1000.0, "mm")?;
         in_range("--plane-step", self.step_mm, 0.0, 1000.0, "mm")?;
         in_range("--plane-size", self.size_mm.0, 0.0, 1000.0, "mm")?;

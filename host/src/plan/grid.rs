@@ -165,8 +165,15 @@ pub fn grid_timing(
             Steps::Width(w) => ((circumference / w).round() as usize).max(MIN_PATTERNS),
         };
         let want_us = 1e6 / (freq_hz * n as f64);
+        // Which way to move: a dwell too long wants more steps a second.
+        let advice = match want_us > f64::from(dwell_us(MAX_DIVIDE)) {
+            true => "raise the frequency or the step count",
+            false => "lower the frequency or the step count",
+        };
         InputError::new(format!(
-            "LM at {freq_hz} Hz with {n} steps needs a {want_us:.1} µs dwell; AUTD3 takes {}..={} µs in 25 µs steps (silencer and update limit); lower the frequency or the step count",
+            "LM at {} Hz with {n} steps needs a {:.1} µs dwell; AUTD3 takes {}..={} µs in 25 µs steps (silencer and update limit); {advice}",
+            crate::limits::show(freq_hz),
+            crate::limits::Num(want_us),
             dwell_us(min_div),
             dwell_us(MAX_DIVIDE)
         ))

@@ -63,6 +63,7 @@ use crate::plan::stimulus::{Stimulus, TargetPlan};
 use crate::plan::stimulus_file::Content;
 use crate::plan::target::Target;
 use crate::plan::trajectory::{Cycle, MAX_FOCI, MAX_STEPS, paper};
+use crate::whole::Whole;
 
 /// Most entries in one library.
 pub const MAX_ENTRIES: usize = 256;
@@ -154,8 +155,12 @@ struct EntryFile {
     )]
     radius: Option<f64>,
     /// Foci per step (1: LM-S).
-    #[schemars(range(min = 1, max = MAX_FOCI), extend("default" = paper::FOCI))]
-    foci: Option<usize>,
+    #[schemars(
+        with = "Option<usize>",
+        range(min = 1, max = MAX_FOCI),
+        extend("default" = paper::FOCI)
+    )]
+    foci: Option<Whole<1, { MAX_FOCI as u64 }>>,
     /// Spacing between neighbouring foci along the path.
     #[schemars(
         range(max = MAX_SPACING_MM),
@@ -175,8 +180,8 @@ struct EntryFile {
     )]
     step: Option<f64>,
     /// Steps per cycle. Not with `step`.
-    #[schemars(range(min = 1, max = MAX_STEPS))]
-    steps: Option<usize>,
+    #[schemars(with = "Option<usize>", range(min = 1, max = MAX_STEPS))]
+    steps: Option<Whole<1, { MAX_STEPS as u64 }>>,
     /// Path centre in finger space `[x, y, z]`; default the scene's centre.
     #[schemars(inner(range(min = -MAX_COORD_MM, max = MAX_COORD_MM)), extend("x-unit" = "mm"))]
     center: Option<[f64; 3]>,
@@ -214,10 +219,11 @@ struct EntryFile {
     foci_file: Option<String>,
     /// GS-PAT iterations (`method = "gspat"` only).
     #[schemars(
+        with = "Option<usize>",
         range(min = 1, max = MAX_ITERATIONS),
         extend("default" = crate::plan::stimulus::GSPAT_ITERATIONS),
     )]
-    iterations: Option<usize>,
+    iterations: Option<Whole<1, { MAX_ITERATIONS as u64 }>>,
 }
 
 /// A synthesis method's name.
@@ -256,8 +262,12 @@ struct PathFile {
     #[schemars(range(min = 0.0, max = MAX_RADIUS_MM), extend("x-unit" = "mm"))]
     b: Option<f64>,
     /// Lissajous frequency ratio `[n_a, n_b]`.
-    #[schemars(inner(range(min = 1, max = MAX_LISSAJOUS_RATIO)), extend("default" = RATIO))]
-    ratio: Option<[u32; 2]>,
+    #[schemars(
+        with = "Option<[u32; 2]>",
+        inner(range(min = 1, max = MAX_LISSAJOUS_RATIO)),
+        extend("default" = RATIO)
+    )]
+    ratio: Option<[Whole<1, { MAX_LISSAJOUS_RATIO as u64 }>; 2]>,
     /// Lissajous phase of the a term.
     #[schemars(range(min = -360.0, max = 360.0), extend("x-unit" = "°", "default" = PHASE_DEG))]
     phase: Option<f64>,
@@ -324,7 +334,7 @@ impl PathFile {
                 b_mm: need(self.b, "b")?,
             },
             ShapeName::Lissajous => {
-                let [n_a, n_b] = self.ratio.unwrap_or(RATIO);
+                let [n_a, n_b] = self.ratio.map_or(RATIO, |r| r.map(Whole::get));
                 Path::Lissajous(Lissajous {
                     a_mm: need(self.a, "a")?,
                     b_mm: need(self.b, "b")?,
@@ -457,10 +467,10 @@ impl EntryFile {
         }
         let am = self.am.as_ref().map(AmFile::resolve).transpose()?;
         let synthesis = match (self.method, self.iterations) {
-            (Some(MethodName::Gspat), n) => {
-                crate::plan::stimulus::gspat(n.unwrap_or(crate::plan::stimulus::GSPAT_ITERATIONS))
-                    .map_err(|e| e.to_string().replace("--iterations", "iterations"))?
-            }
+            (Some(MethodName::Gspat), n) => crate::plan::stimulus::gspat(
+                n.map_or(crate::plan::stimulus::GSPAT_ITERATIONS, Whole::get_usize),
+            )
+            .map_err(|e| e.to_string().replace("--iterations", "iterations"))?,
             (_, Some(_)) => return Err("`iterations` applies to `method = \"gspat\"` only".into()),
             _ => d.synthesis.clone(),
         };
@@ -470,11 +480,11 @@ impl EntryFile {
             z_profile_mm: self.z.unwrap_or_default(),
             ..Cycle::given(
                 self.radius,
-                self.foci,
+                self.foci.map(Whole::get_usize),
                 self.spacing,
                 self.freq,
                 self.step,
-                self.steps,
+                self.steps.map(Whole::get_usize),
             )
             // The flags' words, in the file's names.
             .map_err(|e| e.to_string().replace("--", ""))?

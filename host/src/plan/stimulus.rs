@@ -246,7 +246,18 @@ pub fn intensity_byte(intensity: f64) -> Result<u8, InputError> {
             "intensity {intensity} is out of range: allowed 0..=1 (1 = full)"
         )));
     }
-    Ok((intensity * 255.0).round() as u8)
+    let level = (intensity * 255.0).round() as u8;
+    // Some output asked for, none played: refused, not rounded to silence.
+    if level == 0 && intensity > 0.0 {
+        return Err(InputError::new(format!(
+            "intensity {} rounds to level 0 of 255, silence: give 0 for silence or at least {} (level 1)",
+            crate::limits::show(intensity),
+            // Rounded up, so the value named plays (0.5/255 shown in 6
+            // digits would round back down to silence).
+            crate::limits::show((0.5 / 255.0 * 1e5_f64).ceil() / 1e5)
+        )));
+    }
+    Ok(level)
 }
 
 /// A wire intensity in words, as reports print it: `intensity 0.501961

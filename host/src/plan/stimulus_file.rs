@@ -333,7 +333,7 @@ fn timing(
             ));
         }
         (Some(f), None) => {
-            limits::in_range("--freq", f, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
+            limits::in_range("--freq", f, limits::MIN_FREQ_HZ, limits::MAX_FREQ_HZ, "Hz")?;
             if f <= 0.0 {
                 return Err(InputError::new(format!("--freq {f} must be above 0 Hz")));
             }
@@ -346,12 +346,19 @@ fn timing(
                     limits::show(d)
                 )));
             }
-            let f = 1e6 / (d * steps as f64);
-            if f > limits::MAX_FREQ_HZ {
+            // The dwell's own range over these steps (a frequency derived
+            // from 1e-320 µs was inf Hz, from 1e300 µs a period the wire
+            // cannot hold).
+            let per = |f: f64| 1e6 / (f * steps as f64);
+            let (lo, hi) = (per(limits::MAX_FREQ_HZ), per(limits::MIN_FREQ_HZ));
+            if !(lo..=hi).contains(&d) {
                 return Err(InputError::new(format!(
-                    "dwell_us {} over {steps} steps is {} Hz, above {} Hz",
+                    "dwell_us {} over {} is out of range: allowed {}..={} µs (an LM frequency of {}..={} Hz)",
                     limits::show(d),
-                    limits::Num(f),
+                    crate::out::count(steps as u64, "step"),
+                    limits::Num(lo),
+                    limits::Num(hi),
+                    limits::Num(limits::MIN_FREQ_HZ),
                     limits::MAX_FREQ_HZ
                 )));
             }
@@ -381,8 +388,8 @@ fn timing(
     if dwell_s < scene.min_dwell_s * (1.0 - 1e-12) {
         return Err(InputError::new(format!(
             "dwell {:.4} ms is below the device minimum {:.4} ms",
-            dwell_s * 1e3,
-            scene.min_dwell_s * 1e3
+            limits::Num(dwell_s * 1e3),
+            limits::Num(scene.min_dwell_s * 1e3)
         )));
     }
     crate::units::period_us(dwell_s * steps as f64)?;

@@ -150,7 +150,13 @@ impl Cycle {
         finite_pos(self.radius_mm, "radius", "mm", true)?;
         finite_pos(self.freq_hz, "freq", "Hz", false)?;
         limits::in_range("radius", self.radius_mm, 0.0, limits::MAX_RADIUS_MM, "mm")?;
-        limits::in_range("frequency", self.freq_hz, 0.0, limits::MAX_FREQ_HZ, "Hz")?;
+        limits::in_range(
+            "frequency",
+            self.freq_hz,
+            limits::MIN_FREQ_HZ,
+            limits::MAX_FREQ_HZ,
+            "Hz",
+        )?;
         if self.foci == 0 || self.foci > MAX_FOCI {
             return Err(InputError::new(format!(
                 "foci must be 1..={MAX_FOCI}, got {}",
@@ -185,16 +191,24 @@ impl Cycle {
                 if circumference == 0.0 {
                     1
                 } else {
+                    // The length in digits that show it, however small
+                    // (`{:.3}` said 0.000 mm for a radius of 1e-300).
+                    let length = limits::Num(circumference);
                     if w > circumference {
                         return Err(InputError::new(format!(
-                            "step {w} mm is wider than the {length_name} = {circumference:.3} mm; \
+                            "step {w} mm is wider than the {length_name} = {length:.3} mm; \
                              use a smaller --step or --steps 1"
                         )));
                     }
                     let n = (circumference / w).round().max(1.0);
                     if n > MAX_STEPS as f64 {
+                        // The step's own range, not a step count derived
+                        // from it (`1e-320` gave "inf steps").
                         return Err(InputError::new(format!(
-                            "step {w} mm gives {n} steps, more than {MAX_STEPS}"
+                            "step {} mm is out of range: allowed {}..={} mm (a finer one takes more than {MAX_STEPS} steps along the {length_name} = {length:.3} mm)",
+                            limits::show(w),
+                            limits::Num(circumference / MAX_STEPS as f64),
+                            limits::Num(circumference),
                         )));
                     }
                     n as usize
@@ -367,8 +381,8 @@ impl Trajectory {
             return Err(InputError::new(format!(
                 "dwell 1/(N·f) = {:.4} ms is below the device minimum {:.4} ms (N = {n}, f = {} Hz); \
                  use a larger --step or a lower --freq",
-                dwell_s * 1e3,
-                scene.min_dwell_s * 1e3,
+                limits::Num(dwell_s * 1e3),
+                limits::Num(scene.min_dwell_s * 1e3),
                 p.freq_hz
             )));
         }

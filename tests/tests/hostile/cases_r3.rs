@@ -100,7 +100,8 @@ pub(crate) fn round3_cases() -> Vec<Case> {
     };
     // 7. One formatter for every number in a message; ranges checked before rounding.
     v.extend(table! {
-        NUMBERS "plan --freq 1e-300" .err("period 1e300 s").err("at least").check(short_numbers);
+        // The frequency's own range since round 13 (a period was derived).
+        NUMBERS "plan --freq 1e-300" .err("frequency 1e-300 Hz").err("allowed 0.000232831..=").check(short_numbers);
         NUMBERS "plan --freq 1e300" .check(short_numbers);
         NUMBERS "plan --step 1e-300" .err("1e-300").check(short_numbers);
         NUMBERS "plan --step 5e-324" .check(short_numbers);
@@ -211,9 +212,10 @@ pub(crate) fn round3_cases() -> Vec<Case> {
                    .err("'--depth <FILE.npy>' cannot be used with '--noise-mm <MM>'");
         RIG        "track --camera --holes 0.5 --scene {scenes}/paper.toml"
                    .err("'--camera' cannot be used with '--holes <FRACTION>'");
-        // 11. A --plot that writes nothing says so.
-        PATH_MESSAGES "track" .depth("empty.npy", "cam.toml").args("--plot {dir}/noplot") .ok()
-                   .err("--plot wrote nothing");
+        // 11. A --plot that would write nothing says so (a recording of
+        //     no frames is refused before it is made: round 13).
+        PATH_MESSAGES "track" .depth("empty.npy", "cam.toml").args("--plot {dir}/noplot")
+                   .err("the recording holds no frames");
         // 9. What the device refused is said.
         REFUSALS   "track --synthetic --fast --seconds 1 --port {port}" .ok()
                    .out("device refusals:").out("outside the work volume");
@@ -255,7 +257,7 @@ pub(crate) fn round3_cases() -> Vec<Case> {
         STIMULI    "upload --port {port} --foci-file {dir}/fo_behind.json" .err("fo_behind.json").err("behind");
         STIMULI    "upload --port {port} --foci-file {dir}/fo_far.json" .err("fo_far.json").err("±2000");
         STIMULI    "upload --port {port} --foci-file {dir}/fo_many.json" .err("at most 32");
-        STIMULI    "upload --port {port} --foci-file {dir}/fo_short.json" .err("above 1000 Hz");
+        STIMULI    "upload --port {port} --foci-file {dir}/fo_short.json" .err("dwell_us 10 over 1 step is out of range: allowed 1000..=");
         STIMULI    "upload --port {port} --foci-file {dir}/fo_far.json --method gspat" .err("--method");
         STIMULI    "stream --port {port} --input {dir}/track_extra.jsonl" .err("line 1").err("unknown field `colour`");
         STIMULI    "stream --port {port} --input {dir}/track_nopos.jsonl" .err("line 1").err("needs its centre");

@@ -133,9 +133,21 @@ pub const R11_LIST_NUMBERS: &str = "r11-9 a number inside a flag's list is read 
 /// Round 12: Python, streams and device replies (`cases_r12.rs`).
 pub const R12_CONTROL_WHOLE: &str = "r12-1 a control line's whole number names its rule's range";
 pub const R12_PORT_LONG: &str = "r12-2 a port name longer than any is refused, not echoed whole";
+/// Round 13: what earlier rounds knew of and left (`cases_r13.rs`).
+pub const R13_FILE_WHOLE: &str = "r13-1 a file's whole number names its field's range";
+pub const R13_MISSING: &str = "r13-2 a missing field is named with where it was wanted";
+pub const R13_EMPTY: &str = "r13-3 a recording of nothing is refused, naming it";
+pub const R13_DERIVED: &str = "r13-4 a number is refused by its own range, not a derived overflow";
+pub const R13_CHECK_RUN: &str = "r13-5 study check refuses the timeline study run refuses";
+pub const R13_NOT_A_NUMBER: &str = "r13-6 a flag's value that is no number says what to give";
+pub const R13_TOO_LARGE: &str = "r13-7 a number literal beyond a float is refused as itself";
+pub const R13_SILENCE: &str = "r13-8 an intensity that rounds to silence is refused";
+pub const R13_FILE_TEXT: &str = "r13-9 a file's text is bounded and free of control characters";
+pub const R13_EMPTY_PORT: &str = "r13-10 an empty --port is refused, not taken for none";
+pub const R13_NEGATIVE_WORDS: &str = "r13-12 a flag's value -inf or -nan is read as its value";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 100] = [
+pub const CLASSES: [&str; 111] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -236,4 +248,15 @@ pub const CLASSES: [&str; 100] = [
     R11_LIST_NUMBERS,
     R12_CONTROL_WHOLE,
     R12_PORT_LONG,
+    R13_FILE_WHOLE,
+    R13_MISSING,
+    R13_EMPTY,
+    R13_DERIVED,
+    R13_CHECK_RUN,
+    R13_NOT_A_NUMBER,
+    R13_TOO_LARGE,
+    R13_SILENCE,
+    R13_FILE_TEXT,
+    R13_EMPTY_PORT,
+    R13_NEGATIVE_WORDS,
 ];

@@ -6,7 +6,7 @@
 //! [`TIME_LIMIT`] (one with a client beside it: [`TIME_LIMIT_WITH_CLIENT`]),
 //! killed and failed otherwise. To add a case, append a
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
-//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r12.rs`); `{port}` is
+//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r13.rs`); `{port}` is
 //! the shared simulated device, `{fake:NAME}` a device that lies (round
 //! 9), `{dir}` a scratch directory with the fixtures of [`fixtures`],
 //! `{scenes}` the repository's `scenes/`. A case may run a client of the
@@ -256,6 +256,7 @@ mod cases_r1;
 mod cases_r10;
 mod cases_r11;
 mod cases_r12;
+mod cases_r13;
 mod cases_r3;
 mod cases_r4_device;
 mod cases_r4_files;
@@ -287,6 +288,7 @@ use cases_r9::round9_cases;
 use cases_r10::{round10_cases, round10_fixtures};
 use cases_r11::{round11_cases, round11_fixtures};
 use cases_r12::round12_cases;
+use cases_r13::{round13_cases, round13_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -502,6 +504,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     cases_r4_session::fixtures(&dir);
     round10_fixtures(&dir);
     round11_fixtures(&dir);
+    round13_fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -537,6 +540,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(round10_cases());
     all.extend(round11_cases());
     all.extend(round12_cases());
+    all.extend(round13_cases());
     let only = std::env::var("LMHOST_HOSTILE_CLASS").ok();
     if let Some(prefix) = &only {
         all.retain(|c| c.class.starts_with(prefix.as_str()));

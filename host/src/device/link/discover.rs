@@ -112,7 +112,15 @@ pub fn choose(
     env: Option<&str>,
     found: &[PortInfo],
 ) -> Result<String, InputError> {
-    if let Some(p) = flag.filter(|p| !p.is_empty()) {
+    // An empty flag is refused, not taken for no flag: `--port "$PORT"`
+    // with PORT unset picked whatever board discovery found.
+    if flag == Some("") {
+        return Err(InputError::new(format!(
+            "--port is empty: give a serial port path, tcp:HOST:PORT or autd3:…, \
+             or leave --port out for ${PORT_ENV} or the one LM board found"
+        )));
+    }
+    if let Some(p) = flag {
         return Ok(p.to_owned());
     }
     if let Some(p) = env.filter(|p| !p.is_empty()) {

@@ -199,7 +199,10 @@ fn foreground(
         }
     }
     if n == 0 {
-        return Err(InputError::new(format!("{}: no frames", path.display())));
+        return Err(InputError::new(format!(
+            "{}: the recording holds no frames",
+            path.display()
+        )));
     }
     Ok(pts)
 }
@@ -214,7 +217,10 @@ fn background_depth(path: &Path, intr: &Intrinsics) -> Result<Vec<f64>, InputErr
         frames.push(buf.clone());
     }
     if frames.is_empty() {
-        return Err(InputError::new(format!("{}: no frames", path.display())));
+        return Err(InputError::new(format!(
+            "{}: the recording holds no frames",
+            path.display()
+        )));
     }
     let mm = intr.mm_per_unit();
     let mut col = Vec::with_capacity(frames.len());

@@ -81,6 +81,31 @@ pub const MAX_TIME_SCALE: f64 = 100.0;
 #[error("interrupted")]
 struct Interrupted;
 
+/// Refuses a `--time-scale` outside above 0 to [`MAX_TIME_SCALE`].
+pub fn check_time_scale(scale: f64) -> Result<(), InputError> {
+    if !(scale.is_finite() && scale > 0.0 && scale <= MAX_TIME_SCALE) {
+        crate::bad_input!(
+            "--time-scale {}: give a factor above 0 and at most {MAX_TIME_SCALE}",
+            crate::limits::show(scale)
+        );
+    }
+    Ok(())
+}
+
+/// `lmhost study check`'s test of the timeline, the one `run` applies
+/// before the device opens (its `timing` module), for every device the protocol
+/// may run on: `check` has no port, and called "valid" a protocol whose
+/// on-phase `run` then refused as shorter than half a step of a stimulus.
+pub fn check_timeline(
+    p: &Protocol,
+    scene: Option<&std::path::Path>,
+    scale: f64,
+) -> anyhow::Result<()> {
+    check_time_scale(scale)?;
+    let (scene, _) = provenance::load_scene(scene)?;
+    timing::check_every_target(p, &scene, scale)
+}
+
 /// Runs (or resumes) one participant's session.
 pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     // Graceful from the start: a signal during the set-up (planning,
@@ -88,12 +113,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     // array silent and the folder as it was.
     crate::stop::graceful();
     check_participant(&o.participant)?;
-    if !(o.time_scale.is_finite() && o.time_scale > 0.0 && o.time_scale <= MAX_TIME_SCALE) {
-        crate::bad_input!(
-            "--time-scale {}: give a factor above 0 and at most {MAX_TIME_SCALE}",
-            crate::limits::show(o.time_scale)
-        );
-    }
+    check_time_scale(o.time_scale)?;
     if o.hooks.answers.is_some() && o.answers != AnswerSource::Interactive {
         crate::bad_input!(
             "answers come either from the program or from --responses/--observer, not both"

@@ -207,6 +207,19 @@ pub fn report_to(dir: &Path, fig: &Figure) -> anyhow::Result<Report> {
     let Some(first) = first else {
         crate::bad_input!("{}: nothing to report", dir.display());
     };
+    // Participants without a trial to summarise: a report of nothing
+    // (every statistic empty) was written and counted "0 trials".
+    if rows.is_empty() {
+        crate::bad_input!(
+            "{}: no trial to report: {}",
+            dir.display(),
+            match out.practice {
+                0 => "every trials.csv holds no row (runs stopped before their first trial?)"
+                    .to_owned(),
+                n => format!("only {n} practice trials, which a report leaves out"),
+            }
+        );
+    }
     let cols = &first.protocol.columns;
     let factor_names: Vec<String> = first
         .protocol

@@ -15,7 +15,9 @@ use super::protocol::Protocol;
 use crate::InputError;
 use crate::lab::session::{MAX_PHASE_S, plays_a_step};
 use crate::limits::show;
+use crate::plan::scene::Scene;
 use crate::plan::stimulus::TargetPlan;
+use crate::plan::target::Target;
 
 /// The library entries protocol `p` may present: each condition's, and
 /// each grid level's of a staircase or QUEST+.
@@ -84,6 +86,27 @@ pub fn check(p: &Protocol, plans: &[TargetPlan], scale: f64) -> Result<(), Input
                 }
             )));
         }
+    }
+    Ok(())
+}
+
+/// [`check`] as `study run` applies it on each kind of device (the LM
+/// firmware, an AUTD3 rig), whose timing differs: the library planned for
+/// each in `scene`; the first refusal names the device it is for. A
+/// target the library cannot be planned for is left to `run`, which
+/// refuses it by that planning.
+pub fn check_every_target(p: &Protocol, scene: &Scene, scale: f64) -> anyhow::Result<()> {
+    for target in Target::ALL {
+        let Ok(plans) = p.library.plan_for(&target, scene) else {
+            continue;
+        };
+        check(p, &plans, scale).map_err(|e| {
+            let device = match target {
+                Target::Lm => "the LM firmware",
+                Target::Autd3 => "an AUTD3 rig",
+            };
+            InputError::new(format!("{e} (as `study run` plans it for {device})"))
+        })?;
     }
     Ok(())
 }

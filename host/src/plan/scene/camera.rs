@@ -50,8 +50,12 @@ pub(super) struct TrackingFile {
     box_axes: [Vec3; 3],
     #[serde(deserialize_with = "crate::geom::exact::vec3")]
     box_size_mm: Vec3,
-    min_points: u32,
+    /// At least 1, at most a frame's pixels; any number refused so.
+    min_points: crate::whole::Whole<1, MAX_MIN_POINTS>,
 }
+
+/// Most points a contact area can hold: every pixel of the largest frame.
+const MAX_MIN_POINTS: u64 = crate::npy::MAX_SIDE * crate::npy::MAX_SIDE;
 
 /// The depth camera's pose: camera coordinates (x right, y down, z forward,
 /// mm) to scene coordinates.
@@ -173,9 +177,6 @@ pub(super) fn resolve(
                     "field `tracking.box_size_mm` must be in (0, 1000] mm on every axis, got {size:?}"
                 ));
             }
-            if t.min_points == 0 {
-                return Err("field `tracking.min_points` must be at least 1".into());
-            }
             Ok(TrackBox {
                 center_mm: crate::limits::position_mm(
                     "field `tracking.box_center_mm`",
@@ -184,7 +185,7 @@ pub(super) fn resolve(
                 .map_err(|e| e.0)?,
                 axes: frame(t.box_axes, "tracking.box_axes")?,
                 size_mm: size,
-                min_points: t.min_points,
+                min_points: t.min_points.get(),
             })
         })
         .transpose()?;

@@ -118,6 +118,9 @@ impl SceneFile {
             }
             None => DEFAULT_MIN_DWELL_S,
         };
+        if let Some(name) = &self.name {
+            check_name(name)?;
+        }
         let (camera, tracking) = super::camera::resolve(self.camera, self.tracking)?;
         let calibration = self.calibration.map(calibration).transpose()?;
         Ok(Scene {
@@ -193,6 +196,28 @@ fn check_overlap(devices: &[Device]) -> Result<(), String> {
             }
             grid.entry(c).or_default().push((d, t.pos_mm));
         }
+    }
+    Ok(())
+}
+
+/// Longest scene `name` (characters): it heads every report and is
+/// recorded with every run.
+pub const MAX_NAME_CHARS: usize = 200;
+
+/// A scene's `name`: one line of at most [`MAX_NAME_CHARS`] (a name of
+/// 200 000 characters was printed whole in every report's first line).
+fn check_name(name: &str) -> Result<(), String> {
+    let n = name.chars().count();
+    if n > MAX_NAME_CHARS {
+        return Err(format!(
+            "field `name` has {n} characters, more than {MAX_NAME_CHARS}: a scene's name heads every report"
+        ));
+    }
+    if name.chars().any(char::is_control) {
+        return Err(format!(
+            "field `name` `{}` holds a line break or control character: give one line",
+            name.escape_debug()
+        ));
     }
     Ok(())
 }

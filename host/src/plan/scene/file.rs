@@ -15,7 +15,27 @@ fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     let Some(span) = e.span() else {
         return msg.to_string();
     };
+    if msg.starts_with("missing field `") {
+        return missing(text, span.start, msg);
+    }
     placed(text, span.start, msg)
+}
+
+/// Where a missing field was wanted: the error's span is the table that
+/// lacks it, a `[header]` or `{ inline }` table named by its path (`line
+/// N, table `device[1]`: missing field `x``), else the file's top level,
+/// which has no line of its own (the first key of the file is not the
+/// one missing: "field `width`: missing field `fx`" named the wrong one).
+fn missing(text: &str, at: usize, msg: &str) -> String {
+    let at = at.min(text.len());
+    let table = text[at..].starts_with(['[', '{']);
+    match field_at(text, at).filter(|_| table) {
+        Some(path) => {
+            let line_no = text[..at].matches('\n').count() + 1;
+            format!("line {line_no}, table `{path}`: {msg}")
+        }
+        None => format!("{msg} at the top level"),
+    }
 }
 
 /// The first line of a TOML error's message (the lines after it list

@@ -108,7 +108,7 @@ fn bad_files_are_one_line_naming_the_file() {
         ("notime.json", serde_json::json!({"phases": vec![row.clone(); 4]}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "no timing"),
         ("twice.json", ok_rows.to_string().into_bytes(), Content::Phases, &Target::Lm, Some(5.0), "give one"),
         ("offgrid.json", serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 2010.0}).to_string().into_bytes(), Content::Phases, &a, None, "25 µs grid"),
-        ("fast.json", serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 10.0}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "above 1000 Hz"),
+        ("fast.json", serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": 10.0}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "over 4 steps is out of range: allowed 250..="),
         ("extra.json", serde_json::json!({"phases": [row.clone()], "dwell_us": 2000.0, "x": 1}).to_string().into_bytes(), Content::Phases, &Target::Lm, None, "unknown field"),
         ("few.json", serde_json::json!({"phases": [row.clone()], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Phases, &a, None, "2..=1024 steps"),
         ("behind.json", serde_json::json!({"foci_mm": [[[0, 0, -50]]], "dwell_us": 2000.0}).to_string().into_bytes(), Content::Foci, &Target::Lm, None, "behind"),

@@ -300,7 +300,42 @@ pub fn replay_file(
     use anyhow::Context as _;
     let reader = std::io::BufReader::new(crate::files::open_input(what, path)?);
     let name = format!("{what} {}", path.display());
-    Ok(replay_lines(reader).map(move |r| r.with_context(|| name.clone())))
+    let samples = replay_lines(reader).map({
+        let name = name.clone();
+        move |r| r.with_context(|| name.clone())
+    });
+    Ok(not_empty(samples, name))
+}
+
+/// `items`, with an error in place of their end when they end before a
+/// first sample: a recording (or piped input) of no centroids, empty or
+/// only comments, is not a stream that tracked nothing (`lmhost stream`
+/// exited 0 reporting 0 samples). The error names `what` it was.
+pub fn not_empty<I>(items: I, what: String) -> impl Iterator<Item = anyhow::Result<Sample>>
+where
+    I: IntoIterator<Item = anyhow::Result<Sample>>,
+{
+    let mut items = items.into_iter();
+    let (mut seen, mut done) = (false, false);
+    std::iter::from_fn(move || {
+        if done {
+            return None;
+        }
+        match items.next() {
+            Some(r) => {
+                seen = true;
+                Some(r)
+            }
+            None if !seen => {
+                done = true;
+                Some(Err(crate::InputError::new(format!(
+                    "no centroids on input: {what} ended before its first sample line"
+                ))
+                .into()))
+            }
+            None => None,
+        }
+    })
 }
 
 /// The samples of `items` released at their time stamps on `clock`: the

@@ -101,8 +101,9 @@ pub struct ColourCamera {
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ColourFile {
-    width: u32,
-    height: u32,
+    // Any number, refused in the frame's range (not a `u32`'s).
+    width: crate::whole::Whole<1, { crate::npy::MAX_SIDE }>,
+    height: crate::whole::Whole<1, { crate::npy::MAX_SIDE }>,
     fx: f64,
     fy: f64,
     ppx: f64,
@@ -119,7 +120,7 @@ struct ColourFile {
 impl From<ColourFile> for ColourCamera {
     fn from(f: ColourFile) -> Self {
         ColourCamera {
-            pinhole: Pinhole::new(f.width, f.height, f.fx, f.fy, f.ppx, f.ppy),
+            pinhole: Pinhole::new(f.width.get(), f.height.get(), f.fx, f.fy, f.ppx, f.ppy),
             model: f.model,
             coeffs: f.coeffs,
             rotation: f.rotation,

@@ -116,8 +116,9 @@ pub struct Intrinsics {
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct IntrinsicsFile {
-    width: u32,
-    height: u32,
+    // Any number, refused in the frame's range (not a `u32`'s).
+    width: crate::whole::Whole<1, { crate::npy::MAX_SIDE }>,
+    height: crate::whole::Whole<1, { crate::npy::MAX_SIDE }>,
     fx: f64,
     fy: f64,
     ppx: f64,
@@ -128,7 +129,7 @@ struct IntrinsicsFile {
 impl From<IntrinsicsFile> for Intrinsics {
     fn from(f: IntrinsicsFile) -> Self {
         Intrinsics {
-            pinhole: Pinhole::new(f.width, f.height, f.fx, f.fy, f.ppx, f.ppy),
+            pinhole: Pinhole::new(f.width.get(), f.height.get(), f.fx, f.fy, f.ppx, f.ppy),
             depth_scale: f.depth_scale,
         }
     }

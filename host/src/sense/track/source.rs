@@ -280,6 +280,16 @@ impl Replay {
         times: Option<(Vec<f64>, &Path)>,
     ) -> Result<Self, InputError> {
         let npy = DepthNpy::open(depth)?;
+        // Nothing to track: a run over it would report 0 frames as if it
+        // had tracked something (and write a plot or recording of none).
+        if npy.frames == 0 {
+            return Err(InputError::new(format!(
+                "{}: the recording holds no frames (shape (0, {}, {})): give one of at least 1 frame",
+                depth.display(),
+                npy.height,
+                npy.width
+            )));
+        }
         intr.check_frames(npy.width, npy.height, &depth.display().to_string())?;
         if let Some((t, from)) = &times
             && t.len() as u64 != npy.frames

@@ -249,6 +249,14 @@ impl<R: Read> FrameSource for Stream<R> {
                 if !status.success() && self.frames == 0 {
                     anyhow::bail!("the RealSense bridge exited ({status}) before sending a frame");
                 }
+            } else if self.frames == 0 {
+                // A recorded or piped stream of no frames: nothing was
+                // tracked, not a run that tracked 0 frames.
+                return Err(InputError::new(format!(
+                    "{}: the stream holds no frames (it ended after its header)",
+                    self.what
+                ))
+                .into());
             }
             return Ok(None);
         }

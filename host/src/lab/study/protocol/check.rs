@@ -88,7 +88,7 @@ pub(super) fn check(mut file: File, e: &Errors) -> Result<Unlinked, InputError> 
                 ));
             }
             Ok(Adjustment {
-                text: a.text,
+                text: a.text.0,
                 start_mm: start,
                 step_mm: a.step_mm.0,
                 max: a.max.0,
@@ -199,7 +199,7 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
         None => 1,
         Some(r) => {
             let max = crate::lab::session::MAX_REPEAT;
-            let n = *r.get_ref();
+            let n = r.get_ref().get();
             if !(1..=max).contains(&n) {
                 return Err(e.at(r.span(), "repeat", format!("{n} is out of range 1..={max}")));
             }
@@ -366,18 +366,14 @@ fn question(q: QuestionFile, e: &Errors) -> Result<Question, InputError> {
     };
     let kind = match q.kind {
         KindFile::Likert => {
-            let points = q
-                .points
-                .as_ref()
-                .map_or(super::file::DEFAULT_POINTS, |p| *p.get_ref());
-            if !(2..=MAX_OPTIONS as u32).contains(&points) {
-                let span = q.points.as_ref().map_or(q.id.span(), Spanned::span);
-                return Err(qbad(
-                    span,
-                    "points",
-                    format!("{points} is out of range 2..={MAX_OPTIONS}"),
-                ));
-            }
+            // Any number the file wrote, judged by the scale's range.
+            let points = match &q.points {
+                None => super::file::DEFAULT_POINTS,
+                Some(p) => match p.get_ref().whole_in(2, MAX_OPTIONS as u64) {
+                    Ok(v) => v as u32,
+                    Err(m) => return Err(qbad(p.span(), "points", m)),
+                },
+            };
             let items = match q.items {
                 Some(i) => {
                     let span = i.span();
@@ -448,7 +444,7 @@ fn question(q: QuestionFile, e: &Errors) -> Result<Question, InputError> {
     }
     Ok(Question {
         id,
-        text: q.text,
+        text: q.text.0,
         kind,
         shuffle,
         not_perceived: q.not_perceived.map(|l| l.into_inner().0),

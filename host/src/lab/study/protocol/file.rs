@@ -16,10 +16,11 @@ use super::{
     MAX_QUESTIONS, MAX_SLOPE, MAX_STAIRCASE,
 };
 use crate::lab::session::{Gate, MAX_REPEAT};
+use crate::whole::{FileNumber, Whole};
 
 pub(super) use super::values::{
     Adjustments, AnswerLabel, Depth, Label, Name, Number, Presentations, Reversals, Run, Seconds,
-    Sets, Step, repeated,
+    Sets, Step, Text, repeated,
 };
 
 /// A Likert question's points when it gives none.
@@ -148,7 +149,7 @@ pub(super) struct TimelineFile {
     /// On-phases per trial; needs `on_s`, not with a procedure (whose
     /// trial repeats until answered).
     #[schemars(with = "Option<u32>", range(min = 1, max = MAX_REPEAT), extend("default" = 1))]
-    pub repeat: Option<Spanned<u32>>,
+    pub repeat: Option<Spanned<Whole<1, { MAX_REPEAT as u64 }>>>,
     /// Seconds between trials (the answering time comes on top).
     #[serde(default)]
     #[schemars(extend("x-unit" = "s"))]
@@ -197,14 +198,14 @@ pub(super) struct QuestionFile {
     pub kind: KindFile,
     /// What the participant is asked.
     #[serde(default)]
-    pub text: String,
+    pub text: Text,
     /// Likert only: the scale's points.
     #[schemars(
         with = "Option<u32>",
         range(min = 2, max = MAX_OPTIONS),
         extend("default" = DEFAULT_POINTS),
     )]
-    pub points: Option<Spanned<u32>>,
+    pub points: Option<Spanned<FileNumber>>,
     /// Likert only: the label of 1.
     #[schemars(with = "Option<Label>")]
     pub low: Option<Spanned<Label>>,
@@ -239,7 +240,7 @@ pub(super) struct QuestionFile {
 pub(super) struct AdjustmentFile {
     /// What the participant is asked.
     #[serde(default)]
-    pub text: String,
+    pub text: Text,
     /// The first depth.
     #[schemars(with = "Depth", extend("x-unit" = "mm"))]
     pub start_mm: Spanned<Depth>,
@@ -303,7 +304,7 @@ pub(super) struct StaircaseFile {
         length(min = 1),
         inner(range(min = 1, max = MAX_LEVELS - 1)),
     )]
-    pub steps: Option<Spanned<Vec<u32>>>,
+    pub steps: Option<Spanned<Vec<FileNumber>>>,
     /// Reversals that end it.
     #[serde(default)]
     pub reversals: Reversals,
@@ -313,7 +314,7 @@ pub(super) struct StaircaseFile {
     /// The last reversals whose levels average to the threshold, at most
     /// `reversals`; default the least of `reversals` and 6.
     #[schemars(with = "Option<u32>", range(min = 1, max = MAX_STAIRCASE))]
-    pub threshold_reversals: Option<Spanned<u32>>,
+    pub threshold_reversals: Option<Spanned<FileNumber>>,
     /// The answer "perceived".
     #[serde(default = "yes")]
     #[schemars(with = "AnswerLabel")]

@@ -90,30 +90,38 @@ pub(super) fn check(
         None => vec![1],
         Some(v) => {
             let n = labels.len() as u32;
-            if v.get_ref().is_empty() || v.get_ref().iter().any(|&k| !(1..n).contains(&k)) {
-                return Err(e.at(
-                    v.span(),
-                    "steps",
-                    format!("give 1 or more steps, each 1 to {} grid places", n - 1),
-                ));
+            // Each read as any number, so `-1` or `2.5` is refused in
+            // these words too, not by a Rust type's range.
+            let steps: Option<Vec<u32>> = v
+                .get_ref()
+                .iter()
+                .map(|k| k.whole_in(1, u64::from(n) - 1).ok().map(|k| k as u32))
+                .collect();
+            match steps {
+                Some(steps) if !steps.is_empty() => steps,
+                _ => {
+                    return Err(e.at(
+                        v.span(),
+                        "steps",
+                        format!("give 1 or more steps, each 1 to {} grid places", n - 1),
+                    ));
+                }
             }
-            v.get_ref().clone()
         }
     };
     let reversals = s.reversals.0;
     let threshold_reversals = match &s.threshold_reversals {
         None => reversals.min(super::file::DEFAULT_THRESHOLD_REVERSALS),
-        Some(n) => {
-            let v = *n.get_ref();
-            if !(1..=reversals).contains(&v) {
+        Some(n) => match n.get_ref().whole_in(1, u64::from(reversals)) {
+            Ok(v) => v as u32,
+            Err(m) => {
                 return Err(e.at(
                     n.span(),
                     "threshold_reversals",
-                    format!("{v} is out of range 1..={reversals} (the reversals that end it)"),
+                    format!("{m} (the reversals that end it)"),
                 ));
             }
-            v
-        }
+        },
     };
     grid.entries = grid::entries(labels, template, factors, conditions, e)?;
     grid.start = start;

@@ -14,6 +14,9 @@ use super::{
 use crate::lab::study::columns::{LIST_SEPARATOR, MAX_LABEL_BYTES};
 use crate::limits::show;
 
+/// Longest text a participant reads (characters).
+pub(super) const MAX_TEXT_CHARS: usize = 2000;
+
 /// Longest name (a column, an item), bytes.
 pub(super) const MAX_NAME_BYTES: usize = 64;
 /// Largest adjustment step, mm.
@@ -98,25 +101,76 @@ checked!(
         "pattern": label_pattern(true)
     }
 );
+/// A whole number in `$lo..=$hi` read as any number the file wrote
+/// ([`crate::whole`]): `-1`, `2.5` or `1e30` are refused naming the
+/// field's range, not the range of `$t`.
+macro_rules! whole {
+    ($(#[$m:meta])* $name:ident($t:ty), $default:expr, $lo:literal..=$hi:expr) => {
+        $(#[$m])*
+        #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+        #[serde(try_from = "crate::whole::FileNumber")]
+        pub(super) struct $name(pub $t);
+
+        impl TryFrom<crate::whole::FileNumber> for $name {
+            type Error = String;
+            fn try_from(n: crate::whole::FileNumber) -> Result<Self, String> {
+                let v = n.whole_in($lo, $hi as u64)?;
+                <$t>::try_from(v).map(Self).map_err(|_| format!("{v} is out of range"))
+            }
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                Self($default)
+            }
+        }
+
+        impl JsonSchema for $name {
+            fn inline_schema() -> bool {
+                true
+            }
+            fn schema_name() -> Cow<'static, str> {
+                stringify!($name).into()
+            }
+            fn json_schema(_: &mut SchemaGenerator) -> Schema {
+                json_schema!({ "type": "integer", "minimum": $lo, "maximum": $hi })
+            }
+        }
+    };
+}
+
 checked!(
+    /// Text the participant reads (a question's, an adjustment's): at most
+    /// [`MAX_TEXT_CHARS`], its lines broken with line breaks and tabs and
+    /// no other control character (an escape sequence in it drove the
+    /// participant's terminal: `\u001b[2J` cleared the screen).
+    Text(String as "String"), String::new(), |v| check_text(&v),
+    schema {
+        "type": "string",
+        "maxLength": MAX_TEXT_CHARS,
+        "pattern": r"^[^\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]*$"
+    }
+);
+
+whole!(
     /// Sets: each a fresh permutation of every condition.
-    Sets(usize as "usize"), 1, "integer" 1..=MAX_SETS, ""
+    Sets(usize), 1, 1..=MAX_SETS
 );
-checked!(
+whole!(
     /// Most adjustments per trial.
-    Adjustments(u32 as "u32"), 20, "integer" 1..=MAX_ADJUSTMENTS, ""
+    Adjustments(u32), 20, 1..=MAX_ADJUSTMENTS
 );
-checked!(
+whole!(
     /// Answers in a row that move a staircase (its `up` and `down`).
-    Run(u32 as "u32"), 1, "integer" 1..=MAX_RUN, ""
+    Run(u32), 1, 1..=MAX_RUN
 );
-checked!(
+whole!(
     /// Reversals that end a staircase.
-    Reversals(u32 as "u32"), 8, "integer" 1..=MAX_STAIRCASE, ""
+    Reversals(u32), 8, 1..=MAX_STAIRCASE
 );
-checked!(
+whole!(
     /// Presentations that end a staircase.
-    Presentations(u32 as "u32"), 50, "integer" 1..=MAX_STAIRCASE, ""
+    Presentations(u32), 50, 1..=MAX_STAIRCASE
 );
 checked!(
     /// A depth, mm.
@@ -229,6 +283,25 @@ pub(super) fn check_name(s: &str) -> Result<(), String> {
 }
 
 /// 1 to [`MAX_LABEL_BYTES`] bytes on one line, not blank.
+fn check_text(s: &str) -> Result<(), String> {
+    let n = s.chars().count();
+    if n > MAX_TEXT_CHARS {
+        return Err(format!(
+            "{n} characters, more than {MAX_TEXT_CHARS}: a participant reads it"
+        ));
+    }
+    if let Some(c) = s
+        .chars()
+        .find(|c| c.is_control() && !matches!(c, '\n' | '\r' | '\t'))
+    {
+        return Err(format!(
+            "holds the control character {}: give text, line breaks and tabs only",
+            c.escape_unicode()
+        ));
+    }
+    Ok(())
+}
+
 pub(super) fn check_label(s: &str) -> Result<(), String> {
     if s.trim().is_empty() || s.len() > MAX_LABEL_BYTES || s.chars().any(char::is_control) {
         return Err(format!(

@@ -1,0 +1,199 @@
+//! A whole-number field of a file (a scene, a protocol, a library, an
+//! intrinsics or stimulus file), read as whatever number the file wrote
+//! and judged by the field's own range.
+//!
+//! Read straight into its Rust type, `repeat = -1` said "expected a whole
+//! number from 0 to 4294967295" (the type's range, not the field's
+//! 1..=10000), `2.5` and `1e30` "invalid type: floating point", and only a
+//! value the type held reached the field's own check. [`Whole`] takes any
+//! number and refuses it in the field's words: `-1 is out of range
+//! 1..=10000`, `2.5 is not a whole number in 1..=10000`.
+
+use std::fmt;
+
+use serde::de::{self, Deserializer, Visitor};
+use serde::{Deserialize, Serialize};
+
+use crate::limits::show;
+
+/// A number as a file wrote it, before any range is checked: a whole
+/// number (however large the file's format lets it be) or a float.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FileNumber {
+    /// Written without a fraction or exponent.
+    Int(i128),
+    /// Written with one (`2.5`, `3.0`, `1e30`), or NaN / infinite.
+    Float(f64),
+}
+
+impl FileNumber {
+    /// The whole number in `lo..=hi` this is, or one line naming the
+    /// range: `VALUE is out of range LO..=HI` for a whole number outside
+    /// it (however large), `VALUE is not a whole number in LO..=HI` for a
+    /// fraction (`3.0` too: the file wrote a float).
+    pub fn whole_in(self, lo: u64, hi: u64) -> Result<u64, String> {
+        let range = format!("{lo}..={hi}");
+        match self {
+            FileNumber::Int(i) => match u64::try_from(i) {
+                Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+                _ => Err(format!("{i} is out of range {range}")),
+            },
+            FileNumber::Float(f) => {
+                let whole = f.is_finite() && f.fract() == 0.0;
+                let inside = f >= lo as f64 && f <= hi as f64;
+                match (whole, inside) {
+                    (true, false) => Err(format!("{} is out of range {range}", show(f))),
+                    // `3.0`, not `3`: the number as written, not an integer.
+                    (true, true) => Err(format!("{f:.1} is not a whole number in {range}")),
+                    (false, _) if f.is_infinite() => {
+                        Err(format!("{} is out of range {range}", show(f)))
+                    }
+                    (false, _) => Err(format!("{} is not a whole number in {range}", show(f))),
+                }
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for FileNumber {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NumberVisitor(None))
+    }
+}
+
+/// Reads any number; a value of another kind is refused as not "a whole
+/// number" (in the range, when one is given).
+struct NumberVisitor(Option<(u64, u64)>);
+
+impl Visitor<'_> for NumberVisitor {
+    type Value = FileNumber;
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        match self.0 {
+            Some((lo, hi)) => write!(f, "a whole number in {lo}..={hi}"),
+            None => f.write_str("a whole number"),
+        }
+    }
+    fn visit_i64<E>(self, v: i64) -> Result<FileNumber, E> {
+        Ok(FileNumber::Int(v.into()))
+    }
+    fn visit_u64<E>(self, v: u64) -> Result<FileNumber, E> {
+        Ok(FileNumber::Int(v.into()))
+    }
+    fn visit_i128<E>(self, v: i128) -> Result<FileNumber, E> {
+        Ok(FileNumber::Int(v))
+    }
+    fn visit_u128<E>(self, v: u128) -> Result<FileNumber, E> {
+        Ok(i128::try_from(v).map_or(FileNumber::Float(v as f64), FileNumber::Int))
+    }
+    fn visit_f64<E>(self, v: f64) -> Result<FileNumber, E> {
+        Ok(FileNumber::Float(v))
+    }
+}
+
+/// A whole number in `LO..=HI` (the field's own range) read from a file
+/// as [`FileNumber::whole_in`] judges it. Give the range the library
+/// checks the field against, so every value outside it is refused here,
+/// where the file's line is known, in the same words.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(transparent)]
+pub struct Whole<const LO: u64, const HI: u64>(pub u64);
+
+impl<const LO: u64, const HI: u64> Whole<LO, HI> {
+    /// The number, as a `u32` (every range a file uses fits one).
+    pub fn get(self) -> u32 {
+        u32::try_from(self.0).unwrap_or(u32::MAX)
+    }
+
+    /// The number, as a `usize`.
+    pub fn get_usize(self) -> usize {
+        usize::try_from(self.0).unwrap_or(usize::MAX)
+    }
+}
+
+impl<'de, const LO: u64, const HI: u64> Deserialize<'de> for Whole<LO, HI> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let n = d.deserialize_any(NumberVisitor(Some((LO, HI))))?;
+        n.whole_in(LO, HI).map(Self).map_err(de::Error::custom)
+    }
+}
+
+impl<const LO: u64, const HI: u64> schemars::JsonSchema for Whole<LO, HI> {
+    fn inline_schema() -> bool {
+        true
+    }
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        format!("Whole_{LO}_{HI}").into()
+    }
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({ "type": "integer", "minimum": LO, "maximum": HI })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, Deserialize)]
+    struct T {
+        n: Whole<1, 100>,
+    }
+
+    fn said(v: &str) -> Result<u64, String> {
+        toml::from_str::<T>(&format!("n = {v}\n"))
+            .map(|t| t.n.0)
+            .map_err(|e| e.message().to_owned())
+    }
+
+    #[test]
+    fn every_number_is_judged_by_the_fields_range_not_its_type() {
+        assert_eq!(said("1"), Ok(1));
+        assert_eq!(said("100"), Ok(100));
+        for (v, msg) in [
+            ("0", "0 is out of range 1..=100"),
+            ("-1", "-1 is out of range 1..=100"),
+            ("101", "101 is out of range 1..=100"),
+            ("4294967296", "4294967296 is out of range 1..=100"),
+            (
+                "9223372036854775807",
+                "9223372036854775807 is out of range 1..=100",
+            ),
+            ("2.5", "2.5 is not a whole number in 1..=100"),
+            ("3.0", "3.0 is not a whole number in 1..=100"),
+            ("1e30", "1e30 is out of range 1..=100"),
+            ("-1e300", "-1e300 is out of range 1..=100"),
+            ("inf", "inf is out of range 1..=100"),
+            ("nan", "NaN is not a whole number in 1..=100"),
+        ] {
+            assert_eq!(said(v), Err(msg.to_owned()), "{v}");
+        }
+        let s = said("\"3\"").unwrap_err();
+        assert!(s.contains("expected a whole number in 1..=100"), "{s}");
+    }
+
+    #[test]
+    fn json_numbers_beyond_64_bits_are_judged_too() {
+        let j = |v: &str| {
+            serde_json::from_str::<Whole<0, 255>>(v)
+                .map(|w| w.0)
+                .map_err(|e| e.to_string())
+        };
+        assert_eq!(j("255"), Ok(255));
+        assert!(
+            j("256")
+                .unwrap_err()
+                .starts_with("256 is out of range 0..=255")
+        );
+        let huge = j("18446744073709551616").unwrap_err();
+        assert!(huge.contains("is out of range 0..=255"), "{huge}");
+        let text = j("\"7\"").unwrap_err();
+        assert!(
+            text.contains("expected a whole number in 0..=255"),
+            "{text}"
+        );
+        assert!(
+            j("-5")
+                .unwrap_err()
+                .starts_with("-5 is out of range 0..=255")
+        );
+    }
+}
