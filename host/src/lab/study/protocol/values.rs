@@ -28,16 +28,28 @@ pub(super) const MAX_STEP_MM: f64 = 100.0;
 macro_rules! checked {
     ($(#[$m:meta])* $name:ident($t:ty as $ts:literal), $default:expr, |$v:ident| $check:expr,
      schema $schema:tt) => {
+        checked!(
+            @made $(#[$m])* $name($t) from $t as $ts, $default,
+            |$v| {
+                let r: Result<(), String> = $check;
+                r.map(|()| Self($v))
+            },
+            schema $schema
+        );
+    };
+    // Made from what the file holds (`$src`, which serde reads as `$ts`)
+    // by `$make`, which refuses it in one line.
+    (@made $(#[$m:meta])* $name:ident($t:ty) from $src:ty as $ts:literal, $default:expr,
+     |$v:ident| $make:expr, schema $schema:tt) => {
         $(#[$m])*
         #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
         #[serde(try_from = $ts)]
         pub(super) struct $name(pub $t);
 
-        impl TryFrom<$t> for $name {
+        impl TryFrom<$src> for $name {
             type Error = String;
-            fn try_from($v: $t) -> Result<Self, String> {
-                let r: Result<(), String> = $check;
-                r.map(|()| Self($v))
+            fn try_from($v: $src) -> Result<Self, String> {
+                $make
             }
         }
 
@@ -106,36 +118,15 @@ checked!(
 /// field's range, not the range of `$t`.
 macro_rules! whole {
     ($(#[$m:meta])* $name:ident($t:ty), $default:expr, $lo:literal..=$hi:expr) => {
-        $(#[$m])*
-        #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-        #[serde(try_from = "crate::whole::FileNumber")]
-        pub(super) struct $name(pub $t);
-
-        impl TryFrom<crate::whole::FileNumber> for $name {
-            type Error = String;
-            fn try_from(n: crate::whole::FileNumber) -> Result<Self, String> {
+        checked!(
+            @made $(#[$m])* $name($t) from crate::whole::FileNumber
+                as "crate::whole::FileNumber", $default,
+            |n| {
                 let v = n.whole_in($lo, $hi as u64)?;
                 <$t>::try_from(v).map(Self).map_err(|_| format!("{v} is out of range"))
-            }
-        }
-
-        impl Default for $name {
-            fn default() -> Self {
-                Self($default)
-            }
-        }
-
-        impl JsonSchema for $name {
-            fn inline_schema() -> bool {
-                true
-            }
-            fn schema_name() -> Cow<'static, str> {
-                stringify!($name).into()
-            }
-            fn json_schema(_: &mut SchemaGenerator) -> Schema {
-                json_schema!({ "type": "integer", "minimum": $lo, "maximum": $hi })
-            }
-        }
+            },
+            schema { "type": "integer", "minimum": $lo, "maximum": $hi }
+        );
     };
 }
 
