@@ -177,6 +177,52 @@ pub fn bytes(rows: Vec<Vec<Byte>>) -> Vec<Vec<u8>> {
         .collect()
 }
 
+/// An integer field of type `T` read as [`Whole<LO, HI>`] judges it, for
+/// a struct that keeps its plain type:
+/// `#[serde(deserialize_with = "crate::whole::field::<_, _, 1, 100>")]`.
+pub fn field<'de, D, T, const LO: u64, const HI: u64>(d: D) -> Result<T, D::Error>
+where
+    D: Deserializer<'de>,
+    T: TryFrom<u64>,
+{
+    let w = Whole::<LO, HI>::deserialize(d)?;
+    T::try_from(w.0).map_err(|_| de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0)))
+}
+
+/// As [`field`], for an optional field (`null` is none).
+pub fn opt_field<'de, D, T, const LO: u64, const HI: u64>(d: D) -> Result<Option<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: TryFrom<u64>,
+{
+    match Option::<Whole<LO, HI>>::deserialize(d)? {
+        None => Ok(None),
+        Some(w) => T::try_from(w.0)
+            .map(Some)
+            .map_err(|_| de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0))),
+    }
+}
+
+/// As [`field`], for rows of whole numbers.
+pub fn rows<'de, D, T, const LO: u64, const HI: u64>(d: D) -> Result<Vec<Vec<T>>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: TryFrom<u64>,
+{
+    let rows = Vec::<Vec<Whole<LO, HI>>>::deserialize(d)?;
+    rows.into_iter()
+        .map(|r| {
+            r.into_iter()
+                .map(|w| {
+                    T::try_from(w.0).map_err(|_| {
+                        de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0))
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
 impl<const LO: u64, const HI: u64> schemars::JsonSchema for Whole<LO, HI> {
     fn inline_schema() -> bool {
         true

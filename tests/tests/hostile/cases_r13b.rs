@@ -9,7 +9,9 @@
 //!   its own range: a plan report's header (`"steps": -1`, `2.5`, `1e30`)
 //!   said "invalid value: integer `-1`, expected a whole number from 0 to
 //!   65535" (its Rust type's range, the field unnamed), a phase `-1` or
-//!   `300` "expected u8", a `crc32` of `-1` "expected u32".
+//!   `300` "expected u8", a `crc32` of `-1` "expected u32"; a study's
+//!   `session.json` with `"seed": -1` or a trial `2.5` "expected u64" or
+//!   "invalid type: floating point".
 //!
 //! Fixtures in `{dir}/r13b`.
 
@@ -76,6 +78,58 @@ const REPORT_EDITS: [(&str, &str, &str); 12] = [
     ),
 ];
 
+/// Edits of a study's `session.json`, as [`REPORT_EDITS`].
+const SESSION_EDITS: [(&str, &str, &str); 7] = [
+    ("/seed", "-1", "field `seed`: -1 is out of range 0..="),
+    (
+        "/index",
+        "0",
+        "field `index`: 0 is out of range 1..=1000000",
+    ),
+    (
+        "/trials/0/trial",
+        "2.5",
+        "field `trials[0].trial`: 2.5 is not a whole number in 1..=10000",
+    ),
+    (
+        "/trials/0/condition",
+        "1e30",
+        "field `trials[0].condition`: 1e30 is out of range 0..=999",
+    ),
+    (
+        "/trials/0/orders",
+        "[[-1]]",
+        "field `trials[0].orders[0][0]`: -1 is out of range 0..=8",
+    ),
+    (
+        "/runs/0/first_trial",
+        "-1",
+        "field `runs[0].first_trial`: -1 is out of range 1..=10000",
+    ),
+    (
+        "/runs/0/started_unix_s",
+        "-5",
+        "field `runs[0].started_unix_s`: -5 is out of range 0..=",
+    ),
+];
+
+/// `from` copied to `to`, its `session.json` edited at `at` to `value`.
+fn edited_participant(from: &Path, to: &Path, at: &str, value: &str) {
+    std::fs::create_dir_all(to).unwrap();
+    for f in ["trials.csv", "events.jsonl"] {
+        std::fs::copy(from.join(f), to.join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(from.join("session.json")).unwrap();
+    let mut session: serde_json::Value = serde_json::from_str(&text).unwrap();
+    if at == "/index" {
+        session["index"] = serde_json::Value::Null;
+    }
+    *session
+        .pointer_mut(at)
+        .expect("session.json's layout moved") = serde_json::from_str(value).unwrap();
+    std::fs::write(to.join("session.json"), session.to_string()).unwrap();
+}
+
 pub(crate) fn round13b_fixtures(dir: &Path) {
     let r = dir.join("r13b");
     std::fs::create_dir_all(&r).unwrap();
@@ -94,6 +148,10 @@ pub(crate) fn round13b_fixtures(dir: &Path) {
         let body = serde_json::json!({ "phases": rows }).to_string();
         let body = body.replacen("[0,", &format!("[{phase},"), 1);
         std::fs::write(r.join(format!("{name}.json")), body).unwrap();
+    }
+    let p1 = dir.join("study/out/P1");
+    for (i, (at, value, _)) in SESSION_EDITS.iter().enumerate() {
+        edited_participant(&p1, &r.join(format!("session_{i}/P1")), at, value);
     }
 }
 
@@ -116,6 +174,16 @@ pub(crate) fn round13b_cases() -> Vec<Case> {
         ),
     ] {
         v.push(case(R13_JSON_WHOLE, &format!("{upload}/{name}.json")).err(said));
+    }
+    for (i, (_, _, said)) in SESSION_EDITS.iter().enumerate() {
+        v.push(
+            case(
+                R13_JSON_WHOLE,
+                &format!("study report {{dir}}/r13b/session_{i}/P1"),
+            )
+            .err("session.json: ")
+            .err(said),
+        );
     }
     // The report as plan wrote it still uploads.
     v.push(case(R13_JSON_WHOLE, &format!("{upload}/plan.json")).ok());
