@@ -12,6 +12,11 @@
 //!   `300` "expected u8", a `crc32` of `-1` "expected u32"; a study's
 //!   `session.json` with `"seed": -1` or a trial `2.5` "expected u64" or
 //!   "invalid type: floating point".
+//! - r13-15: a centroid's `present` takes the same values in JSON and
+//!   CSV: a CSV line took `1`/`0` and `TRUE` or `False` (any case), a
+//!   JSON line only a boolean ("invalid type: integer `1`, expected a
+//!   boolean"); both now take `true`, `false`, `1` and `0`, nothing else,
+//!   refused in the same words.
 //!
 //! Fixtures in `{dir}/r13b`.
 
@@ -184,6 +189,37 @@ pub(crate) fn round13b_cases() -> Vec<Case> {
             .err("session.json: ")
             .err(said),
         );
+    }
+    let said =
+        |v: &str| format!("line 2: `{v}` is not a `present` value: give true, false, 1 or 0");
+    let json = |v: &str| {
+        format!(
+            "{{\"t\":0,\"x\":0,\"y\":0,\"z\":200}}\n{{\"t\":0.01,\"x\":0,\"y\":0,\"z\":200,\"present\":{v}}}\n"
+        )
+    };
+    let csv = |v: &str| format!("0,0,0,200,1\n0.01,0,0,200,{v}\n");
+    for w in ["\"true\"", "\"1\"", "1.0", "2", "null"] {
+        v.push(
+            case(R13_PRESENT, "stream --port {port}")
+                .stdin(json(w))
+                .err(&said(w)),
+        );
+    }
+    for w in ["TRUE", "False", "yes", "2", "1.0"] {
+        v.push(
+            case(R13_PRESENT, "stream --port {port}")
+                .stdin(csv(w))
+                .err(&said(w)),
+        );
+    }
+    // The four values, alike in both.
+    for p in ["true", "false", "1", "0"] {
+        v.push(
+            case(R13_PRESENT, "stream --port {port}")
+                .stdin(json(p))
+                .ok(),
+        );
+        v.push(case(R13_PRESENT, "stream --port {port}").stdin(csv(p)).ok());
     }
     // The report as plan wrote it still uploads.
     v.push(case(R13_JSON_WHOLE, &format!("{upload}/plan.json")).ok());

@@ -147,9 +147,10 @@ pub const R13_EMPTY_PORT: &str = "r13-10 an empty --port is refused, not taken f
 pub const R13_NEGATIVE_WORDS: &str = "r13-12 a flag's value -inf or -nan is read as its value";
 /// Round 13's follow-ups (`cases_r13b.rs`).
 pub const R13_JSON_WHOLE: &str = "r13-14 a JSON file's whole number names its field and range";
+pub const R13_PRESENT: &str = "r13-15 a centroid's present takes one set of values in JSON and CSV";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 112] = [
+pub const CLASSES: [&str; 113] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -262,4 +263,5 @@ pub const CLASSES: [&str; 112] = [
     R13_EMPTY_PORT,
     R13_NEGATIVE_WORDS,
     R13_JSON_WHOLE,
+    R13_PRESENT,
 ];
