@@ -126,7 +126,8 @@ def control_text(name: str, value: Any) -> str:
     its own words (``stimulus: 5000 characters, more than 64: a library
     entry's id is at most 64 characters``) before its line is built."""
     if name == "gate":
-        if value not in GATES or not isinstance(value, str):
+        # The kind first: `in` would compare a numpy array element-wise.
+        if not isinstance(value, str) or value not in GATES:
             got = _clip(value) if isinstance(value, str) else _kind(value)
             raise ValueError(f'gate must be "tracked" or "untracked", got {got}')
         return value

@@ -203,7 +203,12 @@ def test_a_stimulus_that_is_no_string_is_refused_by_name(session, stimulus):
         session.present(stimulus)
 
 
-@pytest.mark.parametrize("gate", ["x" * 5000, "Tracked", "", 1, True], ids=lambda v: repr(v)[:12])
+def _np_gate():
+    np = pytest.importorskip("numpy")
+    return np.array(["tracked"])
+
+
+@pytest.mark.parametrize("gate", ["x" * 5000, "Tracked", "", 1, True, b"tracked"], ids=lambda v: repr(v)[:12])
 def test_a_gate_is_tracked_or_untracked(session, gate):
     sid = session.library()[0]["id"]
     for call in (lambda: session.present(sid, gate=gate), lambda: session.command("present", stimulus=sid, gate=gate)):
@@ -239,3 +244,9 @@ def test_a_token_is_checked_before_a_connection(token):
     assert msg.startswith("token: 5000 characters, more than 32: a session's token") or msg.startswith(
         "token must be a session's token (a string), got int"
     ), msg
+
+
+def test_a_gate_of_an_array_is_refused_by_kind(session):
+    sid = session.library()[0]["id"]
+    with pytest.raises(ValueError, match=r'^gate must be "tracked" or "untracked", got ndarray$'):
+        session.present(sid, gate=_np_gate())
