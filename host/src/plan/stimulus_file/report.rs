@@ -148,7 +148,8 @@ pub(super) fn from_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T,
     let mut de = serde_json::Deserializer::from_str(text);
     serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
-        if path == "." {
+        // A syntax error is where it is, not in a field.
+        if path == "." || !e.inner().is_data() {
             e.inner().to_string()
         } else {
             format!("{path}: {}", e.inner())
