@@ -55,6 +55,30 @@ impl FileNumber {
     }
 }
 
+impl FileNumber {
+    /// The whole number in `lo..=hi` (either sign) this is, in the words
+    /// of [`FileNumber::whole_in`].
+    pub fn signed_in(self, lo: i64, hi: i64) -> Result<i64, String> {
+        let range = format!("{lo}..={hi}");
+        match self {
+            FileNumber::Int(i) => match i64::try_from(i) {
+                Ok(v) if (lo..=hi).contains(&v) => Ok(v),
+                _ => Err(format!("{i} is out of range {range}")),
+            },
+            FileNumber::Float(f) => {
+                let inside = f >= lo as f64 && f <= hi as f64;
+                if f.is_nan() || (inside && f.fract() != 0.0) {
+                    Err(format!("{} is not a whole number in {range}", show(f)))
+                } else if inside {
+                    Err(format!("{f:.1} is not a whole number in {range}"))
+                } else {
+                    Err(format!("{} is out of range {range}", show(f)))
+                }
+            }
+        }
+    }
+}
+
 impl<'de> Deserialize<'de> for FileNumber {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         d.deserialize_any(NumberVisitor(None))
@@ -117,6 +141,88 @@ impl<'de, const LO: u64, const HI: u64> Deserialize<'de> for Whole<LO, HI> {
     }
 }
 
+/// A whole number in `LO..=HI` of either sign (a centre in µm), judged as
+/// [`Whole`] judges one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(transparent)]
+pub struct Signed<const LO: i64, const HI: i64>(pub i64);
+
+impl<'de, const LO: i64, const HI: i64> Deserialize<'de> for Signed<LO, HI> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let n = d.deserialize_any(NumberVisitor(None))?;
+        n.signed_in(LO, HI).map(Self).map_err(de::Error::custom)
+    }
+}
+
+/// A whole number in `0..=255` kept in one byte (a phase, a level of an
+/// intensity table): as [`Whole<0, 255>`] judges it, an eighth its size
+/// for the millions a phases file holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(transparent)]
+pub struct Byte(pub u8);
+
+impl<'de> Deserialize<'de> for Byte {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let n = d.deserialize_any(NumberVisitor(Some((0, 255))))?;
+        n.whole_in(0, 255)
+            .map(|v| Self(u8::try_from(v).unwrap_or(u8::MAX)))
+            .map_err(de::Error::custom)
+    }
+}
+
+/// Rows of [`Byte`]s as rows of bytes.
+pub fn bytes(rows: Vec<Vec<Byte>>) -> Vec<Vec<u8>> {
+    rows.into_iter()
+        .map(|r| r.into_iter().map(|b| b.0).collect())
+        .collect()
+}
+
+/// An integer field of type `T` read as [`Whole<LO, HI>`] judges it, for
+/// a struct that keeps its plain type:
+/// `#[serde(deserialize_with = "crate::whole::field::<_, _, 1, 100>")]`.
+pub fn field<'de, D, T, const LO: u64, const HI: u64>(d: D) -> Result<T, D::Error>
+where
+    D: Deserializer<'de>,
+    T: TryFrom<u64>,
+{
+    let w = Whole::<LO, HI>::deserialize(d)?;
+    T::try_from(w.0).map_err(|_| de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0)))
+}
+
+/// As [`field`], for an optional field (`null` is none).
+pub fn opt_field<'de, D, T, const LO: u64, const HI: u64>(d: D) -> Result<Option<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: TryFrom<u64>,
+{
+    match Option::<Whole<LO, HI>>::deserialize(d)? {
+        None => Ok(None),
+        Some(w) => T::try_from(w.0)
+            .map(Some)
+            .map_err(|_| de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0))),
+    }
+}
+
+/// As [`field`], for rows of whole numbers.
+pub fn rows<'de, D, T, const LO: u64, const HI: u64>(d: D) -> Result<Vec<Vec<T>>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: TryFrom<u64>,
+{
+    let rows = Vec::<Vec<Whole<LO, HI>>>::deserialize(d)?;
+    rows.into_iter()
+        .map(|r| {
+            r.into_iter()
+                .map(|w| {
+                    T::try_from(w.0).map_err(|_| {
+                        de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0))
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
 impl<const LO: u64, const HI: u64> schemars::JsonSchema for Whole<LO, HI> {
     fn inline_schema() -> bool {
         true
@@ -168,6 +274,50 @@ mod tests {
         }
         let s = said("\"3\"").unwrap_err();
         assert!(s.contains("expected a whole number in 1..=100"), "{s}");
+    }
+
+    #[test]
+    fn signed_numbers_and_bytes_are_judged_by_their_range() {
+        let s = |v: &str| {
+            serde_json::from_str::<Signed<-5, 5>>(v)
+                .map(|w| w.0)
+                .map_err(|e| e.to_string())
+        };
+        assert_eq!(s("-5"), Ok(-5));
+        assert_eq!(s("5"), Ok(5));
+        for (v, msg) in [
+            ("-6", "-6 is out of range -5..=5"),
+            ("6", "6 is out of range -5..=5"),
+            ("-2.5", "-2.5 is not a whole number in -5..=5"),
+            ("-3.0", "-3.0 is not a whole number in -5..=5"),
+            ("1e30", "1e30 is out of range -5..=5"),
+            (
+                "18446744073709551615",
+                "18446744073709551615 is out of range -5..=5",
+            ),
+        ] {
+            let e = s(v).unwrap_err();
+            assert!(e.starts_with(msg), "{v}: {e}");
+        }
+        let b = |v: &str| {
+            serde_json::from_str::<Vec<Byte>>(v)
+                .map(|w| w.iter().map(|b| b.0).collect::<Vec<_>>())
+                .map_err(|e| e.to_string())
+        };
+        assert_eq!(b("[0, 255]"), Ok(vec![0, 255]));
+        for (v, msg) in [
+            ("[-1]", "-1 is out of range 0..=255"),
+            ("[256]", "256 is out of range 0..=255"),
+            ("[2.5]", "2.5 is not a whole number in 0..=255"),
+        ] {
+            let e = b(v).unwrap_err();
+            assert!(e.starts_with(msg), "{v}: {e}");
+        }
+        assert!(
+            b("[\"7\"]")
+                .unwrap_err()
+                .contains("expected a whole number in 0..=255")
+        );
     }
 
     #[test]

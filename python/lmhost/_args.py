@@ -94,3 +94,59 @@ def texts(name: str, value: Any) -> List[str]:
         if not isinstance(v, str):
             raise ValueError(f"{name}[{i}] must be a string, got {_kind(v)}")
     return list(value)
+
+
+#: The session's limits on a control line's values (``id_chars``,
+#: ``token_chars``, ``line_bytes``), from the library.
+CONTROL = _lmhost.CONTROL_LIMITS
+
+#: What each string field of a control line is, and its most characters:
+#: checked before the line is built, so a value too long is refused by
+#: its own limit, not as a line longer than the session reads.
+_FIELDS = {
+    "stimulus": ("a library entry's id", CONTROL["id_chars"], "letters, digits, -, _ and ."),
+    "token": ("a session's token", CONTROL["token_chars"], "hex digits, from the file SOCKET.token"),
+}
+
+#: The longest command name or field name sent (the longest the session
+#: knows, ``subscribe``, has 9).
+MAX_NAME_CHARS = 32
+
+#: The gates a ``present`` takes.
+GATES = ("tracked", "untracked")
+
+
+def _clip(value: str) -> str:
+    shown = repr(value)
+    return shown if len(shown) <= 40 else shown[:40] + "…"
+
+
+def control_text(name: str, value: Any) -> str:
+    """A string field of a session command, checked by kind and length in
+    its own words (``stimulus: 5000 characters, more than 64: a library
+    entry's id is at most 64 characters``) before its line is built."""
+    if name == "gate":
+        # The kind first: `in` would compare a numpy array element-wise.
+        if not isinstance(value, str) or value not in GATES:
+            got = _clip(value) if isinstance(value, str) else _kind(value)
+            raise ValueError(f'gate must be "tracked" or "untracked", got {got}')
+        return value
+    what, most, made = _FIELDS.get(name, ("a command's value", CONTROL["line_bytes"] // 2, "text"))
+    value = text(name, value, what)
+    n = len(value)
+    if n > most:
+        raise ValueError(f"{name}: {n} characters, more than {most}: {what} is at most {most} characters ({made})")
+    return value
+
+
+def command_name(name: str, value: Any) -> str:
+    """A command's name or a field's, a string of at most
+    :data:`MAX_NAME_CHARS` characters (the session says which it knows)."""
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be a command's name (a string), got {_kind(value)}")
+    if len(value) > MAX_NAME_CHARS:
+        raise ValueError(
+            f"{name}: {len(value)} characters, more than {MAX_NAME_CHARS}: "
+            f"a command's name or field is a word such as present or stimulus"
+        )
+    return value

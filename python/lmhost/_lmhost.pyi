@@ -13,6 +13,7 @@ import numpy.typing as npt
 PathLike = Union[str, os.PathLike[str]]
 
 DEFAULTS: Dict[str, Any]
+CONTROL_LIMITS: Dict[str, int]
 """The keyword defaults, from the Rust library: radius, foci, spacing,
 freq, step, intensity, target (plan); plane_size, plane_step, alpha,
 density, disk (simulate); enter_frames, leave_frames (Tracker); lease_s."""

@@ -96,8 +96,8 @@ class Session:
         elif token is not None or token_file is not None:
             # Only a TCP client sends a token: not a value to drop unseen.
             raise ValueError("token= and token_file= are for a TCP session: give tcp_port= too")
-        if token is not None and not isinstance(token, str):
-            raise ValueError(f"token must be a string, got {type(token).__name__}")
+        if token is not None:
+            token = _args.control_text("token", token)
         if socket_path is None and library is None and tcp_port is None:
             raise ValueError("Session needs library= (to start one), socket_path= or tcp_port=")
         if socket_path is None and library is not None:
@@ -153,6 +153,11 @@ class Session:
             self._sock.settimeout(timeout)
             if token is None:
                 token = self._read_token(token_file, timeout)
+                if len(token) > _args.CONTROL["token_chars"]:
+                    raise ValueError(
+                        f"token_file {token_file}: {len(token)} characters, more than "
+                        f"{_args.CONTROL['token_chars']}: a session's token file holds its token alone"
+                    )
             self.command("auth", token=token)
         self.command("subscribe")
 
@@ -188,7 +193,11 @@ class Session:
         deadline = time.monotonic() + timeout
         while True:
             try:
-                return Path(path).read_text().strip()
+                # A bounded read: a token file is one short line, and a
+                # path given by mistake may be any file.
+                with open(path, "rb") as f:
+                    head = f.read(_args.CONTROL["line_bytes"] + 1)
+                return head.decode(errors="replace").strip()
             except FileNotFoundError:
                 if time.monotonic() > deadline:
                     raise DeviceError(f"no session token in {path}") from None
@@ -220,11 +229,13 @@ class Session:
     def command(self, cmd: str, **fields: Any) -> Dict[str, Any]:
         """Send one command; events that arrive meanwhile are kept for
         :meth:`events`. Returns the reply; ``ok: false`` raises ValueError."""
-        if not isinstance(cmd, str):
-            raise ValueError(f"cmd must be a command's name (a string), got {type(cmd).__name__}")
-        msg: Dict[str, Any] = {"cmd": cmd}
+        msg: Dict[str, Any] = {"cmd": _args.command_name("cmd", cmd)}
         for k, v in fields.items():
-            if v is None or isinstance(v, (bool, str)):
+            _args.command_name("field name", k)
+            if isinstance(v, str) or (v is not None and k in ("stimulus", "gate", "token")):
+                # By its own kind and limit, before the line is built.
+                v = _args.control_text(k, v)
+            elif v is None or isinstance(v, bool):
                 pass
             elif hasattr(type(v), "__index__"):
                 # An int (numpy's too) as it is: the session judges it.
@@ -237,6 +248,13 @@ class Session:
             line = json.dumps(msg, allow_nan=False)
         except (TypeError, ValueError) as e:
             raise ValueError(f"{cmd}: cannot send {e}") from None
+        most = _args.CONTROL["line_bytes"]
+        if len(line.encode()) > most:
+            # Only values no field limit covers get here (escapes that
+            # lengthen a string, a number of thousands of digits).
+            raise ValueError(
+                f"{cmd}: its values make a line of {len(line.encode())} bytes, more than the {most} a session reads"
+            )
         self._open_sock().sendall((line + "\n").encode())
         while True:
             v = self._line()
@@ -263,8 +281,8 @@ class Session:
         """Present a library entry (``gate``: "tracked" or "untracked")."""
         return self.command(
             "present",
-            stimulus=stimulus,
-            gate=gate,
+            stimulus=_args.control_text("stimulus", stimulus),
+            gate=None if gate is None else _args.control_text("gate", gate),
             on_s=None if on_s is None else _lmhost.float_arg("on_s", on_s),
             off_s=None if off_s is None else _lmhost.float_arg("off_s", off_s),
             repeat=None if repeat is None else _lmhost.repeat_arg(repeat),
@@ -272,7 +290,7 @@ class Session:
 
     def prepare(self, stimulus: str) -> int:
         """Load an entry into an idle slot; returns the slot."""
-        return self.command("prepare", stimulus=stimulus)["slot"]
+        return self.command("prepare", stimulus=_args.control_text("stimulus", stimulus))["slot"]
 
     def stop(self) -> None:
         """Stop what plays or waits: the array is silent."""

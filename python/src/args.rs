@@ -227,6 +227,20 @@ pub(crate) fn float_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<f64> {
     float(name, value)
 }
 
+/// The session's limits on what a control line carries, from the
+/// library, so `Session` refuses a value by its own limit, in its own
+/// words, before it builds the line (not by the line's length after).
+pub(crate) fn control_limits(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("id_chars", lmhost::plan::library::MAX_ID_LEN)?;
+    d.set_item("token_chars", lmhost::lab::session::serve::TOKEN_CHARS)?;
+    d.set_item(
+        "line_bytes",
+        lmhost::lab::session::protocol::MAX_COMMAND_BYTES,
+    )?;
+    Ok(d)
+}
+
 /// The keyword API's defaults, from the library: the stimulus `lmhost
 /// plan` plans without flags, `lmhost simulate`'s view, the tracker's
 /// presence hysteresis and the device lease.

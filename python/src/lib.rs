@@ -646,6 +646,7 @@ fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(args::bool_arg, m)?)?;
     m.add_function(wrap_pyfunction!(args::repeat_arg, m)?)?;
     m.add("DEFAULTS", args::defaults(m.py())?)?;
+    m.add("CONTROL_LIMITS", args::control_limits(m.py())?)?;
     m.add_function(wrap_pyfunction!(_bench_rust, m)?)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     Ok(())

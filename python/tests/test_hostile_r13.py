@@ -12,6 +12,11 @@
   value is a ``ValueError`` saying what the argument must be; pyo3's conversion
   raised ``TypeError`` "'bytes' object cannot be converted to 'PyString'"
   or "... to 'PyBool'", naming a Rust type, not what to give.
+- r13-13 (Python's own): a ``Session`` argument that goes into a control
+  line is checked by kind and length in its own words before the line is
+  built; ``present(stimulus="x" * 5000)`` said "bad command: longer than
+  4096 bytes", naming the line's limit, not the argument, and a token
+  file read was unbounded.
 """
 
 import math
@@ -148,3 +153,100 @@ def test_the_right_kinds_still_work(root, tmp_path):
     p.save(tmp_path / "p.npy")
     assert (tmp_path / "p.npy").stat().st_size > 0
     assert "phases" in p.summary(phases=True) and "phases" not in p.summary()
+
+
+# -- r13-13. A control line's value is refused by its own limit --------------
+
+LIBRARY = "studies/paper-library.toml"
+ID_CHARS = lmhost._lmhost.CONTROL_LIMITS["id_chars"]
+
+
+@pytest.fixture(scope="module")
+def session(lmhost_bin, root):
+    with lmhost.Session(library=root / LIBRARY, port="autd3:emulator", synthetic=True) as s:
+        yield s
+
+
+ID_MSG = f"characters, more than {ID_CHARS}: a library entry's id is at most {ID_CHARS} characters"
+
+
+@pytest.mark.parametrize("n", [ID_CHARS + 1, 5000, 100_000])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda s, v: s.present(v),
+        lambda s, v: s.prepare(v),
+        lambda s, v: s.command("present", stimulus=v),
+        lambda s, v: s.command("prepare", stimulus=v),
+    ],
+    ids=["present", "prepare", "command-present", "command-prepare"],
+)
+def test_a_stimulus_longer_than_an_id_is_refused_by_its_own_limit(session, call, n):
+    with pytest.raises(ValueError) as e:
+        call(session, "x" * n)
+    msg = str(e.value)
+    assert msg.startswith(f"stimulus: {n} {ID_MSG}"), msg
+    assert "\n" not in msg and "bad command" not in msg and "4096" not in msg, msg
+    # The session still answers: nothing half-sent.
+    assert session.status() is not None
+
+
+def test_an_id_of_the_longest_length_reaches_the_session(session):
+    with pytest.raises(ValueError, match=rf"^no stimulus `x{{{ID_CHARS}}}` in the library"):
+        session.present("x" * ID_CHARS)
+    assert session.status() is not None
+
+
+@pytest.mark.parametrize("stimulus", [None, 3, b"lms", ["a"]], ids=repr)
+def test_a_stimulus_that_is_no_string_is_refused_by_name(session, stimulus):
+    with pytest.raises(ValueError, match=r"^stimulus must be a library entry's id \(a string\), got "):
+        session.present(stimulus)
+
+
+def _np_gate():
+    np = pytest.importorskip("numpy")
+    return np.array(["tracked"])
+
+
+@pytest.mark.parametrize("gate", ["x" * 5000, "Tracked", "", 1, True, b"tracked"], ids=lambda v: repr(v)[:12])
+def test_a_gate_is_tracked_or_untracked(session, gate):
+    sid = session.library()[0]["id"]
+    for call in (lambda: session.present(sid, gate=gate), lambda: session.command("present", stimulus=sid, gate=gate)):
+        with pytest.raises(ValueError) as e:
+            call()
+        msg = str(e.value)
+        assert msg.startswith('gate must be "tracked" or "untracked", got '), msg
+        assert len(msg) < 120, msg
+
+
+@pytest.mark.parametrize(
+    "kw, needle",
+    [
+        (dict(cmd="x" * 5000), "cmd: 5000 characters, more than 32: a command's name"),
+        (dict(cmd="status", **{"y" * 300: 1}), "field name: 300 characters, more than 32"),
+        (dict(cmd="present", stimulus="a", note="\x01" * 2000), "present: its values make a line of"),
+    ],
+    ids=["cmd", "field", "escapes"],
+)
+def test_any_other_command_value_is_refused_before_the_line_is_built(session, kw, needle):
+    with pytest.raises(ValueError) as e:
+        session.command(**kw)
+    assert str(e.value).startswith(needle), str(e.value)
+    assert "bad command" not in str(e.value)
+    assert session.status() is not None
+
+
+@pytest.mark.parametrize("token", ["f" * 5000, 7], ids=lambda v: repr(v)[:8])
+def test_a_token_is_checked_before_a_connection(token):
+    with pytest.raises(ValueError) as e:
+        lmhost.Session(tcp_port=9, token=token)
+    msg = str(e.value)
+    assert msg.startswith("token: 5000 characters, more than 32: a session's token") or msg.startswith(
+        "token must be a session's token (a string), got int"
+    ), msg
+
+
+def test_a_gate_of_an_array_is_refused_by_kind(session):
+    sid = session.library()[0]["id"]
+    with pytest.raises(ValueError, match=r'^gate must be "tracked" or "untracked", got ndarray$'):
+        session.present(sid, gate=_np_gate())

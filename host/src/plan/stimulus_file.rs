@@ -85,6 +85,7 @@ enum Loaded {
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct PhasesJson {
+    #[serde(deserialize_with = "report::byte_rows")]
     phases: Vec<Vec<u8>>,
     #[serde(default)]
     dwell_us: Option<f64>,
@@ -106,7 +107,7 @@ fn json_object<T: serde::de::DeserializeOwned>(
     what: &str,
     text: &str,
 ) -> Result<T, String> {
-    serde_json::from_str(text).map_err(|e| {
+    report::from_json(text).map_err(|e| {
         kind::other_kind(expected, &kind::JSON, &kind::json_keys(text))
             .unwrap_or_else(|| format!("not a {what} JSON object ({e})"))
     })
@@ -450,7 +451,7 @@ fn read(
         }
         return match content {
             Content::Phases if is_report => {
-                let mut r: report::PlanReport = serde_json::from_str(&text)
+                let mut r: report::PlanReport = report::from_json(&text)
                     .map_err(|e| bad(format!("not a `lmhost plan --out` JSON report ({e})")))?;
                 r.check().map_err(|e| bad(e.to_string()))?;
                 whole_steps(&r.phases, transducers).map_err(bad)?;

@@ -145,9 +145,12 @@ pub const R13_SILENCE: &str = "r13-8 an intensity that rounds to silence is refu
 pub const R13_FILE_TEXT: &str = "r13-9 a file's text is bounded and free of control characters";
 pub const R13_EMPTY_PORT: &str = "r13-10 an empty --port is refused, not taken for none";
 pub const R13_NEGATIVE_WORDS: &str = "r13-12 a flag's value -inf or -nan is read as its value";
+/// Round 13's follow-ups (`cases_r13b.rs`).
+pub const R13_JSON_WHOLE: &str = "r13-14 a JSON file's whole number names its field and range";
+pub const R13_PRESENT: &str = "r13-15 a centroid's present takes one set of values in JSON and CSV";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 111] = [
+pub const CLASSES: [&str; 113] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -259,4 +262,6 @@ pub const CLASSES: [&str; 111] = [
     R13_FILE_TEXT,
     R13_EMPTY_PORT,
     R13_NEGATIVE_WORDS,
+    R13_JSON_WHOLE,
+    R13_PRESENT,
 ];

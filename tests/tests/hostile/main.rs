@@ -257,6 +257,7 @@ mod cases_r10;
 mod cases_r11;
 mod cases_r12;
 mod cases_r13;
+mod cases_r13b;
 mod cases_r3;
 mod cases_r4_device;
 mod cases_r4_files;
@@ -289,6 +290,7 @@ use cases_r10::{round10_cases, round10_fixtures};
 use cases_r11::{round11_cases, round11_fixtures};
 use cases_r12::round12_cases;
 use cases_r13::{round13_cases, round13_fixtures};
+use cases_r13b::{round13b_cases, round13b_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -505,6 +507,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     round10_fixtures(&dir);
     round11_fixtures(&dir);
     round13_fixtures(&dir);
+    round13b_fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -541,6 +544,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(round11_cases());
     all.extend(round12_cases());
     all.extend(round13_cases());
+    all.extend(round13b_cases());
     let only = std::env::var("LMHOST_HOSTILE_CLASS").ok();
     if let Some(prefix) = &only {
         all.retain(|c| c.class.starts_with(prefix.as_str()));

@@ -159,11 +159,14 @@ pub fn token_path(socket: &Path) -> PathBuf {
     PathBuf::from(p)
 }
 
-/// A fresh random token (128 bits, hex) in `path`, mode 0600 from its
+/// Characters of a session's token: 128 bits, in hex.
+pub const TOKEN_CHARS: usize = 32;
+
+/// A fresh random token ([`TOKEN_CHARS`] hex digits) in `path`, mode 0600 from its
 /// creation: whole or absent, never readable by another user.
 fn write_token(path: &Path) -> anyhow::Result<Token> {
     use std::io::Read as _;
-    let mut bytes = [0u8; 16];
+    let mut bytes = [0u8; TOKEN_CHARS / 2];
     std::fs::File::open("/dev/urandom")
         .and_then(|mut f| f.read_exact(&mut bytes))
         .map_err(|e| anyhow::anyhow!("reading /dev/urandom: {}", crate::files::reason(&e)))?;

@@ -27,7 +27,9 @@ use crate::sense::stream::filter::Filter;
 
 pub use super::conn::{CLIENT_QUEUE, MAX_CLIENTS};
 pub use super::driver::Finger;
-pub use super::endpoint::{Control, Endpoint, MAX_SOCKET_PATH_BYTES, default_socket, token_path};
+pub use super::endpoint::{
+    Control, Endpoint, MAX_SOCKET_PATH_BYTES, TOKEN_CHARS, default_socket, token_path,
+};
 
 /// What the session does when the client controlling it goes away.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

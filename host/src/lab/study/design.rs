@@ -8,7 +8,9 @@
 use serde::{Deserialize, Serialize};
 
 pub use super::protocol::Order;
-use super::protocol::{Protocol, Unlinked};
+use super::protocol::{
+    MAX_BLOCKS, MAX_CONDITIONS, MAX_OPTIONS, MAX_SETS, MAX_TRIALS, Protocol, Unlinked,
+};
 use crate::rng::SplitMix64;
 
 /// One planned trial.
@@ -16,21 +18,28 @@ use crate::rng::SplitMix64;
 #[serde(deny_unknown_fields)]
 pub struct Planned {
     /// 1-based trial number.
+    #[serde(deserialize_with = "crate::whole::field::<_, _, 1, { MAX_TRIALS as u64 }>")]
     pub trial: usize,
     /// 1-based set (within its block).
+    #[serde(deserialize_with = "crate::whole::field::<_, _, 1, { MAX_SETS as u64 }>")]
     pub set: usize,
     /// 1-based block (1 where the protocol has none).
-    #[serde(default = "first_block")]
+    #[serde(
+        default = "first_block",
+        deserialize_with = "crate::whole::field::<_, _, 1, { MAX_BLOCKS as u64 }>"
+    )]
     pub block: usize,
     /// Whether it is a practice trial (left out of the report).
     #[serde(default)]
     pub practice: bool,
     /// Index into the protocol's conditions.
+    #[serde(deserialize_with = "crate::whole::field::<_, _, 0, { MAX_CONDITIONS as u64 - 1 }>")]
     pub condition: usize,
     /// The library entry.
     pub stimulus: String,
     /// Per question (in protocol order): the order its items or options
     /// are shown in (indices; empty when not shuffled or not applicable).
+    #[serde(deserialize_with = "crate::whole::rows::<_, _, 0, { MAX_OPTIONS as u64 - 1 }>")]
     pub orders: Vec<Vec<usize>>,
 }
 

@@ -84,7 +84,19 @@ pub fn logged(
         // run of a version that could not continue, or a procedure that
         // cannot), so earlier answers no longer count.
         if v["event"] == "trial" {
-            let kept = v["resumed_presentations"].as_u64().unwrap_or(0);
+            // A count as written: `-1` or `2.5` is refused, not taken for 0.
+            let kept = match v.get("resumed_presentations") {
+                None => 0,
+                Some(k) => <crate::whole::FileNumber as serde::Deserialize>::deserialize(k)
+                    .map_err(|e| e.to_string())
+                    .and_then(|c| c.whole_in(0, u64::from(u32::MAX)))
+                    .map_err(|m| {
+                        InputError::new(format!(
+                            "{} line {n}: field `resumed_presentations`: {m}",
+                            what()
+                        ))
+                    })?,
+            };
             out.truncate(usize::try_from(kept).unwrap_or(usize::MAX));
             continue;
         }
@@ -199,6 +211,23 @@ mod tests {
         // More answers than the procedure takes.
         let many: Vec<(String, f64)> = (0..7).map(|_| ("no".to_owned(), 1.0)).collect();
         assert!(replay(&mut quest(), &many).is_err());
+        // A count that is no count is refused, not taken for none.
+        for (c, said) in [
+            ("-1", "-1 is out of range 0..=4294967295"),
+            ("2.5", "2.5 is not a whole number in 0..=4294967295"),
+            ("\"2\"", "expected a whole number"),
+        ] {
+            let line =
+                format!("{{\"event\":\"trial\",\"trial\":2,\"resumed_presentations\":{c}}}\n");
+            std::fs::write(&events, line).unwrap();
+            let e = logged(&events, 2, "level", "level_intensity")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("line 1: field `resumed_presentations`: ") && e.contains(said),
+                "{e}"
+            );
+        }
         // A line that is not JSON is named.
         std::fs::write(&events, "{\"event\":\"trial\"}\nnot json\n").unwrap();
         let e = logged(&events, 2, "level", "level_intensity").unwrap_err();

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::columns::{self, Columns, Holds, Row};
 use super::design::Planned;
-use super::protocol::{Block, Condition, Factor, Question, Unlinked};
+use super::protocol::{Block, Condition, Factor, MAX_TRIALS, Question, Unlinked};
 use crate::error::InputError;
 
 /// Largest `session.json`: the most trials a session has
@@ -56,8 +56,10 @@ impl SceneRecord {
 #[serde(deny_unknown_fields)]
 pub struct Run {
     /// Wall clock at its start (s since 1970).
+    #[serde(deserialize_with = "crate::whole::field::<_, _, 0, { u64::MAX }>")]
     pub started_unix_s: u64,
     /// First trial it ran (1-based).
+    #[serde(deserialize_with = "crate::whole::field::<_, _, 1, { MAX_TRIALS as u64 }>")]
     pub first_trial: usize,
     /// lmhost's version.
     pub lmhost_version: String,
@@ -107,10 +109,14 @@ pub struct SessionFile {
     /// The participant.
     pub participant: String,
     /// The seed of the order.
+    #[serde(deserialize_with = "crate::whole::field::<_, _, 0, { u64::MAX }>")]
     pub seed: u64,
     /// The participant's index (`--index`: the row of a Latin square),
     /// when given.
-    #[serde(default)]
+    #[serde(
+        default,
+        deserialize_with = "crate::whole::opt_field::<_, _, 1, { MAX_INDEX as u64 }>"
+    )]
     pub index: Option<usize>,
     /// The protocol's order (`random`, `sequential`, `full-random`,
     /// `latin-square`).

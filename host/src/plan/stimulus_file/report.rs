@@ -6,6 +6,11 @@
 use serde::de::IgnoredAny;
 
 use crate::error::InputError;
+use crate::plan::trajectory::{MAX_FOCI, MAX_STEPS};
+use crate::whole::{Byte, Signed, Whole};
+
+/// A count of steps or transducers: one at least, at most a `u16`'s.
+type Count = Whole<1, { MAX_STEPS as u64 }>;
 
 /// A first look at a phases JSON object: whether it names a key only a
 /// plan report has (then it is read as one). Named as the phases object,
@@ -42,9 +47,9 @@ impl Keys {
 #[serde(deny_unknown_fields)]
 pub(super) struct PlanReport {
     pub scene: String,
-    transducers: usize,
-    steps: usize,
-    foci_per_step: usize,
+    transducers: Count,
+    steps: Count,
+    foci_per_step: Whole<1, { MAX_FOCI as u64 }>,
     #[serde(rename = "index_offset")]
     _index_offset: IgnoredAny,
     #[serde(rename = "step_mm")]
@@ -54,7 +59,8 @@ pub(super) struct PlanReport {
     #[serde(rename = "period_s")]
     _period_s: IgnoredAny,
     /// The header plan made, read as the protocol declares it (unknown
-    /// keys refused).
+    /// keys refused), each number in its field's range.
+    #[serde(deserialize_with = "header")]
     pub header: lm_proto::UploadHeader,
     pub center_mm: [f64; 3],
     #[serde(rename = "mirrored")]
@@ -62,11 +68,12 @@ pub(super) struct PlanReport {
     pub foci_mm: Vec<Vec<[f64; 3]>>,
     #[serde(rename = "encoding")]
     _encoding: IgnoredAny,
-    crc32: u32,
-    #[serde(default)]
+    crc32: Whole<0, { u32::MAX as u64 }>,
+    #[serde(default, deserialize_with = "opt_bytes")]
     intensity_table: Option<Vec<u8>>,
     #[serde(default, rename = "drive_foci_mm")]
     _drive_foci_mm: Option<IgnoredAny>,
+    #[serde(deserialize_with = "byte_rows")]
     pub phases: Vec<Vec<u8>>,
     pub target: String,
     pub timing: TimingReport,
@@ -76,7 +83,7 @@ pub(super) struct PlanReport {
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct TimingReport {
-    steps: usize,
+    steps: Count,
     pub dwell_us: f64,
     #[serde(rename = "requested_dwell_us")]
     _requested_dwell_us: IgnoredAny,
@@ -95,8 +102,69 @@ pub(super) struct TimingReport {
     #[serde(rename = "step_error_mm")]
     _step_error_mm: IgnoredAny,
     #[serde(rename = "divide")]
-    _divide: Option<u16>,
+    _divide: Option<Whole<1, { u16::MAX as u64 }>>,
     am_freq_hz: Option<f64>,
+}
+
+/// The report's `header`, each number read in its field's range (the
+/// protocol's, as the device checks it), not its Rust type's.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HeaderJson {
+    steps: Count,
+    transducers: Count,
+    period_us: Whole<1, { u32::MAX as u64 }>,
+    center_um: [Signed<{ i32::MIN as i64 }, { i32::MAX as i64 }>; 3],
+    foci_per_step: Whole<1, { MAX_FOCI as u64 }>,
+    sound_speed_mm_s: Whole<
+        { *lm_proto::SOUND_SPEED_MM_S.start() as u64 },
+        { *lm_proto::SOUND_SPEED_MM_S.end() as u64 },
+    >,
+    max_offset_um: Whole<
+        { *lm_proto::MAX_OFFSET_UM.start() as u64 },
+        { *lm_proto::MAX_OFFSET_UM.end() as u64 },
+    >,
+    intensity: Byte,
+}
+
+fn header<'de, D: serde::Deserializer<'de>>(d: D) -> Result<lm_proto::UploadHeader, D::Error> {
+    let h = <HeaderJson as serde::Deserialize>::deserialize(d)?;
+    let narrow = |v: u64| u16::try_from(v).unwrap_or(u16::MAX);
+    Ok(lm_proto::UploadHeader {
+        steps: narrow(h.steps.0),
+        transducers: narrow(h.transducers.0),
+        period_us: h.period_us.get(),
+        center_um: h.center_um.map(|c| i32::try_from(c.0).unwrap_or(0)),
+        foci_per_step: u8::try_from(h.foci_per_step.0).unwrap_or(u8::MAX),
+        sound_speed_mm_s: h.sound_speed_mm_s.get(),
+        max_offset_um: h.max_offset_um.get(),
+        intensity: h.intensity.0,
+    })
+}
+
+/// `text` read as a `T`; an error names the field it is in
+/// (`header.steps: -1 is out of range 1..=65535 at line 1 column 9`).
+pub(super) fn from_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, String> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        // A syntax error is where it is, not in a field.
+        if path == "." || !e.inner().is_data() {
+            e.inner().to_string()
+        } else {
+            format!("{path}: {}", e.inner())
+        }
+    })
+}
+
+/// A report's `phases` or a phases file's: rows of whole numbers 0..=255.
+pub(super) fn byte_rows<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Vec<u8>>, D::Error> {
+    <Vec<Vec<Byte>> as serde::Deserialize>::deserialize(d).map(crate::whole::bytes)
+}
+
+fn opt_bytes<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<u8>>, D::Error> {
+    let v = <Option<Vec<Byte>> as serde::Deserialize>::deserialize(d)?;
+    Ok(v.map(|r| r.into_iter().map(|b| b.0).collect()))
 }
 
 impl PlanReport {
@@ -111,9 +179,9 @@ impl PlanReport {
             return bad("has no steps".into());
         }
         for (what, n) in [
-            ("steps", self.steps),
+            ("steps", self.steps.get_usize()),
             ("header.steps", usize::from(h.steps)),
-            ("timing.steps", self.timing.steps),
+            ("timing.steps", self.timing.steps.get_usize()),
             ("foci_mm", self.foci_mm.len()),
         ] {
             if n != steps {
@@ -121,7 +189,7 @@ impl PlanReport {
             }
         }
         for (what, n) in [
-            ("transducers", self.transducers),
+            ("transducers", self.transducers.get_usize()),
             ("header.transducers", usize::from(h.transducers)),
         ] {
             if let Some((i, r)) = self.phases.iter().enumerate().find(|(_, r)| r.len() != n) {
@@ -131,7 +199,7 @@ impl PlanReport {
                 ));
             }
         }
-        let foci = self.foci_per_step;
+        let foci = self.foci_per_step.get_usize();
         if foci != usize::from(h.foci_per_step) || self.foci_mm.iter().any(|r| r.len() != foci) {
             return bad(format!(
                 "foci_mm does not have foci_per_step = {foci} foci in every step"
@@ -143,10 +211,10 @@ impl PlanReport {
             c.update(t);
         }
         let crc = c.finish();
-        if crc != self.crc32 {
+        if crc != self.crc32.get() {
             return bad(format!(
                 "its crc32 {:08x} is not its phases' ({crc:08x}): the file changed after plan wrote it",
-                self.crc32
+                self.crc32.get()
             ));
         }
         if self.intensity_table.is_some() || self.timing.am_freq_hz.is_some() {

@@ -9,7 +9,7 @@
 //!   gated centre (`filtered_mm`, `gated_present`) when the line has one,
 //!   else its raw centroid; its other known keys are ignored, an unknown
 //!   key is refused as in the plain form;
-//! - CSV: `t,x,y,z,present` with `present` as `1`/`0`/`true`/`false`; the
+//! - CSV: `t,x,y,z,present`; the
 //!   header line `t,x,y,z,present` is skipped; `#` starts a comment. A
 //!   line separated by `;` or tabs (a European-locale spreadsheet, its
 //!   `3,5` meaning 3.5) is refused as such.
@@ -17,6 +17,10 @@
 //! Lines are read as every text input is ([`crate::files::text`]): they
 //! end at LF, CRLF or a lone CR; a byte-order mark opening the first is
 //! skipped; UTF-16 and a NUL byte are refused naming the line.
+//!
+//! `present` is `true`, `false`, `1` or `0` in every form (JSON's
+//! `true` or `1`, CSV's `true` or `1`), nothing else: one set, refused in
+//! the same words ([`presence`]).
 //!
 //! Units: seconds and millimetres. A time stamp lies in 0 to
 //! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
@@ -38,12 +42,15 @@ struct JsonSample {
     x: f64,
     y: f64,
     z: f64,
-    #[serde(default = "yes")]
-    present: bool,
+    /// Judged by [`presence`] (JSON `true`/`false` or `1`/`0`); `null`
+    /// is refused, not taken for absent.
+    #[serde(default = "a_finger")]
+    present: serde_json::Value,
 }
 
-fn yes() -> bool {
-    true
+/// An absent `present`: a finger.
+fn a_finger() -> serde_json::Value {
+    serde_json::Value::Bool(true)
 }
 
 /// A line of `lmhost track --json` (the keys `track::session` prints).
@@ -51,7 +58,7 @@ fn yes() -> bool {
 #[serde(deny_unknown_fields)]
 struct TrackLine {
     t_s: f64,
-    present: bool,
+    present: serde_json::Value,
     centroid_mm: Option<[f64; 3]>,
     #[serde(default)]
     gated_present: Option<bool>,
@@ -76,7 +83,9 @@ impl TrackLine {
     /// frame did; a finger needs a position.
     fn sample(self, line_no: usize) -> Result<Sample, InputError> {
         let pos = self.filtered_mm.or(self.centroid_mm);
-        let present = self.gated_present.unwrap_or(self.present);
+        // Judged even where the gate's word is taken.
+        let raw = json_presence(&self.present, line_no)?;
+        let present = self.gated_present.unwrap_or(raw);
         match (pos, present) {
             (Some(p), present) => Ok(Sample {
                 t_s: self.t_s,
@@ -92,6 +101,28 @@ impl TrackLine {
                 "line {line_no}: a track line with a finger present needs its centre (centroid_mm or filtered_mm)"
             ))),
         }
+    }
+}
+
+/// A sample's `present` as written: `true` or `1` (a finger), `false` or
+/// `0` (none); anything else refused, in the same words from JSON and CSV.
+fn presence(written: &str, line_no: usize) -> Result<bool, InputError> {
+    match written {
+        "true" | "1" => Ok(true),
+        "false" | "0" => Ok(false),
+        _ => Err(InputError::new(format!(
+            "line {line_no}: `{written}` is not a `present` value: give true, false, 1 or 0"
+        ))),
+    }
+}
+
+/// [`presence`] of a JSON value: the literal `true`/`false` or the whole
+/// number `1`/`0` (not `1.0`, not the string `"1"`), shown as written.
+fn json_presence(v: &serde_json::Value, line_no: usize) -> Result<bool, InputError> {
+    match v {
+        serde_json::Value::Bool(b) => Ok(*b),
+        // `1` and `0` as written; `1.0`, `"1"` or `null` shown as JSON.
+        other => presence(&other.to_string(), line_no),
     }
 }
 
@@ -130,7 +161,7 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
             Sample {
                 t_s: j.t,
                 pos_mm: [j.x, j.y, j.z],
-                present: j.present,
+                present: json_presence(&j.present, line_no)?,
             }
         }
     } else {
@@ -167,12 +198,7 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
                 .map_err(|m| InputError::new(format!("line {line_no}: {name} {m}")))?;
             Ok::<_, InputError>(v)
         };
-        let present = crate::error::choose_any_case(
-            "a `present` value",
-            fields[4],
-            &[("1", true), ("0", false), ("true", true), ("false", false)],
-        )
-        .map_err(|m| InputError::new(format!("line {line_no}: {m}")))?;
+        let present = presence(fields[4], line_no)?;
         Sample {
             t_s: num(0, "t")?,
             pos_mm: [num(1, "x")?, num(2, "y")?, num(3, "z")?],

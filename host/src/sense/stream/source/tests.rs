@@ -177,6 +177,36 @@ fn parses_json_and_csv() {
 }
 
 #[test]
+fn present_takes_the_same_values_in_json_and_csv() {
+    for (v, want) in [("true", true), ("false", false), ("1", true), ("0", false)] {
+        let json = format!(r#"{{"t":0.5,"x":1,"y":2,"z":3,"present":{v}}}"#);
+        assert_eq!(parsed(&json).present, want, "{json}");
+        assert_eq!(parsed(&format!("0.5,1,2,3,{v}")).present, want, "{v}");
+        let track = format!(r#"{{"t_s":0.5,"present":{v},"centroid_mm":[1,2,3]}}"#);
+        assert_eq!(parsed(&track).present, want, "{track}");
+    }
+    let said =
+        |v: &str| format!("line 4: `{v}` is not a `present` value: give true, false, 1 or 0");
+    // JSON's other values, shown as JSON: a string, a fraction, a null.
+    for v in [r#""true""#, r#""1""#, "1.0", "2", "-1", "null", "[true]"] {
+        for line in [
+            format!(r#"{{"t":0.5,"x":1,"y":2,"z":3,"present":{v}}}"#),
+            format!(r#"{{"t_s":0.5,"present":{v},"centroid_mm":[1,2,3],"gated_present":true}}"#),
+        ] {
+            let e = parse_line(&line, 4).unwrap_err().to_string();
+            assert_eq!(e, said(v), "{line}");
+        }
+    }
+    // CSV's, in the same words: no other case, no yes/no.
+    for v in ["TRUE", "False", "yes", "2", "1.0", "\"1\""] {
+        let e = parse_line(&format!("0.5,1,2,3,{v}"), 4)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, said(v), "{v}");
+    }
+}
+
+#[test]
 fn bad_lines_say_what_is_wrong() {
     let e = parse_line("0.5,1,2", 7).unwrap_err().to_string();
     assert!(e.contains("line 7") && e.contains("5 CSV fields"), "{e}");
