@@ -27,7 +27,7 @@ const DEFAULT_SECONDS: f64 = 10.0;
 /// Input lines are JSON (`{"t":0.011,"x":1.2,"y":-0.4,"z":201,"present":true}`)
 /// or CSV (`t,x,y,z,present`, `,`-separated with `.` decimals), from stdin,
 /// a file, or UDP datagrams; `present` is `true`, `false`, `1` or `0` in
-/// both (JSON's may be left out: a finger).
+/// both (CSV's in any case; JSON's may be left out: a finger).
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Limits: a line may be at most 4096 bytes; a replayed file may \

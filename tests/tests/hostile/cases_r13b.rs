@@ -15,8 +15,9 @@
 //! - r13-15: a centroid's `present` takes the same values in JSON and
 //!   CSV: a CSV line took `1`/`0` and `TRUE` or `False` (any case), a
 //!   JSON line only a boolean ("invalid type: integer `1`, expected a
-//!   boolean"); both now take `true`, `false`, `1` and `0`, nothing else,
-//!   refused in the same words.
+//!   boolean"); both now take `true`, `false`, `1` and `0` (CSV in any
+//!   case, as spreadsheets write it), nothing else, refused in the same
+//!   words.
 //!
 //! Fixtures in `{dir}/r13b`.
 
@@ -205,14 +206,24 @@ pub(crate) fn round13b_cases() -> Vec<Case> {
                 .err(&said(w)),
         );
     }
-    for w in ["TRUE", "False", "yes", "2", "1.0"] {
+    for w in ["yes", "2", "1.0", "truth"] {
         v.push(
             case(R13_PRESENT, "stream --port {port}")
                 .stdin(csv(w))
                 .err(&said(w)),
         );
     }
-    // The four values, alike in both.
+    // The four values, alike in both; a spreadsheet's TRUE and False.
+    v.push(
+        case(R13_PRESENT, "stream --port {port}")
+            .stdin(csv("TRUE"))
+            .ok(),
+    );
+    v.push(
+        case(R13_PRESENT, "stream --port {port}")
+            .stdin(csv("False"))
+            .ok(),
+    );
     for p in ["true", "false", "1", "0"] {
         v.push(
             case(R13_PRESENT, "stream --port {port}")

@@ -105,11 +105,15 @@ impl TrackLine {
 }
 
 /// A sample's `present` as written: `true` or `1` (a finger), `false` or
-/// `0` (none); anything else refused, in the same words from JSON and CSV.
+/// `0` (none), in any case as a spreadsheet writes them into CSV (`TRUE`;
+/// JSON's literals have one); anything else refused, in the same words
+/// from JSON and CSV.
 fn presence(written: &str, line_no: usize) -> Result<bool, InputError> {
     match written {
-        "true" | "1" => Ok(true),
-        "false" | "0" => Ok(false),
+        "1" => Ok(true),
+        "0" => Ok(false),
+        w if w.eq_ignore_ascii_case("true") => Ok(true),
+        w if w.eq_ignore_ascii_case("false") => Ok(false),
         _ => Err(InputError::new(format!(
             "line {line_no}: `{written}` is not a `present` value: give true, false, 1 or 0"
         ))),

@@ -185,6 +185,10 @@ fn present_takes_the_same_values_in_json_and_csv() {
         let track = format!(r#"{{"t_s":0.5,"present":{v},"centroid_mm":[1,2,3]}}"#);
         assert_eq!(parsed(&track).present, want, "{track}");
     }
+    // CSV from a spreadsheet: any case.
+    for (v, want) in [("TRUE", true), ("False", false)] {
+        assert_eq!(parsed(&format!("0.5,1,2,3,{v}")).present, want, "{v}");
+    }
     let said =
         |v: &str| format!("line 4: `{v}` is not a `present` value: give true, false, 1 or 0");
     // JSON's other values, shown as JSON: a string, a fraction, a null.
@@ -197,8 +201,8 @@ fn present_takes_the_same_values_in_json_and_csv() {
             assert_eq!(e, said(v), "{line}");
         }
     }
-    // CSV's, in the same words: no other case, no yes/no.
-    for v in ["TRUE", "False", "yes", "2", "1.0", "\"1\""] {
+    // CSV's, in the same words: no yes/no, no fraction, no quotes.
+    for v in ["yes", "2", "1.0", "\"1\"", "truth"] {
         let e = parse_line(&format!("0.5,1,2,3,{v}"), 4)
             .unwrap_err()
             .to_string();
