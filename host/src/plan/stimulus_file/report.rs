@@ -152,9 +152,31 @@ pub(super) fn from_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T,
         if path == "." || !e.inner().is_data() {
             e.inner().to_string()
         } else {
-            format!("{path}: {}", e.inner())
+            // The path and serde's quoted values hold the file's own
+            // keys, which may be as long as the file and hold anything.
+            let inner = e.inner().to_string();
+            let quoted = inner.split('`').enumerate();
+            let inner: Vec<String> = quoted
+                .map(|(i, s)| if i % 2 == 1 { shown(s) } else { s.to_owned() })
+                .collect();
+            format!("{}: {}", shown(&path), inner.join("`"))
         }
     })
+}
+
+/// Most characters of a key or a field's path a message repeats.
+const MAX_SHOWN_CHARS: usize = 80;
+
+/// `s` as a message repeats it: escaped, cut after [`MAX_SHOWN_CHARS`]
+/// saying how long it was.
+fn shown(s: &str) -> String {
+    let n = s.chars().count();
+    let head: String = s.chars().take(MAX_SHOWN_CHARS).collect();
+    let head = head.escape_debug();
+    match n > MAX_SHOWN_CHARS {
+        true => format!("{head}… ({n} characters)"),
+        false => head.to_string(),
+    }
 }
 
 /// A report's `phases` or a phases file's: rows of whole numbers 0..=255.

@@ -20,7 +20,7 @@
 //!
 //! `present` is `true`, `false`, `1` or `0` in every form (JSON's
 //! `true` or `1`, CSV's `true` or `1`), nothing else: one set, refused in
-//! the same words ([`presence`]).
+//! the same words (`presence`).
 //!
 //! Units: seconds and millimetres. A time stamp lies in 0 to
 //! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
