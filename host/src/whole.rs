@@ -32,12 +32,23 @@ impl FileNumber {
     /// it (however large), `VALUE is not a whole number in LO..=HI` for a
     /// fraction (`3.0` too: the file wrote a float).
     pub fn whole_in(self, lo: u64, hi: u64) -> Result<u64, String> {
+        // In range, so it is a u64.
+        self.within(lo.into(), hi.into()).map(|v| v as u64)
+    }
+
+    /// The whole number in `lo..=hi` (either sign) this is, in the words
+    /// of [`FileNumber::whole_in`].
+    pub fn signed_in(self, lo: i64, hi: i64) -> Result<i64, String> {
+        // In range, so it is an i64.
+        self.within(lo.into(), hi.into()).map(|v| v as i64)
+    }
+
+    /// Both of them: every u64 and i64 range is one of i128.
+    fn within(self, lo: i128, hi: i128) -> Result<i128, String> {
         let range = format!("{lo}..={hi}");
         match self {
-            FileNumber::Int(i) => match u64::try_from(i) {
-                Ok(v) if (lo..=hi).contains(&v) => Ok(v),
-                _ => Err(format!("{i} is out of range {range}")),
-            },
+            FileNumber::Int(i) if (lo..=hi).contains(&i) => Ok(i),
+            FileNumber::Int(i) => Err(format!("{i} is out of range {range}")),
             FileNumber::Float(f) => {
                 let whole = f.is_finite() && f.fract() == 0.0;
                 let inside = f >= lo as f64 && f <= hi as f64;
@@ -49,30 +60,6 @@ impl FileNumber {
                         Err(format!("{} is out of range {range}", show(f)))
                     }
                     (false, _) => Err(format!("{} is not a whole number in {range}", show(f))),
-                }
-            }
-        }
-    }
-}
-
-impl FileNumber {
-    /// The whole number in `lo..=hi` (either sign) this is, in the words
-    /// of [`FileNumber::whole_in`].
-    pub fn signed_in(self, lo: i64, hi: i64) -> Result<i64, String> {
-        let range = format!("{lo}..={hi}");
-        match self {
-            FileNumber::Int(i) => match i64::try_from(i) {
-                Ok(v) if (lo..=hi).contains(&v) => Ok(v),
-                _ => Err(format!("{i} is out of range {range}")),
-            },
-            FileNumber::Float(f) => {
-                let inside = f >= lo as f64 && f <= hi as f64;
-                if f.is_nan() || (inside && f.fract() != 0.0) {
-                    Err(format!("{} is not a whole number in {range}", show(f)))
-                } else if inside {
-                    Err(format!("{f:.1} is not a whole number in {range}"))
-                } else {
-                    Err(format!("{} is out of range {range}", show(f)))
                 }
             }
         }
