@@ -240,8 +240,9 @@ pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
 /// Checks that the decimal `literal` was read as itself: one whose digits
 /// are not all zero but which parses to 0 or to a subnormal (`1e-400`,
 /// `1e-310`) underflowed and would be taken as another value without a
-/// word; one past the largest number (`1e400`) overflowed to infinity. `Err` is the message, for
-/// the caller to prefix with the field. Every number read from text (a
+/// word; one past the largest number (`1e400`) overflowed to infinity.
+/// `Err` is the message, for the caller to prefix with the field. Every
+/// number read from text (a
 /// centroid or control line, a JSON value, a TOML file) passes here.
 pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
     let mantissa = literal.split(['e', 'E']).next().unwrap_or(literal);
