@@ -242,8 +242,8 @@ pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
 /// `1e-310`) underflowed and would be taken as another value without a
 /// word; one past the largest number (`1e400`) overflowed to infinity.
 /// `Err` is the message, for the caller to prefix with the field. Every
-/// number read from text (a
-/// centroid or control line, a JSON value, a TOML file) passes here.
+/// number read from text (a centroid or control line, a JSON value, a
+/// TOML file) passes here.
 pub fn exact_literal(literal: &str, v: f64) -> Result<(), String> {
     let mantissa = literal.split(['e', 'E']).next().unwrap_or(literal);
     let nonzero = mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b));

@@ -9,8 +9,8 @@
 //!   gated centre (`filtered_mm`, `gated_present`) when the line has one,
 //!   else its raw centroid; its other known keys are ignored, an unknown
 //!   key is refused as in the plain form;
-//! - CSV: `t,x,y,z,present`; the
-//!   header line `t,x,y,z,present` is skipped; `#` starts a comment. A
+//! - CSV: `t,x,y,z,present`; the header line `t,x,y,z,present` is
+//!   skipped; `#` starts a comment. A
 //!   line separated by `;` or tabs (a European-locale spreadsheet, its
 //!   `3,5` meaning 3.5) is refused as such.
 //!
@@ -18,9 +18,9 @@
 //! end at LF, CRLF or a lone CR; a byte-order mark opening the first is
 //! skipped; UTF-16 and a NUL byte are refused naming the line.
 //!
-//! `present` is `true`, `false`, `1` or `0` in every form (JSON's
-//! `true` or `1`, CSV's `true` or `1`), nothing else: one set, refused in
-//! the same words (`presence`).
+//! `present` is `true`, `false`, `1` or `0` in both forms (CSV's
+//! `true`/`false` in any case, as spreadsheets write them), nothing else:
+//! one set, refused in the same words (`presence`).
 //!
 //! Units: seconds and millimetres. A time stamp lies in 0 to
 //! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
