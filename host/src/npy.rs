@@ -43,19 +43,11 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
     if &pre[..6] != b"\x93NUMPY" {
         return Err(bad(path, "not an .npy file (bad magic)"));
     }
-    let (len, prefix) = match pre[6] {
-        1 => {
-            let mut l = [0u8; 2];
-            r.read_exact(&mut l)
-                .map_err(|_| bad(path, "truncated .npy header"))?;
-            (u16::from_le_bytes(l) as usize, 10)
-        }
-        2 | 3 => {
-            let mut l = [0u8; 4];
-            r.read_exact(&mut l)
-                .map_err(|_| bad(path, "truncated .npy header"))?;
-            (u32::from_le_bytes(l) as usize, 12)
-        }
+    // The header length: a u16 in version 1, a u32 from version 2 on
+    // (both little-endian, read into the low bytes of a u32).
+    let width = match pre[6] {
+        1 => 2,
+        2 | 3 => 4,
         v => {
             return Err(bad(
                 path,
@@ -63,6 +55,10 @@ pub fn read_header(r: &mut impl Read, file_len: u64, path: &Path) -> Result<Head
             ));
         }
     };
+    let mut l = [0u8; 4];
+    r.read_exact(&mut l[..width])
+        .map_err(|_| bad(path, "truncated .npy header"))?;
+    let (len, prefix) = (u32::from_le_bytes(l) as usize, pre.len() + width);
     if len > MAX_HEADER || (prefix + len) as u64 > file_len {
         return Err(bad(
             path,
@@ -253,7 +249,14 @@ fn check_len(path: &Path, h: &Header, file_len: u64, item: u64) -> Result<(), In
     Ok(())
 }
 
-fn open(path: &Path) -> Result<(File, u64), InputError> {
+/// Opens a recording and reads its header, whose type must be `descr`
+/// (`what` in the error); returns the reader at its data, the file's
+/// length and the header.
+fn open(
+    path: &Path,
+    descr: &str,
+    what: &str,
+) -> Result<(BufReader<File>, u64, Header), InputError> {
     // Checked before it is opened: a FIFO, a directory or a device node is
     // refused at once, and the file is remembered as an input.
     let f = crate::files::open_input("recording", path)?;
@@ -261,7 +264,10 @@ fn open(path: &Path) -> Result<(File, u64), InputError> {
         .metadata()
         .map_err(|_| bad(path, "cannot read its size"))?
         .len();
-    Ok((f, len))
+    let mut reader = BufReader::new(f);
+    let h = read_header(&mut reader, len, path)?;
+    check_descr(path, &h, descr, what)?;
+    Ok((reader, len, h))
 }
 
 /// Frames of a recording (`K`: depth or colour), read one at a time.
@@ -286,10 +292,7 @@ pub type ColourNpy = NpyFrames<Rgb>;
 impl<K: FrameKind> NpyFrames<K> {
     /// Open and check a recording.
     pub fn open(path: &Path) -> Result<Self, InputError> {
-        let (f, len) = open(path)?;
-        let mut reader = BufReader::new(f);
-        let h = read_header(&mut reader, len, path)?;
-        check_descr(path, &h, K::DESCR, K::TYPE_NAME)?;
+        let (reader, len, h) = open(path, K::DESCR, K::TYPE_NAME)?;
         let (frames, height, width) = match h.shape[..] {
             [f, hh, w] if K::PER_PIXEL == 1 => (f, hh, w),
             [f, hh, w, c] if K::PER_PIXEL > 1 && c == K::PER_PIXEL => (f, hh, w),
@@ -350,10 +353,7 @@ impl NpyFrames<Rgb> {
 /// 0 to [`crate::limits::MAX_TIME_STAMP_S`], at most
 /// [`crate::limits::MAX_REPLAY_GAP_S`] apart.
 pub fn read_timestamps(path: &Path) -> Result<Vec<f64>, InputError> {
-    let (f, len) = open(path)?;
-    let mut reader = BufReader::new(f);
-    let h = read_header(&mut reader, len, path)?;
-    check_descr(path, &h, "<f8", "float64")?;
+    let (mut reader, len, h) = open(path, "<f8", "float64")?;
     if h.shape.len() != 1 {
         return Err(bad(path, format!("shape {:?} must be (frames,)", h.shape)));
     }

@@ -282,10 +282,7 @@ fn parse(args: &[String]) -> Result<Opts, String> {
                     .iter()
                     .find(|i| !STEPS.iter().any(|s| s.id == i.as_str()))
                 {
-                    return Err(format!(
-                        "--only: no step `{bad}` (steps: {})",
-                        STEPS.iter().map(|s| s.id).collect::<Vec<_>>().join(", ")
-                    ));
+                    return Err(format!("--only: no step `{bad}` (steps: {})", step_ids()));
                 }
                 o.only = Some(ids);
             }
@@ -298,8 +295,13 @@ fn parse(args: &[String]) -> Result<Opts, String> {
 pub fn usage() -> String {
     format!(
         "usage: cargo xtask ci [--full] [--only STEP[,STEP...]] (steps: {})",
-        STEPS.iter().map(|s| s.id).collect::<Vec<_>>().join(", ")
+        step_ids()
     )
+}
+
+/// Every step's id, comma-separated.
+fn step_ids() -> String {
+    STEPS.iter().map(|s| s.id).collect::<Vec<_>>().join(", ")
 }
 
 fn summary(state: &BTreeMap<&str, State>, total: Duration, only: bool) -> Result<(), String> {
@@ -307,22 +309,21 @@ fn summary(state: &BTreeMap<&str, State>, total: Duration, only: bool) -> Result
     let mut failed = Vec::new();
     let mut ran = 0;
     for s in STEPS {
-        let line = match &state[s.id] {
-            State::Passed(_, d) if *d == Duration::ZERO && only => continue,
-            State::Passed(b, d) => format!(
-                "  ok   {:>6.1} s {:>6.1} s  {}",
+        // A step that ran: its start and duration.
+        let timed = |word: &str, b: &Duration, d: &Duration| {
+            format!(
+                "  {word:<4} {:>6.1} s {:>6.1} s  {}",
                 b.as_secs_f64(),
                 d.as_secs_f64(),
                 s.name
-            ),
+            )
+        };
+        let line = match &state[s.id] {
+            State::Passed(_, d) if *d == Duration::ZERO && only => continue,
+            State::Passed(b, d) => timed("ok", b, d),
             State::Failed(b, d, _) => {
                 failed.push(s.id);
-                format!(
-                    "  FAIL {:>6.1} s {:>6.1} s  {}",
-                    b.as_secs_f64(),
-                    d.as_secs_f64(),
-                    s.name
-                )
+                timed("FAIL", b, d)
             }
             State::Skipped => {
                 failed.push(s.id);

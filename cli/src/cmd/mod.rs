@@ -38,19 +38,12 @@ pub mod wiring;
 /// every subcommand: `--hold -1` is then refused as the value it is
 /// (the flag's range, named), not as an unknown flag `-1`.
 pub fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
-    let cmd = cmd.mut_args(|a| {
+    every_arg(cmd, |a| {
         if a.get_action().takes_values() && !a.is_positional() {
             a.allow_negative_numbers(true)
         } else {
             a
         }
-    });
-    let subs: Vec<String> = cmd
-        .get_subcommands()
-        .map(|s| s.get_name().to_owned())
-        .collect();
-    subs.iter().fold(cmd, |c, name| {
-        c.mut_subcommand(name, negative_numbers_are_values)
     })
 }
 
@@ -60,19 +53,25 @@ pub fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
 /// Set on every subcommand's `f64` flags at once, as
 /// [`negative_numbers_are_values`] does; none has a parser of its own.
 pub fn exact_floats(cmd: clap::Command) -> clap::Command {
-    let cmd = cmd.mut_args(|a| {
+    every_arg(cmd, |a| {
         if a.get_value_parser().type_id() == std::any::TypeId::of::<f64>() {
             a.value_parser(exact_f64)
         } else {
             a
         }
-    });
+    })
+}
+
+/// `cmd` with `f` applied to each of its arguments and to each argument
+/// of every subcommand, at every depth.
+fn every_arg(cmd: clap::Command, f: fn(clap::Arg) -> clap::Arg) -> clap::Command {
+    let cmd = cmd.mut_args(f);
     let subs: Vec<String> = cmd
         .get_subcommands()
         .map(|s| s.get_name().to_owned())
         .collect();
     subs.iter()
-        .fold(cmd, |c, name| c.mut_subcommand(name, exact_floats))
+        .fold(cmd, |c, name| c.mut_subcommand(name, |s| every_arg(s, f)))
 }
 
 /// clap's own `f64` parse, and [`lmhost::limits::exact_literal`]; a value

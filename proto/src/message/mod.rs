@@ -10,8 +10,10 @@ use crate::nack::NackCode;
 use crate::wire::wire_enum;
 
 /// The messages without a payload, as a pattern: the one list that
-/// `payload_len`, `emit` and `parse` match on. Over `Message` or
-/// `MessageType`, whose variants share these names.
+/// `payload_len` and `emit` match on. Over `Message` or `MessageType`,
+/// whose variants share these names. (`parse` names each of them, as it
+/// builds each message from its type; its match over `MessageType` is
+/// exhaustive, so none can be missed there.)
 macro_rules! payload_less {
     ($e:ident) => {
         $e::GetInfo | $e::Stop | $e::GetStatus | $e::Ack | $e::CommitRig | $e::Renew | $e::SelfTest

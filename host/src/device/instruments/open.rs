@@ -405,6 +405,31 @@ mod tests {
     /// Sets one setting of an instrument's options.
     type Set<T> = fn(&mut T);
 
+    /// Each setting of `cases` refused for the simulated `twin` by its flag:
+    /// prefixed (`--stage-axis`) with the twin in a rig, bare (`--axis`)
+    /// with it alone.
+    fn each_refused<T>(
+        cases: &[(Set<T>, &str)],
+        twin: &str,
+        in_rig: impl Fn(Set<T>) -> anyhow::Error,
+        alone: impl Fn(Set<T>) -> anyhow::Error,
+    ) {
+        let refused = |e: anyhow::Error, flag: &str| {
+            let msg = crate::error::one_line(&e);
+            assert!(e.chain().any(|c| c.is::<InputError>()), "{msg}");
+            assert!(
+                msg.starts_with(&format!(
+                    "{flag} does not apply to the simulated {twin} (port sim)"
+                )),
+                "{msg}"
+            );
+        };
+        for &(set, name) in cases {
+            refused(in_rig(set), &format!("--{twin}-{name}"));
+            refused(alone(set), &format!("--{name}"));
+        }
+    }
+
     #[test]
     fn a_twin_refuses_each_setting_of_the_real_one_by_its_flag() {
         let stage = |f: fn(&mut StageOptions)| {
@@ -417,58 +442,38 @@ mod tests {
             f(&mut o);
             o
         };
-        let refused = |e: anyhow::Error, flag: &str, twin: &str| {
-            let msg = crate::error::one_line(&e);
-            assert!(e.chain().any(|c| c.is::<InputError>()), "{msg}");
-            assert!(
-                msg.starts_with(&format!(
-                    "{flag} does not apply to the simulated {twin} (port sim)"
-                )),
-                "{msg}"
-            );
-        };
         let pad = FingerPad::TYPICAL;
-        let stages: [(Set<StageOptions>, &str); 3] = [
-            (|o| o.axis = Some(Axis::B), "axis"),
-            (|o| o.step_um = Some(0.5), "step-um"),
-            (|o| o.baud = Some(9600), "baud"),
-        ];
-        for (set, name) in stages {
-            refused(
-                open_rig(&stage(set), &gauge(|_| {}), pad).err().unwrap(),
-                &format!("--stage-{name}"),
-                "stage",
-            );
-            let alone = StageOptions {
-                flags: "--",
-                ..stage(set)
-            };
-            refused(
-                open_stage(&alone).err().unwrap(),
-                &format!("--{name}"),
-                "stage",
-            );
-        }
-        let gauges: [(Set<GaugeOptions>, &str); 2] = [
-            (|o| o.model = Some(GaugeModel::Mark10), "model"),
-            (|o| o.baud = Some(19200), "baud"),
-        ];
-        for (set, name) in gauges {
-            refused(
-                open_rig(&stage(|_| {}), &gauge(set), pad).err().unwrap(),
-                &format!("--gauge-{name}"),
-                "gauge",
-            );
-            let alone = GaugeOptions {
-                flags: "--",
-                ..gauge(set)
-            };
-            refused(
-                open_gauge(&alone).err().unwrap(),
-                &format!("--{name}"),
-                "gauge",
-            );
-        }
+        each_refused::<StageOptions>(
+            &[
+                (|o| o.axis = Some(Axis::B), "axis"),
+                (|o| o.step_um = Some(0.5), "step-um"),
+                (|o| o.baud = Some(9600), "baud"),
+            ],
+            "stage",
+            |set| open_rig(&stage(set), &gauge(|_| {}), pad).err().unwrap(),
+            |set| {
+                let alone = StageOptions {
+                    flags: "--",
+                    ..stage(set)
+                };
+                open_stage(&alone).err().unwrap()
+            },
+        );
+        each_refused::<GaugeOptions>(
+            &[
+                (|o| o.model = Some(GaugeModel::Mark10), "model"),
+                (|o| o.baud = Some(19200), "baud"),
+            ],
+            "gauge",
+            |set| open_rig(&stage(|_| {}), &gauge(set), pad).err().unwrap(),
+            |set| {
+                let alone = GaugeOptions {
+                    flags: "--",
+                    ..gauge(set)
+                };
+                open_gauge(&alone).err().unwrap()
+            },
+        );
         // None given: the twins open.
         assert!(open_rig(&stage(|_| {}), &gauge(|_| {}), pad).is_ok());
     }

@@ -30,10 +30,7 @@ fn missing(text: &str, at: usize, msg: &str) -> String {
     let at = at.min(text.len());
     let table = text[at..].starts_with(['[', '{']);
     match field_at(text, at).filter(|_| table) {
-        Some(path) => {
-            let line_no = text[..at].matches('\n').count() + 1;
-            format!("line {line_no}, table `{path}`: {msg}")
-        }
+        Some(path) => format!("line {}, table `{path}`: {msg}", line_of(text, at)),
         None => format!("{msg} at the top level"),
     }
 }
@@ -67,15 +64,20 @@ fn first_line(msg: &str) -> &str {
 /// where no key holds it).
 fn placed(text: &str, at: usize, msg: &str) -> String {
     let at = at.min(text.len());
-    let line_no = text.as_bytes()[..at]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1;
+    let line_no = line_of(text, at);
     match field_at(text, at) {
         Some(field) => format!("line {line_no}, field `{field}`: {msg}"),
         None => format!("line {line_no}: {msg}"),
     }
+}
+
+/// The line (from 1) that holds byte `at` of `text`.
+pub(crate) fn line_of(text: &str, at: usize) -> usize {
+    text.as_bytes()[..at]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 /// Every TOML file lmhost reads goes through here: `T` from `text`, or

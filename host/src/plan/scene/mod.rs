@@ -56,7 +56,7 @@
 
 mod check;
 mod file;
-pub(crate) use file::{field_at, from_toml};
+pub(crate) use file::{field_at, from_toml, line_of};
 pub mod camera;
 mod parts;
 pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {

@@ -21,7 +21,7 @@ impl Errors<'_> {
     /// names it, `field` where the path cannot be found.
     pub fn at(&self, span: Range<usize>, field: &str, msg: impl std::fmt::Display) -> InputError {
         let at = span.start.min(self.text.len());
-        let line = self.text[..at].matches('\n').count() + 1;
+        let line = crate::plan::scene::line_of(self.text, at);
         // The path of what sits at `span`, when that is `field` itself (a
         // span may be its table's, for a field that is missing).
         let path = crate::plan::scene::field_at(self.text, at).filter(|p| {

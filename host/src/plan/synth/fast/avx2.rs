@@ -21,7 +21,7 @@ use super::Isa;
 use super::kernels::{
     Kernels, Prep, Rows, Term, angle_rows, focus_rows, phasor_rows, sum_rows, table_rows,
 };
-use super::lanes::{LANES, Lanes};
+use super::lanes::{LANES, Lanes, arith_ops, binary_methods};
 
 /// Eight lanes in one AVX register.
 #[derive(Clone, Copy, Debug)]
@@ -34,6 +34,13 @@ macro_rules! avx {
         // "avx2,fma")]` builds below, reached only after `kernels` has
         // detected both features.
         unsafe { $e }
+    };
+}
+
+/// `$op` (an AVX intrinsic of two registers) on two [`Avx`]s.
+macro_rules! avx_pair {
+    ($a:expr, $b:expr, $op:ident) => {
+        Avx(avx!($op($a.0, $b.0)))
     };
 }
 
@@ -80,15 +87,7 @@ impl Lanes for Avx {
         Self(avx!(_mm256_andnot_ps(sign(), self.0)))
     }
 
-    #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        Self(avx!(_mm256_min_ps(self.0, o.0)))
-    }
-
-    #[inline(always)]
-    fn max(self, o: Self) -> Self {
-        Self(avx!(_mm256_max_ps(self.0, o.0)))
-    }
+    binary_methods!(avx_pair: min => _mm256_min_ps, max => _mm256_max_ps);
 
     #[inline(always)]
     fn flip_sign_of(self, o: Self) -> Self {
@@ -137,22 +136,7 @@ impl Lanes for Avx {
     }
 }
 
-macro_rules! avx_op {
-    ($tr:ident, $f:ident, $op:ident) => {
-        impl $tr for Avx {
-            type Output = Avx;
-            #[inline(always)]
-            fn $f(self, o: Avx) -> Avx {
-                Avx(avx!($op(self.0, o.0)))
-            }
-        }
-    };
-}
-
-avx_op!(Add, add, _mm256_add_ps);
-avx_op!(Sub, sub, _mm256_sub_ps);
-avx_op!(Mul, mul, _mm256_mul_ps);
-avx_op!(Div, div, _mm256_div_ps);
+arith_ops!(Avx, avx_pair: _mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
 
 impl Neg for Avx {
     type Output = Avx;

@@ -180,22 +180,44 @@ impl Lanes for Arr {
     }
 }
 
-macro_rules! arr_op {
-    ($tr:ident, $f:ident, $op:tt) => {
-        impl $tr for Arr {
-            type Output = Arr;
-            #[inline(always)]
-            fn $f(self, o: Arr) -> Arr {
-                self.zip(o, |a, b| a $op b)
-            }
+/// Lane-wise binary methods for a lane type's `impl` blocks, `fn f(self,
+/// o: Self) -> Self` for each `f => op`: the body is `$pair!(self, o, op)`,
+/// where the type's own `$pair` macro applies one operation (an
+/// operator, an intrinsic) to every lane. Every method is
+/// `#[inline(always)]`, as the hand-written ones are.
+macro_rules! binary_methods {
+    ($pair:ident: $($f:ident => $op:tt),* $(,)?) => {$(
+        #[inline(always)]
+        fn $f(self, o: Self) -> Self {
+            $pair!(self, o, $op)
         }
+    )*};
+}
+
+/// `Add`, `Sub`, `Mul` and `Div` for lane type `$t`: each its operation
+/// through [`binary_methods`] with the type's `$pair` macro.
+macro_rules! arith_ops {
+    ($t:ident, $pair:ident: $add:tt, $sub:tt, $mul:tt, $div:tt) => {
+        arith_ops!(@each $t, $pair: Add add $add, Sub sub $sub, Mul mul $mul, Div div $div);
+    };
+    (@each $t:ident, $pair:ident: $($tr:ident $f:ident $op:tt),*) => {$(
+        impl $tr for $t {
+            type Output = $t;
+            binary_methods!($pair: $f => $op);
+        }
+    )*};
+}
+
+pub(super) use {arith_ops, binary_methods};
+
+/// `$a $op $b` in every lane of [`Arr`]s.
+macro_rules! arr_zip {
+    ($a:expr, $b:expr, $op:tt) => {
+        $a.zip($b, |x, y| x $op y)
     };
 }
 
-arr_op!(Add, add, +);
-arr_op!(Sub, sub, -);
-arr_op!(Mul, mul, *);
-arr_op!(Div, div, /);
+arith_ops!(Arr, arr_zip: +, -, *, /);
 
 impl Neg for Arr {
     type Output = Arr;

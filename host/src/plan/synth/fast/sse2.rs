@@ -10,7 +10,7 @@ use std::arch::x86_64::{
 };
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-use super::lanes::{LANES, Lanes};
+use super::lanes::{LANES, Lanes, arith_ops, binary_methods};
 
 /// `$e` (SSE/SSE2 intrinsics) in an `unsafe` block.
 macro_rules! sse {
@@ -18,6 +18,14 @@ macro_rules! sse {
         // SAFETY: SSE and SSE2 are part of every x86-64 target (the
         // baseline this module is compiled for), so they are always there.
         unsafe { $e }
+    };
+}
+
+/// `$op` (an SSE intrinsic of two registers) on both registers of two
+/// [`Sse`]s.
+macro_rules! sse_each {
+    ($a:expr, $b:expr, $op:ident) => {
+        $a.each($b, |a, b| sse!($op(a, b)))
     };
 }
 
@@ -85,29 +93,17 @@ impl Lanes for Sse {
         ]))
     }
 
-    #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        self.each(o, |a, b| sse!(_mm_min_ps(a, b)))
-    }
-
-    #[inline(always)]
-    fn max(self, o: Self) -> Self {
-        self.each(o, |a, b| sse!(_mm_max_ps(a, b)))
+    binary_methods! {
+        sse_each:
+        min => _mm_min_ps,
+        max => _mm_max_ps,
+        gt => _mm_cmpgt_ps,
+        not_ge => _mm_cmpnge_ps,
     }
 
     #[inline(always)]
     fn flip_sign_of(self, o: Self) -> Self {
         self.each(o, |a, b| sse!(_mm_xor_ps(a, _mm_and_ps(b, sign()))))
-    }
-
-    #[inline(always)]
-    fn gt(self, o: Self) -> Self {
-        self.each(o, |a, b| sse!(_mm_cmpgt_ps(a, b)))
-    }
-
-    #[inline(always)]
-    fn not_ge(self, o: Self) -> Self {
-        self.each(o, |a, b| sse!(_mm_cmpnge_ps(a, b)))
     }
 
     #[inline(always)]
@@ -140,22 +136,7 @@ impl Lanes for Sse {
     }
 }
 
-macro_rules! sse_op {
-    ($tr:ident, $f:ident, $op:ident) => {
-        impl $tr for Sse {
-            type Output = Sse;
-            #[inline(always)]
-            fn $f(self, o: Sse) -> Sse {
-                self.each(o, |a, b| sse!($op(a, b)))
-            }
-        }
-    };
-}
-
-sse_op!(Add, add, _mm_add_ps);
-sse_op!(Sub, sub, _mm_sub_ps);
-sse_op!(Mul, mul, _mm_mul_ps);
-sse_op!(Div, div, _mm_div_ps);
+arith_ops!(Sse, sse_each: _mm_add_ps, _mm_sub_ps, _mm_mul_ps, _mm_div_ps);
 
 impl Neg for Sse {
     type Output = Sse;
