@@ -87,6 +87,12 @@ pub struct CheckArgs {
     /// timeline is checked as the run would play it.
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     time_scale: f64,
+    /// The device the study will run on, as `study run --port` opens it
+    /// (`lm`: the LM firmware or the simulated device; `autd3`: an AUTD3
+    /// rig): the timeline is checked as planned for it [default: for
+    /// both, so a protocol is valid on either].
+    #[arg(long, value_enum, value_name = "DEVICE")]
+    target: Option<super::plan::TargetArg>,
 }
 
 impl CheckArgs {
@@ -94,9 +100,11 @@ impl CheckArgs {
         let p = study::protocol::Protocol::load(&self.protocol)?;
         let participant = self.participant.map(|i| i as usize);
         study::outline::check_participant(&p, participant)?;
-        // The rule `run` applies before the device opens, on every device
-        // it may open: a protocol called valid here plays there.
-        study::check_timeline(&p, self.scene.as_deref(), self.time_scale)?;
+        // The rule `run` applies before the device opens, on the device
+        // named (else every one it may open): a protocol called valid here
+        // plays there.
+        let target = self.target.map(super::plan::TargetArg::target);
+        study::check_timeline(&p, self.scene.as_deref(), self.time_scale, target)?;
         let text = study::outline::outline(&p, participant, self.seed);
         lmhost::out!("{text}")?;
         Ok(())

@@ -332,6 +332,26 @@ pub(crate) fn round13_cases() -> Vec<Case> {
         )
         .ok()
         .out("protocol `short`: valid"),
+        // A step of `lms-5hz-a2` is 3636.36 µs on the LM firmware, 3625 µs
+        // on AUTD3's 25 µs grid: an on-phase of 1.815 ms plays on an AUTD3
+        // only, and `--target` says which device the check is for.
+        case(
+            R13_CHECK_RUN,
+            "study check {dir}/r13/long_on.toml --time-scale 0.00363 --target autd3",
+        )
+        .ok()
+        .out("protocol `short`: valid"),
+        case(
+            R13_CHECK_RUN,
+            "study check {dir}/r13/long_on.toml --time-scale 0.00363 --target lm",
+        )
+        .err("(3636.36 µs)")
+        .err("(as `study run` plans it for the LM firmware)"),
+        case(
+            R13_CHECK_RUN,
+            "study check {dir}/r13/long_on.toml --time-scale 0.00363",
+        )
+        .err("(as `study run` plans it for the LM firmware)"),
         case(
             R13_CHECK_RUN,
             "study check {dir}/r13/long_on.toml --time-scale 1e-300",

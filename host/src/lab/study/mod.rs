@@ -58,6 +58,7 @@ use crate::error::InputError;
 use crate::files::AppendLog;
 use crate::lab::session::driver::{Driver, Finger};
 use crate::lab::session::{Event, EventKind, OffsetReason, Present, Session};
+use crate::plan::target::Target;
 use crate::sense::stream::filter::Passthrough;
 
 use answers::{Answers, Asked};
@@ -93,17 +94,23 @@ pub fn check_time_scale(scale: f64) -> Result<(), InputError> {
 }
 
 /// `lmhost study check`'s test of the timeline, the one `run` applies
-/// before the device opens (its `timing` module), for every device the protocol
-/// may run on: `check` has no port, and called "valid" a protocol whose
-/// on-phase `run` then refused as shorter than half a step of a stimulus.
+/// before the device opens (its `timing` module), for the device kind
+/// `target` the protocol will run on, or (`None`) every kind it may: `check`
+/// has no port, and called "valid" a protocol whose on-phase `run` then
+/// refused as shorter than half a step of a stimulus.
 pub fn check_timeline(
     p: &Protocol,
     scene: Option<&std::path::Path>,
     scale: f64,
+    target: Option<Target>,
 ) -> anyhow::Result<()> {
     check_time_scale(scale)?;
     let (scene, _) = provenance::load_scene(scene)?;
-    timing::check_every_target(p, &scene, scale)
+    let targets = match target {
+        Some(t) => vec![t],
+        None => Target::ALL.to_vec(),
+    };
+    timing::check_targets(p, &scene, scale, &targets)
 }
 
 /// Runs (or resumes) one participant's session.

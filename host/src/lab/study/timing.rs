@@ -90,13 +90,18 @@ pub fn check(p: &Protocol, plans: &[TargetPlan], scale: f64) -> Result<(), Input
     Ok(())
 }
 
-/// [`check`] as `study run` applies it on each kind of device (the LM
-/// firmware, an AUTD3 rig), whose timing differs: the library planned for
-/// each in `scene`; the first refusal names the device it is for. A
-/// target the library cannot be planned for is left to `run`, which
-/// refuses it by that planning.
-pub fn check_every_target(p: &Protocol, scene: &Scene, scale: f64) -> anyhow::Result<()> {
-    for target in Target::ALL {
+/// [`check`] as `study run` applies it on `targets` (the LM firmware, an
+/// AUTD3 rig: their timing differs): the library planned for each in
+/// `scene`; the first refusal names the device it is for. A target the
+/// library cannot be planned for is left to `run`, which refuses it by
+/// that planning.
+pub fn check_targets(
+    p: &Protocol,
+    scene: &Scene,
+    scale: f64,
+    targets: &[Target],
+) -> anyhow::Result<()> {
+    for &target in targets {
         let Ok(plans) = p.library.plan_for(&target, scene) else {
             continue;
         };
