@@ -6,7 +6,9 @@ use std::path::Path;
 use std::process::Command;
 
 mod link_support;
-use link_support::{emulator_json, fails, lmhost, run, scratch_dir, spread, success_json};
+use link_support::{
+    emulator_json, fails, lmhost, run, scratch_dir, send_signal, spread, success_json,
+};
 
 #[test]
 fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
@@ -325,11 +327,7 @@ fn sigterm_ends_a_hold_and_leaves_the_array_silent() {
         assert!(err.read_line(&mut line).unwrap() > 0, "{said}");
         said += &line;
     }
-    let killed = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
+    send_signal(&child, "TERM");
     let start = std::time::Instant::now();
     let o = child.wait_with_output().unwrap();
     assert!(

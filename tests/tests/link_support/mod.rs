@@ -132,6 +132,25 @@ fn said_one_line(out: &Output, code: i32, what: &str) -> String {
     err
 }
 
+/// Sends `child` the signal named `sig` (`TERM`, `INT`, `HUP`, …) with
+/// kill(1), which must succeed.
+#[track_caller]
+pub fn send_signal(child: &Child, sig: &str) {
+    let st = Command::new("kill")
+        .args([&format!("-{sig}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success(), "kill -{sig}");
+}
+
+/// The line a UDP finger source ends with, after its `lmhost: ` in a
+/// study: what it counted on local `port`, none lost in the kernel.
+pub fn udp_counts(port: u16, datagrams: u32, bad: u32) -> String {
+    format!(
+        "UDP 127.0.0.1:{port}: {datagrams} datagrams, {bad} skipped as bad, 0 lost in the kernel's receive buffer"
+    )
+}
+
 /// Parse stdout of a `--json` command.
 pub fn json(args: &[&str]) -> serde_json::Value {
     let text = ok(args);
