@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod link_support;
@@ -156,8 +156,6 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
 #[test]
 fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
     use std::io::{BufRead, BufReader, Write};
-    use std::sync::Arc;
-    use std::sync::atomic::{AtomicBool, Ordering};
 
     use nix::sys::termios::{LocalFlags, tcgetattr};
 
@@ -173,20 +171,7 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
         .spawn()
         .unwrap();
     // A run that stops answering is killed, so the test fails, not hangs.
-    let done = Arc::new(AtomicBool::new(false));
-    let watchdog = {
-        let (done, pid) = (done.clone(), child.id().to_string());
-        std::thread::spawn(move || {
-            let t0 = Instant::now();
-            while !done.load(Ordering::Relaxed) {
-                if t0.elapsed() > Duration::from_secs(120) {
-                    let _ = Command::new("kill").args(["-9", &pid]).status();
-                    return;
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        })
-    };
+    let watchdog = Watchdog::start(&child);
     let mut keys = std::fs::File::from(pty.master);
     let (mut typed, mut refused, mut log) = (Vec::new(), 0, Vec::new());
     for line in BufReader::new(child.stderr.take().unwrap()).lines() {
@@ -208,8 +193,7 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
         log.push(line);
     }
     let status = child.wait().unwrap();
-    done.store(true, Ordering::Relaxed);
-    watchdog.join().unwrap();
+    watchdog.stop();
     assert!(status.success(), "{status}: {}", log.join("\n"));
     assert_eq!(typed.len(), 150, "5 questions × 30 trials");
     // The participant's screen names no stimulus (the event log does).
