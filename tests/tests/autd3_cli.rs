@@ -3,29 +3,12 @@
 //! with mute on absence, untracked play), its JSON reports and exit codes.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 mod link_support;
-use link_support::{emulator_json, lmhost, run, scratch_dir, spread, success_json};
-
-fn one_line_error(o: &Output) -> String {
-    let e = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
-    e
-}
-
-/// Runs lmhost with `args`, asserts it exits with `code` and one line on
-/// stderr, and returns that line.
-fn fails(args: &[&str], code: i32) -> String {
-    let o = &run(args);
-    assert_eq!(
-        o.status.code(),
-        Some(code),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    one_line_error(o)
-}
+use link_support::{
+    emulator_json, fails, lmhost, run, scratch_dir, send_signal, spread, success_json,
+};
 
 #[test]
 fn upload_to_the_emulator_reports_grid_timing_and_a_clean_readback() {
@@ -296,9 +279,7 @@ fn autd3_ports_via_the_environment_and_bad_ones_everywhere() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for cmd in ["info", "status", "play", "stop", "stream"] {
-        let o = run(&[cmd, "--port", "autd3:soem:bad/if"]);
-        assert_eq!(o.status.code(), Some(2), "{cmd}");
-        one_line_error(&o);
+        fails(&[cmd, "--port", "autd3:soem:bad/if"], 2);
     }
     assert!(fails(&["info", "--port", "autd3:soem:eth0"], 1).contains("autd3-soem"));
 }
@@ -346,11 +327,7 @@ fn sigterm_ends_a_hold_and_leaves_the_array_silent() {
         assert!(err.read_line(&mut line).unwrap() > 0, "{said}");
         said += &line;
     }
-    let killed = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
+    send_signal(&child, "TERM");
     let start = std::time::Instant::now();
     let o = child.wait_with_output().unwrap();
     assert!(

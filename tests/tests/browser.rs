@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 mod browser_support;
 #[path = "link_support/mod.rs"]
 mod link_support;
-use browser_support::{Driver, Study, browser_present, decode_png, http, root};
+use browser_support::{Driver, Study, decode_png, http, study_folders};
 
 use lmhost::plan::scene::Scene;
 use lmhost::sense::track::camera::CameraSetup;
@@ -84,12 +84,9 @@ fn blue_radius(px: &[u8], w: u32, rect: [f64; 4], c: [f64; 2]) -> f64 {
 
 #[test]
 fn participant_page_shows_the_circles_and_answers_experiment_2() {
-    if !browser_present() {
+    let Some((_scratch, out, scene_file)) = study_folders("browser") else {
         return;
-    }
-    let scratch = link_support::scratch_dir("browser");
-    let out = scratch.join("out");
-    let scene_file = root().join("scenes/paper.toml");
+    };
     let Study {
         mut child,
         participant,
@@ -310,12 +307,9 @@ fn participant_page_shows_the_circles_and_answers_experiment_2() {
 /// own page is served.
 #[test]
 fn a_page_of_an_earlier_run_on_the_address_says_so() {
-    if !browser_present() {
+    let Some((_scratch, out, scene)) = study_folders("browser-rerun") else {
         return;
-    }
-    let scratch = link_support::scratch_dir("browser-rerun");
-    let out = scratch.join("out");
-    let scene = root().join("scenes/paper.toml");
+    };
     let port = std::net::TcpListener::bind("127.0.0.1:0")
         .unwrap()
         .local_addr()
@@ -366,12 +360,10 @@ fn a_page_of_an_earlier_run_on_the_address_says_so() {
 #[test]
 #[ignore = "a measurement for BENCHMARKS.md (70 s)"]
 fn measure_two_pages() {
-    if !browser_present() {
+    let Some((_scratch, out, scene)) = study_folders("browser-measure") else {
         return;
-    }
-    let scratch = link_support::scratch_dir("browser-measure");
-    let out = scratch.join("out");
-    let mut s = Study::start(&out, &root().join("scenes/paper.toml"));
+    };
+    let mut s = Study::start(&out, &scene);
     let pages = [&s.experimenter, &s.participant].map(|url| {
         let d = Driver::start();
         d.cmd("POST", "url", serde_json::json!({"url": url}));

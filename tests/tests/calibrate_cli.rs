@@ -14,7 +14,7 @@ use lmhost::plan::scene::camera::CameraPose;
 use lmhost::sense::track::intrinsics::Intrinsics;
 
 mod link_support;
-use link_support::{json_file, ok, run, scratch_dir};
+use link_support::{json_file, ok, one_line_error, run, scratch_dir};
 
 fn paper_scene() -> String {
     std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml"))
@@ -22,9 +22,7 @@ fn paper_scene() -> String {
 }
 
 fn refused(o: &Output, needle: &str) {
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    let err = one_line_error(o, 2);
     assert!(err.contains(needle), "{err}");
 }
 

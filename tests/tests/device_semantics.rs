@@ -7,7 +7,9 @@
 use std::time::{Duration, Instant};
 
 mod link_support;
-use link_support::{BRIEF_HOLD, Holder, Sim, assert_fields, detached, json, ok, run, upload_json};
+use link_support::{
+    BRIEF_HOLD, Holder, Sim, assert_fields, detached, fails, json, ok, run, upload_json,
+};
 
 fn status(port: &str) -> serde_json::Value {
     json(&["status", "--port", port, "--json"])
@@ -193,10 +195,7 @@ fn a_slot_the_device_lacks_is_bad_input() {
         &["play", "--port", p, "--slot", "32", "--untracked"],
         &["upload", "--port", p, "--slot", "40"],
     ] {
-        let out = run(args);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr_of(&out));
-        let err = stderr_of(&out);
-        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        let err = fails(args, 2);
         assert!(err.contains("slot") && err.contains("32 slots"), "{err}");
     }
     // Nothing reached the device.

@@ -4,16 +4,13 @@
 //! file is written; where it applies it is still taken.
 
 mod link_support;
-use link_support::{ok, run, scratch_dir};
+use link_support::{fails, ok, scratch_dir};
 
 /// `lmhost args…` exits 2 with one line on stderr naming `flag` and
 /// saying `why`.
 #[track_caller]
 fn refused(args: &[&str], flag: &str, why: &str) {
-    let o = run(args);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    let err = fails(args, 2);
     assert!(err.contains(flag) && err.contains(why), "{args:?}: {err}");
 }
 

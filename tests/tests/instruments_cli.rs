@@ -10,12 +10,10 @@ use std::process::Output;
 use lmhost::device::instruments::FingerPad;
 
 mod link_support;
-use link_support::{ok, run};
+use link_support::{ok, one_line_error, run};
 
 fn fails(o: &Output, code: i32, needle: &str) {
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(code), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    let err = one_line_error(o, code);
     assert!(err.contains(needle), "{err}");
 }
 

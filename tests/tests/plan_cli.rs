@@ -5,17 +5,10 @@
 //! (`link_support::lmhost`).
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 mod link_support;
-use link_support::{lmhost, scratch_dir};
-
-fn run(args: &[&str]) -> Output {
-    Command::new(lmhost())
-        .args(args)
-        .output()
-        .expect("lmhost runs")
-}
+use link_support::{fails, lmhost, run, scratch_dir};
 
 fn scene_path() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -92,10 +85,7 @@ fn bad_inputs_exit_2_with_one_line() {
         &["scene", "--scene", "/nonexistent/scene.toml"],
     ];
     for args in bad {
-        let o = run(args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}");
-        let err = String::from_utf8(o.stderr).unwrap();
-        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        let err = fails(args, 2);
         assert!(err.starts_with("error: "), "{err}");
         assert!(!err.contains("panicked"));
     }
@@ -249,11 +239,8 @@ fn a_file_of_another_kind_says_what_it_is() {
         ),
     ];
     for (args, says) in cases {
-        let o = run(args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}");
-        let err = String::from_utf8(o.stderr).unwrap();
+        let err = fails(args, 2);
         assert!(err.contains(says), "{args:?}: {err}");
-        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
     }
     assert!(!Path::new(&out).exists());
 }

@@ -6,17 +6,8 @@
 
 mod link_support;
 use link_support::{
-    Sim, assert_fields, emulator_json, json, json_file, ok, run, scratch_dir, upload_json,
+    Sim, assert_fields, emulator_json, fails, json, json_file, ok, scratch_dir, upload_json,
 };
-
-/// A run that must fail with exit `code` and one line on stderr; that line.
-fn fails(args: &[&str], code: i32) -> String {
-    let o = run(args);
-    let e = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(o.status.code(), Some(code), "{args:?}: {e}");
-    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
-    e
-}
 
 /// `plan ARGS --out DIR/NAME.{json,npy,bin}`; the paths, and `plan --json`.
 fn planned(d: &std::path::Path, name: &str, args: &[&str]) -> (Vec<String>, serde_json::Value) {

@@ -2,7 +2,9 @@
 //! play, stop, selftest, and the errors a user meets.
 
 mod link_support;
-use link_support::{BRIEF_HOLD, Sim, assert_fields, json, kill_a_holder_of, ok, run, upload_json};
+use link_support::{
+    BRIEF_HOLD, Sim, assert_fields, fails, json, kill_a_holder_of, ok, run, upload_json,
+};
 
 #[test]
 fn info_reports_device_limits() {
@@ -172,14 +174,11 @@ fn playing_an_empty_slot_fails_clearly() {
 
 #[test]
 fn no_port_lists_what_was_found() {
-    let out = run(&["info"]);
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = fails(&["info"], 2);
     assert!(
         err.contains("no LM board found") && err.contains("--port"),
         "{err}"
     );
-    assert_eq!(err.lines().count(), 1, "{err}");
 }
 
 #[test]

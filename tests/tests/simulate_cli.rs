@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 mod link_support;
-use link_support::{json_file, lmhost};
+use link_support::{json_file, lmhost, send_signal};
 
 fn run(args: &[&str]) -> Output {
     Command::new(lmhost())
@@ -245,11 +245,7 @@ fn a_signal_while_simulate_writes_says_so_and_leaves_no_unfinished_file() {
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
     assert!(writing, "simulate ended before it wrote anything");
-    let st = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(st.success());
+    send_signal(&child, "INT");
     let o = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(130), "{err}");

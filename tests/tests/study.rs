@@ -7,11 +7,11 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod link_support;
-use link_support::{Sim, json_file};
+use link_support::{Sim, json_file, one_line_error};
 #[allow(dead_code)]
 mod study_support;
 use study_support::*;
@@ -146,9 +146,7 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
     let o = study(&["report", out.to_str().unwrap(), "--width-mm", "10"])
         .output()
         .unwrap();
-    let err = refused(&o);
-    assert_eq!(err.lines().count(), 1, "{err}");
-    says(&err, &["--width-mm"]);
+    says(&one_line_error(&o, 2), &["--width-mm"]);
 }
 
 /// Single keys at a terminal: a pseudo-terminal as stdin, each question
@@ -158,8 +156,6 @@ fn exp1_on_the_emulator_records_every_trial_and_reports() {
 #[test]
 fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
     use std::io::{BufRead, BufReader, Write};
-    use std::sync::Arc;
-    use std::sync::atomic::{AtomicBool, Ordering};
 
     use nix::sys::termios::{LocalFlags, tcgetattr};
 
@@ -175,20 +171,7 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
         .spawn()
         .unwrap();
     // A run that stops answering is killed, so the test fails, not hangs.
-    let done = Arc::new(AtomicBool::new(false));
-    let watchdog = {
-        let (done, pid) = (done.clone(), child.id().to_string());
-        std::thread::spawn(move || {
-            let t0 = Instant::now();
-            while !done.load(Ordering::Relaxed) {
-                if t0.elapsed() > Duration::from_secs(120) {
-                    let _ = Command::new("kill").args(["-9", &pid]).status();
-                    return;
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        })
-    };
+    let watchdog = Watchdog::start(&child);
     let mut keys = std::fs::File::from(pty.master);
     let (mut typed, mut refused, mut log) = (Vec::new(), 0, Vec::new());
     for line in BufReader::new(child.stderr.take().unwrap()).lines() {
@@ -210,8 +193,7 @@ fn terminal_answers_are_single_keys_and_the_terminal_is_restored() {
         log.push(line);
     }
     let status = child.wait().unwrap();
-    done.store(true, Ordering::Relaxed);
-    watchdog.join().unwrap();
+    watchdog.stop();
     assert!(status.success(), "{status}: {}", log.join("\n"));
     assert_eq!(typed.len(), 150, "5 questions × 30 trials");
     // The participant's screen names no stimulus (the event log does).
@@ -267,11 +249,8 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
     let before = rows(&out.join("P01")).len();
     assert!((5..30).contains(&before), "{before} rows before the kill");
     // Without --resume the participant's folder is refused.
-    let e = refused(&run_exp1("autd3:emulator", &out, &answers, &[]));
-    assert!(
-        e.contains("--resume") && e.trim().lines().count() == 1,
-        "{e}"
-    );
+    let e = one_line_error(&run_exp1("autd3:emulator", &out, &answers, &[]), 2);
+    assert!(e.contains("--resume"), "{e}");
     // A different seed on --resume is refused too.
     let o = run_exp1(
         "autd3:emulator",
@@ -283,11 +262,12 @@ fn kill_9_then_resume_gives_the_uninterrupted_trials() {
     // The killed run ran at a time scale of 0.1: resuming at 0.02 is
     // another rig, refused with one line naming what differs, files as
     // they were.
-    let e = refused(&run_exp1("autd3:emulator", &out, &answers, &["--resume"]));
+    let e = one_line_error(
+        &run_exp1("autd3:emulator", &out, &answers, &["--resume"]),
+        2,
+    );
     assert!(
-        e.contains("the time scale (0.1 then, 0.02 now)")
-            && e.contains("--resume-anyway")
-            && e.trim().lines().count() == 1,
+        e.contains("the time scale (0.1 then, 0.02 now)") && e.contains("--resume-anyway"),
         "{e}"
     );
     assert_eq!(rows(&out.join("P01")).len(), before);
@@ -392,16 +372,14 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     let d = scratch("bad");
     let out = d.join("out");
     let lines = |o: &Output| String::from_utf8_lossy(&o.stderr).trim().to_owned();
-    // A bad answer names its line.
+    // A bad answer names its line, checked before the device opens.
     let answers = answers_file(&d, "3\n4\n5\n9\n");
     let o = run_exp1("autd3:emulator", &out, &answers, &["--seed", "1"]);
-    assert_eq!(o.status.code(), Some(2), "{}", lines(&o));
-    let e = lines(&o);
+    let e = one_line_error(&o, 2);
     assert!(
         e.contains("answers.txt line 4: `9` is not an answer"),
         "{e}"
     );
-    assert_eq!(e.lines().count(), 1, "checked before the device opens: {e}");
     assert!(!out.join("P01").exists(), "nothing written");
     // Too few answers: the line where they end.
     std::fs::write(&answers, "3\n".repeat(149)).unwrap();
@@ -432,13 +410,11 @@ fn bad_input_is_one_line_and_exit_2_before_the_device_opens() {
     ])
     .output()
     .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let e = lines(&o);
+    let e = one_line_error(&o, 2);
     assert!(
         e.contains("p.toml: line") && e.contains("`lms-5hz-a9`"),
         "{e}"
     );
-    assert_eq!(e.lines().count(), 1);
     // --resume with nothing to resume, then with another protocol.
     let resume3 = |out: &Path| {
         run_on(

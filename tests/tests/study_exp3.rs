@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::Output;
 
 mod link_support;
-use link_support::{Sim, json};
+use link_support::{Sim, json, send_signal};
 #[allow(dead_code)]
 mod study_support;
 use study_support::*;
@@ -196,14 +196,7 @@ fn ctrl_c_mid_push_still_brings_the_stage_back() {
     }
     // The stage is on its way in (0.8 s) or pushing (2 s).
     std::thread::sleep(std::time::Duration::from_millis(1200));
-    let pid = child.id().to_string();
-    assert!(
-        std::process::Command::new("kill")
-            .args(["-INT", &pid])
-            .status()
-            .unwrap()
-            .success()
-    );
+    send_signal(&child, "INT");
     let mut rest = String::new();
     std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
     let status = child.wait().unwrap();

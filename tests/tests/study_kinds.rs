@@ -10,7 +10,7 @@
 use std::path::Path;
 
 mod link_support;
-use link_support::{Sim, json_file};
+use link_support::{Sim, json_file, one_line_error};
 #[allow(dead_code)]
 mod study_support;
 use study_support::*;
@@ -87,9 +87,7 @@ fn the_simulated_device_refuses_an_am_its_steps_cannot_carry_in_one_line() {
     let answers = answers_file(&d, "4\n5\n");
     let refused = d.join("refused");
     let o = run(&proto, &sim.port, &refused, &answers);
-    assert_eq!(o.status.code(), Some(2), "{o:?}");
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    let err = one_line_error(&o, 2);
     assert!(
         err.contains("`am`") && err.contains("does not fit"),
         "{err}"

@@ -1,8 +1,7 @@
 //! `lmhost study run` answered on standard input: lines bounded, read one
 //! at a time as each question is asked, checked as they come.
 
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Stdio;
 
 mod link_support;
 #[allow(dead_code)]
@@ -51,20 +50,7 @@ fn responses_from_stdin_are_read_one_at_a_time_as_asked() {
     .stderr(Stdio::piped())
     .spawn()
     .unwrap();
-    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let watchdog = {
-        let (done, pid) = (done.clone(), child.id().to_string());
-        std::thread::spawn(move || {
-            let t0 = Instant::now();
-            while !done.load(std::sync::atomic::Ordering::Relaxed) {
-                if t0.elapsed() > Duration::from_secs(120) {
-                    let _ = Command::new("kill").args(["-9", &pid]).status();
-                    return;
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        })
-    };
+    let watchdog = Watchdog::start(&child);
     let mut stdin = child.stdin.take().unwrap();
     let mut given = Vec::new();
     let mut log = Vec::new();
@@ -87,8 +73,7 @@ fn responses_from_stdin_are_read_one_at_a_time_as_asked() {
     }
     drop(stdin);
     let status = child.wait().unwrap();
-    done.store(true, std::sync::atomic::Ordering::Relaxed);
-    watchdog.join().unwrap();
+    watchdog.stop();
     assert!(status.success(), "{status}: {}", log.join("\n"));
     assert_eq!(given.len(), 150, "one line per question asked");
     check_exp1(&rows(&out.join("P01")), &given);

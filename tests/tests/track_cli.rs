@@ -6,7 +6,8 @@ use std::process::Command;
 
 mod link_support;
 use link_support::{
-    Sim, assert_fields, json, lmhost, ok, run, run_stdin, scratch_dir, spread, stream_json,
+    Sim, assert_fields, json, lmhost, ok, one_line_error, run, run_stdin, scratch_dir, spread,
+    stream_json,
 };
 
 fn paper() -> String {
@@ -85,13 +86,6 @@ fn lines(out: &str) -> Vec<serde_json::Value> {
     out.lines()
         .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
         .collect()
-}
-
-fn one_line_error(out: &std::process::Output, code: i32) -> String {
-    let err = String::from_utf8_lossy(&out.stderr).to_string();
-    assert_eq!(out.status.code(), Some(code), "{err}");
-    assert_eq!(err.lines().count(), 1, "{err}");
-    err
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use super::link_support::lmhost;
+use super::link_support::{Scratch, lmhost, scratch_dir};
 
 /// Debian's chromedriver, or `LM_CHROMEDRIVER`.
 pub fn chromedriver() -> String {
@@ -256,6 +256,18 @@ pub fn browser_present() -> bool {
     );
     eprintln!("skipped: {why}");
     false
+}
+
+/// A browser test's start: without a browser `None` (the test is
+/// skipped, see [`browser_present`]); else a scratch folder `name` (its
+/// guard), the study's `out` folder in it and the paper's scene file.
+pub fn study_folders(name: &str) -> Option<(Scratch, PathBuf, PathBuf)> {
+    if !browser_present() {
+        return None;
+    }
+    let scratch = scratch_dir(name);
+    let out = scratch.join("out");
+    Some((scratch, out, root().join("scenes/paper.toml")))
 }
 
 /// `lmhost study run studies/paper-exp2.toml --view 0` on autd3's

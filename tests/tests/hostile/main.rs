@@ -494,20 +494,25 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    fixtures(&dir);
-    study_fixtures(&dir);
-    paper_fixtures(&dir);
-    exp3_fixtures(&dir);
-    sweep_fixtures(&dir);
-    files_fixtures(&dir);
-    wire_fixtures(&dir);
-    round8_fixtures(&dir);
-    round4_files_fixtures(&dir);
-    cases_r4_session::fixtures(&dir);
-    round10_fixtures(&dir);
-    round11_fixtures(&dir);
-    round13_fixtures(&dir);
-    round13b_fixtures(&dir);
+    let every_fixture: [fn(&Path); 14] = [
+        fixtures,
+        study_fixtures,
+        paper_fixtures,
+        exp3_fixtures,
+        sweep_fixtures,
+        files_fixtures,
+        wire_fixtures,
+        round8_fixtures,
+        round4_files_fixtures,
+        cases_r4_session::fixtures,
+        round10_fixtures,
+        round11_fixtures,
+        round13_fixtures,
+        round13b_fixtures,
+    ];
+    for write in every_fixture {
+        write(&dir);
+    }
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -525,26 +530,29 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     };
     ok(&["upload", "--port", &ctx.port, "--hold", "0.05"]);
 
-    let mut all = cases();
-    all.extend(study_cases());
-    all.extend(paper_cases());
-    all.extend(exp3_cases());
-    all.extend(sweep_cases());
-    all.extend(long_value_cases());
-    all.extend(files_cases());
-    all.extend(round4_files_cases());
-    // Last: the session cases preload the shared device's library.
-    all.extend(cases_r4_session::cases());
-    all.extend(round4_device_cases());
-    all.extend(cases_r4_view::view_cases());
-    all.extend(wire_cases());
-    all.extend(round8_cases());
-    all.extend(round9_cases());
-    all.extend(round10_cases());
-    all.extend(round11_cases());
-    all.extend(round12_cases());
-    all.extend(round13_cases());
-    all.extend(round13b_cases());
+    let tables: [fn() -> Vec<Case>; 19] = [
+        cases,
+        study_cases,
+        paper_cases,
+        exp3_cases,
+        sweep_cases,
+        long_value_cases,
+        files_cases,
+        round4_files_cases,
+        // Last: the session cases preload the shared device's library.
+        cases_r4_session::cases,
+        round4_device_cases,
+        cases_r4_view::view_cases,
+        wire_cases,
+        round8_cases,
+        round9_cases,
+        round10_cases,
+        round11_cases,
+        round12_cases,
+        round13_cases,
+        round13b_cases,
+    ];
+    let mut all: Vec<Case> = tables.iter().flat_map(|table| table()).collect();
     let only = std::env::var("LMHOST_HOSTILE_CLASS").ok();
     if let Some(prefix) = &only {
         all.retain(|c| c.class.starts_with(prefix.as_str()));

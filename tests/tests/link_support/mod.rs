@@ -108,6 +108,49 @@ pub fn ok(args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("utf-8 stdout")
 }
 
+/// The stderr of a run that must have ended with exit `code` and said
+/// exactly one line of UTF-8 there; that line (with its line break).
+#[track_caller]
+pub fn one_line_error(out: &Output, code: i32) -> String {
+    said_one_line(out, code, "")
+}
+
+/// Runs `lmhost args…`, which must end with exit `code` and exactly one
+/// line on stderr; that line.
+#[track_caller]
+pub fn fails(args: &[&str], code: i32) -> String {
+    said_one_line(&run(args), code, &format!("{args:?}: "))
+}
+
+/// [`one_line_error`], its failures' messages starting with `what`.
+#[track_caller]
+fn said_one_line(out: &Output, code: i32, what: &str) -> String {
+    let err = String::from_utf8(out.stderr.clone())
+        .unwrap_or_else(|e| panic!("{what}stderr is not UTF-8: {e}"));
+    assert_eq!(out.status.code(), Some(code), "{what}{err}");
+    assert_eq!(err.lines().count(), 1, "{what}{err}");
+    err
+}
+
+/// Sends `child` the signal named `sig` (`TERM`, `INT`, `HUP`, …) with
+/// kill(1), which must succeed.
+#[track_caller]
+pub fn send_signal(child: &Child, sig: &str) {
+    let st = Command::new("kill")
+        .args([&format!("-{sig}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success(), "kill -{sig}");
+}
+
+/// The line a UDP finger source ends with, after its `lmhost: ` in a
+/// study: what it counted on local `port`, none lost in the kernel.
+pub fn udp_counts(port: u16, datagrams: u32, bad: u32) -> String {
+    format!(
+        "UDP 127.0.0.1:{port}: {datagrams} datagrams, {bad} skipped as bad, 0 lost in the kernel's receive buffer"
+    )
+}
+
 /// Parse stdout of a `--json` command.
 pub fn json(args: &[&str]) -> serde_json::Value {
     let text = ok(args);

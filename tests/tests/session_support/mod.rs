@@ -110,16 +110,6 @@ pub fn presenting(sock: &Path, present: &str) -> (UnixStream, BufReader<UnixStre
     (s, r)
 }
 
-/// Sends the session `child` the signal named `sig` (`TERM`, `HUP`, …)
-/// with kill(1).
-pub fn send_signal(child: &std::process::Child, sig: &str) {
-    let st = Command::new("kill")
-        .args([&format!("-{sig}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(st.success(), "kill -{sig}");
-}
-
 /// Asserts a session ended with exit code 0 (saying `what` and its
 /// stderr otherwise).
 #[track_caller]

@@ -3,7 +3,10 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 use crate::link_support::lmhost;
 
@@ -132,6 +135,37 @@ pub fn with_stdin(c: &mut Command, mut input: impl std::io::Read + Send + 'stati
     let o = child.wait_with_output().unwrap();
     feeder.join().unwrap();
     o
+}
+
+/// Kills a run (SIGKILL) that has not ended 120 s after it started, so
+/// a run that stops answering fails its test rather than hangs it; told
+/// with [`Watchdog::stop`] once the run has ended.
+pub struct Watchdog {
+    done: Arc<AtomicBool>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+impl Watchdog {
+    pub fn start(child: &Child) -> Watchdog {
+        let done = Arc::new(AtomicBool::new(false));
+        let (ended, pid) = (done.clone(), child.id().to_string());
+        let thread = std::thread::spawn(move || {
+            let t0 = Instant::now();
+            while !ended.load(Ordering::Relaxed) {
+                if t0.elapsed() > Duration::from_secs(120) {
+                    let _ = Command::new("kill").args(["-9", &pid]).status();
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        });
+        Watchdog { done, thread }
+    }
+
+    pub fn stop(self) {
+        self.done.store(true, Ordering::Relaxed);
+        self.thread.join().unwrap();
+    }
 }
 
 /// Checks that a run ended as bad input (exit 2) with a last line of
