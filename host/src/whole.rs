@@ -6,8 +6,9 @@
 //! number from 0 to 4294967295" (the type's range, not the field's
 //! 1..=10000), `2.5` and `1e30` "invalid type: floating point", and only a
 //! value the type held reached the field's own check. [`Whole`] takes any
-//! number and refuses it in the field's words: `-1 is out of range
-//! 1..=10000`, `2.5 is not a whole number in 1..=10000`.
+//! number and refuses it in the field's words: `-1 is out of range:
+//! allowed 1..=10000`, `2.5 is not a whole number: allowed 1..=10000` (the
+//! words of a whole-number flag and of a control line's `repeat` too).
 
 use std::fmt;
 
@@ -28,9 +29,9 @@ pub enum FileNumber {
 
 impl FileNumber {
     /// The whole number in `lo..=hi` this is, or one line naming the
-    /// range: `VALUE is out of range LO..=HI` for a whole number outside
-    /// it (however large), `VALUE is not a whole number in LO..=HI` for a
-    /// fraction (`3.0` too: the file wrote a float).
+    /// range: `VALUE is out of range: allowed LO..=HI` for a whole number
+    /// outside it (however large), `VALUE is not a whole number: allowed
+    /// LO..=HI` for a fraction (`3.0` too: the file wrote a float).
     pub fn whole_in(self, lo: u64, hi: u64) -> Result<u64, String> {
         // In range, so it is a u64.
         self.within(lo.into(), hi.into()).map(|v| v as u64)
@@ -45,24 +46,37 @@ impl FileNumber {
 
     /// Both of them: every u64 and i64 range is one of i128.
     fn within(self, lo: i128, hi: i128) -> Result<i128, String> {
-        let range = format!("{lo}..={hi}");
+        let range = range(lo, hi);
         match self {
             FileNumber::Int(i) if (lo..=hi).contains(&i) => Ok(i),
-            FileNumber::Int(i) => Err(format!("{i} is out of range {range}")),
+            FileNumber::Int(i) => Err(format!("{i} is out of range: allowed {range}")),
             FileNumber::Float(f) => {
                 let whole = f.is_finite() && f.fract() == 0.0;
                 let inside = f >= lo as f64 && f <= hi as f64;
                 match (whole, inside) {
-                    (true, false) => Err(format!("{} is out of range {range}", show(f))),
+                    (true, false) => Err(format!("{} is out of range: allowed {range}", show(f))),
                     // `3.0`, not `3`: the number as written, not an integer.
-                    (true, true) => Err(format!("{f:.1} is not a whole number in {range}")),
+                    (true, true) => Err(format!("{f:.1} is not a whole number: allowed {range}")),
                     (false, _) if f.is_infinite() => {
-                        Err(format!("{} is out of range {range}", show(f)))
+                        Err(format!("{} is out of range: allowed {range}", show(f)))
                     }
-                    (false, _) => Err(format!("{} is not a whole number in {range}", show(f))),
+                    (false, _) => Err(format!(
+                        "{} is not a whole number: allowed {range}",
+                        show(f)
+                    )),
                 }
             }
         }
+    }
+}
+
+/// `lo..=hi` as every whole-number refusal names it (a file's field, a
+/// flag, a control line's `repeat`), the largest `u64` written as what it
+/// is (`2^64-1`), not as a float the message tidier would round.
+pub fn range(lo: i128, hi: i128) -> String {
+    match hi {
+        h if h == i128::from(u64::MAX) => format!("{lo}..=2^64-1"),
+        _ => format!("{lo}..={hi}"),
     }
 }
 
@@ -80,7 +94,7 @@ impl Visitor<'_> for NumberVisitor {
     type Value = FileNumber;
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
         match self.0 {
-            Some((lo, hi)) => write!(f, "a whole number in {lo}..={hi}"),
+            Some((lo, hi)) => write!(f, "a whole number in {}", range(lo.into(), hi.into())),
             None => f.write_str("a whole number"),
         }
     }
@@ -118,6 +132,18 @@ impl<const LO: u64, const HI: u64> Whole<LO, HI> {
     /// The number, as a `usize`.
     pub fn get_usize(self) -> usize {
         usize::try_from(self.0).unwrap_or(usize::MAX)
+    }
+
+    /// The number as a `T`, refused in the field's words when `T` cannot
+    /// hold it (a range wider than the type a struct keeps).
+    fn held<T: TryFrom<u64>, E: de::Error>(self) -> Result<T, E> {
+        T::try_from(self.0).map_err(|_| {
+            E::custom(format!(
+                "{} is out of range: allowed {}",
+                self.0,
+                range(LO.into(), HI.into())
+            ))
+        })
     }
 }
 
@@ -172,8 +198,7 @@ where
     D: Deserializer<'de>,
     T: TryFrom<u64>,
 {
-    let w = Whole::<LO, HI>::deserialize(d)?;
-    T::try_from(w.0).map_err(|_| de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0)))
+    Whole::<LO, HI>::deserialize(d)?.held()
 }
 
 /// As [`field`], for an optional field (`null` is none).
@@ -182,12 +207,9 @@ where
     D: Deserializer<'de>,
     T: TryFrom<u64>,
 {
-    match Option::<Whole<LO, HI>>::deserialize(d)? {
-        None => Ok(None),
-        Some(w) => T::try_from(w.0)
-            .map(Some)
-            .map_err(|_| de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0))),
-    }
+    Option::<Whole<LO, HI>>::deserialize(d)?
+        .map(Whole::held)
+        .transpose()
 }
 
 /// As [`field`], for rows of whole numbers.
@@ -198,15 +220,7 @@ where
 {
     let rows = Vec::<Vec<Whole<LO, HI>>>::deserialize(d)?;
     rows.into_iter()
-        .map(|r| {
-            r.into_iter()
-                .map(|w| {
-                    T::try_from(w.0).map_err(|_| {
-                        de::Error::custom(format!("{} is out of range {LO}..={HI}", w.0))
-                    })
-                })
-                .collect()
-        })
+        .map(|r| r.into_iter().map(Whole::held).collect())
         .collect()
 }
 
@@ -242,23 +256,28 @@ mod tests {
         assert_eq!(said("1"), Ok(1));
         assert_eq!(said("100"), Ok(100));
         for (v, msg) in [
-            ("0", "0 is out of range 1..=100"),
-            ("-1", "-1 is out of range 1..=100"),
-            ("101", "101 is out of range 1..=100"),
-            ("4294967296", "4294967296 is out of range 1..=100"),
+            ("0", "0 is out of range: allowed 1..=100"),
+            ("-1", "-1 is out of range: allowed 1..=100"),
+            ("101", "101 is out of range: allowed 1..=100"),
+            ("4294967296", "4294967296 is out of range: allowed 1..=100"),
             (
                 "9223372036854775807",
-                "9223372036854775807 is out of range 1..=100",
+                "9223372036854775807 is out of range: allowed 1..=100",
             ),
-            ("2.5", "2.5 is not a whole number in 1..=100"),
-            ("3.0", "3.0 is not a whole number in 1..=100"),
-            ("1e30", "1e30 is out of range 1..=100"),
-            ("-1e300", "-1e300 is out of range 1..=100"),
-            ("inf", "inf is out of range 1..=100"),
-            ("nan", "NaN is not a whole number in 1..=100"),
+            ("2.5", "2.5 is not a whole number: allowed 1..=100"),
+            ("3.0", "3.0 is not a whole number: allowed 1..=100"),
+            ("1e30", "1e30 is out of range: allowed 1..=100"),
+            ("-1e300", "-1e300 is out of range: allowed 1..=100"),
+            ("inf", "inf is out of range: allowed 1..=100"),
+            ("nan", "NaN is not a whole number: allowed 1..=100"),
         ] {
             assert_eq!(said(v), Err(msg.to_owned()), "{v}");
         }
+        // A seed's range: its top written as what it is, not rounded.
+        assert_eq!(
+            FileNumber::Int(-1).whole_in(0, u64::MAX),
+            Err("-1 is out of range: allowed 0..=2^64-1".to_owned())
+        );
         let s = said("\"3\"").unwrap_err();
         assert!(s.contains("expected a whole number in 1..=100"), "{s}");
     }
@@ -273,14 +292,14 @@ mod tests {
         assert_eq!(s("-5"), Ok(-5));
         assert_eq!(s("5"), Ok(5));
         for (v, msg) in [
-            ("-6", "-6 is out of range -5..=5"),
-            ("6", "6 is out of range -5..=5"),
-            ("-2.5", "-2.5 is not a whole number in -5..=5"),
-            ("-3.0", "-3.0 is not a whole number in -5..=5"),
-            ("1e30", "1e30 is out of range -5..=5"),
+            ("-6", "-6 is out of range: allowed -5..=5"),
+            ("6", "6 is out of range: allowed -5..=5"),
+            ("-2.5", "-2.5 is not a whole number: allowed -5..=5"),
+            ("-3.0", "-3.0 is not a whole number: allowed -5..=5"),
+            ("1e30", "1e30 is out of range: allowed -5..=5"),
             (
                 "18446744073709551615",
-                "18446744073709551615 is out of range -5..=5",
+                "18446744073709551615 is out of range: allowed -5..=5",
             ),
         ] {
             let e = s(v).unwrap_err();
@@ -293,9 +312,9 @@ mod tests {
         };
         assert_eq!(b("[0, 255]"), Ok(vec![0, 255]));
         for (v, msg) in [
-            ("[-1]", "-1 is out of range 0..=255"),
-            ("[256]", "256 is out of range 0..=255"),
-            ("[2.5]", "2.5 is not a whole number in 0..=255"),
+            ("[-1]", "-1 is out of range: allowed 0..=255"),
+            ("[256]", "256 is out of range: allowed 0..=255"),
+            ("[2.5]", "2.5 is not a whole number: allowed 0..=255"),
         ] {
             let e = b(v).unwrap_err();
             assert!(e.starts_with(msg), "{v}: {e}");
@@ -318,10 +337,10 @@ mod tests {
         assert!(
             j("256")
                 .unwrap_err()
-                .starts_with("256 is out of range 0..=255")
+                .starts_with("256 is out of range: allowed 0..=255")
         );
         let huge = j("18446744073709551616").unwrap_err();
-        assert!(huge.contains("is out of range 0..=255"), "{huge}");
+        assert!(huge.contains("is out of range: allowed 0..=255"), "{huge}");
         let text = j("\"7\"").unwrap_err();
         assert!(
             text.contains("expected a whole number in 0..=255"),
@@ -330,7 +349,7 @@ mod tests {
         assert!(
             j("-5")
                 .unwrap_err()
-                .starts_with("-5 is out of range 0..=255")
+                .starts_with("-5 is out of range: allowed 0..=255")
         );
     }
 }

@@ -554,7 +554,7 @@ mod tests {
         };
         assert!(
             e.to_string()
-                .contains(&format!("{too_many} is not in 1..=1000")),
+                .contains(&format!("{too_many} is out of range: allowed 1..=1000")),
             "{e}"
         );
     }

@@ -216,8 +216,8 @@ fn every_whole_number_flag_names_its_own_range() {
                 let mut args = path.clone();
                 args.extend([flag.clone(), v.into()]);
                 let e = parse(&args).expect_err(&args.join(" ")).to_string();
-                let named = e.contains(&format!("{v} is not in "))
-                    || e.contains(&format!("{v} is not a whole number in "));
+                let named = e.contains(&format!("{v} is out of range: allowed "))
+                    || e.contains(&format!("{v} is not a whole number: allowed "));
                 let type_range = (e.contains(&format!("..={type_max}"))
                     || (type_max == u64::MAX && e.contains("..=2^64-1")))
                     && !own_range_is_the_types(&flag);

@@ -8,9 +8,10 @@
 //! cannot hold (`-1 is not in 0..=4294967295`), never its own.
 
 /// A whole-number flag's parser: a value in `lo..=hi` (the flag's own
-/// range, which [`T`] holds), else `VALUE is not in LO..=HI` (`VALUE is
-/// not a whole number in LO..=HI` when it is not one: a fraction, a word,
-/// an exponent).
+/// range, which [`T`] holds), else `VALUE is out of range: allowed LO..=HI`
+/// (`VALUE is not a whole number: allowed LO..=HI` when it is not one: a
+/// fraction, a word, an exponent), in the words of a file's whole-number
+/// field ([`lmhost::whole`]).
 pub fn whole<T>(lo: u64, hi: u64) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
 where
     T: TryFrom<u64> + Clone + Send + Sync + 'static,
@@ -20,7 +21,7 @@ where
         "a range the type holds"
     );
     move |s: &str| {
-        let range = range(lo, hi);
+        let range = lmhost::whole::range(lo.into(), hi.into());
         // Digits alone (a sign is the one thing besides them a whole
         // number may carry): out of range, however many there are.
         let digits = s.strip_prefix(['-', '+']).unwrap_or(s);
@@ -28,17 +29,16 @@ where
             // An empty value or one with spaces shown as one (` 5` read
             // as "5 is not" named a value that would have been taken).
             return Err(match s {
-                "" => format!("an empty value is not a whole number in {range}"),
-                _ if s.trim() != s => format!("`{s}` is not a whole number in {range}"),
-                _ => format!("{s} is not a whole number in {range}"),
+                "" => format!("an empty value is not a whole number: allowed {range}"),
+                _ if s.trim() != s => format!("`{s}` is not a whole number: allowed {range}"),
+                _ => format!("{s} is not a whole number: allowed {range}"),
             });
         }
-        match s.parse::<u64>() {
-            Ok(v) if (lo..=hi).contains(&v) => {
-                T::try_from(v).map_err(|_| format!("{s} is not in {range}"))
-            }
-            _ => Err(format!("{s} is not in {range}")),
-        }
+        s.parse::<u64>()
+            .ok()
+            .filter(|v| (lo..=hi).contains(v))
+            .and_then(|v| T::try_from(v).ok())
+            .ok_or_else(|| format!("{s} is out of range: allowed {range}"))
     }
 }
 
@@ -70,14 +70,6 @@ where
     }
 }
 
-/// `lo..=hi`, the largest `u64` written as what it is.
-fn range(lo: u64, hi: u64) -> String {
-    match hi {
-        u64::MAX => format!("{lo}..=2^64-1"),
-        _ => format!("{lo}..={hi}"),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -88,20 +80,20 @@ mod tests {
         assert_eq!(p("1"), Ok(1));
         assert_eq!(p("+90"), Ok(90));
         for (v, want) in [
-            ("0", "0 is not in 1..=90"),
-            ("91", "91 is not in 1..=90"),
-            ("-1", "-1 is not in 1..=90"),
-            ("4294967296", "4294967296 is not in 1..=90"),
+            ("0", "0 is out of range: allowed 1..=90"),
+            ("91", "91 is out of range: allowed 1..=90"),
+            ("-1", "-1 is out of range: allowed 1..=90"),
+            ("4294967296", "4294967296 is out of range: allowed 1..=90"),
             (
                 "99999999999999999999999",
-                "99999999999999999999999 is not in 1..=90",
+                "99999999999999999999999 is out of range: allowed 1..=90",
             ),
-            ("1.5", "1.5 is not a whole number in 1..=90"),
-            ("1e3", "1e3 is not a whole number in 1..=90"),
-            ("", "an empty value is not a whole number in 1..=90"),
-            (" 5", "` 5` is not a whole number in 1..=90"),
-            ("-", "- is not a whole number in 1..=90"),
-            ("٣", "٣ is not a whole number in 1..=90"),
+            ("1.5", "1.5 is not a whole number: allowed 1..=90"),
+            ("1e3", "1e3 is not a whole number: allowed 1..=90"),
+            ("", "an empty value is not a whole number: allowed 1..=90"),
+            (" 5", "` 5` is not a whole number: allowed 1..=90"),
+            ("-", "- is not a whole number: allowed 1..=90"),
+            ("٣", "٣ is not a whole number: allowed 1..=90"),
         ] {
             assert_eq!(p(v), Err(want.to_owned()), "{v}");
         }
@@ -109,11 +101,11 @@ mod tests {
         assert_eq!(seed("18446744073709551615"), Ok(u64::MAX));
         assert_eq!(
             seed("18446744073709551616"),
-            Err("18446744073709551616 is not in 0..=2^64-1".to_owned())
+            Err("18446744073709551616 is out of range: allowed 0..=2^64-1".to_owned())
         );
         assert_eq!(
             whole::<u8>(0, 255)("256"),
-            Err("256 is not in 0..=255".into())
+            Err("256 is out of range: allowed 0..=255".into())
         );
     }
 
@@ -126,15 +118,15 @@ mod tests {
         assert_eq!(p("255"), Ok(255));
         // What no rule of the library sees: named by the flag's range.
         for (v, want) in [
-            ("-1", "-1 is not in 1..=32"),
-            ("256", "256 is not in 1..=32"),
+            ("-1", "-1 is out of range: allowed 1..=32"),
+            ("256", "256 is out of range: allowed 1..=32"),
             (
                 "99999999999999999999999",
-                "99999999999999999999999 is not in 1..=32",
+                "99999999999999999999999 is out of range: allowed 1..=32",
             ),
-            ("1.5", "1.5 is not a whole number in 1..=32"),
-            ("", "an empty value is not a whole number in 1..=32"),
-            ("+", "+ is not a whole number in 1..=32"),
+            ("1.5", "1.5 is not a whole number: allowed 1..=32"),
+            ("", "an empty value is not a whole number: allowed 1..=32"),
+            ("+", "+ is not a whole number: allowed 1..=32"),
         ] {
             assert_eq!(p(v), Err(want.to_owned()), "{v}");
         }

@@ -308,21 +308,21 @@ pub(crate) fn round11_cases() -> Vec<Case> {
     ]);
     v.extend(table![
         // 1. A whole-number flag names its own range.
-        R11_WHOLE "track --synthetic --fast --enter-frames -1" .err("-1 is not in 1..=90");
+        R11_WHOLE "track --synthetic --fast --enter-frames -1" .err("-1 is out of range: allowed 1..=90");
         R11_WHOLE "track --synthetic --fast --leave-frames 4294967296"
-            .err("4294967296 is not in 1..=90");
-        R11_WHOLE "info --port {port} --timeout-ms -1" .err("-1 is not in 1..=60000");
-        R11_WHOLE "info --port {port} --tries 99999999999999999999" .err("is not in 1..=100")
+            .err("4294967296 is out of range: allowed 1..=90");
+        R11_WHOLE "info --port {port} --timeout-ms -1" .err("-1 is out of range: allowed 1..=60000");
+        R11_WHOLE "info --port {port} --tries 99999999999999999999" .err("is out of range: allowed 1..=100")
             .check(short_numbers);
-        R11_WHOLE "sim --slot-steps 4294967296" .err("4294967296 is not in 1..=65535");
-        R11_WHOLE "sim --centroid-timeout-ms -1" .err("-1 is not in 0..=3600000");
-        R11_WHOLE "plan --steps 1.5" .err("1.5 is not a whole number in 1..=65535");
-        R11_WHOLE "plan --foci -1" .err("-1 is not in 1..=32");
+        R11_WHOLE "sim --slot-steps 4294967296" .err("4294967296 is out of range: allowed 1..=65535");
+        R11_WHOLE "sim --centroid-timeout-ms -1" .err("-1 is out of range: allowed 0..=3600000");
+        R11_WHOLE "plan --steps 1.5" .err("1.5 is not a whole number: allowed 1..=65535");
+        R11_WHOLE "plan --foci -1" .err("-1 is out of range: allowed 1..=32");
         R11_WHOLE "wiring --channels-per-board 1e3"
-            .err("1e3 is not a whole number in 1..=64");
-        R11_WHOLE "study check {dir}/study/mini.toml --seed -1" .err("-1 is not in 0..=2^64-1");
+            .err("1e3 is not a whole number: allowed 1..=64");
+        R11_WHOLE "study check {dir}/study/mini.toml --seed -1" .err("-1 is out of range: allowed 0..=2^64-1");
         R11_WHOLE "status --port {port}" .env("LMHOST_TIMEOUT_MS", "-5")
-            .err("-5 is not in 1..=60000 (the value of $LMHOST_TIMEOUT_MS");
+            .err("-5 is out of range: allowed 1..=60000 (the value of $LMHOST_TIMEOUT_MS");
         // 2. A message lists a few of many and counts the rest.
         R11_LISTS "study report {dir}/r11/many" .err("no participant folder")
             .err("skipped d1, d10, d100, d101, d102, d103, d104, d105, … and 292 more (the first: ")

@@ -238,8 +238,8 @@ fn header_only() -> Vec<u8> {
 /// What `v` (a [`NOT_WHOLE`] value) is said to be, against `range`.
 fn said(v: &str, range: &str) -> String {
     match v {
-        "2.5" | "3.0" => format!("{v} is not a whole number in {range}"),
-        _ => format!("{v} is out of range {range}"),
+        "2.5" | "3.0" => format!("{v} is not a whole number: allowed {range}"),
+        _ => format!("{v} is out of range: allowed {range}"),
     }
 }
 
@@ -514,14 +514,14 @@ fn flag_values() -> Vec<Case> {
         with("plan --freq", " 5".into())
             .err("` 5` is not a number (white space around it): give one such as"),
         with("plan --steps", String::new())
-            .err("an empty value is not a whole number in 1..=65535"),
-        with("plan --steps", " 5".into()).err("` 5` is not a whole number in 1..=65535"),
+            .err("an empty value is not a whole number: allowed 1..=65535"),
+        with("plan --steps", " 5".into()).err("` 5` is not a whole number: allowed 1..=65535"),
         with("plan --radius", long.clone())
             .err("…(20000 characters)…")
             .check(short_refusal),
         with("plan --steps", long)
             .err("…(20000 characters)…")
-            .err("is not a whole number in 1..=65535")
+            .err("is not a whole number: allowed 1..=65535")
             .check(short_refusal),
         with("plan --radius", "1\n".repeat(500))
             .err("1\\n1\\n")

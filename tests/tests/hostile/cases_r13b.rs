@@ -29,93 +29,101 @@ const REPORT_EDITS: [(&str, &str, &str); 12] = [
     (
         "/header/steps",
         "-1",
-        "header.steps: -1 is out of range 1..=65535",
+        "header.steps: -1 is out of range: allowed 1..=65535",
     ),
     (
         "/header/steps",
         "2.5",
-        "header.steps: 2.5 is not a whole number in 1..=65535",
+        "header.steps: 2.5 is not a whole number: allowed 1..=65535",
     ),
     (
         "/header/steps",
         "1e30",
-        "header.steps: 1e30 is out of range 1..=65535",
+        "header.steps: 1e30 is out of range: allowed 1..=65535",
     ),
     (
         "/header/transducers",
         "70000",
-        "header.transducers: 70000 is out of range 1..=65535",
+        "header.transducers: 70000 is out of range: allowed 1..=65535",
     ),
     (
         "/header/period_us",
         "-3",
-        "header.period_us: -3 is out of range 1..=4294967295",
+        "header.period_us: -3 is out of range: allowed 1..=4294967295",
     ),
     (
         "/header/intensity",
         "256",
-        "header.intensity: 256 is out of range 0..=255",
+        "header.intensity: 256 is out of range: allowed 0..=255",
     ),
     (
         "/header/sound_speed_mm_s",
         "5",
-        "header.sound_speed_mm_s: 5 is out of range 100000..=2000000",
+        "header.sound_speed_mm_s: 5 is out of range: allowed 100000..=2000000",
     ),
     (
         "/header/center_um/2",
         "-1e12",
-        "header.center_um[2]: -1e12 is out of range -2147483648..=2147483647",
+        "header.center_um[2]: -1e12 is out of range: allowed -2147483648..=2147483647",
     ),
-    ("/crc32", "-1", "crc32: -1 is out of range 0..=4294967295"),
+    (
+        "/crc32",
+        "-1",
+        "crc32: -1 is out of range: allowed 0..=4294967295",
+    ),
     (
         "/foci_per_step",
         "99",
-        "foci_per_step: 99 is out of range 1..=32",
+        "foci_per_step: 99 is out of range: allowed 1..=32",
     ),
     (
         "/timing/steps",
         "0.5",
-        "timing.steps: 0.5 is not a whole number in 1..=65535",
+        "timing.steps: 0.5 is not a whole number: allowed 1..=65535",
     ),
     (
         "/phases/1/3",
         "-1",
-        "phases[1][3]: -1 is out of range 0..=255",
+        "phases[1][3]: -1 is out of range: allowed 0..=255",
     ),
 ];
 
 /// Edits of a study's `session.json`, as [`REPORT_EDITS`].
 const SESSION_EDITS: [(&str, &str, &str); 7] = [
-    ("/seed", "-1", "field `seed`: -1 is out of range 0..="),
+    (
+        "/seed",
+        "-1",
+        "field `seed`: -1 is out of range: allowed 0..=",
+    ),
     (
         "/index",
         "0",
-        "field `index`: 0 is out of range 1..=1000000",
+        "field `index`: 0 is out of range: allowed 1..=1000000",
     ),
     (
         "/trials/0/trial",
         "2.5",
-        "field `trials[0].trial`: 2.5 is not a whole number in 1..=10000",
+        "field `trials[0].trial`: 2.5 is not a whole number: allowed 1..=10000",
     ),
     (
         "/trials/0/condition",
         "1e30",
-        "field `trials[0].condition`: 1e30 is out of range 0..=999",
+        "field `trials[0].condition`: 1e30 is out of range: allowed 0..=999",
     ),
     (
         "/trials/0/orders",
         "[[-1]]",
-        "field `trials[0].orders[0][0]`: -1 is out of range 0..=8",
+        "field `trials[0].orders[0][0]`: -1 is out of range: allowed 0..=8",
     ),
     (
         "/runs/0/first_trial",
         "-1",
-        "field `runs[0].first_trial`: -1 is out of range 1..=10000",
+        "field `runs[0].first_trial`: -1 is out of range: allowed 1..=10000",
     ),
     (
         "/runs/0/started_unix_s",
         "-5",
-        "field `runs[0].started_unix_s`: -5 is out of range 0..=",
+        "field `runs[0].started_unix_s`: -5 is out of range: allowed 0..=",
     ),
 ];
 
@@ -172,11 +180,17 @@ pub(crate) fn round13b_cases() -> Vec<Case> {
         );
     }
     for (name, said) in [
-        ("ph_neg", "phases[0][0]: -1 is out of range 0..=255"),
-        ("ph_big", "phases[0][0]: 300 is out of range 0..=255"),
+        (
+            "ph_neg",
+            "phases[0][0]: -1 is out of range: allowed 0..=255",
+        ),
+        (
+            "ph_big",
+            "phases[0][0]: 300 is out of range: allowed 0..=255",
+        ),
         (
             "ph_frac",
-            "phases[0][0]: 2.5 is not a whole number in 0..=255",
+            "phases[0][0]: 2.5 is not a whole number: allowed 0..=255",
         ),
     ] {
         v.push(case(R13_JSON_WHOLE, &format!("{upload}/{name}.json")).err(said));

@@ -120,17 +120,17 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
                           --stage-step-um nan" .err("sim: stage step NaN µm/pulse");
         // `--udp 0` binds a port no tracker is told: refused as `stream` does.
         SWEEP_EVERY_PATH "session --library {scenes}/../studies/paper-library.toml \
-                          --port autd3:emulator --control - --udp 0" .err("0 is not in 1..=65535");
+                          --port autd3:emulator --control - --udp 0" .err("0 is out of range: allowed 1..=65535");
         SWEEP_EVERY_PATH "study run {dir}/study/mini.toml --port autd3:emulator --out {dir}/r6/out \
                           --responses {dir}/study/ans.txt --participant udp0 --udp 0"
-                         .err("0 is not in 1..=65535");
+                         .err("0 is out of range: allowed 1..=65535");
         // The message they now share with stream.
-        SWEEP_EVERY_PATH "stream --port {port} --udp 0" .err("0 is not in 1..=65535");
+        SWEEP_EVERY_PATH "stream --port {port} --udp 0" .err("0 is out of range: allowed 1..=65535");
         // 3. A negative value is the flag's value, refused by its range (it
         //    was an unknown flag `-1`) or taken where the range allows it.
-        SWEEP_NEGATIVE "sim --slot-steps -1" .err("-1 is not in 1..=65535");
+        SWEEP_NEGATIVE "sim --slot-steps -1" .err("-1 is out of range: allowed 1..=65535");
         SWEEP_NEGATIVE "doctor --timeout-ms -1" .err("invalid value '-1' for '--timeout-ms <MS>'");
-        SWEEP_NEGATIVE "upload --port {port} --tries -1" .err("-1 is not in 1..=100");
+        SWEEP_NEGATIVE "upload --port {port} --tries -1" .err("-1 is out of range: allowed 1..=100");
         SWEEP_NEGATIVE "track --synthetic --seconds 0.3 --fast --plot {dir}/r6/plot --plot-frame -1"
                        .err("invalid value '-1' for '--plot-frame <N>'");
         SWEEP_NEGATIVE "plan --steps -5" .err("invalid value '-5' for '--steps <N>'");
@@ -159,7 +159,7 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         PATH_MESSAGES "status --port {port}" .env("LMHOST_TIMEOUT_MS", "0")
                       .err("(the value of $LMHOST_TIMEOUT_MS; see --help)");
         PATH_MESSAGES "status --port {port} --timeout-ms 0" .env("LMHOST_TIMEOUT_MS", "50")
-                      .err("0 is not in 1..=60000 (see --help)");
+                      .err("0 is out of range: allowed 1..=60000 (see --help)");
         // A path that opens but is no serial port, in words (not the OS's
         // "Not a typewriter").
         PATH_MESSAGES "status --port /dev/null" .code(1).err("/dev/null: not a serial port");

@@ -160,9 +160,9 @@ pub(crate) fn round8_cases() -> Vec<Case> {
             .err("{dir}/r8/ts_three.npy: 3 time stamps for 2 frames in {dir}/ok.npy");
         // 6. Quoted numbers tidied: the toml crate's and a stream's.
         NOTICED_TIDY "track --depth {dir}/ok.npy --intrinsics {dir}/r8/cam_w.toml --scene {scenes}/paper.toml --fast"
-            .err("line 1, field `width`: 1e300 is out of range 1..=8192").check(short);
+            .err("line 1, field `width`: 1e300 is out of range: allowed 1..=8192").check(short);
         NOTICED_TIDY "session --port autd3:emulator --control - --library {dir}/r8/lib_steps.toml"
-            .err("field `stimulus[0].steps`: 1e300 is out of range 1..=65535").check(short);
+            .err("field `stimulus[0].steps`: 1e300 is out of range: allowed 1..=65535").check(short);
         NOTICED_TIDY "stream --port {port}" .stdin(&nines)
             .err("line 1: `999999…(400 digits)` is not a `present` value").check(short);
         // 7. Values that change nothing.

@@ -213,8 +213,8 @@ mod tests {
         assert!(replay(&mut quest(), &many).is_err());
         // A count that is no count is refused, not taken for none.
         for (c, said) in [
-            ("-1", "-1 is out of range 0..=4294967295"),
-            ("2.5", "2.5 is not a whole number in 0..=4294967295"),
+            ("-1", "-1 is out of range: allowed 0..=4294967295"),
+            ("2.5", "2.5 is not a whole number: allowed 0..=4294967295"),
             ("\"2\"", "expected a whole number"),
         ] {
             let line =

@@ -143,7 +143,7 @@ fn header<'de, D: serde::Deserializer<'de>>(d: D) -> Result<lm_proto::UploadHead
 }
 
 /// `text` read as a `T`; an error names the field it is in
-/// (`header.steps: -1 is out of range 1..=65535 at line 1 column 9`).
+/// (`header.steps: -1 is out of range: allowed 1..=65535 at line 1 column 9`).
 pub(super) fn from_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, String> {
     let mut de = serde_json::Deserializer::from_str(text);
     serde_path_to_error::deserialize(&mut de).map_err(|e| {

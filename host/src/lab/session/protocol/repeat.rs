@@ -7,6 +7,7 @@
 use serde::Deserialize as _;
 
 use crate::lab::session::MAX_REPEAT;
+use crate::whole::FileNumber;
 
 /// `repeat` as `Present` reads it: absent or `null` is None.
 pub fn opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Error> {
@@ -17,9 +18,10 @@ pub fn opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Err
     }
 }
 
-/// The on-phases `v` asks for, or what is wrong with it (one line).
+/// The on-phases `v` asks for, or what is wrong with it (one line): a
+/// number judged as a file's whole-number field is ([`crate::whole`]).
 pub fn check(v: &serde_json::Value) -> Result<u32, String> {
-    let range = format!("allowed 1..={MAX_REPEAT}");
+    let range = crate::whole::range(1, MAX_REPEAT.into());
     let kind = match v {
         serde_json::Value::Number(_) => "",
         serde_json::Value::String(_) => "a string",
@@ -28,31 +30,16 @@ pub fn check(v: &serde_json::Value) -> Result<u32, String> {
         _ => "an object",
     };
     let serde_json::Value::Number(n) = v else {
-        return Err(format!("`repeat` is {kind}, not a number: {range}"));
+        return Err(format!("`repeat` is {kind}, not a number: allowed {range}"));
     };
-    if let Some(i) = n
-        .as_u64()
-        .filter(|i| (1..=u64::from(MAX_REPEAT)).contains(i))
-    {
-        return Ok(i as u32);
-    }
-    if let Some(i) = n.as_i64() {
-        return Err(format!("repeat {i} is out of range: {range}"));
-    }
-    if let Some(u) = n.as_u64() {
-        return Err(format!("repeat {u} is out of range: {range}"));
-    }
-    let f = n.as_f64().unwrap_or(f64::NAN);
-    let whole = f.fract() == 0.0;
-    let shown = match whole && f.abs() < 1e15 {
-        // `3.0`, not `3`: the number as sent, which is not an integer.
-        true => format!("{f:.1}"),
-        false => crate::limits::show(f),
+    let n = match (n.as_i64(), n.as_u64()) {
+        (Some(i), _) => FileNumber::Int(i.into()),
+        (None, Some(u)) => FileNumber::Int(u.into()),
+        (None, None) => FileNumber::Float(n.as_f64().unwrap_or(f64::NAN)),
     };
-    if whole && !(1.0..=f64::from(MAX_REPEAT)).contains(&f) {
-        return Err(format!("repeat {shown} is out of range: {range}"));
-    }
-    Err(format!("repeat {shown} is not a whole number: {range}"))
+    n.whole_in(1, MAX_REPEAT.into())
+        .map(|r| r as u32)
+        .map_err(|e| format!("repeat {e}"))
 }
 
 #[cfg(test)]

@@ -201,7 +201,11 @@ fn timeline(file: &File, e: &Errors) -> Result<Timeline, InputError> {
             let max = crate::lab::session::MAX_REPEAT;
             let n = r.get_ref().get();
             if !(1..=max).contains(&n) {
-                return Err(e.at(r.span(), "repeat", format!("{n} is out of range 1..={max}")));
+                return Err(e.at(
+                    r.span(),
+                    "repeat",
+                    format!("{n} is out of range: allowed 1..={max}"),
+                ));
             }
             if let Some(what) = procedure {
                 return Err(e.at(

@@ -237,7 +237,7 @@ fn in_range(v: f64, lo: f64, hi: f64) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "{} is out of range {}..={}",
+            "{} is out of range: allowed {}..={}",
             show(v),
             show(lo),
             show(hi)
