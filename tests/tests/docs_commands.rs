@@ -17,9 +17,10 @@
 
 mod link_support;
 use link_support::{Sim, lmhost, scratch_dir};
-use std::io::Read as _;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// The documents whose fenced `sh` blocks hold `lmhost` command lines.
@@ -30,9 +31,11 @@ const DOCS: &[&str] = &["README.md", "BRINGUP.md", "firmware/nucleo-h743/README.
 enum Expect {
     /// Exit with this status, stdout or stderr containing the text.
     Exit(i32, &'static str),
-    /// Still running (it holds the device) after this many seconds; Ctrl-C
-    /// (SIGINT) then ends it with exit 0.
-    Interrupt(u64),
+    /// Says this text once it holds the device (its "until Ctrl-C" line),
+    /// is still running [`HOLD`] later, and Ctrl-C (SIGINT) then ends it
+    /// with exit 0. Waiting for the line, not a fixed time, so a slow
+    /// machine's upload is not interrupted before it plays.
+    Interrupt(&'static str),
     /// Not run here.
     Skip,
 }
@@ -108,7 +111,7 @@ const RULES: &[Rule] = &[
         doc: "README.md",
         has: "upload --port /dev/pts/7",
         replace: &[],
-        expect: Interrupt(2),
+        expect: Interrupt("until Ctrl-C"),
         why: "plays until Ctrl-C, as the text says",
     },
     Rule {
@@ -124,9 +127,9 @@ const RULES: &[Rule] = &[
     Rule {
         doc: "README.md",
         has: "--udp 9000",
-        replace: &[],
-        expect: Interrupt(2),
-        why: "waits for datagrams until Ctrl-C",
+        replace: &[("--udp 9000", "--udp 9000 --seconds 1")],
+        expect: Exit(0, "streamed 0 samples"),
+        why: "ends after --seconds (10 by default) without a datagram: 1 s here",
     },
     Rule {
         doc: "README.md",
@@ -181,7 +184,7 @@ const RULES: &[Rule] = &[
         doc: "README.md",
         has: "lmhost session --library",
         replace: &[],
-        expect: Interrupt(3),
+        expect: Interrupt("control socket"),
         why: "serves its control socket until quit or Ctrl-C (python/tests runs the README's client)",
     },
     Rule {
@@ -269,7 +272,7 @@ const RULES: &[Rule] = &[
         doc: "BRINGUP.md",
         has: "lmhost upload --radius 3 --foci 4 --untracked",
         replace: &[],
-        expect: Interrupt(2),
+        expect: Interrupt("until Ctrl-C"),
         why: "plays until Ctrl-C (LMHOST_PORT stands in for the board found by USB id)",
     },
     Rule {
@@ -396,6 +399,9 @@ fn fixtures(dir: &Path, root: &Path) {
 
 /// A line that runs longer than this fails: shorten it or skip it above.
 const DEADLINE: Duration = Duration::from_secs(120);
+/// How long a command that holds the device must go on holding it after
+/// saying so, before Ctrl-C.
+const HOLD: Duration = Duration::from_millis(500);
 
 /// Run `cmd` in `sh` and check it does what `expect` says; an error text
 /// on failure.
@@ -420,28 +426,39 @@ fn check(cmd: &str, expect: Expect, dir: &Path, port: &str) -> Result<(), String
         .spawn()
         .map_err(|e| e.to_string())?;
     // Drain both pipes on threads, so a long report cannot block the child.
-    let mut so = child.stdout.take().unwrap();
-    let mut se = child.stderr.take().unwrap();
-    let so = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = so.read_to_string(&mut s);
-        s
-    });
-    let se = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = se.read_to_string(&mut s);
-        s
-    });
+    let so = child.stdout.take().unwrap();
+    let se = child.stderr.take().unwrap();
+    // Both pipes, as they come (an `Interrupt` waits for a line of them).
+    let both = Arc::new(Mutex::new(String::new()));
+    let drain = |mut pipe: Box<dyn Read + Send>| {
+        let both = both.clone();
+        std::thread::spawn(move || {
+            let mut own = Vec::new();
+            let mut buf = [0u8; 4096];
+            while let Ok(n @ 1..) = pipe.read(&mut buf) {
+                own.extend_from_slice(&buf[..n]);
+                both.lock()
+                    .unwrap()
+                    .push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+            String::from_utf8_lossy(&own).into_owned()
+        })
+    };
+    let (so, se) = (drain(Box::new(so)), drain(Box::new(se)));
     let start = Instant::now();
+    let mut held_since = None;
     let mut interrupted = false;
     let status = loop {
         if let Some(st) = child.try_wait().map_err(|e| e.to_string())? {
             break st;
         }
-        if let Interrupt(s) = expect
-            && !interrupted
-            && start.elapsed() >= Duration::from_secs(s)
+        if let Interrupt(says) = expect
+            && held_since.is_none()
+            && both.lock().unwrap().contains(says)
         {
+            held_since = Some(Instant::now());
+        }
+        if !interrupted && held_since.is_some_and(|t| t.elapsed() >= HOLD) {
             Command::new("kill")
                 .args(["-INT", &child.id().to_string()])
                 .status()
@@ -481,10 +498,10 @@ fn check(cmd: &str, expect: Expect, dir: &Path, port: &str) -> Result<(), String
                 return Err(format!("output lacks {says:?}: {}", tail(&both)));
             }
         }
-        Interrupt(s) => {
+        Interrupt(says) => {
             if !interrupted {
                 return Err(format!(
-                    "ended within {s} s (exit {:?}) though it should hold until Ctrl-C: {}",
+                    "ended (exit {:?}) before it said {says:?} and held {HOLD:?}, though it should hold until Ctrl-C: {}",
                     status.code(),
                     tail(&err)
                 ));
