@@ -114,6 +114,11 @@ fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
             library.to_str().unwrap(),
             "--port",
             &tcp,
+            // A lease far beyond the slow link's reply timeout: QEMU's
+            // UART on a loaded machine must not end a play (a host late
+            // renewing it is `lease_expired`, not what this test times).
+            "--lease",
+            "30",
             "--control",
             "-",
         ])
@@ -177,7 +182,7 @@ fn a_session_on_the_firmware_under_qemu_switches_and_times_from_events() {
     let timed = events
         .iter()
         .find(|e| e["event"] == "offset" && e["reason"] == "timer")
-        .unwrap();
+        .unwrap_or_else(|| panic!("no timed offset: {events:?}"));
     let device = timed["device_presented_s"].as_f64().unwrap();
     // The firmware timed the on-phase itself: 2 s to half a dwell (5 Hz,
     // 82 steps: 2.439 ms).

@@ -247,6 +247,8 @@ impl Command {
 pub enum OffsetReason {
     /// Its `on_s` elapsed.
     Timer,
+    /// The device silenced itself: the host's lease lapsed (it stalled).
+    LeaseExpired,
     /// A `stop` command.
     Stop,
     /// Another stimulus took over at the cycle end.

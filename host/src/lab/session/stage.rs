@@ -6,7 +6,7 @@
 
 use std::time::Duration;
 
-use lm_proto::{DeviceState, Status};
+use lm_proto::{DeviceState, MuteReason, Status};
 
 use super::protocol::{self, EventKind, OffsetReason};
 use super::{Session, gate_of};
@@ -123,6 +123,15 @@ pub const TICK_EVERY: Duration = Duration::from_millis(10);
 /// How long after a timed on-phase should have ended the host stops a
 /// device that has not stopped itself.
 pub const LATE_STOP: Duration = Duration::from_secs(1);
+
+/// Why a device stopped by itself stopped: its lease lapsed, or (the one
+/// other reason) a timed play ran its steps.
+fn stopped_by(s: &Status) -> OffsetReason {
+    match s.mute_reason {
+        MuteReason::LeaseExpired => OffsetReason::LeaseExpired,
+        _ => OffsetReason::Timer,
+    }
+}
 
 fn us(d: Duration) -> u64 {
     d.as_micros().min(u128::from(u64::MAX)) as u64
@@ -292,11 +301,13 @@ impl Session {
                 requested_us,
             } => {
                 if s.state == DeviceState::Stopped {
-                    // The outgoing stimulus was timed and the device ended it
-                    // before its cycle end (dropping the queued one): its
-                    // offset, then the new one from silence.
+                    // The device ended the outgoing stimulus before its
+                    // cycle end (dropping the queued one): timed, or its
+                    // lease lapsed. Its offset, then the new one from
+                    // silence.
                     let played = self.played_us(from.slot, s).map(|u| u as f64 / 1e6);
-                    self.offset_at(now, &from, &mut on, OffsetReason::Timer, played);
+                    let reason = stopped_by(s);
+                    self.offset_at(now, &from, &mut on, reason, played);
                     self.done_at(now, &from);
                     let (slot, untracked, len) = (to.slot, to.untracked, to.on);
                     self.start(slot, untracked, len)?;
@@ -343,12 +354,20 @@ impl Session {
                     self.onset_us
                         .push(start.saturating_sub(on.ideal_us.min(start)));
                 }
-                if p.on.is_some() && s.state == DeviceState::Stopped && here {
-                    // A timed on-phase the device ended itself: its counters
+                if s.state == DeviceState::Stopped && here {
+                    // The device ended the on-phase itself: its counters
                     // say how long it played.
                     let played = self.played_us(p.slot, s).map(|u| u as f64 / 1e6);
-                    self.stage = Stage::On(p, on);
-                    return self.end_on_phase(played);
+                    if stopped_by(s) == OffsetReason::LeaseExpired {
+                        // Not the end of an on-phase: the presentation's.
+                        self.offset_at(now, &p, &mut on, OffsetReason::LeaseExpired, played);
+                        self.done_at(now, &p);
+                        return Ok(());
+                    }
+                    if p.on.is_some() {
+                        self.stage = Stage::On(p, on);
+                        return self.end_on_phase(played);
+                    }
                 }
                 self.follow_mute(now, s, &mut on);
                 self.stage = Stage::On(p, on);

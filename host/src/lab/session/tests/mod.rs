@@ -444,3 +444,36 @@ fn the_driver_ticks_the_device_while_nothing_else_is_due() {
 mod commands;
 mod finger_gate;
 mod library;
+
+/// A host too late to renew its lease (a loaded machine, a stalled link):
+/// the LM firmware silences itself, and the session says so, timed or not,
+/// never as an on-phase that ran out (`timer`) or one still sounding.
+#[test]
+fn a_lapsed_lease_ends_the_presentation_as_such() {
+    for on_s in [None, Some(5.0)] {
+        let clock = Clock::manual_at_us(1_000_000);
+        let mut d = driver(LIB, &Target::Lm, lm(&clock), &clock, Finger::None);
+        d.session().drain_events();
+        d.session()
+            .present(&present("a", Some(Gate::Untracked), on_s, None, None))
+            .unwrap();
+        run_for(&mut d, &clock, Duration::from_millis(200));
+        // No tick for longer than the lease.
+        clock.advance(crate::device::backend::DEFAULT_LEASE * 2);
+        let ev = run_until(&mut d, &clock, Duration::from_secs(1), |e| {
+            has(e, |k| matches!(k, EventKind::Done { .. }))
+        });
+        let reason = ev.iter().find_map(|e| match &e.kind {
+            EventKind::Offset { reason, .. } => Some(*reason),
+            _ => None,
+        });
+        assert_eq!(
+            reason,
+            Some(OffsetReason::LeaseExpired),
+            "on_s {on_s:?}: {:?}",
+            kinds(&ev)
+        );
+        assert!(has(&ev, |k| matches!(k, EventKind::Done { .. })));
+        assert!(!d.session().presenting(), "on_s {on_s:?}");
+    }
+}
