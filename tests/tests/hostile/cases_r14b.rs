@@ -10,6 +10,12 @@
 //!   it still reads) gets every reply: the end of its input closed the
 //!   connection at once, before the writer had sent the replies queued
 //!   for its last lines, so about half of such clients got nothing back.
+//! - r14b-3: a number beyond a float on a control line or a centroid line
+//!   is refused as itself, naming its key, and a control line's refusal
+//!   names its command: `serde_json` stopped at `"on_s":1e999` with
+//!   "number out of range" (no key, no value), answered as `"cmd":""`
+//!   with the hint on what JSON a command is; a `1e-320` there was
+//!   refused naming its key but as `"cmd":""` too.
 //!
 //! Fixtures in `{dir}/r14b`.
 
@@ -23,15 +29,58 @@ pub(crate) fn round14b_fixtures(dir: &Path) {
     std::fs::create_dir_all(dir.join("r14b")).unwrap();
 }
 
+/// A session on the AUTD3 emulator over stdin.
+const STDIN_SESSION: &str =
+    "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator --control -";
+
 pub(crate) fn round14b_cases() -> Vec<Case> {
-    vec![
+    let mut v = vec![
         case(
             R14B_HALF_CLOSED,
             "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator --control {dir}/r14b/half.sock --tcp {tcp}",
         )
         .ok()
         .during(half_closed_clients_get_every_reply),
-    ]
+    ];
+    let too_large = "is too large to represent (it would be read as";
+    let most = "give a magnitude of at most 1.79769e308";
+    for (field, value, read_as) in [
+        ("on_s", "1e999", "inf"),
+        ("off_s", "-2E400", "-inf"),
+        ("repeat", "1e309", "inf"),
+    ] {
+        let line = format!(
+            r#"{{"cmd":"present","stimulus":"lms-5hz-a3","gate":"untracked","{field}":{value}}}"#
+        );
+        v.push(
+            case(R14B_BEYOND_FLOAT, STDIN_SESSION)
+                .stdin(format!("{line}\n{{\"cmd\":\"status\"}}\n"))
+                .ok()
+                .out(&format!(
+                    r#""cmd":"present","error":"bad command: `{field}`: {value} {too_large} {read_as}): {most}","ok":false"#
+                ))
+                .out("\"state\":\"idle\""),
+        );
+    }
+    // Below the smallest normal number: refused as before, now in its
+    // command's name.
+    v.push(
+        case(R14B_BEYOND_FLOAT, STDIN_SESSION)
+            .stdin("{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a3\",\"on_s\":1e-320}\n")
+            .ok()
+            .out(
+                r#""cmd":"present","error":"bad command: `on_s`: 1e-320 is too small to represent"#,
+            ),
+    );
+    v.push(
+        case(R14B_BEYOND_FLOAT, "stream --port {port}")
+            .stdin(
+                "{\"t\":0,\"x\":0,\"y\":0,\"z\":200}\n{\"t\":0.01,\"x\":1e999,\"y\":0,\"z\":200}\n",
+            )
+            .err("line 2: ")
+            .err(&format!("`x`: 1e999 {too_large} inf): {most}")),
+    );
+    v
 }
 
 /// The session's socket, once it listens.

@@ -150,9 +150,11 @@ pub const R13_JSON_WHOLE: &str = "r13-14 a JSON file's whole number names its fi
 pub const R13_PRESENT: &str = "r13-15 a centroid's present takes one set of values in JSON and CSV";
 /// Round 14b: the device side, the live inputs and Python (`cases_r14b.rs`).
 pub const R14B_HALF_CLOSED: &str = "r14b-2 a client that half-closes gets every reply";
+pub const R14B_BEYOND_FLOAT: &str =
+    "r14b-3 a number beyond a float on a live line is refused as itself, named";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 114] = [
+pub const CLASSES: [&str; 115] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -267,4 +269,5 @@ pub const CLASSES: [&str; 114] = [
     R13_JSON_WHOLE,
     R13_PRESENT,
     R14B_HALF_CLOSED,
+    R14B_BEYOND_FLOAT,
 ];
