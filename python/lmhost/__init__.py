@@ -225,7 +225,8 @@ class Tracker:
 
     def process(self, depth: np.ndarray, t: Optional[float] = None) -> TrackResult:
         """Track one depth frame (numpy uint16, shape (H, W)) taken at ``t`` s
-        (default: seconds since the tracker was made)."""
+        (default: seconds since the tracker was made): 0 to 1e10 s and not
+        before the previous frame's, as a recording's frames must be."""
         return TrackResult(*self._t.process(depth, t))
 
 

@@ -9,6 +9,10 @@
   ``True`` and ``1+2j`` are. The other way round, the tracker's intrinsics
   dict refused a numpy number as "must be a number, got np.int64(64)":
   an int or a real number of numpy's is taken there as everywhere else.
+- r14b-4 (Python's own): ``Tracker.process(depth, t)`` takes the time
+  stamps a recording's frames may have (0 to 1e10 s, never before the
+  frame before's), in the same words: it took ``t=-1``, ``t=1e300`` and a
+  ``t`` going backwards, and returned them as the frames' times.
 """
 
 import numpy as np
@@ -75,3 +79,42 @@ def test_the_intrinsics_dict_takes_numpy_numbers(root, key, value):
 def test_the_intrinsics_dict_refuses_what_is_no_number(root, value):
     with pytest.raises(ValueError, match=r"^intrinsics dict: `fx` must be a number, got "):
         lmhost.Tracker(lmhost.Scene.load(root / SCENE), {**INTRINSICS, "fx": value})
+
+
+# -- r14b-4. A depth frame's time stamp obeys the recording's rule -------------
+
+
+def _tracker(root):
+    return lmhost.Tracker(lmhost.Scene.load(root / SCENE), INTRINSICS)
+
+
+FRAME = np.full((48, 64), 200, np.uint16)
+
+
+@pytest.mark.parametrize(
+    "t,shown", [(-1.0, "-1"), (-5e-324, "-5e-324"), (1e300, "1e300"), (1e10 + 1, "1.0000000001e10")], ids=repr
+)
+def test_a_frame_time_outside_0_to_1e10_is_refused(root, t, shown):
+    tr = _tracker(root)
+    with pytest.raises(ValueError) as e:
+        tr.process(FRAME, t)
+    assert str(e.value) == f"t: frame 0 has time stamp {shown} s, out of range: give 0 to 1e10 s"
+
+
+def test_a_frame_time_before_the_last_is_refused_and_changes_nothing(root):
+    tr = _tracker(root)
+    assert tr.process(FRAME, 5.0).t_s == 5.0
+    assert tr.process(FRAME, 5.0).t_s == 5.0, "the same stamp twice is a frame"
+    with pytest.raises(ValueError) as e:
+        tr.process(FRAME, 4.5)
+    assert str(e.value) == "t: frame 2 has time stamp 4.5 s, before the previous one's 5 s"
+    # The refused frame took nothing: the next frame is frame 2.
+    assert tr.process(FRAME, 6.0).t_s == 6.0
+    with pytest.raises(ValueError, match=r"^t: frame 3 has time stamp .* before the previous one's 6 s$"):
+        tr.process(FRAME)  # the default clock started near 0
+
+
+def test_the_default_time_runs_forward(root):
+    tr = _tracker(root)
+    a, b = tr.process(FRAME), tr.process(FRAME)
+    assert 0 <= a.t_s <= b.t_s
