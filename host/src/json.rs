@@ -14,11 +14,15 @@ use serde_json::{Map, Value};
 
 /// One JSON value from `s` (the whole of it), refusing a duplicate key at
 /// any depth with an error naming it.
+///
+/// Its number literals are checked first: `serde_json` stops at one
+/// beyond a float with "number out of range", naming neither the
+/// literal nor its key (`{"x":1e999}`); the check names both.
 pub fn from_str(s: &str) -> Result<Value, serde_json::Error> {
+    exact_numbers(s).map_err(<serde_json::Error as de::Error>::custom)?;
     let mut de = serde_json::Deserializer::from_str(s);
     let Strict(v) = Strict::deserialize(&mut de)?;
     de.end()?;
-    exact_numbers(s).map_err(<serde_json::Error as de::Error>::custom)?;
     Ok(v)
 }
 
@@ -178,6 +182,27 @@ mod tests {
         }
         for s in ["", "{", r#"{"a":1} x"#, &"[".repeat(200)] {
             assert!(from_str(s).is_err(), "{s}");
+        }
+    }
+
+    #[test]
+    fn a_number_beyond_a_float_is_refused_as_itself_naming_its_key() {
+        for (s, said) in [
+            (
+                r#"{"t":0,"x":1e999,"y":0,"z":200}"#,
+                "`x`: 1e999 is too large to represent (it would be read as inf): \
+                 give a magnitude of at most 1.79769e308",
+            ),
+            (
+                r#"{"cmd":"present","on_s":-2E400}"#,
+                "`on_s`: -2E400 is too large to represent (it would be read as -inf)",
+            ),
+        ] {
+            let e = from_str(s).unwrap_err().to_string();
+            assert!(e.starts_with(said), "{s}: {e}");
+            // serde_json alone says only "number out of range".
+            let plain = serde_json::from_str::<Value>(s).unwrap_err().to_string();
+            assert!(plain.starts_with("number out of range"), "{plain}");
         }
     }
 

@@ -28,6 +28,8 @@ are the library's (:data:`DEFAULTS`, the values ``lmhost plan`` and
 from __future__ import annotations
 
 import json
+import numbers
+import operator
 import os
 import re
 from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
@@ -158,6 +160,24 @@ class TrackResult:
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
+def _toml_number(key: str, v: Any) -> str:
+    """A number of the intrinsics dict as TOML: an int (numpy's too, as
+    ``shape`` gives) or a real number (numpy's too: a float32 array's
+    element) as what it is; a bool (numpy's too), a complex number or
+    anything else refused naming the key."""
+    if not isinstance(v, bool) and type(v).__module__ + "." + type(v).__name__ not in (
+        "numpy.bool",
+        "numpy.bool_",
+    ):
+        try:
+            return str(operator.index(v))
+        except TypeError:
+            pass
+        if isinstance(v, numbers.Real):
+            return repr(float(v))
+    raise ValueError(f"intrinsics dict: `{key}` must be a number, got {v!r}")
+
+
 def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optional[str], str]:
     """TOML text of a dict, or (None, the path): a file is read by the Rust
     core as ``lmhost track --intrinsics`` reads it (a byte-order mark and
@@ -173,9 +193,7 @@ def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optio
                     f"intrinsics dict: key {k!r} is not a field name "
                     "(width, height, fx, fy, ppx, ppy, depth_scale)"
                 )
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise ValueError(f"intrinsics dict: `{k}` must be a number, got {v!r}")
-            lines.append(f"{k} = {v}")
+            lines.append(f"{k} = {_toml_number(k, v)}")
         return "\n".join(lines) + "\n", "dict"
     return None, _args.path("intrinsics", intrinsics)
 
@@ -207,7 +225,8 @@ class Tracker:
 
     def process(self, depth: np.ndarray, t: Optional[float] = None) -> TrackResult:
         """Track one depth frame (numpy uint16, shape (H, W)) taken at ``t`` s
-        (default: seconds since the tracker was made)."""
+        (default: seconds since the tracker was made): 0 to 1e10 s and not
+        before the previous frame's, as a recording's frames must be."""
         return TrackResult(*self._t.process(depth, t))
 
 

@@ -44,10 +44,43 @@ fn shown(v: &Bound<'_, PyAny>) -> String {
     }
 }
 
+/// Whether `v` is a yes-or-no value: Python's `bool` or numpy's
+/// (`np.True_`, of type `numpy.bool`, `numpy.bool_` before numpy 2),
+/// which is no `bool` subclass and whose `__float__` made it 1.0.
+fn is_bool(v: &Bound<'_, PyAny>) -> bool {
+    if v.is_instance_of::<PyBool>() {
+        return true;
+    }
+    let t = v.get_type();
+    let named = |attr: &str, want: &[&str]| {
+        t.getattr(attr)
+            .and_then(|a| a.extract::<String>())
+            .is_ok_and(|n| want.contains(&n.as_str()))
+    };
+    named("__module__", &["numpy"]) && named("__name__", &["bool", "bool_"])
+}
+
+/// Whether `v` is a complex number that is not a real one (numbers'
+/// `Complex` and not `Real`): Python's `complex` and numpy's, whose
+/// `__float__` dropped the imaginary part (`np.complex128(1+2j)` was 1.0).
+fn is_complex(v: &Bound<'_, PyAny>) -> bool {
+    let Ok(numbers) = v.py().import("numbers") else {
+        return false;
+    };
+    let is = |abc: &str| {
+        numbers
+            .getattr(abc)
+            .and_then(|c| v.is_instance(&c))
+            .unwrap_or(false)
+    };
+    is("Complex") && !is("Real")
+}
+
 /// An integer parameter in `lo..=hi` (the caller's type holds that range).
 /// Python ints and anything with `__index__` (numpy integers) are taken;
-/// a bool, a float (even `4.0`: an int was meant) or anything else is
-/// `ValueError`, as is a value out of range, however large.
+/// a bool (numpy's too), a float (even `4.0`: an int was meant) or
+/// anything else is `ValueError`, as is a value out of range, however
+/// large.
 pub(crate) fn int_in<T: TryFrom<i64>>(
     name: &str,
     v: &Bound<'_, PyAny>,
@@ -58,7 +91,7 @@ pub(crate) fn int_in<T: TryFrom<i64>>(
     // library would refuse reads the same from either side.
     let out_of_range =
         || PyValueError::new_err(format!("{name} must be {lo}..={hi}, got {}", shown(v)));
-    if v.is_instance_of::<PyBool>() || v.is_instance_of::<PyFloat>() {
+    if is_bool(v) || v.is_instance_of::<PyFloat>() {
         return Err(PyValueError::new_err(format!(
             "{name} must be an integer, got {}",
             shown(v)
@@ -92,10 +125,11 @@ pub(crate) fn opt_int_in<T: TryFrom<i64>>(
         .transpose()
 }
 
-/// A finite float parameter (ints taken); its range is the library's to
+/// A finite float parameter (ints and numpy's numbers taken; a bool or a
+/// complex number, numpy's too, refused); its range is the library's to
 /// check, with the library's message.
 pub(crate) fn float(name: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
-    if v.is_instance_of::<PyBool>() {
+    if is_bool(v) || is_complex(v) {
         return Err(PyValueError::new_err(format!(
             "{name} must be a number, got {}",
             shown(v)
@@ -171,11 +205,7 @@ pub(crate) fn int_arg(name: &str, value: &Bound<'_, PyAny>, lo: i64, hi: i64) ->
 /// truth of another value (`present="no"` or `None` is not a choice).
 #[pyfunction]
 pub(crate) fn bool_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
-    let numpy_bool = matches!(
-        value.get_type().name()?.to_string().as_str(),
-        "bool" | "bool_"
-    );
-    if value.is_instance_of::<PyBool>() || numpy_bool {
+    if is_bool(value) {
         return value.is_truthy();
     }
     Err(PyValueError::new_err(format!(
@@ -193,7 +223,7 @@ pub(crate) fn bool_arg(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
 pub(crate) fn repeat_arg(value: &Bound<'_, PyAny>) -> PyResult<u32> {
     let not_int =
         || PyValueError::new_err(format!("repeat must be an integer, got {}", shown(value)));
-    if value.is_instance_of::<PyBool>() || value.is_instance_of::<PyFloat>() {
+    if is_bool(value) || value.is_instance_of::<PyFloat>() {
         return Err(not_int());
     }
     let n: serde_json::Value = match value.extract::<i64>() {

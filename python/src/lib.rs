@@ -459,7 +459,8 @@ fn simulate(
 /// `lmhost track` runs it on recorded frames (no filter).
 #[pyclass(name = "Tracker", module = "lmhost._lmhost", frozen)]
 struct Tracker_ {
-    pipe: Mutex<Pipeline>,
+    /// The pipeline, the frames it took and the last one's time stamp.
+    pipe: Mutex<(Pipeline, u64, f64)>,
     width: usize,
     height: usize,
     min_points: u32,
@@ -511,7 +512,7 @@ impl Tracker_ {
             lmhost::sense::stream::filter::FilterKind::None.build(),
         );
         Ok(Self {
-            pipe: Mutex::new(pipe),
+            pipe: Mutex::new((pipe, 0, f64::NEG_INFINITY)),
             width: intr.pinhole.width as usize,
             height: intr.pinhole.height as usize,
             min_points,
@@ -565,10 +566,14 @@ impl Tracker_ {
         };
         let t_s = t.unwrap_or_else(|| self.started.elapsed().as_secs_f64());
         let r = run(py, || {
-            let mut pipe = self
+            let mut guard = self
                 .pipe
                 .lock()
                 .map_err(|_| anyhow::anyhow!("tracker poisoned by an earlier panic"))?;
+            let (pipe, frames, last_t) = &mut *guard;
+            // The rule of every depth frame's stamp, a recording's too.
+            lmhost::sense::track::wire::frame_stamp("t", *frames, "", t_s, *last_t)?;
+            (*frames, *last_t) = (*frames + 1, t_s);
             Ok(pipe.step(t_s, slice))
         })?;
         Ok((r.t_s, r.contact.points, r.present, r.centroid_mm(), r.gated))

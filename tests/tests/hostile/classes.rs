@@ -148,9 +148,13 @@ pub const R13_NEGATIVE_WORDS: &str = "r13-12 a flag's value -inf or -nan is read
 /// Round 13's follow-ups (`cases_r13b.rs`).
 pub const R13_JSON_WHOLE: &str = "r13-14 a JSON file's whole number names its field and range";
 pub const R13_PRESENT: &str = "r13-15 a centroid's present takes one set of values in JSON and CSV";
+/// Round 14b: the device side, the live inputs and Python (`cases_r14b.rs`).
+pub const R14B_HALF_CLOSED: &str = "r14b-2 a client that half-closes gets every reply";
+pub const R14B_BEYOND_FLOAT: &str =
+    "r14b-3 a number beyond a float on a live line is refused as itself, named";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 113] = [
+pub const CLASSES: [&str; 115] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -264,4 +268,6 @@ pub const CLASSES: [&str; 113] = [
     R13_NEGATIVE_WORDS,
     R13_JSON_WHOLE,
     R13_PRESENT,
+    R14B_HALF_CLOSED,
+    R14B_BEYOND_FLOAT,
 ];

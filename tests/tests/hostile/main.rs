@@ -258,6 +258,7 @@ mod cases_r11;
 mod cases_r12;
 mod cases_r13;
 mod cases_r13b;
+mod cases_r14b;
 mod cases_r3;
 mod cases_r4_device;
 mod cases_r4_files;
@@ -291,6 +292,7 @@ use cases_r11::{round11_cases, round11_fixtures};
 use cases_r12::round12_cases;
 use cases_r13::{round13_cases, round13_fixtures};
 use cases_r13b::{round13b_cases, round13b_fixtures};
+use cases_r14b::{round14b_cases, round14b_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -494,7 +496,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let every_fixture: [fn(&Path); 14] = [
+    let every_fixture: [fn(&Path); 15] = [
         fixtures,
         study_fixtures,
         paper_fixtures,
@@ -509,6 +511,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         round11_fixtures,
         round13_fixtures,
         round13b_fixtures,
+        round14b_fixtures,
     ];
     for write in every_fixture {
         write(&dir);
@@ -530,7 +533,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     };
     ok(&["upload", "--port", &ctx.port, "--hold", "0.05"]);
 
-    let tables: [fn() -> Vec<Case>; 19] = [
+    let tables: [fn() -> Vec<Case>; 20] = [
         cases,
         study_cases,
         paper_cases,
@@ -551,6 +554,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         round12_cases,
         round13_cases,
         round13b_cases,
+        round14b_cases,
     ];
     let mut all: Vec<Case> = tables.iter().flat_map(|table| table()).collect();
     let only = std::env::var("LMHOST_HOSTILE_CLASS").ok();

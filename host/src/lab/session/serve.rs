@@ -83,6 +83,19 @@ pub const AUTH_WITHIN: Duration = Duration::from_secs(5);
 /// How long the end waits for the clients' writers to send the last lines.
 const LINGER: Duration = Duration::from_millis(500);
 
+/// How long a client that is dropped but reads (its input ended, or it
+/// is refused) has to take the lines queued for it, off the loop.
+const FLUSH_WITHIN: Duration = Duration::from_secs(2);
+
+/// How a dropped client's connection closes.
+#[derive(Clone, Copy)]
+enum Close {
+    /// After its writer sent what is queued (at most [`FLUSH_WITHIN`]).
+    AfterWriting,
+    /// Now: it does not read (its queue is full).
+    AtOnce,
+}
+
 /// How long the end waits for standard output to take the last lines.
 const STDOUT_LINGER: Duration = Duration::from_secs(5);
 
@@ -209,7 +222,7 @@ impl Loop {
         match self.conns.get(&id) {
             Some(c) if !c.send(line) => {
                 self.report.dropped_clients += 1;
-                self.drop_client(d, id)
+                self.drop_client(d, id, Close::AtOnce)
             }
             _ => Ok(None),
         }
@@ -236,7 +249,7 @@ impl Loop {
                 .collect();
             for id in full {
                 self.report.dropped_clients += 1;
-                if let Some(end) = self.drop_client(d, id)? {
+                if let Some(end) = self.drop_client(d, id, Close::AtOnce)? {
                     return Ok(Some(end));
                 }
             }
@@ -246,7 +259,13 @@ impl Loop {
 
     /// Drops client `id` (it went away or does not read): what it
     /// presented stops, or the session ends, as `--on-disconnect` says.
-    fn drop_client(&mut self, d: &mut Driver, id: Owner) -> anyhow::Result<Option<Ended>> {
+    /// `close`: whether the replies queued for it go out first.
+    fn drop_client(
+        &mut self,
+        d: &mut Driver,
+        id: Owner,
+        close: Close,
+    ) -> anyhow::Result<Option<Ended>> {
         let Some(c) = self.conns.remove(&id) else {
             return Ok(None);
         };
@@ -267,10 +286,16 @@ impl Loop {
             // Its refusal is queued: the writer sends that one short line
             // before the socket closes (else the client sees only the
             // close), without the loop waiting for it.
-            c.close_after_writing(std::time::Duration::from_secs(2));
+            c.close_after_writing(FLUSH_WITHIN);
             return Ok(None);
         }
-        drop(c);
+        match close {
+            // Its input ended (a client that half-closed its socket after
+            // its commands, as `nc -N` does): the replies to its last
+            // lines are queued and still go out.
+            Close::AfterWriting => c.close_after_writing(FLUSH_WITHIN),
+            Close::AtOnce => drop(c),
+        }
         match self.on_disconnect {
             OnDisconnect::Stop => {
                 d.session().client_gone(id)?;
@@ -293,7 +318,7 @@ impl Loop {
             Inbound::Unreadable(id, msg) => {
                 if !self.conns.get(&id).is_some_and(|c| c.authed) {
                     self.reply(d, id, Reply::error("", msg))?;
-                    return self.drop_client(d, id);
+                    return self.drop_client(d, id, Close::AfterWriting);
                 }
                 d.session().refused("", &msg);
                 self.reply(d, id, Reply::error("", msg))
@@ -302,7 +327,7 @@ impl Loop {
                 self.stdin_done = true;
                 Ok(None)
             }
-            Inbound::Gone(id) => self.drop_client(d, id),
+            Inbound::Gone(id) => self.drop_client(d, id, Close::AfterWriting),
             Inbound::StdoutFailed(None) => Ok(Some(Ended::StdoutClosed)),
             Inbound::StdoutFailed(Some(e)) => Err(e),
         }
@@ -322,7 +347,7 @@ impl Loop {
                 return self.reply(d, id, Reply::ok("auth"));
             }
             self.reply(d, id, Reply::error("auth", self.auth_needed("")))?;
-            return self.drop_client(d, id);
+            return self.drop_client(d, id, Close::AfterWriting);
         }
         self.report.commands += 1;
         let cmd = match Command::parse(line) {
@@ -370,7 +395,7 @@ impl Loop {
         for id in late {
             let late = format!(" (no line within {} s)", AUTH_WITHIN.as_secs());
             self.reply(d, id, Reply::error("auth", self.auth_needed(&late)))?;
-            self.drop_client(d, id)?;
+            self.drop_client(d, id, Close::AfterWriting)?;
         }
         Ok(())
     }

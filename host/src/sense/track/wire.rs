@@ -41,6 +41,31 @@ pub const MAGIC_COLOUR: &[u8; 8] = b"LMCOLOR1";
 /// Bytes of the colour camera in an `LMCOLOR1` header.
 const COLOUR_HEADER: usize = 180;
 
+/// The rule for a depth frame's time stamp `t_s`, on every path that
+/// takes one (a recording, a camera, Python's `Tracker.process`): finite,
+/// in 0 to [`MAX_TIME_STAMP_S`](crate::limits::MAX_TIME_STAMP_S) as every
+/// finger source's, and not before `last`, the frame before's. `what`
+/// names the source, `n` the frame (from 0), `whose` a part of it
+/// (`"'s colour image"`, or `""`).
+pub fn frame_stamp(what: &str, n: u64, whose: &str, t_s: f64, last: f64) -> Result<(), InputError> {
+    use crate::limits::{MAX_TIME_STAMP_S, show, show_beside};
+    if !(0.0..=MAX_TIME_STAMP_S).contains(&t_s) {
+        return Err(InputError::new(format!(
+            "{what}: frame {n}{whose} has time stamp {} s, out of range: give 0 to {} s",
+            show_beside(t_s, 0.0, MAX_TIME_STAMP_S),
+            show(MAX_TIME_STAMP_S)
+        )));
+    }
+    if t_s < last {
+        return Err(InputError::new(format!(
+            "{what}: frame {n}{whose} has time stamp {} s, before the previous one's {} s",
+            show_beside(t_s, last, last),
+            show_beside(last, t_s, t_s)
+        )));
+    }
+    Ok(())
+}
+
 /// An `LMDEPTH1` or `LMCOLOR1` stream.
 pub struct Stream<R: Read> {
     reader: R,
@@ -147,27 +172,9 @@ impl<R: Read> Stream<R> {
     }
 
     /// Refuses time stamp `t_s` of frame `self.frames` (`whose` its
-    /// colour image's) unless it is finite, in 0 to
-    /// [`MAX_TIME_STAMP_S`](crate::limits::MAX_TIME_STAMP_S) as every
-    /// finger source's, and not before `last`.
+    /// colour image's) by [`frame_stamp`].
     fn stamp(&self, t_s: f64, last: f64, whose: &str) -> Result<(), InputError> {
-        use crate::limits::{MAX_TIME_STAMP_S, show, show_beside};
-        let (what, n) = (&self.what, self.frames);
-        if !(0.0..=MAX_TIME_STAMP_S).contains(&t_s) {
-            return Err(InputError::new(format!(
-                "{what}: frame {n}{whose} has time stamp {} s, out of range: give 0 to {} s",
-                show_beside(t_s, 0.0, MAX_TIME_STAMP_S),
-                show(MAX_TIME_STAMP_S)
-            )));
-        }
-        if t_s < last {
-            return Err(InputError::new(format!(
-                "{what}: frame {n}{whose} has time stamp {} s, before the previous one's {} s",
-                show_beside(t_s, last, last),
-                show_beside(last, t_s, t_s)
-            )));
-        }
-        Ok(())
+        frame_stamp(&self.what, self.frames, whose, t_s, last)
     }
 
     fn ended_inside(&self) -> anyhow::Error {
