@@ -275,9 +275,9 @@ pub fn with_files_beside(flag: &str, path: &Path) -> Result<(), InputError> {
 
 /// Refuses outputs that are the same file as each other (by name after
 /// resolving the directory, or by identity when they exist) or as an
-/// input: `outputs` are (flag, path) pairs, checked before anything is
-/// written.
-pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
+/// input: `outputs` are (flag, path) pairs, a folder a run writes into
+/// among them, checked before anything is written.
+pub fn distinct_outputs<P: AsRef<Path>>(outputs: &[(&str, P)]) -> Result<(), InputError> {
     // By the name written: a symlink's target.
     let key = |p: &Path| -> PathBuf {
         let p = dest::follow(p).unwrap_or_else(|_| p.to_owned());
@@ -289,15 +289,17 @@ pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
         dir.join(p.file_name().unwrap_or_default())
     };
     for (i, (flag, p)) in outputs.iter().enumerate() {
+        let p = p.as_ref();
         not_an_input(flag, p)?;
         for (flag2, q) in &outputs[..i] {
+            let q = q.as_ref();
             let same_id = match (std::fs::metadata(p), std::fs::metadata(q)) {
                 (Ok(a), Ok(b)) => id(&a) == id(&b),
                 _ => false,
             };
             if same_id || key(p) == key(q) {
                 return Err(InputError::new(format!(
-                    "{flag} {} and {flag2} {} are the same file; give each output its own path",
+                    "{flag} {} and {flag2} {} are the same path; give each output its own",
                     p.display(),
                     q.display()
                 )));
