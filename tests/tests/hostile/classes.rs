@@ -148,9 +148,12 @@ pub const R13_NEGATIVE_WORDS: &str = "r13-12 a flag's value -inf or -nan is read
 /// Round 13's follow-ups (`cases_r13b.rs`).
 pub const R13_JSON_WHOLE: &str = "r13-14 a JSON file's whole number names its field and range";
 pub const R13_PRESENT: &str = "r13-15 a centroid's present takes one set of values in JSON and CSV";
+/// Round 14 (`cases_r14.rs`).
+pub const R14_OUTPUTS: &str = "r14-1 the outputs of one run never share a path";
+pub const R14_PORT_FORM: &str = "r14-2 a port name of no port's form is refused, not opened";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 113] = [
+pub const CLASSES: [&str; 115] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -264,4 +267,6 @@ pub const CLASSES: [&str; 113] = [
     R13_NEGATIVE_WORDS,
     R13_JSON_WHOLE,
     R13_PRESENT,
+    R14_OUTPUTS,
+    R14_PORT_FORM,
 ];

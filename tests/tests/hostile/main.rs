@@ -6,7 +6,7 @@
 //! [`TIME_LIMIT`] (one with a client beside it: [`TIME_LIMIT_WITH_CLIENT`]),
 //! killed and failed otherwise. To add a case, append a
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
-//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r13.rs`); `{port}` is
+//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r14.rs`); `{port}` is
 //! the shared simulated device, `{fake:NAME}` a device that lies (round
 //! 9), `{dir}` a scratch directory with the fixtures of [`fixtures`],
 //! `{scenes}` the repository's `scenes/`. A case may run a client of the
@@ -258,6 +258,7 @@ mod cases_r11;
 mod cases_r12;
 mod cases_r13;
 mod cases_r13b;
+mod cases_r14;
 mod cases_r3;
 mod cases_r4_device;
 mod cases_r4_files;
@@ -291,6 +292,7 @@ use cases_r11::{round11_cases, round11_fixtures};
 use cases_r12::round12_cases;
 use cases_r13::{round13_cases, round13_fixtures};
 use cases_r13b::{round13b_cases, round13b_fixtures};
+use cases_r14::{round14_cases, round14_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -508,6 +510,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     round11_fixtures(&dir);
     round13_fixtures(&dir);
     round13b_fixtures(&dir);
+    round14_fixtures(&dir);
     let full = FullDisk::mount(&dir);
     let ctx = Ctx {
         port: sim.port.clone(),
@@ -545,6 +548,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     all.extend(round12_cases());
     all.extend(round13_cases());
     all.extend(round13b_cases());
+    all.extend(round14_cases());
     let only = std::env::var("LMHOST_HOSTILE_CLASS").ok();
     if let Some(prefix) = &only {
         all.retain(|c| c.class.starts_with(prefix.as_str()));
