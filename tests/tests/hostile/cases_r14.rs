@@ -19,19 +19,39 @@
 //!   real stage's limits; `gauge --port ""` said ": no such file or
 //!   directory"; a `$LMHOST_PORT` that is not UTF-8 was taken for an
 //!   unset one, and discovery picked whatever board it found.
+//! - r14-3: a JSON file holds one value: what follows it is refused. A
+//!   foci file (`upload --foci-file`, a library's `foci_file`) read its
+//!   first object and ignored the rest (a second object, a stray word),
+//!   and so did a study's `session.json` (`study report`, `study run
+//!   --resume`); a phases file refused it ("trailing characters").
 //!
 //! Fixtures in `{dir}/r14`.
 
 use super::*;
 
 pub(crate) fn round14_fixtures(dir: &Path) {
-    std::fs::create_dir_all(dir.join("r14")).unwrap();
+    let r = dir.join("r14");
+    std::fs::create_dir_all(r.join("out")).unwrap();
+    let foci = r#"{"foci_mm": [[[0, 0, 200]]], "dwell_us": 1000}"#;
+    std::fs::write(r.join("foci_two.json"), format!("{foci}\n{foci}\n")).unwrap();
+    std::fs::write(r.join("foci_word.json"), format!("{foci} x")).unwrap();
+    std::fs::write(r.join("foci_blank.json"), format!("{foci}\n\n")).unwrap();
+    // A finished participant (the study fixtures'), its session.json on
+    // one line and then another object.
+    let (from, to) = (dir.join("study/out/P1"), r.join("tail/P1"));
+    std::fs::create_dir_all(&to).unwrap();
+    for f in ["trials.csv", "events.jsonl"] {
+        std::fs::copy(from.join(f), to.join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(from.join("session.json")).unwrap();
+    let session: serde_json::Value = serde_json::from_str(&text).unwrap();
+    std::fs::write(to.join("session.json"), format!("{session}\n{{}}\n")).unwrap();
 }
 
-/// Nothing of the refused run is left in `{dir}/r14` (the folder was made
-/// empty by the fixtures and every case here is refused).
+/// Nothing of the refused run is left in `{dir}/r14/out` (the folder was
+/// made empty by the fixtures and every case writing there is refused).
 fn nothing_made(ctx: &Ctx, _: &Run) -> Result<(), String> {
-    let left: Vec<String> = std::fs::read_dir(ctx.dir.join("r14"))
+    let left: Vec<String> = std::fs::read_dir(ctx.dir.join("r14/out"))
         .map_err(|e| e.to_string())?
         .filter_map(Result::ok)
         .map(|e| e.file_name().to_string_lossy().into_owned())
@@ -69,27 +89,27 @@ fn with(class: &'static str, args: &str, more: &[&str]) -> Case {
 pub(crate) fn round14_cases() -> Vec<Case> {
     let session = "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator --synthetic";
     let mut v = table! {
-        R14_OUTPUTS "track --synthetic --fast --seconds 0.2 --record {dir}/r14/rec.npy --plot {dir}/r14/rec.npy"
-            .err("error: --plot {dir}/r14/rec.npy and --record {dir}/r14/rec.npy are the same path; give each output its own")
+        R14_OUTPUTS "track --synthetic --fast --seconds 0.2 --record {dir}/r14/out/rec.npy --plot {dir}/r14/out/rec.npy"
+            .err("error: --plot {dir}/r14/out/rec.npy and --record {dir}/r14/out/rec.npy are the same path; give each output its own")
             .check(nothing_made);
-        R14_OUTPUTS "track --synthetic --fast --seconds 0.2 --record {dir}/r14/b.npy --plot {dir}/r14/./b.timestamps.npy"
-            .err("error: --plot {dir}/r14/./b.timestamps.npy and --record's time stamps {dir}/r14/b.timestamps.npy are the same path; give each output its own")
+        R14_OUTPUTS "track --synthetic --fast --seconds 0.2 --record {dir}/r14/out/b.npy --plot {dir}/r14/out/./b.timestamps.npy"
+            .err("error: --plot {dir}/r14/out/./b.timestamps.npy and --record's time stamps {dir}/r14/out/b.timestamps.npy are the same path; give each output its own")
             .check(nothing_made);
     };
     v.extend([
         case(
             R14_OUTPUTS,
-            &format!("{session} --control {{dir}}/r14/ctl.sock --events {{dir}}/r14/ctl.sock"),
+            &format!("{session} --control {{dir}}/r14/out/ctl.sock --events {{dir}}/r14/out/ctl.sock"),
         )
-        .err("error: --events {dir}/r14/ctl.sock and --control {dir}/r14/ctl.sock are the same path; give each output its own")
+        .err("error: --events {dir}/r14/out/ctl.sock and --control {dir}/r14/out/ctl.sock are the same path; give each output its own")
         .check(nothing_made),
         case(
             R14_OUTPUTS,
             &format!(
-                "{session} --control {{dir}}/r14/c.sock --tcp {{tcp}} --events {{dir}}/r14/c.sock.token"
+                "{session} --control {{dir}}/r14/out/c.sock --tcp {{tcp}} --events {{dir}}/r14/out/c.sock.token"
             ),
         )
-        .err("error: --events {dir}/r14/c.sock.token and the TCP token file {dir}/r14/c.sock.token are the same path; give each output its own")
+        .err("error: --events {dir}/r14/out/c.sock.token and the TCP token file {dir}/r14/out/c.sock.token are the same path; give each output its own")
         .check(nothing_made),
     ]);
     let spaces = "has spaces at an end: give the port's name without them";
@@ -114,11 +134,22 @@ pub(crate) fn round14_cases() -> Vec<Case> {
         with(
             R14_PORT_FORM,
             "study run {scenes}/../studies/paper-exp3.toml --port autd3:emulator \
-             --out {dir}/r14/study --participant P1 --finger synthetic --stage sim --gauge",
+             --out {dir}/r14/out/study --participant P1 --finger synthetic --stage sim --gauge",
             &["sim\t"],
         )
         .err(&format!("error: gauge `sim\\t` {control}"))
         .check(nothing_made),
     ]);
+    let upload = "upload --port {port} --no-play --foci-file {dir}/r14";
+    v.extend(table! {
+        R14_JSON_TAIL "upload --port {port} --no-play --foci-file {dir}/r14/foci_two.json"
+            .err("error: --foci-file {dir}/r14/foci_two.json: not a foci JSON object (trailing characters at line 2 column 1)");
+        R14_JSON_TAIL "upload --port {port} --no-play --foci-file {dir}/r14/foci_word.json"
+            .err("error: --foci-file {dir}/r14/foci_word.json: not a foci JSON object (trailing characters at line 1 column 48)");
+        R14_JSON_TAIL "study report {dir}/r14/tail/P1"
+            .err("error: {dir}/r14/tail/P1/session.json: trailing characters at line 2 column 1");
+    });
+    // White space after the value is no value.
+    v.push(case(R14_JSON_TAIL, &format!("{upload}/foci_blank.json")).ok());
     v
 }

@@ -151,9 +151,10 @@ pub const R13_PRESENT: &str = "r13-15 a centroid's present takes one set of valu
 /// Round 14 (`cases_r14.rs`).
 pub const R14_OUTPUTS: &str = "r14-1 the outputs of one run never share a path";
 pub const R14_PORT_FORM: &str = "r14-2 a port name of no port's form is refused, not opened";
+pub const R14_JSON_TAIL: &str = "r14-3 a JSON file holds one value, nothing after it";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 115] = [
+pub const CLASSES: [&str; 116] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -269,4 +270,5 @@ pub const CLASSES: [&str; 115] = [
     R13_PRESENT,
     R14_OUTPUTS,
     R14_PORT_FORM,
+    R14_JSON_TAIL,
 ];
