@@ -323,6 +323,27 @@ pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64,
     }
 }
 
+/// Checks `lo < v ≤ hi` for a finite `v`, as [`in_range`] does with `lo`
+/// left out: a range with an open end is said so. `allowed 0..=1000 mm`
+/// for a spacing of 1e9 named a 0 the check refuses.
+pub fn in_range_above(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
+    if v.is_finite() && v > lo && v <= hi {
+        Ok(v)
+    } else {
+        let unit = if unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {unit}")
+        };
+        Err(InputError::new(format!(
+            "{what} {}{unit} is out of range: allowed above {} and at most {}{unit}",
+            show_beside(v, lo, hi),
+            show(lo),
+            show(hi)
+        )))
+    }
+}
+
 /// Checks every coordinate of a position against [`MAX_COORD_MM`].
 pub fn position_mm(what: &str, v: [f64; 3]) -> Result<[f64; 3], InputError> {
     if v.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORD_MM) {
@@ -491,6 +512,16 @@ mod tests {
         let e = in_range("--radius", 1e30, 0.0, 100.0, "mm").unwrap_err();
         assert!(e.0.contains("0..=100 mm"), "{e}");
         assert!(in_range("x", f64::NAN, 0.0, 1.0, "").is_err());
+        let e = in_range_above("spacing", 1e9, 0.0, 1000.0, "mm").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "spacing 1e9 mm is out of range: allowed above 0 and at most 1000 mm"
+        );
+        assert!(in_range_above("spacing", 0.0, 0.0, 1000.0, "mm").is_err());
+        assert_eq!(
+            in_range_above("spacing", 1000.0, 0.0, 1000.0, "mm").unwrap(),
+            1000.0
+        );
         assert!(position_mm("c", [0.0, 0.0, 2000.0]).is_ok());
         let e = position_mm("c", [0.0, 0.0, 1e300]).unwrap_err();
         assert!(e.0.contains("±2000 mm"), "{e}");

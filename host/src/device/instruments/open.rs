@@ -107,7 +107,7 @@ pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
         let depth = o.sim_depth_mm.unwrap_or(0.0);
         if !(depth.is_finite() && (0.0..=20.0).contains(&depth)) {
             return Err(InputError::new(format!(
-                "simulated depth {} mm is outside 0..20 mm",
+                "simulated depth {} mm is outside 0..=20 mm",
                 show(depth)
             ))
             .into());
