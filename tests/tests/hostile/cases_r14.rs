@@ -24,6 +24,13 @@
 //!   first object and ignored the rest (a second object, a stray word),
 //!   and so did a study's `session.json` (`study report`, `study run
 //!   --resume`); a phases file refused it ("trailing characters").
+//! - r14-4: a refusal states the range its check allows. A range with an
+//!   open end was written closed: `--spacing 1e9` (and `--step`,
+//!   `simulate --disk`, `--plane-step`, `--plane-size`, `--alpha`) said
+//!   "allowed 0..=1000 mm" of a flag that refuses 0; now "allowed above 0
+//!   and at most 1000 mm". The stage's and gauge's ranges were written
+//!   `0..50`, as a range that leaves its end out reads, of checks that
+//!   take the end; now `0..=50`, as every other message writes them.
 //!
 //! Fixtures in `{dir}/r14`.
 
@@ -151,5 +158,26 @@ pub(crate) fn round14_cases() -> Vec<Case> {
     });
     // White space after the value is no value.
     v.push(case(R14_JSON_TAIL, &format!("{upload}/foci_blank.json")).ok());
+    v.extend(table! {
+        R14_RANGES "plan --foci 2 --spacing 1e9"
+            .err("error: spacing 1e9 mm is out of range: allowed above 0 and at most 1000 mm");
+        R14_RANGES "plan --step 5000"
+            .err("error: step 5000 mm is out of range: allowed above 0 and at most 1000 mm");
+        R14_RANGES "simulate --disk 1e9 --out {dir}/r14/out/sim"
+            .err("error: --disk 1e9 mm is out of range: allowed above 0 and at most 1000 mm")
+            .check(nothing_made);
+        R14_RANGES "simulate --alpha 3 --out {dir}/r14/out/sim"
+            .err("error: --alpha 3 is out of range: allowed above 0 and at most 2");
+        R14_RANGES "stage move --port sim --to 60"
+            .err("error: sim-stage: position 60 mm is outside the stage's soft limits 0..=50 mm");
+        R14_RANGES "stage move --port sim --to 1 --speed 100"
+            .err("error: sim-stage: stage speed 100 mm/s is outside 0.01..=50 mm/s");
+        R14_RANGES "gauge read --port sim --sim-depth 30"
+            .err("error: simulated depth 30 mm is outside 0..=20 mm");
+        R14_RANGES "stage move --port /dev/null --min 0 --max 20 --to 1 --step-um 0"
+            .err("error: /dev/null: stage step 0 µm/pulse is outside 0.001..=1000 µm/pulse");
+        // The ends a range says it takes are taken.
+        R14_RANGES "stage move --port sim --to 50 --speed 50" .ok();
+    });
     v
 }

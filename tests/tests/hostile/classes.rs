@@ -152,9 +152,10 @@ pub const R13_PRESENT: &str = "r13-15 a centroid's present takes one set of valu
 pub const R14_OUTPUTS: &str = "r14-1 the outputs of one run never share a path";
 pub const R14_PORT_FORM: &str = "r14-2 a port name of no port's form is refused, not opened";
 pub const R14_JSON_TAIL: &str = "r14-3 a JSON file holds one value, nothing after it";
+pub const R14_RANGES: &str = "r14-4 a refusal states the range its check allows";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 116] = [
+pub const CLASSES: [&str; 117] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -271,4 +272,5 @@ pub const CLASSES: [&str; 116] = [
     R14_OUTPUTS,
     R14_PORT_FORM,
     R14_JSON_TAIL,
+    R14_RANGES,
 ];
