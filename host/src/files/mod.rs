@@ -227,6 +227,17 @@ fn input_named_by(path: &Path) -> Option<PathBuf> {
         .map(|(_, p)| p.clone())
 }
 
+/// `rel`, a path a file's field gives (`field` names it), in that file's
+/// folder `dir`. An empty one (or one of spaces) is refused naming the
+/// field: joined, it named the folder itself, refused as "a directory"
+/// without a word of the field.
+pub fn in_folder(dir: &Path, field: &str, rel: &Path) -> Result<PathBuf, String> {
+    if rel.to_string_lossy().trim().is_empty() {
+        return Err(format!("`{field}` is empty: give a file"));
+    }
+    Ok(dir.join(rel))
+}
+
 /// Refuses to write `path` when it is one of this process's inputs, or
 /// when it is `-`: standard output for a person who types it (as `-` is
 /// standard input for `--stream -`), which an output file is not; it made
