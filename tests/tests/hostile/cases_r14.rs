@@ -31,6 +31,13 @@
 //!   and at most 1000 mm". The stage's and gauge's ranges were written
 //!   `0..50`, as a range that leaves its end out reads, of checks that
 //!   take the end; now `0..=50`, as every other message writes them.
+//! - r14-5: a path a file gives is refused when empty, naming its field.
+//!   A points file's `depth = ""` or `background = ""` named the points
+//!   file's own folder, refused as "cannot read recording DIR/: it is a
+//!   directory" with no word of the field; a protocol's `library = ""`
+//!   said "cannot read stimulus library : no such file or directory". A
+//!   library's `foci_file = ""` was already refused as empty; the three
+//!   now are, by one rule (`files::in_folder`).
 //!
 //! Fixtures in `{dir}/r14`.
 
@@ -53,6 +60,34 @@ pub(crate) fn round14_fixtures(dir: &Path) {
     let text = std::fs::read_to_string(from.join("session.json")).unwrap();
     let session: serde_json::Value = serde_json::from_str(&text).unwrap();
     std::fs::write(to.join("session.json"), format!("{session}\n{{}}\n")).unwrap();
+    let point = |i: usize, depth: &str| {
+        format!(
+            "[[point]]\nat_mm = [{}.0, {}.0, 30.0]\ndepth = \"{depth}\"\n",
+            40 * (i % 2),
+            30 + 40 * (i / 2)
+        )
+    };
+    let points = |bg: &str, depth: &str| {
+        format!(
+            "ball_diameter_mm = 40.0\n{bg}{}{}{}",
+            point(0, "p1.npy"),
+            point(1, depth),
+            point(2, "p3.npy")
+        )
+    };
+    std::fs::write(r.join("points_depth.toml"), points("", "")).unwrap();
+    std::fs::write(
+        r.join("points_bg.toml"),
+        points("background = \"\"\n", "p2.npy"),
+    )
+    .unwrap();
+    let stair = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies/staircase-detection.toml"),
+    )
+    .unwrap();
+    let empty = stair.replace("library = \"staircase-library.toml\"", "library = \"\"");
+    assert_ne!(empty, stair, "the staircase protocol's library moved");
+    std::fs::write(r.join("library_empty.toml"), empty).unwrap();
 }
 
 /// Nothing of the refused run is left in `{dir}/r14/out` (the folder was
@@ -178,6 +213,12 @@ pub(crate) fn round14_cases() -> Vec<Case> {
             .err("error: /dev/null: stage step 0 µm/pulse is outside 0.001..=1000 µm/pulse");
         // The ends a range says it takes are taken.
         R14_RANGES "stage move --port sim --to 50 --speed 50" .ok();
+        R14_EMPTY_PATH "calibrate camera {dir}/r14/points_depth.toml --scene {scenes}/paper.toml"
+            .err("error: points file {dir}/r14/points_depth.toml: `point[1].depth` is empty: give a file");
+        R14_EMPTY_PATH "calibrate camera {dir}/r14/points_bg.toml --scene {scenes}/paper.toml"
+            .err("error: points file {dir}/r14/points_bg.toml: `background` is empty: give a file");
+        R14_EMPTY_PATH "study check {dir}/r14/library_empty.toml"
+            .err("error: study protocol {dir}/r14/library_empty.toml: line 17, field `library`: the path is empty: give the stimulus library's file, relative to the protocol");
     });
     v
 }

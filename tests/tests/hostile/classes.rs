@@ -153,9 +153,11 @@ pub const R14_OUTPUTS: &str = "r14-1 the outputs of one run never share a path";
 pub const R14_PORT_FORM: &str = "r14-2 a port name of no port's form is refused, not opened";
 pub const R14_JSON_TAIL: &str = "r14-3 a JSON file holds one value, nothing after it";
 pub const R14_RANGES: &str = "r14-4 a refusal states the range its check allows";
+pub const R14_EMPTY_PATH: &str =
+    "r14-5 a path a file gives is refused when empty, naming its field";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 117] = [
+pub const CLASSES: [&str; 118] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -273,4 +275,5 @@ pub const CLASSES: [&str; 117] = [
     R14_PORT_FORM,
     R14_JSON_TAIL,
     R14_RANGES,
+    R14_EMPTY_PATH,
 ];
