@@ -338,7 +338,7 @@ pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
         anyhow::anyhow!(
             "cannot create the {flag} directory {}: {}",
             dir.display(),
-            reason(&e)
+            not_a_folder(dir).map_or_else(|| reason(&e), str::to_owned)
         )
     })?;
     // A signal that ends the command at once removes them too.
@@ -347,6 +347,31 @@ pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
         .map(|d| crate::stop::TempGuard::register_dir(d))
         .collect();
     Ok(MadeDirs(made, guards))
+}
+
+/// What `dir` is, in words, when it exists and is not a folder (nor a
+/// link to one): "it already exists" said only that, as though a folder
+/// that exists could not be written into.
+fn not_a_folder(dir: &Path) -> Option<&'static str> {
+    let link = std::fs::symlink_metadata(dir).ok()?;
+    let Ok(m) = std::fs::metadata(dir) else {
+        return link
+            .file_type()
+            .is_symlink()
+            .then_some("it is a symbolic link to nothing (its target is missing)");
+    };
+    let t = m.file_type();
+    Some(if t.is_dir() {
+        return None;
+    } else if t.is_file() {
+        "it is a regular file, not a directory"
+    } else if t.is_fifo() {
+        "it is a FIFO (named pipe), not a directory"
+    } else if t.is_char_device() || t.is_block_device() {
+        "it is a device node, not a directory"
+    } else {
+        "it is not a directory"
+    })
 }
 
 /// The directories [`output_dir`] made, deepest first: removed when it
