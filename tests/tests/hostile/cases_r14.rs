@@ -38,6 +38,12 @@
 //!   said "cannot read stimulus library : no such file or directory". A
 //!   library's `foci_file = ""` was already refused as empty; the three
 //!   now are, by one rule (`files::in_folder`).
+//! - r14-6: an output folder's path that is something else is named for
+//!   what it is. `simulate --out FILE`, `demo --plots /dev/full` or a
+//!   `--plot` at a link to nothing said "cannot create the --out directory
+//!   FILE: it already exists", as though a folder that exists could not
+//!   be written into; now "it is a regular file, not a directory" (a
+//!   device node, a FIFO, a symbolic link to nothing).
 //!
 //! Fixtures in `{dir}/r14`.
 
@@ -88,6 +94,8 @@ pub(crate) fn round14_fixtures(dir: &Path) {
     let empty = stair.replace("library = \"staircase-library.toml\"", "library = \"\"");
     assert_ne!(empty, stair, "the staircase protocol's library moved");
     std::fs::write(r.join("library_empty.toml"), empty).unwrap();
+    std::fs::write(r.join("plain"), "a file\n").unwrap();
+    std::os::unix::fs::symlink(r.join("missing"), r.join("dangling")).unwrap();
 }
 
 /// Nothing of the refused run is left in `{dir}/r14/out` (the folder was
@@ -219,6 +227,12 @@ pub(crate) fn round14_cases() -> Vec<Case> {
             .err("error: points file {dir}/r14/points_bg.toml: `background` is empty: give a file");
         R14_EMPTY_PATH "study check {dir}/r14/library_empty.toml"
             .err("error: study protocol {dir}/r14/library_empty.toml: line 17, field `library`: the path is empty: give the stimulus library's file, relative to the protocol");
+        R14_NOT_A_FOLDER "simulate --out {dir}/r14/plain" .code(1)
+            .err("error: cannot create the --out directory {dir}/r14/plain: it is a regular file, not a directory");
+        R14_NOT_A_FOLDER "demo --plots /dev/full --seconds 1" .code(1)
+            .err("error: cannot create the --plots directory /dev/full: it is a device node, not a directory");
+        R14_NOT_A_FOLDER "track --synthetic --fast --seconds 0.2 --plot {dir}/r14/dangling" .code(1)
+            .err("error: cannot create the --plot directory {dir}/r14/dangling: it is a symbolic link to nothing (its target is missing)");
     });
     v
 }

@@ -155,9 +155,10 @@ pub const R14_JSON_TAIL: &str = "r14-3 a JSON file holds one value, nothing afte
 pub const R14_RANGES: &str = "r14-4 a refusal states the range its check allows";
 pub const R14_EMPTY_PATH: &str =
     "r14-5 a path a file gives is refused when empty, naming its field";
+pub const R14_NOT_A_FOLDER: &str = "r14-6 an output folder's path that is something else says what";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 118] = [
+pub const CLASSES: [&str; 119] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -276,4 +277,5 @@ pub const CLASSES: [&str; 118] = [
     R14_JSON_TAIL,
     R14_RANGES,
     R14_EMPTY_PATH,
+    R14_NOT_A_FOLDER,
 ];
