@@ -299,8 +299,18 @@ pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError
             show_beside(s, 0.0, max_s)
         )));
     }
-    Duration::try_from_secs_f64(s)
-        .map_err(|e| InputError::new(format!("{what} {s} s is not a duration ({e})")))
+    let d = Duration::try_from_secs_f64(s)
+        .map_err(|e| InputError::new(format!("{what} {s} s is not a duration ({e})")))?;
+    // Above 0 but below a nanosecond, the least a duration holds, it is
+    // none: `--hold 1e-300` held for 0 s, a UDP idle time of it failed
+    // the socket (exit 1), an `off_s` of it paused not at all.
+    if d.is_zero() {
+        return Err(InputError::new(format!(
+            "{what} {} s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s",
+            show(s)
+        )));
+    }
+    Ok(d)
 }
 
 /// Checks `lo ≤ v ≤ hi` for a finite `v`; the error names `what`, the
@@ -440,6 +450,13 @@ mod tests {
         }
         assert!(duration_s("x", MAX_SECONDS, MAX_SECONDS).is_ok());
         // Refused beside a bound, it is not shown as the bound.
+        let e = duration_s("--hold", 1e-300, MAX_SECONDS).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("--hold 1e-300 s rounds to no time"),
+            "{e}"
+        );
+        assert_eq!(duration_s("x", 1e-9, 1.0).unwrap(), Duration::from_nanos(1));
         let e = duration_s("on_s", 3600.0000001, 3600.0).unwrap_err();
         assert!(
             e.0.starts_with("on_s 3600.0000001 s is out of range"),
