@@ -44,6 +44,15 @@
 //!   FILE: it already exists", as though a folder that exists could not
 //!   be written into; now "it is a regular file, not a directory" (a
 //!   device node, a FIFO, a symbolic link to nothing).
+//! - r14-7: a duration that rounds to no time is refused. Above 0 but
+//!   below a nanosecond, the least a `Duration` holds, a value became
+//!   none: `upload --hold 1e-300` held for 0 s ("holding for 0 s"), `sim
+//!   --seconds` of it served for none, `stream --udp --seconds 1e-300`
+//!   failed the socket (exit 1, "cannot set a 0 duration timeout"), a
+//!   control line's `off_s` of it paused not at all, and so did a
+//!   protocol's, which `study check` called valid. One rule in
+//!   `limits::duration_s`, and the protocol's timeline checked by it
+//!   before a run starts.
 //!
 //! Fixtures in `{dir}/r14`.
 
@@ -94,6 +103,14 @@ pub(crate) fn round14_fixtures(dir: &Path) {
     let empty = stair.replace("library = \"staircase-library.toml\"", "library = \"\"");
     assert_ne!(empty, stair, "the staircase protocol's library moved");
     std::fs::write(r.join("library_empty.toml"), empty).unwrap();
+    let no_pause = stair.replace("off_s = 0.5", "off_s = 1e-300");
+    assert_ne!(no_pause, stair, "the staircase protocol's off_s moved");
+    std::fs::write(r.join("off_none.toml"), no_pause).unwrap();
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies/staircase-library.toml"),
+        r.join("staircase-library.toml"),
+    )
+    .unwrap();
     std::fs::write(r.join("plain"), "a file\n").unwrap();
     std::os::unix::fs::symlink(r.join("missing"), r.join("dangling")).unwrap();
 }
@@ -233,6 +250,30 @@ pub(crate) fn round14_cases() -> Vec<Case> {
             .err("error: cannot create the --plots directory /dev/full: it is a device node, not a directory");
         R14_NOT_A_FOLDER "track --synthetic --fast --seconds 0.2 --plot {dir}/r14/dangling" .code(1)
             .err("error: cannot create the --plot directory {dir}/r14/dangling: it is a symbolic link to nothing (its target is missing)");
+        R14_NO_TIME "upload --port {port} --hold 1e-300"
+            .err("error: --hold 1e-300 s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s");
+        R14_NO_TIME "stream --port {port} --udp {tcp} --seconds 1e-300"
+            .err("error: --seconds 1e-300 s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s");
+        R14_NO_TIME "sim --seconds 4e-10"
+            .err("error: --seconds 4e-10 s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s");
+        R14_NO_TIME "study check {dir}/r14/off_none.toml"
+            .err("error: study protocol {dir}/r14/off_none.toml: the timeline's off_s 1e-300 s rounds to no time (a duration holds whole nanoseconds): give an off_s of 0 or at least 1e-9 s (as `study run` plans it for the LM firmware)");
+        R14_NO_TIME "study run {dir}/r14/off_none.toml --port autd3:emulator --participant P1 --out {dir}/r14/out/study --observer logistic:threshold=0.4,slope=15,seed=1 --time-scale 0.5"
+            .err("error: study protocol {dir}/r14/off_none.toml: the timeline's off_s 1e-300 s × --time-scale 0.5 = 5e-301 s rounds to no time (a duration holds whole nanoseconds): give an off_s of 0 or at least 2e-9 s")
+            .check(nothing_made);
+        // The least a duration holds is one.
+        R14_NO_TIME "upload --port {port} --hold 1e-9" .ok();
     });
+    v.push(
+        case(
+            R14_NO_TIME,
+            "session --library {scenes}/../studies/paper-library.toml --port autd3:emulator --control -",
+        )
+        .stdin(
+            "{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a2\",\"gate\":\"untracked\",\"on_s\":0.5,\"off_s\":1e-300,\"repeat\":2}\n",
+        )
+        .ok()
+        .out("{\"cmd\":\"present\",\"error\":\"off_s 1e-300 s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s\",\"ok\":false}"),
+    );
     v
 }

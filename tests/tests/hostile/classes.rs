@@ -156,9 +156,10 @@ pub const R14_RANGES: &str = "r14-4 a refusal states the range its check allows"
 pub const R14_EMPTY_PATH: &str =
     "r14-5 a path a file gives is refused when empty, naming its field";
 pub const R14_NOT_A_FOLDER: &str = "r14-6 an output folder's path that is something else says what";
+pub const R14_NO_TIME: &str = "r14-7 a duration that rounds to no time is refused";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 119] = [
+pub const CLASSES: [&str; 120] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -278,4 +279,5 @@ pub const CLASSES: [&str; 119] = [
     R14_RANGES,
     R14_EMPTY_PATH,
     R14_NOT_A_FOLDER,
+    R14_NO_TIME,
 ];
