@@ -54,20 +54,25 @@
 //!   `limits::duration_s`, and the protocol's timeline checked by it
 //!   before a run starts.
 //!
-//! Fixtures in `{dir}/r14`.
+//! Fixtures in `{dir}/r14`, those not whole on purpose in [`BROKEN`].
 
 use super::*;
+
+/// The folder of the fixtures that are not whole JSON on purpose, which
+/// the check that every file is whole passes by.
+pub(crate) const BROKEN: &str = "r14/broken";
 
 pub(crate) fn round14_fixtures(dir: &Path) {
     let r = dir.join("r14");
     std::fs::create_dir_all(r.join("out")).unwrap();
+    std::fs::create_dir_all(dir.join(BROKEN)).unwrap();
     let foci = r#"{"foci_mm": [[[0, 0, 200]]], "dwell_us": 1000}"#;
-    std::fs::write(r.join("foci_two.json"), format!("{foci}\n{foci}\n")).unwrap();
-    std::fs::write(r.join("foci_word.json"), format!("{foci} x")).unwrap();
-    std::fs::write(r.join("foci_blank.json"), format!("{foci}\n\n")).unwrap();
+    std::fs::write(r.join("broken/foci_two.json"), format!("{foci}\n{foci}\n")).unwrap();
+    std::fs::write(r.join("broken/foci_word.json"), format!("{foci} x")).unwrap();
+    std::fs::write(r.join("broken/foci_blank.json"), format!("{foci}\n\n")).unwrap();
     // A finished participant (the study fixtures'), its session.json on
     // one line and then another object.
-    let (from, to) = (dir.join("study/out/P1"), r.join("tail/P1"));
+    let (from, to) = (dir.join("study/out/P1"), r.join("broken/tail/P1"));
     std::fs::create_dir_all(&to).unwrap();
     for f in ["trials.csv", "events.jsonl"] {
         std::fs::copy(from.join(f), to.join(f)).unwrap();
@@ -207,14 +212,14 @@ pub(crate) fn round14_cases() -> Vec<Case> {
         .err(&format!("error: gauge `sim\\t` {control}"))
         .check(nothing_made),
     ]);
-    let upload = "upload --port {port} --no-play --foci-file {dir}/r14";
+    let upload = "upload --port {port} --no-play --foci-file {dir}/r14/broken";
     v.extend(table! {
-        R14_JSON_TAIL "upload --port {port} --no-play --foci-file {dir}/r14/foci_two.json"
-            .err("error: --foci-file {dir}/r14/foci_two.json: not a foci JSON object (trailing characters at line 2 column 1)");
-        R14_JSON_TAIL "upload --port {port} --no-play --foci-file {dir}/r14/foci_word.json"
-            .err("error: --foci-file {dir}/r14/foci_word.json: not a foci JSON object (trailing characters at line 1 column 48)");
-        R14_JSON_TAIL "study report {dir}/r14/tail/P1"
-            .err("error: {dir}/r14/tail/P1/session.json: trailing characters at line 2 column 1");
+        R14_JSON_TAIL "upload --port {port} --no-play --foci-file {dir}/r14/broken/foci_two.json"
+            .err("error: --foci-file {dir}/r14/broken/foci_two.json: not a foci JSON object (trailing characters at line 2 column 1)");
+        R14_JSON_TAIL "upload --port {port} --no-play --foci-file {dir}/r14/broken/foci_word.json"
+            .err("error: --foci-file {dir}/r14/broken/foci_word.json: not a foci JSON object (trailing characters at line 1 column 48)");
+        R14_JSON_TAIL "study report {dir}/r14/broken/tail/P1"
+            .err("error: {dir}/r14/broken/tail/P1/session.json: trailing characters at line 2 column 1");
     });
     // White space after the value is no value.
     v.push(case(R14_JSON_TAIL, &format!("{upload}/foci_blank.json")).ok());
