@@ -312,9 +312,8 @@ impl Session {
         let now = self.clock.now_us();
         let i = self.entry(&req.stimulus)?;
         // The device plays whole steps: an on-phase that rounds to none
-        // would be played as one step longer than asked, without a word.
-        // Checked first, as it says the least on_s that plays (one that
-        // rounds to no time plays no step either).
+        // would be played as one step longer than asked, without a word
+        // (checked first: it names the least on_s that plays).
         if let Some(s) = req.on_s.filter(|s| s.is_finite() && *s > 0.0) {
             let dwell_us = self.loaded[i].planned.plan.sequence.dwell_us();
             if !plays_a_step(s, dwell_us) {
@@ -328,10 +327,8 @@ impl Session {
                 .into());
             }
         }
-        let on = req
-            .on_s
-            .map(|s| crate::limits::duration_s("on_s", s, MAX_PHASE_S))
-            .transpose()?;
+        let on_s = |s| crate::limits::duration_s("on_s", s, MAX_PHASE_S);
+        let on = req.on_s.map(on_s).transpose()?;
         let off = match req.off_s {
             None => Duration::ZERO,
             Some(0.0) => Duration::ZERO,
