@@ -299,8 +299,18 @@ pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError
             show_beside(s, 0.0, max_s)
         )));
     }
-    Duration::try_from_secs_f64(s)
-        .map_err(|e| InputError::new(format!("{what} {s} s is not a duration ({e})")))
+    let d = Duration::try_from_secs_f64(s)
+        .map_err(|e| InputError::new(format!("{what} {s} s is not a duration ({e})")))?;
+    // Above 0 but below a nanosecond, the least a duration holds, it is
+    // none: `--hold 1e-300` held for 0 s, a UDP idle time of it failed
+    // the socket (exit 1), an `off_s` of it paused not at all.
+    if d.is_zero() {
+        return Err(InputError::new(format!(
+            "{what} {} s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s",
+            show(s)
+        )));
+    }
+    Ok(d)
 }
 
 /// Checks `lo ≤ v ≤ hi` for a finite `v`; the error names `what`, the
@@ -316,6 +326,27 @@ pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64,
         };
         Err(InputError::new(format!(
             "{what} {}{unit} is out of range: allowed {}..={}{unit}",
+            show_beside(v, lo, hi),
+            show(lo),
+            show(hi)
+        )))
+    }
+}
+
+/// Checks `lo < v ≤ hi` for a finite `v`, as [`in_range`] does with `lo`
+/// left out: a range with an open end is said so. `allowed 0..=1000 mm`
+/// for a spacing of 1e9 named a 0 the check refuses.
+pub fn in_range_above(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
+    if v.is_finite() && v > lo && v <= hi {
+        Ok(v)
+    } else {
+        let unit = if unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {unit}")
+        };
+        Err(InputError::new(format!(
+            "{what} {}{unit} is out of range: allowed above {} and at most {}{unit}",
             show_beside(v, lo, hi),
             show(lo),
             show(hi)
@@ -419,6 +450,13 @@ mod tests {
         }
         assert!(duration_s("x", MAX_SECONDS, MAX_SECONDS).is_ok());
         // Refused beside a bound, it is not shown as the bound.
+        let e = duration_s("--hold", 1e-300, MAX_SECONDS).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("--hold 1e-300 s rounds to no time"),
+            "{e}"
+        );
+        assert_eq!(duration_s("x", 1e-9, 1.0).unwrap(), Duration::from_nanos(1));
         let e = duration_s("on_s", 3600.0000001, 3600.0).unwrap_err();
         assert!(
             e.0.starts_with("on_s 3600.0000001 s is out of range"),
@@ -491,6 +529,16 @@ mod tests {
         let e = in_range("--radius", 1e30, 0.0, 100.0, "mm").unwrap_err();
         assert!(e.0.contains("0..=100 mm"), "{e}");
         assert!(in_range("x", f64::NAN, 0.0, 1.0, "").is_err());
+        let e = in_range_above("spacing", 1e9, 0.0, 1000.0, "mm").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "spacing 1e9 mm is out of range: allowed above 0 and at most 1000 mm"
+        );
+        assert!(in_range_above("spacing", 0.0, 0.0, 1000.0, "mm").is_err());
+        assert_eq!(
+            in_range_above("spacing", 1000.0, 0.0, 1000.0, "mm").unwrap(),
+            1000.0
+        );
         assert!(position_mm("c", [0.0, 0.0, 2000.0]).is_ok());
         let e = position_mm("c", [0.0, 0.0, 1e300]).unwrap_err();
         assert!(e.0.contains("±2000 mm"), "{e}");

@@ -65,7 +65,7 @@ fn bad_input_is_one_line_and_exit_2() {
     let table: [(&[&str], &str); 8] = [
         (
             &["stage", "move", "--port", "sim", "--to", "60"],
-            "outside the stage's soft limits 0..50 mm",
+            "outside the stage's soft limits 0..=50 mm",
         ),
         (
             &["stage", "move", "--port", "/dev/ttyUSB9", "--to", "1"],

@@ -118,9 +118,7 @@ impl Args {
         // Every input, defaults and sidecars included, is known (and
         // remembered as an input) before any output is created.
         self.finger.check(self.scene.as_deref())?;
-        if let Some(e) = &self.events {
-            lmhost::files::not_an_input("--events", e)?;
-        }
+        control.check_outputs(self.events.as_deref())?;
         // The log is opened before the device: a path it cannot be written
         // at fails here, before the session says it started. It is started
         // (an earlier session's log emptied) once the session has: a

@@ -5,7 +5,7 @@ use clap::Subcommand;
 use serde_json::json;
 
 use lmhost::device::instruments::stage::PAPER_SPEED_MM_S;
-use lmhost::device::instruments::{Axis, SIM, StageLimits, StageOptions, open_stage};
+use lmhost::device::instruments::{Axis, SIM, StageLimits, StageOptions, StagePort, open_stage};
 use lmhost::limits::Num as N;
 
 /// Drive the push axis of a Chuo Seiki QT stage controller, or its twin.
@@ -113,6 +113,9 @@ impl Args {
 
 impl Common {
     fn open(&self) -> anyhow::Result<Box<dyn lmhost::device::instruments::Stage>> {
+        // The port first: `sim ` (a space) is no twin, and was asked for
+        // a real stage's limits.
+        StagePort::parse(&self.port)?;
         let limits = match (self.min, self.max) {
             (Some(lo), Some(hi)) => StageLimits::new(lo, hi)?,
             (None, None) if self.port == SIM => StageLimits::new(0.0, 50.0)?,

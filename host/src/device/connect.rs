@@ -30,21 +30,24 @@ impl PortSpec {
     /// `$LMHOST_TIMEOUT_MS`'s), is an
     /// [`InputError`](crate::InputError) (exit 2).
     pub fn device(&self) -> Result<DeviceKind, crate::InputError> {
-        let env = std::env::var(discover::PORT_ENV).ok();
+        let env = discover::env_port()?;
         let port = self.port.as_deref().or(env.as_deref());
+        let named = match self.port {
+            Some(_) => "--port".to_owned(),
+            None => format!("${}", discover::PORT_ENV),
+        };
         // Longer than any device path (PATH_MAX) or `tcp:HOST:PORT` (a
         // host name is at most 253 bytes): refused here, never echoed
         // whole by every message that names the port (40 kB on one line).
         if let Some(p) = port.filter(|p| p.len() > MAX_PORT_BYTES) {
-            let named = match self.port {
-                Some(_) => "--port".to_owned(),
-                None => format!("${}", discover::PORT_ENV),
-            };
             return Err(crate::InputError::new(format!(
                 "{named} `{}`: {} bytes is longer than any port name (at most {MAX_PORT_BYTES})",
                 crate::error::short_echo(p),
                 p.len()
             )));
+        }
+        if let Some(p) = port {
+            discover::check_name(&named, p)?;
         }
         if let Some((prefix, _)) = port.and_then(|p| p.split_once(':'))
             && ["tcp", "autd3"]

@@ -78,14 +78,14 @@ impl View {
         positive("alpha", self.rad.alpha)?;
         positive("density", self.density)?;
         positive("disk", self.disk_mm)?;
-        in_range("--alpha", self.rad.alpha, 0.0, 2.0, "")?;
+        crate::limits::in_range_above("--alpha", self.rad.alpha, 0.0, 2.0, "")?;
         // From a thin gas up: the force divides by it, and a density of
         // 1e-320 gave a force of inf N without a word.
         in_range("--density", self.density, MIN_DENSITY_KG_M3, 100.0, "kg/m³")?;
-        in_range("--disk", self.disk_mm, 0.0, 1000.0, "mm")?;
-        in_range("--plane-step", self.step_mm, 0.0, 1000.0, "mm")?;
-        in_range("--plane-size", self.size_mm.0, 0.0, 1000.0, "mm")?;
-        in_range("--plane-size", self.size_mm.1, 0.0, 1000.0, "mm")?;
+        crate::limits::in_range_above("--disk", self.disk_mm, 0.0, 1000.0, "mm")?;
+        crate::limits::in_range_above("--plane-step", self.step_mm, 0.0, 1000.0, "mm")?;
+        crate::limits::in_range_above("--plane-size", self.size_mm.0, 0.0, 1000.0, "mm")?;
+        crate::limits::in_range_above("--plane-size", self.size_mm.1, 0.0, 1000.0, "mm")?;
         positive("plane-step", self.step_mm)?;
         if let Some(c) = self.center_mm {
             crate::limits::position_mm("--plane-center", c)?;

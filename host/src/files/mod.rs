@@ -227,6 +227,17 @@ fn input_named_by(path: &Path) -> Option<PathBuf> {
         .map(|(_, p)| p.clone())
 }
 
+/// `rel`, a path a file's field gives (`field` names it), in that file's
+/// folder `dir`. An empty one (or one of spaces) is refused naming the
+/// field: joined, it named the folder itself, refused as "a directory"
+/// without a word of the field.
+pub fn in_folder(dir: &Path, field: &str, rel: &Path) -> Result<PathBuf, String> {
+    if rel.to_string_lossy().trim().is_empty() {
+        return Err(format!("`{field}` is empty: give a file"));
+    }
+    Ok(dir.join(rel))
+}
+
 /// Refuses to write `path` when it is one of this process's inputs, or
 /// when it is `-`: standard output for a person who types it (as `-` is
 /// standard input for `--stream -`), which an output file is not; it made
@@ -275,9 +286,9 @@ pub fn with_files_beside(flag: &str, path: &Path) -> Result<(), InputError> {
 
 /// Refuses outputs that are the same file as each other (by name after
 /// resolving the directory, or by identity when they exist) or as an
-/// input: `outputs` are (flag, path) pairs, checked before anything is
-/// written.
-pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
+/// input: `outputs` are (flag, path) pairs, a folder a run writes into
+/// among them, checked before anything is written.
+pub fn distinct_outputs<P: AsRef<Path>>(outputs: &[(&str, P)]) -> Result<(), InputError> {
     // By the name written: a symlink's target.
     let key = |p: &Path| -> PathBuf {
         let p = dest::follow(p).unwrap_or_else(|_| p.to_owned());
@@ -289,15 +300,17 @@ pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<(), InputError> {
         dir.join(p.file_name().unwrap_or_default())
     };
     for (i, (flag, p)) in outputs.iter().enumerate() {
+        let p = p.as_ref();
         not_an_input(flag, p)?;
         for (flag2, q) in &outputs[..i] {
+            let q = q.as_ref();
             let same_id = match (std::fs::metadata(p), std::fs::metadata(q)) {
                 (Ok(a), Ok(b)) => id(&a) == id(&b),
                 _ => false,
             };
             if same_id || key(p) == key(q) {
                 return Err(InputError::new(format!(
-                    "{flag} {} and {flag2} {} are the same file; give each output its own path",
+                    "{flag} {} and {flag2} {} are the same path; give each output its own",
                     p.display(),
                     q.display()
                 )));
@@ -325,7 +338,7 @@ pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
         anyhow::anyhow!(
             "cannot create the {flag} directory {}: {}",
             dir.display(),
-            reason(&e)
+            not_a_folder(dir).map_or_else(|| reason(&e), str::to_owned)
         )
     })?;
     // A signal that ends the command at once removes them too.
@@ -334,6 +347,31 @@ pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
         .map(|d| crate::stop::TempGuard::register_dir(d))
         .collect();
     Ok(MadeDirs(made, guards))
+}
+
+/// What `dir` is, in words, when it exists and is not a folder (nor a
+/// link to one): "it already exists" said only that, as though a folder
+/// that exists could not be written into.
+fn not_a_folder(dir: &Path) -> Option<&'static str> {
+    let link = std::fs::symlink_metadata(dir).ok()?;
+    let Ok(m) = std::fs::metadata(dir) else {
+        return link
+            .file_type()
+            .is_symlink()
+            .then_some("it is a symbolic link to nothing (its target is missing)");
+    };
+    let t = m.file_type();
+    Some(if t.is_dir() {
+        return None;
+    } else if t.is_file() {
+        "it is a regular file, not a directory"
+    } else if t.is_fifo() {
+        "it is a FIFO (named pipe), not a directory"
+    } else if t.is_char_device() || t.is_block_device() {
+        "it is a device node, not a directory"
+    } else {
+        "it is not a directory"
+    })
 }
 
 /// The directories [`output_dir`] made, deepest first: removed when it

@@ -142,7 +142,7 @@ fn an_output_onto_an_input_is_refused_also_through_a_link() {
     Output::create(&d.join("other.toml")).unwrap();
     let a = d.join("a.npy");
     let e = distinct_outputs(&[("--record", &a), ("--plot", &d.join(".").join("a.npy"))]);
-    assert!(e.unwrap_err().to_string().contains("same file"));
+    assert!(e.unwrap_err().to_string().contains("are the same path"));
 }
 
 #[test]

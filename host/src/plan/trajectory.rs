@@ -166,7 +166,7 @@ impl Cycle {
         // Checked even for one focus, where it is unused: a NaN or negative
         // spacing is a typo, never silently ignored.
         finite_pos(self.spacing_mm, "spacing", "mm", false)?;
-        limits::in_range(
+        limits::in_range_above(
             "spacing",
             self.spacing_mm,
             0.0,
@@ -187,7 +187,7 @@ impl Cycle {
             }
             Steps::Width(w) => {
                 finite_pos(w, "step", "mm", false)?;
-                limits::in_range("step", w, 0.0, limits::MAX_SPACING_MM, "mm")?;
+                limits::in_range_above("step", w, 0.0, limits::MAX_SPACING_MM, "mm")?;
                 if circumference == 0.0 {
                     1
                 } else {

@@ -246,7 +246,7 @@ pub(crate) fn cases() -> Vec<Case> {
         PLANS      "simulate --intensity 0.5 --out {dir}/p0" .err("full output");
         PLANS      "plan --intensity 0.25" .ok();
         PLANS      "stream --port {port} --intensity 3 --synthetic" .err("0..=1");
-        PLANS      "simulate --alpha 1e300 --out {dir}/p2" .err("0..=2");
+        PLANS      "simulate --alpha 1e300 --out {dir}/p2" .err("allowed above 0 and at most 2");
         PLANS      "simulate --calibration 1e300 --out {dir}/p3" .err("--calibration");
         PLANS      "simulate --calibration 0 --out {dir}/p3c" .err("--calibration");
         PLANS      "simulate --disk 1e300 --out {dir}/p4" .err("--disk");

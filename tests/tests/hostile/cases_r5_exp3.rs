@@ -80,7 +80,7 @@ pub(crate) fn exp3_cases() -> Vec<Case> {
         // Positions: checked against the limits and the protocol's depths.
         (
             "--stage sim --gauge sim --contact 25",
-            "the deepest push (--contact + the protocol's max_mm) at 35 mm is outside the stage's soft limits 0..30 mm",
+            "the deepest push (--contact + the protocol's max_mm) at 35 mm is outside the stage's soft limits 0..=30 mm",
         ),
         (
             "--stage sim --gauge sim --contact 5 --rest 6",
@@ -88,7 +88,7 @@ pub(crate) fn exp3_cases() -> Vec<Case> {
         ),
         (
             "--stage sim --gauge sim --rest -1",
-            "--rest at -1 mm is outside the stage's soft limits 0..30 mm",
+            "--rest at -1 mm is outside the stage's soft limits 0..=30 mm",
         ),
         (
             "--stage sim --gauge sim --contact nan",
@@ -96,7 +96,7 @@ pub(crate) fn exp3_cases() -> Vec<Case> {
         ),
         (
             "--stage sim --gauge sim --stage-speed 0",
-            "stage speed 0 mm/s is outside 0.01..50 mm/s",
+            "stage speed 0 mm/s is outside 0.01..=50 mm/s",
         ),
         (
             "--stage sim --gauge sim --stage-speed inf",

@@ -217,7 +217,7 @@ pub(crate) fn files_cases() -> Vec<Case> {
         FILES_ONE_RULE "study check {dir}/r7/exp1_radius.toml"
                        .err("stimulus 1 (`lms-5hz-a2`): radius must be a finite number ≥ 0 mm, got -1");
         FILES_ONE_RULE "study check {dir}/r7/exp1_step.toml"
-                       .err("step 1e300 mm is out of range: allowed 0..=1000 mm");
+                       .err("step 1e300 mm is out of range: allowed above 0 and at most 1000 mm");
         FILES_ONE_RULE "study check {dir}/r7/exp1_foci.toml"
                        .err("field `stimulus[0].foci`: 0 is out of range: allowed 1..=32");
         FILES_ONE_RULE "session --library {dir}/r7/lib_radius.toml --port autd3:emulator --control -"

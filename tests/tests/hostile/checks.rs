@@ -102,7 +102,10 @@ pub(crate) fn every_file_whole(dir: &Path) -> Result<(), String> {
         let name = e.file_name().to_string_lossy().into_owned();
         let ft = e.file_type().map_err(|e| e.to_string())?;
         if ft.is_dir() {
-            every_file_whole(&path)?;
+            // Round 14's broken JSON fixtures are broken on purpose.
+            if !path.ends_with(super::cases_r14::BROKEN) {
+                every_file_whole(&path)?;
+            }
             continue;
         }
         if !ft.is_file() {

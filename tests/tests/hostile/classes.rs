@@ -153,8 +153,18 @@ pub const R14B_HALF_CLOSED: &str = "r14b-2 a client that half-closes gets every 
 pub const R14B_BEYOND_FLOAT: &str =
     "r14b-3 a number beyond a float on a live line is refused as itself, named";
 
+/// Round 14 (`cases_r14.rs`).
+pub const R14_OUTPUTS: &str = "r14-1 the outputs of one run never share a path";
+pub const R14_PORT_FORM: &str = "r14-2 a port name of no port's form is refused, not opened";
+pub const R14_JSON_TAIL: &str = "r14-3 a JSON file holds one value, nothing after it";
+pub const R14_RANGES: &str = "r14-4 a refusal states the range its check allows";
+pub const R14_EMPTY_PATH: &str =
+    "r14-5 a path a file gives is refused when empty, naming its field";
+pub const R14_NOT_A_FOLDER: &str = "r14-6 an output folder's path that is something else says what";
+pub const R14_NO_TIME: &str = "r14-7 a duration that rounds to no time is refused";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 115] = [
+pub const CLASSES: [&str; 122] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -270,4 +280,11 @@ pub const CLASSES: [&str; 115] = [
     R13_PRESENT,
     R14B_HALF_CLOSED,
     R14B_BEYOND_FLOAT,
+    R14_OUTPUTS,
+    R14_PORT_FORM,
+    R14_JSON_TAIL,
+    R14_RANGES,
+    R14_EMPTY_PATH,
+    R14_NOT_A_FOLDER,
+    R14_NO_TIME,
 ];

@@ -6,7 +6,7 @@
 //! [`TIME_LIMIT`] (one with a client beside it: [`TIME_LIMIT_WITH_CLIENT`]),
 //! killed and failed otherwise. To add a case, append a
 //! row `CLASS "args …" .expectation(..)…;` to a case table (one file per
-//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r13.rs`); `{port}` is
+//! round: `cases_r1.rs`, `cases_r3.rs`, … `cases_r14.rs`); `{port}` is
 //! the shared simulated device, `{fake:NAME}` a device that lies (round
 //! 9), `{dir}` a scratch directory with the fixtures of [`fixtures`],
 //! `{scenes}` the repository's `scenes/`. A case may run a client of the
@@ -258,6 +258,7 @@ mod cases_r11;
 mod cases_r12;
 mod cases_r13;
 mod cases_r13b;
+mod cases_r14;
 mod cases_r14b;
 mod cases_r3;
 mod cases_r4_device;
@@ -292,6 +293,7 @@ use cases_r11::{round11_cases, round11_fixtures};
 use cases_r12::round12_cases;
 use cases_r13::{round13_cases, round13_fixtures};
 use cases_r13b::{round13b_cases, round13b_fixtures};
+use cases_r14::{round14_cases, round14_fixtures};
 use cases_r14b::{round14b_cases, round14b_fixtures};
 use checks::*;
 use fixtures::*;
@@ -496,7 +498,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let every_fixture: [fn(&Path); 15] = [
+    let every_fixture: [fn(&Path); 16] = [
         fixtures,
         study_fixtures,
         paper_fixtures,
@@ -511,6 +513,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         round11_fixtures,
         round13_fixtures,
         round13b_fixtures,
+        round14_fixtures,
         round14b_fixtures,
     ];
     for write in every_fixture {
@@ -533,7 +536,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     };
     ok(&["upload", "--port", &ctx.port, "--hold", "0.05"]);
 
-    let tables: [fn() -> Vec<Case>; 20] = [
+    let tables: [fn() -> Vec<Case>; 21] = [
         cases,
         study_cases,
         paper_cases,
@@ -554,6 +557,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         round12_cases,
         round13_cases,
         round13b_cases,
+        round14_cases,
         round14b_cases,
     ];
     let mut all: Vec<Case> = tables.iter().flat_map(|table| table()).collect();

@@ -127,7 +127,7 @@ impl QtConfig {
             return Err(InstrumentError::limit(
                 name,
                 format!(
-                    "stage step {} µm/pulse is outside 0.001..1000",
+                    "stage step {} µm/pulse is outside 0.001..=1000 µm/pulse",
                     show(self.step_um)
                 ),
             ));

@@ -88,14 +88,26 @@ fn twin_refuses(
     }
 }
 
+/// Refuses a gauge port of a form no port has (as [`StagePort::parse`]
+/// does the stage's): empty, spaces at an end, a control character.
+fn check_gauge_port(port: &str) -> Result<(), InputError> {
+    if port.is_empty() {
+        return Err(InputError::new(
+            "gauge: give sim or a serial port, not an empty name",
+        ));
+    }
+    crate::device::link::discover::check_name("gauge", port)
+}
+
 /// Open the gauge `o` names.
 pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
+    check_gauge_port(&o.port)?;
     if o.port == SIM {
         sim_gauge_check(o)?;
         let depth = o.sim_depth_mm.unwrap_or(0.0);
         if !(depth.is_finite() && (0.0..=20.0).contains(&depth)) {
             return Err(InputError::new(format!(
-                "simulated depth {} mm is outside 0..20 mm",
+                "simulated depth {} mm is outside 0..=20 mm",
                 show(depth)
             ))
             .into());
@@ -169,6 +181,7 @@ impl StagePort {
                 "stage: give sim or a serial port, not an empty name",
             ));
         }
+        crate::device::link::discover::check_name("stage", s)?;
         Ok(Self::Serial(s.to_owned()))
     }
 }
@@ -271,6 +284,7 @@ pub fn check_rig(stage: &StageOptions, gauge: &GaugeOptions) -> anyhow::Result<(
     if let StagePort::Sim(_) = StagePort::parse(&stage.port)? {
         sim_stage_check(stage)?;
     }
+    check_gauge_port(&gauge.port)?;
     if gauge.port == SIM {
         sim_gauge_check(gauge)?;
     }

@@ -58,7 +58,7 @@ impl StageLimits {
             Err(InstrumentError::limit(
                 port,
                 format!(
-                    "position {} mm is outside the stage's soft limits {}..{} mm",
+                    "position {} mm is outside the stage's soft limits {}..={} mm",
                     show(mm),
                     show(self.min_mm),
                     show(self.max_mm)
@@ -81,7 +81,7 @@ pub fn check_speed(port: &str, mm_s: f64) -> Result<(), InstrumentError> {
         Err(InstrumentError::limit(
             port,
             format!(
-                "stage speed {} mm/s is outside {}..{} mm/s",
+                "stage speed {} mm/s is outside {}..={} mm/s",
                 show(mm_s),
                 show(MIN_SPEED_MM_S),
                 show(MAX_SPEED_MM_S)
@@ -263,7 +263,7 @@ mod tests {
         let e = l.check("/dev/ttyUSB0", 20.5).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "/dev/ttyUSB0: position 20.5 mm is outside the stage's soft limits 0..20 mm"
+            "/dev/ttyUSB0: position 20.5 mm is outside the stage's soft limits 0..=20 mm"
         );
         assert!(l.check("p", f64::NAN).is_err());
         assert!(StageLimits::new(5.0, 5.0).is_err());

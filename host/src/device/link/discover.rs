@@ -163,8 +163,43 @@ pub fn choose(
 
 /// [`choose`] against the live system.
 pub fn resolve(flag: Option<&str>) -> Result<String, InputError> {
-    let env = std::env::var(PORT_ENV).ok();
+    let env = env_port()?;
     choose(flag, env.as_deref(), &scan(Path::new("/sys/class/tty")))
+}
+
+/// `$LMHOST_PORT`, if set. A value that is not UTF-8 is refused, not
+/// taken for an unset variable (that picked whatever board discovery
+/// found).
+pub fn env_port() -> Result<Option<String>, InputError> {
+    match std::env::var(PORT_ENV) {
+        Ok(p) => Ok(Some(p)),
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(raw)) => Err(InputError::new(format!(
+            "${PORT_ENV} `{}` is not UTF-8: give a port name in UTF-8, or unset it",
+            crate::error::short_echo(&raw.to_string_lossy())
+        ))),
+    }
+}
+
+/// Refuses a port name (`named`: the flag or variable that gave it) of a
+/// form no port has: spaces at an end, or a line break or other control
+/// character (a name pasted with its line end). Each was opened as it
+/// was and failed as "no such file" (exit 1), the trouble unseen.
+pub fn check_name(named: &str, port: &str) -> Result<(), InputError> {
+    let echo = || crate::error::short_echo(&port.escape_debug().to_string());
+    if port.chars().any(char::is_control) {
+        return Err(InputError::new(format!(
+            "{named} `{}` holds a line break or control character: give the port's name alone",
+            echo()
+        )));
+    }
+    if port.trim() != port {
+        return Err(InputError::new(format!(
+            "{named} `{}` has spaces at an end: give the port's name without them",
+            echo()
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -251,6 +286,33 @@ mod tests {
             "/dev/a"
         );
         assert_eq!(choose(None, Some("/dev/b"), &found).unwrap(), "/dev/b");
+    }
+
+    #[test]
+    fn a_port_name_with_spaces_at_an_end_or_a_control_character_is_refused() {
+        for (port, said) in [
+            (" /dev/ttyACM0", "` /dev/ttyACM0` has spaces at an end"),
+            ("/dev/ttyACM0 ", "`/dev/ttyACM0 ` has spaces at an end"),
+            (
+                "/dev/ttyACM0\n",
+                "`/dev/ttyACM0\\n` holds a line break or control",
+            ),
+            (
+                "tcp:\thost:1",
+                "`tcp:\\thost:1` holds a line break or control",
+            ),
+        ] {
+            let e = check_name("--port", port).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--port {said}")), "{e}");
+        }
+        for fine in [
+            "/dev/ttyACM0",
+            "tcp:127.0.0.1:9000",
+            "autd3:emulator",
+            "/tmp/a b",
+        ] {
+            check_name("--port", fine).unwrap();
+        }
     }
 
     #[test]

@@ -81,12 +81,13 @@ impl Target {
     pub fn load(path: &Path) -> Result<Self, InputError> {
         let text = crate::limits::read_text_file("points file", path)?;
         let origin = path.display();
-        let f: PointsFile = crate::plan::scene::from_toml(&text, &crate::files::kind::POINTS)
-            .map_err(|m| InputError::new(format!("points file {origin}: {m}")))?;
+        let bad = |m: String| InputError::new(format!("points file {origin}: {m}"));
+        let f: PointsFile =
+            crate::plan::scene::from_toml(&text, &crate::files::kind::POINTS).map_err(bad)?;
         let d = f.ball_diameter_mm;
         if !(d.is_finite() && (5.0..=500.0).contains(&d)) {
-            return Err(InputError::new(format!(
-                "points file {origin}: `ball_diameter_mm` must be 5..=500 mm, got {d}"
+            return Err(bad(format!(
+                "`ball_diameter_mm` must be 5..=500 mm, got {d}"
             )));
         }
         if f.point.len() < 3 || f.point.len() > MAX_POINTS {
@@ -102,7 +103,8 @@ impl Target {
                 &format!("points file {origin}: point[{i}].at_mm"),
                 p.at_mm,
             )?;
-            points.push((p.at_mm, dir.join(p.depth)));
+            let at = crate::files::in_folder(dir, &format!("point[{i}].depth"), &p.depth);
+            points.push((p.at_mm, at.map_err(bad)?));
         }
         // The positions' geometry is the file's: refused, naming it,
         // before a recording is read.
@@ -111,7 +113,9 @@ impl Target {
         Ok(Self {
             file: path.to_path_buf(),
             ball_diameter_mm: d,
-            background: f.background.map(|b| dir.join(b)),
+            background: (f.background.as_deref())
+                .map(|b| crate::files::in_folder(dir, "background", b).map_err(bad))
+                .transpose()?,
             points,
         })
     }

@@ -28,6 +28,26 @@ pub enum Control {
     },
 }
 
+impl Control {
+    /// Refuses, before anything is made, an event log (`events`) at the
+    /// control socket's path or its token file's (with TCP), or either at
+    /// an input's: the log was made first, and the socket then said its
+    /// path "exists and is not a socket".
+    pub fn check_outputs(&self, events: Option<&Path>) -> Result<(), InputError> {
+        let mut outs: Vec<(&str, PathBuf)> = Vec::new();
+        if let Self::Socket { unix, tcp, named } = self {
+            outs.push((named, unix.clone()));
+            if tcp.is_some() {
+                outs.push(("the TCP token file", token_path(unix)));
+            }
+        }
+        if let Some(e) = events {
+            outs.push(("--events", e.to_owned()));
+        }
+        crate::files::distinct_outputs(&outs)
+    }
+}
+
 /// The control socket when `--control` is not given, and what gave it
 /// (for messages): `$XDG_RUNTIME_DIR/lmhost.sock` (an absolute
 /// `$XDG_RUNTIME_DIR`, as the XDG spec has it), else

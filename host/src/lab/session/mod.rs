@@ -311,13 +311,10 @@ impl Session {
     pub fn present_for(&mut self, req: &Present, owner: Owner) -> anyhow::Result<()> {
         let now = self.clock.now_us();
         let i = self.entry(&req.stimulus)?;
-        let on = req
-            .on_s
-            .map(|s| crate::limits::duration_s("on_s", s, MAX_PHASE_S))
-            .transpose()?;
         // The device plays whole steps: an on-phase that rounds to none
-        // would be played as one step longer than asked, without a word.
-        if let (Some(s), Some(_)) = (req.on_s, on) {
+        // would be played as one step longer than asked, without a word
+        // (checked first: it names the least on_s that plays).
+        if let Some(s) = req.on_s.filter(|s| s.is_finite() && *s > 0.0) {
             let dwell_us = self.loaded[i].planned.plan.sequence.dwell_us();
             if !plays_a_step(s, dwell_us) {
                 return Err(InputError::new(format!(
@@ -330,6 +327,8 @@ impl Session {
                 .into());
             }
         }
+        let on_s = |s| crate::limits::duration_s("on_s", s, MAX_PHASE_S);
+        let on = req.on_s.map(on_s).transpose()?;
         let off = match req.off_s {
             None => Duration::ZERO,
             Some(0.0) => Duration::ZERO,

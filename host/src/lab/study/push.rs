@@ -82,7 +82,7 @@ impl PushOptions {
         ] {
             if !inside(mm) {
                 return Err(InputError::new(format!(
-                    "{what} at {} mm is outside the stage's soft limits {}..{} mm",
+                    "{what} at {} mm is outside the stage's soft limits {}..={} mm",
                     show(mm),
                     show(l.min_mm),
                     show(l.max_mm)

@@ -275,7 +275,18 @@ pub fn read_own(what: &str, path: &Path, max: u64) -> Result<Vec<u8>, InputError
 pub fn read_session(path: &Path) -> Result<SessionFile, InputError> {
     let bytes = read_own("session file", path, MAX_SESSION_BYTES)?;
     let mut de = serde_json::Deserializer::from_slice(&bytes);
-    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+    let session = session_of(&mut de, path)?;
+    // One value: what follows it was ignored without a word.
+    de.end()
+        .map_err(|e| InputError::new(format!("{}: {e}", path.display())))?;
+    Ok(session)
+}
+
+fn session_of(
+    de: &mut serde_json::Deserializer<serde_json::de::SliceRead<'_>>,
+    path: &Path,
+) -> Result<SessionFile, InputError> {
+    serde_path_to_error::deserialize(de).map_err(|e| {
         let mut field = e.path().to_string();
         let mut inner = e.inner().to_string();
         // An unknown key is the path's last part, and serde's message names

@@ -65,6 +65,16 @@ pub fn check(p: &Protocol, plans: &[TargetPlan], scale: f64) -> Result<(), Input
             )));
         }
     }
+    // A pause that rounds to no time the session refuses (`off_s` is
+    // 0 for none): checked here, not as the first trial presents.
+    let off = tl.off_s * scale;
+    if off > 0.0 && std::time::Duration::try_from_secs_f64(off).is_ok_and(|d| d.is_zero()) {
+        return Err(InputError::new(format!(
+            "study protocol {origin}: {} rounds to no time (a duration holds whole nanoseconds): give an off_s of 0 or at least {} s",
+            as_played("off_s", tl.off_s),
+            show(1e-9 / scale)
+        )));
+    }
     let Some(on) = tl.on_s else {
         return Ok(());
     };

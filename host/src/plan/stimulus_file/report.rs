@@ -142,11 +142,22 @@ fn header<'de, D: serde::Deserializer<'de>>(d: D) -> Result<lm_proto::UploadHead
     })
 }
 
-/// `text` read as a `T`; an error names the field it is in
-/// (`header.steps: -1 is out of range: allowed 1..=65535 at line 1 column 9`).
+/// `text` read as a `T`, the whole of it; an error names the field it is
+/// in (`header.steps: -1 is out of range: allowed 1..=65535 at line 1
+/// column 9`).
 pub(super) fn from_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, String> {
     let mut de = serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+    let v = value_of(&mut de)?;
+    // One value: what follows it (a second object, a stray word) was
+    // ignored without a word.
+    de.end().map_err(|e| e.to_string())?;
+    Ok(v)
+}
+
+fn value_of<T: serde::de::DeserializeOwned>(
+    de: &mut serde_json::Deserializer<serde_json::de::StrRead<'_>>,
+) -> Result<T, String> {
+    serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
         // A syntax error is where it is, not in a field.
         if path == "." || !e.inner().is_data() {

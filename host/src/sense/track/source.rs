@@ -519,6 +519,26 @@ pub struct Recorder {
 }
 
 impl Recorder {
+    /// Every file a recording at `path` writes (with `colour` frames or
+    /// not), each named for messages: for a check against each other and
+    /// the run's other outputs before any is made.
+    pub fn outputs(path: &Path, colour: bool) -> Vec<(&'static str, PathBuf)> {
+        let mut outs = vec![
+            ("--record", path.to_owned()),
+            ("--record's intrinsics", intrinsics_beside(path)),
+            ("--record's time stamps", timestamps_beside(path)),
+        ];
+        if colour {
+            let [cnpy, ctoml, ctimes] = colour_beside(path);
+            outs.extend([
+                ("--record's colour frames", cnpy),
+                ("--record's colour camera", ctoml),
+                ("--record's colour time stamps", ctimes),
+            ]);
+        }
+        outs
+    }
+
     /// Start recording frames of `intr` (and colour images of `colour`) to
     /// `path`; refuses (exit 2) a recording or a file beside it that is one
     /// of this run's inputs.
@@ -527,22 +547,9 @@ impl Recorder {
         intr: Intrinsics,
         colour: Option<ColourCamera>,
     ) -> anyhow::Result<Self> {
-        let [cnpy, ctoml, ctimes] = colour_beside(path);
-        let (ipath, tpath) = (intrinsics_beside(path), timestamps_beside(path));
-        let mut outs = vec![
-            ("--record", path),
-            ("--record's intrinsics", ipath.as_path()),
-            ("--record's time stamps", tpath.as_path()),
-        ];
-        if colour.is_some() {
-            outs.extend([
-                ("--record's colour frames", cnpy.as_path()),
-                ("--record's colour camera", ctoml.as_path()),
-                ("--record's colour time stamps", ctimes.as_path()),
-            ]);
-        }
+        let [cnpy, ..] = colour_beside(path);
         crate::files::with_files_beside("--record", path)?;
-        crate::files::distinct_outputs(&outs)?;
+        crate::files::distinct_outputs(&Self::outputs(path, colour.is_some()))?;
         let writer = DepthNpyWriter::create(path, intr.pinhole.width, intr.pinhole.height)?;
         let colour = match colour {
             Some(c) => Some((

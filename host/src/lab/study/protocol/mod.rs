@@ -418,10 +418,15 @@ impl Protocol {
             text,
             origin: &origin,
         };
-        let library_path = path
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join(u.library.get_ref());
+        let library_path = crate::files::in_folder(
+            path.parent().unwrap_or(Path::new(".")),
+            "library",
+            Path::new(u.library.get_ref()),
+        )
+        .map_err(|_| {
+            let m = "the path is empty: give the stimulus library's file, relative to the protocol";
+            e.at(u.library.span(), "library", m)
+        })?;
         let library = Library::load(&library_path).map_err(|x| {
             // The hint where the path is the trouble, not after a value
             // inside the library.

@@ -115,6 +115,14 @@ impl TrackRun {
         let tracker = Tracker::new(intr, setup);
         let hopeless = super::check_rig(&tracker).err();
         let pipe = Pipeline::new(tracker, opts.gate, filter.build());
+        // Every output before any is made: a --plot folder at the
+        // recording's path (or a file's beside it) was made, and the
+        // recording failed on it at the end, its other files left.
+        if let (Some(r), Some(p)) = (&opts.record, &opts.plot) {
+            let mut outs = Recorder::outputs(r, src.colour_camera().is_some());
+            outs.push(("--plot", p.dir.clone()));
+            crate::files::distinct_outputs(&outs)?;
+        }
         let rec = match &opts.record {
             Some(p) => Some(Recorder::create(p, intr, src.colour_camera())?),
             None => None,
