@@ -162,9 +162,13 @@ pub const R14_EMPTY_PATH: &str =
     "r14-5 a path a file gives is refused when empty, naming its field";
 pub const R14_NOT_A_FOLDER: &str = "r14-6 an output folder's path that is something else says what";
 pub const R14_NO_TIME: &str = "r14-7 a duration that rounds to no time is refused";
+/// Round 15b: where a model, a spec and the code disagree (`cases_r15b.rs`).
+pub const R15B_MODEL_RANGE: &str =
+    "r15b-1 every value a simulated instrument's flag allows is modelled";
+pub const R15B_CAMERA: &str = "r15b-2 camera intrinsics no depth camera has are refused";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 122] = [
+pub const CLASSES: [&str; 124] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -287,4 +291,6 @@ pub const CLASSES: [&str; 122] = [
     R14_EMPTY_PATH,
     R14_NOT_A_FOLDER,
     R14_NO_TIME,
+    R15B_MODEL_RANGE,
+    R15B_CAMERA,
 ];

@@ -1,0 +1,58 @@
+//! Round 15b: where a model, a spec and the code disagree.
+//!
+//! - r15b-1: every value a simulated instrument's flag allows is one its
+//!   model gives a reading for. `gauge read --port sim --sim-depth 20`
+//!   was inside the allowed 0..=20 mm, and the finger pad's exponential
+//!   model pushed 1.1 MN there, an overload (exit 1); the range now stops
+//!   at 7 mm, where the pad still reads below the gauge's 50 N.
+//! - r15b-2: camera intrinsics no depth camera has are refused with their
+//!   range: `fx = 1e-300` and `depth_scale = 1e-300` were accepted.
+//!
+//! Fixtures in `{dir}/r15b`.
+
+use super::*;
+
+pub(crate) fn round15b_fixtures(dir: &Path) {
+    let r = dir.join("r15b");
+    std::fs::create_dir_all(&r).unwrap();
+    let cam = |fx: &str, scale: &str| {
+        format!(
+            "width = 4\nheight = 4\nfx = {fx}\nfy = 2.0\nppx = 1.5\nppy = 1.5\ndepth_scale = {scale}\n"
+        )
+    };
+    for (name, fx, scale) in [
+        ("cam_fx_tiny.toml", "1e-300", "0.001"),
+        ("cam_fx_far.toml", "2e5", "0.001"),
+        ("cam_scale_tiny.toml", "2.0", "1e-300"),
+    ] {
+        std::fs::write(r.join(name), cam(fx, scale)).unwrap();
+    }
+}
+
+pub(crate) fn round15b_cases() -> Vec<Case> {
+    let full = "(the simulated pad reaches the gauge's 50 N capacity at 7.5 mm)";
+    let mut v = Vec::new();
+    for depth in ["20", "7.01", "-0.5"] {
+        v.push(
+            case(R15B_MODEL_RANGE, &format!("gauge read --port sim --sim-depth {depth}"))
+                .err(&format!(
+                    "error: simulated depth {depth} mm is outside 0..=7 mm {full}"
+                )),
+        );
+    }
+    v.push(
+        case(R15B_MODEL_RANGE, "gauge read --port sim --sim-depth 7")
+            .ok()
+            .out(" N"),
+    );
+    let focal = "must be a focal length of 1..=100000 pixels";
+    v.extend(table! {
+        R15B_CAMERA "track" .depth("ok.npy", "r15b/cam_fx_tiny.toml")
+            .err(&format!("error: intrinsics {{dir}}/r15b/cam_fx_tiny.toml: `fx` {focal}, got 1e-300"));
+        R15B_CAMERA "track" .depth("ok.npy", "r15b/cam_fx_far.toml")
+            .err(&format!("error: intrinsics {{dir}}/r15b/cam_fx_far.toml: `fx` {focal}, got 200000"));
+        R15B_CAMERA "track" .depth("ok.npy", "r15b/cam_scale_tiny.toml")
+            .err("error: intrinsics {dir}/r15b/cam_scale_tiny.toml: `depth_scale` must be 1e-6..=1 metres per unit, got 1e-300");
+    });
+    v
+}
