@@ -7,6 +7,9 @@
 //!   at 7 mm, where the pad still reads below the gauge's 50 N.
 //! - r15b-2: camera intrinsics no depth camera has are refused with their
 //!   range: `fx = 1e-300` and `depth_scale = 1e-300` were accepted.
+//! - r15b-4: a flag of several parts names the part that is wrong and
+//!   what it allows: `--z-profile 0,8` (and `--away 2,1`) said the whole
+//!   form and both ranges, `--center 0,inf,200` "must be finite".
 //!
 //! Fixtures in `{dir}/r15b`.
 
@@ -53,6 +56,23 @@ pub(crate) fn round15b_cases() -> Vec<Case> {
             .err(&format!("error: intrinsics {{dir}}/r15b/cam_fx_far.toml: `fx` {focal}, got 200000"));
         R15B_CAMERA "track" .depth("ok.npy", "r15b/cam_scale_tiny.toml")
             .err("error: intrinsics {dir}/r15b/cam_scale_tiny.toml: `depth_scale` must be 1e-6..=1 metres per unit, got 1e-300");
+    });
+    let radius = "allowed above 0 and at most 20 mm";
+    v.extend(table! {
+        R15B_PARTS "track --synthetic --fast --z-profile 0,8"
+            .err(&format!("error: --z-profile `0,8`: the radius 0 mm is out of range: {radius}"));
+        R15B_PARTS "track --synthetic --fast --z-profile 3,1001"
+            .err("error: --z-profile `3,1001`: the steps 1001 are out of range: allowed 1..=1000");
+        R15B_PARTS "track --synthetic --fast --z-profile 3,x"
+            .err("error: --z-profile `3,x`: the steps `x` are not a whole number: allowed 1..=1000");
+        R15B_PARTS "track --synthetic --fast --z-profile 3"
+            .err("error: --z-profile `3`: give RADIUS_MM,STEPS: a radius and a step count, one comma between");
+        R15B_PARTS "stream --port autd3:emulator --synthetic --fast --seconds 0.3 --away 2,1"
+            .err("error: --away `2,1`: END 1 s is out of range: allowed after START (2 s), finite");
+        R15B_PARTS "stream --port autd3:emulator --synthetic --fast --seconds 0.3 --away x,1"
+            .err("error: --away `x,1`: START `x` is not a number of seconds");
+        R15B_PARTS "plan --center 0,inf,200"
+            .err("error: --center `0,inf,200`: Y inf is not a finite number of mm");
     });
     v
 }

@@ -166,9 +166,10 @@ pub const R14_NO_TIME: &str = "r14-7 a duration that rounds to no time is refuse
 pub const R15B_MODEL_RANGE: &str =
     "r15b-1 every value a simulated instrument's flag allows is modelled";
 pub const R15B_CAMERA: &str = "r15b-2 camera intrinsics no depth camera has are refused";
+pub const R15B_PARTS: &str = "r15b-4 a flag of several parts names the part that is wrong";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 124] = [
+pub const CLASSES: [&str; 125] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -293,4 +294,5 @@ pub const CLASSES: [&str; 124] = [
     R14_NO_TIME,
     R15B_MODEL_RANGE,
     R15B_CAMERA,
+    R15B_PARTS,
 ];
