@@ -10,6 +10,11 @@
 //! - r15b-4: a flag of several parts names the part that is wrong and
 //!   what it allows: `--z-profile 0,8` (and `--away 2,1`) said the whole
 //!   form and both ranges, `--center 0,inf,200` "must be finite".
+//! - r15b-5: a centroid JSON object with a bad value is refused as a bad
+//!   value of its key: `{"x":1e999,…}` was "not a centroid JSON object
+//!   (`x`: 1e999 …)", `{"x":"a",…}` "not a centroid JSON object (invalid
+//!   type: string "a", expected f64 …)", the key unnamed; a line that is
+//!   no object, or not whole JSON, is still "not a centroid JSON object".
 //!
 //! Fixtures in `{dir}/r15b`.
 
@@ -74,5 +79,32 @@ pub(crate) fn round15b_cases() -> Vec<Case> {
         R15B_PARTS "plan --center 0,inf,200"
             .err("error: --center `0,inf,200`: Y inf is not a finite number of mm");
     });
+    let too_large = "is too large to represent (it would be read as inf): give a magnitude of at most 1.79769e308";
+    let first = "{\"t\":0,\"x\":0,\"y\":0,\"z\":200}\n";
+    for (line, want) in [
+        (
+            r#"{"t":0.01,"x":1e999,"y":0,"z":200}"#,
+            format!("error: line 2: `x`: 1e999 {too_large}"),
+        ),
+        (
+            r#"{"t":0.01,"x":0,"y":"1","z":200}"#,
+            r#"error: line 2: `y`: "1" is not a number"#.to_owned(),
+        ),
+        (
+            r#"{"t_s":0.01,"present":true,"centroid_mm":[0,0]}"#,
+            "error: line 2: `centroid_mm`: [0,0] is not [x, y, z] (three numbers) or null"
+                .to_owned(),
+        ),
+        (
+            r#"{"t":0.01,"x":1e999,"y":0"#,
+            "error: line 2: not a centroid JSON object (EOF while parsing".to_owned(),
+        ),
+    ] {
+        v.push(
+            case(R15B_BAD_VALUE, "stream --port {port}")
+                .stdin(format!("{first}{line}\n"))
+                .err(&want),
+        );
+    }
     v
 }

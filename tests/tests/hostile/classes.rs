@@ -167,9 +167,11 @@ pub const R15B_MODEL_RANGE: &str =
     "r15b-1 every value a simulated instrument's flag allows is modelled";
 pub const R15B_CAMERA: &str = "r15b-2 camera intrinsics no depth camera has are refused";
 pub const R15B_PARTS: &str = "r15b-4 a flag of several parts names the part that is wrong";
+pub const R15B_BAD_VALUE: &str =
+    "r15b-5 a centroid object's bad value is refused as a value of its key";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 125] = [
+pub const CLASSES: [&str; 126] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -295,4 +297,5 @@ pub const CLASSES: [&str; 125] = [
     R15B_MODEL_RANGE,
     R15B_CAMERA,
     R15B_PARTS,
+    R15B_BAD_VALUE,
 ];
