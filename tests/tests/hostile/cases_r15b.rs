@@ -15,6 +15,10 @@
 //!   (`x`: 1e999 …)", `{"x":"a",…}` "not a centroid JSON object (invalid
 //!   type: string "a", expected f64 …)", the key unnamed; a line that is
 //!   no object, or not whole JSON, is still "not a centroid JSON object".
+//! - r15b-6: a scene's `lm_plane` with `c = −(a × b)` (left-handed) is
+//!   refused: it was taken as given, and ran the circle the other way
+//!   about c, with the depth profile on the other side of the plane, than
+//!   the same a and b with c left out.
 //!
 //! Fixtures in `{dir}/r15b`.
 
@@ -35,6 +39,13 @@ pub(crate) fn round15b_fixtures(dir: &Path) {
     ] {
         std::fs::write(r.join(name), cam(fx, scale)).unwrap();
     }
+    let plane = |c: &str| {
+        format!(
+            "[lm_plane]\na = [1.0, 0.0, 0.0]\nb = [0.0, 1.0, 0.0]\nc = {c}\n\n[[device]]\ncenter_mm = [0.0, 0.0, 0.0]\n"
+        )
+    };
+    std::fs::write(r.join("left_handed.toml"), plane("[0.0, 0.0, -1.0]")).unwrap();
+    std::fs::write(r.join("right_handed.toml"), plane("[0.0, 0.0, 1.0]")).unwrap();
 }
 
 pub(crate) fn round15b_cases() -> Vec<Case> {
@@ -106,5 +117,10 @@ pub(crate) fn round15b_cases() -> Vec<Case> {
                 .err(&want),
         );
     }
+    v.extend(table! {
+        R15B_HANDED "plan --scene {dir}/r15b/left_handed.toml"
+            .err("error: scene file {dir}/r15b/left_handed.toml: lm_plane.c must be a × b = [0, 0, 1] (a, b, c right-handed): this c is −(a × b), which reverses the circle's direction about c and the side the depth profile is on; give a × b or leave c out");
+        R15B_HANDED "plan --scene {dir}/r15b/right_handed.toml" .ok();
+    });
     v
 }

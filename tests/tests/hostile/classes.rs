@@ -169,9 +169,10 @@ pub const R15B_CAMERA: &str = "r15b-2 camera intrinsics no depth camera has are 
 pub const R15B_PARTS: &str = "r15b-4 a flag of several parts names the part that is wrong";
 pub const R15B_BAD_VALUE: &str =
     "r15b-5 a centroid object's bad value is refused as a value of its key";
+pub const R15B_HANDED: &str = "r15b-6 a scene's left-handed lm_plane is refused";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 126] = [
+pub const CLASSES: [&str; 127] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -298,4 +299,5 @@ pub const CLASSES: [&str; 126] = [
     R15B_CAMERA,
     R15B_PARTS,
     R15B_BAD_VALUE,
+    R15B_HANDED,
 ];
