@@ -349,7 +349,14 @@ mod tests {
     fn foci_per_step_is_refused_outside_1_to_32_naming_the_range() {
         extern crate std;
         use std::string::ToString;
-        for (foci, ok) in [(0, false), (1, true), (4, true), (32, true), (33, false), (255, false)] {
+        for (foci, ok) in [
+            (0, false),
+            (1, true),
+            (4, true),
+            (32, true),
+            (33, false),
+            (255, false),
+        ] {
             let h = UploadHeader {
                 foci_per_step: foci,
                 ..header()

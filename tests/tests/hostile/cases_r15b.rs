@@ -53,10 +53,13 @@ pub(crate) fn round15b_cases() -> Vec<Case> {
     let mut v = Vec::new();
     for depth in ["20", "7.01", "-0.5"] {
         v.push(
-            case(R15B_MODEL_RANGE, &format!("gauge read --port sim --sim-depth {depth}"))
-                .err(&format!(
-                    "error: simulated depth {depth} mm is outside 0..=7 mm {full}"
-                )),
+            case(
+                R15B_MODEL_RANGE,
+                &format!("gauge read --port sim --sim-depth {depth}"),
+            )
+            .err(&format!(
+                "error: simulated depth {depth} mm is outside 0..=7 mm {full}"
+            )),
         );
     }
     v.push(

@@ -283,8 +283,8 @@ fn a_left_handed_lm_plane_is_refused_naming_a_cross_b() {
     let given = scene("[0.0,0.0,1.0]").unwrap().lm_plane;
     assert_eq!(given, LmPlane::default());
     // The paper's tilted plane is right-handed.
-    let paper = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml"))
-        .unwrap();
+    let paper =
+        Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml")).unwrap();
     let p = paper.lm_plane;
     assert!(crate::geom::dot(crate::geom::cross(p.a, p.b), p.c) > 0.999);
 }

@@ -205,9 +205,12 @@ impl ZProfile {
         let said = |m: String| InputError::new(format!("--z-profile `{spec}`: {m}"));
         let radius_range = "allowed above 0 and at most 20 mm";
         let steps_range = "allowed 1..=1000";
-        let (r, n) = spec.split_once(',').filter(|(_, n)| !n.contains(',')).ok_or_else(|| {
-            said("give RADIUS_MM,STEPS: a radius and a step count, one comma between".into())
-        })?;
+        let (r, n) = spec
+            .split_once(',')
+            .filter(|(_, n)| !n.contains(','))
+            .ok_or_else(|| {
+                said("give RADIUS_MM,STEPS: a radius and a step count, one comma between".into())
+            })?;
         let (r, n) = (r.trim(), n.trim());
         let radius_mm = crate::limits::exact_number(r).map_err(|e| match e {
             Some(m) => said(format!("the radius {m}")),
@@ -219,9 +222,11 @@ impl ZProfile {
                 show(radius_mm)
             )));
         }
-        let steps: i128 = n
-            .parse()
-            .map_err(|_| said(format!("the steps `{n}` are not a whole number: {steps_range}")))?;
+        let steps: i128 = n.parse().map_err(|_| {
+            said(format!(
+                "the steps `{n}` are not a whole number: {steps_range}"
+            ))
+        })?;
         if !(1..=1000).contains(&steps) {
             return Err(said(format!(
                 "the steps {steps} are out of range: {steps_range}"
@@ -309,20 +314,47 @@ mod tests {
         for (spec, why) in [
             ("3", form.to_owned()),
             ("3,8,9", form.to_owned()),
-            ("3,", format!("the steps `` are not a whole number: {steps}")),
+            (
+                "3,",
+                format!("the steps `` are not a whole number: {steps}"),
+            ),
             (",8", format!("the radius `` is not a number: {radius}")),
             ("x,8", format!("the radius `x` is not a number: {radius}")),
             ("0,8", format!("the radius 0 mm is out of range: {radius}")),
-            ("-1,8", format!("the radius -1 mm is out of range: {radius}")),
-            ("20.5,8", format!("the radius 20.5 mm is out of range: {radius}")),
-            ("inf,8", format!("the radius inf mm is out of range: {radius}")),
-            ("nan,8", format!("the radius NaN mm is out of range: {radius}")),
-            ("3,x", format!("the steps `x` are not a whole number: {steps}")),
-            ("3,2.5", format!("the steps `2.5` are not a whole number: {steps}")),
+            (
+                "-1,8",
+                format!("the radius -1 mm is out of range: {radius}"),
+            ),
+            (
+                "20.5,8",
+                format!("the radius 20.5 mm is out of range: {radius}"),
+            ),
+            (
+                "inf,8",
+                format!("the radius inf mm is out of range: {radius}"),
+            ),
+            (
+                "nan,8",
+                format!("the radius NaN mm is out of range: {radius}"),
+            ),
+            (
+                "3,x",
+                format!("the steps `x` are not a whole number: {steps}"),
+            ),
+            (
+                "3,2.5",
+                format!("the steps `2.5` are not a whole number: {steps}"),
+            ),
             ("3,0", format!("the steps 0 are out of range: {steps}")),
-            ("3,1001", format!("the steps 1001 are out of range: {steps}")),
+            (
+                "3,1001",
+                format!("the steps 1001 are out of range: {steps}"),
+            ),
             ("3,-1", format!("the steps -1 are out of range: {steps}")),
-            ("3,100000000", format!("the steps 100000000 are out of range: {steps}")),
+            (
+                "3,100000000",
+                format!("the steps 100000000 are out of range: {steps}"),
+            ),
         ] {
             let e = err(ZProfile::parse(spec, 0.3, false));
             assert_eq!(e, format!("--z-profile `{spec}`: {why}"));
