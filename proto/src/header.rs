@@ -7,7 +7,7 @@ use core::fmt;
 
 use crate::codec::{Encoding, encoded_len_range};
 use crate::nack::NackCode;
-use crate::{MAX_OFFSET_UM, SOUND_SPEED_MM_S};
+use crate::{FOCI_PER_STEP, MAX_OFFSET_UM, SOUND_SPEED_MM_S};
 
 /// What a slot plays, as planned: shape, timing, planned centre, the speed
 /// of sound the phases assume and the work volume the device may steer in.
@@ -25,7 +25,8 @@ pub struct UploadHeader {
     pub period_us: u32,
     /// Centre the sequence was planned for, µm, drive coordinates.
     pub center_um: [i32; 3],
-    /// Foci per step (1 for LM-S, up to 4 for LM-M); informational.
+    /// Foci per step (1 for LM-S, more for LM-M), within
+    /// [`FOCI_PER_STEP`]: the device refuses others, 0 included.
     pub foci_per_step: u8,
     /// Speed of sound the sequence was planned with, mm/s (340 m/s =
     /// `340_000`), within [`SOUND_SPEED_MM_S`]. The device derives the
@@ -75,6 +76,8 @@ pub enum HeaderError {
     SoundSpeed(u32),
     /// `max_offset_um` outside [`MAX_OFFSET_UM`] (`OutOfRange`).
     MaxOffset(u32),
+    /// `foci_per_step` outside [`FOCI_PER_STEP`] (`OutOfRange`).
+    FociPerStep(u8),
     /// More transducers than the device drives (`TooLarge`).
     TooManyTransducers {
         /// Transducers in the header.
@@ -113,9 +116,11 @@ impl HeaderError {
     pub fn nack(&self) -> NackCode {
         match self {
             Self::BadSlot { .. } => NackCode::BadSlot,
-            Self::Empty | Self::SoundSpeed(_) | Self::MaxOffset(_) | Self::EncodedLen { .. } => {
-                NackCode::OutOfRange
-            }
+            Self::Empty
+            | Self::SoundSpeed(_)
+            | Self::MaxOffset(_)
+            | Self::FociPerStep(_)
+            | Self::EncodedLen { .. } => NackCode::OutOfRange,
             Self::TooManyTransducers { .. } | Self::TooLarge { .. } => NackCode::TooLarge,
             Self::DwellTooShort { .. } => NackCode::DwellTooShort,
         }
@@ -149,6 +154,12 @@ impl fmt::Display for HeaderError {
                 "work volume {v} µm is outside the {}-{} µm a device accepts",
                 MAX_OFFSET_UM.start(),
                 MAX_OFFSET_UM.end()
+            ),
+            Self::FociPerStep(v) => write!(
+                f,
+                "{v} foci per step is outside the {}-{} a device accepts",
+                FOCI_PER_STEP.start(),
+                FOCI_PER_STEP.end()
             ),
             Self::TooManyTransducers { transducers, max } => {
                 write!(
@@ -202,6 +213,9 @@ impl UploadHeader {
         }
         if !MAX_OFFSET_UM.contains(&self.max_offset_um) {
             return Err(HeaderError::MaxOffset(self.max_offset_um));
+        }
+        if !FOCI_PER_STEP.contains(&self.foci_per_step) {
+            return Err(HeaderError::FociPerStep(self.foci_per_step));
         }
         if self.transducers > limits.max_transducers {
             return Err(HeaderError::TooManyTransducers {
@@ -310,13 +324,15 @@ mod tests {
     fn validate_maps_each_violation_to_its_code() {
         assert_eq!(header().validate(&LIMITS), Ok(()));
         type Break = fn(&mut UploadHeader);
-        let cases: [(Break, NackCode); 9] = [
+        let cases: [(Break, NackCode); 11] = [
             (|h| h.steps = 0, NackCode::OutOfRange),
             (|h| h.transducers = 0, NackCode::OutOfRange),
             (|h| h.sound_speed_mm_s = 0, NackCode::OutOfRange),
             (|h| h.sound_speed_mm_s = 2_000_001, NackCode::OutOfRange),
             (|h| h.max_offset_um = 0, NackCode::OutOfRange),
             (|h| h.max_offset_um = 100_001, NackCode::OutOfRange),
+            (|h| h.foci_per_step = 0, NackCode::OutOfRange),
+            (|h| h.foci_per_step = 33, NackCode::OutOfRange),
             (|h| h.transducers = 997, NackCode::TooLarge),
             (|h| h.steps = 201, NackCode::TooLarge),
             (|h| h.period_us = 81_999, NackCode::DwellTooShort),
@@ -327,6 +343,37 @@ mod tests {
             let e = h.validate(&LIMITS).unwrap_err();
             assert_eq!(e.nack(), *code, "case {i}: {e:?}");
         }
+    }
+
+    #[test]
+    fn foci_per_step_is_refused_outside_1_to_32_naming_the_range() {
+        extern crate std;
+        use std::string::ToString;
+        for (foci, ok) in [
+            (0, false),
+            (1, true),
+            (4, true),
+            (32, true),
+            (33, false),
+            (255, false),
+        ] {
+            let h = UploadHeader {
+                foci_per_step: foci,
+                ..header()
+            };
+            assert_eq!(h.validate(&LIMITS).is_ok(), ok, "{foci}");
+        }
+        let h = UploadHeader {
+            foci_per_step: 0,
+            ..header()
+        };
+        let e = h.validate(&LIMITS).unwrap_err();
+        assert_eq!(e, HeaderError::FociPerStep(0));
+        assert_eq!(e.nack(), NackCode::OutOfRange);
+        assert_eq!(
+            e.to_string(),
+            "0 foci per step is outside the 1-32 a device accepts"
+        );
     }
 
     #[test]

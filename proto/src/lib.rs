@@ -81,6 +81,11 @@ pub const NO_SLOT: u8 = 0xFF;
 /// air to water with margin); others are refused with `OutOfRange`.
 pub const SOUND_SPEED_MM_S: core::ops::RangeInclusive<u32> = 100_000..=2_000_000;
 
+/// `UploadHeader::foci_per_step` a device accepts: 1 (LM-S) ..= 32 foci a
+/// step, the most a host plans; others (0 included: a step with no focus)
+/// are refused with `OutOfRange`.
+pub const FOCI_PER_STEP: core::ops::RangeInclusive<u8> = 1..=32;
+
 /// `UploadHeader::max_offset_um` a device accepts: a work volume of
 /// 1 µm ..= 100 mm around the planned centre; others are `OutOfRange`.
 pub const MAX_OFFSET_UM: core::ops::RangeInclusive<u32> = 1..=100_000;

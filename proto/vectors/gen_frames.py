@@ -64,11 +64,11 @@ def rig_crc(points):
 # The device records' rig: two transducers 10 mm apart.
 DEV_RIG = [(-5000, 0, 0), (5000, 0, 0)]
 
-def small_begin(slot, enc, enc_len, max_off=20000, rig=None, level=255, flags=0):
+def small_begin(slot, enc, enc_len, max_off=20000, rig=None, level=255, flags=0, foci=1):
     """The device records' upload: 2 steps x 2 transducers, 200 ms a step,
     one focus at (0, 0, 200) mm, 340 m/s, for DEV_RIG."""
     rig = rig_crc(DEV_RIG) if rig is None else rig
-    return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), 1, 340000, max_off, rig,
+    return begin(slot, 2, 2, 200000, enc, enc_len, (0, 0, 200000), foci, 340000, max_off, rig,
                  level, flags)
 
 # The host lease (SPEC section 2): Play.lease_ms within 100 ..= 60000.
@@ -373,6 +373,15 @@ for name, seq, fields, enc, enc_len, max_off in [
      0, 4, 100001),
 ]:
     rec(name, 0x02, seq, fields, small_begin(0, enc, enc_len, max_off), expect="nack OutOfRange")
+# foci_per_step within FOCI_PER_STEP (1 ..= 32, the host's most).
+for name, seq, foci, why in [
+    ("dev_begin_no_foci", 130, 0, "a step with no focus"),
+    ("dev_begin_many_foci", 131, 33, "above the 32 a host plans"),
+]:
+    rec(name, 0x02, seq,
+        f"BeginUpload slot=0 steps=2 transducers=2 Raw encoded_len=4 foci_per_step={foci} "
+        f"({why}: out of range)",
+        small_begin(0, 0, 4, foci=foci), expect="nack OutOfRange")
 rec("dev_play_slot_31", 0x06, 140,
     "Play slot=31 at=Immediate(1) flags=0 steps=0 (a library entry never uploaded)",
     play(31, 1, 0), expect="nack NotCommitted")

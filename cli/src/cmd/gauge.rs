@@ -50,7 +50,8 @@ pub struct ReadArgs {
         allow_negative_numbers = true
     )]
     rate: Option<f64>,
-    /// With `--port sim`: how deep the probe sits in the finger pad, mm.
+    /// With `--port sim`: how deep the probe sits in the finger pad, mm
+    /// (0 to 7: the simulated pad reaches the gauge's 50 N capacity at 7.5).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     sim_depth: Option<f64>,
     /// With `--port sim`: the noise seed [default: 1].

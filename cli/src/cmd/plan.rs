@@ -130,9 +130,14 @@ pub fn parse_vec3(flag: &str, s: &str) -> Result<Vec3, InputError> {
             "--{flag} takes three comma-separated numbers X,Y,Z, got `{s}`"
         ))
     })?;
-    if !v.iter().all(|x| x.is_finite()) {
+    if let Some((axis, x)) = ["X", "Y", "Z"]
+        .into_iter()
+        .zip(v)
+        .find(|(_, x)| !x.is_finite())
+    {
         return Err(InputError::new(format!(
-            "--{flag} must be finite, got `{s}`"
+            "--{flag} `{s}`: {axis} {} is not a finite number of mm",
+            lmhost::limits::show(x)
         )));
     }
     Ok(v)

@@ -99,21 +99,31 @@ pub struct Args {
 }
 
 fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
-    let bad = || {
-        lmhost::InputError::new(format!(
-            "--away `{s}` must be START,END in seconds with START < END"
-        ))
-    };
-    let (a, b) = s.split_once(',').ok_or_else(bad)?;
-    let number = |x: &str| {
-        lmhost::limits::exact_number(x.trim()).map_err(|e| match e {
-            Some(m) => lmhost::InputError::new(format!("--away `{s}`: {m}")),
-            None => bad(),
+    let said = |m: String| lmhost::InputError::new(format!("--away `{s}`: {m}"));
+    let (a, b) = s
+        .split_once(',')
+        .filter(|(_, b)| !b.contains(','))
+        .ok_or_else(|| said("give START,END: two times in seconds, one comma between".into()))?;
+    let number = |x: &str, part: &str| {
+        let x = x.trim();
+        lmhost::limits::exact_number(x).map_err(|e| match e {
+            Some(m) => said(format!("{part} {m}")),
+            None => said(format!("{part} `{x}` is not a number of seconds")),
         })
     };
-    let (a, b) = (number(a)?, number(b)?);
-    if !(a.is_finite() && b.is_finite() && 0.0 <= a && a < b) {
-        return Err(bad());
+    let (a, b) = (number(a, "START")?, number(b, "END")?);
+    if !(a.is_finite() && a >= 0.0) {
+        return Err(said(format!(
+            "START {} s is out of range: allowed 0 or more, finite",
+            lmhost::limits::show(a)
+        )));
+    }
+    if !(b.is_finite() && b > a) {
+        return Err(said(format!(
+            "END {} s is out of range: allowed after START ({} s), finite",
+            lmhost::limits::show(b),
+            lmhost::limits::show(a)
+        )));
     }
     Ok((a, b))
 }

@@ -24,8 +24,10 @@ use crate::limits;
 use crate::plan::path::Path;
 use crate::plan::scene::{LmPlane, Scene};
 
-/// Most foci per step the planner accepts.
-pub const MAX_FOCI: usize = 32;
+/// Most foci per step the planner accepts: the most a device accepts in
+/// `BeginUpload`'s `foci_per_step` ([`lm_proto::FOCI_PER_STEP`]), one
+/// number for both ends.
+pub const MAX_FOCI: usize = *lm_proto::FOCI_PER_STEP.end() as usize;
 /// Most steps per cycle (the wire's `steps` is a u16).
 pub const MAX_STEPS: usize = u16::MAX as usize;
 

@@ -258,11 +258,11 @@ pub(crate) fn round11_cases() -> Vec<Case> {
         ),
         (
             "stream --port autd3:emulator --synthetic --fast --seconds 0.3 --away 1e-400,1",
-            format!("--away `1e-400,1`: 1e-400 {tiny}"),
+            format!("--away `1e-400,1`: START 1e-400 {tiny}"),
         ),
         (
             "track --synthetic --fast --z-profile 1e-400,5",
-            format!("--z-profile `1e-400,5`: 1e-400 {tiny}"),
+            format!("--z-profile `1e-400,5`: the radius 1e-400 {tiny}"),
         ),
         (
             "sim --faults ber=1e-400 --seconds 0.1",

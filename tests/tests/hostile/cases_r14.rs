@@ -238,7 +238,7 @@ pub(crate) fn round14_cases() -> Vec<Case> {
         R14_RANGES "stage move --port sim --to 1 --speed 100"
             .err("error: sim-stage: stage speed 100 mm/s is outside 0.01..=50 mm/s");
         R14_RANGES "gauge read --port sim --sim-depth 30"
-            .err("error: simulated depth 30 mm is outside 0..=20 mm");
+            .err("error: simulated depth 30 mm is outside 0..=7 mm (the simulated pad reaches the gauge's 50 N capacity at 7.5 mm)");
         R14_RANGES "stage move --port /dev/null --min 0 --max 20 --to 1 --step-um 0"
             .err("error: /dev/null: stage step 0 µm/pulse is outside 0.001..=1000 µm/pulse");
         // The ends a range says it takes are taken.

@@ -162,9 +162,17 @@ pub const R14_EMPTY_PATH: &str =
     "r14-5 a path a file gives is refused when empty, naming its field";
 pub const R14_NOT_A_FOLDER: &str = "r14-6 an output folder's path that is something else says what";
 pub const R14_NO_TIME: &str = "r14-7 a duration that rounds to no time is refused";
+/// Round 15b: where a model, a spec and the code disagree (`cases_r15b.rs`).
+pub const R15B_MODEL_RANGE: &str =
+    "r15b-1 every value a simulated instrument's flag allows is modelled";
+pub const R15B_CAMERA: &str = "r15b-2 camera intrinsics no depth camera has are refused";
+pub const R15B_PARTS: &str = "r15b-4 a flag of several parts names the part that is wrong";
+pub const R15B_BAD_VALUE: &str =
+    "r15b-5 a centroid object's bad value is refused as a value of its key";
+pub const R15B_HANDED: &str = "r15b-6 a scene's left-handed lm_plane is refused";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 122] = [
+pub const CLASSES: [&str; 127] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -287,4 +295,9 @@ pub const CLASSES: [&str; 122] = [
     R14_EMPTY_PATH,
     R14_NOT_A_FOLDER,
     R14_NO_TIME,
+    R15B_MODEL_RANGE,
+    R15B_CAMERA,
+    R15B_PARTS,
+    R15B_BAD_VALUE,
+    R15B_HANDED,
 ];

@@ -277,10 +277,11 @@ pub(crate) fn round3_fixtures(dir: &Path) {
         .status()
         .unwrap();
     assert!(st.success());
-    // A D435-sized camera whose depth unit makes every depth ~0.
+    // A D435-sized camera whose depth unit (the finest a camera offers,
+    // 1 µm) makes every depth ~0 in the tracking box.
     std::fs::write(
         dir.join("cam_tiny_scale.toml"),
-        "width = 848\nheight = 480\nfx = 600.0\nfy = 600.0\nppx = 424.0\nppy = 240.0\ndepth_scale = 1e-9\n",
+        "width = 848\nheight = 480\nfx = 600.0\nfy = 600.0\nppx = 424.0\nppy = 240.0\ndepth_scale = 1e-6\n",
     )
     .unwrap();
 }

@@ -190,6 +190,24 @@ mod tests {
     }
 
     #[test]
+    fn force_at_a_few_depths_is_the_hand_computed_one() {
+        // F = b/m (e^{m d} − 1) with b = 0.1 N/mm, m = 0.8 /mm, by hand:
+        // 1 mm: 0.125 × (2.225541 − 1) = 0.153193 N; 4 mm: 0.125 ×
+        // (24.53253 − 1) = 2.941566 N; 7 mm: 0.125 × (270.4264 − 1) =
+        // 33.67830 N.
+        let pad = FingerPad::TYPICAL;
+        for (d, want) in [
+            (0.0, 0.0),
+            (1.0, 0.153193),
+            (4.0, 2.941566),
+            (7.0, 33.67830),
+        ] {
+            let f = pad.force_at_depth_n(d);
+            assert!((f - want).abs() < 1e-5, "{d} mm: {f} vs {want}");
+        }
+    }
+
+    #[test]
     fn depth_inverts_force() {
         let pad = FingerPad::TYPICAL;
         for d in [0.0, 0.25, 1.0, 2.5, 4.0] {

@@ -7,7 +7,7 @@ use super::contact::FingerPad;
 use super::gauge::ForceGauge;
 use super::imada::{IMADA_BAUD, Imada};
 use super::mark10::{MARK10_BAUD, Mark10};
-use super::sim_gauge::SimGauge;
+use super::sim_gauge::{GaugeSpec, SimGauge};
 use super::sim_stage::SimStage;
 use super::stage::{Stage, StageLimits};
 use crate::clock::Clock;
@@ -16,6 +16,14 @@ use crate::limits::show;
 
 /// The port name that opens a simulated twin.
 pub const SIM: &str = "sim";
+
+/// Deepest `--sim-depth` the gauge twin is opened at, mm. The twin's
+/// finger pad ([`FingerPad::TYPICAL`], exponential in depth) reaches the
+/// simulated gauge's 50 N capacity at 7.49 mm and its force grows by
+/// e^0.8 per further millimetre (1.1 MN at 20 mm, deeper than any
+/// fingertip's pulp): at 7 mm it reads 33.7 N, a reading, where a deeper
+/// depth could only ever be an overload. Tied to the model by a test.
+pub const SIM_DEPTH_MAX_MM: f64 = 7.0;
 
 /// Which gauge protocol a port speaks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -105,10 +113,14 @@ pub fn open_gauge(o: &GaugeOptions) -> anyhow::Result<Box<dyn ForceGauge>> {
     if o.port == SIM {
         sim_gauge_check(o)?;
         let depth = o.sim_depth_mm.unwrap_or(0.0);
-        if !(depth.is_finite() && (0.0..=20.0).contains(&depth)) {
+        if !(depth.is_finite() && (0.0..=SIM_DEPTH_MAX_MM).contains(&depth)) {
+            let full = FingerPad::TYPICAL.depth_for_force_mm(GaugeSpec::ZTS_50N.capacity_n);
             return Err(InputError::new(format!(
-                "simulated depth {} mm is outside 0..=20 mm",
-                show(depth)
+                "simulated depth {} mm is outside 0..={} mm (the simulated pad reaches the gauge's {} N capacity at {:.1} mm)",
+                show(depth),
+                show(SIM_DEPTH_MAX_MM),
+                show(GaugeSpec::ZTS_50N.capacity_n),
+                full
             ))
             .into());
         }
@@ -342,9 +354,20 @@ mod tests {
             (f - FingerPad::TYPICAL.force_at_depth_n(2.0)).abs() <= 0.03,
             "{f}"
         );
-        for bad in [Some(-1.0), Some(f64::NAN), Some(25.0)] {
+        for bad in [Some(-1.0), Some(f64::NAN), Some(7.01), Some(25.0)] {
             let err = gauge(SIM, bad).err().unwrap();
             assert!(err.chain().any(|c| c.is::<InputError>()), "{err}");
+        }
+        let err = gauge(SIM, Some(20.0)).err().unwrap();
+        assert_eq!(
+            crate::error::one_line(&err),
+            "simulated depth 20 mm is outside 0..=7 mm (the simulated pad reaches the gauge's 50 N capacity at 7.5 mm)"
+        );
+        // Every depth the range allows is a reading, the deepest included.
+        for depth in [0.0, 3.5, SIM_DEPTH_MAX_MM] {
+            let f = gauge(SIM, Some(depth)).unwrap().read().unwrap().force_n;
+            let want = FingerPad::TYPICAL.force_at_depth_n(depth);
+            assert!((f - want).abs() <= 0.03, "{depth} mm: {f} vs {want}");
         }
         let err = gauge("/dev/null", Some(1.0)).err().unwrap();
         assert!(err.chain().any(|c| c.is::<InputError>()), "{err}");

@@ -26,7 +26,7 @@
 //! [lm_plane]                       # optional; default x, y, z
 //! a = [1.0, 0.0, 0.0]
 //! b = [0.0, 1.0, 0.0]
-//! c = [0.0, 0.0, 1.0]              # optional: a × b
+//! c = [0.0, 0.0, 1.0]              # optional: a × b (given, it must be)
 //!
 //! [rig]                            # optional pose applied after each device's own
 //! position_mm = [0.0, 0.0, 0.0]

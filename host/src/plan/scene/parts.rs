@@ -105,6 +105,21 @@ impl LmPlane {
                         "{what}.c must be perpendicular to a and b"
                     )));
                 }
+                // c = −(a × b) is perpendicular too, but left-handed: the
+                // circle (θ from a towards b) would then run clockwise
+                // about c, and the per-step depth z_j along c lie on the
+                // other side of the plane, than the same a, b give with c
+                // left out; which one was meant cannot be told, so it is
+                // refused (as the track box's left-handed axes are).
+                let ab = cross(a, b);
+                if dot(ab, c) < 0.0 {
+                    return Err(InputError::new(format!(
+                        "{what}.c must be a × b = [{}, {}, {}] (a, b, c right-handed): this c is −(a × b), which reverses the circle's direction about c and the side the depth profile is on; give a × b or leave c out",
+                        crate::limits::show(ab[0] + 0.0),
+                        crate::limits::show(ab[1] + 0.0),
+                        crate::limits::show(ab[2] + 0.0)
+                    )));
+                }
                 c
             }
             None => cross(a, b),

@@ -264,3 +264,27 @@ fn an_unknown_value_holding_a_line_break_is_said_whole_on_one_line() {
     let e = Scene::from_toml(short, "s.toml").unwrap_err().to_string();
     assert!(e.contains("unknown variant `x\\ny`, expected"), "{e}");
 }
+
+#[test]
+fn a_left_handed_lm_plane_is_refused_naming_a_cross_b() {
+    let scene = |c: &str| {
+        Scene::from_toml(
+            &format!(
+                "[lm_plane]\na = [1.0,0.0,0.0]\nb = [0.0,1.0,0.0]\nc = {c}\n[[device]]\ncenter_mm = [0.0,0.0,0.0]\n"
+            ),
+            "bad.toml",
+        )
+    };
+    assert_eq!(
+        scene("[0.0,0.0,-1.0]").unwrap_err().to_string(),
+        "scene file bad.toml: lm_plane.c must be a × b = [0, 0, 1] (a, b, c right-handed): this c is −(a × b), which reverses the circle's direction about c and the side the depth profile is on; give a × b or leave c out"
+    );
+    // a × b given, or left out: the same plane.
+    let given = scene("[0.0,0.0,1.0]").unwrap().lm_plane;
+    assert_eq!(given, LmPlane::default());
+    // The paper's tilted plane is right-handed.
+    let paper =
+        Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml")).unwrap();
+    let p = paper.lm_plane;
+    assert!(crate::geom::dot(crate::geom::cross(p.a, p.b), p.c) > 0.999);
+}

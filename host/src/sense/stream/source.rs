@@ -130,6 +130,70 @@ fn json_presence(v: &serde_json::Value, line_no: usize) -> Result<bool, InputErr
     }
 }
 
+/// What a key of a centroid JSON object holds.
+#[derive(Clone, Copy)]
+enum Want {
+    /// A number.
+    Number,
+    /// `[x, y, z]`, three numbers, or `null` (no position).
+    Xyz,
+    /// `true`, `false` or `null`.
+    Bool,
+}
+
+/// The values of a plain centroid line (`present` is judged by
+/// [`json_presence`]).
+const CENTROID_VALUES: &[(&str, Want)] = &[
+    ("t", Want::Number),
+    ("x", Want::Number),
+    ("y", Want::Number),
+    ("z", Want::Number),
+];
+
+/// The values of a `track --json` line this reader takes.
+const TRACK_LINE_VALUES: &[(&str, Want)] = &[
+    ("t_s", Want::Number),
+    ("centroid_mm", Want::Xyz),
+    ("filtered_mm", Want::Xyz),
+    ("gated_present", Want::Bool),
+];
+
+/// Refuses a value of one of `keys` in the object `v` that its key cannot
+/// hold, as a bad value of that key (not as a line that is no centroid
+/// object): `line 3: `x`: "a" is not a number`.
+fn check_values(
+    v: &serde_json::Value,
+    keys: &[(&str, Want)],
+    line_no: usize,
+) -> Result<(), InputError> {
+    use serde_json::Value as V;
+    for &(key, want) in keys {
+        let Some(value) = v.get(key) else { continue };
+        let (ok, what) = match want {
+            Want::Number => (value.is_number(), "a number"),
+            Want::Xyz => (
+                match value {
+                    V::Null => true,
+                    V::Array(a) => a.len() == 3 && a.iter().all(V::is_number),
+                    _ => false,
+                },
+                "[x, y, z] (three numbers) or null",
+            ),
+            Want::Bool => (matches!(value, V::Bool(_) | V::Null), "true, false or null"),
+        };
+        if !ok {
+            let mut shown = value.to_string();
+            if shown.chars().count() > 40 {
+                shown = shown.chars().take(40).collect::<String>() + "…";
+            }
+            return Err(InputError::new(format!(
+                "line {line_no}: `{key}`: {shown} is not {what}"
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Parse one line; `Ok(None)` for blank lines, comments and a CSV header.
 /// `line_no` (1-based) goes into the error message.
 pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputError> {
@@ -156,11 +220,19 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         let bad = |e: serde_json::Error| {
             InputError::new(format!("line {line_no}: not a centroid JSON object ({e})"))
         };
+        // Well-formed JSON first, its numbers scanned and not yet read:
+        // what is not JSON is not a centroid object. Then each value is
+        // judged as a value of its key (`x`: 1e999 is too large …).
+        serde_json::from_str::<serde::de::IgnoredAny>(line).map_err(bad)?;
+        crate::json::exact_numbers(line)
+            .map_err(|m| InputError::new(format!("line {line_no}: {m}")))?;
         let v = crate::json::from_str(line).map_err(bad)?;
         // `lmhost track --json` lines carry `t_s`; plain centroids `t`.
         if v.get("t_s").is_some() {
+            check_values(&v, TRACK_LINE_VALUES, line_no)?;
             TrackLine::deserialize(v).map_err(bad)?.sample(line_no)?
         } else {
+            check_values(&v, CENTROID_VALUES, line_no)?;
             let j = JsonSample::deserialize(v).map_err(bad)?;
             Sample {
                 t_s: j.t,

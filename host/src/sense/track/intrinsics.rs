@@ -79,9 +79,9 @@ impl Pinhole {
             ));
         }
         for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
-            if !(v.is_finite() && v > 0.0 && v <= MAX_FOCAL_PX) {
+            if !(v.is_finite() && (MIN_FOCAL_PX..=MAX_FOCAL_PX).contains(&v)) {
                 return Err(format!(
-                    "`{name}` must be a positive number of pixels up to {MAX_FOCAL_PX}, got {}",
+                    "`{name}` must be a focal length of {MIN_FOCAL_PX}..={MAX_FOCAL_PX} pixels, got {}",
                     crate::limits::show(v)
                 ));
             }
@@ -135,9 +135,21 @@ impl From<IntrinsicsFile> for Intrinsics {
     }
 }
 
-/// Largest accepted focal length (pixels): a 8192-pixel-wide sensor
-/// behind a lens with a 0.5° field of view.
-pub const MAX_FOCAL_PX: f64 = 1e6;
+/// Smallest accepted focal length (pixels): at 1 px even an 848-pixel
+/// frame would span 179.7°, wider than any depth camera's fisheye (the
+/// widest see about 180°); depth cameras have 300 to 2000 px.
+pub const MIN_FOCAL_PX: f64 = 1.0;
+/// Largest accepted focal length (pixels): an 8192-pixel-wide sensor
+/// would then see 4.7° across, a telephoto no depth camera has (they see
+/// 40° to 90°); more is a typo or a value in other units.
+pub const MAX_FOCAL_PX: f64 = 100_000.0;
+/// Smallest accepted depth unit, metres: the finest a depth camera offers
+/// is the D4xx's settable 1 µm (1e-6); finer units could not even hold a
+/// finger's 0.3 m in 16 bits, and 1e-300 is a slip, not a camera.
+pub const MIN_DEPTH_SCALE_M: f64 = 1e-6;
+/// Largest accepted depth unit, metres: 1 m per unit (no camera counts
+/// depth in coarser steps).
+pub const MAX_DEPTH_SCALE_M: f64 = 1.0;
 
 impl Intrinsics {
     /// A D435 depth stream at 848 × 480 (≈ 87° horizontal field of view) with
@@ -186,9 +198,12 @@ impl super::settings_file::SettingsFile for Intrinsics {
         self.pinhole
             .check()
             .map_err(|m| InputError::new(format!("intrinsics {origin}: {m}")))?;
-        if !(self.depth_scale.is_finite() && self.depth_scale > 0.0 && self.depth_scale <= 1.0) {
+        let scale = MIN_DEPTH_SCALE_M..=MAX_DEPTH_SCALE_M;
+        if !(self.depth_scale.is_finite() && scale.contains(&self.depth_scale)) {
             return Err(InputError::new(format!(
-                "intrinsics {origin}: `depth_scale` must be in (0, 1] metres per unit, got {}",
+                "intrinsics {origin}: `depth_scale` must be {}..={} metres per unit, got {}",
+                crate::limits::show(MIN_DEPTH_SCALE_M),
+                crate::limits::show(MAX_DEPTH_SCALE_M),
                 crate::limits::show(self.depth_scale)
             )));
         }
@@ -216,6 +231,44 @@ mod tests {
             .to_string();
         assert!(e.contains("missing"), "{e}");
         assert!(i.check_frames(640, 480, "x").is_err());
+    }
+
+    #[test]
+    fn values_no_depth_camera_has_are_refused_naming_the_range() {
+        let d = Intrinsics::D435_848X480;
+        let with = |f: &dyn Fn(&mut Intrinsics)| {
+            let mut i = d;
+            f(&mut i);
+            SettingsFile::check(&i, "cam.toml")
+                .err()
+                .map(|e| e.to_string())
+        };
+        assert_eq!(
+            with(&|i| i.pinhole.fx = 1e-300).unwrap(),
+            "intrinsics cam.toml: `fx` must be a focal length of 1..=100000 pixels, got 1e-300"
+        );
+        assert_eq!(
+            with(&|i| i.pinhole.fy = 2e5).unwrap(),
+            "intrinsics cam.toml: `fy` must be a focal length of 1..=100000 pixels, got 200000"
+        );
+        assert_eq!(
+            with(&|i| i.depth_scale = 1e-300).unwrap(),
+            "intrinsics cam.toml: `depth_scale` must be 1e-6..=1 metres per unit, got 1e-300"
+        );
+        assert_eq!(
+            with(&|i| i.pinhole.ppx = -0.5).unwrap(),
+            "intrinsics cam.toml: `ppx` must lie in the image, 0..=848 pixels, got -0.5"
+        );
+        // The edges of each range are a camera's.
+        for ok in [
+            &(|i: &mut Intrinsics| i.pinhole.fx = 1.0) as &dyn Fn(&mut Intrinsics),
+            &|i| i.pinhole.fy = 1e5,
+            &|i| i.depth_scale = 1e-6,
+            &|i| i.depth_scale = 1.0,
+            &|i| i.pinhole.ppy = 480.0,
+        ] {
+            assert_eq!(with(ok), None);
+        }
     }
 
     #[test]

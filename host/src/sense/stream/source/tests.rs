@@ -423,3 +423,55 @@ fn a_json_key_with_a_line_break_is_refused_on_one_line() {
         assert!(!e.contains(['\n', '\r']) && e.len() < 400, "{e}");
     }
 }
+
+#[test]
+fn a_bad_value_in_a_centroid_object_is_refused_as_a_bad_value() {
+    let too_large = "is too large to represent (it would be read as inf): give a magnitude of at most 1.79769e308";
+    for (line, want) in [
+        (
+            r#"{"t":0,"x":1e999,"y":0,"z":200}"#,
+            format!("line 3: `x`: 1e999 {too_large}"),
+        ),
+        (
+            r#"{"t":0,"x":"a","y":0,"z":200}"#,
+            r#"line 3: `x`: "a" is not a number"#.to_owned(),
+        ),
+        (
+            r#"{"t":null,"x":0,"y":0,"z":200}"#,
+            "line 3: `t`: null is not a number".to_owned(),
+        ),
+        (
+            r#"{"t_s":0,"present":true,"centroid_mm":[0,200]}"#,
+            "line 3: `centroid_mm`: [0,200] is not [x, y, z] (three numbers) or null".to_owned(),
+        ),
+        (
+            r#"{"t_s":0,"present":true,"centroid_mm":[0,0,200],"gated_present":1}"#,
+            "line 3: `gated_present`: 1 is not true, false or null".to_owned(),
+        ),
+        (
+            r#"{"t_s":1e999,"present":true,"centroid_mm":[0,0,200]}"#,
+            format!("line 3: `t_s`: 1e999 {too_large}"),
+        ),
+    ] {
+        assert_eq!(parse_line(line, 3).unwrap_err().to_string(), want, "{line}");
+    }
+    // A line that is no object, or not whole JSON, is still said so,
+    // a number beyond a float in it or not.
+    for (line, starts) in [
+        (
+            r#"{"t":0,"x":1e999,"y":0"#,
+            "line 3: not a centroid JSON object (EOF while parsing",
+        ),
+        (
+            r#"{"t":0,"x":0,"y":0,"z":200} x"#,
+            "line 3: not a centroid JSON object (trailing characters",
+        ),
+        (
+            r#"{"t":0,"x":0,"y":0}"#,
+            "line 3: not a centroid JSON object (missing field `z`",
+        ),
+    ] {
+        let e = parse_line(line, 3).unwrap_err().to_string();
+        assert!(e.starts_with(starts), "{line}: {e}");
+    }
+}

@@ -199,22 +199,40 @@ impl ZProfile {
 
     /// Parses `spec` (`RADIUS_MM,STEPS`, 0 < RADIUS_MM <= 20, 1 <= STEPS
     /// <= 1000) and checks `replan_mm` (≥ 0); `replan`: upload each
-    /// re-plan to the device.
+    /// re-plan to the device. A refusal names the part that is wrong
+    /// (the radius or the steps) and what that part allows.
     pub fn parse(spec: &str, replan_mm: f64, replan: bool) -> Result<Self, InputError> {
-        let bad = || {
-            InputError::new(format!(
-                "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
-            ))
-        };
-        let (r, n) = spec.split_once(',').ok_or_else(bad)?;
-        let radius_mm = crate::limits::exact_number(r.trim()).map_err(|e| match e {
-            Some(m) => InputError::new(format!("--z-profile `{spec}`: {m}")),
-            None => bad(),
+        let said = |m: String| InputError::new(format!("--z-profile `{spec}`: {m}"));
+        let radius_range = "allowed above 0 and at most 20 mm";
+        let steps_range = "allowed 1..=1000";
+        let (r, n) = spec
+            .split_once(',')
+            .filter(|(_, n)| !n.contains(','))
+            .ok_or_else(|| {
+                said("give RADIUS_MM,STEPS: a radius and a step count, one comma between".into())
+            })?;
+        let (r, n) = (r.trim(), n.trim());
+        let radius_mm = crate::limits::exact_number(r).map_err(|e| match e {
+            Some(m) => said(format!("the radius {m}")),
+            None => said(format!("the radius `{r}` is not a number: {radius_range}")),
         })?;
-        let steps: usize = n.trim().parse().map_err(|_| bad())?;
-        if !(radius_mm > 0.0 && radius_mm <= 20.0 && (1..=1000).contains(&steps)) {
-            return Err(bad());
+        if !(radius_mm > 0.0 && radius_mm <= 20.0) {
+            return Err(said(format!(
+                "the radius {} mm is out of range: {radius_range}",
+                show(radius_mm)
+            )));
         }
+        let steps: i128 = n.parse().map_err(|_| {
+            said(format!(
+                "the steps `{n}` are not a whole number: {steps_range}"
+            ))
+        })?;
+        if !(1..=1000).contains(&steps) {
+            return Err(said(format!(
+                "the steps {steps} are out of range: {steps_range}"
+            )));
+        }
+        let steps = steps as usize;
         if !(replan_mm.is_finite() && replan_mm >= 0.0) {
             crate::bad_input!("--replan-mm {} must be ≥ 0", show(replan_mm));
         }
@@ -290,31 +308,62 @@ mod tests {
         assert_eq!((z.radius_mm(), z.steps(), z.replan_mm()), (3.5, 8, 0.3));
         assert!(z.replan());
         assert!(!ZProfile::parse("20,1000", 0.0, false).unwrap().replan());
-        for spec in [
-            "3",
-            "3,",
-            ",8",
-            "x,8",
-            "3,x",
-            "0,8",
-            "-1,8",
-            "20.5,8",
-            "inf,8",
-            "nan,8",
-            "3,0",
-            "3,1001",
-            "3,-1",
-            "3,8,9",
-            "3,100000000",
+        let form = "give RADIUS_MM,STEPS: a radius and a step count, one comma between";
+        let radius = "allowed above 0 and at most 20 mm";
+        let steps = "allowed 1..=1000";
+        for (spec, why) in [
+            ("3", form.to_owned()),
+            ("3,8,9", form.to_owned()),
+            (
+                "3,",
+                format!("the steps `` are not a whole number: {steps}"),
+            ),
+            (",8", format!("the radius `` is not a number: {radius}")),
+            ("x,8", format!("the radius `x` is not a number: {radius}")),
+            ("0,8", format!("the radius 0 mm is out of range: {radius}")),
+            (
+                "-1,8",
+                format!("the radius -1 mm is out of range: {radius}"),
+            ),
+            (
+                "20.5,8",
+                format!("the radius 20.5 mm is out of range: {radius}"),
+            ),
+            (
+                "inf,8",
+                format!("the radius inf mm is out of range: {radius}"),
+            ),
+            (
+                "nan,8",
+                format!("the radius NaN mm is out of range: {radius}"),
+            ),
+            (
+                "3,x",
+                format!("the steps `x` are not a whole number: {steps}"),
+            ),
+            (
+                "3,2.5",
+                format!("the steps `2.5` are not a whole number: {steps}"),
+            ),
+            ("3,0", format!("the steps 0 are out of range: {steps}")),
+            (
+                "3,1001",
+                format!("the steps 1001 are out of range: {steps}"),
+            ),
+            ("3,-1", format!("the steps -1 are out of range: {steps}")),
+            (
+                "3,100000000",
+                format!("the steps 100000000 are out of range: {steps}"),
+            ),
         ] {
             let e = err(ZProfile::parse(spec, 0.3, false));
-            assert_eq!(
-                e,
-                format!(
-                    "--z-profile `{spec}` must be RADIUS_MM,STEPS with 0 < RADIUS_MM <= 20 and 1 <= STEPS <= 1000"
-                )
-            );
+            assert_eq!(e, format!("--z-profile `{spec}`: {why}"));
         }
+        let e = err(ZProfile::parse("1e999,8", 0.3, false));
+        assert!(
+            e.starts_with("--z-profile `1e999,8`: the radius 1e999 is too large"),
+            "{e}"
+        );
         for mm in [-0.1, f64::NAN, f64::INFINITY] {
             let e = err(ZProfile::parse("3,8", mm, false));
             assert!(
