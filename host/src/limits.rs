@@ -313,6 +313,27 @@ pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError
     Ok(d)
 }
 
+/// A pause (a control line's `off_s`), checked: 0 (no pause) or a
+/// duration as [`duration_s`] takes it, and said so when refused: "give at
+/// least 1e-9 s" of a field that takes 0 hid the 0.
+pub fn pause_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {
+    if s == 0.0 {
+        return Ok(Duration::ZERO);
+    }
+    if !(s.is_finite() && s > 0.0 && s <= max_s) {
+        return Err(InputError::new(format!(
+            "{what} {} s is out of range: give 0 (no pause) or a number from 1e-9 to {max_s} s",
+            show_beside(s, 0.0, max_s)
+        )));
+    }
+    duration_s(what, s, max_s).map_err(|_| {
+        InputError::new(format!(
+            "{what} {} s rounds to no time (a duration holds whole nanoseconds): give 0 (no pause) or at least 1e-9 s",
+            show(s)
+        ))
+    })
+}
+
 /// Checks `lo ≤ v ≤ hi` for a finite `v`; the error names `what`, the
 /// unit and the range.
 pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
