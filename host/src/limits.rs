@@ -52,6 +52,10 @@ pub const MAX_COORD_MM: f64 = 2_000.0;
 pub const MAX_RADIUS_MM: f64 = 100.0;
 /// Largest |per-step depth| (`--z`), mm.
 pub const MAX_Z_MM: f64 = 100.0;
+/// Largest re-plan threshold (`track --replan-mm`), mm: a re-plan is due
+/// when a step's depth moves more than it, and a planned depth lies within
+/// ±[`MAX_Z_MM`], so a step moving further than that is beyond any plan.
+pub const MAX_REPLAN_MM: f64 = MAX_Z_MM;
 /// Largest focus spacing d (`--spacing`) and step width (`--step`), mm.
 pub const MAX_SPACING_MM: f64 = 1_000.0;
 /// Highest LM frequency (`--freq`), Hz.

@@ -120,7 +120,8 @@ struct TrackFlags {
     /// when it moved more than --replan-mm from the last planned profile.
     #[arg(long, value_name = "RADIUS_MM,STEPS")]
     z_profile: Option<String>,
-    /// Re-plan threshold for --z-profile (mm).
+    /// Re-plan threshold for --z-profile, 0..=100 mm (a planned depth lies
+    /// within ±100 mm: a larger threshold would never re-plan).
     #[arg(long, value_name = "MM", default_value_t = ZProfile::DEFAULT_REPLAN_MM, requires = "z_profile")]
     replan_mm: f64,
     /// With --port and --z-profile: when the surface profile moves more

@@ -198,7 +198,8 @@ impl ZProfile {
     pub const DEFAULT_REPLAN_MM: f64 = 0.3;
 
     /// Parses `spec` (`RADIUS_MM,STEPS`, 0 < RADIUS_MM <= 20, 1 <= STEPS
-    /// <= 1000) and checks `replan_mm` (≥ 0); `replan`: upload each
+    /// <= 1000) and checks `replan_mm`
+    /// (0..=[`crate::limits::MAX_REPLAN_MM`]); `replan`: upload each
     /// re-plan to the device.
     pub fn parse(spec: &str, replan_mm: f64, replan: bool) -> Result<Self, InputError> {
         let bad = || {
@@ -215,9 +216,15 @@ impl ZProfile {
         if !(radius_mm > 0.0 && radius_mm <= 20.0 && (1..=1000).contains(&steps)) {
             return Err(bad());
         }
-        if !(replan_mm.is_finite() && replan_mm >= 0.0) {
-            crate::bad_input!("--replan-mm {} must be ≥ 0", show(replan_mm));
-        }
+        // Bounded: a threshold no depth change can pass re-plans never,
+        // which `--replan-mm 1e9` did without a word.
+        crate::limits::in_range(
+            "--replan-mm",
+            replan_mm,
+            0.0,
+            crate::limits::MAX_REPLAN_MM,
+            "mm",
+        )?;
         Ok(Self {
             radius_mm,
             steps,
@@ -315,12 +322,13 @@ mod tests {
                 )
             );
         }
-        for mm in [-0.1, f64::NAN, f64::INFINITY] {
+        for mm in [-0.1, f64::NAN, f64::INFINITY, 100.5, 1e9] {
             let e = err(ZProfile::parse("3,8", mm, false));
             assert!(
-                e.starts_with("--replan-mm ") && e.ends_with("must be ≥ 0"),
+                e.starts_with("--replan-mm ") && e.ends_with("is out of range: allowed 0..=100 mm"),
                 "{e}"
             );
         }
+        assert!(ZProfile::parse("3,8", 100.0, false).is_ok());
     }
 }
