@@ -338,6 +338,21 @@ pub fn pause_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {
     })
 }
 
+/// Refuses a value given twice to a repeatable flag (`flag`, e.g.
+/// `--section`; `what`, e.g. `section`): it was merged without a word
+/// (`bench --section planner --section planner` ran it once).
+pub fn each_once(flag: &str, what: &str, values: &[String]) -> Result<(), InputError> {
+    for (i, v) in values.iter().enumerate() {
+        if values[..i].contains(v) {
+            return Err(InputError::new(format!(
+                "{flag} `{}` is given twice: give each {what} once",
+                crate::error::short_echo(v)
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Checks `lo ≤ v ≤ hi` for a finite `v`; the error names `what`, the
 /// unit and the range.
 pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
