@@ -230,12 +230,31 @@ pub const MAX_SIM_WORK: f64 = 5.0e10;
 /// The same for `simulate --reference` (the f64 loop is ~10× slower).
 pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 
+/// Why `s` is no number, for a number flag's refusal and a number in a
+/// flag's list: one wording for both.
+pub fn not_a_number(s: &str) -> String {
+    const GIVE: &str = "give one such as 2.5, -1 or 1e-3";
+    if s.is_empty() {
+        format!("an empty value is not a number: {GIVE}")
+    } else if s.trim() != s {
+        format!("`{s}` is not a number (white space around it): {GIVE}")
+    } else {
+        format!("{s} is not a number: {GIVE}")
+    }
+}
+
 /// `literal` read as a number, exactly ([`exact_literal`]): for a number
 /// inside a flag's value (`--center X,Y,Z`, `--away START,END`,
 /// `--faults ber=P`), which a lone number flag's parser never sees. `Err`:
 /// the message, for the caller to prefix with the flag (`None` when it is
 /// not a number at all, for the caller's own wording).
 pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
+    // Spaces at an end refused as a lone number flag refuses them: a list
+    // trimmed its items (`--center " 0,0,150"` taken) where `--radius " 5"`
+    // was refused.
+    if literal.trim() != literal {
+        return Err(Some(not_a_number(literal)));
+    }
     let v: f64 = literal.parse().map_err(|_| None)?;
     exact_literal(literal, v).map_err(Some)?;
     Ok(v)
@@ -468,7 +487,14 @@ mod tests {
         assert_eq!(exact_number("-0"), Ok(-0.0));
         assert_eq!(exact_number("0e-400"), Ok(0.0));
         assert_eq!(exact_number("x"), Err(None));
-        assert_eq!(exact_number(" 1"), Err(None));
+        // Spaces at an end in a lone number flag's words.
+        assert_eq!(
+            exact_number(" 1"),
+            Err(Some(
+                "` 1` is not a number (white space around it): give one such as 2.5, -1 or 1e-3"
+                    .into()
+            ))
+        );
         for tiny in ["1e-400", "-5e-330"] {
             let m = exact_number(tiny).unwrap_err().unwrap();
             assert!(

@@ -108,7 +108,7 @@ fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
     };
     let (a, b) = s.split_once(',').ok_or_else(bad)?;
     let number = |x: &str| {
-        lmhost::limits::exact_number(x.trim()).map_err(|e| match e {
+        lmhost::limits::exact_number(x).map_err(|e| match e {
             Some(m) => lmhost::InputError::new(format!("--away `{s}`: {m}")),
             None => bad(),
         })

@@ -115,7 +115,7 @@ struct TrackFlags {
     #[arg(long, value_parser = super::args::filter())]
     filter: Option<FilterKind>,
     /// Also measure the finger surface's depth z_j along a circle of
-    /// RADIUS_MM in STEPS steps about the centroid (relative to the centre,
+    /// RADIUS_MM in STEPS steps (no spaces) about the centroid (relative to the centre,
     /// along the box's third axis): JSON key `z_profile_mm`, and `replan`
     /// when it moved more than --replan-mm from the last planned profile.
     #[arg(long, value_name = "RADIUS_MM,STEPS")]

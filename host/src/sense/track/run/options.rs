@@ -208,11 +208,17 @@ impl ZProfile {
             ))
         };
         let (r, n) = spec.split_once(',').ok_or_else(bad)?;
-        let radius_mm = crate::limits::exact_number(r.trim()).map_err(|e| match e {
+        let radius_mm = crate::limits::exact_number(r).map_err(|e| match e {
             Some(m) => InputError::new(format!("--z-profile `{spec}`: {m}")),
             None => bad(),
         })?;
-        let steps: usize = n.trim().parse().map_err(|_| bad())?;
+        if n.trim() != n {
+            // As a lone whole-number flag refuses ` 8`.
+            crate::bad_input!(
+                "--z-profile `{spec}`: `{n}` is not a whole number: allowed 1..=1000"
+            );
+        }
+        let steps: usize = n.parse().map_err(|_| bad())?;
         if !(radius_mm > 0.0 && radius_mm <= 20.0 && (1..=1000).contains(&steps)) {
             return Err(bad());
         }
@@ -293,10 +299,16 @@ mod tests {
 
     #[test]
     fn the_z_profile_is_parsed_once_with_its_threshold() {
-        let z = ZProfile::parse(" 3.5 , 8 ", 0.3, true).unwrap();
+        let z = ZProfile::parse("3.5,8", 0.3, true).unwrap();
         assert_eq!((z.radius_mm(), z.steps(), z.replan_mm()), (3.5, 8, 0.3));
         assert!(z.replan());
         assert!(!ZProfile::parse("20,1000", 0.0, false).unwrap().replan());
+        // Spaces at an item's end refused, as a lone flag's value.
+        assert_eq!(
+            err(ZProfile::parse("3.5, 8", 0.3, false)),
+            "--z-profile `3.5, 8`: ` 8` is not a whole number: allowed 1..=1000"
+        );
+        assert!(err(ZProfile::parse(" 3.5,8", 0.3, false)).contains("(white space around it)"));
         for spec in [
             "3",
             "3,",
