@@ -125,10 +125,8 @@ impl Args {
         let size_mm = match &self.plane_size {
             None => (20.0, 20.0),
             Some(s) => {
-                let v: Result<Vec<f64>, _> = s
-                    .split(',')
-                    .map(|x| lmhost::limits::exact_number(x))
-                    .collect();
+                let v: Result<Vec<f64>, _> =
+                    s.split(',').map(lmhost::limits::exact_number).collect();
                 if let Err(Some(m)) = &v {
                     return Err(InputError::new(format!("--plane-size: {m}")));
                 }
@@ -148,7 +146,7 @@ impl Args {
             Some(s) => {
                 let v: Vec<f64> = s
                     .split([',', ';'])
-                    .map(|x| lmhost::limits::exact_number(x))
+                    .map(lmhost::limits::exact_number)
                     .collect::<Result<_, _>>()
                     .map_err(|e| match e {
                         Some(m) => InputError::new(format!("--plane-axes: {m}")),
