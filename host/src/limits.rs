@@ -505,6 +505,37 @@ mod tests {
     }
 
     #[test]
+    fn a_pause_takes_0_and_says_so() {
+        assert_eq!(pause_s("off_s", 0.0, 3600.0).unwrap(), Duration::ZERO);
+        assert_eq!(
+            pause_s("off_s", 1e-9, 3600.0).unwrap(),
+            Duration::from_nanos(1)
+        );
+        assert_eq!(
+            pause_s("off_s", -1.0, 3600.0).unwrap_err().0,
+            "off_s -1 s is out of range: give 0 (no pause) or a number from 1e-9 to 3600 s"
+        );
+        assert!(
+            pause_s("off_s", 1e-300, 3600.0)
+                .unwrap_err()
+                .0
+                .ends_with("give 0 (no pause) or at least 1e-9 s")
+        );
+    }
+
+    #[test]
+    fn a_repeated_value_is_named() {
+        let v = |s: &[&str]| s.iter().map(|x| (*x).to_owned()).collect::<Vec<_>>();
+        assert!(each_once("--section", "section", &v(&["a", "b"])).is_ok());
+        assert_eq!(
+            each_once("--section", "section", &v(&["a", "b", "a"]))
+                .unwrap_err()
+                .0,
+            "--section `a` is given twice: give each section once"
+        );
+    }
+
+    #[test]
     fn durations_are_checked_not_panicking() {
         assert_eq!(
             duration_s("--seconds", 1.5, MAX_SECONDS).unwrap(),
