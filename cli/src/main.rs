@@ -100,6 +100,32 @@ fn value_from_env(e: &clap::Error) -> Option<String> {
     (!typed && std::env::var_os(&var).is_some()).then_some(var)
 }
 
+/// When no argument is other than UTF-8, the refusal of a flag's
+/// environment variable that is (clap said only "invalid UTF-8 was
+/// detected in one or more arguments", naming neither).
+fn env_not_utf8() -> Option<InputError> {
+    if std::env::args_os().all(|a| a.to_str().is_some()) {
+        fn find(c: &clap::Command) -> Option<InputError> {
+            c.get_arguments()
+                .find_map(|a| {
+                    let var = a.get_env()?;
+                    let raw = std::env::var_os(var)?;
+                    let flag = a.get_long()?;
+                    raw.to_str().is_none().then(|| {
+                        lmhost::error::env_not_utf8(
+                            &var.to_string_lossy(),
+                            &raw,
+                            &format!("the --{flag} value"),
+                        )
+                    })
+                })
+                .or_else(|| c.get_subcommands().find_map(find))
+        }
+        return find(&Cli::command());
+    }
+    None
+}
+
 /// `text` (clap's rendering of `e`) with each value the user gave that
 /// holds a line end written with `\n`, so that taking its first paragraph
 /// does not cut a value (`--radius $'3\n\nx'`) short; and one longer than
@@ -183,6 +209,11 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
         Err(e) => {
+            if e.kind() == clap::error::ErrorKind::InvalidUtf8
+                && let Some(refused) = env_not_utf8()
+            {
+                return finish(Err(refused.into()));
+            }
             // Bad flags are bad input: one line, exit 2.
             // The first paragraph, its indented lines (e.g. the missing
             // arguments' names) joined onto the first.

@@ -125,6 +125,16 @@ fn is_number(s: &str) -> bool {
         .all(|b| b.is_ascii_digit() || b"+-.eE".contains(&b))
 }
 
+/// The refusal of environment variable `var` whose value `raw` is not
+/// UTF-8, saying what to `give`: named, where a flag's parser said only
+/// "invalid UTF-8 was detected in one or more arguments".
+pub fn env_not_utf8(var: &str, raw: &std::ffi::OsStr, give: &str) -> InputError {
+    InputError::new(format!(
+        "${var} `{}` is not UTF-8: give {give} in UTF-8, or unset it",
+        short_echo(&raw.to_string_lossy())
+    ))
+}
+
 /// `s` as an [`InputError`] echoes a quoted value: cut around its length
 /// when longer than [`MAX_ECHO_CHARS`]. For a value whose own backquotes
 /// would split its echo into pieces each short enough to stay whole.

@@ -52,6 +52,10 @@ pub const MAX_COORD_MM: f64 = 2_000.0;
 pub const MAX_RADIUS_MM: f64 = 100.0;
 /// Largest |per-step depth| (`--z`), mm.
 pub const MAX_Z_MM: f64 = 100.0;
+/// Largest re-plan threshold (`track --replan-mm`), mm: a re-plan is due
+/// when a step's depth moves more than it, and a planned depth lies within
+/// ±[`MAX_Z_MM`], so a step moving further than that is beyond any plan.
+pub const MAX_REPLAN_MM: f64 = MAX_Z_MM;
 /// Largest focus spacing d (`--spacing`) and step width (`--step`), mm.
 pub const MAX_SPACING_MM: f64 = 1_000.0;
 /// Highest LM frequency (`--freq`), Hz.
@@ -226,12 +230,31 @@ pub const MAX_SIM_WORK: f64 = 5.0e10;
 /// The same for `simulate --reference` (the f64 loop is ~10× slower).
 pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 
+/// Why `s` is no number, for a number flag's refusal and a number in a
+/// flag's list: one wording for both.
+pub fn not_a_number(s: &str) -> String {
+    const GIVE: &str = "give one such as 2.5, -1 or 1e-3";
+    if s.is_empty() {
+        format!("an empty value is not a number: {GIVE}")
+    } else if s.trim() != s {
+        format!("`{s}` is not a number (white space around it): {GIVE}")
+    } else {
+        format!("{s} is not a number: {GIVE}")
+    }
+}
+
 /// `literal` read as a number, exactly ([`exact_literal`]): for a number
 /// inside a flag's value (`--center X,Y,Z`, `--away START,END`,
 /// `--faults ber=P`), which a lone number flag's parser never sees. `Err`:
 /// the message, for the caller to prefix with the flag (`None` when it is
 /// not a number at all, for the caller's own wording).
 pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
+    // Spaces at an end refused as a lone number flag refuses them: a list
+    // trimmed its items (`--center " 0,0,150"` taken) where `--radius " 5"`
+    // was refused.
+    if literal.trim() != literal {
+        return Err(Some(not_a_number(literal)));
+    }
     let v: f64 = literal.parse().map_err(|_| None)?;
     exact_literal(literal, v).map_err(Some)?;
     Ok(v)
@@ -311,6 +334,42 @@ pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError
         )));
     }
     Ok(d)
+}
+
+/// A pause (a control line's `off_s`), checked: 0 (no pause) or a
+/// duration as [`duration_s`] takes it, and said so when refused: "give at
+/// least 1e-9 s" of a field that takes 0 hid the 0.
+pub fn pause_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {
+    if s == 0.0 {
+        return Ok(Duration::ZERO);
+    }
+    if !(s.is_finite() && s > 0.0 && s <= max_s) {
+        return Err(InputError::new(format!(
+            "{what} {} s is out of range: give 0 (no pause) or a number from 1e-9 to {max_s} s",
+            show_beside(s, 0.0, max_s)
+        )));
+    }
+    duration_s(what, s, max_s).map_err(|_| {
+        InputError::new(format!(
+            "{what} {} s rounds to no time (a duration holds whole nanoseconds): give 0 (no pause) or at least 1e-9 s",
+            show(s)
+        ))
+    })
+}
+
+/// Refuses a value given twice to a repeatable flag (`flag`, e.g.
+/// `--section`; `what`, e.g. `section`): it was merged without a word
+/// (`bench --section planner --section planner` ran it once).
+pub fn each_once(flag: &str, what: &str, values: &[String]) -> Result<(), InputError> {
+    for (i, v) in values.iter().enumerate() {
+        if values[..i].contains(v) {
+            return Err(InputError::new(format!(
+                "{flag} `{}` is given twice: give each {what} once",
+                crate::error::short_echo(v)
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Checks `lo ≤ v ≤ hi` for a finite `v`; the error names `what`, the
@@ -428,7 +487,14 @@ mod tests {
         assert_eq!(exact_number("-0"), Ok(-0.0));
         assert_eq!(exact_number("0e-400"), Ok(0.0));
         assert_eq!(exact_number("x"), Err(None));
-        assert_eq!(exact_number(" 1"), Err(None));
+        // Spaces at an end in a lone number flag's words.
+        assert_eq!(
+            exact_number(" 1"),
+            Err(Some(
+                "` 1` is not a number (white space around it): give one such as 2.5, -1 or 1e-3"
+                    .into()
+            ))
+        );
         for tiny in ["1e-400", "-5e-330"] {
             let m = exact_number(tiny).unwrap_err().unwrap();
             assert!(
@@ -436,6 +502,37 @@ mod tests {
                 "{m}"
             );
         }
+    }
+
+    #[test]
+    fn a_pause_takes_0_and_says_so() {
+        assert_eq!(pause_s("off_s", 0.0, 3600.0).unwrap(), Duration::ZERO);
+        assert_eq!(
+            pause_s("off_s", 1e-9, 3600.0).unwrap(),
+            Duration::from_nanos(1)
+        );
+        assert_eq!(
+            pause_s("off_s", -1.0, 3600.0).unwrap_err().0,
+            "off_s -1 s is out of range: give 0 (no pause) or a number from 1e-9 to 3600 s"
+        );
+        assert!(
+            pause_s("off_s", 1e-300, 3600.0)
+                .unwrap_err()
+                .0
+                .ends_with("give 0 (no pause) or at least 1e-9 s")
+        );
+    }
+
+    #[test]
+    fn a_repeated_value_is_named() {
+        let v = |s: &[&str]| s.iter().map(|x| (*x).to_owned()).collect::<Vec<_>>();
+        assert!(each_once("--section", "section", &v(&["a", "b"])).is_ok());
+        assert_eq!(
+            each_once("--section", "section", &v(&["a", "b", "a"]))
+                .unwrap_err()
+                .0,
+            "--section `a` is given twice: give each section once"
+        );
     }
 
     #[test]

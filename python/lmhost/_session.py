@@ -228,7 +228,12 @@ class Session:
 
     def command(self, cmd: str, **fields: Any) -> Dict[str, Any]:
         """Send one command; events that arrive meanwhile are kept for
-        :meth:`events`. Returns the reply; ``ok: false`` raises ValueError."""
+        :meth:`events`. Returns the reply; ``ok: false`` raises ValueError.
+
+        A field given as None is absent: it is left out of the line, so the
+        session takes its default (``command("present", stimulus=s,
+        on_s=None)`` plays until stopped), as a None of :meth:`present` and
+        of :func:`lmhost.plan` is the default."""
         msg: Dict[str, Any] = {"cmd": _args.command_name("cmd", cmd)}
         for k, v in fields.items():
             _args.command_name("field name", k)

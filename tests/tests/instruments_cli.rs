@@ -32,11 +32,11 @@ fn the_gauge_twin_reads_the_finger_pad_at_its_depth() {
     let median = v["median_n"].as_f64().unwrap();
     assert!((median - want).abs() <= 0.011, "{median} vs {want}");
     assert_eq!(v["series"]["samples"].as_array().unwrap().len(), 20);
-    // As text: the readings counted as read (a series shorter than one
-    // period takes one).
+    // As text: the readings counted as read (a series of one period
+    // takes one; a shorter one is refused, as taking one whatever it asks).
     for (secs, said) in [
         ("0.4", "of 20 readings over 0.4 s"),
-        ("0.001", "of 1 reading over 0.001 s"),
+        ("0.02", "of 1 reading over 0.02 s"),
     ] {
         let out = read(secs, &[]);
         assert!(out.contains(said), "{out}");
@@ -62,7 +62,7 @@ fn the_stage_twin_moves_at_its_speed() {
 
 #[test]
 fn bad_input_is_one_line_and_exit_2() {
-    let table: [(&[&str], &str); 8] = [
+    let table: [(&[&str], &str); 9] = [
         (
             &["stage", "move", "--port", "sim", "--to", "60"],
             "outside the stage's soft limits 0..=50 mm",
@@ -92,6 +92,10 @@ fn bad_input_is_one_line_and_exit_2() {
                 "gauge", "read", "--port", "sim", "--for", "1", "--rate", "5000",
             ],
             "sampling rate 5000 Hz",
+        ),
+        (
+            &["gauge", "read", "--port", "sim", "--for", "0.001"],
+            "sampling rate 50 Hz is less than one reading in 0.001 s: allowed 1000..=1000 Hz",
         ),
         (
             &["gauge", "read", "--port", "/dev/null", "--sim-depth", "1"],

@@ -11,7 +11,7 @@ pub struct Args {
     /// Fewer repetitions (rougher timings, same accuracy checks).
     #[arg(long)]
     pub quick: bool,
-    /// Only these sections (repeatable), e.g. `--section planner`.
+    /// Only these sections (repeatable, each once), e.g. `--section planner`.
     #[arg(long, value_name = "NAME")]
     pub section: Vec<String>,
 }

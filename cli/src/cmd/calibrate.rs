@@ -88,7 +88,7 @@ pub struct ForceArgs {
     /// Diameter of the gauge's disk (mm).
     #[arg(long, value_name = "MM", default_value_t = lmhost::field::study::DISK_MM, allow_negative_numbers = true)]
     disk: f64,
-    /// Where the focus was, X,Y,Z (mm) [default: the scene's LM centre].
+    /// Where the focus was, X,Y,Z (mm, no spaces) [default: the scene's LM centre].
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     center: Option<String>,
     #[command(flatten)]

@@ -9,7 +9,7 @@ use lmhost::lab::doctor::{self, Env, Options};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Also check this device (a serial port or pty, `tcp:HOST:PORT`, or
-    /// `autd3:...`); repeatable.
+    /// `autd3:...`); repeatable, each port once.
     #[arg(long, value_name = "PORT")]
     pub port: Vec<String>,
     /// Response timeout per request to an LM board (ms).
@@ -24,13 +24,12 @@ pub struct Args {
 impl Args {
     /// Checks and prints.
     pub fn run(self) -> anyhow::Result<()> {
-        let checks = doctor::run(
-            &Env::live(),
-            &Options {
-                ports: self.port,
-                timeout_ms: self.timeout_ms,
-            },
-        );
+        let options = Options {
+            ports: self.port,
+            timeout_ms: self.timeout_ms,
+        };
+        options.check()?;
+        let checks = doctor::run(&Env::live(), &options);
         if self.json {
             lmhost::outln!("{}", serde_json::to_string(&checks)?)?;
         } else {

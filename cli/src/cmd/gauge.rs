@@ -41,7 +41,8 @@ pub struct ReadArgs {
     /// Sample for S seconds and print the median (the paper's 2 s).
     #[arg(long = "for", value_name = "S", allow_negative_numbers = true)]
     for_s: Option<f64>,
-    /// Sampling rate with --for, Hz [default: 50]. Without --for there is
+    /// Sampling rate with --for, Hz [default: 50]: at least one reading
+    /// in --for's seconds (1 / S) and at most 1000. Without --for there is
     /// no series to sample: refused rather than ignored.
     #[arg(
         long,

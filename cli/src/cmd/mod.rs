@@ -78,21 +78,9 @@ fn every_arg(cmd: clap::Command, f: fn(clap::Arg) -> clap::Arg) -> clap::Command
 /// that is no number says so in words (Rust's "invalid float literal"
 /// named neither the value nor what to give).
 fn exact_f64(s: &str) -> Result<f64, String> {
-    let v: f64 = s.parse().map_err(|_| not_a_number(s))?;
+    let v: f64 = s.parse().map_err(|_| lmhost::limits::not_a_number(s))?;
     lmhost::limits::exact_literal(s, v)?;
     Ok(v)
-}
-
-/// Why `s` is no number, for a number flag's refusal.
-fn not_a_number(s: &str) -> String {
-    const GIVE: &str = "give one such as 2.5, -1 or 1e-3";
-    if s.is_empty() {
-        format!("an empty value is not a number: {GIVE}")
-    } else if s.trim() != s {
-        format!("`{s}` is not a number (white space around it): {GIVE}")
-    } else {
-        format!("{s} is not a number: {GIVE}")
-    }
 }
 
 /// Every `lmhost` subcommand.

@@ -66,13 +66,13 @@ pub struct StimulusFlags {
     /// Steps per cycle N, 1..=65535 (instead of --step).
     #[arg(long, value_name = "N", value_parser = super::whole::whole_for_library::<usize>(1, lmhost::plan::trajectory::MAX_STEPS as u64))]
     pub steps: Option<usize>,
-    /// LM centre X,Y,Z in mm, finger space, each within ±2000 and in front
+    /// LM centre X,Y,Z in mm (no spaces), finger space, each within ±2000 and in front
     /// of the array [default: the scene's centre, (0,0,200) for the
     /// built-in array].
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub center: Option<String>,
     /// Per-step depth along the LM plane's c axis in mm, each within ±100:
-    /// one value, or one per step, comma-separated [default: 0].
+    /// one value, or one per step, comma-separated without spaces [default: 0].
     #[arg(long, value_name = "MM[,MM...]", allow_hyphen_values = true)]
     pub z: Option<String>,
     /// Multi-focus synthesis [default: linear].
@@ -81,7 +81,7 @@ pub struct StimulusFlags {
     /// GS-PAT iterations, 1..=1000 (with --method gspat) [default: 20].
     #[arg(long, value_name = "N", value_parser = super::whole::whole_for_library::<usize>(1, limits::MAX_ITERATIONS as u64))]
     pub iterations: Option<usize>,
-    /// Real weight per focus, comma-separated, each within 0..=1e6 and
+    /// Real weight per focus, comma-separated without spaces, each within 0..=1e6 and
     /// not all zero (linear synthesis only).
     #[arg(long, value_name = "W,W,...", allow_hyphen_values = true)]
     pub weights: Option<String>,
@@ -95,12 +95,9 @@ pub struct StimulusFlags {
 fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
     s.split(',')
         .map(|x| {
-            limits::exact_number(x.trim()).map_err(|e| match e {
+            limits::exact_number(x).map_err(|e| match e {
                 Some(m) => InputError::new(format!("--{flag}: {m}")),
-                None => InputError::new(format!(
-                    "--{flag}: `{}` is not a number (got `{s}`)",
-                    x.trim()
-                )),
+                None => InputError::new(format!("--{flag}: `{x}` is not a number (got `{s}`)")),
             })
         })
         .collect()

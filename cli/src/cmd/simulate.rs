@@ -47,17 +47,17 @@ pub struct Args {
     #[arg(long, value_name = "DIR", default_value = "simulate-out")]
     out: PathBuf,
     /// Observation plane size in mm, each at most 1000: `S` (square) or
-    /// `W,H` [default: 20].
+    /// `W,H`, no spaces [default: 20].
     #[arg(long, value_name = "MM[,MM]")]
     plane_size: Option<String>,
     /// Observation grid step in mm. The whole run is limited to 5e10
     /// points × transducers × steps (5e9 with --reference), ~10 s.
     #[arg(long, value_name = "MM", default_value_t = field::study::PLANE_STEP_MM, allow_negative_numbers = true)]
     plane_step: f64,
-    /// Observation plane centre X,Y,Z in mm [default: the LM centre].
+    /// Observation plane centre X,Y,Z in mm, no spaces [default: the LM centre].
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     plane_center: Option<String>,
-    /// Observation plane axes `UX,UY,UZ,VX,VY,VZ` [default: the scene's LM
+    /// Observation plane axes `UX,UY,UZ,VX,VY,VZ`, no spaces [default: the scene's LM
     /// plane axes a, b].
     #[arg(long, value_name = "UX,UY,UZ,VX,VY,VZ", allow_hyphen_values = true)]
     plane_axes: Option<String>,
@@ -125,10 +125,8 @@ impl Args {
         let size_mm = match &self.plane_size {
             None => (20.0, 20.0),
             Some(s) => {
-                let v: Result<Vec<f64>, _> = s
-                    .split(',')
-                    .map(|x| lmhost::limits::exact_number(x.trim()))
-                    .collect();
+                let v: Result<Vec<f64>, _> =
+                    s.split(',').map(lmhost::limits::exact_number).collect();
                 if let Err(Some(m)) = &v {
                     return Err(InputError::new(format!("--plane-size: {m}")));
                 }
@@ -148,7 +146,7 @@ impl Args {
             Some(s) => {
                 let v: Vec<f64> = s
                     .split([',', ';'])
-                    .map(|x| lmhost::limits::exact_number(x.trim()))
+                    .map(lmhost::limits::exact_number)
                     .collect::<Result<_, _>>()
                     .map_err(|e| match e {
                         Some(m) => InputError::new(format!("--plane-axes: {m}")),

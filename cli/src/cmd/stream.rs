@@ -70,7 +70,9 @@ pub struct Args {
     /// (stdin, --input) end with their input: refused there.
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     seconds: Option<f64>,
-    /// Synthetic finger: away from START to END seconds, e.g. `4,5`.
+    /// Synthetic finger: away from START to END seconds, e.g. `4,5` (no
+    /// spaces): a window holding at least one frame, starting before
+    /// --seconds (END may lie beyond: the finger does not come back).
     #[arg(long, value_name = "START,END")]
     away: Option<String>,
     /// Centroid filter.
@@ -105,7 +107,6 @@ fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
         .filter(|(_, b)| !b.contains(','))
         .ok_or_else(|| said("give START,END: two times in seconds, one comma between".into()))?;
     let number = |x: &str, part: &str| {
-        let x = x.trim();
         lmhost::limits::exact_number(x).map_err(|e| match e {
             Some(m) => said(format!("{part} {m}")),
             None => said(format!("{part} `{x}` is not a number of seconds")),
@@ -173,6 +174,7 @@ impl Args {
             away_s: away,
             ..FingerTrack::default()
         };
+        track.check_away(asked_s)?;
         let mut filter: Box<dyn lmhost::sense::stream::filter::Filter + Send> = match self.filter {
             FilterKind::Kalman => Box::new(Kalman::with_lead(lead_ms / 1e3)),
             other => other.build(),

@@ -115,12 +115,13 @@ struct TrackFlags {
     #[arg(long, value_parser = super::args::filter())]
     filter: Option<FilterKind>,
     /// Also measure the finger surface's depth z_j along a circle of
-    /// RADIUS_MM in STEPS steps about the centroid (relative to the centre,
+    /// RADIUS_MM in STEPS steps (no spaces) about the centroid (relative to the centre,
     /// along the box's third axis): JSON key `z_profile_mm`, and `replan`
     /// when it moved more than --replan-mm from the last planned profile.
     #[arg(long, value_name = "RADIUS_MM,STEPS")]
     z_profile: Option<String>,
-    /// Re-plan threshold for --z-profile (mm).
+    /// Re-plan threshold for --z-profile, 0..=100 mm (a planned depth lies
+    /// within ±100 mm: a larger threshold would never re-plan).
     #[arg(long, value_name = "MM", default_value_t = ZProfile::DEFAULT_REPLAN_MM, requires = "z_profile")]
     replan_mm: f64,
     /// With --port and --z-profile: when the surface profile moves more

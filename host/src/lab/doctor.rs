@@ -192,6 +192,14 @@ pub struct Options {
     pub timeout_ms: u64,
 }
 
+impl Options {
+    /// Refuses what no check can use: a port given twice (checked once,
+    /// without a word, or an AUTD3 link opened twice).
+    pub fn check(&self) -> Result<(), crate::InputError> {
+        crate::limits::each_once("--port", "port", &self.ports)
+    }
+}
+
 /// Runs every check.
 pub fn run(env: &Env, opts: &Options) -> Vec<Check> {
     let mut v = Vec::new();

@@ -70,7 +70,7 @@ use super::*;
 
 /// The repository's `studies/NAME` with its library named by its whole
 /// path, so a copy in `{dir}/r13` finds it.
-fn study(name: &str) -> String {
+pub(crate) fn study(name: &str) -> String {
     let studies = Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies");
     let text = std::fs::read_to_string(studies.join(name)).unwrap();
     let mut out = String::new();

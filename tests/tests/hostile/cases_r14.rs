@@ -278,7 +278,7 @@ pub(crate) fn round14_cases() -> Vec<Case> {
             "{\"cmd\":\"present\",\"stimulus\":\"lms-5hz-a2\",\"gate\":\"untracked\",\"on_s\":0.5,\"off_s\":1e-300,\"repeat\":2}\n",
         )
         .ok()
-        .out("{\"cmd\":\"present\",\"error\":\"off_s 1e-300 s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s\",\"ok\":false}"),
+        .out("{\"cmd\":\"present\",\"error\":\"off_s 1e-300 s rounds to no time (a duration holds whole nanoseconds): give 0 (no pause) or at least 1e-9 s\",\"ok\":false}"),
     );
     v
 }

@@ -92,7 +92,7 @@ pub(crate) fn sweep_cases() -> Vec<Case> {
         SWEEP_IGNORED "gauge read --port sim --rate 5" .err("--for");
         SWEEP_IGNORED "gauge read --port sim --rate nan" .err("--for");
         // ... and with --for it is used (the rate in the output).
-        SWEEP_IGNORED "gauge read --port sim --rate 5 --for 0.1" .ok().out("at 5 Hz");
+        SWEEP_IGNORED "gauge read --port sim --rate 5 --for 0.2" .ok().out("at 5 Hz");
         // `--baud 0` where no serial link opens.
         SWEEP_IGNORED "track --synthetic --seconds 0.3 --fast --baud 0" .err("--baud");
         SWEEP_IGNORED "study run {dir}/study/mini.toml --port autd3:emulator --out {dir}/r6/out \

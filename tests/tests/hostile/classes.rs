@@ -171,8 +171,19 @@ pub const R15B_BAD_VALUE: &str =
     "r15b-5 a centroid object's bad value is refused as a value of its key";
 pub const R15B_HANDED: &str = "r15b-6 a scene's left-handed lm_plane is refused";
 
+/// Round 15a: values that change nothing, and refusals that disagree
+/// (`cases_r15a.rs`).
+pub const R15A_AWAY: &str = "r15a-1 an away window that holds no frame is refused";
+pub const R15A_STEPS: &str = "r15a-2 a staircase's steps it can never use are refused";
+pub const R15A_RATE: &str = "r15a-3 a gauge rate below one reading in the read is refused";
+pub const R15A_REPLAN: &str = "r15a-4 --replan-mm has an upper bound";
+pub const R15A_REPEATED: &str = "r15a-5 a repeatable flag's value given twice is refused";
+pub const R15A_SPACES: &str = "r15a-6 a list's number with spaces is refused as a lone one";
+pub const R15A_OFF: &str = "r15a-7 off_s's refusal states its range, 0 in it";
+pub const R15A_ENV: &str = "r15a-8 a flag's variable not UTF-8 is named";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 127] = [
+pub const CLASSES: [&str; 135] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -300,4 +311,12 @@ pub const CLASSES: [&str; 127] = [
     R15B_PARTS,
     R15B_BAD_VALUE,
     R15B_HANDED,
+    R15A_AWAY,
+    R15A_STEPS,
+    R15A_RATE,
+    R15A_REPLAN,
+    R15A_REPEATED,
+    R15A_SPACES,
+    R15A_OFF,
+    R15A_ENV,
 ];

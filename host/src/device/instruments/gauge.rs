@@ -91,6 +91,30 @@ pub fn check_series(port: &str, duration_s: f64, rate_hz: f64) -> Result<usize, 
             ));
         }
     }
+    // A period longer than the series takes one reading whatever the
+    // rate (`--rate 1e-300` read once): a rate that changes nothing.
+    if duration_s * rate_hz < 1.0 {
+        let least = 1.0 / duration_s;
+        return Err(InstrumentError::limit(
+            port,
+            if least > MAX_RATE_HZ {
+                format!(
+                    "sampling duration {} s is shorter than one reading at {} Hz: give at least {} s",
+                    show(duration_s),
+                    show(MAX_RATE_HZ),
+                    show(1.0 / MAX_RATE_HZ)
+                )
+            } else {
+                format!(
+                    "sampling rate {} Hz is less than one reading in {} s: allowed {}..={} Hz",
+                    show(rate_hz),
+                    show(duration_s),
+                    show(least),
+                    show(MAX_RATE_HZ)
+                )
+            },
+        ));
+    }
     let n = (duration_s * rate_hz).round().max(1.0);
     if n > MAX_SERIES_SAMPLES as f64 {
         return Err(InstrumentError::limit(
@@ -181,6 +205,16 @@ mod tests {
         assert!(check_series("g", 0.0, 50.0).is_err());
         assert!(check_series("g", 2.0, f64::NAN).is_err());
         assert!(check_series("g", 2.0, 2000.0).is_err());
+        assert_eq!(check_series("g", 2.0, 0.5).unwrap(), 1);
+        let e = check_series("g", 2.0, 1e-300).unwrap_err().to_string();
+        assert!(
+            e.ends_with(
+                "sampling rate 1e-300 Hz is less than one reading in 2 s: allowed 0.5..=1000 Hz"
+            ),
+            "{e}"
+        );
+        let e = check_series("g", 1e-4, 1000.0).unwrap_err().to_string();
+        assert!(e.ends_with("sampling duration 0.0001 s is shorter than one reading at 1000 Hz: give at least 0.001 s"), "{e}");
         let e = check_series("g", 600.0, 1000.0).unwrap_err().to_string();
         assert!(e.contains("more than 100000"), "{e}");
     }

@@ -174,10 +174,9 @@ pub fn env_port() -> Result<Option<String>, InputError> {
     match std::env::var(PORT_ENV) {
         Ok(p) => Ok(Some(p)),
         Err(std::env::VarError::NotPresent) => Ok(None),
-        Err(std::env::VarError::NotUnicode(raw)) => Err(InputError::new(format!(
-            "${PORT_ENV} `{}` is not UTF-8: give a port name in UTF-8, or unset it",
-            crate::error::short_echo(&raw.to_string_lossy())
-        ))),
+        Err(std::env::VarError::NotUnicode(raw)) => {
+            Err(crate::error::env_not_utf8(PORT_ENV, &raw, "a port name"))
+        }
     }
 }
 

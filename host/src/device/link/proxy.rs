@@ -35,10 +35,17 @@ impl FromStr for Faults {
     fn from_str(s: &str) -> Result<Self, String> {
         let mut f = Faults::default();
         let mut seen: Vec<&str> = Vec::new();
-        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        for part in s.split(',').filter(|p| !p.is_empty()) {
             let (k, v) = part
                 .split_once('=')
                 .ok_or_else(|| format!("fault `{part}` must look like name=value"))?;
+            // Spaces at an end refused, as in every flag's list (a value's
+            // by `exact_number`, in a lone number flag's words).
+            if k.trim() != k {
+                return Err(format!(
+                    "fault name `{k}` has spaces at an end: give name=value without them"
+                ));
+            }
             if seen.contains(&k) {
                 return Err(format!("fault `{k}` is given twice"));
             }
@@ -272,10 +279,21 @@ mod tests {
 
     #[test]
     fn parses_fault_specs() {
-        let f: Faults = "ber=1e-4, drop=0.01,cut=500".parse().unwrap();
+        let f: Faults = "ber=1e-4,drop=0.01,cut=500".parse().unwrap();
         assert_eq!(f.ber, 1e-4);
         assert_eq!(f.drop, 0.01);
         assert_eq!(f.cut_after, Some(500));
+        // Spaces at an item's end refused, as in every flag's list.
+        assert_eq!(
+            "ber=1e-4, drop=0.01".parse::<Faults>().unwrap_err(),
+            "fault name ` drop` has spaces at an end: give name=value without them"
+        );
+        assert!(
+            "ber= 1e-4"
+                .parse::<Faults>()
+                .unwrap_err()
+                .contains("` 1e-4` is not a number (white space around it)")
+        );
         assert!(
             "ber=2"
                 .parse::<Faults>()

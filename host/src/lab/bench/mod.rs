@@ -63,6 +63,7 @@ pub const SECTIONS: &[(&str, SectionFn)] = &[
 
 /// Runs the sections named in `only` (all when empty), in report order.
 pub fn run(opts: &Options, only: &[String]) -> anyhow::Result<Vec<Section>> {
+    crate::limits::each_once("--section", "section", only)?;
     for name in only {
         if !SECTIONS.iter().any(|(n, _)| n == name) {
             let known: Vec<_> = SECTIONS.iter().map(|(n, _)| *n).collect();

@@ -329,11 +329,9 @@ impl Session {
         }
         let on_s = |s| crate::limits::duration_s("on_s", s, MAX_PHASE_S);
         let on = req.on_s.map(on_s).transpose()?;
-        let off = match req.off_s {
-            None => Duration::ZERO,
-            Some(0.0) => Duration::ZERO,
-            Some(s) => crate::limits::duration_s("off_s", s, MAX_PHASE_S)?,
-        };
+        let off = req.off_s.map_or(Ok(Duration::ZERO), |s| {
+            crate::limits::pause_s("off_s", s, MAX_PHASE_S)
+        })?;
         let repeat = req.repeat.unwrap_or(1);
         if !(1..=MAX_REPEAT).contains(&repeat) {
             return Err(InputError::new(format!(

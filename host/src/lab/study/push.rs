@@ -278,7 +278,13 @@ fn serve(o: PushOptions, cmds: Receiver<Cmd>, tx: Sender<Report>) {
                 }
                 Cmd::Sample(hold_s) => {
                     let s = gauge
-                        .sample(hold_s, RATE_HZ)
+                        // At least one reading in a short (scaled) hold.
+                        .sample(
+                            hold_s,
+                            RATE_HZ.max(
+                                (1.0 / hold_s).min(crate::device::instruments::gauge::MAX_RATE_HZ),
+                            ),
+                        )
                         .map_err(|e| fail("recording the gauge".into(), &e))?;
                     let _ = tx.send(Report::Series(s));
                 }

@@ -3,6 +3,8 @@
 //! known ground truth to judge filters against.
 
 use super::Sample;
+use crate::error::InputError;
+use crate::limits::show;
 use crate::rng::SplitMix64;
 
 /// Parameters of the synthetic finger.
@@ -70,6 +72,40 @@ impl FingerTrack {
         !matches!(self.away_s, Some((a, b)) if t_s >= a && t_s < b)
     }
 
+    /// Refuses an away window (`--away START,END`) that changes nothing
+    /// in a stream of `seconds` (frames at `i / rate_hz` before it): one
+    /// starting at or after the stream's end, or holding no frame.
+    pub fn check_away(&self, seconds: f64) -> Result<(), InputError> {
+        let Some((a, b)) = self.away_s else {
+            return Ok(());
+        };
+        let window = format!("--away {},{}", show(a), show(b));
+        if a >= seconds {
+            return Err(InputError::new(format!(
+                "{window} starts at or after the stream's end (--seconds {}): give a START below {} s",
+                show(seconds),
+                show(seconds)
+            )));
+        }
+        // The first frame at or after `a`, as `samples` times it.
+        let mut i = (a * self.rate_hz).ceil().max(0.0) as u64;
+        while i > 0 && (i - 1) as f64 / self.rate_hz >= a {
+            i -= 1;
+        }
+        while (i as f64 / self.rate_hz) < a {
+            i += 1;
+        }
+        let t = i as f64 / self.rate_hz;
+        if t >= b || t >= seconds {
+            return Err(InputError::new(format!(
+                "{window} holds no frame of the stream ({} frames a second, before --seconds {}): give a window holding at least one",
+                show(self.rate_hz),
+                show(seconds)
+            )));
+        }
+        Ok(())
+    }
+
     /// An endless stream of noisy samples, frame by frame.
     pub fn samples(&self) -> impl Iterator<Item = Sample> + use<> {
         let track = *self;
@@ -105,6 +141,30 @@ mod tests {
             / 100.0)
             .sqrt();
         assert!(rms > 0.2 && rms < 0.4, "{rms}");
+    }
+
+    #[test]
+    fn an_away_window_that_changes_nothing_is_refused() {
+        let away = |a, b| FingerTrack {
+            away_s: Some((a, b)),
+            ..Default::default()
+        };
+        assert!(away(0.5, 3.0).check_away(1.0).is_ok());
+        assert!(away(0.0, 1.0 / 90.0).check_away(1.0).is_ok());
+        assert!(away(89.0 / 90.0, 2.0).check_away(1.0).is_ok());
+        let e = away(2.0, 3.0).check_away(1.0).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "--away 2,3 starts at or after the stream's end (--seconds 1): give a START below 1 s"
+        );
+        assert!(away(1.0, 3.0).check_away(1.0).is_err());
+        for (a, b) in [(0.001, 0.002), (0.995, 2.0)] {
+            let e = away(a, b).check_away(1.0).unwrap_err().to_string();
+            assert!(
+                e.contains("holds no frame of the stream (90 frames a second"),
+                "{e}"
+            );
+        }
     }
 
     #[test]

@@ -298,7 +298,9 @@ pub(super) struct StaircaseFile {
     #[serde(default = "two")]
     pub down: Run,
     /// Grid places per step, by reversals so far (the last repeats), each
-    /// 1 to the levels less one; default `[1]`.
+    /// 1 to the levels less one, and no more of them than the staircase
+    /// can use (at most `reversals`; fewer when `trials` ends it sooner);
+    /// default `[1]`.
     #[schemars(
         with = "Option<Vec<u32>>",
         length(min = 1),

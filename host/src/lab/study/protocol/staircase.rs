@@ -110,6 +110,23 @@ pub(super) fn check(
         }
     };
     let reversals = s.reversals.0;
+    let usable = usable_steps(reversals, grid.trials, s.up.0, s.down.0);
+    if let Some(v) = s.steps.as_ref().filter(|_| steps.len() > usable.0 as usize) {
+        return Err(e.at(
+            v.span(),
+            "steps",
+            format!(
+                "{} steps, but only {} can ever be used: {}; give at most {}",
+                steps.len(),
+                match usable.0 {
+                    1 => "the first".to_owned(),
+                    n => format!("the first {n}"),
+                },
+                usable.1,
+                usable.0
+            ),
+        ));
+    }
     let threshold_reversals = match &s.threshold_reversals {
         None => reversals.min(super::file::DEFAULT_THRESHOLD_REVERSALS),
         Some(n) => match n.get_ref().whole_in(1, u64::from(reversals)) {
@@ -133,4 +150,43 @@ pub(super) fn check(
         reversals,
         threshold_reversals,
     })
+}
+
+/// How many of `steps` a staircase can ever use, and why no more: the
+/// step after the `k`-th reversal first moves the level at that reversal,
+/// which takes at least `k + 1` moves in alternating directions (`up` or
+/// `down` answers each), and moves a level that is presented only before
+/// the last reversal and the last of `trials` presentations. One at least:
+/// `steps` is never empty.
+fn usable_steps(reversals: u32, trials: u32, up: u32, down: u32) -> (u32, String) {
+    let (lo, hi) = (u64::from(up.min(down)), u64::from(up.max(down)));
+    // Fewest answers that make `n` moves, each a reversal after the first.
+    let answers = |n: u64| n.div_ceil(2) * lo + n / 2 * hi;
+    let by_trials = (0..u64::from(reversals))
+        .take_while(|&k| answers(k + 1) < u64::from(trials))
+        .count() as u32;
+    if by_trials < reversals {
+        let most = by_trials.saturating_sub(1);
+        (
+            by_trials.max(1),
+            format!(
+                "with up {up} and down {down}, {trials} presentations (`trials`) reach at most {} before the last",
+                plural(most)
+            ),
+        )
+    } else {
+        (
+            reversals,
+            format!(
+                "a step follows each reversal and the staircase ends at reversal {reversals} (`reversals`)"
+            ),
+        )
+    }
+}
+
+fn plural(n: u32) -> String {
+    match n {
+        1 => "1 reversal".to_owned(),
+        n => format!("{n} reversals"),
+    }
 }

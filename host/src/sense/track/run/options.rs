@@ -198,9 +198,11 @@ impl ZProfile {
     pub const DEFAULT_REPLAN_MM: f64 = 0.3;
 
     /// Parses `spec` (`RADIUS_MM,STEPS`, 0 < RADIUS_MM <= 20, 1 <= STEPS
-    /// <= 1000) and checks `replan_mm` (≥ 0); `replan`: upload each
+    /// <= 1000) and checks `replan_mm`
+    /// (0..=[`crate::limits::MAX_REPLAN_MM`]); `replan`: upload each
     /// re-plan to the device. A refusal names the part that is wrong
-    /// (the radius or the steps) and what that part allows.
+    /// (the radius or the steps) and what that part allows; a part with
+    /// spaces at its ends is refused as a lone flag's value with them.
     pub fn parse(spec: &str, replan_mm: f64, replan: bool) -> Result<Self, InputError> {
         let said = |m: String| InputError::new(format!("--z-profile `{spec}`: {m}"));
         let radius_range = "allowed above 0 and at most 20 mm";
@@ -211,7 +213,6 @@ impl ZProfile {
             .ok_or_else(|| {
                 said("give RADIUS_MM,STEPS: a radius and a step count, one comma between".into())
             })?;
-        let (r, n) = (r.trim(), n.trim());
         let radius_mm = crate::limits::exact_number(r).map_err(|e| match e {
             Some(m) => said(format!("the radius {m}")),
             None => said(format!("the radius `{r}` is not a number: {radius_range}")),
@@ -233,9 +234,15 @@ impl ZProfile {
             )));
         }
         let steps = steps as usize;
-        if !(replan_mm.is_finite() && replan_mm >= 0.0) {
-            crate::bad_input!("--replan-mm {} must be ≥ 0", show(replan_mm));
-        }
+        // Bounded: a threshold no depth change can pass re-plans never,
+        // which `--replan-mm 1e9` did without a word.
+        crate::limits::in_range(
+            "--replan-mm",
+            replan_mm,
+            0.0,
+            crate::limits::MAX_REPLAN_MM,
+            "mm",
+        )?;
         Ok(Self {
             radius_mm,
             steps,
@@ -304,10 +311,16 @@ mod tests {
 
     #[test]
     fn the_z_profile_is_parsed_once_with_its_threshold() {
-        let z = ZProfile::parse(" 3.5 , 8 ", 0.3, true).unwrap();
+        let z = ZProfile::parse("3.5,8", 0.3, true).unwrap();
         assert_eq!((z.radius_mm(), z.steps(), z.replan_mm()), (3.5, 8, 0.3));
         assert!(z.replan());
         assert!(!ZProfile::parse("20,1000", 0.0, false).unwrap().replan());
+        // Spaces at an item's end refused, as a lone flag's value.
+        assert_eq!(
+            err(ZProfile::parse("3.5, 8", 0.3, false)),
+            "--z-profile `3.5, 8`: the steps ` 8` are not a whole number: allowed 1..=1000"
+        );
+        assert!(err(ZProfile::parse(" 3.5,8", 0.3, false)).contains("(white space around it)"));
         let form = "give RADIUS_MM,STEPS: a radius and a step count, one comma between";
         let radius = "allowed above 0 and at most 20 mm";
         let steps = "allowed 1..=1000";
@@ -364,12 +377,13 @@ mod tests {
             e.starts_with("--z-profile `1e999,8`: the radius 1e999 is too large"),
             "{e}"
         );
-        for mm in [-0.1, f64::NAN, f64::INFINITY] {
+        for mm in [-0.1, f64::NAN, f64::INFINITY, 100.5, 1e9] {
             let e = err(ZProfile::parse("3,8", mm, false));
             assert!(
-                e.starts_with("--replan-mm ") && e.ends_with("must be ≥ 0"),
+                e.starts_with("--replan-mm ") && e.ends_with("is out of range: allowed 0..=100 mm"),
                 "{e}"
             );
         }
+        assert!(ZProfile::parse("3,8", 100.0, false).is_ok());
     }
 }
