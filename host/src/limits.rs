@@ -375,42 +375,40 @@ pub fn each_once(flag: &str, what: &str, values: &[String]) -> Result<(), InputE
 /// Checks `lo ≤ v ≤ hi` for a finite `v`; the error names `what`, the
 /// unit and the range.
 pub fn in_range(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
-    if v.is_finite() && (lo..=hi).contains(&v) {
-        Ok(v)
-    } else {
-        let unit = if unit.is_empty() {
-            String::new()
-        } else {
-            format!(" {unit}")
-        };
-        Err(InputError::new(format!(
-            "{what} {}{unit} is out of range: allowed {}..={}{unit}",
-            show_beside(v, lo, hi),
-            show(lo),
-            show(hi)
-        )))
-    }
+    let allowed = |unit: &str| format!("{}..={}{unit}", show(lo), show(hi));
+    range_check(what, v, (lo..=hi).contains(&v), (lo, hi), unit, allowed)
 }
 
 /// Checks `lo < v ≤ hi` for a finite `v`, as [`in_range`] does with `lo`
 /// left out: a range with an open end is said so. `allowed 0..=1000 mm`
 /// for a spacing of 1e9 named a 0 the check refuses.
 pub fn in_range_above(what: &str, v: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, InputError> {
-    if v.is_finite() && v > lo && v <= hi {
-        Ok(v)
-    } else {
-        let unit = if unit.is_empty() {
-            String::new()
-        } else {
-            format!(" {unit}")
-        };
-        Err(InputError::new(format!(
-            "{what} {}{unit} is out of range: allowed above {} and at most {}{unit}",
-            show_beside(v, lo, hi),
-            show(lo),
-            show(hi)
-        )))
+    let allowed = |unit: &str| format!("above {} and at most {}{unit}", show(lo), show(hi));
+    range_check(what, v, v > lo && v <= hi, (lo, hi), unit, allowed)
+}
+
+/// `v` when finite and `inside`, else `WHAT V UNIT is out of range:
+/// allowed …` with `allowed(" UNIT")` (the unit with its space, or none).
+fn range_check(
+    what: &str,
+    v: f64,
+    inside: bool,
+    (lo, hi): (f64, f64),
+    unit: &str,
+    allowed: impl Fn(&str) -> String,
+) -> Result<f64, InputError> {
+    if v.is_finite() && inside {
+        return Ok(v);
     }
+    let unit = match unit {
+        "" => String::new(),
+        u => format!(" {u}"),
+    };
+    Err(InputError::new(format!(
+        "{what} {}{unit} is out of range: allowed {}",
+        show_beside(v, lo, hi),
+        allowed(&unit)
+    )))
 }
 
 /// Checks every coordinate of a position against [`MAX_COORD_MM`].

@@ -108,21 +108,35 @@ fn id(m: &Metadata) -> Id {
     (m.dev(), m.ino())
 }
 
-/// What kind of non-regular file `m` is, in words.
-fn kind(m: &Metadata) -> Option<&'static str> {
+/// What kind of non-regular file `m` is, in words (`None`: a regular
+/// file).
+fn kind(m: &Metadata) -> Option<String> {
     let t = m.file_type();
+    Some(match what_is(t) {
+        _ if t.is_file() => return None,
+        _ if t.is_dir() => "it is a directory".into(),
+        fifo if t.is_fifo() => {
+            format!("it is {fifo}, not a regular file; pipe into standard input instead")
+        }
+        other => format!("it is {other}, not a regular file"),
+    })
+}
+
+/// What a path is, in words: `a regular file`, `a directory`, `a FIFO
+/// (named pipe)`, `a device node`, `a socket` or `something else`.
+fn what_is(t: std::fs::FileType) -> &'static str {
     if t.is_file() {
-        None
+        "a regular file"
     } else if t.is_dir() {
-        Some("it is a directory")
+        "a directory"
     } else if t.is_fifo() {
-        Some("it is a FIFO (named pipe), not a regular file; pipe into standard input instead")
+        "a FIFO (named pipe)"
     } else if t.is_char_device() || t.is_block_device() {
-        Some("it is a device node, not a regular file")
+        "a device node"
     } else if t.is_socket() {
-        Some("it is a socket, not a regular file")
+        "a socket"
     } else {
-        Some("it is not a regular file")
+        "something else"
     }
 }
 
@@ -141,7 +155,7 @@ pub fn check_input(what: &str, path: &Path) -> Result<Metadata, InputError> {
         _ => cannot(&reason(&e)),
     })?;
     if let Some(k) = kind(&m) {
-        return Err(cannot(k));
+        return Err(cannot(&k));
     }
     Ok(m)
 }
@@ -176,7 +190,7 @@ pub fn open_input(what: &str, path: &Path) -> Result<File, InputError> {
         .map_err(|e| cannot(&reason(&e)))?;
     let m = f.metadata().map_err(|e| cannot(&reason(&e)))?;
     if let Some(k) = kind(&m) {
-        return Err(cannot(k));
+        return Err(cannot(&k));
     }
     // Once per file, however often it is read (a session reloading its
     // library): the list stays as long as the distinct inputs. The name
@@ -269,18 +283,13 @@ pub fn with_files_beside(flag: &str, path: &Path) -> Result<(), InputError> {
     let t = m.file_type();
     // A directory fails as any output's does (exit 1), before anything
     // is written beside it.
-    let what = if t.is_file() || t.is_dir() {
+    if t.is_file() || t.is_dir() {
         return Ok(());
-    } else if t.is_fifo() {
-        "a FIFO"
-    } else if t.is_char_device() || t.is_block_device() {
-        "a device node"
-    } else {
-        "not a regular file"
-    };
+    }
     Err(InputError::new(format!(
-        "{flag} {}: it is {what}, and files are written beside it under its name: give a file path",
-        path.display()
+        "{flag} {}: it is {}, and files are written beside it under its name: give a file path",
+        path.display(),
+        what_is(t)
     )))
 }
 
@@ -338,7 +347,7 @@ pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
         anyhow::anyhow!(
             "cannot create the {flag} directory {}: {}",
             dir.display(),
-            not_a_folder(dir).map_or_else(|| reason(&e), str::to_owned)
+            not_a_folder(dir).unwrap_or_else(|| reason(&e))
         )
     })?;
     // A signal that ends the command at once removes them too.
@@ -352,26 +361,16 @@ pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
 /// What `dir` is, in words, when it exists and is not a folder (nor a
 /// link to one): "it already exists" said only that, as though a folder
 /// that exists could not be written into.
-fn not_a_folder(dir: &Path) -> Option<&'static str> {
+fn not_a_folder(dir: &Path) -> Option<String> {
     let link = std::fs::symlink_metadata(dir).ok()?;
     let Ok(m) = std::fs::metadata(dir) else {
         return link
             .file_type()
             .is_symlink()
-            .then_some("it is a symbolic link to nothing (its target is missing)");
+            .then(|| "it is a symbolic link to nothing (its target is missing)".into());
     };
     let t = m.file_type();
-    Some(if t.is_dir() {
-        return None;
-    } else if t.is_file() {
-        "it is a regular file, not a directory"
-    } else if t.is_fifo() {
-        "it is a FIFO (named pipe), not a directory"
-    } else if t.is_char_device() || t.is_block_device() {
-        "it is a device node, not a directory"
-    } else {
-        "it is not a directory"
-    })
+    (!t.is_dir()).then(|| format!("it is {}, not a directory", what_is(t)))
 }
 
 /// The directories [`output_dir`] made, deepest first: removed when it
