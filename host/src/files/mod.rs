@@ -178,6 +178,30 @@ fn too_long(path: &Path) -> String {
 /// Opens the regular file `path` for reading (checked first, see
 /// [`check_input`]) and remembers it as an input.
 pub fn open_input(what: &str, path: &Path) -> Result<File, InputError> {
+    let (f, m) = open_regular(what, path)?;
+    // Once per file, however often it is read (a session reloading its
+    // library): the list stays as long as the distinct inputs. The name
+    // is the latest one read, for an identity seen before may have been a
+    // deleted input's, given to this file.
+    let mut inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
+    match inputs.iter_mut().find(|(i, _)| *i == id(&m)) {
+        Some(known) => known.1 = path.to_owned(),
+        None => inputs.push((id(&m), path.to_owned())),
+    }
+    Ok(f)
+}
+
+/// Opens the regular file `path` for reading, not remembered as an input:
+/// a file this command wrote and will go on writing (a study's
+/// `trials.csv`, `session.json`, `events.jsonl` on `--resume`), which
+/// [`open_input`] would then refuse as an output that is an input.
+pub fn open_own(what: &str, path: &Path) -> Result<File, InputError> {
+    open_regular(what, path).map(|(f, _)| f)
+}
+
+/// `path` checked a regular file by its metadata ([`check_input`]: a FIFO,
+/// a device node, a directory refused at once) and opened, checked again.
+fn open_regular(what: &str, path: &Path) -> Result<(File, Metadata), InputError> {
     let cannot =
         |why: &str| InputError::new(format!("cannot read {what} {}: {why}", path.display()));
     check_input(what, path)?;
@@ -192,16 +216,7 @@ pub fn open_input(what: &str, path: &Path) -> Result<File, InputError> {
     if let Some(k) = kind(&m) {
         return Err(cannot(&k));
     }
-    // Once per file, however often it is read (a session reloading its
-    // library): the list stays as long as the distinct inputs. The name
-    // is the latest one read, for an identity seen before may have been a
-    // deleted input's, given to this file.
-    let mut inputs = INPUTS.lock().unwrap_or_else(|e| e.into_inner());
-    match inputs.iter_mut().find(|(i, _)| *i == id(&m)) {
-        Some(known) => known.1 = path.to_owned(),
-        None => inputs.push((id(&m), path.to_owned())),
-    }
-    Ok(f)
+    Ok((f, m))
 }
 
 /// Reads the whole input file `path`, refusing one longer than `max`

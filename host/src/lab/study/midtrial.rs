@@ -35,21 +35,8 @@ pub fn logged(
     if std::fs::symlink_metadata(events).is_err() {
         return Ok(Vec::new());
     }
-    // Read as `record::read_own` reads: a regular file, not blocking, and
-    // not remembered as an input (the run appends to it afterwards).
-    crate::files::check_input("event log", events)?;
-    let cannot = |why: String| InputError::new(format!("cannot read {}: {why}", what()));
-    let f = {
-        use std::os::unix::fs::OpenOptionsExt as _;
-        std::fs::OpenOptions::new()
-            .read(true)
-            .custom_flags(libc::O_NONBLOCK)
-            .open(events)
-            .map_err(|e| cannot(crate::files::reason(&e)))?
-    };
-    if !f.metadata().is_ok_and(|m| m.is_file()) {
-        return Err(cannot("it is not a regular file".into()));
-    }
+    // Not remembered as an input: the run appends to it afterwards.
+    let f = crate::files::open_own("event log", events)?;
     let mut r = std::io::BufReader::new(f);
     let mut out = Vec::new();
     let mut line = Vec::new();

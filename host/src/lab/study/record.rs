@@ -237,27 +237,15 @@ pub fn columns(cols: &Columns) -> Vec<(String, String)> {
 }
 
 /// Reads a file this command wrote and will continue (`trials.csv` and
-/// `session.json` on `--resume`): checked a regular file by its metadata
-/// first ([`crate::files::check_input`]: a FIFO, a device node, a
-/// directory is an error at once), opened without blocking, refused when
-/// longer than `max` bytes before it is read. Unlike
-/// [`crate::files::read_input`] it is not remembered as an input, so the
-/// run may append to it and replace it afterwards.
+/// `session.json` on `--resume`), opened by [`crate::files::open_own`]
+/// (a regular file, not remembered as an input, so the run may append to
+/// it and replace it afterwards), refused when longer than `max` bytes
+/// before it is read.
 pub fn read_own(what: &str, path: &Path, max: u64) -> Result<Vec<u8>, InputError> {
     use std::io::Read as _;
-    use std::os::unix::fs::OpenOptionsExt as _;
     let cannot =
         |why: String| InputError::new(format!("cannot read {what} {}: {why}", path.display()));
-    crate::files::check_input(what, path)?;
-    let f = std::fs::OpenOptions::new()
-        .read(true)
-        .custom_flags(libc::O_NONBLOCK)
-        .open(path)
-        .map_err(|e| cannot(crate::files::reason(&e)))?;
-    // The path may have changed between the check and the open.
-    if !f.metadata().is_ok_and(|m| m.is_file()) {
-        return Err(cannot("it is not a regular file".into()));
-    }
+    let f = crate::files::open_own(what, path)?;
     let mut bytes = Vec::new();
     f.take(max + 1)
         .read_to_end(&mut bytes)
