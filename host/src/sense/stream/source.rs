@@ -182,10 +182,7 @@ fn check_values(
             Want::Bool => (matches!(value, V::Bool(_) | V::Null), "true, false or null"),
         };
         if !ok {
-            let mut shown = value.to_string();
-            if shown.chars().count() > 40 {
-                shown = shown.chars().take(40).collect::<String>() + "…";
-            }
+            let shown = crate::error::short_echo(&value.to_string());
             return Err(InputError::new(format!(
                 "line {line_no}: `{key}`: {shown} is not {what}"
             )));
