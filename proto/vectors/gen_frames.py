@@ -121,13 +121,11 @@ rec("commit_rig", 0x0B, 27, "CommitRig", b"")
 rec("geometry", 0x03, 3,
     "Geometry first=996 positions=[[-96520,-66040,0],[-86360,-66040,0]]",
     struct.pack("<H", 996) + xyz((-96520, -66040, 0)) + xyz((-86360, -66040, 0)))
-rec("geometry_empty", 0x03, 4, "Geometry first=0 positions=[]", struct.pack("<H", 0))
 rec("chunk", 0x04, 5, "Chunk slot=0 offset=1024 data=[00 01 02 ff 00]",
     struct.pack("<BI", 0, 1024) + bytes([0, 1, 2, 0xFF, 0]))
 rec("chunk_long", 0x04, 6,
     "Chunk slot=1 offset=0 data=300 bytes, byte i = (i mod 255) + 1 (crosses a 254-byte COBS block)",
     struct.pack("<BI", 1, 0) + bytes((i % 255) + 1 for i in range(300)))
-rec("chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[]", struct.pack("<BI", 0, 0xFFFFFFFF))
 rec("intensity", 0x0E, 32, "Intensity slot=2 offset=80 data=[ff 80 00]",
     intensity(2, 80, [0xFF, 0x80, 0x00]))
 rec("intensity_long", 0x0E, 33,
@@ -241,6 +239,12 @@ rec("err_malformed_begin_flags", 0x02, 24, "BeginUpload with flags=0x02 (unknown
     begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1, 0, 255, flags=2), error="malformed")
 rec("err_malformed_intensity_empty", 0x0E, 24, "Intensity slot=0 offset=0 without levels",
     intensity(0, 0, []), error="malformed")
+# A list of no elements (SPEC section 3, Lists): as Intensity's, Chunk's
+# and Geometry's are malformed, never acked as no-ops.
+rec("err_malformed_chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[] (no bytes)",
+    struct.pack("<BI", 0, 0xFFFFFFFF), error="malformed")
+rec("err_malformed_geometry_empty", 0x03, 4, "Geometry first=0 positions=[] (no transducer)",
+    struct.pack("<H", 0), error="malformed")
 rec("err_malformed_intensity_long", 0x0E, 24, "Intensity slot=0 offset=0 with 1025 levels",
     intensity(0, 0, [1] * 1025), error="malformed")
 rec("err_malformed_geometry_v2", 0x03, 24,
@@ -293,6 +297,9 @@ rec("dev_geometry", 0x03, 99, "Geometry first=0 positions=[[-5000,0,0],[5000,0,0
     struct.pack("<H", 0) + b"".join(xyz(p) for p in DEV_RIG), expect="ack")
 rec("dev_commit_rig", 0x0B, 100, "CommitRig (positions CRC matches BeginRig's)", b"",
     expect="ack")
+rec("dev_geometry_empty", 0x03, 150,
+    "Geometry first=2 positions=[] (no transducer, on the committed rig: malformed, not acked)",
+    struct.pack("<H", 2), error="malformed", expect="nack Malformed")
 rec("dev_begin_rig_same", 0x0A, 101,
     "the same BeginRig again (the device holds that rig: acked, nothing changes)",
     struct.pack("<HI", 2, DEV_CRC), expect="ack")
@@ -308,6 +315,9 @@ rec("dev_chunk_a", 0x04, 202, "Chunk slot=1 offset=0 data=[01 02]",
     struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
 rec("dev_chunk_b", 0x04, 203, "Chunk slot=1 offset=2 data=[03 04]",
     struct.pack("<BI", 1, 2) + bytes(SMALL[2:]), expect="ack")
+rec("dev_chunk_empty", 0x04, 204,
+    "Chunk slot=1 offset=4 data=[] (at the next offset, but no bytes: malformed, not acked)",
+    struct.pack("<BI", 1, 4), error="malformed", expect="nack Malformed")
 rec("dev_chunk_a_again", 0x04, 104,
     "Chunk slot=1 offset=0 data=[01 02] (an earlier chunk repeated: identical, acked)",
     struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
