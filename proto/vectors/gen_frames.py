@@ -397,6 +397,15 @@ rec("dev_play_slot_31", 0x06, 140,
     play(31, 1, 0), expect="nack NotCommitted")
 rec("dev_play_slot_32", 0x06, 141, "Play slot=32 at=Immediate(1) flags=0 steps=0 (no such entry)",
     play(32, 1, 0), expect="nack BadSlot")
+# Every request naming a slot: BadSlot first of all (SPEC section 3),
+# 0xFF (NO_SLOT, the Status's "none") included.
+for name, seq, t, payload, what in [
+    ("dev_chunk_no_slot", 153, 0x04, struct.pack("<BI", 0xFF, 0) + b"\x01", "Chunk slot=255 offset=0 data=[01]"),
+    ("dev_intensity_no_slot", 154, 0x0E, intensity(0xFF, 0, [1]), "Intensity slot=255 offset=0 data=[01]"),
+    ("dev_commit_no_slot", 155, 0x05, struct.pack("<BI", 0xFF, 0), "Commit slot=255 crc32=0x00000000"),
+    ("dev_begin_no_slot", 156, 0x02, small_begin(0xFF, 0, 4), "BeginUpload slot=255 steps=2 transducers=2 Raw encoded_len=4"),
+]:
+    rec(name, t, seq, f"{what} (0xFF is NO_SLOT: no such entry)", payload, expect="nack BadSlot")
 rec("dev_play_lease_zero", 0x06, 142,
     "Play slot=1 at=Immediate(1) flags=0 steps=0 lease_ms=0 (no lease: out of range)",
     play(1, 1, 0, lease_ms=0), expect="nack OutOfRange")
@@ -418,6 +427,13 @@ rec("dev_renew", 0x0C, 147, "Renew while playing", b"", expect="ack")
 rec("dev_self_test_busy", 0x0D, 148, "SelfTest while a slot plays (refused: Busy)", b"",
     expect="nack Busy")
 rec("dev_status_waiting", 0x09, 115, "GetStatus (muted: waiting for tracking)", b"",
+    expect="status Muted WaitingForTracking")
+rec("dev_centroid_seq_zero", 0x08, 151,
+    "Centroid seq=0 pos_um=[3000,-4000,200000] present=true (0 is the wire's 'none', "
+    "last_centroid_seq's: never newer than anything, refused as OutOfOrder, changes nothing)",
+    struct.pack("<I", 0) + xyz((3000, -4000, 200000)) + b"\x01" + struct.pack("<Q", 0),
+    expect="nack OutOfOrder")
+rec("dev_status_seq_zero", 0x09, 152, "GetStatus (still waiting for tracking)", b"",
     expect="status Muted WaitingForTracking")
 rec("dev_centroid_in_range", 0x08, 116,
     "Centroid seq=1000 pos_um=[3000,-4000,200000] present=true (5 mm from the centre)",

@@ -387,6 +387,19 @@ pub const SCENARIOS: &[Scenario] = &[
         ],
     },
     Scenario {
+        name: "a centroid numbered 0, the wire's none, is stale and changes nothing",
+        steps: &[
+            (UPLOAD, ex(Idle, M::None, 0)),
+            (play(1, false), ex(Muted, M::WaitingForTracking, 0)),
+            (
+                at(0, 1000),
+                after(Stale, ex(Muted, M::WaitingForTracking, 0)),
+            ),
+            (at(1, 1000), after(Applied, ex(Playing, M::None, 1000))),
+            (at(0, 0), after(Stale, ex(Playing, M::None, 1000))),
+        ],
+    },
+    Scenario {
         name: "stop then play starts a new session: old centroids forgotten",
         steps: &[
             (UPLOAD, ex(Idle, M::None, 0)),
