@@ -28,7 +28,6 @@ are the library's (:data:`DEFAULTS`, the values ``lmhost plan`` and
 from __future__ import annotations
 
 import json
-import numbers
 import operator
 import os
 import re
@@ -165,22 +164,13 @@ _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 _TOML_INT = range(-(2**63), 2**63)
 
 
-def _toml_float(key: str, v: Any) -> str:
-    """A real number as a TOML float; one too large for a float (an int
-    of 400 digits) refused naming the key, as out of range."""
-    try:
-        return repr(float(v))
-    except OverflowError:
-        raise ValueError(
-            f"intrinsics dict: `{key}` {_args.shown(v)} is out of range: give a finite number"
-        ) from None
-
-
 def _toml_number(key: str, v: Any) -> str:
     """A number of the intrinsics dict as TOML: an int (numpy's too, as
-    ``shape`` gives) or a real number (numpy's too: a float32 array's
-    element) as what it is; a bool (numpy's too), a complex number or
-    anything else refused naming the key."""
+    ``shape`` gives) within TOML's integers as what it is; any other
+    number by the one rule every float argument meets
+    (``_lmhost.float_arg``: a real number of any kind, numpy's, a
+    ``Decimal`` or a ``Fraction`` too, finite; a bool, numpy's too, or a
+    complex number refused), in its words, naming the key."""
     if not isinstance(v, bool) and type(v).__module__ + "." + type(v).__name__ not in (
         "numpy.bool",
         "numpy.bool_",
@@ -193,10 +183,13 @@ def _toml_number(key: str, v: Any) -> str:
             # Beyond a TOML integer the file would not parse ("integer
             # number overflowed", "invalid type: integer"): the number as
             # a float, refused by the field's own range.
-            return str(n) if n in _TOML_INT else _toml_float(key, n)
-        if isinstance(v, numbers.Real):
-            return _toml_float(key, v)
-    raise ValueError(f"intrinsics dict: `{key}` must be a number, got {_args.shown(v)}")
+            if n in _TOML_INT:
+                return str(n)
+    try:
+        return repr(_lmhost.float_arg(key, v))
+    except ValueError as e:
+        # "fx must be a number, got '5'" as "intrinsics dict: `fx` must be …"
+        raise ValueError(f"intrinsics dict: `{key}`{str(e)[len(key):]}") from None
 
 
 def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optional[str], str]:

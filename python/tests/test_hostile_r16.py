@@ -15,6 +15,10 @@
   expected a number", "integer number overflowed"), never the field's
   range; it is now the number it is, judged by that range, and one too
   large for any float refused as out of range naming its key.
+- r16-6: a number of the intrinsics dict meets the rule every float
+  argument meets (``_lmhost.float_arg``): a ``Decimal`` was refused there
+  as "must be a number" while ``plan(radius=Decimal("3.5"))`` planned 3.5
+  mm; a NaN or an infinity is refused as not finite, naming the key.
 - r16-4: negative zero is zero: ``plan(radius=-0.0)`` planned a static
   focus and reported ``radius_mm`` -0.0, a centre (-0.0, 0, 200) came back
   as -0.0; every number the extension takes is now +0.0 there.
@@ -24,6 +28,8 @@
 """
 
 import math
+from decimal import Decimal
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -124,6 +130,38 @@ def test_the_largest_toml_integer_is_still_written_as_one(scene):
     with pytest.raises(ValueError) as e:
         lmhost.Tracker(scene, dict(INTR, width=2**63 - 1))
     assert one_line(e) == "intrinsics dict: line 1, field `width`: 9.22337e18 is out of range: allowed 1..=8192"
+
+
+@pytest.mark.parametrize(
+    "value", [Decimal("40.5"), Fraction(81, 2), np.float32(40.5), np.int16(40)], ids=repr
+)
+def test_an_intrinsics_number_is_any_number_a_float_argument_is(scene, value):
+    want = lmhost.Tracker(scene, dict(INTR, fx=float(value))).process(np.zeros((48, 64), np.uint16), 1.0)
+    got = lmhost.Tracker(scene, dict(INTR, fx=value)).process(np.zeros((48, 64), np.uint16), 1.0)
+    assert (got.points, got.present) == (want.points, want.present)
+    # And the radius of a plan, by the same rule.
+    assert lmhost.plan(radius=Decimal("3.5")).radius_mm == 3.5
+
+
+@pytest.mark.parametrize(
+    "value, want",
+    [
+        (float("nan"), "intrinsics dict: `fx` must be a finite number, got NaN"),
+        (Decimal("-Infinity"), "intrinsics dict: `fx` must be a finite number, got -inf"),
+        (np.float64("inf"), "intrinsics dict: `fx` must be a finite number, got inf"),
+        (np.True_, "intrinsics dict: `fx` must be a number, got np.True_"),
+        (1 + 2j, "intrinsics dict: `fx` must be a number, got (1+2j)"),
+        ("40", "intrinsics dict: `fx` must be a number, got '40'"),
+    ],
+    ids=repr,
+)
+def test_an_intrinsics_value_is_refused_by_the_one_float_rule(scene, value, want):
+    with pytest.raises(ValueError) as e:
+        lmhost.Tracker(scene, dict(INTR, fx=value))
+    assert one_line(e) == want
+    with pytest.raises(ValueError) as e:
+        _lmhost.float_arg("fx", value)
+    assert f"intrinsics dict: `fx`{str(e.value)[2:]}" == want
 
 
 def positive_zero(x: float) -> bool:
