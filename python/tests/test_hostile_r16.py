@@ -19,6 +19,11 @@
   argument meets (``_lmhost.float_arg``): a ``Decimal`` was refused there
   as "must be a number" while ``plan(radius=Decimal("3.5"))`` planned 3.5
   mm; a NaN or an infinity is refused as not finite, naming the key.
+- r16-7: ``Session.command`` sent a field of any other kind as it was: a
+  list or a dict went to the session, a ``Path``, a numpy array of floats
+  or a list holding a NaN failed in the JSON encoder ("present: cannot
+  send Object of type PosixPath ..."), naming no field. No field of the
+  protocol is a list or an object: refused by name before sending.
 - r16-4: negative zero is zero: ``plan(radius=-0.0)`` planned a static
   focus and reported ``radius_mm`` -0.0, a centre (-0.0, 0, 200) came back
   as -0.0; every number the extension takes is now +0.0 there.
@@ -208,3 +213,28 @@ def test_a_uint16_frame_in_the_other_byte_order_is_the_same_frame(scene):
     for bad in (frame.astype(">i2"), frame.astype(">u4"), frame.astype(np.float64)):
         with pytest.raises(ValueError, match=r"^depth frame must be a numpy uint16 array of shape \(240, 320\)$"):
             a.process(bad, 2.0)
+
+
+LIBRARY = "studies/paper-library.toml"
+
+
+@pytest.fixture(scope="module")
+def session(lmhost_bin):
+    with lmhost.Session(library=ROOT / LIBRARY, port="autd3:emulator", synthetic=True) as s:
+        yield s
+
+
+@pytest.mark.parametrize(
+    "value",
+    [[0.5], (0.5,), {"s": 0.5}, [float("nan")], Path("0.5"), b"0.5", {0.5}],
+    ids=repr,
+)
+def test_a_command_field_of_another_kind_is_refused_by_name(session, value):
+    sid = session.library()[0]["id"]
+    with pytest.raises(ValueError) as e:
+        session.command("present", stimulus=sid, gate="untracked", on_s=value)
+    want = f"on_s must be a string, a number, True, False or None, got {_lmhost.shown(value)}"
+    assert one_line(e) == want
+    # Nothing was sent: the session is idle and answers.
+    assert session.status()["state"] == "idle"
+
