@@ -18,7 +18,8 @@ pub enum EncodeError {
     /// [`crate::MAX_GEOMETRY_POSITIONS`].
     TooLarge,
     /// A field holds a value the wire cannot carry (`Status::slot ==
-    /// Some(NO_SLOT)`, `NackCode::Other` with a known code).
+    /// Some(NO_SLOT)`, `NackCode::Other` with a known code, a `Chunk`,
+    /// `Geometry` or `Intensity` of no elements).
     InvalidField,
 }
 

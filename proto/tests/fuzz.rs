@@ -141,7 +141,7 @@ fn random_message(rng: &mut Rng) -> Owned {
             uptime_ms: rng.u32(),
         }),
         11 => {
-            let n = rng.below(MAX_GEOMETRY_POSITIONS + 1);
+            let n = 1 + rng.below(MAX_GEOMETRY_POSITIONS);
             return Owned::Geometry {
                 first: rng.u16(),
                 points: (0..n).map(|_| x(rng)).collect(),
@@ -157,14 +157,12 @@ fn random_message(rng: &mut Rng) -> Owned {
             };
         }
         _ => {
-            let mut data = vec![0u8; rng.below(MAX_CHUNK + 1)];
+            let mut data = vec![0u8; 1 + rng.below(MAX_CHUNK)];
             rng.fill(&mut data);
             // Zeros are the interesting byte for COBS.
             for _ in 0..rng.below(8) {
-                if !data.is_empty() {
-                    let i = rng.below(data.len());
-                    data[i] = 0;
-                }
+                let i = rng.below(data.len());
+                data[i] = 0;
             }
             return Owned::Chunk {
                 slot: rng.byte(),

@@ -173,13 +173,6 @@ fn expected_message(name: &str) -> Option<(u16, Message<'static>)> {
                 positions: Positions::from_points(&POS),
             }),
         ),
-        "geometry_empty" => (
-            4,
-            Message::Geometry(Geometry {
-                first: 0,
-                positions: Positions::from_points(&[]),
-            }),
-        ),
         "chunk" => (
             5,
             Message::Chunk(Chunk {
@@ -194,14 +187,6 @@ fn expected_message(name: &str) -> Option<(u16, Message<'static>)> {
                 slot: 1,
                 offset: 0,
                 data: &LONG,
-            }),
-        ),
-        "chunk_empty" => (
-            7,
-            Message::Chunk(Chunk {
-                slot: 0,
-                offset: u32::MAX,
-                data: &[],
             }),
         ),
         "commit" => (

@@ -121,13 +121,11 @@ rec("commit_rig", 0x0B, 27, "CommitRig", b"")
 rec("geometry", 0x03, 3,
     "Geometry first=996 positions=[[-96520,-66040,0],[-86360,-66040,0]]",
     struct.pack("<H", 996) + xyz((-96520, -66040, 0)) + xyz((-86360, -66040, 0)))
-rec("geometry_empty", 0x03, 4, "Geometry first=0 positions=[]", struct.pack("<H", 0))
 rec("chunk", 0x04, 5, "Chunk slot=0 offset=1024 data=[00 01 02 ff 00]",
     struct.pack("<BI", 0, 1024) + bytes([0, 1, 2, 0xFF, 0]))
 rec("chunk_long", 0x04, 6,
     "Chunk slot=1 offset=0 data=300 bytes, byte i = (i mod 255) + 1 (crosses a 254-byte COBS block)",
     struct.pack("<BI", 1, 0) + bytes((i % 255) + 1 for i in range(300)))
-rec("chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[]", struct.pack("<BI", 0, 0xFFFFFFFF))
 rec("intensity", 0x0E, 32, "Intensity slot=2 offset=80 data=[ff 80 00]",
     intensity(2, 80, [0xFF, 0x80, 0x00]))
 rec("intensity_long", 0x0E, 33,
@@ -241,6 +239,12 @@ rec("err_malformed_begin_flags", 0x02, 24, "BeginUpload with flags=0x02 (unknown
     begin(0, 1, 1, 1000, 0, 1, (0, 0, 0), 1, 340000, 1, 0, 255, flags=2), error="malformed")
 rec("err_malformed_intensity_empty", 0x0E, 24, "Intensity slot=0 offset=0 without levels",
     intensity(0, 0, []), error="malformed")
+# A list of no elements (SPEC section 3, Lists): as Intensity's, Chunk's
+# and Geometry's are malformed, never acked as no-ops.
+rec("err_malformed_chunk_empty", 0x04, 7, "Chunk slot=0 offset=4294967295 data=[] (no bytes)",
+    struct.pack("<BI", 0, 0xFFFFFFFF), error="malformed")
+rec("err_malformed_geometry_empty", 0x03, 4, "Geometry first=0 positions=[] (no transducer)",
+    struct.pack("<H", 0), error="malformed")
 rec("err_malformed_intensity_long", 0x0E, 24, "Intensity slot=0 offset=0 with 1025 levels",
     intensity(0, 0, [1] * 1025), error="malformed")
 rec("err_malformed_geometry_v2", 0x03, 24,
@@ -293,6 +297,9 @@ rec("dev_geometry", 0x03, 99, "Geometry first=0 positions=[[-5000,0,0],[5000,0,0
     struct.pack("<H", 0) + b"".join(xyz(p) for p in DEV_RIG), expect="ack")
 rec("dev_commit_rig", 0x0B, 100, "CommitRig (positions CRC matches BeginRig's)", b"",
     expect="ack")
+rec("dev_geometry_empty", 0x03, 150,
+    "Geometry first=2 positions=[] (no transducer, on the committed rig: malformed, not acked)",
+    struct.pack("<H", 2), error="malformed", expect="nack Malformed")
 rec("dev_begin_rig_same", 0x0A, 101,
     "the same BeginRig again (the device holds that rig: acked, nothing changes)",
     struct.pack("<HI", 2, DEV_CRC), expect="ack")
@@ -308,6 +315,9 @@ rec("dev_chunk_a", 0x04, 202, "Chunk slot=1 offset=0 data=[01 02]",
     struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
 rec("dev_chunk_b", 0x04, 203, "Chunk slot=1 offset=2 data=[03 04]",
     struct.pack("<BI", 1, 2) + bytes(SMALL[2:]), expect="ack")
+rec("dev_chunk_empty", 0x04, 204,
+    "Chunk slot=1 offset=4 data=[] (at the next offset, but no bytes: malformed, not acked)",
+    struct.pack("<BI", 1, 4), error="malformed", expect="nack Malformed")
 rec("dev_chunk_a_again", 0x04, 104,
     "Chunk slot=1 offset=0 data=[01 02] (an earlier chunk repeated: identical, acked)",
     struct.pack("<BI", 1, 0) + bytes(SMALL[:2]), expect="ack")
@@ -387,6 +397,15 @@ rec("dev_play_slot_31", 0x06, 140,
     play(31, 1, 0), expect="nack NotCommitted")
 rec("dev_play_slot_32", 0x06, 141, "Play slot=32 at=Immediate(1) flags=0 steps=0 (no such entry)",
     play(32, 1, 0), expect="nack BadSlot")
+# Every request naming a slot: BadSlot first of all (SPEC section 3),
+# 0xFF (NO_SLOT, the Status's "none") included.
+for name, seq, t, payload, what in [
+    ("dev_chunk_no_slot", 153, 0x04, struct.pack("<BI", 0xFF, 0) + b"\x01", "Chunk slot=255 offset=0 data=[01]"),
+    ("dev_intensity_no_slot", 154, 0x0E, intensity(0xFF, 0, [1]), "Intensity slot=255 offset=0 data=[01]"),
+    ("dev_commit_no_slot", 155, 0x05, struct.pack("<BI", 0xFF, 0), "Commit slot=255 crc32=0x00000000"),
+    ("dev_begin_no_slot", 156, 0x02, small_begin(0xFF, 0, 4), "BeginUpload slot=255 steps=2 transducers=2 Raw encoded_len=4"),
+]:
+    rec(name, t, seq, f"{what} (0xFF is NO_SLOT: no such entry)", payload, expect="nack BadSlot")
 rec("dev_play_lease_zero", 0x06, 142,
     "Play slot=1 at=Immediate(1) flags=0 steps=0 lease_ms=0 (no lease: out of range)",
     play(1, 1, 0, lease_ms=0), expect="nack OutOfRange")
@@ -408,6 +427,13 @@ rec("dev_renew", 0x0C, 147, "Renew while playing", b"", expect="ack")
 rec("dev_self_test_busy", 0x0D, 148, "SelfTest while a slot plays (refused: Busy)", b"",
     expect="nack Busy")
 rec("dev_status_waiting", 0x09, 115, "GetStatus (muted: waiting for tracking)", b"",
+    expect="status Muted WaitingForTracking")
+rec("dev_centroid_seq_zero", 0x08, 151,
+    "Centroid seq=0 pos_um=[3000,-4000,200000] present=true (0 is the wire's 'none', "
+    "last_centroid_seq's: never newer than anything, refused as OutOfOrder, changes nothing)",
+    struct.pack("<I", 0) + xyz((3000, -4000, 200000)) + b"\x01" + struct.pack("<Q", 0),
+    expect="nack OutOfOrder")
+rec("dev_status_seq_zero", 0x09, 152, "GetStatus (still waiting for tracking)", b"",
     expect="status Muted WaitingForTracking")
 rec("dev_centroid_in_range", 0x08, 116,
     "Centroid seq=1000 pos_um=[3000,-4000,200000] present=true (5 mm from the centre)",

@@ -28,7 +28,6 @@ are the library's (:data:`DEFAULTS`, the values ``lmhost plan`` and
 from __future__ import annotations
 
 import json
-import numbers
 import operator
 import os
 import re
@@ -160,22 +159,37 @@ class TrackResult:
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
+#: The integers a TOML file holds (i64): a larger one is written as the
+#: number it is, a float, and judged by its field's range.
+_TOML_INT = range(-(2**63), 2**63)
+
+
 def _toml_number(key: str, v: Any) -> str:
     """A number of the intrinsics dict as TOML: an int (numpy's too, as
-    ``shape`` gives) or a real number (numpy's too: a float32 array's
-    element) as what it is; a bool (numpy's too), a complex number or
-    anything else refused naming the key."""
+    ``shape`` gives) within TOML's integers as what it is; any other
+    number by the one rule every float argument meets
+    (``_lmhost.float_arg``: a real number of any kind, numpy's, a
+    ``Decimal`` or a ``Fraction`` too, finite; a bool, numpy's too, or a
+    complex number refused), in its words, naming the key."""
     if not isinstance(v, bool) and type(v).__module__ + "." + type(v).__name__ not in (
         "numpy.bool",
         "numpy.bool_",
     ):
         try:
-            return str(operator.index(v))
+            n = operator.index(v)
         except TypeError:
             pass
-        if isinstance(v, numbers.Real):
-            return repr(float(v))
-    raise ValueError(f"intrinsics dict: `{key}` must be a number, got {v!r}")
+        else:
+            # Beyond a TOML integer the file would not parse ("integer
+            # number overflowed", "invalid type: integer"): the number as
+            # a float, refused by the field's own range.
+            if n in _TOML_INT:
+                return str(n)
+    try:
+        return repr(_lmhost.float_arg(key, v))
+    except ValueError as e:
+        # "fx must be a number, got '5'" as "intrinsics dict: `fx` must be …"
+        raise ValueError(f"intrinsics dict: `{key}`{str(e)[len(key):]}") from None
 
 
 def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optional[str], str]:
@@ -190,7 +204,7 @@ def _intrinsics_toml(intrinsics: Union[Dict[str, Any], PathLike]) -> Tuple[Optio
             # "fx = 5 #" set fx) is refused, a bare unknown one by Rust.
             if not isinstance(k, str) or not _BARE_KEY.fullmatch(k):
                 raise ValueError(
-                    f"intrinsics dict: key {k!r} is not a field name "
+                    f"intrinsics dict: key {_args.shown(k)} is not a field name "
                     "(width, height, fx, fy, ppx, ppy, depth_scale)"
                 )
             lines.append(f"{k} = {_toml_number(k, v)}")
@@ -227,6 +241,11 @@ class Tracker:
         """Track one depth frame (numpy uint16, shape (H, W)) taken at ``t`` s
         (default: seconds since the tracker was made): 0 to 1e10 s and not
         before the previous frame's, as a recording's frames must be."""
+        if isinstance(depth, np.ndarray) and depth.dtype.kind == "u" and depth.dtype.itemsize == 2:
+            # uint16 in the other byte order (a big-endian ``.npy``, a
+            # camera's raw buffer viewed as ``>u2``) is uint16 all the
+            # same: the same numbers in the machine's order, exactly.
+            depth = depth.astype(np.uint16, copy=False)
         return TrackResult(*self._t.process(depth, t))
 
 
@@ -343,7 +362,7 @@ class Study:
         resume: bool = False,
     ) -> None:
         if not callable(answer):
-            raise ValueError(f"answer must be callable, got {answer!r}")
+            raise ValueError(f"answer must be callable, got {_args.shown(answer)}")
         if seed is not None:
             seed = _lmhost.int_arg("seed", seed, 0, 2**63 - 1)
         if index is not None:

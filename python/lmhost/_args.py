@@ -40,9 +40,13 @@ def whole(name: str, value: Any) -> int:
             return operator.index(value)
         except TypeError:
             pass
-    shown = repr(value)
-    shown = shown if len(shown) <= 40 else shown[:40] + "…"
-    raise ValueError(f"{name} must be an integer, got {shown}")
+    raise ValueError(f"{name} must be an integer, got {shown(value)}")
+
+
+#: A value as a message repeats it: its repr on one line, cut at 40
+#: characters (a numpy array's rows joined, a long list not echoed whole),
+#: the extension's own rule, so every message shows values alike.
+shown = _lmhost.shown
 
 
 def _kind(value: Any) -> str:
@@ -116,11 +120,6 @@ MAX_NAME_CHARS = 32
 GATES = ("tracked", "untracked")
 
 
-def _clip(value: str) -> str:
-    shown = repr(value)
-    return shown if len(shown) <= 40 else shown[:40] + "…"
-
-
 def control_text(name: str, value: Any) -> str:
     """A string field of a session command, checked by kind and length in
     its own words (``stimulus: 5000 characters, more than 64: a library
@@ -128,7 +127,7 @@ def control_text(name: str, value: Any) -> str:
     if name == "gate":
         # The kind first: `in` would compare a numpy array element-wise.
         if not isinstance(value, str) or value not in GATES:
-            got = _clip(value) if isinstance(value, str) else _kind(value)
+            got = shown(value) if isinstance(value, str) else _kind(value)
             raise ValueError(f'gate must be "tracked" or "untracked", got {got}')
         return value
     what, most, made = _FIELDS.get(name, ("a command's value", CONTROL["line_bytes"] // 2, "text"))

@@ -247,6 +247,14 @@ class Session:
                 v = _args.whole(k, v)
             elif isinstance(v, float) or hasattr(type(v), "__float__"):
                 v = _lmhost.float_arg(k, v)  # no NaN or infinity on the wire
+            else:
+                # No field of the protocol is a list or an object: one is
+                # refused here by its name, never sent for the session to
+                # refuse, nor failing in the JSON encoder ("cannot send
+                # Object of type PosixPath", a NaN inside a list).
+                raise ValueError(
+                    f"{k} must be a string, a number, True, False or None, got {_args.shown(v)}"
+                )
             if v is not None:
                 msg[k] = v
         try:

@@ -18,9 +18,11 @@ use lmhost::plan::stimulus::Stimulus;
 use lmhost::plan::trajectory::Steps;
 use lmhost::sense::track::presence::Hysteresis;
 
-/// A value for a message: its repr, cut short (a 4000-digit integer or a
-/// long string is not echoed whole).
-fn shown(v: &Bound<'_, PyAny>) -> String {
+/// A value for a message: its repr on one line, cut short (a 4000-digit
+/// integer or a long string is not echoed whole, a numpy array's rows
+/// not over several lines). The package's Python code shows values by it
+/// too (`_lmhost.shown`, [`shown_arg`]).
+pub(crate) fn shown(v: &Bound<'_, PyAny>) -> String {
     const MAX: usize = 40;
     // One line: a numpy array's repr spans several.
     let r = v
@@ -156,7 +158,10 @@ pub(crate) fn float(name: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
             lmhost::limits::show(x)
         )));
     }
-    Ok(x)
+    // Negative zero is zero: taken as 0 (where 0 is allowed; refused as
+    // 0 where it is not), never carried on to be reported as `-0.0`
+    // (`radius_mm: -0.0` in a plan's summary).
+    Ok(x + 0.0)
 }
 
 /// An optional [`float`].
@@ -193,6 +198,14 @@ pub(crate) fn opt_floats(
     v.filter(|v| !v.is_none())
         .map(|v| floats(name, v, n))
         .transpose()
+}
+
+/// [`shown`] for the package's Python code: every value a Python-side
+/// message repeats is shown as the extension's are.
+#[pyfunction]
+#[pyo3(name = "shown")]
+pub(crate) fn shown_arg(value: &Bound<'_, PyAny>) -> String {
+    shown(value)
 }
 
 /// [`int_in`] for Python code (the `Session` client).

@@ -69,7 +69,9 @@ fn to_py(e: anyhow::Error) -> PyErr {
 }
 
 fn bad(msg: impl Into<String>) -> PyErr {
-    PyValueError::new_err(lmhost::out::tidy(&msg.into()))
+    // One line whatever it repeats: a value's line break escaped and a
+    // long quoted value cut, as the library's echoes are.
+    PyValueError::new_err(lmhost::out::tidy(&lmhost::error::one_line_echo(msg.into())))
 }
 
 /// What a caught panic says.
@@ -650,6 +652,7 @@ fn _lmhost(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(args::float_arg, m)?)?;
     m.add_function(wrap_pyfunction!(args::bool_arg, m)?)?;
     m.add_function(wrap_pyfunction!(args::repeat_arg, m)?)?;
+    m.add_function(wrap_pyfunction!(args::shown_arg, m)?)?;
     m.add("DEFAULTS", args::defaults(m.py())?)?;
     m.add("CONTROL_LIMITS", args::control_limits(m.py())?)?;
     m.add_function(wrap_pyfunction!(_bench_rust, m)?)?;

@@ -57,8 +57,14 @@ impl Gate {
         self.accept_any = true;
     }
 
-    /// Whether `seq` is newer than the last accepted update.
+    /// Whether `seq` is newer than the last accepted update. Sequence
+    /// number 0 never is: it is the wire's "none" (`Status`'s
+    /// `last_centroid_seq`), so a device that took it would report a
+    /// centroid it accepted as none (SPEC section 3, `Centroid`).
     pub fn is_fresh(&self, seq: u32) -> bool {
+        if seq == 0 {
+            return false;
+        }
         if self.accept_any {
             return true;
         }
@@ -83,7 +89,7 @@ impl Gate {
         true
     }
 
-    /// Sequence number of the last accepted update (0 if none).
+    /// Sequence number of the last accepted update (0 if none: never one's).
     pub fn last_seq(&self) -> u32 {
         self.last.map_or(0, |u| u.seq)
     }
@@ -139,7 +145,27 @@ mod tests {
         assert!(!g.update(u32::MAX, true, 5));
         let mut h = Gate::new(100, true);
         assert!(h.update(u32::MAX, true, 0));
-        assert!(h.update(0, true, 1));
+        // A host's count wraps past 0, the wire's "none" (as lmhost's
+        // centroid numbering does).
+        assert!(!h.update(0, true, 1));
+        assert_eq!(h.last_seq(), u32::MAX);
+        assert!(h.update(1, true, 1));
+    }
+
+    /// Sequence number 0 is the wire's "none": never accepted, not as the
+    /// first update, not after the last one wrapped, not after a restarted
+    /// count; it changes nothing.
+    #[test]
+    fn sequence_number_zero_is_never_fresh() {
+        let mut g = Gate::new(100, true);
+        assert!(!g.is_fresh(0));
+        assert!(!g.update(0, true, 1));
+        assert_eq!(g.mute_reason(1), MuteReason::WaitingForTracking);
+        assert!(g.update(7, true, 2));
+        g.restart_sequence();
+        assert!(!g.update(0, false, 3));
+        assert!(g.open(3), "the refused update changed nothing");
+        assert!(g.update(1, true, 4), "a restarted count from 1");
     }
 
     #[test]
@@ -148,8 +174,8 @@ mod tests {
         assert!(g.update(1000, true, 0));
         g.restart_sequence();
         assert!(g.open(50), "no glitch");
-        assert!(g.update(0, true, 60));
-        assert!(!g.update(0, true, 70), "ordering applies again");
-        assert_eq!(g.last_seq(), 0);
+        assert!(g.update(1, true, 60));
+        assert!(!g.update(1, true, 70), "ordering applies again");
+        assert_eq!(g.last_seq(), 1);
     }
 }

@@ -96,7 +96,8 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             intensity_table: r.below(2) == 0,
         }),
         3 => {
-            let n = r.below(17) as usize;
+            // 1 ..: a list of no elements cannot be encoded (SPEC, Lists).
+            let n = 1 + r.below(16) as usize;
             Message::Geometry(Geometry {
                 first: r.below(20) as u16,
                 positions: Positions::from_points(&POINTS[..n]),
@@ -112,7 +113,7 @@ fn random_message(r: &mut Rng, data: &'static [u8], seqs: &mut u32) -> Message<'
             })
         }
         4 | 5 => {
-            let n = r.below(data.len() as u64 + 1) as usize;
+            let n = 1 + r.below(data.len() as u64) as usize;
             Message::Chunk(Chunk {
                 slot,
                 offset: r.mostly_below(700) as u32,

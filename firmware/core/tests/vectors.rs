@@ -51,12 +51,12 @@ fn expected(name: &str) -> Option<Option<Reply>> {
         "get_info" => return Some(Some(Reply::Other)), // checked below
         // No rig yet: uploads are refused until one is committed.
         "begin_upload" | "begin_upload_raw" | "begin_upload_table" => return nack(NoRig),
-        "begin_rig" | "geometry_empty" | "stop" | "centroid" | "renew" => Some(Reply::Ack),
+        "begin_rig" | "stop" | "centroid" | "renew" => Some(Reply::Ack),
         // Nothing plays, and the test device has no self-test.
         "self_test" => Some(Reply::SelfTest(lm_proto::SelfTest::Unsupported)),
         "commit_rig" => return nack(Incomplete), // no position has arrived
         "geometry" => return nack(OutOfRange),   // first = 996 of 996
-        "chunk" | "chunk_long" | "chunk_empty" | "commit" | "intensity" | "intensity_long" => {
+        "chunk" | "chunk_long" | "commit" | "intensity" | "intensity_long" => {
             return nack(NoUpload);
         }
         "play_next_cycle" | "play_immediate" | "play_steps" => return nack(NotCommitted),

@@ -421,6 +421,38 @@ pub fn free_slot(slots: u8, status: &Status) -> Option<u8> {
         .or_else(|| free().next())
 }
 
+/// The one check every backend's `upload` makes of what a plan carries
+/// before it sends a byte (SPEC section 3, Lists, at the plan's level): at
+/// least one step of at least one transducer, exactly steps × transducers
+/// phases, and an intensity table, when there is one, of exactly one level
+/// per step. A plan that carries nothing (no steps, an empty table) is bad
+/// input (exit 2), refused before anything is sent, so the slot's old
+/// entry and what plays stay as they were.
+pub fn check_shape(plan: &Plan) -> std::result::Result<(), InputError> {
+    let s = &plan.sequence;
+    let (steps, t) = (
+        usize::from(s.header.steps),
+        usize::from(s.header.transducers),
+    );
+    if steps == 0 || t == 0 {
+        return Err(InputError::new(format!(
+            "the plan carries no phases ({steps} steps of {t} transducers):              nothing to upload"
+        )));
+    }
+    if s.phases.len() != steps * t {
+        return Err(InputError::new(format!(
+            "the plan holds {} phases, not its {steps} steps × {t} transducers",
+            s.phases.len()
+        )));
+    }
+    match s.intensity_table.as_ref().map(Vec::len) {
+        Some(n) if n != steps => Err(InputError::new(format!(
+            "the plan's intensity table holds {n} levels, not one for each of its {steps} steps"
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// Checks `slot` exists on the device (bad input otherwise, exit 2).
 pub fn check_slot(slot: u8, info: &Info) -> std::result::Result<(), InputError> {
     if slot >= info.slots {

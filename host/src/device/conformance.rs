@@ -1,5 +1,6 @@
 //! The device policy's conformance table: play / centroid / stop / loss /
-//! out-of-volume / timed-play / queued-takeover scenarios that every
+//! out-of-volume / timed-play / queued-takeover / empty-upload /
+//! never-uploaded scenarios that every
 //! [`Backend`] must pass with the same states, mute reasons, corrections,
 //! centroid outcomes, slots and step counts.
 //!
@@ -72,6 +73,23 @@ pub enum Step {
     },
     /// Lets time pass (ms).
     Wait(u64),
+    /// Uploads into `slot` the wide plan emptied of `what`: a plan that
+    /// carries nothing.
+    UploadEmpty {
+        /// Slot.
+        slot: u8,
+        /// What the plan lacks.
+        what: Empty,
+    },
+}
+
+/// What an emptied plan lacks (SPEC section 3, Lists, at the plan's level).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Empty {
+    /// No steps, no phases: an upload of no chunk.
+    Steps,
+    /// An intensity table of no levels.
+    Levels,
 }
 
 /// What a centroid update came to.
@@ -83,6 +101,10 @@ pub enum Outcome {
     OutOfRange,
     /// Refused: its sequence number is not newer.
     Stale,
+    /// An upload or a play refused as bad input before anything was sent.
+    BadInput,
+    /// A play refused: the slot holds no committed sequence.
+    NotCommitted,
 }
 
 /// The state expected after a step.
@@ -94,7 +116,7 @@ pub struct Expect {
     pub mute: MuteReason,
     /// `Status::correction_um[0]` (the others are 0).
     pub correction_x_um: i32,
-    /// A centroid step's outcome.
+    /// A centroid step's outcome, or a refused upload's or play's.
     pub outcome: Option<Outcome>,
     /// `(Status::slot, Status::queued_slot)`, where the step checks them.
     pub slots: Option<(Option<u8>, Option<u8>)>,
@@ -187,12 +209,16 @@ const NARROW_0: Step = Step::Upload {
     slot: 0,
     narrow: true,
 };
+const fn upload_empty(slot: u8, what: Empty) -> Step {
+    Step::UploadEmpty { slot, what }
+}
+
 /// A timed play's steps: 73 ms of the 5 Hz stimulus, fewer than a cycle.
 const TIMED: u32 = 30;
 
 use DeviceState::{Idle, Muted, Playing, Stopped};
 use MuteReason as M;
-use Outcome::{Applied, OutOfRange, Stale};
+use Outcome::{Applied, BadInput, NotCommitted, OutOfRange, Stale};
 
 /// Stopped by itself after a timed play of `slot`, [`TIMED`] steps
 /// counted.
@@ -327,6 +353,53 @@ pub const SCENARIOS: &[Scenario] = &[
         ],
     },
     Scenario {
+        name: "an upload that carries nothing is refused; the slot's old entry and what plays stay",
+        steps: &[
+            (UPLOAD, ex(Idle, M::None, 0)),
+            (UPLOAD_0, ex(Idle, M::None, 0)),
+            (play(1, true), ex(Playing, M::None, 0).slots(Some(1), None)),
+            (
+                upload_empty(0, Empty::Steps),
+                after(BadInput, ex(Playing, M::None, 0).slots(Some(1), None)),
+            ),
+            (
+                upload_empty(0, Empty::Levels),
+                after(BadInput, ex(Playing, M::None, 0).slots(Some(1), None)),
+            ),
+            // Slot 0 still holds its entry: it queues.
+            (
+                play(0, true),
+                ex(Playing, M::None, 0).slots(Some(1), Some(0)),
+            ),
+        ],
+    },
+    Scenario {
+        name: "a slot never uploaded is refused as not committed and nothing plays",
+        steps: &[
+            (
+                play(1, true),
+                after(NotCommitted, ex(Idle, M::None, 0).slots(None, None)),
+            ),
+            (
+                play_for(1),
+                after(NotCommitted, ex(Idle, M::None, 0).slots(None, None)),
+            ),
+        ],
+    },
+    Scenario {
+        name: "a centroid numbered 0, the wire's none, is stale and changes nothing",
+        steps: &[
+            (UPLOAD, ex(Idle, M::None, 0)),
+            (play(1, false), ex(Muted, M::WaitingForTracking, 0)),
+            (
+                at(0, 1000),
+                after(Stale, ex(Muted, M::WaitingForTracking, 0)),
+            ),
+            (at(1, 1000), after(Applied, ex(Playing, M::None, 1000))),
+            (at(0, 0), after(Stale, ex(Playing, M::None, 1000))),
+        ],
+    },
+    Scenario {
         name: "stop then play starts a new session: old centroids forgotten",
         steps: &[
             (UPLOAD, ex(Idle, M::None, 0)),
@@ -372,16 +445,29 @@ fn run_one(
             Step::Upload { slot, narrow: n } => {
                 dut.dev.upload(if n { narrow } else { wide }, Some(slot))?;
             }
+            Step::UploadEmpty { slot, what } => {
+                let mut empty = wide.clone();
+                let s = &mut empty.sequence;
+                match what {
+                    Empty::Steps => {
+                        s.header.steps = 0;
+                        s.phases.clear();
+                        s.intensity_table = None;
+                    }
+                    Empty::Levels => s.intensity_table = Some(Vec::new()),
+                }
+                outcome = refused(dut.dev.upload(&empty, Some(slot)).map(|_| ()))?;
+            }
             Step::Play {
                 slot,
                 at,
                 untracked,
-            } => dut.dev.play_at(slot, at, untracked)?,
+            } => outcome = refused(dut.dev.play_at(slot, at, untracked))?,
             Step::PlayFor {
                 slot,
                 steps,
                 untracked,
-            } => dut.dev.play_for(slot, untracked, steps)?,
+            } => outcome = refused(dut.dev.play_for(slot, untracked, steps))?,
             Step::Stop => dut.dev.stop()?,
             Step::Centroid {
                 seq,
@@ -426,6 +512,18 @@ fn run_one(
         }
     }
     Ok(())
+}
+
+/// A refusal the table names, as its outcome (`None`: done); any other
+/// error ends the scenario.
+fn refused(r: crate::device::backend::Result<()>) -> anyhow::Result<Option<Outcome>> {
+    use crate::device::backend::ErrorKind;
+    match r {
+        Ok(()) => Ok(None),
+        Err(e) if e.kind() == ErrorKind::Input => Ok(Some(Outcome::BadInput)),
+        Err(e) if e.refusal() == Some(NackCode::NotCommitted) => Ok(Some(Outcome::NotCommitted)),
+        Err(e) => Err(e.into()),
+    }
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use lm_proto::{Centroid, DeviceState, Encoding, Info, NackCode, PlayAt, SelfTest
 use crate::device::autd3::{Autd3Backend, Autd3Port};
 use crate::device::backend::{
     Backend, BackendInfo, CentroidOutcome, Kind, Result as BResult, Transfer, UploadReport,
-    check_slot, free_slot,
+    check_shape, check_slot, free_slot,
 };
 use crate::device::link::{Client, LinkError, PortSpec, Transport, UploadSpec, discover};
 use crate::device::simdev::{FwCore, InProcess, SimConfig};
@@ -243,6 +243,7 @@ impl<T: Transport> Backend for LmBackend<T> {
     }
 
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
+        check_shape(plan)?;
         if plan.am.is_some() && plan.sequence.intensity_table.is_none() {
             // Never played unmodulated: the LM firmware plays AM only as
             // the intensity table `Stimulus::plan_for` makes for it.

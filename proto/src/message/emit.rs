@@ -64,15 +64,25 @@ impl Message<'_> {
         Ok(s.len)
     }
 
-    /// Checks limits the type system does not enforce.
-    pub(crate) fn check(&self) -> Result<(), EncodeError> {
+    /// Checks limits the type system does not enforce: whether the wire
+    /// can carry this message at all (what [`crate::encode_frame`] checks
+    /// first, and a device handed a message built in process checks as it
+    /// checks a parsed one).
+    pub fn check(&self) -> Result<(), EncodeError> {
+        // A list's elements: the parser's one rule (`parse::elements`),
+        // too many `TooLarge`, none `InvalidField`.
+        let list = match self {
+            Self::Geometry(g) => Some((g.positions.len(), MAX_GEOMETRY_POSITIONS)),
+            Self::Chunk(c) => Some((c.data.len(), MAX_CHUNK)),
+            Self::Intensity(c) => Some((c.data.len(), MAX_CHUNK)),
+            _ => None,
+        };
+        match list {
+            Some((n, max)) if n > max => return Err(EncodeError::TooLarge),
+            Some((0, _)) => return Err(EncodeError::InvalidField),
+            _ => {}
+        }
         match self {
-            Self::Geometry(g) if g.positions.len() > MAX_GEOMETRY_POSITIONS => {
-                Err(EncodeError::TooLarge)
-            }
-            Self::Chunk(c) if c.data.len() > MAX_CHUNK => Err(EncodeError::TooLarge),
-            Self::Intensity(c) if c.data.len() > MAX_CHUNK => Err(EncodeError::TooLarge),
-            Self::Intensity(c) if c.data.is_empty() => Err(EncodeError::InvalidField),
             Self::Status(s) if s.slot == Some(NO_SLOT) || s.queued_slot == Some(NO_SLOT) => {
                 Err(EncodeError::InvalidField)
             }

@@ -34,16 +34,10 @@ impl<'a> Fields<'a> {
         Ok((Self(head), rest))
     }
     /// A head of `len` bytes and the bulk bytes after it (`Chunk`,
-    /// `Intensity`), at most [`MAX_CHUNK`] of them.
-    fn bulk(
-        payload: &'a [u8],
-        len: usize,
-        too_long: &'static str,
-    ) -> Result<(Self, &'a [u8]), &'static str> {
+    /// `Intensity`): 1 ..= [`MAX_CHUNK`] of them ([`elements`]).
+    fn bulk(payload: &'a [u8], len: usize) -> Result<(Self, &'a [u8]), &'static str> {
         let (head, data) = Self::head(payload, len)?;
-        if data.len() > MAX_CHUNK {
-            return Err(too_long);
-        }
+        elements(data.len(), MAX_CHUNK)?;
         Ok((head, data))
     }
     fn array<const N: usize>(&self, f: Field) -> Result<[u8; N], &'static str> {
@@ -81,6 +75,21 @@ impl<'a> Fields<'a> {
     /// A slot byte, [`NO_SLOT`] meaning none.
     fn slot(&self, f: Field) -> Result<Option<u8>, &'static str> {
         Ok(Some(self.u8(f)?).filter(|s| *s != NO_SLOT))
+    }
+}
+
+/// The one rule for the elements a message carries in a list (`Chunk`'s
+/// data bytes, `Geometry`'s positions, `Intensity`'s levels; SPEC section
+/// 3): 1 ..= `max` of them. An empty list asks for nothing (an empty chunk
+/// completes no stream, a geometry with no transducer fills no position,
+/// an intensity frame with no value sets no level), so a sender that
+/// writes one has lost track of what it sends: malformed, as a longer one
+/// is, never acked as a no-op. The encoder refuses both as well.
+pub(crate) fn elements(n: usize, max: usize) -> Result<(), &'static str> {
+    match n {
+        0 => Err("a list of no elements (needs at least one)"),
+        n if n > max => Err("more elements than the message's maximum"),
+        _ => Ok(()),
     }
 }
 
@@ -144,9 +153,7 @@ impl<'a> Message<'a> {
                 let (p, bytes) = Fields::head(payload, f::LEN)?;
                 let positions = Positions::from_le_bytes(bytes)
                     .ok_or("positions not a multiple of POSITION_LEN bytes")?;
-                if positions.len() > MAX_GEOMETRY_POSITIONS {
-                    return Err("too many positions");
-                }
+                elements(positions.len(), MAX_GEOMETRY_POSITIONS)?;
                 Self::Geometry(Geometry {
                     first: p.u16(f::FIRST)?,
                     positions,
@@ -154,7 +161,7 @@ impl<'a> Message<'a> {
             }
             MessageType::Chunk => {
                 use field::chunk as f;
-                let (p, data) = Fields::bulk(payload, f::LEN, "chunk longer than MAX_CHUNK")?;
+                let (p, data) = Fields::bulk(payload, f::LEN)?;
                 Self::Chunk(Chunk {
                     slot: p.u8(f::SLOT)?,
                     offset: p.u32(f::OFFSET)?,
@@ -163,11 +170,7 @@ impl<'a> Message<'a> {
             }
             MessageType::Intensity => {
                 use field::intensity as f;
-                let (p, data) =
-                    Fields::bulk(payload, f::LEN, "intensity frame longer than MAX_CHUNK")?;
-                if data.is_empty() {
-                    return Err("intensity frame without table bytes");
-                }
+                let (p, data) = Fields::bulk(payload, f::LEN)?;
                 Self::Intensity(Intensity {
                     slot: p.u8(f::SLOT)?,
                     offset: p.u16(f::OFFSET)?,

@@ -236,9 +236,9 @@ pub fn any_message() -> impl Strategy<Value = Owned> {
     ];
     prop_oneof![
         6 => plain.prop_map(Owned::Plain),
-        1 => (any::<u16>(), proptest::collection::vec(xyz(), 0..=MAX_GEOMETRY_POSITIONS))
+        1 => (any::<u16>(), proptest::collection::vec(xyz(), 1..=MAX_GEOMETRY_POSITIONS))
             .prop_map(|(first, points)| Owned::Geometry { first, points }),
-        1 => (any::<u8>(), any::<u32>(), proptest::collection::vec(any::<u8>(), 0..=MAX_CHUNK))
+        1 => (any::<u8>(), any::<u32>(), proptest::collection::vec(any::<u8>(), 1..=MAX_CHUNK))
             .prop_map(|(slot, offset, data)| Owned::Chunk { slot, offset, data }),
         1 => (any::<u8>(), any::<u16>(), proptest::collection::vec(any::<u8>(), 1..=MAX_CHUNK))
             .prop_map(|(slot, offset, data)| Owned::Intensity { slot, offset, data }),

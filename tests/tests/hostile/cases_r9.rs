@@ -108,7 +108,9 @@ fn mutation(name: &str) -> Mutation {
         "lossy_centroids" => Mutation::LoseEveryOther(Some(MessageType::Centroid)),
         "forged_echo" => Mutation::ForgedEcho,
         "replay" => Mutation::Replay,
-        _ => panic!("no fake device `{name}`"),
+        other => {
+            super::cases_r16w::mutation(other).unwrap_or_else(|| panic!("no fake device `{name}`"))
+        }
     }
 }
 

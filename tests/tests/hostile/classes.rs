@@ -107,6 +107,9 @@ pub const NOTICED_CHANGES_NOTHING: &str = "r8-7 a value that changes nothing is 
 pub const STREAM_TROUBLE: &str = "r8-8 a stream line is refused for what it is";
 pub const STREAM_NPY_TAIL: &str = "r8-9 an .npy header value with a tail is refused";
 pub const DEVICE_INFO: &str = "r9-1 a device's impossible Info is refused at connect";
+pub const R16W_STATUS_ZERO: &str =
+    "r16w-1 a Status with a field the firmware holds at 0 there is refused";
+pub const R16W_INFO_RIG: &str = "r16w-2 an Info with a rig CRC and no rig is refused";
 pub const DEVICE_STATUS: &str = "r9-2 a device's impossible Status is refused";
 pub const DEVICE_NAMED: &str = "r9-3 a link error names the port and the reply";
 pub const DEVICE_HEARD: &str = "r9-4 an unanswered request says what came instead";
@@ -183,7 +186,7 @@ pub const R15A_OFF: &str = "r15a-7 off_s's refusal states its range, 0 in it";
 pub const R15A_ENV: &str = "r15a-8 a flag's variable not UTF-8 is named";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 135] = [
+pub const CLASSES: [&str; 137] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -268,6 +271,8 @@ pub const CLASSES: [&str; 135] = [
     DEVICE_HEARD,
     DEVICE_LOSSY,
     DEVICE_UNBOUND,
+    R16W_STATUS_ZERO,
+    R16W_INFO_RIG,
     TEXT_BOM,
     TEXT_LINE_ENDS,
     TEXT_WIDE,

@@ -346,7 +346,13 @@ impl Handler<'_> {
         out: &mut D,
     ) -> Message<'static> {
         self.expire_lease(now);
-        let reply = self.answer(msg, now, out);
+        // A message built in process ([`Device::handle`]) that the wire
+        // could not carry (an empty list, SPEC section 3) is malformed, as
+        // its frame would be.
+        let reply = match msg.check() {
+            Ok(()) => self.answer(msg, now, out),
+            Err(_) => Message::Nack(NackCode::Malformed),
+        };
         if !matches!(reply, Message::Nack(_)) {
             self.policy.renew(now);
         }

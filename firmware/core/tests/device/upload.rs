@@ -322,3 +322,45 @@ fn status_counts_milliseconds_since_reset() {
     assert_eq!(status(&mut late, 7_000_000).uptime_ms, 0);
     assert_eq!(status(&mut late, 7_250_000).uptime_ms, 250);
 }
+
+/// SPEC section 3, Lists: a `Chunk`, `Geometry` or `Intensity` of no
+/// elements is malformed however it reaches the device: as bytes (the
+/// vectors `dev_chunk_empty`, `dev_geometry_empty`) or built in process
+/// and handed to `Device::handle`, at the very offset a real one would be
+/// appended at. It changes nothing: the upload goes on and commits.
+#[test]
+fn a_list_of_no_elements_is_malformed_in_process_too() {
+    let mut dev = device(config(4), 64);
+    let seq = Seq::pattern(2, 4, 10_000, 3);
+    let stream = seq.encode(Encoding::Raw);
+    let reqs = seq.upload_requests(0, Encoding::Raw, &stream, 4);
+    let (last, head) = reqs.split_last().unwrap();
+    for (i, m) in head.iter().enumerate() {
+        assert_eq!(request(&mut dev, i as u16, m, 0), Reply::Ack, "{m:?}");
+    }
+    let empties = [
+        Message::Chunk(Chunk {
+            slot: 0,
+            offset: 4,
+            data: &[],
+        }),
+        Message::Geometry(lm_proto::Geometry {
+            first: 4,
+            positions: lm_proto::Positions::from_points(&[]),
+        }),
+        Message::Intensity(lm_proto::Intensity {
+            slot: 0,
+            offset: 0,
+            data: &[],
+        }),
+    ];
+    for m in &empties {
+        assert_eq!(
+            dev.handle(m, 0),
+            Message::Nack(NackCode::Malformed),
+            "{m:?}"
+        );
+    }
+    assert_eq!(request(&mut dev, 90, last, 0), Reply::Ack);
+    assert_eq!(request(&mut dev, 91, &seq.commit(0), 0), Reply::Ack);
+}

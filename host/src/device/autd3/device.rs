@@ -46,7 +46,7 @@ use super::port::Autd3Port;
 use crate::clock::Clock;
 use crate::device::backend::{
     Backend, BackendError, BackendInfo, CentroidOutcome, Kind, Result as BResult, Transfer,
-    UploadReport, free_slot,
+    UploadReport, check_shape, free_slot,
 };
 use crate::error::InputError;
 use crate::plan::array::AUTD3_TRANSDUCERS;
@@ -307,12 +307,18 @@ impl Autd3Backend {
         }
         match self.slots[usize::from(slot)] {
             Some(s) => Ok(s),
-            None => bail!(
-                "slot {slot} of {} is empty: an AUTD3 holds a sequence only while lmhost holds the link; \
-                 `lmhost upload --port {}` uploads and plays",
-                self.port,
-                self.port
-            ),
+            // Refused as the firmware refuses a `Play` of a slot without
+            // a committed sequence (`NotCommitted`), so every backend
+            // answers it alike (the conformance table checks it).
+            None => Err(BackendError::refused(
+                NackCode::NotCommitted,
+                format!(
+                    "slot {slot} of {} is empty: an AUTD3 holds a sequence only while lmhost holds the link; \
+                     `lmhost upload --port {}` uploads and plays",
+                    self.port, self.port
+                ),
+            )
+            .into()),
         }
     }
 
@@ -469,6 +475,7 @@ impl Backend for Autd3Backend {
     }
 
     fn upload(&mut self, plan: &Plan, slot: Option<u8>) -> BResult<UploadReport> {
+        check_shape(plan)?;
         let h = &plan.sequence.header;
         let t = self.ctl.num_transducers();
         let steps = usize::from(h.steps);

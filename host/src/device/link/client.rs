@@ -425,7 +425,10 @@ impl<T: Transport> Client<T> {
     pub fn self_test(&mut self) -> Result<SelfTest, LinkError> {
         let what = "self test";
         match self.request(what, &Message::SelfTest)? {
-            Reply::SelfTest(t) => Ok(t),
+            Reply::SelfTest(t) => {
+                super::reply::check_self_test(&t).map_err(|why| self.bad_reply(what, why))?;
+                Ok(t)
+            }
             other => Err(self.refused(what, other)),
         }
     }

@@ -1,6 +1,7 @@
 use super::*;
 use crate::plan::sequence::Plan;
 use lm_proto::Encoding;
+use lm_proto::MessageType;
 use lm_proto::codec::CodecError;
 
 /// The `Info` of a simulated-device-like firmware with `slots` slots
@@ -228,5 +229,142 @@ fn a_reply_that_echoes_another_request_is_refused() {
         assert!(!e.contains('\n'), "one line: {e}");
         // The same forger's Renew ack echoes the Renew written: taken.
         c.renew().unwrap();
+    }
+}
+
+/// A decoded frame of `msg_type` answering `req` (its seq and echo) with
+/// `fields` after the echo, framed for the wire: any length, any type.
+fn raw_reply(req: &lm_proto::Frame<'_>, msg_type: u8, fields: &[u8]) -> Vec<u8> {
+    let echo = req.reply_head().echo.unwrap();
+    let mut d = vec![lm_proto::PROTOCOL_VERSION, msg_type];
+    d.extend_from_slice(&req.seq.to_le_bytes());
+    d.push(echo.request_type);
+    d.extend_from_slice(&echo.request_crc32.to_le_bytes());
+    d.extend_from_slice(fields);
+    d.extend_from_slice(&lm_proto::crc32(&d).to_le_bytes());
+    let mut w = vec![0u8; d.len() + d.len() / 254 + 3];
+    let n = lm_proto::cobs::encode(&d, &mut w[1..]).unwrap();
+    w[0] = 0;
+    w.truncate(n + 2);
+    w[n + 1] = 0;
+    w
+}
+
+/// A buggy device (SPEC section 3, "Hosts hold a device to these
+/// tables"): every reply a request cannot get (another kind, a length the
+/// type does not have, a code no firmware sends, a self-test whose counts
+/// contradict) fails the request in one line naming the port, as a
+/// failed operation (never bad input, never a panic); none is taken.
+#[test]
+fn a_buggy_devices_replies_fail_in_one_line_naming_the_port() {
+    type Answer = Box<dyn FnMut(&lm_proto::Frame<'_>) -> Vec<u8> + Send>;
+    let framed = |msg: Message<'static>| -> Answer {
+        Box::new(move |req| {
+            let mut buf = [0u8; MAX_ENCODED_FRAME];
+            let n = encode_frame(req.reply_head(), &msg, &mut buf).unwrap();
+            buf[..n].to_vec()
+        })
+    };
+    let failed = SelfTest::Failed {
+        bytes: 1024,
+        mismatches: 0,
+        first_mismatch: 0,
+        sent: 1,
+        got: 2,
+    };
+    let mut status_bytes = [0u8; 52];
+    status_bytes[1] = 0xFF;
+    status_bytes[40] = 0xFF;
+    let cases: Vec<(&str, Answer, &str)> = vec![
+        (
+            "stop",
+            framed(Message::Info(info(32))),
+            "answered stop with an info",
+        ),
+        ("info", framed(Message::Ack), "answered info with an ack"),
+        (
+            "self test",
+            framed(Message::SelfTestResult(failed)),
+            "0 mismatches",
+        ),
+        (
+            "self test",
+            framed(Message::SelfTestResult(SelfTest::Passed { bytes: 0 })),
+            "passed over 0 bytes",
+        ),
+        ("stop", framed(Message::Nack(NackCode::Other(200))), "200"),
+        // A status one byte short, one byte long, then an ack with a byte:
+        // no frame of their type, so nothing answers.
+        (
+            "status",
+            Box::new(move |req: &lm_proto::Frame<'_>| {
+                raw_reply(req, MessageType::Status as u8, &status_bytes[..51])
+            }),
+            "no response",
+        ),
+        (
+            "status",
+            Box::new(move |req: &lm_proto::Frame<'_>| {
+                raw_reply(
+                    req,
+                    MessageType::Status as u8,
+                    &[status_bytes.as_slice(), &[0]].concat(),
+                )
+            }),
+            "no response",
+        ),
+        (
+            "stop",
+            Box::new(|req: &lm_proto::Frame<'_>| raw_reply(req, MessageType::Ack as u8, &[0])),
+            "no response",
+        ),
+        (
+            "stop",
+            Box::new(|req: &lm_proto::Frame<'_>| raw_reply(req, 0xFE, &[])),
+            "no response",
+        ),
+    ];
+    for (what, mut answer, want) in cases {
+        let mut c = Client::new(Scripted::new(
+            "buggy",
+            move |sent: &[u8], out: &mut Vec<u8>| {
+                let mut d = FrameDecoder::new();
+                let FeedResult::Frame { frame, .. } = d.feed(sent) else {
+                    panic!("the client sends whole frames");
+                };
+                // The Info the status check needs comes whole.
+                if frame.message == Message::GetInfo && what != "info" {
+                    let mut buf = [0u8; MAX_ENCODED_FRAME];
+                    let n = encode_frame(frame.reply_head(), &Message::Info(info(32)), &mut buf)
+                        .unwrap();
+                    out.extend_from_slice(&buf[..n]);
+                    return;
+                }
+                out.extend_from_slice(&answer(&frame));
+            },
+        ));
+        c.timeout = Duration::from_millis(5);
+        c.tries = 2;
+        let e = match what {
+            "stop" => c.stop().unwrap_err(),
+            "info" => c.info().unwrap_err(),
+            "status" => c.status().unwrap_err(),
+            _ => c.self_test().unwrap_err(),
+        };
+        let line = e.to_string();
+        assert!(line.contains(want), "{what}: {line}");
+        assert!(line.contains("buggy"), "{what}: names the port: {line}");
+        assert!(!line.contains('\n'), "{what}: one line: {line}");
+        // A device's fault: a failed operation (exit 1), never bad input.
+        assert!(
+            matches!(
+                e,
+                LinkError::BadReply { .. }
+                    | LinkError::Unexpected { .. }
+                    | LinkError::Nack { .. }
+                    | LinkError::Timeout { .. }
+            ),
+            "{what}: {line}"
+        );
     }
 }

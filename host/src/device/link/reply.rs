@@ -13,7 +13,8 @@
 use std::time::Duration;
 
 use lm_proto::{
-    ClockSource, DeviceState, Info, MAX_CHUNK, MIN_DWELL_US, MuteReason, PROTOCOL_VERSION, Status,
+    ClockSource, DeviceState, Info, MAX_CHUNK, MAX_OFFSET_UM, MIN_DWELL_US, MuteReason,
+    PROTOCOL_VERSION, SelfTest, Status,
 };
 
 /// Why `info` cannot come from the LM firmware this host speaks to, if
@@ -53,6 +54,12 @@ pub fn check_info(info: &Info) -> Result<(), String> {
         return Err(format!(
             "library_free {} above its library's slot_bytes {}",
             info.library_free, info.slot_bytes
+        ));
+    }
+    if info.rig_transducers == 0 && info.rig_crc32 != 0 {
+        return Err(format!(
+            "rig_crc32 {:#010x} without a rig (rig_transducers 0; 0 when none)",
+            info.rig_crc32
         ));
     }
     if info.rig_transducers > info.max_transducers {
@@ -126,6 +133,46 @@ pub fn check_status(
             lm_proto::LEASE_MS.end()
         ));
     }
+    // What the firmware's player and policy hold at 0 in a state: Idle
+    // (nothing played since reset) has no step, cycle or lease, and no
+    // correction applies while idle, stopped, waiting for the first
+    // centroid or out of the work volume.
+    let zero = [
+        ("step", u64::from(st.step), st.state == DeviceState::Idle),
+        (
+            "cycles",
+            u64::from(st.cycles),
+            st.state == DeviceState::Idle,
+        ),
+        (
+            "lease_ms",
+            u64::from(st.lease_ms),
+            st.state == DeviceState::Idle,
+        ),
+    ];
+    if let Some((name, v, _)) = zero.iter().find(|(_, v, held)| *held && *v != 0) {
+        return Err(format!("{name} {v} in state {state}"));
+    }
+    let uncorrected = matches!(st.state, DeviceState::Idle | DeviceState::Stopped)
+        || matches!(
+            st.mute_reason,
+            MuteReason::WaitingForTracking | MuteReason::CentroidOutOfRange
+        );
+    let c = st.correction_um;
+    if uncorrected && c != [0; 3] {
+        return Err(format!(
+            "correction_um {c:?} in state {state} with mute reason `{}` (no correction \
+             applies there)",
+            st.mute_reason
+        ));
+    }
+    // A correction steers within a work volume: at most MAX_OFFSET_UM.
+    let max = i128::from(*MAX_OFFSET_UM.end());
+    if c.iter().map(|v| i128::from(*v).pow(2)).sum::<i128>() > max * max {
+        return Err(format!(
+            "correction_um {c:?}, farther than the largest work volume ({max} µm)"
+        ));
+    }
     if let Some(slot) = st.slot
         && let Some(n) = steps(slot)
         && st.step >= n
@@ -136,6 +183,43 @@ pub fn check_status(
         ));
     }
     Ok(())
+}
+
+/// Why `t` cannot be a `SelfTestResult` of the LM firmware, if it
+/// cannot: the parser holds each outcome to its own fields (SPEC section
+/// 3); these are the counts' relations: a test passed or failed over some
+/// bytes, a failure has a mismatch, no more mismatches than bytes, its
+/// first one among them, and a byte read back that differs from the one
+/// sent there.
+pub fn check_self_test(t: &SelfTest) -> Result<(), String> {
+    match *t {
+        SelfTest::Unsupported => Ok(()),
+        SelfTest::Passed { bytes: 0 } => Err("outcome passed over 0 bytes".into()),
+        SelfTest::Passed { .. } => Ok(()),
+        SelfTest::Failed {
+            bytes,
+            mismatches,
+            first_mismatch,
+            sent,
+            got,
+        } => {
+            if mismatches == 0 || mismatches > bytes {
+                Err(format!(
+                    "outcome failed with {mismatches} mismatches in {bytes} bytes"
+                ))
+            } else if first_mismatch >= bytes {
+                Err(format!(
+                    "first_mismatch {first_mismatch} past the {bytes} bytes tested"
+                ))
+            } else if sent == got {
+                Err(format!(
+                    "a mismatch at byte {first_mismatch} that sent and got the same {sent:#04x}"
+                ))
+            } else {
+                Ok(())
+            }
+        }
+    }
 }
 
 /// How much less than the host's time the uptime of a device whose clock
@@ -215,297 +299,5 @@ pub fn restarted(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::device::link::client::tests::info;
-
-    fn playing(slot: u8) -> Status {
-        Status {
-            state: DeviceState::Playing,
-            slot: Some(slot),
-            lease_ms: 1000,
-            ..Status::default()
-        }
-    }
-
-    #[test]
-    fn an_info_outside_the_spec_is_refused_naming_its_field() {
-        assert_eq!(check_info(&info(32)), Ok(()));
-        assert_eq!(check_info(&info(255)), Ok(()), "slots 0-254");
-        let bad = [
-            (
-                Info {
-                    proto_version: 5,
-                    ..info(32)
-                },
-                "protocol version 5",
-            ),
-            (info(0), "slots 0"),
-            (
-                Info {
-                    max_chunk: 0,
-                    ..info(32)
-                },
-                "max_chunk 0",
-            ),
-            (
-                Info {
-                    max_chunk: 1025,
-                    ..info(32)
-                },
-                "max_chunk 1025 above",
-            ),
-            (
-                Info {
-                    max_transducers: 0,
-                    ..info(32)
-                },
-                "max_transducers 0",
-            ),
-            (
-                Info {
-                    timer_hz: 0,
-                    ..info(32)
-                },
-                "timer_hz 0",
-            ),
-            (
-                Info {
-                    library_free: u32::MAX,
-                    ..info(32)
-                },
-                "library_free 4294967295",
-            ),
-            (
-                Info {
-                    rig_transducers: 997,
-                    ..info(32)
-                },
-                "a rig of 997 transducers",
-            ),
-            (
-                Info {
-                    min_dwell_us: u32::MAX,
-                    ..info(32)
-                },
-                "min_dwell_us 4294967295 above",
-            ),
-            (
-                Info {
-                    min_dwell_us: 1_000_001,
-                    ..info(32)
-                },
-                "min_dwell_us 1000001 above",
-            ),
-        ];
-        // A second's dwell is the longest a device may ask for.
-        let slow = Info {
-            min_dwell_us: 1_000_000,
-            ..info(32)
-        };
-        assert_eq!(check_info(&slow), Ok(()));
-        for (i, want) in bad {
-            let e = check_info(&i).unwrap_err();
-            assert!(e.contains(want), "{e}");
-        }
-    }
-
-    /// Status replies `elapsed` apart on a link with the default timeout,
-    /// from a device on a crystal.
-    fn restart(before: &Status, now: &Status, elapsed_ms: u64) -> Option<String> {
-        restart_on(ClockSource::Crystal, before, now, elapsed_ms)
-    }
-
-    /// [`restart`] from a device whose clock is `clock`.
-    fn restart_on(
-        clock: ClockSource,
-        before: &Status,
-        now: &Status,
-        elapsed_ms: u64,
-    ) -> Option<String> {
-        restarted(
-            before,
-            now,
-            Duration::from_millis(elapsed_ms),
-            Duration::from_millis(300),
-            clock,
-        )
-    }
-
-    /// `st` at `uptime_ms`.
-    fn at(st: Status, uptime_ms: u32) -> Status {
-        Status { uptime_ms, ..st }
-    }
-
-    #[test]
-    fn counters_going_back_or_idle_after_a_play_is_a_restart() {
-        let before = Status {
-            nacks: 3,
-            lease_expiries: 1,
-            ..playing(0)
-        };
-        assert_eq!(restart(&before, &before, 0), None);
-        let more = Status {
-            nacks: 4,
-            state: DeviceState::Stopped,
-            mute_reason: MuteReason::Stopped,
-            ..before
-        };
-        assert_eq!(restart(&before, &more, 0), None, "counters only grow");
-        let reset = Status::default();
-        assert_eq!(
-            restart(&before, &reset, 0).as_deref(),
-            Some("its nacks went back from 3 to 0")
-        );
-        // Nothing counted yet: the state tells.
-        assert_eq!(
-            restart(&playing(0), &reset, 0).as_deref(),
-            Some("state idle (nothing played since reset) after playing")
-        );
-        assert_eq!(restart(&reset, &reset, 0), None, "idle before");
-    }
-
-    #[test]
-    fn a_restart_with_every_counter_at_0_and_nothing_played_is_seen_by_the_uptime() {
-        let fresh = Status::default();
-        // The uptime went back: restarted after the first reply.
-        assert_eq!(
-            restart(&at(fresh, 5_000), &at(fresh, 1_200), 1_300).as_deref(),
-            Some("its uptime went back from 5000 ms to 1200 ms")
-        );
-        // Restarted right after a reply at 200 ms, read 10 s later: up
-        // 9 s, which it was not 10 s ago.
-        let e = restart(&at(fresh, 200), &at(fresh, 9_000), 10_000).unwrap();
-        assert_eq!(
-            e,
-            "its uptime advanced 8800 ms (from 200 to 9000) while 10000 ms passed on the host"
-        );
-        // Not restarted: the uptime kept pace.
-        assert_eq!(restart(&at(fresh, 200), &at(fresh, 10_200), 10_000), None);
-    }
-
-    #[test]
-    fn the_uptime_wraps_at_u32_max_without_a_restart() {
-        let fresh = Status::default();
-        let before = at(fresh, u32::MAX - 100);
-        assert_eq!(restart(&before, &at(fresh, 400), 500), None);
-        assert_eq!(restart(&before, &at(fresh, 0), 101), None);
-        // Wrapped, but 5 s short of the host's 10 s.
-        assert!(restart(&before, &at(fresh, 4_899), 10_000).is_some());
-        // Over half the range apart, the uptime cannot tell.
-        let long = u64::from(u32::MAX / 2) + 1;
-        assert_eq!(restart(&at(fresh, 9), &at(fresh, 3), long), None);
-    }
-
-    #[test]
-    fn a_slow_link_within_the_tolerance_is_no_restart() {
-        let fresh = Status::default();
-        // 2 × 300 ms + 1 % of 10 s = 700 ms of slack.
-        let t = Duration::from_millis(300);
-        assert_eq!(
-            uptime_slack(Duration::from_secs(10), t, ClockSource::Crystal),
-            Some(Duration::from_millis(700))
-        );
-        assert_eq!(
-            uptime_slack(Duration::from_secs(10), t, ClockSource::InternalRc),
-            Some(Duration::from_millis(800))
-        );
-        assert_eq!(restart(&at(fresh, 1_000), &at(fresh, 10_300), 10_000), None);
-        assert!(restart(&at(fresh, 1_000), &at(fresh, 10_299), 10_000).is_some());
-        // A clock 1 % slow over a minute, replies at once.
-        assert_eq!(restart(&at(fresh, 0), &at(fresh, 59_400), 60_000), None);
-    }
-
-    #[test]
-    fn the_uptime_going_back_is_a_restart_whatever_the_time() {
-        let fresh = Status::default();
-        assert!(restart(&at(fresh, 1_000), &at(fresh, 999), 0).is_some());
-        assert!(restart(&at(fresh, 1_000), &at(fresh, 999), 600).is_some());
-        assert_eq!(restart(&at(fresh, 1_000), &at(fresh, 1_000), 0), None);
-    }
-
-    /// An emulated clock (QEMU under `-icount`: a second of the guest is
-    /// 10^9 instructions, however long they take) or an unknown one need
-    /// not keep the host's pace: only going back tells.
-    #[test]
-    fn an_emulated_clock_is_held_only_to_going_forward() {
-        let fresh = Status::default();
-        for clock in [ClockSource::Emulated, ClockSource::Unknown] {
-            let slow = restart_on(clock, &at(fresh, 6), &at(fresh, 648), 4_184);
-            assert_eq!(slow, None, "{clock:?}");
-            let back = restart_on(clock, &at(fresh, 5_000), &at(fresh, 20), 100);
-            assert_eq!(
-                back.as_deref(),
-                Some("its uptime went back from 5000 ms to 20 ms")
-            );
-        }
-        // The same pace from a crystal is a restart.
-        assert!(restart(&at(fresh, 6), &at(fresh, 648), 4_184).is_some());
-    }
-
-    #[test]
-    fn a_status_no_firmware_reports_is_refused() {
-        let none = |_| None;
-        assert_eq!(check_status(&Status::default(), &info(32), none), Ok(()));
-        assert_eq!(check_status(&playing(31), &info(32), none), Ok(()));
-        let muted_at_expiry = Status {
-            state: DeviceState::Muted,
-            ..playing(0)
-        };
-        assert_eq!(check_status(&muted_at_expiry, &info(32), none), Ok(()));
-        let bad = [
-            (playing(32), "slot 32, and the device has 32 slots"),
-            (
-                Status {
-                    slot: None,
-                    ..playing(0)
-                },
-                "state playing without a slot",
-            ),
-            (
-                Status {
-                    queued_slot: Some(1),
-                    state: DeviceState::Stopped,
-                    mute_reason: MuteReason::Stopped,
-                    ..playing(0)
-                },
-                "state stopped with a queued slot",
-            ),
-            (
-                Status {
-                    mute_reason: MuteReason::Stopped,
-                    ..playing(0)
-                },
-                "state playing with mute reason `stopped`",
-            ),
-            (
-                Status {
-                    lease_ms: 0,
-                    ..playing(0)
-                },
-                "a host lease of 0 ms in state playing",
-            ),
-            (
-                Status {
-                    slot: Some(0),
-                    ..Status::default()
-                },
-                "state idle",
-            ),
-        ];
-        for (st, want) in bad {
-            let e = check_status(&st, &info(32), none).unwrap_err();
-            assert!(e.contains(want), "{e}");
-        }
-        let step = Status {
-            step: 40,
-            ..playing(3)
-        };
-        let e = check_status(&step, &info(32), |s| (s == 3).then_some(40)).unwrap_err();
-        assert!(e.contains("step 40 of slot 3, which has 40 steps"), "{e}");
-        assert_eq!(
-            check_status(&step, &info(32), |s| (s == 3).then_some(41)),
-            Ok(())
-        );
-    }
-}
+#[path = "reply_tests.rs"]
+mod tests;
