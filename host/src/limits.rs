@@ -23,7 +23,8 @@ pub const MAX_REPLAY_GAP_S: f64 = 60.0;
 pub const MAX_TIME_STAMP_S: f64 = 1.0e10;
 /// How much further (s) a centroid's time stamp may run ahead of the last
 /// accepted one than their arrivals are apart: beyond, it is a wild stamp,
-/// dropped as out of order unless [`JUMPS_TO_ACCEPT`] in a row agree (the
+/// dropped and counted as a time jump unless [`JUMPS_TO_ACCEPT`] in a row
+/// agree (the
 /// rule: `sense::stream::plausible`). Room for a tracker's output held up
 /// in a pipe or a socket and delivered at once.
 pub const MAX_TIME_SKEW_S: f64 = 1.0;
