@@ -214,7 +214,7 @@ fn ctrl_c_mid_push_still_brings_the_stage_back() {
 #[test]
 fn an_on_phase_under_one_device_step_is_refused_by_study_check_and_run() {
     let protocol = studies("paper-exp3.toml");
-    let said = "the timeline's on_s 2 s × --time-scale 0.0004 = 0.0008 s is shorter than one step at the device's update limit (0.001 s";
+    let said = "the timeline's on_s 2 s × --time-scale 0.0004 = 0.0008 s is shorter than one step at the device's update limit (the scene's min_dwell_ms, 1 ms)";
     let o = study(&["check", &protocol, "--time-scale", "0.0004"])
         .output()
         .unwrap();

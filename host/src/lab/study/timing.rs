@@ -97,9 +97,9 @@ pub fn check(
     let floor = scene.min_dwell_s;
     if on * scale < floor * (1.0 - 1e-12) {
         return Err(InputError::new(format!(
-            "study protocol {origin}: {} is shorter than one step at the device's update limit ({} s, the scene's min_dwell_ms): the device cannot present it; {}",
+            "study protocol {origin}: {} is shorter than one step at the device's update limit (the scene's min_dwell_ms, {} ms): the device cannot present it; {}",
             as_played("on_s", on),
-            show(floor),
+            show(floor * 1e3),
             match scale {
                 1.0 => format!("give an on_s of at least {} s", show(floor)),
                 _ => format!("give a --time-scale of at least {}", show(floor / on)),
@@ -192,7 +192,7 @@ mod tests {
             let on = p.timeline.on_s.unwrap();
             let e = check(&p, &scene, None, scale).unwrap_err().to_string();
             let said = format!(
-                "the timeline's on_s {on} s × --time-scale {scale} = 0.0008 s is shorter than one step at the device's update limit (0.001 s"
+                "the timeline's on_s {on} s × --time-scale {scale} = 0.0008 s is shorter than one step at the device's update limit (the scene's min_dwell_ms, 1 ms)"
             );
             assert!(
                 e.contains(&said)
