@@ -5,10 +5,11 @@
 //! - a time stamp older than the last accepted one is **out of order**;
 //! - one further ahead of the last accepted one than the time that
 //!   passed between their arrivals plus [`MAX_TIME_SKEW_S`] is a **time
-//!   jump**, counted apart (nothing came in the wrong order: a wild stamp,
-//!   or the first of a tracker clock's step; a wild stamp:
-//!   were it taken as the reference, every later, correct sample would be
-//!   older and dropped until the stream caught up with it), unless
+//!   jump**, counted apart from out of order, as nothing came in the wrong
+//!   order: a wild stamp, or the first of a tracker clock's step. It is
+//!   dropped (were a wild stamp taken as the reference, every later,
+//!   correct sample would be older and dropped until the stream caught
+//!   up with it), unless
 //!   [`JUMPS_TO_ACCEPT`] such samples in a row agree (each no further ahead
 //!   of the one before than their arrivals are apart plus the skew): then
 //!   the tracker's clock really stepped. One wild time stamp so costs one
