@@ -5,6 +5,18 @@
 //! `{"x":0,"x":500}` would be a centroid at 500 mm. A number that
 //! underflows (`1e-400`, read as 0 by `serde_json`) is refused too,
 //! naming its key ([`crate::limits::exact_literal`]).
+//!
+//! `null`, in every JSON input lmhost reads (control lines, centroid lines
+//! and datagrams, foci and phases files, `plan --out` reports,
+//! `session.json`, `events.jsonl`), is one rule: it is never read as a key
+//! left out. A key that may be left out for its default and is given
+//! `null` is refused, naming it ([`no_null`], [`NULL_REFUSED`]): the
+//! default is a choice the file did not make (`"present": null` a finger,
+//! `"on_s": null` a play until stopped). `null` is read only where it is
+//! the value lmhost itself writes for "none", each such key listed in its
+//! format's docs (a track line's `centroid_mm` and `filtered_mm`, a plan
+//! report's `timing.am_freq_hz` and `timing.divide`, `session.json`'s
+//! `index` and `scene.path`/`scene.crc32`, an event's `answer`).
 
 use std::fmt;
 
@@ -68,6 +80,55 @@ pub(crate) fn exact_numbers(s: &str) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Why a `null` is refused where a key may be left out: one message for
+/// every reader (the reader names the key).
+pub const NULL_REFUSED: &str = "null is not a value here: leave the key out for its default";
+
+/// An optional key of a JSON input (with `#[serde(default, deserialize_with
+/// = "crate::json::no_null")]`): absent is `None`, a value is `Some`, and
+/// `null` is refused ([`NULL_REFUSED`]) rather than taken for absent.
+/// Readers through `serde_path_to_error` name the key.
+pub fn no_null<'de, D, T>(d: D) -> Result<Option<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    struct NoNull<T>(std::marker::PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> Visitor<'de> for NoNull<T> {
+        type Value = Option<T>;
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("a value (not null)")
+        }
+
+        fn visit_none<E: de::Error>(self) -> Result<Self::Value, E> {
+            Err(E::custom(NULL_REFUSED))
+        }
+
+        fn visit_unit<E: de::Error>(self) -> Result<Self::Value, E> {
+            Err(E::custom(NULL_REFUSED))
+        }
+
+        fn visit_some<D2: Deserializer<'de>>(self, d: D2) -> Result<Self::Value, D2::Error> {
+            T::deserialize(d).map(Some)
+        }
+    }
+    d.deserialize_option(NoNull(std::marker::PhantomData))
+}
+
+/// `v` read as a `T`: serde's message as it is, but a refused `null`
+/// names its key (`` `on_s`: null is not a value here: … ``).
+pub fn from_value<T: de::DeserializeOwned>(v: Value) -> Result<T, String> {
+    serde_path_to_error::deserialize(v).map_err(|e| {
+        let inner = e.inner().to_string();
+        if inner == NULL_REFUSED {
+            format!("`{}`: {inner}", e.path())
+        } else {
+            inner
+        }
+    })
 }
 
 /// A [`Value`] built by [`StrictVisitor`].
@@ -234,5 +295,32 @@ mod tests {
         ] {
             assert!(from_str(s).is_ok(), "{s}");
         }
+    }
+
+    #[test]
+    fn a_key_left_out_is_none_and_a_null_is_refused_by_name() {
+        #[derive(Debug, serde::Deserialize)]
+        struct Opt {
+            #[serde(default, deserialize_with = "no_null")]
+            a: Option<f64>,
+            /// A key whose `null` is its value for "none".
+            #[serde(default)]
+            b: Option<f64>,
+        }
+        let read = |s: &str| from_value::<Opt>(from_str(s).unwrap());
+        let o = read(r#"{}"#).unwrap();
+        assert_eq!((o.a, o.b), (None, None));
+        let o = read(r#"{"a":2.5,"b":null}"#).unwrap();
+        assert_eq!((o.a, o.b), (Some(2.5), None));
+        assert_eq!(
+            read(r#"{"a":null}"#).unwrap_err(),
+            format!("`a`: {NULL_REFUSED}")
+        );
+        // Any other error is serde's, as it is.
+        let e = read(r#"{"a":"x"}"#).unwrap_err();
+        assert!(e.starts_with("invalid type: string"), "{e}");
+        // From text too (the readers of whole files).
+        let e = serde_json::from_str::<Opt>(r#"{"a":null}"#).unwrap_err();
+        assert!(e.to_string().starts_with(NULL_REFUSED), "{e}");
     }
 }

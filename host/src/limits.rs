@@ -23,7 +23,8 @@ pub const MAX_REPLAY_GAP_S: f64 = 60.0;
 pub const MAX_TIME_STAMP_S: f64 = 1.0e10;
 /// How much further (s) a centroid's time stamp may run ahead of the last
 /// accepted one than their arrivals are apart: beyond, it is a wild stamp,
-/// dropped as out of order unless [`JUMPS_TO_ACCEPT`] in a row agree (the
+/// dropped and counted as a time jump unless [`JUMPS_TO_ACCEPT`] in a row
+/// agree (the
 /// rule: `sense::stream::plausible`). Room for a tracker's output held up
 /// in a pipe or a socket and delivered at once.
 pub const MAX_TIME_SKEW_S: f64 = 1.0;
@@ -324,16 +325,22 @@ pub fn duration_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError
     }
     let d = Duration::try_from_secs_f64(s)
         .map_err(|e| InputError::new(format!("{what} {s} s is not a duration ({e})")))?;
-    // Above 0 but below a nanosecond, the least a duration holds, it is
-    // none: `--hold 1e-300` held for 0 s, a UDP idle time of it failed
-    // the socket (exit 1), an `off_s` of it paused not at all.
-    if d.is_zero() {
-        return Err(InputError::new(format!(
-            "{what} {} s rounds to no time (a duration holds whole nanoseconds): give at least 1e-9 s",
-            show(s)
-        )));
+    if let Some(m) = rounds_to_no_time(&format!("{what} {} s", show(s)), s) {
+        return Err(InputError::new(format!("{m}: give at least 1e-9 s")));
     }
     Ok(d)
+}
+
+/// Why `s` seconds, above 0, is no duration, or `None`: below a
+/// nanosecond, the least a duration holds, it is none (`--hold 1e-300`
+/// held for 0 s, a UDP idle time of it failed the socket, an `off_s` of it
+/// paused not at all). The one rule of [`duration_s`], [`pause_s`] and a
+/// study protocol's scaled `off_s`; `said` is the value as the caller
+/// names it (`off_s 1e-300 s`, or the protocol's field × its time scale),
+/// and the caller says what to give.
+pub fn rounds_to_no_time(said: &str, s: f64) -> Option<String> {
+    (s > 0.0 && Duration::try_from_secs_f64(s).is_ok_and(|d| d.is_zero()))
+        .then(|| format!("{said} rounds to no time (a duration holds whole nanoseconds)"))
 }
 
 /// A pause (a control line's `off_s`), checked: 0 (no pause) or a
@@ -349,12 +356,12 @@ pub fn pause_s(what: &str, s: f64, max_s: f64) -> Result<Duration, InputError> {
             show_beside(s, 0.0, max_s)
         )));
     }
-    duration_s(what, s, max_s).map_err(|_| {
-        InputError::new(format!(
-            "{what} {} s rounds to no time (a duration holds whole nanoseconds): give 0 (no pause) or at least 1e-9 s",
-            show(s)
-        ))
-    })
+    if let Some(m) = rounds_to_no_time(&format!("{what} {} s", show(s)), s) {
+        return Err(InputError::new(format!(
+            "{m}: give 0 (no pause) or at least 1e-9 s"
+        )));
+    }
+    duration_s(what, s, max_s)
 }
 
 /// Refuses a value given twice to a repeatable flag (`flag`, e.g.

@@ -206,3 +206,47 @@ fn ctrl_c_mid_push_still_brings_the_stage_back() {
         "{rest}"
     );
 }
+
+/// An on-phase the device cannot present (scaled under one step at its
+/// 1 kHz update limit, 1 ms) is refused by `study check` and by `study
+/// run` before anything is written, naming `on_s` and its scaled value:
+/// it ran the trials before the gauge's first series failed.
+#[test]
+fn an_on_phase_under_one_device_step_is_refused_by_study_check_and_run() {
+    let protocol = studies("paper-exp3.toml");
+    let said = "the timeline's on_s 2 s × --time-scale 0.0004 = 0.0008 s is shorter than one step at the device's update limit (the scene's min_dwell_ms, 1 ms)";
+    let o = study(&["check", &protocol, "--time-scale", "0.0004"])
+        .output()
+        .unwrap();
+    ended_as_bad_input(&o, &[said, "give a --time-scale of at least 0.0005"]);
+    assert_eq!(
+        String::from_utf8_lossy(&o.stderr).lines().count(),
+        1,
+        "{o:?}"
+    );
+    // The scale the runs here use is one the device presents.
+    ok(&study(&["check", &protocol, "--time-scale", "0.02"])
+        .output()
+        .unwrap());
+    let d = scratch("exp3-short-on");
+    let answers = answers(&d);
+    let out = d.join("out");
+    let o = run_p01(
+        &protocol,
+        "autd3:emulator",
+        &out,
+        "0.0004",
+        &[
+            "--responses",
+            answers.to_str().unwrap(),
+            "--stage",
+            "sim",
+            "--gauge",
+            "sim",
+        ],
+    )
+    .output()
+    .unwrap();
+    ended_as_bad_input(&o, &[said]);
+    assert!(!out.join("P01").exists(), "{o:?}");
+}

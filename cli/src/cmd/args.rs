@@ -185,11 +185,12 @@ pub enum FingerFeed {
     None,
     /// The synthetic finger.
     Synthetic,
-    /// Samples on a reader thread, the plausibility gate they pass, and
+    /// Samples on a reader thread, the plausibility gate they pass (its
+    /// state boxed: the gate is large beside the other variants), and
     /// what they come from (for records).
     Samples(
         lmhost::sense::stream::run::Threaded,
-        lmhost::sense::stream::intake::Intake,
+        Box<lmhost::sense::stream::intake::Intake>,
         String,
     ),
 }
@@ -328,7 +329,7 @@ impl FingerArgs {
         // Every source of samples passes the one gate, counted for the end
         // line; a recording (depth frames, centroids) by its time stamps
         // alone, as `lmhost track` and `lmhost stream` replay it.
-        let intake = |timing| Intake::new(timing, self.gate_counts.clone());
+        let intake = |timing| Box::new(Intake::new(timing, self.gate_counts.clone()));
         if self.tracked() {
             let source = match (&self.depth, &self.depth_stream) {
                 (Some(depth), _) => Source::Recorded {

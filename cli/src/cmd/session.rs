@@ -156,7 +156,7 @@ impl Args {
         // The finger source starts once the device is ready, so a replay
         // runs from its first frame while the session takes commands.
         let finger = match self.finger.start(self.scene.as_deref())? {
-            FingerFeed::Samples(feed, intake, _) => Finger::Samples(Box::new(feed), intake),
+            FingerFeed::Samples(feed, intake, _) => Finger::Samples(Box::new(feed), *intake),
             FingerFeed::Synthetic => Finger::Synthetic,
             FingerFeed::None => Finger::None,
         };

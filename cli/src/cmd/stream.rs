@@ -324,8 +324,9 @@ impl Args {
         let dropped = report.rejected.total();
         if dropped > 0 || bad_datagrams > 0 {
             lmhost::outln!(
-                "dropped {dropped} implausible samples ({} out of order, {} out of range, {} jumps); skipped {bad_datagrams} bad datagrams",
+                "dropped {dropped} implausible samples ({} out of order, {}, {} out of range, {} jumps); skipped {bad_datagrams} bad datagrams",
                 report.rejected.out_of_order,
+                lmhost::out::count(report.rejected.time_jumps, "time jump"),
                 report.rejected.out_of_range,
                 report.rejected.jumps
             )?;

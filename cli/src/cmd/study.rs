@@ -339,7 +339,7 @@ impl RunArgs {
         Ok(match src.start(self.scene.as_deref())? {
             FingerFeed::Samples(feed, intake, name) => FingerSource::Samples {
                 feed,
-                intake: Box::new(intake),
+                intake,
                 filter,
                 name,
             },

@@ -14,6 +14,12 @@
 //!   JSON `{"foci_mm": [[[x, y, z], ...], ...], "dwell_us": D}`; the phases
 //!   are synthesised with the planner's linear synthesis.
 //!
+//! In the JSON forms a key left out takes its default and `null` is
+//! refused naming it (`dwell_us`, a report's `intensity_table`;
+//! [`crate::json`]'s rule), except where `plan` writes `null` itself: a
+//! report's `timing.am_freq_hz` (no AM) and `timing.divide` (off AUTD3's
+//! grid).
+//!
 //! Timing: exactly one of a dwell in the file (µs per step) and an LM
 //! frequency (`--freq`: the dwell is `1 / (N f)`). On an AUTD3 a frequency
 //! lands on the 25 µs grid (the realised timing is reported) and a dwell in
@@ -87,7 +93,7 @@ enum Loaded {
 struct PhasesJson {
     #[serde(deserialize_with = "report::byte_rows")]
     phases: Vec<Vec<u8>>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::json::no_null")]
     dwell_us: Option<f64>,
 }
 
@@ -95,7 +101,7 @@ struct PhasesJson {
 #[serde(deny_unknown_fields)]
 struct FociJson {
     foci_mm: Vec<Vec<[f64; 3]>>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::json::no_null")]
     dwell_us: Option<f64>,
 }
 

@@ -436,15 +436,16 @@ pub fn read_within(
 }
 
 /// Asserts `closed` is a session's `closed` event whose `finger` says
-/// `samples` read and `[out_of_order, out_of_range, jumps]` dropped: the
-/// classes of the `lmhost: finger:` end line.
+/// `samples` read and `[out_of_order, time_jumps, out_of_range, jumps]`
+/// dropped: the classes of the `lmhost: finger:` end line.
 #[track_caller]
-pub fn assert_closed_counts(closed: &serde_json::Value, samples: u64, dropped: [u64; 3]) {
+pub fn assert_closed_counts(closed: &serde_json::Value, samples: u64, dropped: [u64; 4]) {
     assert_eq!(closed["event"], "closed", "{closed}");
-    let [out_of_order, out_of_range, jumps] = dropped;
+    let [out_of_order, time_jumps, out_of_range, jumps] = dropped;
     let want = serde_json::json!({
-        "samples": samples, "dropped": out_of_order + out_of_range + jumps,
-        "out_of_order": out_of_order, "out_of_range": out_of_range, "jumps": jumps,
+        "samples": samples, "dropped": dropped.iter().sum::<u64>(),
+        "out_of_order": out_of_order, "time_jumps": time_jumps,
+        "out_of_range": out_of_range, "jumps": jumps,
     });
     assert_eq!(closed["finger"], want, "{closed}");
 }

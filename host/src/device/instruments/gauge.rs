@@ -73,6 +73,14 @@ impl Series {
     }
 }
 
+/// Whether a series of `duration_s` at `rate_hz` holds a reading: the one
+/// rule of [`check_series`] and of a study protocol's on-phase, which the
+/// gauge samples (Experiment 3; at [`MAX_RATE_HZ`], one under 1 ms holds
+/// none).
+pub fn holds_a_reading(duration_s: f64, rate_hz: f64) -> bool {
+    duration_s * rate_hz >= 1.0
+}
+
 /// `Ok(count)` when a series of `duration_s` at `rate_hz` may be taken.
 pub fn check_series(port: &str, duration_s: f64, rate_hz: f64) -> Result<usize, InstrumentError> {
     // Each within (0, max].
@@ -93,7 +101,7 @@ pub fn check_series(port: &str, duration_s: f64, rate_hz: f64) -> Result<usize, 
     }
     // A period longer than the series takes one reading whatever the
     // rate (`--rate 1e-300` read once): a rate that changes nothing.
-    if duration_s * rate_hz < 1.0 {
+    if !holds_a_reading(duration_s, rate_hz) {
         let least = 1.0 / duration_s;
         return Err(InstrumentError::limit(
             port,

@@ -27,14 +27,16 @@ pub enum Gate {
 pub struct Present {
     /// The library entry's id.
     pub stimulus: String,
-    /// `tracked` or `untracked` (default: the entry's).
-    #[serde(default)]
+    /// `tracked` or `untracked` (default: the entry's). Each optional
+    /// field is left out for its default; `null` is refused
+    /// ([`crate::json::no_null`]).
+    #[serde(default, deserialize_with = "crate::json::no_null")]
     pub gate: Option<Gate>,
     /// Seconds per on-phase (default: until `stop` or the next `present`).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::json::no_null")]
     pub on_s: Option<f64>,
     /// Seconds of silence between on-phases (default 0).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "crate::json::no_null")]
     pub off_s: Option<f64>,
     /// On-phases (default 1; more need `on_s`), 1..=`MAX_REPEAT`.
     #[serde(default, deserialize_with = "repeat::opt")]
@@ -200,7 +202,7 @@ impl Command {
         };
         Ok(match *name {
             "present" => {
-                let p: Present = serde_json::from_value(rest).map_err(bad)?;
+                let p: Present = crate::json::from_value(rest).map_err(bad)?;
                 super::check_off_s(p.off_s.is_some(), p.repeat.unwrap_or(1), false).map_err(bad)?;
                 Self::Present(p)
             }

@@ -78,7 +78,8 @@ pub const STAIRCASE_LEVELS: &str = "staircase_levels";
 pub const STAIRCASE_ANSWERS: &str = "staircase_answers";
 /// The level at each reversal, `|`-joined.
 pub const STAIRCASE_REVERSALS: &str = "staircase_reversals";
-/// Moves the grid's ends cut short.
+/// Presentations at a level the grid's ends cut a staircase's move short
+/// to (a move the trial ended before presenting is not counted).
 pub const STAIRCASE_AT_LIMIT: &str = "staircase_at_limit";
 /// The threshold: a staircase's mean level of the last reversals (empty
 /// without a reversal), QUEST+'s posterior mean.

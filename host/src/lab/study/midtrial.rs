@@ -71,12 +71,13 @@ pub fn logged(
         // run of a version that could not continue, or a procedure that
         // cannot), so earlier answers no longer count.
         if v["event"] == "trial" {
-            // A count as written: `-1` or `2.5` is refused, not taken for 0.
+            // A count as written: `-1`, `2.5` or `null` is refused, not
+            // taken for 0 (left out, it is 0).
             let kept = match v.get("resumed_presentations") {
                 None => 0,
-                Some(k) => <crate::whole::FileNumber as serde::Deserialize>::deserialize(k)
+                Some(k) => crate::json::no_null::<_, crate::whole::FileNumber>(k)
                     .map_err(|e| e.to_string())
-                    .and_then(|c| c.whole_in(0, u64::from(u32::MAX)))
+                    .and_then(|c| c.map_or(Ok(0), |c| c.whole_in(0, u64::from(u32::MAX))))
                     .map_err(|m| {
                         InputError::new(format!(
                             "{} line {n}: field `resumed_presentations`: {m}",
@@ -203,6 +204,7 @@ mod tests {
             ("-1", "-1 is out of range: allowed 0..=4294967295"),
             ("2.5", "2.5 is not a whole number: allowed 0..=4294967295"),
             ("\"2\"", "expected a whole number"),
+            ("null", crate::json::NULL_REFUSED),
         ] {
             let line =
                 format!("{{\"event\":\"trial\",\"trial\":2,\"resumed_presentations\":{c}}}\n");

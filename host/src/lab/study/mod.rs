@@ -184,7 +184,7 @@ pub fn run(mut o: RunOptions) -> anyhow::Result<RunReport> {
     let (scene, scene_record) = provenance::load_scene(o.scene.as_deref())?;
     let target = o.port.device()?;
     let plans = p.library.plan_for(&target.target(), &scene)?;
-    timing::check(&p, &plans, o.time_scale)?;
+    timing::check(&p, &scene, Some(&plans), o.time_scale)?;
     crate::stop::check_set_up("planning the stimulus library")
         .map_err(|e| ending::set_up_stopped(&e, &o, "the device was not opened"))?;
     let mut warned = std::collections::BTreeSet::new();

@@ -72,8 +72,8 @@ pub struct Run {
     /// `--finger`.
     pub finger: String,
     /// The scene (file and CRC-32 of its text); absent in files written
-    /// before it was recorded.
-    #[serde(default)]
+    /// before it was recorded, never `null`.
+    #[serde(default, deserialize_with = "crate::json::no_null")]
     pub scene: Option<SceneRecord>,
     /// The backend kind (`autd3`, `lm-firmware`, ...).
     #[serde(default)]
@@ -85,16 +85,27 @@ pub struct Run {
     /// went on regardless; the key is absent from a run that needed no
     /// override (the record holds what happened, and files written before
     /// either key existed read back the same way).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::json::no_null"
+    )]
     pub resumed_anyway: Option<String>,
     /// Experiment 3's stage and gauge; absent from a run without them.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::json::no_null"
+    )]
     pub instruments: Option<String>,
 }
 
 /// `session.json`. A key it does not know (misspelt, or of another
 /// program) is refused, not passed over; `device` and `library` hold what
-/// the device and the planner said, as they said it.
+/// the device and the planner said, as they said it. `null` is read only
+/// where this file writes it for "none" (`index` without one, a built-in
+/// scene's `scene.path` and `scene.crc32`); a key that may be left out is
+/// refused as `null` ([`crate::json::no_null`]).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SessionFile {

@@ -69,9 +69,14 @@ pub(super) struct PlanReport {
     #[serde(rename = "encoding")]
     _encoding: IgnoredAny,
     crc32: Whole<0, { u32::MAX as u64 }>,
+    /// Left out without AM; `null` refused ([`crate::json::no_null`]).
     #[serde(default, deserialize_with = "opt_bytes")]
     intensity_table: Option<Vec<u8>>,
-    #[serde(default, rename = "drive_foci_mm")]
+    #[serde(
+        default,
+        rename = "drive_foci_mm",
+        deserialize_with = "crate::json::no_null"
+    )]
     _drive_foci_mm: Option<IgnoredAny>,
     #[serde(deserialize_with = "byte_rows")]
     pub phases: Vec<Vec<u8>>,
@@ -101,8 +106,10 @@ pub(super) struct TimingReport {
     _requested_step_mm: IgnoredAny,
     #[serde(rename = "step_error_mm")]
     _step_error_mm: IgnoredAny,
+    /// `null` off AUTD3's grid (as plan writes it).
     #[serde(rename = "divide")]
     _divide: Option<Whole<1, { u16::MAX as u64 }>>,
+    /// `null` without AM (as plan writes it).
     am_freq_hz: Option<f64>,
 }
 
@@ -196,7 +203,7 @@ pub(super) fn byte_rows<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Ve
 }
 
 fn opt_bytes<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<u8>>, D::Error> {
-    let v = <Option<Vec<Byte>> as serde::Deserialize>::deserialize(d)?;
+    let v = crate::json::no_null::<_, Vec<Byte>>(d)?;
     Ok(v.map(|r| r.into_iter().map(|b| b.0).collect()))
 }
 

@@ -273,3 +273,56 @@ fn raw_phases_under_another_extension_are_told_to_be_named_bin() {
     let e = lm_phases_at_5_hz(&j, &scene).err().unwrap().to_string();
     assert!(e.contains("bad.json") && !e.contains(".bin"), "{e}");
 }
+
+/// `null` is never a key left out: `dwell_us: null` beside `--freq` is
+/// not "no dwell", a report's `intensity_table: null` not "no AM"; the
+/// `null`s plan writes itself (`timing.am_freq_hz`, `timing.divide`)
+/// read as it meant them.
+#[test]
+fn a_null_where_a_key_may_be_left_out_is_refused_naming_it() {
+    let scene = Scene::default();
+    let row = vec![0u8; 996];
+    let null = crate::json::NULL_REFUSED;
+    for (name, json, content) in [
+        (
+            "null-dwell.json",
+            serde_json::json!({"phases": vec![row.clone(); 4], "dwell_us": null}),
+            Content::Phases,
+        ),
+        (
+            "null-foci-dwell.json",
+            serde_json::json!({"foci_mm": [[[0, 0, 200]]], "dwell_us": null}),
+            Content::Foci,
+        ),
+    ] {
+        let p = tmp(name, json.to_string().as_bytes());
+        let e = plan_for(content, &p, &Target::Lm, scene.clone(), Some(5.0), None)
+            .err()
+            .unwrap_or_else(|| panic!("{name} was accepted"))
+            .to_string();
+        assert!(e.contains(&format!("dwell_us: {null}")), "{name}: {e}");
+        // Left out, the frequency gives the timing.
+        let mut left_out = json.clone();
+        left_out.as_object_mut().unwrap().remove("dwell_us");
+        let p = tmp(name, left_out.to_string().as_bytes());
+        plan_for(content, &p, &Target::Lm, scene.clone(), Some(5.0), None).unwrap();
+    }
+    let (_, planned) = default_planned();
+    let report = planned
+        .out_bytes(Path::new("report.json"), &Target::Lm)
+        .unwrap();
+    let mut v: serde_json::Value = serde_json::from_slice(&report).unwrap();
+    assert!(v["timing"]["am_freq_hz"].is_null() && v["timing"]["divide"].is_null());
+    let p = tmp("report-nulls.json", &report);
+    plan_for(Content::Phases, &p, &Target::Lm, scene.clone(), None, None).unwrap();
+    for key in ["intensity_table", "drive_foci_mm"] {
+        v[key] = serde_json::Value::Null;
+        let p = tmp("report-null-key.json", v.to_string().as_bytes());
+        let e = plan_for(Content::Phases, &p, &Target::Lm, scene.clone(), None, None)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains(&format!("{key}: {null}")), "{e}");
+        v.as_object_mut().unwrap().remove(key);
+    }
+}

@@ -49,6 +49,7 @@ pub enum Timing {
 pub struct SharedCounts {
     read: AtomicU64,
     out_of_order: AtomicU64,
+    time_jumps: AtomicU64,
     out_of_range: AtomicU64,
     jumps: AtomicU64,
 }
@@ -63,6 +64,7 @@ impl SharedCounts {
     pub fn dropped(&self) -> PlausibilityCounts {
         PlausibilityCounts {
             out_of_order: self.out_of_order.load(Relaxed),
+            time_jumps: self.time_jumps.load(Relaxed),
             out_of_range: self.out_of_range.load(Relaxed),
             jumps: self.jumps.load(Relaxed),
         }
@@ -75,6 +77,7 @@ impl SharedCounts {
             samples: self.read(),
             dropped: d.total(),
             out_of_order: d.out_of_order,
+            time_jumps: d.time_jumps,
             out_of_range: d.out_of_range,
             jumps: d.jumps,
         }
@@ -85,10 +88,11 @@ impl SharedCounts {
     pub fn summary(&self) -> String {
         let d = self.dropped();
         format!(
-            "finger: {}, {} dropped as implausible ({} out of order, {} out of range, {})",
+            "finger: {}, {} dropped as implausible ({} out of order, {}, {} out of range, {})",
             crate::out::count(self.read(), "sample"),
             d.total(),
             d.out_of_order,
+            crate::out::count(d.time_jumps, "time jump"),
             d.out_of_range,
             crate::out::count(d.jumps, "jump")
         )
@@ -102,10 +106,12 @@ impl SharedCounts {
 pub struct GateCounts {
     /// Samples read from the source, dropped ones included.
     pub samples: u64,
-    /// Samples dropped as implausible: the three below together.
+    /// Samples dropped as implausible: the four below together.
     pub dropped: u64,
-    /// Dropped: time stamps going backwards or jumping ahead.
+    /// Dropped: time stamps going backwards.
     pub out_of_order: u64,
+    /// Dropped: time stamps further ahead than the time that passed.
+    pub time_jumps: u64,
     /// Dropped: coordinates beyond the work volume.
     pub out_of_range: u64,
     /// Dropped: jumps too large for a finger.
@@ -166,6 +172,7 @@ impl Intake {
             let verdict = self.gate.check(&s, at);
             let c = self.gate.counts;
             self.counts.out_of_order.store(c.out_of_order, Relaxed);
+            self.counts.time_jumps.store(c.time_jumps, Relaxed);
             self.counts.out_of_range.store(c.out_of_range, Relaxed);
             self.counts.jumps.store(c.jumps, Relaxed);
             if verdict.is_ok() {
@@ -199,24 +206,29 @@ mod tests {
             Sample::at(3.2e7, 0.0), // a stamp a year ahead
             Sample::at(1.1, 1e4),   // far outside any work volume
             Sample::at(1.2, 1.0),
+            Sample::at(0.5, 1.0), // older than the last taken
             Sample::at(1.3, 2.0),
         ];
         let mut feed = samples.into_iter().map(Ok);
         let out = drain(&mut intake, &mut feed);
-        assert_eq!(out, [samples[0], samples[3], samples[4]]);
-        assert_eq!(counts.read(), 5);
+        assert_eq!(out, [samples[0], samples[3], samples[5]]);
+        assert_eq!(counts.read(), 6);
         let d = counts.dropped();
-        // Out of order, out of range, jumps.
-        assert_eq!((d.out_of_order, d.out_of_range, d.jumps), (1, 1, 0));
+        // Out of order, a time jump, out of range, jumps.
+        assert_eq!(
+            (d.out_of_order, d.time_jumps, d.out_of_range, d.jumps),
+            (1, 1, 1, 0)
+        );
         assert_eq!(
             counts.summary(),
-            "finger: 5 samples, 2 dropped as implausible (1 out of order, 1 out of range, 0 jumps)"
+            "finger: 6 samples, 3 dropped as implausible (1 out of order, 1 time jump, 1 out of range, 0 jumps)"
         );
         // The `closed` event's counts, by the end line's classes.
         assert_eq!(
             serde_json::to_value(counts.snapshot()).unwrap(),
             serde_json::json!({
-                "samples": 5, "dropped": 2, "out_of_order": 1, "out_of_range": 1, "jumps": 0
+                "samples": 6, "dropped": 3, "out_of_order": 1, "time_jumps": 1,
+                "out_of_range": 1, "jumps": 0
             })
         );
     }

@@ -3,10 +3,13 @@
 //!
 //! Rules (the paper drops outliers too), limits in [`crate::limits`]:
 //! - a time stamp older than the last accepted one is **out of order**;
-//! - so is one further ahead of the last accepted one than the time that
-//!   passed between their arrivals plus [`MAX_TIME_SKEW_S`] (a wild stamp:
-//!   were it taken as the reference, every later, correct sample would be
-//!   older and dropped until the stream caught up with it), unless
+//! - one further ahead of the last accepted one than the time that
+//!   passed between their arrivals plus [`MAX_TIME_SKEW_S`] is a **time
+//!   jump**, counted apart from out of order, as nothing came in the wrong
+//!   order: a wild stamp, or the first of a tracker clock's step. It is
+//!   dropped (were a wild stamp taken as the reference, every later,
+//!   correct sample would be older and dropped until the stream caught
+//!   up with it), unless
 //!   [`JUMPS_TO_ACCEPT`] such samples in a row agree (each no further ahead
 //!   of the one before than their arrivals are apart plus the skew): then
 //!   the tracker's clock really stepped. One wild time stamp so costs one
@@ -43,9 +46,11 @@ pub enum Arrival {
 /// Why a sample was dropped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reject {
-    /// Its time stamp is older than the last accepted sample's, or wild
-    /// (further ahead of it than the time since, see the module).
+    /// Its time stamp is older than the last accepted sample's.
     OutOfOrder,
+    /// Its time stamp is further ahead of the last accepted sample's than
+    /// the time since (see the module), and not yet confirmed.
+    TimeJump,
     /// A coordinate is beyond the plausible range.
     OutOfRange,
     /// Too far from the last accepted centroid.
@@ -55,8 +60,11 @@ pub enum Reject {
 /// Counts of dropped samples, by reason.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct PlausibilityCounts {
-    /// Time stamps going backwards or jumping ahead.
+    /// Time stamps going backwards.
     pub out_of_order: u64,
+    /// Time stamps further ahead than the time that passed (a wild stamp,
+    /// or one of the first of a clock's step before the next agree).
+    pub time_jumps: u64,
     /// Coordinates beyond ±`MAX_CENTROID_MM`.
     pub out_of_range: u64,
     /// Jumps larger than `MAX_JUMP_MM`.
@@ -66,7 +74,7 @@ pub struct PlausibilityCounts {
 impl PlausibilityCounts {
     /// All dropped samples.
     pub fn total(&self) -> u64 {
-        self.out_of_order + self.out_of_range + self.jumps
+        self.out_of_order + self.time_jumps + self.out_of_range + self.jumps
     }
 }
 
@@ -105,7 +113,7 @@ impl Stamps {
             };
             if n < JUMPS_TO_ACCEPT {
                 self.run = Some((t_s, at_s, n));
-                return Err(Reject::OutOfOrder);
+                return Err(Reject::TimeJump);
             }
         }
         self.run = None;
@@ -135,6 +143,7 @@ impl Plausibility {
         match r {
             Ok(()) => self.last_pos_mm = s.present.then_some(s.pos_mm),
             Err(Reject::OutOfOrder) => self.counts.out_of_order += 1,
+            Err(Reject::TimeJump) => self.counts.time_jumps += 1,
             Err(Reject::OutOfRange) => self.counts.out_of_range += 1,
             Err(Reject::Jump) => self.counts.jumps += 1,
         }
@@ -184,7 +193,7 @@ impl Plausibility {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use Reject::{Jump, OutOfOrder, OutOfRange};
+    use Reject::{Jump, OutOfOrder, OutOfRange, TimeJump};
 
     const OK: Result<(), Reject> = Ok(());
 
@@ -216,10 +225,37 @@ mod tests {
             PlausibilityCounts {
                 out_of_order: 1,
                 out_of_range: 1,
+                time_jumps: 0,
                 jumps: 1
             }
         );
         assert_eq!(g.counts.total(), 3);
+    }
+
+    #[test]
+    fn a_live_stamp_going_back_is_out_of_order() {
+        let mut l = Live::new();
+        assert_eq!(l.next(100.0), Ok(()));
+        assert_eq!(l.next(100.011), Ok(()));
+        // Older than the last taken, by a little or by much.
+        assert_eq!(l.next(100.005), Err(OutOfOrder));
+        assert_eq!(l.next(3.0), Err(OutOfOrder));
+        assert_eq!(l.next(100.033), Ok(()));
+        assert_eq!((l.g.counts.out_of_order, l.g.counts.time_jumps), (2, 0));
+    }
+
+    #[test]
+    fn a_live_stamp_leaping_forward_is_a_time_jump_not_out_of_order() {
+        let mut l = Live::new();
+        assert_eq!(l.next(100.0), Ok(()));
+        // 11 ms later it says 5 s on: further than the time that passed
+        // plus the skew, yet nothing came in the wrong order.
+        assert_eq!(l.next(105.0), Err(TimeJump));
+        // Within the skew of the time that passed is no jump at all.
+        assert_eq!(l.next(100.9), Ok(()));
+        assert_eq!(l.g.counts.time_jumps, 1);
+        assert_eq!(l.g.counts.out_of_order, 0);
+        assert_eq!(l.g.counts.total(), 1);
     }
 
     #[test]
@@ -251,12 +287,12 @@ mod tests {
                 (1.0, 0.0, OK),
                 // A year ahead: were it accepted, every later sample would
                 // be older than it and dropped as out of order.
-                (3.2e7, 0.0, Err(OutOfOrder)),
+                (3.2e7, 0.0, Err(TimeJump)),
                 (1.1, 0.0, OK),
                 (1.2, 0.0, OK),
             ],
         );
-        assert_eq!(g.counts.out_of_order, 1);
+        assert_eq!((g.counts.out_of_order, g.counts.time_jumps), (0, 1));
     }
 
     /// A live tracker at 90 Hz on a manual clock: `g` sees sample `i`
@@ -290,11 +326,11 @@ mod tests {
         // Ten minutes ahead, arrived 11 ms after the last: were it taken
         // as the reference, the next ten minutes of samples would be
         // dropped as going back.
-        assert_eq!(l.next(700.0), Err(Reject::OutOfOrder));
+        assert_eq!(l.next(700.0), Err(TimeJump));
         for i in 11..100 {
             assert_eq!(l.next(100.0 + f64::from(i) / 90.0), Ok(()), "sample {i}");
         }
-        assert_eq!(l.g.counts.out_of_order, 1);
+        assert_eq!((l.g.counts.out_of_order, l.g.counts.time_jumps), (0, 1));
     }
 
     #[test]
@@ -305,7 +341,7 @@ mod tests {
         l.clock.advance(std::time::Duration::from_secs(600));
         assert_eq!(l.next(700.0), Ok(()));
         assert_eq!(l.next(700.011), Ok(()));
-        assert_eq!(l.g.counts.out_of_order, 0);
+        assert_eq!(l.g.counts.total(), 0);
     }
 
     #[test]
@@ -313,15 +349,16 @@ mod tests {
         let mut l = Live::new();
         assert_eq!(l.next(100.0), Ok(()));
         // The tracker's clock steps an hour on while it keeps sending.
-        assert_eq!(l.next(3700.0), Err(Reject::OutOfOrder));
-        assert_eq!(l.next(3700.011), Err(Reject::OutOfOrder));
+        assert_eq!(l.next(3700.0), Err(TimeJump));
+        assert_eq!(l.next(3700.011), Err(TimeJump));
         assert_eq!(l.next(3700.022), Ok(()));
         assert_eq!(l.next(3700.033), Ok(()));
         // Scattered wild stamps never agree.
         for t in [9000.0, 5000.0, 9000.0, 5000.0] {
-            assert_eq!(l.next(t), Err(Reject::OutOfOrder));
+            assert_eq!(l.next(t), Err(TimeJump));
         }
         assert_eq!(l.next(3700.1), Ok(()));
+        assert_eq!((l.g.counts.out_of_order, l.g.counts.time_jumps), (0, 6));
     }
 
     #[test]
@@ -331,17 +368,17 @@ mod tests {
             &mut g,
             &[
                 (1.0, 0.0, OK),
-                (31.0, 0.0, Err(OutOfOrder)),
+                (31.0, 0.0, Err(TimeJump)),
                 (1.1, 0.0, OK),
                 (1.1 + MAX_TIME_SKEW_S, 0.0, OK),
                 // The recording paused 5 s: no arrival time tells it apart
                 // from a wild stamp until the samples after it agree.
-                (10.0, 0.0, Err(OutOfOrder)),
-                (10.1, 0.0, Err(OutOfOrder)),
+                (10.0, 0.0, Err(TimeJump)),
+                (10.1, 0.0, Err(TimeJump)),
                 (10.2, 0.0, OK),
             ],
         );
-        assert_eq!(g.counts.out_of_order, 3);
+        assert_eq!((g.counts.out_of_order, g.counts.time_jumps), (0, 3));
     }
 
     #[test]

@@ -22,6 +22,11 @@
 //! `true`/`false` in any case, as spreadsheets write them), nothing else:
 //! one set, refused in the same words (`presence`).
 //!
+//! `null` is never a key left out ([`crate::json`]'s rule): a plain
+//! line's `present` and a track line's `gated_present` are left out for
+//! their defaults, `null` refused; a track line's `centroid_mm` and
+//! `filtered_mm` are `null` where `track` has none (as it writes them).
+//!
 //! Units: seconds and millimetres. A time stamp lies in 0 to
 //! [`MAX_TIME_STAMP_S`]; a line beyond is refused (a datagram counted bad).
 
@@ -59,9 +64,13 @@ fn a_finger() -> serde_json::Value {
 struct TrackLine {
     t_s: f64,
     present: serde_json::Value,
+    /// `null`: no centroid (what `track` writes without one).
     centroid_mm: Option<[f64; 3]>,
-    #[serde(default)]
+    /// Left out: the frame's own presence; `null` refused.
+    #[serde(default, deserialize_with = "crate::json::no_null")]
     gated_present: Option<bool>,
+    /// Left out or `null` (what `track` writes while its gate is closed):
+    /// no filtered centre.
     #[serde(default)]
     filtered_mm: Option<[f64; 3]>,
     #[serde(default, rename = "points")]
@@ -137,7 +146,7 @@ enum Want {
     Number,
     /// `[x, y, z]`, three numbers, or `null` (no position).
     Xyz,
-    /// `true`, `false` or `null`.
+    /// `true` or `false`; left out for its default, never `null`.
     Bool,
 }
 
@@ -179,7 +188,13 @@ fn check_values(
                 },
                 "[x, y, z] (three numbers) or null",
             ),
-            Want::Bool => (matches!(value, V::Bool(_) | V::Null), "true, false or null"),
+            Want::Bool if value.is_null() => {
+                return Err(InputError::new(format!(
+                    "line {line_no}: `{key}`: {}",
+                    crate::json::NULL_REFUSED
+                )));
+            }
+            Want::Bool => (value.is_boolean(), "true or false"),
         };
         if !ok {
             let shown = crate::error::short_echo(&value.to_string());

@@ -4,18 +4,16 @@
 //! into ("expected a whole number from 0 to 4294967295" named a range that
 //! is not the rule) or by the JSON type of a number too large for it.
 
-use serde::Deserialize as _;
-
 use crate::lab::session::MAX_REPEAT;
 use crate::whole::FileNumber;
 
-/// `repeat` as `Present` reads it: absent or `null` is None.
+/// `repeat` as `Present` reads it: absent is None (with
+/// `serde(default)`), `null` refused as every optional key's is
+/// ([`crate::json::no_null`]).
 pub fn opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Error> {
-    let v = serde_json::Value::deserialize(d)?;
-    match v {
-        serde_json::Value::Null => Ok(None),
-        v => check(&v).map(Some).map_err(serde::de::Error::custom),
-    }
+    let v = crate::json::no_null::<_, serde_json::Value>(d)?;
+    v.map(|v| check(&v).map_err(serde::de::Error::custom))
+        .transpose()
 }
 
 /// The on-phases `v` asks for, or what is wrong with it (one line): a

@@ -182,3 +182,36 @@ fn events_are_flat_json_with_their_name() {
     assert!(Reply::ok("x").is_ok());
     assert!(!Reply::error("x", "no").is_ok());
 }
+
+#[test]
+fn a_null_is_refused_naming_its_key_never_taken_for_a_key_left_out() {
+    // Left out, each optional key takes its default.
+    let p = Command::parse(r#"{"cmd":"present","stimulus":"a"}"#).unwrap();
+    assert_eq!(
+        p,
+        Command::Present(Present {
+            stimulus: "a".into(),
+            gate: None,
+            on_s: None,
+            off_s: None,
+            repeat: None,
+        })
+    );
+    // As `null`, each is refused by its name: a `null` on_s is not a
+    // play until stopped, nor a `null` repeat one on-phase.
+    for key in ["gate", "on_s", "off_s", "repeat"] {
+        let line = format!(r#"{{"cmd":"present","stimulus":"a","on_s":1,"{key}":null}}"#);
+        let line = line.replace(r#""on_s":1,"on_s":null"#, r#""on_s":null"#);
+        let e = Command::parse(&line).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!("bad command: `{key}`: {}", crate::json::NULL_REFUSED),
+            "{line}"
+        );
+    }
+    // A required key's `null` is a value of the wrong kind.
+    let e = Command::parse(r#"{"cmd":"prepare","stimulus":null}"#)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(e, "bad command: `stimulus` is not a string");
+}

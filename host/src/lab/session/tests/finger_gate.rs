@@ -35,12 +35,14 @@ impl Feed for Tracker {
 fn a_wild_stamp_and_a_far_centroid_never_reach_the_session() {
     let clock = Clock::manual_at_us(1_000_000);
     // A finger resting at the centre, moving 0.01 mm a sample; sample 3
-    // is stamped years ahead, sample 6 lies metres away.
+    // is stamped years ahead, sample 6 lies metres away, sample 9 is
+    // stamped a minute back.
     let mut samples: VecDeque<Sample> = (0..90)
         .map(|i| Sample::at(100.0 + f64::from(i) / 90.0, f64::from(i) * 0.01))
         .collect();
     samples[3].t_s = 1e9;
     samples[6].pos_mm[0] = 5000.0;
+    samples[9].t_s = 40.0;
     let last = *samples.back().unwrap();
     let counts = Arc::new(SharedCounts::default());
     let feed = Tracker {
@@ -88,10 +90,15 @@ fn a_wild_stamp_and_a_far_centroid_never_reach_the_session() {
     );
     assert_eq!(counts.read(), 90);
     let dropped = counts.dropped();
-    // Out of order, out of range, jumps.
+    // Out of order (back), a time jump (ahead), out of range, jumps.
     assert_eq!(
-        (dropped.out_of_order, dropped.out_of_range, dropped.jumps),
-        (1, 1, 0)
+        (
+            dropped.out_of_order,
+            dropped.time_jumps,
+            dropped.out_of_range,
+            dropped.jumps
+        ),
+        (1, 1, 1, 0)
     );
     // The `closed` event carries the same counts, by the end line's
     // classes.
@@ -101,7 +108,8 @@ fn a_wild_stamp_and_a_far_centroid_never_reach_the_session() {
     assert_eq!(
         closed["finger"],
         serde_json::json!({
-            "samples": 90, "dropped": 2, "out_of_order": 1, "out_of_range": 1, "jumps": 0
+            "samples": 90, "dropped": 3, "out_of_order": 1, "time_jumps": 1,
+            "out_of_range": 1, "jumps": 0
         }),
         "{closed}"
     );

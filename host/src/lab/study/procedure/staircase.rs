@@ -17,8 +17,10 @@
 //! time between two presentations is a switch or an upload of a planned
 //! entry (the session loads on demand, least recently used out) and never
 //! a plan, and the row names exactly which entries were presented. A
-//! level the grid cannot reach is the grid's end, counted in the row
-//! (`staircase_at_limit`), never silently clamped.
+//! level the grid cannot reach is the grid's end, and each presentation
+//! there is counted in the row (`staircase_at_limit`), never silently
+//! clamped. The answer that ends the staircase moves it nowhere: its
+//! last level is the last one presented.
 
 use super::{Probe, Procedure, Step};
 use crate::lab::study::answers::Asked;
@@ -45,7 +47,10 @@ pub struct Levitt {
     /// The grid place of each presentation.
     presented: Vec<usize>,
     answers: Vec<bool>,
+    /// Presentations answered at a level the grid's end cut short.
     at_limit: u32,
+    /// Whether the move to `place` was cut short by the grid's end.
+    clamped: bool,
     ended: Option<String>,
 }
 
@@ -68,6 +73,7 @@ impl Levitt {
             presented: Vec::new(),
             answers: Vec::new(),
             at_limit: 0,
+            clamped: false,
             ended: None,
         }
     }
@@ -90,6 +96,11 @@ impl Levitt {
         } else {
             (self.run, self.run_yes) = (1, perceived);
         }
+        // A presentation at a level the grid's end cut short counts when
+        // it is answered: a move a trial never presents counts nothing.
+        if std::mem::take(&mut self.clamped) {
+            self.at_limit += 1;
+        }
         let move_up = match (perceived, self.run) {
             (true, n) if n >= self.down => Some(false),
             (false, n) if n >= self.up => Some(true),
@@ -97,10 +108,20 @@ impl Levitt {
         };
         if let Some(up) = move_up {
             self.run = 0;
+            // The reversal is the level just presented: it counts before
+            // the end is decided, the move after it only if one follows.
             if self.last_up.is_some_and(|l| l != up) {
                 self.reversals.push(self.place);
             }
             self.last_up = Some(up);
+        }
+        if self.reversals.len() >= self.max_reversals as usize {
+            self.ended = Some(format!("{} reversals", self.reversals.len()));
+        } else if self.presented.len() >= self.max_trials as usize {
+            self.ended = Some(format!("{} presentations", self.presented.len()));
+        }
+        // An ended staircase stays at its last presented level.
+        if let (Some(up), None) = (move_up, &self.ended) {
             let k = self.reversals.len().min(self.steps.len() - 1);
             let step = self.steps[k] as usize;
             let to = if up {
@@ -108,15 +129,8 @@ impl Levitt {
             } else {
                 self.place.saturating_sub(step)
             };
-            if to.abs_diff(self.place) != step {
-                self.at_limit += 1;
-            }
+            self.clamped = to.abs_diff(self.place) != step;
             self.place = to;
-        }
-        if self.reversals.len() >= self.max_reversals as usize {
-            self.ended = Some(format!("{} reversals", self.reversals.len()));
-        } else if self.presented.len() >= self.max_trials as usize {
-            self.ended = Some(format!("{} presentations", self.presented.len()));
         }
         self.ended.as_deref()
     }
@@ -136,7 +150,9 @@ impl Levitt {
         &self.answers
     }
 
-    /// Moves the grid's ends cut short.
+    /// Presentations answered at a level the grid's end cut short (a
+    /// move it cut short that was never presented, the trial having
+    /// ended or been stopped first, is not one).
     pub fn at_limit(&self) -> u32 {
         self.at_limit
     }

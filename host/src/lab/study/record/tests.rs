@@ -501,3 +501,49 @@ fn a_latin_square_session_records_an_index_from_1() {
         assert!(e.contains("field `index`"), "{bad:?}: {e}");
     }
 }
+
+#[test]
+fn session_json_reads_its_own_nulls_and_refuses_a_null_for_a_key_left_out() {
+    let d = scratch("session-null");
+    let path = d.join("session.json");
+    let (_, mut s) = exp1_session();
+    s.runs = vec![Run {
+        started_unix_s: 0,
+        first_trial: 1,
+        lmhost_version: "0".into(),
+        device: serde_json::Value::Null,
+        library: Vec::new(),
+        time_scale: 1.0,
+        finger: "none".into(),
+        scene: Some(SceneRecord::of(None, None)),
+        backend: String::new(),
+        port: String::new(),
+        resumed_anyway: None,
+        instruments: None,
+    }];
+    // What a run writes for "none": no index, the built-in scene.
+    let good = serde_json::to_value(&s).unwrap();
+    assert!(good["index"].is_null() && good["runs"][0]["scene"]["path"].is_null());
+    std::fs::write(&path, good.to_string()).unwrap();
+    let back = read_session(&path).unwrap();
+    assert_eq!((back.index, &back.runs[0].scene), (None, &s.runs[0].scene));
+    // A key a run leaves out for "none" is refused as `null`, by name.
+    for key in ["scene", "resumed_anyway", "instruments"] {
+        let mut v = good.clone();
+        v["runs"][0][key] = serde_json::Value::Null;
+        std::fs::write(&path, v.to_string()).unwrap();
+        let e = read_session(&path).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!(
+                "field `runs[0].{key}`: {}",
+                crate::json::NULL_REFUSED
+            )),
+            "{key}: {e}"
+        );
+        // Left out, it reads as none.
+        v["runs"][0].as_object_mut().unwrap().remove(key);
+        std::fs::write(&path, v.to_string()).unwrap();
+        assert!(read_session(&path).is_ok(), "{key}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -446,7 +446,7 @@ fn a_bad_value_in_a_centroid_object_is_refused_as_a_bad_value() {
         ),
         (
             r#"{"t_s":0,"present":true,"centroid_mm":[0,0,200],"gated_present":1}"#,
-            "line 3: `gated_present`: 1 is not true, false or null".to_owned(),
+            "line 3: `gated_present`: 1 is not true or false".to_owned(),
         ),
         (
             r#"{"t_s":1e999,"present":true,"centroid_mm":[0,0,200]}"#,
@@ -474,4 +474,31 @@ fn a_bad_value_in_a_centroid_object_is_refused_as_a_bad_value() {
         let e = parse_line(line, 3).unwrap_err().to_string();
         assert!(e.starts_with(starts), "{line}: {e}");
     }
+}
+
+#[test]
+fn null_is_a_value_only_where_track_writes_it() {
+    // `track --json` writes `null` for no centroid and no filtered centre:
+    // read as none.
+    let none = r#"{"t_s":0.5,"present":false,"centroid_mm":null,"gated_present":false,"filtered_mm":null}"#;
+    assert!(!parsed(none).present);
+    // A key left out for its default is never given as `null`.
+    let e = parse_line(
+        r#"{"t_s":0.5,"present":true,"centroid_mm":[1,2,3],"gated_present":null}"#,
+        3,
+    )
+    .unwrap_err()
+    .to_string();
+    assert_eq!(
+        e,
+        format!("line 3: `gated_present`: {}", crate::json::NULL_REFUSED)
+    );
+    // A plain line's `present`, left out a finger, is refused as null.
+    let e = parse_line(r#"{"t":0,"x":0,"y":0,"z":200,"present":null}"#, 3)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("line 3: `null` is not a `present` value"),
+        "{e}"
+    );
 }

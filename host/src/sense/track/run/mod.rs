@@ -365,12 +365,13 @@ fn device_lines(r: &StreamReport, where_: &str, t: &Tally, filter: FilterKind) -
     let ack = r.ack_us();
     [
         format!(
-            "device refusals: {} centroids outside the work volume (muted until one is inside), {} dropped by the plausibility gate ({} out of range, {} jumps, {} out of order)",
+            "device refusals: {} centroids outside the work volume (muted until one is inside), {} dropped by the plausibility gate ({} out of range, {} jumps, {} out of order, {})",
             r.outside_work_volume,
             r.rejected.total(),
             r.rejected.out_of_range,
             r.rejected.jumps,
-            r.rejected.out_of_order
+            r.rejected.out_of_order,
+            crate::out::count(r.rejected.time_jumps, "time jump")
         ),
         format!(
             "streamed {} centroids ({} present) to {where_}; frame → Centroid frame: track p50 {} + device ack {}, plus the {} filter's lag {:.1} ms (90 fps)",

@@ -41,11 +41,13 @@ fn one_up_two_down_moves_reverses_changes_step_and_ends() {
     l.answer(false);
     assert_eq!(l.place(), Some(10));
     assert_eq!(l.reversals(), [8]);
-    // Up at the top is cut short by the grid's end, and counted.
+    // Up at the top is cut short by the grid's end, and counted once
+    // that level is presented (answered).
     l.answer(false);
-    assert_eq!((l.place(), l.at_limit()), (Some(10), 1));
-    // Two yes: down, a reversal at 10; two more reversals end it.
+    assert_eq!((l.place(), l.at_limit()), (Some(10), 0));
     l.answer(true);
+    assert_eq!(l.at_limit(), 1);
+    // Another yes: down, a reversal at 10; two more reversals end it.
     l.answer(true);
     assert_eq!((l.place(), l.reversals()), (Some(9), &[8, 10][..]));
     l.answer(false);
@@ -63,6 +65,66 @@ fn one_up_two_down_moves_reverses_changes_step_and_ends() {
     m.answer(false);
     assert_eq!(m.answer(false), Some("2 presentations"));
     assert_eq!(m.threshold(&s.grid.values, 2), None);
+}
+
+#[test]
+fn the_final_reversal_moves_nowhere_and_adds_nothing_at_the_limit() {
+    // Four levels from place 2, 1-up/1-down, steps 1 then 3, one reversal
+    // ends it: the move after that reversal (1 + 3, cut to 3 by the grid)
+    // would never be presented.
+    let mut s = spec(4, 1, 1, &[1, 3], 1, 1);
+    s.grid.start = 2;
+    let mut l = Levitt::new(&s);
+    assert_eq!(l.answer(true), None);
+    assert_eq!(l.place(), Some(1));
+    assert_eq!(l.answer(false), Some("1 reversals"));
+    assert_eq!(
+        (l.place(), l.place),
+        (None, 1),
+        "no step past the last level"
+    );
+    assert_eq!(l.at_limit(), 0, "an unpresented move is no presentation");
+    assert_eq!((l.presented(), l.reversals()), (&[2, 1][..], &[1][..]));
+    // The row says the same: the levels whole, nothing at the limit.
+    let mut st = Staircase::new(&s, 0);
+    st.respond("yes");
+    let (level, why) = ends_at(&mut st, "no", "one reversal ends it");
+    assert_eq!(level, 1.0 / 3.0);
+    assert!(why.starts_with("1 reversals: threshold 0.3333"), "{why}");
+    let mut row = Row::default();
+    st.record(&mut row);
+    assert_eq!(row.get(columns::STAIRCASE_LEVELS), Some("0.6667|0.3333"));
+    assert_eq!(row.get(columns::STAIRCASE_AT_LIMIT), Some("0"));
+}
+
+#[test]
+fn a_staircase_ending_at_the_grids_end_counts_only_presented_clamps() {
+    // From the top, three "no": each asks to go up past the grid's end.
+    // The second and third presentations were cut short there; the move
+    // the third answer asks for ends the staircase unpresented.
+    let mut s = spec(5, 1, 1, &[1], 9, 1);
+    s.grid.trials = 3;
+    let mut l = Levitt::new(&s);
+    assert_eq!(l.answer(false), None);
+    assert_eq!(l.at_limit(), 0);
+    assert_eq!(l.answer(false), None);
+    assert_eq!(l.at_limit(), 1);
+    assert_eq!(l.answer(false), Some("3 presentations"));
+    assert_eq!((l.at_limit(), l.place), (2, 4));
+    assert_eq!(l.presented(), [4, 4, 4]);
+    // And at the bottom, ending on the presentation limit after a move
+    // down the grid cut short: the same count.
+    let mut b = s.clone();
+    b.grid.start = 0;
+    let mut m = Levitt::new(&b);
+    m.answer(true);
+    m.answer(true);
+    assert_eq!(m.answer(true), Some("3 presentations"));
+    assert_eq!((m.at_limit(), m.presented()), (2, &[0, 0, 0][..]));
+    // A trial stopped before the clamped level was presented counts none.
+    let mut c = Levitt::new(&s);
+    c.answer(false);
+    assert_eq!(c.at_limit(), 0);
 }
 
 #[test]
