@@ -96,6 +96,33 @@ fn the_simulated_device_refuses_an_am_its_steps_cannot_carry_in_one_line() {
     assert!(!refused.join("P01/trials.csv").exists());
 }
 
+/// `study check` calls valid only what `run` plays: on the LM firmware the
+/// AM that does not fit is refused by the same planning, on an AUTD3 (or
+/// either, unnamed) the protocol is valid.
+#[test]
+fn study_check_refuses_for_the_lm_firmware_a_library_it_cannot_plan() {
+    let (_d, proto) = kinds_study("kinds-check", &LIBRARY.replace("100.0", "200.0"));
+    let check = |target: Option<&str>| {
+        let mut c = std::process::Command::new(link_support::lmhost());
+        c.args(["study", "check", &proto]);
+        if let Some(t) = target {
+            c.args(["--target", t]);
+        }
+        c.output().unwrap()
+    };
+    let err = one_line_error(&check(Some("lm")), 2);
+    assert!(
+        err.starts_with("error: the library cannot be planned for the LM firmware: ")
+            && err.contains("`am`")
+            && err.contains("does not fit"),
+        "{err}"
+    );
+    for target in [Some("autd3"), None] {
+        let o = check(target);
+        assert!(o.status.success(), "{target:?}: {o:?}");
+    }
+}
+
 fn simulate(d: &Path, id: &str) -> serde_json::Value {
     let lib = d.join("kinds-library.toml");
     std::fs::write(&lib, LIBRARY).unwrap();

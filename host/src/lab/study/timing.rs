@@ -151,24 +151,41 @@ pub fn check(
 /// AUTD3 rig: their timing differs): the library planned for each in
 /// `scene`; the first refusal names the device it is for. A target the
 /// library cannot be planned for has its timeline checked without the
-/// stimuli; the rest is left to `run`, which refuses it by that planning.
+/// stimuli; when no target of `targets` can be planned for, the first one's
+/// planning error is the refusal (`run` would refuse it so), so a protocol
+/// called valid plays on at least one of them.
 pub fn check_targets(
     p: &Protocol,
     scene: &Scene,
     scale: f64,
     targets: &[Target],
 ) -> anyhow::Result<()> {
+    let mut unplanned = None;
+    let mut planned = false;
     for &target in targets {
-        let plans = p.library.plan_for(&target, scene).ok();
-        check(p, scene, plans.as_deref(), scale).map_err(|e| {
-            let device = match target {
-                Target::Lm => "the LM firmware",
-                Target::Autd3 => "an AUTD3 rig",
-            };
-            InputError::new(format!("{e} (as `study run` plans it for {device})"))
-        })?;
+        let device = match target {
+            Target::Lm => "the LM firmware",
+            Target::Autd3 => "an AUTD3 rig",
+        };
+        let plans = match p.library.plan_for(&target, scene) {
+            Ok(plans) => {
+                planned = true;
+                Some(plans)
+            }
+            Err(e) => {
+                unplanned.get_or_insert((e, device));
+                None
+            }
+        };
+        check(p, scene, plans.as_deref(), scale)
+            .map_err(|e| InputError::new(format!("{e} (as `study run` plans it for {device})")))?;
     }
-    Ok(())
+    match unplanned {
+        Some((e, device)) if !planned => {
+            Err(e.context(format!("the library cannot be planned for {device}")))
+        }
+        _ => Ok(()),
+    }
 }
 
 #[cfg(test)]
