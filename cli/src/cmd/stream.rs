@@ -202,7 +202,7 @@ impl Args {
                 None => (stdin_samples()?, Pace::Arrival),
                 Some(p) if p.as_os_str() == "-" => (stdin_samples()?, Pace::Arrival),
                 Some(p) => {
-                    let samples = source::replay_file("--input file", p)?;
+                    let samples = source::replay_file("--input", p)?;
                     (on_thread(move || samples)?, pace)
                 }
             }

@@ -115,9 +115,6 @@ fn kind(m: &Metadata) -> Option<String> {
     Some(match what_is(t) {
         _ if t.is_file() => return None,
         _ if t.is_dir() => "it is a directory".into(),
-        fifo if t.is_fifo() => {
-            format!("it is {fifo}, not a regular file; pipe into standard input instead")
-        }
         other => format!("it is {other}, not a regular file"),
     })
 }
@@ -137,6 +134,22 @@ fn what_is(t: std::fs::FileType) -> &'static str {
         "a socket"
     } else {
         "something else"
+    }
+}
+
+/// For a flag that takes `-` for standard input (`flag`, e.g. `--input`):
+/// a FIFO at `path` refused saying so, and that `flag -` reads a pipe. A
+/// flag that takes no `-` (`--scene`) gets no such advice: "pipe into
+/// standard input instead" was said of every input, `--scene` too, which
+/// reads no standard input.
+pub fn not_a_pipe(what: &str, flag: &str, path: &Path) -> Result<(), InputError> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.file_type().is_fifo() => Err(InputError::new(format!(
+            "cannot read {what} {}: it is {}, not a regular file; give `{flag} -` and pipe into standard input instead",
+            path.display(),
+            what_is(m.file_type())
+        ))),
+        _ => Ok(()),
     }
 }
 

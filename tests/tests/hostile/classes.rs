@@ -182,8 +182,11 @@ pub const R15A_SPACES: &str = "r15a-6 a list's number with spaces is refused as 
 pub const R15A_OFF: &str = "r15a-7 off_s's refusal states its range, 0 in it";
 pub const R15A_ENV: &str = "r15a-8 a flag's variable not UTF-8 is named";
 
+/// Round 16a: a sweep of the command line and its files (`cases_r16a.rs`).
+pub const R16A_ADVICE: &str = "r16a-1 a refusal's advice is one its flag can take";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 135] = [
+pub const CLASSES: [&str; 136] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -319,4 +322,5 @@ pub const CLASSES: [&str; 135] = [
     R15A_SPACES,
     R15A_OFF,
     R15A_ENV,
+    R16A_ADVICE,
 ];

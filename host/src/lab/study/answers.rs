@@ -215,6 +215,7 @@ impl Lines {
     /// From a file, read whole (and dry-run before the device opens);
     /// `--responses -` is not a file but answers as asked ([`Piped`]).
     pub fn open(path: &Path) -> anyhow::Result<Self> {
+        crate::files::not_a_pipe("--responses file", "--responses", path)?;
         let text =
             crate::limits::read_text_file_up_to("--responses file", path, MAX_RESPONSES_BYTES)?;
         Ok(Self::from_text(

@@ -388,15 +388,18 @@ pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Resul
     }
 }
 
-/// [`replay_lines`] over the file at `path`, opened as an input
+/// [`replay_lines`] over the file at `path` given to `flag` (`--stream`,
+/// `--input`: flags that take `-` for standard input), opened as an input
 /// ([`crate::files::open_input`]); every error it yields names the file as
-/// `what` (`--stream file`, `--input file`) and its path, for a bad line
-/// is read long after the command started, its other output between.
+/// `FLAG file` and its path, for a bad line is read long after the command
+/// started, its other output between.
 pub fn replay_file(
-    what: &str,
+    flag: &str,
     path: &std::path::Path,
 ) -> anyhow::Result<impl Iterator<Item = anyhow::Result<Sample>> + Send + use<>> {
     use anyhow::Context as _;
+    let what = &format!("{flag} file");
+    crate::files::not_a_pipe(what, flag, path)?;
     let reader = std::io::BufReader::new(crate::files::open_input(what, path)?);
     let name = format!("{what} {}", path.display());
     let samples = replay_lines(reader).map({

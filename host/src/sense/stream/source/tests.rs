@@ -271,7 +271,7 @@ fn udp_port_zero_is_refused_as_input() {
 fn a_replayed_file_names_itself_in_its_errors() {
     let path = std::env::temp_dir().join(format!("lmhost-replay-{}.csv", std::process::id()));
     std::fs::write(&path, "0,0,0,200,1\n\u{1}garbage\n").unwrap();
-    let v: Vec<_> = replay_file("--stream file", &path).unwrap().collect();
+    let v: Vec<_> = replay_file("--stream", &path).unwrap().collect();
     let _ = std::fs::remove_file(&path);
     let err = v
         .into_iter()
