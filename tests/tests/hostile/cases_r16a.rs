@@ -5,6 +5,17 @@
 //!   any input said "pipe into standard input instead", `--scene`,
 //!   `--library` and `--phases` too, which read no standard input; now only
 //!   a flag that takes `-` says so, naming itself (`give `--input -``).
+//! - r16a-2: a value that is no number is refused in one wording wherever
+//!   it is read, saying what it looks like: a lone number flag said `0x10
+//!   is not a number: give one such as …`, a number in a flag's list ``
+//!   `0x10` is not a number (got `0,0x10,150`)`` (an empty item `` `` ``),
+//!   `--away` `` `x` is not a number of seconds``, `--z-profile` its own
+//!   words again, a CSV centroid field `` x `0x10` is not a number``, and
+//!   none said that `2,5` has a decimal comma (a CSV field did), `3mm` a
+//!   unit, `١٢` or `５` digits other than 0-9, `0x10` hexadecimal or
+//!   `1_000` digit separators. Now `limits::no_number` says it for every
+//!   reader, `files::text::number_hint` what it looks like (whole-number
+//!   flags too).
 //!
 //! Fixtures in `{dir}/r16a`.
 
@@ -62,5 +73,61 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
         )
         .err(&fifo("--responses file", &pipe("--responses"))),
     ]);
+    // 2. One wording for a value that is no number, and what it looks like.
+    let give = "give one such as 2.5, -1 or 1e-3";
+    let lone = |v: &str, why: &str| {
+        with(R16A_NO_NUMBER, "plan --radius", &[v]).err(&format!(
+            "error: invalid value '{v}' for '--radius <MM>': {v} is not a number{why}: {give} (see --help)\n"
+        ))
+    };
+    let digits = " (digits other than 0-9: write it with 0-9)";
+    v.extend([
+        lone("0x10", " (a hexadecimal number? write it in decimal)"),
+        lone("1_000", " (digit separators? write `1000`)"),
+        lone("١٢", digits),
+        lone("５", digits),
+        lone("3mm", " (a unit after it? give the number alone: `3`)"),
+        lone("2,5", " (a decimal comma? write `2.5`)"),
+        lone("1e", ""),
+    ]);
+    let v16 = table! {
+        R16A_NO_NUMBER "plan --foci 0x2"
+            .err("error: invalid value '0x2' for '--foci <N>': 0x2 is not a whole number (a hexadecimal number? write it in decimal): allowed 1..=32 (see --help)\n");
+        R16A_NO_NUMBER "status --port {port} --timeout-ms 30ms"
+            .err("error: invalid value '30ms' for '--timeout-ms <MS>': 30ms is not a whole number (a unit after it? give the number alone: `30`): allowed 1..=60000 (see --help)\n");
+        R16A_NO_NUMBER "plan --steps 1,000"
+            .err("error: invalid value '1,000' for '--steps <N>': 1,000 is not a whole number: allowed 1..=65535 (see --help)\n");
+        R16A_NO_NUMBER "plan --center 0,,150"
+            .err("error: --center: an empty value is not a number: give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "plan --center 0,0x10,150"
+            .err("error: --center: 0x10 is not a number (a hexadecimal number? write it in decimal): give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "plan --foci 2 --weights 1,１"
+            .err("error: --weights: １ is not a number (digits other than 0-9: write it with 0-9): give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "simulate --plane-size 5mm"
+            .err("error: --plane-size: 5mm is not a number (a unit after it? give the number alone: `5`): give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "simulate --plane-axes 1,0,0,0,x,0"
+            .err("error: --plane-axes: x is not a number: give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "stream --synthetic --away x,1"
+            .err("error: --away `x,1`: START x is not a number: give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "track --synthetic --z-profile 3mm,8"
+            .err("error: --z-profile `3mm,8`: the radius 3mm is not a number (a unit after it? give the number alone: `3`): give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "sim --faults ber=1_0"
+            .err("error: --faults: ber: 1_0 is not a number (digit separators? write `10`): give one such as 2.5, -1 or 1e-3\n");
+        R16A_NO_NUMBER "stream --port {port} --input -"
+            .stdin("0,3mm,0,200,1\n")
+            .err("error: line 1: `x`: 3mm is not a number (a unit after it? give the number alone: `3`)\n");
+        R16A_NO_NUMBER "stream --port {port} --input -"
+            .stdin("0,0,0,,1\n")
+            .err("error: line 1: `z`: an empty value is not a number\n");
+    };
+    v.extend(v16);
     v
+}
+
+/// `case(class, args)` with `more` appended as single arguments (values
+/// with spaces or commas).
+fn with(class: &'static str, args: &str, more: &[&str]) -> Case {
+    let mut c = case(class, args);
+    c.args.extend(more.iter().map(|s| (*s).to_owned()));
+    c
 }

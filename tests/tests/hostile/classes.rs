@@ -184,9 +184,11 @@ pub const R15A_ENV: &str = "r15a-8 a flag's variable not UTF-8 is named";
 
 /// Round 16a: a sweep of the command line and its files (`cases_r16a.rs`).
 pub const R16A_ADVICE: &str = "r16a-1 a refusal's advice is one its flag can take";
+pub const R16A_NO_NUMBER: &str =
+    "r16a-2 a value that is no number is refused in one wording, saying what it looks like";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 136] = [
+pub const CLASSES: [&str; 137] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -323,4 +325,5 @@ pub const CLASSES: [&str; 136] = [
     R15A_OFF,
     R15A_ENV,
     R16A_ADVICE,
+    R16A_NO_NUMBER,
 ];

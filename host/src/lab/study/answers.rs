@@ -172,7 +172,7 @@ impl Asked {
                     self.column,
                     crate::limits::show(*min),
                     crate::limits::show(*max),
-                    crate::files::text::decimal_comma_hint(t)
+                    crate::files::text::number_hint(t)
                 )),
             },
         }

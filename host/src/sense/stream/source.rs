@@ -262,9 +262,8 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         let num = |i: usize, name: &str| {
             let v = fields[i].parse::<f64>().map_err(|_| {
                 InputError::new(format!(
-                    "line {line_no}: {name} `{}` is not a number{}",
-                    fields[i],
-                    crate::files::text::decimal_comma_hint(fields[i])
+                    "line {line_no}: `{name}`: {}",
+                    crate::limits::no_number(fields[i])
                 ))
             })?;
             crate::limits::exact_literal(fields[i], v)
