@@ -16,6 +16,12 @@
 //!   `1_000` digit separators. Now `limits::no_number` says it for every
 //!   reader, `files::text::number_hint` what it looks like (whole-number
 //!   flags too).
+//! - r16a-3: flags that together ask less than each says, without a word:
+//!   `simulate --plane-step 50` over the default 20 mm plane simulated
+//!   and plotted one point (a step wider than the plane leaves one point
+//!   across it), `--plane-size 20,10 --plane-step 15` a row; refused
+//!   where the plane is checked (`field::plane`), so Python's
+//!   `simulate()` meets it too.
 //!
 //! Fixtures in `{dir}/r16a`.
 
@@ -121,6 +127,15 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
             .err("error: line 1: `z`: an empty value is not a number\n");
     };
     v.extend(v16);
+    // 3. A step wider than the plane it steps over.
+    let plane = "error: bad observation plane: a step of";
+    v.extend(table! {
+        R16A_LESS "simulate --plane-step 50 --out {dir}/r16a/sim_wide"
+            .err(&format!("{plane} 50 mm is wider than the plane's width of 20 mm, which it would leave one point across; give a step of at most 20 mm\n"));
+        R16A_LESS "simulate --plane-size 20,10 --plane-step 15 --out {dir}/r16a/sim_row"
+            .err(&format!("{plane} 15 mm is wider than the plane's height of 10 mm, which it would leave one point across; give a step of at most 10 mm\n"));
+        R16A_LESS "simulate --plane-size 2,1 --plane-step 1 --out {dir}/r16a/sim_ok" .ok();
+    });
     v
 }
 

@@ -186,9 +186,10 @@ pub const R15A_ENV: &str = "r15a-8 a flag's variable not UTF-8 is named";
 pub const R16A_ADVICE: &str = "r16a-1 a refusal's advice is one its flag can take";
 pub const R16A_NO_NUMBER: &str =
     "r16a-2 a value that is no number is refused in one wording, saying what it looks like";
+pub const R16A_LESS: &str = "r16a-3 flags that together ask less than each says are refused";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 137] = [
+pub const CLASSES: [&str; 138] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -326,4 +327,5 @@ pub const CLASSES: [&str; 137] = [
     R15A_ENV,
     R16A_ADVICE,
     R16A_NO_NUMBER,
+    R16A_LESS,
 ];
