@@ -22,6 +22,15 @@
 //!   across it), `--plane-size 20,10 --plane-step 15` a row; refused
 //!   where the plane is checked (`field::plane`), so Python's
 //!   `simulate()` meets it too.
+//! - r16a-4: every `LMHOST_*` variable is taken as set or refused naming
+//!   it: `$LMHOST_PYTHON` not UTF-8 ran `python3` instead, empty "cannot
+//!   run ``"; `$LMHOST_CAMERA_COLOUR` other than `0` (`no`, `off`, empty)
+//!   asked the bridge for colour; `$LMHOST_PORT` set empty was taken for
+//!   unset (whatever board was found) where an empty `--port` and an empty
+//!   `$LMHOST_TIMEOUT_MS` are refused, and its upper-case prefix was
+//!   called `--port`; `lmhost doctor` left `$LMHOST_PORT` unchecked and
+//!   `$LMHOST_TIMEOUT_MS` unread, the device and timeout every other
+//!   command uses (a flag still wins over either).
 //!
 //! Fixtures in `{dir}/r16a`.
 
@@ -136,7 +145,69 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
             .err(&format!("{plane} 15 mm is wider than the plane's height of 10 mm, which it would leave one point across; give a step of at most 10 mm\n"));
         R16A_LESS "simulate --plane-size 2,1 --plane-step 1 --out {dir}/r16a/sim_ok" .ok();
     });
+    // 4. Each LMHOST_* variable as set, or refused naming it.
+    let camera = "track --camera --scene {scenes}/paper.toml";
+    let colour = |v: &str| {
+        case(R16A_ENV, camera).env("LMHOST_CAMERA_COLOUR", v).err(&format!(
+            "error: $LMHOST_CAMERA_COLOUR `{v}` is neither 0 (depth only) nor 1 (depth and colour, the default): give one of them, or unset it\n"
+        ))
+    };
+    let empty_port = "error: $LMHOST_PORT is empty: give a serial port path, tcp:HOST:PORT or autd3:…, or unset it for the one LM board found\n";
+    v.extend([
+        colour("no"),
+        colour(""),
+        colour(" 0"),
+        case(R16A_ENV, camera)
+            .env("LMHOST_PYTHON", "")
+            .err("error: $LMHOST_PYTHON is empty: give the Python that runs the RealSense bridge, or unset it for python3\n"),
+        case(R16A_ENV, camera)
+            .env("LMHOST_PYTHON", "python3 ")
+            .err("error: $LMHOST_PYTHON `python3 ` has spaces at an end: give the Python's name without them\n"),
+        case(R16A_ENV, camera)
+            .code(1)
+            .env("LMHOST_CAMERA_COLOUR", "0")
+            .env("LMHOST_PYTHON", "{dir}/r16a/no_python")
+            .err("error: no camera: cannot run `{dir}/r16a/no_python` (the RealSense bridge needs python3 with pyrealsense2)\n"),
+        case(R16A_ENV, "status").env("LMHOST_PORT", "").err(empty_port),
+        case(R16A_ENV, "stream --synthetic").env("LMHOST_PORT", "").err(empty_port),
+        case(R16A_ENV, "doctor").env("LMHOST_PORT", "").err(empty_port),
+        case(R16A_ENV, "status --port {port}").env("LMHOST_PORT", "").ok(),
+        case(R16A_ENV, "status").env("LMHOST_PORT", "TCP:localhost:1").err(
+            "error: $LMHOST_PORT TCP:localhost:1: port prefixes are lowercase: tcp:HOST:PORT, autd3:emulator, autd3:soem[:IF], autd3:ethercrab[:IF], autd3:remote:HOST:PORT, or a serial port path\n",
+        ),
+        case(R16A_ENV, "doctor").env("LMHOST_PORT", "{port}").ok().out("ok      lm board: "),
+        case(R16A_ENV, "doctor").env("LMHOST_TIMEOUT_MS", "0").err(
+            "error: invalid value '0' for '--timeout-ms <MS>': 0 is out of range: allowed 1..=60000 (the value of $LMHOST_TIMEOUT_MS; see --help)\n",
+        ),
+        case(R16A_ENV, "doctor --timeout-ms 300").env("LMHOST_TIMEOUT_MS", "0").ok(),
+        case(R16A_ENV, "plan").ok().check(python_not_utf8),
+    ]);
     v
+}
+
+/// `$LMHOST_PYTHON` not UTF-8 is run as named (a path need not be UTF-8),
+/// not replaced by `python3`.
+fn python_not_utf8(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    use std::os::unix::ffi::OsStrExt as _;
+    let mut python = ctx.dir.join("r16a").into_os_string();
+    python.push(std::ffi::OsStr::from_bytes(b"/py\xff"));
+    let scene = ctx.scenes.join("paper.toml");
+    let out = Command::new(lmhost())
+        .args(["track", "--camera", "--scene"])
+        .arg(&scene)
+        .env("LMHOST_PYTHON", &python)
+        .env("LMHOST_CAMERA_COLOUR", "1")
+        .output()
+        .map_err(|e| e.to_string())?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    let want = format!(
+        "error: no camera: cannot run `{}/r16a/py\u{fffd}` (the RealSense bridge needs python3 with pyrealsense2)\n",
+        ctx.dir.display()
+    );
+    match (out.status.code(), err == want) {
+        (Some(1), true) => Ok(()),
+        (code, _) => Err(format!("non-UTF-8 $LMHOST_PYTHON: exit {code:?}, {err}")),
+    }
 }
 
 /// `case(class, args)` with `more` appended as single arguments (values

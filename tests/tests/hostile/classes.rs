@@ -187,9 +187,10 @@ pub const R16A_ADVICE: &str = "r16a-1 a refusal's advice is one its flag can tak
 pub const R16A_NO_NUMBER: &str =
     "r16a-2 a value that is no number is refused in one wording, saying what it looks like";
 pub const R16A_LESS: &str = "r16a-3 flags that together ask less than each says are refused";
+pub const R16A_ENV: &str = "r16a-4 an LMHOST_* variable is taken as set or refused, naming it";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 138] = [
+pub const CLASSES: [&str; 139] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -328,4 +329,5 @@ pub const CLASSES: [&str; 138] = [
     R16A_ADVICE,
     R16A_NO_NUMBER,
     R16A_LESS,
+    R16A_ENV,
 ];
