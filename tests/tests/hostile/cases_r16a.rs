@@ -31,6 +31,12 @@
 //!   called `--port`; `lmhost doctor` left `$LMHOST_PORT` unchecked and
 //!   `$LMHOST_TIMEOUT_MS` unread, the device and timeout every other
 //!   command uses (a flag still wins over either).
+//! - r16a-5: every signal whose default action ends the process leaves
+//!   outputs whole or absent, as SIGINT, SIGTERM and SIGHUP do: SIGUSR2
+//!   and SIGALRM (a `timeout -s ALRM`, a job scheduler's limit, SIGXCPU
+//!   from `ulimit -t`) killed lmhost with its output's temporary file
+//!   beside the name and, in `track --record`, no recording; now each ends
+//!   a command as the others do (`stop::SIGNALS`).
 //!
 //! Fixtures in `{dir}/r16a`.
 
@@ -38,7 +44,8 @@ use super::*;
 
 pub(crate) fn round16a_fixtures(dir: &Path) {
     let r = dir.join("r16a");
-    std::fs::create_dir_all(&r).unwrap();
+    std::fs::create_dir_all(r.join("sig")).unwrap();
+    std::fs::create_dir_all(r.join("rec")).unwrap();
 }
 
 /// The refusal of `{dir}/fifo` as `what`, and a flag's own advice.
@@ -182,7 +189,48 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
         case(R16A_ENV, "doctor --timeout-ms 300").env("LMHOST_TIMEOUT_MS", "0").ok(),
         case(R16A_ENV, "plan").ok().check(python_not_utf8),
     ]);
+    // 5. Every ending signal: outputs whole or absent.
+    v.extend(table! {
+        R16A_SIGNALS "simulate --plane-step 0.03 --out {dir}/r16a/sig/usr2"
+            .signal("USR2", 1500).code(140).err("lmhost: interrupted by SIGUSR2").check(sig_left_nothing);
+        R16A_SIGNALS "simulate --plane-step 0.03 --out {dir}/r16a/sig/xcpu"
+            .signal("XCPU", 1500).code(152).err("lmhost: interrupted by SIGXCPU").check(sig_left_nothing);
+        R16A_SIGNALS "track --synthetic --seconds 60 --record {dir}/r16a/rec/alrm.npy"
+            .signal("ALRM", 1500).ok().out("stopped by SIGALRM").check(alrm_recorded);
+    });
     v
+}
+
+/// Nothing under `{dir}/r16a/sig`: neither an output folder nor a
+/// temporary file.
+fn sig_left_nothing(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let d = ctx.dir.join("r16a/sig");
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .map_err(|e| e.to_string())?
+        .map(|e| e.map(|e| e.file_name()))
+        .collect::<Result<_, _>>()
+        .map_err(|e| e.to_string())?;
+    match left.is_empty() {
+        true => Ok(()),
+        false => Err(format!("left in {}: {left:?}", d.display())),
+    }
+}
+
+/// The recording stopped by SIGALRM is whole (with its files beside it),
+/// and no temporary file is left.
+fn alrm_recorded(ctx: &Ctx, _: &Run) -> Result<(), String> {
+    let d = ctx.dir.join("r16a/rec");
+    let mut names: Vec<String> = std::fs::read_dir(&d)
+        .map_err(|e| e.to_string())?
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let want = ["alrm.intrinsics.toml", "alrm.npy", "alrm.timestamps.npy"];
+    match names == want {
+        true => Ok(()),
+        false => Err(format!("{} holds {names:?}, want {want:?}", d.display())),
+    }
 }
 
 /// `$LMHOST_PYTHON` not UTF-8 is run as named (a path need not be UTF-8),
