@@ -37,6 +37,10 @@
 //!   from `ulimit -t`) killed lmhost with its output's temporary file
 //!   beside the name and, in `track --record`, no recording; now each ends
 //!   a command as the others do (`stop::SIGNALS`).
+//! - and r3-3 (an output that is an input) again: `calibrate force
+//!   --scene S --out L`, L a link to S, was refused only by the writer, as
+//!   `output L`, after the work: the scene is now read before `--out` is
+//!   checked, so it is refused by its flag first.
 //!
 //! Fixtures in `{dir}/r16a`.
 
@@ -46,6 +50,9 @@ pub(crate) fn round16a_fixtures(dir: &Path) {
     let r = dir.join("r16a");
     std::fs::create_dir_all(r.join("sig")).unwrap();
     std::fs::create_dir_all(r.join("rec")).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
+    std::fs::copy(scene, r.join("scene.toml")).unwrap();
+    std::os::unix::fs::symlink("scene.toml", r.join("link.toml")).unwrap();
 }
 
 /// The refusal of `{dir}/fifo` as `what`, and a flag's own advice.
@@ -189,6 +196,14 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
         case(R16A_ENV, "doctor --timeout-ms 300").env("LMHOST_TIMEOUT_MS", "0").ok(),
         case(R16A_ENV, "plan").ok().check(python_not_utf8),
     ]);
+    // r3-3: an --out that is the scene, through a link, by its flag.
+    v.push(
+        case(
+            SAME_FILE,
+            "calibrate force --measured 0.02 --scene {dir}/r16a/scene.toml --out {dir}/r16a/link.toml",
+        )
+        .err("error: --out {dir}/r16a/link.toml is the input {dir}/r16a/scene.toml: refusing to overwrite it; choose another output path\n"),
+    );
     // 5. Every ending signal: outputs whole or absent.
     v.extend(table! {
         R16A_SIGNALS "simulate --plane-step 0.03 --out {dir}/r16a/sig/usr2"
