@@ -37,6 +37,11 @@
 //!   from `ulimit -t`) killed lmhost with its output's temporary file
 //!   beside the name and, in `track --record`, no recording; now each ends
 //!   a command as the others do (`stop::SIGNALS`).
+//! - r16a-6: a JSON file that is no object is named as what it is:
+//!   serde reads a struct from an array too, so `--phases` given `[[]]`
+//!   or `[1,2,3]` said it "is a plan summary without its phases" (the
+//!   first item taken for `crc32`), `--foci-file` that it was a plan
+//!   report, and `"x"` or `5` "expected struct Keys", a Rust type's name.
 //! - and r3-3 (an output that is an input) again: `calibrate force
 //!   --scene S --out L`, L a link to S, was refused only by the writer, as
 //!   `output L`, after the work: the scene is now read before `--out` is
@@ -53,6 +58,17 @@ pub(crate) fn round16a_fixtures(dir: &Path) {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
     std::fs::copy(scene, r.join("scene.toml")).unwrap();
     std::os::unix::fs::symlink("scene.toml", r.join("link.toml")).unwrap();
+    for (name, body) in [
+        ("array.json", "[[]]\n"),
+        ("numbers.json", "[1,2,3]\n"),
+        ("string.json", "\"x\"\n"),
+        ("number.json", "5\n"),
+        ("null.json", "null\n"),
+        ("false.json", "false\n"),
+        ("toml.json", "name = \"x\"\n"),
+    ] {
+        std::fs::write(r.join(name), body).unwrap();
+    }
 }
 
 /// The refusal of `{dir}/fifo` as `what`, and a flag's own advice.
@@ -196,6 +212,31 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
         case(R16A_ENV, "doctor --timeout-ms 300").env("LMHOST_TIMEOUT_MS", "0").ok(),
         case(R16A_ENV, "plan").ok().check(python_not_utf8),
     ]);
+    // 6. A JSON file that is no object, named as what it is.
+    let phases = r#"{"phases": [[P, ...], ...], "dwell_us": D}"#;
+    let foci = r#"{"foci_mm": [[[x, y, z], ...], ...], "dwell_us": D}"#;
+    for (file, it) in [
+        ("array", "an array"),
+        ("numbers", "an array"),
+        ("string", "a string"),
+        ("number", "a number"),
+        ("null", "`null`"),
+        ("false", "`false`"),
+    ] {
+        v.push(
+            case(R16A_NOT_OBJECT, &format!("upload --port {{port}} --phases {{dir}}/r16a/{file}.json"))
+                .err(&format!("error: --phases file {{dir}}/r16a/{file}.json: is {it}, not a JSON object: give {phases}\n")),
+        );
+        v.push(
+            case(R16A_NOT_OBJECT, &format!("upload --port {{port}} --foci-file {{dir}}/r16a/{file}.json"))
+                .err(&format!("error: --foci-file {{dir}}/r16a/{file}.json: is {it}, not a JSON object: give {foci}\n")),
+        );
+    }
+    // Not JSON at all: its parse's place, not a kind of value.
+    v.push(
+        case(R16A_NOT_OBJECT, "upload --port {port} --phases {dir}/r16a/toml.json")
+            .err("error: --phases file {dir}/r16a/toml.json: not a phases JSON object (expected ident at line 1 column 2)\n"),
+    );
     // r3-3: an --out that is the scene, through a link, by its flag.
     v.push(
         case(

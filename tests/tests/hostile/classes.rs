@@ -188,11 +188,12 @@ pub const R16A_NO_NUMBER: &str =
     "r16a-2 a value that is no number is refused in one wording, saying what it looks like";
 pub const R16A_LESS: &str = "r16a-3 flags that together ask less than each says are refused";
 pub const R16A_ENV: &str = "r16a-4 an LMHOST_* variable is taken as set or refused, naming it";
+pub const R16A_NOT_OBJECT: &str = "r16a-6 a JSON file that is no object is named as what it is";
 pub const R16A_SIGNALS: &str =
     "r16a-5 every signal that would end the process leaves outputs whole or absent";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 140] = [
+pub const CLASSES: [&str; 141] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -333,4 +334,5 @@ pub const CLASSES: [&str; 140] = [
     R16A_LESS,
     R16A_ENV,
     R16A_SIGNALS,
+    R16A_NOT_OBJECT,
 ];
