@@ -42,6 +42,11 @@
 //!   or `[1,2,3]` said it "is a plan summary without its phases" (the
 //!   first item taken for `crc32`), `--foci-file` that it was a plan
 //!   report, and `"x"` or `5` "expected struct Keys", a Rust type's name.
+//! - r16a-7: an output that cannot be written because of its folder names
+//!   the part of the path that is wrong: "a part of the path is not a
+//!   directory" (`--out FILE/x.json`, `--record`, `--events`, an `--out`
+//!   folder) and "no such file or directory" (a missing folder, or a
+//!   symbolic link whose target's folder is missing) named none.
 //! - and r3-3 (an output that is an input) again: `calibrate force
 //!   --scene S --out L`, L a link to S, was refused only by the writer, as
 //!   `output L`, after the work: the scene is now read before `--out` is
@@ -58,6 +63,8 @@ pub(crate) fn round16a_fixtures(dir: &Path) {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/paper.toml");
     std::fs::copy(scene, r.join("scene.toml")).unwrap();
     std::os::unix::fs::symlink("scene.toml", r.join("link.toml")).unwrap();
+    std::fs::write(r.join("plain"), "a file, not a folder\n").unwrap();
+    std::os::unix::fs::symlink(r.join("gone/x.json"), r.join("dangling.json")).unwrap();
     for (name, body) in [
         ("array.json", "[[]]\n"),
         ("numbers.json", "[1,2,3]\n"),
@@ -65,7 +72,7 @@ pub(crate) fn round16a_fixtures(dir: &Path) {
         ("number.json", "5\n"),
         ("null.json", "null\n"),
         ("false.json", "false\n"),
-        ("toml.json", "name = \"x\"\n"),
+        ("toml.JSON", "name = \"x\"\n"),
     ] {
         std::fs::write(r.join(name), body).unwrap();
     }
@@ -232,10 +239,37 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
                 .err(&format!("error: --foci-file {{dir}}/r16a/{file}.json: is {it}, not a JSON object: give {foci}\n")),
         );
     }
-    // Not JSON at all: its parse's place, not a kind of value.
+    // Not JSON at all (upper-case extension: not one of the files the
+    // wholeness check reads as JSON): its parse's place, not a kind.
     v.push(
-        case(R16A_NOT_OBJECT, "upload --port {port} --phases {dir}/r16a/toml.json")
-            .err("error: --phases file {dir}/r16a/toml.json: not a phases JSON object (expected ident at line 1 column 2)\n"),
+        case(R16A_NOT_OBJECT, "upload --port {port} --phases {dir}/r16a/toml.JSON")
+            .err("error: --phases file {dir}/r16a/toml.JSON: not a phases JSON object (expected ident at line 1 column 2)\n"),
+    );
+    // 7. The part of an output's path that is wrong.
+    let plain = "{dir}/r16a/plain is a regular file, not a folder";
+    v.extend(table! {
+        R16A_WHICH_PART "plan --out {dir}/r16a/plain/x.json" .code(1)
+            .err(&format!("error: cannot write {{dir}}/r16a/plain/x.json: {plain}\n"));
+        R16A_WHICH_PART "wiring --out {dir}/r16a/plain/deeper/w.csv" .code(1)
+            .err(&format!("error: cannot write {{dir}}/r16a/plain/deeper/w.csv: {plain}\n"));
+        R16A_WHICH_PART "track --synthetic --fast --seconds 0.1 --record {dir}/r16a/plain/r.npy" .code(1)
+            .err(&format!("error: cannot write {{dir}}/r16a/plain/r.npy: {plain}\n"));
+        R16A_WHICH_PART "simulate --plane-size 2 --plane-step 1 --out {dir}/r16a/plain/sim" .code(1)
+            .err(&format!("error: cannot create the --out directory {{dir}}/r16a/plain/sim: {plain}\n"));
+        R16A_WHICH_PART "plan --out {dir}/r16a/missing/x.json" .code(1)
+            .err("error: cannot write {dir}/r16a/missing/x.json: its folder {dir}/r16a/missing does not exist\n");
+        R16A_WHICH_PART "plan --out {dir}/r16a/dangling.json" .code(1)
+            .err("error: cannot write {dir}/r16a/dangling.json: it is a symbolic link to {dir}/r16a/gone/x.json, and its folder {dir}/r16a/gone does not exist\n");
+    });
+    v.push(
+        case(
+            R16A_WHICH_PART,
+            &format!("{SESSION} --events {{dir}}/r16a/plain/e.jsonl"),
+        )
+        .code(1)
+        .err(&format!(
+            "error: cannot write {{dir}}/r16a/plain/e.jsonl: {plain}\n"
+        )),
     );
     // r3-3: an --out that is the scene, through a link, by its flag.
     v.push(

@@ -189,11 +189,13 @@ pub const R16A_NO_NUMBER: &str =
 pub const R16A_LESS: &str = "r16a-3 flags that together ask less than each says are refused";
 pub const R16A_ENV: &str = "r16a-4 an LMHOST_* variable is taken as set or refused, naming it";
 pub const R16A_NOT_OBJECT: &str = "r16a-6 a JSON file that is no object is named as what it is";
+pub const R16A_WHICH_PART: &str =
+    "r16a-7 an output its folder stops names the part of the path that is wrong";
 pub const R16A_SIGNALS: &str =
     "r16a-5 every signal that would end the process leaves outputs whole or absent";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 141] = [
+pub const CLASSES: [&str; 142] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -335,4 +337,5 @@ pub const CLASSES: [&str; 141] = [
     R16A_ENV,
     R16A_SIGNALS,
     R16A_NOT_OBJECT,
+    R16A_WHICH_PART,
 ];
