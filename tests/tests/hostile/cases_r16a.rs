@@ -21,7 +21,10 @@
 //!   and plotted one point (a step wider than the plane leaves one point
 //!   across it), `--plane-size 20,10 --plane-step 15` a row; refused
 //!   where the plane is checked (`field::plane`), so Python's
-//!   `simulate()` meets it too.
+//!   `simulate()` meets it too. `stream --synthetic --away 0,100
+//!   --seconds 1` (a window larger than the run) streamed 90 samples and
+//!   no finger: an away window that holds every frame is refused where
+//!   r15a-1 refuses one that holds none.
 //! - r16a-4: every `LMHOST_*` variable is taken as set or refused naming
 //!   it: `$LMHOST_PYTHON` not UTF-8 ran `python3` instead, empty "cannot
 //!   run ``"; `$LMHOST_CAMERA_COLOUR` other than `0` (`no`, `off`, empty)
@@ -181,6 +184,12 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
         R16A_LESS "simulate --plane-size 20,10 --plane-step 15 --out {dir}/r16a/sim_row"
             .err(&format!("{plane} 15 mm is wider than the plane's height of 10 mm, which it would leave one point across; give a step of at most 10 mm\n"));
         R16A_LESS "simulate --plane-size 2,1 --plane-step 1 --out {dir}/r16a/sim_ok" .ok();
+        R16A_LESS "stream --synthetic --fast --port {port} --away 0,100 --seconds 1"
+            .err("error: --away 0,100 holds every frame of the stream (--seconds 1): the finger would never show; give a window that leaves it at least one frame\n");
+        R16A_LESS "stream --synthetic --fast --port {port} --away 0,10"
+            .err("error: --away 0,10 holds every frame of the stream (--seconds 10): the finger would never show; give a window that leaves it at least one frame\n");
+        R16A_LESS "stream --synthetic --fast --port {port} --away 0,0.98 --seconds 1" .ok()
+            .out("streamed 90 samples (1 with a finger)");
     });
     // 4. Each LMHOST_* variable as set, or refused naming it.
     let camera = "track --camera --scene {scenes}/paper.toml";
