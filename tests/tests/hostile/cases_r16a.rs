@@ -15,7 +15,10 @@
 //!   unit, `١٢` or `５` digits other than 0-9, `0x10` hexadecimal or
 //!   `1_000` digit separators. Now `limits::no_number` says it for every
 //!   reader, `files::text::number_hint` what it looks like (whole-number
-//!   flags too).
+//!   flags too). A TOML file's number in quotes said `invalid type:
+//!   string "2,5", expected a number` in every TOML file: now `"2,5" is
+//!   text, not a number (a decimal comma? write `2.5`)`, and `"5"` what
+//!   to write.
 //! - r16a-3: flags that together ask less than each says, without a word:
 //!   `simulate --plane-step 50` over the default 20 mm plane simulated
 //!   and plotted one point (a step wider than the plane leaves one point
@@ -67,6 +70,26 @@ pub(crate) fn round16a_fixtures(dir: &Path) {
     std::fs::copy(scene, r.join("scene.toml")).unwrap();
     std::os::unix::fs::symlink("scene.toml", r.join("link.toml")).unwrap();
     std::fs::write(r.join("plain"), "a file, not a folder\n").unwrap();
+    let scene_text = std::fs::read_to_string(r.join("scene.toml")).unwrap();
+    let studies = Path::new(env!("CARGO_MANIFEST_DIR")).join("../studies");
+    let protocol = std::fs::read_to_string(studies.join("paper-exp1.toml")).unwrap();
+    for (name, body) in [
+        (
+            "dwell_comma.toml",
+            scene_text.replacen("min_dwell_ms = 1.0", "min_dwell_ms = \"2,5\"", 1),
+        ),
+        (
+            "lib_steps.toml",
+            "[[stimulus]]\nid = \"a\"\nradius = 2.0\nsteps = \"10\"\n".to_owned(),
+        ),
+        (
+            "touch_unit.toml",
+            protocol.replacen("touch_s = 3.0", "touch_s = \"3 s\"", 1),
+        ),
+    ] {
+        assert!(body.contains('"'), "{name}");
+        std::fs::write(r.join(name), body).unwrap();
+    }
     std::os::unix::fs::symlink(r.join("gone/x.json"), r.join("dangling.json")).unwrap();
     for (name, body) in [
         ("array.json", "[[]]\n"),
@@ -176,6 +199,14 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
             .err("error: line 1: `z`: an empty value is not a number\n");
     };
     v.extend(v16);
+    v.extend(table! {
+        R16A_NO_NUMBER "scene --scene {dir}/r16a/dwell_comma.toml"
+            .err("error: scene file {dir}/r16a/dwell_comma.toml: line 9, field `min_dwell_ms`: \"2,5\" is text, not a number (a decimal comma? write `2.5`)\n");
+        R16A_NO_NUMBER "simulate --library {dir}/r16a/lib_steps.toml --stimulus a --out {dir}/r16a/lib_sim"
+            .err("error: stimulus library {dir}/r16a/lib_steps.toml: line 4, field `stimulus[0].steps`: \"10\" is text, not a whole number in 1..=65535: write `10` without quotes\n");
+        R16A_NO_NUMBER "study check {dir}/r16a/touch_unit.toml"
+            .err("error: study protocol {dir}/r16a/touch_unit.toml: line 28, field `timeline.touch_s`: \"3 s\" is text, not a number (a unit after it? give the number alone: `3`)\n");
+    });
     // 3. A step wider than the plane it steps over.
     let plane = "error: bad observation plane: a step of";
     v.extend(table! {
