@@ -232,32 +232,48 @@ pub const MAX_SIM_WORK: f64 = 5.0e10;
 pub const MAX_SIM_WORK_REFERENCE: f64 = 5.0e9;
 
 /// Why `s` is no number, for a number flag's refusal and a number in a
-/// flag's list: one wording for both.
+/// flag's list: one wording for both ([`no_number`], then what to give).
 pub fn not_a_number(s: &str) -> String {
-    const GIVE: &str = "give one such as 2.5, -1 or 1e-3";
+    format!("{}: give one such as 2.5, -1 or 1e-3", no_number(s))
+}
+
+/// `s` is no number, and what it looks like
+/// ([`crate::files::text::number_hint`]): `0x10 is not a number (a
+/// hexadecimal number? write it in decimal)`. The words of every number
+/// refused as text, a flag's, a list item's, a CSV field's, before what
+/// its reader asks for instead.
+pub fn no_number(s: &str) -> String {
     if s.is_empty() {
-        format!("an empty value is not a number: {GIVE}")
+        "an empty value is not a number".into()
     } else if s.trim() != s {
-        format!("`{s}` is not a number (white space around it): {GIVE}")
+        format!(
+            "`{}` is not a number (white space around it)",
+            crate::error::short_echo(s)
+        )
     } else {
-        format!("{s} is not a number: {GIVE}")
+        format!(
+            "{} is not a number{}",
+            crate::error::short_echo(s),
+            crate::files::text::number_hint(s)
+        )
     }
 }
 
 /// `literal` read as a number, exactly ([`exact_literal`]): for a number
 /// inside a flag's value (`--center X,Y,Z`, `--away START,END`,
 /// `--faults ber=P`), which a lone number flag's parser never sees. `Err`:
-/// the message, for the caller to prefix with the flag (`None` when it is
-/// not a number at all, for the caller's own wording).
-pub fn exact_number(literal: &str) -> Result<f64, Option<String>> {
+/// the message, for the caller to prefix with the flag and the part; one
+/// that is no number in a lone number flag's words ([`not_a_number`]:
+/// each list had words of its own, `` `` is not a number (got …)``).
+pub fn exact_number(literal: &str) -> Result<f64, String> {
     // Spaces at an end refused as a lone number flag refuses them: a list
     // trimmed its items (`--center " 0,0,150"` taken) where `--radius " 5"`
     // was refused.
-    if literal.trim() != literal {
-        return Err(Some(not_a_number(literal)));
-    }
-    let v: f64 = literal.parse().map_err(|_| None)?;
-    exact_literal(literal, v).map_err(Some)?;
+    let v: f64 = match literal.parse() {
+        Ok(v) if literal.trim() == literal => v,
+        _ => return Err(not_a_number(literal)),
+    };
+    exact_literal(literal, v)?;
     Ok(v)
 }
 
@@ -491,17 +507,25 @@ mod tests {
         assert_eq!(exact_number("2.5"), Ok(2.5));
         assert_eq!(exact_number("-0"), Ok(-0.0));
         assert_eq!(exact_number("0e-400"), Ok(0.0));
-        assert_eq!(exact_number("x"), Err(None));
-        // Spaces at an end in a lone number flag's words.
-        assert_eq!(
-            exact_number(" 1"),
-            Err(Some(
-                "` 1` is not a number (white space around it): give one such as 2.5, -1 or 1e-3"
-                    .into()
-            ))
-        );
+        // In a lone number flag's words, spaces at an end too.
+        for (v, why) in [
+            ("x", "x is not a number"),
+            ("", "an empty value is not a number"),
+            ("` 1`", "` 1` is not a number (white space around it)"),
+            (
+                "3mm",
+                "3mm is not a number (a unit after it? give the number alone: `3`)",
+            ),
+        ] {
+            let v = v.trim_matches('`');
+            assert_eq!(
+                exact_number(v),
+                Err(format!("{why}: give one such as 2.5, -1 or 1e-3")),
+                "{v}"
+            );
+        }
         for tiny in ["1e-400", "-5e-330"] {
-            let m = exact_number(tiny).unwrap_err().unwrap();
+            let m = exact_number(tiny).unwrap_err();
             assert!(
                 m.starts_with(&format!("{tiny} is too small to represent")),
                 "{m}"

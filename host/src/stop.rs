@@ -1,6 +1,8 @@
 //! The one stop flag: what the ending signals ([`SIGNALS`]: SIGINT
-//! (Ctrl-C), SIGTERM, SIGHUP (the terminal closed), SIGQUIT (Ctrl-\) and
-//! SIGUSR1) do.
+//! (Ctrl-C), SIGTERM, SIGHUP (the terminal closed), SIGQUIT (Ctrl-\),
+//! SIGUSR1, and every other signal whose default action ends the process:
+//! SIGUSR2, the timers' SIGALRM, SIGVTALRM and SIGPROF, the limits'
+//! SIGXCPU and SIGXFSZ, SIGIO, SIGPWR and SIGSTKFLT) do.
 //!
 //! `main` calls [`install`] before any command runs. From then on any of
 //! them does one of two things:
@@ -46,10 +48,16 @@ static DIRS: [AtomicPtr<c_char>; MAX_DIRS] =
 
 /// The signals that end a command. Each one's default action would end the
 /// process at once (SIGQUIT with a core dump), leaving an array that a
-/// session or a hold loop plays sounding: all of them go through the flag.
-pub const SIGNALS: [nix::sys::signal::Signal; 5] = {
+/// session or a hold loop plays sounding and an output's temporary file
+/// beside its name (SIGUSR2 and SIGALRM did, as only the first five were
+/// caught): all of them go through the flag. (SIGPIPE is ignored by Rust's
+/// runtime; a closed pipe is a write error.)
+pub const SIGNALS: [nix::sys::signal::Signal; 14] = {
     use nix::sys::signal::Signal::*;
-    [SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGUSR1]
+    [
+        SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPROF, SIGXCPU,
+        SIGXFSZ, SIGIO, SIGPWR, SIGSTKFLT,
+    ]
 };
 
 /// What asked the running command to stop, for its end line and its
@@ -212,6 +220,15 @@ fn ending_line(sig: libc::c_int) -> &'static [u8] {
         libc::SIGHUP => b"lmhost: interrupted by SIGHUP",
         libc::SIGQUIT => b"lmhost: interrupted by SIGQUIT",
         libc::SIGUSR1 => b"lmhost: interrupted by SIGUSR1",
+        libc::SIGUSR2 => b"lmhost: interrupted by SIGUSR2",
+        libc::SIGALRM => b"lmhost: interrupted by SIGALRM",
+        libc::SIGVTALRM => b"lmhost: interrupted by SIGVTALRM",
+        libc::SIGPROF => b"lmhost: interrupted by SIGPROF",
+        libc::SIGXCPU => b"lmhost: interrupted by SIGXCPU",
+        libc::SIGXFSZ => b"lmhost: interrupted by SIGXFSZ",
+        libc::SIGIO => b"lmhost: interrupted by SIGIO",
+        libc::SIGPWR => b"lmhost: interrupted by SIGPWR",
+        libc::SIGSTKFLT => b"lmhost: interrupted by SIGSTKFLT",
         _ => b"lmhost: interrupted by a signal",
     }
 }

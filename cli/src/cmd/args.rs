@@ -309,11 +309,12 @@ impl FingerArgs {
                 }
             }
         }
-        for (what, p) in [
-            ("--stream file", &self.stream),
-            ("--depth-stream file", &self.depth_stream),
+        for (flag, what, p) in [
+            ("--stream", "--stream file", &self.stream),
+            ("--depth-stream", "--depth-stream file", &self.depth_stream),
         ] {
             if let Some(p) = p.as_deref().filter(|p| p.as_os_str() != "-") {
+                lmhost::files::not_a_pipe(what, flag, p)?;
                 open_input(what, p)?;
             }
         }
@@ -394,7 +395,7 @@ impl FingerArgs {
             )
         } else {
             // A recording plays at its time stamps, as in `lmhost stream`.
-            let samples = source::replay_file("--stream file", p)?;
+            let samples = source::replay_file("--stream", p)?;
             FingerFeed::Samples(
                 on_thread(move || source::paced(samples, lmhost::clock::Clock::real()))?,
                 intake(Timing::Replay),

@@ -171,13 +171,15 @@ impl Args {
 
 impl ForceArgs {
     fn run(self) -> anyhow::Result<()> {
-        let dest = self.output.dest()?;
         let center = self
             .center
             .as_deref()
             .map(|c| parse_vec3("center", c))
             .transpose()?;
+        // The scene read first: an --out that is it is then refused as
+        // the input it is, by its flag, before the work.
         let (scene, text) = self.output.load()?;
+        let dest = self.output.dest()?;
         let cal = force::calibrate(&scene, self.measured, self.disk, center)?;
         let body = cal.table();
         let wrote = self.output.finish(&dest, &text, "calibration", &body)?;
@@ -207,7 +209,6 @@ impl ForceArgs {
 
 impl CameraArgs {
     fn run(self) -> anyhow::Result<()> {
-        let dest = self.output.dest()?;
         if !(self.max_residual.is_finite() && self.max_residual > 0.0 && self.max_residual <= 100.0)
         {
             lmhost::bad_input!(
@@ -231,6 +232,7 @@ impl CameraArgs {
         };
         let intr = Intrinsics::load(&ipath)?;
         let (_, text) = self.output.load()?;
+        let dest = self.output.dest()?;
         let cal = camera::calibrate(&target, &intr, self.max_residual)?;
         let body = cal.table();
         let wrote = self.output.finish(&dest, &text, "camera", &body)?;

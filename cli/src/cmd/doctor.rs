@@ -9,11 +9,14 @@ use lmhost::lab::doctor::{self, Env, Options};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Also check this device (a serial port or pty, `tcp:HOST:PORT`, or
-    /// `autd3:...`); repeatable, each port once.
+    /// `autd3:...`); repeatable, each port once [default: $LMHOST_PORT,
+    /// when set: the device every other command uses].
     #[arg(long, value_name = "PORT")]
     pub port: Vec<String>,
-    /// Response timeout per request to an LM board (ms).
-    #[arg(long, value_name = "MS", default_value_t = 300,
+    /// Response timeout per request to an LM board (ms), 1..=60000
+    /// [default: $LMHOST_TIMEOUT_MS, else 300].
+    #[arg(long, value_name = "MS", env = "LMHOST_TIMEOUT_MS", default_value_t = 300,
+          hide_default_value = true, hide_env = true,
           value_parser = super::whole::whole::<u64>(1, lmhost::limits::MAX_TIMEOUT_MS))]
     pub timeout_ms: u64,
     /// Print JSON (one array of checks) instead of lines.
@@ -24,11 +27,7 @@ pub struct Args {
 impl Args {
     /// Checks and prints.
     pub fn run(self) -> anyhow::Result<()> {
-        let options = Options {
-            ports: self.port,
-            timeout_ms: self.timeout_ms,
-        };
-        options.check()?;
+        let options = Options::given(self.port, self.timeout_ms)?;
         let checks = doctor::run(&Env::live(), &options);
         if self.json {
             lmhost::outln!("{}", serde_json::to_string(&checks)?)?;

@@ -94,12 +94,7 @@ pub struct StimulusFlags {
 
 fn parse_list(flag: &str, s: &str) -> Result<Vec<f64>, InputError> {
     s.split(',')
-        .map(|x| {
-            limits::exact_number(x).map_err(|e| match e {
-                Some(m) => InputError::new(format!("--{flag}: {m}")),
-                None => InputError::new(format!("--{flag}: `{x}` is not a number (got `{s}`)")),
-            })
-        })
+        .map(|x| limits::exact_number(x).map_err(|m| InputError::new(format!("--{flag}: {m}"))))
         .collect()
 }
 

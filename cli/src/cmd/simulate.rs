@@ -127,7 +127,7 @@ impl Args {
             Some(s) => {
                 let v: Result<Vec<f64>, _> =
                     s.split(',').map(lmhost::limits::exact_number).collect();
-                if let Err(Some(m)) = &v {
+                if let Err(m) = &v {
                     return Err(InputError::new(format!("--plane-size: {m}")));
                 }
                 match v.as_deref() {
@@ -148,12 +148,7 @@ impl Args {
                     .split([',', ';'])
                     .map(lmhost::limits::exact_number)
                     .collect::<Result<_, _>>()
-                    .map_err(|e| match e {
-                        Some(m) => InputError::new(format!("--plane-axes: {m}")),
-                        None => InputError::new(format!(
-                            "--plane-axes takes six numbers UX,UY,UZ,VX,VY,VZ, got `{s}`"
-                        )),
-                    })?;
+                    .map_err(|m| InputError::new(format!("--plane-axes: {m}")))?;
                 if v.len() != 6 {
                     return Err(InputError::new(format!(
                         "--plane-axes takes six numbers UX,UY,UZ,VX,VY,VZ, got `{s}`"

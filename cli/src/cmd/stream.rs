@@ -107,10 +107,7 @@ fn parse_away(s: &str) -> Result<(f64, f64), lmhost::InputError> {
         .filter(|(_, b)| !b.contains(','))
         .ok_or_else(|| said("give START,END: two times in seconds, one comma between".into()))?;
     let number = |x: &str, part: &str| {
-        lmhost::limits::exact_number(x).map_err(|e| match e {
-            Some(m) => said(format!("{part} {m}")),
-            None => said(format!("{part} `{x}` is not a number of seconds")),
-        })
+        lmhost::limits::exact_number(x).map_err(|m| said(format!("{part} {m}")))
     };
     let (a, b) = (number(a, "START")?, number(b, "END")?);
     if !(a.is_finite() && a >= 0.0) {
@@ -202,7 +199,7 @@ impl Args {
                 None => (stdin_samples()?, Pace::Arrival),
                 Some(p) if p.as_os_str() == "-" => (stdin_samples()?, Pace::Arrival),
                 Some(p) => {
-                    let samples = source::replay_file("--input file", p)?;
+                    let samples = source::replay_file("--input", p)?;
                     (on_thread(move || samples)?, pace)
                 }
             }

@@ -28,10 +28,17 @@ where
         if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
             // An empty value or one with spaces shown as one (` 5` read
             // as "5 is not" named a value that would have been taken).
+            // What it looks like as a number written another way (`0x10`,
+            // `1_000`, `30ms`), in a number flag's words; a comma in a
+            // whole number is no decimal comma (`1,000`).
+            let hint = match s.contains(',') {
+                true => String::new(),
+                false => lmhost::files::text::number_hint(s),
+            };
             return Err(match s {
                 "" => format!("an empty value is not a whole number: allowed {range}"),
                 _ if s.trim() != s => format!("`{s}` is not a whole number: allowed {range}"),
-                _ => format!("{s} is not a whole number: allowed {range}"),
+                _ => format!("{s} is not a whole number{hint}: allowed {range}"),
             });
         }
         s.parse::<u64>()
@@ -93,7 +100,23 @@ mod tests {
             ("", "an empty value is not a whole number: allowed 1..=90"),
             (" 5", "` 5` is not a whole number: allowed 1..=90"),
             ("-", "- is not a whole number: allowed 1..=90"),
-            ("٣", "٣ is not a whole number: allowed 1..=90"),
+            (
+                "٣",
+                "٣ is not a whole number (digits other than 0-9: write it with 0-9): allowed 1..=90",
+            ),
+            (
+                "0x10",
+                "0x10 is not a whole number (a hexadecimal number? write it in decimal): allowed 1..=90",
+            ),
+            (
+                "1_0",
+                "1_0 is not a whole number (digit separators? write `10`): allowed 1..=90",
+            ),
+            (
+                "30ms",
+                "30ms is not a whole number (a unit after it? give the number alone: `30`): allowed 1..=90",
+            ),
+            ("1,000", "1,000 is not a whole number: allowed 1..=90"),
         ] {
             assert_eq!(p(v), Err(want.to_owned()), "{v}");
         }

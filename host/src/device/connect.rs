@@ -47,6 +47,9 @@ impl PortSpec {
             )));
         }
         if let Some(p) = port {
+            if self.port.is_none() {
+                discover::empty_env(p)?;
+            }
             discover::check_name(&named, p)?;
         }
         if let Some((prefix, _)) = port.and_then(|p| p.split_once(':'))
@@ -54,8 +57,9 @@ impl PortSpec {
                 .iter()
                 .any(|k| prefix.eq_ignore_ascii_case(k) && prefix != *k)
         {
+            // Named as given: `$LMHOST_PORT` was called `--port`.
             return Err(crate::InputError::new(format!(
-                "--port {}: port prefixes are lowercase: tcp:HOST:PORT, autd3:emulator, \
+                "{named} {}: port prefixes are lowercase: tcp:HOST:PORT, autd3:emulator, \
                  autd3:soem[:IF], autd3:ethercrab[:IF], autd3:remote:HOST:PORT, or a serial port path",
                 port.unwrap_or_default()
             )));

@@ -63,6 +63,19 @@ impl ObservationPlane {
                 )));
             }
         }
+        // A step wider than a side of the plane gave that side one point,
+        // the width or height asked for dropped without a word (a 20 mm
+        // plane at a 50 mm step was one pixel).
+        for (name, w) in [("width", self.width_mm), ("height", self.height_mm)] {
+            if w > 0.0 && self.step_mm > w * (1.0 + 1e-9) {
+                return Err(FieldError::BadPlane(format!(
+                    "a step of {} mm is wider than the plane's {name} of {} mm, which it would leave one point across; give a step of at most {} mm",
+                    crate::limits::show(self.step_mm),
+                    crate::limits::show(w),
+                    crate::limits::show(w),
+                )));
+            }
+        }
         self.u = u;
         self.v = v;
         // Counted in f64 before any integer conversion, so a tiny step is

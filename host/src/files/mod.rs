@@ -115,9 +115,6 @@ fn kind(m: &Metadata) -> Option<String> {
     Some(match what_is(t) {
         _ if t.is_file() => return None,
         _ if t.is_dir() => "it is a directory".into(),
-        fifo if t.is_fifo() => {
-            format!("it is {fifo}, not a regular file; pipe into standard input instead")
-        }
         other => format!("it is {other}, not a regular file"),
     })
 }
@@ -137,6 +134,22 @@ fn what_is(t: std::fs::FileType) -> &'static str {
         "a socket"
     } else {
         "something else"
+    }
+}
+
+/// For a flag that takes `-` for standard input (`flag`, e.g. `--input`):
+/// a FIFO at `path` refused saying so, and that `flag -` reads a pipe. A
+/// flag that takes no `-` (`--scene`) gets no such advice: "pipe into
+/// standard input instead" was said of every input, `--scene` too, which
+/// reads no standard input.
+pub fn not_a_pipe(what: &str, flag: &str, path: &Path) -> Result<(), InputError> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.file_type().is_fifo() => Err(InputError::new(format!(
+            "cannot read {what} {}: it is {}, not a regular file; give `{flag} -` and pipe into standard input instead",
+            path.display(),
+            what_is(m.file_type())
+        ))),
+        _ => Ok(()),
     }
 }
 
@@ -362,7 +375,7 @@ pub fn output_dir(flag: &str, dir: &Path) -> anyhow::Result<MadeDirs> {
         anyhow::anyhow!(
             "cannot create the {flag} directory {}: {}",
             dir.display(),
-            not_a_folder(dir).unwrap_or_else(|| reason(&e))
+            not_a_folder(dir).unwrap_or_else(|| reason_at(dir, &e))
         )
     })?;
     // A signal that ends the command at once removes them too.
@@ -388,6 +401,46 @@ fn not_a_folder(dir: &Path) -> Option<String> {
     (!t.is_dir()).then(|| format!("it is {}, not a directory", what_is(t)))
 }
 
+/// [`reason`] for writing or making `path`, naming the part that is wrong
+/// when its folder is missing or is not a folder: "a part of the path is
+/// not a directory" and "no such file or directory" named none (which
+/// part, or that `path` was a symbolic link whose target's folder is
+/// missing).
+pub fn reason_at(path: &Path, e: &std::io::Error) -> String {
+    use std::io::ErrorKind as K;
+    if !matches!(e.kind(), K::NotADirectory | K::NotFound) {
+        return reason(e);
+    }
+    // A symbolic link is written through: its target's folders count.
+    let (via, p) = match std::fs::read_link(path) {
+        Ok(t) => {
+            let t = path.parent().unwrap_or(Path::new("")).join(t);
+            (format!("it is a symbolic link to {}, and ", t.display()), t)
+        }
+        Err(_) => (String::new(), path.to_owned()),
+    };
+    let mut folders: Vec<&Path> = p
+        .ancestors()
+        .skip(1)
+        .filter(|a| !a.as_os_str().is_empty())
+        .collect();
+    folders.reverse();
+    for a in folders {
+        match std::fs::metadata(a) {
+            Ok(m) if m.is_dir() => {}
+            Ok(m) => {
+                return format!(
+                    "{via}{} is {}, not a folder",
+                    a.display(),
+                    what_is(m.file_type())
+                );
+            }
+            Err(_) => return format!("{via}its folder {} does not exist", a.display()),
+        }
+    }
+    reason(e)
+}
+
 /// The directories [`output_dir`] made, deepest first: removed when it
 /// drops while still empty.
 #[derive(Debug)]
@@ -411,10 +464,13 @@ impl Drop for MadeDirs {
 /// words, once (the I/O error is kept, not chained as a source, so the
 /// one-line message does not say it again in the OS's words).
 #[derive(Debug, thiserror::Error)]
-#[error("cannot write {}: {}", .path.display(), reason(.io))]
+#[error("cannot write {}: {why}", .path.display())]
 pub struct WriteError {
     path: PathBuf,
     io: std::io::Error,
+    /// [`reason_at`], when the error was made (the part of the path that
+    /// is wrong, looked at then).
+    why: String,
 }
 
 impl WriteError {
@@ -422,6 +478,7 @@ impl WriteError {
     pub fn new(path: &Path, io: std::io::Error) -> Self {
         Self {
             path: path.to_owned(),
+            why: reason_at(path, &io),
             io,
         }
     }

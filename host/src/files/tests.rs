@@ -327,7 +327,7 @@ fn a_write_error_says_its_reason_once() {
     let e: anyhow::Error = write_whole(Path::new("/nonexistent-dir/x.npy"), b"x").unwrap_err();
     assert_eq!(
         crate::error::one_line(&e),
-        "cannot write /nonexistent-dir/x.npy: no such file or directory"
+        "cannot write /nonexistent-dir/x.npy: its folder /nonexistent-dir does not exist"
     );
 }
 

@@ -181,13 +181,34 @@ impl Layout {
     }
 }
 
-/// A hint for a number refused in `field` that reads as one with a
-/// decimal comma (`3,5`): how to write it, or nothing.
-pub fn decimal_comma_hint(field: &str) -> String {
+/// What a value refused as a number in `field` looks like, when it looks
+/// like one written another way: ` (a decimal comma? write `3.5`)`, a unit
+/// after it (`3mm`), digits other than 0-9 (`١٢`, full-width `５`), a
+/// hexadecimal literal (`0x10`), digit separators (`1_000`); else
+/// nothing. One hint for every reader of numbers: a number flag, a number
+/// in a flag's list, a CSV field, an answer.
+pub fn number_hint(field: &str) -> String {
     let f = field.trim();
-    match f.contains(',') && f.replacen(',', ".", 1).parse::<f64>().is_ok() {
-        true => format!(" (a decimal comma? write `{}`)", f.replacen(',', ".", 1)),
-        false => String::new(),
+    let reads = |s: &str| s.parse::<f64>().is_ok();
+    let hex = f.strip_prefix(['-', '+']).unwrap_or(f);
+    if f.contains(',') && reads(&f.replacen(',', ".", 1)) {
+        format!(" (a decimal comma? write `{}`)", f.replacen(',', ".", 1))
+    } else if f.chars().any(|c| c.is_numeric() && !c.is_ascii_digit()) {
+        " (digits other than 0-9: write it with 0-9)".into()
+    } else if hex.len() > 2 && hex[..2].eq_ignore_ascii_case("0x") {
+        " (a hexadecimal number? write it in decimal)".into()
+    } else if f.contains('_') && reads(&f.replace('_', "")) {
+        format!(" (digit separators? write `{}`)", f.replace('_', ""))
+    } else if let Some(at) = f.find(|c: char| c.is_alphabetic() && c != 'e' && c != 'E')
+        && at > 0
+        && reads(f[..at].trim_end())
+    {
+        format!(
+            " (a unit after it? give the number alone: `{}`)",
+            f[..at].trim_end()
+        )
+    } else {
+        String::new()
     }
 }
 
@@ -309,8 +330,20 @@ mod tests {
         let e = foreign_csv("0\t3.5\t0\t200\t1", "5 fields").unwrap();
         assert!(e.starts_with("fields separated by tabs, not"), "{e}");
         assert_eq!(foreign_csv("0,3.5,0,200,1", "5 fields"), None);
-        assert_eq!(decimal_comma_hint("3,5"), " (a decimal comma? write `3.5`)");
-        assert_eq!(decimal_comma_hint("3,5,1"), "");
-        assert_eq!(decimal_comma_hint("abc"), "");
+        assert_eq!(number_hint("3,5"), " (a decimal comma? write `3.5`)");
+        assert_eq!(number_hint("3,5,1"), "");
+        assert_eq!(number_hint("abc"), "");
+        assert_eq!(number_hint("1e"), "");
+        for (v, want) in [
+            ("١٢", " (digits other than 0-9: write it with 0-9)"),
+            ("５", " (digits other than 0-9: write it with 0-9)"),
+            ("0x10", " (a hexadecimal number? write it in decimal)"),
+            ("-0X1f", " (a hexadecimal number? write it in decimal)"),
+            ("1_000", " (digit separators? write `1000`)"),
+            ("3mm", " (a unit after it? give the number alone: `3`)"),
+            ("2.5 Hz", " (a unit after it? give the number alone: `2.5`)"),
+        ] {
+            assert_eq!(number_hint(v), want, "{v}");
+        }
     }
 }

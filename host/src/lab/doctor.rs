@@ -193,6 +193,22 @@ pub struct Options {
 }
 
 impl Options {
+    /// The ports given (`--port`), else `$LMHOST_PORT` when set (the device
+    /// every other command uses, which doctor left unchecked without a
+    /// word), checked ([`Options::check`]).
+    pub fn given(ports: Vec<String>, timeout_ms: u64) -> Result<Self, crate::InputError> {
+        let ports = match (ports.is_empty(), discover::env_port()?) {
+            (true, Some(p)) => {
+                discover::empty_env(&p)?;
+                vec![p]
+            }
+            _ => ports,
+        };
+        let o = Self { ports, timeout_ms };
+        o.check()?;
+        Ok(o)
+    }
+
     /// Refuses what no check can use: a port given twice (checked once,
     /// without a word, or an AUTD3 link opened twice).
     pub fn check(&self) -> Result<(), crate::InputError> {

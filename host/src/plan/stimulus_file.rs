@@ -105,6 +105,23 @@ struct FociJson {
     dwell_us: Option<f64>,
 }
 
+/// What the JSON `text` holds when it is not an object (`an array`, `a
+/// string`, …), by its first character once it reads as JSON (skimmed, no
+/// tree built); `None` for an object or text that is no JSON (a TOML
+/// file's `name = …` is not `null`: refused by its parse, with the place).
+fn not_an_object(text: &str) -> Option<&'static str> {
+    serde_json::from_str::<serde::de::IgnoredAny>(text).ok()?;
+    match text.trim_start().chars().next()? {
+        '[' => Some("an array"),
+        '"' => Some("a string"),
+        '-' | '0'..='9' => Some("a number"),
+        't' => Some("`true`"),
+        'f' => Some("`false`"),
+        'n' => Some("`null`"),
+        _ => None,
+    }
+}
+
 /// `text` read as the JSON object of `expected` (`what` in errors). When it
 /// does not read, the error names the other kind lmhost reads that it is
 /// (foci given as phases), if any.
@@ -435,6 +452,18 @@ fn read(
             .map_err(|e| if path.is_file() { unnamed(e) } else { e })?;
         // A number that underflows is refused, as in every JSON we read.
         crate::json::exact_numbers(&text).map_err(bad)?;
+        // An object, before any key is looked at: serde reads a struct
+        // from an array too, so `[[]]` was "a plan summary" (its first
+        // item taken for `crc32`) and `"x"` "expected struct Keys".
+        if let Some(it) = not_an_object(&text) {
+            let form = match content {
+                Content::Phases => "{\"phases\": [[P, ...], ...], \"dwell_us\": D}",
+                Content::Foci => "{\"foci_mm\": [[[x, y, z], ...], ...], \"dwell_us\": D}",
+            };
+            return Err(unnamed(bad(format!(
+                "is {it}, not a JSON object: give {form}"
+            ))));
+        }
         // Duplicate keys are refused, at any depth.
         // Typed straight from the text (a byte a phase, not a tree of
         // values); serde refuses a field given twice.

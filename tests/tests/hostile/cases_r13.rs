@@ -510,7 +510,9 @@ fn flag_values() -> Vec<Case> {
     vec![
         with("plan --radius", "x".into()).err(&format!("x {give}")),
         with("plan --radius", String::new()).err(&format!("an empty value {give}")),
-        with("simulate --out {dir}/r13/nan --plane-step", "1,5".into()).err(&format!("1,5 {give}")),
+        with("simulate --out {dir}/r13/nan --plane-step", "1,5".into()).err(
+            "1,5 is not a number (a decimal comma? write `1.5`): give one such as 2.5, -1 or 1e-3",
+        ),
         with("plan --freq", " 5".into())
             .err("` 5` is not a number (white space around it): give one such as"),
         with("plan --steps", String::new())

@@ -89,7 +89,7 @@ pub(crate) fn round15b_cases() -> Vec<Case> {
         R15B_PARTS "stream --port autd3:emulator --synthetic --fast --seconds 0.3 --away 2,1"
             .err("error: --away `2,1`: END 1 s is out of range: allowed after START (2 s), finite");
         R15B_PARTS "stream --port autd3:emulator --synthetic --fast --seconds 0.3 --away x,1"
-            .err("error: --away `x,1`: START `x` is not a number of seconds");
+            .err("error: --away `x,1`: START x is not a number: give one such as 2.5, -1 or 1e-3");
         R15B_PARTS "plan --center 0,inf,200"
             .err("error: --center `0,inf,200`: Y inf is not a finite number of mm");
     });

@@ -229,7 +229,7 @@ pub(crate) fn files_cases() -> Vec<Case> {
                        .err("step 1e300 mm is out of range");
         // 3. The line and the key, and what is wrong with a value.
         FILES_PLACE "track" .depth("ok.npy", "r7/cam_height.toml")
-                    .err("line 2, field `height`: invalid type: string \"4\", expected a whole number in 1..=8192");
+                    .err("line 2, field `height`: \"4\" is text, not a whole number in 1..=8192: write `4` without quotes");
         FILES_PLACE "track" .depth("r7/descr_nan.depth", "cam.toml")
                     .err(".npy header's 'descr' must be a quoted type such as '<u2', got `nan`");
         FILES_PLACE "track" .depth("r7/order_7.depth", "cam.toml")

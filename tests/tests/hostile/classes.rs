@@ -185,8 +185,20 @@ pub const R15A_SPACES: &str = "r15a-6 a list's number with spaces is refused as 
 pub const R15A_OFF: &str = "r15a-7 off_s's refusal states its range, 0 in it";
 pub const R15A_ENV: &str = "r15a-8 a flag's variable not UTF-8 is named";
 
+/// Round 16a: a sweep of the command line and its files (`cases_r16a.rs`).
+pub const R16A_ADVICE: &str = "r16a-1 a refusal's advice is one its flag can take";
+pub const R16A_NO_NUMBER: &str =
+    "r16a-2 a value that is no number is refused in one wording, saying what it looks like";
+pub const R16A_LESS: &str = "r16a-3 flags that together ask less than each says are refused";
+pub const R16A_ENV: &str = "r16a-4 an LMHOST_* variable is taken as set or refused, naming it";
+pub const R16A_NOT_OBJECT: &str = "r16a-6 a JSON file that is no object is named as what it is";
+pub const R16A_WHICH_PART: &str =
+    "r16a-7 an output its folder stops names the part of the path that is wrong";
+pub const R16A_SIGNALS: &str =
+    "r16a-5 every signal that would end the process leaves outputs whole or absent";
+
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 137] = [
+pub const CLASSES: [&str; 144] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -324,4 +336,11 @@ pub const CLASSES: [&str; 137] = [
     R15A_SPACES,
     R15A_OFF,
     R15A_ENV,
+    R16A_ADVICE,
+    R16A_NO_NUMBER,
+    R16A_LESS,
+    R16A_ENV,
+    R16A_SIGNALS,
+    R16A_NOT_OBJECT,
+    R16A_WHICH_PART,
 ];

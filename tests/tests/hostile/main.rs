@@ -263,6 +263,7 @@ mod cases_r14b;
 mod cases_r15a;
 mod cases_r15b;
 mod cases_r16w;
+mod cases_r16a;
 mod cases_r3;
 mod cases_r4_device;
 mod cases_r4_files;
@@ -301,6 +302,7 @@ use cases_r14b::{round14b_cases, round14b_fixtures};
 use cases_r15a::{round15a_cases, round15a_fixtures};
 use cases_r15b::{round15b_cases, round15b_fixtures};
 use cases_r16w::round16w_cases;
+use cases_r16a::{round16a_cases, round16a_fixtures};
 use checks::*;
 use fixtures::*;
 
@@ -504,7 +506,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let every_fixture: [fn(&Path); 18] = [
+    let every_fixture: [fn(&Path); 19] = [
         fixtures,
         study_fixtures,
         paper_fixtures,
@@ -523,6 +525,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         round14b_fixtures,
         round15b_fixtures,
         round15a_fixtures,
+        round16a_fixtures,
     ];
     for write in every_fixture {
         write(&dir);
@@ -544,7 +547,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
     };
     ok(&["upload", "--port", &ctx.port, "--hold", "0.05"]);
 
-    let tables: [fn() -> Vec<Case>; 24] = [
+    let tables: [fn() -> Vec<Case>; 25] = [
         cases,
         study_cases,
         paper_cases,
@@ -570,6 +573,7 @@ fn hostile_inputs_end_in_one_line_and_the_right_exit_code() {
         round15b_cases,
         round15a_cases,
         round16w_cases,
+        round16a_cases,
     ];
     let mut all: Vec<Case> = tables.iter().flat_map(|table| table()).collect();
     let only = std::env::var("LMHOST_HOSTILE_CLASS").ok();

@@ -123,8 +123,8 @@ pub fn choose(
     if let Some(p) = flag {
         return Ok(p.to_owned());
     }
-    if let Some(p) = env.filter(|p| !p.is_empty()) {
-        return Ok(p.to_owned());
+    if let Some(p) = env {
+        return empty_env(p).map(|()| p.to_owned());
     }
     let boards: Vec<&PortInfo> = found.iter().filter(|p| p.board().is_some()).collect();
     let own: Vec<&PortInfo> = boards
@@ -158,6 +158,19 @@ pub fn choose(
             "several LM boards found ({}); choose one with --port PATH or {PORT_ENV}",
             crate::error::some_of(many.iter().map(|p| p.path.as_str()), ", ")
         ))),
+    }
+}
+
+/// Refuses `$LMHOST_PORT` set empty, when it is read (no `--port`): it
+/// was taken for an unset variable, so `LMHOST_PORT=$PORT` with PORT
+/// unset picked whatever board discovery found, as an empty `--port` did.
+pub fn empty_env(value: &str) -> Result<(), InputError> {
+    match value {
+        "" => Err(InputError::new(format!(
+            "${PORT_ENV} is empty: give a serial port path, tcp:HOST:PORT or autd3:…, \
+             or unset it for the one LM board found"
+        ))),
+        _ => Ok(()),
     }
 }
 

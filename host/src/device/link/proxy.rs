@@ -57,10 +57,7 @@ impl FromStr for Faults {
                 );
                 continue;
             }
-            let rate = crate::limits::exact_number(v).map_err(|e| match e {
-                Some(m) => format!("{k}: {m}"),
-                None => format!("{k} `{v}` is not a number"),
-            })?;
+            let rate = crate::limits::exact_number(v).map_err(|m| format!("{k}: {m}"))?;
             if !(0.0..=1.0).contains(&rate) {
                 return Err(format!("{k} = {rate} is not a probability in [0, 1]"));
             }

@@ -172,7 +172,7 @@ impl Asked {
                     self.column,
                     crate::limits::show(*min),
                     crate::limits::show(*max),
-                    crate::files::text::decimal_comma_hint(t)
+                    crate::files::text::number_hint(t)
                 )),
             },
         }
@@ -215,6 +215,7 @@ impl Lines {
     /// From a file, read whole (and dry-run before the device opens);
     /// `--responses -` is not a file but answers as asked ([`Piped`]).
     pub fn open(path: &Path) -> anyhow::Result<Self> {
+        crate::files::not_a_pipe("--responses file", "--responses", path)?;
         let text =
             crate::limits::read_text_file_up_to("--responses file", path, MAX_RESPONSES_BYTES)?;
         Ok(Self::from_text(

@@ -38,7 +38,7 @@ impl Psychometric {
             }
             let x = match crate::limits::exact_number(v) {
                 Ok(x) if x.is_finite() => x,
-                Err(Some(m)) => return Err(bad(format!("{k}: {m}"))),
+                Err(m) => return Err(bad(format!("{k}: {m}"))),
                 _ => return Err(bad(format!("{k} `{v}` is not a finite number"))),
             };
             match k {

@@ -18,7 +18,39 @@ fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     if msg.starts_with("missing field `") {
         return missing(text, span.start, msg);
     }
-    placed(text, span.start, msg)
+    match quoted_number(msg) {
+        Some(m) => placed(text, span.start, &m),
+        None => placed(text, span.start, msg),
+    }
+}
+
+/// A number written in quotes, in the words of a number flag's refusal
+/// ([`crate::files::text::number_hint`]): `invalid type: string "2,5",
+/// expected a number` said neither that the quotes were the trouble nor
+/// what the text looks like (`"2,5" is text, not a number (a decimal
+/// comma? write `2.5`)`), as `--radius 2,5` and a CSV field do.
+fn quoted_number(msg: &str) -> Option<String> {
+    let rest = msg.strip_prefix("invalid type: string \"")?;
+    let (value, expected) = rest.rsplit_once("\", expected ")?;
+    let number = [
+        "f64", "f32", "number", "integer", "u8", "u16", "u32", "u64", "usize", "i32", "i64",
+    ]
+    .iter()
+    .any(|w| expected.contains(w));
+    if !number {
+        return None;
+    }
+    let hint = crate::files::text::number_hint(value);
+    let give = match hint.is_empty() && value.trim().parse::<f64>().is_ok() {
+        true => format!(": write `{}` without quotes", value.trim()),
+        false => String::new(),
+    };
+    // What was expected, in words (a whole number's range kept).
+    let what = match expected.starts_with("a ") {
+        true => expected,
+        false => "a number",
+    };
+    Some(format!("\"{value}\" is text, not {what}{hint}{give}"))
 }
 
 /// Where a missing field was wanted: the error's span is the table that

@@ -277,9 +277,8 @@ pub fn parse_line(line: &str, line_no: usize) -> Result<Option<Sample>, InputErr
         let num = |i: usize, name: &str| {
             let v = fields[i].parse::<f64>().map_err(|_| {
                 InputError::new(format!(
-                    "line {line_no}: {name} `{}` is not a number{}",
-                    fields[i],
-                    crate::files::text::decimal_comma_hint(fields[i])
+                    "line {line_no}: `{name}`: {}",
+                    crate::limits::no_number(fields[i])
                 ))
             })?;
             crate::limits::exact_literal(fields[i], v)
@@ -403,15 +402,18 @@ pub fn replay_lines<R: BufRead>(reader: R) -> impl Iterator<Item = anyhow::Resul
     }
 }
 
-/// [`replay_lines`] over the file at `path`, opened as an input
+/// [`replay_lines`] over the file at `path` given to `flag` (`--stream`,
+/// `--input`: flags that take `-` for standard input), opened as an input
 /// ([`crate::files::open_input`]); every error it yields names the file as
-/// `what` (`--stream file`, `--input file`) and its path, for a bad line
-/// is read long after the command started, its other output between.
+/// `FLAG file` and its path, for a bad line is read long after the command
+/// started, its other output between.
 pub fn replay_file(
-    what: &str,
+    flag: &str,
     path: &std::path::Path,
 ) -> anyhow::Result<impl Iterator<Item = anyhow::Result<Sample>> + Send + use<>> {
     use anyhow::Context as _;
+    let what = &format!("{flag} file");
+    crate::files::not_a_pipe(what, flag, path)?;
     let reader = std::io::BufReader::new(crate::files::open_input(what, path)?);
     let name = format!("{what} {}", path.display());
     let samples = replay_lines(reader).map({

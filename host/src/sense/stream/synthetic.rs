@@ -74,7 +74,9 @@ impl FingerTrack {
 
     /// Refuses an away window (`--away START,END`) that changes nothing
     /// in a stream of `seconds` (frames at `i / rate_hz` before it): one
-    /// starting at or after the stream's end, or holding no frame.
+    /// starting at or after the stream's end, or holding no frame; and one
+    /// holding every frame, which streams no finger at all (a window
+    /// larger than the run: `--away 0,100 --seconds 1`).
     pub fn check_away(&self, seconds: f64) -> Result<(), InputError> {
         let Some((a, b)) = self.away_s else {
             return Ok(());
@@ -100,6 +102,21 @@ impl FingerTrack {
             return Err(InputError::new(format!(
                 "{window} holds no frame of the stream ({} frames a second, before --seconds {}): give a window holding at least one",
                 show(self.rate_hz),
+                show(seconds)
+            )));
+        }
+        // The frames before `seconds`: `0..n`, as `samples` times them.
+        let mut n = (seconds * self.rate_hz).ceil().max(0.0) as u64;
+        while n > 0 && (n - 1) as f64 / self.rate_hz >= seconds {
+            n -= 1;
+        }
+        while (n as f64 / self.rate_hz) < seconds {
+            n += 1;
+        }
+        let last = n.saturating_sub(1) as f64 / self.rate_hz;
+        if i == 0 && b > last {
+            return Err(InputError::new(format!(
+                "{window} holds every frame of the stream (--seconds {}): the finger would never show; give a window that leaves it at least one frame",
                 show(seconds)
             )));
         }
@@ -158,6 +175,12 @@ mod tests {
             "--away 2,3 starts at or after the stream's end (--seconds 1): give a START below 1 s"
         );
         assert!(away(1.0, 3.0).check_away(1.0).is_err());
+        // Every frame away: no finger at all.
+        for (a, b) in [(0.0, 100.0), (0.0, 1.0), (0.0, 89.5 / 90.0)] {
+            let e = away(a, b).check_away(1.0).unwrap_err().to_string();
+            assert!(e.contains("holds every frame of the stream"), "{e}");
+        }
+        assert!(away(0.0, 89.0 / 90.0).check_away(1.0).is_ok());
         for (a, b) in [(0.001, 0.002), (0.995, 2.0)] {
             let e = away(a, b).check_away(1.0).unwrap_err().to_string();
             assert!(

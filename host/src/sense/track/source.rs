@@ -8,7 +8,8 @@
 //! The live camera (`lmhost track --camera`) is this stream produced by a
 //! small Python bridge on the `pyrealsense2` wheel ([`BRIDGE_PY`], embedded
 //! and run as `python3 -c`; `LMHOST_PYTHON` picks another interpreter;
-//! `LMHOST_CAMERA_COLOUR=0` asks it for depth only). A
+//! `LMHOST_CAMERA_COLOUR=0` asks it for depth only, `1` (the default) for
+//! colour too; an empty or other value is refused, naming it). A
 //! direct V4L2 path was not taken: the crates.io V4L2 bindings (`v4l` /
 //! `v4l2-sys-mit`) run bindgen at build time, which needs libclang and
 //! kernel headers, and librealsense's own wheel also sets the depth units
@@ -454,7 +455,8 @@ pub const BRIDGE_PY: &str = include_str!("realsense_bridge.py");
 /// is killed then).
 pub fn camera() -> anyhow::Result<Live> {
     use std::process::{Command, Stdio};
-    let python = std::env::var("LMHOST_PYTHON").unwrap_or_else(|_| "python3".into());
+    let python = bridge_python()?;
+    let python_shown = python.to_string_lossy().into_owned();
     let mut child = Command::new(&python)
         .args(["-c", BRIDGE_PY])
         .stdin(Stdio::null())
@@ -463,7 +465,7 @@ pub fn camera() -> anyhow::Result<Live> {
         .spawn()
         .map_err(|_| {
             anyhow::anyhow!(
-                "no camera: cannot run `{python}` (the RealSense bridge needs python3 with pyrealsense2)"
+                "no camera: cannot run `{python_shown}` (the RealSense bridge needs python3 with pyrealsense2)"
             )
         })?;
     let pid = child.id();
@@ -502,6 +504,40 @@ pub fn camera() -> anyhow::Result<Live> {
         }
     };
     Live::start("the RealSense bridge", Some(pid), open)
+}
+
+/// The bridge's interpreter, `$LMHOST_PYTHON` (else `python3`), after
+/// `$LMHOST_CAMERA_COLOUR`, which the bridge reads, is checked. Each is
+/// taken as it is or refused naming it: a value not UTF-8 ran `python3`
+/// instead of the one named, an empty one "cannot run ``", and a colour
+/// switch other than `0` (`no`, `false`, `off`) asked for colour.
+fn bridge_python() -> Result<std::ffi::OsString, crate::InputError> {
+    let echo = |v: &std::ffi::OsStr| {
+        crate::error::short_echo(&v.to_string_lossy().escape_debug().to_string())
+    };
+    if let Some(v) = std::env::var_os("LMHOST_CAMERA_COLOUR")
+        && v != "0"
+        && v != "1"
+    {
+        return Err(crate::InputError::new(format!(
+            "$LMHOST_CAMERA_COLOUR `{}` is neither 0 (depth only) nor 1 (depth and colour, the default): give one of them, or unset it",
+            echo(&v)
+        )));
+    }
+    match std::env::var_os("LMHOST_PYTHON") {
+        None => Ok("python3".into()),
+        Some(p) if p.is_empty() => Err(crate::InputError::new(
+            "$LMHOST_PYTHON is empty: give the Python that runs the RealSense bridge, or unset it for python3",
+        )),
+        Some(p) if p.to_string_lossy().trim() != p.to_string_lossy() => {
+            Err(crate::InputError::new(format!(
+                "$LMHOST_PYTHON `{}` has spaces at an end: give the Python's name without them",
+                echo(&p)
+            )))
+        }
+        // As given, whatever its bytes: a path need not be UTF-8.
+        Some(p) => Ok(p),
+    }
 }
 
 /// Records what a source delivers: `REC.npy` plus intrinsics and time

@@ -213,10 +213,8 @@ impl ZProfile {
             .ok_or_else(|| {
                 said("give RADIUS_MM,STEPS: a radius and a step count, one comma between".into())
             })?;
-        let radius_mm = crate::limits::exact_number(r).map_err(|e| match e {
-            Some(m) => said(format!("the radius {m}")),
-            None => said(format!("the radius `{r}` is not a number: {radius_range}")),
-        })?;
+        let radius_mm =
+            crate::limits::exact_number(r).map_err(|m| said(format!("the radius {m}")))?;
         if !(radius_mm > 0.0 && radius_mm <= 20.0) {
             return Err(said(format!(
                 "the radius {} mm is out of range: {radius_range}",
@@ -324,6 +322,7 @@ mod tests {
         let form = "give RADIUS_MM,STEPS: a radius and a step count, one comma between";
         let radius = "allowed above 0 and at most 20 mm";
         let steps = "allowed 1..=1000";
+        let give = "give one such as 2.5, -1 or 1e-3";
         for (spec, why) in [
             ("3", form.to_owned()),
             ("3,8,9", form.to_owned()),
@@ -331,8 +330,11 @@ mod tests {
                 "3,",
                 format!("the steps `` are not a whole number: {steps}"),
             ),
-            (",8", format!("the radius `` is not a number: {radius}")),
-            ("x,8", format!("the radius `x` is not a number: {radius}")),
+            (
+                ",8",
+                format!("the radius an empty value is not a number: {give}"),
+            ),
+            ("x,8", format!("the radius x is not a number: {give}")),
             ("0,8", format!("the radius 0 mm is out of range: {radius}")),
             (
                 "-1,8",

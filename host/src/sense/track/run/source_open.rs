@@ -87,6 +87,7 @@ fn stream(path: &Path) -> anyhow::Result<Box<dyn FrameSource>> {
             source::Stream::new(std::io::stdin(), "stdin")
         })?));
     }
+    crate::files::not_a_pipe("--stream file", "--stream", path)?;
     let f = crate::files::open_input("--stream file", path)?;
     let what = path.display().to_string();
     Ok(Box::new(source::Live::start(
