@@ -52,11 +52,26 @@ static DIRS: [AtomicPtr<c_char>; MAX_DIRS] =
 /// beside its name (SIGUSR2 and SIGALRM did, as only the first five were
 /// caught): all of them go through the flag. (SIGPIPE is ignored by Rust's
 /// runtime; a closed pipe is a write error.)
-pub const SIGNALS: [nix::sys::signal::Signal; 14] = {
+/// SIGPWR and SIGSTKFLT are Linux's own.
+pub const SIGNALS: &[nix::sys::signal::Signal] = {
     use nix::sys::signal::Signal::*;
-    [
-        SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGPROF, SIGXCPU,
-        SIGXFSZ, SIGIO, SIGPWR, SIGSTKFLT,
+    &[
+        SIGINT,
+        SIGTERM,
+        SIGHUP,
+        SIGQUIT,
+        SIGUSR1,
+        SIGUSR2,
+        SIGALRM,
+        SIGVTALRM,
+        SIGPROF,
+        SIGXCPU,
+        SIGXFSZ,
+        SIGIO,
+        #[cfg(target_os = "linux")]
+        SIGPWR,
+        #[cfg(target_os = "linux")]
+        SIGSTKFLT,
     ]
 };
 
@@ -227,7 +242,9 @@ fn ending_line(sig: libc::c_int) -> &'static [u8] {
         libc::SIGXCPU => b"lmhost: interrupted by SIGXCPU",
         libc::SIGXFSZ => b"lmhost: interrupted by SIGXFSZ",
         libc::SIGIO => b"lmhost: interrupted by SIGIO",
+        #[cfg(target_os = "linux")]
         libc::SIGPWR => b"lmhost: interrupted by SIGPWR",
+        #[cfg(target_os = "linux")]
         libc::SIGSTKFLT => b"lmhost: interrupted by SIGSTKFLT",
         _ => b"lmhost: interrupted by a signal",
     }
@@ -283,7 +300,7 @@ pub fn install() -> anyhow::Result<()> {
         SaFlags::empty(),
         SigSet::empty(),
     );
-    for sig in SIGNALS {
+    for &sig in SIGNALS {
         // SAFETY: the handler does only async-signal-safe work (atomics,
         // unlink, write, _exit); no other handler for these signals exists.
         unsafe { sigaction(sig, &act) }
@@ -363,7 +380,7 @@ mod tests {
 
     #[test]
     fn every_ending_signal_has_its_own_line() {
-        for sig in SIGNALS {
+        for &sig in SIGNALS {
             let line = std::str::from_utf8(ending_line(sig as libc::c_int)).unwrap();
             assert_eq!(line, format!("lmhost: interrupted by {sig}"));
         }

@@ -195,7 +195,7 @@ pub fn number_hint(field: &str) -> String {
         format!(" (a decimal comma? write `{}`)", f.replacen(',', ".", 1))
     } else if f.chars().any(|c| c.is_numeric() && !c.is_ascii_digit()) {
         " (digits other than 0-9: write it with 0-9)".into()
-    } else if hex.len() > 2 && hex[..2].eq_ignore_ascii_case("0x") {
+    } else if hex.len() > 2 && hex.get(..2).is_some_and(|p| p.eq_ignore_ascii_case("0x")) {
         " (a hexadecimal number? write it in decimal)".into()
     } else if f.contains('_') && reads(&f.replace('_', "")) {
         format!(" (digit separators? write `{}`)", f.replace('_', ""))
@@ -215,6 +215,26 @@ pub fn number_hint(field: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_number_hint_takes_any_text_whole_characters_first() {
+        // Two-byte and three-byte characters where a `0x` would be: no
+        // cut inside them, and no hint for what is no number at all.
+        for s in [
+            "\u{feff}1.6",
+            "2\u{202e}evil_x\u{202c}5.",
+            "é",
+            "€0x",
+            "-\u{feff}",
+        ] {
+            assert_eq!(number_hint(s), "", "{s:?}");
+        }
+        assert_eq!(
+            number_hint("0X1f"),
+            " (a hexadecimal number? write it in decimal)"
+        );
+        assert_eq!(number_hint("2,5"), " (a decimal comma? write `2.5`)");
+    }
 
     #[test]
     fn one_reading_whatever_wrote_it() {

@@ -343,7 +343,7 @@ pub(crate) fn cases() -> Vec<Case> {
         PLANS      "track" .depth("ok.npy", "cam_ppy.toml").err("`ppy` must lie in the image");
         EXIT       "track" .depth("ok.npy", "cam_nan.toml").err("depth_scale");
         EXIT       "track" .depth("ok.npy", "cam_wide.toml").err("the intrinsics say 8×4");
-        EXIT       "track" .depth("ok.npy", "cam_str.toml").err("invalid type");
+        EXIT       "track" .depth("ok.npy", "cam_str.toml").err("field `fy`: \"2\" is text, not a number: write `2` without quotes");
         EXIT       "track" .depth("ok.npy", "cam_dup.toml").err("duplicate key");
         EXIT       "track" .depth("ok.npy", "cam_unknown.toml").err("unknown field");
         EXIT       "track" .depth("ok.npy", "a_directory").err("a directory");
