@@ -51,6 +51,20 @@ fn exp3(port: &str, out: &Path, answers: &Path, stage: &str) -> Output {
     .unwrap()
 }
 
+/// Answers from the file `answers`, the stage and gauge twins, and `more`.
+fn with_twins<'a>(answers: &'a Path, more: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "--responses",
+        answers.to_str().unwrap(),
+        "--stage",
+        "sim",
+        "--gauge",
+        "sim",
+    ];
+    args.extend_from_slice(more);
+    args
+}
+
 fn num(row: &BTreeMap<String, String>, c: &str) -> f64 {
     row[c]
         .parse()
@@ -173,16 +187,7 @@ fn ctrl_c_mid_push_still_brings_the_stage_back() {
         &studies("paper-exp3.toml"),
         "autd3:emulator",
         &out,
-        &[
-            "--finger",
-            "synthetic",
-            "--responses",
-            answers.to_str().unwrap(),
-            "--stage",
-            "sim",
-            "--gauge",
-            "sim",
-        ],
+        &with_twins(&answers, &["--finger", "synthetic"]),
     )
     .stderr(std::process::Stdio::piped())
     .spawn()
@@ -236,14 +241,7 @@ fn an_on_phase_under_one_device_step_is_refused_by_study_check_and_run() {
         "autd3:emulator",
         &out,
         "0.0004",
-        &[
-            "--responses",
-            answers.to_str().unwrap(),
-            "--stage",
-            "sim",
-            "--gauge",
-            "sim",
-        ],
+        &with_twins(&answers, &[]),
     )
     .output()
     .unwrap();

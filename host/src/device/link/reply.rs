@@ -193,32 +193,28 @@ pub fn check_status(
 /// sent there.
 pub fn check_self_test(t: &SelfTest) -> Result<(), String> {
     match *t {
-        SelfTest::Unsupported => Ok(()),
         SelfTest::Passed { bytes: 0 } => Err("outcome passed over 0 bytes".into()),
-        SelfTest::Passed { .. } => Ok(()),
+        SelfTest::Failed {
+            bytes, mismatches, ..
+        } if mismatches == 0 || mismatches > bytes => Err(format!(
+            "outcome failed with {mismatches} mismatches in {bytes} bytes"
+        )),
         SelfTest::Failed {
             bytes,
-            mismatches,
+            first_mismatch,
+            ..
+        } if first_mismatch >= bytes => Err(format!(
+            "first_mismatch {first_mismatch} past the {bytes} bytes tested"
+        )),
+        SelfTest::Failed {
             first_mismatch,
             sent,
             got,
-        } => {
-            if mismatches == 0 || mismatches > bytes {
-                Err(format!(
-                    "outcome failed with {mismatches} mismatches in {bytes} bytes"
-                ))
-            } else if first_mismatch >= bytes {
-                Err(format!(
-                    "first_mismatch {first_mismatch} past the {bytes} bytes tested"
-                ))
-            } else if sent == got {
-                Err(format!(
-                    "a mismatch at byte {first_mismatch} that sent and got the same {sent:#04x}"
-                ))
-            } else {
-                Ok(())
-            }
-        }
+            ..
+        } if sent == got => Err(format!(
+            "a mismatch at byte {first_mismatch} that sent and got the same {sent:#04x}"
+        )),
+        SelfTest::Unsupported | SelfTest::Passed { .. } | SelfTest::Failed { .. } => Ok(()),
     }
 }
 
