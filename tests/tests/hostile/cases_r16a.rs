@@ -53,6 +53,11 @@
 //!   directory" (`--out FILE/x.json`, `--record`, `--events`, an `--out`
 //!   folder) and "no such file or directory" (a missing folder, or a
 //!   symbolic link whose target's folder is missing) named none.
+//! - r16a-8: a TOML table written as an array is refused, not read by
+//!   position: serde reads a struct from an array too, so `reflector =
+//!   [[0, 0, 0], [0, 0, 1]]` was a reflector whose point and normal came
+//!   from the order of the struct's fields, and a library's `am =
+//!   ["sine", 100.0]` an AM, in every TOML file (`scene::tables`).
 //! - and r3-3 (an output that is an input) again: `calibrate force
 //!   --scene S --out L`, L a link to S, was refused only by the writer, as
 //!   `output L`, after the work: the scene is now read before `--out` is
@@ -81,6 +86,21 @@ pub(crate) fn round16a_fixtures(dir: &Path) {
         (
             "lib_steps.toml",
             "[[stimulus]]\nid = \"a\"\nradius = 2.0\nsteps = \"10\"\n".to_owned(),
+        ),
+        (
+            "reflector_array.toml",
+            format!(
+                "reflector = [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]\n{}",
+                scene_text.replacen(
+                    "[reflector]\npoint_mm = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n",
+                    "",
+                    1
+                )
+            ),
+        ),
+        (
+            "lib_am_array.toml",
+            "[[stimulus]]\nid = \"a\"\nradius = 2.0\nam = [\"sine\", 100.0]\n".to_owned(),
         ),
         (
             "touch_unit.toml",
@@ -285,6 +305,14 @@ pub(crate) fn round16a_cases() -> Vec<Case> {
         case(R16A_NOT_OBJECT, "upload --port {port} --phases {dir}/r16a/toml.JSON")
             .err("error: --phases file {dir}/r16a/toml.JSON: not a phases JSON object (expected ident at line 1 column 2)\n"),
     );
+    // 8. A TOML table written as an array.
+    let array = "an array where a table goes: write it as a table, each value under its key";
+    v.extend(table! {
+        R16A_TOML_ARRAY "scene --scene {dir}/r16a/reflector_array.toml"
+            .err(&format!("error: scene file {{dir}}/r16a/reflector_array.toml: line 1, field `reflector`: {array}\n"));
+        R16A_TOML_ARRAY "simulate --library {dir}/r16a/lib_am_array.toml --stimulus a --out {dir}/r16a/lib_am"
+            .err(&format!("error: stimulus library {{dir}}/r16a/lib_am_array.toml: line 4, field `stimulus[0].am`: {array}\n"));
+    });
     // 7. The part of an output's path that is wrong.
     let plain = "{dir}/r16a/plain is a regular file, not a folder";
     v.extend(table! {

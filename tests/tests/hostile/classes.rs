@@ -194,11 +194,13 @@ pub const R16A_ENV: &str = "r16a-4 an LMHOST_* variable is taken as set or refus
 pub const R16A_NOT_OBJECT: &str = "r16a-6 a JSON file that is no object is named as what it is";
 pub const R16A_WHICH_PART: &str =
     "r16a-7 an output its folder stops names the part of the path that is wrong";
+pub const R16A_TOML_ARRAY: &str =
+    "r16a-8 a TOML table written as an array is refused, not read by position";
 pub const R16A_SIGNALS: &str =
     "r16a-5 every signal that would end the process leaves outputs whole or absent";
 
 /// Every class the suite must cover.
-pub const CLASSES: [&str; 144] = [
+pub const CLASSES: [&str; 145] = [
     DURATION,
     PIPE,
     MEMORY,
@@ -343,4 +345,5 @@ pub const CLASSES: [&str; 144] = [
     R16A_SIGNALS,
     R16A_NOT_OBJECT,
     R16A_WHICH_PART,
+    R16A_TOML_ARRAY,
 ];

@@ -119,13 +119,17 @@ pub(crate) fn line_of(text: &str, at: usize) -> usize {
 /// its spans are read back from the text.
 ///
 /// A file of another kind than `expected` (a library given as a scene)
-/// says what it is and what takes it instead ([`crate::files::kind`]).
+/// says what it is and what takes it instead ([`crate::files::kind`]). A
+/// table is read from a table only, never from an array by position
+/// ([`super::tables`]).
 pub(crate) fn from_toml<T: serde::de::DeserializeOwned>(
     text: &str,
     expected: &crate::files::kind::Kind,
 ) -> Result<T, String> {
     use crate::files::kind;
-    let v = toml::from_str(text).map_err(|e| {
+    let read =
+        toml::Deserializer::parse(text).and_then(|d| T::deserialize(super::tables::Tables(d)));
+    let v = read.map_err(|e| {
         kind::other_kind(expected, &kind::TOML, &kind::toml_keys(text))
             .unwrap_or_else(|| toml_error_line(text, &e))
     })?;

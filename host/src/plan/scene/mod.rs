@@ -59,6 +59,7 @@ mod file;
 pub(crate) use file::{field_at, from_toml, line_of};
 pub mod camera;
 mod parts;
+mod tables;
 pub(super) fn finite3(v: Vec3, field: &str) -> Result<Vec3, String> {
     if field.ends_with("rotation_deg") && !v.iter().all(|x| x.abs() <= 360.0) {
         return Err(format!("field `{field}` must be within ±360°, got {v:?}"));
