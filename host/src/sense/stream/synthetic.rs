@@ -72,6 +72,19 @@ impl FingerTrack {
         !matches!(self.away_s, Some((a, b)) if t_s >= a && t_s < b)
     }
 
+    /// The index of the first frame at or after `t_s`, as `samples` times
+    /// frame `i` (`i / rate_hz`, rounding included).
+    fn first_frame_at(&self, t_s: f64) -> u64 {
+        let mut i = (t_s * self.rate_hz).ceil().max(0.0) as u64;
+        while i > 0 && (i - 1) as f64 / self.rate_hz >= t_s {
+            i -= 1;
+        }
+        while (i as f64 / self.rate_hz) < t_s {
+            i += 1;
+        }
+        i
+    }
+
     /// Refuses an away window (`--away START,END`) that changes nothing
     /// in a stream of `seconds` (frames at `i / rate_hz` before it): one
     /// starting at or after the stream's end, or holding no frame; and one
@@ -89,14 +102,7 @@ impl FingerTrack {
                 show(seconds)
             )));
         }
-        // The first frame at or after `a`, as `samples` times it.
-        let mut i = (a * self.rate_hz).ceil().max(0.0) as u64;
-        while i > 0 && (i - 1) as f64 / self.rate_hz >= a {
-            i -= 1;
-        }
-        while (i as f64 / self.rate_hz) < a {
-            i += 1;
-        }
+        let i = self.first_frame_at(a);
         let t = i as f64 / self.rate_hz;
         if t >= b || t >= seconds {
             return Err(InputError::new(format!(
@@ -105,14 +111,8 @@ impl FingerTrack {
                 show(seconds)
             )));
         }
-        // The frames before `seconds`: `0..n`, as `samples` times them.
-        let mut n = (seconds * self.rate_hz).ceil().max(0.0) as u64;
-        while n > 0 && (n - 1) as f64 / self.rate_hz >= seconds {
-            n -= 1;
-        }
-        while (n as f64 / self.rate_hz) < seconds {
-            n += 1;
-        }
+        // The frames before `seconds`: `0..n`.
+        let n = self.first_frame_at(seconds);
         let last = n.saturating_sub(1) as f64 / self.rate_hz;
         if i == 0 && b > last {
             return Err(InputError::new(format!(
